@@ -1,0 +1,180 @@
+"""The in-memory motion model shared by readers, writers, encoder and decoder.
+
+Contract: a :class:`Motion` is always consistent. Positions are float64
+``[frames, markers, 3]``; ``valid`` is a boolean ``[frames, markers]`` mask and
+gaps (``valid == False``) are first-class: nothing here fills them, and the
+position stored under a gap is ignored (readers store NaN there).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+
+from mpz.errors import MotionError
+
+#: Units a Motion may declare (spec §4.1 lists their codes).
+UNITS = ("mm", "cm", "m", "in", "")
+_TO_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+
+
+def unit_scale_mm(units: str) -> float | None:
+    """Millimetres per unit, or None for unitless/unknown data."""
+    return _TO_MM.get(units)
+
+
+@dataclass(eq=False)
+class Motion:
+    """Marker trajectories with gaps, names, an exact frame rate and units.
+
+    Parameters
+    ----------
+    positions : array_like, shape (frames, markers, 3)
+        Marker positions in ``units``. Values under a gap are ignored.
+    names : sequence of str
+        One unique, non-empty name per marker.
+    rate : float
+        Frames per second, kept exactly as read (C3D rates such as
+        65.0364227 Hz are float32 values and survive as such).
+    units : str
+        One of ``"mm"``, ``"cm"``, ``"m"``, ``"in"`` or ``""`` (unknown).
+    valid : array_like of bool, shape (frames, markers), optional
+        False where a marker is occluded. Default: every finite sample.
+    metadata : dict of str to str, optional
+        Free metadata (subject, take, source file, ...).
+    parents : sequence of int, optional
+        For skeleton-derived points, the parent point of each point (-1 for
+        the root). Used as the coding hierarchy for BVH and AMC input.
+    angles : ndarray, shape (frames, channels), optional
+        Joint-angle channels of skeletal input, with ``angle_names``.
+
+    Raises
+    ------
+    MotionError
+        On a shape mismatch, zero frames or markers, duplicate or empty
+        names, a non-positive or non-finite rate, unknown units, or a
+        non-finite position where ``valid`` is True.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> m = Motion(np.zeros((2, 1, 3)), ["A"], rate=120.0, units="mm")
+    >>> m.n_frames, m.n_markers, m.duration
+    (2, 1, 0.016666666666666666)
+    """
+
+    positions: np.ndarray
+    names: list
+    rate: float
+    units: str = "mm"
+    valid: np.ndarray | None = None
+    metadata: dict = field(default_factory=dict)
+    parents: list | None = None
+    angles: np.ndarray | None = None
+    angle_names: list | None = None
+
+    def __post_init__(self):
+        pos = np.asarray(self.positions, dtype=np.float64)
+        if pos.ndim != 3 or pos.shape[2] != 3:
+            raise MotionError(f"positions must have shape (frames, markers, 3), got {pos.shape}")
+        frames, markers, _ = pos.shape
+        if frames == 0:
+            raise MotionError("a motion needs at least one frame, got 0")
+        if markers == 0:
+            raise MotionError("a motion needs at least one marker, got 0")
+        names = [str(n) for n in self.names]
+        if len(names) != markers:
+            raise MotionError(f"{len(names)} names for {markers} markers")
+        if any(n == "" for n in names):
+            raise MotionError("marker names must not be empty")
+        seen = set()
+        for n in names:
+            if n in seen:
+                raise MotionError(f"duplicate marker name {n!r}")
+            seen.add(n)
+        if self.valid is None:
+            valid = np.all(np.isfinite(pos), axis=2)
+        else:
+            valid = np.asarray(self.valid, dtype=bool)
+            if valid.shape != (frames, markers):
+                raise MotionError(f"valid mask must have shape {(frames, markers)}, got {valid.shape}")
+            bad = valid & ~np.all(np.isfinite(pos), axis=2)
+            if bad.any():
+                f, m = np.argwhere(bad)[0]
+                raise MotionError(
+                    f"non-finite position at frame {f}, marker {names[m]!r} where the mask says valid")
+        rate = float(self.rate)
+        if not math.isfinite(rate) or rate <= 0:
+            raise MotionError(f"frame rate must be finite and positive, got {self.rate!r}")
+        if self.units not in UNITS:
+            raise MotionError(f"unknown units {self.units!r}, expected one of {UNITS}")
+        if self.parents is not None:
+            parents = [int(p) for p in self.parents]
+            if len(parents) != markers or any(p < -1 or p >= markers for p in parents):
+                raise MotionError("parents must give one index in [-1, markers) per marker")
+            self.parents = parents
+        if self.angles is not None:
+            ang = np.asarray(self.angles, dtype=np.float64)
+            if ang.ndim != 2 or ang.shape[0] != frames:
+                raise MotionError(f"angles must have shape (frames, channels), got {ang.shape}")
+            self.angles = ang
+        self.positions = pos
+        self.valid = valid
+        self.names = names
+        self.rate = rate
+        self.metadata = {str(k): str(v) for k, v in dict(self.metadata).items()}
+
+    # -- derived facts ---------------------------------------------------
+    @property
+    def n_frames(self) -> int:
+        return self.positions.shape[0]
+
+    @property
+    def n_markers(self) -> int:
+        return self.positions.shape[1]
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last frame."""
+        return (self.n_frames - 1) / self.rate
+
+    @property
+    def gap_fraction(self) -> float:
+        """Share of marker-frames that are gaps."""
+        return float(1.0 - self.valid.mean())
+
+    def as_nan(self) -> np.ndarray:
+        """Positions as float64 with NaN at every gap (the decoder's output layout)."""
+        out = self.positions.copy()
+        out[~self.valid] = np.nan
+        return out
+
+    def raw_size(self) -> int:
+        """Bytes of the same data as float32 xyz: 12 bytes per marker-frame."""
+        return 12 * self.n_frames * self.n_markers
+
+    def select_frames(self, start: int, stop: int) -> "Motion":
+        """A copy holding frames ``start:stop``."""
+        return Motion(self.positions[start:stop].copy(), list(self.names), self.rate, self.units,
+                      self.valid[start:stop].copy(), dict(self.metadata), self.parents,
+                      None if self.angles is None else self.angles[start:stop].copy(),
+                      self.angle_names)
+
+    def __repr__(self) -> str:
+        return (f"Motion({self.n_frames} frames, {self.n_markers} markers, {self.rate:g} Hz, "
+                f"units={self.units!r}, gaps={self.gap_fraction:.1%})")
+
+
+def concatenate(motions) -> Motion:
+    """Join motions with the same markers, rate and units end to end."""
+    motions = list(motions)
+    if not motions:
+        raise MotionError("nothing to concatenate")
+    first = motions[0]
+    for m in motions[1:]:
+        if m.names != first.names or m.rate != first.rate or m.units != first.units:
+            raise MotionError("can only concatenate motions with the same names, rate and units")
+    return Motion(np.concatenate([m.positions for m in motions]), list(first.names), first.rate,
+                  first.units, np.concatenate([m.valid for m in motions]), dict(first.metadata),
+                  first.parents)
