@@ -2,13 +2,27 @@
 
 The public API is re-exported here; see README.md for a tour and
 ``spec/mpz-1.md`` for the format.
+
+>>> import mpz
+>>> from mpz.synth import generate
+>>> m = generate("walk", frames=48)
+>>> data = mpz.encode(m, max_error=1.0)
+>>> back = mpz.decode(data)
+>>> back.n_frames, back.names == m.names
+(48, True)
 """
 from mpz.errors import (MPZError, FormatError, ChecksumError, UnsupportedVersionError,
                         LimitExceededError, InputFormatError, MotionError, EncoderError)
 from mpz.motion import Motion, concatenate
+from mpz.decoder import decode
+from mpz.encoder import EncodeOptions, EncodeReport, encode, encode_motion
+from mpz.metrics import arms, max_error
+from mpz.api import read_mpz, write_mpz, read_summary, write_atomic
 
 __version__ = "0.1.0"
 
 __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError",
            "LimitExceededError", "InputFormatError", "MotionError", "EncoderError",
-           "Motion", "concatenate", "__version__"]
+           "Motion", "concatenate", "decode", "encode", "encode_motion", "EncodeOptions",
+           "EncodeReport", "arms", "max_error", "read_mpz", "write_mpz", "read_summary",
+           "write_atomic", "__version__"]

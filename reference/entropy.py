@@ -1,0 +1,331 @@
+"""Adaptive binary range coder and the integer binarisations of spec §5.
+
+Strategy: the coder is the LZMA range coder (32-bit range, 11-bit
+probabilities, adaptation shift 5), specified bit-exactly in §5.1-§5.3. Every
+coded MPZ payload is a sequence of integer *blocks* (§5.5): a ``[T, M, A]``
+array (A <= 3) coded frame-major with one model set per axis and a context taken from
+the neighbouring already-coded values (§5.6). Bulk loops run under numba;
+the public functions validate sizes and translate decoder failures into
+:class:`mpz.errors.FormatError` / :class:`mpz.errors.LimitExceededError`.
+
+Decoder contract (§5.3): reading past the end of the payload is an error, and
+after the last symbol the decoder must have consumed every byte of it.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from mpz.errors import FormatError, LimitExceededError
+
+# §5.1 constants
+PROB_BITS = 11          # probabilities are 11-bit: p in [1, 2047], p(0) = p / 2048
+PROB_INIT = 1 << (PROB_BITS - 1)   # 1024: 50 %
+MOVE_BITS = 5           # adaptation rate 2^-5
+TOP = 1 << 24           # renormalise when range < 2^24
+MAX_EXP = 30            # |v| < 2^30 (§5.4): at most 30 exponent bits
+N_CTX = 8               # contexts 0..7 (§5.6)
+N_AXES = 3
+
+# Model-set layout (§5.4): per axis a and context c
+#   Z[a, c]            zero flag
+#   S[a, c]            sign
+#   E[a, c, i]         i-th bit of the unary exponent, i in [0, 30)
+#   X[a, k, j]         j-th mantissa bit (from the top) of a value with exponent k
+_Z, _S, _E, _X = 0, 1, 2, 3
+
+# Error codes returned by the jitted decoders (translated in Python).
+ERR_OK, ERR_OVERRUN, ERR_FIRST_BYTE, ERR_TRAILING, ERR_RANGE, ERR_SIGN = 0, 1, 2, 3, 4, 5
+
+
+def new_models():
+    """Fresh model arrays, every probability at 1024 (§5.2)."""
+    z = np.full((N_AXES, N_CTX), PROB_INIT, np.int32)
+    s = np.full((N_AXES, N_CTX), PROB_INIT, np.int32)
+    e = np.full((N_AXES, N_CTX, MAX_EXP), PROB_INIT, np.int32)
+    x = np.full((N_AXES, MAX_EXP + 1, MAX_EXP), PROB_INIT, np.int32)
+    return z, s, e, x
+
+
+# ---------------------------------------------------------------- encoder --
+@njit(cache=True)
+def _shift_low(st, out):
+    # st: int64[4] = low, range, cache, cache_size ; out: (uint8 buffer, int64[1] pos)
+    low = st[0]
+    if low < 0xFF000000 or low >= 0x100000000:
+        carry = low >> 32
+        temp = st[2]
+        while True:
+            buf, pos = out
+            if pos[0] >= buf.shape[0]:
+                return False
+            buf[pos[0]] = (temp + carry) & 0xFF
+            pos[0] += 1
+            temp = 0xFF
+            st[3] -= 1
+            if st[3] == 0:
+                break
+        st[2] = (low >> 24) & 0xFF
+    st[3] += 1
+    st[0] = (low & 0x00FFFFFF) << 8
+    return True
+
+
+@njit(cache=True)
+def _enc_bit(st, out, probs, idx, bit):
+    p = probs[idx]
+    bound = (st[1] >> PROB_BITS) * p
+    if bit == 0:
+        st[1] = bound
+        probs[idx] = p + ((2048 - p) >> MOVE_BITS)
+    else:
+        st[0] += bound
+        st[1] -= bound
+        probs[idx] = p - (p >> MOVE_BITS)
+    ok = True
+    while st[1] < TOP:
+        st[1] = (st[1] << 8) & 0xFFFFFFFF
+        ok = _shift_low(st, out) and ok
+    return ok
+
+
+@njit(cache=True)
+def _enc_int(st, out, z, s, e, x, a, c, v, signed):
+    # §5.4 binarisation of one integer v (|v| < 2^30)
+    ok = True
+    if v == 0:
+        return _enc_bit(st, out, z[a], c, 0)
+    ok = _enc_bit(st, out, z[a], c, 1)
+    u = v
+    if signed:
+        if v < 0:
+            ok = _enc_bit(st, out, s[a], c, 1) and ok
+            u = -v
+        else:
+            ok = _enc_bit(st, out, s[a], c, 0) and ok
+    k = 0
+    while (u >> (k + 1)) != 0:
+        k += 1
+    for i in range(k):
+        ok = _enc_bit(st, out, e[a, c], i, 1) and ok
+    if k < MAX_EXP:
+        ok = _enc_bit(st, out, e[a, c], k, 0) and ok
+    for j in range(k):
+        bit = (u >> (k - 1 - j)) & 1
+        ok = _enc_bit(st, out, x[a, k], j, bit) and ok
+    return ok
+
+
+@njit(cache=True)
+def _ctx(a):
+    # §5.6: context = min(7, bit length of a)
+    c = 0
+    while a > 0 and c < N_CTX - 1:
+        a >>= 1
+        c += 1
+    return c
+
+
+@njit(cache=True)
+def _encode_block(vals, period, signed, z, s, e, x, st, out):
+    T, M, A = vals.shape[0], vals.shape[1], vals.shape[2]
+    ok = True
+    for t in range(T):
+        first = (t % period) == 0
+        for m in range(M):
+            for a in range(A):
+                ctx_v = 0
+                if not first:
+                    ctx_v += 2 * abs(vals[t - 1, m, a])
+                if m > 0:
+                    ctx_v += abs(vals[t, m - 1, a])
+                ok = _enc_int(st, out, z, s, e, x, a, _ctx(ctx_v), vals[t, m, a], signed) and ok
+    return ok
+
+
+@njit(cache=True)
+def _finish(st, out):
+    ok = True
+    for _ in range(5):
+        ok = _shift_low(st, out) and ok
+    return ok
+
+
+# ---------------------------------------------------------------- decoder --
+@njit(cache=True)
+def _dec_bit(ds, buf, probs, idx):
+    # ds: int64[3] = code, range, pos ; returns bit, or -1 on overrun
+    p = probs[idx]
+    bound = (ds[1] >> PROB_BITS) * p
+    if ds[0] < bound:
+        ds[1] = bound
+        probs[idx] = p + ((2048 - p) >> MOVE_BITS)
+        bit = 0
+    else:
+        ds[0] -= bound
+        ds[1] -= bound
+        probs[idx] = p - (p >> MOVE_BITS)
+        bit = 1
+    while ds[1] < TOP:
+        if ds[2] >= buf.shape[0]:
+            return -1
+        ds[1] = (ds[1] << 8) & 0xFFFFFFFF
+        ds[0] = ((ds[0] << 8) | buf[ds[2]]) & 0xFFFFFFFF
+        ds[2] += 1
+    return bit
+
+
+@njit(cache=True)
+def _dec_int(ds, buf, z, s, e, x, a, c, signed, err):
+    b = _dec_bit(ds, buf, z[a], c)
+    if b < 0:
+        err[0] = ERR_OVERRUN
+        return 0
+    if b == 0:
+        return 0
+    neg = False
+    if signed:
+        b = _dec_bit(ds, buf, s[a], c)
+        if b < 0:
+            err[0] = ERR_OVERRUN
+            return 0
+        neg = b == 1
+    k = 0
+    while k < MAX_EXP:
+        b = _dec_bit(ds, buf, e[a, c], k)
+        if b < 0:
+            err[0] = ERR_OVERRUN
+            return 0
+        if b == 0:
+            break
+        k += 1
+    u = 1
+    for j in range(k):
+        b = _dec_bit(ds, buf, x[a, k], j)
+        if b < 0:
+            err[0] = ERR_OVERRUN
+            return 0
+        u = (u << 1) | b
+    return -u if neg else u
+
+
+@njit(cache=True)
+def _decode_block(buf, ds, T, M, period, signed, z, s, e, x, out, err):
+    A = out.shape[2]
+    for t in range(T):
+        first = (t % period) == 0
+        for m in range(M):
+            for a in range(A):
+                ctx_v = 0
+                if not first:
+                    ctx_v += 2 * abs(out[t - 1, m, a])
+                if m > 0:
+                    ctx_v += abs(out[t, m - 1, a])
+                v = _dec_int(ds, buf, z, s, e, x, a, _ctx(ctx_v), signed, err)
+                if err[0] != 0:
+                    return
+                out[t, m, a] = v
+
+
+# ------------------------------------------------------------- public API --
+class BlockEncoder:
+    """Encode a sequence of integer blocks into one range-coded payload.
+
+    Each block gets fresh models (§5.5), so blocks are independent in their
+    statistics but share one arithmetic-coded byte string.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> enc = BlockEncoder()
+    >>> enc.block(np.array([[[1, -2, 0]]]))
+    >>> data = enc.finish()
+    >>> dec = BlockDecoder(data)
+    >>> dec.block(1, 1).tolist()
+    [[[1, -2, 0]]]
+    >>> dec.close()
+    """
+
+    def __init__(self, capacity: int = 1 << 16):
+        self._buf = np.zeros(capacity, np.uint8)
+        self._pos = np.zeros(1, np.int64)
+        self._st = np.array([0, 0xFFFFFFFF, 0, 1], np.int64)
+
+    def _grow(self):
+        new = np.zeros(self._buf.shape[0] * 2, np.uint8)
+        new[: self._buf.shape[0]] = self._buf
+        self._buf = new
+
+    def block(self, values, *, period: int | None = None, signed: bool = True) -> None:
+        """Code ``values`` (int, shape ``[T, M, A]``, A in 1..3); contexts restart every ``period`` rows."""
+        v = np.ascontiguousarray(values, dtype=np.int64)
+        if v.ndim != 3 or not 1 <= v.shape[2] <= 3:
+            raise ValueError(f"blocks are [T, M, A] with A in 1..3, got {v.shape}")
+        if v.size and int(np.abs(v).max()) >= (1 << MAX_EXP):
+            raise LimitExceededError(f"value {int(np.abs(v).max())} does not fit the 2^30 coder range",
+                                     section="§5.4")
+        if not signed and v.size and v.min() < 0:
+            raise ValueError("negative value in an unsigned block")
+        period = max(1, v.shape[0] if period is None else int(period))
+        # worst case ~ 8 bytes per value; grow the buffer up front
+        need = int(self._pos[0]) + 8 * v.size + 64
+        while self._buf.shape[0] < need:
+            self._grow()
+        z, s, e, x = new_models()
+        if not _encode_block(v, period, signed, z, s, e, x, self._st, (self._buf, self._pos)):
+            raise RuntimeError("range coder buffer overflow")  # unreachable: sized above
+
+    def finish(self) -> bytes:
+        """Flush the coder (§5.1) and return the payload."""
+        while self._buf.shape[0] < int(self._pos[0]) + 16:
+            self._grow()
+        _finish(self._st, (self._buf, self._pos))
+        return self._buf[: int(self._pos[0])].tobytes()
+
+
+class BlockDecoder:
+    """Decode the blocks of one payload, in the order they were coded.
+
+    Raises
+    ------
+    FormatError
+        If the payload does not start with the byte 0, runs out before the
+        last symbol, or has bytes left after it (§5.3).
+    """
+
+    def __init__(self, data: bytes, *, chunk: str | None = None, offset: int | None = None):
+        self._buf = np.frombuffer(bytes(data), np.uint8)
+        self.chunk, self.offset = chunk, offset
+        if self._buf.shape[0] < 5:
+            self._fail("range-coded payload shorter than its 5-byte preamble")
+        if self._buf[0] != 0:
+            self._fail(f"range-coded payload must start with byte 0, got {int(self._buf[0])}")
+        code = 0
+        for i in range(1, 5):
+            code = (code << 8) | int(self._buf[i])
+        self._ds = np.array([code, 0xFFFFFFFF, 5], np.int64)
+        self._err = np.zeros(1, np.int64)
+
+    def _fail(self, msg):
+        raise FormatError(msg, chunk=self.chunk, offset=self.offset, section="§5.3")
+
+    def block(self, T: int, M: int, A: int = 3, *, period: int | None = None,
+              signed: bool = True) -> np.ndarray:
+        """Decode a ``[T, M, A]`` block of int64 values."""
+        out = np.zeros((T, M, A), np.int64)
+        period = max(1, T if period is None else int(period))
+        z, s, e, x = new_models()
+        _decode_block(self._buf, self._ds, T, M, period, signed, z, s, e, x, out, self._err)
+        if self._err[0] == ERR_OVERRUN:
+            self._fail(f"range-coded payload ends before its last symbol ({self._buf.shape[0]} bytes)")
+        return out
+
+    @property
+    def consumed(self) -> int:
+        return int(self._ds[2])
+
+    def close(self) -> None:
+        """Check that every byte of the payload was consumed (§5.3)."""
+        left = self._buf.shape[0] - self.consumed
+        if left:
+            self._fail(f"{left} byte(s) left after the last range-coded symbol")
