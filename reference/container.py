@@ -199,7 +199,9 @@ def build(chunks) -> bytes:
     out = [SIGNATURE]
     for c in chunks:
         if isinstance(c, Chunk):
-            out.append(build_chunk(c.type, payload=c.payload if c.payload else None, fields=c.fields))
+            use_payload = bool(c.payload) or c.fields is None
+            out.append(build_chunk(c.type, payload=c.payload if use_payload else None,
+                                   fields=c.fields))
         else:
             ctype, fields = c
             out.append(build_chunk(ctype, fields))

@@ -19,7 +19,11 @@ EXIT_OK, EXIT_WARN, EXIT_ERROR, EXIT_USAGE = 0, 1, 2, 64
 
 #: subcommand name -> module implementing it
 SUBCOMMANDS = {
+    "encode": "mpz.tools.cmd_encode",
+    "decode": "mpz.tools.cmd_decode",
+    "compare": "mpz.tools.cmd_compare",
     "show": "mpz.tools.cmd_show",
+    "summary": "mpz.tools.cmd_summary",
 }
 
 

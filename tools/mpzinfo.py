@@ -1,0 +1,221 @@
+"""``mpzinfo``: look inside MPZ files.
+
+Default: one line per file (pngcheck style)::
+
+    OK: walk.mpz (MPZ 1.0, 120 Hz, 5202 frames, 41 markers, 9 nodes, 312 patterns,
+        1.8 MB -> 71 KB, 35.2:1, max error <= 2.0 mm)
+
+``-v`` adds one line per chunk (type, offset, length, CRC ok or bad with the
+computed and stored values); ``-vv`` adds every field of every chunk with its
+byte offset; ``--json`` prints a versioned document (schema ``mpzinfo/1``).
+mpzinfo keeps going past a bad CRC and shows what can still be read; it also
+runs the full integer decoding (``--no-decode`` skips it) so that a file that
+cannot be decoded never passes.
+
+Exit codes: 0 ok, 1 warnings only, 2 errors in a file, 64 usage error.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import construct
+
+from mpz.container import scan
+from mpz.errors import MPZError
+from mpz.spec.grammar import PAYLOADS
+
+SCHEMA = "mpzinfo/1"
+EXIT_OK, EXIT_WARN, EXIT_ERROR, EXIT_USAGE = 0, 1, 2, 64
+
+
+def _size(n: int) -> str:
+    for unit, div in (("GB", 1 << 30), ("MB", 1 << 20), ("KB", 1 << 10)):
+        if n >= div:
+            return f"{n / div:.1f} {unit}"
+    return f"{n} B"
+
+
+def _err(e: MPZError) -> dict:
+    return {"class": type(e).__name__, "message": e.message, "offset": e.offset,
+            "chunk": e.chunk, "section": e.section}
+
+
+def _jsonable(v):
+    if isinstance(v, (bytes, bytearray)):
+        return {"bytes": len(v), "head": bytes(v[:16]).hex()}
+    if isinstance(v, construct.Container):
+        return {k: _jsonable(x) for k, x in v.items() if not k.startswith("_")}
+    if isinstance(v, (list, construct.ListContainer)):
+        return [_jsonable(x) for x in v]
+    return v
+
+
+def field_offsets(ctype: str, payload: bytes) -> list:
+    """(name, offset-in-payload, value) of each top-level field, by re-parsing prefixes."""
+    grammar = PAYLOADS.get(ctype.encode())
+    if grammar is None:
+        return []
+    subcons = [s for s in grammar.subcons if s.name]
+    out = []
+    for i, sc in enumerate(subcons):
+        probe = construct.Struct(*subcons[:i], "_pos" / construct.Tell)
+        try:
+            start = probe.parse(payload)._pos
+        except Exception:  # a malformed payload: show the fields that parsed
+            break
+        out.append((sc.name, start))
+    return out
+
+
+def inspect(data: bytes, name: str = "-", *, decode: bool = True) -> dict:
+    """Everything mpzinfo knows about one file, as a JSON-ready dict."""
+    res = scan(data)
+    info = {"file": name, "size": len(data), "status": "ok", "version": None, "rate": None,
+            "frames": None, "markers": None, "nodes": None, "patterns": None, "segments": None,
+            "units": None, "error_metric": None, "error_bound": None, "raw_size": None,
+            "ratio": None, "summary_levels": None, "chunks": [], "errors": [], "warnings": []}
+    for c in res.chunks:
+        entry = {"type": c.type, "offset": c.offset, "length": c.length, "critical": c.critical,
+                 "crc_ok": c.crc_ok, "crc_stored": c.crc_stored, "crc_computed": c.crc_computed,
+                 "fields": None}
+        if c.fields is not None:
+            entry["fields"] = {k: _jsonable(v) for k, v in c.fields.items() if not k.startswith("_")}
+            entry["field_offsets"] = {n: c.payload_offset + o for n, o in
+                                      field_offsets(c.type, c.payload)}
+        info["chunks"].append(entry)
+    errors = list(res.errors)
+    warnings = list(res.warnings)
+    hdr = res.chunks[0].fields if res.chunks and res.chunks[0].type == "MHDR" else None
+    if hdr is not None:
+        from mpz.decoder import UNIT_CODES
+        info.update(version=f"{hdr.version_major}.{hdr.version_minor}", rate=hdr.rate,
+                    frames=hdr.frame_count, markers=hdr.marker_count, nodes=hdr.node_count,
+                    units=UNIT_CODES.get(hdr.units), error_metric=hdr.error_metric,
+                    error_bound=hdr.error_bound if hdr.error_metric else None,
+                    raw_size=12 * hdr.frame_count * hdr.marker_count)
+        info["ratio"] = info["raw_size"] / len(data) if data else None
+    patt = [c.fields for c in res.chunks if c.type == "PATT" and c.fields is not None]
+    segs = [c.fields for c in res.chunks if c.type == "SEGS" and c.fields is not None]
+    if patt:
+        info["patterns"] = sum(p.pattern_count for p in patt)
+    if segs or patt:
+        info["segments"] = sum(s.segment_count for s in segs)
+    smry = [c.fields for c in res.chunks if c.type == "smry" and c.fields is not None]
+    if smry:
+        info["summary_levels"] = [lv.k for lv in smry[0].levels]
+    if not errors:
+        from mpz.decoder import decode_integers, decode_mask, read_stream
+        try:
+            s = read_stream(data)
+            if decode:
+                decode_mask(s)
+                decode_integers(s)
+        except MPZError as exc:
+            errors.append(exc)
+    info["errors"] = [_err(e) for e in errors]
+    info["warnings"] = [_err(w) for w in warnings]
+    info["status"] = "error" if errors else ("warning" if warnings else "ok")
+    return info
+
+
+def summary_line(info: dict) -> str:
+    tag = {"ok": "OK", "warning": "WARN", "error": "ERROR"}[info["status"]]
+    if info["frames"] is None:
+        reason = info["errors"][0]["message"] if info["errors"] else "unreadable"
+        return f"{tag}: {info['file']} ({reason})"
+    parts = [f"MPZ {info['version']}", f"{info['rate']:g} Hz", f"{info['frames']} frames",
+             f"{info['markers']} markers", f"{info['nodes']} nodes"]
+    if info["patterns"] is not None:
+        parts.append(f"{info['patterns']} patterns")
+    parts.append(f"{_size(info['raw_size'])} \u2192 {_size(info['size'])}")
+    parts.append(f"{info['ratio']:.1f}:1")
+    units = f" {info['units']}" if info["units"] else ""
+    if info["error_bound"] is not None:
+        parts.append(f"max error \u2264 {info['error_bound']:g}{units}")
+    else:
+        parts.append("no error bound declared")
+    line = f"{tag}: {info['file']} ({', '.join(parts)})"
+    if info["errors"]:
+        e = info["errors"][0]
+        where = f" at offset {e['offset']}" if e["offset"] is not None else ""
+        line += f"\n  error: {e['message']}{where}" + (f" ({e['section']})" if e["section"] else "")
+    return line
+
+
+def _print_chunks(info: dict, verbose: int, out):
+    for i, c in enumerate(info["chunks"]):
+        crc = ("CRC ok" if c["crc_ok"] else
+               f"CRC bad (computed 0x{c['crc_computed']:08x}, stored 0x{c['crc_stored']:08x})")
+        kind = "critical" if c["critical"] else "ancillary"
+        print(f"  chunk #{i} {c['type']} ({kind}) at offset 0x{c['offset']:05x}, "
+              f"length {c['length']}, {crc}", file=out)
+        if verbose >= 2 and c["fields"] is not None:
+            offs = c.get("field_offsets", {})
+            for k, v in c["fields"].items():
+                at = f"0x{offs[k]:05x}" if k in offs else "       "
+                text = json.dumps(v) if not isinstance(v, str) else repr(v)
+                if len(text) > 100:
+                    text = text[:97] + "..."
+                print(f"      {at}  {k} = {text}", file=out)
+    for w in info["warnings"]:
+        print(f"  warning: {w['message']}", file=out)
+    for e in info["errors"]:
+        where = f" at offset {e['offset']}" if e["offset"] is not None else ""
+        print(f"  error: {e['class']}: {e['message']}{where}", file=out)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        self.print_usage(sys.stderr)
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        raise SystemExit(EXIT_USAGE)
+
+
+def main(argv=None) -> int:
+    from mpz import __version__
+    p = _Parser(prog="mpzinfo", description="Dump and check MPZ files.",
+                epilog="exit codes: 0 ok, 1 warnings only, 2 errors, 64 usage error")
+    p.add_argument("files", nargs="+", metavar="FILE")
+    p.add_argument("-v", "--verbose", action="count", default=0,
+                   help="-v: one line per chunk; -vv: every field with its byte offset")
+    p.add_argument("--json", action="store_true", help=f"machine-readable output ({SCHEMA})")
+    p.add_argument("--no-decode", action="store_true",
+                   help="check structure only, skip decoding the range-coded payloads")
+    p.add_argument("--version", action="version", version=f"mpzinfo {__version__}")
+    args = p.parse_args(argv)
+    infos = []
+    for f in args.files:
+        try:
+            with open(f, "rb") as fh:
+                data = fh.read()
+        except OSError as exc:
+            infos.append({"file": f, "status": "error", "frames": None, "chunks": [],
+                          "warnings": [], "errors": [{"class": "OSError",
+                                                      "message": exc.strerror or str(exc),
+                                                      "offset": None, "chunk": None,
+                                                      "section": None}]})
+            continue
+        infos.append(inspect(data, f, decode=not args.no_decode))
+    if args.json:
+        print(json.dumps({"schema": SCHEMA, "tool_version": __version__, "files": infos},
+                         indent=2))
+    else:
+        for info in infos:
+            print(summary_line(info))
+            if args.verbose:
+                _print_chunks(info, args.verbose, sys.stdout)
+    statuses = {i["status"] for i in infos}
+    if "error" in statuses:
+        return EXIT_ERROR
+    if "warning" in statuses:
+        return EXIT_WARN
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except BrokenPipeError:  # e.g. piped into head
+        sys.exit(EXIT_OK)
