@@ -1,0 +1,117 @@
+"""Helpers shared by the format modules of :mod:`mpz.io`.
+
+Contract: :func:`reader` is the single error boundary of every public
+``read_*`` function. Whatever a parser raises while reading a file
+(``KeyError``, ``IndexError``, ``struct.error``, ``UnicodeDecodeError``,
+``OSError``, a :class:`~mpz.errors.MotionError` from inconsistent data, ...)
+leaves as :class:`~mpz.errors.InputFormatError` naming the file and the
+reason. Only the file-touching wrappers use it; parsers take ``str``/``bytes``.
+"""
+from __future__ import annotations
+
+import functools
+import os
+import struct
+
+import numpy as np
+
+from mpz.errors import InputFormatError, MPZError
+
+#: exception types a parser may raise on bad input; translated by type
+_PARSE_ERRORS = (KeyError, IndexError, ValueError, TypeError, struct.error,
+                 UnicodeDecodeError, OSError, RuntimeError, OverflowError,
+                 ZeroDivisionError, AttributeError, EOFError, MemoryError,
+                 np.linalg.LinAlgError)
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc) or type(exc).__name__
+    return f"{type(exc).__name__}: {text}" if not isinstance(exc, MPZError) else text
+
+
+def translate(path, exc: BaseException) -> InputFormatError:
+    """The :class:`InputFormatError` to raise for ``exc`` met while reading ``path``."""
+    p = os.fspath(path)
+    if isinstance(exc, InputFormatError):
+        if exc.path is None:
+            exc.path = p
+        return exc
+    if isinstance(exc, FileNotFoundError):
+        return InputFormatError("no such file", path=p)
+    if isinstance(exc, IsADirectoryError):
+        return InputFormatError("is a directory, not a file", path=p)
+    return InputFormatError(f"cannot read: {_reason(exc)}", path=p)
+
+
+def reader(func):
+    """Decorate a ``read_*(path, ...)`` function with the error boundary."""
+
+    @functools.wraps(func)
+    def wrapper(path, *args, **kwargs):
+        try:
+            return func(path, *args, **kwargs)
+        except MPZError as exc:
+            if isinstance(exc, InputFormatError):
+                raise translate(path, exc) from None
+            # a MotionError here means the file's content is inconsistent
+            raise InputFormatError(f"inconsistent data: {exc.message}",
+                                   path=os.fspath(path)) from exc
+        except _PARSE_ERRORS as exc:
+            raise translate(path, exc) from exc
+
+    return wrapper
+
+
+def decode_text(data: bytes) -> str:
+    """Text of a motion file: UTF-8 (BOM tolerated), else Latin-1.
+
+    Comments in real files carry Latin-1 bytes (HDM05 AMC headers), so a
+    non-UTF-8 byte is not by itself an error.
+    """
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
+def unique_names(names) -> tuple[list[str], list[str]]:
+    """Make names non-empty and unique.
+
+    Empty names become ``_unnamed_<i>`` (``i`` is the 0-based point index);
+    exact duplicates get ``#2``, ``#3``, ... in order of appearance.
+
+    Returns
+    -------
+    names : list of str
+    renamed : list of str
+        One ``"old->new"`` note per changed name (for the metadata).
+
+    Examples
+    --------
+    >>> unique_names(["A", "", "A", "A"])
+    (['A', '_unnamed_1', 'A#2', 'A#3'], ['->_unnamed_1', 'A->A#2', 'A->A#3'])
+    """
+    out, notes = [], []
+    seen: set[str] = set()
+    counts: dict[str, int] = {}
+    for i, n in enumerate(names):
+        n = str(n)
+        new = n if n else f"_unnamed_{i}"
+        if new in seen:
+            k = counts.get(new, 1)
+            cand = new
+            while cand in seen:
+                k += 1
+                cand = f"{new}#{k}"
+            counts[new] = k
+            new = cand
+        seen.add(new)
+        out.append(new)
+        if new != n:
+            notes.append(f"{n}->{new}")
+    return out, notes
+
+
+def ext_of(path) -> str:
+    """Lower-case extension with the dot, e.g. ``".c3d"``."""
+    return os.path.splitext(os.fspath(path))[1].lower()

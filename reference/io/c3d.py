@@ -1,0 +1,216 @@
+"""C3D reading and writing.
+
+Contract: :func:`read_c3d` returns the 3D points of a C3D file as a
+:class:`mpz.Motion`; analog channels, force plates and events are not
+read. It uses ``ezc3d`` and falls back to the pure-numpy reader
+:mod:`mpz.io.c3dbin` for files ezc3d refuses (SGI/MIPS big-endian files;
+parameter sections ezc3d cannot parse even with ``ignore_bad_formatting``).
+:func:`write_c3d` writes float C3D through ezc3d.
+
+Gaps: a sample is a gap when its residual word is negative, when a
+coordinate is NaN, or when it is exactly (0, 0, 0). The last rule is the
+usual convention of Vicon-style exporters and is what the numediart file
+needs (its 23% occluded samples have residual 0 at the origin).
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+from mpz.io import c3dbin
+from mpz.io._common import reader, unique_names
+from mpz.motion import Motion
+
+#: POINT:UNITS values we recognise; anything else is unknown ("")
+_UNITS = {"mm": "mm", "cm": "cm", "m": "m"}
+
+
+def _labels(point_params: dict, used: int) -> list[str]:
+    """POINT:LABELS, then LABELS2, LABELS3, ... (files with > 255 points)."""
+    labels = list(point_params.get("LABELS", {}) or [])
+    k = 2
+    while f"LABELS{k}" in point_params and len(labels) < used:
+        labels += list(point_params[f"LABELS{k}"] or [])
+        k += 1
+    labels = [str(s).strip() for s in labels[:used]]
+    labels += [""] * (used - len(labels))
+    return labels
+
+
+def motion_from_points(points: np.ndarray, residuals: np.ndarray, point_params: dict,
+                       rate: float, *, subject: str = "", source: str = "",
+                       extra: dict | None = None) -> Motion:
+    """Build a Motion from C3D point data and the POINT group.
+
+    Parameters
+    ----------
+    points : ndarray, shape (frames, points, 3)
+    residuals : ndarray, shape (frames, points)
+        Residual values; negative or NaN marks a gap.
+    point_params : dict
+        ``{"LABELS": [...], "UNITS": [...], ...}`` (stripped strings).
+    rate : float
+        POINT:RATE (or the header rate).
+    """
+    used = points.shape[1]
+    names, renamed = unique_names(_labels(point_params, used))
+    units_raw = (point_params.get("UNITS") or [""])[0].strip().lower()
+    units = _UNITS.get(units_raw, "")
+    pos = np.asarray(points, dtype=np.float64)
+    res = np.asarray(residuals, dtype=np.float64)
+    valid = (np.isfinite(pos).all(axis=2) & ~(res < 0) & ~np.isnan(res)
+             & ~np.all(pos == 0, axis=2))
+    pos = pos.copy()
+    pos[~valid] = np.nan
+    meta = {"format": "c3d"}
+    if source:
+        meta["source"] = source
+    if subject:
+        meta["subject"] = subject
+    if units_raw and not units:
+        meta["units_in_file"] = units_raw
+    if renamed:
+        meta["renamed_points"] = "; ".join(renamed)
+    meta.update(extra or {})
+    return Motion(pos, names, float(rate), units, valid, meta)
+
+
+def _subject(params: dict) -> str:
+    subj = params.get("SUBJECTS", {})
+    names = subj.get("NAMES") if isinstance(subj, dict) else None
+    if names is None:
+        return ""
+    return ", ".join(n for n in (str(x).strip() for x in names) if n)
+
+
+def _from_ezc3d(c, source: str, extra: dict, declared: int) -> Motion:
+    params = c["parameters"]
+    got = np.asarray(c["data"]["points"]).shape[2]
+    if got < declared:  # ezc3d silently returns the frames that fit
+        raise c3dbin.truncated(declared, got)
+    point = {k: v["value"] for k, v in params["POINT"].items() if k != "__METADATA__"}
+    pts = np.asarray(c["data"]["points"])[:3].transpose(2, 1, 0)
+    res = np.asarray(c["data"]["meta_points"]["residuals"])[0].T
+    # POINT:RATE as stored (float32 widened, not rounded); header rate otherwise
+    rate_v = point.get("RATE")
+    rate = float(rate_v[0]) if rate_v is not None and len(rate_v) else float(
+        c["header"]["points"]["frame_rate"])
+    plist = {k: (list(v) if not isinstance(v, np.ndarray) or v.dtype.kind in "OUS" else v)
+             for k, v in point.items()}
+    subject = _subject({"SUBJECTS": {k: v["value"] for k, v in params["SUBJECTS"].items()
+                                     if k != "__METADATA__"}} if "SUBJECTS" in params else {})
+    return motion_from_points(pts, res, plist, rate, subject=subject, source=source,
+                              extra={"reader": "ezc3d", **extra})
+
+
+def motion_from_c3d_bytes(data: bytes, *, source: str = "", extra: dict | None = None) -> Motion:
+    """Parse C3D bytes with the pure-numpy reader into a Motion."""
+    d = c3dbin.parse_c3d(data)
+    point = d.params.get("POINT", {})
+    rate_v = point.get("RATE")
+    rate = float(rate_v[0]) if rate_v is not None and len(rate_v) else d.header_rate
+    proc = {c3dbin.PROC_INTEL: "intel", c3dbin.PROC_DEC: "dec",
+            c3dbin.PROC_MIPS: "mips"}[d.processor]
+    return motion_from_points(d.points, d.residual_words, point, rate,
+                              subject=_subject(d.params), source=source,
+                              extra={"reader": "mpz.io.c3dbin", "processor": proc,
+                                     **(extra or {})})
+
+
+@reader
+def read_c3d(path) -> Motion:
+    """Read the 3D points of a C3D file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    Motion
+        Names from POINT:LABELS (duplicates get ``#2``..., empty ones
+        ``_unnamed_<i>``), rate from POINT:RATE as stored, units from
+        POINT:UNITS (``mm``/``cm``/``m``, otherwise ``""``). Metadata:
+        ``source``, ``format``, ``reader``, ``subject`` (if any),
+        ``renamed_points`` and ``warning`` when applicable.
+
+    Raises
+    ------
+    InputFormatError
+        If the file is missing or is not a readable C3D file.
+    """
+    import ezc3d
+
+    path = os.fspath(path)
+    source = os.path.basename(path)
+    with open(path, "rb") as fh:  # FileNotFoundError -> "no such file"
+        head = fh.read(c3dbin.BLOCK)
+    if len(head) < c3dbin.BLOCK or head[1] != c3dbin.C3D_KEY:
+        # not a C3D file; let the numpy reader produce the precise error
+        with open(path, "rb") as fh:
+            return motion_from_c3d_bytes(fh.read(), source=source)
+    # header words 4-5: first and last frame (little-endian for Intel and
+    # DEC, the only processor types ezc3d reads); ezc3d itself rewrites its
+    # header to the frames it found, so truncation must be checked here
+    first, last = int.from_bytes(head[6:8], "little"), int.from_bytes(head[8:10], "little")
+    declared = last - first + 1
+    try:
+        return _from_ezc3d(ezc3d.c3d(path), source, {}, declared)
+    except RuntimeError as exc:  # e.g. "MIPS processor type not supported"
+        first_error = exc
+    except OSError as exc:  # "The format is not standard ..."
+        try:
+            return _from_ezc3d(ezc3d.c3d(path, ignore_bad_formatting=True), source,
+                               {"warning": f"non-standard C3D read with "
+                                           f"ignore_bad_formatting: {exc}"}, declared)
+        except (OSError, RuntimeError) as exc2:
+            first_error = exc2
+    with open(path, "rb") as fh:
+        data = fh.read()
+    return motion_from_c3d_bytes(data, source=source, extra={
+        "warning": f"ezc3d refused the file ({type(first_error).__name__}: "
+                   f"{str(first_error).splitlines()[0] if str(first_error) else ''}); "
+                   "read with mpz.io.c3dbin"})
+
+
+def write_c3d(motion: Motion, path) -> None:
+    """Write a Motion as a float C3D file (points only) with ezc3d.
+
+    Gaps are written with residual -1 and NaN coordinates. Names, rate and
+    units are stored in POINT:LABELS, POINT:RATE and POINT:UNITS; positions
+    are stored as float32.
+
+    Parameters
+    ----------
+    motion : Motion
+    path : str or os.PathLike
+    """
+    import ezc3d
+
+    path = os.fspath(path)
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([motion.rate])
+    c["parameters"]["POINT"]["LABELS"]["value"] = list(motion.names)
+    c.add_parameter("POINT", "UNITS", [motion.units])
+    pts = np.ones((4, motion.n_markers, motion.n_frames))
+    pts[:3] = motion.as_nan().transpose(2, 1, 0)
+    c["data"]["points"] = pts
+    res = np.zeros((1, motion.n_markers, motion.n_frames))
+    res[0][~motion.valid.T] = -1.0
+    c["data"]["meta_points"]["residuals"] = res
+    c["data"]["meta_points"]["camera_masks"] = np.zeros((7, motion.n_markers, motion.n_frames),
+                                                        dtype=bool)
+    if path.endswith(".c3d"):
+        c.write(path)
+        return
+    # ezc3d appends ".c3d" to any other name: write beside, then rename
+    fd, tmp = tempfile.mkstemp(suffix=".c3d", dir=os.path.dirname(os.path.abspath(path)))
+    os.close(fd)
+    try:
+        c.write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)

@@ -1,0 +1,182 @@
+"""NPY and CSV: plain array layouts of marker trajectories.
+
+Contract:
+
+* NPY is float64 ``[frames, markers, 3]`` in the motion's marker order and
+  units, NaN at gaps (the layout the conformance suite uses). It carries no
+  names, rate or units: readers name markers ``M0, M1, ...`` and take
+  ``rate`` (default 1.0) and ``units`` (default ``""``) as arguments.
+* CSV has the header ``frame,time,<name>_x,<name>_y,<name>_z,...`` and an
+  empty field at a gap. Times are written with ``repr`` so that the rate
+  can be recovered exactly (see :func:`rate_from_times`). Units are not
+  stored (default ``""``).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+
+import numpy as np
+
+from mpz.errors import InputFormatError
+from mpz.io._common import decode_text, reader
+from mpz.motion import Motion
+
+MAX_NPY_BYTES = 1 << 34  # refuse absurd arrays before loading (16 GiB)
+
+
+def _bad(fmt: str, msg: str) -> InputFormatError:
+    return InputFormatError(f"{fmt}: {msg}")
+
+
+def motion_from_array(arr, *, rate: float = 1.0, units: str = "", names=None,
+                      source: str = "", fmt: str = "npy") -> Motion:
+    """A Motion from a ``[frames, markers, 3]`` array with NaN gaps."""
+    arr = np.asarray(arr)
+    if arr.dtype.kind not in "fiu":
+        raise _bad(fmt, f"array dtype {arr.dtype} is not numeric")
+    if arr.ndim != 3 or arr.shape[2] != 3:
+        raise _bad(fmt, f"array shape {arr.shape} is not (frames, markers, 3)")
+    pos = arr.astype(np.float64)
+    valid = np.isfinite(pos).all(axis=2)
+    pos[~valid] = np.nan
+    names = list(names) if names is not None else [f"M{i}" for i in range(pos.shape[1])]
+    meta = {"format": fmt}
+    if source:
+        meta["source"] = source
+    return Motion(pos, names, rate, units, valid, meta)
+
+
+@reader
+def read_npy(path, *, rate: float = 1.0, units: str = "") -> Motion:
+    """Read a float ``[frames, markers, 3]`` .npy array (NaN = gap).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    rate : float, optional
+        Frames per second (not stored in the file). Default 1.0.
+    units : str, optional
+        Default ``""`` (unknown).
+
+    Raises
+    ------
+    InputFormatError
+        If the file is not an .npy array of that shape (object arrays are
+        refused: ``allow_pickle=False``).
+    """
+    if os.path.getsize(path) > MAX_NPY_BYTES:
+        raise _bad("npy", f"file larger than {MAX_NPY_BYTES} bytes")
+    arr = np.load(path, allow_pickle=False)
+    if not isinstance(arr, np.ndarray):
+        raise _bad("npy", "not a single .npy array")
+    return motion_from_array(arr, rate=rate, units=units,
+                             source=os.path.basename(os.fspath(path)))
+
+
+def write_npy(motion: Motion, path) -> None:
+    """Write ``motion.as_nan()`` (float64 ``[frames, markers, 3]``) as .npy."""
+    with open(path, "wb") as fh:
+        np.save(fh, motion.as_nan().astype(np.float64), allow_pickle=False)
+
+
+def rate_from_times(times: np.ndarray) -> float:
+    """The frame rate whose ``frame / rate`` reproduces ``times`` exactly.
+
+    Starts from ``1 / times[1]`` and tries neighbouring float64 values so a
+    rate such as 65.0364227294921875 survives a CSV round trip bit-exactly;
+    falls back to ``(n - 1) / (t[-1] - t[0])``.
+    """
+    t = np.asarray(times, dtype=np.float64)
+    if len(t) < 2 or not np.isfinite(t).all():
+        raise ValueError("need at least two finite times to infer the frame rate")
+    span = t[-1] - t[0]
+    if not span > 0:
+        raise ValueError("times do not increase")
+    frames = np.arange(len(t), dtype=np.float64)
+    if t[0] == 0.0:
+        r = 1.0 / t[1]
+        for _ in range(8):  # a few ulps either side
+            r = np.nextafter(r, -np.inf)
+        for _ in range(17):
+            if np.array_equal(frames / r, t):
+                return float(r)
+            r = np.nextafter(r, np.inf)
+    return float((len(t) - 1) / span)
+
+
+@reader
+def read_csv(path, *, rate: float | None = None, units: str = "") -> Motion:
+    """Read the CSV layout ``frame,time,<name>_x,<name>_y,<name>_z,...``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    rate : float, optional
+        Override; default: recovered from the time column.
+    units : str, optional
+        Default ``""`` (CSV does not store units).
+
+    Raises
+    ------
+    InputFormatError
+    """
+    with open(path, "rb") as fh:
+        text = decode_text(fh.read())
+    return parse_csv(text, rate=rate, units=units, source=os.path.basename(os.fspath(path)))
+
+
+def parse_csv(text: str, *, rate: float | None = None, units: str = "",
+              source: str = "") -> Motion:
+    """Parse CSV text (see :func:`read_csv`)."""
+    rows = list(csv.reader(io.StringIO(text)))
+    rows = [r for r in rows if r]
+    if not rows:
+        raise _bad("csv", "empty file")
+    head = [h.strip() for h in rows[0]]
+    if head[:2] != ["frame", "time"]:
+        raise _bad("csv", f"header must start with 'frame,time', got {head[:2]}")
+    cols = head[2:]
+    if len(cols) == 0 or len(cols) % 3:
+        raise _bad("csv", f"{len(cols)} coordinate columns is not a positive multiple of 3")
+    names = []
+    for i in range(0, len(cols), 3):
+        base = [c[:-2] for c in cols[i:i + 3]]
+        sfx = [c[-2:] for c in cols[i:i + 3]]
+        if sfx != ["_x", "_y", "_z"] or len(set(base)) != 1:
+            raise _bad("csv", f"columns {cols[i:i + 3]} are not <name>_x,<name>_y,<name>_z")
+        names.append(base[0])
+    data = rows[1:]
+    if not data:
+        raise _bad("csv", "no data rows")
+    vals = np.full((len(data), len(cols)), np.nan)
+    times = np.empty(len(data))
+    for k, r in enumerate(data):
+        if len(r) != len(head):
+            raise _bad("csv", f"row {k + 2} has {len(r)} fields, header has {len(head)}")
+        times[k] = float(r[1])
+        vals[k] = [float(v) if v.strip() else math.nan for v in r[2:]]
+    if rate is None:
+        rate = rate_from_times(times) if len(data) > 1 else 1.0
+    return motion_from_array(vals.reshape(len(data), -1, 3), rate=rate, units=units,
+                             names=names, source=source, fmt="csv")
+
+
+def format_csv(motion: Motion) -> str:
+    """CSV text of a Motion; gaps are empty fields, numbers use ``repr``."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["frame", "time"] + [f"{n}_{c}" for n in motion.names for c in "xyz"])
+    pos = motion.as_nan()
+    for f in range(motion.n_frames):
+        w.writerow([f, repr(f / motion.rate)]
+                   + ["" if not math.isfinite(v) else repr(float(v)) for v in pos[f].ravel()])
+    return buf.getvalue()
+
+
+def write_csv(motion: Motion, path) -> None:
+    """Write a Motion as CSV (see :func:`format_csv`)."""
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        fh.write(format_csv(motion))

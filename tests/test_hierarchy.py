@@ -1,0 +1,321 @@
+"""mpz.hierarchy: invariants, builders and the ADDH scale (paper §III-A, §V)."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz.errors import EncoderError
+from mpz.hierarchy import (MAX_NODES, Hierarchy, Node, build_hierarchy, head_scale,
+                           read_hierarchy, write_hierarchy)
+from mpz.synth import generate
+
+CMU41 = ("LFHD RFHD LBHD RBHD C7 T10 CLAV STRN RBAC LSHO LUPA LELB LFRM LWRA LWRB LFIN "
+         "RSHO RUPA RELB RFRM RWRA RWRB RFIN LFWT RFWT LBWT RBWT LTHI LKNE LSHN LANK LHEE "
+         "LTOE LMT5 RTHI RKNE RSHN RANK RHEE RTOE RMT5").split()
+
+
+def _good():
+    return [Node("root", -1, 0, [0]), Node("a", 0, 1, [1, 2]), Node("b", 1, 3, [3], [2.0])]
+
+
+def _case(mutate):
+    nodes = _good()
+    mutate(nodes)
+    return nodes
+
+
+# (what is broken, nodes, n_markers, words the message must contain)
+BROKEN = [
+    ("no nodes", [], 4, "at least one node"),
+    ("root has a parent", _case(lambda n: setattr(n[0], "parent", 1)), 4, "parent -1"),
+    ("root with two members", _case(lambda n: (n[0].members.append(3), n[0].weights.append(1.0),
+                                               n.pop())), 4, "exactly one marker"),
+    ("parent after child", _case(lambda n: setattr(n[1], "parent", 2)), 4, "earlier node"),
+    ("parent is itself", _case(lambda n: setattr(n[2], "parent", 2)), 4, "earlier node"),
+    ("negative parent", _case(lambda n: setattr(n[1], "parent", -1)), 4, "earlier node"),
+    ("marker twice", _case(lambda n: (n[2].members.append(2), n[2].weights.append(1.0))), 4,
+     "again"),
+    ("marker in no node", _good(), 5, "in no node"),
+    ("marker out of range", _case(lambda n: (n[2].members.append(7), n[2].weights.append(1.0))),
+     4, "outside"),
+    ("ref not a member", _case(lambda n: setattr(n[1], "ref", 3)), 4, "not one of its members"),
+    ("empty node", _case(lambda n: n.append(Node("c", 0, 0, []))), 4, "no members"),
+    ("zero weight", _case(lambda n: n[1].weights.__setitem__(0, 0.0)), 4, "positive and finite"),
+    ("negative weight", _case(lambda n: n[2].weights.__setitem__(0, -1.0)), 4, "positive"),
+    ("nan weight", _case(lambda n: n[1].weights.__setitem__(1, math.nan)), 4, "finite"),
+    ("inf weight", _case(lambda n: n[1].weights.__setitem__(1, math.inf)), 4, "finite"),
+    ("weights count", _case(lambda n: n[1].weights.pop()), 4, "weights"),
+]
+
+
+def test_good_hierarchy_validates():
+    Hierarchy(_good(), "file").validate(4)
+
+
+@pytest.mark.parametrize("what, nodes, n, words", BROKEN, ids=[b[0] for b in BROKEN])
+def test_validate_rejects(what, nodes, n, words):
+    with pytest.raises(EncoderError, match=words):
+        Hierarchy(nodes, "file").validate(n)
+
+
+def test_validate_rejects_too_many_nodes():
+    n = MAX_NODES + 1
+    nodes = [Node("root", -1, 0, [0])] + [Node(f"n{i}", 0, i, [i]) for i in range(1, n)]
+    with pytest.raises(EncoderError, match="65535"):
+        Hierarchy(nodes, "file").validate(n)
+
+
+def test_encoder_error_is_a_value_error():
+    assert issubclass(EncoderError, ValueError) and issubclass(EncoderError, mpz.MPZError)
+
+
+# -- cmu41 ----------------------------------------------------------------------
+def test_cmu41_on_synthetic_covers_all_markers_with_root_c7():
+    m = generate("walk", frames=120, seed=1)
+    h = build_hierarchy(m)
+    assert h.method == "cmu41"
+    h.validate(m.n_markers)
+    root = h.nodes[0]
+    assert [m.names[i] for i in root.members] == ["C7"] and root.parent == -1
+    placed = sorted(i for n in h.nodes for i in n.members)
+    assert placed == list(range(41))
+    by = {n.name: n for n in h.nodes}
+    ref = {k: m.names[n.ref] for k, n in by.items()}
+    # paper Fig. 3: level 2 = head, shoulders, torso; refs at the joints with children
+    for name in ("head", "l_shoulder", "torso", "r_shoulder"):
+        assert by[name].parent == 0
+    assert ref["l_shoulder"] == "LSHO" and ref["l_upper_arm"] == "LELB"
+    assert ref["l_thigh"] == "LKNE" and ref["l_shank"] == "LANK"
+    assert sorted(m.names[i] for i in by["head"].members) == ["LBHD", "LFHD", "RBHD", "RFHD"]
+
+
+def test_cmu41_with_prefix_extras_and_missing_markers():
+    base = generate("walk", frames=200, seed=2)
+    keep = [i for i, n in enumerate(base.names) if n not in ("C7", "LUPA", "RFIN")]
+    x = base.positions[:, keep]
+    # an extra marker riding 20 mm off the left knee, and one never seen
+    lk = base.names.index("LKNE")
+    extra = base.positions[:, lk:lk + 1] + np.array([0.0, 20.0, 0.0])
+    ghost = np.full((base.n_frames, 1, 3), np.nan)
+    names = [f"Subj:{base.names[i]}" for i in keep] + ["LKNE-1", "*0"]
+    m = mpz.Motion(np.concatenate([x, extra, ghost], axis=1), names, 120.0)
+    h = build_hierarchy(m)
+    assert h.method == "cmu41"
+    h.validate(m.n_markers)
+    assert m.names[h.nodes[0].members[0]] == "Subj:T10"     # first root fallback after C7
+    node_of = {i: n.name for n in h.nodes for i in n.members}
+    assert node_of[names.index("LKNE-1")] == "l_thigh"       # nearest reference: LKNE
+    assert node_of[names.index("*0")] == "torso"             # never valid: fallback node
+
+
+def test_not_cmu_when_too_many_missing():
+    base = generate("walk", frames=50, seed=2)
+    m = mpz.Motion(base.positions[:, 5:], base.names[5:], 120.0)
+    assert build_hierarchy(m).method == "auto"
+    with pytest.raises(EncoderError, match="not a CMU"):
+        build_hierarchy(m, "cmu41")
+
+
+# -- file ----------------------------------------------------------------------
+def test_json_file_round_trip(tmp_path):
+    m = generate("jump", frames=60, seed=3)
+    h = build_hierarchy(m, "cmu41", weights={"l_foot": 4.0, "LHEE": 10.0})
+    path = tmp_path / "h.json"
+    write_hierarchy(h, path, m.names)
+    d = json.loads(path.read_text())
+    assert d["format"] == "mpz-hierarchy" and d["version"] == 1
+    assert d["nodes"][0]["parent"] is None and d["nodes"][0]["members"] == ["C7"]
+    back = build_hierarchy(m, str(path))
+    assert back.method == "file"
+    assert [(n.name, n.parent, n.ref, n.members, n.weights) for n in back.nodes] == \
+           [(n.name, n.parent, n.ref, n.members, n.weights) for n in h.nodes]
+    foot = next(n for n in back.nodes if n.name == "l_foot")
+    assert dict(zip((m.names[i] for i in foot.members), foot.weights)) == \
+        {"LHEE": 10.0, "LTOE": 4.0, "LMT5": 4.0}
+    # names match after stripping a subject prefix
+    pm = mpz.Motion(m.positions, [f"Bob:{n}" for n in m.names], m.rate)
+    assert [n.members for n in read_hierarchy(path, pm.names).nodes] == [n.members for n in h.nodes]
+
+
+def test_file_names_unknown_and_missing_markers():
+    m = generate("static", frames=5, markers=3)      # LFHD RFHD LBHD
+    d = {"format": "mpz-hierarchy", "version": 1, "nodes": [
+        {"name": "root", "parent": None, "ref": "LFHD", "members": ["LFHD"]},
+        {"name": "rest", "parent": "root", "ref": "RFHD", "members": ["RFHD", "NOPE"]}]}
+    with pytest.raises(EncoderError, match="NOPE"):
+        build_hierarchy(m, d)
+    d["nodes"][1]["members"] = ["RFHD"]
+    with pytest.raises(EncoderError, match="LBHD"):
+        build_hierarchy(m, d)
+    d["nodes"][1]["members"] = ["RFHD", "LBHD"]
+    assert build_hierarchy(m, d).nodes[1].members == [1, 2]
+
+
+def test_unknown_spec_and_bad_weights():
+    m = generate("static", frames=5, markers=3)
+    with pytest.raises(EncoderError, match="unknown hierarchy"):
+        build_hierarchy(m, "tree")
+    with pytest.raises(EncoderError, match="unknown"):
+        build_hierarchy(m, "flat", weights={"XYZ": 2.0})
+    with pytest.raises(EncoderError, match="positive"):
+        build_hierarchy(m, "flat", weights={"RFHD": 0.0})
+
+
+# -- skeleton and flat ---------------------------------------------------------------
+def test_skeleton_builder_orders_breadth_first():
+    #        0 hips
+    #      /   \
+    #   2 spine  1 lleg -> 4 lfoot
+    #   |
+    #   3 head
+    names = ["hips", "lleg", "spine", "head", "lfoot"]
+    parents = [-1, 0, 0, 2, 1]
+    m = mpz.Motion(np.random.default_rng(0).normal(size=(4, 5, 3)), names, 120.0,
+                   parents=parents)
+    h = build_hierarchy(m)
+    assert h.method == "skeleton"
+    h.validate(5)
+    order = [names[n.members[0]] for n in h.nodes]
+    assert order == ["hips", "lleg", "spine", "lfoot", "head"]
+    for n in h.nodes:
+        assert n.members == [n.ref]
+        if n.parent >= 0:   # node parent = node of the skeleton parent
+            assert h.nodes[n.parent].members[0] == parents[n.members[0]]
+
+
+def test_flat():
+    m = generate("static", frames=5, markers=4)
+    h = build_hierarchy(m, "flat")
+    assert [n.members for n in h.nodes] == [[0], [1, 2, 3]]
+
+
+# -- auto ----------------------------------------------------------------------
+@pytest.mark.parametrize("kind", ["walk", "mixed", "wave"])
+def test_auto_groups_rigid_parts(kind):
+    m = generate(kind, frames=1500, seed=4, gap_fraction=0.05)
+    h = build_hierarchy(m, "auto")
+    assert h.method == "auto"
+    h.validate(m.n_markers)
+    node_of = {i: k for k, n in enumerate(h.nodes) for i in n.members}
+    head = {node_of[m.names.index(n)] for n in ("LFHD", "RFHD", "LBHD", "RBHD")}
+    assert len(head) == 1
+    # segments across a moving joint are not grouped together
+    assert node_of[m.names.index("LHEE")] != node_of[m.names.index("LFWT")]
+    assert node_of[m.names.index("RWRA")] != node_of[m.names.index("RSHO")]
+    assert max(len(n.members) for n in h.nodes) <= 6
+
+
+def test_auto_one_two_and_dead_markers():
+    one = generate("walk", frames=30, markers=1)
+    h1 = build_hierarchy(one, "auto")
+    assert [n.members for n in h1.nodes] == [[0]]
+    two = generate("walk", frames=30, markers=2)
+    h2 = build_hierarchy(two, "auto")
+    assert sorted(i for n in h2.nodes for i in n.members) == [0, 1]
+    assert len(h2.nodes[0].members) == 1
+    # markers that are gaps throughout still get a node; all-gap motion works too
+    m = generate("walk", frames=100, markers=10, seed=1)
+    valid = m.valid.copy()
+    valid[:, 3] = False
+    x = m.positions.copy()
+    x[:, 3] = np.nan
+    build_hierarchy(mpz.Motion(x, m.names, m.rate, valid=valid), "auto").validate(10)
+    nothing = mpz.Motion(np.full((5, 3, 3), np.nan), ["a", "b", "c"], 10.0)
+    build_hierarchy(nothing, "auto").validate(3)
+
+
+def test_auto_many_markers_with_gaps():
+    base = generate("mixed", frames=5000, seed=8, gap_fraction=0.1)
+    # 90 markers: the 41 plus copies shifted by 30 mm and a few copies of copies
+    x = np.concatenate([base.positions, base.positions + 30.0, base.positions[:, :8] - 30.0], axis=1)
+    v = np.concatenate([base.valid, base.valid, base.valid[:, :8]], axis=1)
+    names = base.names + [n + "_b" for n in base.names] + [n + "_c" for n in base.names[:8]]
+    m = mpz.Motion(x, names, base.rate, valid=v)
+    h = build_hierarchy(m)
+    assert h.method == "cmu41"    # the CMU names are all there; the copies are extras
+    h.validate(90)
+    build_hierarchy(m, "auto").validate(90)
+
+
+# -- head scale ----------------------------------------------------------------
+def test_head_scale_matches_the_synthetic_head_band():
+    # the synthetic head band: LFHD at (75, 80, 95), LBHD at (-60, 80, 85) mm from the
+    # head joint, right markers mirrored in y; both diagonals are (135, 160, 10) mm
+    expected = math.sqrt(135.0 ** 2 + 160.0 ** 2 + 10.0 ** 2)
+    for kind in ("walk", "jump"):
+        s, how = head_scale(generate(kind, frames=400, seed=5))
+        assert how == "addh"
+        assert s == pytest.approx(expected, abs=0.5)
+
+
+def test_head_scale_fallbacks():
+    m = generate("static", frames=50, seed=5)
+    body = mpz.Motion(m.positions[:, 4:], m.names[4:], m.rate)
+    s, how = head_scale(body)
+    assert how == "bbox"
+    assert 120.0 < s < 250.0      # 0.1 x the ~1.8 m bounding-box diagonal of a standing adult
+    single = mpz.Motion(np.zeros((3, 1, 3)), ["x"], 10.0)
+    assert head_scale(single) == (1.0, "unit")
+    # head markers with other names, found through a hierarchy node called "head"
+    renamed = mpz.Motion(m.positions, [f"m{i}" for i in range(41)], m.rate)
+    h = build_hierarchy(m, "cmu41")
+    s2, how2 = head_scale(renamed, h)
+    assert how2 == "addh" and s2 == pytest.approx(head_scale(m)[0])
+
+
+# -- real recordings -------------------------------------------------------------
+C3D_FILES = ["cmu_01_01", "cmu_02_01", "cmu_135_02", "HDM_dg_06-03_03_120",
+             "HDM_mm_01-02_03_120", "numediart_03_rolling", "ezc3d_Vicon", "ezc3d_Qualisys",
+             "c3dorg_Eb015pi", "c3dorg_Eb015vr", "c3dorg_Eb015sr", "c3dorg_Dance1",
+             "c3dorg_AlbertoINT", "c3dorg_Facial-Sing", "c3dorg_arthuman-sample",
+             "c3dorg_codamotion_gaitwands_20150204", "c3dorg_Sample_Jump2",
+             "auckland_FMC_MH0222_BP06"]
+
+
+def _load_c3d(path):
+    """Motion from a C3D via ezc3d directly (mpz.io may not be ready)."""
+    ezc3d = pytest.importorskip("ezc3d")
+    try:
+        c = ezc3d.c3d(str(path))
+    except Exception as exc:  # ezc3d cannot read MIPS or malformed files
+        pytest.skip(f"ezc3d cannot read {path.name}: {str(exc)[:80]}")
+    x = c["data"]["points"][:3].transpose(2, 1, 0).astype(np.float64)
+    res = c["data"]["meta_points"]["residuals"][0].T
+    # gaps: negative residual, non-finite, or exactly (0, 0, 0) as some writers store them
+    valid = (res >= 0) & np.isfinite(x).all(axis=2) & (x != 0).any(axis=2)
+    x[~valid] = np.nan
+    labels = list(c["parameters"]["POINT"]["LABELS"]["value"])[:x.shape[1]]
+    labels += [""] * (x.shape[1] - len(labels))
+    names, seen = [], set()
+    for i, n in enumerate(labels):
+        n = n.strip() or f"point{i}"
+        base, k = n, 1
+        while n in seen:   # some files repeat labels; Motion needs unique names
+            n, k = f"{base}#{k}", k + 1
+        seen.add(n)
+        names.append(n)
+    rate = float(c["parameters"]["POINT"]["RATE"]["value"][0])
+    return mpz.Motion(x, names, rate, "mm", valid)
+
+
+@pytest.mark.parametrize("stem", C3D_FILES)
+def test_real_c3d_gets_a_valid_hierarchy(shared_data, stem):
+    path = shared_data / "c3d" / f"{stem}.c3d"
+    if not path.exists():
+        pytest.skip(f"{path} is absent")
+    m = _load_c3d(path)
+    h = build_hierarchy(m)
+    h.validate(m.n_markers)
+    if stem.startswith(("cmu_", "HDM_")):
+        assert h.method == "cmu41"
+        assert m.names[h.nodes[0].members[0]].split(":")[-1] == "C7"
+        s, how = head_scale(m, h)
+        assert how == "addh" and 150.0 < s < 260.0   # a head band in mm
+    else:
+        assert h.method == "auto"
+    build_hierarchy(m, "auto").validate(m.n_markers)
+    build_hierarchy(m, "flat").validate(m.n_markers)

@@ -1,0 +1,588 @@
+"""Unit tests of mpz.io that need no real recordings.
+
+Expected values are derived by hand in the comments (forward kinematics of
+tiny skeletons, byte layouts of tiny C3D files), never taken from the code
+under test.
+"""
+from __future__ import annotations
+
+import math
+import struct
+
+import numpy as np
+import pytest
+
+from mpz import Motion
+from mpz.errors import InputFormatError, MPZError
+from mpz.io import read, read_amc, read_bvh, read_c3d, write
+from mpz.io import c3dbin
+from mpz.io.amc import find_asf, parse_asf
+from mpz.io.bvh import frame_rate_from_frame_time
+from mpz.io.table import rate_from_times
+from mpz.tools import cmd_show, mpz_cli
+
+DANCE_RATE = 65.0364227294921875  # float32 POINT:RATE of c3d.org Dance1.c3d
+
+
+def synthetic(frames=7, rate=DANCE_RATE, units="mm", seed=1):
+    """A small Motion with gaps and awkward names."""
+    rng = np.random.default_rng(seed)
+    names = ["Subj:LASI", "R.Knee", "a b", "Ünï", "x_y_z"]
+    pos = rng.normal(0.0, 500.0, (frames, len(names), 3))
+    valid = np.ones((frames, len(names)), bool)
+    valid[0, 1] = valid[3, 2] = valid[3, 4] = False
+    valid[:, 3] = False
+    valid[2, 3] = True
+    pos[~valid] = np.nan
+    return Motion(pos, names, rate, units, valid)
+
+
+# -- round trips ---------------------------------------------------------
+
+# (extension, exact positions?, names kept?, units kept?, atol)
+ROUND_TRIPS = [
+    (".npy", True, False, False, 0.0),
+    (".csv", True, True, False, 0.0),
+    (".trc", False, True, True, 5e-7),     # 6 decimals
+    (".c3d", False, True, True, None),     # float32 storage
+]
+
+
+@pytest.mark.parametrize("ext,exact,keeps_names,keeps_units,atol", ROUND_TRIPS)
+def test_round_trip(tmp_path, ext, exact, keeps_names, keeps_units, atol):
+    m = synthetic()
+    p = tmp_path / f"m{ext}"
+    write(m, p)
+    # NPY stores no rate; everything else must give it back bit-exactly
+    back = read(p, rate=m.rate) if ext == ".npy" else read(p)
+    assert back.rate == DANCE_RATE
+    assert back.n_frames == m.n_frames and back.n_markers == m.n_markers
+    np.testing.assert_array_equal(back.valid, m.valid)
+    assert np.isnan(back.positions[~back.valid]).all()
+    if exact:
+        np.testing.assert_array_equal(back.positions[m.valid], m.positions[m.valid])
+    elif atol is None:
+        np.testing.assert_array_equal(back.positions[m.valid],
+                                      m.positions[m.valid].astype(np.float32).astype(np.float64))
+    else:
+        np.testing.assert_allclose(back.positions[m.valid], m.positions[m.valid], rtol=0, atol=atol)
+    if keeps_names:
+        assert back.names == m.names
+    else:
+        assert back.names == [f"M{i}" for i in range(m.n_markers)]
+    assert back.units == (m.units if keeps_units else "")
+
+
+@pytest.mark.parametrize("units", ["mm", "cm", "m"])
+def test_c3d_and_trc_keep_units(tmp_path, units):
+    m = synthetic(units=units, rate=100.0)
+    for ext in (".c3d", ".trc"):
+        write(m, tmp_path / f"u{ext}")
+        assert read(tmp_path / f"u{ext}").units == units
+
+
+def test_c3d_written_by_ezc3d_reads_the_same_with_the_numpy_reader(tmp_path):
+    m = synthetic()
+    write(m, tmp_path / "m.c3d")
+    d = c3dbin.parse_c3d((tmp_path / "m.c3d").read_bytes())
+    assert d.processor == c3dbin.PROC_INTEL and d.float_storage
+    assert d.points.shape == (m.n_frames, m.n_markers, 3)
+    np.testing.assert_array_equal(d.residual_words < 0, ~m.valid)
+    np.testing.assert_array_equal(d.points[m.valid], m.positions[m.valid].astype(np.float32))
+    assert d.params["POINT"]["LABELS"] == m.names
+    assert float(d.params["POINT"]["RATE"][0]) == DANCE_RATE
+
+
+def test_uppercase_c3d_extension(tmp_path):
+    m = synthetic(rate=120.0)
+    write(m, tmp_path / "UP.C3D")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["UP.C3D"]
+    assert read(tmp_path / "UP.C3D").names == m.names
+
+
+def test_csv_layout(tmp_path):
+    m = Motion(np.array([[[1.0, 2.0, 3.0], [np.nan] * 3]]), ["A", "B"], rate=2.0)
+    write(m, tmp_path / "a.csv")
+    lines = (tmp_path / "a.csv").read_text().splitlines()
+    assert lines == ["frame,time,A_x,A_y,A_z,B_x,B_y,B_z", "0,0.0,1.0,2.0,3.0,,,"]
+
+
+def test_npy_layout(tmp_path):
+    m = synthetic()
+    write(m, tmp_path / "a.npy")
+    arr = np.load(tmp_path / "a.npy")
+    assert arr.dtype == np.float64 and arr.shape == (7, 5, 3)
+    assert np.isnan(arr[0, 1]).all() and np.isfinite(arr[0, 0]).all()
+
+
+@pytest.mark.parametrize("rate", [DANCE_RATE, 120.0, 60.00328826904297, 1 / 3, 29.97])
+def test_rate_from_times_is_exact(rate):
+    t = np.array([repr(f / rate) for f in range(50)], dtype=float)
+    assert rate_from_times(t) == rate
+
+
+# -- TRC -------------------------------------------------------------------
+
+TRC_TEXT = (
+    "PathFileType\t4\t(X/Y/Z)\tx.trc\n"
+    "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames\n"
+    "60.00\t60.00\t3\t2\tm\t60.00\t1\t3\n"
+    "Frame#\tTime\tA\t\t\tB\t\t\n"
+    "\t\tX1\tY1\tZ1\tX2\tY2\tZ2\n"
+    "\n"
+    "1\t0.000\t1\t2\t3\t4\t5\t6\n"
+    "2\t0.017\t1.5\t2\t3\t\t\t\n"
+    "3\t0.033\tNaN\tNaN\tNaN\t7\t8\t9\n"
+)
+
+
+def test_trc_parse(tmp_path):
+    p = tmp_path / "x.trc"
+    p.write_text(TRC_TEXT)
+    m = read(p)
+    assert (m.n_frames, m.n_markers, m.rate, m.units, m.names) == (3, 2, 60.0, "m", ["A", "B"])
+    assert m.valid.tolist() == [[True, True], [True, False], [False, True]]
+    assert m.positions[1, 0].tolist() == [1.5, 2.0, 3.0]
+    assert m.positions[2, 1].tolist() == [7.0, 8.0, 9.0]
+
+
+@pytest.mark.parametrize("cut", [
+    lambda t: t.split("\n", 2)[0],                       # header only
+    lambda t: "\n".join(t.split("\n")[:6]),              # no data rows
+    lambda t: t.replace("DataRate", "Rate"),             # no DataRate
+    lambda t: t.replace("\t2\tm\t", "\t5\tm\t"),         # NumMarkers disagrees
+    lambda t: t.replace("1.5\t2", "1.5\tabc"),           # non-numeric value
+    lambda t: t.replace("7\t8\t9", "7\t8\t9\t10\t11\t12"),  # row too long
+    lambda t: "X" + t,                                  # not a TRC
+])
+def test_trc_bad(tmp_path, cut):
+    p = tmp_path / "bad.trc"
+    p.write_text(cut(TRC_TEXT))
+    with pytest.raises(InputFormatError) as ei:
+        read(p)
+    assert ei.value.path == str(p)
+
+
+# -- BVH -------------------------------------------------------------------
+
+BVH_TEXT = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Chest
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 5 0
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.0333333
+1 2 3 0 0 0 0 0 0
+0 0 0 90 0 0 0 0 0
+0 0 0 0 0 0 90 90 0
+"""
+
+
+def test_bvh_forward_kinematics(tmp_path):
+    p = tmp_path / "t.bvh"
+    p.write_text(BVH_TEXT)
+    m = read_bvh(p)
+    assert m.names == ["Hips", "Chest", "Chest_End"]
+    assert m.parents == [-1, 0, 1]
+    assert m.rate == 30.0 and m.units == ""
+    assert m.angles.shape == (3, 9)
+    assert m.angle_names[:4] == ["Hips.Xposition", "Hips.Yposition", "Hips.Zposition",
+                                 "Hips.Zrotation"]
+    # frame 0: translation only
+    np.testing.assert_allclose(m.positions[0], [[1, 2, 3], [1, 12, 3], [1, 17, 3]], atol=1e-12)
+    # frame 1: Rz(90) at the root maps +y to -x
+    np.testing.assert_allclose(m.positions[1], [[0, 0, 0], [-10, 0, 0], [-15, 0, 0]], atol=1e-12)
+    # frame 2: chest Rz(90) @ Rx(90): (0,5,0) -Rx-> (0,0,5) -Rz-> (0,0,5)
+    # (the other order would give (-5,0,0))
+    np.testing.assert_allclose(m.positions[2, 2], [0, 10, 5], atol=1e-12)
+
+
+@pytest.mark.parametrize("ft,rate", [(0.0083333, 120.0), (0.00833333, 120.0), (0.04, 25.0),
+                                     (0.0333333, 30.0), (1 / 65.0364227, 65.0364227)])
+def test_bvh_frame_rate(ft, rate):
+    assert frame_rate_from_frame_time(ft) == pytest.approx(rate, rel=1e-12)
+
+
+@pytest.mark.parametrize("mutate", [
+    lambda t: t.replace("Frames: 3", "Frames: 4"),          # truncated motion
+    lambda t: t.replace("90 90 0\n", "90 90\n"),            # short last row
+    lambda t: t.replace("  }\n}\n", "  }\n"),               # unbalanced braces
+    lambda t: t.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Wrotation"),
+    lambda t: t.replace("OFFSET 0 10 0", "OFFSET 0 ten 0"),
+    lambda t: t.replace("MOTION", "MOTON"),
+    lambda t: t.split("MOTION")[0],
+    lambda t: "",
+])
+def test_bvh_bad(tmp_path, mutate):
+    p = tmp_path / "bad.bvh"
+    p.write_text(mutate(BVH_TEXT))
+    with pytest.raises(InputFormatError):
+        read(p)
+
+
+# -- ASF/AMC -------------------------------------------------------------------
+
+ASF_TEXT = """# tiny skeleton
+:version 1.10
+:name TINY
+:units
+  mass 1.0
+  length 0.45
+  angle deg
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name b1
+     direction 1 0 0
+     length 2
+     axis 0 0 90 XYZ
+    dof rx rz
+    limits (-180 180)
+           (-180 180)
+  end
+  begin
+     id 2
+     name b2
+     direction 0 1 0
+     length 1
+     axis 0 0 0 XYZ
+    dof rx
+    limits (-180 180)
+  end
+:hierarchy
+  begin
+    root b1
+    b1 b2
+  end
+"""
+
+AMC_TEXT = """# comment with a latin-1 byte: \xe4
+:FULLY-SPECIFIED
+:DEGREES
+1
+root 1 2 3 0 0 0
+b1 0 90
+b2 0
+2
+root 0 0 0 0 0 0
+b1 90 0
+b2 0
+"""
+
+
+def test_amc_forward_kinematics(tmp_path):
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)
+    (tmp_path / "tiny_01.amc").write_bytes(AMC_TEXT.encode("latin-1"))
+    m = read(tmp_path / "tiny_01.amc")  # finds tiny.asf
+    mm = 25.4 / 0.45  # one ASF unit is 1/0.45 inch
+    assert m.names == ["root", "b1", "b2"] and m.parents == [-1, 0, 1]
+    assert m.rate == 120.0 and m.units == "mm"
+    assert m.angles.shape == (2, 6 + 2 + 1)
+    assert m.angle_names == ["root.tx", "root.ty", "root.tz", "root.rx", "root.ry", "root.rz",
+                             "b1.rx", "b1.rz", "b2.rx"]
+    # frame 1: C = Rz90, M = Rz90 -> W = Rz90; b1 end = (1,2,3) + Rz90 (2,0,0) = (1,4,3);
+    # b2 inherits W: (1,4,3) + Rz90 (0,1,0) = (0,4,3)
+    np.testing.assert_allclose(m.positions[0] / mm, [[1, 2, 3], [1, 4, 3], [0, 4, 3]], atol=1e-12)
+    # frame 2: rx=90 about the bone's local x, which C = Rz90 puts on global y:
+    # W = Rz90 Rx90 Rz-90 is Ry(90); (2,0,0) -> (0,0,-2); b2: (0,1,0) stays (0,1,0)
+    np.testing.assert_allclose(m.positions[1] / mm, [[0, 0, 0], [0, 0, -2], [0, 1, -2]], atol=1e-12)
+    m2 = read(tmp_path / "tiny_01.amc", rate=60.0)
+    assert m2.rate == 60.0
+
+
+def test_find_asf_longest_prefix(tmp_path):
+    for n in ("HDM.asf", "HDM_dg.asf", "HDM_mm.asf", "02.asf", "0.asf"):
+        (tmp_path / n).write_text("")
+    assert find_asf(tmp_path / "HDM_dg_06-03_03_120.amc").endswith("HDM_dg.asf")
+    assert find_asf(tmp_path / "02_01.amc").endswith("02.asf")
+    with pytest.raises(InputFormatError):
+        find_asf(tmp_path / "17_01.amc")
+
+
+@pytest.mark.parametrize("mutate", [
+    lambda t: t.replace("b1 90 0", "b1 90"),          # value count
+    lambda t: t.replace("b2 0\n2", "bx 0\n2"),        # unknown bone
+    lambda t: t.replace("\n2\n", "\n3\n"),            # frame numbering
+    lambda t: t.replace("b1 0 90\n", ""),             # bone missing in a frame
+    lambda t: ":FULLY-SPECIFIED\n",                   # no frames
+    lambda t: t.replace("root 1 2 3", "root 1 two 3"),
+])
+def test_amc_bad(tmp_path, mutate):
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)
+    (tmp_path / "tiny_01.amc").write_text(mutate(AMC_TEXT))
+    with pytest.raises(InputFormatError):
+        read_amc(tmp_path / "tiny_01.amc", tmp_path / "tiny.asf")
+
+
+@pytest.mark.parametrize("mutate", [
+    lambda t: t.replace("    b1 b2\n", ""),                # b2 not in hierarchy
+    lambda t: t.replace(":hierarchy", ":hierarchyx"),
+    lambda t: t.replace("dof rx\n", "dof qq\n"),
+    lambda t: t.replace("root b1", "root bz"),
+    lambda t: t.replace("length 0.45", "length 0"),
+])
+def test_asf_bad(mutate):
+    with pytest.raises(InputFormatError):
+        parse_asf(mutate(ASF_TEXT))
+
+
+# -- C3D bytes built by hand -------------------------------------------------
+
+
+def _ieee_to_dec(values) -> bytes:
+    """Inverse of the VAX F conversion: IEEE bits of 4x the value, words swapped."""
+    raw = np.asarray(values, "<f4") * np.float32(4.0)
+    b = raw.astype("<f4").view(np.uint8).reshape(-1, 4)
+    return b[:, [2, 3, 0, 1]].tobytes()
+
+
+def build_c3d(points, residual, labels, rate, *, processor=84, scale=-1.0, units="mm"):
+    """A minimal C3D: header, one parameter block (POINT group), point data.
+
+    points: (frames, n, 3) float; residual: (frames, n) int. Written with the
+    C3D.org layout independently of the reader.
+    """
+    big = processor == 86
+    e = ">" if big else "<"
+    fl = e + "f"
+    frames, n, _ = points.shape
+
+    def f32(v):
+        return _ieee_to_dec([v]) if processor == 85 else struct.pack(fl, v)
+
+    def param(name, gid, ptype, dims, data):
+        body = struct.pack("bB", ptype, len(dims)) + bytes(dims) + data + b"\x00"
+        nm = name.encode()
+        return struct.pack("bb", len(nm), gid) + nm + struct.pack(e + "H", 2 + len(body)) + body
+
+    width = max(len(s) for s in labels)
+    plist = b"".join([
+        struct.pack("bb", 5, -1) + b"POINT" + struct.pack(e + "H", 3) + b"\x00",
+        param("USED", 1, 2, [], struct.pack(e + "h", n)),
+        param("SCALE", 1, 4, [], f32(scale)),
+        param("RATE", 1, 4, [], f32(rate)),
+        param("DATA_START", 1, 2, [], struct.pack(e + "h", 3)),
+        param("FRAMES", 1, 2, [], struct.pack(e + "h", frames)),
+        param("UNITS", 1, -1, [len(units)], units.encode()),
+        param("LABELS", 1, -1, [width, n], b"".join(s.ljust(width).encode() for s in labels)),
+    ])
+    pblock = bytes([1, 80, 1, processor]) + plist
+    assert len(pblock) <= 512
+    pblock = pblock.ljust(512, b"\x00")
+    header = bytearray(512)
+    header[0], header[1] = 2, 0x50
+    header[2:4] = struct.pack(e + "h", n)
+    header[6:10] = struct.pack(e + "HH", 1, frames)
+    header[12:16] = f32(scale)
+    header[16:18] = struct.pack(e + "H", 3)
+    header[20:24] = f32(rate)
+    words = np.concatenate([points, residual[..., None]], axis=2)
+    if scale < 0:
+        flat = words.astype(np.float32).ravel()
+        data = _ieee_to_dec(flat) if processor == 85 else flat.astype(e + "f4").tobytes()
+    else:
+        ints = np.concatenate([np.round(points / abs(scale)), residual[..., None]], axis=2)
+        data = ints.astype(e + "i2").tobytes()
+    return bytes(header) + pblock + data
+
+
+def _c3d_example():
+    pts = np.array([[[1.0, 2.0, 3.0], [-4.5, 5.25, 6.0]],
+                    [[7.0, 8.0, 9.0], [0.0, 0.0, 0.0]],
+                    [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]])
+    res = np.array([[0, 3], [0, -1], [-1, 2]])
+    return pts, res
+
+
+@pytest.mark.parametrize("processor,scale", [(84, -1.0), (85, -1.0), (86, -1.0),
+                                             (84, 0.25), (86, 0.25)])
+def test_c3d_numpy_reader_processors(tmp_path, processor, scale):
+    pts, res = _c3d_example()
+    blob = build_c3d(pts, res, ["Subj:A", "B"], DANCE_RATE, processor=processor, scale=scale,
+                     units="cm")
+    d = c3dbin.parse_c3d(blob)
+    assert d.processor == processor and d.float_storage == (scale < 0)
+    np.testing.assert_array_equal(d.points, pts)       # all values exact in f32 and in 0.25 steps
+    np.testing.assert_array_equal(d.residual_words < 0, res < 0)
+    assert d.params["POINT"]["LABELS"] == ["Subj:A", "B"]
+    # through the public reader (ezc3d for Intel/DEC, the fallback for MIPS)
+    p = tmp_path / "h.c3d"
+    p.write_bytes(blob)
+    m = read_c3d(p)
+    assert m.names == ["Subj:A", "B"] and m.units == "cm"
+    assert m.rate == DANCE_RATE
+    # gaps: negative residual, and (0,0,0) with residual >= 0 at frame 2 / marker 0
+    assert m.valid.tolist() == [[True, True], [True, False], [False, True]]
+    assert m.positions[0, 1].tolist() == [-4.5, 5.25, 6.0]
+    if processor == 86:
+        assert m.metadata["reader"] == "mpz.io.c3dbin" and "warning" in m.metadata
+
+
+def test_c3d_duplicate_and_empty_labels(tmp_path):
+    pts = np.ones((2, 4, 3))
+    blob = build_c3d(pts, np.zeros((2, 4), int), ["A", "", "A", "A"], 100.0)
+    (tmp_path / "d.c3d").write_bytes(blob)
+    m = read(tmp_path / "d.c3d")
+    assert m.names == ["A", "_unnamed_1", "A#2", "A#3"]
+    assert "A->A#2" in m.metadata["renamed_points"]
+
+
+def test_c3d_unknown_units(tmp_path):
+    blob = build_c3d(np.ones((1, 1, 3)), np.zeros((1, 1), int), ["A"], 100.0, units="furlong")
+    (tmp_path / "u.c3d").write_bytes(blob)
+    m = read(tmp_path / "u.c3d")
+    assert m.units == "" and m.metadata["units_in_file"] == "furlong"
+
+
+# -- errors ------------------------------------------------------------------
+
+def test_unknown_extension(tmp_path):
+    p = tmp_path / "a.xyz"
+    p.write_text("1 2 3")
+    with pytest.raises(InputFormatError, match="unknown file extension") as ei:
+        read(p)
+    assert ei.value.path == str(p)
+    with pytest.raises(InputFormatError):
+        write(synthetic(), tmp_path / "a.bvh")
+
+
+@pytest.mark.parametrize("ext", [".c3d", ".trc", ".bvh", ".amc", ".npy", ".csv"])
+def test_missing_file(tmp_path, ext):
+    with pytest.raises(InputFormatError, match="no such file"):
+        read(tmp_path / f"nothing{ext}", asf=tmp_path / "nothing.asf")
+
+
+@pytest.mark.parametrize("content", [
+    b"",
+    b"\x02\x50" + b"\x00" * 100,                            # header cut short
+    bytes(np.random.default_rng(3).integers(0, 256, 4096, dtype=np.uint8)),
+    b"\x02\x50" + bytes(np.random.default_rng(4).integers(0, 256, 2000, dtype=np.uint8)),
+    b"PK\x03\x04 not a c3d at all" * 100,
+])
+def test_garbage_c3d(tmp_path, content):
+    p = tmp_path / "g.c3d"
+    p.write_bytes(content)
+    with pytest.raises(InputFormatError):
+        read(p)
+
+
+def test_truncated_c3d(tmp_path):
+    pts, res = _c3d_example()
+    blob = build_c3d(pts, res, ["A", "B"], 50.0)
+    p = tmp_path / "t.c3d"
+    p.write_bytes(blob[:-8])
+    with pytest.raises(InputFormatError, match="truncated"):
+        read(p)
+
+
+def test_c3d_numpy_reader_fuzz():
+    """Mutated bytes: parse_c3d either returns or raises InputFormatError."""
+    pts, res = _c3d_example()
+    good = build_c3d(pts, res, ["A", "B"], 50.0, processor=86)
+    rng = np.random.default_rng(2024)
+    outcomes = set()
+    for _ in range(400):
+        b = bytearray(good)
+        for _ in range(int(rng.integers(1, 6))):
+            b[int(rng.integers(0, len(b)))] = int(rng.integers(0, 256))
+        if rng.random() < 0.3:
+            b = b[:int(rng.integers(0, len(b)))]
+        try:
+            c3dbin.parse_c3d(bytes(b))
+            outcomes.add("ok")
+        except InputFormatError:
+            outcomes.add("error")
+    assert outcomes == {"ok", "error"}
+
+
+@pytest.mark.parametrize("ext,content", [
+    (".npy", b"\x93NUMPY garbage"),
+    (".npy", None),                   # wrong shape, filled below
+    (".csv", b"frame,time,A_x,A_y\n0,0,1,2\n"),
+    (".csv", b"frame,time,A_x,A_y,A_z\n0,0,1,2\n"),
+    (".csv", b"\xff\xfe\x00garbage"),
+    (".trc", b"\xff\xfe\x00\x00garbage"),
+    (".bvh", "HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 1 Xposition\n}\nMOTION\nFrames: 1\n"
+             "Frame Time: 0\n1\n".encode()),
+])
+def test_only_input_format_errors_escape(tmp_path, ext, content):
+    p = tmp_path / f"x{ext}"
+    if content is None:
+        np.save(p, np.zeros((3, 4)))
+    else:
+        p.write_bytes(content)
+    with pytest.raises(InputFormatError):
+        read(p)
+
+
+def test_error_is_an_mpz_value_error(tmp_path):
+    p = tmp_path / "x.trc"
+    p.write_text("PathFileType\n")
+    with pytest.raises(ValueError) as ei:
+        read(p)
+    assert isinstance(ei.value, MPZError)
+    assert not isinstance(ei.value, (KeyError, IndexError))
+
+
+# -- mpz show ------------------------------------------------------------------
+
+def show(argv) -> int:
+    """Run ``mpz show`` alone, with the dispatcher's MPZError -> 2 rule."""
+    import argparse
+    parser = argparse.ArgumentParser(prog="mpz")
+    cmd_show.add_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except MPZError:
+        return 2
+
+
+def test_show_is_registered():
+    assert mpz_cli.SUBCOMMANDS["show"] == "mpz.tools.cmd_show"
+
+
+def test_show(tmp_path, capsys):
+    m = synthetic()
+    write(m, tmp_path / "s.trc")
+    assert show(["show", str(tmp_path / "s.trc")]) == 0
+    out = capsys.readouterr().out
+    assert "frames:    7" in out and "markers:   5" in out and "TRC" in out
+
+
+def test_show_json(tmp_path, capsys):
+    import json
+    m = synthetic()
+    write(m, tmp_path / "s.c3d")
+    assert show(["show", "--json", str(tmp_path / "s.c3d")]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["schema"] == 1 and info["format"] == "C3D"
+    assert info["frames"] == 7 and info["markers"] == 5 and info["rate"] == DANCE_RATE
+    assert info["units"] == "mm"
+    # 5 gaps out of 35 marker-frames, plus marker 3 missing in 6 of 7 frames
+    assert info["gap_fraction"] == pytest.approx((3 + 6) / 35)
+    assert info["duration"] == pytest.approx(6 / DANCE_RATE)
+
+
+def test_show_errors(tmp_path, capsys):
+    (tmp_path / "bad.c3d").write_bytes(b"nope")
+    assert show(["show", str(tmp_path / "bad.c3d")]) == 2
+    assert show(["show", str(tmp_path / "x.mpz")]) == 2
+    assert "mpzinfo" in capsys.readouterr().err
+    assert show(["show", str(tmp_path / "missing.trc")]) == 2
