@@ -19,6 +19,7 @@ from mpz.container import (Chunk, MAX_FRAMES, MAX_MARKERS, MAX_PATTERN_LENGTH,
                            MAX_SUMMARY_VALUES, parse)
 from mpz.entropy import BlockDecoder
 from mpz.errors import FormatError, LimitExceededError, MPZError, UnsupportedVersionError
+from mpz.keyframe import decode_payload as decode_keyframes
 from mpz.motion import Motion
 from mpz.normalize import denormalize, segment_starts
 from mpz.predict import reconstruct
@@ -223,12 +224,15 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
             r = expect("RESI")
             if r.fields.node != i:
                 _fail(f"RESI for node {r.fields.node} where node {i} was expected", r, "§3.4")
-            if r.fields.order > 2 or r.fields.scale < 1 or r.fields.base > 1:
+            if r.fields.order > 2 or r.fields.scale < 1 or r.fields.base > 2:
                 _fail(f"residual base {r.fields.base} / order {r.fields.order} / scale "
                       f"{r.fields.scale} out of range", r, "§4.9")
-            if r.fields.base == 1 and pf.pattern_count:
-                _fail(f"node {i}: an absolute residual layer (base 1) needs pattern_count 0", r,
-                      "§4.9")
+            if r.fields.base >= 1 and pf.pattern_count:
+                _fail(f"node {i}: an absolute residual layer (base {r.fields.base}) needs "
+                      f"pattern_count 0", r, "§4.9")
+            if r.fields.base == 2 and r.fields.order != 0:
+                _fail(f"node {i}: a key-frame layer (base 2) has order 0, got {r.fields.order}",
+                      r, "§4.9")
             resi[i] = r
     end = expect("MEND")
     extra = pending if pending is not None else next(it, None)
@@ -356,6 +360,11 @@ def decode_residual(s: Stream, i: int) -> np.ndarray:
     c = s.resi[i]
     F, n_i = s.header.frame_count, s.nodes[i].member_count
     dec = _rc(c)
+    if c.fields.base == 2:
+        # §6.5: key frames, linearly interpolated
+        w = decode_keyframes(dec, F, n_i, chunk="RESI", offset=c.offset)
+        dec.close()
+        return w * c.fields.scale
     e = dec.block(F, n_i)
     dec.close()
     return reconstruct(e, c.fields.order, chunk="RESI", offset=c.offset) * c.fields.scale
@@ -370,7 +379,7 @@ def decode_integers(s: Stream) -> np.ndarray:
     for i in range(1, len(s.nodes)):
         node = s.nodes[i]
         members = list(node.members)
-        if s.residual and s.resi[i].fields.base == 1:
+        if s.residual and s.resi[i].fields.base >= 1:
             # §6.6: an absolute residual layer carries the members' grid values directly
             q[:, members] = decode_residual(s, i)
             continue

@@ -29,6 +29,7 @@ import time
 import numpy as np
 
 from mpz import container
+from mpz import keyframe
 from mpz.cluster import adaptive_kmeans
 from mpz.decoder import FLAG_RESIDUAL, ROOT_PARENT, UNIT_FROM_NAME
 from mpz.entropy import BlockEncoder, MAX_EXP
@@ -369,8 +370,12 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *, progress
             if opts.patterns != "on":
                 order, wv, data = _bounded(u[:, members] / g, radius)
                 cand.append((len(data), 1, None, order, wv, data))
+                enc = BlockEncoder()
+                wk = keyframe.encode_blocks(enc, u[:, members] / g, radius)
+                data = enc.finish()
+                cand.append((len(data), 2, None, 0, wk, data))
             cost, base, pat, order, wv, data = min(cand, key=lambda c: c[0])
-            if base == 1:
+            if base >= 1:
                 local = g * wv - qhat[:, ref][:, None, :]
             else:
                 local = pat["pred"] + g * wv

@@ -103,10 +103,10 @@ SEGS = Struct(
 #: §4.9 RESI, the residual layer of one node
 RESI = Struct(
     "node" / Int16ul * "§4.9 node index",
-    "base" / Int8ul * "§4.9 0 relative to the parent's reference marker, 1 absolute",
+    "base" / Int8ul * "§4.9 0 relative to the parent's reference marker, 1 absolute, 2 key frames",
     "order" / Int8ul * "§4.9 temporal predictor order 0..2",
     "scale" / Int16ul * "§4.9 residual multiplier g >= 1",
-    "coded" / GreedyBytes * "§4.9 range-coded [F, n_i, 3] prediction residuals",
+    "coded" / GreedyBytes * "§4.9 range-coded [F, n_i, 3] residuals, or (base 2) key frames",
 )
 
 #: §4.10 smry, the optimal-partition summary (ancillary)

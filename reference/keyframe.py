@@ -1,0 +1,203 @@
+"""Key-frame residual layer (spec §4.9 base 2, §6.5): error-bounded curve fitting.
+
+Strategy: each marker of a node is a polyline through key frames on the grid;
+the decoder fills the frames between two keys by the same exact integer
+interpolation as pattern de-normalisation (§6.3). The *encoder* (beyond the
+paper: the paper's key frames only cut segments) grows each span greedily as
+long as every sample in it stays within the error bound of the interpolated
+value, so the bound holds by construction and only the keys are coded.
+
+Payload (§4.9, base 2), three blocks in one range-coded payload:
+  1. ``[n, 1, 1]`` unsigned: K_j - 1, the key count of each member minus 1;
+  2. ``[sum(K_j - 1), 1, 1]`` unsigned: d - 1 for each span length d >= 1,
+     member by member; the spans of a member add up to F - 1;
+  3. ``[sum(K_j), 1, 3]`` signed: each key value minus its prediction
+     (0 for the first key of a member, the previous key for the second, and
+     linear extrapolation from the two previous keys after that).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from mpz.errors import FormatError
+
+_VALUE_LIMIT = 1 << 31
+
+
+def extrapolate(w1, w0, d1, d0):
+    """§6.5 prediction of a key from the two before it (integers, round half up)."""
+    return w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0)
+
+
+def interpolate(times: np.ndarray, values: np.ndarray, F: int) -> np.ndarray:
+    """§6.5: frames between keys t_{k-1} < t < t_k get
+    ``w_{k-1} + floor((2 (w_k - w_{k-1}) j + n) / (2 n))`` with n = t_k - t_{k-1}, j = t - t_{k-1}."""
+    times = np.asarray(times, np.int64)
+    values = np.asarray(values, np.int64)
+    if len(times) == 1:
+        return np.repeat(values[:1], F, axis=0)
+    n = np.diff(times)
+    seg = np.repeat(np.arange(len(n)), n)
+    j = np.arange(F - 1, dtype=np.int64) - np.repeat(times[:-1], n)
+    a, b = values[:-1][seg], values[1:][seg]
+    nn = n[seg][:, None]
+    out = np.empty((F, values.shape[1]), np.int64)
+    out[:-1] = a + (2 * (b - a) * j[:, None] + nn) // (2 * nn)
+    out[-1] = values[-1]
+    return out
+
+
+def decode_payload(dec, F: int, n: int, *, chunk=None, offset=None) -> np.ndarray:
+    """Read the three blocks of a base-2 RESI payload; returns ``[F, n, 3]`` grid values."""
+    def fail(msg):
+        raise FormatError(msg, chunk=chunk, offset=offset, section="§6.5")
+    counts = dec.block(n, 1, 1, signed=False)[:, 0, 0] + 1
+    if (counts > F).any() or (F > 1 and (counts < 2).any()) or (F == 1 and (counts != 1).any()):
+        fail(f"key counts must be 2..F per member (1 when F = 1), got {counts.tolist()[:8]}")
+    total_spans = int((counts - 1).sum())
+    spans = dec.block(total_spans, 1, 1, signed=False)[:, 0, 0] + 1
+    keys = dec.block(int(counts.sum()), 1)[:, 0]
+    out = np.empty((F, n, 3), np.int64)
+    s_at = k_at = 0
+    for m in range(n):
+        K = int(counts[m])
+        d = spans[s_at: s_at + K - 1]
+        s_at += K - 1
+        if int(d.sum()) != F - 1:
+            fail(f"member {m}: key spans add up to {int(d.sum())}, not F - 1 = {F - 1}")
+        e = keys[k_at: k_at + K]
+        k_at += K
+        w = np.empty((K, 3), np.int64)
+        w[0] = e[0]
+        for k in range(1, K):
+            pred = w[k - 1] if k == 1 else extrapolate(w[k - 1], w[k - 2], d[k - 1], d[k - 2])
+            w[k] = pred + e[k]
+            if np.abs(w[k]).max() >= _VALUE_LIMIT:
+                fail(f"member {m}: key value leaves the 32-bit range")
+        times = np.concatenate([[0], np.cumsum(d)])
+        out[:, m] = interpolate(times, w, F)
+    return out
+
+
+# ---------------------------------------------------------------- encoder --
+@njit(cache=True)
+def _span_ok(y, a, b, wa, wb, r2):
+    n = b - a
+    for j in range(1, n):
+        d2 = 0.0
+        for c in range(3):
+            v = wa[c] + ((2 * (wb[c] - wa[c]) * j + n) // (2 * n))
+            dd = v - y[a + j, c]
+            d2 += dd * dd
+        if d2 > r2:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _fit(y, radius, max_span):
+    T = y.shape[0]
+    r2 = radius * radius
+    times = np.empty(T, np.int64)
+    vals = np.empty((T, 3), np.int64)
+    for c in range(3):
+        vals[0, c] = int(np.floor(y[0, c] + 0.5))
+    times[0] = 0
+    K = 1
+    a = 0
+    cand = np.empty(3, np.int64)
+    best = np.empty(3, np.int64)
+    keep = np.empty(3, np.int64)
+    while a < T - 1:
+        # prediction of the next key (linear extrapolation), for choosing among candidates
+        b = a + 1
+        good = -1
+        d0 = 1
+        d1 = 1
+        while b < T and b - a <= max_span:
+            found = False
+            bestc = 1e300
+            if K >= 2:
+                d0 = times[K - 1] - times[K - 2]
+                d1 = b - a
+            lo0 = int(np.ceil(y[b, 0] - radius))
+            hi0 = int(np.floor(y[b, 0] + radius))
+            lo1 = int(np.ceil(y[b, 1] - radius))
+            hi1 = int(np.floor(y[b, 1] + radius))
+            lo2 = int(np.ceil(y[b, 2] - radius))
+            hi2 = int(np.floor(y[b, 2] + radius))
+            for p in range(lo0, hi0 + 1):
+                for q in range(lo1, hi1 + 1):
+                    for s in range(lo2, hi2 + 1):
+                        dd = (p - y[b, 0]) ** 2 + (q - y[b, 1]) ** 2 + (s - y[b, 2]) ** 2
+                        if dd > r2:
+                            continue
+                        cand[0] = p
+                        cand[1] = q
+                        cand[2] = s
+                        if not _span_ok(y, a, b, vals[K - 1], cand, r2):
+                            continue
+                        cost = 1e-3 * dd
+                        for c in range(3):
+                            if K >= 2:
+                                w1 = vals[K - 1, c]
+                                w0 = vals[K - 2, c]
+                                pred = w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0)
+                            else:
+                                pred = vals[K - 1, c]
+                            cost += abs(cand[c] - pred)
+                        if cost < bestc:
+                            bestc = cost
+                            found = True
+                            best[0] = p
+                            best[1] = q
+                            best[2] = s
+            if not found:
+                break
+            good = b
+            keep[0] = best[0]
+            keep[1] = best[1]
+            keep[2] = best[2]
+            b += 1
+        if good < 0:   # cannot happen: the nearest grid point always qualifies for b = a + 1
+            good = a + 1
+            for c in range(3):
+                keep[c] = int(np.floor(y[good, c] + 0.5))
+        times[K] = good
+        vals[K, 0] = keep[0]
+        vals[K, 1] = keep[1]
+        vals[K, 2] = keep[2]
+        K += 1
+        a = good
+    return times[:K], vals[:K]
+
+
+def fit(y: np.ndarray, radius: float, max_span: int = 256):
+    """Key frames of one track ``y[T, 3]`` (grid units) with every sample within ``radius``."""
+    if radius < np.sqrt(3.0) / 2:
+        raise ValueError("radius < sqrt(3)/2 cannot guarantee a grid point")
+    return _fit(np.ascontiguousarray(y, dtype=np.float64), float(radius), int(max_span))
+
+
+def encode_blocks(enc, y: np.ndarray, radius: float, max_span: int = 256) -> np.ndarray:
+    """Fit every member of ``y[T, n, 3]`` and code the three blocks; returns the grid values."""
+    T, n, _ = y.shape
+    counts, spans, keys = [], [], []
+    out = np.empty((T, n, 3), np.int64)
+    for m in range(n):
+        times, w = fit(y[:, m], radius, max_span)
+        d = np.diff(times)
+        e = w.copy()
+        for k in range(1, len(w)):
+            pred = w[k - 1] if k == 1 else extrapolate(w[k - 1], w[k - 2], d[k - 1], d[k - 2])
+            e[k] = w[k] - pred
+        counts.append(len(w) - 1)
+        spans.append(d - 1)
+        keys.append(e)
+        out[:, m] = interpolate(times, w, T)
+    enc.block(np.array(counts, np.int64).reshape(-1, 1, 1), signed=False)
+    enc.block(np.concatenate(spans).reshape(-1, 1, 1) if spans else np.zeros((0, 1, 1), np.int64),
+              signed=False)
+    enc.block(np.concatenate(keys)[:, None, :])
+    return out
