@@ -1,0 +1,86 @@
+"""Normative decoder stages (spec §6.2-§6.5) against hand-computed values."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from mpz.errors import FormatError
+from mpz.keyframe import interpolate
+from mpz.normalize import denormalize
+from mpz.predict import reconstruct, residuals
+from mpz.smooth import smooth_boundaries
+
+
+def col(values):
+    return np.array(values, dtype=np.int64).reshape(-1, 1, 1)
+
+
+# (§, pattern samples, count, expected de-normalised samples) -- worked by hand from
+# v = P[i0] + floor((2 (P[i0+1]-P[i0]) r + (n-1)) / (2 (n-1))), u = j (L-1)/(n-1)
+DENORM = [
+    ("§6.3 stretch 2 -> 3", [0, 10], 3, [0, 5, 10]),
+    ("§6.3 stretch 2 -> 4", [0, 10], 4, [0, 3, 7, 10]),       # 10/3 -> 3, 20/3 -> 7
+    ("§6.3 shrink 4 -> 2", [0, 1, 2, 9], 2, [0, 9]),
+    ("§6.3 shrink 5 -> 3", [0, 4, 8, 12, 16], 3, [0, 8, 16]),
+    ("§6.3 n = 1 takes P[0]", [7, 9, 11], 1, [7]),
+    ("§6.3 negative slope rounds half up", [0, -1], 3, [0, 0, -1]),  # -0.5 -> floor(0/2)=0
+    ("§6.3 same length is identity", [3, -2, 5], 3, [3, -2, 5]),
+]
+
+
+@pytest.mark.parametrize("name,pattern,n,expected", DENORM, ids=[d[0] for d in DENORM])
+def test_denormalize_table(name, pattern, n, expected):
+    pats = np.array(pattern, dtype=np.int64).reshape(1, -1, 1, 1)
+    out = denormalize(pats, [0], [n])
+    assert out[:, 0, 0].tolist() == expected
+
+
+def test_denormalize_concatenates_segments():
+    pats = np.array([[0, 10], [100, 100]], dtype=np.int64).reshape(2, 2, 1, 1)
+    out = denormalize(pats, [1, 0, 1], [2, 3, 1])
+    assert out[:, 0, 0].tolist() == [100, 100, 0, 5, 10, 100]
+
+
+def test_smoothing_box_filter():
+    # §6.4 with h = 1 (w = 3): only frames b-1 and b change at boundary b = 3
+    p = col([0, 0, 0, 9, 9, 9])
+    out = smooth_boundaries(p, [0, 3], 1)[:, 0, 0].tolist()
+    # t=2: (0+0+9)/3 = 3 ; t=3: (0+9+9)/3 = 6
+    assert out == [0, 0, 3, 6, 9, 9]
+    # at the clip edge the window repeats the edge sample: boundary 1, h = 2, w = 5
+    out = smooth_boundaries(col([0, 10, 10, 10]), [0, 1], 2)[:, 0, 0].tolist()
+    # region [b-h, b+h-1] = [-1, 2]: t=0: 0,0,0,10,10 -> 20/5 = 4 ; t=1: 0,0,10,10,10 -> 6 ;
+    # t=2: 0,10,10,10,10 (clamped) -> 8 ; t=3 outside the region
+    assert out == [4, 6, 8, 10]
+    # rounding half up: (1+1+0)/3 = 0.667 -> 1 ; h = 0 is the identity
+    assert smooth_boundaries(col([1, 1, 0]), [0, 2], 1)[:, 0, 0].tolist() == [1, 1, 0]
+    assert smooth_boundaries(col([1, 5, 0]), [0, 2], 0)[:, 0, 0].tolist() == [1, 5, 0]
+
+
+def test_prediction_orders_by_hand():
+    x = col([5, 7, 10, 14])
+    assert residuals(x, 0)[:, 0, 0].tolist() == [5, 7, 10, 14]
+    assert residuals(x, 1)[:, 0, 0].tolist() == [5, 2, 3, 4]
+    assert residuals(x, 2)[:, 0, 0].tolist() == [5, 2, 1, 1]
+    # runs restart: period 2 -> two runs of 2 rows
+    assert residuals(x, 2, period=2)[:, 0, 0].tolist() == [5, 2, 10, 4]
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.integers(-2 ** 30, 2 ** 30), min_size=1, max_size=40), st.integers(0, 2))
+def test_prediction_inverse(values, order):
+    x = col(values)
+    assert np.array_equal(reconstruct(residuals(x, order), order), x)
+
+
+def test_prediction_overflow_guard():
+    e = col([0] + [2 ** 29] * 20)
+    with pytest.raises(FormatError):
+        reconstruct(e * 64, 2)
+
+
+def test_keyframe_interpolation():
+    # §6.5: keys (0, 0) and (4, 10): 2.5 -> 3 (half up), 5, 7.5 -> 8
+    out = interpolate([0, 4], np.array([[0, 0, 0], [10, -10, 4]]), 5)
+    assert out[:, 0].tolist() == [0, 3, 5, 8, 10]
+    assert out[:, 1].tolist() == [0, -2, -5, -7, -10]
+    assert out[:, 2].tolist() == [0, 1, 2, 3, 4]
