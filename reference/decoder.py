@@ -240,7 +240,7 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
         _fail(f"unexpected {extra.type} chunk", extra, "§3.4")
     del end
 
-    summary, meta, unknown = None, {}, []
+    summary, meta, unknown, seen_meta = None, {}, [], False
     for c in anc:
         if c.type == "smry":
             if summary is not None:
@@ -248,8 +248,9 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
             _check_summary(c, F, M)
             summary = c
         elif c.type == "meta":
-            if meta:
+            if seen_meta:
                 _fail("more than one meta chunk", c, "§4.11")
+            seen_meta = True
             for e in c.fields.entries:
                 if not e.key:
                     _fail("empty metadata key", c, "§4.11")
@@ -319,6 +320,7 @@ def decode_patterns(s: Stream, i: int) -> np.ndarray:
     e = dec.block(K * L, n_i, period=L)
     dec.close()
     v = reconstruct(e, f.order, period=L, chunk="PATT", offset=c.offset)
+    _layer_range(v, f.scale, c)
     return (v * f.scale).reshape(K, L, n_i, 3)
 
 
@@ -364,10 +366,22 @@ def decode_residual(s: Stream, i: int) -> np.ndarray:
         # §6.5: key frames, linearly interpolated
         w = decode_keyframes(dec, F, n_i, chunk="RESI", offset=c.offset)
         dec.close()
-        return w * c.fields.scale
-    e = dec.block(F, n_i)
-    dec.close()
-    return reconstruct(e, c.fields.order, chunk="RESI", offset=c.offset) * c.fields.scale
+    else:
+        e = dec.block(F, n_i)
+        dec.close()
+        w = reconstruct(e, c.fields.order, chunk="RESI", offset=c.offset)
+    _layer_range(w, c.fields.scale, c)
+    return w * c.fields.scale
+
+
+LAYER_LIMIT = 1 << 36
+
+
+def _layer_range(v, scale, c: Chunk):
+    """§6.7 rule 1: scaled pattern and residual values stay below 2^36 in magnitude."""
+    peak = int(np.abs(v).max(initial=0))
+    if peak >= LAYER_LIMIT or peak * scale >= LAYER_LIMIT:
+        _fail(f"scaled {c.type} value {peak} x {scale} reaches 2^36", c, "§6.7")
 
 
 def decode_integers(s: Stream) -> np.ndarray:

@@ -63,9 +63,9 @@ class EncodeOptions:
 
     max_error: float | None = None
     group_errors: dict = field(default_factory=dict)
-    theta: float = 0.1
+    theta: float = 0.2
     k0: int = 10
-    tau: float = 0.02
+    tau: float = 0.05
     metric: str = "max"
     weights: dict | None = None
     hierarchy: object = None
@@ -224,29 +224,35 @@ class _NodeCoder:
         self.addh_q = addh_q
         self.h = smoothing
 
-    def segments(self, x, w):
+    def segments(self, x, w, boost=1.0):
         if self.o.segmentation == "optimal":
             from mpz.fisher import choose_k_for_threshold
             F = x.shape[0]
             flat = x.reshape(F, -1)
-            thr = self.o.theta * self.addh_q
+            thr = self.o.theta * self.addh_q / boost
             k_max = max(1, min(F, F // 4 + 1, 512))
             part = choose_k_for_threshold(flat, thr, k_max)
             starts = np.asarray(part.starts, dtype=np.int64)
             counts = np.diff(np.append(starts, F))
             return starts, counts
-        return segment(x, w, self.o.theta * self.addh_q, max_len=self.o.max_segment)
+        return segment(x, w, self.o.theta * self.addh_q / boost, max_len=self.o.max_segment)
 
     def patterns(self, x, w, seed):
-        """Pattern layer of ``x[F, n, 3]`` (grid units): returns dict or None."""
+        """Pattern layer of ``x[F, n, 3]`` (grid units): returns dict or None.
+
+        The node's mean weight divides its thresholds (paper §IV: a heavier
+        marker group is segmented and clustered more finely); the relative
+        weights of its members shape the distances.
+        """
         F, n, _ = x.shape
-        starts, counts = self.segments(x, w)
+        boost = max(float(np.mean(w)), 1e-6)
+        starts, counts = self.segments(x, w, boost)
         L = int(max(1, min(container.MAX_PATTERN_LENGTH, round(float(counts.mean())))))
         segs = normalize(x, starts, counts, L)                       # [S, L, n, 3]
         S = segs.shape[0]
         sw = np.sqrt(w / w.mean())[None, None, :, None]
         vec = (segs * sw).reshape(S, -1)
-        labels, _ = adaptive_kmeans(vec, self.o.k0, self.o.tau * self.addh_q,
+        labels, _ = adaptive_kmeans(vec, self.o.k0, self.o.tau * self.addh_q / boost,
                                     metric=self.o.metric, per_sample=L * n, seed=seed)
         K = int(labels.max()) + 1
         # relabel by frequency so the most used pattern gets index 0
@@ -258,7 +264,7 @@ class _NodeCoder:
         np.add.at(centers, labels, segs)
         centers /= np.bincount(labels, minlength=K)[:, None, None, None]
         # pattern grid: a fraction of the clustering threshold (paper: 8-bit deltas)
-        scale = int(max(1, min(65535, math.floor(self.o.tau * self.addh_q / 8))))
+        scale = int(max(1, min(65535, math.floor(self.o.tau * self.addh_q / boost / 3))))
         v = _round(centers / scale)
         porder, pdata = _best_order(v.reshape(K * L, n, 3), period=L, orders=(1, 2))
         enc = BlockEncoder()
@@ -433,7 +439,10 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *, progress
     meta = dict(motion.metadata)
     meta.update(opts.metadata)
     if meta:
-        entries = [{"key": str(k)[:255] or "_", "value": str(v)[:16383]} for k, v in meta.items()]
+        def clip(text, limit):   # spec §4.11 limits are in UTF-8 bytes
+            return text.encode("utf-8")[:limit].decode("utf-8", "ignore")
+        entries = [{"key": clip(str(k), 255) or "_", "value": clip(str(v), 65535)}
+                   for k, v in meta.items()]
         chunks.append(("meta", {"count": len(entries), "entries": entries}))
     chunks.append(("MEND", {}))
     parts = [SIGNATURE]

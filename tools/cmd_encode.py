@@ -30,11 +30,11 @@ def add_parser(sub):
                    "in the input's units")
     p.add_argument("--group-error", action="append", metavar="NODE=E",
                    help="tighter bound for one hierarchy node, e.g. lfoot=0.5mm (repeatable)")
-    p.add_argument("--theta", type=float, default=0.1,
-                   help="key-frame threshold, fraction of the head size ADDH (default 0.1)")
+    p.add_argument("--theta", type=float, default=0.2,
+                   help="key-frame threshold, fraction of the head size ADDH (default 0.2)")
     p.add_argument("--k0", type=int, default=10, help="initial number of clusters (default 10)")
-    p.add_argument("--tau", type=float, default=0.02,
-                   help="clustering threshold, fraction of ADDH (default 0.02)")
+    p.add_argument("--tau", type=float, default=0.05,
+                   help="clustering threshold, fraction of ADDH (default 0.05)")
     p.add_argument("--metric", choices=("max", "ave"), default="max",
                    help="clustering error metric, paper Eq. 2 (max) or Eq. 1 (ave)")
     p.add_argument("--weight", action="append", metavar="NAME=W",

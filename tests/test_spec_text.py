@@ -1,0 +1,219 @@
+"""The text of spec/mpz-1.md agrees with the code and the example file.
+
+Each test parses one machine-readable part of the spec (HTML-comment
+markers ``<!-- mpz:NAME -->`` ... ``<!-- /mpz:NAME -->``, or headings) and
+compares it with the implementation, so that editing either side alone
+makes a test fail.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+import re
+import zlib
+
+import numpy as np
+import pytest
+
+from mpz import container
+from mpz.entropy import BlockDecoder, BlockEncoder
+from mpz.spec.grammar import PAYLOADS, SIGNATURE
+
+REPO = Path(__file__).resolve().parents[1]
+SPEC = REPO / "spec" / "mpz-1.md"
+EXAMPLE = REPO / "conformance" / "vectors" / "spec-example.mpz"
+CITING = sorted((REPO / "reference").glob("*.py")) + [REPO / "spec" / "grammar.py"]
+
+HEADING = re.compile(r"^#{2,4} (\d+(?:\.\d+)*)\.? +(.*)$", re.M)
+SECTION_REF = re.compile(r"§(\d+(?:\.\d+)*)")
+
+
+@pytest.fixture(scope="module")
+def text() -> str:
+    return SPEC.read_text(encoding="utf-8")
+
+
+def block(text: str, name: str) -> str:
+    m = re.search(rf"<!-- mpz:{name} -->\n(.*?)\n<!-- /mpz:{name} -->", text, re.S)
+    assert m, f"spec has no <!-- mpz:{name} --> block"
+    return m.group(1)
+
+
+def table_rows(md: str) -> list[list[str]]:
+    """Cells of every body row of the first markdown table in ``md``."""
+    rows = []
+    for line in md.splitlines():
+        line = line.strip()
+        if not line.startswith("|"):
+            continue
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip("|"))]
+        if all(set(c) <= set("-: ") for c in cells):
+            continue                      # the separator row
+        rows.append(cells)
+    return rows[1:]                       # drop the header row
+
+
+def headings(text: str) -> dict:
+    return {num: title for num, title in HEADING.findall(text)}
+
+
+# (1) Appendix A ---------------------------------------------------------------
+def test_appendix_a_matches_the_example_file_byte_for_byte(text):
+    data = EXAMPLE.read_bytes()
+    rows = table_rows(block(text, "example-bytes"))
+    assert len(rows) > 20
+    pos = 0
+    for start, length, contents, desc in rows:
+        start, length = int(start, 16), int(length)
+        raw = bytes.fromhex(contents.strip("`").replace(" ", ""))
+        assert start == pos, f"row at {start:#06x} does not follow the previous row (expected {pos:#06x}): {desc}"
+        assert len(raw) == length, f"row at {start:#06x}: Length {length} but {len(raw)} bytes shown"
+        assert data[start:start + length] == raw, f"row at {start:#06x} ({desc}) differs from the file"
+        pos += length
+    assert pos == len(data), f"table covers {pos} of {len(data)} bytes"
+
+
+def test_example_file_is_what_the_generator_writes():
+    from mpz.tools.spec_example import build, verify
+    data = build()
+    verify(data)                          # decodes to the integers Appendix A states
+    assert EXAMPLE.read_bytes() == data, "regenerate: python -m mpz.tools.spec_example " + str(EXAMPLE)
+
+
+def test_appendix_a_digest_and_size(text):
+    from mpz.conformance.manifest import intlayer_digest
+    from mpz.decoder import decode_integers, decode_mask, read_stream
+    import hashlib
+    data = EXAMPLE.read_bytes()
+    s = read_stream(data)
+    assert intlayer_digest(decode_integers(s), decode_mask(s)) in text
+    assert hashlib.sha256(data).hexdigest() in text
+    assert f"({len(data)} bytes" in text
+
+
+# (2) chunk catalogue ----------------------------------------------------------
+def test_every_chunk_type_has_a_section_4_heading_and_vice_versa(text):
+    in_spec = {}
+    for num, title in HEADING.findall(text):
+        m = re.match(r"4\.(\d+)$", num)
+        if m:
+            ctype = title.split(":")[0].strip()
+            assert re.fullmatch(r"[A-Za-z]{4}", ctype), f"§{num} title {title!r} does not start with a chunk type"
+            in_spec[ctype] = int(m.group(1))
+    in_code = [t.decode() for t in PAYLOADS]
+    assert set(in_spec) == set(in_code)
+    # the catalogue follows the registry's order
+    assert sorted(in_spec, key=in_spec.get) == in_code
+
+
+def test_grammar_field_sections_name_their_own_chunk(text):
+    """A field doc string '§4.k ...' in PAYLOADS[T] cites the heading of chunk T."""
+    secs = {title.split(":")[0].strip(): num for num, title in HEADING.findall(text)
+            if num.startswith("4.")}
+    src = (REPO / "spec" / "grammar.py").read_text(encoding="utf-8")
+    for ctype in PAYLOADS:
+        name = {b"smry": "SMRY", b"meta": "META"}.get(ctype, ctype.decode())
+        m = re.search(rf"^{name} = Struct\((.*?)^\)", src, re.S | re.M)
+        if m is None:
+            continue
+        cited = set(SECTION_REF.findall(m.group(1)))
+        assert cited <= {secs[ctype.decode()]}, f"{name} cites {cited}"
+
+
+# (3) every § the code cites exists ----------------------------------------------
+def test_every_section_cited_in_the_code_is_a_heading(text):
+    have = set(headings(text))
+    missing = {}
+    for path in CITING:
+        for num in SECTION_REF.findall(path.read_text(encoding="utf-8")):
+            if num not in have:
+                missing.setdefault(num, []).append(path.name)
+    assert not missing, f"sections cited in code but absent from mpz-1.md: {missing}"
+
+
+def test_required_section_numbers_exist(text):
+    have = set(headings(text))
+    need = {"1", "2", "2.1", "2.2", "2.3", "2.4", "3", "3.1", "3.2", "3.3", "3.4", "4", "5", "6",
+            "7", "7.1", "7.2", "7.3", "8"}
+    need |= {f"4.{i}" for i in range(1, 13)} | {f"5.{i}" for i in range(1, 8)}
+    need |= {f"6.{i}" for i in range(1, 9)}
+    assert need <= have, sorted(need - have)
+
+
+def test_spec_cross_references_resolve(text):
+    have = set(headings(text))
+    bad = sorted({n for n in SECTION_REF.findall(text) if n not in have})
+    assert not bad, f"spec refers to missing sections {bad}"
+
+
+# (4) the worked entropy example -----------------------------------------------
+def _entropy_example(text):
+    kv = dict(re.findall(r"^(\w+)\s*=\s*(.+)$", block(text, "entropy-example"), re.M))
+    values = np.array(eval(kv["input"], {"__builtins__": {}}), dtype=np.int64)   # a literal list
+    return values, int(kv["period"]), kv["signed"].strip() == "true", bytes.fromhex(kv["bytes"].replace(" ", ""))
+
+
+def test_entropy_example_bytes_equal_the_reference_coder(text):
+    values, period, signed, expected = _entropy_example(text)
+    enc = BlockEncoder()
+    enc.block(values, period=period, signed=signed)
+    assert enc.finish() == expected
+    dec = BlockDecoder(expected)
+    assert (dec.block(*values.shape, period=period, signed=signed) == values).all()
+    dec.close()
+
+
+def test_entropy_example_trace_is_the_spec_pseudocode(text):
+    """The decision listing in §5.7 is what the pure-Python transcription of §5 prints."""
+    from mpz.tools.spec_example import ENTROPY_BLOCK, entropy_text
+    values, *_ = _entropy_example(text)
+    assert (values == ENTROPY_BLOCK).all()
+    trace = entropy_text().rsplit("\n", 1)[0]
+    assert trace in text
+
+
+# (5) limits ---------------------------------------------------------------------
+def test_limits_table_matches_container_constants(text):
+    rows = table_rows(block(text, "limits"))
+    table = {}
+    for name, value, expr, _ in rows:
+        base, exp = expr.split("^")
+        assert int(value) == int(base) ** int(exp), f"{name}: {value} != {expr}"
+        table[name] = int(value)
+    code = {k: v for k, v in vars(container).items() if k.startswith("MAX_")}
+    assert table == code
+
+
+# further checks on numbers quoted in the text -------------------------------------
+def test_crc_test_values(text):
+    assert f"0x{zlib.crc32(b'123456789'):08X}" in text
+    mend = container.build_chunk("MEND", {})
+    assert mend[-4:] == bytes.fromhex("d5f72021")
+    assert f"0x{container.crc32(b'MEND', b''):08X}" in text
+    assert mend.hex(" ").upper() in text
+
+
+def test_signature_in_text(text):
+    assert SIGNATURE.hex(" ").upper() in text
+
+
+def test_decoding_steps_table_is_well_formed(text):
+    rows = table_rows(block(text, "decoding-steps"))
+    have = set(headings(text))
+    assert [int(r[0]) for r in rows] == list(range(1, len(rows) + 1))
+    secs = [r[1] for r in rows]
+    assert all(s.startswith("§") and s[1:] in have for s in secs), secs
+    # every subsection of §6 is a step
+    assert {f"§6.{i}" for i in range(1, 9)} <= set(secs)
+
+
+def test_mhdr_table_offsets_add_up(text):
+    """§4.1's Offset column agrees with the grammar's field sizes."""
+    sec = text.split("### 4.1.")[1].split("### 4.2.")[0]
+    rows = table_rows(sec)
+    sizes = {"u8": 1, "u16": 2, "u32": 4, "f64": 8}
+    pos = 0
+    for off, typ, *_ in rows:
+        assert int(off) == pos
+        pos += sizes[typ]
+    from mpz.spec.grammar import MHDR
+    assert pos == len(MHDR.build(MHDR.parse(bytes(31)))) == 31
