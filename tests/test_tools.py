@@ -1,0 +1,116 @@
+"""mpzinfo and mpz subcommands: documented output and exit codes (0 ok, 1 warn, 2 error, 64 usage)."""
+import json
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz import container
+from mpz.spec.grammar import SIGNATURE
+from mpz.synth import generate
+from mpz.tools import mpz_cli, mpzinfo
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("mpzinfo")
+    m = generate("walk", frames=120, seed=1, gap_fraction=0.02)
+    data = mpz.encode(m, max_error=2.0, summary=(4,))
+    chunks = container.parse(data)
+    anc = SIGNATURE + b"".join(container.build_chunk(c.type, payload=c.payload) for c in chunks[:2]) \
+        + container.build_chunk("zzzz", payload=b"note") \
+        + b"".join(container.build_chunk(c.type, payload=c.payload) for c in chunks[2:])
+    bad = bytearray(data)
+    bad[chunks[1].offset + 10] ^= 0x01          # inside MNAM payload: CRC mismatch
+    out = {"ok": data, "trunc": data[: len(data) // 2], "badcrc": bytes(bad), "anc": anc}
+    paths = {}
+    for k, v in out.items():
+        paths[k] = d / f"{k}.mpz"
+        paths[k].write_bytes(v)
+    return paths, m
+
+
+def run(capsys, fn, argv):
+    code = fn(argv)
+    return code, capsys.readouterr()
+
+
+def test_default_line_and_exit_codes(files, capsys):
+    paths, m = files
+    code, out = run(capsys, mpzinfo.main, [str(paths["ok"])])
+    assert code == 0
+    assert out.out.startswith(f"OK: {paths['ok']} (MPZ 1.0, 120 Hz, 120 frames, 41 markers,")
+    assert "max error \u2264 2 mm" in out.out and ":1" in out.out
+    code, out = run(capsys, mpzinfo.main, [str(paths["trunc"])])
+    assert code == 2 and out.out.startswith("ERROR:") and "truncated" in out.out
+    code, out = run(capsys, mpzinfo.main, [str(paths["badcrc"])])
+    assert code == 2 and "CRC-32 mismatch" in out.out
+    code, out = run(capsys, mpzinfo.main, [str(paths["anc"])])
+    assert code == 1 and out.out.startswith("WARN:")
+
+
+def test_verbose_lists_chunks_and_keeps_going_past_bad_crc(files, capsys):
+    paths, _ = files
+    code, out = run(capsys, mpzinfo.main, ["-v", str(paths["badcrc"])])
+    lines = [ln for ln in out.out.splitlines() if ln.strip().startswith("chunk #")]
+    assert code == 2
+    assert any("MNAM" in ln and "CRC bad (computed 0x" in ln and "stored 0x" in ln for ln in lines)
+    assert lines[-1].split()[2] == "MEND"             # shown up to the end despite the bad CRC
+    assert all("CRC ok" in ln for ln in lines if "MNAM" not in ln)
+
+
+def test_vv_prints_fields_with_offsets(files, capsys):
+    paths, _ = files
+    code, out = run(capsys, mpzinfo.main, ["-vv", str(paths["ok"])])
+    assert code == 0
+    # MHDR payload starts at byte 16: version_major at 0x00010, frame_count at 0x00014
+    assert "0x00010  version_major = 1" in out.out
+    assert "0x00014  frame_count = 120" in out.out
+
+
+def test_json_schema(files, capsys):
+    paths, _ = files
+    code, out = run(capsys, mpzinfo.main, ["--json", str(paths["ok"]), str(paths["badcrc"])])
+    doc = json.loads(out.out)
+    assert code == 2 and doc["schema"] == "mpzinfo/1"
+    ok, bad = doc["files"]
+    assert ok["status"] == "ok" and ok["frames"] == 120 and isinstance(ok["ratio"], float)
+    assert ok["errors"] == [] and ok["summary_levels"] == [4]
+    assert bad["errors"][0]["class"] == "ChecksumError" and bad["errors"][0]["offset"] is not None
+    assert ok["chunks"][0]["type"] == "MHDR" and ok["chunks"][0]["crc_ok"] is True
+
+
+def test_usage_error_exit_code(capsys):
+    with pytest.raises(SystemExit) as exc:
+        mpzinfo.main([])
+    assert exc.value.code == 64
+    with pytest.raises(SystemExit) as exc:
+        mpz_cli.main(["encode"])
+    assert exc.value.code == 64
+
+
+def test_encode_decode_compare_cli(tmp_path, capsys):
+    from mpz.io import write
+    m = generate("jump", frames=90, seed=3, gap_fraction=0.03)
+    src = tmp_path / "in.trc"
+    write(m, src)
+    out = tmp_path / "out.mpz"
+    code, o = run(capsys, mpz_cli.main, ["encode", str(src), "-o", str(out), "--max-error", "1mm",
+                                         "--json"])
+    rep = json.loads(o.out)
+    assert code == 0 and rep["max_error"] <= 1.0 and rep["ratio_float32"] > 1
+    # refuses to overwrite its input, and an existing output without --force
+    code, o = run(capsys, mpz_cli.main, ["encode", str(src), "-o", str(src), "--max-error", "1mm"])
+    assert code == 2 and "input" in o.err
+    code, o = run(capsys, mpz_cli.main, ["encode", str(src), "-o", str(out), "--max-error", "1mm"])
+    assert code == 2 and "exists" in o.err
+    npy = tmp_path / "back.npy"
+    code, _ = run(capsys, mpz_cli.main, ["decode", str(out), "-o", str(npy)])
+    arr = np.load(npy)
+    assert code == 0 and arr.dtype == np.float64 and arr.shape == (90, 41, 3)
+    assert np.array_equal(np.isnan(arr).any(axis=2), ~m.valid)
+    code, o = run(capsys, mpz_cli.main, ["compare", str(src), str(out), "--json"])
+    stats = json.loads(o.out)
+    assert code == 0 and stats["max"] <= 1.0 + 1e-5      # TRC text keeps 6 decimals
+    leftovers = [p.name for p in tmp_path.iterdir() if p.name.endswith(".part")]
+    assert leftovers == []
