@@ -70,7 +70,7 @@ class EncodeOptions:
     weights: dict | None = None
     hierarchy: object = None
     smoothing: int = 2
-    patterns: str = "auto"
+    patterns: str | None = None
     segmentation: str = "adaptive"
     grid: float | None = None
     max_segment: int = 240
@@ -93,6 +93,8 @@ class EncodeOptions:
             raise EncoderError(f"k0 must be in 1..65535, got {self.k0}")
         if self.metric not in ("max", "ave"):
             raise EncoderError(f"metric must be 'max' or 'ave', got {self.metric!r}")
+        if self.patterns is None:
+            self.patterns = "off" if self.max_error is not None else "on"
         if self.patterns not in ("auto", "on", "off"):
             raise EncoderError(f"patterns must be auto, on or off, got {self.patterns!r}")
         if self.patterns == "off" and self.max_error is None:
@@ -276,6 +278,16 @@ class _NodeCoder:
                 "pred": p, "segments": S}
 
 
+def _reroot(hier, root_marker, M):
+    """A flat hierarchy (root + one node) whose root is ``root_marker``."""
+    from mpz.hierarchy import Hierarchy, Node
+    rest = [m for m in range(M) if m != root_marker]
+    nodes = [Node("root", -1, root_marker, [root_marker], [1.0])]
+    if rest:
+        nodes.append(Node("body", 0, rest[0], rest, [1.0] * len(rest)))
+    return Hierarchy(nodes, "flat")
+
+
 def _grid(motion, opts, addh, hier):
     """Grid step and per-node residual multipliers g (spec §4.4, §6.5)."""
     if opts.max_error is None:
@@ -324,7 +336,15 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *, progress
     F, M = motion.n_frames, motion.n_markers
     if F > container.MAX_FRAMES or M > container.MAX_MARKERS or F * M > container.MAX_SAMPLES:
         raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8")
-    hier = build_hierarchy(motion, opts.hierarchy, weights=opts.weights)
+    if opts.patterns == "off" and opts.hierarchy is None and not opts.group_errors:
+        # without patterns the residual layers are absolute (base 1/2) and the tree carries
+        # nothing; one node for all non-root markers lets the models adapt once (smaller)
+        hier = build_hierarchy(motion, None, weights=opts.weights)
+        root = hier.nodes[0]
+        hier = build_hierarchy(motion, "flat", weights=opts.weights)
+        hier = _reroot(hier, root.members[0], motion.n_markers)
+    else:
+        hier = build_hierarchy(motion, opts.hierarchy, weights=opts.weights)
     hier.validate(M)
     addh, addh_rule = head_scale(motion, hier)
     step, gmap = _grid(motion, opts, addh, hier)

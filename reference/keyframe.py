@@ -48,6 +48,53 @@ def interpolate(times: np.ndarray, values: np.ndarray, F: int) -> np.ndarray:
     return out
 
 
+@njit(cache=True)
+def _rebuild(counts, spans, keys, F, out):
+    """Key values from residuals (§6.5) and interpolation; returns an error code."""
+    s_at = 0
+    k_at = 0
+    n = counts.shape[0]
+    w = np.empty((F + 1, 3), np.int64)
+    times = np.empty(F + 1, np.int64)
+    for m in range(n):
+        K = counts[m]
+        total = 0
+        for k in range(K - 1):
+            total += spans[s_at + k]
+        if total != F - 1:
+            return 1, m, total
+        times[0] = 0
+        for k in range(1, K):
+            times[k] = times[k - 1] + spans[s_at + k - 1]
+        for k in range(K):
+            for c in range(3):
+                e = keys[k_at + k, c]
+                if k == 0:
+                    v = e
+                elif k == 1:
+                    v = w[0, c] + e
+                else:
+                    d1 = times[k] - times[k - 1]
+                    d0 = times[k - 1] - times[k - 2]
+                    w1 = w[k - 1, c]
+                    w0 = w[k - 2, c]
+                    v = w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0) + e
+                if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:
+                    return 2, m, k
+                w[k, c] = v
+        for k in range(1, K):
+            a = times[k - 1]
+            nn = times[k] - a
+            for j in range(nn):
+                for c in range(3):
+                    out[a + j, m, c] = w[k - 1, c] + (2 * (w[k, c] - w[k - 1, c]) * j + nn) // (2 * nn)
+        for c in range(3):
+            out[F - 1, m, c] = w[K - 1, c]
+        s_at += K - 1
+        k_at += K
+    return 0, 0, 0
+
+
 def decode_payload(dec, F: int, n: int, *, chunk=None, offset=None) -> np.ndarray:
     """Read the three blocks of a base-2 RESI payload; returns ``[F, n, 3]`` grid values."""
     def fail(msg):
@@ -59,24 +106,11 @@ def decode_payload(dec, F: int, n: int, *, chunk=None, offset=None) -> np.ndarra
     spans = dec.block(total_spans, 1, 1, signed=False)[:, 0, 0] + 1
     keys = dec.block(int(counts.sum()), 1)[:, 0]
     out = np.empty((F, n, 3), np.int64)
-    s_at = k_at = 0
-    for m in range(n):
-        K = int(counts[m])
-        d = spans[s_at: s_at + K - 1]
-        s_at += K - 1
-        if int(d.sum()) != F - 1:
-            fail(f"member {m}: key spans add up to {int(d.sum())}, not F - 1 = {F - 1}")
-        e = keys[k_at: k_at + K]
-        k_at += K
-        w = np.empty((K, 3), np.int64)
-        w[0] = e[0]
-        for k in range(1, K):
-            pred = w[k - 1] if k == 1 else extrapolate(w[k - 1], w[k - 2], d[k - 1], d[k - 2])
-            w[k] = pred + e[k]
-            if np.abs(w[k]).max() >= _VALUE_LIMIT:
-                fail(f"member {m}: key value leaves the 32-bit range")
-        times = np.concatenate([[0], np.cumsum(d)])
-        out[:, m] = interpolate(times, w, F)
+    code, m, detail = _rebuild(counts.astype(np.int64), spans.astype(np.int64), keys, F, out)
+    if code == 1:
+        fail(f"member {m}: key spans add up to {detail}, not F - 1 = {F - 1}")
+    if code == 2:
+        fail(f"member {m}: key value {detail} leaves the 32-bit range")
     return out
 
 
@@ -180,6 +214,22 @@ def fit(y: np.ndarray, radius: float, max_span: int = 256):
     return _fit(np.ascontiguousarray(y, dtype=np.float64), float(radius), int(max_span))
 
 
+@njit(cache=True)
+def _key_residuals(times, w):
+    e = w.copy()
+    for k in range(2, w.shape[0]):
+        d1 = times[k] - times[k - 1]
+        d0 = times[k - 1] - times[k - 2]
+        for c in range(3):
+            w1 = w[k - 1, c]
+            w0 = w[k - 2, c]
+            e[k, c] = w[k, c] - (w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0))
+    if w.shape[0] > 1:
+        for c in range(3):
+            e[1, c] = w[1, c] - w[0, c]
+    return e
+
+
 def encode_blocks(enc, y: np.ndarray, radius: float, max_span: int = 256) -> np.ndarray:
     """Fit every member of ``y[T, n, 3]`` and code the three blocks; returns the grid values."""
     T, n, _ = y.shape
@@ -188,10 +238,7 @@ def encode_blocks(enc, y: np.ndarray, radius: float, max_span: int = 256) -> np.
     for m in range(n):
         times, w = fit(y[:, m], radius, max_span)
         d = np.diff(times)
-        e = w.copy()
-        for k in range(1, len(w)):
-            pred = w[k - 1] if k == 1 else extrapolate(w[k - 1], w[k - 2], d[k - 1], d[k - 2])
-            e[k] = w[k] - pred
+        e = _key_residuals(times, w)
         counts.append(len(w) - 1)
         spans.append(d - 1)
         keys.append(e)

@@ -41,8 +41,9 @@ def add_parser(sub):
                    help="weight of a marker or node (local distortion control; repeatable)")
     p.add_argument("--hierarchy", help="cmu41, skeleton, auto, flat or a JSON hierarchy file")
     p.add_argument("--smoothing", type=int, default=2, help="boundary smoothing half-width 0..16")
-    p.add_argument("--patterns", choices=("auto", "on", "off"), default="auto",
-                   help="pattern layer per node: auto keeps it where it makes the file smaller")
+    p.add_argument("--patterns", choices=("auto", "on", "off"), default=None,
+                   help="pattern layer per node: auto keeps it where it makes the file smaller "
+                   "(default: on without --max-error, off with it)")
     p.add_argument("--segmentation", choices=("adaptive", "optimal"), default="adaptive",
                    help="adaptive = paper's Alg. 1; optimal = Fisher optimal partition")
     p.add_argument("--grid", help="grid step (default: from --max-error, else ADDH/1000)")
