@@ -24,6 +24,7 @@ SUBCOMMANDS = {
     "compare": "mpz.tools.cmd_compare",
     "show": "mpz.tools.cmd_show",
     "summary": "mpz.tools.cmd_summary",
+    "bench": "mpz.tools.cmd_bench",
 }
 
 

@@ -1,0 +1,65 @@
+"""Encode and decode speed on cmu_135_02.c3d (5202 frames x 41 markers), in MB/s of raw float32.
+
+    python bench/bench_speed.py
+
+Targets (issue 4): encode >= 2 MB/s, decode >= 20 MB/s. Baseline in the same
+process: zstd -19 and -3 on the float32 array (a lossless general-purpose codec).
+"""
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import shared_data_dir  # noqa: E402
+
+import mpz  # noqa: E402
+import mpz.io  # noqa: E402
+
+
+def best_of(fn, n=3):
+    ts = []
+    for _ in range(n):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return min(ts)
+
+
+def main():
+    d = shared_data_dir()
+    if d is None:
+        print("skipped: ../shared/data is absent")
+        return 0
+    import zstandard
+    m = mpz.io.read(d / "c3d" / "cmu_135_02.c3d")
+    raw = m.raw_size() / 1e6
+    f32 = m.positions.astype(np.float32).tobytes()
+    mpz.decode(mpz.encode(m.select_frames(0, 50), max_error=1.0))     # JIT warm-up
+    print(f"cmu_135_02: {raw:.2f} MB raw float32")
+    print(f"{'mode':<22} {'enc MB/s':>9} {'dec MB/s':>9} {'ratio':>7}")
+    for lvl in (3, 19):
+        c = zstandard.ZstdCompressor(level=lvl)
+        z = c.compress(f32)
+        te = best_of(lambda: c.compress(f32), 1 if lvl == 19 else 3)
+        td = best_of(lambda: zstandard.ZstdDecompressor().decompress(z))
+        print(f"{'zstd -%d (lossless)' % lvl:<22} {raw / te:>9.1f} {raw / td:>9.1f} {len(f32) / len(z):>7.1f}")
+    rows = []
+    for label, kw in (("MPZ max-error 1 mm", {"max_error": 1.0}),
+                      ("MPZ max-error 5 mm", {"max_error": 5.0}),
+                      ("MPZ lossy (paper)", {})):
+        data = mpz.encode(m, **kw)
+        te = best_of(lambda: mpz.encode(m, **kw))
+        td = best_of(lambda: mpz.decode(data))
+        rows.append((raw / te, raw / td))
+        print(f"{label:<22} {raw / te:>9.1f} {raw / td:>9.1f} {m.raw_size() / len(data):>7.1f}")
+    enc_ok = all(r[0] >= 2 for r in rows)
+    dec_ok = all(r[1] >= 20 for r in rows)
+    print(f"encode >= 2 MB/s: {'MET' if enc_ok else 'MISSED'}; decode >= 20 MB/s: "
+          f"{'MET' if dec_ok else 'MISSED'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
