@@ -1,0 +1,225 @@
+"""The conformance manifest (``vectors/manifest.json``): load, validate, hash.
+
+Contract: :func:`load` returns the manifest as plain JSON data after
+:func:`validate` has checked its shape (schema version, groups, expected
+outcomes, tolerances with rms <= max_abs). It never regenerates anything;
+``python -m mpz.tools.make_vectors`` is the only writer. :func:`tolerances`
+is the one place the float-tier bounds of spec §7.1 are computed, shared by
+the generator and the tests.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from pathlib import Path
+
+SCHEMA_VERSION = 1
+#: Vector groups, as subfolders of the vector directory (FLAC test-file style).
+GROUPS = ("valid", "uncommon", "invalid")
+#: What a decoder must do with a vector of each group.
+EXPECTED = {"valid": "decode", "uncommon": "decode", "invalid": "reject"}
+#: The vectors shipped with the package.
+DEFAULT_DIR = Path(__file__).resolve().parent / "vectors"
+MANIFEST_NAME = "manifest.json"
+#: the file of spec Appendix A, written by ``python -m mpz.tools.spec_example``
+SPEC_EXAMPLE = "spec-example.mpz"
+
+#: §7.1 float tier: |x - x_ref| <= step * 2^-20 + max|x_ref| * 2^-50
+STEP_FRACTION = 2.0 ** -20
+MAGNITUDE_FRACTION = 2.0 ** -50
+
+
+class ManifestError(ValueError):
+    """The manifest is missing, malformed or disagrees with the files."""
+
+
+def sha256_file(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def tolerances(step: float, max_abs_value: float) -> dict:
+    """Float-tier tolerances of one vector (spec §7.1).
+
+    ``max_abs = step * 2^-20 + max|x| * 2^-50``, where ``max|x|`` is the
+    largest magnitude of any valid expected coordinate. A decoder that
+    computes ``offset + q * step`` in binary64 (§6.8), in either order or with
+    a fused multiply-add, stays far inside it; one grid step off never does.
+    ``rms`` uses the same value: a uniform error of max_abs has exactly that
+    RMS, so rms <= max_abs holds by construction (and is checked).
+    """
+    v = float(step) * STEP_FRACTION + float(max_abs_value) * MAGNITUDE_FRACTION
+    return {"max_abs": v, "rms": v}
+
+
+def intlayer_digest(q, valid) -> str:
+    """§7.1 integer-layer digest: sha256 of q (<i8, [F, M, 3], C order) then valid (u1 0/1, [F, M])."""
+    import numpy as np
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(q, dtype="<i8").tobytes())
+    h.update(np.ascontiguousarray(valid, dtype=np.uint8).tobytes())
+    return h.hexdigest()
+
+
+def exercised_sections(stream) -> list:
+    """Spec sections a decodable file exercises, derived from its content (not declared).
+
+    ``stream`` is an :class:`mpz.decoder.Stream`. A section counts only when
+    the file makes it do real work: §6.1 needs a MASK chunk, §6.3 a node with
+    patterns, §6.4 smoothing h > 0 across at least one boundary, §6.5 a RESI
+    chunk, §6.6 a non-root node.
+    """
+    from mpz.decoder import decode_segments
+    secs = {"§3.1", "§3.2", "§3.3", "§3.4", "§4.1", "§4.2", "§4.3", "§4.4", "§4.6", "§4.12",
+            "§5.1", "§5.2", "§5.3", "§5.4", "§5.5", "§5.6", "§6.2", "§6.7", "§6.8", "§7.1"}
+    if s_has(stream.mask):
+        secs |= {"§4.5", "§6.1"}
+    if len(stream.nodes) > 1:
+        secs |= {"§4.7", "§6.6"}
+    for i, c in stream.patt.items():
+        if c.fields.pattern_count:
+            secs |= {"§4.8", "§6.3"}
+            _, counts = decode_segments(stream, i)
+            if stream.header.smoothing and len(counts) > 1:
+                secs.add("§6.4")
+    if stream.resi:
+        secs |= {"§4.9", "§6.5"}
+    if stream.summary is not None:
+        secs.add("§4.10")
+    if stream.meta:
+        secs.add("§4.11")
+    if stream.unknown:
+        secs.add("§2.3")
+    return sorted(secs, key=section_key)
+
+
+def s_has(x) -> bool:
+    return x is not None
+
+
+def section_key(s: str) -> tuple:
+    return tuple(int(p) for p in s.lstrip("§").split("."))
+
+
+def spec_decoding_steps(text: str) -> list:
+    """(step, section, name) rows of the machine-readable table of spec §6.
+
+    The table sits between ``<!-- mpz:decoding-steps -->`` and
+    ``<!-- /mpz:decoding-steps -->`` with columns ``Step | Section | Name | Rule``.
+    """
+    import re
+    m = re.search(r"<!--\s*mpz:decoding-steps\s*-->(.*?)<!--\s*/mpz:decoding-steps\s*-->", text,
+                  re.S)
+    if not m:
+        raise ManifestError("spec has no <!-- mpz:decoding-steps --> table")
+    rows = []
+    for line in m.group(1).splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) >= 3 and cells[0].isdigit():
+            sec = re.fullmatch(r"§\d+(\.\d+)*", cells[1])
+            if not sec:
+                raise ManifestError(f"decoding-step row {line!r}: bad section {cells[1]!r}")
+            rows.append((int(cells[0]), cells[1], cells[2]))
+    if not rows:
+        raise ManifestError("the decoding-steps table has no rows")
+    return rows
+
+
+def _need(cond, msg):
+    if not cond:
+        raise ManifestError(msg)
+
+
+def validate(man: dict) -> dict:
+    """Check the manifest's structure; returns it. Raises ManifestError."""
+    _need(isinstance(man, dict), "manifest is not a JSON object")
+    _need(man.get("schema_version") == SCHEMA_VERSION,
+          f"schema_version {man.get('schema_version')!r}, this runner reads {SCHEMA_VERSION}")
+    vecs = man.get("vectors")
+    _need(isinstance(vecs, list) and vecs, "manifest lists no vectors")
+    seen = set()
+    for v in vecs:
+        name = v.get("name")
+        _need(isinstance(name, str) and name, f"vector without a name: {v!r}")
+        _need(name not in seen, f"duplicate vector name {name!r}")
+        seen.add(name)
+        for key in ("file", "sha256", "group", "description", "expected", "spec_sections",
+                    "features"):
+            _need(key in v, f"{name}: missing {key!r}")
+        _need(v["group"] in GROUPS, f"{name}: unknown group {v['group']!r}")
+        _need(v["expected"] == EXPECTED[v["group"]],
+              f"{name}: group {v['group']} must expect {EXPECTED[v['group']]!r}")
+        _need(v["file"].startswith(v["group"] + "/") or v["file"] == SPEC_EXAMPLE,
+              f"{name}: file not under {v['group']}/")
+        if v["expected"] == "decode":
+            for key in ("expected_output", "integer_layer_digest", "tolerances", "header"):
+                _need(v.get(key) is not None, f"{name}: decodable vector without {key!r}")
+            tol = v["tolerances"]
+            _need(all(isinstance(tol.get(k), (int, float)) and math.isfinite(tol[k]) and tol[k] >= 0
+                      for k in ("max_abs", "rms")), f"{name}: bad tolerances {tol!r}")
+            _need(tol["rms"] <= tol["max_abs"],
+                  f"{name}: rms tolerance {tol['rms']} > max_abs {tol['max_abs']}")
+            for key in ("frames", "markers", "rate", "names", "units", "error_bound", "step"):
+                _need(key in v["header"], f"{name}: header facts lack {key!r}")
+        else:
+            for key in ("expected_error", "corruption", "risk"):
+                _need(v.get(key), f"{name}: invalid vector without {key!r}")
+    for e in man.get("encoder_inputs", []):
+        for key in ("name", "input", "sidecar", "sha256", "max_errors"):
+            _need(key in e, f"encoder input {e!r}: missing {key!r}")
+    return man
+
+
+def load(directory=None) -> dict:
+    """Read and validate ``manifest.json`` of ``directory`` (default: the shipped vectors)."""
+    d = Path(directory) if directory is not None else DEFAULT_DIR
+    path = d / MANIFEST_NAME
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ManifestError(f"cannot read {path}: {exc.strerror or exc}") from None
+    try:
+        man = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ManifestError(f"{path}: not JSON: {exc}") from None
+    return validate(man)
+
+
+def check_hashes(man: dict, directory=None) -> list:
+    """Every mismatch between the manifest's sha256 values and the files, as messages."""
+    d = Path(directory) if directory is not None else DEFAULT_DIR
+    problems = []
+    items = []
+    for v in man["vectors"]:
+        items.append((v["file"], v["sha256"]))
+        if v.get("expected_output"):
+            items.append((v["expected_output"]["file"], v["expected_output"]["sha256"]))
+    for e in man.get("encoder_inputs", []):
+        items.append((e["input"], e["sha256"]))
+        items.append((e["sidecar"], e["sidecar_sha256"]))
+    for rel, digest in items:
+        p = d / rel
+        if not p.is_file():
+            problems.append(f"{rel}: missing")
+        elif sha256_file(p) != digest:
+            problems.append(f"{rel}: sha256 {sha256_file(p)} != manifest {digest}")
+    return problems
+
+
+def vectors(man: dict, only=None) -> list:
+    """The manifest's vectors, optionally restricted to names/files/groups in ``only``."""
+    vs = man["vectors"]
+    if not only:
+        return list(vs)
+    want = set(only)
+    out = []
+    for v in vs:
+        stem = Path(v["file"]).name
+        keys = {v["name"], v["file"], stem, Path(stem).stem, v["group"]}
+        if keys & want:
+            out.append(v)
+    return out

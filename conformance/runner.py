@@ -1,0 +1,477 @@
+"""mpz-conformance: run a decoder (or an encoder) against the MPZ conformance vectors.
+
+Contract (conformance/README.md has the full text):
+
+* decoder mode: for every vector the runner executes ``CMD IN.mpz OUT.npy``
+  (CMD split with :func:`shlex.split`). A decoder accepts a file by writing
+  float64 ``[frames, markers, 3]`` with NaN at gaps and exiting 0; it rejects
+  one by exiting non-zero. If it also writes ``OUT.npy.intlayer`` (the hex
+  integer-layer digest of spec §7.1) that digest must match exactly: Opus
+  style, the integer tier is exact and the float tier is within tolerance.
+* encoder mode: for every input motion and requested bound E the runner
+  executes ``CMD IN.npy OUT.mpz --max-error E`` and checks OUT.mpz with the
+  reference decoder: declared bound <= E, every valid sample within it, gaps
+  kept as gaps, names/rate/units kept.
+
+Every vector is run (each with a timeout and an address-space limit) before
+anything is reported. Exit status: 0 all passed, 1 any failure, 2 usage
+error (bad arguments, missing vectors, decoder not found).
+"""
+from __future__ import annotations
+
+import argparse
+from concurrent.futures import ThreadPoolExecutor
+import json
+import math
+import os
+from pathlib import Path
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+try:
+    import resource
+except ImportError:          # not POSIX: no memory limit
+    resource = None
+
+from mpz.conformance import manifest as mf
+
+RESULTS_SCHEMA_VERSION = 1
+EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
+FAIL_LIST = 10              # differing samples listed per vector
+
+
+class UsageError(Exception):
+    pass
+
+
+# ------------------------------------------------------------ subprocesses --
+def _limits(memory_mb):
+    def apply():
+        # runs in the child between fork and exec: no imports, no locks
+        try:
+            if memory_mb:
+                lim = int(memory_mb) * 1024 * 1024
+                resource.setrlimit(resource.RLIMIT_AS, (lim, lim))
+            resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+        except (ValueError, OSError):
+            pass
+    return apply
+
+
+def run_command(argv, timeout, memory_mb, cwd=None) -> dict:
+    """Run ``argv`` with limits; returns exit code, seconds, stderr tail, timed_out."""
+    t0 = time.perf_counter()
+    try:
+        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, cwd=cwd, start_new_session=True,
+                                preexec_fn=_limits(memory_mb) if resource else None)
+    except OSError as exc:
+        return {"exit_code": None, "seconds": 0.0, "stderr": f"cannot start: {exc}",
+                "timed_out": False, "signal": None}
+    timed_out = False
+    try:
+        _, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        timed_out = True
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except OSError:
+            proc.kill()
+        _, err = proc.communicate()
+    secs = time.perf_counter() - t0
+    code = proc.returncode
+    sig = None
+    if code is not None and code < 0:
+        try:
+            sig = signal.Signals(-code).name
+        except ValueError:
+            sig = f"signal {-code}"
+    text = err.decode("utf-8", "replace")
+    return {"exit_code": code, "seconds": round(secs, 3),
+            "stderr": text[-STDERR_TAIL:], "timed_out": timed_out, "signal": sig}
+
+
+# ----------------------------------------------------------- comparisons --
+def _fmt(v: float) -> str:
+    if isinstance(v, float) and math.isnan(v):
+        return "NaN"
+    return f"{v:.6f}" if abs(v) < 1e7 else f"{v:.6g}"
+
+
+def _where(idx, names):
+    f, m, a = (int(i) for i in idx)
+    name = names[m] if names and m < len(names) else "?"
+    return f"frame {f}, marker {name!r} (index {m}), axis {'xyz'[a]}", f, m, a
+
+
+def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
+    """Float-tier comparison of a decoded array with the expected one."""
+    hdr = vec["header"]
+    tol = vec["tolerances"]
+    names = hdr.get("names") or []
+    step = float(hdr["step"])
+    res = {"max_abs": None, "rms": None, "allowed_max_abs": tol["max_abs"],
+           "allowed_rms": tol["rms"], "first_failure": None, "problems": []}
+    if got.dtype != np.float64:
+        res["problems"].append(f"output dtype {got.dtype} != float64 (the contract requires "
+                               f"float64 little-endian .npy)")
+        return res
+    if got.shape != exp.shape:
+        res["problems"].append(f"shape {tuple(got.shape)} != expected {tuple(exp.shape)} "
+                               f"(frames, markers, 3)")
+        return res
+    gnan, enan = np.isnan(got), np.isnan(exp)
+    if (gnan != enan).any():
+        idx = np.argwhere(gnan != enan)
+        where, f, m, a = _where(idx[0], names)
+        what = ("NaN (gap) where a value was expected" if gnan[tuple(idx[0])]
+                else f"{_fmt(float(got[tuple(idx[0])]))} where a gap (NaN) was expected")
+        res["problems"].append(f"NaN pattern differs at {len(idx)} coordinate(s); first at {where}: "
+                               f"got {what}")
+        res["first_failure"] = {"frame": f, "marker": m, "marker_name": names[m] if m < len(names)
+                                else None, "axis": "xyz"[a], "got": None if gnan[tuple(idx[0])]
+                                else float(got[tuple(idx[0])]), "expected": None if
+                                enan[tuple(idx[0])] else float(exp[tuple(idx[0])]), "off_by": None,
+                                "grid_steps": None}
+        return res
+    ok = ~enan
+    if np.isinf(got[ok]).any():
+        idx = np.argwhere(np.isinf(got) & ok)[0]
+        where, *_ = _where(idx, names)
+        res["problems"].append(f"infinite value at {where}")
+        return res
+    diff = np.zeros_like(exp)
+    diff[ok] = np.abs(got[ok] - exp[ok])
+    n = int(ok.sum())
+    res["max_abs"] = float(diff.max(initial=0.0))
+    res["rms"] = float(math.sqrt(float((diff[ok] ** 2).sum()) / n)) if n else 0.0
+    bad = diff > tol["max_abs"]
+    if bad.any():
+        idx = np.argwhere(bad)
+        lines = []
+        for k, i in enumerate(idx[:FAIL_LIST]):
+            where, f, m, a = _where(i, names)
+            g, e = float(got[tuple(i)]), float(exp[tuple(i)])
+            off = g - e
+            lines.append(f"{where}: got {_fmt(g)}, expected {_fmt(e)} (off by {off:.6g} = "
+                         f"{off / step:.3f} grid steps)")
+            if k == 0:
+                res["first_failure"] = {"frame": f, "marker": m,
+                                        "marker_name": names[m] if m < len(names) else None,
+                                        "axis": "xyz"[a], "got": g, "expected": e,
+                                        "off_by": off, "grid_steps": off / step}
+        more = f" (and {len(idx) - FAIL_LIST} more)" if len(idx) > FAIL_LIST else ""
+        res["problems"].append(f"{len(idx)} coordinate(s) beyond max_abs {tol['max_abs']:.3g}: "
+                               + "; ".join(lines) + more)
+    if res["rms"] > tol["rms"]:
+        res["problems"].append(f"rms error {res['rms']:.6g} > allowed {tol['rms']:.3g}")
+    return res
+
+
+# ------------------------------------------------------------ decoder mode --
+def run_decoder_vector(cmd, vdir: Path, vec: dict, timeout, memory_mb) -> dict:
+    entry = {"name": vec["name"], "group": vec["group"], "file": vec["file"],
+             "expected": vec["expected"], "expected_error": vec.get("expected_error"),
+             "actual": None, "passed": False, "message": "", "max_abs": None, "rms": None,
+             "allowed_max_abs": None, "allowed_rms": None, "intlayer": "absent",
+             "first_failure": None, "exit_code": None, "signal": None, "timed_out": False,
+             "seconds": None, "stderr_tail": ""}
+    with tempfile.TemporaryDirectory(prefix="mpz-conf-") as tmp:
+        src = Path(tmp) / "in.mpz"
+        shutil.copyfile(vdir / vec["file"], src)
+        out = Path(tmp) / "out.npy"
+        run = run_command(cmd + [str(src), str(out)], timeout, memory_mb, cwd=tmp)
+        entry.update(exit_code=run["exit_code"], signal=run["signal"],
+                     timed_out=run["timed_out"], seconds=run["seconds"],
+                     stderr_tail=run["stderr"])
+        if run["exit_code"] is None:
+            entry["actual"] = "error"
+            entry["message"] = run["stderr"]
+            return entry
+        if run["timed_out"]:
+            entry["actual"] = "timeout"
+            entry["message"] = (f"decoder did not finish within {timeout:g} s (killed); a decoder "
+                                f"must {vec['expected']} this file promptly")
+            return entry
+        if run["signal"]:
+            entry["actual"] = "crash"
+            entry["message"] = (f"decoder was killed by {run['signal']} (crash, or beyond the "
+                                f"{memory_mb} MB memory limit); expected it to "
+                                f"{vec['expected']} this file")
+            return entry
+        if vec["expected"] == "reject":
+            if run["exit_code"] != 0:
+                entry["actual"] = "reject"
+                entry["passed"] = True
+                entry["message"] = f"rejected (exit {run['exit_code']})"
+            else:
+                entry["actual"] = "decode"
+                entry["message"] = (f"expected rejection ({vec['corruption']}), but decoder exited 0"
+                                    f"; the reference raises {vec['expected_error']}")
+            return entry
+        # expected: decode
+        if run["exit_code"] != 0:
+            entry["actual"] = "reject"
+            tail = run["stderr"].strip().splitlines()
+            entry["message"] = (f"expected a decode, but decoder exited {run['exit_code']}"
+                                + (f": {tail[-1][:300]}" if tail else ""))
+            return entry
+        entry["actual"] = "decode"
+        if not out.is_file():
+            entry["message"] = f"decoder exited 0 but wrote no output file {out.name}"
+            return entry
+        try:
+            got = np.load(out, allow_pickle=False)
+        except Exception as exc:  # any unreadable output is the decoder's failure
+            entry["message"] = f"output is not a readable .npy file: {type(exc).__name__}: {exc}"
+            return entry
+        exp = np.load(vdir / vec["expected_output"]["file"], allow_pickle=False)
+        cmp = compare_output(got, exp, vec)
+        entry.update(max_abs=cmp["max_abs"], rms=cmp["rms"],
+                     allowed_max_abs=cmp["allowed_max_abs"], allowed_rms=cmp["allowed_rms"],
+                     first_failure=cmp["first_failure"])
+        problems = list(cmp["problems"])
+        dig = out.with_name(out.name + ".intlayer")
+        if dig.is_file():
+            text = dig.read_text(encoding="ascii", errors="replace").strip().lower()
+            if text == vec["integer_layer_digest"]:
+                entry["intlayer"] = "match"
+            else:
+                entry["intlayer"] = "mismatch"
+                problems.insert(0, f"integer-layer digest {text[:64]!r} != expected "
+                                   f"{vec['integer_layer_digest']} (spec §7.1: the integers q "
+                                   f"and the mask must be exact)")
+        if problems:
+            entry["message"] = "; ".join(problems)
+        else:
+            entry["passed"] = True
+            entry["message"] = (f"max_abs {cmp['max_abs']:.3g} <= {cmp['allowed_max_abs']:.3g}, "
+                                f"rms {cmp['rms']:.3g}, integer layer {entry['intlayer']}")
+    return entry
+
+
+# ------------------------------------------------------------ encoder mode --
+def _load_input(vdir: Path, item: dict):
+    x = np.load(vdir / item["input"], allow_pickle=False)
+    side = json.loads((vdir / item["sidecar"]).read_text(encoding="utf-8"))
+    return x, side
+
+
+def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[list, dict]:
+    """Validate an encoder's output with the reference decoder; returns (problems, facts)."""
+    import mpz
+    from mpz.decoder import decode_mask, read_stream
+    facts = {"declared_bound": None, "measured_max_error": None, "bytes": len(data)}
+    try:
+        out = mpz.decode(data)
+        s = read_stream(data)
+    except mpz.MPZError as exc:
+        return [f"the reference decoder rejects the output: {type(exc).__name__}: {exc}"], facts
+    h = s.header
+    facts["declared_bound"] = float(h.error_bound)
+    problems = []
+    if h.error_metric != 1:
+        problems.append(f"header error_metric {h.error_metric}, expected 1 (a declared max "
+                        f"Euclidean error, §4.1)")
+    if not h.error_bound <= E:
+        problems.append(f"declared error_bound {h.error_bound!r} > requested --max-error {E!r}")
+    if out.positions.shape != x.shape:
+        problems.append(f"shape {out.positions.shape} != input {x.shape}")
+        return problems, facts
+    if list(out.names) != list(side["names"]):
+        problems.append(f"marker names {out.names[:4]}... != input {side['names'][:4]}...")
+    if float(out.rate) != float(side["rate"]):
+        problems.append(f"rate {out.rate!r} != input {side['rate']!r} (rates are kept exactly)")
+    if out.units != side.get("units", ""):
+        problems.append(f"units {out.units!r} != input {side.get('units')!r}")
+    valid_in = ~np.isnan(x).any(axis=2)
+    mask = decode_mask(s)
+    if (mask != valid_in).any():
+        f, m = (int(i) for i in np.argwhere(mask != valid_in)[0])
+        what = "a gap" if valid_in[f, m] else "valid"
+        problems.append(f"gaps not preserved: frame {f}, marker {side['names'][m]!r} decodes as "
+                        f"{what} ({int((mask != valid_in).sum())} marker-frames differ)")
+    both = valid_in & mask
+    d = np.linalg.norm(out.positions - x, axis=2)
+    d[~both] = 0.0
+    facts["measured_max_error"] = float(d.max(initial=0.0))
+    bound = float(h.error_bound)
+    # the float tier of §7.1 is allowed on top of the declared bound
+    slack = mf.tolerances(0.0, float(np.nanmax(np.abs(x))) if both.any() else 0.0)["max_abs"]
+    if h.error_metric == 1 and (d > bound + slack).any():
+        f, m = (int(i) for i in np.argwhere(d > bound + slack)[0])
+        problems.append(f"declared bound {bound:g} broken at {int((d > bound + slack).sum())} "
+                        f"sample(s); first at frame {f}, marker {side['names'][m]!r}: error "
+                        f"{d[f, m]:.6g}")
+    return problems, facts
+
+
+def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) -> dict:
+    name = f"{item['name']}@{E:g}"
+    entry = {"name": name, "group": "encoder", "file": item["input"], "expected": "encode",
+             "max_error": E, "actual": None, "passed": False, "message": "",
+             "declared_bound": None, "measured_max_error": None, "bytes": None,
+             "exit_code": None, "signal": None, "timed_out": False, "seconds": None,
+             "stderr_tail": ""}
+    x, side = _load_input(vdir, item)
+    with tempfile.TemporaryDirectory(prefix="mpz-conf-") as tmp:
+        src = Path(tmp) / "in.npy"
+        shutil.copyfile(vdir / item["input"], src)
+        shutil.copyfile(vdir / item["sidecar"], Path(tmp) / "in.json")
+        out = Path(tmp) / "out.mpz"
+        run = run_command(cmd + [str(src), str(out), "--max-error", repr(float(E))], timeout,
+                          memory_mb, cwd=tmp)
+        entry.update(exit_code=run["exit_code"], signal=run["signal"],
+                     timed_out=run["timed_out"], seconds=run["seconds"],
+                     stderr_tail=run["stderr"])
+        if run["exit_code"] is None:
+            entry["actual"], entry["message"] = "error", run["stderr"]
+            return entry
+        if run["timed_out"] or run["signal"] or run["exit_code"] != 0:
+            entry["actual"] = "timeout" if run["timed_out"] else "crash" if run["signal"] else "fail"
+            entry["message"] = (f"encoder did not finish within {timeout:g} s" if run["timed_out"]
+                                else f"encoder killed by {run['signal']}" if run["signal"]
+                                else f"encoder exited {run['exit_code']}")
+            return entry
+        if not out.is_file():
+            entry["actual"], entry["message"] = "encode", "encoder exited 0 but wrote no file"
+            return entry
+        data = out.read_bytes()
+    entry["actual"] = "encode"
+    problems, facts = check_encoded(data, x, side, E)
+    entry.update(facts)
+    if problems:
+        entry["message"] = "; ".join(problems)
+    else:
+        entry["passed"] = True
+        entry["message"] = (f"{len(data)} bytes, declared bound {facts['declared_bound']:g} <= "
+                            f"{E:g}, measured max error {facts['measured_max_error']:.4g}")
+    return entry
+
+
+# --------------------------------------------------------------------- CLI --
+def _parser():
+    p = argparse.ArgumentParser(
+        prog="mpz-conformance",
+        description="Run an MPZ decoder or encoder against the conformance vectors "
+                    "(see conformance/README.md for the contract).")
+    who = p.add_mutually_exclusive_group(required=True)
+    who.add_argument("--decoder", metavar="CMD",
+                     help="decoder command; run as CMD IN.mpz OUT.npy")
+    who.add_argument("--encoder", metavar="CMD",
+                     help="encoder command; run as CMD IN.npy OUT.mpz --max-error E")
+    p.add_argument("--vectors", metavar="DIR", default=str(mf.DEFAULT_DIR),
+                   help="vector directory holding manifest.json (default: the shipped set)")
+    p.add_argument("--results", metavar="FILE", help="write JSON results here")
+    p.add_argument("--timeout", type=float, default=60.0, metavar="S",
+                   help="seconds allowed per vector (default 60)")
+    p.add_argument("--memory", type=int, default=2048, metavar="MB",
+                   help="address-space limit per run in MiB, 0 for none (default 2048)")
+    p.add_argument("--only", nargs="+", metavar="NAME",
+                   help="run only these vectors (name, file name or group)")
+    p.add_argument("--jobs", "-j", type=int, default=1, metavar="N",
+                   help="run N vectors at once (default 1)")
+    p.add_argument("--quiet", "-q", action="store_true", help="print failures and the summary only")
+    return p
+
+
+def _command(text: str) -> list:
+    try:
+        argv = shlex.split(text)
+    except ValueError as exc:
+        raise UsageError(f"cannot split the command {text!r}: {exc}")
+    if not argv:
+        raise UsageError("empty command")
+    exe = argv[0]
+    if os.sep in exe:
+        if not (os.path.isfile(exe) and os.access(exe, os.X_OK)):
+            raise UsageError(f"{exe}: not an executable file")
+        argv[0] = os.path.abspath(exe)             # the decoder runs in a temporary directory
+    elif shutil.which(exe) is None:
+        raise UsageError(f"{exe}: command not found on PATH")
+    return argv
+
+
+def main(argv=None) -> int:
+    parser = _parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:          # argparse: 0 for --help, 2 for usage errors
+        return int(exc.code or 0)
+    try:
+        if args.timeout <= 0 or args.jobs < 1 or args.memory < 0:
+            raise UsageError("--timeout must be > 0, --jobs >= 1 and --memory >= 0")
+        cmd = _command(args.decoder if args.decoder is not None else args.encoder)
+        vdir = Path(args.vectors)
+        try:
+            man = mf.load(vdir)
+        except mf.ManifestError as exc:
+            raise UsageError(str(exc))
+        if args.decoder is not None:
+            todo = mf.vectors(man, args.only)
+            if args.only:
+                unknown = set(args.only) - {k for v in todo for k in
+                                            (v["name"], v["file"], Path(v["file"]).name,
+                                             v["group"])}
+                if unknown:
+                    raise UsageError(f"no vector named {', '.join(sorted(unknown))}")
+        else:
+            todo = [(item, float(E)) for item in man.get("encoder_inputs", [])
+                    for E in item["max_errors"]
+                    if not args.only or {item["name"], f"{item['name']}@{float(E):g}"} & set(args.only)]
+            if not todo:
+                raise UsageError("no encoder inputs selected")
+    except UsageError as exc:
+        print(f"mpz-conformance: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+    mode = "decoder" if args.decoder is not None else "encoder"
+    t0 = time.perf_counter()
+    if mode == "decoder":
+        def job(v):
+            return run_decoder_vector(cmd, vdir, v, args.timeout, args.memory)
+    else:
+        def job(ie):
+            return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        results = list(pool.map(job, todo))          # every vector runs before reporting
+
+    for r in results:
+        if r["passed"] and args.quiet:
+            continue
+        print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: {r['message']}")
+    n_fail = sum(not r["passed"] for r in results)
+    by_group = {}
+    for r in results:
+        g = by_group.setdefault(r["group"], {"passed": 0, "failed": 0})
+        g["passed" if r["passed"] else "failed"] += 1
+    summary = ", ".join(f"{g} {c['passed']}/{c['passed'] + c['failed']}"
+                        for g, c in by_group.items())
+    print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
+          + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
+             if n_fail else ""))
+    if args.results:
+        doc = {"schema_version": RESULTS_SCHEMA_VERSION, "tool": "mpz-conformance",
+               "mode": mode, "command": cmd, "vectors": str(vdir),
+               "manifest_schema_version": man["schema_version"],
+               "timeout": args.timeout, "memory_mb": args.memory,
+               "seconds": round(time.perf_counter() - t0, 3),
+               "totals": {"total": len(results), "passed": len(results) - n_fail,
+                          "failed": n_fail, "groups": by_group},
+               "failed": [r["name"] for r in results if not r["passed"]],
+               "results": results}
+        Path(args.results).write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n",
+                                      encoding="utf-8")
+    return EXIT_FAIL if n_fail else EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

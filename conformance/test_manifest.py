@@ -1,0 +1,151 @@
+"""The conformance manifest agrees with the vectors, the reference and the spec.
+
+Nothing here regenerates vectors (``python -m mpz.tools.make_vectors`` does).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz.conformance import manifest as mf
+from mpz.container import scan
+from mpz.decoder import decode_integers, decode_mask, read_stream, to_positions
+from mpz.spec.grammar import PAYLOADS
+
+VDIR = mf.DEFAULT_DIR
+MAN = mf.load(VDIR)
+DECODABLE = [v for v in MAN["vectors"] if v["expected"] == "decode"]
+INVALID = [v for v in MAN["vectors"] if v["expected"] == "reject"]
+SPEC = Path(mpz.__file__).resolve().parents[1] / "spec" / "mpz-1.md"
+
+
+def _ids(vs):
+    return [v["name"] for v in vs]
+
+
+def test_manifest_structure():
+    assert MAN["schema_version"] == 1
+    assert {v["group"] for v in MAN["vectors"]} == set(mf.GROUPS)
+    assert len(INVALID) >= 30 and len(DECODABLE) >= 15
+
+
+def test_hashes_match_files():
+    assert mf.check_hashes(MAN, VDIR) == []
+
+
+def test_no_stray_files():
+    listed = {v["file"] for v in MAN["vectors"]}
+    listed |= {v["expected_output"]["file"] for v in DECODABLE}
+    listed |= {e[k] for e in MAN["encoder_inputs"] for k in ("input", "sidecar")}
+    listed |= {mf.MANIFEST_NAME, mf.SPEC_EXAMPLE}
+    present = {str(p.relative_to(VDIR)) for p in VDIR.rglob("*") if p.is_file()}
+    assert present - listed == set()
+
+
+def test_suite_is_small():
+    assert sum(p.stat().st_size for p in VDIR.rglob("*") if p.is_file()) < 3 * 2 ** 20
+
+
+@pytest.mark.parametrize("vec", DECODABLE, ids=_ids(DECODABLE))
+def test_tolerances_follow_spec_7_1(vec):
+    tol = vec["tolerances"]
+    assert tol["rms"] <= tol["max_abs"]
+    exp = np.load(VDIR / vec["expected_output"]["file"])
+    ok = ~np.isnan(exp)
+    assert tol == mf.tolerances(vec["header"]["step"], float(np.abs(exp[ok]).max(initial=0.0)))
+    # one grid step must be far outside the tolerance, or the float tier proves nothing
+    assert tol["max_abs"] < vec["header"]["step"] / 1000
+
+
+@pytest.mark.parametrize("vec", DECODABLE, ids=_ids(DECODABLE))
+def test_decodable_vector_matches_reference(vec):
+    data = (VDIR / vec["file"]).read_bytes()
+    s = read_stream(data)
+    valid = decode_mask(s)
+    q = decode_integers(s)
+    x = to_positions(s, q, valid)
+    exp = np.load(VDIR / vec["expected_output"]["file"], allow_pickle=False)
+    assert exp.dtype == np.dtype("<f8") and exp.shape == x.shape
+    assert x.tobytes() == exp.tobytes()             # bit-exact, NaN at the same places
+    assert mf.intlayer_digest(q, valid) == vec["integer_layer_digest"]
+    m = mpz.decode(data)
+    h = vec["header"]
+    assert (h["frames"], h["markers"]) == (m.n_frames, m.n_markers)
+    assert h["names"] == m.names and h["rate"] == m.rate and h["units"] == m.units
+    assert h["error_bound"] == s.header.error_bound and h["step"] == s.quant.step
+    assert np.array_equal(np.isnan(m.as_nan()), np.isnan(exp))
+
+
+@pytest.mark.parametrize("vec", INVALID, ids=_ids(INVALID))
+def test_invalid_vector_is_rejected_with_named_error(vec):
+    data = (VDIR / vec["file"]).read_bytes()
+    with pytest.raises(mpz.MPZError) as info:
+        mpz.decode(data)
+    assert type(info.value).__name__ == vec["expected_error"], str(info.value)
+    assert vec["corruption"] and vec["risk"]
+
+
+def test_every_chunk_type_is_decoded_somewhere():
+    seen = set()
+    for v in DECODABLE:
+        seen |= {c.type for c in scan((VDIR / v["file"]).read_bytes()).chunks}
+    missing = {t.decode() for t in PAYLOADS} - seen
+    assert not missing, f"no valid/uncommon vector contains {sorted(missing)}"
+
+
+def test_every_decoding_step_of_the_spec_is_exercised():
+    if not SPEC.is_file():
+        pytest.skip("spec/mpz-1.md missing")
+    steps = mf.spec_decoding_steps(SPEC.read_text(encoding="utf-8"))
+    exercised = set()
+    for v in DECODABLE:
+        exercised |= set(mf.exercised_sections(read_stream((VDIR / v["file"]).read_bytes())))
+    missing = [f"step {n} {sec} ({name})" for n, sec, name in steps if sec not in exercised]
+    assert not missing, "no vector exercises " + ", ".join(missing)
+
+
+def test_declared_sections_include_exercised_ones():
+    for v in DECODABLE:
+        got = set(mf.exercised_sections(read_stream((VDIR / v["file"]).read_bytes())))
+        assert got <= set(v["spec_sections"]), v["name"]
+
+
+def test_field_values_that_change_decoding_are_all_covered():
+    orders = {"ROOT": set(), "PATT": set(), "RESI": set()}
+    base, g, pscale, smoothing, units = set(), set(), set(), set(), set()
+    residual = set()
+    for v in DECODABLE:
+        s = read_stream((VDIR / v["file"]).read_bytes())
+        orders["ROOT"].add(s.root.fields.order)
+        orders["PATT"] |= {c.fields.order for c in s.patt.values() if c.fields.pattern_count}
+        orders["RESI"] |= {c.fields.order for c in s.resi.values()}
+        base |= {c.fields.base for c in s.resi.values()}
+        g |= {c.fields.scale for c in s.resi.values()}
+        pscale |= {c.fields.scale for c in s.patt.values() if c.fields.pattern_count}
+        smoothing.add(s.header.smoothing)
+        units.add(s.header.units)
+        residual.add(s.residual)
+    assert all(o == {0, 1, 2} for o in orders.values()), orders
+    assert {0, 1} <= base and max(g) > 1 and max(pscale) > 1
+    assert 0 in smoothing and 16 in smoothing and len(smoothing) > 2
+    assert units == {0, 1, 2, 3, 4} and residual == {True, False}
+
+
+def test_spec_step_table_parser():
+    text = ("x\n<!-- mpz:decoding-steps -->\n| Step | Section | Name | Rule |\n|---|---|---|---|\n"
+            "| 1 | §3.1 | signature | s |\n| 2 | §6.4 | smoothing | a \\| b |\n"
+            "<!-- /mpz:decoding-steps -->\n")
+    assert mf.spec_decoding_steps(text) == [(1, "§3.1", "signature"), (2, "§6.4", "smoothing")]
+    with pytest.raises(mf.ManifestError):
+        mf.spec_decoding_steps("no table")
+
+
+def test_validate_catches_rms_above_max_abs():
+    import copy
+    bad = copy.deepcopy(MAN)
+    bad["vectors"][0]["tolerances"] = {"max_abs": 1e-9, "rms": 1e-8}
+    with pytest.raises(mf.ManifestError, match="rms"):
+        mf.validate(bad)
