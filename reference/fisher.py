@@ -36,8 +36,9 @@ __all__ = ["Partition", "optimal_partitions", "wssse", "segment_means", "paa", "
            "haar_approx", "motion_series", "preview_series", "choose_k_for_threshold",
            "max_deviation"]
 
-#: Ends processed together; ``_BLOCK * k_max`` best/arg pairs stay in L1/L2.
-_BLOCK = 32
+#: Ends processed together (one parallel region each, so fewer is better on a busy
+#: machine); ``_BLOCK * k_max`` best/arg pairs per thread stay in L2.
+_BLOCK = 128
 
 #: numba's on-disk cache records the importing module's name; a doctest run that
 #: imports this file as ``reference.fisher`` would leave entries that
