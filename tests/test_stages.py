@@ -84,3 +84,40 @@ def test_keyframe_interpolation():
     assert out[:, 0].tolist() == [0, 3, 5, 8, 10]
     assert out[:, 1].tolist() == [0, -2, -5, -7, -10]
     assert out[:, 2].tolist() == [0, 1, 2, 3, 4]
+
+
+def _key_payload(refs, counts_m1, spans_m1, keys):
+    from mpz.entropy import BlockEncoder
+    enc = BlockEncoder()
+    enc.block(np.array(refs).reshape(-1, 1, 1), signed=False)
+    enc.block(np.array(counts_m1).reshape(-1, 1, 1), signed=False)
+    enc.block(np.array(spans_m1).reshape(-1, 1, 1), signed=False)
+    enc.block(np.array(keys).reshape(-1, 1, 3))
+    return enc.finish()
+
+
+@pytest.mark.parametrize("p1,e2,expected1", [
+    # p = 1: displacement of member 0; key 2 predicted 13 + (8 - 4) = 17, so e = 1
+    (1, 1, [10, 12, 13, 16, 18]),
+    # p = 2: relative extrapolation: r1 = 9, r0 = 10, pred = 8 + 9 + floor((2*(-1)*2 + 2)/4) = 16
+    (2, 2, [10, 12, 13, 16, 18]),
+])
+def test_keyframe_reference_prediction(p1, e2, expected1):
+    from mpz.entropy import BlockDecoder
+    from mpz.keyframe import decode_payload
+    # member 0: keys (0, 0) and (4, 8) -> 0 2 4 6 8 ; member 1: keys 10 @0, 13 @2, 18 @4
+    data = _key_payload([0, p1], [1, 2], [3, 1, 1],
+                        [[0, 0, 0], [8, 0, 0], [10, 0, 0], [-1, 0, 0], [e2, 0, 0]])
+    dec = BlockDecoder(data)
+    out = decode_payload(dec, 5, 2)
+    dec.close()
+    assert out[:, 0, 0].tolist() == [0, 2, 4, 6, 8]
+    assert out[:, 1, 0].tolist() == expected1
+
+
+def test_keyframe_reference_must_precede():
+    from mpz.entropy import BlockDecoder
+    from mpz.keyframe import decode_payload
+    data = _key_payload([1, 0], [1, 1], [3, 3], [[0, 0, 0]] * 4)
+    with pytest.raises(FormatError, match="member before it"):
+        decode_payload(BlockDecoder(data), 5, 2)
