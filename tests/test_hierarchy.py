@@ -277,29 +277,9 @@ C3D_FILES = ["cmu_01_01", "cmu_02_01", "cmu_135_02", "HDM_dg_06-03_03_120",
 
 
 def _load_c3d(path):
-    """Motion from a C3D via ezc3d directly (mpz.io may not be ready)."""
-    ezc3d = pytest.importorskip("ezc3d")
-    try:
-        c = ezc3d.c3d(str(path))
-    except Exception as exc:  # ezc3d cannot read MIPS or malformed files
-        pytest.skip(f"ezc3d cannot read {path.name}: {str(exc)[:80]}")
-    x = c["data"]["points"][:3].transpose(2, 1, 0).astype(np.float64)
-    res = c["data"]["meta_points"]["residuals"][0].T
-    # gaps: negative residual, non-finite, or exactly (0, 0, 0) as some writers store them
-    valid = (res >= 0) & np.isfinite(x).all(axis=2) & (x != 0).any(axis=2)
-    x[~valid] = np.nan
-    labels = list(c["parameters"]["POINT"]["LABELS"]["value"])[:x.shape[1]]
-    labels += [""] * (x.shape[1] - len(labels))
-    names, seen = [], set()
-    for i, n in enumerate(labels):
-        n = n.strip() or f"point{i}"
-        base, k = n, 1
-        while n in seen:   # some files repeat labels; Motion needs unique names
-            n, k = f"{base}#{k}", k + 1
-        seen.add(n)
-        names.append(n)
-    rate = float(c["parameters"]["POINT"]["RATE"]["value"][0])
-    return mpz.Motion(x, names, rate, "mm", valid)
+    """Motion from a C3D through mpz.io (which also reads the MIPS and malformed files)."""
+    from mpz.io import read
+    return read(path)
 
 
 @pytest.mark.parametrize("stem", C3D_FILES)
