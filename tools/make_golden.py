@@ -1,0 +1,71 @@
+"""Freeze the golden regression files: ``python -m mpz.tools.make_golden``.
+
+For every conformance vector it records the ``mpzinfo --json`` report (the
+tool version and file paths masked, since they vary between builds and
+machines) and, for decodable vectors, the SHA-256 of the decoded float64
+output and of the integer layer (spec §7.1). conformance/test_golden.py
+fails when a codec change alters any of them.
+
+Regenerating is an explicit decision: this command prints a golden id, and
+the test requires CHANGELOG.md to mention it, so the changelog must say why
+the golden output changed.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+GOLDEN_DIR = Path(__file__).resolve().parents[1] / "conformance" / "golden"
+GOLDEN_FILE = "golden.json"
+
+
+def compute(vectors_dir=None) -> dict:
+    import mpz
+    from mpz.conformance import manifest as mf
+    from mpz.decoder import decode_integers, decode_mask, read_stream
+    from mpz.errors import MPZError
+    from mpz.tools.mpzinfo import inspect
+    man = mf.load(vectors_dir)
+    root = Path(vectors_dir) if vectors_dir else mf.DEFAULT_DIR
+    out = {}
+    for v in man["vectors"]:
+        data = (root / v["file"]).read_bytes()
+        info = inspect(data, v["name"])
+        entry = {"mpzinfo": info, "decoded_sha256": None, "integer_layer_digest": None,
+                 "error_class": None}
+        try:
+            m = mpz.decode(data)
+            entry["decoded_sha256"] = hashlib.sha256(
+                np.ascontiguousarray(m.as_nan(), "<f8").tobytes()).hexdigest()
+            s = read_stream(data)
+            entry["integer_layer_digest"] = mf.intlayer_digest(decode_integers(s), decode_mask(s))
+        except MPZError as exc:
+            entry["error_class"] = type(exc).__name__
+        out[v["name"]] = entry
+    body = json.dumps(out, sort_keys=True)
+    golden_id = hashlib.sha256(body.encode()).hexdigest()[:12]
+    return {"schema": 1, "golden_id": golden_id, "masked": ["tool_version", "file paths"],
+            "vectors": out}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m mpz.tools.make_golden", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default=str(GOLDEN_DIR))
+    args = p.parse_args(argv)
+    doc = compute()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / GOLDEN_FILE).write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n")
+    print(f"wrote {out / GOLDEN_FILE}: {len(doc['vectors'])} vectors, golden id {doc['golden_id']}")
+    print(f"add a CHANGELOG.md entry that names golden id {doc['golden_id']} and says why")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
