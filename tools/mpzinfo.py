@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 import construct
@@ -49,6 +50,17 @@ def _jsonable(v):
         return {k: _jsonable(x) for k, x in v.items() if not k.startswith("_")}
     if isinstance(v, (list, construct.ListContainer)):
         return [_jsonable(x) for x in v]
+    return v
+
+
+def _finite(v):
+    """JSON has no NaN or infinity: report such values as null (errors[] says why)."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_finite(x) for x in v]
     return v
 
 
@@ -117,7 +129,7 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True) -> dict:
     info["errors"] = [_err(e) for e in errors]
     info["warnings"] = [_err(w) for w in warnings]
     info["status"] = "error" if errors else ("warning" if warnings else "ok")
-    return info
+    return _finite(info)
 
 
 def summary_line(info: dict) -> str:
@@ -125,7 +137,8 @@ def summary_line(info: dict) -> str:
     if info["frames"] is None:
         reason = info["errors"][0]["message"] if info["errors"] else "unreadable"
         return f"{tag}: {info['file']} ({reason})"
-    parts = [f"MPZ {info['version']}", f"{info['rate']:g} Hz", f"{info['frames']} frames",
+    rate = "unknown rate" if info["rate"] is None else f"{info['rate']:g} Hz"
+    parts = [f"MPZ {info['version']}", rate, f"{info['frames']} frames",
              f"{info['markers']} markers", f"{info['nodes']} nodes"]
     if info["patterns"] is not None:
         parts.append(f"{info['patterns']} patterns")
