@@ -44,8 +44,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Least-WSSSE temporal segmentation (Fisher's optimal partition) of a motion, "
                     "at several numbers of segments k.")
     p.add_argument("file", help="motion file (.c3d, .trc, .bvh, .amc, .npy, .csv) or .mpz")
-    p.add_argument("--k", type=_ks, default=_ks(DEFAULT_KS), metavar="K1,K2,...",
-                   help=f"numbers of segments (default {DEFAULT_KS})")
+    p.add_argument("--k", type=_ks, default=None, metavar="K1,K2,...",
+                   help=f"numbers of segments (default {DEFAULT_KS}; for .mpz: every stored level)")
     p.add_argument("--space", choices=("positions", "angles"), default="positions",
                    help="segment marker positions relative to their centroid (default) or the "
                         "joint angles of AMC/BVH input")
@@ -96,9 +96,13 @@ def _levels_from_mpz(args, ks):
     except ImportError:
         raise _Fail(".mpz input needs mpz.read_summary, which this build does not provide yet")
     summ = read_summary(Path(args.file).read_bytes())
+    if summ is None:
+        raise _Fail(f"{args.file} has no summary chunk (encode with: mpz encode --summary 6,12,24,48)")
     n = int(summ.n_frames)
     levels = []
     for lv in summ.levels:
+        if ks is not None and int(lv.k) not in ks:
+            continue
         starts = np.asarray(lv.starts, dtype=np.int64)
         levels.append({"k": int(lv.k), "starts": starts, "lengths": np.diff(np.append(starts, n)),
                        "wssse": None if getattr(lv, "wssse", None) is None else float(lv.wssse),
@@ -255,7 +259,8 @@ def run(args) -> int:
         if path.suffix.lower() == ".mpz":
             info, levels, poses, parents, warnings = _levels_from_mpz(args, args.k)
         else:
-            info, levels, poses, parents, warnings = _levels_from_motion(args, args.k)
+            ks = args.k if args.k is not None else _ks(DEFAULT_KS)
+            info, levels, poses, parents, warnings = _levels_from_motion(args, ks)
     except _Fail as exc:
         print(f"mpz summary: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
