@@ -16,7 +16,9 @@ CASES = [
           node_count=11, rate=120.0, units=1, error_metric=1, error_bound=2.0, smoothing=2),
      struct.pack("<BBHIHHdBBdB", 1, 0, 1, 343, 41, 11, 120.0, 1, 1, 2.0, 2)),
     ("§4.2", "MNAM", dict(count=2, names=["LFHD", "Ä"]),
-     struct.pack("<H", 2) + b"\x04LFHD" + b"\x02\xc3\x84"),
+     struct.pack("<H", 2) + b"\x00\x04LFHD" + b"\x00\x02\xc3\x84"),
+    ("§4.2", "MNAM", dict(count=3, names=["S:AB", "S:AC", "S:AC2"]),
+     struct.pack("<H", 3) + b"\x00\x04S:AB" + b"\x03\x01C" + b"\x04\x012"),
     ("§4.3", "HIER",
      dict(count=2, nodes=[dict(parent=0xFFFF, ref=0, member_count=1, members=[0], weights=[1.0]),
                           dict(parent=0, ref=2, member_count=2, members=[1, 2],
@@ -45,7 +47,8 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("section,ctype,obj,expected", CASES, ids=[c[1] for c in CASES])
+@pytest.mark.parametrize("section,ctype,obj,expected", CASES,
+                         ids=[f"{c[1]}-{i}" for i, c in enumerate(CASES)])
 def test_build_parse_table(section, ctype, obj, expected):
     grammar = g.PAYLOADS[ctype.encode()]
     assert grammar.build(obj) == expected
@@ -54,6 +57,15 @@ def test_build_parse_table(section, ctype, obj, expected):
     for key, value in obj.items():
         if key != "nodes" and key != "levels" and key != "entries":
             assert parsed[key] == value
+
+
+def test_front_coded_names_reject_bad_prefixes():
+    import construct
+    for payload in (struct.pack("<H", 1) + b"\x01\x01A",            # shares 1 byte of nothing
+                    struct.pack("<H", 1) + b"\x00\x00",                # empty name
+                    struct.pack("<H", 1) + b"\x00\x01\xff"):           # not UTF-8
+        with pytest.raises(construct.ConstructError):
+            g.MNAM.parse(payload)
 
 
 def test_every_chunk_type_has_a_table_case():

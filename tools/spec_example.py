@@ -93,8 +93,9 @@ def chunks() -> list:
         (8, "error_bound = 0.5 (f64)"),
         (1, "smoothing h = 2 (no boundary here, so no effect)")]))
     out.append(("MNAM", b("MNAM", {"count": 2, "names": NAMES}), [
-        (2, "count = 2"), (1, "name 0: length 2"), (2, 'name 0 = "C7"'),
-        (1, "name 1: length 4"), (4, 'name 1 = "HAND"')]))
+        (2, "count = 2"), (1, "name 0: shared = 0"), (1, "name 0: suffix length 2"),
+        (2, 'name 0 = "C7"'), (1, "name 1: shared = 0"), (1, "name 1: suffix length 4"),
+        (4, 'name 1 = "HAND"')]))
     hier = {"count": 2, "nodes": [
         {"parent": 0xFFFF, "ref": 0, "member_count": 1, "members": [0], "weights": [1.0]},
         {"parent": 0, "ref": 1, "member_count": 1, "members": [1], "weights": [1.0]}]}
