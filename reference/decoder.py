@@ -33,6 +33,12 @@ FLAG_RESIDUAL = 0x0001
 ROOT_PARENT = 0xFFFF
 
 
+def _NO_PATTERNS(i):
+    """Fields of the PATT chunk an encoder left out: K = 0 (§3.4)."""
+    import construct
+    return construct.Container(node=i, pattern_count=0, length=1, scale=1, order=0, coded=b"")
+
+
 @dataclass
 class Stream:
     """A validated MPZ file: the chunks, indexed by role."""
@@ -197,7 +203,10 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
     patt, segs, resi = {}, {}, {}
     for i in range(1, N):
         n_i = nodes[i].member_count
-        p = expect("PATT")
+        # §3.4: with a residual layer, PATT may be left out when the node has no patterns
+        p = expect("PATT", optional=residual)
+        if p is None:
+            p = Chunk("PATT", _NO_PATTERNS(i), b"", offset=None)
         pf = p.fields
         if pf.node != i:
             _fail(f"PATT for node {pf.node} where node {i} was expected", p, "§3.4")

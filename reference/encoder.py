@@ -452,10 +452,9 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *, progress
             nrep.segments, nrep.patterns, nrep.pattern_length = pat["segments"], pat["K"], pat["L"]
             nrep.pattern_bytes, nrep.segment_bytes = len(pat["pdata"]), len(pat["sdata"])
             nrep.used_patterns = True
-        else:
-            enc = BlockEncoder(capacity=64)
-            body.append(("PATT", {"node": i, "pattern_count": 0, "length": 1, "scale": 1,
-                                  "order": 0, "coded": enc.finish()}))
+        elif not residual:  # pragma: no cover - lossy mode always has patterns
+            raise EncoderError(f"node {node.name} has neither patterns nor a residual layer")
+        # with a residual layer and no patterns, PATT is left out (spec §3.4)
         if residual:
             body.append(("RESI", {"node": i, "base": base, "order": nrep.residual_order,
                                   "scale": g, "coded": data}))

@@ -89,13 +89,25 @@ MNAM = Struct(
     Terminated,
 )
 
+class WeightCodes(Adapter):
+    """§4.3 encoder weights as u8 codes: weight = (code + 1) / 16, i.e. 1/16 .. 16 in
+    steps of 1/16. Informative only (the decoder never uses them), so a byte is enough."""
+
+    def _decode(self, obj, context, path):
+        return [(c + 1) / 16.0 for c in obj]
+
+    def _encode(self, obj, context, path):
+        return [min(255, max(0, int(round(float(w) * 16.0)) - 1)) for w in obj]
+
+
 #: §4.3 HIER, the body-part hierarchy
 HierNode = Struct(
     "parent" / Int16ul * "§4.3 parent node index, < own index; 0xFFFF for node 0",
     "ref" / Int16ul * "§4.3 reference marker of this node (one of its members)",
     "member_count" / Int16ul * "§4.3 1..M",
     "members" / Array(this.member_count, Int16ul) * "§4.3 marker indices",
-    "weights" / Array(this.member_count, Float32l) * "§4.3 encoder weights (informative)",
+    "weights" / WeightCodes(Array(this.member_count, Int8ul))
+    * "§4.3 encoder weights, u8 code c: w = (c + 1) / 16 (informative)",
 )
 HIER = Struct(
     "count" / Int16ul * "§4.3 equals node_count",

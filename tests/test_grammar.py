@@ -23,8 +23,8 @@ CASES = [
      dict(count=2, nodes=[dict(parent=0xFFFF, ref=0, member_count=1, members=[0], weights=[1.0]),
                           dict(parent=0, ref=2, member_count=2, members=[1, 2],
                                weights=[1.0, 0.5])]),
-     struct.pack("<H", 2) + struct.pack("<HHHHf", 0xFFFF, 0, 1, 0, 1.0)
-     + struct.pack("<HHHHHff", 0, 2, 2, 1, 2, 1.0, 0.5)),
+     struct.pack("<H", 2) + struct.pack("<HHHHB", 0xFFFF, 0, 1, 0, 15)
+     + struct.pack("<HHHHHBB", 0, 2, 2, 1, 2, 15, 7)),
     ("§4.4", "QUNT", dict(step=0.5, offset=[1.0, -2.0, 3.5], bits=20),
      struct.pack("<ddddB", 0.5, 1.0, -2.0, 3.5, 20)),
     ("§4.5", "MASK", dict(coded=b"\x00" * 5), b"\x00" * 5),

@@ -103,10 +103,10 @@ def chunks() -> list:
         (2, "count = 2 nodes"),
         (2, "node 0: parent = 0xFFFF (root)"), (2, "node 0: ref = marker 0"),
         (2, "node 0: member_count = 1"), (2, "node 0: members = [0]"),
-        (4, "node 0: weights = [1.0] (f32)"),
+        (1, "node 0: weights = [1.0] (code 15)"),
         (2, "node 1: parent = 0"), (2, "node 1: ref = marker 1"),
         (2, "node 1: member_count = 1"), (2, "node 1: members = [1]"),
-        (4, "node 1: weights = [1.0] (f32)")]))
+        (1, "node 1: weights = [1.0] (code 15)")]))
     out.append(("QUNT", b("QUNT", {"step": STEP, "offset": list(OFFSET), "bits": 6}), [
         (8, "step s = 0.5 (f64)"), (8, "offset[0] = 100.0 (f64)"),
         (8, "offset[1] = 200.0 (f64)"), (8, "offset[2] = 1000.0 (f64)"),
