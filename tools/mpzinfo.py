@@ -187,6 +187,15 @@ class _Parser(argparse.ArgumentParser):
 
 
 def main(argv=None) -> int:
+    try:
+        return _main(argv)
+    except BrokenPipeError:  # output piped into e.g. head: stop quietly
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
+
+
+def _main(argv=None) -> int:
     from mpz import __version__
     p = _Parser(prog="mpzinfo", description="Dump and check MPZ files.",
                 epilog="exit codes: 0 ok, 1 warnings only, 2 errors, 64 usage error")
@@ -228,7 +237,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except BrokenPipeError:  # e.g. piped into head
-        sys.exit(EXIT_OK)
+    sys.exit(main())
