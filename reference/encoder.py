@@ -232,12 +232,17 @@ class _NodeCoder:
 
     def segments(self, x, w, boost=1.0):
         if self.o.segmentation == "optimal":
-            from mpz.fisher import choose_k_for_threshold
-            F = x.shape[0]
+            from mpz.fisher import choose_k_for_threshold, optimal_partitions
+            F, n = x.shape[0], x.shape[1]
             flat = x.reshape(F, -1)
-            thr = self.o.theta * self.addh_q / boost
+            # the Fisher deviation is the norm over all n members; Alg. 1's is a mean
+            # marker distance, so scale by sqrt(n) to make theta mean the same thing
+            thr = self.o.theta * self.addh_q / boost * math.sqrt(n)
             k_max = max(1, min(F, F // 4 + 1, 512))
-            part = choose_k_for_threshold(flat, thr, k_max)
+            try:
+                part = choose_k_for_threshold(flat, thr, k_max)
+            except EncoderError:       # no k <= k_max fits: take the finest partition
+                part = optimal_partitions(flat, k_max, ks=[k_max])[k_max]
             starts = np.asarray(part.starts, dtype=np.int64)
             counts = np.diff(np.append(starts, F))
             return starts, counts
