@@ -15,3 +15,14 @@ def shared_data_dir() -> Path | None:
     env = os.environ.get("MPZ_SHARED_DATA")
     cand = Path(env) if env else REPO.parent / "shared" / "data"
     return cand if cand.is_dir() else None
+
+
+def best_of(fn, n=3):
+    """Fastest of ``n`` timed calls of ``fn``, in seconds."""
+    import time
+    ts = []
+    for _ in range(n):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return min(ts)

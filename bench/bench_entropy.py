@@ -14,18 +14,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import best_of  # noqa: E402
 from test_entropy import RefEncoder  # noqa: E402
 
 from mpz.entropy import BlockDecoder, BlockEncoder  # noqa: E402
 
 
-def best_of(fn, n=5):
-    ts = []
-    for _ in range(n):
-        t = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t)
-    return min(ts)
 
 
 def main():
@@ -37,8 +32,8 @@ def main():
     for scale in (0.5, 3.0, 50.0):
         v = np.round(rng.laplace(0, scale, (5202, 41, 3))).astype(np.int64)
         data = _enc(v)
-        te = best_of(lambda: _enc(v))
-        td = best_of(lambda: BlockDecoder(data).block(5202, 41))
+        te = best_of(lambda: _enc(v), 5)
+        td = best_of(lambda: BlockDecoder(data).block(5202, 41), 5)
         small = v[:200]
         tr = best_of(lambda: _ref(small), n=1) * (v.shape[0] / small.shape[0])
         n = v.size

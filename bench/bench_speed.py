@@ -12,19 +12,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import shared_data_dir  # noqa: E402
+from _common import best_of, shared_data_dir  # noqa: E402
 
 import mpz  # noqa: E402
 import mpz.io  # noqa: E402
 
 
-def best_of(fn, n=3):
-    ts = []
-    for _ in range(n):
-        t = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t)
-    return min(ts)
 
 
 def main():

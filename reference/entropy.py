@@ -127,6 +127,17 @@ def _ctx(a):
 
 
 @njit(cache=True)
+def _context(vals, t, m, a, first):
+    """§5.6: ctx_v = 2 |v[t-1, m, a]| (not on a run's first row) + |v[t, m-1, a]|."""
+    ctx_v = 0
+    if not first:
+        ctx_v += 2 * abs(vals[t - 1, m, a])
+    if m > 0:
+        ctx_v += abs(vals[t, m - 1, a])
+    return _ctx(ctx_v)
+
+
+@njit(cache=True)
 def _encode_block(vals, period, signed, z, s, e, x, st, out):
     T, M, A = vals.shape[0], vals.shape[1], vals.shape[2]
     ok = True
@@ -134,12 +145,8 @@ def _encode_block(vals, period, signed, z, s, e, x, st, out):
         first = (t % period) == 0
         for m in range(M):
             for a in range(A):
-                ctx_v = 0
-                if not first:
-                    ctx_v += 2 * abs(vals[t - 1, m, a])
-                if m > 0:
-                    ctx_v += abs(vals[t, m - 1, a])
-                ok = _enc_int(st, out, z, s, e, x, a, _ctx(ctx_v), vals[t, m, a], signed) and ok
+                c = _context(vals, t, m, a, first)
+                ok = _enc_int(st, out, z, s, e, x, a, c, vals[t, m, a], signed) and ok
     return ok
 
 
@@ -216,12 +223,7 @@ def _decode_block(buf, ds, T, M, period, signed, z, s, e, x, out, err):
         first = (t % period) == 0
         for m in range(M):
             for a in range(A):
-                ctx_v = 0
-                if not first:
-                    ctx_v += 2 * abs(out[t - 1, m, a])
-                if m > 0:
-                    ctx_v += abs(out[t, m - 1, a])
-                v = _dec_int(ds, buf, z, s, e, x, a, _ctx(ctx_v), signed, err)
+                v = _dec_int(ds, buf, z, s, e, x, a, _context(out, t, m, a, first), signed, err)
                 if err[0] != 0:
                     return
                 out[t, m, a] = v
