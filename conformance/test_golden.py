@@ -34,3 +34,18 @@ def test_golden_matches_current_codec(frozen, current):
 def test_changelog_explains_the_golden_id(frozen):
     text = (REPO / "CHANGELOG.md").read_text()
     assert frozen["golden_id"] in text, "CHANGELOG.md must name the current golden id and say why"
+
+
+def test_vector_set_and_spec_version_history_in_step():
+    """Every format version the vectors use is in spec Appendix B, and the newest spec
+    version has vectors: a 1.x decoder must decode every vector of every earlier 1.y."""
+    import re
+    man = json.loads((REPO / "conformance" / "vectors" / "manifest.json").read_text())
+    spec = (REPO / "spec" / "mpz-1.md").read_text()
+    history = spec[spec.index("## Appendix B"):spec.index("## Appendix C")]
+    versions = re.findall(r"^\| (\d+\.\d+) \|", history, flags=re.M)
+    assert versions, "Appendix B lists no version"
+    fmt = man["format"].split()[-1]
+    assert fmt in versions
+    assert max(versions, key=lambda v: tuple(map(int, v.split(".")))) == fmt, \
+        "the newest spec version has no vector set: run python -m mpz.tools.make_vectors"
