@@ -39,7 +39,7 @@ def compare(old: dict, new: dict, ratio_tol=0.01, speed_tol=0.25) -> list:
     """List of (key, problem) for every regression of ``new`` against ``old``."""
     flags = []
     for key, n in new.items():
-        if key[1] is not None and n.get("max", 0) > key[1]:
+        if isinstance(key[1], (int, float)) and n.get("max", 0) > key[1]:
             flags.append((key, f"bound violated: max error {n['max']:.4g} > {key[1]}"))
         o = old.get(key)
         if o is None:
