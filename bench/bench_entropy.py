@@ -8,7 +8,6 @@ process is the pure-Python transcription of §5 used by tests/test_entropy.py.
 Target (issue 3): >= 5 M symbols/s decoding.
 """
 import sys
-import time
 from pathlib import Path
 
 import numpy as np

@@ -61,7 +61,6 @@ def run(files, bounds, lossy=True):
         m = mpz.io.read(path)
         raw = m.raw_size()
         f32 = np.nan_to_num(m.positions.astype(np.float32)).tobytes()
-        t = time.perf_counter()
         z = zstd19(f32)
         xz = len(lzma.compress(f32, preset=9))
         print(f"\n{name}: {m.n_frames} frames x {m.n_markers} markers, gaps {m.gap_fraction:.1%}; "

@@ -6,7 +6,6 @@ Targets (issue 4): encode >= 2 MB/s, decode >= 20 MB/s. Baseline in the same
 process: zstd -19 and -3 on the float32 array (a lossless general-purpose codec).
 """
 import sys
-import time
 from pathlib import Path
 
 import numpy as np

@@ -33,7 +33,7 @@ from mpz import keyframe
 from mpz.cluster import adaptive_kmeans
 from mpz.decoder import FLAG_RESIDUAL, ROOT_PARENT, UNIT_FROM_NAME
 from mpz.entropy import BlockEncoder, MAX_EXP
-from mpz.errors import EncoderError, MPZError
+from mpz.errors import EncoderError
 from mpz.motion import Motion
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import residuals
@@ -216,7 +216,7 @@ def _node_bounds(opts, hier):
     return b
 
 
-def _weights_for(node, opts_weights, names):
+def _weights_for(node):
     w = np.asarray(node.weights, dtype=np.float64)
     return w if w.size else np.ones(len(node.members))
 
@@ -418,7 +418,7 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *, progress
         members = list(node.members)
         ref = hier.nodes[node.parent].ref
         xl = u[:, members] - qhat[:, ref][:, None, :]          # closed loop: decoded parent
-        w = _weights_for(node, opts.weights, motion.names)
+        w = _weights_for(node)
         nrep = NodeReport(node.name, len(members))
         g = gmap.get(i, 1)
         pat = None

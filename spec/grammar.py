@@ -9,7 +9,7 @@ the byte offset and chunk type. Pitfalls avoided on purpose (STYLE.md): no
 ``GreedyRange`` for the chunk list, ``Terminated`` ends every payload, no
 ``.compile()``, and no ``Switch`` without ``default=Error``.
 """
-from construct import (Adapter, Array, Bytes, Const, Error, ExplicitError, Float32l, Float64l,
+from construct import (Adapter, Array, Bytes, Error, ExplicitError, Float64l,
                        GreedyBytes, Int8ul, Int16ul, Int32ul, PascalString, Prefixed, Struct,
                        Switch, Terminated, this)
 

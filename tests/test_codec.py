@@ -1,5 +1,4 @@
 """Reference codec end to end: round trips, the hard bound, gaps, options."""
-import math
 
 import numpy as np
 import pytest

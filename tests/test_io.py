@@ -6,7 +6,6 @@ under test.
 """
 from __future__ import annotations
 
-import math
 import struct
 
 import numpy as np

@@ -882,8 +882,6 @@ def invalid_vectors(vs: VectorSet):
         "ROOT residuals replaced", "signed 64-bit overflow (undefined behaviour in C) during "
         "prediction", "FormatError", ["§6.2"])
     # --- patterns and segments
-    s_fields = PAYLOADS[b"SEGS"].parse(base[_find(base, "SEGS")][1])
-    S = s_fields.segment_count
     pf = PAYLOADS[b"PATT"].parse(base[_find(base, "PATT")][1])
     K, L = pf.pattern_count, pf.length
     index, counts = d.layers[1]["segs"]

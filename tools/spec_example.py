@@ -18,7 +18,6 @@ Exit codes: 0 ok, 2 the codec disagrees with the example, 64 usage error.
 from __future__ import annotations
 
 import argparse
-import struct
 import sys
 
 import numpy as np
