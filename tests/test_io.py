@@ -582,6 +582,13 @@ def test_show_json(tmp_path, capsys):
 def test_show_errors(tmp_path, capsys):
     (tmp_path / "bad.c3d").write_bytes(b"nope")
     assert show(["show", str(tmp_path / "bad.c3d")]) == 2
-    assert show(["show", str(tmp_path / "x.mpz")]) == 2
-    assert "mpzinfo" in capsys.readouterr().err
+    assert show(["show", str(tmp_path / "x.mpz")]) == 2         # no such .mpz
+    capsys.readouterr()
+    import json
+
+    import mpz
+    (tmp_path / "ok.mpz").write_bytes(mpz.encode(synthetic(), max_error=1.0))
+    assert show(["show", "--json", str(tmp_path / "ok.mpz")]) == 0  # decoded and shown
+    info = json.loads(capsys.readouterr().out)
+    assert info["format"] == "MPZ" and info["frames"] == 7 and info["markers"] == 5
     assert show(["show", str(tmp_path / "missing.trc")]) == 2

@@ -2,8 +2,8 @@
 
 Prints frames, markers, rate, units, duration, share of gaps and the
 source format; ``--json`` gives the same as one JSON object (schema
-version 1, numbers as numbers, ``null`` for unknown units). ``.mpz`` files
-are for ``mpzinfo``. Exit codes: 0 ok, 2 unreadable input (the dispatcher
+version 1, numbers as numbers, ``null`` for unknown units). A ``.mpz`` file
+is decoded and shown the same way (``mpzinfo`` dumps its chunks). Exit codes: 0 ok, 2 unreadable input (the dispatcher
 turns :class:`mpz.errors.MPZError` into 2).
 """
 from __future__ import annotations
@@ -52,11 +52,14 @@ def run(args) -> int:
     from mpz.io import read
 
     path = args.file
-    if path.lower().endswith(".mpz"):
-        print("mpz show: use mpzinfo for .mpz files", file=sys.stderr)
-        return EXIT_ERROR
-    motion = read(path, asf=args.asf)  # InputFormatError -> exit 2 in the dispatcher
+    if path.lower().endswith(".mpz"):   # decoded, so the facts are those of the motion
+        from mpz.api import read_mpz
+        motion = read_mpz(path)        # MPZError -> exit 2 in the dispatcher
+    else:
+        motion = read(path, asf=args.asf)  # InputFormatError -> exit 2 in the dispatcher
     info = summary(motion, path)
+    if path.lower().endswith(".mpz"):
+        info["format"] = "MPZ"
     if args.json:
         print(json.dumps(info, indent=2))
         return EXIT_OK
