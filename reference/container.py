@@ -16,7 +16,7 @@ import zlib
 import construct
 
 from mpz.errors import ChecksumError, FormatError, LimitExceededError, MPZError
-from mpz.spec.grammar import ChunkHeader, PAYLOADS, SIGNATURE
+from mpz.spec.grammar import ChunkCRC, ChunkHeader, PAYLOADS, SIGNATURE
 
 # §8 limits (each one is checked before anything is allocated)
 MAX_FRAMES = 1 << 24            # 16 777 216 frames: > 38 h at 120 Hz
@@ -141,7 +141,7 @@ def scan(data: bytes) -> Scan:
                 offset=pos, chunk=tname, section="§3.2"))
             return res
         payload = data[pos + 8: pos + 8 + length]
-        stored = int.from_bytes(data[pos + 8 + length: pos + 12 + length], "little")
+        stored = ChunkCRC.parse(data[pos + 8 + length: pos + 12 + length])
         chunk = Chunk(tname, None, payload, pos, stored, crc32(ctype, payload))
         res.chunks.append(chunk)
         if not chunk.crc_ok:
@@ -191,7 +191,7 @@ def build_chunk(ctype: str, fields=None, payload: bytes | None = None) -> bytes:
         raise LimitExceededError(f"{ctype} payload of {len(payload)} bytes exceeds {MAX_CHUNK_LENGTH}",
                                  chunk=ctype, section="§8")
     return (ChunkHeader.build({"type": t, "length": len(payload)}) + payload
-            + crc32(t, payload).to_bytes(4, "little"))
+            + ChunkCRC.build(crc32(t, payload)))
 
 
 def repair_crcs(data: bytes) -> bytes:
@@ -207,7 +207,7 @@ def repair_crcs(data: bytes) -> bytes:
         end = pos + 8 + length
         if end + 4 > len(out):
             break
-        out[end: end + 4] = crc32(bytes(out[pos: pos + 4]), bytes(out[pos + 8: end])).to_bytes(4, "little")
+        out[end: end + 4] = ChunkCRC.build(crc32(bytes(out[pos: pos + 4]), bytes(out[pos + 8: end])))
         pos = end + 4
     return bytes(out)
 

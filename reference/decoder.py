@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import math
 
 import numpy as np
+from construct import Container
 
 from mpz.container import (Chunk, MAX_FRAMES, MAX_MARKERS, MAX_PATTERN_LENGTH,
                            MAX_PATTERN_SAMPLES, MAX_SAMPLES, MAX_SMOOTHING, MAX_SUMMARY_LEVELS,
@@ -33,10 +34,10 @@ FLAG_RESIDUAL = 0x0001
 ROOT_PARENT = 0xFFFF
 
 
-def _NO_PATTERNS(i):
-    """Fields of the PATT chunk an encoder left out: K = 0 (§3.4)."""
-    import construct
-    return construct.Container(node=i, pattern_count=0, length=1, scale=1, order=0, coded=b"")
+def _absent_patt(i: int) -> Chunk:
+    """The PATT an encoder left out means K = 0 (§3.4)."""
+    return Chunk("PATT", Container(node=i, pattern_count=0, length=1, scale=1, order=0, coded=b""),
+                 offset=None)
 
 
 @dataclass
@@ -206,7 +207,7 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
         # §3.4: with a residual layer, PATT may be left out when the node has no patterns
         p = expect("PATT", optional=residual)
         if p is None:
-            p = Chunk("PATT", _NO_PATTERNS(i), b"", offset=None)
+            p = _absent_patt(i)
         pf = p.fields
         if pf.node != i:
             _fail(f"PATT for node {pf.node} where node {i} was expected", p, "§3.4")

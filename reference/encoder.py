@@ -313,7 +313,7 @@ def _chain(x, valid, root_marker, members):
     return [idx[j] for j in order[1:]]
 
 
-def _reroot(hier, root_marker, M, x=None, valid=None):
+def _reroot(root_marker, M, x=None, valid=None):
     """A flat hierarchy (root + one node) whose root is ``root_marker``."""
     from mpz.hierarchy import Hierarchy, Node
     rest = [m for m in range(M) if m != root_marker]
@@ -378,10 +378,8 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *, progress
     if opts.patterns == "off" and opts.hierarchy is None and not opts.group_errors:
         # without patterns the residual layers are absolute (base 1/2) and the tree carries
         # nothing; one node for all non-root markers lets the models adapt once (smaller)
-        hier = build_hierarchy(motion, None, weights=opts.weights)
-        root = hier.nodes[0]
-        hier = build_hierarchy(motion, "flat", weights=opts.weights)
-        hier = _reroot(hier, root.members[0], motion.n_markers, motion.positions, motion.valid)
+        root_marker = build_hierarchy(motion, None, weights=opts.weights).nodes[0].members[0]
+        hier = _reroot(root_marker, motion.n_markers, motion.positions, motion.valid)
     else:
         hier = build_hierarchy(motion, opts.hierarchy, weights=opts.weights)
     hier.validate(M)

@@ -34,8 +34,8 @@ N_AXES = 3
 #   X[a, k, j]         j-th mantissa bit (from the top) of a value with exponent k
 _Z, _S, _E, _X = 0, 1, 2, 3
 
-# Error codes returned by the jitted decoders (translated in Python).
-ERR_OK, ERR_OVERRUN, ERR_FIRST_BYTE, ERR_TRAILING, ERR_RANGE, ERR_SIGN = 0, 1, 2, 3, 4, 5
+# The one failure the jitted decoder reports (err[0]); BlockDecoder turns it into a FormatError.
+ERR_OVERRUN = 1
 
 
 def new_models():

@@ -30,11 +30,6 @@ from mpz.errors import FormatError
 _VALUE_LIMIT = 1 << 31
 
 
-def extrapolate(w1, w0, d1, d0):
-    """§6.5 prediction of a key from the two before it (integers, round half up)."""
-    return w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0)
-
-
 def interpolate(times: np.ndarray, values: np.ndarray, F: int) -> np.ndarray:
     """§6.5: frames between keys t_{k-1} < t < t_k get
     ``w_{k-1} + floor((2 (w_k - w_{k-1}) j + n) / (2 n))`` with n = t_k - t_{k-1}, j = t - t_{k-1}."""

@@ -7,11 +7,12 @@ Checksums, limits, chunk order and every cross-field rule live in Python
 (:mod:`mpz.container`), which raises :mod:`mpz.errors` exceptions carrying
 the byte offset and chunk type. Pitfalls avoided on purpose (STYLE.md): no
 ``GreedyRange`` for the chunk list, ``Terminated`` ends every payload, no
-``.compile()``, and no ``Switch`` without ``default=Error``.
+``.compile()``, and no ``Switch``: payloads are looked up in the explicit
+``PAYLOADS`` table, and a type missing from it is handled by §2.3 in Python.
 """
-from construct import (Adapter, Array, Bytes, Error, ExplicitError, Float64l,
+from construct import (Adapter, Array, Bytes, ExplicitError, Float64l,
                        GreedyBytes, Int8ul, Int16ul, Int32ul, PascalString, Prefixed, Struct,
-                       Switch, Terminated, this)
+                       Terminated, this)
 
 #: §3.1 "\x89" catches 7-bit transfers, "\r\n" and "\x1a\n" catch newline
 #: conversion and DOS type, as in PNG.
@@ -196,9 +197,6 @@ PAYLOADS = {
     b"ROOT": ROOT, b"PATT": PATT, b"SEGS": SEGS, b"RESI": RESI, b"smry": SMRY,
     b"meta": META, b"MEND": MEND,
 }
-
-#: One switch over every known type; unknown keys are an error, never "nothing".
-Payload = Switch(this.type, PAYLOADS, default=Error)
 
 #: §4 all chunk types, in catalogue order (the spec lists the same).
 CHUNK_TYPES = tuple(t.decode() for t in PAYLOADS)

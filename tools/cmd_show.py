@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 
 EXIT_OK, EXIT_ERROR = 0, 2
 JSON_SCHEMA_VERSION = 1

@@ -191,7 +191,7 @@ def make_patterns(local, L, K, scale, rng, jitter=3):
 
 def design_from_motion(motion, *, step, nodes, smoothing=0, residual=True, root_order=2,
                        patterns=None, resi=None, rate=None, units=None, seed=0, offset=None,
-                       members_order=None, error_metric=None):
+                       error_metric=None):
     """A Design coding ``motion`` with the hierarchy ``nodes`` = [(parent, ref, members)].
 
     ``patterns[i]`` = dict(L, K, scale, order[, jitter]) gives node i a pattern

@@ -31,7 +31,7 @@ _MODULES = ["mpz.container", "mpz.decoder", "mpz.predict", "mpz.normalize", "mpz
 def _instrument():
     for name in _MODULES:
         mod = sys.modules[name]
-        for attr, obj in list(vars(mod).items()):
+        for obj in list(vars(mod).values()):
             if isinstance(obj, types.FunctionType) and obj.__module__ == name:
                 atheris.instrument_func(obj)
             elif _inspect.isclass(obj) and obj.__module__ == name:

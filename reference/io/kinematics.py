@@ -40,24 +40,3 @@ def axis_rotation(axis: str, deg: np.ndarray) -> np.ndarray:
     else:
         raise ValueError(f"unknown rotation axis {axis!r}, expected X, Y or Z")
     return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
-
-
-def euler_matrix(order: str, deg: np.ndarray) -> np.ndarray:
-    """Compose ``R = R_order[0] @ R_order[1] @ ...`` (intrinsic, BVH-style).
-
-    Parameters
-    ----------
-    order : str
-        Axis letters, e.g. ``"ZXY"``; ``deg[:, i]`` is the angle about ``order[i]``.
-    deg : ndarray, shape (n, len(order))
-
-    Returns
-    -------
-    ndarray, shape (n, 3, 3)
-    """
-    deg = np.asarray(deg, dtype=np.float64)
-    n = deg.shape[0]
-    R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
-    for i, ax in enumerate(order):
-        R = R @ axis_rotation(ax, deg[:, i])
-    return R
