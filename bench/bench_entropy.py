@@ -12,10 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import best_of  # noqa: E402
-from test_entropy import RefEncoder  # noqa: E402
+from mpz.conformance.rangecoder import RefEncoder  # noqa: E402
 
 from mpz.entropy import BlockDecoder, BlockEncoder  # noqa: E402
 

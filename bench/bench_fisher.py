@@ -28,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import shared_data_dir  # noqa: E402
 
 D_SPEED, K_MAX = 123, 48

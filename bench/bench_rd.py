@@ -24,7 +24,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import shared_data_dir as shared_data  # noqa: E402
 
 import mpz  # noqa: E402

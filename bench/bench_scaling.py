@@ -14,7 +14,6 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import shared_data_dir  # noqa: E402
 
 import mpz  # noqa: E402

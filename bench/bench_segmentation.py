@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import shared_data_dir  # noqa: E402
 
 import mpz  # noqa: E402

@@ -19,7 +19,7 @@ VDIR = mf.DEFAULT_DIR
 MAN = mf.load(VDIR)
 DECODABLE = [v for v in MAN["vectors"] if v["expected"] == "decode"]
 INVALID = [v for v in MAN["vectors"] if v["expected"] == "reject"]
-SPEC = Path(mpz.__file__).resolve().parents[1] / "spec" / "mpz-1.md"
+SPEC = Path(__file__).resolve().parents[1] / "spec" / "mpz-1.md"
 
 
 def _ids(vs):
@@ -40,8 +40,9 @@ def test_no_stray_files():
     listed = {v["file"] for v in MAN["vectors"]}
     listed |= {v["expected_output"]["file"] for v in DECODABLE}
     listed |= {e[k] for e in MAN["encoder_inputs"] for k in ("input", "sidecar")}
-    listed |= {mf.MANIFEST_NAME, mf.SPEC_EXAMPLE}
-    present = {str(p.relative_to(VDIR)) for p in VDIR.rglob("*") if p.is_file()}
+    listed |= {mf.MANIFEST_NAME, mf.SPEC_EXAMPLE, "__init__.py"}   # the data-package marker
+    present = {str(p.relative_to(VDIR)) for p in VDIR.rglob("*")
+               if p.is_file() and "__pycache__" not in p.parts}
     assert present - listed == set()
 
 

@@ -21,7 +21,7 @@ from mpz.spec.grammar import PAYLOADS, SIGNATURE
 REPO = Path(__file__).resolve().parents[1]
 SPEC = REPO / "spec" / "mpz-1.md"
 EXAMPLE = REPO / "conformance" / "vectors" / "spec-example.mpz"
-CITING = sorted((REPO / "reference").glob("*.py")) + [REPO / "spec" / "grammar.py"]
+CITING = sorted((REPO / "reference" / "mpz").rglob("*.py")) + [REPO / "spec" / "mpz" / "spec" / "grammar.py"]
 
 HEADING = re.compile(r"^#{2,4} (\d+(?:\.\d+)*)\.? +(.*)$", re.M)
 SECTION_REF = re.compile(r"§(\d+(?:\.\d+)*)")
@@ -109,7 +109,7 @@ def test_grammar_field_sections_name_their_own_chunk(text):
     """A field doc string '§4.k ...' in PAYLOADS[T] cites the heading of chunk T."""
     secs = {title.split(":")[0].strip(): num for num, title in HEADING.findall(text)
             if num.startswith("4.")}
-    src = (REPO / "spec" / "grammar.py").read_text(encoding="utf-8")
+    src = (REPO / "spec" / "mpz" / "spec" / "grammar.py").read_text(encoding="utf-8")
     for ctype in PAYLOADS:
         name = {b"smry": "SMRY", b"meta": "META"}.get(ctype, ctype.decode())
         m = re.search(rf"^{name} = Struct\((.*?)^\)", src, re.S | re.M)

@@ -10,6 +10,7 @@ the generator and the tests.
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
 import math
 from pathlib import Path
@@ -20,7 +21,16 @@ GROUPS = ("valid", "uncommon", "invalid")
 #: What a decoder must do with a vector of each group.
 EXPECTED = {"valid": "decode", "uncommon": "decode", "invalid": "reject"}
 #: The vectors shipped with the package.
-DEFAULT_DIR = Path(__file__).resolve().parent / "vectors"
+def _vectors_dir() -> Path:
+    # conformance/vectors/ is installed as the data-only package mpz.conformance.vectors
+    # (pyproject.toml), so the same lookup works in a checkout and in a wheel
+    spec = importlib.util.find_spec("mpz.conformance.vectors")
+    if spec is None or not spec.submodule_search_locations:
+        raise RuntimeError("the conformance vectors are not installed (mpz.conformance.vectors)")
+    return Path(list(spec.submodule_search_locations)[0])
+
+
+DEFAULT_DIR = _vectors_dir()
 MANIFEST_NAME = "manifest.json"
 #: the file of spec Appendix A, written by ``python -m mpz.tools.spec_example``
 SPEC_EXAMPLE = "spec-example.mpz"

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-GOLDEN_DIR = Path(__file__).resolve().parents[1] / "conformance" / "golden"
+# tools/mpz/tools/make_golden.py -> the repository root is three folders up
+GOLDEN_DIR = Path(__file__).resolve().parents[3] / "conformance" / "golden"
 GOLDEN_FILE = "golden.json"
 
 
