@@ -7,17 +7,12 @@ scales, like the RESI blocks of real captures. The baseline in the same
 process is the pure-Python transcription of §5 used by tests/test_entropy.py.
 Target (issue 3): >= 5 M symbols/s decoding.
 """
-import sys
-from pathlib import Path
 
 import numpy as np
 
-from _common import best_of  # noqa: E402
-from mpz.conformance.rangecoder import RefEncoder  # noqa: E402
-
-from mpz.entropy import BlockDecoder, BlockEncoder  # noqa: E402
-
-
+from _common import best_of
+from mpz.conformance.rangecoder import RefEncoder
+from mpz.entropy import BlockDecoder, BlockEncoder
 
 
 def main():

@@ -20,15 +20,15 @@ import argparse
 import json
 import math
 import os
+from pathlib import Path
 import resource
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-from _common import shared_data_dir  # noqa: E402
+from _common import shared_data_dir
 
 D_SPEED, K_MAX = 123, 48
 NS_QUICK = [1_000, 3_000, 10_000]

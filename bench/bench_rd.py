@@ -18,18 +18,17 @@ import argparse
 import json
 import lzma
 import math
+from pathlib import Path
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-from _common import shared_data_dir as shared_data  # noqa: E402
-
-import mpz  # noqa: E402
-import mpz.io  # noqa: E402
-from mpz.encoder import EncodeOptions, encode_motion, fill_gaps  # noqa: E402
-from mpz.predict import residuals  # noqa: E402
+from _common import shared_data_dir as shared_data
+import mpz
+from mpz.encoder import EncodeOptions, encode_motion, fill_gaps
+import mpz.io
+from mpz.predict import residuals
 
 DEFAULT_FILES = ["cmu_02_01", "cmu_01_01", "cmu_135_02", "HDM_dg_06-03_03_120",
                  "HDM_mm_01-02_03_120", "numediart_03_rolling", "ezc3d_Vicon", "c3dorg_Sample_Jump2"]

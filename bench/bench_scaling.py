@@ -12,13 +12,11 @@ alongside for contrast: without pattern reuse its ratio stays flat.
 import argparse
 import sys
 import time
-from pathlib import Path
 
-from _common import shared_data_dir  # noqa: E402
-
-import mpz  # noqa: E402
-import mpz.io  # noqa: E402
-from mpz.encoder import EncodeOptions, encode_motion  # noqa: E402
+from _common import shared_data_dir
+import mpz
+from mpz.encoder import EncodeOptions, encode_motion
+import mpz.io
 
 
 def strip(m):

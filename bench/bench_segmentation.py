@@ -12,15 +12,13 @@ optimal partition is O(n^2 (D + k)) per node):
 """
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-from _common import shared_data_dir  # noqa: E402
-
-import mpz  # noqa: E402
-import mpz.io  # noqa: E402
-from mpz.encoder import EncodeOptions, encode_motion  # noqa: E402
+from _common import shared_data_dir
+import mpz
+from mpz.encoder import EncodeOptions, encode_motion
+import mpz.io
 
 FILES = ["cmu_02_01", "HDM_dg_06-03_03_120", "c3dorg_Sample_Jump2", "c3dorg_Eb015pi", "ezc3d_Vicon"]
 TAUS = [0.02, 0.05, 0.1, 0.2, 0.4]

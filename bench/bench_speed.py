@@ -6,16 +6,12 @@ Targets (issue 4): encode >= 2 MB/s, decode >= 20 MB/s. Baseline in the same
 process: zstd -19 and -3 on the float32 array (a lossless general-purpose codec).
 """
 import sys
-from pathlib import Path
 
 import numpy as np
 
-from _common import best_of, shared_data_dir  # noqa: E402
-
-import mpz  # noqa: E402
-import mpz.io  # noqa: E402
-
-
+from _common import best_of, shared_data_dir
+import mpz
+import mpz.io
 
 
 def main():

@@ -133,7 +133,7 @@ def test_encoder_mode(tmp_path):
     ["--decoder", REF, "--timeout", "0"],
 ])
 def test_usage_errors_exit_2(args, capsys):
-    from mpz.conformance.runner import main       # in-process: no decoder is ever started
+    from mpz.conformance.runner import main  # in-process: no decoder is ever started
     assert main(args) == 2
     assert capsys.readouterr().err
 

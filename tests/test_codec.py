@@ -1,8 +1,9 @@
 """Reference codec end to end: round trips, the hard bound, gaps, options."""
 
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
 
 import mpz
 from mpz.decoder import read_stream

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import mpz
-import mpz.io
 from mpz.encoder import EncodeOptions, encode_motion
+import mpz.io
 
 FILES = sorted(str(p.relative_to(Path(__file__).resolve().parents[2] / "shared" / "data"))
                for p in (Path(__file__).resolve().parents[2] / "shared" / "data").glob("*/*")

@@ -1,11 +1,12 @@
 """The range coder of spec §5 against an independent, straight-from-the-text
 pure-Python implementation, plus hand-derived vectors and round-trip properties."""
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
 
-from mpz.entropy import BlockDecoder, BlockEncoder
 from mpz.conformance.rangecoder import RefEncoder
+from mpz.entropy import BlockDecoder, BlockEncoder
 from mpz.errors import FormatError, LimitExceededError
 
 

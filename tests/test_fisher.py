@@ -7,16 +7,28 @@ from __future__ import annotations
 
 import itertools
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 import numba
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
-from hypothesis.extra import numpy as hnp
 
 from mpz import Motion
 from mpz.errors import EncoderError, MPZError
-from mpz.fisher import (Partition, choose_k_for_threshold, dft_approx, haar_approx, max_deviation,
-                        motion_series, optimal_partitions, paa, preview_series, segment_means, wssse)
+from mpz.fisher import (
+    Partition,
+    choose_k_for_threshold,
+    dft_approx,
+    haar_approx,
+    max_deviation,
+    motion_series,
+    optimal_partitions,
+    paa,
+    preview_series,
+    segment_means,
+    wssse,
+)
 
 
 # -- oracles ------------------------------------------------------------------------

@@ -3,8 +3,9 @@ bytes written independently with struct, and parse/build symmetry."""
 import struct
 import zlib
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import pytest
-from hypothesis import given, settings, strategies as st
 
 from mpz import container
 from mpz.errors import ChecksumError, FormatError, LimitExceededError

@@ -9,8 +9,15 @@ import pytest
 
 import mpz
 from mpz.errors import EncoderError
-from mpz.hierarchy import (MAX_NODES, Hierarchy, Node, build_hierarchy, head_scale,
-                           read_hierarchy, write_hierarchy)
+from mpz.hierarchy import (
+    MAX_NODES,
+    Hierarchy,
+    Node,
+    build_hierarchy,
+    head_scale,
+    read_hierarchy,
+    write_hierarchy,
+)
 from mpz.synth import generate
 
 CMU41 = ("LFHD RFHD LBHD RBHD C7 T10 CLAV STRN RBAC LSHO LUPA LELB LFRM LWRA LWRB LFIN "

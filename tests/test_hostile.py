@@ -2,14 +2,20 @@
 unknown and reordered chunks. Only MPZError may escape, quickly, with bounded memory."""
 import struct
 
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
 
 import mpz
 from mpz import container
-from mpz.errors import (ChecksumError, FormatError, LimitExceededError, MPZError,
-                        UnsupportedVersionError)
+from mpz.errors import (
+    ChecksumError,
+    FormatError,
+    LimitExceededError,
+    MPZError,
+    UnsupportedVersionError,
+)
 from mpz.spec.grammar import SIGNATURE
 from mpz.synth import generate
 

@@ -13,8 +13,7 @@ import pytest
 
 from mpz import Motion
 from mpz.errors import InputFormatError, MPZError
-from mpz.io import read, read_amc, read_bvh, read_c3d, write
-from mpz.io import c3dbin
+from mpz.io import c3dbin, read, read_amc, read_bvh, read_c3d, write
 from mpz.io.amc import find_asf, parse_asf
 from mpz.io.bvh import frame_rate_from_frame_time
 from mpz.io.table import rate_from_times
@@ -517,8 +516,8 @@ def test_c3d_numpy_reader_fuzz():
     (".csv", b"frame,time,A_x,A_y,A_z\n0,0,1,2\n"),
     (".csv", b"\xff\xfe\x00garbage"),
     (".trc", b"\xff\xfe\x00\x00garbage"),
-    (".bvh", "HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 1 Xposition\n}\nMOTION\nFrames: 1\n"
-             "Frame Time: 0\n1\n".encode()),
+    (".bvh", b"HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 1 Xposition\n}\nMOTION\nFrames: 1\n"
+             b"Frame Time: 0\n1\n"),
 ])
 def test_only_input_format_errors_escape(tmp_path, ext, content):
     p = tmp_path / f"x{ext}"

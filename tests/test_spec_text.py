@@ -80,9 +80,10 @@ def test_example_file_is_what_the_generator_writes():
 
 
 def test_appendix_a_digest_and_size(text):
+    import hashlib
+
     from mpz.conformance.manifest import intlayer_digest
     from mpz.decoder import decode_integers, decode_mask, read_stream
-    import hashlib
     data = EXAMPLE.read_bytes()
     s = read_stream(data)
     assert intlayer_digest(decode_integers(s), decode_mask(s)) in text

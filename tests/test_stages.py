@@ -1,7 +1,8 @@
 """Normative decoder stages (spec §6.2-§6.5) against hand-computed values."""
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
 
 from mpz.errors import FormatError
 from mpz.keyframe import interpolate

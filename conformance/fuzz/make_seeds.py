@@ -2,8 +2,8 @@
 
     python conformance/fuzz/make_seeds.py conformance/corpus
 """
-import sys
 from pathlib import Path
+import sys
 
 import mpz
 from mpz.synth import generate

@@ -11,13 +11,21 @@ The public API is re-exported here; see README.md for a tour and
 >>> back.n_frames, back.names == m.names
 (48, True)
 """
-from mpz.errors import (MPZError, FormatError, ChecksumError, UnsupportedVersionError,
-                        LimitExceededError, InputFormatError, MotionError, EncoderError)
-from mpz.motion import Motion, concatenate
+from mpz.api import read_mpz, read_summary, write_atomic, write_mpz
 from mpz.decoder import decode
 from mpz.encoder import EncodeOptions, EncodeReport, encode, encode_motion
+from mpz.errors import (
+                        ChecksumError,
+                        EncoderError,
+                        FormatError,
+                        InputFormatError,
+                        LimitExceededError,
+                        MotionError,
+                        MPZError,
+                        UnsupportedVersionError,
+)
 from mpz.metrics import arms, max_error
-from mpz.api import read_mpz, write_mpz, read_summary, write_atomic
+from mpz.motion import Motion, concatenate
 
 __version__ = "0.1.0"
 

@@ -91,8 +91,8 @@ class Summary:
 
     def preview(self, k=None, mode="constant"):
         """A preview Motion rebuilt from the summary alone (positions relative to the root)."""
-        from mpz.motion import Motion
         from mpz.fisher import preview_series
+        from mpz.motion import Motion
         if self.space != "positions":
             raise FormatError("a preview Motion needs a position summary (space 0)")
         lv = self.levels[-1] if k is None else self.level(k)

@@ -16,7 +16,7 @@ import zlib
 import construct
 
 from mpz.errors import ChecksumError, FormatError, LimitExceededError, MPZError
-from mpz.spec.grammar import ChunkCRC, ChunkHeader, PAYLOADS, SIGNATURE
+from mpz.spec.grammar import PAYLOADS, SIGNATURE, ChunkCRC, ChunkHeader
 
 # §8 limits (each one is checked before anything is allocated)
 MAX_FRAMES = 1 << 24            # 16 777 216 frames: > 38 h at 120 Hz

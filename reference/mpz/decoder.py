@@ -12,12 +12,21 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import math
 
-import numpy as np
 from construct import Container
+import numpy as np
 
-from mpz.container import (Chunk, MAX_FRAMES, MAX_MARKERS, MAX_PATTERN_LENGTH,
-                           MAX_PATTERN_SAMPLES, MAX_SAMPLES, MAX_SMOOTHING, MAX_SUMMARY_LEVELS,
-                           MAX_SUMMARY_VALUES, parse)
+from mpz.container import (
+    MAX_FRAMES,
+    MAX_MARKERS,
+    MAX_PATTERN_LENGTH,
+    MAX_PATTERN_SAMPLES,
+    MAX_SAMPLES,
+    MAX_SMOOTHING,
+    MAX_SUMMARY_LEVELS,
+    MAX_SUMMARY_VALUES,
+    Chunk,
+    parse,
+)
 from mpz.entropy import BlockDecoder
 from mpz.errors import FormatError, LimitExceededError, MPZError, UnsupportedVersionError
 from mpz.keyframe import decode_payload as decode_keyframes

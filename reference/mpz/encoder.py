@@ -28,11 +28,10 @@ import time
 
 import numpy as np
 
-from mpz import container
-from mpz import keyframe
+from mpz import container, keyframe
 from mpz.cluster import adaptive_kmeans
 from mpz.decoder import FLAG_RESIDUAL, ROOT_PARENT, UNIT_FROM_NAME
-from mpz.entropy import BlockEncoder, MAX_EXP
+from mpz.entropy import MAX_EXP, BlockEncoder
 from mpz.errors import EncoderError
 from mpz.motion import Motion
 from mpz.normalize import denormalize, normalize, segment_starts

@@ -13,8 +13,8 @@ after the last symbol the decoder must have consumed every byte of it.
 """
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
+import numpy as np
 
 from mpz.errors import FormatError, LimitExceededError
 

@@ -181,7 +181,7 @@ class Hierarchy:
         return {"format": "mpz-hierarchy", "version": 1, "method": self.method, "nodes": out}
 
     @classmethod
-    def from_dict(cls, d, names, *, method: str = "file") -> "Hierarchy":
+    def from_dict(cls, d, names, *, method: str = "file") -> Hierarchy:
         """Parse an ``mpz-hierarchy`` dict against the motion's marker names.
 
         Raises

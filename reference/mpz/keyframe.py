@@ -22,8 +22,8 @@ halves the key residuals at 5 mm on real captures.
 """
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
+import numpy as np
 
 from mpz.errors import FormatError
 

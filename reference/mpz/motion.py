@@ -154,7 +154,7 @@ class Motion:
         """Bytes of the same data as float32 xyz: 12 bytes per marker-frame."""
         return 12 * self.n_frames * self.n_markers
 
-    def select_frames(self, start: int, stop: int) -> "Motion":
+    def select_frames(self, start: int, stop: int) -> Motion:
         """A copy holding frames ``start:stop``."""
         return Motion(self.positions[start:stop].copy(), list(self.names), self.rate, self.units,
                       self.valid[start:stop].copy(), dict(self.metadata), self.parents,

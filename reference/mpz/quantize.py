@@ -11,8 +11,8 @@ HDM05 captures at 1-5 mm (bench/bench_rd.py).
 """
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
+import numpy as np
 
 
 @njit(cache=True)

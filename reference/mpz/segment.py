@@ -8,8 +8,8 @@ distance between frame i and the segment's key (first) frame exceeds
 """
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
+import numpy as np
 
 
 @njit(cache=True)

@@ -20,9 +20,9 @@ checked against the C3D of the same CMU take in docs/io-notes.md.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 import glob
 import os
-from dataclasses import dataclass, field
 
 import numpy as np
 

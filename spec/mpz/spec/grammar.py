@@ -10,9 +10,22 @@ the byte offset and chunk type. Pitfalls avoided on purpose (STYLE.md): no
 ``.compile()``, and no ``Switch``: payloads are looked up in the explicit
 ``PAYLOADS`` table, and a type missing from it is handled by §2.3 in Python.
 """
-from construct import (Adapter, Array, Bytes, ExplicitError, Float64l,
-                       GreedyBytes, Int8ul, Int16ul, Int32ul, PascalString, Prefixed, Struct,
-                       Terminated, this)
+from construct import (
+    Adapter,
+    Array,
+    Bytes,
+    ExplicitError,
+    Float64l,
+    GreedyBytes,
+    Int8ul,
+    Int16ul,
+    Int32ul,
+    PascalString,
+    Prefixed,
+    Struct,
+    Terminated,
+    this,
+)
 
 #: §3.1 "\x89" catches 7-bit transfers, "\r\n" and "\x1a\n" catch newline
 #: conversion and DOS type, as in PNG.

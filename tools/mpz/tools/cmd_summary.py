@@ -18,8 +18,8 @@ import argparse
 import json
 import math
 import os
-import sys
 from pathlib import Path
+import sys
 
 import numpy as np
 
@@ -177,8 +177,8 @@ def _pose_axes(poses: np.ndarray):
 def _plot(path, info, levels, poses, parents) -> None:
     import matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib import colormaps
+    import matplotlib.pyplot as plt
 
     n, rate = info["n_frames"], info["rate"] or 1.0
     unit = "s" if info["rate"] else "frames"

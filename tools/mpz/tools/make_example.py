@@ -23,8 +23,8 @@ def main(argv=None) -> int:
     p.add_argument("--frames", type=int, default=480)
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
-    from mpz.io import write
     from mpz.errors import MPZError
+    from mpz.io import write
     try:
         m = make(args.frames, args.seed)
         write(m, args.output)
