@@ -14,11 +14,14 @@ so the threshold reads in length units, relative to ADDH as in §V):
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 METRICS = ("max", "ave")
 
 
-def _kmeans(v, k, rng, iters=12):
+def _kmeans(v: NDArray[np.float64], k: int, rng: np.random.Generator,
+            iters: int = 12) -> NDArray[np.int64]:
+    """Labels of ``k``-means (k-means++ seeds, at most ``iters`` Lloyd rounds) on rows of ``v``."""
     n = v.shape[0]
     # k-means++ seeding
     centers = np.empty((k, v.shape[1]))
@@ -43,13 +46,14 @@ def _kmeans(v, k, rng, iters=12):
     return labels
 
 
-def adaptive_kmeans(vectors: np.ndarray, k0: int, threshold: float, *, metric: str = "max",
-                    per_sample: int = 1, seed: int = 0, max_k: int = 65535):
+def adaptive_kmeans(vectors: ArrayLike, k0: int, threshold: float, *, metric: str = "max",
+                    per_sample: int = 1, seed: int = 0,
+                    max_k: int = 65535) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Cluster segment vectors until the error criterion holds.
 
     Parameters
     ----------
-    vectors : ndarray, shape (S, D)
+    vectors : array_like, shape (S, D)
         Normalised (and weight-scaled) segments.
     k0 : int
         Initial number of clusters (paper's K0).
@@ -59,11 +63,17 @@ def adaptive_kmeans(vectors: np.ndarray, k0: int, threshold: float, *, metric: s
         Paper's MaxError (Eq. 2) or AveError (Eq. 1).
     per_sample : int
         frames x markers per vector, to turn |x - mu| into an RMS distance.
+    seed : int
+        Seed of the ``numpy.random.default_rng`` used for seeding and splits.
+    max_k : int
+        Most clusters to make.
 
     Returns
     -------
     labels : ndarray of int, shape (S,)
-    errors : ndarray of float, shape (S,)  RMS distance of each segment to its centre
+        Cluster of each segment, in ``0..K-1``.
+    errors : ndarray of float64, shape (S,)
+        RMS distance of each segment to its centre.
     """
     if metric not in METRICS:
         raise ValueError(f"metric must be one of {METRICS}, got {metric!r}")
@@ -89,11 +99,11 @@ def adaptive_kmeans(vectors: np.ndarray, k0: int, threshold: float, *, metric: s
                 sse = np.bincount(labels, weights=err ** 2, minlength=K)
                 order = np.argsort(-sse)
                 bad_clusters = order[: max(1, K // 4)]
-        bad_clusters = [c for c in bad_clusters if sizes[c] > 1]
-        if not bad_clusters or K >= min(S, max_k):
+        to_split = [c for c in bad_clusters if sizes[c] > 1]
+        if not to_split or K >= min(S, max_k):
             return labels, err
         next_label = K
-        for c in bad_clusters:
+        for c in to_split:
             if next_label >= max_k:
                 break
             idx = np.flatnonzero(labels == c)

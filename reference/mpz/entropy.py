@@ -13,8 +13,12 @@ after the last symbol the decoder must have consumed every byte of it.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any, NoReturn, TypeVar, cast
+
 from numba import njit
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from mpz.errors import FormatError, LimitExceededError
 
@@ -37,9 +41,26 @@ _Z, _S, _E, _X = 0, 1, 2, 3
 # The one failure the jitted decoder reports (err[0]); BlockDecoder turns it into a FormatError.
 ERR_OVERRUN = 1
 
+#: one model array (int32 probabilities, 1..2047)
+_Probs = NDArray[np.int32]
+#: the coder's output: a byte buffer and the write position ``pos[0]`` in it
+_Out = tuple[NDArray[np.uint8], NDArray[np.int64]]
 
-def new_models():
-    """Fresh model arrays, every probability at 1024 (§5.2)."""
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _kernel(fn: _F) -> _F:
+    """``numba.njit(cache=True)``, keeping the kernel's Python signature for type checkers.
+
+    numba's ``njit`` is not annotated, so a kernel it decorates would be ``Any``
+    to mypy and no call to it would be checked. The dispatcher numba returns is
+    called exactly like ``fn``.
+    """
+    return cast(_F, njit(cache=True)(fn))
+
+
+def new_models() -> tuple[_Probs, _Probs, _Probs, _Probs]:
+    """Fresh model arrays ``(Z, S, E, X)``, every probability at 1024 (§5.2)."""
     z = np.full((N_AXES, N_CTX), PROB_INIT, np.int32)
     s = np.full((N_AXES, N_CTX), PROB_INIT, np.int32)
     e = np.full((N_AXES, N_CTX, MAX_EXP), PROB_INIT, np.int32)
@@ -48,8 +69,8 @@ def new_models():
 
 
 # ---------------------------------------------------------------- encoder --
-@njit(cache=True)
-def _shift_low(st, out):
+@_kernel
+def _shift_low(st: NDArray[np.int64], out: _Out) -> bool:
     # st: int64[4] = low, range, cache, cache_size ; out: (uint8 buffer, int64[1] pos)
     low = st[0]
     if low < 0xFF000000 or low >= 0x100000000:
@@ -71,8 +92,8 @@ def _shift_low(st, out):
     return True
 
 
-@njit(cache=True)
-def _enc_bit(st, out, probs, idx, bit):
+@_kernel
+def _enc_bit(st: NDArray[np.int64], out: _Out, probs: _Probs, idx: int, bit: int) -> bool:
     p = probs[idx]
     bound = (st[1] >> PROB_BITS) * p
     if bit == 0:
@@ -89,8 +110,9 @@ def _enc_bit(st, out, probs, idx, bit):
     return ok
 
 
-@njit(cache=True)
-def _enc_int(st, out, z, s, e, x, a, c, v, signed):
+@_kernel
+def _enc_int(st: NDArray[np.int64], out: _Out, z: _Probs, s: _Probs, e: _Probs, x: _Probs,
+             a: int, c: int, v: int, signed: bool) -> bool:
     # §5.4 binarisation of one integer v (|v| < 2^30)
     ok = True
     if v == 0:
@@ -116,8 +138,8 @@ def _enc_int(st, out, z, s, e, x, a, c, v, signed):
     return ok
 
 
-@njit(cache=True)
-def _ctx(a):
+@_kernel
+def _ctx(a: int) -> int:
     # §5.6: context = min(7, bit length of a)
     c = 0
     while a > 0 and c < N_CTX - 1:
@@ -126,8 +148,8 @@ def _ctx(a):
     return c
 
 
-@njit(cache=True)
-def _context(vals, t, m, a, first):
+@_kernel
+def _context(vals: NDArray[np.int64], t: int, m: int, a: int, first: bool) -> int:
     """§5.6: ctx_v = 2 |v[t-1, m, a]| (not on a run's first row) + |v[t, m-1, a]|."""
     ctx_v = 0
     if not first:
@@ -137,8 +159,9 @@ def _context(vals, t, m, a, first):
     return _ctx(ctx_v)
 
 
-@njit(cache=True)
-def _encode_block(vals, period, signed, z, s, e, x, st, out):
+@_kernel
+def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, z: _Probs, s: _Probs,
+                  e: _Probs, x: _Probs, st: NDArray[np.int64], out: _Out) -> bool:
     T, M, A = vals.shape[0], vals.shape[1], vals.shape[2]
     ok = True
     for t in range(T):
@@ -150,8 +173,8 @@ def _encode_block(vals, period, signed, z, s, e, x, st, out):
     return ok
 
 
-@njit(cache=True)
-def _finish(st, out):
+@_kernel
+def _finish(st: NDArray[np.int64], out: _Out) -> bool:
     ok = True
     for _ in range(5):
         ok = _shift_low(st, out) and ok
@@ -159,8 +182,8 @@ def _finish(st, out):
 
 
 # ---------------------------------------------------------------- decoder --
-@njit(cache=True)
-def _dec_bit(ds, buf, probs, idx):
+@_kernel
+def _dec_bit(ds: NDArray[np.int64], buf: NDArray[np.uint8], probs: _Probs, idx: int) -> int:
     # ds: int64[3] = code, range, pos ; returns bit, or -1 on overrun
     p = probs[idx]
     bound = (ds[1] >> PROB_BITS) * p
@@ -182,8 +205,9 @@ def _dec_bit(ds, buf, probs, idx):
     return bit
 
 
-@njit(cache=True)
-def _dec_int(ds, buf, z, s, e, x, a, c, signed, err):
+@_kernel
+def _dec_int(ds: NDArray[np.int64], buf: NDArray[np.uint8], z: _Probs, s: _Probs, e: _Probs,
+             x: _Probs, a: int, c: int, signed: bool, err: NDArray[np.int64]) -> int:
     b = _dec_bit(ds, buf, z[a], c)
     if b < 0:
         err[0] = ERR_OVERRUN
@@ -216,8 +240,10 @@ def _dec_int(ds, buf, z, s, e, x, a, c, signed, err):
     return -u if neg else u
 
 
-@njit(cache=True)
-def _decode_block(buf, ds, T, M, period, signed, z, s, e, x, out, err):
+@_kernel
+def _decode_block(buf: NDArray[np.uint8], ds: NDArray[np.int64], T: int, M: int, period: int,
+                  signed: bool, z: _Probs, s: _Probs, e: _Probs, x: _Probs,
+                  out: NDArray[np.int64], err: NDArray[np.int64]) -> None:
     A = out.shape[2]
     for t in range(T):
         first = (t % period) == 0
@@ -248,24 +274,28 @@ class BlockEncoder:
     >>> dec.close()
     """
 
-    def __init__(self, capacity: int = 1 << 16):
+    def __init__(self, capacity: int = 1 << 16) -> None:
         self._buf = np.zeros(capacity, np.uint8)
         self._pos = np.zeros(1, np.int64)
         self._st = np.array([0, 0xFFFFFFFF, 0, 1], np.int64)
 
-    def _grow(self):
+    def _grow(self) -> None:
         new = np.zeros(self._buf.shape[0] * 2, np.uint8)
         new[: self._buf.shape[0]] = self._buf
         self._buf = new
 
-    def block(self, values, *, period: int | None = None, signed: bool = True) -> None:
-        """Code ``values`` (int, shape ``[T, M, A]``, A in 1..3); contexts restart every ``period`` rows."""
+    def block(self, values: ArrayLike, *, period: int | None = None,
+              signed: bool = True) -> None:
+        """Code ``values`` (int, shape ``[T, M, A]``, A in 1..3).
+
+        Contexts restart every ``period`` rows (default: one run of all T rows).
+        """
         v = np.ascontiguousarray(values, dtype=np.int64)
         if v.ndim != 3 or not 1 <= v.shape[2] <= 3:
             raise ValueError(f"blocks are [T, M, A] with A in 1..3, got {v.shape}")
         if v.size and int(np.abs(v).max()) >= (1 << MAX_EXP):
-            raise LimitExceededError(f"value {int(np.abs(v).max())} does not fit the 2^30 coder range",
-                                     section="§5.4")
+            raise LimitExceededError(
+                f"value {int(np.abs(v).max())} does not fit the 2^30 coder range", section="§5.4")
         if not signed and v.size and v.min() < 0:
             raise ValueError("negative value in an unsigned block")
         period = max(1, v.shape[0] if period is None else int(period))
@@ -288,38 +318,59 @@ class BlockEncoder:
 class BlockDecoder:
     """Decode the blocks of one payload, in the order they were coded.
 
+    Parameters
+    ----------
+    data : bytes
+        The range-coded field (§5.3 ``b[0 .. n-1]``).
+    chunk : str, optional
+        The chunk type the field belongs to, for error reports.
+    offset : int, optional
+        The file offset of ``data[0]``, the coded field's first byte (not the chunk's
+        start): errors then carry the offset of the byte where decoding failed.
+
     Raises
     ------
     FormatError
         If the payload does not start with the byte 0, runs out before the
-        last symbol, or has bytes left after it (§5.3).
+        last symbol, or has bytes left after it (§5.3). Its ``offset`` is that of the
+        failing byte: the first byte (a non-zero first byte), the first byte past the
+        field (too short for the preamble, or a renormalisation that needs a byte past
+        the end), or the first byte left over after the last symbol.
     """
 
-    def __init__(self, data: bytes, *, chunk: str | None = None, offset: int | None = None):
+    def __init__(self, data: bytes, *, chunk: str | None = None,
+                 offset: int | None = None) -> None:
         self._buf = np.frombuffer(bytes(data), np.uint8)
         self.chunk, self.offset = chunk, offset
-        if self._buf.shape[0] < 5:
-            self._fail("range-coded payload shorter than its 5-byte preamble")
+        n = self._buf.shape[0]
+        if n < 5:
+            self._fail(f"range-coded payload of {n} bytes is shorter than its 5-byte preamble",
+                       n)
         if self._buf[0] != 0:
-            self._fail(f"range-coded payload must start with byte 0, got {int(self._buf[0])}")
+            self._fail(f"range-coded payload must start with byte 0, got {int(self._buf[0])}", 0)
         code = 0
         for i in range(1, 5):
             code = (code << 8) | int(self._buf[i])
         self._ds = np.array([code, 0xFFFFFFFF, 5], np.int64)
         self._err = np.zeros(1, np.int64)
 
-    def _fail(self, msg):
-        raise FormatError(msg, chunk=self.chunk, offset=self.offset, section="§5.3")
+    def _fail(self, msg: str, pos: int) -> NoReturn:
+        """Raise for the byte at ``pos`` of the field (``pos`` = n: the byte past its end)."""
+        raise FormatError(msg, chunk=self.chunk,
+                          offset=None if self.offset is None else self.offset + pos,
+                          section="§5.3")
 
     def block(self, T: int, M: int, A: int = 3, *, period: int | None = None,
-              signed: bool = True) -> np.ndarray:
-        """Decode a ``[T, M, A]`` block of int64 values."""
+              signed: bool = True) -> NDArray[np.int64]:
+        """Decode a ``[T, M, A]`` block of int64 values (T = 0: empty, no decisions, §5.5)."""
         out = np.zeros((T, M, A), np.int64)
         period = max(1, T if period is None else int(period))
         z, s, e, x = new_models()
         _decode_block(self._buf, self._ds, T, M, period, signed, z, s, e, x, out, self._err)
         if self._err[0] == ERR_OVERRUN:
-            self._fail(f"range-coded payload ends before its last symbol ({self._buf.shape[0]} bytes)")
+            n = self._buf.shape[0]
+            self._fail(f"range-coded payload ends before its last symbol (renormalisation "
+                       f"needs byte {n} of a {n}-byte field)", n)
         return out
 
     @property
@@ -330,4 +381,4 @@ class BlockDecoder:
         """Check that every byte of the payload was consumed (§5.3)."""
         left = self._buf.shape[0] - self.consumed
         if left:
-            self._fail(f"{left} byte(s) left after the last range-coded symbol")
+            self._fail(f"{left} byte(s) left after the last range-coded symbol", self.consumed)

@@ -25,7 +25,7 @@ class MPZError(Exception):
 
     def __init__(self, message: str, *, offset: int | None = None,
                  chunk: str | None = None, section: str | None = None,
-                 path: str | None = None):
+                 path: str | None = None) -> None:
         self.message = message
         self.offset = offset
         self.chunk = chunk
@@ -34,7 +34,7 @@ class MPZError(Exception):
         super().__init__(self._render())
 
     def _render(self) -> str:
-        where = []
+        where: list[str] = []
         if self.path:
             where.append(str(self.path))
         if self.chunk:

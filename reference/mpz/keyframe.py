@@ -22,17 +22,27 @@ halves the key residuals at 5 mm on real captures.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, NoReturn
+
 from numba import njit
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from mpz.errors import FormatError
+
+if TYPE_CHECKING:
+    from mpz.entropy import BlockDecoder, BlockEncoder
 
 _VALUE_LIMIT = 1 << 31
 
 
-def interpolate(times: np.ndarray, values: np.ndarray, F: int) -> np.ndarray:
-    """§6.5: frames between keys t_{k-1} < t < t_k get
-    ``w_{k-1} + floor((2 (w_k - w_{k-1}) j + n) / (2 n))`` with n = t_k - t_{k-1}, j = t - t_{k-1}."""
+def interpolate(times: ArrayLike, values: ArrayLike, F: int) -> NDArray[np.int64]:
+    """Fill ``F`` frames from key ``times`` ``[K]`` and key ``values`` ``[K, A]`` (§6.5).
+
+    Frames between keys t_{k-1} < t < t_k get
+    ``w_{k-1} + floor((2 (w_k - w_{k-1}) j + n) / (2 n))`` with n = t_k - t_{k-1},
+    j = t - t_{k-1}; frame F - 1 takes the last key value.
+    """
     times = np.asarray(times, np.int64)
     values = np.asarray(values, np.int64)
     if len(times) == 1:
@@ -49,7 +59,8 @@ def interpolate(times: np.ndarray, values: np.ndarray, F: int) -> np.ndarray:
 
 
 @njit(cache=True)
-def _predict(mode, k, times, w, R, c):
+def _predict(mode: int, k: int, times: NDArray[np.int64], w: NDArray[np.int64],
+             R: NDArray[np.int64], c: int) -> int:
     """§6.5 prediction of key k (axis c) of a member; R is the reference track or unused."""
     if mode == 0:
         if k == 0:
@@ -71,7 +82,8 @@ def _predict(mode, k, times, w, R, c):
 
 
 @njit(cache=True)
-def _rebuild(refs, counts, spans, keys, F, out):
+def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], spans: NDArray[np.int64],
+             keys: NDArray[np.int64], F: int, out: NDArray[np.int64]) -> tuple[int, int, int]:
     """Key values from residuals (§6.5) and interpolation; returns an error code."""
     s_at = 0
     k_at = 0
@@ -105,7 +117,8 @@ def _rebuild(refs, counts, spans, keys, F, out):
             nn = times[k] - a
             for jj in range(nn):
                 for c in range(3):
-                    out[a + jj, m, c] = w[k - 1, c] + (2 * (w[k, c] - w[k - 1, c]) * jj + nn) // (2 * nn)
+                    out[a + jj, m, c] = (w[k - 1, c]
+                                         + (2 * (w[k, c] - w[k - 1, c]) * jj + nn) // (2 * nn))
         for c in range(3):
             out[F - 1, m, c] = w[K - 1, c]
         s_at += K - 1
@@ -113,9 +126,10 @@ def _rebuild(refs, counts, spans, keys, F, out):
     return 0, 0, 0
 
 
-def decode_payload(dec, F: int, n: int, *, chunk=None, offset=None) -> np.ndarray:
+def decode_payload(dec: BlockDecoder, F: int, n: int, *, chunk: str | None = None,
+                   offset: int | None = None) -> NDArray[np.int64]:
     """Read the four blocks of a base-2 RESI payload; returns ``[F, n, 3]`` grid values."""
-    def fail(msg):
+    def fail(msg: str) -> NoReturn:
         raise FormatError(msg, chunk=chunk, offset=offset, section="§6.5")
     refs = dec.block(n, 1, 1, signed=False)[:, 0, 0]
     bad = np.flatnonzero((refs > 0) & ((refs - 1) // 2 >= np.arange(n)))
@@ -134,13 +148,15 @@ def decode_payload(dec, F: int, n: int, *, chunk=None, offset=None) -> np.ndarra
     if code == 1:
         fail(f"member {m}: key spans add up to {detail}, not F - 1 = {F - 1}")
     if code == 2:
-        fail(f"member {m}: key value {detail} leaves the 32-bit range")
+        # checked as each w_k is computed, before it enters a later prediction (§6.5, §1.1)
+        fail(f"member {m}: key value w_{detail} has |w_k| >= 2^31")
     return out
 
 
 # ---------------------------------------------------------------- encoder --
 @njit(cache=True)
-def _span_ok(y, a, b, wa, wb, r2):
+def _span_ok(y: NDArray[np.float64], a: int, b: int, wa: NDArray[np.int64], wb: NDArray[np.int64],
+             r2: float) -> bool:
     n = b - a
     for j in range(1, n):
         d2 = 0.0
@@ -154,7 +170,8 @@ def _span_ok(y, a, b, wa, wb, r2):
 
 
 @njit(cache=True)
-def _fit(y, radius, max_span, lam):
+def _fit(y: NDArray[np.float64], radius: float, max_span: int,
+         lam: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     T = y.shape[0]
     r2 = radius * radius
     times = np.empty(T, np.int64)
@@ -231,15 +248,20 @@ def _fit(y, radius, max_span, lam):
     return times[:K], vals[:K]
 
 
-def fit(y: np.ndarray, radius: float, max_span: int = 256, lam: float = 1.0):
-    """Key frames of one track ``y[T, 3]`` (grid units) with every sample within ``radius``."""
+def fit(y: ArrayLike, radius: float, max_span: int = 256,
+        lam: float = 1.0) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Key frames of one track ``y[T, 3]`` (grid units) with every sample within ``radius``.
+
+    Returns the key times ``[K]`` and the key values ``[K, 3]`` on the grid.
+    """
     if radius < np.sqrt(3.0) / 2:
         raise ValueError("radius < sqrt(3)/2 cannot guarantee a grid point")
     return _fit(np.ascontiguousarray(y, dtype=np.float64), float(radius), int(max_span), float(lam))
 
 
 @njit(cache=True)
-def _residuals(mode, times, w, R):
+def _residuals(mode: int, times: NDArray[np.int64], w: NDArray[np.int64],
+               R: NDArray[np.int64]) -> NDArray[np.int64]:
     e = np.empty_like(w)
     for k in range(w.shape[0]):
         for c in range(3):
@@ -248,7 +270,7 @@ def _residuals(mode, times, w, R):
 
 
 @njit(cache=True)
-def _cost(e):
+def _cost(e: NDArray[np.int64]) -> float:
     total = 0.0
     for k in range(e.shape[0]):
         for c in range(3):
@@ -256,14 +278,18 @@ def _cost(e):
     return total
 
 
-def encode_blocks(enc, y: np.ndarray, radius: float, max_span: int = 256) -> np.ndarray:
+def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
+                  max_span: int = 256) -> NDArray[np.int64]:
     """Fit every member of ``y[T, n, 3]`` and code the four blocks; returns the grid values.
 
     Each member's keys are predicted from whichever earlier member (or none)
     gives the smallest residuals, by the proxy sum(log2(1 + |e|)).
     """
     T, n, _ = y.shape
-    refs, counts, spans, keys = [], [], [], []
+    refs: list[int] = []
+    counts: list[int] = []
+    spans: list[NDArray[np.int64]] = []
+    keys: list[NDArray[np.int64]] = []
     out = np.zeros((T, n, 3), np.int64)
     for m in range(n):
         times, w = fit(y[:, m], radius, max_span)

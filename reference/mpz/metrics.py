@@ -6,12 +6,16 @@ original was valid counts as an infinite error, so it cannot hide).
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.errors import MotionError
+from mpz.motion import Motion
 
 
-def _dist(original, decoded) -> np.ndarray:
+def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
     if original.positions.shape != decoded.positions.shape:
         raise MotionError(f"shapes differ: {original.positions.shape} vs {decoded.positions.shape}")
     d = np.linalg.norm(original.positions - decoded.positions, axis=2)
@@ -20,18 +24,18 @@ def _dist(original, decoded) -> np.ndarray:
     return d
 
 
-def errors(original, decoded) -> np.ndarray:
+def errors(original: Motion, decoded: Motion) -> NDArray[np.float64]:
     """Per-sample Euclidean error ``[F, M]``, NaN where the original is a gap."""
     return _dist(original, decoded)
 
 
-def max_error(original, decoded) -> float:
+def max_error(original: Motion, decoded: Motion) -> float:
     """Largest Euclidean error over valid samples (0 if there are none)."""
     d = _dist(original, decoded)
     return float(np.nanmax(d)) if np.isfinite(d).any() or np.isinf(d).any() else 0.0
 
 
-def arms(original, decoded) -> float:
+def arms(original: Motion, decoded: Motion) -> float:
     """Paper Eq. 3: mean over frames of the RMS marker error of the frame (valid markers only)."""
     d = _dist(original, decoded)
     with np.errstate(invalid="ignore"):
@@ -40,7 +44,7 @@ def arms(original, decoded) -> float:
     return float(per_frame.mean()) if per_frame.size else 0.0
 
 
-def summary(original, decoded) -> dict:
+def summary(original: Motion, decoded: Motion) -> dict[str, Any]:
     """max, ARMS, RMS, p99 and mean error, plus per-marker max and RMS."""
     d = _dist(original, decoded)
     flat = d[~np.isnan(d)]
@@ -56,7 +60,7 @@ def summary(original, decoded) -> dict:
         "p99": float(np.percentile(flat, 99)),
         "mean": float(flat.mean()),
         "per_marker_max": {n: (None if not np.isfinite(v) and v < 0 else float(v))
-                           for n, v in zip(original.names, per_max)},
+                           for n, v in zip(original.names, per_max, strict=False)},
         "per_marker_rms": {n: (None if np.isnan(v) else float(v))
-                           for n, v in zip(original.names, per_rms)},
+                           for n, v in zip(original.names, per_rms, strict=False)},
     }

@@ -7,21 +7,24 @@ position stored under a gap is ignored (readers store NaN there).
 """
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 import math
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from mpz.errors import MotionError
+from mpz.format import MM_PER_UNIT
 
 #: Units a Motion may declare (spec §4.1 lists their codes).
 UNITS = ("mm", "cm", "m", "in", "")
-_TO_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 
 
 def unit_scale_mm(units: str) -> float | None:
     """Millimetres per unit, or None for unitless/unknown data."""
-    return _TO_MM.get(units)
+    return MM_PER_UNIT.get(units)
 
 
 @dataclass(eq=False)
@@ -61,20 +64,35 @@ class Motion:
     >>> import numpy as np
     >>> m = Motion(np.zeros((2, 1, 3)), ["A"], rate=120.0, units="mm")
     >>> m.n_frames, m.n_markers, m.duration
-    (2, 1, 0.016666666666666666)
+    (2, 1, 0.008333333333333333)
     """
 
-    positions: np.ndarray
-    names: list
+    # The field types are those of a constructed Motion: __post_init__ converts
+    # the arguments (any array_like, valid=None) to them. The __init__ below tells
+    # type checkers which arguments are accepted; at run time the dataclass one is used.
+    positions: NDArray[np.float64]
+    names: list[str]
     rate: float
     units: str = "mm"
-    valid: np.ndarray | None = None
-    metadata: dict = field(default_factory=dict)
-    parents: list | None = None
-    angles: np.ndarray | None = None
-    angle_names: list | None = None
+    valid: NDArray[np.bool_] = None  # type: ignore[assignment]  # None: every finite sample
+    metadata: dict[str, str] = field(default_factory=dict)
+    parents: list[int] | None = None
+    angles: NDArray[np.float64] | None = None
+    angle_names: list[str] | None = None
+    #: what the source file holds besides marker positions, by extension name (see
+    #: :mod:`mpz.extensions`): written to ancillary chunks and rebuilt on decoding
+    extras: dict[str, Any] = field(default_factory=dict)
 
-    def __post_init__(self):
+    if TYPE_CHECKING:
+        def __init__(self, positions: ArrayLike, names: Iterable[str], rate: float,
+                     units: str = "mm", valid: ArrayLike | None = None,
+                     metadata: Mapping[str, str] = ..., parents: Sequence[int] | None = None,
+                     angles: ArrayLike | None = None,
+                     angle_names: list[str] | None = None,
+                     extras: Mapping[str, Any] = ...) -> None: ...
+
+    def __post_init__(self) -> None:
+        valid_arg = cast("ArrayLike | None", self.valid)  # still the argument, see above
         pos = np.asarray(self.positions, dtype=np.float64)
         if pos.ndim != 3 or pos.shape[2] != 3:
             raise MotionError(f"positions must have shape (frames, markers, 3), got {pos.shape}")
@@ -88,22 +106,23 @@ class Motion:
             raise MotionError(f"{len(names)} names for {markers} markers")
         if any(n == "" for n in names):
             raise MotionError("marker names must not be empty")
-        seen = set()
+        seen: set[str] = set()
         for n in names:
             if n in seen:
                 raise MotionError(f"duplicate marker name {n!r}")
             seen.add(n)
-        if self.valid is None:
+        if valid_arg is None:
             valid = np.all(np.isfinite(pos), axis=2)
         else:
-            valid = np.asarray(self.valid, dtype=bool)
+            valid = np.asarray(valid_arg, dtype=bool)
             if valid.shape != (frames, markers):
-                raise MotionError(f"valid mask must have shape {(frames, markers)}, got {valid.shape}")
+                raise MotionError(
+                    f"valid mask must have shape {(frames, markers)}, got {valid.shape}")
             bad = valid & ~np.all(np.isfinite(pos), axis=2)
             if bad.any():
                 f, m = np.argwhere(bad)[0]
-                raise MotionError(
-                    f"non-finite position at frame {f}, marker {names[m]!r} where the mask says valid")
+                raise MotionError(f"non-finite position at frame {f}, marker {names[m]!r} "
+                                  "where the mask says valid")
         rate = float(self.rate)
         if not math.isfinite(rate) or rate <= 0:
             raise MotionError(f"frame rate must be finite and positive, got {self.rate!r}")
@@ -124,6 +143,7 @@ class Motion:
         self.names = names
         self.rate = rate
         self.metadata = {str(k): str(v) for k, v in dict(self.metadata).items()}
+        self.extras = dict(self.extras)
 
     # -- derived facts ---------------------------------------------------
     @property
@@ -155,7 +175,8 @@ class Motion:
         return 12 * self.n_frames * self.n_markers
 
     def select_frames(self, start: int, stop: int) -> Motion:
-        """A copy holding frames ``start:stop``."""
+        """A copy holding frames ``start:stop`` (``extras``, which describe a whole source
+        file, are not carried over)."""
         return Motion(self.positions[start:stop].copy(), list(self.names), self.rate, self.units,
                       self.valid[start:stop].copy(), dict(self.metadata), self.parents,
                       None if self.angles is None else self.angles[start:stop].copy(),
@@ -166,7 +187,7 @@ class Motion:
                 f"units={self.units!r}, gaps={self.gap_fraction:.1%})")
 
 
-def concatenate(motions) -> Motion:
+def concatenate(motions: Iterable[Motion]) -> Motion:
     """Join motions with the same markers, rate and units end to end."""
     motions = list(motions)
     if not motions:

@@ -13,14 +13,16 @@ for n = 1 the value is P[0].
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 
-def segment_starts(counts) -> np.ndarray:
+def segment_starts(counts: ArrayLike) -> NDArray[np.int64]:
+    """First frame of each segment: ``[0, c0, c0 + c1, ...]`` for segment lengths ``counts``."""
     counts = np.asarray(counts, dtype=np.int64)
     return np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
 
 
-def denormalize(patterns: np.ndarray, index, counts) -> np.ndarray:
+def denormalize(patterns: ArrayLike, index: ArrayLike, counts: ArrayLike) -> NDArray[np.int64]:
     """Rebuild ``[sum(counts), n, A]`` integer samples from patterns ``[K, L, n, A]`` (§6.3)."""
     patterns = np.asarray(patterns, dtype=np.int64)
     index = np.asarray(index, dtype=np.int64)
@@ -42,7 +44,7 @@ def denormalize(patterns: np.ndarray, index, counts) -> np.ndarray:
     return a + (2 * (b - a) * r[:, None, None] + den_b) // (2 * den_b)
 
 
-def normalize(x: np.ndarray, starts, counts, L: int) -> np.ndarray:
+def normalize(x: ArrayLike, starts: ArrayLike, counts: ArrayLike, L: int) -> NDArray[np.float64]:
     """Resample each segment of ``x[F, ...]`` to L frames by linear interpolation (encoder side).
 
     Returns ``[S, L, ...]`` float64.

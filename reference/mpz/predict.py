@@ -10,14 +10,16 @@ pattern each, or the whole clip); within a run the order-p predictor gives
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from mpz.errors import FormatError
+from mpz.format import MAX_ORDER
 
-MAX_ORDER = 2
 _DIFF_LIMIT = 1 << 32   # §6.2: |x[t] - x[t-1]| < 2^32 for any valid stream
 
 
-def _runs(x, period):
+def _runs(x: NDArray[np.int64], period: int | None) -> NDArray[np.int64]:
+    """``x[T, ...]`` as ``[T // period, period, ...]`` (one run: the whole block)."""
     T = x.shape[0]
     period = T if period is None else int(period)
     if period <= 0 or T % period:
@@ -25,7 +27,7 @@ def _runs(x, period):
     return x.reshape((T // period, period) + x.shape[1:])
 
 
-def residuals(x, order: int, period: int | None = None) -> np.ndarray:
+def residuals(x: ArrayLike, order: int, period: int | None = None) -> NDArray[np.int64]:
     """Prediction residuals of ``x`` (int64) for ``order`` in 0..2 (§6.2)."""
     x = np.asarray(x, dtype=np.int64)
     if not 0 <= order <= MAX_ORDER:
@@ -41,7 +43,8 @@ def residuals(x, order: int, period: int | None = None) -> np.ndarray:
     return e.reshape(x.shape)
 
 
-def reconstruct(e, order: int, period: int | None = None, *, chunk=None, offset=None) -> np.ndarray:
+def reconstruct(e: ArrayLike, order: int, period: int | None = None, *,
+                chunk: str | None = None, offset: int | None = None) -> NDArray[np.int64]:
     """Invert :func:`residuals` exactly.
 
     Raises

@@ -13,10 +13,11 @@ from __future__ import annotations
 
 from numba import njit
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 
 @njit(cache=True)
-def _choose(y, radius, order):
+def _choose(y: NDArray[np.float64], radius: float, order: int) -> NDArray[np.int64]:
     T, M = y.shape[0], y.shape[1]
     w = np.zeros((T, M, 3), np.int64)
     r2 = radius * radius
@@ -70,7 +71,7 @@ def _choose(y, radius, order):
     return w
 
 
-def choose_lattice(y: np.ndarray, radius: float, order: int) -> np.ndarray:
+def choose_lattice(y: ArrayLike, radius: float, order: int) -> NDArray[np.int64]:
     """Integer values ``w[T, M, 3]`` with ``|w - y| <= radius`` (Euclidean, per sample).
 
     Parameters
@@ -82,6 +83,15 @@ def choose_lattice(y: np.ndarray, radius: float, order: int) -> np.ndarray:
         nearest grid point always qualifies.
     order : int
         Temporal predictor order the values will be coded with (0..2).
+
+    Returns
+    -------
+    ndarray of int64, shape (T, M, 3)
+
+    Raises
+    ------
+    ValueError
+        If ``radius`` is below sqrt(3)/2.
     """
     if radius < np.sqrt(3.0) / 2:
         raise ValueError(f"radius {radius} < sqrt(3)/2 cannot guarantee a grid point")

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 from numba import njit
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 
 @njit(cache=True)
-def _cut(x, w, thr, min_len, max_len):
+def _cut(x: NDArray[np.float64], w: NDArray[np.float64], thr: float, min_len: int,
+         max_len: int) -> NDArray[np.int64]:
     F, n = x.shape[0], x.shape[1]
     starts = np.empty(F, np.int64)
     S = 1
@@ -34,18 +36,29 @@ def _cut(x, w, thr, min_len, max_len):
     return starts[:S]
 
 
-def segment(x: np.ndarray, weights, threshold: float, *, min_len: int = 2,
-            max_len: int = 240) -> tuple[np.ndarray, np.ndarray]:
+def segment(x: ArrayLike, weights: ArrayLike, threshold: float, *, min_len: int = 2,
+            max_len: int = 240) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Cut ``x[F, n, 3]`` into segments; returns (starts, counts).
 
     Parameters
     ----------
-    x : ndarray
+    x : array_like, shape (F, n, 3)
         A node's local trajectories.
-    weights : array_like
+    weights : array_like, shape (n,)
         One weight per member (paper's W); normalised to sum to 1 here.
     threshold : float
         Key-frame threshold in the units of ``x`` (theta * ADDH).
+    min_len : int
+        Frames a segment must have before the threshold may cut it.
+    max_len : int
+        Frames after which a segment is cut regardless of the threshold.
+
+    Returns
+    -------
+    starts : ndarray of int64, shape (S,)
+        First frame of each segment (``starts[0] == 0``).
+    counts : ndarray of int64, shape (S,)
+        Frames in each segment.
     """
     x = np.ascontiguousarray(x, dtype=np.float64)
     w = np.asarray(weights, dtype=np.float64)

@@ -12,9 +12,10 @@ each frame t in [b - h, b + h - 1] within [0, F-1]:
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 
-def smooth_boundaries(p: np.ndarray, starts, h: int) -> np.ndarray:
+def smooth_boundaries(p: ArrayLike, starts: ArrayLike, h: int) -> NDArray[np.int64]:
     """Apply §6.4 to integer samples ``p[F, ...]`` with segments starting at ``starts``."""
     p = np.asarray(p, dtype=np.int64)
     F = p.shape[0]

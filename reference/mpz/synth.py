@@ -20,10 +20,17 @@ in the developer data set, whose point data are Z-up with the floor at z ~ 0.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.errors import MotionError
 from mpz.motion import Motion
+
+_F64 = NDArray[np.float64]
+#: joint angles (joint name -> [F, 3] degrees), flight height [F] (mm), forward speed [F] (mm/s)
+_Drive = tuple[dict[str, _F64], _F64, _F64]
 
 #: The CMU/Vicon 41-marker set, in the order :func:`generate` returns it.
 MARKERS = ("LFHD RFHD LBHD RBHD C7 T10 CLAV STRN RBAC LSHO LUPA LELB LFRM LWRA LWRB "
@@ -96,20 +103,25 @@ def _mirror_name(n: str) -> str:
     return n
 
 
-def _build_figure():
-    joints = []
+def _build_figure() -> tuple[list[str], NDArray[np.intp], _F64, NDArray[np.bool_],
+                              NDArray[np.intp], _F64, NDArray[np.intp], _F64]:
+    """Joint names, parent index (-1: root), rest offsets and right-side flags of the
+    figure; segment and offset of each marker; segment and offset of each sole point."""
+    joints: list[tuple[str, str | None, tuple[float, float, float]]] = []
     for name, parent, off in _LEFT_JOINTS:
         joints.append((name, parent, off))
     for name, parent, off in _LEFT_JOINTS:
         if name.startswith("l_"):
+            assert parent is not None  # only the pelvis has no parent
             joints.append((_mirror_name(name), _mirror_name(parent),
                            (off[0], -off[1], off[2])))
     # parents before children: insertion order already satisfies it
     index = {n: i for i, (n, _, _) in enumerate(joints)}
-    parent = np.array([-1 if p is None else index[p] for _, p, _ in joints])
+    parent_index = np.array([-1 if p is None else index[p] for _, p, _ in joints])
     offset = np.array([o for _, _, o in joints], dtype=np.float64)
     right = np.array([n.startswith("r_") for n, _, _ in joints])
-    seg, moff = [], []
+    seg: list[int] = []
+    moff: list[tuple[float, float, float]] = []
     for m in MARKERS:
         if m in MARKER_OFFSETS:
             s, o = MARKER_OFFSETS[m]
@@ -118,12 +130,13 @@ def _build_figure():
             s, o = _mirror_name(s), (o[0], -o[1], o[2])
         seg.append(index[s])
         moff.append(o)
-    sole_seg, sole_off = [], []
+    sole_seg: list[int] = []
+    sole_off: list[tuple[float, float, float]] = []
     for side in ("l", "r"):
         for s, o in _SOLE:
             sole_seg.append(index[s if side == "l" else _mirror_name(s)])
             sole_off.append(o if side == "l" else (o[0], -o[1], o[2]))
-    return ([n for n, _, _ in joints], parent, offset, right, np.array(seg),
+    return ([n for n, _, _ in joints], parent_index, offset, right, np.array(seg),
             np.array(moff, dtype=np.float64), np.array(sole_seg),
             np.array(sole_off, dtype=np.float64))
 
@@ -133,13 +146,13 @@ _J = {n: i for i, n in enumerate(_JOINT_NAMES)}
 
 
 # -- angle helpers -------------------------------------------------------------
-def _bump(p, mu, sigma):
+def _bump(p: _F64, mu: float, sigma: float) -> _F64:
     """A Gaussian bump on the unit circle of cycle phase ``p`` (cycles)."""
     d = (p - mu + 0.5) % 1.0 - 0.5
     return np.exp(-0.5 * (d / sigma) ** 2)
 
 
-def _smooth_noise(t, period, rng, sd):
+def _smooth_noise(t: _F64, period: float, rng: np.random.Generator, sd: float) -> _F64:
     """A C1 random function: normal knots every ``period`` s, cosine-interpolated."""
     n = int(np.ceil((t[-1] if t.size else 0.0) / period)) + 2
     knots = rng.normal(0.0, sd, n)
@@ -149,18 +162,19 @@ def _smooth_noise(t, period, rng, sd):
     return knots[k] * (1 - w) + knots[k + 1] * w
 
 
-def _phase(t, f0, rng, fsd=0.04):
+def _phase(t: _F64, f0: float, rng: np.random.Generator, fsd: float = 0.04) -> _F64:
     """Cycle phase (in cycles) at a frequency varying smoothly around ``f0``."""
     f = f0 * (1.0 + _smooth_noise(t, 1.0 / f0, rng, fsd))
     dt = np.diff(t, prepend=t[0])
     return rng.uniform(0.0, 1.0) + np.cumsum(f * dt)
 
 
-def _zeros(F):
+def _zeros(F: int) -> dict[str, _F64]:
+    """Zero angles ``[F, 3]`` for every joint."""
     return {n: np.zeros((F, 3)) for n in _JOINT_NAMES}
 
 
-def _walk(t, rng):
+def _walk(t: _F64, rng: np.random.Generator) -> _Drive:
     F = t.size
     a = _zeros(F)
     p = _phase(t, 0.9, rng)
@@ -192,7 +206,7 @@ def _walk(t, rng):
     return a, np.zeros(F), np.zeros(F)
 
 
-def _jump(t, rng):
+def _jump(t: _F64, rng: np.random.Generator) -> _Drive:
     F = t.size
     a = _zeros(F)
     p = _phase(t, 0.6, rng, fsd=0.05)
@@ -204,7 +218,8 @@ def _jump(t, rng):
         a[f"{side}_knee"][:, 0] = -(5.0 + 95.0 * c)
         a[f"{side}_ankle"][:, 0] = 30.0 * c - 25.0 * _bump(p, 0.50, 0.05)
         a[f"{side}_toe"][:, 0] = 20.0 * _bump(p, 0.44, 0.03)
-        a[f"{side}_shoulder"][:, 0] = -45.0 * _bump(p, 0.30, 0.07) + 140.0 * amp * _bump(p, 0.50, 0.07)
+        a[f"{side}_shoulder"][:, 0] = (-45.0 * _bump(p, 0.30, 0.07)
+                                       + 140.0 * amp * _bump(p, 0.50, 0.07))
         a[f"{side}_shoulder"][:, 1] = 10.0
         a[f"{side}_elbow"][:, 0] = 15.0 + 20.0 * c
     a["lumbar"][:, 0] = -35.0 * c
@@ -218,7 +233,7 @@ def _jump(t, rng):
     return a, air, vx
 
 
-def _wave(t, rng):
+def _wave(t: _F64, rng: np.random.Generator) -> _Drive:
     F = t.size
     a = _zeros(F)
     p = _phase(t, 1.8, rng, fsd=0.06)
@@ -242,7 +257,7 @@ def _wave(t, rng):
     return a, np.zeros(F), np.zeros(F)
 
 
-def _static(t, rng):
+def _static(t: _F64, rng: np.random.Generator) -> _Drive:
     F = t.size
     a = _zeros(F)
     breath = np.sin(2 * np.pi * (0.25 * t + rng.uniform()))
@@ -258,12 +273,13 @@ def _static(t, rng):
     return a, np.zeros(F), np.zeros(F)
 
 
-_KIND_FUNCS = {"walk": _walk, "jump": _jump, "wave": _wave, "static": _static}
+_KIND_FUNCS: dict[str, Callable[[_F64, np.random.Generator], _Drive]] = {
+    "walk": _walk, "jump": _jump, "wave": _wave, "static": _static}
 _MIX_SEGMENT_S = 4.0   # seconds per activity in "mixed"
 _MIX_BLEND_S = 0.6     # cross-fade between activities
 
 
-def _mixed(t, rng):
+def _mixed(t: _F64, rng: np.random.Generator) -> _Drive:
     order = [("walk", "jump", "wave", "static")[i] for i in rng.permutation(4)]
     parts = [_KIND_FUNCS[k](t, rng) for k in order]
     # weight of activity j: smoothstep cross-fades at segment boundaries, cycling
@@ -288,7 +304,7 @@ _KIND_FUNCS["mixed"] = _mixed
 
 
 # -- kinematics ----------------------------------------------------------------
-def _rotations(ang, right):
+def _rotations(ang: _F64, right: bool) -> _F64:
     """Local rotation matrices [F, 3, 3] from (flex, abd, twist) in degrees.
 
     R = R_flex @ R_abd @ R_twist; flexion turns about the subject's right axis
@@ -313,7 +329,7 @@ def _rotations(ang, right):
     return Rf @ Rb @ Rw
 
 
-def _forward(angles):
+def _forward(angles: dict[str, _F64]) -> tuple[_F64, _F64]:
     """Segment positions [F, J, 3] and orientations [F, J, 3, 3] in the body frame."""
     F = next(iter(angles.values())).shape[0]
     J = len(_JOINT_NAMES)
@@ -331,12 +347,12 @@ def _forward(angles):
     return pos, rot
 
 
-def _attach(pos, rot, seg, off):
+def _attach(pos: _F64, rot: _F64, seg: NDArray[np.intp], off: _F64) -> _F64:
     """World positions of points fixed on segments: p_seg + R_seg @ offset."""
     return pos[:, seg] + np.einsum("fmij,mj->fmi", rot[:, seg], off)
 
 
-def _place(sole, air, vx, dt):
+def _place(sole: _F64, air: _F64, vx: _F64, dt: float) -> _F64:
     """Root translation [F, 3] that keeps contact feet planted on the floor z = 0."""
     tau = 5.0  # mm, softness of the contact minimum
     z = sole[:, :, 2]
@@ -358,7 +374,8 @@ def _place(sole, air, vx, dt):
 
 
 def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed: int = 0,
-             noise_mm: float = 0.3, gap_fraction: float = 0.0, markers: int | None = None) -> Motion:
+             noise_mm: float = 0.3, gap_fraction: float = 0.0,
+             markers: int | None = None) -> Motion:
     """Generate plausible human motion with the CMU 41-marker set.
 
     Parameters
@@ -437,7 +454,8 @@ def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed
                   {"generator": "mpz.synth", "kind": kind, "seed": str(seed)})
 
 
-def _gaps(rng, frames, markers, fraction):
+def _gaps(rng: np.random.Generator, frames: int, markers: int,
+          fraction: float) -> NDArray[np.bool_]:
     """Validity mask with occlusion runs of 5..60 frames until ``fraction`` is hidden."""
     valid = np.ones((frames, markers), dtype=bool)
     total = frames * markers
@@ -454,7 +472,7 @@ def _gaps(rng, frames, markers, fraction):
         mk = rng.integers(0, markers, n)
         length = np.minimum(rng.integers(5, 61, n), frames)
         start = (rng.random(n) * (frames - length + 1)).astype(np.int64)
-        for m, ln, s in zip(mk, length, start):
+        for m, ln, s in zip(mk, length, start, strict=True):
             col = valid[s:s + ln, m]
             hidden += int(col.sum())
             col[:] = False

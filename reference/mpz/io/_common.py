@@ -9,13 +9,21 @@ reason. Only the file-touching wrappers use it; parsers take ``str``/``bytes``.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 import functools
 import os
 import struct
+from typing import Concatenate, ParamSpec, TypeAlias, TypeVar
 
 import numpy as np
 
 from mpz.errors import InputFormatError, MPZError
+
+#: a file name as the readers and writers accept it
+StrPath: TypeAlias = str | os.PathLike[str]
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
 
 #: exception types a parser may raise on bad input; translated by type
 _PARSE_ERRORS = (KeyError, IndexError, ValueError, TypeError, struct.error,
@@ -29,7 +37,7 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if not isinstance(exc, MPZError) else text
 
 
-def translate(path, exc: BaseException) -> InputFormatError:
+def translate(path: StrPath, exc: BaseException) -> InputFormatError:
     """The :class:`InputFormatError` to raise for ``exc`` met while reading ``path``."""
     p = os.fspath(path)
     if isinstance(exc, InputFormatError):
@@ -43,11 +51,11 @@ def translate(path, exc: BaseException) -> InputFormatError:
     return InputFormatError(f"cannot read: {_reason(exc)}", path=p)
 
 
-def reader(func):
+def reader(func: Callable[Concatenate[StrPath, _P], _R]) -> Callable[Concatenate[StrPath, _P], _R]:
     """Decorate a ``read_*(path, ...)`` function with the error boundary."""
 
     @functools.wraps(func)
-    def wrapper(path, *args, **kwargs):
+    def wrapper(path: StrPath, *args: _P.args, **kwargs: _P.kwargs) -> _R:
         try:
             return func(path, *args, **kwargs)
         except MPZError as exc:
@@ -74,7 +82,7 @@ def decode_text(data: bytes) -> str:
         return data.decode("latin-1")
 
 
-def unique_names(names) -> tuple[list[str], list[str]]:
+def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
     """Make names non-empty and unique.
 
     Empty names become ``_unnamed_<i>`` (``i`` is the 0-based point index);
@@ -91,7 +99,8 @@ def unique_names(names) -> tuple[list[str], list[str]]:
     >>> unique_names(["A", "", "A", "A"])
     (['A', '_unnamed_1', 'A#2', 'A#3'], ['->_unnamed_1', 'A->A#2', 'A->A#3'])
     """
-    out, notes = [], []
+    out: list[str] = []
+    notes: list[str] = []
     seen: set[str] = set()
     counts: dict[str, int] = {}
     for i, n in enumerate(names):
@@ -112,6 +121,6 @@ def unique_names(names) -> tuple[list[str], list[str]]:
     return out, notes
 
 
-def ext_of(path) -> str:
+def ext_of(path: StrPath) -> str:
     """Lower-case extension with the dot, e.g. ``".c3d"``."""
     return os.path.splitext(os.fspath(path))[1].lower()

@@ -20,14 +20,16 @@ checked against the C3D of the same CMU take in docs/io-notes.md.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 import glob
 import os
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
-from mpz.io._common import decode_text, reader
+from mpz.io._common import StrPath, decode_text, reader
 from mpz.io.kinematics import axis_rotation
 from mpz.motion import Motion
 
@@ -38,12 +40,14 @@ MAX_BONES = 1000
 
 @dataclass
 class Bone:
+    """One ``:bonedata`` entry of an ASF file (``dof`` lower-case, e.g. ``"rx"``)."""
+
     name: str
-    direction: np.ndarray
+    direction: NDArray[np.float64]
     length: float
-    axis: np.ndarray  # degrees
+    axis: NDArray[np.float64]  # degrees
     axis_order: str
-    dof: list = field(default_factory=list)
+    dof: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -67,12 +71,12 @@ class Skeleton:
         ``"deg"`` or ``"rad"``.
     """
 
-    bones: list
-    parent: dict
-    root_order: list
+    bones: list[Bone]
+    parent: dict[str, str]
+    root_order: list[str]
     root_axis: str
-    root_position: np.ndarray
-    root_orientation: np.ndarray
+    root_position: NDArray[np.float64]
+    root_orientation: NDArray[np.float64]
     length_unit: float = 1.0
     angle_unit: str = "deg"
     name: str = ""
@@ -87,7 +91,7 @@ def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"ASF/AMC: {msg}")
 
 
-def _sections(text: str) -> dict:
+def _sections(text: str) -> dict[str, list[str]]:
     """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':'."""
     out: dict[str, list[str]] = {}
     cur = None
@@ -106,7 +110,8 @@ def _sections(text: str) -> dict:
     return out
 
 
-def _keyvals(lines):
+def _keyvals(lines: Iterable[str]) -> dict[str, list[str]]:
+    """``{first word (lower case): the other words}`` of each line."""
     kv = {}
     for ln in lines:
         parts = ln.split()
@@ -114,7 +119,7 @@ def _keyvals(lines):
     return kv
 
 
-def _vec3(vals, what):
+def _vec3(vals: list[str], what: str) -> NDArray[np.float64]:
     if len(vals) < 3:
         raise _bad(f"{what} needs 3 numbers, got {vals}")
     return np.array([float(v) for v in vals[:3]])
@@ -154,7 +159,7 @@ def parse_asf(text: str) -> Skeleton:
     root_orientation = _vec3(root.get("orientation", ["0", "0", "0"]), "root orientation")
 
     bones: list[Bone] = []
-    cur = None
+    cur: dict[str, list[str]] | None = None
     for ln in sec["bonedata"]:
         parts = ln.split()
         key = parts[0].lower()
@@ -225,7 +230,7 @@ def _ordered(skel: Skeleton) -> list[Bone]:
     return out
 
 
-def _axes_matrix(order: str, deg: np.ndarray) -> np.ndarray:
+def _axes_matrix(order: str, deg: NDArray[np.float64]) -> NDArray[np.float64]:
     """Acclaim ``axis``/``dof`` rotation: the first letter is applied first."""
     R = np.eye(3)
     for ax in order:
@@ -233,7 +238,7 @@ def _axes_matrix(order: str, deg: np.ndarray) -> np.ndarray:
     return R
 
 
-def _dof_matrices(dofs: list[str], vals: np.ndarray) -> np.ndarray:
+def _dof_matrices(dofs: list[str], vals: NDArray[np.float64]) -> NDArray[np.float64]:
     """Per-frame DOF rotations; ``dofs`` in file order, first applied first."""
     F = vals.shape[0]
     R = np.broadcast_to(np.eye(3), (F, 3, 3)).copy()
@@ -283,8 +288,8 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
 
     frames: list[np.ndarray] = []
     seen: set[str] = set()
-    cur = None
-    expected_frame = None
+    cur: NDArray[np.float64] | None = None
+    expected_frame: int | None = None
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].strip()
         if not line or line.startswith(":"):
@@ -329,25 +334,29 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     return Motion(positions, names, rate, "mm", None, meta, parents, values, chan_names)
 
 
-def _check_frame(seen, slot, where):
+def _check_frame(seen: set[str], slot: dict[str, tuple[int, int]], where: int | str) -> None:
     missing = [n for n, (_, c) in slot.items() if n not in seen and (c > 0 or n == "root")]
     if missing:
         raise _bad(f"frame ending at line {where} lacks {missing}")
 
 
-def _forward(skel, bones, by_name, slot, values):
+def _forward(skel: Skeleton, bones: list[Bone], by_name: dict[str, Bone],
+             slot: dict[str, tuple[int, int]],
+             values: NDArray[np.float64]) -> tuple[NDArray[np.float64], list[int], list[str]]:
+    """Forward kinematics: positions ``[F, 1 + bones, 3]`` (mm), parent indices, point names."""
     F = values.shape[0]
     to_rad = skel.angle_unit == "rad"
     scale = skel.mm_per_unit
 
-    def deg(v):
+    def deg(v: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.degrees(v) if to_rad else v
 
     # root: translation channels add to the ASF root position
     r0, rn = slot["root"]
     rv = values[:, r0:r0 + rn]
     trans = np.broadcast_to(skel.root_position, (F, 3)).copy()
-    rot_dofs, rot_vals = [], []
+    rot_dofs: list[str] = []
+    rot_vals: list[NDArray[np.float64]] = []
     for k, c in enumerate(skel.root_order):
         if c.startswith("T"):
             trans[:, "XYZ".index(c[1])] += rv[:, k]
@@ -373,7 +382,7 @@ def _forward(skel, bones, by_name, slot, values):
     return pos, parents, names
 
 
-def find_asf(amc_path) -> str:
+def find_asf(amc_path: StrPath) -> str:
     """The ASF for an AMC file: the longest ``*.asf`` in the same folder whose
     stem is a prefix of the AMC stem (``02_01.amc`` -> ``02.asf``,
     ``HDM_dg_06-03_03_120.amc`` -> ``HDM_dg.asf``).
@@ -386,7 +395,7 @@ def find_asf(amc_path) -> str:
     amc_path = os.fspath(amc_path)
     folder = os.path.dirname(os.path.abspath(amc_path))
     stem = os.path.splitext(os.path.basename(amc_path))[0]
-    cands = []
+    cands: list[tuple[int, str]] = []
     for p in glob.glob(os.path.join(glob.escape(folder), "*")):
         s, e = os.path.splitext(os.path.basename(p))
         if e.lower() == ".asf" and stem.startswith(s) and s:
@@ -399,14 +408,15 @@ def find_asf(amc_path) -> str:
 
 
 @reader
-def read_asf(path) -> Skeleton:
+def read_asf(path: StrPath) -> Skeleton:
     """Read an ASF skeleton file (see :func:`parse_asf`)."""
     with open(path, "rb") as fh:
         return parse_asf(decode_text(fh.read()))
 
 
 @reader
-def read_amc(amc_path, asf_path=None, *, rate: float = 120.0) -> Motion:
+def read_amc(amc_path: StrPath, asf_path: StrPath | None = None, *,
+             rate: float = 120.0) -> Motion:
     """Read an AMC motion with its ASF skeleton.
 
     Parameters

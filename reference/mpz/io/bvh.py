@@ -17,9 +17,10 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
-from mpz.io._common import decode_text, reader
+from mpz.io._common import StrPath, decode_text, reader
 from mpz.io.kinematics import axis_rotation
 from mpz.motion import Motion
 
@@ -29,11 +30,13 @@ MAX_CHANNELS_PER_JOINT = 6 * 4  # generous: a joint rarely has more than 6
 
 
 class _Joint:
+    """A ROOT, JOINT or End Site: parent index (-1 for a root) and its channels."""
+
     __slots__ = ("name", "parent", "offset", "channels", "first_channel", "end")
 
-    def __init__(self, name, parent, end=False):
+    def __init__(self, name: str, parent: int, end: bool = False) -> None:
         self.name, self.parent, self.end = name, parent, end
-        self.offset = np.zeros(3)
+        self.offset: NDArray[np.float64] = np.zeros(3)
         self.channels: list[str] = []
         self.first_channel = 0
 
@@ -42,8 +45,8 @@ def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"BVH: {msg}")
 
 
-def _parse_hierarchy(tokens: list[str], pos: int):
-    """Parse from after 'HIERARCHY' to 'MOTION'. Returns (joints, pos)."""
+def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, int]:
+    """Parse from after 'HIERARCHY' to 'MOTION'. Returns (joints, n_channels, pos)."""
     joints: list[_Joint] = []
     stack: list[int] = []
     pending: _Joint | None = None
@@ -110,9 +113,10 @@ def _parse_hierarchy(tokens: list[str], pos: int):
     return joints, n_channels, pos
 
 
-def _names(joints):
+def _names(joints: list[_Joint]) -> list[str]:
     """Unique point names: a repeated name gets '#2', '#3', ..."""
-    seen, out = {}, []
+    seen: dict[str, int] = {}
+    out: list[str] = []
     for j in joints:
         n = j.name
         if n in seen:
@@ -142,7 +146,7 @@ def frame_rate_from_frame_time(ft: float) -> float:
     return float(round(r)) if abs(r - round(r)) < 1e-3 else r
 
 
-def forward_kinematics(joints, values: np.ndarray) -> np.ndarray:
+def forward_kinematics(joints: list[_Joint], values: NDArray[np.float64]) -> NDArray[np.float64]:
     """World positions of every joint, shape (frames, joints, 3)."""
     F = values.shape[0]
     rot = np.empty((len(joints), F, 3, 3))
@@ -224,7 +228,7 @@ def parse_bvh(text: str, *, source: str = "") -> Motion:
 
 
 @reader
-def read_bvh(path) -> Motion:
+def read_bvh(path: StrPath) -> Motion:
     """Read a BVH file (see :func:`parse_bvh`).
 
     Parameters

@@ -16,8 +16,10 @@ type (84 Intel, 85 DEC, 86 MIPS).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, NoReturn
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 
@@ -28,6 +30,9 @@ PROC_INTEL, PROC_DEC, PROC_MIPS = 84, 85, 86  # parameter header byte 3
 _PARAM_TYPES = (-1, 1, 2, 4)
 MAX_POINTS = 65535  # POINT:USED is a 16-bit count
 MAX_DIMS = 7  # a C3D parameter has at most 7 dimensions
+
+#: a parameter value: char rows, or the flat numbers of an int8/int16/float32 parameter
+ParamValue = list[str] | NDArray[np.int64] | NDArray[np.float64]
 
 
 @dataclass
@@ -54,9 +59,9 @@ class C3DData:
         section has no POINT:RATE).
     """
 
-    points: np.ndarray
-    residual_words: np.ndarray
-    params: dict = field(default_factory=dict)
+    points: NDArray[np.float64]
+    residual_words: NDArray[np.int64]
+    params: dict[str, dict[str, ParamValue | None]] = field(default_factory=dict)
     processor: int = PROC_INTEL
     float_storage: bool = True
     header_rate: float = 0.0
@@ -67,7 +72,7 @@ def _s8(b: int) -> int:
     return b - 256 if b > 127 else b
 
 
-def _fail(msg: str, offset: int | None = None):
+def _fail(msg: str, offset: int | None = None) -> NoReturn:
     raise InputFormatError(f"C3D: {msg}", offset=offset)
 
 
@@ -77,7 +82,7 @@ def truncated(declared: int, present: int, offset: int | None = None) -> InputFo
                             f"{present} present", offset=offset)
 
 
-def _dec_to_ieee(raw: np.ndarray) -> np.ndarray:
+def _dec_to_ieee(raw: bytes) -> NDArray[np.float32]:
     """DEC (VAX F_floating) 4-byte values to float32.
 
     VAX F stores the high 16-bit word first (each word little-endian) and
@@ -92,20 +97,20 @@ def _dec_to_ieee(raw: np.ndarray) -> np.ndarray:
 class _Codec:
     """Integer and float decoding for one processor type."""
 
-    def __init__(self, processor: int):
+    def __init__(self, processor: int) -> None:
         self.processor = processor
         big = processor == PROC_MIPS
         self.i2 = np.dtype(">i2" if big else "<i2")
         self.u2 = np.dtype(">u2" if big else "<u2")
         self.f4 = np.dtype(">f4" if big else "<f4")
 
-    def int16(self, data: bytes, off: int, n: int = 1) -> np.ndarray:
+    def int16(self, data: bytes, off: int, n: int = 1) -> NDArray[np.int16]:
         return np.frombuffer(data, self.i2, n, off)
 
     def uint16(self, data: bytes, off: int) -> int:
         return int(np.frombuffer(data, self.u2, 1, off)[0])
 
-    def float32(self, data: bytes, off: int, n: int = 1) -> np.ndarray:
+    def float32(self, data: bytes, off: int, n: int = 1) -> NDArray[np.float32]:
         raw = data[off:off + 4 * n]
         if len(raw) != 4 * n:
             _fail("float data runs past the end of the file", off)
@@ -114,10 +119,11 @@ class _Codec:
         return np.frombuffer(raw, self.f4).astype(np.float32)
 
 
-def _parse_parameters(data: bytes, start: int, codec: _Codec) -> dict:
+def _parse_parameters(data: bytes, start: int,
+                      codec: _Codec) -> dict[str, dict[str, ParamValue | None]]:
     """Parse the parameter section that starts at byte ``start``."""
     groups: dict[int, str] = {}
-    pending: dict[int, dict] = {}  # parameters seen before their group
+    pending: dict[int, dict[str, ParamValue | None]] = {}  # parameters seen before their group
     n_blocks = data[start + 2]
     end = min(len(data), start + max(n_blocks, 1) * BLOCK)
     pos = start + 4
@@ -141,7 +147,7 @@ def _parse_parameters(data: bytes, start: int, codec: _Codec) -> dict:
         if nxt == 0:
             break
         pos = off_pos + nxt
-    params: dict[str, dict] = {}
+    params: dict[str, dict[str, ParamValue | None]] = {}
     for gid, values in pending.items():
         if gid in groups:
             params.setdefault(groups[gid], {}).update(values)
@@ -150,7 +156,7 @@ def _parse_parameters(data: bytes, start: int, codec: _Codec) -> dict:
     return params
 
 
-def _parse_value(data: bytes, pos: int, codec: _Codec, end: int):
+def _parse_value(data: bytes, pos: int, codec: _Codec, end: int) -> ParamValue | None:
     """One parameter value: type, dimensions, data. Unknown types give None."""
     if pos + 2 > end:
         return None
@@ -188,7 +194,9 @@ def _text(raw: bytes) -> str:
     return text.strip(" \x00")
 
 
-def _first(params: dict, group: str, name: str, default=None):
+def _first(params: dict[str, dict[str, ParamValue | None]], group: str, name: str,
+           default: Any = None) -> Any:
+    """First element of parameter ``group:name``, or ``default`` if it is absent or empty."""
     v = params.get(group, {}).get(name)
     if v is None or len(v) == 0:
         return default
@@ -273,6 +281,7 @@ def parse_c3d(data: bytes) -> C3DData:
 
     # read the frames, then keep the 4*used point words of each
     raw = data[off:off + n_frames * frame_bytes]
+    words: NDArray[np.float32] | NDArray[np.int16]
     if float_storage:
         words = codec.float32(raw, 0, n_frames * frame_words).reshape(n_frames, frame_words)
     else:

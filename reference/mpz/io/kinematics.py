@@ -6,15 +6,16 @@ frames; column-vector convention (``v_world = R @ v_local``).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 
-def axis_rotation(axis: str, deg: np.ndarray) -> np.ndarray:
+def axis_rotation(axis: str, deg: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrices about one principal axis.
 
     Parameters
     ----------
     axis : {"X", "Y", "Z"}
-    deg : ndarray, shape (n,)
+    deg : array_like, shape (n,)
         Angles in degrees.
 
     Returns

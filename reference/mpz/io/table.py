@@ -13,15 +13,17 @@ Contract:
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 import csv
 import io
 import math
 import os
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mpz.errors import InputFormatError
-from mpz.io._common import decode_text, reader
+from mpz.io._common import StrPath, decode_text, reader
 from mpz.motion import Motion
 
 MAX_NPY_BYTES = 1 << 34  # refuse absurd arrays before loading (16 GiB)
@@ -31,8 +33,9 @@ def _bad(fmt: str, msg: str) -> InputFormatError:
     return InputFormatError(f"{fmt}: {msg}")
 
 
-def motion_from_array(arr, *, rate: float = 1.0, units: str = "", names=None,
-                      source: str = "", fmt: str = "npy") -> Motion:
+def motion_from_array(arr: ArrayLike, *, rate: float = 1.0, units: str = "",
+                      names: Iterable[str] | None = None, source: str = "",
+                      fmt: str = "npy") -> Motion:
     """A Motion from a ``[frames, markers, 3]`` array with NaN gaps."""
     arr = np.asarray(arr)
     if arr.dtype.kind not in "fiu":
@@ -50,7 +53,7 @@ def motion_from_array(arr, *, rate: float = 1.0, units: str = "", names=None,
 
 
 @reader
-def read_npy(path, *, rate: float = 1.0, units: str = "") -> Motion:
+def read_npy(path: StrPath, *, rate: float = 1.0, units: str = "") -> Motion:
     """Read a float ``[frames, markers, 3]`` .npy array (NaN = gap).
 
     Parameters
@@ -76,13 +79,13 @@ def read_npy(path, *, rate: float = 1.0, units: str = "") -> Motion:
                              source=os.path.basename(os.fspath(path)))
 
 
-def write_npy(motion: Motion, path) -> None:
+def write_npy(motion: Motion, path: StrPath) -> None:
     """Write ``motion.as_nan()`` (float64 ``[frames, markers, 3]``) as .npy."""
     with open(path, "wb") as fh:
         np.save(fh, motion.as_nan().astype(np.float64), allow_pickle=False)
 
 
-def rate_from_times(times: np.ndarray) -> float:
+def rate_from_times(times: ArrayLike) -> float:
     """The frame rate whose ``frame / rate`` reproduces ``times`` exactly.
 
     Starts from ``1 / times[1]`` and tries neighbouring float64 values so a
@@ -108,7 +111,7 @@ def rate_from_times(times: np.ndarray) -> float:
 
 
 @reader
-def read_csv(path, *, rate: float | None = None, units: str = "") -> Motion:
+def read_csv(path: StrPath, *, rate: float | None = None, units: str = "") -> Motion:
     """Read the CSV layout ``frame,time,<name>_x,<name>_y,<name>_z,...``.
 
     Parameters
@@ -141,7 +144,7 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     cols = head[2:]
     if len(cols) == 0 or len(cols) % 3:
         raise _bad("csv", f"{len(cols)} coordinate columns is not a positive multiple of 3")
-    names = []
+    names: list[str] = []
     for i in range(0, len(cols), 3):
         base = [c[:-2] for c in cols[i:i + 3]]
         sfx = [c[-2:] for c in cols[i:i + 3]]
@@ -176,7 +179,7 @@ def format_csv(motion: Motion) -> str:
     return buf.getvalue()
 
 
-def write_csv(motion: Motion, path) -> None:
+def write_csv(motion: Motion, path: StrPath) -> None:
     """Write a Motion as CSV (see :func:`format_csv`)."""
     with open(path, "w", encoding="utf-8", newline="") as fh:
         fh.write(format_csv(motion))
