@@ -132,9 +132,9 @@ def test_encoder_mode(tmp_path):
     ["--decoder", REF, "--vectors", "/nonexistent"],
     ["--decoder", REF, "--timeout", "0"],
 ])
-def test_usage_errors_exit_2(args, capsys):
+def test_usage_errors_exit_64(args, capsys):
     from mpz.conformance.runner import main  # in-process: no decoder is ever started
-    assert main(args) == 2
+    assert main(args) == 64                  # the usage-error code of every MPZ tool
     assert capsys.readouterr().err
 
 

@@ -1,4 +1,6 @@
-"""mpzinfo and mpz subcommands: documented output and exit codes (0 ok, 1 warn, 2 error, 64 usage)."""
+"""mpzinfo and mpz subcommands: documented output and exit codes.
+
+0 ok, 1 warnings only, 2 errors, 64 usage error (tools/mpz/tools/_cli.py)."""
 import json
 
 import numpy as np
@@ -17,7 +19,8 @@ def files(tmp_path_factory):
     m = generate("walk", frames=120, seed=1, gap_fraction=0.02)
     data = mpz.encode(m, max_error=2.0, summary=(4,))
     chunks = container.parse(data)
-    anc = SIGNATURE + b"".join(container.build_chunk(c.type, payload=c.payload) for c in chunks[:2]) \
+    anc = SIGNATURE \
+        + b"".join(container.build_chunk(c.type, payload=c.payload) for c in chunks[:2]) \
         + container.build_chunk("zzzz", payload=b"note") \
         + b"".join(container.build_chunk(c.type, payload=c.payload) for c in chunks[2:])
     bad = bytearray(data)
@@ -112,5 +115,6 @@ def test_encode_decode_compare_cli(tmp_path, capsys):
     code, o = run(capsys, mpz_cli.main, ["compare", str(src), str(out), "--json"])
     stats = json.loads(o.out)
     assert code == 0 and stats["max"] <= 1.0 + 1e-5      # TRC text keeps 6 decimals
-    leftovers = [p.name for p in tmp_path.iterdir() if p.name.endswith(".part")]
+    leftovers = [p.name for p in tmp_path.iterdir()
+                 if p.name.startswith(".") or ".part" in p.name]
     assert leftovers == []

@@ -14,8 +14,10 @@ Contract (conformance/README.md has the full text):
   kept as gaps, names/rate/units kept.
 
 Every vector is run (each with a timeout and an address-space limit) before
-anything is reported. Exit status: 0 all passed, 1 any failure, 2 usage
-error (bad arguments, missing vectors, decoder not found).
+anything is reported. Exit status (the table shared with ``mpz`` and
+``mpzinfo``, :mod:`mpz.tools._cli`): 0 all passed, 1 any failure, 64 usage
+error (bad arguments, missing or invalid vectors, command not found, a
+``--results`` path that cannot be written).
 """
 from __future__ import annotations
 
@@ -41,9 +43,11 @@ except ImportError:          # not POSIX: no memory limit
     resource = None
 
 from mpz.conformance import manifest as mf
+from mpz.errors import MPZError
+from mpz.tools._cli import EXIT_FAILED as EXIT_FAIL
+from mpz.tools._cli import EXIT_OK, EXIT_USAGE, Parser, quiet_broken_pipe
 
 RESULTS_SCHEMA_VERSION = 1
-EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
 FAIL_LIST = 10              # differing samples listed per vector
 
@@ -268,13 +272,13 @@ def _load_input(vdir: Path, item: dict):
 def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[list, dict]:
     """Validate an encoder's output with the reference decoder; returns (problems, facts)."""
     import mpz
-    from mpz.decoder import decode_mask, read_stream
+    from mpz.decoder import decode_layers
     facts = {"declared_bound": None, "measured_max_error": None, "bytes": len(data)}
     try:
-        out = mpz.decode(data)
-        s = read_stream(data)
+        decoded = decode_layers(data)
     except mpz.MPZError as exc:
         return [f"the reference decoder rejects the output: {type(exc).__name__}: {exc}"], facts
+    out, s = decoded.motion(), decoded.stream
     h = s.header
     facts["declared_bound"] = float(h.error_bound)
     problems = []
@@ -293,7 +297,7 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     if out.units != side.get("units", ""):
         problems.append(f"units {out.units!r} != input {side.get('units')!r}")
     valid_in = ~np.isnan(x).any(axis=2)
-    mask = decode_mask(s)
+    mask = decoded.valid
     if (mask != valid_in).any():
         f, m = (int(i) for i in np.argwhere(mask != valid_in)[0])
         what = "a gap" if valid_in[f, m] else "valid"
@@ -358,11 +362,15 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
 
 
 # --------------------------------------------------------------------- CLI --
-def _parser():
-    p = argparse.ArgumentParser(
+def _parser() -> argparse.ArgumentParser:
+    from mpz import __version__
+    p = Parser(
         prog="mpz-conformance",
         description="Run an MPZ decoder or encoder against the conformance vectors "
-                    "(see conformance/README.md for the contract).")
+                    "(see conformance/README.md for the contract).",
+        epilog="exit codes: 0 every selected vector passed, 1 at least one failed, "
+               "64 usage error (bad options, missing or invalid vectors, command not found)")
+    p.add_argument("--version", action="version", version=f"mpz-conformance {__version__}")
     who = p.add_mutually_exclusive_group(required=True)
     who.add_argument("--decoder", metavar="CMD",
                      help="decoder command; run as CMD IN.mpz OUT.npy")
@@ -387,7 +395,7 @@ def _command(text: str) -> list:
     try:
         argv = shlex.split(text)
     except ValueError as exc:
-        raise UsageError(f"cannot split the command {text!r}: {exc}")
+        raise UsageError(f"cannot split the command {text!r}: {exc}") from None
     if not argv:
         raise UsageError("empty command")
     exe = argv[0]
@@ -400,12 +408,14 @@ def _command(text: str) -> list:
     return argv
 
 
-def main(argv=None) -> int:
+@quiet_broken_pipe
+def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     try:
         args = parser.parse_args(argv)
-    except SystemExit as exc:          # argparse: 0 for --help, 2 for usage errors
+    except SystemExit as exc:          # 0 for --help and --version, 64 for usage errors
         return int(exc.code or 0)
+    from mpz.api import check_output, write_atomic
     try:
         if args.timeout <= 0 or args.jobs < 1 or args.memory < 0:
             raise UsageError("--timeout must be > 0, --jobs >= 1 and --memory >= 0")
@@ -414,7 +424,7 @@ def main(argv=None) -> int:
         try:
             man = mf.load(vdir)
         except mf.ManifestError as exc:
-            raise UsageError(str(exc))
+            raise UsageError(str(exc)) from None
         if args.decoder is not None:
             todo = mf.vectors(man, args.only)
             if args.only:
@@ -426,9 +436,16 @@ def main(argv=None) -> int:
         else:
             todo = [(item, float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"]
-                    if not args.only or {item["name"], f"{item['name']}@{float(E):g}"} & set(args.only)]
+                    if not args.only
+                    or {item["name"], f"{item['name']}@{float(E):g}"} & set(args.only)]
             if not todo:
                 raise UsageError("no encoder inputs selected")
+        stream = args.results and os.path.exists(args.results) and not os.path.isfile(args.results)
+        if args.results and not stream:   # found out now, not after every vector has run
+            try:
+                check_output(args.results, force=True)
+            except MPZError as exc:
+                raise UsageError(f"--results: {exc}") from None
     except UsageError as exc:
         print(f"mpz-conformance: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -449,7 +466,7 @@ def main(argv=None) -> int:
             continue
         print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: {r['message']}")
     n_fail = sum(not r["passed"] for r in results)
-    by_group = {}
+    by_group: dict[str, dict[str, int]] = {}
     for r in results:
         g = by_group.setdefault(r["group"], {"passed": 0, "failed": 0})
         g["passed" if r["passed"] else "failed"] += 1
@@ -468,8 +485,15 @@ def main(argv=None) -> int:
                           "failed": n_fail, "groups": by_group},
                "failed": [r["name"] for r in results if not r["passed"]],
                "results": results}
-        Path(args.results).write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n",
-                                      encoding="utf-8")
+        text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
+        try:
+            if stream:                    # /dev/stdout, a FIFO: not a file to replace
+                Path(args.results).write_text(text, encoding="utf-8")
+            else:
+                write_atomic(args.results, text.encode("utf-8"), force=True)
+        except MPZError as exc:
+            print(f"mpz-conformance: error: --results: {exc}", file=sys.stderr)
+            return EXIT_USAGE
     return EXIT_FAIL if n_fail else EXIT_OK
 
 

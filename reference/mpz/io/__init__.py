@@ -31,10 +31,11 @@ Examples
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 import os
 
 from mpz.errors import InputFormatError
-from mpz.io._common import ext_of
+from mpz.io._common import StrPath, ext_of
 from mpz.io.amc import find_asf, read_amc, read_asf
 from mpz.io.bvh import read_bvh
 from mpz.io.c3d import read_c3d, write_c3d
@@ -43,7 +44,7 @@ from mpz.io.trc import read_trc, write_trc
 from mpz.motion import Motion
 
 #: extension -> reader(path, **options)
-READERS = {
+READERS: dict[str, Callable[..., Motion]] = {
     ".c3d": read_c3d,
     ".trc": read_trc,
     ".bvh": read_bvh,
@@ -53,7 +54,7 @@ READERS = {
 }
 
 #: extension -> writer(motion, path)
-WRITERS = {
+WRITERS: dict[str, Callable[..., None]] = {
     ".c3d": write_c3d,
     ".trc": write_trc,
     ".npy": write_npy,
@@ -64,7 +65,7 @@ FORMAT_NAMES = {".c3d": "C3D", ".trc": "TRC", ".bvh": "BVH", ".amc": "AMC/ASF",
                 ".npy": "NPY", ".csv": "CSV"}
 
 
-def read(path, *, asf=None, rate: float | None = None) -> Motion:
+def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None) -> Motion:
     """Read a motion-capture file, choosing the reader by extension.
 
     Parameters
@@ -101,7 +102,7 @@ def read(path, *, asf=None, rate: float | None = None) -> Motion:
     return fn(path)
 
 
-def write(motion: Motion, path) -> None:
+def write(motion: Motion, path: StrPath, *, file_name: str | None = None) -> None:
     """Write a Motion, choosing the writer by extension.
 
     Parameters
@@ -109,6 +110,9 @@ def write(motion: Motion, path) -> None:
     motion : Motion
     path : str or os.PathLike
         A ``.c3d``, ``.trc``, ``.npy`` or ``.csv`` file name.
+    file_name : str, optional
+        The name to record in formats that store their own file name (TRC);
+        default: the base name of ``path``. For writing to a temporary file.
 
     Raises
     ------
@@ -121,7 +125,10 @@ def write(motion: Motion, path) -> None:
         raise InputFormatError(
             f"cannot write {ext or '(no extension)'!r}; can write {', '.join(WRITERS)}",
             path=os.fspath(path))
-    fn(motion, path)
+    if file_name is not None and ext == ".trc":
+        fn(motion, path, file_name=file_name)
+    else:
+        fn(motion, path)
 
 
 __all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES",

@@ -14,20 +14,22 @@ needs (its 23% occluded samples have residual 0 at the origin).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 import os
-import tempfile
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.io import c3dbin
-from mpz.io._common import reader, unique_names
+from mpz.io._common import StrPath, reader, unique_names
 from mpz.motion import Motion
 
 #: POINT:UNITS values we recognise; anything else is unknown ("")
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m"}
 
 
-def _labels(point_params: dict, used: int) -> list[str]:
+def _labels(point_params: Mapping[str, Any], used: int) -> list[str]:
     """POINT:LABELS, then LABELS2, LABELS3, ... (files with > 255 points)."""
     labels = list(point_params.get("LABELS", {}) or [])
     k = 2
@@ -39,9 +41,9 @@ def _labels(point_params: dict, used: int) -> list[str]:
     return labels
 
 
-def motion_from_points(points: np.ndarray, residuals: np.ndarray, point_params: dict,
-                       rate: float, *, subject: str = "", source: str = "",
-                       extra: dict | None = None) -> Motion:
+def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
+                       point_params: Mapping[str, Any], rate: float, *, subject: str = "",
+                       source: str = "", extra: Mapping[str, str] | None = None) -> Motion:
     """Build a Motion from C3D point data and the POINT group.
 
     Parameters
@@ -53,6 +55,10 @@ def motion_from_points(points: np.ndarray, residuals: np.ndarray, point_params: 
         ``{"LABELS": [...], "UNITS": [...], ...}`` (stripped strings).
     rate : float
         POINT:RATE (or the header rate).
+    subject, source : str, optional
+        Metadata ``subject`` and ``source``, when not empty.
+    extra : dict of str to str, optional
+        More metadata.
     """
     used = points.shape[1]
     names, renamed = unique_names(_labels(point_params, used))
@@ -77,7 +83,7 @@ def motion_from_points(points: np.ndarray, residuals: np.ndarray, point_params: 
     return Motion(pos, names, float(rate), units, valid, meta)
 
 
-def _subject(params: dict) -> str:
+def _subject(params: Mapping[str, Any]) -> str:
     subj = params.get("SUBJECTS", {})
     names = subj.get("NAMES") if isinstance(subj, dict) else None
     if names is None:
@@ -85,7 +91,8 @@ def _subject(params: dict) -> str:
     return ", ".join(n for n in (str(x).strip() for x in names) if n)
 
 
-def _from_ezc3d(c, source: str, extra: dict, declared: int) -> Motion:
+def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int) -> Motion:
+    """A Motion from an ``ezc3d.c3d`` object; ``declared`` is the header's frame count."""
     params = c["parameters"]
     got = np.asarray(c["data"]["points"]).shape[2]
     if got < declared:  # ezc3d silently returns the frames that fit
@@ -105,7 +112,8 @@ def _from_ezc3d(c, source: str, extra: dict, declared: int) -> Motion:
                               extra={"reader": "ezc3d", **extra})
 
 
-def motion_from_c3d_bytes(data: bytes, *, source: str = "", extra: dict | None = None) -> Motion:
+def motion_from_c3d_bytes(data: bytes, *, source: str = "",
+                          extra: Mapping[str, str] | None = None) -> Motion:
     """Parse C3D bytes with the pure-numpy reader into a Motion."""
     d = c3dbin.parse_c3d(data)
     point = d.params.get("POINT", {})
@@ -120,7 +128,7 @@ def motion_from_c3d_bytes(data: bytes, *, source: str = "", extra: dict | None =
 
 
 @reader
-def read_c3d(path) -> Motion:
+def read_c3d(path: StrPath) -> Motion:
     """Read the 3D points of a C3D file.
 
     Parameters
@@ -156,6 +164,7 @@ def read_c3d(path) -> Motion:
     # header to the frames it found, so truncation must be checked here
     first, last = int.from_bytes(head[6:8], "little"), int.from_bytes(head[8:10], "little")
     declared = last - first + 1
+    first_error: OSError | RuntimeError
     try:
         return _from_ezc3d(ezc3d.c3d(path), source, {}, declared)
     except RuntimeError as exc:  # e.g. "MIPS processor type not supported"
@@ -205,12 +214,7 @@ def write_c3d(motion: Motion, path) -> None:
     if path.endswith(".c3d"):
         c.write(path)
         return
-    # ezc3d appends ".c3d" to any other name: write beside, then rename
-    fd, tmp = tempfile.mkstemp(suffix=".c3d", dir=os.path.dirname(os.path.abspath(path)))
-    os.close(fd)
-    try:
+    # ezc3d appends ".c3d" to any other name: write a temporary ".c3d" beside, then rename
+    from mpz.api import atomic_output
+    with atomic_output(path, force=True, suffix=".c3d") as tmp:
         c.write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)

@@ -25,7 +25,7 @@ import os
 import numpy as np
 
 from mpz.errors import InputFormatError
-from mpz.io._common import decode_text, reader, unique_names
+from mpz.io._common import StrPath, decode_text, reader, unique_names
 from mpz.motion import Motion
 
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in"}
@@ -69,7 +69,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         raise _bad(f"first line must start with 'PathFileType', got {lines[0][:40]!r}")
     keys = [k.strip() for k in lines[1].split("\t")]
     vals = [v.strip() for v in lines[2].split("\t")]
-    header = {k: v for k, v in zip(keys, vals) if k}
+    header = {k: v for k, v in zip(keys, vals, strict=False) if k}
     if "DataRate" not in header:
         raise _bad("header has no DataRate")
     rate = float(header["DataRate"])
@@ -165,7 +165,7 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
 
 
 @reader
-def read_trc(path) -> Motion:
+def read_trc(path: StrPath) -> Motion:
     """Read a TRC file (see :func:`parse_trc`).
 
     Raises
@@ -177,8 +177,14 @@ def read_trc(path) -> Motion:
     return parse_trc(text, source=os.path.basename(os.fspath(path)))
 
 
-def write_trc(motion: Motion, path) -> None:
-    """Write a Motion as TRC (see :func:`format_trc`)."""
-    text = format_trc(motion, file_name=os.path.basename(os.fspath(path)))
+def write_trc(motion: Motion, path: StrPath, *, file_name: str | None = None) -> None:
+    """Write a Motion as TRC (see :func:`format_trc`).
+
+    ``file_name`` is the name recorded in the header (default: the base name
+    of ``path``); give the final name when ``path`` is a temporary file.
+    """
+    if file_name is None:
+        file_name = os.path.basename(os.fspath(path))
+    text = format_trc(motion, file_name=file_name)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(text)

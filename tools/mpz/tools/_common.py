@@ -1,7 +1,6 @@
 """Helpers shared by the command-line tools (not part of the public API)."""
 from __future__ import annotations
 
-import os
 import re
 import sys
 import time
@@ -64,10 +63,3 @@ def read_motion(path: str, asf: str | None = None):
         return read_mpz(path)
     from mpz.io import read
     return read(path, asf=asf)
-
-
-def same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b)
-    except OSError:
-        return False

@@ -39,6 +39,10 @@ def align(a, b):
 def run(args) -> int:
     from mpz.metrics import summary
     from mpz.tools._common import read_motion
+    if args.plot:  # a bad plot path fails before the work
+        from mpz.api import check_output
+        check_output(args.plot, force=True, source=args.original)
+        check_output(args.plot, force=True, source=args.decoded)
     a = read_motion(args.original, args.asf)
     b = align(a, read_motion(args.decoded, args.asf))
     if a.n_frames != b.n_frames:
@@ -90,4 +94,6 @@ def plot(a, b, names, path):
     axes[0, 0].legend(fontsize=7)
     fig.supxlabel("time (s)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from mpz.api import atomic_output
+    with atomic_output(path, force=True) as tmp:
+        fig.savefig(tmp, dpi=110)

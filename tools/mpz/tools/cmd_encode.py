@@ -50,7 +50,8 @@ def add_parser(sub):
                    "with these segment counts, e.g. 6,12,24,48")
     p.add_argument("--summary-space", choices=("positions", "angles"), default="positions")
     p.add_argument("--meta", action="append", metavar="KEY=VALUE", help="metadata (repeatable)")
-    p.add_argument("--force", action="store_true", help="replace OUTPUT if it exists")
+    p.add_argument("--force", action="store_true", help="replace OUTPUT if it exists, "
+                   "or write it under a name not ending in .mpz")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
@@ -58,32 +59,38 @@ def add_parser(sub):
 
 def run(args) -> int:
     import mpz
+    from mpz.api import check_output
     from mpz.encoder import EncodeOptions, encode_motion
+    from mpz.io._common import ext_of
     from mpz.metrics import summary as error_summary
-    from mpz.tools._common import Progress, human_size, parse_length, read_motion, same_file
-    if same_file(args.input, args.output) or os.path.abspath(args.input) == os.path.abspath(args.output):
-        raise EncoderError(f"refusing to overwrite the input file {args.input}")
-    if os.path.exists(args.output) and not args.force:
-        raise EncoderError(f"{args.output} exists; use --force to replace it")
+    from mpz.tools._common import Progress, human_size, parse_length, read_motion
+
+    # every check on the output comes before the encode
+    check_output(args.output, force=args.force, source=args.input)
+    if ext_of(args.output) != ".mpz" and not args.force:
+        raise EncoderError(f"{args.output}: an MPZ file should end in .mpz; "
+                           "use --force to write it under this name")
     motion = read_motion(args.input, args.asf)
     units = motion.units
+    metadata = _pairs(args.meta, "--meta")
+    metadata.setdefault("source", os.path.basename(args.input))
     opts = EncodeOptions(
         max_error=None if args.max_error is None else parse_length(args.max_error, units),
-        group_errors={k: parse_length(v, units) for k, v in _pairs(args.group_error, "--group-error").items()},
+        group_errors={k: parse_length(v, units)
+                      for k, v in _pairs(args.group_error, "--group-error").items()},
         theta=args.theta, k0=args.k0, tau=args.tau, metric=args.metric,
         weights={k: float(v) for k, v in _pairs(args.weight, "--weight").items()} or None,
         hierarchy=args.hierarchy, smoothing=args.smoothing, patterns=args.patterns,
         segmentation=args.segmentation,
         grid=None if args.grid is None else parse_length(args.grid, units),
         summary=tuple(int(k) for k in args.summary.split(",")) if args.summary else (),
-        summary_space=args.summary_space, metadata=_pairs(args.meta, "--meta"))
-    opts.metadata.setdefault("source", os.path.basename(args.input))
+        summary_space=args.summary_space, metadata=metadata)
     bar = Progress("encoding", enabled=None if not args.quiet else False)
     try:
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
-    mpz.write_atomic(args.output, data, source=args.input)
+    mpz.write_atomic(args.output, data, source=args.input, force=args.force)
     decoded = mpz.decode(data)
     err = error_summary(motion, decoded)
     in_size = os.path.getsize(args.input)

@@ -3,15 +3,18 @@
 Prints frames, markers, rate, units, duration, share of gaps and the
 source format; ``--json`` gives the same as one JSON object (schema
 version 1, numbers as numbers, ``null`` for unknown units). A ``.mpz`` file
-is decoded and shown the same way (``mpzinfo`` dumps its chunks). Exit codes: 0 ok, 2 unreadable input (the dispatcher
-turns :class:`mpz.errors.MPZError` into 2).
+is decoded and shown the same way (``mpzinfo`` dumps its chunks). Exit codes:
+0 ok, 1 the file was read with a warning (the ``warning`` line, or
+``metadata.warning`` in JSON), 2 unreadable input (the dispatcher turns
+:class:`mpz.errors.MPZError` into 2).
 """
 from __future__ import annotations
 
 import json
 import os
 
-EXIT_OK, EXIT_ERROR = 0, 2
+from mpz.tools._cli import EXIT_OK, EXIT_WARN
+
 JSON_SCHEMA_VERSION = 1
 
 
@@ -59,9 +62,10 @@ def run(args) -> int:
     info = summary(motion, path)
     if path.lower().endswith(".mpz"):
         info["format"] = "MPZ"
+    code = EXIT_WARN if "warning" in motion.metadata else EXIT_OK
     if args.json:
         print(json.dumps(info, indent=2))
-        return EXIT_OK
+        return code
     lines = [
         f"file:      {os.path.basename(path)}",
         f"format:    {info['format']}",
@@ -77,4 +81,4 @@ def run(args) -> int:
     if "warning" in motion.metadata:
         lines.append(f"warning:   {motion.metadata['warning']}")
     print("\n".join(lines))
-    return EXIT_OK
+    return code

@@ -23,7 +23,8 @@ import sys
 
 import numpy as np
 
-EXIT_OK, EXIT_WARN, EXIT_ERROR = 0, 1, 2
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, Parser
+
 JSON_SCHEMA = "mpz-summary/1"
 DEFAULT_KS = "6,12,24,48"
 
@@ -32,7 +33,8 @@ def _ks(text: str) -> list[int]:
     try:
         ks = sorted({int(v) for v in text.split(",") if v.strip()})
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--k wants comma-separated integers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"--k wants comma-separated integers, got {text!r}") from None
     if not ks or ks[0] < 1:
         raise argparse.ArgumentTypeError(f"--k wants integers >= 1, got {text!r}")
     return ks
@@ -49,7 +51,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--space", choices=("positions", "angles"), default="positions",
                    help="segment marker positions relative to their centroid (default) or the "
                         "joint angles of AMC/BVH input")
-    p.add_argument("--asf", metavar="FILE", help="skeleton for .amc input (default: found beside it)")
+    p.add_argument("--asf", metavar="FILE",
+                   help="skeleton for .amc input (default: found beside it)")
     p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs matplotlib)")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.set_defaults(func=run)
@@ -63,7 +66,7 @@ def _levels_from_motion(args, ks):
     try:
         from mpz.io import read
     except ImportError as exc:
-        raise _Fail(f"reading motion files needs mpz.io, which is not available: {exc}")
+        raise _Fail(f"reading motion files needs mpz.io, which is not available: {exc}") from None
     motion = read(args.file, **({"asf": args.asf} if args.asf else {}))
     x, what = motion_series(motion, args.space)
     n = x.shape[0]
@@ -94,10 +97,12 @@ def _levels_from_mpz(args, ks):
     try:
         from mpz import read_summary
     except ImportError:
-        raise _Fail(".mpz input needs mpz.read_summary, which this build does not provide yet")
+        raise _Fail(".mpz input needs mpz.read_summary, "
+                    "which this build does not provide yet") from None
     summ = read_summary(Path(args.file).read_bytes())
     if summ is None:
-        raise _Fail(f"{args.file} has no summary chunk (encode with: mpz encode --summary 6,12,24,48)")
+        raise _Fail(f"{args.file} has no summary chunk "
+                    "(encode with: mpz encode --summary 6,12,24,48)")
     n = int(summ.n_frames)
     levels = []
     for lv in summ.levels:
@@ -109,7 +114,8 @@ def _levels_from_mpz(args, ks):
                        "segment_wssse": None, "means": np.asarray(lv.means, dtype=np.float64)})
     info = {"file": os.fspath(args.file), "kind": "mpz", "n_frames": n,
             "rate": float(summ.rate) if getattr(summ, "rate", None) else None, "units": None,
-            "space": None, "description": "levels stored in the file", "dims": None, "markers": None}
+            "space": None, "description": "levels stored in the file", "dims": None,
+            "markers": None}
     return info, levels, None, None, []
 
 
@@ -121,7 +127,7 @@ class _Fail(Exception):
 def _segments(level, rate):
     out = []
     total = level["wssse"]
-    for i, (s, ln) in enumerate(zip(level["starts"], level["lengths"])):
+    for i, (s, ln) in enumerate(zip(level["starts"], level["lengths"], strict=False)):
         sse = None if level["segment_wssse"] is None else float(level["segment_wssse"][i])
         share = None if sse is None or not total else 100.0 * sse / total
         if sse is not None and not total:
@@ -220,17 +226,21 @@ def _plot(path, info, levels, poses, parents) -> None:
                 sp.set_color(cmap(i % 10))
                 sp.set_linewidth(2)
             t0 = thumb["starts"][i] / rate
-            ax.set_title(f"#{i}\n{t0:.2f} {unit}" if info["rate"] else f"#{i}\n{t0:.0f}", fontsize=7)
+            ax.set_title(f"#{i}\n{t0:.2f} {unit}" if info["rate"] else f"#{i}\n{t0:.0f}",
+                         fontsize=7)
         ax_t = fig.add_subplot(gs[1, :])
     else:
         ax_t = fig.add_subplot(gs[0, 0])
     for row, lv in enumerate(levels):
-        spans = [(s / rate, ln / rate) for s, ln in zip(lv["starts"], lv["lengths"])]
+        spans = [(s / rate, ln / rate)
+                 for s, ln in zip(lv["starts"], lv["lengths"], strict=False)]
         colours = [cmap(i % 10) for i in range(len(spans))]
-        ax_t.broken_barh(spans, (row - 0.4, 0.8), facecolors=colours, edgecolor="white", linewidth=0.5)
+        ax_t.broken_barh(spans, (row - 0.4, 0.8), facecolors=colours, edgecolor="white",
+                         linewidth=0.5)
         if lv is thumb and show_thumbs:
             for i, (s, w) in enumerate(spans):
-                ax_t.text(s + w / 2, row, str(i), ha="center", va="center", fontsize=7, color="white")
+                ax_t.text(s + w / 2, row, str(i), ha="center", va="center", fontsize=7,
+                          color="white")
     ax_t.set_yticks(range(len(levels)), [f"k={lv['k']}" for lv in levels])
     ax_t.set_ylim(len(levels) - 0.5, -0.5)
     ax_t.set_xlim(0, n / rate)
@@ -239,7 +249,9 @@ def _plot(path, info, levels, poses, parents) -> None:
     if info.get("space"):
         title += f" ({info['space']})"
     fig.suptitle(title, fontsize=10)
-    fig.savefig(path, dpi=130, bbox_inches="tight")
+    from mpz.api import atomic_output
+    with atomic_output(path, force=True) as tmp:
+        fig.savefig(tmp, dpi=130, bbox_inches="tight")
     plt.close(fig)
 
 
@@ -251,6 +263,9 @@ def run(args) -> int:
         except ImportError:
             print("mpz summary: --plot needs matplotlib (pip install 'mpz[plot]')", file=sys.stderr)
             return EXIT_ERROR
+    if args.plot:  # a bad plot path fails before the work
+        from mpz.api import check_output
+        check_output(args.plot, force=True, source=args.file)
     path = Path(args.file)
     if not path.is_file():
         print(f"mpz summary: error: {args.file}: no such file", file=sys.stderr)
@@ -281,9 +296,8 @@ def run(args) -> int:
 def main(argv=None) -> int:
     """Run ``mpz summary`` on its own (same options and exit codes)."""
     from mpz.errors import MPZError
-    from mpz.tools.mpz_cli import _Parser
-    parser = _Parser(prog="mpz")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+    parser = Parser(prog="mpz")
+    sub = parser.add_subparsers(dest="command", parser_class=Parser)
     add_parser(sub)
     args = parser.parse_args(["summary", *(sys.argv[1:] if argv is None else argv)])
     try:

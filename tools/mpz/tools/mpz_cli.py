@@ -4,8 +4,10 @@ Each subcommand lives in its own module ``mpz.tools.cmd_<name>`` exposing
 ``add_parser(subparsers)`` and ``run(args) -> int``; this module only
 dispatches (an explicit table, no getattr magic).
 
-Exit codes (all subcommands): 0 ok, 1 warnings only, 2 errors in the input
-or the data, 64 usage error (argparse's own errors are mapped to 64 too).
+Exit codes (all subcommands; the table shared with ``mpzinfo`` and
+``mpz-conformance`` is in :mod:`mpz.tools._cli`): 0 ok, 1 warnings only, 2
+errors in the input or the data, 64 usage error (argparse's own errors
+too), 130 interrupted (Ctrl-C).
 """
 from __future__ import annotations
 
@@ -14,8 +16,13 @@ import importlib
 import sys
 
 from mpz.errors import MPZError
-
-EXIT_OK, EXIT_WARN, EXIT_ERROR, EXIT_USAGE = 0, 1, 2, 64
+from mpz.tools._cli import (
+    EXIT_CODES_HELP,
+    EXIT_ERROR,
+    EXIT_INTERRUPTED,
+    Parser,
+    quiet_broken_pipe,
+)
 
 #: subcommand name -> module implementing it
 SUBCOMMANDS = {
@@ -28,26 +35,21 @@ SUBCOMMANDS = {
 }
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # usage errors get their own exit code
-        self.print_usage(sys.stderr)
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
-        raise SystemExit(EXIT_USAGE)
-
-
 def build_parser() -> argparse.ArgumentParser:
     from mpz import __version__
-    parser = _Parser(prog="mpz", description="MPZ motion-capture compression tools.")
+    parser = Parser(prog="mpz", description="MPZ motion-capture compression tools.",
+                    epilog=EXIT_CODES_HELP + ", 130 interrupted")
     parser.add_argument("--version", action="version", version=f"mpz {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
-    for name, modname in SUBCOMMANDS.items():
+    for modname in SUBCOMMANDS.values():
         mod = importlib.import_module(modname)
         mod.add_parser(sub)
     return parser
 
 
-def main(argv=None) -> int:
+@quiet_broken_pipe
+def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -57,11 +59,7 @@ def main(argv=None) -> int:
         return EXIT_ERROR
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
-        return 130
-    except BrokenPipeError:  # output piped into e.g. head: stop quietly
-        import os
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -1,0 +1,324 @@
+"""The installed commands as a user runs them: exit codes, output files, modes, races, signals.
+
+Issue 9.7 (one exit-code table, one parser, one atomic writer, one input check),
+issue 11.10 (SIGTERM leftovers, the --force race, dangling symlinks) and issue 14.4,
+14.5, 14.7, 14.8 (umask and modes, tracebacks, temporary names, exit codes). Every
+test here starts ``mpz``, ``mpzinfo`` or ``mpz-conformance`` with :mod:`subprocess`,
+with a real umask, real pipes and real signals.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+import os
+from pathlib import Path
+import shutil
+import signal
+import stat
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz.errors import EncoderError
+from mpz.io import read, write
+from mpz.synth import generate
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="umask, signals and modes are POSIX")
+
+
+def command(name: str) -> str:
+    """The console script installed beside this Python (else the one on PATH)."""
+    beside = Path(sys.executable).parent / name
+    found = str(beside) if beside.exists() else shutil.which(name)
+    assert found, f"{name} is not installed (pip install -e .)"
+    return found
+
+
+def run(args: Sequence[str], cwd: Path, umask: int = 0o022,
+        timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    """Run an installed command under ``umask``; capture stdout and stderr as text."""
+    return subprocess.run([command(args[0]), *args[1:]], cwd=cwd, capture_output=True,
+                          text=True, timeout=timeout, preexec_fn=_umask(umask))
+
+
+def _umask(mask: int) -> Callable[[], None]:
+    def apply() -> None:
+        os.umask(mask)
+    return apply
+
+
+def mode(path: Path) -> int:
+    return stat.S_IMODE(path.lstat().st_mode)
+
+
+def hidden(folder: Path) -> list[str]:
+    """Names an interrupted writer could leave: hidden files and ``*.part*`` files."""
+    return sorted(n for n in os.listdir(folder) if n.startswith(".") or ".part" in n)
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A TRC input and its .mpz (60 frames, gaps)."""
+    d = tmp_path_factory.mktemp("small")
+    m = generate("walk", frames=60, seed=2, gap_fraction=0.02)
+    trc = d / "in.trc"
+    write(m, trc)
+    enc = d / "in.mpz"
+    enc.write_bytes(mpz.encode(m, max_error=1.0))
+    return trc, enc
+
+
+def test_new_files_follow_the_umask(small: tuple[Path, Path], tmp_path: Path) -> None:
+    trc, enc = small
+    # every writer: bytes (.mpz) and writers that open the path themselves (the rest)
+    for umask, want, exts in ((0o022, 0o644, (".trc", ".c3d")), (0o027, 0o640, (".npy", ".csv"))):
+        out = tmp_path / f"u{umask:o}.mpz"
+        p = run(["mpz", "encode", str(trc), "-o", str(out), "--quiet"], tmp_path, umask)
+        assert p.returncode == 0, p.stderr
+        assert mode(out) == want, f"umask {umask:o}: mode {mode(out):o}"
+        for ext in exts:
+            back = tmp_path / f"u{umask:o}{ext}"
+            p = run(["mpz", "decode", str(enc), "-o", str(back), "--quiet"], tmp_path, umask)
+            assert p.returncode == 0, p.stderr
+            assert mode(back) == want, f"{ext} under umask {umask:o}: mode {mode(back):o}"
+    assert hidden(tmp_path) == []
+
+
+def test_force_keeps_the_mode_of_the_replaced_file(small: tuple[Path, Path],
+                                                   tmp_path: Path) -> None:
+    trc, enc = small
+    out = tmp_path / "o.mpz"
+    back = tmp_path / "o.trc"
+    out.write_bytes(b"old")
+    back.write_text("old")
+    for path, m in ((out, 0o644), (back, 0o640)):
+        path.chmod(m)
+    # umask 077 would give 0600 to a new file: the replaced files keep 0644 and 0640
+    p = run(["mpz", "encode", str(trc), "-o", str(out), "--force", "--quiet"], tmp_path, 0o077)
+    assert p.returncode == 0, p.stderr
+    p = run(["mpz", "decode", str(enc), "-o", str(back), "--force", "--quiet"], tmp_path, 0o077)
+    assert p.returncode == 0, p.stderr
+    assert (mode(out), mode(back)) == (0o644, 0o640)
+    assert mpz.read_mpz(out).n_frames == 60 and read(back).n_frames == 60
+    assert hidden(tmp_path) == []
+
+
+def test_two_encoders_racing_for_one_new_output(tmp_path: Path) -> None:
+    m = generate("jump", frames=1500, seed=5)
+    src = tmp_path / "in.trc"
+    write(m, src)
+    out = tmp_path / "race.mpz"
+    argv = [command("mpz"), "encode", str(src), "-o", str(out), "--max-error", "1mm", "--quiet"]
+    procs = [subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    results = [(p.wait(timeout=300), p.stderr.read() if p.stderr else "") for p in procs]
+    for p in procs:
+        for f in (p.stdout, p.stderr):
+            if f:
+                f.close()
+    codes = sorted(code for code, _ in results)
+    assert codes == [0, 2], results
+    loser = next(err for code, err in results if code == 2)
+    assert f"{out} exists; use --force to replace it" in loser
+    assert "Traceback" not in loser and len(loser.strip().splitlines()) == 1
+    back = mpz.read_mpz(out)                       # the winner's file is complete
+    assert back.n_frames == 1500 and back.names == m.names
+    assert hidden(tmp_path) == []
+
+
+def test_dangling_symlink_is_refused_without_force(small: tuple[Path, Path],
+                                                   tmp_path: Path) -> None:
+    trc, enc = small
+    link = tmp_path / "out.mpz"
+    link.symlink_to(tmp_path / "missing.mpz")
+    p = run(["mpz", "encode", str(trc), "-o", str(link)], tmp_path)
+    assert p.returncode == 2
+    assert "symbolic link to a missing file; use --force" in p.stderr
+    assert link.is_symlink() and not (tmp_path / "missing.mpz").exists()
+    dlink = tmp_path / "out.npy"
+    dlink.symlink_to(tmp_path / "missing.npy")
+    p = run(["mpz", "decode", str(enc), "-o", str(dlink)], tmp_path)
+    assert p.returncode == 2 and "symbolic link to a missing file" in p.stderr
+    assert dlink.is_symlink()
+    # --force replaces the link itself with the file (the link's target is not created)
+    p = run(["mpz", "encode", str(trc), "-o", str(link), "--force", "--quiet"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert not link.is_symlink() and link.is_file()
+    assert not (tmp_path / "missing.mpz").exists()
+    assert hidden(tmp_path) == []
+
+
+@pytest.fixture(scope="module")
+def large(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An .mpz whose TRC output takes a good second to format and write."""
+    d = tmp_path_factory.mktemp("large")
+    path = d / "large.mpz"
+    path.write_bytes(mpz.encode(generate("walk", frames=12000, seed=1)))
+    return path
+
+
+def test_sigterm_while_decoding_leaves_no_temporary_file(large: Path, tmp_path: Path) -> None:
+    out = tmp_path / "big.trc"
+    proc = subprocess.Popen([command("mpz"), "decode", str(large), "-o", str(out)],
+                            cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    seen: list[str] = []
+    t0 = time.monotonic()
+    while proc.poll() is None and time.monotonic() - t0 < 120:
+        seen = hidden(tmp_path)
+        if seen:                    # the temporary file exists: the writer has started
+            break
+        time.sleep(0.002)
+    proc.send_signal(signal.SIGTERM)
+    code = proc.wait(timeout=60)
+    err = proc.stderr.read().decode() if proc.stderr else ""
+    if proc.stderr:
+        proc.stderr.close()
+    assert seen and seen[0].startswith(".big.trc.") and ".part" in seen[0], \
+        "the decoder finished before it was seen writing; make the input larger"
+    assert code == 128 + signal.SIGTERM, (code, err)
+    assert "Traceback" not in err
+    assert hidden(tmp_path) == [] and not out.exists()
+
+
+def test_bad_output_paths_fail_first_in_one_line(small: tuple[Path, Path],
+                                                 tmp_path: Path) -> None:
+    trc, enc = small
+    (tmp_path / "folder").mkdir()
+    cases = [
+        (["mpz", "encode", str(trc), "-o", "nodir/x.mpz", "--max-error", "1mm"],
+         "cannot write nodir/x.mpz: nodir does not exist"),
+        (["mpz", "encode", str(trc), "-o", "folder", "--force"],
+         "folder is a folder; give a file name"),
+        (["mpz", "decode", str(enc), "-o", "nodir/x.trc"],
+         "cannot write nodir/x.trc: nodir does not exist"),
+        (["mpz", "decode", str(enc), "-o", "folder", "--force"],
+         "folder is a folder; give a file name"),
+        (["mpz", "decode", str(enc), "-o", "back.xyz"],
+         "back.xyz: cannot write '.xyz' files; can write .c3d, .trc, .npy, .csv"),
+        (["mpz", "decode", str(enc), "-o", str(enc), "--force"],
+         f"refusing to overwrite the input file {enc}"),
+        (["mpz", "encode", str(trc), "-o", str(trc), "--force"],
+         f"refusing to overwrite the input file {trc}"),
+        (["mpz", "encode", str(trc), "-o", "x.c3d"],
+         "x.c3d: an MPZ file should end in .mpz; use --force to write it under this name"),
+    ]
+    for argv, message in cases:
+        p = run(argv, tmp_path)
+        lines = p.stderr.strip().splitlines()
+        assert p.returncode == 2, (argv, p.stderr)
+        assert lines == [f"mpz {argv[1]}: error: {message}"], (argv, p.stderr)
+        assert ".part" not in p.stderr and "mpz-decode" not in p.stderr
+    assert sorted(os.listdir(tmp_path)) == ["folder"]
+    assert os.listdir(tmp_path / "folder") == []
+
+
+def test_trc_header_names_the_output_not_the_temporary_file(small: tuple[Path, Path],
+                                                            tmp_path: Path) -> None:
+    _, enc = small
+    p = run(["mpz", "decode", str(enc), "-o", "back.trc"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    first = (tmp_path / "back.trc").read_text().splitlines()[0]
+    assert first == "PathFileType\t4\t(X/Y/Z)\tback.trc"
+
+
+def test_show_exits_1_when_the_reader_warned(small: tuple[Path, Path], tmp_path: Path) -> None:
+    trc, _ = small
+    lines = trc.read_text().splitlines(keepends=True)
+    vals = lines[2].split("\t")
+    vals[2] = "61"                                 # NumFrames: the file has 60 rows
+    lines[2] = "\t".join(vals)
+    warned = tmp_path / "warned.trc"
+    warned.write_text("".join(lines))
+    p = run(["mpz", "show", str(warned)], tmp_path)
+    assert p.returncode == 1, p.stderr
+    assert "warning:   NumFrames says 61, file has 60 rows" in p.stdout
+    p = run(["mpz", "show", "--json", str(warned)], tmp_path)
+    assert p.returncode == 1 and '"warning": "NumFrames says 61' in p.stdout
+    p = run(["mpz", "show", str(trc)], tmp_path)
+    assert p.returncode == 0 and "warning" not in p.stdout
+
+
+def test_conformance_usage_and_version(tmp_path: Path) -> None:
+    p = run(["mpz-conformance", "--decoder", "true", "--bogus"], tmp_path)
+    assert p.returncode == 64 and "unrecognized arguments: --bogus" in p.stderr
+    p = run(["mpz-conformance", "--bogus"], tmp_path)
+    assert p.returncode == 64 and p.stderr.startswith("usage: mpz-conformance")
+    p = run(["mpz-conformance"], tmp_path)
+    assert p.returncode == 64 and "one of the arguments --decoder --encoder" in p.stderr
+    p = run(["mpz-conformance", "--version"], tmp_path)
+    assert p.returncode == 0 and p.stdout.strip() == f"mpz-conformance {mpz.__version__}"
+    p = run(["mpz-conformance", "--help"], tmp_path)
+    assert p.returncode == 0 and "64 usage error" in p.stdout.replace("\n", " ")
+    p = run(["mpz-conformance", "--decoder", "true", "--results", "nodir/r.json"], tmp_path)
+    assert p.returncode == 64 and "nodir does not exist" in p.stderr
+
+
+def test_one_exit_code_table_for_every_tool(tmp_path: Path) -> None:
+    for argv in (["mpz", "--bogus"], ["mpz", "encode"], ["mpzinfo"], ["mpz-conformance", "-x"]):
+        p = run(argv, tmp_path)
+        assert p.returncode == 64, (argv, p.stderr)
+        assert p.stderr.startswith("usage: ") and "Traceback" not in p.stderr
+    p = subprocess.run([sys.executable, "-m", "mpz.tools.spec_example", "--bogus"],
+                       cwd=tmp_path, capture_output=True, text=True)
+    assert p.returncode == 64
+    from mpz.conformance import runner
+    from mpz.tools import _cli, cmd_show, cmd_summary, mpz_cli, mpzinfo, spec_example
+    for mod in (mpz_cli, mpzinfo, runner, spec_example, cmd_summary):
+        assert mod.Parser is _cli.Parser, mod.__name__
+    assert (mpzinfo.EXIT_OK, mpzinfo.EXIT_WARN, mpzinfo.EXIT_ERROR) == (0, 1, 2)
+    assert (runner.EXIT_OK, runner.EXIT_FAIL, runner.EXIT_USAGE) == (0, 1, 64)
+    assert cmd_show.EXIT_WARN == _cli.EXIT_WARN == 1
+
+
+def test_output_piped_into_head_stops_quietly(small: tuple[Path, Path], tmp_path: Path) -> None:
+    _, enc = small
+    files = [str(enc)] * 200                       # far more than a pipe buffer of -vv text
+    for argv in (["mpzinfo", "-vv", *files],):
+        proc = subprocess.Popen([command(argv[0]), *argv[1:]], cwd=tmp_path,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        assert proc.stdout is not None and proc.stderr is not None
+        proc.stdout.read(20)
+        proc.stdout.close()                        # what head does after its lines
+        err = proc.stderr.read().decode()
+        proc.stderr.close()
+        assert proc.wait(timeout=120) == 0, err
+        assert "Traceback" not in err and "BrokenPipeError" not in err and err == ""
+
+
+# -- the atomic writer itself (in-process) -------------------------------------------------
+
+def test_atomic_output_cleans_up_and_never_names_the_temporary_file(tmp_path: Path) -> None:
+    from mpz.api import atomic_output, write_atomic
+    target = tmp_path / "x.bin"
+    with pytest.raises(RuntimeError), atomic_output(target) as tmp:
+        Path(tmp).write_bytes(b"partial")
+        assert Path(tmp).parent == tmp_path and Path(tmp).name.startswith(".x.bin.")
+        assert tmp.endswith(".part.bin")            # same suffix: format-by-name writers
+        raise RuntimeError("writer failed")
+    assert os.listdir(tmp_path) == []
+    with pytest.raises(EncoderError) as ei, atomic_output(target) as tmp:
+        raise PermissionError(13, "Permission denied", tmp)
+    assert str(ei.value) == f"cannot write {target}: Permission denied"
+    assert os.listdir(tmp_path) == []
+    # exclusive without force; the public write_atomic keeps replacing by default
+    write_atomic(target, b"one")
+    with pytest.raises(EncoderError, match="exists; use --force"):
+        write_atomic(target, b"two", force=False)
+    write_atomic(target, b"three")
+    assert target.read_bytes() == b"three" and os.listdir(tmp_path) == ["x.bin"]
+    with pytest.raises(EncoderError, match="refusing to overwrite the input"):
+        write_atomic(tmp_path / "." / "x.bin", b"four", source=target)
+
+
+def test_exclusive_commit_loses_to_a_file_made_meanwhile(tmp_path: Path) -> None:
+    from mpz.api import atomic_output
+    target = tmp_path / "late.npy"
+    with pytest.raises(EncoderError, match="exists; use --force"), \
+            atomic_output(target) as tmp:
+        np.save(tmp, np.zeros(3))
+        target.write_bytes(b"the other writer")    # appears after the first check
+    assert target.read_bytes() == b"the other writer"
+    assert os.listdir(tmp_path) == ["late.npy"]
