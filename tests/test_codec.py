@@ -82,7 +82,7 @@ def test_patterns_forced_on_with_bound_round_trips():
     m = generate("wave", frames=240, seed=5)
     data, rep = encode_motion(m, EncodeOptions(max_error=1.0, patterns="on"))
     s = read_stream(data)
-    assert s.segs and all(r.fields.base == 0 for r in s.resi.values())
+    assert s.segs and all(r.record.base == 0 for r in s.resi.values())
     assert mpz.max_error(m, mpz.decode(data)) <= 1.0
 
 

@@ -6,7 +6,7 @@ import pytest
 
 from mpz import container
 from mpz.errors import MPZError
-from mpz.spec.grammar import PAYLOADS
+from mpz.chunks import CHUNKS
 
 VECTORS = sorted((Path(__file__).resolve().parents[1] / "conformance" / "vectors").rglob("*.mpz"))
 
@@ -20,9 +20,9 @@ def test_parse_build_roundtrip(path):
         return   # an invalid vector: nothing to round-trip
     assert container.build(chunks) == data
     for c in chunks:
-        if c.fields is not None:
-            # the payload rebuilt from its parsed fields (not its raw bytes) is identical
-            assert PAYLOADS[c.type.encode()].build(c.fields) == c.payload, c.type
+        if c.record is not None:
+            # the payload rebuilt from its typed record (not its raw bytes) is identical
+            assert c.record.dump() == c.payload, c.type
 
 
 def test_a_vector_uses_every_chunk_type():
@@ -32,4 +32,4 @@ def test_a_vector_uses_every_chunk_type():
             seen |= {c.type for c in container.parse(p.read_bytes())}
         except MPZError:
             pass
-    assert set(t.decode() for t in PAYLOADS) <= seen
+    assert set(CHUNKS) <= seen

@@ -14,9 +14,10 @@ import zlib
 import numpy as np
 import pytest
 
-from mpz import container
+from mpz import container, format
+from mpz.chunks import CHUNKS
 from mpz.entropy import BlockDecoder, BlockEncoder
-from mpz.spec.grammar import PAYLOADS, SIGNATURE
+from mpz.spec.grammar import SIGNATURE
 
 REPO = Path(__file__).resolve().parents[1]
 SPEC = REPO / "spec" / "mpz-1.md"
@@ -83,41 +84,48 @@ def test_appendix_a_digest_and_size(text):
     import hashlib
 
     from mpz.conformance.manifest import intlayer_digest
-    from mpz.decoder import decode_integers, decode_mask, read_stream
+    from mpz.decoder import decode_layers
     data = EXAMPLE.read_bytes()
-    s = read_stream(data)
-    assert intlayer_digest(decode_integers(s), decode_mask(s)) in text
+    d = decode_layers(data)
+    assert intlayer_digest(d.q, d.valid) in text
     assert hashlib.sha256(data).hexdigest() in text
     assert f"({len(data)} bytes" in text
 
 
 # (2) chunk catalogue ----------------------------------------------------------
 def test_every_chunk_type_has_a_section_4_heading_and_vice_versa(text):
+    """Each chunk type has one heading '§4.k TYPE: ...' (or '§4.k.j TYPE: ...' for chunk
+    types grouped under a feature), and the catalogue follows the table's order."""
     in_spec = {}
     for num, title in HEADING.findall(text):
-        m = re.match(r"4\.(\d+)$", num)
-        if m:
-            ctype = title.split(":")[0].strip()
-            assert re.fullmatch(r"[A-Za-z]{4}", ctype), f"§{num} title {title!r} does not start with a chunk type"
-            in_spec[ctype] = int(m.group(1))
-    in_code = [t.decode() for t in PAYLOADS]
+        if not re.match(r"4\.\d+(\.\d+)?$", num):
+            continue
+        ctype = title.split(":")[0].strip()
+        if re.fullmatch(r"[A-Za-z]{4}", ctype):
+            in_spec[ctype] = tuple(int(p) for p in num.split("."))
+        else:
+            # only a feature's group heading may lack a chunk type, and it has subsections
+            assert any(n.startswith(num + ".") for n, _ in HEADING.findall(text)), \
+                f"§{num} title {title!r} does not start with a chunk type"
+    in_code = list(CHUNKS)
     assert set(in_spec) == set(in_code)
-    # the catalogue follows the registry's order
     assert sorted(in_spec, key=in_spec.get) == in_code
 
 
 def test_grammar_field_sections_name_their_own_chunk(text):
-    """A field doc string '§4.k ...' in PAYLOADS[T] cites the heading of chunk T."""
+    """A field doc string '§4.k ...' in the layout of chunk T cites the heading of chunk T;
+    each chunk's entry in the table (mpz.chunks) names the same § as its heading."""
     secs = {title.split(":")[0].strip(): num for num, title in HEADING.findall(text)
-            if num.startswith("4.")}
+            if num.startswith("4.") and re.fullmatch(r"[A-Za-z]{4}", title.split(":")[0].strip())}
     src = (REPO / "spec" / "mpz" / "spec" / "grammar.py").read_text(encoding="utf-8")
-    for ctype in PAYLOADS:
-        name = {b"smry": "SMRY", b"meta": "META"}.get(ctype, ctype.decode())
+    for ctype, cls in CHUNKS.items():
+        assert cls.SECTION == f"§{secs[ctype]}", (ctype, cls.SECTION)
+        name = {"smry": "SMRY", "meta": "META"}.get(ctype, ctype)
         m = re.search(rf"^{name} = Struct\((.*?)^\)", src, re.S | re.M)
         if m is None:
             continue
         cited = set(SECTION_REF.findall(m.group(1)))
-        assert cited <= {secs[ctype.decode()]}, f"{name} cites {cited}"
+        assert cited <= {secs[ctype]}, f"{name} cites {cited}"
 
 
 # (3) every § the code cites exists ----------------------------------------------
@@ -173,21 +181,20 @@ def test_entropy_example_trace_is_the_spec_pseudocode(text):
 
 
 # (5) limits ---------------------------------------------------------------------
-def test_limits_table_matches_container_constants(text):
+def test_limits_table_matches_the_format_constants(text):
     rows = table_rows(block(text, "limits"))
     table = {}
     for name, value, expr, _ in rows:
         base, exp = expr.split("^")
         assert int(value) == int(base) ** int(exp), f"{name}: {value} != {expr}"
         table[name] = int(value)
-    code = {k: v for k, v in vars(container).items() if k.startswith("MAX_")}
-    assert table == code
+    assert table == format.LIMITS
 
 
 # further checks on numbers quoted in the text -------------------------------------
 def test_crc_test_values(text):
     assert f"0x{zlib.crc32(b'123456789'):08X}" in text
-    mend = container.build_chunk("MEND", {})
+    mend = container.build_chunk("MEND", b"")
     assert mend[-4:] == bytes.fromhex("d5f72021")
     assert f"0x{container.crc32(b'MEND', b''):08X}" in text
     assert mend.hex(" ").upper() in text

@@ -10,24 +10,14 @@ first problem. :func:`build` is the inverse; ``parse(build(c)) == c`` and
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 import zlib
 
-import construct
-
+from mpz.chunks import CHUNKS, Record
 from mpz.errors import ChecksumError, FormatError, LimitExceededError, MPZError
-from mpz.spec.grammar import PAYLOADS, SIGNATURE, ChunkCRC, ChunkHeader
-
-# §8 limits (each one is checked before anything is allocated)
-MAX_FRAMES = 1 << 24            # 16 777 216 frames: > 38 h at 120 Hz
-MAX_MARKERS = 4096
-MAX_SAMPLES = 1 << 26           # F * M <= 67 108 864 marker-frames (1.5 GiB of float64 output)
-MAX_CHUNK_LENGTH = 1 << 30      # 1 GiB per chunk
-MAX_PATTERN_LENGTH = 4096
-MAX_PATTERN_SAMPLES = 1 << 24   # K * L * n_i per node
-MAX_SMOOTHING = 16
-MAX_SUMMARY_LEVELS = 64
-MAX_SUMMARY_VALUES = 1 << 24    # sum over levels of k * D
+from mpz.format import MAX_CHUNK_LENGTH
+from mpz.spec.grammar import SIGNATURE, ChunkCRC, ChunkHeader
 
 
 @dataclass
@@ -35,9 +25,9 @@ class Chunk:
     """One chunk as found in (or destined for) a file."""
 
     type: str
-    fields: object = None             # parsed payload (construct Container) or None
+    record: Record | None = None       # the typed payload (mpz.chunks), None if unknown/bad
     payload: bytes = b""
-    offset: int = 0                   # byte offset of the chunk's type field
+    offset: int | None = 0             # byte offset of the chunk's type field (None: not in a file)
     crc_stored: int | None = None
     crc_computed: int | None = None
 
@@ -51,8 +41,8 @@ class Chunk:
         return len(self.payload)
 
     @property
-    def payload_offset(self) -> int:
-        return self.offset + 8
+    def payload_offset(self) -> int | None:
+        return None if self.offset is None else self.offset + 8
 
     @property
     def crc_ok(self) -> bool:
@@ -63,9 +53,9 @@ class Chunk:
 class Scan:
     """What :func:`scan` found: the chunks, and every problem on the way."""
 
-    chunks: list = field(default_factory=list)
-    errors: list = field(default_factory=list)
-    warnings: list = field(default_factory=list)
+    chunks: list[Chunk] = field(default_factory=list)
+    errors: list[MPZError] = field(default_factory=list)
+    warnings: list[MPZError] = field(default_factory=list)
     size: int = 0
     complete: bool = False            # an MEND chunk was reached
 
@@ -75,18 +65,14 @@ def crc32(ctype: bytes, payload: bytes) -> int:
     return zlib.crc32(payload, zlib.crc32(ctype)) & 0xFFFFFFFF
 
 
-def _parse_payload(ctype: bytes, payload: bytes, offset: int):
-    grammar = PAYLOADS[ctype]
-    try:
-        return grammar.parse(payload)
-    except (construct.ConstructError, UnicodeDecodeError, ValueError, OverflowError) as exc:
-        raise FormatError(f"malformed {ctype.decode()} payload: {_short(exc)}",
-                          offset=offset, chunk=ctype.decode(), section="§4") from None
-
-
-def _short(exc) -> str:
-    text = str(exc).strip().splitlines()
-    return text[-1] if text else type(exc).__name__
+def locate(exc: MPZError, chunk: Chunk) -> MPZError:
+    """Give ``exc`` the chunk type and offset of ``chunk`` where it has none (the one place
+    rule violations found in records get their location)."""
+    if exc.chunk is None:
+        exc.chunk = chunk.type
+    if exc.offset is None:
+        exc.offset = chunk.offset
+    return exc
 
 
 def scan(data: bytes) -> Scan:
@@ -120,8 +106,9 @@ def scan(data: bytes) -> Scan:
                                           offset=pos, section="§3.4"))
             return res
         if left < 12:
-            res.errors.append(FormatError(f"truncated chunk frame: {left} byte(s) left, a chunk needs 12",
-                                          offset=pos, section="§3.2"))
+            res.errors.append(FormatError(
+                f"truncated chunk frame: {left} byte(s) left, a chunk needs 12",
+                offset=pos, section="§3.2"))
             return res
         hdr = ChunkHeader.parse(data[pos: pos + 8])
         ctype, length = hdr.type, hdr.length
@@ -137,7 +124,8 @@ def scan(data: bytes) -> Scan:
             return res
         if length > left - 12:
             res.errors.append(LimitExceededError(
-                f"chunk length {length} exceeds the {left - 12} byte(s) left in the file (truncated?)",
+                f"chunk length {length} exceeds the {left - 12} byte(s) left in the file "
+                f"(truncated?)",
                 offset=pos, chunk=tname, section="§3.2"))
             return res
         payload = data[pos + 8: pos + 8 + length]
@@ -148,10 +136,11 @@ def scan(data: bytes) -> Scan:
             res.errors.append(ChecksumError(
                 f"CRC-32 mismatch: computed 0x{chunk.crc_computed:08x}, stored 0x{stored:08x}",
                 offset=pos, chunk=tname, section="§3.3"))
-        if ctype in PAYLOADS:
+        if tname in CHUNKS:
             try:
-                chunk.fields = _parse_payload(ctype, payload, pos + 8)
+                chunk.record = CHUNKS[tname].load(payload)
             except MPZError as exc:
+                exc.offset = pos + 8           # the payload that does not fit its layout
                 res.errors.append(exc)
         elif chunk.critical:
             res.errors.append(FormatError(f"unknown critical chunk {tname!r}", offset=pos,
@@ -168,7 +157,7 @@ def scan(data: bytes) -> Scan:
             return res
 
 
-def parse(data: bytes) -> list:
+def parse(data: bytes) -> list[Chunk]:
     """Strictly parse the chunk list of ``data``.
 
     Raises
@@ -182,16 +171,28 @@ def parse(data: bytes) -> list:
     return res.chunks
 
 
-def build_chunk(ctype: str, fields=None, payload: bytes | None = None) -> bytes:
-    """Frame one chunk: type, length, payload, CRC (§3.2)."""
+def build_chunk(ctype: str, payload: bytes) -> bytes:
+    """Frame one payload: type, length, payload, CRC (§3.2, §3.3)."""
     t = ctype.encode("ascii")
-    if payload is None:
-        payload = PAYLOADS[t].build(fields if fields is not None else {})
     if len(payload) > MAX_CHUNK_LENGTH:
-        raise LimitExceededError(f"{ctype} payload of {len(payload)} bytes exceeds {MAX_CHUNK_LENGTH}",
-                                 chunk=ctype, section="§8")
-    return (ChunkHeader.build({"type": t, "length": len(payload)}) + payload
-            + ChunkCRC.build(crc32(t, payload)))
+        raise LimitExceededError(
+            f"{ctype} payload of {len(payload)} bytes exceeds {MAX_CHUNK_LENGTH}",
+            chunk=ctype, section="§8")
+    header: bytes = ChunkHeader.build({"type": t, "length": len(payload)})
+    crc: bytes = ChunkCRC.build(crc32(t, payload))
+    return header + payload + crc
+
+
+def chunk_sizes(data: bytes) -> dict[str, int]:
+    """Framed bytes (12 + payload) per chunk type of a well-formed file, from the frames alone."""
+    sizes: dict[str, int] = {}
+    pos = len(SIGNATURE)
+    while pos + 12 <= len(data):
+        hdr = ChunkHeader.parse(data[pos: pos + 8])
+        t = hdr.type.decode("latin-1")
+        sizes[t] = sizes.get(t, 0) + 12 + hdr.length
+        pos += 12 + hdr.length
+    return sizes
 
 
 def repair_crcs(data: bytes) -> bytes:
@@ -207,20 +208,26 @@ def repair_crcs(data: bytes) -> bytes:
         end = pos + 8 + length
         if end + 4 > len(out):
             break
-        out[end: end + 4] = ChunkCRC.build(crc32(bytes(out[pos: pos + 4]), bytes(out[pos + 8: end])))
+        crc = crc32(bytes(out[pos: pos + 4]), bytes(out[pos + 8: end]))
+        out[end: end + 4] = ChunkCRC.build(crc)
         pos = end + 4
     return bytes(out)
 
 
-def build(chunks) -> bytes:
-    """Signature followed by every chunk (each a :class:`Chunk` or ``(type, fields)``)."""
+def build(chunks: Iterable[Record | Chunk | tuple[str, bytes]]) -> bytes:
+    """The signature followed by every chunk, framed (the write side of :func:`scan`).
+
+    Each item is a :class:`~mpz.chunks.Record` (its payload is built), a :class:`Chunk`
+    (its payload bytes are kept, or built from its record when it has none), or a
+    ``(type, payload bytes)`` pair for chunks the table does not know.
+    """
     out = [SIGNATURE]
     for c in chunks:
-        if isinstance(c, Chunk):
-            use_payload = bool(c.payload) or c.fields is None
-            out.append(build_chunk(c.type, payload=c.payload if use_payload else None,
-                                   fields=c.fields))
+        if isinstance(c, Record):
+            out.append(build_chunk(c.TYPE, c.dump()))
+        elif isinstance(c, Chunk):
+            payload = c.payload if (c.payload or c.record is None) else c.record.dump()
+            out.append(build_chunk(c.type, payload))
         else:
-            ctype, fields = c
-            out.append(build_chunk(ctype, fields))
+            out.append(build_chunk(c[0], c[1]))
     return b"".join(out)

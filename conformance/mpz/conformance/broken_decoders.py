@@ -71,14 +71,13 @@ def main(argv=None) -> int:
         if mode != "accept-all":
             print(f"{type(exc).__name__}: {exc}", file=sys.stderr)
             return 2
+        from mpz.chunks import Mhdr
+        from mpz.container import scan
         shape = (1, 1, 3)
-        try:
-            from mpz.container import scan
-            h = scan(data).chunks[0].fields
-            if h.frame_count * h.marker_count <= 1 << 20:
-                shape = (h.frame_count, h.marker_count, 3)
-        except Exception:
-            pass
+        found = scan(data).chunks
+        h = found[0].record if found else None
+        if isinstance(h, Mhdr) and h.frame_count * h.marker_count <= 1 << 20:
+            shape = (h.frame_count, h.marker_count, 3)
         write_output(dst, np.zeros(shape), None)
         return 0
     if mode == "offbyone":

@@ -91,7 +91,7 @@ def exercised_sections(stream) -> list:
     if len(stream.nodes) > 1:
         secs |= {"§4.7", "§6.6"}
     for i, c in stream.patt.items():
-        if c.fields.pattern_count:
+        if c.record.pattern_count:
             secs |= {"§4.8", "§6.3"}
             _, counts = decode_segments(stream, i)
             if stream.header.smoothing and len(counts) > 1:

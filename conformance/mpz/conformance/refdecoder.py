@@ -17,14 +17,11 @@ import numpy as np
 def decode_file(src: str):
     """(positions float64 [F, M, 3] with NaN gaps, integer-layer digest hex) of an MPZ file."""
     from mpz.conformance.manifest import intlayer_digest
-    from mpz.decoder import decode_integers, decode_mask, read_stream, to_positions
+    from mpz.decoder import decode_layers
     with open(src, "rb") as fh:
         data = fh.read()
-    s = read_stream(data)
-    valid = decode_mask(s)
-    q = decode_integers(s)
-    x = to_positions(s, q, valid)
-    return x, intlayer_digest(q, valid)
+    d = decode_layers(data)
+    return d.positions(), intlayer_digest(d.q, d.valid)
 
 
 def write_output(dst: str, x, digest: str | None) -> None:

@@ -4,12 +4,18 @@ Strategy: construct describes structure only: the signature, the chunk frame
 and each chunk's fixed fields. Range-coded payloads are opaque ``GreedyBytes``
 decoded by :mod:`mpz.entropy`; bulk arrays are ``Bytes`` read with numpy.
 Checksums, limits, chunk order and every cross-field rule live in Python
-(:mod:`mpz.container`), which raises :mod:`mpz.errors` exceptions carrying
-the byte offset and chunk type. Pitfalls avoided on purpose (STYLE.md): no
-``GreedyRange`` for the chunk list, ``Terminated`` ends every payload, no
-``.compile()``, and no ``Switch``: payloads are looked up in the explicit
-``PAYLOADS`` table, and a type missing from it is handled by §2.3 in Python.
+(framing in :mod:`mpz.container`, each chunk's § rules in its entry of the chunk
+table :data:`mpz.chunks.CHUNKS`, the §3.4 order in :func:`mpz.decoder.read_stream`),
+which raises :mod:`mpz.errors` exceptions carrying the byte offset and chunk type.
+
+construct pitfalls avoided on purpose: no ``GreedyRange`` for the chunk list (it
+silently drops a corrupt last chunk), ``Terminated`` ends every payload (trailing
+bytes are an error), no ``.compile()`` (compiled parsers lose error paths on untrusted
+input), and no ``Switch`` (an unknown key would parse as nothing): the chunk table
+names each layout, and a type missing from it is handled by §2.3 in Python.
 """
+from typing import Any
+
 from construct import (
     Adapter,
     Array,
@@ -64,8 +70,9 @@ class FrontCodedNames(Adapter):
     of UTF-8. Capture software prefixes every label with the subject
     ("TakeoMonday:LFHD"), so this halves MNAM on real files."""
 
-    def _decode(self, obj, context, path):
-        names, prev = [], b""
+    def _decode(self, obj: Any, context: Any, path: str) -> list[str]:
+        names: list[str] = []
+        prev = b""
         for i, e in enumerate(obj):
             if e.shared > len(prev):
                 raise ExplicitError(f"name {i} shares {e.shared} bytes of a {len(prev)}-byte name")
@@ -79,8 +86,9 @@ class FrontCodedNames(Adapter):
             prev = raw
         return names
 
-    def _encode(self, obj, context, path):
-        out, prev = [], b""
+    def _encode(self, obj: Any, context: Any, path: str) -> list[dict[str, Any]]:
+        out: list[dict[str, Any]] = []
+        prev = b""
         for name in obj:
             raw = name.encode("utf-8")
             shared = 0
@@ -107,10 +115,10 @@ class WeightCodes(Adapter):
     """§4.3 encoder weights as u8 codes: weight = (code + 1) / 16, i.e. 1/16 .. 16 in
     steps of 1/16. Informative only (the decoder never uses them), so a byte is enough."""
 
-    def _decode(self, obj, context, path):
+    def _decode(self, obj: Any, context: Any, path: str) -> list[float]:
         return [(c + 1) / 16.0 for c in obj]
 
-    def _encode(self, obj, context, path):
+    def _encode(self, obj: Any, context: Any, path: str) -> list[int]:
         return [min(255, max(0, int(round(float(w) * 16.0)) - 1)) for w in obj]
 
 
@@ -203,13 +211,3 @@ META = Struct(
 
 #: §4.12 MEND, the end chunk: empty
 MEND = Struct(Terminated)
-
-#: Chunk type -> payload grammar (the one registry; see mpz.container)
-PAYLOADS = {
-    b"MHDR": MHDR, b"MNAM": MNAM, b"HIER": HIER, b"QUNT": QUNT, b"MASK": MASK,
-    b"ROOT": ROOT, b"PATT": PATT, b"SEGS": SEGS, b"RESI": RESI, b"smry": SMRY,
-    b"meta": META, b"MEND": MEND,
-}
-
-#: §4 all chunk types, in catalogue order (the spec lists the same).
-CHUNK_TYPES = tuple(t.decode() for t in PAYLOADS)

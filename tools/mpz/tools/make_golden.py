@@ -28,7 +28,7 @@ GOLDEN_FILE = "golden.json"
 def compute(vectors_dir=None) -> dict:
     import mpz
     from mpz.conformance import manifest as mf
-    from mpz.decoder import decode_integers, decode_mask, read_stream
+    from mpz.decoder import decode_layers
     from mpz.errors import MPZError
     from mpz.tools.mpzinfo import inspect
     man = mf.load(vectors_dir)
@@ -43,8 +43,8 @@ def compute(vectors_dir=None) -> dict:
             m = mpz.decode(data)
             entry["decoded_sha256"] = hashlib.sha256(
                 np.ascontiguousarray(m.as_nan(), "<f8").tobytes()).hexdigest()
-            s = read_stream(data)
-            entry["integer_layer_digest"] = mf.intlayer_digest(decode_integers(s), decode_mask(s))
+            d = decode_layers(data)
+            entry["integer_layer_digest"] = mf.intlayer_digest(d.q, d.valid)
         except MPZError as exc:
             entry["error_class"] = type(exc).__name__
         out[v["name"]] = entry

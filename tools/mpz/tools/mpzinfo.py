@@ -16,19 +16,25 @@ Exit codes: 0 ok, 1 warnings only, 2 errors in a file, 64 usage error.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
 
-import construct
-
+from mpz.chunks import Mhdr, Patt, Segs, Smry
 from mpz.container import scan
+from mpz.decoder import decode_layers, read_stream
 from mpz.errors import MPZError
-from mpz.spec.grammar import PAYLOADS
+from mpz.format import UNIT_NAMES, Units
+from mpz.tools._cli import (
+    EXIT_CODES_HELP,
+    EXIT_ERROR,
+    EXIT_OK,
+    EXIT_WARN,
+    Parser,
+    quiet_broken_pipe,
+)
 
 SCHEMA = "mpzinfo/1"
-EXIT_OK, EXIT_WARN, EXIT_ERROR, EXIT_USAGE = 0, 1, 2, 64
 
 
 def _size(n: int) -> str:
@@ -43,16 +49,6 @@ def _err(e: MPZError) -> dict:
             "chunk": e.chunk, "section": e.section}
 
 
-def _jsonable(v):
-    if isinstance(v, (bytes, bytearray)):
-        return {"bytes": len(v), "head": bytes(v[:16]).hex()}
-    if isinstance(v, construct.Container):
-        return {k: _jsonable(x) for k, x in v.items() if not k.startswith("_")}
-    if isinstance(v, (list, construct.ListContainer)):
-        return [_jsonable(x) for x in v]
-    return v
-
-
 def _finite(v):
     """JSON has no NaN or infinity: report such values as null (errors[] says why)."""
     if isinstance(v, float) and not math.isfinite(v):
@@ -62,23 +58,6 @@ def _finite(v):
     if isinstance(v, list):
         return [_finite(x) for x in v]
     return v
-
-
-def field_offsets(ctype: str, payload: bytes) -> list:
-    """(name, offset-in-payload, value) of each top-level field, by re-parsing prefixes."""
-    grammar = PAYLOADS.get(ctype.encode())
-    if grammar is None:
-        return []
-    subcons = [s for s in grammar.subcons if s.name]
-    out = []
-    for i, sc in enumerate(subcons):
-        probe = construct.Struct(*subcons[:i], "_pos" / construct.Tell)
-        try:
-            start = probe.parse(payload)._pos
-        except Exception:  # a malformed payload: show the fields that parsed
-            break
-        out.append((sc.name, start))
-    return out
 
 
 def inspect(data: bytes, name: str = "-", *, decode: bool = True) -> dict:
@@ -92,38 +71,39 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True) -> dict:
         entry = {"type": c.type, "offset": c.offset, "length": c.length, "critical": c.critical,
                  "crc_ok": c.crc_ok, "crc_stored": c.crc_stored, "crc_computed": c.crc_computed,
                  "fields": None}
-        if c.fields is not None:
-            entry["fields"] = {k: _jsonable(v) for k, v in c.fields.items() if not k.startswith("_")}
-            entry["field_offsets"] = {n: c.payload_offset + o for n, o in
-                                      field_offsets(c.type, c.payload)}
+        if c.record is not None:
+            # each chunk's entry in the chunk table says what to show (mpz.chunks)
+            entry["fields"] = c.record.info()
+            entry["field_offsets"] = {n: c.offset + 8 + o for n, o in
+                                      type(c.record).field_offsets(c.payload)}
         info["chunks"].append(entry)
     errors = list(res.errors)
     warnings = list(res.warnings)
-    hdr = res.chunks[0].fields if res.chunks and res.chunks[0].type == "MHDR" else None
+    records = [c.record for c in res.chunks if c.record is not None]
+    hdr = records[0] if records and isinstance(records[0], Mhdr) else None
     if hdr is not None:
-        from mpz.decoder import UNIT_CODES
         info.update(version=f"{hdr.version_major}.{hdr.version_minor}", rate=hdr.rate,
                     frames=hdr.frame_count, markers=hdr.marker_count, nodes=hdr.node_count,
-                    units=UNIT_CODES.get(hdr.units), error_metric=hdr.error_metric,
+                    units=UNIT_NAMES.get(Units(hdr.units)) if hdr.units in set(Units) else None,
+                    error_metric=hdr.error_metric,
                     error_bound=hdr.error_bound if hdr.error_metric else None,
                     raw_size=12 * hdr.frame_count * hdr.marker_count)
         info["ratio"] = info["raw_size"] / len(data) if data else None
-    patt = [c.fields for c in res.chunks if c.type == "PATT" and c.fields is not None]
-    segs = [c.fields for c in res.chunks if c.type == "SEGS" and c.fields is not None]
+    patt = [r for r in records if isinstance(r, Patt)]
+    segs = [r for r in records if isinstance(r, Segs)]
     if patt:
         info["patterns"] = sum(p.pattern_count for p in patt)
     if segs or patt:
         info["segments"] = sum(s.segment_count for s in segs)
-    smry = [c.fields for c in res.chunks if c.type == "smry" and c.fields is not None]
+    smry = [r for r in records if isinstance(r, Smry)]
     if smry:
         info["summary_levels"] = [lv.k for lv in smry[0].levels]
     if not errors:
-        from mpz.decoder import decode_integers, decode_mask, read_stream
         try:
-            s = read_stream(data)
             if decode:
-                decode_mask(s)
-                decode_integers(s)
+                decode_layers(data)
+            else:
+                read_stream(data)
         except MPZError as exc:
             errors.append(exc)
     info["errors"] = [_err(e) for e in errors]
@@ -179,26 +159,14 @@ def _print_chunks(info: dict, verbose: int, out):
         print(f"  error: {e['class']}: {e['message']}{where}", file=out)
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        self.print_usage(sys.stderr)
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
-        raise SystemExit(EXIT_USAGE)
+@quiet_broken_pipe
+def main(argv: list[str] | None = None) -> int:
+    return _main(argv)
 
 
-def main(argv=None) -> int:
-    try:
-        return _main(argv)
-    except BrokenPipeError:  # output piped into e.g. head: stop quietly
-        import os
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
-
-
-def _main(argv=None) -> int:
+def _main(argv: list[str] | None = None) -> int:
     from mpz import __version__
-    p = _Parser(prog="mpzinfo", description="Dump and check MPZ files.",
-                epilog="exit codes: 0 ok, 1 warnings only, 2 errors, 64 usage error")
+    p = Parser(prog="mpzinfo", description="Dump and check MPZ files.", epilog=EXIT_CODES_HELP)
     p.add_argument("files", nargs="+", metavar="FILE")
     p.add_argument("-v", "--verbose", action="count", default=0,
                    help="-v: one line per chunk; -vv: every field with its byte offset")

@@ -1,7 +1,7 @@
 """``python -m mpz.tools.spec_example OUT``: write the example file of spec Appendix A.
 
 Strategy: the example is built chunk by chunk from hand-chosen integers with
-:func:`mpz.container.build_chunk` and :class:`mpz.entropy.BlockEncoder`, so
+:func:`mpz.container.build` and :class:`mpz.entropy.BlockEncoder`, so
 every byte has a reason that Appendix A can state; nothing depends on the
 encoder's heuristics. The script then decodes its own output with
 :func:`mpz.decode` and checks the integer layer and the declared bound
@@ -17,12 +17,11 @@ Exit codes: 0 ok, 2 the codec disagrees with the example, 64 usage error.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np
 
-EXIT_OK, EXIT_ERROR, EXIT_USAGE = 0, 2, 64
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_USAGE, Parser, quiet_broken_pipe
 
 # --------------------------------------------------------------- the motion --
 NAMES = ["C7", "HAND"]
@@ -67,7 +66,7 @@ def chunks() -> list:
 
     A field row is (length, description); the lengths add up to the payload.
     """
-    from mpz.container import build_chunk
+    from mpz.chunks import CHUNKS
     from mpz.entropy import BlockEncoder
 
     def coded(block, *, period=None, signed=True):
@@ -76,8 +75,7 @@ def chunks() -> list:
         return enc.finish()
 
     def b(ctype, fields):
-        full = build_chunk(ctype, fields)
-        return full[8:-4]
+        return CHUNKS[ctype].GRAMMAR.build(fields)
 
     out = []
     mhdr = {"version_major": 1, "version_minor": 0, "flags": 1, "frame_count": 3,
@@ -147,9 +145,8 @@ def chunks() -> list:
 
 
 def build() -> bytes:
-    from mpz.container import build_chunk
-    from mpz.spec.grammar import SIGNATURE
-    return SIGNATURE + b"".join(build_chunk(t, payload=p) for t, p, _ in chunks())
+    from mpz.container import build
+    return build((t, p) for t, p, _ in chunks())
 
 
 def original_positions() -> np.ndarray:
@@ -161,10 +158,9 @@ def original_positions() -> np.ndarray:
 
 def verify(data: bytes) -> None:
     """Decode ``data`` with the reference decoder; raise AssertionError on any surprise."""
-    from mpz.decoder import decode, decode_integers, decode_mask, read_stream
-    s = read_stream(data)
-    q = decode_integers(s)
-    valid = decode_mask(s)
+    from mpz.decoder import decode, decode_layers
+    d = decode_layers(data)
+    q, valid = d.q, d.valid
     assert (q == expected_q()).all(), f"integer layer {q.tolist()} != {expected_q().tolist()}"
     assert (valid == (GAPS == 0)).all(), "mask differs"
     m = decode(data)
@@ -306,9 +302,10 @@ def entropy_text() -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mpz.tools.spec_example",
-                                 description="Write the example file of spec Appendix A.")
+@quiet_broken_pipe
+def main(argv: list[str] | None = None) -> int:
+    ap = Parser(prog="python -m mpz.tools.spec_example",
+                description="Write the example file of spec Appendix A.")
     ap.add_argument("out", nargs="?", help="where to write the file (e.g. "
                     "conformance/vectors/spec-example.mpz)")
     ap.add_argument("--table", action="store_true", help="print the Appendix A table")

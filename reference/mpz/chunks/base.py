@@ -1,0 +1,142 @@
+"""The base of the chunk table: typed records, their context, and the shared helpers.
+
+A :class:`Record` is a frozen dataclass of one payload's fields, in layout order; the
+classes that derive from it (one per chunk type, see :mod:`mpz.chunks`) add their
+layout, their § checks and, where needed, their own views of the data. Checks call
+:func:`fail`, which raises without a location; :func:`mpz.container.locate` adds the
+chunk type and offset in one place.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
+
+import construct
+
+from mpz.errors import FormatError, MPZError
+
+if TYPE_CHECKING:   # the Context names core records; core imports this module
+    from mpz.chunks.core import HierNode, Mhdr, Patt
+
+__all__ = ["Record", "Context", "JSON", "fail"]
+
+R = TypeVar("R", bound="Record")
+#: a JSON value as ``mpzinfo --json`` writes it
+JSON = Any
+
+
+def fail(message: str, section: str, cls: type[MPZError] = FormatError) -> None:
+    """Raise a rule violation; the reader adds the chunk type and offset."""
+    raise cls(message, section=section)
+
+
+def _jsonable(v: object) -> JSON:
+    """A field value as mpzinfo shows it: bulk bytes as their size and first 16 bytes."""
+    if isinstance(v, (bytes, bytearray)):
+        return {"bytes": len(v), "head": bytes(v[:16]).hex()}
+    if isinstance(v, Record):
+        return v.info()
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    return v
+
+
+def _plain(v: object) -> object:
+    """construct's parse result -> plain Python (ListContainer -> tuple)."""
+    if isinstance(v, list):
+        return tuple(_plain(x) for x in v)
+    return v
+
+
+@dataclass(frozen=True)
+class Context:
+    """What the §3.4 order has established when a chunk is checked."""
+
+    header: Mhdr
+    max_samples: int
+    nodes: tuple[HierNode, ...] = ()
+    node: int = 0                      # the node a PATT/SEGS/RESI belongs to
+    patt: Patt | None = None           # that node's PATT (for SEGS and RESI)
+
+    @property
+    def members(self) -> int:
+        """n_i, the member count of the node being checked."""
+        return self.nodes[self.node].member_count
+
+
+@dataclass(frozen=True)
+class Record:
+    """Base of every chunk record (and of the records nested in them)."""
+
+    TYPE: ClassVar[str] = ""
+    SECTION: ClassVar[str] = "§4"
+    GRAMMAR: ClassVar[construct.Construct]
+    #: nested record class of a field holding a list of records
+    NESTED: ClassVar[dict[str, type[Record]]] = {}
+
+    @classmethod
+    def from_parsed(cls: type[R], c: Any) -> R:
+        """The record of a construct parse result."""
+        values: dict[str, object] = {}
+        for f in fields(cls):
+            v = c[f.name]
+            nested = cls.NESTED.get(f.name)
+            values[f.name] = (tuple(nested.from_parsed(x) for x in v) if nested is not None
+                              else _plain(v))
+        return cls(**values)
+
+    def to_build(self) -> dict[str, object]:
+        """The dict construct builds the payload from."""
+        out: dict[str, object] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in self.NESTED:
+                v = [x.to_build() for x in v]
+            elif isinstance(v, tuple):
+                v = list(v)
+            out[f.name] = v
+        return out
+
+    @classmethod
+    def load(cls: type[R], payload: bytes) -> R:
+        """Parse a payload. Raises FormatError (§4) for bytes that do not fit the layout."""
+        try:
+            parsed = cls.GRAMMAR.parse(payload)
+        except (construct.ConstructError, UnicodeDecodeError, ValueError, OverflowError) as exc:
+            # construct reports layout problems with these; translated here, at the one
+            # boundary between the grammar and the rest of the decoder
+            raise FormatError(f"malformed {cls.TYPE} payload: {_short(exc)}",
+                              chunk=cls.TYPE, section="§4") from None
+        return cls.from_parsed(parsed)
+
+    def dump(self) -> bytes:
+        """The payload bytes of this record."""
+        return cast(bytes, self.GRAMMAR.build(self.to_build()))
+
+    def check(self, ctx: Context) -> None:
+        """The rules of this chunk's § (nothing to check by default)."""
+
+    def info(self) -> dict[str, JSON]:
+        """The fields as mpzinfo shows them, in layout order."""
+        return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)}
+
+    @classmethod
+    def field_offsets(cls, payload: bytes) -> list[tuple[str, int]]:
+        """(name, offset in the payload) of each top-level field, by parsing prefixes."""
+        subcons = [s for s in cls.GRAMMAR.subcons if s.name]
+        out = []
+        for i, sc in enumerate(subcons):
+            probe = construct.Struct(*subcons[:i], "_pos" / construct.Tell)
+            try:
+                start = probe.parse(payload)._pos
+            except (construct.ConstructError, UnicodeDecodeError, ValueError, OverflowError):
+                break          # a malformed payload: show the fields that parsed
+            out.append((sc.name, int(start)))
+        return out
+
+
+def _short(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[-1] if text else type(exc).__name__
+
+
