@@ -4,11 +4,15 @@ Usage: ``python -m mpz.tools.make_vectors [--out conformance/vectors]``
 
 Strategy: every vector comes from seeded synthetic motion (:mod:`mpz.synth`)
 or from integers chosen here. Some are written by the reference encoder; most
-are *built by hand*, chunk by chunk, with :func:`mpz.container.build_chunk`,
+are *built by hand*, chunk by chunk, with :func:`mpz.container.build`,
 :class:`mpz.entropy.BlockEncoder` and :func:`mpz.predict.residuals`, so that
 every field value that changes decoding appears (predictor orders 0/1/2,
 smoothing 0..16, residual scale g > 1, base 0 and 1, pattern scale > 1, ...),
-including values the encoder would never choose. Invalid vectors start from a
+including values the encoder would never choose. Coded values of 2^30 and more
+(§5.4: decoders read them, encoders never write them) go through the §5
+transcription :class:`mpz.conformance.rangecoder.RefEncoder` (:func:`rc_wide`).
+The vectors for the points of spec 1.0.1 (Appendix B) come last in each group, so
+the 1.0 vectors keep their names and bytes. Invalid vectors start from a
 small valid file and change exactly one thing; CRCs are recomputed after the
 change unless the CRC is the thing being broken. Expected outputs are the
 reference decoder's, frozen as ``.npy``. The manifest records provenance,
@@ -29,16 +33,15 @@ import numpy as np
 
 import mpz
 from mpz import container
+from mpz.chunks import CHUNKS
 from mpz.conformance import manifest as mf
-from mpz.decoder import UNIT_CODES, decode_integers, decode_mask, read_stream, to_positions
+from mpz.conformance.rangecoder import RefEncoder
+from mpz.decoder import decode_layers
 from mpz.entropy import BlockEncoder
+from mpz.format import ROOT_PARENT, SIGNATURE, unit_code, unit_name
 from mpz.normalize import denormalize, normalize, segment_starts
-from mpz.predict import residuals
+from mpz.predict import reconstruct, residuals
 from mpz.smooth import smooth_boundaries
-from mpz.spec.grammar import PAYLOADS, SIGNATURE
-
-ROOT_PARENT = 0xFFFF
-UNITS = {"": 0, "mm": 1, "cm": 2, "m": 3, "in": 4}
 
 
 # ================================================================ building ==
@@ -50,20 +53,27 @@ def rc(*blocks) -> bytes:
     return enc.finish()
 
 
+def rc_wide(*blocks) -> bytes:
+    """As :func:`rc`, for values up to |v| = 2^31 - 1 (exponent k = 30, §5.4), which an
+    encoder must not write but a decoder must read. The reference BlockEncoder refuses
+    |v| >= 2^30, so this goes through the §5 transcription of the conformance package."""
+    enc = RefEncoder()
+    for vals, kw in blocks:
+        v = np.asarray(vals, np.int64)
+        assert v.ndim == 3 and int(np.abs(v).max(initial=0)) < 1 << 31
+        enc.block(v, period=kw.get("period"), signed=kw.get("signed", True))
+    return enc.finish()
+
+
 def payload(ctype: str, fields) -> bytes:
-    return PAYLOADS[ctype.encode()].build(fields)
-
-
-def frame(ctype: str, body: bytes) -> bytes:
-    """Type, length, payload, correct CRC."""
-    t = ctype.encode("latin-1")
-    return (struct.pack("<4sI", t, len(body)) + body
-            + struct.pack("<I", container.crc32(t, body)))
+    """A payload built straight from its layout (the chunk table's grammar), so that vectors
+    can hold values the checks reject."""
+    return CHUNKS[ctype].GRAMMAR.build(fields)
 
 
 def assemble(chunks) -> bytes:
     """Signature + chunks given as [type, payload] pairs, every CRC correct."""
-    return SIGNATURE + b"".join(frame(t, p) for t, p in chunks)
+    return container.build((t, p) for t, p in chunks)
 
 
 class Design:
@@ -88,10 +98,12 @@ class Design:
         self.ancillary = []            # (type, payload) placed before MEND
         self.ancillary_early = []      # (type, payload) placed right after MHDR
         self.source = None             # the Motion it codes, if any
+        self.payloads = {}             # (type, n) -> payload replacing the n-th chunk of type
 
     def node(self, parent, ref, members, *, patt=None, segs=None, resi=None, weights=None):
         """Add a node. ``patt`` = dict(K, L, scale, order, values [K*L, n, 3]) or None;
-        ``segs`` = (index [S], counts [S]); ``resi`` = dict(base, order, scale, values [F, n, 3])."""
+        ``segs`` = (index [S], counts [S]); ``resi`` = dict(base, order, scale,
+        values [F, n, 3])."""
         self.nodes.append((parent, ref, list(members), weights or [1.0] * len(members)))
         self.layers[len(self.nodes) - 1] = {"patt": patt, "segs": segs, "resi": resi}
 
@@ -100,7 +112,8 @@ class Design:
         flags = self.flags if self.flags is not None else (1 if self.residual else 0)
         hdr = {"version_major": self.version[0], "version_minor": self.version[1],
                "flags": flags, "frame_count": F, "marker_count": M,
-               "node_count": len(self.nodes), "rate": self.rate, "units": UNITS[self.units],
+               "node_count": len(self.nodes), "rate": self.rate,
+               "units": int(unit_code(self.units)),
                "error_metric": self.error_metric, "error_bound": self.error_bound,
                "smoothing": self.smoothing}
         out = [["MHDR", payload("MHDR", hdr)]]
@@ -114,9 +127,10 @@ class Design:
         if self.valid is not None:
             out.append(["MASK", payload("MASK", {"coded": rc(
                 ((~self.valid).astype(np.int64)[:, :, None], {"signed": False}))})])
+        assert self.root is not None, "set Design.root = (order, ints [F, 3])"
         order, vals = self.root
-        out.append(["ROOT", payload("ROOT", {"order": order, "coded": rc(
-            (residuals(vals[:, None, :], order), {}))})])
+        out.append(["ROOT", self.payloads.get(("ROOT", 0)) or payload("ROOT", {
+            "order": order, "coded": rc((residuals(vals[:, None, :], order), {}))})])
         for i in range(1, len(self.nodes)):
             lay = self.layers[i]
             p = lay["patt"]
@@ -134,19 +148,20 @@ class Design:
                                                      "coded": rc((v, {}))})])
             if self.residual:
                 r = lay["resi"]
-                out.append(["RESI", payload("RESI", {
+                out.append(["RESI", self.payloads.get(("RESI", i - 1)) or payload("RESI", {
                     "node": i, "base": r["base"], "order": r["order"], "scale": r["scale"],
                     "coded": rc((residuals(r["values"], r["order"]), {}))})])
         out += [list(c) for c in self.ancillary]
         out.append(["MEND", b""])
+        for (ctype, n), body in self.payloads.items():
+            out[_find(out, ctype, n)][1] = body
         return out
 
     def build(self) -> bytes:
         """Assemble; with bits=None, set QUNT bits to the smallest value that holds (§4.4)."""
         data = assemble(self.chunks())
         if self.bits is None:
-            s = read_stream(data)
-            q = decode_integers(s)
+            q = decode_layers(data).q
             self.bits = max(1, int(np.abs(q).max(initial=0)).bit_length())
             data = assemble(self.chunks())
         if self.source is not None and self.error_metric == 1:
@@ -165,16 +180,16 @@ def make_patterns(local, L, K, scale, rng, jitter=3):
     L +- jitter frames, the first K segments as patterns, each segment mapped to the
     nearest pattern. Returns (patt dict without order, (index, counts), prediction)."""
     F = local.shape[0]
-    counts = []
+    cuts: list[int] = []
     left = F
     while left > 0:
         c = int(L + rng.integers(-jitter, jitter + 1)) if jitter else L
         c = max(1, min(c, left))
         if left - c < max(1, L // 2) and left - c > 0:
             c = left
-        counts.append(c)
+        cuts.append(c)
         left -= c
-    counts = np.asarray(counts, np.int64)
+    counts = np.asarray(cuts, np.int64)
     starts = segment_starts(counts)
     segs = normalize(local.astype(np.float64), starts, counts, L)       # [S, L, n, 3]
     S = segs.shape[0]
@@ -261,8 +276,8 @@ def design_from_motion(motion, *, step, nodes, smoothing=0, residual=True, root_
 class VectorSet:
     def __init__(self, out: Path):
         self.out = out
-        self.entries = []
-        self.encoder_inputs = []
+        self.entries: list[dict] = []
+        self.encoder_inputs: list[dict] = []
 
     def _write(self, rel: str, data: bytes) -> str:
         p = self.out / rel
@@ -273,10 +288,8 @@ class VectorSet:
     def valid(self, group, name, data, description, features, sections, provenance, file=None):
         """A vector that must decode; the expected output is the reference decoder's."""
         assert group in ("valid", "uncommon")
-        s = read_stream(data)
-        valid = decode_mask(s)
-        q = decode_integers(s)
-        x = to_positions(s, q, valid)
+        d = decode_layers(data)
+        s, valid, q, x = d.stream, d.valid, d.q, d.positions()
         # cross-check against the public API
         m = mpz.decode(data)
         assert np.array_equal(np.isnan(m.as_nan()), np.isnan(x))
@@ -312,7 +325,7 @@ class VectorSet:
             "integer_layer_digest": mf.intlayer_digest(q, valid),
             "tolerances": mf.tolerances(s.quant.step, maxabs),
             "header": {"frames": h.frame_count, "markers": h.marker_count, "rate": h.rate,
-                       "names": list(s.names), "units": UNIT_CODES[h.units],
+                       "names": list(s.names), "units": unit_name(h.units),
                        "units_code": h.units, "error_metric": h.error_metric,
                        "error_bound": h.error_bound, "step": s.quant.step,
                        "offset": list(s.quant.offset), "bits": s.quant.bits,
@@ -327,7 +340,8 @@ class VectorSet:
         except mpz.MPZError as exc:
             got = type(exc).__name__
             if got != error:
-                raise AssertionError(f"{name}: reference raised {got} ({exc}), expected {error}")
+                raise AssertionError(f"{name}: reference raised {got} ({exc}), "
+                                     f"expected {error}") from None
             message = str(exc)
         else:
             raise AssertionError(f"{name}: the reference decoder accepts it")
@@ -388,7 +402,7 @@ H12 = [(None, 4, [4]),                       # root: C7
 
 
 def valid_vectors(vs: VectorSet):
-    from mpz.encoder import summary_fields
+    from mpz.encoder import summary_record
     # v01: the reference encoder, bounded, full 41-marker set
     m = _synth("walk", 90, seed=1)
     data = mpz.encode(m, max_error=1.0)
@@ -483,10 +497,10 @@ def valid_vectors(vs: VectorSet):
     d = design_from_motion(m, step=0.25, nodes=[(None, 0, [0]), (0, 1, [1, 2, 3]),
                                                 (1, 4, [4, 5])],
                            resi={1: {"order": 1}, 2: {"order": 2}})
-    smry = summary_fields(m, (1, 3), "positions", 0.25)
+    smry = summary_record(m, (1, 3), "positions", 0.25).dump()
     d.ancillary_early.append(("meta", payload("meta", {"count": 2, "entries": [
         {"key": "subject", "value": "synthetic"}, {"key": "note", "value": "ünïcödé ✓"}]})))
-    d.ancillary.append(("smry", payload("smry", smry)))
+    d.ancillary.append(("smry", smry))
     vs.valid("valid", "v08-units-unknown-meta-smry", d.build(),
              "hand-built: units code 0 (unknown), a meta chunk right after MHDR (ancillary "
              "chunks may sit anywhere after MHDR) with UTF-8 values, a smry chunk before MEND",
@@ -578,7 +592,7 @@ def uncommon_vectors(vs: VectorSet):
     w[:, 0, 2] = -rng.integers(0, 3, F)
     d.node(0, 1, [1], resi={"base": 0, "order": 0, "scale": 1, "values": w})
     data = d.build()
-    q = decode_integers(read_stream(data))
+    q = decode_layers(data).q
     assert int(np.abs(q).max()) == lim
     vs.valid("uncommon", "u08-values-at-bits-limit", data,
              f"|q| reaches 2^{bits} - 1 exactly (QUNT bits = {bits}) at step 2^-20, with "
@@ -636,6 +650,171 @@ def uncommon_vectors(vs: VectorSet):
              "a MASK chunk whose flags are all 0 (an encoder must not write it, a decoder "
              "accepts it)", {"mask": "all valid"}, ["§4.5", "§6.1"],
              "hand-built from mpz.synth walk (frames=16, markers=3, seed=22)")
+    spec_101_uncommon(vs)
+
+
+# ------------------------------------------- 1.0.1: valid files the text settles --
+#: node layout of the small 1.0.1 files: root C7-like marker 0, a node of two, a grandchild
+SMALL = [(None, 0, [0]), (0, 1, [1, 2]), (1, 3, [3])]
+
+
+def _small(seed, **kw):
+    """A small residual-layer file (24 frames, 4 markers, 3 nodes) to change one thing in."""
+    m = _synth("walk", 24, markers=4, seed=seed)
+    kw.setdefault("resi", {1: {"order": 1}, 2: {"order": 2}})
+    return design_from_motion(m, step=1.0, nodes=SMALL, seed=seed, **kw)
+
+
+def _root_only(F, rows, *, bits=31, **kw):
+    """A one-marker file (root track only, ROOT order 0) whose values may reach 2^31 - 1."""
+    d = Design(F, ["A"], bits=bits, **kw)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.asarray(rows, np.int64))
+    d.payloads[("ROOT", 0)] = payload("ROOT", {"order": 0, "coded": rc_wide(
+        (d.root[1][:, None, :], {}))})
+    return d
+
+
+def keyframe_blocks(refs, key_counts, spans, keys, *, wide=False) -> bytes:
+    """The four blocks of a RESI base-2 payload (§6.5): p_m, K_m - 1, d_k - 1, e_k."""
+    col = lambda v: np.asarray(v, np.int64).reshape(-1, 1, 1)   # noqa: E731
+    blocks = [(col(refs), {"signed": False}),
+              (col(np.asarray(key_counts) - 1), {"signed": False}),
+              (col(np.asarray(spans, np.int64) - 1), {"signed": False}),
+              (np.asarray(keys, np.int64).reshape(-1, 1, 3), {})]
+    return (rc_wide if wide else rc)(*blocks)
+
+
+def smry_payload(space, dims, levels) -> bytes:
+    """A smry payload from (k, wssse, step, starts, means) levels, any values (§4.10)."""
+    return payload("smry", {"space": space, "dims": dims, "level_count": len(levels), "levels": [
+        {"k": k, "wssse": w, "step": st, "starts": struct.pack(f"<{len(starts)}I", *starts),
+         "means": struct.pack(f"<{len(means)}i", *means)} for k, w, st, starts, means in levels]})
+
+
+def spec_101_uncommon(vs: VectorSet):
+    """Valid files for the points spec 1.0.1 settles (Appendix B, issues 10 and 18)."""
+    # u13, u14 (10.1, 18.8a): the unused coded field of a K = 0 PATT, empty and 3 bytes
+    for n, (name, coded, what) in enumerate([
+            ("u13-patt-k0-coded-empty", b"", "empty: the PATT payload is 9 bytes"),
+            ("u14-patt-k0-coded-3-bytes", b"\xff\x00\x01",
+             "3 bytes FF 00 01 (fewer than 5, first byte not 0)")]):
+        d = _small(41 + n)
+        d.payloads[("PATT", 0)] = payload("PATT", {"node": 1, "pattern_count": 0, "length": 1,
+                                                   "scale": 1, "order": 0, "coded": coded})
+        vs.valid("uncommon", name, d.build(),
+                 f"node 1's PATT has K = 0 and its unused coded field is {what}: the rules on "
+                 "coded fields (at least 5 bytes, first byte 0, close()) do not apply to it, and "
+                 "a decoder MUST NOT decode it nor reject the file for it",
+                 {"pattern_count": [0], "patt_coded_bytes": len(coded)},
+                 ["§2.4", "§4.7", "§5.3", "§5.5"],
+                 f"hand-built from mpz.synth walk (frames=24, markers=4, seed={41 + n})")
+    # u15 (10.3): the largest grid that keeps every output finite, values at |q| = 2^31 - 1
+    lim = (1 << 31) - 1
+    rows = [[lim, -lim, 0], [-lim, lim, 1], [1 << 30, -(1 << 30), -1], [0, 0, 0]]
+    d = _root_only(4, rows, step=2.0 ** 992)
+    vs.valid("uncommon", "u15-qunt-step-2pow992-bits-31", d.build(),
+             "QUNT step 2^992, offset 0, bits 31: |offset| + step x 2^bits = 2^1023 is finite, "
+             "so the grid is valid; ROOT values reach +-(2^31 - 1), so outputs reach about "
+             "+-2^1023 and every one is finite",
+             {"step": 2.0 ** 992, "bits": 31, "max_abs_q": lim}, ["§4.4", "§6.8", "§7.1"],
+             "integers chosen here")
+    # u16 (10.3): the exact boundary: B = 2^1024 - 2^971 + 2^969 rounds down to DBL_MAX
+    step = float((2 ** 53 - 1) * 2 ** 940)
+    d = _root_only(4, rows, step=step, offset=(2.0 ** 969, -(2.0 ** 969), 0.0))
+    vs.valid("uncommon", "u16-qunt-range-rounds-to-max-finite", d.build(),
+             "QUNT step (2^53 - 1) x 2^940, bits 31, offset x = 2^969, y = -2^969: on x and y, "
+             "|offset| + step x 2^31 = 2^1024 - 2^971 + 2^969 exceeds DBL_MAX as a real but is "
+             "below 2^1024 - 2^970, so binary64 rounds it to DBL_MAX and the grid is valid; "
+             "a decoder that compares the exact sum with DBL_MAX rejects a valid file",
+             {"step": step, "bits": 31, "offset": [2.0 ** 969, -(2.0 ** 969), 0.0]},
+             ["§4.4", "§6.8", "§7.1"], "integers chosen here")
+    # u17 (10.4): key frames with F = 1: the span block has no rows
+    d = Design(1, ["root", "m1", "m2"], step=0.5)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (1, np.array([[10, -4, 7]], np.int64))
+    d.node(0, 1, [1, 2], resi={"base": 2, "order": 0, "scale": 3,
+                               "values": np.zeros((1, 2, 3), np.int64)})
+    d.payloads[("RESI", 0)] = payload("RESI", {
+        "node": 1, "base": 2, "order": 0, "scale": 3,
+        "coded": keyframe_blocks([0, 1], [1, 1], [], [[5, -6, 7], [2, 0, -1]])})
+    vs.valid("uncommon", "u17-keyframes-one-frame", d.build(),
+             "F = 1 with a key-frame residual layer (RESI base 2, g = 3): every K_m = 1, so "
+             "the span block has 0 rows and consumes no decisions, and the key block follows "
+             "at the same coder state; member 1 predicts from member 0 (p = 1)",
+             {"frames": 1, "resi_base": [2], "keyframe_refs": [0, 1]},
+             ["§4.9", "§5.5", "§6.5"], "integers chosen here")
+    # u18 (18.8b): NUL inside a meta key and a meta value
+    d = _small(44)
+    d.ancillary.append(("meta", payload("meta", {"count": 2, "entries": [
+        {"key": "a\x00b", "value": "x\x00y\x00"}, {"key": "empty", "value": ""}]})))
+    vs.valid("uncommon", "u18-meta-nul", d.build(),
+             "a meta key 'a U+0000 b' and value 'x U+0000 y U+0000' (U+0000 is allowed in meta, "
+             "though encoders should not write it), and an empty value",
+             {"meta_nul": True}, ["§4.11", "§6.8"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=44)")
+    # u19 (10.9): names compared as bytes; a shared prefix that splits a character
+    m = _synth("walk", 12, markers=5, seed=45)
+    names = ["a", "A", "\u00e9", "\u00e8", "e\u0301"]
+    m = mpz.Motion(m.positions, names, m.rate, m.units)
+    d = design_from_motion(m, step=1.0, nodes=[(None, 0, [0]), (0, 1, [1, 2, 3, 4])])
+    data = d.build()
+    body, at, shared = container.parse(data)[1].payload, 2, []
+    for _ in names:                                          # entries: shared, len, suffix
+        shared.append(body[at])
+        at += 2 + body[at + 1]
+    assert shared == [0, 0, 0, 1, 0]                         # "è" keeps C3 of "é"
+    vs.valid("uncommon", "u19-names-compared-as-bytes", data,
+             "marker names 'a' and 'A', 'é' as C3 A9 and as 65 CC 81 (e + combining acute), "
+             "and 'è' (C3 A8) front-coded with shared = 1, which splits the 2-byte character "
+             "C3 A8: all five names are different byte strings, so the file is valid",
+             {"names": names, "shared_splits_character": True}, ["§1", "§4.2", "§6.8"],
+             "hand-built from mpz.synth walk (frames=12, markers=5, seed=45)")
+    # u20 (10.8): error_bound -0.0 with error_metric 0
+    d = _small(46, error_metric=0)
+    d.error_bound = -0.0
+    vs.valid("uncommon", "u20-error-bound-minus-zero", d.build(),
+             "MHDR error_bound = -0.0 with error_metric 0: f64 comparisons are IEEE, so -0.0 "
+             "passes 'finite and >= 0'; a decoder that tests the sign bit rejects a valid file",
+             {"error_bound": "-0.0", "error_metric": 0}, ["§1.3", "§4.1"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=46)")
+    # u21 (10.6, 10.8): smry space 1 with D = 0, levels in decreasing k with a repeat, -0.0
+    d = _small(47)
+    d.ancillary.append(("smry", smry_payload(1, 0, [
+        (3, 12.5, 1.0, [0, 5, 9], []), (2, -0.0, 0.5, [0, 10], []), (2, 3.0, 2.0, [0, 4], [])])))
+    vs.valid("uncommon", "u21-smry-angles-no-dims", d.build(),
+             "a smry chunk with space 1 (joint angles) and D = 0 (no means), three levels with "
+             "k = 3, 2, 2 (decreasing, k repeated with different starts) and wssse = -0.0 on one "
+             "of them: none of this is a reason to reject",
+             {"smry_space": 1, "smry_dims": 0, "smry_k": [3, 2, 2], "wssse": "-0.0"},
+             ["§1.3", "§4.10"], "hand-built from mpz.synth walk (frames=24, markers=4, seed=47)")
+    # u22 (10.11): decoded values with k = 30 (|v| >= 2^30), which encoders must not write
+    d = _root_only(3, [[1 << 30, -lim, 0], [-(1 << 30), lim, 1], [lim - 1, 0, 1 << 30]])
+    vs.valid("uncommon", "u22-root-values-k30", d.build(),
+             "ROOT order 0 values 2^30, -(2^31 - 1), 2^31 - 1 and 2^31 - 2 (exponent k = 30, "
+             "whose terminating zero-bit is left out) with QUNT bits 31: |v| < 2^30 binds "
+             "encoders only, and a decoder MUST accept these",
+             {"root_order": 0, "bits": 31, "max_abs_q": lim}, ["§5.4", "§6.7"],
+             "integers chosen here, coded with mpz.conformance.rangecoder (the reference "
+             "encoder refuses |v| >= 2^30)")
+    # u23 (18.3): a §5.6 context value of exactly 2^32
+    d = Design(3, ["root", "m1", "m2"], bits=31)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.zeros((3, 3), np.int64))
+    w = np.zeros((3, 2, 3), np.int64)
+    w[0, 1, 0] = lim              # v[0, 1, x]
+    w[1, 0, 0] = 2                # v[1, 0, x]: ctx_v of v[1, 1, x] = 2 (2^31 - 1) + 2 = 2^32
+    w[1, 1, 0] = 5
+    w[2, :, :] = [[3, -1, 0], [-4, 2, 1]]
+    d.node(0, 1, [1, 2], resi={"base": 1, "order": 0, "scale": 1, "values": w})
+    d.payloads[("RESI", 0)] = payload("RESI", {"node": 1, "base": 1, "order": 0, "scale": 1,
+                                               "coded": rc_wide((w, {}))})
+    vs.valid("uncommon", "u23-context-value-2pow32", d.build(),
+             "RESI base 1 with v[0, 1, x] = 2^31 - 1 and v[1, 0, x] = 2, so the context value "
+             "of v[1, 1, x] is 2 (2^31 - 1) + 2 = 2^32 (context 7); in unsigned 32 bits it "
+             "wraps to 0 (context 0) and the rest of the block decodes differently",
+             {"resi_base": [1], "context_value": 2 ** 32}, ["§1.2", "§5.6"],
+             "integers chosen here, coded with mpz.conformance.rangecoder")
 
 
 def spec_example(vs: VectorSet):
@@ -654,13 +833,13 @@ def spec_example(vs: VectorSet):
 # ---------------------------------------------------------- invalid group --
 def base_design():
     """The small file every invalid vector starts from: every chunk type present."""
-    from mpz.encoder import summary_fields
+    from mpz.encoder import summary_record
     m = _synth("walk", 24, markers=4, seed=99, gap_fraction=0.05)
     d = design_from_motion(m, step=1.0, nodes=[(None, 0, [0]), (0, 1, [1, 2]), (1, 3, [3])],
                            smoothing=2,
                            patterns={1: {"L": 6, "K": 2, "scale": 1, "order": 1, "jitter": 1}},
                            resi={1: {"order": 1}, 2: {"order": 2}}, seed=99)
-    d.ancillary.append(("smry", payload("smry", summary_fields(m, (2,), "positions", 1.0))))
+    d.ancillary.append(("smry", summary_record(m, (2,), "positions", 1.0).dump()))
     d.ancillary.append(("meta", payload("meta", {"count": 1, "entries": [
         {"key": "k", "value": "v"}]})))
     return d
@@ -675,10 +854,10 @@ def _with_field(chunks, ctype, **changes):
     """Copy of ``chunks`` with fields of the first ``ctype`` chunk changed (payload rebuilt)."""
     out = [list(c) for c in chunks]
     i = _find(out, ctype)
-    fields = PAYLOADS[ctype.encode()].parse(out[i][1])
+    fields = CHUNKS[ctype].GRAMMAR.parse(out[i][1])
     for k, v in changes.items():
         fields[k] = v
-    out[i][1] = PAYLOADS[ctype.encode()].build(fields)
+    out[i][1] = CHUNKS[ctype].GRAMMAR.build(fields)
     return out
 
 
@@ -694,7 +873,7 @@ def invalid_vectors(vs: VectorSet):
              {}, ["§4.5", "§4.7", "§4.8", "§4.9", "§4.10", "§4.11", "§6.1", "§6.3", "§6.4",
                   "§6.5"], "hand-built from mpz.synth walk (frames=24, markers=4, seed=99, "
              "gap_fraction=0.05)")
-    offs = {}
+    offs: dict[str, int] = {}
     pos = len(SIGNATURE)
     for t, p in base:
         offs.setdefault(t, pos)
@@ -719,7 +898,8 @@ def invalid_vectors(vs: VectorSet):
         b = bytearray(good)
         o = offs[ctype] + 8 + len(base[_find(base, ctype)][1])
         b[o] ^= 0x01
-        add(f"bad-crc-{ctype.lower()}", bytes(b), f"CRC-32 of the first {ctype} chunk off by one bit",
+        add(f"bad-crc-{ctype.lower()}", bytes(b),
+            f"CRC-32 of the first {ctype} chunk off by one bit",
             f"stored CRC of {ctype} at offset {o} XOR 0x01 (payload intact)",
             f"a decoder that ignores CRCs decodes corrupted {ctype} data silently",
             "ChecksumError", ["§3.3"], features={"chunk": ctype})
@@ -737,7 +917,8 @@ def invalid_vectors(vs: VectorSet):
         ln = len(base[i][1])
         cut = o + 8 + ln // 2 if ln else o + 8 + 2              # MEND: mid-CRC
         add(f"truncated-in-{ctype.lower()}", good[:cut],
-            f"file cut in the middle of the {ctype} chunk" + (" (inside its CRC)" if not ln else ""),
+            f"file cut in the middle of the {ctype} chunk"
+            + (" (inside its CRC)" if not ln else ""),
             f"file truncated to {cut} bytes; the {ctype} chunk at offset {o} declares {ln} "
             "payload bytes",
             "a decoder that trusts the length field reads past the end of its buffer",
@@ -812,24 +993,24 @@ def invalid_vectors(vs: VectorSet):
         "3 names for 4 markers", "MNAM count = 3", "indexing names by marker overruns",
         "FormatError", ["§4.2"])
     ch = _with_field(base, "HIER")
-    hier = PAYLOADS[b"HIER"].parse(ch[_find(ch, "HIER")][1])
+    hier = CHUNKS["HIER"].GRAMMAR.parse(ch[_find(ch, "HIER")][1])
     hier.nodes[2].parent = 2
-    ch[_find(ch, "HIER")][1] = PAYLOADS[b"HIER"].build(hier)
+    ch[_find(ch, "HIER")][1] = CHUNKS["HIER"].GRAMMAR.build(hier)
     add("node-parent-not-before-node", assemble(ch), "node 2 names itself as its parent",
         "HIER node 2 parent = 2", "a parent that is not decoded yet (or a cycle): reads "
         "uninitialised values or loops forever", "FormatError", ["§4.3"])
-    hier = PAYLOADS[b"HIER"].parse(base[_find(base, "HIER")][1])
+    hier = CHUNKS["HIER"].GRAMMAR.parse(base[_find(base, "HIER")][1])
     hier.nodes[2].members = [2]
     hier.nodes[2].ref = 2
     ch = [list(c) for c in base]
-    ch[_find(ch, "HIER")][1] = PAYLOADS[b"HIER"].build(hier)
+    ch[_find(ch, "HIER")][1] = CHUNKS["HIER"].GRAMMAR.build(hier)
     add("marker-in-two-nodes", assemble(ch), "marker 2 in nodes 1 and 2, marker 3 in none",
         "HIER node 2 members = [2]", "a marker decoded twice and another never", "FormatError",
         ["§4.3"])
-    hier = PAYLOADS[b"HIER"].parse(base[_find(base, "HIER")][1])
+    hier = CHUNKS["HIER"].GRAMMAR.parse(base[_find(base, "HIER")][1])
     hier.nodes[1].ref = 3
     ch = [list(c) for c in base]
-    ch[_find(ch, "HIER")][1] = PAYLOADS[b"HIER"].build(hier)
+    ch[_find(ch, "HIER")][1] = CHUNKS["HIER"].GRAMMAR.build(hier)
     add("reference-not-a-member", assemble(ch), "node 1's reference marker is not one of its "
         "members", "HIER node 1 ref = 3", "children coded relative to a marker not yet decoded",
         "FormatError", ["§4.3"])
@@ -882,7 +1063,7 @@ def invalid_vectors(vs: VectorSet):
         "ROOT residuals replaced", "signed 64-bit overflow (undefined behaviour in C) during "
         "prediction", "FormatError", ["§6.2"])
     # --- patterns and segments
-    pf = PAYLOADS[b"PATT"].parse(base[_find(base, "PATT")][1])
+    pf = CHUNKS["PATT"].GRAMMAR.parse(base[_find(base, "PATT")][1])
     K, L = pf.pattern_count, pf.length
     index, counts = d.layers[1]["segs"]
 
@@ -939,6 +1120,242 @@ def invalid_vectors(vs: VectorSet):
         f"QUNT bits {d.bits - 1}, one less than the decoded values need",
         f"QUNT bits = {d.bits - 1}", "decoders using narrow integer types overflow",
         "FormatError", ["§4.4", "§6.7"])
+    spec_101_invalid(add, base)
+
+
+# ------------------------------------------ 1.0.1: invalid files the text settles --
+def _meta_raw(key: bytes, value: bytes) -> bytes:
+    """A one-entry meta payload from raw bytes (the grammar would encode str)."""
+    return struct.pack("<HB", 1, len(key)) + key + struct.pack("<H", len(value)) + value
+
+
+def _names(M):
+    return [f"m{i:04d}" for i in range(M)]
+
+
+def _patt_limit_file(K, L, n):
+    """A flags-0 file whose node 1 (n members) declares K patterns of L frames; the coded
+    field holds one all-zero frame (K x L x n is refused before it is read)."""
+    d = Design(1, _names(n + 1), residual=False, bits=1)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.zeros((1, 3), np.int64))
+    d.node(0, 1, list(range(1, n + 1)),
+           patt={"K": 1, "L": 1, "scale": 1, "order": 0, "values": np.zeros((1, n, 3), np.int64)},
+           segs=(np.array([0]), np.array([1])))
+    ch = d.chunks()
+    i = _find(ch, "PATT")
+    f = CHUNKS["PATT"].GRAMMAR.parse(ch[i][1])
+    f.pattern_count, f.length = K, L
+    ch[i][1] = CHUNKS["PATT"].GRAMMAR.build(f)
+    return assemble(ch)
+
+
+def spec_101_invalid(add, base):
+    """Invalid files for the points spec 1.0.1 settles (Appendix B, issues 10 and 18)."""
+    lim = (1 << 31) - 1
+    # --- 10.3: QUNT output range
+    add("qunt-step-1e300", assemble(_with_field(base, "QUNT", step=1e300, bits=31)),
+        "QUNT step 1e300 with bits 31: step x 2^31 is about 2.1e309, beyond binary64",
+        "QUNT step = 1e300, bits = 31", "outputs that are +-infinity (q = 2^20 is enough), for "
+        "which the tolerance of §7.1 is undefined (inf - inf)", "FormatError", ["§4.4", "§6.8"])
+    add("qunt-offset-plus-range-infinite", assemble(_with_field(
+        base, "QUNT", step=2.0 ** 992, bits=31, offset=[0.0, -1.7e308, 0.0])),
+        "QUNT offset y = -1.7e308, step 2^992, bits 31: each is finite, but |offset| + step x "
+        "2^31 = 1.7e308 + 2^1023 is not", "QUNT step = 2^992, bits = 31, offset[1] = -1.7e308",
+        "a decoder that checks step x 2^bits alone, or only axis 0, produces infinite outputs",
+        "FormatError", ["§4.4", "§6.8"])
+    step = float((2 ** 53 - 1) * 2 ** 940)
+    add("qunt-range-tie-rounds-to-infinity", assemble(_with_field(
+        base, "QUNT", step=step, bits=31, offset=[0.0, 0.0, 2.0 ** 970])),
+        "QUNT step (2^53 - 1) x 2^940, bits 31, offset z = 2^970: |offset| + step x 2^31 is "
+        "exactly 2^1024 - 2^970, the halfway point above DBL_MAX, which rounds to +inf",
+        "QUNT step = (2^53 - 1) x 2^940, bits = 31, offset[2] = 2^970",
+        "a decoder that rounds the other way at the boundary (or tests > instead of >= "
+        "2^1024 - 2^970 in exact arithmetic) accepts a grid whose outputs can be infinite",
+        "FormatError", ["§4.4"])
+    # --- 10.5: meta values are strict UTF-8
+    for slug, raw, what in [("surrogate", b"\xed\xa0\x80", "ED A0 80 (the surrogate U+D800)"),
+                            ("overlong-nul", b"\xc0\x80", "C0 80 (an overlong U+0000)")]:
+        ch = [list(c) for c in base]
+        ch[_find(ch, "meta")][1] = _meta_raw(b"k", raw)
+        add(f"meta-value-{slug}", assemble(ch), f"a meta value of bytes {what}",
+            f"meta value 'v' replaced by {raw.hex(' ').upper()}",
+            "a decoder that checks only keys (or decodes leniently, as CESU-8 or modified "
+            "UTF-8) passes invalid text on", "FormatError", ["§1", "§4.11"])
+    # --- 10.6: smry starts
+    sm = CHUNKS["smry"].GRAMMAR.parse(base[_find(base, "smry")][1])
+    F = 24
+    for slug, starts, what in [("starts-not-at-0", [1, 12], "starts[0] = 1"),
+                               ("starts-repeated", [0, 0], "starts = 0, 0"),
+                               ("last-start-at-f", [0, F], f"starts[k-1] = F = {F}")]:
+        sm.levels[0].starts = struct.pack("<2I", *starts)
+        ch = [list(c) for c in base]
+        ch[_find(ch, "smry")][1] = CHUNKS["smry"].GRAMMAR.build(sm)
+        add(f"smry-{slug}", assemble(ch), f"a smry level whose {what}",
+            f"smry level 0 starts = {starts}", "segment bounds outside the clip, or empty "
+            "segments, in a summary that readers use without decoding", "FormatError",
+            ["§4.10"])
+    # --- 10.8: rate -0.0
+    add("rate-minus-zero", assemble(_with_field(base, "MHDR", rate=-0.0)), "frame rate -0.0",
+        "MHDR rate = -0.0", "IEEE -0.0 == 0 fails 'rate > 0'; a decoder that tests the sign "
+        "bit, or rate >= 0, accepts a zero rate (division by zero in timestamps)",
+        "FormatError", ["§1.3", "§4.1"])
+    # --- 10.7, 18.1: §6.7 rule 1 and the §6.2 guard cover patterns no segment uses
+    zeros = np.zeros((12, 2, 3), np.int64)
+    d = _small(51)
+    d.layers[1]["patt"] = {"K": 2, "L": 6, "scale": 1 << 15, "order": 1, "values": zeros}
+    d.layers[1]["segs"] = (np.zeros(4, np.int64), np.array([6, 6, 6, 6]))
+    d.build()                                           # valid with both patterns all zero
+    d.layers[1]["patt"]["values"] = zeros.copy()
+    d.layers[1]["patt"]["values"][6 + 2, 0, 0] = 1 << 21
+    add("unused-pattern-out-of-range", assemble(d.chunks()),
+        "PATT K = 2, scale 2^15; SEGS uses pattern 0 only (all zero); unused pattern 1 holds "
+        "V = 2^21, so V x scale = 2^36", "PATT pattern 1, frame 2, member 0, x = 2^21",
+        "a lazy decoder that de-normalises only the patterns SEGS refers to never checks "
+        "pattern 1 and accepts a file that other decoders reject", "FormatError",
+        ["§6.3", "§6.7"])
+    e = np.zeros((8, 2, 3), np.int64)
+    e[4 + 1:8, 0, 0] = lim                              # pattern 1, rows 1-3
+    d.layers[1]["patt"] = {"K": 2, "L": 4, "scale": 1, "order": 2, "values": zeros[:8]}
+    d.payloads[("PATT", 0)] = payload("PATT", {"node": 1, "pattern_count": 2, "length": 4,
+                                               "scale": 1, "order": 2,
+                                               "coded": rc_wide((e, {"period": 4}))})
+    ch = d.chunks()
+    del d.payloads[("PATT", 0)]
+    add("unused-pattern-order2-overflow", assemble(ch),
+        "PATT K = 2, L = 4, order 2; SEGS uses pattern 0 only (all zero); unused pattern 1 has "
+        "residuals 2^31 - 1 on rows 1-3, so its difference d[3] = 3 (2^31 - 1) >= 2^32",
+        "PATT pattern 1 residuals, rows 1-3, member 0, x = 2^31 - 1",
+        "a lazy decoder that never reconstructs pattern 1 accepts the file; one that does, "
+        "without the guard, forms values beyond the range §6.7 assumes", "FormatError",
+        ["§6.2", "§6.3"])
+    # --- 18.1: |x| < 2^36 before multiplying by g: x reaches 2^49 and g = 2^15
+    F = (1 << 17) + 2
+    d = Design(F, ["A", "B"], bits=31)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.zeros((F, 3), np.int64))
+    e = np.zeros((F, 1, 3), np.int64)
+    e[:4, 0, 0] = [-(1 << 31) + (1 << 17) + 2, lim, lim, 1]   # d = 2^31 - 1, 2^32 - 2, 2^32 - 1..
+    x = reconstruct(e, 2)                                     # passes the §6.2 guard
+    assert int(x[-1, 0, 0]) == 1 << 49 and int(np.abs(x).max()) == 1 << 49
+    d.node(0, 1, [1], resi={"base": 0, "order": 2, "scale": 1 << 15, "values": e})
+    d.payloads[("RESI", 0)] = payload("RESI", {"node": 1, "base": 0, "order": 2,
+                                               "scale": 1 << 15, "coded": rc_wide((e, {}))})
+    add("residual-2pow49-times-g-2pow15", assemble(d.chunks()),
+        f"RESI base 0, order 2, g = 2^15, F = {F}: the reconstructed residual reaches exactly "
+        "2^49 on the last frame (every order-2 difference below 2^32), so x x g = 2^64",
+        "RESI residuals chosen so that max |x| = 2^49",
+        "a decoder that multiplies before testing |x| < 2^36 forms 2^64, which is 0 in 64-bit "
+        "wrap-around (undefined behaviour for int64_t in C), and accepts", "FormatError",
+        ["§1.1", "§6.5", "§6.7"])
+    # --- 18.2: checks that must pass before the values they bound are used
+    d = _small(52)
+    d.layers[1]["patt"] = {"K": 1, "L": 13, "scale": 1, "order": 0,
+                           "values": np.zeros((13, 2, 3), np.int64)}
+    d.layers[1]["segs"] = (np.array([0, 0]), np.array([12, 12]))
+    d.build()
+    v = np.array([[[0, lim]], [[0, lim]]], np.int64)           # count = v + L = 2^31 + 12
+    ch = d.chunks()
+    ch[_find(ch, "SEGS")][1] = payload("SEGS", {"node": 1, "segment_count": 2,
+                                                "coded": rc_wide((v, {}))})
+    add("segs-counts-wrap-32-bits", assemble(ch),
+        "SEGS with L = 13 and two segments of 2^31 + 12 frames each (count - L = 2^31 - 1): "
+        "they add up to 2^32 + 24, not F = 24", "SEGS counts = 2^31 + 12, 2^31 + 12",
+        "in 32-bit arithmetic the counts add up to 24 = F and the check passes; each count "
+        "wraps negative in int32", "FormatError", ["§1.1", "§1.2", "§4.8"])
+    # key-frame layers on node 2 (one member, no patterns)
+    d = _small(53)
+    d.build()
+
+    def keyframes(*blocks):
+        ch = d.chunks()
+        ch[_find(ch, "RESI", 1)][1] = payload("RESI", {"node": 2, "base": 2, "order": 0,
+                                                       "scale": 1, "coded": rc_wide(*blocks)})
+        return assemble(ch)
+
+    col = lambda *v: np.array(v, np.int64).reshape(-1, 1, 1)   # noqa: E731
+    add("keyframe-count-2pow31", keyframes((col(0), {"signed": False}),
+                                         (col(lim), {"signed": False})),
+        "RESI base 2 with K_0 - 1 = 2^31 - 1, so K_0 = 2^31 > F (the payload ends there)",
+        "node 2 RESI base 2, c_0 = 2^31 - 1",
+        "K_m = 2^31 is negative in int32; sizing the span and key blocks from it before the "
+        "check allocates 2^31 entries or more", "FormatError", ["§1.1", "§1.2", "§6.5"])
+    keys = np.zeros((4, 1, 3), np.int64)
+    add("keyframe-spans-wrap-32-bits", keyframes(
+        (col(0), {"signed": False}), (col(3), {"signed": False}),
+        (col(lim, lim, 24 - 2), {"signed": False}), (keys, {})),
+        "RESI base 2 with K_0 = 4 and spans 2^31, 2^31 and F - 1 = 23: they add up to "
+        "2^32 + 23, not F - 1", "node 2 RESI base 2, spans - 1 = 2^31 - 1, 2^31 - 1, 22",
+        "in 32 bits the spans add up to F - 1 and pass; key times then index far outside "
+        "the track", "FormatError", ["§1.1", "§1.2", "§6.5"])
+    add("keyframe-value-2pow32-minus-2", keyframes(
+        (col(0), {"signed": False}), (col(1), {"signed": False}),
+        (col(24 - 2), {"signed": False}), (np.array([[[lim, 0, 0]], [[lim, 0, 0]]]), {})),
+        "RESI base 2, p_0 = 0, K_0 = 2, key residuals 2^31 - 1 and 2^31 - 1: w_0 = 2^31 - 1, "
+        "w_1 = w_0 + e_1 = 2^32 - 2", "node 2 RESI base 2, key residuals 2^31 - 1, 2^31 - 1",
+        "a decoder that checks |w_k| < 2^31 only on the finished track, in 32 bits, sees "
+        "w_1 wrap to -2 and accepts", "FormatError", ["§1.1", "§6.5"])
+    # --- 18.3: products and sums that wrap in 32 bits
+    add("patt-samples-2pow32", _patt_limit_file(32768, 4096, 32),
+        "PATT K = 32768, L = 4096 on a node of 32 markers: K x L x n_i = 2^32",
+        "PATT pattern_count = 32768, length = 4096 (n_i = 32)",
+        "in 32 bits K x L x n_i wraps to 0, passes the 2^24 limit, and the block of 2^27 rows "
+        "is allocated or decoded", "LimitExceededError", ["§1.2", "§4.7", "§8"])
+    add("patt-samples-2pow40", _patt_limit_file(65535, 4096, 4095),
+        "PATT K = 65535, L = 4096 on a node of 4095 markers (M = 4096): K x L x n_i is about "
+        "2^40, the largest the fields allow", "PATT pattern_count = 65535, length = 4096 "
+        "(n_i = 4095)", "a product formed in 32 bits wraps; one formed in a float loses "
+        "exactness", "LimitExceededError", ["§1.2", "§4.7", "§8"])
+    ch = [list(c) for c in base]
+    ch[_find(ch, "smry")][1] = struct.pack("<BIB", 1, 1 << 31, 1) + struct.pack(
+        "<Idd2I", 2, 0.0, 1.0, 0, 12)
+    add("smry-4kd-wraps-32-bits", assemble(ch),
+        "smry space 1 with D = 2^31 and one level of k = 2, and no means bytes: 4kD = 2^34",
+        "smry replaced: space 1, dims 2^31, k = 2, starts 0, 12, no means",
+        "in 32 bits 4kD = 2^34 wraps to 0 (and the sum k x D = 2^32 to 0), so a decoder reads "
+        "no means and accepts", "FormatError", ["§1.2", "§4.10", "§8"])
+    e = np.zeros((24, 1, 3), np.int64)
+    e[1:4, 0, 1] = [lim, lim, 2]                         # d = 2^31 - 1, 2^32 - 2, 2^32
+    ch = [list(c) for c in base]
+    ch[_find(ch, "ROOT")][1] = payload("ROOT", {"order": 2, "coded": rc_wide((e, {}))})
+    add("root-order2-difference-2pow32", assemble(ch),
+        "ROOT order 2 with residuals 2^31 - 1, 2^31 - 1, 2 on y: the difference d[3] is "
+        "exactly 2^32", "ROOT residuals replaced",
+        "a guard written as |d| > 2^32 passes; a difference held in 32 bits wraps to 0 and "
+        "the file decodes", "FormatError", ["§1.2", "§6.2"])
+    # --- 18.4: a key prediction far beyond 32 bits before the |w_k| check
+    F = (1 << 16) + 2
+    d = Design(F, ["A", "B"], bits=31)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.zeros((F, 3), np.int64))
+    d.node(0, 1, [1], resi={"base": 2, "order": 0, "scale": 1,
+                            "values": np.zeros((F, 1, 3), np.int64)})
+    keys = np.array([[[lim, 0, 0]], [[-lim, 0, 0]], [[0, 0, 0]]], np.int64)
+    d.payloads[("RESI", 0)] = payload("RESI", {"node": 1, "base": 2, "order": 0, "scale": 1,
+                                               "coded": keyframe_blocks(
+                                                   [0], [3], [1, 1 << 16], keys, wide=True)})
+    add("keyframe-prediction-2pow47", assemble(d.chunks()),
+        f"RESI base 2, p_0 = 0, F = {F}, spans 1 and 2^16, key residuals 2^31 - 1, "
+        "-(2^31 - 1), 0: w_0 = 2^31 - 1, w_1 = 0, and w_2 = rnd(-(2^31 - 1) x 2^16, 1) is "
+        "about -2^47", "node 1 RESI base 2, key residuals chosen",
+        "in 32 bits (w_1 - w_0) x d_2 wraps to 2^16 and w_2 passes the check", "FormatError",
+        ["§1.2", "§6.5", "§6.7"])
+    # --- 10.12: a PATT left out
+    m = _synth("walk", 24, markers=3, seed=54)
+    d = design_from_motion(m, step=1.0, nodes=[(None, 0, [0]), (0, 1, [1, 2])], residual=False,
+                           patterns={1: {"L": 6, "K": 2, "scale": 1, "order": 1}}, seed=54)
+    d.build()
+    ch = [c for c in d.chunks() if c[0] not in ("PATT", "SEGS")]
+    add("patt-left-out-without-residual-flag", assemble(ch),
+        "flags 0 (no residual layer) and node 1's PATT and SEGS left out: MEND follows ROOT",
+        "PATT and SEGS of node 1 removed", "a parser that treats any missing PATT as K = 0 "
+        "accepts a node with no motion at all", "FormatError", ["§3.4", "§4.7"])
+    ch = [list(c) for c in base]
+    del ch[_find(ch, "PATT")]
+    add("patt-left-out-then-segs", assemble(ch),
+        "flags 1 and node 1's PATT left out, but its SEGS still follows (where RESI must be)",
+        "PATT of node 1 removed", "a parser that recognises a left-out PATT by a missing chunk "
+        "alone applies segments to a node without patterns", "FormatError", ["§3.4"])
 
 
 # ------------------------------------------------------------ encoder set --
