@@ -12,7 +12,8 @@
     coefficients) and Haar (first k coefficients), k numbers per dimension
     each, plus the adaptive k-largest variants DFT* and Haar* for information,
     on the AMC joint angles and the C3D positions (relative to the
-    marker centroid) in ../shared/data.
+    marker centroid) in ../shared/data. The baselines are in
+    ``bench/baselines.py``; they are research code, not part of ``mpz``.
 """
 from __future__ import annotations
 
@@ -76,15 +77,17 @@ def bench_speed(ns) -> None:
     print("total = optimal_partitions (DP + backtracking + direct WSSSE of 48 levels); DP = the "
           "numba tables only;\nbest of 3 runs up to n = 10^4, else 1; load = 1-min load average "
           "after the run (other jobs share the 2 cores)")
-    print(f"{'n':>7} {'total s':>9} {'DP s':>8} {'peak RSS':>10} {'delta RSS':>10} {'tables':>9} {'load':>5}")
+    print(f"{'n':>7} {'total s':>9} {'DP s':>8} {'peak RSS':>10} {'delta RSS':>10} "
+          f"{'tables':>9} {'load':>5}")
     for n in ns:
         out = subprocess.run([sys.executable, __file__, "--one", str(n)], check=True,
                              capture_output=True, text=True).stdout
         r = json.loads(out.strip().splitlines()[-1])
         rows.append(r)
         tables = (n + 1) * K_MAX * (8 + 4)
-        print(f"{n:>7} {r['seconds']:>9.3f} {r['dp_seconds']:>8.3f} {r['peak_rss'] / 2**20:>8.0f} MB "
-              f"{r['peak_delta'] / 2**20:>7.1f} MB {tables / 2**20:>6.1f} MB {r['load']:>5.1f}", flush=True)
+        print(f"{n:>7} {r['seconds']:>9.3f} {r['dp_seconds']:>8.3f} "
+              f"{r['peak_rss'] / 2**20:>8.0f} MB {r['peak_delta'] / 2**20:>7.1f} MB "
+              f"{tables / 2**20:>6.1f} MB {r['load']:>5.1f}", flush=True)
     ln = np.log([r["n"] for r in rows])
     lt = np.log([r["seconds"] for r in rows])
     print(f"growth exponent (log-log fit, all n): {np.polyfit(ln, lt, 1)[0]:.2f}")
@@ -147,10 +150,14 @@ def _read_c3d_positions(path: Path):
 
 
 def _scores(x: np.ndarray, ks) -> dict:
-    from mpz.fisher import dft_approx, haar_approx, optimal_partitions, paa
+    from baselines import dft_approx, haar_approx, paa
+    from mpz.fisher import optimal_partitions
     ks = [k for k in ks if k <= x.shape[0]]
     opt = optimal_partitions(x, max(ks), ks=ks)
-    err = lambda y: math.sqrt(float(((y - x) ** 2).sum()))
+
+    def err(y: np.ndarray) -> float:
+        return math.sqrt(float(((y - x) ** 2).sum()))
+
     return {k: {"optimal": math.sqrt(opt[k].wssse), "PAA": math.sqrt(paa(x, k).wssse),
                 "DFT": err(dft_approx(x, k)), "Haar": err(haar_approx(x, k)),
                 "DFT*": err(dft_approx(x, k, select="largest")),
@@ -171,7 +178,8 @@ def bench_paper(data: Path) -> None:
         except Exception as exc:  # report and go on
             print(f"  skip {p.name}: {type(exc).__name__}: {exc}")
     meth = ["optimal", "PAA", "DFT", "Haar", "DFT*", "Haar*"]
-    print(f"{'file':<44} {'n':>5} {'D':>4} {'k':>3} " + " ".join(f"{m:>10}" for m in meth) + "  best")
+    print(f"{'file':<44} {'n':>5} {'D':>4} {'k':>3} " + " ".join(f"{m:>10}" for m in meth)
+          + "  best")
     sums = {g: {k: dict.fromkeys(meth, 0.0) for k in KS} for g in ("angles", "pos")}
     viol_paa, viol_haar, dft_wins, adaptive_wins = [], [], [], []
     t0 = time.perf_counter()
@@ -200,7 +208,8 @@ def bench_paper(data: Path) -> None:
     n_cases = sum(len([k for k in KS if k <= x.shape[0]]) for _, _, x in inputs)
     print(f"\nclaims over {n_cases} (file, k) cases:")
     print(f"  optimal <= PAA : {'holds' if not viol_paa else f'FAILS {viol_paa}'}")
-    print(f"  optimal <= Haar: {'holds' if not viol_haar else f'FAILS in {len(viol_haar)}: {viol_haar}'}")
+    haar_claim = "holds" if not viol_haar else f"FAILS in {len(viol_haar)}: {viol_haar}"
+    print(f"  optimal <= Haar: {haar_claim}")
     print(f"  an adaptive k-largest variant (DFT*/Haar*, larger budget) beats optimal in "
           f"{len(adaptive_wins)} cases")
     print(f"  DFT (first k) beats optimal in {len(dft_wins)} cases:")
@@ -209,7 +218,8 @@ def bench_paper(data: Path) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="speed: stop at n = 10^4")
     ap.add_argument("--skip-speed", action="store_true")
     ap.add_argument("--skip-paper", action="store_true")

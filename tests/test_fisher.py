@@ -2,10 +2,24 @@
 
 Oracles: brute force over every (n-1 choose k-1) partition for n <= 12, and an
 independent O(k n^2) numpy DP over an explicit cost matrix for larger n.
+
+Baselines: PAA, DFT and Haar are research code in ``bench/baselines.py``, not
+in the ``mpz`` package. This module loads that file by its path
+(``importlib.util.spec_from_file_location``; ``sys.path`` is not touched)
+instead of computing the baselines again inside the test, because the claims
+checked here (optimal <= PAA, optimal <= first-k Haar, first-k Haar = dyadic
+PAA, Parseval for DFT and Haar) are claims about the very functions whose
+numbers ``bench/bench_fisher.py`` prints for the paper's Figs 3-7; a second
+copy in the test could agree with itself while the bench's copy drifted. The
+oracles for the optimal partition itself stay independent of both.
 """
 from __future__ import annotations
 
+import importlib.util
 import itertools
+from pathlib import Path
+import sys
+from types import ModuleType
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -19,16 +33,28 @@ from mpz.errors import EncoderError, MPZError
 from mpz.fisher import (
     Partition,
     choose_k_for_threshold,
-    dft_approx,
-    haar_approx,
     max_deviation,
     motion_series,
     optimal_partitions,
-    paa,
     preview_series,
     segment_means,
     wssse,
 )
+
+
+def _load_baselines() -> ModuleType:
+    """``bench/baselines.py``, imported from its path (see the module docstring)."""
+    path = Path(__file__).resolve().parents[1] / "bench" / "baselines.py"
+    spec = importlib.util.spec_from_file_location("mpz_bench_baselines", path)
+    assert spec is not None and spec.loader is not None, path
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # so that pickling and dataclasses can find it
+    spec.loader.exec_module(module)
+    return module
+
+
+baselines = _load_baselines()
+paa, dft_approx, haar_approx = baselines.paa, baselines.dft_approx, baselines.haar_approx
 
 
 # -- oracles ------------------------------------------------------------------------
@@ -57,7 +83,10 @@ def brute_force(x, k):
 
 
 def reference_table(x, k_max):
-    """Plain O(k n^2) DP over an explicit cost matrix: T[j, k-1] = least WSSSE of x[:j] in k segments."""
+    """Plain O(k n^2) DP over an explicit cost matrix.
+
+    T[j, k-1] = least WSSSE of x[:j] in k segments.
+    """
     n = x.shape[0]
     c = _cost_matrix(x)
     T = np.full((n + 1, k_max), np.inf)
@@ -89,7 +118,8 @@ def assert_valid(p: Partition, x, k):
     assert np.array_equal(np.bincount(owner, minlength=k), p.lengths(n))
     assert p.lengths(n).sum() == n and np.all(p.lengths(n) >= 1)
     assert p.means.shape == (k, x.shape[1])
-    np.testing.assert_allclose(p.means, segment_means(x, p.starts), rtol=0, atol=1e-12 * (1 + np.abs(x).max()))
+    np.testing.assert_allclose(p.means, segment_means(x, p.starts), rtol=0,
+                               atol=1e-12 * (1 + np.abs(x).max()))
     assert p.wssse == pytest.approx(wssse(x, p.starts), rel=1e-12, abs=1e-12)
 
 
@@ -127,7 +157,10 @@ def test_table(case, x, k, starts, expected):
 def test_anchor_cost_is_not_quadrangle_convex():
     # ANCHORS: w(1,2) + w(2,3) = 1.0 > w(1,3) + w(2,2) = 0.667 (1-based, inclusive)
     x = np.array([1.0, 0.0, 1.0])
-    w = lambda i, j: wssse(x[i - 1:j], [0])
+
+    def w(i, j):
+        return wssse(x[i - 1:j], [0])
+
     assert w(1, 2) + w(2, 3) == pytest.approx(1.0)
     assert w(1, 3) + w(2, 2) == pytest.approx(2.0 / 3.0)
     assert w(1, 2) + w(2, 3) > w(1, 3) + w(2, 2)
@@ -164,7 +197,7 @@ def test_monotone_in_k_and_exact_at_n(x):
     parts = optimal_partitions(x, n)
     w = [parts[k].wssse for k in range(1, n + 1)]
     tol = 1e-12 * total_ss(x) + 1e-24 * float((x ** 2).sum())
-    assert all(b <= a + tol for a, b in zip(w, w[1:])), w
+    assert all(b <= a + tol for a, b in zip(w, w[1:], strict=False)), w
     assert w[-1] == 0.0
     assert w[0] == pytest.approx(total_ss(x), rel=1e-12, abs=tol)
 
@@ -178,7 +211,8 @@ def test_oracle_can_fail():
 
 
 # -- larger n: independent DP, baselines, determinism ---------------------------------------
-@pytest.mark.parametrize("n,D,k_max,seed", [(70, 2, 12, 1), (150, 5, 20, 2), (40, 1, 40, 3), (300, 2, 300, 8)])
+@pytest.mark.parametrize("n,D,k_max,seed",
+                         [(70, 2, 12, 1), (150, 5, 20, 2), (40, 1, 40, 3), (300, 2, 300, 8)])
 def test_matches_reference_dp(n, D, k_max, seed):
     x = random_walk(n, D, seed)
     ref = reference_dp(x, k_max)
@@ -204,14 +238,21 @@ def test_whole_dp_table_matches_reference(threads):
     np.testing.assert_allclose(F[1:][feasible[1:]], T[1:][feasible[1:]], rtol=1e-9, atol=1e-9)
 
 
-@pytest.mark.parametrize("n,D,seed", [(200, 3, 4), (500, 7, 5)])
-def test_better_than_paa_and_random_partitions(n, D, seed):
+def haar_sse(x, k):
+    """Squared error of the first-k Haar reconstruction (a piecewise constant, <= k pieces)."""
+    return float(((haar_approx(x, k) - x) ** 2).sum())
+
+
+@pytest.mark.parametrize("n,D,seed", [(200, 3, 4), (500, 7, 5), (100, 2, 6)])
+def test_better_than_paa_haar_and_random_partitions(n, D, seed):
+    """The paper's claim: optimal <= PAA and optimal <= Haar at the same k numbers per dim."""
     x = random_walk(n, D, seed)
     rng = np.random.default_rng(seed)
-    parts = optimal_partitions(x, 48, ks=[1, 2, 6, 12, 24, 48])
+    parts = optimal_partitions(x, 48, ks=[1, 2, 3, 6, 12, 24, 48])
     for k, p in parts.items():
         assert_valid(p, x, k)
         assert p.wssse <= paa(x, k).wssse * (1 + 1e-12)
+        assert p.wssse <= haar_sse(x, k) * (1 + 1e-12) + 1e-9
         for _ in range(20):
             assert p.wssse <= wssse(x, random_starts(rng, n, k)) * (1 + 1e-12) + 1e-9
 
@@ -265,6 +306,7 @@ def test_real_recording(shared_data):
         p = parts[k]
         assert_valid(p, x, k)
         assert p.wssse <= paa(x, k).wssse
+        assert p.wssse <= haar_sse(x, k) * (1 + 1e-12)
         for _ in range(20):
             assert p.wssse <= wssse(x, random_starts(rng, n, k))
     assert optimal_partitions(x, n, ks=[n])[n].wssse == 0.0
@@ -310,11 +352,13 @@ def test_paa_starts():
 def test_dft_budget(n):
     x = random_walk(n, 3, n)
     np.testing.assert_allclose(dft_approx(x, n), x, atol=1e-9 * (1 + np.abs(x).max()))
-    np.testing.assert_allclose(dft_approx(x, 1), np.broadcast_to(x.mean(axis=0), x.shape), atol=1e-9)
+    np.testing.assert_allclose(dft_approx(x, 1), np.broadcast_to(x.mean(axis=0), x.shape),
+                               atol=1e-9)
     errs = [((dft_approx(x, k) - x) ** 2).sum() for k in range(1, n + 1)]
-    assert all(b <= a + 1e-9 for a, b in zip(errs, errs[1:]))  # projections onto nested subspaces
+    # projections onto nested subspaces
+    assert all(b <= a + 1e-9 for a, b in zip(errs, errs[1:], strict=False))
     big = [((dft_approx(x, k, select="largest") - x) ** 2).sum() for k in range(1, n + 1)]
-    assert all(g <= e + 1e-9 for g, e in zip(big, errs))        # best k slots beat the first k
+    assert all(g <= e + 1e-9 for g, e in zip(big, errs, strict=True))  # best k beat the first k
 
 
 def test_dft_recovers_a_sinusoid_with_three_numbers():
@@ -332,8 +376,7 @@ def test_haar_exact_and_parseval(n):
     if n >= 4:
         # orthonormal: error equals the energy of the dropped coefficients, and keeping
         # the largest is optimal among all coefficient subsets of that size
-        from mpz.fisher import _haar_forward
-        w = np.sort(np.abs(_haar_forward(x)), axis=0)[::-1]
+        w = np.sort(np.abs(baselines.haar_forward(x)), axis=0)[::-1]
         for k in range(1, n + 1):
             err = ((haar_approx(x, k, select="largest") - x) ** 2).sum()
             assert err == pytest.approx((w[k:] ** 2).sum(), abs=1e-9)
@@ -343,8 +386,8 @@ def test_haar_exact_and_parseval(n):
 @pytest.mark.parametrize("k", [1, 2, 4, 8, 16])
 def test_haar_first_is_dyadic_paa(k):
     x = random_walk(64, 3, k)
-    np.testing.assert_allclose(haar_approx(x, k), preview_series(paa(x, k).starts, paa(x, k).means, 64),
-                               atol=1e-9)
+    p = paa(x, k)
+    np.testing.assert_allclose(haar_approx(x, k), preview_series(p.starts, p.means, 64), atol=1e-9)
 
 
 def test_haar_piecewise_constant_and_padding():
@@ -436,3 +479,10 @@ def test_choose_k_respects_bound(x, thr):
     p = choose_k_for_threshold(x, thr, x.shape[0])
     assert max_deviation(x, p.starts).max() <= thr
     assert_valid(p, x, p.k)
+
+
+def test_baselines_are_not_in_the_runtime_package():
+    import mpz.fisher
+    for name in ("paa", "dft_approx", "haar_approx", "_haar_forward", "_haar_inverse"):
+        assert not hasattr(mpz.fisher, name), name
+    assert baselines.__file__.endswith(str(Path("bench") / "baselines.py"))

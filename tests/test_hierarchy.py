@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -119,6 +120,26 @@ def test_cmu41_with_prefix_extras_and_missing_markers():
     assert node_of[names.index("*0")] == "torso"             # never valid: fallback node
 
 
+def test_cmu41_missing_markers_reshape_the_tree():
+    base = generate("walk", frames=200, seed=6)
+    keep = [i for i, n in enumerate(base.names) if n not in ("LSHO", "T10", "LKNE")]
+    m = mpz.Motion(base.positions[:, keep], [base.names[i] for i in keep], base.rate)
+    h = build_hierarchy(m, "cmu41")
+    by = {n.name: n for n in h.nodes}
+    # l_shoulder lost its only marker: gone, and its child hangs from its parent, the root
+    assert "l_shoulder" not in by and by["l_upper_arm"].parent == 0
+    # torso lost its reference T10: the member nearest on average to its children's references
+    kids = [n.ref for n in h.nodes if n.parent == h.nodes.index(by["torso"])]
+    assert sorted(m.names[r] for r in kids) == ["LFWT", "RFWT"]
+
+    def dist(a, b):
+        return np.linalg.norm(m.positions[:, a] - m.positions[:, b], axis=1).mean()
+
+    nearest = min(by["torso"].members, key=lambda a: np.mean([dist(a, c) for c in kids]))
+    assert by["torso"].ref == nearest and m.names[nearest] != "T10"
+    assert m.names[by["l_thigh"].ref] == "LTHI"             # the one member left
+
+
 def test_not_cmu_when_too_many_missing():
     base = generate("walk", frames=50, seed=2)
     m = mpz.Motion(base.positions[:, 5:], base.names[5:], 120.0)
@@ -141,7 +162,7 @@ def test_json_file_round_trip(tmp_path):
     assert [(n.name, n.parent, n.ref, n.members, n.weights) for n in back.nodes] == \
            [(n.name, n.parent, n.ref, n.members, n.weights) for n in h.nodes]
     foot = next(n for n in back.nodes if n.name == "l_foot")
-    assert dict(zip((m.names[i] for i in foot.members), foot.weights)) == \
+    assert dict(zip((m.names[i] for i in foot.members), foot.weights, strict=True)) == \
         {"LHEE": 10.0, "LTOE": 4.0, "LMT5": 4.0}
     # names match after stripping a subject prefix
     pm = mpz.Motion(m.positions, [f"Bob:{n}" for n in m.names], m.rate)
@@ -235,10 +256,25 @@ def test_auto_one_two_and_dead_markers():
     build_hierarchy(nothing, "auto").validate(3)
 
 
+def test_auto_silences_all_gap_warnings_inside_only():
+    m = generate("walk", frames=60, markers=8, seed=2)
+    valid = m.valid.copy()
+    valid[:, 5] = False                      # all-gap marker: all-NaN slices for nanmean
+    valid[::2, 2] = False
+    x = np.where(valid[..., None], m.positions, np.nan)
+    gappy = mpz.Motion(x, m.names, m.rate, valid=valid)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")       # any warning that escapes fails the test
+        before = list(warnings.filters)
+        build_hierarchy(gappy, "auto").validate(8)
+        assert warnings.filters == before     # the caller's filters are restored
+
+
 def test_auto_many_markers_with_gaps():
     base = generate("mixed", frames=5000, seed=8, gap_fraction=0.1)
     # 90 markers: the 41 plus copies shifted by 30 mm and a few copies of copies
-    x = np.concatenate([base.positions, base.positions + 30.0, base.positions[:, :8] - 30.0], axis=1)
+    x = np.concatenate([base.positions, base.positions + 30.0, base.positions[:, :8] - 30.0],
+                       axis=1)
     v = np.concatenate([base.valid, base.valid, base.valid[:, :8]], axis=1)
     names = base.names + [n + "_b" for n in base.names] + [n + "_c" for n in base.names[:8]]
     m = mpz.Motion(x, names, base.rate, valid=v)
@@ -306,3 +342,18 @@ def test_real_c3d_gets_a_valid_hierarchy(shared_data, stem):
         assert h.method == "auto"
     build_hierarchy(m, "auto").validate(m.n_markers)
     build_hierarchy(m, "flat").validate(m.n_markers)
+
+
+# -- package layout ----------------------------------------------------------------
+def test_every_public_name_of_the_former_module_is_still_importable():
+    """mpz.hierarchy became a package (one module per builder); its public names stay."""
+    import mpz.hierarchy as h
+    former = ("AUTO_MAX_FRAMES AUTO_MAX_GROUP AUTO_RIGID_FRACTION AUTO_SPREAD CMU41 "
+              "CMU41_MAX_MISSING HEAD_FRAMES MAX_NODES METHODS Hierarchy Node apply_weights "
+              "auto_hierarchy body_size build_hierarchy cmu41_hierarchy cmu41_template "
+              "flat_hierarchy head_scale read_hierarchy skeleton_hierarchy strip_subject "
+              "write_hierarchy").split()
+    assert sorted(h.__all__) == sorted(former)
+    for name in former:
+        assert getattr(h, name) is not None
+    assert sorted(h.CMU41) == sorted(CMU41)

@@ -17,24 +17,30 @@ No Knuth, SMAWK or divide-and-conquer shortcut is used: for unsorted series the
 cost is not quadrangle-convex (x = [1, 0, 1]: w(1,2)+w(2,3) = 1.0 > w(1,3)+w(2,2)
 = 0.667), so those shortcuts are not exact here.
 
-The module also holds the equal-length (PAA), DFT and Haar baselines of the
-paper's Figs 3-7, the conversion of a :class:`mpz.Motion` to a series, the
-piecewise preview and the threshold rule used by the encoder.
+The module also holds the conversion of a :class:`mpz.Motion` to a series, the
+piecewise preview and the threshold rule used by the encoder. The equal-length
+(PAA), DFT and Haar baselines of the paper's Figs 3-7 are research code and
+live with the benchmarks, in ``bench/baselines.py``.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 import math
+from typing import TYPE_CHECKING, cast
 
 import numba
 from numba import njit, prange
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from mpz.errors import EncoderError
 
-__all__ = ["Partition", "optimal_partitions", "wssse", "segment_means", "paa", "dft_approx",
-           "haar_approx", "motion_series", "preview_series", "choose_k_for_threshold",
-           "max_deviation"]
+if TYPE_CHECKING:
+    from mpz.motion import Motion
+
+__all__ = ["Partition", "optimal_partitions", "wssse", "segment_means", "motion_series",
+           "preview_series", "choose_k_for_threshold", "max_deviation"]
 
 #: Ends processed together (one parallel region each, so fewer is better on a busy
 #: machine); ``_BLOCK * k_max`` best/arg pairs per thread stay in L2.
@@ -65,11 +71,11 @@ class Partition:
     """
 
     k: int
-    starts: np.ndarray
-    means: np.ndarray
+    starts: NDArray[np.int64]
+    means: NDArray[np.float64]
     wssse: float
 
-    def lengths(self, n_frames: int) -> np.ndarray:
+    def lengths(self, n_frames: int) -> NDArray[np.int64]:
         """Frames per segment for a series of ``n_frames`` frames."""
         return np.diff(np.append(self.starts, n_frames))
 
@@ -78,7 +84,7 @@ class Partition:
 
 
 # -- input checks ---------------------------------------------------------------
-def _as_series(x) -> np.ndarray:
+def _as_series(x: ArrayLike) -> NDArray[np.float64]:
     """``x`` as a finite float64 ``[n, D]`` array (1-D input is one dimension)."""
     try:
         a = np.asarray(x, dtype=np.float64)
@@ -96,7 +102,8 @@ def _as_series(x) -> np.ndarray:
     return a
 
 
-def _check_k(k, n: int, what: str = "k") -> int:
+def _check_k(k: object, n: int, what: str = "k") -> int:
+    """``k`` as an int in ``1..n``; anything else is an :class:`EncoderError`."""
     if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)):
         raise EncoderError(f"{what} must be an integer, got {k!r}")
     k = int(k)
@@ -108,7 +115,8 @@ def _check_k(k, n: int, what: str = "k") -> int:
     return k
 
 
-def _check_starts(starts, n: int) -> np.ndarray:
+def _check_starts(starts: ArrayLike, n: int) -> NDArray[np.int64]:
+    """``starts`` as int64 segment starts: 0 first, strictly increasing, below ``n``."""
     s = np.asarray(starts)
     if s.ndim != 1 or s.size < 1 or not np.issubdtype(s.dtype, np.integer):
         raise EncoderError(f"starts must be a non-empty 1-D integer array, got {starts!r}")
@@ -116,12 +124,13 @@ def _check_starts(starts, n: int) -> np.ndarray:
     if s[0] != 0:
         raise EncoderError(f"starts[0] must be 0, got {int(s[0])}")
     if np.any(np.diff(s) <= 0) or s[-1] >= n:
-        raise EncoderError(f"starts must be strictly increasing frame indices below {n}, got {s.tolist()}")
+        raise EncoderError(f"starts must be strictly increasing frame indices below {n}, "
+                           f"got {s.tolist()}")
     return s
 
 
 # -- segment statistics -----------------------------------------------------------
-def segment_means(x, starts) -> np.ndarray:
+def segment_means(x: ArrayLike, starts: ArrayLike) -> NDArray[np.float64]:
     """Mean of each segment.
 
     Parameters
@@ -145,7 +154,7 @@ def segment_means(x, starts) -> np.ndarray:
     return np.add.reduceat(a, s, axis=0) / lengths[:, None]
 
 
-def wssse(x, starts) -> float:
+def wssse(x: ArrayLike, starts: ArrayLike) -> float:
     """Within-segment sum of squared error (paper eq. 3), computed directly.
 
     Two-pass (means first, then squared residuals), so it is exact to rounding
@@ -161,14 +170,14 @@ def wssse(x, starts) -> float:
     return _wssse(a, s)
 
 
-def _wssse(a: np.ndarray, s: np.ndarray) -> float:
+def _wssse(a: NDArray[np.float64], s: NDArray[np.int64]) -> float:
     lengths = np.diff(np.append(s, a.shape[0]))
     means = np.add.reduceat(a, s, axis=0) / lengths[:, None]
     r = a - np.repeat(means, lengths, axis=0)
     return float(np.einsum("ij,ij->", r, r))
 
 
-def max_deviation(x, starts) -> np.ndarray:
+def max_deviation(x: ArrayLike, starts: ArrayLike) -> NDArray[np.float64]:
     """Per segment, the largest Euclidean distance of a frame from its segment mean.
 
     The distance is taken over the whole D-vector of a frame:
@@ -183,7 +192,7 @@ def max_deviation(x, starts) -> np.ndarray:
     return _max_dev(a, s)
 
 
-def _max_dev(a, s):
+def _max_dev(a: NDArray[np.float64], s: NDArray[np.int64]) -> NDArray[np.float64]:
     lengths = np.diff(np.append(s, a.shape[0]))
     means = np.add.reduceat(a, s, axis=0) / lengths[:, None]
     r = a - np.repeat(means, lengths, axis=0)
@@ -193,7 +202,7 @@ def _max_dev(a, s):
 
 # -- the dynamic programme ----------------------------------------------------------
 @njit(cache=_CACHE, fastmath={"reassoc", "contract"})
-def _cost(S, Q, t, j):
+def _cost(S: NDArray[np.float64], Q: NDArray[np.float64], t: int, j: int) -> float:
     """d(t, j): squared error of frames t..j-1 about their mean, from prefix sums."""
     acc = 0.0
     for d in range(S.shape[1]):
@@ -204,7 +213,8 @@ def _cost(S, Q, t, j):
 
 
 @njit(cache=_CACHE, inline="always")
-def _relax(Ft, d, t, bb, ba, K):
+def _relax(Ft: NDArray[np.float64], d: float, t: int, bb: NDArray[np.float64],
+           ba: NDArray[np.int32], K: int) -> None:
     """best[m] = min(best[m], F[t, m-1] + d(t, j)); strict < keeps the smallest t."""
     for m in range(1, K):
         v = Ft[m - 1] + d
@@ -214,7 +224,8 @@ def _relax(Ft, d, t, bb, ba, K):
 
 
 @njit(cache=_CACHE, parallel=True)
-def _fisher_tables(S, Q, K, block, nthr):
+def _fisher_tables(S: NDArray[np.float64], Q: NDArray[np.float64], K: int, block: int,
+                   nthr: int) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
     """F[j, m]: least WSSSE of frames 0..j-1 in m+1 segments; P[j, m]: start of the last one."""
     n = S.shape[0] - 1
     F = np.full((n + 1, K), np.inf)
@@ -260,7 +271,7 @@ def _fisher_tables(S, Q, K, block, nthr):
     return F, P
 
 
-def _tables(a: np.ndarray, k_max: int):
+def _tables(a: NDArray[np.float64], k_max: int) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
     """Prefix sums of the centred series, then the DP tables."""
     xc = a - a.mean(axis=0)  # centring keeps the prefix sums small
     n, D = xc.shape
@@ -271,7 +282,8 @@ def _tables(a: np.ndarray, k_max: int):
     return _fisher_tables(S, Q, int(k_max), _BLOCK, numba.get_num_threads())
 
 
-def _backtrack(P: np.ndarray, n: int, k: int) -> np.ndarray:
+def _backtrack(P: NDArray[np.int32], n: int, k: int) -> NDArray[np.int64]:
+    """Starts of the best ``k``-partition of frames ``0..n-1`` from the back-pointers ``P``."""
     starts = np.empty(k, np.int64)
     j = n
     for m in range(k - 1, -1, -1):
@@ -281,13 +293,14 @@ def _backtrack(P: np.ndarray, n: int, k: int) -> np.ndarray:
     return starts
 
 
-def _partition(a: np.ndarray, starts: np.ndarray) -> Partition:
+def _partition(a: NDArray[np.float64], starts: NDArray[np.int64]) -> Partition:
     lengths = np.diff(np.append(starts, a.shape[0]))
     means = np.add.reduceat(a, starts, axis=0) / lengths[:, None]
     return Partition(k=len(starts), starts=starts, means=means, wssse=_wssse(a, starts))
 
 
-def optimal_partitions(x, k_max: int, ks=None) -> dict:
+def optimal_partitions(x: ArrayLike, k_max: int,
+                       ks: Iterable[int] | None = None) -> dict[int, Partition]:
     """Least-WSSSE partitions into ``k`` contiguous segments, for many ``k`` at once.
 
     Parameters
@@ -340,7 +353,7 @@ def optimal_partitions(x, k_max: int, ks=None) -> dict:
     return {k: _partition(a, _backtrack(P, n, k)) for k in ks}
 
 
-def choose_k_for_threshold(x, threshold: float, k_max: int) -> Partition:
+def choose_k_for_threshold(x: ArrayLike, threshold: float, k_max: int) -> Partition:
     """The smallest ``k`` whose optimal partition keeps every frame near its segment mean.
 
     A frame's deviation is the Euclidean norm of ``x[f] - mean`` over the whole
@@ -377,7 +390,7 @@ def choose_k_for_threshold(x, threshold: float, k_max: int) -> Partition:
         k_max = n
     k_max = _check_k(k_max, n, "k_max")
     _, P = _tables(a, k_max)
-    worst = []
+    worst: list[float] = []
     for k in range(1, k_max + 1):
         s = _backtrack(P, n, k)
         dev = float(_max_dev(a, s).max())
@@ -385,164 +398,13 @@ def choose_k_for_threshold(x, threshold: float, k_max: int) -> Partition:
             return _partition(a, s)
         worst.append(dev)
     raise EncoderError(f"no partition with k <= {k_max} keeps every frame within {threshold:g} "
-                       f"of its segment mean (at k={k_max} the worst frame is {worst[-1]:.6g} away); "
-                       f"raise k_max or the threshold")
-
-
-# -- baselines of the paper's Figs 3-7 ----------------------------------------------
-def paa(x, k: int) -> Partition:
-    """Piecewise aggregate approximation: ``k`` equal-length segments.
-
-    ``starts[i] = floor(i * n / k)`` (Keogh et al. 2001), so lengths differ by
-    at most one frame.
-
-    Examples
-    --------
-    >>> paa(np.arange(5.0), 2).starts.tolist()
-    [0, 2]
-    """
-    a = _as_series(x)
-    n = a.shape[0]
-    k = _check_k(k, n)
-    starts = (np.arange(k, dtype=np.int64) * n) // k
-    return _partition(a, starts)
-
-
-def dft_approx(x, k: int, select: str = "first") -> np.ndarray:
-    """Reconstruction from ``k`` real Fourier coefficients per dimension.
-
-    Budget: the real DFT of ``n`` samples has exactly ``n`` real degrees of
-    freedom, listed as DC, Re X1, Im X1, Re X2, Im X2, ... (Nyquist has no
-    imaginary part). ``select="first"`` keeps the first ``k`` of them, i.e. the
-    lowest frequencies, as in the paper and Faloutsos et al. 1994;
-    ``select="largest"`` keeps the ``k`` carrying the most energy, per dimension
-    (their positions would also have to be stored, so its budget is larger).
-    ``k`` numbers per dimension match the ``k`` segment means per dimension of
-    a ``k``-partition. ``k = n`` reproduces ``x``.
-
-    Returns
-    -------
-    ndarray of float64, shape (n, D) (or (n,) for 1-D input)
-    """
-    a0 = np.asarray(x)
-    a = _as_series(x)
-    n, D = a.shape
-    k = _check_k(k, n)
-    X = np.fft.rfft(a, axis=0)
-    nb = X.shape[0]
-    # each real slot: (bin, is_imag); orthonormal energy weight of a slot
-    slots = [(0, False)]
-    for f in range(1, nb):
-        slots.append((f, False))
-        if not (n % 2 == 0 and f == n // 2):
-            slots.append((f, True))
-    assert len(slots) == n
-    bins = np.array([s[0] for s in slots])
-    imag = np.array([s[1] for s in slots])
-    vals = np.where(imag[:, None], X[bins].imag, X[bins].real)  # [n, D]
-    edge = (bins == 0) | ((n % 2 == 0) & (bins == n // 2))
-    energy = vals ** 2 * np.where(edge, 1.0, 2.0)[:, None]
-    if select == "first":
-        keep = np.zeros((n, D), bool)
-        keep[:k] = True
-    elif select == "largest":
-        order = np.argsort(-energy, axis=0, kind="stable")[:k]
-        keep = np.zeros((n, D), bool)
-        np.put_along_axis(keep, order, True, axis=0)
-    else:
-        raise EncoderError(f"select must be 'first' or 'largest', got {select!r}")
-    Y = np.zeros_like(X)
-    kv = np.where(keep, vals, 0.0)
-    np.add.at(Y, bins[~imag], kv[~imag])
-    np.add.at(Y, bins[imag], 1j * kv[imag])
-    out = np.fft.irfft(Y, n=n, axis=0)
-    return out[:, 0] if a0.ndim == 1 else out
-
-
-def _haar_forward(a: np.ndarray) -> np.ndarray:
-    """Orthonormal Haar DWT along axis 0 (length a power of two), coarsest first."""
-    c = a.copy()
-    N = c.shape[0]
-    out = np.empty_like(c)
-    h = N
-    while h > 1:
-        even, odd = c[0:h:2], c[1:h:2]
-        out[h // 2:h] = (even - odd) / math.sqrt(2.0)  # details of this level
-        c[: h // 2] = (even + odd) / math.sqrt(2.0)
-        h //= 2
-    out[0] = c[0]
-    return out
-
-
-def _haar_inverse(w: np.ndarray) -> np.ndarray:
-    N = w.shape[0]
-    c = w[:1].copy()
-    h = 1
-    while h < N:
-        det = w[h:2 * h]
-        nxt = np.empty((2 * h,) + w.shape[1:])
-        nxt[0::2] = (c + det) / math.sqrt(2.0)
-        nxt[1::2] = (c - det) / math.sqrt(2.0)
-        c = nxt
-        h *= 2
-    return c
-
-
-def haar_approx(x, k: int, select: str = "first", pad: str = "edge") -> np.ndarray:
-    """Reconstruction from ``k`` orthonormal Haar wavelet coefficients per dimension.
-
-    Budget: the series is padded to the next power of two ``N`` and transformed
-    with the full orthonormal Haar DWT: ``N`` coefficients per dimension, the
-    scaling coefficient first, then the details from the coarsest level to the
-    finest, each level in time order. ``select="first"`` (default) keeps the
-    first ``k`` of them, the classic DWT reduction of Chan & Fu 1999 and what
-    the paper compares against: ``k`` numbers per dimension and nothing else,
-    like the ``k`` segment means of a ``k``-partition (for ``k = 2^m`` and
-    ``n = N`` it is exactly PAA with ``k`` segments). ``select="largest"`` keeps
-    the ``k`` largest-magnitude coefficients per dimension, which is the best
-    ``k``-term Haar approximation but also needs their ``k`` positions per
-    dimension, so its budget is larger. The reconstruction is cut back to
-    ``n`` frames.
-
-    ``pad="edge"`` (default) repeats the last frame; ``pad="zero"`` pads with
-    zeros. We hold the last frame rather than zero-pad because a jump to zero
-    would spend coefficients on an artificial step outside the series.
-
-    Returns
-    -------
-    ndarray of float64, shape (n, D) (or (n,) for 1-D input)
-
-    Examples
-    --------
-    >>> haar_approx([5.0, 5.0, 1.0, 1.0, 2.0, 2.0, 2.0, 2.0], 2).round(12).tolist()
-    [3.0, 3.0, 3.0, 3.0, 2.0, 2.0, 2.0, 2.0]
-    """
-    a0 = np.asarray(x)
-    a = _as_series(x)
-    n, D = a.shape
-    k = _check_k(k, n)
-    N = 1 << max(0, (n - 1).bit_length())
-    if pad == "edge":
-        p = np.concatenate([a, np.repeat(a[-1:], N - n, axis=0)])
-    elif pad == "zero":
-        p = np.concatenate([a, np.zeros((N - n, D))])
-    else:
-        raise EncoderError(f"pad must be 'edge' or 'zero', got {pad!r}")
-    w = _haar_forward(p)
-    keep = np.zeros_like(w, dtype=bool)
-    if select == "largest":
-        order = np.argsort(-np.abs(w), axis=0, kind="stable")[:k]
-        np.put_along_axis(keep, order, True, axis=0)
-    elif select == "first":
-        keep[:k] = True
-    else:
-        raise EncoderError(f"select must be 'largest' or 'first', got {select!r}")
-    out = _haar_inverse(np.where(keep, w, 0.0))[:n]
-    return out[:, 0] if a0.ndim == 1 else out
+                       f"of its segment mean (at k={k_max} the worst frame is "
+                       f"{worst[-1]:.6g} away); raise k_max or the threshold")
 
 
 # -- motions as series, previews ------------------------------------------------------
-def _fill_gaps(pos: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _fill_gaps(pos: NDArray[np.float64],
+               valid: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Linear interpolation over time per marker, holding at the ends.
 
     Returns the filled ``[frames, markers, 3]`` array and a ``[markers]`` mask
@@ -550,7 +412,7 @@ def _fill_gaps(pos: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarr
     """
     frames, markers, _ = pos.shape
     out = np.zeros_like(pos)
-    seen = valid.any(axis=0)
+    seen = cast("NDArray[np.bool_]", valid.any(axis=0))  # 2-D in, so an array out
     t = np.arange(frames)
     for m in np.flatnonzero(seen):
         ok = valid[:, m]
@@ -562,7 +424,8 @@ def _fill_gaps(pos: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return out, seen
 
 
-def motion_series(motion, space: str = "positions", root: str | None = None) -> tuple[np.ndarray, str]:
+def motion_series(motion: Motion, space: str = "positions",
+                  root: str | None = None) -> tuple[NDArray[np.float64], str]:
     """A motion as a finite ``[frames, D]`` series for partitioning.
 
     Parameters
@@ -594,8 +457,8 @@ def motion_series(motion, space: str = "positions", root: str | None = None) -> 
     """
     if space == "angles":
         if getattr(motion, "angles", None) is None:
-            raise EncoderError("this motion has no joint angles (space='angles' needs skeletal input "
-                               "such as AMC/ASF or BVH); use space='positions'")
+            raise EncoderError("this motion has no joint angles (space='angles' needs skeletal "
+                               "input such as AMC/ASF or BVH); use space='positions'")
         ang = np.asarray(motion.angles, dtype=np.float64)
         if not np.all(np.isfinite(ang)):
             raise EncoderError("joint angles contain NaN or inf")
@@ -623,7 +486,8 @@ def motion_series(motion, space: str = "positions", root: str | None = None) -> 
     return rel.reshape(motion.n_frames, -1), f"marker positions relative to {what} ({units})"
 
 
-def preview_series(starts, means, n_frames: int, mode: str = "constant") -> np.ndarray:
+def preview_series(starts: ArrayLike, means: ArrayLike, n_frames: int,
+                   mode: str = "constant") -> NDArray[np.float64]:
     """Expand segment means to a full-rate series.
 
     Parameters

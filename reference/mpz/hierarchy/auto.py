@@ -1,0 +1,232 @@
+"""The ``"auto"`` builder: groups of markers that move rigidly together, linked into a tree.
+
+Contract: :func:`auto_hierarchy` needs nothing but positions and gaps (no
+names, no skeleton), so it codes any input; it is the paper's future work.
+It is deterministic (evenly spaced frame samples, ties broken by marker or
+group index) and returns a validated hierarchy whose method is ``"auto"``:
+node 0 is one root marker, node 1 (``"root_group"``) holds the root group's
+other markers plus the markers that are gaps throughout, and every other node
+is one rigid group (``"group<k>"``). Numeric warnings of all-gap slices are
+silenced; the gaps are handled explicitly.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+import warnings
+
+import numpy as np
+
+from mpz.hierarchy.flat import flat_hierarchy
+from mpz.hierarchy.measure import body_size, sample_frames, sampled
+from mpz.hierarchy.model import Hierarchy, Node
+from mpz.motion import Motion
+
+#: auto: the dissimilarity of two markers is the std over time of their
+#: distance plus AUTO_SPREAD x its mean (so that, in still data, near markers
+#: group first). Pairs below AUTO_RIGID_FRACTION x the body size (median
+#: bounding-box diagonal) are "rigid": 2% of a ~1.8 m standing diagonal is
+#: ~36 mm, above skin-motion wobble (1..15 mm on the CMU and HDM05 files) plus
+#: the spread term for markers on one segment (0.05 x 100..300 mm), below the
+#: change of distance across a flexing joint (tens to hundreds of mm).
+AUTO_RIGID_FRACTION = 0.02
+AUTO_SPREAD = 0.05
+AUTO_MAX_GROUP = 6
+AUTO_MAX_FRAMES = 400  # frames sampled for the auto analysis
+
+
+def auto_hierarchy(motion: Motion, *, rigid_fraction: float = AUTO_RIGID_FRACTION,
+                   max_group: int = AUTO_MAX_GROUP) -> Hierarchy:
+    """Build a hierarchy from the data: rigid groups linked into a tree.
+
+    Notes
+    -----
+    On at most :data:`AUTO_MAX_FRAMES` evenly spaced frames:
+
+    1. dissimilarity of every pair: std over time of its distance plus
+       :data:`AUTO_SPREAD` x its mean (frames where both markers are valid;
+       pairs never co-valid count as non-rigid);
+    2. complete-linkage clustering of it, cut at ``rigid_fraction`` x
+       the body size (:func:`body_size`), groups of at most ``max_group``;
+    3. root group: centroid nearest the overall centroid on average; root
+       marker: its member with the fewest gaps, then the least motion;
+    4. tree: minimum spanning tree over groups, edge weight = the best (over
+       the members of either group) mean dissimilarity to the other group,
+       rooted at the root group;
+    5. reference marker of a group: the member least dissimilar on average
+       to the children's members (most valid member for a leaf);
+    6. the root group's other members, and markers that are gaps throughout,
+       form one child node of the root.
+    """
+    M = motion.n_markers
+    if M == 1:
+        return Hierarchy([Node("root", -1, 0, [0])], "auto")
+    frames = sample_frames(motion.n_frames, AUTO_MAX_FRAMES)
+    x, v = sampled(motion, frames)
+    n_valid_all = sampled(motion)[1].sum(axis=0)  # over every frame, not the sample
+    live = [m for m in range(M) if v[:, m].any()]
+    dead = [m for m in range(M) if m not in set(live)]
+    if not live:
+        return Hierarchy(flat_hierarchy(M).nodes, "auto")
+    # steps 1-2
+    std, mean, _ = _distance_std(x, v)
+    std = std + AUTO_SPREAD * mean
+    size = body_size(motion, frames)
+    threshold = rigid_fraction * size if size > 0 else 1e-9
+    groups = _groups(std, live, threshold, max_group)
+    # step 3
+    xn = np.where(v[..., None], x, np.nan)
+    root_g = _root_group(xn, live, groups)
+    root_m = _root_marker(xn, groups[root_g], n_valid_all)
+    # steps 4-6
+    fin = _finite(std)
+    tree = _group_tree(fin, groups, root_g)
+    h = Hierarchy(_nodes(tree, groups, root_m, dead, fin, n_valid_all), "auto")
+    h.validate(M)
+    return h
+
+
+class _Tree(NamedTuple):
+    """Groups linked into a tree: breadth-first ``order`` and group -> ``parent`` group."""
+
+    root: int
+    order: list[int]
+    parent: dict[int, int]
+
+
+def _nodes(tree: _Tree, groups: list[list[int]], root_m: int, dead: list[int], fin: np.ndarray,
+           n_valid_all: np.ndarray) -> list[Node]:
+    """The root marker; the rest of the root group and the dead markers; one node per group."""
+    nodes = [Node("root", -1, root_m, [root_m])]
+    rest = [m for m in groups[tree.root] if m != root_m] + dead
+    if rest:
+        nodes.append(Node("root_group", 0, min(rest, key=lambda m: (-n_valid_all[m], m)), rest))
+    node_of_group = {tree.root: 0}
+    for g in tree.order:
+        if g == tree.root:
+            continue
+        kids = [c for c in tree.order if tree.parent[c] == g]
+        p = node_of_group[tree.parent[g]]
+        node_of_group[g] = len(nodes)
+        nodes.append(Node(f"group{len(nodes)}", p, _reference(g, kids, groups, fin, n_valid_all),
+                          list(groups[g])))
+    return nodes
+
+
+# -- step 1: dissimilarity ----------------------------------------------------------
+def _distance_std(x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-pair std over frames of the distance, on frames where both are valid.
+
+    Returns (std [M, M], mean distance [M, M], co-valid frame count [M, M]).
+    """
+    x0 = np.where(v[..., None], x, 0.0)
+    sq = np.einsum("fmk,fmk->fm", x0, x0)
+    g = np.einsum("fak,fbk->fab", x0, x0)
+    d = np.sqrt(np.maximum(sq[:, :, None] + sq[:, None, :] - 2 * g, 0.0))
+    vv = (v[:, :, None] & v[:, None, :]).astype(np.float64)
+    cnt = vv.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = (d * vv).sum(axis=0) / cnt
+        var = (d * d * vv).sum(axis=0) / cnt - mean ** 2
+    std = np.sqrt(np.maximum(var, 0.0))
+    std[cnt < 2] = np.inf
+    mean[cnt < 1] = np.inf
+    return std, mean, cnt
+
+
+def _finite(std: np.ndarray) -> np.ndarray:
+    """``std`` with non-finite entries replaced by 10 x its largest finite entry + 1."""
+    fin = np.where(np.isfinite(std), std, np.nan)
+    big = (np.nanmax(fin) if np.isfinite(fin).any() else 1.0) * 10 + 1.0
+    return np.where(np.isnan(fin), big, fin)
+
+
+# -- step 2: rigid groups -----------------------------------------------------------
+def _groups(std: np.ndarray, idx: list[int], threshold: float,
+            max_size: int) -> list[list[int]]:
+    """Complete-linkage clusters of ``idx`` under ``threshold``, at most ``max_size`` each."""
+    from scipy.cluster.hierarchy import fcluster, linkage
+
+    if len(idx) == 1:
+        return [list(idx)]
+    sub = std[np.ix_(idx, idx)]
+    finite = np.isfinite(sub)
+    big = (np.max(sub[finite]) if finite.any() else 1.0) * 10 + threshold * 10 + 1.0
+    sub = np.where(finite, sub, big)
+    sub = 0.5 * (sub + sub.T)
+    np.fill_diagonal(sub, 0.0)
+    cond = sub[np.triu_indices(len(idx), 1)]
+    z = linkage(cond, method="complete")
+    labels = fcluster(z, t=threshold, criterion="distance")
+    out = []
+    for lab in np.unique(labels):
+        members = [idx[k] for k in np.flatnonzero(labels == lab)]
+        if len(members) <= max_size:
+            out.append(members)
+            continue
+        # too big: cut this cluster's own tree into ceil(n / max) parts, recursively
+        zz = linkage(sub[np.ix_(np.flatnonzero(labels == lab), np.flatnonzero(labels == lab))]
+                     [np.triu_indices(len(members), 1)], method="complete")
+        parts = fcluster(zz, t=-(-len(members) // max_size), criterion="maxclust")
+        for q in np.unique(parts):
+            part = [members[k] for k in np.flatnonzero(parts == q)]
+            out.extend(_groups(std, part, threshold * 0.5, max_size) if len(part) > max_size
+                       else [part])
+    return out
+
+
+# -- step 3: the root ---------------------------------------------------------------
+def _root_group(xn: np.ndarray, live: list[int], groups: list[list[int]]) -> int:
+    """The group whose centroid is nearest the centroid of all live markers, on average."""
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-gap slices
+        overall = np.nanmean(xn[:, live], axis=1)                                  # [S, 3]
+        cent = np.stack([np.nanmean(xn[:, g], axis=1) for g in groups], axis=1)    # [S, G, 3]
+        gd = np.nanmean(np.linalg.norm(cent - overall[:, None], axis=2), axis=0)
+    gd = np.where(np.isfinite(gd), gd, np.inf)
+    return int(np.argmin(gd))
+
+
+def _root_marker(xn: np.ndarray, members: list[int], n_valid_all: np.ndarray) -> int:
+    """The member with the fewest gaps, then the least motion, then the lowest index."""
+    step = np.linalg.norm(np.diff(xn, axis=0), axis=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # markers that are gaps throughout
+        motion_amount = np.nanmean(step, axis=0)
+    motion_amount = np.where(np.isfinite(motion_amount), motion_amount, np.inf)
+    return min(members, key=lambda m: (-n_valid_all[m], motion_amount[m], m))
+
+
+# -- steps 4-5: the tree and the references ---------------------------------------------
+def _group_tree(fin: np.ndarray, groups: list[list[int]], root_g: int) -> _Tree:
+    """Minimum spanning tree over the groups, breadth first from ``root_g`` (parent -1)."""
+    from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
+
+    G = len(groups)
+    if G == 1:
+        return _Tree(root_g, [root_g], {root_g: -1})
+    W = np.zeros((G, G))
+    for a in range(G):
+        for b in range(a + 1, G):
+            blk = fin[np.ix_(groups[a], groups[b])]
+            W[a, b] = W[b, a] = min(blk.mean(axis=1).min(), blk.mean(axis=0).min())
+    mst = minimum_spanning_tree(W + 1e-9 * (W == 0) * (1 - np.eye(G)))
+    order_arr, pred = breadth_first_order(mst + mst.T, root_g, directed=False)
+    order = list(order_arr)
+    # a disconnected graph cannot happen (all edges finite), but stay total
+    order += [g for g in range(G) if g not in set(order)]
+    parent = {g: -1 if g == root_g else int(pred[g]) if pred[g] >= 0 else root_g for g in order}
+    return _Tree(root_g, order, parent)
+
+
+def _reference(g: int, kids: list[int], groups: list[list[int]], fin: np.ndarray,
+               n_valid_all: np.ndarray) -> int:
+    """The member of group ``g`` least dissimilar on average to its children's members.
+
+    A leaf's (no children): the member with the fewest gaps. Ties: fewest
+    gaps, then lowest index.
+    """
+    ch = [m for c in kids for m in groups[c]]
+    cand = groups[g]
+    if ch:
+        return min(cand, key=lambda m: (fin[m, ch].mean(), -n_valid_all[m], m))
+    return min(cand, key=lambda m: (-n_valid_all[m], m))

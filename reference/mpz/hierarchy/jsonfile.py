@@ -1,0 +1,132 @@
+"""The ``"file"`` builder: hierarchies written as ``mpz-hierarchy`` JSON.
+
+Contract: :func:`parse_nodes` turns a parsed dict into nodes, checking the
+format, the version, every node's fields, and that the names match the
+motion's markers (exactly or after stripping a ``"Subject:"`` prefix); every
+marker must be placed. It raises :class:`mpz.errors.EncoderError` naming the
+node or marker at fault, for the first broken rule in node order, except that
+unknown marker names are collected over all nodes and reported together.
+:meth:`mpz.hierarchy.Hierarchy.from_dict` wraps it and validates the result;
+:func:`read_hierarchy` and :func:`write_hierarchy` move it through files.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+import json
+from pathlib import Path
+from typing import Any
+
+from mpz.errors import EncoderError
+from mpz.hierarchy.model import Hierarchy, Node
+from mpz.hierarchy.names import name_lookup
+
+#: A path to a JSON file, as accepted by :func:`read_hierarchy`.
+PathLike = str | Path
+
+
+def parse_nodes(d: object, names: Sequence[str]) -> list[Node]:
+    """The nodes of an ``mpz-hierarchy`` dict, marker names resolved to indices.
+
+    Raises
+    ------
+    EncoderError
+        For a malformed dict, unknown marker or node names, or markers of the
+        motion the dict does not place.
+    """
+    raw = _node_list(d)
+    lookup = name_lookup(names)
+    node_index: dict[str, int] = {}
+    nodes: list[Node] = []
+    unknown: list[str] = []
+    for i, nd in enumerate(raw):
+        name, members, ref, parent = _fields(i, nd)
+        if name in node_index:
+            raise EncoderError(f"duplicate node name {name!r}")
+        node_index[name] = i
+        p = _parent_index(name, parent, node_index)
+        idx, r = _marker_indices(members, ref, lookup, unknown)
+        weights = _weights(name, members, nd.get("weights") or {})
+        nodes.append(Node(name, p, r, idx, weights))
+    if unknown:
+        raise EncoderError(f"hierarchy names markers the motion does not have: {unknown}")
+    placed = {m for n in nodes for m in n.members}
+    missing = [names[i] for i in range(len(names)) if i not in placed]
+    if missing:
+        raise EncoderError(f"hierarchy does not place these markers of the motion: {missing}")
+    return nodes
+
+
+def _node_list(d: object) -> list[Any]:
+    """The ``nodes`` list of a dict whose format and version are checked."""
+    if not isinstance(d, dict) or d.get("format") != "mpz-hierarchy":
+        raise EncoderError("not a hierarchy: expected a dict with "
+                           "\"format\": \"mpz-hierarchy\"")
+    if d.get("version") != 1:
+        raise EncoderError(f"unsupported hierarchy version {d.get('version')!r}, expected 1")
+    raw = d.get("nodes")
+    if not isinstance(raw, list) or not raw:
+        raise EncoderError("hierarchy \"nodes\" must be a non-empty list")
+    return raw
+
+
+def _fields(i: int, nd: Any) -> tuple[str, list[Any], Any, Any]:
+    """``(name, members, ref, parent)`` of raw node ``i``."""
+    try:
+        return str(nd["name"]), list(nd["members"]), nd["ref"], nd.get("parent")
+    except (KeyError, TypeError) as exc:
+        raise EncoderError(f"hierarchy node {i}: missing field {exc}") from None
+
+
+def _parent_index(name: str, parent: Any, node_index: dict[str, int]) -> int:
+    """Index of the parent node (-1 for ``null``); it must come earlier."""
+    if parent is None:
+        return -1
+    if parent in node_index:
+        return node_index[parent]
+    raise EncoderError(f"node {name!r}: parent {parent!r} is not an earlier node")
+
+
+def _marker_indices(members: list[Any], ref: Any, lookup: dict[str, int],
+                    unknown: list[str]) -> tuple[list[int], int]:
+    """Member and reference indices (-1 where unknown); unknown names go to ``unknown``."""
+    idx = []
+    for m in members:
+        j = lookup.get(str(m))
+        if j is None:
+            unknown.append(str(m))
+        idx.append(-1 if j is None else j)
+    r = lookup.get(str(ref))
+    if r is None and str(ref) not in members:
+        unknown.append(str(ref))
+    return idx, -1 if r is None else r
+
+
+def _weights(name: str, members: list[Any], wmap: Any) -> list[float]:
+    """One weight per member from the node's ``weights`` map (default 1.0)."""
+    if not isinstance(wmap, dict):
+        raise EncoderError(f"node {name!r}: \"weights\" must map marker names to numbers")
+    bad = [k for k in wmap if k not in members]
+    if bad:
+        raise EncoderError(f"node {name!r}: weights given for non-members {bad}")
+    weights = []
+    for m in members:
+        try:
+            weights.append(float(wmap.get(m, 1.0)))
+        except (TypeError, ValueError):
+            raise EncoderError(f"node {name!r}: weight of {m!r} is not a number: "
+                               f"{wmap.get(m)!r}") from None
+    return weights
+
+
+def read_hierarchy(path: PathLike, names: Sequence[str]) -> Hierarchy:
+    """Read a JSON hierarchy file against the motion's marker names."""
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise EncoderError(f"cannot read hierarchy file: {exc}", path=str(path)) from None
+    return Hierarchy.from_dict(d, names)
+
+
+def write_hierarchy(h: Hierarchy, path: PathLike, names: Sequence[str]) -> None:
+    """Write ``h`` as an ``mpz-hierarchy`` JSON file, markers by name."""
+    Path(path).write_text(json.dumps(h.to_dict(names), indent=1) + "\n", encoding="utf-8")

@@ -1,0 +1,49 @@
+"""Distances and sizes measured on a motion, shared by the builders and the scale.
+
+Contract: every function reads ``motion.positions`` and ``motion.valid`` only,
+uses a sample only where it is valid, and is total: a pair never valid together
+is ``math.inf`` apart, a motion with no two valid markers in any frame has size
+0.0. Frame samples are evenly spaced, sorted and unique, so results do not
+depend on the machine.
+"""
+from __future__ import annotations
+
+import math
+from typing import cast
+
+import numpy as np
+
+from mpz.motion import Motion
+
+
+def sample_frames(n: int, k: int) -> np.ndarray:
+    """At most ``k`` evenly spaced, sorted, unique frame indices of ``0..n-1``."""
+    return np.unique(np.linspace(0, n - 1, min(n, k)).round().astype(np.int64))
+
+
+def sampled(motion: Motion, frames: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(positions, valid)`` of ``motion``, restricted to ``frames`` if given."""
+    x, v = motion.positions, cast(np.ndarray, motion.valid)  # Motion always sets valid
+    if frames is None:
+        return x, v
+    return x[frames], v[frames]
+
+
+def mean_distance(motion: Motion, a: int, b: int, frames: np.ndarray | None = None) -> float:
+    """Mean distance between markers a and b over frames where both are valid."""
+    x, v = sampled(motion, frames)
+    both = v[:, a] & v[:, b]
+    if not both.any():
+        return math.inf
+    return float(np.linalg.norm(x[both, a] - x[both, b], axis=1).mean())
+
+
+def body_size(motion: Motion, frames: np.ndarray | None = None) -> float:
+    """Median over frames of the bounding-box diagonal of the valid markers."""
+    x, v = sampled(motion, frames)
+    ok = v.sum(axis=1) >= 2
+    if not ok.any():
+        return 0.0
+    xn = np.where(v[..., None], x, np.nan)[ok]
+    diag = np.linalg.norm(np.nanmax(xn, axis=1) - np.nanmin(xn, axis=1), axis=1)
+    return float(np.median(diag))
