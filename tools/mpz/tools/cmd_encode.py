@@ -18,6 +18,7 @@ def _pairs(items, what):
 
 
 def add_parser(sub):
+    from mpz.encoder import DEFAULTS as D   # the one definition of every default
     p = sub.add_parser("encode", help="compress C3D, TRC, BVH, AMC (+ASF), NPY or CSV to .mpz",
                        description="Compress a motion-capture file to MPZ. With --max-error the "
                        "decoded motion is guaranteed within that Euclidean distance of the input "
@@ -29,26 +30,28 @@ def add_parser(sub):
                    "in the input's units")
     p.add_argument("--group-error", action="append", metavar="NODE=E",
                    help="tighter bound for one hierarchy node, e.g. lfoot=0.5mm (repeatable)")
-    p.add_argument("--theta", type=float, default=0.2,
-                   help="key-frame threshold, fraction of the head size ADDH (default 0.2)")
-    p.add_argument("--k0", type=int, default=10, help="initial number of clusters (default 10)")
-    p.add_argument("--tau", type=float, default=0.05,
-                   help="clustering threshold, fraction of ADDH (default 0.05)")
-    p.add_argument("--metric", choices=("max", "ave"), default="max",
+    p.add_argument("--theta", type=float, default=D.theta,
+                   help=f"key-frame threshold, fraction of the head size ADDH (default {D.theta})")
+    p.add_argument("--k0", type=int, default=D.k0,
+                   help=f"initial number of clusters (default {D.k0})")
+    p.add_argument("--tau", type=float, default=D.tau,
+                   help=f"clustering threshold, fraction of ADDH (default {D.tau})")
+    p.add_argument("--metric", choices=("max", "ave"), default=D.metric,
                    help="clustering error metric, paper Eq. 2 (max) or Eq. 1 (ave)")
     p.add_argument("--weight", action="append", metavar="NAME=W",
                    help="weight of a marker or node (local distortion control; repeatable)")
     p.add_argument("--hierarchy", help="cmu41, skeleton, auto, flat or a JSON hierarchy file")
-    p.add_argument("--smoothing", type=int, default=2, help="boundary smoothing half-width 0..16")
+    p.add_argument("--smoothing", type=int, default=D.smoothing,
+                   help=f"boundary smoothing half-width 0..16 (default {D.smoothing})")
     p.add_argument("--patterns", choices=("auto", "on", "off"), default=None,
                    help="pattern layer per node: auto keeps it where it makes the file smaller "
                    "(default: on without --max-error, off with it)")
-    p.add_argument("--segmentation", choices=("adaptive", "optimal"), default="adaptive",
+    p.add_argument("--segmentation", choices=("adaptive", "optimal"), default=D.segmentation,
                    help="adaptive = paper's Alg. 1; optimal = Fisher optimal partition")
     p.add_argument("--grid", help="grid step (default: from --max-error, else ADDH/1000)")
     p.add_argument("--summary", metavar="K,K,...", help="add the optimal-partition summary chunk "
                    "with these segment counts, e.g. 6,12,24,48")
-    p.add_argument("--summary-space", choices=("positions", "angles"), default="positions")
+    p.add_argument("--summary-space", choices=("positions", "angles"), default=D.summary_space)
     p.add_argument("--meta", action="append", metavar="KEY=VALUE", help="metadata (repeatable)")
     p.add_argument("--force", action="store_true", help="replace OUTPUT if it exists, "
                    "or write it under a name not ending in .mpz")
