@@ -24,10 +24,10 @@ def main():
     for scale in (0.5, 3.0, 50.0):
         v = np.round(rng.laplace(0, scale, (5202, 41, 3))).astype(np.int64)
         data = _enc(v)
-        te = best_of(lambda: _enc(v), 5)
-        td = best_of(lambda: BlockDecoder(data).block(5202, 41), 5)
         small = v[:200]
-        tr = best_of(lambda: _ref(small), n=1) * (v.shape[0] / small.shape[0])
+        te = best_of(lambda v=v: _enc(v), 5)
+        td = best_of(lambda data=data: BlockDecoder(data).block(5202, 41), 5)
+        tr = best_of(lambda small=small: _ref(small), n=1) * (v.shape[0] / small.shape[0])
         n = v.size
         dec = n / td / 1e6
         ok &= dec >= 5

@@ -5,8 +5,8 @@ from pathlib import Path
 import pytest
 
 from mpz import container
-from mpz.errors import MPZError
 from mpz.chunks import CHUNKS
+from mpz.errors import MPZError
 
 VECTORS = sorted((Path(__file__).resolve().parents[1] / "conformance" / "vectors").rglob("*.mpz"))
 

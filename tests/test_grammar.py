@@ -3,6 +3,7 @@ bytes written independently with struct, and parse/build symmetry."""
 import struct
 import zlib
 
+import construct
 from hypothesis import given, settings
 from hypothesis import strategies as st
 import pytest
@@ -83,7 +84,7 @@ def test_chunk_frame_and_crc():
 
 
 def test_trailing_bytes_in_payload_rejected():
-    with pytest.raises(Exception):
+    with pytest.raises(construct.ConstructError):
         g.QUNT.parse(struct.pack("<ddddB", 0.5, 1, 2, 3, 20) + b"\x00")
 
 
@@ -109,7 +110,8 @@ def test_chunk_roundtrip_property(payload, ctype):
     """parse(build(x)) == x and build(parse(b)) == b for the chunk frame."""
     if ctype == "meta":
         payload = g.META.build({"count": 1, "entries": [{"key": "k", "value": payload.hex()}]})
-    data = g.SIGNATURE + container.build_chunk(ctype, payload=payload) + container.build_chunk("MEND", b"")
+    data = (g.SIGNATURE + container.build_chunk(ctype, payload=payload)
+            + container.build_chunk("MEND", b""))
     chunks = container.parse(data)
     assert chunks[0].payload == payload
     assert container.build(chunks) == data

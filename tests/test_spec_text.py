@@ -22,7 +22,8 @@ from mpz.spec.grammar import SIGNATURE
 REPO = Path(__file__).resolve().parents[1]
 SPEC = REPO / "spec" / "mpz-1.md"
 EXAMPLE = REPO / "conformance" / "vectors" / "spec-example.mpz"
-CITING = sorted((REPO / "reference" / "mpz").rglob("*.py")) + [REPO / "spec" / "mpz" / "spec" / "grammar.py"]
+GRAMMAR = REPO / "spec" / "mpz" / "spec" / "grammar.py"
+CITING = sorted((REPO / "reference" / "mpz").rglob("*.py")) + [GRAMMAR]
 
 HEADING = re.compile(r"^#{2,4} (\d+(?:\.\d+)*)\.? +(.*)$", re.M)
 SECTION_REF = re.compile(r"§(\d+(?:\.\d+)*)")
@@ -66,9 +67,10 @@ def test_appendix_a_matches_the_example_file_byte_for_byte(text):
     for start, length, contents, desc in rows:
         start, length = int(start, 16), int(length)
         raw = bytes.fromhex(contents.strip("`").replace(" ", ""))
-        assert start == pos, f"row at {start:#06x} does not follow the previous row (expected {pos:#06x}): {desc}"
-        assert len(raw) == length, f"row at {start:#06x}: Length {length} but {len(raw)} bytes shown"
-        assert data[start:start + length] == raw, f"row at {start:#06x} ({desc}) differs from the file"
+        at = f"row at {start:#06x}"
+        assert start == pos, f"{at} does not follow the previous row (expected {pos:#06x}): {desc}"
+        assert len(raw) == length, f"{at}: Length {length} but {len(raw)} bytes shown"
+        assert data[start:start + length] == raw, f"{at} ({desc}) differs from the file"
         pos += length
     assert pos == len(data), f"table covers {pos} of {len(data)} bytes"
 
@@ -77,7 +79,8 @@ def test_example_file_is_what_the_generator_writes():
     from mpz.tools.spec_example import build, verify
     data = build()
     verify(data)                          # decodes to the integers Appendix A states
-    assert EXAMPLE.read_bytes() == data, "regenerate: python -m mpz.tools.spec_example " + str(EXAMPLE)
+    assert EXAMPLE.read_bytes() == data, \
+        "regenerate: python -m mpz.tools.spec_example " + str(EXAMPLE)
 
 
 def test_appendix_a_digest_and_size(text):
@@ -117,7 +120,7 @@ def test_grammar_field_sections_name_their_own_chunk(text):
     each chunk's entry in the table (mpz.chunks) names the same § as its heading."""
     secs = {title.split(":")[0].strip(): num for num, title in HEADING.findall(text)
             if num.startswith("4.") and re.fullmatch(r"[A-Za-z]{4}", title.split(":")[0].strip())}
-    src = (REPO / "spec" / "mpz" / "spec" / "grammar.py").read_text(encoding="utf-8")
+    src = GRAMMAR.read_text(encoding="utf-8")
     for ctype, cls in CHUNKS.items():
         assert cls.SECTION == f"§{secs[ctype]}", (ctype, cls.SECTION)
         name = {"smry": "SMRY", "meta": "META"}.get(ctype, ctype)
@@ -158,7 +161,8 @@ def test_spec_cross_references_resolve(text):
 def _entropy_example(text):
     kv = dict(re.findall(r"^(\w+)\s*=\s*(.+)$", block(text, "entropy-example"), re.M))
     values = np.array(eval(kv["input"], {"__builtins__": {}}), dtype=np.int64)   # a literal list
-    return values, int(kv["period"]), kv["signed"].strip() == "true", bytes.fromhex(kv["bytes"].replace(" ", ""))
+    signed = kv["signed"].strip() == "true"
+    return values, int(kv["period"]), signed, bytes.fromhex(kv["bytes"].replace(" ", ""))
 
 
 def test_entropy_example_bytes_equal_the_reference_coder(text):

@@ -101,7 +101,8 @@ def test_figure_is_human_sized_and_on_the_floor(kind):
 
 def test_walk_travels_forward():
     m = generate("walk", frames=600, rate=120.0, seed=9)   # 5 s
-    pelvis = m.positions[:, [m.names.index(n) for n in ("LFWT", "RFWT", "LBWT", "RBWT")]].mean(axis=1)
+    hips = [m.names.index(n) for n in ("LFWT", "RFWT", "LBWT", "RBWT")]
+    pelvis = m.positions[:, hips].mean(axis=1)
     dx = pelvis[-1, 0] - pelvis[0, 0]
     assert dx > 2000.0                            # > 0.4 m/s along +X
     assert abs(pelvis[-1, 1] - pelvis[0, 1]) < 0.2 * dx

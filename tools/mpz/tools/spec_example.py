@@ -54,7 +54,8 @@ def _residuals(x, order):
 def expected_q() -> np.ndarray:
     """The integer layer q [3, 2, 3] that Appendix A says the file decodes to."""
     from mpz.normalize import denormalize
-    pat = denormalize(PATTERN[None, :, None, :], [0], [3])[:, 0]        # [[10,-4,6],[12,-4,3],[13,-4,0]]
+    # [[10, -4, 6], [12, -4, 3], [13, -4, 0]]
+    pat = denormalize(PATTERN[None, :, None, :], [0], [3])[:, 0]
     q = np.zeros((3, 2, 3), np.int64)
     q[:, 0] = ROOT_Q
     q[:, 1] = pat + RESIDUAL + ROOT_Q
@@ -176,7 +177,8 @@ def table_rows(data: bytes) -> list:
     rows = [(0, 8, SIGNATURE, "signature \\x89 M P Z \\r \\n \\x1a \\n (§3.1)")]
     pos = 8
     for ctype, payload, fields in chunks():
-        rows.append((pos, 4, data[pos:pos + 4], f"chunk type {ctype!r}"[:-1].replace("'", '"') + '"'))
+        label = f"chunk type {ctype!r}"[:-1].replace("'", '"') + '"'
+        rows.append((pos, 4, data[pos:pos + 4], label))
         rows.append((pos + 4, 4, data[pos + 4:pos + 8], f"payload length = {len(payload)}"))
         p = pos + 8
         assert sum(n for n, _ in fields) == len(payload), ctype
