@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import mpz
+from mpz.chunks import CHUNKS
 from mpz.conformance import manifest as mf
 from mpz.container import scan
-from mpz.chunks import CHUNKS
 from mpz.decoder import decode_layers, read_stream
 
 VDIR = mf.DEFAULT_DIR
@@ -27,7 +27,7 @@ def _ids(vs):
 
 
 def test_manifest_structure():
-    assert MAN["schema_version"] == 1
+    assert MAN["schema_version"] == mf.SCHEMA_VERSION == 2
     assert {v["group"] for v in MAN["vectors"]} == set(mf.GROUPS)
     assert len(INVALID) >= 30 and len(DECODABLE) >= 15
 

@@ -1,12 +1,16 @@
 """The runner passes the reference decoder and catches deliberately broken ones.
 
 Each test runs ``python -m mpz.conformance.runner`` as a subprocess, exactly
-as a decoder author would, and reads its JSON results.
+as a decoder author would, and reads its JSON results. Every broken decoder of
+``mpz.conformance.broken_decoders`` must fail on the vectors where its bug shows,
+for the right reason, and pass where it does not.
 """
 from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
+import shutil
 import subprocess
 import sys
 
@@ -16,15 +20,17 @@ from mpz.conformance import manifest as mf
 
 PY = sys.executable
 REF = f"{PY} -m mpz.conformance.refdecoder"
+BROKEN_CMD = f"{PY} -m mpz.conformance.broken_decoders"
 JOBS = str(max(2, min(8, os.cpu_count() or 1)))
 MAN = mf.load()
+NAMES = {v["name"] for v in MAN["vectors"]}
 
 
 def run(tmp_path, *args, name="results.json"):
     out = tmp_path / name
     proc = subprocess.run([PY, "-m", "mpz.conformance.runner", *args, "--results", str(out),
                            "--jobs", JOBS, "--quiet"],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=900)
     doc = json.loads(out.read_text()) if out.exists() else None
     return proc, doc
 
@@ -33,82 +39,200 @@ def by_name(doc):
     return {r["name"]: r for r in doc["results"]}
 
 
+def _match(name):
+    """Vectors are numbered by make_vectors; match them on their slug."""
+    if name in NAMES:
+        return name
+    slug = name.split("-", 1)[1]
+    hits = [n for n in NAMES if n.split("-", 1)[1] == slug]
+    assert len(hits) == 1, (name, hits)
+    return hits[0]
+
+
 def test_reference_decoder_passes_every_vector(tmp_path):
     proc, doc = run(tmp_path, "--decoder", REF)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert doc["schema_version"] == 1 and doc["mode"] == "decoder"
+    assert doc["schema_version"] == 2 and doc["mode"] == "decoder"
+    assert doc["contract"] == "full"
     assert doc["totals"]["failed"] == 0
     assert doc["totals"]["total"] == len(MAN["vectors"])
     for r in doc["results"]:
         assert r["passed"] and r["actual"] == r["expected"]
         if r["expected"] == "decode":
             assert r["intlayer"] == "match" and r["max_abs"] == 0.0
+            assert r["sidecar"] == "match"
             assert r["allowed_rms"] <= r["allowed_max_abs"]
+        else:
+            assert r["exit_code"] == 2 and r["signal"] is None
 
 
+#: mode, vectors, the ones that must fail (None: every invalid one), the phrase each
+#: failure message holds, the ``actual`` of each failure, extra runner options
 BROKEN = [
-    # mode, vectors, the ones that must fail, a phrase the message must hold
     ("offbyone", ["v04-orders-residual-only", "u08-values-at-bits-limit", "x01-bad-signature"],
-     {"v04-orders-residual-only", "u08-values-at-bits-limit"},
-     "1.000 grid steps"),
+     {"v04-orders-residual-only", "u08-values-at-bits-limit"}, "1.000 grid steps", "decode", ()),
+    ("overtol", ["v04-orders-residual-only", "u08-values-at-bits-limit", "x01-bad-signature"],
+     {"v04-orders-residual-only", "u08-values-at-bits-limit"}, "beyond max_abs", "decode", ()),
+    ("fill-gaps", ["v02-jump-lossy-gaps", "u03-marker-gap-throughout", "v04-orders-residual-only"],
+     {"v02-jump-lossy-gaps", "u03-marker-gap-throughout"},
+     "0.000000 where a gap (NaN) was expected", "decode", ()),
+    ("extra-gap", ["v04-orders-residual-only", "x01-bad-signature"],
+     {"v04-orders-residual-only"}, "NaN (gap) where a value was expected", "decode", ()),
     ("noresidual", ["v04-orders-residual-only", "v06-patterns-residual-g2-smooth4-m",
                     "v05-patterns-scale3-lossy-cm"],
      {"v04-orders-residual-only", "v06-patterns-residual-g2-smooth4-m"},
-     "integer-layer digest"),
+     "integer-layer digest", "decode", ()),
     ("accept-all", ["x01-bad-signature", "x03-bad-crc-mhdr", "x05-segs-index-out-of-range",
-                    "u01-one-frame"], None, "but decoder exited 0"),
+                    "u01-one-frame"], None, "but decoder exited 0", "decode", ()),
+    ("no-sidecar", ["u01-one-frame", "x01-bad-signature"], {"u01-one-frame"},
+     "no out.npy.json", "decode", ()),
+    ("nfc-names", ["u19-names-compared-as-bytes", "v04-orders-residual-only"],
+     {"u19-names-compared-as-bytes"}, "sidecar names[4] = 'é' != expected 'e\u0301'", "decode",
+     ()),
+    ("rate-15-digits", ["u04-rate-65.0364227294921875", "v04-orders-residual-only"],
+     {"u04-rate-65.0364227294921875"}, "sidecar rate 65.0364227294922 != expected "
+     "65.03642272949219", "decode", ()),
+    ("first-meta-value", ["u24-meta-repeated-key", "u18-meta-nul", "v09-all-chunk-types"],
+     {"u24-meta-repeated-key"}, "sidecar meta differs at key 'take': got 'first', expected "
+     "'last'", "decode", ()),
     ("crash", ["u01-one-frame", "x01-bad-signature"], {"u01-one-frame"},
-     "expected a decode, but decoder exited 1"),
+     "expected a decode, but decoder exited 1", "reject", ()),
+    ("segv-on-invalid", ["u01-one-frame", "x01-bad-signature", "x31-frames-x-markers-over-limit"],
+     {"x01-bad-signature", "x31-frames-x-markers-over-limit"}, "killed by SIGSEGV", "crash", ()),
+    ("abort-on-invalid", ["u01-one-frame", "x01-bad-signature"], {"x01-bad-signature"},
+     "killed by SIGABRT", "crash", ()),
+    ("exit139-on-invalid", ["u01-one-frame", "x01-bad-signature"], {"x01-bad-signature"},
+     "exit 139 = 128 + SIGSEGV", "crash", ()),
+    ("oom-on-invalid", ["u01-one-frame", "x31-frames-x-markers-over-limit"],
+     {"x31-frames-x-markers-over-limit"}, "ran out of memory", "memory", ()),
+    ("hang-on-invalid", ["x01-bad-signature"], {"x01-bad-signature"},
+     "did not finish within the time limit", "timeout", ("--timeout", "8")),
 ]
 
+_RUNS: dict = {}
 
-_RUNS = {}
 
-
-def broken_run(tmp_path_factory, mode, only):
+def broken_run(tmp_path_factory, mode, only, extra=()):
     """Run the runner once per broken mode (the detail tests reuse the result)."""
-    if mode not in _RUNS:
-        _RUNS[mode] = run(tmp_path_factory.mktemp(mode), "--decoder",
-                          f"{PY} -m mpz.conformance.broken_decoders {mode}", "--only", *only)
-    return _RUNS[mode]
+    key = (mode, tuple(extra))
+    if key not in _RUNS:
+        _RUNS[key] = run(tmp_path_factory.mktemp(mode), "--decoder", f"{BROKEN_CMD} {mode}",
+                         "--only", *only, *extra)
+    return _RUNS[key]
 
 
-@pytest.mark.parametrize("mode,only,failing,phrase", BROKEN, ids=[b[0] for b in BROKEN])
-def test_broken_decoder_is_caught(tmp_path_factory, mode, only, failing, phrase):
-    names = {v["name"] for v in MAN["vectors"]}
-    only = [_match(n, names) for n in only]
+@pytest.mark.parametrize("mode,only,failing,phrase,actual,extra", BROKEN,
+                         ids=[b[0] for b in BROKEN])
+def test_broken_decoder_is_caught(tmp_path_factory, mode, only, failing, phrase, actual, extra):
+    only = [_match(n) for n in only]
     if failing is None:                      # accept-all: every invalid one fails
         failing = {n for n in only if n.startswith("x")}
     else:
-        failing = {_match(n, names) for n in failing}
-    proc, doc = broken_run(tmp_path_factory, mode, only)
+        failing = {_match(n) for n in failing}
+    proc, doc = broken_run(tmp_path_factory, mode, only, extra)
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert set(doc["failed"]) == failing
     res = by_name(doc)
     assert all(phrase in res[n]["message"] for n in failing), [res[n]["message"] for n in failing]
+    assert {res[n]["actual"] for n in failing} == {actual}
     for n in failing:
         assert n in proc.stdout                          # named in the printed summary too
 
 
-def _match(name, names):
-    """Invalid vectors are numbered by make_vectors; match them on their slug."""
-    if name in names:
-        return name
-    slug = name.split("-", 1)[1]
-    hits = [n for n in names if n.split("-", 1)[1] == slug]
-    assert len(hits) == 1, (name, hits)
-    return hits[0]
-
-
 def test_offbyone_report_names_frame_marker_axis(tmp_path_factory):
-    names = {v["name"] for v in MAN["vectors"]}
-    proc, doc = broken_run(tmp_path_factory, "offbyone", [_match(n, names) for n in BROKEN[0][1]])
+    proc, doc = broken_run(tmp_path_factory, "offbyone", [_match(n) for n in BROKEN[0][1]])
     r = by_name(doc)["v04-orders-residual-only"]
     ff = r["first_failure"]
     assert ff["frame"] == 24 and ff["axis"] == "y" and ff["marker"] == 11
     assert ff["marker_name"] == "LELB" and abs(ff["grid_steps"] - 1.0) < 1e-9
     assert "frame 24, marker 'LELB' (index 11), axis y: got" in r["message"]
     assert r["max_abs"] > r["allowed_max_abs"]
+
+
+def test_overtol_is_just_over_the_tolerance(tmp_path_factory):
+    """1.5 x max_abs: a runner with any slack factor of 1.5 or more would pass it."""
+    proc, doc = broken_run(tmp_path_factory, "overtol", [_match(n) for n in BROKEN[1][1]])
+    r = by_name(doc)["v04-orders-residual-only"]
+    assert r["allowed_max_abs"] < r["max_abs"] <= 1.5 * r["allowed_max_abs"] * (1 + 1e-6)
+
+
+def test_rms_is_checked_on_its_own(tmp_path):
+    """A decoder off by max_abs / 2 everywhere passes the shipped manifest (rms = max_abs)
+    but fails a third-party manifest whose rms tolerance is max_abs / 4."""
+    name = "v04-orders-residual-only"
+    proc, doc = run(tmp_path, "--decoder", f"{BROKEN_CMD} half-tol", "--only", name)
+    assert proc.returncode == 0, proc.stdout
+    vdir = tmp_path / "vectors"
+    vec = dict(next(v for v in MAN["vectors"] if v["name"] == name))
+    for rel in (vec["file"], vec["expected_output"]["file"]):
+        (vdir / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(mf.DEFAULT_DIR / rel, vdir / rel)
+    vec["tolerances"] = {"max_abs": vec["tolerances"]["max_abs"],
+                         "rms": vec["tolerances"]["max_abs"] / 4}
+    man = dict(MAN, vectors=[vec])
+    (vdir / mf.MANIFEST_NAME).write_text(json.dumps(man))
+    proc, doc = run(tmp_path, "--decoder", f"{BROKEN_CMD} half-tol", "--vectors", str(vdir),
+                    name="rms.json")
+    assert proc.returncode == 1
+    r = doc["results"][0]
+    assert r["max_abs"] <= r["allowed_max_abs"]
+    assert "rms error" in r["message"] and "beyond max_abs" not in r["message"]
+
+
+def test_array_only_keeps_the_1_0_contract(tmp_path):
+    proc, doc = run(tmp_path, "--decoder", f"{BROKEN_CMD} no-sidecar", "--array-only",
+                    "--only", "u01-one-frame", _match("x01-bad-signature"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert doc["contract"] == "array-only"
+    r = by_name(doc)["u01-one-frame"]
+    assert r["sidecar"] == "not checked" and "not checked (--array-only)" in r["message"]
+    assert "names, rate, units and meta were not checked" in proc.stdout
+
+
+def test_sidecar_comparison_unit(tmp_path):
+    """compare_sidecar on hand-written files: every member, exact, JSON escapes allowed."""
+    from mpz.conformance.runner import compare_sidecar
+    vec = next(v for v in MAN["vectors"] if v["name"] == _match("u18-meta-nul"))
+    h = vec["header"]
+    good = {"names": h["names"], "rate": h["rate"], "units": h["units_code"], "meta": h["meta"]}
+    p = tmp_path / "out.npy.json"
+
+    def check(doc, raw=None):
+        p.write_bytes(raw if raw is not None else json.dumps(doc).encode())
+        return compare_sidecar(p, vec)
+
+    assert check(good) == ("match", [])
+    assert check(dict(good, extra=1))[0] == "match"                    # other members ignored
+    assert check(dict(good, units=float(h["units_code"])))[0] == "match"   # 1.0 is the integer 1
+    for bad in (dict(good, names=h["names"][::-1]), dict(good, rate=h["rate"] * (1 + 2e-16)),
+                dict(good, rate=str(h["rate"])), dict(good, units=True),
+                dict(good, units=h["units_code"] + 1), dict(good, meta={}),
+                {k: v for k, v in good.items() if k != "meta"}):
+        assert check(bad)[0] == "mismatch", bad
+    assert check(None, b"\xff")[0] == "unreadable"
+    assert check(None, b'{"rate": NaN}')[0] == "unreadable"
+    assert check(None, b"[]")[0] == "unreadable"
+    p.unlink()
+    assert compare_sidecar(p, vec)[0] == "missing"
+
+
+def test_failure_kind_unit():
+    """What counts as a clean exit, and what does not (spec §8: a crash is not a rejection)."""
+    from mpz.conformance.runner import failure_kind
+
+    def kind(code, stderr="", timed_out=False, sig=None):
+        got = failure_kind({"exit_code": code, "stderr": stderr, "timed_out": timed_out,
+                            "signal": sig})
+        return got and got[0]
+
+    assert kind(0) is None and kind(2, "FormatError: bad") is None and kind(1) is None
+    assert kind(-11, sig="SIGSEGV") == "crash" and kind(139) == "crash" and kind(134) == "crash"
+    assert kind(130) is None                                  # 128 + SIGINT: not a crash
+    assert kind(1, "Traceback ...\nMemoryError") == "memory"
+    assert kind(1, "terminate called after throwing an instance of 'std::bad_alloc'") == "memory"
+    assert kind(2, "error: out of memory") == "memory"
+    assert kind(2, "MemoryError mentioned, then\nLimitExceededError: too big") is None
+    assert kind(9, timed_out=True) == "timeout" and kind(None, "cannot start") == "error"
 
 
 def test_encoder_mode(tmp_path):
@@ -118,11 +242,11 @@ def test_encoder_mode(tmp_path):
     r = doc["results"][0]
     assert r["passed"] and r["declared_bound"] <= r["max_error"]
     assert r["measured_max_error"] <= r["declared_bound"]
-    proc, doc = run(tmp_path, "--encoder",
-                    f"{PY} -m mpz.conformance.broken_decoders loose-encoder", "--only",
+    proc, doc = run(tmp_path, "--encoder", f"{BROKEN_CMD} loose-encoder", "--only",
                     "e02-mixed-10-metres", name="loose.json")
     assert proc.returncode == 1
-    assert "declared error_bound 0.001 > requested --max-error 0.0005" in doc["results"][0]["message"]
+    msg = doc["results"][0]["message"]
+    assert "declared error_bound 0.001 > requested --max-error 0.0005" in msg
 
 
 @pytest.mark.parametrize("args", [
@@ -144,3 +268,18 @@ def test_timeout_is_enforced(tmp_path):
     assert proc.returncode == 1
     r = doc["results"][0]
     assert r["timed_out"] and r["actual"] == "timeout" and r["seconds"] < 10
+
+
+def test_manifest_schema_rejects_a_manifest_without_sidecar_facts():
+    import copy
+    bad = copy.deepcopy(MAN)
+    dec = next(v for v in bad["vectors"] if v["expected"] == "decode")
+    del dec["header"]["meta"]
+    with pytest.raises(mf.ManifestError, match="meta"):
+        mf.validate(bad)
+
+
+def test_readme_documents_every_broken_mode():
+    from mpz.conformance.broken_decoders import MODES
+    text = (Path(__file__).parent / "README.md").read_text(encoding="utf-8")
+    assert not [m for m in MODES if f"`{m}`" not in text]

@@ -14,8 +14,11 @@ import importlib.util
 import json
 import math
 from pathlib import Path
+import re
 
-SCHEMA_VERSION = 1
+#: 2: decodable vectors' header has ``meta`` (the §7.3 sidecar), every vector and encoder
+#: input lists the ``rules`` of the spec §7.4 rule index it probes, ``rule_exceptions``
+SCHEMA_VERSION = 2
 #: Vector groups, as subfolders of the vector directory (FLAC test-file style).
 GROUPS = ("valid", "uncommon", "invalid")
 #: What a decoder must do with a vector of each group.
@@ -67,7 +70,8 @@ def tolerances(step: float, max_abs_value: float) -> dict:
 
 
 def intlayer_digest(q, valid) -> str:
-    """§7.1 integer-layer digest: sha256 of q (<i8, [F, M, 3], C order) then valid (u1 0/1, [F, M])."""
+    """§7.1 integer-layer digest: sha256 of q (<i8, [F, M, 3], C order), then valid
+    (u1 0/1, [F, M])."""
     import numpy as np
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(q, dtype="<i8").tobytes())
@@ -104,6 +108,13 @@ def exercised_sections(stream) -> list:
         secs.add("§4.11")
     if stream.unknown:
         secs.add("§2.3")
+    for ctype, sec in (("chdr", "§4.13.1"), ("cprm", "§4.13.2"), ("cpnt", "§4.13.3"),
+                       ("cana", "§4.13.4")):                         # issue 12 (1.1)
+        if ctype in stream.extras:
+            secs |= {"§2.1", "§4.13", sec, "§6.9"}
+    for ctype, sec in (("bvhs", "§4.14.1"), ("asfs", "§4.14.2")):   # issue 13 (1.1)
+        if ctype in stream.extras:
+            secs |= {"§2.1", "§4.14", sec, "§6.10"}
     return sorted(secs, key=section_key)
 
 
@@ -139,6 +150,42 @@ def spec_decoding_steps(text: str) -> list:
     return rows
 
 
+#: what a rule of the §7.4 rule index needs in the suite: "reject" rules an invalid vector
+#: (a file that breaks them), "accept" and "decode" rules a decodable one, "encode" rules an
+#: encoder input
+RULE_KINDS = ("reject", "accept", "decode", "encode")
+
+
+def spec_rules(text: str) -> list:
+    """(id, section, kind, text) rows of the rule index of spec §7.4.
+
+    The table sits between ``<!-- mpz:rules -->`` and ``<!-- /mpz:rules -->`` with
+    columns ``Rule | Section | Kind | Text``; ids are ``R-<section>-<n>`` and unique.
+    """
+    m = re.search(r"<!--\s*mpz:rules\s*-->(.*?)<!--\s*/mpz:rules\s*-->", text, re.S)
+    if not m:
+        raise ManifestError("spec has no <!-- mpz:rules --> table")
+    rows = []
+    seen = set()
+    for line in m.group(1).splitlines():
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip().strip("|"))]
+        if len(cells) < 4 or not cells[0].startswith("R-"):
+            continue
+        rid, sec, kind, what = cells[:4]
+        mm = re.fullmatch(r"R-(\d+(?:\.\d+)*)-\d+", rid)
+        if not mm or sec != "§" + mm.group(1):
+            raise ManifestError(f"rule row {line!r}: id {rid!r} does not name section {sec!r}")
+        if kind not in RULE_KINDS:
+            raise ManifestError(f"rule {rid}: kind {kind!r} not one of {RULE_KINDS}")
+        if rid in seen:
+            raise ManifestError(f"rule {rid} listed twice")
+        seen.add(rid)
+        rows.append((rid, sec, kind, what))
+    if not rows:
+        raise ManifestError("the rule index has no rows")
+    return rows
+
+
 def _need(cond, msg):
     if not cond:
         raise ManifestError(msg)
@@ -150,7 +197,9 @@ def validate(man: dict) -> dict:
     _need(man.get("schema_version") == SCHEMA_VERSION,
           f"schema_version {man.get('schema_version')!r}, this runner reads {SCHEMA_VERSION}")
     vecs = man.get("vectors")
-    _need(isinstance(vecs, list) and vecs, "manifest lists no vectors")
+    _need(isinstance(vecs, list) and len(vecs) > 0, "manifest lists no vectors")
+    assert isinstance(vecs, list)
+    rule_id = re.compile(r"R-\d+(\.\d+)*-\d+")
     seen = set()
     for v in vecs:
         name = v.get("name")
@@ -158,8 +207,11 @@ def validate(man: dict) -> dict:
         _need(name not in seen, f"duplicate vector name {name!r}")
         seen.add(name)
         for key in ("file", "sha256", "group", "description", "expected", "spec_sections",
-                    "features"):
+                    "features", "rules"):
             _need(key in v, f"{name}: missing {key!r}")
+        _need(isinstance(v["rules"], list) and all(isinstance(r, str) and rule_id.fullmatch(r)
+                                                   for r in v["rules"]),
+              f"{name}: rules must be a list of rule ids R-<section>-<n>: {v['rules']!r}")
         _need(v["group"] in GROUPS, f"{name}: unknown group {v['group']!r}")
         _need(v["expected"] == EXPECTED[v["group"]],
               f"{name}: group {v['group']} must expect {EXPECTED[v['group']]!r}")
@@ -173,14 +225,20 @@ def validate(man: dict) -> dict:
                       for k in ("max_abs", "rms")), f"{name}: bad tolerances {tol!r}")
             _need(tol["rms"] <= tol["max_abs"],
                   f"{name}: rms tolerance {tol['rms']} > max_abs {tol['max_abs']}")
-            for key in ("frames", "markers", "rate", "names", "units", "error_bound", "step"):
+            for key in ("frames", "markers", "rate", "names", "units", "units_code", "meta",
+                        "error_bound", "step"):
                 _need(key in v["header"], f"{name}: header facts lack {key!r}")
+            _need(isinstance(v["header"]["meta"], dict), f"{name}: header meta is not an object")
         else:
             for key in ("expected_error", "corruption", "risk"):
                 _need(v.get(key), f"{name}: invalid vector without {key!r}")
     for e in man.get("encoder_inputs", []):
-        for key in ("name", "input", "sidecar", "sha256", "max_errors"):
+        for key in ("name", "input", "sidecar", "sha256", "max_errors", "rules"):
             _need(key in e, f"encoder input {e!r}: missing {key!r}")
+    exc = man.get("rule_exceptions", {})
+    _need(isinstance(exc, dict) and all(rule_id.fullmatch(k) and isinstance(r, str) and r
+                                        for k, r in exc.items()),
+          "rule_exceptions must map rule ids to a non-empty reason")
     return man
 
 

@@ -61,7 +61,7 @@ class RefEncoder:
     def block(self, v, period=None, signed=True):
         T, M, A = v.shape
         period = period or T
-        probs = {}
+        probs: dict[tuple[int, ...], int] = {}
         for t in range(T):
             for m in range(M):
                 for a in range(A):
