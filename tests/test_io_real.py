@@ -38,7 +38,9 @@ C3D = [
     ("c3d/c3dorg_arthuman-sample.c3d", 4007, 63, 60.0033, 0.0002),
     ("c3d/c3dorg_codamotion_gaitwands_20150204.c3d", 2001, 23, 200.0, 0.2742),
     ("c3d/c3dorg_Sample_Jump2.c3d", 264, 51, 120.0, 0.0),
-    ("c3d/auckland_FMC_MH0222_BP06.c3d", 279, 90, 100.0, 0.121),
+    # 90 points: 54 markers and 36 model outputs (POINT:ANGLES, FORCES, MOMENTS, POWERS),
+    # which the reader keeps apart (issue 12, spec §4.13.3)
+    ("c3d/auckland_FMC_MH0222_BP06.c3d", 279, 54, 100.0, 0.0),
 ]
 TRC = [
     ("trc/opensim_subject01_walk1.trc", 151, 41, 60.0, 0.0),

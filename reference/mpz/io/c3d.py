@@ -1,11 +1,21 @@
 """C3D reading and writing.
 
-Contract: :func:`read_c3d` returns the 3D points of a C3D file as a
-:class:`mpz.Motion`; analog channels, force plates and events are not
-read. It uses ``ezc3d`` and falls back to the pure-numpy reader
-:mod:`mpz.io.c3dbin` for files ezc3d refuses (SGI/MIPS big-endian files;
-parameter sections ezc3d cannot parse even with ``ignore_bad_formatting``).
-:func:`write_c3d` writes float C3D through ezc3d.
+Contract: :func:`read_c3d` returns the markers of a C3D file as a
+:class:`mpz.Motion`, and everything else the file holds in
+``motion.extras["c3d"]``, a :class:`mpz.c3darchive.C3DArchive` (spec §4.13): the
+header, every parameter (events, force plates, subjects ...), the fourth word
+(residual, camera mask) of every point, the model outputs (points listed in
+POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS or REACTIONS, which are not
+markers) and the analog channels. Points come from ``ezc3d``, or from the
+pure-numpy reader :mod:`mpz.io.c3dbin` for files ezc3d refuses (SGI/MIPS
+big-endian files; parameter sections ezc3d cannot parse even with
+``ignore_bad_formatting``); the archive always comes from :mod:`mpz.io.c3dbin`.
+
+:func:`write_c3d` writes a motion with an archive back as the C3D it came from
+(:func:`mpz.io.c3dbin.build_c3d`: every point in its slot, parameters, header
+and analog as stored; Intel byte order; int16 storage when the source had it and
+every coordinate is still on its grid, float32 otherwise), and a motion without
+one as a float C3D of its points through ezc3d.
 
 Gaps: a sample is a gap when its residual word is negative, when a
 coordinate is NaN, or when it is exactly (0, 0, 0). The last rule is the
@@ -21,6 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mpz.errors import InputFormatError
 from mpz.io import c3dbin
 from mpz.io._common import StrPath, reader, unique_names
 from mpz.motion import Motion
@@ -129,7 +140,7 @@ def motion_from_c3d_bytes(data: bytes, *, source: str = "",
 
 @reader
 def read_c3d(path: StrPath) -> Motion:
-    """Read the 3D points of a C3D file.
+    """Read a C3D file: its markers, and everything else in ``extras["c3d"]``.
 
     Parameters
     ----------
@@ -138,27 +149,93 @@ def read_c3d(path: StrPath) -> Motion:
     Returns
     -------
     Motion
-        Names from POINT:LABELS (duplicates get ``#2``..., empty ones
-        ``_unnamed_<i>``), rate from POINT:RATE as stored, units from
-        POINT:UNITS (``mm``/``cm``/``m``, otherwise ``""``). Metadata:
-        ``source``, ``format``, ``reader``, ``subject`` (if any),
-        ``renamed_points`` and ``warning`` when applicable.
+        The markers: names from POINT:LABELS (duplicates get ``#2``..., empty ones
+        ``_unnamed_<i>``; the labels themselves are kept exactly in the archive), rate
+        from POINT:RATE as stored, units from POINT:UNITS (``mm``/``cm``/``m``,
+        otherwise ``""``). Metadata: ``source``, ``format``, ``reader``, ``subject`` (if
+        any), ``renamed_points``, ``model_outputs`` and ``warning`` when applicable.
+        ``extras["c3d"]``: the :class:`mpz.c3darchive.C3DArchive` (module docstring).
 
     Raises
     ------
     InputFormatError
         If the file is missing or is not a readable C3D file.
     """
+    path = os.fspath(path)
+    with open(path, "rb") as fh:  # FileNotFoundError -> "no such file"
+        data = fh.read()
+    full = _read_points(path, data)
+    try:
+        d = c3dbin.parse_c3d(data)
+    except InputFormatError as exc:
+        full.metadata["warning"] = _joined(full.metadata.get("warning"),
+                                           f"C3D archive not kept: {exc}")
+        return full
+    return split_archive(full, d)
+
+
+def _joined(old: str | None, new: str) -> str:
+    return new if not old else f"{old}; {new}"
+
+
+def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
+    """The markers of ``full`` (every C3D point) with the rest of the file in
+    ``extras["c3d"]``: model outputs leave the marker set (spec §4.13.3)."""
+    from mpz.c3darchive import MODEL_PARAMETERS, C3DArchive
+    F, P = full.n_frames, full.n_markers
+    if d.points.shape[:2] != (F, P) or d.point_words.shape != (F, P):
+        full.metadata["warning"] = _joined(full.metadata.get("warning"), (
+            f"C3D archive not kept: the numpy reader sees {d.points.shape[1]} points x "
+            f"{d.points.shape[0]} frames, ezc3d {P} x {F}"))
+        return full
+    point = d.params.get("POINT", {})
+    labels = _labels(point, P)
+    kinds: list[int | None] = [None] * P
+    for kind, key in enumerate(MODEL_PARAMETERS):
+        value = point.get(key)
+        listed = {str(v).strip() for v in value} if isinstance(value, list) else set()
+        for p in range(P):
+            if kinds[p] is None and labels[p] and labels[p] in listed:
+                kinds[p] = kind
+    marker = [p for p in range(P) if kinds[p] is None]
+    model = [p for p in range(P) if kinds[p] is not None]
+    meta = dict(full.metadata)
+    if not marker:      # a Motion needs one marker: keep the model outputs as markers
+        meta["warning"] = _joined(meta.get("warning"), "every point is a model output; "
+                                  "they are kept as markers (under the marker bound)")
+        marker, model = list(range(P)), []
+    M = len(marker)
+    slots = [0] * P
+    for i, p in enumerate(marker):
+        slots[p] = i
+    for j, p in enumerate(model):
+        slots[p] = M + j
+    names, renamed = unique_names([labels[p] for p in marker])
+    meta.pop("renamed_points", None)
+    if renamed:
+        meta["renamed_points"] = "; ".join(renamed)
+    if model:
+        meta["model_outputs"] = str(len(model))
+    vals = d.points[:, model].astype(np.float64)
+    ok = np.isfinite(vals).all(axis=2) & (d.residual_words[:, model] >= 0)
+    vals[~ok] = np.nan
+    storage = 1 if d.float_storage else 0
+    archive = C3DArchive(d.processor, d.header_block, list(d.records), slots, d.point_words,
+                         storage, vals, ok, [int(kinds[p] or 0) for p in model], d.analog,
+                         d.analog_samples, storage)
+    return Motion(full.positions[:, marker], names, full.rate, full.units,
+                  full.valid[:, marker], meta, extras={"c3d": archive})
+
+
+def _read_points(path: str, data: bytes) -> Motion:
+    """Every point of the C3D file as a Motion: ezc3d, or the numpy reader it refuses."""
     import ezc3d
 
-    path = os.fspath(path)
     source = os.path.basename(path)
-    with open(path, "rb") as fh:  # FileNotFoundError -> "no such file"
-        head = fh.read(c3dbin.BLOCK)
+    head = data[:c3dbin.BLOCK]
     if len(head) < c3dbin.BLOCK or head[1] != c3dbin.C3D_KEY:
         # not a C3D file; let the numpy reader produce the precise error
-        with open(path, "rb") as fh:
-            return motion_from_c3d_bytes(fh.read(), source=source)
+        return motion_from_c3d_bytes(data, source=source)
     # header words 4-5: first and last frame (little-endian for Intel and
     # DEC, the only processor types ezc3d reads); ezc3d itself rewrites its
     # header to the frames it found, so truncation must be checked here
@@ -176,20 +253,19 @@ def read_c3d(path: StrPath) -> Motion:
                                            f"ignore_bad_formatting: {exc}"}, declared)
         except (OSError, RuntimeError) as exc2:
             first_error = exc2
-    with open(path, "rb") as fh:
-        data = fh.read()
     return motion_from_c3d_bytes(data, source=source, extra={
         "warning": f"ezc3d refused the file ({type(first_error).__name__}: "
                    f"{str(first_error).splitlines()[0] if str(first_error) else ''}); "
                    "read with mpz.io.c3dbin"})
 
 
-def write_c3d(motion: Motion, path) -> None:
-    """Write a Motion as a float C3D file (points only) with ezc3d.
+def write_c3d(motion: Motion, path: StrPath) -> None:
+    """Write a Motion as a C3D file.
 
-    Gaps are written with residual -1 and NaN coordinates. Names, rate and
-    units are stored in POINT:LABELS, POINT:RATE and POINT:UNITS; positions
-    are stored as float32.
+    With ``extras["c3d"]`` (a motion read from, or decoded from, a C3D): the file
+    it came from (:func:`archive_bytes`). Without: a float C3D of the points
+    through ezc3d, gaps with residual -1 and NaN coordinates; names, rate and
+    units in POINT:LABELS, POINT:RATE and POINT:UNITS.
 
     Parameters
     ----------
@@ -199,6 +275,11 @@ def write_c3d(motion: Motion, path) -> None:
     import ezc3d
 
     path = os.fspath(path)
+    if motion.extras.get("c3d") is not None:
+        blob = archive_bytes(motion)
+        with open(path, "wb") as fh:
+            fh.write(blob)
+        return
     c = ezc3d.c3d()
     c["parameters"]["POINT"]["RATE"]["value"] = np.array([motion.rate])
     c["parameters"]["POINT"]["LABELS"]["value"] = list(motion.names)
@@ -218,3 +299,41 @@ def write_c3d(motion: Motion, path) -> None:
     from mpz.api import atomic_output
     with atomic_output(path, force=True, suffix=".c3d") as tmp:
         c.write(tmp)
+
+
+def archive_bytes(motion: Motion) -> bytes:
+    """The C3D file of a motion with a C3D archive: every point back in its slot (markers
+    from the motion, model outputs from the archive, 0 at gaps, the fourth words as
+    stored), parameters, header and analog words as stored. int16 storage when the source
+    had it and every coordinate is still on its grid, float32 otherwise.
+
+    Raises
+    ------
+    InputFormatError
+        When the archive does not describe this motion (frames or markers changed), or
+        holds a parameter section a C3D cannot hold.
+    """
+    from mpz.c3darchive import C3DArchive, check_matches
+    from mpz.errors import EncoderError
+    a = motion.extras["c3d"]
+    if not isinstance(a, C3DArchive):
+        raise InputFormatError(f"extras['c3d'] is a {type(a).__name__}, not a C3DArchive")
+    try:
+        check_matches(a, motion)
+    except EncoderError as exc:
+        raise InputFormatError(str(exc)) from None
+    F, P = a.words.shape
+    M = motion.n_markers
+    xyz = np.zeros((F, P, 3))
+    for p, slot in enumerate(a.slots):
+        if slot < M:
+            v, ok = motion.positions[:, slot], motion.valid[:, slot]
+        else:
+            v, ok = a.models[:, slot - M], a.model_valid[:, slot - M]
+        xyz[:, p] = np.where(ok[:, None], v, 0.0)
+    scale = a.point_scale()
+    q = np.rint(xyz / scale)
+    int16 = (a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
+             and np.array_equal(q * scale, xyz) and np.abs(q).max(initial=0) <= 32767)
+    return c3dbin.build_c3d(a.header, a.records, xyz, a.words, a.analog,
+                            float_storage=not int16, scale=scale)

@@ -1,12 +1,18 @@
 """A small pure-numpy C3D reader, working on bytes.
 
 Contract: :func:`parse_c3d` takes the whole file as ``bytes`` and returns a
-:class:`C3DData` (point data, residual words, parameters) or raises
-:class:`mpz.errors.InputFormatError`. It reads only what MPZ needs: the
-header, the parameter section and the 3D point data; analog samples are
-skipped. It is the fallback for files ``ezc3d`` refuses (SGI/MIPS
-big-endian files, parameter sections with unknown types) and a second,
-independent reading of the files ezc3d accepts.
+:class:`C3DData` (point data, residual words, parameters, and for the C3D
+archive of spec §4.13: the header block, every parameter record as stored,
+the fourth word of every point and the analog words) or raises
+:class:`mpz.errors.InputFormatError`. It is the fallback for files ``ezc3d``
+refuses (SGI/MIPS big-endian files, parameter sections with unknown types), a
+second, independent reading of the files ezc3d accepts, and the one reader of
+what MPZ archives. :func:`build_c3d` writes a C3D file (Intel, int16 or
+float32 storage) from the same parts, byte for byte where the storage allows.
+
+Normalised form (what the archive keeps): integers little-endian, floats IEEE
+754 binary32 little-endian (DEC floats converted exactly, MIPS bytes swapped),
+char and byte data as stored.
 
 The layout follows the C3D.org "C3D file format user guide" (2008):
 512-byte blocks; block 1 is the header; byte 0 of the header gives the
@@ -65,6 +71,38 @@ class C3DData:
     processor: int = PROC_INTEL
     float_storage: bool = True
     header_rate: float = 0.0
+    #: the 512-byte header block, normalised (module docstring)
+    header_block: bytes = b""
+    #: every group and parameter record of the parameter section, in file order, normalised
+    records: list[ParamRecord] = field(default_factory=list)
+    #: the fourth word of every point in every frame, [frames, points], '<i2' or '<f4'
+    point_words: NDArray[Any] = field(default_factory=lambda: np.zeros((0, 0), "<i2"))
+    #: the analog words, [frames * samples, channels] in file order, '<i2' or '<f4'
+    analog: NDArray[Any] = field(default_factory=lambda: np.zeros((0, 0), "<i2"))
+    #: analog samples per channel per point frame (header word 10)
+    analog_samples: int = 0
+
+
+@dataclass(frozen=True)
+class ParamRecord:
+    """One record of a C3D parameter section, as stored (normalised, see the module doc).
+
+    ``group`` < 0 is a group (id ``-group``); ``group`` > 0 a parameter of that group,
+    with ``type`` (-1 char, 1 byte, 2 int16, 4 float32), ``dims`` and ``data``
+    (|type| x prod(dims) bytes; one element when ``dims`` is empty).
+    """
+
+    group: int
+    locked: bool
+    name: bytes
+    description: bytes = b""
+    type: int = 0
+    dims: tuple[int, ...] = ()
+    data: bytes = b""
+
+    @property
+    def is_group(self) -> bool:
+        return self.group < 0
 
 
 def _s8(b: int) -> int:
@@ -194,6 +232,100 @@ def _text(raw: bytes) -> str:
     return text.strip(" \x00")
 
 
+#: header words (1-based, as in the C3D guide) holding floats: scale, rate, 18 event times
+_HEADER_FLOAT_WORDS = frozenset([7, 11] + list(range(153, 189, 2)))
+#: header words holding bytes or chars, kept as stored: parameter block and key, event
+#: display flags, event labels
+_HEADER_BYTE_WORDS = frozenset([1] + list(range(189, 198)) + list(range(199, 235)))
+
+
+def _normal_header(block: bytes, codec: _Codec) -> bytes:
+    """The 512-byte header with integers little-endian and floats IEEE binary32 (§4.13.1)."""
+    if codec.processor == PROC_INTEL:
+        return bytes(block)
+    out = bytearray(block)
+    word = 1
+    while word <= 256:
+        at = 2 * (word - 1)
+        if word in _HEADER_FLOAT_WORDS:
+            out[at:at + 4] = codec.float32(block, at).astype("<f4").tobytes()
+            word += 2
+            continue
+        if word not in _HEADER_BYTE_WORDS:
+            out[at:at + 2] = codec.int16(block, at).astype("<i2").tobytes()
+        word += 1
+    return bytes(out)
+
+
+def _normal_data(ptype: int, raw: bytes, codec: _Codec) -> bytes:
+    """Parameter data in normalised form: int16 little-endian, float32 IEEE little-endian."""
+    if codec.processor == PROC_INTEL or ptype in (-1, 1):
+        return raw
+    if ptype == 2:
+        return codec.int16(raw, 0, len(raw) // 2).astype("<i2").tobytes()
+    return codec.float32(raw, 0, len(raw) // 4).astype("<f4").tobytes()
+
+
+def parse_records(data: bytes, start: int, codec: _Codec) -> list[ParamRecord]:
+    """Every group and parameter record of the parameter section at ``start``, in file order.
+
+    Follows the next-record offsets, ending at a record with a zero name length or group
+    id, a zero offset, or the end of the section: its declared block count or, when the
+    header's data start lies further (c3d.org Dance1.c3d declares 3 blocks and uses 11),
+    the data start. A record whose type or dimensions do not fit its bytes ends the walk.
+    The description is read only where the record's own offset leaves room for it (c3d.org
+    Facial-Sing.c3d ends a record right after its data).
+    """
+    out: list[ParamRecord] = []
+    n_blocks = data[start + 2]
+    data_start = codec.uint16(data, 16)           # header word 9, 1-based block number
+    end = min(len(data), max(start + max(n_blocks, 1) * BLOCK, (data_start - 1) * BLOCK))
+    pos = start + 4
+    while pos + 2 <= end:
+        name_len = _s8(data[pos])
+        gid = _s8(data[pos + 1])
+        if name_len == 0 or gid == 0:
+            break
+        name = bytes(data[pos + 2:pos + 2 + abs(name_len)])
+        off_pos = pos + 2 + abs(name_len)
+        if off_pos + 2 > end:
+            break
+        nxt = codec.uint16(data, off_pos)
+        rec_end = off_pos + nxt if nxt else end
+        body = off_pos + 2
+        locked = name_len < 0
+        if gid < 0:
+            desc = _description(data, body, rec_end, end)
+            out.append(ParamRecord(gid, locked, name, desc))
+        else:
+            if body + 2 > end:
+                break
+            ptype = _s8(data[body])
+            ndim = data[body + 1]
+            if ptype not in _PARAM_TYPES or ndim > MAX_DIMS or body + 2 + ndim > end:
+                break
+            dims = tuple(data[body + 2:body + 2 + ndim])
+            size = abs(ptype) * (int(np.prod(dims)) if dims else 1)
+            at = body + 2 + ndim
+            if at + size > len(data):
+                break
+            raw = _normal_data(ptype, bytes(data[at:at + size]), codec)
+            desc = _description(data, at + size, rec_end, end)
+            out.append(ParamRecord(gid, locked, name, desc, ptype, dims, raw))
+        if nxt == 0:
+            break
+        pos = off_pos + nxt
+    return out
+
+
+def _description(data: bytes, at: int, rec_end: int, end: int) -> bytes:
+    """A record's description: a length byte and that many bytes, when the record has room."""
+    if at >= min(rec_end, end):
+        return b""
+    n = data[at]
+    return bytes(data[at + 1:min(at + 1 + n, len(data))])
+
+
 def _first(params: dict[str, dict[str, ParamValue | None]], group: str, name: str,
            default: Any = None) -> Any:
     """First element of parameter ``group:name``, or ``default`` if it is absent or empty."""
@@ -233,6 +365,8 @@ def parse_c3d(data: bytes) -> C3DData:
     codec = _Codec(processor)
     params = _parse_parameters(data, pstart, codec)
     params.setdefault("POINT", {})
+    header_block = _normal_header(data[:BLOCK], codec)
+    records = parse_records(data, pstart, codec)
 
     # header words (1-based word numbers as in the C3D guide)
     hdr_points = int(codec.int16(data, 2)[0])
@@ -275,9 +409,10 @@ def parse_c3d(data: bytes) -> C3DData:
     avail = (len(data) - off) // frame_bytes if frame_bytes else n_frames
     if avail < n_frames:
         raise truncated(n_frames, avail, off)
+    samples = codec.uint16(data, 18)  # header word 10: analog samples per channel per frame
     if used == 0:
         return C3DData(np.zeros((n_frames, 0, 3)), np.zeros((n_frames, 0), np.int64),
-                       params, processor, float_storage, hdr_rate)
+                       params, processor, float_storage, hdr_rate, header_block, records)
 
     # read the frames, then keep the 4*used point words of each
     raw = data[off:off + n_frames * frame_bytes]
@@ -287,6 +422,14 @@ def parse_c3d(data: bytes) -> C3DData:
     else:
         words = codec.int16(raw, 0, n_frames * frame_words).reshape(n_frames, frame_words)
     pts = words[:, :4 * used].reshape(n_frames, used, 4).astype(np.float64)
+    # the archive keeps the fourth words and the analog words as stored (normalised)
+    store = "<f4" if float_storage else "<i2"
+    point_words = np.ascontiguousarray(words[:, 3:4 * used:4]).astype(store)
+    if samples < 1 or hdr_analog % samples:
+        samples = 1 if hdr_analog else samples   # no whole channels: one word per "channel"
+    channels = hdr_analog // samples if hdr_analog else 0
+    analog = np.ascontiguousarray(words[:, 4 * used:]).astype(store).reshape(
+        n_frames * samples if channels else 0, channels)
     if float_storage:
         # the residual word is stored as a float holding an integer
         r = pts[:, :, 3]
@@ -295,4 +438,106 @@ def parse_c3d(data: bytes) -> C3DData:
     else:
         res = pts[:, :, 3].astype(np.int64)
         xyz = pts[:, :, :3] * abs(scale)
-    return C3DData(xyz, res, params, processor, float_storage, hdr_rate)
+    return C3DData(xyz, res, params, processor, float_storage, hdr_rate, header_block, records,
+                   point_words, analog, samples)
+
+
+# ------------------------------------------------------------------ writing --
+#: the largest parameter section a C3D header can point past: byte 2 of the section is a u8
+MAX_PARAM_BLOCKS = 255
+
+
+def _record_bytes(r: ParamRecord, last: bool) -> bytes:
+    """One parameter-section record (Intel), its next-record offset 0 when ``last``."""
+    if not 1 <= len(r.name) <= 127 or len(r.description) > 255:
+        raise InputFormatError(f"C3D: parameter name {r.name!r} or its description does not "
+                               f"fit a C3D record (1..127 and 0..255 bytes)")
+    head = bytes([(-len(r.name) if r.locked else len(r.name)) & 0xFF, r.group & 0xFF]) + r.name
+    if r.is_group:
+        body = bytes([len(r.description)]) + r.description
+    else:
+        body = (bytes([r.type & 0xFF, len(r.dims)]) + bytes(r.dims) + r.data
+                + bytes([len(r.description)]) + r.description)
+    nxt = 0 if last else 2 + len(body)
+    if nxt > 0xFFFF:
+        raise InputFormatError(f"C3D: parameter {r.name!r} holds {len(r.data)} bytes, more than "
+                               "a C3D record can point past (65535)")
+    return head + nxt.to_bytes(2, "little") + body
+
+
+def _patched(records: list[ParamRecord], name: bytes, ptype: int, data: bytes) -> None:
+    """Replace the data of POINT:``name`` (one element of ``ptype``) in place, if present."""
+    point = {-r.group for r in records if r.is_group and r.name.upper() == b"POINT"}
+    for i, r in enumerate(records):
+        if (not r.is_group and r.group in point and r.name.upper() == name and r.type == ptype
+                and len(r.data) == len(data)):
+            records[i] = ParamRecord(r.group, r.locked, r.name, r.description, r.type, r.dims,
+                                     data)
+
+
+def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64],
+              point_words: NDArray[Any], analog: NDArray[Any], *, float_storage: bool,
+              scale: float) -> bytes:
+    """A C3D file (Intel) from the parts :func:`parse_c3d` returns.
+
+    Parameters
+    ----------
+    header : bytes
+        The normalised 512-byte header block; its parameter-block pointer (byte 0), key
+        (byte 1), scale (words 7-8) and data start (word 9) are set here.
+    records : list of ParamRecord
+        The parameter section, written in this order; POINT:DATA_START and the sign of
+        POINT:SCALE are set here, every other record is written as given.
+    xyz : ndarray, float64, shape (frames, points, 3)
+        Coordinates to store (finite; for int16 storage, exact multiples of ``scale``).
+    point_words : ndarray, shape (frames, points)
+        The fourth word of each point, int16 or float32 values.
+    analog : ndarray, shape (frames * samples, channels)
+        Analog words, int16 or float32 values.
+    float_storage : bool
+        float32 storage (POINT:SCALE negative) or int16.
+    scale : float
+        |POINT:SCALE|: the int16 grid step.
+
+    Raises
+    ------
+    InputFormatError
+        For a parameter section a C3D file cannot hold (more than 255 blocks, a record
+        longer than its 16-bit offset allows).
+    """
+    recs = list(records)
+    signed_scale = -abs(scale) if float_storage else abs(scale)
+    _patched(recs, b"SCALE", 4, np.array([signed_scale], "<f4").tobytes())
+    section = b"".join(_record_bytes(r, i == len(recs) - 1) for i, r in enumerate(recs))
+    n_blocks = max(1, -(-(4 + len(section)) // BLOCK))
+    if n_blocks > MAX_PARAM_BLOCKS:
+        raise InputFormatError(f"C3D: the parameter section needs {n_blocks} blocks; a C3D "
+                               f"header can point past at most {MAX_PARAM_BLOCKS}")
+    data_start = 2 + n_blocks
+    _patched(recs, b"DATA_START", 2, np.array([data_start], "<i2").tobytes())
+    section = b"".join(_record_bytes(r, i == len(recs) - 1) for i, r in enumerate(recs))
+    params = (bytes([1, C3D_KEY, n_blocks, PROC_INTEL]) + section).ljust(n_blocks * BLOCK,
+                                                                         b"\x00")
+    head = bytearray(header[:BLOCK].ljust(BLOCK, b"\x00"))
+    head[0], head[1] = 2, C3D_KEY
+    head[12:16] = np.array([signed_scale], "<f4").tobytes()
+    head[16:18] = int(data_start).to_bytes(2, "little")
+    # frames: every point's x, y, z and fourth word, then the analog words
+    F, P = point_words.shape
+    per = analog.shape[0] // F if F and analog.size else 0
+    if float_storage:
+        pts = np.empty((F, P, 4), "<f4")
+        pts[:, :, :3] = xyz.astype("<f4")
+        pts[:, :, 3] = point_words.astype("<f4")     # int16 words convert exactly
+        an = analog.astype("<f4").reshape(F, per * analog.shape[1])
+    else:
+        ipts = np.empty((F, P, 4), "<i2")
+        ipts[:, :, :3] = np.rint(xyz / abs(scale)).astype("<i2")
+        ipts[:, :, 3] = point_words.astype("<i2")
+        pts = ipts.view("<i2")
+        an = analog.astype("<i2").reshape(F, per * analog.shape[1])
+    frames = np.concatenate([pts.reshape(F, -1).view(np.uint8),
+                             np.ascontiguousarray(an).view(np.uint8)], axis=1)
+    body = frames.tobytes()
+    body = body.ljust(-(-len(body) // BLOCK) * BLOCK, b"\x00")
+    return bytes(head) + params + body

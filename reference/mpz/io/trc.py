@@ -16,6 +16,13 @@ Layout (tab-separated)::
 An empty field or ``NaN`` is a gap (a sample is a gap if any of its three
 coordinates is missing). The rate is ``DataRate``; units are ``Units``
 (``mm``, ``cm``, ``m``; anything else becomes ``""``).
+
+Nothing of the header is lost (issue 12): every header field as written
+(DataRate, CameraRate, OrigDataRate, OrigDataStartFrame, OrigNumFrames, Units,
+the file name and type of line 1), the first frame number, the first time and
+the decimals of the time and value columns go to ``metadata`` under ``trc.*``
+keys (stored in the MPZ meta chunk), and :func:`format_trc` writes them back,
+so that a TRC decoded from a TRC is the same table.
 """
 from __future__ import annotations
 
@@ -101,6 +108,8 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
 
     rows = []
     times = []
+    frames: list[list[str]] = []
+    digits = 0                       # significant decimals of the time column
     for lineno, line in enumerate(lines[5:], 6):
         if not line.strip():
             continue
@@ -116,6 +125,12 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         row = [_num(v) for v in values] + [math.nan] * (3 * n_markers - len(values))
         rows.append(row)
         times.append(_num(fields[1]))
+        if not frames:
+            frames.append(fields)
+        if len(fields) > 1:
+            t = fields[1].strip().rstrip("0")
+            if "." in t and "e" not in t.lower():
+                digits = max(digits, len(t.split(".", 1)[1]))
     if not rows:
         raise _bad("no data rows")
     pos = np.array(rows, dtype=np.float64).reshape(len(rows), n_markers, 3)
@@ -134,33 +149,100 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         meta["units_in_file"] = units_raw
     if times and math.isfinite(times[0]):
         meta["start_time"] = repr(times[0])
+    meta.update(_header_meta(lines, header, frames))
+    if "trc.TimeDecimals" in meta:
+        meta["trc.TimeDigits"] = str(digits)
     return Motion(pos, names, rate, units, valid, meta)
 
 
-def _fmt(v: float) -> str:
-    return "" if not math.isfinite(v) else f"{v:.6f}"
+#: header fields format_trc writes back as they were read (NumFrames and NumMarkers too, when
+#: they still count the frames and markers)
+_KEPT = ("DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units", "OrigDataRate",
+         "OrigDataStartFrame", "OrigNumFrames")
+
+
+def _decimals(text: str) -> int | None:
+    text = text.strip()
+    if not text or "." not in text or "e" in text.lower():
+        return None
+    return len(text.split(".", 1)[1])
+
+
+def _header_meta(lines: list[str], header: dict[str, str],
+                 frames: list[list[str]]) -> dict[str, str]:
+    """The ``trc.*`` metadata: what the header and the table layout say, as written."""
+    first = lines[0].rstrip("\r\n").split("\t")
+    out = {"trc.PathFileType": "\t".join(first[1:3]),
+           "trc.FileName": first[3] if len(first) > 3 else ""}
+    raw = dict(zip([k.strip() for k in lines[1].rstrip("\r\n").split("\t")],
+                   lines[2].rstrip("\r\n").split("\t"), strict=False))
+    for key in _KEPT:
+        if key in header:
+            out[f"trc.{key}"] = raw.get(key, header[key])      # as written, padding and all
+    if frames:
+        out["trc.FirstFrame"] = frames[0][0].strip()
+        dt = _decimals(frames[0][1])
+        dv = max((d for d in (_decimals(v) for v in frames[0][2:]) if d is not None),
+                 default=None)
+        if dt is not None:
+            out["trc.TimeDecimals"] = str(dt)
+        if dv is not None:
+            out["trc.Decimals"] = str(dv)
+    return out
+
+
+def _fmt(v: float, decimals: int = 6) -> str:
+    return "" if not math.isfinite(v) else f"{v:.{decimals}f}"
 
 
 def format_trc(motion: Motion, *, file_name: str = "") -> str:
-    """TRC text for a Motion (OpenSim layout, 6 decimals, gaps as empty fields).
+    """TRC text for a Motion (OpenSim layout, gaps as empty fields).
 
-    The rate is written with ``repr`` so that it reads back exactly.
+    A motion read from a TRC (``trc.*`` metadata) gets its header fields, first frame
+    number, first time and column decimals back; otherwise the rate is written with
+    ``repr`` (it reads back exactly), frames from 1, times from 0, 6 decimals.
+    ``file_name`` is used when the source's file name is not known.
     """
+    meta = motion.metadata
     rate = repr(float(motion.rate))
     F, M = motion.n_frames, motion.n_markers
+    head = {"DataRate": rate, "CameraRate": rate, "NumFrames": str(F), "NumMarkers": str(M),
+            "Units": motion.units, "OrigDataRate": rate, "OrigDataStartFrame": "1",
+            "OrigNumFrames": str(F)}
+    for key in _KEPT:
+        if f"trc.{key}" in meta:
+            head[key] = meta[f"trc.{key}"]
+    for key, n in (("NumFrames", F), ("NumMarkers", M)):
+        if head[key].strip() != str(n):
+            head[key] = str(n)
+    if float(head["DataRate"]) != motion.rate:        # the header text must give the rate
+        head["DataRate"] = rate
+    kind = meta.get("trc.PathFileType", "4\t(X/Y/Z)")
+    name = meta.get("trc.FileName", file_name) or file_name
+    try:
+        first = int(meta.get("trc.FirstFrame", "1"))
+        t0 = float(meta.get("start_time", "0"))
+        dt = int(meta.get("trc.TimeDecimals", "6"))
+        dv = int(meta.get("trc.Decimals", "6"))
+        tdig = int(meta.get("trc.TimeDigits", str(dt)))
+    except ValueError:
+        first, t0, dt, dv, tdig = 1, 0.0, 6, 6, 6
     out = [
-        f"PathFileType\t4\t(X/Y/Z)\t{file_name}",
+        f"PathFileType\t{kind}\t{name}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
         "OrigDataStartFrame\tOrigNumFrames",
-        f"{rate}\t{rate}\t{F}\t{M}\t{motion.units}\t{rate}\t1\t{F}",
+        f"{head['DataRate']}\t{head['CameraRate']}\t{head['NumFrames']}\t"
+        f"{head['NumMarkers']}\t{head['Units']}\t"
+        f"{head['OrigDataRate']}\t{head['OrigDataStartFrame']}\t{head['OrigNumFrames']}",
         "Frame#\tTime\t" + "\t".join(f"{n}\t\t" for n in motion.names),
         "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, M + 1)),
         "",
     ]
     pos = motion.as_nan()
     for f in range(F):
-        vals = "\t".join(_fmt(v) for v in pos[f].ravel())
-        out.append(f"{f + 1}\t{f / motion.rate:.6f}\t{vals}")
+        vals = "\t".join(_fmt(v, dv) for v in pos[f].ravel())
+        t = round(t0 + f / motion.rate, tdig)      # the source's significant decimals
+        out.append(f"{first + f}\t{t:.{dt}f}\t{vals}")
     return "\n".join(out) + "\n"
 
 
@@ -185,6 +267,12 @@ def write_trc(motion: Motion, path: StrPath, *, file_name: str | None = None) ->
     """
     if file_name is None:
         file_name = os.path.basename(os.fspath(path))
+    # name safety (issue 11.9): refuse marker names that would break a line or a field, and
+    # keep the informational file name on its line (control characters become "?")
+    from mpz.io import check_writable
+    check_writable(motion, ".trc", path=file_name or os.fspath(path))
+    file_name = "".join("?" if ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F else c
+                        for c in file_name)
     text = format_trc(motion, file_name=file_name)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(text)

@@ -1,0 +1,285 @@
+"""The C3D archive: everything a C3D file holds besides marker positions (spec §4.13).
+
+Strategy: the C3D reader (:mod:`mpz.io.c3d`) puts the markers in the Motion and the rest
+in ``motion.extras["c3d"]``, a :class:`C3DArchive`: the header block, every parameter
+record as stored, the fourth word (residual, camera mask) of every point, the points
+that are model outputs (listed in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS or
+REACTIONS: not markers, so never under the marker bound in millimetres) and the analog
+words. :class:`C3DExtension` turns it into the ancillary chunks chdr, cprm, cpnt and
+cana (:mod:`mpz.chunks.c3d`) and back; the C3D writer puts every point back in its slot.
+
+What comes back: the header, the parameters and the analog words exactly (bit for bit);
+the fourth words exactly; model outputs within their declared bound (by default 1e-4 of
+each channel's range, or exact on an int16 file's grid); markers within the file's bound.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mpz.c3dcodec import INT16, MODEL_LIMIT, encode_channel, model_grid, plan
+from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param, forget
+from mpz.entropy import BlockEncoder
+from mpz.errors import EncoderError
+from mpz.format import MAX_ORDER, C3DStorage, ModelKind
+from mpz.io.c3dbin import ParamRecord
+from mpz.predict import residuals
+
+if TYPE_CHECKING:
+    from mpz.chunks import Record
+    from mpz.encoder import EncodeOptions
+    from mpz.motion import Motion
+
+#: the POINT parameters that list model outputs, in ModelKind order
+MODEL_PARAMETERS = tuple(k.name for k in ModelKind)
+
+
+@dataclass(eq=False)
+class C3DArchive:
+    """What a C3D file holds besides the marker positions of the Motion it belongs to.
+
+    Attributes
+    ----------
+    processor : int
+        The source's processor type (84 Intel, 85 DEC, 86 MIPS).
+    header : bytes
+        The 512-byte header block, normalised (integers little-endian, IEEE floats).
+    records : list of ParamRecord
+        Every group and parameter record, in file order, normalised.
+    slots : list of int
+        Per C3D point, in file order: ``s < M`` is marker ``s`` of the Motion, ``s >= M``
+        model output ``s - M``.
+    words : ndarray, shape (frames, points)
+        The fourth word of every point, int16 or float32 values (``word_storage``).
+    models : ndarray, float64, shape (frames, J, 3)
+        Model-output values, NaN at gaps; ``model_valid`` [frames, J], ``model_kinds`` [J]
+        (:class:`mpz.format.ModelKind`), ``model_bounds`` [J, 3] the declared bounds after
+        decoding (None before encoding).
+    analog : ndarray, shape (frames * analog_samples, channels)
+        The analog words in file order, int16 or float32 values (``analog_storage``).
+    """
+
+    processor: int
+    header: bytes
+    records: list[ParamRecord]
+    slots: list[int]
+    words: NDArray[Any]
+    word_storage: int
+    models: NDArray[np.float64]
+    model_valid: NDArray[np.bool_]
+    model_kinds: list[int]
+    analog: NDArray[Any]
+    analog_samples: int
+    analog_storage: int
+    model_bounds: NDArray[np.float64] | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def frames(self) -> int:
+        return int(self.words.shape[0])
+
+    @property
+    def channels(self) -> int:
+        return int(self.analog.shape[1])
+
+    def parameter(self, group: str, name: str) -> ParamRecord | None:
+        """The record of parameter ``group:name`` (names compared without case)."""
+        gids = {-r.group for r in self.records
+                if r.is_group and r.name.upper() == group.encode("latin-1").upper()}
+        for r in self.records:
+            if not r.is_group and r.group in gids and r.name.upper() == \
+                    name.encode("latin-1").upper():
+                return r
+        return None
+
+    def point_scale(self) -> float:
+        """|POINT:SCALE| (the int16 grid step), or the header's scale without one."""
+        r = self.parameter("POINT", "SCALE")
+        if r is not None and r.type == 4 and len(r.data) >= 4:
+            s = float(np.frombuffer(r.data, "<f4", 1)[0])
+        else:
+            s = float(np.frombuffer(self.header, "<f4", 1, 12)[0])
+        return abs(s) if math.isfinite(s) and s != 0 else 1.0
+
+    def point_grid(self) -> float | None:
+        """The grid every point coordinate of an int16 source lies on (|POINT:SCALE|)."""
+        return self.point_scale() if self.word_storage == C3DStorage.INT16 else None
+
+    def sizes(self) -> dict[str, int]:
+        """Bytes of the source's data section by part: markers' and model outputs' xyz,
+        fourth words, analog."""
+        w = 2 if self.word_storage == C3DStorage.INT16 else 4
+        F, P = self.words.shape
+        J = self.models.shape[1]
+        aw = 2 if self.analog_storage == C3DStorage.INT16 else 4
+        return {"markers": 3 * w * F * (P - J), "models": 3 * w * F * J,
+                "words": w * F * P, "analog": aw * int(self.analog.size)}
+
+
+# ------------------------------------------------------------------ encoding --
+def _channel(p: Any) -> Channel:
+    return Channel(mode=p.mode, shift=p.shift, order=p.order, low_bits=p.low_bits)
+
+
+def _fill(k: NDArray[np.float64], valid: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Grid values with the gaps filled by linear interpolation (cheap to predict)."""
+    t = np.arange(k.shape[0])
+    if valid.all():
+        return np.rint(k).astype(np.int64)
+    if not valid.any():
+        return np.zeros(k.shape, np.int64)
+    return np.rint(np.interp(t, t[valid], k[valid])).astype(np.int64)
+
+
+def _best_order(v: NDArray[np.int64]) -> int:
+    costs = [float(np.log2(1.0 + np.abs(residuals(v[:, None, None], o))).sum())
+             for o in range(MAX_ORDER + 1)]
+    return int(np.argmin(costs))
+
+
+def model_bound(kind: int, values: NDArray[np.float64], valid: NDArray[np.bool_],
+                opts: EncodeOptions) -> float:
+    """The absolute bound of one model-output axis: a fraction of its range (§4.13.3)."""
+    rel = opts.model_errors.get(ModelKind(kind).name, opts.model_error)
+    v = values[valid]
+    span = float(v.max() - v.min()) if v.size else 0.0
+    return rel * span
+
+
+def point_records(a: C3DArchive, opts: EncodeOptions, M: int) -> Cpnt:
+    """§4.13.3 the cpnt record of an archive."""
+    F, P = a.words.shape
+    J = a.models.shape[1]
+    enc = BlockEncoder(capacity=max(1 << 16, 8 * F * (P + 3 * J)))
+    word_ch = []
+    for p in range(P):
+        pl = plan(np.ascontiguousarray(a.words[:, p]))
+        encode_channel(enc, pl)
+        word_ch.append(_channel(pl))
+    models = []
+    if J:
+        enc.block((~a.model_valid).astype(np.int64)[:, :, None], signed=False)
+        grid = a.point_grid()
+        for j in range(J):
+            kind = a.model_kinds[j]
+            axes = []
+            for ax in range(3):
+                x, ok = a.models[:, j, ax], a.model_valid[:, j]
+                explicit = ModelKind(kind).name in opts.model_errors
+                bound = model_bound(kind, x, ok, opts)
+                offset, step, declared = model_grid(x, ok, bound,
+                                                    None if explicit else grid)
+                k = _fill(np.where(ok, (np.nan_to_num(x) - offset) / step, 0.0), ok)
+                if (np.abs(k) >= MODEL_LIMIT // 2).any():
+                    raise EncoderError(f"model output {j}: values too far from the grid")
+                back = k.astype(np.float64) * step + offset
+                err = float(np.abs(back - x)[ok].max(initial=0.0))
+                if err > declared:
+                    raise EncoderError(f"model output {j} axis {ax}: error {err} exceeds the "
+                                       f"bound {declared} (a bug)")
+                order = _best_order(k)
+                enc.block(residuals(k[:, None, None], order))
+                axes.append(ModelAxis(offset=offset, step=step, bound=declared, order=order))
+            models.append(Model(kind=kind, axes=tuple(axes)))
+    return Cpnt(storage=a.word_storage, point_count=P, slots=tuple(a.slots),
+                words=tuple(word_ch), model_count=J, models=tuple(models), coded=enc.finish())
+
+
+def analog_record(a: C3DArchive) -> Cana | None:
+    """§4.13.4 the cana record of an archive (None without analog channels)."""
+    T, C = a.analog.shape
+    if C == 0 or T == 0:
+        return None
+    enc = BlockEncoder(capacity=max(1 << 16, 4 * T * C))
+    table = []
+    for c in range(C):
+        pl = plan(np.ascontiguousarray(a.analog[:, c]))
+        encode_channel(enc, pl)
+        table.append(_channel(pl))
+    return Cana(storage=a.analog_storage, channels=C, samples=a.analog_samples,
+                table=tuple(table), coded=enc.finish())
+
+
+def parameter_record(a: C3DArchive) -> Cprm:
+    """§4.13.2 the cprm record of an archive."""
+    recs = tuple(Param(group=r.group, locked=int(r.locked), name=r.name,
+                       description=r.description,
+                       type=None if r.is_group else r.type,
+                       dims=None if r.is_group else bytes(r.dims),
+                       data=None if r.is_group else r.data) for r in a.records)
+    return Cprm(count=len(recs), records=recs)
+
+
+def check_matches(a: C3DArchive, motion: Motion) -> None:
+    """Refuse an archive that no longer describes ``motion`` (frames or markers changed)."""
+    F, M = motion.n_frames, motion.n_markers
+    P = len(a.slots)
+    J = a.models.shape[1]
+    if a.frames != F or P != M + J or sorted(a.slots) != list(range(P)):
+        raise EncoderError(f"the C3D archive describes {a.frames} frames and {P - J} markers, "
+                           f"the motion has {F} frames and {M} markers; it cannot be kept")
+
+
+# ------------------------------------------------------------------ decoding --
+def archive_from_records(records: Mapping[str, list[Record]], motion: Motion) -> C3DArchive:
+    """§6.9 the archive of checked chdr, cprm, cpnt and cana records."""
+    hdr = records["chdr"][0]
+    prm = records["cprm"][0]
+    pnt = records["cpnt"][0]
+    assert isinstance(hdr, Chdr) and isinstance(prm, Cprm) and isinstance(pnt, Cpnt)
+    F, M = motion.n_frames, motion.n_markers
+    pd = pnt.decode(F, M)
+    forget(pnt)
+    ana = records.get("cana", [])
+    if ana:
+        cana = ana[0]
+        assert isinstance(cana, Cana)
+        analog = cana.decode(F)
+        forget(cana)
+        samples, astore = cana.samples, cana.storage
+    else:
+        analog = np.zeros((0, 0), INT16 if pnt.storage == C3DStorage.INT16 else "<f4")
+        samples = int.from_bytes(hdr.block[18:20], "little")
+        astore = pnt.storage
+    params = [ParamRecord(r.group, bool(r.locked), r.name, r.description,
+                          0 if r.type is None else r.type, tuple(r.dims or b""),
+                          r.data or b"") for r in prm.records]
+    bounds = np.array([[ax.bound for ax in m.axes] for m in pnt.models],
+                      np.float64).reshape(-1, 3)
+    return C3DArchive(hdr.processor, hdr.block, params, list(pnt.slots), pd.words, pnt.storage,
+                      pd.models, pd.valid, [m.kind for m in pnt.models], analog, samples,
+                      astore, bounds)
+
+
+class C3DExtension:
+    """The ``c3d`` entry of :data:`mpz.extensions.EXTENSIONS` (spec §4.13, §6.9)."""
+
+    name: str = "c3d"
+    chunk_types: tuple[str, ...] = ("chdr", "cprm", "cpnt", "cana")
+
+    def records(self, motion: Motion, opts: EncodeOptions) -> list[Record]:
+        a = motion.extras.get(self.name)
+        if a is None:
+            return []
+        if not isinstance(a, C3DArchive):
+            raise EncoderError(f"motion.extras['c3d'] is a {type(a).__name__}, not a "
+                               "C3DArchive")
+        check_matches(a, motion)
+        out: list[Record] = [Chdr(processor=a.processor, block=a.header),
+                             parameter_record(a), point_records(a, opts, motion.n_markers)]
+        ana = analog_record(a)
+        if ana is not None:
+            out.append(ana)
+        return out
+
+    def attach(self, records: dict[str, list[Record]], motion: Motion) -> None:
+        motion.extras[self.name] = archive_from_records(records, motion)
+
+
+#: the extension object EXTENSIONS lists
+C3D_EXTENSION = C3DExtension()

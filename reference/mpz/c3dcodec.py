@@ -1,0 +1,207 @@
+"""Exact coding of sampled channels for the C3D archive (spec §4.13, §6.9).
+
+Strategy: a C3D stores each point's fourth word and every analog sample as an int16 or
+a float32 *word*. Each channel (one point's words, one analog channel) is turned into
+integers without loss, predicted in time (§6.2) and range-coded (§5) with the project's
+own coder, never stored as raw bytes:
+
+- mode 0, integer: the word is ``k x 2^shift`` with ``|k| < 2^24`` (every int16 word;
+  float32 words that are integers, half-integers, multiples of 2^-15 ... as ADC counts
+  and their fixed-point scalings are);
+- mode 1, float32 bit pattern: the 32 bits as an *ordered* integer ``v`` (``v = bits``
+  for a clear sign bit, ``-(bits & 0x7FFFFFFF) - 1`` otherwise), so that larger floats
+  have larger ``v`` and -0.0, NaN payloads and infinities come back bit for bit.
+
+The prediction residual ``e`` is coded as ``h = e div 2^b`` (a signed block) and, when
+``b > 0``, ``l = e mod 2^b`` (an unsigned block), so that ``|h| < 2^30`` (§5.4) for every
+32-bit pattern. :func:`plan` picks mode, shift, order and ``b`` per channel by the size
+proxy ``sum(log2(1 + |e|))``; :func:`decode_channel` is §6.9 step by step and raises
+:class:`mpz.errors.FormatError` for the rules of §4.13 it finds broken.
+
+Model outputs (§4.13.3) are floats coded on a per-axis grid ``x = offset + k x step``,
+like marker positions (§6.8), with their own bound: :func:`model_grid`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mpz.entropy import MAX_EXP, BlockDecoder, BlockEncoder
+from mpz.errors import FormatError
+from mpz.format import C3D_MAX_LOW_BITS, C3D_MAX_SHIFT, C3D_MIN_SHIFT, MAX_ORDER, ChannelMode
+from mpz.predict import reconstruct, residuals
+
+IntArray = NDArray[np.int64]
+#: 2^24: the magnitude limit of k in mode 0 (a binary32 holds 24 significant bits)
+K_LIMIT = 1 << 24
+#: 2^31: the magnitude limit of a model-output grid value (§4.13.3)
+MODEL_LIMIT = 1 << 31
+#: the storage types of C3D words (§4.13.3, §4.13.4 ``storage``)
+INT16, FLOAT32 = np.dtype("<i2"), np.dtype("<f4")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """How one channel is coded (the four bytes of a §4.13 channel entry) and its integers."""
+
+    mode: int
+    shift: int
+    order: int
+    low_bits: int
+    values: IntArray            # k (mode 0) or the ordered bit pattern v (mode 1)
+
+
+# ---------------------------------------------------------------- words <-> v --
+def ordered(bits: NDArray[np.uint32]) -> IntArray:
+    """§6.9 float32 bit patterns -> ordered integers in -2^31 .. 2^31 - 1."""
+    b = bits.astype(np.int64)
+    return np.where(b < (1 << 31), b, -(b & 0x7FFFFFFF) - 1)
+
+
+def unordered(v: IntArray) -> NDArray[np.uint32]:
+    """The inverse of :func:`ordered` (``v`` must lie in -2^31 .. 2^31 - 1)."""
+    return np.where(v >= 0, v, (-v - 1) | (1 << 31)).astype(np.uint32)
+
+
+def _dyadic(x: NDArray[np.float32]) -> tuple[int, IntArray] | None:
+    """(shift, k) with ``x == k * 2^shift`` exactly and |k| < 2^24, or None (mode 1 then).
+
+    None for a channel holding -0.0, NaN or an infinity (mode 1 keeps their bits).
+    """
+    bits = x.view(np.uint32)
+    if not np.isfinite(x).all() or (bits == 0x80000000).any():
+        return None
+    nz = x[x != 0].astype(np.float64)
+    if nz.size == 0:
+        return 0, np.zeros(x.shape, np.int64)
+    m, E = np.frexp(nz)                                   # nz = m * 2^E, 0.5 <= |m| < 1
+    M = np.abs(m * float(1 << 24)).astype(np.int64)       # the 24-bit significand, exact
+    tz = np.zeros(M.shape, np.int64)
+    for b in range(24):                                    # trailing zero bits of M
+        tz += ((M >> (b + 1)) << (b + 1)) == M
+    shift = int((E - 24 + tz).min())
+    shift = max(C3D_MIN_SHIFT, min(C3D_MAX_SHIFT, shift))
+    k = np.ldexp(x.astype(np.float64), -shift)
+    if not (np.abs(k) < K_LIMIT).all() or (k != np.floor(k)).any():
+        return None
+    ki = k.astype(np.int64)
+    back = np.ldexp(ki.astype(np.float64), shift).astype(np.float32)
+    if not np.array_equal(back.view(np.uint32), bits):
+        return None
+    return shift, ki
+
+
+def _low_bits(e: IntArray) -> int:
+    """The smallest b with every |e div 2^b| < 2^30 (§5.4: the coder's range)."""
+    peak = int(np.abs(e).max(initial=0))
+    return max(0, peak.bit_length() - MAX_EXP)
+
+
+def _cost(e: IntArray) -> float:
+    return float(np.log2(1.0 + np.abs(e.astype(np.float64))).sum())
+
+
+def plan(words: NDArray[np.int16] | NDArray[np.float32]) -> Plan:
+    """The cheapest exact coding of one channel of C3D words (1-D, int16 or float32)."""
+    if words.dtype.kind == "i":
+        mode, shift, v = int(ChannelMode.INTEGER), 0, words.astype(np.int64)
+    else:
+        x = np.ascontiguousarray(words, dtype=FLOAT32)
+        d = _dyadic(x)
+        if d is not None:
+            mode, shift, v = int(ChannelMode.INTEGER), d[0], d[1]
+        else:
+            mode, shift, v = int(ChannelMode.BITS), 0, ordered(x.view(np.uint32))
+    best: tuple[float, int] | None = None
+    for order in range(MAX_ORDER + 1):
+        c = _cost(residuals(v[:, None, None], order))
+        if best is None or c < best[0]:
+            best = (c, order)
+    assert best is not None
+    order = best[1]
+    low = _low_bits(residuals(v[:, None, None], order))
+    assert low <= C3D_MAX_LOW_BITS
+    return Plan(mode, shift, order, low, v)
+
+
+def encode_channel(enc: BlockEncoder, p: Plan) -> None:
+    """Code one planned channel: the block of h, then (b > 0) the block of l (§6.9)."""
+    e = residuals(p.values[:, None, None], p.order)
+    enc.block(e >> p.low_bits)                             # floor division by 2^b
+    if p.low_bits:
+        enc.block(e & ((1 << p.low_bits) - 1), signed=False)
+
+
+def _fail(message: str, section: str) -> FormatError:
+    return FormatError(message, section=section)
+
+
+def decode_channel(dec: BlockDecoder, T: int, mode: int, shift: int, order: int,
+                   low_bits: int, storage: np.dtype[np.generic], section: str
+                   ) -> NDArray[np.int16] | NDArray[np.float32]:
+    """§6.9 one channel of T words, returned as int16 or float32 (bit-exact) values.
+
+    The channel entry must already have passed the §4.13 checks (mode, shift, order,
+    low_bits and, for int16 storage, mode 0 with shift 0).
+
+    Raises
+    ------
+    FormatError
+        For a decoded value outside the range §4.13 allows.
+    """
+    h = dec.block(T, 1, 1)[:, 0, 0]
+    e = h
+    if low_bits:
+        lo = dec.block(T, 1, 1, signed=False)[:, 0, 0]
+        if (lo >= (1 << low_bits)).any():
+            raise _fail(f"low part {int(lo.max())} of a residual is not below 2^{low_bits}",
+                        section)
+        e = h * (1 << low_bits) + lo
+    # |e| <= (2^31 - 1) x 2^3 + 7 < 2^34 (b <= 3): an order-1 sum over T <= 2^28 rows stays
+    # below 2^62, and order 2 is guarded by §6.2 (|d| < 2^32)
+    v = reconstruct(e[:, None, None], order)[:, 0, 0]
+    if mode == ChannelMode.INTEGER:
+        if (np.abs(v) >= K_LIMIT).any():
+            raise _fail(f"integer channel value {int(np.abs(v).max())} is not below 2^24",
+                        section)
+        if storage == INT16:
+            if ((v < -32768) | (v > 32767)).any():
+                raise _fail("an int16 channel decodes to a value outside -32768..32767",
+                            section)
+            return v.astype(INT16)
+        return np.ldexp(v.astype(np.float64), shift).astype(FLOAT32)
+    if ((v < -(1 << 31)) | (v >= (1 << 31))).any():
+        raise _fail("a float32 bit-pattern channel decodes outside -2^31..2^31-1", section)
+    return unordered(v).view(FLOAT32)
+
+
+# ------------------------------------------------------------ model outputs --
+SQRT_SAFETY = 1.0 - 2.0 ** -20    # as the marker grid (Appendix C): float rounding never
+
+
+def model_grid(x: NDArray[np.float64], valid: NDArray[np.bool_], bound: float,
+               grid: float | None) -> tuple[float, float, float]:
+    """(offset, step, declared bound) of one model-output axis (§4.13.3).
+
+    ``x`` holds the channel's values, ``valid`` where they count; ``bound`` the allowed
+    absolute error; ``grid``, when not None, a step every valid value is an exact
+    multiple of (an int16 C3D's |POINT:SCALE|): the channel is then coded exactly on it
+    (offset 0, declared bound 0).
+    """
+    v = x[valid]
+    if grid is not None and v.size and np.array_equal(np.rint(v / grid) * grid, v) \
+            and np.abs(v / grid).max() < MODEL_LIMIT // 2:
+        return 0.0, float(grid), 0.0
+    if v.size == 0:
+        return 0.0, 1.0, 0.0
+    lo, hi = float(v.min()), float(v.max())
+    if lo == hi:                            # a constant: exact as the offset, k = 0
+        return lo, 1.0, 0.0
+    step = 2.0 * bound * SQRT_SAFETY
+    offset = (lo + hi) / 2.0
+    if not (math.isfinite(step) and step > 0) or (hi - lo) / step >= MODEL_LIMIT // 2:
+        step = (hi - lo) / (MODEL_LIMIT // 2)   # the finest grid the 31-bit range allows
+    return offset, step, max(bound, step / 2.0)

@@ -1,0 +1,407 @@
+"""The C3D archive chunk types (spec §4.13, MPZ 1.1), one record class each.
+
+A C3D recording keeps, besides the marker trajectories MPZ 1.0 codes, its header, its
+parameter section, the fourth word (residual and camera mask) of every point, the points
+that are model outputs (angles, forces, moments, powers, scalars, reactions) and its
+analog channels. Each travels in an ancillary chunk (§2.3), so that a 1.0 decoder skips
+them and still decodes the markers (§2.1): ``chdr``, ``cprm``, ``cpnt`` and ``cana``.
+
+Each class is the whole of its chunk, as in :mod:`mpz.chunks.core`: layout, § checks,
+build and what mpzinfo shows. The checks of ``cpnt`` and ``cana`` include decoding their
+channels (§6.9), since their value rules need the decoded values; the result is kept for
+the extension that turns the records into :attr:`mpz.Motion.extras` (:mod:`mpz.c3darchive`),
+so a file is decoded once.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+import math
+from typing import Any, TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mpz.c3dcodec import FLOAT32, INT16, MODEL_LIMIT, decode_channel
+from mpz.chunks.base import JSON, Context, Record
+from mpz.chunks.base import fail as _fail
+from mpz.entropy import BlockDecoder
+from mpz.errors import FormatError, LimitExceededError
+from mpz.format import (
+    C3D_MAX_LOW_BITS,
+    C3D_MAX_SHIFT,
+    C3D_MIN_SHIFT,
+    C3D_MINOR,
+    MAX_ANALOG_SAMPLES,
+    MAX_MARKERS,
+    MAX_ORDER,
+    C3DProcessor,
+    C3DStorage,
+    ChannelMode,
+    ModelKind,
+)
+from mpz.predict import reconstruct
+from mpz.spec import grammar
+
+#: §4.13 the chunk types of a C3D archive; the first three come together, cana is optional
+C3D_TYPES = ("chdr", "cprm", "cpnt", "cana")
+#: §4.13.1 byte 1 of a C3D header, the parameter-section key
+C3D_KEY = 0x50
+
+T = TypeVar("T")
+
+
+def _set_rules(ctx: Context) -> None:
+    """§4.13: one chdr, one cprm and one cpnt, at most one cana (checked wherever the
+    chunk list is known, that is for every chunk the decoder reads)."""
+    if not ctx.types:
+        return
+    counts = {t: ctx.types.count(t) for t in C3D_TYPES}
+    for t in C3D_TYPES[:3]:
+        if counts[t] != 1:
+            _fail(f"a C3D archive has exactly one {t} chunk; this file has {counts[t]}",
+                  "§4.13")
+    if counts["cana"] > 1:
+        _fail(f"a C3D archive has at most one cana chunk; this file has {counts['cana']}",
+              "§4.13")
+
+
+# ------------------------------------------------------------ decoded cache --
+#: (record, frames, markers) -> decoded values, so that check() and the extension decode once
+_DECODED: dict[tuple[int, int, int], tuple[Record, Any]] = {}
+
+
+def _memo(rec: Record, F: int, M: int, compute: Callable[[], T]) -> T:
+    key = (id(rec), F, M)
+    hit = _DECODED.get(key)
+    if hit is not None and hit[0] is rec:
+        value: T = hit[1]
+        return value
+    value = compute()
+    if len(_DECODED) >= 8:
+        _DECODED.clear()
+    _DECODED[key] = (rec, value)
+    return value
+
+
+def forget(rec: Record) -> None:
+    """Drop the decoded values kept for ``rec`` (the extension calls it once it has them)."""
+    for key in [k for k, v in _DECODED.items() if v[0] is rec]:
+        del _DECODED[key]
+
+
+# ------------------------------------------------------------ channel entry --
+@dataclass(frozen=True)
+class Channel(Record):
+    """§4.13 one channel entry: how a channel of C3D words is coded (§6.9)."""
+
+    GRAMMAR = grammar.C3dChannel
+
+    mode: int
+    shift: int
+    order: int
+    low_bits: int
+
+    def check_entry(self, storage: int, what: str, section: str) -> None:
+        """The §4.13 rules of a channel entry, for words stored as ``storage``."""
+        if self.mode not in set(ChannelMode):
+            _fail(f"{what}: unknown channel mode {self.mode}", section)
+        if self.mode == ChannelMode.INTEGER and not C3D_MIN_SHIFT <= self.shift <= C3D_MAX_SHIFT:
+            _fail(f"{what}: shift {self.shift} not in {C3D_MIN_SHIFT}..{C3D_MAX_SHIFT}", section)
+        if self.mode == ChannelMode.BITS and self.shift != 0:
+            _fail(f"{what}: a float32 bit-pattern channel has shift 0, got {self.shift}",
+                  section)
+        if storage == C3DStorage.INT16 and (self.mode != ChannelMode.INTEGER or self.shift):
+            _fail(f"{what}: int16 words are coded as integers with shift 0 (mode "
+                  f"{self.mode}, shift {self.shift})", section)
+        if self.order > MAX_ORDER:
+            _fail(f"{what}: predictor order {self.order} not in 0..{MAX_ORDER}", section)
+        if self.low_bits > C3D_MAX_LOW_BITS:
+            _fail(f"{what}: low_bits {self.low_bits} not in 0..{C3D_MAX_LOW_BITS}", section)
+
+    def decode(self, dec: BlockDecoder, T: int, storage: int, section: str
+               ) -> NDArray[np.int16] | NDArray[np.float32]:
+        return decode_channel(dec, T, self.mode, self.shift, self.order, self.low_bits,
+                              _dtype(storage), section)
+
+
+def _dtype(storage: int) -> np.dtype[Any]:
+    return INT16 if storage == C3DStorage.INT16 else FLOAT32
+
+
+def _check_storage(storage: int, section: str) -> None:
+    if storage not in set(C3DStorage):
+        _fail(f"unknown storage code {storage} (0 int16, 1 float32)", section)
+
+
+# ----------------------------------------------------------------- §4.13.1 --
+@dataclass(frozen=True)
+class Chdr(Record):
+    """§4.13.1 the C3D header block (ancillary, 1.1)."""
+
+    TYPE = "chdr"
+    SECTION = "§4.13.1"
+    GRAMMAR = grammar.CHDR
+    MINOR = C3D_MINOR
+
+    processor: int
+    block: bytes
+
+    def word(self, n: int) -> int:
+        """Header word ``n`` (1-based, as in the C3D guide) as an unsigned 16-bit integer."""
+        return int.from_bytes(self.block[2 * n - 2:2 * n], "little")
+
+    def real(self, n: int) -> float:
+        """The binary32 at header words ``n`` and ``n + 1``."""
+        return float(np.frombuffer(self.block, "<f4", 1, 2 * n - 2)[0])
+
+    def check(self, ctx: Context) -> None:
+        _set_rules(ctx)
+        if self.processor not in set(C3DProcessor):
+            _fail(f"unknown C3D processor type {self.processor} (84, 85 or 86)", "§4.13.1")
+        if self.block[1] != C3D_KEY:
+            _fail(f"C3D header byte 1 is 0x{self.block[1]:02x}, not the key 0x50", "§4.13.1")
+
+    def info(self) -> dict[str, JSON]:
+        return {"processor": self.processor, "block": super().info()["block"],
+                "first_frame": self.word(4), "last_frame": self.word(5),
+                "analog_words_per_frame": self.word(3), "analog_samples": self.word(10),
+                "scale": self.real(7), "rate": self.real(11),
+                "events": self.word(151) if self.word(150) == 12345 else 0}
+
+
+# ----------------------------------------------------------------- §4.13.2 --
+@dataclass(frozen=True)
+class Param(Record):
+    """§4.13.2 one group (``group`` < 0) or parameter (``group`` > 0) record."""
+
+    GRAMMAR = grammar.C3dParam
+
+    group: int
+    locked: int
+    name: bytes
+    description: bytes
+    type: int | None = None
+    dims: bytes | None = None
+    data: bytes | None = None
+
+    @property
+    def is_group(self) -> bool:
+        return self.group < 0
+
+    def info(self) -> dict[str, JSON]:
+        out: dict[str, JSON] = {"group": self.group, "locked": self.locked,
+                                "name": self.name.decode("latin-1"),
+                                "description": self.description.decode("latin-1")}
+        if not self.is_group:
+            out.update(type=self.type, dims=list(self.dims or b""),
+                       data={"bytes": len(self.data or b""),
+                             "head": (self.data or b"")[:16].hex()})
+        return out
+
+
+_PARAM_TYPES = (-1, 1, 2, 4)
+
+
+@dataclass(frozen=True)
+class Cprm(Record):
+    """§4.13.2 the C3D parameter section (ancillary, 1.1)."""
+
+    TYPE = "cprm"
+    SECTION = "§4.13.2"
+    GRAMMAR = grammar.CPRM
+    NESTED = {"records": Param}
+    MINOR = C3D_MINOR
+
+    count: int
+    records: tuple[Param, ...]
+
+    def check(self, ctx: Context) -> None:
+        _set_rules(ctx)
+        groups: set[int] = set()
+        for i, r in enumerate(self.records):
+            if r.group == 0:
+                _fail(f"record {i}: group id 0", "§4.13.2")
+            if not 1 <= len(r.name) <= 127:
+                _fail(f"record {i}: name of {len(r.name)} bytes, not 1..127", "§4.13.2")
+            if r.locked > 1:
+                _fail(f"record {i}: locked flag {r.locked}, not 0 or 1", "§4.13.2")
+            if r.is_group:
+                if -r.group in groups:
+                    _fail(f"record {i}: group id {-r.group} declared twice", "§4.13.2")
+                groups.add(-r.group)
+                continue
+            if r.type not in _PARAM_TYPES:
+                _fail(f"record {i}: parameter type {r.type}, not -1, 1, 2 or 4", "§4.13.2")
+            if len(r.dims or b"") > 7:
+                _fail(f"record {i}: {len(r.dims or b'')} dimensions, at most 7", "§4.13.2")
+
+
+# ----------------------------------------------------------------- §4.13.3 --
+@dataclass(frozen=True)
+class ModelAxis(Record):
+    """§4.13.3 one axis of a model output: x = offset + k x step."""
+
+    GRAMMAR = grammar.C3dModelAxis
+
+    offset: float
+    step: float
+    bound: float
+    order: int
+
+
+@dataclass(frozen=True)
+class Model(Record):
+    """§4.13.3 one model output."""
+
+    GRAMMAR = grammar.C3dModel
+    NESTED = {"axes": ModelAxis}
+
+    kind: int
+    axes: tuple[ModelAxis, ...]
+
+
+@dataclass(frozen=True)
+class PointsDecoded:
+    """§6.9 what a cpnt chunk decodes to."""
+
+    words: NDArray[Any]                  # [F, P], int16 or float32
+    models: NDArray[np.float64]          # [F, J, 3], NaN at gaps
+    valid: NDArray[np.bool_]             # [F, J]
+
+
+@dataclass(frozen=True)
+class Cpnt(Record):
+    """§4.13.3 the C3D points: slots, fourth words, model outputs (ancillary, 1.1)."""
+
+    TYPE = "cpnt"
+    SECTION = "§4.13.3"
+    GRAMMAR = grammar.CPNT
+    NESTED = {"words": Channel, "models": Model}
+    MINOR = C3D_MINOR
+
+    storage: int
+    point_count: int
+    slots: tuple[int, ...]
+    words: tuple[Channel, ...]
+    model_count: int
+    models: tuple[Model, ...]
+    coded: bytes
+
+    def check(self, ctx: Context) -> None:
+        s = "§4.13.3"
+        _set_rules(ctx)
+        _check_storage(self.storage, s)
+        F, M = ctx.header.frame_count, ctx.header.marker_count
+        J, P = self.model_count, self.point_count
+        if J > MAX_MARKERS or F * J > ctx.max_samples:
+            _fail(f"{J} model outputs x {F} frames exceed the limits of §8 (at most "
+                  f"{MAX_MARKERS} outputs, {ctx.max_samples} samples)", "§8",
+                  LimitExceededError)
+        if P != M + J:
+            _fail(f"point_count {P} is not marker_count {M} + model_count {J}", s)
+        if sorted(self.slots) != list(range(P)):
+            _fail("slots are not a permutation of 0 .. point_count - 1", s)
+        for p, ch in enumerate(self.words):
+            ch.check_entry(self.storage, f"point {p} word channel", s)
+        for j, m in enumerate(self.models):
+            if m.kind not in set(ModelKind):
+                _fail(f"model output {j}: unknown kind {m.kind}", s)
+            for a, ax in enumerate(m.axes):
+                what = f"model output {j} axis {'xyz'[a]}"
+                if not (math.isfinite(ax.offset) and math.isfinite(ax.step) and ax.step > 0):
+                    _fail(f"{what}: offset {ax.offset!r} and step {ax.step!r} must be finite, "
+                          f"step > 0", s)
+                if not math.isfinite(abs(ax.offset) + ax.step * float(MODEL_LIMIT)):
+                    _fail(f"{what}: |offset| + step x 2^31 is not finite in binary64", s)
+                if not (math.isfinite(ax.bound) and ax.bound >= 0):
+                    _fail(f"{what}: bound {ax.bound!r} is not finite and >= 0", s)
+                if ax.order > MAX_ORDER:
+                    _fail(f"{what}: predictor order {ax.order} not in 0..{MAX_ORDER}", s)
+        self.decode(F, M)
+
+    def decode(self, F: int, M: int) -> PointsDecoded:
+        """§6.9 the words of every point and the model outputs (after :meth:`check`)."""
+        return _memo(self, F, M, lambda: self._decode(F))
+
+    def _decode(self, F: int) -> PointsDecoded:
+        s = "§4.13.3"
+        J = self.model_count
+        dec = BlockDecoder(self.coded, chunk=self.TYPE)
+        words = np.empty((F, self.point_count), _dtype(self.storage))
+        for p, ch in enumerate(self.words):
+            words[:, p] = ch.decode(dec, F, self.storage, s)
+        models = np.full((F, J, 3), np.nan)
+        valid = np.ones((F, J), bool)
+        if J:
+            flags = dec.block(F, J, 1, signed=False)[:, :, 0]
+            if (flags > 1).any():
+                raise FormatError(f"model-output gap flag {int(flags.max())}, not 0 or 1",
+                                  section=s)
+            valid = flags == 0
+            for j, m in enumerate(self.models):
+                for a, ax in enumerate(m.axes):
+                    e = dec.block(F, 1, 1)
+                    k = reconstruct(e, ax.order)[:, 0, 0]
+                    if (np.abs(k) >= MODEL_LIMIT).any():
+                        raise FormatError(f"model output {j} axis {'xyz'[a]}: value "
+                                          f"{int(np.abs(k).max())} is not below 2^31",
+                                          section=s)
+                    # §6.9 as §6.8: the product rounded first, then the offset added
+                    x = k.astype(np.float64) * np.float64(ax.step)
+                    models[:, j, a] = x + np.float64(ax.offset)
+            models[~valid] = np.nan
+        dec.close()
+        return PointsDecoded(words, models, valid)
+
+
+# ----------------------------------------------------------------- §4.13.4 --
+@dataclass(frozen=True)
+class Cana(Record):
+    """§4.13.4 the C3D analog channels (ancillary, 1.1)."""
+
+    TYPE = "cana"
+    SECTION = "§4.13.4"
+    GRAMMAR = grammar.CANA
+    NESTED = {"table": Channel}
+    MINOR = C3D_MINOR
+
+    storage: int
+    channels: int
+    samples: int
+    table: tuple[Channel, ...]
+    coded: bytes
+
+    def check(self, ctx: Context) -> None:
+        s = "§4.13.4"
+        _set_rules(ctx)
+        _check_storage(self.storage, s)
+        C, n, F = self.channels, self.samples, ctx.header.frame_count
+        if C < 1 or n < 1:
+            _fail(f"channels {C} and samples {n} must both be >= 1", s)
+        if C * n > 0xFFFF:
+            _fail(f"channels x samples = {C * n} exceeds 65535, the analog words per frame a "
+                  f"C3D header holds", s)
+        if F * n * C > MAX_ANALOG_SAMPLES:
+            _fail(f"{F} frames x {n} samples x {C} channels exceed MAX_ANALOG_SAMPLES "
+                  f"{MAX_ANALOG_SAMPLES}", "§8", LimitExceededError)
+        for c, ch in enumerate(self.table):
+            ch.check_entry(self.storage, f"analog channel {c}", s)
+        self.decode(F)
+
+    def decode(self, F: int) -> NDArray[Any]:
+        """§6.9 the analog words ``[F x samples, channels]`` (after :meth:`check`)."""
+        return _memo(self, F, 0, lambda: self._decode(F))
+
+    def _decode(self, F: int) -> NDArray[Any]:
+        T = F * self.samples
+        out = np.empty((T, self.channels), _dtype(self.storage))
+        dec = BlockDecoder(self.coded, chunk=self.TYPE)
+        for c, ch in enumerate(self.table):
+            out[:, c] = ch.decode(dec, T, self.storage, "§4.13.4")
+        dec.close()
+        return out
+
+
+#: the C3D archive chunk types, in the order of the spec's catalogue (§4.13.1-§4.13.4)
+C3D = (Chdr, Cprm, Cpnt, Cana)

@@ -1,0 +1,247 @@
+"""Issue 12: a C3D that goes through MPZ comes back whole (spec §4.13, §6.9).
+
+For every real C3D in ../shared/data, at the default bound and at 1 mm: read, encode,
+decode, write a C3D, and compare the original and the written file with a reader other
+than our writer's, ezc3d (for the two files ezc3d cannot read, MIPS Eb015sr and
+Facial-Sing, the numpy reader :mod:`mpz.io.c3dbin`, which is what "everything the
+project's own reader sees" means): header frames and rates, every parameter (value,
+type, description, lock; only DATA_START and the sign of SCALE, which the writer must
+set, may differ), the analog channels exactly, events, labels, residuals and camera
+masks exactly, marker positions within the declared bound with the same gaps, model
+outputs within their own bounds. Expected values come from the source file through
+ezc3d, never from our own writer.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz.c3darchive import C3DArchive
+from mpz.encoder import EncodeOptions, encode_motion
+from mpz.io import c3dbin, read, write
+
+ezc3d = pytest.importorskip("ezc3d")
+
+C3D_FILES = [
+    "HDM_dg_06-03_03_120.c3d", "HDM_mm_01-02_03_120.c3d", "auckland_FMC_MH0222_BP06.c3d",
+    "c3dorg_AlbertoINT.c3d", "c3dorg_Dance1.c3d", "c3dorg_Eb015pi.c3d", "c3dorg_Eb015sr.c3d",
+    "c3dorg_Eb015vr.c3d", "c3dorg_Facial-Sing.c3d", "c3dorg_Sample_Jump2.c3d",
+    "c3dorg_arthuman-sample.c3d", "c3dorg_codamotion_gaitwands_20150204.c3d",
+    "cmu_01_01.c3d", "cmu_02_01.c3d", "cmu_135_02.c3d", "ezc3d_Qualisys.c3d",
+    "ezc3d_Vicon.c3d", "numediart_03_rolling.c3d",
+]
+#: the two files ezc3d refuses (MIPS processor, an unreadable parameter type)
+NOT_EZC3D = {"c3dorg_Eb015sr.c3d", "c3dorg_Facial-Sing.c3d"}
+#: parameters a writer must set for its own layout (issue 12: data start, storage, scale)
+STORAGE = {("POINT", "DATA_START")}
+
+
+def test_every_real_c3d_is_listed(shared_data):
+    assert sorted(p.name for p in (shared_data / "c3d").glob("*.c3d")) == sorted(C3D_FILES)
+
+
+# ------------------------------------------------------------------- helpers --
+def _ez(path: Path) -> Any:
+    return ezc3d.c3d(str(path))
+
+
+def _params(c: Any) -> dict[tuple[str, str], dict[str, Any]]:
+    out: dict[tuple[str, str], dict[str, Any]] = {}
+    for g, params in c["parameters"].items():
+        if g == "__METADATA__":
+            continue
+        out[(g, "__GROUP__")] = dict(params["__METADATA__"])
+        for name, p in params.items():
+            if name != "__METADATA__":
+                out[(g, name)] = p
+    return out
+
+
+def _same_value(a: Any, b: Any) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f"))
+    return bool(a == b)
+
+
+def compare_parameters(before: Any, after: Any) -> None:
+    """Every group and parameter of ``before`` in ``after`` with the same value, type,
+    description and lock; only DATA_START and the sign of POINT:SCALE may differ."""
+    pb, pa = _params(before), _params(after)
+    assert set(pb) == set(pa), (set(pb) ^ set(pa))
+    for key, p in pb.items():
+        q = pa[key]
+        if key in STORAGE:
+            continue
+        if key == ("POINT", "SCALE"):
+            assert np.array_equal(np.abs(p["value"]), np.abs(q["value"]))
+            continue
+        for field in p:
+            if field == "value":
+                assert _same_value(p["value"], q["value"]), key
+            else:
+                assert p[field] == q[field], (key, field)
+
+
+def _bounds(a: C3DArchive, M: int, E: float) -> np.ndarray:
+    """Per C3D point, the bound its coordinates must meet (markers E, model outputs theirs)."""
+    out = np.zeros((len(a.slots), 3))
+    assert a.model_bounds is not None
+    for p, s in enumerate(a.slots):
+        out[p] = E if s < M else a.model_bounds[s - M]
+    return out
+
+
+def _f32_slack(x: np.ndarray) -> np.ndarray:
+    """float32 storage rounds a float64 coordinate by at most half a binary32 ulp."""
+    return np.spacing(np.abs(x).astype(np.float32)).astype(np.float64)
+
+
+@pytest.fixture(scope="module", params=["default", "1mm"])
+def bound(request: Any) -> str:
+    return str(request.param)
+
+
+def _roundtrip(src: Path, tmp: Path, bound: str) -> tuple[Any, Any, float]:
+    m = read(src)
+    opts = EncodeOptions() if bound == "default" else EncodeOptions(max_error=1.0)
+    data, rep = encode_motion(m, opts)
+    back = mpz.decode(data)
+    assert "c3d" in back.extras
+    out = tmp / ("back-" + src.name)
+    write(back, out)
+    assert rep.bound is not None
+    return m, back, float(rep.bound)
+
+
+# ------------------------------------------------------------- the round trip --
+@pytest.mark.parametrize("name", C3D_FILES)
+def test_c3d_comes_back_whole(shared_data, tmp_path, name, bound):
+    src = shared_data / "c3d" / name
+    m, back, E = _roundtrip(src, tmp_path, bound)
+    out = tmp_path / ("back-" + name)
+    a = back.extras["c3d"]
+    # the markers of the decoded motion: within the bound, same gaps (our decoder)
+    assert np.array_equal(m.valid, back.valid)
+    assert mpz.max_error(m, back) <= E
+    if name in NOT_EZC3D:
+        _compare_numpy_reader(src.read_bytes(), out.read_bytes(), a, back.n_markers, E)
+        return
+    before, after = _ez(src), _ez(out)
+    # header: rates, first and last frame, analog samples per frame
+    for part in ("points", "analogs"):
+        for key in ("size", "frame_rate", "first_frame", "last_frame"):
+            assert before["header"][part][key] == after["header"][part][key], (part, key)
+    assert before["header"]["events"] == after["header"]["events"]
+    compare_parameters(before, after)
+    # analog exactly (ezc3d's own scaled values, NaN where NaN)
+    ab, aa = before["data"]["analogs"], after["data"]["analogs"]
+    assert ab.shape == aa.shape and np.array_equal(ab, aa, equal_nan=True)
+    # residuals and camera masks exactly
+    for key in ("residuals", "camera_masks"):
+        assert np.array_equal(before["data"]["meta_points"][key],
+                              after["data"]["meta_points"][key], equal_nan=True), key
+    # points: the same gaps; markers within E, model outputs within their own bounds
+    pb, pa = before["data"]["points"][:3], after["data"]["points"][:3]
+    assert np.array_equal(np.isnan(pb), np.isnan(pa))
+    ok = ~np.isnan(pb)
+    lim = _bounds(a, back.n_markers, E).T[:, :, None] + _f32_slack(pb)
+    err = np.abs(pa - pb)
+    assert (err[ok] <= np.broadcast_to(lim, err.shape)[ok]).all(), float(err[ok].max())
+
+
+def _compare_numpy_reader(orig: bytes, written: bytes, a: C3DArchive, M: int, E: float) -> None:
+    """The files ezc3d refuses: what mpz.io.c3dbin sees must come back."""
+    d0, d1 = c3dbin.parse_c3d(orig), c3dbin.parse_c3d(written)
+    assert d1.processor == c3dbin.PROC_INTEL
+    # header words other than the block pointers, the scale and the data start
+    for lo, hi in ((2, 12), (18, 512)):
+        assert d0.header_block[lo:hi] == d1.header_block[lo:hi]
+    rec0 = [r for r in d0.records if r.name.upper() != b"DATA_START"]
+    rec1 = [r for r in d1.records if r.name.upper() != b"DATA_START"]
+    assert rec0 == rec1
+    assert np.array_equal(d0.point_words.astype(np.float64), d1.point_words.astype(np.float64))
+    assert np.array_equal(d0.analog.astype(np.float64), d1.analog.astype(np.float64))
+    ok = d0.residual_words >= 0
+    lim = _bounds(a, M, E)[None] + _f32_slack(d0.points)
+    err = np.abs(d1.points - d0.points)
+    assert (err[ok] <= np.broadcast_to(lim, err.shape)[ok]).all()
+
+
+# --------------------------------------------------------- what the issue saw --
+def test_auckland_model_outputs_are_not_markers(shared_data):
+    """RHipPower ranges -0.52..1.64 W: under the 1 mm marker bound it lost 0.93 W."""
+    m = read(shared_data / "c3d" / "auckland_FMC_MH0222_BP06.c3d")
+    a = m.extras["c3d"]
+    assert m.n_markers == 54 and a.models.shape[1] == 36
+    assert "RHipPower" not in m.names
+    data, _ = encode_motion(m, EncodeOptions(max_error=1.0))
+    back = mpz.decode(data).extras["c3d"]
+    ok = a.model_valid
+    span = np.nanmax(a.models, axis=0) - np.nanmin(a.models, axis=0)      # [J, 3]
+    err = np.where(ok[:, :, None], np.abs(back.models - a.models), 0.0).max(axis=0)
+    assert (err <= 1e-4 * span + 1e-12).all()
+
+
+def test_default_encode_declares_a_bound(shared_data):
+    """cmu_02_01 came back with 26 mm of error from a default encode (issue 12)."""
+    m = read(shared_data / "c3d" / "cmu_02_01.c3d")
+    data, rep = encode_motion(m, EncodeOptions())
+    h = mpz.decode(data)
+    assert rep.bound == pytest.approx(0.1) and mpz.max_error(m, h) <= 0.1
+    from mpz.decoder import read_stream
+    s = read_stream(data)
+    assert s.header.error_metric == 1 and s.header.error_bound == pytest.approx(0.1)
+    assert (s.header.version_major, s.header.version_minor) == (1, 1)
+
+
+def test_int16_c3d_is_exact_on_its_grid_by_default(shared_data):
+    m = read(shared_data / "c3d" / "c3dorg_Eb015pi.c3d")
+    data, rep = encode_motion(m, EncodeOptions())
+    back = mpz.decode(data)
+    assert rep.bound == 0.0
+    assert np.array_equal(back.positions[back.valid], m.positions[m.valid])
+
+
+def test_first_frame_and_events_survive(shared_data, tmp_path):
+    for name, first, events in (("auckland_FMC_MH0222_BP06.c3d", 397, 12),
+                                ("ezc3d_Qualisys.c3d", 704, 7),
+                                ("numediart_03_rolling.c3d", 1367, None),
+                                ("cmu_02_01.c3d", 49, 0)):
+        src = shared_data / "c3d" / name
+        m = read(src)
+        back = mpz.decode(mpz.encode(m, max_error=1.0))
+        write(back, tmp_path / name)
+        c = _ez(tmp_path / name)
+        assert c["header"]["points"]["first_frame"] == first
+        if events is not None:
+            assert int(c["parameters"]["EVENT"]["USED"]["value"][0]) == events
+
+
+def test_duplicate_labels_come_back_exactly(shared_data, tmp_path):
+    src = shared_data / "c3d" / "c3dorg_Sample_Jump2.c3d"
+    before = _ez(src)["parameters"]["POINT"]["LABELS"]["value"]
+    assert before.count("RKNE") == 2
+    back = mpz.decode(mpz.encode(read(src), max_error=1.0))
+    write(back, tmp_path / "j.c3d")
+    assert _ez(tmp_path / "j.c3d")["parameters"]["POINT"]["LABELS"]["value"] == before
+
+
+def test_one_point_zero_decoder_still_decodes_the_markers(shared_data, monkeypatch):
+    """§2.1: the archive chunks are ancillary. A 1.0 decoder, here the reference decoder
+    with the four types taken out of its chunk table, skips them as unknown (§2.3) and
+    decodes the same markers."""
+    from mpz.chunks import CHUNKS
+    m = read(shared_data / "c3d" / "c3dorg_Sample_Jump2.c3d")
+    data = mpz.encode(m)
+    full = mpz.decode(data)
+    for t in ("chdr", "cprm", "cpnt", "cana"):
+        monkeypatch.delitem(CHUNKS, t)
+    old = mpz.decode(data)
+    assert "c3d" not in old.extras
+    assert old.names == full.names
+    assert np.array_equal(old.as_nan(), full.as_nan(), equal_nan=True)

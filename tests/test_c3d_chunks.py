@@ -1,0 +1,243 @@
+"""The C3D archive chunks (spec §4.13, §6.9): each § rule, the exact channel codec, and
+hostile input (truncations, mutated payloads with repaired CRCs, length fields at their
+maximum): only MPZError may escape. Synthetic data only (make_vectors.c3d_motion)."""
+from __future__ import annotations
+
+import dataclasses
+import struct
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+import numpy as np
+import pytest
+
+import mpz
+from mpz import container
+from mpz.c3dcodec import decode_channel, encode_channel, ordered, plan, unordered
+from mpz.chunks import CHUNKS, Context
+from mpz.entropy import BlockDecoder, BlockEncoder
+from mpz.errors import FormatError, LimitExceededError, MPZError
+from mpz.tools.make_vectors import c3d_motion
+
+
+@pytest.fixture(scope="module")
+def archive_file() -> bytes:
+    return mpz.encode(c3d_motion(5, storage=1, F=12, M=4, J=2, C=2, n=2), max_error=1.0)
+
+
+@pytest.fixture(scope="module")
+def int16_file() -> bytes:
+    return mpz.encode(c3d_motion(6, storage=0, F=12, M=4, J=1, C=2, n=3))
+
+
+def _records(data: bytes) -> dict:
+    return {c.type: c.record for c in container.scan(data).chunks}
+
+
+def _ctx(data: bytes) -> Context:
+    chunks = container.scan(data).chunks
+    return Context(chunks[0].record, 1 << 26, types=tuple(c.type for c in chunks))
+
+
+# ------------------------------------------------------------- round trip --
+def test_archive_comes_back_bit_for_bit(archive_file):
+    m = c3d_motion(5, storage=1, F=12, M=4, J=2, C=2, n=2)
+    a, b = m.extras["c3d"], mpz.decode(archive_file).extras["c3d"]
+    assert a.records == b.records and a.header == b.header and a.slots == b.slots
+    assert a.words.view(np.uint32).tolist() == b.words.view(np.uint32).tolist()
+    assert a.analog.view(np.uint32).tolist() == b.analog.view(np.uint32).tolist()
+    assert np.array_equal(a.model_valid, b.model_valid)
+    err = np.abs(a.models - b.models)[a.model_valid]
+    assert (err.reshape(-1, 3) <= b.model_bounds.max(axis=0) + 1e-12).all()
+
+
+def test_version_minor_is_1_only_with_archive_chunks(archive_file):
+    from mpz.decoder import read_stream
+    assert read_stream(archive_file).header.version_minor == 1
+    plain = mpz.encode(mpz.synth.generate("walk", frames=10, markers=4, seed=1), max_error=1.0)
+    assert read_stream(plain).header.version_minor == 0
+
+
+# ------------------------------------------------------------- § rules --
+def _fails(data: bytes, ctype: str, section: str, err: type = FormatError, **changes) -> None:
+    rec = dataclasses.replace(_records(data)[ctype], **changes)
+    with pytest.raises(err) as info:
+        rec.check(_ctx(data))
+    assert info.value.section == section, str(info.value)
+
+
+def test_chdr_rules(archive_file):
+    _fails(archive_file, "chdr", "§4.13.1", processor=83)
+    blk = bytearray(_records(archive_file)["chdr"].block)
+    blk[1] = 0
+    _fails(archive_file, "chdr", "§4.13.1", block=bytes(blk))
+
+
+def test_set_rules(archive_file):
+    ctx = _ctx(archive_file)
+    rec = _records(archive_file)["chdr"]
+    for types in (ctx.types + ("chdr",), tuple(t for t in ctx.types if t != "cpnt"),
+                  ctx.types + ("cana",)):
+        with pytest.raises(FormatError, match="C3D archive"):
+            rec.check(dataclasses.replace(ctx, types=types))
+
+
+@pytest.mark.parametrize("index,changes", [
+    (0, {"group": 0}), (0, {"name": b""}), (0, {"name": b"x" * 128}), (0, {"locked": 2}),
+    (1, {"type": 3}), (1, {"dims": b"\x01" * 8}),
+])
+def test_cprm_record_rules(archive_file, index, changes):
+    prm = _records(archive_file)["cprm"]
+    recs = list(prm.records)
+    recs[index] = dataclasses.replace(recs[index], **changes)
+    with pytest.raises(FormatError):
+        dataclasses.replace(prm, records=tuple(recs)).check(_ctx(archive_file))
+
+
+@pytest.mark.parametrize("changes", [
+    {"mode": 2}, {"shift": 105}, {"shift": -129}, {"order": 3}, {"low_bits": 4},
+    {"mode": 1, "shift": 2},
+])
+def test_channel_entry_rules(archive_file, changes):
+    pnt = _records(archive_file)["cpnt"]
+    words = list(pnt.words)
+    words[0] = dataclasses.replace(words[0], **changes)
+    _fails(archive_file, "cpnt", "§4.13.3", words=tuple(words))
+
+
+def test_int16_storage_needs_integer_channels(int16_file):
+    ana = _records(int16_file)["cana"]
+    table = list(ana.table)
+    table[0] = dataclasses.replace(table[0], mode=1)
+    _fails(int16_file, "cana", "§4.13.4", table=tuple(table))
+
+
+def test_cpnt_and_cana_limits(archive_file):
+    _fails(archive_file, "cpnt", "§8", LimitExceededError, model_count=4097)
+    _fails(archive_file, "cana", "§4.13.4", channels=2, samples=40000)
+    big = dataclasses.replace(_records(archive_file)["cana"], samples=1 << 15, channels=1)
+    ctx = _ctx(archive_file)
+    hdr = dataclasses.replace(ctx.header, frame_count=1 << 14)
+    with pytest.raises(LimitExceededError):
+        big.check(dataclasses.replace(ctx, header=hdr))
+
+
+def test_model_axis_rules(archive_file):
+    pnt = _records(archive_file)["cpnt"]
+    for change in ({"step": 0.0}, {"step": float("nan")}, {"step": 2.0 ** 1000},
+                   {"bound": -0.5}, {"offset": float("inf")}, {"order": 3}):
+        models = list(pnt.models)
+        axes = list(models[0].axes)
+        axes[2] = dataclasses.replace(axes[2], **change)
+        models[0] = dataclasses.replace(models[0], axes=tuple(axes))
+        _fails(archive_file, "cpnt", "§4.13.3", models=tuple(models))
+
+
+# ----------------------------------------------------------- the channel codec --
+floats = st.floats(width=32, allow_nan=True, allow_infinity=True)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(floats, min_size=1, max_size=40))
+def test_float_channels_are_bit_exact(values):
+    x = np.array(values, "<f4")
+    p = plan(x)
+    enc = BlockEncoder()
+    encode_channel(enc, p)
+    dec = BlockDecoder(enc.finish())
+    back = decode_channel(dec, x.size, p.mode, p.shift, p.order, p.low_bits,
+                          np.dtype("<f4"), "§6.9")
+    dec.close()
+    assert back.view(np.uint32).tolist() == x.view(np.uint32).tolist()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.integers(-32768, 32767), min_size=1, max_size=40))
+def test_int16_channels_are_exact(values):
+    x = np.array(values, "<i2")
+    p = plan(x)
+    enc = BlockEncoder()
+    encode_channel(enc, p)
+    dec = BlockDecoder(enc.finish())
+    back = decode_channel(dec, x.size, p.mode, p.shift, p.order, p.low_bits,
+                          np.dtype("<i2"), "§6.9")
+    dec.close()
+    assert back.tolist() == x.tolist()
+
+
+def test_ordered_map_is_monotonic_and_inverts():
+    x = np.array([-np.inf, -1e38, -1.0, -1e-45, -0.0, 0.0, 1e-45, 1.0, 3e38, np.inf], "<f4")
+    v = ordered(x.view(np.uint32))
+    assert (np.diff(v) > 0).all() and v[4] == -1 and v[5] == 0
+    assert unordered(v).tolist() == x.view(np.uint32).tolist()
+
+
+def test_fixed_point_floats_take_mode_0():
+    x = (np.arange(-50, 50) * 2.0 ** -15).astype("<f4")
+    p = plan(x)
+    assert (p.mode, p.shift) == (0, -15)
+    assert plan(np.array([0.0, -0.0], "<f4")).mode == 1        # -0.0 keeps its sign bit
+
+
+# ------------------------------------------------------------- hostile input --
+def _only_mpz_errors(data: bytes) -> None:
+    try:
+        mpz.decode(data)
+    except MPZError:
+        pass
+
+
+def test_truncation_at_every_byte_of_the_archive_chunks(archive_file):
+    chunks = container.scan(archive_file).chunks
+    start = next(c.offset for c in chunks if c.type == "chdr")
+    for n in range(start, len(archive_file), 7):
+        with pytest.raises(MPZError):
+            mpz.decode(archive_file[:n])
+
+
+def test_mutated_archive_payloads_with_repaired_crcs(archive_file):
+    rng = np.random.default_rng(12)
+    chunks = container.scan(archive_file).chunks
+    spans = [(c.offset + 8, c.offset + 8 + c.length) for c in chunks
+             if c.type in ("chdr", "cprm", "cpnt", "cana")]
+    for _ in range(300):
+        lo, hi = spans[int(rng.integers(len(spans)))]
+        b = bytearray(archive_file)
+        for _ in range(int(rng.integers(1, 4))):
+            b[int(rng.integers(lo, hi))] = int(rng.integers(256))
+        _only_mpz_errors(container.repair_crcs(bytes(b)))
+
+
+@pytest.mark.parametrize("ctype,field_offset,width", [
+    ("cprm", 0, 2),            # record count
+    ("cpnt", 1, 2),            # point_count
+    ("cana", 1, 2),            # channels
+    ("cana", 3, 2),            # samples
+])
+def test_length_fields_at_their_maximum(archive_file, ctype, field_offset, width):
+    c = next(c for c in container.scan(archive_file).chunks if c.type == ctype)
+    b = bytearray(archive_file)
+    at = c.offset + 8 + field_offset
+    b[at:at + width] = b"\xff" * width
+    with pytest.raises(MPZError):
+        mpz.decode(container.repair_crcs(bytes(b)))
+
+
+def test_cprm_dimensions_at_their_maximum(archive_file):
+    """7 dimensions of 255 declare about 2^57 data bytes: malformed, nothing allocated."""
+    prm = _records(archive_file)["cprm"]
+    recs = list(prm.records)
+    i = next(k for k, r in enumerate(recs) if not r.is_group)
+    payload = bytearray(prm.dump())
+    raw = recs[i]
+    head = struct.pack("<bB", raw.group, raw.locked) + bytes([len(raw.name)]) + raw.name
+    at = payload.index(head) + len(head) + 1 + len(raw.description) + 1
+    payload[at:at + 1 + len(raw.dims or b"")] = bytes([7]) + b"\xff" * 7
+    chunks = [(c.type, bytes(payload) if c.type == "cprm" else c.payload)
+              for c in container.scan(archive_file).chunks]
+    with pytest.raises(FormatError):
+        mpz.decode(container.build(chunks))
+
+
+def test_every_archive_chunk_type_is_in_the_table():
+    assert [t for t in CHUNKS if t[0] == "c"] == ["chdr", "cprm", "cpnt", "cana"]
