@@ -1,101 +1,63 @@
-"""Acclaim ASF/AMC (CMU, HDM05) reading.
+"""Acclaim ASF/AMC (CMU, HDM05) reading and writing.
 
-Contract: :func:`parse_asf` turns ASF text into a :class:`Skeleton`;
-:func:`parse_amc` turns AMC text plus a skeleton into a :class:`mpz.Motion`
-of joint positions: the root, then the end point of every bone in ASF
-order, with ``parents`` from ``:hierarchy`` and every DOF channel in
-``angles``. :func:`read_amc` is the thin file wrapper.
+Contract: :func:`parse_asf` turns ASF text into a :class:`mpz.io.kinematics.Skeleton`
+(the root is joint 0, the bones follow with every parent before its children);
+:func:`parse_amc` turns AMC text plus a skeleton into a :class:`mpz.Motion` of joint
+positions: the root, then the end point of every bone, with ``parents`` from
+``:hierarchy``, every dof channel in ``angles`` and the skeleton (with the layout of
+the AMC: header lines, first frame number, the order of the bone lines) in
+``extras["skeleton"]``. :func:`format_asf` / :func:`format_amc` are the inverse, and
+:func:`read_amc` / :func:`write_amc` the thin file wrappers.
 
-Forward kinematics (the Acclaim convention, as in the CMU viewer): with
-``C`` the bone's ``axis`` rotation and ``M`` its DOF rotation,
-``W_bone = W_parent @ C @ M @ C^-1`` and
-``end = start + W_bone @ (direction * length)``; bone starts are the
-parent bone's end (the root position for children of the root).
-Rotation order: ``axis ... XYZ`` and ``dof rx ry rz`` both mean "X first",
-i.e. ``R = Rz @ Ry @ Rx``.
+Forward kinematics (the Acclaim convention, as in the CMU viewer): see
+:mod:`mpz.io.kinematics`. Rotation order: ``axis ... XYZ`` and ``dof rx ry rz`` both
+mean "X first", i.e. ``R = Rz @ Ry @ Rx``.
 
 Units: lengths are multiplied by ``(1 / :units length) * 25.4`` to give
 millimetres (CMU ``length 0.45``: one file unit is 1/0.45 inch). This is
 checked against the C3D of the same CMU take in docs/io-notes.md.
+
+Not kept: ASF keywords other than those above (``:skin``, a bone's ``bodymass`` ...)
+are listed in ``metadata["asf_dropped"]`` (and ``mpz encode`` says so).
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import glob
+import math
 import os
+import re
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
+from mpz.format import ChannelKind
 from mpz.io._common import StrPath, decode_text, reader
-from mpz.io.kinematics import axis_rotation
+from mpz.io.bvh import num, skeleton_of, text_encoding
+from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, forward
 from mpz.motion import Motion
 
-MM_PER_INCH = 25.4
-_DOF = {"rx", "ry", "rz", "tx", "ty", "tz", "l"}
+_DOF = {name: int(kind) for kind, name in ASF_DOFS.items()}
 MAX_BONES = 1000
-
-
-@dataclass
-class Bone:
-    """One ``:bonedata`` entry of an ASF file (``dof`` lower-case, e.g. ``"rx"``)."""
-
-    name: str
-    direction: NDArray[np.float64]
-    length: float
-    axis: NDArray[np.float64]  # degrees
-    axis_order: str
-    dof: list[str] = field(default_factory=list)
-
-
-@dataclass
-class Skeleton:
-    """What an ASF file defines.
-
-    Attributes
-    ----------
-    bones : list of Bone
-        In ASF order (the root is not a bone).
-    parent : dict
-        Bone name -> parent name (``"root"`` for children of the root).
-    root_order : list of str
-        AMC channel order of the root, e.g. ``["TX", "TY", "TZ", "RX", "RY", "RZ"]``.
-    root_axis : str
-        Rotation order of the root, e.g. ``"XYZ"``.
-    root_position, root_orientation : ndarray
-    length_unit : float
-        ``:units length``: file lengths are inches / this value.
-    angle_unit : str
-        ``"deg"`` or ``"rad"``.
-    """
-
-    bones: list[Bone]
-    parent: dict[str, str]
-    root_order: list[str]
-    root_axis: str
-    root_position: NDArray[np.float64]
-    root_orientation: NDArray[np.float64]
-    length_unit: float = 1.0
-    angle_unit: str = "deg"
-    name: str = ""
-
-    @property
-    def mm_per_unit(self) -> float:
-        """Millimetres per ASF/AMC length unit: ``25.4 / length_unit``."""
-        return MM_PER_INCH / self.length_unit
+#: the ASF keywords this module reads (anything else is reported as dropped)
+_SECTIONS = {"version", "name", "units", "documentation", "root", "bonedata", "hierarchy"}
+_BONE_KEYS = {"begin", "end", "id", "name", "direction", "length", "axis", "dof", "limits"}
 
 
 def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"ASF/AMC: {msg}")
 
 
-def _sections(text: str) -> dict[str, list[str]]:
-    """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':'."""
+def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
+    """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':', and the
+    comment lines that come before the first keyword (their text after the '#')."""
     out: dict[str, list[str]] = {}
+    comments: list[str] = []
     cur = None
     for raw in text.splitlines():
+        if cur is None and raw.lstrip().startswith("#"):
+            comments.append(raw.lstrip()[1:])
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue
@@ -107,10 +69,10 @@ def _sections(text: str) -> dict[str, list[str]]:
                 out[cur].append(parts[1])
         elif cur is not None:
             out[cur].append(line)
-    return out
+    return out, comments
 
 
-def _keyvals(lines: Iterable[str]) -> dict[str, list[str]]:
+def _keyvals(lines: list[str]) -> dict[str, list[str]]:
     """``{first word (lower case): the other words}`` of each line."""
     kv = {}
     for ln in lines:
@@ -119,82 +81,131 @@ def _keyvals(lines: Iterable[str]) -> dict[str, list[str]]:
     return kv
 
 
-def _vec3(vals: list[str], what: str) -> NDArray[np.float64]:
+def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
     if len(vals) < 3:
         raise _bad(f"{what} needs 3 numbers, got {vals}")
-    return np.array([float(v) for v in vals[:3]])
+    return float(vals[0]), float(vals[1]), float(vals[2])
 
 
-def parse_asf(text: str) -> Skeleton:
+def _limits(text: str, what: str) -> list[tuple[float, float]]:
+    """``(lo hi)`` pairs of a ``limits`` entry; ``inf`` and ``-inf`` allowed."""
+    pairs = re.findall(r"\(\s*([^\s()]+)\s+([^\s()]+)\s*\)", text)
+    rest = re.sub(r"\(\s*[^\s()]+\s+[^\s()]+\s*\)", "", text).strip()
+    if rest:
+        raise _bad(f"bad limits of {what}: {text!r}")
+    out = [(float(a), float(b)) for a, b in pairs]
+    if any(math.isnan(v) for p in out for v in p):
+        raise _bad(f"NaN in the limits of {what}")
+    return out
+
+
+@dataclass
+class _RawBone:
+    """One ``begin`` ... ``end`` block of ``:bonedata``: its fields as words, its limits."""
+
+    fields: dict[str, list[str]] = field(default_factory=dict)
+    limits: list[tuple[float, float]] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        return self.fields["name"][0] if self.fields.get("name") else "?"
+
+
+def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
+    """The bone blocks of ``:bonedata``; keys this module does not read go to ``dropped``."""
+    bones: list[_RawBone] = []
+    cur: _RawBone | None = None
+    last = ""
+    for ln in lines:
+        parts = ln.split()
+        key = parts[0].lower()
+        if key == "begin":
+            cur, last = _RawBone(), ""
+            continue
+        if cur is None:
+            continue
+        if key == "end":
+            if not cur.fields.get("name"):
+                raise _bad("bone without a name")
+            bones.append(cur)
+            if len(bones) > MAX_BONES:
+                raise _bad(f"more than {MAX_BONES} bones")
+            cur = None
+        elif key == "limits":
+            cur.limits += _limits(ln.split(None, 1)[1] if len(parts) > 1 else "", cur.name)
+            last = key
+        elif last == "limits" and ln.startswith("("):
+            cur.limits += _limits(ln, cur.name)       # one more (lo hi) pair per line
+        elif key in _BONE_KEYS:
+            cur.fields[key] = parts[1:]
+            last = key
+        else:
+            dropped.append(f"bone {cur.name}: {key}")
+            last = key
+    if cur is not None:
+        raise _bad("'begin' without 'end' in :bonedata")
+    return bones
+
+
+def parse_asf(text: str, *, encoding: str = "utf-8") -> Skeleton:
     """Parse an ASF skeleton.
 
     Parameters
     ----------
     text : str
+    encoding : {"utf-8", "latin-1"}, optional
+        How the text was decoded (kept for writing it back).
 
     Returns
     -------
     Skeleton
+        ``convention="asf"``: joint 0 is the root, the bones follow with each parent
+        before its children (ASF order otherwise). ``metadata`` of the motion later lists
+        what was not kept (see :func:`dropped`).
 
     Raises
     ------
     InputFormatError
         If ``:root``, ``:bonedata`` or ``:hierarchy`` is missing or malformed.
     """
-    sec = _sections(text)
+    skel, _ = _parse_asf(text, encoding)
+    return skel
+
+
+def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
+    sec, comments = _sections(text)
+    dropped = [f":{k}" for k in sec if k not in _SECTIONS]
     for need in ("root", "bonedata", "hierarchy"):
         if need not in sec:
             raise _bad(f"ASF has no :{need} section")
     units = _keyvals(sec.get("units", []))
-    length_unit = float(units.get("length", ["1.0"])[0])
-    if not length_unit > 0:
-        raise _bad(f":units length must be positive, got {length_unit}")
+    dropped += [f":units {k}" for k in units if k not in ("mass", "length", "angle")]
+    length = float(units.get("length", ["1.0"])[0])
+    if not (math.isfinite(length) and length > 0):
+        raise _bad(f":units length must be positive, got {length}")
     angle_unit = units.get("angle", ["deg"])[0].lower()
     if angle_unit not in ("deg", "rad"):
         raise _bad(f"unknown :units angle {angle_unit!r}")
     root = _keyvals(sec["root"])
-    root_order = [c.upper() for c in root.get("order", ["TX", "TY", "TZ", "RX", "RY", "RZ"])]
+    dropped += [f":root {k}" for k in root if k not in ("order", "axis", "position",
+                                                         "orientation")]
+    order = [c.lower() for c in root.get("order", ["TX", "TY", "TZ", "RX", "RY", "RZ"])]
+    if any(c not in _DOF or c == "l" for c in order) or len(set(order)) != len(order):
+        raise _bad(f"bad root order {order}")
     root_axis = root.get("axis", ["XYZ"])[0].upper()
-    root_position = _vec3(root.get("position", ["0", "0", "0"]), "root position")
-    root_orientation = _vec3(root.get("orientation", ["0", "0", "0"]), "root orientation")
+    if sorted(root_axis) != ["X", "Y", "Z"]:
+        raise _bad(f"bad root axis order {root_axis!r}")
+    root_joint = Joint("root", -1, tuple(_DOF[c] for c in order),
+                       _vec3(root.get("position", ["0", "0", "0"]), "root position"),
+                       axis=_vec3(root.get("orientation", ["0", "0", "0"]), "root orientation"),
+                       axis_order=root_axis)
 
-    bones: list[Bone] = []
-    cur: dict[str, list[str]] | None = None
-    for ln in sec["bonedata"]:
-        parts = ln.split()
-        key = parts[0].lower()
-        if key == "begin":
-            cur = {}
-        elif key == "end":
-            if cur is None:
-                raise _bad("'end' without 'begin' in :bonedata")
-            if "name" not in cur:
-                raise _bad("bone without a name")
-            axis = cur.get("axis", ["0", "0", "0", "XYZ"])
-            bones.append(Bone(
-                name=cur["name"][0],
-                direction=_vec3(cur.get("direction", []), f"direction of {cur['name'][0]}"),
-                length=float(cur.get("length", ["nan"])[0]),
-                axis=_vec3(axis, f"axis of {cur['name'][0]}"),
-                axis_order=(axis[3] if len(axis) > 3 else "XYZ").upper(),
-                dof=[d.lower() for d in cur.get("dof", [])]))
-            if len(bones) > MAX_BONES:
-                raise _bad(f"more than {MAX_BONES} bones")
-            cur = None
-        elif cur is not None:
-            cur[key] = parts[1:]
-    if not bones:
+    raw = _bones(sec["bonedata"], dropped)
+    if not raw:
         raise _bad("no bones in :bonedata")
-    for b in bones:
-        if not np.isfinite(b.length):
-            raise _bad(f"bone {b.name!r} has no length")
-        bad = [d for d in b.dof if d not in _DOF]
-        if bad:
-            raise _bad(f"bone {b.name!r} has unknown dof {bad}")
-        if sorted(b.axis_order) != ["X", "Y", "Z"]:
-            raise _bad(f"bone {b.name!r} has bad axis order {b.axis_order!r}")
-
-    names = {b.name for b in bones}
+    names = [b.name for b in raw]
+    if len(set(names)) != len(names) or "root" in names:
+        raise _bad("bone names must be unique and not 'root'")
     parent: dict[str, str] = {}
     for ln in sec["hierarchy"]:
         parts = ln.split()
@@ -207,48 +218,59 @@ def parse_asf(text: str) -> Skeleton:
             if child not in names:
                 raise _bad(f":hierarchy names unknown bone {child!r}")
             parent[child] = p
-    missing = [b.name for b in bones if b.name not in parent]
+    missing = [n for n in names if n not in parent]
     if missing:
         raise _bad(f"bones not in :hierarchy: {missing}")
-    return Skeleton(bones, parent, root_order, root_axis, root_position, root_orientation,
-                    length_unit, angle_unit, (sec.get("name") or [""])[0])
+    joints = [root_joint]
+    index = {"root": 0}
+    for b in _ordered(raw, parent):
+        name, f = b.name, b.fields
+        axis = f.get("axis", ["0", "0", "0", "XYZ"])
+        dofs = [d.lower() for d in f.get("dof", [])]
+        if any(d not in _DOF for d in dofs) or len(set(dofs)) != len(dofs):
+            raise _bad(f"bone {name!r} has bad dof {dofs}")
+        axis_order = (axis[3] if len(axis) > 3 else "XYZ").upper()
+        if sorted(axis_order) != ["X", "Y", "Z"]:
+            raise _bad(f"bone {name!r} has bad axis order {axis_order!r}")
+        bone_len = float(f.get("length", ["nan"])[0])
+        if not math.isfinite(bone_len):
+            raise _bad(f"bone {name!r} has no length")
+        if b.limits and len(b.limits) != len(dofs):
+            raise _bad(f"bone {name!r} has {len(b.limits)} limits for {len(dofs)} dofs")
+        ids = f.get("id", [])
+        index[name] = len(joints)
+        joints.append(Joint(name, index[parent[name]], tuple(_DOF[d] for d in dofs),
+                            direction=_vec3(f.get("direction", []), f"direction of {name}"),
+                            length=bone_len, axis=_vec3(axis, f"axis of {name}"),
+                            axis_order=axis_order, limits=tuple(b.limits),
+                            bone_id=int(ids[0]) if ids else 0))
+    doc = "\n".join(sec.get("documentation", []))
+    skel = Skeleton("asf", tuple(joints), angle_unit=angle_unit, encoding=encoding,
+                    length=length, mass=" ".join(units.get("mass", [])),
+                    version=" ".join(sec.get("version", [])), name=" ".join(sec.get("name", [])),
+                    documentation=doc, comments="\n".join(comments))
+    return skel, dropped
 
 
-def _ordered(skel: Skeleton) -> list[Bone]:
-    """Bones ordered so that every parent precedes its children (stable)."""
+def _ordered(bones: list[_RawBone], parent: dict[str, str]) -> list[_RawBone]:
+    """Bones in ASF order, except that a bone listed before its parent moves to just after
+    the parent's place: every parent precedes its children (ASF order when it already does).
+    """
     done = {"root"}
-    out: list[Bone] = []
-    todo = list(skel.bones)
+    out: list[_RawBone] = []
+    todo = list(bones)
     while todo:
-        rest = [b for b in todo if skel.parent[b.name] not in done]
-        ready = [b for b in todo if skel.parent[b.name] in done]
-        if not ready:
-            raise _bad(f"cycle in :hierarchy around {[b.name for b in rest]}")
-        out += ready
-        done.update(b.name for b in ready)
-        todo = rest
+        k = next((i for i, b in enumerate(todo) if parent[b.name] in done), None)
+        if k is None:
+            raise _bad(f"cycle in :hierarchy around {[b.name for b in todo]}")
+        b = todo.pop(k)
+        out.append(b)
+        done.add(b.name)
     return out
 
 
-def _axes_matrix(order: str, deg: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Acclaim ``axis``/``dof`` rotation: the first letter is applied first."""
-    R = np.eye(3)
-    for ax in order:
-        R = axis_rotation(ax, np.array([deg["XYZ".index(ax)]]))[0] @ R
-    return R
-
-
-def _dof_matrices(dofs: list[str], vals: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Per-frame DOF rotations; ``dofs`` in file order, first applied first."""
-    F = vals.shape[0]
-    R = np.broadcast_to(np.eye(3), (F, 3, 3)).copy()
-    for k, d in enumerate(dofs):
-        if d[0] == "r":
-            R = axis_rotation(d[1].upper(), vals[:, k]) @ R
-    return R
-
-
-def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "") -> Motion:
+def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "",
+              encoding: str | None = None) -> Motion:
     """Parse AMC frames and compute joint positions by forward kinematics.
 
     Parameters
@@ -261,14 +283,16 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         Frames per second (AMC does not store it; CMU and HDM05 use 120).
     source : str, optional
         File name for the metadata.
+    encoding : {"utf-8", "latin-1"}, optional
+        How the AMC text was decoded (default: as the skeleton's).
 
     Returns
     -------
     Motion
         Points ``root`` then each bone's end, in mm; ``angles`` holds the root
-        channels then every bone's DOF values (file units: degrees or radians,
+        channels then every bone's dof values (file units: degrees or radians,
         root translation in ASF length units), ``angle_names`` like
-        ``"lfemur.rx"``.
+        ``"lfemur.rx"``; ``extras["skeleton"]`` the skeleton with the AMC's layout.
 
     Raises
     ------
@@ -276,22 +300,25 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         On a frame with a missing or unknown bone, a wrong value count,
         non-consecutive frame numbers, or no frames.
     """
-    bones = _ordered(skel)
-    by_name = {b.name: b for b in skel.bones}
-    # channel layout: root channels, then each bone's dofs in ASF order
-    chan_names = [f"root.{c.lower()}" for c in skel.root_order]
-    slot = {"root": (0, len(skel.root_order))}
-    for b in skel.bones:
-        slot[b.name] = (len(chan_names), len(b.dof))
-        chan_names += [f"{b.name}.{d}" for d in b.dof]
-    n_chan = len(chan_names)
+    if skel.convention != "asf":
+        raise _bad("parse_amc needs an ASF skeleton")
+    slot: dict[str, tuple[int, int, int]] = {}
+    for i, (j, s) in enumerate(zip(skel.joints, skel.channel_starts(), strict=True)):
+        slot[j.name] = (s, len(j.channels), i)
+    n_chan = skel.channel_count
 
-    frames: list[np.ndarray] = []
-    seen: set[str] = set()
+    frames: list[NDArray[np.float64]] = []
+    header: list[str] = []
+    seen: list[int] = []
+    order: list[int] | None = None
     cur: NDArray[np.float64] | None = None
+    first: int | None = None
     expected_frame: int | None = None
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].strip()
+        if cur is None and (not line or line.startswith(":")):
+            header.append(raw.rstrip("\r"))
+            continue
         if not line or line.startswith(":"):
             continue
         parts = line.split()
@@ -299,87 +326,57 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
             n = int(parts[0])
             if expected_frame is not None and n != expected_frame:
                 raise _bad(f"line {lineno}: frame {n} follows frame {expected_frame - 1}")
+            if first is None:
+                first = n
             expected_frame = n + 1
             if cur is not None:
-                _check_frame(seen, slot, lineno)
+                _check_frame(seen, skel, lineno)
                 frames.append(cur)
+                order = order if order is not None else list(seen)
             cur = np.full(n_chan, np.nan)
-            seen = set()
+            seen = []
             continue
         if cur is None:
             raise _bad(f"line {lineno}: data before the first frame number")
         name = parts[0]
         if name not in slot:
             raise _bad(f"line {lineno}: unknown bone {name!r}")
-        start, count = slot[name]
+        start, count, joint = slot[name]
         if len(parts) - 1 != count:
             raise _bad(f"line {lineno}: {name} has {len(parts) - 1} values, expected {count}")
+        if joint in seen:
+            raise _bad(f"line {lineno}: {name} appears twice in one frame")
         cur[start:start + count] = [float(v) for v in parts[1:]]
-        seen.add(name)
+        seen.append(joint)
     if cur is None:
         raise _bad("no frames in AMC")
-    _check_frame(seen, slot, "end")
+    _check_frame(seen, skel, "end")
     frames.append(cur)
+    order = order if order is not None else list(seen)
     values = np.array(frames)
     if not np.isfinite(values).all():
         raise _bad("non-finite value in AMC")
-
-    positions, parents, names = _forward(skel, bones, by_name, slot, values)
-    meta = {"format": "amc", "asf_length_unit": repr(skel.length_unit),
-            "mm_per_unit": repr(skel.mm_per_unit), "rate_assumed": repr(float(rate))}
+    while header and not header[-1].strip():
+        header.pop()
+    skel = replace(skel, amc_header="\n".join(header), first_frame=first or 0,
+                   amc_order=tuple(order), encoding=encoding or skel.encoding)
+    positions = forward(skel, values) * (MM_PER_INCH / skel.length)
+    meta = {"format": "amc", "asf_length_unit": repr(skel.length),
+            "mm_per_unit": repr(MM_PER_INCH / skel.length), "rate_assumed": repr(float(rate))}
     if source:
         meta["source"] = source
     if skel.name:
         meta["skeleton"] = skel.name
-    return Motion(positions, names, rate, "mm", None, meta, parents, values, chan_names)
+    names = [j.name for j in skel.joints]
+    return Motion(positions, names, rate, "mm", None, meta, skel.parents(), values,
+                  skel.channel_names(), {"skeleton": skel})
 
 
-def _check_frame(seen: set[str], slot: dict[str, tuple[int, int]], where: int | str) -> None:
-    missing = [n for n, (_, c) in slot.items() if n not in seen and (c > 0 or n == "root")]
+def _check_frame(seen: list[int], skel: Skeleton, where: int | str) -> None:
+    missing = [j.name for i, j in enumerate(skel.joints)
+               if i not in seen and (j.channels or i == 0)]
     if missing:
         raise _bad(f"frame ending at line {where} lacks {missing}")
-
-
-def _forward(skel: Skeleton, bones: list[Bone], by_name: dict[str, Bone],
-             slot: dict[str, tuple[int, int]],
-             values: NDArray[np.float64]) -> tuple[NDArray[np.float64], list[int], list[str]]:
-    """Forward kinematics: positions ``[F, 1 + bones, 3]`` (mm), parent indices, point names."""
-    F = values.shape[0]
-    to_rad = skel.angle_unit == "rad"
-    scale = skel.mm_per_unit
-
-    def deg(v: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.degrees(v) if to_rad else v
-
-    # root: translation channels add to the ASF root position
-    r0, rn = slot["root"]
-    rv = values[:, r0:r0 + rn]
-    trans = np.broadcast_to(skel.root_position, (F, 3)).copy()
-    rot_dofs: list[str] = []
-    rot_vals: list[NDArray[np.float64]] = []
-    for k, c in enumerate(skel.root_order):
-        if c.startswith("T"):
-            trans[:, "XYZ".index(c[1])] += rv[:, k]
-        elif c.startswith("R"):
-            rot_dofs.append(c.lower())
-            rot_vals.append(deg(rv[:, k]))
-    C = _axes_matrix(skel.root_axis, deg(skel.root_orientation))
-    M = _dof_matrices(rot_dofs, np.stack(rot_vals, axis=1) if rot_vals else np.zeros((F, 0)))
-    world = {"root": C @ M @ C.T}
-    end = {"root": trans}
-    for b in bones:
-        p = skel.parent[b.name]
-        C = _axes_matrix(b.axis_order, deg(b.axis))
-        s, n = slot[b.name]
-        M = _dof_matrices(b.dof, deg(values[:, s:s + n]))
-        W = world[p] @ C @ M @ C.T
-        world[b.name] = W
-        end[b.name] = end[p] + np.einsum("fij,j->fi", W, b.direction * b.length)
-    names = ["root"] + [b.name for b in skel.bones]
-    index = {n: i for i, n in enumerate(names)}
-    parents = [-1] + [index[skel.parent[b.name]] for b in skel.bones]
-    pos = np.stack([end[n] for n in names], axis=1) * scale
-    return pos, parents, names
 
 
 def find_asf(amc_path: StrPath) -> str:
@@ -411,7 +408,8 @@ def find_asf(amc_path: StrPath) -> str:
 def read_asf(path: StrPath) -> Skeleton:
     """Read an ASF skeleton file (see :func:`parse_asf`)."""
     with open(path, "rb") as fh:
-        return parse_asf(decode_text(fh.read()))
+        data = fh.read()
+    return parse_asf(decode_text(data), encoding=text_encoding(data))
 
 
 @reader
@@ -438,9 +436,113 @@ def read_amc(amc_path: StrPath, asf_path: StrPath | None = None, *,
     """
     if asf_path is None:
         asf_path = find_asf(amc_path)
-    skel = read_asf(asf_path)
+    with open(asf_path, "rb") as fh:
+        asf_data = fh.read()
+    skel, dropped = _parse_asf(decode_text(asf_data), text_encoding(asf_data))
     with open(amc_path, "rb") as fh:
-        text = decode_text(fh.read())
-    m = parse_amc(text, skel, rate=rate, source=os.path.basename(os.fspath(amc_path)))
+        data = fh.read()
+    m = parse_amc(decode_text(data), skel, rate=rate,
+                  source=os.path.basename(os.fspath(amc_path)), encoding=text_encoding(data))
     m.metadata["asf"] = os.path.basename(os.fspath(asf_path))
+    if dropped:
+        m.metadata["asf_dropped"] = "; ".join(dropped)
     return m
+
+
+# ------------------------------------------------------------------ writing --
+def format_asf(skel: Skeleton) -> str:
+    """The ASF text of a skeleton (``convention="asf"``)."""
+    out = [f"#{c}" for c in skel.comments.split("\n")] if skel.comments else []
+    if skel.version:
+        out.append(f":version {skel.version}")
+    if skel.name:
+        out.append(f":name {skel.name}")
+    out.append(":units")
+    if skel.mass:
+        out.append(f"  mass {skel.mass}")
+    out.append(f"  length {num(skel.length)}")
+    out.append(f"  angle {skel.angle_unit}")
+    if skel.documentation:
+        out.append(":documentation")
+        out += [f"   {ln}" for ln in skel.documentation.split("\n")]
+    root = skel.joints[0]
+    out.append(":root")
+    out.append("   order " + " ".join(ASF_DOFS[ChannelKind(c)].upper() for c in root.channels))
+    out.append(f"   axis {root.axis_order}")
+    out.append("   position " + " ".join(num(v) for v in root.offset))
+    out.append("   orientation " + " ".join(num(v) for v in root.axis))
+    out.append(":bonedata")
+    for b in skel.joints[1:]:
+        out.append("  begin")
+        if b.bone_id:
+            out.append(f"     id {b.bone_id}")
+        out.append(f"     name {b.name}")
+        out.append("     direction " + " ".join(num(v) for v in b.direction))
+        out.append(f"     length {num(b.length)}")
+        out.append("     axis " + " ".join(num(v) for v in b.axis) + f" {b.axis_order}")
+        if b.channels:
+            out.append("    dof " + " ".join(ASF_DOFS[ChannelKind(c)] for c in b.channels))
+        for k, (lo, hi) in enumerate(b.limits):
+            out.append(("    limits " if k == 0 else "           ") + f"({num(lo)} {num(hi)})")
+        out.append("  end")
+    out.append(":hierarchy")
+    out.append("  begin")
+    for i, j in enumerate(skel.joints):
+        kids = [c.name for c in skel.joints if c.parent == i]
+        if kids:
+            out.append(f"    {j.name} {' '.join(kids)}")
+    out.append("  end")
+    return "\n".join(out) + "\n"
+
+
+def format_amc(motion: Motion) -> str:
+    """The AMC text of a motion that has an ASF skeleton (see :func:`parse_amc`).
+
+    Raises
+    ------
+    InputFormatError
+        If the motion has no ASF skeleton.
+    """
+    skel = skeleton_of(motion, "asf")
+    values = motion.angles if motion.angles is not None else np.zeros((motion.n_frames, 0))
+    starts = skel.channel_starts()
+    order = list(skel.amc_order) or [i for i, j in enumerate(skel.joints)
+                                     if j.channels or i == 0]
+    out = skel.amc_header.split("\n") if skel.amc_header else [":FULLY-SPECIFIED", ":DEGREES"]
+    rows = values.tolist()
+    for t, row in enumerate(rows):
+        out.append(str(skel.first_frame + t))
+        for i in order:
+            j = skel.joints[i]
+            vals = row[starts[i]:starts[i] + len(j.channels)]
+            out.append(" ".join([j.name, *(num(v) for v in vals)]))
+    return "\n".join(out) + "\n"
+
+
+def default_asf_path(amc_path: StrPath) -> str:
+    """Where :func:`write_amc` puts the ASF by default: beside the AMC, with its stem
+    (``x.amc`` -> ``x.asf``, which :func:`find_asf` finds again)."""
+    return os.path.splitext(os.fspath(amc_path))[0] + ".asf"
+
+
+def write_asf(motion: Motion, path: StrPath) -> None:
+    """Write the ASF skeleton of a motion read from (or decoded from) AMC/ASF."""
+    skel = skeleton_of(motion, "asf")
+    with open(path, "wb") as fh:
+        fh.write(format_asf(skel).encode(skel.encoding, "replace"))
+
+
+def write_amc(motion: Motion, path: StrPath, *, asf: StrPath | None = None) -> None:
+    """Write the AMC of a motion with an ASF skeleton, and its ASF at ``asf`` (default:
+    beside it, :func:`default_asf_path`).
+
+    Raises
+    ------
+    InputFormatError
+        If the motion has no ASF skeleton.
+    """
+    skel = skeleton_of(motion, "asf")
+    text = format_amc(motion)
+    with open(path, "wb") as fh:
+        fh.write(text.encode(skel.encoding, "replace"))
+    write_asf(motion, default_asf_path(path) if asf is None else asf)

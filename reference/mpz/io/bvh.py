@@ -1,16 +1,19 @@
-"""BVH (Biovision hierarchy) reading.
+"""BVH (Biovision hierarchy) reading and writing.
 
 Contract: :func:`parse_bvh` takes the text of a BVH file and returns a
 :class:`mpz.Motion` of joint-centre trajectories computed by forward
 kinematics: one point per ROOT/JOINT, plus one per ``End Site`` named
 ``<parent>_End``, in file order. ``parents`` gives the hierarchy; the raw
-channel values are kept in ``angles`` with names like ``Hips.Xrotation``.
+channel values are kept in ``angles`` with names like ``Hips.Xrotation``, and the
+whole hierarchy (names, offsets, channel layout, frame time) in
+``extras["skeleton"]``, a :class:`mpz.io.kinematics.Skeleton`. :func:`format_bvh`
+and :func:`write_bvh` turn such a motion back into BVH text.
 
-Conventions: a joint's local transform is ``T(OFFSET + position channels)
-@ R``, where ``R`` multiplies the rotation channels in the order listed
-(``CHANNELS 3 Zrotation Xrotation Yrotation`` gives ``Rz @ Rx @ Ry``), the
-usual BVH reading. BVH has no unit field; units are ``""`` (the CMU
-conversions here are roughly centimetre-like, see docs/io-notes.md).
+Conventions: see :mod:`mpz.io.kinematics` (the usual BVH reading: a joint's local
+transform is ``T(OFFSET + position channels) @ R``, ``R`` the rotation channels
+multiplied in the order listed). BVH has no unit field; units are ``""`` unless the
+caller sets them (``mpz encode --units``; the CMU conversions here are roughly
+centimetre-like, see docs/io-notes.md).
 """
 from __future__ import annotations
 
@@ -20,25 +23,29 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
+from mpz.format import ChannelKind
 from mpz.io._common import StrPath, decode_text, reader
-from mpz.io.kinematics import axis_rotation
+from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
 from mpz.motion import Motion
 
-_CHANNELS = {"XPOSITION", "YPOSITION", "ZPOSITION", "XROTATION", "YROTATION", "ZROTATION"}
+_CODES = {name.upper(): int(kind) for kind, name in BVH_CHANNELS.items()}
 MAX_JOINTS = 10000  # sanity bound on the hierarchy size
 MAX_CHANNELS_PER_JOINT = 6 * 4  # generous: a joint rarely has more than 6
 
 
 class _Joint:
-    """A ROOT, JOINT or End Site: parent index (-1 for a root) and its channels."""
+    """A ROOT, JOINT or End Site while parsing: parent index (-1 for a root), channels."""
 
-    __slots__ = ("name", "parent", "offset", "channels", "first_channel", "end")
+    __slots__ = ("name", "parent", "offset", "channels", "end")
 
     def __init__(self, name: str, parent: int, end: bool = False) -> None:
         self.name, self.parent, self.end = name, parent, end
-        self.offset: NDArray[np.float64] = np.zeros(3)
-        self.channels: list[str] = []
-        self.first_channel = 0
+        self.offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self.channels: list[int] = []
+
+    def joint(self) -> Joint:
+        return Joint("" if self.end else self.name, self.parent, tuple(self.channels),
+                     self.offset, end_site=self.end)
 
 
 def _bad(msg: str) -> InputFormatError:
@@ -86,22 +93,24 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
         elif up == "OFFSET":
             if not stack:
                 raise _bad("OFFSET outside of a joint")
-            joints[stack[-1]].offset = np.array([float(x) for x in tokens[pos + 1:pos + 4]])
-            if joints[stack[-1]].offset.shape != (3,):
+            off = [float(x) for x in tokens[pos + 1:pos + 4]]
+            if len(off) != 3:
                 raise _bad("OFFSET needs 3 numbers")
+            joints[stack[-1]].offset = (off[0], off[1], off[2])
             pos += 4
         elif up == "CHANNELS":
             if not stack:
                 raise _bad("CHANNELS outside of a joint")
             j = joints[stack[-1]]
+            if j.end:
+                raise _bad(f"CHANNELS inside the End Site of {joints[j.parent].name!r}")
             n = int(tokens[pos + 1])
             if not 0 <= n <= MAX_CHANNELS_PER_JOINT:
                 raise _bad(f"bad channel count {n} for joint {j.name!r}")
             chans = tokens[pos + 2:pos + 2 + n]
-            if len(chans) != n or any(c.upper() not in _CHANNELS for c in chans):
+            if len(chans) != n or any(c.upper() not in _CODES for c in chans):
                 raise _bad(f"bad CHANNELS for joint {j.name!r}: {chans}")
-            j.channels = [c[0].upper() + c[1:].lower() for c in chans]
-            j.first_channel = n_channels
+            j.channels = [_CODES[c.upper()] for c in chans]
             n_channels += n
             pos += 2 + n
         else:
@@ -146,30 +155,7 @@ def frame_rate_from_frame_time(ft: float) -> float:
     return float(round(r)) if abs(r - round(r)) < 1e-3 else r
 
 
-def forward_kinematics(joints: list[_Joint], values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """World positions of every joint, shape (frames, joints, 3)."""
-    F = values.shape[0]
-    rot = np.empty((len(joints), F, 3, 3))
-    pos = np.empty((len(joints), F, 3))
-    for i, j in enumerate(joints):
-        trans = np.broadcast_to(j.offset, (F, 3)).copy()
-        R = np.broadcast_to(np.eye(3), (F, 3, 3)).copy()
-        for k, ch in enumerate(j.channels):
-            v = values[:, j.first_channel + k]
-            if ch.endswith("position"):
-                trans[:, "XYZ".index(ch[0])] += v
-            else:
-                R = R @ axis_rotation(ch[0], v)
-        if j.parent < 0:
-            pos[i], rot[i] = trans, R
-        else:
-            p = j.parent
-            pos[i] = pos[p] + np.einsum("fij,fj->fi", rot[p], trans)
-            rot[i] = rot[p] @ R
-    return pos.transpose(1, 0, 2)
-
-
-def parse_bvh(text: str, *, source: str = "") -> Motion:
+def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion:
     """Parse BVH text into a Motion of joint centres.
 
     Parameters
@@ -178,10 +164,13 @@ def parse_bvh(text: str, *, source: str = "") -> Motion:
         The whole file.
     source : str, optional
         File name for the metadata.
+    encoding : {"utf-8", "latin-1"}, optional
+        How the text was decoded from bytes (kept for writing it back).
 
     Returns
     -------
     Motion
+        With ``extras["skeleton"]`` the :class:`~mpz.io.kinematics.Skeleton`.
 
     Raises
     ------
@@ -216,15 +205,26 @@ def parse_bvh(text: str, *, source: str = "") -> Motion:
         else np.zeros((n_frames, 0))
     if not np.isfinite(values).all():
         raise _bad("non-finite channel value")
-    positions = forward_kinematics(joints, values)
-    angle_names = [f"{j.name}.{c}" for j in joints for c in j.channels]
+    skel = Skeleton("bvh", tuple(j.joint() for j in joints), frame_time=ft, encoding=encoding)
+    positions = forward(skel, values)
     meta = {"format": "bvh", "frame_time": repr(ft), "channels": str(n_channels),
             "joints": str(sum(not j.end for j in joints)),
             "end_sites": str(sum(j.end for j in joints))}
     if source:
         meta["source"] = source
+    names = [f"{j.name}.{BVH_CHANNELS[ChannelKind(c)]}" for j in joints for c in j.channels]
     return Motion(positions, _names(joints), rate, "", None, meta,
-                  [j.parent for j in joints], values, angle_names)
+                  [j.parent for j in joints], values, names, {"skeleton": skel})
+
+
+def text_encoding(data: bytes) -> str:
+    """``"utf-8"`` if ``data`` is UTF-8 (a BOM allowed), else ``"latin-1"``: what
+    :func:`mpz.io._common.decode_text` used."""
+    try:
+        data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return "latin-1"
+    return "utf-8"
 
 
 @reader
@@ -238,12 +238,129 @@ def read_bvh(path: StrPath) -> Motion:
     Returns
     -------
     Motion
-        Joint centres and end sites, ``units=""``, ``parents`` and ``angles`` set.
+        Joint centres and end sites, ``units=""``, ``parents``, ``angles`` and
+        ``extras["skeleton"]`` set.
 
     Raises
     ------
     InputFormatError
     """
     with open(path, "rb") as fh:
-        text = decode_text(fh.read())
-    return parse_bvh(text, source=os.path.basename(os.fspath(path)))
+        data = fh.read()
+    return parse_bvh(decode_text(data), source=os.path.basename(os.fspath(path)),
+                     encoding=text_encoding(data))
+
+
+# ------------------------------------------------------------------ writing --
+def num(x: float) -> str:
+    """A number as the shortest text that reads back as the same binary64 (``repr``),
+    without a trailing ``.0``: ``1.5`` -> ``'1.5'``, ``2.0`` -> ``'2'``, ``1e-14`` ->
+    ``'1e-14'``.
+
+    Examples
+    --------
+    >>> [num(v) for v in (1.5, 2.0, -0.0, 1e-14, 12.34)]
+    ['1.5', '2', '-0', '1e-14', '12.34']
+    """
+    r = repr(float(x))
+    return r[:-2] if r.endswith(".0") else r
+
+
+def skeleton_problem(motion: Motion, convention: str) -> str | None:
+    """Why ``motion`` cannot be written in the skeleton format of ``convention`` ("bvh" or
+    "asf"), or None when it can."""
+    skel = motion.extras.get("skeleton")
+    what = {"bvh": "BVH", "asf": "AMC/ASF"}[convention]
+    if not isinstance(skel, Skeleton) or skel.convention != convention:
+        have = "no skeleton" if not isinstance(skel, Skeleton) else \
+            f"a {skel.convention.upper()} skeleton"
+        return (f"the motion has {have}; {what} output needs a motion read from {what} (or "
+                f"an .mpz made from one)")
+    C = skel.channel_count
+    ang = motion.angles
+    if (ang is None and C) or (ang is not None and ang.shape != (motion.n_frames, C)):
+        shape = None if ang is None else ang.shape
+        return f"the skeleton has {C} channels but the motion's angles are {shape}"
+    return None
+
+
+def skeleton_problems(motion: Motion, ext: str) -> list[str]:
+    """:func:`skeleton_problem` for an output extension (".bvh" or ".amc"), as a list."""
+    problem = skeleton_problem(motion, "bvh" if ext == ".bvh" else "asf")
+    return [] if problem is None else [problem]
+
+
+def skeleton_of(motion: Motion, convention: str) -> Skeleton:
+    """The motion's skeleton of ``convention``, with channel values that fit it.
+
+    Raises
+    ------
+    InputFormatError
+        When the motion has none (it was not read from, or decoded from, such a file), or
+        its ``angles`` do not have one column per channel.
+    """
+    problem = skeleton_problem(motion, convention)
+    if problem is not None:
+        what = {"bvh": "BVH", "asf": "AMC/ASF"}[convention]
+        raise InputFormatError(f"cannot write {what}: {problem}")
+    skel = motion.extras["skeleton"]
+    assert isinstance(skel, Skeleton)
+    return skel
+
+
+def format_bvh(motion: Motion) -> str:
+    """The BVH text of a motion that has a BVH skeleton (see :func:`parse_bvh`).
+
+    Raises
+    ------
+    InputFormatError
+        If the motion has no BVH skeleton.
+    """
+    skel = skeleton_of(motion, "bvh")
+    values = motion.angles if motion.angles is not None else np.zeros((motion.n_frames, 0))
+    out = ["HIERARCHY"]
+    stack: list[int] = []
+
+    def close_to(parent: int) -> None:
+        while stack and stack[-1] != parent:
+            stack.pop()
+            out.append("\t" * len(stack) + "}")
+
+    for i, j in enumerate(skel.joints):
+        close_to(j.parent)
+        pad = "\t" * len(stack)
+        if j.end_site:
+            out.append(f"{pad}End Site")
+        else:
+            out.append(f"{pad}{'ROOT' if j.parent < 0 else 'JOINT'} {j.name}")
+        out.append(pad + "{")
+        out.append(f"{pad}\tOFFSET {' '.join(num(v) for v in j.offset)}")
+        if not j.end_site:
+            kinds = " ".join(BVH_CHANNELS[ChannelKind(c)] for c in j.channels)
+            out.append(f"{pad}\tCHANNELS {len(j.channels)}{' ' if kinds else ''}{kinds}")
+        stack.append(i)
+    close_to(-1)
+    out.append("MOTION")
+    out.append(f"Frames: {motion.n_frames}")
+    out.append(f"Frame Time: {num(skel.frame_time)}")
+    out.extend(" ".join(num(v) for v in row) for row in _rows(values))
+    return "\n".join(out) + "\n"
+
+
+def _rows(values: NDArray[np.float64]) -> list[list[float]]:
+    return [[float(v) for v in row] for row in values]
+
+
+def write_bvh(motion: Motion, path: StrPath) -> None:
+    """Write a motion with a BVH skeleton as a BVH file (the hierarchy, offsets, channel
+    layout, frame count and frame time of the source, and its channel values).
+
+    Raises
+    ------
+    InputFormatError
+        If the motion has no BVH skeleton (see :func:`skeleton_of`).
+    """
+    text = format_bvh(motion)
+    enc = motion.extras["skeleton"].encoding
+    with open(path, "wb") as fh:
+        fh.write(text.encode(enc, "replace" if enc != "utf-8" else "strict"))

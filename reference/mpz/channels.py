@@ -1,0 +1,307 @@
+"""The channel layer of the skeleton chunks (spec §4.14, §6.10): joint channels coded
+as integers on decimal steps, predicted in time, range-coded.
+
+Strategy: channel c of a skeletal motion (a BVH ``Zrotation``, an ASF ``rx``, a root
+translation) is quantised to ``x = round(v / step)`` with ``step = m x 10^-d``: the
+decoded value ``x m / 10^d`` is a decimal number, so a text writer prints it exactly and
+the error is at most half a step, in degrees or length units, whatever the magnitude.
+Each channel is predicted in time (§6.2 orders 0-2); a rotation in degrees whose values
+fit in one turn is *wrapped*: residuals are taken modulo the turn (360 / step steps) and
+the decoder folds every value back into ``low .. low + turn - 1``, so the jump of an
+angle from +179.99 to -179.99 degrees codes as one step and decodes exactly. Channels
+are coded in *groups* of similar activity, one range-coded block (§5.5) each.
+
+This module is sans-IO and knows no chunk: :mod:`mpz.chunks.skeleton` checks and decodes
+with it, :mod:`mpz.skeleton` encodes with it. :func:`decode` is §6.10; everything else
+is the reference encoder's choice (spec Appendix C).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+import math
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mpz.entropy import MAX_EXP, BlockDecoder, BlockEncoder
+from mpz.errors import EncoderError, FormatError
+from mpz.format import CHANNEL_VALUE_LIMIT, MAX_STEP_DIGITS
+from mpz.predict import reconstruct, residuals
+
+IntArray = NDArray[np.int64]
+FloatArray = NDArray[np.float64]
+
+#: one turn, in degrees: what a wrapped channel is taken modulo (§4.14)
+TURN_DEGREES = 360
+#: step mantissas the reference encoder uses; each divides 360 x 10^d, so every one of its
+#: steps can wrap (§4.14)
+MANTISSAS = (1, 2, 4, 5, 8)
+#: group counts the reference encoder tries (§4.14 allows 1..256); it keeps the smallest
+GROUP_COUNTS = (1, 2, 4, 8, 12, 16)
+
+
+class Coding(Protocol):
+    """What §6.10 needs of a channel entry (:class:`mpz.chunks.skeleton.ChannelCoding`)."""
+
+    @property
+    def step_mantissa(self) -> int: ...
+    @property
+    def step_digits(self) -> int: ...
+    @property
+    def wrap(self) -> int: ...
+    @property
+    def low(self) -> int: ...
+    @property
+    def order(self) -> int: ...
+    @property
+    def group(self) -> int: ...
+
+
+def turn_steps(mantissa: int, digits: int) -> int | None:
+    """N, the steps in one turn of 360 degrees at step ``m x 10^-d``, or None when 360 is not
+    a whole number of steps (§4.14)."""
+    whole = TURN_DEGREES * 10 ** digits
+    return None if whole % mantissa else whole // mantissa
+
+
+# ------------------------------------------------------------------ steps --
+@dataclass(frozen=True)
+class Step:
+    """A channel's quantisation step ``mantissa x 10^-digits`` (§4.14)."""
+
+    mantissa: int
+    digits: int
+
+    @property
+    def value(self) -> float:
+        return self.mantissa / 10.0 ** self.digits
+
+    @property
+    def bound(self) -> float:
+        """The largest error of rounding to this step: half of it."""
+        return self.value / 2
+
+    @property
+    def turn(self) -> int | None:
+        return turn_steps(self.mantissa, self.digits)
+
+    def __str__(self) -> str:
+        return f"{self.value:.{self.digits}f}"
+
+
+def step_for(bound: float) -> Step:
+    """The coarsest step ``m x 10^-d``, m in :data:`MANTISSAS` times a power of ten, whose
+    rounding error (half the step) stays within ``bound``.
+
+    Examples
+    --------
+    >>> str(step_for(0.01)), str(step_for(0.004)), str(step_for(3.0)), str(step_for(60.0))
+    ('0.02', '0.008', '5', '80')
+
+    Raises
+    ------
+    EncoderError
+        For a bound that is not finite and > 0, or finer than 10^-9 / 2.
+    """
+    if not (math.isfinite(bound) and bound > 0):
+        raise EncoderError(f"a channel bound must be finite and > 0, got {bound!r}")
+    target = 2.0 * bound * (1 + 1e-12)
+    best: Step | None = None
+    for d in range(MAX_STEP_DIGITS, -1, -1):
+        for m in MANTISSAS:
+            s = Step(m, d)
+            if s.value <= target and (best is None or s.value > best.value):
+                best = s
+    if best is None:
+        raise EncoderError(f"a channel bound of {bound!r} is finer than the finest step, "
+                           f"10^-{MAX_STEP_DIGITS}; give a larger --angle-error or "
+                           "--translation-error")
+    if best.digits == 0:                     # steps of 10 and more: m x 10^k, d = 0
+        m = best.mantissa
+        while m * 10 <= target and m * 10 <= 0xFFFF:
+            m *= 10
+        best = Step(m, 0)
+    return best
+
+
+def quantise(values: FloatArray, steps: Sequence[Step]) -> IntArray:
+    """``round(v / step)`` per channel of ``values[F, C]``, int64: the integer whose
+    ``x m / 10^d`` is nearest to v.
+
+    Raises
+    ------
+    EncoderError
+        If a value needs |x| >= 2^27 at its step, so that order-2 residuals could leave the
+        coder's range (|e| < 2^30, §5.4).
+    """
+    v = np.asarray(values, np.float64)
+    scale = np.array([10.0 ** s.digits / s.mantissa for s in steps])
+    x = np.floor(v * scale + 0.5) if v.size else np.zeros(v.shape)
+    if x.size and np.abs(x).max() >= 2.0 ** (MAX_EXP - 3):
+        c = int(np.argmax(np.abs(x).max(axis=0)))
+        raise EncoderError(f"channel {c} reaches {float(np.abs(v[:, c]).max()):g}, too large "
+                           f"for a step of {steps[c]} (|value / step| must stay below 2^27); "
+                           "give a larger --angle-error or --translation-error")
+    return x.astype(np.int64)
+
+
+def dequantise(x: IntArray, codings: Sequence[Coding]) -> FloatArray:
+    """§6.10 step 4: ``v = x m / 10^d``, one correctly rounded binary64 division of the exact
+    integer ``x m`` (|x m| < 2^47, exact in binary64) by ``10^d`` (exact for d <= 22)."""
+    m = np.array([c.step_mantissa for c in codings], np.int64)
+    p = np.array([10.0 ** c.step_digits for c in codings])
+    return (x * m).astype(np.float64) / p
+
+
+# ---------------------------------------------------------------- encoding --
+def _wrap(e: IntArray, turn: int) -> IntArray:
+    """The residue of ``e`` modulo ``turn`` nearest to 0 (in -turn/2 .. turn/2 - 1)."""
+    half = turn // 2
+    return np.asarray(np.mod(e + half, turn) - half, np.int64)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """How the encoder codes one channel: step, wrap (and its ``low``), predictor order."""
+
+    step: Step
+    wrap: bool
+    low: int
+    order: int
+
+
+def coded_values(x: IntArray, plans: Sequence[Plan]) -> IntArray:
+    """The values e ``[F, C]`` the coded field holds: each channel's prediction residuals,
+    taken modulo its turn (the residue nearest to 0) when it wraps (:func:`decode` inverts
+    them)."""
+    e = np.empty_like(x)
+    for c, p in enumerate(plans):
+        r = residuals(x[:, c], p.order)
+        if p.wrap:
+            turn = p.step.turn
+            assert turn is not None
+            r = _wrap(r, turn)
+        e[:, c] = r
+    return e
+
+
+def _cost(e: IntArray) -> FloatArray:
+    """A bit-cost estimate per column: the sum of log2(1 + |e|)."""
+    return np.asarray(np.log2(1.0 + np.abs(e.astype(np.float64))).sum(axis=0), np.float64)
+
+
+def plan(x: IntArray, steps: Sequence[Step], rotations: Sequence[bool]) -> list[Plan]:
+    """Per channel: wrap when it is a rotation in degrees (``rotations``) whose values fit
+    in one turn, and the predictor order (0, 1 or 2) with the smallest :func:`_cost`."""
+    plans = []
+    for c, (s, rot) in enumerate(zip(steps, rotations, strict=True)):
+        col = x[:, c]
+        turn = s.turn
+        wrap = bool(rot and turn is not None and col.size
+                    and int(col.max()) - int(col.min()) < turn
+                    and int(col.min()) + turn <= CHANNEL_VALUE_LIMIT)
+        low = int(col.min()) if wrap else 0
+        best: tuple[float, Plan] | None = None
+        for order in (0, 1, 2):
+            p = Plan(s, wrap, low, order)
+            cost = float(_cost(coded_values(col[:, None], [p]))[0])
+            if best is None or cost < best[0]:
+                best = (cost, p)
+        assert best is not None
+        plans.append(best[1])
+    return plans
+
+
+def _encode_groups(e: IntArray, groups: NDArray[np.int64]) -> bytes:
+    enc = BlockEncoder(capacity=max(1024, 2 * e.size))
+    for g in range(int(groups.max(initial=-1)) + 1):
+        enc.block(e[:, np.flatnonzero(groups == g), None])
+    return enc.finish()
+
+
+def group(e: IntArray) -> tuple[NDArray[np.int64], bytes]:
+    """Channels grouped by activity (quantiles of their :func:`_cost`), each group one block
+    with its own models: of the groupings of :data:`GROUP_COUNTS`, the one that codes
+    smallest. Returns (group of each channel, the coded field)."""
+    C = e.shape[1]
+    if C == 0:
+        return np.zeros(0, np.int64), BlockEncoder().finish()
+    if e.size and int(np.abs(e).max()) >= 1 << MAX_EXP:
+        raise EncoderError("a channel residual exceeds the coder's range (spec §5.4); give a "
+                           "larger --angle-error or --translation-error")
+    rank = np.empty(C, np.int64)
+    rank[np.argsort(_cost(e), kind="stable")] = np.arange(C)
+    best: tuple[NDArray[np.int64], bytes] | None = None
+    for G in GROUP_COUNTS:
+        if G > C:
+            break
+        groups = (rank * G) // C
+        data = _encode_groups(e, groups)
+        if best is None or len(data) < len(best[1]):
+            best = (groups, data)
+    assert best is not None
+    return best
+
+
+# ----------------------------------------------------------- §6.10 decoding --
+def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
+           chunk: str | None = None, offset: int | None = None) -> IntArray:
+    """§6.10 steps 1-3: the channel integers x ``[F, C]``.
+
+    ``codings`` are checked channel entries (§4.14); ``offset`` is the file offset of the
+    coded field, for error reports.
+
+    Raises
+    ------
+    FormatError
+        For a coded field that §5.3 rejects, an order-2 difference beyond §6.2's guard, or a
+        value with |x| >= 2^31.
+    """
+    F, C = frames, len(codings)
+    dec = BlockDecoder(coded, chunk=chunk, offset=offset)
+    e = np.empty((F, C), np.int64)
+    groups = np.array([c.group for c in codings], np.int64)
+    for g in range(int(groups.max(initial=-1)) + 1):
+        cols = np.flatnonzero(groups == g)
+        e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]          # step 1: group g
+    dec.close()
+    x = np.empty_like(e)
+    for c, cc in enumerate(codings):
+        turn = turn_steps(cc.step_mantissa, cc.step_digits) if cc.wrap else None
+        if turn is not None:
+            x[:, c] = unwrap(e[:, c], cc.order, cc.low, turn)      # step 3
+        else:
+            x[:, c] = reconstruct(e[:, c], cc.order, chunk=chunk, offset=offset)   # step 2
+    if x.size and int(np.abs(x).max()) >= CHANNEL_VALUE_LIMIT:
+        c = int(np.argmax(np.abs(x).max(axis=0)))
+        t = int(np.argmax(np.abs(x[:, c])))
+        raise FormatError(f"channel {c}, frame {t}: decoded value {int(x[t, c])} is outside "
+                          f"|x| < 2^31", chunk=chunk, section="§6.10")
+    return x
+
+
+def unwrap(e: IntArray, order: int, low: int, turn: int) -> IntArray:
+    """§6.10 step 3: the order-p reconstruction of ``e`` (§6.2) taken modulo ``turn`` into
+    ``low .. low + turn - 1``.
+
+    Computed on residues, so that no intermediate value exceeds 2^56: the running sums of
+    §6.2 are reduced modulo ``turn`` before they are summed again, which gives the same
+    residue (reduction commutes with sums).
+
+    Examples
+    --------
+    >>> unwrap(np.array([17999, 2, -4]), 1, -9000, 18000).tolist()
+    [-1, 1, -3]
+    """
+    if e.size == 0:
+        return e.copy()
+    if order == 0:
+        y = e.copy()
+    elif order == 1:
+        y = np.cumsum(np.mod(e, turn))
+    else:
+        d = np.mod(np.cumsum(e[1:]), turn)            # d[t] = e[1] + ... + e[t], mod N
+        y = np.concatenate([e[:1], e[:1] + np.cumsum(d)])
+    return np.asarray(low + np.mod(y - low, turn), np.int64)

@@ -1,0 +1,864 @@
+"""Skeletal motion through MPZ 1.1 (issue 13; spec §4.14, §6.10).
+
+BVH and AMC/ASF files go through .mpz and come back as BVH and AMC; they are compared
+with small parsers written here, not the writers' own readers, working on the decimal
+text (``Decimal``), so "within the bound" is exact decimal arithmetic. Forward kinematics
+is recomputed here too. Then: the chunk checks rule by rule, property tests of the
+channel codec (the bound, wrap-around at +-180 degrees), hostile input, and the CLI.
+"""
+from __future__ import annotations
+
+import dataclasses
+from decimal import Decimal
+from fractions import Fraction
+import math
+from pathlib import Path
+import struct
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+import numpy as np
+import pytest
+
+import mpz
+from mpz import channels as ch
+from mpz import container
+from mpz import skeleton as sk
+from mpz.chunks import Context
+from mpz.chunks.skeleton import Asfs, Bvhs, ChannelCoding
+from mpz.errors import EncoderError, FormatError, InputFormatError, LimitExceededError, MPZError
+from mpz.io.amc import parse_amc, parse_asf
+from mpz.io.bvh import parse_bvh
+
+BVH_FILES = ["cmu_10_01", "cmu_11_01", "cmu_131_03", "cmu_14_19"]
+AMC_FILES = [("02_01", "02"), ("35_01", "35"), ("49_18", "49"),
+             ("HDM_dg_06-03_03_120", "HDM_dg")]
+D01 = Decimal("0.01")
+
+
+# ====================================================== independent parsers --
+def bvh_read(text: str) -> dict:
+    """A BVH parser of this test: joints (name, parent, offset, channels), frame count,
+    frame time and values, every number as the Decimal the text writes."""
+    tok = text.split()
+    assert tok[0] == "HIERARCHY"
+    joints: list[dict] = []
+    stack: list[int] = []
+    i = 1
+    while tok[i] != "MOTION":
+        t = tok[i]
+        if t in ("ROOT", "JOINT"):
+            joints.append({"name": tok[i + 1], "parent": stack[-1] if stack else -1,
+                           "channels": ()})
+            i += 2
+        elif t == "End":
+            joints.append({"name": None, "parent": stack[-1], "channels": ()})
+            i += 2
+        elif t == "{":
+            stack.append(len(joints) - 1)
+            i += 1
+        elif t == "}":
+            stack.pop()
+            i += 1
+        elif t == "OFFSET":
+            joints[stack[-1]]["offset"] = tuple(Decimal(v) for v in tok[i + 1:i + 4])
+            i += 4
+        elif t == "CHANNELS":
+            n = int(tok[i + 1])
+            joints[stack[-1]]["channels"] = tuple(tok[i + 2:i + 2 + n])
+            i += 2 + n
+        else:
+            raise AssertionError(f"unexpected {t!r}")
+    assert tok[i + 1] == "Frames:" and tok[i + 3] == "Frame" and tok[i + 4] == "Time:"
+    frames, ft = int(tok[i + 2]), Decimal(tok[i + 5])
+    nums = [Decimal(v) for v in tok[i + 6:]]
+    C = sum(len(j["channels"]) for j in joints)
+    assert len(nums) == frames * C
+    return {"joints": joints, "frames": frames, "frame_time": ft,
+            "values": [nums[k * C:(k + 1) * C] for k in range(frames)]}
+
+
+def asf_read(text: str) -> dict:
+    """An ASF parser of this test: units, root, bones (in file order) and parents."""
+    out: dict = {"bones": [], "parent": {}, "units": {}, "root": {}}
+    section, bone, last = None, None, None
+    for raw in text.splitlines():
+        line = raw.split("#")[0].strip()
+        if not line:
+            continue
+        if line.startswith(":"):
+            words = line.split()
+            section = words[0][1:]
+            if section in ("version", "name"):
+                out[section] = " ".join(words[1:])
+            continue
+        w = line.split()
+        if section == "units":
+            out["units"][w[0]] = w[1]
+        elif section == "root":
+            out["root"][w[0]] = tuple(w[1:])
+        elif section == "bonedata":
+            if w[0] == "begin":
+                bone = {"limits": []}
+            elif w[0] == "end":
+                out["bones"].append(bone)
+            elif w[0] == "limits" or (last == "limits" and w[0].startswith("(")):
+                pair = line[line.index("("):].strip("()").split()
+                bone["limits"].append(tuple(Decimal(p.replace("inf", "Infinity"))
+                                            for p in pair))
+                w = ["limits"]
+            elif w[0] in ("direction", "axis"):
+                bone[w[0]] = tuple(Decimal(v) for v in w[1:4])
+                if w[0] == "axis":
+                    bone["order"] = w[4] if len(w) > 4 else "XYZ"
+            elif w[0] == "length":
+                bone["length"] = Decimal(w[1])
+            elif w[0] in ("id", "name"):
+                bone[w[0]] = w[1]
+            elif w[0] == "dof":
+                bone["dof"] = tuple(w[1:])
+            last = w[0]
+        elif section == "hierarchy" and w[0] not in ("begin", "end"):
+            for child in w[1:]:
+                out["parent"][child] = w[0]
+    return out
+
+
+def amc_read(text: str) -> dict:
+    """An AMC parser of this test: frame numbers and, per frame, bone -> values."""
+    frames: list[tuple[int, dict]] = []
+    for raw in text.splitlines():
+        line = raw.strip()
+        if not line or line.startswith(("#", ":")):
+            continue
+        w = line.split()
+        if len(w) == 1 and w[0].isdigit():
+            frames.append((int(w[0]), {}))
+        else:
+            frames[-1][1][w[0]] = [Decimal(v) for v in w[1:]]
+    return {"numbers": [n for n, _ in frames], "frames": [f for _, f in frames]}
+
+
+# ======================================================== independent FK --
+def _rot(axis: str, deg: np.ndarray) -> np.ndarray:
+    a = np.radians(deg)
+    c, s = np.cos(a), np.sin(a)
+    R = np.zeros(a.shape + (3, 3))
+    i, j = {"X": (1, 2), "Y": (2, 0), "Z": (0, 1)}[axis]
+    k = 3 - i - j
+    R[..., k, k] = 1
+    R[..., i, i], R[..., j, j], R[..., i, j], R[..., j, i] = c, c, -s, s
+    return R
+
+
+def bvh_fk(bvh: dict) -> np.ndarray:
+    """Joint positions [F, J, 3] of a parsed BVH: T(offset + positions) R, R the rotations
+    in the listed order."""
+    vals = np.array([[float(v) for v in row] for row in bvh["values"]])
+    F = len(vals)
+    P, W = [], []
+    col = 0
+    for j in bvh["joints"]:
+        t = np.tile(np.array([float(o) for o in j["offset"]]), (F, 1))
+        R = np.tile(np.eye(3), (F, 1, 1))
+        for name in j["channels"]:
+            v = vals[:, col]
+            col += 1
+            if name.endswith("position"):
+                t[:, "XYZ".index(name[0])] += v
+            else:
+                R = np.einsum("fij,fjk->fik", R, _rot(name[0], v))
+        if j["parent"] < 0:
+            P.append(t)
+            W.append(R)
+        else:
+            p = j["parent"]
+            P.append(P[p] + np.einsum("fij,fj->fi", W[p], t))
+            W.append(np.einsum("fij,fjk->fik", W[p], R))
+    return np.stack(P, axis=1)
+
+
+def asf_fk(asf: dict, amc: dict) -> np.ndarray:
+    """Joint positions [F, 1 + B, 3] (mm) of a parsed ASF and AMC, the Acclaim way:
+    W = W_parent C M C^T, end = start + W (direction x length)."""
+    F = len(amc["frames"])
+
+    def axes(order: str, ang: tuple) -> np.ndarray:
+        R = np.eye(3)
+        for a in order:
+            R = _rot(a, np.array(float(ang["XYZ".index(a)]))) @ R
+        return R
+
+    root = asf["root"]
+    vals = np.array([[float(v) for v in f["root"]] for f in amc["frames"]])
+    pos = np.tile(np.array([float(v) for v in root.get("position", ("0", "0", "0"))]), (F, 1))
+    M = np.tile(np.eye(3), (F, 1, 1))
+    for k, c in enumerate(root["order"]):
+        if c[0] == "T":
+            pos[:, "XYZ".index(c[1])] += vals[:, k]
+        else:
+            M = np.einsum("fij,fjk->fik", _rot(c[1], vals[:, k]), M)
+    C = axes(root["axis"][0], root.get("orientation", ("0", "0", "0")))
+    world = {"root": C @ M @ C.T}
+    end = {"root": pos}
+    todo = list(asf["bones"])
+    while todo:
+        b = next(b for b in todo if asf["parent"][b["name"]] in end)
+        todo.remove(b)
+        p = asf["parent"][b["name"]]
+        M = np.tile(np.eye(3), (F, 1, 1))
+        for k, d in enumerate(b.get("dof", ())):
+            v = np.array([float(f[b["name"]][k]) for f in amc["frames"]])
+            M = np.einsum("fij,fjk->fik", _rot(d[1].upper(), v), M)
+        C = axes(b["order"], b["axis"])
+        W = world[p] @ C @ M @ C.T
+        world[b["name"]] = W
+        bone = np.array([float(v) for v in b["direction"]]) * float(b["length"])
+        end[b["name"]] = end[p] + np.einsum("fij,j->fi", W, bone)
+    mm = 25.4 / float(asf["units"]["length"])
+    return np.stack([end["root"]] + [end[b["name"]] for b in asf["bones"]], axis=1) * mm
+
+
+# ============================================================= round trips --
+def _bound_of(data: bytes) -> dict:
+    rep = sk.report(data)
+    assert rep is not None
+    return rep
+
+
+@pytest.mark.parametrize("stem", BVH_FILES)
+def test_bvh_round_trip(shared_data, tmp_path, stem):
+    """BVH -> .mpz -> BVH: the same joints, offsets, channels, frames and frame time, every
+    value within the declared 0.01, every joint position within the declared bound."""
+    src = shared_data / "bvh" / f"{stem}.bvh"
+    data = mpz.encode(mpz.io.read(src))
+    out = tmp_path / "back.bvh"
+    mpz.io.write(mpz.decode(data), out)
+    a, b = bvh_read(src.read_text()), bvh_read(out.read_text())
+    assert [(j["name"], j["parent"], j["offset"], j["channels"]) for j in a["joints"]] == \
+        [(j["name"], j["parent"], j["offset"], j["channels"]) for j in b["joints"]]
+    assert (a["frames"], a["frame_time"]) == (b["frames"], b["frame_time"])
+    rep = _bound_of(data)
+    assert rep["angle_bound"] == rep["translation_bound"] == 0.01      # the default
+    worst = max(abs(x - y) for ra, rb in zip(a["values"], b["values"], strict=True)
+                for x, y in zip(ra, rb, strict=True))
+    assert worst <= D01
+    d = np.linalg.norm(bvh_fk(a) - bvh_fk(b), axis=2).max()
+    assert 0 < d <= rep["position_bound"]
+    assert mpz.decode(data).units == ""              # BVH has no unit, and none was given
+
+
+@pytest.mark.parametrize("stem,asf_stem", AMC_FILES)
+def test_amc_round_trip(shared_data, tmp_path, stem, asf_stem):
+    """AMC/ASF -> .mpz -> AMC + ASF: the same skeleton (units, root, bones, dofs, limits,
+    hierarchy), frame numbers and line order, values within 0.01, joints within the bound."""
+    src = shared_data / "amc" / f"{stem}.amc"
+    asf_src = shared_data / "amc" / f"{asf_stem}.asf"
+    data = mpz.encode(mpz.io.read(src))
+    out, asf_out = tmp_path / "back.amc", tmp_path / "elsewhere.asf"
+    mpz.io.write(mpz.decode(data), out, asf=asf_out)
+    a, b = asf_read(asf_src.read_text("latin-1")), asf_read(asf_out.read_text("latin-1"))
+    assert a["units"] == b["units"] and a["root"] == b["root"] and a["parent"] == b["parent"]
+    assert (a["version"], a["name"]) == (b["version"], b["name"])
+    key = {bone["name"]: bone for bone in b["bones"]}
+    assert [x["name"] for x in a["bones"]] == [x["name"] for x in b["bones"]]
+    for bone in a["bones"]:
+        assert bone == key[bone["name"]], bone["name"]
+    ma = amc_read(src.read_bytes().decode("latin-1"))
+    mb = amc_read(out.read_bytes().decode("latin-1"))
+    assert ma["numbers"] == mb["numbers"]
+    assert [list(f) for f in ma["frames"]] == [list(f) for f in mb["frames"]]   # line order
+    worst = max(abs(x - y) for fa, fb in zip(ma["frames"], mb["frames"], strict=True)
+                for n in fa for x, y in zip(fa[n], fb[n], strict=True))
+    assert worst <= D01
+    rep = _bound_of(data)
+    d = np.linalg.norm(asf_fk(a, ma) - asf_fk(b, mb), axis=2).max()
+    assert 0 < d <= rep["position_bound"]
+    # the header lines of the AMC come back, Latin-1 bytes included (line ends may differ)
+    def header(data: bytes) -> list[bytes]:
+        lines = data.splitlines()
+        return [ln.rstrip() for ln in lines[:lines.index(b"1")]]
+    assert header(src.read_bytes()) == header(out.read_bytes())
+
+
+def test_position_bound_is_kept(shared_data, tmp_path):
+    """--max-error on skeletal input bounds the joint positions computed from the channels
+    (and the marker layer); the test's own FK confirms it."""
+    src = shared_data / "amc" / "02_01.amc"
+    data = mpz.encode(mpz.io.read(src), max_error=2.0, position_error=2.0)
+    rep = _bound_of(data)
+    assert rep["position_bound"] == 2.0 and rep["angle_bound"] > 0.01
+    out, asf_out = tmp_path / "b.amc", tmp_path / "b.asf"
+    mpz.io.write(mpz.decode(data), out)
+    assert asf_out.is_file()                                 # beside it by default
+    a = asf_read((shared_data / "amc" / "02.asf").read_text())
+    d = np.linalg.norm(asf_fk(a, amc_read(src.read_text("latin-1")))
+                       - asf_fk(asf_read(asf_out.read_text()), amc_read(out.read_text())),
+                       axis=2).max()
+    assert d <= 2.0
+    assert mpz.decode(data).extras["skeleton"].convention == "asf"
+
+
+def test_decoded_motion_has_skeleton_angles_and_parents(shared_data):
+    m = mpz.io.read(shared_data / "bvh" / "cmu_131_03.bvh")
+    back = mpz.decode(mpz.encode(m))
+    assert back.parents == m.parents and back.angle_names == m.angle_names
+    assert back.extras["skeleton"] == m.extras["skeleton"]
+    assert np.abs(back.angles - m.angles).max() <= 0.01 + 1e-9    # decimal 0.01, float noise
+
+
+# ====================================================== the codec: properties --
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_channels_come_back_within_half_a_step(data):
+    """Any values, any step of the encoder's ladder: |decoded - value| <= step / 2 (exact in
+    decimal, up to one rounding of the value itself), wrapped or not."""
+    F = data.draw(st.integers(1, 40))
+    C = data.draw(st.integers(1, 5))
+    bound = data.draw(st.sampled_from([0.01, 0.005, 0.25, 1.0, 3e-4]))
+    vals = np.array(data.draw(st.lists(st.lists(st.floats(-720, 720), min_size=C, max_size=C),
+                                       min_size=F, max_size=F)))
+    rot = data.draw(st.lists(st.booleans(), min_size=C, max_size=C))
+    steps = [ch.step_for(bound)] * C
+    x = ch.quantise(vals, steps)
+    plans = ch.plan(x, steps, rot)
+    groups, coded = ch.group(ch.coded_values(x, plans))
+    codings = [ChannelCoding(p.step.mantissa, p.step.digits, int(p.wrap), p.low, p.order,
+                             int(g)) for p, g in zip(plans, groups, strict=True)]
+    back = ch.decode(codings, coded, F)
+    assert np.array_equal(back, x)                         # lossless on the integers
+    v = ch.dequantise(back, codings)
+    assert np.abs(v - vals).max() <= steps[0].value / 2 * (1 + 1e-9) + 1e-12
+
+
+def _wrapped(walk: np.ndarray) -> np.ndarray:
+    """Degrees folded into -180 .. 180 (as a file writes a spinning joint)."""
+    return (walk + 180.0) % 360.0 - 180.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-2, 2), min_size=3, max_size=100), st.floats(160, 179))
+def test_wrap_around_costs_no_bits_and_no_error(steps_deg, start):
+    """An angle that crosses +-180 degrees (a jump of 360 in the file) codes to exactly the
+    bytes of the same motion without the jump, and decodes to the file's own values."""
+    walk = start + np.cumsum([0.0, *steps_deg])
+    # a ramp from 0 makes it cross 180 at least once, the first value unchanged
+    walk = walk + np.linspace(0.0, max(0.0, 181.0 - walk.max()) * 1.01, len(walk))
+    walk = np.round(walk * 50) / 50        # on the 0.02 grid: no rounding tie to break apart
+    folded = _wrapped(walk)
+    if np.abs(folded).max() > 179.98:                        # would round to +-180 (§4.14)
+        return
+    skel = _tiny_bvh_skeleton(1)
+    step = [ch.step_for(0.01)]
+    a = sk.code_channels(folded[:, None], skel, step)
+    b = sk.code_channels(walk[:, None], skel, step)
+    assert a[0][0].wrap == b[0][0].wrap == 1 and a[0][0].order == b[0][0].order
+    assert a[1] == b[1]                                      # the same bytes: no cost
+    back = ch.dequantise(ch.decode(a[0], a[1], len(walk)), a[0])[:, 0]
+    assert np.abs(back - folded).max() <= 0.01 + 1e-9        # no error, the file's range
+
+
+def test_a_jump_at_180_degrees_codes_like_no_jump():
+    """The named case of the issue: +179.99 -> -179.99 is a step of 0.02 degree."""
+    t = np.arange(200)
+    spin = 170 + 0.2 * t                                 # 170 .. 209.8 degrees
+    file_values = _wrapped(spin)[:, None]               # jumps from 179.8 to -180.0
+    skel = _tiny_bvh_skeleton(1)
+    step = [ch.step_for(0.01)]
+    wrapped = sk.code_channels(file_values, skel, step)
+    plain = sk.code_channels(spin[:, None], skel, step)
+    assert wrapped[0][0].wrap == 1
+    assert len(wrapped[1]) == len(plain[1])
+    back = ch.dequantise(ch.decode(wrapped[0], wrapped[1], 200), wrapped[0])
+    assert np.abs(back - file_values).max() <= 0.01 + 1e-12
+    assert back[:, 0].min() < -179 and back[:, 0].max() > 179     # the file's own range
+
+
+@given(st.lists(st.integers(-2**30, 2**30 - 1), min_size=1, max_size=60),
+       st.integers(0, 2), st.integers(-2**31 + 1, 2**31 - 36001), st.sampled_from(
+           [(2, 2), (1, 0), (8, 3), (5, 1), (1, 4)]))
+def test_unwrap_is_the_stepwise_definition(e, order, low, md):
+    """§6.10 step 3 as the spec writes it (Python integers, W after every step) against the
+    reference's reduction of running sums."""
+    m, d = md
+    turn = 360 * 10 ** d // m
+    low = min(low, 2**31 - turn)
+    x: list[int] = []
+    for t, et in enumerate(e):
+        if order == 0 or t == 0:
+            pred = 0
+        elif order == 1 or t == 1:
+            pred = x[t - 1]
+        else:
+            pred = 2 * x[t - 1] - x[t - 2]
+        x.append(low + (pred + et - low) % turn)
+    assert ch.unwrap(np.array(e, np.int64), order, low, turn).tolist() == x
+
+
+@given(st.integers(-2**31 + 1, 2**31 - 1), st.integers(1, 0xFFFF), st.integers(0, 9))
+def test_values_are_one_correctly_rounded_division(x, m, d):
+    """§6.10 step 5: v is the binary64 nearest to x m / 10^d."""
+    c = ChannelCoding(m, d, 0, 0, 0, 0)
+    v = ch.dequantise(np.array([[x]], np.int64), [c])[0, 0]
+    assert v == float(Fraction(x * m, 10 ** d))
+
+
+def test_step_ladder():
+    assert [str(ch.step_for(b)) for b in (0.01, 0.005, 0.004, 0.5, 3, 60, 1e5)] == \
+        ["0.02", "0.01", "0.008", "1", "5", "80", "8000"]     # m is a u16
+    assert all(ch.step_for(b).turn is not None for b in (0.01, 0.004, 0.3, 7))
+    with pytest.raises(EncoderError, match="--angle-error"):
+        ch.step_for(1e-11)
+
+
+# ================================================== the chunk checks, by rule --
+def _tiny_bvh_skeleton(channels: int = 6) -> sk.Skeleton:
+    kinds = (0, 1, 2, 5, 3, 4)[:channels] if channels > 1 else (5,)
+    from mpz.io.kinematics import Joint, Skeleton
+    return Skeleton("bvh", (Joint("Hips", -1, kinds),
+                            Joint("", 0, (), (0.0, 1.0, 0.0), end_site=True)),
+                    frame_time=0.01)
+
+
+TINY_BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 5 0
+    }
+  }
+  JOINT Leg
+  {
+    OFFSET 2 -1 0
+    CHANNELS 1 Xrotation
+    End Site
+    {
+      OFFSET 0 -8 0
+    }
+  }
+}
+MOTION
+Frames: 4
+Frame Time: 0.0333333
+1 2 3 0 0 179.99 10 20 30 5
+1.5 2 3 0 1 -179.99 11 21 29 6
+2 2 3 0 2 -179.5 12 22 28 7
+2.5 2 3 0 3 179.9 13 23 27 8
+"""
+
+TINY_ASF = """# tiny
+:version 1.10
+:name TINY
+:units
+  mass 1.0
+  length 0.45
+  angle deg
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name b1
+     direction 1 0 0
+     length 2
+     axis 0 0 90 XYZ
+    dof rx rz
+    limits (-180 180)
+           (-inf inf)
+  end
+  begin
+     id 2
+     name b2
+     direction 0 1 0
+     length 1
+     axis 0 0 0 ZYX
+  end
+:hierarchy
+  begin
+    root b1
+    b1 b2
+  end
+"""
+
+TINY_AMC = """:FULLY-SPECIFIED
+:DEGREES
+1
+root 1 2 3 0 0 0
+b1 0 90
+2
+root 0 0 0 0 0 0
+b1 90 0
+"""
+
+
+@pytest.fixture(scope="module")
+def tiny_bvh() -> bytes:
+    return mpz.encode(parse_bvh(TINY_BVH), max_error=0.5)
+
+
+@pytest.fixture(scope="module")
+def tiny_asf() -> bytes:
+    return mpz.encode(parse_amc(TINY_AMC, parse_asf(TINY_ASF)), max_error=0.5)
+
+
+def _record(data: bytes) -> tuple[Bvhs | Asfs, Context]:
+    chunks = container.parse(data)
+    rec = next(c.record for c in chunks if isinstance(c.record, (Bvhs, Asfs)))
+    hdr = chunks[0].record
+    types = tuple(c.type for c in chunks)
+    return rec, Context(hdr, 1 << 26, types=types)
+
+
+def test_tiny_files_round_trip(tiny_bvh, tiny_asf):
+    m = mpz.decode(tiny_bvh)
+    src = parse_bvh(TINY_BVH).angles[:, 5]                   # Hips.Yrotation, crossing 180
+    back = m.angles[:, 5]
+    assert back.tolist() == [180.0, -179.98, -179.5, 179.9]  # even hundredths (step 0.02)
+    assert np.abs(back - src).max() <= 0.01 + 1e-12 and (np.sign(back) == np.sign(src)).all()
+    assert _record(tiny_bvh)[0].channels[5].wrap == 1
+    assert mpz.io.bvh.format_bvh(m).split("MOTION")[0] == \
+        mpz.io.bvh.format_bvh(parse_bvh(TINY_BVH)).split("MOTION")[0]
+    a = mpz.decode(tiny_asf)
+    assert a.angle_names == ["root.tx", "root.ty", "root.tz", "root.rx", "root.ry", "root.rz",
+                             "b1.rx", "b1.rz"]
+    assert a.extras["skeleton"].joints[1].limits == ((-180.0, 180.0),
+                                                     (-math.inf, math.inf))
+    assert container.parse(tiny_bvh)[0].record.version_minor == 1          # §2.1: 1.1
+
+
+def _joint(rec: Bvhs, i: int, **kw) -> Bvhs:
+    joints = list(rec.joints)
+    joints[i] = dataclasses.replace(joints[i], **kw)
+    return dataclasses.replace(rec, joints=tuple(joints))
+
+
+def _bone(rec: Asfs, b: int, **kw) -> Asfs:
+    bones = list(rec.bones)
+    bones[b] = dataclasses.replace(bones[b], **kw)
+    return dataclasses.replace(rec, bones=tuple(bones))
+
+
+def _channel(rec, c: int, **kw):
+    chans = list(rec.channels)
+    chans[c] = dataclasses.replace(chans[c], **kw)
+    return dataclasses.replace(rec, channels=tuple(chans))
+
+
+# (section, what, change) -- every rule of §4.14 and §4.14.1 on the tiny BVH file
+BVH_RULES = [
+    ("§4.14.1", "joint count", lambda r: dataclasses.replace(r, joint_count=r.joint_count - 1,
+                                                              joints=r.joints[:-1])),
+    ("§4.14.1", "frame time 0", lambda r: dataclasses.replace(r, frame_time=0.0)),
+    ("§4.14.1", "frame time NaN", lambda r: dataclasses.replace(r, frame_time=math.nan)),
+    ("§4.14.1", "encoding 2", lambda r: dataclasses.replace(r, encoding=2)),
+    ("§4.14.1", "first joint not a root", lambda r: _joint(r, 0, parent=1)),
+    ("§4.14.1", "parent not on the path", lambda r: _joint(r, 4, parent=2)),
+    ("§4.14.1", "End Site with channels", lambda r: _joint(r, 2, channel_count=1, channels=(3,))),
+    ("§4.14.1", "End Site as a root", lambda r: _joint(r, 3, name="", parent=0xFFFF,
+                                                       channel_count=0, channels=())),
+    ("§4.14.1", "child of an End Site", lambda r: _joint(r, 3, parent=2)),
+    ("§4.14.1", "name with a space", lambda r: _joint(r, 1, name="Sp ine")),
+    ("§4.14.1", "name with NUL", lambda r: _joint(r, 1, name="Sp\x00ine")),
+    ("§4.14.1", "offset NaN", lambda r: _joint(r, 1, offset=(0.0, math.nan, 0.0))),
+    ("§4.14.1", "channel kind 6", lambda r: _joint(r, 3, channels=(6,))),
+    ("§4.14.1", "channel kind twice", lambda r: _joint(r, 1, channels=(5, 3, 5))),
+    ("§4.14.1", "seven channels", lambda r: _joint(r, 1, channel_count=7,
+                                                   channels=(0, 1, 2, 3, 4, 5, 0))),
+    ("§4.14.1", "channel count differs", lambda r: dataclasses.replace(
+        r, channel_count=r.channel_count - 1, channels=r.channels[:-1])),
+    ("§4.14", "position bound NaN", lambda r: dataclasses.replace(r, position_bound=math.nan)),
+    ("§4.14", "position bound < 0", lambda r: dataclasses.replace(r, position_bound=-1.0)),
+    ("§4.14", "step mantissa 0", lambda r: _channel(r, 0, step_mantissa=0)),
+    ("§4.14", "step digits 10", lambda r: _channel(r, 0, step_digits=10)),
+    ("§4.14", "order 3", lambda r: _channel(r, 0, order=3)),
+    ("§4.14", "wrap 2", lambda r: _channel(r, 3, wrap=2)),
+    ("§4.14", "wrap with a step that misses 360", lambda r: _channel(r, 3, step_mantissa=7)),
+    ("§4.14", "wrap beyond 2^31", lambda r: _channel(r, 3, low=2**31 - 100)),
+    ("§4.14", "wrap low at -2^31", lambda r: _channel(r, 3, low=-2**31)),
+    ("§4.14", "low without wrap", lambda r: _channel(r, 0, low=5)),
+    ("§4.14", "a group skipped", lambda r: _channel(r, 0, group=r.channels[0].group + 7)),
+]
+
+
+@pytest.mark.parametrize("section,what,change", BVH_RULES, ids=[r[1] for r in BVH_RULES])
+def test_bvhs_rules(tiny_bvh, section, what, change):
+    rec, ctx = _record(tiny_bvh)
+    rec.check(ctx)                                   # the unchanged record passes
+    bad = change(rec)
+    with pytest.raises(FormatError) as info:
+        bad.check(ctx)
+    assert info.value.section == section, (what, info.value)
+
+
+ASF_RULES = [
+    ("§4.14.2", "bone count", lambda r: dataclasses.replace(r, bone_count=r.bone_count - 1,
+                                                             bones=r.bones[:-1])),
+    ("§4.14.2", "length unit 0", lambda r: dataclasses.replace(r, length_unit=0.0)),
+    ("§4.14.2", "angle unit 2", lambda r: dataclasses.replace(r, angle_unit=2)),
+    ("§4.14.2", "encoding 2", lambda r: dataclasses.replace(r, encoding=2)),
+    ("§4.14.2", "name with a line break", lambda r: dataclasses.replace(r, name="A\nB")),
+    ("§4.14.2", "root order with l", lambda r: dataclasses.replace(r, root_order=(0, 1, 2, 3,
+                                                                                   4, 6))),
+    ("§4.14.2", "root axis order 6", lambda r: dataclasses.replace(r, root_axis_order=6)),
+    ("§4.14.2", "root position inf", lambda r: dataclasses.replace(
+        r, root_position=(math.inf, 0.0, 0.0))),
+    ("§4.14.2", "parent after the bone", lambda r: _bone(r, 0, parent=2)),
+    ("§4.14.2", "bone named root", lambda r: _bone(r, 1, name="root")),
+    ("§4.14.2", "bone names repeat", lambda r: _bone(r, 1, name="b1")),
+    ("§4.14.2", "bone axis order 6", lambda r: _bone(r, 0, axis_order=6)),
+    ("§4.14.2", "bone length NaN", lambda r: _bone(r, 0, length=math.nan)),
+    ("§4.14.2", "dof repeated", lambda r: _bone(r, 0, dofs=(3, 3))),
+    ("§4.14.2", "dof kind 7", lambda r: _bone(r, 0, dofs=(3, 7))),
+    ("§4.14.2", "limit count", lambda r: _bone(r, 0, limit_count=1,
+                                               limits=r.bones[0].limits[:1])),
+    ("§4.14.2", "limit NaN", lambda r: _bone(r, 0, limits=((math.nan, 1.0), (0.0, 1.0)))),
+    ("§4.14.2", "AMC order out of range", lambda r: dataclasses.replace(r, amc_order=(0, 3))),
+    ("§4.14.2", "AMC order repeats", lambda r: dataclasses.replace(r, amc_order=(0, 0))),
+    ("§4.14.2", "AMC order misses a bone with dofs",
+     lambda r: dataclasses.replace(r, amc_count=1, amc_order=(0,))),
+    ("§4.14.2", "channel count differs", lambda r: dataclasses.replace(
+        r, channel_count=r.channel_count - 1, channels=r.channels[:-1])),
+]
+
+
+@pytest.mark.parametrize("section,what,change", ASF_RULES, ids=[r[1] for r in ASF_RULES])
+def test_asfs_rules(tiny_asf, section, what, change):
+    rec, ctx = _record(tiny_asf)
+    rec.check(ctx)
+    with pytest.raises(FormatError) as info:
+        change(rec).check(ctx)
+    assert info.value.section == section, (what, info.value)
+
+
+def test_asfs_needs_markers_in_mm(tiny_asf):
+    rec, ctx = _record(tiny_asf)
+    cm = Context(dataclasses.replace(ctx.header, units=2), ctx.max_samples, types=ctx.types)
+    with pytest.raises(FormatError, match="mm"):
+        rec.check(cm)
+
+
+def test_one_skeleton_chunk_per_file(tiny_bvh):
+    rec, ctx = _record(tiny_bvh)
+    two = Context(ctx.header, ctx.max_samples, types=ctx.types + ("asfs",))
+    with pytest.raises(FormatError) as info:
+        rec.check(two)
+    assert info.value.section == "§4.14"
+    chunks = container.parse(tiny_bvh)
+    k = next(i for i, c in enumerate(chunks) if c.type == "bvhs")
+    doubled = chunks[:k + 1] + [chunks[k]] + chunks[k + 1:]
+    with pytest.raises(FormatError, match="at most one skeleton chunk"):
+        mpz.decode(container.build(doubled))
+
+
+def test_channel_samples_limit(tiny_bvh):
+    """§8: F x C over MAX_CHANNEL_SAMPLES is a limit error, before anything is decoded."""
+    rec, ctx = _record(tiny_bvh)
+    C = rec.channel_count
+    F = (1 << 26) // C + 1
+    big = Context(dataclasses.replace(ctx.header, frame_count=F),
+                  1 << 40, types=ctx.types)
+    with pytest.raises(LimitExceededError):
+        rec.check(big)
+
+
+# (rule, change of the coded field) -- §6.10 and §5.3 on the decoded channel layer
+def _coded_with(rec, blocks, wide=False):
+    from mpz.conformance.rangecoder import RefEncoder
+    enc = RefEncoder()
+    for b in blocks:
+        enc.block(np.asarray(b, np.int64), period=None, signed=True)
+    return dataclasses.replace(rec, coded=enc.finish())
+
+
+def test_channel_layer_decoding_rules(tiny_bvh):
+    rec, ctx = _record(tiny_bvh)
+    F = ctx.header.frame_count
+    groups = [sorted(i for i, c in enumerate(rec.channels) if c.group == g)
+              for g in range(1 + max(c.group for c in rec.channels))]
+    # §5.3: a field cut short, or with bytes left over
+    with pytest.raises(FormatError, match="§5.3"):
+        dataclasses.replace(rec, coded=rec.coded[:-1]).check(ctx)
+    with pytest.raises(FormatError, match="§5.3"):
+        dataclasses.replace(rec, coded=rec.coded + b"\x00").check(ctx)
+    # §6.10 step 4: a value of 2^31 in a channel that does not wrap
+    plain = next(i for i, c in enumerate(rec.channels) if not c.wrap)
+    rec0 = _channel(rec, plain, order=0)
+    blocks = [np.zeros((F, len(gr), 1)) for gr in groups]
+    for b, gr in zip(blocks, groups, strict=True):
+        if plain in gr:
+            b[1, gr.index(plain), 0] = 2**31 - 1
+    _coded_with(rec0, blocks).check(ctx)                       # 2^31 - 1 is in range
+    rec1 = _channel(rec, plain, order=1)
+    for b, gr in zip(blocks, groups, strict=True):
+        if plain in gr:
+            b[2, gr.index(plain), 0] = 1                        # 2^31 - 1 + 1
+    with pytest.raises(FormatError) as info:
+        _coded_with(rec1, blocks).check(ctx)
+    assert info.value.section == "§6.10"
+    # §6.2: the order-2 guard applies to the channels too
+    rec2 = _channel(rec, plain, order=2)
+    for b, gr in zip(blocks, groups, strict=True):
+        if plain in gr:
+            b[1:4, gr.index(plain), 0] = [2**31 - 1, 2**31 - 1, 2]
+    with pytest.raises(FormatError) as info:
+        _coded_with(rec2, blocks).check(ctx)
+    assert info.value.section == "§6.2"
+
+
+# ============================================================ hostile input --
+def _skeleton_span(data: bytes) -> tuple[int, int]:
+    c = next(c for c in container.parse(data) if c.type in ("bvhs", "asfs"))
+    assert c.offset is not None
+    return c.offset, c.offset + 12 + c.length
+
+
+def test_truncated_skeleton_chunk(tiny_bvh, tiny_asf):
+    """Every cut of the skeleton chunk's payload, its length and CRC made to match: only
+    MPZError (a malformed payload or a short coded field)."""
+    for data in (tiny_bvh, tiny_asf):
+        start, end = _skeleton_span(data)
+        for n in range(0, end - start - 12):
+            payload = data[start + 8:start + 8 + n]
+            chunk = container.build_chunk(data[start:start + 4].decode(), payload)
+            with pytest.raises(MPZError):
+                mpz.decode(data[:start] + chunk + data[end:])
+
+
+@settings(max_examples=300, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.data())
+def test_mutated_skeleton_payload_only_raises_mpzerror(tiny_bvh, tiny_asf, data):
+    """Random byte changes inside the skeleton chunk, CRC repaired: the file decodes (and
+    then writes back) or only an MPZError escapes."""
+    src = data.draw(st.sampled_from([tiny_bvh, tiny_asf]))
+    start, end = _skeleton_span(src)
+    b = bytearray(src)
+    for _ in range(data.draw(st.integers(1, 4))):
+        pos = data.draw(st.integers(start + 8, end - 5))
+        b[pos] = data.draw(st.integers(0, 255))
+    try:
+        m = mpz.decode(container.repair_crcs(bytes(b)))
+    except MPZError:
+        return
+    skel = m.extras.get("skeleton")
+    if skel is not None:
+        text = (mpz.io.bvh.format_bvh(m) if skel.convention == "bvh"
+                else mpz.io.amc.format_amc(m))
+        assert text
+
+
+@pytest.mark.parametrize("field,value", [("joint_count", 0xFFFF), ("channel_count", 0xFFFF)])
+def test_counts_at_their_maximum(tiny_bvh, field, value):
+    """A u16 count at 65535 with a short payload: a malformed payload, found quickly."""
+    rec, _ = _record(tiny_bvh)
+    raw = rec.dump()
+    off = {"joint_count": 9,
+           "channel_count": len(raw) - len(rec.coded) - 10 - 10 * rec.channel_count}[field]
+    patched = raw[:off] + struct.pack("<H", value) + raw[off + 2:]
+    start, end = _skeleton_span(tiny_bvh)
+    data = tiny_bvh[:start] + container.build_chunk("bvhs", patched) + tiny_bvh[end:]
+    with pytest.raises(MPZError):
+        mpz.decode(data)
+
+
+def test_a_1_0_decoder_skips_the_skeleton(tiny_bvh):
+    """§2.1: without the skeleton chunk (what a 1.0 decoder reads) the markers decode the
+    same."""
+    chunks = [c for c in container.parse(tiny_bvh) if c.type != "bvhs"]
+    plain = mpz.decode(container.build(chunks))
+    full = mpz.decode(tiny_bvh)
+    assert np.array_equal(plain.as_nan(), full.as_nan()) and plain.angles is None
+
+
+# ================================================================= readers --
+def test_asf_child_listed_before_its_parent_is_moved_after_it():
+    text = TINY_ASF.replace("""  begin
+     id 1
+     name b1""", """  begin
+     id 3
+     name b3
+     direction 0 0 1
+     length 1
+     axis 0 0 0 XYZ
+  end
+  begin
+     id 1
+     name b1""").replace("    b1 b2\n", "    b1 b2\n    b2 b3\n")
+    skel = parse_asf(text)
+    assert [j.name for j in skel.joints] == ["root", "b1", "b2", "b3"]
+    assert [j.parent for j in skel.joints] == [-1, 0, 1, 2]
+
+
+def test_asf_limits_and_dropped_keys(tmp_path):
+    (tmp_path / "t.asf").write_text(TINY_ASF.replace("     length 1\n",
+                                                     "     length 1\n     bodymass 3\n"))
+    (tmp_path / "t_1.amc").write_text(TINY_AMC)
+    m = mpz.io.read(tmp_path / "t_1.amc")
+    assert "bone b2: bodymass" in m.metadata["asf_dropped"]
+    assert m.extras["skeleton"].joints[1].limits[1] == (-math.inf, math.inf)
+
+
+def test_writers_refuse_a_motion_without_its_skeleton(tmp_path):
+    from mpz.synth import generate
+    with pytest.raises(InputFormatError, match="BVH"):
+        mpz.io.write(generate("walk", frames=5), tmp_path / "a.bvh")
+    with pytest.raises(InputFormatError, match="AMC"):
+        mpz.io.write(parse_bvh(TINY_BVH), tmp_path / "a.amc")
+
+
+# ===================================================================== CLI --
+def _cli(*argv: str) -> int:
+    from mpz.tools.mpz_cli import main
+    return main(list(argv))
+
+
+def test_cli_bvh_units_and_bounds(tmp_path, capsys):
+    src = tmp_path / "t.bvh"
+    src.write_text(TINY_BVH)
+    # no unit: a bound in mm says which option gives one
+    code = _cli("encode", str(src), "-o", str(tmp_path / "a.mpz"), "--max-error", "1mm")
+    err = capsys.readouterr().err
+    assert code != 0 and "--units" in err
+    assert _cli("encode", str(src), "-o", str(tmp_path / "a.mpz"), "--units", "cm",
+                "--max-error", "1mm", "-q") == 0
+    m = mpz.decode((tmp_path / "a.mpz").read_bytes())
+    assert m.units == "cm"
+    assert sk.report((tmp_path / "a.mpz").read_bytes())["position_bound"] == pytest.approx(0.1)
+    assert _cli("decode", str(tmp_path / "a.mpz"), "-o", str(tmp_path / "b.bvh"), "-q") == 0
+    assert bvh_read((tmp_path / "b.bvh").read_text())["frames"] == 4
+    # NPY output: the joint positions from the channels, within the declared bound
+    assert _cli("decode", str(tmp_path / "a.mpz"), "-o", str(tmp_path / "c.npy"), "-q") == 0
+    x = np.load(tmp_path / "c.npy")
+    ref = parse_bvh(TINY_BVH).positions
+    assert np.linalg.norm(x - ref, axis=2).max() <= 0.1
+
+
+def test_cli_amc_with_asf_path(tmp_path):
+    (tmp_path / "t.asf").write_text(TINY_ASF)
+    (tmp_path / "t_1.amc").write_text(TINY_AMC)
+    assert _cli("encode", str(tmp_path / "t_1.amc"), "-o", str(tmp_path / "a.mpz"), "-q",
+                "--angle-error", "0.001") == 0
+    rep = sk.report((tmp_path / "a.mpz").read_bytes())
+    assert rep["angle_bound"] == 0.001
+    out = tmp_path / "out"
+    out.mkdir()
+    assert _cli("decode", str(tmp_path / "a.mpz"), "-o", str(out / "x.amc"),
+                "--asf", str(out / "skel.asf"), "-q") == 0
+    assert sorted(p.name for p in out.iterdir()) == ["skel.asf", "x.amc"]
+    back = mpz.io.read(out / "x.amc", asf=out / "skel.asf")
+    assert np.abs(back.angles - parse_amc(TINY_AMC, parse_asf(TINY_ASF)).angles).max() <= 1e-3
+
+
+def test_source_files_are_never_copied(shared_data):
+    """The real recordings are read in place (conftest); this module writes only to tmp."""
+    assert not list(Path(__file__).parent.glob("*.bvh"))
