@@ -1,0 +1,874 @@
+"""Whole archives: many motion files encoded in parallel on Dask, into a queryable index.
+
+Contract: :func:`encode_corpus` takes ``(source, output)`` pairs (:func:`mirror_jobs` makes
+them for a folder tree) and an output folder ``OUT``. Each file is read, encoded, written
+atomically, decoded again to measure its error, and summarised (:mod:`mpz.similarity`); one
+row per file goes into ``OUT/index.sqlite`` (:data:`SCHEMA`), which ``mpz search`` and any
+SQLite tool read. The run returns a :class:`CorpusReport` (its :meth:`~CorpusReport.table`
+is the summary table of ``mpz encode -r``).
+
+* **Parallel on Dask.** Files are tasks of a ``dask.distributed`` cluster: a
+  ``LocalCluster`` of ``workers`` processes (one thread each, a memory limit each) by
+  default, or an existing cluster at ``scheduler``. ``workers=0`` runs the same tasks in
+  this process, one after the other, without Dask.
+* **Incremental.** An output is skipped, without being opened, when its index row says
+  it was written with the same options (:func:`fingerprint`) from a source of the same
+  size and modification time, and the output is still there, of the recorded size and
+  newer than the source. Otherwise a worker looks at the output: one that carries the
+  same fingerprint and the sha256 of the same source (its ``meta`` chunk, keys
+  :data:`META_FINGERPRINT` and :data:`META_SHA256`) and is newer than the source is
+  *kept*: only its row is rebuilt. Anything else is encoded again.
+* **Resumable.** Outputs are written through :func:`mpz.api.atomic_output`, so an output
+  exists complete or not at all, and the index commits each row as its file finishes.
+  After a crash, a kill or Ctrl-C, the next run skips what was done; hidden temporary files
+  that a killed worker could not remove are deleted when the run stops and before the
+  next one starts.
+* **Failures** are per file: bad input and :class:`~mpz.errors.MPZError` of any kind,
+  ``OSError`` on a source, a worker killed for exceeding its memory limit. Each is reported
+  with its reason (and kept in the index's ``failures`` table) while the other files go
+  on. Any other exception is a bug: the run stops, saves what finished, and re-raises it.
+* **Outputs that are not ours** (an existing file without our metadata) are replaced only
+  with ``force``, which also encodes every file again.
+
+This module touches files (the sources, the outputs, the index); the codec under it does
+not.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping, Sequence
+import contextlib
+from dataclasses import asdict, dataclass, field, fields, replace
+import datetime
+import hashlib
+import json
+import logging
+import os
+from pathlib import Path
+import re
+import sqlite3
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from mpz.encoder import DEFAULTS, EncodeOptions
+from mpz.errors import EncoderError, MPZError
+from mpz.similarity import (
+    DESCRIPTOR_VERSION,
+    EXACT_MAX_FRAMES,
+    SUMMARY_LEVELS,
+    MotionSummary,
+    descriptor,
+    features_for,
+    from_stored,
+)
+
+if TYPE_CHECKING:
+    from distributed import Client, Future
+
+__all__ = ["INDEX_NAME", "SCHEMA", "META_FINGERPRINT", "META_SHA256", "FileResult",
+           "CorpusReport", "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint",
+           "mirror_jobs", "open_index", "sha256_file", "sweep_temporaries",
+           "DEFAULT_MEMORY_LIMIT"]
+
+#: the index's file name inside the output folder
+INDEX_NAME = "index.sqlite"
+#: version of the index's tables (the ``corpus`` table's ``schema`` value)
+SCHEMA_VERSION = 1
+#: meta keys the corpus adds to every output
+META_FINGERPRINT = "mpz.corpus.fingerprint"
+META_SHA256 = "source.sha256"
+META_SOURCE = "source"
+#: memory limit of each worker of the local cluster. Measured (bench/bench_corpus.py
+#: --long, docs/corpus.md): a 30-minute, 41-marker capture at 120 Hz (218,484 frames, NPY)
+#: peaks at 1.7 GB in one process (read 0.4, encode 1.7, decode and summary within it); a
+#: C3D of 65,535 frames peaked at 2.7 GB in a worker (the C3D reader alone takes about
+#: 0.9 GB). Dask's nanny restarts a worker at 95 % of its limit.
+DEFAULT_MEMORY_LIMIT = "4GiB"
+#: chunk types counted as analog bytes in the index: the analog samples of a C3D source
+#: (spec §4.13; the c3d extension's other chunks, header, parameters and point extras,
+#: count as other bytes)
+ANALOG_CHUNK_TYPES = ("cana",)
+
+#: the index's tables (SQLite); docs/corpus.md explains every column
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS corpus (
+    key   TEXT PRIMARY KEY,
+    value TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS files (
+    output          TEXT PRIMARY KEY,  -- the .mpz, relative to the index's folder
+    path            TEXT NOT NULL,     -- the source file (absolute)
+    source_sha256   TEXT NOT NULL,
+    source_bytes    INTEGER NOT NULL,
+    source_mtime_ns INTEGER NOT NULL,
+    format          TEXT NOT NULL,     -- the source's extension, e.g. .c3d
+    frames          INTEGER NOT NULL,
+    markers         INTEGER NOT NULL,
+    rate            REAL NOT NULL,     -- frames per second
+    units           TEXT NOT NULL,     -- mm, cm, m, in or '' (unknown)
+    duration_s      REAL NOT NULL,
+    gap_fraction    REAL NOT NULL,     -- share of marker samples that are gaps
+    declared_bound  REAL,              -- the hard bound (file units); NULL: none declared
+    raw_bytes       INTEGER NOT NULL,  -- positions as float32: frames x markers x 12
+    marker_bytes    INTEGER NOT NULL,  -- the signature and the critical chunks (MHDR..MEND)
+    analog_bytes    INTEGER NOT NULL,  -- analog samples of a C3D source (cana; 0: none)
+    summary_bytes   INTEGER NOT NULL,  -- the smry chunk, if the options asked for one
+    other_bytes     INTEGER NOT NULL,  -- meta and every other ancillary chunk
+    total_bytes     INTEGER NOT NULL,  -- the .mpz file
+    chunk_bytes     TEXT NOT NULL,     -- JSON: chunk type -> bytes (12-byte frames included)
+    ratio           REAL NOT NULL,     -- raw_bytes / total_bytes
+    max_error       REAL,              -- measured: decoded vs source, file units
+    arms            REAL,              -- measured: average per-frame RMS error
+    summary_method  TEXT NOT NULL,     -- exact | blocks:B (see mpz.similarity)
+    summary_dims    INTEGER NOT NULL,  -- 3 x markers
+    descriptor      BLOB NOT NULL,     -- float64 LE features (mpz.similarity.descriptor)
+    fingerprint     TEXT NOT NULL,     -- of the encode options (mpz.corpus.fingerprint)
+    mpz_version     TEXT NOT NULL,
+    encoded_at      TEXT NOT NULL,     -- UTC, ISO 8601
+    seconds         REAL NOT NULL,     -- read + encode + write + check + summary, wall
+    cpu_seconds     REAL NOT NULL      -- the same, CPU time of the worker process
+);
+CREATE INDEX IF NOT EXISTS files_sha256 ON files(source_sha256);
+CREATE TABLE IF NOT EXISTS levels (
+    output TEXT NOT NULL REFERENCES files(output) ON DELETE CASCADE,
+    k      INTEGER NOT NULL,           -- segments
+    wssse  REAL NOT NULL,              -- within-segment sum of squared error
+    starts BLOB NOT NULL,              -- k x uint32 little-endian: first frame of each
+    means  BLOB NOT NULL,              -- k x summary_dims float32 little-endian
+    PRIMARY KEY (output, k)
+);
+CREATE TABLE IF NOT EXISTS failures (
+    path   TEXT PRIMARY KEY,           -- the source
+    output TEXT,
+    reason TEXT NOT NULL,
+    at     TEXT NOT NULL
+);
+"""
+
+_FILE_COLUMNS = ("output", "path", "source_sha256", "source_bytes", "source_mtime_ns", "format",
+                 "frames", "markers", "rate", "units", "duration_s", "gap_fraction",
+                 "declared_bound", "raw_bytes", "marker_bytes", "analog_bytes", "summary_bytes",
+                 "other_bytes", "total_bytes", "chunk_bytes", "ratio", "max_error", "arms",
+                 "summary_method", "summary_dims", "descriptor", "fingerprint", "mpz_version",
+                 "encoded_at", "seconds", "cpu_seconds")
+
+
+#: the encode options for a file, from its units (so that lengths given with a unit convert)
+OptionsFor = Callable[[str], EncodeOptions]
+
+
+@dataclass(frozen=True)
+class _Fixed:
+    """The same options for every file (a picklable :class:`OptionsFor`)."""
+
+    options: EncodeOptions
+
+    def __call__(self, units: str) -> EncodeOptions:
+        return self.options
+
+
+# ------------------------------------------------------------------ fingerprint --
+def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS) -> str:
+    """sha256 of the options that decide an output's bytes and its index row.
+
+    The fields of ``options`` that differ from their defaults (metadata without the keys
+    the corpus sets per file: :data:`META_SOURCE`, :data:`META_SHA256`,
+    :data:`META_FINGERPRINT`), the summary levels of the index and
+    :data:`~mpz.similarity.EXACT_MAX_FRAMES`, as canonical JSON. Only values that differ
+    from the defaults count, so a new option added to :class:`~mpz.encoder.EncodeOptions`
+    later (with a default) does not make an archive look stale; nor does upgrading mpz
+    (its version is recorded in each row; ``force`` re-encodes).
+
+    Examples
+    --------
+    >>> fingerprint(EncodeOptions(max_error=1.0)) == fingerprint(EncodeOptions(max_error=1.0))
+    True
+    >>> fingerprint(EncodeOptions(max_error=1.0)) == fingerprint(EncodeOptions(max_error=2.0))
+    False
+    """
+    own = {META_SOURCE, META_SHA256, META_FINGERPRINT}
+
+    def plain(name: str, v: Any) -> Any:
+        if name == "metadata":
+            v = {k: x for k, x in v.items() if k not in own}
+        return dict(sorted(v.items())) if isinstance(v, Mapping) else v
+
+    doc: dict[str, Any] = {}
+    for f in fields(options):
+        v = plain(f.name, getattr(options, f.name))
+        if v != plain(f.name, getattr(DEFAULTS, f.name)):
+            doc[f.name] = v
+    doc["index.levels"] = sorted({int(k) for k in levels})
+    doc["index.exact_max_frames"] = EXACT_MAX_FRAMES
+    text = json.dumps(doc, sort_keys=True, default=str, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+# ---------------------------------------------------------------------- worker --
+@dataclass(frozen=True)
+class Task:
+    """What a worker gets for one file."""
+
+    source: str
+    output: str
+    output_key: str                    # the index key: output relative to the index folder
+    options_for: OptionsFor
+    levels: tuple[int, ...]
+    force: bool = False
+    asf: str | None = None             # skeleton for AMC sources (default: found beside)
+
+
+@dataclass
+class FileResult:
+    """What became of one file.
+
+    ``status`` is ``encoded``, ``kept`` (the output was up to date; its row was rebuilt),
+    ``skipped`` (up to date by the index; not opened) or ``failed`` (see ``reason``).
+    """
+
+    source: str
+    output: str
+    status: str
+    reason: str = ""
+    source_bytes: int = 0
+    output_bytes: int = 0
+    raw_bytes: int = 0
+    seconds: float = 0.0
+    cpu_seconds: float = 0.0
+    row: dict[str, Any] | None = None
+    levels: list[tuple[int, float, bytes, bytes]] = field(default_factory=list)
+    #: the worker process's peak resident memory so far, in bytes (None where unknown)
+    worker_peak_rss: int | None = None
+
+
+def sha256_file(path: str | os.PathLike[str]) -> str:
+    """The sha256 of a file's bytes, read in blocks of 1 MiB (hex)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _peak_rss() -> int | None:
+    try:
+        import resource
+    except ImportError:             # not POSIX
+        return None
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024   # Linux: KiB
+
+
+def _ours(output: str, fp: str, sha: str, source_mtime_ns: int) -> bytes | None:
+    """The bytes of an existing output that is up to date, or None if it must be encoded.
+
+    Raises
+    ------
+    EncoderError
+        When the output exists but is not an MPZ file written by a corpus run (replacing
+        it needs ``force``).
+    """
+    from mpz.decoder import read_stream
+    try:
+        data = Path(output).read_bytes()
+        st = os.stat(output)
+    except OSError:
+        return None
+    try:
+        meta = read_stream(data).meta
+    except MPZError:
+        meta = {}
+    if META_FINGERPRINT not in meta:
+        raise EncoderError(f"{output} exists and was not written by an mpz corpus run; "
+                           "use --force to replace it")
+    if (meta[META_FINGERPRINT] == fp and meta.get(META_SHA256) == sha
+            and st.st_mtime_ns >= source_mtime_ns):
+        return data
+    return None
+
+
+def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp: str,
+         summary: MotionSummary, seconds: float) -> dict[str, Any]:
+    """The index row of one file, from its output bytes and its source motion."""
+    import mpz
+    from mpz.container import chunk_sizes
+    from mpz.decoder import decode, read_stream
+    from mpz.format import unit_name
+    from mpz.metrics import arms, max_error
+
+    h = read_stream(data).header
+    sizes = chunk_sizes(data)
+    marker = 8 + sum(n for t, n in sizes.items() if t[:1].isupper())   # with the signature
+    analog = sum(n for t, n in sizes.items() if t in ANALOG_CHUNK_TYPES)
+    smry = sizes.get("smry", 0)
+    decoded = decode(data)
+    err, avg = max_error(motion, decoded), arms(motion, decoded)
+    del decoded
+    raw = motion.raw_size()
+    return {
+        "output": task.output_key, "path": os.path.abspath(task.source), "source_sha256": sha,
+        "source_bytes": st.st_size, "source_mtime_ns": st.st_mtime_ns,
+        "format": os.path.splitext(task.source)[1].lower(), "frames": h.frame_count,
+        "markers": h.marker_count, "rate": h.rate, "units": unit_name(h.units),
+        "duration_s": h.frame_count / h.rate, "gap_fraction": float(motion.gap_fraction),
+        "declared_bound": h.error_bound if h.error_metric else None, "raw_bytes": raw,
+        "marker_bytes": marker, "analog_bytes": analog, "summary_bytes": smry,
+        "other_bytes": len(data) - marker - analog - smry, "total_bytes": len(data),
+        "chunk_bytes": json.dumps(sizes), "ratio": raw / len(data), "max_error": err,
+        "arms": avg, "summary_method": summary.method, "summary_dims": summary.dims,
+        "descriptor": descriptor(summary, task.levels).astype("<f8").tobytes(),
+        "fingerprint": fp, "mpz_version": mpz.__version__,
+        "encoded_at": datetime.datetime.now(datetime.UTC).isoformat(
+            timespec="seconds"),
+        "seconds": seconds, "cpu_seconds": 0.0}
+
+
+def encode_file(task: Task) -> FileResult:
+    """Encode one file of a corpus (the task a worker runs).
+
+    Returns
+    -------
+    FileResult
+        ``encoded``, ``kept`` or ``failed`` with the reason. Bad input
+        (:class:`~mpz.errors.MPZError`), an ``OSError`` and ``MemoryError`` are failures
+        of this file; any other exception is a bug and propagates.
+    """
+    from mpz.api import write_atomic
+    from mpz.encoder import encode_motion
+    from mpz.io import read
+    from mpz.similarity import summarize
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    src_bytes = 0
+    try:
+        st = os.stat(task.source)
+        src_bytes = st.st_size
+        sha = sha256_file(task.source)
+        motion = read(task.source, asf=task.asf)
+        opts = task.options_for(motion.units)
+        fp = fingerprint(opts, task.levels)
+        data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns)
+        status = "kept"
+        if data is None:
+            meta = dict(opts.metadata)
+            meta.update({META_SOURCE: os.path.basename(task.source), META_SHA256: sha,
+                         META_FINGERPRINT: fp})
+            data, _ = encode_motion(motion, replace(opts, metadata=meta))
+            # replace only a file we wrote (checked by _ours) or, with force, any file
+            write_atomic(task.output, data, source=task.source,
+                         force=task.force or os.path.lexists(task.output))
+            status = "encoded"
+        summary = summarize(motion, task.levels)
+        row = _row(task, data, motion, sha, st, fp, summary, 0.0)
+    except (MPZError, OSError) as exc:
+        return FileResult(task.source, task.output, "failed", _reason(exc, task.source),
+                          src_bytes,
+                          seconds=time.perf_counter() - t0, worker_peak_rss=_peak_rss())
+    except MemoryError:
+        return FileResult(task.source, task.output, "failed", "out of memory", src_bytes,
+                          seconds=time.perf_counter() - t0, worker_peak_rss=_peak_rss())
+    row["seconds"] = seconds = time.perf_counter() - t0
+    row["cpu_seconds"] = cpu = time.process_time() - c0
+    levels = [(lv.k, lv.wssse, lv.starts.astype("<u4").tobytes(),
+               np.ascontiguousarray(lv.means, "<f4").tobytes()) for lv in summary.levels]
+    return FileResult(task.source, task.output, status, "", src_bytes, len(data),
+                      row["raw_bytes"], seconds, cpu, row, levels, _peak_rss())
+
+
+def _reason(exc: BaseException, source: str) -> str:
+    """One line for the summary table (which names the source itself)."""
+    if isinstance(exc, OSError):
+        return f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
+    text = str(exc)
+    if isinstance(exc, MPZError) and exc.path == source and text.startswith(f"{source}: "):
+        text = text[len(source) + 2:]
+    return text
+
+
+# ----------------------------------------------------------------------- index --
+@dataclass(frozen=True)
+class IndexRow:
+    """One indexed file: its ``files`` row (a dict) and its summary."""
+
+    values: dict[str, Any]
+    summary: MotionSummary
+
+    def __getitem__(self, key: str) -> Any:
+        return self.values[key]
+
+
+class Index:
+    """The SQLite index of a corpus (:data:`SCHEMA`); one writer, the process that runs
+    the corpus.
+
+    Raises
+    ------
+    EncoderError
+        If the file is not an MPZ corpus index or has an unknown schema version.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], *, create: bool = False) -> None:
+        self.path = os.fspath(path)
+        if not create and not os.path.isfile(self.path):
+            raise EncoderError(f"{self.path}: no such index (encode a folder with "
+                               "mpz encode -r FOLDER -o OUT/ to make OUT/index.sqlite)")
+        try:
+            self.db = sqlite3.connect(self.path)
+            self.db.execute("PRAGMA foreign_keys = ON")
+            if create:
+                # a commit per file without an fsync each (a row lost to a power cut is
+                # rebuilt by the next run from the output's meta chunk)
+                self.db.execute("PRAGMA journal_mode = WAL")
+                self.db.execute("PRAGMA synchronous = NORMAL")
+                self.db.executescript(SCHEMA)
+                self.db.execute("INSERT OR IGNORE INTO corpus VALUES ('schema', ?)",
+                                (str(SCHEMA_VERSION),))
+                self.db.commit()
+            got = self.db.execute("SELECT value FROM corpus WHERE key = 'schema'").fetchone()
+        except sqlite3.DatabaseError as exc:
+            raise EncoderError(f"{self.path}: not an MPZ corpus index ({exc})") from None
+        if got is None or got[0] != str(SCHEMA_VERSION):
+            raise EncoderError(f"{self.path}: index schema {got and got[0]!r}, this mpz reads "
+                               f"schema {SCHEMA_VERSION}")
+
+    def close(self) -> None:
+        self.db.close()
+
+    def __enter__(self) -> Index:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- writing
+    def set_info(self, items: Mapping[str, str]) -> None:
+        self.db.executemany("INSERT OR REPLACE INTO corpus VALUES (?, ?)", items.items())
+        self.db.commit()
+
+    def put(self, result: FileResult, output_key: str) -> None:
+        """Record a result: a row and its levels, or a failure (committed at once)."""
+        now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+        with self.db:
+            if result.status == "failed":
+                self.db.execute("INSERT OR REPLACE INTO failures VALUES (?, ?, ?, ?)",
+                                (os.path.abspath(result.source), output_key, result.reason,
+                                 now))
+                return
+            if result.row is None:      # skipped: the row is already there
+                self.db.execute("DELETE FROM failures WHERE path = ?",
+                                (os.path.abspath(result.source),))
+                return
+            self.db.execute("DELETE FROM files WHERE output = ?", (output_key,))
+            # levels go with their file (ON DELETE CASCADE), but a tool without foreign
+            # keys enabled may have left some behind
+            self.db.execute("DELETE FROM levels WHERE output = ?", (output_key,))
+            self.db.execute(f"INSERT INTO files ({', '.join(_FILE_COLUMNS)}) VALUES "
+                            f"({', '.join('?' * len(_FILE_COLUMNS))})",
+                            [result.row[c] for c in _FILE_COLUMNS])
+            self.db.executemany("INSERT INTO levels VALUES (?, ?, ?, ?, ?)",
+                                [(output_key, k, w, s, m) for k, w, s, m in result.levels])
+            self.db.execute("DELETE FROM failures WHERE path = ?", (result.row["path"],))
+
+    # -- reading
+    def row(self, output_key: str) -> dict[str, Any] | None:
+        cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files WHERE output = ?",
+                              (output_key,))
+        got = cur.fetchone()
+        return None if got is None else dict(zip(_FILE_COLUMNS, got, strict=True))
+
+    def rows(self) -> list[IndexRow]:
+        """Every indexed file with its summary, in output order."""
+        cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files ORDER BY output")
+        values = [dict(zip(_FILE_COLUMNS, r, strict=True)) for r in cur.fetchall()]
+        levels: dict[str, list[tuple[int, bytes, bytes, float]]] = {}
+        for out, k, w, s, m in self.db.execute(
+                "SELECT output, k, wssse, starts, means FROM levels ORDER BY output, k"):
+            levels.setdefault(out, []).append((k, s, m, w))
+        return [IndexRow(v, from_stored(v["frames"], v["rate"], v["summary_dims"],
+                                        v["summary_method"], levels.get(v["output"], [])))
+                for v in values]
+
+    def info(self) -> dict[str, str]:
+        return dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
+
+    def refresh_descriptors(self) -> None:
+        """Recompute every stored descriptor from its levels if an older
+        :data:`~mpz.similarity.DESCRIPTOR_VERSION` wrote them; then record this version."""
+        if self.info().get("descriptor_version") not in (None, DESCRIPTOR_VERSION):
+            levels = self.levels()
+            with self.db:
+                for r in self.rows():
+                    self.db.execute("UPDATE files SET descriptor = ? WHERE output = ?",
+                                    (descriptor(r.summary, levels).astype("<f8").tobytes(),
+                                     r["output"]))
+        self.set_info({"descriptor_version": DESCRIPTOR_VERSION})
+
+    def levels(self) -> tuple[int, ...]:
+        """The summary levels the index was built with (its ``corpus`` table)."""
+        text = self.info().get("levels", "")
+        return tuple(int(k) for k in text.split(",") if k) or SUMMARY_LEVELS
+
+    def descriptors(self) -> tuple[list[dict[str, Any]], np.ndarray]:
+        """Every row (without its levels) and the matrix of their descriptors.
+
+        The stored descriptors are used when the index was written with this
+        :data:`~mpz.similarity.DESCRIPTOR_VERSION`; otherwise they are recomputed from
+        the stored levels (nothing is decoded either way).
+        """
+        levels = self.levels()
+        width = len(features_for(levels))
+        if self.info().get("descriptor_version") == DESCRIPTOR_VERSION:
+            cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files "
+                                  "ORDER BY output")
+            values = [dict(zip(_FILE_COLUMNS, r, strict=True)) for r in cur.fetchall()]
+            if all(len(v["descriptor"]) == 8 * width for v in values):
+                table = np.array([np.frombuffer(v["descriptor"], "<f8") for v in values])
+                return values, table.reshape(len(values), width)
+        rows = self.rows()     # rows of other levels or versions: recompute them all
+        table = np.array([descriptor(r.summary, levels) for r in rows])
+        return [r.values for r in rows], table.reshape(len(rows), width)
+
+    def failures(self) -> list[tuple[str, str]]:
+        return self.db.execute("SELECT path, reason FROM failures ORDER BY path").fetchall()
+
+
+def open_index(path: str | os.PathLike[str]) -> Index:
+    """Open an existing index; ``path`` may be the file or the folder holding it."""
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        p = os.path.join(p, INDEX_NAME)
+    return Index(p)
+
+
+# ---------------------------------------------------------------------- report --
+@dataclass
+class CorpusReport:
+    """The outcome of a corpus run: one :class:`FileResult` per file, in input order."""
+
+    results: list[FileResult]
+    seconds: float
+    workers: int
+    cluster: str
+    index: str
+
+    def count(self, status: str) -> int:
+        return sum(r.status == status for r in self.results)
+
+    @property
+    def failed(self) -> list[FileResult]:
+        return [r for r in self.results if r.status == "failed"]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"schema": "mpz-corpus/1", "seconds": self.seconds, "workers": self.workers,
+                "cluster": self.cluster, "index": self.index,
+                "counts": {s: self.count(s) for s in ("encoded", "kept", "skipped", "failed")},
+                "files": [{k: v for k, v in asdict(r).items() if k not in ("row", "levels")}
+                          for r in self.results]}
+
+    def table(self) -> str:
+        """The summary table: files, bytes in and out per status, and each failure."""
+        lines = [f"{len(self.results)} files in {self.seconds:.1f} s, {self.workers} "
+                 f"worker{'s' if self.workers != 1 else ''} ({self.cluster})",
+                 f"  {'':<11}{'files':>7}{'source MB':>12}{'MPZ MB':>10}{'ratio':>8}"]
+        for status, label in (("encoded", "encoded"), ("kept", "kept"),
+                              ("skipped", "up to date"), ("failed", "failed")):
+            rs = [r for r in self.results if r.status == status]
+            if not rs and status != "encoded":
+                continue
+            src = sum(r.source_bytes for r in rs)
+            out = sum(r.output_bytes for r in rs)
+            ratio = f"{src / out:8.1f}" if out else f"{'-':>8}"
+            outs = f"{out / 1e6:10.2f}" if status != "failed" else f"{'-':>10}"
+            lines.append(f"  {label:<11}{len(rs):>7}{src / 1e6:12.2f}{outs}{ratio}")
+        done = [r for r in self.results if r.status == "encoded"]
+        if done and self.seconds > 0:
+            mb = sum(r.raw_bytes for r in done) / 1e6
+            lines.append(f"  throughput {len(done) / self.seconds:.2f} files/s, "
+                         f"{mb / self.seconds:.2f} MB/s of float32 positions")
+        for r in self.failed:
+            lines.append(f"  FAILED {r.source}: {r.reason}")
+        lines.append(f"  index {self.index}")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------- driver --
+def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
+                extensions: Sequence[str] | None = None) -> list[tuple[str, str]]:
+    """``(source, output)`` for every motion file under ``folder``, mirrored under ``outdir``.
+
+    ``a/b/walk.c3d`` becomes ``OUT/a/b/walk.mpz``. Hidden files and folders are left
+    out; files are in sorted order.
+    """
+    from mpz.io import READERS
+    exts = tuple(extensions) if extensions is not None else tuple(READERS)
+    root = os.fspath(folder)
+    out: list[tuple[str, str]] = []
+    for here, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        for name in sorted(files):
+            if name.startswith(".") or os.path.splitext(name)[1].lower() not in exts:
+                continue
+            rel = os.path.relpath(os.path.join(here, name), root)
+            out.append((os.path.join(here, name),
+                        os.path.join(os.fspath(outdir), os.path.splitext(rel)[0] + ".mpz")))
+    return out
+
+
+def _key(output: str, index_dir: str) -> str:
+    """An output's index key: its path relative to the index's folder, with / separators."""
+    rel = os.path.relpath(os.path.abspath(output), index_dir)
+    return Path(rel).as_posix()
+
+
+def _up_to_date(row: dict[str, Any] | None, task: Task) -> bool:
+    """The index says the output is current: the fast path that opens nothing."""
+    if row is None or task.force:
+        return False
+    try:
+        st = os.stat(task.source)
+        out = os.stat(task.output)
+        fp = fingerprint(task.options_for(row["units"]), task.levels)
+    except (OSError, MPZError):
+        return False
+    return (row["fingerprint"] == fp and row["source_bytes"] == st.st_size
+            and row["source_mtime_ns"] == st.st_mtime_ns and out.st_size == row["total_bytes"]
+            and out.st_mtime_ns >= st.st_mtime_ns)
+
+
+def _temp_pattern(output: str) -> re.Pattern[str]:
+    """Names of the temporary files :func:`mpz.api.atomic_output` makes for ``output``."""
+    name = os.path.basename(output)
+    suffix = os.path.splitext(name)[1]
+    return re.compile(r"\." + re.escape(name[:120]) + r"\.[0-9a-f]{8}\.part" + re.escape(suffix)
+                      + r"\Z")
+
+
+def sweep_temporaries(outputs: Sequence[str], *, before: float | None = None) -> list[str]:
+    """Remove the temporary files a killed writer left beside ``outputs``; returns them.
+
+    Only files named as :func:`mpz.api.atomic_output` names its temporaries for these
+    outputs, and (with ``before``) last modified before that time, are removed.
+    """
+    by_folder: dict[str, list[re.Pattern[str]]] = {}
+    for o in outputs:
+        by_folder.setdefault(os.path.dirname(os.path.abspath(o)), []).append(_temp_pattern(o))
+    removed = []
+    for folder, pats in by_folder.items():
+        try:
+            entries = list(os.scandir(folder))
+        except OSError:
+            continue
+        for e in entries:
+            if not e.name.startswith(".") or not any(p.match(e.name) for p in pats):
+                continue
+            with contextlib.suppress(OSError):
+                if before is None or e.stat(follow_symlinks=False).st_mtime < before:
+                    os.unlink(e.path)
+                    removed.append(e.path)
+    return removed
+
+
+Progress = Callable[[int, int, FileResult], None]
+
+
+@contextlib.contextmanager
+def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | None
+                 ) -> Iterator[tuple[Client, str]]:
+    """A client of an existing cluster, or of a new LocalCluster closed afterwards."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise EncoderError("running on Dask needs dask.distributed: pip install "
+                           "'mpz[corpus]' (or use workers=0 / --jobs 0 to encode "
+                           "without it)") from None
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout="30s")
+        except OSError as exc:
+            raise EncoderError(f"cannot reach the Dask scheduler at {scheduler}: "
+                               f"{exc}") from None
+        try:
+            yield client, f"scheduler {scheduler}"
+        finally:
+            client.close()
+        return
+    # one thread per worker process: the codec is CPU-bound and numba's own thread pool
+    # would otherwise start one thread per core in every worker
+    # the scheduler's HTTP endpoints (no dashboard) on a free local port, not 8787 on
+    # every interface
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           host="127.0.0.1", memory_limit=memory_limit,
+                           dashboard_address=None,
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                           silence_logs=logging.ERROR, env={"NUMBA_NUM_THREADS": "1"})
+    client = Client(cluster)
+    try:
+        yield client, f"LocalCluster, {memory_limit} per worker"
+    finally:
+        client.close()
+        cluster.close()
+
+
+def _killed(exc: BaseException) -> bool:
+    try:
+        from distributed import KilledWorker
+    except ImportError:
+        return False
+    return isinstance(exc, KilledWorker)
+
+
+def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike[str]]],
+                  outdir: str | os.PathLike[str],
+                  options: EncodeOptions | OptionsFor = DEFAULTS, *,
+                  levels: Sequence[int] = SUMMARY_LEVELS, workers: int | None = None,
+                  scheduler: str | None = None, client: Client | None = None,
+                  memory_limit: str | int | None = DEFAULT_MEMORY_LIMIT, force: bool = False,
+                  progress: Progress | None = None,
+                  asf: str | os.PathLike[str] | None = None) -> CorpusReport:
+    """Encode ``(source, output)`` pairs in parallel and index them in ``outdir``.
+
+    Parameters
+    ----------
+    jobs : sequence of (source, output)
+        Outputs are usually under ``outdir`` (:func:`mirror_jobs`); their folders are
+        created.
+    outdir : path
+        Holds ``index.sqlite`` (created or updated).
+    options : EncodeOptions or callable(units) -> EncodeOptions
+        The same options for every file, or options from each file's units (how the CLI
+        converts ``--max-error 1mm``). Must be picklable (cloudpickle) for Dask.
+    levels : sequence of int
+        Segment counts of the summaries stored in the index.
+    workers : int, optional
+        Worker processes of the local cluster (default: the CPU count); ``0`` encodes in
+        this process without Dask. Ignored with ``scheduler`` or ``client``.
+    scheduler : str, optional
+        Address of a running ``dask.distributed`` scheduler (``tcp://host:8786``); its
+        workers must see the sources and ``outdir`` at the same paths.
+    client : distributed.Client, optional
+        A client to use as it is (not closed).
+    memory_limit : str or int, optional
+        Per worker of the local cluster; Dask restarts a worker that exceeds it, and a
+        file that kills its workers three times is reported as failed.
+    force : bool
+        Encode every file again and replace existing outputs, ours or not.
+    progress : callable(done, total, FileResult), optional
+        Called in this process as each file finishes (skipped ones included).
+    asf : path, optional
+        Skeleton for every AMC source (default: found beside each).
+
+    Returns
+    -------
+    CorpusReport
+
+    Raises
+    ------
+    KeyboardInterrupt
+        After cancelling the tasks in flight, removing their temporary files and
+        committing the rows of the files that finished.
+    EncoderError
+        When the index cannot be opened or Dask is missing or unreachable.
+    """
+    t0 = time.perf_counter()
+    wall0 = time.time()
+    index_dir = os.path.abspath(os.fspath(outdir))
+    os.makedirs(index_dir, exist_ok=True)
+    options_for: OptionsFor = _Fixed(options) if isinstance(options, EncodeOptions) else options
+    levels = tuple(sorted({int(k) for k in levels}))
+    skeleton = None if asf is None else os.path.abspath(os.fspath(asf))
+    tasks = [Task(os.fspath(s), os.fspath(o), _key(os.fspath(o), index_dir), options_for,
+                  levels, force, skeleton) for s, o in jobs]
+    results: list[FileResult | None] = [None] * len(tasks)
+    n_workers = workers if workers is not None else (os.cpu_count() or 1)
+    with Index(os.path.join(index_dir, INDEX_NAME), create=True) as index:
+        index.refresh_descriptors()
+        index.set_info({"levels": ",".join(map(str, levels)),
+                        "exact_max_frames": str(EXACT_MAX_FRAMES)})
+        done = 0
+
+        def finish(i: int, r: FileResult) -> None:
+            nonlocal done
+            results[i] = r
+            index.put(r, tasks[i].output_key)
+            done += 1
+            if progress is not None:
+                progress(done, len(tasks), r)
+
+        todo: list[int] = []
+        for i, t in enumerate(tasks):
+            row = index.row(t.output_key)
+            if _up_to_date(row, t):
+                assert row is not None
+                finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
+                                     row["total_bytes"], row["raw_bytes"]))
+            else:
+                todo.append(i)
+        for i in todo:
+            os.makedirs(os.path.dirname(os.path.abspath(tasks[i].output)), exist_ok=True)
+        sweep_temporaries([tasks[i].output for i in todo], before=wall0)
+        inflight: dict[Future[FileResult], int] = {}
+        if not todo:
+            cluster = "nothing to do"          # no cluster is started for a no-op run
+        elif n_workers == 0 and scheduler is None and client is None:
+            cluster = "this process, no Dask"
+            for i in todo:       # an interrupted write removes its own temporary file
+                finish(i, encode_file(tasks[i]))
+        elif client is not None:
+            cluster = "given client"
+            n_workers = _run_on(client, tasks, todo, finish, inflight)
+        else:
+            try:
+                with _dask_client(n_workers, scheduler, memory_limit) as (c, cluster):
+                    n_workers = _run_on(c, tasks, todo, finish, inflight)
+            finally:
+                # the local workers are gone now: a task killed mid-write left a hidden
+                # temporary file (a remote worker's task finishes or removes its own)
+                if scheduler is None and inflight:
+                    sweep_temporaries([tasks[i].output for i in inflight.values()])
+    final = [r for r in results if r is not None]
+    return CorpusReport(final, time.perf_counter() - t0, n_workers, cluster,
+                        os.path.join(index_dir, INDEX_NAME))
+
+
+def _run_on(client: Client, tasks: list[Task], todo: list[int],
+            finish: Callable[[int, FileResult], None],
+            inflight: dict[Future[FileResult], int]) -> int:
+    """Run ``todo`` on the cluster, a bounded window of tasks at a time; returns the
+    worker count. ``inflight`` holds the tasks not finished yet; on any exception,
+    KeyboardInterrupt included, they are cancelled before it propagates."""
+    from distributed import as_completed
+    pending = iter(todo)
+    threads = max(sum(client.nthreads().values()), 1)
+    window = 2 * threads + 1     # queued work stays small: a stop loses little
+
+    def submit(ac: as_completed) -> None:
+        while len(inflight) < window:
+            i = next(pending, None)
+            if i is None:
+                return
+            fut = client.submit(encode_file, tasks[i], pure=False,
+                                key=f"mpz-encode-{i}-{os.urandom(4).hex()}")
+            inflight[fut] = i
+            ac.add(fut)
+
+    try:
+        ac = as_completed()
+        submit(ac)
+        for fut in ac:
+            i = inflight.pop(fut)
+            try:
+                r = fut.result()
+            except Exception as exc:
+                if not _killed(exc):
+                    raise            # a bug in the task: stop the run, keep what finished
+                r = FileResult(tasks[i].source, tasks[i].output, "failed",
+                               "its worker died each time it ran (over the memory limit?): "
+                               f"{exc}")
+            finish(i, r)
+            submit(ac)
+    except BaseException:
+        if inflight:
+            with contextlib.suppress(Exception):
+                client.cancel(list(inflight))
+        raise
+    return len(client.nthreads()) or threads

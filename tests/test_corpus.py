@@ -1,0 +1,579 @@
+"""Whole archives (issue 15.3-15.4): mpz.corpus, its index, and ``mpz search``.
+
+* incremental runs: an up-to-date output is skipped; a touched source, other options or a
+  lost index row are handled as the module docstring of :mod:`mpz.corpus` says;
+* interrupted runs (Ctrl-C injected in this process, a run on Dask stopped midway, the
+  ``mpz`` command killed with SIGINT) leave no partial or temporary file, and the next run
+  encodes only what is missing;
+* every column of the index against an independent computation (hashlib, the file size,
+  the chunk frames parsed here, distances computed here, a plain-Python optimal
+  partition);
+* self-retrieval: every real recording queried with its own capture comes first.
+
+Corpora are small and run on 0-2 workers: the machine has 2 shared cores.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+import hashlib
+import json
+import os
+from pathlib import Path
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import time
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+import numpy as np
+import pytest
+
+import mpz
+from mpz.corpus import (
+    INDEX_NAME,
+    META_FINGERPRINT,
+    META_SHA256,
+    CorpusReport,
+    FileResult,
+    encode_corpus,
+    fingerprint,
+    mirror_jobs,
+    open_index,
+    sweep_temporaries,
+)
+from mpz.decoder import read_stream
+from mpz.encoder import EncodeOptions
+from mpz.errors import EncoderError
+from mpz.io import read, write
+from mpz.similarity import rank, summarize
+from mpz.synth import generate
+
+OPTS = EncodeOptions(max_error=1.0)
+LEVELS = (2, 4)          # small levels keep the plain-Python partition check quick
+
+
+def _has_dask() -> bool:
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+needs_dask = pytest.mark.skipif(not _has_dask(), reason="dask.distributed is not installed "
+                                "(pip install -e '.[test]' installs it)")
+
+
+def make_sources(folder: Path, frames: int = 90) -> dict[str, Path]:
+    """Three small captures in two formats and a sub-folder, and one bad file."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "sub").mkdir(exist_ok=True)
+    paths = {"walk": folder / "walk.trc", "jump": folder / "jump.c3d",
+             "wave": folder / "sub" / "wave.trc"}
+    write(generate("walk", frames=frames, seed=1), paths["walk"])
+    write(generate("jump", frames=frames, seed=2, gap_fraction=0.05), paths["jump"])
+    write(generate("wave", frames=frames + 7, seed=3, markers=20), paths["wave"])
+    bad = folder / "bad.trc"
+    bad.write_text("not a TRC file\n")
+    paths["bad"] = bad
+    return paths
+
+
+def run_corpus(src: Path, out: Path, **kw) -> CorpusReport:
+    kw.setdefault("workers", 0)
+    kw.setdefault("levels", LEVELS)
+    return encode_corpus(mirror_jobs(src, out), out, kw.pop("options", OPTS), **kw)
+
+
+def statuses(rep: CorpusReport) -> dict[str, str]:
+    return {Path(r.source).stem: r.status for r in rep.results}
+
+
+def temporaries(folder: Path) -> list[str]:
+    """Hidden or ``.part`` files anywhere under ``folder`` (an interrupted writer's)."""
+    return sorted(str(p) for p in folder.rglob("*")
+                  if p.name.startswith(".") or ".part" in p.name)
+
+
+def mtimes(out: Path) -> dict[str, int]:
+    return {p.name: p.stat().st_mtime_ns for p in out.rglob("*.mpz")}
+
+
+@pytest.fixture()
+def corpus(tmp_path: Path) -> tuple[Path, Path, dict[str, Path]]:
+    src, out = tmp_path / "src", tmp_path / "out"
+    return src, out, make_sources(src)
+
+
+# ------------------------------------------------------------------- incremental --
+def test_first_run_encodes_and_reports_each_failure(corpus):
+    src, out, paths = corpus
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "encoded", "walk": "encoded",
+                             "wave": "encoded"}
+    assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*.mpz")) == \
+        ["jump.mpz", "sub/wave.mpz", "walk.mpz"]
+    (bad,) = rep.failed
+    assert "TRC" in bad.reason and bad.source == str(paths["bad"])
+    table = rep.table()
+    assert "encoded" in table and "failed" in table and f"FAILED {paths['bad']}" in table
+    with open_index(out) as ix:
+        assert [p for p, _ in ix.failures()] == [str(paths["bad"].resolve())]
+
+
+def test_second_run_skips_everything_and_opens_nothing(corpus):
+    src, out, _ = corpus
+    run_corpus(src, out)
+    before = mtimes(out)
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "skipped", "walk": "skipped",
+                             "wave": "skipped"}
+    assert mtimes(out) == before
+
+
+def test_touched_source_is_encoded_again_alone(corpus):
+    src, out, paths = corpus
+    run_corpus(src, out)
+    before = mtimes(out)
+    later = time.time() + 5
+    os.utime(paths["walk"], (later, later))
+    rep = run_corpus(src, out)
+    assert statuses(rep)["walk"] == "encoded"
+    assert {k: v for k, v in statuses(rep).items() if k != "walk"} == \
+        {"bad": "failed", "jump": "skipped", "wave": "skipped"}
+    after = mtimes(out)
+    assert after["walk.mpz"] != before["walk.mpz"]
+    assert {k: after[k] for k in ("jump.mpz", "wave.mpz")} == \
+        {k: before[k] for k in ("jump.mpz", "wave.mpz")}
+
+
+def test_other_options_encode_everything_again(corpus):
+    src, out, _ = corpus
+    run_corpus(src, out)
+    rep = run_corpus(src, out, options=EncodeOptions(max_error=2.0))
+    assert statuses(rep) == {"bad": "failed", "jump": "encoded", "walk": "encoded",
+                             "wave": "encoded"}
+    with open_index(out) as ix:
+        assert {r["declared_bound"] for r in ix.rows()} == {2.0}
+
+
+def test_lost_index_row_is_rebuilt_without_encoding(corpus):
+    """A crash between writing an output and committing its row: the next run keeps the
+    output (same fingerprint and source in its meta chunk) and only rebuilds the row."""
+    src, out, _ = corpus
+    run_corpus(src, out)
+    with open_index(out) as ix:
+        full = {r["output"]: r.values for r in ix.rows()}
+    import sqlite3
+    db = sqlite3.connect(out / INDEX_NAME)
+    with db:
+        db.execute("DELETE FROM files WHERE output = 'walk.mpz'")
+    db.close()
+    before = mtimes(out)
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "skipped", "walk": "kept",
+                             "wave": "skipped"}
+    assert mtimes(out) == before
+    with open_index(out) as ix:
+        again = ix.row("walk.mpz")
+    assert again is not None
+    volatile = {"encoded_at", "seconds", "cpu_seconds"}
+    assert {k: v for k, v in again.items() if k not in volatile} == \
+        {k: v for k, v in full["walk.mpz"].items() if k not in volatile}
+
+
+def test_an_output_that_is_not_ours_needs_force(corpus):
+    src, out, _ = corpus
+    out.mkdir()
+    (out / "walk.mpz").write_bytes(b"someone else's file")
+    rep = run_corpus(src, out)
+    assert statuses(rep)["walk"] == "failed"
+    assert "not written by an mpz corpus run" in next(
+        r.reason for r in rep.results if Path(r.source).stem == "walk")
+    assert (out / "walk.mpz").read_bytes() == b"someone else's file"
+    rep = run_corpus(src, out, force=True)
+    assert statuses(rep)["walk"] == "encoded"
+    assert read_stream((out / "walk.mpz").read_bytes()).meta[META_FINGERPRINT]
+
+
+def test_a_fixed_input_leaves_the_failures_table(corpus):
+    src, out, paths = corpus
+    run_corpus(src, out)
+    write(generate("static", frames=40, seed=9), paths["bad"])
+    rep = run_corpus(src, out)
+    assert statuses(rep)["bad"] == "encoded"
+    with open_index(out) as ix:
+        assert ix.failures() == []
+
+
+def test_a_bug_stops_the_run_and_keeps_what_finished(corpus):
+    """Anything but bad input is a bug: it propagates, unwrapped; finished rows stay."""
+    src, out, _ = corpus
+    calls = []
+
+    def options_for(units: str) -> EncodeOptions:
+        calls.append(units)
+        if len(calls) == 3:
+            raise RuntimeError("a bug")
+        return OPTS
+
+    with pytest.raises(RuntimeError, match="a bug"):
+        run_corpus(src, out, options=options_for)
+    with open_index(out) as ix:             # bad.trc fails, jump and walk encode, then the bug
+        assert [r["output"] for r in ix.rows()] == ["jump.mpz", "walk.mpz"]
+    assert temporaries(out) == []
+
+
+# ------------------------------------------------------------- interrupt, resume --
+def _interrupt_after(n: int) -> Callable[[int, int, FileResult], None]:
+    def progress(done: int, total: int, r: FileResult) -> None:
+        if done == n:
+            raise KeyboardInterrupt
+    return progress
+
+
+def _check_resume(src: Path, out: Path, done_before: set[str], **kw) -> None:
+    """Outputs on disk are complete; the index holds exactly them; the next run encodes
+    only the others."""
+    assert temporaries(out) == []
+    on_disk = {p.stem for p in out.rglob("*.mpz")}
+    for p in out.rglob("*.mpz"):
+        mpz.decode(p.read_bytes())                  # complete files only
+    with open_index(out) as ix:
+        indexed = {Path(r["output"]).stem for r in ix.rows()}
+    assert indexed <= on_disk and done_before <= indexed
+    rep = run_corpus(src, out, **kw)
+    st = statuses(rep)
+    assert {k for k, v in st.items() if v == "skipped"} == indexed
+    assert {k for k, v in st.items() if v in ("encoded", "kept")} == \
+        {"jump", "walk", "wave"} - indexed
+    assert {k for k, v in st.items() if v == "kept"} == on_disk - indexed
+    assert temporaries(out) == []
+
+
+def test_ctrl_c_in_process_then_resume(corpus):
+    src, out, _ = corpus
+    with pytest.raises(KeyboardInterrupt):
+        run_corpus(src, out, progress=_interrupt_after(2))   # bad, then jump
+    with open_index(out) as ix:
+        assert [r["output"] for r in ix.rows()] == ["jump.mpz"]
+    _check_resume(src, out, {"jump"})
+
+
+@needs_dask
+def test_ctrl_c_on_dask_then_resume(tmp_path):
+    src, out = tmp_path / "src", tmp_path / "out"
+    make_sources(src, frames=400)
+    with pytest.raises(KeyboardInterrupt):
+        run_corpus(src, out, workers=1, progress=_interrupt_after(2))
+    with open_index(out) as ix:
+        first = {Path(r["output"]).stem for r in ix.rows()}
+    assert len(first) == 1
+    _check_resume(src, out, first, workers=2)
+
+
+def test_temporaries_of_a_killed_writer_are_removed(corpus):
+    """A worker killed by its memory limit or SIGKILL cannot remove its temporary file."""
+    src, out, _ = corpus
+    (out / "sub").mkdir(parents=True)
+    stale = [out / ".walk.mpz.0badc0de.part.mpz", out / "sub" / ".wave.mpz.12345678.part.mpz"]
+    for p in stale:
+        p.write_bytes(b"half a file")
+        os.utime(p, (time.time() - 60, time.time() - 60))
+    keep = out / ".walk.mpz.notours.part.mpz"        # not a name atomic_output makes
+    keep.write_bytes(b"x")
+    rep = run_corpus(src, out)
+    assert statuses(rep)["walk"] == "encoded"
+    assert temporaries(out) == [str(keep)]
+    assert sweep_temporaries([str(out / "walk.mpz")]) == []
+
+
+# --------------------------------------------------------------- index contents --
+def _frames_of(data: bytes) -> dict[str, int]:
+    """Bytes per chunk type, framing parsed here (spec §3.1-§3.3: 8-byte signature, then
+    type[4] length[u32 LE] payload crc[4])."""
+    assert data[:8] == b"\x89MPZ\r\n\x1a\n"
+    sizes: dict[str, int] = {}
+    pos = 8
+    while pos < len(data):
+        ctype = data[pos:pos + 4].decode("ascii")
+        (length,) = struct.unpack_from("<I", data, pos + 4)
+        sizes[ctype] = sizes.get(ctype, 0) + 12 + length
+        pos += 12 + length
+    assert pos == len(data)
+    return sizes
+
+
+def _optimal_starts(x: np.ndarray, k: int) -> tuple[list[int], float]:
+    """Least-WSSSE partition into k segments: plain dynamic programme over all cuts."""
+    n = len(x)
+    c1 = np.vstack([np.zeros(x.shape[1]), np.cumsum(x, axis=0)])
+    c2 = np.concatenate([[0.0], np.cumsum((x * x).sum(axis=1))])
+
+    def cost(i: int, j: int) -> float:            # frames i..j-1
+        s = c1[j] - c1[i]
+        return float(c2[j] - c2[i] - s @ s / (j - i))
+
+    best = {(0, 0): (0.0, -1)}
+    for m in range(1, k + 1):
+        for j in range(m, n + 1):
+            best[(m, j)] = min((best[(m - 1, i)][0] + cost(i, j), i)
+                               for i in range(m - 1, j) if (m - 1, i) in best)
+    starts, j = [], n
+    for m in range(k, 0, -1):
+        i = best[(m, j)][1]
+        starts.append(i)
+        j = i
+    return starts[::-1], best[(k, n)][0]
+
+
+def test_index_columns_against_independent_computations(corpus):
+    src, out, paths = corpus
+    run_corpus(src, out)
+    with open_index(out) as ix:
+        rows = {Path(r["output"]).stem: r for r in ix.rows()}
+        assert ix.levels() == LEVELS
+    assert sorted(rows) == ["jump", "walk", "wave"]
+    wrote = {"walk": (90, 41), "jump": (90, 41), "wave": (97, 20)}
+    for name, r in rows.items():
+        source = paths[name]
+        data = (out / r["output"]).read_bytes()
+        assert r["path"] == str(source.resolve())
+        assert r["source_sha256"] == hashlib.sha256(source.read_bytes()).hexdigest()
+        assert r["source_bytes"] == source.stat().st_size
+        assert r["source_mtime_ns"] == source.stat().st_mtime_ns
+        assert r["format"] == source.suffix
+        assert (r["frames"], r["markers"]) == wrote[name]
+        assert (r["rate"], r["units"]) == (120.0, "mm")
+        assert r["duration_s"] == pytest.approx(wrote[name][0] / 120.0)
+        assert r["declared_bound"] == 1.0
+        assert r["raw_bytes"] == wrote[name][0] * wrote[name][1] * 3 * 4
+        assert r["total_bytes"] == len(data) == (out / r["output"]).stat().st_size
+        sizes = _frames_of(data)
+        assert json.loads(r["chunk_bytes"]) == sizes
+        assert r["marker_bytes"] == 8 + sum(n for t, n in sizes.items() if t[0].isupper())
+        assert r["analog_bytes"] == sizes.get("cana", 0)
+        assert r["summary_bytes"] == sizes.get("smry", 0)
+        assert (r["marker_bytes"] + r["analog_bytes"] + r["summary_bytes"] + r["other_bytes"]
+                == r["total_bytes"])
+        assert r["ratio"] == pytest.approx(r["raw_bytes"] / len(data))
+        # measured error: the decoded output against the source, computed here
+        src_m, dec = read(source), mpz.decode(data)
+        d = np.linalg.norm(dec.positions - src_m.positions, axis=2)[src_m.valid]
+        assert r["max_error"] == pytest.approx(float(d.max()), rel=1e-9)
+        assert r["max_error"] <= 1.0
+        assert r["gap_fraction"] == pytest.approx(1 - src_m.valid.mean())
+        meta = read_stream(data).meta
+        assert meta[META_SHA256] == r["source_sha256"]
+        assert meta[META_FINGERPRINT] == r["fingerprint"] == fingerprint(OPTS, LEVELS)
+        # the summary: positions relative to the marker centroid, partitioned here
+        assert r["summary_method"] == "exact" and r["summary_dims"] == 3 * wrote[name][1]
+        if name == "jump":
+            continue                     # gaps: filled before partitioning; see walk, wave
+        x = src_m.positions - src_m.positions.mean(axis=1, keepdims=True)
+        x = x.reshape(len(x), -1)
+        assert [lv.k for lv in r.summary.levels] == list(LEVELS)
+        for lv in r.summary.levels:
+            starts, w = _optimal_starts(x, lv.k)
+            assert lv.starts.tolist() == starts
+            assert lv.wssse == pytest.approx(w, rel=1e-9)
+            bounds = [*starts, len(x)]
+            means = np.array([x[a:b].mean(axis=0)
+                              for a, b in zip(bounds, bounds[1:], strict=False)])
+            np.testing.assert_array_equal(lv.means, means.astype(np.float32))
+
+
+def test_long_motion_is_partitioned_on_blocks():
+    """Beyond EXACT_MAX_FRAMES the cuts fall on blocks; means and WSSSE are exact for them,
+    and among block-aligned partitions none is better (checked exhaustively here)."""
+    m = generate("mixed", frames=46, seed=4, markers=6)
+    s = summarize(m, (3,), max_frames=12)          # 46 frames -> blocks of 4 (12 blocks)
+    assert s.method == "blocks:4"
+    (lv,) = s.levels
+    x = (m.positions - m.positions.mean(axis=1, keepdims=True)).reshape(46, -1)
+    assert all(v % 4 == 0 for v in lv.starts)
+    bounds = [*lv.starts.tolist(), 46]
+    segs = [x[a:b] for a, b in zip(bounds, bounds[1:], strict=False)]
+    w = sum(float(((g - g.mean(axis=0)) ** 2).sum()) for g in segs)
+    assert lv.wssse == pytest.approx(w, rel=1e-9)
+    np.testing.assert_array_equal(lv.means, np.array([g.mean(axis=0) for g in segs], "f4"))
+    # the block means' DP is exact for equal blocks; the short last block (2 frames) is
+    # weighed as a full one, so compare against the best block-aligned partition of the
+    # block means (the DP's own problem)
+    b = np.array([x[i:i + 4].mean(axis=0) for i in range(0, 46, 4)])
+    best, _ = _optimal_starts(b, 3)
+    assert lv.starts.tolist() == [4 * v for v in best]
+
+
+# ---------------------------------------------------------------- ranking --
+@settings(max_examples=60, deadline=None)
+@given(st.integers(2, 12), st.integers(1, 6), st.integers(0, 2**32 - 1), st.data())
+def test_rank_puts_an_identical_descriptor_first(n, f, seed, data):
+    table = np.random.default_rng(seed).normal(size=(n, f))
+    i = data.draw(st.integers(0, n - 1))
+    order, dist = rank(table[i], table)
+    assert dist[i] == 0.0 and dist[order[0]] == 0.0
+    assert np.all(np.diff(dist[order]) >= 0)
+    assert sorted(order.tolist()) == list(range(n))
+
+
+def test_rank_ties_go_to_the_identical_source():
+    table = np.array([[1.0, 2.0], [1.0, 2.0], [3.0, 0.0]])
+    order, _ = rank(table[1], table, identical=[False, True, False], names=["a", "b", "c"])
+    assert order.tolist()[:2] == [1, 0]
+
+
+def test_fingerprint_ignores_per_file_metadata_and_new_defaults():
+    base = fingerprint(OPTS)
+    per_file = EncodeOptions(max_error=1.0, metadata={"source": "x.c3d", META_SHA256: "ab"})
+    assert fingerprint(per_file) == base
+    assert fingerprint(EncodeOptions(max_error=1.0, metadata={"subject": "7"})) != base
+    assert fingerprint(OPTS, (6, 12)) != base
+    assert fingerprint(EncodeOptions()) != base
+
+
+def test_bad_index_is_a_clean_error(tmp_path):
+    with pytest.raises(EncoderError, match="no such index"):
+        open_index(tmp_path / "nothing.sqlite")
+    junk = tmp_path / "junk.sqlite"
+    junk.write_bytes(b"this is no database" * 100)
+    with pytest.raises(EncoderError, match="not an MPZ corpus index"):
+        open_index(junk)
+
+
+def test_search_cli_on_a_small_corpus(corpus, capsys):
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    run_corpus(src, out)
+    code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out), "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and doc["schema"] == "mpz-search/1" and doc["candidates"] == 3
+    assert doc["results"][0]["path"] == str(paths["walk"].resolve())
+    assert doc["results"][0]["identical"] and doc["results"][0]["distance"] == 0.0
+    # an .mpz query: its meta names its source, whose stored summary is the query
+    code = mpz_cli.main(["search", str(out / "sub" / "wave.mpz"), "--index",
+                         str(out / INDEX_NAME), "--json", "-n", "1"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and [r["output"] for r in doc["results"]] == ["sub/wave.mpz"]
+    assert doc["query"]["summary"] == "the index's row of its source"
+    # an .mpz that is neither indexed nor summarised
+    lone = out / "lone.mpz"
+    lone.write_bytes(mpz.encode(generate("walk", frames=50), max_error=1.0))
+    code = mpz_cli.main(["search", str(lone), "--index", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "no summary chunk" in err
+    code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(src)])
+    assert code == 2 and "no such index" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------ the mpz command --
+def test_mpz_encode_routes_batches_to_the_corpus(corpus, capsys):
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    out.mkdir()
+    argv = ["encode", "-r", str(src), "-o", f"{out}/", "--max-error", "1mm", "--jobs", "0"]
+    assert mpz_cli.main([*argv, "--json"]) == 2                 # bad.trc
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["schema"] == "mpz-corpus/1" and doc["counts"] == \
+        {"encoded": 3, "kept": 0, "skipped": 0, "failed": 1}
+    assert (out / INDEX_NAME).is_file()
+    # several inputs to -o FOLDER/ go through the corpus without --jobs, too
+    two = out / "two"
+    two.mkdir()
+    code = mpz_cli.main(["encode", str(paths["walk"]), str(paths["jump"]), "-o", f"{two}/",
+                         "--max-error", "1mm", "--jobs", "0", "-q"])
+    assert code == 0 and capsys.readouterr().out == ""
+    with open_index(two) as ix:
+        assert [r["output"] for r in ix.rows()] == ["jump.mpz", "walk.mpz"]
+    code = mpz_cli.main(["encode", str(paths["walk"]), "-o", str(out / "one.mpz"), "--jobs", "1"])
+    assert code == 64 and "-o FOLDER/" in capsys.readouterr().err
+
+
+
+def _mpz() -> str:
+    beside = Path(sys.executable).parent / "mpz"
+    found = str(beside) if beside.exists() else shutil.which("mpz")
+    assert found, "mpz is not installed (pip install -e .)"
+    return found
+
+
+@needs_dask
+@pytest.mark.skipif(os.name != "posix", reason="SIGINT to a child process is POSIX")
+def test_mpz_encode_r_interrupted_with_sigint_then_resumed(tmp_path):
+    src, out = tmp_path / "src", tmp_path / "out"
+    make_sources(src, frames=1500)
+    for i in range(3):
+        write(generate("mixed", frames=1500, seed=10 + i), src / f"mixed{i}.trc")
+    out.mkdir()
+    argv = [_mpz(), "encode", "-r", str(src), "-o", f"{out}/", "--jobs", "1",
+            "--max-error", "1mm"]
+    # its own process group, as a shell runs it: Ctrl-C reaches the workers too
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not list(out.glob("*.mpz")) and time.monotonic() < deadline \
+            and proc.poll() is None:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert temporaries(out) == []
+    for p in out.glob("*.mpz"):
+        mpz.decode(p.read_bytes())
+    with open_index(out) as ix:
+        indexed = {Path(r["output"]).name for r in ix.rows()}
+    done = subprocess.run(argv + ["--json"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2                         # bad.trc
+    doc = json.loads(done.stdout)
+    by = {Path(f["source"]).stem + ".mpz": f["status"] for f in doc["files"]}
+    assert {k for k, v in by.items() if v == "skipped"} == indexed
+    assert {k for k, v in by.items() if v in ("encoded", "kept")} == \
+        {f"{n}.mpz" for n in ("walk", "jump", "wave", "mixed0", "mixed1", "mixed2")} - indexed
+    again = subprocess.run(argv, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 2 and "up to date" in again.stdout
+    assert "FAILED" in again.stdout and "bad.trc" in again.stdout
+
+
+# ------------------------------------------------------------- real recordings --
+def _captures(data: Path) -> list[Path]:
+    from mpz.io import READERS
+    return sorted(p for p in data.rglob("*") if p.suffix.lower() in READERS)
+
+
+@pytest.fixture(scope="module")
+def real_index(shared_data: Path, tmp_path_factory) -> Iterator[tuple[Path, list[Path]]]:
+    out = tmp_path_factory.mktemp("real-corpus")
+    caps = _captures(shared_data)
+    jobs = [(str(p), str(out / p.parent.name / (p.stem + ".mpz"))) for p in caps]
+    # a bound of 2 in each file's units (mm for most; cm for one; BVH has none)
+    rep = encode_corpus(jobs, out, EncodeOptions(max_error=2.0),
+                        workers=2 if _has_dask() else 0)
+    assert rep.failed == [], rep.table()
+    yield out, caps
+
+
+def test_every_real_capture_finds_itself_first(real_index, capsys):
+    from mpz.tools import mpz_cli
+    out, caps = real_index
+    assert caps                      # 29 captures in the developer set
+    missed = []
+    for p in caps:
+        code = mpz_cli.main(["search", str(p), "--index", str(out), "--json", "-n", "3"])
+        doc = json.loads(capsys.readouterr().out)
+        assert code == 0
+        top = doc["results"][0]
+        if top["path"] != str(p.resolve()) or top["distance"] != 0.0:
+            missed.append((p.name, [r["output"] for r in doc["results"]]))
+    assert missed == []
+
+
+def test_every_real_output_finds_its_source_first(real_index, capsys):
+    from mpz.tools import mpz_cli
+    out, caps = real_index
+    for p in out.rglob("*.mpz"):
+        code = mpz_cli.main(["search", str(p), "--index", str(out), "--json", "-n", "1"])
+        doc = json.loads(capsys.readouterr().out)
+        assert code == 0 and doc["results"][0]["output"] == p.relative_to(out).as_posix()

@@ -1,0 +1,144 @@
+"""``mpz encode`` over many files on Dask: the command-line side of :mod:`mpz.corpus`.
+
+Contract: ``mpz encode`` hands its planned batch here (:func:`run_corpus`) when
+:func:`wants_corpus` says so: ``--jobs`` or ``--scheduler`` was given, or several inputs
+(or ``-r``) go to ``-o FOLDER/``. The files are encoded by :func:`mpz.corpus.encode_corpus` (a local
+Dask cluster of ``--jobs`` worker processes, or the cluster at ``--scheduler``; ``--jobs 0``
+or a missing Dask: in this process), incrementally, into ``FOLDER/index.sqlite``. One
+progress bar on stderr (a terminal only; none with ``-q``), then the summary table (files,
+bytes in and out, failures with their reasons) on stdout, or ``--json`` (schema
+``mpz-corpus/1``).
+
+Exit codes: 0 every file encoded or up to date; 2 some failed; 64 usage; 130 interrupted
+(the files that finished are kept and indexed; the next run resumes).
+"""
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable, Sequence
+import importlib.util
+import os
+import sys
+from typing import TYPE_CHECKING, Any
+
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK
+
+if TYPE_CHECKING:
+    from mpz.corpus import FileResult
+    from mpz.encoder import EncodeOptions
+
+
+def add_corpus_options(p: argparse.ArgumentParser) -> None:
+    """``--jobs``, ``--scheduler`` and ``--memory-limit`` on ``mpz encode``."""
+    from mpz.corpus import DEFAULT_MEMORY_LIMIT
+    p.add_argument("-j", "--jobs", type=_jobs, metavar="N",
+                   help="encode several files in parallel on N Dask worker processes "
+                   "(default with several inputs and -o FOLDER/: one per CPU; 0: in this "
+                   "process); writes FOLDER/index.sqlite and skips files already encoded")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on an existing dask.distributed cluster, e.g. tcp://host:8786 "
+                   "(its workers must see the inputs and FOLDER at the same paths)")
+    p.add_argument("--memory-limit", default=DEFAULT_MEMORY_LIMIT, metavar="SIZE",
+                   help=f"memory limit of each local worker (default {DEFAULT_MEMORY_LIMIT})")
+
+
+def _jobs(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--jobs wants a whole number, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"--jobs wants 0 or more, got {n}")
+    return n
+
+
+def wants_corpus(args: argparse.Namespace, jobs: Sequence[Any]) -> bool:
+    """Whether ``mpz encode`` should run this batch as a corpus (see the module docstring).
+
+    Always with ``--jobs`` or ``--scheduler`` (:func:`run_corpus` refuses what cannot
+    work); otherwise for several inputs, or ``-r``, going to ``-o FOLDER/``.
+    """
+    from mpz.tools._common import STDIO, is_folder_target
+    if getattr(args, "jobs", None) is not None or getattr(args, "scheduler", None):
+        return True
+    several = len(jobs) > 1 or bool(getattr(args, "recursive", False))
+    return several and is_folder_target(args.output) and not any(
+        j.input == STDIO or j.output == STDIO for j in jobs)
+
+
+def _dask_installed() -> bool:
+    return importlib.util.find_spec("distributed") is not None
+
+
+class _Bar:
+    """The corpus's one progress bar (stderr, a terminal only)."""
+
+    def __init__(self, enabled: bool) -> None:
+        from mpz.tools._common import Progress
+        self.bar = Progress("encoding", enabled=None if enabled else False)
+        self.failed = 0
+
+    def __call__(self, done: int, total: int, r: FileResult) -> None:
+        self.failed += r.status == "failed"
+        bad = f", {self.failed} failed" if self.failed else ""
+        self.bar(done / max(total, 1), f"{done}/{total}{bad} {os.path.basename(r.source)}")
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def run_corpus(args: argparse.Namespace, jobs: Sequence[Any],
+               options_for: Callable[[str], EncodeOptions]) -> int:
+    """Encode the planned ``jobs`` (``.input``, ``.output``, ``.error``) as a corpus.
+
+    ``options_for(units)`` gives each file's options (lengths converted to its units); it
+    is sent to the workers, so it must pickle (a lambda or closure does, with cloudpickle).
+    """
+    from mpz.corpus import encode_corpus
+    from mpz.tools._cli import EXIT_USAGE, print_json, printable
+    from mpz.tools._common import STDIO, is_folder_target
+    if not is_folder_target(args.output) or any(
+            j.input == STDIO or j.output == STDIO for j in jobs):
+        print("mpz encode: error: --jobs and --scheduler encode files into -o FOLDER/ "
+              "(ending in /), not to one file or standard output", file=sys.stderr)
+        return EXIT_USAGE
+    quiet = bool(getattr(args, "quiet", False))
+    planned = [j for j in jobs if j.error is None]
+    for j in jobs:
+        if j.error is not None:
+            print(f"mpz encode: error: {printable(j.input)}: {printable(j.error)}",
+                  file=sys.stderr)
+    workers = getattr(args, "jobs", None)
+    scheduler = getattr(args, "scheduler", None)
+    if workers is None and scheduler is None and not _dask_installed():
+        workers = 0
+        if not quiet:
+            print("mpz encode: dask.distributed is not installed: encoding in this process "
+                  "(pip install 'mpz[corpus]' to use every core)", file=sys.stderr)
+    elif workers is None:
+        workers = min(os.cpu_count() or 1, max(len(planned), 1))
+    bar = _Bar(enabled=not quiet and not args.json)
+    try:
+        report = encode_corpus([(j.input, j.output) for j in planned], args.output, options_for,
+                               workers=workers, scheduler=scheduler,
+                               memory_limit=getattr(args, "memory_limit", None),
+                               force=bool(getattr(args, "force", False)), progress=bar,
+                               asf=getattr(args, "asf", None))
+    finally:
+        bar.close()
+    failed = len(report.failed) + (len(jobs) - len(planned))
+    if args.json:
+        doc = report.as_dict()
+        doc["planning_errors"] = [{"input": j.input, "reason": j.error}
+                                  for j in jobs if j.error is not None]
+        print_json(doc)
+    elif not quiet:
+        print(report.table())
+    else:
+        for r in report.failed:
+            print(f"mpz encode: error: {printable(r.source)}: {printable(r.reason)}",
+                  file=sys.stderr)
+    if failed:          # the closing line of a sequential batch, on stderr even with -q
+        print(f"mpz encode: {len(jobs)} inputs: {len(jobs) - failed} done, {failed} failed",
+              file=sys.stderr)
+    return EXIT_ERROR if failed else EXIT_OK
