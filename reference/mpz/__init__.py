@@ -10,9 +10,13 @@ The public API is re-exported here; see README.md for a tour and
 >>> back = mpz.decode(data)
 >>> back.n_frames, back.names == m.names
 (48, True)
+
+``mpz.decode`` and ``mpz.info`` take a path, the bytes or a binary file object;
+``mpz.encode`` takes plain numbers in the motion's units (``help(mpz.encode)``);
+``mpz.io`` reads and writes C3D, TRC, BVH, AMC, NPY and CSV.
 """
-from mpz.api import read_mpz, read_summary, write_atomic, write_mpz
-from mpz.decoder import decode
+from mpz import io
+from mpz.api import FileInfo, decode, info, read_mpz, read_summary, write_atomic, write_mpz
 from mpz.encoder import EncodeOptions, EncodeReport, encode, encode_motion
 from mpz.errors import (
                         ChecksumError,
@@ -31,6 +35,7 @@ __version__ = "0.1.0"
 
 __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError",
            "LimitExceededError", "InputFormatError", "MotionError", "EncoderError",
-           "Motion", "concatenate", "decode", "encode", "encode_motion", "EncodeOptions",
+           "Motion", "concatenate", "decode", "info", "FileInfo", "io", "encode",
+           "encode_motion", "EncodeOptions",
            "EncodeReport", "arms", "max_error", "read_mpz", "write_mpz", "read_summary",
            "write_atomic", "__version__"]

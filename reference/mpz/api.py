@@ -1,23 +1,198 @@
-"""File-level helpers around the sans-IO core: read, write (atomically), summary.
+"""File-level helpers around the sans-IO core: read, write (atomically), inspect, summary.
 
 Only this module and :mod:`mpz.io` touch the file system.
+
+Reading is bounded (issue 11.2): a path must name a regular file (a device such
+as ``/dev/zero``, a FIFO or a socket is refused before it is opened for
+reading, so nothing hangs or reads forever), and a stream (a binary file
+object, standard input in the tools) is read chunk by chunk: each chunk's
+length is checked against MAX_CHUNK_LENGTH (spec §3.2, §8) before its payload
+is read, and reading stops at MEND. No input longer than
+:data:`MAX_INPUT_BYTES` is read.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 import contextlib
+from dataclasses import dataclass, field
 import errno
 import os
-from pathlib import Path
 import secrets
 import signal
 import stat
 import threading
 from types import FrameType
+from typing import IO, TYPE_CHECKING, BinaryIO, TypeAlias
 
 import numpy as np
 
-from mpz.errors import EncoderError, FormatError, MPZError
+from mpz.errors import EncoderError, FormatError, LimitExceededError, MPZError
+from mpz.format import MAX_CHUNK_LENGTH, MAX_SAMPLES
+
+if TYPE_CHECKING:
+    from mpz.motion import Motion
+
+#: what :func:`decode`, :func:`info` and :func:`read_mpz` accept: a path, the bytes, or a
+#: binary file object (read from its current position up to the end of the MPZ file)
+Source: TypeAlias = "str | os.PathLike[str] | bytes | bytearray | memoryview | IO[bytes]"
+
+#: The most bytes read from one input (4 GiB, 2^32). The reference holds a whole file in
+#: memory while it decodes; a file this long would by itself exceed the decoding budget of
+#: spec §8 (1.5 GiB of output plus 1.5 GiB of integer layer), so it is refused as a lower
+#: limit of this decoder ("A decoder MAY use lower limits", §8), before it is read.
+MAX_INPUT_BYTES = 1 << 32
+
+_SIGNATURE = b"\x89MPZ\r\n\x1a\n"   # spec §3.1 (mpz.spec.grammar.SIGNATURE)
+_READ_BLOCK = 1 << 20
+
+
+def open_regular(path: str | os.PathLike[str]) -> BinaryIO:
+    """Open ``path`` for reading if it is a regular file; refuse anything else first.
+
+    The file is opened with ``O_NONBLOCK`` and checked with ``fstat`` on the
+    open descriptor, so a FIFO without a writer cannot hang the open and a
+    file swapped in after a check cannot slip through.
+
+    Raises
+    ------
+    FormatError
+        "no such file", "is a folder", or "not a regular file" (a character or
+        block device such as ``/dev/zero``, a FIFO, a socket), naming the path.
+    """
+    p = os.fspath(path)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(p, flags)
+    except FileNotFoundError:
+        raise FormatError("no such file", path=p) from None
+    except IsADirectoryError:
+        raise FormatError("is a folder, not a file", path=p) from None
+    except OSError as exc:
+        raise FormatError(f"cannot read: {exc.strerror or exc}", path=p) from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise FormatError("is a folder, not a file", path=p)
+        if not stat.S_ISREG(mode):
+            kind = ("a character device" if stat.S_ISCHR(mode) else
+                    "a block device" if stat.S_ISBLK(mode) else
+                    "a FIFO" if stat.S_ISFIFO(mode) else
+                    "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
+            raise FormatError(f"{kind}, not a regular file: refusing to read it (to read "
+                              "a stream, redirect it to standard input and name the input -)",
+                              path=p)
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def _read_exact(fh: IO[bytes], n: int) -> bytes:
+    """Up to ``n`` bytes (fewer only at the end of the stream)."""
+    parts: list[bytes] = []
+    while n > 0:
+        b = fh.read(min(n, _READ_BLOCK))
+        if not b:
+            break
+        parts.append(b)
+        n -= len(b)
+    return b"".join(parts)
+
+
+def read_stream_bytes(fh: IO[bytes], *, limit: int = MAX_INPUT_BYTES,
+                      prefix: bytes = b"", trailing: bool = True) -> bytes:
+    """The bytes of one MPZ file from a stream, read chunk by chunk (spec §3.2 order of tests).
+
+    Reads the signature, then each chunk frame: a length over MAX_CHUNK_LENGTH
+    (2^30) or one that would take the total past ``limit`` stops the reading
+    *before* the payload is read. Reading ends after MEND's CRC; with
+    ``trailing`` one more byte is read, so that data after the file is seen and
+    rejected by the decoder (standard input: a whole stream is one file);
+    without it the stream is left just after the file (a file object that holds
+    more, as ``numpy.load`` leaves it). Whatever stops
+    the walk early (a bad signature, type or length, the end of the stream)
+    returns the bytes read so far, which the decoder then rejects with the
+    precise error and offset. ``prefix`` holds bytes already taken from the
+    stream (format detection).
+
+    Raises
+    ------
+    LimitExceededError
+        If the file would exceed ``limit`` bytes (§8).
+    """
+    out = bytearray(prefix)
+
+    def take(n: int) -> bool:
+        if len(out) + n > limit:
+            raise LimitExceededError(f"input longer than {limit} bytes, the most this "
+                                     "decoder reads", offset=len(out), section="§8")
+        got = _read_exact(fh, n)
+        out.extend(got)
+        return len(got) == n
+
+    if len(out) < 8 and not take(8 - len(out)):
+        return bytes(out)
+    if bytes(out[:8]) != _SIGNATURE:
+        return bytes(out)
+    pos = 8
+    while True:
+        if len(out) < pos + 8 and not take(pos + 8 - len(out)):
+            return bytes(out)
+        ctype = bytes(out[pos:pos + 4])
+        if not all(0x41 <= c <= 0x5A or 0x61 <= c <= 0x7A for c in ctype):
+            return bytes(out)
+        length = int.from_bytes(out[pos + 4:pos + 8], "little")
+        if length > MAX_CHUNK_LENGTH:     # §3.2: rejected before the payload is read; the
+            take(4)                       # 4 bytes a frame needs at least (n - pos >= 12)
+            return bytes(out)
+        need = pos + 12 + length - len(out)
+        if need > 0 and not take(need):
+            return bytes(out)
+        pos += 12 + length
+        if ctype == b"MEND":
+            if trailing and len(out) == pos:
+                take(1)                   # one byte past MEND: "bytes after MEND" if any
+            return bytes(out)
+
+
+def read_source(source: Source, *, limit: int = MAX_INPUT_BYTES) -> tuple[bytes, str | None]:
+    """The bytes of an MPZ ``source`` and its file name (None for bytes and streams).
+
+    A path is read whole if it names a regular file of at most ``limit``
+    bytes; a file object is read with :func:`read_stream_bytes`.
+
+    Raises
+    ------
+    FormatError
+        See :func:`open_regular`; ``TypeError`` for anything else.
+    LimitExceededError
+        A file longer than ``limit``.
+    """
+    if isinstance(source, bytes):
+        return source, None
+    if isinstance(source, (bytearray, memoryview)):
+        return bytes(source), None
+    if isinstance(source, (str, os.PathLike)):
+        p = os.fspath(source)
+        if not isinstance(p, str):
+            raise TypeError("a path must be str or os.PathLike[str]")
+        with open_regular(p) as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size > limit:
+                raise LimitExceededError(f"file of {size} bytes, longer than {limit}, the "
+                                         "most this decoder reads", section="§8", path=p)
+            try:
+                return fh.read(), p
+            except OSError as exc:
+                raise FormatError(f"cannot read: {exc.strerror or exc}", path=p) from None
+    if hasattr(source, "read"):
+        name = getattr(source, "name", None)
+        data = read_stream_bytes(source, limit=limit, trailing=False)
+        return data, name if isinstance(name, str) else None
+    raise TypeError(f"expected a path, bytes or a binary file object, got "
+                    f"{type(source).__name__}")
 
 
 def _same_file(a: str, b: str) -> bool:
@@ -242,18 +417,133 @@ def write_atomic(path: str | os.PathLike[str], data: bytes, *,
         fh.write(data)
 
 
-def read_mpz(path, **kw):
-    """Decode the MPZ file at ``path`` into a Motion."""
-    from mpz.decoder import decode
+def decode(source: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
+    """Decode an MPZ file into a :class:`~mpz.Motion`, as numpy and soundfile read theirs.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, bytes-like or binary file object
+        A path to a regular file; the file's bytes; or a binary file object,
+        read from its current position to the end of the MPZ file (not
+        beyond: other data may follow in the stream).
+    max_samples : int, optional
+        A lower F × M limit for a memory budget (spec §8); files above it are
+        rejected with :class:`~mpz.errors.LimitExceededError`.
+
+    Returns
+    -------
+    Motion
+        Positions in the file's units (``motion.units``), gaps restored.
+
+    Raises
+    ------
+    MPZError
+        If the file is invalid (with offset, chunk and §), missing, not a
+        regular file, or beyond a limit. ``MemoryError`` is not caught: running
+        out of memory says nothing about the file (spec §8).
+    TypeError
+        If ``source`` is none of the above.
+
+    Examples
+    --------
+    >>> import io, mpz
+    >>> from mpz.synth import generate
+    >>> data = mpz.encode(generate("walk", frames=24), max_error=1.0)
+    >>> mpz.decode(data).n_frames, mpz.decode(io.BytesIO(data)).n_frames
+    (24, 24)
+    """
+    from mpz.decoder import decode as decode_bytes
+    data, name = read_source(source)
     try:
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise FormatError(f"cannot read: {exc.strerror or exc}", path=str(path)) from None
-    try:
-        return decode(data, **kw)
+        return decode_bytes(data, max_samples=max_samples)
     except MPZError as exc:
-        exc.path = str(path)
+        if name is not None:
+            exc.path = name
         raise
+
+
+def read_mpz(path: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
+    """Decode the MPZ file at ``path`` into a Motion (the same as :func:`decode`)."""
+    return decode(path, max_samples=max_samples)
+
+
+@dataclass(frozen=True)
+class FileInfo:
+    """What an MPZ file says about itself, read without decoding the motion (:func:`info`).
+
+    ``rate`` is in Hz, ``error_bound`` (None: no bound declared) in ``units``;
+    ``chunk_bytes`` maps each chunk type to its bytes in the file (frame
+    included); ``summary_levels`` lists the k of the smry levels (empty: no
+    summary; read them with :func:`read_summary`).
+    """
+
+    version: str
+    frames: int
+    markers: int
+    rate: float
+    units: str
+    names: tuple[str, ...]
+    nodes: int
+    error_bound: float | None
+    size: int
+    summary_levels: tuple[int, ...] = ()
+    metadata: Mapping[str, str] = field(default_factory=dict)
+    chunk_bytes: Mapping[str, int] = field(default_factory=dict)
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first frame to the end of the last one (frames / rate)."""
+        return self.frames / self.rate if self.rate else float("nan")
+
+
+def info(source: Source) -> FileInfo:
+    """Names, rate, frame count, bound and summary levels of an MPZ file, without decoding.
+
+    Every chunk's frame, CRC and § checks are run (spec §3, §4), the
+    range-coded payloads are not decoded, so this is fast and its memory is
+    that of the file. A file ``info`` accepts may still fail to decode;
+    ``mpzinfo`` runs both.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, bytes-like or binary file object
+        As for :func:`decode`.
+
+    Raises
+    ------
+    MPZError
+        If the structure is invalid.
+
+    Examples
+    --------
+    >>> import mpz
+    >>> from mpz.synth import generate
+    >>> fi = mpz.info(mpz.encode(generate("walk", frames=24), max_error=1.0))
+    >>> fi.frames, fi.markers, fi.rate, fi.units, fi.error_bound
+    (24, 41, 120.0, 'mm', 1.0)
+    """
+    from mpz.container import chunk_sizes
+    from mpz.decoder import read_stream
+    from mpz.format import ErrorMetric, Units, unit_name
+    data, name = read_source(source)
+    try:
+        s = read_stream(data)
+    except MPZError as exc:
+        if name is not None:
+            exc.path = name
+        raise
+    h = s.header
+    units = unit_name(h.units) if h.units in set(Units) else ""
+    meta = s.meta
+    levels: tuple[int, ...] = ()
+    if s.summary is not None:
+        levels = tuple(int(lv.k) for lv in s.summary.record.levels)
+    return FileInfo(version=f"{h.version_major}.{h.version_minor}", frames=h.frame_count,
+                    markers=h.marker_count, rate=h.rate, units=units, names=tuple(s.names),
+                    nodes=h.node_count,
+                    error_bound=(h.error_bound if h.error_metric != ErrorMetric.NONE else None),
+                    size=len(data), summary_levels=levels, metadata=dict(meta),
+                    chunk_bytes=chunk_sizes(data))
 
 
 def write_mpz(motion, path, *, source=None, **options):

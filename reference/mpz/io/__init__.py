@@ -11,8 +11,8 @@ suffix    read     write    notes
 ========  =======  =======  ==========================================
 .c3d      yes      yes      ezc3d, pure-numpy fallback (MIPS, quirks)
 .trc      yes      yes      OpenSim/Motion Analysis marker file
-.bvh      yes      no       FK joint centres + end sites, units ""
-.amc      yes      no       needs the .asf; FK joint positions in mm
+.bvh      yes      yes      FK joint centres + end sites, units ""; writes the skeleton
+.amc      yes      yes      needs the .asf; FK joint positions in mm; writes AMC + ASF
 .npy      yes      yes      float64 [frames, markers, 3], NaN gaps
 .csv      yes      yes      frame,time,<name>_x,<name>_y,<name>_z,...
 ========  =======  =======  ==========================================
@@ -28,16 +28,26 @@ Examples
 ...     back = read(os.path.join(d, "a.trc"))
 >>> back.names, back.rate, back.units
 (['A'], 100.0, 'mm')
+
+:func:`detect_format` tells the format from the first bytes (for standard
+input, which has no name); :func:`read_bytes` reads a motion from bytes.
+:func:`write` refuses what a target format cannot hold (:func:`check_writable`)
+so that every file it writes reads back.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
+import math
 import os
+import stat
+import tempfile
+
+import numpy as np
 
 from mpz.errors import InputFormatError
 from mpz.io._common import StrPath, ext_of
-from mpz.io.amc import find_asf, read_amc, read_asf
-from mpz.io.bvh import read_bvh
+from mpz.io.amc import find_asf, read_amc, read_asf, write_amc
+from mpz.io.bvh import read_bvh, skeleton_problems, write_bvh
 from mpz.io.c3d import read_c3d, write_c3d
 from mpz.io.table import read_csv, read_npy, write_csv, write_npy
 from mpz.io.trc import read_trc, write_trc
@@ -59,6 +69,8 @@ WRITERS: dict[str, Callable[..., None]] = {
     ".trc": write_trc,
     ".npy": write_npy,
     ".csv": write_csv,
+    ".bvh": write_bvh,      # a motion with a BVH skeleton (issue 13)
+    ".amc": write_amc,      # a motion with an ASF skeleton: the AMC, and the ASF beside it
 }
 
 FORMAT_NAMES = {".c3d": "C3D", ".trc": "TRC", ".bvh": "BVH", ".amc": "AMC/ASF",
@@ -87,14 +99,22 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     Raises
     ------
     InputFormatError
-        Unknown extension, missing file ("no such file"), or unreadable content.
+        Not a regular file (a device, FIFO or socket: refused before it is
+        opened), unknown format (a file without a known extension is
+        recognised by its content, see :func:`detect_format`), missing file
+        ("no such file"), or unreadable content.
     """
+    _check_regular(path)
     ext = ext_of(path)
     fn = READERS.get(ext)
-    if fn is None:
-        raise InputFormatError(
-            f"unknown file extension {ext or '(none)'!r}; can read {', '.join(READERS)}",
-            path=os.fspath(path))
+    if fn is None:                   # no known extension: the content may still say
+        found = _sniff(path)
+        fn = READERS.get(found or "")
+        if fn is None:
+            raise InputFormatError(
+                f"unknown file extension {ext or '(none)'!r} and no known format in the "
+                f"content; can read {', '.join(READERS)}", path=os.fspath(path))
+        ext = found or ext
     if ext == ".amc":
         return fn(path, asf, **({} if rate is None else {"rate": rate}))
     if ext in (".npy", ".csv") and rate is not None:
@@ -102,7 +122,8 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     return fn(path)
 
 
-def write(motion: Motion, path: StrPath, *, file_name: str | None = None) -> None:
+def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
+          asf: StrPath | None = None) -> None:
     """Write a Motion, choosing the writer by extension.
 
     Parameters
@@ -113,11 +134,14 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None) -> Non
     file_name : str, optional
         The name to record in formats that store their own file name (TRC);
         default: the base name of ``path``. For writing to a temporary file.
+    asf : str or os.PathLike, optional
+        Where ``.amc`` output puts its ASF skeleton (default: beside it, same stem).
 
     Raises
     ------
     InputFormatError
-        For an extension no writer handles.
+        For an extension no writer handles, or a motion the format cannot
+        hold so that it reads back (see :func:`check_writable`).
     """
     ext = ext_of(path)
     fn = WRITERS.get(ext)
@@ -125,13 +149,235 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None) -> Non
         raise InputFormatError(
             f"cannot write {ext or '(no extension)'!r}; can write {', '.join(WRITERS)}",
             path=os.fspath(path))
+    check_writable(motion, ext, path=file_name or os.fspath(path))
     if file_name is not None and ext == ".trc":
         fn(motion, path, file_name=file_name)
+    elif ext == ".amc":
+        fn(motion, path, asf=asf)
     else:
         fn(motion, path)
+
+
+def _check_regular(path: StrPath) -> None:
+    """Refuse a device, FIFO or socket before a reader opens it (reading could never end)."""
+    p = os.fspath(path)
+    try:
+        mode = os.stat(p).st_mode
+    except OSError:
+        return                       # the reader reports a missing file in its own words
+    if stat.S_ISDIR(mode):
+        raise InputFormatError("is a folder, not a file", path=p)
+    if not stat.S_ISREG(mode):
+        raise InputFormatError("not a regular file (a device, FIFO or socket): refusing to "
+                               "read it; to read a stream, redirect it to standard input "
+                               "and name the input -", path=p)
+
+
+def _sniff(path: StrPath) -> str | None:
+    """:func:`detect_format` of a file's first bytes (None if it cannot be read)."""
+    try:
+        with open(path, "rb") as fh:
+            return detect_format(fh.read(DETECT_BYTES))
+    except OSError:
+        return None
+
+
+#: ``detect_format`` looks at no more than this many leading bytes
+DETECT_BYTES = 4096
+
+_MPZ_SIGNATURE = b"\x89MPZ\r\n\x1a\n"   # spec §3.1
+
+
+def detect_format(head: bytes) -> str | None:
+    """The extension (``".c3d"``, ``".trc"``, ...) of a file whose first bytes are ``head``.
+
+    What each format starts with:
+
+    * MPZ (``".mpz"``): the signature ``89 4D 50 5A 0D 0A 1A 0A`` (spec §3.1);
+    * NPY: ``93 4E 55 4D 50 59`` (``\\x93NUMPY``);
+    * C3D: byte 2 (index 1) is the parameter-section key 0x50, byte 1 points to the
+      parameter block (>= 2, the header being block 1), and that block's fourth byte,
+      when within the first 4096 bytes, is a processor type (84 Intel, 85 DEC, 86 MIPS);
+    * TRC: a first line starting with ``PathFileType``;
+    * BVH: a first word ``HIERARCHY``;
+    * AMC: ``:FULLY-SPECIFIED``, ``:DEGREES`` or ``:RADIANS`` in the comment-led header,
+      and no ASF section (``:version``, ``:bonedata``);
+    * CSV: a first row starting ``frame,time`` (the layout :func:`write` produces).
+
+    Returns None when nothing matches.
+
+    >>> detect_format(b"PathFileType\\t4\\t(X/Y/Z)\\tx.trc\\n")
+    '.trc'
+    >>> detect_format(bytes(512)) is None
+    True
+    """
+    head = head[:DETECT_BYTES]
+    if head.startswith(_MPZ_SIGNATURE):
+        return ".mpz"
+    if head.startswith(b"\x93NUMPY"):
+        return ".npy"
+    if len(head) >= 2 and head[1] == 0x50 and head[0] >= 2:
+        proc = 512 * (head[0] - 1) + 3     # the parameter section's processor type byte
+        if len(head) <= proc or 84 <= head[proc] <= 86:
+            return ".c3d"
+    text = head.decode("latin-1").lstrip("\ufeff\xef\xbb\xbf \t\r\n")
+    if text.startswith("PathFileType"):
+        return ".trc"
+    if text.split(None, 1)[:1] == ["HIERARCHY"]:
+        return ".bvh"
+    lines = [ln.strip() for ln in text.splitlines()]
+    keys = {ln.split(None, 1)[0].lower() for ln in lines if ln.startswith(":")}
+    if keys & {":fully-specified", ":degrees", ":radians"} and \
+            not keys & {":version", ":bonedata", ":root", ":hierarchy"}:
+        return ".amc"
+    if text.replace(" ", "").lower().startswith("frame,time"):
+        return ".csv"
+    return None
+
+
+def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
+               asf: StrPath | None = None, rate: float | None = None) -> Motion:
+    """Read a motion from its bytes (standard input), the format found by :func:`detect_format`.
+
+    Parameters
+    ----------
+    data : bytes
+    fmt : str, optional
+        An extension (``".c3d"``) to use instead of detecting it.
+    name : str, optional
+        What messages and ``metadata["source"]`` call the input.
+    asf, rate
+        As for :func:`read`; AMC from bytes needs ``asf``.
+
+    Raises
+    ------
+    InputFormatError
+        For content of no known format, or that its reader refuses.
+    """
+    ext = fmt or detect_format(data)
+    if ext is None:
+        raise InputFormatError(f"cannot tell the format from the content (first bytes "
+                               f"{data[:8]!r}); can read {', '.join(READERS)} and .mpz",
+                               path=name)
+    if ext not in READERS:
+        raise InputFormatError(f"{FORMAT_NAMES.get(ext, ext)} content cannot be read as a "
+                               "motion here", path=name)
+    if ext == ".amc" and asf is None:
+        raise InputFormatError("AMC content needs its skeleton: give the .asf file", path=name)
+    with tempfile.TemporaryDirectory(prefix="mpz-stdin-") as d:
+        tmp = os.path.join(d, "stdin" + ext)
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+        try:
+            m = read(tmp, asf=asf, rate=rate)
+        except InputFormatError as exc:
+            exc.path = name
+            raise
+    m.metadata.pop("source", None)
+    if name != "-":
+        m.metadata["source"] = name
+    return m
+
+
+def _names_with(names: list[str], bad: Callable[[str], bool]) -> list[str]:
+    return [repr(n) for n in names if bad(n)][:5]
+
+
+def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
+    """What format ``ext`` cannot hold of ``motion``: (refusals, notes).
+
+    A refusal means the written file would not read back as this motion
+    (issue 11.9: a rate C3D stores as 0, CSV times that overflow, a name that
+    breaks a TRC line); a note names what the format drops or changes, which
+    the tools print.
+    """
+    refuse: list[str] = []
+    notes: list[str] = []
+    names = list(motion.names)
+    rate, F = float(motion.rate), motion.n_frames
+    fmt = FORMAT_NAMES.get(ext, ext)
+
+    def control(n: str) -> bool:
+        return any(ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F for c in n)
+
+    if ext in (".c3d", ".trc", ".csv"):
+        padded = _names_with(names, lambda n: n != n.strip())
+        if padded:
+            refuse.append(f"{fmt} strips spaces around marker names: "
+                          f"{', '.join(padded)}")
+    if ext in (".trc", ".csv"):
+        ctl = _names_with(names, control)
+        if ctl:
+            refuse.append(f"{fmt} is text with one record per line: marker names with "
+                          f"control characters (newline, tab, ...) would break it: "
+                          f"{', '.join(ctl)}")
+        last = (F - 1) / rate if F > 1 else 0.0
+        if not math.isfinite(last):
+            refuse.append(f"{fmt} times (frame / rate) overflow at rate {rate!r} Hz")
+    if ext == ".c3d":
+        with np.errstate(over="ignore"):     # a rate beyond float32 becomes inf: refused
+            r32 = float(np.float32(rate)) if math.isfinite(rate) else math.inf
+        if not (math.isfinite(r32) and r32 > 0):
+            refuse.append(f"C3D stores the rate as float32, which turns {rate!r} Hz into "
+                          f"{r32!r}")
+        elif r32 != rate:
+            notes.append(f"C3D stores the rate as float32: {rate!r} Hz reads back as {r32!r}")
+        if motion.units not in ("", "mm", "cm", "m"):
+            notes.append(f"C3D readers know mm, cm and m: units {motion.units!r} read back "
+                         "as unknown")
+    if ext == ".trc":
+        if motion.units == "":
+            refuse.append("TRC needs units (mm, cm, m, in) and this motion has none (a BVH "
+                          "source?); write .npy or .csv, or encode the source with its units")
+    if ext == ".csv":
+        notes.append("CSV does not store units" + (f" ({motion.units})" if motion.units else ""))
+        if F < 2:
+            notes.append(f"a one-frame CSV does not hold the rate ({rate!r} Hz)")
+        elif not refuse:
+            from mpz.io.table import rate_from_times
+            try:
+                back = rate_from_times(np.arange(F, dtype=np.float64) / rate)
+            except ValueError:
+                back = math.nan
+            if back != rate:
+                refuse.append(f"CSV times cannot give back the rate {rate!r} Hz "
+                              f"(they read back as {back!r})")
+    if ext == ".npy":
+        notes.append("NPY holds positions only: marker names, rate and units are not stored")
+    if ext in (".bvh", ".amc"):        # issue 13: the skeleton formats need their skeleton
+        refuse += skeleton_problems(motion, ext)
+        if ext == ".amc" and rate != 120.0:
+            notes.append(f"AMC does not store the rate: {rate!r} Hz reads back as 120 Hz "
+                         "unless the reader is told")
+    elif motion.angles is not None:
+        notes.append(f"joint angles and the skeleton are not written to {fmt}")
+    held = {".c3d": {"c3d"}, ".bvh": {"skeleton"}, ".amc": {"skeleton"}}.get(ext, set())
+    if motion.angles is not None:      # the note above already says the skeleton is dropped
+        held = held | {"skeleton"}
+    if set(motion.extras) - held:
+        dropped = sorted(set(motion.extras) - held)
+        notes.append(f"{fmt} does not hold {', '.join(dropped)}: not written")
+    return refuse, notes
+
+
+def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None) -> list[str]:
+    """Raise if format ``ext`` cannot hold ``motion`` faithfully; return the notes.
+
+    Raises
+    ------
+    InputFormatError
+        Naming ``path`` and every reason (see :func:`writer_problems`).
+    """
+    refuse, notes = writer_problems(motion, ext)
+    if refuse:
+        raise InputFormatError(f"cannot write {FORMAT_NAMES.get(ext, ext)}: "
+                               + "; ".join(refuse),
+                               path=None if path is None else os.fspath(path))
+    return notes
 
 
 __all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES",
            "read_c3d", "write_c3d", "read_trc", "write_trc", "read_bvh",
            "read_amc", "read_asf", "find_asf", "read_npy", "write_npy",
-           "read_csv", "write_csv"]
+           "read_csv", "write_csv", "detect_format", "read_bytes", "check_writable",
+           "writer_problems"]

@@ -10,6 +10,7 @@ reason. Only the file-touching wrappers use it; parsers take ``str``/``bytes``.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+import csv
 import functools
 import os
 import struct
@@ -26,9 +27,11 @@ _P = ParamSpec("_P")
 _R = TypeVar("_R")
 
 #: exception types a parser may raise on bad input; translated by type
+#: (``MemoryError`` is not one: running out of memory says nothing about the file, and
+#: the tools report it as its own exit code, issue 11.3)
 _PARSE_ERRORS = (KeyError, IndexError, ValueError, TypeError, struct.error,
                  UnicodeDecodeError, OSError, RuntimeError, OverflowError,
-                 ZeroDivisionError, AttributeError, EOFError, MemoryError,
+                 ZeroDivisionError, AttributeError, EOFError, csv.Error,
                  np.linalg.LinAlgError)
 
 

@@ -1,4 +1,4 @@
-"""What every MPZ command shares: the exit codes, the argument parser, quiet broken pipes.
+"""What every MPZ command shares: exit codes, the parser, escaping, JSON, quiet broken pipes.
 
 One table for ``mpz``, ``mpzinfo``, ``mpz-conformance`` and ``spec_example``
 (README.md, "Command exit codes"):
@@ -8,7 +8,10 @@ code  meaning
 ====  ===================================================================
 0     ok (``mpz-conformance``: every selected vector passed)
 1     warnings only (``mpz-conformance``: at least one vector failed)
-2     errors in the input or the data (a file, an output path, the codec)
+2     errors in the input or the data (a file, an output path, the codec);
+      in a batch: at least one input failed (each is reported)
+3     out of memory: the input may well be valid, this machine could not
+      hold what it needs (spec §8, "Allocation failure"); not a verdict
 64    usage error: bad options or arguments (argparse's errors included)
 130   ``mpz`` only: interrupted with Ctrl-C
 ====  ===================================================================
@@ -16,19 +19,29 @@ code  meaning
 Output piped into a command that stops reading (``mpzinfo -vv *.mpz | head``)
 ends the tool quietly with the code it would have had otherwise, or 0 when the
 pipe broke before it knew; no ``BrokenPipeError`` traceback.
+
+Everything a tool prints that comes from a file (names, file names, metadata,
+error messages quoting them) goes through :func:`printable`, so a marker
+called ``"\\x1b]0;pwned\\x07"`` cannot drive the terminal. Every ``--json``
+document is written by :func:`json_text`: strict JSON, ``null`` for NaN and
+infinities.
 """
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+import difflib
 import functools
+import json
+import math
 import os
 import sys
-from typing import NoReturn, ParamSpec
+from typing import IO, Any, NoReturn, ParamSpec
 
 EXIT_OK = 0
 EXIT_WARN = 1
 EXIT_ERROR = 2
+EXIT_MEMORY = 3
 EXIT_USAGE = 64
 EXIT_INTERRUPTED = 130
 
@@ -37,19 +50,155 @@ EXIT_FAILED = EXIT_WARN
 
 #: one line for ``--help`` epilogs
 EXIT_CODES_HELP = ("exit codes: 0 ok, 1 warnings only, 2 errors in the input, "
-                   "64 usage error")
+                   "3 out of memory, 64 usage error")
 
 _P = ParamSpec("_P")
 
 
+# -- escaping ----------------------------------------------------------------------------
+
+def _escape_char(ch: str) -> str:
+    o = ord(ch)
+    if 0xDC80 <= o <= 0xDCFF:          # a byte os.fsdecode could not decode (surrogateescape)
+        return f"\\x{o - 0xDC00:02x}"
+    if o <= 0xFF:
+        return f"\\x{o:02x}"
+    if o <= 0xFFFF:
+        return f"\\u{o:04x}"
+    return f"\\U{o:08x}"
+
+
+def printable(text: object) -> str:
+    """``text`` safe to print on a terminal: every non-printable character escaped.
+
+    Control characters (ESC, BEL, CR, LF, TAB, DEL, C1), Unicode format
+    characters (bidirectional overrides, zero-width joiners), line and
+    paragraph separators and undecodable file-name bytes become ``\\xNN``,
+    ``\\uNNNN`` or ``\\UNNNNNNNN``; everything else (accents, CJK, the space)
+    stays as it is.
+
+    >>> printable("LHEE\\x1b[2J")
+    'LHEE\\\\x1b[2J'
+    >>> printable("Ferse rechts")
+    'Ferse rechts'
+    """
+    s = text if isinstance(text, str) else str(text)
+    if s.isprintable():
+        return s
+    return "".join(ch if ch.isprintable() else _escape_char(ch) for ch in s)
+
+
+def path_text(path: str | os.PathLike[str]) -> str:
+    """A file name as the tools print it (escaped by :func:`printable`)."""
+    return printable(os.fspath(path))
+
+
+# -- JSON --------------------------------------------------------------------------------
+
+def jsonable(v: Any) -> Any:
+    """``v`` with NaN and infinities as None, numpy scalars and arrays as Python values."""
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if isinstance(v, dict):
+        return {str(k): jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [jsonable(x) for x in v]
+    if isinstance(v, (str, int, bool)) or v is None:
+        return v
+    tolist = getattr(v, "tolist", None)     # numpy scalars and arrays
+    if callable(tolist):
+        return jsonable(tolist())
+    return v
+
+
+def json_text(doc: Any, *, indent: int | None = 2) -> str:
+    """The one JSON writer of every ``--json`` output: strict JSON, ``null`` for non-finite.
+
+    ``allow_nan=False`` makes a non-finite value that slipped through an error,
+    not an ``Infinity`` token that strict parsers reject.
+
+    >>> json_text({"rate": float("inf"), "k": [1.5, float("nan")]}, indent=None)
+    '{"rate": null, "k": [1.5, null]}'
+    """
+    return json.dumps(jsonable(doc), indent=indent, allow_nan=False, ensure_ascii=False)
+
+
+def print_json(doc: Any, *, file: IO[str] | None = None, indent: int | None = 2) -> None:
+    print(json_text(doc, indent=indent), file=sys.stdout if file is None else file)
+
+
+# -- argument parsing ----------------------------------------------------------------------
+
+def _suggest(words: Iterable[str], choices: Iterable[str]) -> str:
+    """`` (did you mean --max-error?)`` for the first word close to one of ``choices``."""
+    pool = list(choices)
+    for w in words:
+        key = w.split("=", 1)[0]
+        close = difflib.get_close_matches(key, pool, n=1, cutoff=0.6)
+        if close:
+            return f"; did you mean {close[0]}?"
+    return ""
+
+
 class Parser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose usage errors exit with :data:`EXIT_USAGE` (64), not 2."""
+    """An ``ArgumentParser`` whose usage errors exit with :data:`EXIT_USAGE` (64), not 2.
+
+    Unknown options are reported by the parser that was parsing them: ``mpz
+    encode --max-eror 1mm`` prints ``mpz encode``'s usage and "did you mean
+    --max-error?" (difflib), not the top-level usage. A mistyped subcommand
+    gets the same hint.
+    """
 
     def error(self, message: str) -> NoReturn:
+        if message.startswith("unrecognized arguments: "):
+            words = message[len("unrecognized arguments: "):].split()
+            message += _suggest([w for w in words if w.startswith("-")],
+                                self._option_strings())
+        elif "invalid choice: " in message:
+            bad = message.split("invalid choice: ", 1)[1].split(" ", 1)[0].strip("'\"")
+            message += _suggest([bad], self._subcommands())
         self.print_usage(sys.stderr)
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        print(f"{self.prog}: error: {printable(message)}", file=sys.stderr)
         raise SystemExit(EXIT_USAGE)
 
+    def _option_strings(self) -> list[str]:
+        return [s for a in self._actions for s in a.option_strings if s.startswith("--")] + \
+            [s for a in self._actions for s in a.option_strings if not s.startswith("--")]
+
+    def _subcommands(self) -> list[str]:
+        out: list[str] = []
+        for a in self._actions:
+            if isinstance(a, argparse._SubParsersAction):
+                out += list(a.choices)
+        return out
+
+    def add_subparsers(self, **kwargs: Any) -> Any:
+        kwargs.setdefault("parser_class", SubcommandParser)
+        return super().add_subparsers(**kwargs)
+
+
+class SubcommandParser(Parser):
+    """The parser of one subcommand: it rejects what it does not know itself."""
+
+    def parse_known_args(self, args: Any = None,
+                         namespace: Any = None) -> Any:
+        ns, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return ns, extras
+
+
+# -- memory --------------------------------------------------------------------------------
+
+def memory_message(exc: MemoryError) -> str:
+    """The one report of an allocation failure (spec §8: a resource error, not a verdict)."""
+    what = str(exc).strip()
+    detail = f" ({printable(what)})" if what else ""
+    return (f"out of memory{detail}; the input may be valid: this machine could not hold "
+            "what it needs (free memory, raise the limit, or lower --max-samples)")
+
+
+# -- broken pipes --------------------------------------------------------------------------
 
 def _silence_stdout() -> None:
     """Point stdout at /dev/null so that Python's final flush cannot fail again."""
@@ -79,3 +228,25 @@ def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
         return code
 
     return wrapper
+
+
+def max_samples(text: str) -> int:
+    """argparse type of ``--max-samples N`` (issue 11.1): a lower F x M limit, 1 .. 2^26.
+
+    Spec §8 lets a decoder use lower limits to bound its memory; a file above the
+    limit is then rejected with a limit error (exit 2), before anything is decoded.
+    """
+    from mpz.format import MAX_SAMPLES
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 1 <= n <= MAX_SAMPLES:
+        raise argparse.ArgumentTypeError(f"{n} is not in 1..{MAX_SAMPLES} (2^26, the limit of "
+                                         "spec §8; a decoder may only lower it)")
+    return n
+
+
+#: the help of ``--max-samples`` (mpzinfo, mpz decode, mpz show)
+MAX_SAMPLES_HELP = ("refuse files of more than N marker-frames (F x M, at most 2^26): decoding "
+                    "needs about 50 bytes per marker-frame (spec §8)")

@@ -1,28 +1,96 @@
-"""Helpers shared by the command-line tools (not part of the public API)."""
+"""Helpers shared by the command-line tools (not part of the public API).
+
+Contract:
+
+* ``-`` means standard input as an input and standard output as an output,
+  everywhere (as in zstd). Standard input has no name, so its format is found
+  from its content (:func:`mpz.io.detect_format`); it is read with a bound
+  (:func:`read_stdin`), and never from a terminal.
+* Lengths on the command line carry a unit (:func:`parse_length`).
+* Several inputs, folders with ``-r`` and ``-o FOLDER/`` are planned by
+  :func:`plan_batch`; :func:`run_batch` runs one job per input, keeps going
+  past a failed one and reports each (mpz encode, mpz decode).
+"""
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+import os
 import re
 import sys
 import time
+from typing import IO, TYPE_CHECKING
 
-from mpz.errors import EncoderError
+from mpz.errors import EncoderError, FormatError, MPZError
+from mpz.format import MM_PER_UNIT
+from mpz.tools._cli import (
+    EXIT_ERROR,
+    EXIT_MEMORY,
+    EXIT_OK,
+    EXIT_USAGE,
+    EXIT_WARN,
+    memory_message,
+    printable,
+)
 
-_UNIT_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+if TYPE_CHECKING:
+    from mpz.motion import Motion
+
+#: the input and output name that means standard input / output
+STDIO = "-"
+
+#: units a length on the command line may carry, in millimetres
+UNITS_MM: dict[str, float] = dict(MM_PER_UNIT)
+ACCEPTED_UNITS = ", ".join(UNITS_MM)
 
 
-def parse_length(text: str, units: str) -> float:
-    """'2mm', '0.2 cm', '0.002m' or a bare number (the motion's own units) -> motion units."""
-    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-z]*)\s*", text)
+class UsageError(Exception):
+    """A combination of arguments that cannot work (exit 64, with the usage)."""
+
+
+# -- lengths and units -------------------------------------------------------------------
+
+def parse_length(text: str, units: str, option: str = "--max-error") -> float:
+    """``'2mm'``, ``'0.2 cm'``, ``'0.002m'`` -> a length in the motion's ``units``.
+
+    A number without a unit is refused when the motion has units (``--max-error
+    1`` on a centimetre file would silently mean 10 mm); it is taken in the
+    motion's own units only when the input declares none (BVH), and the
+    reports then say "(input units)".
+
+    Raises
+    ------
+    EncoderError
+        Naming ``option``, the text and the accepted units.
+    """
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([A-Za-z]*)\s*", text)
     if not m:
-        raise EncoderError(f"cannot read a length from {text!r}; write e.g. 2mm, 0.5cm or 1.5")
-    value, unit = float(m.group(1)), m.group(2)
+        raise EncoderError(f"{option}: cannot read a length from {text!r}; write a number "
+                           f"and a unit ({ACCEPTED_UNITS}), e.g. 2mm or 0.5cm")
+    value, unit = float(m.group(1)), m.group(2).lower()
     if not unit:
+        if units in UNITS_MM:
+            raise EncoderError(f"{option} {text}: give a unit ({ACCEPTED_UNITS}), e.g. "
+                               f"{m.group(1)}mm; a bare number would silently mean "
+                               f"{m.group(1)} {units}, the input's units")
         return value
-    if unit not in _UNIT_MM:
-        raise EncoderError(f"unknown unit {unit!r} in {text!r}; use mm, cm, m or in")
-    if units not in _UNIT_MM:
-        raise EncoderError(f"the input has no known units, so give {text!r} without a unit")
-    return value * _UNIT_MM[unit] / _UNIT_MM[units]
+    if unit not in UNITS_MM:
+        raise EncoderError(f"{option}: unknown unit {unit!r} in {text!r}; accepted units: "
+                           f"{ACCEPTED_UNITS}")
+    if units not in UNITS_MM:
+        raise EncoderError(f"{option} {text}: the input does not say its units, so a length "
+                           "in mm, cm, m or in cannot be converted; give a plain number in "
+                           "the input's own units")
+    return value * UNITS_MM[unit] / UNITS_MM[units]
+
+
+def check_length_syntax(text: str | None, option: str) -> None:
+    """Refuse a malformed length or an unknown unit before any input is read."""
+    if text is None:
+        return
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([A-Za-z]*)\s*", text)
+    if not m or (m.group(2) and m.group(2).lower() not in UNITS_MM):
+        parse_length(text, "mm", option)        # raises with the precise message
 
 
 def human_size(n: int) -> str:
@@ -31,6 +99,8 @@ def human_size(n: int) -> str:
             return f"{n / div:.1f} {unit}"
     return f"{n} B"
 
+
+# -- progress and first-run notice ---------------------------------------------------------
 
 class Progress:
     """A one-line progress bar on stderr, shown only when stderr is a terminal."""
@@ -46,7 +116,8 @@ class Progress:
         width = 30
         done = int(width * max(0.0, min(1.0, fraction)))
         bar = "#" * done + "-" * (width - done)
-        sys.stderr.write(f"\r{self.label} [{bar}] {fraction:4.0%} {message[:24]:<24} "
+        sys.stderr.write(f"\r{self.label} [{bar}] {fraction:4.0%} "
+                         f"{printable(message)[:24]:<24} "
                          f"{time.perf_counter() - self.t0:5.1f}s")
         sys.stderr.flush()
 
@@ -56,10 +127,324 @@ class Progress:
             sys.stderr.flush()
 
 
-def read_motion(path: str, asf: str | None = None):
-    """Any supported input, .mpz included."""
-    if str(path).lower().endswith(".mpz"):
-        from mpz.api import read_mpz
-        return read_mpz(path)
-    from mpz.io import read
-    return read(path, asf=asf)
+#: the modules whose numba kernels are compiled on first use (and cached)
+_KERNEL_MODULES = ("mpz.entropy", "mpz.fisher", "mpz.keyframe", "mpz.quantize", "mpz.segment")
+
+
+def kernels_need_compiling() -> bool:
+    """True if a numba kernel of the codec has no cache yet (the first run after install).
+
+    Looks for each kernel's cache index file; numba's cache layout is not a
+    public API, so anything unexpected counts as "cached" (no notice).
+    """
+    import importlib
+    try:
+        from numba.core.registry import CPUDispatcher
+    except ImportError:
+        return False
+    for name in _KERNEL_MODULES:
+        mod = importlib.import_module(name)
+        for obj in vars(mod).values():
+            if isinstance(obj, CPUDispatcher):
+                try:
+                    index = obj._cache._cache_file._index_path  # type: ignore[attr-defined]
+                except AttributeError:
+                    return False
+                if not os.path.exists(index):
+                    return True
+    return False
+
+
+def compile_notice(quiet: bool = False) -> None:
+    """One line on stderr, on a terminal only, when the kernels are about to be compiled.
+
+    Why a notice and not a warm-up at install: pip builds and installs wheels
+    without running project code, and numba's cache depends on the machine's
+    CPU, so the first run is the earliest safe moment; the notice explains the
+    pause (about 5 s) instead of hiding it.
+    """
+    if quiet or not sys.stderr.isatty():
+        return
+    if kernels_need_compiling():
+        print("mpz: first run after install: compiling the codec's kernels "
+              "(about 5 s, cached for later runs)", file=sys.stderr, flush=True)
+
+
+# -- inputs: files, standard input ----------------------------------------------------------
+
+def _stdin() -> IO[bytes]:
+    if sys.stdin is None:
+        raise FormatError("there is no standard input", path=STDIO)
+    if sys.stdin.isatty():
+        raise FormatError("standard input is a terminal: pipe data into it, or name a file",
+                          path=STDIO)
+    return sys.stdin.buffer
+
+
+def read_stdin(limit: int | None = None) -> tuple[bytes, str | None]:
+    """All of standard input, bounded, and its format from the content.
+
+    MPZ is read chunk by chunk (:func:`mpz.api.read_stream_bytes`: a chunk
+    over 2^30 bytes is refused before it is read, reading stops at MEND);
+    other formats whole, up to :data:`mpz.api.MAX_INPUT_BYTES`. ``/dev/zero``
+    stops at the first bytes: zeros are no known format.
+
+    Returns
+    -------
+    data, fmt
+        The bytes, and the extension :func:`mpz.io.detect_format` gave (None if
+        nothing matched).
+    """
+    from mpz.api import MAX_INPUT_BYTES, _read_exact, read_stream_bytes
+    from mpz.errors import LimitExceededError
+    from mpz.io import DETECT_BYTES, detect_format
+    cap = MAX_INPUT_BYTES if limit is None else limit
+    fh = _stdin()
+    head = _read_exact(fh, 8)        # the MPZ signature: from here on, read chunk by chunk
+    if detect_format(head) == ".mpz":
+        return read_stream_bytes(fh, limit=cap, prefix=head), ".mpz"
+    head += _read_exact(fh, DETECT_BYTES - len(head))
+    fmt = detect_format(head)
+    if fmt is None:
+        return head, None
+    rest = _read_exact(fh, cap - len(head) + 1)
+    if len(head) + len(rest) > cap:
+        raise LimitExceededError(f"standard input longer than {cap} bytes, the most read",
+                                 path=STDIO, section="§8")
+    return head + rest, fmt
+
+
+def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
+    """Decode an MPZ input: a file or ``-`` (standard input)."""
+    import mpz
+    kw = {} if max_samples is None else {"max_samples": max_samples}
+    if path != STDIO:
+        return mpz.decode(path, **kw)
+    data, fmt = read_stdin()
+    if fmt != ".mpz":
+        raise FormatError(f"standard input is not an MPZ file (first bytes {data[:8]!r})",
+                          path=STDIO)
+    try:
+        return mpz.decode(data, **kw)
+    except MPZError as exc:
+        exc.path = STDIO
+        raise
+
+
+def read_motion(path: str, asf: str | None = None, *,
+                max_samples: int | None = None) -> Motion:
+    """Any supported input: a motion file, an .mpz file (decoded), or ``-``.
+
+    ``-`` is read from standard input, its format found from its content.
+    """
+    return read_input(path, asf, max_samples=max_samples)[0]
+
+
+def read_input(path: str, asf: str | None = None, *,
+               max_samples: int | None = None) -> tuple[Motion, str | None]:
+    """:func:`read_motion`, and the extension of the format that was read (``".mpz"``...)."""
+    from mpz.io._common import ext_of
+    if path == STDIO:
+        data, fmt = read_stdin()
+        if fmt == ".mpz":
+            return read_mpz_input_bytes(data, max_samples), fmt
+        from mpz.io import read_bytes
+        return read_bytes(data, fmt=fmt, name=STDIO, asf=asf), fmt
+    from mpz.io import READERS, read
+    ext = ext_of(path)
+    if ext not in READERS and ext != ".mpz":      # no known extension: ask the content
+        from mpz.api import open_regular
+        from mpz.io import DETECT_BYTES, detect_format
+        with open_regular(path) as fh:
+            ext = detect_format(fh.read(DETECT_BYTES)) or ext
+    if ext == ".mpz":
+        return read_mpz_input(path, max_samples), ext
+    return read(path, asf=asf), ext
+
+
+def read_mpz_input_bytes(data: bytes, max_samples: int | None = None) -> Motion:
+    import mpz
+    kw = {} if max_samples is None else {"max_samples": max_samples}
+    try:
+        return mpz.decode(data, **kw)
+    except MPZError as exc:
+        exc.path = STDIO
+        raise
+
+
+def input_size(path: str) -> int | None:
+    """Bytes of an input file (None for standard input or when unknown)."""
+    if path == STDIO:
+        return None
+    try:
+        return os.path.getsize(path)
+    except OSError:
+        return None
+
+
+# -- outputs -----------------------------------------------------------------------------------
+
+def write_stdout(data: bytes, *, binary: bool, force: bool) -> None:
+    """Write ``data`` to standard output; refuse binary data on a terminal unless ``force``."""
+    out = sys.stdout
+    if binary and not force and out.isatty():
+        raise EncoderError("refusing to write binary data to a terminal; redirect standard "
+                           "output, or use -f", path=STDIO)
+    out.flush()
+    out.buffer.write(data)
+    out.buffer.flush()
+
+
+def is_folder_target(output: str | None) -> bool:
+    """``-o`` names a folder: it ends in a path separator (``-o out/``).
+
+    An existing folder named without the separator stays an error ("is a
+    folder; give a file name"), so a typo never scatters outputs into a folder.
+    """
+    if output is None or output == STDIO:
+        return False
+    return output.endswith(("/", os.sep))
+
+
+# -- batches ---------------------------------------------------------------------------------
+
+@dataclass
+class Job:
+    """One input of a batch and where its output goes (None: a planning error)."""
+
+    input: str
+    output: str | None
+    error: str | None = None
+
+
+def expand_inputs(inputs: Sequence[str], recursive: bool,
+                  accept: Callable[[str], bool]) -> list[tuple[str, str | None]]:
+    """Inputs with folders expanded (``-r``): (path, planning error or None), in order.
+
+    A folder without ``-r`` is an error for that input (as zstd: "is a
+    directory -- ignored"); with ``-r`` its files that ``accept`` (by name) are
+    taken, sorted, recursively. Hidden files and folders are skipped.
+    """
+    out: list[tuple[str, str | None]] = []
+    for item in inputs:
+        if item != STDIO and os.path.isdir(item):
+            if not recursive:
+                out.append((item, "is a folder; use -r to take the files in it"))
+                continue
+            found: list[str] = []
+            for root, dirs, files in os.walk(item):
+                dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+                found += [os.path.join(root, f) for f in sorted(files)
+                          if not f.startswith(".") and accept(f)]
+            if not found:
+                out.append((item, "no input files in this folder"))
+            out += [(f, None) for f in found]
+        else:
+            out.append((item, None))
+    return out
+
+
+def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
+               accept: Callable[[str], bool], name_for: Callable[[str], str | None],
+               what: str) -> list[Job]:
+    """Pair every input with its output.
+
+    * ``-o FILE`` (or ``-o -``): exactly one input;
+    * ``-o FOLDER/`` (with the trailing separator): every output in that folder, named by
+      ``name_for`` from
+      the input's base name (flat, as zstd's ``--output-dir-flat``);
+    * no ``-o``: beside each input; standard input goes to standard output.
+
+    Two inputs that would write the same output make the later one fail.
+
+    Raises
+    ------
+    UsageError
+        For several inputs with one output file, or ``-`` used twice.
+    """
+    items = expand_inputs(inputs, recursive, accept)
+    if sum(1 for p, _ in items if p == STDIO) > 1:
+        raise UsageError("standard input (-) can be read only once")
+    folder = is_folder_target(output)
+    if output is not None and not folder and len(items) != 1:
+        raise UsageError(f"{len(items)} inputs and one output {printable(output)}: give "
+                         "-o FOLDER/ (ending in /) or leave -o out to write beside each input")
+    if folder and output is not None and not os.path.isdir(output):
+        raise UsageError(f"-o {printable(output)}: no such folder")
+    jobs: list[Job] = []
+    taken: dict[str, str] = {}
+    for path, err in items:
+        if err is not None:
+            jobs.append(Job(path, None, err))
+            continue
+        if output is not None and not folder:
+            jobs.append(Job(path, output))
+            continue
+        if path == STDIO and output is None:
+            jobs.append(Job(path, STDIO))
+            continue
+        name = name_for(path)
+        if name is None:
+            jobs.append(Job(path, None, f"cannot name the {what} output: give -o or "
+                                        "--format"))
+            continue
+        if folder and output is not None:
+            target = os.path.join(output, os.path.basename(name))
+        else:
+            target = name
+        key = os.path.normcase(os.path.abspath(target))
+        if key in taken:
+            jobs.append(Job(path, None, f"its output {printable(target)} is also the output "
+                                        f"of {printable(taken[key])} in this batch"))
+            continue
+        taken[key] = path
+        jobs.append(Job(path, target))
+    return jobs
+
+
+#: how bad each exit code is, for a batch's overall code
+_SEVERITY = {EXIT_OK: 0, EXIT_WARN: 1, EXIT_ERROR: 2, EXIT_MEMORY: 3, EXIT_USAGE: 4}
+
+
+def worst(codes: Iterable[int]) -> int:
+    """The exit code of a batch: its worst job's (memory > error > warning > ok)."""
+    out = EXIT_OK
+    for c in codes:
+        if _SEVERITY.get(c, 2) > _SEVERITY.get(out, 2):
+            out = c
+    return out
+
+
+def run_batch(command: str, jobs: list[Job], one: Callable[[Job], int], *,
+              report: IO[str], quiet: bool) -> int:
+    """Run ``one`` per job; a failed job is reported on stderr and the others still run.
+
+    Returns the worst exit code (:func:`worst`): 2 when any input failed, 3 when
+    one ran out of memory. With more than one job a closing line counts them.
+    """
+    codes: list[int] = []
+    failed = 0
+    for job in jobs:
+        name = printable(job.input)
+        if job.error is not None:
+            print(f"mpz {command}: error: {name}: {printable(job.error)}", file=sys.stderr)
+            codes.append(EXIT_ERROR)
+            failed += 1
+            continue
+        try:
+            codes.append(one(job))
+        except MPZError as exc:
+            text = printable(str(exc))
+            shown = text if exc.path or len(jobs) == 1 else f"{name}: {text}"
+            print(f"mpz {command}: error: {shown}", file=sys.stderr)
+            codes.append(EXIT_ERROR)
+            failed += 1
+        except MemoryError as exc:
+            print(f"mpz {command}: {name}: {memory_message(exc)}", file=sys.stderr)
+            codes.append(EXIT_MEMORY)
+            failed += 1
+    if len(jobs) > 1 and not quiet:
+        ok = len(jobs) - failed
+        print(f"mpz {command}: {len(jobs)} inputs: {ok} done, {failed} failed",
+              file=sys.stderr if failed else report)
+    return worst(codes)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 
 from mpz.errors import FormatError
+from mpz.tools._cli import print_json, printable
 
 
 def add_parser(sub):
@@ -59,9 +60,9 @@ def run(args) -> int:
     old, new = _load(args.compare[0]), _load(args.compare[1])
     flags = compare(old, new, args.ratio_tolerance, args.speed_tolerance)
     if args.json:
-        print(json.dumps([{"file": k[0], "E": k[1], "problem": p} for k, p in flags], indent=2))
+        print_json([{"file": k[0], "E": k[1], "problem": p} for k, p in flags])
     else:
         for (f, e), problem in flags:
-            print(f"REGRESSION {f} E={e}: {problem}")
+            print(f"REGRESSION {printable(f)} E={e}: {printable(problem)}")
         print(f"{len(new)} rows compared, {len(flags)} regression(s)")
     return 1 if flags else 0

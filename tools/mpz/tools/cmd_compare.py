@@ -1,25 +1,37 @@
-"""``mpz compare ORIGINAL DECODED``: error statistics, overall and per marker."""
+"""``mpz compare ORIGINAL DECODED``: error statistics, overall and per marker.
+
+Either input may be ``-`` (standard input, format found from its content).
+``--plot OUT.png`` draws the Euclidean error over time of the worst markers
+(or ``--marker``), one panel each, in the motion's units, with the declared
+bound (from an .mpz input, or ``--bound``) as a line and one legend for all
+panels. Names are printed escaped; ``--json`` is strict JSON (``null`` for
+non-finite values).
+"""
 from __future__ import annotations
 
-import json
+import argparse
 
 import numpy as np
 
 from mpz.errors import MotionError
+from mpz.tools._cli import print_json, printable
 
 
 def add_parser(sub):
     p = sub.add_parser("compare", help="error statistics between two motions (any format)",
                        description="Compare a decoded motion with its original: max, p99, RMS "
-                       "and ARMS (paper Eq. 3), overall and per marker; optional plot.")
-    p.add_argument("original")
-    p.add_argument("decoded")
+                       "and ARMS (paper Eq. 3), overall and per marker; optional plot of the "
+                       "error over time.")
+    p.add_argument("original", help="original motion file, or - for standard input")
+    p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
     p.add_argument("--asf", help="skeleton for AMC input")
     p.add_argument("--json", action="store_true")
     p.add_argument("--top", type=int, default=10, help="markers to list, worst first")
-    p.add_argument("--plot", metavar="PNG", help="plot trajectories of the worst markers "
-                   "(needs matplotlib)")
+    p.add_argument("--plot", metavar="PNG", help="plot the error over time of the worst "
+                   "markers, with the bound as a line (needs matplotlib)")
     p.add_argument("--marker", action="append", help="marker(s) to plot instead of the worst")
+    p.add_argument("--bound", metavar="E", help="bound to draw, with a unit (default: the one "
+                   "declared in an .mpz input)")
     p.set_defaults(func=run)
 
 
@@ -30,19 +42,40 @@ def align(a, b):
     index = {n: i for i, n in enumerate(b.names)}
     missing = [n for n in a.names if n not in index]
     if missing:
-        raise MotionError(f"markers missing from the decoded motion: {', '.join(missing[:5])}")
+        raise MotionError("markers missing from the decoded motion: "
+                          f"{', '.join(printable(n) for n in missing[:5])}")
     order = [index[n] for n in a.names]
     from mpz.motion import Motion
     return Motion(b.positions[:, order], list(a.names), b.rate, b.units, b.valid[:, order])
 
 
-def run(args) -> int:
+def _declared_bound(path: str, units: str) -> float | None:
+    """The bound an .mpz file declares, converted to ``units`` (None if none or unknown)."""
+    from mpz.io._common import ext_of
+    if ext_of(path) != ".mpz":
+        return None
+    import mpz
+    from mpz.format import MM_PER_UNIT
+    fi = mpz.info(path)
+    if fi.error_bound is None:
+        return None
+    if fi.units == units or not (fi.units in MM_PER_UNIT and units in MM_PER_UNIT):
+        return fi.error_bound
+    return fi.error_bound * MM_PER_UNIT[fi.units] / MM_PER_UNIT[units]
+
+
+def run(args: argparse.Namespace) -> int:
     from mpz.metrics import summary
-    from mpz.tools._common import read_motion
+    from mpz.tools._common import check_length_syntax, parse_length, read_motion
+    if args.original == "-" and args.decoded == "-":
+        raise MotionError("only one of the two inputs can be standard input (-)")
+    check_length_syntax(args.bound, "--bound")
     if args.plot:  # a bad plot path fails before the work
         from mpz.api import check_output
-        check_output(args.plot, force=True, source=args.original)
-        check_output(args.plot, force=True, source=args.decoded)
+        for src in (args.original, args.decoded):
+            if src != "-":
+                check_output(args.plot, force=True, source=src)
+        _matplotlib()
     a = read_motion(args.original, args.asf)
     b = align(a, read_motion(args.decoded, args.asf))
     if a.n_frames != b.n_frames:
@@ -55,7 +88,7 @@ def run(args) -> int:
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
     if args.json:
-        print(json.dumps(s, indent=2))
+        print_json(s)
     else:
         u = f" {a.units}" if a.units else ""
         print(f"{a.n_frames} frames x {a.n_markers} markers")
@@ -64,36 +97,73 @@ def run(args) -> int:
         print(f"  gaps: {gaps_lost} valid samples became gaps, {gaps_added} gaps became valid")
         print("  marker            max        RMS")
         for v, n in worst[: args.top]:
-            print(f"  {n[:16]:<16} {v:>8.4g} {s['per_marker_rms'][n]:>10.4g}")
+            rms = s["per_marker_rms"][n]
+            print(f"  {printable(n)[:16]:<16} {v:>8.4g} "
+                  f"{(float('nan') if rms is None else rms):>10.4g}")
     if args.plot:
         names = args.marker or [n for _, n in worst[:3]]
-        plot(a, b, names, args.plot)
+        bound = (parse_length(args.bound, a.units, "--bound") if args.bound is not None
+                 else _declared_bound(args.decoded, a.units)
+                 or _declared_bound(args.original, a.units))
+        plot(a, b, names, args.plot, bound=bound)
+        if not args.json:
+            print(f"plot written to {printable(args.plot)}")
     return 2 if gaps_lost or gaps_added else 0
 
 
-def plot(a, b, names, path):
+def _matplotlib():
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
         raise MotionError("--plot needs matplotlib: pip install 'mpz[plot]'") from None
+    return plt
+
+
+def plot_label(name: str) -> str:
+    """A name as matplotlib text: escaped, and ``$`` not taken for mathtext."""
+    return printable(name).replace("$", r"\$")
+
+
+def plot(a, b, names, path, *, bound: float | None = None) -> None:
+    """Error over time per marker: one panel each, the bound as a line, one shared legend."""
+    from mpz.metrics import errors
+    plt = _matplotlib()
     idx = {n: i for i, n in enumerate(a.names)}
-    t = np.arange(a.n_frames) / a.rate
-    fig, axes = plt.subplots(len(names), 3, figsize=(12, 2.6 * len(names)), squeeze=False)
-    for r, n in enumerate(names):
+    for n in names:
         if n not in idx:
-            raise MotionError(f"no marker named {n!r}")
-        m = idx[n]
-        for c, axis in enumerate("xyz"):
-            ax = axes[r, c]
-            ax.plot(t, a.as_nan()[:, m, c], lw=1.2, label="original")
-            ax.plot(t, b.as_nan()[:, m, c], lw=0.9, ls="--", label="decoded")
-            ax.set_title(f"{n} {axis}", fontsize=9)
-            ax.tick_params(labelsize=7)
-    axes[0, 0].legend(fontsize=7)
-    fig.supxlabel("time (s)")
-    fig.tight_layout()
+            raise MotionError(f"no marker named {printable(n)!r}")
+    err = errors(a, b)                                    # [F, M], NaN at original gaps
+    t = np.arange(a.n_frames) / a.rate
+    unit = a.units or "input units"
+    fig, axes = plt.subplots(len(names), 1, figsize=(10, 1.2 + 2.0 * len(names)),
+                             sharex=True, squeeze=False)
+    handles = {}
+    for r, n in enumerate(names):
+        ax = axes[r, 0]
+        e = err[:, idx[n]]
+        lost = np.isinf(e)                                # valid in the original, gap decoded
+        (h,) = ax.plot(t, np.where(lost, np.nan, e), lw=0.9, color="C0")
+        handles["Euclidean error"] = h
+        if lost.any():
+            top = np.nanmax(np.where(lost, np.nan, e)) if np.isfinite(e).any() else 1.0
+            hl = ax.scatter(t[lost], np.full(int(lost.sum()), top), marker="x", color="C3",
+                            s=12, zorder=3)
+            handles["sample lost (became a gap)"] = hl
+        if bound is not None:
+            hb = ax.axhline(bound, color="C1", ls="--", lw=1.2)
+            handles[f"bound {bound:g} {unit}"] = hb
+        ax.set_ylim(bottom=0)
+        ax.set_ylabel(f"error ({unit})", fontsize=8)
+        ax.set_title(plot_label(n), fontsize=9, loc="left")
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.legend(list(handles.values()), list(handles), loc="upper center",
+               ncol=len(handles), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / (1.2 + 2.0 * len(names))))
     from mpz.api import atomic_output
     with atomic_output(path, force=True) as tmp:
         fig.savefig(tmp, dpi=110)
+    plt.close(fig)

@@ -1,44 +1,201 @@
-"""``mpz decode IN.mpz -o OUT.{c3d,trc,npy,csv}``: restore a motion."""
+"""``mpz decode IN.mpz... [-o OUT.{c3d,trc,npy,csv} | -o FOLDER/ | -o -]``: restore motions.
+
+The output format is ``--format``, else the output's extension, else the
+format of the source the file was encoded from (its ``source`` metadata).
+``-`` is standard input or standard output (reports then go to stderr);
+several inputs, or folders with ``-r``, go to ``-o FOLDER/`` or beside each
+input, and a failed input does not stop the others (exit 2 if any failed).
+A motion a format cannot hold so that it reads back (a rate C3D stores as 0,
+a marker name that breaks a TRC line, a TRC without units) is refused, and
+what a format drops (NPY: names, rate, units) is said on stderr.
+"""
 from __future__ import annotations
 
 import argparse
 import os
+import sys
+import tempfile
 
 from mpz.errors import EncoderError, MPZError
+from mpz.tools._cli import printable
+
+#: --format choices, as extensions
+FORMATS = ("c3d", "trc", "npy", "csv", "bvh", "amc")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("decode", help="decompress .mpz to C3D, TRC, NPY or CSV",
-                       description="Decode an MPZ file. NPY output is float64 [frames, markers, 3] "
+                       description="Decode MPZ files. NPY output is float64 [frames, markers, 3] "
                        "in the input's marker order and units, NaN for gaps.")
-    p.add_argument("input")
-    p.add_argument("-o", "--output", required=True, help="OUT.c3d, OUT.trc, OUT.npy or OUT.csv "
-                   "(written atomically)")
-    p.add_argument("--force", action="store_true", help="replace OUTPUT if it exists")
-    p.add_argument("--quiet", action="store_true")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help=".mpz files, folders (with -r), or - for standard input")
+    p.add_argument("-o", "--output", help="OUT.c3d, OUT.trc, OUT.npy or OUT.csv, FOLDER/ for "
+                   "several inputs, or - for standard output (written atomically; default: "
+                   "beside each input)")
+    p.add_argument("--asf", metavar="PATH", help="AMC output: where to write its ASF skeleton "
+                   "(default: beside the AMC, with its name)")
+    p.add_argument("-F", "--format", choices=FORMATS,
+                   help="output format (default: from the output name, else the format the "
+                   "file was encoded from)")
+    p.add_argument("-r", "--recursive", action="store_true",
+                   help="decode every .mpz file in the folders given as inputs")
+    p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
+                   "write --format under another extension, or write to a terminal")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="also print the file's metadata")
+    from mpz.tools._cli import MAX_SAMPLES_HELP, max_samples
+    p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
+                   help=MAX_SAMPLES_HELP)
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    from mpz.api import atomic_output, check_output, read_mpz
-    from mpz.io import WRITERS, write
+def _source_ext(meta: dict[str, str] | object) -> str | None:
+    """The writable extension of the file the MPZ was encoded from, if recorded."""
+    from mpz.io import WRITERS
     from mpz.io._common import ext_of
+    src = meta.get("source") if isinstance(meta, dict) else None
+    ext = ext_of(src) if src else ""
+    return ext if ext in WRITERS else None
 
+
+def _name_for(args: argparse.Namespace, path: str) -> str | None:
+    import mpz
+    stem = os.path.splitext(path)[0]
+    if args.format:
+        return f"{stem}.{args.format}"
+    ext = _source_ext(dict(mpz.info(path).metadata))
+    return None if ext is None else stem + ext
+
+
+def run(args: argparse.Namespace) -> int:
+    from mpz.io._common import ext_of
+    from mpz.tools._cli import EXIT_USAGE
+    from mpz.tools._common import STDIO, UsageError, plan_batch, run_batch
+
+    try:
+        jobs = plan_batch(args.inputs, args.output, recursive=args.recursive,
+                          accept=lambda name: ext_of(name) == ".mpz",
+                          name_for=lambda path: _name_for(args, path), what="decoded")
+    except UsageError as exc:
+        print(f"mpz decode: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    report = sys.stderr if any(j.output == STDIO for j in jobs) else sys.stdout
+    return run_batch("decode", jobs, lambda job: _decode_one(job, args, report),
+                     report=report, quiet=args.quiet)
+
+
+def _target_ext(args: argparse.Namespace, output: str, motion: object = None) -> str:
+    """The extension to write ``output`` in; refuses a name that does not say that format."""
+    from mpz.io import WRITERS
+    from mpz.io._common import ext_of
+    from mpz.tools._common import STDIO
+    if output == STDIO:
+        if args.format:
+            return "." + args.format
+        ext = _source_ext(getattr(motion, "metadata", None))
+        if ext is None:
+            raise EncoderError("writing to standard output needs --format "
+                               f"({', '.join(FORMATS)})")
+        return ext
+    name_ext = ext_of(output)
+    if args.format:
+        ext = "." + args.format
+        if name_ext != ext and not args.force:
+            raise EncoderError(f"{output}: --format {args.format} under a name ending in "
+                               f"{name_ext or '(no extension)'!r}; use --force to write it "
+                               "under this name")
+        return ext
+    if name_ext not in WRITERS:
+        raise EncoderError(f"{output}: cannot write {name_ext or '(no extension)'!r} files; "
+                           f"can write {', '.join(WRITERS)} (or choose one with --format)")
+    return name_ext
+
+
+def _decode_one(job, args: argparse.Namespace, out) -> int:
+    from mpz.api import atomic_output, check_output
+    from mpz.io import check_writable, write
+    from mpz.tools._common import STDIO, read_mpz_input, write_stdout
+
+    source = None if job.input == STDIO else job.input
+    to_stdout = job.output == STDIO
     # every check on the output comes before the decode
-    check_output(args.output, force=args.force, source=args.input)
-    ext = ext_of(args.output)
-    if ext not in WRITERS:
-        raise EncoderError(f"{args.output}: cannot write {ext or '(no extension)'!r} files; "
-                           f"can write {', '.join(WRITERS)}")
-    motion = read_mpz(args.input)
-    with atomic_output(args.output, force=args.force, source=args.input) as tmp:
-        try:
-            write(motion, tmp, file_name=os.path.basename(args.output))
-        except MPZError as exc:  # name the output, not the temporary file
-            if exc.path == tmp:
-                exc.path = args.output
-            raise
+    if not to_stdout:
+        check_output(job.output, force=args.force, source=source)
+        ext = _target_ext(args, job.output)
+    elif args.format:
+        ext = "." + args.format
+    asf = _asf_output(args, job.output, ext if not to_stdout or args.format else None, source)
+    motion = read_mpz_input(job.input, args.max_samples)
+    if to_stdout:
+        ext = _target_ext(args, STDIO, motion)
+        if ext in (".npy", ".c3d") and not args.force and sys.stdout.isatty():
+            raise EncoderError("refusing to write binary data to a terminal; redirect "
+                               "standard output, or use -f", path=STDIO)
+    motion = _joint_positions(motion, ext)
+    notes = check_writable(motion, ext, path=job.output)
     if not args.quiet:
-        print(f"{args.input} -> {args.output}: {motion.n_frames} frames x {motion.n_markers} "
-              f"markers, {motion.rate:g} Hz, gaps {motion.gap_fraction:.1%}")
+        for note in notes:
+            print(f"mpz decode: note: {printable(job.output)}: {printable(note)}",
+                  file=sys.stderr)
+    if to_stdout:
+        with tempfile.TemporaryDirectory(prefix="mpz-decode-") as d:
+            tmp = os.path.join(d, "stdout" + ext)
+            if ext == ".amc" and asf is None:     # issue 13: the ASF goes to --asf
+                asf = _asf_output(args, STDIO, ext, source)
+            if asf is not None:
+                with atomic_output(asf, force=args.force, source=source) as tmp_asf:
+                    write(motion, tmp, file_name="", asf=tmp_asf)
+            else:
+                write(motion, tmp, file_name="")
+            with open(tmp, "rb") as fh:
+                write_stdout(fh.read(), binary=ext in (".npy", ".c3d"), force=True)
+    else:
+        with atomic_output(job.output, force=args.force, source=source, suffix=ext) as tmp:
+            try:
+                if asf is not None:          # issue 13: AMC output writes its ASF too
+                    with atomic_output(asf, force=args.force, source=source) as tmp_asf:
+                        write(motion, tmp, file_name=os.path.basename(job.output),
+                              asf=tmp_asf)
+                else:
+                    write(motion, tmp, file_name=os.path.basename(job.output))
+            except MPZError as exc:  # name the output, not the temporary file
+                if exc.path == tmp:
+                    exc.path = job.output
+                raise
+    if not args.quiet:
+        print(f"{printable(job.input)} -> {printable(job.output)}: {motion.n_frames} frames x "
+              f"{motion.n_markers} markers, {motion.rate:g} Hz, gaps {motion.gap_fraction:.1%}",
+              file=out)
+        if args.verbose:
+            for k, v in motion.metadata.items():
+                print(f"  {printable(k)}: {printable(v)}", file=out)
     return 0
+
+
+# ------------------------------------------------- issue 13: skeletal output --
+def _asf_output(args: argparse.Namespace, output: str, ext: str | None,
+                source: str | None) -> str | None:
+    """Where AMC output writes its ASF (checked like the output itself), else None."""
+    from mpz.api import check_output
+    from mpz.io.amc import default_asf_path
+    from mpz.tools._common import STDIO
+    if ext != ".amc":
+        if args.asf is not None and ext is not None:
+            raise EncoderError(f"--asf is for AMC output; {printable(output)} is {ext}")
+        return None
+    if args.asf is None and output == STDIO:
+        raise EncoderError("AMC on standard output needs --asf PATH for its ASF skeleton")
+    asf = args.asf if args.asf is not None else default_asf_path(output)
+    check_output(asf, force=args.force, source=source)
+    return asf
+
+
+def _joint_positions(motion, ext: str):
+    """A skeletal motion written as positions (C3D, TRC, NPY, CSV): its joint positions
+    computed from the decoded channels (spec §6.10, within the declared position bound),
+    not the coarser marker layer."""
+    from mpz.skeleton import with_joint_positions
+    if ext in (".bvh", ".amc") or motion.extras.get("skeleton") is None:
+        return motion
+    return with_joint_positions(motion)

@@ -1,10 +1,23 @@
-"""``mpz encode IN -o OUT.mpz``: compress a motion-capture file."""
+"""``mpz encode IN... [-o OUT.mpz | -o FOLDER/ | -o -]``: compress motion-capture files.
+
+``-`` is standard input (its format found from its content) or standard
+output; reports then go to stderr. Several inputs, or folders with ``-r``,
+are encoded one by one into ``-o FOLDER/`` (or beside each input without
+``-o``); a failed input is reported and the others still run (exit 2 if any
+failed). Lengths need a unit (``--max-error 1mm``).
+"""
 from __future__ import annotations
 
-import json
+import argparse
 import os
+import sys
+from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError
+from mpz.tools._cli import printable
+
+if TYPE_CHECKING:
+    from mpz.encoder import EncodeOptions
 
 
 def _pairs(items, what):
@@ -18,18 +31,44 @@ def _pairs(items, what):
 
 
 def add_parser(sub):
-    from mpz.encoder import DEFAULTS as D   # the one definition of every default
+    from mpz.encoder import DEFAULTS as D  # the one definition of every default
     p = sub.add_parser("encode", help="compress C3D, TRC, BVH, AMC (+ASF), NPY or CSV to .mpz",
                        description="Compress a motion-capture file to MPZ. With --max-error the "
                        "decoded motion is guaranteed within that Euclidean distance of the input "
                        "on every valid sample; without it the paper's thresholds control quality.")
-    p.add_argument("input")
-    p.add_argument("-o", "--output", required=True, help="output .mpz file (written atomically)")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="motion files, folders (with -r), or - for standard input")
+    p.add_argument("-o", "--output", help="output .mpz file, FOLDER/ for several inputs, or - "
+                   "for standard output (default: IN.mpz beside each input; stdin -> stdout); "
+                   "written atomically")
+    p.add_argument("-r", "--recursive", action="store_true",
+                   help="encode every motion file in the folders given as inputs")
     p.add_argument("--asf", help="skeleton file for AMC input (default: found beside it)")
-    p.add_argument("--max-error", metavar="E", help="hard bound, e.g. 2mm, 0.5cm, or a number "
-                   "in the input's units")
+    # issue 13: skeletal input (BVH, AMC/ASF)
+    p.add_argument("--units", choices=("mm", "cm", "m", "in"),
+                   help="the length unit of an input that has none (BVH), e.g. --units cm; "
+                   "then lengths with units work (--max-error 1mm)")
+    p.add_argument("--angle-error", metavar="DEG", type=float,
+                   help="BVH, AMC: bound on the rotation channels, in degrees (default 0.01, "
+                   "or as --max-error allows)")
+    p.add_argument("--translation-error", metavar="LEN",
+                   help="BVH, AMC: bound on the translation channels, e.g. 0.1mm, or a plain "
+                   "number in the skeleton's length unit (default 0.01 of it, or as "
+                   "--max-error allows)")
+    p.add_argument("--no-skeleton", action="store_true",
+                   help="BVH, AMC: store joint positions only (an MPZ 1.0 file)")
+    p.add_argument("--max-error", metavar="E", help="hard bound with a unit, e.g. 2mm, 0.5cm, "
+                   "0.002m, 0.04in (a bare number only for inputs without units)")
+    # issue 12: the default is a declared bound; the paper's unbounded mode only by name
+    p.add_argument("--lossy", action="store_true",
+                   help="the paper's lossy mode: patterns only, no declared bound (default: "
+                   f"a bound: exact on an int16 C3D's grid, else {D.default_error_mm:g} mm)")
+    p.add_argument("--model-error", action="append", metavar="KIND=F",
+                   help="C3D model outputs: max error as a fraction of each channel's range, "
+                   f"per kind (ANGLES, FORCES, MOMENTS, POWERS, SCALARS, REACTIONS; default "
+                   f"{D.model_error:g}), e.g. ANGLES=1e-3 (repeatable)")
     p.add_argument("--group-error", action="append", metavar="NODE=E",
-                   help="tighter bound for one hierarchy node, e.g. lfoot=0.5mm (repeatable)")
+                   help="tighter bound for one hierarchy node, e.g. l_foot=0.5mm (repeatable)")
     p.add_argument("--theta", type=float, default=D.theta,
                    help=f"key-frame threshold, fraction of the head size ADDH (default {D.theta})")
     p.add_argument("--k0", type=int, default=D.k0,
@@ -53,77 +92,321 @@ def add_parser(sub):
                    "with these segment counts, e.g. 6,12,24,48")
     p.add_argument("--summary-space", choices=("positions", "angles"), default=D.summary_space)
     p.add_argument("--meta", action="append", metavar="KEY=VALUE", help="metadata (repeatable)")
-    p.add_argument("--force", action="store_true", help="replace OUTPUT if it exists, "
-                   "or write it under a name not ending in .mpz")
+    p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
+                   "write it under a name not ending in .mpz, or write to a terminal")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
-    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="also print the bytes of every chunk type")
+    from mpz.tools._corpus_cli import add_corpus_options  # issue 15: --jobs, --scheduler
+    add_corpus_options(p)
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
-    import mpz
-    from mpz.api import check_output
-    from mpz.encoder import EncodeOptions, encode_motion
-    from mpz.io._common import ext_of
-    from mpz.metrics import summary as error_summary
-    from mpz.tools._common import Progress, human_size, parse_length, read_motion
-
-    # every check on the output comes before the encode
-    check_output(args.output, force=args.force, source=args.input)
-    if ext_of(args.output) != ".mpz" and not args.force:
-        raise EncoderError(f"{args.output}: an MPZ file should end in .mpz; "
-                           "use --force to write it under this name")
-    motion = read_motion(args.input, args.asf)
-    units = motion.units
+def _options(args: argparse.Namespace, units: str, source: str | None) -> EncodeOptions:
+    """The EncodeOptions of the command line, lengths converted to the input's units."""
+    from mpz.encoder import EncodeOptions
+    from mpz.tools._common import parse_length
     metadata = _pairs(args.meta, "--meta")
-    metadata.setdefault("source", os.path.basename(args.input))
-    opts = EncodeOptions(
+    if source is not None:
+        metadata.setdefault("source", os.path.basename(source))
+    return EncodeOptions(
         max_error=None if args.max_error is None else parse_length(args.max_error, units),
-        group_errors={k: parse_length(v, units)
+        group_errors={k: parse_length(v, units, "--group-error")
                       for k, v in _pairs(args.group_error, "--group-error").items()},
         theta=args.theta, k0=args.k0, tau=args.tau, metric=args.metric,
-        weights={k: float(v) for k, v in _pairs(args.weight, "--weight").items()} or None,
-        hierarchy=args.hierarchy, smoothing=args.smoothing, patterns=args.patterns,
-        segmentation=args.segmentation,
-        grid=None if args.grid is None else parse_length(args.grid, units),
-        summary=tuple(int(k) for k in args.summary.split(",")) if args.summary else (),
-        summary_space=args.summary_space, metadata=metadata)
+        weights=_weights(args.weight), hierarchy=args.hierarchy, smoothing=args.smoothing,
+        patterns=args.patterns, segmentation=args.segmentation,
+        grid=None if args.grid is None else parse_length(args.grid, units, "--grid"),
+        summary=_summary_ks(args.summary), summary_space=args.summary_space,
+        metadata=metadata, lossy=args.lossy, model_errors=_model_errors(args.model_error))
+
+
+def _model_errors(items: list[str] | None) -> dict[str, float]:
+    """--model-error KIND=F (issue 12): a fraction of each channel's range, per kind."""
+    out: dict[str, float] = {}
+    for k, v in _pairs(items, "--model-error").items():
+        try:
+            out[k.upper()] = float(v)
+        except ValueError:
+            raise EncoderError(f"--model-error {k}={v}: give a fraction of the range, e.g. "
+                               "ANGLES=1e-3") from None
+    return out
+
+
+def _weights(items: list[str] | None) -> dict[str, float] | None:
+    out: dict[str, float] = {}
+    for k, v in _pairs(items, "--weight").items():
+        try:
+            out[k] = float(v)
+        except ValueError:
+            raise EncoderError(f"--weight {k}={v}: the weight must be a number") from None
+    return out or None
+
+
+def _summary_ks(text: str | None) -> tuple[int, ...]:
+    if not text:
+        return ()
+    try:
+        return tuple(int(k) for k in text.split(","))
+    except ValueError:
+        raise EncoderError(f"--summary {text}: give segment counts as integers, e.g. "
+                           "6,12,24,48") from None
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """Everything about the options that can be judged before an input is read."""
+    from mpz.tools._common import check_length_syntax
+    check_length_syntax(args.max_error, "--max-error")
+    check_length_syntax(args.grid, "--grid")
+    for _, v in _pairs(args.group_error, "--group-error").items():
+        check_length_syntax(v, "--group-error")
+    _pairs(args.meta, "--meta")
+    _weights(args.weight)
+    _summary_ks(args.summary)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mpz.io import READERS
+    from mpz.io._common import ext_of
+    from mpz.tools._cli import EXIT_USAGE, print_json
+    from mpz.tools._common import STDIO, UsageError, plan_batch, run_batch
+
+    _check_options(args)
+    try:
+        jobs = plan_batch(args.inputs, args.output, recursive=args.recursive,
+                          accept=lambda name: ext_of(name) in READERS,
+                          name_for=lambda path: os.path.splitext(path)[0] + ".mpz",
+                          what="MPZ")
+    except UsageError as exc:
+        print(f"mpz encode: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    from mpz.tools._corpus_cli import run_corpus, wants_corpus  # issue 15: Dask + index
+    if wants_corpus(args, jobs):
+        return run_corpus(args, jobs, lambda units: _options(args, units, None))
+    data_on_stdout = any(j.output == STDIO for j in jobs)
+    report = sys.stderr if data_on_stdout else sys.stdout
+    results: list[dict] = []
+    code = run_batch("encode", jobs, lambda job: _encode_one(job, args, report, results),
+                     report=report, quiet=args.quiet)
+    if args.json:
+        print_json(results[0] if len(jobs) == 1 and results else results, file=report)
+    return code
+
+
+def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
+    import mpz
+    from mpz.api import check_output
+    from mpz.encoder import encode_motion
+    from mpz.io._common import ext_of
+    from mpz.metrics import summary as error_summary
+    from mpz.tools._common import (
+        STDIO,
+        Progress,
+        compile_notice,
+        human_size,
+        input_size,
+        read_motion,
+        write_stdout,
+    )
+
+    source = None if job.input == STDIO else job.input
+    to_stdout = job.output == STDIO
+    # every check on the output comes before the encode
+    if not to_stdout:
+        check_output(job.output, force=args.force, source=source)
+        if ext_of(job.output) != ".mpz" and not args.force:
+            raise EncoderError(f"{job.output}: an MPZ file should end in .mpz; "
+                               "use --force to write it under this name")
+    elif not args.force and sys.stdout.isatty():
+        raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
+                           "output, or use -f", path=STDIO)
+    motion = read_motion(job.input, args.asf)
+    motion = _units(args, motion)
+    units = motion.units
+    opts = _skeleton_options(args, motion, _options(args, units, source))
+    compile_notice(args.quiet)
     bar = Progress("encoding", enabled=None if not args.quiet else False)
     try:
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
-    mpz.write_atomic(args.output, data, source=args.input, force=args.force)
+    if to_stdout:
+        write_stdout(data, binary=True, force=args.force)
+    else:
+        mpz.write_atomic(job.output, data, source=source, force=args.force)
     decoded = mpz.decode(data)
     err = error_summary(motion, decoded)
-    in_size = os.path.getsize(args.input)
+    in_size = input_size(job.input)
     result = {
-        "input": args.input, "output": args.output, "frames": rep.frames, "markers": rep.markers,
-        "units": units, "raw_float32_bytes": rep.raw_bytes, "input_bytes": in_size,
-        "file_bytes": rep.file_bytes, "ratio_float32": rep.raw_bytes / rep.file_bytes,
-        "ratio_input": in_size / rep.file_bytes, "max_error": err["max"], "arms": err["arms"],
-        "p99": err["p99"], "rms": err["rms"], "declared_bound": opts.max_error,
+        "input": job.input, "output": job.output, "frames": rep.frames,
+        "markers": rep.markers, "units": units, "raw_float32_bytes": rep.raw_bytes,
+        "input_bytes": in_size, "file_bytes": rep.file_bytes,
+        "ratio_float32": rep.raw_bytes / rep.file_bytes,
+        "ratio_input": None if in_size is None else in_size / rep.file_bytes,
+        "max_error": err["max"], "arms": err["arms"],
+        "p99": err["p99"], "rms": err["rms"], "declared_bound": rep.bound,
+        "bound_rule": rep.bound_rule, **_kept(motion, rep, in_size),
         "grid_step": rep.step, "addh": rep.addh, "addh_rule": rep.addh_rule,
         "hierarchy": rep.hierarchy, "seconds": rep.seconds, "chunk_bytes": rep.chunk_bytes,
+        "summary_bytes": rep.chunk_bytes.get("smry"),
+        "skeleton": _skeleton_report(data),
         "nodes": [vars(n) for n in rep.nodes]}
-    if args.json:
-        print(json.dumps(result, indent=2))
-    elif not args.quiet:
-        u = f" {units}" if units else ""
-        print(f"{args.input} -> {args.output}: {rep.frames} frames x {rep.markers} markers, "
-              f"{rep.seconds:.2f} s")
-        print(f"  size     raw float32 {human_size(rep.raw_bytes)}, input {human_size(in_size)}, "
-              f"MPZ {human_size(rep.file_bytes)}")
-        print(f"  ratio    {result['ratio_float32']:.1f}:1 vs float32, "
-              f"{result['ratio_input']:.1f}:1 vs input file")
-        bound = f" (bound {opts.max_error:g}{u})" if opts.max_error else " (no bound declared)"
-        print(f"  error    max {err['max']:.4g}{u}{bound}, p99 {err['p99']:.4g}{u}, "
-              f"ARMS {err['arms']:.4g}{u}")
-        print(f"  grid     step {rep.step:.4g}{u}; ADDH {rep.addh:.4g}{u} ({rep.addh_rule}); "
-              f"hierarchy {rep.hierarchy}")
-        print("  node             markers segments patterns  L  pattern B  resid B  g")
-        for n in rep.nodes:
-            print(f"  {n.name[:16]:<16} {n.members:>7} {n.segments:>8} {n.patterns:>8} "
-                  f"{n.pattern_length:>3} {n.pattern_bytes + n.segment_bytes:>10} "
-                  f"{n.residual_bytes:>8} {n.residual_scale:>2}")
+    results.append(result)
+    if args.json or args.quiet:
+        return 0
+    u = f" {units}" if units else " (input units)"
+    print(f"{printable(job.input)} -> {printable(job.output)}: {rep.frames} frames x "
+          f"{rep.markers} markers, {rep.seconds:.2f} s", file=out)
+    insize = "?" if in_size is None else human_size(in_size)
+    print(f"  size     raw float32 {human_size(rep.raw_bytes)}, input {insize}, "
+          f"MPZ {human_size(rep.file_bytes)}", file=out)
+    vs_input = ("" if result["ratio_input"] is None
+                else f", {result['ratio_input']:.1f}:1 vs input file")
+    if result["ratio_input"] is None and result["dropped"]:
+        vs_input = f", vs input file n/a ({'; '.join(result['dropped'])} not kept)"
+    print(f"  ratio    {result['ratio_float32']:.1f}:1 vs float32{vs_input}", file=out)
+    _print_parts(result, out)
+    bound = (" (no bound declared: --lossy)" if rep.bound is None
+             else f" (bound {rep.bound:g}{u}: {rep.bound_rule})")
+    print(f"  error    max {err['max']:.4g}{u}{bound}, p99 {err['p99']:.4g}{u}, "
+          f"ARMS {err['arms']:.4g}{u}", file=out)
+    print(f"  grid     step {rep.step:.4g}{u}; ADDH {rep.addh:.4g}{u} ({rep.addh_rule}); "
+          f"hierarchy {rep.hierarchy}", file=out)
+    if "smry" in rep.chunk_bytes:
+        smry = rep.chunk_bytes["smry"]
+        print(f"  summary  smry chunk {human_size(smry)} "
+              f"({100 * smry / rep.file_bytes:.0f} % of the file), "
+              f"k = {', '.join(str(k) for k in opts.summary)}", file=out)
+        if smry > rep.file_bytes - smry:
+            # MPZ 1.0 stores k x D means as raw 32-bit integers (spec §4.10); the issue-14
+            # note in docs/summary-size.md says why the encoder cannot make them smaller
+            print(f"mpz encode: note: {printable(job.output)}: the summary is larger than the "
+                  "motion itself (MPZ 1.0 stores its segment means as 4-byte integers); fewer "
+                  "or smaller k shrink it", file=sys.stderr)
+    _print_skeleton(result["skeleton"], units, out)
+    if args.verbose:
+        print("  chunks   " + ", ".join(f"{printable(t)} {human_size(n)}"
+                                        for t, n in rep.chunk_bytes.items()), file=out)
+    print("  node             markers segments patterns  L  pattern B  resid B  g", file=out)
+    for n in rep.nodes:
+        print(f"  {printable(n.name)[:16]:<16} {n.members:>7} {n.segments:>8} "
+              f"{n.patterns:>8} {n.pattern_length:>3} {n.pattern_bytes + n.segment_bytes:>10} "
+              f"{n.residual_bytes:>8} {n.residual_scale:>2}", file=out)
     return 0
+
+
+# ---------------------------------------------------- issue 13: skeletal input --
+def _units(args: argparse.Namespace, motion):
+    """--units: name the length unit of an input that has none (BVH)."""
+    from mpz.skeleton import with_units
+    if args.units is None:
+        lengths = [(o, v) for o, v in (("--max-error", args.max_error), ("--grid", args.grid),
+                                        ("--translation-error", args.translation_error))
+                   if v is not None and v.strip()[-1:].isalpha()]
+        if lengths and motion.units == "":
+            option, text = lengths[0]
+            raise EncoderError(f"{option} {text}: the input has no length unit (BVH has "
+                               "none); name it with --units (mm, cm, m or in), e.g. "
+                               "--units cm, or give a plain number in the file's own units")
+        return motion
+    return with_units(motion, args.units)
+
+
+def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions) -> EncodeOptions:
+    """The skeleton options (spec §4.14) for a BVH or AMC/ASF input: --max-error bounds the
+    joint positions computed from the channels too; without it the channels keep their
+    default bound and the marker layer gets the reference encoder's preview bound
+    (Appendix C)."""
+    from dataclasses import replace
+
+    from mpz.skeleton import mm_per_unit
+    from mpz.tools._common import parse_length
+    if motion.extras.get("skeleton") is None:
+        if args.angle_error is not None or args.translation_error is not None:
+            raise EncoderError("--angle-error and --translation-error apply to skeletal input "
+                               "(BVH, AMC/ASF) only")
+        return opts
+    dropped = motion.metadata.get("asf_dropped")
+    if dropped and not args.quiet:                 # nothing is lost without a word
+        print(f"mpz encode: note: not kept from the ASF: {printable(dropped)}", file=sys.stderr)
+    if args.no_skeleton:
+        if not args.quiet:
+            print("mpz encode: note: --no-skeleton: the skeleton and its channels are not "
+                  "kept, only the joint positions", file=sys.stderr)
+        return replace(opts, keep_skeleton=False)
+    lin = None
+    text = args.translation_error
+    if text is not None:
+        try:
+            lin = float(text)                          # the skeleton's own length unit
+        except ValueError:
+            per = mm_per_unit(motion)
+            if per is None:
+                raise EncoderError(f"--translation-error {text}: the input has no length "
+                                   "unit; name it with --units, or give a plain number in "
+                                   "the file's own units") from None
+            lin = parse_length(text, "mm", "--translation-error") / per
+    # the marker layer's default is the preview bound (mpz.encoder.default_error)
+    return replace(opts, angle_error=args.angle_error, translation_error=lin,
+                   position_error=opts.max_error)
+
+
+def _skeleton_report(data: bytes) -> dict | None:
+    from mpz.skeleton import report
+    return report(data)
+
+
+def _print_skeleton(rep: dict | None, units: str, out) -> None:
+    if rep is None:
+        return
+    u = f" {units}" if units else " (input units)"
+    print(f"  skeleton {rep['chunk']} {rep['bytes']} B: {rep['joints']} joints, "
+          f"{rep['channels']} channels; rotations within {rep['angle_bound']:g} deg, "
+          f"translations within {rep['translation_bound']:g} (skeleton units); joint "
+          f"positions within {rep['position_bound']:.4g}{u}", file=out)
+
+
+# --------------------------------------------------- issue 12: truthful sizes --
+#: chunk types by part of the file: markers (the MPZ 1.0 critical chunks), analog, the rest
+_ANALOG = ("cana",)
+
+
+def _kept(motion, rep, in_size: int | None) -> dict:
+    """Sizes by part, and the ratio against the input counting only what was kept: the whole
+    input when nothing was dropped, else None and what was dropped."""
+    cb = rep.chunk_bytes
+    markers = 8 + sum(n for t, n in cb.items() if t[:1].isupper())
+    analog = sum(cb.get(t, 0) for t in _ANALOG)
+    rest = rep.file_bytes - markers - analog
+    dropped = []
+    fmt = motion.metadata.get("format", "")
+    if fmt == "c3d" and "c3d" not in motion.extras:
+        dropped.append("analog, parameters and residuals (" +
+                       motion.metadata.get("warning", "C3D archive not kept") + ")")
+    if motion.angles is not None and not motion.extras:
+        dropped.append("joint angles and the skeleton")
+    a = motion.extras.get("c3d")
+    model = None
+    if a is not None and a.models.shape[1]:
+        model = {"outputs": int(a.models.shape[1]), "cpnt_bytes": cb.get("cpnt", 0)}
+    ratio = None if in_size is None or dropped else in_size / rep.file_bytes
+    return {"ratio_input": ratio, "dropped": dropped,
+            "bytes_markers": markers, "bytes_analog": analog, "bytes_rest": rest,
+            "ratio_markers_float32": rep.raw_bytes / markers, "model_outputs": model,
+            "analog_channels": None if a is None else a.channels}
+
+
+def _print_parts(result: dict, out) -> None:
+    from mpz.tools._common import human_size
+    if result["bytes_analog"] or result["bytes_rest"] > 200:
+        ch = result["analog_channels"]
+        exact = f" ({ch} channels, exact)" if ch else ""
+        print(f"  parts    markers {human_size(result['bytes_markers'])} "
+              f"({result['ratio_markers_float32']:.1f}:1 vs float32), analog "
+              f"{human_size(result['bytes_analog'])}{exact}, parameters and the rest "
+              f"{human_size(result['bytes_rest'])}", file=out)
+    if result["model_outputs"]:
+        mo = result["model_outputs"]
+        print(f"  models   {mo['outputs']} model outputs (not markers) in their own units, "
+              f"each axis within its declared bound (mpzinfo -vv: cpnt)", file=out)

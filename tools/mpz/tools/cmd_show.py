@@ -2,29 +2,39 @@
 
 Prints frames, markers, rate, units, duration, share of gaps and the
 source format; ``--json`` gives the same as one JSON object (schema
-version 1, numbers as numbers, ``null`` for unknown units). A ``.mpz`` file
-is decoded and shown the same way (``mpzinfo`` dumps its chunks). Exit codes:
-0 ok, 1 the file was read with a warning (the ``warning`` line, or
-``metadata.warning`` in JSON), 2 unreadable input (the dispatcher turns
-:class:`mpz.errors.MPZError` into 2).
+version 1, numbers as numbers, ``null`` for unknown units and non-finite
+numbers). A ``.mpz`` file is decoded and shown the same way (``mpzinfo``
+dumps its chunks). ``-`` reads standard input, its format found from its
+content. Names and metadata are printed escaped. Exit codes: 0 ok, 1 the
+file was read with a warning (the ``warning`` line, or ``metadata.warning``
+in JSON), 2 unreadable input (the dispatcher turns
+:class:`mpz.errors.MPZError` into 2), 3 out of memory.
 """
 from __future__ import annotations
 
-import json
 import os
 
-from mpz.tools._cli import EXIT_OK, EXIT_WARN
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, print_json, printable
 
 JSON_SCHEMA_VERSION = 1
 
+#: the --help text (plain text: argparse shows it as it is)
+DESCRIPTION = ("Summarise a motion-capture file (C3D, TRC, BVH, AMC, NPY, CSV) or a decoded "
+               ".mpz: frames, markers, rate, units, duration, gaps and format. Exit 1 when "
+               "the reader warned.")
+
 
 def add_parser(subparsers):
-    p = subparsers.add_parser("show", help="summarise a C3D/TRC/BVH/AMC/NPY/CSV file",
-                              description=__doc__.splitlines()[0])
-    p.add_argument("file", help="input file (.c3d .trc .bvh .amc .npy .csv)")
+    p = subparsers.add_parser("show", help="summarise a C3D/TRC/BVH/AMC/NPY/CSV or .mpz file",
+                              description=DESCRIPTION)
+    p.add_argument("file", help="input file (.c3d .trc .bvh .amc .npy .csv .mpz), or - for "
+                   "standard input")
     p.add_argument("--asf", default=None,
                    help="ASF skeleton for an .amc file (default: found beside it)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    from mpz.tools._cli import MAX_SAMPLES_HELP, max_samples
+    p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
+                   help=MAX_SAMPLES_HELP + "; .mpz input only")
     p.set_defaults(func=run)
     return p
 
@@ -51,23 +61,20 @@ def summary(motion, path: str) -> dict:
 
 
 def run(args) -> int:
-    from mpz.io import read
+    from mpz.io import FORMAT_NAMES
+    from mpz.tools._common import read_input
 
     path = args.file
-    if path.lower().endswith(".mpz"):   # decoded, so the facts are those of the motion
-        from mpz.api import read_mpz
-        motion = read_mpz(path)        # MPZError -> exit 2 in the dispatcher
-    else:
-        motion = read(path, asf=args.asf)  # InputFormatError -> exit 2 in the dispatcher
+    motion, ext = read_input(path, args.asf,   # MPZError -> exit 2 in the dispatcher
+                             max_samples=args.max_samples)
     info = summary(motion, path)
-    if path.lower().endswith(".mpz"):
-        info["format"] = "MPZ"
+    info["format"] = "MPZ" if ext == ".mpz" else FORMAT_NAMES.get(ext or "")
     code = EXIT_WARN if "warning" in motion.metadata else EXIT_OK
     if args.json:
-        print(json.dumps(info, indent=2))
+        print_json(info)
         return code
     lines = [
-        f"file:      {os.path.basename(path)}",
+        f"file:      {printable(os.path.basename(path))}",
         f"format:    {info['format']}",
         f"frames:    {info['frames']}",
         f"markers:   {info['markers']}" + (" (skeleton points)" if info["skeletal"] else ""),
@@ -79,6 +86,6 @@ def run(args) -> int:
     if info["channels"] is not None:
         lines.append(f"channels:  {info['channels']}")
     if "warning" in motion.metadata:
-        lines.append(f"warning:   {motion.metadata['warning']}")
+        lines.append(f"warning:   {printable(motion.metadata['warning'])}")
     print("\n".join(lines))
     return code

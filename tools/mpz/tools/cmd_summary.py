@@ -4,18 +4,22 @@ Contract: for a motion-capture file (anything :func:`mpz.io.read` reads) the
 command computes the least-WSSSE partitions for each requested ``k`` and prints
 one segment table per level: index, start frame, start time, length and the
 segment's share of the level's WSSSE. For a ``.mpz`` file it prints the levels
-stored in the file (through :func:`mpz.read_summary`). ``--json`` prints the
-same as JSON (schema ``mpz-summary/1``; unknown values are ``null``).
+stored in the file (through :func:`mpz.read_summary`); each segment's share of
+the WSSSE is then measured on the decoded motion (the file stores the level's
+total only). ``-`` reads standard input. ``--json`` prints the same as JSON
+(schema ``mpz-summary/1``; unknown and non-finite values are ``null``).
 ``--plot OUT.png`` draws a timeline like the paper's Fig. 2: one bar per level
-with its segments, and the mean pose of each segment of the coarsest level.
+with its segments in distinct colours, and the mean pose of each segment of
+the coarsest level, explained in a caption.
 
 Exit codes: 0 ok; 1 warnings only (a requested ``k`` above the frame count was
-dropped); 2 errors (unreadable input, missing reader or matplotlib); 64 usage.
+dropped); 2 errors (unreadable input, missing reader or matplotlib); 3 out of
+memory; 64 usage.
 """
 from __future__ import annotations
 
 import argparse
-import json
+import colorsys
 import math
 import os
 from pathlib import Path
@@ -23,7 +27,7 @@ import sys
 
 import numpy as np
 
-from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, Parser
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, Parser, print_json, printable
 
 JSON_SCHEMA = "mpz-summary/1"
 DEFAULT_KS = "6,12,24,48"
@@ -45,7 +49,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "summary", help="segment a motion optimally and print the segments per level",
         description="Least-WSSSE temporal segmentation (Fisher's optimal partition) of a motion, "
                     "at several numbers of segments k.")
-    p.add_argument("file", help="motion file (.c3d, .trc, .bvh, .amc, .npy, .csv) or .mpz")
+    p.add_argument("file", help="motion file (.c3d, .trc, .bvh, .amc, .npy, .csv) or .mpz; "
+                   "- reads standard input")
     p.add_argument("--k", type=_ks, default=None, metavar="K1,K2,...",
                    help=f"numbers of segments (default {DEFAULT_KS}; for .mpz: every stored level)")
     p.add_argument("--space", choices=("positions", "angles"), default="positions",
@@ -55,6 +60,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="skeleton for .amc input (default: found beside it)")
     p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs matplotlib)")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.add_argument("--no-decode", action="store_true",
+                   help=".mpz input: do not decode the motion (the WSSSE %% column stays "
+                   "empty)")
     p.set_defaults(func=run)
     return p
 
@@ -67,7 +75,11 @@ def _levels_from_motion(args, ks):
         from mpz.io import read
     except ImportError as exc:
         raise _Fail(f"reading motion files needs mpz.io, which is not available: {exc}") from None
-    motion = read(args.file, **({"asf": args.asf} if args.asf else {}))
+    if args.file == "-":
+        from mpz.io import read_bytes
+        motion = read_bytes(args.stdin_data, fmt=args.stdin_format, asf=args.asf)
+    else:
+        motion = read(args.file, **({"asf": args.asf} if args.asf else {}))
     x, what = motion_series(motion, args.space)
     n = x.shape[0]
     warnings = []
@@ -99,24 +111,50 @@ def _levels_from_mpz(args, ks):
     except ImportError:
         raise _Fail(".mpz input needs mpz.read_summary, "
                     "which this build does not provide yet") from None
-    summ = read_summary(Path(args.file).read_bytes())
+    from mpz.api import read_source
+    data = args.stdin_data if args.file == "-" else read_source(args.file)[0]
+    summ = read_summary(data)
     if summ is None:
-        raise _Fail(f"{args.file} has no summary chunk "
+        raise _Fail(f"{printable(args.file)} has no summary chunk "
                     "(encode with: mpz encode --summary 6,12,24,48)")
     n = int(summ.n_frames)
+    series = None
+    if not args.no_decode:       # the per-segment shares, measured on the decoded motion
+        import mpz
+        from mpz.errors import MPZError
+        from mpz.fisher import motion_series
+        try:
+            series = motion_series(mpz.decode(data), summ.space)[0]
+        except MPZError:
+            series = None        # e.g. an angle summary of a motion decoded without angles
     levels = []
     for lv in summ.levels:
         if ks is not None and int(lv.k) not in ks:
             continue
         starts = np.asarray(lv.starts, dtype=np.int64)
-        levels.append({"k": int(lv.k), "starts": starts, "lengths": np.diff(np.append(starts, n)),
+        lengths = np.diff(np.append(starts, n))
+        seg_sse = None
+        if series is not None:
+            r = series - np.repeat(_means(series, starts), lengths, axis=0)
+            seg_sse = np.add.reduceat(np.einsum("ij,ij->i", r, r), starts)
+        levels.append({"k": int(lv.k), "starts": starts, "lengths": lengths,
                        "wssse": None if getattr(lv, "wssse", None) is None else float(lv.wssse),
-                       "segment_wssse": None, "means": np.asarray(lv.means, dtype=np.float64)})
+                       "segment_wssse": seg_sse,
+                       "segment_total": None if seg_sse is None else float(seg_sse.sum()),
+                       "means": np.asarray(lv.means, dtype=np.float64)})
+    unit = (summ.units or None) if summ.space == "positions" else "deg"
+    what = ("levels stored in the file" + ("; WSSSE % measured on the decoded motion"
+                                          if series is not None else ""))
     info = {"file": os.fspath(args.file), "kind": "mpz", "n_frames": n,
-            "rate": float(summ.rate) if getattr(summ, "rate", None) else None, "units": None,
-            "space": None, "description": "levels stored in the file", "dims": None,
-            "markers": None}
+            "rate": float(summ.rate) if getattr(summ, "rate", None) else None,
+            "units": unit, "space": summ.space, "description": what, "dims": summ.dims,
+            "markers": len(summ.names)}
     return info, levels, None, None, []
+
+
+def _means(x: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    from mpz.fisher import segment_means
+    return segment_means(x, starts)
 
 
 class _Fail(Exception):
@@ -126,7 +164,7 @@ class _Fail(Exception):
 # -- output ----------------------------------------------------------------------------
 def _segments(level, rate):
     out = []
-    total = level["wssse"]
+    total = level.get("segment_total", level["wssse"])
     for i, (s, ln) in enumerate(zip(level["starts"], level["lengths"], strict=False)):
         sse = None if level["segment_wssse"] is None else float(level["segment_wssse"][i])
         share = None if sse is None or not total else 100.0 * sse / total
@@ -139,7 +177,7 @@ def _segments(level, rate):
 
 def _print_text(info, levels, out):
     rate = info["rate"]
-    head = f"{info['file']}: {info['n_frames']} frames"
+    head = f"{printable(info['file'])}: {info['n_frames']} frames"
     if rate:
         head += f" at {rate:g} Hz ({(info['n_frames'] - 1) / rate:.2f} s)"
     if info["dims"]:
@@ -149,8 +187,10 @@ def _print_text(info, levels, out):
         w = lv["wssse"]
         line = f"\nk={lv['k']}"
         if w is not None:
-            line += f"  WSSSE {w:.6g}  sqrt {math.sqrt(w):.6g}"
-            line += f"  RMS per frame {math.sqrt(w / info['n_frames']):.4g}"
+            unit = f" {info['units']}" if info.get("units") else ""
+            sq = f"{unit}\u00b2" if unit else ""
+            line += f"  WSSSE {w:.6g}{sq}  sqrt {math.sqrt(w):.6g}{unit}"
+            line += f"  RMS per frame {math.sqrt(w / info['n_frames']):.4g}{unit}"
         print(line, file=out)
         print(f"{'seg':>5} {'start':>7} {'time s':>9} {'frames':>7} {'WSSSE %':>8}", file=out)
         for s in _segments(lv, rate):
@@ -161,6 +201,7 @@ def _print_text(info, levels, out):
 
 def _json(info, levels, warnings):
     return {"schema": JSON_SCHEMA, **info, "warnings": warnings,
+            "wssse_units": (f"{info['units']}^2" if info.get("units") else None),
             "levels": [{"k": lv["k"], "wssse": lv["wssse"], "segments": _segments(lv, info["rate"])}
                        for lv in levels]}
 
@@ -180,15 +221,42 @@ def _pose_axes(poses: np.ndarray):
     return rest[int(np.argmax(change))], v
 
 
+def _rgb(c: tuple[float, ...]) -> tuple[float, float, float]:
+    return (float(c[0]), float(c[1]), float(c[2]))
+
+
+def segment_colours(k: int) -> list[tuple[float, float, float]]:
+    """``k`` distinct RGB colours, neighbours far apart (segment i gets colour i).
+
+    Up to 10: matplotlib's tab10; up to 20: tab20 (dark and light pairs, the
+    lights after the darks so neighbours differ in hue); beyond: hues stepped
+    by the golden ratio, with lightness and saturation cycling over three
+    values, so no colour repeats however large ``k`` is (the old tab10 cycle
+    repeated from segment 11 on).
+    """
+    if k <= 10:
+        from matplotlib import colormaps
+        return [_rgb(colormaps["tab10"](i)) for i in range(k)]
+    if k <= 20:
+        from matplotlib import colormaps
+        order = list(range(0, 20, 2)) + list(range(1, 20, 2))
+        return [_rgb(colormaps["tab20"](order[i])) for i in range(k)]
+    out = []
+    for i in range(k):
+        hue = (i * 0.618033988749895) % 1.0
+        light = (0.42, 0.60, 0.30)[i % 3]
+        sat = (0.75, 0.95, 0.60)[(i // 3) % 3]
+        out.append(colorsys.hls_to_rgb(hue, light, sat))
+    return out
+
+
 def _plot(path, info, levels, poses, parents) -> None:
     import matplotlib
     matplotlib.use("Agg")
-    from matplotlib import colormaps
     import matplotlib.pyplot as plt
 
     n, rate = info["n_frames"], info["rate"] or 1.0
     unit = "s" if info["rate"] else "frames"
-    cmap = colormaps["tab10"]
     thumb = levels[0]  # the coarsest level gets mean-pose thumbnails
     kt = thumb["k"]
     means = None
@@ -203,8 +271,9 @@ def _plot(path, info, levels, poses, parents) -> None:
     gs = fig.add_gridspec(2 if show_thumbs else 1, kt if show_thumbs else 1,
                           height_ratios=[2.0, 0.45 * len(levels) + 0.6] if show_thumbs else None,
                           hspace=0.35, wspace=0.05)
-    if show_thumbs:
+    if show_thumbs and means is not None:
         pts_all = means.reshape(kt, -1, 3)
+        thumb_colours = segment_colours(kt)
         h, v = _pose_axes(pts_all)
         lo = pts_all.reshape(-1, 3).min(axis=0)
         hi = pts_all.reshape(-1, 3).max(axis=0)
@@ -216,14 +285,14 @@ def _plot(path, info, levels, poses, parents) -> None:
                 for c, par in enumerate(parents):
                     if par >= 0:
                         ax.plot(p[[c, par], h], p[[c, par], v], color="0.3", lw=0.8)
-            ax.scatter(p[:, h], p[:, v], s=4, color=cmap(i % 10))
+            ax.scatter(p[:, h], p[:, v], s=4, color=thumb_colours[i])
             ax.set_xlim(lo[h] - pad, hi[h] + pad)
             ax.set_ylim(lo[v] - pad, hi[v] + pad)
             ax.set_aspect("equal", adjustable="box")
             ax.set_xticks([])
             ax.set_yticks([])
             for sp in ax.spines.values():
-                sp.set_color(cmap(i % 10))
+                sp.set_color(thumb_colours[i])
                 sp.set_linewidth(2)
             t0 = thumb["starts"][i] / rate
             ax.set_title(f"#{i}\n{t0:.2f} {unit}" if info["rate"] else f"#{i}\n{t0:.0f}",
@@ -234,7 +303,7 @@ def _plot(path, info, levels, poses, parents) -> None:
     for row, lv in enumerate(levels):
         spans = [(s / rate, ln / rate)
                  for s, ln in zip(lv["starts"], lv["lengths"], strict=False)]
-        colours = [cmap(i % 10) for i in range(len(spans))]
+        colours = segment_colours(len(spans))
         ax_t.broken_barh(spans, (row - 0.4, 0.8), facecolors=colours, edgecolor="white",
                          linewidth=0.5)
         if lv is thumb and show_thumbs:
@@ -245,10 +314,20 @@ def _plot(path, info, levels, poses, parents) -> None:
     ax_t.set_ylim(len(levels) - 0.5, -0.5)
     ax_t.set_xlim(0, n / rate)
     ax_t.set_xlabel(f"time ({unit})")
-    title = f"{Path(info['file']).name}: optimal partitions"
+    ax_t.set_ylabel("level (k segments)")
+    title = f"{printable(Path(info['file']).name).replace('$', chr(92) + '$')}: " \
+            "optimal partitions"
     if info.get("space"):
         title += f" ({info['space']})"
     fig.suptitle(title, fontsize=10)
+    if show_thumbs:
+        axis = "xyz"
+        fig.text(0.5, -0.02, f"Top: the mean pose of each of the k={kt} segments of the "
+                 "coarsest level, relative to the per-frame centroid of the markers, seen "
+                 f"along the {'xyz'[3 - h - v]} axis (horizontal {axis[h]}, vertical "
+                 f"{axis[v]}); number, colour and start time match its bar in the k={kt} row "
+                 "below. Bottom: every level's segments over time, each in its own colour.",
+                 ha="center", va="top", fontsize=7, wrap=True)
     from mpz.api import atomic_output
     with atomic_output(path, force=True) as tmp:
         fig.savefig(tmp, dpi=130, bbox_inches="tight")
@@ -265,13 +344,18 @@ def run(args) -> int:
             return EXIT_ERROR
     if args.plot:  # a bad plot path fails before the work
         from mpz.api import check_output
-        check_output(args.plot, force=True, source=args.file)
+        check_output(args.plot, force=True, source=None if args.file == "-" else args.file)
     path = Path(args.file)
-    if not path.is_file():
-        print(f"mpz summary: error: {args.file}: no such file", file=sys.stderr)
+    args.stdin_data, args.stdin_format = None, None
+    if args.file == "-":
+        from mpz.tools._common import read_stdin
+        args.stdin_data, args.stdin_format = read_stdin()
+    elif not path.is_file():
+        what = "no such file" if not path.exists() else "not a regular file"
+        print(f"mpz summary: error: {printable(args.file)}: {what}", file=sys.stderr)
         return EXIT_ERROR
     try:
-        if path.suffix.lower() == ".mpz":
+        if (args.stdin_format if args.file == "-" else path.suffix.lower()) == ".mpz":
             info, levels, poses, parents, warnings = _levels_from_mpz(args, args.k)
         else:
             ks = args.k if args.k is not None else _ks(DEFAULT_KS)
@@ -282,14 +366,13 @@ def run(args) -> int:
     for w in warnings:
         print(f"mpz summary: warning: {w}", file=sys.stderr)
     if args.json:
-        json.dump(_json(info, levels, warnings), sys.stdout, indent=1)
-        print()
+        print_json(_json(info, levels, warnings), indent=1)
     else:
         _print_text(info, levels, sys.stdout)
     if args.plot:
         _plot(args.plot, info, levels, poses, parents)
         if not args.json:
-            print(f"\nplot written to {args.plot}")
+            print(f"\nplot written to {printable(args.plot)}")
     return EXIT_WARN if warnings else EXIT_OK
 
 
@@ -303,7 +386,7 @@ def main(argv=None) -> int:
     try:
         return int(args.func(args))
     except MPZError as exc:
-        print(f"mpz summary: error: {exc}", file=sys.stderr)
+        print(f"mpz summary: error: {printable(str(exc))}", file=sys.stderr)
         return EXIT_ERROR
 
 

@@ -7,8 +7,9 @@ not be redistributed, so the quick start uses this one.
 """
 from __future__ import annotations
 
-import argparse
 import sys
+
+from mpz.tools._cli import EXIT_ERROR, Parser, printable
 
 
 def make(frames: int = 480, seed: int = 0):
@@ -18,7 +19,7 @@ def make(frames: int = 480, seed: int = 0):
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mpz.tools.make_example", description=__doc__)
+    p = Parser(prog="python -m mpz.tools.make_example", description=__doc__)
     p.add_argument("output", help="e.g. walk.c3d or walk.trc")
     p.add_argument("--frames", type=int, default=480)
     p.add_argument("--seed", type=int, default=0)
@@ -29,10 +30,10 @@ def main(argv=None) -> int:
         m = make(args.frames, args.seed)
         write(m, args.output)
     except MPZError as exc:
-        print(f"make_example: error: {exc}", file=sys.stderr)
-        return 2
-    print(f"wrote {args.output}: {m.n_frames} frames x {m.n_markers} markers, {m.rate:g} Hz, "
-          f"gaps {m.gap_fraction:.1%}")
+        print(f"make_example: error: {printable(str(exc))}", file=sys.stderr)
+        return EXIT_ERROR
+    print(f"wrote {printable(args.output)}: {m.n_frames} frames x {m.n_markers} markers, "
+          f"{m.rate:g} Hz, gaps {m.gap_fraction:.1%}")
     return 0
 
 

@@ -6,8 +6,9 @@ dispatches (an explicit table, no getattr magic).
 
 Exit codes (all subcommands; the table shared with ``mpzinfo`` and
 ``mpz-conformance`` is in :mod:`mpz.tools._cli`): 0 ok, 1 warnings only, 2
-errors in the input or the data, 64 usage error (argparse's own errors
-too), 130 interrupted (Ctrl-C).
+errors in the input or the data (in a batch: some input failed), 3 out of
+memory, 64 usage error (argparse's own errors too, reported by the
+subcommand with a "did you mean" hint), 130 interrupted (Ctrl-C).
 """
 from __future__ import annotations
 
@@ -20,7 +21,10 @@ from mpz.tools._cli import (
     EXIT_CODES_HELP,
     EXIT_ERROR,
     EXIT_INTERRUPTED,
+    EXIT_MEMORY,
     Parser,
+    memory_message,
+    printable,
     quiet_broken_pipe,
 )
 
@@ -32,6 +36,7 @@ SUBCOMMANDS = {
     "show": "mpz.tools.cmd_show",
     "summary": "mpz.tools.cmd_summary",
     "bench": "mpz.tools.cmd_bench",
+    "search": "mpz.tools.cmd_search",
 }
 
 
@@ -40,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="mpz", description="MPZ motion-capture compression tools.",
                     epilog=EXIT_CODES_HELP + ", 130 interrupted")
     parser.add_argument("--version", action="version", version=f"mpz {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for modname in SUBCOMMANDS.values():
         mod = importlib.import_module(modname)
@@ -55,8 +60,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except MPZError as exc:
-        print(f"mpz {args.command}: error: {exc}", file=sys.stderr)
+        print(f"mpz {args.command}: error: {printable(str(exc))}", file=sys.stderr)
         return EXIT_ERROR
+    except MemoryError as exc:      # a resource error, not a verdict on the input (spec §8)
+        print(f"mpz {args.command}: {memory_message(exc)}", file=sys.stderr)
+        return EXIT_MEMORY
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -12,25 +12,38 @@ mpzinfo keeps going past a bad CRC and shows what can still be read; it also
 runs the full integer decoding (``--no-decode`` skips it) so that a file that
 cannot be decoded never passes.
 
-Exit codes: 0 ok, 1 warnings only, 2 errors in a file, 64 usage error.
+``-`` reads standard input (bounded: chunk by chunk, stopping at MEND). A
+device, FIFO or socket given by name is refused without being read. File
+names and every string from a file are printed escaped
+(:func:`mpz.tools._cli.printable`).
+
+Exit codes: 0 ok, 1 warnings only, 2 errors in a file, 3 out of memory (the
+file may be valid), 64 usage error.
 """
 from __future__ import annotations
 
 import json
-import math
 import sys
+from typing import Any
 
 from mpz.chunks import Mhdr, Patt, Segs, Smry
 from mpz.container import scan
 from mpz.decoder import decode_layers, read_stream
 from mpz.errors import MPZError
-from mpz.format import UNIT_NAMES, Units
+from mpz.format import MAX_SAMPLES, UNIT_NAMES, Units
 from mpz.tools._cli import (
     EXIT_CODES_HELP,
     EXIT_ERROR,
+    EXIT_MEMORY,
     EXIT_OK,
     EXIT_WARN,
+    MAX_SAMPLES_HELP,
     Parser,
+    jsonable,
+    max_samples,
+    memory_message,
+    print_json,
+    printable,
     quiet_broken_pipe,
 )
 
@@ -49,32 +62,30 @@ def _err(e: MPZError) -> dict:
             "chunk": e.chunk, "section": e.section}
 
 
-def _finite(v):
-    """JSON has no NaN or infinity: report such values as null (errors[] says why)."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _finite(x) for k, x in v.items()}
-    if isinstance(v, list):
-        return [_finite(x) for x in v]
-    return v
+#: JSON has no NaN or infinity: such values are null (errors[] says why); the shared encoder
+_finite = jsonable
 
 
-def inspect(data: bytes, name: str = "-", *, decode: bool = True) -> dict:
-    """Everything mpzinfo knows about one file, as a JSON-ready dict."""
+def inspect(data: bytes, name: str = "-", *, decode: bool = True,
+            max_samples: int = MAX_SAMPLES) -> dict:
+    """Everything mpzinfo knows about one file, as a JSON-ready dict (``max_samples``: a
+    lower F x M limit, spec §8)."""
     res = scan(data)
-    info = {"file": name, "size": len(data), "status": "ok", "version": None, "rate": None,
-            "frames": None, "markers": None, "nodes": None, "patterns": None, "segments": None,
-            "units": None, "error_metric": None, "error_bound": None, "raw_size": None,
-            "ratio": None, "summary_levels": None, "chunks": [], "errors": [], "warnings": []}
+    info: dict[str, Any] = {
+        "file": name, "size": len(data), "status": "ok", "version": None, "rate": None,
+        "frames": None, "markers": None, "nodes": None, "patterns": None, "segments": None,
+        "units": None, "error_metric": None, "error_bound": None, "raw_size": None,
+        "ratio": None, "summary_levels": None, "chunks": [], "errors": [], "warnings": []}
     for c in res.chunks:
-        entry = {"type": c.type, "offset": c.offset, "length": c.length, "critical": c.critical,
-                 "crc_ok": c.crc_ok, "crc_stored": c.crc_stored, "crc_computed": c.crc_computed,
-                 "fields": None}
+        entry: dict[str, Any] = {
+            "type": c.type, "offset": c.offset, "length": c.length, "critical": c.critical,
+            "crc_ok": c.crc_ok, "crc_stored": c.crc_stored, "crc_computed": c.crc_computed,
+            "fields": None}
         if c.record is not None:
             # each chunk's entry in the chunk table says what to show (mpz.chunks)
             entry["fields"] = c.record.info()
-            entry["field_offsets"] = {n: c.offset + 8 + o for n, o in
+            base = (c.offset or 0) + 8      # scanned chunks always have an offset
+            entry["field_offsets"] = {n: base + o for n, o in
                                       type(c.record).field_offsets(c.payload)}
         info["chunks"].append(entry)
     errors = list(res.errors)
@@ -101,9 +112,9 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True) -> dict:
     if not errors:
         try:
             if decode:
-                decode_layers(data)
+                decode_layers(data, max_samples=max_samples)
             else:
-                read_stream(data)
+                read_stream(data, max_samples=max_samples)
         except MPZError as exc:
             errors.append(exc)
     info["errors"] = [_err(e) for e in errors]
@@ -113,10 +124,11 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True) -> dict:
 
 
 def summary_line(info: dict) -> str:
-    tag = {"ok": "OK", "warning": "WARN", "error": "ERROR"}[info["status"]]
+    tag = {"ok": "OK", "warning": "WARN", "error": "ERROR", "memory": "MEMORY"}[info["status"]]
+    name = printable(info["file"])
     if info["frames"] is None:
         reason = info["errors"][0]["message"] if info["errors"] else "unreadable"
-        return f"{tag}: {info['file']} ({reason})"
+        return f"{tag}: {name} ({printable(reason)})"
     rate = "unknown rate" if info["rate"] is None else f"{info['rate']:g} Hz"
     parts = [f"MPZ {info['version']}", rate, f"{info['frames']} frames",
              f"{info['markers']} markers", f"{info['nodes']} nodes"]
@@ -129,11 +141,12 @@ def summary_line(info: dict) -> str:
         parts.append(f"max error \u2264 {info['error_bound']:g}{units}")
     else:
         parts.append("no error bound declared")
-    line = f"{tag}: {info['file']} ({', '.join(parts)})"
+    line = f"{tag}: {name} ({', '.join(parts)})"
     if info["errors"]:
         e = info["errors"][0]
         where = f" at offset {e['offset']}" if e["offset"] is not None else ""
-        line += f"\n  error: {e['message']}{where}" + (f" ({e['section']})" if e["section"] else "")
+        line += (f"\n  error: {printable(e['message'])}{where}"
+                 + (f" ({e['section']})" if e["section"] else ""))
     return line
 
 
@@ -142,21 +155,36 @@ def _print_chunks(info: dict, verbose: int, out):
         crc = ("CRC ok" if c["crc_ok"] else
                f"CRC bad (computed 0x{c['crc_computed']:08x}, stored 0x{c['crc_stored']:08x})")
         kind = "critical" if c["critical"] else "ancillary"
-        print(f"  chunk #{i} {c['type']} ({kind}) at offset 0x{c['offset']:05x}, "
+        print(f"  chunk #{i} {printable(c['type'])} ({kind}) at offset 0x{c['offset']:05x}, "
               f"length {c['length']}, {crc}", file=out)
         if verbose >= 2 and c["fields"] is not None:
             offs = c.get("field_offsets", {})
             for k, v in c["fields"].items():
                 at = f"0x{offs[k]:05x}" if k in offs else "       "
-                text = json.dumps(v) if not isinstance(v, str) else repr(v)
+                text = json.dumps(jsonable(v)) if not isinstance(v, str) else repr(v)
                 if len(text) > 100:
                     text = text[:97] + "..."
-                print(f"      {at}  {k} = {text}", file=out)
+                print(f"      {at}  {k} = {printable(text)}", file=out)
     for w in info["warnings"]:
-        print(f"  warning: {w['message']}", file=out)
+        print(f"  warning: {printable(w['message'])}", file=out)
     for e in info["errors"]:
         where = f" at offset {e['offset']}" if e["offset"] is not None else ""
-        print(f"  error: {e['class']}: {e['message']}{where}", file=out)
+        print(f"  error: {e['class']}: {printable(e['message'])}{where}", file=out)
+
+
+def _read(name: str) -> bytes:
+    """The bytes of one FILE argument: ``-`` is standard input, read with a bound."""
+    from mpz.api import read_source
+    if name == "-":
+        from mpz.tools._common import read_stdin
+        return read_stdin()[0]
+    return read_source(name)[0]
+
+
+def _unreadable(name: str, cls: str, message: str, section: str | None) -> dict:
+    return {"file": name, "status": "error", "frames": None, "chunks": [], "warnings": [],
+            "errors": [{"class": cls, "message": message, "offset": None, "chunk": None,
+                        "section": section}]}
 
 
 @quiet_broken_pipe
@@ -167,36 +195,38 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None = None) -> int:
     from mpz import __version__
     p = Parser(prog="mpzinfo", description="Dump and check MPZ files.", epilog=EXIT_CODES_HELP)
-    p.add_argument("files", nargs="+", metavar="FILE")
+    p.add_argument("files", nargs="+", metavar="FILE", help="MPZ files; - reads standard input")
     p.add_argument("-v", "--verbose", action="count", default=0,
                    help="-v: one line per chunk; -vv: every field with its byte offset")
     p.add_argument("--json", action="store_true", help=f"machine-readable output ({SCHEMA})")
     p.add_argument("--no-decode", action="store_true",
                    help="check structure only, skip decoding the range-coded payloads")
+    p.add_argument("--max-samples", type=max_samples, default=MAX_SAMPLES, metavar="N",
+                   help=MAX_SAMPLES_HELP)
     p.add_argument("--version", action="version", version=f"mpzinfo {__version__}")
     args = p.parse_args(argv)
     infos = []
     for f in args.files:
         try:
-            with open(f, "rb") as fh:
-                data = fh.read()
-        except OSError as exc:
-            infos.append({"file": f, "status": "error", "frames": None, "chunks": [],
-                          "warnings": [], "errors": [{"class": "OSError",
-                                                      "message": exc.strerror or str(exc),
-                                                      "offset": None, "chunk": None,
-                                                      "section": None}]})
-            continue
-        infos.append(inspect(data, f, decode=not args.no_decode))
+            data = _read(f)
+            infos.append(inspect(data, f, decode=not args.no_decode,
+                                 max_samples=args.max_samples))
+        except MPZError as exc:                # unreadable: missing, a device, too long
+            infos.append(_unreadable(f, type(exc).__name__, exc.message, exc.section))
+        except MemoryError as exc:             # a resource error, not a verdict (spec §8)
+            info = _unreadable(f, "MemoryError", memory_message(exc), "§8")
+            info["status"] = "memory"
+            infos.append(info)
     if args.json:
-        print(json.dumps({"schema": SCHEMA, "tool_version": __version__, "files": infos},
-                         indent=2))
+        print_json({"schema": SCHEMA, "tool_version": __version__, "files": infos})
     else:
         for info in infos:
             print(summary_line(info))
             if args.verbose:
                 _print_chunks(info, args.verbose, sys.stdout)
     statuses = {i["status"] for i in infos}
+    if "memory" in statuses:
+        return EXIT_MEMORY
     if "error" in statuses:
         return EXIT_ERROR
     if "warning" in statuses:

@@ -1,0 +1,359 @@
+"""Issue 11, the command-line side: endless and special files, memory pressure,
+terminal escapes, strict JSON, and decoded files that must read back.
+
+Point numbers refer to issue 11. Every test runs the installed commands with
+:mod:`subprocess` (a timeout guards each one: a hang is a failure), except the
+reader and writer checks that the tools share with the Python API.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+import json
+import os
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz import Motion
+from mpz.io import read, write
+from mpz.synth import generate
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="devices, FIFOs and rlimits: POSIX")
+
+ESC = "\x1b"
+EVIL = ESC + "]0;owned" + "\x07" + ESC + "[2J"          # set the window title, clear the screen
+
+
+def command(name: str) -> str:
+    beside = Path(sys.executable).parent / name
+    found = str(beside) if beside.exists() else shutil.which(name)
+    assert found, f"{name} is not installed (pip install -e .)"
+    return found
+
+
+def run(args: Sequence[str], cwd: Path, *, stdin: bytes | None = None,
+        timeout: float = 120) -> subprocess.CompletedProcess[bytes]:
+    return subprocess.run([command(args[0]), *args[1:]], cwd=cwd, input=stdin,
+                          capture_output=True, timeout=timeout)
+
+
+def strict_json(text: bytes) -> object:
+    def refuse(token: str) -> None:
+        raise ValueError(f"non-standard JSON token {token}")
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("hostile")
+    m = generate("walk", frames=60, seed=5, gap_fraction=0.02)
+    out = {"trc": d / "a.trc", "mpz": d / "a.mpz"}
+    write(m, out["trc"])
+    out["mpz"].write_bytes(mpz.encode(m, max_error=1.0))
+    return out
+
+
+# -- 2. endless and special files -------------------------------------------------------------
+
+SPECIAL_COMMANDS = [
+    ["mpzinfo", "{f}"],
+    ["mpz", "decode", "{f}", "-o", "x.npy"],
+    ["mpz", "show", "{f}"],
+    ["mpz", "show", "{f}.c3d"],
+    ["mpz", "compare", "{trc}", "{f}"],
+    ["mpz", "encode", "{f}.c3d", "-o", "x.mpz", "--max-error", "1mm"],
+    ["mpz", "summary", "{f}"],
+]
+
+
+@pytest.mark.parametrize("argv", SPECIAL_COMMANDS, ids=lambda a: " ".join(a[:2]))
+def test_dev_zero_is_refused_at_once(argv: list[str], small: dict[str, Path],
+                                     tmp_path: Path) -> None:
+    (tmp_path / "zero.c3d").symlink_to("/dev/zero")     # a device with a motion extension
+    f = "/dev/zero"
+    args = [a.format(f=f, trc=small["trc"]).replace("/dev/zero.c3d", str(tmp_path / "zero.c3d"))
+            for a in argv]
+    t0 = time.monotonic()
+    p = run(args, tmp_path, timeout=60)
+    assert time.monotonic() - t0 < 60
+    assert p.returncode == 2, (args, p.stderr)
+    assert b"not a regular file" in p.stdout + p.stderr
+    assert b"Traceback" not in p.stderr and b"MemoryError" not in p.stderr
+    assert not (tmp_path / "x.npy").exists() and not (tmp_path / "x.mpz").exists()
+
+
+def test_a_fifo_without_a_writer_does_not_hang(small: dict[str, Path], tmp_path: Path) -> None:
+    fifo = tmp_path / "pipe.mpz"
+    os.mkfifo(fifo)
+    for args in (["mpzinfo", str(fifo)], ["mpz", "decode", str(fifo), "-o", "x.npy"],
+                 ["mpz", "show", str(fifo)]):
+        p = run(args, tmp_path, timeout=60)                 # a hang raises TimeoutExpired
+        assert p.returncode == 2 and b"a FIFO, not a regular file" in p.stdout + p.stderr
+    with pytest.raises(mpz.FormatError, match="FIFO"):
+        mpz.decode(fifo)
+    trc = tmp_path / "p.trc"
+    os.mkfifo(trc)
+    with pytest.raises(mpz.MPZError, match="not a regular file"):
+        read(trc)
+
+
+def test_endless_stdin_is_bounded(small: dict[str, Path], tmp_path: Path) -> None:
+    with open("/dev/zero", "rb") as zero:
+        for args in (["mpzinfo", "-"], ["mpz", "decode", "-", "-o", "x.npy"],
+                     ["mpz", "encode", "-", "-o", "x.mpz", "--max-error", "1mm"],
+                     ["mpz", "show", "-"]):
+            p = subprocess.run([command(args[0]), *args[1:]], stdin=zero, cwd=tmp_path,
+                               capture_output=True, timeout=60)
+            assert p.returncode == 2, (args, p.stderr)
+            assert b"Traceback" not in p.stderr
+
+
+def test_a_chunk_over_the_limit_is_refused_before_it_is_read(small: dict[str, Path],
+                                                             tmp_path: Path) -> None:
+    """Signature and a chunk frame claiming 2^30 + 1 bytes, then the writer stays open:
+    the reader must decide from the 8-byte frame alone (spec §3.2, §8)."""
+    head = b"\x89MPZ\r\n\x1a\n" + b"MHDR" + (2 ** 30 + 1).to_bytes(4, "little")
+    proc = subprocess.Popen([command("mpzinfo"), "-"], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path)
+    assert proc.stdin is not None
+    proc.stdin.write(head + bytes(1000))
+    proc.stdin.flush()                                     # and do not close: more could come
+    assert proc.stdout is not None and proc.stderr is not None
+    try:
+        code = proc.wait(timeout=60)       # decided while the writer is still open
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.stdin.close()
+    out, err = proc.stdout.read(), proc.stderr.read()
+    assert code == 2, err
+    assert b"exceeds the limit 1073741824" in out
+
+
+def test_a_valid_file_on_stdin_followed_by_more_data(small: dict[str, Path],
+                                                     tmp_path: Path) -> None:
+    data = small["mpz"].read_bytes()
+    p = run(["mpzinfo", "-"], tmp_path, stdin=data)
+    assert p.returncode == 0, p.stdout
+    p = run(["mpzinfo", "-"], tmp_path, stdin=data + b"trailing")
+    assert p.returncode == 2 and b"after the MEND chunk" in p.stdout
+
+
+# -- 3. memory pressure -------------------------------------------------------------------------
+
+#: the child: imports first, then caps its address space a little above what it uses,
+#: then runs the tool's main on a file whose decoding needs far more than that
+_CAPPED = r"""
+import resource, sys
+from mpz.tools import mpz_cli, mpzinfo
+import mpz.decoder, numpy
+with open("/proc/self/status") as fh:
+    vm = [int(l.split()[1]) * 1024 for l in fh if l.startswith("VmSize:")][0]
+cap = vm + (48 << 20)
+resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+tool = {"mpzinfo": mpzinfo.main, "mpz": mpz_cli.main}[sys.argv[1]]
+sys.exit(tool(sys.argv[2:]))
+"""
+
+
+@pytest.fixture(scope="module")
+def big(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A valid file whose decoding needs a few hundred MB (2^22 marker-frames)."""
+    d = tmp_path_factory.mktemp("big")
+    m = generate("static", frames=1 << 15, seed=1, markers=None)   # 32768 x 41 x 3
+    m = mpz.concatenate([m, m, m, m])                               # 131072 frames
+    path = d / "big.mpz"
+    path.write_bytes(mpz.encode(m, max_error=5.0))
+    return path
+
+
+def test_out_of_memory_is_its_own_message_and_exit_code(big: Path, tmp_path: Path) -> None:
+    if not Path("/proc/self/status").exists():
+        pytest.skip("needs /proc to measure the child's address space")
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
+               NUMBA_NUM_THREADS="1")
+    for argv in (["mpzinfo", str(big)], ["mpz", "decode", str(big), "-o", "x.npy"],
+                 ["mpz", "show", str(big)]):
+        p = subprocess.run([sys.executable, "-c", _CAPPED, *argv], cwd=tmp_path, env=env,
+                           capture_output=True, timeout=300)
+        text = (p.stdout + p.stderr).decode()
+        assert p.returncode == 3, (argv, text)
+        assert "out of memory" in text and "may be valid" in text
+        assert "Traceback" not in text and "invalid data" not in text
+        assert not (tmp_path / "x.npy").exists()
+
+
+# -- 4. terminal escape injection -----------------------------------------------------------------
+
+def test_names_file_names_and_metadata_are_printed_escaped(tmp_path: Path) -> None:
+    m = generate("walk", frames=40, seed=2)
+    names = list(m.names)
+    names[0] = "LFHD" + EVIL
+    evil = Motion(m.positions, names, m.rate, m.units, m.valid,
+                  {"warning": "read with a warning " + EVIL})
+    name = f"walk{ESC}[31m.mpz"
+    (tmp_path / name).write_bytes(mpz.encode(evil, max_error=1.0))
+    (tmp_path / "plain.mpz").write_bytes(mpz.encode(evil, max_error=1.0))
+    bvh = tmp_path / "evil.bvh"
+    bvh.write_text(EVIL_BVH.replace("Spine", "Spine" + EVIL))
+    commands = [
+        ["mpzinfo", "-vv", name],
+        ["mpz", "decode", name, "-o", "x.npy"],
+        ["mpz", "show", "plain.mpz"],
+        ["mpz", "compare", "plain.mpz", "plain.mpz", "--top", "41"],
+        ["mpz", "encode", str(bvh), "-o", "b.mpz", "--max-error", "0.01", "--hierarchy",
+         "skeleton"],
+        ["mpz", "summary", name, "--k", "2"],
+        ["mpz", "decode", "nofile" + EVIL + ".mpz", "-o", "y.npy"],
+    ]
+    for argv in commands:
+        p = run(argv, tmp_path)
+        out = p.stdout + p.stderr
+        assert ESC.encode() not in out and b"\x07" not in out, (argv, out[-300:])
+        assert b"Traceback" not in out, argv
+    p = run(["mpz", "show", "plain.mpz"], tmp_path)
+    assert p.returncode == 1 and b"\\x1b]0;owned\\x07\\x1b[2J" in p.stdout
+    p = run(["mpz", "compare", "plain.mpz", "plain.mpz", "--top", "41"], tmp_path)
+    assert b"LFHD\\x1b]0;owned" in p.stdout
+
+
+def test_there_is_one_escaping_function() -> None:
+    from mpz.tools import _cli
+    assert _cli.printable("a" + EVIL) == "a\\x1b]0;owned\\x07\\x1b[2J"
+    assert _cli.printable("Ferse \u00fc \u65e5") == "Ferse \u00fc \u65e5"
+    assert _cli.printable("x\u202egnp.exe") == "x\\u202egnp.exe"  # right-to-left override
+    tools = Path(_cli.__file__).parent
+    for f in sorted(tools.glob("*.py")):
+        text = f.read_text()
+        if f.name in ("_cli.py", "make_vectors.py", "make_golden.py", "spec_example.py",
+                      "make_example.py", "__init__.py"):
+            continue
+        assert "printable" in text, f"{f.name} prints without the shared escaping"
+        assert "def _escape" not in text and "isprintable" not in text, f.name
+
+
+#: a BVH whose joint names reach the encode report through the skeleton hierarchy
+EVIL_BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 10 0
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.0333333
+0 0 0 0 0 0 0 0 0
+1 0 0 0 5 0 10 0 0
+2 0 0 0 10 0 20 0 0
+"""
+
+
+# -- 8. strict JSON everywhere --------------------------------------------------------------------
+
+def test_every_json_output_is_strict_with_a_denormal_rate(tmp_path: Path) -> None:
+    m = generate("walk", frames=30, seed=4)
+    odd = Motion(m.positions, m.names, 5e-324, m.units, m.valid)   # legal: finite, > 0
+    (tmp_path / "d.mpz").write_bytes(mpz.encode(odd, max_error=1.0, summary=(2,)))
+    write(m, tmp_path / "m.trc")
+    for argv in (["mpz", "show", "--json", "d.mpz"], ["mpz", "summary", "--json", "d.mpz"],
+                 ["mpzinfo", "--json", "d.mpz"], ["mpz", "compare", "--json", "d.mpz", "d.mpz"],
+                 ["mpz", "encode", "m.trc", "-o", "e.mpz", "--max-error", "1mm", "--json"]):
+        p = run(argv, tmp_path)
+        assert p.returncode in (0, 1), (argv, p.stderr)
+        doc = strict_json(p.stdout)
+        assert isinstance(doc, dict), argv
+    show = strict_json(run(["mpz", "show", "--json", "d.mpz"], tmp_path).stdout)
+    assert isinstance(show, dict) and show["rate"] == 5e-324 and show["duration"] is None
+
+
+def test_one_json_writer() -> None:
+    from mpz.tools import _cli
+    text = _cli.json_text({"a": float("inf"), "b": [float("nan"), 1.5], "c": np.float64(2)})
+    assert strict_json(text.encode()) == {"a": None, "b": [None, 1.5], "c": 2.0}
+    tools = Path(_cli.__file__).parent
+    for f in sorted(tools.glob("cmd_*.py")) + [tools / "mpzinfo.py"]:
+        text = f.read_text()
+        assert "json.dump(" not in text and "json.dumps(" not in text.replace(
+            "json.dumps(jsonable(", ""), f.name
+
+
+# -- 9. decoded files must read back ---------------------------------------------------------------
+
+def test_decode_refuses_what_a_format_cannot_hold(tmp_path: Path) -> None:
+    m = generate("walk", frames=30, seed=6)
+    odd = Motion(m.positions, m.names, 5e-324, m.units, m.valid)
+    (tmp_path / "denormal.mpz").write_bytes(mpz.encode(odd, max_error=1.0))
+    names = list(m.names)
+    names[3] = "RB\nHD"
+    (tmp_path / "newline.mpz").write_bytes(mpz.encode(
+        Motion(m.positions, names, m.rate, m.units, m.valid), max_error=1.0))
+    cases = [("denormal.mpz", "x.c3d", b"float32"), ("denormal.mpz", "x.csv", b"overflow"),
+             ("denormal.mpz", "x.trc", b"overflow"), ("newline.mpz", "x.trc", b"RB\\nHD"),
+             ("newline.mpz", "x.csv", b"control characters")]
+    for src, out, why in cases:
+        p = run(["mpz", "decode", src, "-o", out], tmp_path)
+        assert p.returncode == 2, (src, out, p.stderr)
+        assert b"cannot write" in p.stderr and why in p.stderr, (src, out, p.stderr)
+        assert not (tmp_path / out).exists()
+    # what can be written reads back as the motion that was decoded
+    for src, out in (("denormal.mpz", "ok.npy"), ("newline.mpz", "ok.c3d"),
+                     ("newline.mpz", "ok2.npy")):
+        p = run(["mpz", "decode", src, "-o", out], tmp_path)
+        assert p.returncode == 0, p.stderr
+        back = read(tmp_path / out)
+        ref = mpz.decode(tmp_path / src)
+        assert np.array_equal(back.as_nan(), ref.as_nan(), equal_nan=True) or out.endswith(
+            ".c3d")
+        if out.endswith(".c3d"):
+            assert back.names == ref.names and back.rate == ref.rate
+    p = run(["mpz", "decode", "newline.mpz", "-o", "n.npy"], tmp_path)
+    assert b"NPY holds positions only" in p.stderr      # and what it drops is said
+
+
+@pytest.mark.parametrize("ext", [".c3d", ".trc", ".csv"])
+def test_every_written_file_reads_back(ext: str, tmp_path: Path) -> None:
+    """Whatever mpz.io.write accepts, mpz.io.read gives back: names, rate, gaps, values."""
+    from mpz.io import writer_problems
+    rng = np.random.default_rng(7)
+    tricky = ["plain", "with space", "comma,name", 'quote"d', "\u00fcml\u00e4ut",
+              "semi;colon", "back\\slash", "x_y_z"]
+    for bad in ("tab\tx", "new\nline", " padded", "trailing "):
+        m = Motion(np.zeros((2, 2, 3)), ["ok", bad], 100.0, "mm")
+        refuse, _ = writer_problems(m, ext)
+        if ext != ".c3d" or bad.strip() != bad:
+            assert refuse, (ext, bad)
+            with pytest.raises(mpz.MPZError, match="cannot write"):
+                write(m, tmp_path / f"bad{ext}")
+    for rate in (120.0, 1 / 3, 1e-300, 5e-324, 1e300, 240.0):
+        pos = rng.normal(size=(5, len(tricky), 3)) * 100
+        valid = rng.random((5, len(tricky))) > 0.2
+        m = Motion(pos, tricky, rate, "mm", valid)
+        refuse, _ = writer_problems(m, ext)
+        path = tmp_path / f"r{rate}{ext}"
+        if refuse:
+            with pytest.raises(mpz.MPZError, match="cannot write"):
+                write(m, path)
+            assert not path.exists()
+            continue
+        write(m, path)
+        back = read(path)
+        assert back.names == m.names and back.rate == (np.float32(rate) if ext == ".c3d"
+                                                        else rate)
+        assert np.array_equal(back.valid, m.valid)
+        tol = 1e-3 if ext != ".c3d" else 1e-4 * 100
+        assert np.allclose(back.positions[m.valid], m.positions[m.valid], atol=tol)

@@ -1,0 +1,543 @@
+"""Issue 14: the CLI and the Python API behave the way zstd, flac and numpy users expect.
+
+Every CLI test starts the installed ``mpz`` or ``mpzinfo`` with :mod:`subprocess`,
+with real pipes between processes and a real umask, and checks what a user sees:
+the exit code, standard output and standard error, and the files left behind.
+The expected values come from the issue and the README, never from the code
+under test. Point numbers refer to issue 14.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+import inspect
+import io
+import json
+import math
+import os
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz.io import read, write
+from mpz.synth import generate
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="pipes and umasks are POSIX here")
+
+SIGNATURE = b"\x89MPZ\r\n\x1a\n"          # spec §3.1, written out on purpose
+REPO = Path(__file__).resolve().parents[1]
+
+
+def command(name: str) -> str:
+    """The console script installed beside this Python (else the one on PATH)."""
+    beside = Path(sys.executable).parent / name
+    found = str(beside) if beside.exists() else shutil.which(name)
+    assert found, f"{name} is not installed (pip install -e .)"
+    return found
+
+
+def _umask022() -> None:
+    os.umask(0o022)
+
+
+def run(args: Sequence[str], cwd: Path, *, stdin: bytes | None = None,
+        timeout: float = 300) -> subprocess.CompletedProcess[bytes]:
+    """Run an installed command; stdout and stderr captured as bytes."""
+    return subprocess.run([command(args[0]), *args[1:]], cwd=cwd, input=stdin,
+                          capture_output=True, timeout=timeout, preexec_fn=_umask022)
+
+
+def strict_json(text: str | bytes) -> object:
+    """Parse JSON as a strict parser does: NaN and Infinity are errors."""
+    def refuse(token: str) -> None:
+        raise ValueError(f"non-standard JSON token {token}")
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Small inputs in every readable format, and an .mpz (120 frames, CMU 41 markers, mm)."""
+    d = tmp_path_factory.mktemp("inputs")
+    m = generate("walk", frames=120, seed=3, gap_fraction=0.02)
+    out = {}
+    for ext in ("c3d", "trc", "csv", "npy"):
+        out[ext] = d / f"walk.{ext}"
+        write(m, out[ext])
+    out["mpz"] = d / "walk.mpz"
+    out["mpz"].write_bytes(mpz.encode(m, max_error=1.0))
+    bvh = d / "arm.bvh"
+    bvh.write_text(BVH)
+    out["bvh"] = bvh
+    return out
+
+
+#: a two-joint BVH (units unknown, as every BVH)
+BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 10 0
+    }
+  }
+}
+MOTION
+Frames: 4
+Frame Time: 0.0333333
+0 0 0 0 0 0 0 0 0
+1 0 0 0 5 0 10 0 0
+2 0 0 0 10 0 20 0 0
+3 0 0 0 15 0 30 0 0
+"""
+
+
+# -- 1. pipes ------------------------------------------------------------------------------
+
+def test_encode_to_stdout_through_a_real_pipe_into_decode(inputs: dict[str, Path],
+                                                          tmp_path: Path) -> None:
+    enc = subprocess.Popen([command("mpz"), "encode", str(inputs["c3d"]), "-o", "-",
+                            "--max-error", "1mm"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, cwd=tmp_path)
+    dec = subprocess.Popen([command("mpz"), "decode", "-", "-o", "back.npy"],
+                           stdin=enc.stdout, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           cwd=tmp_path)
+    assert enc.stdout is not None
+    enc.stdout.close()
+    dout, derr = dec.communicate(timeout=300)
+    _, eerr = enc.communicate(timeout=300)
+    assert enc.returncode == 0 and dec.returncode == 0, (eerr, derr)
+    assert not (tmp_path / "-").exists()                 # no file literally named "-"
+    back = np.load(tmp_path / "back.npy")
+    orig = read(inputs["c3d"])
+    d = np.linalg.norm(back - orig.as_nan(), axis=2)
+    assert np.nanmax(d) <= 1.0 + 1e-9
+    assert b"frames x" in eerr                           # the report went to stderr
+
+
+def test_stdout_carries_only_data_and_reports_go_to_stderr(inputs: dict[str, Path],
+                                                           tmp_path: Path) -> None:
+    p = run(["mpz", "encode", str(inputs["trc"]), "-o", "-", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.startswith(SIGNATURE)
+    assert mpz.decode(p.stdout).n_frames == 120          # nothing but the file on stdout
+    assert b"ratio" in p.stderr
+    p = run(["mpz", "decode", str(inputs["mpz"]), "-o", "-", "--format", "csv"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.startswith(b"frame,time,")
+    assert b"-> -" in p.stderr
+
+
+@pytest.mark.parametrize("fmt", ["c3d", "trc", "csv", "npy", "bvh", "mpz"])
+def test_stdin_format_is_found_from_the_content(fmt: str, inputs: dict[str, Path],
+                                                tmp_path: Path) -> None:
+    data = inputs[fmt].read_bytes()
+    p = run(["mpz", "show", "--json", "-"], tmp_path, stdin=data)
+    assert p.returncode in (0, 1), p.stderr
+    info = strict_json(p.stdout)
+    assert isinstance(info, dict)
+    names = {"c3d": "C3D", "trc": "TRC", "csv": "CSV", "npy": "NPY", "bvh": "BVH", "mpz": "MPZ"}
+    assert info["format"] == names[fmt]
+    assert info["frames"] == (4 if fmt == "bvh" else 120)
+
+
+def test_mpzinfo_and_encode_read_stdin(inputs: dict[str, Path], tmp_path: Path) -> None:
+    p = run(["mpzinfo", "-"], tmp_path, stdin=inputs["mpz"].read_bytes())
+    assert p.returncode == 0 and p.stdout.startswith(b"OK: - (MPZ 1."), p.stderr
+    p = run(["mpz", "encode", "-", "-o", "w.mpz", "--max-error", "2mm"], tmp_path,
+            stdin=inputs["c3d"].read_bytes())
+    assert p.returncode == 0, p.stderr
+    assert mpz.info(tmp_path / "w.mpz").error_bound == 2.0
+
+
+def test_stdin_of_no_known_format_is_a_clear_error(tmp_path: Path) -> None:
+    p = run(["mpz", "encode", "-", "-o", "x.mpz", "--max-error", "1mm"], tmp_path,
+            stdin=b"hello, this is not motion capture\n" * 10)
+    assert p.returncode == 2
+    assert b"cannot tell the format" in p.stderr and b"Traceback" not in p.stderr
+    assert not (tmp_path / "x.mpz").exists()
+
+
+def test_detect_format_on_every_real_recording(shared_data: Path) -> None:
+    from mpz.io import detect_format
+    expected = {".c3d": ".c3d", ".trc": ".trc", ".bvh": ".bvh", ".amc": ".amc", ".asf": None}
+    seen = 0
+    for p in sorted(shared_data.rglob("*")):
+        if p.suffix.lower() in expected:
+            assert detect_format(p.read_bytes()[:4096]) == expected[p.suffix.lower()], p.name
+            seen += 1
+    assert seen >= 30
+
+
+# -- 2. several inputs and folders -----------------------------------------------------------
+
+def test_batch_into_a_folder_keeps_going_past_a_failed_file(inputs: dict[str, Path],
+                                                            tmp_path: Path) -> None:
+    src = tmp_path / "captures"
+    (src / "day2").mkdir(parents=True)
+    shutil.copy(inputs["c3d"], src / "a.c3d")
+    shutil.copy(inputs["trc"], src / "day2" / "b.trc")
+    (src / "broken.c3d").write_bytes(b"\x02\x50" + bytes(100))   # looks like C3D, is not
+    (src / "notes.txt").write_text("not an input")
+    out = tmp_path / "archive"
+    out.mkdir()
+    p = run(["mpz", "encode", "-r", str(src), "-o", "archive/", "--max-error", "1mm", "-q"],
+            tmp_path)
+    assert p.returncode == 2                          # some input failed
+    err = p.stderr.decode()
+    assert "broken.c3d" in err and "1 failed" in err
+    # (a batch into a folder also keeps the corpus index there: index.sqlite, issue 15)
+    assert sorted(n for n in os.listdir(out) if n.endswith(".mpz")) == ["a.mpz", "b.mpz"]
+    # decode them all back, beside nothing: into another folder, as TRC
+    (tmp_path / "back").mkdir()
+    p = run(["mpz", "decode", "archive/a.mpz", "archive/b.mpz", "-o", "back/", "-F", "trc"],
+            tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert sorted(os.listdir(tmp_path / "back")) == ["a.trc", "b.trc"]
+    assert p.stdout.count(b" -> ") == 2
+
+
+def test_batch_rules(inputs: dict[str, Path], tmp_path: Path) -> None:
+    shutil.copy(inputs["c3d"], tmp_path / "a.c3d")
+    shutil.copy(inputs["trc"], tmp_path / "b.trc")
+    # several inputs with one output file: usage error, nothing written
+    p = run(["mpz", "encode", "a.c3d", "b.trc", "-o", "x.mpz", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 64 and b"FOLDER/" in p.stderr
+    # a folder without -r is reported, the other input is still encoded (beside itself)
+    (tmp_path / "dir").mkdir()
+    p = run(["mpz", "encode", "dir", "a.c3d", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 2 and b"use -r" in p.stderr
+    assert (tmp_path / "a.mpz").is_file()
+    # two inputs that would make the same output: the second fails, the first is kept
+    shutil.copy(inputs["trc"], tmp_path / "a.trc")
+    (tmp_path / "out").mkdir()
+    p = run(["mpz", "encode", "a.c3d", "a.trc", "-o", "out/", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 2 and b"also the output of" in p.stderr
+    assert [n for n in os.listdir(tmp_path / "out") if n.endswith(".mpz")] == ["a.mpz"]
+    assert mpz.decode(tmp_path / "out" / "a.mpz").n_frames == 120
+
+
+# -- 3. short flags --------------------------------------------------------------------------
+
+def test_short_flags_on_encode_and_decode(inputs: dict[str, Path], tmp_path: Path) -> None:
+    args = ["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "1mm"]
+    p = run([*args, "-q"], tmp_path)
+    assert p.returncode == 0 and p.stdout == b"" and p.stderr == b""
+    p = run(args, tmp_path)
+    assert p.returncode == 2 and b"exists; use --force" in p.stderr
+    p = run([*args, "-f", "-v"], tmp_path)
+    assert p.returncode == 0 and b"chunks   MHDR" in p.stdout
+    p = run(["mpz", "decode", "x.mpz", "-o", "x.trc", "-q"], tmp_path)
+    assert p.returncode == 0 and p.stdout == b"" and p.stderr == b""
+    p = run(["mpz", "decode", "x.mpz", "-o", "x.trc", "-f", "-v"], tmp_path)
+    assert p.returncode == 0 and b"source: walk.c3d" in p.stdout
+
+
+# -- 6. units --------------------------------------------------------------------------------
+
+def test_a_bound_without_a_unit_is_refused_with_the_accepted_units(inputs: dict[str, Path],
+                                                                    tmp_path: Path) -> None:
+    for opt in (["--max-error", "1"], ["--max-error", "1mm", "--grid", "0.5"]):
+        p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", *opt], tmp_path)
+        assert p.returncode == 2, p.stderr
+        err = p.stderr.decode()
+        assert all(u in err for u in ("mm", "cm", "m", "in")) and "unit" in err
+        assert not (tmp_path / "x.mpz").exists()
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "2furlong"],
+            tmp_path)
+    assert p.returncode == 2 and b"unknown unit" in p.stderr
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "0.1cm"],
+            tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert mpz.info(tmp_path / "x.mpz").error_bound == pytest.approx(1.0)   # 0.1 cm = 1 mm
+
+
+def test_the_python_api_takes_plain_numbers_and_says_so() -> None:
+    doc = inspect.getdoc(mpz.encode) or ""
+    assert "motion's" in doc and "units" in doc
+    sig = inspect.signature(mpz.encode)
+    assert sig.parameters["max_error"].kind is inspect.Parameter.KEYWORD_ONLY
+    assert sig.parameters["max_error"].annotation in ("float | None", float | None)
+
+
+# -- 7. output names ---------------------------------------------------------------------------
+
+def test_decode_refuses_a_mismatched_extension_unless_forced(inputs: dict[str, Path],
+                                                             tmp_path: Path) -> None:
+    p = run(["mpz", "decode", str(inputs["mpz"]), "-o", "x.npy", "--format", "trc"], tmp_path)
+    assert p.returncode == 2 and b"--force" in p.stderr
+    assert not (tmp_path / "x.npy").exists()
+    p = run(["mpz", "decode", str(inputs["mpz"]), "-o", "x.npy", "--format", "trc", "-f"],
+            tmp_path)
+    assert p.returncode == 0
+    assert (tmp_path / "x.npy").read_bytes().startswith(b"PathFileType")
+    p = run(["mpz", "decode", str(inputs["mpz"]), "-o", "back.xyz"], tmp_path)
+    assert p.returncode == 2 and b"back.xyz: cannot write '.xyz'" in p.stderr
+    assert b".part" not in p.stderr and os.listdir(tmp_path) == ["x.npy"]
+
+
+def test_a_trc_from_bvh_never_has_an_empty_units_field(inputs: dict[str, Path],
+                                                       tmp_path: Path) -> None:
+    bvh = read(inputs["bvh"])
+    assert bvh.units == ""                                 # BVH does not say its units
+    (tmp_path / "arm.mpz").write_bytes(mpz.encode(bvh, max_error=0.01))
+    p = run(["mpz", "decode", "arm.mpz", "-o", "arm.trc"], tmp_path)
+    if p.returncode == 0:                                  # units declared: they are written
+        header = (tmp_path / "arm.trc").read_text().splitlines()
+        fields = dict(zip(header[1].split("\t"), header[2].split("\t"), strict=False))
+        assert fields["Units"] in ("mm", "cm", "m", "in")
+    else:
+        assert p.returncode == 2 and b"TRC needs units" in p.stderr
+        assert not (tmp_path / "arm.trc").exists()
+
+
+# -- 9. option errors --------------------------------------------------------------------------
+
+def test_option_errors_come_from_the_subcommand_with_a_hint(inputs: dict[str, Path],
+                                                            tmp_path: Path) -> None:
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-eror", "1mm"],
+            tmp_path)
+    err = p.stderr.decode()
+    assert p.returncode == 64
+    assert err.startswith("usage: mpz encode")
+    assert "did you mean --max-error?" in err
+    p = run(["mpz", "decode", str(inputs["mpz"]), "--fromat", "csv"], tmp_path)
+    assert p.returncode == 64 and b"usage: mpz decode" in p.stderr
+    assert b"did you mean --format?" in p.stderr
+    p = run(["mpz", "encdoe"], tmp_path)
+    assert p.returncode == 64 and b"did you mean encode?" in p.stderr
+
+
+def test_the_group_error_example_in_the_help_works(inputs: dict[str, Path],
+                                                   tmp_path: Path) -> None:
+    p = run(["mpz", "encode", "--help"], tmp_path)
+    example = "l_foot=0.5mm"
+    assert example in p.stdout.decode()
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "2mm",
+             "--hierarchy", "cmu41", "--group-error", example], tmp_path)
+    assert p.returncode == 0, p.stderr
+    orig, back = read(inputs["c3d"]), mpz.decode(tmp_path / "x.mpz")
+    feet = [orig.names.index(n) for n in ("LHEE", "LTOE", "LMT5")]
+    d = np.linalg.norm(orig.positions[:, feet] - back.positions[:, feet], axis=2)
+    assert d[orig.valid[:, feet]].max() <= 0.5 + 1e-9
+
+
+# -- 10. the Python API --------------------------------------------------------------------------
+
+def test_mpz_io_is_there_after_import_mpz() -> None:
+    p = subprocess.run([sys.executable, "-c", "import mpz; print(mpz.io.read.__name__)"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and p.stdout.strip() == "read", p.stderr
+
+
+def test_decode_takes_a_path_bytes_or_a_binary_file(inputs: dict[str, Path]) -> None:
+    path = inputs["mpz"]
+    data = path.read_bytes()
+    ref = mpz.decode(data)
+    for source in (path, str(path), bytearray(data), memoryview(data), io.BytesIO(data)):
+        m = mpz.decode(source)
+        assert m.names == ref.names and np.array_equal(m.as_nan(), ref.as_nan(),
+                                                       equal_nan=True)
+    with open(path, "rb") as fh:
+        assert mpz.decode(fh).n_frames == ref.n_frames
+    # a file object is read up to the end of the MPZ file, not beyond (as np.load does)
+    stream = io.BytesIO(data + b"next record")
+    assert mpz.decode(stream).n_frames == ref.n_frames
+    assert stream.read() == b"next record"
+    with pytest.raises(TypeError):
+        mpz.decode(12345)  # type: ignore[arg-type]
+    with pytest.raises(mpz.FormatError, match="no such file"):
+        mpz.decode(path.parent / "missing.mpz")
+
+
+def test_encode_keywords_are_the_encode_options() -> None:
+    import dataclasses
+    params = {n: p for n, p in inspect.signature(mpz.encode).parameters.items()
+              if p.kind is not inspect.Parameter.VAR_KEYWORD}
+    fields = {f.name: f for f in dataclasses.fields(mpz.EncodeOptions)}
+    assert list(params)[0] == "motion"
+    assert set(params) - {"motion"} == set(fields)
+    for name, f in fields.items():
+        p = params[name]
+        assert p.kind is inspect.Parameter.KEYWORD_ONLY, name
+        if f.default is not dataclasses.MISSING:
+            assert p.default == f.default, name
+        else:                                          # a mapping: None means empty
+            assert p.default is None and f.default_factory() == {}, name  # type: ignore[misc]
+    with pytest.raises(mpz.EncoderError, match="did you mean max_error"):
+        mpz.encode(generate("walk", frames=10), max_eror=1.0)  # type: ignore[arg-type]
+
+
+def test_info_reads_the_facts_without_decoding(inputs: dict[str, Path]) -> None:
+    from mpz import container
+    data = inputs["mpz"].read_bytes()
+    # damage the RESI payload (CRC repaired): the file no longer decodes, info still works
+    chunks = container.parse(data)
+    resi = next(c for c in chunks if c.type == "RESI")
+    bad = bytearray(data)
+    end = resi.offset + 8 + len(resi.payload)
+    for i in range(end - 8, end):
+        bad[i] ^= 0xA5
+    bad_bytes = container.repair_crcs(bytes(bad))
+    with pytest.raises(mpz.MPZError):
+        mpz.decode(bad_bytes)
+    fi = mpz.info(bad_bytes)
+    m = generate("walk", frames=120, seed=3)
+    assert (fi.frames, fi.markers, fi.rate, fi.units) == (120, 41, 120.0, "mm")
+    assert list(fi.names) == m.names and fi.error_bound == 1.0
+    assert fi.duration == pytest.approx(1.0)
+    assert (REPO / "docs" / "partial-decode.md").is_file()
+
+
+# -- 11. plots ------------------------------------------------------------------------------
+
+def test_compare_plot_shows_the_error_over_time_with_the_bound(inputs: dict[str, Path],
+                                                               tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    p = run(["mpz", "compare", str(inputs["c3d"]), str(inputs["mpz"]), "--plot", "e.png"],
+            tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "e.png").read_bytes().startswith(b"\x89PNG")
+    # the figure itself: error (not positions) per marker, the bound line, units, one legend
+    import matplotlib
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    from mpz.tools import cmd_compare
+    a, b = read(inputs["c3d"]), mpz.decode(inputs["mpz"])
+    figures: list[Figure] = []
+    import matplotlib.pyplot as plt
+    orig_close = plt.close
+    plt.close = lambda fig=None: figures.append(fig)  # type: ignore[assignment]
+    try:
+        cmd_compare.plot(a, b, ["LHEE", "RTOE"], str(tmp_path / "f.png"), bound=1.0)
+    finally:
+        plt.close = orig_close  # type: ignore[assignment]
+    fig = figures[0]
+    axes = fig.get_axes()
+    assert len(axes) == 2
+    for ax in axes:
+        assert ax.get_ylabel() == "error (mm)"
+        ys = [line.get_ydata() for line in ax.get_lines()]
+        bound_lines = [y for y in ys if len(y) == 2 and np.allclose(y, 1.0)]
+        assert bound_lines, "the bound is drawn as a line in every panel"
+        err = [np.asarray(y, float) for y in ys if len(y) == a.n_frames][0]
+        assert np.nanmax(err) <= 1.0 + 1e-9 and np.nanmin(err) >= 0   # errors, not positions
+    assert axes[-1].get_xlabel() == "time (s)"
+    assert len(fig.legends) == 1                       # one legend, for every panel
+    texts = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert any("bound 1 mm" in t for t in texts)
+
+
+def test_summary_colours_are_distinct_and_thumbnails_explained(inputs: dict[str, Path],
+                                                               tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    from mpz.tools.cmd_summary import segment_colours
+    for k in (6, 12, 20, 48, 200):
+        cols = segment_colours(k)
+        assert len(set(cols)) == k, k                 # no colour repeats (tab10 did from 11)
+        gaps = [math.dist(cols[i], cols[i + 1]) for i in range(k - 1)]
+        assert min(gaps) > 0.15, k                     # neighbours are told apart
+    p = run(["mpz", "summary", str(inputs["c3d"]), "--k", "6,12,24", "--plot", "s.png"],
+            tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "s.png").read_bytes().startswith(b"\x89PNG")
+
+
+# -- 12. the summary chunk ---------------------------------------------------------------------
+
+def test_encode_reports_the_summary_chunk_and_summary_shows_units(inputs: dict[str, Path],
+                                                                  tmp_path: Path) -> None:
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "s.mpz", "--max-error", "2mm",
+             "--summary", "4,8"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    size = mpz.info(tmp_path / "s.mpz").chunk_bytes["smry"]
+    line = [ln for ln in p.stdout.decode().splitlines() if "smry chunk" in ln]
+    shown = f"{size} B" if size < 1024 else f"{size / 1024:.1f} KB"
+    assert len(line) == 1 and shown in line[0]
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "s2.mpz", "--max-error", "2mm",
+             "--summary", "4,8", "--json"], tmp_path)
+    assert strict_json(p.stdout)["summary_bytes"] == size  # type: ignore[index]
+    p = run(["mpz", "summary", "s.mpz"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    text = p.stdout.decode()
+    assert "RMS per frame" in text
+    rms_line = [ln for ln in text.splitlines() if "RMS per frame" in ln][0]
+    assert rms_line.rstrip().endswith(" mm")
+    rows = [ln.split() for ln in text.splitlines() if ln.strip()[:1].isdigit()]
+    shares = [float(r[-1]) for r in rows]
+    assert rows and all(math.isfinite(s) for s in shares)   # the WSSSE % column is filled
+    assert sum(shares[:4]) == pytest.approx(100.0, abs=0.3)
+
+
+# -- 13. small things ----------------------------------------------------------------------------
+
+def test_no_runtime_warning_from_metrics_on_gap_only_markers() -> None:
+    from mpz import Motion
+    from mpz.metrics import arms, summary
+    rng = np.random.default_rng(0)
+    pos = rng.normal(size=(6, 3, 3))
+    valid = np.ones((6, 3), bool)
+    valid[:, 1] = False                                   # a marker that is never seen
+    valid[3] = False                                      # a frame without any marker
+    a = Motion(pos, ["a", "b", "c"], 10.0, "mm", valid)
+    b = Motion(pos + 0.1, ["a", "b", "c"], 10.0, "mm", valid)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s = summary(a, b)
+        assert arms(a, b) == pytest.approx(math.sqrt(0.03))
+    assert s["per_marker_rms"]["b"] is None and s["per_marker_max"]["b"] is None
+
+
+def test_first_run_compile_notice_on_a_terminal_only(inputs: dict[str, Path],
+                                                     tmp_path: Path) -> None:
+    import pty
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"))
+    args = [command("mpz"), "encode", str(inputs["trc"]), "-o", "-", "--max-error", "1mm"]
+    # standard error is a pipe: no notice, even when compiling
+    p = subprocess.run(args, capture_output=True, env=env, timeout=600, cwd=tmp_path)
+    assert p.returncode == 0 and b"compiling" not in p.stderr
+    # standard error is a terminal and the cache is empty: one line that says why it waits
+    master, slave = pty.openpty()
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba-cache-2")
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=slave, env=env,
+                            cwd=tmp_path)
+    os.close(slave)
+    out = b""
+    while True:
+        try:
+            chunk = os.read(master, 1024)
+        except OSError:
+            break
+        if not chunk:
+            break
+        out += chunk
+    assert proc.wait(timeout=600) == 0
+    os.close(master)
+    assert out.count(b"compiling") == 1 and b"first run" in out
+
+
+def test_packaging_files(tmp_path: Path) -> None:
+    lic = (REPO / "LICENSE").read_text()
+    assert lic.startswith("MIT License") and "The MPZ authors" in lic
+    readme = (REPO / "README.md").read_text()
+    for doc in ("layout.md", "io-notes.md", "partial-decode.md", "summary-size.md"):
+        assert f"docs/{doc}" in readme, doc              # the design notes are linked
+    assert "MPZ_SHARED_DATA" in readme
+    assert "ships with the package" not in readme
+    manifest = (REPO / "MANIFEST.in").read_text()
+    assert "recursive-include docs *.md" in manifest and "LICENSE" in manifest
+    p = run(["mpz", "show", "--help"], tmp_path)
+    assert p.returncode == 0 and b"``" not in p.stdout and b":func:" not in p.stdout
+    for section in ("Pipes", "Batches", "Units", "Command exit codes"):
+        assert section in readme
