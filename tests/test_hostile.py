@@ -28,7 +28,7 @@ def small():
 
 @pytest.fixture(scope="module")
 def lossy():
-    return mpz.encode(generate("wave", frames=60, markers=8, seed=2))
+    return mpz.encode(generate("wave", frames=60, markers=8, seed=2), lossy=True)
 
 
 def test_truncation_at_every_byte(small):
@@ -50,7 +50,8 @@ def _rechunk(data, edit):
     return SIGNATURE + b"".join(container.build_chunk(c.type, payload=c.payload) for c in chunks)
 
 
-@settings(max_examples=200, deadline=2000, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=200, deadline=2000,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.data())
 def test_bit_flips_only_raise_mpzerror(small, data):
     pos = data.draw(st.integers(0, len(small) - 1))
@@ -61,7 +62,8 @@ def test_bit_flips_only_raise_mpzerror(small, data):
         mpz.decode(bytes(b))
 
 
-@settings(max_examples=200, deadline=2000, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=200, deadline=2000,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.data())
 def test_payload_mutations_with_valid_crc(small, data):
     """Mutate a payload and fix the CRC: decode succeeds or raises MPZError only."""
@@ -136,3 +138,90 @@ def test_huge_declared_size_is_refused_before_allocation(small):
         return chunks
     with pytest.raises(LimitExceededError):
         mpz.decode(_rechunk(small, edit))
+
+
+# ---------------------------------------------------------------- issue 11.5 --
+def _with_step(data: bytes, step: float) -> bytes:
+    def edit(chunks):
+        for c in chunks:
+            if c.type == "QUNT":
+                p = bytearray(c.payload)
+                struct.pack_into("<d", p, 0, step)
+                c.payload = bytes(p)
+        return chunks
+    return _rechunk(data, edit)
+
+
+def test_qunt_step_1e308_decode_and_mpzinfo_agree(small, tmp_path):
+    """Issue 11.5: a QUNT step of 1e308 is finite and > 0, but |offset| + step x 2^bits is
+    +inf, so spec 1.0.1 §4.4 makes the file invalid. mpz.decode, mpzinfo (library and CLI)
+    and mpz show / decode must all reject it, at the QUNT chunk."""
+    import subprocess
+    import sys
+
+    from mpz.tools.mpzinfo import inspect
+
+    blob = _with_step(small, 1e308)
+    qunt = next(c for c in container.parse(blob) if c.type == "QUNT")
+    with pytest.raises(FormatError) as got:
+        mpz.decode(blob)
+    e = got.value
+    assert (e.chunk, e.offset, e.section) == ("QUNT", qunt.offset, "§4.4")
+    assert "step" in str(e) and "mask" not in str(e)
+    info = inspect(blob, "x.mpz")
+    assert info["status"] == "error"
+    assert [(x["class"], x["chunk"], x["offset"], x["section"]) for x in info["errors"]] == [
+        ("FormatError", "QUNT", qunt.offset, "§4.4")]
+    path = tmp_path / "step.mpz"
+    path.write_bytes(blob)
+    for argv in (["-m", "mpz.tools.mpzinfo", str(path)],
+                 ["-m", "mpz.tools.mpz_cli", "show", str(path)],
+                 ["-m", "mpz.tools.mpz_cli", "decode", str(path), "-o",
+                  str(tmp_path / "out.npy")]):
+        run = subprocess.run([sys.executable, *argv], capture_output=True, text=True,
+                             timeout=300)
+        assert run.returncode == 2, (argv, run.stdout, run.stderr)
+        assert "§4.4" in run.stdout + run.stderr
+    assert not (tmp_path / "out.npy").exists()
+    # the largest legal step for this offset and bits still decodes, to finite values
+    bits = next(c.record for c in container.parse(blob) if c.type == "QUNT").bits
+    ok = _with_step(small, 2.0 ** (1023 - bits))
+    assert np.isfinite(mpz.decode(ok).positions[mpz.decode(ok).valid]).all()
+
+
+# ---------------------------------------------------------------- issue 11.7 --
+#: the rejections that have no chunk, because no complete chunk frame is at their offset
+#: (spec §8, "Error reports"): each still carries its offset
+NO_CHUNK = ("bad signature", "file ends without an MEND chunk", "truncated chunk frame",
+            "is not four ASCII letters", "after the MEND chunk")
+
+
+def _invalid_vectors():
+    import json
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    man = json.loads((root / "manifest.json").read_text())
+    return [(v["name"], root / v["file"]) for v in man["vectors"] if v["group"] == "invalid"]
+
+
+@pytest.mark.parametrize("name,path", _invalid_vectors(), ids=lambda v: str(v)[:40])
+def test_every_rejection_is_located(name, path):
+    """Issue 11.7: every invalid vector is rejected with an offset and a chunk (and a §),
+    except the framing errors of NO_CHUNK, which have an offset only. The offset lies in
+    the file (at most its end: a truncated file fails there) and, with a chunk, within a
+    chunk of that type."""
+    data = path.read_bytes()
+    with pytest.raises(MPZError) as got:
+        mpz.decode(data, max_samples=1 << 22)
+    e = got.value
+    assert e.offset is not None and 0 <= e.offset <= len(data), (name, str(e))
+    assert e.section is not None, (name, str(e))
+    if any(text in e.message for text in NO_CHUNK):
+        assert e.chunk is None, (name, str(e))
+    else:
+        assert e.chunk is not None, (name, str(e))
+        # the offset is in a chunk of that type (its start, a field or the failing byte), or
+        # is the start of a frame of that type whose length field is refused
+        assert (any(c.type == e.chunk and c.offset <= e.offset <= c.offset + 12 + c.length
+                    for c in container.scan(data).chunks)
+                or data[e.offset: e.offset + 4] == e.chunk.encode("latin-1")), (name, str(e))

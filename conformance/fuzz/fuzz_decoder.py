@@ -1,20 +1,37 @@
 """Coverage-guided fuzzing of the decoder and mpzinfo with atheris (not run by CI).
 
     pip install atheris
-    python conformance/fuzz/fuzz_decoder.py -max_total_time=600 -rss_limit_mb=2048 \
-        CORPUS_DIR conformance/corpus
+    python conformance/fuzz/make_seeds.py SEEDS --real ../shared/data   # optional
+    python conformance/fuzz/fuzz_decoder.py -max_total_time=2700 -rss_limit_mb=3000 \\
+        CORPUS_DIR conformance/corpus SEEDS
 
-The property: for any bytes, ``mpz.decode`` returns a Motion or raises an
-``MPZError``, and ``mpzinfo.inspect`` returns a report; anything else
-(another exception, a hang past -timeout, memory past -rss_limit_mb) is a
-crash. Minimised crashers and the seed corpus live in conformance/corpus/ and
-are replayed by conformance/test_corpus.py on every test run.
+The properties, for any bytes, as they are and with every CRC repaired:
+
+- ``mpz.decode`` returns a Motion or raises an ``MPZError``. **Every other exception is a
+  crash**: the target catches ``MPZError`` and nothing else, so a ``ValueError``,
+  ``IndexError``, ``OverflowError``, ``MemoryError`` (the inputs are capped at 2^16
+  marker-frames, far below any memory limit) or anything else reaches atheris, which
+  reports it with the input (issue 10: the decoder must not hide its own bugs);
+- a decoded Motion is consistent: shape ``[F, M, 3]`` as the header says, finite wherever
+  the mask says valid (§4.4, §6.8), NaN at gaps;
+- ``mpzinfo.inspect`` reports without raising, and agrees with ``mpz.decode``: it says
+  "error" exactly when the decoder rejects the file (issue 11.5);
+- every rejection carries an offset (issue 11.7).
+
+A hang past ``-timeout`` or memory past ``-rss_limit_mb`` is a crash too. Minimised
+crashers and the seed corpus live in conformance/corpus/ and are replayed by
+conformance/test_corpus.py on every test run.
 """
+from __future__ import annotations
+
+import importlib
 import inspect as _inspect
+import pkgutil
 import sys
 import types
 
 import atheris
+import numpy as np
 
 import mpz
 from mpz.container import repair_crcs
@@ -22,15 +39,23 @@ from mpz.errors import MPZError
 from mpz.tools.mpzinfo import inspect
 
 # Numba-compiled kernels cannot run instrumented bytecode, so only the Python
-# layers of the decoding path are instrumented (framing, validation, decoding
-# steps, mpzinfo, construct); the kernels are warmed up first.
+# layers of the decoding path are instrumented (framing, the chunk table and its checks,
+# validation, decoding steps, extensions, mpzinfo, construct); the kernels are warmed up
+# first.
 _MODULES = ["mpz.container", "mpz.decoder", "mpz.predict", "mpz.normalize", "mpz.smooth",
-            "mpz.api", "mpz.tools.mpzinfo", "construct.core"]
+            "mpz.keyframe", "mpz.extensions", "mpz.skeleton", "mpz.channels", "mpz.api",
+            "mpz.tools.mpzinfo", "construct.core"]
 
 
-def _instrument():
-    for name in _MODULES:
-        mod = sys.modules[name]
+def _modules() -> list[str]:
+    import mpz.chunks
+    chunks = [f"mpz.chunks.{m.name}" for m in pkgutil.iter_modules(mpz.chunks.__path__)]
+    return _MODULES + ["mpz.chunks"] + chunks
+
+
+def _instrument() -> None:
+    for name in _modules():
+        mod = importlib.import_module(name)
         for obj in list(vars(mod).values()):
             if isinstance(obj, types.FunctionType) and obj.__module__ == name:
                 atheris.instrument_func(obj)
@@ -40,27 +65,47 @@ def _instrument():
                         atheris.instrument_func(meth)
 
 
-def _warm_up():
+def _warm_up() -> None:
     from mpz.synth import generate
-    for kw in ({"max_error": 1.0}, {}, {"max_error": 1.0, "patterns": "on"}):
+    for kw in ({"max_error": 1.0}, {"lossy": True}, {"max_error": 1.0, "patterns": "on"},
+               {}):
         m = generate("walk", frames=20, markers=4, seed=0, gap_fraction=0.1)
         mpz.decode(mpz.encode(m, **kw))
+
 
 # keep each input cheap: refuse anything over 2^16 marker-frames
 MAX_SAMPLES = 1 << 16
 
 
-def TestOneInput(data: bytes):
-    for blob in (data, repair_crcs(data)):
-        try:
-            mpz.decode(blob, max_samples=MAX_SAMPLES)
-        except MPZError:
-            pass
-    info = inspect(repair_crcs(data), "fuzz", decode=True)
-    assert info["status"] in ("ok", "warning", "error")
+def check(blob: bytes) -> None:
+    """The properties above for one input (raises AssertionError or the escaped exception)."""
+    try:
+        m = mpz.decode(blob, max_samples=MAX_SAMPLES)
+        rejected = None
+    except MPZError as exc:
+        m, rejected = None, exc
+    info = inspect(blob, "fuzz", decode=True, max_samples=MAX_SAMPLES)
+    assert info["status"] in ("ok", "warning", "error"), info["status"]
+    if rejected is not None:
+        assert rejected.offset is not None, f"rejection without an offset: {rejected}"
+        assert info["status"] == "error", f"mpz.decode rejects ({rejected}), mpzinfo says OK"
+        return
+    assert m is not None
+    assert info["status"] != "error", f"mpz.decode decodes, mpzinfo says {info['errors']}"
+    F, M = info["frames"], info["markers"]
+    assert m.positions.shape == (F, M, 3) and m.valid.shape == (F, M)
+    assert np.isfinite(m.positions[m.valid]).all(), "a valid sample is not finite"
+    assert np.isnan(m.positions[~m.valid]).all(), "a gap is not NaN"
 
 
-def main():
+def TestOneInput(data: bytes) -> None:
+    check(data)
+    repaired = repair_crcs(data)
+    if repaired != data:
+        check(repaired)
+
+
+def main() -> None:
     _warm_up()
     _instrument()
     atheris.Setup(sys.argv, TestOneInput)

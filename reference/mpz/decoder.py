@@ -7,12 +7,17 @@ checked before anything is allocated. :func:`decode_layers` runs the integer dec
 process of §6.1-§6.7, which every conforming decoder must reproduce exactly;
 :func:`decode` adds the one floating-point step (§6.8).
 
+Memory (§8, the budget this decoder promises): besides q, one node's decoded block at a
+time; de-normalisation, smoothing, composition and §6.8 go a block of frames at a time
+(:data:`BLOCK_SAMPLES`), and :func:`decode` writes the output over q's memory.
+
 Only the checks that the spec names raise :class:`mpz.errors.MPZError`; any other
 exception from in here is a bug in this decoder and propagates unchanged (as h11 and
 zstd's educational decoder keep "bad input" apart from "cannot happen").
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
@@ -47,7 +52,7 @@ from mpz.keyframe import decode_payload as decode_keyframes
 from mpz.motion import Motion
 from mpz.normalize import denormalize, segment_starts
 from mpz.predict import reconstruct
-from mpz.smooth import smooth_boundaries
+from mpz.smooth import smooth_frames, window
 
 R = TypeVar("R", bound=Record)
 IntArray = NDArray[np.int64]
@@ -207,7 +212,9 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
             else:
                 meta = _checked(c, Meta, ctx).record.as_dict()
         else:
-            extras.setdefault(c.type, []).append(_checked(c, CHUNKS[c.type], ctx).record)
+            # the records extensions own may need the whole chunk list (sets of chunks, §4.13)
+            actx = Context(h, max_samples, nodes, types=tuple(x.type for x in chunks))
+            extras.setdefault(c.type, []).append(_checked(c, CHUNKS[c.type], actx).record)
     return Stream(chunks, h, names, nodes, quant, mask, root, patt, segs, resi, summary, meta,
                   unknown, extras)
 
@@ -243,13 +250,29 @@ def decode_mask(s: Stream) -> NDArray[np.bool_]:
     return np.asarray(flags == 0)
 
 
+#: marker-frames per block of the §6.3-§6.8 work: temporaries of 2^18 x 3 int64 (6 MiB) each,
+#: so that the peak memory is set by q and the output, never by the de-normalised or smoothed
+#: layers of a node (spec §8: a SEGS chunk of a few bytes can stretch one pattern over 2^26
+#: marker-frames)
+BLOCK_SAMPLES = 1 << 18
+
+
+def frame_blocks(F: int, n: int) -> Iterator[tuple[int, int]]:
+    """Consecutive frame ranges ``(t0, t1)`` covering ``0 .. F - 1``, each about
+    :data:`BLOCK_SAMPLES` marker-frames for ``n`` markers (at least one frame)."""
+    step = max(1, BLOCK_SAMPLES // max(1, n))
+    for t0 in range(0, F, step):
+        yield t0, min(F, t0 + step)
+
+
 def decode_root(s: Stream) -> IntArray:
     """§6.2 the root track: ``[F, 3]`` integers."""
     F = s.header.frame_count
     dec = _coded(s.root)
     e = dec.block(F, 1)
     dec.close()
-    return reconstruct(e, s.root.record.order, chunk="ROOT", offset=s.root.offset)[:, 0]
+    return reconstruct(e, s.root.record.order, chunk="ROOT", offset=s.root.offset,
+                       inplace=True)[:, 0]
 
 
 def decode_patterns(s: Stream, i: int) -> IntArray:
@@ -261,9 +284,10 @@ def decode_patterns(s: Stream, i: int) -> IntArray:
     dec = _coded(c)
     e = dec.block(K * L, n_i, period=L)
     dec.close()
-    v = reconstruct(e, f.order, period=L, chunk="PATT", offset=c.offset)
+    v = reconstruct(e, f.order, period=L, chunk="PATT", offset=c.offset, inplace=True)
     _layer_range(v, f.scale, c)
-    return (v * f.scale).reshape(K, L, n_i, 3)
+    v *= f.scale                        # below 2^36 in magnitude after the check
+    return v.reshape(K, L, n_i, 3)
 
 
 def decode_segments(s: Stream, i: int) -> tuple[IntArray, IntArray]:
@@ -292,42 +316,105 @@ def decode_segments(s: Stream, i: int) -> tuple[IntArray, IntArray]:
     return index, counts
 
 
-def node_prediction(s: Stream, i: int) -> IntArray:
-    """§6.3-§6.4 the pattern layer P of node i, ``[F, n_i, 3]``."""
-    F, n_i = s.header.frame_count, s.nodes[i].member_count
+@dataclass(frozen=True)
+class PatternLayer:
+    """§6.3-§6.4 the pattern layer P' of one node, produced a block of frames at a time.
+
+    Holds only the patterns and the segment table; :meth:`frames` de-normalises and smooths
+    the frames asked for, so no array of the node's F x n_i samples is ever built.
+    """
+
+    patterns: IntArray                  # Pat [K, L, n_i, 3], scaled
+    index: IntArray                     # pattern of each segment [S]
+    counts: IntArray                    # frames of each segment [S]
+    starts: IntArray                    # first frame of each segment [S]
+    frame_count: int                    # F
+    smoothing: int                      # h
+
+    def frames(self, t0: int, t1: int) -> IntArray:
+        """P' for frames ``t0 .. t1 - 1``: ``[t1 - t0, n_i, 3]``."""
+        lo, hi = window(self.frame_count, self.smoothing, (t0, t1))
+        p = denormalize(self.patterns, self.index, self.counts, frames=(lo, hi),
+                        starts=self.starts)
+        return smooth_frames(p, lo, self.starts, self.smoothing, self.frame_count, (t0, t1))
+
+
+def pattern_layer(s: Stream, i: int) -> PatternLayer | None:
+    """§6.3-§6.4 node i's pattern layer (None for K = 0, where P = 0): decodes and checks
+    PATT and SEGS; the samples come from :meth:`PatternLayer.frames`."""
     if s.patt[i].record.pattern_count == 0:
-        return np.zeros((F, n_i, 3), np.int64)
+        return None
     patterns = decode_patterns(s, i)
     index, counts = decode_segments(s, i)
-    p = denormalize(patterns, index, counts)
-    return smooth_boundaries(p, segment_starts(counts), s.header.smoothing)
+    return PatternLayer(patterns, index, counts, segment_starts(counts), s.header.frame_count,
+                        s.header.smoothing)
 
 
-def decode_residual(s: Stream, i: int) -> IntArray:
-    """§6.5 the residual layer of node i, ``[F, n_i, 3]``, already multiplied by g."""
+def node_prediction(s: Stream, i: int) -> IntArray:
+    """§6.3-§6.4 the pattern layer P' of node i, ``[F, n_i, 3]``, as one array (tests and
+    tools; the decoder itself composes it a block at a time, :func:`decode_integers`)."""
+    F, n_i = s.header.frame_count, s.nodes[i].member_count
+    layer = pattern_layer(s, i)
+    out = np.zeros((F, n_i, 3), np.int64)
+    if layer is not None:
+        for t0, t1 in frame_blocks(F, n_i):
+            out[t0:t1] = layer.frames(t0, t1)
+    return out
+
+
+def decode_residual(s: Stream, i: int, *, out: IntArray | None = None) -> IntArray:
+    """§6.5 the residual layer of node i, ``[F, n_i, 3]``, already multiplied by g.
+
+    A key-frame layer (base 2) can instead be rebuilt straight into q: with ``out`` (q,
+    ``[F, M, 3]``) its members' columns receive R and ``out`` is returned.
+    """
     c = s.resi[i]
     F, n_i = s.header.frame_count, s.nodes[i].member_count
     dec = _coded(c)
+    g = c.record.scale
     if c.record.base == ResidualBase.KEYFRAMES:
         # §6.5: key frames, linearly interpolated
-        w = decode_keyframes(dec, F, n_i, chunk="RESI", offset=c.offset)
+        members = np.asarray(s.nodes[i].members, np.intp)
+        w = decode_keyframes(dec, F, n_i, chunk="RESI", offset=c.offset, out=out,
+                             columns=None if out is None else members)
         dec.close()
-    else:
-        e = dec.block(F, n_i)
-        dec.close()
-        w = reconstruct(e, c.record.order, chunk="RESI", offset=c.offset)
-    _layer_range(w, c.record.scale, c)
-    return w * c.record.scale
+        if out is None:
+            _layer_range(w, g, c)
+            w *= g
+            return w
+        # §6.7 rule 1 on every value of the layer, then R = x g, a block of frames at a time
+        _layer_range(out, g, c, members)
+        if g != 1:
+            for t0, t1 in frame_blocks(F, n_i):
+                out[t0:t1, members] *= g
+        return out
+    e = dec.block(F, n_i)
+    dec.close()
+    w = reconstruct(e, c.record.order, chunk="RESI", offset=c.offset, inplace=True)
+    _layer_range(w, g, c)
+    w *= g                              # below 2^36 in magnitude after the check
+    return w
 
 
-def _layer_range(v: IntArray, scale: int, c: Located[Patt] | Located[Resi]) -> None:
+def _peak(v: IntArray, members: NDArray[np.intp] | None = None) -> int:
+    """max |v| (over the columns ``v[:, members]`` if given), a block of rows at a time."""
+    per_row = max(1, (v[0].size // 3 if v.shape[0] else 1) if members is None else len(members))
+    peak = 0
+    for t0, t1 in frame_blocks(v.shape[0], per_row):
+        blk = v[t0:t1] if members is None else v[t0:t1, members]
+        peak = max(peak, int(np.abs(blk).max(initial=0)))
+    return peak
+
+
+def _layer_range(v: IntArray, scale: int, c: Located[Patt] | Located[Resi],
+                 members: NDArray[np.intp] | None = None) -> None:
     """§6.7 rule 1: scaled pattern and residual values stay below 2^36 in magnitude.
 
     Every value of the layer is checked (all K patterns, used or not; gap samples too),
     and the unscaled peak first: the product is formed only once |v| < 2^36 (§1.1), as a
     fixed-width decoder must (here Python integers could not overflow anyway).
     """
-    peak = int(np.abs(v).max(initial=0))
+    peak = _peak(v, members)
     what = f"node {c.record.node} {c.record.TYPE}"
     if peak >= LAYER_LIMIT:
         raise FormatError(f"{what}: reconstructed value {peak} reaches 2^36 before scaling",
@@ -338,24 +425,43 @@ def _layer_range(v: IntArray, scale: int, c: Located[Patt] | Located[Resi]) -> N
 
 
 def decode_integers(s: Stream) -> IntArray:
-    """§6.1-§6.7: the integer layer q, ``[F, M, 3]`` int64 (gaps included)."""
+    """§6.1-§6.7: the integer layer q, ``[F, M, 3]`` int64 (gaps included).
+
+    Memory (spec §8): besides q, at most one node's decoded residual block (or its
+    patterns and segment table) is held at a time; the pattern layer is de-normalised,
+    smoothed and composed into q a block of frames at a time (:data:`BLOCK_SAMPLES`).
+    """
     F, M = s.header.frame_count, s.header.marker_count
     q = np.zeros((F, M, 3), np.int64)
     root_marker = s.nodes[0].members[0]
     q[:, root_marker] = decode_root(s)
     for i in range(1, len(s.nodes)):
         node = s.nodes[i]
-        members = list(node.members)
-        if s.residual and s.resi[i].record.base != ResidualBase.PARENT:
+        members = np.asarray(node.members, np.intp)
+        n_i = len(members)
+        base = s.resi[i].record.base if s.residual else ResidualBase.PARENT
+        if base == ResidualBase.KEYFRAMES:
             # §6.6: an absolute residual layer carries the members' grid values directly
-            q[:, members] = decode_residual(s, i)
+            decode_residual(s, i, out=q)
             continue
-        local = node_prediction(s, i)
-        if s.residual:
-            local = local + decode_residual(s, i)
+        if base == ResidualBase.ABSOLUTE:
+            r = decode_residual(s, i)
+            for t0, t1 in frame_blocks(F, n_i):
+                q[t0:t1, members] = r[t0:t1]
+            continue
+        layer = pattern_layer(s, i)
         ref = s.nodes[node.parent].ref
-        # §6.6: members are coded relative to the reference marker of the parent node
-        q[:, members] = local + q[:, ref][:, None, :]
+        # §6.6: members are coded relative to the reference marker of the parent node;
+        # q = P' + R + q[ref], summed as P' + q[ref] first and R after (exact integers)
+        for t0, t1 in frame_blocks(F, n_i):
+            at_ref = q[t0:t1, ref][:, None, :]
+            q[t0:t1, members] = at_ref if layer is None else layer.frames(t0, t1) + at_ref
+        del layer
+        if s.residual:
+            r = decode_residual(s, i)
+            for t0, t1 in frame_blocks(F, n_i):
+                q[t0:t1, members] += r[t0:t1]
+            del r
     _declared_range(s, q)
     return q
 
@@ -363,33 +469,48 @@ def decode_integers(s: Stream) -> IntArray:
 def _declared_range(s: Stream, q: IntArray) -> None:
     """§6.7 rule 2: every |q| < 2^bits, gap samples included.
 
-    Reported at the first node, in node order, that holds a value out of range, located at
-    the chunk that produced that node's values: ROOT for the root marker, otherwise the
-    node's RESI (its last layer) or, in a file without a residual layer, its PATT.
+    Reported at the first node, in node order, that holds a value out of range (its first
+    such value by frame, member and axis), located at the chunk that produced that node's
+    values: ROOT for the root marker, otherwise the node's RESI (its last layer) or, in a
+    file without a residual layer, its PATT.
     """
     limit = 1 << s.quant.bits
     for i, node in enumerate(s.nodes):
-        members = list(node.members)
-        mag = np.abs(q[:, members])
-        if mag.max(initial=0) < limit:
-            continue
-        t, m, a = (int(k) for k in np.unravel_index(int(np.argmax(mag >= limit)), mag.shape))
-        marker = members[m]
-        c: Located[Root] | Located[Patt] | Located[Resi] = (
-            s.root if i == 0 else s.resi[i] if s.residual else s.patt[i])
-        raise FormatError(f"node {i}: decoded value {int(q[t, marker, a])} (frame {t}, marker "
-                          f"{marker} {s.names[marker]!r}, axis {'xyz'[a]}) is outside the "
-                          f"declared range |q| < 2^{s.quant.bits}",
-                          offset=c.offset, chunk=c.record.TYPE, section="§6.7")
+        members = np.asarray(node.members, np.intp)
+        for t0, t1 in frame_blocks(q.shape[0], len(members)):
+            mag = np.abs(q[t0:t1, members])
+            if mag.max(initial=0) < limit:
+                continue
+            t, m, a = (int(k) for k in np.unravel_index(int(np.argmax(mag >= limit)),
+                                                         mag.shape))
+            t += t0
+            marker = int(members[m])
+            c: Located[Root] | Located[Patt] | Located[Resi] = (
+                s.root if i == 0 else s.resi[i] if s.residual else s.patt[i])
+            raise FormatError(f"node {i}: decoded value {int(q[t, marker, a])} (frame {t}, "
+                              f"marker {marker} {s.names[marker]!r}, axis {'xyz'[a]}) is "
+                              f"outside the declared range |q| < 2^{s.quant.bits}",
+                              offset=c.offset, chunk=c.record.TYPE, section="§6.7")
 
 
-def to_positions(s: Stream, q: IntArray, valid: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """§6.8: x = offset[a] + q * step in binary64, NaN at gaps."""
+def to_positions(s: Stream, q: IntArray, valid: NDArray[np.bool_], *,
+                 out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """§6.8: x = offset[a] + q * step in binary64, NaN at gaps.
+
+    Computed a block of frames at a time into ``out`` (a new array by default). ``out``
+    may be q's own memory (``q.view(np.float64)``): each block is read before it is
+    written, so q is turned into the output with no second array of its size (§8).
+    """
     step = np.float64(s.quant.step)
     offset = np.asarray(s.quant.offset, dtype=np.float64)
-    x = q.astype(np.float64) * step
-    x = x + offset
-    x[~valid] = np.nan
+    F, M = q.shape[0], q.shape[1]
+    x = np.empty((F, M, 3), np.float64) if out is None else out
+    for t0, t1 in frame_blocks(F, M):
+        blk = q[t0:t1].astype(np.float64)
+        blk *= step                     # the product, rounded to binary64
+        blk += offset                   # then the sum, rounded again (no FMA)
+        blk[~valid[t0:t1]] = np.nan
+        x[t0:t1] = blk
     return x
 
 
@@ -409,12 +530,23 @@ class Decoded:
         """§6.8 the float output, NaN at gaps."""
         return to_positions(self.stream, self.q, self.valid)
 
-    def motion(self) -> Motion:
+    def motion(self, *, reuse_q: bool = False) -> Motion:
         """The decoded result of §6.8: positions plus names, rate, units and metadata, and
-        whatever the extensions' chunks hold (mpz.extensions)."""
+        whatever the extensions' chunks hold (mpz.extensions).
+
+        With ``reuse_q`` the positions are written over q's memory (spec §8: the output
+        then costs no memory beyond q's), and ``self.q`` is set to None: the integer layer
+        is gone, so this Decoded can give no more positions or motions.
+        """
         s = self.stream
-        m = Motion(self.positions(), s.names, float(s.header.rate),
-                   unit_name(s.header.units), self.valid, dict(s.meta))
+        if reuse_q:
+            q, self.q = self.q, None    # type: ignore[assignment]  # spent, see above
+            x = to_positions(s, q, self.valid, out=q.view(np.float64))
+            del q
+        else:
+            x = self.positions()
+        m = Motion(x, s.names, float(s.header.rate), unit_name(s.header.units), self.valid,
+                   dict(s.meta))
         for ext in EXTENSIONS:
             mine = {t: s.extras[t] for t in ext.chunk_types if t in s.extras}
             if mine:
@@ -465,4 +597,4 @@ def decode(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Motion:
     >>> bool(mpz.max_error(m, out) <= 1.0)
     True
     """
-    return decode_layers(data, max_samples=max_samples).motion()
+    return decode_layers(data, max_samples=max_samples).motion(reuse_q=True)

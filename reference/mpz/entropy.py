@@ -293,9 +293,11 @@ class BlockEncoder:
         v = np.ascontiguousarray(values, dtype=np.int64)
         if v.ndim != 3 or not 1 <= v.shape[2] <= 3:
             raise ValueError(f"blocks are [T, M, A] with A in 1..3, got {v.shape}")
-        if v.size and int(np.abs(v).max()) >= (1 << MAX_EXP):
+        # max |v| without a temporary of the block's size (issue 11.11: encoder memory)
+        peak = max(int(v.max()), -int(v.min())) if v.size else 0
+        if peak >= (1 << MAX_EXP):
             raise LimitExceededError(
-                f"value {int(np.abs(v).max())} does not fit the 2^30 coder range", section="§5.4")
+                f"value {peak} does not fit the 2^30 coder range", section="§5.4")
         if not signed and v.size and v.min() < 0:
             raise ValueError("negative value in an unsigned block")
         period = max(1, v.shape[0] if period is None else int(period))

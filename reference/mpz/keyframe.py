@@ -59,37 +59,79 @@ def interpolate(times: ArrayLike, values: ArrayLike, F: int) -> NDArray[np.int64
 
 
 @njit(cache=True)
-def _predict(mode: int, k: int, times: NDArray[np.int64], w: NDArray[np.int64],
-             R: NDArray[np.int64], c: int) -> int:
-    """§6.5 prediction of key k (axis c) of a member; R is the reference track or unused."""
+def _predict_key(mode: int, k: int, tk: int, t1: int, t2: int, w1: int, w2: int,
+                 R: NDArray[np.int64], c: int) -> int:
+    """§6.5 prediction of key k (axis c) of a member at time ``tk``, from the two keys
+    before it (times t1 = t_{k-1}, t2 = t_{k-2}, values w1, w2 on axis c, where they
+    exist); R is the reference member's track ``[F, 3]`` (unused for mode 0)."""
     if mode == 0:
         if k == 0:
             return 0
         if k == 1:
-            return w[0, c]
-        d1 = times[k] - times[k - 1]
-        d0 = times[k - 1] - times[k - 2]
-        return w[k - 1, c] + (2 * (w[k - 1, c] - w[k - 2, c]) * d1 + d0) // (2 * d0)
+            return w1
+        d1 = tk - t1
+        d0 = t1 - t2
+        return w1 + (2 * (w1 - w2) * d1 + d0) // (2 * d0)
     if k == 0:
-        return R[times[0], c]
+        return R[tk, c]
     if mode == 1 or k == 1:
-        return w[k - 1, c] + R[times[k], c] - R[times[k - 1], c]
-    d1 = times[k] - times[k - 1]
-    d0 = times[k - 1] - times[k - 2]
-    r1 = w[k - 1, c] - R[times[k - 1], c]
-    r0 = w[k - 2, c] - R[times[k - 2], c]
-    return R[times[k], c] + r1 + (2 * (r1 - r0) * d1 + d0) // (2 * d0)
+        return w1 + R[tk, c] - R[t1, c]
+    d1 = tk - t1
+    d0 = t1 - t2
+    r1 = w1 - R[t1, c]
+    r0 = w2 - R[t2, c]
+    return R[tk, c] + r1 + (2 * (r1 - r0) * d1 + d0) // (2 * d0)
 
 
 @njit(cache=True)
-def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], spans: NDArray[np.int64],
-             keys: NDArray[np.int64], F: int, out: NDArray[np.int64]) -> tuple[int, int, int]:
-    """Key values from residuals (§6.5) and interpolation; returns an error code."""
-    s_at = 0
+def _predict(mode: int, k: int, times: NDArray[np.int64], w: NDArray[np.int64],
+             R: NDArray[np.int64], c: int) -> int:
+    """:func:`_predict_key` for key k of a member whose times and values are all known."""
+    t1 = times[k - 1] if k >= 1 else 0
+    t2 = times[k - 2] if k >= 2 else 0
+    w1 = w[k - 1, c] if k >= 1 else 0
+    w2 = w[k - 2, c] if k >= 2 else 0
+    return _predict_key(mode, k, times[k], t1, t2, w1, w2, R, c)
+
+
+@njit(cache=True)
+def _mark_keys(counts: NDArray[np.int64], spans: NDArray[np.int64], F: int,
+               bits: NDArray[np.uint8]) -> tuple[int, int, int]:
+    """Check each member's spans (``d - 1``) and mark its key times in ``bits[m]`` (one bit
+    per frame, little-endian in each byte); returns (1, member, sum) for spans that do not
+    add up to F - 1, else (0, 0, 0). A member's times are marked only after its check
+    (§6.5, §1.1)."""
+    at = 0
+    for m in range(counts.shape[0]):
+        K = counts[m]
+        total = 0
+        for k in range(K - 1):
+            total += spans[at + k] + 1
+        if total != F - 1:
+            return 1, m, total
+        t = 0
+        bits[m, 0] |= 1
+        for k in range(K - 1):
+            t += spans[at + k] + 1
+            bits[m, t >> 3] |= np.uint8(1 << (t & 7))
+        at += K - 1
+    return 0, 0, 0
+
+
+@njit(cache=True)
+def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[np.uint8],
+             keys: NDArray[np.int64], F: int, out: NDArray[np.int64],
+             cols: NDArray[np.int64]) -> tuple[int, int, int]:
+    """Key values from residuals (§6.5) and their interpolation, member m into
+    ``out[:, cols[m]]``; returns an error code (0: none), the member and a detail.
+
+    Streaming: only the last three key times and values are held, so the scratch memory
+    does not grow with F (spec §8)."""
     k_at = 0
     n = counts.shape[0]
-    w = np.empty((F + 1, 3), np.int64)
-    times = np.empty(F + 1, np.int64)
+    wk = np.empty(3, np.int64)
+    w1 = np.zeros(3, np.int64)
+    w2 = np.zeros(3, np.int64)
     for m in range(n):
         K = counts[m]
         p = refs[m]
@@ -97,38 +139,47 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], spans: NDArray[
         j = (p - 1) // 2 if p > 0 else 0
         if p > 0 and j >= m:
             return 3, m, j
-        R = out[:, j]
-        total = 0
-        for k in range(K - 1):
-            total += spans[s_at + k]
-        if total != F - 1:
-            return 1, m, total
-        times[0] = 0
-        for k in range(1, K):
-            times[k] = times[k - 1] + spans[s_at + k - 1]
+        R = out[:, cols[j]]
+        col = cols[m]
+        t1 = 0
+        t2 = 0
+        tk = 0
         for k in range(K):
+            if k > 0:                       # the next marked frame (the spans add up)
+                tk = t1 + 1
+                while not (bits[m, tk >> 3] >> (tk & 7)) & 1:
+                    tk += 1
             for c in range(3):
-                v = _predict(mode, k, times, w, R, c) + keys[k_at + k, c]
+                v = _predict_key(mode, k, tk, t1, t2, w1[c], w2[c], R, c) + keys[k_at + k, c]
                 if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:
                     return 2, m, k
-                w[k, c] = v
-        for k in range(1, K):
-            a = times[k - 1]
-            nn = times[k] - a
-            for jj in range(nn):
-                for c in range(3):
-                    out[a + jj, m, c] = (w[k - 1, c]
-                                         + (2 * (w[k, c] - w[k - 1, c]) * jj + nn) // (2 * nn))
+                wk[c] = v
+            if k > 0:                       # frames t_{k-1} .. t_k - 1
+                nn = tk - t1
+                for jj in range(nn):
+                    for c in range(3):
+                        out[t1 + jj, col, c] = w1[c] + (2 * (wk[c] - w1[c]) * jj + nn) // (2 * nn)
+            for c in range(3):
+                w2[c] = w1[c]
+                w1[c] = wk[c]
+            t2 = t1
+            t1 = tk
         for c in range(3):
-            out[F - 1, m, c] = w[K - 1, c]
-        s_at += K - 1
+            out[F - 1, col, c] = w1[c]
         k_at += K
     return 0, 0, 0
 
 
 def decode_payload(dec: BlockDecoder, F: int, n: int, *, chunk: str | None = None,
-                   offset: int | None = None) -> NDArray[np.int64]:
-    """Read the four blocks of a base-2 RESI payload; returns ``[F, n, 3]`` grid values."""
+                   offset: int | None = None, out: NDArray[np.int64] | None = None,
+                   columns: ArrayLike | None = None) -> NDArray[np.int64]:
+    """Read the four blocks of a base-2 RESI payload; returns ``[F, n, 3]`` grid values.
+
+    With ``out`` (``[F, M, 3]``) and ``columns`` (n indices), member m is written to
+    ``out[:, columns[m]]`` instead, and ``out`` is returned: the decoder rebuilds the
+    members straight into q. Memory (spec §8): the key times are kept as one bit per
+    frame and member, and the span block is freed before the key block is decoded.
+    """
     def fail(msg: str) -> NoReturn:
         raise FormatError(msg, chunk=chunk, offset=offset, section="§6.5")
     refs = dec.block(n, 1, 1, signed=False)[:, 0, 0]
@@ -140,13 +191,20 @@ def decode_payload(dec: BlockDecoder, F: int, n: int, *, chunk: str | None = Non
     if (counts > F).any() or (F > 1 and (counts < 2).any()) or (F == 1 and (counts != 1).any()):
         fail(f"key counts must be 2..F per member (1 when F = 1), got {counts.tolist()[:8]}")
     total_spans = int((counts - 1).sum())
-    spans = dec.block(total_spans, 1, 1, signed=False)[:, 0, 0] + 1
-    keys = dec.block(int(counts.sum()), 1)[:, 0]
-    out = np.zeros((F, n, 3), np.int64)
-    code, m, detail = _rebuild(refs.astype(np.int64), counts.astype(np.int64),
-                               spans.astype(np.int64), keys, F, out)
+    spans = dec.block(total_spans, 1, 1, signed=False).reshape(-1)     # d - 1
+    bits = np.zeros((n, (F + 7) // 8), np.uint8)
+    code, m, detail = _mark_keys(counts.astype(np.int64), spans, F, bits)
     if code == 1:
         fail(f"member {m}: key spans add up to {detail}, not F - 1 = {F - 1}")
+    del spans
+    keys = dec.block(int(counts.sum()), 1)[:, 0]
+    if out is None:
+        out = np.zeros((F, n, 3), np.int64)
+        cols = np.arange(n, dtype=np.int64)
+    else:
+        cols = np.asarray(columns, dtype=np.int64)
+    code, m, detail = _rebuild(refs.astype(np.int64), counts.astype(np.int64), bits, keys, F,
+                               out, cols)
     if code == 2:
         # checked as each w_k is computed, before it enters a later prediction (§6.5, §1.1)
         fail(f"member {m}: key value w_{detail} has |w_k| >= 2^31")
@@ -279,18 +337,25 @@ def _cost(e: NDArray[np.int64]) -> float:
 
 
 def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
-                  max_span: int = 256) -> NDArray[np.int64]:
-    """Fit every member of ``y[T, n, 3]`` and code the four blocks; returns the grid values.
+                  max_span: int = 256) -> NDArray[np.int32]:
+    """Fit every member of ``y[T, n, 3]`` and code the four blocks; returns the grid values
+    (int32: every value lies between two keys near ``y``, and |y| < 2^29).
 
     Each member's keys are predicted from whichever earlier member (or none)
     gives the smallest residuals, by the proxy sum(log2(1 + |e|)).
+
+    Memory (issue 11.11): the spans and key residuals go straight into arrays sized for
+    the most keys there can be (T per member) and zero-filled, so that only the part
+    written becomes resident, and the blocks are coded from their filled prefixes: no
+    list of per-member arrays and no concatenated copy of it.
     """
     T, n, _ = y.shape
-    refs: list[int] = []
-    counts: list[int] = []
-    spans: list[NDArray[np.int64]] = []
-    keys: list[NDArray[np.int64]] = []
-    out = np.zeros((T, n, 3), np.int64)
+    refs = np.zeros(n, np.int64)
+    counts = np.zeros(n, np.int64)
+    spans = np.zeros(max(0, T - 1) * n, np.int64)
+    keys = np.zeros((T * n, 3), np.int64)
+    s_at = k_at = 0
+    out = np.zeros((T, n, 3), np.int32)
     for m in range(n):
         times, w = fit(y[:, m], radius, max_span)
         best = (_cost(_residuals(0, times, w, out[:, 0])), 0)
@@ -302,14 +367,16 @@ def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
         p = best[1]
         mode = 0 if p == 0 else (1 if p % 2 else 2)
         e = _residuals(mode, times, w, out[:, (p - 1) // 2 if p else 0])
-        refs.append(p)
-        counts.append(len(w) - 1)
-        spans.append(np.diff(times) - 1)
-        keys.append(e)
+        K = len(w)
+        refs[m] = p
+        counts[m] = K - 1
+        spans[s_at: s_at + K - 1] = np.diff(times) - 1
+        keys[k_at: k_at + K] = e
+        s_at += K - 1
+        k_at += K
         out[:, m] = interpolate(times, w, T)
-    enc.block(np.array(refs, np.int64).reshape(-1, 1, 1), signed=False)
-    enc.block(np.array(counts, np.int64).reshape(-1, 1, 1), signed=False)
-    enc.block(np.concatenate(spans).reshape(-1, 1, 1) if spans else np.zeros((0, 1, 1), np.int64),
-              signed=False)
-    enc.block(np.concatenate(keys)[:, None, :])
+    enc.block(refs.reshape(-1, 1, 1), signed=False)
+    enc.block(counts.reshape(-1, 1, 1), signed=False)
+    enc.block(spans[:s_at].reshape(-1, 1, 1), signed=False)
+    enc.block(keys[:k_at][:, None, :])
     return out

@@ -22,15 +22,35 @@ def segment_starts(counts: ArrayLike) -> NDArray[np.int64]:
     return np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
 
 
-def denormalize(patterns: ArrayLike, index: ArrayLike, counts: ArrayLike) -> NDArray[np.int64]:
-    """Rebuild ``[sum(counts), n, A]`` integer samples from patterns ``[K, L, n, A]`` (§6.3)."""
+def denormalize(patterns: ArrayLike, index: ArrayLike, counts: ArrayLike, *,
+                frames: tuple[int, int] | None = None,
+                starts: ArrayLike | None = None) -> NDArray[np.int64]:
+    """Rebuild ``[sum(counts), n, A]`` integer samples from patterns ``[K, L, n, A]`` (§6.3).
+
+    Parameters
+    ----------
+    patterns : array_like of int, shape (K, L, n, A)
+    index, counts : array_like of int, shape (S,)
+        Pattern index and frame count of each segment (every count >= 1, §4.8).
+    frames : (int, int), optional
+        Only frames ``t0 .. t1 - 1`` of the result, ``[t1 - t0, n, A]``: the same
+        values, with temporaries the size of that block (spec §8: a decoder works a
+        block of frames at a time, so a SEGS chunk of a few bytes that stretches one
+        pattern over 2^26 marker-frames costs no more than the output).
+    starts : array_like of int, shape (S,), optional
+        ``segment_starts(counts)``, when the caller has it already.
+    """
     patterns = np.asarray(patterns, dtype=np.int64)
     index = np.asarray(index, dtype=np.int64)
     counts = np.asarray(counts, dtype=np.int64)
+    starts = segment_starts(counts) if starts is None else np.asarray(starts, np.int64)
     L = patterns.shape[1]
-    F = int(counts.sum())
-    seg = np.repeat(np.arange(len(counts)), counts)
-    j = np.arange(F, dtype=np.int64) - np.repeat(segment_starts(counts), counts)
+    t0, t1 = (0, int(counts.sum())) if frames is None else frames
+    f = np.arange(t0, t1, dtype=np.int64)
+    # the segment of each frame: the last one starting at or before it (a segment of no
+    # frames shares its start with the next one and so is never chosen)
+    seg = np.searchsorted(starts, f, side="right") - 1
+    j = f - starts[seg]
     n = counts[seg]
     den = np.maximum(n - 1, 1)
     num = j * (L - 1)
@@ -40,8 +60,13 @@ def denormalize(patterns: ArrayLike, index: ArrayLike, counts: ArrayLike) -> NDA
     p = index[seg]
     a = patterns[p, i0]
     b = patterns[p, i1]
+    b -= a
+    b *= 2 * r[:, None, None]
     den_b = den[:, None, None]
-    return a + (2 * (b - a) * r[:, None, None] + den_b) // (2 * den_b)
+    b += den_b
+    b //= 2 * den_b
+    b += a
+    return b
 
 
 def normalize(x: ArrayLike, starts: ArrayLike, counts: ArrayLike, L: int) -> NDArray[np.float64]:
@@ -59,4 +84,11 @@ def normalize(x: ArrayLike, starts: ArrayLike, counts: ArrayLike, L: int) -> NDA
     i1 = np.minimum(i0 + 1, (starts + counts - 1)[:, None])
     f = pos - i0
     shape = (slice(None), slice(None)) + (None,) * (x.ndim - 1)
-    return x[i0] * (1 - f)[shape] + x[i1] * f[shape]
+    # x[i0] (1 - f) + x[i1] f, each product and the sum formed in place (the same
+    # roundings as the expression, two arrays of the result's size instead of four)
+    out = x[i0]
+    out *= (1 - f)[shape]
+    right = x[i1]
+    right *= f[shape]
+    out += right
+    return out

@@ -16,6 +16,8 @@ from mpz.errors import FormatError
 from mpz.format import MAX_ORDER
 
 _DIFF_LIMIT = 1 << 32   # §6.2: |x[t] - x[t-1]| < 2^32 for any valid stream
+#: values per block of work in :func:`reconstruct`: 2^20 int64 = 8 MiB per temporary (§8)
+_BLOCK_VALUES = 1 << 20
 
 
 def _runs(x: NDArray[np.int64], period: int | None) -> NDArray[np.int64]:
@@ -27,25 +29,56 @@ def _runs(x: NDArray[np.int64], period: int | None) -> NDArray[np.int64]:
     return x.reshape((T // period, period) + x.shape[1:])
 
 
-def residuals(x: ArrayLike, order: int, period: int | None = None) -> NDArray[np.int64]:
-    """Prediction residuals of ``x`` (int64) for ``order`` in 0..2 (§6.2)."""
+def residuals(x: ArrayLike, order: int, period: int | None = None, *,
+              inplace: bool = False) -> NDArray[np.int64]:
+    """Prediction residuals of ``x`` (int64) for ``order`` in 0..2 (§6.2).
+
+    No temporary of the block's size is made; with ``inplace`` the residuals overwrite
+    ``x`` (an int64 array), a block of rows at a time from the end of each run, and
+    :func:`reconstruct` with ``inplace`` turns them back (the encoder keeps one array per
+    candidate this way).
+    """
     x = np.asarray(x, dtype=np.int64)
     if not 0 <= order <= MAX_ORDER:
         raise ValueError(f"predictor order {order} not in 0..{MAX_ORDER}")
     if x.shape[0] == 0:
-        return x.copy()
+        return x if inplace else x.copy()
     r = _runs(x, period)
-    e = r.copy()
-    if order >= 1:
-        e[:, 1:] = r[:, 1:] - r[:, :-1]
-    if order == 2 and r.shape[1] > 2:
-        e[:, 2:] = r[:, 2:] - 2 * r[:, 1:-1] + r[:, :-2]
-    return e.reshape(x.shape)
+    if not inplace:
+        e = r.copy()
+        if order >= 1:
+            e[:, 1:] -= r[:, :-1]
+        if order == 2 and r.shape[1] > 2:       # x[t] - x[t-1], then - x[t-1] + x[t-2]
+            e[:, 2:] -= r[:, 1:-1]
+            e[:, 2:] += r[:, :-2]
+        return e.reshape(x.shape)
+    if order == 0:
+        return x
+    P = r.shape[1]
+    step = max(1, _BLOCK_VALUES // max(1, r[0].size))       # runs per block
+    rows = max(1, _BLOCK_VALUES // max(1, r[0, 0].size))     # rows per block
+    for k0 in range(0, r.shape[0], step):
+        g = r[k0: k0 + step]
+        for b in range(P, 1, -rows):                         # rows a .. b-1, a >= 1
+            a = max(1, b - rows)
+            blk = g[:, a:b] - g[:, a - 1: b - 1]
+            if order == 2:
+                lo = max(a, 2)                               # row 1 stays a first difference
+                blk[:, lo - a:] -= g[:, lo - 1: b - 1]
+                blk[:, lo - a:] += g[:, lo - 2: b - 2]
+            g[:, a:b] = blk
+    return x
 
 
 def reconstruct(e: ArrayLike, order: int, period: int | None = None, *,
-                chunk: str | None = None, offset: int | None = None) -> NDArray[np.int64]:
+                chunk: str | None = None, offset: int | None = None,
+                inplace: bool = False) -> NDArray[np.int64]:
     """Invert :func:`residuals` exactly.
+
+    The work goes a bounded block of rows at a time (whole runs when they are short,
+    otherwise rows of one run carrying the running sums across blocks), so the temporaries
+    stay below a few MiB whatever the block size (spec §8); with ``inplace`` the result
+    overwrites ``e`` (an int64 array) and nothing of its size is allocated.
 
     Raises
     ------
@@ -54,17 +87,60 @@ def reconstruct(e: ArrayLike, order: int, period: int | None = None, *,
         input that would otherwise overflow 64-bit arithmetic).
     """
     e = np.asarray(e, dtype=np.int64)
-    if order == 0 or e.shape[0] == 0:
-        return e.copy()
-    r = _runs(e, period)
+    x = e if inplace else e.copy()
+    if order == 0 or x.shape[0] == 0:
+        return x
+    r = _runs(x, period)
+    R, P = r.shape[0], r.shape[1]
+    row = max(1, r[0, 0].size)                  # values per row
+    if P * row <= _BLOCK_VALUES:                # whole runs at a time
+        per = max(1, _BLOCK_VALUES // (P * row))
+        for k0 in range(0, R, per):
+            _whole_runs(r[k0: k0 + per], order, chunk, offset)
+    else:                                       # long runs: blocks of rows, with carries
+        step = max(1, _BLOCK_VALUES // row)
+        for k in range(R):
+            _long_run(r[k], order, step, chunk, offset)
+    return x
+
+
+def _overflow(chunk: str | None, offset: int | None) -> FormatError:
+    return FormatError("order-2 prediction residuals leave the valid range",
+                       chunk=chunk, offset=offset, section="§6.2")
+
+
+def _whole_runs(r: NDArray[np.int64], order: int, chunk: str | None,
+                offset: int | None) -> None:
+    """Reconstruct complete runs ``r[k, P, ...]`` in place."""
     if order == 1:
-        x = np.cumsum(r, axis=1)
-    else:
-        d = r.copy()
-        # differences: d[0] = x[0] (kept), d[1] = e[1], d[t] = e[t] + d[t-1]
-        d[:, 1:] = np.cumsum(r[:, 1:], axis=1)
-        if d.shape[1] > 1 and np.abs(d[:, 1:]).max(initial=0) >= _DIFF_LIMIT:
-            raise FormatError("order-2 prediction residuals leave the valid range",
-                              chunk=chunk, offset=offset, section="§6.2")
-        x = np.cumsum(d, axis=1)
-    return x.reshape(e.shape)
+        r[...] = np.cumsum(r, axis=1)
+        return
+    # differences: d[0] = x[0] (kept), d[1] = e[1], d[t] = e[t] + d[t-1]
+    d = np.cumsum(r[:, 1:], axis=1)
+    if d.size and np.abs(d).max() >= _DIFF_LIMIT:
+        raise _overflow(chunk, offset)
+    r[:, 1:] = r[:, :1] + np.cumsum(d, axis=1)
+
+
+def _long_run(r: NDArray[np.int64], order: int, step: int, chunk: str | None,
+              offset: int | None) -> None:
+    """Reconstruct one run ``r[P, ...]`` in place, ``step`` rows at a time."""
+    if order == 1:
+        for a in range(0, r.shape[0], step):
+            b = r[a: a + step]
+            s = np.cumsum(b, axis=0)
+            if a:
+                s += r[a - 1]                    # the finished row before the block
+            b[...] = s
+        return
+    d_carry = np.zeros(r.shape[1:], np.int64)   # d[a - 1] (d of row 0 is not a difference)
+    for a in range(1, r.shape[0], step):
+        b = r[a: a + step]
+        d = np.cumsum(b, axis=0)
+        d += d_carry
+        if np.abs(d).max() >= _DIFF_LIMIT:
+            raise _overflow(chunk, offset)
+        d_carry = d[-1].copy()
+        s = np.cumsum(d, axis=0)
+        s += r[a - 1]                            # x[a - 1], finished
+        b[...] = s

@@ -69,15 +69,34 @@ def _node_list(d: object) -> list[Any]:
     return raw
 
 
-def _fields(i: int, nd: Any) -> tuple[str, list[Any], Any, Any]:
-    """``(name, members, ref, parent)`` of raw node ``i``."""
-    try:
-        return str(nd["name"]), list(nd["members"]), nd["ref"], nd.get("parent")
-    except (KeyError, TypeError) as exc:
-        raise EncoderError(f"hierarchy node {i}: missing field {exc}") from None
+def _fields(i: int, nd: Any) -> tuple[str, list[str], str, str | None]:
+    """``(name, members, ref, parent)`` of raw node ``i``, each of its JSON type: name and
+    ref text, members a non-empty list of text, parent text or null (issue 11.6: a wrong
+    type is an EncoderError naming the node and the field, never a TypeError)."""
+    if not isinstance(nd, dict):
+        raise EncoderError(f"hierarchy node {i} must be an object with name, members, ref and "
+                           f"parent, got {type(nd).__name__}")
+    missing = [k for k in ("name", "members", "ref") if k not in nd]
+    if missing:
+        raise EncoderError(f"hierarchy node {i}: missing field {', '.join(missing)}")
+    name, members, ref, parent = nd["name"], nd["members"], nd["ref"], nd.get("parent")
+    if not isinstance(name, str) or not name:
+        raise EncoderError(f"hierarchy node {i}: \"name\" must be non-empty text, got "
+                           f"{name!r}")
+    if (not isinstance(members, list) or not members
+            or not all(isinstance(m, str) for m in members)):
+        raise EncoderError(f"hierarchy node {i} ({name!r}): \"members\" must be a non-empty "
+                           f"list of marker names, got {members!r}")
+    if not isinstance(ref, str):
+        raise EncoderError(f"hierarchy node {i} ({name!r}): \"ref\" must be a marker name, "
+                           f"got {ref!r}")
+    if parent is not None and not isinstance(parent, str):
+        raise EncoderError(f"hierarchy node {i} ({name!r}): \"parent\" must be a node name "
+                           f"or null, got {parent!r}")
+    return name, list(members), ref, parent
 
 
-def _parent_index(name: str, parent: Any, node_index: dict[str, int]) -> int:
+def _parent_index(name: str, parent: str | None, node_index: dict[str, int]) -> int:
     """Index of the parent node (-1 for ``null``); it must come earlier."""
     if parent is None:
         return -1
@@ -86,7 +105,7 @@ def _parent_index(name: str, parent: Any, node_index: dict[str, int]) -> int:
     raise EncoderError(f"node {name!r}: parent {parent!r} is not an earlier node")
 
 
-def _marker_indices(members: list[Any], ref: Any, lookup: dict[str, int],
+def _marker_indices(members: list[str], ref: str, lookup: dict[str, int],
                     unknown: list[str]) -> tuple[list[int], int]:
     """Member and reference indices (-1 where unknown); unknown names go to ``unknown``."""
     idx = []
@@ -101,8 +120,13 @@ def _marker_indices(members: list[Any], ref: Any, lookup: dict[str, int],
     return idx, -1 if r is None else r
 
 
-def _weights(name: str, members: list[Any], wmap: Any) -> list[float]:
-    """One weight per member from the node's ``weights`` map (default 1.0)."""
+#: the weights HIER can hold: w = (c + 1) / 16 for the codes c = 0 .. 255 (spec §4.3)
+MIN_WEIGHT, MAX_WEIGHT = 1.0 / 16.0, 16.0
+
+
+def _weights(name: str, members: list[str], wmap: Any) -> list[float]:
+    """One weight per member from the node's ``weights`` map (default 1.0): JSON numbers
+    (not text, not true/false) from 1/16 to 16, the range HIER stores."""
     if not isinstance(wmap, dict):
         raise EncoderError(f"node {name!r}: \"weights\" must map marker names to numbers")
     bad = [k for k in wmap if k not in members]
@@ -110,11 +134,13 @@ def _weights(name: str, members: list[Any], wmap: Any) -> list[float]:
         raise EncoderError(f"node {name!r}: weights given for non-members {bad}")
     weights = []
     for m in members:
-        try:
-            weights.append(float(wmap.get(m, 1.0)))
-        except (TypeError, ValueError):
-            raise EncoderError(f"node {name!r}: weight of {m!r} is not a number: "
-                               f"{wmap.get(m)!r}") from None
+        w = wmap.get(m, 1.0)
+        if isinstance(w, bool) or not isinstance(w, (int, float)):
+            raise EncoderError(f"node {name!r}: weight of {m!r} is not a number: {w!r}")
+        if not MIN_WEIGHT <= w <= MAX_WEIGHT:          # NaN fails too
+            raise EncoderError(f"node {name!r}: weight of {m!r} must be from 1/16 to 16 (what "
+                               f"HIER holds, spec §4.3), got {w!r}")
+        weights.append(float(w))
     return weights
 
 

@@ -1,0 +1,93 @@
+"""Encoder peak memory on long captures (issue 11.11): peak RSS against the input size.
+
+    python bench/bench_memory.py [--frames 100000 300000 1000000] [--modes default 1mm lossy]
+                                 [--quick]
+
+Each run is a child process that builds a synthetic walk (``mpz.synth.generate("walk",
+frames=N, markers=41)``), resets its peak-RSS mark (``/proc/self/clear_refs``), encodes,
+and reports the peak resident memory of the encode (``VmHWM``) with the input's own size
+(positions float64, F x M x 24 bytes, plus the mask): the ratio is what must stay a small
+constant as captures grow. The SHA-256 of the output is printed too, so that a memory
+change can be shown to leave the bytes alone. Linux only (``/proc``).
+
+Modes: ``default`` (the default bound), ``1mm`` (``max_error=1.0``), ``lossy`` (the
+paper's mode, pattern layers).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from typing import Any
+
+CHILD = r"""
+import gc, hashlib, json, re, sys, time
+import numpy as np
+from mpz.encoder import EncodeOptions, encode_motion
+from mpz.synth import generate
+
+def status(key):
+    text = open("/proc/self/status").read()
+    return int(re.search(key + r":\s+(\d+) kB", text).group(1)) * 1024
+
+frames, mode = int(sys.argv[1]), sys.argv[2]
+opts = {"default": {}, "1mm": {"max_error": 1.0}, "lossy": {"lossy": True}}[mode]
+m = generate("walk", frames=frames, markers=41, seed=0)
+gc.collect()
+input_bytes = m.positions.nbytes + m.valid.nbytes
+with open("/proc/self/clear_refs", "w") as fh:       # reset VmHWM to the current RSS
+    fh.write("5")
+before = status("VmRSS")
+t = time.perf_counter()
+try:
+    options = EncodeOptions(**opts)
+except TypeError:                   # an encoder from before "lossy" (its default was lossy)
+    options = EncodeOptions()
+data, rep = encode_motion(m, options)
+seconds = time.perf_counter() - t
+print(json.dumps({"frames": frames, "mode": mode, "input": input_bytes, "rss0": before,
+                  "peak": status("VmHWM"), "seconds": seconds, "bytes": len(data),
+                  "sha256": hashlib.sha256(data).hexdigest()}))
+"""
+
+
+def run(frames: int, mode: str) -> dict[str, Any]:
+    out = subprocess.run([sys.executable, "-c", CHILD, str(frames), mode],
+                         capture_output=True, text=True)
+    if out.returncode != 0:
+        return {"frames": frames, "mode": mode, "error": out.stderr.strip().splitlines()[-1]}
+    result: dict[str, Any] = json.loads(out.stdout.strip().splitlines()[-1])
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--frames", type=int, nargs="+", default=[100_000, 300_000, 1_000_000])
+    p.add_argument("--modes", nargs="+", default=["default", "1mm", "lossy"],
+                   choices=["default", "1mm", "lossy"])
+    p.add_argument("--quick", action="store_true", help="20 000 and 50 000 frames")
+    p.add_argument("--json", action="store_true", help="one JSON object per run")
+    args = p.parse_args(argv)
+    sizes = [20_000, 50_000] if args.quick else args.frames
+    if not args.json:
+        print(f"{'frames':>9} {'mode':>8} {'input MB':>9} {'peak MB':>9} {'over MB':>9} "
+              f"{'x input':>8} {'s':>7} {'MPZ KB':>8}  sha256")
+    for frames in sizes:
+        for mode in args.modes:
+            r = run(frames, mode)
+            if args.json:
+                print(json.dumps(r), flush=True)
+                continue
+            if "error" in r:
+                print(f"{frames:>9} {mode:>8}  failed: {r['error']}", flush=True)
+                continue
+            over = r["peak"] - r["rss0"]
+            print(f"{frames:>9} {mode:>8} {r['input'] / 1e6:>9.1f} {r['peak'] / 1e6:>9.1f} "
+                  f"{over / 1e6:>9.1f} {r['peak'] / r['input']:>8.2f} {r['seconds']:>7.1f} "
+                  f"{r['bytes'] / 1e3:>8.1f}  {r['sha256'][:16]}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,410 @@
+"""Decompression bombs (spec §8, issue 11.1): legal files of a few KB that declare up to
+F x M = 2^26 marker-frames, decoded under an address-space cap.
+
+§8 promises that the reference decoder decodes every file within the limits in at most
+
+    50 F M + 24 P + 64 MiB + 5 n   bytes
+
+beyond what the interpreter holds before decoding, where P is the largest K L n_i of the
+file's PATT chunks and n the file size: 24 bytes per marker-frame for q, 24 for the output
+or one node's decoded block, 1 for the mask and 1 of working memory. Each file here is
+decoded in a child process whose RLIMIT_AS is set to its own virtual size just before the
+decode (the interpreter, numpy and the loaded numba kernels: about 0.5 GB, measured there)
+plus that budget: an allocation past it raises MemoryError, which fails the test.
+
+The bombs are built here, chunk by chunk with the chunk records, rather than kept as
+conformance vectors: their expected output would be 1.5 GiB. Scaled-down copies
+(2^16 marker-frames) are seeds in conformance/corpus/ (bomb-*.mpz). Before the decoder
+worked in frame blocks, the first two took 8.1 GB and 11.2 GB (peak RSS), and every file
+here failed under its cap with a MemoryError (checked against that decoder).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+import json
+import os
+from pathlib import Path
+import subprocess
+import sys
+from typing import Any
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+import numpy as np
+import pytest
+
+from mpz import container
+from mpz.chunks import Hier, HierNode, Mend, Mhdr, Mnam, Patt, Qunt, Record, Resi, Root, Segs
+from mpz.entropy import BlockEncoder
+
+MIB = 1 << 20
+
+
+def budget(F: int, M: int, pattern_samples: int, size: int) -> int:
+    """The §8 promise of the reference decoder, in bytes (see the module docstring)."""
+    return 50 * F * M + 24 * pattern_samples + 64 * MIB + 5 * size
+
+
+def _coded(*blocks: tuple[np.ndarray, dict[str, Any]]) -> bytes:
+    enc = BlockEncoder()
+    for values, kw in blocks:
+        enc.block(values, **kw)
+    return enc.finish()
+
+
+def _file(F: int, M: int, nodes: list[tuple[int, list[int]]], layers: list[Record], *,
+          residual: bool = False, smoothing: int = 0, root_order: int = 0) -> bytes:
+    """A complete file: all-zero root track, then ``layers`` (PATT/SEGS/RESI records)."""
+    hdr = Mhdr(version_major=1, version_minor=0, flags=1 if residual else 0, frame_count=F,
+               marker_count=M, node_count=len(nodes), rate=120.0, units=1, error_metric=0,
+               error_bound=0.0, smoothing=smoothing)
+    hier = Hier(count=len(nodes), nodes=tuple(
+        HierNode(parent=0xFFFF if i == 0 else p, ref=members[0], member_count=len(members),
+                 members=tuple(members), weights=(1.0,) * len(members))
+        for i, (p, members) in enumerate(nodes)))
+    root = Root(order=root_order, coded=_coded((np.zeros((F, 1, 3), np.int64), {})))
+    return container.build([hdr, Mnam(count=M, names=tuple(f"m{i}" for i in range(M))), hier,
+                            Qunt(step=1.0, offset=(0.0, 0.0, 0.0), bits=8), root, *layers,
+                            Mend()])
+
+
+def _two_nodes(M: int) -> list[tuple[int, list[int]]]:
+    return [(0, [0]), (0, list(range(1, M)))]
+
+
+def pattern_bomb(M: int, samples: int, *, per_frame: bool = False,
+                 smoothing: int = 0) -> bytes:
+    """Issue 11.1: one node holding one 1-frame pattern, stretched by one segment over all F
+    frames (``per_frame``: every frame its own segment), no residual layer."""
+    F, n = samples // M, M - 1
+    patt = Patt(node=1, pattern_count=1, length=1, scale=1, order=0,
+                coded=_coded((np.ones((1, n, 3), np.int64), {"period": 1})))
+    if per_frame:
+        segs = Segs(node=1, segment_count=F, coded=_coded((np.zeros((F, 1, 2), np.int64), {})))
+    else:
+        segs = Segs(node=1, segment_count=1,
+                    coded=_coded((np.array([[[0, F - 1]]], np.int64), {})))
+    return _file(F, M, _two_nodes(M), [patt, segs], smoothing=smoothing)
+
+
+def residual_bomb(M: int, samples: int, base: int) -> bytes:
+    """One node whose residual layer covers every sample: base 0 (order 2, on an absent
+    pattern layer), 1 (absolute) or 2 (key frames, every frame a key)."""
+    F, n = samples // M, M - 1
+    if base == 2:
+        coded = _coded((np.zeros((n, 1, 1), np.int64), {"signed": False}),
+                       (np.full((n, 1, 1), F - 1, np.int64), {"signed": False}),
+                       (np.zeros((n * (F - 1), 1, 1), np.int64), {"signed": False}),
+                       (np.zeros((n * F, 1, 3), np.int64), {}))
+        order = 0
+    else:
+        coded, order = _coded((np.zeros((F, n, 3), np.int64), {})), 2
+    resi = Resi(node=1, base=base, order=order, scale=3, coded=coded)
+    return _file(F, M, _two_nodes(M), [resi], residual=True)
+
+
+def root_bomb(F: int) -> bytes:
+    """M = 1: the root track is the whole integer layer (order 2)."""
+    return _file(F, 1, [(0, [0])], [], root_order=2)
+
+
+CHILD = r"""
+import json, re, resource, sys
+import numpy as np
+from mpz.decoder import decode_layers
+import mpz
+
+def vm(key):
+    status = open("/proc/self/status").read()
+    return int(re.search(key + r":\s+(\d+) kB", status).group(1)) * 1024
+
+path, warm, what, allowance = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+data = open(path, "rb").read()
+small = open(warm, "rb").read()
+mpz.decode(small)                     # load every kernel the decode will use
+decode_layers(small)
+if "mpzinfo" in what:
+    from mpz.tools.mpzinfo import main
+v0 = vm("VmSize")
+resource.setrlimit(resource.RLIMIT_AS, (v0 + allowance, v0 + allowance))
+out = {"vm0": v0}
+try:
+    for step in what.split("+"):      # each step under the same cap
+        if step == "decode":
+            m = mpz.decode(data)
+            out["shape"] = list(m.positions.shape)
+            out["finite"] = bool(np.isfinite(m.positions[::997]).all())
+            del m
+        elif step == "layers":
+            out["shape"] = list(decode_layers(data).q.shape)
+        else:
+            out["exit"] = main([path])
+    out["result"] = "ok"
+except MemoryError as exc:
+    out["result"] = "MemoryError: " + str(exc)
+out["peak"] = vm("VmPeak") - v0
+print(json.dumps(out))
+"""
+
+
+@pytest.fixture(scope="module")
+def warm_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small file that runs every decoding kernel: patterns, smoothing, residuals."""
+    path = tmp_path_factory.mktemp("warm") / "warm.mpz"
+    m = 16
+    two = _two_nodes(m)
+    nodes = [two[0], (0, list(range(1, 8))), (0, list(range(8, 12))), (0, list(range(12, 16)))]
+    F = 64
+    patt = Patt(node=1, pattern_count=1, length=2, scale=1, order=1,
+                coded=_coded((np.ones((2, 7, 3), np.int64), {"period": 2})))
+    segs = Segs(node=1, segment_count=2,
+                coded=_coded((np.array([[[0, 30]], [[0, 30]]], np.int64), {})))
+    r1 = Resi(node=1, base=0, order=2, scale=1, coded=_coded((np.zeros((F, 7, 3), np.int64), {})))
+    p2 = Patt(node=2, pattern_count=0, length=1, scale=1, order=0, coded=b"")
+    r2 = Resi(node=2, base=1, order=1, scale=1, coded=_coded((np.zeros((F, 4, 3), np.int64), {})))
+    keys = _coded((np.zeros((4, 1, 1), np.int64), {"signed": False}),
+                  (np.full((4, 1, 1), 1, np.int64), {"signed": False}),
+                  (np.full((4, 1, 1), F - 2, np.int64), {"signed": False}),
+                  (np.zeros((8, 1, 3), np.int64), {}))
+    p3 = Patt(node=3, pattern_count=0, length=1, scale=1, order=0, coded=b"")
+    r3 = Resi(node=3, base=2, order=0, scale=2, coded=keys)
+    path.write_bytes(_file(F, m, nodes, [patt, segs, r1, p2, r2, p3, r3], residual=True,
+                           smoothing=2, root_order=2))
+    return path
+
+
+def _decode_capped(path: Path, warm: Path, what: str, allowance: int) -> dict[str, Any]:
+    run = subprocess.run([sys.executable, "-c", CHILD, str(path), str(warm), what,
+                          str(allowance)], capture_output=True, text=True, timeout=900,
+                         env={**os.environ, "OPENBLAS_NUM_THREADS": "1",
+                              "MALLOC_ARENA_MAX": "2"})
+    assert run.returncode == 0, run.stderr[-3000:]
+    out: dict[str, Any] = json.loads(run.stdout.strip().splitlines()[-1])
+    return out
+
+
+def test_warm_file_decodes(warm_file: Path) -> None:
+    import mpz
+    m = mpz.decode(warm_file.read_bytes())
+    assert m.positions.shape == (64, 16, 3)
+
+
+# (name, builder, F, M, P = largest K L n_i, what to run)
+FULL = [
+    ("11.1 one segment over 2^26 marker-frames", lambda: pattern_bomb(256, 1 << 26),
+     1 << 18, 256, 255, "decode"),
+    ("11.1 every frame a segment, smoothing 16", lambda: pattern_bomb(256, 1 << 26,
+                                                                      per_frame=True,
+                                                                      smoothing=16),
+     1 << 18, 256, 255, "decode+mpzinfo"),
+]
+# residual layers cost a decision per value, so these files are 2^21 marker-frames (the
+# full 2^26 take minutes to code); the per-sample term still dominates their budget
+SCALED = [
+    ("residual base 0, order 2", lambda: residual_bomb(64, 1 << 21, 0), 1 << 15, 64, 0,
+     "decode"),
+    ("residual base 1", lambda: residual_bomb(64, 1 << 21, 1), 1 << 15, 64, 0, "layers"),
+    ("key frames, every frame a key", lambda: residual_bomb(64, 1 << 21, 2), 1 << 15, 64, 0,
+     "decode"),
+    ("root only, M = 1, order 2", lambda: root_bomb(1 << 21), 1 << 21, 1, 0, "decode"),
+    ("4096 markers, every frame a segment", lambda: pattern_bomb(4096, 1 << 22,
+                                                                 per_frame=True, smoothing=16),
+     1 << 10, 4096, 4095, "layers"),
+]
+
+
+@pytest.mark.parametrize("name,build,F,M,P,what", FULL + SCALED,
+                         ids=[c[0] for c in FULL + SCALED])
+def test_bomb_within_the_budget(name: str, build: Callable[[], bytes], F: int, M: int, P: int,
+                                what: str, tmp_path: Path, warm_file: Path) -> None:
+    data = build()
+    assert len(data) < 1 << 20                      # a small, legal file ...
+    path = tmp_path / "bomb.mpz"
+    path.write_bytes(data)
+    out = _decode_capped(path, warm_file, what, budget(F, M, P, len(data)))
+    assert out["result"] == "ok", out               # ... decoded within the §8 budget
+    if "decode" in what:
+        assert out["shape"] == [F, M, 3] and out["finite"]
+    if "mpzinfo" in what:
+        assert out["exit"] == 0
+
+
+def test_the_cap_bites(tmp_path: Path, warm_file: Path) -> None:
+    """Control: the same cap machinery refuses a decode given less than q alone needs."""
+    path = tmp_path / "bomb.mpz"
+    path.write_bytes(pattern_bomb(256, 1 << 24))
+    out = _decode_capped(path, warm_file, "layers", 20 * (1 << 24))
+    assert out["result"].startswith("MemoryError"), out
+
+
+def test_bombs_decode_to_the_pattern() -> None:
+    """What the bombs decode to, at a small size: the one pattern value everywhere, the
+    smoothing of a constant layer changing nothing."""
+    import mpz
+    for data in (pattern_bomb(8, 1 << 12), pattern_bomb(8, 1 << 12, per_frame=True,
+                                                        smoothing=16)):
+        m = mpz.decode(data)
+        assert m.positions.shape == (512, 8, 3)
+        assert (m.positions[:, 0] == 0).all() and (m.positions[:, 1:] == 1).all()
+
+
+# ------------------------------------------- blocks of frames change no value --
+def _vectors() -> list[tuple[str, Path, Path, str]]:
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    man = json.loads((root / "manifest.json").read_text())
+    return [(v["name"], root / v["file"], root / v["expected_output"]["file"],
+             v["integer_layer_digest"])
+            for v in man["vectors"] if v.get("expected_output")]
+
+
+def test_tiny_blocks_decode_every_vector_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Decoding in blocks of 5 marker-frames (and 7-value blocks of prediction) gives every
+    valid and uncommon vector its frozen output and integer-layer digest, bit for bit:
+    the block size changes nothing (§6.3-§6.8 are per frame)."""
+    import hashlib
+
+    import mpz
+    from mpz import decoder, predict
+    monkeypatch.setattr(decoder, "BLOCK_SAMPLES", 5)
+    monkeypatch.setattr(predict, "_BLOCK_VALUES", 7)
+    checked = 0
+    for name, path, expected, digest in _vectors():
+        data = path.read_bytes()
+        d = decoder.decode_layers(data)
+        got = hashlib.sha256(np.ascontiguousarray(d.q, "<i8").tobytes()
+                             + d.valid.astype(np.uint8).tobytes()).hexdigest()
+        assert got == digest, name
+        x = mpz.decode(data).positions
+        want = np.load(expected)
+        assert np.array_equal(x, want, equal_nan=True), name
+        checked += 1
+    assert checked >= 40
+
+
+def _denormalize_by_hand(pat: np.ndarray, index: list[int], counts: list[int]) -> np.ndarray:
+    """§6.3 step 3 as the spec writes it, one frame at a time."""
+    L = pat.shape[1]
+    out = []
+    for k, n in zip(index, counts, strict=True):
+        Q = pat[k]
+        for j in range(n):
+            if n == 1:
+                out.append(Q[0])
+                continue
+            num = j * (L - 1)
+            i0 = num // (n - 1)
+            r = num - i0 * (n - 1)
+            i1 = min(i0 + 1, L - 1)
+            out.append(Q[i0] + (2 * (Q[i1] - Q[i0]) * r + (n - 1)) // (2 * (n - 1)))
+    return np.array(out, np.int64)
+
+
+def _smooth_by_hand(P: np.ndarray, starts: list[int], h: int) -> np.ndarray:
+    """§6.4 as the spec writes it, one frame at a time, from the unsmoothed P."""
+    F = P.shape[0]
+    out = P.copy()
+    if h == 0 or len(starts) == 1:
+        return out
+    w = 2 * h + 1
+    for t in range(F):
+        if any(b - h <= t <= b + h - 1 for b in starts[1:]):
+            wsum = sum(P[min(max(u, 0), F - 1)] for u in range(t - h, t + h + 1))
+            out[t] = (2 * wsum + w) // (2 * w)
+    return out
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.data())
+def test_blocks_of_frames_match_the_spec_loops(data: st.DataObject) -> None:
+    """De-normalisation and smoothing of any frame range equal the spec's own loops."""
+    from mpz.normalize import denormalize, segment_starts
+    from mpz.smooth import smooth_frames, window
+    K = data.draw(st.integers(1, 3))
+    L = data.draw(st.integers(1, 5))
+    pat = np.array(data.draw(st.lists(st.integers(-2 ** 35, 2 ** 35), min_size=K * L * 2,
+                                      max_size=K * L * 2)), np.int64).reshape(K, L, 1, 2)
+    counts = data.draw(st.lists(st.integers(1, 9), min_size=1, max_size=6))
+    index = data.draw(st.lists(st.integers(0, K - 1), min_size=len(counts),
+                               max_size=len(counts)))
+    h = data.draw(st.integers(0, 16))
+    F = sum(counts)
+    t0 = data.draw(st.integers(0, F - 1))
+    t1 = data.draw(st.integers(t0 + 1, F))
+    P = _denormalize_by_hand(pat, index, counts)
+    starts = segment_starts(counts)
+    want = _smooth_by_hand(P, [int(s) for s in starts], h)
+    lo, hi = window(F, h, (t0, t1))
+    raw = denormalize(pat, index, counts, frames=(lo, hi))
+    assert np.array_equal(raw, P[lo:hi])
+    assert np.array_equal(smooth_frames(raw, lo, starts, h, F, (t0, t1)), want[t0:t1])
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.data())
+def test_blockwise_prediction_matches_the_spec_loops(data: st.DataObject) -> None:
+    """§6.2 residuals and their inverse, in place or not, in blocks of any size, equal the
+    spec's loops; the order-2 guard rejects the same blocks whatever the block size."""
+    from mpz import predict
+    from mpz.errors import FormatError
+    T = data.draw(st.integers(1, 30))
+    periods = [p for p in range(1, T + 1) if T % p == 0]
+    period = data.draw(st.sampled_from([None, *periods]))
+    order = data.draw(st.integers(0, 2))
+    x = np.array(data.draw(st.lists(st.integers(-2 ** 29, 2 ** 29), min_size=2 * T,
+                                    max_size=2 * T)), np.int64).reshape(T, 2, 1)
+    P = T if period is None else period
+    want = x.copy()
+    for s0 in range(0, T, P):
+        for t in range(s0 + 1, s0 + P):
+            want[t] = x[t] - x[t - 1] if order == 1 or (order == 2 and t == s0 + 1) else (
+                x[t] - 2 * x[t - 1] + x[t - 2] if order == 2 else x[t])
+    old = predict._BLOCK_VALUES
+    try:
+        for block in (1, 3, 1 << 20):
+            predict._BLOCK_VALUES = block
+            assert np.array_equal(predict.residuals(x, order, period), want)
+            y = x.copy()
+            assert np.array_equal(predict.residuals(y, order, period, inplace=True), want)
+            assert np.array_equal(predict.reconstruct(y, order, period, inplace=True), x)
+        e = np.full((T, 1, 1), 2 ** 30, np.int64)
+        verdicts = set()
+        for block in (1, 2, 1 << 20):
+            predict._BLOCK_VALUES = block
+            try:
+                predict.reconstruct(e, 2, period)
+                verdicts.add("ok")
+            except FormatError:
+                verdicts.add("rejected")
+        assert len(verdicts) == 1
+    finally:
+        predict._BLOCK_VALUES = old
+
+
+# ------------------------------------------------------------- --max-samples --
+@pytest.mark.parametrize("argv", [["-m", "mpz.tools.mpzinfo"],
+                                  ["-m", "mpz.tools.mpz_cli", "show"],
+                                  ["-m", "mpz.tools.mpz_cli", "decode", "-o", "{out}"]],
+                         ids=["mpzinfo", "mpz show", "mpz decode"])
+def test_max_samples_option(argv: list[str], tmp_path: Path) -> None:
+    """--max-samples N refuses a file above N marker-frames before decoding it (exit 2,
+    the §8 limit error), decodes one within it, and takes only 1..2^26 (exit 64)."""
+    big, small = tmp_path / "bomb.mpz", tmp_path / "small.mpz"
+    big.write_bytes(pattern_bomb(256, 1 << 26))            # refused at MHDR: no memory
+    small.write_bytes(pattern_bomb(8, 1 << 10))
+    out = tmp_path / "out.npy"
+
+    def run(path: Path, n: str) -> subprocess.CompletedProcess[str]:
+        args = [a.replace("{out}", str(out)) for a in argv]
+        return subprocess.run([sys.executable, *args, str(path), "--max-samples", n],
+                              capture_output=True, text=True, timeout=600)
+
+    r = run(big, "100000")
+    assert r.returncode == 2, r.stderr
+    assert "67108864 exceeds the limit 100000" in r.stdout + r.stderr
+    assert not out.exists()
+    r = run(small, "1024")
+    assert r.returncode == 0, r.stderr
+    for bad in ("0", str((1 << 26) + 1), "x"):
+        r = run(small, bad)
+        assert r.returncode == 64, (bad, r.stderr)
+        assert "--max-samples" in r.stderr

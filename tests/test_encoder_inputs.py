@@ -1,0 +1,243 @@
+"""Issue 11.6: bad encoder inputs and options are EncoderErrors that name the option or the
+field, raised before any work; no other exception escapes the encoder, from the API or from
+``mpz encode``.
+
+Each row was, before the checks, one of: a ValueError from scipy's linkage (magnitudes of
+1e155 and more), a ZeroDivisionError (max_error 5e-324), a ValueError (max_error 1e308), a
+UnicodeEncodeError after the whole encode (names that UTF-8 cannot hold), a TypeError
+(hierarchy JSON of the wrong types), an OverflowError (a weight of 1e308), or a ValueError
+from the command line (``--summary x``, ``--weight M1=abc``).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+import subprocess
+import sys
+from typing import Any
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz.encoder import EncodeOptions, encode_motion
+from mpz.errors import EncoderError
+from mpz.motion import Motion
+from mpz.synth import generate
+
+
+@pytest.fixture(scope="module")
+def walk() -> Motion:
+    return generate("walk", frames=24, markers=6, seed=1)
+
+
+# (option values, words the message must hold: the option's name and the value at fault)
+OPTIONS: list[tuple[dict[str, Any], tuple[str, ...]]] = [
+    ({"max_error": 5e-324}, ("max_error", "5e-324")),
+    ({"max_error": 1e308}, ("max_error", "1e+308")),
+    ({"max_error": float("nan")}, ("max_error", "nan")),
+    ({"max_error": True}, ("max_error", "True")),
+    ({"max_error": "1"}, ("max_error", "'1'")),
+    ({"max_error": 10 ** 400}, ("max_error",)),
+    ({"grid": 5e-324, "lossy": True}, ("grid", "5e-324")),
+    ({"grid": 1e308, "lossy": True}, ("grid", "1e+308")),
+    ({"max_error": 1.0, "group_errors": {"root": 5e-324}}, ("group error", "root")),
+    ({"max_error": 1.0, "group_errors": ["root"]}, ("group_errors", "mapping")),
+    ({"theta": float("inf"), "lossy": True}, ("theta", "inf")),
+    ({"tau": 1e308, "lossy": True}, ("tau", "1e+308")),
+    ({"tau": -1.0, "lossy": True}, ("tau",)),
+    ({"k0": "3", "lossy": True}, ("k0", "'3'")),
+    ({"k0": 0, "lossy": True}, ("k0", "0")),
+    ({"smoothing": 2.5}, ("smoothing", "2.5")),
+    ({"smoothing": 17}, ("smoothing", "17")),
+    ({"max_segment": 2.5, "lossy": True}, ("max_segment", "2.5")),
+    ({"seed": -1}, ("seed", "-1")),
+    ({"seed": 2 ** 70}, ("seed",)),
+    ({"metric": None, "lossy": True}, ("metric", "None")),
+    ({"summary": ("x",)}, ("summary", "'x'")),
+    ({"summary": (0,)}, ("summary", "0")),
+    ({"summary": tuple(range(1, 66))}, ("summary", "64")),
+    ({"summary_space": "joints", "summary": (2,)}, ("summary_space", "joints")),
+    ({"weights": {"LFHD": 1e308}}, ("weight", "LFHD", "1e+308")),
+    ({"weights": {"LFHD": float("nan")}}, ("weight", "LFHD")),
+    ({"weights": {"LFHD": "2"}}, ("weight", "LFHD", "'2'")),
+    ({"weights": {"LFHD": 0.01}}, ("weight", "LFHD", "1/16")),
+    ({"weights": "LFHD=2"}, ("weights", "mapping")),
+    ({"metadata": {"take": "a\udcff"}}, ("metadata value", "take", "surrogate")),
+    ({"metadata": {"\udcff": "x"}}, ("metadata key", "surrogate")),
+    ({"metadata": {"take": 3}}, ("metadata value", "take", "text")),
+    ({"lossy": "yes"}, ("lossy",)),
+]
+
+
+@pytest.mark.parametrize("options,words", OPTIONS, ids=[repr(o)[:48] for o, _ in OPTIONS])
+def test_bad_options_are_named(walk: Motion, options: dict[str, Any],
+                               words: tuple[str, ...]) -> None:
+    with pytest.raises(EncoderError) as got:
+        encode_motion(walk, EncodeOptions(**options))
+    for w in words:
+        assert w in str(got.value), (w, str(got.value))
+
+
+def _with(m: Motion, **kw: Any) -> Motion:
+    fields: dict[str, Any] = {"positions": m.positions, "names": list(m.names), "rate": m.rate,
+              "units": m.units, "valid": m.valid, "metadata": dict(m.metadata)}
+    fields.update(kw)
+    return Motion(**fields)
+
+
+# (what is wrong with the motion, words of the message)
+MOTIONS: list[tuple[str, Any, tuple[str, ...]]] = [
+    ("magnitude 1e155", lambda m: _with(m, positions=m.positions * 1e155),
+     ("position magnitude", "frame", "1e+100")),
+    ("magnitude 1e300", lambda m: _with(m, positions=m.positions * 1e300),
+     ("position magnitude",)),
+    ("a name UTF-8 cannot hold", lambda m: _with(m, names=["A\udce9"] + list(m.names[1:])),
+     ("marker 0 name", "surrogate")),
+    ("a name of 256 bytes", lambda m: _with(m, names=["\u00e9" * 128] + list(m.names[1:])),
+     ("marker 0 name", "255 bytes")),
+    ("a name with NUL", lambda m: _with(m, names=["A\x00B"] + list(m.names[1:])),
+     ("marker 0 name", "NUL")),
+    ("metadata UTF-8 cannot hold", lambda m: _with(m, metadata={"subject": "\udcc3"}),
+     ("metadata value", "subject")),
+]
+
+
+@pytest.mark.parametrize("what,make,words", MOTIONS, ids=[m[0] for m in MOTIONS])
+@pytest.mark.parametrize("mode", [{}, {"max_error": 1.0}, {"lossy": True}],
+                         ids=["default", "bounded", "lossy"])
+def test_bad_motions_are_named(walk: Motion, what: str, make: Any, words: tuple[str, ...],
+                               mode: dict[str, Any]) -> None:
+    with pytest.raises(EncoderError) as got:
+        mpz.encode(make(walk), **mode)
+    for w in words:
+        assert w in str(got.value), (w, str(got.value))
+
+
+def test_largest_magnitude_still_encodes(walk: Motion) -> None:
+    """The limit is not a step too early: magnitudes of 1e100 encode and decode within the
+    bound (the test above must fail for a reason, not for any large value)."""
+    m = _with(walk, positions=walk.positions / np.abs(walk.positions).max() * 1e100)
+    out = mpz.decode(mpz.encode(m, max_error=1e97))
+    assert mpz.max_error(m, out) <= 1e97
+
+
+def _hier(nodes: list[Any]) -> dict[str, Any]:
+    return {"format": "mpz-hierarchy", "version": 1, "nodes": nodes}
+
+
+def _good(names: list[str]) -> list[dict[str, Any]]:
+    return [{"name": "root", "members": [names[0]], "ref": names[0], "parent": None},
+            {"name": "body", "members": names[1:], "ref": names[1], "parent": "root"}]
+
+
+# (how the JSON is wrong, edit of the good node list, words of the message)
+HIERARCHIES: list[tuple[str, Any, tuple[str, ...]]] = [
+    ("node is text", lambda g, n: ["root", g[1]], ("node 0", "object")),
+    ("node is a list", lambda g, n: [[1, 2], g[1]], ("node 0", "object")),
+    ("name missing", lambda g, n: [{k: v for k, v in g[0].items() if k != "name"}, g[1]],
+     ("node 0", "name")),
+    ("name is a list", lambda g, n: [dict(g[0], name=["a"]), g[1]], ("node 0", "name")),
+    ("members is text", lambda g, n: [dict(g[0], members=n[0]), g[1]], ("members",)),
+    ("members is a number", lambda g, n: [dict(g[0], members=5), g[1]], ("members", "5")),
+    ("a member is an object", lambda g, n: [dict(g[0], members=[{}]), g[1]], ("members",)),
+    ("members empty", lambda g, n: [g[0], dict(g[1], members=[])], ("node 1", "members")),
+    ("ref is a list", lambda g, n: [dict(g[0], ref=[n[0]]), g[1]], ("ref",)),
+    ("parent is a list", lambda g, n: [g[0], dict(g[1], parent=["root"])], ("parent",)),
+    ("parent is a number", lambda g, n: [g[0], dict(g[1], parent=0)], ("parent", "0")),
+    ("weights is a list", lambda g, n: [g[0], dict(g[1], weights=[1, 2])], ("weights",)),
+    ("weight is text", lambda g, n: [g[0], dict(g[1], weights={n[1]: "2"})],
+     ("weight", "'2'")),
+    ("weight is true", lambda g, n: [g[0], dict(g[1], weights={n[1]: True})],
+     ("weight", "True")),
+    ("weight 1e308", lambda g, n: [g[0], dict(g[1], weights={n[1]: 1e308})],
+     ("weight", "1e+308", "1/16")),
+]
+
+
+@pytest.mark.parametrize("what,edit,words", HIERARCHIES, ids=[h[0] for h in HIERARCHIES])
+def test_hierarchy_json_types(walk: Motion, what: str, edit: Any,
+                              words: tuple[str, ...]) -> None:
+    names = list(walk.names)
+    with pytest.raises(EncoderError) as got:
+        mpz.encode(walk, hierarchy=_hier(edit(_good(names), names)))
+    for w in words:
+        assert w in str(got.value), (w, str(got.value))
+
+
+def test_good_hierarchy_json_still_encodes(walk: Motion) -> None:
+    names = list(walk.names)
+    nodes = _good(names)
+    nodes[1]["weights"] = {names[1]: 2, names[2]: 0.5}
+    out = mpz.decode(mpz.encode(walk, hierarchy=_hier(nodes), max_error=1.0))
+    assert mpz.max_error(walk, out) <= 1.0
+
+
+# ------------------------------------------------------------------- the CLI --
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory, walk: Motion) -> Path:
+    d = tmp_path_factory.mktemp("inputs")
+    np.save(d / "walk.npy", walk.positions)                 # NPY: no units, bare lengths
+    np.save(d / "big.npy", walk.positions * 1e155)
+    names = [f"M{i}" for i in range(walk.n_markers)]
+    (d / "bad.json").write_text(json.dumps(_hier([
+        {"name": "root", "members": names[0], "ref": names[0], "parent": None},
+        {"name": "body", "members": names[1:], "ref": names[1], "parent": "root"}])))
+    return d
+
+
+# (arguments after the input, the input, words the error must hold)
+CLI: list[tuple[list[str], str, tuple[str, ...]]] = [
+    (["--max-error", "5e-324"], "walk.npy", ("max_error", "5e-324")),
+    (["--max-error", "1e308"], "walk.npy", ("max_error", "1e+308")),
+    (["--summary", "x"], "walk.npy", ("--summary", "x")),
+    (["--summary", "0"], "walk.npy", ("summary", "0")),
+    (["--weight", "M1=abc"], "walk.npy", ("--weight", "M1=abc")),
+    (["--weight", "M1=1e308"], "walk.npy", ("weight", "M1", "1e+308")),
+    (["--theta", "nan"], "walk.npy", ("theta", "nan")),
+    (["--tau", "1e308"], "walk.npy", ("tau", "1e+308")),
+    (["--grid", "5e-324"], "walk.npy", ("grid", "5e-324")),
+    (["--smoothing", "99"], "walk.npy", ("smoothing", "99")),
+    (["--hierarchy", "{dir}/bad.json"], "walk.npy", ("members",)),
+    ([], "big.npy", ("position magnitude",)),
+]
+
+
+@pytest.mark.parametrize("args,source,words", CLI, ids=[" ".join(c[0]) or c[1] for c in CLI])
+def test_cli_bad_inputs(inputs: Path, tmp_path: Path, args: list[str], source: str,
+                        words: tuple[str, ...]) -> None:
+    out = tmp_path / "out.mpz"
+    argv = [a.replace("{dir}", str(inputs)) for a in args]
+    run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode",
+                          str(inputs / source), "-o", str(out), *argv],
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode in (2, 64), (run.returncode, run.stderr)   # bad input or usage
+    assert "Traceback" not in run.stderr, run.stderr
+    for w in words:
+        assert w in run.stderr, (w, run.stderr)
+    assert not out.exists()
+
+
+def test_cli_latin1_c3d_label(tmp_path: Path) -> None:
+    """A C3D label that is not UTF-8 (one latin-1 byte): read as latin-1, encoded as UTF-8,
+    decoded back with its name (no UnicodeEncodeError after the encode)."""
+    ezc3d = pytest.importorskip("ezc3d")
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = [100.0]
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["ABCD", "EFGH"]
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    pts = np.ones((4, 2, 10))
+    pts[:3] = np.random.default_rng(0).normal(size=(3, 2, 10)) * 100
+    c["data"]["points"] = pts
+    src = tmp_path / "lab.c3d"
+    c.write(str(src))
+    raw = bytearray(src.read_bytes())
+    at = raw.find(b"ABCD")
+    raw[at + 2] = 0xE9                                      # "AB\xe9D": not UTF-8
+    src.write_bytes(bytes(raw))
+    out = tmp_path / "lab.mpz"
+    run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode", str(src),
+                          "-o", str(out), "--max-error", "1mm", "-q"],
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert mpz.decode(out.read_bytes()).names == ["AB\u00e9D", "EFGH"]
