@@ -64,7 +64,8 @@ def main():
             curves[seg] = pts
             rb, ab, mb, dtb = run(m, segmentation=seg, max_error=2.0, patterns="on")
             bounded[seg].append(rb)
-            print(f"  {seg:<9} bounded 2 mm, patterns on: ratio {rb:.1f}, max {mb:.3f}, {dtb:.2f} s")
+            print(f"  {seg:<9} bounded 2 mm, patterns on: ratio {rb:.1f}, max {mb:.3f}, "
+                  f"{dtb:.2f} s")
         for t in TARGETS:
             vals = {seg: at_arms(curves[seg], t) for seg in curves}
             print(f"  ratio at ARMS {t:g} mm: " + ", ".join(

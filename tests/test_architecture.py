@@ -25,7 +25,7 @@ def test_options_are_immutable_and_reusable():
     first, _ = encode_motion(m, opts)
     assert opts.patterns is None and opts.pattern_mode == "off"   # nothing resolved in place
     assert encode_motion(m, opts)[0] == first                     # same options, same bytes
-    lossy = replace(opts, max_error=None)                          # reuse after an encode works
+    lossy = replace(opts, max_error=None, lossy=True)              # reuse after an encode works
     assert lossy.pattern_mode == "on"
     encode_motion(m, lossy)
 

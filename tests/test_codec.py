@@ -69,7 +69,7 @@ def test_marker_gap_throughout_and_single_frame():
 
 def test_lossy_paper_mode_uses_patterns():
     m = generate("walk", frames=600, seed=4)
-    data, rep = encode_motion(m, EncodeOptions())
+    data, rep = encode_motion(m, EncodeOptions(lossy=True))     # only by name (issue 12)
     s = read_stream(data)
     assert s.segs and not s.residual            # SEGS present, no residual layer
     assert all(n.used_patterns for n in rep.nodes)
@@ -112,7 +112,9 @@ def test_summary_chunk_roundtrip_without_decoding_motion():
 
 def test_options_are_checked():
     m = generate("walk", frames=20)
-    for bad in (dict(max_error=-1), dict(metric="median"), dict(patterns="off"),
+    for bad in (dict(max_error=-1), dict(metric="median"), dict(patterns="off", lossy=True),
+                dict(lossy=True, max_error=1.0), dict(model_errors={"ANGELS": 1e-3}),
+                dict(model_error=0.0), dict(default_error_mm=-1.0),
                 dict(max_error=1.0, group_errors={"nosuchnode": 0.1}), dict(k0=0),
                 dict(bogus=1)):
         with pytest.raises(EncoderError):
@@ -123,3 +125,4 @@ def test_encode_is_deterministic():
     m = generate("walk", frames=120, seed=8)
     assert mpz.encode(m, max_error=1.0) == mpz.encode(m, max_error=1.0)
     assert mpz.encode(m) == mpz.encode(m)
+    assert mpz.encode(m, lossy=True) == mpz.encode(m, lossy=True)

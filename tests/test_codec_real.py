@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 
 import mpz
+from mpz import container
 from mpz.encoder import EncodeOptions, encode_motion
+from mpz.extensions import EXTENSIONS
 import mpz.io
 
 FILES = sorted(str(p.relative_to(Path(__file__).resolve().parents[2] / "shared" / "data"))
@@ -27,7 +29,11 @@ def test_every_real_file_keeps_every_bound(shared_data, name):
         err = mpz.max_error(m, out)
         assert err <= E, f"{name}: max error {err} > {E} ({e_mm} mm)"
         assert np.array_equal(out.valid, m.valid)
-        assert len(data) < m.raw_size()
+        # the markers alone must be smaller than their float32 form; what extensions keep
+        # besides them (a C3D's analog channels, a skeleton) is counted separately (issue 12)
+        extra = {t for ext in EXTENSIONS for t in ext.chunk_types}
+        kept_besides = sum(n for t, n in container.chunk_sizes(data).items() if t in extra)
+        assert len(data) - kept_besides < m.raw_size()
 
 
 def test_decoded_c3d_opens_in_ezc3d(shared_data, tmp_path):
@@ -53,10 +59,11 @@ def test_local_control_weight_and_group_bound(shared_data):
     def foot_rms(**kw):
         data, rep = encode_motion(m, EncodeOptions(**kw))
         err = mpz.metrics.errors(m, mpz.decode(data))
-        return float(np.sqrt(np.nanmean(err[:, feet] ** 2))), float(np.nanmax(err[:, feet])), len(data)
+        feet_err = err[:, feet]
+        return float(np.sqrt(np.nanmean(feet_err ** 2))), float(np.nanmax(feet_err)), len(data)
 
-    base_rms, _, _ = foot_rms()
-    heavy_rms, _, _ = foot_rms(weights={"l_foot": 10.0})
+    base_rms, _, _ = foot_rms(lossy=True)
+    heavy_rms, _, _ = foot_rms(lossy=True, weights={"l_foot": 10.0})
     assert heavy_rms < base_rms
     loose_rms, loose_max, loose_size = foot_rms(max_error=5.0)
     tight_rms, tight_max, tight_size = foot_rms(max_error=5.0, group_errors={"l_foot": 0.5})

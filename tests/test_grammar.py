@@ -47,6 +47,73 @@ CASES = [
     ("§4.11", "meta", dict(count=1, entries=[dict(key="subject", value="02")]),
      struct.pack("<H", 1) + b"\x07subject" + struct.pack("<H", 2) + b"02"),
     ("§4.12", "MEND", dict(), b""),
+    # §4.13 C3D archive chunks (MPZ 1.1): bytes written with struct, independently
+    ("§4.13.1", "chdr", dict(processor=84, block=b"\x02\x50" + bytes(510)),
+     b"\x54" + b"\x02\x50" + bytes(510)),
+    ("§4.13.2", "cprm",
+     dict(count=2, records=[
+         dict(group=-1, locked=0, name=b"POINT", description=b"3-D", type=None, dims=None,
+              data=None),
+         dict(group=1, locked=1, name=b"USED", description=b"", type=2, dims=b"\x02",
+              data=struct.pack("<hh", 7, -1))]),
+     struct.pack("<H", 2) + struct.pack("<bB", -1, 0) + b"\x05POINT" + b"\x033-D"
+     + struct.pack("<bB", 1, 1) + b"\x04USED" + b"\x00" + struct.pack("<bB", 2, 1) + b"\x02"
+     + struct.pack("<hh", 7, -1)),
+    ("§4.13.3", "cpnt",
+     dict(storage=1, point_count=2, slots=[1, 0],
+          words=[dict(mode=0, shift=-3, order=1, low_bits=0),
+                 dict(mode=1, shift=0, order=2, low_bits=3)],
+          model_count=1, models=[dict(kind=2, axes=[
+              dict(offset=0.5, step=0.25, bound=0.125, order=a) for a in range(3)])],
+          coded=b"\x00" * 5),
+     struct.pack("<BH", 1, 2) + struct.pack("<HH", 1, 0) + struct.pack("<BbBB", 0, -3, 1, 0)
+     + struct.pack("<BbBB", 1, 0, 2, 3) + struct.pack("<H", 1) + b"\x02"
+     + b"".join(struct.pack("<dddB", 0.5, 0.25, 0.125, a) for a in range(3)) + b"\x00" * 5),
+    ("§4.13.4", "cana",
+     dict(storage=0, channels=1, samples=4, table=[dict(mode=0, shift=0, order=2, low_bits=0)],
+          coded=b"\x00" * 5),
+     struct.pack("<BHH", 0, 1, 4) + struct.pack("<BbBB", 0, 0, 2, 0) + b"\x00" * 5),
+    # §4.14 skeleton chunks (MPZ 1.1, issue 13): bytes written with struct, independently
+    ("§4.14.1", "bvhs",
+     dict(encoding=0, frame_time=0.0083333, joint_count=2,
+          joints=[dict(name="Hips", parent=0xFFFF, offset=[0.0, 0.0, 0.0], channel_count=4,
+                       channels=[0, 1, 5, 3]),
+                  dict(name="", parent=0, offset=[0.0, 1.5, -2.0], channel_count=0,
+                       channels=[])],
+          channel_count=4, position_bound=0.25,
+          channels=[dict(step_mantissa=m, step_digits=2, wrap=w, low=lo, order=o, group=gr)
+                    for m, w, lo, o, gr in ((2, 0, 0, 2, 0), (2, 0, 0, 1, 1),
+                                            (2, 1, -9000, 2, 1), (5, 1, -18000, 0, 0))],
+          coded=b"\x00" * 5),
+     struct.pack("<BdH", 0, 0.0083333, 2)
+     + b"\x04Hips" + struct.pack("<H3dB", 0xFFFF, 0.0, 0.0, 0.0, 4) + bytes([0, 1, 5, 3])
+     + b"\x00" + struct.pack("<H3dB", 0, 0.0, 1.5, -2.0, 0)
+     + struct.pack("<Hd", 4, 0.25)
+     + struct.pack("<HBBiBB", 2, 2, 0, 0, 2, 0) + struct.pack("<HBBiBB", 2, 2, 0, 0, 1, 1)
+     + struct.pack("<HBBiBB", 2, 2, 1, -9000, 2, 1) + struct.pack("<HBBiBB", 5, 2, 1, -18000, 0, 0)
+     + b"\x00" * 5),
+    ("§4.14.2", "asfs",
+     dict(encoding=1, angle_unit=0, length_unit=0.45, mass="1.0", version="1.10", name="VICON",
+          documentation="a\nb", comments=" c", root_order_count=2, root_order=[0, 3],
+          root_axis_order=0, root_position=[0.0, 0.0, 0.0], root_orientation=[0.0, 0.0, 0.0],
+          bone_count=1,
+          bones=[dict(bone_id=1, name="lfemur", parent=0, direction=[0.0, -1.0, 0.0],
+                      length=7.5, axis=[0.0, 0.0, 20.0], axis_order=5, dof_count=2,
+                      dofs=[3, 6], limit_count=2,
+                      limits=[[-160.0, 20.0], [float("-inf"), float("inf")]])],
+          amc_header=":FULLY-SPECIFIED\n:DEGREES", first_frame=1, amc_count=2,
+          amc_order=[0, 1], channel_count=4, position_bound=0.0,
+          channels=[dict(step_mantissa=1, step_digits=4, wrap=0, low=0, order=2, group=0)] * 4,
+          coded=b"\x00" * 5),
+     struct.pack("<BBd", 1, 0, 0.45) + b"\x031.0" + b"\x041.10" + b"\x05VICON"
+     + struct.pack("<H", 3) + b"a\nb" + struct.pack("<H", 2) + b" c"
+     + b"\x02\x00\x03" + b"\x00" + struct.pack("<6d", 0, 0, 0, 0, 0, 0)
+     + struct.pack("<H", 1) + struct.pack("<I", 1) + b"\x06lfemur"
+     + struct.pack("<H3dd3dB", 0, 0.0, -1.0, 0.0, 7.5, 0.0, 0.0, 20.0, 5) + b"\x02\x03\x06"
+     + b"\x02" + struct.pack("<4d", -160.0, 20.0, float("-inf"), float("inf"))
+     + struct.pack("<H", 25) + b":FULLY-SPECIFIED\n:DEGREES" + struct.pack("<IH2H", 1, 2, 0, 1)
+     + struct.pack("<Hd", 4, 0.0) + struct.pack("<HBBiBB", 1, 4, 0, 0, 2, 0) * 4
+     + b"\x00" * 5),
 ]
 
 

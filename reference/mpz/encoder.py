@@ -22,12 +22,13 @@ The encoder never writes files; see :func:`mpz.write_mpz` for atomic output.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, fields, replace
 import math
+import os
 import time
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Never
 
 import numpy as np
 from numpy.typing import NDArray
@@ -64,10 +65,11 @@ from mpz.format import (
     MAX_SAMPLES,
     MAX_SMOOTHING,
     MAX_SUMMARY_LEVELS,
+    MM_PER_UNIT,
     ROOT_PARENT,
     VERSION_MAJOR,
-    VERSION_MINOR,
     ErrorMetric,
+    ModelKind,
     ResidualBase,
     SummarySpace,
     unit_code,
@@ -75,12 +77,14 @@ from mpz.format import (
 from mpz.hierarchy import Hierarchy, Node, build_hierarchy, head_scale
 from mpz.motion import Motion
 from mpz.normalize import denormalize, normalize, segment_starts
-from mpz.predict import residuals
+from mpz.predict import reconstruct, residuals
 from mpz.quantize import choose_lattice
 from mpz.segment import segment
-from mpz.smooth import smooth_boundaries
+from mpz.smooth import smooth_frames, window
 
 IntArray = NDArray[np.int64]
+#: grid values a candidate layer keeps (|w| < 2^30, §5.4): half the memory of int64
+Int32Array = NDArray[np.int32]
 FloatArray = NDArray[np.float64]
 Progress = Callable[[float, str], None]
 
@@ -94,6 +98,14 @@ KEY_REFINE = 2
 
 
 # ----------------------------------------------------------------- options --
+def _as_dict(value: object, name: str) -> dict[Any, Any]:
+    """A mapping option as a dict (issue 11.6: anything else is an EncoderError)."""
+    if not isinstance(value, Mapping):
+        raise EncoderError(f"{name} must be a mapping (name -> value), got "
+                           f"{type(value).__name__}")
+    return dict(value)
+
+
 @dataclass(frozen=True)
 class EncodeOptions:
     """Every control of the encoder; the field defaults are the one definition of the
@@ -129,19 +141,53 @@ class EncodeOptions:
     summary_space: str = "positions"
     metadata: Mapping[str, str] = field(default_factory=dict)
     seed: int = 0
+    # issue 12: a safe default bound, the paper's unbounded mode only by name, model outputs
+    #: the paper's lossy mode (no residual layer, no declared bound): only when asked for
+    lossy: bool = False
+    #: the bound when neither max_error nor lossy is given, for motions in known units
+    #: (spec Appendix C: below the reconstruction residual of every real capture measured)
+    default_error_mm: float = 0.1
+    #: ... and for motions without units: this fraction of the largest extent of the data
+    default_error_fraction: float = 1e-4
+    #: code positions exactly on this grid (x = q x step, error 0); by default the grid of an
+    #: int16 C3D source (|POINT:SCALE|), when no bound is given
+    source_grid: float | None = None
+    #: model outputs (§4.13.3): max error as a fraction of each channel's range
+    model_error: float = 1e-4
+    #: ... per kind (ANGLES, FORCES, MOMENTS, POWERS, SCALARS, REACTIONS), e.g. looser angles
+    model_errors: Mapping[str, float] = field(default_factory=dict)
+    # issue 13, skeletal input (BVH, AMC/ASF; spec §4.14, mpz.skeleton):
+    #: False: write no skeleton chunks (a plain 1.0 file of joint positions)
+    keep_skeleton: bool = True
+    #: bound on rotation channels in degrees; None: mpz.skeleton.DEFAULT_CHANNEL_ERROR (0.01),
+    #: or as position_error allows when that is set
+    angle_error: float | None = None
+    #: bound on translation channels in the skeleton's length unit; None: as angle_error
+    translation_error: float | None = None
+    #: bound on joint positions computed from the channels (spec §6.10), in motion units
+    position_error: float | None = None
 
     def __post_init__(self) -> None:
         # read-only views, so an options object cannot change after it is made
-        object.__setattr__(self, "group_errors", MappingProxyType(dict(self.group_errors)))
-        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+        object.__setattr__(self, "group_errors",
+                           MappingProxyType(_as_dict(self.group_errors, "group_errors")))
+        object.__setattr__(self, "metadata", MappingProxyType(_as_dict(self.metadata,
+                                                                       "metadata")))
+        object.__setattr__(self, "model_errors", MappingProxyType(
+            {str(k).upper(): v for k, v in dict(self.model_errors).items()}))
         if self.weights is not None:
-            object.__setattr__(self, "weights", MappingProxyType(dict(self.weights)))
+            object.__setattr__(self, "weights", MappingProxyType(_as_dict(self.weights,
+                                                                          "weights")))
+        if isinstance(self.summary, (str, bytes)) or not isinstance(self.summary, Iterable):
+            raise EncoderError(f"summary must be a sequence of segment counts, got "
+                               f"{self.summary!r}")
         object.__setattr__(self, "summary", tuple(self.summary))
 
     @property
     def bounded(self) -> bool:
-        """A hard bound is declared: every node gets a residual layer."""
-        return self.max_error is not None
+        """A hard bound is declared (every mode but ``lossy``): every node gets a residual
+        layer. Without ``max_error`` the bound is the default (:func:`resolve_bound`)."""
+        return not self.lossy
 
     @property
     def pattern_mode(self) -> str:
@@ -152,14 +198,31 @@ class EncodeOptions:
 
     def validate(self) -> None:
         """Raise EncoderError for options that cannot be honoured (changes nothing)."""
+        check_option_values(self)          # issue 11.6: types and ranges, each option named
         e = self.max_error
         if e is not None and not (math.isfinite(e) and e > 0):
             raise EncoderError(f"max_error must be finite and > 0, got {self.max_error!r}")
         for name, e in self.group_errors.items():
             if not (math.isfinite(e) and e > 0):
                 raise EncoderError(f"group error for {name!r} must be finite and > 0, got {e!r}")
-        if self.group_errors and self.max_error is None:
-            raise EncoderError("group error bounds need a global max_error as well")
+        if self.lossy and (self.max_error is not None or self.source_grid is not None):
+            raise EncoderError("lossy (the paper's unbounded mode) and a bound (max_error, "
+                               "source_grid) exclude each other")
+        if self.group_errors and self.lossy:
+            raise EncoderError("group error bounds need a bound: not with lossy")
+        for name, v in (("default_error_mm", self.default_error_mm),
+                        ("default_error_fraction", self.default_error_fraction),
+                        ("model_error", self.model_error), *self.model_errors.items()):
+            if not (math.isfinite(v) and v > 0):
+                raise EncoderError(f"{name} must be finite and > 0, got {v!r}")
+        kinds = {k.name for k in ModelKind}
+        unknown = sorted(set(self.model_errors) - kinds)
+        if unknown:
+            raise EncoderError(f"model error given for {', '.join(unknown)}; the model-output "
+                               f"kinds are {', '.join(sorted(kinds))}")
+        if self.source_grid is not None and not (math.isfinite(self.source_grid)
+                                                 and self.source_grid > 0):
+            raise EncoderError(f"source_grid must be finite and > 0, got {self.source_grid!r}")
         if not self.theta > 0 or not self.tau > 0:
             raise EncoderError("theta and tau must be > 0 (fractions of the head size ADDH)")
         if not 1 <= self.k0 <= 65535:
@@ -169,8 +232,8 @@ class EncodeOptions:
         if self.pattern_mode not in ("auto", "on", "off"):
             raise EncoderError(f"patterns must be auto, on or off, got {self.patterns!r}")
         if self.pattern_mode == "off" and not self.bounded:
-            raise EncoderError("patterns='off' needs max_error (the residual layer carries the "
-                               "motion)")
+            raise EncoderError("patterns='off' needs a bound, not lossy (the residual layer "
+                               "carries the motion)")
         if self.segmentation not in ("adaptive", "optimal"):
             raise EncoderError(f"segmentation must be adaptive or optimal, got "
                                f"{self.segmentation!r}")
@@ -184,6 +247,147 @@ class EncodeOptions:
 
 #: the defaults, for tools that show or restate them
 DEFAULTS = EncodeOptions()
+
+
+# ------------------------------------------------------ issue 11.6: inputs --
+# Every option and every input is checked before any work, by type and range, and a bad
+# one is an EncoderError naming it: nothing else may escape the encoder (a ValueError
+# from scipy, a ZeroDivisionError, a UnicodeEncodeError after the whole encode, ...).
+
+#: lengths (max_error, group errors, grid) in motion units: the grid step, about E / sqrt(3),
+#: stays a normal binary64 number, and step x 2^31 stays finite (§4.4)
+MIN_LENGTH = 1e-300
+MAX_LENGTH = 1e300
+#: theta and tau are fractions of the head size ADDH; above this they change nothing
+MAX_FRACTION = 1e6
+#: the marker weights HIER can hold: w = (c + 1) / 16 for the codes c = 0 .. 255 (§4.3)
+MIN_WEIGHT = 1.0 / 16.0
+MAX_WEIGHT = 16.0
+#: the largest position magnitude taken, in motion units: the encoder squares distances and
+#: sums them over up to 2^26 samples (hierarchy, segmentation, summary), which must stay
+#: finite in binary64 ((2 x 10^100)^2 x 2^26 x 3 < 10^210)
+MAX_MAGNITUDE = 1e100
+
+
+def _number(value: object, name: str) -> float:
+    """``value`` as a float; only real numbers (not bool, not text) are numbers."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise EncoderError(f"{name} must be a number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:               # an int beyond binary64
+        raise EncoderError(f"{name} must be a number in binary64 range, got {value!r}") from None
+
+
+def _integer(value: object, name: str, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise EncoderError(f"{name} must be an integer, got {value!r}")
+    if not lo <= int(value) <= hi:
+        raise EncoderError(f"{name} must be in {lo}..{hi}, got {value!r}")
+    return int(value)
+
+
+def _length(value: object, name: str) -> float:
+    v = _number(value, name)
+    if not MIN_LENGTH <= v <= MAX_LENGTH:      # NaN fails too
+        raise EncoderError(f"{name} must be a length from {MIN_LENGTH:g} to {MAX_LENGTH:g} in "
+                           f"the motion's units, got {value!r}")
+    return v
+
+
+def _utf8(text: object, what: str) -> str:
+    """``text`` if it is a str that UTF-8 can hold (no lone surrogates, which readers make
+    of undecodable bytes); the MPZ strings (MNAM, meta) are UTF-8 (§4.2, §4.11)."""
+    if not isinstance(text, str):
+        raise EncoderError(f"{what} must be text, got {type(text).__name__} {text!r}")
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise EncoderError(f"{what} is not valid Unicode text: {ascii(text)} holds a lone "
+                           f"surrogate at character {exc.start} (what undecodable bytes of a "
+                           f"source file become), and MPZ stores UTF-8") from None
+    return text
+
+
+def check_option_values(o: EncodeOptions) -> None:
+    """Issue 11.6: the type and range of every option, naming the option at fault.
+
+    Raises
+    ------
+    EncoderError
+        For the first option that is not of its type or not in its range.
+    """
+    if o.max_error is not None:
+        _length(o.max_error, "max_error")
+    for k, v in o.group_errors.items():
+        _utf8(k, "group_errors: a node name")
+        _length(v, f"group error of node {k!r}")
+    if o.grid is not None:
+        _length(o.grid, "grid")
+    for name in ("theta", "tau"):
+        v = _number(getattr(o, name), name)
+        if not 0 < v <= MAX_FRACTION:
+            raise EncoderError(f"{name} must be a fraction of the head size ADDH in "
+                               f"(0, {MAX_FRACTION:g}], got {getattr(o, name)!r}")
+    _integer(o.k0, "k0", 1, 65535)
+    _integer(o.smoothing, "smoothing", 0, MAX_SMOOTHING)
+    _integer(o.max_segment, "max_segment", 2, MAX_PATTERN_LENGTH)
+    _integer(o.seed, "seed", 0, 2 ** 63 - 1)
+    for name in ("metric", "segmentation", "summary_space"):
+        if not isinstance(getattr(o, name), str):
+            raise EncoderError(f"{name} must be text, got {getattr(o, name)!r}")
+    if o.summary_space not in ("positions", "angles"):
+        raise EncoderError(f"summary_space must be positions or angles, got "
+                           f"{o.summary_space!r}")
+    if o.patterns is not None and not isinstance(o.patterns, str):
+        raise EncoderError(f"patterns must be auto, on, off or None, got {o.patterns!r}")
+    if not isinstance(o.lossy, bool):
+        raise EncoderError(f"lossy must be True or False, got {o.lossy!r}")
+    for count in o.summary:
+        _integer(count, "summary: a segment count", 1, MAX_FRAMES)
+    if len(set(o.summary)) > MAX_SUMMARY_LEVELS:
+        raise EncoderError(f"summary: at most {MAX_SUMMARY_LEVELS} segment counts (§8), got "
+                           f"{len(set(o.summary))}")
+    for k, w in (o.weights or {}).items():
+        _utf8(k, "weights: a marker or node name")
+        v = _number(w, f"weight of {k!r}")
+        if not MIN_WEIGHT <= v <= MAX_WEIGHT:
+            raise EncoderError(f"weight of {k!r} must be from 1/16 to 16 (what HIER holds, "
+                               f"§4.3), got {w!r}")
+    for k, text in o.metadata.items():
+        _utf8(k, "metadata key")
+        _utf8(text, f"metadata value of {k!r}")
+
+
+def check_motion(motion: Motion) -> None:
+    """Issue 11.6: what the file will hold, checked before any work: marker names and
+    metadata as UTF-8 (§4.2, §4.11), and position magnitudes up to :data:`MAX_MAGNITUDE`.
+
+    Raises
+    ------
+    EncoderError
+        Naming the marker, the key, or the frame and marker of the largest position.
+    """
+    for i, name in enumerate(motion.names):
+        _utf8(name, f"marker {i} name")
+        if not 1 <= len(name.encode("utf-8")) <= 255 or "\x00" in name:
+            raise EncoderError(f"marker {i} name {ascii(name)}: marker names are 1..255 bytes "
+                               f"of UTF-8 without NUL (§4.2)")
+    for k, text in motion.metadata.items():
+        _utf8(k, "metadata key")
+        _utf8(text, f"metadata value of {k!r}")
+    F = motion.n_frames
+    step = max(1, (1 << 20) // max(1, motion.n_markers))    # bounded temporaries
+    for t0 in range(0, F, step):
+        blk = np.abs(motion.positions[t0: t0 + step])
+        blk[~motion.valid[t0: t0 + step]] = 0.0
+        peak = float(blk.max(initial=0.0))
+        if peak > MAX_MAGNITUDE:
+            t, m, _ = np.unravel_index(int(np.argmax(blk)), blk.shape)
+            raise EncoderError(f"position magnitude {peak:g} (frame {t0 + int(t)}, marker "
+                               f"{ascii(motion.names[int(m)])}) is beyond the "
+                               f"{MAX_MAGNITUDE:g} {motion.units or 'units'} the encoder "
+                               f"takes")
 
 
 # ----------------------------------------------------------------- reports --
@@ -217,6 +421,9 @@ class EncodeReport:
     nodes: list[NodeReport] = field(default_factory=list)
     chunk_bytes: dict[str, int] = field(default_factory=dict)
     seconds: float = 0.0
+    #: issue 12: the declared bound (None: lossy, 0.0: exact) and how it was chosen
+    bound: float | None = None
+    bound_rule: str = ""
 
     @property
     def ratio(self) -> float:
@@ -250,6 +457,20 @@ def fill_gaps(x: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return x
 
 
+def _filled(x: FloatArray, valid: NDArray[np.bool_]) -> FloatArray:
+    """:func:`fill_gaps`, except that a motion without gaps is returned as it is, not
+    copied (issue 11.11: the encoder then holds no second copy of its input)."""
+    return x if valid.all() else fill_gaps(x, valid)
+
+
+def _capacity(values: int) -> int:
+    """A BlockEncoder capacity that holds a block of ``values`` without growing (its worst
+    case is 8 bytes a value, plus the flush). The buffer is zero-filled memory that the
+    system maps on first write, so only the bytes the coder writes become resident; a
+    buffer that grows by doubling copies, and so touches, every byte it held (issue 11.11)."""
+    return 8 * values + 256
+
+
 def _round(a):
     return np.floor(np.asarray(a) + 0.5).astype(np.int64)
 
@@ -259,7 +480,7 @@ def _best_order(block: IntArray, period: int | None = None,
     """Code ``block`` with each predictor order; return (order, payload) of the smallest."""
     best: tuple[int, bytes] | None = None
     for order in orders:
-        enc = BlockEncoder(capacity=max(1024, block.size))
+        enc = BlockEncoder(capacity=_capacity(block.size))
         enc.block(residuals(block, order, period), period=period)
         data = enc.finish()
         if best is None or len(data) < len(best[1]):
@@ -269,16 +490,23 @@ def _best_order(block: IntArray, period: int | None = None,
 
 
 def _bounded(y: FloatArray, radius: float,
-             orders: tuple[int, ...] = (1, 2)) -> tuple[int, IntArray, bytes]:
-    """Best (order, values, payload) for targets ``y`` (grid units) within ``radius``."""
-    best: tuple[int, IntArray, bytes] | None = None
+             orders: tuple[int, ...] = (1, 2)) -> tuple[int, Int32Array, bytes]:
+    """Best (order, values, payload) for targets ``y`` (grid units) within ``radius``.
+
+    Memory (issue 11.11): the values of each order become their residuals in place and,
+    for the best order, turn back and are kept as int32 (|w| < 2^30); so besides ``y`` at
+    most one int64 and one int32 array of its size live.
+    """
+    best: tuple[int, Int32Array, bytes] | None = None
     for order in orders:
-        wv = choose_lattice(y, radius, order)
-        enc = BlockEncoder(capacity=max(1024, wv.size))
-        enc.block(residuals(wv, order))
+        e = residuals(choose_lattice(y, radius, order), order, inplace=True)
+        enc = BlockEncoder(capacity=_capacity(e.size))
+        enc.block(e)
         data = enc.finish()
         if best is None or len(data) < len(best[2]):
-            best = (order, wv, data)
+            best = None                          # let the previous best go first
+            best = (order, reconstruct(e, order, inplace=True).astype(np.int32), data)
+        del e
     assert best is not None
     return best
 
@@ -326,6 +554,80 @@ def _reroot(root_marker: int, M: int, x: FloatArray | None = None,
     return Hierarchy(nodes, "flat")
 
 
+# -------------------------------------------------------- 0: the bound --
+#: issue 12: with source_grid, each sample's lattice search radius in grid steps: no grid
+#: point but the target's own lies within it (the next one is 1 step away)
+EXACT_RADIUS = 0.875
+
+
+def source_grid_of(motion: Motion) -> float | None:
+    """The grid an int16 C3D source stored its points on (|POINT:SCALE|), if any."""
+    a = motion.extras.get("c3d")
+    grid = getattr(a, "point_grid", None)
+    return grid() if callable(grid) else None
+
+
+def on_grid(motion: Motion, step: float) -> bool:
+    """True if every valid coordinate is exactly q x step, |q| < 2^29 (§5.4 margin)."""
+    x = motion.positions[motion.valid]
+    q = np.rint(x / step)
+    return bool(np.array_equal(q * step, x) and np.abs(q).max(initial=0) < 2.0 ** (MAX_EXP - 1))
+
+
+def default_error(motion: Motion, opts: EncodeOptions) -> float:
+    """The default bound in motion units: ``default_error_mm`` for known units, else
+    ``default_error_fraction`` of the largest extent of the data (spec Appendix C); for a
+    skeletal motion whose skeleton chunk is written, the marker layer's preview bound
+    (issue 13, :func:`mpz.skeleton.preview_bound`)."""
+    if opts.keep_skeleton:
+        from mpz.skeleton import preview_bound
+        preview = preview_bound(motion)
+        if preview is not None:
+            return preview
+    mm = MM_PER_UNIT.get(motion.units)
+    if mm is not None:
+        return opts.default_error_mm / mm
+    x = motion.positions[motion.valid]
+    extent = float((x.max(0) - x.min(0)).max()) if x.size else 0.0
+    return opts.default_error_fraction * extent if extent > 0 else opts.default_error_mm
+
+
+def resolve_bound(motion: Motion, opts: EncodeOptions) -> tuple[EncodeOptions, str]:
+    """Issue 12: the bound a file declares, and how it was chosen (for the report).
+
+    ``lossy`` keeps the paper's mode (no bound); an explicit ``max_error`` or
+    ``source_grid`` is kept; otherwise an int16 C3D source is coded exactly on its own grid,
+    and any other motion within the default bound (:func:`default_error`).
+    """
+    if opts.lossy:
+        grid = source_grid_of(motion)
+        if grid is not None and on_grid(motion, grid):
+            opts = replace(opts, source_grid=grid)
+        return opts, "lossy (no bound: the paper's mode, asked for by name)"
+    if opts.source_grid is not None:
+        if not on_grid(motion, opts.source_grid):
+            raise EncoderError(f"source_grid {opts.source_grid!r}: the positions are not exact "
+                               "multiples of it")
+        return opts, f"exact on the grid of step {opts.source_grid:g} (error 0)"
+    grid = source_grid_of(motion)
+    if grid is not None and not on_grid(motion, grid):
+        grid = None
+    if opts.max_error is not None:
+        if grid is not None:
+            return (replace(opts, source_grid=grid),
+                    f"max error {opts.max_error:g} (given), on the source's int16 grid")
+        return opts, f"max error {opts.max_error:g} (given)"
+    if grid is not None:
+        return (replace(opts, source_grid=grid),
+                f"exact on the source's int16 grid (POINT:SCALE {grid:g}), error 0 (default)")
+    e = default_error(motion, opts)
+    how = (f"{opts.default_error_mm:g} mm" if motion.units in MM_PER_UNIT
+           else f"{opts.default_error_fraction:g} of the largest extent")
+    if opts.keep_skeleton and "skeleton" in motion.extras:      # issue 13
+        how = "1/500 of the skeleton's size: a preview, the channels hold the motion"
+    return replace(opts, max_error=e), f"max error {e:g} ({how}, default)"
+
+
 # ---------------------------------------------------------- 1-2: the plan --
 def plan_hierarchy(motion: Motion, opts: EncodeOptions) -> Hierarchy:
     """Stage 1: the coding hierarchy (paper §III-A)."""
@@ -340,6 +642,69 @@ def plan_hierarchy(motion: Motion, opts: EncodeOptions) -> Hierarchy:
     return hier
 
 
+class DecodedTracks:
+    """What the decoder will rebuild, as far as the encoder needs it (issue 11.11): the
+    decoded track of every marker that is a node's reference (the closed loop codes each
+    node against its parent's) and the largest |q| (QUNT ``bits``), instead of all of q.
+
+    ``tracks[:, ref]`` gives a reference marker's ``[F, 3]`` track, as q would.
+    """
+
+    def __init__(self, refs: set[int]) -> None:
+        self.refs = refs
+        self.tracks: dict[int, IntArray] = {}
+        self.peak = 0
+
+    def add(self, members: Sequence[int], decoded: IntArray) -> None:
+        """The decoded values ``[F, n, 3]`` of ``members``."""
+        for j, m in enumerate(members):
+            if m in self.refs:
+                self.tracks[m] = decoded[:, j].copy()
+        if decoded.size:
+            self.peak = max(self.peak, int(decoded.max()), -int(decoded.min()))
+
+    def __getitem__(self, key: tuple[slice, int]) -> IntArray:
+        rows, marker = key
+        return self.tracks[marker][rows]
+
+
+def _exact_pair(decoded: IntArray, motion: Motion, members: Sequence[int],
+                grid: Grid) -> tuple[NDArray[Any], NDArray[Any]]:
+    """(q x step, x) at the valid samples of ``members``: issue 12's exactness check of
+    the whole of q, made node by node (issue 11.11)."""
+    ok = motion.valid[:, list(members)]
+    return (decoded * grid.step)[ok], motion.positions[:, list(members)][ok]
+
+
+class GridCoordinates:
+    """The motion in grid units, u = (x - offset) / step, formed for the markers asked for
+    (``u[:, members]``) rather than held for all of them (issue 11.11). Each value takes
+    the same two roundings as in the whole array, so the values are the same.
+    """
+
+    def __init__(self, x: FloatArray, offset: FloatArray, step: float) -> None:
+        self.x, self.offset, self.step = x, offset, step
+
+    def __getitem__(self, key: Any) -> FloatArray:
+        out = self.x[key]
+        if np.may_share_memory(out, self.x):     # a view (basic indexing): a new array
+            out = out - self.offset
+        else:                                    # already a copy (fancy indexing)
+            out -= self.offset
+        out /= self.step
+        return out
+
+    def peak(self) -> float:
+        """max |u| over every value, a block of frames at a time."""
+        F, M = self.x.shape[0], self.x.shape[1]
+        step = max(1, (1 << 20) // max(1, M))
+        peak = 0.0
+        for t0 in range(0, F, step):
+            blk = self[t0: t0 + step]
+            peak = max(peak, float(blk.max()), -float(blk.min()))
+        return peak
+
+
 @dataclass(frozen=True)
 class Grid:
     """Stage 2: the quantisation grid (spec §4.4) and each node's error budget."""
@@ -348,6 +713,7 @@ class Grid:
     offset: FloatArray                  # per axis, the middle of the data range
     scale: dict[int, int]               # node -> residual multiplier g (§6.5)
     bounds: dict[int, float]            # node -> max error in motion units (bounded mode)
+    exact: bool = False                 # issue 12: every valid sample exact on the grid
 
 
 def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
@@ -355,8 +721,21 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
     """Stage 2: grid step, offset and per-node residual multipliers g (spec §4.4, §6.5)."""
     lo, hi = x.reshape(-1, 3).min(0), x.reshape(-1, 3).max(0)
     offset = (lo + hi) / 2.0
+    # issue 12: with a source grid s (an int16 C3D's), the stored grid is s itself and the
+    # offset 0, so every decoded value is q x s, the reader's own product, and the C3D can
+    # be written back as int16 with its residual words and camera masks as they were
+    src = None if opts.source_grid is None else float(opts.source_grid)
+    e_all = [opts.max_error, *opts.group_errors.values()] if opts.max_error is not None else []
+    if src is not None and opts.bounded and (not e_all or min(e_all) < src * SQRT3 / SAFETY):
+        # exact: a radius of 0.875 grid steps (>= sqrt(3)/2, as the lattice search needs)
+        # holds no grid point but the target's own, so valid samples are reproduced exactly
+        n = len(hier.nodes)
+        return Grid(src, np.zeros(3), {i: 1 for i in range(1, n)},
+                    {i: EXACT_RADIUS * src for i in range(n)}, exact=True)
     if opts.max_error is None:
         step = opts.grid if opts.grid is not None else addh / 1000.0
+        if src is not None:                       # lossy, on a multiple of the source grid
+            return Grid(src * max(1, round(step / src)), np.zeros(3), {}, {})
         return Grid(step, offset, {}, {})
     names = {node.name: i for i, node in enumerate(hier.nodes)}
     group: dict[int, float] = {}
@@ -372,6 +751,8 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
     step = 2.0 * e_min / SQRT3 * SAFETY / KEY_REFINE
     if opts.grid is not None:
         step = min(step, opts.grid)
+    if src is not None:                           # on the source grid (finer than step)
+        step, offset = src, np.zeros(3)
     g = {}
     for i in range(1, len(hier.nodes)):
         e = group.get(i, opts.max_error)
@@ -389,7 +770,7 @@ def code_root(u_root: FloatArray, opts: EncodeOptions, grid: Grid) -> tuple[Root
     integer track ``[F, 3]``."""
     if opts.bounded:
         order, w, data = _bounded(u_root[:, None, :], grid.bounds[0] / grid.step)
-        return Root(order=order, coded=data), w[:, 0]
+        return Root(order=order, coded=data), w[:, 0].astype(np.int64)
     q = _round(u_root)
     order, data = _best_order(q[:, None, :])
     return Root(order=order, coded=data), q
@@ -426,7 +807,7 @@ class ResidualLayer:
     base: ResidualBase
     order: int
     scale: int                          # g
-    values: IntArray                    # w, before multiplying by g
+    values: Int32Array                  # w, before multiplying by g (int32: issue 11.11)
     coded: bytes
 
     def record(self, node: int) -> Resi:
@@ -489,30 +870,60 @@ def code_patterns(x: FloatArray, w: FloatArray, opts: EncodeOptions, addh_q: flo
     enc = BlockEncoder()
     enc.block(np.stack([labels, counts - L], axis=1)[:, None, :])
     sdata = enc.finish()
-    p = denormalize(v * scale, labels, counts)
-    p = smooth_boundaries(p, segment_starts(counts), opts.smoothing)
+    p = _prediction(v * scale, labels, counts, opts.smoothing, F)
     return PatternLayer(K, L, scale, porder, pdata, S, sdata, p)
 
 
-def residual_candidates(i: int, xl: FloatArray, u_members: FloatArray,
+def _prediction(patterns: IntArray, labels: IntArray, counts: IntArray, h: int,
+                F: int) -> IntArray:
+    """The decoder's pattern layer P' (§6.3, §6.4), built a block of frames at a time as the
+    decoder builds it, so that only the result is of the node's size (issue 11.11)."""
+    n = patterns.shape[2]
+    starts = segment_starts(counts)
+    p = np.empty((F, n, 3), np.int64)
+    step = max(1, (1 << 18) // max(1, n))
+    for t0 in range(0, F, step):
+        t1 = min(F, t0 + step)
+        lo, hi = window(F, h, (t0, t1))
+        raw = denormalize(patterns, labels, counts, frames=(lo, hi), starts=starts)
+        p[t0:t1] = smooth_frames(raw, lo, starts, h, F, (t0, t1))
+    return p
+
+
+def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], FloatArray],
                         pat: PatternLayer | None, opts: EncodeOptions,
                         grid: Grid) -> list[tuple[int, ResidualLayer]]:
     """(cost, layer) of every residual layer that keeps node i within its bound (beyond
     the paper): on the pattern layer (base 0), absolute per sample (base 1), key frames
-    (base 2)."""
+    (base 2).
+
+    ``u_members()`` gives a new copy of the members' grid coordinates each time it is
+    called: each candidate divides its own copy in place (issue 11.11).
+    """
     g = grid.scale.get(i, 1)
     radius = grid.bounds[i] / (g * grid.step)
     out = []
     if pat is not None:
-        order, wv, data = _bounded((xl - pat.prediction) / g, radius)
+        assert xl is not None
+        y = xl - pat.prediction
+        y /= g
+        order, wv, data = _bounded(y, radius)
+        del y
         out.append((pat.cost + len(data),
                     ResidualLayer(ResidualBase.PARENT, order, g, wv, data)))
     if opts.pattern_mode != "on":
-        order, wv, data = _bounded(u_members / g, radius)
+        y = u_members()
+        y /= g
+        order, wv, data = _bounded(y, radius)
+        del y
         out.append((len(data), ResidualLayer(ResidualBase.ABSOLUTE, order, g, wv, data)))
         gk = max(1, g // KEY_REFINE)
-        enc = BlockEncoder()
-        wk = keyframe.encode_blocks(enc, u_members / gk, grid.bounds[i] / (gk * grid.step))
+        y = u_members()
+        y /= gk
+        # at most T keys a member: 3 key values, a span, plus a source and a count each
+        enc = BlockEncoder(capacity=_capacity(4 * y.shape[0] * y.shape[1] + 2 * y.shape[1]))
+        wk = keyframe.encode_blocks(enc, y, grid.bounds[i] / (gk * grid.step))
+        del y
         data = enc.finish()
         out.append((len(data), ResidualLayer(ResidualBase.KEYFRAMES, 0, gk, wk, data)))
     return out
@@ -527,33 +938,46 @@ class NodeCode:
     report: NodeReport
 
 
-def code_node(i: int, node: Node, ref: int, u: FloatArray, qhat: IntArray,
+#: the ``decoded`` of a NodeCode once qhat holds its values
+_SPENT: IntArray = np.zeros((0, 0, 3), np.int64)
+
+
+def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTracks,
               opts: EncodeOptions, grid: Grid, addh_q: float) -> NodeCode:
     """Stage 4: node i, coded against the *decoded* track of ``ref``, the reference marker of
     its parent (closed loop)."""
     members = list(node.members)
     ref_q = qhat[:, ref][:, None, :]
-    xl = u[:, members] - ref_q
     rep = NodeReport(node.name, len(members))
     pat = None
+    xl = None
     if opts.pattern_mode != "off":
+        xl = u[:, members]
+        xl -= ref_q
         pat = code_patterns(xl, _weights_for(node), opts, addh_q, opts.seed + i)
     records: list[Record] = []
+    # the decoded values, formed in place on the chosen layer's own arrays (exact integers,
+    # so the order of the sums does not matter): issue 11.11
     if opts.bounded:
         # the cheapest candidate; on a tie the first (min keeps the first minimum)
-        _, layer = min(residual_candidates(i, xl, u[:, members], pat, opts, grid),
+        _, layer = min(residual_candidates(i, xl, lambda: u[:, members], pat, opts, grid),
                        key=lambda c: c[0])
+        del xl
+        local = layer.values.astype(np.int64)
+        local *= layer.scale
         if layer.base == ResidualBase.PARENT:
             assert pat is not None
-            local = pat.prediction + layer.scale * layer.values
+            local += pat.prediction
+            local += ref_q                  # P' + g w + q[ref]
         else:
-            pat = None
-            local = layer.scale * layer.values - ref_q
+            pat = None                      # g w: the members' grid values themselves
         rep.residual_bytes, rep.residual_scale = len(layer.coded), layer.scale
         rep.residual_order = layer.order
     else:
         assert pat is not None              # validate(): lossy mode always has patterns
+        del xl
         local = pat.prediction
+        local += ref_q                      # P' + q[ref]
     if pat is not None:
         records += pat.records(i)
         rep.segments, rep.patterns, rep.pattern_length = pat.segments, pat.K, pat.L
@@ -562,7 +986,7 @@ def code_node(i: int, node: Node, ref: int, u: FloatArray, qhat: IntArray,
     # with a residual layer and no patterns, PATT is left out (spec §3.4)
     if opts.bounded:
         records.append(layer.record(i))
-    return NodeCode(records, local + ref_q, rep)
+    return NodeCode(records, local, rep)
 
 
 # ------------------------------------------------------ 5: the file records --
@@ -615,7 +1039,7 @@ def file_records(motion: Motion, opts: EncodeOptions, hier: Hierarchy, grid: Gri
     if any(not 1 <= len(n.encode("utf-8")) <= 255 for n in motion.names):
         raise EncoderError("marker names must be 1..255 bytes of UTF-8 (spec §4.2)")
     records: list[Record] = [
-        Mhdr(version_major=VERSION_MAJOR, version_minor=VERSION_MINOR,
+        Mhdr(version_major=VERSION_MAJOR, version_minor=0,
              flags=FLAG_RESIDUAL if opts.bounded else 0, frame_count=F, marker_count=M,
              node_count=len(hier.nodes), rate=motion.rate, units=int(unit_code(motion.units)),
              error_metric=int(ErrorMetric.MAX_EUCLIDEAN if opts.bounded else ErrorMetric.NONE),
@@ -630,7 +1054,7 @@ def file_records(motion: Motion, opts: EncodeOptions, hier: Hierarchy, grid: Gri
                                      float(grid.offset[2])), bits=bits),
     ]
     if not motion.valid.all():
-        enc = BlockEncoder()
+        enc = BlockEncoder(capacity=_capacity(motion.valid.size))
         enc.block((~motion.valid).astype(np.int64)[:, :, None], signed=False)
         records.append(Mask(coded=enc.finish()))
     records.append(root)
@@ -645,6 +1069,11 @@ def file_records(motion: Motion, opts: EncodeOptions, hier: Hierarchy, grid: Gri
     for ext in EXTENSIONS:           # what the source holds besides markers (ancillary)
         records += ext.records(motion, opts)
     records.append(Mend())
+    # §2.1: the lowest minor version that describes the file: the newest chunk type in it
+    minor = max(r.MINOR for r in records)
+    head = records[0]
+    if minor and isinstance(head, Mhdr):
+        records[0] = replace(head, version_minor=minor)
     return records
 
 
@@ -667,41 +1096,57 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     """
     t0 = time.perf_counter()
     opts = opts if opts is not None else DEFAULTS
+    if not isinstance(opts, EncodeOptions):
+        raise EncoderError(f"expected EncodeOptions, got {type(opts).__name__}")
     opts.validate()
     if not isinstance(motion, Motion):
         raise EncoderError(f"expected an mpz.Motion, got {type(motion).__name__}")
+    check_motion(motion)                 # issue 11.6: names, metadata, magnitudes up front
     F, M = motion.n_frames, motion.n_markers
     if F > MAX_FRAMES or M > MAX_MARKERS or F * M > MAX_SAMPLES:
         raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8")
+    opts, bound_rule = resolve_bound(motion, opts)          # issue 12: never unbounded unasked
     hier = plan_hierarchy(motion, opts)
     addh, addh_rule = head_scale(motion, hier)
-    x = fill_gaps(motion.positions, motion.valid)
+    x = _filled(motion.positions, motion.valid)   # issue 11.11: not copied without gaps
     grid = plan_grid(motion, opts, hier, addh, x)
     report = EncodeReport(F, M, motion.raw_size(), step=grid.step, addh=addh,
-                          addh_rule=addh_rule, hierarchy=hier.method)
-    u = (x - grid.offset) / grid.step                          # grid coordinates (float)
-    if np.abs(u).max() * 2 + 2 >= 2.0 ** MAX_EXP:
+                          addh_rule=addh_rule, hierarchy=hier.method,
+                          bound=(opts.max_error if opts.max_error is not None
+                                 else 0.0 if grid.exact else None),
+                          bound_rule=bound_rule)
+    u = GridCoordinates(x, grid.offset, grid.step)           # grid coordinates (float)
+    if u.peak() * 2 + 2 >= 2.0 ** MAX_EXP:
         span = float((x.reshape(-1, 3).max(0) - x.reshape(-1, 3).min(0)).max())
         raise EncoderError(f"grid step {grid.step:g} is too fine for a data range of "
                            f"{span:g} {motion.units}: values exceed 2^29")
 
-    qhat = np.zeros((F, M, 3), np.int64)                       # what the decoder will rebuild
+    # what the decoder will rebuild: the tracks the closed loop needs (issue 11.11)
+    qhat = DecodedTracks({n.ref for n in hier.nodes})
     root_marker = hier.nodes[0].members[0]
     root, root_q = code_root(u[:, root_marker], opts, grid)
-    qhat[:, root_marker] = root_q
+    qhat.add([root_marker], root_q[:, None, :])
+    exact = [np.array_equal(*_exact_pair(root_q[:, None, :], motion, [root_marker], grid))
+             ] if grid.exact else []
     coded: list[NodeCode] = []
     n_nodes = len(hier.nodes)
     for i in range(1, n_nodes):
         node = hier.nodes[i]
         nc = code_node(i, node, hier.nodes[node.parent].ref, u, qhat, opts, grid,
                        addh / grid.step)
-        qhat[:, list(node.members)] = nc.decoded
-        coded.append(nc)
+        qhat.add(node.members, nc.decoded)
+        if grid.exact:
+            exact.append(np.array_equal(*_exact_pair(nc.decoded, motion, node.members, grid)))
+        coded.append(replace(nc, decoded=_SPENT))   # only the records are kept
         report.nodes.append(nc.report)
+        del nc
         if progress is not None:
             progress(i / (n_nodes - 1) if n_nodes > 1 else 1.0, node.name)
 
-    bits = int(np.abs(qhat).max(initial=0)).bit_length() + 1
+    if grid.exact:                                   # issue 12: the promise of error 0
+        if not all(exact):                           # (checked node by node, issue 11.11)
+            raise EncoderError("exact grid coding did not reproduce every sample (a bug)")
+    bits = qhat.peak.bit_length() + 1
     if bits > MAX_BITS:
         raise EncoderError("decoded values exceed the 31-bit range of spec §4.4; use a coarser "
                            "grid")
@@ -712,19 +1157,117 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     return data, report
 
 
-def encode(motion: Motion, **options: Any) -> bytes:
+def encode(motion: Motion, *,
+           max_error: float | None = None,
+           group_errors: Mapping[str, float] | None = None,
+           theta: float = 0.2,
+           k0: int = 10,
+           tau: float = 0.05,
+           metric: str = "max",
+           weights: Mapping[str, float] | None = None,
+           hierarchy: str | os.PathLike[str] | Mapping[str, Any] | None = None,
+           smoothing: int = 2,
+           patterns: str | None = None,
+           segmentation: str = "adaptive",
+           grid: float | None = None,
+           max_segment: int = 240,
+           summary: Sequence[int] = (),
+           summary_space: str = "positions",
+           metadata: Mapping[str, str] | None = None,
+           seed: int = 0,
+           lossy: bool = False,
+           default_error_mm: float = 0.1,
+           default_error_fraction: float = 1e-4,
+           source_grid: float | None = None,
+           model_error: float = 1e-4,
+           model_errors: Mapping[str, float] | None = None,
+           keep_skeleton: bool = True,
+           angle_error: float | None = None,
+           translation_error: float | None = None,
+           position_error: float | None = None,
+           **unknown: Never) -> bytes:
     """Encode a motion to MPZ bytes.
+
+    Every keyword is the field of :class:`EncodeOptions` with the same name and
+    the same default (a test holds the two together; ``None`` for a mapping
+    means "empty"). Lengths are plain numbers in the motion's own units
+    (``motion.units``, e.g. ``max_error=1.0`` is 1 mm for a motion in mm and
+    1 cm for one in cm); the CLI is the place that converts ``1mm``.
 
     Parameters
     ----------
     motion : Motion
-    **options
-        Any field of :class:`EncodeOptions`, e.g. ``max_error=1.0``.
+    max_error : float, optional
+        Hard bound, in motion units: every valid sample decodes within this
+        Euclidean distance. Default None: the default bound (``lossy`` is the
+        only way to have none): exact on the grid of an int16 C3D source, else
+        ``default_error_mm`` (``default_error_fraction`` of the extent for a
+        motion without units).
+    group_errors : mapping of str to float, optional
+        Tighter bounds for hierarchy nodes, node name -> bound in motion
+        units (needs ``max_error``). Default: none.
+    theta : float, default 0.2
+        Key-frame threshold, a fraction of the head size ADDH.
+    k0 : int, default 10
+        Initial number of clusters.
+    tau : float, default 0.05
+        Clustering threshold, a fraction of ADDH.
+    metric : {"max", "ave"}, default "max"
+        Clustering error metric (paper Eq. 2 or Eq. 1).
+    weights : mapping of str to float, optional
+        Marker or node name -> weight (local distortion control).
+    hierarchy : str, path or mapping, optional
+        "cmu41", "skeleton", "auto", "flat", a JSON hierarchy file or its
+        parsed dict. Default: chosen from the marker names.
+    smoothing : int, default 2
+        Boundary smoothing half-width, 0..16 (spec §6.4).
+    patterns : {"auto", "on", "off"}, optional
+        Pattern layer per node. Default: "off" with ``max_error``, else "on".
+    segmentation : {"adaptive", "optimal"}, default "adaptive"
+        Paper's Alg. 1, or Fisher's optimal partition.
+    grid : float, optional
+        Grid step in motion units. Default: from ``max_error``, else ADDH/1000.
+    max_segment : int, default 240
+        Longest segment in frames, 2..4096.
+    summary : sequence of int, default ()
+        Segment counts k of the optional smry chunk (spec §4.10).
+    summary_space : {"positions", "angles"}, default "positions"
+    metadata : mapping of str to str, optional
+        Extra §4.11 metadata (added to ``motion.metadata``).
+    seed : int, default 0
+        Seed of the clustering (the encoder is deterministic).
+    lossy : bool, default False
+        The paper's mode: patterns only, no residual layer, no declared bound.
+    default_error_mm, default_error_fraction : float, default 0.1 and 1e-4
+        The default bound (see ``max_error``).
+    source_grid : float, optional
+        Code the positions exactly on this grid (error 0); by default an int16
+        C3D source's |POINT:SCALE| when no bound is given.
+    model_error : float, default 1e-4
+        Model outputs of a C3D (spec §4.13.3): max error as a fraction of each
+        channel's range.
+    model_errors : mapping of str to float, optional
+        The same per kind (ANGLES, FORCES, MOMENTS, POWERS, SCALARS, REACTIONS).
+    keep_skeleton : bool, default True
+        Skeletal input (BVH, AMC/ASF, spec §4.14): write the skeleton chunk.
+    angle_error, translation_error : float, optional
+        Bounds on the rotation channels (degrees) and translation channels (the
+        skeleton's length unit). Default: 0.01 each, unless ``position_error`` is given.
+    position_error : float, optional
+        Bound on the joint positions computed from the channels (spec §6.10), in motion
+        units; the channel steps are then the coarsest that keep it.
 
     Returns
     -------
     bytes
-        A complete MPZ 1.0 file.
+        A complete MPZ file.
+
+    Raises
+    ------
+    EncoderError
+        For options that cannot be honoured, and for an unknown keyword (with the
+        closest option name; type checkers reject it already: ``**unknown`` is
+        typed ``Never``).
 
     Examples
     --------
@@ -733,8 +1276,22 @@ def encode(motion: Motion, **options: Any) -> bytes:
     >>> data[:4]
     b'\\x89MPZ'
     """
-    try:
-        opts = EncodeOptions(**options)
-    except TypeError as exc:
-        raise EncoderError(str(exc)) from None
+    if unknown:                      # only MPZError leaves the API (mpz.errors)
+        import difflib
+        names = [f.name for f in fields(EncodeOptions)]
+        bad = sorted(unknown)
+        close = difflib.get_close_matches(bad[0], names, n=1)
+        hint = f"; did you mean {close[0]}?" if close else ""
+        raise EncoderError(f"unknown option {', '.join(bad)}{hint} (the options are the "
+                           "fields of EncodeOptions)")
+    opts = EncodeOptions(
+        max_error=max_error, group_errors=group_errors or {}, theta=theta, k0=k0, tau=tau,
+        metric=metric, weights=weights, hierarchy=hierarchy, smoothing=smoothing,
+        patterns=patterns, segmentation=segmentation, grid=grid, max_segment=max_segment,
+        summary=tuple(summary), summary_space=summary_space, metadata=metadata or {},
+        seed=seed, lossy=lossy, default_error_mm=default_error_mm,
+        default_error_fraction=default_error_fraction, source_grid=source_grid,
+        model_error=model_error, model_errors=model_errors or {},
+        keep_skeleton=keep_skeleton, angle_error=angle_error,
+        translation_error=translation_error, position_error=position_error)
     return encode_motion(motion, opts)[0]

@@ -18,6 +18,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Protocol
 
+from mpz.c3darchive import C3D_EXTENSION
+from mpz.skeleton import EXTENSION as SKELETON_EXTENSION
+
 if TYPE_CHECKING:
     from mpz.chunks import Record
     from mpz.encoder import EncodeOptions
@@ -42,7 +45,7 @@ class Extension(Protocol):
 
 
 #: every extension, in the order their chunks are written
-EXTENSIONS: tuple[Extension, ...] = ()
+EXTENSIONS: tuple[Extension, ...] = (C3D_EXTENSION, SKELETON_EXTENSION)
 
 
 def owner(ctype: str) -> Extension | None:

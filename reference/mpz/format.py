@@ -107,3 +107,97 @@ LIMITS: dict[str, int] = {
 LAYER_LIMIT = 1 << 36
 #: §6.5 every key-frame value w_k satisfies |w_k| < 2^31
 KEY_VALUE_LIMIT = 1 << 31
+
+
+# ------------------------------------------------ §4.14 skeleton chunks (MPZ 1.1) --
+#: §2.1, §4.14 the minor version that introduced the skeleton chunks
+SKELETON_MINOR = 1
+
+
+class ChannelKind(IntEnum):
+    """§4.14 the kind of a joint channel: BVH ``Xposition`` .. ``Zrotation``, ASF ``tx`` ..
+    ``rz`` and ``l`` (bone stretch)."""
+
+    TX = 0                 # translation along x (BVH Xposition, ASF tx / TX)
+    TY = 1
+    TZ = 2
+    RX = 3                 # rotation about x (BVH Xrotation, ASF rx / RX)
+    RY = 4
+    RZ = 5
+    L = 6                  # ASF bone length change
+
+
+class AngleUnit(IntEnum):
+    """§4.14.2 ``angle_unit``: the unit of ASF/AMC angles (BVH angles are degrees)."""
+
+    DEG = 0
+    RAD = 1
+
+
+class TextEncoding(IntEnum):
+    """§4.14.1, §4.14.2 ``encoding``: the text encoding of the source file."""
+
+    UTF8 = 0
+    LATIN1 = 1
+
+
+#: §4.14.2 ``axis_order`` codes: the index of the order in this tuple
+AXIS_ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
+#: §4.14 a channel step is m x 10^-d with 0 <= d <= MAX_STEP_DIGITS
+MAX_STEP_DIGITS = 9
+#: §4.14, §6.10 every decoded channel integer satisfies |x| < 2^31
+CHANNEL_VALUE_LIMIT = 1 << 31
+#: §8 F x C, channel-frames of a skeleton chunk (512 MiB of int64 while decoding)
+MAX_CHANNEL_SAMPLES = 1 << 26
+LIMITS["MAX_CHANNEL_SAMPLES"] = MAX_CHANNEL_SAMPLES
+__all__ += ["SKELETON_MINOR", "ChannelKind", "AngleUnit", "TextEncoding", "AXIS_ORDERS",
+            "MAX_STEP_DIGITS", "CHANNEL_VALUE_LIMIT", "MAX_CHANNEL_SAMPLES"]
+
+
+# --------------------------------------------- §4.13 C3D archive chunks (MPZ 1.1) --
+#: §2.1, §4.13 the minor version that introduced the C3D archive chunks
+C3D_MINOR = 1
+
+
+class C3DProcessor(IntEnum):
+    """§4.13.1 ``processor``: the processor type of the source C3D (informative)."""
+
+    INTEL = 84
+    DEC = 85
+    MIPS = 86
+
+
+class C3DStorage(IntEnum):
+    """§4.13.3, §4.13.4 ``storage``: how the source stored these words."""
+
+    INT16 = 0
+    FLOAT32 = 1
+
+
+class ChannelMode(IntEnum):
+    """§4.13 channel entry ``mode``: how a channel's words become integers (§6.9)."""
+
+    INTEGER = 0            # word = k x 2^shift, |k| < 2^24
+    BITS = 1               # the float32 bit pattern, as an ordered integer
+
+
+class ModelKind(IntEnum):
+    """§4.13.3 model output ``kind``: the POINT parameter that lists the point."""
+
+    ANGLES = 0
+    FORCES = 1
+    MOMENTS = 2
+    POWERS = 3
+    SCALARS = 4
+    REACTIONS = 5
+
+
+#: §4.13 channel entry ``shift`` of mode 0: every k x 2^shift with |k| < 2^24 is a binary32
+C3D_MIN_SHIFT, C3D_MAX_SHIFT = -128, 104
+#: §4.13 channel entry ``low_bits`` b: residual e = h x 2^b + l; 3 covers 33-bit residuals
+C3D_MAX_LOW_BITS = 3
+#: §8 F x n x C, analog samples of a cana chunk (2 GiB of int64 for the largest channel)
+MAX_ANALOG_SAMPLES = 1 << 28
+LIMITS["MAX_ANALOG_SAMPLES"] = MAX_ANALOG_SAMPLES
+__all__ += ["C3D_MINOR", "C3DProcessor", "C3DStorage", "ChannelMode", "ModelKind",
+            "C3D_MIN_SHIFT", "C3D_MAX_SHIFT", "C3D_MAX_LOW_BITS", "MAX_ANALOG_SAMPLES"]

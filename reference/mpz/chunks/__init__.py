@@ -21,6 +21,7 @@ in ``spec/mpz-1.md``.
 from __future__ import annotations
 
 from mpz.chunks.base import JSON, Context, Record
+from mpz.chunks.c3d import C3D, Cana, Chdr, Cpnt, Cprm
 from mpz.chunks.core import (
     CORE,
     Hier,
@@ -39,13 +40,14 @@ from mpz.chunks.core import (
     Smry,
     SummaryLevel,
 )
+from mpz.chunks.skeleton import SKELETON, Asfs, Bvhs
 
 __all__ = ["CHUNKS", "JSON", "Context", "Record", "Hier", "HierNode", "Mask", "Meta",
            "MetaEntry", "Mend", "Mhdr", "Mnam", "Patt", "Qunt", "Resi", "Root", "Segs", "Smry",
-           "SummaryLevel", "load"]
+           "SummaryLevel", "load", "Chdr", "Cprm", "Cpnt", "Cana", "Bvhs", "Asfs"]
 
 #: chunk type -> record class: the one registry, in the order of the spec's catalogue
-CHUNKS: dict[str, type[Record]] = {cls.TYPE: cls for cls in (*CORE,)}
+CHUNKS: dict[str, type[Record]] = {cls.TYPE: cls for cls in (*CORE, *C3D, *SKELETON)}
 
 
 def load(ctype: str, payload: bytes) -> Record:

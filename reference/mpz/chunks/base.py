@@ -57,6 +57,9 @@ class Context:
     nodes: tuple[HierNode, ...] = ()
     node: int = 0                      # the node a PATT/SEGS/RESI belongs to
     patt: Patt | None = None           # that node's PATT (for SEGS and RESI)
+    #: the type of every chunk of the file, in order (for the presence and count rules of
+    #: ancillary chunks that come in sets, §4.13); empty where no rule needs it
+    types: tuple[str, ...] = ()
 
     @property
     def members(self) -> int:
@@ -70,6 +73,9 @@ class Record:
 
     TYPE: ClassVar[str] = ""
     SECTION: ClassVar[str] = "§4"
+    #: the minor version that introduced this chunk type (§2.1): a file holding it is
+    #: written as 1.MINOR at least
+    MINOR: ClassVar[int] = 0
     GRAMMAR: ClassVar[construct.Construct]
     #: nested record class of a field holding a list of records
     NESTED: ClassVar[dict[str, type[Record]]] = {}

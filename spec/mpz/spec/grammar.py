@@ -23,8 +23,11 @@ from construct import (
     ExplicitError,
     Float64l,
     GreedyBytes,
+    If,
+    Int8sl,
     Int8ul,
     Int16ul,
+    Int32sl,
     Int32ul,
     PascalString,
     Prefixed,
@@ -37,8 +40,8 @@ from construct import (
 #: conversion and DOS type, as in PNG.
 SIGNATURE = b"\x89MPZ\r\n\x1a\n"
 
-#: §2.1 the version this grammar describes
-VERSION_MAJOR, VERSION_MINOR = 1, 0
+#: §2.1 the version this grammar describes (1.1: the C3D archive chunks of §4.13)
+VERSION_MAJOR, VERSION_MINOR = 1, 1
 
 #: §3.2 chunk frame: type, length, payload, CRC-32 over type + payload
 ChunkHeader = Struct(
@@ -210,4 +213,160 @@ META = Struct(
 )
 
 #: §4.12 MEND, the end chunk: empty
-MEND = Struct(Terminated)
+MEND = Struct(
+    Terminated,
+)
+
+
+# ---- §4.14 skeleton chunks (MPZ 1.1) ----
+#: §4.14 how one channel is quantised and predicted (the channel layer of bvhs and asfs)
+ChannelCoding = Struct(
+    "step_mantissa" / Int16ul * "§4.14 m >= 1",
+    "step_digits" / Int8ul * "§4.14 d, 0..9: the step is m x 10^-d",
+    "wrap" / Int8ul * "§4.14 0 none, 1 modulo one turn of 360 degrees",
+    "low" / Int32sl * "§4.14 wrap 1: the lowest value of the turn, in steps; wrap 0: 0",
+    "order" / Int8ul * "§4.14 temporal predictor order 0..2",
+    "group" / Int8ul * "§4.14 the block of the coded field that holds this channel",
+)
+
+#: §4.14.1 one joint of a BVH hierarchy (a ROOT, a JOINT or an End Site)
+BvhJoint = Struct(
+    "name" / PascalString(Int8ul, "utf8") * "§4.14.1 the joint's name; empty for an End Site",
+    "parent" / Int16ul * "§4.14.1 parent joint, < own index; 0xFFFF for a ROOT",
+    "offset" / Array(3, Float64l) * "§4.14.1 OFFSET x, y, z in MHDR units, finite",
+    "channel_count" / Int8ul * "§4.14.1 0..6; 0 for an End Site",
+    "channels" / Array(this.channel_count, Int8ul)
+    * "§4.14.1 channel kinds in file order: 0-2 X/Y/Zposition, 3-5 X/Y/Zrotation",
+)
+#: §4.14.1 bvhs, a BVH hierarchy and its channels (ancillary, 1.1)
+BVHS = Struct(
+    "encoding" / Int8ul * "§4.14.1 text encoding of the source: 0 UTF-8, 1 Latin-1",
+    "frame_time" / Float64l * "§4.14.1 the BVH Frame Time in seconds, finite and > 0",
+    "joint_count" / Int16ul * "§4.14.1 J, equals marker_count",
+    "joints" / Array(this.joint_count, BvhJoint) * "§4.14.1 in file (depth-first) order",
+    "channel_count" / Int16ul * "§4.14.1 C, the sum of the joints' channel counts",
+    "position_bound" / Float64l * "§4.14.1 declared joint position error, MHDR units; 0 none",
+    "channels" / Array(this.channel_count, ChannelCoding) * "§4.14.1 the channel layer (§4.14)",
+    "coded" / GreedyBytes * "§4.14.1 range-coded: one signed block [F, n_g, 1] per group",
+)
+
+#: §4.14.2 one bone of an ASF skeleton
+AsfBone = Struct(
+    "bone_id" / Int32ul * "§4.14.2 the ASF id (0: none written)",
+    "name" / PascalString(Int8ul, "utf8") * "§4.14.2 1..255 bytes, unique, not 'root'",
+    "parent" / Int16ul * "§4.14.2 parent joint: 0 the root, bone b is joint b + 1",
+    "direction" / Array(3, Float64l) * "§4.14.2 direction x, y, z, finite",
+    "length" / Float64l * "§4.14.2 length in ASF units, finite",
+    "axis" / Array(3, Float64l) * "§4.14.2 axis angles x, y, z, finite",
+    "axis_order" / Int8ul * "§4.14.2 0 XYZ, 1 XZY, 2 YXZ, 3 YZX, 4 ZXY, 5 ZYX",
+    "dof_count" / Int8ul * "§4.14.2 0..7",
+    "dofs" / Array(this.dof_count, Int8ul) * "§4.14.2 channel kinds 0..6 (tx..rz, l)",
+    "limit_count" / Int8ul * "§4.14.2 0 or dof_count",
+    "limits" / Array(this.limit_count, Array(2, Float64l))
+    * "§4.14.2 (low, high) per dof, not NaN",
+)
+#: §4.14.2 asfs, an ASF skeleton, the layout of its AMC motion and its channels
+#: (ancillary, 1.1)
+ASFS = Struct(
+    "encoding" / Int8ul * "§4.14.2 text encoding of the source: 0 UTF-8, 1 Latin-1",
+    "angle_unit" / Int8ul * "§4.14.2 0 degrees, 1 radians",
+    "length_unit" / Float64l * "§4.14.2 ':units length', finite and > 0",
+    "mass" / PascalString(Int8ul, "utf8") * "§4.14.2 ':units mass' as written (informative)",
+    "version" / PascalString(Int8ul, "utf8") * "§4.14.2 ':version' (informative)",
+    "name" / PascalString(Int8ul, "utf8") * "§4.14.2 ':name' (informative)",
+    "documentation" / PascalString(Int16ul, "utf8") * "§4.14.2 ':documentation' lines",
+    "comments" / PascalString(Int16ul, "utf8") * "§4.14.2 comment lines before ':version'",
+    "root_order_count" / Int8ul * "§4.14.2 0..6",
+    "root_order" / Array(this.root_order_count, Int8ul) * "§4.14.2 root channel kinds 0..5",
+    "root_axis_order" / Int8ul * "§4.14.2 0..5, as axis_order",
+    "root_position" / Array(3, Float64l) * "§4.14.2 finite",
+    "root_orientation" / Array(3, Float64l) * "§4.14.2 finite",
+    "bone_count" / Int16ul * "§4.14.2 B, marker_count - 1",
+    "bones" / Array(this.bone_count, AsfBone) * "§4.14.2 every parent before its children",
+    "amc_header" / PascalString(Int16ul, "utf8") * "§4.14.2 AMC lines before the first frame",
+    "first_frame" / Int32ul * "§4.14.2 number of the first AMC frame",
+    "amc_count" / Int16ul * "§4.14.2 1..B + 1",
+    "amc_order" / Array(this.amc_count, Int16ul) * "§4.14.2 joints in AMC line order",
+    "channel_count" / Int16ul * "§4.14.2 C, root order count plus the bones' dof counts",
+    "position_bound" / Float64l * "§4.14.2 declared joint position error, MHDR units; 0 none",
+    "channels" / Array(this.channel_count, ChannelCoding) * "§4.14.2 the channel layer (§4.14)",
+    "coded" / GreedyBytes * "§4.14.2 range-coded: one signed block [F, n_g, 1] per group",
+)
+
+
+# ---- §4.13 C3D archive chunks (MPZ 1.1) ----
+#: §4.13 one channel entry: how one channel of C3D words is coded (§6.9)
+C3dChannel = Struct(
+    "mode" / Int8ul * "§4.13 0 integer (word = k x 2^shift), 1 float32 bit pattern",
+    "shift" / Int8sl * "§4.13 mode 0: -128..104 (int16 storage: 0); mode 1: 0",
+    "order" / Int8ul * "§4.13 temporal predictor order 0..2 (§6.2)",
+    "low_bits" / Int8ul * "§4.13 b, 0..3: each residual is h x 2^b + l, l coded apart",
+)
+
+#: §4.13.1 chdr, the C3D header block (ancillary, 1.1)
+CHDR = Struct(
+    "processor" / Int8ul * "§4.13.1 the source's processor type: 84 Intel, 85 DEC, 86 MIPS",
+    "block" / Bytes(512) * "§4.13.1 the 512-byte C3D header: integers LE, floats binary32 LE",
+    Terminated,
+)
+
+
+def _data_size(ctx: Any) -> int:
+    """§4.13.2 |type| x the product of the dimensions (1 element without dimensions)."""
+    n = abs(int(ctx.type))
+    for d in ctx.dims:
+        n *= int(d)
+    return n
+
+
+#: §4.13.2 one group or parameter record of the C3D parameter section
+C3dParam = Struct(
+    "group" / Int8sl * "§4.13.2 < 0: the group -group; > 0: a parameter of group `group`",
+    "locked" / Int8ul * "§4.13.2 0 or 1 (the C3D name length was negative)",
+    "name" / Prefixed(Int8ul, GreedyBytes) * "§4.13.2 1..127 bytes, as stored",
+    "description" / Prefixed(Int8ul, GreedyBytes) * "§4.13.2 0..255 bytes, as stored",
+    "type" / If(this.group > 0, Int8sl) * "§4.13.2 parameters: -1 char, 1 byte, 2 int16, 4 float32",
+    "dims" / If(this.group > 0, Prefixed(Int8ul, GreedyBytes))
+    * "§4.13.2 parameters: 0..7 dimensions, one byte each",
+    "data" / If(this.group > 0, Bytes(_data_size))
+    * "§4.13.2 parameters: |type| x prod(dims) bytes, int16 LE, float32 binary32 LE",
+)
+#: §4.13.2 cprm, the C3D parameter section (ancillary, 1.1)
+CPRM = Struct(
+    "count" / Int16ul * "§4.13.2 R, records",
+    "records" / Array(this.count, C3dParam) * "§4.13.2 groups and parameters in file order",
+    Terminated,
+)
+
+#: §4.13.3 one model-output axis: x = offset + k x step
+C3dModelAxis = Struct(
+    "offset" / Float64l * "§4.13.3 finite",
+    "step" / Float64l * "§4.13.3 finite, > 0, |offset| + step x 2^31 finite",
+    "bound" / Float64l * "§4.13.3 declared max |error| of valid samples, finite, >= 0",
+    "order" / Int8ul * "§4.13.3 temporal predictor order 0..2 (§6.2)",
+)
+#: §4.13.3 one model output (a point listed in POINT:ANGLES, FORCES, ...)
+C3dModel = Struct(
+    "kind" / Int8ul * "§4.13.3 0 ANGLES, 1 FORCES, 2 MOMENTS, 3 POWERS, 4 SCALARS, 5 REACTIONS",
+    "axes" / Array(3, C3dModelAxis) * "§4.13.3 x, y, z",
+)
+#: §4.13.3 cpnt, the C3D points: slots, fourth words, model outputs (ancillary, 1.1)
+CPNT = Struct(
+    "storage" / Int8ul * "§4.13.3 how the source stored the words: 0 int16, 1 float32",
+    "point_count" / Int16ul * "§4.13.3 P = M + J, the points of the source",
+    "slots" / Array(this.point_count, Int16ul)
+    * "§4.13.3 per point: s < M marker s, s >= M model output s - M",
+    "words" / Array(this.point_count, C3dChannel) * "§4.13.3 how each point's 4th word is coded",
+    "model_count" / Int16ul * "§4.13.3 J, model outputs",
+    "models" / Array(this.model_count, C3dModel) * "§4.13.3 in model-output order",
+    "coded" / GreedyBytes * "§4.13.3 P word channels, J gap flags [F, J, 1], 3J value blocks",
+)
+
+#: §4.13.4 cana, the C3D analog channels (ancillary, 1.1)
+CANA = Struct(
+    "storage" / Int8ul * "§4.13.4 how the source stored the words: 0 int16, 1 float32",
+    "channels" / Int16ul * "§4.13.4 C >= 1",
+    "samples" / Int16ul * "§4.13.4 n >= 1, samples per channel per frame; C x n <= 65535",
+    "table" / Array(this.channels, C3dChannel) * "§4.13.4 how each channel is coded",
+    "coded" / GreedyBytes * "§4.13.4 C channels of F x n words, one after the other",
+)

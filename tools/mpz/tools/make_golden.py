@@ -3,7 +3,8 @@
 For every conformance vector it records the ``mpzinfo --json`` report (the
 tool version and file paths masked, since they vary between builds and
 machines) and, for decodable vectors, the SHA-256 of the decoded float64
-output and of the integer layer (spec §7.1). conformance/test_golden.py
+output and of the integer layer (spec §7.1), and of the channel values of a
+skeletal file (§6.10). conformance/test_golden.py
 fails when a codec change alters any of them.
 
 Regenerating is an explicit decision: this command prints a golden id, and
@@ -37,12 +38,15 @@ def compute(vectors_dir=None) -> dict:
     for v in man["vectors"]:
         data = (root / v["file"]).read_bytes()
         info = inspect(data, v["name"])
-        entry = {"mpzinfo": info, "decoded_sha256": None, "integer_layer_digest": None,
-                 "error_class": None}
+        entry: dict[str, object] = {"mpzinfo": info, "decoded_sha256": None,
+                                    "integer_layer_digest": None, "error_class": None}
         try:
             m = mpz.decode(data)
             entry["decoded_sha256"] = hashlib.sha256(
                 np.ascontiguousarray(m.as_nan(), "<f8").tobytes()).hexdigest()
+            if m.angles is not None:   # issue 13: the skeleton's channel values (spec §6.10)
+                entry["channels_sha256"] = hashlib.sha256(
+                    np.ascontiguousarray(m.angles, "<f8").tobytes()).hexdigest()
             d = decode_layers(data)
             entry["integer_layer_digest"] = mf.intlayer_digest(d.q, d.valid)
         except MPZError as exc:

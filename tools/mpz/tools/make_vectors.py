@@ -38,7 +38,14 @@ from mpz.conformance import manifest as mf
 from mpz.conformance.rangecoder import RefEncoder
 from mpz.decoder import decode_layers
 from mpz.entropy import BlockEncoder
-from mpz.format import ROOT_PARENT, SIGNATURE, unit_code, unit_name
+from mpz.format import (
+    ROOT_PARENT,
+    SIGNATURE,
+    VERSION_MAJOR,
+    VERSION_MINOR,
+    unit_code,
+    unit_name,
+)
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import reconstruct, residuals
 from mpz.smooth import smooth_boundaries
@@ -326,7 +333,8 @@ class VectorSet:
             "tolerances": mf.tolerances(s.quant.step, maxabs),
             "header": {"frames": h.frame_count, "markers": h.marker_count, "rate": h.rate,
                        "names": list(s.names), "units": unit_name(h.units),
-                       "units_code": h.units, "error_metric": h.error_metric,
+                       "units_code": h.units, "meta": dict(s.meta),
+                       "error_metric": h.error_metric,
                        "error_bound": h.error_bound, "step": s.quant.step,
                        "offset": list(s.quant.offset), "bits": s.quant.bits,
                        "smoothing": h.smoothing, "residual": bool(h.flags & 1),
@@ -372,13 +380,24 @@ class VectorSet:
                                     "frames": motion.n_frames, "markers": motion.n_markers})
 
     def write_manifest(self):
-        man = {"schema_version": mf.SCHEMA_VERSION, "format": "MPZ 1.0",
+        # issue 17: each vector lists the rules of the spec §7.4 index it probes (by slug, so
+        # numbering is free), the encoder-made vectors their recipe, and the rules no small
+        # file can probe their reason
+        for e in self.entries + self.encoder_inputs:
+            e["rules"] = sorted(VECTOR_RULES.get(_slug(e["name"]), ()), key=_rule_key)
+            if e["name"] in ENCODER_RECIPES:
+                e["recipe"] = ENCODER_RECIPES[e["name"]]
+        man = {"schema_version": mf.SCHEMA_VERSION,
+               "format": f"MPZ {VERSION_MAJOR}.{VERSION_MINOR}",   # the newest the set uses
                "generator": "python -m mpz.tools.make_vectors",
                "tolerance_rule": "spec §7.1: max_abs = step * 2^-20 + max|x| * 2^-50 over valid "
                                  "expected coordinates; rms = max_abs",
                "integer_layer_digest_rule": "sha256 of q as little-endian int64 [F, M, 3] C order, "
                                             "then the validity mask as uint8 [F, M] (1 = valid)",
-               "vectors": self.entries, "encoder_inputs": self.encoder_inputs}
+               "vectors": self.entries, "encoder_inputs": self.encoder_inputs,
+               "rule_exceptions": dict(sorted(RULE_EXCEPTIONS.items(),
+                                              key=lambda kv: _rule_key(kv[0]))),
+               "limit_boundaries": LIMIT_BOUNDARIES}
         mf.validate(man)
         (self.out / mf.MANIFEST_NAME).write_text(json.dumps(man, indent=1, ensure_ascii=False)
                                                  + "\n", encoding="utf-8")
@@ -414,14 +433,15 @@ def valid_vectors(vs: VectorSet):
              "mpz.synth.generate('walk', frames=90, seed=1) -> mpz.encode(max_error=1.0)")
     # v02: encoder, lossy (no residual layer, no declared bound), gaps
     m = _synth("jump", 90, markers=20, seed=2, gap_fraction=0.08)
-    data = mpz.encode(m, smoothing=3, metadata={"take": "v02"})
+    data = mpz.encode(m, smoothing=3, metadata={"take": "v02"}, lossy=True)  # by name (issue 12)
     vs.valid("valid", "v02-jump-lossy-gaps", data,
              "20-marker jump from the reference encoder without a bound: pattern layer only "
              "(flags 0, error_metric 0), smoothing 3, 8% gaps in a MASK chunk",
-             {"encoder": "mpz.encode(smoothing=3)", "residual": False, "error_metric": 0,
+             {"encoder": "mpz.encode(smoothing=3, lossy=True)", "residual": False,
+              "error_metric": 0,
               "smoothing": 3}, ["§4.5", "§4.7", "§4.8", "§4.11", "§6.1", "§6.3", "§6.4"],
              "mpz.synth.generate('jump', frames=90, markers=20, seed=2, gap_fraction=0.08) -> "
-             "mpz.encode(smoothing=3)")
+             "mpz.encode(smoothing=3, lossy=True)")
     # v03: encoder with the optimal-partition summary
     m = _synth("wave", 60, markers=12, seed=3)
     data = mpz.encode(m, max_error=2.0, summary=(2, 5))
@@ -651,6 +671,7 @@ def uncommon_vectors(vs: VectorSet):
              "accepts it)", {"mask": "all valid"}, ["§4.5", "§6.1"],
              "hand-built from mpz.synth walk (frames=16, markers=3, seed=22)")
     spec_101_uncommon(vs)
+    spec_17_uncommon(vs)
 
 
 # ------------------------------------------- 1.0.1: valid files the text settles --
@@ -1121,6 +1142,7 @@ def invalid_vectors(vs: VectorSet):
         f"QUNT bits = {d.bits - 1}", "decoders using narrow integer types overflow",
         "FormatError", ["§4.4", "§6.7"])
     spec_101_invalid(add, base)
+    spec_17_invalid(add, base)
 
 
 # ------------------------------------------ 1.0.1: invalid files the text settles --
@@ -1369,6 +1391,1653 @@ def encoder_inputs(vs: VectorSet):
                      "10-marker mixed motion in metres, 80 frames")
 
 
+# ------------------------------------------- issue 17: a vector for every rule --
+def _repaired(data: bytes) -> bytes:
+    return container.repair_crcs(data)
+
+
+def _retyped(chunks, index: int, ctype: bytes) -> bytes:
+    """The file of ``chunks`` with the type of chunk ``index`` replaced by ``ctype`` (any bytes),
+    CRCs recomputed."""
+    data = bytearray(assemble(chunks))
+    pos = len(SIGNATURE) + sum(12 + len(c[1]) for c in chunks[:index])
+    data[pos: pos + 4] = ctype
+    return _repaired(bytes(data))
+
+
+def _mnam_raw(entries) -> bytes:
+    """An MNAM payload from raw (shared, suffix bytes) entries."""
+    out = struct.pack("<H", len(entries))
+    for shared, suffix in entries:
+        out += struct.pack("<BB", shared, len(suffix)) + suffix
+    return out
+
+
+def _hier_with(base, edit) -> list:
+    """``base`` with its HIER parsed, changed by ``edit(hier)`` and rebuilt."""
+    ch = [list(c) for c in base]
+    i = _find(ch, "HIER")
+    hier = CHUNKS["HIER"].GRAMMAR.parse(ch[i][1])
+    edit(hier)
+    ch[i][1] = CHUNKS["HIER"].GRAMMAR.build(hier)
+    return ch
+
+
+def _node(parent, ref, members):
+    return {"parent": parent, "ref": ref, "member_count": len(members), "members": members,
+            "weights": [1.0] * len(members)}
+
+
+def _replace(chunks, ctype, body, n=0) -> list:
+    ch = [list(c) for c in chunks]
+    ch[_find(ch, ctype, n)][1] = body
+    return ch
+
+
+def spec_17_invalid(add, base):
+    """Invalid files for the rules of the spec §7.4 index that no earlier vector probes
+    (issue 17): every forbidden value of §2.4 and every MUST-reject sentence of §3-§8."""
+    lim = (1 << 31) - 1
+    ch0 = [list(c) for c in base]
+    # --- §2.4 / §3.2 chunk type bytes: each bad byte in an otherwise unknown *ancillary*
+    # chunk, so a decoder that skips the letter test would skip the chunk and accept
+    for btype, what in [(b"`zzz", "0x60 (backtick) in position 0"),
+                        (b"z[zz", "0x5B ('[') in position 1"),
+                        (b"zz@z", "0x40 ('@') in position 2"),
+                        (b"zzz{", "0x7B ('{') in position 3")]:
+        ch = [list(c) for c in base]
+        at = _find(ch, "MEND")
+        ch.insert(at, ["zzzz", b"\x00\x01"])
+        add(f"chunk-type-byte-0x{btype[[b in b'z' for b in btype].index(False)]:02x}",
+            _retyped(ch, at, btype), f"an ancillary-looking chunk {btype!r} before MEND: byte "
+            f"{what} is not a letter", f"chunk {btype!r} (2 bytes) inserted",
+            "a decoder that tests only the first byte, or the range 0x41-0x7A, or bit 5 (as "
+            "PNG readers do), takes it for an unknown ancillary chunk and skips it",
+            "FormatError", ["§2.4", "§3.2"])
+    # --- §3.2 chunk length just over the limit
+    b = bytearray(assemble(base))
+    struct.pack_into("<I", b, len(SIGNATURE) + 12 + len(base[0][1]) + 4, (1 << 30) + 1)
+    add("length-2pow30-plus-1", bytes(b), "MNAM length field 2^30 + 1, one over the limit",
+        "MNAM length = 2^30 + 1", "a limit tested as > 2^30 + 1, or not at all (then only the "
+        "end of the file stops the read)", "LimitExceededError", ["§2.4", "§3.2", "§8"])
+    # --- §2.3, §3.3 CRCs of ancillary and unknown chunks
+    ch = [list(c) for c in base]
+    ch.insert(_find(ch, "MEND"), ["zzzz", b"\x00\x01"])
+    data = bytearray(assemble(ch))
+    data[-12 - 4] ^= 0x01                                 # last CRC byte before MEND
+    add("unknown-ancillary-bad-crc", bytes(data), "an unknown ancillary chunk 'zzzz' with a "
+        "wrong CRC", "CRC of 'zzzz' XOR 0x01 in its last byte", "a decoder that skips unknown "
+        "chunks without reading their CRC accepts damaged files", "ChecksumError",
+        ["§2.3", "§3.3"])
+    data = bytearray(assemble(base))
+    pos = len(SIGNATURE) + sum(12 + len(c[1]) for c in base[:_find(base, "meta")])
+    data[pos + 8 + len(base[_find(base, "meta")][1])] ^= 0x80
+    add("bad-crc-meta", bytes(data), "the CRC of the meta chunk off by one bit",
+        "stored CRC of meta XOR 0x80", "a decoder that checks CRCs of critical chunks only",
+        "ChecksumError", ["§3.3"])
+    # --- §2.3 chunk types are exact byte strings
+    add("mend-spelled-mEND", _retyped(ch0, _find(ch0, "MEND"), b"mEND"),
+        "the last chunk is 'mEND' (an unknown ancillary chunk), so the file has no MEND",
+        "MEND type bytes changed to 'mEND', CRC recomputed", "a case-insensitive type "
+        "comparison takes it for MEND", "FormatError", ["§2.3", "§3.4"])
+    # --- §3.2 payload layouts, §4.12
+    add("mhdr-payload-short", assemble(_replace(base, "MHDR", base[0][1][:-1])),
+        "an MHDR payload of 30 bytes (31 required)", "last MHDR byte (smoothing) removed",
+        "a decoder that reads fixed fields without checking the length reads the next chunk's "
+        "bytes as smoothing", "FormatError", ["§3.2", "§4.1"])
+    add("mend-payload-1-byte", assemble(_replace(base, "MEND", b"\x00")),
+        "an MEND chunk with a 1-byte payload", "MEND payload = 00",
+        "a decoder that stops at the MEND type without checking its frame", "FormatError",
+        ["§3.2", "§4.12"])
+    # --- §3.4 order
+    ch = [list(c) for c in base]
+    meta = ch.pop(_find(ch, "meta"))
+    ch.insert(0, meta)
+    add("meta-before-mhdr", assemble(ch), "the meta chunk placed before MHDR",
+        "meta moved to the front", "a decoder that skips ancillary chunks before looking for "
+        "MHDR accepts a file that does not start with its header", "FormatError", ["§3.4"])
+    ch = [list(c) for c in base]
+    ch.insert(_find(ch, "QUNT") + 1, list(ch[_find(ch, "QUNT")]))
+    add("second-qunt", assemble(ch), "QUNT twice in a row", "QUNT repeated",
+        "a decoder that takes the last QUNT (or the first) silently", "FormatError", ["§3.4"])
+    add("patt-wrong-node", assemble(_with_field(base, "PATT", node=2)),
+        "the PATT of node 1 says node 2", "PATT node = 2", "layers applied to the wrong node",
+        "FormatError", ["§3.4"])
+    add("resi-wrong-node", assemble(_with_field(base, "RESI", node=2)),
+        "the RESI of node 1 says node 2", "RESI (node 1) node = 2",
+        "layers applied to the wrong node", "FormatError", ["§3.4"])
+    ch = [list(c) for c in base]
+    segs = payload("SEGS", {"node": 2, "segment_count": 1, "coded": rc((np.array([[[0, 0]]]),
+                                                                        {}))})
+    ch.insert(_find(ch, "PATT", 1) + 1, ["SEGS", segs])
+    add("segs-after-k0-patt", assemble(ch), "a SEGS chunk after node 2's PATT, which has K = 0",
+        "SEGS (node 2) inserted", "segments applied to a node without patterns", "FormatError",
+        ["§3.4"])
+    ch = [list(c) for c in base]
+    del ch[_find(ch, "RESI", 1)]
+    add("resi-missing-with-flag", assemble(ch), "flags bit 0 set but node 2 has no RESI",
+        "RESI of node 2 removed", "a node silently decoded without its residual layer",
+        "FormatError", ["§3.4"])
+    add("resi-present-without-flag", assemble(_with_field(base, "MHDR", flags=0)),
+        "flags 0 but every node still has its RESI chunk", "MHDR flags = 0",
+        "residual layers applied (or skipped) against the header's word", "FormatError",
+        ["§3.4", "§4.1"])
+    for ctype in ("smry", "meta"):
+        ch = [list(c) for c in base]
+        ch.insert(_find(ch, "MEND"), list(ch[_find(ch, ctype)]))
+        add(f"second-{ctype}", assemble(ch), f"two {ctype} chunks", f"{ctype} repeated",
+            "which one counts is undefined: readers disagree", "FormatError",
+            ["§3.4", CHUNKS[ctype].SECTION])
+    # --- §2.4 header values
+    header_cases: list[tuple[str, dict, str, str, str]] = [
+            ("flags-bit-1", {"flags": 0x0003}, "reserved flag bit 1 set (flags 0x0003)",
+             "a decoder that tests only the top bit, or flags > 1 in a signed byte",
+             "FormatError"),
+            ("marker-count-zero", {"marker_count": 0}, "marker_count 0",
+             "empty arrays; names and nodes that index nothing", "LimitExceededError"),
+            ("node-count-zero", {"node_count": 0}, "node_count 0", "no root node to decode",
+             "FormatError"),
+            ("node-count-over-markers", {"node_count": 5}, "node_count 5 for 4 markers",
+             "more nodes than markers: some node has no member", "FormatError"),
+            ("rate-zero", {"rate": 0.0}, "frame rate +0.0", "division by zero in timestamps",
+             "FormatError"),
+            ("rate-infinite", {"rate": math.inf}, "frame rate +inf",
+             "a test of > 0 alone accepts it; timestamps collapse to 0", "FormatError"),
+            ("rate-negative", {"rate": -120.0}, "frame rate -120",
+             "time running backwards", "FormatError"),
+            ("error-metric-2", {"error_metric": 2}, "error_metric 2 (reserved)",
+             "a promise whose meaning the decoder does not know, reported as a bound",
+             "FormatError"),
+            ("error-bound-nan", {"error_metric": 1, "error_bound": math.nan}, "error_bound NaN",
+             "NaN passes no comparison, so a bound check written as bound < 0 accepts it",
+             "FormatError"),
+            ("error-bound-infinite", {"error_bound": math.inf}, "error_bound +inf",
+             "a test of >= 0 alone accepts it", "FormatError"),
+            ("error-bound-negative", {"error_bound": -0.5}, "error_bound -0.5",
+             "a bound no file can meet", "FormatError")]
+    for slug, changes, what, risk, error in header_cases:
+        add(slug, assemble(_with_field(base, "MHDR", **changes)), what,
+            "MHDR " + ", ".join(f"{k} = {v!r}" for k, v in changes.items()), risk, error,
+            ["§2.4", "§4.1"] + (["§8"] if error == "LimitExceededError" else []))
+    d1 = _root_only(1, [[0, 0, 0]])
+    one = d1.chunks()
+    add("frame-count-2pow24-plus-1", assemble(_with_field(one, "MHDR", frame_count=(1 << 24) + 1)),
+        "a one-marker file declaring 2^24 + 1 frames (F x M = 2^24 + 1 is under MAX_SAMPLES)",
+        "MHDR frame_count = 2^24 + 1", "a decoder that checks F x M alone accepts it",
+        "LimitExceededError", ["§2.4", "§4.1", "§8"])
+    add("marker-count-4097", assemble(_with_field(one, "MHDR", marker_count=4097)),
+        "marker_count 4097 with F = 1 (F x M is small)", "MHDR marker_count = 4097",
+        "a decoder that checks F x M alone accepts it", "LimitExceededError",
+        ["§2.4", "§4.1", "§8"])
+    add("frames-x-markers-2pow26-plus-1", assemble(_with_field(
+        base, "MHDR", frame_count=13421773, marker_count=5)),
+        "F = 13421773 and M = 5: F x M = 2^26 + 1, each count within its own limit",
+        "MHDR frame_count = 13421773, marker_count = 5", "a limit tested as > 2^26 + 1 or "
+        "F x M >= 2^27 allocates 1.5 GiB", "LimitExceededError", ["§2.4", "§4.1", "§8"])
+    # --- §2.4 / §4.2 names
+    for slug, entries, what in [
+            ("name-empty", [(0, b"A"), (0, b""), (0, b"C"), (0, b"D")], "name 1 is empty"),
+            ("name-nul", [(0, b"A"), (0, b"B\x00"), (0, b"C"), (0, b"D")],
+             "name 1 is 'B' U+0000"),
+            ("name-invalid-utf8", [(0, b"A"), (0, b"\xff"), (0, b"C"), (0, b"D")],
+             "name 1 is the byte FF (not UTF-8)"),
+            ("mnam-shared-too-long", [(0, b"A"), (2, b"B"), (0, b"C"), (0, b"D")],
+             "name 1 shares 2 bytes of the 1-byte name 'A'"),
+            ("name-256-bytes", [(0, b"A" * 255), (255, b"B"), (0, b"C"), (0, b"D")],
+             "name 1 is 255 shared bytes plus 'B': 256 bytes")]:
+        add(slug, assemble(_replace(base, "MNAM", _mnam_raw(entries))), f"MNAM: {what}",
+            f"MNAM entries {[(s, e[:8]) for s, e in entries]}", "names that cannot be "
+            "displayed, looked up or written back (and, for shared, a copy past the previous "
+            "name)", "FormatError", ["§2.4", "§4.2"])
+    # --- §2.4 / §4.3 hierarchy
+    def nodes(*ns):
+        def edit(h):
+            h.nodes = [_node(*n) for n in ns]
+            h.count = len(ns)
+        return edit
+    for slug, ns, what in [
+            ("hier-count-mismatch", [(0xFFFF, 0, [0]), (0, 1, [1, 2, 3])],
+             "HIER lists 2 nodes, MHDR node_count is 3"),
+            ("parent-0xffff-for-node-1", [(0xFFFF, 0, [0]), (0xFFFF, 1, [1, 2]), (1, 3, [3])],
+             "node 1's parent is 0xFFFF"),
+            ("root-parent-not-0xffff", [(0, 0, [0]), (0, 1, [1, 2]), (1, 3, [3])],
+             "node 0's parent is 0"),
+            ("node-member-count-zero", [(0xFFFF, 0, [0]), (0, 1, [1, 2, 3]), (1, 3, [])],
+             "node 2 has no members (its marker moved to node 1)"),
+            ("root-node-two-members", [(0xFFFF, 0, [0, 3]), (0, 1, [1, 2]), (1, 1, [1])],
+             "node 0 has two members"),
+            ("member-index-m", [(0xFFFF, 0, [0]), (0, 1, [1, 2]), (1, 3, [3, 4])],
+             "node 2 lists marker 4 of 4 (indices are 0..3); every marker is owned once"),
+            ("marker-repeated", [(0xFFFF, 0, [0]), (0, 1, [1, 2]), (1, 3, [3, 1])],
+             "marker 1 is in nodes 1 and 2 (every marker is owned)"),
+            ("marker-unowned", [(0xFFFF, 0, [0]), (0, 1, [1]), (1, 3, [3])],
+             "marker 2 is in no node (no marker repeats)")]:
+        ch = _hier_with(base, nodes(*ns))
+        add(slug, assemble(ch), f"HIER: {what}", f"HIER nodes = {ns}",
+            "a marker decoded twice, never, or relative to a node not yet decoded",
+            "FormatError", ["§2.4", "§4.3"])
+    # --- §2.4 / §4.4 grid
+    grid_cases: list[tuple[str, dict, str]] = [
+            ("step-nan", {"step": math.nan}, "QUNT step NaN"),
+            ("step-negative", {"step": -1.0}, "QUNT step -1"),
+            ("offset-nan", {"offset": [0.0, math.nan, 0.0]}, "QUNT offset y NaN"),
+            ("offset-infinite", {"offset": [0.0, 0.0, -math.inf]}, "QUNT offset z -inf"),
+            ("bits-0", {"bits": 0}, "QUNT bits 0"),
+            ("bits-32", {"bits": 32}, "QUNT bits 32 (|q| < 2^32 overflows int32 outputs)")]
+    for slug, changes, what in grid_cases:
+        add(slug, assemble(_with_field(base, "QUNT", **changes)), what,
+            "QUNT " + ", ".join(f"{k} = {v!r}" for k, v in changes.items()),
+            "positions that are NaN, infinite or mirrored, or integers beyond 32 bits",
+            "FormatError", ["§2.4", "§4.4"])
+    # --- §2.4 / §4.7-§4.9 layer fields
+    layer_cases: list[tuple[str, str, int, dict, str, str]] = [
+            ("patt-order-3", "PATT", 0, {"order": 3}, "PATT (node 1) order 3", "FormatError"),
+            ("resi-order-3", "RESI", 0, {"order": 3}, "RESI (node 1) order 3", "FormatError"),
+            ("patt-k0-order-3", "PATT", 1, {"order": 3}, "PATT (node 2, K = 0) order 3",
+             "FormatError"),
+            ("patt-length-zero", "PATT", 0, {"length": 0}, "PATT (node 1, K = 2) length 0",
+             "LimitExceededError"),
+            ("patt-length-4097", "PATT", 0, {"length": 4097},
+             "PATT (node 1, K = 2) length 4097", "LimitExceededError"),
+            ("segs-count-zero", "SEGS", 0, {"segment_count": 0}, "SEGS segment_count 0",
+             "LimitExceededError"),
+            ("segs-count-over-f", "SEGS", 0, {"segment_count": 25},
+             "SEGS segment_count 25 > F = 24", "LimitExceededError"),
+            ("resi-base-3", "RESI", 1, {"base": 3}, "RESI (node 2) base 3", "FormatError"),
+            ("resi-base2-with-patterns", "RESI", 0, {"base": 2, "order": 0},
+             "RESI (node 1, which has K = 2 patterns) base 2", "FormatError"),
+            ("resi-base2-order-1", "RESI", 1, {"base": 2, "order": 1},
+             "RESI (node 2, K = 0) base 2 with order 1", "FormatError")]
+    for slug, ctype, n, changes, what, error in layer_cases:
+        ch = [list(c) for c in base]
+        i = _find(ch, ctype, n)
+        f = CHUNKS[ctype].GRAMMAR.parse(ch[i][1])
+        for k, v in changes.items():
+            f[k] = v
+        ch[i][1] = CHUNKS[ctype].GRAMMAR.build(f)
+        add(slug, assemble(ch), what, f"{ctype} " + ", ".join(f"{k} = {v}" for k, v in
+                                                               changes.items()),
+            "a field value with no meaning in 1.0 silently treated as another, or sizes "
+            "beyond the §8 limits", error, ["§2.4", CHUNKS[ctype].SECTION]
+            + (["§8"] if error == "LimitExceededError" else []))
+    add("patt-samples-2pow24-plus-1", _patt_limit_file(24929, 673, 1),
+        "PATT K = 24929, L = 673 on a node of 1 marker: K x L x n_i = 2^24 + 1",
+        "PATT pattern_count = 24929, length = 673", "a limit tested as > 2^24 + 1",
+        "LimitExceededError", ["§4.7", "§8"])
+    m = _synth("walk", 24, markers=3, seed=54)
+    d = design_from_motion(m, step=1.0, nodes=[(None, 0, [0]), (0, 1, [1, 2])], residual=False,
+                           patterns={1: {"L": 6, "K": 2, "scale": 1, "order": 1}}, seed=54)
+    d.build()
+    ch = [list(c) for c in d.chunks() if c[0] != "SEGS"]
+    ch[_find(ch, "PATT")][1] = payload("PATT", {"node": 1, "pattern_count": 0, "length": 1,
+                                                "scale": 1, "order": 0, "coded": rc()})
+    add("patt-k0-without-residual-flag", assemble(ch),
+        "flags 0 (no residual layer) and node 1's PATT has K = 0", "PATT K = 0, SEGS removed",
+        "a node with no motion at all decoded as zeros", "FormatError", ["§4.7"])
+    # --- §2.4 / §4.10 summary
+    sm = CHUNKS["smry"].GRAMMAR.parse(base[_find(base, "smry")][1])
+    lv = sm.levels[0]
+    starts = list(struct.unpack(f"<{lv.k}I", lv.starts))
+    means = list(struct.unpack(f"<{len(lv.means) // 4}i", lv.means))
+    smry_cases: list[tuple[str, bytes, str]] = [
+            ("smry-space-2", smry_payload(2, sm.dims, [(lv.k, lv.wssse, lv.step, starts,
+                                                        means)]), "smry space 2"),
+            ("smry-dims-wrong", smry_payload(0, sm.dims + 3, [(lv.k, lv.wssse, lv.step, starts,
+                                                               means + [0] * lv.k * 3)]),
+             "smry space 0 with dims 3M + 3"),
+            ("smry-levels-0", struct.pack("<BIB", 1, 0, 0), "smry with level_count 0"),
+            ("smry-levels-65", smry_payload(1, 0, [(1, 0.0, 1.0, [0], [])] * 65),
+             "smry with 65 levels (space 1, D = 0)"),
+            ("smry-k-zero", smry_payload(1, 0, [(0, 0.0, 1.0, [], [])]), "a smry level k = 0"),
+            ("smry-k-over-f", smry_payload(1, 0, [(25, 0.0, 1.0, list(range(25)), [])]),
+             "a smry level k = 25 > F = 24"),
+            ("smry-wssse-negative", smry_payload(1, 0, [(2, -1.0, 1.0, [0, 12], [])]),
+             "a smry level wssse -1"),
+            ("smry-wssse-nan", smry_payload(1, 0, [(2, math.nan, 1.0, [0, 12], [])]),
+             "a smry level wssse NaN"),
+            ("smry-step-zero", smry_payload(1, 0, [(2, 1.0, 0.0, [0, 12], [])]),
+             "a smry level step 0")]
+    for slug, body, what in smry_cases:
+        add(slug, assemble(_replace(base, "smry", body)), what, "smry replaced: " + what,
+            "a summary that readers use without decoding holds meaningless values",
+            "FormatError", ["§2.4", "§4.10"])
+    # --- §2.4 / §4.11 meta keys
+    for slug, raw_key, what in [("meta-key-empty", b"", "an empty meta key"),
+                            ("meta-key-invalid-utf8", b"\xc3", "a meta key of the byte C3 "
+                             "(a truncated 2-byte sequence)")]:
+        add(slug, assemble(_replace(base, "meta", _meta_raw(raw_key, b"v"))), what,
+            "meta key replaced", "keys that cannot be looked up or written back", "FormatError",
+            ["§2.4", "§4.11"])
+    # --- §2.4 / §5.3 range-coded payloads
+    ch = _with_field(base, "RESI")
+    i = _find(ch, "RESI", 1)
+    f = CHUNKS["RESI"].GRAMMAR.parse(ch[i][1])
+    f.coded = b"\x00\x00\x00\x00"
+    ch[i][1] = CHUNKS["RESI"].GRAMMAR.build(f)
+    add("rc-payload-4-bytes", assemble(ch), "node 2's RESI coded field is 4 zero bytes",
+        "RESI (node 2) coded = 00 00 00 00", "reading the 5-byte preamble past the payload",
+        "FormatError", ["§2.4", "§5.3"])
+    for ctype, n in [("MASK", 0), ("PATT", 0), ("SEGS", 0), ("RESI", 1)]:
+        ch = [list(c) for c in base]
+        ch[_find(ch, ctype, n)][1] += b"\x00"
+        add(f"rc-leftover-byte-{ctype.lower()}", assemble(ch),
+            f"one byte after the last range-coded symbol of {ctype}"
+            + (" (node 2)" if n else ""), f"{ctype} payload + 1 zero byte",
+            "a decoder that calls close() for some chunk types only accepts padding there",
+            "FormatError", ["§5.3", "§5.5"])
+    # --- §6.5 key frames, on node 2 (one member, no patterns)
+    d = _small(53)
+    d.build()
+
+    def keyframes(*blocks, extra=b"", wide=False):
+        ch = d.chunks()
+        ch[_find(ch, "RESI", 1)][1] = payload("RESI", {"node": 2, "base": 2, "order": 0,
+                                                       "scale": 1, "coded": (rc_wide if wide
+                                                                             else rc)(*blocks)
+                                                       + extra})
+        return assemble(ch)
+
+    col = lambda *v: np.array(v, np.int64).reshape(-1, 1, 1)   # noqa: E731
+    keys2 = np.array([[[5, -3, 2]], [[7, 0, -1]]], np.int64)
+    good_kf: tuple = ((col(0), {"signed": False}), (col(1), {"signed": False}),
+               (col(22), {"signed": False}), (keys2, {}))
+    assert mpz.decode(keyframes(*good_kf)).n_frames == 24
+    add("rc-leftover-byte-resi-keyframes", keyframes(*good_kf, extra=b"\x00"),
+        "one byte after the four key-frame blocks of node 2's RESI (base 2)",
+        "RESI base 2 payload + 1 zero byte", "a decoder that forgets close() after the "
+        "key-frame blocks accepts padding", "FormatError", ["§5.3", "§5.5", "§6.5"])
+    for slug, blocks, what in [
+            ("keyframe-source-self", ((col(1), {"signed": False}),) + good_kf[1:],
+             "p_0 = 1: member 0 predicts from member (1 - 1) div 2 = 0, itself"),
+            ("keyframe-one-key", ((col(0), {"signed": False}), (col(0), {"signed": False}),
+                                  (np.zeros((0, 1, 1), np.int64), {"signed": False}),
+                                  (keys2[:1], {})), "K_0 = 1 with F = 24"),
+            ("keyframe-spans-short", good_kf[:2] + ((col(21), {"signed": False}),
+                                                    good_kf[3]),
+             "K_0 = 2 with one span of 22 frames: the spans add up to 22, not F - 1 = 23")]:
+        add(slug, keyframes(*blocks), f"RESI base 2 on node 2: {what}", "node 2 RESI base 2",
+            "reading a track that is not decoded yet, or key times outside the clip",
+            "FormatError", ["§6.5"])
+    add("keyframe-value-2pow31", keyframes(
+        *good_kf[:3], (np.array([[[lim, 0, 0]], [[1, 0, 0]]]), {}), wide=True),
+        "RESI base 2 on node 2: p_0 = 0, K_0 = 2, key residuals 2^31 - 1 and 1, so w_1 = "
+        "w_0 + 1 = 2^31 exactly", "node 2 RESI base 2, key residuals 2^31 - 1, 1",
+        "a check written as |w_k| > 2^31 lets w_k = 2^31 through (it wraps to -2^31 in "
+        "int32)", "FormatError", ["§6.5"])
+    d = Design(1, ["root", "m1", "m2"], step=0.5)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (1, np.array([[10, -4, 7]], np.int64))
+    d.node(0, 1, [1, 2], resi={"base": 2, "order": 0, "scale": 3,
+                               "values": np.zeros((1, 2, 3), np.int64)})
+    d.payloads[("RESI", 0)] = payload("RESI", {
+        "node": 1, "base": 2, "order": 0, "scale": 3,
+        "coded": keyframe_blocks([0, 1], [1, 2], [1], [[5, -6, 7], [2, 0, -1], [1, 1, 1]])})
+    d.bits = 31
+    add("keyframe-two-keys-one-frame", assemble(d.chunks()),
+        "F = 1 with a key-frame layer whose member 1 has K_1 = 2 keys (and a span of 1)",
+        "RESI base 2, c_1 = 1", "a key time beyond the last frame", "FormatError", ["§6.5"])
+    # --- §6.7 rule 2 on a gap sample
+    d = base_design()
+    d.build()
+    gaps = np.argwhere(~d.valid)
+    t, mk = (int(v) for v in gaps[gaps[:, 1] > 0][0])
+    node = next(i for i, n in enumerate(d.nodes) if mk in n[2])
+    at = d.nodes[node][2].index(mk)
+    d.layers[node]["resi"]["values"][t, at, 0] += 1 << d.bits
+    add("gap-sample-beyond-bits", assemble(d.chunks()),
+        f"the gap sample at frame {t}, marker {mk} decodes to |q| >= 2^bits; every valid "
+        "sample stays in range", f"RESI (node {node}) value at frame {t} + 2^bits",
+        "a decoder that range-checks only the samples it outputs accepts it", "FormatError",
+        ["§6.1", "§6.7"])
+    # --- §5.3 an overrun by exactly one byte (x45 lacks 3)
+    ch = [list(c) for c in base]
+    ch[_find(ch, "RESI")][1] = ch[_find(ch, "RESI")][1][:-1]
+    add("rc-payload-one-byte-short", assemble(ch), "the RESI range-coded payload lacks its "
+        "last byte (chunk length and CRC consistent)", "RESI payload shortened by 1 byte, "
+        "CRC recomputed", "a decoder that tests pos > n instead of pos == n before reading "
+        "reads one byte past the payload and decodes on", "FormatError", ["§5.3"])
+
+
+def _next_name(vs: VectorSet, letter: str, slug: str) -> str:
+    """``<letter><n>-slug`` with n one above the highest number of that group so far (the
+    vectors of other helpers may come first)."""
+    nums = [int(e["name"][1:3]) for e in vs.entries
+            if e["name"][:1] == letter and e["name"][1:3].isdigit()]
+    return f"{letter}{max(nums, default=0) + 1:02d}-{slug}"
+
+
+def spec_17_uncommon(vs: VectorSet):
+    """Valid files at the limits and boundaries of the spec §7.4 rules (issue 17)."""
+    lim = (1 << 31) - 1
+    # §4.11: a repeated meta key, the last value counts
+    d = _small(61)
+    d.ancillary.append(("meta", payload("meta", {"count": 3, "entries": [
+        {"key": "take", "value": "first"}, {"key": "note", "value": "x"},
+        {"key": "take", "value": "last"}]})))
+    vs.valid("uncommon", _next_name(vs, "u", "meta-repeated-key"), d.build(),
+             "a meta chunk in which the key 'take' repeats: the decoded metadata maps it to "
+             "its last value, 'last' (§4.11), and the sidecar of §7.3 must say so",
+             {"meta_repeated_key": "take"}, ["§4.11", "§6.8"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=61)")
+    # §5.3: code >= range after init is not checked
+    for n in range(5, 64):
+        coded = b"\x00" + b"\xff" * (n - 1)
+        try:
+            dec = mpz.entropy.BlockDecoder(coded)
+            v = dec.block(1, 1, 3)
+            dec.close()
+        except mpz.MPZError:
+            continue
+        break
+    assert int(np.abs(v).max()) == lim
+    d = _root_only(1, v[:, 0, :])
+    d.payloads[("ROOT", 0)] = payload("ROOT", {"order": 0, "coded": coded})
+    vs.valid("uncommon", _next_name(vs, "u", "rc-code-above-range"), d.build(),
+             f"a ROOT payload of 00 then {n - 1} bytes FF: after init code = 0xFFFFFFFF is "
+             "not below range = 0xFFFFFFFF; a decoder MUST NOT check that and decodes every "
+             "decision as 1, so every value is -(2^31 - 1)",
+             {"root_coded": coded.hex()}, ["§5.3", "§5.4"], "bytes chosen here")
+    # §6.2 and §6.7: an unused pattern with an order-2 difference of 2^32 - 1, and one whose
+    # scaled value is 2^36 - 1 (only patterns no segment uses can hold such values)
+    zeros = np.zeros((8, 2, 3), np.int64)
+    d = _small(62)
+    d.layers[1]["patt"] = {"K": 2, "L": 4, "scale": 1, "order": 2, "values": zeros}
+    d.layers[1]["segs"] = (np.zeros(4, np.int64), np.array([6, 6, 6, 6]))
+    d.build()
+    e = np.zeros((8, 2, 3), np.int64)
+    e[5:8, 0, 0] = [lim, lim, 1]                  # d = 2^31 - 1, 2^32 - 2, 2^32 - 1
+    d.payloads[("PATT", 0)] = payload("PATT", {"node": 1, "pattern_count": 2, "length": 4,
+                                               "scale": 1, "order": 2,
+                                               "coded": rc_wide((e, {"period": 4}))})
+    vs.valid("uncommon", _next_name(vs, "u", "unused-pattern-difference-2pow32-minus-1"),
+             d.build(),
+             "PATT K = 2, L = 4, order 2; SEGS uses pattern 0 only; pattern 1 has residuals "
+             "2^31 - 1, 2^31 - 1, 1, so its differences reach 2^32 - 1, one below the guard of "
+             "§6.2, and its values 5 x 2^31 - 4 stay below 2^36",
+             {"order2_difference_max": 2 ** 32 - 1}, ["§6.2", "§6.3", "§6.7"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=62), patterns chosen "
+             "here")
+    d = _small(63)
+    v = np.zeros((12, 2, 3), np.int64)
+    d.layers[1]["patt"] = {"K": 2, "L": 6, "scale": 4095, "order": 1, "values": v}
+    d.layers[1]["segs"] = (np.zeros(4, np.int64), np.array([6, 6, 6, 6]))
+    d.build()
+    d.layers[1]["patt"]["values"] = v.copy()
+    d.layers[1]["patt"]["values"][6 + 3, 1, 2] = -16781313     # x 4095 = -(2^36 - 1)
+    vs.valid("uncommon", _next_name(vs, "u", "unused-pattern-scaled-2pow36-minus-1"),
+             d.build(),
+             "PATT K = 2, scale 4095; SEGS uses pattern 0 only; pattern 1 holds V = -16781313, "
+             "so V x scale = -(2^36 - 1), one below the limit of §6.7 rule 1",
+             {"patt_scale": [4095], "scaled_value": -(2 ** 36 - 1)}, ["§6.3", "§6.7"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=63), patterns chosen "
+             "here")
+    # §6.5: key values of magnitude 2^31 - 1
+    d = Design(3, ["root", "m1"], bits=31)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.zeros((3, 3), np.int64))
+    d.node(0, 1, [1], resi={"base": 2, "order": 0, "scale": 1,
+                            "values": np.zeros((3, 1, 3), np.int64)})
+    keys = [[lim, -lim, 0], [-lim, lim, 1]]                  # w_0 = +-(2^31 - 1), w_1 = 0 / 1
+    d.payloads[("RESI", 0)] = payload("RESI", {"node": 1, "base": 2, "order": 0, "scale": 1,
+                                               "coded": keyframe_blocks([0], [2], [2], keys,
+                                                                        wide=True)})
+    data = d.build()
+    assert int(np.abs(decode_layers(data).q).max()) == lim
+    vs.valid("uncommon", _next_name(vs, "u", "keyframe-values-2pow31-minus-1"), data,
+             "RESI base 2, F = 3, one member with K = 2 keys at frames 0 and 2: w_0 = "
+             "(2^31 - 1, -(2^31 - 1), 0), w_1 = (0, 0, 1); |w_k| = 2^31 - 1 is one below the "
+             "limit of §6.5, and frame 1 interpolates to 2^30",
+             {"resi_base": [2], "max_abs_key": lim}, ["§6.5", "§6.7"],
+             "integers chosen here, coded with mpz.conformance.rangecoder")
+    # §8 limits that fit in a small file: L = 4096, 64 smry levels, M = 4096
+    d = _small(64)
+    v = np.zeros((4096, 2, 3), np.int64)
+    v[:, 0, 0] = np.arange(4096) % 7 - 3
+    d.layers[1]["patt"] = {"K": 1, "L": 4096, "scale": 1, "order": 1, "values": v}
+    d.layers[1]["segs"] = (np.zeros(2, np.int64), np.array([12, 12]))
+    d.error_metric, d.error_bound = 0, 0.0
+    vs.valid("uncommon", _next_name(vs, "u", "pattern-length-4096"), d.build(),
+             "PATT with L = 4096 (MAX_PATTERN_LENGTH) stretched over segments of 12 frames",
+             {"pattern_length": [4096]}, ["§4.7", "§6.3", "§8"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=64), pattern chosen "
+             "here")
+    d = _small(65)
+    d.ancillary.append(("smry", smry_payload(1, 0, [(1 + k % 24, float(k), 1.0,
+                                                      list(range(1 + k % 24)), [])
+                                                     for k in range(64)])))
+    vs.valid("uncommon", _next_name(vs, "u", "smry-64-levels"), d.build(),
+             "a smry chunk with 64 levels (MAX_SUMMARY_LEVELS), space 1, D = 0",
+             {"smry_levels": 64}, ["§4.10", "§8"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=65)")
+    M = 4096
+    d = Design(1, _names(M), bits=12)
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.zeros((1, 3), np.int64))
+    w = (np.arange(3 * (M - 1), dtype=np.int64).reshape(1, M - 1, 3) % 13) - 6
+    d.node(0, 1, list(range(1, M)), resi={"base": 1, "order": 0, "scale": 1, "values": w})
+    vs.valid("uncommon", _next_name(vs, "u", "markers-4096"), d.build(),
+             "M = 4096 markers (MAX_MARKERS) in one frame: a root and one node of 4095 "
+             "members (RESI base 1)", {"markers": M}, ["§4.1", "§4.3", "§8"],
+             "integers chosen here")
+
+
+def _slug(name: str) -> str:
+    """A vector's name without its number (``x05-bad-crc-root`` -> ``bad-crc-root``)."""
+    return name.split("-", 1)[1] if name[:1] in "vuxe" and name[1:3].isdigit() else name
+
+
+def _rule_key(rule: str) -> tuple:
+    return tuple(int(p) for p in rule[2:].replace("-", ".").split("."))
+
+
+def _rules(*pairs) -> dict:
+    """{slug: rules} from (rules, slugs) pairs: each rule probed by each slug."""
+    out: dict[str, set] = {}
+    for rules, slugs in pairs:
+        for slug in slugs.split():
+            out.setdefault(slug, set()).update(rules.split())
+    return {k: tuple(sorted(v, key=_rule_key)) for k, v in out.items()}
+
+
+_DECODABLE_BASICS = ("walk-bounded-1mm jump-lossy-gaps wave-bounded-2mm-summary "
+                     "orders-residual-only patterns-scale3-lossy-cm "
+                     "patterns-residual-g2-smooth4-m absolute-residual-base1-g3-in "
+                     "units-unknown-meta-smry all-chunk-types spec-example")
+
+#: rule (spec §7.4) -> the vectors that probe it, by slug; make_vectors writes each vector's
+#: ``rules`` from this table, and conformance/test_rules.py checks it against the spec
+VECTOR_RULES = _rules(
+    ("R-2.1-1 R-2.4-5", "major-version-2"),
+    ("R-2.1-2", "minor-version-7-utf8-names"),
+    ("R-2.3-1", "unknown-critical-ABCD"),
+    ("R-2.3-2 R-3.4-9", "unknown-ancillary-zzzz"),
+    ("R-2.3-3 R-3.3-2", "unknown-ancillary-bad-crc"),
+    ("R-3.3-2", "bad-crc-meta"),
+    ("R-2.3-4", "smry-starts-not-at-0 meta-value-surrogate smry-space-2 meta-key-empty"),
+    ("R-2.3-5 R-3.4-12", "mend-spelled-mEND"),
+    ("R-2.4-1 R-3.1-1", "bad-signature"),
+    ("R-2.4-2", "chunk-type-byte-0x60 chunk-type-byte-0x5b chunk-type-byte-0x40 "
+                "chunk-type-byte-0x7b"),
+    ("R-2.4-3", "length-max-0xffffffff length-2pow30-plus-1"),
+    ("R-2.4-4", "duplicate-mhdr"),
+    ("R-2.4-6", "reserved-flag-bits flags-bit-1"),
+    ("R-2.4-7", "frame-count-zero frame-count-2pow24-plus-1"),
+    ("R-2.4-8", "marker-count-zero marker-count-4097"),
+    ("R-2.4-9 R-8-2", "frames-x-markers-over-limit frames-x-markers-2pow26-plus-1"),
+    ("R-2.4-10", "node-count-zero node-count-over-markers"),
+    ("R-2.4-11", "rate-nan rate-minus-zero rate-zero rate-infinite rate-negative"),
+    ("R-2.4-12", "units-code-5"),
+    ("R-2.4-13", "error-metric-2"),
+    ("R-2.4-14", "error-bound-nan error-bound-infinite error-bound-negative"),
+    ("R-2.4-15", "smoothing-17"),
+    ("R-2.4-16", "duplicate-marker-names name-empty name-nul name-invalid-utf8"),
+    ("R-2.4-17", "node-parent-not-before-node parent-0xffff-for-node-1 root-parent-not-0xffff"),
+    ("R-2.4-18", "node-member-count-zero root-node-two-members"),
+    ("R-2.4-19", "marker-in-two-nodes member-index-m marker-repeated marker-unowned"),
+    ("R-2.4-20", "reference-not-a-member"),
+    ("R-2.4-21", "grid-step-zero step-nan step-negative"),
+    ("R-2.4-22", "offset-nan offset-infinite"),
+    ("R-2.4-23", "bits-0 bits-32"),
+    ("R-2.4-24", "qunt-step-1e300 qunt-offset-plus-range-infinite "
+                 "qunt-range-tie-rounds-to-infinity"),
+    ("R-2.4-25", "mask-flag-2"),
+    ("R-2.4-26", "root-order-3 patt-order-3 resi-order-3"),
+    ("R-2.4-27", "patt-length-zero patt-length-4097"),
+    ("R-2.4-28", "patt-scale-zero"),
+    ("R-2.4-29 R-8-2", "segs-count-zero segs-count-over-f"),
+    ("R-2.4-30", "segs-index-out-of-range segs-index-negative"),
+    ("R-2.4-31", "segs-counts-exceed-f segs-counts-short-of-f segs-count-zero "
+                 "segs-counts-wrap-32-bits"),
+    ("R-2.4-32", "resi-base-3 resi-base1-with-patterns resi-base2-with-patterns "
+                 "resi-base2-order-1"),
+    ("R-2.4-33", "resi-scale-zero"),
+    ("R-2.4-34", "smry-space-2"),
+    ("R-2.4-35", "smry-dims-wrong"),
+    ("R-2.4-36", "smry-levels-0 smry-levels-65"),
+    ("R-2.4-37", "smry-k-zero smry-k-over-f"),
+    ("R-2.4-38", "smry-wssse-negative smry-wssse-nan"),
+    ("R-2.4-39", "smry-step-zero"),
+    ("R-2.4-40", "smry-starts-not-at-0 smry-starts-repeated smry-last-start-at-f"),
+    ("R-2.4-41", "meta-key-empty meta-key-invalid-utf8"),
+    ("R-2.4-42", "meta-value-surrogate meta-value-overlong-nul"),
+    ("R-2.4-43", "rc-payload-4-bytes"),
+    ("R-2.4-44", "rc-first-byte-nonzero"),
+    ("R-3.2-1", "truncated-in-mend truncated-in-meta"),
+    ("R-3.2-2 R-8-1", "length-beyond-file truncated-in-mhdr truncated-in-mnam "
+                      "truncated-in-hier truncated-in-qunt truncated-in-mask truncated-in-root "
+                      "truncated-in-patt truncated-in-segs truncated-in-resi truncated-in-smry"),
+    ("R-3.2-3", "qunt-trailing-byte mhdr-payload-short mend-payload-1-byte"),
+    ("R-3.3-1", "bad-crc-mhdr bad-crc-hier bad-crc-root bad-crc-resi bad-crc-mend "
+                "bad-crc-patt-payload"),
+    ("R-3.4-1", "meta-before-mhdr"),
+    ("R-3.4-2", "chunks-out-of-order missing-root missing-segs"),
+    ("R-3.4-3", "second-qunt unknown-critical-ABCD"),
+    ("R-3.4-4", "segs-wrong-node patt-wrong-node resi-wrong-node"),
+    ("R-3.4-5", "missing-segs segs-after-k0-patt"),
+    ("R-3.4-6", "resi-missing-with-flag resi-present-without-flag"),
+    ("R-3.4-7", "walk-bounded-1mm wave-bounded-2mm-summary"),
+    ("R-3.4-8", "patt-left-out-without-residual-flag patt-left-out-then-segs"),
+    ("R-3.4-9", "units-unknown-meta-smry"),
+    ("R-3.4-10", "second-smry second-meta"),
+    ("R-3.4-11", "bytes-after-mend"),
+    ("R-3.4-12", "missing-mend signature-only"),
+    ("R-4.1-2", "error-bound-minus-zero jump-lossy-gaps"),
+    ("R-4.2-1", "names-count-mismatch"),
+    ("R-4.2-2", "mnam-shared-too-long"),
+    ("R-4.2-3", "name-256-bytes"),
+    ("R-4.2-4", "names-compared-as-bytes"),
+    ("R-4.3-1", "hier-count-mismatch"),
+    ("R-4.4-1", "qunt-step-2pow992-bits-31 qunt-range-rounds-to-max-finite"),
+    ("R-4.5-1", "mask-all-valid"),
+    ("R-4.7-1", "patt-k0-order-3 patt-scale-zero"),
+    ("R-4.7-2 R-8-2", "patt-samples-2pow32 patt-samples-2pow40 patt-samples-2pow24-plus-1"),
+    ("R-4.7-3", "patt-k0-without-residual-flag"),
+    ("R-4.7-4", "patt-k0-ignored-payload patt-k0-coded-empty patt-k0-coded-3-bytes"),
+    ("R-4.10-1 R-8-2", "smry-4kd-wraps-32-bits"),
+    ("R-4.10-2", "smry-angles-no-dims smry-64-levels"),
+    ("R-4.11-1", "meta-nul"),
+    ("R-4.11-2 R-6.8-2", "meta-repeated-key"),
+    ("R-4.12-1", "mend-payload-1-byte"),
+    ("R-5.2-1 R-5.5-2 R-6.2-3 R-6.8-1", _DECODABLE_BASICS),
+    ("R-6.2-3", "one-frame one-marker"),
+    ("R-5.3-1", "rc-payload-short rc-payload-one-byte-short"),
+    ("R-5.3-2", "rc-leftover-bytes rc-leftover-byte-mask rc-leftover-byte-patt "
+                "rc-leftover-byte-segs rc-leftover-byte-resi rc-leftover-byte-resi-keyframes"),
+    ("R-5.3-3", "rc-code-above-range"),
+    ("R-5.4-1", "root-values-k30 rc-code-above-range"),
+    ("R-5.5-1", "keyframes-one-frame"),
+    ("R-5.6-1", "context-value-2pow32"),
+    ("R-6.1-1", "marker-gap-throughout gap-sample-beyond-bits"),
+    ("R-6.2-1", "order2-overflow root-order2-difference-2pow32 "
+                "unused-pattern-order2-overflow"),
+    ("R-6.2-2", "unused-pattern-difference-2pow32-minus-1"),
+    ("R-6.3-1", "patterns-scale3-lossy-cm short-segments-and-patterns long-20000-frames "
+                "pattern-length-4096"),
+    ("R-6.4-1", "max-smoothing-16 patterns-residual-g2-smooth4-m"),
+    ("R-6.5-1", "keyframe-source-self"),
+    ("R-6.5-2", "keyframe-count-2pow31 keyframe-one-key keyframe-two-keys-one-frame"),
+    ("R-6.5-3", "keyframe-spans-wrap-32-bits keyframe-spans-short"),
+    ("R-6.5-4", "keyframe-value-2pow32-minus-2 keyframe-prediction-2pow47 "
+                "keyframe-value-2pow31"),
+    ("R-6.5-5", "keyframe-values-2pow31-minus-1"),
+    ("R-6.5-6", "walk-bounded-1mm wave-bounded-2mm-summary keyframes-one-frame"),
+    ("R-6.6-1", "orders-residual-only absolute-residual-base1-g3-in markers-4096"),
+    ("R-6.7-1", "unused-pattern-out-of-range residual-2pow49-times-g-2pow15"),
+    ("R-6.7-2", "unused-pattern-scaled-2pow36-minus-1"),
+    ("R-6.7-3", "value-beyond-bits gap-sample-beyond-bits"),
+    ("R-6.7-4", "values-at-bits-limit root-values-k30"),
+    ("R-6.8-2", "rate-65.0364227294921875 meta-nul names-compared-as-bytes "
+                "units-unknown-meta-smry"),
+    ("R-7.2-1 R-7.2-2", "walk-41-gaps mixed-10-metres"),
+)
+
+#: rules no small file can probe: the reason, and the unit test that covers the boundary
+RULE_EXCEPTIONS = {
+    "R-4.1-1": "a decoder's own lower limit is not a property of any file; the reference's "
+               "max_samples is tested in conformance/test_rules.py::test_lower_sample_limit",
+    "R-8-3": "an allocation failure depends on the decoder's memory, not on the file; the "
+             "reference lets MemoryError through unwrapped, tested in conformance/"
+             "test_rules.py::test_allocation_failure_is_not_invalid_data",
+}
+
+#: boundaries at a limit whose valid file would be impractical (documented here, tested in
+#: unit tests; the invalid side of each has a vector)
+LIMIT_BOUNDARIES = {
+    "F x M = 2^26 (MAX_SAMPLES)": "a valid file is small, but its expected output is 1.5 GiB "
+        "of float64; tested in conformance/test_rules.py::test_limit_boundaries "
+        "(frames-x-markers-2pow26-plus-1 is the invalid side)",
+    "chunk length = 2^30 (MAX_CHUNK_LENGTH)": "the payload must be present, so the file is "
+        "1 GiB; tested in conformance/test_rules.py::test_chunk_length_boundary "
+        "(length-2pow30-plus-1 is the invalid side)",
+    "K x L x n_i = 2^24 (MAX_PATTERN_SAMPLES)": "3 x 2^24 coded values, 400 MB of int64 while "
+        "decoding; tested in conformance/test_rules.py::test_limit_boundaries "
+        "(patt-samples-2pow24-plus-1 is the invalid side)",
+    "F = 2^24 (MAX_FRAMES)": "its expected output is 384 MiB; tested in "
+        "conformance/test_rules.py::test_limit_boundaries",
+    "sum of k x D = 2^24 (MAX_SUMMARY_VALUES)": "the means alone are 64 MiB; tested in "
+        "conformance/test_rules.py::test_limit_boundaries",
+}
+
+#: how the encoder-made vectors were made, so that a test can re-encode them byte for byte
+#: (mpz.synth.generate arguments, mpz.encode keyword arguments)
+ENCODER_RECIPES = {
+    "v01-walk-bounded-1mm": {"synth": {"kind": "walk", "frames": 90, "seed": 1},
+                             "encode": {"max_error": 1.0}},
+    "v02-jump-lossy-gaps": {"synth": {"kind": "jump", "frames": 90, "markers": 20, "seed": 2,
+                                      "gap_fraction": 0.08},
+                            "encode": {"smoothing": 3, "metadata": {"take": "v02"},
+                                       "lossy": True}},
+    "v03-wave-bounded-2mm-summary": {"synth": {"kind": "wave", "frames": 60, "markers": 12,
+                                               "seed": 3},
+                                     "encode": {"max_error": 2.0, "summary": [2, 5]}},
+}
+
+
+# ------------------------------------------------- §4.13 C3D archive (MPZ 1.1) --
+def _c3d_header(P, C, n, F, first, scale, rate, events=()):
+    """A normalised 512-byte C3D header (C3D.org layout), built with struct."""
+    h = bytearray(512)
+    h[0], h[1] = 2, 0x50
+    struct.pack_into("<hhHHh", h, 2, P, C * n, first, first + F - 1, 10)
+    struct.pack_into("<f", h, 12, scale)
+    struct.pack_into("<hh", h, 16, 11, n)
+    struct.pack_into("<f", h, 20, rate)
+    if events:
+        struct.pack_into("<hh", h, 298, 12345, len(events))
+        for i, (t, label) in enumerate(events):
+            struct.pack_into("<f", h, 304 + 4 * i, t)
+            h[376 + i] = 1
+            h[396 + 4 * i:400 + 4 * i] = label.encode("ascii").ljust(4)[:4]
+    return bytes(h)
+
+
+def _c3d_records(labels, models, C, scale, rate, n):
+    """A parameter section: POINT (with ANGLES/POWERS listing the model outputs), ANALOG,
+    EVENT, a byte parameter, a locked one and a parameter of an undeclared group."""
+    from mpz.io.c3dbin import ParamRecord as R
+
+    def chars(rows):
+        w = max([1] + [len(r) for r in rows])
+        return (w, len(rows)), b"".join(r.encode("latin-1").ljust(w) for r in rows)
+
+    dims, lab = chars(labels)
+    out = [R(-1, False, b"POINT", b"3-D point data"),
+           R(1, True, b"USED", b"points", 2, (), struct.pack("<h", len(labels))),
+           R(1, False, b"SCALE", b"", 4, (), struct.pack("<f", scale)),
+           R(1, False, b"RATE", b"", 4, (), struct.pack("<f", rate)),
+           R(1, False, b"DATA_START", b"", 2, (), struct.pack("<h", 11)),
+           R(1, False, b"LABELS", b"labels", -1, dims, lab)]
+    for kind, names in models.items():
+        d, v = chars(names)
+        out.append(R(1, False, kind.encode(), b"model outputs", -1, d, v))
+    out += [R(-2, False, b"ANALOG", b""),
+            R(2, False, b"USED", b"", 2, (), struct.pack("<h", C)),
+            R(2, False, b"RATE", b"", 4, (), struct.pack("<f", rate * n)),
+            R(2, False, b"GAIN", b"bytes", 1, (C,), bytes(range(1, C + 1))),
+            R(-3, True, b"EVENT", b"events"),
+            R(3, False, b"TIMES", b"", 4, (2, 2), struct.pack("<4f", 0, 0.1, 0, 0.3)),
+            R(3, False, b"Mixed Case Name", b"", -1, (0,), b""),
+            R(9, False, b"ORPHAN", b"group 9 is never declared", 2, (), b"\x07\x00")]
+    return out
+
+
+def c3d_motion(seed, *, storage, F=24, M=5, J=2, C=3, n=4):
+    """A synthetic motion with a C3D archive (mpz.synth, integers chosen here): float32 or
+    int16 storage, J model outputs, C analog channels of n samples per frame, whose words
+    need both channel modes (ADC counts as floats, -0.0, NaN, infinities, 1e38)."""
+    from mpz.c3darchive import C3DArchive
+    rng = np.random.default_rng(seed)
+    m = _synth("walk", F, markers=M, seed=seed, gap_fraction=0.05)
+    scale = 0.5
+    pos = m.positions
+    if storage == 0:                                  # on the int16 grid of POINT:SCALE
+        pos = np.rint(np.nan_to_num(pos) / scale) * scale
+        pos[~m.valid] = np.nan
+    P = M + J
+    slots = list(rng.permutation(P))
+    models = np.cumsum(rng.normal(0, 0.3, (F, J, 3)), axis=0) + 5.0
+    if storage == 0:
+        models = np.rint(models / scale) * scale
+    mvalid = np.ones((F, J), bool)
+    if J:
+        mvalid[:3, 0] = False                         # a model output starting late
+    models[~mvalid] = np.nan
+    words = rng.integers(0, 4000, (F, P)).astype(np.int64)
+    words[:, :] += (rng.integers(0, 2, (F, P)) * 256)           # a camera bit
+    dt = "<i2" if storage == 0 else "<f4"
+    marker_slot = {s: p for p, s in enumerate(slots) if s < M}
+    for mk in range(M):
+        words[~m.valid[:, mk], marker_slot[mk]] = -1
+    for j in range(J):
+        words[~mvalid[:, j], slots.index(M + j)] = -1
+    T = F * n
+    if storage == 0:
+        analog = rng.integers(-2048, 2048, (T, C)).astype("<i2")
+    else:
+        analog = np.zeros((T, C), "<f4")
+        if C >= 2:
+            analog[:, 0] = rng.integers(-3000, 3000, T) * 2.0 ** -15       # mode 0, shift -15
+            special = np.array([-0.0, np.nan, np.inf, -np.inf, 1e38, -1e-40], "<f4")
+            analog[:, 1] = np.where(np.arange(T) % 7 == 0, special[np.arange(T) % 6],
+                                    np.cumsum(rng.normal(0, 1, T)).astype("<f4"))
+        for c in range(2, C):
+            analog[:, c] = rng.integers(0, 4096, T)
+    labels = [""] * P
+    names = list(m.names)
+    for p, s in enumerate(slots):
+        labels[p] = names[s] if s < M else f"OUT{s - M}"
+    labels[slots.index(0)] = names[0]
+    kinds = {"ANGLES": [f"OUT{j}" for j in range(J) if j % 2 == 0],
+             "POWERS": [f"OUT{j}" for j in range(J) if j % 2 == 1]}
+    a = C3DArchive(84, _c3d_header(P, C, n, F, 10, -scale if storage else scale, m.rate,
+                                   events=((0.1, "FS"), (0.3, "FO"))),
+                   _c3d_records(labels, kinds, C, scale, m.rate, n), slots,
+                   words.astype(dt), storage, models, mvalid,
+                   [0 if j % 2 == 0 else 3 for j in range(J)], analog, n, storage)
+    return mpz.Motion(pos, m.names, m.rate, m.units, m.valid, {"format": "c3d"},
+                      extras={"c3d": a})
+
+
+def _c3d_features(data):
+    """What the archive decodes to, for implementers: sha256 of the words and model values."""
+    import hashlib
+    a = mpz.decode(data).extras["c3d"]
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(a.words).tobytes())
+    h.update(np.ascontiguousarray(a.analog).tobytes())
+    h.update(np.ascontiguousarray(a.models, "<f8").tobytes())
+    return {"c3d_points": len(a.slots), "c3d_model_outputs": int(a.models.shape[1]),
+            "c3d_analog_channels": a.channels, "c3d_parameters": len(a.records),
+            "c3d_archive_sha256": h.hexdigest(),
+            "c3d_archive_digest_rule": "sha256 of the words [F, P] (int16 or float32 LE), the "
+                                       "analog words [F n, C] and the model values [F, J, 3] "
+                                       "(float64 LE, NaN at gaps)"}
+
+
+def _numbered(vs: VectorSet, letter: str, slug: str) -> str:
+    import re
+    found = [re.match(r"[a-z](\d+)-", e["name"]) for e in vs.entries
+             if e["name"][:1] == letter]
+    nums = [int(x.group(1)) for x in found if x is not None]
+    return f"{letter}{max(nums, default=0) + 1:02d}-{slug}"
+
+
+def _c3d_rebuild(data, ctype, **changes):
+    """``data`` with the first ``ctype`` chunk's record fields changed (payload rebuilt)."""
+    import dataclasses
+    from typing import Any
+
+    from mpz.container import scan
+    out = []
+    done = False
+    for c in scan(data).chunks:
+        rec: Any = c.record
+        if c.type == ctype and not done:
+            out.append((c.type, dataclasses.replace(rec, **changes).dump()))
+            done = True
+        else:
+            out.append((c.type, c.payload))
+    return assemble(out)
+
+
+def _c3d_chunks(data):
+    from mpz.container import scan
+    return [[c.type, c.payload] for c in scan(data).chunks]
+
+
+def c3d_archive_vectors(vs: VectorSet):
+    """Valid, uncommon and invalid files for the C3D archive chunks (spec §4.13, §6.9,
+    MPZ 1.1), from synthetic motions with synthetic archives (never real files)."""
+    import dataclasses
+
+    from mpz.chunks import Cana, Chdr, Cpnt, Cprm
+    secs = ["§2.1", "§2.3", "§4.13", "§4.13.1", "§4.13.2", "§4.13.3", "§4.13.4", "§6.9"]
+    m = c3d_motion(71, storage=1)
+    good = mpz.encode(m, max_error=1.0)
+    vs.valid("valid", _numbered(vs, "v", "c3d-archive-float32"), good,
+             "a C3D archive (1.1): header with events, parameters (byte, locked, undeclared "
+             "group, mixed-case name), 7 points of which 2 model outputs (ANGLES, POWERS) in "
+             "shuffled slots, float32 words, 3 analog channels of 4 samples per frame: "
+             "fixed-point (mode 0, shift -15), specials -0.0, NaN, +-inf, 1e38, a subnormal "
+             "(mode 1), integers", _c3d_features(good), secs,
+             "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0)")
+    mi = c3d_motion(72, storage=0, J=1, C=2, n=2)
+    exact = mpz.encode(mi)
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-int16-exact-on-grid"), exact,
+             "an int16 C3D archive coded by default: exact on the source grid (QUNT step = "
+             "POINT:SCALE 0.5, offset 0, error_bound 0), int16 words and analog",
+             _c3d_features(exact), secs, "make_vectors.c3d_motion(72, storage=0) -> "
+             "mpz.encode() (the default)")
+    # no analog, no model outputs: cpnt with J = 0 and no cana
+    mn = c3d_motion(73, storage=1, J=0, C=0)
+    bare = mpz.encode(mn, max_error=2.0)
+    assert "cana" not in [c[0] for c in _c3d_chunks(bare)]
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-no-analog-no-models"), bare,
+             "a C3D archive without analog channels (no cana) and without model outputs "
+             "(J = 0)", _c3d_features(bare), secs,
+             "make_vectors.c3d_motion(73, storage=1, J=0, C=0) -> mpz.encode(max_error=2.0)")
+
+    def add(slug, data, description, corruption, risk, error, sections):
+        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
+                   sections)
+
+    ch = _c3d_chunks(good)
+    i_hdr = next(i for i, c in enumerate(ch) if c[0] == "chdr")
+    two = ch[:i_hdr + 1] + [ch[i_hdr]] + ch[i_hdr + 1:]
+    add("c3d-two-chdr", assemble(two), "two chdr chunks", "chdr repeated",
+        "a decoder that keeps the last header writes a C3D from the wrong one",
+        "FormatError", ["§4.13"])
+    add("c3d-no-cprm", assemble([c for c in ch if c[0] != "cprm"]),
+        "a C3D archive without its parameter section", "cprm removed",
+        "a writer with no parameters writes a C3D no reader understands", "FormatError",
+        ["§4.13"])
+    ana = next(c for c in ch if c[0] == "cana")
+    add("c3d-two-cana", assemble(ch[:-1] + [ana] + ch[-1:]), "two cana chunks",
+        "cana repeated before MEND", "which analog channels?", "FormatError", ["§4.13"])
+    add("chdr-processor-87", _c3d_rebuild(good, "chdr", processor=87), "chdr processor 87",
+        "processor = 87", "an unknown processor type", "FormatError", ["§4.13.1"])
+    hdr = next(c for c in ch if c[0] == "chdr")
+    blk = bytearray(Chdr.load(hdr[1]).block)
+    blk[1] = 0x51
+    add("chdr-key-0x51", _c3d_rebuild(good, "chdr", block=bytes(blk)),
+        "chdr block byte 1 = 0x51", "C3D key byte changed",
+        "a C3D written from it is not a C3D", "FormatError", ["§4.13.1"])
+    prm = Cprm.load(next(c for c in ch if c[0] == "cprm")[1])
+
+    def with_record(i, **kw):
+        recs = list(prm.records)
+        recs[i] = dataclasses.replace(recs[i], **kw)
+        return _c3d_rebuild(good, "cprm", records=tuple(recs))
+
+    add("cprm-group-0", with_record(1, group=0), "a parameter record with group id 0",
+        "record 1 group = 0", "C3D ends the section at group 0: the rest is lost",
+        "FormatError", ["§4.13.2"])
+    add("cprm-name-empty", with_record(0, name=b""), "a group record with an empty name",
+        "record 0 name = b''", "C3D ends the section at a zero name length", "FormatError",
+        ["§4.13.2"])
+    add("cprm-name-128-bytes", with_record(0, name=b"N" * 128), "a name of 128 bytes",
+        "record 0 name 128 bytes", "a C3D name length is a signed byte: 128 is -128 (locked, "
+        "128 bytes?)", "FormatError", ["§4.13.2"])
+    add("cprm-type-3", with_record(1, type=3, data=b"\x00" * 3),
+        "a parameter of type 3", "record 1 type = 3", "an unknown type has no element size",
+        "FormatError", ["§4.13.2"])
+    add("cprm-eight-dims", with_record(11, dims=b"\x01" * 8, data=b"\x01"),
+        "a parameter with 8 dimensions", "record 11 dims 8 x 1", "C3D allows at most 7",
+        "FormatError", ["§4.13.2"])
+    add("cprm-group-declared-twice", with_record(9, group=-1),
+        "group id 1 declared twice (POINT and EVENT)", "record 9 group = -1",
+        "parameters of group 1 would belong to two groups", "FormatError", ["§4.13.2"])
+    raw = bytearray(next(c for c in ch if c[0] == "cprm")[1])
+    raw[0:2] = struct.pack("<H", prm.count + 1)
+    add("cprm-count-past-payload", assemble([[t, bytes(raw) if t == "cprm" else p]
+                                             for t, p in ch]),
+        "cprm count one more than the records present", "count + 1",
+        "a reader that trusts the count reads past the payload", "FormatError",
+        ["§3.2", "§4", "§4.13.2"])
+    big = bytearray(next(c for c in ch if c[0] == "cprm")[1])
+    # the first parameter (USED): 7 dims of 255, data 2 x 255^7 bytes declared
+    at = 2 + 2 + 1 + len(prm.records[0].name) + 1 + len(prm.records[0].description)
+    at += 2 + 1 + len(prm.records[1].name) + 1 + len(prm.records[1].description) + 1
+    assert big[at] == 0                       # USED has no dimensions
+    big[at:at + 1] = bytes([7]) + b"\xff" * 7
+    add("cprm-data-2x255pow7", assemble([[t, bytes(big) if t == "cprm" else p]
+                                         for t, p in ch]),
+        "a parameter whose 7 dimensions of 255 declare 2 x 255^7 (about 2^57) data bytes",
+        "record 1 dims = 7 x 255", "a decoder that allocates the declared size, or forms "
+        "it in 32 bits (it wraps), crashes or misreads", "FormatError", ["§3.2", "§4",
+                                                                          "§4.13.2", "§8"])
+    pnt = Cpnt.load(next(c for c in ch if c[0] == "cpnt")[1])
+    add("cpnt-storage-2", _c3d_rebuild(good, "cpnt", storage=2), "cpnt storage 2",
+        "storage = 2", "no word type", "FormatError", ["§4.13.3"])
+    add("cpnt-point-count-mismatch", _c3d_rebuild(
+        good, "cpnt", point_count=pnt.point_count - 1, slots=pnt.slots[:-1],
+        words=pnt.words[:-1]), "cpnt with one point fewer than markers + model outputs",
+        "last point removed", "a marker without a slot is written nowhere", "FormatError",
+        ["§4.13.3"])
+    sl = list(pnt.slots)
+    sl[0] = sl[1]
+    add("cpnt-slots-repeated", _c3d_rebuild(good, "cpnt", slots=tuple(sl)),
+        "two points in the same slot", "slots[0] = slots[1]",
+        "one marker written twice, another never", "FormatError", ["§4.13.3"])
+    w = list(pnt.words)
+    for slug, kw, what in (("cpnt-mode-2", {"mode": 2}, "mode 2"),
+                           ("cpnt-shift-105", {"shift": 105}, "shift 105"),
+                           ("cpnt-bits-shift-1", {"mode": 1, "shift": 1},
+                            "mode 1 with shift 1"),
+                           ("cpnt-order-3", {"order": 3}, "order 3"),
+                           ("cpnt-low-bits-4", {"low_bits": 4}, "low_bits 4")):
+        w2 = list(w)
+        w2[0] = dataclasses.replace(w[0], **kw)
+        add(slug, _c3d_rebuild(good, "cpnt", words=tuple(w2)),
+            f"a word channel entry with {what}", f"words[0] {what}",
+            "an entry outside §4.13 has no defined decoding", "FormatError", ["§4.13"])
+    md = list(pnt.models)
+    md[0] = dataclasses.replace(md[0], kind=6)
+    add("cpnt-model-kind-6", _c3d_rebuild(good, "cpnt", models=tuple(md)),
+        "a model output of kind 6", "models[0].kind = 6", "no POINT parameter lists it",
+        "FormatError", ["§4.13.3"])
+    for slug, akw, what in (("cpnt-model-step-0", {"step": 0.0}, "step 0"),
+                           ("cpnt-model-step-2pow994", {"step": 2.0 ** 994},
+                            "step 2^994: |offset| + step x 2^31 overflows"),
+                           ("cpnt-model-bound-negative", {"bound": -1.0}, "bound -1"),
+                           ("cpnt-model-order-3", {"order": 3}, "order 3")):
+        md = list(pnt.models)
+        axes = list(md[0].axes)
+        axes[1] = dataclasses.replace(axes[1], **akw)
+        md[0] = dataclasses.replace(md[0], axes=tuple(axes))
+        add(slug, _c3d_rebuild(good, "cpnt", models=tuple(md)),
+            f"a model-output axis with {what}", f"models[0].axes[1] {what}",
+            "values that are not finite, or no declared accuracy", "FormatError",
+            ["§4.13.3"])
+    # model_count 4097 (the entries are not there: the limit comes first)
+    add("cpnt-model-count-4097", _c3d_rebuild(
+        good, "cpnt", model_count=4097, models=(pnt.models * 4097)[:4097],
+        point_count=pnt.point_count + 4095,
+        slots=tuple(range(pnt.point_count + 4095)),
+        words=pnt.words + (pnt.words[0],) * 4095),
+        "4097 model outputs (more than 4096 markers could be)", "model_count = 4097",
+        "F x J unbounded: the model arrays are allocated from it", "LimitExceededError",
+        ["§4.13.3", "§8"])
+    # decoded values: rebuild cpnt's coded field
+    F, P, J = 24, pnt.point_count, pnt.model_count
+
+    def cpnt_coded(word_blocks, flags, values, wide=False):
+        blocks = [b if isinstance(b, tuple) else (b, {}) for b in word_blocks]
+        if J:
+            blocks.append((flags, {"signed": False}))
+            blocks += [(v, {}) for v in values]
+        return (rc_wide if wide else rc)(*blocks)
+
+    zeros = np.zeros((F, 1, 1), np.int64)
+    okw = [zeros] * P
+    okf = np.zeros((F, J, 1), np.int64)
+    okv = [zeros] * (3 * J)
+    w0 = tuple(dataclasses.replace(x, mode=0, shift=0, order=0, low_bits=0) for x in w)
+    md0 = tuple(dataclasses.replace(mm, axes=tuple(dataclasses.replace(ax, order=0)
+                                                   for ax in mm.axes)) for mm in pnt.models)
+    flags2 = okf.copy()
+    flags2[5, 1, 0] = 2
+    add("cpnt-gap-flag-2", _c3d_rebuild(good, "cpnt", words=w0, models=md0,
+                                        coded=cpnt_coded(okw, flags2, okv)),
+        "a model-output gap flag of 2", "flag at frame 5, output 1 = 2",
+        "a decoder that tests flag != 0 takes it for a gap", "FormatError",
+        ["§4.13.3", "§6.9"])
+    big_k = [zeros] * (3 * J)
+    kv = np.zeros((F, 1, 1), np.int64)
+    kv[3, 0, 0] = (1 << 31) - 1
+    kv[4, 0, 0] = 1
+    md1 = tuple(dataclasses.replace(mm, axes=tuple(dataclasses.replace(ax, order=1)
+                                                   for ax in mm.axes)) for mm in pnt.models)
+    big_k = [kv] + big_k[1:]
+    add("cpnt-model-value-2pow31", _c3d_rebuild(good, "cpnt", words=w0, models=md1,
+                                                coded=cpnt_coded(okw, okf, big_k, wide=True)),
+        "a model-output value k = 2^31 (order 1: 2^31 - 1, then + 1)",
+        "model 0 axis x residuals chosen", "k held in 32 bits wraps to -2^31",
+        "FormatError", ["§4.13.3", "§6.9"])
+    over = np.zeros((F, 1, 1), np.int64)
+    over[2, 0, 0] = 1 << 24
+    add("cpnt-word-2pow24", _c3d_rebuild(good, "cpnt", words=w0, models=md0,
+                                         coded=cpnt_coded([over] + okw[1:], okf, okv)),
+        "an integer word channel value of 2^24", "point 0 word at frame 2 = 2^24",
+        "2^24 x 2^shift is not a binary32 for every shift", "FormatError",
+        ["§4.13.3", "§6.9"])
+    wl = list(w0)
+    wl[0] = dataclasses.replace(w0[0], low_bits=2)
+    lo = np.zeros((F, 1, 1), np.int64)
+    lo[1, 0, 0] = 4
+    add("cpnt-low-part-4-of-2-bits", _c3d_rebuild(
+        good, "cpnt", words=tuple(wl), models=md0,
+        coded=cpnt_coded([zeros, (lo, {"signed": False})] + okw[1:], okf, okv)),
+        "low_bits 2 and a low part l = 4", "point 0 l at frame 1 = 4",
+        "l >= 2^b overlaps the next value of h", "FormatError", ["§4.13.3", "§6.9"])
+    add("cpnt-coded-leftover-byte", _c3d_rebuild(good, "cpnt", coded=pnt.coded + b"\x00"),
+        "one byte after the last symbol of cpnt", "coded + 00",
+        "a decoder that does not close() the payload", "FormatError",
+        ["§4.13.3", "§5.3", "§6.9"])
+    cana = Cana.load(ana[1])
+    add("cana-storage-2", _c3d_rebuild(good, "cana", storage=2), "cana storage 2",
+        "storage = 2", "no word type", "FormatError", ["§4.13.4"])
+    add("cana-samples-0", _c3d_rebuild(good, "cana", samples=0), "cana samples 0",
+        "samples = 0", "no analog words at all, yet channels", "FormatError", ["§4.13.4"])
+    add("cana-words-per-frame-65536", _c3d_rebuild(good, "cana", samples=16384,
+                                                  channels=4, table=cana.table + cana.table[:1]),
+        "C x n = 4 x 16384 = 65536 analog words per frame", "channels 4, samples 16384",
+        "the C3D header word 3 is 16 bits", "FormatError", ["§4.13.4"])
+    # F x n x C over MAX_ANALOG_SAMPLES: F = 2^24 frames of one marker, n = 17 (the marker
+    # data is never decoded: the cana check comes first, before anything is allocated)
+    Fb = 1 << 24
+    mhdr: dict[str, object] = {"version_major": 1, "version_minor": 1, "flags": 0,
+                               "frame_count": Fb,
+           "marker_count": 1, "node_count": 1, "rate": 100.0, "units": 1, "error_metric": 0,
+           "error_bound": 0.0, "smoothing": 0}
+    huge = [["MHDR", payload("MHDR", mhdr)],
+            ["MNAM", payload("MNAM", {"count": 1, "names": ["A"]})],
+            ["HIER", payload("HIER", {"count": 1, "nodes": [
+                {"parent": ROOT_PARENT, "ref": 0, "member_count": 1, "members": [0],
+                 "weights": [1.0]}]})],
+            ["QUNT", payload("QUNT", {"step": 1.0, "offset": [0.0, 0.0, 0.0], "bits": 31})],
+            ["ROOT", payload("ROOT", {"order": 0, "coded": b"\x00" * 5})],
+            next([t, p] for t, p in ch if t == "chdr"),
+            next([t, p] for t, p in ch if t == "cprm"),
+            ["cana", Cana(storage=1, channels=1, samples=17, table=cana.table[:1],
+                               coded=b"\x00" * 5).dump()],
+            ["cpnt", Cpnt(storage=1, point_count=1, slots=(0,), words=pnt.words[:1],
+                               model_count=0, models=(), coded=b"\x00" * 5).dump()],
+            ["MEND", b""]]
+    add("cana-samples-over-limit", assemble(huge),
+        f"F x n x C = 2^24 x 17 x 1 = {Fb * 17} analog words, over MAX_ANALOG_SAMPLES 2^28",
+        "MHDR frame_count 2^24 with one marker; cana channels 1, samples 17",
+        "a decoder that allocates F x n x C words before the check asks for 2 GiB from a "
+        "file of 1 KB", "LimitExceededError", ["§4.13.4", "§8"])
+    ci = Cana.load(next(c for c in _c3d_chunks(exact) if c[0] == "cana")[1])
+    ti = list(ci.table)
+    ti[0] = dataclasses.replace(ti[0], mode=1)
+    add("cana-int16-with-bits-mode", _c3d_rebuild(exact, "cana", table=tuple(ti)),
+        "an int16 analog channel coded as float32 bits", "table[0].mode = 1",
+        "a float bit pattern has no int16 word", "FormatError", ["§4.13"])
+    Ti = 24 * ci.samples
+    big16 = np.zeros((Ti, 1, 1), np.int64)
+    big16[0, 0, 0] = 40000
+    t0 = tuple(dataclasses.replace(x, order=0, low_bits=0) for x in ci.table)
+    add("cana-int16-value-40000", _c3d_rebuild(
+        exact, "cana", table=t0, coded=rc(*([(big16, {})] + [(np.zeros((Ti, 1, 1), np.int64),
+                                                               {})] * (ci.channels - 1)))),
+        "an int16 analog word of 40000", "channel 0 word 0 = 40000",
+        "an int16 writer wraps it to -25536", "FormatError", ["§4.13.4", "§6.9"])
+
+
+#: the §7.4 rules the C3D archive vectors probe (merged into VECTOR_RULES)
+C3D_VECTOR_RULES = _rules(
+    ("R-4.13-1", "c3d-two-chdr c3d-no-cprm c3d-two-cana"),
+    ("R-4.13-2", "cpnt-mode-2 cpnt-shift-105 cpnt-bits-shift-1 cpnt-order-3 "
+                 "cpnt-low-bits-4 cana-int16-with-bits-mode"),
+    ("R-4.13.1-1", "chdr-processor-87 chdr-key-0x51"),
+    ("R-4.13.2-1", "cprm-group-0 cprm-name-empty cprm-name-128-bytes cprm-type-3 "
+                   "cprm-eight-dims cprm-group-declared-twice"),
+    ("R-4.13.2-2", "cprm-count-past-payload cprm-data-2x255pow7"),
+    ("R-4.13.2-3", "c3d-archive-float32"),
+    ("R-4.13.3-1", "cpnt-storage-2 cpnt-point-count-mismatch cpnt-slots-repeated "
+                   "cpnt-model-kind-6 cpnt-model-step-0 cpnt-model-step-2pow994 "
+                   "cpnt-model-bound-negative cpnt-model-order-3"),
+    ("R-4.13.3-2", "cpnt-model-count-4097"),
+    ("R-4.13.4-1", "cana-storage-2 cana-samples-0 cana-words-per-frame-65536"),
+    ("R-4.13.4-2", "cana-samples-over-limit"),
+    ("R-6.9-1", "cpnt-gap-flag-2 cpnt-model-value-2pow31 cpnt-word-2pow24 "
+                "cpnt-low-part-4-of-2-bits cpnt-coded-leftover-byte cana-int16-value-40000"),
+    ("R-6.9-2", "c3d-archive-float32 c3d-int16-exact-on-grid c3d-no-analog-no-models"),
+)
+VECTOR_RULES.update(C3D_VECTOR_RULES)
+
+
+# ------------------------------------------------------- issue 13: skeleton chunks --
+def _skeleton_bvh_text(F=60, seed=131):
+    """A synthetic BVH (never a real file): 8 joints and 3 End Sites, the root spinning
+    through +-180 degrees about z, values printed with 4 decimals."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(F) / 30.0
+    hier = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 10.5 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT Head
+    {
+      OFFSET 0 12 1
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 0 6 0
+      }
+    }
+  }
+  JOINT LeftLeg
+  {
+    OFFSET 4 -2 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT LeftFoot
+    {
+      OFFSET 0 -40 0
+      CHANNELS 2 Xrotation Zrotation
+      End Site
+      {
+        OFFSET 0 -3 8
+      }
+    }
+  }
+  JOINT RightLeg
+  {
+    OFFSET -4 -2 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT RightFoot
+    {
+      OFFSET 0 -40 0
+      CHANNELS 1 Xrotation
+      End Site
+      {
+        OFFSET 0 -3 8
+      }
+    }
+  }
+}
+"""
+    C = 6 + 3 + 3 + 3 + 2 + 3 + 1
+    v = 20 * np.sin(2 * np.pi * (0.5 + rng.random(C)) * t[:, None] + rng.random(C) * 6)
+    v += rng.normal(0, 0.05, (F, C))
+    v[:, 0] = 10 * t
+    v[:, 1] = 90 + 2 * np.sin(4 * t)
+    v[:, 2] = 3 * t
+    v[:, 3] = (150 + 120 * t + 180) % 360 - 180          # the root's Zrotation wraps
+    lines = [" ".join(f"{x:.4f}" for x in row) for row in v]
+    return hier + f"MOTION\nFrames: {F}\nFrame Time: 0.0333333\n" + "\n".join(lines) + "\n"
+
+
+_SKELETON_ASF = """# a synthetic skeleton (make_vectors)
+:version 1.10
+:name SYNTH
+:units
+  mass 1.0
+  length 0.45
+  angle deg
+:documentation
+   made by python -m mpz.tools.make_vectors
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name lhip
+     direction 0.6 -0.7 0.2
+     length 2.5
+     axis 0 0 0 XYZ
+  end
+  begin
+     id 2
+     name lfemur
+     direction 0.34 -0.94 0
+     length 7.5
+     axis 0 0 20 XYZ
+    dof rx ry rz
+    limits (-160.0 20.0)
+           (-70.0 70.0)
+           (-60.0 70.0)
+  end
+  begin
+     id 3
+     name ltibia
+     direction 0.34 -0.94 0
+     length 7.2
+     axis 0 0 20 XYZ
+    dof rx
+    limits (-10.0 170.0)
+  end
+  begin
+     id 4
+     name back
+     direction 0 1 0
+     length 2
+     axis 0 0 0 ZYX
+    dof rx rz
+    limits (-20.0 45.0)
+           (-30.0 30.0)
+  end
+:hierarchy
+  begin
+    root lhip back
+    lhip lfemur
+    lfemur ltibia
+  end
+"""
+
+
+def _skeleton_amc_text(F=40, seed=35):
+    rng = np.random.default_rng(seed)
+    t = np.arange(F) / 120.0
+    out = [":FULLY-SPECIFIED", ":DEGREES"]
+    for f in range(F):
+        a = 30 * np.sin(2 * np.pi * 1.3 * t[f] + np.arange(9)) + rng.normal(0, 0.02, 9)
+        out.append(str(f + 1))
+        out.append(f"root {10 + 5 * t[f]:.4f} 16.7 {-30 + t[f]:.4f} {a[0]:.4f} {a[1]:.4f} "
+                   f"{a[2]:.4f}")
+        out.append(f"back {a[3]:.4f} {a[4]:.4f}")
+        out.append(f"lfemur {a[5]:.4f} {a[6]:.4f} {a[7]:.4f}")
+        out.append(f"ltibia {abs(a[8]):.4f}")
+    return "\n".join(out) + "\n"
+
+
+def _skeleton_rebuild(data, **changes):
+    """``data`` with its skeleton chunk's record fields changed (payload rebuilt)."""
+    import dataclasses
+
+    from mpz.chunks import Asfs, Bvhs
+    from mpz.container import scan
+    out = []
+    for c in scan(data).chunks:
+        if isinstance(c.record, (Bvhs, Asfs)):
+            out.append((c.type, dataclasses.replace(c.record, **changes).dump()))
+        else:
+            out.append((c.type, c.payload))
+    return assemble(out)
+
+
+def _skeleton_record(data):
+    from mpz.chunks import Asfs, Bvhs
+    from mpz.container import scan
+    return next(c.record for c in scan(data).chunks if isinstance(c.record, (Bvhs, Asfs)))
+
+
+def _skeleton_features(data):
+    from mpz import skeleton as sk
+    rep = sk.report(data)
+    assert rep is not None
+    return {"skeleton": rep}
+
+
+def _skeleton_layer(rec, values):
+    """Channel entries and coded field for integer channel values ``[F, C]`` (one entry per
+    channel of ``rec``), with each entry's order, wrap and group as ``rec`` has them."""
+    from mpz.conformance.rangecoder import RefEncoder
+    from mpz.predict import residuals
+    x = np.asarray(values, np.int64)
+    e = np.empty_like(x)
+    for c, cc in enumerate(rec.channels):
+        r = residuals(x[:, c], cc.order)
+        if cc.wrap:
+            n = 360 * 10 ** cc.step_digits // cc.step_mantissa
+            r = (r + n // 2) % n - n // 2
+        e[:, c] = r
+    enc = RefEncoder()
+    groups = np.array([cc.group for cc in rec.channels])
+    for g in range(int(groups.max(initial=-1)) + 1):
+        enc.block(e[:, groups == g, None], period=None, signed=True)
+    return enc.finish()
+
+
+def skeleton_vectors(vs: VectorSet):
+    """Valid, uncommon and invalid files for the skeleton chunks (spec §4.14, §6.10, MPZ
+    1.1), from synthetic BVH and AMC/ASF motions (never real files)."""
+    import dataclasses
+
+    from mpz.chunks.skeleton import ChannelCoding
+    from mpz.io.amc import parse_amc, parse_asf
+    from mpz.io.bvh import parse_bvh
+    secs = ["§2.1", "§2.3", "§4.14", "§6.10"]
+    bvh_src = _skeleton_bvh_text()
+    good = mpz.encode(parse_bvh(bvh_src, source="synthetic.bvh"))
+    vs.valid("valid", _numbered(vs, "v", "bvhs-synthetic-default"), good,
+             "a BVH (1.1): 8 joints and 3 End Sites, 60 frames, the root's Zrotation wrapping "
+             "through +-180 degrees, coded by the reference encoder's defaults (channels "
+             "within 0.01, step 0.02; marker layer within 1/500 of the skeleton's size)",
+             _skeleton_features(good), [*secs, "§4.14.1"],
+             "make_vectors._skeleton_bvh_text() -> parse_bvh -> mpz.encode()")
+    asf = parse_asf(_SKELETON_ASF)
+    amc = mpz.encode(parse_amc(_skeleton_amc_text(), asf, source="synthetic_01.amc"))
+    vs.valid("valid", _numbered(vs, "v", "asfs-synthetic-default"), amc,
+             "an AMC with its ASF (1.1): root and 4 bones, one without dofs (not in the AMC "
+             "frames), limits, axis order ZYX, 40 frames, reference encoder defaults",
+             _skeleton_features(amc), [*secs, "§4.14.2"],
+             "make_vectors._SKELETON_ASF, _skeleton_amc_text() -> parse_amc -> mpz.encode()")
+
+    # -- uncommon: hand-made channel layers on the same skeletons
+    rec = _skeleton_record(good)
+    F = 60
+    rng = np.random.default_rng(13)
+    C = rec.channel_count
+    x = rng.integers(-50, 50, (F, C)).cumsum(axis=0)
+    ent = []
+    for c in range(C):
+        order, wrap, low, m, d = c % 3, 0, 0, 1 + (c % 7) * 9, c % 10
+        if c == 3:                       # a turn that ends exactly at 2^31
+            m, d, wrap = 2, 2, 1
+            low = (1 << 31) - 18000
+            x[:, c] = low + np.mod(x[:, c] * 37, 18000)
+        elif c == 4:                     # a turn that starts at -2^31 + 1
+            m, d, wrap = 1, 0, 1
+            low = -(1 << 31) + 1
+            x[:, c] = low + np.mod(x[:, c], 360)
+        elif c == 5:                     # the largest mantissa, no wrap
+            m, d = 0xFFFF, 9
+        ent.append(ChannelCoding(step_mantissa=m, step_digits=d, wrap=wrap, low=low,
+                                 order=order, group=(c * 5) % 3))
+    hand = dataclasses.replace(rec, channels=tuple(ent), position_bound=0.0)
+    hand = dataclasses.replace(hand, coded=_skeleton_layer(hand, x))
+    data = _skeleton_rebuild(good, channels=hand.channels, coded=hand.coded, position_bound=0.0)
+    assert np.array_equal(_skeleton_record(data).integers(F), x)
+    vs.valid("uncommon", _numbered(vs, "u", "bvhs-layer-every-field"), data,
+             "a bvhs whose channel layer exercises every field: orders 0, 1, 2, wrapped "
+             "channels whose turn ends at 2^31 - 1 and starts at -2^31 + 1, steps m x 10^-d "
+             "with d = 0 .. 9 and m up to 65535, three groups interleaved, position_bound 0 "
+             "(none declared)", _skeleton_features(data), [*secs, "§4.14.1"],
+             "make_vectors.skeleton_vectors: the v-bvhs file, channel layer rebuilt by hand")
+    # no channels at all: C = 0, G = 0, the coded field holds no block
+    bare = _skeleton_rebuild(good, joints=tuple(dataclasses.replace(j, channel_count=0,
+                                                                    channels=())
+                                                for j in rec.joints),
+                             channel_count=0, channels=(), coded=BlockEncoder().finish())
+    vs.valid("uncommon", _numbered(vs, "u", "bvhs-no-channels"), bare,
+             "a bvhs with no channel at all (C = 0, G = 0): its coded field holds no block "
+             "and is still closed (5 bytes)", _skeleton_features(bare), [*secs, "§4.14.1"],
+             "make_vectors.skeleton_vectors: v-bvhs with every CHANNELS line emptied")
+    # several ROOTs, a repeated name, an End Site right under a root
+    rj = list(rec.joints)
+    two_roots = [*rj[:7], dataclasses.replace(rj[7], name="Spine", parent=ROOT_PARENT),
+                 *rj[8:]]
+    roots = _skeleton_rebuild(good, joints=tuple(two_roots))
+    vs.valid("uncommon", _numbered(vs, "u", "bvhs-two-roots-repeated-name"), roots,
+             "a bvhs with two ROOTs (the second starts a new hierarchy) and two joints named "
+             "Spine", _skeleton_features(roots), [*secs, "§4.14.1"],
+             "make_vectors.skeleton_vectors: v-bvhs with joint 7 (RightLeg) made a second "
+             "ROOT named Spine")
+    # ASF in radians, infinite limits, a bone without dofs listed in the AMC, latin-1, t/l
+    arec = _skeleton_record(amc)
+    bones = list(arec.bones)
+    bones[1] = dataclasses.replace(bones[1], limits=((float("-inf"), 20.0), (-1.0, 1.0),
+                                                     (float("-inf"), float("inf"))))
+    bones[3] = dataclasses.replace(bones[3], dof_count=4, dofs=(6, 0, 3, 5), limit_count=0,
+                                   limits=())
+    Fa = 40
+    xa = np.zeros((Fa, arec.channel_count + 2), np.int64)
+    xa[:, :] = rng.integers(-20, 20, xa.shape).cumsum(axis=0)
+    ent = [ChannelCoding(step_mantissa=1, step_digits=4, wrap=0, low=0, order=2, group=0)
+           for _ in range(arec.channel_count + 2)]
+    rad = dataclasses.replace(arec, encoding=1, angle_unit=1, first_frame=0,
+                              bones=tuple(bones), amc_count=5, amc_order=(0, 4, 1, 2, 3),
+                              channel_count=len(ent), channels=tuple(ent),
+                              comments=" \u00e9 latin-1")
+    rad = dataclasses.replace(rad, coded=_skeleton_layer(rad, xa))
+    data = _skeleton_rebuild(amc, **{f.name: getattr(rad, f.name)
+                                     for f in dataclasses.fields(rad)})
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-radians-inf-limits-stretch"), data,
+             "an asfs in radians, Latin-1, first frame 0, with infinite limits, a bone without "
+             "dofs listed in the AMC order, and a bone with the l (stretch), tx and rz dofs",
+             _skeleton_features(data), [*secs, "§4.14.2"],
+             "make_vectors.skeleton_vectors: the v-asfs file, fields changed by hand")
+
+    # -- invalid: one change each
+    def add(slug, data, description, corruption, risk, error, sections):
+        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
+                   sections)
+
+    def bad(slug, changes, what, risk, section, src=good, error="FormatError"):
+        add(slug, _skeleton_rebuild(src, **changes), what, what, risk, error, [section])
+
+    chunks = [[c.type, c.payload] for c in container.parse(good)]
+    k = next(i for i, c in enumerate(chunks) if c[0] == "bvhs")
+    add("skeleton-two-bvhs", assemble(chunks[:k + 1] + [chunks[k]] + chunks[k + 1:]),
+        "two bvhs chunks", "bvhs repeated", "which skeleton does a writer use?",
+        "FormatError", ["§4.14"])
+    asfs_payload = next(c.payload for c in container.parse(amc) if c.type == "asfs")
+    add("skeleton-bvhs-and-asfs", assemble(chunks[:k + 1] + [["asfs", asfs_payload]]
+                                           + chunks[k + 1:]),
+        "a bvhs and an asfs in one file", "the asfs of the v-asfs file added",
+        "two skeletons for one set of markers", "FormatError", ["§4.14"])
+    j = list(rec.joints)
+
+    def joints(i, **kw):
+        jj = list(j)
+        jj[i] = dataclasses.replace(jj[i], **kw)
+        return {"joints": tuple(jj)}
+
+    bad("bvhs-joint-count", {"joint_count": rec.joint_count - 1, "joints": rec.joints[:-1]},
+        "bvhs with one joint fewer than the markers", "joint j is not marker j",
+        "§4.14.1")
+    bad("bvhs-frame-time-zero", {"frame_time": 0.0}, "bvhs frame_time 0",
+        "a writer divides by it", "§4.14.1")
+    bad("bvhs-encoding-2", {"encoding": 2}, "bvhs encoding 2", "an unknown text encoding",
+        "§4.14.1")
+    bad("bvhs-not-depth-first", joints(5, parent=2),
+        "joint 5's parent is joint 2, neither joint 4 nor one of its ancestors",
+        "a writer cannot nest it without reordering the MOTION columns", "§4.14.1")
+    bad("bvhs-end-site-channels", {**joints(3, channel_count=1, channels=(3,)),
+                                   "channel_count": rec.channel_count + 1,
+                                   "channels": (*rec.channels, rec.channels[0])},
+        "an End Site with a channel", "End Sites hold no CHANNELS line", "§4.14.1")
+    bad("bvhs-end-site-as-root", joints(4, name="", parent=ROOT_PARENT, channel_count=0,
+                                        channels=()),
+        "an End Site (empty name) without a parent", "an End Site is not a ROOT",
+        "§4.14.1")
+    bad("bvhs-child-of-end-site", joints(4, parent=3), "a joint whose parent is an End Site",
+        "End Sites have no children", "§4.14.1")
+    bad("bvhs-name-space", joints(1, name="Sp ine"), "a joint named 'Sp ine'",
+        "a BVH name is one word", "§4.14.1")
+    bad("bvhs-offset-nan", joints(1, offset=(0.0, float("nan"), 0.0)),
+        "an OFFSET with a NaN", "forward kinematics gives NaN", "§4.14.1")
+    bad("bvhs-kind-6", joints(2, channels=(5, 3, 6)), "a BVH channel of kind 6",
+        "BVH has no stretch channel", "§4.14.1")
+    bad("bvhs-kind-twice", joints(2, channels=(5, 3, 5)), "a joint listing Zrotation twice",
+        "each kind once per joint", "§4.14.1")
+    bad("bvhs-channel-count", {"channel_count": rec.channel_count - 1,
+                               "channels": rec.channels[:-1]},
+        "a channel layer with one channel fewer than the joints declare",
+        "the MOTION columns do not line up", "§4.14.1")
+
+    def entry(c, **kw):
+        ee = list(rec.channels)
+        ee[c] = dataclasses.replace(ee[c], **kw)
+        return {"channels": tuple(ee)}
+
+    wrapped = next(c for c, e in enumerate(rec.channels) if e.wrap)
+    plain = next(c for c, e in enumerate(rec.channels) if not e.wrap)
+    bad("skeleton-position-bound-nan", {"position_bound": float("nan")},
+        "position_bound NaN", "a promise that means nothing", "§4.14")
+    bad("skeleton-position-bound-negative", {"position_bound": -1.0},
+        "position_bound -1", "a promise that means nothing", "§4.14")
+    bad("skeleton-step-mantissa-0", entry(plain, step_mantissa=0), "a step of 0",
+        "every value decodes to 0", "§4.14")
+    bad("skeleton-step-digits-10", entry(plain, step_digits=10), "step_digits 10",
+        "beyond the decimals the format allows", "§4.14")
+    bad("skeleton-order-3", entry(plain, order=3), "predictor order 3",
+        "no such predictor", "§4.14")
+    bad("skeleton-wrap-2", entry(wrapped, wrap=2), "wrap 2", "a reserved value", "§4.14")
+    bad("skeleton-wrap-step-7", entry(wrapped, step_mantissa=7, step_digits=2),
+        "a wrapped channel with step 0.07, which does not divide 360",
+        "N = 360 / step is not an integer", "§4.14")
+    bad("skeleton-wrap-past-2pow31", entry(wrapped, low=(1 << 31) - 17999),
+        "a turn low .. low + 17999 that reaches 2^31", "a 32-bit value wraps", "§4.14")
+    bad("skeleton-low-without-wrap", entry(plain, low=5), "low 5 on a channel without wrap",
+        "a field that must be 0", "§4.14")
+    last = max(e.group for e in rec.channels)
+    bad("skeleton-group-gap", entry(plain, group=last + 2), "a channel in a group two past "
+        "the last", "an empty group has no block", "§4.14")
+    # §6.10 and §5.3 on the coded field
+    bad("skeleton-coded-short", {"coded": rec.coded[:-1]}, "the coded field lacks its last "
+        "byte", "a decoder that does not check the end reads past it", "§5.3")
+    bad("skeleton-coded-leftover", {"coded": rec.coded + b"\x00"}, "a byte after the last "
+        "block", "trailing data unnoticed", "§5.3")
+    # order 1, values 0, 2^31 - 1, 2^31, 2^31 - 1, 0, ...: every residual fits the coder
+    ov = dataclasses.replace(rec, channels=tuple(dataclasses.replace(e, order=1, wrap=0, low=0)
+                                                 if i == plain else e
+                                                 for i, e in enumerate(rec.channels)))
+    xo = rec.integers(F)
+    xo[:, plain] = 0
+    xo[1:4, plain] = [(1 << 31) - 1, 1 << 31, (1 << 31) - 1]
+    bad("skeleton-value-2pow31", {"channels": ov.channels, "coded": _skeleton_layer(ov, xo)},
+        "a channel (no wrap, order 1) whose value reaches 2^31 at frame 2 (residuals 2^31 - "
+        "1, 1, -1, -(2^31 - 1))", "a 32-bit decoder wraps it to -2^31", "§6.10")
+    # -- the F x C limit: one joint, 6 channels, F = 2^24 (F x M = 2^24 is fine)
+    one = _root_only(1, [[0, 0, 0]]).chunks()
+    one = _with_field(one, "MHDR", frame_count=1 << 24)
+    root = rec.joints[0]
+    big = dataclasses.replace(rec, joint_count=1, joints=(root,), channel_count=6,
+                              channels=tuple(dataclasses.replace(e, group=0)
+                                             for e in rec.channels[:6]), coded=b"\x00" * 5)
+    add("skeleton-channel-samples-over-limit", assemble(one[:-1] + [["bvhs", big.dump()]]
+                                                        + one[-1:]),
+        "a bvhs of 6 channels in a file of F = 2^24 frames: F x C = 6 x 2^24 > 2^26",
+        "MHDR frame_count 2^24, bvhs with one joint of 6 channels",
+        "a decoder that sizes the channel blocks first allocates 800 MB",
+        "LimitExceededError", ["§4.14", "§8"])
+    # -- asfs
+    ab = list(arec.bones)
+
+    def bone(b, **kw):
+        bb = list(ab)
+        bb[b] = dataclasses.replace(bb[b], **kw)
+        return {"bones": tuple(bb)}
+
+    cm = [[t, p] for t, p in container_pairs(amc)]
+    cm = _with_field(cm, "MHDR", units=2)
+    add("asfs-markers-in-cm", assemble(cm), "an asfs in a file whose markers are in cm",
+        "MHDR units 2", "the joint positions of an ASF are millimetres", "FormatError",
+        ["§4.14.2"])
+    bad("asfs-bone-count", {"bone_count": arec.bone_count - 1, "bones": arec.bones[:-1]},
+        "an asfs with one bone fewer than the markers", "bone b is not marker b + 1",
+        "§4.14.2", src=amc)
+    bad("asfs-length-unit-0", {"length_unit": 0.0}, "length_unit 0",
+        "millimetres per unit are infinite", "§4.14.2", src=amc)
+    bad("asfs-angle-unit-2", {"angle_unit": 2}, "angle_unit 2", "an unknown unit",
+        "§4.14.2", src=amc)
+    bad("asfs-name-line-break", {"name": "SYN\nTH"}, "an ASF name with a line break",
+        "the :name line breaks", "§4.14.2", src=amc)
+    bad("asfs-root-order-stretch", {"root_order": (0, 1, 2, 3, 4, 6)},
+        "the root's order lists the stretch dof l", "the root has no bone to stretch",
+        "§4.14.2", src=amc)
+    bad("asfs-axis-order-6", bone(1, axis_order=6), "a bone axis order 6",
+        "there are six orders", "§4.14.2", src=amc)
+    bad("asfs-parent-after-bone", bone(1, parent=3), "bone 1's parent is bone 2 (joint 3)",
+        "positions are computed parents first", "§4.14.2", src=amc)
+    bad("asfs-bone-named-root", bone(2, name="root"), "a bone named root",
+        "the AMC line 'root' is ambiguous", "§4.14.2", src=amc)
+    bad("asfs-bone-names-repeat", bone(2, name=ab[1].name), "two bones with one name",
+        "AMC lines name bones", "§4.14.2", src=amc)
+    bad("asfs-dof-twice", bone(1, dofs=(3, 4, 3)), "a bone listing rx twice",
+        "each kind once", "§4.14.2", src=amc)
+    bad("asfs-limit-count", bone(1, limit_count=2, limits=ab[1].limits[:2]),
+        "a bone with 2 limits for 3 dofs", "limits per dof", "§4.14.2", src=amc)
+    bad("asfs-limit-nan", bone(2, limits=((float("nan"), 1.0),)), "a NaN limit",
+        "a range that means nothing", "§4.14.2", src=amc)
+    bad("asfs-amc-order-out-of-range", {"amc_order": (0, 2, 3, 9)},
+        "AMC order names joint 9 of 5", "a writer indexes past the joints", "§4.14.2",
+        src=amc)
+    bad("asfs-amc-order-repeats", {"amc_order": (0, 2, 2, 4)}, "AMC order lists joint 2 twice",
+        "a bone written twice per frame", "§4.14.2", src=amc)
+    bad("asfs-amc-order-misses-a-bone", {"amc_count": 3, "amc_order": (0, 2, 3)},
+        "AMC order leaves out the bone with dofs 'back'", "its values are never written",
+        "§4.14.2", src=amc)
+    LIMIT_BOUNDARIES["F x C = 2^26 (MAX_CHANNEL_SAMPLES)"] = (
+        "a valid file holds 2^26 coded channel values (its expected output is 512 MiB of "
+        "int64 while decoding); tested in tests/test_skeleton.py::test_channel_samples_limit "
+        "(skeleton-channel-samples-over-limit is the invalid side)")
+
+
+def container_pairs(data):
+    return [(c.type, c.payload) for c in container.parse(data)]
+
+
+#: the §7.4 rules the skeleton vectors probe (merged into VECTOR_RULES)
+SKELETON_VECTOR_RULES = _rules(
+    ("R-4.14-1", "skeleton-two-bvhs skeleton-bvhs-and-asfs"),
+    ("R-4.14-2", "skeleton-position-bound-nan skeleton-position-bound-negative "
+                 "skeleton-step-mantissa-0 skeleton-step-digits-10 skeleton-order-3 "
+                 "skeleton-wrap-2 skeleton-wrap-step-7 skeleton-wrap-past-2pow31 "
+                 "skeleton-low-without-wrap skeleton-group-gap bvhs-channel-count"),
+    ("R-4.14-3", "skeleton-channel-samples-over-limit"),
+    ("R-4.14-4", "bvhs-layer-every-field bvhs-no-channels"),
+    ("R-4.14.1-1", "bvhs-joint-count bvhs-frame-time-zero bvhs-encoding-2 "
+                   "bvhs-not-depth-first bvhs-end-site-channels bvhs-end-site-as-root "
+                   "bvhs-child-of-end-site bvhs-name-space bvhs-offset-nan bvhs-kind-6 "
+                   "bvhs-kind-twice"),
+    ("R-4.14.1-2", "bvhs-two-roots-repeated-name bvhs-no-channels"),
+    ("R-4.14.2-1", "asfs-markers-in-cm asfs-bone-count asfs-length-unit-0 asfs-angle-unit-2 "
+                   "asfs-name-line-break asfs-root-order-stretch asfs-axis-order-6 "
+                   "asfs-parent-after-bone asfs-bone-named-root asfs-bone-names-repeat "
+                   "asfs-dof-twice asfs-limit-count asfs-limit-nan "
+                   "asfs-amc-order-out-of-range asfs-amc-order-repeats "
+                   "asfs-amc-order-misses-a-bone"),
+    ("R-4.14.2-2", "asfs-radians-inf-limits-stretch"),
+    ("R-6.10-1", "skeleton-coded-short skeleton-coded-leftover skeleton-value-2pow31"),
+    ("R-6.10-2", "bvhs-synthetic-default asfs-synthetic-default bvhs-layer-every-field "
+                 "asfs-radians-inf-limits-stretch"),
+)
+VECTOR_RULES.update(SKELETON_VECTOR_RULES)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m mpz.tools.make_vectors",
                                 description=__doc__.splitlines()[0])
@@ -1389,6 +3058,8 @@ def main(argv=None) -> int:
     invalid_vectors(vs)
     uncommon_vectors(vs)
     encoder_inputs(vs)
+    c3d_archive_vectors(vs)                   # issue 12 (MPZ 1.1)
+    skeleton_vectors(vs)                      # issue 13 (MPZ 1.1)
     vs.entries.sort(key=lambda e: (mf.GROUPS.index(e["group"]), e["name"]))
     vs.write_manifest()
     total = sum(f.stat().st_size for f in out.rglob("*") if f.is_file())
