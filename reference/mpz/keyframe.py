@@ -60,7 +60,7 @@ def interpolate(times: ArrayLike, values: ArrayLike, F: int) -> NDArray[np.int64
 
 @njit(cache=True)
 def _predict_key(mode: int, k: int, tk: int, t1: int, t2: int, w1: int, w2: int,
-                 R: NDArray[np.int64], c: int) -> int:
+                 R: NDArray[np.int64] | NDArray[np.int32], c: int) -> int:
     """§6.5 prediction of key k (axis c) of a member at time ``tk``, from the two keys
     before it (times t1 = t_{k-1}, t2 = t_{k-2}, values w1, w2 on axis c, where they
     exist); R is the reference member's track ``[F, 3]`` (unused for mode 0)."""
@@ -85,7 +85,7 @@ def _predict_key(mode: int, k: int, tk: int, t1: int, t2: int, w1: int, w2: int,
 
 @njit(cache=True)
 def _predict(mode: int, k: int, times: NDArray[np.int64], w: NDArray[np.int64],
-             R: NDArray[np.int64], c: int) -> int:
+             R: NDArray[np.int64] | NDArray[np.int32], c: int) -> int:
     """:func:`_predict_key` for key k of a member whose times and values are all known."""
     t1 = times[k - 1] if k >= 1 else 0
     t2 = times[k - 2] if k >= 2 else 0
@@ -319,7 +319,7 @@ def fit(y: ArrayLike, radius: float, max_span: int = 256,
 
 @njit(cache=True)
 def _residuals(mode: int, times: NDArray[np.int64], w: NDArray[np.int64],
-               R: NDArray[np.int64]) -> NDArray[np.int64]:
+               R: NDArray[np.int64] | NDArray[np.int32]) -> NDArray[np.int64]:
     e = np.empty_like(w)
     for k in range(w.shape[0]):
         for c in range(3):
