@@ -82,7 +82,8 @@ def read_npy(path: StrPath, *, rate: float = 1.0, units: str = "") -> Motion:
 def write_npy(motion: Motion, path: StrPath) -> None:
     """Write ``motion.as_nan()`` (float64 ``[frames, markers, 3]``) as .npy."""
     with open(path, "wb") as fh:
-        np.save(fh, motion.as_nan().astype(np.float64), allow_pickle=False)
+        # as_nan() is already a new float64 array: no second copy (issue 11.1, §8 budget)
+        np.save(fh, motion.as_nan().astype(np.float64, copy=False), allow_pickle=False)
 
 
 def rate_from_times(times: ArrayLike) -> float:
