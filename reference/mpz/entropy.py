@@ -68,6 +68,22 @@ def new_models() -> tuple[_Probs, _Probs, _Probs, _Probs]:
     return z, s, e, x
 
 
+#: a block's model set ``(Z, S, E, X)`` in the shapes of :func:`new_models`
+Models = tuple[_Probs, _Probs, _Probs, _Probs]
+
+
+def copy_models(models: Models) -> Models:
+    """Writable int32 copies of ``models``, checked against the shapes of :func:`new_models`."""
+    fresh = new_models()
+    out = []
+    for given, ref in zip(models, fresh, strict=True):
+        arr = np.array(given, dtype=np.int32)
+        if arr.shape != ref.shape:
+            raise ValueError(f"model array of shape {arr.shape}, expected {ref.shape}")
+        out.append(arr)
+    return out[0], out[1], out[2], out[3]
+
+
 # ---------------------------------------------------------------- encoder --
 @_kernel
 def _shift_low(st: NDArray[np.int64], out: _Out) -> bool:
@@ -285,10 +301,12 @@ class BlockEncoder:
         self._buf = new
 
     def block(self, values: ArrayLike, *, period: int | None = None,
-              signed: bool = True) -> None:
+              signed: bool = True, models: Models | None = None) -> None:
         """Code ``values`` (int, shape ``[T, M, A]``, A in 1..3).
 
         Contexts restart every ``period`` rows (default: one run of all T rows).
+        ``models`` are the initial probabilities ``(Z, S, E, X)`` (§9.4, a trained
+        dictionary); by default every model starts at 1024 (§5.2). They are copied.
         """
         v = np.ascontiguousarray(values, dtype=np.int64)
         if v.ndim != 3 or not 1 <= v.shape[2] <= 3:
@@ -305,7 +323,7 @@ class BlockEncoder:
         need = int(self._pos[0]) + 8 * v.size + 64
         while self._buf.shape[0] < need:
             self._grow()
-        z, s, e, x = new_models()
+        z, s, e, x = new_models() if models is None else copy_models(models)
         if not _encode_block(v, period, signed, z, s, e, x, self._st, (self._buf, self._pos)):
             raise RuntimeError("range coder buffer overflow")  # unreachable: sized above
 
@@ -363,11 +381,14 @@ class BlockDecoder:
                           section="§5.3")
 
     def block(self, T: int, M: int, A: int = 3, *, period: int | None = None,
-              signed: bool = True) -> NDArray[np.int64]:
-        """Decode a ``[T, M, A]`` block of int64 values (T = 0: empty, no decisions, §5.5)."""
+              signed: bool = True, models: Models | None = None) -> NDArray[np.int64]:
+        """Decode a ``[T, M, A]`` block of int64 values (T = 0: empty, no decisions, §5.5).
+
+        ``models``: initial probabilities, as for :meth:`BlockEncoder.block`.
+        """
         out = np.zeros((T, M, A), np.int64)
         period = max(1, T if period is None else int(period))
-        z, s, e, x = new_models()
+        z, s, e, x = new_models() if models is None else copy_models(models)
         _decode_block(self._buf, self._ds, T, M, period, signed, z, s, e, x, out, self._err)
         if self._err[0] == ERR_OVERRUN:
             n = self._buf.shape[0]
