@@ -15,7 +15,8 @@ big-endian files; parameter sections ezc3d cannot parse even with
 (:func:`mpz.io.c3dbin.build_c3d`: every point in its slot, parameters, header
 and analog as stored; Intel byte order; int16 storage when the source had it and
 every coordinate is still on its grid, float32 otherwise), and a motion without
-one as a float C3D of its points through ezc3d.
+one as a float C3D of its points through ezc3d (more than 65535 frames, which ezc3d
+reads back short: our own writer, :func:`long_bytes`).
 
 Gaps: a sample is a gap when its residual word is negative, when a
 coordinate is NaN, or when it is exactly (0, 0, 0). The last rule is the
@@ -236,11 +237,10 @@ def _read_points(path: str, data: bytes) -> Motion:
     if len(head) < c3dbin.BLOCK or head[1] != c3dbin.C3D_KEY:
         # not a C3D file; let the numpy reader produce the precise error
         return motion_from_c3d_bytes(data, source=source)
-    # header words 4-5: first and last frame (little-endian for Intel and
-    # DEC, the only processor types ezc3d reads); ezc3d itself rewrites its
-    # header to the frames it found, so truncation must be checked here
-    first, last = int.from_bytes(head[6:8], "little"), int.from_bytes(head[8:10], "little")
-    declared = last - first + 1
+    # the frames the file declares (header words 4-5, or the frame parameters when the
+    # header cannot say: more than 65535 frames); ezc3d itself rewrites its header to
+    # the frames it found, so truncation must be checked here
+    _, declared = c3dbin.declared_frames(data)
     first_error: OSError | RuntimeError
     try:
         return _from_ezc3d(ezc3d.c3d(path), source, {}, declared)
@@ -265,7 +265,9 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     With ``extras["c3d"]`` (a motion read from, or decoded from, a C3D): the file
     it came from (:func:`archive_bytes`). Without: a float C3D of the points
     through ezc3d, gaps with residual -1 and NaN coordinates; names, rate and
-    units in POINT:LABELS, POINT:RATE and POINT:UNITS.
+    units in POINT:LABELS, POINT:RATE and POINT:UNITS. ezc3d writes at most 65535
+    frames that it reads back, so a longer motion without an archive goes through
+    our own writer instead (:func:`long_bytes`).
 
     Parameters
     ----------
@@ -275,8 +277,9 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     import ezc3d
 
     path = os.fspath(path)
-    if motion.extras.get("c3d") is not None:
-        blob = archive_bytes(motion)
+    if motion.extras.get("c3d") is not None or motion.n_frames > c3dbin.HEADER_MAX_FRAME:
+        blob = archive_bytes(motion) if motion.extras.get("c3d") is not None else \
+            long_bytes(motion)
         with open(path, "wb") as fh:
             fh.write(blob)
         return
@@ -299,6 +302,28 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     from mpz.api import atomic_output
     with atomic_output(path, force=True, suffix=".c3d") as tmp:
         c.write(tmp)
+
+
+def long_bytes(motion: Motion) -> bytes:
+    """A float C3D of the points of a motion without an archive, for any frame count.
+
+    Frames numbered from 1; above 65535 frames the header's last frame is 65535 and the
+    count is in POINT:LONG_FRAMES and TRIAL:ACTUAL_START_FIELD/ACTUAL_END_FIELD, as the
+    C3D user guide asks (:func:`mpz.io.c3dbin.plain_parts`). Gaps: coordinates 0 and
+    fourth word -1 (valid samples 0).
+
+    Raises
+    ------
+    InputFormatError
+        For names or a point count a C3D cannot hold.
+    """
+    header, records = c3dbin.plain_parts(list(motion.names), motion.rate, motion.units,
+                                         motion.n_frames)
+    valid = motion.valid
+    xyz = np.where(valid[:, :, None], motion.positions, 0.0)
+    words = np.where(valid, np.float32(0.0), np.float32(-1.0)).astype("<f4")
+    return c3dbin.build_c3d(header, records, xyz, words, np.zeros((0, 0), "<f4"),
+                            float_storage=True, scale=1.0)
 
 
 def archive_bytes(motion: Motion) -> bytes:

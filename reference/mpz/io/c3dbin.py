@@ -18,10 +18,20 @@ The layout follows the C3D.org "C3D file format user guide" (2008):
 512-byte blocks; block 1 is the header; byte 0 of the header gives the
 first parameter block; byte 3 of the parameter block gives the processor
 type (84 Intel, 85 DEC, 86 MIPS).
+
+Frame counts above 65,535 (the header's first and last frame are 16-bit words)
+follow the user guide's appendix "The C3D frame count": the header's last frame
+is 65535 and the count is in TRIAL:ACTUAL_START_FIELD / ACTUAL_END_FIELD (each
+two int16 words, low then high, of an unsigned 32-bit frame number),
+POINT:LONG_FRAMES (float, C-Motion) or POINT:FRAMES stored as a float;
+:func:`frame_range` reads them and :func:`plain_parts` writes them. ezc3d reads
+such a file when POINT:FRAMES is the int16 0xFFFF (it refuses a float FRAMES), so
+that is what :func:`plain_parts` stores there.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import math
 from typing import Any, NoReturn
 
 import numpy as np
@@ -36,6 +46,11 @@ PROC_INTEL, PROC_DEC, PROC_MIPS = 84, 85, 86  # parameter header byte 3
 _PARAM_TYPES = (-1, 1, 2, 4)
 MAX_POINTS = 65535  # POINT:USED is a 16-bit count
 MAX_DIMS = 7  # a C3D parameter has at most 7 dimensions
+#: the largest frame number header words 4-5 hold; a header whose last frame is this may
+#: describe more frames than it can say (see :func:`frame_range`)
+HEADER_MAX_FRAME = 65535
+#: the largest frame number or count: TRIAL:ACTUAL_END_FIELD is two 16-bit words
+MAX_FRAME_NUMBER = 0xFFFFFFFF
 
 #: a parameter value: char rows, or the flat numbers of an int8/int16/float32 parameter
 ParamValue = list[str] | NDArray[np.int64] | NDArray[np.float64]
@@ -81,6 +96,9 @@ class C3DData:
     analog: NDArray[Any] = field(default_factory=lambda: np.zeros((0, 0), "<i2"))
     #: analog samples per channel per point frame (header word 10)
     analog_samples: int = 0
+    #: the number of the first frame (header word 4, or TRIAL:ACTUAL_START_FIELD for a
+    #: file with more frames than the header can describe; :func:`frame_range`)
+    first_frame: int = 1
 
 
 @dataclass(frozen=True)
@@ -335,6 +353,121 @@ def _first(params: dict[str, dict[str, ParamValue | None]], group: str, name: st
     return v[0]
 
 
+def _trial_frame(params: dict[str, dict[str, ParamValue | None]], name: str) -> int | None:
+    """TRIAL:``name`` as the unsigned 32-bit frame number of its two int16 words (low,
+    high), None when absent."""
+    v = params.get("TRIAL", {}).get(name)
+    if v is None:
+        return None
+    if isinstance(v, list) or v.dtype.kind != "i" or len(v) != 2:
+        _fail(f"TRIAL:{name} is not two int16 words (low, high) of a frame number", 6)
+    return int(v[0]) & 0xFFFF | (int(v[1]) & 0xFFFF) << 16
+
+
+def _float_count(params: dict[str, dict[str, ParamValue | None]], name: str,
+                 floats_only: bool) -> float | None:
+    """POINT:``name`` as a frame count (its first element), None when absent or, with
+    ``floats_only``, not stored as a float."""
+    v = params.get("POINT", {}).get(name)
+    if v is None or isinstance(v, list) or len(v) == 0 or (floats_only and v.dtype.kind != "f"):
+        return None
+    x = float(v[0])
+    # 2^32: the float32 nearest the largest 32-bit count
+    if not (math.isfinite(x) and 1 <= x <= 2.0 ** 32 and x == math.floor(x)):
+        _fail(f"POINT:{name} is {x!r}, not a frame count (1 .. 2^32)", 6)
+    return x
+
+
+def frame_range(params: dict[str, dict[str, ParamValue | None]], first: int,
+                last: int) -> tuple[int, int]:
+    """The first frame number and the frame count of a C3D file.
+
+    Parameters
+    ----------
+    params : dict
+        The parameters (:func:`parse_c3d`'s ``params``).
+    first, last : int
+        Header words 4 and 5 (unsigned).
+
+    The header's range is authoritative (c3d.org Dance1.c3d has POINT:FRAMES one larger
+    than its data) unless it cannot describe the file: its last frame is 65535
+    (``HEADER_MAX_FRAME``, the most a 16-bit word holds) or it is empty. Then the count
+    comes from the parameters the C3D user guide names for frame counts above 65535:
+    TRIAL:ACTUAL_START_FIELD and ACTUAL_END_FIELD (first and last frame, also giving the
+    first frame number), POINT:LONG_FRAMES, POINT:FRAMES stored as a float. Those
+    present must agree (a float agrees with n when it is float32(n)); they override the
+    header, which the guide lets say 1..65535 whatever the range. An empty header
+    without them falls back to an int16 POINT:FRAMES (unsigned).
+
+    Raises
+    ------
+    InputFormatError
+        For frame parameters that are malformed or disagree, and for no frames at all.
+    """
+    n = last - first + 1
+    if n > 0 and last < HEADER_MAX_FRAME:
+        return first, n
+    start = _trial_frame(params, "ACTUAL_START_FIELD")
+    end = _trial_frame(params, "ACTUAL_END_FIELD")
+    if (start is None) != (end is None):
+        _fail("TRIAL:ACTUAL_START_FIELD and ACTUAL_END_FIELD come as a pair; one is "
+              "missing", 6)
+    counts: list[tuple[str, float, bool]] = []      # (parameter, count, stored as a float)
+    if start is not None and end is not None:
+        if end < start:
+            _fail(f"TRIAL:ACTUAL_END_FIELD {end} is before ACTUAL_START_FIELD {start}", 6)
+        counts.append(("TRIAL:ACTUAL_START_FIELD..ACTUAL_END_FIELD", end - start + 1, False))
+    for name, floats_only in (("LONG_FRAMES", False), ("FRAMES", True)):
+        x = _float_count(params, name, floats_only)
+        if x is not None:
+            counts.append((f"POINT:{name}", x, True))
+    if counts:
+        count = int(counts[0][1])
+        # the TRIAL count is exact; a float count is the float32 nearest the count
+        if any(v != (float(np.float32(count)) if flt else count) for _, v, flt in counts):
+            said = ", ".join(f"{k} {v:.0f}" for k, v, _ in counts)
+            _fail(f"inconsistent frame counts: {said} (header frames {first}..{last})", 6)
+        return (start if start is not None else first), count
+    if n > 0:
+        return first, n
+    fp = int(_first(params, "POINT", "FRAMES", 0))
+    n = fp + 65536 if fp < 0 else fp
+    if n <= 0:
+        _fail(f"no frames (header first {first}, last {last})", 6)
+    return first, n
+
+
+def _open(data: bytes) -> tuple[_Codec, int, dict[str, dict[str, ParamValue | None]]]:
+    """The codec, parameter-section offset and parameters of C3D bytes (checked)."""
+    if len(data) < 2 * BLOCK:
+        _fail(f"file too short ({len(data)} bytes) for a header and a parameter block")
+    if data[1] != C3D_KEY:
+        _fail(f"bad key byte 0x{data[1]:02x} at offset 1, expected 0x50", 1)
+    pstart = (data[0] - 1) * BLOCK
+    if data[0] < 2 or pstart + 4 > len(data):
+        _fail(f"parameter section block {data[0]} is outside the file", 0)
+    processor = data[pstart + 3]
+    if processor not in (PROC_INTEL, PROC_DEC, PROC_MIPS):
+        _fail(f"unknown processor type {processor} (expected 84, 85 or 86)", pstart + 3)
+    codec = _Codec(processor)
+    params = _parse_parameters(data, pstart, codec)
+    params.setdefault("POINT", {})
+    return codec, pstart, params
+
+
+def declared_frames(data: bytes) -> tuple[int, int]:
+    """The first frame number and frame count that C3D bytes declare (:func:`frame_range`),
+    without reading the data; for checking another reader's frame count.
+
+    Raises
+    ------
+    InputFormatError
+        As :func:`parse_c3d` does for the header, the parameters and the frame range.
+    """
+    codec, _, params = _open(data)
+    return frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
+
+
 def parse_c3d(data: bytes) -> C3DData:
     """Parse a complete C3D file held in memory.
 
@@ -352,19 +485,8 @@ def parse_c3d(data: bytes) -> C3DData:
     InputFormatError
         If the bytes are not a C3D file or are truncated.
     """
-    if len(data) < 2 * BLOCK:
-        _fail(f"file too short ({len(data)} bytes) for a header and a parameter block")
-    if data[1] != C3D_KEY:
-        _fail(f"bad key byte 0x{data[1]:02x} at offset 1, expected 0x50", 1)
-    pstart = (data[0] - 1) * BLOCK
-    if data[0] < 2 or pstart + 4 > len(data):
-        _fail(f"parameter section block {data[0]} is outside the file", 0)
-    processor = data[pstart + 3]
-    if processor not in (PROC_INTEL, PROC_DEC, PROC_MIPS):
-        _fail(f"unknown processor type {processor} (expected 84, 85 or 86)", pstart + 3)
-    codec = _Codec(processor)
-    params = _parse_parameters(data, pstart, codec)
-    params.setdefault("POINT", {})
+    codec, pstart, params = _open(data)
+    processor = codec.processor
     header_block = _normal_header(data[:BLOCK], codec)
     records = parse_records(data, pstart, codec)
 
@@ -391,14 +513,8 @@ def parse_c3d(data: bytes) -> C3DData:
         data_start += 65536
     if data_start < param_end_block:
         data_start = hdr_data_start
-    # the header frame range is authoritative (Dance1.c3d has POINT:FRAMES
-    # one larger than the data); POINT:FRAMES only when the header is empty
-    n_frames = last - first + 1
-    if n_frames <= 0:
-        fp = int(_first(params, "POINT", "FRAMES", 0))
-        n_frames = fp + 65536 if fp < 0 else fp
-    if n_frames <= 0:
-        _fail(f"no frames (header first {first}, last {last})", 6)
+    # the header frame range, or the frame parameters when it cannot say (frame_range)
+    first, n_frames = frame_range(params, first, last)
     float_storage = scale < 0
     word = 4 if float_storage else 2
     frame_words = 4 * used + hdr_analog
@@ -412,7 +528,8 @@ def parse_c3d(data: bytes) -> C3DData:
     samples = codec.uint16(data, 18)  # header word 10: analog samples per channel per frame
     if used == 0:
         return C3DData(np.zeros((n_frames, 0, 3)), np.zeros((n_frames, 0), np.int64),
-                       params, processor, float_storage, hdr_rate, header_block, records)
+                       params, processor, float_storage, hdr_rate, header_block, records,
+                       first_frame=first)
 
     # read the frames, then keep the 4*used point words of each
     raw = data[off:off + n_frames * frame_bytes]
@@ -439,7 +556,7 @@ def parse_c3d(data: bytes) -> C3DData:
         res = pts[:, :, 3].astype(np.int64)
         xyz = pts[:, :, :3] * abs(scale)
     return C3DData(xyz, res, params, processor, float_storage, hdr_rate, header_block, records,
-                   point_words, analog, samples)
+                   point_words, analog, samples, first)
 
 
 # ------------------------------------------------------------------ writing --
@@ -475,6 +592,94 @@ def _patched(records: list[ParamRecord], name: bytes, ptype: int, data: bytes) -
                                      data)
 
 
+def frame_words(first: int, frames: int) -> tuple[int, int, bool]:
+    """Header words 4-5 for ``frames`` frames numbered from ``first``, and whether the
+    header cannot describe them (the last frame is above 65535): then the last frame word
+    is 65535, the first frame word is kept when it fits (1 otherwise), and the count
+    belongs in the frame parameters (:func:`plain_parts`, :func:`frame_range`)."""
+    last = first + frames - 1
+    if last <= HEADER_MAX_FRAME:
+        return first, last, False
+    return (first if first <= HEADER_MAX_FRAME else 1), HEADER_MAX_FRAME, True
+
+
+def _param(group: int, name: str, ptype: int, dims: tuple[int, ...], data: bytes,
+           description: str = "") -> ParamRecord:
+    return ParamRecord(group, False, name.encode("ascii"), description.encode("ascii"),
+                       ptype, dims, data)
+
+
+def plain_parts(names: list[str], rate: float, units: str, frames: int,
+                first: int = 1) -> tuple[bytes, list[ParamRecord]]:
+    """The header block and parameter section of a float C3D of bare points (no analog,
+    no source to restore), for :func:`build_c3d`.
+
+    POINT holds USED, SCALE, RATE, DATA_START, FRAMES, UNITS (when given) and LABELS
+    (LABELS2, LABELS3 ... past 255 points); ANALOG says no channels. With more frames
+    than the header can describe (:func:`frame_words`) the file follows the C3D user
+    guide's frame-count appendix: header last frame 65535, POINT:FRAMES the int16
+    0xFFFF (ezc3d refuses a float FRAMES and reads 0xFFFF as "see the data"),
+    POINT:LONG_FRAMES the float32 count and a TRIAL group with ACTUAL_START_FIELD and
+    ACTUAL_END_FIELD (low, high int16 words of the first and last frame).
+
+    Raises
+    ------
+    InputFormatError
+        More than 65535 points, a name longer than 255 bytes, or a last frame number
+        beyond 32 bits.
+    """
+    P = len(names)
+    if P > MAX_POINTS:
+        raise InputFormatError(f"C3D: {P} points; a C3D file holds at most {MAX_POINTS}")
+    if frames < 1 or first < 0 or first + frames - 1 > MAX_FRAME_NUMBER:
+        raise InputFormatError(f"C3D: frames {first}..{first + frames - 1} do not fit the "
+                               "32-bit frame numbers of TRIAL:ACTUAL_END_FIELD")
+    raw = [n.encode("utf-8") for n in names]
+    width = max((len(b) for b in raw), default=0) or 1
+    if width > 255:
+        raise InputFormatError(f"C3D: a point name of {width} bytes; C3D labels hold 255")
+    hfirst, hlast, long = frame_words(first, frames)
+
+    def i16(*v: int) -> bytes:
+        return np.array([x & 0xFFFF for x in v], "<u2").tobytes()
+
+    def f32(v: float) -> bytes:
+        return np.array([v], "<f4").tobytes()
+
+    recs = [ParamRecord(-1, False, b"POINT", b"3-D point parameters"),
+            _param(1, "USED", 2, (), i16(P), "number of points"),
+            _param(1, "SCALE", 4, (), f32(-1.0), "float storage"),
+            _param(1, "RATE", 4, (), f32(rate), "frames per second"),
+            _param(1, "DATA_START", 2, (), i16(0), "first block of the data"),
+            _param(1, "FRAMES", 2, (), i16(frames if not long else 0xFFFF),
+                   "number of frames" + (" (see LONG_FRAMES)" if long else ""))]
+    if long:
+        recs.append(_param(1, "LONG_FRAMES", 4, (), f32(frames), "number of frames"))
+    if units:
+        u = units.encode("utf-8")
+        recs.append(_param(1, "UNITS", -1, (len(u),), u, "units"))
+    for k in range(0, max(P, 1), 255):
+        part = raw[k:k + 255]
+        name = "LABELS" if k == 0 else f"LABELS{k // 255 + 1}"
+        recs.append(_param(1, name, -1, (width, len(part)),
+                           b"".join(b.ljust(width) for b in part), "point labels"))
+    recs += [ParamRecord(-2, False, b"ANALOG", b"analog parameters"),
+             _param(2, "USED", 2, (), i16(0), "no analog channels"),
+             _param(2, "RATE", 4, (), f32(0.0), "no analog channels")]
+    if long:
+        last = first + frames - 1
+        recs += [ParamRecord(-3, False, b"TRIAL", b"frame range"),
+                 _param(3, "ACTUAL_START_FIELD", 2, (2,), i16(first, first >> 16),
+                        "first frame (low, high word)"),
+                 _param(3, "ACTUAL_END_FIELD", 2, (2,), i16(last, last >> 16),
+                        "last frame (low, high word)")]
+    head = bytearray(BLOCK)
+    head[2:4] = i16(P)
+    head[6:10] = i16(hfirst, hlast)
+    head[20:24] = f32(rate)
+    return bytes(head), recs
+
+
 def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64],
               point_words: NDArray[Any], analog: NDArray[Any], *, float_storage: bool,
               scale: float) -> bytes:
@@ -484,7 +689,8 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
     ----------
     header : bytes
         The normalised 512-byte header block; its parameter-block pointer (byte 0), key
-        (byte 1), scale (words 7-8) and data start (word 9) are set here.
+        (byte 1), scale (words 7-8) and data start (word 9) are set here. When its last
+        frame (word 5) is 65535 the data is not padded to a whole block (see the code).
     records : list of ParamRecord
         The parameter section, written in this order; POINT:DATA_START and the sign of
         POINT:SCALE are set here, every other record is written as given.
@@ -536,8 +742,12 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
         ipts[:, :, 3] = point_words.astype("<i2")
         pts = ipts.view("<i2")
         an = analog.astype("<i2").reshape(F, per * analog.shape[1])
-    frames = np.concatenate([pts.reshape(F, -1).view(np.uint8),
+    frames = np.concatenate([pts.reshape(F, 4 * P).view(np.uint8),
                              np.ascontiguousarray(an).view(np.uint8)], axis=1)
     body = frames.tobytes()
-    body = body.ljust(-(-len(body) // BLOCK) * BLOCK, b"\x00")
+    if int.from_bytes(head[8:10], "little") != HEADER_MAX_FRAME:
+        # the last block padded with zeros; not when the header's last frame is 65535:
+        # readers then count frames to the end of the file (ezc3d does), and padding
+        # would read as frames
+        body = body.ljust(-(-len(body) // BLOCK) * BLOCK, b"\x00")
     return bytes(head) + params + body

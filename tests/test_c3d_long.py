@@ -1,0 +1,267 @@
+"""C3D files with more than 65,535 frames (issue 12, the last defect).
+
+C3D header words 4-5 (first and last frame) are 16-bit. The C3D user guide's appendix
+"The C3D frame count" puts larger counts in the parameters: the header's last frame is
+65535, TRIAL:ACTUAL_START_FIELD / ACTUAL_END_FIELD hold the first and last frame as two
+int16 words (low, high), POINT:LONG_FRAMES the count as a float. These tests write
+such files with ``mpz.io.write`` and read them back with our reader and with ezc3d; take
+a hand-built Vicon-style source (first frame 397, int16 storage) through MPZ and back;
+and check that inconsistent frame parameters are refused cleanly. Expected values come
+from the synthetic data and from the guide's arithmetic (70000 = 4464 + 1 x 65536),
+never from the writer under test.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+import struct
+from typing import Any
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+import numpy as np
+import pytest
+
+import mpz
+from mpz.errors import InputFormatError
+from mpz.io import c3dbin, read, write
+from mpz.motion import Motion
+
+ezc3d = pytest.importorskip("ezc3d")
+
+F = 70_000  # more frames than a 16-bit header word can count
+
+
+def _motion(frames: int = F) -> Motion:
+    t = np.arange(frames) / 100.0
+    pos = np.empty((frames, 2, 3))
+    pos[:, 0] = np.stack([100 * np.sin(t), 50 * np.cos(t), 900 + t], axis=1)
+    pos[:, 1] = np.stack([t, -t, np.full(frames, 1000.0)], axis=1) + 1.0
+    valid = np.ones((frames, 2), bool)
+    valid[[5, min(65_535, frames - 2), frames - 1], 1] = False   # gaps, past 2^16 too
+    pos[~valid] = np.nan
+    return Motion(pos, ["LASI", "RASI"], 100.0, "mm", valid, {})
+
+
+@pytest.fixture(scope="module")
+def long_file(tmp_path_factory: Any) -> tuple[Path, Motion]:
+    m = _motion()
+    path = tmp_path_factory.mktemp("long") / "long.c3d"
+    write(m, path)
+    return path, m
+
+
+def _ez_points(path: Path) -> tuple[Any, np.ndarray]:
+    c = ezc3d.c3d(str(path))
+    return c, np.asarray(c["data"]["points"])[:3].transpose(2, 1, 0)
+
+
+# ------------------------------------------------------- writing a long motion --
+def test_written_long_c3d_follows_the_frame_count_convention(long_file):
+    path, _ = long_file
+    raw = path.read_bytes()
+    params: Any = c3dbin.parse_c3d(raw).params
+    assert struct.unpack_from("<HH", raw, 6) == (1, 65535)       # header words 4-5
+    # TRIAL: two int16 words, low then high: 70000 = 4464 + 1 * 65536
+    assert list(params["TRIAL"]["ACTUAL_START_FIELD"]) == [1, 0]
+    assert list(params["TRIAL"]["ACTUAL_END_FIELD"]) == [4464, 1]
+    assert float(params["POINT"]["LONG_FRAMES"][0]) == 70000.0
+    # POINT:FRAMES is an int16 (ezc3d refuses a float) holding 0xFFFF
+    assert int(params["POINT"]["FRAMES"][0]) & 0xFFFF == 0xFFFF
+
+
+def test_long_c3d_reads_back_with_our_reader(long_file):
+    path, m = long_file
+    d = c3dbin.parse_c3d(path.read_bytes())
+    assert d.points.shape == (F, 2, 3) and d.first_frame == 1
+    np.testing.assert_array_equal(d.residual_words < 0, ~m.valid)
+    np.testing.assert_array_equal(d.points[m.valid], m.positions[m.valid].astype(np.float32))
+    back = read(path)
+    assert back.n_frames == F and back.names == m.names and back.rate == 100.0
+    np.testing.assert_array_equal(back.valid, m.valid)
+    np.testing.assert_array_equal(back.positions[m.valid],
+                                  m.positions[m.valid].astype(np.float32))
+    assert "c3d" in back.extras and "warning" not in back.metadata
+
+
+def test_long_c3d_reads_back_with_ezc3d(long_file):
+    path, m = long_file
+    c, pts = _ez_points(path)
+    assert pts.shape == (F, 2, 3)
+    assert c["header"]["points"]["first_frame"] == 0          # ezc3d counts from 0
+    assert c["header"]["points"]["last_frame"] == F - 1
+    assert np.isnan(pts[~m.valid]).all()
+    np.testing.assert_array_equal(pts[m.valid], m.positions[m.valid].astype(np.float32))
+
+
+@pytest.mark.parametrize("frames", [65_535, 65_536, 70_001])
+def test_frame_counts_around_the_limit(tmp_path, frames):
+    """Both readers agree on every count near 2^16, whatever the last block's fill."""
+    m = _motion(frames)
+    write(m, tmp_path / "m.c3d")
+    _, pts = _ez_points(tmp_path / "m.c3d")
+    d = c3dbin.parse_c3d((tmp_path / "m.c3d").read_bytes())
+    assert pts.shape[0] == d.points.shape[0] == frames
+    np.testing.assert_array_equal(d.points[m.valid], pts[m.valid])
+
+
+def test_long_motion_through_mpz(long_file, tmp_path):
+    """C3D -> MPZ -> C3D: same header and parameters, same frames for both readers."""
+    path, m = long_file
+    src = read(path)
+    back = mpz.decode(mpz.encode(src, max_error=1.0))
+    assert back.n_frames == F and "c3d" in back.extras
+    out = tmp_path / "back.c3d"
+    write(back, out)
+    a, b = path.read_bytes(), out.read_bytes()
+    start = 512 * (struct.unpack_from("<H", a, 16)[0] - 1)
+    assert len(a) == len(b) and a[:start] == b[:start]       # header + parameter section
+    _, pts = _ez_points(out)
+    assert pts.shape == (F, 2, 3)
+    assert np.isnan(pts[~m.valid]).all()
+    err = np.linalg.norm(pts[m.valid] - m.positions[m.valid], axis=1)
+    assert err.max() <= 1.0 + 1e-3    # 1 mm, plus float32 storage of ~1 km coordinates
+
+
+# ------------------------------------ a Vicon-style source with > 65535 frames --
+def _param(name: str, gid: int, ptype: int, dims: list[int], data: bytes, desc: bytes = b""
+           ) -> bytes:
+    body = struct.pack("bB", ptype, len(dims)) + bytes(dims) + data + bytes([len(desc)]) + desc
+    return struct.pack("bb", len(name), gid) + name.encode() + struct.pack("<H", 2 + len(body)) \
+        + body
+
+
+def _group(name: str, gid: int) -> bytes:
+    return struct.pack("bb", len(name), -gid) + name.encode() + struct.pack("<H", 3) + b"\x00"
+
+
+def vicon_style(frames: int, first: int, *, trial: tuple[int, int] | None = None,
+                long_frames: float | None = None, trial_type: int = 2,
+                header_last: int = 65535, only_start: bool = False) -> tuple[bytes, np.ndarray]:
+    """An int16 C3D (scale 0.1) of 2 points, written here from the C3D guide: header
+    last frame ``header_last``, POINT:FRAMES the int16 -1, TRIAL fields (default: the
+    true range), optional POINT:LONG_FRAMES; no padding after the data."""
+    start, end = trial if trial is not None else (first, first + frames - 1)
+
+    def words(v: int) -> bytes:
+        if trial_type == 4:
+            return struct.pack("<ff", v & 0xFFFF, v >> 16)
+        return struct.pack("<HH", v & 0xFFFF, v >> 16)
+
+    recs = [_group("POINT", 1),
+            _param("USED", 1, 2, [], struct.pack("<h", 2)),
+            _param("SCALE", 1, 4, [], struct.pack("<f", 0.1)),
+            _param("RATE", 1, 4, [], struct.pack("<f", 200.0)),
+            _param("DATA_START", 1, 2, [], struct.pack("<h", 3)),
+            _param("FRAMES", 1, 2, [], struct.pack("<h", -1)),
+            _param("LABELS", 1, -1, [4, 2], b"LASIRASI", b"marker names"),
+            _param("UNITS", 1, -1, [2], b"mm")]
+    if long_frames is not None:
+        recs.append(_param("LONG_FRAMES", 1, 4, [], struct.pack("<f", long_frames)))
+    recs.append(_group("TRIAL", 2))
+    recs.append(_param("ACTUAL_START_FIELD", 2, trial_type, [2], words(start)))
+    if not only_start:
+        recs.append(_param("ACTUAL_END_FIELD", 2, trial_type, [2], words(end)))
+    at = 2 + recs[-1][0]                         # the last record's next offset is 0
+    recs[-1] = recs[-1][:at] + b"\x00\x00" + recs[-1][at + 2:]
+    section = bytes([1, 0x50, 1, 84]) + b"".join(recs)
+    assert len(section) <= 512
+    header = bytearray(512)
+    header[0:2] = bytes([2, 0x50])
+    struct.pack_into("<hHHHhf", header, 2, 2, 0, first, header_last, 0, 0.1)
+    struct.pack_into("<HHf", header, 16, 3, 0, 200.0)
+    rng = np.random.default_rng(7)
+    grid = np.cumsum(rng.integers(-3, 4, (frames, 2, 3)), axis=0) + 1000
+    four = np.zeros((frames, 2, 4), "<i2")
+    four[:, :, :3] = grid
+    four[:, :, 3] = 3                                    # residual word, camera byte 0
+    four[100, 1] = (0, 0, 0, -1)                          # one gap
+    return bytes(header) + section.ljust(512, b"\x00") + four.tobytes(), four
+
+
+def test_vicon_style_source_comes_back_identical(tmp_path):
+    frames, first = 70_000, 397
+    blob, four = vicon_style(frames, first)
+    src = tmp_path / "vicon.c3d"
+    src.write_bytes(blob)
+    d = c3dbin.parse_c3d(blob)
+    assert d.points.shape[0] == frames and d.first_frame == first
+    c, pts = _ez_points(src)
+    assert pts.shape[0] == frames and c["header"]["points"]["first_frame"] == first - 1
+    m = read(src)
+    assert m.n_frames == frames and "c3d" in m.extras
+    # int16 storage: coordinate = word x POINT:SCALE (the stored binary32 0.1)
+    np.testing.assert_allclose(m.positions[:, 0], four[:, 0, :3] * float(np.float32(0.1)),
+                               rtol=1e-12)
+    back = mpz.decode(mpz.encode(m))            # default: exact on the int16 grid
+    out = tmp_path / "out.c3d"
+    write(back, out)
+    assert out.read_bytes() == blob
+    assert c3dbin.parse_c3d(out.read_bytes()).first_frame == first
+
+
+# ---------------------------------------------------- inconsistent parameters --
+BAD: dict[str, dict[str, Any]] = {
+    "end before start": dict(trial=(80_000, 397)),
+    "TRIAL and LONG_FRAMES disagree": dict(long_frames=69_000.0),
+    "LONG_FRAMES not a count": dict(long_frames=70_000.5),
+    "LONG_FRAMES beyond 32 bits": dict(long_frames=1e38),
+    "TRIAL, LONG_FRAMES and the float32 nearest disagree": dict(
+        trial=(1, 2 ** 25 + 1), long_frames=float(2 ** 25 + 4)),
+    "TRIAL stored as floats": dict(trial_type=4),
+    "only ACTUAL_START_FIELD": dict(only_start=True),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_inconsistent_frame_parameters_are_refused(tmp_path, case):
+    blob, _ = vicon_style(70_000, 1, **BAD[case])
+    with pytest.raises(InputFormatError, match="C3D: .*(TRIAL|LONG_FRAMES|frame)"):
+        c3dbin.parse_c3d(blob)
+    (tmp_path / "bad.c3d").write_bytes(blob)
+    with pytest.raises(InputFormatError, match="TRIAL|LONG_FRAMES|frame"):
+        read(tmp_path / "bad.c3d")
+
+
+def test_agreeing_parameters_are_accepted():
+    blob, _ = vicon_style(70_000, 5, long_frames=70_000.0)
+    d = c3dbin.parse_c3d(blob)
+    assert d.points.shape[0] == 70_000 and d.first_frame == 5
+
+
+def test_trial_fields_override_a_saturated_header():
+    """The guide lets the header say 1..65535 for any long range: TRIAL decides."""
+    blob, _ = vicon_style(70_000, 1, trial=(2, 60_001))
+    d = c3dbin.parse_c3d(blob)
+    assert d.points.shape[0] == 60_000 and d.first_frame == 2
+
+
+def test_frame_parameters_only_count_when_the_header_cannot(tmp_path):
+    """A header that is not saturated stays authoritative (Dance1-style files whose
+    parameters disagree keep reading as before)."""
+    blob, _ = vicon_style(600, 1, trial=(1, 9_000), header_last=600)
+    assert c3dbin.parse_c3d(blob).points.shape[0] == 600
+
+
+def test_a_huge_declared_count_is_checked_against_the_bytes():
+    """2^32 - 1 frames declared, 70000 present: a clean error, nothing allocated for it."""
+    blob, _ = vicon_style(70_000, 1, trial=(1, 0xFFFFFFFF), long_frames=float(2 ** 32 - 1))
+    with pytest.raises(InputFormatError, match="truncated point data: 4294967295 frames"):
+        c3dbin.parse_c3d(blob)
+
+
+# ----------------------------------------------------------------- property --
+@settings(max_examples=60, deadline=None)
+@given(first=st.integers(1, 2 ** 20), frames=st.integers(1, 2 ** 31))
+def test_any_frame_range_is_declared_and_read_back(first, frames):
+    """plain_parts + build_c3d declare (first, frames) for any range a 32-bit TRIAL field
+    holds; with no points the data is empty, so even 2^31 frames cost nothing."""
+    header, records = c3dbin.plain_parts([], 50.0, "mm", frames, first)
+    blob = c3dbin.build_c3d(header, records, np.zeros((frames, 0, 3)),
+                            np.zeros((frames, 0), "<f4"), np.zeros((0, 0), "<f4"),
+                            float_storage=True, scale=1.0)
+    assert c3dbin.declared_frames(blob) == (first, frames)
+    h_first, h_last = struct.unpack_from("<HH", blob, 6)
+    if first + frames - 1 <= 65535:
+        assert (h_first, h_last) == (first, first + frames - 1)
+    else:
+        assert h_last == 65535
