@@ -44,6 +44,13 @@ CASES = [
                        means=struct.pack("<6i", 1, 2, 3, -1, -2, -3))]),
      struct.pack("<BIB", 0, 3, 1) + struct.pack("<Idd", 2, 4.0, 0.25) + struct.pack("<II", 0, 5)
      + struct.pack("<6i", 1, 2, 3, -1, -2, -3)),
+    # §4.15 smrc (MPZ 1.1, issue 14.12): the level headers, then the coded field to the end
+    ("§4.15", "smrc",
+     dict(space=1, dims=2, level_count=2,
+          levels=[dict(k=3, wssse=1.5, step=0.5), dict(k=1, wssse=-0.0, step=2.0)],
+          coded=b"\x00\x12\x34\x56\x78\x9a"),
+     struct.pack("<BIB", 1, 2, 2) + struct.pack("<Idd", 3, 1.5, 0.5)
+     + struct.pack("<Idd", 1, -0.0, 2.0) + b"\x00\x12\x34\x56\x78\x9a"),
     ("§4.11", "meta", dict(count=1, entries=[dict(key="subject", value="02")]),
      struct.pack("<H", 1) + b"\x07subject" + struct.pack("<H", 2) + b"02"),
     ("§4.12", "MEND", dict(), b""),
@@ -182,3 +189,14 @@ def test_chunk_roundtrip_property(payload, ctype):
     chunks = container.parse(data)
     assert chunks[0].payload == payload
     assert container.build(chunks) == data
+
+
+def test_smrc_levels_are_20_bytes_and_the_coded_field_runs_to_the_end():
+    """§4.15: the coded field starts at 6 + 20 n; a payload cut inside the level headers is
+    malformed, and an empty coded field still parses (§5.3 rejects it when decoded)."""
+    head = struct.pack("<BIB", 0, 6, 2) + struct.pack("<Idd", 2, 0.0, 1.0) * 2
+    assert len(head) == 6 + 20 * 2
+    assert g.SMRC.parse(head + b"\x00" * 7).coded == b"\x00" * 7
+    assert g.SMRC.parse(head).coded == b""
+    with pytest.raises(construct.ConstructError):
+        g.SMRC.parse(head[:-1])

@@ -592,7 +592,8 @@ class Summary:
 
 
 def read_summary(data: bytes) -> Summary | None:
-    """Read the smry chunk of an MPZ file without decoding the motion.
+    """Read the summary chunk (smry, §4.10, or smrc, §4.15) of an MPZ file without decoding
+    the motion.
 
     Returns None when the file has no summary chunk.
 
@@ -606,11 +607,19 @@ def read_summary(data: bytes) -> Summary | None:
     s = read_stream(data)
     if s.summary is None:
         return None
+    from mpz.chunks import Smrc
     f = s.summary.record
     levels = []
-    for lv in f.levels:
-        starts = lv.start_frames().astype(np.int64)
-        levels.append(SummaryLevel(lv.k, starts, lv.mean_values(f.dims), lv.wssse, lv.step))
+    if isinstance(f, Smrc):        # §4.15 (1.1): the same levels, starts and means range-coded
+        decoded = f.levels_decoded(s.header.frame_count)
+        for head, (starts, q) in zip(f.levels, decoded, strict=True):
+            levels.append(SummaryLevel(head.k, starts, q.astype(np.float64) * head.step,
+                                       head.wssse, head.step))
+    else:
+        for lv in f.levels:
+            starts = lv.start_frames().astype(np.int64)
+            levels.append(SummaryLevel(lv.k, starts, lv.mean_values(f.dims), lv.wssse,
+                                       lv.step))
     space = "positions" if f.space == SummarySpace.POSITIONS else "angles"
     return Summary(space, f.dims, levels, s.header.frame_count, s.header.rate, s.names,
                    unit_name(s.header.units))

@@ -41,6 +41,7 @@ from mpz.chunks import (
     Resi,
     Root,
     Segs,
+    Smrc,
     Smry,
 )
 from mpz.container import Chunk, locate, parse
@@ -80,7 +81,8 @@ class Stream:
     patt: dict[int, Located[Patt]]       # node -> its PATT (K = 0 when left out)
     segs: dict[int, Located[Segs]]       # node -> its SEGS (nodes with patterns)
     resi: dict[int, Located[Resi]]       # node -> its RESI (files with a residual layer)
-    summary: Located[Smry] | None = None
+    #: the summary chunk: smry (§4.10) or smrc (§4.15, 1.1), at most one of the two (§3.4)
+    summary: Located[Smry] | Located[Smrc] | None = None
     meta: dict[str, str] = field(default_factory=dict)
     unknown: list[Chunk] = field(default_factory=list)
     #: checked records of the ancillary chunks that extensions own (mpz.extensions), by type
@@ -189,9 +191,10 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
         raise FormatError(f"unexpected {extra.type} chunk", offset=extra.offset,
                           chunk=extra.type, section="§3.4")
 
-    # ancillary chunks: smry and meta at most once (§4.10, §4.11); the chunks extensions
-    # own are checked and kept for them; unknown types are kept, unread (§2.3)
-    summary: Located[Smry] | None = None
+    # ancillary chunks: one summary (smry or smrc, §3.4) and one meta at most (§4.10, §4.11,
+    # §4.15); the chunks extensions own are checked and kept for them; unknown types are
+    # kept, unread (§2.3)
+    summary: Located[Smry] | Located[Smrc] | None = None
     meta: dict[str, str] = {}
     unknown: list[Chunk] = []
     extras: dict[str, list[Record]] = {}
@@ -202,13 +205,19 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
         if c.type not in CHUNKS:
             unknown.append(c)
             continue
-        if c.type == "smry" or c.type == "meta":
+        if c.type in ("smry", "smrc", "meta"):
+            role = "meta" if c.type == "meta" else "summary"
             if c.type in seen:
                 raise FormatError(f"more than one {c.type} chunk", offset=c.offset,
                                   chunk=c.type, section=CHUNKS[c.type].SECTION)
-            seen.add(c.type)
+            if role in seen:
+                raise FormatError("a file holds at most one summary chunk: smry or smrc, not "
+                                  "both", offset=c.offset, chunk=c.type, section="§4.15")
+            seen |= {c.type, role}
             if c.type == "smry":
                 summary = _checked(c, Smry, ctx)
+            elif c.type == "smrc":
+                summary = _checked(c, Smrc, ctx)
             else:
                 meta = _checked(c, Meta, ctx).record.as_dict()
         else:

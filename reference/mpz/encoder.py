@@ -49,9 +49,12 @@ from mpz.chunks import (
     Resi,
     Root,
     Segs,
+    Smrc,
     Smry,
     SummaryLevel,
 )
+from mpz.chunks.summary import CodedSummaryLevel
+from mpz.chunks.summary import encode_levels as encode_summary_levels
 from mpz.cluster import adaptive_kmeans
 from mpz.entropy import MAX_EXP, BlockEncoder
 from mpz.errors import EncoderError
@@ -139,6 +142,9 @@ class EncodeOptions:
     max_segment: int = 240
     summary: tuple[int, ...] = ()
     summary_space: str = "positions"
+    #: issue 14.12: "smrc" the range-coded summary chunk (§4.15, MPZ 1.1; the default), or
+    #: "smry" the raw 1.0 chunk (§4.10) for readers that know only 1.0
+    summary_format: str = "smrc"
     metadata: Mapping[str, str] = field(default_factory=dict)
     seed: int = 0
     # issue 12: a safe default bound, the paper's unbounded mode only by name, model outputs
@@ -333,12 +339,15 @@ def check_option_values(o: EncodeOptions) -> None:
     _integer(o.smoothing, "smoothing", 0, MAX_SMOOTHING)
     _integer(o.max_segment, "max_segment", 2, MAX_PATTERN_LENGTH)
     _integer(o.seed, "seed", 0, 2 ** 63 - 1)
-    for name in ("metric", "segmentation", "summary_space"):
+    for name in ("metric", "segmentation", "summary_space", "summary_format"):
         if not isinstance(getattr(o, name), str):
             raise EncoderError(f"{name} must be text, got {getattr(o, name)!r}")
     if o.summary_space not in ("positions", "angles"):
         raise EncoderError(f"summary_space must be positions or angles, got "
                            f"{o.summary_space!r}")
+    if o.summary_format not in ("smrc", "smry"):
+        raise EncoderError(f"summary_format must be smrc (coded, MPZ 1.1) or smry (raw, 1.0), "
+                           f"got {o.summary_format!r}")
     if o.patterns is not None and not isinstance(o.patterns, str):
         raise EncoderError(f"patterns must be auto, on, off or None, got {o.patterns!r}")
     if not isinstance(o.lossy, bool):
@@ -991,8 +1000,9 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
 
 # ------------------------------------------------------ 5: the file records --
 def summary_record(motion: Motion, ks: tuple[int, ...] | list[int], space: str,
-                   step: float) -> Smry:
-    """The ancillary smry chunk (spec §4.10) from the optimal partition."""
+                   step: float, fmt: str = "smry") -> Smry | Smrc:
+    """The ancillary summary chunk from the optimal partition: smry (spec §4.10, raw s32
+    means) or, with ``fmt="smrc"``, smrc (§4.15, MPZ 1.1: the same levels, range-coded)."""
     from mpz.fisher import motion_series, optimal_partitions
     series, _ = motion_series(motion, space=space)
     levels_k = sorted({int(k) for k in ks})
@@ -1004,6 +1014,7 @@ def summary_record(motion: Motion, ks: tuple[int, ...] | list[int], space: str,
     levels_k = sorted({min(k, F) for k in levels_k})
     parts = optimal_partitions(series, max(levels_k), ks=levels_k)
     levels = []
+    coded: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
     for k in levels_k:
         p = parts[k]
         means_q = _round(np.asarray(p.means) / step)
@@ -1012,7 +1023,14 @@ def summary_record(motion: Motion, ks: tuple[int, ...] | list[int], space: str,
         levels.append(SummaryLevel(k=int(p.k), wssse=float(p.wssse), step=float(step),
                                    starts=np.asarray(p.starts, "<u4").tobytes(),
                                    means=means_q.astype("<i4").tobytes()))
+        coded.append((np.asarray(p.starts, np.int64),
+                      np.asarray(means_q, np.int64).reshape(int(p.k), series.shape[1])))
     space_code = SummarySpace.POSITIONS if space == "positions" else SummarySpace.ANGLES
+    if fmt == "smrc":      # §4.15: levels by increasing k, each predicted from the next
+        return Smrc(space=int(space_code), dims=int(series.shape[1]), level_count=len(levels),
+                    levels=tuple(CodedSummaryLevel(k=lv.k, wssse=lv.wssse, step=lv.step)
+                                 for lv in levels),
+                    coded=encode_summary_levels(int(space_code), F, coded))
     return Smry(space=int(space_code), dims=int(series.shape[1]), level_count=len(levels),
                 levels=tuple(levels))
 
@@ -1062,7 +1080,15 @@ def file_records(motion: Motion, opts: EncodeOptions, hier: Hierarchy, grid: Gri
         records += n.records
     if opts.summary:
         sstep = grid.step if opts.summary_space == "positions" else 1e-3   # angles: 0.001 deg
-        records.append(summary_record(motion, opts.summary, opts.summary_space, sstep))
+        bound = opts.max_error if opts.bounded else None
+        if (opts.summary_format == "smrc" and opts.summary_space == "positions"
+                and bound is not None and math.isfinite(bound) and bound > 0):
+            # §4.15, Appendix C: step = the declared bound E, so each mean is within E/2; the
+            # decoded motion is itself only within E, and a step of E costs 15 % less than
+            # the grid step E/sqrt(3) (docs/summary-size.md)
+            sstep = float(bound)
+        records.append(summary_record(motion, opts.summary, opts.summary_space, sstep,
+                                      opts.summary_format))
     meta = _meta_record(motion, opts)
     if meta is not None:
         records.append(meta)
@@ -1173,6 +1199,7 @@ def encode(motion: Motion, *,
            max_segment: int = 240,
            summary: Sequence[int] = (),
            summary_space: str = "positions",
+           summary_format: str = "smrc",
            metadata: Mapping[str, str] | None = None,
            seed: int = 0,
            lossy: bool = False,
@@ -1230,8 +1257,11 @@ def encode(motion: Motion, *,
     max_segment : int, default 240
         Longest segment in frames, 2..4096.
     summary : sequence of int, default ()
-        Segment counts k of the optional smry chunk (spec §4.10).
+        Segment counts k of the optional summary chunk (spec §4.15, or §4.10).
     summary_space : {"positions", "angles"}, default "positions"
+    summary_format : {"smrc", "smry"}, default "smrc"
+        The summary chunk: smrc, range-coded (§4.15; the file is then MPZ 1.1), or smry,
+        raw 32-bit means (§4.10), which 1.0 readers know.
     metadata : mapping of str to str, optional
         Extra §4.11 metadata (added to ``motion.metadata``).
     seed : int, default 0
@@ -1288,7 +1318,8 @@ def encode(motion: Motion, *,
         max_error=max_error, group_errors=group_errors or {}, theta=theta, k0=k0, tau=tau,
         metric=metric, weights=weights, hierarchy=hierarchy, smoothing=smoothing,
         patterns=patterns, segmentation=segmentation, grid=grid, max_segment=max_segment,
-        summary=tuple(summary), summary_space=summary_space, metadata=metadata or {},
+        summary=tuple(summary), summary_space=summary_space, summary_format=summary_format,
+        metadata=metadata or {},
         seed=seed, lossy=lossy, default_error_mm=default_error_mm,
         default_error_fraction=default_error_fraction, source_grid=source_grid,
         model_error=model_error, model_errors=model_errors or {},

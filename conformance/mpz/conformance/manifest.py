@@ -103,7 +103,7 @@ def exercised_sections(stream) -> list:
     if stream.resi:
         secs |= {"§4.9", "§6.5"}
     if stream.summary is not None:
-        secs.add("§4.10")
+        secs.add(type(stream.summary.record).SECTION)      # smry §4.10, smrc §4.15 (1.1)
     if stream.meta:
         secs.add("§4.11")
     if stream.unknown:

@@ -41,13 +41,14 @@ from mpz.chunks.core import (
     SummaryLevel,
 )
 from mpz.chunks.skeleton import SKELETON, Asfs, Bvhs
+from mpz.chunks.summary import SUMMARY, Smrc
 
 __all__ = ["CHUNKS", "JSON", "Context", "Record", "Hier", "HierNode", "Mask", "Meta",
            "MetaEntry", "Mend", "Mhdr", "Mnam", "Patt", "Qunt", "Resi", "Root", "Segs", "Smry",
-           "SummaryLevel", "load", "Chdr", "Cprm", "Cpnt", "Cana", "Bvhs", "Asfs"]
+           "SummaryLevel", "load", "Chdr", "Cprm", "Cpnt", "Cana", "Bvhs", "Asfs", "Smrc"]
 
 #: chunk type -> record class: the one registry, in the order of the spec's catalogue
-CHUNKS: dict[str, type[Record]] = {cls.TYPE: cls for cls in (*CORE, *C3D, *SKELETON)}
+CHUNKS: dict[str, type[Record]] = {cls.TYPE: cls for cls in (*CORE, *C3D, *SKELETON, *SUMMARY)}
 
 
 def load(ctype: str, payload: bytes) -> Record:

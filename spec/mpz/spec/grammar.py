@@ -201,6 +201,22 @@ SMRY = Struct(
     Terminated,
 )
 
+#: §4.15 smrc, the coded optimal-partition summary (ancillary, 1.1): the level headers,
+#: then one range-coded field with each level's segment lengths and mean residuals
+CodedSummaryLevel = Struct(
+    "k" / Int32ul * "§4.15 segments in this level, 1..F",
+    "wssse" / Float64l * "§4.15 within-segment sum of squared error, units^2",
+    "step" / Float64l * "§4.15 quantisation step of the means, > 0",
+)
+SMRC = Struct(
+    "space" / Int8ul * "§4.15 0 positions relative to the root marker, 1 joint angles",
+    "dims" / Int32ul * "§4.15 D, values per frame",
+    "level_count" / Int8ul * "§4.15 1..64",
+    "levels" / Array(this.level_count, CodedSummaryLevel),
+    "coded" / GreedyBytes * "§4.15 per level: unsigned [k, 1, 1] lengths - 1, then (D > 0) "
+    "signed [k, D/3, 3] (space 0) or [k, D, 1] (space 1) mean residuals",
+)
+
 #: §4.11 meta, key/value metadata (ancillary)
 MetaEntry = Struct(
     "key" / PascalString(Int8ul, "utf8") * "§4.11 1..255 bytes",

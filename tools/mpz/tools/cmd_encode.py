@@ -91,6 +91,9 @@ def add_parser(sub):
     p.add_argument("--summary", metavar="K,K,...", help="add the optimal-partition summary chunk "
                    "with these segment counts, e.g. 6,12,24,48")
     p.add_argument("--summary-space", choices=("positions", "angles"), default=D.summary_space)
+    p.add_argument("--summary-format", choices=("smrc", "smry"), default=D.summary_format,
+                   help="smrc: the range-coded summary chunk (MPZ 1.1, the default); smry: the "
+                   "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
     p.add_argument("--meta", action="append", metavar="KEY=VALUE", help="metadata (repeatable)")
     p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
                    "write it under a name not ending in .mpz, or write to a terminal")
@@ -119,7 +122,8 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
         patterns=args.patterns, segmentation=args.segmentation,
         grid=None if args.grid is None else parse_length(args.grid, units, "--grid"),
         summary=_summary_ks(args.summary), summary_space=args.summary_space,
-        metadata=metadata, lossy=args.lossy, model_errors=_model_errors(args.model_error))
+        summary_format=args.summary_format, metadata=metadata, lossy=args.lossy,
+        model_errors=_model_errors(args.model_error))
 
 
 def _model_errors(items: list[str] | None) -> dict[str, float]:
@@ -249,7 +253,8 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
         "bound_rule": rep.bound_rule, **_kept(motion, rep, in_size),
         "grid_step": rep.step, "addh": rep.addh, "addh_rule": rep.addh_rule,
         "hierarchy": rep.hierarchy, "seconds": rep.seconds, "chunk_bytes": rep.chunk_bytes,
-        "summary_bytes": rep.chunk_bytes.get("smry"),
+        "summary_bytes": rep.chunk_bytes.get("smrc", rep.chunk_bytes.get("smry")),
+        "summary_chunk": next((t for t in ("smrc", "smry") if t in rep.chunk_bytes), None),
         "skeleton": _skeleton_report(data),
         "nodes": [vars(n) for n in rep.nodes]}
     results.append(result)
@@ -273,17 +278,19 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
           f"ARMS {err['arms']:.4g}{u}", file=out)
     print(f"  grid     step {rep.step:.4g}{u}; ADDH {rep.addh:.4g}{u} ({rep.addh_rule}); "
           f"hierarchy {rep.hierarchy}", file=out)
-    if "smry" in rep.chunk_bytes:
-        smry = rep.chunk_bytes["smry"]
-        print(f"  summary  smry chunk {human_size(smry)} "
+    kind = result["summary_chunk"]
+    if kind is not None:
+        smry = rep.chunk_bytes[kind]
+        print(f"  summary  {kind} chunk {human_size(smry)} "
               f"({100 * smry / rep.file_bytes:.0f} % of the file), "
               f"k = {', '.join(str(k) for k in opts.summary)}", file=out)
         if smry > rep.file_bytes - smry:
-            # MPZ 1.0 stores k x D means as raw 32-bit integers (spec §4.10); the issue-14
-            # note in docs/summary-size.md says why the encoder cannot make them smaller
+            # smry stores k x D means as raw 32-bit integers (spec §4.10); smrc (§4.15)
+            # range-codes them (docs/summary-size.md)
+            hint = ("; without --summary-format smry the coded smrc chunk is several times "
+                    "smaller" if kind == "smry" else "")
             print(f"mpz encode: note: {printable(job.output)}: the summary is larger than the "
-                  "motion itself (MPZ 1.0 stores its segment means as 4-byte integers); fewer "
-                  "or smaller k shrink it", file=sys.stderr)
+                  f"motion itself; fewer or smaller k shrink it{hint}", file=sys.stderr)
     _print_skeleton(result["skeleton"], units, out)
     if args.verbose:
         print("  chunks   " + ", ".join(f"{printable(t)} {human_size(n)}"

@@ -444,14 +444,14 @@ def valid_vectors(vs: VectorSet):
              "mpz.encode(smoothing=3, lossy=True)")
     # v03: encoder with the optimal-partition summary
     m = _synth("wave", 60, markers=12, seed=3)
-    data = mpz.encode(m, max_error=2.0, summary=(2, 5))
+    data = mpz.encode(m, max_error=2.0, summary=(2, 5), summary_format="smry")
     vs.valid("valid", "v03-wave-bounded-2mm-summary", data,
              "12-marker wave from the reference encoder, 2 mm bound, with the ancillary smry "
              "chunk (2 and 5 segments) that decoders may ignore",
-             {"encoder": "mpz.encode(max_error=2.0, summary=(2, 5))"},
+             {"encoder": "mpz.encode(max_error=2.0, summary=(2, 5), summary_format='smry')"},
              ["§4.9", "§4.10", "§4.11", "§6.5"],
              "mpz.synth.generate('wave', frames=60, markers=12, seed=3) -> "
-             "mpz.encode(max_error=2.0, summary=(2, 5))")
+             "mpz.encode(max_error=2.0, summary=(2, 5), summary_format='smry')")
 
     # v04: orders 0 / 1 / 2 in ROOT and RESI, residual only (pattern_count 0)
     m = _synth("walk", 48, markers=12, seed=4)
@@ -2109,7 +2109,8 @@ ENCODER_RECIPES = {
                                        "lossy": True}},
     "v03-wave-bounded-2mm-summary": {"synth": {"kind": "wave", "frames": 60, "markers": 12,
                                                "seed": 3},
-                                     "encode": {"max_error": 2.0, "summary": [2, 5]}},
+                                     "encode": {"max_error": 2.0, "summary": [2, 5],
+                                                "summary_format": "smry"}},
 }
 
 
@@ -3038,6 +3039,193 @@ SKELETON_VECTOR_RULES = _rules(
 VECTOR_RULES.update(SKELETON_VECTOR_RULES)
 
 
+# --------------------------------------------------- §4.15 coded summary (MPZ 1.1) --
+def _smrc_payload(space, dims, levels, coded=None, frames=None):
+    """An smrc payload from (k, wssse, step, starts, q [k, D]) levels; ``coded`` given as
+    bytes, or None to code the levels as §4.15 says (reference encoder, ``frames`` = F)."""
+    from mpz.chunks.summary import encode_levels
+    if coded is None:
+        coded = encode_levels(space, frames, [(np.asarray(st, np.int64),
+                                               np.asarray(q, np.int64).reshape(len(st), dims))
+                                              for _, _, _, st, q in levels])
+    return payload("smrc", {"space": space, "dims": dims, "level_count": len(levels),
+                            "levels": [{"k": k, "wssse": w, "step": s}
+                                       for k, w, s, _, _ in levels], "coded": coded})
+
+
+def _with_smrc(data, body, *, extra=()):
+    """``data`` with its smrc payload replaced by ``body`` (and ``extra`` chunks after it)."""
+    out = []
+    for c in container.parse(data):
+        out.append([c.type, body if c.type == "smrc" else c.payload])
+        if c.type == "smrc":
+            out += [list(e) for e in extra]
+    return assemble(out)
+
+
+def smrc_vectors(vs: VectorSet):
+    """Valid, uncommon and invalid files for the coded summary chunk smrc (spec §4.15, MPZ
+    1.1, issue 14.12), from a small synthetic walk (never real files)."""
+    import dataclasses
+
+    from mpz.chunks.summary import Smrc, overlap_prediction
+    secs = ["§2.1", "§2.3", "§3.4", "§4.15", "§5.5"]
+    m = _synth("walk", 24, markers=4, seed=141)
+    good = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    vs.valid("valid", _numbered(vs, "v", "smrc-positions"), good,
+             "a 4-marker walk with the coded summary smrc (1.1): levels k = 2 and 5 of a "
+             "position summary (D = 12), step = the 1 mm bound, the k = 2 level predicted from "
+             "the k = 5 level", {"summary": "smrc", "levels": [2, 5]}, secs,
+             "mpz.synth.generate('walk', frames=24, markers=4, seed=141) -> "
+             "mpz.encode(max_error=1.0, summary=(2, 5))")
+    F, M = 24, 4
+    rng = np.random.default_rng(141)
+    # uncommon: an angle summary without means (D = 0): the A blocks alone
+    body = _smrc_payload(1, 0, [(3, 0.0, 0.5, [0, 1, 23], np.zeros((3, 0))),
+                                (1, -0.0, 1.0, [0], np.zeros((1, 0)))], frames=F)
+    vs.valid("uncommon", _numbered(vs, "u", "smrc-angles-no-dims"), _with_smrc(good, body),
+             "smrc with space 1 and D = 0: two levels (k = 3 with a last segment of one frame, "
+             "then k = 1, wssse -0.0), the coded field holds the two length blocks alone",
+             {"summary": "smrc", "dims": 0}, secs, "make_vectors.smrc_vectors: hand-made smrc "
+             "in the v-smrc-positions file")
+    # uncommon: one level, k = 1
+    q1 = rng.integers(-40, 40, (1, 3 * M))
+    body = _smrc_payload(0, 3 * M, [(1, 12.5, 0.25, [0], q1)], frames=F)
+    vs.valid("uncommon", _numbered(vs, "u", "smrc-one-level-k1"), _with_smrc(good, body),
+             "smrc with one level of one segment (k = 1): a length block of one value (F - 1) "
+             "and one row of means, predicted from 0", {"summary": "smrc", "levels": [1]},
+             secs, "make_vectors.smrc_vectors: hand-made smrc in the v-smrc-positions file")
+    # uncommon: levels out of order, a repeated k, k = F, means at the s32 limit
+    lv_f = rng.integers(-(1 << 20), 1 << 20, (F, 3 * M))
+    # the s32 limit, its neighbours at 2^30 so that every residual stays below 2^31
+    lv_f[4:7, 0] = (1 << 30, (1 << 31) - 1, 1 << 30)
+    lv_f[5:8, 1] = (-(1 << 30), -(1 << 31) + 1, -(1 << 30))
+    lv_3 = rng.integers(-(1 << 20), 1 << 20, (3, 3 * M))
+    lv_3[:, 0], lv_3[:, 1] = np.abs(lv_3[:, 0]), -np.abs(lv_3[:, 1])
+    levels = [(3, 1.0, 0.5, [0, 10, 11], lv_3), (F, 0.0, 0.5, list(range(F)), lv_f),
+              (3, 2.0, 0.5, [0, 4, 20], lv_3), (F, 0.0, 0.5, list(range(F)), lv_f)]
+    qs = [(np.asarray(st, np.int64), np.asarray(q, np.int64)) for *_, st, q in levels]
+    # residuals reach 2^30 and more: code them with the wide §5 transcription
+    blocks = []
+    for li, (st, q) in enumerate(qs):
+        k = st.shape[0]
+        blocks.append(((np.diff(np.append(st, F)) - 1).reshape(k, 1, 1),
+                       {"period": k, "signed": False}))
+        e = (np.diff(q, axis=0, prepend=0) if li == len(qs) - 1
+             else q - overlap_prediction(st, qs[li + 1][1], qs[li + 1][0], F))
+        blocks.append((e.reshape(k, M, 3), {"period": k}))
+    coded = rc_wide(*blocks)
+    body = _smrc_payload(0, 3 * M, levels, coded=coded)
+    data = _with_smrc(good, body)
+    got = Smrc.load(body).levels_decoded(F)
+    assert all(np.array_equal(a[1], q) for a, (_, q) in zip(got, qs, strict=True))
+    vs.valid("uncommon", _numbered(vs, "u", "smrc-levels-any-order"), data,
+             "smrc with levels k = 3, 24, 3, 24 (= F): out of order, repeated, two different "
+             "k = 3 partitions, a level of one-frame segments, and means of 2^31 - 1 and "
+             "-(2^31 - 1); each level predicted from the next", {"summary": "smrc",
+                                                                  "levels": [3, 24, 3, 24]},
+             secs, "make_vectors.smrc_vectors: hand-made smrc (wide residuals) in the "
+             "v-smrc-positions file")
+
+    def add(slug, data, description, corruption, risk, error, sections):
+        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
+                   sections)
+
+    ch = [[c.type, c.payload] for c in container.parse(good)]
+    k = next(i for i, c in enumerate(ch) if c[0] == "smrc")
+    smrc = ch[k][1]
+    rec = Smrc.load(smrc)
+    add("smrc-twice", assemble(ch[:k + 1] + [ch[k]] + ch[k + 1:]), "two smrc chunks",
+        "smrc repeated", "which summary does a reader use?", "FormatError", ["§3.4", "§4.15"])
+    smry = payload("smry", {"space": 0, "dims": 3 * M, "level_count": 1, "levels": [
+        {"k": 1, "wssse": 0.0, "step": 1.0, "starts": struct.pack("<I", 0),
+         "means": struct.pack(f"<{3 * M}i", *range(3 * M))}]})
+    add("smrc-and-smry", assemble(ch[:k] + [["smry", smry]] + ch[k:]),
+        "a smry and a smrc in one file", "a one-level smry put before the smrc",
+        "two summaries for one motion; a reader that takes the first differs from one that "
+        "takes the last", "FormatError", ["§3.4", "§4.15"])
+
+    def lv(i, **kw):
+        levels = list(rec.levels)
+        levels[i] = dataclasses.replace(levels[i], **kw)
+        return dataclasses.replace(rec, levels=tuple(levels)).dump()
+
+    add("smrc-k-over-frames", _with_smrc(good, lv(1, k=F + 1)), "a level with k = F + 1",
+        "level 1 k 5 -> 25", "a decoder sizes the blocks by k and reads 25 segments of 24 "
+        "frames", "FormatError", ["§4.15"])
+    add("smrc-step-zero", _with_smrc(good, lv(0, step=0.0)), "a level with step 0",
+        "level 0 step -> 0", "every mean reads as 0", "FormatError", ["§4.15", "§1.3"])
+    add("smrc-space-2", _with_smrc(good, dataclasses.replace(rec, space=2).dump()),
+        "smrc space 2", "space 0 -> 2", "a reserved space", "FormatError", ["§4.15"])
+    add("smrc-dims-not-3m", _with_smrc(good, dataclasses.replace(rec, dims=9).dump()),
+        "a position smrc with D = 9 for 4 markers", "dims 12 -> 9",
+        "the means do not line up with the markers", "FormatError", ["§4.15"])
+    body = _smrc_payload(1, 1 << 23, [(3, 0.0, 1.0, [0, 1, 2], np.zeros((3, 0)))],
+                         coded=b"\x00" * 5)
+    add("smrc-values-over-limit", _with_smrc(good, body),
+        "an angle smrc with D = 2^23 and k = 3: 3 x 2^23 means, above MAX_SUMMARY_VALUES",
+        "hand-made smrc, coded field of 5 zero bytes", "a decoder allocates 3 x 2^23 means "
+        "for a 5-byte field", "LimitExceededError", ["§4.15", "§8"])
+    coded = rec.coded
+    add("smrc-coded-overrun", _with_smrc(good, dataclasses.replace(
+        rec, coded=coded[:-2]).dump()), "the smrc coded field cut by 2 bytes",
+        "last 2 bytes of the coded field dropped", "a decoder reads past the payload",
+        "FormatError", ["§4.15", "§5.3"])
+    add("smrc-coded-leftover", _with_smrc(good, dataclasses.replace(
+        rec, coded=coded + b"\x00").dump()), "a byte left after the last block of smrc",
+        "one 0 byte appended to the coded field", "a decoder that does not close the "
+        "payload", "FormatError", ["§4.15", "§5.3"])
+    st5 = [0, 5, 9, 14, 20]
+    q = rng.integers(-9, 9, (5, 3 * M))
+    body = _smrc_payload(0, 3 * M, [(5, 1.0, 1.0, st5, q)], frames=F + 1)
+    add("smrc-lengths-over-frames", _with_smrc(good, body),
+        "a level whose segment lengths add up to F + 1",
+        "last segment 4 -> 5 frames (starts stay increasing, the end passes F)",
+        "the last segment reaches past the clip", "FormatError", ["§4.15"])
+    body = _smrc_payload(0, 3 * M, [(5, 1.0, 1.0, st5, q)], frames=F - 1)
+    add("smrc-lengths-under-frames", _with_smrc(good, body),
+        "a level whose segment lengths add up to F - 1", "last segment 4 -> 3 frames",
+        "the last frame belongs to no segment", "FormatError", ["§4.15"])
+    e = np.zeros((2, M, 3), np.int64)
+    e[0, 0, 0], e[1, 0, 0] = (1 << 31) - 1, 1
+    coded = rc_wide((np.array([11, 11]).reshape(2, 1, 1), {"period": 2, "signed": False}),
+                    (e, {"period": 2}))
+    body = _smrc_payload(0, 3 * M, [(2, 1.0, 1.0, [0, 12], None)], coded=coded)
+    add("smrc-mean-2pow31", _with_smrc(good, body),
+        "a mean of 2^31: residuals 2^31 - 1, then 1 along the segments",
+        "hand-made smrc, wide residuals", "a decoder that keeps the means in int32 wraps",
+        "FormatError", ["§4.15", "§1.2"])
+    # sum of k over the levels above 2^24 with D = 0: F = 2^18 + 1 frames, 64 levels of k = F
+    Fb = (1 << 18) + 1
+    d = Design(Fb, ["A"], bits=1, version=(1, 1))
+    d.nodes.append((ROOT_PARENT, 0, [0], [1.0]))
+    d.root = (0, np.zeros((Fb, 3), np.int64))
+    d.payloads[("ROOT", 0)] = payload("ROOT", {"order": 0, "coded": rc(
+        (np.zeros((Fb, 1, 3), np.int64), {}))})
+    d.ancillary.append(("smrc", payload("smrc", {
+        "space": 1, "dims": 0, "level_count": 64,
+        "levels": [{"k": Fb, "wssse": 0.0, "step": 1.0}] * 64, "coded": b"\x00" * 5})))
+    add("smrc-segments-over-limit", assemble(d.chunks()),
+        "64 levels of k = F = 2^18 + 1 with D = 0: 2^24 + 64 segments, above "
+        "MAX_SUMMARY_VALUES", "one-marker file of 2^18 + 1 frames, hand-made smrc with a "
+        "5-byte coded field", "a decoder allocates 2^24 segment lengths for a 5-byte field "
+        "(smry's starts are bounded by its payload, smrc's are not)", "LimitExceededError",
+        ["§4.15", "§8"])
+
+
+#: the §7.4 rules the smrc vectors probe (merged into VECTOR_RULES)
+SMRC_VECTOR_RULES = _rules(
+    ("R-4.15-1", "smrc-twice smrc-and-smry"),
+    ("R-4.15-2", "smrc-k-over-frames smrc-step-zero smrc-space-2 smrc-dims-not-3m"),
+    ("R-4.15-3", "smrc-values-over-limit smrc-segments-over-limit"),
+    ("R-4.15-4", "smrc-coded-overrun smrc-coded-leftover"),
+    ("R-4.15-5", "smrc-lengths-over-frames smrc-lengths-under-frames"),
+    ("R-4.15-6", "smrc-mean-2pow31"),
+    ("R-4.15-7", "smrc-angles-no-dims smrc-one-level-k1 smrc-levels-any-order"),
+)
+VECTOR_RULES.update(SMRC_VECTOR_RULES)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m mpz.tools.make_vectors",
                                 description=__doc__.splitlines()[0])
@@ -3060,6 +3248,7 @@ def main(argv=None) -> int:
     encoder_inputs(vs)
     c3d_archive_vectors(vs)                   # issue 12 (MPZ 1.1)
     skeleton_vectors(vs)                      # issue 13 (MPZ 1.1)
+    smrc_vectors(vs)                          # issue 14.12 (MPZ 1.1)
     vs.entries.sort(key=lambda e: (mf.GROUPS.index(e["group"]), e["name"]))
     vs.write_manifest()
     total = sum(f.stat().st_size for f in out.rglob("*") if f.is_file())

@@ -1,0 +1,203 @@
+"""The coded summary chunk of MPZ 1.1 (spec §4.15): ``smrc``.
+
+``smry`` (§4.10) stores each level's segment means as raw ``s32``: 4 bytes a value, which
+on a real clip is several times the coded motion (issue 14.12). ``smrc`` holds the same
+levels (space, dims, per level k, wssse, step, the segment starts and the means) with the
+starts and the means range-coded (§5): each level's segment lengths in an unsigned block,
+and its quantised means as prediction residuals in a signed block. The last level is
+predicted along its segments (order 1); every other level from the level after it, by the
+overlap-weighted mean of that level's means over each segment (§4.15). The encoder writes
+the levels by increasing k, so each level is predicted from the finer one.
+
+Like every ancillary chunk it is not used to decode the motion; a 1.0 decoder skips it
+(§2.3). The record checks its § rules and decodes its field (a file whose summary cannot be
+decoded is rejected where every other chunk is); :meth:`Smrc.levels_decoded` gives
+the starts and the integer means, which :func:`mpz.read_summary` dequantises.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mpz.chunks.base import JSON, Context, Record
+from mpz.chunks.base import fail as _fail
+from mpz.entropy import BlockDecoder, BlockEncoder
+from mpz.errors import EncoderError, LimitExceededError
+from mpz.format import MAX_SUMMARY_LEVELS, MAX_SUMMARY_VALUES, SummarySpace
+from mpz.spec import grammar
+
+__all__ = ["CodedSummaryLevel", "Smrc", "SUMMARY", "SUMMARY_TYPES", "SMRC_MINOR",
+           "MEAN_LIMIT", "encode_levels", "decode_levels", "overlap_prediction"]
+
+#: §2.1 the minor version that added smrc
+SMRC_MINOR = 1
+#: §3.4, §4.15: a file holds at most one of these (one summary, coded or not)
+SUMMARY_TYPES = ("smry", "smrc")
+#: §4.15 every decoded mean q satisfies |q| < 2^31 (the s32 range of smry's means)
+MEAN_LIMIT = 1 << 31
+
+IntArray = NDArray[np.int64]
+
+
+def block_shape(space: int, k: int, dims: int) -> tuple[int, int, int]:
+    """§4.15 the mean block of a level: [k, D/3, 3] for positions, [k, D, 1] for angles."""
+    if space == SummarySpace.POSITIONS:
+        return (k, dims // 3, 3)
+    return (k, dims, 1)
+
+
+def overlap_prediction(starts: IntArray, source_q: IntArray, source_starts: IntArray,
+                       frames: int) -> IntArray:
+    """§4.15 the prediction of a level from another: for each segment j (n_j frames) and
+    dimension d, (2 x sum_i q'[i, d] x ov(j, i) + n_j) div (2 n_j), where ov(j, i) is the
+    number of frames segment j shares with segment i of the source level.
+
+    Every value is below 2^57 in magnitude (|q'| < 2^31, the overlaps of one segment add up
+    to n_j <= 2^24), so int64 is exact (§1.2)."""
+    cuts = np.union1d(starts, source_starts)                     # both begin at 0
+    widths = np.diff(np.append(cuts, frames))
+    j = np.searchsorted(starts, cuts, side="right") - 1
+    i = np.searchsorted(source_starts, cuts, side="right") - 1
+    acc = np.zeros((starts.shape[0], source_q.shape[1]), np.int64)
+    np.add.at(acc, j, source_q[i] * widths[:, None])
+    n = np.diff(np.append(starts, frames))[:, None]
+    return (2 * acc + n) // (2 * n)
+
+
+def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
+                  ) -> list[tuple[IntArray, IntArray]]:
+    """§4.15 decoding steps 1-4: (starts [k], integer means q [k, D]) of every level.
+
+    Call after the header checks of :meth:`Smrc.check` (k and the two sums, §1.1).
+    """
+    dec = BlockDecoder(rec.coded, chunk=rec.TYPE, offset=offset)
+    D = rec.dims
+    starts_of: list[IntArray] = []
+    resid_of: list[IntArray] = []
+    for lv in rec.levels:
+        k = lv.k
+        lengths = dec.block(k, 1, 1, period=k, signed=False).reshape(k) + 1
+        # step 1: the lengths add up to F (the sum formed in 64 bits: k < 2^24 values below
+        # 2^31) before any start is formed (§1.1)
+        if int(lengths.sum()) != frames:
+            _fail(f"summary level k = {k}: segment lengths add up to {int(lengths.sum())}, "
+                  f"not {frames} frames", "§4.15")
+        starts_of.append(np.concatenate(([0], np.cumsum(lengths[:-1]))).astype(np.int64))
+        if D:
+            shape = block_shape(rec.space, k, D)
+            resid_of.append(dec.block(*shape, period=k, signed=True).reshape(k, D))
+        else:
+            resid_of.append(np.zeros((k, 0), np.int64))
+    dec.close()
+    # steps 3-4: the last level along its segments, then each level from the one after it
+    means: list[IntArray] = [np.zeros(0, np.int64)] * len(rec.levels)
+    for li in range(len(rec.levels) - 1, -1, -1):
+        e = resid_of[li]
+        if li == len(rec.levels) - 1:
+            q = np.cumsum(e, axis=0)                 # |partial sums| < 2^55: exact in int64
+        else:
+            q = overlap_prediction(starts_of[li], means[li + 1], starts_of[li + 1], frames) + e
+        if q.size and int(np.abs(q).max()) >= MEAN_LIMIT:
+            _fail(f"summary level k = {rec.levels[li].k}: a decoded mean is 2^31 steps or "
+                  f"more in magnitude", "§4.15")
+        means[li] = q
+    return list(zip(starts_of, means, strict=True))
+
+
+def encode_levels(space: int, frames: int, levels: list[tuple[IntArray, IntArray]]) -> bytes:
+    """The ``coded`` field of §4.15 for (starts [k], integer means q [k, D]) levels, in the
+    order they are stored (the reference stores them by increasing k)."""
+    enc = BlockEncoder()
+    n = len(levels)
+    for li, (starts, q) in enumerate(levels):
+        k = starts.shape[0]
+        lengths = np.diff(np.append(starts, frames)) - 1
+        enc.block(lengths.reshape(k, 1, 1), period=k, signed=False)
+        if q.shape[1]:
+            if li == n - 1:
+                e = np.diff(q, axis=0, prepend=0)
+            else:
+                nxt_starts, nxt_q = levels[li + 1]
+                e = q - overlap_prediction(starts, nxt_q, nxt_starts, frames)
+            if int(np.abs(e).max(initial=0)) >= 1 << 30:
+                raise EncoderError("summary mean residuals do not fit the coder's 2^30 range "
+                                   "(§5.4): the step is too fine for these means")
+            enc.block(e.reshape(block_shape(space, k, q.shape[1])), period=k, signed=True)
+    return enc.finish()
+
+
+@dataclass(frozen=True)
+class CodedSummaryLevel(Record):
+    """§4.15 the header of one level of the coded summary."""
+
+    GRAMMAR = grammar.CodedSummaryLevel
+
+    k: int
+    wssse: float
+    step: float
+
+
+@dataclass(frozen=True)
+class Smrc(Record):
+    """§4.15 the coded optimal-partition summary (ancillary, 1.1)."""
+
+    TYPE = "smrc"
+    SECTION = "§4.15"
+    GRAMMAR = grammar.SMRC
+    NESTED = {"levels": CodedSummaryLevel}
+    MINOR = SMRC_MINOR
+
+    space: int
+    dims: int
+    level_count: int
+    levels: tuple[CodedSummaryLevel, ...]
+    coded: bytes
+
+    def check_header(self, ctx: Context) -> None:
+        """The rules of §4.15 that come before the coded field is decoded (§1.1)."""
+        n = sum(ctx.types.count(t) for t in SUMMARY_TYPES)
+        if n > 1:
+            _fail(f"a file holds at most one summary chunk (smry or smrc); this one has {n}",
+                  "§3.4")
+        F, M = ctx.header.frame_count, ctx.header.marker_count
+        if self.space not in set(SummarySpace):
+            _fail(f"unknown summary space {self.space}", "§4.15")
+        if self.space == SummarySpace.POSITIONS and self.dims != 3 * M:
+            _fail(f"position summary has {self.dims} dims, expected {3 * M}", "§4.15")
+        if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS:
+            _fail(f"summary level count {self.level_count} not in 1..{MAX_SUMMARY_LEVELS}",
+                  "§4.15")
+        values = segments = 0
+        for lv in self.levels:
+            # §1.1: 1 <= k <= F before k and k x D join the sums
+            if not 1 <= lv.k <= F:
+                _fail(f"summary level with k = {lv.k} for {F} frames", "§4.15")
+            segments += lv.k
+            values += lv.k * self.dims
+            if not (math.isfinite(lv.step) and lv.step > 0 and math.isfinite(lv.wssse)
+                    and lv.wssse >= 0):
+                _fail("summary step must be > 0 and wssse >= 0, both finite", "§4.15")
+        if values > MAX_SUMMARY_VALUES or segments > MAX_SUMMARY_VALUES:
+            _fail(f"summary holds {values} means and {segments} segments, limit "
+                  f"{MAX_SUMMARY_VALUES} each", "§8", LimitExceededError)
+
+    def check(self, ctx: Context) -> None:
+        self.check_header(ctx)
+        decode_levels(self, ctx.header.frame_count)          # §4.15: the field must decode
+
+    def levels_decoded(self, frames: int) -> list[tuple[IntArray, IntArray]]:
+        """(starts, integer means [k, D]) of every level (after :meth:`check`)."""
+        return decode_levels(self, frames)
+
+    def info(self) -> dict[str, JSON]:
+        return {"space": self.space, "dims": self.dims, "level_count": self.level_count,
+                "levels": [{"k": lv.k, "wssse": lv.wssse, "step": lv.step}
+                           for lv in self.levels],
+                "coded": {"bytes": len(self.coded), "head": self.coded[:16].hex()}}
+
+
+#: the MPZ 1.1 summary chunk types, in the order of the spec's catalogue (§4.15)
+SUMMARY = (Smrc,)
