@@ -52,8 +52,13 @@ def test_every_chunk_type_is_one_table_entry_with_its_layout_and_section():
         assert issubclass(cls, Record) and cls.TYPE == ctype
         assert any(cls.GRAMMAR is g for g in layouts), ctype
         assert cls.SECTION.startswith("§4."), ctype
-        # the record's fields are the layout's named fields, in layout order
+        # the record's fields are the layout's named fields, in layout order; a record
+        # with §4.13 byte coding holds its content's fields in place of ``body``
         named = [s.name for s in cls.GRAMMAR.subcons if s.name]
+        content = getattr(cls, "CONTENT", None)
+        if content is not None:
+            assert named[-1] == "body", ctype
+            named = named[:-1] + [s.name for s in content.subcons if s.name]
         assert [f.name for f in fields(cls)] == named, ctype
 
 

@@ -208,15 +208,29 @@ def test_mutated_archive_payloads_with_repaired_crcs(archive_file):
         _only_mpz_errors(container.repair_crcs(bytes(b)))
 
 
+def _stored(data: bytes) -> bytes:
+    """The file with chdr and cprm stored (§4.13 coding 0), so their fields sit at fixed
+    payload offsets."""
+    out = []
+    for c in container.scan(data).chunks:
+        if c.type in ("chdr", "cprm"):
+            out.append((c.type, dataclasses.replace(c.record, coding=0).dump()))
+        else:
+            out.append((c.type, c.payload))
+    return container.build(out)
+
+
 @pytest.mark.parametrize("ctype,field_offset,width", [
-    ("cprm", 0, 2),            # record count
+    ("cprm", 1, 2),            # record count, after the coding byte
     ("cpnt", 1, 2),            # point_count
     ("cana", 1, 2),            # channels
     ("cana", 3, 2),            # samples
 ])
 def test_length_fields_at_their_maximum(archive_file, ctype, field_offset, width):
-    c = next(c for c in container.scan(archive_file).chunks if c.type == ctype)
-    b = bytearray(archive_file)
+    stored = _stored(archive_file)
+    mpz.decode(stored)                     # valid as it is: only the field makes it bad
+    c = next(c for c in container.scan(stored).chunks if c.type == ctype)
+    b = bytearray(stored)
     at = c.offset + 8 + field_offset
     b[at:at + width] = b"\xff" * width
     with pytest.raises(MPZError):
@@ -228,7 +242,7 @@ def test_cprm_dimensions_at_their_maximum(archive_file):
     prm = _records(archive_file)["cprm"]
     recs = list(prm.records)
     i = next(k for k, r in enumerate(recs) if not r.is_group)
-    payload = bytearray(prm.dump())
+    payload = bytearray(dataclasses.replace(prm, coding=0).dump())
     raw = recs[i]
     head = struct.pack("<bB", raw.group, raw.locked) + bytes([len(raw.name)]) + raw.name
     at = payload.index(head) + len(head) + 1 + len(raw.description) + 1

@@ -13,6 +13,11 @@ from mpz.chunks import CHUNKS
 from mpz.errors import ChecksumError, FormatError, LimitExceededError
 from mpz.spec import grammar as g
 
+#: a §4.13.2 parameter section of two records, written with struct
+_CPRM_SECTION = (struct.pack("<H", 2) + struct.pack("<bB", -1, 0) + b"\x05POINT" + b"\x033-D"
+                 + struct.pack("<bB", 1, 1) + b"\x04USED" + b"\x00" + struct.pack("<bB", 2, 1)
+                 + b"\x02" + struct.pack("<hh", 7, -1))
+
 CASES = [
     ("§4.1", "MHDR",
      dict(version_major=1, version_minor=0, flags=1, frame_count=343, marker_count=41,
@@ -55,17 +60,10 @@ CASES = [
      struct.pack("<H", 1) + b"\x07subject" + struct.pack("<H", 2) + b"02"),
     ("§4.12", "MEND", dict(), b""),
     # §4.13 C3D archive chunks (MPZ 1.1): bytes written with struct, independently
-    ("§4.13.1", "chdr", dict(processor=84, block=b"\x02\x50" + bytes(510)),
-     b"\x54" + b"\x02\x50" + bytes(510)),
-    ("§4.13.2", "cprm",
-     dict(count=2, records=[
-         dict(group=-1, locked=0, name=b"POINT", description=b"3-D", type=None, dims=None,
-              data=None),
-         dict(group=1, locked=1, name=b"USED", description=b"", type=2, dims=b"\x02",
-              data=struct.pack("<hh", 7, -1))]),
-     struct.pack("<H", 2) + struct.pack("<bB", -1, 0) + b"\x05POINT" + b"\x033-D"
-     + struct.pack("<bB", 1, 1) + b"\x04USED" + b"\x00" + struct.pack("<bB", 2, 1) + b"\x02"
-     + struct.pack("<hh", 7, -1)),
+    # chdr and cprm stored (§4.13 coding 0); their content grammars are in CONTENT_CASES
+    ("§4.13.1", "chdr", dict(processor=84, coding=0, body=b"\x02\x50" + bytes(510)),
+     b"\x54\x00" + b"\x02\x50" + bytes(510)),
+    ("§4.13.2", "cprm", dict(coding=0, body=_CPRM_SECTION), b"\x00" + _CPRM_SECTION),
     ("§4.13.3", "cpnt",
      dict(storage=1, point_count=2, slots=[1, 0],
           words=[dict(mode=0, shift=-3, order=1, low_bits=0),
@@ -122,6 +120,34 @@ CASES = [
      + struct.pack("<Hd", 4, 0.0) + struct.pack("<HBBiBB", 1, 4, 0, 0, 2, 0) * 4
      + b"\x00" * 5),
 ]
+
+
+#: §4.13.1, §4.13.2 the content of chdr and cprm (stored or inflated, §4.13 byte coding)
+CONTENT_CASES = [
+    (g.CHDR_BLOCK, dict(block=b"\x02\x50" + bytes(510)), b"\x02\x50" + bytes(510)),
+    (g.CPRM_SECTION,
+     dict(count=2, records=[
+         dict(group=-1, locked=0, name=b"POINT", description=b"3-D", type=None, dims=None,
+              data=None),
+         dict(group=1, locked=1, name=b"USED", description=b"", type=2, dims=b"\x02",
+              data=struct.pack("<hh", 7, -1))]),
+     _CPRM_SECTION),
+]
+
+
+@pytest.mark.parametrize("grammar,obj,expected", CONTENT_CASES, ids=["chdr-block", "cprm-section"])
+def test_c3d_content_grammar(grammar, obj, expected):
+    assert grammar.build(obj) == expected
+    assert grammar.build(grammar.parse(expected)) == expected
+
+
+def test_c3d_deflated_payloads_hold_the_same_content():
+    """§4.13 coding 1: the records read the inflated content (stream made with zlib here)."""
+    co = zlib.compressobj(9, zlib.DEFLATED, -15)
+    stream = co.compress(_CPRM_SECTION) + co.flush()
+    rec = CHUNKS["cprm"].load(b"\x01" + stream)
+    assert rec.coding == 1 and rec.count == 2 and rec.records[1].name == b"USED"
+    assert CHUNKS["cprm"].load(rec.dump()) == rec
 
 
 @pytest.mark.parametrize("section,ctype,obj,expected", CASES,

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,7 +26,7 @@ from mpz.c3dcodec import INT16, MODEL_LIMIT, encode_channel, model_grid, plan
 from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param, forget
 from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
-from mpz.format import MAX_ORDER, C3DStorage, ModelKind
+from mpz.format import MAX_ORDER, ByteCoding, C3DStorage, ModelKind
 from mpz.io.c3dbin import ParamRecord
 from mpz.predict import residuals
 
@@ -34,6 +34,8 @@ if TYPE_CHECKING:
     from mpz.chunks import Record
     from mpz.encoder import EncodeOptions
     from mpz.motion import Motion
+
+R = TypeVar("R", Chdr, Cprm)
 
 #: the POINT parameters that list model outputs, in ModelKind order
 MODEL_PARAMETERS = tuple(k.name for k in ModelKind)
@@ -212,7 +214,20 @@ def parameter_record(a: C3DArchive) -> Cprm:
                        type=None if r.is_group else r.type,
                        dims=None if r.is_group else bytes(r.dims),
                        data=None if r.is_group else r.data) for r in a.records)
-    return Cprm(count=len(recs), records=recs)
+    return smaller(Cprm(coding=ByteCoding.STORED, count=len(recs), records=recs),
+                   Cprm(coding=ByteCoding.DEFLATE, count=len(recs), records=recs))
+
+
+def header_record(a: C3DArchive) -> Chdr:
+    """§4.13.1 the chdr record of an archive."""
+    return smaller(Chdr(processor=a.processor, coding=ByteCoding.STORED, block=a.header),
+                   Chdr(processor=a.processor, coding=ByteCoding.DEFLATE, block=a.header))
+
+
+def smaller(stored: R, deflated: R) -> R:
+    """§4.13 the reference encoder's choice of coding: DEFLATE when its payload is
+    shorter, the stored bytes otherwise (ties: stored)."""
+    return deflated if len(deflated.dump()) < len(stored.dump()) else stored
 
 
 def check_matches(a: C3DArchive, motion: Motion) -> None:
@@ -270,8 +285,8 @@ class C3DExtension:
             raise EncoderError(f"motion.extras['c3d'] is a {type(a).__name__}, not a "
                                "C3DArchive")
         check_matches(a, motion)
-        out: list[Record] = [Chdr(processor=a.processor, block=a.header),
-                             parameter_record(a), point_records(a, opts, motion.n_markers)]
+        out: list[Record] = [header_record(a), parameter_record(a),
+                             point_records(a, opts, motion.n_markers)]
         ana = analog_record(a)
         if ana is not None:
             out.append(ana)

@@ -199,5 +199,20 @@ C3D_MAX_LOW_BITS = 3
 #: §8 F x n x C, analog samples of a cana chunk (2 GiB of int64 for the largest channel)
 MAX_ANALOG_SAMPLES = 1 << 28
 LIMITS["MAX_ANALOG_SAMPLES"] = MAX_ANALOG_SAMPLES
+
+
+class ByteCoding(IntEnum):
+    """§4.13 ``coding`` of chdr and cprm: how the bytes of the chunk's content are stored."""
+
+    STORED = 0             # as they are
+    DEFLATE = 1            # one raw DEFLATE stream (RFC 1951), inflated before the checks
+
+
+#: §4.13.2, §8 the largest inflated cprm section: a C3D parameter section has at most 255
+#: blocks of 512 bytes (its block count is one byte), and the normalised records are no
+#: larger than the C3D ones plus the 2-byte count
+MAX_C3D_PARAMETER_BYTES = 1 << 17
+LIMITS["MAX_C3D_PARAMETER_BYTES"] = MAX_C3D_PARAMETER_BYTES
 __all__ += ["C3D_MINOR", "C3DProcessor", "C3DStorage", "ChannelMode", "ModelKind",
-            "C3D_MIN_SHIFT", "C3D_MAX_SHIFT", "C3D_MAX_LOW_BITS", "MAX_ANALOG_SAMPLES"]
+            "C3D_MIN_SHIFT", "C3D_MAX_SHIFT", "C3D_MAX_LOW_BITS", "MAX_ANALOG_SAMPLES",
+            "ByteCoding", "MAX_C3D_PARAMETER_BYTES"]

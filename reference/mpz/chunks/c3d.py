@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 import math
 from typing import Any, TypeVar
+import zlib
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,8 +34,10 @@ from mpz.format import (
     C3D_MIN_SHIFT,
     C3D_MINOR,
     MAX_ANALOG_SAMPLES,
+    MAX_C3D_PARAMETER_BYTES,
     MAX_MARKERS,
     MAX_ORDER,
+    ByteCoding,
     C3DProcessor,
     C3DStorage,
     ChannelMode,
@@ -134,18 +137,95 @@ def _check_storage(storage: int, section: str) -> None:
         _fail(f"unknown storage code {storage} (0 int16, 1 float32)", section)
 
 
+# ------------------------------------------------------ §4.13 byte coding --
+def deflate(data: bytes) -> bytes:
+    """The reference encoder's raw DEFLATE stream (RFC 1951) of ``data`` (§4.13 coding 1):
+    zlib level 9, a 2^15-byte window, memLevel 9. Any other valid stream decodes alike."""
+    co = zlib.compressobj(9, zlib.DEFLATED, -15, 9)
+    return co.compress(data) + co.flush()
+
+
+def inflate(body: bytes, limit: int, chunk: str, section: str) -> bytes:
+    """§4.13 coding 1: the bytes of one raw DEFLATE stream that fills ``body`` exactly.
+
+    Never inflates more than ``limit`` + 1 bytes, so a small stream cannot expand into a
+    large allocation (§8).
+
+    Raises
+    ------
+    FormatError
+        For a stream that is not valid DEFLATE, ends before its final block, is followed
+        by other bytes, or inflates to more than ``limit`` bytes.
+    """
+    d = zlib.decompressobj(-15)
+    try:
+        out = d.decompress(body, limit + 1)
+    except zlib.error as exc:
+        raise FormatError(f"malformed {chunk} payload: invalid DEFLATE stream ({exc})",
+                          chunk=chunk, section=section) from None
+    if len(out) > limit:
+        raise FormatError(f"malformed {chunk} payload: the DEFLATE stream inflates to more "
+                          f"than {limit} bytes", chunk=chunk, section=section)
+    if not d.eof:
+        raise FormatError(f"malformed {chunk} payload: the DEFLATE stream ends before its "
+                          f"final block", chunk=chunk, section=section)
+    if d.unused_data:
+        raise FormatError(f"malformed {chunk} payload: {len(d.unused_data)} byte(s) after "
+                          f"the end of the DEFLATE stream", chunk=chunk, section=section)
+    return out
+
+
+def _content(cls: type[Record], coding: int, body: bytes, limit: int) -> bytes:
+    """The content bytes of a chdr or cprm body, by ``coding`` (§4.13)."""
+    if coding == ByteCoding.STORED:
+        if len(body) > limit:
+            raise FormatError(f"malformed {cls.TYPE} payload: {len(body)} bytes of content, "
+                              f"more than {limit}", chunk=cls.TYPE, section=cls.SECTION)
+        return body
+    if coding == ByteCoding.DEFLATE:
+        return inflate(body, limit, cls.TYPE, cls.SECTION)
+    raise FormatError(f"malformed {cls.TYPE} payload: coding {coding}, not 0 (stored) or 1 "
+                      f"(DEFLATE)", chunk=cls.TYPE, section="§4.13")
+
+
+def _body(coding: int, content: bytes) -> bytes:
+    return deflate(content) if coding == ByteCoding.DEFLATE else content
+
+
 # ----------------------------------------------------------------- §4.13.1 --
 @dataclass(frozen=True)
 class Chdr(Record):
-    """§4.13.1 the C3D header block (ancillary, 1.1)."""
+    """§4.13.1 the C3D header block (ancillary, 1.1).
+
+    ``block`` is always the 512 bytes of the header; ``coding`` says how the payload
+    stores them (§4.13: stored, or one raw DEFLATE stream).
+    """
 
     TYPE = "chdr"
     SECTION = "§4.13.1"
     GRAMMAR = grammar.CHDR
     MINOR = C3D_MINOR
 
+    #: the layout of the content that ``body`` stores or deflates (§4.13 byte coding)
+    CONTENT = grammar.CHDR_BLOCK
+
     processor: int
+    coding: int
     block: bytes
+
+    @classmethod
+    def load(cls, payload: bytes) -> Chdr:
+        outer = grammar.CHDR.parse(payload) if len(payload) >= 2 else None
+        if outer is None:
+            raise FormatError(f"malformed chdr payload: {len(payload)} bytes, shorter than "
+                              f"its processor and coding bytes", chunk=cls.TYPE,
+                              section="§4.13.1")
+        content = _content(cls, outer.coding, outer.body, 512)
+        block = _ChdrBlock.load(content).block
+        return cls(processor=outer.processor, block=block, coding=outer.coding)
+
+    def dump(self) -> bytes:
+        return bytes((self.processor, self.coding)) + _body(self.coding, self.block)
 
     def word(self, n: int) -> int:
         """Header word ``n`` (1-based, as in the C3D guide) as an unsigned 16-bit integer."""
@@ -163,7 +243,8 @@ class Chdr(Record):
             _fail(f"C3D header byte 1 is 0x{self.block[1]:02x}, not the key 0x50", "§4.13.1")
 
     def info(self) -> dict[str, JSON]:
-        return {"processor": self.processor, "block": super().info()["block"],
+        return {"processor": self.processor, "coding": _coding_name(self.coding),
+                "block": super().info()["block"],
                 "first_frame": self.word(4), "last_frame": self.word(5),
                 "analog_words_per_frame": self.word(3), "analog_samples": self.word(10),
                 "scale": self.real(7), "rate": self.real(11),
@@ -203,9 +284,42 @@ class Param(Record):
 _PARAM_TYPES = (-1, 1, 2, 4)
 
 
+def _coding_name(coding: int) -> str:
+    names = {int(ByteCoding.STORED): "stored", int(ByteCoding.DEFLATE): "deflate"}
+    return names.get(coding, str(coding))
+
+
+@dataclass(frozen=True)
+class _ChdrBlock(Record):
+    """§4.13.1 the inflated header block (the content of a chdr)."""
+
+    TYPE = "chdr"
+    SECTION = "§4.13.1"
+    GRAMMAR = grammar.CHDR_BLOCK
+
+    block: bytes
+
+
+@dataclass(frozen=True)
+class _CprmSection(Record):
+    """§4.13.2 the inflated parameter section (the content of a cprm)."""
+
+    TYPE = "cprm"
+    SECTION = "§4.13.2"
+    GRAMMAR = grammar.CPRM_SECTION
+    NESTED = {"records": Param}
+
+    count: int
+    records: tuple[Param, ...]
+
+
 @dataclass(frozen=True)
 class Cprm(Record):
-    """§4.13.2 the C3D parameter section (ancillary, 1.1)."""
+    """§4.13.2 the C3D parameter section (ancillary, 1.1).
+
+    ``count`` and ``records`` are the section; ``coding`` says how the payload stores
+    it (§4.13: stored, or one raw DEFLATE stream).
+    """
 
     TYPE = "cprm"
     SECTION = "§4.13.2"
@@ -213,8 +327,31 @@ class Cprm(Record):
     NESTED = {"records": Param}
     MINOR = C3D_MINOR
 
+    #: the layout of the content that ``body`` stores or deflates (§4.13 byte coding)
+    CONTENT = grammar.CPRM_SECTION
+
+    coding: int
     count: int
     records: tuple[Param, ...]
+
+    @classmethod
+    def load(cls, payload: bytes) -> Cprm:
+        if not payload:
+            raise FormatError("malformed cprm payload: empty, no coding byte",
+                              chunk=cls.TYPE, section="§4.13.2")
+        outer = grammar.CPRM.parse(payload)
+        content = _content(cls, outer.coding, outer.body, MAX_C3D_PARAMETER_BYTES)
+        sec = _CprmSection.load(content)
+        return cls(count=sec.count, records=sec.records, coding=outer.coding)
+
+    def dump(self) -> bytes:
+        section = _CprmSection(count=self.count, records=self.records).dump()
+        return bytes((self.coding,)) + _body(self.coding, section)
+
+    def info(self) -> dict[str, JSON]:
+        out = super().info()
+        out["coding"] = _coding_name(self.coding)
+        return out
 
     def check(self, ctx: Context) -> None:
         _set_rules(ctx)

@@ -319,9 +319,15 @@ C3dChannel = Struct(
     "low_bits" / Int8ul * "§4.13 b, 0..3: each residual is h x 2^b + l, l coded apart",
 )
 
-#: §4.13.1 chdr, the C3D header block (ancillary, 1.1)
+#: §4.13.1 chdr, the C3D header block (ancillary, 1.1); ``body`` is the block as stored
+#: (coding 0) or its raw DEFLATE stream (coding 1, §4.13, inflated before it is checked)
 CHDR = Struct(
     "processor" / Int8ul * "§4.13.1 the source's processor type: 84 Intel, 85 DEC, 86 MIPS",
+    "coding" / Int8ul * "§4.13 0: stored, 1: raw DEFLATE (RFC 1951)",
+    "body" / GreedyBytes * "§4.13.1 coding 0: the 512-byte block; 1: a stream inflating to it",
+)
+#: §4.13.1 the inflated header block
+CHDR_BLOCK = Struct(
     "block" / Bytes(512) * "§4.13.1 the 512-byte C3D header: integers LE, floats binary32 LE",
     Terminated,
 )
@@ -347,8 +353,14 @@ C3dParam = Struct(
     "data" / If(this.group > 0, Bytes(_data_size))
     * "§4.13.2 parameters: |type| x prod(dims) bytes, int16 LE, float32 binary32 LE",
 )
-#: §4.13.2 cprm, the C3D parameter section (ancillary, 1.1)
+#: §4.13.2 cprm, the C3D parameter section (ancillary, 1.1); ``body`` is the section as
+#: stored (coding 0) or its raw DEFLATE stream (coding 1, §4.13, inflated before parsing)
 CPRM = Struct(
+    "coding" / Int8ul * "§4.13 0: stored, 1: raw DEFLATE (RFC 1951)",
+    "body" / GreedyBytes * "§4.13.2 the section, as stored or deflated",
+)
+#: §4.13.2 the (inflated) parameter section
+CPRM_SECTION = Struct(
     "count" / Int16ul * "§4.13.2 R, records",
     "records" / Array(this.count, C3dParam) * "§4.13.2 groups and parameters in file order",
     Terminated,

@@ -2348,16 +2348,18 @@ def c3d_archive_vectors(vs: VectorSet):
     add("cprm-group-declared-twice", with_record(9, group=-1),
         "group id 1 declared twice (POINT and EVENT)", "record 9 group = -1",
         "parameters of group 1 would belong to two groups", "FormatError", ["§4.13.2"])
-    raw = bytearray(next(c for c in ch if c[0] == "cprm")[1])
-    raw[0:2] = struct.pack("<H", prm.count + 1)
+    # the byte-level corruptions below work on the stored form (§4.13 coding 0): the
+    # coding byte, then the count at payload offset 1
+    raw = bytearray(dataclasses.replace(prm, coding=0).dump())
+    raw[1:3] = struct.pack("<H", prm.count + 1)
     add("cprm-count-past-payload", assemble([[t, bytes(raw) if t == "cprm" else p]
                                              for t, p in ch]),
         "cprm count one more than the records present", "count + 1",
         "a reader that trusts the count reads past the payload", "FormatError",
         ["§3.2", "§4", "§4.13.2"])
-    big = bytearray(next(c for c in ch if c[0] == "cprm")[1])
+    big = bytearray(dataclasses.replace(prm, coding=0).dump())
     # the first parameter (USED): 7 dims of 255, data 2 x 255^7 bytes declared
-    at = 2 + 2 + 1 + len(prm.records[0].name) + 1 + len(prm.records[0].description)
+    at = 1 + 2 + 2 + 1 + len(prm.records[0].name) + 1 + len(prm.records[0].description)
     at += 2 + 1 + len(prm.records[1].name) + 1 + len(prm.records[1].description) + 1
     assert big[at] == 0                       # USED has no dimensions
     big[at:at + 1] = bytes([7]) + b"\xff" * 7
@@ -2532,7 +2534,13 @@ C3D_VECTOR_RULES = _rules(
     ("R-4.13-1", "c3d-two-chdr c3d-no-cprm c3d-two-cana"),
     ("R-4.13-2", "cpnt-mode-2 cpnt-shift-105 cpnt-bits-shift-1 cpnt-order-3 "
                  "cpnt-low-bits-4 cana-int16-with-bits-mode"),
+    ("R-4.13-3", "chdr-coding-2 cprm-coding-2 cprm-deflate-truncated "
+     "cprm-deflate-trailing-byte chdr-deflate-invalid cprm-inflates-past-2pow17 "
+     "chdr-inflates-to-513-bytes"),
+    ("R-4.13-4", "c3d-stored-header-and-parameters c3d-archive-float32"),
     ("R-4.13.1-1", "chdr-processor-87 chdr-key-0x51"),
+    ("R-4.13.1-2", "chdr-stored-511-bytes chdr-payload-1-byte"),
+    ("R-4.13.2-4", "cprm-empty-payload cprm-stored-over-2pow17 cprm-records-short-of-content"),
     ("R-4.13.2-1", "cprm-group-0 cprm-name-empty cprm-name-128-bytes cprm-type-3 "
                    "cprm-eight-dims cprm-group-declared-twice"),
     ("R-4.13.2-2", "cprm-count-past-payload cprm-data-2x255pow7"),
@@ -3134,6 +3142,7 @@ def smrc_vectors(vs: VectorSet):
     ch = [[c.type, c.payload] for c in container.parse(good)]
     k = next(i for i, c in enumerate(ch) if c[0] == "smrc")
     smrc = ch[k][1]
+    assert isinstance(smrc, bytes)
     rec = Smrc.load(smrc)
     add("smrc-twice", assemble(ch[:k + 1] + [ch[k]] + ch[k + 1:]), "two smrc chunks",
         "smrc repeated", "which summary does a reader use?", "FormatError", ["§3.4", "§4.15"])
@@ -3226,6 +3235,82 @@ SMRC_VECTOR_RULES = _rules(
 VECTOR_RULES.update(SMRC_VECTOR_RULES)
 
 
+def c3d_coding_vectors(vs: VectorSet):
+    """§4.13 byte coding of chdr and cprm (stored, or one raw DEFLATE stream): an archive
+    with both stored, and one invalid file per rejection rule. The streams are made here
+    with zlib (raw DEFLATE, wbits -15), not by the records."""
+    import dataclasses
+    import zlib
+
+    from mpz.chunks import Chdr, Cprm
+    secs = ["§4.13", "§4.13.1", "§4.13.2", "§8"]
+
+    def deflate(data: bytes, level: int = 9) -> bytes:
+        co = zlib.compressobj(level, zlib.DEFLATED, -15)
+        return co.compress(data) + co.flush()
+
+    good = mpz.encode(c3d_motion(74, storage=1, F=8, M=3, J=1, C=1, n=2), max_error=1.0)
+    ch = _c3d_chunks(good)
+    hdr = Chdr.load(bytes(next(p for t, p in ch if t == "chdr")))
+    prm = Cprm.load(bytes(next(p for t, p in ch if t == "cprm")))
+    block = hdr.block
+    section = dataclasses.replace(prm, coding=0).dump()[1:]
+    assert hdr.coding == 1 and prm.coding == 1
+
+    def with_payloads(chdr: bytes | None = None, cprm: bytes | None = None) -> bytes:
+        new = {"chdr": chdr, "cprm": cprm}
+        return assemble([[t, new[t] if new.get(t) is not None else p] for t, p in ch])
+
+    head = bytes([hdr.processor])
+    stored = with_payloads(head + b"\0" + block, b"\0" + section)
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-stored-header-and-parameters"), stored,
+             "a C3D archive whose chdr and cprm are stored (coding 0): the same content as "
+             "the reference encoder's DEFLATE streams", _c3d_features(stored), secs,
+             "make_vectors.c3d_motion(74) -> mpz.encode(max_error=1.0), chdr and cprm "
+             "rewritten with coding 0")
+
+    def add(slug, data, description, corruption, risk):
+        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk,
+                   "FormatError", secs)
+
+    stream = deflate(section)
+    add("chdr-coding-2", with_payloads(head + b"\2" + block), "chdr coding 2",
+        "coding = 2", "no defined way to read the header")
+    add("cprm-coding-2", with_payloads(cprm=b"\2" + section), "cprm coding 2",
+        "coding = 2", "no defined way to read the parameters")
+    add("cprm-deflate-truncated", with_payloads(cprm=b"\1" + stream[:-2]),
+        "a cprm DEFLATE stream cut 2 bytes before its end", "last 2 bytes removed",
+        "a decoder that accepts a partial inflation loses the last parameters")
+    add("cprm-deflate-trailing-byte", with_payloads(cprm=b"\1" + stream + b"\0"),
+        "one byte after the end of the cprm DEFLATE stream", "byte 0 appended",
+        "bytes no rule reads: two decoders could disagree about the payload")
+    add("chdr-deflate-invalid", with_payloads(head + b"\1" + b"\xff" * 8),
+        "a chdr body that is not DEFLATE (block type 3)", "body = 8 x 0xff",
+        "a decoder without the inflate error check reads garbage")
+    bomb = deflate(section + bytes((1 << 20) - len(section)))
+    add("cprm-inflates-past-2pow17", with_payloads(cprm=b"\1" + bomb),
+        f"a {len(bomb)}-byte cprm stream that inflates to 1 MiB, past MAX_C3D_PARAMETER_BYTES",
+        "section padded with zeros to 2^20 bytes, deflated",
+        "a decoder that inflates without a limit can be made to allocate without bound")
+    add("cprm-stored-over-2pow17",
+        with_payloads(cprm=b"\0" + section + bytes((1 << 17) + 1 - len(section))),
+        "a stored cprm content of 2^17 + 1 bytes", "zeros appended",
+        "content no C3D parameter section can have")
+    add("cprm-empty-payload", with_payloads(cprm=b""), "an empty cprm payload",
+        "payload removed", "no coding byte")
+    add("cprm-records-short-of-content", with_payloads(cprm=b"\1" + deflate(section + b"\0")),
+        "cprm content one byte longer than its records", "byte 0 appended, deflated",
+        "bytes no rule reads")
+    add("chdr-stored-511-bytes", with_payloads(head + b"\0" + block[:511]),
+        "a stored chdr block of 511 bytes", "last byte removed",
+        "a header block of the wrong size: its words would shift")
+    add("chdr-inflates-to-513-bytes", with_payloads(head + b"\1" + deflate(block + b"\0")),
+        "a chdr stream that inflates to 513 bytes", "byte appended, deflated",
+        "one byte past the 512-byte header block")
+    add("chdr-payload-1-byte", with_payloads(head), "a chdr payload of 1 byte",
+        "coding and body removed", "no coding byte")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m mpz.tools.make_vectors",
                                 description=__doc__.splitlines()[0])
@@ -3249,6 +3334,7 @@ def main(argv=None) -> int:
     c3d_archive_vectors(vs)                   # issue 12 (MPZ 1.1)
     skeleton_vectors(vs)                      # issue 13 (MPZ 1.1)
     smrc_vectors(vs)                          # issue 14.12 (MPZ 1.1)
+    c3d_coding_vectors(vs)                    # §4.13 byte coding (MPZ 1.1)
     vs.entries.sort(key=lambda e: (mf.GROUPS.index(e["group"]), e["name"]))
     vs.write_manifest()
     total = sum(f.stat().st_size for f in out.rglob("*") if f.is_file())
