@@ -16,10 +16,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, NoReturn, TypeVar, cast
 
-from numba import njit
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mpz._jit import njit
 from mpz.errors import FormatError, LimitExceededError
 
 # §5.1 constants
@@ -50,7 +50,8 @@ _F = TypeVar("_F", bound=Callable[..., Any])
 
 
 def _kernel(fn: _F) -> _F:
-    """``numba.njit(cache=True)``, keeping the kernel's Python signature for type checkers.
+    """``njit(cache=True)`` (numba's, cached as :mod:`mpz._jit` says), keeping the kernel's
+    Python signature for type checkers.
 
     numba's ``njit`` is not annotated, so a kernel it decorates would be ``Any``
     to mypy and no call to it would be checked. The dispatcher numba returns is

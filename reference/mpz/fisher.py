@@ -30,10 +30,11 @@ import math
 from typing import TYPE_CHECKING, cast
 
 import numba
-from numba import njit, prange
+from numba import prange
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mpz._jit import njit
 from mpz.errors import EncoderError
 
 if TYPE_CHECKING:

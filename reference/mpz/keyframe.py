@@ -24,10 +24,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, NoReturn
 
-from numba import njit
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mpz._jit import njit
 from mpz.errors import FormatError
 
 if TYPE_CHECKING:

@@ -11,12 +11,13 @@ HDM05 captures at 1-5 mm (bench/bench_rd.py).
 """
 from __future__ import annotations
 
-from numba import njit
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mpz._jit import njit
 
-@njit(cache=True)
+
+@njit(cache=True, nogil=True)
 def _choose(y: NDArray[np.float64], radius: float, order: int) -> NDArray[np.int64]:
     T, M = y.shape[0], y.shape[1]
     w = np.zeros((T, M, 3), np.int64)

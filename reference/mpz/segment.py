@@ -8,9 +8,10 @@ distance between frame i and the segment's key (first) frame exceeds
 """
 from __future__ import annotations
 
-from numba import njit
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from mpz._jit import njit
 
 
 @njit(cache=True)

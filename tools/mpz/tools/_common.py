@@ -155,15 +155,25 @@ def kernels_need_compiling() -> bool:
     return False
 
 
-def compile_notice(quiet: bool = False) -> None:
+def compile_notice(quiet: bool = False, verbose: bool = False, *, announce: bool = True) -> None:
     """One line on stderr, on a terminal only, when the kernels are about to be compiled.
 
     Why a notice and not a warm-up at install: pip builds and installs wheels
     without running project code, and numba's cache depends on the machine's
     CPU, so the first run is the earliest safe moment; the notice explains the
-    pause (about 5 s) instead of hiding it.
+    pause (about 5 s) instead of hiding it (docs/cold-start.md). With ``verbose``,
+    also one line, terminal or not, when no directory can hold the compiled kernels
+    (:func:`mpz._jit.cache_note`: every run compiles). ``announce=False`` keeps only
+    that line (decoding compiles for about 1 s, not worth a notice).
     """
-    if quiet or not sys.stderr.isatty():
+    if quiet:
+        return
+    if verbose:
+        from mpz._jit import cache_note
+        note = cache_note()
+        if note is not None:
+            print(note, file=sys.stderr, flush=True)
+    if not announce or not sys.stderr.isatty():
         return
     if kernels_need_compiling():
         print("mpz: first run after install: compiling the codec's kernels "

@@ -115,7 +115,7 @@ def _target_ext(args: argparse.Namespace, output: str, motion: object = None) ->
 def _decode_one(job, args: argparse.Namespace, out) -> int:
     from mpz.api import atomic_output, check_output
     from mpz.io import check_writable, write
-    from mpz.tools._common import STDIO, read_mpz_input, write_stdout
+    from mpz.tools._common import STDIO, compile_notice, read_mpz_input, write_stdout
 
     source = None if job.input == STDIO else job.input
     to_stdout = job.output == STDIO
@@ -126,6 +126,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
     elif args.format:
         ext = "." + args.format
     asf = _asf_output(args, job.output, ext if not to_stdout or args.format else None, source)
+    compile_notice(args.quiet, args.verbose, announce=False)
     motion = read_mpz_input(job.input, args.max_samples)
     if to_stdout:
         ext = _target_ext(args, STDIO, motion)

@@ -229,7 +229,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
     motion = _units(args, motion)
     units = motion.units
     opts = _skeleton_options(args, motion, _options(args, units, source))
-    compile_notice(args.quiet)
+    compile_notice(args.quiet, args.verbose)
     bar = Progress("encoding", enabled=None if not args.quiet else False)
     try:
         data, rep = encode_motion(motion, opts, progress=bar)

@@ -1,0 +1,191 @@
+"""Where compiled kernels are cached (mpz._jit, issue 15.2, docs/cold-start.md).
+
+The policy is tested as a function of the environment and of which directories are
+writable; two subprocess tests then run real kernels under it: a read-only package
+caches in the user cache directory and the second run loads from there, and with no
+writable directory at all the codec still works, compiling, and ``-v`` says so.
+Writability is simulated (tests may run as root, for whom permission bits mean nothing)
+except for a directory under a regular file, which nobody can create.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+import subprocess
+import sys
+
+import pytest
+
+from mpz import _jit
+
+PKG = _jit.PACKAGE_DIR
+IN_TREE = os.path.join(PKG, "__pycache__")
+
+
+def _only(*ok: str):
+    """An ``is_writable`` for which exactly the directories ``ok`` are writable."""
+    return lambda p: p in ok
+
+
+def _decide(env: dict[str, str], *ok: str) -> _jit.CachePolicy:
+    return _jit.decide(env, PKG, _only(*ok), version=lambda: "9.9")
+
+
+# -- the policy ------------------------------------------------------------------------------
+
+def test_writable_package_keeps_numbas_pycache() -> None:
+    p = _decide({"HOME": "/h"}, IN_TREE, "/h/.cache/mpz/numba/9.9")
+    assert (p.where, p.path) == ("package", IN_TREE)
+
+
+def test_read_only_package_caches_in_the_user_cache_dir() -> None:
+    p = _decide({"HOME": "/h"}, "/h/.cache/mpz/numba/9.9")
+    assert (p.where, p.path, p.tried) == ("user", "/h/.cache/mpz/numba/9.9", (IN_TREE,))
+
+
+def test_xdg_cache_home_is_respected_and_a_relative_one_ignored() -> None:
+    p = _decide({"HOME": "/h", "XDG_CACHE_HOME": "/x"}, "/x/mpz/numba/9.9")
+    assert p.path == "/x/mpz/numba/9.9"
+    p = _decide({"HOME": "/h", "XDG_CACHE_HOME": "rel"}, "/h/.cache/mpz/numba/9.9")
+    assert p.path == "/h/.cache/mpz/numba/9.9"
+
+
+def test_explicit_directories_come_first_in_order() -> None:
+    env = {"HOME": "/h", "MPZ_CACHE_DIR": "/m", "NUMBA_CACHE_DIR": "/n"}
+    assert _decide(env, "/m", "/n", IN_TREE).where == "MPZ_CACHE_DIR"
+    p = _decide(env, "/n", IN_TREE)
+    assert (p.where, p.path, p.tried) == ("NUMBA_CACHE_DIR", "/n", ("/m",))
+
+
+def test_nothing_writable_turns_the_cache_off_and_lists_what_was_tried() -> None:
+    env = {"HOME": "/h", "MPZ_CACHE_DIR": "/m"}
+    p = _decide(env)
+    assert (p.where, p.path) == ("off", None)
+    assert p.tried == ("/m", IN_TREE, "/h/.cache/mpz/numba/9.9")
+
+
+@pytest.mark.parametrize("platform, env, root", [
+    ("linux", {"HOME": "/h"}, "/h/.cache/mpz/numba"),
+    ("darwin", {"HOME": "/h"}, "/h/Library/Caches/mpz/numba"),
+    ("win32", {"HOME": "/h", "LOCALAPPDATA": "/l"}, "/l/mpz/numba"),
+])
+def test_user_cache_root_per_platform(platform: str, env: dict[str, str], root: str) -> None:
+    assert _jit.user_cache_root(env, platform).replace(os.sep, "/") == root
+
+
+def test_writable_checks_by_writing(tmp_path: Path) -> None:
+    assert _jit.writable(str(tmp_path / "new" / "dir"))
+    assert (tmp_path / "new" / "dir").is_dir()
+    (tmp_path / "file").write_bytes(b"")
+    assert not _jit.writable(str(tmp_path / "file" / "sub"))   # not even root can
+
+
+def test_njit_forms_compile_and_run() -> None:
+    @_jit.njit
+    def bare(x: int) -> int:
+        return x + 1
+
+    @_jit.njit("int64(int64)", cache=False)
+    def typed(x: int) -> int:
+        return x * 2
+
+    assert bare(1) == 2 and typed(21) == 42
+    assert len(typed.signatures) == 1
+    with pytest.raises(TypeError):      # compilation was closed by the explicit signature
+        typed(1.5j)
+
+
+# -- real kernels under the policy, in fresh processes -----------------------------------------
+
+#: preloads mpz._jit with the package directory reported read-only, then runs the range
+#: coder's kernels and prints the policy and numba's cache statistics as JSON
+_CHILD = r"""
+import importlib.util, json, os, sys
+spec = importlib.util.spec_from_file_location("mpz._jit", sys.argv[1])
+jit = importlib.util.module_from_spec(spec)
+sys.modules["mpz._jit"] = jit
+spec.loader.exec_module(jit)
+real = jit.writable
+jit.writable = lambda p: False if p.startswith(jit.PACKAGE_DIR) else real(p)
+import numpy as np
+from mpz.entropy import BlockDecoder, BlockEncoder, _encode_block
+assert sys.modules["mpz._jit"] is jit
+vals = np.arange(-40, 41, dtype=np.int64).reshape(9, 3, 3)
+enc = BlockEncoder()
+enc.block(vals)
+back = BlockDecoder(enc.finish()).block(9, 3, 3)
+p = jit.policy()
+print(json.dumps({"where": p.where, "path": p.path, "ok": bool((back == vals).all()),
+                  "hits": sum(_encode_block.stats.cache_hits.values()),
+                  "misses": sum(_encode_block.stats.cache_misses.values()),
+                  "note": jit.cache_note()}))
+"""
+
+
+def _child(env: dict[str, str], *args: str) -> dict:
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("MPZ_CACHE_DIR", "NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
+    r = subprocess.run([sys.executable, "-c", _CHILD, _jit.__file__, *args],
+                       env={**base, **env}, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def test_read_only_package_compiles_once_into_the_user_cache(tmp_path: Path) -> None:
+    env = {"HOME": str(tmp_path / "home"), "XDG_CACHE_HOME": str(tmp_path / "xdg")}
+    first = _child(env)
+    assert first["where"] == "user" and first["ok"]
+    assert first["path"].startswith(str(tmp_path / "xdg" / "mpz" / "numba"))
+    assert first["misses"] >= 1 and first["hits"] == 0
+    index = list(Path(first["path"], "mpz").glob("entropy._encode_block-*.nbi"))
+    assert len(index) == 1
+    second = _child(env)
+    assert second["ok"] and second["hits"] >= 1 and second["misses"] == 0
+    assert not (tmp_path / "home").exists()   # nothing went to ~/.cache/numba either
+
+
+def test_no_writable_directory_still_works_and_says_so(tmp_path: Path) -> None:
+    (tmp_path / "file").write_bytes(b"")
+    blocked = str(tmp_path / "file" / "cache")          # under a regular file
+    env = {"HOME": blocked, "XDG_CACHE_HOME": blocked, "MPZ_CACHE_DIR": blocked}
+    out = _child(env)
+    assert out["where"] == "off" and out["path"] is None and out["ok"]
+    assert out["hits"] == 0
+    assert "MPZ_CACHE_DIR" in out["note"] and blocked in out["note"]
+    assert len(out["note"].splitlines()) == 1
+    again = _child(env)                                 # nothing was kept
+    assert again["ok"] and again["hits"] == 0
+
+
+_CLI_CHILD = _CHILD.split("import numpy as np")[0] + r"""
+import mpz
+from mpz.synth import generate
+from mpz.tools.mpz_cli import main
+src, dst = sys.argv[2], sys.argv[3]
+with open(src, "wb") as f:
+    f.write(mpz.encode(generate("walk", frames=24), max_error=1.0))
+for verbose in ([], ["-v"]):
+    try:
+        main(["decode", *verbose, "-f", src, "-o", dst])
+    except SystemExit as e:
+        assert not e.code, e.code
+    print("=== end", flush=True, file=sys.stderr)
+"""
+
+
+def test_cli_notes_an_uncached_run_in_verbose_mode_only(tmp_path: Path) -> None:
+    (tmp_path / "file").write_bytes(b"")
+    blocked = str(tmp_path / "file" / "cache")
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("MPZ_CACHE_DIR", "NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
+    env.update(HOME=blocked, XDG_CACHE_HOME=blocked)
+    r = subprocess.run([sys.executable, "-c", _CLI_CHILD, _jit.__file__,
+                        str(tmp_path / "a.mpz"), str(tmp_path / "a.npy")],
+                       env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    plain, verbose, _ = r.stderr.split("=== end\n")
+    assert "no writable cache directory" not in plain
+    notes = [ln for ln in verbose.splitlines() if "no writable cache directory" in ln]
+    assert len(notes) == 1 and blocked in notes[0]
+    assert (tmp_path / "a.npy").stat().st_size > 0
