@@ -356,7 +356,7 @@ def test_index_columns_against_independent_computations(corpus):
         assert json.loads(r["chunk_bytes"]) == sizes
         assert r["marker_bytes"] == 8 + sum(n for t, n in sizes.items() if t[0].isupper())
         assert r["analog_bytes"] == sizes.get("cana", 0)
-        assert r["summary_bytes"] == sizes.get("smry", 0)
+        assert r["summary_bytes"] == sizes.get("smry", 0) + sizes.get("smrc", 0)
         assert (r["marker_bytes"] + r["analog_bytes"] + r["summary_bytes"] + r["other_bytes"]
                 == r["total_bytes"])
         assert r["ratio"] == pytest.approx(r["raw_bytes"] / len(data))

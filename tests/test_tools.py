@@ -42,7 +42,8 @@ def test_default_line_and_exit_codes(files, capsys):
     paths, m = files
     code, out = run(capsys, mpzinfo.main, [str(paths["ok"])])
     assert code == 0
-    assert out.out.startswith(f"OK: {paths['ok']} (MPZ 1.0, 120 Hz, 120 frames, 41 markers,")
+    # a summary is written as smrc, a 1.1 chunk: the file is 1.1 (§2.1, lowest minor version)
+    assert out.out.startswith(f"OK: {paths['ok']} (MPZ 1.1, 120 Hz, 120 frames, 41 markers,")
     assert "max error \u2264 2 mm" in out.out and ":1" in out.out
     code, out = run(capsys, mpzinfo.main, [str(paths["trunc"])])
     assert code == 2 and out.out.startswith("ERROR:") and "truncated" in out.out

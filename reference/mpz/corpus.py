@@ -113,7 +113,7 @@ CREATE TABLE IF NOT EXISTS files (
     raw_bytes       INTEGER NOT NULL,  -- positions as float32: frames x markers x 12
     marker_bytes    INTEGER NOT NULL,  -- the signature and the critical chunks (MHDR..MEND)
     analog_bytes    INTEGER NOT NULL,  -- analog samples of a C3D source (cana; 0: none)
-    summary_bytes   INTEGER NOT NULL,  -- the smry chunk, if the options asked for one
+    summary_bytes   INTEGER NOT NULL,  -- the smrc or smry chunk, if the options asked for one
     other_bytes     INTEGER NOT NULL,  -- meta and every other ancillary chunk
     total_bytes     INTEGER NOT NULL,  -- the .mpz file
     chunk_bytes     TEXT NOT NULL,     -- JSON: chunk type -> bytes (12-byte frames included)
@@ -300,7 +300,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     sizes = chunk_sizes(data)
     marker = 8 + sum(n for t, n in sizes.items() if t[:1].isupper())   # with the signature
     analog = sum(n for t, n in sizes.items() if t in ANALOG_CHUNK_TYPES)
-    smry = sizes.get("smry", 0)
+    smry = sizes.get("smry", 0) + sizes.get("smrc", 0)     # at most one of the two (§4.15)
     decoded = decode(data)
     err, avg = max_error(motion, decoded), arms(motion, decoded)
     del decoded

@@ -26,7 +26,7 @@ import json
 import sys
 from typing import Any
 
-from mpz.chunks import Mhdr, Patt, Segs, Smry
+from mpz.chunks import Mhdr, Patt, Segs, Smrc, Smry
 from mpz.container import scan
 from mpz.decoder import decode_layers, read_stream
 from mpz.errors import MPZError
@@ -106,7 +106,7 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
         info["patterns"] = sum(p.pattern_count for p in patt)
     if segs or patt:
         info["segments"] = sum(s.segment_count for s in segs)
-    smry = [r for r in records if isinstance(r, Smry)]
+    smry = [r for r in records if isinstance(r, (Smry, Smrc))]
     if smry:
         info["summary_levels"] = [lv.k for lv in smry[0].levels]
     if not errors:
