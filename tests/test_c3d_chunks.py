@@ -255,3 +255,16 @@ def test_cprm_dimensions_at_their_maximum(archive_file):
 
 def test_every_archive_chunk_type_is_in_the_table():
     assert [t for t in CHUNKS if t[0] == "c"] == ["chdr", "cprm", "cpnt", "cana"]
+
+
+def test_coordinates_beyond_float32_are_refused_by_the_c3d_writer(tmp_path):
+    """A valid MPZ file may hold coordinates past float32 (§4.4); a float C3D cannot, so
+    writing one is a clear InputFormatError, not an overflow to infinity."""
+    from mpz.errors import InputFormatError
+    m = c3d_motion(5, storage=1, F=12, M=4, J=2, C=2, n=2)
+    huge = mpz.Motion(m.positions * 1e36, m.names, m.rate, m.units, m.valid,
+                      dict(m.metadata), extras=dict(m.extras))
+    back = mpz.decode(mpz.encode(huge, max_error=1e33))
+    assert float(np.nanmax(np.abs(back.positions))) > float(np.finfo(np.float32).max)
+    with pytest.raises(InputFormatError, match="does not fit a float32 C3D"):
+        mpz.io.write(back, tmp_path / "out.c3d")

@@ -40,6 +40,8 @@ from numpy.typing import NDArray
 from mpz.errors import InputFormatError
 
 BLOCK = 512  # C3D files are organised in 512-byte blocks
+#: the largest finite float32, the largest coordinate a float C3D can store
+F32_MAX = float(np.finfo(np.float32).max)
 C3D_KEY = 0x50  # header byte 1: "C3D" key value 80
 PROC_INTEL, PROC_DEC, PROC_MIPS = 84, 85, 86  # parameter header byte 3
 #: parameter element types: -1 char, 1 byte, 2 int16, 4 float32
@@ -732,6 +734,11 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
     F, P = point_words.shape
     per = analog.shape[0] // F if F and analog.size else 0
     if float_storage:
+        big = float(np.abs(xyz).max(initial=0.0))
+        if big > F32_MAX:
+            # an MPZ file may hold coordinates up to 2^1024 (§4.4); a C3D cannot
+            raise InputFormatError(f"C3D: a coordinate of magnitude {big:.6g} does not fit a "
+                                   f"float32 C3D (at most {F32_MAX:.6g}); write another format")
         pts = np.empty((F, P, 4), "<f4")
         pts[:, :, :3] = xyz.astype("<f4")
         pts[:, :, 3] = point_words.astype("<f4")     # int16 words convert exactly
