@@ -72,3 +72,27 @@ def test_decoder_errors():
     dec.block(10, 1)
     with pytest.raises(FormatError, match="left after"):
         dec.close()
+
+
+# issue 15: the encoder kernel keeps the coder state in locals and the models in one flat
+# array; its bytes must stay those of the §5 text (RefEncoder), block after block
+_block = st.tuples(st.integers(0, 9), st.integers(1, 4), st.integers(1, 3),
+                   st.sampled_from([0.3, 2.0, 40.0, 3e4, 2 ** 29]), st.booleans(),
+                   st.integers(0, 2 ** 32 - 1))
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(_block, min_size=1, max_size=4), st.integers(1, 64))
+def test_fast_encoder_matches_reference_over_several_blocks(blocks, capacity):
+    enc = BlockEncoder(capacity=capacity)          # a small buffer grows between blocks
+    ref = RefEncoder()
+    for T, M, A, scale, signed, seed in blocks:
+        rng = np.random.default_rng(seed)
+        v = np.clip(np.round(rng.laplace(0, scale, (T, M, A))), -(2 ** 30 - 1), 2 ** 30 - 1)
+        v = v.astype(np.int64)
+        if not signed:
+            v = np.abs(v)
+        period = None if T < 2 or seed % 3 == 0 else (T if T % 2 else 2)
+        enc.block(v, period=period, signed=signed)
+        ref.block(v, period, signed)
+    assert enc.finish() == ref.finish()

@@ -122,3 +122,140 @@ def test_keyframe_reference_must_precede():
     data = _key_payload([1, 0], [1, 1], [3, 3], [[0, 0, 0]] * 4)
     with pytest.raises(FormatError, match="member before it"):
         decode_payload(BlockDecoder(data), 5, 2)
+
+
+# ---------------------------------------------------------------- issue 15 --
+# The key-frame fit and the reference choice were made faster; what they return must be
+# what the rule of keyframe.py's docstrings gives, checked here against a slow transcription
+# of that rule (every candidate tested, every term summed).
+
+def _fit_by_the_rule(y, radius, max_span, lam):
+    """Greedy spans: for end frame b, among grid points w within ``radius`` of y[b] whose
+    span from the last key keeps every frame within ``radius`` (§6.5 interpolation), the one
+    of least lam |w - y[b]|^2 + |w - pred|_1, first in (x, y, z) order on a tie."""
+    import math
+    T = len(y)
+    r2 = radius * radius
+    times = [0]
+    vals = [[math.floor(y[0][c] + 0.5) for c in range(3)]]
+    a = 0
+    while a < T - 1:
+        good, keep = -1, None
+        b = a + 1
+        while b < T and b - a <= max_span:
+            wa = vals[-1]
+            if len(vals) >= 2:
+                d0, d1 = times[-1] - times[-2], b - a
+                pred = [wa[c] + (2 * (wa[c] - vals[-2][c]) * d1 + d0) // (2 * d0)
+                        for c in range(3)]
+            else:
+                pred = list(wa)
+            best, bestc = None, math.inf
+            rng = [range(math.ceil(y[b][c] - radius), math.floor(y[b][c] + radius) + 1)
+                   for c in range(3)]
+            for p in rng[0]:
+                for q in rng[1]:
+                    for s in rng[2]:
+                        w = (p, q, s)
+                        dd = (p - y[b][0]) ** 2 + (q - y[b][1]) ** 2 + (s - y[b][2]) ** 2
+                        if dd > r2:
+                            continue
+                        n = b - a
+                        ok = all(sum((wa[c] + (2 * (w[c] - wa[c]) * j + n) // (2 * n)
+                                      - y[a + j][c]) ** 2 for c in range(3)) <= r2
+                                 for j in range(1, n))
+                        if not ok:
+                            continue
+                        cost = lam * dd
+                        for c in range(3):
+                            cost += abs(w[c] - pred[c])
+                        if cost < bestc:
+                            best, bestc = w, cost
+            if best is None:
+                break
+            good, keep = b, best
+            b += 1
+        times.append(good)
+        vals.append(list(keep))
+        a = good
+    return times, vals
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(2, 60), st.sampled_from([0.9, 1.2, 1.7320508, 2.5]),
+       st.sampled_from([0.0, 0.3, 2.0]), st.integers(2, 40), st.integers(0, 2 ** 32 - 1))
+def test_keyframe_fit_follows_the_greedy_rule(T, radius, noise, max_span, seed):
+    from mpz.keyframe import fit
+    rng = np.random.default_rng(seed)
+    t = np.arange(T)[:, None]
+    y = 40 * np.sin(t / rng.uniform(3, 30) + rng.uniform(0, 6, 3)) + rng.normal(0, noise, (T, 3))
+    times, vals = fit(y, radius, max_span)
+    want_t, want_v = _fit_by_the_rule(y.tolist(), radius, max_span, 1.0)
+    assert times.tolist() == want_t
+    assert vals.tolist() == want_v
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 6), st.integers(3, 50), st.integers(0, 2 ** 32 - 1))
+def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):
+    """The member each member is predicted from (§6.5 p_m) is the least sum(log2(1+|e|)) over
+    none and every earlier member in both modes, the first on a tie: summed in full here by
+    the unoptimised _residuals/_cost pair; the fast chooser stops sums early and reads a
+    table."""
+    from mpz import keyframe as kf
+    rng = np.random.default_rng(seed)
+    base = np.cumsum(rng.normal(0, 3, (T, 1, 3)), axis=0)
+    y = base + rng.normal(0, (0.5, 20.0)[seed % 2], (T, n, 3)) * np.arange(n)[None, :, None]
+    out = np.zeros((T, n, 3), np.int32)
+    fits = []
+    for m in range(n):
+        times, w = kf.fit(y[:, m], 1.7320508)
+        if seed % 5 == 0:
+            w = w * 5000                           # large residuals: past the log2 table
+        out[:, m] = kf.interpolate(times, w, T)
+        fits.append((times, w))
+    tab = kf._log2_table(kf._LOG2_TABLE)
+    for m, (times, w) in enumerate(fits):
+        best = (kf._cost(kf._residuals(0, times, w, out[:, 0])), 0)
+        for j in range(m):
+            for mode in (1, 2):
+                c = kf._cost(kf._residuals(mode, times, w, out[:, j]))
+                if c < best[0]:
+                    best = (c, 2 * j + mode)
+        tracks = np.ascontiguousarray(out.transpose(1, 0, 2))
+        assert kf._best_reference(m, times, w, tracks, tab) == best[1]
+
+
+def test_encoder_threads_do_not_change_the_bytes():
+    from mpz.encoder import EncodeOptions, encode_motion
+    from mpz.synth import generate
+    m = generate("walk", frames=300, markers=20, seed=3)
+    for kw in ({"max_error": 1.0}, {"max_error": 5.0}, {}):
+        one, _ = encode_motion(m, EncodeOptions(threads=1, **kw))
+        assert encode_motion(m, EncodeOptions(threads=2, **kw))[0] == one
+        assert encode_motion(m, EncodeOptions(threads=3, **kw))[0] == one
+
+
+def test_encoder_threads_on_a_real_capture(shared_data):
+    from mpz.encoder import EncodeOptions, encode_motion
+    import mpz.io
+    m = mpz.io.read(shared_data / "c3d" / "cmu_02_01.c3d")
+    one, _ = encode_motion(m, EncodeOptions(max_error=1.0, threads=1))
+    assert encode_motion(m, EncodeOptions(max_error=1.0, threads=2))[0] == one
+
+
+@pytest.mark.parametrize("bad", [0, -1, 65, 1.5, True, "2"])
+def test_threads_option_is_checked(bad):
+    from mpz.encoder import EncodeOptions
+    from mpz.errors import EncoderError
+    with pytest.raises(EncoderError, match="threads"):
+        EncodeOptions(threads=bad).validate()
+
+
+def test_threaded_kernels_release_the_gil():
+    """Threads only help if the kernels they run release the GIL (numba nogil=True); a
+    change to the decorators must keep it."""
+    from mpz import entropy, keyframe, quantize
+    for k in (entropy._encode_block, keyframe._fit, keyframe._best_reference,
+              quantize._choose):
+        assert k.targetoptions.get("nogil") is True, k.py_func.__name__

@@ -23,6 +23,7 @@ The encoder never writes files; see :func:`mpz.write_mpz` for atomic output.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import Executor, ThreadPoolExecutor
 from dataclasses import dataclass, field, fields, replace
 import math
 import os
@@ -172,6 +173,11 @@ class EncodeOptions:
     translation_error: float | None = None
     #: bound on joint positions computed from the channels (spec §6.10), in motion units
     position_error: float | None = None
+    # issue 15, speed:
+    #: threads for the independent work within one file (the candidate residual layers of a
+    #: node, the key-frame fit of each member); None: os.cpu_count() capped at
+    #: MAX_DEFAULT_THREADS. The bytes written do not depend on it.
+    threads: int | None = None
 
     def __post_init__(self) -> None:
         # read-only views, so an options object cannot change after it is made
@@ -339,6 +345,8 @@ def check_option_values(o: EncodeOptions) -> None:
     _integer(o.smoothing, "smoothing", 0, MAX_SMOOTHING)
     _integer(o.max_segment, "max_segment", 2, MAX_PATTERN_LENGTH)
     _integer(o.seed, "seed", 0, 2 ** 63 - 1)
+    if o.threads is not None:
+        _integer(o.threads, "threads", 1, MAX_THREADS)
     for name in ("metric", "segmentation", "summary_space", "summary_format"):
         if not isinstance(getattr(o, name), str):
             raise EncoderError(f"{name} must be text, got {getattr(o, name)!r}")
@@ -470,6 +478,22 @@ def _filled(x: FloatArray, valid: NDArray[np.bool_]) -> FloatArray:
     """:func:`fill_gaps`, except that a motion without gaps is returned as it is, not
     copied (issue 11.11: the encoder then holds no second copy of its input)."""
     return x if valid.all() else fill_gaps(x, valid)
+
+
+#: issue 15: at most this many threads for one file (the option's range)
+MAX_THREADS = 64
+#: ... and by default the CPU count capped at this: the independent work within one file
+#: (candidate layers, members) gains little beyond two threads, and whole-archive runs get
+#: their parallelism from several files at once (each can ask for threads=1)
+MAX_DEFAULT_THREADS = 2
+
+
+def thread_count(opts: EncodeOptions) -> int:
+    """The threads an encode with ``opts`` uses: ``opts.threads``, or the CPU count capped
+    at :data:`MAX_DEFAULT_THREADS`."""
+    if opts.threads is not None:
+        return int(opts.threads)
+    return max(1, min(MAX_DEFAULT_THREADS, os.cpu_count() or 1))
 
 
 def _capacity(values: int) -> int:
@@ -901,13 +925,19 @@ def _prediction(patterns: IntArray, labels: IntArray, counts: IntArray, h: int,
 
 def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], FloatArray],
                         pat: PatternLayer | None, opts: EncodeOptions,
-                        grid: Grid) -> list[tuple[int, ResidualLayer]]:
+                        grid: Grid, pool: Executor | None = None
+                        ) -> list[tuple[int, ResidualLayer]]:
     """(cost, layer) of every residual layer that keeps node i within its bound (beyond
     the paper): on the pattern layer (base 0), absolute per sample (base 1), key frames
     (base 2).
 
     ``u_members()`` gives a new copy of the members' grid coordinates each time it is
     called: each candidate divides its own copy in place (issue 11.11).
+
+    With a ``pool`` (issue 15), the two orders of base 1 are made on its threads while this
+    one fits the key frames (whose members go to the pool too); the candidates and their
+    bytes are the same as without. That holds both orders' arrays at once, where the
+    sequential path keeps one (issue 11.11).
     """
     g = grid.scale.get(i, 1)
     radius = grid.bounds[i] / (g * grid.step)
@@ -923,18 +953,27 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
     if opts.pattern_mode != "on":
         y = u_members()
         y /= g
-        order, wv, data = _bounded(y, radius)
+        if pool is None:
+            order, wv, data = _bounded(y, radius)
+        else:
+            # each order on a thread; the smaller payload wins, order 1 on a tie (_bounded)
+            ones = pool.submit(_bounded, y, radius, (1,))
+            twos = pool.submit(_bounded, y, radius, (2,))
         del y
-        out.append((len(data), ResidualLayer(ResidualBase.ABSOLUTE, order, g, wv, data)))
         gk = max(1, g // KEY_REFINE)
         y = u_members()
         y /= gk
         # at most T keys a member: 3 key values, a span, plus a source and a count each
         enc = BlockEncoder(capacity=_capacity(4 * y.shape[0] * y.shape[1] + 2 * y.shape[1]))
-        wk = keyframe.encode_blocks(enc, y, grid.bounds[i] / (gk * grid.step))
+        wk = keyframe.encode_blocks(enc, y, grid.bounds[i] / (gk * grid.step), pool=pool)
         del y
-        data = enc.finish()
-        out.append((len(data), ResidualLayer(ResidualBase.KEYFRAMES, 0, gk, wk, data)))
+        kdata = enc.finish()
+        if pool is not None:
+            first, second = ones.result(), twos.result()
+            order, wv, data = second if len(second[2]) < len(first[2]) else first
+            del first, second
+        out.append((len(data), ResidualLayer(ResidualBase.ABSOLUTE, order, g, wv, data)))
+        out.append((len(kdata), ResidualLayer(ResidualBase.KEYFRAMES, 0, gk, wk, kdata)))
     return out
 
 
@@ -952,9 +991,10 @@ _SPENT: IntArray = np.zeros((0, 0, 3), np.int64)
 
 
 def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTracks,
-              opts: EncodeOptions, grid: Grid, addh_q: float) -> NodeCode:
+              opts: EncodeOptions, grid: Grid, addh_q: float,
+              pool: Executor | None = None) -> NodeCode:
     """Stage 4: node i, coded against the *decoded* track of ``ref``, the reference marker of
-    its parent (closed loop)."""
+    its parent (closed loop); ``pool``: threads for its independent work (issue 15)."""
     members = list(node.members)
     ref_q = qhat[:, ref][:, None, :]
     rep = NodeReport(node.name, len(members))
@@ -969,8 +1009,8 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
     # so the order of the sums does not matter): issue 11.11
     if opts.bounded:
         # the cheapest candidate; on a tie the first (min keeps the first minimum)
-        _, layer = min(residual_candidates(i, xl, lambda: u[:, members], pat, opts, grid),
-                       key=lambda c: c[0])
+        _, layer = min(residual_candidates(i, xl, lambda: u[:, members], pat, opts, grid,
+                                           pool), key=lambda c: c[0])
         del xl
         local = layer.values.astype(np.int64)
         local *= layer.scale
@@ -1156,18 +1196,25 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
              ] if grid.exact else []
     coded: list[NodeCode] = []
     n_nodes = len(hier.nodes)
-    for i in range(1, n_nodes):
-        node = hier.nodes[i]
-        nc = code_node(i, node, hier.nodes[node.parent].ref, u, qhat, opts, grid,
-                       addh / grid.step)
-        qhat.add(node.members, nc.decoded)
-        if grid.exact:
-            exact.append(np.array_equal(*_exact_pair(nc.decoded, motion, node.members, grid)))
-        coded.append(replace(nc, decoded=_SPENT))   # only the records are kept
-        report.nodes.append(nc.report)
-        del nc
-        if progress is not None:
-            progress(i / (n_nodes - 1) if n_nodes > 1 else 1.0, node.name)
+    threads = thread_count(opts)                     # issue 15: the bytes do not depend on it
+    pool = ThreadPoolExecutor(threads, thread_name_prefix="mpz") if threads > 1 else None
+    try:
+        for i in range(1, n_nodes):
+            node = hier.nodes[i]
+            nc = code_node(i, node, hier.nodes[node.parent].ref, u, qhat, opts, grid,
+                           addh / grid.step, pool)
+            qhat.add(node.members, nc.decoded)
+            if grid.exact:
+                exact.append(np.array_equal(*_exact_pair(nc.decoded, motion, node.members,
+                                                         grid)))
+            coded.append(replace(nc, decoded=_SPENT))   # only the records are kept
+            report.nodes.append(nc.report)
+            del nc
+            if progress is not None:
+                progress(i / (n_nodes - 1) if n_nodes > 1 else 1.0, node.name)
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
 
     if grid.exact:                                   # issue 12: the promise of error 0
         if not all(exact):                           # (checked node by node, issue 11.11)
@@ -1212,6 +1259,7 @@ def encode(motion: Motion, *,
            angle_error: float | None = None,
            translation_error: float | None = None,
            position_error: float | None = None,
+           threads: int | None = None,
            **unknown: Never) -> bytes:
     """Encode a motion to MPZ bytes.
 
@@ -1286,6 +1334,9 @@ def encode(motion: Motion, *,
     position_error : float, optional
         Bound on the joint positions computed from the channels (spec §6.10), in motion
         units; the channel steps are then the coarsest that keep it.
+    threads : int, optional
+        Threads for the independent work within the file (1..64); default: the CPU count,
+        at most 2. The output bytes are the same for any number.
 
     Returns
     -------
@@ -1324,5 +1375,6 @@ def encode(motion: Motion, *,
         default_error_fraction=default_error_fraction, source_grid=source_grid,
         model_error=model_error, model_errors=model_errors or {},
         keep_skeleton=keep_skeleton, angle_error=angle_error,
-        translation_error=translation_error, position_error=position_error)
+        translation_error=translation_error, position_error=position_error,
+        threads=threads)
     return encode_motion(motion, opts)[0]

@@ -57,7 +57,7 @@ def _kernel(fn: _F) -> _F:
     to mypy and no call to it would be checked. The dispatcher numba returns is
     called exactly like ``fn``.
     """
-    return cast(_F, njit(cache=True)(fn))
+    return cast(_F, njit(cache=True, nogil=True)(fn))
 
 
 def new_models() -> tuple[_Probs, _Probs, _Probs, _Probs]:
@@ -179,14 +179,124 @@ def _context(vals: NDArray[np.int64], t: int, m: int, a: int, first: bool) -> in
 @_kernel
 def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, z: _Probs, s: _Probs,
                   e: _Probs, x: _Probs, st: NDArray[np.int64], out: _Out) -> bool:
+    """Code a block (§5.4-§5.6): the bits of :func:`_enc_int`, contexts of :func:`_context`.
+
+    Speed (issue 15): one loop with the coder state (low, range, cache, cache size, write
+    position) in locals and one flat copy of the four model arrays, instead of a call per
+    bit on arrays; each value's decisions (model index, bit) are listed first, then coded
+    by the one copy of the §5.1 step below. The bytes are those of :func:`_enc_int`."""
     T, M, A = vals.shape[0], vals.shape[1], vals.shape[2]
+    buf, at = out
+    cap = buf.shape[0]
+    pos = at[0]
+    low, rng, cache, csize = st[0], st[1], st[2], st[3]
+    # flat models: Z [A, C] | S [A, C] | E [A, C, 30] | X [A, 31, 30]
+    o_s = z.size
+    o_e = o_s + s.size
+    o_x = o_e + e.size
+    # element loops, not slice assignment (which costs ~1.5 s of compile time: cold-start.md)
+    zf, sf, ef, xf = z.reshape(-1), s.reshape(-1), e.reshape(-1), x.reshape(-1)
+    probs = np.empty(o_x + x.size, np.int32)
+    for i in range(o_s):
+        probs[i] = zf[i]
+    for i in range(s.size):
+        probs[o_s + i] = sf[i]
+    for i in range(e.size):
+        probs[o_e + i] = ef[i]
+    for i in range(x.size):
+        probs[o_x + i] = xf[i]
+    n_ctx = z.shape[1]
+    n_exp = e.shape[2]
+    idx = np.empty(2 * MAX_EXP + 4, np.int64)
+    bits = np.empty(2 * MAX_EXP + 4, np.int64)
     ok = True
     for t in range(T):
         first = (t % period) == 0
         for m in range(M):
             for a in range(A):
-                c = _context(vals, t, m, a, first)
-                ok = _enc_int(st, out, z, s, e, x, a, c, vals[t, m, a], signed) and ok
+                v = vals[t, m, a]
+                cv = 0                                   # §5.6 context
+                if not first:
+                    cv += 2 * abs(vals[t - 1, m, a])
+                if m > 0:
+                    cv += abs(vals[t, m - 1, a])
+                c = 0
+                while cv > 0 and c < N_CTX - 1:
+                    cv >>= 1
+                    c += 1
+                ac = a * n_ctx + c
+                idx[0] = ac                              # §5.4 zero flag
+                if v == 0:
+                    bits[0] = 0
+                    n = 1
+                else:
+                    bits[0] = 1
+                    n = 1
+                    u = v
+                    if signed:                           # sign
+                        idx[1] = o_s + ac
+                        if v < 0:
+                            bits[1] = 1
+                            u = -v
+                        else:
+                            bits[1] = 0
+                        n = 2
+                    k = 0
+                    while (u >> (k + 1)) != 0:
+                        k += 1
+                    eb = o_e + ac * n_exp                # unary exponent
+                    for i in range(k):
+                        idx[n] = eb + i
+                        bits[n] = 1
+                        n += 1
+                    if k < MAX_EXP:
+                        idx[n] = eb + k
+                        bits[n] = 0
+                        n += 1
+                    xb = o_x + (a * (MAX_EXP + 1) + k) * n_exp    # mantissa, top bit first
+                    for j in range(k):
+                        idx[n] = xb + j
+                        bits[n] = (u >> (k - 1 - j)) & 1
+                        n += 1
+                for d in range(n):                       # §5.1, one bit
+                    i = idx[d]
+                    p = probs[i]
+                    bound = (rng >> PROB_BITS) * p
+                    if bits[d] == 0:
+                        rng = bound
+                        probs[i] = p + ((2048 - p) >> MOVE_BITS)
+                    else:
+                        low += bound
+                        rng -= bound
+                        probs[i] = p - (p >> MOVE_BITS)
+                    while rng < TOP:
+                        rng = (rng << 8) & 0xFFFFFFFF
+                        if low < 0xFF000000 or low >= 0x100000000:     # shift_low
+                            carry = low >> 32
+                            temp = cache
+                            while True:
+                                if pos < cap:
+                                    buf[pos] = (temp + carry) & 0xFF
+                                    pos += 1
+                                else:
+                                    ok = False
+                                temp = 0xFF
+                                csize -= 1
+                                if csize == 0:
+                                    break
+                            cache = (low >> 24) & 0xFF
+                        csize += 1
+                        low = (low & 0x00FFFFFF) << 8
+    st[0], st[1], st[2], st[3] = low, rng, cache, csize
+    at[0] = pos
+    for i in range(o_s):
+        zf[i] = probs[i]
+    for i in range(s.size):
+        sf[i] = probs[o_s + i]
+    for i in range(e.size):
+        ef[i] = probs[o_e + i]
+    for i in range(x.size):
+        xf[i] = probs[o_x + i]
     return ok
 
 
@@ -306,8 +416,9 @@ class BlockEncoder:
         """Code ``values`` (int, shape ``[T, M, A]``, A in 1..3).
 
         Contexts restart every ``period`` rows (default: one run of all T rows).
-        ``models`` are the initial probabilities ``(Z, S, E, X)`` (§9.4, a trained
-        dictionary); by default every model starts at 1024 (§5.2). They are copied.
+        ``models`` are the initial probabilities ``(Z, S, E, X)`` (trained
+        dictionaries, bench/bench_dictionary.py); by default every model starts at 1024
+        (§5.2). They are copied.
         """
         v = np.ascontiguousarray(values, dtype=np.int64)
         if v.ndim != 3 or not 1 <= v.shape[2] <= 3:

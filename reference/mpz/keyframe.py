@@ -22,6 +22,7 @@ halves the key residuals at 5 mm on real captures.
 """
 from __future__ import annotations
 
+from concurrent.futures import Executor
 from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
@@ -213,23 +214,76 @@ def decode_payload(dec: BlockDecoder, F: int, n: int, *, chunk: str | None = Non
 
 # ---------------------------------------------------------------- encoder --
 @njit(cache=True)
-def _span_ok(y: NDArray[np.float64], a: int, b: int, wa: NDArray[np.int64], wb: NDArray[np.int64],
-             r2: float) -> bool:
+def _span_fail(y: NDArray[np.float64], a: int, b: int, wa: NDArray[np.int64],
+               wb: NDArray[np.int64], r2: float, hint: int) -> int:
+    """The first frame of ``a+1 .. b-1`` (frame ``hint`` tried first, when inside) whose
+    interpolated value is farther than sqrt(r2) from ``y``; 0 when every frame is within.
+
+    The answer to "is the span within the bound" is the same whatever the order the frames
+    are tried in; trying the frame that failed last first makes most rejections O(1)."""
     n = b - a
-    for j in range(1, n):
+    if a < hint < b:
+        j = hint - a
         d2 = 0.0
         for c in range(3):
-            v = wa[c] + ((2 * (wb[c] - wa[c]) * j + n) // (2 * n))
-            dd = v - y[a + j, c]
+            dd = wa[c] + ((2 * (wb[c] - wa[c]) * j + n) // (2 * n)) - y[hint, c]
             d2 += dd * dd
         if d2 > r2:
-            return False
-    return True
+            return hint
+    # the quotients floor((2 d j + n) / 2n) step by step, without a division per frame:
+    # the numerator grows by 2d = 2n qd + rd (0 <= rd < 2n) from one frame to the next
+    D = 2 * n
+    q0 = wa[0]
+    q1 = wa[1]
+    q2 = wa[2]
+    r0 = n
+    r1 = n
+    r2_ = n
+    s0 = 2 * (wb[0] - wa[0])
+    s1 = 2 * (wb[1] - wa[1])
+    s2 = 2 * (wb[2] - wa[2])
+    qd0 = s0 // D
+    qd1 = s1 // D
+    qd2 = s2 // D
+    rd0 = s0 - qd0 * D
+    rd1 = s1 - qd1 * D
+    rd2 = s2 - qd2 * D
+    for j in range(1, n):
+        q0 += qd0
+        r0 += rd0
+        if r0 >= D:
+            r0 -= D
+            q0 += 1
+        q1 += qd1
+        r1 += rd1
+        if r1 >= D:
+            r1 -= D
+            q1 += 1
+        q2 += qd2
+        r2_ += rd2
+        if r2_ >= D:
+            r2_ -= D
+            q2 += 1
+        e0 = q0 - y[a + j, 0]
+        e1 = q1 - y[a + j, 1]
+        e2 = q2 - y[a + j, 2]
+        if e0 * e0 + e1 * e1 + e2 * e2 > r2:
+            return a + j
+    return 0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _fit(y: NDArray[np.float64], radius: float, max_span: int,
          lam: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Greedy key frames (see :func:`fit`). For each end frame b the key value is, among the
+    grid points within ``radius`` of y[b] whose span from the previous key keeps every frame
+    within ``radius``, the one of least cost ``lam |w - y[b]|^2 + |w - pred|_1`` (on a tie:
+    the first in (x, y, z) order); the span grows while such a point exists.
+
+    Speed (issue 15): the candidates of b are listed with their costs first and the span
+    check, O(b - a), is made in order of increasing cost only until one passes, instead of
+    for every candidate; and a check tries the frame that failed last first. The keys are
+    the same as checking every candidate."""
     T = y.shape[0]
     r2 = radius * radius
     times = np.empty(T, np.int64)
@@ -239,59 +293,95 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
     times[0] = 0
     K = 1
     a = 0
-    cand = np.empty(3, np.int64)
-    best = np.empty(3, np.int64)
+    side = int(np.floor(2.0 * radius)) + 2            # grid points per axis in the box
+    cap = side * side * side
+    cands = np.empty((cap, 3), np.int64)
+    costs = np.empty(cap, np.float64)
+    order = np.empty(cap, np.int64)
     keep = np.empty(3, np.int64)
+    pred = np.empty(3, np.int64)
+    dzz = np.empty(side, np.float64)
+    hint = -1
     while a < T - 1:
-        # prediction of the next key (linear extrapolation), for choosing among candidates
         b = a + 1
         good = -1
-        d0 = 1
-        d1 = 1
+        wa = vals[K - 1]
         while b < T and b - a <= max_span:
-            found = False
-            bestc = 1e300
-            if K >= 2:
-                d0 = times[K - 1] - times[K - 2]
-                d1 = b - a
+            # prediction of the next key (linear extrapolation), for choosing among candidates
+            for c in range(3):
+                if K >= 2:
+                    d0 = times[K - 1] - times[K - 2]
+                    d1 = b - a
+                    w1 = vals[K - 1, c]
+                    w0 = vals[K - 2, c]
+                    pred[c] = w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0)
+                else:
+                    pred[c] = vals[K - 1, c]
             lo0 = int(np.ceil(y[b, 0] - radius))
             hi0 = int(np.floor(y[b, 0] + radius))
             lo1 = int(np.ceil(y[b, 1] - radius))
             hi1 = int(np.floor(y[b, 1] + radius))
             lo2 = int(np.ceil(y[b, 2] - radius))
             hi2 = int(np.floor(y[b, 2] + radius))
+            nc = 0
+            for s in range(lo2, hi2 + 1):
+                dzz[s - lo2] = (s - y[b, 2]) ** 2
             for p in range(lo0, hi0 + 1):
+                dxx = (p - y[b, 0]) ** 2
                 for q in range(lo1, hi1 + 1):
+                    dxy = dxx + (q - y[b, 1]) ** 2
+                    if dxy > r2:              # adding dz^2 >= 0 cannot bring it back
+                        continue
                     for s in range(lo2, hi2 + 1):
-                        dd = (p - y[b, 0]) ** 2 + (q - y[b, 1]) ** 2 + (s - y[b, 2]) ** 2
+                        dd = dxy + dzz[s - lo2]
                         if dd > r2:
                             continue
-                        cand[0] = p
-                        cand[1] = q
-                        cand[2] = s
-                        if not _span_ok(y, a, b, vals[K - 1], cand, r2):
-                            continue
                         cost = lam * dd
-                        for c in range(3):
-                            if K >= 2:
-                                w1 = vals[K - 1, c]
-                                w0 = vals[K - 2, c]
-                                pred = w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0)
-                            else:
-                                pred = vals[K - 1, c]
-                            cost += abs(cand[c] - pred)
-                        if cost < bestc:
-                            bestc = cost
-                            found = True
-                            best[0] = p
-                            best[1] = q
-                            best[2] = s
-            if not found:
+                        cost += abs(p - pred[0])
+                        cost += abs(q - pred[1])
+                        cost += abs(s - pred[2])
+                        cands[nc, 0] = p
+                        cands[nc, 1] = q
+                        cands[nc, 2] = s
+                        costs[nc] = cost
+                        order[nc] = nc
+                        nc += 1
+            # the cheapest first (the first on a tie); most often it passes, and the others
+            # are sorted only when it does not
+            found = -1
+            i0 = -1
+            bestc = 1e300
+            for k in range(nc):
+                if costs[k] < bestc:
+                    bestc = costs[k]
+                    i0 = k
+            if nc > 0:
+                f = _span_fail(y, a, b, wa, cands[i0], r2, hint)
+                if f == 0:
+                    found = i0
+                else:
+                    hint = f
+                    for k in range(1, nc):    # stable insertion sort of the rest by cost
+                        i = order[k]
+                        ck = costs[i]
+                        h = k
+                        while h > 0 and costs[order[h - 1]] > ck:
+                            order[h] = order[h - 1]
+                            h -= 1
+                        order[h] = i
+                    for k in range(1, nc):    # order[0] is i0
+                        i = order[k]
+                        f = _span_fail(y, a, b, wa, cands[i], r2, hint)
+                        if f == 0:
+                            found = i
+                            break
+                        hint = f
+            if found < 0:
                 break
             good = b
-            keep[0] = best[0]
-            keep[1] = best[1]
-            keep[2] = best[2]
+            keep[0] = cands[found, 0]
+            keep[1] = cands[found, 1]
+            keep[2] = cands[found, 2]
             b += 1
         if good < 0:   # cannot happen: the nearest grid point always qualifies for b = a + 1
             good = a + 1
@@ -303,7 +393,7 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
         vals[K, 2] = keep[2]
         K += 1
         a = good
-    return times[:K], vals[:K]
+    return times[:K].copy(), vals[:K].copy()      # not views that keep T-sized arrays alive
 
 
 def fit(y: ArrayLike, radius: float, max_span: int = 256,
@@ -336,8 +426,80 @@ def _cost(e: NDArray[np.int64]) -> float:
     return total
 
 
+#: |e| below this take log2(1 + |e|) from a table (:func:`_log2_table`)
+_LOG2_TABLE = 1 << 12
+
+
+@njit(cache=True)
+def _log2_table(n: int) -> NDArray[np.float64]:
+    """log2(1 + i) for i < n, by the same numba log2 as :func:`_cost` (so the same bits)."""
+    t = np.empty(n, np.float64)
+    for i in range(n):
+        t[i] = np.log2(1.0 + i)
+    return t
+
+
+@njit(cache=True, nogil=True)
+def _log2p1(tab: NDArray[np.float64], v: int) -> float:
+    u = abs(v)
+    if u < tab.shape[0]:
+        return tab[u]
+    return np.log2(1.0 + u)
+
+
+@njit(cache=True, nogil=True)
+def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
+                    tracks: NDArray[np.int32], tab: NDArray[np.float64]) -> int:
+    """p_m of member m (§6.5): 0, or 2j + mode for the earlier member j and mode 1 or 2 whose
+    residuals have the least ``_cost`` (the first on a tie: none, then j = 0, 1, ... with
+    mode 1 before 2); ``tracks[j]`` is member j's decoded track ``[F, 3]`` (member-major, so
+    that reading it at the key times walks one contiguous array).
+
+    Speed (issue 15): one call per member instead of two small kernel calls per candidate;
+    the likely best candidate is summed first, and a candidate's sum stops as soon as it can
+    no longer win (its terms are >= 0, so its total cannot shrink); log2(1 + |e|) comes from
+    ``tab`` for small |e|. The choice is that of summing every term with :func:`_cost`."""
+    # candidates p in the order: the previous member (2m - 1, 2m: after _chain's ordering
+    # usually the best, so the sums of the others stop early), none (0), then 1 .. 2m - 2;
+    # the winner is the least (cost, p), which is what the first-on-tie scan in p order keeps
+    best = np.inf
+    p = 0
+    for i in range(2 * m + 1):
+        if m == 0:
+            q = 0
+        elif i < 2:
+            q = 2 * m - 1 + i
+        elif i == 2:
+            q = 0
+        else:
+            q = i - 2
+        mode = 0 if q == 0 else (1 if q % 2 == 1 else 2)
+        R = tracks[(q - 1) // 2 if q > 0 else 0]
+        total = 0.0
+        over = False
+        for k in range(w.shape[0]):
+            for c in range(3):
+                total += _log2p1(tab, w[k, c] - _predict(mode, k, times, w, R, c))
+            if total > best or (total == best and q > p):
+                over = True
+                break
+        if not over and (total < best or q < p):
+            best = total
+            p = q
+    return p
+
+
+def _fit_member(y: NDArray[np.float64], m: int, radius: float, max_span: int,
+                out: NDArray[np.int32]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Fit member m and write its decoded track to ``out[:, m]`` (a column of its own, so
+    members can be fitted by several threads at once)."""
+    times, w = fit(y[:, m], radius, max_span)
+    out[:, m] = interpolate(times, w, y.shape[0])
+    return times, w
+
+
 def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
-                  max_span: int = 256) -> NDArray[np.int32]:
+                  max_span: int = 256, pool: Executor | None = None) -> NDArray[np.int32]:
     """Fit every member of ``y[T, n, 3]`` and code the four blocks; returns the grid values
     (int32: every value lies between two keys near ``y``, and |y| < 2^29).
 
@@ -348,6 +510,12 @@ def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
     the most keys there can be (T per member) and zero-filled, so that only the part
     written becomes resident, and the blocks are coded from their filled prefixes: no
     list of per-member arrays and no concatenated copy of it.
+
+    Speed (issue 15): the members are fitted independently of each other, on the threads
+    of ``pool`` when one is given (the fitting kernel releases the GIL); the key lists
+    held meanwhile are K-sized, not T-sized. Then each member's reference is chosen, also
+    independently (from the finished tracks), and the blocks are filled in member order,
+    so the payload does not depend on the threads.
     """
     T, n, _ = y.shape
     refs = np.zeros(n, np.int64)
@@ -356,15 +524,21 @@ def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
     keys = np.zeros((T * n, 3), np.int64)
     s_at = k_at = 0
     out = np.zeros((T, n, 3), np.int32)
+    if pool is None or n < 2:
+        fits = [_fit_member(y, m, radius, max_span, out) for m in range(n)]
+    else:
+        fits = list(pool.map(lambda m: _fit_member(y, m, radius, max_span, out), range(n)))
+    tab = _log2_table(_LOG2_TABLE)
+    tracks = np.ascontiguousarray(out.transpose(1, 0, 2))     # [n, T, 3]
+    if pool is None or n < 2:
+        ps = [_best_reference(m, fits[m][0], fits[m][1], tracks, tab) for m in range(n)]
+    else:                 # each member's choice reads only the finished tracks
+        ps = list(pool.map(lambda m, tr=tracks: _best_reference(m, fits[m][0], fits[m][1], tr,
+                                                                tab), range(n)))
+    del tracks
     for m in range(n):
-        times, w = fit(y[:, m], radius, max_span)
-        best = (_cost(_residuals(0, times, w, out[:, 0])), 0)
-        for j in range(m):
-            for mode in (1, 2):
-                c = _cost(_residuals(mode, times, w, out[:, j]))
-                if c < best[0]:
-                    best = (c, 2 * j + mode)
-        p = best[1]
+        times, w = fits[m]
+        p = ps[m]
         mode = 0 if p == 0 else (1 if p % 2 else 2)
         e = _residuals(mode, times, w, out[:, (p - 1) // 2 if p else 0])
         K = len(w)
@@ -374,7 +548,6 @@ def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
         keys[k_at: k_at + K] = e
         s_at += K - 1
         k_at += K
-        out[:, m] = interpolate(times, w, T)
     enc.block(refs.reshape(-1, 1, 1), signed=False)
     enc.block(counts.reshape(-1, 1, 1), signed=False)
     enc.block(spans[:s_at].reshape(-1, 1, 1), signed=False)

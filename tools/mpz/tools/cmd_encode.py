@@ -95,6 +95,9 @@ def add_parser(sub):
                    help="smrc: the range-coded summary chunk (MPZ 1.1, the default); smry: the "
                    "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
     p.add_argument("--meta", action="append", metavar="KEY=VALUE", help="metadata (repeatable)")
+    p.add_argument("--threads", type=int, metavar="N", default=D.threads,
+                   help="threads within each file, 1..64 (default: the CPU count, at most 2); "
+                   "the output is the same for any N")
     p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
                    "write it under a name not ending in .mpz, or write to a terminal")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -123,7 +126,7 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
         grid=None if args.grid is None else parse_length(args.grid, units, "--grid"),
         summary=_summary_ks(args.summary), summary_space=args.summary_space,
         summary_format=args.summary_format, metadata=metadata, lossy=args.lossy,
-        model_errors=_model_errors(args.model_error))
+        model_errors=_model_errors(args.model_error), threads=args.threads)
 
 
 def _model_errors(items: list[str] | None) -> dict[str, float]:
