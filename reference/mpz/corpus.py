@@ -169,6 +169,11 @@ class _Fixed:
 
 
 # ------------------------------------------------------------------ fingerprint --
+#: encode options that never change the output's bytes (threads: tested identical for any
+#: count), so they do not make an archive look stale
+NOT_IN_OUTPUT = frozenset({"threads"})
+
+
 def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS) -> str:
     """sha256 of the options that decide an output's bytes and its index row.
 
@@ -186,6 +191,8 @@ def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS) 
     True
     >>> fingerprint(EncodeOptions(max_error=1.0)) == fingerprint(EncodeOptions(max_error=2.0))
     False
+    >>> fingerprint(EncodeOptions(threads=1)) == fingerprint(EncodeOptions(threads=2))
+    True
     """
     own = {META_SOURCE, META_SHA256, META_FINGERPRINT}
 
@@ -196,6 +203,8 @@ def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS) 
 
     doc: dict[str, Any] = {}
     for f in fields(options):
+        if f.name in NOT_IN_OUTPUT:
+            continue
         v = plain(f.name, getattr(options, f.name))
         if v != plain(f.name, getattr(DEFAULTS, f.name)):
             doc[f.name] = v
@@ -353,7 +362,8 @@ def encode_file(task: Task) -> FileResult:
             meta = dict(opts.metadata)
             meta.update({META_SOURCE: os.path.basename(task.source), META_SHA256: sha,
                          META_FINGERPRINT: fp})
-            data, _ = encode_motion(motion, replace(opts, metadata=meta))
+            # one thread per file: the Dask workers already use the cores
+            data, _ = encode_motion(motion, replace(opts, metadata=meta, threads=1))
             # replace only a file we wrote (checked by _ours) or, with force, any file
             write_atomic(task.output, data, source=task.source,
                          force=task.force or os.path.lexists(task.output))
