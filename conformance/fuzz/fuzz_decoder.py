@@ -96,6 +96,30 @@ def check(blob: bytes) -> None:
     assert m.positions.shape == (F, M, 3) and m.valid.shape == (F, M)
     assert np.isfinite(m.positions[m.valid]).all(), "a valid sample is not finite"
     assert np.isnan(m.positions[~m.valid]).all(), "a gap is not NaN"
+    write_sources(m)
+
+
+def write_sources(m: mpz.Motion) -> None:
+    """Write what a decoded file's ancillary chunks rebuild (issue 12: C3D archive §6.9;
+    issue 13: skeletons §6.10) into memory, as ``mpz decode -o X.c3d/.bvh/.amc`` would.
+
+    A valid file whose archive no writer can hold may be refused with an MPZError (an
+    InputFormatError names what a C3D, BVH or AMC cannot express); anything else escapes.
+    """
+    from mpz.io import amc, bvh, c3d
+    from mpz.io.kinematics import Skeleton
+    try:
+        if m.extras.get("c3d") is not None:
+            c3d.archive_bytes(m)
+        skel = m.extras.get("skeleton")
+        if isinstance(skel, Skeleton):
+            if skel.convention == "bvh":
+                bvh.format_bvh(m)
+            else:
+                amc.format_asf(skel)
+                amc.format_amc(m)
+    except MPZError:
+        pass
 
 
 def TestOneInput(data: bytes) -> None:

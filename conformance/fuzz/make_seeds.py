@@ -127,6 +127,16 @@ def skeletal() -> dict[str, bytes]:
             "seed-skeleton-amc.mpz": mpz.encode(amc)}
 
 
+def c3d_archives() -> dict[str, bytes]:
+    """Issue 12: C3D archives (spec §4.13) from the synthetic C3D sources of make_vectors:
+    float32 with analog and model outputs, int16 exact on the grid, no analog."""
+    from mpz.tools.make_vectors import c3d_motion
+    return {"seed-c3d-float32.mpz": mpz.encode(c3d_motion(71, storage=1), max_error=1.0),
+            "seed-c3d-int16-exact.mpz": mpz.encode(c3d_motion(72, storage=0, J=1, C=2, n=2)),
+            "seed-c3d-bare.mpz": mpz.encode(c3d_motion(73, storage=1, J=0, C=0),
+                                            max_error=2.0)}
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("out", nargs="?", default="conformance/corpus")
@@ -137,6 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     seeds = synthetic()
     seeds.update(skeletal())
+    seeds.update(c3d_archives())
     if args.bombs:
         seeds.update(bombs())
     if args.real is not None:
