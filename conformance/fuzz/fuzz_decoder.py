@@ -1,3 +1,4 @@
+#!/usr/bin/env python3
 """Coverage-guided fuzzing of the decoder and mpzinfo with atheris (not run by CI).
 
     pip install atheris
@@ -17,6 +18,10 @@ The properties, for any bytes, as they are and with every CRC repaired:
 - ``mpzinfo.inspect`` reports without raising, and agrees with ``mpz.decode``: it says
   "error" exactly when the decoder rejects the file (issue 11.5);
 - every rejection carries an offset (issue 11.7).
+
+To keep only the inputs that add coverage, ``-merge=1`` runs the script again as a command
+(its first argument), so it is executable with a ``python3`` shebang: run it from the
+activated venv, e.g. ``conformance/fuzz/fuzz_decoder.py -merge=1 conformance/corpus NEW``.
 
 A hang past ``-timeout`` or memory past ``-rss_limit_mb`` is a crash too. Minimised
 crashers and the seed corpus live in conformance/corpus/ and are replayed by
