@@ -223,7 +223,11 @@ def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):
                 if c < best[0]:
                     best = (c, 2 * j + mode)
         tracks = np.ascontiguousarray(out.transpose(1, 0, 2))
-        assert kf._best_reference(m, times, w, tracks, tab) == best[1]
+        e = np.empty_like(w)
+        assert kf._best_reference(m, times, w, tracks, tab, e) == best[1]
+        p = best[1]                  # and its residuals are those of the reference pair
+        want = kf._residuals(0 if p == 0 else 2 - p % 2, times, w, out[:, (p - 1) // 2 if p else 0])
+        assert e.tolist() == want.tolist()
 
 
 def test_encoder_threads_do_not_change_the_bytes():

@@ -177,36 +177,29 @@ def _context(vals: NDArray[np.int64], t: int, m: int, a: int, first: bool) -> in
 
 
 @_kernel
-def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, z: _Probs, s: _Probs,
-                  e: _Probs, x: _Probs, st: NDArray[np.int64], out: _Out) -> bool:
+def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Probs,
+                  st: NDArray[np.int64], buf: NDArray[np.uint8], at: NDArray[np.int64]) -> bool:
     """Code a block (§5.4-§5.6): the bits of :func:`_enc_int`, contexts of :func:`_context`.
 
+    ``probs`` is the block's model set as one flat int32 array, Z [3, 8] | S [3, 8] |
+    E [3, 8, 30] | X [3, 31, 30] (:func:`_flat_models`), updated in place; the coder
+    writes ``buf`` from position ``at[0]``.
+
     Speed (issue 15): one loop with the coder state (low, range, cache, cache size, write
-    position) in locals and one flat copy of the four model arrays, instead of a call per
-    bit on arrays; each value's decisions (model index, bit) are listed first, then coded
-    by the one copy of the §5.1 step below. The bytes are those of :func:`_enc_int`."""
+    position) in locals, instead of a call per bit on arrays; each value's decisions (model
+    index, bit) are listed first, then coded by the one copy of the §5.1 step below. The
+    bytes are those of :func:`_enc_int`. Cold start (issue 15.2): the flat models come
+    ready from the caller (no reshape or copies here), and every caller passes the same
+    argument types, so the kernel compiles once."""
     T, M, A = vals.shape[0], vals.shape[1], vals.shape[2]
-    buf, at = out
     cap = buf.shape[0]
     pos = at[0]
     low, rng, cache, csize = st[0], st[1], st[2], st[3]
-    # flat models: Z [A, C] | S [A, C] | E [A, C, 30] | X [A, 31, 30]
-    o_s = z.size
-    o_e = o_s + s.size
-    o_x = o_e + e.size
-    # element loops, not slice assignment (which costs ~1.5 s of compile time: cold-start.md)
-    zf, sf, ef, xf = z.reshape(-1), s.reshape(-1), e.reshape(-1), x.reshape(-1)
-    probs = np.empty(o_x + x.size, np.int32)
-    for i in range(o_s):
-        probs[i] = zf[i]
-    for i in range(s.size):
-        probs[o_s + i] = sf[i]
-    for i in range(e.size):
-        probs[o_e + i] = ef[i]
-    for i in range(x.size):
-        probs[o_x + i] = xf[i]
-    n_ctx = z.shape[1]
-    n_exp = e.shape[2]
+    o_s = N_AXES * N_CTX
+    o_e = 2 * o_s
+    o_x = o_e + N_AXES * N_CTX * MAX_EXP
+    n_ctx = N_CTX
+    n_exp = MAX_EXP
     idx = np.empty(2 * MAX_EXP + 4, np.int64)
     bits = np.empty(2 * MAX_EXP + 4, np.int64)
     ok = True
@@ -289,23 +282,42 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, z: _Probs,
                         low = (low & 0x00FFFFFF) << 8
     st[0], st[1], st[2], st[3] = low, rng, cache, csize
     at[0] = pos
-    for i in range(o_s):
-        zf[i] = probs[i]
-    for i in range(s.size):
-        sf[i] = probs[o_s + i]
-    for i in range(e.size):
-        ef[i] = probs[o_e + i]
-    for i in range(x.size):
-        xf[i] = probs[o_x + i]
     return ok
 
 
-@_kernel
-def _finish(st: NDArray[np.int64], out: _Out) -> bool:
-    ok = True
+#: the flat model set of :func:`_encode_block` with every probability at 1024 (§5.2)
+_FLAT_INIT = np.full(2 * N_AXES * N_CTX + N_AXES * N_CTX * MAX_EXP
+                     + N_AXES * (MAX_EXP + 1) * MAX_EXP, PROB_INIT, np.int32)
+
+
+def _flat_models(models: Models | None) -> _Probs:
+    """A writable flat copy of ``models`` (fresh ones when None) for :func:`_encode_block`."""
+    if models is None:
+        return _FLAT_INIT.copy()
+    return np.concatenate([a.reshape(-1) for a in copy_models(models)])
+
+
+def _finish(st: NDArray[np.int64], buf: NDArray[np.uint8], at: NDArray[np.int64]) -> None:
+    """Flush (§5.1): five shift_low steps, in Python (5 steps a payload; a kernel would
+    only add compile time to the first encode, issue 15.2). ``buf`` has room for them."""
+    low, cache, csize = int(st[0]), int(st[2]), int(st[3])
+    pos = int(at[0])
     for _ in range(5):
-        ok = _shift_low(st, out) and ok
-    return ok
+        if low < 0xFF000000 or low >= 0x100000000:
+            carry = low >> 32
+            temp = cache
+            while True:
+                buf[pos] = (temp + carry) & 0xFF
+                pos += 1
+                temp = 0xFF
+                csize -= 1
+                if csize == 0:
+                    break
+            cache = (low >> 24) & 0xFF
+        csize += 1
+        low = (low & 0x00FFFFFF) << 8
+    st[0], st[2], st[3] = low, cache, csize
+    at[0] = pos
 
 
 # ---------------------------------------------------------------- decoder --
@@ -435,15 +447,15 @@ class BlockEncoder:
         need = int(self._pos[0]) + 8 * v.size + 64
         while self._buf.shape[0] < need:
             self._grow()
-        z, s, e, x = new_models() if models is None else copy_models(models)
-        if not _encode_block(v, period, signed, z, s, e, x, self._st, (self._buf, self._pos)):
+        if not _encode_block(v, period, signed, _flat_models(models), self._st, self._buf,
+                             self._pos):
             raise RuntimeError("range coder buffer overflow")  # unreachable: sized above
 
     def finish(self) -> bytes:
         """Flush the coder (§5.1) and return the payload."""
         while self._buf.shape[0] < int(self._pos[0]) + 16:
             self._grow()
-        _finish(self._st, (self._buf, self._pos))
+        _finish(self._st, self._buf, self._pos)
         return self._buf[: int(self._pos[0])].tobytes()
 
 

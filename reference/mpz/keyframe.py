@@ -355,27 +355,78 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
                 if costs[k] < bestc:
                     bestc = costs[k]
                     i0 = k
-            if nc > 0:
-                f = _span_fail(y, a, b, wa, cands[i0], r2, hint)
-                if f == 0:
-                    found = i0
+            # the span check of _span_fail, written out at its one call site (a called
+            # kernel compiles on its own, issue 15.2); the candidates after the first are
+            # sorted only when the first fails
+            for k in range(nc):
+                if k == 0:
+                    i = i0
                 else:
-                    hint = f
-                    for k in range(1, nc):    # stable insertion sort of the rest by cost
-                        i = order[k]
-                        ck = costs[i]
-                        h = k
-                        while h > 0 and costs[order[h - 1]] > ck:
-                            order[h] = order[h - 1]
-                            h -= 1
-                        order[h] = i
-                    for k in range(1, nc):    # order[0] is i0
-                        i = order[k]
-                        f = _span_fail(y, a, b, wa, cands[i], r2, hint)
-                        if f == 0:
-                            found = i
+                    if k == 1:
+                        for kk in range(1, nc):    # stable insertion sort by cost
+                            ii = order[kk]
+                            ck = costs[ii]
+                            h = kk
+                            while h > 0 and costs[order[h - 1]] > ck:
+                                order[h] = order[h - 1]
+                                h -= 1
+                            order[h] = ii
+                    i = order[k]                   # order[0] is i0
+                n = b - a
+                f = 0
+                if a < hint < b:                   # the frame that failed last, first
+                    j = hint - a
+                    d2 = 0.0
+                    for c in range(3):
+                        dd = wa[c] + ((2 * (cands[i, c] - wa[c]) * j + n) // (2 * n)) - y[hint, c]
+                        d2 += dd * dd
+                    if d2 > r2:
+                        f = hint
+                if f == 0:
+                    # floor((2 d j + n) / 2n) step by step, without a division per frame:
+                    # the numerator grows by 2d = 2n qd + rd (0 <= rd < 2n) a frame
+                    D = 2 * n
+                    q0 = wa[0]
+                    q1 = wa[1]
+                    q2 = wa[2]
+                    r0 = n
+                    r1 = n
+                    r2_ = n
+                    s0 = 2 * (cands[i, 0] - wa[0])
+                    s1 = 2 * (cands[i, 1] - wa[1])
+                    s2 = 2 * (cands[i, 2] - wa[2])
+                    qd0 = s0 // D
+                    qd1 = s1 // D
+                    qd2 = s2 // D
+                    rd0 = s0 - qd0 * D
+                    rd1 = s1 - qd1 * D
+                    rd2 = s2 - qd2 * D
+                    for j in range(1, n):
+                        q0 += qd0
+                        r0 += rd0
+                        if r0 >= D:
+                            r0 -= D
+                            q0 += 1
+                        q1 += qd1
+                        r1 += rd1
+                        if r1 >= D:
+                            r1 -= D
+                            q1 += 1
+                        q2 += qd2
+                        r2_ += rd2
+                        if r2_ >= D:
+                            r2_ -= D
+                            q2 += 1
+                        e0 = q0 - y[a + j, 0]
+                        e1 = q1 - y[a + j, 1]
+                        e2 = q2 - y[a + j, 2]
+                        if e0 * e0 + e1 * e1 + e2 * e2 > r2:
+                            f = a + j
                             break
-                        hint = f
+                if f == 0:
+                    found = i
+                    break
+                hint = f
             if found < 0:
                 break
             good = b
@@ -449,7 +500,8 @@ def _log2p1(tab: NDArray[np.float64], v: int) -> float:
 
 @njit(cache=True, nogil=True)
 def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
-                    tracks: NDArray[np.int32], tab: NDArray[np.float64]) -> int:
+                    tracks: NDArray[np.int32], tab: NDArray[np.float64],
+                    e: NDArray[np.int64]) -> int:
     """p_m of member m (§6.5): 0, or 2j + mode for the earlier member j and mode 1 or 2 whose
     residuals have the least ``_cost`` (the first on a tie: none, then j = 0, 1, ... with
     mode 1 before 2); ``tracks[j]`` is member j's decoded track ``[F, 3]`` (member-major, so
@@ -458,14 +510,24 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
     Speed (issue 15): one call per member instead of two small kernel calls per candidate;
     the likely best candidate is summed first, and a candidate's sum stops as soon as it can
     no longer win (its terms are >= 0, so its total cannot shrink); log2(1 + |e|) comes from
-    ``tab`` for small |e|. The choice is that of summing every term with :func:`_cost`."""
+    ``tab`` for small |e|. The choice is that of summing every term with :func:`_cost`.
+    The residuals of the chosen p go to ``e`` ``[K, 3]`` (those of :func:`_residuals`; one
+    kernel less to compile on the first encode, issue 15.2)."""
     # candidates p in the order: the previous member (2m - 1, 2m: after _chain's ordering
     # usually the best, so the sums of the others stop early), none (0), then 1 .. 2m - 2;
-    # the winner is the least (cost, p), which is what the first-on-tie scan in p order keeps
+    # the winner is the least (cost, p), which is what the first-on-tie scan in p order keeps.
+    # A last pass (i = 2m + 1) writes the winner's residuals. The §6.5 prediction
+    # (_predict_key) and _log2p1 are written out here: kernels called from a kernel are
+    # compiled as kernels of their own, which costs the first encode (issue 15.2);
+    # tests/test_stages.py checks the choice and the residuals against _residuals/_cost.
     best = np.inf
     p = 0
-    for i in range(2 * m + 1):
-        if m == 0:
+    ntab = tab.shape[0]
+    for i in range(2 * m + 2):
+        final = i == 2 * m + 1
+        if final:
+            q = p
+        elif m == 0:
             q = 0
         elif i < 2:
             q = 2 * m - 1 + i
@@ -478,12 +540,39 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
         total = 0.0
         over = False
         for k in range(w.shape[0]):
+            tk = times[k]
+            t1 = times[k - 1] if k >= 1 else 0
+            t2 = times[k - 2] if k >= 2 else 0
             for c in range(3):
-                total += _log2p1(tab, w[k, c] - _predict(mode, k, times, w, R, c))
-            if total > best or (total == best and q > p):
+                w1 = w[k - 1, c] if k >= 1 else 0
+                w2 = w[k - 2, c] if k >= 2 else 0
+                if mode == 0:
+                    if k == 0:
+                        pr = 0
+                    elif k == 1:
+                        pr = w1
+                    else:
+                        d0 = t1 - t2
+                        pr = w1 + (2 * (w1 - w2) * (tk - t1) + d0) // (2 * d0)
+                elif k == 0:
+                    pr = R[tk, c]
+                elif mode == 1 or k == 1:
+                    pr = w1 + R[tk, c] - R[t1, c]
+                else:
+                    d0 = t1 - t2
+                    r1 = w1 - R[t1, c]
+                    r0 = w2 - R[t2, c]
+                    pr = R[tk, c] + r1 + (2 * (r1 - r0) * (tk - t1) + d0) // (2 * d0)
+                ev = w[k, c] - pr
+                if final:
+                    e[k, c] = ev
+                else:
+                    u = abs(ev)
+                    total += tab[u] if u < ntab else np.log2(1.0 + u)
+            if not final and (total > best or (total == best and q > p)):
                 over = True
                 break
-        if not over and (total < best or q < p):
+        if not final and not over and (total < best or q < p):
             best = total
             p = q
     return p
@@ -530,17 +619,18 @@ def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
         fits = list(pool.map(lambda m: _fit_member(y, m, radius, max_span, out), range(n)))
     tab = _log2_table(_LOG2_TABLE)
     tracks = np.ascontiguousarray(out.transpose(1, 0, 2))     # [n, T, 3]
+    res = [np.empty_like(w) for _, w in fits]      # each member's key residuals
     if pool is None or n < 2:
-        ps = [_best_reference(m, fits[m][0], fits[m][1], tracks, tab) for m in range(n)]
+        ps = [_best_reference(m, fits[m][0], fits[m][1], tracks, tab, res[m])
+              for m in range(n)]
     else:                 # each member's choice reads only the finished tracks
         ps = list(pool.map(lambda m, tr=tracks: _best_reference(m, fits[m][0], fits[m][1], tr,
-                                                                tab), range(n)))
+                                                                tab, res[m]), range(n)))
     del tracks
     for m in range(n):
         times, w = fits[m]
         p = ps[m]
-        mode = 0 if p == 0 else (1 if p % 2 else 2)
-        e = _residuals(mode, times, w, out[:, (p - 1) // 2 if p else 0])
+        e = res[m]
         K = len(w)
         refs[m] = p
         counts[m] = K - 1
