@@ -281,9 +281,11 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
     the first in (x, y, z) order); the span grows while such a point exists.
 
     Speed (issue 15): the candidates of b are listed with their costs first and the span
-    check, O(b - a), is made in order of increasing cost only until one passes, instead of
-    for every candidate; and a check tries the frame that failed last first. The keys are
-    the same as checking every candidate."""
+    check, O(b - a), is made for the cheapest first; only when it fails are the others
+    checked, in list order, skipping every candidate whose cost cannot beat the cheapest
+    one that passed so far (no sort: at the end of a span all of them fail); and a check
+    tries the frame that failed last first. The keys are the same as checking every
+    candidate and taking the least (cost, list position) that passes."""
     T = y.shape[0]
     r2 = radius * radius
     times = np.empty(T, np.int64)
@@ -297,10 +299,10 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
     cap = side * side * side
     cands = np.empty((cap, 3), np.int64)
     costs = np.empty(cap, np.float64)
-    order = np.empty(cap, np.int64)
     keep = np.empty(3, np.int64)
     pred = np.empty(3, np.int64)
     dzz = np.empty(side, np.float64)
+    azz = np.empty(side, np.int64)
     hint = -1
     while a < T - 1:
         b = a + 1
@@ -324,54 +326,50 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
             lo2 = int(np.ceil(y[b, 2] - radius))
             hi2 = int(np.floor(y[b, 2] + radius))
             nc = 0
+            i0 = -1
+            bestc = 1e300
             for s in range(lo2, hi2 + 1):
                 dzz[s - lo2] = (s - y[b, 2]) ** 2
+                azz[s - lo2] = abs(s - pred[2])
             for p in range(lo0, hi0 + 1):
                 dxx = (p - y[b, 0]) ** 2
+                ap = abs(p - pred[0])
                 for q in range(lo1, hi1 + 1):
                     dxy = dxx + (q - y[b, 1]) ** 2
                     if dxy > r2:              # adding dz^2 >= 0 cannot bring it back
                         continue
+                    aq = abs(q - pred[1])
                     for s in range(lo2, hi2 + 1):
                         dd = dxy + dzz[s - lo2]
                         if dd > r2:
                             continue
                         cost = lam * dd
-                        cost += abs(p - pred[0])
-                        cost += abs(q - pred[1])
-                        cost += abs(s - pred[2])
+                        cost += ap
+                        cost += aq
+                        cost += azz[s - lo2]
                         cands[nc, 0] = p
                         cands[nc, 1] = q
                         cands[nc, 2] = s
                         costs[nc] = cost
-                        order[nc] = nc
+                        if cost < bestc:      # the cheapest, the first on a tie
+                            bestc = cost
+                            i0 = nc
                         nc += 1
-            # the cheapest first (the first on a tie); most often it passes, and the others
-            # are sorted only when it does not
             found = -1
-            i0 = -1
-            bestc = 1e300
-            for k in range(nc):
-                if costs[k] < bestc:
-                    bestc = costs[k]
-                    i0 = k
             # the span check of _span_fail, written out at its one call site (a called
             # kernel compiles on its own, issue 15.2); the candidates after the first are
             # sorted only when the first fails
-            for k in range(nc):
+            # the cheapest first; if it fails, the others in list order, skipping those
+            # that cannot beat the best that passed: the least (cost, index) that passes,
+            # which is the first that passes in a stable sort by cost, without the sort
+            bestp = 1e300
+            for k in range(nc + 1 if nc > 0 else 0):
                 if k == 0:
                     i = i0
                 else:
-                    if k == 1:
-                        for kk in range(1, nc):    # stable insertion sort by cost
-                            ii = order[kk]
-                            ck = costs[ii]
-                            h = kk
-                            while h > 0 and costs[order[h - 1]] > ck:
-                                order[h] = order[h - 1]
-                                h -= 1
-                            order[h] = ii
-                    i = order[k]                   # order[0] is i0
+                    i = k - 1
+                    if i == i0 or costs[i] >= bestp:
+                        continue
                 n = b - a
                 f = 0
                 if a < hint < b:                   # the frame that failed last, first
@@ -424,9 +422,13 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
                             f = a + j
                             break
                 if f == 0:
-                    found = i
-                    break
-                hint = f
+                    if k == 0 or costs[i] < bestp:
+                        found = i
+                        bestp = costs[i]
+                    if k == 0:
+                        break
+                else:
+                    hint = f
             if found < 0:
                 break
             good = b
