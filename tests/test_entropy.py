@@ -96,3 +96,28 @@ def test_fast_encoder_matches_reference_over_several_blocks(blocks, capacity):
         enc.block(v, period=period, signed=signed)
         ref.block(v, period, signed)
     assert enc.finish() == ref.finish()
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(_block, min_size=1, max_size=3), st.integers(0, 400))
+def test_limit_stops_only_payloads_longer_than_it(blocks, limit):
+    """issue 15.1: with ``limit`` the coder gives up exactly when the whole payload (the §5
+    reference coder's, computed here independently) would be longer than ``limit`` bytes;
+    otherwise it returns the same bytes."""
+    ref = RefEncoder()
+    enc = BlockEncoder(capacity=16, limit=limit)
+    for T, M, A, scale, signed, seed in blocks:
+        rng = np.random.default_rng(seed)
+        v = np.clip(np.round(rng.laplace(0, scale, (T, M, A))), -(2 ** 30 - 1), 2 ** 30 - 1)
+        v = v.astype(np.int64)
+        if not signed:
+            v = np.abs(v)
+        enc.block(v, signed=signed)
+        ref.block(v, None, signed)
+    full = ref.finish()
+    if len(full) > limit and enc.over:
+        with pytest.raises(ValueError, match="limit"):
+            enc.finish()
+    else:
+        assert not enc.over            # it may stop only when the payload is too long
+        assert enc.finish() == full

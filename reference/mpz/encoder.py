@@ -522,9 +522,14 @@ def _best_order(block: IntArray, period: int | None = None,
     return best
 
 
-def _bounded(y: FloatArray, radius: float,
-             orders: tuple[int, ...] = (1, 2)) -> tuple[int, Int32Array, bytes]:
+def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
+             limit: int | None = None) -> tuple[int, Int32Array, bytes] | None:
     """Best (order, values, payload) for targets ``y`` (grid units) within ``radius``.
+
+    With ``limit`` (issue 15.1), an order whose payload is sure to be longer than ``limit``
+    bytes stops being coded (and a later order longer than the best so far), and None is
+    returned when no order fits in ``limit``: the caller's other candidate, of ``limit``
+    bytes, wins against it anyway. The result is otherwise the same.
 
     Memory (issue 11.11): the values of each order become their residuals in place and,
     for the best order, turn back and are kept as int32 (|w| < 2^30); so besides ``y`` at
@@ -533,14 +538,19 @@ def _bounded(y: FloatArray, radius: float,
     best: tuple[int, Int32Array, bytes] | None = None
     for order in orders:
         e = residuals(choose_lattice(y, radius, order), order, inplace=True)
-        enc = BlockEncoder(capacity=_capacity(e.size))
+        # a later order replaces the best only if strictly smaller
+        cap = limit if best is None else len(best[2]) - 1
+        enc = BlockEncoder(capacity=_capacity(e.size), limit=cap)
         enc.block(e)
+        if enc.over:
+            del e
+            continue
         data = enc.finish()
         if best is None or len(data) < len(best[2]):
             best = None                          # let the previous best go first
             best = (order, reconstruct(e, order, inplace=True).astype(np.int32), data)
         del e
-    assert best is not None
+    assert best is not None or limit is not None
     return best
 
 
@@ -802,7 +812,9 @@ def code_root(u_root: FloatArray, opts: EncodeOptions, grid: Grid) -> tuple[Root
     """Stage 3: the root marker's track (spec §4.6); returns the record and the decoded
     integer track ``[F, 3]``."""
     if opts.bounded:
-        order, w, data = _bounded(u_root[:, None, :], grid.bounds[0] / grid.step)
+        best = _bounded(u_root[:, None, :], grid.bounds[0] / grid.step)
+        assert best is not None                 # no limit: always a result
+        order, w, data = best
         return Root(order=order, coded=data), w[:, 0].astype(np.int64)
     q = _round(u_root)
     order, data = _best_order(q[:, None, :])
@@ -946,20 +958,20 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         assert xl is not None
         y = xl - pat.prediction
         y /= g
-        order, wv, data = _bounded(y, radius)
-        del y
+        parent = _bounded(y, radius)
+        assert parent is not None
+        order, wv, data = parent
+        del y, parent
         out.append((pat.cost + len(data),
                     ResidualLayer(ResidualBase.PARENT, order, g, wv, data)))
     if opts.pattern_mode != "on":
-        y = u_members()
-        y /= g
-        if pool is None:
-            order, wv, data = _bounded(y, radius)
-        else:
+        if pool is not None:
             # each order on a thread; the smaller payload wins, order 1 on a tie (_bounded)
+            y = u_members()
+            y /= g
             ones = pool.submit(_bounded, y, radius, (1,))
             twos = pool.submit(_bounded, y, radius, (2,))
-        del y
+            del y
         gk = max(1, g // KEY_REFINE)
         y = u_members()
         y /= gk
@@ -970,9 +982,22 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         kdata = enc.finish()
         if pool is not None:
             first, second = ones.result(), twos.result()
-            order, wv, data = second if len(second[2]) < len(first[2]) else first
+            assert first is not None and second is not None
+            absolute: tuple[int, Int32Array, bytes] | None = (
+                second if len(second[2]) < len(first[2]) else first)
             del first, second
-        out.append((len(data), ResidualLayer(ResidualBase.ABSOLUTE, order, g, wv, data)))
+        else:
+            # one thread: the key frames first, so that base 1 stops coding an order as soon
+            # as it is sure to be longer than them (it loses then: the key frames come after
+            # it in the list, so it wins only ties); the same layer is chosen (issue 15.1)
+            y = u_members()
+            y /= g
+            absolute = _bounded(y, radius, limit=len(kdata))
+            del y
+        if absolute is not None:
+            order, wv, data = absolute
+            del absolute
+            out.append((len(data), ResidualLayer(ResidualBase.ABSOLUTE, order, g, wv, data)))
         out.append((len(kdata), ResidualLayer(ResidualBase.KEYFRAMES, 0, gk, wk, kdata)))
     return out
 

@@ -178,7 +178,8 @@ def _context(vals: NDArray[np.int64], t: int, m: int, a: int, first: bool) -> in
 
 @_kernel
 def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Probs,
-                  st: NDArray[np.int64], buf: NDArray[np.uint8], at: NDArray[np.int64]) -> bool:
+                  st: NDArray[np.int64], buf: NDArray[np.uint8], at: NDArray[np.int64],
+                  limit: int) -> int:
     """Code a block (§5.4-§5.6): the bits of :func:`_enc_int`, contexts of :func:`_context`.
 
     ``probs`` is the block's model set as one flat int32 array, Z [3, 8] | S [3, 8] |
@@ -190,7 +191,11 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
     index, bit) are listed first, then coded by the one copy of the §5.1 step below. The
     bytes are those of :func:`_enc_int`. Cold start (issue 15.2): the flat models come
     ready from the caller (no reshape or copies here), and every caller passes the same
-    argument types, so the kernel compiles once."""
+    argument types, so the kernel compiles once.
+
+    Returns 0 when done, 1 if ``buf`` overflowed, 2 if coding stopped because more than
+    ``limit`` bytes were written (the payload can then only end longer than ``limit``:
+    bytes once written stay, issue 15.1's early exit for candidates that lose)."""
     T, M, A = vals.shape[0], vals.shape[1], vals.shape[2]
     cap = buf.shape[0]
     pos = at[0]
@@ -280,9 +285,12 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
                             cache = (low >> 24) & 0xFF
                         csize += 1
                         low = (low & 0x00FFFFFF) << 8
+                if pos > limit:
+                    at[0] = pos
+                    return 2
     st[0], st[1], st[2], st[3] = low, rng, cache, csize
     at[0] = pos
-    return ok
+    return 0 if ok else 1
 
 
 #: the flat model set of :func:`_encode_block` with every probability at 1024 (§5.2)
@@ -413,10 +421,15 @@ class BlockEncoder:
     >>> dec.close()
     """
 
-    def __init__(self, capacity: int = 1 << 16) -> None:
+    def __init__(self, capacity: int = 1 << 16, *, limit: int | None = None) -> None:
         self._buf = np.zeros(capacity, np.uint8)
         self._pos = np.zeros(1, np.int64)
         self._st = np.array([0, 0xFFFFFFFF, 0, 1], np.int64)
+        #: with ``limit``, coding stops once the payload is sure to be longer than ``limit``
+        #: bytes; ``over`` is then True, later blocks are skipped and :meth:`finish` raises
+        #: (the encoder drops candidate payloads that cannot be the smallest, issue 15.1)
+        self._limit = (1 << 62) if limit is None else int(limit)
+        self.over = False
 
     def _grow(self) -> None:
         new = np.zeros(self._buf.shape[0] * 2, np.uint8)
@@ -447,12 +460,18 @@ class BlockEncoder:
         need = int(self._pos[0]) + 8 * v.size + 64
         while self._buf.shape[0] < need:
             self._grow()
-        if not _encode_block(v, period, signed, _flat_models(models), self._st, self._buf,
-                             self._pos):
+        if self.over:
+            return
+        code = _encode_block(v, period, signed, _flat_models(models), self._st, self._buf,
+                             self._pos, self._limit)
+        if code == 1:
             raise RuntimeError("range coder buffer overflow")  # unreachable: sized above
+        self.over = code == 2
 
     def finish(self) -> bytes:
         """Flush the coder (§5.1) and return the payload."""
+        if self.over:
+            raise ValueError(f"the payload is longer than its limit of {self._limit} bytes")
         while self._buf.shape[0] < int(self._pos[0]) + 16:
             self._grow()
         _finish(self._st, self._buf, self._pos)
