@@ -214,18 +214,21 @@ MUTANTS = [
     M("E1", E, "if n < 5:", "if n < 4:", "4-byte payload"),
     M("E2", E, "if self._buf[0] != 0:", "if False:", "first byte not checked"),
     M("E3", E, "        if left:\n", "        if left > 1:\n", "one byte left over allowed"),
-    M("E4", E, "        if ds[2] >= buf.shape[0]:", "        if ds[2] > buf.shape[0]:",
+    M("E4", E, "                        if pos >= n:", "                        if pos > n:",
       "reads one byte past the payload (close() then finds -1 bytes left)"),
-    M("E5", E, "        probs[idx] = p + ((2048 - p) >> MOVE_BITS)\n        bit = 0",
-      "        probs[idx] = p + ((2048 - p) >> (MOVE_BITS + 1))\n        bit = 0",
-      "decoder adapts differently"),
-    M("E6", E, "    while k < MAX_EXP:\n        b = _dec_bit", "    while k < MAX_EXP - 1:\n"
-      "        b = _dec_bit", "exponent k = 30 not read"),
-    M("E7", E, "_context(out, t, m, a, first), signed, err)", "_context(out, t, m, a, t == 0), "
-      "signed, err)", "decoder ignores the period in contexts"),
-    M("E8", E, "    return _ctx(ctx_v)", "    return _ctx(ctx_v & 0xFFFFFFFF)",
+    M("E5", E, "                        probs[i] = p + ((2048 - p) >> MOVE_BITS)\n"
+      "                        bit = 0",
+      "                        probs[i] = p + ((2048 - p) >> (MOVE_BITS + 1))\n"
+      "                        bit = 0", "decoder adapts differently"),
+    M("E6", E, "if bit == 0 or k == MAX_EXP:", "if bit == 0 or k == MAX_EXP - 1:",
+      "exponent k = 30 not read"),
+    M("E7", E, "                if not first:\n                    ctx_v += 2",
+      "                if t != 0:\n                    ctx_v += 2",
+      "decoder ignores the period in contexts"),
+    M("E8", E, "                c = 0\n                while ctx_v > 0",
+      "                ctx_v &= 0xFFFFFFFF\n                c = 0\n                while ctx_v > 0",
       "context value in unsigned 32 bits"),
-    M("E9", E, "while a > 0 and c < N_CTX - 1:", "while a > 0 and c < N_CTX - 2:",
+    M("E9", E, "while ctx_v > 0 and c < N_CTX - 1:", "while ctx_v > 0 and c < N_CTX - 2:",
       "context capped at 6"),
     # §6 decoder (decoder.py)
     M("D1", D, "if (flags > 1).any():", "if (flags > 2).any():", "gap flag 2 accepted"),
