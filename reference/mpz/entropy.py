@@ -43,8 +43,6 @@ ERR_OVERRUN = 1
 
 #: one model array (int32 probabilities, 1..2047)
 _Probs = NDArray[np.int32]
-#: the coder's output: a byte buffer and the write position ``pos[0]`` in it
-_Out = tuple[NDArray[np.uint8], NDArray[np.int64]]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 
@@ -87,100 +85,11 @@ def copy_models(models: Models) -> Models:
 
 # ---------------------------------------------------------------- encoder --
 @_kernel
-def _shift_low(st: NDArray[np.int64], out: _Out) -> bool:
-    # st: int64[4] = low, range, cache, cache_size ; out: (uint8 buffer, int64[1] pos)
-    low = st[0]
-    if low < 0xFF000000 or low >= 0x100000000:
-        carry = low >> 32
-        temp = st[2]
-        while True:
-            buf, pos = out
-            if pos[0] >= buf.shape[0]:
-                return False
-            buf[pos[0]] = (temp + carry) & 0xFF
-            pos[0] += 1
-            temp = 0xFF
-            st[3] -= 1
-            if st[3] == 0:
-                break
-        st[2] = (low >> 24) & 0xFF
-    st[3] += 1
-    st[0] = (low & 0x00FFFFFF) << 8
-    return True
-
-
-@_kernel
-def _enc_bit(st: NDArray[np.int64], out: _Out, probs: _Probs, idx: int, bit: int) -> bool:
-    p = probs[idx]
-    bound = (st[1] >> PROB_BITS) * p
-    if bit == 0:
-        st[1] = bound
-        probs[idx] = p + ((2048 - p) >> MOVE_BITS)
-    else:
-        st[0] += bound
-        st[1] -= bound
-        probs[idx] = p - (p >> MOVE_BITS)
-    ok = True
-    while st[1] < TOP:
-        st[1] = (st[1] << 8) & 0xFFFFFFFF
-        ok = _shift_low(st, out) and ok
-    return ok
-
-
-@_kernel
-def _enc_int(st: NDArray[np.int64], out: _Out, z: _Probs, s: _Probs, e: _Probs, x: _Probs,
-             a: int, c: int, v: int, signed: bool) -> bool:
-    # §5.4 binarisation of one integer v (|v| < 2^30)
-    ok = True
-    if v == 0:
-        return _enc_bit(st, out, z[a], c, 0)
-    ok = _enc_bit(st, out, z[a], c, 1)
-    u = v
-    if signed:
-        if v < 0:
-            ok = _enc_bit(st, out, s[a], c, 1) and ok
-            u = -v
-        else:
-            ok = _enc_bit(st, out, s[a], c, 0) and ok
-    k = 0
-    while (u >> (k + 1)) != 0:
-        k += 1
-    for i in range(k):
-        ok = _enc_bit(st, out, e[a, c], i, 1) and ok
-    if k < MAX_EXP:
-        ok = _enc_bit(st, out, e[a, c], k, 0) and ok
-    for j in range(k):
-        bit = (u >> (k - 1 - j)) & 1
-        ok = _enc_bit(st, out, x[a, k], j, bit) and ok
-    return ok
-
-
-@_kernel
-def _ctx(a: int) -> int:
-    # §5.6: context = min(7, bit length of a)
-    c = 0
-    while a > 0 and c < N_CTX - 1:
-        a >>= 1
-        c += 1
-    return c
-
-
-@_kernel
-def _context(vals: NDArray[np.int64], t: int, m: int, a: int, first: bool) -> int:
-    """§5.6: ctx_v = 2 |v[t-1, m, a]| (not on a run's first row) + |v[t, m-1, a]|."""
-    ctx_v = 0
-    if not first:
-        ctx_v += 2 * abs(vals[t - 1, m, a])
-    if m > 0:
-        ctx_v += abs(vals[t, m - 1, a])
-    return _ctx(ctx_v)
-
-
-@_kernel
 def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Probs,
                   st: NDArray[np.int64], buf: NDArray[np.uint8], at: NDArray[np.int64],
                   limit: int) -> int:
-    """Code a block (§5.4-§5.6): the bits of :func:`_enc_int`, contexts of :func:`_context`.
+    """Code a block (§5.4-§5.6): the decisions of §5.4 with the contexts of §5.6, coded by
+    the §5.1 encoder.
 
     ``probs`` is the block's model set as one flat int32 array, Z [3, 8] | S [3, 8] |
     E [3, 8, 30] | X [3, 31, 30] (:func:`_flat_models`), updated in place; the coder
@@ -189,7 +98,8 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
     Speed (issue 15): one loop with the coder state (low, range, cache, cache size, write
     position) in locals, instead of a call per bit on arrays; each value's decisions (model
     index, bit) are listed first, then coded by the one copy of the §5.1 step below. The
-    bytes are those of :func:`_enc_int`. Cold start (issue 15.2): the flat models come
+    bytes are those of the §5 transcription in :mod:`mpz.conformance.rangecoder`
+    (tests/test_entropy.py). Cold start (issue 15.2): the flat models come
     ready from the caller (no reshape or copies here), and every caller passes the same
     argument types, so the kernel compiles once.
 

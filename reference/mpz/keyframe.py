@@ -213,65 +213,6 @@ def decode_payload(dec: BlockDecoder, F: int, n: int, *, chunk: str | None = Non
 
 
 # ---------------------------------------------------------------- encoder --
-@njit(cache=True)
-def _span_fail(y: NDArray[np.float64], a: int, b: int, wa: NDArray[np.int64],
-               wb: NDArray[np.int64], r2: float, hint: int) -> int:
-    """The first frame of ``a+1 .. b-1`` (frame ``hint`` tried first, when inside) whose
-    interpolated value is farther than sqrt(r2) from ``y``; 0 when every frame is within.
-
-    The answer to "is the span within the bound" is the same whatever the order the frames
-    are tried in; trying the frame that failed last first makes most rejections O(1)."""
-    n = b - a
-    if a < hint < b:
-        j = hint - a
-        d2 = 0.0
-        for c in range(3):
-            dd = wa[c] + ((2 * (wb[c] - wa[c]) * j + n) // (2 * n)) - y[hint, c]
-            d2 += dd * dd
-        if d2 > r2:
-            return hint
-    # the quotients floor((2 d j + n) / 2n) step by step, without a division per frame:
-    # the numerator grows by 2d = 2n qd + rd (0 <= rd < 2n) from one frame to the next
-    D = 2 * n
-    q0 = wa[0]
-    q1 = wa[1]
-    q2 = wa[2]
-    r0 = n
-    r1 = n
-    r2_ = n
-    s0 = 2 * (wb[0] - wa[0])
-    s1 = 2 * (wb[1] - wa[1])
-    s2 = 2 * (wb[2] - wa[2])
-    qd0 = s0 // D
-    qd1 = s1 // D
-    qd2 = s2 // D
-    rd0 = s0 - qd0 * D
-    rd1 = s1 - qd1 * D
-    rd2 = s2 - qd2 * D
-    for j in range(1, n):
-        q0 += qd0
-        r0 += rd0
-        if r0 >= D:
-            r0 -= D
-            q0 += 1
-        q1 += qd1
-        r1 += rd1
-        if r1 >= D:
-            r1 -= D
-            q1 += 1
-        q2 += qd2
-        r2_ += rd2
-        if r2_ >= D:
-            r2_ -= D
-            q2 += 1
-        e0 = q0 - y[a + j, 0]
-        e1 = q1 - y[a + j, 1]
-        e2 = q2 - y[a + j, 2]
-        if e0 * e0 + e1 * e1 + e2 * e2 > r2:
-            return a + j
-    return 0
-
-
 @njit(cache=True, nogil=True)
 def _fit(y: NDArray[np.float64], radius: float, max_span: int,
          lam: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -356,8 +297,8 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
                             i0 = nc
                         nc += 1
             found = -1
-            # the span check of _span_fail, written out at its one call site (a called
-            # kernel compiles on its own, issue 15.2); the candidates after the first are
+            # the span check, written out at its one call site (a called kernel compiles
+            # on its own, issue 15.2); the candidates after the first are
             # sorted only when the first fails
             # the cheapest first; if it fails, the others in list order, skipping those
             # that cannot beat the best that passed: the least (cost, index) that passes,
@@ -493,14 +434,6 @@ def _log2_table(n: int) -> NDArray[np.float64]:
 
 
 @njit(cache=True, nogil=True)
-def _log2p1(tab: NDArray[np.float64], v: int) -> float:
-    u = abs(v)
-    if u < tab.shape[0]:
-        return tab[u]
-    return np.log2(1.0 + u)
-
-
-@njit(cache=True, nogil=True)
 def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
                     tracks: NDArray[np.int32], tab: NDArray[np.float64],
                     e: NDArray[np.int64]) -> int:
@@ -519,8 +452,9 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
     # usually the best, so the sums of the others stop early), none (0), then 1 .. 2m - 2;
     # the winner is the least (cost, p), which is what the first-on-tie scan in p order keeps.
     # A last pass (i = 2m + 1) writes the winner's residuals. The §6.5 prediction
-    # (_predict_key) and _log2p1 are written out here: kernels called from a kernel are
-    # compiled as kernels of their own, which costs the first encode (issue 15.2);
+    # (_predict_key) and the table lookup of log2(1 + |e|) are written out here: kernels
+    # called from a kernel are compiled as kernels of their own, which costs the first
+    # encode (issue 15.2);
     # tests/test_stages.py checks the choice and the residuals against _residuals/_cost.
     best = np.inf
     p = 0
