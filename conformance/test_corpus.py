@@ -7,28 +7,12 @@ from pathlib import Path
 import pytest
 
 import mpz
+from mpz.conformance.sources import rebuild_sources
 from mpz.container import repair_crcs
 from mpz.errors import MPZError
 from mpz.tools.mpzinfo import inspect
 
 CORPUS = sorted((Path(__file__).parent / "corpus").iterdir())
-
-
-def _write_sources(m: mpz.Motion) -> None:
-    """What the fuzz target's ``write_sources`` does: the C3D, BVH or AMC/ASF text that the
-    file's ancillary chunks rebuild, in memory (an MPZError is a refusal, anything else a
-    bug that escapes)."""
-    from mpz.io import amc, bvh, c3d
-    from mpz.io.kinematics import Skeleton
-    if m.extras.get("c3d") is not None:
-        c3d.archive_bytes(m)
-    skel = m.extras.get("skeleton")
-    if isinstance(skel, Skeleton):
-        if skel.convention == "bvh":
-            bvh.format_bvh(m)
-        else:
-            amc.format_asf(skel)
-            amc.format_amc(m)
 
 
 def test_corpus_is_not_empty():
@@ -42,7 +26,7 @@ def test_replay(path):
         try:
             out = mpz.decode(blob, max_samples=1 << 16)
             assert out.n_frames >= 1
-            _write_sources(out)
+            rebuild_sources(out)        # what mpz decode -o X.c3d/.bvh/.amc writes
         except MPZError:
             pass
         # the fuzz target's own sample limit: the corpus probes the decoder's paths, not the

@@ -39,6 +39,7 @@ import atheris
 import numpy as np
 
 import mpz
+from mpz.conformance.sources import rebuild_sources
 from mpz.container import repair_crcs
 from mpz.errors import MPZError
 from mpz.tools.mpzinfo import inspect
@@ -107,22 +108,9 @@ def check(blob: bytes) -> None:
 def write_sources(m: mpz.Motion) -> None:
     """Write what a decoded file's ancillary chunks rebuild (issue 12: C3D archive §6.9;
     issue 13: skeletons §6.10) into memory, as ``mpz decode -o X.c3d/.bvh/.amc`` would.
-
-    A valid file whose archive no writer can hold may be refused with an MPZError (an
-    InputFormatError names what a C3D, BVH or AMC cannot express); anything else escapes.
-    """
-    from mpz.io import amc, bvh, c3d
-    from mpz.io.kinematics import Skeleton
+    A writer may refuse a valid file with an MPZError; anything else escapes."""
     try:
-        if m.extras.get("c3d") is not None:
-            c3d.archive_bytes(m)
-        skel = m.extras.get("skeleton")
-        if isinstance(skel, Skeleton):
-            if skel.convention == "bvh":
-                bvh.format_bvh(m)
-            else:
-                amc.format_asf(skel)
-                amc.format_amc(m)
+        rebuild_sources(m)
     except MPZError:
         pass
 
