@@ -41,6 +41,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import shared_data_dir
+from bench_entropy import _context8
 import mpz
 from mpz import container, entropy
 
@@ -62,15 +63,7 @@ def _count_block(vals, period, signed, cz, cs, ce, cx):  # pragma: no cover - nu
         first = (t % period) == 0
         for m in range(M):
             for a in range(A):
-                cv = 0
-                if not first:
-                    cv += 2 * abs(vals[t - 1, m, a])
-                if m > 0:
-                    cv += abs(vals[t, m - 1, a])
-                c = 0
-                while cv > 0 and c < 7:
-                    cv >>= 1
-                    c += 1
+                c = _context8(vals, t, m, a, first)          # §5.6
                 v = vals[t, m, a]
                 if v == 0:
                     cz[a, c, 0] += 1
