@@ -215,11 +215,11 @@ class Chdr(Record):
 
     @classmethod
     def load(cls, payload: bytes) -> Chdr:
-        outer = grammar.CHDR.parse(payload) if len(payload) >= 2 else None
-        if outer is None:
+        if len(payload) < 2:
             raise FormatError(f"malformed chdr payload: {len(payload)} bytes, shorter than "
                               f"its processor and coding bytes", chunk=cls.TYPE,
                               section="§4.13.1")
+        outer = grammar.CHDR.parse(payload)
         content = _content(cls, outer.coding, outer.body, 512)
         block = _ChdrBlock.load(content).block
         return cls(processor=outer.processor, block=block, coding=outer.coding)
