@@ -189,10 +189,13 @@ def test_keyframe_fit_follows_the_greedy_rule(T, radius, noise, max_span, seed):
     rng = np.random.default_rng(seed)
     t = np.arange(T)[:, None]
     y = 40 * np.sin(t / rng.uniform(3, 30) + rng.uniform(0, 6, 3)) + rng.normal(0, noise, (T, 3))
-    times, vals = fit(y, radius, max_span)
+    track = np.full((T, 3), -7, np.int32)
+    times, vals = fit(y, radius, max_span, track=track)
     want_t, want_v = _fit_by_the_rule(y.tolist(), radius, max_span, 1.0)
     assert times.tolist() == want_t
     assert vals.tolist() == want_v
+    # the kernel's own decoded track (issue 15.1) is interpolate()'s, the §6.5 rule in numpy
+    assert track.tolist() == interpolate(want_t, want_v, T).tolist()
 
 
 @settings(max_examples=40, deadline=None)
@@ -238,6 +241,48 @@ def test_encoder_threads_do_not_change_the_bytes():
         one, _ = encode_motion(m, EncodeOptions(threads=1, **kw))
         assert encode_motion(m, EncodeOptions(threads=2, **kw))[0] == one
         assert encode_motion(m, EncodeOptions(threads=3, **kw))[0] == one
+
+
+def _bases(data):
+    """The residual base of each node's RESI, read back by the decoder."""
+    from mpz.decoder import read_stream
+    s = read_stream(data)
+    return [int(s.resi[i].record.base) for i in range(1, len(s.nodes))]
+
+
+def test_encoder_threads_when_absolute_residuals_win():
+    """Noise that no key frame can span: base 1 (absolute) beats the key frames, so the
+    threaded path's pick of the two orders, each coded against the key frames' length, is
+    the one in the file; with smooth motion the key frames win. Both at 1, 2 and 3 threads."""
+    from mpz.encoder import EncodeOptions, encode_motion
+    from mpz.format import ResidualBase
+    from mpz.motion import Motion
+    from mpz.synth import generate
+    rng = np.random.default_rng(11)
+    noise = Motion(rng.normal(0, 50.0, (200, 6, 3)), [f"m{i}" for i in range(6)], 100.0)
+    smooth = generate("walk", frames=300, markers=8, seed=5)
+    for motion, base in ((noise, ResidualBase.ABSOLUTE), (smooth, ResidualBase.KEYFRAMES)):
+        one, _ = encode_motion(motion, EncodeOptions(max_error=1.0, threads=1))
+        assert set(_bases(one)) == {int(base)}
+        for threads in (2, 3):
+            assert encode_motion(motion, EncodeOptions(max_error=1.0, threads=threads))[0] == one
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 30), st.integers(2, 12), st.integers(0, 2 ** 32 - 1))
+def test_marker_distances_are_numpys_norm_bit_for_bit(S, N, seed):
+    """_chain's distances (issue 15.1) equal np.linalg.norm's bits, and so do their sums
+    over frames (which depend on how the array is laid out), so the order is unchanged."""
+    from mpz.encoder import _distances
+    rng = np.random.default_rng(seed)
+    sub = rng.normal(0, 10.0 ** rng.uniform(-3, 4), (S, N, 3))
+    want = np.linalg.norm(sub[:, :, None] - sub[:, None], axis=3)
+    got = _distances(sub)
+    assert np.array_equal(got, want)
+    ok = rng.random((S, N)) > 0.2
+    both = ok[:, :, None] & ok[:, None, :]
+    assert np.array_equal((got * both).sum(0), (want * both).sum(0))
+    assert np.array_equal((got ** 2 * both).sum(0), (want ** 2 * both).sum(0))
 
 
 def test_encoder_threads_on_a_real_capture(shared_data):

@@ -23,6 +23,8 @@ halves the key residuals at 5 mm on real captures.
 from __future__ import annotations
 
 from concurrent.futures import Executor
+from dataclasses import dataclass
+import math
 from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
@@ -131,8 +133,11 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
     k_at = 0
     n = counts.shape[0]
     wk = np.empty(3, np.int64)
-    w1 = np.zeros(3, np.int64)
-    w2 = np.zeros(3, np.int64)
+    w1 = np.empty(3, np.int64)
+    w2 = np.empty(3, np.int64)
+    for c in range(3):                  # np.empty: np.zeros is one more compile
+        w1[c] = 0
+        w2[c] = 0
     for m in range(n):
         K = counts[m]
         p = refs[m]
@@ -150,8 +155,27 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
                 tk = t1 + 1
                 while not (bits[m, tk >> 3] >> (tk & 7)) & 1:
                     tk += 1
+            d1 = tk - t1
+            d0 = t1 - t2                    # >= 1 where it divides (k >= 2)
             for c in range(3):
-                v = _predict_key(mode, k, tk, t1, t2, w1[c], w2[c], R, c) + keys[k_at + k, c]
+                # _predict_key, written out: a called kernel compiles on its own, once per
+                # literal argument type (three times here), which costs the first decode
+                if mode == 0:
+                    if k == 0:
+                        pr = 0
+                    elif k == 1:
+                        pr = w1[c]
+                    else:
+                        pr = w1[c] + (2 * (w1[c] - w2[c]) * d1 + d0) // (2 * d0)
+                elif k == 0:
+                    pr = R[tk, c]
+                elif mode == 1 or k == 1:
+                    pr = w1[c] + R[tk, c] - R[t1, c]
+                else:
+                    r1 = w1[c] - R[t1, c]
+                    r0 = w2[c] - R[t2, c]
+                    pr = R[tk, c] + r1 + (2 * (r1 - r0) * d1 + d0) // (2 * d0)
+                v = pr + keys[k_at + k, c]
                 if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:
                     return 2, m, k
                 wk[c] = v
@@ -214,12 +238,14 @@ def decode_payload(dec: BlockDecoder, F: int, n: int, *, chunk: str | None = Non
 
 # ---------------------------------------------------------------- encoder --
 @njit(cache=True, nogil=True)
-def _fit(y: NDArray[np.float64], radius: float, max_span: int,
-         lam: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def _fit(y: NDArray[np.float64], radius: float, max_span: int, lam: float,
+         track: NDArray[np.int32]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Greedy key frames (see :func:`fit`). For each end frame b the key value is, among the
     grid points within ``radius`` of y[b] whose span from the previous key keeps every frame
     within ``radius``, the one of least cost ``lam |w - y[b]|^2 + |w - pred|_1`` (on a tie:
-    the first in (x, y, z) order); the span grows while such a point exists.
+    the first in (x, y, z) order); the span grows while such a point exists. ``track``
+    ``[T, 3]`` receives the keys' §6.5 interpolation, the decoded track (here, where the
+    GIL is released, rather than by :func:`interpolate`: issue 15.1).
 
     Speed (issue 15): the candidates of b are listed with their costs first and the span
     check, O(b - a), is made for the cheapest first; only when it fails are the others
@@ -232,11 +258,11 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
     times = np.empty(T, np.int64)
     vals = np.empty((T, 3), np.int64)
     for c in range(3):
-        vals[0, c] = int(np.floor(y[0, c] + 0.5))
+        vals[0, c] = math.floor(y[0, c] + 0.5)
     times[0] = 0
     K = 1
     a = 0
-    side = int(np.floor(2.0 * radius)) + 2            # grid points per axis in the box
+    side = math.floor(2.0 * radius) + 2            # grid points per axis in the box
     cap = side * side * side
     cands = np.empty((cap, 3), np.int64)
     costs = np.empty(cap, np.float64)
@@ -260,12 +286,12 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
                     pred[c] = w1 + (2 * (w1 - w0) * d1 + d0) // (2 * d0)
                 else:
                     pred[c] = vals[K - 1, c]
-            lo0 = int(np.ceil(y[b, 0] - radius))
-            hi0 = int(np.floor(y[b, 0] + radius))
-            lo1 = int(np.ceil(y[b, 1] - radius))
-            hi1 = int(np.floor(y[b, 1] + radius))
-            lo2 = int(np.ceil(y[b, 2] - radius))
-            hi2 = int(np.floor(y[b, 2] + radius))
+            lo0 = math.ceil(y[b, 0] - radius)
+            hi0 = math.floor(y[b, 0] + radius)
+            lo1 = math.ceil(y[b, 1] - radius)
+            hi1 = math.floor(y[b, 1] + radius)
+            lo2 = math.ceil(y[b, 2] - radius)
+            hi2 = math.floor(y[b, 2] + radius)
             nc = 0
             i0 = -1
             bestc = 1e300
@@ -380,25 +406,40 @@ def _fit(y: NDArray[np.float64], radius: float, max_span: int,
         if good < 0:   # cannot happen: the nearest grid point always qualifies for b = a + 1
             good = a + 1
             for c in range(3):
-                keep[c] = int(np.floor(y[good, c] + 0.5))
+                keep[c] = math.floor(y[good, c] + 0.5)
         times[K] = good
         vals[K, 0] = keep[0]
         vals[K, 1] = keep[1]
         vals[K, 2] = keep[2]
         K += 1
         a = good
+    # the decoded track: interpolate() (§6.5), frame by frame
+    for k in range(1, K):
+        t1 = times[k - 1]
+        nn = times[k] - t1
+        for j in range(nn):
+            for c in range(3):
+                w1 = vals[k - 1, c]
+                track[t1 + j, c] = w1 + (2 * (vals[k, c] - w1) * j + nn) // (2 * nn)
+    for c in range(3):
+        track[T - 1, c] = vals[K - 1, c]
     return times[:K].copy(), vals[:K].copy()      # not views that keep T-sized arrays alive
 
 
-def fit(y: ArrayLike, radius: float, max_span: int = 256,
-        lam: float = 1.0) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def fit(y: ArrayLike, radius: float, max_span: int = 256, lam: float = 1.0,
+        track: NDArray[np.int32] | None = None) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Key frames of one track ``y[T, 3]`` (grid units) with every sample within ``radius``.
 
-    Returns the key times ``[K]`` and the key values ``[K, 3]`` on the grid.
+    Returns the key times ``[K]`` and the key values ``[K, 3]`` on the grid; with
+    ``track`` (C-contiguous int32 ``[T, 3]``), also writes there what the decoder rebuilds
+    from them (:func:`interpolate`).
     """
     if radius < np.sqrt(3.0) / 2:
         raise ValueError("radius < sqrt(3)/2 cannot guarantee a grid point")
-    return _fit(np.ascontiguousarray(y, dtype=np.float64), float(radius), int(max_span), float(lam))
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    if track is None:
+        track = np.empty((len(y), 3), np.int32)
+    return _fit(y, float(radius), int(max_span), float(lam), track)
 
 
 @njit(cache=True)
@@ -515,46 +556,42 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
 
 
 def _fit_member(y: NDArray[np.float64], m: int, radius: float, max_span: int,
-                out: NDArray[np.int32]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Fit member m and write its decoded track to ``out[:, m]`` (a column of its own, so
+                tracks: NDArray[np.int32]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Fit member m and write its decoded track to ``tracks[m]`` (an array of its own, so
     members can be fitted by several threads at once)."""
-    times, w = fit(y[:, m], radius, max_span)
-    out[:, m] = interpolate(times, w, y.shape[0])
-    return times, w
+    return fit(y[:, m], radius, max_span, track=tracks[m])
 
 
-def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
-                  max_span: int = 256, pool: Executor | None = None) -> NDArray[np.int32]:
-    """Fit every member of ``y[T, n, 3]`` and code the four blocks; returns the grid values
-    (int32: every value lies between two keys near ``y``, and |y| < 2^29).
+@dataclass
+class Fitted:
+    """The key frames of a node's members, before coding (:func:`fit_members`)."""
+
+    times: list[NDArray[np.int64]]      # member m's key times [K_m]
+    refs: list[int]                     # p_m (§6.5)
+    residuals: list[NDArray[np.int64]]  # member m's key values minus their prediction
+    out: NDArray[np.int32]              # what the decoder rebuilds, [T, n, 3]
+
+
+def fit_members(y: NDArray[np.float64], radius: float, max_span: int = 256,
+                pool: Executor | None = None) -> Fitted:
+    """Fit every member of ``y[T, n, 3]``, choose each one's reference, and form the
+    decoded tracks; :func:`write_blocks` codes the result.
 
     Each member's keys are predicted from whichever earlier member (or none)
     gives the smallest residuals, by the proxy sum(log2(1 + |e|)).
 
-    Memory (issue 11.11): the spans and key residuals go straight into arrays sized for
-    the most keys there can be (T per member) and zero-filled, so that only the part
-    written becomes resident, and the blocks are coded from their filled prefixes: no
-    list of per-member arrays and no concatenated copy of it.
-
     Speed (issue 15): the members are fitted independently of each other, on the threads
     of ``pool`` when one is given (the fitting kernel releases the GIL); the key lists
     held meanwhile are K-sized, not T-sized. Then each member's reference is chosen, also
-    independently (from the finished tracks), and the blocks are filled in member order,
-    so the payload does not depend on the threads.
+    independently (from the finished tracks), so the result does not depend on the threads.
     """
     T, n, _ = y.shape
-    refs = np.zeros(n, np.int64)
-    counts = np.zeros(n, np.int64)
-    spans = np.zeros(max(0, T - 1) * n, np.int64)
-    keys = np.zeros((T * n, 3), np.int64)
-    s_at = k_at = 0
-    out = np.zeros((T, n, 3), np.int32)
+    tracks = np.empty((n, T, 3), np.int32)     # member-major: each fit writes its own
     if pool is None or n < 2:
-        fits = [_fit_member(y, m, radius, max_span, out) for m in range(n)]
+        fits = [_fit_member(y, m, radius, max_span, tracks) for m in range(n)]
     else:
-        fits = list(pool.map(lambda m: _fit_member(y, m, radius, max_span, out), range(n)))
+        fits = list(pool.map(lambda m: _fit_member(y, m, radius, max_span, tracks), range(n)))
     tab = _log2_table(_LOG2_TABLE)
-    tracks = np.ascontiguousarray(out.transpose(1, 0, 2))     # [n, T, 3]
     res = [np.empty_like(w) for _, w in fits]      # each member's key residuals
     if pool is None or n < 2:
         ps = [_best_reference(m, fits[m][0], fits[m][1], tracks, tab, res[m])
@@ -562,13 +599,27 @@ def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
     else:                 # each member's choice reads only the finished tracks
         ps = list(pool.map(lambda m, tr=tracks: _best_reference(m, fits[m][0], fits[m][1], tr,
                                                                 tab, res[m]), range(n)))
-    del tracks
+    out = np.ascontiguousarray(tracks.transpose(1, 0, 2))    # [T, n, 3]
+    return Fitted([t for t, _ in fits], [int(p) for p in ps], res, out)
+
+
+def write_blocks(enc: BlockEncoder, fitted: Fitted, T: int) -> None:
+    """Code the four blocks of :func:`fit_members`' result for ``T`` frames, in member order.
+
+    Memory (issue 11.11): the spans and key residuals go straight into arrays sized for
+    the most keys there can be (T per member) and zero-filled, so that only the part
+    written becomes resident, and the blocks are coded from their filled prefixes: no
+    list of per-member arrays and no concatenated copy of it.
+    """
+    n = len(fitted.times)
+    refs = np.asarray(fitted.refs, np.int64)
+    counts = np.zeros(n, np.int64)
+    spans = np.zeros(max(0, T - 1) * n, np.int64)
+    keys = np.zeros((T * n, 3), np.int64)
+    s_at = k_at = 0
     for m in range(n):
-        times, w = fits[m]
-        p = ps[m]
-        e = res[m]
-        K = len(w)
-        refs[m] = p
+        times, e = fitted.times[m], fitted.residuals[m]
+        K = len(e)
         counts[m] = K - 1
         spans[s_at: s_at + K - 1] = np.diff(times) - 1
         keys[k_at: k_at + K] = e
@@ -578,4 +629,13 @@ def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
     enc.block(counts.reshape(-1, 1, 1), signed=False)
     enc.block(spans[:s_at].reshape(-1, 1, 1), signed=False)
     enc.block(keys[:k_at][:, None, :])
-    return out
+
+
+def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
+                  max_span: int = 256, pool: Executor | None = None) -> NDArray[np.int32]:
+    """Fit every member of ``y[T, n, 3]`` and code the four blocks (:func:`fit_members`,
+    then :func:`write_blocks`); returns the grid values (int32: every value lies between
+    two keys near ``y``, and |y| < 2^29)."""
+    fitted = fit_members(y, radius, max_span, pool)
+    write_blocks(enc, fitted, y.shape[0])
+    return fitted.out

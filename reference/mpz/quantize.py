@@ -11,6 +11,8 @@ HDM05 captures at 1-5 mm (bench/bench_rd.py).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -20,10 +22,10 @@ from mpz._jit import njit
 @njit(cache=True, nogil=True)
 def _choose(y: NDArray[np.float64], radius: float, order: int) -> NDArray[np.int64]:
     T, M = y.shape[0], y.shape[1]
-    w = np.zeros((T, M, 3), np.int64)
+    w = np.empty((T, M, 3), np.int64)       # every value is written below
     r2 = radius * radius
-    for m in range(M):
-        for t in range(T):
+    for t in range(T):              # each track is independent: frame by frame, so that
+        for m in range(M):          # w[t - 1] and y[t] are read in memory order
             p0 = 0.0
             p1 = 0.0
             p2 = 0.0
@@ -38,20 +40,20 @@ def _choose(y: NDArray[np.float64], radius: float, order: int) -> NDArray[np.int
                 p2 = 2 * w[t - 1, m, 2] - w[t - 2, m, 2]
             if order == 0 or t == 0:
                 # nothing to predict from: nearest grid point
-                w[t, m, 0] = int(np.floor(y[t, m, 0] + 0.5))
-                w[t, m, 1] = int(np.floor(y[t, m, 1] + 0.5))
-                w[t, m, 2] = int(np.floor(y[t, m, 2] + 0.5))
+                w[t, m, 0] = math.floor(y[t, m, 0] + 0.5)
+                w[t, m, 1] = math.floor(y[t, m, 1] + 0.5)
+                w[t, m, 2] = math.floor(y[t, m, 2] + 0.5)
                 continue
             best = 1e300
-            b0 = int(np.floor(y[t, m, 0] + 0.5))
-            b1 = int(np.floor(y[t, m, 1] + 0.5))
-            b2 = int(np.floor(y[t, m, 2] + 0.5))
-            lo0 = int(np.ceil(y[t, m, 0] - radius))
-            hi0 = int(np.floor(y[t, m, 0] + radius))
-            lo1 = int(np.ceil(y[t, m, 1] - radius))
-            hi1 = int(np.floor(y[t, m, 1] + radius))
-            lo2 = int(np.ceil(y[t, m, 2] - radius))
-            hi2 = int(np.floor(y[t, m, 2] + radius))
+            b0 = math.floor(y[t, m, 0] + 0.5)
+            b1 = math.floor(y[t, m, 1] + 0.5)
+            b2 = math.floor(y[t, m, 2] + 0.5)
+            lo0 = math.ceil(y[t, m, 0] - radius)
+            hi0 = math.floor(y[t, m, 0] + radius)
+            lo1 = math.ceil(y[t, m, 1] - radius)
+            hi1 = math.floor(y[t, m, 1] + radius)
+            lo2 = math.ceil(y[t, m, 2] - radius)
+            hi2 = math.floor(y[t, m, 2] + radius)
             for a in range(lo0, hi0 + 1):
                 da = a - y[t, m, 0]
                 for b in range(lo1, hi1 + 1):
