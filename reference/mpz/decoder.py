@@ -411,7 +411,8 @@ def _peak(v: IntArray, members: NDArray[np.intp] | None = None) -> int:
     peak = 0
     for t0, t1 in frame_blocks(v.shape[0], per_row):
         blk = v[t0:t1] if members is None else v[t0:t1, members]
-        peak = max(peak, int(np.abs(blk).max(initial=0)))
+        if blk.size:                    # max |v| as max(max v, -min v): no |v| array
+            peak = max(peak, int(blk.max()), -int(blk.min()))
     return peak
 
 
@@ -487,9 +488,10 @@ def _declared_range(s: Stream, q: IntArray) -> None:
     for i, node in enumerate(s.nodes):
         members = np.asarray(node.members, np.intp)
         for t0, t1 in frame_blocks(q.shape[0], len(members)):
-            mag = np.abs(q[t0:t1, members])
-            if mag.max(initial=0) < limit:
+            blk = q[t0:t1, members]
+            if not blk.size or (blk.max() < limit and blk.min() > -limit):
                 continue
+            mag = np.abs(blk)
             t, m, a = (int(k) for k in np.unravel_index(int(np.argmax(mag >= limit)),
                                                          mag.shape))
             t += t0
