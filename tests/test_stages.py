@@ -233,6 +233,17 @@ def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):
         assert e.tolist() == want.tolist()
 
 
+def test_log2_table_has_the_kernels_bits():
+    """The reference choice reads log2(1 + |e|) from a table for small |e| and computes it
+    in the kernel (numba's np.log2) beyond: both must give the same bits, or a tie could
+    break differently depending on |e|. _cost is the kernel's log2 (log2(1) = 0)."""
+    from mpz import keyframe as kf
+    tab = kf._log2_table(kf._LOG2_TABLE)
+    assert tab.shape == (kf._LOG2_TABLE,) and not tab.flags.writeable
+    for i in range(kf._LOG2_TABLE):
+        assert kf._cost(np.array([[i, 0, 0]], np.int64)) == tab[i], i
+
+
 def test_encoder_threads_do_not_change_the_bytes():
     from mpz.encoder import EncodeOptions, encode_motion
     from mpz.synth import generate

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from concurrent.futures import Executor
 from dataclasses import dataclass
+import functools
 import math
 from typing import TYPE_CHECKING, NoReturn
 
@@ -465,12 +466,15 @@ def _cost(e: NDArray[np.int64]) -> float:
 _LOG2_TABLE = 1 << 12
 
 
-@njit(cache=True)
+@functools.cache
 def _log2_table(n: int) -> NDArray[np.float64]:
-    """log2(1 + i) for i < n, by the same numba log2 as :func:`_cost` (so the same bits)."""
-    t = np.empty(n, np.float64)
-    for i in range(n):
-        t[i] = np.log2(1.0 + i)
+    """log2(1 + i) for i < n, read-only, made once per process. ``math.log2`` is the C
+    library's log2, which numba's ``np.log2`` calls in :func:`_cost` and
+    :func:`_best_reference`: the same bits (tests/test_stages.py checks), without a kernel
+    to compile on the first encode (issue 15.2). numpy's own ``np.log2`` differs in the
+    last bit for some i, which could change a tie in the reference choice."""
+    t = np.array([math.log2(1.0 + i) for i in range(n)], np.float64)
+    t.flags.writeable = False
     return t
 
 
