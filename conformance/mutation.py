@@ -314,8 +314,8 @@ MUTANTS = [
       "key values not range-checked"),
     M("F6", F, "if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:",
       "if v > _VALUE_LIMIT or v < -_VALUE_LIMIT:", "key value 2^31 allowed"),
-    M("F7", F, "pr = w1[c] + (2 * (w1[c] - w2[c]) * d1 + d0) // (2 * d0)",
-      "pr = w1[c] + (2 * (w1[c] - w2[c]) * d1) // (2 * d0)", "own-key prediction rounded down"),
+    M("F7", F, "return w1 + (2 * (w1 - w2) * d1 + d0) // (2 * d0)",
+      "return w1 + (2 * (w1 - w2) * d1) // (2 * d0)", "own-key prediction rounded down"),
     M("F8", F, "w1[c] + (2 * (wk[c] - w1[c]) * jj + nn) // (2 * nn)",
       "w1[c] + (2 * (wk[c] - w1[c]) * jj) // (2 * nn)", "interpolation rounded down"),
     # the encoder (pinned to the shipped vectors)

@@ -62,12 +62,15 @@ def interpolate(times: ArrayLike, values: ArrayLike, F: int) -> NDArray[np.int64
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _predict_key(mode: int, k: int, tk: int, t1: int, t2: int, w1: int, w2: int,
                  R: NDArray[np.int64] | NDArray[np.int32], c: int) -> int:
     """§6.5 prediction of key k (axis c) of a member at time ``tk``, from the two keys
     before it (times t1 = t_{k-1}, t2 = t_{k-2}, values w1, w2 on axis c, where they
-    exist); R is the reference member's track ``[F, 3]`` (unused for mode 0)."""
+    exist); R is the reference member's track ``[F, 3]`` (unused for mode 0).
+
+    Inlined into its callers before typing: called as a kernel of its own it was
+    compiled once per literal argument type, three times on the first decode (issue 15.2)."""
     if mode == 0:
         if k == 0:
             return 0
@@ -156,27 +159,8 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
                 tk = t1 + 1
                 while not (bits[m, tk >> 3] >> (tk & 7)) & 1:
                     tk += 1
-            d1 = tk - t1
-            d0 = t1 - t2                    # >= 1 where it divides (k >= 2)
             for c in range(3):
-                # _predict_key, written out: a called kernel compiles on its own, once per
-                # literal argument type (three times here), which costs the first decode
-                if mode == 0:
-                    if k == 0:
-                        pr = 0
-                    elif k == 1:
-                        pr = w1[c]
-                    else:
-                        pr = w1[c] + (2 * (w1[c] - w2[c]) * d1 + d0) // (2 * d0)
-                elif k == 0:
-                    pr = R[tk, c]
-                elif mode == 1 or k == 1:
-                    pr = w1[c] + R[tk, c] - R[t1, c]
-                else:
-                    r1 = w1[c] - R[t1, c]
-                    r0 = w2[c] - R[t2, c]
-                    pr = R[tk, c] + r1 + (2 * (r1 - r0) * d1 + d0) // (2 * d0)
-                v = pr + keys[k_at + k, c]
+                v = _predict_key(mode, k, tk, t1, t2, w1[c], w2[c], R, c) + keys[k_at + k, c]
                 if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:
                     return 2, m, k
                 wk[c] = v
