@@ -480,11 +480,9 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
     # candidates p in the order: the previous member (2m - 1, 2m: after _chain's ordering
     # usually the best, so the sums of the others stop early), none (0), then 1 .. 2m - 2;
     # the winner is the least (cost, p), which is what the first-on-tie scan in p order keeps.
-    # A last pass (i = 2m + 1) writes the winner's residuals. The §6.5 prediction
-    # (_predict_key) and the table lookup of log2(1 + |e|) are written out here: kernels
-    # called from a kernel are compiled as kernels of their own, which costs the first
-    # encode (issue 15.2);
-    # tests/test_stages.py checks the choice and the residuals against _residuals/_cost.
+    # A last pass (i = 2m + 1) writes the winner's residuals. The §6.5 prediction is
+    # _predict_key, inlined (issue 15.2); tests/test_stages.py checks the choice and the
+    # residuals against _residuals/_cost.
     best = np.inf
     p = 0
     ntab = tab.shape[0]
@@ -511,23 +509,7 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
             for c in range(3):
                 w1 = w[k - 1, c] if k >= 1 else 0
                 w2 = w[k - 2, c] if k >= 2 else 0
-                if mode == 0:
-                    if k == 0:
-                        pr = 0
-                    elif k == 1:
-                        pr = w1
-                    else:
-                        d0 = t1 - t2
-                        pr = w1 + (2 * (w1 - w2) * (tk - t1) + d0) // (2 * d0)
-                elif k == 0:
-                    pr = R[tk, c]
-                elif mode == 1 or k == 1:
-                    pr = w1 + R[tk, c] - R[t1, c]
-                else:
-                    d0 = t1 - t2
-                    r1 = w1 - R[t1, c]
-                    r0 = w2 - R[t2, c]
-                    pr = R[tk, c] + r1 + (2 * (r1 - r0) * (tk - t1) + d0) // (2 * d0)
+                pr = _predict_key(mode, k, tk, t1, t2, w1, w2, R, c)
                 ev = w[k, c] - pr
                 if final:
                     e[k, c] = ev
