@@ -499,19 +499,11 @@ def test_no_runtime_warning_from_metrics_on_gap_only_markers() -> None:
     assert s["per_marker_rms"]["b"] is None and s["per_marker_max"]["b"] is None
 
 
-def test_first_run_compile_notice_on_a_terminal_only(inputs: dict[str, Path],
-                                                     tmp_path: Path) -> None:
+def _on_a_terminal(args: list[str], env: dict[str, str], cwd: Path) -> bytes:
+    """What ``args`` writes on standard error when that is a terminal (a pty)."""
     import pty
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"))
-    args = [command("mpz"), "encode", str(inputs["trc"]), "-o", "-", "--max-error", "1mm"]
-    # standard error is a pipe: no notice, even when compiling
-    p = subprocess.run(args, capture_output=True, env=env, timeout=600, cwd=tmp_path)
-    assert p.returncode == 0 and b"compiling" not in p.stderr
-    # standard error is a terminal and the cache is empty: one line that says why it waits
     master, slave = pty.openpty()
-    env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba-cache-2")
-    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=slave, env=env,
-                            cwd=tmp_path)
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=slave, env=env, cwd=cwd)
     os.close(slave)
     out = b""
     while True:
@@ -524,7 +516,39 @@ def test_first_run_compile_notice_on_a_terminal_only(inputs: dict[str, Path],
         out += chunk
     assert proc.wait(timeout=600) == 0
     os.close(master)
+    return out
+
+
+def test_first_run_compile_notice_on_a_terminal_only(inputs: dict[str, Path],
+                                                     tmp_path: Path) -> None:
+    # the kernels shipped with the package off, so that a first run compiles
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"),
+               MPZ_SHIPPED_KERNELS="0")
+    env.pop("MPZ_CACHE_DIR", None)
+    args = [command("mpz"), "encode", str(inputs["trc"]), "-o", "-", "--max-error", "1mm"]
+    # standard error is a pipe: no notice, even when compiling
+    p = subprocess.run(args, capture_output=True, env=env, timeout=600, cwd=tmp_path)
+    assert p.returncode == 0 and b"compiling" not in p.stderr
+    # standard error is a terminal and the cache is empty: one line that says why it waits
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba-cache-2")
+    out = _on_a_terminal(args, env, tmp_path)
     assert out.count(b"compiling") == 1 and b"first run" in out
+
+
+def test_no_compile_notice_when_the_shipped_kernels_serve(inputs: dict[str, Path],
+                                                          tmp_path: Path) -> None:
+    """With an empty cache but the kernels shipped with the package (mpz/_kernels), the
+    first run compiles nothing, so it announces nothing (docs/cold-start.md)."""
+    from mpz import _jit
+    if _jit.shipped_cpu() is None:
+        pytest.skip("the shipped kernels do not serve this interpreter, numba or CPU")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"),
+               MPZ_SHIPPED_KERNELS="1")
+    env.pop("MPZ_CACHE_DIR", None)
+    args = [command("mpz"), "encode", str(inputs["trc"]), "-o", "-", "--max-error", "1mm"]
+    out = _on_a_terminal(args, env, tmp_path)
+    assert b"compiling" not in out and b"first run" not in out
+    assert b"encoding" in out          # the progress bar: this is the terminal's output
 
 
 def test_packaging_files(tmp_path: Path) -> None:

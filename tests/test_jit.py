@@ -123,10 +123,13 @@ print(json.dumps({"where": p.where, "path": p.path, "ok": bool((back == vals).al
 """
 
 
-def _child(env: dict[str, str], *args: str) -> dict:
+def _child(env: dict[str, str], *args: str, script: str = _CHILD) -> dict:
+    """Run ``script`` in a fresh process; the shipped kernels are off unless ``env`` turns
+    them on, so that the cache policy alone decides what compiles."""
     base = {k: v for k, v in os.environ.items()
             if k not in ("MPZ_CACHE_DIR", "NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
-    r = subprocess.run([sys.executable, "-c", _CHILD, _jit.__file__, *args],
+    base[_jit.SHIPPED_ENV] = "0"
+    r = subprocess.run([sys.executable, "-c", script, _jit.__file__, *args],
                        env={**base, **env}, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -189,3 +192,107 @@ def test_cli_notes_an_uncached_run_in_verbose_mode_only(tmp_path: Path) -> None:
     notes = [ln for ln in verbose.splitlines() if "no writable cache directory" in ln]
     assert len(notes) == 1 and blocked in notes[0]
     assert (tmp_path / "a.npy").stat().st_size > 0
+
+
+# -- the kernels shipped with the package (mpz/_kernels, python -m mpz.tools.make_kernels) ---
+
+def test_shipped_kernels_match_the_sources() -> None:
+    """Every source file with a shipped kernel is the one they were compiled from, so a
+    kernel edit without ``python -m mpz.tools.make_kernels`` fails here (numba would
+    ignore the stale entries and the first run would compile again)."""
+    from mpz.tools import make_kernels
+    assert make_kernels.stale() == []
+    info = json.loads(Path(_jit.SHIPPED_DIR, "manifest.json").read_text())
+    assert {"mpz/entropy.py", "mpz/keyframe.py", "mpz/quantize.py"} <= set(info["sources"])
+    # every CPython that requires-python (>= 3.11) admits today, so that a regeneration
+    # with one interpreter does not quietly drop the others (README: make_kernels --python)
+    assert {"3.11", "3.12", "3.13"} <= set(info["python"])
+    for v in info["python"]:
+        tag = "py" + v.replace(".", "")
+        assert any(Path(_jit.SHIPPED_DIR).rglob(f"keyframe._fit-*.{tag}.nbi")), v
+
+
+def _shipped_unusable() -> str | None:
+    """Why this interpreter cannot load the shipped kernels, or None."""
+    import numba
+    info = json.loads(Path(_jit.SHIPPED_DIR, "manifest.json").read_text())
+    here = f"{sys.version_info[0]}.{sys.version_info[1]}"
+    if here not in info["python"] or info["numba"] != numba.__version__:
+        return (f"kernels shipped for CPython {info['python']} / numba {info['numba']}, "
+                f"this is {here} / {numba.__version__}")
+    if _jit.shipped_cpu() is None:
+        return "this CPU lacks the shipped kernels' baseline features"
+    return None
+
+
+#: encodes and decodes in a fresh process and reports the bytes and the cache statistics
+#: of the kernels that encoding and decoding at 1 mm call
+_CODEC_CHILD = _CHILD.split("import numpy as np")[0] + r"""
+import hashlib
+import mpz
+from mpz import keyframe, quantize
+from mpz.entropy import _decode_block, _encode_block
+from mpz.synth import generate
+data = mpz.encode(generate("walk", frames=120, seed=4), max_error=1.0)
+back = mpz.decode(data)
+kernels = [_encode_block, _decode_block, keyframe._fit, keyframe._best_reference,
+           keyframe._rebuild, keyframe._mark_keys, quantize._choose]
+print(json.dumps({"sha": hashlib.sha256(data).hexdigest(), "ok": bool(back.valid.any()),
+                  "hits": sum(sum(k.stats.cache_hits.values()) for k in kernels),
+                  "misses": sum(sum(k.stats.cache_misses.values()) for k in kernels),
+                  "where": jit.policy().where}))
+"""
+
+
+def test_shipped_kernels_load_instead_of_compiling_and_give_the_same_bytes(
+        tmp_path: Path) -> None:
+    """A first run with an empty cache loads every codec kernel it calls from mpz/_kernels
+    (no compilation: numba counts a miss for each kernel it compiles), also with no
+    writable directory at all, and writes the bytes that host-compiled kernels write."""
+    why = _shipped_unusable()
+    if why:
+        pytest.skip(why)
+    on = {_jit.SHIPPED_ENV: "1"}
+    shipped = _child({"MPZ_CACHE_DIR": str(tmp_path / "a"), **on}, script=_CODEC_CHILD)
+    assert shipped["ok"] and shipped["misses"] == 0 and shipped["hits"] >= 7
+    host = _child({"MPZ_CACHE_DIR": str(tmp_path / "b")}, script=_CODEC_CHILD)
+    assert host["misses"] >= 7 and host["hits"] == 0
+    assert shipped["sha"] == host["sha"]
+    (tmp_path / "file").write_bytes(b"")
+    blocked = str(tmp_path / "file" / "cache")
+    off = _child({"HOME": blocked, "XDG_CACHE_HOME": blocked, "MPZ_CACHE_DIR": blocked, **on},
+                 script=_CODEC_CHILD)
+    assert off["where"] == "off" and off["misses"] == 0 and off["sha"] == host["sha"]
+
+
+def test_shipped_kernels_need_the_baseline_features(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """Code for a CPU feature this machine lacks would fault, and files for another CPython
+    or numba would be rejected entry by entry: such kernels are not looked at."""
+    import numba
+    here = {"python": [f"{sys.version_info[0]}.{sys.version_info[1]}"],
+            "numba": numba.__version__, "cpu": "x86-64-v2"}
+    monkeypatch.setattr(_jit, "SHIPPED_DIR", str(tmp_path))
+    monkeypatch.delenv(_jit.SHIPPED_ENV, raising=False)
+    monkeypatch.delenv(_jit.SHIP_ENV, raising=False)
+
+    def cpu(manifest: object) -> str | None:
+        (tmp_path / "manifest.json").write_text(
+            manifest if isinstance(manifest, str) else json.dumps(manifest))
+        _jit.shipped_cpu.cache_clear()
+        return _jit.shipped_cpu()
+    try:
+        assert cpu({**here, "requires_features": []}) == "x86-64-v2"
+        assert cpu({**here, "requires_features": ["sse2", "no-such-feature"]}) is None
+        assert cpu({**here, "python": ["2.7"]}) is None
+        assert cpu({**here, "numba": "0.0.1"}) is None
+        assert cpu("{not json") is None
+    finally:
+        _jit.shipped_cpu.cache_clear()
+
+
+def test_ship_policy_and_the_off_switch() -> None:
+    assert _decide({"HOME": "/h", _jit.SHIP_ENV: "1"}).where == "ship"
+    assert _jit.shipped_enabled({})
+    assert not _jit.shipped_enabled({_jit.SHIPPED_ENV: "0"})
+    assert not _jit.shipped_enabled({_jit.SHIP_ENV: "1"})    # make_kernels compiles afresh

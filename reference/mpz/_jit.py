@@ -23,6 +23,20 @@ numba's index still checks each entry against the source file's contents, the
 kernel's bytecode and the CPU, so a stale or foreign entry is recompiled, never
 loaded.
 
+Shipped kernels (issue 15.2). When the directory above has no entry for a kernel, it is
+looked up in ``mpz/_kernels``: the codec's kernels compiled by
+``python -m mpz.tools.make_kernels`` for a baseline CPU of the build's platform (on
+x86-64, ``x86-64-v2``: SSE4.2 and POPCNT, every x86-64 CPU since 2009, no AVX; elsewhere
+LLVM's ``generic``), so that the first run after an install loads them instead of
+compiling for seconds. They are used only where the build's configuration holds: a CPU
+with the baseline's features (checked once per process), the same CPython minor version
+(in the file names), the same numba version, the same target triple, and source files
+with the same contents (numba's stamp is their SHA-256), checked entry by entry;
+anywhere else the kernel compiles as before. Baseline code computes the same values: the
+shipped kernels are exact integer and IEEE code (no ``fastmath``, no ``parallel``, which
+are never shipped), and run as fast as host code within the noise (docs/cold-start.md).
+``MPZ_SHIPPED_KERNELS=0`` turns the lookup off.
+
 Modules use :func:`njit` exactly as ``numba.njit`` (``from mpz._jit import njit``);
 ``cache=True`` means "cache where the policy says" instead of numba's own lookup.
 """
@@ -31,6 +45,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 import functools
+import json
 import os
 import sys
 import tempfile
@@ -44,6 +59,12 @@ _F = TypeVar("_F", bound=Callable[..., Any])
 
 #: the package directory (…/site-packages/mpz or reference/mpz in a checkout)
 PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+#: the kernels shipped with the package (see the module docstring)
+SHIPPED_DIR = os.path.join(PACKAGE_DIR, "_kernels")
+#: set by ``mpz.tools.make_kernels`` in the process that compiles into SHIPPED_DIR
+SHIP_ENV = "MPZ_SHIP_KERNELS"
+#: "0" turns the shipped kernels off
+SHIPPED_ENV = "MPZ_SHIPPED_KERNELS"
 
 
 @dataclass(frozen=True)
@@ -103,9 +124,13 @@ def decide(env: Mapping[str, str] | None = None, package_dir: str = PACKAGE_DIR,
            is_writable: Callable[[str], bool] | None = None,
            version: Callable[[], str] = _version) -> CachePolicy:
     """The cache policy for these settings (see the module docstring for the order);
-    ``is_writable`` defaults to :func:`writable`, looked up when called."""
+    ``is_writable`` defaults to :func:`writable`, looked up when called. With
+    ``MPZ_SHIP_KERNELS`` set (by ``mpz.tools.make_kernels``) the policy is ``"ship"``: the
+    shippable kernels are compiled into ``package_dir/_kernels``."""
     env = os.environ if env is None else env
     is_writable = writable if is_writable is None else is_writable
+    if env.get(SHIP_ENV):
+        return CachePolicy("ship", os.path.join(package_dir, "_kernels"))
     tried: list[str] = []
     for where in ("MPZ_CACHE_DIR", "NUMBA_CACHE_DIR", "package", "user"):
         if where == "package":
@@ -133,9 +158,48 @@ def cache_note() -> str | None:
     p = policy()
     if p.where != "off":
         return None
+    shipped = " (but those shipped with the package)" if shipped_cpu() is not None else ""
     return ("mpz: note: no writable cache directory for compiled kernels (tried "
-            + ", ".join(p.tried) + "): they are compiled on every run; set "
+            + ", ".join(p.tried) + f"): they are compiled on every run{shipped}; set "
             "MPZ_CACHE_DIR to a writable directory")
+
+
+def shipped_enabled(env: Mapping[str, str] | None = None) -> bool:
+    """True if kernels may be loaded from :data:`SHIPPED_DIR` in this process."""
+    env = os.environ if env is None else env
+    return env.get(SHIPPED_ENV, "1") != "0" and not env.get(SHIP_ENV)
+
+
+@functools.lru_cache(maxsize=1)
+def shipped_cpu() -> str | None:
+    """The CPU name the shipped kernels were compiled for, or None when this process
+    cannot use them: turned off, none shipped, shipped for other CPython versions or
+    another numba (numba would reject every entry anyway), or a CPU without the features
+    they need (the manifest lists them; code for them would fault here)."""
+    if not shipped_enabled():
+        return None
+    try:
+        with open(os.path.join(SHIPPED_DIR, "manifest.json"), encoding="utf-8") as fh:
+            info = json.load(fh)
+    except (OSError, ValueError):
+        return None
+    here = f"{sys.version_info[0]}.{sys.version_info[1]}"
+    if here not in info.get("python", ()) or info.get("numba") != numba.__version__:
+        return None                     # files for another CPython or numba: never loaded
+    need = info.get("requires_features", [])
+    if need:
+        import llvmlite.binding as ll
+        have = ll.get_host_cpu_features()
+        if not all(have.get(f, False) for f in need):
+            return None
+    cpu = info.get("cpu")
+    return cpu if isinstance(cpu, str) else None
+
+
+def _relative_dir(py_file: str) -> str:
+    """A kernel's source directory below the package root's parent (``mpz``, ``mpz/io``)."""
+    top = os.path.dirname(PACKAGE_DIR)
+    return os.path.relpath(os.path.dirname(os.path.abspath(py_file)), top)
 
 
 # -- numba's cache, in a directory of ours ---------------------------------------------------
@@ -143,11 +207,14 @@ try:
     from numba.core.caching import (
         CompileResultCacheImpl,
         FunctionCache,
+        _Cache,
         _CacheLocator,
         _SourceFileBackedLocatorMixin,
     )
 except ImportError:  # pragma: no cover - a numba whose cache internals moved
     _DirCache: Any = None
+    _ShippedCache: Any = None
+    _Layered: Any = None
 else:
     class _DirLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
         """numba's source-file locator with the directory taken from :func:`policy`.
@@ -161,8 +228,7 @@ else:
             self._lineno = py_func.__code__.co_firstlineno
             root = policy().path
             assert root is not None
-            top = os.path.dirname(PACKAGE_DIR)
-            rel = os.path.relpath(os.path.dirname(os.path.abspath(py_file)), top)
+            rel = _relative_dir(py_file)
             if rel.startswith(os.pardir):
                 rel = self.get_suitable_cache_subpath(py_file)
             self._cache_path = os.path.join(root, rel)
@@ -176,21 +242,100 @@ else:
     class _DirCache(FunctionCache):  # type: ignore[no-redef]
         _impl_class = _DirCacheImpl
 
+    class _ShippedLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
+        """The kernel's place in :data:`SHIPPED_DIR`, read-only (never written here)."""
 
-def _enable_cache(disp: Any) -> None:
-    """Attach the policy's cache to a dispatcher; leave it uncached if that fails."""
+        def __init__(self, py_func: Callable[..., Any], py_file: str):
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._cache_path = os.path.join(SHIPPED_DIR, _relative_dir(py_file))
+
+        def get_cache_path(self) -> str:
+            return self._cache_path
+
+        @classmethod
+        def from_function(cls, py_func: Callable[..., Any], py_file: str) -> Any:
+            return cls(py_func, py_file) if os.path.exists(py_file) else None
+
+    class _ShippedCacheImpl(CompileResultCacheImpl):
+        _locator_classes = [_ShippedLocator]
+
+    class _ShippedCache(FunctionCache):  # type: ignore[no-redef]
+        """Loads what make_kernels compiled for the baseline CPU (:func:`shipped_cpu`):
+        the index key names that CPU with no extra features, whatever this process's."""
+
+        _impl_class = _ShippedCacheImpl
+
+        def _index_key(self, sig: Any, codegen: Any) -> Any:
+            sig_, magic, hashes = super()._index_key(sig, codegen)
+            return sig_, (magic[0], shipped_cpu(), ""), hashes
+
+        def save_overload(self, sig: Any, data: Any) -> None:
+            return None                 # shipped kernels are made by make_kernels only
+
+    class _Layered(_Cache):  # type: ignore[no-redef]
+        """The policy's cache (if any), then the shipped kernels: what numba's dispatcher
+        calls (load_overload, save_overload, flush, cache_path)."""
+
+        def __init__(self, primary: Any, shipped: Any):
+            self.primary, self.shipped = primary, shipped
+
+        @property
+        def cache_path(self) -> str:
+            return str((self.primary or self.shipped).cache_path)
+
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
+            hit = None if self.primary is None else self.primary.load_overload(
+                sig, target_context)
+            if hit is None:
+                hit = self.shipped.load_overload(sig, target_context)
+            return hit
+
+        def save_overload(self, sig: Any, data: Any) -> None:
+            if self.primary is not None:
+                self.primary.save_overload(sig, data)
+
+        def enable(self) -> None:
+            for c in (self.primary, self.shipped):
+                if c is not None:
+                    c.enable()
+
+        def disable(self) -> None:
+            for c in (self.primary, self.shipped):
+                if c is not None:
+                    c.disable()
+
+        def flush(self) -> None:
+            if self.primary is not None:
+                self.primary.flush()
+
+
+def _enable_cache(disp: Any, shippable: bool = True) -> None:
+    """Attach the policy's cache to a dispatcher, with the shipped kernels behind it for a
+    ``shippable`` kernel; leave it uncached if that fails."""
     p = policy()
-    if p.where == "off":
-        return
-    try:
-        if p.where in ("MPZ_CACHE_DIR", "user") and _DirCache is not None:
+    if p.where == "ship":               # make_kernels: compile into SHIPPED_DIR
+        if shippable and _DirCache is not None:
             disp._cache = _DirCache(disp.py_func)
-        else:
-            disp.enable_caching()       # numba's own lookup: NUMBA_CACHE_DIR, __pycache__, …
-    except RuntimeError:
-        # "cannot cache function …: no locator available": the directory went away or
-        # became read-only since policy() looked; compile without a cache
-        pass
+        return
+    if p.where != "off":
+        try:
+            if p.where in ("MPZ_CACHE_DIR", "user") and _DirCache is not None:
+                disp._cache = _DirCache(disp.py_func)
+            else:
+                disp.enable_caching()   # numba's own lookup: NUMBA_CACHE_DIR, __pycache__, …
+        except RuntimeError:
+            # "cannot cache function …: no locator available": the directory went away or
+            # became read-only since policy() looked; compile without a cache
+            pass
+    if shippable and _Layered is not None and shipped_cpu() is not None:
+        primary = getattr(disp, "_cache", None)
+        has_primary = primary is not None and type(primary).__name__ != "NullCache"
+        try:
+            disp._cache = _Layered(primary if has_primary else None,
+                                   _ShippedCache(disp.py_func))
+        except RuntimeError:
+            pass
 
 
 def njit(*args: Any, **options: Any) -> Any:
@@ -203,11 +348,14 @@ def njit(*args: Any, **options: Any) -> Any:
         return numba.njit(args[0])
     cache = bool(options.pop("cache", False))
     sigs = args[0] if args else None
+    # fastmath may contract differently on another CPU, and parallel kernels are
+    # threading-layer specific: such kernels are never shipped (module docstring)
+    shippable = not options.get("fastmath") and not options.get("parallel")
 
     def wrap(fn: Callable[..., Any]) -> Any:
         disp = numba.njit(**options)(fn)
         if cache:
-            _enable_cache(disp)
+            _enable_cache(disp, shippable)
         if sigs is not None:
             for sig in (sigs if isinstance(sigs, list | tuple) else [sigs]):
                 disp.compile(sig)
@@ -224,3 +372,25 @@ def kernel(fn: _F) -> _F:
     like ``fn``.
     """
     return cast(_F, njit(cache=True)(fn))
+
+
+def will_compile(disp: Any) -> bool:
+    """True if the kernel ``disp`` has nothing to load on its first call in this process, so
+    that it will be compiled: no index file in the policy's cache, and none among the
+    shipped kernels when they serve this process (:func:`shipped_cpu`). numba's cache
+    layout is not a public API, so anything unexpected counts as "will not compile"."""
+    cache: Any = getattr(disp, "_cache", None)
+    if _Layered is not None and isinstance(cache, _Layered):
+        caches = [cache.primary, cache.shipped if shipped_cpu() is not None else None]
+    else:
+        caches = [cache]
+    for c in caches:
+        if c is None:
+            continue
+        try:
+            index = c._cache_file._index_path
+        except AttributeError:
+            return False
+        if os.path.exists(index):
+            return False
+    return True

@@ -127,31 +127,32 @@ class Progress:
             sys.stderr.flush()
 
 
-#: the modules whose numba kernels are compiled on first use (and cached)
-_KERNEL_MODULES = ("mpz.entropy", "mpz.fisher", "mpz.keyframe", "mpz.quantize", "mpz.segment")
+#: the numba kernels that encoding a file (and checking it by decoding) calls: module,
+#: names. Other kernels (the summary's, the tests' references) may never run.
+_CODEC_KERNELS = (("mpz.entropy", ("_encode_block", "_decode_block")),
+                  ("mpz.keyframe", ("_fit", "_best_reference", "_mark_keys", "_rebuild")),
+                  ("mpz.quantize", ("_choose",)))
 
 
 def kernels_need_compiling() -> bool:
-    """True if a numba kernel of the codec has no cache yet (the first run after install).
+    """True if a numba kernel that encoding calls has no cache yet (the first run after
+    install, when the kernels shipped with the package do not serve this process).
 
-    Looks for each kernel's cache index file; numba's cache layout is not a
-    public API, so anything unexpected counts as "cached" (no notice).
+    Asks :func:`mpz._jit.will_compile` for each kernel of :data:`_CODEC_KERNELS`: no index
+    file in the cache, and none among the shipped kernels (docs/cold-start.md).
     """
     import importlib
     try:
         from numba.core.registry import CPUDispatcher
     except ImportError:
         return False
-    for name in _KERNEL_MODULES:
+    from mpz._jit import will_compile
+    for name, kernels in _CODEC_KERNELS:
         mod = importlib.import_module(name)
-        for obj in vars(mod).values():
-            if isinstance(obj, CPUDispatcher):
-                try:
-                    index = obj._cache._cache_file._index_path  # type: ignore[attr-defined]
-                except AttributeError:
-                    return False
-                if not os.path.exists(index):
-                    return True
+        for k in kernels:
+            obj = getattr(mod, k, None)
+            if isinstance(obj, CPUDispatcher) and will_compile(obj):
+                return True
     return False
 
 
