@@ -123,7 +123,8 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
         for m in range(M):
             for a in range(A):
                 v = vals[t, m, a]
-                cv = 0                                   # §5.6 context
+                cv = 0          # §5.6 context; the decoder kernel has the same lines (a
+                #                 shared inlined helper measured 5-15 % slower)
                 if not first:
                     cv += 2 * abs(vals[t - 1, m, a])
                 if m > 0:
@@ -265,7 +266,7 @@ def _decode_block(buf: NDArray[np.uint8], ds: NDArray[np.int64], T: int, M: int,
         first = (t % period) == 0
         for m in range(M):
             for a in range(A):
-                ctx_v = 0                                 # §5.6 context of v[t, m, a]
+                ctx_v = 0       # §5.6 context of v[t, m, a], as in _encode_block
                 if not first:
                     ctx_v += 2 * abs(out[t - 1, m, a])
                 if m > 0:

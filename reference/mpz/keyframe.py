@@ -599,13 +599,3 @@ def write_blocks(enc: BlockEncoder, fitted: Fitted, T: int) -> None:
     enc.block(counts.reshape(-1, 1, 1), signed=False)
     enc.block(spans[:s_at].reshape(-1, 1, 1), signed=False)
     enc.block(keys[:k_at][:, None, :])
-
-
-def encode_blocks(enc: BlockEncoder, y: NDArray[np.float64], radius: float,
-                  max_span: int = 256, pool: Executor | None = None) -> NDArray[np.int32]:
-    """Fit every member of ``y[T, n, 3]`` and code the four blocks (:func:`fit_members`,
-    then :func:`write_blocks`); returns the grid values (int32: every value lies between
-    two keys near ``y``, and |y| < 2^29)."""
-    fitted = fit_members(y, radius, max_span, pool)
-    write_blocks(enc, fitted, y.shape[0])
-    return fitted.out
