@@ -81,17 +81,23 @@ _block = st.tuples(st.integers(0, 9), st.integers(1, 4), st.integers(1, 3),
                    st.integers(0, 2 ** 32 - 1))
 
 
+def _laplace_values(T: int, M: int, A: int, scale: float, signed: bool,
+                    seed: int) -> np.ndarray:
+    """A block of Laplace-distributed integers within the coder's 2^30 (non-negative for an
+    unsigned block)."""
+    rng = np.random.default_rng(seed)
+    v = np.clip(np.round(rng.laplace(0, scale, (T, M, A))), -(2 ** 30 - 1), 2 ** 30 - 1)
+    v = v.astype(np.int64)
+    return v if signed else np.abs(v)
+
+
 @settings(max_examples=80, deadline=None)
 @given(st.lists(_block, min_size=1, max_size=4), st.integers(1, 64))
 def test_fast_encoder_matches_reference_over_several_blocks(blocks, capacity):
     enc = BlockEncoder(capacity=capacity)          # a small buffer grows between blocks
     ref = RefEncoder()
     for T, M, A, scale, signed, seed in blocks:
-        rng = np.random.default_rng(seed)
-        v = np.clip(np.round(rng.laplace(0, scale, (T, M, A))), -(2 ** 30 - 1), 2 ** 30 - 1)
-        v = v.astype(np.int64)
-        if not signed:
-            v = np.abs(v)
+        v = _laplace_values(T, M, A, scale, signed, seed)
         period = None if T < 2 or seed % 3 == 0 else (T if T % 2 else 2)
         enc.block(v, period=period, signed=signed)
         ref.block(v, period, signed)
@@ -107,11 +113,7 @@ def test_limit_stops_only_payloads_longer_than_it(blocks, limit):
     ref = RefEncoder()
     enc = BlockEncoder(capacity=16, limit=limit)
     for T, M, A, scale, signed, seed in blocks:
-        rng = np.random.default_rng(seed)
-        v = np.clip(np.round(rng.laplace(0, scale, (T, M, A))), -(2 ** 30 - 1), 2 ** 30 - 1)
-        v = v.astype(np.int64)
-        if not signed:
-            v = np.abs(v)
+        v = _laplace_values(T, M, A, scale, signed, seed)
         enc.block(v, signed=signed)
         ref.block(v, None, signed)
     full = ref.finish()
