@@ -279,21 +279,73 @@ def test_encoder_threads_when_absolute_residuals_win():
             assert encode_motion(motion, EncodeOptions(max_error=1.0, threads=threads))[0] == one
 
 
-@settings(max_examples=30, deadline=None)
-@given(st.integers(1, 30), st.integers(2, 12), st.integers(0, 2 ** 32 - 1))
-def test_marker_distances_are_numpys_norm_bit_for_bit(S, N, seed):
-    """_chain's distances (issue 15.1) equal np.linalg.norm's bits, and so do their sums
-    over frames (which depend on how the array is laid out), so the order is unchanged."""
-    from mpz.encoder import _distances
-    rng = np.random.default_rng(seed)
-    sub = rng.normal(0, 10.0 ** rng.uniform(-3, 4), (S, N, 3))
-    want = np.linalg.norm(sub[:, :, None] - sub[:, None], axis=3)
-    got = _distances(sub)
-    assert np.array_equal(got, want)
-    ok = rng.random((S, N)) > 0.2
+def _numpy_chain_scores(x, valid, idx):
+    """The member-order score as the encoder's _chain computed it with numpy before
+    issue 15.1 (stop 22), with its array layouts: the distances stored frames-innermost,
+    so numpy summed over frames pairwise."""
+    step = max(1, x.shape[0] // 400)
+    sub = np.nan_to_num(x[::step, idx])
+    ok = valid[::step][:, idx]
+    d = None
+    for k in range(3):
+        c = np.ascontiguousarray(sub[:, :, k].T)              # [N, S]
+        e = c[:, None, :] - c[None, :, :]                     # [N, N, S]
+        e *= e
+        d = e if d is None else d + e
+    d = np.sqrt(d).transpose(2, 0, 1)
     both = ok[:, :, None] & ok[:, None, :]
-    assert np.array_equal((got * both).sum(0), (want * both).sum(0))
-    assert np.array_equal((got ** 2 * both).sum(0), (want ** 2 * both).sum(0))
+    n = both.sum(0).clip(min=1)
+    mean = (d * both).sum(0) / n
+    std = np.sqrt(np.maximum((d ** 2 * both).sum(0) / n - mean ** 2, 0))
+    score = std + 0.05 * mean
+    score[both.sum(0) < 2] = np.inf
+    return score, sub, ok
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 1700), st.integers(2, 14), st.floats(0.0, 0.9),
+       st.integers(0, 2 ** 32 - 1))
+def test_chain_scores_are_the_numpy_expression_bit_for_bit(F, N, gaps, seed):
+    """keyframe.chain_scores (issue 15.1) equals the numpy expression's bits, including
+    its order of summation over frames, so the member order and the bytes are unchanged."""
+    from mpz.keyframe import chain_scores
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0, 10.0 ** rng.uniform(-3, 4), (F, N + 1, 3))
+    valid = rng.random((F, N + 1)) >= gaps
+    x[~valid] = np.nan
+    idx = list(rng.permutation(N + 1)[:N])
+    want, sub, ok = _numpy_chain_scores(x, valid, idx)
+    got = chain_scores(np.ascontiguousarray(sub.transpose(2, 1, 0)), np.ascontiguousarray(ok.T))
+    assert np.array_equal(got, want)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 3000), st.integers(0, 2 ** 32 - 1))
+def test_pairwise_sum_is_numpys_sum(n, seed):
+    """keyframe._pairwise_sum adds a contiguous row in numpy's order (the same bits as
+    ``a.sum()``), which chain_scores relies on."""
+    from mpz.keyframe import _pairwise_sum
+    rng = np.random.default_rng(seed)
+    a = rng.normal(0, 10.0 ** rng.uniform(-3, 3), n)
+    a[rng.random(n) < 0.2] = 0.0
+    assert 0.0 + _pairwise_sum(a) == a.sum()
+
+
+def test_chain_scores_follow_rigidity():
+    """Two markers on one rigid bar score 0.05 x their distance; a marker moving against
+    them scores more; a marker valid in fewer than two common frames scores +inf."""
+    from mpz.keyframe import chain_scores
+    t = np.linspace(0, 2 * np.pi, 50)
+    a = np.stack([np.cos(t), np.sin(t), 0 * t], 1) * 100.0
+    b = a + [0.0, 0.0, 10.0]                                # rigidly 10 above a
+    c = a * (1.5 + np.sin(3 * t))[:, None]                  # stretches away from a
+    sub = np.stack([a, b, c, a], 1)                          # [S, N, 3]
+    ok = np.ones((50, 4), bool)
+    ok[1:, 3] = False
+    s = chain_scores(np.ascontiguousarray(sub.transpose(2, 1, 0)), np.ascontiguousarray(ok.T))
+    assert s[0, 1] == pytest.approx(0.5, abs=1e-9)
+    assert s[0, 2] > 10 * s[0, 1]
+    assert s[0, 3] == np.inf and s[3, 2] == np.inf
 
 
 def test_encoder_threads_on_a_real_capture(shared_data):

@@ -563,27 +563,6 @@ def _weights_for(node: Node) -> FloatArray:
     return w if w.size else np.ones(len(node.members))
 
 
-def _distances(sub: FloatArray) -> FloatArray:
-    """``d[f, i, j]``, the distance of markers i and j at frame f of ``sub[S, N, 3]``.
-
-    Bit for bit ``np.linalg.norm(sub[:, :, None] - sub[:, None], axis=3)``: the squares
-    are added in axis order, and the result is stored frames-innermost as norm stores it,
-    so that sums over frames reduce in the same (pairwise) order. One axis at a time it
-    needs no [S, N, N, 3] temporary: 3-4x faster (issue 15.1)."""
-    d: FloatArray | None = None
-    for k in range(3):
-        c = np.ascontiguousarray(sub[:, :, k].T)              # [N, S]
-        e = c[:, None, :] - c[None, :, :]                     # [N, N, S]
-        e *= e
-        if d is None:
-            d = e
-        else:
-            d += e
-    assert d is not None
-    np.sqrt(d, out=d)
-    return d.transpose(2, 0, 1)
-
-
 def _chain(x, valid, root_marker, members):
     """Order ``members`` so that each follows the already ordered marker it moves most
     rigidly with (std over time of their distance), starting next to the root: every
@@ -593,13 +572,8 @@ def _chain(x, valid, root_marker, members):
     idx = [root_marker] + list(members)
     sub = np.nan_to_num(x[:: max(1, x.shape[0] // 400), idx])
     ok = valid[:: max(1, x.shape[0] // 400)][:, idx]
-    d = _distances(sub)
-    both = ok[:, :, None] & ok[:, None, :]
-    n = both.sum(0).clip(min=1)
-    mean = (d * both).sum(0) / n
-    std = np.sqrt(np.maximum((d ** 2 * both).sum(0) / n - mean ** 2, 0))
-    score = std + 0.05 * mean
-    score[both.sum(0) < 2] = np.inf
+    score = keyframe.chain_scores(np.ascontiguousarray(sub.transpose(2, 1, 0)),
+                                  np.ascontiguousarray(ok.T))
     order, left = [0], set(range(1, len(idx)))
     best = score[0].copy()
     while left:
