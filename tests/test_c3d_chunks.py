@@ -165,6 +165,36 @@ def test_int16_channels_are_exact(values):
     assert back.tolist() == x.tolist()
 
 
+def _lowest_bit_exponent(x: float) -> int:
+    """e with x = odd x 2^e, from Python's exact ratio (independent of c3dcodec)."""
+    n, d = abs(x).as_integer_ratio()                       # d is a power of two
+    return (n & -n).bit_length() - 1 - (d.bit_length() - 1)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.floats(width=32, allow_nan=False, allow_infinity=False),
+                min_size=1, max_size=30))
+def test_dyadic_shift_is_the_lowest_set_bit(values):
+    """_dyadic's shift is the least exponent of the lowest set bit over the nonzero words,
+    clamped to the §4.13 range, and k x 2^shift gives the words back."""
+    from mpz.c3dcodec import _dyadic
+    from mpz.format import C3D_MAX_SHIFT, C3D_MIN_SHIFT
+    x = np.array(values, "<f4")
+    got = _dyadic(x)
+    nz = [float(v) for v in x if v != 0]
+    if (x.view(np.uint32) == 0x80000000).any():
+        assert got is None                                 # -0.0: mode 1 keeps the sign
+        return
+    want = min((_lowest_bit_exponent(v) for v in nz), default=0) if nz else 0
+    want = max(C3D_MIN_SHIFT, min(C3D_MAX_SHIFT, want))
+    fits = all(abs(v) / 2.0 ** want < 2 ** 24 and (v / 2.0 ** want).is_integer() for v in nz)
+    if not fits:
+        assert got is None
+        return
+    assert got is not None and got[0] == (want if nz else 0)
+    assert np.array_equal(np.ldexp(got[1].astype(np.float64), got[0]).astype("<f4"), x)
+
+
 def test_ordered_map_is_monotonic_and_inverts():
     x = np.array([-np.inf, -1e38, -1.0, -1e-45, -0.0, 0.0, 1e-45, 1.0, 3e38, np.inf], "<f4")
     v = ordered(x.view(np.uint32))

@@ -214,8 +214,8 @@ def parameter_record(a: C3DArchive) -> Cprm:
                        type=None if r.is_group else r.type,
                        dims=None if r.is_group else bytes(r.dims),
                        data=None if r.is_group else r.data) for r in a.records)
-    return smaller(Cprm(coding=ByteCoding.STORED, count=len(recs), records=recs),
-                   Cprm(coding=ByteCoding.DEFLATE, count=len(recs), records=recs))
+    stored = Cprm(coding=ByteCoding.STORED, count=len(recs), records=recs)
+    return smaller(stored, stored.recoded(ByteCoding.DEFLATE))
 
 
 def header_record(a: C3DArchive) -> Chdr:

@@ -79,9 +79,8 @@ def _dyadic(x: NDArray[np.float32]) -> tuple[int, IntArray] | None:
         return 0, np.zeros(x.shape, np.int64)
     m, E = np.frexp(nz)                                   # nz = m * 2^E, 0.5 <= |m| < 1
     M = np.abs(m * float(1 << 24)).astype(np.int64)       # the 24-bit significand, exact
-    tz = np.zeros(M.shape, np.int64)
-    for b in range(24):                                    # trailing zero bits of M
-        tz += ((M >> (b + 1)) << (b + 1)) == M
+    # trailing zero bits of M (0 < M < 2^24): the exponent of its lowest set bit, exact
+    tz = np.frexp((M & -M).astype(np.float64))[1] - 1
     shift = int((E - 24 + tz).min())
     shift = max(C3D_MIN_SHIFT, min(C3D_MAX_SHIFT, shift))
     k = np.ldexp(x.astype(np.float64), -shift)

@@ -15,7 +15,7 @@ so a file is decoded once.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 from typing import Any, TypeVar
 import zlib
@@ -344,9 +344,28 @@ class Cprm(Record):
         sec = _CprmSection.load(content)
         return cls(count=sec.count, records=sec.records, coding=outer.coding)
 
+    def content(self) -> bytes:
+        """The §4.13.2 section that the payload stores or deflates. It is built once per
+        record (the fields of a frozen record never change), since construct takes
+        milliseconds for a parameter section and the encoder needs it for both codings."""
+        got: bytes | None = self.__dict__.get("_content")
+        if got is None:
+            got = _CprmSection(count=self.count, records=self.records).dump()
+            self.__dict__["_content"] = got
+        return got
+
+    def recoded(self, coding: int) -> Cprm:
+        """The same section with another byte coding (§4.13), sharing the built section."""
+        other = replace(self, coding=coding)
+        other.__dict__["_content"] = self.content()
+        return other
+
     def dump(self) -> bytes:
-        section = _CprmSection(count=self.count, records=self.records).dump()
-        return bytes((self.coding,)) + _body(self.coding, section)
+        got: bytes | None = self.__dict__.get("_payload")
+        if got is None:
+            got = bytes((self.coding,)) + _body(self.coding, self.content())
+            self.__dict__["_payload"] = got
+        return got
 
     def info(self) -> dict[str, JSON]:
         out = super().info()
