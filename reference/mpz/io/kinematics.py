@@ -31,6 +31,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mpz._jit import njit
 from mpz.format import AXIS_ORDERS, ChannelKind
 
 Vec3 = tuple[float, float, float]
@@ -195,13 +196,6 @@ class Skeleton:
         return np.degrees(v) if self.angle_unit == "rad" else v
 
 
-def _channel(values: FloatArray, start: int, joint: Joint, kind: ChannelKind) -> FloatArray | None:
-    """The values of ``joint``'s channel of ``kind`` (None when it has none)."""
-    if kind in joint.channels:
-        return values[:, start + joint.channels.index(kind)]
-    return None
-
-
 def forward(skel: Skeleton, values: ArrayLike) -> FloatArray:
     """Joint positions ``[frames, joints, 3]`` in the skeleton's length unit (spec §6.10).
 
@@ -221,72 +215,139 @@ def forward(skel: Skeleton, values: ArrayLike) -> FloatArray:
     v = np.asarray(values, dtype=np.float64)
     if v.ndim != 2 or v.shape[1] != skel.channel_count:
         raise ValueError(f"values must be [frames, {skel.channel_count}], got {v.shape}")
-    if skel.convention == "bvh":
-        return _forward_bvh(skel, v)
-    return _forward_asf(skel, v)
+    return _forward(np.ascontiguousarray(v), *_forward_arrays(skel))
 
 
-def _forward_bvh(skel: Skeleton, v: FloatArray) -> FloatArray:
-    F = v.shape[0]
-    starts = skel.channel_starts()
-    pos = np.empty((len(skel.joints), F, 3))
-    rot = np.empty((len(skel.joints), F, 3, 3))
-    for i, j in enumerate(skel.joints):
-        trans = np.broadcast_to(np.asarray(j.offset, np.float64), (F, 3)).copy()
-        R = np.broadcast_to(np.eye(3), (F, 3, 3)).copy()
-        for k, c in enumerate(j.channels):
-            x = v[:, starts[i] + k]
-            if c <= ChannelKind.TZ:
-                trans[:, c] += x
-            else:
-                R = R @ axis_rotation("XYZ"[c - ChannelKind.RX], skel.degrees(x))
-        if j.parent < 0:
-            pos[i], rot[i] = trans, R
+@njit(cache=True, inline="always")
+def _rotate(R: FloatArray, kind: int, angle: float, rad: bool, left: bool) -> None:
+    """R <- R @ A (``left`` False) or A @ R (``left`` True), in place, where A is
+    :func:`axis_rotation` about axis ``kind`` - RX by ``angle`` (degrees unless ``rad``).
+    Only the two rows or columns that A mixes change; the terms A's zeros would add are
+    exact zeros, so this is the full 3 x 3 product's value."""
+    a = angle if rad else angle * (math.pi / 180.0)
+    c, s = math.cos(a), math.sin(a)
+    ax = kind - 3
+    u, w = (ax + 1) % 3, (ax + 2) % 3              # the plane A turns, in cyclic order
+    for i in range(3):
+        if left:
+            ru, rw = R[u, i], R[w, i]
+            R[u, i] = c * ru - s * rw
+            R[w, i] = s * ru + c * rw
         else:
-            p = j.parent
-            pos[i] = pos[p] + np.einsum("fij,fj->fi", rot[p], trans)
-            rot[i] = rot[p] @ R
-    return pos.transpose(1, 0, 2)
+            ru, rw = R[i, u], R[i, w]
+            R[i, u] = ru * c + rw * s
+            R[i, w] = rw * c - ru * s
 
 
-def _dof_rotation(joint: Joint, v: FloatArray, start: int, skel: Skeleton) -> FloatArray:
-    """The dof rotation M of an ASF joint: the first rotation dof listed is applied first."""
+@njit(cache=True, inline="always")
+def _matmul3(X: FloatArray, Y: FloatArray, out: FloatArray) -> None:
+    for i in range(3):
+        for k in range(3):
+            out[i, k] = X[i, 0] * Y[0, k] + X[i, 1] * Y[1, k] + X[i, 2] * Y[2, k]
+
+
+@njit(cache=True, inline="always")
+def _apply(X: FloatArray, y: FloatArray, i: int) -> float:
+    return X[i, 0] * y[0] + X[i, 1] * y[1] + X[i, 2] * y[2]
+
+
+@njit(cache=True, nogil=True)
+def _forward(v: FloatArray, bvh: bool, rad: bool, parent: NDArray[np.int64],
+             start: NDArray[np.int64], count: NDArray[np.int64], kinds: NDArray[np.int64],
+             offset: FloatArray, direction: FloatArray, length: FloatArray,
+             axes: FloatArray) -> FloatArray:
+    """Joint positions [F, J, 3] of channel values ``v[F, C]`` (spec §6.10, the
+    conventions in the module docstring), one frame at a time: parents before children,
+    3 x 3 products summed in index order."""
     F = v.shape[0]
-    M = np.broadcast_to(np.eye(3), (F, 3, 3)).copy()
-    for k, c in enumerate(joint.channels):
-        if ChannelKind.RX <= c <= ChannelKind.RZ:
-            M = axis_rotation("XYZ"[c - ChannelKind.RX], skel.degrees(v[:, start + k])) @ M
-    return M
+    J = parent.shape[0]
+    pos = np.empty((F, J, 3))
+    world = np.empty((J, 3, 3))
+    R = np.empty((3, 3))
+    T = np.empty((3, 3))
+    t = np.empty(3)
+    bone = np.empty(3)
+    seen = np.zeros(7, np.bool_)
+    ln = 0.0
+    for f in range(F):
+        for j in range(J):
+            p = parent[j]
+            R[:, :] = 0.0
+            R[0, 0] = R[1, 1] = R[2, 2] = 1.0
+            t[:] = 0.0
+            seen[:] = False
+            for k in range(count[j]):
+                kind = kinds[start[j] + k]
+                x = v[f, start[j] + k]
+                if kind <= 5 and kind >= 3:
+                    # BVH: R @ A in listed order; ASF: A @ M, the first listed applied first
+                    _rotate(R, kind, x, rad, not bvh)
+                elif bvh:
+                    t[kind] += x                           # BVH adds every position channel
+                elif not seen[kind]:                       # ASF: a dof's first occurrence
+                    seen[kind] = True
+                    if kind <= 2:
+                        t[kind] = x
+                    else:
+                        ln = x
+            if not seen[6]:
+                ln = 0.0
+            if bvh:
+                for a in range(3):
+                    t[a] = offset[j, a] + t[a]
+                if p < 0:
+                    pos[f, j] = t
+                    world[j] = R
+                else:
+                    for a in range(3):
+                        pos[f, j, a] = pos[f, p, a] + _apply(world[p], t, a)
+                    _matmul3(world[p], R, world[j])
+                continue
+            C = axes[j]
+            _matmul3(C, R, T)                                # C M
+            _matmul3(T, C.T, R)                              # W_local = C M C^-1
+            if p < 0:
+                for a in range(3):
+                    pos[f, j, a] = offset[j, a] + t[a]
+                world[j] = R
+                continue
+            _matmul3(world[p], R, world[j])                  # W = W_parent W_local
+            _matmul3(world[p], C, T)                         # W_parent C
+            for a in range(3):
+                bone[a] = direction[j, a] * (length[j] + ln)
+            for a in range(3):
+                pos[f, j, a] = (pos[f, p, a] + _apply(world[j], bone, a)) + _apply(T, t, a)
+    return pos
 
 
-def _forward_asf(skel: Skeleton, v: FloatArray) -> FloatArray:
-    F = v.shape[0]
-    starts = skel.channel_starts()
-    pos = np.empty((len(skel.joints), F, 3))
-    world: list[FloatArray] = []
-    for i, j in enumerate(skel.joints):
-        C = _axes_matrix(j.axis_order, [float(a) for a in skel.degrees(np.asarray(j.axis))])
-        M = _dof_rotation(j, v, starts[i], skel)
-        W_local = C @ M @ C.T
-        t = np.zeros((F, 3))
-        for a, kind in enumerate((ChannelKind.TX, ChannelKind.TY, ChannelKind.TZ)):
-            x = _channel(v, starts[i], j, kind)
-            if x is not None:
-                t[:, a] = x
-        if j.parent < 0:
-            # the root: position plus its translation channels, rotation C M C^-1
-            pos[i] = np.asarray(j.offset, np.float64) + t
-            world.append(W_local)
-            continue
-        Wp = world[j.parent]
-        W = Wp @ W_local
-        world.append(W)
-        ln = _channel(v, starts[i], j, ChannelKind.L)
-        length = j.length + (ln if ln is not None else np.zeros(F))
-        bone = np.asarray(j.direction, np.float64)[None, :] * length[:, None]
-        pos[i] = (pos[j.parent] + np.einsum("fij,fj->fi", W, bone)
-                  + np.einsum("fij,fj->fi", Wp @ C, t))
-    return pos.transpose(1, 0, 2)
+def _forward_arrays(skel: Skeleton) -> tuple:
+    """The skeleton as the arrays :func:`_forward` reads (made once per skeleton)."""
+    got = _ARRAYS.get(id(skel))
+    if got is not None and got[0] is skel:
+        return got[1]
+    J = len(skel.joints)
+    axes = np.zeros((J, 3, 3))
+    if skel.convention == "asf":
+        for i, j in enumerate(skel.joints):
+            axes[i] = _axes_matrix(j.axis_order,
+                                   [float(a) for a in skel.degrees(np.asarray(j.axis))])
+    arrays = (skel.convention == "bvh", skel.angle_unit == "rad",
+              np.array([j.parent for j in skel.joints], np.int64),
+              np.array(skel.channel_starts(), np.int64),
+              np.array([len(j.channels) for j in skel.joints], np.int64),
+              np.array(skel.channel_kinds(), np.int64).reshape(-1),
+              np.array([j.offset for j in skel.joints], np.float64).reshape(J, 3),
+              np.array([j.direction for j in skel.joints], np.float64).reshape(J, 3),
+              np.array([j.length for j in skel.joints], np.float64), axes)
+    if len(_ARRAYS) > 8:
+        _ARRAYS.clear()
+    _ARRAYS[id(skel)] = (skel, arrays)
+    return arrays
+
+
+#: id(skeleton) -> (skeleton, its arrays): a few recent skeletons (forward is called
+#: several times per encode with the same one)
+_ARRAYS: dict[int, tuple[Skeleton, tuple]] = {}
 
 
 def axis_order_code(order: str) -> int:
