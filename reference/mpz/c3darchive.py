@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from mpz.c3dcodec import INT16, MODEL_LIMIT, encode_channel, model_grid, plan
+from mpz.c3dcodec import INT16, MODEL_LIMIT, encode_channel, model_grid, plan_all
 from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param, forget
 from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
@@ -159,8 +159,7 @@ def point_records(a: C3DArchive, opts: EncodeOptions, M: int) -> Cpnt:
     J = a.models.shape[1]
     enc = BlockEncoder(capacity=max(1 << 16, 8 * F * (P + 3 * J)))
     word_ch = []
-    for p in range(P):
-        pl = plan(np.ascontiguousarray(a.words[:, p]))
+    for pl in plan_all(a.words):
         encode_channel(enc, pl)
         word_ch.append(_channel(pl))
     models = []
@@ -199,8 +198,7 @@ def analog_record(a: C3DArchive) -> Cana | None:
         return None
     enc = BlockEncoder(capacity=max(1 << 16, 4 * T * C))
     table = []
-    for c in range(C):
-        pl = plan(np.ascontiguousarray(a.analog[:, c]))
+    for pl in plan_all(a.analog):
         encode_channel(enc, pl)
         table.append(_channel(pl))
     return Cana(storage=a.analog_storage, channels=C, samples=a.analog_samples,

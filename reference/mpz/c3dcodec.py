@@ -99,31 +99,45 @@ def _low_bits(e: IntArray) -> int:
     return max(0, peak.bit_length() - MAX_EXP)
 
 
-def _cost(e: IntArray) -> float:
-    return float(np.log2(1.0 + np.abs(e.astype(np.float64))).sum())
+def _integers(words: NDArray[np.int16] | NDArray[np.float32]) -> tuple[int, int, IntArray]:
+    """(mode, shift, values) of one channel: int16 words as they are, float32 words as
+    k x 2^shift when exact (mode 0), else their ordered bit patterns (mode 1)."""
+    if words.dtype.kind == "i":
+        return int(ChannelMode.INTEGER), 0, words.astype(np.int64)
+    x = np.ascontiguousarray(words, dtype=FLOAT32)
+    d = _dyadic(x)
+    if d is not None:
+        return int(ChannelMode.INTEGER), d[0], d[1]
+    return int(ChannelMode.BITS), 0, ordered(x.view(np.uint32))
 
 
 def plan(words: NDArray[np.int16] | NDArray[np.float32]) -> Plan:
     """The cheapest exact coding of one channel of C3D words (1-D, int16 or float32)."""
-    if words.dtype.kind == "i":
-        mode, shift, v = int(ChannelMode.INTEGER), 0, words.astype(np.int64)
-    else:
-        x = np.ascontiguousarray(words, dtype=FLOAT32)
-        d = _dyadic(x)
-        if d is not None:
-            mode, shift, v = int(ChannelMode.INTEGER), d[0], d[1]
-        else:
-            mode, shift, v = int(ChannelMode.BITS), 0, ordered(x.view(np.uint32))
-    best: tuple[float, int] | None = None
+    return plan_all(np.asarray(words)[:, None])[0]
+
+
+def plan_all(words: NDArray[np.int16] | NDArray[np.float32]) -> list[Plan]:
+    """:func:`plan` of every column of ``words[T, C]``: each order's residuals are taken
+    for all channels at once, and each channel's cost summed over its own samples as a
+    contiguous row (numpy's order for a 1-D sum), so the plans do not depend on the
+    other channels."""
+    T, C = words.shape
+    coded = [_integers(np.ascontiguousarray(words[:, c])) for c in range(C)]
+    v = np.empty((T, C), np.int64)
+    for c, (_, _, vc) in enumerate(coded):
+        v[:, c] = vc
+    costs = np.empty((MAX_ORDER + 1, C))
     for order in range(MAX_ORDER + 1):
-        c = _cost(residuals(v[:, None, None], order))
-        if best is None or c < best[0]:
-            best = (c, order)
-    assert best is not None
-    order = best[1]
-    low = _low_bits(residuals(v[:, None, None], order))
-    assert low <= C3D_MAX_LOW_BITS
-    return Plan(mode, shift, order, low, v)
+        e = residuals(v, order).astype(np.float64)
+        costs[order] = np.ascontiguousarray(np.log2(1.0 + np.abs(e)).T).sum(axis=1)
+    best = np.argmin(costs, axis=0)                       # the lowest order on a tie
+    out = []
+    for c, (mode, shift, vc) in enumerate(coded):
+        order = int(best[c])
+        low = _low_bits(residuals(vc[:, None, None], order))
+        assert low <= C3D_MAX_LOW_BITS
+        out.append(Plan(mode, shift, order, low, vc))
+    return out
 
 
 def encode_channel(enc: BlockEncoder, p: Plan) -> None:

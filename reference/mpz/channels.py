@@ -194,30 +194,42 @@ def _cost(e: IntArray) -> FloatArray:
 
 def plan(x: IntArray, steps: Sequence[Step], rotations: Sequence[bool]) -> list[Plan]:
     """Per channel: wrap when it is a rotation in degrees (``rotations``) whose values fit
-    in one turn, and the predictor order (0, 1 or 2) with the smallest :func:`_cost`."""
-    plans = []
+    in one turn, and the predictor order (0, 1 or 2) with the smallest :func:`_cost` (the
+    lowest order on a tie). Each order is tried on all channels at once; each channel's
+    cost is still summed over its own frames alone, as numpy sums a contiguous row, so the
+    choice does not depend on the other channels."""
+    F, C = x.shape
+    lo = x.min(axis=0) if F else np.zeros(C, np.int64)
+    hi = x.max(axis=0) if F else np.zeros(C, np.int64)
+    turns = np.zeros(C, np.int64)
+    wraps = np.zeros(C, bool)
     for c, (s, rot) in enumerate(zip(steps, rotations, strict=True)):
-        col = x[:, c]
         turn = s.turn
-        wrap = bool(rot and turn is not None and col.size
-                    and int(col.max()) - int(col.min()) < turn
-                    and int(col.min()) + turn <= CHANNEL_VALUE_LIMIT)
-        low = int(col.min()) if wrap else 0
-        best: tuple[float, Plan] | None = None
-        for order in (0, 1, 2):
-            p = Plan(s, wrap, low, order)
-            cost = float(_cost(coded_values(col[:, None], [p]))[0])
-            if best is None or cost < best[0]:
-                best = (cost, p)
-        assert best is not None
-        plans.append(best[1])
-    return plans
+        wraps[c] = bool(rot and turn is not None and F and int(hi[c]) - int(lo[c]) < turn
+                        and int(lo[c]) + turn <= CHANNEL_VALUE_LIMIT)
+        turns[c] = turn if wraps[c] else 1
+    costs = np.empty((3, C))
+    for order in (0, 1, 2):
+        e = residuals(x, order)
+        if wraps.any():
+            half = turns // 2
+            e = np.where(wraps, np.mod(e + half, turns) - half, e)     # as _wrap
+        cost = np.log2(1.0 + np.abs(e.astype(np.float64)))
+        costs[order] = np.ascontiguousarray(cost.T).sum(axis=1)
+    best = np.argmin(costs, axis=0)                                  # the first least
+    return [Plan(s, bool(wraps[c]), int(lo[c]) if wraps[c] else 0, int(best[c]))
+            for c, s in enumerate(steps)]
 
 
-def _encode_groups(e: IntArray, groups: NDArray[np.int64]) -> bytes:
-    enc = BlockEncoder(capacity=max(1024, 2 * e.size))
+def _encode_groups(e: IntArray, groups: NDArray[np.int64], limit: int | None = None
+                   ) -> bytes | None:
+    """The coded field of ``e`` in these groups; None once it is sure to be longer than
+    ``limit`` bytes (the coder stops there)."""
+    enc = BlockEncoder(capacity=max(1024, 2 * e.size), limit=limit)
     for g in range(int(groups.max(initial=-1)) + 1):
         enc.block(e[:, np.flatnonzero(groups == g), None])
+        if enc.over:
+            return None
     return enc.finish()
 
 
@@ -238,8 +250,9 @@ def group(e: IntArray) -> tuple[NDArray[np.int64], bytes]:
         if G > C:
             break
         groups = (rank * G) // C
-        data = _encode_groups(e, groups)
-        if best is None or len(data) < len(best[1]):
+        # a later grouping replaces the best only if strictly smaller: stop it otherwise
+        data = _encode_groups(e, groups, None if best is None else len(best[1]) - 1)
+        if data is not None and (best is None or len(data) < len(best[1])):
             best = (groups, data)
     assert best is not None
     return best

@@ -31,11 +31,12 @@ def sampled(motion: Motion, frames: np.ndarray | None = None) -> tuple[np.ndarra
 
 def mean_distance(motion: Motion, a: int, b: int, frames: np.ndarray | None = None) -> float:
     """Mean distance between markers a and b over frames where both are valid."""
-    x, v = sampled(motion, frames)
-    both = v[:, a] & v[:, b]
+    x, v = motion.positions, cast(np.ndarray, motion.valid)
+    rows = slice(None) if frames is None else frames      # only the two markers' samples
+    both = v[rows, a] & v[rows, b]
     if not both.any():
         return math.inf
-    return float(np.linalg.norm(x[both, a] - x[both, b], axis=1).mean())
+    return float(np.linalg.norm(x[rows, a][both] - x[rows, b][both], axis=1).mean())
 
 
 def body_size(motion: Motion, frames: np.ndarray | None = None) -> float:
