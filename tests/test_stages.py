@@ -371,3 +371,15 @@ def test_threaded_kernels_release_the_gil():
     for k in (entropy._encode_block, keyframe._fit, keyframe._best_reference,
               quantize._choose):
         assert k.targetoptions.get("nogil") is True, k.py_func.__name__
+
+
+def test_default_threads_are_one_for_a_small_motion(monkeypatch):
+    """issue 15: below MIN_THREADED_SAMPLES marker-frames the default is one thread (a
+    second costs more than it saves); an explicit ``threads`` is always kept."""
+    import mpz.encoder as E
+    monkeypatch.setattr(E.os, "cpu_count", lambda: 8)
+    small, large = E.MIN_THREADED_SAMPLES - 1, E.MIN_THREADED_SAMPLES
+    assert E.thread_count(E.EncodeOptions(), small) == 1
+    assert E.thread_count(E.EncodeOptions(), large) == E.MAX_DEFAULT_THREADS == 2
+    assert E.thread_count(E.EncodeOptions()) == 2
+    assert E.thread_count(E.EncodeOptions(threads=2), small) == 2

@@ -176,7 +176,8 @@ class EncodeOptions:
     # issue 15, speed:
     #: threads for the independent work within one file (the candidate residual layers of a
     #: node, the key-frame fit of each member); None: os.cpu_count() capped at
-    #: MAX_DEFAULT_THREADS. The bytes written do not depend on it.
+    #: MAX_DEFAULT_THREADS, and 1 below MIN_THREADED_SAMPLES marker-frames. The bytes
+    #: written do not depend on it.
     threads: int | None = None
 
     def __post_init__(self) -> None:
@@ -488,11 +489,20 @@ MAX_THREADS = 64
 MAX_DEFAULT_THREADS = 2
 
 
-def thread_count(opts: EncodeOptions) -> int:
-    """The threads an encode with ``opts`` uses: ``opts.threads``, or the CPU count capped
-    at :data:`MAX_DEFAULT_THREADS`."""
+#: ... and one thread by default below this many marker-frames, where a second thread
+#: costs more than it saves: 8 % slower on the three real clips under 10^4 (6-9 thousand),
+#: 8-47 % faster on the 18 of 10^4 to 5 x 10^4 (bench/bench_speed.py, stop 22)
+MIN_THREADED_SAMPLES = 10_000
+
+
+def thread_count(opts: EncodeOptions, samples: int | None = None) -> int:
+    """The threads an encode with ``opts`` uses: ``opts.threads``, or else the CPU count
+    capped at :data:`MAX_DEFAULT_THREADS`, and 1 for a motion of fewer than
+    :data:`MIN_THREADED_SAMPLES` marker-frames (``samples``, when given)."""
     if opts.threads is not None:
         return int(opts.threads)
+    if samples is not None and samples < MIN_THREADED_SAMPLES:
+        return 1
     return max(1, min(MAX_DEFAULT_THREADS, os.cpu_count() or 1))
 
 
@@ -1221,7 +1231,8 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     if F > MAX_FRAMES or M > MAX_MARKERS or F * M > MAX_SAMPLES:
         raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8")
     opts, bound_rule = resolve_bound(motion, opts)          # issue 12: never unbounded unasked
-    threads = thread_count(opts)                     # issue 15: the bytes do not depend on it
+    # issue 15: the bytes do not depend on it
+    threads = thread_count(opts, motion.n_frames * motion.n_markers)
     pool = ThreadPoolExecutor(threads, thread_name_prefix="mpz") if threads > 1 else None
     # the ancillary chunks need only the motion: made on a thread meanwhile (issue 15.1)
     ancillary = pool.submit(ancillary_records, motion, opts) if pool is not None else None
@@ -1388,7 +1399,8 @@ def encode(motion: Motion, *,
         units; the channel steps are then the coarsest that keep it.
     threads : int, optional
         Threads for the independent work within the file (1..64); default: the CPU count,
-        at most 2. The output bytes are the same for any number.
+        at most 2, and 1 for a motion of fewer than 10,000 marker-frames (a second thread
+        costs more than it saves there). The output bytes are the same for any number.
 
     Returns
     -------

@@ -96,8 +96,8 @@ def add_parser(sub):
                    "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
     p.add_argument("--meta", action="append", metavar="KEY=VALUE", help="metadata (repeatable)")
     p.add_argument("--threads", type=int, metavar="N", default=D.threads,
-                   help="threads within each file, 1..64 (default: the CPU count, at most 2); "
-                   "the output is the same for any N")
+                   help="threads within each file, 1..64 (default: the CPU count, at most 2, and 1 "
+                   "below 10,000 marker-frames); the output is the same for any N")
     p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
                    "write it under a name not ending in .mpz, or write to a terminal")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
