@@ -79,12 +79,17 @@ def workload() -> None:
         for kw in options[:3]:
             mpz.decode(mpz.encode(c3d, **kw))
     man = mf.load()
+    skeletal: set[str] = set()
     for v in man["vectors"]:                         # every chunk type, decoded
         data = (mf.DEFAULT_DIR / v["file"]).read_bytes()
         try:
-            mpz.decode(data)
+            m = mpz.decode(data)
         except MPZError:
-            pass
+            continue
+        skel = m.extras.get("skeleton")
+        if skel is not None and skel.convention not in skeletal:
+            skeletal.add(skel.convention)            # a BVH and an AMC encode: kinematics
+            mpz.decode(mpz.encode(m))
 
 
 def _sources(kernels_dir: Path) -> dict[str, str]:
