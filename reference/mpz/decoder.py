@@ -485,6 +485,8 @@ def _declared_range(s: Stream, q: IntArray) -> None:
     file without a residual layer, its PATT.
     """
     limit = 1 << s.quant.bits
+    if q.size == 0 or (int(q.max()) < limit and int(q.min()) > -limit):
+        return                          # every value in range: no node to report
     for i, node in enumerate(s.nodes):
         members = np.asarray(node.members, np.intp)
         for t0, t1 in frame_blocks(q.shape[0], len(members)):
