@@ -103,7 +103,8 @@ def test_forward_checks_its_input_shape():
 
 def test_forward_on_real_skeletons(shared_data):
     import mpz.io
-    files = sorted((shared_data / "bvh").glob("*.bvh")) + sorted((shared_data / "amc").glob("*.amc"))
+    files = [*sorted((shared_data / "bvh").glob("*.bvh")),
+             *sorted((shared_data / "amc").glob("*.amc"))]
     assert files
     for path in files:
         m = mpz.io.read(path)

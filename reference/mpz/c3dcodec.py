@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -99,7 +100,7 @@ def _low_bits(e: IntArray) -> int:
     return max(0, peak.bit_length() - MAX_EXP)
 
 
-def _integers(words: NDArray[np.int16] | NDArray[np.float32]) -> tuple[int, int, IntArray]:
+def _integers(words: NDArray[Any]) -> tuple[int, int, IntArray]:
     """(mode, shift, values) of one channel: int16 words as they are, float32 words as
     k x 2^shift when exact (mode 0), else their ordered bit patterns (mode 1)."""
     if words.dtype.kind == "i":
@@ -113,10 +114,10 @@ def _integers(words: NDArray[np.int16] | NDArray[np.float32]) -> tuple[int, int,
 
 def plan(words: NDArray[np.int16] | NDArray[np.float32]) -> Plan:
     """The cheapest exact coding of one channel of C3D words (1-D, int16 or float32)."""
-    return plan_all(np.asarray(words)[:, None])[0]
+    return plan_all(words[:, None])[0]
 
 
-def plan_all(words: NDArray[np.int16] | NDArray[np.float32]) -> list[Plan]:
+def plan_all(words: NDArray[Any]) -> list[Plan]:
     """:func:`plan` of every column of ``words[T, C]``: each order's residuals are taken
     for all channels at once, and each channel's cost summed over its own samples as a
     contiguous row (numpy's order for a 1-D sum), so the plans do not depend on the

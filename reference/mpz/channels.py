@@ -207,7 +207,10 @@ def plan(x: IntArray, steps: Sequence[Step], rotations: Sequence[bool]) -> list[
         turn = s.turn
         wraps[c] = bool(rot and turn is not None and F and int(hi[c]) - int(lo[c]) < turn
                         and int(lo[c]) + turn <= CHANNEL_VALUE_LIMIT)
-        turns[c] = turn if wraps[c] else 1
+        if wraps[c] and turn is not None:
+            turns[c] = turn
+        else:
+            turns[c] = 1                              # not used: the channel does not wrap
     costs = np.empty((3, C))
     for order in (0, 1, 2):
         e = residuals(x, order)
