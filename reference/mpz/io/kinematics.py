@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+import functools
 import math
 
 import numpy as np
@@ -268,18 +269,18 @@ def _forward(v: FloatArray, bvh: bool, rad: bool, parent: NDArray[np.int64],
     t = np.empty(3)
     bone = np.empty(3)
     seen = np.zeros(7, np.bool_)
-    ln = 0.0
     for f in range(F):
         for j in range(J):
             p = parent[j]
             R[:, :] = 0.0
             R[0, 0] = R[1, 1] = R[2, 2] = 1.0
             t[:] = 0.0
+            ln = 0.0
             seen[:] = False
             for k in range(count[j]):
                 kind = kinds[start[j] + k]
                 x = v[f, start[j] + k]
-                if kind <= 5 and kind >= 3:
+                if 3 <= kind <= 5:
                     # BVH: R @ A in listed order; ASF: A @ M, the first listed applied first
                     _rotate(R, kind, x, rad, not bvh)
                 elif bvh:
@@ -290,8 +291,6 @@ def _forward(v: FloatArray, bvh: bool, rad: bool, parent: NDArray[np.int64],
                         t[kind] = x
                     else:
                         ln = x
-            if not seen[6]:
-                ln = 0.0
             if bvh:
                 for a in range(3):
                     t[a] = offset[j, a] + t[a]
@@ -320,34 +319,24 @@ def _forward(v: FloatArray, bvh: bool, rad: bool, parent: NDArray[np.int64],
     return pos
 
 
+@functools.lru_cache(maxsize=8)
 def _forward_arrays(skel: Skeleton) -> tuple:
-    """The skeleton as the arrays :func:`_forward` reads (made once per skeleton)."""
-    got = _ARRAYS.get(id(skel))
-    if got is not None and got[0] is skel:
-        return got[1]
+    """The skeleton as the arrays :func:`_forward` reads (kept for a few recent skeletons:
+    an encode calls :func:`forward` several times with the same one)."""
     J = len(skel.joints)
     axes = np.zeros((J, 3, 3))
     if skel.convention == "asf":
         for i, j in enumerate(skel.joints):
             axes[i] = _axes_matrix(j.axis_order,
                                    [float(a) for a in skel.degrees(np.asarray(j.axis))])
-    arrays = (skel.convention == "bvh", skel.angle_unit == "rad",
-              np.array([j.parent for j in skel.joints], np.int64),
-              np.array(skel.channel_starts(), np.int64),
-              np.array([len(j.channels) for j in skel.joints], np.int64),
-              np.array(skel.channel_kinds(), np.int64).reshape(-1),
-              np.array([j.offset for j in skel.joints], np.float64).reshape(J, 3),
-              np.array([j.direction for j in skel.joints], np.float64).reshape(J, 3),
-              np.array([j.length for j in skel.joints], np.float64), axes)
-    if len(_ARRAYS) > 8:
-        _ARRAYS.clear()
-    _ARRAYS[id(skel)] = (skel, arrays)
-    return arrays
-
-
-#: id(skeleton) -> (skeleton, its arrays): a few recent skeletons (forward is called
-#: several times per encode with the same one)
-_ARRAYS: dict[int, tuple[Skeleton, tuple]] = {}
+    return (skel.convention == "bvh", skel.angle_unit == "rad",
+            np.array([j.parent for j in skel.joints], np.int64),
+            np.array(skel.channel_starts(), np.int64),
+            np.array([len(j.channels) for j in skel.joints], np.int64),
+            np.array(skel.channel_kinds(), np.int64).reshape(-1),
+            np.array([j.offset for j in skel.joints], np.float64).reshape(J, 3),
+            np.array([j.direction for j in skel.joints], np.float64).reshape(J, 3),
+            np.array([j.length for j in skel.joints], np.float64), axes)
 
 
 def axis_order_code(order: str) -> int:
