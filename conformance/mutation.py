@@ -216,19 +216,23 @@ MUTANTS = [
     M("E3", E, "        if left:\n", "        if left > 1:\n", "one byte left over allowed"),
     M("E4", E, "                        if pos >= n:", "                        if pos > n:",
       "reads one byte past the payload (close() then finds -1 bytes left)"),
-    M("E5", E, "                        probs[i] = p + ((2048 - p) >> MOVE_BITS)\n"
-      "                        bit = 0",
-      "                        probs[i] = p + ((2048 - p) >> (MOVE_BITS + 1))\n"
-      "                        bit = 0", "decoder adapts differently"),
+    M("E5", E, "                    code -= bound & mk\n"
+      "                    rng = bound + ((rng - 2 * bound) & mk)\n"
+      "                    probs[i] = p + (((2048 - p) >> MOVE_BITS) & ~mk)",
+      "                    code -= bound & mk\n"
+      "                    rng = bound + ((rng - 2 * bound) & mk)\n"
+      "                    probs[i] = p + (((2048 - p) >> (MOVE_BITS + 1)) & ~mk)",
+      "decoder adapts differently"),
     M("E6", E, "if bit == 0 or k == MAX_EXP:", "if bit == 0 or k == MAX_EXP - 1:",
       "exponent k = 30 not read"),
     M("E7", E, "                if not first:\n                    ctx_v += 2",
       "                if t != 0:\n                    ctx_v += 2",
       "decoder ignores the period in contexts"),
-    M("E8", E, "                c = 0\n                while ctx_v > 0",
-      "                ctx_v &= 0xFFFFFFFF\n                c = 0\n                while ctx_v > 0",
+    M("E8", E, "                c = _CTX[ctx_v] if ctx_v",
+      "                ctx_v &= 0xFFFFFFFF\n                c = _CTX[ctx_v] if ctx_v",
       "context value in unsigned 32 bits"),
-    M("E9", E, "while ctx_v > 0 and c < N_CTX - 1:", "while ctx_v > 0 and c < N_CTX - 2:",
+    M("E9", E, "c = _CTX[ctx_v] if ctx_v < _CTX_TABLE else N_CTX - 1",
+      "c = min(N_CTX - 2, _CTX[ctx_v] if ctx_v < _CTX_TABLE else N_CTX - 1)",
       "context capped at 6"),
     # §6 decoder (decoder.py)
     M("D1", D, "if (flags > 1).any():", "if (flags > 2).any():", "gap flag 2 accepted"),

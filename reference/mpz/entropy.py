@@ -41,6 +41,15 @@ _Z, _S, _E, _X = 0, 1, 2, 3
 # The one failure the jitted decoder reports (err[0]); BlockDecoder turns it into a FormatError.
 ERR_OVERRUN = 1
 
+# Lookup tables the kernels read as constants (issue 15.1: a loop per value before).
+#: §5.6: the context of a sum s < _CTX_TABLE is min(7, bit length of s); 7 beyond
+_CTX_TABLE = 1 << (N_CTX - 1)
+_CTX = np.array([min(N_CTX - 1, i.bit_length()) for i in range(_CTX_TABLE)], np.int64)
+#: §5.4: the exponent k = floor(log2 u) of 1 <= u < _EXP_TABLE (the entry for 0 is unused)
+_EXP_BITS = 12
+_EXP_TABLE = 1 << _EXP_BITS
+_EXP = np.array([max(0, i.bit_length() - 1) for i in range(_EXP_TABLE)], np.int64)
+
 #: one model array (int32 probabilities, 1..2047)
 _Probs = NDArray[np.int32]
 
@@ -129,10 +138,7 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
                     cv += 2 * abs(vals[t - 1, m, a])
                 if m > 0:
                     cv += abs(vals[t, m - 1, a])
-                c = 0
-                while cv > 0 and c < N_CTX - 1:
-                    cv >>= 1
-                    c += 1
+                c = _CTX[cv] if cv < _CTX_TABLE else N_CTX - 1
                 ac = a * n_ctx + c
                 idx[0] = ac                              # §5.4 zero flag
                 if v == 0:
@@ -150,9 +156,12 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
                         else:
                             bits[1] = 0
                         n = 2
-                    k = 0
-                    while (u >> (k + 1)) != 0:
-                        k += 1
+                    if u < _EXP_TABLE:                   # k = floor(log2 u)
+                        k = _EXP[u]
+                    else:
+                        k = _EXP_BITS
+                        while (u >> (k + 1)) != 0:
+                            k += 1
                     eb = o_e + ac * n_exp                # unary exponent
                     for i in range(k):
                         idx[n] = eb + i
@@ -171,13 +180,13 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
                     i = idx[d]
                     p = probs[i]
                     bound = (rng >> PROB_BITS) * p
-                    if bits[d] == 0:
-                        rng = bound
-                        probs[i] = p + ((2048 - p) >> MOVE_BITS)
-                    else:
-                        low += bound
-                        rng -= bound
-                        probs[i] = p - (p >> MOVE_BITS)
+                    # bit 0: rng = bound, p += (2048 - p) >> 5; bit 1: low += bound,
+                    # rng -= bound, p -= p >> 5. Without a branch (mk: 0 or all ones):
+                    # the bits are what the coder cannot predict, and neither can the CPU
+                    mk = -bits[d]
+                    low += bound & mk
+                    rng = bound + ((rng - 2 * bound) & mk)
+                    probs[i] = p + (((2048 - p) >> MOVE_BITS) & ~mk) - ((p >> MOVE_BITS) & mk)
                     while rng < TOP:
                         rng = (rng << 8) & 0xFFFFFFFF
                         if low < 0xFF000000 or low >= 0x100000000:     # shift_low
@@ -271,10 +280,7 @@ def _decode_block(buf: NDArray[np.uint8], ds: NDArray[np.int64], T: int, M: int,
                     ctx_v += 2 * abs(out[t - 1, m, a])
                 if m > 0:
                     ctx_v += abs(out[t, m - 1, a])
-                c = 0
-                while ctx_v > 0 and c < N_CTX - 1:
-                    ctx_v >>= 1
-                    c += 1
+                c = _CTX[ctx_v] if ctx_v < _CTX_TABLE else N_CTX - 1
                 ac = a * N_CTX + c
                 phase = 0
                 k = 0
@@ -293,15 +299,11 @@ def _decode_block(buf: NDArray[np.uint8], ds: NDArray[np.int64], T: int, M: int,
                         i = o_x + (a * (MAX_EXP + 1) + k) * MAX_EXP + j
                     p = probs[i]                          # §5.3 decode_bit
                     bound = (rng >> PROB_BITS) * p
-                    if code < bound:
-                        rng = bound
-                        probs[i] = p + ((2048 - p) >> MOVE_BITS)
-                        bit = 0
-                    else:
-                        code -= bound
-                        rng -= bound
-                        probs[i] = p - (p >> MOVE_BITS)
-                        bit = 1
+                    bit = 1 if code >= bound else 0   # as the encoder, without a branch
+                    mk = -bit
+                    code -= bound & mk
+                    rng = bound + ((rng - 2 * bound) & mk)
+                    probs[i] = p + (((2048 - p) >> MOVE_BITS) & ~mk) - ((p >> MOVE_BITS) & mk)
                     while rng < TOP:
                         if pos >= n:
                             ds[0], ds[1], ds[2] = code, rng, pos
