@@ -233,6 +233,36 @@ def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):
         assert e.tolist() == want.tolist()
 
 
+@settings(max_examples=25, deadline=None)
+@given(st.integers(2, 5), st.integers(3, 40), st.integers(0, 2 ** 32 - 1))
+def test_keyframe_reference_choice_breaks_ties_by_the_first(n, T, seed):
+    """Equal costs must go to the first candidate (none, then j = 0, 1, ..., mode 1 before
+    2). Members that are copies of one track tie exactly, and with a track that never moves
+    mode 1 and mode 2 tie as well; the fast chooser sums both modes of a member together and
+    stops sums early, so its tie rule is checked here against the full sums."""
+    from mpz import keyframe as kf
+    rng = np.random.default_rng(seed)
+    moving = np.cumsum(rng.normal(0, 3, (T, 3)), axis=0)
+    still = np.full((T, 3), 4.0)
+    tracks_in = [moving, still][: 1 + seed % 2]
+    y = np.stack([tracks_in[rng.integers(len(tracks_in))] for _ in range(n)], axis=1)
+    out = np.zeros((T, n, 3), np.int32)
+    fits = []
+    for m in range(n):
+        times, w = kf.fit(y[:, m], 1.7320508)
+        out[:, m] = kf.interpolate(times, w, T)
+        fits.append((times, w))
+    tab = kf._log2_table(kf._LOG2_TABLE)
+    tracks = np.ascontiguousarray(out.transpose(1, 0, 2))
+    for m, (times, w) in enumerate(fits):
+        costs = [(kf._cost(kf._residuals(0, times, w, out[:, 0])), 0)]
+        costs += [(kf._cost(kf._residuals(mode, times, w, out[:, j])), 2 * j + mode)
+                  for j in range(m) for mode in (1, 2)]
+        want = min(costs)                          # least cost, then least p
+        e = np.empty_like(w)
+        assert kf._best_reference(m, times, w, tracks, tab, e) == want[1]
+
+
 def test_log2_table_has_the_kernels_bits():
     """The reference choice reads log2(1 + |e|) from a table for small |e| and computes it
     in the kernel (numba's np.log2) beyond: both must give the same bits, or a tie could

@@ -521,54 +521,82 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
     Speed (issue 15): one call per member instead of two small kernel calls per candidate;
     the likely best candidate is summed first, and a candidate's sum stops as soon as it can
     no longer win (its terms are >= 0, so its total cannot shrink); log2(1 + |e|) comes from
-    ``tab`` for small |e|. The choice is that of summing every term with :func:`_cost`.
-    The residuals of the chosen p go to ``e`` ``[K, 3]`` (those of :func:`_residuals`; one
-    kernel less to compile on the first encode, issue 15.2)."""
-    # candidates p in the order: the previous member (2m - 1, 2m: after _chain's ordering
-    # usually the best, so the sums of the others stop early), none (0), then 1 .. 2m - 2;
-    # the winner is the least (cost, p), which is what the first-on-tie scan in p order keeps.
-    # A last pass (i = 2m + 1) writes the winner's residuals. The §6.5 prediction is
-    # _predict_key, inlined (issue 15.2); tests/test_stages.py checks the choice and the
-    # residuals against _residuals/_cost.
+    ``tab`` for small |e|. Both modes of a member j are summed in one pass: with
+    g_k = w_k - R[t_k] (R = 0 for none), the §6.5 residuals are g_0 at k = 0, then
+    g_k - g_{k-1} (mode 1, and mode 2 at k = 1), less floor((2 (g_{k-1} - g_{k-2}) d1 + d0)
+    / 2 d0) for mode 2 and none from k = 2 (d1 = t_k - t_{k-1}, d0 = t_{k-1} - t_{k-2}):
+    one read of R per key and axis, where the two modes read it five times. Each
+    candidate's terms are still added in key, then axis order, so its total has the same
+    bits; the choice is that of summing every term with :func:`_cost`. The residuals of
+    the chosen p go to ``e`` ``[K, 3]`` (those of :func:`_residuals`; one kernel less to
+    compile on the first encode, issue 15.2)."""
+    # units in the order: the previous member j = m - 1 (after _chain's ordering usually the
+    # best, so the sums of the others stop early), none (0), then j = 0 .. m - 2; the winner
+    # is the least (cost, p), which is what the first-on-tie scan in p order keeps.
+    # tests/test_stages.py checks the choice and the residuals against _residuals/_cost.
+    K = w.shape[0]
     best = np.inf
     p = 0
     ntab = tab.shape[0]
-    for i in range(2 * m + 2):
-        final = i == 2 * m + 1
-        if final:
-            q = p
-        elif m == 0:
-            q = 0
-        elif i < 2:
-            q = 2 * m - 1 + i
-        elif i == 2:
-            q = 0
-        else:
-            q = i - 2
-        mode = 0 if q == 0 else (1 if q % 2 == 1 else 2)
-        R = tracks[(q - 1) // 2 if q > 0 else 0]
-        total = 0.0
-        over = False
-        for k in range(w.shape[0]):
+    g1 = np.empty(3, np.int64)                    # g_{k-1}, g_{k-2} per axis
+    g2 = np.empty(3, np.int64)
+    for unit in range(m + 1):
+        j = -1 if m == 0 or unit == 1 else (m - 1 if unit == 0 else unit - 2)
+        R = tracks[max(j, 0)]
+        q1 = 2 * j + 1 if j >= 0 else 0           # the unit's two candidates (none: one)
+        q2 = 2 * j + 2
+        on1 = True
+        on2 = j >= 0
+        s1 = 0.0
+        s2 = 0.0
+        for k in range(K):
             tk = times[k]
-            t1 = times[k - 1] if k >= 1 else 0
-            t2 = times[k - 2] if k >= 2 else 0
+            d1 = tk - times[k - 1] if k >= 2 else 0
+            d0 = times[k - 1] - times[k - 2] if k >= 2 else 1
             for c in range(3):
-                w1 = w[k - 1, c] if k >= 1 else 0
-                w2 = w[k - 2, c] if k >= 2 else 0
-                pr = _predict_key(mode, k, tk, t1, t2, w1, w2, R, c)
-                ev = w[k, c] - pr
-                if final:
-                    e[k, c] = ev
+                g = w[k, c] - R[tk, c] if j >= 0 else w[k, c]
+                if k == 0:
+                    e1 = g
+                    e2 = g
+                elif k == 1:
+                    e1 = g - g1[c]
+                    e2 = e1
                 else:
-                    u = abs(ev)
-                    total += tab[u] if u < ntab else np.log2(1.0 + u)
-            if not final and (total > best or (total == best and q > p)):
-                over = True
+                    e1 = g - g1[c]
+                    e2 = e1 - (2 * (g1[c] - g2[c]) * d1 + d0) // (2 * d0)
+                g2[c] = g1[c]
+                g1[c] = g
+                if j < 0:                         # none predicts as mode 2 with R = 0
+                    e1 = e2
+                if on1:
+                    u = abs(e1)
+                    s1 += tab[u] if u < ntab else np.log2(1.0 + u)
+                if on2:
+                    u = abs(e2)
+                    s2 += tab[u] if u < ntab else np.log2(1.0 + u)
+            if on1 and (s1 > best or (s1 == best and q1 > p)):
+                on1 = False
+            if on2 and (s2 > best or (s2 == best and q2 > p)):
+                on2 = False
+            if not on1 and not on2:
                 break
-        if not final and not over and (total < best or q < p):
-            best = total
-            p = q
+        if on1 and (s1 < best or (s1 == best and q1 < p)):
+            best = s1
+            p = q1
+        if on2 and (s2 < best or (s2 == best and q2 < p)):
+            best = s2
+            p = q2
+    # the winner's residuals, by the §6.5 prediction itself (_predict_key, inlined)
+    mode = 0 if p == 0 else (1 if p % 2 == 1 else 2)
+    R = tracks[(p - 1) // 2 if p > 0 else 0]
+    for k in range(K):
+        tk = times[k]
+        t1 = times[k - 1] if k >= 1 else 0
+        t2 = times[k - 2] if k >= 2 else 0
+        for c in range(3):
+            w1 = w[k - 1, c] if k >= 1 else 0
+            w2 = w[k - 2, c] if k >= 2 else 0
+            e[k, c] = w[k, c] - _predict_key(mode, k, tk, t1, t2, w1, w2, R, c)
     return p
 
 
