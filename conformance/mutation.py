@@ -283,16 +283,16 @@ MUTANTS = [
     M("D25", D, 'if not chunks or chunks[0].type != "MHDR":', "if not chunks:",
       "first chunk not checked"),
     # §6.2 prediction (predict.py)
-    M("P1", P, "if d.size and np.abs(d).max() >= _DIFF_LIMIT:",
-      "if d.size and np.abs(d).max() > _DIFF_LIMIT:", "order-2 guard at 2^32 + 1"),
-    M("P2", P, "if d.size and np.abs(d).max() >= _DIFF_LIMIT:",
-      "if d.size and np.abs(d).max() >= _DIFF_LIMIT - 1:", "order-2 guard at 2^32 - 1"),
-    M("P3", P, "if d.size and np.abs(d).max() >= _DIFF_LIMIT:", "if False:",
+    M("P1", P, "if dd >= _DIFF_LIMIT or dd <= -_DIFF_LIMIT:",
+      "if dd > _DIFF_LIMIT or dd < -_DIFF_LIMIT:", "order-2 guard at 2^32 + 1"),
+    M("P2", P, "if dd >= _DIFF_LIMIT or dd <= -_DIFF_LIMIT:",
+      "if dd >= _DIFF_LIMIT - 1 or dd <= 1 - _DIFF_LIMIT:", "order-2 guard at 2^32 - 1"),
+    M("P3", P, "if dd >= _DIFF_LIMIT or dd <= -_DIFF_LIMIT:", "if False:",
       "no order-2 guard"),
     M("P4", P, "if order == 2 and r.shape[1] > 2:", "if order == 2 and r.shape[1] > 3:",
       "encoder: order-2 residuals of a 3-row run left as first differences"),
-    M("P5", P, "        r[...] = np.cumsum(r, axis=1)\n",
-      "        r[...] = np.cumsum(r, axis=1) - r[:, :1] + r[:, :1]\n", "order 1, rewritten",
+    M("P5", P, "                    x[t, c] += x[t - 1, c]\n",
+      "                    x[t, c] = x[t - 1, c] + x[t, c]\n", "order 1, rewritten",
       equivalent="the same values (a control row: a mutant that changes nothing must "
       "survive)"),
     # §6.3 de-normalisation, §6.4 smoothing

@@ -12,11 +12,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mpz._jit import njit
 from mpz.errors import FormatError
 from mpz.format import MAX_ORDER
 
 _DIFF_LIMIT = 1 << 32   # §6.2: |x[t] - x[t-1]| < 2^32 for any valid stream
-#: values per block of work in :func:`reconstruct`: 2^20 int64 = 8 MiB per temporary (§8)
+#: values per block of work in :func:`residuals`: 2^20 int64 = 8 MiB per temporary (§8)
 _BLOCK_VALUES = 1 << 20
 
 
@@ -75,10 +76,10 @@ def reconstruct(e: ArrayLike, order: int, period: int | None = None, *,
                 inplace: bool = False) -> NDArray[np.int64]:
     """Invert :func:`residuals` exactly.
 
-    The work goes a bounded block of rows at a time (whole runs when they are short,
-    otherwise rows of one run carrying the running sums across blocks), so the temporaries
-    stay below a few MiB whatever the block size (spec §8); with ``inplace`` the result
-    overwrites ``e`` (an int64 array) and nothing of its size is allocated.
+    One pass over the rows (:func:`_integrate`); the only scratch is one row of carried
+    differences, whatever the block size (spec §8). With ``inplace`` the result overwrites
+    ``e`` (an int64 array) and nothing of its size is allocated (when ``e`` is
+    C-contiguous; otherwise a contiguous copy is integrated and written back).
 
     Raises
     ------
@@ -90,57 +91,40 @@ def reconstruct(e: ArrayLike, order: int, period: int | None = None, *,
     x = e if inplace else e.copy()
     if order == 0 or x.shape[0] == 0:
         return x
-    r = _runs(x, period)
-    R, P = r.shape[0], r.shape[1]
-    row = max(1, r[0, 0].size)                  # values per row
-    if P * row <= _BLOCK_VALUES:                # whole runs at a time
-        per = max(1, _BLOCK_VALUES // (P * row))
-        for k0 in range(0, R, per):
-            _whole_runs(r[k0: k0 + per], order, chunk, offset)
-    else:                                       # long runs: blocks of rows, with carries
-        step = max(1, _BLOCK_VALUES // row)
-        for k in range(R):
-            _long_run(r[k], order, step, chunk, offset)
+    T = x.shape[0]
+    P = _runs(x, period).shape[1]
+    work = x if x.flags.c_contiguous else np.ascontiguousarray(x)
+    bad = _integrate(work.reshape(T, -1), P, int(order))
+    if bad >= 0:
+        raise _overflow(chunk, offset)
+    if work is not x:
+        x[...] = work
     return x
+
+
+@njit(cache=True, nogil=True)
+def _integrate(x: NDArray[np.int64], P: int, order: int) -> int:
+    """:func:`reconstruct` of ``x[T, C]`` in place, runs of P rows: order 1 adds each row
+    to the next; order 2 carries the differences d[t] = d[t-1] + e[t] (d[1] = e[1]) and
+    adds them, after §6.2's guard |d| < 2^32. Returns the first row whose difference
+    fails the guard, or -1 (speed, issue 15.1: the numpy version made five passes and
+    two temporaries per block; this one reads and writes each value once)."""
+    T, C = x.shape
+    d = np.empty(C, np.int64)
+    for r0 in range(0, T, P):
+        for t in range(r0 + 1, r0 + P):
+            for c in range(C):
+                if order == 1:
+                    x[t, c] += x[t - 1, c]
+                    continue
+                dd = x[t, c] if t == r0 + 1 else d[c] + x[t, c]
+                if dd >= _DIFF_LIMIT or dd <= -_DIFF_LIMIT:
+                    return t
+                d[c] = dd
+                x[t, c] = x[t - 1, c] + dd
+    return -1
 
 
 def _overflow(chunk: str | None, offset: int | None) -> FormatError:
     return FormatError("order-2 prediction residuals leave the valid range",
                        chunk=chunk, offset=offset, section="§6.2")
-
-
-def _whole_runs(r: NDArray[np.int64], order: int, chunk: str | None,
-                offset: int | None) -> None:
-    """Reconstruct complete runs ``r[k, P, ...]`` in place."""
-    if order == 1:
-        r[...] = np.cumsum(r, axis=1)
-        return
-    # differences: d[0] = x[0] (kept), d[1] = e[1], d[t] = e[t] + d[t-1]
-    d = np.cumsum(r[:, 1:], axis=1)
-    if d.size and np.abs(d).max() >= _DIFF_LIMIT:
-        raise _overflow(chunk, offset)
-    r[:, 1:] = r[:, :1] + np.cumsum(d, axis=1)
-
-
-def _long_run(r: NDArray[np.int64], order: int, step: int, chunk: str | None,
-              offset: int | None) -> None:
-    """Reconstruct one run ``r[P, ...]`` in place, ``step`` rows at a time."""
-    if order == 1:
-        for a in range(0, r.shape[0], step):
-            b = r[a: a + step]
-            s = np.cumsum(b, axis=0)
-            if a:
-                s += r[a - 1]                    # the finished row before the block
-            b[...] = s
-        return
-    d_carry = np.zeros(r.shape[1:], np.int64)   # d[a - 1] (d of row 0 is not a difference)
-    for a in range(1, r.shape[0], step):
-        b = r[a: a + step]
-        d = np.cumsum(b, axis=0)
-        d += d_carry
-        if np.abs(d).max() >= _DIFF_LIMIT:
-            raise _overflow(chunk, offset)
-        d_carry = d[-1].copy()
-        s = np.cumsum(d, axis=0)
-        s += r[a - 1]                            # x[a - 1], finished
-        b[...] = s
