@@ -532,6 +532,24 @@ def _best_order(block: IntArray, period: int | None = None,
     return best
 
 
+def _lattice(y: FloatArray, radius: float, order: int) -> IntArray:
+    """The residuals of order ``order`` of the lattice values chosen for targets ``y``
+    (grid units) within ``radius`` (:func:`choose_lattice`), formed in place."""
+    return residuals(choose_lattice(y, radius, order), order, inplace=True)
+
+
+def _coded(e: IntArray, limit: int | None) -> bytes | None:
+    """The payload of residuals ``e``, or None when it is longer than ``limit`` bytes (the
+    coder stops as soon as it is sure of that, issue 15.1; the flush can still add bytes
+    past the limit, so the finished length is checked too)."""
+    enc = BlockEncoder(capacity=_capacity(e.size), limit=limit)
+    enc.block(e)
+    if enc.over:
+        return None
+    data = enc.finish()
+    return None if limit is not None and len(data) > limit else data
+
+
 def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
              limit: int | Future[int] | None = None) -> tuple[int, Int32Array, bytes] | None:
     """Best (order, values, payload) for targets ``y`` (grid units) within ``radius``.
@@ -549,18 +567,12 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
     """
     best: tuple[int, Int32Array, bytes] | None = None
     for order in orders:
-        e = residuals(choose_lattice(y, radius, order), order, inplace=True)
+        e = _lattice(y, radius, order)
         if isinstance(limit, Future):
             limit = limit.result()
         # a later order replaces the best only if strictly smaller
-        cap = limit if best is None else len(best[2]) - 1
-        enc = BlockEncoder(capacity=_capacity(e.size), limit=cap)
-        enc.block(e)
-        if enc.over:
-            del e
-            continue
-        data = enc.finish()
-        if best is None or len(data) < len(best[2]):
+        data = _coded(e, limit if best is None else len(best[2]) - 1)
+        if data is not None:
             best = None                          # let the previous best go first
             best = (order, reconstruct(e, order, inplace=True).astype(np.int32), data)
         del e
@@ -961,11 +973,13 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
     sure to be longer than them: it would lose then (the key frames come after it in the
     list, so it wins only ties). The same layer is chosen as when every candidate is coded
     in full, and that is most of the encoder's work saved at 1 mm (issue 15.1). With a
-    ``pool`` (issue 15), the key-frame members are fitted on its threads, then the two
-    orders of base 1 run on them side by side, each against the key frames' length; the
-    smaller wins, order 1 on a tie, which is what :func:`_bounded` picks from the two in
-    turn. That holds both orders' arrays at once, where the sequential path keeps one
-    (issue 11.11).
+    ``pool`` (issue 15), the key-frame members are fitted on its threads; then, while this
+    thread codes the key frames, a pool thread chooses both orders' lattices of base 1
+    and codes order 1, and this thread codes order 2, each against the key frames'
+    length (the order with the critical path first: a thread per order had three threads
+    on two cores and both orders waiting for the limit). The smaller wins, order 1 on a
+    tie, which is what :func:`_bounded` picks from the two in turn. That holds both
+    orders' arrays at once, where the sequential path keeps one (issue 11.11).
     """
     g = grid.scale.get(i, 1)
     radius = grid.bounds[i] / (g * grid.step)
@@ -990,16 +1004,27 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         # at most T keys a member: 3 key values, a span, plus a source and a count each
         enc = BlockEncoder(capacity=_capacity(4 * T * n + 2 * n))
 
-        def orders(which: tuple[int, ...], limit: int | Future[int]
-                   ) -> tuple[int, Int32Array, bytes] | None:
-            y = u_members()
-            y /= g
-            return _bounded(y, radius, which, limit=limit)
         absolute: tuple[int, Int32Array, bytes] | None
         if pool is not None:
-            # the threads choose both orders' values while this one codes the key frames
+            # Both cores stay busy until the end: while this thread codes the key frames
+            # (their length is the limit of both orders), a pool thread chooses the
+            # lattice of order 1, then of order 2, then codes order 1; this thread then
+            # codes order 2. The smaller wins, order 1 on a tie: _bounded's choice.
             klen: Future[int] = Future()
-            jobs = [pool.submit(orders, (o,), klen) for o in (1, 2)]
+            second: Future[IntArray] = Future()
+
+            def first() -> tuple[IntArray, bytes | None]:
+                try:
+                    y = u_members()
+                    y /= g
+                    e1 = _lattice(y, radius, 1)
+                    second.set_result(_lattice(y, radius, 2))
+                    del y
+                except BaseException as exc:
+                    second.set_exception(exc)
+                    raise
+                return e1, _coded(e1, klen.result())
+            job = pool.submit(first)
             try:
                 keyframe.write_blocks(enc, fitted, T)
                 kdata = enc.finish()
@@ -1007,15 +1032,26 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
                 klen.set_exception(exc)
                 raise
             klen.set_result(len(kdata))
-            first, second = (job.result() for job in jobs)
-            absolute = (first if second is None
-                        else second if first is None or len(second[2]) < len(first[2])
-                        else first)
-            del first, second, jobs
+            e2 = second.result()
+            data2 = _coded(e2, len(kdata))
+            e1, data1 = job.result()
+            del job
+            if data1 is not None and (data2 is None or len(data1) <= len(data2)):
+                del e2
+                absolute = (1, reconstruct(e1, 1, inplace=True).astype(np.int32), data1)
+                del e1
+            else:
+                del e1
+                absolute = (None if data2 is None
+                            else (2, reconstruct(e2, 2, inplace=True).astype(np.int32), data2))
+                del e2
         else:
             keyframe.write_blocks(enc, fitted, T)
             kdata = enc.finish()
-            absolute = orders((1, 2), len(kdata))
+            y = u_members()
+            y /= g
+            absolute = _bounded(y, radius, (1, 2), len(kdata))
+            del y
         wk = fitted.out
         del fitted
         if absolute is not None:
