@@ -5,6 +5,8 @@ import json
 import math
 import warnings
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
 
@@ -342,6 +344,48 @@ def test_real_c3d_gets_a_valid_hierarchy(shared_data, stem):
         assert h.method == "auto"
     build_hierarchy(m, "auto").validate(m.n_markers)
     build_hierarchy(m, "flat").validate(m.n_markers)
+
+
+# -- the auto builder's pair statistics (issue 15.1: a kernel in place of numpy) -------
+def _distance_sums_numpy(x, v):
+    """The numpy expression the kernel replaced, with einsum's sums over the axes written
+    out in the order it adds them here, (0 + 2) + 1 (einsum's order is its own SIMD
+    detail; written out, the oracle does not depend on it). The hierarchy's groups
+    compare these sums with thresholds, so a last-bit change could regroup."""
+    x0 = np.where(v[..., None], x, 0.0)
+    sq = (x0[..., 0] * x0[..., 0] + x0[..., 2] * x0[..., 2]) + x0[..., 1] * x0[..., 1]
+    xa, xb = x0[:, :, None, :], x0[:, None, :, :]
+    g = (xa[..., 0] * xb[..., 0] + xa[..., 2] * xb[..., 2]) + xa[..., 1] * xb[..., 1]
+    d = np.sqrt(np.maximum(sq[:, :, None] + sq[:, None, :] - 2 * g, 0.0))
+    vv = (v[:, :, None] & v[:, None, :]).astype(np.float64)
+    return (d * vv).sum(axis=0), (d * d * vv).sum(axis=0), vv.sum(axis=0)
+
+
+def _same_sums(x, v):
+    from mpz.hierarchy.auto import _distance_sums
+    got = _distance_sums(np.ascontiguousarray(x), np.ascontiguousarray(v))
+    for a, b in zip(got, _distance_sums_numpy(x, v), strict=True):
+        assert np.array_equal(a, b)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 25), st.floats(0.0, 4.0), st.floats(0.0, 0.6),
+       st.integers(0, 2 ** 32 - 1))
+def test_auto_distance_sums_have_the_numpy_bits(S, M, scale, gaps, seed):
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0, 10 ** scale, (S, M, 3))
+    _same_sums(x, rng.random((S, M)) >= gaps)
+
+
+@pytest.mark.parametrize("stem", C3D_FILES)
+def test_auto_distance_sums_on_real_samples(shared_data, stem):
+    from mpz.hierarchy.auto import AUTO_MAX_FRAMES
+    from mpz.hierarchy.measure import sample_frames, sampled
+    path = shared_data / "c3d" / f"{stem}.c3d"
+    if not path.exists():
+        pytest.skip(f"{path} is absent")
+    m = _load_c3d(path)
+    _same_sums(*sampled(m, sample_frames(m.n_frames, AUTO_MAX_FRAMES)))
 
 
 # -- package layout ----------------------------------------------------------------
