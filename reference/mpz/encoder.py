@@ -27,6 +27,7 @@ from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, fields, replace
 import math
 import os
+import threading
 import time
 from types import MappingProxyType
 from typing import Any, Never
@@ -974,10 +975,11 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
     list, so it wins only ties). The same layer is chosen as when every candidate is coded
     in full, and that is most of the encoder's work saved at 1 mm (issue 15.1). With a
     ``pool`` (issue 15), the key-frame members are fitted on its threads; then, while this
-    thread codes the key frames, a pool thread chooses both orders' lattices of base 1
-    and codes order 1, and this thread codes order 2, each against the key frames'
-    length (the order with the critical path first: a thread per order had three threads
-    on two cores and both orders waiting for the limit). The smaller wins, order 1 on a
+    thread codes the key frames, a pool thread chooses the lattice of base 1's order 1
+    and codes it; order 2's lattice is chosen by whichever thread is free first, and this
+    thread codes it; each order against the key frames' length (the critical path first:
+    a thread per order had three threads on two cores and both orders waiting for the
+    limit, and a fixed split left one core idle for 17 ms). The smaller wins, order 1 on a
     tie, which is what :func:`_bounded` picks from the two in turn. That holds both
     orders' arrays at once, where the sequential path keeps one (issue 11.11).
     """
@@ -1008,21 +1010,31 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         if pool is not None:
             # Both cores stay busy until the end: while this thread codes the key frames
             # (their length is the limit of both orders), a pool thread chooses the
-            # lattice of order 1, then of order 2, then codes order 1; this thread then
-            # codes order 2. The smaller wins, order 1 on a tie: _bounded's choice.
+            # lattice of order 1 and codes order 1; the lattice of order 2 is made by
+            # whichever thread is free first, and this thread codes order 2. The smaller
+            # wins, order 1 on a tie: _bounded's choice.
             klen: Future[int] = Future()
             second: Future[IntArray] = Future()
+            claim = threading.Lock()            # held by the thread that makes order 2's
 
-            def first() -> tuple[IntArray, bytes | None]:
+            def make_second(y: FloatArray | None = None) -> None:
+                if not claim.acquire(blocking=False):
+                    return                      # the other thread has it
                 try:
-                    y = u_members()
-                    y /= g
-                    e1 = _lattice(y, radius, 1)
+                    if y is None:
+                        y = u_members()
+                        y /= g
                     second.set_result(_lattice(y, radius, 2))
-                    del y
                 except BaseException as exc:
                     second.set_exception(exc)
                     raise
+
+            def first() -> tuple[IntArray, bytes | None]:
+                y = u_members()
+                y /= g
+                e1 = _lattice(y, radius, 1)
+                make_second(y)
+                del y
                 return e1, _coded(e1, klen.result())
             job = pool.submit(first)
             try:
@@ -1032,6 +1044,7 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
                 klen.set_exception(exc)
                 raise
             klen.set_result(len(kdata))
+            make_second()
             e2 = second.result()
             data2 = _coded(e2, len(kdata))
             e1, data1 = job.result()
