@@ -68,7 +68,8 @@ def workload() -> None:
                generate("mixed", frames=500, seed=2, gap_fraction=0.05)]
     options: list[dict[str, Any]] = [
         {"max_error": 1.0}, {"max_error": 5.0, "threads": 2}, {}, {"lossy": True},
-        {"patterns": "on", "max_error": 2.0}, {"max_error": 1.0, "summary": (4, 8)}]
+        {"patterns": "on", "max_error": 2.0}, {"max_error": 1.0, "summary": (4, 8)},
+        {"max_error": 1.0, "hierarchy": "auto"}]       # marker sets without a template
     for m in motions:
         for kw in options:
             mpz.decode(mpz.encode(m, **kw))
