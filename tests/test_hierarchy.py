@@ -327,12 +327,17 @@ def _load_c3d(path):
     return read(path)
 
 
-@pytest.mark.parametrize("stem", C3D_FILES)
-def test_real_c3d_gets_a_valid_hierarchy(shared_data, stem):
+def _real_c3d(shared_data, stem):
+    """The motion of ../shared/data/c3d/STEM.c3d; the test is skipped when it is absent."""
     path = shared_data / "c3d" / f"{stem}.c3d"
     if not path.exists():
         pytest.skip(f"{path} is absent")
-    m = _load_c3d(path)
+    return _load_c3d(path)
+
+
+@pytest.mark.parametrize("stem", C3D_FILES)
+def test_real_c3d_gets_a_valid_hierarchy(shared_data, stem):
+    m = _real_c3d(shared_data, stem)
     h = build_hierarchy(m)
     h.validate(m.n_markers)
     if stem.startswith(("cmu_", "HDM_")):
@@ -381,10 +386,7 @@ def test_auto_distance_sums_have_the_numpy_bits(S, M, scale, gaps, seed):
 def test_auto_distance_sums_on_real_samples(shared_data, stem):
     from mpz.hierarchy.auto import AUTO_MAX_FRAMES
     from mpz.hierarchy.measure import sample_frames, sampled
-    path = shared_data / "c3d" / f"{stem}.c3d"
-    if not path.exists():
-        pytest.skip(f"{path} is absent")
-    m = _load_c3d(path)
+    m = _real_c3d(shared_data, stem)
     _same_sums(*sampled(m, sample_frames(m.n_frames, AUTO_MAX_FRAMES)))
 
 
