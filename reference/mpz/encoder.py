@@ -551,6 +551,12 @@ def _coded(e: IntArray, limit: int | None) -> bytes | None:
     return None if limit is not None and len(data) > limit else data
 
 
+def _kept(e: IntArray, order: int, data: bytes) -> tuple[int, Int32Array, bytes]:
+    """(order, values, payload) of a chosen order: its residuals ``e`` turned back into
+    values in place, kept as int32 (|w| < 2^30; issue 11.11)."""
+    return order, reconstruct(e, order, inplace=True).astype(np.int32), data
+
+
 def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
              limit: int | Future[int] | None = None) -> tuple[int, Int32Array, bytes] | None:
     """Best (order, values, payload) for targets ``y`` (grid units) within ``radius``.
@@ -575,7 +581,7 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
         data = _coded(e, limit if best is None else len(best[2]) - 1)
         if data is not None:
             best = None                          # let the previous best go first
-            best = (order, reconstruct(e, order, inplace=True).astype(np.int32), data)
+            best = _kept(e, order, data)
         del e
     assert best is not None or limit is not None
     return best
@@ -1006,6 +1012,10 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         # at most T keys a member: 3 key values, a span, plus a source and a count each
         enc = BlockEncoder(capacity=_capacity(4 * T * n + 2 * n))
 
+        def targets() -> FloatArray:            # base 1's targets: a copy of its own
+            y = u_members()
+            y /= g
+            return y
         absolute: tuple[int, Int32Array, bytes] | None
         if pool is not None:
             # Both cores stay busy until the end: while this thread codes the key frames
@@ -1021,17 +1031,13 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
                 if not claim.acquire(blocking=False):
                     return                      # the other thread has it
                 try:
-                    if y is None:
-                        y = u_members()
-                        y /= g
-                    second.set_result(_lattice(y, radius, 2))
+                    second.set_result(_lattice(targets() if y is None else y, radius, 2))
                 except BaseException as exc:
                     second.set_exception(exc)
                     raise
 
             def first() -> tuple[IntArray, bytes | None]:
-                y = u_members()
-                y /= g
+                y = targets()
                 e1 = _lattice(y, radius, 1)
                 make_second(y)
                 del y
@@ -1051,20 +1057,16 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
             del job
             if data1 is not None and (data2 is None or len(data1) <= len(data2)):
                 del e2
-                absolute = (1, reconstruct(e1, 1, inplace=True).astype(np.int32), data1)
+                absolute = _kept(e1, 1, data1)
                 del e1
             else:
                 del e1
-                absolute = (None if data2 is None
-                            else (2, reconstruct(e2, 2, inplace=True).astype(np.int32), data2))
+                absolute = None if data2 is None else _kept(e2, 2, data2)
                 del e2
         else:
             keyframe.write_blocks(enc, fitted, T)
             kdata = enc.finish()
-            y = u_members()
-            y /= g
-            absolute = _bounded(y, radius, (1, 2), len(kdata))
-            del y
+            absolute = _bounded(targets(), radius, (1, 2), len(kdata))
         wk = fitted.out
         del fitted
         if absolute is not None:
