@@ -26,3 +26,26 @@ def best_of(fn, n=3):
         fn()
         ts.append(time.perf_counter() - t)
     return min(ts)
+
+
+def coded_float32(m) -> bytes:
+    """Every sample an encode of the motion ``m`` codes, as float32 bytes: the yardstick
+    input of bench_speed.py, so that zstd -19 is given the same data MPZ is (issue 15:
+    "on the same float32 bytes").
+
+    - marker positions, x y z (12 bytes per marker-frame, ``Motion.raw_size``; gaps as 0);
+    - a C3D archive's per-point fourth words, model outputs (x y z) and analog samples
+      (spec §4.13: cpnt and cana code them exactly);
+    - a skeleton's channel values (spec §4.14: bvhs / asfs code them).
+
+    A motion with none of the three extras gives the positions alone.
+    """
+    import numpy as np
+
+    parts = [m.positions]
+    arc = m.extras.get("c3d")
+    if arc is not None:
+        parts += [arc.words, arc.models, arc.analog]
+    if m.extras.get("skeleton") is not None and m.angles is not None:
+        parts.append(m.angles)
+    return b"".join(np.nan_to_num(np.asarray(a, dtype=np.float32)).tobytes() for a in parts)
