@@ -235,7 +235,7 @@ from mpz.entropy import _decode_block, _encode_block
 from mpz.synth import generate
 data = mpz.encode(generate("walk", frames=120, seed=4), max_error=1.0)
 back = mpz.decode(data)
-kernels = [_encode_block, _decode_block, keyframe._fit, keyframe._best_reference,
+kernels = [_encode_block, _decode_block, keyframe._fit_range, keyframe._best_references,
            keyframe._rebuild, keyframe._mark_keys, quantize._choose]
 print(json.dumps({"sha": hashlib.sha256(data).hexdigest(), "ok": bool(back.valid.any()),
                   "hits": sum(sum(k.stats.cache_hits.values()) for k in kernels),

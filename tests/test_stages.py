@@ -263,6 +263,41 @@ def test_keyframe_reference_choice_breaks_ties_by_the_first(n, T, seed):
         assert kf._best_reference(m, times, w, tracks, tab, e) == want[1]
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 7), st.integers(2, 60), st.integers(1, 200), st.booleans(),
+       st.integers(0, 2 ** 32 - 1))
+def test_keyframe_members_do_not_depend_on_tasks_or_threads(n, T, task_frames, threaded,
+                                                            seed):
+    """fit_members fits members in tasks of several members (issue 15) on this thread and a
+    pool's: its keys, references, residuals and decoded tracks must be those of fitting
+    each member alone (fit) and choosing its reference alone (_best_reference), whatever
+    the task size and the threads."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from mpz import keyframe as kf
+    rng = np.random.default_rng(seed)
+    base = np.cumsum(rng.normal(0, 3, (T, 1, 3)), axis=0)
+    y = base + rng.normal(0, 2.0, (T, n, 3)) * np.arange(n)[None, :, None]
+    radius = 1.7320508
+    tracks = np.zeros((n, T, 3), np.int32)
+    alone = [kf.fit(y[:, m], radius, track=tracks[m]) for m in range(n)]
+    tab = kf._log2_table(kf._LOG2_TABLE)
+    want_e = [np.empty_like(w) for _, w in alone]
+    want_p = [kf._best_reference(m, t, w, tracks, tab, want_e[m])
+              for m, (t, w) in enumerate(alone)]
+    old = kf.TASK_FRAMES
+    kf.TASK_FRAMES = task_frames
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            got = kf.fit_members(y, radius, pool=pool if threaded else None)
+    finally:
+        kf.TASK_FRAMES = old
+    assert [t.tolist() for t in got.times] == [t.tolist() for t, _ in alone]
+    assert got.refs == want_p
+    assert [e.tolist() for e in got.residuals] == [e.tolist() for e in want_e]
+    assert got.out.tolist() == tracks.transpose(1, 0, 2).tolist()
+
+
 def test_log2_table_has_the_kernels_bits():
     """The reference choice reads log2(1 + |e|) from a table for small |e| and computes it
     in the kernel (numba's np.log2) beyond: both must give the same bits, or a tie could
@@ -399,7 +434,7 @@ def test_threaded_kernels_release_the_gil():
     change to the decorators must keep it."""
     from mpz import entropy, keyframe, quantize
     for k in (entropy._encode_block, keyframe._fit, keyframe._best_reference,
-              quantize._choose):
+              keyframe._fit_range, keyframe._best_references, quantize._choose):
         assert k.targetoptions.get("nogil") is True, k.py_func.__name__
 
 

@@ -22,11 +22,12 @@ halves the key residuals at 5 mm on real captures.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import dataclass
 import functools
 import math
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,6 +39,7 @@ if TYPE_CHECKING:
     from mpz.entropy import BlockDecoder, BlockEncoder
 
 _VALUE_LIMIT = 1 << 31
+_T = TypeVar("_T")
 
 
 def interpolate(times: ArrayLike, values: ArrayLike, F: int) -> NDArray[np.int64]:
@@ -709,11 +711,78 @@ def chain_scores(c: NDArray[np.float64], ok: NDArray[np.bool_]) -> NDArray[np.fl
     return score
 
 
-def _fit_member(y: NDArray[np.float64], m: int, radius: float, max_span: int,
-                tracks: NDArray[np.int32]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Fit member m and write its decoded track to ``tracks[m]`` (an array of its own, so
-    members can be fitted by several threads at once)."""
-    return fit(y[:, m], radius, max_span, track=tracks[m])
+#: frames per fitting task: a task fits members until it holds about this many frames, so
+#: that on a short clip its kernel call is not mostly the cost of starting it (issue 15)
+TASK_FRAMES = 4096
+
+
+@njit(cache=True, nogil=True)
+def _fit_range(y: NDArray[np.float64], lo: int, hi: int, radius: float, max_span: int,
+               lam: float, tracks: NDArray[np.int32]
+               ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`_fit` of members ``lo .. hi-1`` of ``y[T, n, 3]``, each writing its decoded
+    track to ``tracks[m]`` (its own array, so that tasks can run on several threads): their
+    key times and key values one member after another, and each member's key count.
+
+    The outputs grow by doubling, so they stay K-sized (issue 11.11); one call fits many
+    members, with the GIL released throughout (issue 15: a call per member spent more time
+    taking the GIL back than fitting, on a short clip with another thread busy)."""
+    counts = np.empty(hi - lo, np.int64)
+    cap = 64
+    tb = np.empty(cap, np.int64)
+    vb = np.empty((cap, 3), np.int64)
+    used = 0
+    for i in range(hi - lo):
+        times, vals = _fit(np.ascontiguousarray(y[:, lo + i, :]), radius, max_span, lam,
+                           tracks[lo + i])
+        K = times.shape[0]
+        if used + K > cap:
+            while used + K > cap:
+                cap *= 2
+            tb2 = np.empty(cap, np.int64)
+            tb2[:used] = tb[:used]
+            tb = tb2
+            vb2 = np.empty((cap, 3), np.int64)
+            vb2[:used] = vb[:used]
+            vb = vb2
+        tb[used: used + K] = times
+        vb[used: used + K] = vals
+        counts[i] = K
+        used += K
+    return tb[:used], vb[:used], counts
+
+
+@njit(cache=True, nogil=True)
+def _best_references(lo: int, hi: int, times: NDArray[np.int64], w: NDArray[np.int64],
+                     start: NDArray[np.int64], tracks: NDArray[np.int32],
+                     tab: NDArray[np.float64], e: NDArray[np.int64]) -> NDArray[np.int64]:
+    """:func:`_best_reference` of members ``lo .. hi-1``, whose keys are rows
+    ``start[m] .. start[m + 1] - 1`` of ``times`` and ``w``; their residuals go to the same
+    rows of ``e``. One call for many members, as :func:`_fit_range`."""
+    ps = np.empty(hi - lo, np.int64)
+    for i in range(hi - lo):
+        m = lo + i
+        a, b = start[m], start[m + 1]
+        ps[i] = _best_reference(m, times[a:b], w[a:b], tracks, tab, e[a:b])
+    return ps
+
+
+def _spread(pool: Executor | None, task: Callable[[int, int], _T],
+            ranges: list[tuple[int, int]]) -> list[_T]:
+    """``task(lo, hi)`` of every range, in order: the first on this thread and the others on
+    ``pool``'s threads, where this thread also takes each one that no pool thread has
+    started yet (it would otherwise wait idle while another thread is busy elsewhere)."""
+    if pool is None or len(ranges) < 2:
+        return [task(lo, hi) for lo, hi in ranges]
+    jobs = [pool.submit(task, lo, hi) for lo, hi in ranges[1:]]
+    out = [task(*ranges[0])]
+    try:
+        for job, (lo, hi) in zip(jobs, ranges[1:], strict=True):
+            out.append(task(lo, hi) if job.cancel() else job.result())
+    finally:
+        for job in jobs:
+            job.cancel()
+    return out
 
 
 @dataclass
@@ -734,27 +803,35 @@ def fit_members(y: NDArray[np.float64], radius: float, max_span: int = 256,
     Each member's keys are predicted from whichever earlier member (or none)
     gives the smallest residuals, by the proxy sum(log2(1 + |e|)).
 
-    Speed (issue 15): the members are fitted independently of each other, on the threads
-    of ``pool`` when one is given (the fitting kernel releases the GIL); the key lists
-    held meanwhile are K-sized, not T-sized. Then each member's reference is chosen, also
-    independently (from the finished tracks), so the result does not depend on the threads.
+    Speed (issue 15): the members are fitted independently of each other, in tasks of
+    consecutive members holding about :data:`TASK_FRAMES` frames (one member a task from
+    that length on), spread over this thread and those of ``pool`` when one is given (the
+    kernels release the GIL); the key lists held meanwhile are K-sized, not T-sized. Then
+    each member's reference is chosen, also independently (from the finished tracks), so
+    the result does not depend on the threads or the tasks.
     """
+    if radius < np.sqrt(3.0) / 2:
+        raise ValueError("radius < sqrt(3)/2 cannot guarantee a grid point")
     T, n, _ = y.shape
+    y = np.ascontiguousarray(y, dtype=np.float64)
     tracks = np.empty((n, T, 3), np.int32)     # member-major: each fit writes its own
-    if pool is None or n < 2:
-        fits = [_fit_member(y, m, radius, max_span, tracks) for m in range(n)]
-    else:
-        fits = list(pool.map(lambda m: _fit_member(y, m, radius, max_span, tracks), range(n)))
+    per = max(1, TASK_FRAMES // max(T, 1))
+    ranges = [(lo, min(n, lo + per)) for lo in range(0, n, per)]
+    parts = _spread(pool, lambda lo, hi: _fit_range(y, lo, hi, float(radius), int(max_span),
+                                                    1.0, tracks), ranges)
+    times = np.concatenate([t for t, _, _ in parts]) if parts else np.zeros(0, np.int64)
+    w = np.concatenate([v for _, v, _ in parts]) if parts else np.zeros((0, 3), np.int64)
+    counts = np.concatenate([c for _, _, c in parts]) if parts else np.zeros(0, np.int64)
+    del parts
+    start = np.zeros(n + 1, np.int64)
+    np.cumsum(counts, out=start[1:])
     tab = _log2_table(_LOG2_TABLE)
-    res = [np.empty_like(w) for _, w in fits]      # each member's key residuals
-    if pool is None or n < 2:
-        ps = [_best_reference(m, fits[m][0], fits[m][1], tracks, tab, res[m])
-              for m in range(n)]
-    else:                 # each member's choice reads only the finished tracks
-        ps = list(pool.map(lambda m, tr=tracks: _best_reference(m, fits[m][0], fits[m][1], tr,
-                                                                tab, res[m]), range(n)))
+    res = np.empty_like(w)                         # each member's key residuals, in rows
+    ps = np.concatenate(_spread(pool, lambda lo, hi: _best_references(
+        lo, hi, times, w, start, tracks, tab, res), ranges)) if n else np.zeros(0, np.int64)
     out = np.ascontiguousarray(tracks.transpose(1, 0, 2))    # [T, n, 3]
-    return Fitted([t for t, _ in fits], [int(p) for p in ps], res, out)
+    return Fitted([times[start[m]: start[m + 1]] for m in range(n)], [int(p) for p in ps],
+                  [res[start[m]: start[m + 1]] for m in range(n)], out)
 
 
 def write_blocks(enc: BlockEncoder, fitted: Fitted, T: int) -> None:
