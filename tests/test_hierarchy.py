@@ -390,6 +390,72 @@ def test_auto_distance_sums_on_real_samples(shared_data, stem):
     _same_sums(*sampled(m, sample_frames(m.n_frames, AUTO_MAX_FRAMES)))
 
 
+# -- the root alone (issue 15.1: the encoder's default mode keeps only the root) -------
+def _same_root(m, spec=None, weights=None):
+    from mpz.hierarchy import root_marker
+    assert root_marker(m, spec, weights=weights) == \
+        build_hierarchy(m, spec, weights=weights).nodes[0].members[0]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 12), st.integers(2, 60), st.floats(0.0, 0.7), st.booleans(),
+       st.integers(0, 2 ** 32 - 1))
+def test_root_marker_is_the_built_hierarchys(M, F, gaps, dead, seed):
+    """root_marker skips the auto builder's group tree; the root must be the one
+    build_hierarchy gives, also with gaps, markers that are gaps throughout, one marker,
+    and a motion with no valid sample at all."""
+    rng = np.random.default_rng(seed)
+    x = np.cumsum(rng.normal(0, 5, (F, M, 3)), axis=0) + rng.normal(0, 300, (1, M, 3))
+    valid = rng.random((F, M)) >= gaps
+    if dead:
+        valid[:, rng.integers(M)] = False
+    x[~valid] = np.nan
+    m = mpz.Motion(x, [f"m{i}" for i in range(M)], 100.0, valid=valid)
+    _same_root(m)
+    _same_root(m, "flat")
+
+
+def test_root_marker_keeps_build_hierarchys_errors_and_specs():
+    m = generate("walk", frames=60, seed=3)
+    _same_root(m)                                      # cmu41
+    _same_root(m, "auto")
+    _same_root(m, "auto", weights={"root_group": 2.0})  # weights: the tree is built
+    from mpz.hierarchy import root_marker
+    with pytest.raises(EncoderError, match="unknown"):
+        root_marker(m, weights={"nonesuch": 1.0})
+    with pytest.raises(EncoderError, match="unknown hierarchy"):
+        root_marker(m, "nonesuch")
+
+
+@pytest.mark.parametrize("stem", C3D_FILES)
+def test_root_marker_on_real_captures(shared_data, stem):
+    m = _real_c3d(shared_data, stem)
+    _same_root(m)
+    _same_root(m, "auto")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 30), st.integers(1, 20), st.floats(0.0, 1.0), st.integers(0, 2 ** 32 - 1))
+def test_body_size_is_the_median_box_diagonal(F, M, gaps, seed):
+    """body_size reduces a transposed copy (issue 15.1); the oracle is the definition:
+    per frame with two valid markers or more, the diagonal of the box of its valid markers
+    (numpy's nanmax / nanmin with the gaps as NaN), then the median over those frames."""
+    from mpz.hierarchy import body_size
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0, 500, (F, M, 3))
+    valid = rng.random((F, M)) >= gaps
+    x[~valid] = np.nan
+    m = mpz.Motion(x, [f"m{i}" for i in range(M)], 100.0, valid=valid)
+    ok = valid.sum(axis=1) >= 2
+    want = 0.0
+    if ok.any():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            box = np.nanmax(x[ok], axis=1) - np.nanmin(x[ok], axis=1)
+        want = float(np.median(np.linalg.norm(box, axis=1)))
+    assert body_size(m) == want
+
+
 # -- package layout ----------------------------------------------------------------
 def test_every_public_name_of_the_former_module_is_still_importable():
     """mpz.hierarchy became a package (one module per builder); its public names stay."""
@@ -399,7 +465,8 @@ def test_every_public_name_of_the_former_module_is_still_importable():
               "auto_hierarchy body_size build_hierarchy cmu41_hierarchy cmu41_template "
               "flat_hierarchy head_scale read_hierarchy skeleton_hierarchy strip_subject "
               "write_hierarchy").split()
-    assert sorted(h.__all__) == sorted(former)
+    added = ["root_marker"]                    # issue 15.1: the root without the whole tree
+    assert sorted(h.__all__) == sorted(former + added)
     for name in former:
         assert getattr(h, name) is not None
     assert sorted(h.CMU41) == sorted(CMU41)

@@ -80,6 +80,7 @@ from mpz.format import (
     unit_code,
 )
 from mpz.hierarchy import Hierarchy, Node, build_hierarchy, head_scale
+from mpz.hierarchy import root_marker as hierarchy_root
 from mpz.motion import Motion
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import reconstruct, residuals
@@ -705,7 +706,7 @@ def plan_hierarchy(motion: Motion, opts: EncodeOptions) -> Hierarchy:
     if opts.pattern_mode == "off" and opts.hierarchy is None and not opts.group_errors:
         # without patterns the residual layers are absolute (base 1/2) and the tree carries
         # nothing; one node for all non-root markers lets the models adapt once (smaller)
-        root_marker = build_hierarchy(motion, None, weights=opts.weights).nodes[0].members[0]
+        root_marker = hierarchy_root(motion, None, weights=opts.weights)
         hier = _reroot(root_marker, motion.n_markers, motion.positions, motion.valid)
     else:
         hier = build_hierarchy(motion, opts.hierarchy, weights=opts.weights)

@@ -63,6 +63,7 @@ from mpz.hierarchy.auto import (
     AUTO_RIGID_FRACTION,
     AUTO_SPREAD,
     auto_hierarchy,
+    auto_root,
 )
 from mpz.hierarchy.cmu41 import (
     CMU41,
@@ -83,8 +84,8 @@ __all__ = [
     "AUTO_MAX_FRAMES", "AUTO_MAX_GROUP", "AUTO_RIGID_FRACTION", "AUTO_SPREAD", "CMU41",
     "CMU41_MAX_MISSING", "HEAD_FRAMES", "MAX_NODES", "METHODS", "Hierarchy", "Node",
     "apply_weights", "auto_hierarchy", "body_size", "build_hierarchy", "cmu41_hierarchy",
-    "cmu41_template", "flat_hierarchy", "head_scale", "read_hierarchy", "skeleton_hierarchy",
-    "strip_subject", "write_hierarchy",
+    "cmu41_template", "flat_hierarchy", "head_scale", "read_hierarchy", "root_marker",
+    "skeleton_hierarchy", "strip_subject", "write_hierarchy",
 ]
 
 METHODS = ("cmu41", "file", "skeleton", "auto", "flat")
@@ -147,6 +148,19 @@ def build_hierarchy(motion: Motion, spec: Spec = None, *,
         apply_weights(h, names, weights)
     h.validate(motion.n_markers)
     return h
+
+
+def root_marker(motion: Motion, spec: Spec = None, *,
+                weights: Mapping[str, float] | None = None) -> int:
+    """The root marker of ``build_hierarchy(motion, spec, weights=weights)`` (its node 0),
+    with the same errors; the ``"auto"`` builder's group tree, which the root does not
+    depend on, is not built (:func:`~mpz.hierarchy.auto.auto_root`; issue 15)."""
+    names = list(motion.names)
+    if spec is None:
+        spec = _default_spec(motion, names)
+    if spec == "auto" and not weights:     # weights may name the tree's nodes: build it
+        return auto_root(motion)
+    return build_hierarchy(motion, spec, weights=weights).nodes[0].members[0]
 
 
 def _default_spec(motion: Motion, names: Sequence[str]) -> str:

@@ -59,16 +59,52 @@ def auto_hierarchy(motion: Motion, *, rigid_fraction: float = AUTO_RIGID_FRACTIO
     6. the root group's other members, and markers that are gaps throughout,
        form one child node of the root.
     """
+    a = _analyse(motion, rigid_fraction, max_group)
+    if a is None:                       # one marker, or every marker a gap throughout
+        M = motion.n_markers
+        return Hierarchy([Node("root", -1, 0, [0])] if M == 1 else flat_hierarchy(M).nodes,
+                         "auto")
+    # steps 4-6
+    fin = _finite(a.std)
+    tree = _group_tree(fin, a.groups, a.root_group)
+    h = Hierarchy(_nodes(tree, a.groups, a.root_marker, a.dead, fin, a.n_valid_all), "auto")
+    h.validate(motion.n_markers)
+    return h
+
+
+def auto_root(motion: Motion, *, rigid_fraction: float = AUTO_RIGID_FRACTION,
+              max_group: int = AUTO_MAX_GROUP) -> int:
+    """The root marker of :func:`auto_hierarchy` (its node 0), from steps 1-3 alone: the
+    encoder's default mode keeps only the root of the built hierarchy (issue 15: the
+    group tree was a tenth of a short clip's encode, made to be dropped)."""
+    a = _analyse(motion, rigid_fraction, max_group)
+    return 0 if a is None else a.root_marker
+
+
+class _Analysis(NamedTuple):
+    """Steps 1-3 of :func:`auto_hierarchy`."""
+
+    std: np.ndarray                  # dissimilarity [M, M]
+    groups: list[list[int]]          # the rigid groups of the live markers
+    root_group: int
+    root_marker: int
+    dead: list[int]                  # markers that are gaps throughout
+    n_valid_all: np.ndarray          # valid frames per marker, over every frame
+
+
+def _analyse(motion: Motion, rigid_fraction: float, max_group: int) -> _Analysis | None:
+    """Steps 1-3 of :func:`auto_hierarchy`; None for one marker, or when every marker is a
+    gap throughout (the builder's fallbacks)."""
     M = motion.n_markers
     if M == 1:
-        return Hierarchy([Node("root", -1, 0, [0])], "auto")
+        return None
     frames = sample_frames(motion.n_frames, AUTO_MAX_FRAMES)
     x, v = sampled(motion, frames)
     n_valid_all = sampled(motion)[1].sum(axis=0)  # over every frame, not the sample
     live = [m for m in range(M) if v[:, m].any()]
     dead = [m for m in range(M) if m not in set(live)]
     if not live:
-        return Hierarchy(flat_hierarchy(M).nodes, "auto")
+        return None
     # steps 1-2
     std, mean, _ = _distance_std(x, v)
     std = std + AUTO_SPREAD * mean
@@ -79,12 +115,7 @@ def auto_hierarchy(motion: Motion, *, rigid_fraction: float = AUTO_RIGID_FRACTIO
     xn = np.where(v[..., None], x, np.nan)
     root_g = _root_group(xn, live, groups)
     root_m = _root_marker(xn, groups[root_g], n_valid_all)
-    # steps 4-6
-    fin = _finite(std)
-    tree = _group_tree(fin, groups, root_g)
-    h = Hierarchy(_nodes(tree, groups, root_m, dead, fin, n_valid_all), "auto")
-    h.validate(M)
-    return h
+    return _Analysis(std, groups, root_g, root_m, dead, n_valid_all)
 
 
 class _Tree(NamedTuple):

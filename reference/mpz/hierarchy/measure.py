@@ -45,6 +45,12 @@ def body_size(motion: Motion, frames: np.ndarray | None = None) -> float:
     ok = v.sum(axis=1) >= 2
     if not ok.any():
         return 0.0
-    xn = np.where(v[..., None], x, np.nan)[ok]
-    diag = np.linalg.norm(np.nanmax(xn, axis=1) - np.nanmin(xn, axis=1), axis=1)
+    # per frame and axis, the extremes of the valid markers (valid samples are finite, so
+    # this is nanmax / nanmin of the gaps as NaN, exactly), reduced along a contiguous
+    # axis: 4.7 -> 1.5 ms on 1000 frames x 68 markers, twice per encode (issue 15.1)
+    xt = np.ascontiguousarray(x[ok].transpose(0, 2, 1))        # [S, 3, M]
+    vt = v[ok][:, None, :]
+    hi = np.where(vt, xt, -np.inf).max(axis=2)
+    lo = np.where(vt, xt, np.inf).min(axis=2)
+    diag = np.linalg.norm(hi - lo, axis=1)
     return float(np.median(diag))
