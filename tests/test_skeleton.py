@@ -590,6 +590,27 @@ BVH_RULES = [
 ]
 
 
+def test_a_decode_runs_the_channel_layer_once(tiny_bvh, tiny_asf, monkeypatch):
+    """The skeleton chunk's check decodes its layer (§6.10: it must decode) and the motion
+    needs the values: one §6.10 decode for both (issue 15.1), and the kept integers are
+    let go once the values are taken."""
+    import mpz.chunks.skeleton as sk
+    calls = []
+    real = sk.decode_channels
+    monkeypatch.setattr(sk, "decode_channels", lambda *a, **k: calls.append(1) or real(*a, **k))
+    for data in (tiny_bvh, tiny_asf):
+        calls.clear()
+        m = mpz.decode(data)
+        assert len(calls) == 1 and m.angles is not None
+    rec, ctx = _record(tiny_bvh)
+    calls.clear()
+    rec.check(ctx)
+    x = rec.integers(ctx.header.frame_count)
+    assert not x.flags.writeable                      # shared: nobody may change it
+    rec.values(ctx.header.frame_count)
+    assert "_integers" not in rec.__dict__ and len(calls) == 1
+
+
 @pytest.mark.parametrize("section,what,change", BVH_RULES, ids=[r[1] for r in BVH_RULES])
 def test_bvhs_rules(tiny_bvh, section, what, change):
     rec, ctx = _record(tiny_bvh)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
-from typing import ClassVar
+from typing import ClassVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -133,12 +133,25 @@ class _Layer:
     coded: bytes
 
     def integers(self, frames: int) -> NDArray[np.int64]:
-        """§6.10 steps 1-3: the channel integers x ``[F, C]`` (after :meth:`check`)."""
-        return decode_channels(self.channels, self.coded, frames, chunk=self.TYPE)
+        """§6.10 steps 1-3: the channel integers x ``[F, C]`` (after :meth:`check`).
+
+        :meth:`check` decodes the layer to know that it decodes; the result is kept
+        (read-only) until :meth:`values` takes it, so that decoding a file runs §6.10 once,
+        not twice (issue 15.1: a third of a short AMC's decode)."""
+        kept = self.__dict__.get("_integers")
+        if kept is not None and kept[0] == frames:
+            return cast("NDArray[np.int64]", kept[1])
+        x = decode_channels(self.channels, self.coded, frames, chunk=self.TYPE)
+        x.flags.writeable = False
+        self.__dict__["_integers"] = (frames, x)   # frozen: set past __setattr__, as Cprm
+        return x
 
     def values(self, frames: int) -> NDArray[np.float64]:
-        """§6.10: the channel values ``[F, C]`` in the file's units (after :meth:`check`)."""
-        return dequantise(self.integers(frames), self.channels)
+        """§6.10: the channel values ``[F, C]`` in the file's units (after :meth:`check`).
+        The integers kept by :meth:`integers` are released here."""
+        x = self.integers(frames)
+        self.__dict__.pop("_integers", None)
+        return dequantise(x, self.channels)
 
 
 # ---------------------------------------------------------------- §4.14.1 bvhs --
