@@ -51,6 +51,30 @@ def test_archive_comes_back_bit_for_bit(archive_file):
     assert (err.reshape(-1, 3) <= b.model_bounds.max(axis=0) + 1e-12).all()
 
 
+def test_a_decode_runs_each_archive_payload_once(archive_file, monkeypatch):
+    """cpnt's and cana's check() decode their payloads (§6.9: they must decode) and the
+    archive needs the words: one decode of each per file, kept on the record until the
+    archive takes it (chunks.base.kept / forget)."""
+    from mpz.chunks.c3d import Cana, Cpnt
+    calls: list[str] = []
+    for cls in (Cpnt, Cana):
+        real = cls._decode
+        monkeypatch.setattr(cls, "_decode", lambda self, F, real=real, t=cls.TYPE:
+                            calls.append(t) or real(self, F))
+    mpz.decode(archive_file)
+    assert sorted(calls) == ["cana", "cpnt"]
+    rec = _records(archive_file)["cana"]
+    ctx = _ctx(archive_file)
+    calls.clear()
+    rec.check(ctx)
+    rec.decode(ctx.header.frame_count)
+    assert calls == ["cana"]
+    from mpz.chunks.base import forget
+    forget(rec)
+    rec.decode(ctx.header.frame_count)
+    assert calls == ["cana", "cana"]
+
+
 def test_version_minor_is_1_only_with_archive_chunks(archive_file):
     from mpz.decoder import read_stream
     assert read_stream(archive_file).header.version_minor == 1

@@ -23,7 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.c3dcodec import INT16, MODEL_LIMIT, encode_channel, model_grid, plan_all
-from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param, forget
+from mpz.chunks.base import forget
+from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param
 from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
 from mpz.format import MAX_ORDER, ByteCoding, C3DStorage, ModelKind

@@ -8,6 +8,7 @@ chunk type and offset in one place.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
 
@@ -18,9 +19,10 @@ from mpz.errors import FormatError, MPZError
 if TYPE_CHECKING:   # the Context names core records; core imports this module
     from mpz.chunks.core import HierNode, Mhdr, Patt
 
-__all__ = ["Record", "Context", "JSON", "fail"]
+__all__ = ["Record", "Context", "JSON", "fail", "forget", "kept"]
 
 R = TypeVar("R", bound="Record")
+T = TypeVar("T")
 #: a JSON value as ``mpzinfo --json`` writes it
 JSON = Any
 
@@ -28,6 +30,24 @@ JSON = Any
 def fail(message: str, section: str, cls: type[MPZError] = FormatError) -> None:
     """Raise a rule violation; the reader adds the chunk type and offset."""
     raise cls(message, section=section)
+
+
+def kept(rec: object, key: Hashable, compute: Callable[[], T]) -> T:
+    """``compute()``, kept on ``rec`` under ``key`` until :func:`forget`.
+
+    A chunk's check() decodes its payload to know that it decodes, and the decoder then
+    needs the values: with this the payload is decoded once (issue 15.1). Records are
+    frozen, so the value is stored past ``__setattr__``, outside the fields: equality,
+    ``repr`` and ``replace()`` do not see it, and it goes when the record goes."""
+    store: dict[Hashable, Any] = rec.__dict__.setdefault("_kept", {})
+    if key not in store:
+        store[key] = compute()
+    return cast(T, store[key])
+
+
+def forget(rec: object) -> None:
+    """Drop the values :func:`kept` holds for ``rec`` (once the decoder has taken them)."""
+    rec.__dict__.pop("_kept", None)
 
 
 def _jsonable(v: object) -> JSON:

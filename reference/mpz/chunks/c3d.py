@@ -14,17 +14,16 @@ so a file is decoded once.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 import math
-from typing import Any, TypeVar
+from typing import Any
 import zlib
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mpz.c3dcodec import FLOAT32, INT16, MODEL_LIMIT, decode_channel
-from mpz.chunks.base import JSON, Context, Record
+from mpz.chunks.base import JSON, Context, Record, kept
 from mpz.chunks.base import fail as _fail
 from mpz.entropy import BlockDecoder
 from mpz.errors import FormatError, LimitExceededError
@@ -51,8 +50,6 @@ C3D_TYPES = ("chdr", "cprm", "cpnt", "cana")
 #: §4.13.1 byte 1 of a C3D header, the parameter-section key
 C3D_KEY = 0x50
 
-T = TypeVar("T")
-
 
 def _set_rules(ctx: Context) -> None:
     """§4.13: one chdr, one cprm and one cpnt, at most one cana (checked wherever the
@@ -67,30 +64,6 @@ def _set_rules(ctx: Context) -> None:
     if counts["cana"] > 1:
         _fail(f"a C3D archive has at most one cana chunk; this file has {counts['cana']}",
               "§4.13")
-
-
-# ------------------------------------------------------------ decoded cache --
-#: (record, frames, markers) -> decoded values, so that check() and the extension decode once
-_DECODED: dict[tuple[int, int, int], tuple[Record, Any]] = {}
-
-
-def _memo(rec: Record, F: int, M: int, compute: Callable[[], T]) -> T:
-    key = (id(rec), F, M)
-    hit = _DECODED.get(key)
-    if hit is not None and hit[0] is rec:
-        value: T = hit[1]
-        return value
-    value = compute()
-    if len(_DECODED) >= 8:
-        _DECODED.clear()
-    _DECODED[key] = (rec, value)
-    return value
-
-
-def forget(rec: Record) -> None:
-    """Drop the decoded values kept for ``rec`` (the extension calls it once it has them)."""
-    for key in [k for k, v in _DECODED.items() if v[0] is rec]:
-        del _DECODED[key]
 
 
 # ------------------------------------------------------------ channel entry --
@@ -478,7 +451,7 @@ class Cpnt(Record):
 
     def decode(self, F: int, M: int) -> PointsDecoded:
         """§6.9 the words of every point and the model outputs (after :meth:`check`)."""
-        return _memo(self, F, M, lambda: self._decode(F))
+        return kept(self, (F, M), lambda: self._decode(F))
 
     def _decode(self, F: int) -> PointsDecoded:
         s = "§4.13.3"
@@ -547,7 +520,7 @@ class Cana(Record):
 
     def decode(self, F: int) -> NDArray[Any]:
         """§6.9 the analog words ``[F x samples, channels]`` (after :meth:`check`)."""
-        return _memo(self, F, 0, lambda: self._decode(F))
+        return kept(self, (F,), lambda: self._decode(F))
 
     def _decode(self, F: int) -> NDArray[Any]:
         T = F * self.samples

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
-from typing import ClassVar, cast
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mpz.channels import decode as decode_channels
 from mpz.channels import dequantise, turn_steps
-from mpz.chunks.base import Context, Record
+from mpz.chunks.base import Context, Record, forget, kept
 from mpz.chunks.base import fail as _fail
 from mpz.errors import LimitExceededError
 from mpz.format import (
@@ -133,24 +133,21 @@ class _Layer:
     coded: bytes
 
     def integers(self, frames: int) -> NDArray[np.int64]:
-        """§6.10 steps 1-3: the channel integers x ``[F, C]`` (after :meth:`check`).
+        """§6.10 steps 1-3: the channel integers x ``[F, C]`` (after :meth:`check`),
+        read-only: :meth:`check` decodes the layer to know that it decodes, and the result
+        is kept until :meth:`values` takes it (:func:`~mpz.chunks.base.kept`)."""
+        return kept(self, frames, lambda: self._integers(frames))
 
-        :meth:`check` decodes the layer to know that it decodes; the result is kept
-        (read-only) until :meth:`values` takes it, so that decoding a file runs §6.10 once,
-        not twice (issue 15.1: a third of a short AMC's decode)."""
-        kept = self.__dict__.get("_integers")
-        if kept is not None and kept[0] == frames:
-            return cast("NDArray[np.int64]", kept[1])
+    def _integers(self, frames: int) -> NDArray[np.int64]:
         x = decode_channels(self.channels, self.coded, frames, chunk=self.TYPE)
         x.flags.writeable = False
-        self.__dict__["_integers"] = (frames, x)   # frozen: set past __setattr__, as Cprm
         return x
 
     def values(self, frames: int) -> NDArray[np.float64]:
-        """§6.10: the channel values ``[F, C]`` in the file's units (after :meth:`check`).
-        The integers kept by :meth:`integers` are released here."""
+        """§6.10: the channel values ``[F, C]`` in the file's units (after :meth:`check`);
+        the integers kept by :meth:`integers` are let go here."""
         x = self.integers(frames)
-        self.__dict__.pop("_integers", None)
+        forget(self)
         return dequantise(x, self.channels)
 
 
