@@ -198,8 +198,8 @@ def run(args) -> list[dict]:
             print(f"{'':<28} {mb:>5.2f} {desc:>7} {'MPZ':<13} " + " ".join(
                 f"{enc[t]:>7.1f}" for t in threads) + f" {cpu:>6.3f} {mb / td:>7.1f} "
                 f"{raw / len(data):>6.2f} {tz / fastest:>6.2f} {tzm / fastest:>5.2f}")
-            rows.append({"file": path.stem, "bound": desc, "asked": b, "codec": "mpz",
-                         "mb": mb, "frames": m.n_frames,
+            rows.append({"file": path.stem, "name": path.name, "bound": desc, "asked": b,
+                         "codec": "mpz", "mb": mb, "frames": m.n_frames,
                          **{f"enc_{t}": enc[t] for t in threads},
                          **{f"sec_{t}": sec[t] for t in threads}, "cpu_s_1": cpu,
                          "dec": mb / td, "ratio": raw / len(data), "bytes": len(data),
@@ -224,7 +224,7 @@ def verdict(rows: list[dict], threads: list[int]) -> None:
               f"(target 0.1x: {'MET' if d >= 0.1 else 'MISSED'})")
     # every row against the same yardstick, so that no file is left out of the verdict
     for key, what in (("x_zstd", "the same bytes"), ("x_zstd_mk", "zstd given the markers")):
-        missed = [f"{r['file']} {r['bound']} ({r[key]:.2f}x)" for r in mpz_rows if r[key] < 2]
+        missed = [f"{r['name']} {r['bound']} ({r[key]:.2f}x)" for r in mpz_rows if r[key] < 2]
         print(f"issue 15, every row ({what}; fastest thread count / zstd -19): "
               f"{len(mpz_rows) - len(missed)} of {len(mpz_rows)} at 2x or more"
               + (f"; below: {', '.join(missed)}" if missed else ""))
