@@ -202,13 +202,17 @@ def test_dyadic_shift_is_the_lowest_set_bit(values):
     """_dyadic's shift is the least exponent of the lowest set bit over the nonzero words,
     clamped to the §4.13 range, and k x 2^shift gives the words back."""
     from mpz.c3dcodec import _dyadic
-    from mpz.format import C3D_MAX_SHIFT, C3D_MIN_SHIFT
     x = np.array(values, "<f4")
-    got = _dyadic(x)
-    nz = [float(v) for v in x if v != 0]
-    if (x.view(np.uint32) == 0x80000000).any():
-        assert got is None                                 # -0.0: mode 1 keeps the sign
+    _dyadic_as_defined(x, _dyadic(x))
+
+
+def _dyadic_as_defined(x, got):
+    """The oracle of _dyadic for one channel ``x``, in Python's exact arithmetic."""
+    from mpz.format import C3D_MAX_SHIFT, C3D_MIN_SHIFT
+    if (x.view(np.uint32) == 0x80000000).any() or not np.isfinite(x).all():
+        assert got is None                   # -0.0, NaN, inf: mode 1 keeps the bits
         return
+    nz = [float(v) for v in x if v != 0]
     want = min((_lowest_bit_exponent(v) for v in nz), default=0) if nz else 0
     want = max(C3D_MIN_SHIFT, min(C3D_MAX_SHIFT, want))
     fits = all(abs(v) / 2.0 ** want < 2 ** 24 and (v / 2.0 ** want).is_integer() for v in nz)
@@ -217,6 +221,33 @@ def test_dyadic_shift_is_the_lowest_set_bit(values):
         return
     assert got is not None and got[0] == (want if nz else 0)
     assert np.array_equal(np.ldexp(got[1].astype(np.float64), got[0]).astype("<f4"), x)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 12), st.integers(1, 6), st.data())
+def test_dyadic_rows_decide_each_channel_on_its_own(T, C, data):
+    """plan_all decides every channel in one pass (issue 15.1): each column must get what
+    the definition gives it alone, next to columns of NaN, -0.0, infinities, zeros,
+    fixed-point values or arbitrary floats."""
+    from mpz.c3dcodec import _dyadic_rows
+    kinds = st.sampled_from(["any", "fixed", "zeros", "special"])
+    cols = []
+    for _ in range(C):
+        kind = data.draw(kinds)
+        if kind == "fixed":
+            e = data.draw(st.integers(-20, 4))
+            ks = data.draw(st.lists(st.integers(-2 ** 23, 2 ** 23), min_size=T, max_size=T))
+            col = np.ldexp(np.array(ks, np.float64), e).astype("<f4")
+        elif kind == "zeros":
+            col = np.zeros(T, "<f4")
+        else:
+            vals = st.floats(width=32, allow_nan=kind == "special",
+                             allow_infinity=kind == "special")
+            col = np.array(data.draw(st.lists(vals, min_size=T, max_size=T)), "<f4")
+        cols.append(col)
+    x = np.ascontiguousarray(np.stack(cols))                       # [C, T]
+    for c, got in enumerate(_dyadic_rows(x)):
+        _dyadic_as_defined(x[c], got)
 
 
 def test_ordered_map_is_monotonic_and_inverts():
