@@ -298,6 +298,32 @@ def test_keyframe_members_do_not_depend_on_tasks_or_threads(n, T, task_frames, t
     assert got.out.tolist() == tracks.transpose(1, 0, 2).tolist()
 
 
+def test_member_tasks_keep_order_and_stop_on_an_error():
+    """keyframe._spread: results in range order whoever runs them; when a task fails, the
+    error surfaces and the tasks no thread has started never run."""
+    from concurrent.futures import ThreadPoolExecutor
+    import threading
+
+    from mpz.keyframe import _spread
+    ranges = [(0, 2), (2, 4), (4, 5), (5, 9)]
+    with ThreadPoolExecutor(2) as pool:
+        assert _spread(pool, lambda lo, hi: (lo, hi), ranges) == ranges
+    ran: list[int] = []
+    gate = threading.Event()
+
+    def task(lo: int, hi: int) -> int:
+        if lo == 0:
+            raise RuntimeError("first task fails")
+        ran.append(lo)
+        return lo
+    with ThreadPoolExecutor(1) as pool:
+        pool.submit(gate.wait)                  # the pool's one thread is busy elsewhere
+        with pytest.raises(RuntimeError, match="first task"):
+            _spread(pool, task, ranges)
+        gate.set()
+    assert ran == []
+
+
 def test_log2_table_has_the_kernels_bits():
     """The reference choice reads log2(1 + |e|) from a table for small |e| and computes it
     in the kernel (numba's np.log2) beyond: both must give the same bits, or a tie could

@@ -775,11 +775,11 @@ def _spread(pool: Executor | None, task: Callable[[int, int], _T],
     if pool is None or len(ranges) < 2:
         return [task(lo, hi) for lo, hi in ranges]
     jobs = [pool.submit(task, lo, hi) for lo, hi in ranges[1:]]
-    out = [task(*ranges[0])]
     try:
+        out = [task(*ranges[0])]
         for job, (lo, hi) in zip(jobs, ranges[1:], strict=True):
             out.append(task(lo, hi) if job.cancel() else job.result())
-    finally:
+    finally:                        # on an error, what has not started does not start
         for job in jobs:
             job.cancel()
     return out
