@@ -228,15 +228,19 @@ def _dyadic_as_defined(x, got):
 def test_dyadic_rows_decide_each_channel_on_its_own(T, C, data):
     """plan_all decides every channel in one pass (issue 15.1): each column must get what
     the definition gives it alone, next to columns of NaN, -0.0, infinities, zeros,
-    fixed-point values or arbitrary floats."""
+    fixed-point values, subnormal words or arbitrary floats."""
     from mpz.c3dcodec import _dyadic_rows
-    kinds = st.sampled_from(["any", "fixed", "zeros", "special"])
+    kinds = st.sampled_from(["any", "fixed", "tiny", "zeros", "special"])
     cols = []
     for _ in range(C):
         kind = data.draw(kinds)
         if kind == "fixed":
             e = data.draw(st.integers(-20, 4))
             ks = data.draw(st.lists(st.integers(-2 ** 23, 2 ** 23), min_size=T, max_size=T))
+            col = np.ldexp(np.array(ks, np.float64), e).astype("<f4")
+        elif kind == "tiny":           # subnormal words (below 2^-126), some exact at 2^-128
+            e = data.draw(st.integers(-149, -124))
+            ks = data.draw(st.lists(st.integers(-9, 9), min_size=T, max_size=T))
             col = np.ldexp(np.array(ks, np.float64), e).astype("<f4")
         elif kind == "zeros":
             col = np.zeros(T, "<f4")
@@ -248,6 +252,22 @@ def test_dyadic_rows_decide_each_channel_on_its_own(T, C, data):
     x = np.ascontiguousarray(np.stack(cols))                       # [C, T]
     for c, got in enumerate(_dyadic_rows(x)):
         _dyadic_as_defined(x[c], got)
+
+
+def test_dyadic_at_the_subnormal_edge():
+    """Subnormal words are m x 2^-149 (no implicit bit); the §4.13 shift stops at -128, so
+    2^-128 and its multiples take mode 0 and 2^-149 cannot (k would not be an integer)."""
+    from mpz.c3dcodec import _dyadic_rows
+    rows = [[2.0 ** -128, 3 * 2.0 ** -128, -(2.0 ** -127), 0.0],   # subnormal, exact at -128
+            [2.0 ** -126, 2.0 ** -127, 5 * 2.0 ** -126, 2.0 ** -100],  # normal and subnormal
+            [2.0 ** -149, 0.0, 0.0, 0.0],                           # below the range
+            [2.0 ** 103, -(2.0 ** 104), 2.0 ** 126, 1.0]]           # above 2^24 x 2^shift
+    x = np.array(rows, "<f4")
+    got = _dyadic_rows(x)
+    for c in range(len(rows)):
+        _dyadic_as_defined(x[c], got[c])
+    assert got[0] is not None and got[0][0] == -128 and got[0][1].tolist() == [1, 3, -2, 0]
+    assert got[2] is None
 
 
 def test_ordered_map_is_monotonic_and_inverts():
