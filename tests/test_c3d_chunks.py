@@ -199,15 +199,16 @@ def _lowest_bit_exponent(x: float) -> int:
 @given(st.lists(st.floats(width=32, allow_nan=False, allow_infinity=False),
                 min_size=1, max_size=30))
 def test_dyadic_shift_is_the_lowest_set_bit(values):
-    """_dyadic's shift is the least exponent of the lowest set bit over the nonzero words,
+    """The shift is the least exponent of the lowest set bit over the nonzero words,
     clamped to the §4.13 range, and k x 2^shift gives the words back."""
-    from mpz.c3dcodec import _dyadic
+    from mpz.c3dcodec import _dyadic_rows
     x = np.array(values, "<f4")
-    _dyadic_as_defined(x, _dyadic(x))
+    _dyadic_as_defined(x, _dyadic_rows(x.reshape(1, -1))[0])
 
 
 def _dyadic_as_defined(x, got):
-    """The oracle of _dyadic for one channel ``x``, in Python's exact arithmetic."""
+    """The oracle of the k x 2^shift coding of one channel ``x``, in Python's exact
+    arithmetic."""
     from mpz.format import C3D_MAX_SHIFT, C3D_MIN_SHIFT
     if (x.view(np.uint32) == 0x80000000).any() or not np.isfinite(x).all():
         assert got is None                   # -0.0, NaN, inf: mode 1 keeps the bits

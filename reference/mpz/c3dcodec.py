@@ -68,16 +68,10 @@ def unordered(v: IntArray) -> NDArray[np.uint32]:
     return np.where(v >= 0, v, (-v - 1) | (1 << 31)).astype(np.uint32)
 
 
-def _dyadic(x: NDArray[np.float32]) -> tuple[int, IntArray] | None:
-    """(shift, k) with ``x == k * 2^shift`` exactly and |k| < 2^24, or None (mode 1 then).
-
-    None for a channel holding -0.0, NaN or an infinity (mode 1 keeps their bits).
-    """
-    return _dyadic_rows(np.ascontiguousarray(x, dtype=FLOAT32).reshape(1, -1))[0]
-
-
 def _dyadic_rows(x: NDArray[np.float32]) -> list[tuple[int, IntArray] | None]:
-    """:func:`_dyadic` of each row (channel) of ``x[C, T]``, C-contiguous.
+    """For each row (channel) of ``x[C, T]``, C-contiguous: (shift, k) with ``x == k x
+    2^shift`` exactly and |k| < 2^24 (mode 0), or None (mode 1), always None for a channel
+    holding -0.0, NaN or an infinity (mode 1 keeps their bits).
 
     Each channel is decided on its own values only, and its k is a contiguous row; one
     kernel pass over the bit patterns (:func:`_dyadic_kernel`) instead of a dozen numpy
@@ -96,6 +90,19 @@ def _dyadic_rows(x: NDArray[np.float32]) -> list[tuple[int, IntArray] | None]:
 _NO_EXPONENT = 1 << 20
 
 
+@njit(cache=True, inline="always")
+def _significand(b: int) -> int:
+    """The integer significand of binary32 word ``b``: 2^23 + m when normal, m when not."""
+    return (b & 0x7FFFFF) | (0x800000 if (b >> 23) & 0xFF else 0)
+
+
+@njit(cache=True, inline="always")
+def _exponent(b: int) -> int:
+    """The power of two of :func:`_significand`'s unit: the word is sig x 2^exponent."""
+    e = (b >> 23) & 0xFF
+    return e - 150 if e else -149
+
+
 @njit(cache=True, nogil=True)
 def _dyadic_kernel(bits: NDArray[np.uint32], lo: int, hi: int, usable: NDArray[np.bool_],
                    shift: NDArray[np.int64], k: NDArray[np.int64]) -> None:
@@ -103,7 +110,8 @@ def _dyadic_kernel(bits: NDArray[np.uint32], lo: int, hi: int, usable: NDArray[n
     exactly with |k| < 2^24 (``usable``; never for -0.0, NaN or an infinity), the shift (the
     least exponent of the lowest set bit over the nonzero words, clamped to ``lo .. hi``;
     0 for a row of zeros) and the k. Integer arithmetic on the fields of each word: a
-    normal word is (2^23 + m) x 2^(e - 150), a subnormal one m x 2^-149."""
+    normal word is (2^23 + m) x 2^(e - 150), a subnormal one m x 2^-149
+    (:func:`_significand`, :func:`_exponent`)."""
     C, T = bits.shape
     for c in range(C):
         ok = True
@@ -116,8 +124,8 @@ def _dyadic_kernel(bits: NDArray[np.uint32], lo: int, hi: int, usable: NDArray[n
                 break
             if b & 0x7FFFFFFF == 0:
                 continue                           # +0.0: any shift
-            sig = (b & 0x7FFFFF) | (0x800000 if e else 0)
-            ex = e - 150 if e else -149
+            sig = _significand(b)
+            ex = _exponent(b)
             while sig & 1 == 0:                    # its lowest set bit
                 sig >>= 1
                 ex += 1
@@ -128,12 +136,11 @@ def _dyadic_kernel(bits: NDArray[np.uint32], lo: int, hi: int, usable: NDArray[n
         s = 0 if least == _NO_EXPONENT else min(max(least, lo), hi)
         for t in range(T):
             b = int(bits[c, t])
-            e = (b >> 23) & 0xFF
             if b & 0x7FFFFFFF == 0:
                 k[c, t] = 0
                 continue
-            sig = (b & 0x7FFFFF) | (0x800000 if e else 0)
-            d = (e - 150 if e else -149) - s           # the word is sig x 2^(d + s)
+            sig = _significand(b)
+            d = _exponent(b) - s                   # the word is sig x 2^(d + s)
             if d >= 0:
                 if d > 24 or sig << d >= 1 << 24:
                     ok = False
