@@ -374,3 +374,114 @@ def test_coordinates_beyond_float32_are_refused_by_the_c3d_writer(tmp_path):
     assert float(np.nanmax(np.abs(back.positions))) > float(np.finfo(np.float32).max)
     with pytest.raises(InputFormatError, match="does not fit a float32 C3D"):
         mpz.io.write(back, tmp_path / "out.c3d")
+
+
+# ------------------------------------------------------ model outputs (§4.13.3) --
+def _axis_oracle(x, ok, rel, grid):
+    """§4.13.3 one model-output axis, one axis at a time, restated from the spec and the
+    encoder's documented choices (the per-axis loop the encoder ran before issue 15.1):
+    (offset, step, declared, order, residuals)."""
+    from mpz.c3dcodec import MODEL_LIMIT, SQRT_SAFETY
+    from mpz.predict import residuals
+    v = x[ok]
+    bound = rel * (float(v.max() - v.min()) if v.size else 0.0)
+    if grid is not None and v.size and np.array_equal(np.rint(v / grid) * grid, v) \
+            and np.abs(v / grid).max() < MODEL_LIMIT // 2:
+        offset, step, declared = 0.0, float(grid), 0.0
+    elif v.size == 0:
+        offset, step, declared = 0.0, 1.0, 0.0
+    elif float(v.min()) == float(v.max()):
+        offset, step, declared = float(v.min()), 1.0, 0.0
+    else:
+        lo, hi = float(v.min()), float(v.max())
+        step = 2.0 * bound * SQRT_SAFETY
+        offset = (lo + hi) / 2.0
+        if not (np.isfinite(step) and step > 0) or (hi - lo) / step >= MODEL_LIMIT // 2:
+            step = (hi - lo) / (MODEL_LIMIT // 2)
+        declared = max(bound, step / 2.0)
+    u = np.where(ok, (np.nan_to_num(x) - offset) / step, 0.0)
+    t = np.arange(len(u))
+    k = (np.rint(u) if ok.all() else np.zeros(len(u)) if not ok.any()
+         else np.rint(np.interp(t, t[ok], u[ok]))).astype(np.int64)
+    assert (np.abs(k) < MODEL_LIMIT // 2).all()
+    assert np.abs(k * step + offset - x)[ok].max(initial=0.0) <= declared
+    costs = [float(np.log2(1.0 + np.abs(residuals(k[:, None, None], o))).sum())
+             for o in range(3)]
+    order = int(np.argmin(costs))
+    return offset, step, declared, order, residuals(k[:, None, None], order)
+
+
+_COLUMNS = st.sampled_from(["walk", "gaps", "constant", "none", "grid", "late", "tiny"])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10 ** 6), st.sampled_from([0, 1]), st.integers(2, 40),
+       st.lists(_COLUMNS, min_size=1, max_size=5), st.sampled_from([None, 1e-4, 0.3]),
+       st.booleans())
+def test_model_axes_are_each_axis_on_its_own(seed, storage, F, kinds, angles, late_gap):
+    """The encoder forms all J x 3 model axes at once (issue 15.1). Each axis's grid,
+    order and residuals must be those of the axis on its own, whatever the others hold
+    (gaps, constants, no valid frame, values on the int16 grid, tiny ranges)."""
+    from mpz.c3darchive import _model_axes
+    from mpz.encoder import EncodeOptions
+    J = len(kinds)
+    a = c3d_motion(seed % 1000, storage=storage, F=F, M=3, J=J, C=1, n=1).extras["c3d"]
+    rng = np.random.default_rng(seed)
+    x = np.cumsum(rng.normal(0, 0.3, (F, J, 3)), axis=0) + 5.0
+    ok = np.ones((F, J), bool)
+    for j, kind in enumerate(kinds):
+        if kind == "gaps":
+            ok[:, j] = rng.random(F) < 0.6
+        elif kind == "constant":
+            x[:, j] = 2.5
+        elif kind == "none":
+            ok[:, j] = False
+        elif kind == "grid":                                  # on |POINT:SCALE| = 0.5
+            x[:, j] = np.rint(x[:, j] / 0.5) * 0.5
+        elif kind == "late":
+            ok[: F // 2, j] = False
+        elif kind == "tiny":
+            x[:, j] = 1e6 + rng.integers(0, 3, (F, 3)) * 1e-9
+    if late_gap:
+        ok[-1] = False
+    x[~ok] = np.nan
+    a.models, a.model_valid = x, ok
+    opts = EncodeOptions(model_errors={} if angles is None else {"ANGLES": angles})
+    grid = a.point_grid()
+    models, blocks = _model_axes(a, opts)
+    assert len(models) == J and len(blocks) == 3 * J
+    for j in range(J):
+        name = "ANGLES" if a.model_kinds[j] == 0 else "POWERS"
+        rel = opts.model_errors.get(name, opts.model_error)
+        for ax in range(3):
+            want = _axis_oracle(x[:, j, ax], ok[:, j], rel,
+                                None if name in opts.model_errors else grid)
+            got = models[j].axes[ax]
+            assert (got.offset, got.step, got.bound, got.order) == want[:4]
+            assert np.array_equal(blocks[3 * j + ax], want[4])
+
+
+def test_a_model_output_off_any_grid_is_refused_by_number():
+    """A valid model value that is not finite, or a range too wide for float64, leaves no
+    grid for its axis (§4.13.3): the encoder refuses it with EncoderError, naming the
+    first such model output, axis and frame, rather than a coder-range error or a file
+    its own decoder rejects."""
+    from mpz.c3darchive import _model_axes
+    from mpz.encoder import EncodeOptions
+    from mpz.errors import EncoderError
+    a = c3d_motion(3, storage=1, F=10, M=3, J=3, C=1, n=1).extras["c3d"]
+    a.models[6, 2, 0] = -np.inf
+    a.models[4, 1, 2] = np.inf
+    with pytest.raises(EncoderError, match="model output 1 axis z: inf at frame 4 is not fin"):
+        _model_axes(a, EncodeOptions())
+    a.models[4, 1, 2] = 1.5
+    a.models[5, 1, 0] = np.nan                          # valid, but NaN
+    with pytest.raises(EncoderError, match="model output 1 axis x: nan at frame 5"):
+        _model_axes(a, EncodeOptions())
+    a.models[5, 1, 0] = 1.5
+    a.models[:, 2, 0] = 0.0
+    a.models[6, 2, 0] = -1.7e308                        # hi - lo overflows to inf
+    a.models[7, 2, 0] = 1.7e308
+    with pytest.raises(EncoderError, match=r"output 2 axis x: values -1.7e\+308 .. 1.7e\+308"):
+        with np.errstate(all="ignore"):
+            _model_axes(a, EncodeOptions())

@@ -185,25 +185,34 @@ def plan(words: NDArray[np.int16] | NDArray[np.float32]) -> Plan:
     return plan_all(words[:, None])[0]
 
 
+def best_orders(v: IntArray) -> tuple[NDArray[np.intp], list[IntArray]]:
+    """The predictor order of each column of ``v[T, C]`` (§6.2), the one whose residuals
+    e cost least by the size proxy ``sum(log2(1 + |e|))`` (the lowest order on a tie),
+    and the residuals ``[T, C]`` of every order 0 .. MAX_ORDER.
+
+    Each column's cost is summed over its own samples as a contiguous row (numpy's order
+    for a 1-D sum), so a column's order does not depend on the other columns."""
+    es = [residuals(v, order) for order in range(MAX_ORDER + 1)]
+    costs = np.empty((MAX_ORDER + 1, v.shape[1]))
+    for order, e in enumerate(es):
+        costs[order] = np.ascontiguousarray(
+            np.log2(1.0 + np.abs(e.astype(np.float64))).T).sum(axis=1)
+    return np.argmin(costs, axis=0), es
+
+
 def plan_all(words: NDArray[Any]) -> list[Plan]:
-    """:func:`plan` of every column of ``words[T, C]``: each order's residuals are taken
-    for all channels at once, and each channel's cost summed over its own samples as a
-    contiguous row (numpy's order for a 1-D sum), so the plans do not depend on the
-    other channels."""
+    """:func:`plan` of every column of ``words[T, C]``, the orders chosen for all
+    channels at once (:func:`best_orders`)."""
     T, C = words.shape
     coded = _integers(words)
     v = np.empty((T, C), np.int64)
     for c, (_, _, vc) in enumerate(coded):
         v[:, c] = vc
-    costs = np.empty((MAX_ORDER + 1, C))
-    for order in range(MAX_ORDER + 1):
-        e = residuals(v, order).astype(np.float64)
-        costs[order] = np.ascontiguousarray(np.log2(1.0 + np.abs(e)).T).sum(axis=1)
-    best = np.argmin(costs, axis=0)                       # the lowest order on a tie
+    best, es = best_orders(v)
     out = []
     for c, (mode, shift, vc) in enumerate(coded):
         order = int(best[c])
-        low = _low_bits(residuals(vc[:, None, None], order))
+        low = _low_bits(es[order][:, c])
         assert low <= C3D_MAX_LOW_BITS
         out.append(Plan(mode, shift, order, low, vc))
     return out
@@ -264,22 +273,29 @@ def decode_channel(dec: BlockDecoder, T: int, mode: int, shift: int, order: int,
 SQRT_SAFETY = 1.0 - 2.0 ** -20    # as the marker grid (Appendix C): float rounding never
 
 
-def model_grid(x: NDArray[np.float64], valid: NDArray[np.bool_], bound: float,
-               grid: float | None) -> tuple[float, float, float]:
+def on_model_grid(x: NDArray[np.float64], valid: NDArray[np.bool_],
+                  grid: float) -> NDArray[np.bool_]:
+    """For each column of ``x[T, C]``: True when every valid value v is an exact multiple
+    of ``grid`` (``rint(v / grid) x grid == v``) with ``|v / grid| < 2^30``, and at least
+    one value is valid; :func:`model_grid` then codes the column exactly on ``grid``."""
+    q = x / grid
+    exact = (np.rint(q) * grid == x) & (np.abs(q) < MODEL_LIMIT // 2)
+    return (exact | ~valid).all(axis=0) & valid.any(axis=0)
+
+
+def model_grid(lo: float, hi: float, count: int, bound: float,
+               grid: float | None = None) -> tuple[float, float, float]:
     """(offset, step, declared bound) of one model-output axis (§4.13.3).
 
-    ``x`` holds the channel's values, ``valid`` where they count; ``bound`` the allowed
+    The axis has ``count`` valid values, from ``lo`` to ``hi``; ``bound`` is the allowed
     absolute error; ``grid``, when not None, a step every valid value is an exact
-    multiple of (an int16 C3D's |POINT:SCALE|): the channel is then coded exactly on it
-    (offset 0, declared bound 0).
+    multiple of (an int16 C3D's |POINT:SCALE|, :func:`on_model_grid`): the axis is then
+    coded exactly on it (offset 0, declared bound 0).
     """
-    v = x[valid]
-    if grid is not None and v.size and np.array_equal(np.rint(v / grid) * grid, v) \
-            and np.abs(v / grid).max() < MODEL_LIMIT // 2:
+    if grid is not None and count:
         return 0.0, float(grid), 0.0
-    if v.size == 0:
+    if count == 0:
         return 0.0, 1.0, 0.0
-    lo, hi = float(v.min()), float(v.max())
     if lo == hi:                            # a constant: exact as the offset, k = 0
         return lo, 1.0, 0.0
     step = 2.0 * bound * SQRT_SAFETY

@@ -378,6 +378,19 @@ class ModelAxis(Record):
     bound: float
     order: int
 
+    def fault(self) -> str | None:
+        """The §4.13.3 rule this axis breaks, or None: the check of a decoder (Cpnt.check)
+        and of the encoder before it writes the axis."""
+        if not (math.isfinite(self.offset) and math.isfinite(self.step) and self.step > 0):
+            return f"offset {self.offset!r} and step {self.step!r} must be finite, step > 0"
+        if not math.isfinite(abs(self.offset) + self.step * float(MODEL_LIMIT)):
+            return "|offset| + step x 2^31 is not finite in binary64"
+        if not (math.isfinite(self.bound) and self.bound >= 0):
+            return f"bound {self.bound!r} is not finite and >= 0"
+        if self.order > MAX_ORDER:
+            return f"predictor order {self.order} not in 0..{MAX_ORDER}"
+        return None
+
 
 @dataclass(frozen=True)
 class Model(Record):
@@ -437,16 +450,9 @@ class Cpnt(Record):
             if m.kind not in set(ModelKind):
                 _fail(f"model output {j}: unknown kind {m.kind}", s)
             for a, ax in enumerate(m.axes):
-                what = f"model output {j} axis {'xyz'[a]}"
-                if not (math.isfinite(ax.offset) and math.isfinite(ax.step) and ax.step > 0):
-                    _fail(f"{what}: offset {ax.offset!r} and step {ax.step!r} must be finite, "
-                          f"step > 0", s)
-                if not math.isfinite(abs(ax.offset) + ax.step * float(MODEL_LIMIT)):
-                    _fail(f"{what}: |offset| + step x 2^31 is not finite in binary64", s)
-                if not (math.isfinite(ax.bound) and ax.bound >= 0):
-                    _fail(f"{what}: bound {ax.bound!r} is not finite and >= 0", s)
-                if ax.order > MAX_ORDER:
-                    _fail(f"{what}: predictor order {ax.order} not in 0..{MAX_ORDER}", s)
+                fault = ax.fault()
+                if fault is not None:
+                    _fail(f"model output {j} axis {'xyz'[a]}: {fault}", s)
         self.decode(F, M)
 
     def decode(self, F: int, M: int) -> PointsDecoded:
