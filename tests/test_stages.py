@@ -474,3 +474,44 @@ def test_default_threads_are_one_for_a_small_motion(monkeypatch):
     assert E.thread_count(E.EncodeOptions(), large) == E.MAX_DEFAULT_THREADS == 2
     assert E.thread_count(E.EncodeOptions()) == 2
     assert E.thread_count(E.EncodeOptions(threads=2), small) == 2
+
+
+def _python_chain_order(score):
+    """The member order as the encoder's _chain built it before issue 15.1: from index 0,
+    repeatedly the unplaced j with the least (best[j], j), best the running minimum."""
+    order, left = [0], set(range(1, len(score)))
+    best = score[0].copy()
+    while left:
+        nxt = min(left, key=lambda j: (best[j], j))
+        order.append(nxt)
+        left.remove(nxt)
+        best = np.minimum(best, score[nxt])
+    return order[1:]
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(1, 30), st.integers(1, 6), st.floats(0.0, 0.5),
+       st.integers(0, 2 ** 32 - 1))
+def test_chain_order_is_the_greedy_loop(N, levels, infs, seed):
+    """keyframe.chain_order (issue 15.1) places members as the Python loop did, ties
+    (few distinct scores) and +inf scores (markers seldom valid together) included."""
+    from mpz.keyframe import chain_order
+    rng = np.random.default_rng(seed)
+    s = rng.integers(0, levels, (N, N)).astype(np.float64)
+    s[rng.random((N, N)) < infs] = np.inf
+    s = np.minimum(s, s.T)
+    assert chain_order(s).tolist() == _python_chain_order(s)
+
+
+def test_chain_order_takes_nan_as_no_score():
+    """A NaN score (an overflowed distance) comes after every number, +inf included."""
+    from mpz.keyframe import chain_order
+    nan, inf = np.nan, np.inf
+    s = np.array([[0, nan, inf, 3, inf],
+                  [nan, 0, 1, nan, 7],
+                  [inf, 1, 0, 5, 8],
+                  [3, nan, 5, 0, 9],
+                  [inf, 7, 8, 9, 0]], np.float64)
+    # 3 (the one number), 2 (5 < 9, marker 1 still has no score), then 1 (its score 1
+    # from marker 2 replaces the NaN) before 4 (8)
+    assert chain_order(s).tolist() == [3, 2, 1, 4]

@@ -604,14 +604,7 @@ def _chain(x, valid, root_marker, members):
     ok = valid[:: max(1, x.shape[0] // 400)][:, idx]
     score = keyframe.chain_scores(np.ascontiguousarray(sub.transpose(2, 1, 0)),
                                   np.ascontiguousarray(ok.T))
-    order, left = [0], set(range(1, len(idx)))
-    best = score[0].copy()
-    while left:
-        nxt = min(left, key=lambda j: (best[j], j))
-        order.append(nxt)
-        left.remove(nxt)
-        best = np.minimum(best, score[nxt])
-    return [idx[j] for j in order[1:]]
+    return [idx[j] for j in keyframe.chain_order(score)]
 
 
 def _reroot(root_marker: int, M: int, x: FloatArray | None = None,
