@@ -123,3 +123,36 @@ def test_limit_stops_only_payloads_longer_than_it(blocks, limit):
     else:
         assert not enc.over            # it may stop only when the payload is too long
         assert enc.finish() == full
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 40), st.lists(st.tuples(st.integers(0, 2 ** 30 - 1), st.booleans()),
+                                    min_size=0, max_size=6),
+       st.integers(0, 2 ** 32 - 1), st.integers(1, 64), st.sampled_from([None, 0, 30, 200]))
+def test_rows_are_the_blocks_of_the_reference_coder(T, rows, seed, capacity, limit):
+    """BlockEncoder.rows (issue 15.1: one kernel call for a C3D record's channels) writes
+    what the §5 reference coder writes for each row as a block [T, 1, 1] of one run with
+    fresh models, signed or not; with a limit it stops only payloads longer than it."""
+    ref = RefEncoder()
+    vals = np.zeros((len(rows), T), np.int64)
+    for b, (scale, signed) in enumerate(rows):
+        vals[b] = _laplace_values(T, 1, 1, scale, signed, seed + b)[:, 0, 0]
+        ref.block(vals[b][:, None, None], None, signed)
+    full = ref.finish()
+    enc = BlockEncoder(capacity=capacity, limit=limit)
+    enc.rows(vals, [s for _, s in rows])
+    if enc.over:
+        assert limit is not None and len(full) > limit
+    else:
+        assert enc.finish() == full
+
+
+def test_rows_check_their_values_first():
+    enc = BlockEncoder()
+    with pytest.raises(LimitExceededError, match="2\\^30"):
+        enc.rows(np.array([[1, 2], [0, 2 ** 30]]), [True, True])
+    with pytest.raises(ValueError, match="negative value in an unsigned block"):
+        enc.rows(np.array([[1, -2], [0, -1]]), [True, False])
+    with pytest.raises(ValueError, match="one sign flag a row"):
+        enc.rows(np.array([[1, 2]]), [True, False])
+    assert enc.finish() == BlockEncoder().finish()          # nothing was coded

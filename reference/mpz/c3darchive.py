@@ -27,7 +27,7 @@ from mpz.c3dcodec import (
     MODEL_LIMIT,
     IntArray,
     best_orders,
-    encode_channel,
+    encode_channels,
     model_grid,
     on_model_grid,
     plan_all,
@@ -147,8 +147,9 @@ def _fill(k: NDArray[np.float64], valid: NDArray[np.bool_]) -> NDArray[np.int64]
     return np.rint(np.interp(t, t[valid], k[valid])).astype(np.int64)
 
 
-def _model_axes(a: C3DArchive, opts: EncodeOptions) -> tuple[list[Model], list[IntArray]]:
-    """§4.13.3 the model outputs' entries and, per axis in entry order, its residuals.
+def _model_axes(a: C3DArchive, opts: EncodeOptions) -> tuple[list[Model], IntArray]:
+    """§4.13.3 the model outputs' entries and the residuals ``[3J, F]`` of each axis, in
+    entry order.
 
     Each axis j, ax gets a bound of ``rel`` x its range over the valid frames (``rel``
     the kind's entry of ``opts.model_errors``, else ``opts.model_error``), a grid
@@ -202,7 +203,7 @@ def _model_axes(a: C3DArchive, opts: EncodeOptions) -> tuple[list[Model], list[I
             raise EncoderError(f"{what}: error {err[c]} exceeds the bound {declared[c]} (a bug)")
     models = [Model(kind=a.model_kinds[j], axes=tuple(axes[3 * j: 3 * j + 3]))
               for j in range(J)]
-    return models, [es[orders[c]][:, c, None, None] for c in range(3 * J)]
+    return models, np.stack([es[orders[c]][:, c] for c in range(3 * J)])
 
 
 def point_records(a: C3DArchive, opts: EncodeOptions, M: int) -> Cpnt:
@@ -211,18 +212,16 @@ def point_records(a: C3DArchive, opts: EncodeOptions, M: int) -> Cpnt:
     F, P = a.words.shape
     J = a.models.shape[1]
     enc = BlockEncoder(capacity=max(1 << 16, 8 * F * (P + 3 * J)))
-    word_ch = []
-    for pl in plan_all(a.words):
-        encode_channel(enc, pl)
-        word_ch.append(_channel(pl))
+    plans = plan_all(a.words)
+    encode_channels(enc, plans)
     models: list[Model] = []
     if J:
         enc.block((~a.model_valid).astype(np.int64)[:, :, None], signed=False)
         models, blocks = _model_axes(a, opts)
-        for e in blocks:
-            enc.block(e)
+        enc.rows(blocks, np.ones(len(blocks), np.bool_))
     return Cpnt(storage=a.word_storage, point_count=P, slots=tuple(a.slots),
-                words=tuple(word_ch), model_count=J, models=tuple(models), coded=enc.finish())
+                words=tuple(_channel(p) for p in plans), model_count=J, models=tuple(models),
+                coded=enc.finish())
 
 
 def analog_record(a: C3DArchive) -> Cana | None:
@@ -231,12 +230,10 @@ def analog_record(a: C3DArchive) -> Cana | None:
     if C == 0 or T == 0:
         return None
     enc = BlockEncoder(capacity=max(1 << 16, 4 * T * C))
-    table = []
-    for pl in plan_all(a.analog):
-        encode_channel(enc, pl)
-        table.append(_channel(pl))
+    plans = plan_all(a.analog)
+    encode_channels(enc, plans)
     return Cana(storage=a.analog_storage, channels=C, samples=a.analog_samples,
-                table=tuple(table), coded=enc.finish())
+                table=tuple(_channel(p) for p in plans), coded=enc.finish())
 
 
 def parameter_record(a: C3DArchive) -> Cprm:
