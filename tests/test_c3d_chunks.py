@@ -448,7 +448,11 @@ def test_model_axes_are_each_axis_on_its_own(seed, storage, F, kinds, angles, la
     a.models, a.model_valid = x, ok
     opts = EncodeOptions(model_errors={} if angles is None else {"ANGLES": angles})
     grid = a.point_grid()
-    models, blocks = _model_axes(a, opts)
+    models, rows = [], []
+    for batch, r in _model_axes(a, opts):
+        models += batch
+        rows.append(r)
+    blocks = np.concatenate(rows)
     assert len(models) == J and blocks.shape == (3 * J, F)
     for j in range(J):
         name = "ANGLES" if a.model_kinds[j] == 0 else "POWERS"
@@ -473,15 +477,34 @@ def test_a_model_output_off_any_grid_is_refused_by_number():
     a.models[6, 2, 0] = -np.inf
     a.models[4, 1, 2] = np.inf
     with pytest.raises(EncoderError, match="model output 1 axis z: inf at frame 4 is not fin"):
-        _model_axes(a, EncodeOptions())
+        list(_model_axes(a, EncodeOptions()))
     a.models[4, 1, 2] = 1.5
     a.models[5, 1, 0] = np.nan                          # valid, but NaN
     with pytest.raises(EncoderError, match="model output 1 axis x: nan at frame 5"):
-        _model_axes(a, EncodeOptions())
+        list(_model_axes(a, EncodeOptions()))
     a.models[5, 1, 0] = 1.5
     a.models[:, 2, 0] = 0.0
     a.models[6, 2, 0] = -1.7e308                        # hi - lo overflows to inf
     a.models[7, 2, 0] = 1.7e308
     with pytest.raises(EncoderError, match=r"output 2 axis x: values -1.7e\+308 .. 1.7e\+308"):
         with np.errstate(all="ignore"):
-            _model_axes(a, EncodeOptions())
+            list(_model_axes(a, EncodeOptions()))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10 ** 6), st.sampled_from([0, 1]), st.integers(1, 30),
+       st.integers(0, 5), st.integers(1, 4), st.integers(1, 200))
+def test_channel_batches_do_not_change_the_bytes(seed, storage, F, J, C, batch):
+    """The C3D channel coder works in batches of channels (c3dcodec.BATCH_VALUES, for
+    bounded memory on long captures, issue 11.11); the cpnt and cana payloads must not
+    depend on the batch size."""
+    from mpz import c3dcodec
+    from mpz.c3darchive import analog_record, point_records
+    from mpz.encoder import EncodeOptions
+    m = c3d_motion(seed, storage=storage, F=F, M=3, J=J, C=C, n=2)
+    a, opts = m.extras["c3d"], EncodeOptions()
+    want = point_records(a, opts, 3).dump(), analog_record(a).dump()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(c3dcodec, "BATCH_VALUES", batch)
+        mp.setattr("mpz.c3darchive.BATCH_VALUES", batch)
+        assert (point_records(a, opts, 3).dump(), analog_record(a).dump()) == want

@@ -14,7 +14,7 @@ each channel's range, or exact on an int16 file's grid); markers within the file
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 import math
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.c3dcodec import (
+    BATCH_VALUES,
     INT16,
     MODEL_LIMIT,
     IntArray,
@@ -38,6 +39,7 @@ from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
 from mpz.format import ByteCoding, C3DStorage, ModelKind
 from mpz.io.c3dbin import ParamRecord
+from mpz.predict import residuals
 
 if TYPE_CHECKING:
     from mpz.chunks import Record
@@ -147,37 +149,50 @@ def _fill(k: NDArray[np.float64], valid: NDArray[np.bool_]) -> NDArray[np.int64]
     return np.rint(np.interp(t, t[valid], k[valid])).astype(np.int64)
 
 
-def _model_axes(a: C3DArchive, opts: EncodeOptions) -> tuple[list[Model], IntArray]:
-    """§4.13.3 the model outputs' entries and the residuals ``[3J, F]`` of each axis, in
-    entry order.
+def _model_axes(a: C3DArchive, opts: EncodeOptions) -> Iterator[tuple[list[Model], IntArray]]:
+    """§4.13.3 the model outputs' entries, in order, a batch of model outputs at a time:
+    (their entries, the residuals ``[3 x n, F]`` of their axes in entry order).
 
     Each axis j, ax gets a bound of ``rel`` x its range over the valid frames (``rel``
     the kind's entry of ``opts.model_errors``, else ``opts.model_error``), a grid
     (:func:`mpz.c3dcodec.model_grid`: exact on an int16 file's |POINT:SCALE| when every
     value lies on it, unless the kind's bound is given), its grid values k with the gaps
-    filled (:func:`_fill`) and the predictor order of least cost. All J x 3 axes are
-    formed at once, column 3j + ax of one array, each with the operations and sums it
-    had on its own (issue 15.1: one axis at a time cost 0.1 ms, 11 ms of a 279-frame clip
-    with 36 model outputs).
+    filled (:func:`_fill`) and the predictor order of least cost. The axes of a batch are
+    formed at once, as the columns of one array, each with the operations and sums it had
+    on its own (issue 15.1: one axis at a time cost 0.1 ms, 11 ms of a 279-frame clip
+    with 36 model outputs); a batch holds about :data:`mpz.c3dcodec.BATCH_VALUES` values
+    (a short clip's model outputs are one batch; issue 11.11: bounded temporaries).
     """
     F, J, _ = a.models.shape
-    x = a.models.reshape(F, 3 * J)
-    ok = np.repeat(a.model_valid, 3, axis=1)
+    names = [ModelKind(kind).name for kind in a.model_kinds]
+    grid = a.point_grid()
+    step_j = max(1, BATCH_VALUES // max(1, 3 * F))
+    for j0 in range(0, J, step_j):
+        j1 = min(J, j0 + step_j)
+        models, rows = _model_batch(a, opts, j0, j1, names, grid)
+        yield models, rows
+
+
+def _model_batch(a: C3DArchive, opts: EncodeOptions, j0: int, j1: int, names: list[str],
+                 grid: float | None) -> tuple[list[Model], IntArray]:
+    """:func:`_model_axes` of model outputs j0 .. j1 - 1."""
+    F = a.models.shape[0]
+    n = 3 * (j1 - j0)
+    x = a.models[:, j0:j1].reshape(F, n)
+    ok = np.repeat(a.model_valid[:, j0:j1], 3, axis=1)
     bad = np.argwhere((ok & ~np.isfinite(x)).T)            # (column, frame), in order
     if bad.size:
         col, t = int(bad[0, 0]), int(bad[0, 1])
-        raise EncoderError(f"model output {col // 3} axis {'xyz'[col % 3]}: {x[t, col]} at "
-                           f"frame {t} is not finite, and a valid model output is coded on "
-                           "a finite grid (§4.13.3)")
+        raise EncoderError(f"model output {j0 + col // 3} axis {'xyz'[col % 3]}: "
+                           f"{x[t, col]} at frame {t} is not finite, and a valid model "
+                           "output is coded on a finite grid (§4.13.3)")
     count = ok.sum(axis=0)
     lo = np.where(ok, x, np.inf).min(axis=0)
     hi = np.where(ok, x, -np.inf).max(axis=0)
-    names = [ModelKind(a.model_kinds[j]).name for j in range(J)]
-    grid = a.point_grid()
-    on = on_model_grid(x, ok, grid) if grid is not None else np.zeros(3 * J, np.bool_)
-    offset, step, declared = np.zeros(3 * J), np.ones(3 * J), np.zeros(3 * J)
-    for c in range(3 * J):
-        name = names[c // 3]
+    on = on_model_grid(x, ok, grid) if grid is not None else np.zeros(n, np.bool_)
+    offset, step, declared = np.zeros(n), np.ones(n), np.zeros(n)
+    for c in range(n):
+        name = names[j0 + c // 3]
         rel = opts.model_errors.get(name, opts.model_error)
         bound = rel * (float(hi[c]) - float(lo[c]) if count[c] else 0.0)
         exact = bool(on[c]) and name not in opts.model_errors
@@ -188,22 +203,27 @@ def _model_axes(a: C3DArchive, opts: EncodeOptions) -> tuple[list[Model], IntArr
     k = np.rint(u).astype(np.int64)               # 0 where no value is valid
     for part in np.flatnonzero(~ok.all(axis=0) & ok.any(axis=0)):
         k[:, part] = _fill(u[:, part], ok[:, part])
+    del u
     far = np.asarray((np.abs(k) >= MODEL_LIMIT // 2).any(axis=0))
     err = np.where(ok, np.abs(k.astype(np.float64) * step + offset - x), 0.0).max(axis=0)
-    orders, es = best_orders(k)
+    orders, _ = best_orders(k)
     axes = [ModelAxis(offset=float(offset[c]), step=float(step[c]), bound=float(declared[c]),
-                      order=int(orders[c])) for c in range(3 * J)]
+                      order=int(orders[c])) for c in range(n)]
     for c, ax in enumerate(axes):   # refused here, not written for the decoder to refuse
-        what = f"model output {c // 3} axis {'xyz'[c % 3]}"
+        what = f"model output {j0 + c // 3} axis {'xyz'[c % 3]}"
         fault = ax.fault()
         if fault is not None or far[c]:           # a range beyond float64: hi - lo overflows
             raise EncoderError(f"{what}: values {lo[c]} .. {hi[c]} have no grid of 2^31 "
                                f"steps ({fault or 'k beyond 2^30'}, §4.13.3)")
         if err[c] > declared[c]:
             raise EncoderError(f"{what}: error {err[c]} exceeds the bound {declared[c]} (a bug)")
-    models = [Model(kind=a.model_kinds[j], axes=tuple(axes[3 * j: 3 * j + 3]))
-              for j in range(J)]
-    return models, np.stack([es[orders[c]][:, c] for c in range(3 * J)])
+    rows = np.empty((n, F), np.int64)
+    for order in np.unique(orders):
+        pick = orders == order
+        rows[pick] = residuals(k[:, pick], int(order)).T
+    models = [Model(kind=a.model_kinds[j], axes=tuple(axes[3 * (j - j0): 3 * (j - j0) + 3]))
+              for j in range(j0, j1)]
+    return models, rows
 
 
 def point_records(a: C3DArchive, opts: EncodeOptions, M: int) -> Cpnt:
@@ -217,8 +237,9 @@ def point_records(a: C3DArchive, opts: EncodeOptions, M: int) -> Cpnt:
     models: list[Model] = []
     if J:
         enc.block((~a.model_valid).astype(np.int64)[:, :, None], signed=False)
-        models, blocks = _model_axes(a, opts)
-        enc.rows(blocks, np.ones(len(blocks), np.bool_))
+        for batch, rows in _model_axes(a, opts):
+            models += batch
+            enc.rows(rows, np.ones(len(rows), np.bool_))
     return Cpnt(storage=a.word_storage, point_count=P, slots=tuple(a.slots),
                 words=tuple(_channel(p) for p in plans), model_count=J, models=tuple(models),
                 coded=enc.finish())

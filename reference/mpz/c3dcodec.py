@@ -156,10 +156,23 @@ def _dyadic_kernel(bits: NDArray[np.uint32], lo: int, hi: int, usable: NDArray[n
         shift[c] = s
 
 
-def _low_bits(e: IntArray) -> int:
-    """The smallest b with every |e div 2^b| < 2^30 (§5.4: the coder's range)."""
-    peak = int(np.abs(e).max(initial=0))
-    return max(0, peak.bit_length() - MAX_EXP)
+def _low_bits(peak: int) -> int:
+    """The smallest b with every |e div 2^b| < 2^30 (§5.4: the coder's range), for
+    residuals e of largest magnitude ``peak``."""
+    return max(0, int(peak).bit_length() - MAX_EXP)
+
+
+#: values per batch of channels in :func:`best_orders` and :func:`encode_channels` (as
+#: ``predict._BLOCK_VALUES``): their temporaries stay a few MiB however long the capture
+#: (issue 11.11), and a short clip is one batch (issue 15.1)
+BATCH_VALUES = 1 << 20
+
+
+def batches(T: int, C: int) -> list[tuple[int, int]]:
+    """Ranges ``c0 .. c1 - 1`` of C channels of T values each, at most about
+    :data:`BATCH_VALUES` values a range (at least one channel)."""
+    n = max(1, BATCH_VALUES // max(1, T))
+    return [(c, min(C, c + n)) for c in range(0, C, n)]
 
 
 def _integers(words: NDArray[Any]) -> list[tuple[int, int, IntArray]]:
@@ -185,19 +198,30 @@ def plan(words: NDArray[np.int16] | NDArray[np.float32]) -> Plan:
     return plan_all(words[:, None])[0]
 
 
-def best_orders(v: IntArray) -> tuple[NDArray[np.intp], list[IntArray]]:
+def best_orders(v: IntArray) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
     """The predictor order of each column of ``v[T, C]`` (§6.2), the one whose residuals
-    e cost least by the size proxy ``sum(log2(1 + |e|))`` (the lowest order on a tie),
-    and the residuals ``[T, C]`` of every order 0 .. MAX_ORDER.
+    e cost least by the size proxy ``sum(log2(1 + |e|))`` (the lowest order on a tie), and
+    the largest |e| of that order.
 
     Each column's cost is summed over its own samples as a contiguous row (numpy's order
-    for a 1-D sum), so a column's order does not depend on the other columns."""
-    es = [residuals(v, order) for order in range(MAX_ORDER + 1)]
-    costs = np.empty((MAX_ORDER + 1, v.shape[1]))
-    for order, e in enumerate(es):
-        costs[order] = np.ascontiguousarray(
-            np.log2(1.0 + np.abs(e.astype(np.float64))).T).sum(axis=1)
-    return np.argmin(costs, axis=0), es
+    for a 1-D sum), so a column's order does not depend on the other columns; the columns
+    are taken in :func:`batches`, one order at a time."""
+    T, C = v.shape
+    orders = np.zeros(C, np.intp)
+    peaks = np.zeros(C, np.int64)
+    for c0, c1 in batches(T, C):
+        costs = np.empty((MAX_ORDER + 1, c1 - c0))
+        peak = np.empty((MAX_ORDER + 1, c1 - c0), np.int64)
+        for order in range(MAX_ORDER + 1):
+            e = np.abs(residuals(v[:, c0:c1], order))
+            peak[order] = e.max(axis=0, initial=0)
+            costs[order] = np.ascontiguousarray(np.log2(1.0 + e.astype(np.float64)).T).sum(
+                axis=1)
+            del e
+        best = np.argmin(costs, axis=0)
+        orders[c0:c1] = best
+        peaks[c0:c1] = peak[best, np.arange(c1 - c0)]
+    return orders, peaks
 
 
 def plan_all(words: NDArray[Any]) -> list[Plan]:
@@ -208,37 +232,41 @@ def plan_all(words: NDArray[Any]) -> list[Plan]:
     v = np.empty((T, C), np.int64)
     for c, (_, _, vc) in enumerate(coded):
         v[:, c] = vc
-    best, es = best_orders(v)
+    best, peaks = best_orders(v)
+    del v
     out = []
     for c, (mode, shift, vc) in enumerate(coded):
-        order = int(best[c])
-        low = _low_bits(es[order][:, c])
+        low = _low_bits(peaks[c])
         assert low <= C3D_MAX_LOW_BITS
-        out.append(Plan(mode, shift, order, low, vc))
+        out.append(Plan(mode, shift, int(best[c]), low, vc))
     return out
 
 
 def encode_channels(enc: BlockEncoder, plans: list[Plan]) -> None:
     """Code planned channels of T values each, in order: for each, the block of h, then
-    (b > 0) the block of l (§6.9). One :meth:`~mpz.entropy.BlockEncoder.rows` call for
-    all of them (issue 15.1)."""
-    if not plans:
-        return
-    v = np.stack([p.values for p in plans])                      # [C, T]
-    orders = np.array([p.order for p in plans])
-    e = np.empty_like(v)
-    for order in np.unique(orders):
-        pick = orders == order
-        e[pick] = residuals(v[pick].T, int(order)).T
-    low = np.array([p.low_bits for p in plans], np.int64)
-    split = low > 0
-    at = np.arange(len(plans)) + np.concatenate(([0], np.cumsum(split)[:-1]))   # h rows
-    rows = np.empty((len(plans) + int(split.sum()), v.shape[1]), np.int64)
-    signed = np.ones(rows.shape[0], np.bool_)
-    rows[at] = e >> low[:, None]                                 # floor division by 2^b
-    rows[at[split] + 1] = e[split] & ((1 << low[split]) - 1)[:, None]
-    signed[at[split] + 1] = False
-    enc.rows(rows, signed)
+    (b > 0) the block of l (§6.9). One :meth:`~mpz.entropy.BlockEncoder.rows` call per
+    batch of channels (:func:`batches`; issue 15.1: one block() call each was most of a
+    short clip's cost here)."""
+    T = len(plans[0].values) if plans else 0
+    for c0, c1 in batches(T, len(plans)):
+        part = plans[c0:c1]
+        v = np.stack([p.values for p in part])                       # [C, T]
+        orders = np.array([p.order for p in part])
+        e = np.empty_like(v)
+        for order in np.unique(orders):
+            pick = orders == order
+            e[pick] = residuals(v[pick].T, int(order)).T
+        del v
+        low = np.array([p.low_bits for p in part], np.int64)
+        split = low > 0
+        at = np.arange(len(part)) + np.concatenate(([0], np.cumsum(split)[:-1]))  # h rows
+        rows = np.empty((len(part) + int(split.sum()), T), np.int64)
+        signed = np.ones(rows.shape[0], np.bool_)
+        rows[at] = e >> low[:, None]                                 # floor division by 2^b
+        rows[at[split] + 1] = e[split] & ((1 << low[split]) - 1)[:, None]
+        signed[at[split] + 1] = False
+        del e
+        enc.rows(rows, signed)
 
 
 def encode_channel(enc: BlockEncoder, p: Plan) -> None:
