@@ -32,6 +32,7 @@ from mpz.c3dcodec import (
     model_grid,
     on_model_grid,
     plan_all,
+    residual_rows,
 )
 from mpz.chunks.base import forget
 from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param
@@ -39,7 +40,6 @@ from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
 from mpz.format import ByteCoding, C3DStorage, ModelKind
 from mpz.io.c3dbin import ParamRecord
-from mpz.predict import residuals
 
 if TYPE_CHECKING:
     from mpz.chunks import Record
@@ -168,9 +168,7 @@ def _model_axes(a: C3DArchive, opts: EncodeOptions) -> Iterator[tuple[list[Model
     grid = a.point_grid()
     step_j = max(1, BATCH_VALUES // max(1, 3 * F))
     for j0 in range(0, J, step_j):
-        j1 = min(J, j0 + step_j)
-        models, rows = _model_batch(a, opts, j0, j1, names, grid)
-        yield models, rows
+        yield _model_batch(a, opts, j0, min(J, j0 + step_j), names, grid)
 
 
 def _model_batch(a: C3DArchive, opts: EncodeOptions, j0: int, j1: int, names: list[str],
@@ -217,13 +215,9 @@ def _model_batch(a: C3DArchive, opts: EncodeOptions, j0: int, j1: int, names: li
                                f"steps ({fault or 'k beyond 2^30'}, §4.13.3)")
         if err[c] > declared[c]:
             raise EncoderError(f"{what}: error {err[c]} exceeds the bound {declared[c]} (a bug)")
-    rows = np.empty((n, F), np.int64)
-    for order in np.unique(orders):
-        pick = orders == order
-        rows[pick] = residuals(k[:, pick], int(order)).T
     models = [Model(kind=a.model_kinds[j], axes=tuple(axes[3 * (j - j0): 3 * (j - j0) + 3]))
               for j in range(j0, j1)]
-    return models, rows
+    return models, residual_rows(k, orders)
 
 
 def point_records(a: C3DArchive, opts: EncodeOptions, M: int) -> Cpnt:

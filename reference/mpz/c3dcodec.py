@@ -242,6 +242,16 @@ def plan_all(words: NDArray[Any]) -> list[Plan]:
     return out
 
 
+def residual_rows(v: IntArray, orders: NDArray[np.integer[Any]]) -> IntArray:
+    """The §6.2 residuals ``[C, T]`` of each column c of ``v[T, C]`` with predictor order
+    ``orders[c]``: a channel a row, as :meth:`~mpz.entropy.BlockEncoder.rows` codes them."""
+    out = np.empty((v.shape[1], v.shape[0]), np.int64)
+    for order in np.unique(orders):
+        pick = orders == order
+        out[pick] = residuals(v[:, pick], int(order)).T
+    return out
+
+
 def encode_channels(enc: BlockEncoder, plans: list[Plan]) -> None:
     """Code planned channels of T values each, in order: for each, the block of h, then
     (b > 0) the block of l (§6.9). One :meth:`~mpz.entropy.BlockEncoder.rows` call per
@@ -250,13 +260,8 @@ def encode_channels(enc: BlockEncoder, plans: list[Plan]) -> None:
     T = len(plans[0].values) if plans else 0
     for c0, c1 in batches(T, len(plans)):
         part = plans[c0:c1]
-        v = np.stack([p.values for p in part])                       # [C, T]
-        orders = np.array([p.order for p in part])
-        e = np.empty_like(v)
-        for order in np.unique(orders):
-            pick = orders == order
-            e[pick] = residuals(v[pick].T, int(order)).T
-        del v
+        e = residual_rows(np.stack([p.values for p in part], axis=1),
+                          np.array([p.order for p in part]))          # [C, T]
         low = np.array([p.low_bits for p in part], np.int64)
         split = low > 0
         at = np.arange(len(part)) + np.concatenate(([0], np.cumsum(split)[:-1]))  # h rows

@@ -388,6 +388,29 @@ class BlockEncoder:
         new[: self._buf.shape[0]] = self._buf
         self._buf = new
 
+    def _ready(self, v: NDArray[np.int64], negative: bool, blocks: int) -> bool:
+        """The checks before coding ``v`` (§5.4: every |value| < 2^30; ``negative``: some
+        value of an unsigned block is < 0), and room in the buffer for ``blocks`` blocks of
+        its values (worst case ~ 8 bytes a value). False when coding has stopped (``over``).
+        """
+        # max |v| without a temporary of the block's size (issue 11.11: encoder memory)
+        peak = max(int(v.max()), -int(v.min())) if v.size else 0
+        if peak >= (1 << MAX_EXP):
+            raise LimitExceededError(
+                f"value {peak} does not fit the 2^30 coder range", section="§5.4")
+        if negative:
+            raise ValueError("negative value in an unsigned block")
+        need = int(self._pos[0]) + 8 * v.size + 64 * blocks
+        while self._buf.shape[0] < need:
+            self._grow()
+        return not self.over
+
+    def _coded(self, code: int) -> None:
+        """The return code of a coding kernel: 2 sets ``over`` (the limit was passed)."""
+        if code == 1:
+            raise RuntimeError("range coder buffer overflow")  # unreachable: sized above
+        self.over = code == 2
+
     def block(self, values: ArrayLike, *, period: int | None = None,
               signed: bool = True, models: Models | None = None) -> None:
         """Code ``values`` (int, shape ``[T, M, A]``, A in 1..3).
@@ -400,25 +423,11 @@ class BlockEncoder:
         v = np.ascontiguousarray(values, dtype=np.int64)
         if v.ndim != 3 or not 1 <= v.shape[2] <= 3:
             raise ValueError(f"blocks are [T, M, A] with A in 1..3, got {v.shape}")
-        # max |v| without a temporary of the block's size (issue 11.11: encoder memory)
-        peak = max(int(v.max()), -int(v.min())) if v.size else 0
-        if peak >= (1 << MAX_EXP):
-            raise LimitExceededError(
-                f"value {peak} does not fit the 2^30 coder range", section="§5.4")
-        if not signed and v.size and v.min() < 0:
-            raise ValueError("negative value in an unsigned block")
-        period = max(1, v.shape[0] if period is None else int(period))
-        # worst case ~ 8 bytes per value; grow the buffer up front
-        need = int(self._pos[0]) + 8 * v.size + 64
-        while self._buf.shape[0] < need:
-            self._grow()
-        if self.over:
+        if not self._ready(v, not signed and v.size > 0 and v.min() < 0, 1):
             return
-        code = _encode_block(v, period, signed, _flat_models(models), self._st, self._buf,
-                             self._pos, self._limit)
-        if code == 1:
-            raise RuntimeError("range coder buffer overflow")  # unreachable: sized above
-        self.over = code == 2
+        period = max(1, v.shape[0] if period is None else int(period))
+        self._coded(_encode_block(v, period, signed, _flat_models(models), self._st,
+                                  self._buf, self._pos, self._limit))
 
     def rows(self, rows: ArrayLike, signed: ArrayLike) -> None:
         """Code each row of ``rows`` (int, shape ``[B, T]``) as its own block ``[T, 1, 1]``
@@ -433,21 +442,10 @@ class BlockEncoder:
         if v.ndim != 2 or sg.shape != (v.shape[0],):
             raise ValueError(f"rows are [B, T] with one sign flag a row, got {v.shape} and "
                              f"{sg.shape}")
-        peak = max(int(v.max()), -int(v.min())) if v.size else 0
-        if peak >= (1 << MAX_EXP):
-            raise LimitExceededError(
-                f"value {peak} does not fit the 2^30 coder range", section="§5.4")
-        if v.size and (v[~sg] < 0).any():
-            raise ValueError("negative value in an unsigned block")
-        need = int(self._pos[0]) + 8 * v.size + 64 * v.shape[0] + 64
-        while self._buf.shape[0] < need:
-            self._grow()
-        if self.over:
+        if not self._ready(v, v.size > 0 and bool((v[~sg] < 0).any()), v.shape[0] + 1):
             return
-        code = _encode_rows(v, sg, _FLAT_INIT, self._st, self._buf, self._pos, self._limit)
-        if code == 1:
-            raise RuntimeError("range coder buffer overflow")  # unreachable: sized above
-        self.over = code == 2
+        self._coded(_encode_rows(v, sg, _FLAT_INIT, self._st, self._buf, self._pos,
+                                 self._limit))
 
     def finish(self) -> bytes:
         """Flush the coder (§5.1) and return the payload."""
