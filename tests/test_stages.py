@@ -181,21 +181,80 @@ def _fit_by_the_rule(y, radius, max_span, lam):
     return times, vals
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(st.integers(2, 60), st.sampled_from([0.9, 1.2, 1.7320508, 2.5]),
-       st.sampled_from([0.0, 0.3, 2.0]), st.integers(2, 40), st.integers(0, 2 ** 32 - 1))
-def test_keyframe_fit_follows_the_greedy_rule(T, radius, noise, max_span, seed):
+       st.sampled_from([0.0, 0.3, 2.0]), st.integers(2, 40), st.integers(0, 2 ** 32 - 1),
+       st.booleans(), st.sampled_from([1.0, 0.0, 0.37]))
+def test_keyframe_fit_follows_the_greedy_rule(T, radius, noise, max_span, seed, on_grid, lam):
+    """The kernel's keys are the rule's. On the grid (integer samples, as a C3D's exact
+    mode gives) and with lam 0, candidates tie, so the kernel's shortcut to the cheapest
+    candidate must give way to the list (first on a tie)."""
     from mpz.keyframe import fit
     rng = np.random.default_rng(seed)
     t = np.arange(T)[:, None]
     y = 40 * np.sin(t / rng.uniform(3, 30) + rng.uniform(0, 6, 3)) + rng.normal(0, noise, (T, 3))
+    if on_grid:
+        y = np.round(y)
     track = np.full((T, 3), -7, np.int32)
-    times, vals = fit(y, radius, max_span, track=track)
-    want_t, want_v = _fit_by_the_rule(y.tolist(), radius, max_span, 1.0)
+    times, vals = fit(y, radius, max_span, lam, track=track)
+    want_t, want_v = _fit_by_the_rule(y.tolist(), radius, max_span, lam)
     assert times.tolist() == want_t
     assert vals.tolist() == want_v
     # the kernel's own decoded track (issue 15.1) is interpolate()'s, the §6.5 rule in numpy
     assert track.tolist() == interpolate(want_t, want_v, T).tolist()
+
+
+def _lattice_by_the_rule(y, radius, order):
+    """Each sample's grid point within ``radius`` of least |w - p|_1 + 0.001 |w - y|^2,
+    first in (x, y, z) order on a tie, p the order-``order`` prediction from the points
+    already chosen (none at t = 0 and for order 0: the nearest point; order 2 at t = 1:
+    the previous point)."""
+    import math
+    T, M = len(y), len(y[0])
+    w = [[None] * M for _ in range(T)]
+    for t in range(T):
+        for m in range(M):
+            v = y[t][m]
+            if order == 0 or t == 0:
+                w[t][m] = [math.floor(c + 0.5) for c in v]
+                continue
+            if order == 1 or t == 1:
+                p = w[t - 1][m]
+            else:
+                p = [2 * a - b for a, b in zip(w[t - 1][m], w[t - 2][m], strict=True)]
+            best, bestc = None, math.inf
+            rng = [range(math.ceil(c - radius), math.floor(c + radius) + 1) for c in v]
+            for a in rng[0]:
+                for b in rng[1]:
+                    for c in rng[2]:
+                        d2 = (a - v[0]) ** 2 + (b - v[1]) ** 2 + (c - v[2]) ** 2
+                        if d2 > radius * radius:
+                            continue
+                        cost = abs(a - p[0]) + abs(b - p[1]) + abs(c - p[2]) + 1e-3 * d2
+                        if cost < bestc:
+                            best, bestc = [a, b, c], cost
+            w[t][m] = best
+    return w
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 4), st.sampled_from([0.9, 1.2, 1.7320508, 2.5]),
+       st.integers(0, 2), st.sampled_from([0.0, 0.3, 3.0]), st.booleans(),
+       st.integers(0, 2 ** 32 - 1))
+def test_lattice_choice_follows_its_rule(T, M, radius, order, noise, on_grid, seed):
+    """choose_lattice gives the rule's points, on and off the integer grid (on it, points
+    tie and the kernel's shortcut to the cheapest must give way to the box walk), and
+    every point is within the radius."""
+    from mpz.quantize import choose_lattice
+    rng = np.random.default_rng(seed)
+    t = np.arange(T)[:, None, None]
+    y = 30 * np.sin(t / rng.uniform(2, 20) + rng.uniform(0, 6, (1, M, 3))) \
+        + rng.normal(0, noise, (T, M, 3))
+    if on_grid:
+        y = np.round(2 * y) / 2 if seed % 2 else np.round(y)       # halves tie too
+    w = choose_lattice(y, radius, order)
+    assert w.tolist() == _lattice_by_the_rule(y.tolist(), radius, order)
+    assert (((w - y) ** 2).sum(axis=2) <= radius * radius).all()
 
 
 @settings(max_examples=40, deadline=None)
