@@ -226,6 +226,53 @@ def test_batch_rules(inputs: dict[str, Path], tmp_path: Path) -> None:
     assert mpz.decode(tmp_path / "out" / "a.mpz").n_frames == 120
 
 
+def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[str, Path],
+                                                                  tmp_path: Path) -> None:
+    """``--mirror`` (zstd's --output-dir-mirror): with -r, each output keeps its path below
+    the folder given; one walk.* per subject folder, which the flat -o FOLDER/ refuses."""
+    src = tmp_path / "captures"
+    (src / "s02" / "deep").mkdir(parents=True)
+    (src / "s01").mkdir()
+    shutil.copy(inputs["c3d"], src / "s01" / "walk.c3d")                  # 120 frames
+    write(generate("walk", frames=90, seed=5), src / "s02" / "walk.trc")   # 90 frames
+    shutil.copy(inputs["c3d"], src / "s02" / "deep" / "run.c3d")
+    shutil.copy(inputs["trc"], tmp_path / "loose.trc")                   # given by name
+    (tmp_path / "flat").mkdir()
+    p = run(["mpz", "encode", "-r", "captures", "-o", "flat/", "--max-error", "1mm", "-q"],
+            tmp_path)
+    assert p.returncode == 2 and b"also the output of" in p.stderr     # flat: names clash
+    (tmp_path / "archive").mkdir()
+    p = run(["mpz", "encode", "-r", "captures", "loose.trc", "-o", "archive/", "--mirror",
+             "--max-error", "1mm", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    got = sorted(q.relative_to(tmp_path / "archive").as_posix()
+                 for q in (tmp_path / "archive").rglob("*.mpz"))
+    assert got == ["loose.mpz", "s01/walk.mpz", "s02/deep/run.mpz", "s02/walk.mpz"]
+    assert mpz.decode(tmp_path / "archive" / "s02" / "walk.mpz").n_frames == 90
+    assert mpz.decode(tmp_path / "archive" / "s01" / "walk.mpz").n_frames == 120
+    assert (tmp_path / "archive" / "index.sqlite").is_file()
+    # run again: every file is up to date (the index keys are the mirrored paths)
+    p = run(["mpz", "encode", "-r", "captures", "loose.trc", "-o", "archive/", "--mirror",
+             "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 0 and b"up to date       4" in p.stdout, p.stdout
+    # and back, mirrored again; a folder that cannot be made fails its files only
+    (tmp_path / "back").mkdir()
+    (tmp_path / "back" / "s01").write_text("a file where a folder would go")
+    p = run(["mpz", "decode", "-r", "archive", "-o", "back/", "--mirror", "-F", "trc"],
+            tmp_path)
+    assert p.returncode == 2
+    assert b"cannot make the folder back/s01" in p.stderr and b"1 failed" in p.stderr
+    got = sorted(q.relative_to(tmp_path / "back").as_posix()
+                 for q in (tmp_path / "back").rglob("*.trc"))
+    assert got == ["loose.trc", "s02/deep/run.trc", "s02/walk.trc"]
+    assert read(tmp_path / "back" / "s02" / "walk.trc").n_frames == 90
+    # --mirror is about -o FOLDER/: anything else is a usage error
+    for out in ([], ["-o", "one.mpz"]):
+        p = run(["mpz", "encode", "-r", "captures", *out, "--mirror", "--max-error", "1mm"],
+                tmp_path)
+        assert p.returncode == 64 and b"-o FOLDER/" in p.stderr
+
+
 # -- 3. short flags --------------------------------------------------------------------------
 
 def test_short_flags_on_encode_and_decode(inputs: dict[str, Path], tmp_path: Path) -> None:

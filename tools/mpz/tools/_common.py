@@ -321,26 +321,32 @@ def is_folder_target(output: str | None) -> bool:
 
 @dataclass
 class Job:
-    """One input of a batch and where its output goes (None: a planning error)."""
+    """One input of a batch and where its output goes (None: a planning error).
+
+    ``make_folder``: a folder below ``-o FOLDER/`` that :func:`run_batch` creates before
+    the job runs (``--mirror``), else None."""
 
     input: str
     output: str | None
     error: str | None = None
+    make_folder: str | None = None
 
 
 def expand_inputs(inputs: Sequence[str], recursive: bool,
-                  accept: Callable[[str], bool]) -> list[tuple[str, str | None]]:
-    """Inputs with folders expanded (``-r``): (path, planning error or None), in order.
+                  accept: Callable[[str], bool]) -> list[tuple[str, str | None, str]]:
+    """Inputs with folders expanded (``-r``): (path, planning error or None, base), in order.
 
     A folder without ``-r`` is an error for that input (as zstd: "is a
     directory -- ignored"); with ``-r`` its files that ``accept`` (by name) are
-    taken, sorted, recursively. Hidden files and folders are skipped.
+    taken, sorted, recursively. Hidden files and folders are skipped. ``base`` is
+    the folder a path was found in with ``-r`` (as given), else the path's own
+    folder: ``--mirror`` keeps the path below it.
     """
-    out: list[tuple[str, str | None]] = []
+    out: list[tuple[str, str | None, str]] = []
     for item in inputs:
         if item != STDIO and os.path.isdir(item):
             if not recursive:
-                out.append((item, "is a folder; use -r to take the files in it"))
+                out.append((item, "is a folder; use -r to take the files in it", item))
                 continue
             found: list[str] = []
             for root, dirs, files in os.walk(item):
@@ -348,22 +354,28 @@ def expand_inputs(inputs: Sequence[str], recursive: bool,
                 found += [os.path.join(root, f) for f in sorted(files)
                           if not f.startswith(".") and accept(f)]
             if not found:
-                out.append((item, "no input files in this folder"))
-            out += [(f, None) for f in found]
+                out.append((item, "no input files in this folder", item))
+            out += [(f, None, item) for f in found]
         else:
-            out.append((item, None))
+            out.append((item, None, os.path.dirname(item)))
     return out
 
 
 def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
                accept: Callable[[str], bool], name_for: Callable[[str], str | None],
-               what: str) -> list[Job]:
+               what: str, mirror: bool = False) -> list[Job]:
     """Pair every input with its output.
 
     * ``-o FILE`` (or ``-o -``): exactly one input;
     * ``-o FOLDER/`` (with the trailing separator): every output in that folder, named by
       ``name_for`` from
       the input's base name (flat, as zstd's ``--output-dir-flat``);
+    * ``-o FOLDER/`` with ``mirror`` (``--mirror``): a file found with ``-r`` keeps its
+      path below the folder given as input (``-r CAPTURES`` with
+      ``CAPTURES/s01/walk.c3d`` -> ``FOLDER/s01/walk.mpz``, as zstd's
+      ``--output-dir-mirror``, for archives whose file names repeat across folders); the
+      folders below ``FOLDER/`` are made when the job runs; a file given by name goes to
+      ``FOLDER/`` as without ``mirror``;
     * no ``-o``: beside each input; standard input goes to standard output.
 
     Two inputs that would write the same output make the later one fail.
@@ -371,12 +383,16 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
     Raises
     ------
     UsageError
-        For several inputs with one output file, or ``-`` used twice.
+        For several inputs with one output file, ``-`` used twice, a ``-o FOLDER/`` that
+        does not exist, or ``mirror`` without ``-o FOLDER/``.
     """
     items = expand_inputs(inputs, recursive, accept)
-    if sum(1 for p, _ in items if p == STDIO) > 1:
+    if sum(1 for p, _, _ in items if p == STDIO) > 1:
         raise UsageError("standard input (-) can be read only once")
     folder = is_folder_target(output)
+    if mirror and not folder:
+        raise UsageError("--mirror keeps the input folders' layout below -o FOLDER/ (ending "
+                         "in /); give one")
     if output is not None and not folder and len(items) != 1:
         raise UsageError(f"{len(items)} inputs and one output {printable(output)}: give "
                          "-o FOLDER/ (ending in /) or leave -o out to write beside each input")
@@ -384,7 +400,7 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
         raise UsageError(f"-o {printable(output)}: no such folder")
     jobs: list[Job] = []
     taken: dict[str, str] = {}
-    for path, err in items:
+    for path, err, base in items:
         if err is not None:
             jobs.append(Job(path, None, err))
             continue
@@ -399,7 +415,13 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
             jobs.append(Job(path, None, f"cannot name the {what} output: give -o or "
                                         "--format"))
             continue
-        if folder and output is not None:
+        make = None
+        if folder and output is not None and mirror and path != STDIO:
+            below = os.path.relpath(name, base or os.curdir)    # name lies beside path
+            target = os.path.join(output, below)
+            if os.path.dirname(below):
+                make = os.path.join(output, os.path.dirname(below))
+        elif folder and output is not None:
             target = os.path.join(output, os.path.basename(name))
         else:
             target = name
@@ -409,8 +431,24 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
                                         f"of {printable(taken[key])} in this batch"))
             continue
         taken[key] = path
-        jobs.append(Job(path, target))
+        jobs.append(Job(path, target, make_folder=make))
     return jobs
+
+
+def make_folder(folder: str) -> None:
+    """Create ``folder`` and its parents if missing (``--mirror``'s folders below
+    ``-o FOLDER/``).
+
+    Raises
+    ------
+    EncoderError
+        Naming the folder, when it cannot be made (a file in its place, no permission).
+    """
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as exc:
+        raise EncoderError(f"cannot make the folder {printable(folder)}: "
+                           f"{exc.strerror or exc}") from None
 
 
 #: how bad each exit code is, for a batch's overall code
@@ -443,6 +481,8 @@ def run_batch(command: str, jobs: list[Job], one: Callable[[Job], int], *,
             failed += 1
             continue
         try:
+            if job.make_folder is not None:
+                make_folder(job.make_folder)
             codes.append(one(job))
         except MPZError as exc:
             text = printable(str(exc))

@@ -3,7 +3,8 @@
 The output format is ``--format``, else the output's extension, else the
 format of the source the file was encoded from (its ``source`` metadata).
 ``-`` is standard input or standard output (reports then go to stderr);
-several inputs, or folders with ``-r``, go to ``-o FOLDER/`` or beside each
+several inputs, or folders with ``-r``, go to ``-o FOLDER/`` (flat, or keeping the
+folders below each ``-r`` folder with ``--mirror``) or beside each
 input, and a failed input does not stop the others (exit 2 if any failed).
 A motion a format cannot hold so that it reads back (a rate C3D stores as 0,
 a marker name that breaks a TRC line, a TRC without units) is refused, and
@@ -39,6 +40,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "file was encoded from)")
     p.add_argument("-r", "--recursive", action="store_true",
                    help="decode every .mpz file in the folders given as inputs")
+    p.add_argument("--mirror", action="store_true",
+                   help="with -r and -o FOLDER/: keep each file's path below the folder given "
+                   "as input (-r IN with IN/s01/walk.mpz -> FOLDER/s01/walk.c3d), as zstd's "
+                   "--output-dir-mirror; default: every output in FOLDER/ itself")
     p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
                    "write --format under another extension, or write to a terminal")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
@@ -75,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         jobs = plan_batch(args.inputs, args.output, recursive=args.recursive,
+                          mirror=args.mirror,
                           accept=lambda name: ext_of(name) == ".mpz",
                           name_for=lambda path: _name_for(args, path), what="decoded")
     except UsageError as exc:

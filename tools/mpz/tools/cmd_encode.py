@@ -2,9 +2,10 @@
 
 ``-`` is standard input (its format found from its content) or standard
 output; reports then go to stderr. Several inputs, or folders with ``-r``,
-are encoded one by one into ``-o FOLDER/`` (or beside each input without
-``-o``); a failed input is reported and the others still run (exit 2 if any
-failed). Lengths need a unit (``--max-error 1mm``).
+are encoded into ``-o FOLDER/`` (flat, or keeping the folders below each
+``-r`` folder with ``--mirror``), or beside each input without ``-o``; a failed
+input is reported and the others still run (exit 2 if any failed). Lengths
+need a unit (``--max-error 1mm``).
 """
 from __future__ import annotations
 
@@ -43,6 +44,10 @@ def add_parser(sub):
                    "written atomically")
     p.add_argument("-r", "--recursive", action="store_true",
                    help="encode every motion file in the folders given as inputs")
+    p.add_argument("--mirror", action="store_true",
+                   help="with -r and -o FOLDER/: keep each file's path below the folder given "
+                   "as input (-r IN with IN/s01/walk.c3d -> FOLDER/s01/walk.mpz), as zstd's "
+                   "--output-dir-mirror; default: every output in FOLDER/ itself")
     p.add_argument("--asf", help="skeleton file for AMC input (default: found beside it)")
     # issue 13: skeletal input (BVH, AMC/ASF)
     p.add_argument("--units", choices=("mm", "cm", "m", "in"),
@@ -182,6 +187,7 @@ def run(args: argparse.Namespace) -> int:
     _check_options(args)
     try:
         jobs = plan_batch(args.inputs, args.output, recursive=args.recursive,
+                          mirror=args.mirror,
                           accept=lambda name: ext_of(name) in READERS,
                           name_for=lambda path: os.path.splitext(path)[0] + ".mpz",
                           what="MPZ")
