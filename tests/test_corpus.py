@@ -48,6 +48,7 @@ from mpz.decoder import read_stream
 from mpz.encoder import EncodeOptions
 from mpz.errors import EncoderError
 from mpz.io import read, write
+from mpz.motion import Motion
 from mpz.similarity import rank, summarize
 from mpz.synth import generate
 
@@ -209,19 +210,43 @@ def test_a_fixed_input_leaves_the_failures_table(corpus):
         assert ix.failures() == []
 
 
+def test_options_from_each_files_units(corpus):
+    """``options`` as a function of a file's units (lengths given with a unit): each file
+    gets its own, and the fingerprint follows them."""
+    src, out, paths = corpus
+    m = generate("walk", frames=90, seed=1)
+    write(Motion(m.positions / 10, m.names, m.rate, "cm", m.valid), paths["walk"])
+
+    def per_units(units: str) -> EncodeOptions:
+        return EncodeOptions(max_error={"mm": 1.0, "cm": 0.1}[units])   # 1 mm each
+
+    rep = run_corpus(src, out, options=per_units)
+    assert statuses(rep) == {"bad": "failed", "jump": "encoded", "walk": "encoded",
+                             "wave": "encoded"}
+    with open_index(out) as ix:
+        got = {r["output"]: (r["units"], r["declared_bound"]) for r in ix.rows()}
+    assert got == {"jump.mpz": ("mm", 1.0), "walk.mpz": ("cm", 0.1),
+                   "sub/wave.mpz": ("mm", 1.0)}
+    assert run_corpus(src, out, options=per_units).count("skipped") == 3
+
 def test_a_bug_stops_the_run_and_keeps_what_finished(corpus):
     """Anything but bad input is a bug: it propagates, unwrapped; finished rows stay."""
     src, out, _ = corpus
-    calls = []
 
-    def options_for(units: str) -> EncodeOptions:
-        calls.append(units)
-        if len(calls) == 3:
-            raise RuntimeError("a bug")
-        return OPTS
+    class Buggy:                          # a FileOptions with a bug for one file
+        def options(self, units: str) -> EncodeOptions:
+            return OPTS
+
+        def prepare(self, source: str, motion):
+            if source.endswith("wave.trc"):
+                raise RuntimeError("a bug")
+            return motion, OPTS, []
+
+        def key(self, source: str) -> str:
+            return ""
 
     with pytest.raises(RuntimeError, match="a bug"):
-        run_corpus(src, out, options=options_for)
+        run_corpus(src, out, options=Buggy())
     with open_index(out) as ix:             # bad.trc fails, jump and walk encode, then the bug
         assert [r["output"] for r in ix.rows()] == ["jump.mpz", "walk.mpz"]
     assert temporaries(out) == []
@@ -491,6 +516,107 @@ def test_mpz_encode_routes_batches_to_the_corpus(corpus, capsys):
     code = mpz_cli.main(["encode", str(paths["walk"]), "-o", str(out / "one.mpz"), "--jobs", "1"])
     assert code == 64 and "-o FOLDER/" in capsys.readouterr().err
 
+
+
+def _arm_bvh(frames: int = 60) -> str:
+    """A three-joint arm waving (BVH: no length unit), its rotations smooth, in degrees."""
+    t = np.arange(frames) / 30.0
+    rows = [f"{0.5 * np.sin(u):.4f} 90 {0.2 * u:.4f} {30 * np.sin(1.3 * u):.4f} "
+            f"{10 * np.cos(u):.4f} 0 {45 + 40 * np.sin(2.1 * u):.4f} {5 * np.sin(u):.4f} 0 "
+            f"{20 * np.sin(3.0 * u):.4f} 0 0" for u in t]
+    return ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition "
+            "Zposition Zrotation Xrotation Yrotation\n  JOINT Arm\n  {\n    OFFSET 0 30 0\n"
+            "    CHANNELS 3 Zrotation Xrotation Yrotation\n    JOINT Hand\n    {\n"
+            "      OFFSET 0 25 0\n      CHANNELS 3 Zrotation Xrotation Yrotation\n"
+            "      End Site\n      {\n        OFFSET 0 8 0\n      }\n    }\n  }\n}\n"
+            f"MOTION\nFrames: {frames}\nFrame Time: 0.0333333\n" + "\n".join(rows) + "\n")
+
+
+def _same_motion(a: bytes | Path, b: bytes | Path) -> None:
+    """Two encodes that decode to the same motion, skeleton bounds and all."""
+    from mpz.skeleton import report
+    da, db = (x.read_bytes() if isinstance(x, Path) else x for x in (a, b))
+    assert report(da) == report(db)
+    ma, mb = mpz.decode(da), mpz.decode(db)
+    assert ma.units == mb.units
+    assert np.array_equal(ma.positions, mb.positions, equal_nan=True)
+    assert (ma.angles is None) == (mb.angles is None)
+    if ma.angles is not None:
+        assert np.array_equal(ma.angles, mb.angles, equal_nan=True)
+
+
+def test_mpz_encode_batch_gives_each_file_what_the_one_file_command_gives(tmp_path, capsys):
+    """``mpz encode -r`` (a corpus) applies the per-file options of ``mpz encode FILE``:
+    --units names a BVH's unit (and leaves a C3D's mm alone), --max-error bounds a
+    skeleton's joint positions too, --angle-error and --no-skeleton reach it; changing
+    them encodes the skeletal files again; what is not kept is said per file."""
+    from mpz.tools import mpz_cli
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    out.mkdir()
+    (src / "arm.bvh").write_text(_arm_bvh())
+    write(generate("walk", frames=80, seed=4), src / "walk.c3d")
+
+    def batch(*extra: str) -> dict:
+        code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--max-error", "1mm",
+                             "--units", "cm", "--jobs", "0", "--json", *extra])
+        doc = json.loads(capsys.readouterr().out)
+        assert code == 0, doc
+        return doc
+
+    def one(name: str, *extra: str) -> Path:
+        target = tmp_path / f"one-{name}.mpz"
+        code = mpz_cli.main(["encode", str(src / name), "-o", str(target), "--max-error",
+                             "1mm", "-q", "-f", *extra])
+        assert code == 0, capsys.readouterr().err
+        return target
+
+    doc = batch()
+    assert doc["counts"] == {"encoded": 2, "kept": 0, "skipped": 0, "failed": 0}
+    _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm"))
+    _same_motion(out / "walk.mpz", one("walk.c3d"))
+    assert mpz.decode(out / "arm.mpz").units == "cm"
+    assert mpz.decode(out / "walk.mpz").units == "mm"
+    assert batch()["counts"]["skipped"] == 2                       # nothing changed
+    doc = batch("--angle-error", "0.2")                      # the skeleton's file only
+    assert {f["source"]: f["status"] for f in doc["files"]} == \
+        {str(src / "arm.bvh"): "encoded", str(src / "walk.c3d"): "skipped"}
+    _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm", "--angle-error", "0.2"))
+    doc = batch("--no-skeleton")
+    arm = next(f for f in doc["files"] if f["source"].endswith("arm.bvh"))
+    assert arm["status"] == "encoded" and arm["notes"] == \
+        ["--no-skeleton: the skeleton and its channels are not kept, only the joint positions"]
+    assert mpz.decode(out / "arm.mpz").angles is None
+    _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm", "--no-skeleton"))
+    code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--max-error", "1mm",
+                         "--units", "cm", "--jobs", "0", "--no-skeleton"])
+    assert code == 0 and "NOTE " not in capsys.readouterr().out      # up to date: not opened
+    # --units changes every file's fingerprint: a unitless input given --units cm may be
+    # read in another unit than before
+    doc = batch("--units", "m")
+    assert doc["counts"]["encoded"] == 2
+    assert mpz.decode(out / "arm.mpz").units == "m"
+
+
+def test_a_real_amc_batch_bounds_its_skeleton_as_one_file_does(shared_data, tmp_path, capsys):
+    """A CMU AMC and its ASF, through ``mpz encode -r`` and alone: the same skeleton bounds
+    (before, a corpus gave a skeleton its default bounds: joint positions within 1.16 mm
+    of a --max-error 1mm file) and the same decoded motion."""
+    from mpz.skeleton import report
+    from mpz.tools import mpz_cli
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    out.mkdir()
+    for name in ("35_01.amc", "35.asf"):
+        shutil.copy(shared_data / "amc" / name, src / name)
+    code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--max-error", "1mm",
+                         "--jobs", "0", "-q"])
+    assert code == 0, capsys.readouterr().err
+    code = mpz_cli.main(["encode", str(src / "35_01.amc"), "-o", str(tmp_path / "one.mpz"),
+                         "--max-error", "1mm", "-q"])
+    assert code == 0
+    _same_motion(out / "35_01.mpz", tmp_path / "one.mpz")
+    assert report((out / "35_01.mpz").read_bytes())["position_bound"] == 1.0
 
 
 def _mpz() -> str:

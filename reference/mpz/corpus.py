@@ -47,7 +47,7 @@ from pathlib import Path
 import re
 import sqlite3
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -66,7 +66,9 @@ from mpz.similarity import (
 if TYPE_CHECKING:
     from distributed import Client, Future
 
-__all__ = ["INDEX_NAME", "SCHEMA", "META_FINGERPRINT", "META_SHA256", "FileResult",
+    from mpz.motion import Motion
+
+__all__ = ["INDEX_NAME", "SCHEMA", "META_FINGERPRINT", "META_SHA256", "FileOptions", "FileResult",
            "CorpusReport", "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint",
            "mirror_jobs", "open_index", "sha256_file", "sweep_temporaries",
            "DEFAULT_MEMORY_LIMIT"]
@@ -158,14 +160,62 @@ _FILE_COLUMNS = ("output", "path", "source_sha256", "source_bytes", "source_mtim
 OptionsFor = Callable[[str], EncodeOptions]
 
 
+@runtime_checkable
+class FileOptions(Protocol):
+    """Encode options that depend on each file as read, for :func:`encode_corpus`: what
+    the CLI's ``mpz encode`` does per file (``--units`` for a BVH, the bounds of a BVH's or
+    AMC's skeleton: ``mpz.tools.cmd_encode.PerFile``), or any caller's. An object with
+    these three methods; it goes to the workers, so it must pickle.
+
+    A file's fingerprint (:func:`fingerprint`) is that of ``options(units)`` and
+    ``key(source)``, computed without opening the file (the up-to-date check); ``key``
+    must therefore name every input of ``prepare`` that ``options`` does not show, and
+    ``options`` must depend on the units alone (it is called more than once for a file:
+    in the up-to-date check, and on the worker).
+    """
+
+    def options(self, units: str) -> EncodeOptions:
+        """The options for a file whose motion is in ``units``."""
+
+    def prepare(self, source: str, motion: Motion) -> tuple[Motion, EncodeOptions, list[str]]:
+        """The motion to encode, its options, and notes for the report (what is not kept
+        or what changed), for ``source`` as read."""
+
+    def key(self, source: str) -> str:
+        """What ``prepare`` adds to ``options`` for ``source`` ('' for nothing)."""
+
+
+class _Plain:
+    """A :class:`FileOptions` whose options depend on the units alone."""
+
+    def options(self, units: str) -> EncodeOptions:
+        raise NotImplementedError
+
+    def prepare(self, source: str, motion: Motion) -> tuple[Motion, EncodeOptions, list[str]]:
+        return motion, self.options(motion.units), []
+
+    def key(self, source: str) -> str:
+        return ""
+
+
 @dataclass(frozen=True)
-class _Fixed:
-    """The same options for every file (a picklable :class:`OptionsFor`)."""
+class _Fixed(_Plain):
+    """The same options for every file."""
 
-    options: EncodeOptions
+    fixed: EncodeOptions
 
-    def __call__(self, units: str) -> EncodeOptions:
-        return self.options
+    def options(self, units: str) -> EncodeOptions:
+        return self.fixed
+
+
+@dataclass(frozen=True)
+class _ByUnits(_Plain):
+    """Options from each file's units (an :data:`OptionsFor`)."""
+
+    options_for: OptionsFor
+
+    def options(self, units: str) -> EncodeOptions:
+        return self.options_for(units)
 
 
 # ------------------------------------------------------------------ fingerprint --
@@ -174,13 +224,15 @@ class _Fixed:
 NOT_IN_OUTPUT = frozenset({"threads"})
 
 
-def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS) -> str:
+def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS,
+                key: str = "") -> str:
     """sha256 of the options that decide an output's bytes and its index row.
 
     The fields of ``options`` that differ from their defaults (metadata without the keys
     the corpus sets per file: :data:`META_SOURCE`, :data:`META_SHA256`,
-    :data:`META_FINGERPRINT`), the summary levels of the index and
-    :data:`~mpz.similarity.EXACT_MAX_FRAMES`, as canonical JSON. Only values that differ
+    :data:`META_FINGERPRINT`), the summary levels of the index,
+    :data:`~mpz.similarity.EXACT_MAX_FRAMES` and a :meth:`FileOptions.key` if not empty,
+    as canonical JSON. Only values that differ
     from the defaults count, so a new option added to :class:`~mpz.encoder.EncodeOptions`
     later (with a default) does not make an archive look stale; nor does upgrading mpz
     (its version is recorded in each row; ``force`` re-encodes).
@@ -210,6 +262,8 @@ def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS) 
             doc[f.name] = v
     doc["index.levels"] = sorted({int(k) for k in levels})
     doc["index.exact_max_frames"] = EXACT_MAX_FRAMES
+    if key:
+        doc["file_options"] = key
     text = json.dumps(doc, sort_keys=True, default=str, separators=(",", ":"))
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
@@ -222,7 +276,7 @@ class Task:
     source: str
     output: str
     output_key: str                    # the index key: output relative to the index folder
-    options_for: OptionsFor
+    options: FileOptions
     levels: tuple[int, ...]
     force: bool = False
     asf: str | None = None             # skeleton for AMC sources (default: found beside)
@@ -249,6 +303,8 @@ class FileResult:
     levels: list[tuple[int, float, bytes, bytes]] = field(default_factory=list)
     #: the worker process's peak resident memory so far, in bytes (None where unknown)
     worker_peak_rss: int | None = None
+    #: what :meth:`FileOptions.prepare` said of the file (what is not kept, what changed)
+    notes: list[str] = field(default_factory=list)
 
 
 def sha256_file(path: str | os.PathLike[str]) -> str:
@@ -354,8 +410,8 @@ def encode_file(task: Task) -> FileResult:
         src_bytes = st.st_size
         sha = sha256_file(task.source)
         motion = read(task.source, asf=task.asf)
-        opts = task.options_for(motion.units)
-        fp = fingerprint(opts, task.levels)
+        motion, opts, notes = task.options.prepare(task.source, motion)
+        fp = _fingerprint(task, motion.units)
         data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns)
         status = "kept"
         if data is None:
@@ -382,7 +438,13 @@ def encode_file(task: Task) -> FileResult:
     levels = [(lv.k, lv.wssse, lv.starts.astype("<u4").tobytes(),
                np.ascontiguousarray(lv.means, "<f4").tobytes()) for lv in summary.levels]
     return FileResult(task.source, task.output, status, "", src_bytes, len(data),
-                      row["raw_bytes"], seconds, cpu, row, levels, _peak_rss())
+                      row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes)
+
+
+def _fingerprint(task: Task, units: str) -> str:
+    """The fingerprint of ``task``'s output for a source in ``units``."""
+    return fingerprint(task.options.options(units), task.levels,
+                       task.options.key(task.source))
 
 
 def _reason(exc: BaseException, source: str) -> str:
@@ -597,6 +659,8 @@ class CorpusReport:
                          f"{mb / self.seconds:.2f} MB/s of float32 positions")
         for r in self.failed:
             lines.append(f"  FAILED {r.source}: {r.reason}")
+        for r in self.results:
+            lines += [f"  NOTE {r.source}: {note}" for note in r.notes]
         lines.append(f"  index {self.index}")
         return "\n".join(lines)
 
@@ -637,7 +701,7 @@ def _up_to_date(row: dict[str, Any] | None, task: Task) -> bool:
     try:
         st = os.stat(task.source)
         out = os.stat(task.output)
-        fp = fingerprint(task.options_for(row["units"]), task.levels)
+        fp = _fingerprint(task, row["units"])
     except (OSError, MPZError):
         return False
     return (row["fingerprint"] == fp and row["source_bytes"] == st.st_size
@@ -729,7 +793,7 @@ def _killed(exc: BaseException) -> bool:
 
 def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike[str]]],
                   outdir: str | os.PathLike[str],
-                  options: EncodeOptions | OptionsFor = DEFAULTS, *,
+                  options: EncodeOptions | OptionsFor | FileOptions = DEFAULTS, *,
                   levels: Sequence[int] = SUMMARY_LEVELS, workers: int | None = None,
                   scheduler: str | None = None, client: Client | None = None,
                   memory_limit: str | int | None = DEFAULT_MEMORY_LIMIT, force: bool = False,
@@ -744,9 +808,11 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         created.
     outdir : path
         Holds ``index.sqlite`` (created or updated).
-    options : EncodeOptions or callable(units) -> EncodeOptions
-        The same options for every file, or options from each file's units (how the CLI
-        converts ``--max-error 1mm``). Must be picklable (cloudpickle) for Dask.
+    options : EncodeOptions, callable(units) -> EncodeOptions, or FileOptions
+        The same options for every file, options from each file's units (lengths given
+        with a unit, ``--max-error 1mm``), or a :class:`FileOptions` that also prepares
+        each motion as read (the CLI's: ``--units``, a skeleton's bounds). Must be
+        picklable (cloudpickle) for Dask.
     levels : sequence of int
         Segment counts of the summaries stored in the index.
     workers : int, optional
@@ -783,10 +849,11 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     wall0 = time.time()
     index_dir = os.path.abspath(os.fspath(outdir))
     os.makedirs(index_dir, exist_ok=True)
-    options_for: OptionsFor = _Fixed(options) if isinstance(options, EncodeOptions) else options
+    per_file = (options if isinstance(options, FileOptions) else
+                _Fixed(options) if isinstance(options, EncodeOptions) else _ByUnits(options))
     levels = tuple(sorted({int(k) for k in levels}))
     skeleton = None if asf is None else os.path.abspath(os.fspath(asf))
-    tasks = [Task(os.fspath(s), os.fspath(o), _key(os.fspath(o), index_dir), options_for,
+    tasks = [Task(os.fspath(s), os.fspath(o), _key(os.fspath(o), index_dir), per_file,
                   levels, force, skeleton) for s, o in jobs]
     results: list[FileResult | None] = [None] * len(tasks)
     n_workers = workers if workers is not None else (os.cpu_count() or 1)

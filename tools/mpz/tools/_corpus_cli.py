@@ -15,7 +15,7 @@ Exit codes: 0 every file encoded or up to date; 2 some failed; 64 usage; 130 int
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 import importlib.util
 import os
 import sys
@@ -24,8 +24,7 @@ from typing import TYPE_CHECKING, Any
 from mpz.tools._cli import EXIT_ERROR, EXIT_OK
 
 if TYPE_CHECKING:
-    from mpz.corpus import FileResult
-    from mpz.encoder import EncodeOptions
+    from mpz.corpus import FileOptions, FileResult
 
 
 def add_corpus_options(p: argparse.ArgumentParser) -> None:
@@ -87,12 +86,11 @@ class _Bar:
         self.bar.close()
 
 
-def run_corpus(args: argparse.Namespace, jobs: Sequence[Any],
-               options_for: Callable[[str], EncodeOptions]) -> int:
+def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptions) -> int:
     """Encode the planned ``jobs`` (``.input``, ``.output``, ``.error``) as a corpus.
 
-    ``options_for(units)`` gives each file's options (lengths converted to its units); it
-    is sent to the workers, so it must pickle (a lambda or closure does, with cloudpickle).
+    ``options`` makes each file's options (``mpz.tools.cmd_encode.PerFile``); it is sent
+    to the workers, so it must pickle.
     """
     from mpz.corpus import encode_corpus
     from mpz.tools._cli import EXIT_USAGE, print_json, printable
@@ -119,7 +117,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any],
         workers = min(os.cpu_count() or 1, max(len(planned), 1))
     bar = _Bar(enabled=not quiet and not args.json)
     try:
-        report = encode_corpus([(j.input, j.output) for j in planned], args.output, options_for,
+        report = encode_corpus([(j.input, j.output) for j in planned], args.output, options,
                                workers=workers, scheduler=scheduler,
                                memory_limit=getattr(args, "memory_limit", None),
                                force=bool(getattr(args, "force", False)), progress=bar,

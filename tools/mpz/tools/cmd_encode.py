@@ -196,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     from mpz.tools._corpus_cli import run_corpus, wants_corpus  # issue 15: Dask + index
     if wants_corpus(args, jobs):
-        return run_corpus(args, jobs, lambda units: _options(args, units, None))
+        return run_corpus(args, jobs, PerFile(args))
     data_on_stdout = any(j.output == STDIO for j in jobs)
     report = sys.stderr if data_on_stdout else sys.stdout
     results: list[dict] = []
@@ -313,9 +313,12 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
 
 
 # ---------------------------------------------------- issue 13: skeletal input --
-def _units(args: argparse.Namespace, motion):
-    """--units: name the length unit of an input that has none (BVH)."""
+def _units(args: argparse.Namespace, motion, *, batch: bool = False):
+    """--units: name the length unit of an input that has none (BVH). In a batch it names
+    that of every such input, and leaves the others as they are (an error for one file)."""
     from mpz.skeleton import with_units
+    if batch and args.units is not None and motion.units:
+        return motion
     if args.units is None:
         lengths = [(o, v) for o, v in (("--max-error", args.max_error), ("--grid", args.grid),
                                         ("--translation-error", args.translation_error))
@@ -329,27 +332,40 @@ def _units(args: argparse.Namespace, motion):
     return with_units(motion, args.units)
 
 
-def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions) -> EncodeOptions:
+def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions,
+                      notes: list[str] | None = None) -> EncodeOptions:
     """The skeleton options (spec §4.14) for a BVH or AMC/ASF input: --max-error bounds the
     joint positions computed from the channels too; without it the channels keep their
     default bound and the marker layer gets the reference encoder's preview bound
-    (Appendix C)."""
+    (Appendix C).
+
+    With ``notes`` (a batch: :class:`PerFile`), what is not kept goes there, and
+    --angle-error and --translation-error leave the inputs without a skeleton as they are;
+    else the notes are printed on stderr (unless -q), and those options on such an input
+    are an error."""
     from dataclasses import replace
 
     from mpz.skeleton import mm_per_unit
     from mpz.tools._common import parse_length
     if motion.extras.get("skeleton") is None:
-        if args.angle_error is not None or args.translation_error is not None:
+        if notes is None and (args.angle_error is not None
+                              or args.translation_error is not None):
             raise EncoderError("--angle-error and --translation-error apply to skeletal input "
                                "(BVH, AMC/ASF) only")
         return opts
+    said: list[str] = []                           # nothing is lost without a word
     dropped = motion.metadata.get("asf_dropped")
-    if dropped and not args.quiet:                 # nothing is lost without a word
-        print(f"mpz encode: note: not kept from the ASF: {printable(dropped)}", file=sys.stderr)
+    if dropped:
+        said.append(f"not kept from the ASF: {dropped}")
     if args.no_skeleton:
-        if not args.quiet:
-            print("mpz encode: note: --no-skeleton: the skeleton and its channels are not "
-                  "kept, only the joint positions", file=sys.stderr)
+        said.append("--no-skeleton: the skeleton and its channels are not kept, only the "
+                    "joint positions")
+    if notes is not None:
+        notes += said
+    elif not args.quiet:
+        for note in said:
+            print(f"mpz encode: note: {printable(note)}", file=sys.stderr)
+    if args.no_skeleton:
         return replace(opts, keep_skeleton=False)
     lin = None
     text = args.translation_error
@@ -366,6 +382,42 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions) -> 
     # the marker layer's default is the preview bound (mpz.encoder.default_error)
     return replace(opts, angle_error=args.angle_error, translation_error=lin,
                    position_error=opts.max_error)
+
+
+class PerFile:
+    """The options of a ``mpz encode`` batch run as a corpus
+    (:func:`~mpz.corpus.encode_corpus`; a :class:`~mpz.corpus.FileOptions`), made per
+    file as the one-file path makes them: lengths converted to the file's units,
+    ``--units`` naming those of a BVH, and a BVH's or AMC's skeleton bounds
+    (:func:`_skeleton_options`: ``--max-error`` bounds its joint positions too). Its
+    :meth:`key` names what the fingerprint of the options alone does not show, so that
+    changing ``--units``, ``--angle-error``, ``--translation-error`` or ``--no-skeleton``
+    encodes a file again. Sent to the workers (it pickles with the parsed arguments)."""
+
+    #: the version of the skeleton rule in :meth:`key`: 1 since ``mpz encode -r`` applies
+    #: it (before, a corpus gave a skeleton the default bounds, whatever --max-error said)
+    SKELETON_RULE = 1
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.args = args
+
+    def options(self, units: str) -> EncodeOptions:
+        return _options(self.args, units, None)
+
+    def prepare(self, source: str, motion):
+        notes: list[str] = []
+        motion = _units(self.args, motion, batch=True)
+        opts = _skeleton_options(self.args, motion, self.options(motion.units), notes)
+        return motion, opts, notes
+
+    def key(self, source: str) -> str:
+        from mpz.io._common import ext_of
+        a = self.args
+        parts = [] if a.units is None else [f"units={a.units}"]
+        if ext_of(source) in (".bvh", ".amc"):         # the inputs that carry a skeleton
+            parts += [f"skeleton={self.SKELETON_RULE}", f"angle={a.angle_error}",
+                      f"translation={a.translation_error}", f"no_skeleton={a.no_skeleton}"]
+        return ",".join(parts)
 
 
 def _skeleton_report(data: bytes) -> dict | None:
