@@ -229,6 +229,37 @@ def test_options_from_each_files_units(corpus):
                    "sub/wave.mpz": ("mm", 1.0)}
     assert run_corpus(src, out, options=per_units).count("skipped") == 3
 
+
+def _overstate_frames(trc: Path, by: int) -> str:
+    """Make a TRC header claim ``by`` more frames than its rows; returns the reader's
+    warning, written out here."""
+    lines = trc.read_text().splitlines(True)
+    fields = lines[2].split("\t")
+    rows = int(fields[2])
+    fields[2] = str(rows + by)
+    lines[2] = "\t".join(fields)
+    trc.write_text("".join(lines))
+    return f"NumFrames says {rows + by}, file has {rows} rows"
+
+
+def test_a_readers_warning_is_a_note_of_its_file(corpus, capsys):
+    """What the reader warns of (a TRC header that claims more frames than it has) is said
+    per file in the report, the table and --json, and kept in the file's meta."""
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    said = _overstate_frames(paths["walk"], 9)
+    rep = run_corpus(src, out)
+    notes = {Path(r.source).stem: r.notes for r in rep.results}
+    assert notes == {"bad": [], "jump": [], "walk": [said], "wave": []}
+    assert f"  NOTE {paths['walk']}: {said}" in rep.table().splitlines()
+    assert mpz.decode(out / "walk.mpz").metadata["warning"] == said
+    code = mpz_cli.main(["encode", str(paths["walk"]), "-o", str(out / "one.mpz"),
+                         "--max-error", "1mm"])
+    assert code == 0 and f"note: {paths['walk']}: {said}" in capsys.readouterr().err
+    code = mpz_cli.main(["encode", str(paths["walk"]), "-o", str(out / "one.mpz"), "-f",
+                         "--max-error", "1mm", "-q"])
+    assert code == 0 and capsys.readouterr().err == ""
+
 def test_a_bug_stops_the_run_and_keeps_what_finished(corpus):
     """Anything but bad input is a bug: it propagates, unwrapped; finished rows stay."""
     src, out, _ = corpus

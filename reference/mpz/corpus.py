@@ -411,6 +411,8 @@ def encode_file(task: Task) -> FileResult:
         sha = sha256_file(task.source)
         motion = read(task.source, asf=task.asf)
         motion, opts, notes = task.options.prepare(task.source, motion)
+        if motion.metadata.get("warning"):       # the reader's (kept in the file's meta)
+            notes = [motion.metadata["warning"], *notes]
         fp = _fingerprint(task, motion.units)
         data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns)
         status = "kept"

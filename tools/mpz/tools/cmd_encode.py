@@ -235,6 +235,10 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
         raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
     motion = read_motion(job.input, args.asf)
+    warning = motion.metadata.get("warning")      # the reader's; kept in the file's meta
+    if warning and not args.quiet:
+        print(f"mpz encode: note: {printable(job.input)}: {printable(warning)}",
+              file=sys.stderr)
     motion = _units(args, motion)
     units = motion.units
     opts = _skeleton_options(args, motion, _options(args, units, source))
