@@ -303,7 +303,8 @@ class FileResult:
     levels: list[tuple[int, float, bytes, bytes]] = field(default_factory=list)
     #: the worker process's peak resident memory so far, in bytes (None where unknown)
     worker_peak_rss: int | None = None
-    #: what :meth:`FileOptions.prepare` said of the file (what is not kept, what changed)
+    #: said of the file: its reader's warning, then what :meth:`FileOptions.prepare` said
+    #: (what is not kept, what changed)
     notes: list[str] = field(default_factory=list)
 
 
