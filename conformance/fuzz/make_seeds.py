@@ -6,9 +6,14 @@ Synthetic seeds always; with ``--real DIR``, excerpts of the real recordings in 
 first 48 frames and at most 16 markers of each C3D, TRC, BVH and AMC file) encoded at
 several settings, so that the fuzzer starts from the chunk layouts real data produce
 (issue 10: seeds from real files); with ``--bombs``, the decompression bombs of issue 11.1
-scaled down to 2^16 marker-frames (the fuzzer's cap). Write them to a scratch folder and
-let ``fuzz_decoder.py -merge=1`` keep the ones that add coverage: the real recordings are
-never copied into the repository, and only small files belong in conformance/corpus/.
+scaled down to 2^16 marker-frames (the fuzzer's cap). Write them to a scratch folder.
+
+The real recordings are never copied into the repository, and neither is anything grown
+from their excerpts: a run seeded with ``--real`` finds bugs, but what it adds to its
+corpus folder carries pieces of real captures, so it is not merged into
+conformance/corpus/. To keep the inputs that add coverage, run again from seeds made
+without ``--real`` (and conformance/corpus itself), then
+``fuzz_decoder.py -merge=1 conformance/corpus NEW``. Only small files belong there.
 """
 from __future__ import annotations
 
