@@ -273,6 +273,23 @@ def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[s
         assert p.returncode == 64 and b"-o FOLDER/" in p.stderr
 
 
+def test_a_ratio_against_the_input_counts_only_what_was_kept(inputs: dict[str, Path],
+                                                             tmp_path: Path) -> None:
+    """--no-skeleton keeps a BVH's joint positions only: the ratio against the BVH file is
+    then not given (it would count the channels that were not kept), in text and JSON."""
+    base = ["mpz", "encode", str(inputs["bvh"]), "--units", "cm", "--max-error", "1mm", "-f"]
+    p = run([*base, "-o", "whole.mpz", "--json"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    doc = strict_json(p.stdout)
+    assert doc["dropped"] == [] and doc["ratio_input"] == pytest.approx(
+        inputs["bvh"].stat().st_size / (tmp_path / "whole.mpz").stat().st_size)
+    p = run([*base, "-o", "joints.mpz", "--no-skeleton", "--json"], tmp_path)
+    doc = strict_json(p.stdout)
+    assert doc["dropped"] == ["joint angles and the skeleton"] and doc["ratio_input"] is None
+    p = run([*base, "-o", "joints.mpz", "--no-skeleton"], tmp_path)
+    assert b"vs input file n/a (joint angles and the skeleton not kept)" in p.stdout
+
+
 # -- 3. short flags --------------------------------------------------------------------------
 
 def test_short_flags_on_encode_and_decode(inputs: dict[str, Path], tmp_path: Path) -> None:

@@ -260,6 +260,22 @@ def test_a_readers_warning_is_a_note_of_its_file(corpus, capsys):
                          "--max-error", "1mm", "-q"])
     assert code == 0 and capsys.readouterr().err == ""
 
+def test_the_summary_ratio_leaves_out_files_that_drop_part_of_their_source():
+    """The table's source/MPZ ratio counts what was kept: a file that drops part of its
+    source (``not_kept``) adds its bytes to the totals, not to the ratio, and says so."""
+    rs = [FileResult("a.c3d", "a.mpz", "encoded", source_bytes=1000, output_bytes=100),
+          FileResult("b.c3d", "b.mpz", "encoded", source_bytes=3000, output_bytes=200),
+          FileResult("j.bvh", "j.mpz", "encoded", source_bytes=9000, output_bytes=100,
+                     not_kept=["joint angles and the skeleton"]),
+          FileResult("k.bvh", "k.mpz", "skipped", source_bytes=500, output_bytes=50)]
+    lines = CorpusReport(rs, 1.0, 0, "this process", "i").table().splitlines()
+    enc = next(x for x in lines if x.strip().startswith("encoded"))
+    assert enc.split()[1:5] == ["3", "0.01", "0.00", "13.3"]     # (1000 + 3000) / 300
+    assert "(ratio without the 1 that drop part of their source)" in enc
+    assert "  NOTE j.bvh: not kept: joint angles and the skeleton" in lines
+    up = next(x for x in lines if x.strip().startswith("up to date"))
+    assert up.split()[3:7] == ["1", "0.00", "0.00", "10.0"] and "without" not in up
+
 def test_a_bug_stops_the_run_and_keeps_what_finished(corpus):
     """Anything but bad input is a bug: it propagates, unwrapped; finished rows stay."""
     src, out, _ = corpus
@@ -615,8 +631,9 @@ def test_mpz_encode_batch_gives_each_file_what_the_one_file_command_gives(tmp_pa
     _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm", "--angle-error", "0.2"))
     doc = batch("--no-skeleton")
     arm = next(f for f in doc["files"] if f["source"].endswith("arm.bvh"))
-    assert arm["status"] == "encoded" and arm["notes"] == \
-        ["--no-skeleton: the skeleton and its channels are not kept, only the joint positions"]
+    walk = next(f for f in doc["files"] if f["source"].endswith("walk.c3d"))
+    assert arm["status"] == "encoded" and arm["not_kept"] == ["joint angles and the skeleton"]
+    assert walk["not_kept"] == []
     assert mpz.decode(out / "arm.mpz").angles is None
     _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm", "--no-skeleton"))
     code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--max-error", "1mm",

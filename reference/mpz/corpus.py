@@ -306,6 +306,9 @@ class FileResult:
     #: said of the file: its reader's warning, then what :meth:`FileOptions.prepare` said
     #: (what is not kept, what changed)
     notes: list[str] = field(default_factory=list)
+    #: what of the source the output does not keep (:func:`mpz.encoder.not_kept`); such a
+    #: file is left out of the report's ratio against the source
+    not_kept: list[str] = field(default_factory=list)
 
 
 def sha256_file(path: str | os.PathLike[str]) -> str:
@@ -400,7 +403,7 @@ def encode_file(task: Task) -> FileResult:
         of this file; any other exception is a bug and propagates.
     """
     from mpz.api import write_atomic
-    from mpz.encoder import encode_motion
+    from mpz.encoder import encode_motion, not_kept
     from mpz.io import read
     from mpz.similarity import summarize
 
@@ -441,7 +444,8 @@ def encode_file(task: Task) -> FileResult:
     levels = [(lv.k, lv.wssse, lv.starts.astype("<u4").tobytes(),
                np.ascontiguousarray(lv.means, "<f4").tobytes()) for lv in summary.levels]
     return FileResult(task.source, task.output, status, "", src_bytes, len(data),
-                      row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes)
+                      row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes,
+                      not_kept(motion, opts))
 
 
 def _fingerprint(task: Task, units: str) -> str:
@@ -652,9 +656,16 @@ class CorpusReport:
                 continue
             src = sum(r.source_bytes for r in rs)
             out = sum(r.output_bytes for r in rs)
-            ratio = f"{src / out:8.1f}" if out else f"{'-':>8}"
+            # the ratio counts what was kept: files that drop part of their source are out
+            whole = [r for r in rs if not r.not_kept]
+            w_out = sum(r.output_bytes for r in whole)
+            ratio = (f"{sum(r.source_bytes for r in whole) / w_out:8.1f}" if w_out
+                     else f"{'-':>8}")
             outs = f"{out / 1e6:10.2f}" if status != "failed" else f"{'-':>10}"
-            lines.append(f"  {label:<11}{len(rs):>7}{src / 1e6:12.2f}{outs}{ratio}")
+            partial = len(rs) - len(whole)
+            lines.append(f"  {label:<11}{len(rs):>7}{src / 1e6:12.2f}{outs}{ratio}"
+                         + (f"  (ratio without the {partial} that drop part of their "
+                            "source)" if partial and status != "failed" else ""))
         done = [r for r in self.results if r.status == "encoded"]
         if done and self.seconds > 0:
             mb = sum(r.raw_bytes for r in done) / 1e6
@@ -664,6 +675,8 @@ class CorpusReport:
             lines.append(f"  FAILED {r.source}: {r.reason}")
         for r in self.results:
             lines += [f"  NOTE {r.source}: {note}" for note in r.notes]
+            if r.not_kept:
+                lines.append(f"  NOTE {r.source}: not kept: {'; '.join(r.not_kept)}")
         lines.append(f"  index {self.index}")
         return "\n".join(lines)
 

@@ -444,10 +444,28 @@ class EncodeReport:
     #: issue 12: the declared bound (None: lossy, 0.0: exact) and how it was chosen
     bound: float | None = None
     bound_rule: str = ""
+    #: what of the source the file does not keep (:func:`not_kept`; empty: everything)
+    not_kept: list[str] = field(default_factory=list)
 
     @property
     def ratio(self) -> float:
         return self.raw_bytes / max(self.file_bytes, 1)
+
+
+def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
+    """What of its source an encode of ``motion`` with ``opts`` does not keep, so that no
+    report counts the whole source file against what was kept (issue 12): a C3D's analog
+    data, parameters and residuals when its reader could not keep the C3D archive (with
+    the reader's reason), and a skeletal motion's joint angles and skeleton when no
+    skeleton chunk is written (``keep_skeleton=False``, or no skeleton was read)."""
+    out = []
+    if motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras:
+        why = motion.metadata.get("warning", "C3D archive not kept")
+        out.append(f"analog, parameters and residuals ({why})")
+    if motion.angles is not None and (not opts.keep_skeleton
+                                      or "skeleton" not in motion.extras):
+        out.append("joint angles and the skeleton")
+    return out
 
 
 # ----------------------------------------------------------------- helpers --
@@ -1290,7 +1308,7 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
                               addh_rule=addh_rule, hierarchy=hier.method,
                               bound=(opts.max_error if opts.max_error is not None
                                      else 0.0 if grid.exact else None),
-                              bound_rule=bound_rule)
+                              bound_rule=bound_rule, not_kept=not_kept(motion, opts))
         u = GridCoordinates(x, grid.offset, grid.step)           # grid coordinates (float)
         if u.peak() * 2 + 2 >= 2.0 ** MAX_EXP:
             span = float((x.reshape(-1, 3).max(0) - x.reshape(-1, 3).min(0)).max())

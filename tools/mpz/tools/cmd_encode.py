@@ -361,7 +361,7 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions,
     dropped = motion.metadata.get("asf_dropped")
     if dropped:
         said.append(f"not kept from the ASF: {dropped}")
-    if args.no_skeleton:
+    if args.no_skeleton and notes is None:   # a batch says it as the file's "not kept"
         said.append("--no-skeleton: the skeleton and its channels are not kept, only the "
                     "joint positions")
     if notes is not None:
@@ -451,13 +451,7 @@ def _kept(motion, rep, in_size: int | None) -> dict:
     markers = 8 + sum(n for t, n in cb.items() if t[:1].isupper())
     analog = sum(cb.get(t, 0) for t in _ANALOG)
     rest = rep.file_bytes - markers - analog
-    dropped = []
-    fmt = motion.metadata.get("format", "")
-    if fmt == "c3d" and "c3d" not in motion.extras:
-        dropped.append("analog, parameters and residuals (" +
-                       motion.metadata.get("warning", "C3D archive not kept") + ")")
-    if motion.angles is not None and not motion.extras:
-        dropped.append("joint angles and the skeleton")
+    dropped = list(rep.not_kept)                  # mpz.encoder.not_kept: the one rule
     a = motion.extras.get("c3d")
     model = None
     if a is not None and a.models.shape[1]:
