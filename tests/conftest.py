@@ -23,3 +23,30 @@ def shared_data() -> Path:
     if d is None:
         pytest.skip("real recordings not available: ../shared/data is absent (set MPZ_SHARED_DATA)")
     return d
+
+
+@pytest.fixture(scope="session")
+def two_joint_bvh() -> str:
+    """A BVH of two joints over three frames (no length unit, as every BVH)."""
+    return """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 10 0
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.0333333
+0 0 0 0 0 0 0 0 0
+1 0 0 0 5 0 10 0 0
+2 0 0 0 10 0 20 0 0
+"""

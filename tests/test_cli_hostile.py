@@ -191,7 +191,8 @@ def test_out_of_memory_is_its_own_message_and_exit_code(big: Path, tmp_path: Pat
 
 # -- 4. terminal escape injection -----------------------------------------------------------------
 
-def test_names_file_names_and_metadata_are_printed_escaped(tmp_path: Path) -> None:
+def test_names_file_names_and_metadata_are_printed_escaped(tmp_path: Path,
+                                                            two_joint_bvh: str) -> None:
     m = generate("walk", frames=40, seed=2)
     names = list(m.names)
     names[0] = "LFHD" + EVIL
@@ -201,7 +202,7 @@ def test_names_file_names_and_metadata_are_printed_escaped(tmp_path: Path) -> No
     (tmp_path / name).write_bytes(mpz.encode(evil, max_error=1.0))
     (tmp_path / "plain.mpz").write_bytes(mpz.encode(evil, max_error=1.0))
     bvh = tmp_path / "evil.bvh"
-    bvh.write_text(EVIL_BVH.replace("Spine", "Spine" + EVIL))
+    bvh.write_text(two_joint_bvh.replace("Spine", "Spine" + EVIL))  # names reach the report
     commands = [
         ["mpzinfo", "-vv", name],
         ["mpz", "decode", name, "-o", "x.npy"],
@@ -236,31 +237,6 @@ def test_there_is_one_escaping_function() -> None:
             continue
         assert "printable" in text, f"{f.name} prints without the shared escaping"
         assert "def _escape" not in text and "isprintable" not in text, f.name
-
-
-#: a BVH whose joint names reach the encode report through the skeleton hierarchy
-EVIL_BVH = """HIERARCHY
-ROOT Hips
-{
-  OFFSET 0 0 0
-  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-  JOINT Spine
-  {
-    OFFSET 0 10 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 10 0
-    }
-  }
-}
-MOTION
-Frames: 3
-Frame Time: 0.0333333
-0 0 0 0 0 0 0 0 0
-1 0 0 0 5 0 10 0 0
-2 0 0 0 10 0 20 0 0
-"""
 
 
 # -- 8. strict JSON everywhere --------------------------------------------------------------------

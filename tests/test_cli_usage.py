@@ -59,7 +59,7 @@ def strict_json(text: str | bytes) -> object:
 
 
 @pytest.fixture(scope="module")
-def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+def inputs(tmp_path_factory: pytest.TempPathFactory, two_joint_bvh: str) -> dict[str, Path]:
     """Small inputs in every readable format, and an .mpz (120 frames, CMU 41 markers, mm)."""
     d = tmp_path_factory.mktemp("inputs")
     m = generate("walk", frames=120, seed=3, gap_fraction=0.02)
@@ -70,35 +70,9 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out["mpz"] = d / "walk.mpz"
     out["mpz"].write_bytes(mpz.encode(m, max_error=1.0))
     bvh = d / "arm.bvh"
-    bvh.write_text(BVH)
+    bvh.write_text(two_joint_bvh)
     out["bvh"] = bvh
     return out
-
-
-#: a two-joint BVH (units unknown, as every BVH)
-BVH = """HIERARCHY
-ROOT Hips
-{
-  OFFSET 0 0 0
-  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-  JOINT Spine
-  {
-    OFFSET 0 10 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 10 0
-    }
-  }
-}
-MOTION
-Frames: 4
-Frame Time: 0.0333333
-0 0 0 0 0 0 0 0 0
-1 0 0 0 5 0 10 0 0
-2 0 0 0 10 0 20 0 0
-3 0 0 0 15 0 30 0 0
-"""
 
 
 # -- 1. pipes ------------------------------------------------------------------------------
@@ -147,7 +121,7 @@ def test_stdin_format_is_found_from_the_content(fmt: str, inputs: dict[str, Path
     assert isinstance(info, dict)
     names = {"c3d": "C3D", "trc": "TRC", "csv": "CSV", "npy": "NPY", "bvh": "BVH", "mpz": "MPZ"}
     assert info["format"] == names[fmt]
-    assert info["frames"] == (4 if fmt == "bvh" else 120)
+    assert info["frames"] == (3 if fmt == "bvh" else 120)       # conftest.two_joint_bvh: 3
 
 
 def test_mpzinfo_and_encode_read_stdin(inputs: dict[str, Path], tmp_path: Path) -> None:

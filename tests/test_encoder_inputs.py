@@ -243,7 +243,7 @@ def test_cli_latin1_c3d_label(tmp_path: Path) -> None:
     assert mpz.decode(out.read_bytes()).names == ["AB\u00e9D", "EFGH"]
 
 
-def test_what_an_encode_does_not_keep(walk: Motion) -> None:
+def test_what_an_encode_does_not_keep(walk: Motion, two_joint_bvh: str) -> None:
     """mpz.encoder.not_kept, the rule every report uses (issue 12: a ratio counts what was
     kept): nothing for plain markers; a C3D's analog and parameters when the reader could
     not keep its archive; a skeletal motion's angles without its skeleton chunk."""
@@ -257,34 +257,10 @@ def test_what_an_encode_does_not_keep(walk: Motion) -> None:
     c3d = Motion(walk.positions, walk.names, walk.rate, walk.units, walk.valid, meta)
     assert not_kept(c3d, opts) == \
         ["analog, parameters and residuals (C3D archive not kept: odd file)"]
-    bvh = parse_bvh(_BVH)
+    bvh = parse_bvh(two_joint_bvh)
     assert not_kept(bvh, opts) == []
     assert not_kept(bvh, replace(opts, keep_skeleton=False)) == \
         ["joint angles and the skeleton"]
     data, rep = mpz.encoder.encode_motion(bvh, replace(opts, keep_skeleton=False))
     assert rep.not_kept == ["joint angles and the skeleton"]
 
-
-#: two joints over three frames (BVH has no length unit)
-_BVH = """HIERARCHY
-ROOT Hips
-{
-  OFFSET 0 0 0
-  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-  JOINT Spine
-  {
-    OFFSET 0 10 0
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    End Site
-    {
-      OFFSET 0 10 0
-    }
-  }
-}
-MOTION
-Frames: 3
-Frame Time: 0.0333333
-0 0 0 0 0 0 0 0 0
-1 0 0 0 5 0 10 0 0
-2 0 0 0 10 0 20 0 0
-"""
