@@ -343,9 +343,10 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions,
     default bound and the marker layer gets the reference encoder's preview bound
     (Appendix C).
 
-    With ``notes`` (a batch: :class:`PerFile`), what is not kept goes there, and
+    With ``notes`` (a batch: :class:`PerFile`), what the ASF holds that MPZ does not keep
+    goes there (a skeleton left out by --no-skeleton is the file's ``not_kept``), and
     --angle-error and --translation-error leave the inputs without a skeleton as they are;
-    else the notes are printed on stderr (unless -q), and those options on such an input
+    else both notes are printed on stderr (unless -q), and those options on such an input
     are an error."""
     from dataclasses import replace
 
