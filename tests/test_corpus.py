@@ -667,6 +667,29 @@ def test_a_real_amc_batch_bounds_its_skeleton_as_one_file_does(shared_data, tmp_
     assert report((out / "35_01.mpz").read_bytes())["position_bound"] == 1.0
 
 
+def test_an_edited_asf_encodes_its_amc_again(shared_data, tmp_path):
+    """An AMC's output depends on its ASF: editing the ASF alone (the AMC unchanged) makes
+    the next run encode the AMC again, with the new skeleton; an unchanged pair stays up
+    to date."""
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    for name in ("35_01.amc", "35.asf"):
+        shutil.copy(shared_data / "amc" / name, src / name)
+    rep = run_corpus(src, out)
+    assert [r.status for r in rep.results] == ["encoded"]
+    assert [r.status for r in run_corpus(src, out).results] == ["skipped"]
+    asf = src / "35.asf"
+    text = asf.read_text()
+    assert text.count("length 2.63917") == 1
+    asf.write_text(text.replace("length 2.63917", "length 2.9"))
+    assert [r.status for r in run_corpus(src, out).results] == ["encoded"]
+    bones = {j.name: j for j in mpz.decode(out / "35_01.mpz").extras["skeleton"].joints}
+    first = next(j for j in read(src / "35_01.amc").extras["skeleton"].joints
+                 if j.name != "root")
+    assert bones[first.name].length == pytest.approx(2.9, abs=1e-3)
+    assert [r.status for r in run_corpus(src, out).results] == ["skipped"]
+
+
 def _mpz() -> str:
     beside = Path(sys.executable).parent / "mpz"
     found = str(beside) if beside.exists() else shutil.which("mpz")

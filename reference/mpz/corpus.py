@@ -449,9 +449,27 @@ def encode_file(task: Task) -> FileResult:
 
 
 def _fingerprint(task: Task, units: str) -> str:
-    """The fingerprint of ``task``'s output for a source in ``units``."""
-    return fingerprint(task.options.options(units), task.levels,
-                       task.options.key(task.source))
+    """The fingerprint of ``task``'s output for a source in ``units``: its options, and
+    what the output depends on besides the source file (:func:`_beside`)."""
+    key = ";".join(k for k in (_beside(task), task.options.key(task.source)) if k)
+    return fingerprint(task.options.options(units), task.levels, key)
+
+
+def _beside(task: Task) -> str:
+    """The other files an output depends on, by content: an AMC's ASF skeleton (its
+    sha256), so that an edited ASF encodes its AMC files again although they did not
+    change.
+
+    Raises
+    ------
+    InputFormatError
+        When an AMC has no ASF (the up-to-date check then encodes it, and reading fails
+        with that error).
+    """
+    if os.path.splitext(task.source)[1].lower() != ".amc":
+        return ""
+    from mpz.io.amc import find_asf
+    return f"asf={sha256_file(task.asf if task.asf is not None else find_asf(task.source))}"
 
 
 def _reason(exc: BaseException, source: str) -> str:
