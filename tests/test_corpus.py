@@ -276,6 +276,21 @@ def test_the_summary_ratio_leaves_out_files_that_drop_part_of_their_source():
     up = next(x for x in lines if x.strip().startswith("up to date"))
     assert up.split()[3:7] == ["1", "0.00", "0.00", "10.0"] and "without" not in up
 
+def test_a_hierarchy_file_counts_by_its_content(tmp_path):
+    """A hierarchy given as a JSON file enters the fingerprint by its content: the same
+    file elsewhere is the same options, an edited one is not (it was its path before)."""
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text('{"nodes": []}')
+    b.write_text('{"nodes": []}')
+
+    def fp(h):
+        return fingerprint(EncodeOptions(max_error=1.0, hierarchy=h))
+
+    assert fp(str(a)) == fp(str(b)) == fp(b)
+    b.write_text('{"nodes": [] }')
+    assert fp(str(a)) != fp(str(b))
+    assert len({fp(str(a)), fp("flat"), fp(None)}) == 3
+
 def test_a_bug_stops_the_run_and_keeps_what_finished(corpus):
     """Anything but bad input is a bug: it propagates, unwrapped; finished rows stay."""
     src, out, _ = corpus

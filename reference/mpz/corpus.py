@@ -53,6 +53,7 @@ import numpy as np
 
 from mpz.encoder import DEFAULTS, EncodeOptions
 from mpz.errors import EncoderError, MPZError
+from mpz.hierarchy import BUILDERS
 from mpz.similarity import (
     DESCRIPTOR_VERSION,
     EXACT_MAX_FRAMES,
@@ -232,7 +233,8 @@ def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS,
     the corpus sets per file: :data:`META_SOURCE`, :data:`META_SHA256`,
     :data:`META_FINGERPRINT`), the summary levels of the index,
     :data:`~mpz.similarity.EXACT_MAX_FRAMES` and a :meth:`FileOptions.key` if not empty,
-    as canonical JSON. Only values that differ
+    as canonical JSON; a hierarchy given as a JSON file counts by its content (sha256), not
+    its path. Only values that differ
     from the defaults count, so a new option added to :class:`~mpz.encoder.EncodeOptions`
     later (with a default) does not make an archive look stale; nor does upgrading mpz
     (its version is recorded in each row; ``force`` re-encodes).
@@ -251,6 +253,9 @@ def fingerprint(options: EncodeOptions, levels: Sequence[int] = SUMMARY_LEVELS,
     def plain(name: str, v: Any) -> Any:
         if name == "metadata":
             v = {k: x for k, x in v.items() if k not in own}
+        if name == "hierarchy" and isinstance(v, (str, os.PathLike)) \
+                and os.fspath(v) not in BUILDERS and os.path.isfile(v):
+            return {"file sha256": sha256_file(v)}     # a JSON file: by its content
         return dict(sorted(v.items())) if isinstance(v, Mapping) else v
 
     doc: dict[str, Any] = {}
