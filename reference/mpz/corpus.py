@@ -11,7 +11,8 @@ is the summary table of ``mpz encode -r``).
   ``LocalCluster`` of ``workers`` processes (one thread each, a memory limit each) by
   default, or an existing cluster at ``scheduler``. ``workers=0`` runs the same tasks in
   this process, one after the other, without Dask.
-* **Incremental.** An output is skipped, without being opened, when its index row says
+* **Incremental.** An output is skipped, without being opened (only an AMC's ASF is read,
+  :func:`_beside`), when its index row says
   it was written with the same options (:func:`fingerprint`) from a source of the same
   size and modification time, and the output is still there, of the recorded size and
   newer than the source. Otherwise a worker looks at the output: one that carries the
@@ -39,6 +40,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 import contextlib
 from dataclasses import asdict, dataclass, field, fields, replace
 import datetime
+import functools
 import hashlib
 import json
 import logging
@@ -471,10 +473,21 @@ def _beside(task: Task) -> str:
         When an AMC has no ASF (the up-to-date check then encodes it, and reading fails
         with that error).
     """
-    if os.path.splitext(task.source)[1].lower() != ".amc":
+    from mpz.io._common import ext_of
+    if ext_of(task.source) != ".amc":
         return ""
     from mpz.io.amc import find_asf
-    return f"asf={sha256_file(task.asf if task.asf is not None else find_asf(task.source))}"
+    asf = task.asf if task.asf is not None else find_asf(task.source)
+    st = os.stat(asf)
+    return f"asf={_sha256_of(os.path.abspath(asf), st.st_size, st.st_mtime_ns)}"
+
+
+@functools.lru_cache(maxsize=256)
+def _sha256_of(path: str, size: int, mtime_ns: int) -> str:
+    """:func:`sha256_file` of a file as it is at ``size`` and ``mtime_ns``: an ASF shared
+    by many AMC files (one per CMU subject) is read once per process, and again only when
+    it changed."""
+    return sha256_file(path)
 
 
 def _reason(exc: BaseException, source: str) -> str:

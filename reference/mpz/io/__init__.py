@@ -63,6 +63,9 @@ READERS: dict[str, Callable[..., Motion]] = {
     ".csv": read_csv,
 }
 
+#: the formats that carry a skeleton (issue 13): read with it, written from it
+SKELETON_FORMATS = (".bvh", ".amc")
+
 #: extension -> writer(motion, path)
 WRITERS: dict[str, Callable[..., None]] = {
     ".c3d": write_c3d,
@@ -344,7 +347,7 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
                               f"(they read back as {back!r})")
     if ext == ".npy":
         notes.append("NPY holds positions only: marker names, rate and units are not stored")
-    if ext in (".bvh", ".amc"):        # issue 13: the skeleton formats need their skeleton
+    if ext in SKELETON_FORMATS:        # issue 13: the skeleton formats need their skeleton
         refuse += skeleton_problems(motion, ext)
         if ext == ".amc" and rate != 120.0:
             notes.append(f"AMC does not store the rate: {rate!r} Hz reads back as 120 Hz "
@@ -376,7 +379,7 @@ def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None) -> 
     return notes
 
 
-__all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES",
+__all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES", "SKELETON_FORMATS",
            "read_c3d", "write_c3d", "read_trc", "write_trc", "read_bvh",
            "read_amc", "read_asf", "find_asf", "read_npy", "write_npy",
            "read_csv", "write_csv", "detect_format", "read_bytes", "check_writable",

@@ -202,7 +202,8 @@ def _joint_positions(motion, ext: str):
     """A skeletal motion written as positions (C3D, TRC, NPY, CSV): its joint positions
     computed from the decoded channels (spec §6.10, within the declared position bound),
     not the coarser marker layer."""
+    from mpz.io import SKELETON_FORMATS
     from mpz.skeleton import with_joint_positions
-    if ext in (".bvh", ".amc") or motion.extras.get("skeleton") is None:
+    if ext in SKELETON_FORMATS or motion.extras.get("skeleton") is None:
         return motion
     return with_joint_positions(motion)

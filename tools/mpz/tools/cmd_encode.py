@@ -241,7 +241,10 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
               file=sys.stderr)
     motion = _units(args, motion)
     units = motion.units
-    opts = _skeleton_options(args, motion, _options(args, units, source))
+    opts, notes = _skeleton_options(args, motion, _options(args, units, source))
+    if not args.quiet:
+        for note in notes:
+            print(f"mpz encode: note: {printable(note)}", file=sys.stderr)
     compile_notice(args.quiet, args.verbose)
     bar = Progress("encoding", enabled=None if not args.quiet else False)
     try:
@@ -336,42 +339,34 @@ def _units(args: argparse.Namespace, motion, *, batch: bool = False):
     return with_units(motion, args.units)
 
 
-def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions,
-                      notes: list[str] | None = None) -> EncodeOptions:
-    """The skeleton options (spec §4.14) for a BVH or AMC/ASF input: --max-error bounds the
-    joint positions computed from the channels too; without it the channels keep their
-    default bound and the marker layer gets the reference encoder's preview bound
-    (Appendix C).
+def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
+                      batch: bool = False) -> tuple[EncodeOptions, list[str]]:
+    """The skeleton options (spec §4.14) for a BVH or AMC/ASF input, and notes on what is
+    not kept: --max-error bounds the joint positions computed from the channels too;
+    without it the channels keep their default bound and the marker layer gets the
+    reference encoder's preview bound (Appendix C).
 
-    With ``notes`` (a batch: :class:`PerFile`), what the ASF holds that MPZ does not keep
-    goes there (a skeleton left out by --no-skeleton is the file's ``not_kept``), and
-    --angle-error and --translation-error leave the inputs without a skeleton as they are;
-    else both notes are printed on stderr (unless -q), and those options on such an input
-    are an error."""
+    For one file, --angle-error and --translation-error on an input without a skeleton are
+    an error. In a ``batch`` (:class:`PerFile`) they leave such inputs as they are, and a
+    skeleton left out by --no-skeleton is not a note but the file's ``not_kept``."""
     from dataclasses import replace
 
     from mpz.skeleton import mm_per_unit
     from mpz.tools._common import parse_length
     if motion.extras.get("skeleton") is None:
-        if notes is None and (args.angle_error is not None
-                              or args.translation_error is not None):
+        if not batch and (args.angle_error is not None or args.translation_error is not None):
             raise EncoderError("--angle-error and --translation-error apply to skeletal input "
                                "(BVH, AMC/ASF) only")
-        return opts
-    said: list[str] = []                           # nothing is lost without a word
+        return opts, []
+    notes: list[str] = []                          # nothing is lost without a word
     dropped = motion.metadata.get("asf_dropped")
     if dropped:
-        said.append(f"not kept from the ASF: {dropped}")
-    if args.no_skeleton and notes is None:   # a batch says it as the file's "not kept"
-        said.append("--no-skeleton: the skeleton and its channels are not kept, only the "
-                    "joint positions")
-    if notes is not None:
-        notes += said
-    elif not args.quiet:
-        for note in said:
-            print(f"mpz encode: note: {printable(note)}", file=sys.stderr)
+        notes.append(f"not kept from the ASF: {dropped}")
     if args.no_skeleton:
-        return replace(opts, keep_skeleton=False)
+        if not batch:
+            notes.append("--no-skeleton: the skeleton and its channels are not kept, only the "
+                         "joint positions")
+        return replace(opts, keep_skeleton=False), notes
     lin = None
     text = args.translation_error
     if text is not None:
@@ -386,7 +381,7 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions,
             lin = parse_length(text, "mm", "--translation-error") / per
     # the marker layer's default is the preview bound (mpz.encoder.default_error)
     return replace(opts, angle_error=args.angle_error, translation_error=lin,
-                   position_error=opts.max_error)
+                   position_error=opts.max_error), notes
 
 
 class PerFile:
@@ -410,16 +405,17 @@ class PerFile:
         return _options(self.args, units, None)
 
     def prepare(self, source: str, motion):
-        notes: list[str] = []
         motion = _units(self.args, motion, batch=True)
-        opts = _skeleton_options(self.args, motion, self.options(motion.units), notes)
+        opts, notes = _skeleton_options(self.args, motion, self.options(motion.units),
+                                        batch=True)
         return motion, opts, notes
 
     def key(self, source: str) -> str:
+        from mpz.io import SKELETON_FORMATS
         from mpz.io._common import ext_of
         a = self.args
         parts = [] if a.units is None else [f"units={a.units}"]
-        if ext_of(source) in (".bvh", ".amc"):         # the inputs that carry a skeleton
+        if ext_of(source) in SKELETON_FORMATS:
             parts += [f"skeleton={self.SKELETON_RULE}", f"angle={a.angle_error}",
                       f"translation={a.translation_error}", f"no_skeleton={a.no_skeleton}"]
         return ",".join(parts)
