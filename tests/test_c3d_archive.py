@@ -16,6 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
 
@@ -96,9 +98,14 @@ def _bounds(a: C3DArchive, M: int, E: float) -> np.ndarray:
     return out
 
 
-def _f32_slack(x: np.ndarray) -> np.ndarray:
-    """float32 storage rounds a float64 coordinate by at most half a binary32 ulp."""
-    return np.spacing(np.abs(x).astype(np.float32)).astype(np.float64)
+def _markers_within(points0: np.ndarray, points1: np.ndarray, ok: np.ndarray,
+                    a: C3DArchive, M: int, E: float) -> None:
+    """Each valid marker of the written C3D ``[F, P, 3]`` within E of the source's,
+    Euclidean (spec §7.2; the written file, not only the binary64 decode: Appendix C
+    item 3 leaves the margin float32 storage needs)."""
+    marker = np.array([s < M for s in a.slots])
+    d = np.linalg.norm(points1 - points0, axis=2)
+    assert (d[ok & marker[None]] <= E).all(), float(d[ok & marker[None]].max())
 
 
 @pytest.fixture(scope="module", params=["default", "1mm"])
@@ -149,9 +156,11 @@ def test_c3d_comes_back_whole(shared_data, tmp_path, name, bound):
     pb, pa = before["data"]["points"][:3], after["data"]["points"][:3]
     assert np.array_equal(np.isnan(pb), np.isnan(pa))
     ok = ~np.isnan(pb)
-    lim = _bounds(a, back.n_markers, E).T[:, :, None] + _f32_slack(pb)
+    lim = _bounds(a, back.n_markers, E).T[:, :, None]
     err = np.abs(pa - pb)
     assert (err[ok] <= np.broadcast_to(lim, err.shape)[ok]).all(), float(err[ok].max())
+    _markers_within(pb.transpose(2, 1, 0), pa.transpose(2, 1, 0), ok.all(axis=0).T, a,
+                    back.n_markers, E)
 
 
 def _compare_numpy_reader(orig: bytes, written: bytes, a: C3DArchive, M: int, E: float) -> None:
@@ -167,9 +176,10 @@ def _compare_numpy_reader(orig: bytes, written: bytes, a: C3DArchive, M: int, E:
     assert np.array_equal(d0.point_words.astype(np.float64), d1.point_words.astype(np.float64))
     assert np.array_equal(d0.analog.astype(np.float64), d1.analog.astype(np.float64))
     ok = d0.residual_words >= 0
-    lim = _bounds(a, M, E)[None] + _f32_slack(d0.points)
+    lim = _bounds(a, M, E)[None]
     err = np.abs(d1.points - d0.points)
     assert (err[ok] <= np.broadcast_to(lim, err.shape)[ok]).all()
+    _markers_within(d0.points, d1.points, ok, a, M, E)
 
 
 # --------------------------------------------------------- what the issue saw --
@@ -250,3 +260,55 @@ def test_one_point_zero_decoder_still_decodes_the_markers(shared_data, monkeypat
     assert "c3d" not in old.extras
     assert old.names == full.names
     assert np.array_equal(old.as_nan(), full.as_nan(), equal_nan=True)
+
+
+# ------------------------------------------- the written C3D keeps the bound --
+def test_float32_bound_by_hand():
+    """Appendix C item 3, worked by hand: at |x| <= 3000 (+ e) float32's spacing is
+    2^(11-23), so rounding moves a coordinate by at most h = 2^-13."""
+    from mpz.c3darchive import float32_bound
+    h = 2.0 ** -13
+    assert float32_bound(0.1, 3000.0, lambda: False) == 0.1 - 3 ** 0.5 * h
+    assert float32_bound(0.1, 3000.0, lambda: False, 1) == 0.1 - h
+    assert float32_bound(1e-4, 3000.0, lambda: True) == 0.5e-4       # binary32 sources
+    assert float32_bound(1e-4, 3000.0, lambda: False) == 1e-4        # nothing can hold them
+    assert float32_bound(0.1, 2047.0, lambda: False) == 0.1 - 3 ** 0.5 * 2.0 ** -14
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 10 ** 6), st.sampled_from([400.0, 3000.0, 70000.0]),
+       st.floats(1e-5, 2.0))
+def test_a_written_float_c3d_keeps_the_bound(tmp_path_factory, seed, offset, E):
+    """A float C3D far from the origin, encoded within E and written back: every marker of
+    the written file within E of the source (Euclidean), every model-output axis within
+    its declared bound, after the float32 rounding of the writer. Before, only the binary64
+    decode was: the written real files broke 0.1 mm by up to 1.2e-4 mm."""
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(seed % 997, storage=1, F=16, M=4, J=2, C=1, n=1)
+    a = m.extras["c3d"]
+    rng = np.random.default_rng(seed)
+    f32 = lambda v: v.astype(np.float32).astype(np.float64)  # noqa: E731 - a C3D's values
+    m.positions[:] = f32(m.positions + offset)
+    # model outputs with a small range far from 0: bounds of 1e-4 of it, near float32's step
+    a.models[:] = f32(offset / 3 + np.cumsum(rng.normal(0, 0.01, a.models.shape), axis=0))
+    a.models[~a.model_valid] = np.nan
+    data = mpz.encode(m, max_error=E)
+    back = mpz.decode(data)
+    out = tmp_path_factory.mktemp("f32") / "back.c3d"
+    write(back, out)
+    d0 = c3dbin.parse_c3d(archive_source(m))
+    d1 = c3dbin.parse_c3d(out.read_bytes())
+    ok = d0.residual_words >= 0
+    _markers_within(d0.points, d1.points, ok, a, m.n_markers, E)
+    for j in range(a.models.shape[1]):
+        p = a.slots.index(m.n_markers + j)
+        v = a.models[:, j][a.model_valid[:, j]]
+        bound = 1e-4 * (v.max(axis=0) - v.min(axis=0))          # per axis, the default
+        err = np.abs(d1.points[:, p] - d0.points[:, p])[ok[:, p]]
+        assert (err <= bound).all(), (err.max(axis=0), bound)
+
+
+def archive_source(m: mpz.Motion) -> bytes:
+    """The C3D bytes of a synthetic motion as its source would hold them."""
+    from mpz.io.c3d import archive_bytes
+    return archive_bytes(m)

@@ -394,11 +394,19 @@ def _axis_oracle(x, ok, rel, grid):
         offset, step, declared = float(v.min()), 1.0, 0.0
     else:
         lo, hi = float(v.min()), float(v.max())
-        step = 2.0 * bound * SQRT_SAFETY
+        # Appendix C item 3: off the int16 grid the C3D is written as float32, which moves
+        # a value by up to h = half float32's spacing at max|v| + bound; code within
+        # bound - h, or bound / 2 when every value is binary32 (the nearest binary32 is
+        # then no farther than the source), or bound when neither is possible
+        h = 2.0 ** (np.floor(np.log2(max(abs(lo), abs(hi)) + bound)) - 24)
+        within = bound - h
+        if within < bound / 2:
+            within = bound / 2 if np.array_equal(v.astype(np.float32), v) else bound
+        step = 2.0 * within * SQRT_SAFETY
         offset = (lo + hi) / 2.0
         if not (np.isfinite(step) and step > 0) or (hi - lo) / step >= MODEL_LIMIT // 2:
             step = (hi - lo) / (MODEL_LIMIT // 2)
-        declared = max(bound, step / 2.0)
+        declared = max(within, step / 2.0, bound)
     u = np.where(ok, (np.nan_to_num(x) - offset) / step, 0.0)
     t = np.arange(len(u))
     k = (np.rint(u) if ok.all() else np.zeros(len(u)) if not ok.any()

@@ -14,8 +14,9 @@ each channel's range, or exact on an int16 file's grid); markers within the file
 """
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+import functools
 import math
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -149,6 +150,34 @@ def _fill(k: NDArray[np.float64], valid: NDArray[np.bool_]) -> NDArray[np.int64]
     return np.rint(np.interp(t, t[valid], k[valid])).astype(np.int64)
 
 
+def float32_bound(e: float, peak: float, exact: Callable[[], bool], dims: int = 3) -> float:
+    """The error to code within, so that values within ``e`` of their source still are
+    once a C3D writer rounds them to float32 (spec Appendix C, item 3; the markers' in
+    :func:`mpz.encoder.c3d_bound`, each model-output axis's in :func:`_model_batch`).
+
+    ``peak`` is the largest |value| of the source; ``exact()`` says whether every valid
+    source value is a binary32 value (a float C3D's always are); ``dims`` 3 for a
+    position (Euclidean), 1 for a model-output axis. A decoded value x' lies within
+    ``peak + e`` of 0, where float32 spacing is at most 2^(f - 23), f = floor(log2(peak +
+    e)): rounding moves each coordinate by h <= 2^(f - 24), so within e - sqrt(dims) h
+    of the source is within e after it. And when the source value x is binary32, the
+    nearest binary32 to x' is no farther from x' than x is, so within e / 2 is enough:
+    the larger of the two, never less than half of e. Values that are not all binary32
+    where e is below that (a motion changed after reading) keep e: no float32 file can
+    hold them within it, whatever is coded, and the binary64 decode still does.
+    """
+    h = math.ldexp(1.0, math.frexp(peak + e)[1] - 25)
+    cut = e - math.sqrt(dims) * h
+    if cut >= e / 2:
+        return cut
+    return e / 2 if exact() else e
+
+
+def binary32_values(v: NDArray[np.float64]) -> bool:
+    """True when every value of ``v`` is a binary32 value (as a float C3D holds them)."""
+    return bool(np.array_equal(v.astype(np.float32).astype(np.float64), v))
+
+
 def _model_axes(a: C3DArchive, opts: EncodeOptions) -> Iterator[tuple[list[Model], IntArray]]:
     """§4.13.3 the model outputs' entries, in order, a batch of model outputs at a time:
     (their entries, the residuals ``[3 x n, F]`` of their axes in entry order).
@@ -194,9 +223,16 @@ def _model_batch(a: C3DArchive, opts: EncodeOptions, j0: int, j1: int, names: li
         rel = opts.model_errors.get(name, opts.model_error)
         bound = rel * (float(hi[c]) - float(lo[c]) if count[c] else 0.0)
         exact = bool(on[c]) and name not in opts.model_errors
+        within = bound
+        if not exact and bound > 0:
+            # off the int16 grid, the C3D is written with float32 points (§6.9): code
+            # within what stays within the bound after that rounding (Appendix C, item 3)
+            within = float32_bound(bound, max(abs(float(lo[c])), abs(float(hi[c]))),
+                                   functools.partial(binary32_values, x[:, c][ok[:, c]]), 1)
         offset[c], step[c], declared[c] = model_grid(float(lo[c]), float(hi[c]),
-                                                     int(count[c]), bound,
+                                                     int(count[c]), within,
                                                      grid if exact else None)
+        declared[c] = max(declared[c], bound) if not exact and count[c] else declared[c]
     u = np.where(ok, (np.nan_to_num(x) - offset) / step, 0.0)
     k = np.rint(u).astype(np.int64)               # 0 where no value is valid
     for part in np.flatnonzero(~ok.all(axis=0) & ok.any(axis=0)):
