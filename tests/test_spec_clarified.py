@@ -7,10 +7,14 @@ fails if the reference did otherwise.
   written file with a parser written here.
 - §4.13.1: header counts that disagree with the chunks are not checked, and come back.
 - §6.2 / §6.9 step 2: the guard and |k| < 2^31 cover model-output gap samples.
+- §4.14.2: only U+000A and U+000D are line breaks; `root` is four exact bytes.
+- §4.14: a text writer gives back the binary64 value.
+- §7.3: `angle_bound`, `translation_bound` and `c3d_parameters`.
 """
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 import struct
@@ -22,10 +26,13 @@ import mpz
 from mpz import container
 from mpz.chunks.c3d import Channel
 from mpz.entropy import BlockEncoder
-from mpz.errors import FormatError
+from mpz.errors import FormatError, MPZError
+from mpz.io.amc import parse_amc, parse_asf
+from mpz.io.bvh import format_bvh, parse_bvh
 from mpz.tools.make_vectors import c3d_motion
 
 REPO = Path(__file__).resolve().parents[1]
+VECTORS = REPO / "conformance" / "vectors"
 BLOCK = 512
 
 
@@ -264,3 +271,153 @@ def test_model_output_guard_and_range_cover_gap_samples(float_source):
         mpz.decode(_model_file(data, 1, [big, big, 2] + [0] * 9))
     ok = mpz.decode(_model_file(data, 1, [big, big, 1] + [0] * 9))
     assert np.isnan(ok.extras["c3d"].models[:, 0]).all()
+
+
+# ------------------------------------------------------------------- §4.14.2 asfs --
+ASF = """:version 1.10
+:name T
+:units
+  mass 1.0
+  length 0.45
+  angle deg
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name b1
+     direction 1 0 0
+     length 2
+     axis 0 0 0 XYZ
+    dof rx
+  end
+:hierarchy
+  begin
+    root b1
+  end
+"""
+AMC = """:FULLY-SPECIFIED
+:DEGREES
+1
+root 1 2 3 0 0 0
+b1 10
+2
+root 0 0 0 0 0 0
+b1 20
+"""
+
+
+@pytest.fixture(scope="module")
+def asf_file() -> bytes:
+    return mpz.encode(parse_amc(AMC, parse_asf(ASF)), max_error=0.5)
+
+
+def _asfs(data: bytes, **changes) -> bytes:
+    return _rebuild(data, "asfs", dataclasses.replace(_record(data, "asfs"), **changes))
+
+
+def _bone_named(data: bytes, name: str) -> bytes:
+    rec = _record(data, "asfs")
+    bone = dataclasses.replace(rec.bones[0], name=name)
+    return _asfs(data, bones=(bone,))
+
+
+def test_bone_name_root_is_four_exact_bytes(asf_file):
+    """§4.14.2: `Root` and `ROOT` are valid bone names; `root` is not."""
+    for name in ("Root", "ROOT"):
+        back = mpz.decode(_bone_named(asf_file, name))
+        assert back.extras["skeleton"].joints[1].name == name
+    with pytest.raises(MPZError) as info:
+        mpz.decode(_bone_named(asf_file, "root"))
+    assert info.value.section == "§4.14.2"
+
+
+@pytest.mark.parametrize("field", ["mass", "version", "name"])
+def test_only_lf_and_cr_break_a_one_line_text(asf_file, field):
+    """§4.14.2: U+000A and U+000D are rejected in mass, version and name; the other
+    separators str.splitlines knows, and U+0000, pass."""
+    for ch in "\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029\x00":
+        mpz.decode(_asfs(asf_file, **{field: f"a{ch}b"}))
+    for ch in "\n\r":
+        with pytest.raises(MPZError) as info:
+            mpz.decode(_asfs(asf_file, **{field: f"a{ch}b"}))
+        assert info.value.section == "§4.14.2"
+
+
+# ---------------------------------------------------------- §4.14 channel values --
+BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 3 Xposition Yposition Zrotation
+  End Site
+  {
+    OFFSET 0 1 0
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.01
+0.0000024 -0.0000024 180
+1.5 0 -179.99
+-0.3 2.25 12.34
+"""
+
+
+def test_bvh_text_reads_back_as_the_decoded_values():
+    """§4.14: a text writer gives back v, the binary64 of §6.10 step 5 (any text that
+    reads back as v: the reference prints the shortest)."""
+    m = mpz.decode(mpz.encode(parse_bvh(BVH), max_error=0.01))
+    rows = format_bvh(m).split("Frame Time:")[1].splitlines()[1:]
+    back = np.array([[float(v) for v in row.split()] for row in rows if row.strip()])
+    assert back.tobytes() == m.angles.tobytes()
+
+
+# ------------------------------------------------------------------ §7.3 features --
+def _manifest() -> list[dict]:
+    return json.loads((VECTORS / "manifest.json").read_text())["vectors"]
+
+
+def _kinds(rec) -> list[int]:
+    """The channel kinds in channel (joint) order (§4.14)."""
+    if rec.TYPE == "bvhs":
+        return [k for j in rec.joints for k in j.channels]
+    return list(rec.root_order) + [k for b in rec.bones for k in b.dofs]
+
+
+def test_skeleton_bounds_are_the_spec_formula():
+    """§7.3: h = (m / 10^d) / 2 in binary64; translation_bound the largest h of kinds
+    0-2 and 6, angle_bound of kinds 3-5, times 180/pi for radians; 0 without one."""
+    seen = 0
+    for v in _manifest():
+        feat = v.get("features", {}).get("skeleton")
+        if feat is None:
+            continue
+        data = (VECTORS / v["file"]).read_bytes()
+        rec = _record(data, feat["chunk"])
+        h = [c.step_mantissa / 10.0 ** c.step_digits / 2 for c in rec.channels]
+        kinds = _kinds(rec)
+        rot = max((x for x, k in zip(h, kinds, strict=True) if 3 <= k <= 5), default=0.0)
+        lin = max((x for x, k in zip(h, kinds, strict=True) if not 3 <= k <= 5), default=0.0)
+        if rec.TYPE == "asfs" and rec.angle_unit == 1:
+            rot = rot * (180 / math.pi)
+        assert (feat["angle_bound"], feat["translation_bound"]) == (rot, lin), v["name"]
+        seen += 1
+    assert seen >= 4
+
+
+def test_c3d_parameters_counts_groups_and_parameters():
+    """§7.3: c3d_parameters is R, the cprm records, groups and parameters together."""
+    seen = 0
+    for v in _manifest():
+        feat = v.get("features", {})
+        if "c3d_parameters" not in feat:
+            continue
+        rec = _record((VECTORS / v["file"]).read_bytes(), "cprm")
+        assert feat["c3d_parameters"] == rec.count == len(rec.records), v["name"]
+        assert any(r.group < 0 for r in rec.records) and any(r.group > 0 for r in rec.records)
+        seen += 1
+    assert seen >= 1

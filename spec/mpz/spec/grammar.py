@@ -194,7 +194,8 @@ SummaryLevel = Struct(
     "means" / Bytes(4 * this.k * this._.dims) * "§4.10 s32 mean of each segment / step",
 )
 SMRY = Struct(
-    "space" / Int8ul * "§4.10 0 positions relative to the root marker, 1 joint angles",
+    "space" / Int8ul * "§4.10 0 positions relative to the per-frame centroid root, "
+    "1 joint angles",
     "dims" / Int32ul * "§4.10 D, values per frame",
     "level_count" / Int8ul * "§4.10 1..64",
     "levels" / Array(this.level_count, SummaryLevel),
@@ -209,7 +210,8 @@ CodedSummaryLevel = Struct(
     "step" / Float64l * "§4.15 quantisation step of the means, > 0",
 )
 SMRC = Struct(
-    "space" / Int8ul * "§4.15 0 positions relative to the root marker, 1 joint angles",
+    "space" / Int8ul * "§4.15 0 positions relative to the per-frame centroid root "
+    "(§4.10), 1 joint angles",
     "dims" / Int32ul * "§4.15 D, values per frame",
     "level_count" / Int8ul * "§4.15 1..64",
     "levels" / Array(this.level_count, CodedSummaryLevel),
@@ -269,7 +271,8 @@ BVHS = Struct(
 #: §4.14.2 one bone of an ASF skeleton
 AsfBone = Struct(
     "bone_id" / Int32ul * "§4.14.2 the ASF id (0: none written)",
-    "name" / PascalString(Int8ul, "utf8") * "§4.14.2 1..255 bytes, unique, not 'root'",
+    "name" / PascalString(Int8ul, "utf8")
+    * "§4.14.2 1..255 bytes, unique, not the bytes 'root' (case-sensitive)",
     "parent" / Int16ul * "§4.14.2 parent joint: 0 the root, bone b is joint b + 1",
     "direction" / Array(3, Float64l) * "§4.14.2 direction x, y, z, finite",
     "length" / Float64l * "§4.14.2 length in ASF units, finite",
@@ -291,7 +294,8 @@ ASFS = Struct(
     "version" / PascalString(Int8ul, "utf8") * "§4.14.2 ':version' (informative)",
     "name" / PascalString(Int8ul, "utf8") * "§4.14.2 ':name' (informative)",
     "documentation" / PascalString(Int16ul, "utf8") * "§4.14.2 ':documentation' lines",
-    "comments" / PascalString(Int16ul, "utf8") * "§4.14.2 comment lines before ':version'",
+    "comments" / PascalString(Int16ul, "utf8")
+    * "§4.14.2 comment lines before the first keyword, without their '#'",
     "root_order_count" / Int8ul * "§4.14.2 0..6",
     "root_order" / Array(this.root_order_count, Int8ul) * "§4.14.2 root channel kinds 0..5",
     "root_axis_order" / Int8ul * "§4.14.2 0..5, as axis_order",
