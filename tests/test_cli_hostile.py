@@ -333,3 +333,31 @@ def test_every_written_file_reads_back(ext: str, tmp_path: Path) -> None:
         assert np.array_equal(back.valid, m.valid)
         tol = 1e-3 if ext != ".c3d" else 1e-4 * 100
         assert np.allclose(back.positions[m.valid], m.positions[m.valid], atol=tol)
+
+
+@pytest.mark.parametrize("missing", ["SCALE", "OFFSET"])
+def test_a_c3d_that_crashes_ezc3d_is_read_without_it(tmp_path: Path, missing: str) -> None:
+    """ezc3d 1.7 ends the process with a segmentation fault on a C3D with analog channels
+    but no ANALOG:SCALE or ANALOG:OFFSET (both optional to a reader that knows the
+    defaults). `mpz encode` runs in a subprocess here, so that a crash fails this test
+    instead of ending the run: it must read the file with the numpy reader, say so, and
+    keep the analog words."""
+    import struct
+
+    from mpz.io import c3dbin
+    from mpz.io.c3d import archive_bytes
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(4, storage=1, F=12, M=4, J=1, C=2, n=2)
+    a = m.extras["c3d"]
+    group = next(-r.group for r in a.records if r.group < 0 and r.name == b"ANALOG")
+    present = {"SCALE": (4, struct.pack("<2f", 1.0, 1.0)), "OFFSET": (2, struct.pack("<2h", 0, 0))}
+    for key, (ptype, raw) in present.items():
+        if key != missing:
+            a.records.append(c3dbin.ParamRecord(group, False, key.encode(), b"", ptype, (2,), raw))
+    src = tmp_path / "no-analog-scale.c3d"
+    src.write_bytes(archive_bytes(m))
+    p = run([command("mpz"), "encode", str(src), "-o", "out.mpz"], tmp_path)
+    assert p.returncode == 0, (p.returncode, p.stderr[-300:])
+    assert f"without ANALOG:{missing}".encode() in p.stderr
+    back = mpz.decode(tmp_path / "out.mpz").extras["c3d"]
+    assert np.array_equal(back.analog.view(np.uint32), a.analog.view(np.uint32))

@@ -241,6 +241,10 @@ def _read_points(path: str, data: bytes) -> Motion:
     # header cannot say: more than 65535 frames); ezc3d itself rewrites its header to
     # the frames it found, so truncation must be checked here
     _, declared = c3dbin.declared_frames(data)
+    hazard = c3dbin.ezc3d_hazard(data)
+    if hazard is not None:
+        return motion_from_c3d_bytes(data, source=source, extra={
+            "warning": f"not read with ezc3d: {hazard}; read with mpz.io.c3dbin"})
     first_error: OSError | RuntimeError
     try:
         return _from_ezc3d(ezc3d.c3d(path), source, {}, declared)

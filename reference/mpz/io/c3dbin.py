@@ -470,6 +470,28 @@ def declared_frames(data: bytes) -> tuple[int, int]:
     return frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
 
 
+def ezc3d_hazard(data: bytes) -> str | None:
+    """Why ezc3d must not open these C3D bytes, or None: parameter sections that make
+    ezc3d 1.7 crash the process (a segmentation fault, not an exception), found by
+    building variants of a file and opening each in a subprocess. The reader then uses
+    :func:`parse_c3d` alone, so that no input can bring the process down.
+
+    Raises
+    ------
+    InputFormatError
+        As :func:`parse_c3d` does for the header and the parameters.
+    """
+    _, _, params = _open(data)
+    analog = params.get("ANALOG", {})
+    used = _first(params, "ANALOG", "USED", 0)
+    if isinstance(used, (int, np.integer)) and used > 0:   # not without the group (Dance1)
+        for key in ("SCALE", "OFFSET"):
+            v = analog.get(key)
+            if v is None or len(v) == 0:
+                return f"analog channels without ANALOG:{key} (ezc3d 1.7 crashes on it)"
+    return None
+
+
 def parse_c3d(data: bytes) -> C3DData:
     """Parse a complete C3D file held in memory.
 
