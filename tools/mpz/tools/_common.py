@@ -226,20 +226,36 @@ def read_stdin(limit: int | None = None) -> tuple[bytes, str | None]:
 
 
 def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
-    """Decode an MPZ input: a file or ``-`` (standard input)."""
-    import mpz
-    kw = {} if max_samples is None else {"max_samples": max_samples}
+    """Decode an MPZ input: a file or ``-`` (standard input), as ``mpz decode`` writes it.
+
+    A skeletal file (BVH, AMC) comes back with the joint positions computed from its
+    skeleton's channels (:func:`mpz.skeleton.with_joint_positions`, spec §6.10: within
+    the declared position bound), not the 1.0 marker layer, which the reference encoder
+    keeps only as a coarse preview: ``mpz compare``, ``show`` and ``summary`` then see
+    the motion ``mpz decode`` writes (:func:`joint_positions_from_channels` says which).
+    """
     if path != STDIO:
-        return mpz.decode(path, **kw)
+        return _decode(path, max_samples)
     data, fmt = read_stdin()
     if fmt != ".mpz":
         raise FormatError(f"standard input is not an MPZ file (first bytes {data[:8]!r})",
                           path=STDIO)
-    try:
-        return mpz.decode(data, **kw)
-    except MPZError as exc:
-        exc.path = STDIO
-        raise
+    return read_mpz_input_bytes(data, max_samples)
+
+
+def _decode(source: str | bytes, max_samples: int | None) -> Motion:
+    import mpz
+    from mpz.skeleton import with_joint_positions
+    kw = {} if max_samples is None else {"max_samples": max_samples}
+    return with_joint_positions(mpz.decode(source, **kw))
+
+
+def joint_positions_from_channels(motion: Motion, ext: str | None) -> bool:
+    """True if ``motion``, read from a file of extension ``ext`` by :func:`read_input`, is
+    an .mpz whose positions were computed from its skeleton's channels
+    (:func:`read_mpz_input`)."""
+    from mpz.io.kinematics import Skeleton
+    return ext == ".mpz" and isinstance(motion.extras.get("skeleton"), Skeleton)
 
 
 def read_motion(path: str, asf: str | None = None, *,
@@ -274,10 +290,9 @@ def read_input(path: str, asf: str | None = None, *,
 
 
 def read_mpz_input_bytes(data: bytes, max_samples: int | None = None) -> Motion:
-    import mpz
-    kw = {} if max_samples is None else {"max_samples": max_samples}
+    """:func:`read_mpz_input` of MPZ bytes read from standard input."""
     try:
-        return mpz.decode(data, **kw)
+        return _decode(data, max_samples)
     except MPZError as exc:
         exc.path = STDIO
         raise

@@ -120,11 +120,11 @@ def _levels_from_mpz(args, ks):
     n = int(summ.n_frames)
     series = None
     if not args.no_decode:       # the per-segment shares, measured on the decoded motion
-        import mpz
         from mpz.errors import MPZError
         from mpz.fisher import motion_series
-        try:
-            series = motion_series(mpz.decode(data), summ.space)[0]
+        from mpz.tools._common import read_mpz_input_bytes
+        try:       # a skeletal file: the joint positions from its channels, as mpz decode
+            series = motion_series(read_mpz_input_bytes(data), summ.space)[0]
         except MPZError:
             series = None        # e.g. an angle summary of a motion decoded without angles
     levels = []
