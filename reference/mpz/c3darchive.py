@@ -124,6 +124,27 @@ class C3DArchive:
         """The grid every point coordinate of an int16 source lies on (|POINT:SCALE|)."""
         return self.point_scale() if self.word_storage == C3DStorage.INT16 else None
 
+    def first_frame(self) -> int:
+        """The source's first frame number, header word 4 (the C3D user guide: frames are
+        numbered from it; 1 in most files)."""
+        return int.from_bytes(self.header[6:8], "little")
+
+    def describe(self) -> str:
+        """What the archive holds beyond the markers, for a note of what a format that
+        cannot hold it drops."""
+        J, C = self.models.shape[1], self.channels
+        groups = sum(r.is_group for r in self.records)
+        parts = [f"{J} model output{'s' * (J != 1)} (C3D points that are not markers)"] \
+            if J else []
+        if C:
+            parts.append(f"{C} analog channel{'s' * (C != 1)} at {self.analog_samples} "
+                         "samples a frame")
+        if self.parameter("EVENT", "USED") is not None or self.parameter("EVENT", "TIMES"):
+            parts.append("the events")
+        parts += [f"the parameter section ({groups} groups, {len(self.records) - groups} "
+                  "parameters)", "the header", "the points' residual and camera words"]
+        return ", ".join(parts)
+
     def sizes(self) -> dict[str, int]:
         """Bytes of the source's data section by part: markers' and model outputs' xyz,
         fourth words, analog."""

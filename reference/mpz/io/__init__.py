@@ -45,7 +45,7 @@ import tempfile
 import numpy as np
 
 from mpz.errors import InputFormatError
-from mpz.io._common import StrPath, ext_of
+from mpz.io._common import StrPath, ext_of, start_frame
 from mpz.io.amc import find_asf, read_amc, read_asf, write_amc
 from mpz.io.bvh import read_bvh, skeleton_problems, write_bvh
 from mpz.io.c3d import read_c3d, write_c3d
@@ -328,6 +328,10 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if motion.units not in ("", "mm", "cm", "m"):
             notes.append(f"C3D readers know mm, cm and m: units {motion.units!r} read back "
                          "as unknown")
+        elif motion.units == "":
+            notes.append("this motion has no length unit (a BVH source?): POINT:UNITS is "
+                         "left empty, and most C3D readers will take millimetres; encode "
+                         "the source with --units to name it")
     if ext == ".trc":
         if motion.units == "":
             refuse.append("TRC needs units (mm, cm, m, in) and this motion has none (a BVH "
@@ -357,9 +361,15 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
     held = {".c3d": {"c3d"}, ".bvh": {"skeleton"}, ".amc": {"skeleton"}}.get(ext, set())
     if motion.angles is not None:      # the note above already says the skeleton is dropped
         held = held | {"skeleton"}
-    if set(motion.extras) - held:
-        dropped = sorted(set(motion.extras) - held)
-        notes.append(f"{fmt} does not hold {', '.join(dropped)}: not written")
+    for key in sorted(set(motion.extras) - held):
+        value = motion.extras[key]
+        what = value.describe() if hasattr(value, "describe") else key
+        notes.append(f"{fmt} does not hold the source's {'C3D archive' if key == 'c3d' else key}"
+                     f", not written: {what}")
+    first = start_frame(motion)
+    if first != 1 and ext in (".npy", ".csv", ".bvh"):
+        notes.append(f"{fmt} does not hold the first frame number ({first}): frames are "
+                     "counted from " + ("0" if ext == ".csv" else "the start"))
     return refuse, notes
 
 

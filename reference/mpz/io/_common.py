@@ -19,6 +19,7 @@ from typing import Concatenate, ParamSpec, TypeAlias, TypeVar
 import numpy as np
 
 from mpz.errors import InputFormatError, MPZError
+from mpz.motion import Motion
 
 #: a file name as the readers and writers accept it
 StrPath: TypeAlias = str | os.PathLike[str]
@@ -127,3 +128,21 @@ def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
 def ext_of(path: StrPath) -> str:
     """Lower-case extension with the dot, e.g. ``".c3d"``."""
     return os.path.splitext(os.fspath(path))[1].lower()
+
+
+def start_frame(motion: Motion) -> int:
+    """The number of the motion's first frame in its source: a TRC's first Frame#, a
+    C3D's header word 4, an AMC's first frame; 1 when none says."""
+    meta = motion.metadata
+    try:
+        if "trc.FirstFrame" in meta:
+            return int(meta["trc.FirstFrame"])
+    except ValueError:
+        pass
+    a = motion.extras.get("c3d")
+    if a is not None and hasattr(a, "first_frame"):
+        return int(a.first_frame())
+    skel = motion.extras.get("skeleton")
+    if getattr(skel, "convention", "") == "asf":
+        return int(getattr(skel, "first_frame", 1))
+    return 1

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.io import c3dbin
-from mpz.io._common import StrPath, reader, unique_names
+from mpz.io._common import StrPath, reader, start_frame, unique_names
 from mpz.motion import Motion
 
 #: POINT:UNITS values we recognise; anything else is unknown ("")
@@ -270,8 +270,10 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     it came from (:func:`archive_bytes`). Without: a float C3D of the points
     through ezc3d, gaps with residual -1 and NaN coordinates; names, rate and
     units in POINT:LABELS, POINT:RATE and POINT:UNITS. ezc3d writes at most 65535
-    frames that it reads back, so a longer motion without an archive goes through
-    our own writer instead (:func:`long_bytes`).
+    frames that it reads back, and numbers them from 1, so a longer motion without an
+    archive, or one whose source counted its frames from another number (a TRC's first
+    Frame#, :func:`mpz.io._common.start_frame`), goes through our own writer instead
+    (:func:`long_bytes`).
 
     Parameters
     ----------
@@ -281,7 +283,8 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     import ezc3d
 
     path = os.fspath(path)
-    if motion.extras.get("c3d") is not None or motion.n_frames > c3dbin.HEADER_MAX_FRAME:
+    if motion.extras.get("c3d") is not None or motion.n_frames > c3dbin.HEADER_MAX_FRAME \
+            or start_frame(motion) != 1:
         blob = archive_bytes(motion) if motion.extras.get("c3d") is not None else \
             long_bytes(motion)
         with open(path, "wb") as fh:
@@ -311,7 +314,8 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
 def long_bytes(motion: Motion) -> bytes:
     """A float C3D of the points of a motion without an archive, for any frame count.
 
-    Frames numbered from 1; above 65535 frames the header's last frame is 65535 and the
+    Frames numbered from the source's first (:func:`mpz.io._common.start_frame`, 1 when
+    none is known); above 65535 frames the header's last frame is 65535 and the
     count is in POINT:LONG_FRAMES and TRIAL:ACTUAL_START_FIELD/ACTUAL_END_FIELD, as the
     C3D user guide asks (:func:`mpz.io.c3dbin.plain_parts`). Gaps: coordinates 0 and
     fourth word -1 (valid samples 0).
@@ -322,7 +326,7 @@ def long_bytes(motion: Motion) -> bytes:
         For names or a point count a C3D cannot hold.
     """
     header, records = c3dbin.plain_parts(list(motion.names), motion.rate, motion.units,
-                                         motion.n_frames)
+                                         motion.n_frames, first=start_frame(motion))
     valid = motion.valid
     xyz = np.where(valid[:, :, None], motion.positions, 0.0)
     words = np.where(valid, np.float32(0.0), np.float32(-1.0)).astype("<f4")

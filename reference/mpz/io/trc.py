@@ -30,9 +30,10 @@ import math
 import os
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
-from mpz.io._common import StrPath, decode_text, reader, unique_names
+from mpz.io._common import StrPath, decode_text, reader, start_frame, unique_names
 from mpz.motion import Motion
 
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in"}
@@ -108,6 +109,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
 
     rows = []
     times = []
+    numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
     digits = 0                       # significant decimals of the time column
     for lineno, line in enumerate(lines[5:], 6):
@@ -125,6 +127,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         row = [_num(v) for v in values] + [math.nan] * (3 * n_markers - len(values))
         rows.append(row)
         times.append(_num(fields[1]))
+        numbers.append(fields[0].strip())
         if not frames:
             frames.append(fields)
         if len(fields) > 1:
@@ -134,10 +137,14 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if not rows:
         raise _bad("no data rows")
     pos = np.array(rows, dtype=np.float64).reshape(len(rows), n_markers, 3)
-    declared_frames = header.get("NumFrames", "").strip()
     meta = {"format": "trc"}
-    if declared_frames and int(float(declared_frames)) != len(rows):
-        meta["warning"] = f"NumFrames says {declared_frames}, file has {len(rows)} rows"
+    pos, skipped = _frames_by_number(pos, numbers)
+    if skipped:
+        meta["warning"] = skipped
+    declared_frames = header.get("NumFrames", "").strip()
+    if declared_frames and int(float(declared_frames)) != len(pos):
+        said = f"NumFrames says {declared_frames}, file has {len(rows)} rows"
+        meta["warning"] = f"{meta['warning']}; {said}" if "warning" in meta else said
     valid = np.isfinite(pos).all(axis=2)
     pos[~valid] = np.nan
     names, renamed = unique_names(names)
@@ -153,6 +160,33 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if "trc.TimeDecimals" in meta:
         meta["trc.TimeDigits"] = str(digits)
     return Motion(pos, names, rate, units, valid, meta)
+
+
+def _frames_by_number(pos: NDArray[np.float64], numbers: list[str]
+                      ) -> tuple[NDArray[np.float64], str]:
+    """The rows ``pos`` placed by their Frame# when the numbers skip some frames (a TRC
+    with rows left out): a motion has one frame per 1 / DataRate, so each missing frame
+    becomes a frame of gaps, and a warning says how many. Rows stay as they are, with a
+    warning, when the numbers are not increasing integers, or when filling would more
+    than double the frames (a hostile Frame# must not allocate without bound)."""
+    try:
+        n = [int(x) for x in numbers]
+    except ValueError:
+        return pos, ""
+    steps = np.diff(np.array(n, dtype=np.int64))
+    if not steps.size or (steps == 1).all():
+        return pos, ""
+    first_skip = int(np.flatnonzero(steps != 1)[0])
+    if (steps < 1).any() or n[-1] - n[0] + 1 > 2 * len(n):
+        return pos, (f"the Frame# column is not one number a row (row {first_skip + 2} is "
+                     f"frame {n[first_skip + 1]} after {n[first_skip]}): the rows are "
+                     "taken as consecutive frames at DataRate")
+    out = np.full((n[-1] - n[0] + 1, *pos.shape[1:]), np.nan)
+    out[np.array(n) - n[0]] = pos
+    missing = len(out) - len(n)
+    return out, (f"the Frame# column skips {missing} frame{'s' * (missing != 1)} (the first "
+                 f"after frame {n[first_skip]}): they are gaps, so that every frame keeps "
+                 "its time")
 
 
 #: header fields format_trc writes back as they were read (NumFrames and NumMarkers too, when
@@ -219,14 +253,17 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
         head["DataRate"] = rate
     kind = meta.get("trc.PathFileType", "4\t(X/Y/Z)")
     name = meta.get("trc.FileName", file_name) or file_name
+    first = start_frame(motion)
+    if "trc.OrigDataStartFrame" not in meta:
+        head["OrigDataStartFrame"] = str(first)
     try:
-        first = int(meta.get("trc.FirstFrame", "1"))
-        t0 = float(meta.get("start_time", "0"))
+        # a C3D's frame n is at (n - 1) / rate (its frames count from 1)
+        t0 = float(meta.get("start_time", repr((first - 1) / motion.rate)))
         dt = int(meta.get("trc.TimeDecimals", "6"))
         dv = int(meta.get("trc.Decimals", "6"))
         tdig = int(meta.get("trc.TimeDigits", str(dt)))
     except ValueError:
-        first, t0, dt, dv, tdig = 1, 0.0, 6, 6, 6
+        t0, dt, dv, tdig = 0.0, 6, 6, 6
     out = [
         f"PathFileType\t{kind}\t{name}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"

@@ -1,0 +1,83 @@
+"""Writing a motion to another format than its source's: what comes along and what is said.
+
+Found by the QA review of issue 15's stop 27: a C3D decoded to TRC or CSV lost its first
+frame number (398 -> 1) without a word, the note named the internal key "c3d" instead of
+what was dropped, a TRC with rows left out came back renumbered (its last frame 151 at
+2.5 s became frame 101 at 1.667 s), and a BVH written as C3D got an empty POINT:UNITS
+silently. Expected values come from how each input is built here, never from the writers.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+import mpz
+from mpz.io import read, write, writer_problems
+from mpz.synth import generate
+from mpz.tools.make_vectors import c3d_motion
+
+
+def _trc(tmp_path: Path, frame_numbers: list[int], rate: float = 60.0) -> Path:
+    """A two-marker TRC whose rows carry ``frame_numbers``; marker A at x = frame number."""
+    lines = ["PathFileType\t4\t(X/Y/Z)\tt.trc",
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+             "OrigDataStartFrame\tOrigNumFrames",
+             f"{rate}\t{rate}\t{len(frame_numbers)}\t2\tmm\t{rate}\t1\t{len(frame_numbers)}",
+             "Frame#\tTime\tA\t\t\tB\t\t", "\t\tX1\tY1\tZ1\tX2\tY2\tZ2", ""]
+    for f in frame_numbers:
+        lines.append(f"{f}\t{(f - 1) / rate:.6f}\t{f}.0\t1.0\t2.0\t3.0\t4.0\t5.0")
+    path = tmp_path / "t.trc"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_a_trc_with_rows_left_out_keeps_each_frames_time(tmp_path):
+    keep = [f for f in range(1, 31) if f % 3 != 0]          # 20 rows, frames 1 .. 29
+    m = read(_trc(tmp_path, keep))
+    assert m.n_frames == 29
+    assert np.array_equal(np.flatnonzero(m.valid[:, 0]) + 1, keep)
+    assert np.array_equal(m.positions[m.valid[:, 0], 0, 0], keep)  # x = the frame number
+    assert "skips 9 frames" in m.metadata["warning"]
+    write(m, tmp_path / "back.trc")
+    last = (tmp_path / "back.trc").read_text().splitlines()[-1].split("\t")
+    assert last[0] == "29" and abs(float(last[1]) - 28 / 60.0) <= 5e-7     # 6 decimals
+
+
+def test_a_frame_number_far_away_allocates_nothing(tmp_path):
+    m = read(_trc(tmp_path, [1, 2, 3, 10 ** 9]))
+    assert m.n_frames == 4                      # rows taken as they are, and said
+    assert "not one number a row" in m.metadata["warning"]
+
+
+def test_the_first_frame_number_goes_where_the_format_holds_it(tmp_path):
+    m = read(_trc(tmp_path, list(range(100, 130))))
+    write(m, tmp_path / "out.c3d")
+    head = (tmp_path / "out.c3d").read_bytes()[:512]
+    assert int.from_bytes(head[6:8], "little") == 100                     # word 4
+    assert int.from_bytes(head[8:10], "little") == 129                    # word 5
+    _, notes = writer_problems(m, ".npy")
+    assert any("first frame number (100)" in n for n in notes)
+
+
+def test_a_c3d_archive_written_as_trc_keeps_its_frame_numbers_and_says_what_it_drops(tmp_path):
+    m = c3d_motion(7, storage=1, F=12, M=4, J=2, C=3, n=2)   # header first frame 10
+    first = int.from_bytes(m.extras["c3d"].header[6:8], "little")
+    assert first == 10
+    back = mpz.decode(mpz.encode(m, max_error=1.0))
+    write(back, tmp_path / "out.trc")
+    lines = (tmp_path / "out.trc").read_text().splitlines()
+    assert lines[2].split("\t")[6] == "10"                       # OrigDataStartFrame
+    row = lines[6].split("\t")
+    assert row[0] == "10" and abs(float(row[1]) - 9 / m.rate) <= 5e-7   # (n - 1) / rate
+    _, notes = writer_problems(back, ".trc")
+    said = " ".join(notes)
+    assert "2 model outputs" in said and "3 analog channels at 2 samples a frame" in said
+    assert "the parameter section" in said and "'c3d'" not in said
+
+
+def test_a_motion_without_units_written_as_c3d_says_so():
+    m = generate("walk", frames=4)
+    m = mpz.Motion(m.positions, m.names, m.rate, "", m.valid)
+    _, notes = writer_problems(m, ".c3d")
+    assert any("no length unit" in n and "POINT:UNITS is left empty" in n for n in notes)
