@@ -10,6 +10,7 @@ need a unit (``--max-error 1mm``).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from typing import TYPE_CHECKING
@@ -53,6 +54,9 @@ def add_parser(sub):
     p.add_argument("--units", choices=("mm", "cm", "m", "in"),
                    help="the length unit of an input that has none (BVH), e.g. --units cm; "
                    "then lengths with units work (--max-error 1mm)")
+    p.add_argument("--rate", metavar="HZ", type=float,
+                   help="the frame rate of an input that stores none (AMC: 120 Hz is assumed, "
+                   "NPY: 1 Hz), e.g. --rate 60; an error for an input that has one")
     p.add_argument("--angle-error", metavar="DEG", type=float,
                    help="BVH, AMC: bound on the rotation channels, in degrees (default 0.01, "
                    "or as --max-error allows)")
@@ -239,9 +243,10 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
     if warning and not args.quiet:
         print(f"mpz encode: note: {printable(job.input)}: {printable(warning)}",
               file=sys.stderr)
-    motion = _units(args, motion)
+    motion = _rate(args, _units(args, motion))
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
+    notes = _input_notes(args, motion, job.input) + notes
     if not args.quiet:
         for note in notes:
             print(f"mpz encode: note: {printable(note)}", file=sys.stderr)
@@ -339,6 +344,56 @@ def _units(args: argparse.Namespace, motion, *, batch: bool = False):
     return with_units(motion, args.units)
 
 
+#: the input formats that store no frame rate (the reader assumes one)
+RATELESS_FORMATS = (".amc", ".npy")
+
+
+def _rate(args: argparse.Namespace, motion, *, batch: bool = False):
+    """--rate: the frame rate of an input whose format stores none (AMC, NPY). In a batch it
+    names that of every such input and leaves the others; for one file with a rate of its
+    own it is an error (the file's rate is not overridden silently)."""
+    from dataclasses import replace
+    if args.rate is None:
+        return motion
+    fmt = motion.metadata.get("format", "")
+    if f".{fmt}" not in RATELESS_FORMATS:
+        if batch:
+            return motion
+        raise EncoderError(f"--rate {args.rate:g}: this {fmt.upper() or 'input'} stores its "
+                           f"rate ({motion.rate:g} Hz); --rate is for inputs without one "
+                           "(AMC, NPY)")
+    if not (math.isfinite(args.rate) and args.rate > 0):
+        raise EncoderError(f"--rate {args.rate!r}: a rate is finite and > 0 (Hz)")
+    meta = {k: v for k, v in motion.metadata.items() if k != "rate_assumed"}
+    return replace(motion, rate=float(args.rate), metadata=meta)
+
+
+def _input_notes(args: argparse.Namespace, motion, source: str) -> list[str]:
+    """What the input itself makes the user want to know, said once per file (QA of issue
+    15): an assumed rate, renamed markers, and an MPZ input whose own error adds to the
+    new one."""
+    from mpz.io._common import ext_of
+    notes = []
+    fmt = motion.metadata.get("format", "")
+    if args.rate is None and f".{fmt}" in RATELESS_FORMATS:
+        notes.append(f"{fmt.upper()} stores no frame rate: {motion.rate:g} Hz is assumed; "
+                     "give the true one with --rate HZ")
+    renamed = motion.metadata.get("renamed_points")
+    if renamed:
+        notes.append(f"marker names that repeat or are empty were made unique: {renamed} "
+                     "(a C3D written back keeps the source's labels; other formats get "
+                     "these names)")
+    if source != "-" and ext_of(source) == ".mpz":
+        import mpz
+        bound = mpz.info(source).error_bound
+        if bound:
+            unit = f" {motion.units}" if motion.units else ""
+            notes.append(f"the input is an MPZ file, within {bound:g}{unit} of its own source: "
+                         "the new bound is against its decoded motion, so against that "
+                         "source the errors can add up")
+    return notes
+
+
 def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
                       batch: bool = False) -> tuple[EncodeOptions, list[str]]:
     """The skeleton options (spec §4.14) for a BVH or AMC/ASF input, and notes on what is
@@ -405,16 +460,18 @@ class PerFile:
         return _options(self.args, units, None)
 
     def prepare(self, source: str, motion):
-        motion = _units(self.args, motion, batch=True)
+        motion = _rate(self.args, _units(self.args, motion, batch=True), batch=True)
         opts, notes = _skeleton_options(self.args, motion, self.options(motion.units),
                                         batch=True)
-        return motion, opts, notes
+        return motion, opts, _input_notes(self.args, motion, source) + notes
 
     def key(self, source: str) -> str:
         from mpz.io import SKELETON_FORMATS
         from mpz.io._common import ext_of
         a = self.args
         parts = [] if a.units is None else [f"units={a.units}"]
+        if a.rate is not None and ext_of(source) in RATELESS_FORMATS:
+            parts.append(f"rate={a.rate!r}")
         if ext_of(source) in SKELETON_FORMATS:
             parts += [f"skeleton={self.SKELETON_RULE}", f"angle={a.angle_error}",
                       f"translation={a.translation_error}", f"no_skeleton={a.no_skeleton}"]

@@ -1,0 +1,59 @@
+"""What `mpz encode` says about its input (QA of issue 15, stop 27): an assumed frame rate
+(and --rate to give the true one), marker names made unique, and an MPZ input whose own
+error adds to the new bound. Before, each went by without a word: an NPY became a 1 Hz
+file, an AMC a 120 Hz one, and a re-encoded MPZ declared 1 mm while it was 1.98 mm from the
+capture. Expected values come from the inputs built here."""
+from __future__ import annotations
+
+from pathlib import Path
+import subprocess
+import sys
+
+import numpy as np
+
+import mpz
+from mpz.io import write
+from mpz.synth import generate
+
+
+def _mpz(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    exe = Path(sys.executable).parent / "mpz"
+    return subprocess.run([str(exe), *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_an_assumed_rate_is_said_and_rate_gives_the_true_one(tmp_path):
+    np.save(tmp_path / "walk.npy", generate("walk", frames=30).as_nan())
+    p = _mpz("encode", "walk.npy", "-o", "a.mpz", cwd=tmp_path)
+    assert p.returncode == 0 and "NPY stores no frame rate: 1 Hz is assumed" in p.stderr
+    assert mpz.info(tmp_path / "a.mpz").rate == 1.0
+    p = _mpz("encode", "walk.npy", "-o", "b.mpz", "--rate", "60", cwd=tmp_path)
+    assert p.returncode == 0 and "rate" not in p.stderr
+    assert mpz.info(tmp_path / "b.mpz").rate == 60.0
+
+
+def test_rate_does_not_override_a_rate_the_file_stores(tmp_path):
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--rate", "50", cwd=tmp_path)
+    assert p.returncode != 0 and "stores its rate (120 Hz)" in p.stderr
+    assert not (tmp_path / "a.mpz").exists()
+
+
+def test_renamed_markers_are_said(tmp_path):
+    lines = ["PathFileType\t4\t(X/Y/Z)\tt.trc",
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+             "OrigDataStartFrame\tOrigNumFrames", "60\t60\t3\t2\tmm\t60\t1\t3",
+             "Frame#\tTime\tKNE\t\t\tKNE\t\t", "\t\tX1\tY1\tZ1\tX2\tY2\tZ2", ""]
+    lines += [f"{f}\t{(f - 1) / 60:.6f}\t1\t2\t3\t4\t5\t{f}" for f in (1, 2, 3)]
+    (tmp_path / "dup.trc").write_text("\n".join(lines) + "\n")
+    p = _mpz("encode", "dup.trc", "-o", "a.mpz", cwd=tmp_path)
+    assert p.returncode == 0 and "made unique: KNE->KNE#2" in p.stderr
+
+
+def test_an_mpz_input_says_that_errors_add(tmp_path):
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    assert _mpz("encode", "walk.trc", "-o", "a.mpz", "--max-error", "1mm",
+                cwd=tmp_path).returncode == 0
+    p = _mpz("encode", "a.mpz", "-o", "b.mpz", "--max-error", "1mm", cwd=tmp_path)
+    assert p.returncode == 0
+    assert "the input is an MPZ file, within 1 mm of its own source" in p.stderr
