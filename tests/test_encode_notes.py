@@ -57,3 +57,16 @@ def test_an_mpz_input_says_that_errors_add(tmp_path):
     p = _mpz("encode", "a.mpz", "-o", "b.mpz", "--max-error", "1mm", cwd=tmp_path)
     assert p.returncode == 0
     assert "the input is an MPZ file, within 1 mm of its own source" in p.stderr
+
+
+def test_a_grid_the_bound_cannot_use_is_said(tmp_path):
+    """--grid 5mm with --max-error 1mm: rounding to a 5 mm grid alone errs by up to
+    sqrt(3) x 2.5 mm, so the encoder takes a finer step, and says so."""
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--max-error", "1mm", "--grid", "5mm",
+             cwd=tmp_path)
+    assert p.returncode == 0
+    assert "--grid 5mm: the grid step is" in p.stderr and "the bound 1 mm needs" in p.stderr
+    p = _mpz("encode", "walk.trc", "-o", "b.mpz", "--max-error", "1mm", "--grid", "0.1mm",
+             cwd=tmp_path)
+    assert p.returncode == 0 and "--grid" not in p.stderr          # taken as given

@@ -256,6 +256,12 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
+    if opts.grid is not None and rep.step != opts.grid and not args.quiet:
+        why = (f"the bound {rep.bound:g}{' ' + units if units else ''} needs a finer one"
+               if rep.step < opts.grid
+               else "the source's own grid")
+        print(f"mpz encode: note: --grid {args.grid}: the grid step is {rep.step:.6g}"
+              f"{' ' + units if units else ''} instead ({why})", file=sys.stderr)
     if to_stdout:
         write_stdout(data, binary=True, force=args.force)
     else:
