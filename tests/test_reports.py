@@ -11,6 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import mpz
+from mpz.io import write
+from mpz.motion import Motion
+from mpz.synth import generate
 from mpz.tools import mpz_cli
 
 
@@ -51,7 +55,29 @@ def decoded_npy(capsys, tmp_path: Path, packed: Path) -> np.ndarray:
     return np.load(out)
 
 
-# -- 1. a skeletal .mpz is read as mpz decode writes it ---------------------------------------
+# -- 1. a skeletal .mpz is compared as mpz decode writes it ---------------------------------
+
+def test_compare_of_a_skeletal_mpz_uses_the_joint_positions_decode_writes(tmp_path, capsys):
+    src = tmp_path / "sweep.bvh"
+    src.write_text(bvh_text())
+    packed = tmp_path / "sweep.mpz"
+    code, _, err = cli(capsys, "encode", src, "-o", packed, "--units", "cm", "-q")
+    assert code == 0, err
+    a = mpz.io.read(src).positions
+    want = max_error(a, decoded_npy(capsys, tmp_path, packed))
+    layer = max_error(a, mpz.decode(packed.read_bytes()).positions)
+    assert layer > 3 * want          # the 1.0 marker layer is a coarse preview: they differ
+    code, out, err = cli(capsys, "compare", src, packed, "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["max"] == pytest.approx(want, rel=1e-9, abs=1e-12)
+    assert doc["positions"]["decoded"].startswith("joint positions from the skeleton's channels")
+    # a unitless BVH against the cm file: the figures are in cm, and that is said
+    assert doc["units"] == "cm" and doc["original_units"] is None
+    code, out, err = cli(capsys, "compare", src, packed)
+    assert code == 0 and f"max {want:.4g} cm" in out
+    assert "joint positions from the skeleton's channels" in out
+    assert "has no length unit" in err and "compared as numbers" in err
+
 
 def test_summary_of_a_skeletal_mpz_measures_shares_on_the_joint_positions(tmp_path, capsys):
     src = tmp_path / "sweep.bvh"
@@ -68,3 +94,101 @@ def test_summary_of_a_skeletal_mpz_measures_shares_on_the_joint_positions(tmp_pa
            for s, e in zip(starts, [*starts[1:], len(x)], strict=True)]
     got = [s["share"] for s in level["segments"]]
     assert got == pytest.approx([100 * v / sum(sse) for v in sse], rel=1e-9)
+
+
+@pytest.mark.parametrize("name, asf, units", [("bvh/cmu_10_01.bvh", None, "cm"),
+                                              ("amc/02_01.amc", "amc/02.asf", "mm")])
+def test_compare_real_skeletal_files_as_decode_writes_them(shared_data, tmp_path, capsys,
+                                                          name, asf, units):
+    """QA report: cmu_10_01 (--units cm) compared 0.3054 against the .mpz, 0.055 against
+    the BVH mpz decode wrote; 02_01.amc 3.333 mm against 1.045 mm."""
+    src = shared_data / name
+    packed = tmp_path / "r.mpz"
+    extra = ["--units", "cm"] if units == "cm" else []
+    code, _, err = cli(capsys, "encode", src, "-o", packed, "-q", *extra)
+    assert code == 0, err
+    a = mpz.io.read(src, **({"asf": shared_data / asf} if asf else {})).positions
+    want = max_error(a, decoded_npy(capsys, tmp_path, packed))
+    code, out, _ = cli(capsys, "compare", src, packed, "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["max"] == pytest.approx(want, rel=1e-9)
+    assert doc["units"] == units
+    assert want < max_error(a, mpz.decode(packed.read_bytes()).positions) / 3
+
+
+# -- 2. units and frame rate ------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def walk() -> Motion:
+    m = generate("walk", frames=60, rate=60.0, seed=4)
+    pos = np.round(m.positions, 3)        # exact in a TRC's text: the files hold these numbers
+    return Motion(pos, m.names, 60.0, "mm")
+
+
+def with_(m: Motion, positions=None, rate=None, units=None) -> Motion:
+    return Motion(m.positions if positions is None else positions, m.names,
+                  m.rate if rate is None else rate, m.units if units is None else units)
+
+
+def test_compare_converts_lengths_to_one_unit(walk, tmp_path, capsys):
+    a = tmp_path / "walk_mm.trc"
+    write(walk, a)
+    same = tmp_path / "walk_m.trc"               # the same positions, in metres
+    write(with_(walk, positions=walk.positions / 1000, units="m"), same)
+    code, out, err = cli(capsys, "compare", a, same, "--json")
+    assert code == 0 and json.loads(out)["max"] < 1e-3 and "converted to mm" in err
+    relabelled = tmp_path / "walk_relabelled_m.trc"   # the numbers of mm, labelled m (QA)
+    write(with_(walk, units="m"), relabelled)
+    want = max_error(walk.positions, 1000 * walk.positions)
+    code, out, err = cli(capsys, "compare", a, relabelled, "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["max"] == pytest.approx(want, rel=1e-9)
+    assert doc["units"] == "mm" and doc["decoded_units"] == "m"
+
+
+def test_compare_refuses_two_frame_rates(walk, tmp_path, capsys):
+    a = tmp_path / "walk_60.trc"
+    b = tmp_path / "walk_120.trc"
+    write(walk, a)
+    write(with_(walk, rate=120.0), b)
+    code, out, err = cli(capsys, "compare", a, b)
+    assert code == 2 and out == ""
+    assert "frame rates differ" in err and "60 Hz" in err and "120 Hz" in err
+
+
+def test_compare_with_an_npy_does_not_check_the_rate_it_lacks(walk, tmp_path, capsys):
+    named = Motion(walk.positions, [f"M{i}" for i in range(walk.n_markers)], 60.0, "mm")
+    write(named, tmp_path / "walk.trc")
+    write(named, tmp_path / "walk.npy")           # NPY keeps no names, rate nor units
+    code, out, err = cli(capsys, "compare", tmp_path / "walk.trc", tmp_path / "walk.npy")
+    assert code == 0 and "NPY stores no frame rate" in err and "max 0 mm" in out
+
+
+def test_compare_unitless_against_units_compares_numbers(walk, tmp_path, capsys):
+    a = tmp_path / "walk.trc"
+    write(walk, a)
+    b = tmp_path / "walk.csv"                      # CSV keeps no units
+    moved = walk.positions + np.array([0.0, 0.0, 2.0])
+    write(with_(moved_m := with_(walk, positions=moved), units=""), b)
+    code, out, err = cli(capsys, "compare", a, b, "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["max"] == pytest.approx(max_error(walk.positions, moved_m.positions))
+    assert doc["units"] == "mm" and "has no length unit" in err and "as numbers" in err
+
+
+def test_compare_real_trc_in_metres_at_120_hz(shared_data, tmp_path, capsys):
+    """QA report: the sed-edited TRC (m, 120 Hz) compared "max 0 mm", exit 0."""
+    src = shared_data / "trc" / "opensim_subject01_walk1.trc"
+    lines = src.read_text().split("\n")
+    assert lines[2].startswith("60.00\t60.00") and "\tmm\t" in lines[2]
+    in_m = lines[:2] + [lines[2].replace("\tmm\t", "\tm\t")] + lines[3:]
+    (tmp_path / "m.trc").write_text("\n".join(in_m))
+    at_120 = in_m[:2] + [in_m[2].replace("60.00\t60.00", "120.00\t120.00", 1)] + in_m[3:]
+    (tmp_path / "m120.trc").write_text("\n".join(at_120))
+    code, out, err = cli(capsys, "compare", src, tmp_path / "m120.trc")
+    assert code == 2 and "60 Hz" in err and "120 Hz" in err
+    a = mpz.io.read(src)
+    ok = a.valid
+    want = float(np.linalg.norm(999 * a.positions[ok], axis=1).max())
+    code, out, err = cli(capsys, "compare", src, tmp_path / "m.trc", "--json")
+    assert code == 0 and json.loads(out)["max"] == pytest.approx(want, rel=1e-9)

@@ -1,6 +1,12 @@
 """``mpz compare ORIGINAL DECODED``: error statistics, overall and per marker.
 
 Either input may be ``-`` (standard input, format found from its content).
+An .mpz of a BVH or AMC is compared as ``mpz decode`` writes it: the joint positions
+computed from its skeleton's channels (the report says so), not its marker layer.
+Two frame rates that differ are an error (exit 2; an NPY stores none: not checked).
+Lengths in two known units (mm, cm, m, in) are converted to the original's before
+comparing; an input without units against one with units is compared as numbers, the
+figures in the unit there is. Both are said on stderr.
 ``--plot OUT.png`` draws the Euclidean error over time of the worst markers
 (or ``--marker``), one panel each, in the motion's units, with the declared
 bound (from an .mpz input, or ``--bound``) as a line and one legend for all
@@ -10,6 +16,7 @@ non-finite values).
 from __future__ import annotations
 
 import argparse
+import math
 
 import numpy as np
 
@@ -64,9 +71,69 @@ def _declared_bound(path: str, units: str) -> float | None:
     return fi.error_bound * MM_PER_UNIT[fi.units] / MM_PER_UNIT[units]
 
 
+#: relative tolerance on two frame rates (a C3D stores its rate as a float32, a TRC as text)
+RATE_TOLERANCE = 1e-6
+
+
+def _label(path: str) -> str:
+    return "standard input" if path == "-" else printable(path)
+
+
+def _positions(motion, ext: str | None) -> str:
+    """What an input's positions are, for the report."""
+    from mpz.tools._common import joint_positions_from_channels
+    if joint_positions_from_channels(motion, ext):
+        return ("joint positions from the skeleton's channels (as mpz decode writes them, "
+                "not the file's marker layer)")
+    return "decoded markers" if ext == ".mpz" else "as read"
+
+
+def check_rates(a, b, ext_a: str | None, ext_b: str | None, names: tuple[str, str]) -> list[str]:
+    """Refuse two motions at different frame rates (the same frame is not the same time);
+    return the notes (an NPY input stores no rate: not checked).
+
+    Raises
+    ------
+    MotionError
+        Saying both rates.
+    """
+    unknown = [n for n, e in zip(names, (ext_a, ext_b), strict=True) if e == ".npy"]
+    if unknown:
+        return [f"{' and '.join(unknown)}: NPY stores no frame rate; rates not compared"]
+    if not math.isclose(a.rate, b.rate, rel_tol=RATE_TOLERANCE):
+        raise MotionError(f"frame rates differ: {a.rate:.10g} Hz ({names[0]}) vs "
+                          f"{b.rate:.10g} Hz "
+                          f"({names[1]}); the same frame is not the same moment, so the "
+                          "positions are not compared")
+    return []
+
+
+def common_units(a, b, names: tuple[str, str]):
+    """``b`` in ``a``'s length unit when both have one (mm, cm, m, in), the unit the
+    figures are in (``""``: none known) and the notes.
+
+    An input without units (BVH, NPY) against one with units is compared as numbers,
+    and the figures take the unit of the one that has them."""
+    from mpz.format import MM_PER_UNIT
+    from mpz.motion import Motion
+    if a.units == b.units:
+        return b, a.units, []
+    if a.units in MM_PER_UNIT and b.units in MM_PER_UNIT:
+        scale = MM_PER_UNIT[b.units] / MM_PER_UNIT[a.units]
+        note = (f"{names[1]} is in {b.units}, {names[0]} in {a.units}: lengths converted "
+                f"to {a.units} (x {scale:g}) before comparing")
+        return Motion(b.positions * scale, b.names, b.rate, a.units, b.valid), a.units, [note]
+    has, lacks = (a, names[1]) if a.units else (b, names[0])
+    return b, has.units, [f"{lacks} has no length unit, "
+                          f"{names[0] if a.units else names[1]} is in {has.units}: compared "
+                          f"as numbers (figures in {has.units})"]
+
+
 def run(args: argparse.Namespace) -> int:
+    import sys
+
     from mpz.metrics import summary
-    from mpz.tools._common import check_length_syntax, parse_length, read_motion
+    from mpz.tools._common import check_length_syntax, parse_length, read_input
     if args.original == "-" and args.decoded == "-":
         raise MotionError("only one of the two inputs can be standard input (-)")
     check_length_syntax(args.bound, "--bound")
@@ -76,22 +143,36 @@ def run(args: argparse.Namespace) -> int:
             if src != "-":
                 check_output(args.plot, force=True, source=src)
         _matplotlib()
-    a = read_motion(args.original, args.asf)
-    b = align(a, read_motion(args.decoded, args.asf))
+    names = (_label(args.original), _label(args.decoded))
+    a, ext_a = read_input(args.original, args.asf)
+    b, ext_b = read_input(args.decoded, args.asf)
+    notes = check_rates(a, b, ext_a, ext_b, names)
+    pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
+    b = align(a, b)
     if a.n_frames != b.n_frames:
         raise MotionError(f"frame counts differ: {a.n_frames} vs {b.n_frames}")
+    units_b = b.units
+    b, units, more = common_units(a, b, names)
+    notes += more
+    for note in notes:
+        print(f"mpz compare: note: {note}", file=sys.stderr)
     s = summary(a, b)
     gaps_lost = int((a.valid & ~b.valid).sum())
     gaps_added = int((~a.valid & b.valid).sum())
-    s.update(frames=a.n_frames, markers=a.n_markers, units=a.units,
-             valid_became_gap=gaps_lost, gap_became_valid=gaps_added)
+    s.update(frames=a.n_frames, markers=a.n_markers, units=units or None,
+             original_units=a.units or None, decoded_units=units_b or None, positions=pos,
+             notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added)
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
     if args.json:
         print_json(s)
     else:
-        u = f" {a.units}" if a.units else ""
-        print(f"{a.n_frames} frames x {a.n_markers} markers")
+        u = f" {units}" if units else ""
+        print(f"{a.n_frames} frames x {a.n_markers} markers, "
+              + (f"errors in {units}" if units else "neither input has a length unit"))
+        for which, path in (("original", args.original), ("decoded", args.decoded)):
+            if pos[which] != "as read":
+                print(f"  {which} {_label(path)}: {pos[which]}")
         print(f"  max {s['max']:.4g}{u}  p99 {s['p99']:.4g}{u}  RMS {s['rms']:.4g}{u}  "
               f"ARMS {s['arms']:.4g}{u}  mean {s['mean']:.4g}{u}")
         print(f"  gaps: {gaps_lost} valid samples became gaps, {gaps_added} gaps became valid")
@@ -101,11 +182,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {printable(n)[:16]:<16} {v:>8.4g} "
                   f"{(float('nan') if rms is None else rms):>10.4g}")
     if args.plot:
-        names = args.marker or [n for _, n in worst[:3]]
-        bound = (parse_length(args.bound, a.units, "--bound") if args.bound is not None
-                 else _declared_bound(args.decoded, a.units)
-                 or _declared_bound(args.original, a.units))
-        plot(a, b, names, args.plot, bound=bound)
+        plot_names = args.marker or [n for _, n in worst[:3]]
+        bound = (parse_length(args.bound, units, "--bound") if args.bound is not None
+                 else _declared_bound(args.decoded, units)
+                 or _declared_bound(args.original, units))
+        plot(a, b, plot_names, args.plot, bound=bound, units=units)
         if not args.json:
             print(f"plot written to {printable(args.plot)}")
     return 2 if gaps_lost or gaps_added else 0
@@ -126,7 +207,7 @@ def plot_label(name: str) -> str:
     return printable(name).replace("$", r"\$")
 
 
-def plot(a, b, names, path, *, bound: float | None = None) -> None:
+def plot(a, b, names, path, *, bound: float | None = None, units: str | None = None) -> None:
     """Error over time per marker: one panel each, the bound as a line, one shared legend."""
     from mpz.metrics import errors
     plt = _matplotlib()
@@ -136,7 +217,7 @@ def plot(a, b, names, path, *, bound: float | None = None) -> None:
             raise MotionError(f"no marker named {printable(n)!r}")
     err = errors(a, b)                                    # [F, M], NaN at original gaps
     t = np.arange(a.n_frames) / a.rate
-    unit = a.units or "input units"
+    unit = (a.units if units is None else units) or "input units"
     fig, axes = plt.subplots(len(names), 1, figsize=(10, 1.2 + 2.0 * len(names)),
                              sharex=True, squeeze=False)
     handles = {}
