@@ -70,3 +70,21 @@ def test_a_grid_the_bound_cannot_use_is_said(tmp_path):
     p = _mpz("encode", "walk.trc", "-o", "b.mpz", "--max-error", "1mm", "--grid", "0.1mm",
              cwd=tmp_path)
     assert p.returncode == 0 and "--grid" not in p.stderr          # taken as given
+
+
+def test_a_skeletal_ratio_counts_the_channels_it_stores(tmp_path, two_joint_bvh):
+    """A BVH's data are its 9 channels x 3 frames; the joint positions (3 joints with the
+    End Site) are computed from them. The report's first ratio is against the channels as
+    float32 (9 x 3 x 4 = 108 bytes), and the error line says it measures the marker layer."""
+    import json
+    (tmp_path / "two.bvh").write_text(two_joint_bvh)
+    p = _mpz("encode", "two.bvh", "-o", "a.mpz", "--json", cwd=tmp_path)
+    assert p.returncode == 0
+    rep = json.loads(p.stdout)
+    size = (tmp_path / "a.mpz").stat().st_size
+    assert rep["channel_float32_bytes"] == 108
+    assert rep["ratio_channels_float32"] == 108 / size
+    assert rep["bytes_skeleton"] > 0
+    p = _mpz("encode", "two.bvh", "-o", "b.mpz", cwd=tmp_path)
+    assert "vs the 9 channels as float32 (108 B)" in p.stdout
+    assert "error    marker layer" in p.stdout

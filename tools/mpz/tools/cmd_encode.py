@@ -268,12 +268,19 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
         mpz.write_atomic(job.output, data, source=source, force=args.force)
     decoded = mpz.decode(data)
     err = error_summary(motion, decoded)
+    channel_bytes = (4 * motion.angles.size if motion.angles is not None
+                     and opts.keep_skeleton else None)
     in_size = input_size(job.input)
     result = {
         "input": job.input, "output": job.output, "frames": rep.frames,
         "markers": rep.markers, "units": units, "raw_float32_bytes": rep.raw_bytes,
         "input_bytes": in_size, "file_bytes": rep.file_bytes,
         "ratio_float32": rep.raw_bytes / rep.file_bytes,
+        # a skeletal source's data are its channels: the joint positions (raw_float32_bytes)
+        # are computed from them, so the ratio against the channels is the one that counts
+        "channel_float32_bytes": channel_bytes,
+        "ratio_channels_float32": None if channel_bytes is None
+        else channel_bytes / rep.file_bytes,
         "ratio_input": None if in_size is None else in_size / rep.file_bytes,
         "max_error": err["max"], "arms": err["arms"],
         "p99": err["p99"], "rms": err["rms"], "declared_bound": rep.bound,
@@ -297,11 +304,18 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
                 else f", {result['ratio_input']:.1f}:1 vs input file")
     if result["ratio_input"] is None and result["dropped"]:
         vs_input = f", vs input file n/a ({'; '.join(result['dropped'])} not kept)"
-    print(f"  ratio    {result['ratio_float32']:.1f}:1 vs float32{vs_input}", file=out)
+    if channel_bytes is not None:
+        print(f"  ratio    {result['ratio_channels_float32']:.1f}:1 vs the "
+              f"{motion.angles.shape[1]} channels as float32 ({human_size(channel_bytes)}), "
+              f"{result['ratio_float32']:.1f}:1 vs the joint positions{vs_input}", file=out)
+    else:
+        print(f"  ratio    {result['ratio_float32']:.1f}:1 vs float32{vs_input}", file=out)
     _print_parts(result, out)
     bound = (" (no bound declared: --lossy)" if rep.bound is None
              else f" (bound {rep.bound:g}{u}: {rep.bound_rule})")
-    print(f"  error    max {err['max']:.4g}{u}{bound}, p99 {err['p99']:.4g}{u}, "
+    layer = ("marker layer (what a 1.0 decoder reads; mpz decode computes the joints from "
+             "the channels: skeleton below) " if result["bytes_skeleton"] else "")
+    print(f"  error    {layer}max {err['max']:.4g}{u}{bound}, p99 {err['p99']:.4g}{u}, "
           f"ARMS {err['arms']:.4g}{u}", file=out)
     print(f"  grid     step {rep.step:.4g}{u}; ADDH {rep.addh:.4g}{u} ({rep.addh_rule}); "
           f"hierarchy {rep.hierarchy}", file=out)
@@ -510,7 +524,8 @@ def _kept(motion, rep, in_size: int | None) -> dict:
     cb = rep.chunk_bytes
     markers = 8 + sum(n for t, n in cb.items() if t[:1].isupper())
     analog = sum(cb.get(t, 0) for t in _ANALOG)
-    rest = rep.file_bytes - markers - analog
+    skeleton = cb.get("bvhs", 0) + cb.get("asfs", 0)
+    rest = rep.file_bytes - markers - analog - skeleton
     dropped = list(rep.not_kept)                  # mpz.encoder.not_kept: the one rule
     a = motion.extras.get("c3d")
     model = None
@@ -518,21 +533,28 @@ def _kept(motion, rep, in_size: int | None) -> dict:
         model = {"outputs": int(a.models.shape[1]), "cpnt_bytes": cb.get("cpnt", 0)}
     ratio = None if in_size is None or dropped else in_size / rep.file_bytes
     return {"ratio_input": ratio, "dropped": dropped,
-            "bytes_markers": markers, "bytes_analog": analog, "bytes_rest": rest,
+            "bytes_markers": markers, "bytes_analog": analog, "bytes_skeleton": skeleton,
+            "bytes_rest": rest,
             "ratio_markers_float32": rep.raw_bytes / markers, "model_outputs": model,
             "analog_channels": None if a is None else a.channels}
 
 
 def _print_parts(result: dict, out) -> None:
     from mpz.tools._common import human_size
-    if result["bytes_analog"] or result["bytes_rest"] > 200:
+    if result["bytes_skeleton"]:
+        print(f"  parts    joint positions {human_size(result['bytes_markers'])} "
+              f"({result['ratio_markers_float32']:.1f}:1 vs float32), skeleton and "
+              f"channels {human_size(result['bytes_skeleton'])}, the rest "
+              f"{human_size(result['bytes_rest'])}", file=out)
+    elif result["bytes_analog"] or result["bytes_rest"] > 200:
         ch = result["analog_channels"]
-        exact = f" ({ch} channels, exact)" if ch else ""
+        exact = f" ({ch} channel{'s' * (ch != 1)}, exact)" if ch else ""
         print(f"  parts    markers {human_size(result['bytes_markers'])} "
               f"({result['ratio_markers_float32']:.1f}:1 vs float32), analog "
               f"{human_size(result['bytes_analog'])}{exact}, parameters and the rest "
               f"{human_size(result['bytes_rest'])}", file=out)
     if result["model_outputs"]:
         mo = result["model_outputs"]
-        print(f"  models   {mo['outputs']} model outputs (not markers) in their own units, "
+        n = mo["outputs"]
+        print(f"  models   {n} model output{'s' * (n != 1)} (not markers) in their own units, "
               f"each axis within its declared bound (mpzinfo -vv: cpnt)", file=out)
