@@ -192,3 +192,91 @@ def test_compare_real_trc_in_metres_at_120_hz(shared_data, tmp_path, capsys):
     want = float(np.linalg.norm(999 * a.positions[ok], axis=1).max())
     code, out, err = cli(capsys, "compare", src, tmp_path / "m.trc", "--json")
     assert code == 0 and json.loads(out)["max"] == pytest.approx(want, rel=1e-9)
+
+
+# -- 3. an angle summary is in the skeleton's angle unit ------------------------------------
+
+ASF = """:version 1.10
+:name T
+:units
+  mass 1.0
+  length 0.45
+  angle {unit}
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name b1
+     direction 1 0 0
+     length 2
+     axis 0 0 90 XYZ
+    dof rx rz
+  end
+:hierarchy
+  begin
+    root b1
+  end
+"""
+
+
+def amc(values: np.ndarray, unit: str) -> str:
+    head = ":FULLY-SPECIFIED\n" + (":DEGREES\n" if unit == "deg" else "")
+    rows = [f"{i + 1}\nroot {' '.join(f'{v:g}' for v in r[:6])}\n"
+            f"b1 {' '.join(f'{v:g}' for v in r[6:])}\n" for i, r in enumerate(values)]
+    return head + "".join(rows)
+
+
+def best_two_segments(x: np.ndarray) -> float:
+    """The least sum of squared deviations from the segment means, over every split in two."""
+    return min(float(((x[:s] - x[:s].mean(0)) ** 2).sum() + ((x[s:] - x[s:].mean(0)) ** 2).sum())
+               for s in range(1, len(x)))
+
+
+@pytest.mark.parametrize("unit, scale", [("deg", 1.0), ("rad", 0.01)])
+def test_angle_summary_is_labelled_in_the_skeletons_angle_unit(tmp_path, capsys, unit, scale):
+    rng = np.random.default_rng(7)
+    values = np.round(np.concatenate([rng.normal(0, 1, (8, 8)), rng.normal(5, 1, (8, 8))]), 2)
+    values[:, 3:] *= scale                        # the rotations, in the ASF's angle unit
+    (tmp_path / "t.asf").write_text(ASF.format(unit=unit))
+    (tmp_path / "t.amc").write_text(amc(values, unit))
+    want = best_two_segments(values)
+    code, out, err = cli(capsys, "summary", tmp_path / "t.amc", "--asf", tmp_path / "t.asf",
+                         "--space", "angles", "--k", "2", "--json")
+    doc = json.loads(out)
+    assert code == 0, err
+    assert doc["units"] == unit and doc["wssse_units"] == f"{unit}^2"
+    assert doc["levels"][0]["wssse"] == pytest.approx(want, rel=1e-9)
+    assert "3 translations in the skeleton's length units" in doc["description"]
+    code, out, _ = cli(capsys, "summary", tmp_path / "t.amc", "--asf", tmp_path / "t.asf",
+                       "--space", "angles", "--k", "2")
+    assert f"WSSSE {want:.6g} {unit}\u00b2" in out and "mm\u00b2" not in out
+    packed = tmp_path / "t.mpz"                    # read back from an .mpz: the same label
+    code, _, err = cli(capsys, "encode", tmp_path / "t.amc", "--asf", tmp_path / "t.asf",
+                       "-o", packed, "--summary", "2", "--summary-space", "angles", "-q")
+    assert code == 0, err
+    code, out, _ = cli(capsys, "summary", packed, "--json", "--no-decode")
+    assert json.loads(out)["wssse_units"] == f"{unit}^2"
+
+
+def test_real_amc_angle_summary_is_in_degrees(shared_data, capsys):
+    """QA report: 02_01.amc --space angles --k 6 printed "WSSSE 571181 mm²"."""
+    code, out, _ = cli(capsys, "summary", shared_data / "amc" / "02_01.amc", "--space",
+                       "angles", "--k", "6", "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["units"] == "deg" and doc["wssse_units"] == "deg^2"
+
+
+# -- 4. a k asked of an .mpz that the file does not store -----------------------------------
+
+def test_summary_of_an_mpz_warns_of_a_k_it_does_not_store(tmp_path, capsys):
+    m = generate("walk", frames=20, seed=2)
+    packed = tmp_path / "short.mpz"
+    packed.write_bytes(mpz.encode(m, max_error=1.0, summary=(3, 300)))
+    code, out, err = cli(capsys, "summary", packed, "--no-decode", "--json")
+    assert code == 0 and [lv["k"] for lv in json.loads(out)["levels"]] == [3, 20]
+    code, out, err = cli(capsys, "summary", packed, "--no-decode", "--k", "300")
+    assert code == 1 and "k=300 not stored in the file (stored: 3, 20)" in err

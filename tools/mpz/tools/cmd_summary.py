@@ -12,9 +12,13 @@ total only). ``-`` reads standard input. ``--json`` prints the same as JSON
 with its segments in distinct colours, and the mean pose of each segment of
 the coarsest level, explained in a caption.
 
+With ``--space angles`` the sums are of the skeleton's channel values: labelled in its
+angle unit (deg, or rad for an ASF that says so), its root translations summed with
+them as numbers (the description says how many).
+
 Exit codes: 0 ok; 1 warnings only (a requested ``k`` above the frame count was
-dropped); 2 errors (unreadable input, missing reader or matplotlib); 3 out of
-memory; 64 usage.
+dropped, or one an .mpz does not store); 2 errors (unreadable input, missing reader
+or matplotlib); 3 out of memory; 64 usage.
 """
 from __future__ import annotations
 
@@ -99,8 +103,12 @@ def _levels_from_motion(args, ks):
         levels.append({"k": k, "starts": p.starts, "lengths": lengths, "wssse": p.wssse,
                        "segment_wssse": seg_sse})
     poses = x if args.space == "positions" else motion_series(motion, "positions")[0]
+    units = motion.units or None
+    if args.space == "angles":
+        units, channels = _channel_units(motion.extras.get("skeleton"))
+        what += channels
     info = {"file": os.fspath(args.file), "kind": "motion", "n_frames": n, "rate": motion.rate,
-            "units": motion.units or None, "space": args.space, "description": what,
+            "units": units, "space": args.space, "description": what,
             "dims": int(x.shape[1]), "markers": motion.n_markers}
     return info, levels, poses, motion.parents, warnings
 
@@ -127,6 +135,12 @@ def _levels_from_mpz(args, ks):
             series = motion_series(read_mpz_input_bytes(data), summ.space)[0]
         except MPZError:
             series = None        # e.g. an angle summary of a motion decoded without angles
+    stored = [int(lv.k) for lv in summ.levels]
+    missing = [] if ks is None else [k for k in ks if k not in stored]
+    warnings = []
+    if missing:
+        warnings.append(f"k={','.join(map(str, missing))} not stored in the file (stored: "
+                        f"{', '.join(map(str, stored))})")
     levels = []
     for lv in summ.levels:
         if ks is not None and int(lv.k) not in ks:
@@ -142,14 +156,47 @@ def _levels_from_mpz(args, ks):
                        "segment_wssse": seg_sse,
                        "segment_total": None if seg_sse is None else float(seg_sse.sum()),
                        "means": np.asarray(lv.means, dtype=np.float64)})
-    unit = (summ.units or None) if summ.space == "positions" else "deg"
-    what = ("levels stored in the file" + ("; WSSSE % measured on the decoded motion"
-                                          if series is not None else ""))
+    unit, channels = (summ.units or None), ""
+    if summ.space == "angles":
+        unit, channels = _channel_units(_skeleton_of(data), default="deg")
+    what = ("levels stored in the file" + channels
+            + ("; WSSSE % measured on the decoded motion" if series is not None else ""))
     info = {"file": os.fspath(args.file), "kind": "mpz", "n_frames": n,
             "rate": float(summ.rate) if getattr(summ, "rate", None) else None,
             "units": unit, "space": summ.space, "description": what, "dims": summ.dims,
             "markers": len(summ.names)}
-    return info, levels, None, None, []
+    return info, levels, None, None, warnings
+
+
+def _skeleton_of(data: bytes):
+    """The skeleton an MPZ file's skeleton chunk holds (spec §4.14), else None."""
+    from mpz.chunks.skeleton import Asfs, Bvhs
+    from mpz.container import parse
+    from mpz.skeleton import skeleton_of_record
+    for c in parse(data):
+        if isinstance(c.record, (Bvhs, Asfs)):
+            return skeleton_of_record(c.record)
+    return None
+
+
+def _channel_units(skel, default: str | None = None) -> tuple[str | None, str]:
+    """The unit of an angle summary's sums and what its channels are.
+
+    The series is the skeleton's channel values as stored (spec §4.10, space 1): the
+    rotations in the skeleton's angle unit (deg, or rad for an ASF that says so), and the
+    root's translations in its length units, summed with them as numbers. Returns (the
+    angle unit, or ``default`` without a skeleton; a clause for the description)."""
+    from mpz.io.kinematics import Skeleton
+    from mpz.skeleton import is_rotation
+    if not isinstance(skel, Skeleton):
+        return default, ""
+    kinds = skel.channel_kinds()
+    rot = sum(1 for k in kinds if is_rotation(k))
+    text = f" ({rot} rotations in {skel.angle_unit}"
+    if rot < len(kinds):
+        text += (f"; {len(kinds) - rot} translations in the skeleton's length units, summed "
+                 "with them as numbers")
+    return skel.angle_unit, text + ")"
 
 
 def _means(x: np.ndarray, starts: np.ndarray) -> np.ndarray:
