@@ -88,3 +88,24 @@ def test_a_skeletal_ratio_counts_the_channels_it_stores(tmp_path, two_joint_bvh)
     p = _mpz("encode", "two.bvh", "-o", "b.mpz", cwd=tmp_path)
     assert "vs the 9 channels as float32 (108 B)" in p.stdout
     assert "error    marker layer" in p.stdout
+
+
+def test_small_messages_say_the_right_thing(tmp_path):
+    """QA's small ones: a CSV without units is not called a BVH; a FIFO as output is
+    refused for what it is, not with 'use --force'; a MIPS or DEC source written back as
+    C3D says that its byte order changed."""
+    import os
+
+    from mpz.io import writer_problems
+    from mpz.tools.make_vectors import c3d_motion
+    m = generate("walk", frames=10)
+    write(mpz.Motion(m.positions, m.names, m.rate, "", m.valid), tmp_path / "w.csv")
+    p = _mpz("encode", "w.csv", "-o", "a.mpz", "--max-error", "1mm", cwd=tmp_path)
+    assert p.returncode != 0 and "(CSV stores none)" in p.stderr and "BVH" not in p.stderr
+    os.mkfifo(tmp_path / "ff.mpz")
+    p = _mpz("encode", "w.csv", "-o", "ff.mpz", cwd=tmp_path)
+    assert p.returncode != 0 and "not a regular file" in p.stderr and "--force" not in p.stderr
+    c = c3d_motion(2, storage=1, F=6, M=3, J=0, C=0, n=1)
+    c.extras["c3d"].processor = 86
+    _, notes = writer_problems(c, ".c3d")
+    assert any("MIPS C3D (processor 86)" in n and "Intel byte order" in n for n in notes)

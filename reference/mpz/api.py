@@ -237,10 +237,11 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
                                "use --force to replace it")
         return
     if os.path.lexists(target):
-        if not force:
-            raise EncoderError(f"{target} exists; use --force to replace it")
+        # a FIFO, device or socket first: --force would not help, so it is not offered
         if not stat.S_ISREG(os.stat(target).st_mode):
             raise EncoderError(f"{target} is not a regular file; refusing to replace it")
+        if not force:
+            raise EncoderError(f"{target} exists; use --force to replace it")
 
 
 @contextlib.contextmanager

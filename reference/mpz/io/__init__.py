@@ -325,6 +325,11 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
                           f"{r32!r}")
         elif r32 != rate:
             notes.append(f"C3D stores the rate as float32: {rate!r} Hz reads back as {r32!r}")
+        a = motion.extras.get("c3d")
+        proc = getattr(a, "processor", 84)
+        if proc != 84:
+            notes.append(f"the source was a {'DEC' if proc == 85 else 'MIPS'} C3D (processor "
+                         f"{proc}); it is written in Intel byte order, every value the same")
         if motion.units not in ("", "mm", "cm", "m"):
             notes.append(f"C3D readers know mm, cm and m: units {motion.units!r} read back "
                          "as unknown")

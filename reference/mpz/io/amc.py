@@ -399,7 +399,8 @@ def find_asf(amc_path: StrPath) -> str:
             cands.append((len(s), p))
     if not cands:
         raise InputFormatError(f"no .asf skeleton found for {os.path.basename(amc_path)} "
-                               f"(looked for <prefix of {stem!r}>.asf in {folder}); pass asf=",
+                               f"(looked for <prefix of {stem!r}>.asf in {folder}); name it: --asf "
+                               "PATH on the command line, asf= in Python",
                                path=amc_path)
     return max(cands)[1]
 

@@ -273,7 +273,8 @@ def skeleton_problem(motion: Motion, convention: str) -> str | None:
     what = {"bvh": "BVH", "asf": "AMC/ASF"}[convention]
     if not isinstance(skel, Skeleton) or skel.convention != convention:
         have = "no skeleton" if not isinstance(skel, Skeleton) else \
-            f"a {skel.convention.upper()} skeleton"
+            {"bvh": "a BVH skeleton", "asf": "an ASF skeleton"}.get(
+                skel.convention, f"a {skel.convention} skeleton")
         return (f"the motion has {have}; {what} output needs a motion read from {what} (or "
                 f"an .mpz made from one)")
     C = skel.channel_count
