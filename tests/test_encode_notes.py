@@ -109,3 +109,33 @@ def test_small_messages_say_the_right_thing(tmp_path):
     c.extras["c3d"].processor = 86
     _, notes = writer_problems(c, ".c3d")
     assert any("MIPS C3D (processor 86)" in n and "Intel byte order" in n for n in notes)
+
+
+def test_show_tells_what_a_c3d_holds_beside_its_markers(tmp_path):
+    import json
+
+    from mpz.io.c3d import archive_bytes
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(3, storage=1, F=12, M=4, J=2, C=3, n=2)       # header first frame 10
+    (tmp_path / "s.c3d").write_bytes(archive_bytes(m))
+    p = _mpz("show", "s.c3d", "--json", cwd=tmp_path)
+    c = json.loads(p.stdout)["c3d"]
+    a = m.extras["c3d"]
+    assert (c["model_outputs"], c["analog_channels"], c["analog_samples_per_frame"]) == (2, 3, 2)
+    assert c["first_frame"] == 10 and c["parameter_records"] == len(a.records)
+    assert c["model_gap_fraction"] == 3 / 24           # output 0 starts 3 frames late
+    assert c["storage"] == "float32"
+    p = _mpz("show", "s.c3d", cwd=tmp_path)
+    assert "2 model outputs" in p.stdout and "3 analog channels x 2 samples" in p.stdout
+
+
+def test_the_summary_line_gives_the_k_the_file_holds(tmp_path):
+    """A 30-frame walk cannot have 300 segments: the file holds k = 30 (§4.15: each k at
+    most F), and the report says so instead of repeating the request."""
+    import json
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--summary", "6,300", cwd=tmp_path)
+    assert "k = 6, 30 (asked 6, 300" in p.stdout
+    p = _mpz("encode", "walk.trc", "-o", "b.mpz", "--summary", "6,300", "--json",
+             cwd=tmp_path)
+    assert json.loads(p.stdout)["summary_levels"] == [6, 30]

@@ -288,6 +288,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
         "grid_step": rep.step, "addh": rep.addh, "addh_rule": rep.addh_rule,
         "hierarchy": rep.hierarchy, "seconds": rep.seconds, "chunk_bytes": rep.chunk_bytes,
         "summary_bytes": rep.chunk_bytes.get("smrc", rep.chunk_bytes.get("smry")),
+        "summary_levels": list(mpz.info(data).summary_levels),
         "summary_chunk": next((t for t in ("smrc", "smry") if t in rep.chunk_bytes), None),
         "skeleton": _skeleton_report(data),
         "nodes": [vars(n) for n in rep.nodes]}
@@ -323,9 +324,14 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
     kind = result["summary_chunk"]
     if kind is not None:
         smry = rep.chunk_bytes[kind]
+        stored = mpz.info(data).summary_levels           # the k the file holds
+        asked = sorted(set(opts.summary))
+        clipped = ("" if list(stored) == asked else
+                   f" (asked {', '.join(map(str, asked))}: at most one segment a frame, "
+                   f"{rep.frames} frames)")
         print(f"  summary  {kind} chunk {human_size(smry)} "
               f"({100 * smry / rep.file_bytes:.0f} % of the file), "
-              f"k = {', '.join(str(k) for k in opts.summary)}", file=out)
+              f"k = {', '.join(str(k) for k in stored)}{clipped}", file=out)
         if smry > rep.file_bytes - smry:
             # smry stores k x D means as raw 32-bit integers (spec §4.10); smrc (§4.15)
             # range-codes them (docs/summary-size.md)

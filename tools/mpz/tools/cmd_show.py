@@ -56,8 +56,29 @@ def summary(motion, path: str) -> dict:
         "gap_fraction": motion.gap_fraction,
         "skeletal": motion.parents is not None,
         "channels": None if motion.angles is None else int(motion.angles.shape[1]),
+        "c3d": _archive(motion),
         "metadata": dict(motion.metadata),
     }
+
+
+def _archive(motion) -> dict | None:
+    """What a C3D holds beside its markers (the archive of spec §4.13), or None: before,
+    show gave auckland's 54 markers with 0 % gaps and said nothing of its 36 model outputs
+    (12 % gaps), 24 analog channels or 12 events."""
+    import numpy as np
+    a = motion.extras.get("c3d")
+    if a is None:
+        return None
+    used = a.parameter("EVENT", "USED")
+    events = (int(np.frombuffer(used.data, "<i2", 1)[0])
+              if used is not None and used.type == 2 and len(used.data) >= 2 else None)
+    J = int(a.models.shape[1])
+    return {"model_outputs": J,
+            "model_gap_fraction": float(1 - a.model_valid.mean()) if J else 0.0,
+            "analog_channels": a.channels, "analog_samples_per_frame": a.analog_samples,
+            "events": events, "first_frame": a.first_frame(),
+            "parameter_records": len(a.records),
+            "storage": "int16" if a.word_storage == 0 else "float32"}
 
 
 def run(args) -> int:
@@ -85,6 +106,19 @@ def run(args) -> int:
     ]
     if info["channels"] is not None:
         lines.append(f"channels:  {info['channels']}")
+    c = info["c3d"]
+    if c is not None:
+        parts = [f"{c['storage']} points, first frame {c['first_frame']}"]
+        if c["model_outputs"]:
+            parts.append(f"{c['model_outputs']} model outputs (not markers; "
+                         f"{c['model_gap_fraction']:.2%} gaps)")
+        if c["analog_channels"]:
+            parts.append(f"{c['analog_channels']} analog channels x "
+                         f"{c['analog_samples_per_frame']} samples a frame")
+        if c["events"]:
+            parts.append(f"{c['events']} events")
+        parts.append(f"{c['parameter_records']} parameter records")
+        lines.append("c3d:       " + ", ".join(parts))
     if "warning" in motion.metadata:
         lines.append(f"warning:   {printable(motion.metadata['warning'])}")
     print("\n".join(lines))
