@@ -71,7 +71,9 @@ def add_parser(sub):
     # issue 12: the default is a declared bound; the paper's unbounded mode only by name
     p.add_argument("--lossy", action="store_true",
                    help="the paper's lossy mode: patterns only, no declared bound (default: "
-                   f"a bound: exact on an int16 C3D's grid, else {D.default_error_mm:g} mm)")
+                   f"a bound: exact on an int16 C3D's grid, else {D.default_error_mm:g} mm). "
+                   "For reproducing the paper: on 24 of 25 real captures it is larger "
+                   "than --max-error 1mm, with errors of 12 to 500 mm (README)")
     p.add_argument("--model-error", action="append", metavar="KIND=F",
                    help="C3D model outputs: max error as a fraction of each channel's range, "
                    f"per kind (ANGLES, FORCES, MOMENTS, POWERS, SCALARS, REACTIONS; default "
