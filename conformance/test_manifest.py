@@ -154,7 +154,8 @@ def test_readme_counts_the_vectors_there_are():
     """The README's count for decoder authors is the manifest's, group by group (it said
     81 from 1.0 until 1.1 had 332)."""
     readme = (SPEC.parents[1] / "README.md").read_text()
-    groups = {g: sum(v["group"] == g for v in MAN["vectors"]) for g in ("valid", "uncommon", "invalid")}
+    groups = {g: sum(v["group"] == g for v in MAN["vectors"])
+              for g in ("valid", "uncommon", "invalid")}
     said = (f"the {len(MAN['vectors'])} vectors ({groups['valid']} valid, with the Appendix A "
             f"example, {groups['uncommon']} uncommon and {groups['invalid']} invalid;")
     assert said in " ".join(readme.split())
