@@ -133,13 +133,13 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         ext = "." + args.format
     asf = _asf_output(args, job.output, ext if not to_stdout or args.format else None, source)
     compile_notice(args.quiet, args.verbose, announce=False)
+    # a skeletal file's joint positions come from its channels (read_mpz_input, §6.10)
     motion = read_mpz_input(job.input, args.max_samples)
     if to_stdout:
         ext = _target_ext(args, STDIO, motion)
         if ext in (".npy", ".c3d") and not args.force and sys.stdout.isatty():
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
-    motion = _joint_positions(motion, ext)
     notes = check_writable(motion, ext, path=job.output)
     if not args.quiet:
         for note in notes:
@@ -196,14 +196,3 @@ def _asf_output(args: argparse.Namespace, output: str, ext: str | None,
     asf = args.asf if args.asf is not None else default_asf_path(output)
     check_output(asf, force=args.force, source=source)
     return asf
-
-
-def _joint_positions(motion, ext: str):
-    """A skeletal motion written as positions (C3D, TRC, NPY, CSV): its joint positions
-    computed from the decoded channels (spec §6.10, within the declared position bound),
-    not the coarser marker layer."""
-    from mpz.io import SKELETON_FORMATS
-    from mpz.skeleton import with_joint_positions
-    if ext in SKELETON_FORMATS or motion.extras.get("skeleton") is None:
-        return motion
-    return with_joint_positions(motion)
