@@ -323,3 +323,30 @@ def test_exclusive_commit_loses_to_a_file_made_meanwhile(tmp_path: Path) -> None
         target.write_bytes(b"the other writer")    # appears after the first check
     assert target.read_bytes() == b"the other writer"
     assert os.listdir(tmp_path) == ["late.npy"]
+
+
+def test_a_signal_delivered_to_another_thread_waits_for_the_held_region() -> None:
+    """While atomic_output creates its temporary file, SIGTERM must not strike. Blocking
+    it in the main thread's mask is not enough: sent to the process, the kernel gives it to
+    a thread that does not block it, and Python runs the handler in the main thread at its
+    next instruction (a .part file was once left behind so). The region must finish, and
+    the signal act when it ends."""
+    import threading
+
+    from mpz.api import _signals_held, _sigterm_raises
+    go = threading.Event()
+    # made before the region, so this thread does not inherit the blocked mask
+    killer = threading.Thread(target=lambda: (go.wait(10), os.kill(os.getpid(), signal.SIGTERM)))
+    killer.start()
+    finished = []
+    with pytest.raises(SystemExit) as exc:
+        with _sigterm_raises():
+            with _signals_held():
+                go.set()
+                killer.join()
+                for _ in range(100000):          # instructions, where a handler would run
+                    pass
+                time.sleep(0.05)
+                finished.append(True)
+    assert finished == [True] and exc.value.code == 128 + signal.SIGTERM
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
