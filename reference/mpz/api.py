@@ -298,10 +298,10 @@ def _signals_held() -> Iterator[None]:
         with contextlib.ExitStack() as restore:
             if old_mask is not None:
                 restore.callback(signal.pthread_sigmask, signal.SIG_SETMASK, old_mask)
-            for sig, handler in old_handlers.items():
-                restore.callback(signal.signal, sig, handler)
-        for sig in dict.fromkeys(noted):
-            signal.raise_signal(sig)                   # to the handler it was meant for
+            for held_sig, handler in old_handlers.items():
+                restore.callback(signal.signal, held_sig, handler)
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)                # to the handler it was meant for
 
 
 def _create_temp(folder: str, name: str, suffix: str) -> str:
