@@ -361,3 +361,72 @@ def test_a_c3d_that_crashes_ezc3d_is_read_without_it(tmp_path: Path, missing: st
     assert f"without ANALOG:{missing}".encode() in p.stderr
     back = mpz.decode(tmp_path / "out.mpz").extras["c3d"]
     assert np.array_equal(back.analog.view(np.uint32), a.analog.view(np.uint32))
+
+
+def _c3d_variant(tmp_path: Path, name: str, change) -> Path:
+    """A synthetic C3D (make_vectors.c3d_motion, with ANALOG:SCALE and OFFSET) whose
+    parameter records ``change`` edits: each variant holds one of the parameter sections
+    on which ezc3d 1.7.2 crashes (found by fuzzing ezc3d in forked processes)."""
+    import struct
+
+    from mpz.io import c3dbin
+    from mpz.io.c3d import archive_bytes
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(4, storage=1, F=10, M=4, J=1, C=2, n=2)
+    a = m.extras["c3d"]
+    gid = {r.name: -r.group for r in a.records if r.group < 0}
+    R = c3dbin.ParamRecord
+    a.records += [R(gid[b"ANALOG"], False, b"SCALE", b"", 4, (2,), struct.pack("<2f", 1, 1)),
+                  R(gid[b"ANALOG"], False, b"OFFSET", b"", 2, (2,), struct.pack("<2h", 0, 0))]
+    change(a.records, gid, R)
+    path = tmp_path / f"{name}.c3d"
+    path.write_bytes(archive_bytes(m))
+    return path
+
+
+def _replace(records, group: int, name: bytes, new) -> None:
+    i = next(i for i, r in enumerate(records) if r.group == group and r.name == name)
+    records[i] = new
+
+
+EZC3D_CRASHES = {
+    "char-without-dimensions": (lambda rs, g, R: rs.append(R(g[b"POINT"], False, b"NOTE", b"",
+                                                             -1, (), b"x")),
+                                "a char parameter without dimensions (NOTE)"),
+    "empty-point-rate": (lambda rs, g, R: _replace(rs, g[b"POINT"], b"RATE",
+                                                   R(g[b"POINT"], False, b"RATE", b"", 4, (0,))),
+                         "POINT:RATE with no element"),
+    "rotation-ratio-negative": (lambda rs, g, R: rs.extend([
+        R(-9, False, b"ROTATION", b""),
+        R(9, False, b"RATIO", b"", 2, (), b"\xff\xff")]), "ROTATION:RATIO < 0"),
+    "description-255": (lambda rs, g, R: rs.append(R(g[b"POINT"], False, b"NOTE", b"d" * 255,
+                                                     2, (), b"\x01\x00")),
+                        "a description length of 255"),
+    "eight-dimensions": (lambda rs, g, R: rs.append(R(g[b"POINT"], False, b"NOTE", b"", 1,
+                                                      (1,) * 8, b"\x01")),
+                         "a parameter with 8 dimensions"),
+    "analog-rate-1e9": (lambda rs, g, R: _replace(rs, g[b"ANALOG"], b"RATE",
+                                                  R(g[b"ANALOG"], False, b"RATE", b"", 4, (),
+                                                    np.float32(1e9).tobytes())),
+                        "ANALOG:RATE more than 10,000 times POINT:RATE"),
+}
+
+
+def test_the_ezc3d_check_passes_a_sound_file(tmp_path: Path) -> None:
+    from mpz.io import c3dbin
+    path = _c3d_variant(tmp_path, "sound", lambda rs, g, R: None)
+    assert c3dbin.ezc3d_hazard(path.read_bytes()) is None
+
+
+@pytest.mark.parametrize("name", sorted(EZC3D_CRASHES))
+def test_every_known_ezc3d_crash_is_read_without_ezc3d(tmp_path: Path, name: str) -> None:
+    """Each parameter section that crashes ezc3d 1.7.2 is named by the check, and `mpz
+    encode` (in a subprocess: a crash fails the test, not the run) ends with a result
+    or a clean error, never a signal."""
+    from mpz.io import c3dbin
+    change, why = EZC3D_CRASHES[name]
+    path = _c3d_variant(tmp_path, name, change)
+    assert c3dbin.ezc3d_hazard(path.read_bytes()) == f"{why} (ezc3d 1.7 crashes on it)"
+    p = run([command("mpz"), "encode", str(path), "-o", "out.mpz"], tmp_path)
+    assert p.returncode in (0, 2), (p.returncode, p.stderr[-300:])
+    assert b"Traceback" not in p.stderr
