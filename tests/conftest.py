@@ -50,3 +50,38 @@ Frame Time: 0.0333333
 1 0 0 0 5 0 10 0 0
 2 0 0 0 10 0 20 0 0
 """
+
+
+def _one_bone_asf(angle: str = "deg", axis: str = "0 0 90", dofs: str = "rx rz") -> str:
+    """The ASF text of a root and one bone ``b1`` (length 2 along x) with ``dofs``."""
+    return f""":version 1.10
+:name T
+:units
+  mass 1.0
+  length 0.45
+  angle {angle}
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name b1
+     direction 1 0 0
+     length 2
+     axis {axis} XYZ
+    dof {dofs}
+  end
+:hierarchy
+  begin
+    root b1
+  end
+"""
+
+
+@pytest.fixture(scope="session")
+def one_bone_asf():
+    """A function giving a one-bone ASF text (angle unit, bone axis and dofs as asked)."""
+    return _one_bone_asf

@@ -196,31 +196,6 @@ def test_compare_real_trc_in_metres_at_120_hz(shared_data, tmp_path, capsys):
 
 # -- 3. an angle summary is in the skeleton's angle unit ------------------------------------
 
-ASF = """:version 1.10
-:name T
-:units
-  mass 1.0
-  length 0.45
-  angle {unit}
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-  begin
-     id 1
-     name b1
-     direction 1 0 0
-     length 2
-     axis 0 0 90 XYZ
-    dof rx rz
-  end
-:hierarchy
-  begin
-    root b1
-  end
-"""
 
 
 def amc(values: np.ndarray, unit: str) -> str:
@@ -237,11 +212,12 @@ def best_two_segments(x: np.ndarray) -> float:
 
 
 @pytest.mark.parametrize("unit, scale", [("deg", 1.0), ("rad", 0.01)])
-def test_angle_summary_is_labelled_in_the_skeletons_angle_unit(tmp_path, capsys, unit, scale):
+def test_angle_summary_is_labelled_in_the_skeletons_angle_unit(tmp_path, capsys, unit, scale,
+                                                              one_bone_asf):
     rng = np.random.default_rng(7)
     values = np.round(np.concatenate([rng.normal(0, 1, (8, 8)), rng.normal(5, 1, (8, 8))]), 2)
     values[:, 3:] *= scale                        # the rotations, in the ASF's angle unit
-    (tmp_path / "t.asf").write_text(ASF.format(unit=unit))
+    (tmp_path / "t.asf").write_text(one_bone_asf(angle=unit))
     (tmp_path / "t.amc").write_text(amc(values, unit))
     want = best_two_segments(values)
     code, out, err = cli(capsys, "summary", tmp_path / "t.amc", "--asf", tmp_path / "t.asf",

@@ -274,31 +274,6 @@ def test_model_output_guard_and_range_cover_gap_samples(float_source):
 
 
 # ------------------------------------------------------------------- §4.14.2 asfs --
-ASF = """:version 1.10
-:name T
-:units
-  mass 1.0
-  length 0.45
-  angle deg
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-  begin
-     id 1
-     name b1
-     direction 1 0 0
-     length 2
-     axis 0 0 0 XYZ
-    dof rx
-  end
-:hierarchy
-  begin
-    root b1
-  end
-"""
 AMC = """:FULLY-SPECIFIED
 :DEGREES
 1
@@ -311,8 +286,9 @@ b1 20
 
 
 @pytest.fixture(scope="module")
-def asf_file() -> bytes:
-    return mpz.encode(parse_amc(AMC, parse_asf(ASF)), max_error=0.5)
+def asf_file(one_bone_asf) -> bytes:
+    asf = one_bone_asf(axis="0 0 0", dofs="rx")
+    return mpz.encode(parse_amc(AMC, parse_asf(asf)), max_error=0.5)
 
 
 def _asfs(data: bytes, **changes) -> bytes:
