@@ -430,3 +430,23 @@ def test_every_known_ezc3d_crash_is_read_without_ezc3d(tmp_path: Path, name: str
     p = run([command("mpz"), "encode", str(path), "-o", "out.mpz"], tmp_path)
     assert p.returncode in (0, 2), (p.returncode, p.stderr[-300:])
     assert b"Traceback" not in p.stderr
+
+
+def test_a_signalling_nan_in_a_c3d_reads_without_a_numpy_warning(tmp_path: Path) -> None:
+    """Float words with a signalling NaN's bits (0x7F800001), in a parameter and in the
+    points, are read as NaN; numpy's "invalid value encountered in cast" warning, which
+    their widening to float64 raised, is not printed at the user."""
+    import warnings
+
+    from mpz.io import c3dbin
+    snan = (0x7F800001).to_bytes(4, "little")
+    path = _c3d_variant(tmp_path, "snan", lambda rs, g, R: rs.append(
+        R(g[b"POINT"], False, b"ODD", b"", 4, (1,), snan)))
+    data = bytearray(path.read_bytes())
+    start = (int.from_bytes(data[16:18], "little") - 1) * 512      # header word 9
+    data[start:start + 4] = snan                                     # frame 1, point 1, x
+    path.write_bytes(bytes(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d = c3dbin.parse_c3d(bytes(data))
+    assert np.isnan(d.params["POINT"]["ODD"][0]) and np.isnan(d.points[0, 0, 0])

@@ -240,7 +240,8 @@ def _parse_value(data: bytes, pos: int, codec: _Codec, end: int) -> ParamValue |
         return np.frombuffer(data, np.int8, count, pos).astype(np.int64)
     if ptype == 2:
         return codec.int16(data, pos, count).astype(np.int64)
-    return codec.float32(data, pos, count).astype(np.float64)
+    with np.errstate(invalid="ignore"):     # a signalling NaN widens quietly, as ezc3d reads it
+        return codec.float32(data, pos, count).astype(np.float64)
 
 
 def _text(raw: bytes) -> str:
@@ -671,7 +672,8 @@ def parse_c3d(data: bytes) -> C3DData:
         words = codec.float32(raw, 0, n_frames * frame_words).reshape(n_frames, frame_words)
     else:
         words = codec.int16(raw, 0, n_frames * frame_words).reshape(n_frames, frame_words)
-    pts = words[:, :4 * used].reshape(n_frames, used, 4).astype(np.float64)
+    with np.errstate(invalid="ignore"):     # signalling NaNs (a gap's bits) widen quietly
+        pts = words[:, :4 * used].reshape(n_frames, used, 4).astype(np.float64)
     # the archive keeps the fourth words and the analog words as stored (normalised)
     store = "<f4" if float_storage else "<i2"
     point_words = np.ascontiguousarray(words[:, 3:4 * used:4]).astype(store)
