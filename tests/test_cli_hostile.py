@@ -450,3 +450,25 @@ def test_a_signalling_nan_in_a_c3d_reads_without_a_numpy_warning(tmp_path: Path)
         warnings.simplefilter("error")
         d = c3dbin.parse_c3d(bytes(data))
     assert np.isnan(d.params["POINT"]["ODD"][0]) and np.isnan(d.points[0, 0, 0])
+
+
+def test_a_c3d_parameter_section_mpz_cannot_store_is_not_kept_and_said(tmp_path: Path) -> None:
+    """A C3D may declare a group id twice; MPZ's cprm may not (§4.13.2). The encoder used
+    to write such a section, and its own decoder then refused the file. Now the reader
+    keeps the markers without the archive and says why, and an archive given through the
+    API is refused by the encoder before anything is written."""
+    from mpz.errors import EncoderError
+    from mpz.tools.make_vectors import c3d_motion
+    path = _c3d_variant(tmp_path, "twice", lambda rs, g, R: rs.append(
+        R(-g[b"POINT"], False, b"POINT", b"")))
+    m = read(path)
+    assert "c3d" not in m.extras
+    assert "group id 1 declared twice (§4.13.2)" in m.metadata["warning"]
+    back = mpz.decode(mpz.encode(m, max_error=1.0))       # markers only, a valid file
+    assert back.n_frames == 10
+    c = c3d_motion(4, storage=1, F=10, M=4, J=1, C=2, n=2)
+    a = c.extras["c3d"]
+    gid = next(-r.group for r in a.records if r.group < 0)
+    a.records.append(type(a.records[0])(-gid, False, b"AGAIN", b""))
+    with pytest.raises(EncoderError, match="cannot be kept: record .* declared twice"):
+        mpz.encode(c, max_error=1.0)

@@ -308,14 +308,24 @@ def analog_record(a: C3DArchive) -> Cana | None:
                 table=tuple(_channel(p) for p in plans), coded=enc.finish())
 
 
-def parameter_record(a: C3DArchive) -> Cprm:
-    """§4.13.2 the cprm record of an archive."""
+def stored_parameters(records: list[ParamRecord]) -> Cprm:
+    """§4.13.2 the cprm record of a C3D's parameter records, stored (not deflated)."""
     recs = tuple(Param(group=r.group, locked=int(r.locked), name=r.name,
                        description=r.description,
                        type=None if r.is_group else r.type,
                        dims=None if r.is_group else bytes(r.dims),
-                       data=None if r.is_group else r.data) for r in a.records)
-    stored = Cprm(coding=ByteCoding.STORED, count=len(recs), records=recs)
+                       data=None if r.is_group else r.data) for r in records)
+    return Cprm(coding=ByteCoding.STORED, count=len(recs), records=recs)
+
+
+def parameter_record(a: C3DArchive) -> Cprm:
+    """§4.13.2 the cprm record of an archive. A section that breaks a §4.13.2 rule (a
+    group declared twice, which a C3D may hold) is refused here, not written for the
+    decoder to refuse."""
+    stored = stored_parameters(a.records)
+    fault = stored.fault()
+    if fault is not None:
+        raise EncoderError(f"the C3D parameter section cannot be kept: {fault} (§4.13.2)")
     return smaller(stored, stored.recoded(ByteCoding.DEFLATE))
 
 

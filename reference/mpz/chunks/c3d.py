@@ -347,23 +347,32 @@ class Cprm(Record):
 
     def check(self, ctx: Context) -> None:
         _set_rules(ctx)
+        fault = self.fault()
+        if fault is not None:
+            _fail(fault, "§4.13.2")
+
+    def fault(self) -> str | None:
+        """The first §4.13.2 record rule the section breaks, or None: the check of a
+        decoder (:meth:`check`), and of the reader and the encoder before a C3D's
+        parameter section is kept (a C3D may declare a group twice; MPZ may not)."""
         groups: set[int] = set()
         for i, r in enumerate(self.records):
             if r.group == 0:
-                _fail(f"record {i}: group id 0", "§4.13.2")
+                return f"record {i}: group id 0"
             if not 1 <= len(r.name) <= 127:
-                _fail(f"record {i}: name of {len(r.name)} bytes, not 1..127", "§4.13.2")
+                return f"record {i}: name of {len(r.name)} bytes, not 1..127"
             if r.locked > 1:
-                _fail(f"record {i}: locked flag {r.locked}, not 0 or 1", "§4.13.2")
+                return f"record {i}: locked flag {r.locked}, not 0 or 1"
             if r.is_group:
                 if -r.group in groups:
-                    _fail(f"record {i}: group id {-r.group} declared twice", "§4.13.2")
+                    return f"record {i}: group id {-r.group} declared twice"
                 groups.add(-r.group)
                 continue
             if r.type not in _PARAM_TYPES:
-                _fail(f"record {i}: parameter type {r.type}, not -1, 1, 2 or 4", "§4.13.2")
+                return f"record {i}: parameter type {r.type}, not -1, 1, 2 or 4"
             if len(r.dims or b"") > 7:
-                _fail(f"record {i}: {len(r.dims or b'')} dimensions, at most 7", "§4.13.2")
+                return f"record {i}: {len(r.dims or b'')} dimensions, at most 7"
+        return None
 
 
 # ----------------------------------------------------------------- §4.13.3 --

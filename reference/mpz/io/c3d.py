@@ -129,8 +129,7 @@ def motion_from_c3d_bytes(data: bytes, *, source: str = "",
     """Parse C3D bytes with the pure-numpy reader into a Motion."""
     d = c3dbin.parse_c3d(data)
     point = d.params.get("POINT", {})
-    rate_v = point.get("RATE")
-    rate = float(rate_v[0]) if rate_v is not None and len(rate_v) else d.header_rate
+    rate = c3dbin.param_number(d.params, "POINT", "RATE", d.header_rate)
     proc = {c3dbin.PROC_INTEL: "intel", c3dbin.PROC_DEC: "dec",
             c3dbin.PROC_MIPS: "mips"}[d.processor]
     return motion_from_points(d.points, d.residual_words, point, rate,
@@ -182,12 +181,18 @@ def _joined(old: str | None, new: str) -> str:
 def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
     """The markers of ``full`` (every C3D point) with the rest of the file in
     ``extras["c3d"]``: model outputs leave the marker set (spec §4.13.3)."""
-    from mpz.c3darchive import MODEL_PARAMETERS, C3DArchive
+    from mpz.c3darchive import MODEL_PARAMETERS, C3DArchive, stored_parameters
     F, P = full.n_frames, full.n_markers
     if d.points.shape[:2] != (F, P) or d.point_words.shape != (F, P):
         full.metadata["warning"] = _joined(full.metadata.get("warning"), (
             f"C3D archive not kept: the numpy reader sees {d.points.shape[1]} points x "
             f"{d.points.shape[0]} frames, ezc3d {P} x {F}"))
+        return full
+    fault = stored_parameters(list(d.records)).fault()
+    if fault is not None:          # a C3D may, MPZ's cprm (§4.13.2) may not
+        full.metadata["warning"] = _joined(full.metadata.get("warning"), (
+            f"C3D archive not kept: its parameter section breaks a rule of MPZ's cprm "
+            f"chunk: {fault} (§4.13.2)"))
         return full
     point = d.params.get("POINT", {})
     labels = _labels(point, P)

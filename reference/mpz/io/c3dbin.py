@@ -356,6 +356,20 @@ def _first(params: dict[str, dict[str, ParamValue | None]], group: str, name: st
     return v[0]
 
 
+def param_number(params: dict[str, dict[str, ParamValue | None]], group: str, name: str,
+            default: float, *, count: bool = False) -> float:
+    """:func:`_first` of a numeric parameter: ``default`` if absent or empty. A char value
+    (a text where the C3D user guide has a number), or for a ``count`` a value that is
+    not finite, is an InputFormatError that names the parameter, not a ValueError from
+    ``int('')`` or ``int(nan)``."""
+    v = _first(params, group, name, default)
+    if isinstance(v, str):
+        _fail(f"{group}:{name} holds the text {v[:20]!r}, not a number")
+    if count and not math.isfinite(float(v)):
+        _fail(f"{group}:{name} is {float(v)!r}, not a count")
+    return float(v)
+
+
 def _trial_frame(params: dict[str, dict[str, ParamValue | None]], name: str) -> int | None:
     """TRIAL:``name`` as the unsigned 32-bit frame number of its two int16 words (low,
     high), None when absent."""
@@ -433,7 +447,7 @@ def frame_range(params: dict[str, dict[str, ParamValue | None]], first: int,
         return (start if start is not None else first), count
     if n > 0:
         return first, n
-    fp = int(_first(params, "POINT", "FRAMES", 0))
+    fp = int(param_number(params, "POINT", "FRAMES", 0, count=True))
     n = fp + 65536 if fp < 0 else fp
     if n <= 0:
         _fail(f"no frames (header first {first}, last {last})", 6)
@@ -633,16 +647,16 @@ def parse_c3d(data: bytes) -> C3DData:
     hdr_data_start = codec.uint16(data, 16)
     hdr_rate = float(codec.float32(data, 20)[0])
 
-    used = int(_first(params, "POINT", "USED", hdr_points))
+    used = int(param_number(params, "POINT", "USED", hdr_points, count=True))
     if used < 0:
         used += 65536  # POINT:USED is unsigned in files with > 32767 points
     if used > MAX_POINTS:
         _fail(f"POINT:USED {used} exceeds {MAX_POINTS}")
-    scale = float(_first(params, "POINT", "SCALE", hdr_scale))
+    scale = param_number(params, "POINT", "SCALE", hdr_scale)
     # POINT:DATA_START must point past the parameter section; some writers
     # (c3d.org sample13, Dance1.c3d) store 1 there: fall back to the header
     param_end_block = data[0] + max(data[pstart + 2], 1)
-    data_start = int(_first(params, "POINT", "DATA_START", hdr_data_start))
+    data_start = int(param_number(params, "POINT", "DATA_START", hdr_data_start, count=True))
     if data_start < 0:
         data_start += 65536
     if data_start < param_end_block:
