@@ -472,3 +472,27 @@ def test_a_c3d_parameter_section_mpz_cannot_store_is_not_kept_and_said(tmp_path:
     a.records.append(type(a.records[0])(-gid, False, b"AGAIN", b""))
     with pytest.raises(EncoderError, match="cannot be kept: record .* declared twice"):
         mpz.encode(c, max_error=1.0)
+
+
+def test_a_c3d_label_with_a_nul_is_renamed_and_comes_back_as_stored(tmp_path: Path) -> None:
+    """An MPZ marker name holds no NUL (§4.2); a C3D label may. The reader names such a
+    marker with U+FFFD in its place (said in renamed_points), so the file encodes, and the
+    C3D written back has the label as stored. Before, the encode stopped with an error."""
+    from mpz.io import c3dbin
+
+    def nul_in_first_label(rs, g, R):
+        i = next(i for i, r in enumerate(rs) if r.group == g[b"POINT"] and r.name == b"LABELS")
+        w = rs[i].dims[0]
+        data = bytearray(rs[i].data)
+        data[1] = 0                                  # the second byte of the first label
+        rs[i] = R(rs[i].group, rs[i].locked, rs[i].name, rs[i].description, rs[i].type,
+                  rs[i].dims, bytes(data))
+        assert w >= 2
+    path = _c3d_variant(tmp_path, "nul", nul_in_first_label)
+    m = read(path)
+    assert any("\ufffd" in n for n in m.names) and "\x00" in m.metadata["renamed_points"]
+    back = mpz.decode(mpz.encode(m, max_error=1.0))
+    write(back, tmp_path / "back.c3d")
+    labels = lambda d: d.params["POINT"]["LABELS"]                           # noqa: E731
+    assert labels(c3dbin.parse_c3d((tmp_path / "back.c3d").read_bytes())) == \
+        labels(c3dbin.parse_c3d(path.read_bytes()))

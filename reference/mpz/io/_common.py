@@ -89,8 +89,10 @@ def decode_text(data: bytes) -> str:
 def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
     """Make names non-empty and unique.
 
-    Empty names become ``_unnamed_<i>`` (``i`` is the 0-based point index);
-    exact duplicates get ``#2``, ``#3``, ... in order of appearance.
+    Empty names become ``_unnamed_<i>`` (``i`` is the 0-based point index); a NUL inside
+    a name, which an MPZ name cannot hold (spec §4.2), becomes U+FFFD (a fuzzed C3D label
+    ``Dani\x00l:LFRM`` stopped the encode); exact duplicates get ``#2``, ``#3``, ... in
+    order of appearance.
 
     Returns
     -------
@@ -109,7 +111,7 @@ def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
     counts: dict[str, int] = {}
     for i, n in enumerate(names):
         n = str(n)
-        new = n if n else f"_unnamed_{i}"
+        new = n.replace("\x00", "\ufffd") if n else f"_unnamed_{i}"
         if new in seen:
             k = counts.get(new, 1)
             cand = new
