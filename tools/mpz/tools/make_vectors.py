@@ -2943,7 +2943,7 @@ def skeleton_vectors(vs: VectorSet):
     ov = dataclasses.replace(rec, channels=tuple(dataclasses.replace(e, order=1, wrap=0, low=0)
                                                  if i == plain else e
                                                  for i, e in enumerate(rec.channels)))
-    xo = rec.integers(F)
+    xo = rec.integers(F).copy()          # read-only: the record keeps it (chunks.base.kept)
     xo[:, plain] = 0
     xo[1:4, plain] = [(1 << 31) - 1, 1 << 31, (1 << 31) - 1]
     bad("skeleton-value-2pow31", {"channels": ov.channels, "coded": _skeleton_layer(ov, xo)},
