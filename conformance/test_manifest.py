@@ -159,3 +159,27 @@ def test_readme_counts_the_vectors_there_are():
     said = (f"the {len(MAN['vectors'])} vectors ({groups['valid']} valid, with the Appendix A "
             f"example, {groups['uncommon']} uncommon and {groups['invalid']} invalid;")
     assert said in " ".join(readme.split())
+
+
+def test_make_vectors_reproduces_every_frozen_vector(tmp_path):
+    """The generator, run into a temporary folder, writes every frozen vector byte for byte
+    (about 4 s: the manifest's slow part, its digests, is not rebuilt here). An encoder
+    change that moves an encoder-made vector now fails here, at the commit that makes it,
+    rather than surfacing at the next regeneration mixed with other changes: stop 22's
+    forward-kinematics kernel moved the skeleton vectors by a few ulps and a later change
+    made make_vectors crash on them, and neither was seen until stop 27 ran it. Vectors are
+    still changed only by `python -m mpz.tools.make_vectors`, with a CHANGELOG entry."""
+    from mpz.tools import make_vectors as mv
+    vs = mv.VectorSet(tmp_path)
+    for build in (mv.valid_vectors, mv.invalid_vectors, mv.uncommon_vectors, mv.encoder_inputs,
+                  mv.c3d_archive_vectors, mv.skeleton_vectors, mv.smrc_vectors,
+                  mv.c3d_coding_vectors):
+        build(vs)
+    made = {str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*") if p.is_file()}
+    frozen = {v["file"] for v in MAN["vectors"]} - {mf.SPEC_EXAMPLE}
+    assert frozen <= made
+    differ = sorted(f for f in made if (tmp_path / f).read_bytes() != (VDIR / f).read_bytes())
+    assert not differ, (f"{len(differ)} vector files differ from what make_vectors writes, "
+                        f"e.g. {differ[:4]}: if the change is intended, run python -m "
+                        "mpz.tools.make_vectors and python -m mpz.tools.make_golden, and say "
+                        "why in CHANGELOG.md")
