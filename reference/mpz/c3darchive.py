@@ -129,19 +129,41 @@ class C3DArchive:
         numbered from it; 1 in most files)."""
         return int.from_bytes(self.header[6:8], "little")
 
-    def describe(self) -> str:
-        """What the archive holds beyond the markers, for a note of what a format that
-        cannot hold it drops."""
-        J, C = self.models.shape[1], self.channels
+    def contents(self) -> dict[str, Any]:
+        """What the archive holds beyond the markers (``mpz show``, :meth:`describe`):
+        model outputs and the share of their samples that are gaps, analog channels and
+        samples a frame, the event count (EVENT:USED; None without one), the first frame,
+        the parameter section's groups and parameters, and the point storage."""
+        J = int(self.models.shape[1])
+        used = self.parameter("EVENT", "USED")
         groups = sum(r.is_group for r in self.records)
+        return {"model_outputs": J,
+                "model_gap_fraction": float(1 - self.model_valid.mean()) if J else 0.0,
+                "analog_channels": self.channels,
+                "analog_samples_per_frame": self.analog_samples,
+                "events": (int(np.frombuffer(used.data, "<i2", 1)[0])
+                           if used is not None and used.type == 2 and len(used.data) >= 2
+                           else None),
+                "first_frame": self.first_frame(), "parameter_records": len(self.records),
+                "parameter_groups": groups,
+                "storage": "int16" if self.word_storage == C3DStorage.INT16 else "float32"}
+
+    def describe(self) -> str:
+        """:meth:`contents` as words, for a note of what a format that cannot hold the
+        archive drops."""
+        c = self.contents()
+        J, C, E = c["model_outputs"], c["analog_channels"], c["events"]
         parts = [f"{J} model output{'s' * (J != 1)} (C3D points that are not markers)"] \
             if J else []
         if C:
-            parts.append(f"{C} analog channel{'s' * (C != 1)} at {self.analog_samples} "
-                         "samples a frame")
-        if self.parameter("EVENT", "USED") is not None or self.parameter("EVENT", "TIMES"):
+            parts.append(f"{C} analog channel{'s' * (C != 1)} at "
+                         f"{c['analog_samples_per_frame']} samples a frame")
+        if E:
+            parts.append(f"{E} event{'s' * (E != 1)}")
+        elif E is None and self.parameter("EVENT", "TIMES") is not None:
             parts.append("the events")
-        parts += [f"the parameter section ({groups} groups, {len(self.records) - groups} "
+        groups = c["parameter_groups"]
+        parts += [f"the parameter section ({groups} groups, {c['parameter_records'] - groups} "
                   "parameters)", "the header", "the points' residual and camera words"]
         return ", ".join(parts)
 
@@ -199,6 +221,12 @@ def binary32_values(v: NDArray[np.float64]) -> bool:
     return bool(np.array_equal(v.astype(np.float32).astype(np.float64), v))
 
 
+def _column_binary32(x: NDArray[np.float64], valid: NDArray[np.bool_], c: int) -> bool:
+    """:func:`binary32_values` of column ``c``'s valid values, sliced only when asked (most
+    axes never need it: the float32 margin is below half their bound)."""
+    return binary32_values(x[:, c][valid[:, c]])
+
+
 def _model_axes(a: C3DArchive, opts: EncodeOptions) -> Iterator[tuple[list[Model], IntArray]]:
     """§4.13.3 the model outputs' entries, in order, a batch of model outputs at a time:
     (their entries, the residuals ``[3 x n, F]`` of their axes in entry order).
@@ -249,7 +277,7 @@ def _model_batch(a: C3DArchive, opts: EncodeOptions, j0: int, j1: int, names: li
             # off the int16 grid, the C3D is written with float32 points (§6.9): code
             # within what stays within the bound after that rounding (Appendix C, item 3)
             within = float32_bound(bound, max(abs(float(lo[c])), abs(float(hi[c]))),
-                                   functools.partial(binary32_values, x[:, c][ok[:, c]]), 1)
+                                   functools.partial(_column_binary32, x, ok, c), 1)
         offset[c], step[c], declared[c] = model_grid(float(lo[c]), float(hi[c]),
                                                      int(count[c]), within,
                                                      grid if exact else None)

@@ -45,6 +45,7 @@ import tempfile
 import numpy as np
 
 from mpz.errors import InputFormatError
+from mpz.io import c3dbin
 from mpz.io._common import StrPath, ext_of, start_frame
 from mpz.io.amc import find_asf, read_amc, read_asf, write_amc
 from mpz.io.bvh import read_bvh, skeleton_problems, write_bvh
@@ -325,11 +326,11 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
                           f"{r32!r}")
         elif r32 != rate:
             notes.append(f"C3D stores the rate as float32: {rate!r} Hz reads back as {r32!r}")
-        a = motion.extras.get("c3d")
-        proc = getattr(a, "processor", 84)
-        if proc != 84:
-            notes.append(f"the source was a {'DEC' if proc == 85 else 'MIPS'} C3D (processor "
-                         f"{proc}); it is written in Intel byte order, every value the same")
+        proc = getattr(motion.extras.get("c3d"), "processor", c3dbin.PROC_INTEL)
+        if proc != c3dbin.PROC_INTEL:
+            notes.append(f"the source was a {'DEC' if proc == c3dbin.PROC_DEC else 'MIPS'} "
+                         f"C3D (processor {proc}); it is written in Intel byte order, every "
+                         "value the same")
         if motion.units not in ("", "mm", "cm", "m"):
             notes.append(f"C3D readers know mm, cm and m: units {motion.units!r} read back "
                          "as unknown")

@@ -269,6 +269,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
     else:
         mpz.write_atomic(job.output, data, source=source, force=args.force)
     decoded = mpz.decode(data)
+    stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
     err = error_summary(motion, decoded)
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
                      and opts.keep_skeleton else None)
@@ -290,7 +291,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
         "grid_step": rep.step, "addh": rep.addh, "addh_rule": rep.addh_rule,
         "hierarchy": rep.hierarchy, "seconds": rep.seconds, "chunk_bytes": rep.chunk_bytes,
         "summary_bytes": rep.chunk_bytes.get("smrc", rep.chunk_bytes.get("smry")),
-        "summary_levels": list(mpz.info(data).summary_levels),
+        "summary_levels": stored_levels,
         "summary_chunk": next((t for t in ("smrc", "smry") if t in rep.chunk_bytes), None),
         "skeleton": _skeleton_report(data),
         "nodes": [vars(n) for n in rep.nodes]}
@@ -326,9 +327,9 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
     kind = result["summary_chunk"]
     if kind is not None:
         smry = rep.chunk_bytes[kind]
-        stored = mpz.info(data).summary_levels           # the k the file holds
+        stored = stored_levels
         asked = sorted(set(opts.summary))
-        clipped = ("" if list(stored) == asked else
+        clipped = ("" if stored == asked else
                    f" (asked {', '.join(map(str, asked))}: at most one segment a frame, "
                    f"{rep.frames} frames)")
         print(f"  summary  {kind} chunk {human_size(smry)} "

@@ -62,23 +62,12 @@ def summary(motion, path: str) -> dict:
 
 
 def _archive(motion) -> dict | None:
-    """What a C3D holds beside its markers (the archive of spec §4.13), or None: before,
-    show gave auckland's 54 markers with 0 % gaps and said nothing of its 36 model outputs
-    (12 % gaps), 24 analog channels or 12 events."""
-    import numpy as np
+    """What a C3D holds beside its markers (the archive of spec §4.13,
+    :meth:`mpz.c3darchive.C3DArchive.contents`), or None: before, show gave auckland's 54
+    markers with 0 % gaps and said nothing of its 36 model outputs (12 % gaps), 24 analog
+    channels or 12 events."""
     a = motion.extras.get("c3d")
-    if a is None:
-        return None
-    used = a.parameter("EVENT", "USED")
-    events = (int(np.frombuffer(used.data, "<i2", 1)[0])
-              if used is not None and used.type == 2 and len(used.data) >= 2 else None)
-    J = int(a.models.shape[1])
-    return {"model_outputs": J,
-            "model_gap_fraction": float(1 - a.model_valid.mean()) if J else 0.0,
-            "analog_channels": a.channels, "analog_samples_per_frame": a.analog_samples,
-            "events": events, "first_frame": a.first_frame(),
-            "parameter_records": len(a.records),
-            "storage": "int16" if a.word_storage == 0 else "float32"}
+    return None if a is None else a.contents()
 
 
 def run(args) -> int:
