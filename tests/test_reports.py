@@ -57,12 +57,18 @@ def decoded_npy(capsys, tmp_path: Path, packed: Path) -> np.ndarray:
 
 # -- 1. a skeletal .mpz is compared as mpz decode writes it ---------------------------------
 
-def test_compare_of_a_skeletal_mpz_uses_the_joint_positions_decode_writes(tmp_path, capsys):
+def encoded_sweep(capsys, tmp_path: Path, *options: str) -> tuple[Path, Path]:
+    """The sweep BVH and its .mpz, encoded with ``options``."""
     src = tmp_path / "sweep.bvh"
     src.write_text(bvh_text())
     packed = tmp_path / "sweep.mpz"
-    code, _, err = cli(capsys, "encode", src, "-o", packed, "--units", "cm", "-q")
+    code, _, err = cli(capsys, "encode", src, "-o", packed, *options, "-q")
     assert code == 0, err
+    return src, packed
+
+
+def test_compare_of_a_skeletal_mpz_uses_the_joint_positions_decode_writes(tmp_path, capsys):
+    src, packed = encoded_sweep(capsys, tmp_path, "--units", "cm")
     a = mpz.io.read(src).positions
     want = max_error(a, decoded_npy(capsys, tmp_path, packed))
     layer = max_error(a, mpz.decode(packed.read_bytes()).positions)
@@ -80,11 +86,7 @@ def test_compare_of_a_skeletal_mpz_uses_the_joint_positions_decode_writes(tmp_pa
 
 
 def test_summary_of_a_skeletal_mpz_measures_shares_on_the_joint_positions(tmp_path, capsys):
-    src = tmp_path / "sweep.bvh"
-    src.write_text(bvh_text())
-    packed = tmp_path / "sweep.mpz"
-    code, _, err = cli(capsys, "encode", src, "-o", packed, "--summary", "3", "-q")
-    assert code == 0, err
+    _, packed = encoded_sweep(capsys, tmp_path, "--summary", "3")
     pos = decoded_npy(capsys, tmp_path, packed)                 # no gaps in a BVH
     x = (pos - pos.mean(axis=1, keepdims=True)).reshape(len(pos), -1)
     code, out, _ = cli(capsys, "summary", packed, "--json")
