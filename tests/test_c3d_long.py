@@ -265,3 +265,29 @@ def test_any_frame_range_is_declared_and_read_back(first, frames):
         assert (h_first, h_last) == (first, first + frames - 1)
     else:
         assert h_last == 65535
+
+
+# ------------------------------- the first frame number in other formats (TRC) --
+@pytest.mark.parametrize(("first", "trial", "expected"), [
+    (397, None, 397),              # header word 4 and TRIAL agree
+    (1, (2, 60_001), 2),           # a saturated header says 1: TRIAL decides, as it does
+    (1, (70_000, 139_999), 70_000),  # for the frame count; past 2^16 (high word 1)
+])
+def test_a_long_c3d_numbers_its_frames_from_trial_in_a_trc(tmp_path, first, trial, expected):
+    """A C3D of more than 65535 frames keeps its first frame number in its TRIAL
+    parameters; written as a TRC (which holds it as the first Frame#), it must number
+    its rows from there, not from the saturated header (before: 1 for the last two)."""
+    frames = 70_000 if trial is None else trial[1] - trial[0] + 1
+    blob, _ = vicon_style(frames, first, trial=trial)
+    src = tmp_path / "long.c3d"
+    src.write_bytes(blob)
+    m = read(src)
+    assert m.extras["c3d"].first_frame() == expected
+    back = mpz.decode(mpz.encode(m))
+    out = tmp_path / "long.trc"
+    write(back, out)
+    rows = [ln for ln in out.read_text().splitlines()[5:] if ln.strip()]
+    numbers = [int(r.split("\t")[0]) for r in (rows[0], rows[-1])]
+    assert numbers == [expected, expected + frames - 1]
+    first_row_time = float(rows[0].split("\t")[1])
+    assert first_row_time == pytest.approx((expected - 1) / 200.0)

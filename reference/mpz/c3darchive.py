@@ -40,7 +40,7 @@ from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Pa
 from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
 from mpz.format import ByteCoding, C3DStorage, ModelKind
-from mpz.io.c3dbin import ParamRecord
+from mpz.io.c3dbin import HEADER_MAX_FRAME, ParamRecord
 
 if TYPE_CHECKING:
     from mpz.chunks import Record
@@ -125,9 +125,20 @@ class C3DArchive:
         return self.point_scale() if self.word_storage == C3DStorage.INT16 else None
 
     def first_frame(self) -> int:
-        """The source's first frame number, header word 4 (the C3D user guide: frames are
-        numbered from it; 1 in most files)."""
-        return int.from_bytes(self.header[6:8], "little")
+        """The source's first frame number (the C3D user guide: frames are numbered from
+        it; 1 in most files), as the reader decides it (:func:`mpz.io.c3dbin.frame_range`):
+        header word 4, unless the header cannot describe the range (its last frame, word 5,
+        is 65535, or the range is empty) and TRIAL:ACTUAL_START_FIELD holds the number as
+        two int16 words (low, high), as in a file of more than 65535 frames."""
+        first = int.from_bytes(self.header[6:8], "little")
+        last = int.from_bytes(self.header[8:10], "little")
+        if last - first + 1 > 0 and last < HEADER_MAX_FRAME:
+            return first
+        r = self.parameter("TRIAL", "ACTUAL_START_FIELD")
+        if r is not None and r.type == 2 and len(r.data) == 4:
+            return int.from_bytes(r.data[0:2], "little") | int.from_bytes(r.data[2:4],
+                                                                           "little") << 16
+        return first
 
     def contents(self) -> dict[str, Any]:
         """What the archive holds beyond the markers (``mpz show``, :meth:`describe`):

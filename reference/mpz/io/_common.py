@@ -134,7 +134,8 @@ def ext_of(path: StrPath) -> str:
 
 def start_frame(motion: Motion) -> int:
     """The number of the motion's first frame in its source: a TRC's first Frame#, a
-    C3D's header word 4, an AMC's first frame; 1 when none says."""
+    C3D's first frame (header word 4, or TRIAL:ACTUAL_START_FIELD past 65535 frames:
+    :meth:`mpz.c3darchive.C3DArchive.first_frame`), an AMC's first frame; 1 when none says."""
     meta = motion.metadata
     try:
         if "trc.FirstFrame" in meta:
