@@ -323,6 +323,33 @@ def test_only_lf_and_cr_break_a_one_line_text(asf_file, field):
         assert info.value.section == "§4.14.2"
 
 
+
+@pytest.mark.parametrize("field", ["mass", "version", "name"])
+def test_writing_an_asf_says_which_text_does_not_read_back(asf_file, field, tmp_path):
+    """Such a separator passes §4.14.2 but splits the line (or word) when the ASF written
+    is read: the writer says so and names the value it reads back as (nothing lost
+    silently), and the file read back has exactly that value. A plain value: no note."""
+    from mpz.io import writer_problems
+    for value, expect_note in (("a\u2028b", True), ("a\x0bb", True), ("ab", False)):
+        m = mpz.decode(_asfs(asf_file, **{field: value}))
+        refuse, notes = writer_problems(m, ".amc")
+        said = [n for n in notes if "will not read back as stored" in n]
+        assert not refuse and bool(said) == expect_note, (value, notes)
+        mpz.io.write(m, tmp_path / "w.amc")
+        back = getattr(mpz.io.read(tmp_path / "w.amc").extras["skeleton"], field)
+        if expect_note:
+            assert back != value and f"reads back as {back!r}" in said[0]
+        else:
+            assert back == value
+
+
+def test_real_asf_text_reads_back_as_stored(shared_data):
+    """No false note: every real ASF's text fields come back from the ASF MPZ writes."""
+    from mpz.io.amc import asf_text_changes
+    for amc in sorted((shared_data / "amc").glob("*.amc")):
+        skel = mpz.io.read(amc).extras["skeleton"]
+        assert asf_text_changes(skel) == {}, amc.name
+
 # ---------------------------------------------------------- §4.14 channel values --
 BVH = """HIERARCHY
 ROOT Hips

@@ -47,9 +47,10 @@ import numpy as np
 from mpz.errors import InputFormatError
 from mpz.io import c3dbin
 from mpz.io._common import StrPath, ext_of, start_frame
-from mpz.io.amc import find_asf, read_amc, read_asf, write_amc
+from mpz.io.amc import asf_text_changes, find_asf, read_amc, read_asf, write_amc
 from mpz.io.bvh import read_bvh, skeleton_problems, write_bvh
 from mpz.io.c3d import read_c3d, write_c3d
+from mpz.io.kinematics import Skeleton
 from mpz.io.table import read_csv, read_npy, write_csv, write_npy
 from mpz.io.trc import read_trc, write_trc
 from mpz.motion import Motion
@@ -362,6 +363,16 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if ext == ".amc" and rate != 120.0:
             notes.append(f"AMC does not store the rate: {rate!r} Hz reads back as 120 Hz "
                          "unless the reader is told")
+        skel = motion.extras.get("skeleton")
+        if ext == ".amc" and isinstance(skel, Skeleton) and skel.convention == "asf" \
+                and not refuse:
+            changed = asf_text_changes(skel)
+            if changed:
+                notes.append("the ASF's text will not read back as stored: " + "; ".join(
+                    f"{k} {getattr(skel, k, '')!r} reads back as {v!r}"
+                    for k, v in changed.items()) + " (ASF readers split lines at U+000B, "
+                    "U+000C, U+001C-U+001E, U+0085, U+2028 and U+2029, and words at white "
+                    "space)")
     elif motion.angles is not None:
         notes.append(f"joint angles and the skeleton are not written to {fmt}")
     held = {".c3d": {"c3d"}, ".bvh": {"skeleton"}, ".amc": {"skeleton"}}.get(ext, set())

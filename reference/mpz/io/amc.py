@@ -451,6 +451,26 @@ def read_amc(amc_path: StrPath, asf_path: StrPath | None = None, *,
 
 
 # ------------------------------------------------------------------ writing --
+#: the ASF text fields a skeleton keeps as written (spec §4.14.2), in file order
+ASF_TEXT_FIELDS = ("comments", "version", "name", "mass", "documentation")
+
+
+def asf_text_changes(skel: Skeleton) -> dict[str, str]:
+    """The text fields of ``skel`` (:data:`ASF_TEXT_FIELDS`) that the ASF :func:`format_asf`
+    writes would read back differently, each with the value it reads back as.
+
+    §4.14.2 refuses only U+000A and U+000D in a one-line field; this reader (as others)
+    also splits lines at U+000B, U+000C, U+001C-U+001E, U+0085, U+2028 and U+2029
+    (``str.splitlines``) and words at white space, so such a field, which only a hand-made
+    skeleton holds, changes when written: the writers say so (:func:`mpz.io.writer_problems`).
+    """
+    try:
+        back, _ = _parse_asf(format_asf(skel), skel.encoding)
+    except InputFormatError as exc:          # the skeleton's own problems are refused
+        return {"the ASF": str(exc)}          # elsewhere (skeleton_problem)
+    return {f: getattr(back, f) for f in ASF_TEXT_FIELDS if getattr(back, f) != getattr(skel, f)}
+
+
 def format_asf(skel: Skeleton) -> str:
     """The ASF text of a skeleton (``convention="asf"``)."""
     out = [f"#{c}" for c in skel.comments.split("\n")] if skel.comments else []

@@ -2540,6 +2540,7 @@ C3D_VECTOR_RULES = _rules(
     ("R-4.13-4", "c3d-stored-header-and-parameters c3d-archive-float32"),
     ("R-4.13.1-1", "chdr-processor-87 chdr-key-0x51"),
     ("R-4.13.1-2", "chdr-stored-511-bytes chdr-payload-1-byte"),
+    ("R-4.13.1-3", "c3d-header-counts-stale"),
     ("R-4.13.2-4", "cprm-empty-payload cprm-stored-over-2pow17 cprm-records-short-of-content"),
     ("R-4.13.2-1", "cprm-group-0 cprm-name-empty cprm-name-128-bytes cprm-type-3 "
                    "cprm-eight-dims cprm-group-declared-twice"),
@@ -3039,10 +3040,10 @@ SKELETON_VECTOR_RULES = _rules(
                    "asfs-dof-twice asfs-limit-count asfs-limit-nan "
                    "asfs-amc-order-out-of-range asfs-amc-order-repeats "
                    "asfs-amc-order-misses-a-bone"),
-    ("R-4.14.2-2", "asfs-radians-inf-limits-stretch"),
+    ("R-4.14.2-2", "asfs-radians-inf-limits-stretch asfs-names-Root-ROOT-line-separators"),
     ("R-6.10-1", "skeleton-coded-short skeleton-coded-leftover skeleton-value-2pow31"),
     ("R-6.10-2", "bvhs-synthetic-default asfs-synthetic-default bvhs-layer-every-field "
-                 "asfs-radians-inf-limits-stretch"),
+                 "asfs-radians-inf-limits-stretch asfs-names-Root-ROOT-line-separators"),
 )
 VECTOR_RULES.update(SKELETON_VECTOR_RULES)
 
@@ -3311,6 +3312,63 @@ def c3d_coding_vectors(vs: VectorSet):
         "coding and body removed", "no coding byte")
 
 
+def clarified_accept_vectors(vs: VectorSet):
+    """Files the third clean-room review's settled text accepts, which no vector showed
+    (spec §4.13.1 and §4.14.2, stop 27): a C3D header whose counts disagree with the
+    chunks, and ASF bone names and text fields that a looser reading would refuse. Made
+    last, so that the numbers of the vectors before them do not move."""
+    import dataclasses
+    import struct
+
+    from mpz.chunks import Chdr
+    from mpz.io.amc import parse_amc, parse_asf
+    good = mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+    block = bytearray(Chdr.load(bytes(next(p for t, p in _c3d_chunks(good)
+                                           if t == "chdr"))).block)
+    # words 2 (points), 3 (analog words a frame), 4-5 (first, last frame), 10 (analog
+    # samples a frame): bytes 2-9 and 18-19, C3D words numbered from 1 (§4.13.1)
+    struct.pack_into("<HHHH", block, 2, 3, 7, 40, 41)
+    struct.pack_into("<H", block, 18, 9)
+    stale = _c3d_rebuild(good, "chdr", block=bytes(block))
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-header-counts-stale"), stale,
+             "a C3D archive whose header words disagree with its chunks: 3 points (cpnt "
+             "holds 7), 7 analog words a frame (cana: 12), frames 40..41 (F = 24), 9 analog "
+             "samples a frame (cana: 4); none is checked, and a writer writes them back",
+             _c3d_features(stale), ["§4.13", "§4.13.1", "§6.9"],
+             "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0), chdr "
+             "words 2-5 and 10 changed")
+    amc = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
+                               source="synthetic_01.amc"))
+    rec = _skeleton_record(amc)
+    bones = list(rec.bones)
+    bones[0] = dataclasses.replace(bones[0], name="Root")
+    bones[1] = dataclasses.replace(bones[1], name="ROOT")
+    names = _skeleton_rebuild(amc, bones=tuple(bones), name="take\u000bone\u2028two",
+                              version="1.10\u0085", mass="1.0\u000c\u001e")
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-names-Root-ROOT-line-separators"), names,
+             "an asfs with bones named Root and ROOT (only the four bytes root are refused) "
+             "and U+000B, U+000C, U+001E, U+0085 and U+2028 in its name, version and mass "
+             "(only U+000A and U+000D are refused)", _skeleton_features(names),
+             ["§2.1", "§2.3", "§4.14", "§4.14.2", "§6.10"],
+             "make_vectors.skeleton_vectors' v-asfs file, bones 1-2 renamed and the text "
+             "fields changed by hand")
+
+
+#: every builder, in the order that numbers the vectors: a new one goes last, so that the
+#: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
+BUILDERS = (
+    valid_vectors,
+    spec_example,
+    invalid_vectors,
+    uncommon_vectors,
+    encoder_inputs,
+    c3d_archive_vectors,                      # issue 12 (MPZ 1.1)
+    skeleton_vectors,                         # issue 13 (MPZ 1.1)
+    smrc_vectors,                             # issue 14.12 (MPZ 1.1)
+    c3d_coding_vectors,                       # §4.13 byte coding (MPZ 1.1)
+    clarified_accept_vectors,                 # §4.13.1, §4.14.2 text of stop 27
+)
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m mpz.tools.make_vectors",
                                 description=__doc__.splitlines()[0])
@@ -3326,15 +3384,8 @@ def main(argv=None) -> int:
                 if f.is_file() and f.name != "spec-example.mpz":
                     f.unlink()
     vs = VectorSet(out)
-    valid_vectors(vs)
-    spec_example(vs)
-    invalid_vectors(vs)
-    uncommon_vectors(vs)
-    encoder_inputs(vs)
-    c3d_archive_vectors(vs)                   # issue 12 (MPZ 1.1)
-    skeleton_vectors(vs)                      # issue 13 (MPZ 1.1)
-    smrc_vectors(vs)                          # issue 14.12 (MPZ 1.1)
-    c3d_coding_vectors(vs)                    # §4.13 byte coding (MPZ 1.1)
+    for build in BUILDERS:
+        build(vs)
     vs.entries.sort(key=lambda e: (mf.GROUPS.index(e["group"]), e["name"]))
     vs.write_manifest()
     total = sum(f.stat().st_size for f in out.rglob("*") if f.is_file())
