@@ -390,6 +390,75 @@ def test_auto_distance_sums_on_real_samples(shared_data, stem):
     _same_sums(*sampled(m, sample_frames(m.n_frames, AUTO_MAX_FRAMES)))
 
 
+
+# -- the auto builder's clustering (issue 15: kernels in place of scipy's calls) -------
+@settings(max_examples=300, deadline=None)
+@given(st.integers(2, 30), st.sampled_from(["ties", "tenths", "any"]), st.integers(1, 32),
+       st.floats(0.0, 3.5), st.integers(0, 2 ** 32 - 1))
+def test_auto_clustering_is_scipys(n, kind, mc, t, seed):
+    """Complete linkage and both flat cuts give scipy's matrix and cluster numbers bit for
+    bit. Ties decide complete linkage's tree (a-b 1, b-c 1, a-c 5 cut at 1 is {a, b} {c}
+    or {a} {b, c} by the order of merges), so most cases are made of a few distinct
+    values; the oracle is scipy itself, which the encoder called before."""
+    from scipy.cluster.hierarchy import fcluster, linkage
+
+    from mpz.hierarchy.auto import _complete_linkage, _fcluster_distance, _fcluster_maxclust
+    rng = np.random.default_rng(seed)
+    a = {"ties": lambda: rng.integers(0, 4, (n, n)).astype(float),
+         "tenths": lambda: np.round(rng.random((n, n)) * 10) / 10,
+         "any": lambda: rng.random((n, n)) * 3}[kind]()
+    a = 0.5 * (a + a.T)
+    np.fill_diagonal(a, 0.0)
+    z = linkage(a[np.triu_indices(n, 1)], method="complete")
+    got = _complete_linkage(a)
+    assert np.array_equal(got, z)
+    cut = float(rng.choice(a[np.triu_indices(n, 1)])) if kind != "any" else t
+    assert np.array_equal(_fcluster_distance(got, cut),
+                          fcluster(z, t=cut, criterion="distance"))
+    assert np.array_equal(_fcluster_maxclust(got, mc), fcluster(z, t=mc, criterion="maxclust"))
+
+
+def test_auto_clustering_ties_by_hand():
+    """a-b 1, b-c 1, a-c 5: the chain from a meets b first (the lower index on a tie), so
+    a and b merge at 1 and c joins at 5; cut at 1: {a, b}, {c}, numbered in that order."""
+    from mpz.hierarchy.auto import _complete_linkage, _fcluster_distance
+    a = np.array([[0.0, 1.0, 5.0], [1.0, 0.0, 1.0], [5.0, 1.0, 0.0]])
+    z = _complete_linkage(a)
+    assert z.tolist() == [[0.0, 1.0, 1.0, 2.0], [2.0, 3.0, 5.0, 3.0]]
+    assert _fcluster_distance(z, 1.0).tolist() == [1, 1, 2]
+
+
+def _group_distances_numpy(xn, live, groups):
+    """The numpy expression :func:`mpz.hierarchy.auto._group_distances` replaced."""
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        overall = np.nanmean(xn[:, live], axis=1)
+        cent = np.stack([np.nanmean(xn[:, g], axis=1) for g in groups], axis=1)
+        return np.nanmean(np.linalg.norm(cent - overall[:, None], axis=2), axis=0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 420), st.integers(2, 70), st.floats(0.0, 4.0), st.floats(0.0, 0.8),
+       st.integers(0, 2 ** 32 - 1))
+def test_auto_root_group_distances_have_the_numpy_bits(S, M, scale, gaps, seed):
+    """The root group is an argmin of these means, so a last-bit change could move the
+    root: the kernel must give numpy's bits, gaps, all-gap frames and markers included."""
+    from mpz.hierarchy.auto import _group_distances
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0, 10 ** scale, (S, M, 3)) + rng.normal(0, 1000, (1, M, 3))
+    v = rng.random((S, M)) >= gaps
+    xn = np.where(v[..., None], x, np.nan)
+    live = [m for m in range(M) if v[:, m].any()]
+    if len(live) < 2:
+        return
+    perm = rng.permutation(live)
+    k = int(rng.integers(2, len(live) + 1))
+    groups = [list(map(int, g)) for g in np.split(perm, np.sort(rng.choice(
+        np.arange(1, len(live)), size=k - 1, replace=False)))]
+    got = _group_distances(xn, np.array(live), np.array([m for g in groups for m in g]),
+                           np.cumsum([0] + [len(g) for g in groups]))
+    assert np.array_equal(got, _group_distances_numpy(xn, live, groups), equal_nan=True)
+
 # -- the root alone (issue 15.1: the encoder's default mode keeps only the root) -------
 def _same_root(m, spec=None, weights=None):
     from mpz.hierarchy import root_marker

@@ -229,9 +229,9 @@ def _finite(std: np.ndarray) -> np.ndarray:
 # -- step 2: rigid groups -----------------------------------------------------------
 def _groups(std: np.ndarray, idx: list[int], threshold: float,
             max_size: int) -> list[list[int]]:
-    """Complete-linkage clusters of ``idx`` under ``threshold``, at most ``max_size`` each."""
-    from scipy.cluster.hierarchy import fcluster, linkage
-
+    """Complete-linkage clusters of ``idx`` under ``threshold``, at most ``max_size`` each
+    (scipy's ``linkage`` and ``fcluster``, by :func:`_complete_linkage` and the kernels
+    after it, which give the same clusters in the same order: issue 15)."""
     if len(idx) == 1:
         return [list(idx)]
     sub = std[np.ix_(idx, idx)]
@@ -240,9 +240,8 @@ def _groups(std: np.ndarray, idx: list[int], threshold: float,
     sub = np.where(finite, sub, big)
     sub = 0.5 * (sub + sub.T)
     np.fill_diagonal(sub, 0.0)
-    cond = sub[np.triu_indices(len(idx), 1)]
-    z = linkage(cond, method="complete")
-    labels = fcluster(z, t=threshold, criterion="distance")
+    z = _complete_linkage(sub)
+    labels = _fcluster_distance(z, float(threshold))
     out = []
     for lab in np.unique(labels):
         members = [idx[k] for k in np.flatnonzero(labels == lab)]
@@ -250,9 +249,9 @@ def _groups(std: np.ndarray, idx: list[int], threshold: float,
             out.append(members)
             continue
         # too big: cut this cluster's own tree into ceil(n / max) parts, recursively
-        zz = linkage(sub[np.ix_(np.flatnonzero(labels == lab), np.flatnonzero(labels == lab))]
-                     [np.triu_indices(len(members), 1)], method="complete")
-        parts = fcluster(zz, t=-(-len(members) // max_size), criterion="maxclust")
+        sel = np.flatnonzero(labels == lab)
+        zz = _complete_linkage(np.ascontiguousarray(sub[np.ix_(sel, sel)]))
+        parts = _fcluster_maxclust(zz, -(-len(members) // max_size))
         for q in np.unique(parts):
             part = [members[k] for k in np.flatnonzero(parts == q)]
             out.extend(_groups(std, part, threshold * 0.5, max_size) if len(part) > max_size
@@ -260,16 +259,276 @@ def _groups(std: np.ndarray, idx: list[int], threshold: float,
     return out
 
 
+# -- step 2's clustering: complete linkage and flat clusters, as scipy.cluster.hierarchy --
+@njit(cache=True, nogil=True)
+def _complete_linkage(sub: np.ndarray) -> np.ndarray:
+    """``scipy.cluster.hierarchy.linkage(condensed(sub), method="complete")`` of a symmetric
+    ``sub[n, n]`` of finite dissimilarities, n >= 2: the linkage matrix ``Z[n - 1, 4]``.
+
+    The same algorithm as scipy's (version 1.11 to 1.17 at least), so the same tree when
+    distances tie, where complete linkage's tree depends on the order of merges: the
+    nearest-neighbour chain from the first live cluster, each step to the nearest other
+    cluster (the lowest index on a tie, but the previous cluster of the chain first), a
+    merge of two mutual nearest neighbours into the higher slot, with the larger of the two
+    distances to every other cluster; then the merges stably sorted by distance, and cluster
+    ids n, n + 1, ... given in that order (each row: the two ids, lower first, and the
+    size). Complete linkage only takes maxima, so the distances are the input's bits.
+    tests/test_hierarchy.py checks it against scipy, ties included. Speed (issue 15): scipy
+    validates its input and output on every call; this was most of a short clip's root."""
+    n = sub.shape[0]
+    D = sub.copy()
+    size = np.ones(n, np.int64)
+    chain = np.empty(n, np.int64)
+    Z = np.empty((n - 1, 4))
+    length = 0
+    y = 0
+    for k in range(n - 1):
+        if length == 0:
+            length = 1
+            for i in range(n):
+                if size[i] > 0:
+                    chain[0] = i
+                    break
+        while True:
+            x = chain[length - 1]
+            if length > 1:
+                y = chain[length - 2]
+                best = D[x, y]
+            else:
+                best = math.inf
+            for i in range(n):
+                if size[i] == 0 or i == x:
+                    continue
+                if D[x, i] < best:
+                    best = D[x, i]
+                    y = i
+            if length > 1 and y == chain[length - 2]:
+                break
+            chain[length] = y
+            length += 1
+        length -= 2
+        if x > y:
+            x, y = y, x
+        nx, ny = size[x], size[y]
+        Z[k, 0] = x
+        Z[k, 1] = y
+        Z[k, 2] = best
+        Z[k, 3] = nx + ny
+        size[x] = 0
+        size[y] = nx + ny
+        for i in range(n):
+            if size[i] == 0 or i == y:
+                continue
+            d = D[i, x] if D[i, x] > D[i, y] else D[i, y]
+            D[i, y] = d
+            D[y, i] = d
+    Z = Z[np.argsort(Z[:, 2], kind="mergesort")]
+    parent = np.arange(2 * n - 1)                   # union-find of the cluster ids
+    count = np.ones(2 * n - 1, np.int64)
+    for i in range(n - 1):
+        a = int(Z[i, 0])
+        while parent[a] != a:
+            a = parent[a]
+        b = int(Z[i, 1])
+        while parent[b] != b:
+            b = parent[b]
+        Z[i, 0], Z[i, 1] = (a, b) if a < b else (b, a)
+        parent[a] = parent[b] = n + i
+        count[n + i] = count[a] + count[b]
+        Z[i, 3] = count[n + i]
+    return Z
+
+
+@njit(cache=True, nogil=True)
+def _cut(Z: np.ndarray, crit: np.ndarray, cutoff: float) -> np.ndarray:
+    """Flat cluster numbers 1, 2, ... of the n leaves of ``Z`` whose merges' ``crit`` (for
+    complete linkage: the merge's distance) is at most ``cutoff``: the leaves are visited
+    depth first from the root, left before right, and each cluster (a subtree whose crit
+    is within the cutoff, or a single leaf) takes the next number when first reached, as
+    scipy's ``fcluster`` numbers them."""
+    n = Z.shape[0] + 1
+    T = np.zeros(n, np.int32)
+    stack = np.empty(n, np.int64)
+    visited = np.zeros(2 * n - 1, np.bool_)
+    nc = 0
+    leader = -1
+    k = 0
+    stack[0] = 2 * n - 2
+    while k >= 0:
+        root = stack[k] - n
+        lc, rc = int(Z[root, 0]), int(Z[root, 1])
+        if leader == -1 and crit[root] <= cutoff:
+            leader = root
+            nc += 1
+        if lc >= n and not visited[lc]:
+            visited[lc] = True
+            k += 1
+            stack[k] = lc
+            continue
+        if rc >= n and not visited[rc]:
+            visited[rc] = True
+            k += 1
+            stack[k] = rc
+            continue
+        if lc < n:
+            if leader == -1:
+                nc += 1
+            T[lc] = nc
+        if rc < n:
+            if leader == -1:
+                nc += 1
+            T[rc] = nc
+        if leader == root:
+            leader = -1
+        k -= 1
+    return T
+
+
+@njit(cache=True, nogil=True)
+def _max_dists(Z: np.ndarray) -> np.ndarray:
+    """The largest merge distance in each merge's subtree (children have lower ids)."""
+    m = Z.shape[0]
+    n = m + 1
+    md = np.empty(m)
+    for i in range(m):
+        d = Z[i, 2]
+        for c in (int(Z[i, 0]), int(Z[i, 1])):
+            if c >= n and md[c - n] > d:
+                d = md[c - n]
+        md[i] = d
+    return md
+
+
+@njit(cache=True, nogil=True)
+def _fcluster_distance(Z: np.ndarray, t: float) -> np.ndarray:
+    """``fcluster(Z, t, criterion="distance")``."""
+    return _cut(Z, _max_dists(Z), t)
+
+
+@njit(cache=True, nogil=True)
+def _fcluster_maxclust(Z: np.ndarray, mc: int) -> np.ndarray:
+    """``fcluster(Z, mc, criterion="maxclust")``: the lowest merge distance, found by
+    bisection over the merges in order, that leaves at most ``mc`` clusters, as scipy
+    counts them (stopping a count once it passes ``mc``)."""
+    n = Z.shape[0] + 1
+    if mc >= n:
+        return np.arange(1, n + 1).astype(np.int32)
+    md = _max_dists(Z)
+    stack = np.empty(n, np.int64)
+    lower, upper = -1, n - 1
+    while upper - lower > 1:
+        i = (lower + upper) >> 1
+        thresh = md[i]
+        visited = np.zeros(2 * n - 1, np.bool_)
+        nc = 0
+        k = 0
+        stack[0] = 2 * n - 2
+        while k >= 0:
+            root = stack[k] - n
+            lc, rc = int(Z[root, 0]), int(Z[root, 1])
+            if md[root] <= thresh:
+                nc += 1
+                if nc > mc:
+                    break
+                k -= 1
+                visited[lc] = True
+                visited[rc] = True
+                continue
+            if not visited[lc]:
+                visited[lc] = True
+                if lc >= n:
+                    k += 1
+                    stack[k] = lc
+                    continue
+                nc += 1
+                if nc > mc:
+                    break
+            if not visited[rc]:
+                visited[rc] = True
+                if rc >= n:
+                    k += 1
+                    stack[k] = rc
+                    continue
+                nc += 1
+                if nc > mc:
+                    break
+            k -= 1
+        if nc > mc:
+            lower = i
+        else:
+            upper = i
+    return _cut(Z, md, md[upper])
+
+
 # -- step 3: the root ---------------------------------------------------------------
 def _root_group(xn: np.ndarray, live: list[int], groups: list[list[int]]) -> int:
-    """The group whose centroid is nearest the centroid of all live markers, on average."""
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-gap slices
-        overall = np.nanmean(xn[:, live], axis=1)                                  # [S, 3]
-        cent = np.stack([np.nanmean(xn[:, g], axis=1) for g in groups], axis=1)    # [S, G, 3]
-        gd = np.nanmean(np.linalg.norm(cent - overall[:, None], axis=2), axis=0)
+    """The group whose centroid is nearest the centroid of all live markers, on average:
+    the least of :func:`_group_distances` (the first on a tie; a group whose distance is
+    not finite is never chosen unless all are so)."""
+    if len(groups) == 1:
+        return 0
+    members = np.array([m for g in groups for m in g], np.int64)
+    starts = np.cumsum([0] + [len(g) for g in groups]).astype(np.int64)
+    gd = _group_distances(np.ascontiguousarray(xn, dtype=np.float64),
+                          np.array(live, np.int64), members, starts)
     gd = np.where(np.isfinite(gd), gd, np.inf)
     return int(np.argmin(gd))
+
+
+@njit(cache=True, nogil=True)
+def _mean_over(xn: np.ndarray, idx: np.ndarray, out: np.ndarray) -> None:
+    """``out[S, 3]``: the mean over the markers ``idx`` of ``xn[S, M, 3]`` at each frame and
+    axis, NaN (a gap) left out: the total taken from 0.0 in ``idx`` order, a gap adding
+    0.0, over the count; NaN where every one is a gap (numpy's ``nanmean(axis=1)``)."""
+    for f in range(xn.shape[0]):
+        for c in range(3):
+            tot = 0.0
+            cnt = 0
+            for m in idx:
+                v = xn[f, m, c]
+                if v == v:
+                    tot += v
+                    cnt += 1
+                else:
+                    tot += 0.0
+            out[f, c] = tot / cnt if cnt > 0 else math.nan
+
+
+@njit(cache=True, nogil=True)
+def _group_distances(xn: np.ndarray, live: np.ndarray, members: np.ndarray,
+                     starts: np.ndarray) -> np.ndarray:
+    """For each of G >= 2 groups (group g: ``members[starts[g]:starts[g + 1]]``), the mean
+    over the frames ``xn[S, M, 3]`` (NaN at gaps) of the distance between its centroid and
+    the centroid of the ``live`` markers, frames where either is undefined left out (NaN
+    where all are).
+
+    The bits of the numpy expression this replaced (tests/test_hierarchy.py keeps it as
+    the oracle): the centroids as :func:`_mean_over`; the distance as ``np.linalg.norm``
+    over the axes, sqrt(((0 + d0^2) + d1^2) + d2^2); its mean over frames summed from 0.0
+    in frame order, as ``nanmean(axis=0)`` of a [S, G] array does for G >= 2 (for G = 1
+    numpy sums pairwise, and no choice is left to make). Speed (issue 15): 0.65 ->
+    0.05 ms on a short clip."""
+    S = xn.shape[0]
+    G = starts.shape[0] - 1
+    overall = np.empty((S, 3))
+    _mean_over(xn, live, overall)
+    cent = np.empty((S, 3))
+    tot = np.zeros(G)
+    cnt = np.zeros(G, np.int64)
+    for g in range(G):
+        _mean_over(xn, members[starts[g]:starts[g + 1]], cent)
+        for f in range(S):
+            d0 = cent[f, 0] - overall[f, 0]
+            d1 = cent[f, 1] - overall[f, 1]
+            d2 = cent[f, 2] - overall[f, 2]
+            d = math.sqrt(((0.0 + d0 * d0) + d1 * d1) + d2 * d2)
+            if d == d:
+                tot[g] += d
+                cnt[g] += 1
+    gd = np.empty(G)
+    for g in range(G):
+        gd[g] = tot[g] / cnt[g] if cnt[g] > 0 else math.nan
+    return gd
 
 
 def _root_marker(xn: np.ndarray, members: list[int], n_valid_all: np.ndarray) -> int:
