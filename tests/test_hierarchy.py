@@ -459,6 +459,49 @@ def test_auto_root_group_distances_have_the_numpy_bits(S, M, scale, gaps, seed):
                            np.cumsum([0] + [len(g) for g in groups]))
     assert np.array_equal(got, _group_distances_numpy(xn, live, groups), equal_nan=True)
 
+
+def _body_size_numpy(x, v):
+    """The numpy expression :func:`mpz.hierarchy.measure.body_size` computed before its
+    kernel (issue 15): the rigid threshold and the bbox scale are fractions of it."""
+    ok = v.sum(axis=1) >= 2
+    if not ok.any():
+        return 0.0
+    xt = np.ascontiguousarray(x[ok].transpose(0, 2, 1))
+    vt = v[ok][:, None, :]
+    hi = np.where(vt, xt, -np.inf).max(axis=2)
+    lo = np.where(vt, xt, np.inf).min(axis=2)
+    return float(np.median(np.linalg.norm(hi - lo, axis=1)))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 1000), st.integers(1, 70), st.floats(-2.0, 5.0), st.floats(0.0, 1.0),
+       st.integers(0, 2 ** 32 - 1))
+def test_body_size_has_the_numpy_bits(S, M, scale, gaps, seed):
+    from mpz.hierarchy.measure import body_size
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0, 10 ** scale, (S, M, 3)) + rng.normal(0, 10 ** scale, (1, M, 3))
+    v = rng.random((S, M)) >= gaps
+    x[~v] = np.nan
+    got = body_size(mpz.Motion(x, [f"m{i}" for i in range(M)], 100.0, valid=v))
+    assert got == _body_size_numpy(x, v)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 420), st.integers(2, 70), st.floats(0.0, 4.0), st.floats(0.0, 0.9),
+       st.integers(0, 2 ** 32 - 1))
+def test_root_marker_motion_has_the_numpy_bits(S, M, scale, gaps, seed):
+    """The root marker is chosen by these means on a tie of gaps: numpy's bits over all
+    markers (the expression the kernel replaced), read at any two or more members."""
+    from mpz.hierarchy.auto import _motion_amounts
+    rng = np.random.default_rng(seed)
+    xn = np.cumsum(rng.normal(0, 10 ** scale, (S, M, 3)), axis=0)
+    xn[rng.random((S, M)) < gaps] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        want = np.nanmean(np.linalg.norm(np.diff(xn, axis=0), axis=2), axis=0)
+    members = np.sort(rng.choice(M, size=int(rng.integers(2, M + 1)), replace=False))
+    assert np.array_equal(_motion_amounts(xn, members), want[members], equal_nan=True)
+
 # -- the root alone (issue 15.1: the encoder's default mode keeps only the root) -------
 def _same_root(m, spec=None, weights=None):
     from mpz.hierarchy import root_marker

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 from typing import NamedTuple
-import warnings
 
 import numpy as np
 
@@ -102,7 +101,8 @@ def _analyse(motion: Motion, rigid_fraction: float, max_group: int) -> _Analysis
     x, v = sampled(motion, frames)
     n_valid_all = sampled(motion)[1].sum(axis=0)  # over every frame, not the sample
     live = [m for m in range(M) if v[:, m].any()]
-    dead = [m for m in range(M) if m not in set(live)]
+    alive = set(live)
+    dead = [m for m in range(M) if m not in alive]
     if not live:
         return None
     # steps 1-2
@@ -532,13 +532,40 @@ def _group_distances(xn: np.ndarray, live: np.ndarray, members: np.ndarray,
 
 
 def _root_marker(xn: np.ndarray, members: list[int], n_valid_all: np.ndarray) -> int:
-    """The member with the fewest gaps, then the least motion, then the lowest index."""
-    step = np.linalg.norm(np.diff(xn, axis=0), axis=2)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # markers that are gaps throughout
-        motion_amount = np.nanmean(step, axis=0)
-    motion_amount = np.where(np.isfinite(motion_amount), motion_amount, np.inf)
-    return min(members, key=lambda m: (-n_valid_all[m], motion_amount[m], m))
+    """The member with the fewest gaps, then the least motion (:func:`_motion_amounts`),
+    then the lowest index."""
+    if len(members) == 1:
+        return members[0]
+    amount = _motion_amounts(np.ascontiguousarray(xn, dtype=np.float64),
+                             np.array(members, np.int64))
+    amount = np.where(np.isfinite(amount), amount, np.inf)
+    return min(members, key=lambda m: (-n_valid_all[m], amount[members.index(m)], m))
+
+
+@njit(cache=True, nogil=True)
+def _motion_amounts(xn: np.ndarray, members: np.ndarray) -> np.ndarray:
+    """The mean over frames of how far each member of ``xn[S, M, 3]`` (NaN at gaps) moves
+    from one frame to the next, steps that touch a gap left out (NaN when all do): each
+    step sqrt(((0 + dx^2) + dy^2) + dz^2) and their total summed from 0.0 in frame order,
+    the bits of the numpy expression this replaced (``nanmean(norm(diff(xn, axis=0),
+    axis=2), axis=0)`` over two or more markers; tests/test_hierarchy.py keeps it).
+    Speed (issue 15): only the root group's members, without [S, M, 3] temporaries."""
+    S = xn.shape[0]
+    out = np.empty(members.shape[0])
+    for i in range(members.shape[0]):
+        m = members[i]
+        tot = 0.0
+        cnt = 0
+        for f in range(S - 1):
+            d0 = xn[f + 1, m, 0] - xn[f, m, 0]
+            d1 = xn[f + 1, m, 1] - xn[f, m, 1]
+            d2 = xn[f + 1, m, 2] - xn[f, m, 2]
+            d = math.sqrt(((0.0 + d0 * d0) + d1 * d1) + d2 * d2)
+            if d == d:
+                tot += d
+                cnt += 1
+        out[i] = tot / cnt if cnt > 0 else math.nan
+    return out
 
 
 # -- steps 4-5: the tree and the references ---------------------------------------------
