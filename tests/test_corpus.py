@@ -19,6 +19,7 @@ import hashlib
 import json
 import os
 from pathlib import Path
+import re
 import shutil
 import signal
 import struct
@@ -192,12 +193,81 @@ def test_an_output_that_is_not_ours_needs_force(corpus):
     (out / "walk.mpz").write_bytes(b"someone else's file")
     rep = run_corpus(src, out)
     assert statuses(rep)["walk"] == "failed"
+    reason = next(r.reason for r in rep.results if Path(r.source).stem == "walk")
+    assert "does not read as MPZ" in reason and "--force" in reason
+    assert (out / "walk.mpz").read_bytes() == b"someone else's file"
+    # an MPZ file that no corpus run wrote
+    (out / "walk.mpz").write_bytes(mpz.encode(generate("walk", frames=30), max_error=1.0))
+    rep = run_corpus(src, out)
     assert "not written by an mpz corpus run" in next(
         r.reason for r in rep.results if Path(r.source).stem == "walk")
-    assert (out / "walk.mpz").read_bytes() == b"someone else's file"
     rep = run_corpus(src, out, force=True)
     assert statuses(rep)["walk"] == "encoded"
     assert read_stream((out / "walk.mpz").read_bytes()).meta[META_FINGERPRINT]
+
+
+
+def test_a_damaged_output_of_a_corpus_run_is_encoded_again(corpus):
+    """QA (stop 28): a truncated output that the index lists was refused as "not written
+    by an mpz corpus run"; the index says a run wrote it, so it is encoded again."""
+    src, out, _ = corpus
+    run_corpus(src, out)
+    whole = (out / "walk.mpz").read_bytes()
+    (out / "walk.mpz").write_bytes(whole[:100])
+    rep = run_corpus(src, out)
+    assert statuses(rep)["walk"] == "encoded"
+    assert (out / "walk.mpz").read_bytes() == whole
+
+
+def test_a_source_dated_in_the_future_is_up_to_date_on_the_next_run(corpus):
+    """QA (stop 28): the output was always older than a source dated tomorrow, so every
+    run encoded it again. The output now takes the source's time."""
+    src, out, paths = corpus
+    future = time.time() + 86_400
+    os.utime(paths["walk"], (future, future))
+    assert statuses(run_corpus(src, out))["walk"] == "encoded"
+    assert (out / "walk.mpz").stat().st_mtime_ns >= paths["walk"].stat().st_mtime_ns
+    before = mtimes(out)
+    assert statuses(run_corpus(src, out))["walk"] == "skipped"
+    assert mtimes(out) == before
+
+
+def test_a_leftover_temporary_goes_when_nothing_is_to_do(corpus):
+    """QA (stop 28): a killed writer's file stayed until its output was encoded again."""
+    src, out, _ = corpus
+    run_corpus(src, out)
+    stale = out / "sub" / ".wave.mpz.deadbeef.part.mpz"
+    stale.write_bytes(b"half")
+    os.utime(stale, (time.time() - 3600, time.time() - 3600))
+    rep = run_corpus(src, out)
+    assert rep.count("encoded") == 0 and not stale.exists()
+
+
+def test_inputs_that_fail_before_planning_are_reported_and_indexed(corpus):
+    """QA (stop 28): a repeated output was printed before the table and left out of it,
+    of its counts and of the index's failures table."""
+    src, out, paths = corpus
+    jobs = mirror_jobs(src, out)
+    rep = encode_corpus(jobs, out, OPTS, workers=0, levels=LEVELS,
+                        failed=[(str(paths["walk"]) + "2", str(out / "walk.mpz"),
+                                 "its output is also the output of another input")])
+    assert rep.count("failed") == 2 and len(rep.results) == len(jobs) + 1
+    assert "also the output of another input" in rep.table()
+    with open_index(out) as ix:
+        assert len(ix.failures()) == 2
+    assert rep.as_dict()["counts"]["failed"] == 2
+
+
+def test_the_summary_escapes_control_characters_in_names():
+    """QA (stop 28): FAILED and NOTE lines printed raw escape sequences from file names."""
+    from mpz.tools._cli import printable
+    r = FileResult("c5/bad\x1b[2Jclear.trc", "o/bad.mpz", "failed", "reason \x1b[5m",
+                   notes=[])
+    ok = FileResult("c5/35\x1b[5mblink.amc", "o/x.mpz", "encoded", notes=["a \x07 note"])
+    table = CorpusReport([r, ok], 1.0, 1, "test", "o/index.sqlite").table(printable)
+    assert "\x1b" not in table and "\x07" not in table
+    assert "FAILED c5/bad\\x1b[2Jclear.trc: reason \\x1b[5m" in table
+    assert "NOTE c5/35\\x1b[5mblink.amc: a \\x07 note" in table
 
 
 def test_a_fixed_input_leaves_the_failures_table(corpus):
@@ -360,6 +430,62 @@ def test_ctrl_c_on_dask_then_resume(tmp_path):
         first = {Path(r["output"]).stem for r in ix.rows()}
     assert len(first) == 1
     _check_resume(src, out, first, workers=2)
+
+
+
+@needs_dask
+def test_workers_in_another_folder_get_absolute_paths(corpus, monkeypatch):
+    """QA (stop 28): with --scheduler, relative paths reached workers started in another
+    folder: every file failed, or its output went outside -o. A worker started here keeps
+    this folder after the driver moves to another and names the files relative to it."""
+    from distributed import Client, LocalCluster
+    src, out, _ = corpus
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        monkeypatch.chdir(src / "sub")          # the worker stays where it started
+        jobs = [(os.path.relpath(s), os.path.relpath(o)) for s, o in mirror_jobs(src, out)]
+        rep = encode_corpus(jobs, out, OPTS, client=client, levels=LEVELS)
+    assert statuses(rep) == {"bad": "failed", "jump": "encoded", "walk": "encoded",
+                             "wave": "encoded"}
+    assert [r.source for r in rep.results] == [s for s, _ in jobs]     # as given
+    assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*.mpz")) == \
+        ["jump.mpz", "sub/wave.mpz", "walk.mpz"]
+
+
+@needs_dask
+def test_a_cluster_without_workers_fails_instead_of_waiting(corpus, monkeypatch):
+    """QA (stop 28): under a memory limit below a worker's start-up memory the workers
+    never came up and the run waited for ever, silently."""
+    from distributed import Client, LocalCluster
+
+    import mpz.corpus as corpus_mod
+    monkeypatch.setattr(corpus_mod, "WATCH_SECONDS", 0.2)
+    monkeypatch.setattr(corpus_mod, "NO_WORKER_SECONDS", 0.5)
+    src, out, _ = corpus
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        t0 = time.monotonic()
+        with pytest.raises(EncoderError, match="no worker for"):
+            encode_corpus(mirror_jobs(src, out), out, OPTS, client=client, levels=LEVELS)
+        assert time.monotonic() - t0 < 30
+
+
+def test_no_more_local_workers_than_files(corpus, monkeypatch):
+    """QA (stop 28): --jobs 1000 for one file started 1000 worker processes."""
+    import mpz.corpus as corpus_mod
+    src, out, _ = corpus
+    asked = []
+
+    class Stop(Exception):
+        pass
+
+    def fake(workers, scheduler, memory_limit):
+        asked.append(workers)
+        raise Stop
+    monkeypatch.setattr(corpus_mod, "_dask_client", fake)
+    with pytest.raises(Stop):
+        run_corpus(src, out, workers=1000)
+    assert asked == [4]                           # walk, jump, wave and bad: 4 to encode
 
 
 def test_temporaries_of_a_killed_writer_are_removed(corpus):
@@ -578,6 +704,69 @@ def test_mpz_encode_routes_batches_to_the_corpus(corpus, capsys):
     code = mpz_cli.main(["encode", str(paths["walk"]), "-o", str(out / "one.mpz"), "--jobs", "1"])
     assert code == 64 and "-o FOLDER/" in capsys.readouterr().err
 
+
+
+@needs_dask
+@pytest.mark.parametrize("option", [["--scheduler", "notaurl"], ["--memory-limit", "lots"],
+                                    ["--memory-limit", "0"]])
+def test_bad_cluster_options_are_usage_errors(corpus, capsys, option):
+    """QA (stop 28): these ended in a Python traceback (exit 1)."""
+    from mpz.tools import mpz_cli
+    _, out, paths = corpus
+    out.mkdir()
+    with pytest.raises(SystemExit) as exit_:
+        mpz_cli.main(["encode", str(paths["walk"]), "-o", f"{out}/", "--jobs", "1", *option])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 64 and option[0] in err and "Traceback" not in err
+
+
+def test_the_same_file_named_twice_is_encoded_once(corpus, capsys):
+    """QA (stop 28): `mpz encode X X ./X -o OUT/` reported the repeats as failed (exit 2)
+    on every run, next to a table where all was well."""
+    from mpz.tools import mpz_cli
+    _, out, paths = corpus
+    out.mkdir()
+    walk = str(paths["walk"])
+    again = os.path.join(os.path.dirname(walk), ".", os.path.basename(walk))
+    code = mpz_cli.main(["encode", walk, walk, again, "-o", f"{out}/", "--max-error", "1mm",
+                         "--jobs", "0", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and doc["counts"]["encoded"] == 1 and doc["planning_errors"] == []
+
+
+def test_repeated_outputs_are_in_the_summary_and_its_counts(tmp_path, capsys):
+    """Two different files with one output: the later fails, in the table, the counts,
+    the closing line and the index alike."""
+    from mpz.tools import mpz_cli
+    a, b, out = tmp_path / "a", tmp_path / "b", tmp_path / "out"
+    for d in (a, b, out):
+        d.mkdir()
+    write(generate("walk", frames=40, seed=1), a / "take.trc")
+    write(generate("jump", frames=40, seed=2), b / "take.trc")
+    code = mpz_cli.main(["encode", str(a / "take.trc"), str(b / "take.trc"), "-o", f"{out}/",
+                         "--max-error", "1mm", "--jobs", "0"])
+    cap = capsys.readouterr()
+    assert code == 2
+    assert re.search(r"^\s+failed\s+1\s", cap.out, re.M) and f"FAILED {b / 'take.trc'}" in cap.out
+    assert "2 inputs: 1 done, 1 failed" in cap.err
+    with open_index(out) as ix:
+        assert [p for p, _ in ix.failures()] == [str((b / "take.trc").resolve())]
+
+
+def test_search_on_a_damaged_index_is_a_clean_error(corpus, capsys):
+    """QA (stop 28): an index without its levels table ended in a traceback."""
+    import sqlite3
+
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    run_corpus(src, out)
+    db = sqlite3.connect(out / INDEX_NAME)
+    db.execute("DROP TABLE levels")
+    db.commit()
+    db.close()
+    code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "no table levels" in err and "Traceback" not in err
 
 
 def _arm_bvh(frames: int = 60) -> str:

@@ -287,6 +287,9 @@ class Task:
     levels: tuple[int, ...]
     force: bool = False
     asf: str | None = None             # skeleton for AMC sources (default: found beside)
+    #: the index has a row for ``output``: a corpus run wrote it, so an output there that
+    #: no longer reads as MPZ (damaged) is encoded again without ``force``
+    indexed: bool = False
 
 
 @dataclass
@@ -335,14 +338,18 @@ def _peak_rss() -> int | None:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024   # Linux: KiB
 
 
-def _ours(output: str, fp: str, sha: str, source_mtime_ns: int) -> bytes | None:
+def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = False
+          ) -> bytes | None:
     """The bytes of an existing output that is up to date, or None if it must be encoded.
+
+    ``indexed``: the index lists ``output`` (a corpus run wrote it), so one that no longer
+    reads as MPZ is damaged and is encoded again.
 
     Raises
     ------
     EncoderError
-        When the output exists but is not an MPZ file written by a corpus run (replacing
-        it needs ``force``).
+        When the output exists but is not an MPZ file written by a corpus run, or does not
+        read as MPZ and the index does not list it (replacing it needs ``force``).
     """
     from mpz.decoder import read_stream
     try:
@@ -352,8 +359,12 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int) -> bytes | None:
         return None
     try:
         meta = read_stream(data).meta
-    except MPZError:
-        meta = {}
+    except MPZError as exc:
+        if indexed:
+            return None
+        raise EncoderError(f"{output} exists and does not read as MPZ ({exc}); if it is a "
+                           "damaged output of an earlier run, use --force to replace "
+                           "it") from None
     if META_FINGERPRINT not in meta:
         raise EncoderError(f"{output} exists and was not written by an mpz corpus run; "
                            "use --force to replace it")
@@ -425,7 +436,8 @@ def encode_file(task: Task) -> FileResult:
         if motion.metadata.get("warning"):       # the reader's (kept in the file's meta)
             notes = [motion.metadata["warning"], *notes]
         fp = _fingerprint(task, motion.units)
-        data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns)
+        data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns,
+                                             task.indexed)
         status = "kept"
         if data is None:
             meta = dict(opts.metadata)
@@ -437,6 +449,11 @@ def encode_file(task: Task) -> FileResult:
             write_atomic(task.output, data, source=task.source,
                          force=task.force or os.path.lexists(task.output))
             status = "encoded"
+            # a source dated in the future (clock skew, an archive extracted as made
+            # elsewhere) would leave the output older than it for ever: up to date means
+            # "not older than the source", so the output takes the source's time
+            if os.stat(task.output).st_mtime_ns < st.st_mtime_ns:
+                os.utime(task.output, ns=(time.time_ns(), st.st_mtime_ns))
         summary = summarize(motion, task.levels)
         row = _row(task, data, motion, sha, st, fp, summary, 0.0)
     except (MPZError, OSError) as exc:
@@ -545,6 +562,12 @@ class Index:
         if got is None or got[0] != str(SCHEMA_VERSION):
             raise EncoderError(f"{self.path}: index schema {got and got[0]!r}, this mpz reads "
                                f"schema {SCHEMA_VERSION}")
+        tables = {r[0] for r in self.db.execute(
+            "SELECT name FROM sqlite_master WHERE type = 'table'")}
+        missing = sorted({"corpus", "files", "levels", "failures"} - tables)
+        if missing:
+            raise EncoderError(f"{self.path}: not an MPZ corpus index (no table "
+                               f"{', '.join(missing)}); encode the folder again to rebuild it")
 
     def close(self) -> None:
         self.db.close()
@@ -599,9 +622,17 @@ class Index:
         for out, k, w, s, m in self.db.execute(
                 "SELECT output, k, wssse, starts, means FROM levels ORDER BY output, k"):
             levels.setdefault(out, []).append((k, s, m, w))
-        return [IndexRow(v, from_stored(v["frames"], v["rate"], v["summary_dims"],
-                                        v["summary_method"], levels.get(v["output"], [])))
-                for v in values]
+        return [IndexRow(v, self._summary(v, levels.get(v["output"], []))) for v in values]
+
+    def _summary(self, v: dict[str, Any], levels: list[tuple[int, bytes, bytes, float]]
+                 ) -> Any:
+        """A row's stored summary; a row the index cannot give one for is named."""
+        try:
+            return from_stored(v["frames"], v["rate"], v["summary_dims"], v["summary_method"],
+                               levels)
+        except (MPZError, ValueError) as exc:
+            raise EncoderError(f"{self.path}: the row of {v['output']} is damaged ({exc}); "
+                               "encode the folder again to rebuild it") from None
 
     def info(self) -> dict[str, str]:
         return dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
@@ -640,8 +671,15 @@ class Index:
                 table = np.array([np.frombuffer(v["descriptor"], "<f8") for v in values])
                 return values, table.reshape(len(values), width)
         rows = self.rows()     # rows of other levels or versions: recompute them all
-        table = np.array([descriptor(r.summary, levels) for r in rows])
+        table = np.array([self._descriptor(r, levels) for r in rows])
         return [r.values for r in rows], table.reshape(len(rows), width)
+
+    def _descriptor(self, r: IndexRow, levels: tuple[int, ...]) -> np.ndarray:
+        try:
+            return descriptor(r.summary, levels)
+        except EncoderError as exc:
+            raise EncoderError(f"{self.path}: the row of {r['output']} is damaged ({exc}); "
+                               "encode the folder again to rebuild it") from None
 
     def failures(self) -> list[tuple[str, str]]:
         return self.db.execute("SELECT path, reason FROM failures ORDER BY path").fetchall()
@@ -680,9 +718,13 @@ class CorpusReport:
                 "files": [{k: v for k, v in asdict(r).items() if k not in ("row", "levels")}
                           for r in self.results]}
 
-    def table(self) -> str:
-        """The summary table: files, bytes in and out per status, and each failure."""
-        lines = [f"{len(self.results)} files in {self.seconds:.1f} s, {self.workers} "
+    def table(self, name: Callable[[str], str] = str) -> str:
+        """The summary table: files, bytes in and out per status, and each failure.
+
+        ``name`` shows a file name or a reason (the CLI's escapes control characters, so
+        that a file name cannot drive the terminal)."""
+        n = len(self.results)
+        lines = [f"{n} file{'' if n == 1 else 's'} in {self.seconds:.1f} s, {self.workers} "
                  f"worker{'s' if self.workers != 1 else ''} ({self.cluster})",
                  f"  {'':<11}{'files':>7}{'source MB':>12}{'MPZ MB':>10}{'ratio':>8}"]
         for status, label in (("encoded", "encoded"), ("kept", "kept"),
@@ -708,12 +750,13 @@ class CorpusReport:
             lines.append(f"  throughput {len(done) / self.seconds:.2f} files/s, "
                          f"{mb / self.seconds:.2f} MB/s of float32 positions")
         for r in self.failed:
-            lines.append(f"  FAILED {r.source}: {r.reason}")
+            lines.append(f"  FAILED {name(r.source)}: {name(r.reason)}")
         for r in self.results:
-            lines += [f"  NOTE {r.source}: {note}" for note in r.notes]
+            lines += [f"  NOTE {name(r.source)}: {name(note)}" for note in r.notes]
             if r.not_kept:
-                lines.append(f"  NOTE {r.source}: not kept: {'; '.join(r.not_kept)}")
-        lines.append(f"  index {self.index}")
+                lines.append(f"  NOTE {name(r.source)}: not kept: "
+                             f"{name('; '.join(r.not_kept))}")
+        lines.append(f"  index {name(self.index)}")
         return "\n".join(lines)
 
 
@@ -810,7 +853,7 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout="30s")
-        except OSError as exc:
+        except (OSError, ValueError) as exc:    # unreachable; a malformed address
             raise EncoderError(f"cannot reach the Dask scheduler at {scheduler}: "
                                f"{exc}") from None
         try:
@@ -850,7 +893,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                   scheduler: str | None = None, client: Client | None = None,
                   memory_limit: str | int | None = DEFAULT_MEMORY_LIMIT, force: bool = False,
                   progress: Progress | None = None,
-                  asf: str | os.PathLike[str] | None = None) -> CorpusReport:
+                  asf: str | os.PathLike[str] | None = None,
+                  failed: Sequence[tuple[str, str | None, str]] = ()) -> CorpusReport:
     """Encode ``(source, output)`` pairs in parallel and index them in ``outdir``.
 
     Parameters
@@ -884,6 +928,10 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         Called in this process as each file finishes (skipped ones included).
     asf : path, optional
         Skeleton for every AMC source (default: found beside each).
+    failed : sequence of (source, output or None, reason)
+        Inputs that failed before they could be planned (a repeated output, an input that
+        cannot be read): reported and recorded in the index's ``failures`` table as the
+        other failures are, so that every count agrees.
 
     Returns
     -------
@@ -909,6 +957,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                   levels, force, skeleton) for s, o in jobs]
     results: list[FileResult | None] = [None] * len(tasks)
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
+    early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
+                        reason) for src, out, reason in failed]
     with Index(os.path.join(index_dir, INDEX_NAME), create=True) as index:
         index.refresh_descriptors()
         index.set_info({"levels": ",".join(map(str, levels)),
@@ -923,6 +973,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             if progress is not None:
                 progress(done, len(tasks), r)
 
+        for r in early:
+            index.put(r, "" if not r.output else _key(r.output, index_dir))
         todo: list[int] = []
         for i, t in enumerate(tasks):
             row = index.row(t.output_key)
@@ -931,11 +983,15 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
                                      row["total_bytes"], row["raw_bytes"]))
             else:
+                tasks[i] = replace(t, indexed=row is not None)
                 todo.append(i)
         for i in todo:
             os.makedirs(os.path.dirname(os.path.abspath(tasks[i].output)), exist_ok=True)
-        sweep_temporaries([tasks[i].output for i in todo], before=wall0)
+        # every output's folder, not only those with work: a leftover stays no longer
+        sweep_temporaries([t.output for t in tasks], before=wall0)
         inflight: dict[Future[FileResult], int] = {}
+        # no more local workers than files to encode (each costs a process and its memory)
+        n_workers = min(n_workers, len(todo))
         if not todo:
             cluster = "nothing to do"          # no cluster is started for a no-op run
         elif n_workers == 0 and scheduler is None and client is None:
@@ -954,9 +1010,25 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                 # temporary file (a remote worker's task finishes or removes its own)
                 if scheduler is None and inflight:
                     sweep_temporaries([tasks[i].output for i in inflight.values()])
-    final = [r for r in results if r is not None]
+    final = [r for r in results if r is not None] + early
     return CorpusReport(final, time.perf_counter() - t0, n_workers, cluster,
                         os.path.join(index_dir, INDEX_NAME))
+
+
+def _absolute(task: Task) -> Task:
+    """``task`` with absolute paths: a worker may run in another folder (a cluster's
+    worker is started wherever its machine starts it), and must see the files at the
+    paths the driver sees them (``scheduler``)."""
+    return replace(task, source=os.path.abspath(task.source),
+                   output=os.path.abspath(task.output),
+                   asf=None if task.asf is None else os.path.abspath(task.asf))
+
+
+#: while no task finishes, how often the driver checks that the cluster has workers
+WATCH_SECONDS = 5.0
+#: a cluster without a worker this long fails the run (a worker that cannot start, for
+#: example under a memory limit below what it needs, is restarted for ever)
+NO_WORKER_SECONDS = 60.0
 
 
 def _run_on(client: Client, tasks: list[Task], todo: list[int],
@@ -964,37 +1036,59 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
             inflight: dict[Future[FileResult], int]) -> int:
     """Run ``todo`` on the cluster, a bounded window of tasks at a time; returns the
     worker count. ``inflight`` holds the tasks not finished yet; on any exception,
-    KeyboardInterrupt included, they are cancelled before it propagates."""
-    from distributed import as_completed
+    KeyboardInterrupt included, they are cancelled before it propagates.
+
+    Workers get the tasks with absolute paths (:func:`_absolute`); the results name the
+    files as they were given. A cluster that has had no worker for
+    :data:`NO_WORKER_SECONDS` while tasks wait fails the run (EncoderError) rather than
+    waiting for ever."""
+    from distributed import wait
     pending = iter(todo)
     threads = max(sum(client.nthreads().values()), 1)
     window = 2 * threads + 1     # queued work stays small: a stop loses little
 
-    def submit(ac: as_completed) -> None:
+    def submit() -> None:
         while len(inflight) < window:
             i = next(pending, None)
             if i is None:
                 return
-            fut = client.submit(encode_file, tasks[i], pure=False,
+            fut = client.submit(encode_file, _absolute(tasks[i]), pure=False,
                                 key=f"mpz-encode-{i}-{os.urandom(4).hex()}")
             inflight[fut] = i
-            ac.add(fut)
 
     try:
-        ac = as_completed()
-        submit(ac)
-        for fut in ac:
-            i = inflight.pop(fut)
+        submit()
+        idle_since: float | None = None
+        while inflight:
             try:
-                r = fut.result()
-            except Exception as exc:
-                if not _killed(exc):
-                    raise            # a bug in the task: stop the run, keep what finished
-                r = FileResult(tasks[i].source, tasks[i].output, "failed",
-                               "its worker died each time it ran (over the memory limit?): "
-                               f"{exc}")
-            finish(i, r)
-            submit(ac)
+                done, _ = wait(list(inflight), timeout=WATCH_SECONDS,
+                               return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                if client.nthreads():
+                    idle_since = None
+                elif idle_since is None:
+                    idle_since = time.monotonic()
+                elif time.monotonic() - idle_since > NO_WORKER_SECONDS:
+                    raise EncoderError(
+                        f"the Dask cluster has had no worker for {NO_WORKER_SECONDS:.0f} s "
+                        "while files wait: its workers cannot start (is the memory limit "
+                        "below what a worker needs, about 200 MB?) or none is connected"
+                    ) from None
+                continue
+            idle_since = None
+            for fut in sorted(done, key=lambda f: inflight[f]):
+                i = inflight.pop(fut)
+                try:
+                    r = fut.result()
+                except Exception as exc:
+                    if not _killed(exc):
+                        raise        # a bug in the task: stop the run, keep what finished
+                    r = FileResult(tasks[i].source, tasks[i].output, "failed",
+                                   "its worker died each time it ran (over the memory "
+                                   f"limit?): {exc}", os.stat(tasks[i].source).st_size
+                                   if os.path.exists(tasks[i].source) else 0)
+                finish(i, replace(r, source=tasks[i].source, output=tasks[i].output))
+            submit()
     except BaseException:
         if inflight:
             with contextlib.suppress(Exception):

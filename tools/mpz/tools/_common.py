@@ -393,7 +393,8 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
       ``FOLDER/`` as without ``mirror``;
     * no ``-o``: beside each input; standard input goes to standard output.
 
-    Two inputs that would write the same output make the later one fail.
+    Two inputs that would write the same output make the later one fail, unless they
+    are the same file (named twice, or by two paths): it is coded once.
 
     Raises
     ------
@@ -441,6 +442,9 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
         else:
             target = name
         key = os.path.normcase(os.path.abspath(target))
+        if key in taken and path != STDIO and os.path.realpath(path) == os.path.realpath(
+                taken[key]):
+            continue            # the same file named again: it is coded once
         if key in taken:
             jobs.append(Job(path, None, f"its output {printable(target)} is also the output "
                                         f"of {printable(taken[key])} in this batch"))

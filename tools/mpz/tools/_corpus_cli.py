@@ -34,11 +34,45 @@ def add_corpus_options(p: argparse.ArgumentParser) -> None:
                    help="encode several files in parallel on N Dask worker processes "
                    "(default with several inputs and -o FOLDER/: one per CPU; 0: in this "
                    "process); writes FOLDER/index.sqlite and skips files already encoded")
-    p.add_argument("--scheduler", metavar="ADDRESS",
+    p.add_argument("--scheduler", metavar="ADDRESS", type=_scheduler,
                    help="run on an existing dask.distributed cluster, e.g. tcp://host:8786 "
                    "(its workers must see the inputs and FOLDER at the same paths)")
     p.add_argument("--memory-limit", default=DEFAULT_MEMORY_LIMIT, metavar="SIZE",
-                   help=f"memory limit of each local worker (default {DEFAULT_MEMORY_LIMIT})")
+                   type=_memory_limit,
+                   help=f"memory limit of each local worker, e.g. 2GiB or 500MB (default "
+                   f"{DEFAULT_MEMORY_LIMIT}); a worker needs about 200 MB to start")
+
+
+def _scheduler(text: str) -> str:
+    """A ``--scheduler`` address as dask.distributed reads it (``tcp://host:port``)."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+    except ImportError:
+        return text              # run_corpus says that Dask is missing
+    try:
+        proto, loc = parse_address(text)
+        if proto in ("tcp", "tls"):
+            parse_host_port(loc)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"--scheduler wants an address such as "
+                                         f"tcp://host:8786, got {text!r}: {exc}") from None
+    return text
+
+
+def _memory_limit(text: str) -> str:
+    """A ``--memory-limit`` size (``4GiB``, ``500MB``, a number of bytes)."""
+    try:
+        from dask.utils import parse_bytes
+    except ImportError:
+        return text
+    try:
+        n = parse_bytes(text)
+    except (ValueError, TypeError):
+        raise argparse.ArgumentTypeError(f"--memory-limit wants a size such as 2GiB or "
+                                         f"500MB, got {text!r}") from None
+    if n <= 0:
+        raise argparse.ArgumentTypeError(f"--memory-limit wants a positive size, got {text!r}")
+    return text
 
 
 def _jobs(text: str) -> int:
@@ -102,10 +136,6 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         return EXIT_USAGE
     quiet = bool(getattr(args, "quiet", False))
     planned = [j for j in jobs if j.error is None]
-    for j in jobs:
-        if j.error is not None:
-            print(f"mpz encode: error: {printable(j.input)}: {printable(j.error)}",
-                  file=sys.stderr)
     workers = getattr(args, "jobs", None)
     scheduler = getattr(args, "scheduler", None)
     if workers is None and scheduler is None and not _dask_installed():
@@ -121,22 +151,28 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
                                workers=workers, scheduler=scheduler,
                                memory_limit=getattr(args, "memory_limit", None),
                                force=bool(getattr(args, "force", False)), progress=bar,
-                               asf=getattr(args, "asf", None))
+                               asf=getattr(args, "asf", None),
+                               failed=[(j.input, j.output, j.error) for j in jobs
+                                       if j.error is not None])
     finally:
         bar.close()
-    failed = len(report.failed) + (len(jobs) - len(planned))
+    failed = len(report.failed)
     if args.json:
         doc = report.as_dict()
         doc["planning_errors"] = [{"input": j.input, "reason": j.error}
                                   for j in jobs if j.error is not None]
         print_json(doc)
     elif not quiet:
-        print(report.table())
+        print(report.table(printable))
     else:
         for r in report.failed:
             print(f"mpz encode: error: {printable(r.source)}: {printable(r.reason)}",
                   file=sys.stderr)
     if failed:          # the closing line of a sequential batch, on stderr even with -q
-        print(f"mpz encode: {len(jobs)} inputs: {len(jobs) - failed} done, {failed} failed",
-              file=sys.stderr)
+        print(f"mpz encode: {_count(len(jobs), 'input')}: {len(jobs) - failed} done, "
+              f"{failed} failed", file=sys.stderr)
     return EXIT_ERROR if failed else EXIT_OK
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
