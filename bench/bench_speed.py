@@ -24,8 +24,9 @@ only:
 - ``qpz``: quantise with step 2E/sqrt(3), second-order prediction, zstd -19 on the
   int16/int32 residuals (bench_rd.py's baseline); decode = zstd + reconstruct + scale.
 
-Times are the best of ``--repeat`` wall-clock runs (zstd's too: its speed varies by 30 %
-from run to run here). The machine may be shared: the load average is printed with the
+Times are the best of at least ``--repeat`` wall-clock runs, more until 0.3 s have passed
+(``timed``; zstd's too: on a short clip the best of three varied threefold from one run
+of this bench to the next). The machine may be shared: the load average is printed with the
 table, and ``cpu`` is the process CPU time of the best one-thread encode (a figure that does
 not depend on the other processes). ``x zstd`` is MPZ's fastest encode over zstd -19's on
 the same bytes of the same file in the same run; ``x mk`` is that over zstd's time on the
@@ -75,14 +76,26 @@ def find(root: Path, name: str) -> Path:
     raise SystemExit(f"no file {name!r} under {root}")
 
 
+#: every timing runs for at least this long (and ``--repeat`` times): the best of three
+#: 4 ms runs of zstd on a short clip varied by 3x from one bench to the next (stop 28)
+MIN_SECONDS = 0.3
+MAX_RUNS = 100
+
+
 def timed(fn, repeat: int) -> tuple[float, float]:
-    """(best wall seconds, process CPU seconds of that run) over ``repeat`` calls."""
+    """(best wall seconds, process CPU seconds of that run) over at least ``repeat`` calls,
+    and more until :data:`MIN_SECONDS` have passed (at most :data:`MAX_RUNS`): the same
+    rule for every codec of a row, so that short files are timed as steadily as long
+    ones."""
     best = (math.inf, math.inf)
-    for _ in range(repeat):
+    start = time.perf_counter()
+    runs = 0
+    while runs < repeat or (time.perf_counter() - start < MIN_SECONDS and runs < MAX_RUNS):
         c, w = time.process_time(), time.perf_counter()
         fn()
         w, c = time.perf_counter() - w, time.process_time() - c
         best = min(best, (w, c))
+        runs += 1
     return best
 
 
@@ -139,7 +152,8 @@ def run(args) -> list[dict]:
     warm = mpz.io.read(find(root, "c3d/cmu_02_01")).select_frames(0, 50)
     mpz.decode(mpz.encode(warm, max_error=1.0))                 # JIT warm-up
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; MB/s of raw "
-          f"float32 (every sample MPZ codes: see the docstring); best of {args.repeat}")
+          f"float32 (every sample MPZ codes: see the docstring); best of {args.repeat} runs "
+          f"or more (at least {MIN_SECONDS} s each)")
     head = (f"{'file':<28} {'MB':>5} {'bound':>7} {'codec':<13} " + " ".join(
         f"{'enc x' + str(t):>7}" for t in threads) + f" {'cpu s':>6} {'dec':>7} {'ratio':>6}"
         f" {'x zstd':>6} {'x mk':>5}")
