@@ -93,8 +93,8 @@ BROKEN = [
      {"u04-rate-65.0364227294921875"}, "sidecar rate 65.0364227294922 != expected "
      "65.03642272949219", "decode", ()),
     ("first-meta-value", ["u24-meta-repeated-key", "u18-meta-nul", "v09-all-chunk-types"],
-     {"u24-meta-repeated-key"}, "sidecar meta differs at key 'take': got 'first', expected "
-     "'last'", "decode", ()),
+     {"u24-meta-repeated-key"}, "sidecar meta['take'] = 'first', expected 'last' (for a "
+     "repeated key, the last value", "decode", ()),
     ("crash", ["u01-one-frame", "x01-bad-signature"], {"u01-one-frame"},
      "expected a decode, but decoder exited 1", "reject", ()),
     ("segv-on-invalid", ["u01-one-frame", "x01-bad-signature", "x31-frames-x-markers-over-limit"],

@@ -202,6 +202,7 @@ def validate(man: dict) -> dict:
     rule_id = re.compile(r"R-\d+(\.\d+)*-\d+")
     seen = set()
     for v in vecs:
+        _need(isinstance(v, dict), f"a vector entry is not an object: {v!r:.80}")
         name = v.get("name")
         _need(isinstance(name, str) and name, f"vector without a name: {v!r}")
         _need(name not in seen, f"duplicate vector name {name!r}")
@@ -250,6 +251,8 @@ def load(directory=None) -> dict:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ManifestError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ManifestError(f"{path}: not UTF-8: {exc}") from None
     try:
         man = json.loads(text)
     except json.JSONDecodeError as exc:

@@ -19,8 +19,9 @@ Contract (conformance/README.md has the full text):
   reference decoder: declared bound <= E, every valid sample within it, gaps
   kept as gaps, names/rate/units kept.
 
-Every vector is run (each with a timeout and an address-space limit) before
-anything is reported. Exit status (the table shared with ``mpz`` and
+Every vector is run (each with a timeout and an address-space limit, in its own
+process group, killed when it exits) before anything is reported; Ctrl-C kills
+what runs and exits 130. Exit status (the table shared with ``mpz`` and
 ``mpzinfo``, :mod:`mpz.tools._cli`): 0 all passed, 1 any failure, 64 usage
 error (bad arguments, missing or invalid vectors, command not found, a
 ``--results`` path that cannot be written).
@@ -54,15 +55,33 @@ except ImportError:          # not POSIX: no memory limit
 from mpz.conformance import manifest as mf
 from mpz.errors import MPZError
 from mpz.tools._cli import EXIT_FAILED as EXIT_FAIL
-from mpz.tools._cli import EXIT_OK, EXIT_USAGE, Parser, quiet_broken_pipe
+from mpz.tools._cli import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser, quiet_broken_pipe
 
 RESULTS_SCHEMA_VERSION = 2          # 2: sidecar, contract, peak_rss_mb, actual 'memory'
 STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
 FAIL_LIST = 10              # differing samples listed per vector
 
 
+#: the largest --memory (MiB) whose byte count setrlimit takes
+MAX_MEMORY_MB = 1 << 40
+
+
 class UsageError(Exception):
     pass
+
+
+def _selects(only: str, name: str, E: float) -> bool:
+    """Whether an encoder ``--only`` entry names this input (``name``) or this run
+    (``name@E``, E compared as a number: ``@1``, ``@1.0``, ``@1e0`` alike)."""
+    if only == name:
+        return True
+    base, at, e = only.rpartition("@")
+    if not at or base != name:
+        return False
+    try:
+        return float(e) == E
+    except ValueError:
+        return False
 
 
 # ------------------------------------------------------------ subprocesses --
@@ -79,53 +98,84 @@ def _limits(memory_mb):
     return apply
 
 
+#: set when the runner is interrupted (Ctrl-C): every command running is killed, and none
+#: is started after it
+STOP = threading.Event()
+#: bytes of a command's output kept (its tail): the rest is read and dropped, so that a
+#: decoder that prints gigabytes costs the runner no memory
+OUTPUT_KEEP = 4 * STDERR_TAIL
+
+
+def _tail(pipe: Any, keep: int, out: list[bytes]) -> None:
+    """Read ``pipe`` to its end, keeping its last ``keep`` bytes in ``out[0]``."""
+    buf = bytearray()
+    while True:
+        chunk = pipe.read1(1 << 16)
+        if not chunk:
+            break
+        buf += chunk
+        if len(buf) > 2 * keep:
+            del buf[:-keep]
+    out.append(bytes(buf[-keep:]))
+
+
 def run_command(argv: list[str], timeout: float, memory_mb: int | None,
                 cwd: str | None = None) -> dict[str, Any]:
     """Run ``argv`` with limits.
 
-    Returns the exit code (negative: killed by that signal), seconds, the stderr tail,
-    ``timed_out``, ``signal`` (its name when killed by one) and ``peak_rss_mb`` (the
-    child's peak resident memory, from ``wait4``; None where unavailable).
+    Returns the exit code (negative: killed by that signal), seconds, the tail of what it
+    printed (stderr and stdout, one stream), ``timed_out``, ``signal`` (its name when
+    killed by one), ``interrupted`` (:data:`STOP`) and ``peak_rss_mb`` (the child's peak
+    resident memory, from ``wait4``; None where unavailable). The command runs in a new
+    process group, which is killed when the command ends: a child it left behind is not
+    left running (one that starts its own session is beyond reach).
     """
     t0 = time.perf_counter()
+    if STOP.is_set():
+        return {"exit_code": None, "seconds": 0.0, "stderr": "not run: interrupted",
+                "timed_out": False, "signal": None, "peak_rss_mb": None, "interrupted": True}
     try:
-        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.PIPE, cwd=cwd, start_new_session=True,
+        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, cwd=cwd, start_new_session=True,
                                 preexec_fn=_limits(memory_mb) if resource else None)
     except OSError as exc:
         return {"exit_code": None, "seconds": 0.0, "stderr": f"cannot start: {exc}",
-                "timed_out": False, "signal": None, "peak_rss_mb": None}
-    timed_out = False
+                "timed_out": False, "signal": None, "peak_rss_mb": None,
+                "interrupted": False}
+    timed_out = interrupted = False
     peak = None
     if hasattr(os, "wait4"):
-        # read stderr in a thread and reap the child with wait4, which also gives its rusage
+        # read the output in a thread and reap the child with wait4, which also gives its
+        # rusage
         chunks: list[bytes] = []
-        assert proc.stderr is not None
-        err_pipe = proc.stderr
-        reader = threading.Thread(target=lambda: chunks.append(err_pipe.read()), daemon=True)
+        reader = threading.Thread(target=_tail, args=(proc.stdout, OUTPUT_KEEP, chunks),
+                                  daemon=True)
         reader.start()
         while True:
             pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
             if pid:
                 break
-            if time.perf_counter() - t0 >= timeout:
-                timed_out = True
+            if STOP.is_set() or time.perf_counter() - t0 >= timeout:
+                interrupted = STOP.is_set()
+                timed_out = not interrupted
                 _kill_group(proc)
                 pid, status, usage = os.wait4(proc.pid, 0)
                 break
             time.sleep(0.005)
         proc.returncode = os.waitstatus_to_exitcode(status)
+        _kill_group(proc)              # what it left running in its group (it holds the pipe)
         # ru_maxrss is in KiB on Linux, in bytes on macOS
         peak = round(usage.ru_maxrss / (1 << 20 if sys.platform == "darwin" else 1 << 10), 1)
         reader.join(timeout=5.0)
         err = b"".join(chunks)
     else:                               # no wait4 (Windows): no memory figure
         try:
-            _, err = proc.communicate(timeout=timeout)
+            err, _ = proc.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
             timed_out = True
             _kill_group(proc)
-            _, err = proc.communicate()
+            err, _ = proc.communicate()
+        err = err[-OUTPUT_KEEP:]
     secs = time.perf_counter() - t0
     code = proc.returncode
     sig = None
@@ -137,7 +187,7 @@ def run_command(argv: list[str], timeout: float, memory_mb: int | None,
     text = err.decode("utf-8", "replace")
     return {"exit_code": code, "seconds": round(secs, 3),
             "stderr": text[-STDERR_TAIL:], "timed_out": timed_out, "signal": sig,
-            "peak_rss_mb": peak}
+            "peak_rss_mb": peak, "interrupted": interrupted}
 
 
 def _kill_group(proc: subprocess.Popen[bytes]) -> None:
@@ -152,9 +202,22 @@ def _kill_group(proc: subprocess.Popen[bytes]) -> None:
 SHELL_CRASH_CODES = {128 + int(s): s.name for s in (
     signal.SIGILL, signal.SIGABRT, signal.SIGBUS, signal.SIGFPE, signal.SIGSEGV,
     signal.SIGKILL) if hasattr(signal, s.name)}
-#: the last line of stderr of a decoder that ran out of memory: Python, C++, Rust, Go, C
-OUT_OF_MEMORY = re.compile(r"^(MemoryError\b|.*std::bad_alloc|.*memory allocation of \d+ bytes "
-                           r"failed|.*\bout of memory\b|.*Cannot allocate memory)", re.I)
+#: a line, anywhere in the output, that only a runtime out of memory prints before its
+#: stack trace: C++'s std::bad_alloc, Rust's allocation failure, Go's fatal error, Java's
+#: OutOfMemoryError
+OUT_OF_MEMORY = re.compile(r"^(.*\bstd::bad_alloc\b|memory allocation of \d+ bytes failed|"
+                           r"fatal error: (runtime: )?out of memory|.*\bjava\.lang\."
+                           r"OutOfMemoryError\b)")
+#: ... and the last line of one whose exception ends its output (Python's MemoryError,
+#: numpy's _ArrayMemoryError) or that reports it itself: "out of memory" as the message
+#: (after an optional "prog: " prefix), or the C library's ENOMEM text. A sentence that
+#: only mentions memory ("it would run out of memory"), or a MemoryError on an earlier
+#: line followed by another error, is an orderly rejection.
+OUT_OF_MEMORY_LAST = re.compile(r"^([\w.]*MemoryError\b|([\w./ -]+:\s*)?(out of memory|"
+                                r"cannot allocate memory)\b)", re.I)
+#: exit statuses a shell (or exec wrapper) gives when the command cannot be run: 126 not
+#: executable, 127 not found; never a decoder's own rejection
+CANNOT_RUN_CODES = {126: "found but could not be executed", 127: "not found"}
 
 
 def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
@@ -166,6 +229,8 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
     vector's group: a crash is not a rejection (spec §8).
     """
     code = run["exit_code"]
+    if run.get("interrupted"):
+        return "error", "interrupted (Ctrl-C)"
     if code is None:
         return "error", run["stderr"]
     if run["timed_out"]:
@@ -175,9 +240,16 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
     if code in SHELL_CRASH_CODES:
         return "crash", (f"exit {code} = 128 + {SHELL_CRASH_CODES[code]}, a shell's report of "
                          f"a process killed by that signal")
-    lines = [ln for ln in run["stderr"].splitlines() if ln.strip()]
-    if code != 0 and lines and OUT_OF_MEMORY.match(lines[-1].strip()):
-        return "memory", f"ran out of memory (exit {code}: {lines[-1].strip()[:200]})"
+    lines = [ln.strip() for ln in run["stderr"].splitlines() if ln.strip()]
+    if code != 0 and lines:
+        hit = next((ln for ln in lines if OUT_OF_MEMORY.match(ln)), None)
+        if hit is None and OUT_OF_MEMORY_LAST.match(lines[-1]):
+            hit = lines[-1]
+        if hit is not None:
+            return "memory", f"ran out of memory (exit {code}: {hit[:200]})"
+    if code in CANNOT_RUN_CODES:
+        return "error", (f"exit {code}: a shell's code for a command {CANNOT_RUN_CODES[code]}, "
+                         "not a rejection" + (f" ({lines[-1][:200]})" if lines else ""))
     return None
 
 
@@ -231,10 +303,11 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
         res["problems"].append(f"infinite value at {where}")
         return res
     diff = np.zeros_like(exp)
-    diff[ok] = np.abs(got[ok] - exp[ok])
-    n = int(ok.sum())
-    res["max_abs"] = float(diff.max(initial=0.0))
-    res["rms"] = float(math.sqrt(float((diff[ok] ** 2).sum()) / n)) if n else 0.0
+    with np.errstate(over="ignore"):     # a huge wrong value: inf, reported as such
+        diff[ok] = np.abs(got[ok] - exp[ok])
+        n = int(ok.sum())
+        res["max_abs"] = float(diff.max(initial=0.0))
+        res["rms"] = float(math.sqrt(float((diff[ok] ** 2).sum()) / n)) if n else 0.0
     bad = diff > tol["max_abs"]
     if bad.any():
         idx = np.argwhere(bad)
@@ -243,8 +316,10 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
             where, f, m, a = _where(i, names)
             g, e = float(got[tuple(i)]), float(exp[tuple(i)])
             off = g - e
+            steps = off / step
             lines.append(f"{where}: got {_fmt(g)}, expected {_fmt(e)} (off by {off:.6g} = "
-                         f"{off / step:.3f} grid steps)")
+                         + (f"{steps:.3f}" if abs(steps) < 1e7 else f"{steps:.6g}")
+                         + " grid steps)")
             if k == 0:
                 res["first_failure"] = {"frame": f, "marker": m,
                                         "marker_name": names[m] if m < len(names) else None,
@@ -308,7 +383,7 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
             problems.append(f"sidecar rate {got!r} != expected {float(hdr['rate'])!r} (the exact "
                             f"binary64 of MHDR.rate; write 17 significant digits)")
     units: Any = doc.get("units")
-    if not (_is_number(units) and float(units).is_integer()):
+    if not (_is_number(units) and (isinstance(units, int) or units.is_integer())):
         problems.append(f"sidecar units is not an integer code: {units!r:.100}")
     elif int(units) != int(hdr["units_code"]):
         problems.append(f"sidecar units {int(units)} != expected code {hdr['units_code']}")
@@ -316,11 +391,16 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
     if not (isinstance(meta, dict) and all(isinstance(v, str) for v in meta.values())):
         problems.append(f"sidecar meta is not an object of strings: {meta!r:.200}")
     elif meta != want_meta:
-        diff = sorted(set(meta) ^ set(want_meta)) or sorted(
-            k for k in want_meta if meta[k] != want_meta[k])
-        k = diff[0]
-        problems.append(f"sidecar meta differs at key {k!r}: got {meta.get(k)!r:.100}, expected "
-                        f"{want_meta.get(k)!r:.100} (the last value of a repeated key, §4.11)")
+        extra, lost = sorted(set(meta) - set(want_meta)), sorted(set(want_meta) - set(meta))
+        if lost:
+            problems.append(f"sidecar meta lacks key {lost[0]!r} (expected "
+                            f"{want_meta[lost[0]]!r:.100})")
+        elif extra:
+            problems.append(f"sidecar meta has key {extra[0]!r}, which the file does not hold")
+        else:
+            k = next(k for k in want_meta if meta[k] != want_meta[k])
+            problems.append(f"sidecar meta[{k!r}] = {meta[k]!r:.100}, expected "
+                            f"{want_meta[k]!r:.100} (for a repeated key, the last value: §4.11)")
     return ("mismatch" if problems else "match"), problems
 
 
@@ -380,12 +460,19 @@ def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout:
             entry["message"] = f"decoder exited 0 but wrote no output file {out.name}"
             return entry
         try:
-            got = np.load(out, allow_pickle=False)
+            # mapped, not read: a huge output costs the runner no memory before its shape
+            # is compared
+            got = np.load(out, mmap_mode="r", allow_pickle=False)
         except Exception as exc:  # any unreadable output is the decoder's failure
-            entry["message"] = f"output is not a readable .npy file: {type(exc).__name__}: {exc}"
+            entry["message"] = (f"output is not a readable .npy file: {type(exc).__name__}: "
+                                f"{exc}"[:500])
+            return entry
+        if not isinstance(got, np.ndarray):     # np.load gives an NpzFile for a zip
+            entry["message"] = "output is not a .npy file (a .npz archive?)"
             return entry
         exp = np.load(vdir / vec["expected_output"]["file"], allow_pickle=False)
         cmp = compare_output(got, exp, vec)
+        del got                                  # the map, before the directory goes
         entry.update(max_abs=cmp["max_abs"], rms=cmp["rms"],
                      allowed_max_abs=cmp["allowed_max_abs"], allowed_rms=cmp["allowed_rms"],
                      first_failure=cmp["first_failure"])
@@ -494,10 +581,15 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         bad = failure_kind(run)
         if bad is not None:
             entry["actual"] = bad[0]
-            entry["message"] = bad[1] if bad[0] == "error" else f"encoder {bad[1]}"
+            limit = (f" (limit {timeout:g} s)" if bad[0] == "timeout" else
+                     f" (limit {memory_mb} MB)" if bad[0] == "memory" else "")
+            entry["message"] = bad[1] if bad[0] == "error" else f"encoder {bad[1]}{limit}"
             return entry
         if run["exit_code"] != 0:
-            entry["actual"], entry["message"] = "fail", f"encoder exited {run['exit_code']}"
+            tail = run["stderr"].strip().splitlines()
+            entry["actual"] = "reject"
+            entry["message"] = (f"encoder exited {run['exit_code']}"
+                                + (f": {tail[-1][:300]}" if tail else ""))
             return entry
         if not out.is_file():
             entry["actual"], entry["message"] = "encode", "encoder exited 0 but wrote no file"
@@ -516,6 +608,18 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
 
 
 # --------------------------------------------------------------------- CLI --
+def _finite(obj: Any) -> Any:
+    """``obj`` with every non-finite float as None (JSON has no inf or NaN; a decoder that
+    writes 1e300 makes the RMS infinite, and the message says so)."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
 def _parser() -> argparse.ArgumentParser:
     from mpz import __version__
     p = Parser(
@@ -562,7 +666,10 @@ def _command(text: str) -> list:
         argv[0] = os.path.abspath(exe)             # the decoder runs in a temporary directory
     elif shutil.which(exe) is None:
         raise UsageError(f"{exe}: command not found on PATH")
-    return argv
+    # ... and so does every argument that names a file or folder here: "python3 dec.py",
+    # "java -jar dec.jar" would otherwise look for it there and fail every vector
+    return [argv[0]] + [os.path.abspath(a) if not a.startswith("-") and os.path.exists(a)
+                        and not os.path.isabs(a) else a for a in argv[1:]]
 
 
 @quiet_broken_pipe
@@ -574,8 +681,10 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     from mpz.api import check_output, write_atomic
     try:
-        if args.timeout <= 0 or args.jobs < 1 or args.memory < 0:
-            raise UsageError("--timeout must be > 0, --jobs >= 1 and --memory >= 0")
+        if not (math.isfinite(args.timeout) and args.timeout > 0) or args.jobs < 1 \
+                or not 0 <= args.memory <= MAX_MEMORY_MB:
+            raise UsageError(f"--timeout must be a finite number > 0, --jobs >= 1 and "
+                             f"--memory 0 .. {MAX_MEMORY_MB}")
         cmd = _command(args.decoder if args.decoder is not None else args.encoder)
         vdir = Path(args.vectors)
         try:
@@ -593,10 +702,25 @@ def main(argv: list[str] | None = None) -> int:
         else:
             todo = [(item, float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"]
-                    if not args.only
-                    or {item["name"], f"{item['name']}@{float(E):g}"} & set(args.only)]
+                    if not args.only or any(_selects(o, item["name"], float(E))
+                                            for o in args.only)]
             if not todo:
                 raise UsageError("no encoder inputs selected")
+            if args.only:
+                unmatched = [o for o in args.only if not any(
+                    _selects(o, item["name"], float(E)) for item in man.get("encoder_inputs", [])
+                    for E in item["max_errors"])]
+                if unmatched:
+                    raise UsageError(f"no encoder input named {', '.join(unmatched)}")
+        missing = mf.check_hashes({"vectors": [v for v in todo if isinstance(v, dict)],
+                                   "encoder_inputs": list({id(ie[0]): ie[0] for ie in todo
+                                                           if isinstance(ie, tuple)}.values())},
+                                  vdir)
+        if missing:
+            raise UsageError(f"{len(missing)} vector file(s) do not match the manifest (a "
+                             f"damaged or partial copy?): {'; '.join(missing[:3])}")
+        if args.results and os.path.isdir(args.results):
+            raise UsageError(f"--results {args.results}: a folder, not a file")
         stream = args.results and os.path.exists(args.results) and not os.path.isfile(args.results)
         if args.results and not stream:   # found out now, not after every vector has run
             try:
@@ -615,8 +739,15 @@ def main(argv: list[str] | None = None) -> int:
     else:
         def job(ie):
             return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
-    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+    pool = ThreadPoolExecutor(max_workers=args.jobs)
+    try:
         results = list(pool.map(job, todo))          # every vector runs before reporting
+    except KeyboardInterrupt:
+        STOP.set()                  # the running commands are killed, no other one starts
+        pool.shutdown(wait=True, cancel_futures=True)
+        print("mpz-conformance: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    pool.shutdown()
 
     for r in results:
         if r["passed"] and args.quiet:
@@ -646,7 +777,7 @@ def main(argv: list[str] | None = None) -> int:
                           "failed": n_fail, "groups": by_group},
                "failed": [r["name"] for r in results if not r["passed"]],
                "results": results}
-        text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
+        text = json.dumps(_finite(doc), indent=1, allow_nan=False) + "\n"
         try:
             if stream:                    # /dev/stdout, a FIFO: not a file to replace
                 Path(args.results).write_text(text, encoding="utf-8")

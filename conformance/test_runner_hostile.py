@@ -1,0 +1,241 @@
+"""The runner against decoders, commands and vector folders that misbehave (a black-box QA
+of stop 28 found each of these): it must give the right verdict, never a traceback, a
+hang or an unbounded use of its own memory.
+
+Each decoder here is a small script written into the test's folder; most wrap the
+reference decoder and then break its output.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+PY = sys.executable
+ONE = "spec-example"          # a small valid vector
+BAD = "x01-bad-signature"     # an invalid one
+
+
+def decoder(tmp_path: Path, body: str, name: str = "dec.py") -> Path:
+    """An executable decoder script: the reference decoder, then ``body`` (IN, OUT bound)."""
+    path = tmp_path / name
+    path.write_text(f"#!{PY}\n" + textwrap.dedent('''\
+        import subprocess, sys
+        import numpy as np
+        IN, OUT = sys.argv[-2], sys.argv[-1]
+        REF = [sys.executable, "-m", "mpz.conformance.refdecoder"]
+        rc = subprocess.run(REF + [IN, OUT]).returncode
+        ''') + textwrap.dedent(body) + "\nsys.exit(rc)\n")
+    path.chmod(0o755)
+    return path
+
+
+def run(tmp_path: Path, *args: str, timeout: float = 300) -> tuple[subprocess.CompletedProcess,
+                                                                  dict | None]:
+    out = tmp_path / "results.json"
+    proc = subprocess.run([PY, "-m", "mpz.conformance.runner", *args, "--results", str(out)],
+                          capture_output=True, text=True, timeout=timeout, cwd=tmp_path)
+    return proc, (json.loads(out.read_text()) if out.exists() else None)
+
+
+def test_a_huge_wrong_value_fails_with_finite_json(tmp_path):
+    """1e300 made the RMS infinite: the results file was never written (a traceback)."""
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            x = np.load(OUT); i = np.argwhere(np.isfinite(x))[0]
+            x[tuple(i)] = -1e300; np.save(OUT, x)
+            import os; os.path.exists(OUT + ".intlayer") and os.remove(OUT + ".intlayer")
+        ''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    r = doc["results"][0]
+    assert not r["passed"] and r["rms"] is None and r["max_abs"] > 1e299
+    assert "rms error inf" in r["message"] and "e+" in r["message"]
+
+
+def test_an_npz_output_is_not_a_npy(tmp_path):
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            x = np.load(OUT); np.savez(open(OUT, "wb"), x)
+        ''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert "not a .npy file" in doc["results"][0]["message"]
+
+
+def test_a_huge_integer_units_code_is_a_mismatch(tmp_path):
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            p = OUT + ".json"; t = open(p).read()
+            import json; d = json.loads(t); d["units"] = 10 ** 400
+            open(p, "w").write(json.dumps(d))
+        ''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert doc["results"][0]["sidecar"] == "mismatch"
+
+
+@pytest.mark.parametrize("last_lines, verdict", [
+    ("Traceback (most recent call last):\\nnumpy._core._exceptions._ArrayMemoryError: "
+     "Unable to allocate 8.00 TiB", "memory"),
+    ("fatal error: runtime: out of memory\\n\\nruntime stack:\\nruntime.throw()", "memory"),
+    ('Exception in thread \\"main\\" java.lang.OutOfMemoryError: Java heap space\\n'
+     "\\tat Dec.main(Dec.java:3)", "memory"),
+    ("error: the file declares 2^36 samples; refusing it, it would run out of memory",
+     "reject"),
+])
+def test_out_of_memory_is_told_from_a_rejection(tmp_path, last_lines, verdict):
+    """numpy's, Go's and Java's out-of-memory ends passed as rejections of invalid files;
+    a rejection that only mentions memory failed as one."""
+    dec = tmp_path / "oom.py"
+    dec.write_text(f'#!{PY}\nimport sys\nsys.stderr.write("{last_lines}\\n")\nsys.exit(2)\n')
+    dec.chmod(0o755)
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    r = doc["results"][0]
+    assert r["actual"] == verdict and r["passed"] == (verdict == "reject"), r
+
+
+def test_a_command_that_cannot_run_is_no_rejection(tmp_path):
+    """A wrapper whose interpreter is missing exits 127: every invalid vector "passed"."""
+    dec = tmp_path / "badshebang.sh"
+    dec.write_text("#!/bin/sh\nexec /nonexistent/python4 \"$@\"\n")
+    dec.chmod(0o755)
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    r = doc["results"][0]
+    assert proc.returncode == 1 and r["actual"] == "error" and "127" in r["message"]
+
+
+def test_relative_paths_in_the_command_are_found(tmp_path):
+    """`python3 dec.py` ran dec.py in the temporary folder, where it is not: every valid
+    vector failed and every invalid one passed."""
+    decoder(tmp_path, "")
+    proc, doc = run(tmp_path, "--decoder", f"{PY} dec.py", "--only", ONE, BAD)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert all(r["passed"] for r in doc["results"])
+
+
+def test_what_the_decoder_prints_on_stdout_is_kept(tmp_path):
+    """A JVM that cannot start under the memory limit says why on stdout, which was
+    thrown away."""
+    dec = tmp_path / "vm.py"
+    dec.write_text(f"#!{PY}\nprint('Error occurred during initialization of VM')\n"
+                   "raise SystemExit(1)\n")
+    dec.chmod(0o755)
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    assert "initialization of VM" in doc["results"][0]["message"]
+
+
+def test_a_child_left_running_is_killed_and_costs_no_wait(tmp_path):
+    """A decoder that leaves `sleep 30` behind (holding its stderr) cost 5 s a vector and
+    the sleep outlived the runner."""
+    mark = tmp_path / "child.pid"
+    dec = decoder(tmp_path, f'''
+        p = subprocess.Popen(["sleep", "30"])
+        open({str(mark)!r}, "w").write(str(p.pid))
+        ''')
+    t0 = time.monotonic()
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    assert doc["results"][0]["passed"] and doc["results"][0]["seconds"] < 4
+    pid = int(mark.read_text())
+    time.sleep(0.2)
+    gone = True
+    try:
+        os.kill(pid, 0)
+        state = Path(f"/proc/{pid}/stat").read_text().split()[2] if Path(
+            f"/proc/{pid}").exists() else "X"
+        gone = state == "Z"                     # killed, not yet reaped by init
+    except ProcessLookupError:
+        pass
+    assert gone and time.monotonic() - t0 < 60
+
+
+def test_megabytes_of_output_keep_a_short_tail(tmp_path):
+    dec = tmp_path / "spam.py"
+    dec.write_text(f"#!{PY}\nimport sys\nsys.stderr.write('x' * (64 << 20))\n"
+                   "sys.stderr.write('\\nthe end\\n')\nsys.exit(2)\n")
+    dec.chmod(0o755)
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    r = doc["results"][0]
+    assert r["passed"] and len(r["stderr_tail"]) <= 2000 and "the end" in r["stderr_tail"]
+
+
+@pytest.mark.parametrize("args, phrase", [
+    (["--timeout", "nan"], "--timeout"), (["--timeout", "inf"], "--timeout"),
+    (["--memory", "99999999999999"], "--memory"),
+])
+def test_option_values_that_disable_a_limit_are_usage_errors(tmp_path, args, phrase):
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only", ONE,
+                  *args)
+    assert proc.returncode == 64 and phrase in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_a_results_folder_is_refused_before_any_vector_runs(tmp_path):
+    (tmp_path / "res").mkdir()
+    proc = subprocess.run([PY, "-m", "mpz.conformance.runner", "--decoder",
+                           f"{PY} -c 'raise SystemExit(9)'", "--only", ONE, "--results",
+                           str(tmp_path / "res")], capture_output=True, text=True)
+    assert proc.returncode == 64 and "a folder" in proc.stderr and "PASS" not in proc.stdout
+
+
+def _copy_vectors(tmp_path: Path) -> Path:
+    from mpz.conformance import manifest as mf
+    dst = tmp_path / "vectors"
+    shutil.copytree(mf.DEFAULT_DIR, dst, ignore=shutil.ignore_patterns("__pycache__", "*.py"))
+    return dst
+
+
+def test_damaged_or_missing_vectors_are_usage_errors(tmp_path):
+    """A damaged copy made a correct decoder fail, and a missing file was a traceback."""
+    vdir = _copy_vectors(tmp_path)
+    with open(vdir / "spec-example.npy", "r+b") as f:
+        f.seek(-1, 2)
+        f.write(b"\x01")
+    (vdir / "invalid" / f"{BAD}.mpz").unlink()
+    for only in (ONE, BAD):
+        proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder",
+                      "--vectors", str(vdir), "--only", only)
+        assert proc.returncode == 64 and "do not match the manifest" in proc.stderr, only
+
+
+@pytest.mark.parametrize("manifest", [
+    b'{"schema_version": 2, "vectors": ["x"]}', b"\xff\xfe{}",
+])
+def test_a_malformed_manifest_is_a_usage_error(tmp_path, manifest):
+    (tmp_path / "v").mkdir()
+    (tmp_path / "v" / "manifest.json").write_bytes(manifest)
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--vectors",
+                  str(tmp_path / "v"))
+    assert proc.returncode == 64 and "Traceback" not in proc.stderr
+
+
+def test_ctrl_c_stops_at_once(tmp_path):
+    """Ctrl-C waited for the running decoder's timeout, then printed a traceback."""
+    proc = subprocess.Popen([PY, "-m", "mpz.conformance.runner", "--decoder",
+                             f"{PY} -c 'import time; time.sleep(60)'", "--only", ONE,
+                             "--timeout", "50"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    time.sleep(3)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130 and time.monotonic() - t0 < 10
+    assert "interrupted" in err and "Traceback" not in err
+
+
+def test_encoder_only_names_are_checked_and_compared_as_numbers(tmp_path):
+    enc = f"{PY} -m mpz.conformance.refencoder"
+    proc, _ = run(tmp_path, "--encoder", enc, "--only", "e01-walk-41-gaps", "bogus")
+    assert proc.returncode == 64 and "bogus" in proc.stderr
+    from mpz.conformance import manifest as mf
+    item = mf.load()["encoder_inputs"][0]
+    E = float(item["max_errors"][0])
+    proc, doc = run(tmp_path, "--encoder", enc, "--only", f"{item['name']}@{E!r}")
+    assert proc.returncode == 0 and len(doc["results"]) == 1, proc.stderr
