@@ -239,3 +239,12 @@ def test_encoder_only_names_are_checked_and_compared_as_numbers(tmp_path):
     E = float(item["max_errors"][0])
     proc, doc = run(tmp_path, "--encoder", enc, "--only", f"{item['name']}@{E!r}")
     assert proc.returncode == 0 and len(doc["results"]) == 1, proc.stderr
+
+
+def test_control_characters_from_the_decoder_are_escaped(tmp_path):
+    dec = tmp_path / "esc.py"
+    dec.write_text(f"#!{PY}\nimport sys\nsys.stderr.write('bad \\x1b[2J file\\n')\n"
+                   "sys.exit(3)\n")
+    dec.chmod(0o755)
+    proc, _ = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    assert "\x1b" not in proc.stdout and "bad \\x1b[2J file" in proc.stdout

@@ -55,7 +55,14 @@ except ImportError:          # not POSIX: no memory limit
 from mpz.conformance import manifest as mf
 from mpz.errors import MPZError
 from mpz.tools._cli import EXIT_FAILED as EXIT_FAIL
-from mpz.tools._cli import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser, quiet_broken_pipe
+from mpz.tools._cli import (
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_USAGE,
+    Parser,
+    printable,
+    quiet_broken_pipe,
+)
 
 RESULTS_SCHEMA_VERSION = 2          # 2: sidecar, contract, peak_rss_mb, actual 'memory'
 STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
@@ -752,7 +759,10 @@ def main(argv: list[str] | None = None) -> int:
     for r in results:
         if r["passed"] and args.quiet:
             continue
-        print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: {r['message']}")
+        # the message may quote the decoder's output: its control characters are escaped,
+        # so that a decoder cannot drive the terminal
+        print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: "
+              f"{printable(r['message'])}")
     n_fail = sum(not r["passed"] for r in results)
     by_group: dict[str, dict[str, int]] = {}
     for r in results:
