@@ -496,3 +496,43 @@ def test_a_c3d_label_with_a_nul_is_renamed_and_comes_back_as_stored(tmp_path: Pa
     labels = lambda d: d.params["POINT"]["LABELS"]                           # noqa: E731
     assert labels(c3dbin.parse_c3d((tmp_path / "back.c3d").read_bytes())) == \
         labels(c3dbin.parse_c3d(path.read_bytes()))
+
+
+# -- a QA of stop 28 -----------------------------------------------------------------------
+def test_summary_of_a_file_whose_motion_does_not_decode_is_an_error(tmp_path):
+    """mpz summary printed the stored levels and exited 0 on 19 invalid vectors (the
+    decode error was swallowed): it must fail as mpz decode does, naming the chunk."""
+    from mpz.conformance import manifest as mf
+    bad = mf.DEFAULT_DIR / "invalid" / "x46-mask-flag-2.mpz"
+    for extra in ([], ["--json"]):
+        p = run(["mpz", "summary", str(bad), *extra], tmp_path)
+        assert p.returncode == 2 and b"chunk MASK" in p.stderr and b"(\xc2\xa74.5)" in p.stderr
+        assert p.stdout == b""
+    p = run(["mpz", "summary", str(bad), "--no-decode"], tmp_path)
+    assert p.returncode == 0                       # the stored levels alone, as asked
+
+
+def test_compare_bound_needs_a_unit_and_a_positive_length(small, tmp_path):
+    """--bound was read only with --plot, so `--bound 1` on millimetre inputs passed."""
+    base = ["mpz", "compare", str(small["trc"]), str(small["mpz"])]
+    p = run([*base, "--bound", "1"], tmp_path)
+    assert p.returncode == 2 and b"give a unit" in p.stderr
+    p = run([*base, "--bound", "1e400mm"], tmp_path)
+    assert p.returncode == 2 and b"positive finite" in p.stderr
+    p = run([*base, "--bound", "1mm"], tmp_path)
+    assert p.returncode == 0 and b"drawn on --plot" in p.stderr
+    p = run([*base, "--top", "-1"], tmp_path)
+    assert p.returncode == 64 and b"--top" in p.stderr
+
+
+def test_mpzinfo_text_names_the_chunk_offset_and_section(tmp_path):
+    """The text of a framing error named neither offset nor section, and that of a decode
+    error not the chunk, although --json had all three."""
+    from mpz.conformance import manifest as mf
+    inv = mf.DEFAULT_DIR / "invalid"
+    p = run(["mpzinfo", str(inv / "x09-truncated-in-mhdr.mpz")], tmp_path)
+    # the first chunk starts right after the 8-byte signature (§3.1)
+    assert p.returncode == 2 and "in chunk MHDR at offset 8 (§3.2)" in p.stdout.decode()
+    p = run(["mpzinfo", str(inv / "x46-mask-flag-2.mpz")], tmp_path)
+    text = p.stdout.decode()
+    assert p.returncode == 2 and "in chunk MASK at offset" in text and "(§4.5)" in text

@@ -33,13 +33,23 @@ def add_parser(sub):
     p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
     p.add_argument("--asf", help="skeleton for AMC input")
     p.add_argument("--json", action="store_true")
-    p.add_argument("--top", type=int, default=10, help="markers to list, worst first")
+    p.add_argument("--top", type=_count, default=10, help="markers to list, worst first")
     p.add_argument("--plot", metavar="PNG", help="plot the error over time of the worst "
                    "markers, with the bound as a line (needs matplotlib)")
     p.add_argument("--marker", action="append", help="marker(s) to plot instead of the worst")
     p.add_argument("--bound", metavar="E", help="bound to draw, with a unit (default: the one "
                    "declared in an .mpz input)")
     p.set_defaults(func=run)
+
+
+def _count(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"wants 0 or more, got {n}")
+    return n
 
 
 def align(a, b):
@@ -154,6 +164,15 @@ def run(args: argparse.Namespace) -> int:
     units_b = b.units
     b, units, more = common_units(a, b, names)
     notes += more
+    # --bound is read now, against the inputs' units: a bare number is refused when they
+    # have units, as for every length option (README); before, it was read only for a plot
+    bound_given = None
+    if args.bound is not None:
+        bound_given = parse_length(args.bound, units, "--bound")
+        if not (math.isfinite(bound_given) and bound_given > 0):
+            raise MotionError(f"--bound {args.bound}: not a positive finite length")
+        if not args.plot:
+            notes.append("--bound is drawn on --plot, which was not asked for")
     for note in notes:
         print(f"mpz compare: note: {note}", file=sys.stderr)
     s = summary(a, b)
@@ -183,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
                   f"{(float('nan') if rms is None else rms):>10.4g}")
     if args.plot:
         plot_names = args.marker or [n for _, n in worst[:3]]
-        bound = (parse_length(args.bound, units, "--bound") if args.bound is not None
+        bound = (bound_given if bound_given is not None
                  else _declared_bound(args.decoded, units)
                  or _declared_bound(args.original, units))
         plot(a, b, plot_names, args.plot, bound=bound, units=units)

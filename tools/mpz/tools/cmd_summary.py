@@ -131,8 +131,15 @@ def _levels_from_mpz(args, ks):
         from mpz.errors import MPZError
         from mpz.fisher import motion_series
         from mpz.tools._common import read_mpz_input_bytes
-        try:       # a skeletal file: the joint positions from its channels, as mpz decode
-            series = motion_series(read_mpz_input_bytes(data), summ.space)[0]
+        # a file whose motion does not decode is an error (exit 2), as in mpz decode; a
+        # skeletal file gives the joint positions from its channels, as mpz decode does
+        try:
+            motion = read_mpz_input_bytes(data)
+        except MPZError as exc:
+            exc.path = args.file             # the file named, not standard input
+            raise
+        try:
+            series = motion_series(motion, summ.space)[0]
         except MPZError:
             series = None        # e.g. an angle summary of a motion decoded without angles
     stored = [int(lv.k) for lv in summ.levels]

@@ -123,12 +123,21 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
     return _finite(info)
 
 
+def _where(e: dict) -> str:
+    """`` in chunk MASK at offset 178 (§4.5)``: as much of the place as the error names."""
+    chunk = f" in chunk {printable(e['chunk'])}" if e.get("chunk") else ""
+    offset = f" at offset {e['offset']}" if e.get("offset") is not None else ""
+    return chunk + offset + (f" ({e['section']})" if e.get("section") else "")
+
+
 def summary_line(info: dict) -> str:
     tag = {"ok": "OK", "warning": "WARN", "error": "ERROR", "memory": "MEMORY"}[info["status"]]
     name = printable(info["file"])
     if info["frames"] is None:
-        reason = info["errors"][0]["message"] if info["errors"] else "unreadable"
-        return f"{tag}: {name} ({printable(reason)})"
+        if not info["errors"]:
+            return f"{tag}: {name} (unreadable)"
+        e = info["errors"][0]
+        return f"{tag}: {name} ({printable(e['message'])}{_where(e)})"
     rate = "unknown rate" if info["rate"] is None else f"{info['rate']:g} Hz"
     parts = [f"MPZ {info['version']}", rate, f"{info['frames']} frames",
              f"{info['markers']} markers", f"{info['nodes']} nodes"]
@@ -144,9 +153,7 @@ def summary_line(info: dict) -> str:
     line = f"{tag}: {name} ({', '.join(parts)})"
     if info["errors"]:
         e = info["errors"][0]
-        where = f" at offset {e['offset']}" if e["offset"] is not None else ""
-        line += (f"\n  error: {printable(e['message'])}{where}"
-                 + (f" ({e['section']})" if e["section"] else ""))
+        line += f"\n  error: {printable(e['message'])}{_where(e)}"
     return line
 
 
@@ -168,8 +175,7 @@ def _print_chunks(info: dict, verbose: int, out):
     for w in info["warnings"]:
         print(f"  warning: {printable(w['message'])}", file=out)
     for e in info["errors"]:
-        where = f" at offset {e['offset']}" if e["offset"] is not None else ""
-        print(f"  error: {e['class']}: {printable(e['message'])}{where}", file=out)
+        print(f"  error: {e['class']}: {printable(e['message'])}{_where(e)}", file=out)
 
 
 def _read(name: str) -> bytes:
