@@ -24,18 +24,27 @@ ONE = "spec-example"          # a small valid vector
 BAD = "x01-bad-signature"     # an invalid one
 
 
+def script(path: Path, text: str) -> Path:
+    """An executable file holding ``text`` (a fake decoder)."""
+    path.write_text(text)
+    path.chmod(0o755)
+    return path
+
+
+def python_script(path: Path, body: str) -> Path:
+    """An executable Python script of ``body``, with sys imported."""
+    return script(path, f"#!{PY}\nimport sys\n{body}")
+
+
 def decoder(tmp_path: Path, body: str, name: str = "dec.py") -> Path:
     """An executable decoder script: the reference decoder, then ``body`` (IN, OUT bound)."""
-    path = tmp_path / name
-    path.write_text(f"#!{PY}\n" + textwrap.dedent('''\
+    return script(tmp_path / name, f"#!{PY}\n" + textwrap.dedent('''\
         import subprocess, sys
         import numpy as np
         IN, OUT = sys.argv[-2], sys.argv[-1]
         REF = [sys.executable, "-m", "mpz.conformance.refdecoder"]
         rc = subprocess.run(REF + [IN, OUT]).returncode
         ''') + textwrap.dedent(body) + "\nsys.exit(rc)\n")
-    path.chmod(0o755)
-    return path
 
 
 def run(tmp_path: Path, *args: str, timeout: float = 300) -> tuple[subprocess.CompletedProcess,
@@ -95,9 +104,7 @@ def test_a_huge_integer_units_code_is_a_mismatch(tmp_path):
 def test_out_of_memory_is_told_from_a_rejection(tmp_path, last_lines, verdict):
     """numpy's, Go's and Java's out-of-memory ends passed as rejections of invalid files;
     a rejection that only mentions memory failed as one."""
-    dec = tmp_path / "oom.py"
-    dec.write_text(f'#!{PY}\nimport sys\nsys.stderr.write("{last_lines}\\n")\nsys.exit(2)\n')
-    dec.chmod(0o755)
+    dec = python_script(tmp_path / "oom.py", f'sys.stderr.write("{last_lines}\\n")\nsys.exit(2)\n')
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
     r = doc["results"][0]
     assert r["actual"] == verdict and r["passed"] == (verdict == "reject"), r
@@ -105,9 +112,7 @@ def test_out_of_memory_is_told_from_a_rejection(tmp_path, last_lines, verdict):
 
 def test_a_command_that_cannot_run_is_no_rejection(tmp_path):
     """A wrapper whose interpreter is missing exits 127: every invalid vector "passed"."""
-    dec = tmp_path / "badshebang.sh"
-    dec.write_text("#!/bin/sh\nexec /nonexistent/python4 \"$@\"\n")
-    dec.chmod(0o755)
+    dec = script(tmp_path / "badshebang.sh", "#!/bin/sh\nexec /nonexistent/python4 \"$@\"\n")
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
     r = doc["results"][0]
     assert proc.returncode == 1 and r["actual"] == "error" and "127" in r["message"]
@@ -125,10 +130,8 @@ def test_relative_paths_in_the_command_are_found(tmp_path):
 def test_what_the_decoder_prints_on_stdout_is_kept(tmp_path):
     """A JVM that cannot start under the memory limit says why on stdout, which was
     thrown away."""
-    dec = tmp_path / "vm.py"
-    dec.write_text(f"#!{PY}\nprint('Error occurred during initialization of VM')\n"
-                   "raise SystemExit(1)\n")
-    dec.chmod(0o755)
+    dec = python_script(tmp_path / "vm.py", "print('Error occurred during initialization of VM')\n"
+                        "sys.exit(1)\n")
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
     assert "initialization of VM" in doc["results"][0]["message"]
 
@@ -158,10 +161,8 @@ def test_a_child_left_running_is_killed_and_costs_no_wait(tmp_path):
 
 
 def test_megabytes_of_output_keep_a_short_tail(tmp_path):
-    dec = tmp_path / "spam.py"
-    dec.write_text(f"#!{PY}\nimport sys\nsys.stderr.write('x' * (64 << 20))\n"
-                   "sys.stderr.write('\\nthe end\\n')\nsys.exit(2)\n")
-    dec.chmod(0o755)
+    dec = python_script(tmp_path / "spam.py", "sys.stderr.write('x' * (64 << 20))\n"
+                        "sys.stderr.write('\\nthe end\\n')\nsys.exit(2)\n")
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
     r = doc["results"][0]
     assert r["passed"] and len(r["stderr_tail"]) <= 2000 and "the end" in r["stderr_tail"]
@@ -242,9 +243,7 @@ def test_encoder_only_names_are_checked_and_compared_as_numbers(tmp_path):
 
 
 def test_control_characters_from_the_decoder_are_escaped(tmp_path):
-    dec = tmp_path / "esc.py"
-    dec.write_text(f"#!{PY}\nimport sys\nsys.stderr.write('bad \\x1b[2J file\\n')\n"
-                   "sys.exit(3)\n")
-    dec.chmod(0o755)
+    dec = python_script(tmp_path / "esc.py", "sys.stderr.write('bad \\x1b[2J file\\n')\n"
+                        "sys.exit(3)\n")
     proc, _ = run(tmp_path, "--decoder", str(dec), "--only", ONE)
     assert "\x1b" not in proc.stdout and "bad \\x1b[2J file" in proc.stdout

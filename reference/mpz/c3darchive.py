@@ -40,7 +40,7 @@ from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Pa
 from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
 from mpz.format import ByteCoding, C3DStorage, ModelKind
-from mpz.io.c3dbin import HEADER_MAX_FRAME, ParamRecord
+from mpz.io.c3dbin import ParamRecord, header_range_holds
 
 if TYPE_CHECKING:
     from mpz.chunks import Record
@@ -132,7 +132,7 @@ class C3DArchive:
         two int16 words (low, high), as in a file of more than 65535 frames."""
         first = int.from_bytes(self.header[6:8], "little")
         last = int.from_bytes(self.header[8:10], "little")
-        if last - first + 1 > 0 and last < HEADER_MAX_FRAME:
+        if header_range_holds(first, last):
             return first
         r = self.parameter("TRIAL", "ACTUAL_START_FIELD")
         if r is not None and r.type == 2 and len(r.data) == 4:

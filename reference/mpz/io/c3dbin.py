@@ -370,6 +370,13 @@ def param_number(params: dict[str, dict[str, ParamValue | None]], group: str, na
     return float(v)
 
 
+def header_range_holds(first: int, last: int) -> bool:
+    """Whether header words 4-5 (first and last frame) describe the file's frames: a
+    non-empty range whose last frame is below 65535 (:func:`frame_range`; else the
+    frame-count parameters of the C3D user guide do)."""
+    return last - first + 1 > 0 and last < HEADER_MAX_FRAME
+
+
 def _trial_frame(params: dict[str, dict[str, ParamValue | None]], name: str) -> int | None:
     """TRIAL:``name`` as the unsigned 32-bit frame number of its two int16 words (low,
     high), None when absent."""
@@ -422,7 +429,7 @@ def frame_range(params: dict[str, dict[str, ParamValue | None]], first: int,
         For frame parameters that are malformed or disagree, and for no frames at all.
     """
     n = last - first + 1
-    if n > 0 and last < HEADER_MAX_FRAME:
+    if header_range_holds(first, last):
         return first, n
     start = _trial_frame(params, "ACTUAL_START_FIELD")
     end = _trial_frame(params, "ACTUAL_END_FIELD")

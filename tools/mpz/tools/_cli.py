@@ -230,6 +230,17 @@ def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
     return wrapper
 
 
+def count(text: str) -> int:
+    """argparse type of a count that may be 0 (``--jobs N``, ``compare --top N``)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"wants 0 or more, got {n}")
+    return n
+
+
 def max_samples(text: str) -> int:
     """argparse type of ``--max-samples N`` (issue 11.1): a lower F x M limit, 1 .. 2^26.
 

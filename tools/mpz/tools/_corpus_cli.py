@@ -21,7 +21,7 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
-from mpz.tools._cli import EXIT_ERROR, EXIT_OK
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK, count
 
 if TYPE_CHECKING:
     from mpz.corpus import FileOptions, FileResult
@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 def add_corpus_options(p: argparse.ArgumentParser) -> None:
     """``--jobs``, ``--scheduler`` and ``--memory-limit`` on ``mpz encode``."""
     from mpz.corpus import DEFAULT_MEMORY_LIMIT
-    p.add_argument("-j", "--jobs", type=_jobs, metavar="N",
+    p.add_argument("-j", "--jobs", type=count, metavar="N",
                    help="encode several files in parallel on N Dask worker processes "
                    "(default with several inputs and -o FOLDER/: one per CPU; 0: in this "
                    "process); writes FOLDER/index.sqlite and skips files already encoded")
@@ -73,16 +73,6 @@ def _memory_limit(text: str) -> str:
     if n <= 0:
         raise argparse.ArgumentTypeError(f"--memory-limit wants a positive size, got {text!r}")
     return text
-
-
-def _jobs(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--jobs wants a whole number, got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"--jobs wants 0 or more, got {n}")
-    return n
 
 
 def wants_corpus(args: argparse.Namespace, jobs: Sequence[Any]) -> bool:
@@ -169,10 +159,10 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
             print(f"mpz encode: error: {printable(r.source)}: {printable(r.reason)}",
                   file=sys.stderr)
     if failed:          # the closing line of a sequential batch, on stderr even with -q
-        print(f"mpz encode: {_count(len(jobs), 'input')}: {len(jobs) - failed} done, "
+        print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed} done, "
               f"{failed} failed", file=sys.stderr)
     return EXIT_ERROR if failed else EXIT_OK
 
 
-def _count(n: int, noun: str) -> str:
+def _plural(n: int, noun: str) -> str:
     return f"{n} {noun}{'' if n == 1 else 's'}"

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from mpz.errors import MotionError
-from mpz.tools._cli import print_json, printable
+from mpz.tools._cli import count, print_json, printable
 
 
 def add_parser(sub):
@@ -33,23 +33,13 @@ def add_parser(sub):
     p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
     p.add_argument("--asf", help="skeleton for AMC input")
     p.add_argument("--json", action="store_true")
-    p.add_argument("--top", type=_count, default=10, help="markers to list, worst first")
+    p.add_argument("--top", type=count, default=10, help="markers to list, worst first")
     p.add_argument("--plot", metavar="PNG", help="plot the error over time of the worst "
                    "markers, with the bound as a line (needs matplotlib)")
     p.add_argument("--marker", action="append", help="marker(s) to plot instead of the worst")
     p.add_argument("--bound", metavar="E", help="bound to draw, with a unit (default: the one "
                    "declared in an .mpz input)")
     p.set_defaults(func=run)
-
-
-def _count(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"wants 0 or more, got {n}")
-    return n
 
 
 def align(a, b):
