@@ -67,9 +67,10 @@ def find(root: Path, name: str) -> Path:
     p = root / name
     if p.is_file():
         return p
-    for ext in EXTS:
+    for ext in EXTS:                # the folder given first: amc/HDM_dg_... is the AMC
         if (root / (name + ext)).is_file():
             return root / (name + ext)
+    for ext in EXTS:                # then a bare name anywhere below the root
         hits = sorted(root.rglob(Path(name).name + ext))
         if hits:
             return hits[0]
