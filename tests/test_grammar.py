@@ -226,3 +226,112 @@ def test_smrc_levels_are_20_bytes_and_the_coded_field_runs_to_the_end():
     assert g.SMRC.parse(head).coded == b""
     with pytest.raises(construct.ConstructError):
         g.SMRC.parse(head[:-1])
+
+
+# ---- the compiled builder (mpz.chunks._build, issue 15.1): construct's bytes, faster ----
+def _records_of_vectors():
+    """(vector, chunk type, record) of every chunk that parses, in every shipped vector."""
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    from mpz.chunks.base import Record
+    from mpz.chunks.c3d import Chdr, Cprm, _ChdrBlock, _CprmSection
+    out = []
+    for path in sorted(root.rglob("*.mpz")):
+        for c in container.scan(path.read_bytes()).chunks:
+            rec = c.record
+            if c.type not in CHUNKS or rec is None:
+                continue
+            out.append((path.name, c.type, rec))
+            # chdr and cprm build their (inflated) content from a record of their own
+            if isinstance(rec, Cprm):
+                out.append((path.name, "cprm section",
+                            _CprmSection(count=rec.count, records=rec.records)))
+            elif isinstance(rec, Chdr):
+                out.append((path.name, "chdr block", _ChdrBlock(block=rec.block)))
+            else:
+                assert type(rec).dump is Record.dump, c.type
+    return out
+
+
+def test_compiled_builder_gives_the_table_bytes():
+    """The bytes written with struct in CASES and CONTENT_CASES, by the fast path itself
+    (not by falling back to construct)."""
+    from mpz.chunks import _build
+    for _, ctype, obj, expected in CASES:
+        assert _build.fast_path(CHUNKS[ctype].GRAMMAR, obj) == expected, ctype
+    for grammar, obj, expected in CONTENT_CASES:
+        assert _build.fast_path(grammar, obj) == expected
+
+
+def test_compiled_builder_matches_construct_on_every_chunk_of_every_vector():
+    from mpz.chunks import _build
+    seen = set()
+    records = _records_of_vectors()
+    assert len(records) > 1000
+    for name, ctype, rec in records:
+        if ctype in ("chdr", "cprm"):
+            seen.add(ctype)             # built by hand around their content (below)
+            continue
+        obj = rec.to_build()
+        want = bytes(rec.GRAMMAR.build(obj))
+        got = _build.fast_path(rec.GRAMMAR, obj)
+        assert got == want, (name, ctype)
+        seen.add(ctype)
+    # every chunk type of the table is among them (the vectors use them all)
+    assert seen >= set(CHUNKS) | {"cprm section", "chdr block"}, set(CHUNKS) - seen
+
+
+@pytest.mark.parametrize("grammar,obj", [
+    (g.MNAM, dict(count=3, names=["a", "b"])),                 # count and list disagree
+    (g.MHDR, dict(version_major=256, version_minor=0, flags=0, frame_count=1,
+                  marker_count=1, node_count=1, rate=1.0, units=1, error_metric=0,
+                  error_bound=0.0, smoothing=0)),               # 256 in a u8
+    (g.META, dict(count=1, entries=[dict(key=b"k", value="v")])),   # bytes for a string
+    (g.MNAM, dict(count=1, names=["x" * 300])),                # suffix beyond a u8 length
+    (g.QUNT, dict(step=0.5, offset=[1.0, 2.0], bits=20)),      # 2 of 3 offsets
+    (g.CPRM_SECTION, dict(count=1, records=[dict(
+        group=1, locked=0, name=b"A", description=b"", type=2, dims=b"\x02",
+        data=b"\x00\x00")])),                                   # 2 bytes for 2 x int16
+    (g.RESI, dict(node=0, base=1, order=1, scale=1)),          # a field missing
+])
+def test_compiled_builder_leaves_every_error_to_construct(grammar, obj):
+    """Values construct refuses: the fast path gives up and build() raises construct's own
+    error, the one grammar.build raises."""
+    from mpz.chunks import _build
+    with pytest.raises(Exception) as want:
+        grammar.build(obj)
+    assert _build.fast_path(grammar, obj) is None
+    with pytest.raises(type(want.value)) as got:
+        _build.build(grammar, obj)
+    assert str(got.value) == str(want.value)
+
+
+_u16 = st.integers(-2, 0x10001)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.fixed_dictionaries(dict(
+    parent=_u16, ref=_u16, members=st.lists(_u16, max_size=4),
+    weights=st.lists(st.floats(-1, 20), max_size=4))), max_size=4),
+    st.lists(st.tuples(st.text(max_size=4), st.text(max_size=4)), max_size=3),
+    st.lists(st.text(min_size=0, max_size=6), max_size=5))
+def test_compiled_builder_agrees_with_construct_on_any_values(nodes, entries, names):
+    """HIER, meta and MNAM of arbitrary values (counts that disagree, numbers out of range,
+    empty strings): the same bytes as construct, or construct's error."""
+    from mpz.chunks import _build
+    objs = [
+        (g.HIER, dict(count=len(nodes), nodes=[dict(
+            parent=n["parent"], ref=n["ref"], member_count=len(n["members"]),
+            members=n["members"], weights=n["weights"][:len(n["members"])]) for n in nodes])),
+        (g.META, dict(count=len(entries), entries=[dict(key=k, value=v) for k, v in entries])),
+        (g.MNAM, dict(count=len(names), names=names)),
+    ]
+    for grammar, obj in objs:
+        try:
+            want = bytes(grammar.build(obj))
+        except Exception as exc:        # construct's error: the fast path leaves it to it
+            assert _build.fast_path(grammar, obj) is None
+            with pytest.raises(type(exc)):
+                _build.build(grammar, obj)
+        else:
+            assert _build.fast_path(grammar, obj) == want

@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 import zlib
 
-from mpz.chunks import CHUNKS, Record
+from mpz.chunks import CHUNKS, Record, _build
 from mpz.errors import ChecksumError, FormatError, LimitExceededError, MPZError
 from mpz.format import MAX_CHUNK_LENGTH
 from mpz.spec.grammar import SIGNATURE, ChunkCRC, ChunkHeader
@@ -178,8 +178,8 @@ def build_chunk(ctype: str, payload: bytes) -> bytes:
         raise LimitExceededError(
             f"{ctype} payload of {len(payload)} bytes exceeds {MAX_CHUNK_LENGTH}",
             chunk=ctype, section="§8")
-    header: bytes = ChunkHeader.build({"type": t, "length": len(payload)})
-    crc: bytes = ChunkCRC.build(crc32(t, payload))
+    header = _build.build(ChunkHeader, {"type": t, "length": len(payload)})
+    crc = _build.build(ChunkCRC, crc32(t, payload))
     return header + payload + crc
 
 
