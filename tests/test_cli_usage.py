@@ -605,3 +605,39 @@ def test_packaging_files(tmp_path: Path) -> None:
     assert p.returncode == 0 and b"``" not in p.stdout and b":func:" not in p.stdout
     for section in ("Pipes", "Batches", "Units", "Command exit codes"):
         assert section in readme
+
+
+def test_decode_says_when_its_positions_are_the_joints_not_the_marker_layer(
+        inputs: dict[str, Path], tmp_path: Path) -> None:
+    """A skeletal file decoded to a format without a skeleton gets the forward kinematics
+    of its channels (spec §6.10), not the marker layer a 1.0 decoder reads: the note says
+    which (a spec-only implementer's decoder and ours disagreed on cmu_10_01 by 0.33)."""
+    p = run(["mpz", "encode", str(inputs["bvh"]), "-o", "arm.mpz"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    for out, expect in (("arm.npy", True), ("arm.csv", True), ("arm.bvh", False)):
+        p = run(["mpz", "decode", "arm.mpz", "-o", out], tmp_path)
+        assert p.returncode == 0, p.stderr
+        assert (b"joint positions computed from the skeleton's channels" in p.stderr) is expect
+    p = run(["mpz", "decode", str(inputs["mpz"]), "-o", "walk.npy"], tmp_path)
+    assert p.returncode == 0 and b"skeleton's channels" not in p.stderr, p.stderr
+    layer = mpz.decode((tmp_path / "arm.mpz").read_bytes()).positions
+    assert not np.array_equal(np.load(tmp_path / "arm.npy"), layer)
+
+
+def test_weight_that_cannot_act_is_said(inputs: dict[str, Path], tmp_path: Path) -> None:
+    """--weight shapes the pattern layer only: under a bound no node keeps one and the file
+    is the same bytes as without it, which the encoder now says (a QA run found it silent);
+    in the paper's lossy mode the weights act and nothing is said."""
+    src = str(inputs["c3d"])
+    p = run(["mpz", "encode", src, "-o", "a.mpz", "--max-error", "1mm"], tmp_path)
+    q = run(["mpz", "encode", src, "-o", "b.mpz", "--max-error", "1mm", "--weight", "LFHD=8"],
+            tmp_path)
+    assert p.returncode == 0 and q.returncode == 0, q.stderr
+    assert (tmp_path / "a.mpz").read_bytes() == (tmp_path / "b.mpz").read_bytes()
+    assert b"--weight: the weights act on the pattern layer only" in q.stderr
+    assert b"--weight" not in p.stderr
+    r = run(["mpz", "encode", src, "-o", "c.mpz", "--lossy", "--weight", "LFHD=8"], tmp_path)
+    s = run(["mpz", "encode", src, "-o", "d.mpz", "--lossy"], tmp_path)
+    assert r.returncode == 0 and s.returncode == 0, r.stderr
+    assert b"--weight" not in r.stderr
+    assert (tmp_path / "c.mpz").read_bytes() != (tmp_path / "d.mpz").read_bytes()

@@ -168,7 +168,8 @@ class C3DArchive:
             if J else []
         if C:
             parts.append(f"{C} analog channel{'s' * (C != 1)} at "
-                         f"{c['analog_samples_per_frame']} samples a frame")
+                         f"{c['analog_samples_per_frame']} sample"
+                         f"{'s' * (c['analog_samples_per_frame'] != 1)} a frame")
         if E:
             parts.append(f"{E} event{'s' * (E != 1)}")
         elif E is None and self.parameter("EVENT", "TIMES") is not None:

@@ -120,8 +120,14 @@ def _target_ext(args: argparse.Namespace, output: str, motion: object = None) ->
 
 def _decode_one(job, args: argparse.Namespace, out) -> int:
     from mpz.api import atomic_output, check_output
-    from mpz.io import check_writable, write
-    from mpz.tools._common import STDIO, compile_notice, read_mpz_input, write_stdout
+    from mpz.io import SKELETON_FORMATS, check_writable, write
+    from mpz.tools._common import (
+        STDIO,
+        compile_notice,
+        joint_positions_from_channels,
+        read_mpz_input,
+        write_stdout,
+    )
 
     source = None if job.input == STDIO else job.input
     to_stdout = job.output == STDIO
@@ -141,6 +147,10 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
     notes = check_writable(motion, ext, path=job.output)
+    if ext not in SKELETON_FORMATS and joint_positions_from_channels(motion, ".mpz"):
+        notes.append("its positions are the joint positions computed from the skeleton's "
+                     "channels (spec §6.10), not the file's marker layer (what a 1.0 decoder "
+                     "reads, within MHDR's bound)")
     if not args.quiet:
         for note in notes:
             print(f"mpz decode: note: {printable(job.output)}: {printable(note)}",

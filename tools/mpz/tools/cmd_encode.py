@@ -71,7 +71,10 @@ def add_parser(sub):
     # issue 12: the default is a declared bound; the paper's unbounded mode only by name
     p.add_argument("--lossy", action="store_true",
                    help="the paper's lossy mode: patterns only, no declared bound (default: "
-                   f"a bound: exact on an int16 C3D's grid, else {D.default_error_mm:g} mm). "
+                   f"a bound: exact on an int16 C3D's grid, else {D.default_error_mm:g} mm, or "
+                   f"{D.default_error_fraction:g} of the largest extent without units; a BVH "
+                   "or AMC's marker layer within 1/500 of the skeleton's size, its channels "
+                   "within --angle-error and --translation-error). "
                    "For reproducing the paper: on 24 of 25 real captures it is larger "
                    "than --max-error 1mm, with errors of 12 to 500 mm (README)")
     p.add_argument("--model-error", action="append", metavar="KIND=F",
@@ -264,6 +267,11 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
                else "the source's own grid")
         print(f"mpz encode: note: --grid {args.grid}: the grid step is {rep.step:.6g}"
               f"{' ' + units if units else ''} instead ({why})", file=sys.stderr)
+    if args.weight and not any(n.used_patterns for n in rep.nodes) and not args.quiet:
+        print("mpz encode: note: --weight: the weights act on the pattern layer only (the "
+              "paper's distortion control), and no node kept one (under a bound, key frames "
+              "or per-sample residuals won): they do not change the decoded motion",
+              file=sys.stderr)
     if to_stdout:
         write_stdout(data, binary=True, force=args.force)
     else:
@@ -332,8 +340,9 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
         clipped = ("" if stored == asked else
                    f" (asked {', '.join(map(str, asked))}: at most one segment a frame, "
                    f"{rep.frames} frames)")
-        print(f"  summary  {kind} chunk {human_size(smry)} "
-              f"({100 * smry / rep.file_bytes:.0f} % of the file), "
+        pct = 100 * smry / rep.file_bytes
+        share = f"{pct:.0f}" if pct >= 1 else f"{pct:.2g}"      # 0.46 %, not "0 %"
+        print(f"  summary  {kind} chunk {human_size(smry)} ({share} % of the file), "
               f"k = {', '.join(str(k) for k in stored)}{clipped}", file=out)
         if smry > rep.file_bytes - smry:
             # smry stores k x D means as raw 32-bit integers (spec §4.10); smrc (§4.15)

@@ -103,7 +103,8 @@ def run(args) -> int:
                          f"{c['model_gap_fraction']:.2%} gaps)")
         if c["analog_channels"]:
             parts.append(f"{c['analog_channels']} analog channels x "
-                         f"{c['analog_samples_per_frame']} samples a frame")
+                         f"{c['analog_samples_per_frame']} sample"
+                         f"{'s' * (c['analog_samples_per_frame'] != 1)} a frame")
         if c["events"]:
             parts.append(f"{c['events']} events")
         parts.append(f"{c['parameter_records']} parameter records")
