@@ -312,3 +312,37 @@ def archive_source(m: mpz.Motion) -> bytes:
     """The C3D bytes of a synthetic motion as its source would hold them."""
     from mpz.io.c3d import archive_bytes
     return archive_bytes(m)
+
+
+@pytest.mark.parametrize("size,ok", [(33000, True), (66000, False)])
+def test_a_long_parameter_record_is_written_with_an_unsigned_offset(size, ok):
+    """Spec §6.9: the next-record offset is an unsigned 16-bit field (as the reader reads
+    it), so a record of 33,000 data bytes is written back and noted (readers that take the
+    offset as signed cannot follow it), and one whose offset exceeds 65535 is refused,
+    naming the offset (it blamed the data size)."""
+    import struct
+
+    from mpz.errors import MPZError
+    from mpz.io import c3dbin, check_writable
+    from mpz.io.c3d import archive_bytes
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(4, storage=1, F=6, M=3, J=0, C=0, n=1)
+    a = m.extras["c3d"]
+    gid = next(-r.group for r in a.records if r.group < 0)
+    big = c3dbin.ParamRecord(gid, False, b"BIG", b"", 1, (size // 1000, 100, 10),
+                              bytes(size))
+    first_param = next(i for i, r in enumerate(a.records) if r.group > 0)
+    a.records.insert(first_param, big)
+    if not ok:
+        with pytest.raises(MPZError, match=r"next-record offset of 66008.*65535"):
+            archive_bytes(m)
+        return
+    raw = archive_bytes(m)
+    at = raw.index(b"\x03" + bytes([gid]) + b"BIG")                 # name length 3, group
+    (offset,) = struct.unpack_from("<H", raw, at + 5)
+    assert offset == 2 + 1 + 1 + 3 + size + 1         # itself, type, ndims, 3 dims, data,
+    assert offset > 32767                             # the description's length byte
+    notes = check_writable(m, ".c3d")
+    assert any("'BIG'" in n and "signed" in n for n in notes), notes
+    back = c3dbin.parse_records(raw, 512, c3dbin._Codec(c3dbin.PROC_INTEL))
+    assert any(r.name == b"BIG" and r.data == bytes(size) for r in back)

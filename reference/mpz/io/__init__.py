@@ -327,7 +327,14 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
                           f"{r32!r}")
         elif r32 != rate:
             notes.append(f"C3D stores the rate as float32: {rate!r} Hz reads back as {r32!r}")
-        proc = getattr(motion.extras.get("c3d"), "processor", c3dbin.PROC_INTEL)
+        archive = motion.extras.get("c3d")
+        long = c3dbin.long_offsets(list(getattr(archive, "records", [])))
+        if long:
+            notes.append(f"parameter record(s) {', '.join(repr(n) for n in long)} need a "
+                         f"next-record offset beyond {c3dbin.SIGNED_OFFSET_LIMIT}: written "
+                         "unsigned as the source held them (spec §6.9), which readers that "
+                         "take the offset as signed (ezc3d) cannot follow")
+        proc = getattr(archive, "processor", c3dbin.PROC_INTEL)
         if proc != c3dbin.PROC_INTEL:
             notes.append(f"the source was a {'DEC' if proc == c3dbin.PROC_DEC else 'MIPS'} "
                          f"C3D (processor {proc}); it is written in Intel byte order, every "

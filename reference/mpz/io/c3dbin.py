@@ -720,21 +720,39 @@ def parse_c3d(data: bytes) -> C3DData:
 MAX_PARAM_BLOCKS = 255
 
 
+def _record_body(r: ParamRecord) -> bytes:
+    """A record's bytes after its next-record offset field."""
+    if r.is_group:
+        return bytes([len(r.description)]) + r.description
+    return (bytes([r.type & 0xFF, len(r.dims)]) + bytes(r.dims) + r.data
+            + bytes([len(r.description)]) + r.description)
+
+
+#: the largest next-record offset a reader that takes it as signed (the C3D user guide,
+#: ezc3d) follows; spec §6.9 writes it unsigned, up to 65535
+SIGNED_OFFSET_LIMIT = 0x7FFF
+
+
+def long_offsets(records: list[ParamRecord]) -> list[bytes]:
+    """The names of the records (all but the last) whose next-record offset exceeds
+    :data:`SIGNED_OFFSET_LIMIT`: spec §6.9 writes them, and readers that take the offset as
+    signed cannot follow them."""
+    return [r.name for r in records[:-1] if 2 + len(_record_body(r)) > SIGNED_OFFSET_LIMIT]
+
+
 def _record_bytes(r: ParamRecord, last: bool) -> bytes:
-    """One parameter-section record (Intel), its next-record offset 0 when ``last``."""
+    """One parameter-section record (Intel), its next-record offset 0 when ``last``
+    (spec §6.9: unsigned 16-bit)."""
     if not 1 <= len(r.name) <= 127 or len(r.description) > 255:
         raise InputFormatError(f"C3D: parameter name {r.name!r} or its description does not "
                                f"fit a C3D record (1..127 and 0..255 bytes)")
     head = bytes([(-len(r.name) if r.locked else len(r.name)) & 0xFF, r.group & 0xFF]) + r.name
-    if r.is_group:
-        body = bytes([len(r.description)]) + r.description
-    else:
-        body = (bytes([r.type & 0xFF, len(r.dims)]) + bytes(r.dims) + r.data
-                + bytes([len(r.description)]) + r.description)
+    body = _record_body(r)
     nxt = 0 if last else 2 + len(body)
     if nxt > 0xFFFF:
-        raise InputFormatError(f"C3D: parameter {r.name!r} holds {len(r.data)} bytes, more than "
-                               "a C3D record can point past (65535)")
+        raise InputFormatError(f"C3D: record {r.name!r} needs a next-record offset of {nxt} "
+                               f"(its {len(body)} bytes after the offset field, "
+                               f"{len(r.data)} of them data), beyond the 16-bit field's 65535")
     return head + nxt.to_bytes(2, "little") + body
 
 
