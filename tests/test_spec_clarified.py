@@ -424,3 +424,48 @@ def test_c3d_parameters_counts_groups_and_parameters():
         assert any(r.group < 0 for r in rec.records) and any(r.group > 0 for r in rec.records)
         seen += 1
     assert seen >= 1
+
+
+def test_skeleton_channel_digest_is_of_the_integers_the_coded_field_holds():
+    """§7.3 `channels_sha256`: SHA-256 of x [F, C] (§6.10 after step 3) as little-endian
+    int64, C order. Checked without the reference decoder: the x that hashes to the digest
+    must be what the coded field holds, so re-coding it with the independent coder of the
+    conformance package (mpz.conformance.rangecoder, written from §5), with each entry's
+    order, wrap and group, must give the stored bytes; and wrapped channels lie in their
+    turn, low .. low + N - 1."""
+    import hashlib
+
+    from mpz.channels import decode as decode_channels
+    from mpz.conformance.rangecoder import RefEncoder
+    seen = 0
+    for v in _manifest():
+        feat = v.get("features", {}).get("skeleton")
+        if feat is None:
+            continue
+        data = (VECTORS / v["file"]).read_bytes()
+        rec = _record(data, feat["chunk"])
+        F = mpz.info(data).frames
+        x = decode_channels(rec.channels, rec.coded, F)
+        assert x.shape == (F, rec.channel_count)
+        assert hashlib.sha256(np.ascontiguousarray(x, "<i8").tobytes()).hexdigest() \
+            == feat["channels_sha256"], v["name"]
+        e = np.empty_like(x)
+        for c, cc in enumerate(rec.channels):
+            col = x[:, c]
+            r = col.copy()                       # §6.2 residuals of order 0, 1, 2, by hand
+            if cc.order >= 1:
+                r[1:] = col[1:] - col[:-1]
+            if cc.order == 2:
+                r[2:] = col[2:] - 2 * col[1:-1] + col[:-2]
+            if cc.wrap:
+                n = 360 * 10 ** cc.step_digits // cc.step_mantissa
+                assert ((cc.low <= col) & (col < cc.low + n)).all(), v["name"]
+                r = (r + n // 2) % n - n // 2    # the residue nearest 0, as the encoder
+            e[:, c] = r
+        enc = RefEncoder()
+        groups = np.array([cc.group for cc in rec.channels])
+        for g in range(int(groups.max(initial=-1)) + 1):
+            enc.block(e[:, groups == g, None])
+        assert enc.finish() == rec.coded, v["name"]
+        seen += 1
+    assert seen >= 7

@@ -250,7 +250,8 @@ ChannelCoding = Struct(
 #: §4.14.1 one joint of a BVH hierarchy (a ROOT, a JOINT or an End Site)
 BvhJoint = Struct(
     "name" / PascalString(Int8ul, "utf8") * "§4.14.1 the joint's name; empty for an End Site",
-    "parent" / Int16ul * "§4.14.1 parent joint, < own index; 0xFFFF for a ROOT",
+    "parent" / Int16ul
+    * "§4.14.1 0xFFFF (a ROOT), joint i - 1 or an ancestor of it (depth-first order)",
     "offset" / Array(3, Float64l) * "§4.14.1 OFFSET x, y, z in MHDR units, finite",
     "channel_count" / Int8ul * "§4.14.1 0..6; 0 for an End Site",
     "channels" / Array(this.channel_count, Int8ul)
@@ -262,7 +263,7 @@ BVHS = Struct(
     "frame_time" / Float64l * "§4.14.1 the BVH Frame Time in seconds, finite and > 0",
     "joint_count" / Int16ul * "§4.14.1 J, equals marker_count",
     "joints" / Array(this.joint_count, BvhJoint) * "§4.14.1 in file (depth-first) order",
-    "channel_count" / Int16ul * "§4.14.1 C, the sum of the joints' channel counts",
+    "channel_count" / Int16ul * "§4.14 C of the channel layer, the sum of the joints' counts",
     "position_bound" / Float64l * "§4.14.1 declared joint position error, MHDR units; 0 none",
     "channels" / Array(this.channel_count, ChannelCoding) * "§4.14.1 the channel layer (§4.14)",
     "coded" / GreedyBytes * "§4.14.1 range-coded: one signed block [F, n_g, 1] per group",

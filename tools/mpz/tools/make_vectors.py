@@ -2723,9 +2723,17 @@ def _skeleton_record(data):
 
 
 def _skeleton_features(data):
+    """What mpzinfo reports of the skeleton chunk, and the digest of its channel integers
+    (§7.3): what an implementer checks §6.10 against."""
+    import hashlib
+
     from mpz import skeleton as sk
+    from mpz.channels import decode as decode_channels
     rep = sk.report(data)
     assert rep is not None
+    rec = _skeleton_record(data)
+    x = decode_channels(rec.channels, rec.coded, mpz.info(data).frames)
+    rep["channels_sha256"] = hashlib.sha256(np.ascontiguousarray(x, "<i8").tobytes()).hexdigest()
     return {"skeleton": rep}
 
 
