@@ -582,3 +582,19 @@ def test_every_public_name_of_the_former_module_is_still_importable():
     for name in former:
         assert getattr(h, name) is not None
     assert sorted(h.CMU41) == sorted(CMU41)
+
+
+@pytest.mark.parametrize("n", [8, 16, 51])
+def test_markers_that_all_stand_at_one_point_are_grouped(n):
+    """Markers with no distance between them (unused markers parked at one point): the
+    auto builder's complete-linkage tree ties everywhere and cannot be cut, and cutting
+    again at half the threshold recursed until RecursionError (a QA run, 8 or more such
+    markers). Now they are cut in order into groups of at most max_size, and the file
+    encodes and decodes exactly."""
+    from mpz.hierarchy.auto import _groups
+    groups = _groups(np.zeros((n, n)), list(range(n)), 1.0, 6)
+    assert sorted(m for g in groups for m in g) == list(range(n))
+    assert all(1 <= len(g) <= 6 for g in groups)
+    m = mpz.Motion(np.full((20, n, 3), 1.0), [f"M{i}" for i in range(n)], 100.0, "mm")
+    back = mpz.decode(mpz.encode(m, max_error=0.5))
+    assert np.abs(back.positions - 1.0).max() <= 0.5

@@ -252,6 +252,12 @@ def _groups(std: np.ndarray, idx: list[int], threshold: float,
         sel = np.flatnonzero(labels == lab)
         zz = _complete_linkage(np.ascontiguousarray(sub[np.ix_(sel, sel)]))
         parts = _fcluster_maxclust(zz, -(-len(members) // max_size))
+        if len(np.unique(parts)) == 1:
+            # the tree cannot be cut (every distance ties: markers that move as one, such
+            # as unused ones parked at one point): consecutive parts of max_size, in order,
+            # where cutting again at half the threshold would recurse for ever
+            out.extend(members[k: k + max_size] for k in range(0, len(members), max_size))
+            continue
         for q in np.unique(parts):
             part = [members[k] for k in np.flatnonzero(parts == q)]
             out.extend(_groups(std, part, threshold * 0.5, max_size) if len(part) > max_size
