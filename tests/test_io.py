@@ -105,6 +105,33 @@ def test_csv_layout(tmp_path):
     assert lines == ["frame,time,A_x,A_y,A_z,B_x,B_y,B_z", "0,0.0,1.0,2.0,3.0,,,"]
 
 
+def _npy_bytes(header: str, data: bytes) -> bytes:
+    """An .npy 1.0 file written by hand: magic, header length, header padded to 64."""
+    text = header + " " * (-(10 + len(header) + 1) % 64) + "\n"
+    return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(text)) + text.encode() + data
+
+
+@pytest.mark.parametrize("header,rows,match", [
+    ("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 1, 3)", 2, "not a valid .npy"),
+    ("{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000000, 41, 3), }", 2,
+     r"declares \(1000000000000, 41, 3\)"),
+    ("{'descr': '<f8', 'fortran_order': False, 'shape': (1, 1, 3), }", 2, "holds 48 after"),
+    ("{'descr': '<f8', 'fortran_order': False, 'shape': (-1, 1, 3), }", 2, "negative"),
+    ("{'descr': '|O', 'fortran_order': False, 'shape': (2, 1, 3), }", 2, "Python objects"),
+])
+def test_npy_header_is_checked_against_the_file_before_loading(tmp_path, header, rows, match):
+    """A header that does not parse (numpy raised tokenize.TokenError: a traceback), or
+    whose shape does not fill the bytes after it: a 2 KB file declaring 10^12 frames made
+    numpy allocate (exit 3), one declaring 1 frame over 2 read 1 silently."""
+    p = tmp_path / "h.npy"
+    p.write_bytes(_npy_bytes(header, np.arange(rows * 3, dtype="<f8").tobytes()))
+    with pytest.raises(InputFormatError, match=match):
+        read(p)
+    p.write_bytes(_npy_bytes("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 1, 3), }",
+                             np.arange(6, dtype="<f8").tobytes()))
+    assert read(p).positions.tolist() == [[[0, 1, 2]], [[3, 4, 5]]]     # the same writer
+
+
 def test_npy_layout(tmp_path):
     m = synthetic()
     write(m, tmp_path / "a.npy")
@@ -334,7 +361,8 @@ def test_amc_bad(tmp_path, mutate):
     lambda t: t.replace("dof rx\n", "dof qq\n"),
     lambda t: t.replace("root b1", "root bz"),
     lambda t: t.replace("length 0.45", "length 0"),
-])
+    lambda t: t.replace("length 0.45", "length 1e-320"),   # 25.4 / length overflows: it
+])                                                          # reached the encoder as NaN
 def test_asf_bad(mutate):
     with pytest.raises(InputFormatError):
         parse_asf(mutate(ASF_TEXT))

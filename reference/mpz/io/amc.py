@@ -183,6 +183,9 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     length = float(units.get("length", ["1.0"])[0])
     if not (math.isfinite(length) and length > 0):
         raise _bad(f":units length must be positive, got {length}")
+    if not math.isfinite(25.4 / length):     # 1e-320: millimetres per unit overflow
+        raise _bad(f":units length {length!r} is too small: 25.4 / length, the millimetres "
+                   "per unit, overflows")
     angle_unit = units.get("angle", ["deg"])[0].lower()
     if angle_unit not in ("deg", "rad"):
         raise _bad(f"unknown :units angle {angle_unit!r}")

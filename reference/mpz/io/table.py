@@ -18,6 +18,7 @@ import csv
 import io
 import math
 import os
+import tokenize
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -70,13 +71,45 @@ def read_npy(path: StrPath, *, rate: float = 1.0, units: str = "") -> Motion:
         If the file is not an .npy array of that shape (object arrays are
         refused: ``allow_pickle=False``).
     """
-    if os.path.getsize(path) > MAX_NPY_BYTES:
+    size = os.path.getsize(path)
+    if size > MAX_NPY_BYTES:
         raise _bad("npy", f"file larger than {MAX_NPY_BYTES} bytes")
+    _check_npy_header(path, size)
     arr = np.load(path, allow_pickle=False)
     if not isinstance(arr, np.ndarray):
         raise _bad("npy", "not a single .npy array")
     return motion_from_array(arr, rate=rate, units=units,
                              source=os.path.basename(os.fspath(path)))
+
+
+def _check_npy_header(path: StrPath, size: int) -> None:
+    """Refuse an .npy whose header does not parse, or whose declared shape and dtype do
+    not fill exactly the bytes after it: before ``np.load`` allocates by the header (a
+    2 KB file declaring 895 TiB), reads part of the data (a header of 10 frames over 20)
+    or fails in its header parser with an exception of its own (``TokenError``)."""
+    fmt = np.lib.format
+    with open(path, "rb") as fh:
+        try:
+            version = fmt.read_magic(fh)
+            if version == (1, 0):
+                shape, _, dtype = fmt.read_array_header_1_0(fh)
+            elif version == (2, 0):
+                shape, _, dtype = fmt.read_array_header_2_0(fh)
+            else:
+                raise _bad("npy", f"format version {version[0]}.{version[1]} is not read "
+                                  "(numpy writes 1.0, or 2.0 for a long header)")
+        except (ValueError, EOFError, SyntaxError, tokenize.TokenError) as exc:
+            why = str(exc) if len(str(exc)) <= 120 else str(exc)[:117] + "..."
+            raise _bad("npy", f"not a valid .npy header ({why})") from None
+        start = fh.tell()
+    if dtype.hasobject:
+        raise _bad("npy", "holds Python objects (pickled data), not numbers")
+    if any(int(n) < 0 for n in shape):
+        raise _bad("npy", f"the header declares a negative dimension: {tuple(shape)}")
+    need = math.prod(int(n) for n in shape) * dtype.itemsize
+    if need != size - start:
+        raise _bad("npy", f"the header declares {tuple(shape)} {dtype} ({need} bytes of "
+                          f"data), but the file holds {size - start} after it")
 
 
 def write_npy(motion: Motion, path: StrPath) -> None:
