@@ -245,6 +245,9 @@ def test_bvh_frame_rate(ft, rate):
     lambda t: t.replace("  }\n}\n", "  }\n"),               # unbalanced braces
     lambda t: t.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Wrotation"),
     lambda t: t.replace("OFFSET 0 10 0", "OFFSET 0 ten 0"),
+    # refused at reading, not by the encoder in terms of an asfs/bvhs chunk (a QA run)
+    lambda t: t.replace("OFFSET 0 10 0", "OFFSET 0 nan 0"),
+    lambda t: t.replace("JOINT Chest", "JOINT Ch\x00est"),
     lambda t: t.replace("MOTION", "MOTON"),
     lambda t: t.split("MOTION")[0],
     lambda t: "",
@@ -362,7 +365,13 @@ def test_amc_bad(tmp_path, mutate):
     lambda t: t.replace("root b1", "root bz"),
     lambda t: t.replace("length 0.45", "length 0"),
     lambda t: t.replace("length 0.45", "length 1e-320"),   # 25.4 / length overflows: it
-])                                                          # reached the encoder as NaN
+    # reached the encoder as NaN; NaN here reached it as a chunk error; a second parent
+    # silently replaced the first
+    lambda t: t.replace("axis 0 0 90 XYZ", "axis 0 nan 90 XYZ"),
+    lambda t: t.replace("direction 0 1 0", "direction 0 inf 0"),
+    lambda t: t.replace("position 0 0 0", "position nan 0 0"),
+    lambda t: t.replace("    b1 b2\n", "    b1 b2\n    root b2\n"),
+])
 def test_asf_bad(mutate):
     with pytest.raises(InputFormatError):
         parse_asf(mutate(ASF_TEXT))
@@ -619,3 +628,21 @@ def test_show_errors(tmp_path, capsys):
     info = json.loads(capsys.readouterr().out)
     assert info["format"] == "MPZ" and info["frames"] == 7 and info["markers"] == 5
     assert show(["show", str(tmp_path / "missing.trc")]) == 2
+
+
+def test_bvh_without_channels_counts_its_frame_lines(tmp_path):
+    """CHANNELS 0 leaves nothing but 'Frames:' to bound the frame count, and the positions
+    are allocated by it: 'Frames: 1000000000' in 114 bytes ran out of memory (exit 3). Spec
+    §4.14.1 writes one line per frame, empty without channels; fewer lines are refused,
+    and the writer's own file reads back."""
+    head = ("HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 0\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n"
+            "MOTION\n")
+    p = tmp_path / "c0.bvh"
+    p.write_text(head + "Frames: 1000000000\nFrame Time: 0.01\n")
+    with pytest.raises(InputFormatError, match="0 frame lines"):
+        read(p)
+    p.write_text(head + "Frames: 3\nFrame Time: 0.01\n\n\n\n")
+    m = read(p)
+    assert m.n_frames == 3
+    write(m, tmp_path / "back.bvh")
+    assert read(tmp_path / "back.bvh").n_frames == 3

@@ -84,7 +84,10 @@ def _keyvals(lines: list[str]) -> dict[str, list[str]]:
 def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
     if len(vals) < 3:
         raise _bad(f"{what} needs 3 numbers, got {vals}")
-    return float(vals[0]), float(vals[1]), float(vals[2])
+    v = float(vals[0]), float(vals[1]), float(vals[2])
+    if not all(math.isfinite(x) for x in v):       # the skeleton chunk holds finite ones
+        raise _bad(f"{what} must be finite numbers, got {vals[:3]}")
+    return v
 
 
 def _limits(text: str, what: str) -> list[tuple[float, float]]:
@@ -220,6 +223,9 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         for child in parts[1:]:
             if child not in names:
                 raise _bad(f":hierarchy names unknown bone {child!r}")
+            if child in parent and parent[child] != p:     # the last one silently won
+                raise _bad(f":hierarchy gives bone {child!r} two parents, "
+                           f"{parent[child]!r} and {p!r}")
             parent[child] = p
     missing = [n for n in names if n not in parent]
     if missing:

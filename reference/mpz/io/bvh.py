@@ -17,6 +17,7 @@ centimetre-like, see docs/io-notes.md).
 """
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -68,6 +69,8 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
                 raise _bad("JOINT outside of a ROOT block")
             if pos + 1 >= len(tokens):
                 raise _bad(f"{t} without a name")
+            if "\x00" in tokens[pos + 1]:         # spec §4.14.1: a name holds no U+0000
+                raise _bad(f"{t} name {tokens[pos + 1]!r} holds a NUL character")
             pending = _Joint(tokens[pos + 1], stack[-1] if stack else -1)
             pos += 2
         elif up == "END":
@@ -96,6 +99,9 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
             off = [float(x) for x in tokens[pos + 1:pos + 4]]
             if len(off) != 3:
                 raise _bad("OFFSET needs 3 numbers")
+            if not all(math.isfinite(x) for x in off):  # the skeleton chunk holds finite ones
+                raise _bad(f"OFFSET of {joints[stack[-1]].name!r} must be finite, got "
+                           f"{tokens[pos + 1:pos + 4]}")
             joints[stack[-1]].offset = (off[0], off[1], off[2])
             pos += 4
         elif up == "CHANNELS":
@@ -195,6 +201,11 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     data = tokens[pos + 6:]
     if n_frames <= 0:
         raise _bad(f"Frames must be positive, got {n_frames}")
+    if n_channels == 0 and n_frames > _frame_lines(text):
+        # nothing else bounds the count (and the positions allocated by it): spec §4.14.1
+        # writes one line per frame, empty without channels
+        raise _bad(f"Frames: {n_frames} without channels, but {_frame_lines(text)} frame "
+                   "lines follow Frame Time (one line per frame, empty without channels)")
     need = n_frames * n_channels
     if len(data) < need:
         raise _bad(f"{len(data)} values for {n_frames} frames x {n_channels} channels "
@@ -346,6 +357,17 @@ def format_bvh(motion: Motion) -> str:
     out.append(f"Frame Time: {num(skel.frame_time)}")
     out.extend(" ".join(num(v) for v in row) for row in _rows(values))
     return "\n".join(out) + "\n"
+
+
+def _frame_lines(text: str) -> int:
+    """The number of lines after the last ``Frame Time:`` line."""
+    lines = text.splitlines()
+    for i in range(len(lines) - 1, -1, -1):
+        words = lines[i].split()
+        if len(words) >= 2 and words[0].upper() == "FRAME" and words[1].upper().startswith(
+                "TIME"):
+            return len(lines) - i - 1
+    return 0
 
 
 def _rows(values: NDArray[np.float64]) -> list[list[float]]:
