@@ -536,3 +536,24 @@ def test_mpzinfo_text_names_the_chunk_offset_and_section(tmp_path):
     p = run(["mpzinfo", str(inv / "x46-mask-flag-2.mpz")], tmp_path)
     text = p.stdout.decode()
     assert p.returncode == 2 and "in chunk MASK at offset" in text and "(§4.5)" in text
+
+
+def test_show_json_is_utf8_when_a_c3d_string_is_not(tmp_path: Path) -> None:
+    """POINT:UNITS of the bytes 0xFF 0xFE: the reader keeps them as lone surrogates, and
+    `mpz show --json` wrote them raw into its output, which strict UTF-8 JSON parsers
+    refuse (a QA run). Now they are written as the text \\xff\\xfe."""
+    import json
+
+    def units(rs, g, R):
+        rs[:] = [r for r in rs if not (r.group == g[b"POINT"] and r.name == b"UNITS")]
+        rs.append(R(g[b"POINT"], False, b"UNITS", b"", -1, (2,), b"\xff\xfe"))
+    path = _c3d_variant(tmp_path, "units-fffe", units)
+    p = run([command("mpz"), "show", "--json", str(path)], tmp_path)
+    assert p.returncode in (0, 1), p.stderr[-300:]
+    doc = json.loads(p.stdout.decode("utf-8"))          # strict: no raw 0xFF in the text
+
+    def strings(v):
+        if isinstance(v, dict):
+            return [x for k, w in v.items() for x in [k, *strings(w)]]
+        return [x for w in v for x in strings(w)] if isinstance(v, list) else [v]
+    assert "\\xff\\xfe" in strings(doc)                 # the four characters \ x f f ...

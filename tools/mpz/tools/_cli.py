@@ -95,15 +95,28 @@ def path_text(path: str | os.PathLike[str]) -> str:
 
 # -- JSON --------------------------------------------------------------------------------
 
+def _utf8(s: str) -> str:
+    """``s``, with the bytes that a reader kept as lone surrogates (``surrogateescape``:
+    a C3D's POINT:UNITS of 0xFF 0xFE) written as ``\\xff``: JSON text is UTF-8, and
+    printing a lone surrogate wrote those raw bytes into it (a QA run)."""
+    try:
+        s.encode("utf-8")
+    except UnicodeEncodeError:
+        return s.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    return s
+
+
 def jsonable(v: Any) -> Any:
     """``v`` with NaN and infinities as None, numpy scalars and arrays as Python values."""
     if isinstance(v, float):
         return v if math.isfinite(v) else None
     if isinstance(v, dict):
-        return {str(k): jsonable(x) for k, x in v.items()}
+        return {_utf8(str(k)): jsonable(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
         return [jsonable(x) for x in v]
-    if isinstance(v, (str, int, bool)) or v is None:
+    if isinstance(v, str):
+        return _utf8(v)
+    if isinstance(v, (int, bool)) or v is None:
         return v
     tolist = getattr(v, "tolist", None)     # numpy scalars and arrays
     if callable(tolist):
