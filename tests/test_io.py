@@ -179,6 +179,13 @@ def test_trc_parse(tmp_path):
     lambda t: t.replace("1.5\t2", "1.5\tabc"),           # non-numeric value
     lambda t: t.replace("7\t8\t9", "7\t8\t9\t10\t11\t12"),  # row too long
     lambda t: "X" + t,                                  # not a TRC
+    # what Python's float() takes and a QA run found read silently: 1000, 12, gaps
+    lambda t: t.replace("1.5\t2", "1.5\t1_000"),
+    lambda t: t.replace("1.5\t2", "1.5\t\u0661\u0662"),         # Arabic-Indic 12
+    lambda t: t.replace("1.5\t2", "1.5\t\uff11\uff12"),         # full-width 12
+    lambda t: t.replace("1.5\t2", "1.5\tinf"),
+    lambda t: t.replace("1.5\t2", "1.5\t1e400"),
+    lambda t: t.replace("1.5\t2", "1.5\t\u00a0"),                # a no-break space
 ])
 def test_trc_bad(tmp_path, cut):
     p = tmp_path / "bad.trc"
@@ -247,6 +254,8 @@ def test_bvh_frame_rate(ft, rate):
     lambda t: t.replace("OFFSET 0 10 0", "OFFSET 0 ten 0"),
     # refused at reading, not by the encoder in terms of an asfs/bvhs chunk (a QA run)
     lambda t: t.replace("OFFSET 0 10 0", "OFFSET 0 nan 0"),
+    lambda t: t.replace("0 0 0 90 0 0 0 0 0", "0 0 0 9_0 0 0 0 0 0"),
+    lambda t: t.replace("0 0 0 90 0 0 0 0 0", "0 0 0 \uff19\uff10 0 0 0 0 0"),
     lambda t: t.replace("JOINT Chest", "JOINT Ch\x00est"),
     lambda t: t.replace("MOTION", "MOTON"),
     lambda t: t.split("MOTION")[0],
@@ -350,6 +359,9 @@ def test_find_asf_longest_prefix(tmp_path):
     lambda t: t.replace("b1 0 90\n", ""),             # bone missing in a frame
     lambda t: ":FULLY-SPECIFIED\n",                   # no frames
     lambda t: t.replace("root 1 2 3", "root 1 two 3"),
+    lambda t: t.replace("root 1 2 3", "root 1 2_0 3"),
+    lambda t: t.replace("root 1 2 3", "root 1 \uff12 3"),
+    lambda t: t.replace("root 1 2 3", "root 1 inf 3"),
 ])
 def test_amc_bad(tmp_path, mutate):
     (tmp_path / "tiny.asf").write_text(ASF_TEXT)
@@ -365,6 +377,7 @@ def test_amc_bad(tmp_path, mutate):
     lambda t: t.replace("root b1", "root bz"),
     lambda t: t.replace("length 0.45", "length 0"),
     lambda t: t.replace("length 0.45", "length 1e-320"),   # 25.4 / length overflows: it
+    lambda t: t.replace("axis 0 0 90 XYZ", "axis 0 0 9_0 XYZ"),
     # reached the encoder as NaN; NaN here reached it as a chunk error; a second parent
     # silently replaced the first
     lambda t: t.replace("axis 0 0 90 XYZ", "axis 0 nan 90 XYZ"),
@@ -646,3 +659,22 @@ def test_bvh_without_channels_counts_its_frame_lines(tmp_path):
     assert m.n_frames == 3
     write(m, tmp_path / "back.bvh")
     assert read(tmp_path / "back.bvh").n_frames == 3
+
+
+@pytest.mark.parametrize("cell,times,match", [
+    ("1_000", None, "plain decimal"),
+    ("inf", None, "finite"),
+    ("1.0", [0.0, 0.5, 0.1, 0.9], "not evenly spaced"),       # a time column out of order
+])
+def test_csv_numbers_and_times_are_checked(tmp_path, cell, times, match):
+    """Python's float() took '1_000' and 'inf'; a time column that no rate explains was
+    read at its (n - 1) / span rate (a QA run). Times printed to 3 decimals still read."""
+    t = times or [0.0, 0.5, 1.0, 1.5]
+    rows = "".join(f"{k},{t[k]},{cell if k == 2 else 1.0},2.0,3.0\n" for k in range(4))
+    p = tmp_path / "a.csv"
+    p.write_text("frame,time,A_x,A_y,A_z\n" + rows)
+    with pytest.raises(InputFormatError, match=match):
+        read(p)
+    p.write_text("frame,time,A_x,A_y,A_z\n" + "".join(
+        f"{k},{round(k / 60, 3)},1.0,2.0,3.0\n" for k in range(100)))
+    assert read(p).rate == pytest.approx(60.0, rel=1e-3)

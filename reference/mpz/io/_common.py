@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 import csv
 import functools
+import math
 import os
 import struct
 from typing import Concatenate, ParamSpec, TypeAlias, TypeVar
@@ -72,6 +73,36 @@ def reader(func: Callable[Concatenate[StrPath, _P], _R]) -> Callable[Concatenate
             raise translate(path, exc) from exc
 
     return wrapper
+
+
+def number(text: str, *, nan: bool = False) -> float:
+    """A number of a text motion file (TRC, CSV, BVH, ASF/AMC): decimal ASCII as C's
+    ``strtod`` reads it, finite; ``nan`` in any case only where ``nan`` is true (a TRC gap).
+
+    Python's ``float`` also takes ``1_000``, digits of other scripts (``١٢``, ``１２``),
+    ``inf`` and ``1e400``: a hostile-input QA found them read silently as 1000, 12 and a
+    gap. Raises InputFormatError naming the text.
+    """
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputFormatError(f"{text.strip()!r} is not a number") from None
+    if not text.isascii() or "_" in text:
+        raise InputFormatError(f"{text.strip()!r} is not a plain decimal number (ASCII "
+                               "digits, '.', an exponent)")
+    if not math.isfinite(v) and not (nan and math.isnan(v)):
+        raise InputFormatError(f"{text.strip()!r} is not a finite number")
+    return v
+
+
+def plain_numbers(tokens: list[str]) -> None:
+    """Raise InputFormatError unless every token reads as a :func:`number` (no NaN):
+    one pass over their joined text for the common case, the first offender named."""
+    joined = "".join(tokens)
+    if joined.isascii() and "_" not in joined and not any(c in joined for c in "iInN"):
+        return                             # float() then takes only plain numbers
+    for t in tokens:
+        number(t)
 
 
 def decode_text(data: bytes) -> str:

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
-from mpz.io._common import StrPath, decode_text, reader
+from mpz.io._common import StrPath, decode_text, number, reader
 from mpz.io.bvh import num, skeleton_of, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, forward
 from mpz.motion import Motion
@@ -84,10 +84,10 @@ def _keyvals(lines: list[str]) -> dict[str, list[str]]:
 def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
     if len(vals) < 3:
         raise _bad(f"{what} needs 3 numbers, got {vals}")
-    v = float(vals[0]), float(vals[1]), float(vals[2])
-    if not all(math.isfinite(x) for x in v):       # the skeleton chunk holds finite ones
-        raise _bad(f"{what} must be finite numbers, got {vals[:3]}")
-    return v
+    try:
+        return number(vals[0]), number(vals[1]), number(vals[2])
+    except InputFormatError as exc:                # the skeleton chunk holds finite ones
+        raise _bad(f"{what}: {exc.message}") from None
 
 
 def _limits(text: str, what: str) -> list[tuple[float, float]]:
@@ -355,7 +355,10 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
             raise _bad(f"line {lineno}: {name} has {len(parts) - 1} values, expected {count}")
         if joint in seen:
             raise _bad(f"line {lineno}: {name} appears twice in one frame")
-        cur[start:start + count] = [float(v) for v in parts[1:]]
+        try:
+            cur[start:start + count] = [number(v) for v in parts[1:]]
+        except InputFormatError as exc:
+            raise _bad(f"line {lineno}: {name}: {exc.message}") from None
         seen.append(joint)
     if cur is None:
         raise _bad("no frames in AMC")

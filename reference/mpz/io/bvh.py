@@ -17,7 +17,6 @@ centimetre-like, see docs/io-notes.md).
 """
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np
@@ -25,7 +24,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
-from mpz.io._common import StrPath, decode_text, reader
+from mpz.io._common import StrPath, decode_text, number, plain_numbers, reader
 from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
 from mpz.motion import Motion
 
@@ -96,12 +95,12 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
         elif up == "OFFSET":
             if not stack:
                 raise _bad("OFFSET outside of a joint")
-            off = [float(x) for x in tokens[pos + 1:pos + 4]]
+            try:
+                off = [number(x) for x in tokens[pos + 1:pos + 4]]
+            except InputFormatError as exc:
+                raise _bad(f"OFFSET of {joints[stack[-1]].name!r}: {exc.message}") from None
             if len(off) != 3:
                 raise _bad("OFFSET needs 3 numbers")
-            if not all(math.isfinite(x) for x in off):  # the skeleton chunk holds finite ones
-                raise _bad(f"OFFSET of {joints[stack[-1]].name!r} must be finite, got "
-                           f"{tokens[pos + 1:pos + 4]}")
             joints[stack[-1]].offset = (off[0], off[1], off[2])
             pos += 4
         elif up == "CHANNELS":
@@ -196,7 +195,7 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
             or head[2].upper() != "FRAME" or head[3].rstrip(":").upper() != "TIME"):
         raise _bad(f"expected 'Frames: n' and 'Frame Time: t' after MOTION, got {head}")
     n_frames = int(head[1])
-    ft = float(head[4])
+    ft = number(head[4])
     rate = frame_rate_from_frame_time(ft)
     data = tokens[pos + 6:]
     if n_frames <= 0:
@@ -212,6 +211,10 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
                    f"(truncated motion data)")
     if len(data) > need:
         raise _bad(f"{len(data) - need} values beyond {n_frames} frames x {n_channels} channels")
+    try:
+        plain_numbers(data)
+    except InputFormatError as exc:
+        raise _bad(f"MOTION: {exc.message}") from None
     values = np.array(data, dtype=np.float64).reshape(n_frames, n_channels) if n_channels \
         else np.zeros((n_frames, 0))
     if not np.isfinite(values).all():

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpz.errors import InputFormatError
-from mpz.io._common import StrPath, decode_text, reader
+from mpz.io._common import StrPath, decode_text, number, reader
 from mpz.motion import Motion
 
 MAX_NPY_BYTES = 1 << 34  # refuse absurd arrays before loading (16 GiB)
@@ -193,10 +193,22 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     for k, r in enumerate(data):
         if len(r) != len(head):
             raise _bad("csv", f"row {k + 2} has {len(r)} fields, header has {len(head)}")
-        times[k] = float(r[1])
-        vals[k] = [float(v) if v.strip() else math.nan for v in r[2:]]
+        try:
+            times[k] = number(r[1])
+            vals[k] = [number(v, nan=True) if v.strip(" \t") else math.nan for v in r[2:]]
+        except InputFormatError as exc:
+            raise _bad("csv", f"row {k + 2}: {exc.message}") from None
     if rate is None:
         rate = rate_from_times(times) if len(data) > 1 else 1.0
+        # one rate stands for every time: a column that is not t0 + k / rate (a quarter of
+        # a frame allows times printed to a few decimals) would be read as another motion
+        off = np.abs(times - times[0] - np.arange(len(times)) / rate)
+        if len(times) > 1 and off.max() > 0.25 / rate:
+            k = int(np.argmax(off))
+            raise _bad("csv", f"the times are not evenly spaced: row {k + 2} has "
+                              f"{float(times[k])!r} where {rate:g} Hz gives "
+                              f"{float(times[0] + k / rate)!r} (mpz encode --rate ignores the "
+                              "time column)")
     return motion_from_array(vals.reshape(len(data), -1, 3), rate=rate, units=units,
                              names=names, source=source, fmt="csv")
 

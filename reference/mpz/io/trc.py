@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
-from mpz.io._common import StrPath, decode_text, reader, start_frame, unique_names
+from mpz.io._common import StrPath, decode_text, number, reader, start_frame, unique_names
 from mpz.motion import Motion
 
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in"}
@@ -44,10 +44,10 @@ def _bad(msg: str) -> InputFormatError:
 
 
 def _num(field: str) -> float:
-    field = field.strip()
+    field = field.strip(" \t\r\n")      # not str.strip(): a lone U+00A0 is not a gap
     if field == "":
         return math.nan
-    return float(field)  # accepts "NaN", "nan"
+    return number(field, nan=True)       # "NaN", "nan": a gap
 
 
 def parse_trc(text: str, *, source: str = "") -> Motion:
@@ -124,9 +124,12 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
             values.pop()
         if len(values) > 3 * n_markers:
             raise _bad(f"line {lineno}: {len(values)} values for {n_markers} markers")
-        row = [_num(v) for v in values] + [math.nan] * (3 * n_markers - len(values))
+        try:
+            row = [_num(v) for v in values] + [math.nan] * (3 * n_markers - len(values))
+            times.append(_num(fields[1]))
+        except InputFormatError as exc:
+            raise _bad(f"line {lineno}: {exc.message}") from None
         rows.append(row)
-        times.append(_num(fields[1]))
         numbers.append(fields[0].strip())
         if not frames:
             frames.append(fields)
