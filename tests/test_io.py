@@ -255,6 +255,11 @@ def test_bvh_frame_rate(ft, rate):
     # refused at reading, not by the encoder in terms of an asfs/bvhs chunk (a QA run)
     lambda t: t.replace("OFFSET 0 10 0", "OFFSET 0 nan 0"),
     lambda t: t.replace("0 0 0 90 0 0 0 0 0", "0 0 0 9_0 0 0 0 0 0"),
+    lambda t: t.replace("Frame Time: 0.0333333", "Frame Time: 5e-324"),   # 1/ft overflows
+    lambda t: t.replace("CHANNELS 3 Zrotation Xrotation Yrotation",      # two CHANNELS:
+                        "CHANNELS 3 Zrotation Xrotation Yrotation\n    CHANNELS 1 Xrotation"),
+    lambda t: t.replace("CHANNELS 3 Zrotation Xrotation Yrotation",
+                        "CHANNELS 3 Zrotation Xrotation Zrotation"),
     lambda t: t.replace("0 0 0 90 0 0 0 0 0", "0 0 0 \uff19\uff10 0 0 0 0 0"),
     lambda t: t.replace("JOINT Chest", "JOINT Ch\x00est"),
     lambda t: t.replace("MOTION", "MOTON"),
@@ -678,3 +683,15 @@ def test_csv_numbers_and_times_are_checked(tmp_path, cell, times, match):
     p.write_text("frame,time,A_x,A_y,A_z\n" + "".join(
         f"{k},{round(k / 60, 3)},1.0,2.0,3.0\n" for k in range(100)))
     assert read(p).rate == pytest.approx(60.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("number", ["x", "nan", "", "1e30", "100000000000000000000"])
+def test_trc_frame_numbers_that_are_not_whole_numbers_are_said(tmp_path, number):
+    """A Frame# that is not a whole number (or is one too large for any frame) was taken
+    silently, or raised OverflowError ('cannot read: Python int too large'): the rows are
+    still consecutive frames, and the motion's warning says why."""
+    p = tmp_path / "f.trc"
+    p.write_text(TRC_TEXT.replace("\n2\t0.017", f"\n{number}\t0.017"))
+    m = read(p)
+    assert m.n_frames == 3
+    assert "Frame# column" in m.metadata.get("warning", "")

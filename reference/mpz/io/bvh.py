@@ -17,6 +17,7 @@ centimetre-like, see docs/io-notes.md).
 """
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -58,6 +59,7 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
     stack: list[int] = []
     pending: _Joint | None = None
     n_channels = 0
+    with_channels: set[int] = set()
     while pos < len(tokens):
         t = tokens[pos]
         up = t.upper()
@@ -109,12 +111,17 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
             j = joints[stack[-1]]
             if j.end:
                 raise _bad(f"CHANNELS inside the End Site of {joints[j.parent].name!r}")
+            if stack[-1] in with_channels:      # the second replaced the first's columns
+                raise _bad(f"joint {j.name!r} has two CHANNELS lines")
+            with_channels.add(stack[-1])
             n = int(tokens[pos + 1])
             if not 0 <= n <= MAX_CHANNELS_PER_JOINT:
                 raise _bad(f"bad channel count {n} for joint {j.name!r}")
             chans = tokens[pos + 2:pos + 2 + n]
             if len(chans) != n or any(c.upper() not in _CODES for c in chans):
                 raise _bad(f"bad CHANNELS for joint {j.name!r}: {chans}")
+            if len({c.upper() for c in chans}) != n:       # spec §4.14.1: each at most once
+                raise _bad(f"CHANNELS of joint {j.name!r} name a channel twice: {chans}")
             j.channels = [_CODES[c.upper()] for c in chans]
             n_channels += n
             pos += 2 + n
@@ -157,6 +164,8 @@ def frame_rate_from_frame_time(ft: float) -> float:
     if not ft > 0:
         raise _bad(f"Frame Time must be positive, got {ft!r}")
     r = 1.0 / ft
+    if not math.isfinite(r):
+        raise _bad(f"Frame Time {ft!r} is too small: its rate, 1 / Frame Time, overflows")
     return float(round(r)) if abs(r - round(r)) < 1e-3 else r
 
 

@@ -165,6 +165,14 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     return Motion(pos, names, rate, units, valid, meta)
 
 
+def _is_int(x: str) -> bool:
+    try:
+        int(x)
+    except ValueError:
+        return False
+    return True
+
+
 def _frames_by_number(pos: NDArray[np.float64], numbers: list[str]
                       ) -> tuple[NDArray[np.float64], str]:
     """The rows ``pos`` placed by their Frame# when the numbers skip some frames (a TRC
@@ -175,7 +183,12 @@ def _frames_by_number(pos: NDArray[np.float64], numbers: list[str]
     try:
         n = [int(x) for x in numbers]
     except ValueError:
-        return pos, ""
+        bad = next(x for x in numbers if not _is_int(x))
+        return pos, (f"the Frame# column is not whole numbers ({bad!r}): the rows are taken "
+                     "as consecutive frames at DataRate")
+    if any(abs(x) >= 1 << 62 for x in n):
+        return pos, ("the Frame# column holds numbers beyond 2^62: the rows are taken as "
+                     "consecutive frames at DataRate")
     steps = np.diff(np.array(n, dtype=np.int64))
     if not steps.size or (steps == 1).all():
         return pos, ""
