@@ -574,3 +574,15 @@ def test_chain_order_takes_nan_as_no_score():
     # 3 (the one number), 2 (5 < 9, marker 1 still has no score), then 1 (its score 1
     # from marker 2 replaces the NaN) before 4 (8)
     assert chain_order(s).tolist() == [3, 2, 1, 4]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 6), st.integers(1, 5),
+       st.lists(st.sampled_from([0.0, -1.5, 1e308, np.nan, np.inf, -np.inf]), min_size=90,
+                max_size=90))
+def test_finite_samples_is_all_three_coordinates_finite(F, M, pool):
+    """mpz.motion.finite_samples, the fast form of np.isfinite(pos).all(axis=2)."""
+    from mpz.motion import finite_samples
+    pos = np.array(pool[:F * M * 3]).reshape(F, M, 3)
+    assert np.array_equal(finite_samples(pos), np.isfinite(pos).all(axis=2))
+    assert np.array_equal(finite_samples(pos[:, ::-1]), np.isfinite(pos[:, ::-1]).all(axis=2))

@@ -49,7 +49,7 @@ from mpz.entropy import BlockDecoder
 from mpz.errors import FormatError, MPZError
 from mpz.extensions import EXTENSIONS
 from mpz.format import LAYER_LIMIT, MAX_SAMPLES, ResidualBase, unit_name
-from mpz.keyframe import decode_payload as decode_keyframes
+from mpz.keyframe import decode_payload_peak as decode_keyframes
 from mpz.motion import Motion
 from mpz.normalize import denormalize, segment_starts
 from mpz.predict import reconstruct
@@ -384,15 +384,15 @@ def decode_residual(s: Stream, i: int, *, out: IntArray | None = None) -> IntArr
     if c.record.base == ResidualBase.KEYFRAMES:
         # §6.5: key frames, linearly interpolated
         members = np.asarray(s.nodes[i].members, np.intp)
-        w = decode_keyframes(dec, F, n_i, chunk="RESI", offset=c.offset, out=out,
-                             columns=None if out is None else members)
+        w, peak = decode_keyframes(dec, F, n_i, chunk="RESI", offset=c.offset, out=out,
+                                   columns=None if out is None else members)
         dec.close()
+        # §6.7 rule 1 on every value of the layer: its peak is its largest key's
+        _check_peak(peak, g, c)
         if out is None:
-            _layer_range(w, g, c)
             w *= g
             return w
-        # §6.7 rule 1 on every value of the layer, then R = x g, a block of frames at a time
-        _layer_range(out, g, c, members)
+        # R = x g, a block of frames at a time
         if g != 1:
             for t0, t1 in frame_blocks(F, n_i):
                 out[t0:t1, members] *= g
@@ -424,7 +424,11 @@ def _layer_range(v: IntArray, scale: int, c: Located[Patt] | Located[Resi],
     and the unscaled peak first: the product is formed only once |v| < 2^36 (§1.1), as a
     fixed-width decoder must (here Python integers could not overflow anyway).
     """
-    peak = _peak(v, members)
+    _check_peak(_peak(v, members), scale, c)
+
+
+def _check_peak(peak: int, scale: int, c: Located[Patt] | Located[Resi]) -> None:
+    """§6.7 rule 1 for a layer whose largest magnitude is ``peak``."""
     what = f"node {c.record.node} {c.record.TYPE}"
     if peak >= LAYER_LIMIT:
         raise FormatError(f"{what}: reconstructed value {peak} reaches 2^36 before scaling",

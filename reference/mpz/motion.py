@@ -27,6 +27,15 @@ def unit_scale_mm(units: str) -> float | None:
     return MM_PER_UNIT.get(units)
 
 
+def finite_samples(pos: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """``[F, M]``: whether each sample of ``pos[F, M, 3]`` has three finite coordinates.
+
+    ``np.isfinite(pos).all(axis=2)`` reduces over an axis of 3, which numpy does slowly:
+    2.8 ms on 4500 x 41 samples, against 0.16 ms for the three columns (11 % of decoding
+    cmu_135_02, issue 15.1)."""
+    return np.isfinite(pos[..., 0]) & np.isfinite(pos[..., 1]) & np.isfinite(pos[..., 2])
+
+
 @dataclass(eq=False)
 class Motion:
     """Marker trajectories with gaps, names, an exact frame rate and units.
@@ -112,13 +121,13 @@ class Motion:
                 raise MotionError(f"duplicate marker name {n!r}")
             seen.add(n)
         if valid_arg is None:
-            valid = np.all(np.isfinite(pos), axis=2)
+            valid = finite_samples(pos)
         else:
             valid = np.asarray(valid_arg, dtype=bool)
             if valid.shape != (frames, markers):
                 raise MotionError(
                     f"valid mask must have shape {(frames, markers)}, got {valid.shape}")
-            bad = valid & ~np.all(np.isfinite(pos), axis=2)
+            bad = valid & ~finite_samples(pos)
             if bad.any():
                 f, m = np.argwhere(bad)[0]
                 raise MotionError(f"non-finite position at frame {f}, marker {names[m]!r} "

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from mpz.errors import InputFormatError
 from mpz.io._common import StrPath, decode_text, number, reader
-from mpz.motion import Motion
+from mpz.motion import Motion, finite_samples
 
 MAX_NPY_BYTES = 1 << 34  # refuse absurd arrays before loading (16 GiB)
 
@@ -44,7 +44,7 @@ def motion_from_array(arr: ArrayLike, *, rate: float = 1.0, units: str = "",
     if arr.ndim != 3 or arr.shape[2] != 3:
         raise _bad(fmt, f"array shape {arr.shape} is not (frames, markers, 3)")
     pos = arr.astype(np.float64)
-    valid = np.isfinite(pos).all(axis=2)
+    valid = finite_samples(pos)
     pos[~valid] = np.nan
     names = list(names) if names is not None else [f"M{i}" for i in range(pos.shape[1])]
     meta = {"format": fmt}

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.io._common import StrPath, decode_text, number, reader, start_frame, unique_names
-from mpz.motion import Motion
+from mpz.motion import Motion, finite_samples
 
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in"}
 
@@ -148,7 +148,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if declared_frames and int(float(declared_frames)) != len(pos):
         said = f"NumFrames says {declared_frames}, file has {len(rows)} rows"
         meta["warning"] = f"{meta['warning']}; {said}" if "warning" in meta else said
-    valid = np.isfinite(pos).all(axis=2)
+    valid = finite_samples(pos)
     pos[~valid] = np.nan
     names, renamed = unique_names(names)
     if renamed:
