@@ -21,7 +21,8 @@ import pytest
 
 import mpz
 from mpz.encoder import EncodeOptions, encode_motion
-from mpz.errors import EncoderError
+from mpz.errors import EncoderError, MotionError, MPZError
+import mpz.io
 from mpz.motion import Motion
 from mpz.synth import generate
 
@@ -264,3 +265,90 @@ def test_what_an_encode_does_not_keep(walk: Motion, two_joint_bvh: str) -> None:
     data, rep = mpz.encoder.encode_motion(bvh, replace(opts, keep_skeleton=False))
     assert rep.not_kept == ["joint angles and the skeleton"]
 
+
+
+# ---- from a QA run of the Python API (stop 29) ----------------------------------------
+@pytest.mark.parametrize("change,match", [
+    (dict(names=["A", b"x"]), "names must be str"),        # str(b"x") was "b'x'"
+    (dict(rate="100"), "rate must be a number"),
+    (dict(rate=True), "rate must be a number"),
+    (dict(valid=np.full((2, 2), 0.5)), "booleans"),          # 0.5 was True
+    (dict(positions=np.zeros((2, 2, 3), complex)), "real numbers"),   # imaginary part lost
+])
+def test_motion_refuses_what_it_converted_silently(change, match):
+    args = dict(positions=np.zeros((2, 2, 3)), names=["A", "B"], rate=100.0)
+    args.update(change)
+    with pytest.raises(MotionError, match=match):
+        Motion(**args)
+    args = dict(positions=np.zeros((2, 2, 3)), names=[np.str_("A"), "B"], rate=np.float32(50),
+                valid=np.ones((2, 2), np.int8))          # what stays accepted
+    assert Motion(**args).valid.all()
+
+
+@pytest.mark.parametrize("change", [
+    lambda m: setattr(m, "rate", -5.0),
+    lambda m: setattr(m, "units", "furlong"),
+    lambda m: m.names.append("X"),
+    lambda m: m.positions.__setitem__((0, 0, 0), np.nan),
+])
+def test_encode_checks_a_motion_changed_after_it_was_made(change):
+    """A Motion is mutable: the encoder made a file the decoder rejects (rate -5), lost the
+    units, or raised IndexError; now the constructor's checks run again."""
+    m = generate("walk", frames=20, seed=1)
+    change(m)
+    with pytest.raises(EncoderError, match="not consistent"):
+        mpz.encode(m, max_error=1.0)
+
+
+@pytest.mark.parametrize("meta,match", [
+    ({"k" * 256: "v"}, "256 bytes"),
+    ({"": "v"}, "0 bytes"),
+    ({"k": "v" * 65536}, "65536 bytes"),
+])
+def test_metadata_beyond_the_limits_is_refused_not_cut(meta, match):
+    """§4.11's limits: values were cut to 65535 bytes, keys to 255 (two long keys became
+    one), an empty key became '_', all silently."""
+    m = generate("walk", frames=20, seed=1)
+    with pytest.raises(EncoderError, match=match):
+        mpz.encode(m, max_error=1.0, metadata=meta)
+    ok = {"k" * 255: "v" * 65535}
+    assert mpz.decode(mpz.encode(m, max_error=1.0, metadata=ok)).metadata["k" * 255] == "v" * 65535
+
+
+@pytest.mark.parametrize("ext", [".c3d", ".trc", ".npy", ".csv"])
+def test_write_to_a_missing_folder_says_so(tmp_path, ext):
+    """ezc3d wrote nothing and returned: a C3D lost without a word."""
+    m = generate("walk", frames=5, seed=1)
+    with pytest.raises(FileNotFoundError, match="no folder"):
+        mpz.io.write(m, tmp_path / "nowhere" / f"x{ext}")
+
+
+def test_write_returns_what_the_format_does_not_hold(tmp_path):
+    m = generate("walk", frames=5, seed=1)
+    m.metadata["project"] = "demo"
+    m.positions[2, 3] = 0.0
+    notes = mpz.io.write(m, tmp_path / "x.c3d")
+    assert any("'project'" in n for n in notes), notes
+    assert any("(0, 0, 0)" in n and "frame 2" in n for n in notes), notes
+    back = mpz.io.read(tmp_path / "x.c3d")
+    assert not back.valid[2, 3] and "project" not in back.metadata     # what the notes say
+    plain = generate("walk", frames=5, seed=1)
+    plain.metadata.clear()                    # the generator's own keys are free metadata
+    assert mpz.io.write(plain, tmp_path / "y.c3d") == []
+    m2 = Motion(np.ones((2, 1, 3)), ["L" * 256], 100.0)
+    with pytest.raises(MPZError, match="255 bytes"):
+        mpz.io.write(m2, tmp_path / "z.c3d")
+
+
+@pytest.mark.parametrize("shift,bound", [(1e7, 1e-7), (1e12, 1e-3)])
+def test_the_bound_holds_at_large_coordinates(shift, bound):
+    """§6.8's binary64 rounding at coordinates of 1e7 took the error to 1.005e-7 for a bound
+    of 1e-7 (within §7.2's float slack, but not the bound the file declares): the encoder
+    now keeps a margin of 2^-49 of the largest coordinate."""
+    m = generate("walk", frames=40, seed=2)
+    m = Motion(m.positions / 1000 + shift, m.names, m.rate, m.units, m.valid)   # 1.6 wide
+    back = mpz.decode(mpz.encode(m, max_error=bound))
+    err = np.linalg.norm(back.positions[m.valid] - m.positions[m.valid], axis=1)
+    assert err.max() <= bound
+    with pytest.raises(EncoderError, match="too fine for coordinates"):
+        mpz.encode(m, max_error=shift * 2.0 ** -52)

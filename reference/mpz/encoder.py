@@ -60,7 +60,7 @@ from mpz.chunks.summary import CodedSummaryLevel
 from mpz.chunks.summary import encode_levels as encode_summary_levels
 from mpz.cluster import adaptive_kmeans
 from mpz.entropy import MAX_EXP, BlockEncoder
-from mpz.errors import EncoderError
+from mpz.errors import EncoderError, MotionError
 from mpz.extensions import EXTENSIONS
 from mpz.format import (
     FLAG_RESIDUAL,
@@ -378,6 +378,40 @@ def check_option_values(o: EncodeOptions) -> None:
     for k, text in o.metadata.items():
         _utf8(k, "metadata key")
         _utf8(text, f"metadata value of {k!r}")
+
+
+def _consistent(motion: Motion) -> None:
+    """The checks of :class:`Motion`'s constructor, made again: a Motion is a plain mutable
+    object, and a rate set to -5, a names list grown by one or NaN written into the
+    caller's array after it was made gave a file the decoder rejects, or an IndexError
+    (a QA run of the API)."""
+    try:
+        Motion(motion.positions, motion.names, motion.rate, motion.units, motion.valid,
+               motion.metadata, motion.parents, motion.angles, motion.angle_names,
+               motion.extras)
+    except MotionError as exc:
+        raise EncoderError(f"the motion is not consistent (was it changed after it was "
+                           f"made?): {exc.message}") from None
+
+
+def check_metadata(meta: Mapping[str, str]) -> None:
+    """§4.11's limits on the metadata a file will hold (the motion's and the options'):
+    at most 65535 entries, keys of 1..255 bytes of UTF-8, values of at most 65535. They
+    were cut to fit, silently: two long keys could become one, an empty one '_'."""
+    if len(meta) > 65535:
+        raise EncoderError(f"{len(meta)} metadata entries, more than the 65535 of §4.11")
+    for k, v in meta.items():
+        if not isinstance(k, str) or not isinstance(v, str):
+            raise EncoderError(f"metadata must map str to str, got {type(k).__name__} "
+                               f"{ascii(k)[:60]}: {type(v).__name__}")
+        n = len(k.encode("utf-8", "surrogatepass"))
+        if not 1 <= n <= 255:
+            raise EncoderError(f"metadata key {ascii(k[:60])}: {n} bytes; keys are 1..255 "
+                               "bytes of UTF-8 (§4.11)")
+        n = len(v.encode("utf-8", "surrogatepass"))
+        if n > 65535:
+            raise EncoderError(f"metadata value of {ascii(k[:60])}: {n} bytes, more than the "
+                               "65535 of §4.11")
 
 
 def check_motion(motion: Motion) -> None:
@@ -820,7 +854,8 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
     lo = np.array([x[..., k].min() for k in range(3)])
     hi = np.array([x[..., k].max() for k in range(3)])
     offset = (lo + hi) / 2.0
-    within = c3d_bound(motion, opts, float(max(np.abs(lo).max(), np.abs(hi).max())))
+    peak = float(max(np.abs(lo).max(), np.abs(hi).max()))
+    within = c3d_bound(motion, opts, peak)
     # issue 12: with a source grid s (an int16 C3D's), the stored grid is s itself and the
     # offset 0, so every decoded value is q x s, the reader's own product, and the C3D can
     # be written back as int16 with its residual words and camera masks as they were
@@ -858,7 +893,22 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
     for i in range(1, len(hier.nodes)):
         e = group.get(i, e_all_nodes)
         g[i] = int(max(1, min(65535, math.floor(2.0 * e / SQRT3 * SAFETY / step))))
-    bounds = {i: group.get(i, e_all_nodes) for i in range(len(hier.nodes))}
+    # §6.8 rounds each decoded value twice in binary64 (q s, then + offset: per axis at
+    # most 2^-53 (|q s| + |x|)), and the encoder's grid coordinates and distances are
+    # binary64 too (2^-53 of the half range, twice, and of the radius): the nodes are coded
+    # within the bound less 2^-51 (|x|max + 3 half range + 3 e), > sqrt(3) times all of it,
+    # so that every decoded sample is within the bound itself, not only within §7.2's
+    # float slack (a QA run: 1.005e-7 for a bound of 1e-7 at coordinates of 1e7). On the
+    # real files the margin is below 10^-11 of the bound and changes no byte.
+    margin = 2.0 ** -51 * (peak + 3.0 * float((hi - lo).max()) / 2.0 + 3.0 * e_min)
+    if margin > e_min / 2:
+        raise EncoderError(f"max error {opts.max_error:g} is too fine for coordinates of "
+                           f"{peak:g} {motion.units or 'units'}: binary64 rounds them by up "
+                           f"to {margin:g}")
+    bounds = {i: group.get(i, e_all_nodes) - margin for i in range(len(hier.nodes))}
+    for i in g:                 # a residual lattice still holds a point within its radius
+        while g[i] > 1 and bounds[i] / (g[i] * step) < SQRT3 / 2:
+            g[i] -= 1
     return Grid(step, offset, g, bounds)
 
 
@@ -1207,11 +1257,7 @@ def _meta_record(motion: Motion, opts: EncodeOptions) -> Meta | None:
     if not meta:
         return None
 
-    def clip(text: str, limit: int) -> str:
-        return text.encode("utf-8")[:limit].decode("utf-8", "ignore")
-
-    entries = [MetaEntry(key=clip(str(k), 255) or "_", value=clip(str(v), 65535))
-               for k, v in meta.items()]
+    entries = [MetaEntry(key=k, value=v) for k, v in meta.items()]     # check_metadata
     return Meta(count=len(entries), entries=tuple(entries))
 
 
@@ -1302,7 +1348,9 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     opts.validate()
     if not isinstance(motion, Motion):
         raise EncoderError(f"expected an mpz.Motion, got {type(motion).__name__}")
+    _consistent(motion)                  # a Motion is mutable: its invariants, again
     check_motion(motion)                 # issue 11.6: names, metadata, magnitudes up front
+    check_metadata({**motion.metadata, **opts.metadata})
     F, M = motion.n_frames, motion.n_markers
     if F > MAX_FRAMES or M > MAX_MARKERS or F * M > MAX_SAMPLES:
         raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8")

@@ -102,7 +102,10 @@ class Motion:
 
     def __post_init__(self) -> None:
         valid_arg = cast("ArrayLike | None", self.valid)  # still the argument, see above
-        pos = np.asarray(self.positions, dtype=np.float64)
+        raw = np.asarray(self.positions)
+        if raw.dtype.kind not in "fiu":    # complex lost its imaginary part, bool became 0/1
+            raise MotionError(f"positions must be real numbers, got dtype {raw.dtype}")
+        pos = np.asarray(raw, dtype=np.float64)
         if pos.ndim != 3 or pos.shape[2] != 3:
             raise MotionError(f"positions must have shape (frames, markers, 3), got {pos.shape}")
         frames, markers, _ = pos.shape
@@ -110,7 +113,10 @@ class Motion:
             raise MotionError("a motion needs at least one frame, got 0")
         if markers == 0:
             raise MotionError("a motion needs at least one marker, got 0")
-        names = [str(n) for n in self.names]
+        names = list(self.names)
+        odd = next((n for n in names if not isinstance(n, str)), None)
+        if odd is not None:               # str(b"x") is "b'x'": no silent conversion
+            raise MotionError(f"marker names must be str, got {type(odd).__name__} {odd!r}")
         if len(names) != markers:
             raise MotionError(f"{len(names)} names for {markers} markers")
         if any(n == "" for n in names):
@@ -123,7 +129,12 @@ class Motion:
         if valid_arg is None:
             valid = finite_samples(pos)
         else:
-            valid = np.asarray(valid_arg, dtype=bool)
+            given = np.asarray(valid_arg)
+            if given.dtype != bool and not (given.dtype.kind in "iu"
+                                            and ((given == 0) | (given == 1)).all()):
+                raise MotionError(f"the valid mask must be booleans (or 0 and 1), got "
+                                  f"dtype {given.dtype}")
+            valid = given.astype(bool)
             if valid.shape != (frames, markers):
                 raise MotionError(
                     f"valid mask must have shape {(frames, markers)}, got {valid.shape}")
@@ -132,6 +143,10 @@ class Motion:
                 f, m = np.argwhere(bad)[0]
                 raise MotionError(f"non-finite position at frame {f}, marker {names[m]!r} "
                                   "where the mask says valid")
+        if isinstance(self.rate, (bool, np.bool_)) or not isinstance(
+                self.rate, (int, float, np.integer, np.floating)):
+            raise MotionError(f"frame rate must be a number, got {type(self.rate).__name__} "
+                              f"{self.rate!r}")
         rate = float(self.rate)
         if not math.isfinite(rate) or rate <= 0:
             raise MotionError(f"frame rate must be finite and positive, got {self.rate!r}")

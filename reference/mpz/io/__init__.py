@@ -127,15 +127,26 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     return fn(path)
 
 
+#: metadata keys the readers set to describe the source (mpz.io's readers), rebuilt when a
+#: written file is read: not counted as free metadata that a format drops
+READER_KEYS = frozenset({
+    "format", "source", "reader", "warning", "units_in_file", "start_time", "frame_time",
+    "channels", "joints", "end_sites", "mm_per_unit", "rate_assumed", "subject",
+    "renamed_points", "processor", "model_outputs", "asf_length_unit", "skeleton", "asf"})
+
+
 def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
-          asf: StrPath | None = None) -> None:
-    """Write a Motion, choosing the writer by extension.
+          asf: StrPath | None = None) -> list[str]:
+    """Write a Motion, choosing the writer by extension; returns the notes of
+    :func:`check_writable`: what the format does not hold of the motion (for example
+    NPY's marker names, rate and units, or a C3D's metadata), each a sentence.
 
     Parameters
     ----------
     motion : Motion
     path : str or os.PathLike
-        A ``.c3d``, ``.trc``, ``.npy`` or ``.csv`` file name.
+        A ``.c3d``, ``.trc``, ``.npy``, ``.csv``, ``.bvh`` or ``.amc`` file name (BVH
+        and AMC need the motion's skeleton).
     file_name : str, optional
         The name to record in formats that store their own file name (TRC);
         default: the base name of ``path``. For writing to a temporary file.
@@ -147,6 +158,8 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     InputFormatError
         For an extension no writer handles, or a motion the format cannot
         hold so that it reads back (see :func:`check_writable`).
+    FileNotFoundError
+        When the folder of ``path`` does not exist (ezc3d then wrote nothing, silently).
     """
     ext = ext_of(path)
     fn = WRITERS.get(ext)
@@ -154,13 +167,20 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
         raise InputFormatError(
             f"cannot write {ext or '(no extension)'!r}; can write {', '.join(WRITERS)}",
             path=os.fspath(path))
-    check_writable(motion, ext, path=file_name or os.fspath(path))
+    notes = check_writable(motion, ext, path=file_name or os.fspath(path))
+    folder = os.path.dirname(os.path.abspath(os.fspath(path)))
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"cannot write {os.fspath(path)!r}: no folder {folder!r}")
     if file_name is not None and ext == ".trc":
         fn(motion, path, file_name=file_name)
     elif ext == ".amc":
         fn(motion, path, asf=asf)
     else:
         fn(motion, path)
+    if not os.path.exists(path):                 # a writer that failed without a word
+        raise OSError(f"the {FORMAT_NAMES.get(ext, ext)} writer wrote nothing to "
+                      f"{os.fspath(path)!r}")
+    return notes
 
 
 def _check_regular(path: StrPath) -> None:
@@ -365,6 +385,22 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
                               f"(they read back as {back!r})")
     if ext == ".npy":
         notes.append("NPY holds positions only: marker names, rate and units are not stored")
+    if ext in (".c3d", ".trc", ".csv"):
+        free = [k for k in motion.metadata if k not in READER_KEYS and "." not in k]
+        if free:
+            notes.append(f"{fmt} has no place for free metadata: not written: "
+                         + ", ".join(repr(k) for k in free[:8])
+                         + (f" and {len(free) - 8} more" if len(free) > 8 else ""))
+    if ext == ".c3d":
+        zero = motion.valid & (motion.positions == 0.0).all(axis=2)
+        if zero.any():
+            f, m = (int(i) for i in np.argwhere(zero)[0])
+            notes.append(f"{int(zero.sum())} valid sample(s) at exactly (0, 0, 0) (the first: "
+                         f"frame {f}, marker {names[m]!r}) read back as gaps: C3D readers "
+                         "take a point at the origin as missing")
+        long = _names_with(names, lambda n: len(n.encode("utf-8")) > 255)
+        if long:
+            refuse.append(f"C3D labels hold at most 255 bytes: {', '.join(long)}")
     if ext in SKELETON_FORMATS:        # issue 13: the skeleton formats need their skeleton
         refuse += skeleton_problems(motion, ext)
         if ext == ".amc" and rate != 120.0:
