@@ -352,3 +352,49 @@ def test_the_bound_holds_at_large_coordinates(shift, bound):
     assert err.max() <= bound
     with pytest.raises(EncoderError, match="too fine for coordinates"):
         mpz.encode(m, max_error=shift * 2.0 ** -52)
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(keep_skeleton="no"), "keep_skeleton must be True or False"),   # was taken as True
+    (dict(angle_error=-1), "angle_error must be a finite number above 0"),
+    (dict(translation_error=float("nan")), "translation_error must be"),
+    (dict(position_error=0), "position_error must be"),
+    (dict(angle_error="1"), "angle_error must be a number"),
+    (dict(summary=6), "summary must be a sequence"),        # 'int' object is not iterable
+])
+def test_options_are_checked_whatever_the_motion(kw, match):
+    """The skeleton options were checked only for a motion with a skeleton; a bad one
+    was accepted silently on any other."""
+    with pytest.raises(EncoderError, match=match):
+        mpz.encode(generate("walk", frames=10, seed=1), max_error=1.0, **kw)
+
+
+def test_decode_arguments_are_checked(tmp_path):
+    data = mpz.encode(generate("walk", frames=10, seed=1), max_error=1.0)
+    for bad, exc in ((None, TypeError), (2.5, TypeError), (True, TypeError), (0, ValueError),
+                     (-1, ValueError)):
+        with pytest.raises(exc, match="max_samples"):
+            mpz.decode(data, max_samples=bad)
+    p = tmp_path / "a.mpz"
+    p.write_bytes(data)
+    with open(p) as text, pytest.raises(TypeError, match="binary mode"):
+        mpz.decode(text)                     # it failed inside, in a bytes join
+    assert mpz.decode(np.frombuffer(data, np.uint8)).n_frames == 10
+    with pytest.raises(TypeError, match="uint8"):
+        mpz.decode(np.frombuffer(data, np.int8))
+
+
+def test_error_metrics_refuse_motions_that_do_not_line_up():
+    """mpz.max_error compared sample arrays only: the same motion in cm scored 1518 against
+    itself in mm, and reordered markers scored their distances. A motion without units is
+    still compared as numbers (NPY)."""
+    m = generate("walk", frames=10, seed=1)
+    cm = Motion(m.positions / 10, m.names, m.rate, "cm", m.valid)
+    with pytest.raises(MotionError, match="units differ"):
+        mpz.max_error(m, cm)
+    rev = Motion(m.positions[:, ::-1], m.names[::-1], m.rate, m.units, m.valid[:, ::-1])
+    with pytest.raises(MotionError, match="names differ at index 0"):
+        mpz.max_error(m, rev)
+    bare = Motion(m.positions, m.names, m.rate, "", m.valid)
+    assert mpz.max_error(m, bare) == 0.0
+    assert m.duration == mpz.info(mpz.encode(m, max_error=1.0)).duration == 10 / m.rate

@@ -630,7 +630,7 @@ def test_show_json(tmp_path, capsys):
     assert info["units"] == "mm"
     # 5 gaps out of 35 marker-frames, plus marker 3 missing in 6 of 7 frames
     assert info["gap_fraction"] == pytest.approx((3 + 6) / 35)
-    assert info["duration"] == pytest.approx(6 / DANCE_RATE)
+    assert info["duration"] == pytest.approx(7 / DANCE_RATE)    # frames / rate, as mpz.info
 
 
 def test_show_errors(tmp_path, capsys):

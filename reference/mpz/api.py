@@ -16,6 +16,7 @@ from collections.abc import Iterator, Mapping
 import contextlib
 from dataclasses import dataclass, field
 import errno
+import io
 import os
 import secrets
 import signal
@@ -157,6 +158,17 @@ def read_stream_bytes(fh: IO[bytes], *, limit: int = MAX_INPUT_BYTES,
             return bytes(out)
 
 
+def check_max_samples(max_samples: object) -> int:
+    """``max_samples`` as an int >= 1, or TypeError / ValueError naming it."""
+    if isinstance(max_samples, (bool, np.bool_)) or not isinstance(
+            max_samples, (int, np.integer)):
+        raise TypeError(f"max_samples must be an integer, got {type(max_samples).__name__} "
+                        f"{max_samples!r}")
+    if max_samples < 1:
+        raise ValueError(f"max_samples must be at least 1, got {max_samples}")
+    return int(max_samples)
+
+
 def read_source(source: Source, *, limit: int = MAX_INPUT_BYTES) -> tuple[bytes, str | None]:
     """The bytes of an MPZ ``source`` and its file name (None for bytes and streams).
 
@@ -187,6 +199,12 @@ def read_source(source: Source, *, limit: int = MAX_INPUT_BYTES) -> tuple[bytes,
                 return fh.read(), p
             except OSError as exc:
                 raise FormatError(f"cannot read: {exc.strerror or exc}", path=p) from None
+    if isinstance(source, io.TextIOBase):      # it failed inside with a join TypeError
+        raise TypeError("a text file object: open the MPZ file in binary mode ('rb')")
+    if isinstance(source, np.ndarray):          # bytes-like by the buffer protocol
+        if source.dtype != np.uint8:
+            raise TypeError(f"a numpy array of MPZ bytes must be uint8, got {source.dtype}")
+        return source.tobytes(), None
     if hasattr(source, "read"):
         name = getattr(source, "name", None)
         data = read_stream_bytes(source, limit=limit, trailing=False)
@@ -473,6 +491,7 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
     (24, 24)
     """
     from mpz.decoder import decode as decode_bytes
+    max_samples = check_max_samples(max_samples)
     data, name = read_source(source)
     try:
         return decode_bytes(data, max_samples=max_samples)

@@ -362,8 +362,13 @@ def check_option_values(o: EncodeOptions) -> None:
                            f"got {o.summary_format!r}")
     if o.patterns is not None and not isinstance(o.patterns, str):
         raise EncoderError(f"patterns must be auto, on, off or None, got {o.patterns!r}")
-    if not isinstance(o.lossy, bool):
-        raise EncoderError(f"lossy must be True or False, got {o.lossy!r}")
+    for name in ("lossy", "keep_skeleton"):       # "no" was taken as true
+        if not isinstance(getattr(o, name), bool):
+            raise EncoderError(f"{name} must be True or False, got {getattr(o, name)!r}")
+    for name in ("angle_error", "translation_error", "position_error"):
+        v = getattr(o, name)            # checked whether or not the motion has a skeleton
+        if v is not None and not 0 < _number(v, name) < math.inf:
+            raise EncoderError(f"{name} must be a finite number above 0, got {v!r}")
     for count in o.summary:
         _integer(count, "summary: a segment count", 1, MAX_FRAMES)
     if len(set(o.summary)) > MAX_SUMMARY_LEVELS:
@@ -1488,7 +1493,9 @@ def encode(motion: Motion, *,
     segmentation : {"adaptive", "optimal"}, default "adaptive"
         Paper's Alg. 1, or Fisher's optimal partition.
     grid : float, optional
-        Grid step in motion units. Default: from ``max_error``, else ADDH/1000.
+        Grid step in motion units: an upper limit under a bound (the step the bound needs
+        is used when finer, and an int16 C3D's own grid when coded on it), the step
+        itself in ``lossy`` mode. Default: from ``max_error``, else ADDH/1000.
     max_segment : int, default 240
         Longest segment in frames, 2..4096.
     summary : sequence of int, default ()
@@ -1557,7 +1564,8 @@ def encode(motion: Motion, *,
         max_error=max_error, group_errors=group_errors or {}, theta=theta, k0=k0, tau=tau,
         metric=metric, weights=weights, hierarchy=hierarchy, smoothing=smoothing,
         patterns=patterns, segmentation=segmentation, grid=grid, max_segment=max_segment,
-        summary=tuple(summary), summary_space=summary_space, summary_format=summary_format,
+        summary=summary,  # type: ignore[arg-type]  # made a tuple, or refused, there
+        summary_space=summary_space, summary_format=summary_format,
         metadata=metadata or {},
         seed=seed, lossy=lossy, default_error_mm=default_error_mm,
         default_error_fraction=default_error_fraction, source_grid=source_grid,

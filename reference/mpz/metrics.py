@@ -18,6 +18,16 @@ from mpz.motion import Motion
 def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
     if original.positions.shape != decoded.positions.shape:
         raise MotionError(f"shapes differ: {original.positions.shape} vs {decoded.positions.shape}")
+    # the same sample of the same marker in the same unit, or the distance means nothing
+    # (a motion in cm scored 1518 against itself in mm; `mpz compare` aligns by name)
+    if original.units and decoded.units and original.units != decoded.units:
+        raise MotionError(f"units differ: {original.units!r} vs {decoded.units!r} (convert "
+                          "one first; a motion without units is compared as numbers)")
+    if list(original.names) != list(decoded.names):
+        k = next(i for i, (a, b) in enumerate(zip(original.names, decoded.names, strict=True))
+                 if a != b)
+        raise MotionError(f"marker names differ at index {k}: {original.names[k]!r} vs "
+                          f"{decoded.names[k]!r} (reorder one motion first)")
     d = np.linalg.norm(original.positions - decoded.positions, axis=2)
     d[~original.valid] = np.nan
     d[original.valid & ~decoded.valid] = np.inf

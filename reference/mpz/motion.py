@@ -73,7 +73,7 @@ class Motion:
     >>> import numpy as np
     >>> m = Motion(np.zeros((2, 1, 3)), ["A"], rate=120.0, units="mm")
     >>> m.n_frames, m.n_markers, m.duration
-    (2, 1, 0.008333333333333333)
+    (2, 1, 0.016666666666666666)
     """
 
     # The field types are those of a constructed Motion: __post_init__ converts
@@ -180,8 +180,9 @@ class Motion:
 
     @property
     def duration(self) -> float:
-        """Seconds from the first to the last frame."""
-        return (self.n_frames - 1) / self.rate
+        """Seconds the frames cover, frames / rate: the same as :attr:`mpz.FileInfo.duration`
+        and the corpus index's ``duration_s`` (it was (frames - 1) / rate, a frame less)."""
+        return self.n_frames / self.rate
 
     @property
     def gap_fraction(self) -> float:

@@ -398,9 +398,9 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append(f"{int(zero.sum())} valid sample(s) at exactly (0, 0, 0) (the first: "
                          f"frame {f}, marker {names[m]!r}) read back as gaps: C3D readers "
                          "take a point at the origin as missing")
-        long = _names_with(names, lambda n: len(n.encode("utf-8")) > 255)
-        if long:
-            refuse.append(f"C3D labels hold at most 255 bytes: {', '.join(long)}")
+        too_long = _names_with(names, lambda n: len(n.encode("utf-8")) > 255)
+        if too_long:
+            refuse.append(f"C3D labels hold at most 255 bytes: {', '.join(too_long)}")
     if ext in SKELETON_FORMATS:        # issue 13: the skeleton formats need their skeleton
         refuse += skeleton_problems(motion, ext)
         if ext == ".amc" and rate != 120.0:
