@@ -398,3 +398,20 @@ def test_error_metrics_refuse_motions_that_do_not_line_up():
     bare = Motion(m.positions, m.names, m.rate, "", m.valid)
     assert mpz.max_error(m, bare) == 0.0
     assert m.duration == mpz.info(mpz.encode(m, max_error=1.0)).duration == 10 / m.rate
+
+
+def test_concatenate_refuses_what_it_would_drop(two_joint_bvh, tmp_path):
+    """It kept the first motion's metadata and dropped the others' and every joint angle."""
+    a, b = generate("walk", frames=5, seed=1), generate("walk", frames=5, seed=1)
+    b.metadata["take"] = "2"
+    with pytest.raises(MotionError, match="metadata differ at 'take'"):
+        mpz.concatenate([a, b])
+    p = tmp_path / "arm.bvh"
+    p.write_text(two_joint_bvh)
+    s = mpz.io.read(p)
+    both = mpz.concatenate([s, s])
+    assert both.angles is not None and both.angles.shape == (6, s.angles.shape[1])
+    bare = Motion(s.positions, s.names, s.rate, s.units, s.valid, s.metadata)
+    with pytest.raises(MotionError, match="joint angles on some"):
+        mpz.concatenate([s, bare])
+    assert mpz.concatenate([a, a]).n_frames == 10

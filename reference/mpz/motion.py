@@ -213,14 +213,36 @@ class Motion:
 
 
 def concatenate(motions: Iterable[Motion]) -> Motion:
-    """Join motions with the same markers, rate and units end to end."""
+    """Join motions with the same markers, rate and units end to end.
+
+    What else they hold must agree too, or nothing would say what was dropped (the first
+    motion's metadata was kept and the others' lost, and joint angles always): the same
+    metadata, joint angles on all or none (with the same channel names), and no extras
+    but equal ones (a C3D archive belongs to its own frames)."""
     motions = list(motions)
     if not motions:
         raise MotionError("nothing to concatenate")
     first = motions[0]
     for m in motions[1:]:
+        if not isinstance(m, Motion):
+            raise MotionError(f"can only concatenate Motions, got {type(m).__name__}")
         if m.names != first.names or m.rate != first.rate or m.units != first.units:
             raise MotionError("can only concatenate motions with the same names, rate and units")
+        if m.metadata != first.metadata:
+            k = next(k for k in {**first.metadata, **m.metadata}
+                     if first.metadata.get(k) != m.metadata.get(k))
+            raise MotionError(f"metadata differ at {k!r}: {first.metadata.get(k)!r} vs "
+                              f"{m.metadata.get(k)!r} (make them equal first)")
+        if (m.angles is None) != (first.angles is None) or m.angle_names != first.angle_names:
+            raise MotionError("joint angles on some motions only, or with other channels")
+        if m.extras.keys() != first.extras.keys() or any(
+                k == "c3d" or m.extras[k] != first.extras[k] for k in m.extras):
+            raise MotionError(f"cannot join what the motions hold besides positions "
+                              f"({', '.join(sorted(m.extras)) or 'none'} vs "
+                              f"{', '.join(sorted(first.extras)) or 'none'}); a C3D archive "
+                              "belongs to its own frames")
+    angles = (None if first.angles is None
+              else np.concatenate([m.angles for m in motions if m.angles is not None]))
     return Motion(np.concatenate([m.positions for m in motions]), list(first.names), first.rate,
                   first.units, np.concatenate([m.valid for m in motions]), dict(first.metadata),
-                  first.parents)
+                  first.parents, angles, first.angle_names, dict(first.extras))
