@@ -26,6 +26,7 @@ needs (its 23% occluded samples have residual 0 at the origin).
 from __future__ import annotations
 
 from collections.abc import Mapping
+import math
 import os
 from typing import Any
 
@@ -41,14 +42,36 @@ from mpz.motion import Motion
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m"}
 
 
-def _labels(point_params: Mapping[str, Any], used: int) -> list[str]:
-    """POINT:LABELS, then LABELS2, LABELS3, ... (files with > 255 points)."""
-    labels = list(point_params.get("LABELS", {}) or [])
+def _text(point_params: Mapping[str, Any], key: str, numeric: list[str]) -> list[str]:
+    """The rows of the char parameter POINT:``key`` ([] when absent). A parameter stored as
+    numbers (its type byte says int8, int16 or float32 where the C3D user guide has char)
+    gives [] and its name is appended to ``numeric``: its bytes are not read as text."""
+    value = point_params.get(key)
+    if value is None:
+        return []
+    if isinstance(value, np.ndarray) and value.dtype.kind not in "OUS":
+        numeric.append(f"POINT:{key}")
+        return []
+    return [str(s) for s in value]
+
+
+def _numeric_text(numeric: list[str]) -> str:
+    """The warning for the char parameters :func:`_text` found stored as numbers."""
+    return (f"{', '.join(numeric)} stored as numbers, not text (a wrong type byte?): "
+            "not used for names or units")
+
+
+def _labels(point_params: Mapping[str, Any], used: int,
+            numeric: list[str] | None = None) -> list[str]:
+    """POINT:LABELS, then LABELS2, LABELS3, ... (files with > 255 points); label
+    parameters stored as numbers are skipped and named in ``numeric`` (:func:`_text`)."""
+    numeric = [] if numeric is None else numeric
+    labels = _text(point_params, "LABELS", numeric)
     k = 2
     while f"LABELS{k}" in point_params and len(labels) < used:
-        labels += list(point_params[f"LABELS{k}"] or [])
+        labels += _text(point_params, f"LABELS{k}", numeric)
         k += 1
-    labels = [str(s).strip() for s in labels[:used]]
+    labels = [s.strip() for s in labels[:used]]
     labels += [""] * (used - len(labels))
     return labels
 
@@ -73,8 +96,9 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
         More metadata.
     """
     used = points.shape[1]
-    names, renamed = unique_names(_labels(point_params, used))
-    units_raw = (point_params.get("UNITS") or [""])[0].strip().lower()
+    numeric: list[str] = []
+    names, renamed = unique_names(_labels(point_params, used, numeric))
+    units_raw = (_text(point_params, "UNITS", numeric) or [""])[0].strip().lower()
     units = _UNITS.get(units_raw, "")
     pos = np.asarray(points, dtype=np.float64)
     res = np.asarray(residuals, dtype=np.float64)
@@ -92,6 +116,8 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
     if renamed:
         meta["renamed_points"] = "; ".join(renamed)
     meta.update(extra or {})
+    if numeric:
+        meta["warning"] = _joined(meta.get("warning"), _numeric_text(numeric))
     return Motion(pos, names, float(rate), units, valid, meta)
 
 
@@ -103,12 +129,14 @@ def _subject(params: Mapping[str, Any]) -> str:
     return ", ".join(n for n in (str(x).strip() for x in names) if n)
 
 
-def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int) -> Motion:
-    """A Motion from an ``ezc3d.c3d`` object; ``declared`` is the header's frame count."""
+def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
+                data: bytes) -> Motion:
+    """A Motion from an ``ezc3d.c3d`` object of the C3D bytes ``data``; ``declared`` is
+    their frame count (:func:`mpz.io.c3dbin.declared_frames`)."""
     params = c["parameters"]
     got = np.asarray(c["data"]["points"]).shape[2]
     if got < declared:  # ezc3d silently returns the frames that fit
-        raise c3dbin.truncated(declared, got)
+        raise c3dbin.frames_missing(data, declared, got)
     point = {k: v["value"] for k, v in params["POINT"].items() if k != "__METADATA__"}
     pts = np.asarray(c["data"]["points"])[:3].transpose(2, 1, 0)
     res = np.asarray(c["data"]["meta_points"]["residuals"])[0].T
@@ -116,6 +144,7 @@ def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int) ->
     rate_v = point.get("RATE")
     rate = float(rate_v[0]) if rate_v is not None and len(rate_v) else float(
         c["header"]["points"]["frame_rate"])
+    _check_rate(rate, data)
     plist = {k: (list(v) if not isinstance(v, np.ndarray) or v.dtype.kind in "OUS" else v)
              for k, v in point.items()}
     subject = _subject({"SUBJECTS": {k: v["value"] for k, v in params["SUBJECTS"].items()
@@ -130,12 +159,35 @@ def motion_from_c3d_bytes(data: bytes, *, source: str = "",
     d = c3dbin.parse_c3d(data)
     point = d.params.get("POINT", {})
     rate = c3dbin.param_number(d.params, "POINT", "RATE", d.header_rate)
+    _check_rate(rate, data)
     proc = {c3dbin.PROC_INTEL: "intel", c3dbin.PROC_DEC: "dec",
             c3dbin.PROC_MIPS: "mips"}[d.processor]
+    meta = {"reader": "mpz.io.c3dbin", "processor": proc, **(extra or {})}
+    for note in d.warnings:
+        meta["warning"] = _joined(meta.get("warning"), note)
     return motion_from_points(d.points, d.residual_words, point, rate,
-                              subject=_subject(d.params), source=source,
-                              extra={"reader": "mpz.io.c3dbin", "processor": proc,
-                                     **(extra or {})})
+                              subject=_subject(d.params), source=source, extra=meta)
+
+
+#: the slowest frame rate read (Hz): one frame in about 11.6 days
+MIN_RATE = 1e-6
+
+
+def _check_rate(rate: float, data: bytes) -> None:
+    """Refuse a frame rate that is not a normal positive float32 of at least
+    :data:`MIN_RATE` Hz (NaN, infinite, negative, zero, subnormal: what a float read
+    in the wrong byte order or float format gives), naming the processor byte and the rate
+    each other processor type would give.
+
+    Raises
+    ------
+    InputFormatError
+        For such a rate.
+    """
+    if math.isfinite(rate) and MIN_RATE <= rate <= c3dbin.F32_MAX:
+        return
+    raise InputFormatError(f"C3D: frame rate {rate!r} Hz is not a plausible rate"
+                           f"{c3dbin.processor_hint(data)}")
 
 
 @reader
@@ -250,16 +302,23 @@ def _read_points(path: str, data: bytes) -> Motion:
     if hazard is not None:
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": f"not read with ezc3d: {hazard}; read with mpz.io.c3dbin"})
+    start, word9, note = c3dbin.data_start(data)
+    if start != word9:
+        # ezc3d reads from header word 9: the data is elsewhere (c3dbin.data_start says why)
+        return motion_from_c3d_bytes(data, source=source, extra={
+            "warning": "not read with ezc3d, which reads from the header's data start; "
+                       "read with mpz.io.c3dbin"})
     first_error: OSError | RuntimeError
     try:
-        return _from_ezc3d(ezc3d.c3d(path), source, {}, declared)
+        return _from_ezc3d(ezc3d.c3d(path), source, {} if note is None else {"warning": note},
+                           declared, data)
     except RuntimeError as exc:  # e.g. "MIPS processor type not supported"
         first_error = exc
     except OSError as exc:  # "The format is not standard ..."
         try:
+            warning = _joined(note, f"non-standard C3D read with ignore_bad_formatting: {exc}")
             return _from_ezc3d(ezc3d.c3d(path, ignore_bad_formatting=True), source,
-                               {"warning": f"non-standard C3D read with "
-                                           f"ignore_bad_formatting: {exc}"}, declared)
+                               {"warning": warning}, declared, data)
         except (OSError, RuntimeError) as exc2:
             first_error = exc2
     return motion_from_c3d_bytes(data, source=source, extra={

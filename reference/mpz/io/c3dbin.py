@@ -101,6 +101,8 @@ class C3DData:
     #: the number of the first frame (header word 4, or TRIAL:ACTUAL_START_FIELD for a
     #: file with more frames than the header can describe; :func:`frame_range`)
     first_frame: int = 1
+    #: what the file says twice and differently, and what was read (:func:`_layout`)
+    warnings: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -149,7 +151,8 @@ def _dec_to_ieee(raw: bytes) -> NDArray[np.float32]:
     """
     b = np.frombuffer(raw, dtype=np.uint8).reshape(-1, 4)
     swapped = np.ascontiguousarray(b[:, [2, 3, 0, 1]]).view("<f4").ravel()
-    return (swapped / np.float32(4.0)).astype(np.float32)
+    with np.errstate(invalid="ignore"):     # a signalling NaN's bits divide quietly
+        return (swapped / np.float32(4.0)).astype(np.float32)
 
 
 class _Codec:
@@ -287,6 +290,14 @@ def _normal_data(ptype: int, raw: bytes, codec: _Codec) -> bytes:
     return codec.float32(raw, 0, len(raw) // 4).astype("<f4").tobytes()
 
 
+def _section_end(data: bytes, start: int, data_start: int) -> int:
+    """Where the parameter section at ``start`` ends: its declared block count or, when
+    the header's data start (word 9, a 1-based block number) lies further, the data
+    start; never past the end of the file (:func:`parse_records`)."""
+    n_blocks = data[start + 2]
+    return min(len(data), max(start + max(n_blocks, 1) * BLOCK, (data_start - 1) * BLOCK))
+
+
 def parse_records(data: bytes, start: int, codec: _Codec) -> list[ParamRecord]:
     """Every group and parameter record of the parameter section at ``start``, in file order.
 
@@ -298,9 +309,7 @@ def parse_records(data: bytes, start: int, codec: _Codec) -> list[ParamRecord]:
     Facial-Sing.c3d ends a record right after its data).
     """
     out: list[ParamRecord] = []
-    n_blocks = data[start + 2]
-    data_start = codec.uint16(data, 16)           # header word 9, 1-based block number
-    end = min(len(data), max(start + max(n_blocks, 1) * BLOCK, (data_start - 1) * BLOCK))
+    end = _section_end(data, start, codec.uint16(data, 16))
     pos = start + 4
     while pos + 2 <= end:
         name_len = _s8(data[pos])
@@ -479,6 +488,189 @@ def _open(data: bytes) -> tuple[_Codec, int, dict[str, dict[str, ParamValue | No
     return codec, pstart, params
 
 
+@dataclass
+class _Layout:
+    """Where the 3D frames of a C3D file are and how long they are (:func:`_layout`)."""
+
+    used: int
+    scale: float
+    first: int
+    n_frames: int
+    frame_bytes: int
+    data_start: int
+    warnings: list[str]
+
+
+def _layout(data: bytes, codec: _Codec, pstart: int,
+            params: dict[str, dict[str, ParamValue | None]]) -> _Layout:
+    """The points, storage, frame range and data start of C3D bytes (checked; the data is
+    not read). The data start is :func:`_data_start`'s."""
+    hdr_points = int(codec.int16(data, 2)[0])
+    hdr_analog = codec.uint16(data, 4)  # analog measurements per 3D frame
+    hdr_scale = float(codec.float32(data, 12)[0])
+    used = int(param_number(params, "POINT", "USED", hdr_points, count=True))
+    if used < 0:
+        used += 65536  # POINT:USED is unsigned in files with > 32767 points
+    if used > MAX_POINTS:
+        _fail(f"POINT:USED {used} exceeds {MAX_POINTS}")
+    scale = param_number(params, "POINT", "SCALE", hdr_scale)
+    # the header frame range, or the frame parameters when it cannot say (frame_range)
+    first, n_frames = frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
+    frame_bytes = (4 * used + hdr_analog) * (4 if scale < 0 else 2)
+    start, warning = _data_start(data, codec, pstart, params, n_frames * frame_bytes)
+    warnings = [] if warning is None else [warning]
+    hfirst, hlast = codec.uint16(data, 6), codec.uint16(data, 8)
+    more = _more_frames(params, hfirst, hlast, len(data) - (start - 1) * BLOCK, frame_bytes)
+    if more is not None:
+        warnings.append(f"the header's frame range {hfirst}..{hlast} says {n_frames} frames, "
+                        f"POINT:FRAMES {more}, and the data holds {more}: read {more}")
+        n_frames = more
+    return _Layout(used, scale, first, n_frames, frame_bytes, start, warnings)
+
+
+def _more_frames(params: dict[str, dict[str, ParamValue | None]], first: int, last: int,
+                 room: int, frame_bytes: int) -> int | None:
+    """POINT:FRAMES (int16, unsigned) when it says more frames than a header range that
+    holds (:func:`header_range_holds`) and the ``room`` bytes from the data start hold that
+    many frames; else None. Reason: a header word changed to a smaller last frame would
+    otherwise drop frames silently (ezc3d reads them all); when POINT:FRAMES says more
+    than the data holds (c3d.org Dance1.c3d: one more), the header stands."""
+    v = params.get("POINT", {}).get("FRAMES")
+    if not header_range_holds(first, last) or v is None or isinstance(v, list) or \
+            len(v) == 0 or v.dtype.kind != "i":
+        return None
+    frames = int(v[0]) & 0xFFFF
+    if frames > last - first + 1 and frame_bytes and frames * frame_bytes <= room:
+        return frames
+    return None
+
+
+def _data_start(data: bytes, codec: _Codec, pstart: int,
+                params: dict[str, dict[str, ParamValue | None]],
+                need: int) -> tuple[int, str | None]:
+    """The first block of the 3D data, and a warning when the file states it twice and
+    differently: header word 9 and POINT:DATA_START.
+
+    A block *fits* when it lies past the parameter section and the ``need`` bytes of the
+    declared frames from it lie inside the file. A POINT:DATA_START equal to word 9 leaves
+    word 9 (outside the file is an error; inside a parameter section whose block count is
+    wrong is not). One that is absent, or inside the header or parameter section (c3d.org
+    sample13 and Dance1.c3d store 1 there, a known writer habit), leaves word 9, silently,
+    unless word 9 itself is inside them (an error). Otherwise the two
+    disagree: the one that fits is read, with a warning naming both; when both fit, word 9
+    (the C3D user guide's pointer to the data, the one ezc3d follows), with the warning;
+    when neither fits, an InputFormatError. Reason: a pointer into the header or the
+    parameters, or one that leaves too few bytes for the frames, is certainly wrong, and
+    the other one is the file's own second statement of the same number.
+
+    Raises
+    ------
+    InputFormatError
+        When the data start the file gives is outside the file or inside its header or
+        parameter section, or when the two disagree and neither fits.
+    """
+    hdr = codec.uint16(data, 16)
+    param_end = data[0] + max(data[pstart + 2], 1)    # the first block past the parameters
+    raw = param_number(params, "POINT", "DATA_START", hdr, count=True)
+    par = int(raw) + 65536 if raw < 0 else int(raw)
+
+    def fits(block: int) -> bool:
+        return block >= param_end and (block - 1) * BLOCK + need <= len(data)
+
+    if par == hdr or par < param_end:
+        if hdr < 2 or (hdr - 1) * BLOCK > len(data):
+            _fail(f"data start block {hdr} is outside the file", 16)
+        if par != hdr and hdr < param_end:      # POINT:DATA_START does not confirm it
+            _fail(f"data start block {hdr} (header word 9) is inside the header or the "
+                  f"parameter section (blocks 1 to {param_end - 1})", 16)
+        return hdr, None
+    said = f"the header's data start (word 9) is block {hdr}, POINT:DATA_START {par}"
+    if not fits(hdr) and not fits(par):
+        _fail(f"{said}, and neither leaves room for the {need} bytes of the declared "
+              f"frames past the parameter section (blocks 1 to {param_end - 1}) of this "
+              f"{len(data)}-byte file", 16)
+    use = hdr if fits(hdr) else par
+    other = par if use == hdr else hdr
+    why = ("both fit; the header's is the C3D user guide's pointer" if fits(other) else
+           f"block {other} is inside the header or the parameter section"
+           if other < param_end else f"from block {other} the frames would not fit the file")
+    return use, f"{said}: read from block {use} ({why})"
+
+
+def data_start(data: bytes) -> tuple[int, int, str | None]:
+    """The first block of the 3D data of C3D bytes, header word 9, and the warnings of
+    :func:`_layout` (:func:`_data_start`, :func:`_more_frames`), for choosing a reader:
+    ezc3d reads from header word 9.
+
+    Raises
+    ------
+    InputFormatError
+        As :func:`parse_c3d` does for the header, the parameters and the layout.
+    """
+    codec, pstart, params = _open(data)
+    lay = _layout(data, codec, pstart, params)
+    return lay.data_start, codec.uint16(data, 16), "; ".join(lay.warnings) or None
+
+
+_PROCESSOR_NAMES = {PROC_INTEL: "Intel", PROC_DEC: "DEC", PROC_MIPS: "MIPS"}
+
+
+def processor_hint(data: bytes) -> str:
+    """For the message about an implausible frame rate: what the processor byte says, and
+    the frame rate (POINT:RATE, else header words 11-12) each other processor type reads,
+    where that is a plausible rate (a finite float32 of 1e-6 Hz or more); "" when none
+    is, or the bytes are no C3D file."""
+    try:
+        _, pstart, _ = _open(data)
+    except InputFormatError:
+        return ""
+    proc = data[pstart + 3]
+    others = []
+    for other in (PROC_INTEL, PROC_DEC, PROC_MIPS):
+        if other == proc:
+            continue
+        c = _Codec(other)
+        try:
+            rate = param_number(_parse_parameters(data, pstart, c), "POINT", "RATE",
+                                float(c.float32(data, 20)[0]))
+        except InputFormatError:
+            continue
+        if math.isfinite(rate) and 1e-6 <= rate <= F32_MAX:
+            others.append(f"as {_PROCESSOR_NAMES[other]} ({other}) it reads {rate:g} Hz")
+    if not others:
+        return ""
+    return (f"; is the processor byte (byte 4 of the parameter section: "
+            f"{_PROCESSOR_NAMES[proc]}, {proc}) wrong? " + "; ".join(others))
+
+
+def frames_missing(data: bytes, declared: int, present: int,
+                   offset: int | None = None) -> InputFormatError:
+    """The error for C3D bytes of which a reader found ``present`` frames where ``declared``
+    are declared: :func:`truncated`, unless the header's own range (words 4-5) says
+    ``declared`` and POINT:FRAMES disagrees with it while the file is whole: the data holds
+    exactly POINT:FRAMES frames (a frame word of the header is wrong: a first frame 0,
+    say), or all ``declared`` (ezc3d stops at POINT:FRAMES); the message then says so."""
+    try:
+        codec, pstart, params = _open(data)
+        frames = param_number(params, "POINT", "FRAMES", -1)
+        lay = _layout(data, codec, pstart, params)
+    except InputFormatError:
+        return truncated(declared, present, offset)
+    first, last = codec.uint16(data, 6), codec.uint16(data, 8)
+    room = len(data) - (lay.data_start - 1) * BLOCK
+    holds = room // lay.frame_bytes if lay.frame_bytes else declared
+    fp = int(frames) & 0xFFFF if math.isfinite(frames) and frames >= 0 else -1
+    if header_range_holds(first, last) and last - first + 1 == declared and fp != declared \
+            and holds in (fp, declared):
+        wrong = "a first or last frame word of the header (words 4-5)" if holds == fp else \
+            "POINT:FRAMES"
+        return InputFormatError(
+            f"C3D: the header's frame range {first}..{last} ({declared} frames) disagrees "
+            f"with POINT:FRAMES {fp}, and the data holds {holds} frames: {wrong} is wrong",
+            offset=6)
+    return truncated(declared, present, offset)
+
+
 def declared_frames(data: bytes) -> tuple[int, int]:
     """The first frame number and frame count that C3D bytes declare (:func:`frame_range`),
     without reading the data; for checking another reader's frame count.
@@ -514,7 +706,13 @@ def ezc3d_hazard(data: bytes) -> str | None:
     6. a description length of 255, a dimension count above 7, an unknown type or a
        record past the end of the file, walked as ezc3d walks the section (signed
        bytes, past records :func:`parse_records` would stop at);
-    7. ANALOG:RATE more than 10,000 times POINT:RATE (ezc3d allocates for it, or hangs).
+    7. ANALOG:RATE more than 10,000 times POINT:RATE (ezc3d allocates for it, or hangs);
+    8. a parameter whose data (its type times its dimensions) runs past its record's
+       next-record offset, or, for the last record, past the parameter section
+       (:func:`_section_end`): a dimension byte changed in a file that is otherwise whole
+       (ANALOG:SCALE of 255 elements in a file of 32 channels; with
+       ``ignore_bad_formatting`` ezc3d then crashes, found by a later QA run). The file
+       contradicts itself, so it is not one ezc3d is needed for.
     """
     start = (data[0] - 1) * BLOCK if len(data) > BLOCK else -1
     if start < BLOCK or start + 4 > len(data):
@@ -528,8 +726,11 @@ def ezc3d_hazard(data: bytes) -> str | None:
 
 
 def _ezc3d_walk(data: bytes, start: int) -> str | None:
-    """Rule 6 of :func:`ezc3d_hazard`: the section walked record by record as ezc3d does."""
+    """Rules 6 and 8 of :func:`ezc3d_hazard`: the section walked record by record as ezc3d
+    does."""
     pos, seen = start + 4, set()
+    groups: dict[int, str] = {}
+    section_end = _section_end(data, start, int.from_bytes(data[16:18], "little"))
     while pos + 2 <= len(data):
         if pos in seen:
             return "a parameter section whose records loop"
@@ -544,6 +745,7 @@ def _ezc3d_walk(data: bytes, start: int) -> str | None:
         body = off + 2
         if gid < 0:
             desc_at = body
+            groups[-gid] = bytes(data[pos + 2:off]).decode("latin-1")
         else:
             if body + 2 > len(data):
                 return "a parameter record past the end of the file"
@@ -556,6 +758,16 @@ def _ezc3d_walk(data: bytes, start: int) -> str | None:
             desc_at = body + 2 + ndim + abs(ptype) * (math.prod(dims) if ndim else 1)
             if desc_at >= len(data):
                 return "a parameter record past the end of the file"
+            # rule 8: the data must end where the record does (its next-record offset),
+            # the last record's inside the parameter section
+            rec_end = off + nxt if nxt else section_end
+            if desc_at > rec_end:
+                where = "into the next record" if nxt else "past the parameter section"
+                name = bytes(data[pos + 2:off]).decode("latin-1")
+                group = groups.get(gid)
+                name = f"{group}:{name}" if group is not None else name
+                return (f"the record of parameter {name} (dimensions {tuple(dims)}, "
+                        f"{desc_at - body - 2 - ndim} data bytes) runs {where}")
         if desc_at < len(data) and data[desc_at] == 255:
             return "a description length of 255"
         if nxt == 0:
@@ -645,46 +857,23 @@ def parse_c3d(data: bytes) -> C3DData:
     header_block = _normal_header(data[:BLOCK], codec)
     records = parse_records(data, pstart, codec)
 
-    # header words (1-based word numbers as in the C3D guide)
-    hdr_points = int(codec.int16(data, 2)[0])
     hdr_analog = codec.uint16(data, 4)  # analog measurements per 3D frame
-    first = codec.uint16(data, 6)
-    last = codec.uint16(data, 8)
-    hdr_scale = float(codec.float32(data, 12)[0])
-    hdr_data_start = codec.uint16(data, 16)
     hdr_rate = float(codec.float32(data, 20)[0])
-
-    used = int(param_number(params, "POINT", "USED", hdr_points, count=True))
-    if used < 0:
-        used += 65536  # POINT:USED is unsigned in files with > 32767 points
-    if used > MAX_POINTS:
-        _fail(f"POINT:USED {used} exceeds {MAX_POINTS}")
-    scale = param_number(params, "POINT", "SCALE", hdr_scale)
-    # POINT:DATA_START must point past the parameter section; some writers
-    # (c3d.org sample13, Dance1.c3d) store 1 there: fall back to the header
-    param_end_block = data[0] + max(data[pstart + 2], 1)
-    data_start = int(param_number(params, "POINT", "DATA_START", hdr_data_start, count=True))
-    if data_start < 0:
-        data_start += 65536
-    if data_start < param_end_block:
-        data_start = hdr_data_start
-    # the header frame range, or the frame parameters when it cannot say (frame_range)
-    first, n_frames = frame_range(params, first, last)
+    lay = _layout(data, codec, pstart, params)
+    used, scale, first, n_frames = lay.used, lay.scale, lay.first, lay.n_frames
     float_storage = scale < 0
-    word = 4 if float_storage else 2
     frame_words = 4 * used + hdr_analog
-    frame_bytes = frame_words * word
+    frame_bytes = lay.frame_bytes
+    data_start = lay.data_start
     off = (data_start - 1) * BLOCK
-    if data_start < 2 or off > len(data):
-        _fail(f"data start block {data_start} is outside the file")
     avail = (len(data) - off) // frame_bytes if frame_bytes else n_frames
     if avail < n_frames:
-        raise truncated(n_frames, avail, off)
+        raise frames_missing(data, n_frames, avail, off)
     samples = codec.uint16(data, 18)  # header word 10: analog samples per channel per frame
     if used == 0:
         return C3DData(np.zeros((n_frames, 0, 3)), np.zeros((n_frames, 0), np.int64),
                        params, processor, float_storage, hdr_rate, header_block, records,
-                       first_frame=first)
+                       first_frame=first, warnings=lay.warnings)
 
     # read the frames, then keep the 4*used point words of each
     raw = data[off:off + n_frames * frame_bytes]
@@ -712,7 +901,7 @@ def parse_c3d(data: bytes) -> C3DData:
         res = pts[:, :, 3].astype(np.int64)
         xyz = pts[:, :, :3] * abs(scale)
     return C3DData(xyz, res, params, processor, float_storage, hdr_rate, header_block, records,
-                   point_words, analog, samples, first)
+                   point_words, analog, samples, first, lay.warnings)
 
 
 # ------------------------------------------------------------------ writing --

@@ -1,0 +1,200 @@
+"""C3D files that contradict themselves (found by a QA run of mutated files): each is read
+with a warning in ``metadata["warning"]`` or refused with an InputFormatError that says
+what is wrong, never a crash of ezc3d, a leaked internal exception or a silent misread.
+
+The files are built from the synthetic generator (``make_vectors.c3d_motion`` written by
+``archive_bytes``) and then edited byte by byte, or from the real recordings when
+``../shared/data`` is present. A run that can crash the process (ezc3d) is in a
+subprocess, so that a segmentation fault fails the test instead of ending the run.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+import struct
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+from mpz.errors import InputFormatError
+from mpz.io import read
+
+INTEL, DEC = 84, 85
+
+
+def _records(change: Callable[[list, dict, type], None] | None = None) -> bytes:
+    """A synthetic float C3D of 10 frames (first frame 10) with ANALOG:SCALE, OFFSET,
+    POINT:FRAMES and POINT:UNITS, its records edited by ``change``."""
+    from mpz.io import c3dbin
+    from mpz.io.c3d import archive_bytes
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(4, storage=1, F=10, M=4, J=1, C=2, n=2)
+    a = m.extras["c3d"]
+    gid = {r.name: -r.group for r in a.records if r.group < 0}
+    R = c3dbin.ParamRecord
+    a.records += [R(gid[b"ANALOG"], False, b"SCALE", b"", 4, (2,), struct.pack("<2f", 1, 1)),
+                  R(gid[b"ANALOG"], False, b"OFFSET", b"", 2, (2,), struct.pack("<2h", 0, 0)),
+                  R(gid[b"POINT"], False, b"FRAMES", b"", 2, (), struct.pack("<h", 10)),
+                  R(gid[b"POINT"], False, b"UNITS", b"", -1, (2,), b"mm")]
+    if change is not None:
+        change(a.records, gid, R)
+    return archive_bytes(m)
+
+
+def _type_at(data: bytes, group: bytes, name: bytes) -> int:
+    """The offset of the type byte of parameter ``group:name`` in Intel C3D bytes, found by
+    walking the next-record offsets (written here, not taken from the reader)."""
+    pos = (data[0] - 1) * 512 + 4
+    groups: dict[int, bytes] = {}
+    found: dict[tuple[int, bytes], int] = {}
+    while True:
+        n, g = struct.unpack("<bb", data[pos:pos + 2])
+        if n == 0 or g == 0:
+            break
+        off = pos + 2 + abs(n)
+        nxt = struct.unpack("<H", data[off:off + 2])[0]
+        if g < 0:
+            groups[-g] = data[pos + 2:off]
+        else:
+            found[(g, data[pos + 2:off])] = off + 2
+        if nxt == 0:
+            break
+        pos = off + nxt
+    gid = next(k for k, v in groups.items() if v == group)
+    return found[(gid, name)]
+
+
+def _write(tmp_path: Path, name: str, data: bytes | bytearray) -> Path:
+    path = tmp_path / name
+    path.write_bytes(bytes(data))
+    return path
+
+
+def _mpz(args: list[str], cwd: Path) -> subprocess.CompletedProcess[bytes]:
+    """The mpz command line in a subprocess (a crash is a return code, not the end of the
+    test run)."""
+    return subprocess.run([sys.executable, "-c", "from mpz.tools.mpz_cli import main; "
+                           "raise SystemExit(main())", *args], cwd=cwd, capture_output=True,
+                          timeout=120)
+
+
+# -- 1. a parameter whose data runs past its record: ezc3d 1.7 segfaults -----------------
+
+@pytest.mark.parametrize("group, name, dim, value", [
+    (b"ANALOG", b"SCALE", 0, 3),        # 12 bytes where the record holds 8: into OFFSET
+    (b"ANALOG", b"SCALE", 0, 255),
+    (b"POINT", b"LABELS", 0, 128),      # the QA file's LABELS, first dimension 4 -> 128
+])
+def test_a_parameter_whose_data_runs_into_the_next_record_is_read_without_ezc3d(
+        tmp_path: Path, group: bytes, name: bytes, dim: int, value: int) -> None:
+    """ezc3d 1.7 (with ignore_bad_formatting) ends the process on these; `mpz show` runs
+    in a subprocess, so a crash is a return code of -11 here."""
+    data = bytearray(_records())
+    at = _type_at(bytes(data), group, name)
+    data[at + 2 + dim] = value
+    path = _write(tmp_path, "overlap.c3d", data)
+    p = _mpz(["show", str(path)], tmp_path)
+    assert p.returncode == 1, (p.returncode, p.stderr[-400:])       # read, with a warning
+    assert f"{group.decode()}:{name.decode()}".encode() in p.stdout
+    assert b"runs into the next record" in p.stdout and b"Traceback" not in p.stderr
+    m = read(path)
+    assert m.metadata["reader"] == "mpz.io.c3dbin" and m.n_frames == 10
+
+
+# -- 2. internal exception texts -------------------------------------------------------
+
+@pytest.mark.parametrize("name, ptype", [(b"LABELS", 1), (b"LABELS", 4), (b"UNITS", 1)])
+def test_a_label_or_unit_parameter_stored_as_numbers_is_said_not_a_valueerror(
+        tmp_path: Path, name: bytes, ptype: int) -> None:
+    """POINT:LABELS or UNITS whose type byte says numbers: the motion is read (unnamed
+    points, unknown units) and the warning names the parameter."""
+    from mpz.io import c3dbin
+
+    def retype(rs, g, R):
+        i = next(i for i, r in enumerate(rs) if r.group == g[b"POINT"] and r.name == name)
+        r = rs[i]
+        raw = r.data.ljust(-(-len(r.data) // ptype) * ptype, b"\x00")
+        rs[i] = R(r.group, False, name, b"", ptype, (len(raw) // ptype,), raw)
+    assert c3dbin.ezc3d_hazard(_records(retype)) is None
+    m = read(_write(tmp_path, "numeric.c3d", _records(retype)))
+    assert f"POINT:{name.decode()} stored as numbers" in m.metadata["warning"]
+    if name == b"LABELS":
+        assert all(n.startswith("_unnamed_") for n in m.names)
+    else:
+        assert m.units == "" and m.names[0] != "_unnamed_0"
+
+
+def test_a_header_first_frame_0_is_not_called_truncated(tmp_path: Path) -> None:
+    """Header frames 0..19 (20) while POINT:FRAMES and the data say 10: the file is
+    whole, so the message is about the header's frame words, not truncation."""
+    data = bytearray(_records())
+    data[6:8] = struct.pack("<H", 0)                   # header word 4: first frame
+    path = _write(tmp_path, "first0.c3d", data)
+    with pytest.raises(InputFormatError) as err:
+        read(path)
+    assert "truncated" not in str(err.value)
+    assert "POINT:FRAMES 10" in str(err.value) and "0..19" in str(err.value)
+
+
+# -- 3. header word 9 against POINT:DATA_START -----------------------------------------
+
+@pytest.mark.parametrize("word9", [0, 1, 2])
+def test_a_header_data_start_inside_the_parameters_is_not_followed(tmp_path: Path,
+                                                                   word9: int) -> None:
+    sound = _records()
+    good = read(_write(tmp_path, "sound.c3d", sound))
+    data = bytearray(sound)
+    data[16:18] = struct.pack("<H", word9)
+    m = read(_write(tmp_path, "dstart.c3d", data))
+    assert np.array_equal(m.positions, good.positions, equal_nan=True)
+    assert np.array_equal(m.valid, good.valid)
+    stated = struct.unpack("<H", sound[16:18])[0]      # where the writer put the data
+    assert f"data start (word 9) is block {word9}, POINT:DATA_START {stated}" in \
+        m.metadata["warning"]
+
+
+def test_a_data_start_neither_pointer_fits_is_refused(tmp_path: Path) -> None:
+    data = bytearray(_records())
+    data[16:18] = struct.pack("<H", 1)
+    at = _type_at(bytes(data), b"POINT", b"DATA_START")
+    data[at + 2:at + 4] = struct.pack("<h", 900)       # past the end of the file
+    with pytest.raises(InputFormatError, match="neither leaves room"):
+        read(_write(tmp_path, "nowhere.c3d", data))
+
+
+# -- 4. the processor byte -------------------------------------------------------------
+
+def test_an_intel_file_marked_dec_is_refused_naming_the_processor_byte(tmp_path: Path) -> None:
+    data = bytearray(_records())
+    pstart = (data[0] - 1) * 512
+    assert data[pstart + 3] == INTEL
+    data[pstart + 3] = DEC
+    path = _write(tmp_path, "dec.c3d", data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                 # no numpy RuntimeWarning either
+        with pytest.raises(InputFormatError, match="processor byte") as err:
+            read(path)
+    assert "as Intel (84) it reads 120 Hz" in str(err.value)
+    p = _mpz(["encode", str(path), "-o", "out.mpz"], tmp_path)
+    assert p.returncode == 2 and b"RuntimeWarning" not in p.stderr, p.stderr[-400:]
+
+
+# -- 5. header last frame 1: the same reading for MIPS and Intel ------------------------
+
+@pytest.mark.parametrize("name, fmt", [("c3dorg_Eb015sr.c3d", ">H"),
+                                       ("c3dorg_Eb015pi.c3d", "<H")])
+def test_a_header_last_frame_1_reads_the_frames_point_frames_and_the_data_hold(
+        shared_data: Path, tmp_path: Path, name: str, fmt: str) -> None:
+    src = shared_data / "c3d" / name
+    if not src.exists():
+        pytest.skip(f"{name} is not in the shared data")
+    whole = read(src)
+    data = bytearray(src.read_bytes())
+    data[8:10] = struct.pack(fmt, 1)                   # header word 5: last frame
+    m = read(_write(tmp_path, name, data))
+    assert m.n_frames == whole.n_frames
+    assert np.array_equal(m.positions, whole.positions, equal_nan=True)
+    assert "POINT:FRAMES 450" in m.metadata["warning"]
