@@ -198,3 +198,34 @@ def test_a_header_last_frame_1_reads_the_frames_point_frames_and_the_data_hold(
     assert m.n_frames == whole.n_frames
     assert np.array_equal(m.positions, whole.positions, equal_nan=True)
     assert "POINT:FRAMES 450" in m.metadata["warning"]
+
+
+@pytest.mark.parametrize("header_scale", [0.0, float("nan"), float("inf"), 0.05])
+def test_a_header_scale_that_contradicts_point_scale_is_not_given_to_ezc3d(tmp_path,
+                                                                           header_scale):
+    """ezc3d takes the storage from the header's scale (words 7-8): a float file whose
+    header says 0, NaN, inf or a positive scale was read as other numbers (Sample_Jump2
+    moved by 2 m). POINT:SCALE decides, as in c3dbin, and the warning says so."""
+    good = _records()
+    bad = bytearray(good)
+    bad[12:16] = struct.pack("<f", header_scale)
+    (tmp_path / "good.c3d").write_bytes(good)
+    (tmp_path / "bad.c3d").write_bytes(bytes(bad))
+    a, b = read(tmp_path / "good.c3d"), read(tmp_path / "bad.c3d")
+    assert np.array_equal(a.valid, b.valid)
+    assert np.array_equal(a.positions[a.valid], b.positions[b.valid])
+    assert "header's scale" in b.metadata["warning"]
+
+
+@pytest.mark.parametrize("scale", [0.0, float("nan"), float("inf")])
+def test_a_point_scale_of_zero_nan_or_inf_is_refused(tmp_path, scale):
+    """It made every point a gap, silently (int16 words times 0 or NaN)."""
+    data = bytearray(_records())
+    at = _type_at(bytes(data), b"POINT", b"SCALE")   # the writer sets it from the header:
+    assert data[at:at + 2] == bytes([4, 0])          # edited here, a float32, no dimension
+    data[at + 2:at + 6] = struct.pack("<f", scale)
+    data[12:16] = struct.pack("<f", scale)          # the header says the same
+    p = tmp_path / "s.c3d"
+    p.write_bytes(bytes(data))
+    with pytest.raises(InputFormatError, match="POINT:SCALE"):
+        read(p)

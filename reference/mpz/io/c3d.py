@@ -302,25 +302,33 @@ def _read_points(path: str, data: bytes) -> Motion:
     if hazard is not None:
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": f"not read with ezc3d: {hazard}; read with mpz.io.c3dbin"})
+    conflict = c3dbin.scale_conflict(data)
+    if conflict is not None:           # ezc3d takes the storage from the header's scale
+        return motion_from_c3d_bytes(data, source=source, extra={
+            "warning": f"not read with ezc3d: {conflict}; read with mpz.io.c3dbin"})
     start, word9, note = c3dbin.data_start(data)
     if start != word9:
         # ezc3d reads from header word 9: the data is elsewhere (c3dbin.data_start says why)
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": "not read with ezc3d, which reads from the header's data start; "
                        "read with mpz.io.c3dbin"})
-    first_error: OSError | RuntimeError
+    # only ezc3d's own refusals are caught, not what our code does with its result
+    first_error: OSError | RuntimeError | ValueError
     try:
-        return _from_ezc3d(ezc3d.c3d(path), source, {} if note is None else {"warning": note},
-                           declared, data)
-    except RuntimeError as exc:  # e.g. "MIPS processor type not supported"
-        first_error = exc
+        c = ezc3d.c3d(path)
+    except (RuntimeError, ValueError) as exc:  # "MIPS processor type not supported",
+        first_error = exc                      # "SCALE parameter is not a FLOAT"
     except OSError as exc:  # "The format is not standard ..."
+        warning = _joined(note, f"non-standard C3D read with ignore_bad_formatting: {exc}")
         try:
-            warning = _joined(note, f"non-standard C3D read with ignore_bad_formatting: {exc}")
-            return _from_ezc3d(ezc3d.c3d(path, ignore_bad_formatting=True), source,
-                               {"warning": warning}, declared, data)
-        except (OSError, RuntimeError) as exc2:
+            c = ezc3d.c3d(path, ignore_bad_formatting=True)
+        except (OSError, RuntimeError, ValueError) as exc2:
             first_error = exc2
+        else:
+            return _from_ezc3d(c, source, {"warning": warning}, declared, data)
+    else:
+        return _from_ezc3d(c, source, {} if note is None else {"warning": note}, declared,
+                           data)
     return motion_from_c3d_bytes(data, source=source, extra={
         "warning": f"ezc3d refused the file ({type(first_error).__name__}: "
                    f"{str(first_error).splitlines()[0] if str(first_error) else ''}); "

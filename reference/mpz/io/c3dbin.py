@@ -514,6 +514,11 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
     if used > MAX_POINTS:
         _fail(f"POINT:USED {used} exceeds {MAX_POINTS}")
     scale = param_number(params, "POINT", "SCALE", hdr_scale)
+    if not (math.isfinite(scale) and scale != 0):
+        # its sign chooses the storage and its size scales int16 words: 0, NaN or inf made
+        # every point a gap, silently (a hostile-input QA)
+        _fail(f"POINT:SCALE {scale!r} is not a finite number other than 0 (its sign says "
+              "float32 or int16 storage, its size the int16 step)")
     # the header frame range, or the frame parameters when it cannot say (frame_range)
     first, n_frames = frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
     frame_bytes = (4 * used + hdr_analog) * (4 if scale < 0 else 2)
@@ -610,6 +615,21 @@ def data_start(data: bytes) -> tuple[int, int, str | None]:
     codec, pstart, params = _open(data)
     lay = _layout(data, codec, pstart, params)
     return lay.data_start, codec.uint16(data, 16), "; ".join(lay.warnings) or None
+
+
+def scale_conflict(data: bytes) -> str | None:
+    """Why the header's scale (words 7-8) cannot be trusted where POINT:SCALE is what this
+    reader uses: zero, not finite, or of the other sign (the other storage); None when
+    they agree in that or there is no POINT:SCALE. ezc3d reads the storage from the header
+    and read such files as other numbers (a QA run: Sample_Jump2 with a header scale of 0
+    moved by 2 m)."""
+    codec, _, params = _open(data)
+    hdr = float(codec.float32(data, 12)[0])
+    par = param_number(params, "POINT", "SCALE", hdr)
+    if par == hdr or (math.isfinite(hdr) and hdr != 0 and (hdr < 0) == (par < 0)):
+        return None
+    return (f"the header's scale {hdr!r} disagrees with POINT:SCALE {par!r} (the storage "
+            "and step were taken from POINT:SCALE)")
 
 
 _PROCESSOR_NAMES = {PROC_INTEL: "Intel", PROC_DEC: "DEC", PROC_MIPS: "MIPS"}
