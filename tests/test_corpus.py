@@ -672,12 +672,21 @@ def test_search_cli_on_a_small_corpus(corpus, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert code == 0 and [r["output"] for r in doc["results"]] == ["sub/wave.mpz"]
     assert doc["query"]["summary"] == "the index's row of its source"
-    # an .mpz that is neither indexed nor summarised
+    # an .mpz that is neither indexed nor summarised: its decoded motion is summarised
     lone = out / "lone.mpz"
     lone.write_bytes(mpz.encode(generate("walk", frames=50), max_error=1.0))
-    code = mpz_cli.main(["search", str(lone), "--index", str(out)])
-    err = capsys.readouterr().err
-    assert code == 2 and "no summary chunk" in err
+    code = mpz_cli.main(["search", str(lone), "--index", str(out), "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and "its decoded motion" in doc["query"]["summary"]
+    assert "no summary chunk" in doc["query"]["summary"]
+    # one whose summary levels are not the index's (4, 16 against 6, 12, 24, 48): its ev_k
+    # came from the nearest k, and its own source ranked second (a QA run on walk1)
+    other = out / "other-levels.mpz"
+    other.write_bytes(mpz.encode(read(paths["walk"]), max_error=1.0, summary=(4, 16)))
+    code = mpz_cli.main(["search", str(other), "--index", str(out), "--json", "-n", "1"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and doc["results"][0]["path"] == str(paths["walk"].resolve())
+    assert "summary levels k = 4, 16" in doc["query"]["summary"]
     code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(src)])
     assert code == 2 and "no such index" in capsys.readouterr().err
 
@@ -978,3 +987,14 @@ def test_every_real_output_finds_its_source_first(real_index, capsys):
         code = mpz_cli.main(["search", str(p), "--index", str(out), "--json", "-n", "1"])
         doc = json.loads(capsys.readouterr().out)
         assert code == 0 and doc["results"][0]["output"] == p.relative_to(out).as_posix()
+
+
+def test_a_feature_that_hardly_varies_is_not_scaled_up():
+    """Two takes holding the same values differ by rounding (1e-9) in some features; each
+    feature was divided by that spread and every distance became 3e8 (a QA run)."""
+    from mpz.similarity import rank
+    base = np.array([[0.5, 2.0, 0.3], [0.5 + 1e-9, 2.0, 0.3 + 1e-9]])
+    far = np.array([0.9, 1.0, 0.1])
+    _, d = rank(far, base)
+    _, exact = rank(far, np.array([[0.5, 2.0, 0.3], [0.5, 2.0, 0.3]]))
+    assert np.allclose(d, exact, rtol=1e-6) and d.max() < 10

@@ -158,8 +158,9 @@ def segment_means(x: ArrayLike, starts: ArrayLike) -> NDArray[np.float64]:
 def wssse(x: ArrayLike, starts: ArrayLike) -> float:
     """Within-segment sum of squared error (paper eq. 3), computed directly.
 
-    Two-pass (means first, then squared residuals), so it is exact to rounding
-    and is exactly 0 when every segment is constant.
+    Two-pass (means first, then squared residuals), so it is exact to rounding: a
+    constant segment gives 0 when its mean is exact (a run of 0.1 gives about 1e-32, the
+    rounding of the mean), never the cancellation of a one-pass sum of squares.
 
     Examples
     --------

@@ -287,7 +287,10 @@ def rank(query: NDArray[np.float64], table: NDArray[np.float64], *,
         raise EncoderError(f"{table.shape} descriptors cannot be compared with a query of "
                            f"{query.shape[0]} features")
     sd = table.std(axis=0) if table.shape[0] > 1 else np.ones(table.shape[1])
-    sd[~(sd > 0)] = 1.0
+    # a feature that hardly varies over the index is not scaled up: a spread of 1e-9 (two
+    # takes that hold the same values) made every distance 3e8 (a QA run)
+    tiny = 1e-6 * np.maximum(np.abs(table).max(axis=0), 1.0)
+    sd[~(sd > tiny)] = 1.0
     dist = np.sqrt((((table - query) / sd) ** 2).sum(axis=1))
     same = list(identical) if identical is not None else [False] * len(dist)
     label = list(names) if names is not None else [""] * len(dist)

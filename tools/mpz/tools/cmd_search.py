@@ -58,7 +58,7 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
     Raises
     ------
     MPZError
-        For an unreadable query, or an .mpz that is neither indexed nor summarised.
+        For an unreadable or undecodable query.
     """
     from mpz.corpus import META_SHA256, sha256_file
     from mpz.similarity import from_smry, summarize
@@ -75,11 +75,20 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
             if sha is not None and r["source_sha256"] == sha:
                 return r["_summary"], sha, "the index's row of its source"
         smry = read_summary(data)
-        if smry is None:
-            raise EncoderError("this .mpz is not in the index and has no summary chunk; query "
-                               "with its capture file, or encode it with --summary 6,12,24,48",
-                               path=path)
-        return from_smry(smry), sha, "its smry chunk"
+        frames = read_stream(data).header.frame_count
+        need = {k for k in levels if k <= frames}
+        have = set() if smry is None else {int(lv.k) for lv in smry.levels}
+        if smry is not None and smry.space == "positions" and need <= have:
+            return from_smry(smry), sha, "its summary chunk"
+        # its own levels are not the index's (ev_k would come from other k: its source ranked
+        # second, a QA run), or it has none: the summary of its decoded motion, as a capture's
+        from mpz.tools._common import read_mpz_input_bytes
+        why = ("no summary chunk" if smry is None else
+               "a summary of joint angles" if smry.space != "positions" else
+               f"summary levels k = {', '.join(map(str, sorted(have)))}, not the index's "
+               f"{', '.join(map(str, sorted(need)))}")
+        s = summarize(read_mpz_input_bytes(data), levels)
+        return s, sha, f"its decoded motion ({s.method}; the file holds {why})"
     from mpz.io import read
     try:
         sha = sha256_file(path)

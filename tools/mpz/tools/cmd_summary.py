@@ -233,7 +233,7 @@ def _print_text(info, levels, out):
     rate = info["rate"]
     head = f"{printable(info['file'])}: {info['n_frames']} frames"
     if rate:
-        head += f" at {rate:g} Hz ({(info['n_frames'] - 1) / rate:.2f} s)"
+        head += f" at {rate:g} Hz ({info['n_frames'] / rate:.2f} s)"
     if info["dims"]:
         head += f", {info['dims']} dims: {info['description']}"
     print(head, file=out)
