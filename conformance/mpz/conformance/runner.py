@@ -634,7 +634,8 @@ def _parser() -> argparse.ArgumentParser:
         description="Run an MPZ decoder or encoder against the conformance vectors "
                     "(see conformance/README.md for the contract).",
         epilog="exit codes: 0 every selected vector passed, 1 at least one failed, "
-               "64 usage error (bad options, missing or invalid vectors, command not found)")
+               "64 usage error (bad options, missing or invalid vectors, command not found), "
+               "130 interrupted, 143 terminated while writing --results")
     p.add_argument("--version", action="version", version=f"mpz-conformance {__version__}")
     who = p.add_mutually_exclusive_group(required=True)
     who.add_argument("--decoder", metavar="CMD",

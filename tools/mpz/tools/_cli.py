@@ -13,7 +13,8 @@ code  meaning
 3     out of memory: the input may well be valid, this machine could not
       hold what it needs (spec §8, "Allocation failure"); not a verdict
 64    usage error: bad options or arguments (argparse's errors included)
-130   ``mpz`` only: interrupted with Ctrl-C
+130   interrupted with Ctrl-C (``mpz``, ``mpz-conformance``)
+143   terminated (SIGTERM) while writing an output
 ====  ===================================================================
 
 Output piped into a command that stops reading (``mpzinfo -vv *.mpz | head``)
@@ -50,7 +51,7 @@ EXIT_FAILED = EXIT_WARN
 
 #: one line for ``--help`` epilogs
 EXIT_CODES_HELP = ("exit codes: 0 ok, 1 warnings only, 2 errors in the input, "
-                   "3 out of memory, 64 usage error")
+                   "3 out of memory, 64 usage error, 143 terminated while writing")
 
 _P = ParamSpec("_P")
 

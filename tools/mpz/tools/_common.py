@@ -178,7 +178,7 @@ def compile_notice(quiet: bool = False, verbose: bool = False, *, announce: bool
         return
     if kernels_need_compiling():
         print("mpz: first run after install: compiling the codec's kernels "
-              "(about 5 s, cached for later runs)", file=sys.stderr, flush=True)
+              "(10-25 s, cached for later runs)", file=sys.stderr, flush=True)
 
 
 # -- inputs: files, standard input ----------------------------------------------------------

@@ -32,7 +32,8 @@ def add_parser(sub):
     p.add_argument("original", help="original motion file, or - for standard input")
     p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
     p.add_argument("--asf", help="skeleton for AMC input")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true",
+                   help="print the statistics as one JSON document (strict: null for NaN)")
     p.add_argument("--top", type=count, default=10, help="markers to list, worst first")
     p.add_argument("--plot", metavar="PNG", help="plot the error over time of the worst "
                    "markers, with the bound as a line (needs matplotlib)")

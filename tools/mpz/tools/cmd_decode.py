@@ -25,12 +25,13 @@ FORMATS = ("c3d", "trc", "npy", "csv", "bvh", "amc")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("decode", help="decompress .mpz to C3D, TRC, NPY or CSV",
+    p = sub.add_parser("decode", help="decompress .mpz to C3D, TRC, BVH, AMC, NPY or CSV",
                        description="Decode MPZ files. NPY output is float64 [frames, markers, 3] "
                        "in the input's marker order and units, NaN for gaps.")
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help=".mpz files, folders (with -r), or - for standard input")
-    p.add_argument("-o", "--output", help="OUT.c3d, OUT.trc, OUT.npy or OUT.csv, FOLDER/ for "
+    p.add_argument("-o", "--output", help="OUT.c3d, OUT.trc, OUT.bvh, OUT.amc (with its ASF; "
+                   "both need the file's skeleton), OUT.npy or OUT.csv, FOLDER/ for "
                    "several inputs, or - for standard output (written atomically; default: "
                    "beside each input)")
     p.add_argument("--asf", metavar="PATH", help="AMC output: where to write its ASF skeleton "

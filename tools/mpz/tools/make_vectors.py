@@ -3377,6 +3377,30 @@ BUILDERS = (
     clarified_accept_vectors,                 # §4.13.1, §4.14.2 text of stop 27
 )
 
+#: the markers around the vector table of conformance/README.md (written by :func:`main`)
+TABLE_BEGIN, TABLE_END = "<!-- mpz:vector-table -->", "<!-- /mpz:vector-table -->"
+
+
+def vector_table(entries: list[dict]) -> str:
+    """The README's table of the vectors, one row per manifest entry, in manifest order."""
+    rows = ["| Vector | Bytes | Must | What it tests | Rules |", "|---|---|---|---|---|"]
+    for e in entries:
+        text = e["description"].replace("|", "\\|").replace("\n", " ")
+        rows.append(f"| `{e['file']}` | {e['size']} | {e['expected']} | {text} | "
+                    f"{' '.join(e.get('rules', []))} |")
+    return "\n".join(rows)
+
+
+def update_readme(readme: Path, entries: list[dict]) -> bool:
+    """Rewrite the table between :data:`TABLE_BEGIN` and :data:`TABLE_END`; True if changed."""
+    text = readme.read_text(encoding="utf-8")
+    a, b = text.index(TABLE_BEGIN) + len(TABLE_BEGIN), text.index(TABLE_END)
+    new = text[:a] + "\n" + vector_table(entries) + "\n" + text[b:]
+    if new != text:
+        readme.write_text(new, encoding="utf-8")
+    return new != text
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m mpz.tools.make_vectors",
                                 description=__doc__.splitlines()[0])
@@ -3396,6 +3420,11 @@ def main(argv=None) -> int:
         build(vs)
     vs.entries.sort(key=lambda e: (mf.GROUPS.index(e["group"]), e["name"]))
     vs.write_manifest()
+    readme = out.parent / "README.md"
+    if out.resolve() == Path(mf.DEFAULT_DIR).resolve() and readme.is_file():
+        entries = json.loads((out / mf.MANIFEST_NAME).read_text())["vectors"]
+        if update_readme(readme, entries):
+            print(f"updated the vector table of {readme}")
     total = sum(f.stat().st_size for f in out.rglob("*") if f.is_file())
     print(f"wrote {len(vs.entries)} vectors and {len(vs.encoder_inputs)} encoder inputs to "
           f"{out} ({total} bytes)")
