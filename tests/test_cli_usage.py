@@ -294,7 +294,10 @@ def test_a_bound_without_a_unit_is_refused_with_the_accepted_units(inputs: dict[
         assert not (tmp_path / "x.mpz").exists()
     p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "2furlong"],
             tmp_path)
-    assert p.returncode == 2 and b"unknown unit" in p.stderr
+    assert p.returncode == 64 and b"unknown unit" in p.stderr       # no input needed to judge
+    p = run(["mpz", "compare", str(inputs["c3d"]), str(inputs["mpz"]), "--bound", "1furlong"],
+            tmp_path)
+    assert p.returncode == 64 and b"unknown unit" in p.stderr
     p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "0.1cm"],
             tmp_path)
     assert p.returncode == 0, p.stderr
@@ -641,3 +644,15 @@ def test_weight_that_cannot_act_is_said(inputs: dict[str, Path], tmp_path: Path)
     assert r.returncode == 0 and s.returncode == 0, r.stderr
     assert b"--weight" not in r.stderr
     assert (tmp_path / "c.mpz").read_bytes() != (tmp_path / "d.mpz").read_bytes()
+
+
+@pytest.mark.parametrize("opt", [["--threads", "0"], ["--smoothing", "17"], ["--summary", "abc"],
+                                 ["--summary", "0"], ["--weight", "LFHD=x"],
+                                 ["--lossy", "--max-error", "1mm"], ["--k0", "0"]])
+def test_a_bad_option_value_is_a_usage_error(inputs: dict[str, Path], tmp_path: Path,
+                                             opt: list[str]) -> None:
+    """Values judged without the input exit 64 before it is read (they exited 2, the code
+    of an error in the input, when the encoder's own check found them)."""
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", *opt], tmp_path)
+    assert p.returncode == 64, (p.returncode, p.stderr)
+    assert not (tmp_path / "x.mpz").exists()

@@ -133,11 +133,17 @@ def common_units(a, b, names: tuple[str, str]):
 def run(args: argparse.Namespace) -> int:
     import sys
 
+    from mpz.errors import EncoderError
     from mpz.metrics import summary
+    from mpz.tools._cli import EXIT_USAGE
     from mpz.tools._common import check_length_syntax, parse_length, read_input
     if args.original == "-" and args.decoded == "-":
         raise MotionError("only one of the two inputs can be standard input (-)")
-    check_length_syntax(args.bound, "--bound")
+    try:                        # a usage error (64), as encode's lengths: not an input error
+        check_length_syntax(args.bound, "--bound")
+    except EncoderError as exc:
+        print(f"mpz compare: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     if args.plot:  # a bad plot path fails before the work
         from mpz.api import check_output
         for src in (args.original, args.decoded):

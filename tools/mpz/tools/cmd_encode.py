@@ -176,7 +176,12 @@ def _summary_ks(text: str | None) -> tuple[int, ...]:
 
 
 def _check_options(args: argparse.Namespace) -> None:
-    """Everything about the options that can be judged before an input is read."""
+    """Everything about the options that can be judged before an input is read: the
+    syntax of lengths, and every other value as the encoder checks it (EncodeOptions'
+    ``validate``, with the lengths left out: they need the input's units). An error here is
+    a usage error (exit 64): --threads 0 or --smoothing 17 exited 2, as an input error."""
+    import copy
+
     from mpz.tools._common import check_length_syntax
     check_length_syntax(args.max_error, "--max-error")
     check_length_syntax(args.grid, "--grid")
@@ -185,6 +190,10 @@ def _check_options(args: argparse.Namespace) -> None:
     _pairs(args.meta, "--meta")
     _weights(args.weight)
     _summary_ks(args.summary)
+    unitless = copy.copy(args)
+    unitless.max_error = None if args.max_error is None else "1"    # a bound is asked for
+    unitless.grid = unitless.group_error = None
+    _options(unitless, "", None).validate()
 
 
 def run(args: argparse.Namespace) -> int:
@@ -193,7 +202,11 @@ def run(args: argparse.Namespace) -> int:
     from mpz.tools._cli import EXIT_USAGE, print_json
     from mpz.tools._common import STDIO, UsageError, plan_batch, run_batch
 
-    _check_options(args)
+    try:
+        _check_options(args)
+    except EncoderError as exc:
+        print(f"mpz encode: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     try:
         jobs = plan_batch(args.inputs, args.output, recursive=args.recursive,
                           mirror=args.mirror,
