@@ -695,3 +695,14 @@ def test_trc_frame_numbers_that_are_not_whole_numbers_are_said(tmp_path, number)
     m = read(p)
     assert m.n_frames == 3
     assert "Frame# column" in m.metadata.get("warning", "")
+
+
+@pytest.mark.parametrize("rate", [-1, 0, float("nan"), True, "60"])
+def test_a_bad_rate_argument_is_named_not_blamed_on_the_file(tmp_path, rate):
+    """read(x.npy, rate=-1) said 'inconsistent data', an error of the file (a QA run)."""
+    p = tmp_path / "r.npy"
+    np.save(p, np.zeros((3, 2, 3)))
+    with pytest.raises(ValueError, match="rate must be a finite number") as e:
+        read(p, rate=rate)
+    assert not isinstance(e.value, InputFormatError)
+    assert read(p, rate=np.float32(60)).rate == 60.0

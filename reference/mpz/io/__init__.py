@@ -108,7 +108,14 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
         opened), unknown format (a file without a known extension is
         recognised by its content, see :func:`detect_format`), missing file
         ("no such file"), or unreadable content.
+    ValueError
+        For a ``rate`` that is not a finite number above 0 (it was blamed on the file).
     """
+    number = (int, float, np.integer, np.floating)
+    if rate is not None and (isinstance(rate, bool) or not isinstance(rate, number)
+                             or not (math.isfinite(rate) and rate > 0)):
+        raise ValueError(f"rate must be a finite number of frames per second above 0, got "
+                         f"{rate!r}")
     _check_regular(path)
     ext = ext_of(path)
     fn = READERS.get(ext)
