@@ -706,3 +706,18 @@ def test_a_bad_rate_argument_is_named_not_blamed_on_the_file(tmp_path, rate):
         read(p, rate=rate)
     assert not isinstance(e.value, InputFormatError)
     assert read(p, rate=np.float32(60)).rate == 60.0
+
+
+@pytest.mark.parametrize("ext,text,cut", [
+    (".trc", TRC_TEXT, 2), (".bvh", BVH_TEXT, 1),     # BVH: a value less is refused anyway
+    (".csv", "frame,time,A_x,A_y,A_z\n0,0.0,1.0,2.0,3.0\n1,0.5,1.0,2.0,3.25\n", 2),
+])
+def test_a_text_file_cut_inside_its_last_line_is_said(tmp_path, ext, text, cut):
+    """Cut in the middle of its last number, a text file read as fewer digits (3.25 as 3.2)
+    without a word (a QA run). Every writer and real file ends its lines: a file that does
+    not is read with a warning."""
+    p = tmp_path / f"x{ext}"
+    p.write_text(text)
+    assert "line break" not in read(p).metadata.get("warning", "")
+    p.write_text(text[:-cut])                     # the last line's break (and last digit)
+    assert "does not end with a line break" in read(p).metadata["warning"]

@@ -128,10 +128,29 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
                 f"content; can read {', '.join(READERS)}", path=os.fspath(path))
         ext = found or ext
     if ext == ".amc":
-        return fn(path, asf, **({} if rate is None else {"rate": rate}))
-    if ext in (".npy", ".csv") and rate is not None:
-        return fn(path, rate=rate)
-    return fn(path)
+        m = fn(path, asf, **({} if rate is None else {"rate": rate}))
+    elif ext in (".npy", ".csv") and rate is not None:
+        m = fn(path, rate=rate)
+    else:
+        m = fn(path)
+    if ext in (".trc", ".csv", ".bvh", ".amc") and not _ends_a_line(path):
+        # a text file cut in the middle of its last number reads as fewer digits (a QA
+        # run); every writer of these formats, and every real file here, ends its lines
+        note = ("the file does not end with a line break: its last line may have been "
+                "cut short (check that the file is complete)")
+        old = m.metadata.get("warning")
+        m.metadata["warning"] = note if not old else f"{old}; {note}"
+    return m
+
+
+def _ends_a_line(path: StrPath) -> bool:
+    """Whether a (non-empty) file's last byte ends a line."""
+    with open(path, "rb") as fh:
+        fh.seek(0, os.SEEK_END)
+        if fh.tell() == 0:
+            return True
+        fh.seek(-1, os.SEEK_END)
+        return fh.read(1) in (b"\n", b"\r")
 
 
 #: metadata keys the readers set to describe the source (mpz.io's readers), rebuilt when a
