@@ -410,6 +410,22 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
         "seconds": seconds, "cpu_seconds": 0.0}
 
 
+def _one_numba_thread() -> None:
+    """In a Dask worker: numba's parallel kernels (the summary's) on one thread, since each
+    worker has one core. Set here and not as NUMBA_NUM_THREADS in the workers' environment:
+    a worker whose numba had started before it saw that variable refused to compile any
+    kernel after it ("Cannot set NUMBA_NUM_THREADS to a different value once the threads
+    have been launched", seen once, compiling the Fisher kernel). Outside a worker (``jobs
+    0``, this process) nothing changes."""
+    try:
+        from distributed import get_worker
+        get_worker()
+    except (ImportError, ValueError):
+        return
+    import numba
+    numba.set_num_threads(1)
+
+
 def encode_file(task: Task) -> FileResult:
     """Encode one file of a corpus (the task a worker runs).
 
@@ -425,6 +441,7 @@ def encode_file(task: Task) -> FileResult:
     from mpz.io import read
     from mpz.similarity import summarize
 
+    _one_numba_thread()
     t0, c0 = time.perf_counter(), time.process_time()
     src_bytes = 0
     try:
@@ -861,15 +878,15 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
         finally:
             client.close()
         return
-    # one thread per worker process: the codec is CPU-bound and numba's own thread pool
-    # would otherwise start one thread per core in every worker
+    # one thread per worker process: the codec is CPU-bound (numba's parallel kernels are
+    # held to one thread in each task, _one_numba_thread)
     # the scheduler's HTTP endpoints (no dashboard) on a free local port, not 8787 on
     # every interface
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                            host="127.0.0.1", memory_limit=memory_limit,
                            dashboard_address=None,
                            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                           silence_logs=logging.ERROR, env={"NUMBA_NUM_THREADS": "1"})
+                           silence_logs=logging.ERROR)
     client = Client(cluster)
     try:
         yield client, f"LocalCluster, {memory_limit} per worker"
