@@ -391,16 +391,21 @@ def _kinds(rec) -> list[int]:
     return list(rec.root_order) + [k for b in rec.bones for k in b.dofs]
 
 
+def _skeleton_vectors():
+    """(manifest entry, its features.skeleton, file bytes, skeleton record) of every vector
+    with a skeleton chunk."""
+    for v in _manifest():
+        feat = v.get("features", {}).get("skeleton")
+        if feat is not None:
+            data = (VECTORS / v["file"]).read_bytes()
+            yield v, feat, data, _record(data, feat["chunk"])
+
+
 def test_skeleton_bounds_are_the_spec_formula():
     """§7.3: h = (m / 10^d) / 2 in binary64; translation_bound the largest h of kinds
     0-2 and 6, angle_bound of kinds 3-5, times 180/pi for radians; 0 without one."""
     seen = 0
-    for v in _manifest():
-        feat = v.get("features", {}).get("skeleton")
-        if feat is None:
-            continue
-        data = (VECTORS / v["file"]).read_bytes()
-        rec = _record(data, feat["chunk"])
+    for v, feat, _, rec in _skeleton_vectors():
         h = [c.step_mantissa / 10.0 ** c.step_digits / 2 for c in rec.channels]
         kinds = _kinds(rec)
         rot = max((x for x, k in zip(h, kinds, strict=True) if 3 <= k <= 5), default=0.0)
@@ -438,12 +443,7 @@ def test_skeleton_channel_digest_is_of_the_integers_the_coded_field_holds():
     from mpz.channels import decode as decode_channels
     from mpz.conformance.rangecoder import RefEncoder
     seen = 0
-    for v in _manifest():
-        feat = v.get("features", {}).get("skeleton")
-        if feat is None:
-            continue
-        data = (VECTORS / v["file"]).read_bytes()
-        rec = _record(data, feat["chunk"])
+    for v, feat, data, rec in _skeleton_vectors():
         F = mpz.info(data).frames
         x = decode_channels(rec.channels, rec.coded, F)
         assert x.shape == (F, rec.channel_count)
