@@ -415,3 +415,11 @@ def test_concatenate_refuses_what_it_would_drop(two_joint_bvh, tmp_path):
     with pytest.raises(MotionError, match="joint angles on some"):
         mpz.concatenate([s, bare])
     assert mpz.concatenate([a, a]).n_frames == 10
+
+
+def test_a_long_marker_name_is_shown_short_in_the_error():
+    """The refusal of a 100,000-character name repeated it whole: a 100 KB message."""
+    m = Motion(np.zeros((2, 1, 3)), ["x" * 100_000], 100.0)
+    with pytest.raises(EncoderError, match=r"\(100000 characters\): marker names are") as e:
+        mpz.encode(m, max_error=1.0)
+    assert len(str(e.value)) < 300

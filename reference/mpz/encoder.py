@@ -431,7 +431,9 @@ def check_motion(motion: Motion) -> None:
     for i, name in enumerate(motion.names):
         _utf8(name, f"marker {i} name")
         if not 1 <= len(name.encode("utf-8")) <= 255 or "\x00" in name:
-            raise EncoderError(f"marker {i} name {ascii(name)}: marker names are 1..255 bytes "
+            shown = (ascii(name) if len(name) <= 80     # not a 100 KB message for a long one
+                     else f"{ascii(name[:60])}... ({len(name)} characters)")
+            raise EncoderError(f"marker {i} name {shown}: marker names are 1..255 bytes "
                                f"of UTF-8 without NUL (§4.2)")
     for k, text in motion.metadata.items():
         _utf8(k, "metadata key")
