@@ -598,3 +598,49 @@ def test_markers_that_all_stand_at_one_point_are_grouped(n):
     m = mpz.Motion(np.full((20, n, 3), 1.0), [f"M{i}" for i in range(n)], 100.0, "mm")
     back = mpz.decode(mpz.encode(m, max_error=0.5))
     assert np.abs(back.positions - 1.0).max() <= 0.5
+
+
+def _hierarchy_doc() -> tuple[dict, list[str]]:
+    """A valid mpz-hierarchy dict of three nodes over four markers, and the names."""
+    names = ["A", "B", "C", "D"]
+    return {"format": "mpz-hierarchy", "version": 1, "nodes": [
+        {"name": "root", "members": ["A"], "ref": "A", "parent": None},
+        {"name": "arm", "members": ["B", "C"], "ref": "B", "parent": "root"},
+        {"name": "hand", "members": ["D"], "ref": "D", "parent": "arm"}]}, names
+
+
+@pytest.mark.parametrize("change,match", [
+    (lambda d: d["nodes"][2]["members"].append("B"), "marker 'B' is in node 'arm' and "
+                                                      "again in node 'hand'"),
+    (lambda d: d["nodes"][1]["members"].append("B"), "marker 'B' is listed twice in node 'arm'"),
+    (lambda d: d["nodes"][1].update(ref="D"), "node 'arm': its ref 'D' is not one of its"),
+    (lambda d: d["nodes"][2].pop("parent"), "node 'hand' has no parent"),
+    (lambda d: d["nodes"][1].update(parent=None), "node 'arm' has no parent"),
+    (lambda d: d.update(version=True), "unsupported hierarchy version True"),
+    (lambda d: d.update(version=1.0), "unsupported hierarchy version 1.0"),
+])
+def test_hierarchy_file_errors_name_markers_and_nodes(tmp_path, change, match):
+    """They named markers and nodes by index ('marker 15 is in node 3 and again in node 5'),
+    called a missing parent 'parent -1', and took version true (a QA run)."""
+    d, names = _hierarchy_doc()
+    change(d)
+    p = tmp_path / "h.json"
+    p.write_text(json.dumps(d))
+    with pytest.raises(EncoderError, match=match):
+        read_hierarchy(p, names)
+
+
+def test_hierarchy_file_deeply_nested_bom_and_folder(tmp_path):
+    """100,000 nested brackets gave a RecursionError traceback; a byte-order mark was
+    refused; a folder was 'an unknown hierarchy'."""
+    from mpz.hierarchy import build_hierarchy
+    p = tmp_path / "deep.json"
+    p.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(EncoderError, match="nested too deeply"):
+        read_hierarchy(p, ["A"])
+    d, names = _hierarchy_doc()
+    p.write_bytes(b"\xef\xbb\xbf" + json.dumps(d).encode())
+    assert [n.name for n in read_hierarchy(p, names).nodes] == ["root", "arm", "hand"]
+    m = mpz.Motion(np.zeros((3, 4, 3)), names, 100.0)
+    with pytest.raises(EncoderError, match="is a folder"):
+        build_hierarchy(m, tmp_path)

@@ -883,8 +883,11 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
     group: dict[int, float] = {}
     for key, e in opts.group_errors.items():
         if key not in names:
-            raise EncoderError(f"group error given for unknown node {key!r}; nodes are "
-                               f"{', '.join(names)}")
+            # the default's flat hierarchy (root, body) gives way to the body-part one
+            # when group errors are given: its names are the ones that count
+            raise EncoderError(f"group error given for unknown node {key!r}; the nodes of "
+                               f"the {hier.method} hierarchy (the one group errors use) "
+                               f"are {', '.join(names)}")
         group[names[key]] = within(min(e, opts.max_error))
     e_all_nodes = within(opts.max_error)
     e_min = min([e_all_nodes, *group.values()])

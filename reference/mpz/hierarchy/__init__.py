@@ -27,9 +27,11 @@ Builders, one module each (:func:`build_hierarchy` dispatches by name):
                     "weights": {"LFHD": 2.0}}, ...]}
 
     ``parent`` is a node name (``null`` for the root, which must come first),
-    ``weights`` is optional (default 1.0). Marker names match exactly or after
-    stripping a ``"Subject:"`` prefix (everything up to the last ``:``). Every
-    marker of the motion must be listed, and every listed name must exist.
+    ``weights`` is optional (default 1.0). A motion's marker names match the file's
+    exactly or after stripping their ``"Subject:"`` prefix (everything up to the last
+    ``:``); the file's names are taken as written. Every marker of the motion must be
+    listed once, every listed name must exist, and each ``ref`` is one of its node's
+    members. The file is UTF-8 (a byte-order mark is allowed).
 ``"skeleton"`` (:mod:`.skeleton`)
     For BVH/AMC input (``motion.parents``): one node per point, parented like
     the skeleton, in breadth-first order from the skeleton root.
@@ -180,6 +182,8 @@ def _build(motion: Motion, names: Sequence[str], spec: str | Path | dict[str, An
         return BUILDERS[spec](motion)
     if isinstance(spec, (str, Path)) and spec != "file" and Path(spec).is_file():
         return read_hierarchy(spec, names)
+    if isinstance(spec, (str, Path)) and Path(spec).is_dir():
+        raise EncoderError(f"hierarchy {str(spec)!r} is a folder, not a JSON file")
     raise EncoderError(f"unknown hierarchy {spec!r}: expected one of "
                        f"{[m for m in METHODS if m != 'file']}, a dict or a JSON file path")
 

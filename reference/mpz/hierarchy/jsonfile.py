@@ -38,11 +38,25 @@ def parse_nodes(d: object, names: Sequence[str]) -> list[Node]:
     node_index: dict[str, int] = {}
     nodes: list[Node] = []
     unknown: list[str] = []
+    held: dict[str, str] = {}             # marker name -> the node that holds it
     for i, nd in enumerate(raw):
         name, members, ref, parent = _fields(i, nd)
         if name in node_index:
             raise EncoderError(f"duplicate node name {name!r}")
         node_index[name] = i
+        # by name, where the checks of the built hierarchy can only give indices
+        if i > 0 and parent is None:
+            raise EncoderError(f"node {name!r} has no parent (null or missing): only the "
+                               f"first node, {raw[0].get('name')!r}, is the root")
+        for m in members:
+            if m in held:
+                raise EncoderError(f"marker {m!r} is listed twice in node {name!r}"
+                                   if held[m] == name else
+                                   f"marker {m!r} is in node {held[m]!r} and again in node "
+                                   f"{name!r}")
+            held[m] = name
+        if ref not in members:
+            raise EncoderError(f"node {name!r}: its ref {ref!r} is not one of its members")
         p = _parent_index(name, parent, node_index)
         idx, r = _marker_indices(members, ref, lookup, unknown)
         weights = _weights(name, members, nd.get("weights") or {})
@@ -61,8 +75,9 @@ def _node_list(d: object) -> list[Any]:
     if not isinstance(d, dict) or d.get("format") != "mpz-hierarchy":
         raise EncoderError("not a hierarchy: expected a dict with "
                            "\"format\": \"mpz-hierarchy\"")
-    if d.get("version") != 1:
-        raise EncoderError(f"unsupported hierarchy version {d.get('version')!r}, expected 1")
+    version = d.get("version")
+    if type(version) is not int or version != 1:      # not true, not 1.0
+        raise EncoderError(f"unsupported hierarchy version {version!r}, expected 1")
     raw = d.get("nodes")
     if not isinstance(raw, list) or not raw:
         raise EncoderError("hierarchy \"nodes\" must be a non-empty list")
@@ -146,10 +161,13 @@ def _weights(name: str, members: list[str], wmap: Any) -> list[float]:
 
 def read_hierarchy(path: PathLike, names: Sequence[str]) -> Hierarchy:
     """Read a JSON hierarchy file against the motion's marker names."""
-    try:
-        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    try:                                  # utf-8-sig: a byte-order mark is still UTF-8
+        d = json.loads(Path(path).read_text(encoding="utf-8-sig"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise EncoderError(f"cannot read hierarchy file: {exc}", path=str(path)) from None
+    except RecursionError:                # 100,000 nested brackets: a traceback (exit 1)
+        raise EncoderError("cannot read hierarchy file: JSON nested too deeply",
+                           path=str(path)) from None
     return Hierarchy.from_dict(d, names)
 
 

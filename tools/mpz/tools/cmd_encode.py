@@ -82,7 +82,8 @@ def add_parser(sub):
                    f"per kind (ANGLES, FORCES, MOMENTS, POWERS, SCALARS, REACTIONS; default "
                    f"{D.model_error:g}), e.g. ANGLES=1e-3 (repeatable)")
     p.add_argument("--group-error", action="append", metavar="NODE=E",
-                   help="tighter bound for one hierarchy node, e.g. l_foot=0.5mm (repeatable)")
+                   help="tighter bound for one node of the body-part hierarchy (auto or "
+                   "--hierarchy; not the default's flat one), e.g. l_foot=0.5mm (repeatable)")
     p.add_argument("--theta", type=float, default=D.theta,
                    help=f"key-frame threshold, fraction of the head size ADDH (default {D.theta})")
     p.add_argument("--k0", type=int, default=D.k0,
@@ -97,8 +98,9 @@ def add_parser(sub):
     p.add_argument("--smoothing", type=int, default=D.smoothing,
                    help=f"boundary smoothing half-width 0..16 (default {D.smoothing})")
     p.add_argument("--patterns", choices=("auto", "on", "off"), default=None,
-                   help="pattern layer per node: auto keeps it where it makes the file smaller "
-                   "(default: on without --max-error, off with it)")
+                   help="pattern layer per node of the body-part hierarchy: auto keeps it "
+                   "where it makes that node smaller (default: on without --max-error, off "
+                   "with it, which codes one flat node and is usually smaller than auto)")
     p.add_argument("--segmentation", choices=("adaptive", "optimal"), default=D.segmentation,
                    help="adaptive = paper's Alg. 1; optimal = Fisher optimal partition")
     p.add_argument("--grid", help="grid step (default: from --max-error, else ADDH/1000)")
