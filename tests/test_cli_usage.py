@@ -656,3 +656,16 @@ def test_a_bad_option_value_is_a_usage_error(inputs: dict[str, Path], tmp_path: 
     p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", *opt], tmp_path)
     assert p.returncode == 64, (p.returncode, p.stderr)
     assert not (tmp_path / "x.mpz").exists()
+
+
+def test_a_group_error_that_is_not_tighter_is_said(inputs: dict[str, Path],
+                                                   tmp_path: Path) -> None:
+    """A node is coded within the smaller of its group error and the bound: a looser group
+    error changed nothing without a word (a QA run)."""
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "1mm",
+             "--hierarchy", "auto", "--group-error", "root=2mm"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert b"--group-error root: 2 is not tighter than the bound 1" in p.stderr
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "y.mpz", "--max-error", "1mm",
+             "--hierarchy", "auto", "--group-error", "root=0.5mm"], tmp_path)
+    assert p.returncode == 0 and b"not tighter" not in p.stderr, p.stderr

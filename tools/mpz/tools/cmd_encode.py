@@ -145,6 +145,15 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
         model_errors=_model_errors(args.model_error), threads=args.threads)
 
 
+def _loose_group_errors(opts: EncodeOptions) -> list[str]:
+    """A note for each --group-error that is not tighter than the bound: it changes nothing
+    (a node is coded within the smaller of the two), which went unsaid."""
+    if opts.max_error is None:
+        return []
+    return [f"--group-error {k}: {v:g} is not tighter than the bound {opts.max_error:g}, so "
+            "it changes nothing" for k, v in opts.group_errors.items() if v >= opts.max_error]
+
+
 def _model_errors(items: list[str] | None) -> dict[str, float]:
     """--model-error KIND=F (issue 12): a fraction of each channel's range, per kind."""
     out: dict[str, float] = {}
@@ -266,6 +275,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
     motion = _rate(args, _units(args, motion))
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
+    notes += _loose_group_errors(opts)
     notes = _input_notes(args, motion, job.input) + notes
     if not args.quiet:
         for note in notes:
@@ -518,7 +528,8 @@ class PerFile:
         motion = _rate(self.args, _units(self.args, motion, batch=True), batch=True)
         opts, notes = _skeleton_options(self.args, motion, self.options(motion.units),
                                         batch=True)
-        return motion, opts, _input_notes(self.args, motion, source) + notes
+        return motion, opts, (_input_notes(self.args, motion, source) + notes
+                              + _loose_group_errors(opts))
 
     def key(self, source: str) -> str:
         from mpz.io import SKELETON_FORMATS
