@@ -1000,28 +1000,24 @@ def test_a_feature_that_hardly_varies_is_not_scaled_up():
     assert np.allclose(d, exact, rtol=1e-6) and d.max() < 10
 
 
-def _threads_in_a_task() -> tuple[int, int]:
-    import numba
-
-    from mpz.corpus import _one_numba_thread
-    before = numba.get_num_threads()
-    _one_numba_thread()
-    return before, numba.get_num_threads()
-
-
 @pytest.mark.skipif(not _has_dask(), reason="needs dask.distributed")
 def test_a_worker_task_holds_numba_to_one_thread_without_the_environment():
     """numba's parallel kernels take one thread in a worker (each has one core), set by the
     task rather than NUMBA_NUM_THREADS in the workers' environment (a worker whose numba
-    had started first refused to compile: seen once); this process is left alone."""
+    had started first refused to compile: seen once); this process is left alone. The
+    tasks are functions of installed modules: a worker cannot import this test file."""
     import logging
 
     from dask.distributed import Client, LocalCluster
     import numba
+
+    from mpz.corpus import _one_numba_thread
     mine = numba.get_num_threads()
-    assert _threads_in_a_task() == (mine, mine)           # not in a worker: unchanged
+    _one_numba_thread()
+    assert numba.get_num_threads() == mine                 # not in a worker: unchanged
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
             Client(cluster) as client:
-        _, after = client.submit(_threads_in_a_task).result(timeout=120)
+        client.submit(_one_numba_thread, pure=False).result(timeout=120)
+        after = client.submit(numba.get_num_threads, pure=False).result(timeout=120)
     assert after == 1
