@@ -405,26 +405,25 @@ def decode_residual(s: Stream, i: int, *, out: IntArray | None = None) -> IntArr
     return w
 
 
-def _peak(v: IntArray, members: NDArray[np.intp] | None = None) -> int:
-    """max |v| (over the columns ``v[:, members]`` if given), a block of rows at a time."""
-    per_row = max(1, (v[0].size // 3 if v.shape[0] else 1) if members is None else len(members))
+def _peak(v: IntArray) -> int:
+    """max |v|, a block of rows at a time."""
+    per_row = max(1, v[0].size // 3 if v.shape[0] else 1)
     peak = 0
     for t0, t1 in frame_blocks(v.shape[0], per_row):
-        blk = v[t0:t1] if members is None else v[t0:t1, members]
+        blk = v[t0:t1]
         if blk.size:                    # max |v| as max(max v, -min v): no |v| array
             peak = max(peak, int(blk.max()), -int(blk.min()))
     return peak
 
 
-def _layer_range(v: IntArray, scale: int, c: Located[Patt] | Located[Resi],
-                 members: NDArray[np.intp] | None = None) -> None:
+def _layer_range(v: IntArray, scale: int, c: Located[Patt] | Located[Resi]) -> None:
     """§6.7 rule 1: scaled pattern and residual values stay below 2^36 in magnitude.
 
     Every value of the layer is checked (all K patterns, used or not; gap samples too),
     and the unscaled peak first: the product is formed only once |v| < 2^36 (§1.1), as a
     fixed-width decoder must (here Python integers could not overflow anyway).
     """
-    _check_peak(_peak(v, members), scale, c)
+    _check_peak(_peak(v), scale, c)
 
 
 def _check_peak(peak: int, scale: int, c: Located[Patt] | Located[Resi]) -> None:

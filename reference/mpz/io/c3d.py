@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from mpz.errors import InputFormatError
 from mpz.io import c3dbin
 from mpz.io._common import StrPath, reader, start_frame, unique_names
-from mpz.motion import Motion
+from mpz.motion import Motion, finite_samples
 
 #: POINT:UNITS values we recognise; anything else is unknown ("")
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m"}
@@ -102,7 +102,7 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
     units = _UNITS.get(units_raw, "")
     pos = np.asarray(points, dtype=np.float64)
     res = np.asarray(residuals, dtype=np.float64)
-    valid = (np.isfinite(pos).all(axis=2) & ~(res < 0) & ~np.isnan(res)
+    valid = (finite_samples(pos) & ~(res < 0) & ~np.isnan(res)
              & ~np.all(pos == 0, axis=2))
     pos = pos.copy()
     pos[~valid] = np.nan
@@ -275,7 +275,7 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
     if model:
         meta["model_outputs"] = str(len(model))
     vals = d.points[:, model].astype(np.float64)
-    ok = np.isfinite(vals).all(axis=2) & (d.residual_words[:, model] >= 0)
+    ok = finite_samples(vals) & (d.residual_words[:, model] >= 0)
     vals[~ok] = np.nan
     storage = 1 if d.float_storage else 0
     archive = C3DArchive(d.processor, d.header_block, list(d.records), slots, d.point_words,

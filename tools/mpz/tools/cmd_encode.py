@@ -198,10 +198,7 @@ def _check_options(args: argparse.Namespace) -> None:
     check_length_syntax(args.grid, "--grid")
     for _, v in _pairs(args.group_error, "--group-error").items():
         check_length_syntax(v, "--group-error")
-    _pairs(args.meta, "--meta")
-    _weights(args.weight)
-    _summary_ks(args.summary)
-    unitless = copy.copy(args)
+    unitless = copy.copy(args)       # _options parses --meta, --weight and --summary too
     unitless.max_error = None if args.max_error is None else "1"    # a bound is asked for
     unitless.grid = unitless.group_error = None
     _options(unitless, "", None).validate()
