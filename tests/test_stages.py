@@ -257,6 +257,41 @@ def test_lattice_choice_follows_its_rule(T, M, radius, order, noise, on_grid, se
     assert (((w - y) ** 2).sum(axis=2) <= radius * radius).all()
 
 
+@settings(max_examples=300, deadline=None)
+@given(st.floats(0.8660254, 40.0), st.integers(0, 2 ** 32 - 1),
+       st.sampled_from([0.0, 0.1, 0.5, 1.0, 2.0, 5.0, 100.0]), st.sampled_from([1.0, 2.0, 0.0]))
+def test_a_large_radius_picks_what_the_whole_box_picks(radius, seed, reach, snap):
+    """Past _BOX_MAX grid points the lattice choice skips what cannot win (a root bound 100
+    times a node's group error made a radius of 177 grid steps: 70 s for 343 frames). It
+    must pick the box walk's point, the first least one, with the prediction inside the
+    ball, on its edge and far outside, and targets on the grid, where points tie."""
+    from mpz import quantize
+    rng = np.random.default_rng(seed)
+    y = rng.normal(0, 1e3, 3)
+    if snap:
+        y = np.round(y * snap) / snap                        # whole and half steps tie
+    p = np.round(y + rng.normal(0, 1, 3) * radius * reach)
+    if seed % 4 == 0:
+        p[seed % 3] = np.round(y[seed % 3] + radius)           # at the ball's edge
+    want = quantize._pick_box(*y, radius, *p)
+    assert quantize._pick_pruned(*y, radius, *p) == want
+    assert sum((np.array(want) - y) ** 2) <= radius * radius
+
+
+def test_a_large_radius_follows_the_rule_through_choose_lattice():
+    """choose_lattice takes the pruned search for a box of more than _BOX_MAX points (12
+    grid steps: 25^3), and still gives the rule's points for every order."""
+    from mpz import quantize
+    from mpz.quantize import choose_lattice
+    assert (2 * 12 + 1) ** 3 > quantize._BOX_MAX
+    rng = np.random.default_rng(7)
+    y = np.cumsum(rng.normal(0, 9, (6, 2, 3)), axis=0)
+    y[3] = np.round(y[3])
+    for order in (0, 1, 2):
+        assert choose_lattice(y, 12.0, order).tolist() == \
+            _lattice_by_the_rule(y.tolist(), 12.0, order)
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.integers(1, 6), st.integers(3, 50), st.integers(0, 2 ** 32 - 1))
 def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):
