@@ -16,6 +16,8 @@ import subprocess
 import sys
 import warnings
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
 
@@ -229,3 +231,53 @@ def test_a_point_scale_of_zero_nan_or_inf_is_refused(tmp_path, scale):
     p.write_bytes(bytes(data))
     with pytest.raises(InputFormatError, match="POINT:SCALE"):
         read(p)
+
+
+def _outcome(f: Callable[[], object]) -> object:
+    try:
+        return f()
+    except InputFormatError as e:
+        return ("InputFormatError", str(e))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 1535), st.integers(0, 255)), max_size=4))
+def test_the_reader_checks_are_the_four_checks_from_one_parse(edits) -> None:
+    """The C3D reader parses the parameter section once for its checks before ezc3d
+    (c3dbin.reader_checks); each field, and each error, must be what the function that
+    parses the section on its own gives, on files edited byte by byte in the header and
+    the parameter section."""
+    from mpz.io import c3dbin
+    data = bytearray(_records())
+    for at, value in edits:
+        data[at] = value
+    blob = bytes(data)
+    got = _outcome(lambda: c3dbin.reader_checks(blob))
+    declared = _outcome(lambda: c3dbin.declared_frames(blob))
+    if isinstance(got, tuple):          # an error: the frame range's, or else the layout's
+        if isinstance(declared, tuple):
+            assert got == declared
+        else:
+            assert c3dbin.ezc3d_hazard(blob) is None and c3dbin.scale_conflict(blob) is None
+            assert got == _outcome(lambda: c3dbin.data_start(blob))
+        return
+    assert isinstance(got, c3dbin.ReaderChecks)
+    assert (got.first, got.declared) == declared
+    assert got.hazard == c3dbin.ezc3d_hazard(blob)
+    if got.hazard is not None:
+        return
+    assert got.conflict == c3dbin.scale_conflict(blob)
+    if got.conflict is None:
+        assert (got.data_start, got.word9, got.note) == c3dbin.data_start(blob)
+
+
+def test_the_reader_checks_of_the_real_files(shared_data: Path) -> None:
+    from mpz.io import c3dbin
+    files = sorted((shared_data / "c3d").glob("*.c3d"))
+    assert files
+    for f in files:
+        blob = f.read_bytes()
+        got = c3dbin.reader_checks(blob)
+        assert (got.first, got.declared) == c3dbin.declared_frames(blob)
+        assert got.hazard is None and got.conflict is None, f.name
+        assert (got.data_start, got.word9, got.note) == c3dbin.data_start(blob), f.name

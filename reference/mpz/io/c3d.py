@@ -297,17 +297,15 @@ def _read_points(path: str, data: bytes) -> Motion:
     # the frames the file declares (header words 4-5, or the frame parameters when the
     # header cannot say: more than 65535 frames); ezc3d itself rewrites its header to
     # the frames it found, so truncation must be checked here
-    _, declared = c3dbin.declared_frames(data)
-    hazard = c3dbin.ezc3d_hazard(data)
-    if hazard is not None:
+    checks = c3dbin.reader_checks(data)
+    declared, note = checks.declared, checks.note
+    if checks.hazard is not None:
         return motion_from_c3d_bytes(data, source=source, extra={
-            "warning": f"not read with ezc3d: {hazard}; read with mpz.io.c3dbin"})
-    conflict = c3dbin.scale_conflict(data)
-    if conflict is not None:           # ezc3d takes the storage from the header's scale
+            "warning": f"not read with ezc3d: {checks.hazard}; read with mpz.io.c3dbin"})
+    if checks.conflict is not None:    # ezc3d takes the storage from the header's scale
         return motion_from_c3d_bytes(data, source=source, extra={
-            "warning": f"not read with ezc3d: {conflict}; read with mpz.io.c3dbin"})
-    start, word9, note = c3dbin.data_start(data)
-    if start != word9:
+            "warning": f"not read with ezc3d: {checks.conflict}; read with mpz.io.c3dbin"})
+    if checks.data_start != checks.word9:
         # ezc3d reads from header word 9: the data is elsewhere (c3dbin.data_start says why)
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": "not read with ezc3d, which reads from the header's data start; "
