@@ -1021,3 +1021,28 @@ def test_a_worker_task_holds_numba_to_one_thread_without_the_environment():
         client.submit(_one_numba_thread, pure=False).result(timeout=120)
         after = client.submit(numba.get_num_threads, pure=False).result(timeout=120)
     assert after == 1
+
+
+def test_a_second_run_into_the_same_folder_stops_at_once(corpus, capsys):
+    """Two runs into one folder encoded the same files, each sweeping the other's
+    temporaries (a QA note of stop 28). The second stops before any work, with a message
+    that says why; a lock left by a process that ended is no obstacle (flock), and a run
+    leaves no lock file behind."""
+    import fcntl
+
+    from mpz.corpus import LOCK_NAME
+    from mpz.tools import mpz_cli
+    src, out, _ = corpus
+    out.mkdir()
+    with open(out / LOCK_NAME, "w") as held:           # another run, in this process
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with pytest.raises(EncoderError, match="another corpus run is writing"):
+            run_corpus(src, out)
+        assert not (out / INDEX_NAME).exists() and not list(out.rglob("*.mpz"))
+        code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0"])
+        assert code == 2 and "another corpus run is writing" in capsys.readouterr().err
+    # released (as when the other process ends): the lock file left over is taken
+    assert (out / LOCK_NAME).exists()
+    rep = run_corpus(src, out)
+    assert statuses(rep)["walk"] == "encoded"
+    assert not (out / LOCK_NAME).exists() and temporaries(out) == []

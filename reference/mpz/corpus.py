@@ -829,6 +829,58 @@ def _temp_pattern(output: str) -> re.Pattern[str]:
                       + r"\Z")
 
 
+#: the file a corpus run locks in its output folder, so that a second run into the same
+#: folder stops at once instead of encoding the same files, sweeping the other's
+#: temporaries and racing it for each row
+LOCK_NAME = ".mpz-corpus.lock"
+
+
+@contextlib.contextmanager
+def _one_run(index_dir: str) -> Iterator[None]:
+    """Hold an exclusive lock on ``index_dir``'s :data:`LOCK_NAME` for one corpus run.
+
+    ``flock``: the system drops it when the process ends, however it ends, so a crash
+    leaves no stale lock, only an empty file that the next run takes. The file is removed
+    at the end of the run, while still locked; a run that locked the file just before
+    that finds it gone and locks the one at the path (the usual check of the inode).
+    Where there is no ``fcntl`` (Windows), runs are not locked.
+
+    Raises
+    ------
+    EncoderError
+        When another process holds the lock.
+    """
+    try:
+        import fcntl
+    except ImportError:                                  # pragma: no cover - Windows
+        yield
+        return
+    path = os.path.join(index_dir, LOCK_NAME)
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise EncoderError(
+                f"another corpus run is writing {index_dir} (it holds {path}); wait for "
+                "it to finish, or write to another folder") from None
+        here = os.fstat(fd)
+        try:
+            there = os.stat(path)
+        except FileNotFoundError:
+            there = None
+        if there is not None and (there.st_dev, there.st_ino) == (here.st_dev, here.st_ino):
+            break
+        os.close(fd)                                     # removed by the run before: again
+    try:
+        yield
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(path)
+        os.close(fd)                                     # and with it the lock
+
+
 def sweep_temporaries(outputs: Sequence[str], *, before: float | None = None) -> list[str]:
     """Remove the temporary files a killed writer left beside ``outputs``; returns them.
 
@@ -960,7 +1012,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         After cancelling the tasks in flight, removing their temporary files and
         committing the rows of the files that finished.
     EncoderError
-        When the index cannot be opened or Dask is missing or unreachable.
+        When the index cannot be opened, another run is writing ``outdir``
+        (:data:`LOCK_NAME`), or Dask is missing or unreachable.
     """
     t0 = time.perf_counter()
     wall0 = time.time()
@@ -976,7 +1029,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
     early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
                         reason) for src, out, reason in failed]
-    with Index(os.path.join(index_dir, INDEX_NAME), create=True) as index:
+    with _one_run(index_dir), Index(os.path.join(index_dir, INDEX_NAME), create=True) as index:
         index.refresh_descriptors()
         index.set_info({"levels": ",".join(map(str, levels)),
                         "exact_max_frames": str(EXACT_MAX_FRAMES)})
