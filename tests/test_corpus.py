@@ -1046,3 +1046,26 @@ def test_a_second_run_into_the_same_folder_stops_at_once(corpus, capsys):
     rep = run_corpus(src, out)
     assert statuses(rep)["walk"] == "encoded"
     assert not (out / LOCK_NAME).exists() and temporaries(out) == []
+
+
+def test_rows_of_outputs_that_are_gone_are_forgotten_and_moved_sources_are_said(corpus):
+    """The index kept the row of an output that was deleted, and a source renamed in the
+    input folder left its old output and row beside the new one, unsaid (stop 28's QA):
+    a search ranked both, or a file that was not there."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    paths["walk"].rename(src / "walk-renamed.trc")         # a source moved: its old output
+    rep = run_corpus(src, out)                               # stays, and says so
+    assert statuses(rep)["walk-renamed"] == "encoded" and rep.forgotten == []
+    assert rep.same_source == [["walk-renamed.mpz", "walk.mpz"]]
+    assert "NOTE the same source bytes in walk-renamed.mpz, walk.mpz" in rep.table()
+    (out / "walk.mpz").unlink()                              # removed by its owner
+    (out / "sub" / "wave.mpz").unlink()                      # and one this run writes again
+    rep = run_corpus(src, out)
+    assert rep.forgotten == ["walk.mpz"] and rep.same_source == []
+    assert statuses(rep)["wave"] == "encoded"
+    assert "1 index row removed, the output was gone: walk.mpz" in rep.table()
+    assert rep.as_dict()["forgotten"] == ["walk.mpz"]
+    with open_index(out) as ix:
+        assert [r["output"] for r in ix.rows()] == ["jump.mpz", "sub/wave.mpz",
+                                                     "walk-renamed.mpz"]

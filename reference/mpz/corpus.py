@@ -36,7 +36,7 @@ not.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 import contextlib
 from dataclasses import asdict, dataclass, field, fields, replace
 import datetime
@@ -624,6 +624,29 @@ class Index:
                                 [(output_key, k, w, s, m) for k, w, s, m in result.levels])
             self.db.execute("DELETE FROM failures WHERE path = ?", (result.row["path"],))
 
+    def forget_missing(self, index_dir: str, keep: Collection[str] = ()) -> list[str]:
+        """Remove the rows whose output is no longer in ``index_dir`` (deleted or moved
+        away since it was indexed: a search would rank a file that is not there), except
+        those of ``keep`` (this run's outputs, which it writes again), and return their
+        output keys. The failures table is left as it is."""
+        keys = [k for (k,) in self.db.execute("SELECT output FROM files ORDER BY output")
+                if k not in keep and not os.path.isfile(os.path.join(index_dir, *k.split("/")))]
+        with self.db:
+            for k in keys:
+                self.db.execute("DELETE FROM files WHERE output = ?", (k,))
+                self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
+        return keys
+
+    def same_sources(self) -> list[list[str]]:
+        """Outputs that hold the same source bytes (sha256), each group in output order: a
+        source moved or copied within the input folder is encoded again under its new
+        name, and the output of its old name stays until it is removed."""
+        groups: dict[str, list[str]] = {}
+        for out, sha in self.db.execute(
+                "SELECT output, source_sha256 FROM files ORDER BY output"):
+            groups.setdefault(sha, []).append(out)
+        return [g for g in groups.values() if len(g) > 1]
+
     # -- reading
     def row(self, output_key: str) -> dict[str, Any] | None:
         cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files WHERE output = ?",
@@ -720,6 +743,10 @@ class CorpusReport:
     workers: int
     cluster: str
     index: str
+    #: output keys whose rows were removed: the outputs were gone (Index.forget_missing)
+    forgotten: list[str] = field(default_factory=list)
+    #: groups of outputs of the same source bytes (Index.same_sources)
+    same_source: list[list[str]] = field(default_factory=list)
 
     def count(self, status: str) -> int:
         return sum(r.status == status for r in self.results)
@@ -733,7 +760,8 @@ class CorpusReport:
                 "cluster": self.cluster, "index": self.index,
                 "counts": {s: self.count(s) for s in ("encoded", "kept", "skipped", "failed")},
                 "files": [{k: v for k, v in asdict(r).items() if k not in ("row", "levels")}
-                          for r in self.results]}
+                          for r in self.results],
+                "forgotten": self.forgotten, "same_source": self.same_source}
 
     def table(self, name: Callable[[str], str] = str) -> str:
         """The summary table: files, bytes in and out per status, and each failure.
@@ -773,6 +801,15 @@ class CorpusReport:
             if r.not_kept:
                 lines.append(f"  NOTE {name(r.source)}: not kept: "
                              f"{name('; '.join(r.not_kept))}")
+        if self.forgotten:
+            n = len(self.forgotten)
+            lines.append(f"  NOTE {n} index row{'' if n == 1 else 's'} removed, the output "
+                         f"{'was' if n == 1 else 'were'} gone: "
+                         f"{name(', '.join(self.forgotten[:5]))}{', ...' if n > 5 else ''}")
+        for group in self.same_source:
+            lines.append(f"  NOTE the same source bytes in {name(', '.join(group))} (a "
+                         "source moved or copied: remove the outputs not wanted, and the "
+                         "next run forgets their rows)")
         lines.append(f"  index {name(self.index)}")
         return "\n".join(lines)
 
@@ -1043,6 +1080,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             if progress is not None:
                 progress(done, len(tasks), r)
 
+        forgotten = index.forget_missing(index_dir, {t.output_key for t in tasks})
         for r in early:
             index.put(r, "" if not r.output else _key(r.output, index_dir))
         todo: list[int] = []
@@ -1080,9 +1118,10 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                 # temporary file (a remote worker's task finishes or removes its own)
                 if scheduler is None and inflight:
                     sweep_temporaries([tasks[i].output for i in inflight.values()])
+        same = index.same_sources()
     final = [r for r in results if r is not None] + early
     return CorpusReport(final, time.perf_counter() - t0, n_workers, cluster,
-                        os.path.join(index_dir, INDEX_NAME))
+                        os.path.join(index_dir, INDEX_NAME), forgotten, same)
 
 
 def _absolute(task: Task) -> Task:
