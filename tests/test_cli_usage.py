@@ -374,6 +374,20 @@ def test_the_group_error_example_in_the_help_works(inputs: dict[str, Path],
     assert d[orig.valid[:, feet]].max() <= 0.5 + 1e-9
 
 
+def test_seed_is_the_apis_seed(inputs: dict[str, Path], tmp_path: Path) -> None:
+    """``--seed`` (the clustering's, with patterns) was in the API only (a QA note): the
+    same seed gives the API's bytes, another seed other patterns."""
+    from mpz.tools import mpz_cli
+    src = inputs["c3d"]
+    for seed in (0, 7):
+        assert mpz_cli.main(["encode", str(src), "-o", str(tmp_path / f"{seed}.mpz"),
+                             "--lossy", "--seed", str(seed), "-q"]) == 0
+        want = mpz.encode(read(src), lossy=True, seed=seed,
+                          metadata={"source": src.name})
+        assert (tmp_path / f"{seed}.mpz").read_bytes() == want
+    assert (tmp_path / "0.mpz").read_bytes() != (tmp_path / "7.mpz").read_bytes()
+
+
 # -- 10. the Python API --------------------------------------------------------------------------
 
 def test_mpz_io_is_there_after_import_mpz() -> None:

@@ -88,6 +88,9 @@ def add_parser(sub):
                    help=f"key-frame threshold, fraction of the head size ADDH (default {D.theta})")
     p.add_argument("--k0", type=int, default=D.k0,
                    help=f"initial number of clusters (default {D.k0})")
+    p.add_argument("--seed", type=int, default=D.seed,
+                   help=f"seed of the pattern clustering's K-means (default {D.seed}); the "
+                   "output is the same for the same seed, and the seed is not stored")
     p.add_argument("--tau", type=float, default=D.tau,
                    help=f"clustering threshold, fraction of ADDH (default {D.tau})")
     p.add_argument("--metric", choices=("max", "ave"), default=D.metric,
@@ -136,7 +139,7 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
         max_error=None if args.max_error is None else parse_length(args.max_error, units),
         group_errors={k: parse_length(v, units, "--group-error")
                       for k, v in _pairs(args.group_error, "--group-error").items()},
-        theta=args.theta, k0=args.k0, tau=args.tau, metric=args.metric,
+        theta=args.theta, k0=args.k0, tau=args.tau, metric=args.metric, seed=args.seed,
         weights=_weights(args.weight), hierarchy=args.hierarchy, smoothing=args.smoothing,
         patterns=args.patterns, segmentation=args.segmentation,
         grid=None if args.grid is None else parse_length(args.grid, units, "--grid"),
