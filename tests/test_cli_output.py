@@ -350,3 +350,38 @@ def test_a_signal_delivered_to_another_thread_waits_for_the_held_region() -> Non
                 finished.append(True)
     assert finished == [True] and exc.value.code == 128 + signal.SIGTERM
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def _chattr(path: Path, flag: str) -> bool:
+    """Set a Linux file attribute (+i, +a) if this machine lets us; False where not."""
+    if shutil.which("chattr") is None:
+        return False
+    return subprocess.run(["chattr", flag, str(path)], capture_output=True).returncode == 0
+
+
+def test_an_output_that_cannot_be_replaced_is_refused_before_the_work(tmp_path: Path) -> None:
+    """A folder that is not writable, and a file marked immutable or append-only (which no
+    rename replaces, not even root's), were found only when the output was written: after
+    the encode, or after every conformance vector had run (QA notes)."""
+    from mpz.api import check_output
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    (tmp_path / "imm.json").write_text("{}")
+    (tmp_path / "app.json").write_text("{}")
+    try:
+        if os.geteuid() != 0:
+            locked.chmod(0o555)
+        elif not _chattr(locked, "+i"):
+            pytest.skip("root, and chattr cannot mark a folder immutable here")
+        with pytest.raises(EncoderError, match="locked is not writable"):
+            check_output(locked / "x.mpz")
+        for name, flag in (("imm.json", "+i"), ("app.json", "+a")):
+            if _chattr(tmp_path / name, flag):
+                with pytest.raises(EncoderError, match="marked immutable or append-only"):
+                    check_output(tmp_path / name, force=True)
+        check_output(tmp_path / "fine.mpz")                     # and a plain path passes
+    finally:
+        for p in (locked, tmp_path / "imm.json", tmp_path / "app.json"):
+            _chattr(p, "-i")
+            _chattr(p, "-a")
+        locked.chmod(0o755)

@@ -21,6 +21,7 @@ import os
 import secrets
 import signal
 import stat
+import sys
 import threading
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any, BinaryIO, TypeAlias
@@ -249,6 +250,13 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
     if not os.path.isdir(folder or "."):
         what = "is not a folder" if os.path.lexists(folder) else "does not exist"
         raise EncoderError(f"cannot write {target}: {folder} {what}")
+    if not os.access(folder or ".", os.W_OK | os.X_OK):
+        # read-only, or (for root, whom permissions do not stop) marked immutable: the
+        # temporary file beside the output could not be made, after all the work
+        raise EncoderError(f"cannot write {target}: {folder or '.'} is not writable")
+    if _immutable(target):
+        raise EncoderError(f"cannot write {target}: it is marked immutable or append-only "
+                           "(chattr +i or +a); the rename that replaces it would fail")
     if os.path.islink(target) and not os.path.exists(target):
         if not force:
             raise EncoderError(f"{target} is a symbolic link to a missing file; "
@@ -260,6 +268,28 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
             raise EncoderError(f"{target} is not a regular file; refusing to replace it")
         if not force:
             raise EncoderError(f"{target} exists; use --force to replace it")
+
+
+def _immutable(path: str) -> bool:
+    """True if ``path`` is a regular file with Linux's immutable or append-only flag (no
+    rename may replace it, not even root's); False where that cannot be asked."""
+    if not os.path.isfile(path):        # a device is never opened: opening may act on it
+        return False
+    try:
+        import fcntl
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except (ImportError, OSError):
+        return False
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return False
+        buf = fcntl.ioctl(fd, 0x80086601, b"\0" * 8)          # FS_IOC_GETFLAGS
+        flags = int.from_bytes(buf[:4], sys.byteorder)
+        return bool(flags & (0x10 | 0x20))                    # FS_IMMUTABLE_FL, FS_APPEND_FL
+    except OSError:                 # a file system without these flags, or not Linux
+        return False
+    finally:
+        os.close(fd)
 
 
 @contextlib.contextmanager
