@@ -15,7 +15,10 @@ The public API is re-exported here; see README.md for a tour and
 ``mpz.encode`` takes plain numbers in the motion's units (``help(mpz.encode)``);
 ``mpz.io`` reads and writes C3D, TRC, BVH, AMC, NPY and CSV.
 """
-from mpz import io
+from mpz import (
+                        _worker,  # noqa: F401  (first: a worker process's SIGINT, mpz._worker)
+                        io,
+)
 from mpz.api import FileInfo, decode, info, read_mpz, read_summary, write_atomic, write_mpz
 from mpz.encoder import EncodeOptions, EncodeReport, encode, encode_motion
 from mpz.errors import (

@@ -47,7 +47,9 @@ import logging
 import os
 from pathlib import Path
 import re
+import signal
 import sqlite3
+import threading
 import time
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
@@ -971,17 +973,61 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     # held to one thread in each task, _one_numba_thread)
     # the scheduler's HTTP endpoints (no dashboard) on a free local port, not 8787 on
     # every interface
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           host="127.0.0.1", memory_limit=memory_limit,
-                           dashboard_address=None,
-                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                           silence_logs=logging.ERROR)
-    client = Client(cluster)
+    # Ctrl-C is the driver's: the workers ignore SIGINT from their preload (dask_setup;
+    # the mpz command's own workers from their first import, mpz.tools.mpz_cli). Their
+    # logs are silenced below CRITICAL: a worker's error is this run's failure of a file,
+    # reported with its reason, and shutting down after a Ctrl-C made them log lost
+    # heartbeats.
+    # and a Ctrl-C while the cluster starts waits for it to be up: stopped half-way, it
+    # failed an assertion in Dask's exit hook that closes clusters, with a traceback
+    with _sigint_deferred() as pending:
+        try:
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   host="127.0.0.1", memory_limit=memory_limit,
+                                   dashboard_address=None, preload=[__name__],
+                                   scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                                   silence_logs=logging.CRITICAL)
+            client = Client(cluster)
+        except Exception:
+            if pending:     # a worker stopped by the same Ctrl-C before it could ignore it
+                raise KeyboardInterrupt from None
+            raise
     try:
+        if pending:
+            raise KeyboardInterrupt
         yield client, f"LocalCluster, {memory_limit} per worker"
     finally:
         client.close()
         cluster.close()
+
+
+@contextlib.contextmanager
+def _sigint_deferred() -> Iterator[list[int]]:
+    """Note a SIGINT instead of raising KeyboardInterrupt for the while (in the main thread,
+    the one Python lets set handlers); the list yielded holds it, for the caller to raise
+    once it can clean up."""
+    pending: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield pending
+        return
+
+    def note(signum: int, frame: object) -> None:
+        pending.append(signum)
+
+    old = signal.signal(signal.SIGINT, note)
+    try:
+        yield pending
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def dask_setup(worker: object) -> None:
+    """Dask's preload hook, run in each worker process of the local cluster as it starts:
+    the worker ignores SIGINT. A Ctrl-C at the terminal reaches every process of the
+    group; the driver cancels the tasks and closes the cluster, and each worker printed a
+    KeyboardInterrupt traceback of its event loop besides (a QA note of stop 28)."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _killed(exc: BaseException) -> bool:
