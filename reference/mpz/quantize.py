@@ -38,21 +38,34 @@ def _pick_box(y0: float, y1: float, y2: float, radius: float,
     b0 = math.floor(y0 + 0.5)
     b1 = math.floor(y1 + 0.5)
     b2 = math.floor(y2 + 0.5)
+    c_from, c_to = math.ceil(y2 - radius), math.floor(y2 + radius)
     for a in range(math.ceil(y0 - radius), math.floor(y0 + radius) + 1):
-        da = a - y0
         for b in range(math.ceil(y1 - radius), math.floor(y1 + radius) + 1):
-            db = b - y1
-            for c in range(math.ceil(y2 - radius), math.floor(y2 + radius) + 1):
-                dc = c - y2
-                d2 = da * da + db * db + dc * dc
-                if d2 <= r2:
-                    cost = abs(a - p0) + abs(b - p1) + abs(c - p2) + _LAMBDA * d2
-                    if cost < best:
-                        best = cost
-                        b0 = a
-                        b1 = b
-                        b2 = c
+            best, b0, b1, b2 = _try_c(a, b, c_from, c_to, y0, y1, y2, r2, p0, p1, p2,
+                                      best, b0, b1, b2)
     return b0, b1, b2
+
+
+@njit(cache=True, nogil=True)
+def _try_c(a: int, b: int, c_from: int, c_to: int, y0: float, y1: float, y2: float,
+           r2: float, p0: float, p1: float, p2: float, best: float, b0: int, b1: int,
+           b2: int) -> tuple[float, int, int, int]:
+    """The grid points (a, b, c_from..c_to) against the best so far ``best`` at
+    (b0, b1, b2): each in the ball ``|w - y|^2 <= r2`` and of a strictly smaller cost
+    replaces it. The one test and cost of both searches."""
+    da = a - y0
+    db = b - y1
+    for c in range(c_from, c_to + 1):
+        dc = c - y2
+        d2 = da * da + db * db + dc * dc
+        if d2 <= r2:
+            cost = abs(a - p0) + abs(b - p1) + abs(c - p2) + _LAMBDA * d2
+            if cost < best:
+                best = cost
+                b0 = a
+                b1 = b
+                b2 = c
+    return best, b0, b1, b2
 
 
 @njit(cache=True, nogil=True)
@@ -196,17 +209,9 @@ def _pick_pruned(y0: float, y1: float, y2: float, radius: float,
             c_hi = c
             while c_hi < c_last and g2[c_hi + 1 - lo2] <= left:
                 c_hi += 1
-            for c in range(c_lo, c_hi + 1):
-                dc = c - y2
-                d2 = da * da + db * db + dc * dc
-                if d2 <= r2:
-                    cost = abs(a - p0) + abs(b - p1) + abs(c - p2) + _LAMBDA * d2
-                    if cost < best:
-                        best = cost
-                        b0 = a
-                        b1 = b
-                        b2 = c
-                        bound = min(bound, cost + 1e-9 * (1.0 + abs(cost)))
+            best, b0, b1, b2 = _try_c(a, b, c_lo, c_hi, y0, y1, y2, r2, p0, p1, p2,
+                                      best, b0, b1, b2)
+            bound = min(bound, best + 1e-9 * (1.0 + abs(best)))
     return b0, b1, b2
 
 
