@@ -237,7 +237,9 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         One line naming the path, when the path is the ``source`` file (even
         with ``force``); is a folder or ends in a separator; lies in a folder
         that does not exist; exists, or is a symbolic link to a missing file,
-        and ``force`` is false; or exists but is not a regular file.
+        and ``force`` is false; exists but is not a regular file, or is marked
+        immutable or append-only (Linux's ``chattr +i``, ``+a``); or lies in a
+        folder that is not writable.
     """
     target = os.fspath(path)
     if source is not None and _same_file(target, os.fspath(source)):
@@ -250,13 +252,6 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
     if not os.path.isdir(folder or "."):
         what = "is not a folder" if os.path.lexists(folder) else "does not exist"
         raise EncoderError(f"cannot write {target}: {folder} {what}")
-    if not os.access(folder or ".", os.W_OK | os.X_OK):
-        # read-only, or (for root, whom permissions do not stop) marked immutable: the
-        # temporary file beside the output could not be made, after all the work
-        raise EncoderError(f"cannot write {target}: {folder or '.'} is not writable")
-    if _immutable(target):
-        raise EncoderError(f"cannot write {target}: it is marked immutable or append-only "
-                           "(chattr +i or +a); the rename that replaces it would fail")
     if os.path.islink(target) and not os.path.exists(target):
         if not force:
             raise EncoderError(f"{target} is a symbolic link to a missing file; "
@@ -268,6 +263,13 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
             raise EncoderError(f"{target} is not a regular file; refusing to replace it")
         if not force:
             raise EncoderError(f"{target} exists; use --force to replace it")
+        if _immutable(target):
+            raise EncoderError(f"cannot write {target}: it is marked immutable or append-"
+                               "only (chattr +i or +a); the rename that replaces it would fail")
+    if not os.access(folder or ".", os.W_OK | os.X_OK):
+        # read-only, or (for root, whom permissions do not stop) marked immutable: the
+        # temporary file beside the output could not be made, after all the work
+        raise EncoderError(f"cannot write {target}: {folder or '.'} is not writable")
 
 
 def _immutable(path: str) -> bool:
