@@ -1117,3 +1117,24 @@ def test_rows_of_outputs_that_are_gone_are_forgotten_and_moved_sources_are_said(
     with open_index(out) as ix:
         assert [r["output"] for r in ix.rows()] == ["jump.mpz", "sub/wave.mpz",
                                                      "walk-renamed.mpz"]
+
+
+def test_an_output_folder_that_cannot_be_written_is_a_clean_error(corpus, capsys):
+    """The run's lock file is the first it makes in OUT: in a folder it cannot write, its
+    PermissionError was a traceback (exit 1), where the error must name the folder."""
+    from mpz.tools import mpz_cli
+    src, out, _ = corpus
+    out.mkdir()
+    if os.geteuid() != 0:
+        out.chmod(0o555)
+    elif subprocess.run(["chattr", "+i", str(out)], capture_output=True).returncode != 0:
+        pytest.skip("root, and chattr cannot mark a folder immutable here")
+    try:
+        with pytest.raises(EncoderError, match=f"cannot write in {out}"):
+            run_corpus(src, out)
+        code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0"])
+        err = capsys.readouterr().err
+        assert code == 2 and f"cannot write in {out}" in err and "Traceback" not in err
+    finally:
+        subprocess.run(["chattr", "-i", str(out)], capture_output=True)
+        out.chmod(0o755)

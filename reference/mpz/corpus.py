@@ -887,7 +887,8 @@ def _one_run(index_dir: str) -> Iterator[None]:
     Raises
     ------
     EncoderError
-        When another process holds the lock.
+        When another process holds the lock, or the lock file cannot be made (a folder
+        that is not writable).
     """
     try:
         import fcntl
@@ -896,7 +897,12 @@ def _one_run(index_dir: str) -> Iterator[None]:
         return
     path = os.path.join(index_dir, LOCK_NAME)
     while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:       # a folder that cannot be written: nothing can be
+            raise EncoderError(f"cannot write in {index_dir}: {exc.strerror} "
+                               f"({LOCK_NAME}, the run's lock, is the first file a run "
+                               "makes there)") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
