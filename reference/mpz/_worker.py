@@ -17,17 +17,23 @@ import sys
 import threading
 
 
-def ignore_sigint_in_a_worker() -> bool:
-    """Ignore SIGINT if this process is a multiprocessing child of the ``mpz`` script (in
-    its main thread); True if it did."""
-    mp_main = sys.modules.get("__mp_main__")
-    script = os.path.basename(getattr(mp_main, "__file__", None) or "")
-    if mp_main is None or os.path.splitext(script)[0] != "mpz":
-        return False
+def ignore_sigint() -> bool:
+    """Ignore SIGINT from now on, in the main thread (the one Python lets set handlers);
+    True if it did."""
     if threading.current_thread() is not threading.main_thread():
         return False
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     return True
+
+
+def ignore_sigint_in_a_worker() -> bool:
+    """:func:`ignore_sigint` if this process is a multiprocessing child of the ``mpz``
+    script; True if it did."""
+    mp_main = sys.modules.get("__mp_main__")
+    script = os.path.basename(getattr(mp_main, "__file__", None) or "")
+    if mp_main is None or os.path.splitext(script)[0] != "mpz":
+        return False
+    return ignore_sigint()
 
 
 ignore_sigint_in_a_worker()

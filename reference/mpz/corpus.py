@@ -980,12 +980,11 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     # the scheduler's HTTP endpoints (no dashboard) on a free local port, not 8787 on
     # every interface
     # Ctrl-C is the driver's: the workers ignore SIGINT from their preload (dask_setup;
-    # the mpz command's own workers from their first import, mpz.tools.mpz_cli). Their
-    # logs are silenced below CRITICAL: a worker's error is this run's failure of a file,
-    # reported with its reason, and shutting down after a Ctrl-C made them log lost
-    # heartbeats.
-    # and a Ctrl-C while the cluster starts waits for it to be up: stopped half-way, it
-    # failed an assertion in Dask's exit hook that closes clusters, with a traceback
+    # the mpz command's own workers from their first import, mpz._worker), and a Ctrl-C
+    # while the cluster starts waits for it to be up (stopped half-way, it failed an
+    # assertion in Dask's exit hook). Worker logs are silenced below CRITICAL: a worker's
+    # error is this run's failure of a file, reported with its reason, and shutting down
+    # after a Ctrl-C made them log lost heartbeats.
     with _sigint_deferred() as pending:
         try:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -1032,8 +1031,8 @@ def dask_setup(worker: object) -> None:
     the worker ignores SIGINT. A Ctrl-C at the terminal reaches every process of the
     group; the driver cancels the tasks and closes the cluster, and each worker printed a
     KeyboardInterrupt traceback of its event loop besides (a QA note of stop 28)."""
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from mpz._worker import ignore_sigint
+    ignore_sigint()
 
 
 def _killed(exc: BaseException) -> bool:
