@@ -985,18 +985,23 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     # assertion in Dask's exit hook). Worker logs are silenced below CRITICAL: a worker's
     # error is this run's failure of a file, reported with its reason, and shutting down
     # after a Ctrl-C made them log lost heartbeats.
-    with _sigint_deferred() as pending:
-        try:
+    pending: list[int] = []
+    try:
+        with _sigint_deferred(pending):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    host="127.0.0.1", memory_limit=memory_limit,
                                    dashboard_address=None, preload=[__name__],
                                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                                    silence_logs=logging.CRITICAL)
-            client = Client(cluster)
-        except Exception:
-            if pending:     # a worker stopped by the same Ctrl-C before it could ignore it
-                raise KeyboardInterrupt from None
-            raise
+            try:
+                client = Client(cluster)
+            except BaseException:
+                cluster.close()
+                raise
+    except Exception:
+        if pending:         # a worker stopped by the same Ctrl-C before it could ignore it
+            raise KeyboardInterrupt from None
+        raise
     try:
         if pending:
             raise KeyboardInterrupt
@@ -1007,23 +1012,72 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
 
 
 @contextlib.contextmanager
-def _sigint_deferred() -> Iterator[list[int]]:
-    """Note a SIGINT instead of raising KeyboardInterrupt for the while (in the main thread,
-    the one Python lets set handlers); the list yielded holds it, for the caller to raise
-    once it can clean up."""
-    pending: list[int] = []
+def _sigint_deferred(pending: list[int]) -> Iterator[None]:
+    """Hold a SIGINT back for the while, in the main thread (the one Python lets set
+    handlers): ``pending`` gets its number once the block ends, for the caller to raise
+    KeyboardInterrupt once it can clean up.
+
+    When this thread is the process's only one, SIGINT is also *ignored* for the while
+    and blocked, so that the worker processes started meanwhile are born ignoring it: the
+    system keeps an ignored disposition across exec, and Python then installs no
+    KeyboardInterrupt handler. Otherwise a Ctrl-C in a worker's first moments, before
+    mpz._worker or the preload could ignore it, ended that worker with its own traceback
+    (on a slow machine that window is longer than 0.3 s; CI of stop 30). The block keeps
+    the signal pending rather than dropped while it is ignored, and it is noted when the
+    block ends. With other threads running, one of them could take the ignored signal and
+    lose it, so there only a handler notes it (the ``mpz`` command holds SIGINT blocked from
+    its first import so that the threads of numpy's imports block it too: mpz._worker).
+    """
     if threading.current_thread() is not threading.main_thread():
-        yield pending
+        yield
         return
 
     def note(signum: int, frame: object) -> None:
         pending.append(signum)
 
+    if hasattr(signal, "pthread_sigmask"):
+        # multiprocessing's resource tracker *unblocks* SIGINT in the thread that starts
+        # it (CPython's resource_tracker.ensure_running), Dask's event loop once the
+        # cluster makes its first queue: started here, it is not started again there
+        from multiprocessing import resource_tracker
+        resource_tracker.ensure_running()
+    if hasattr(signal, "pthread_sigmask") and not _another_thread_takes_sigint():
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            yield
+        finally:
+            # a handler keeps a pending signal; the mask restored delivers it, and
+            # signal.signal runs the handler (it checks signals first) before restoring
+            signal.signal(signal.SIGINT, note)
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+            signal.signal(signal.SIGINT, old)
+        return
     old = signal.signal(signal.SIGINT, note)
     try:
-        yield pending
+        yield
     finally:
         signal.signal(signal.SIGINT, old)
+
+
+def _another_thread_takes_sigint() -> bool:
+    """Whether a thread besides the calling one, native ones included, could be handed a
+    SIGINT: one that does not block it (Linux lists each thread's mask in /proc). Where the
+    system does not tell, True."""
+    me = str(threading.get_native_id())
+    bit = 1 << (signal.SIGINT - 1)
+    try:
+        for tid in os.listdir("/proc/self/task"):
+            if tid == me:
+                continue
+            with open(f"/proc/self/task/{tid}/status", encoding="ascii") as f:
+                status = f.read()
+            blocked = re.search(r"^SigBlk:\s*([0-9a-fA-F]+)", status, re.M)
+            if blocked is None or not int(blocked.group(1), 16) & bit:
+                return True
+    except (OSError, UnicodeDecodeError):      # no /proc, or a thread that has just ended
+        return True
+    return False
 
 
 def dask_setup(worker: object) -> None:
