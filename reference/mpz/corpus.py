@@ -979,12 +979,12 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     # held to one thread in each task, _one_numba_thread)
     # the scheduler's HTTP endpoints (no dashboard) on a free local port, not 8787 on
     # every interface
-    # Ctrl-C is the driver's: the workers ignore SIGINT from their preload (dask_setup;
-    # the mpz command's own workers from their first import, mpz._worker), and a Ctrl-C
-    # while the cluster starts waits for it to be up (stopped half-way, it failed an
-    # assertion in Dask's exit hook). Worker logs are silenced below CRITICAL: a worker's
-    # error is this run's failure of a file, reported with its reason, and shutting down
-    # after a Ctrl-C made them log lost heartbeats.
+    # Ctrl-C is the driver's: the workers ignore SIGINT from birth (_sigint_deferred), or
+    # else from their preload (dask_setup; the mpz command's own workers from their first
+    # import, mpz._worker), and a Ctrl-C while the cluster starts waits for it to be up
+    # (stopped half-way, it failed an assertion in Dask's exit hook). Worker logs are
+    # silenced below CRITICAL: a worker's error is this run's failure of a file, reported
+    # with its reason, and shutting down after a Ctrl-C made them log lost heartbeats.
     pending: list[int] = []
     try:
         with _sigint_deferred(pending):
@@ -1017,16 +1017,17 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     handlers): ``pending`` gets its number once the block ends, for the caller to raise
     KeyboardInterrupt once it can clean up.
 
-    When this thread is the process's only one, SIGINT is also *ignored* for the while
-    and blocked, so that the worker processes started meanwhile are born ignoring it: the
-    system keeps an ignored disposition across exec, and Python then installs no
-    KeyboardInterrupt handler. Otherwise a Ctrl-C in a worker's first moments, before
-    mpz._worker or the preload could ignore it, ended that worker with its own traceback
-    (on a slow machine that window is longer than 0.3 s; CI of stop 30). The block keeps
-    the signal pending rather than dropped while it is ignored, and it is noted when the
-    block ends. With other threads running, one of them could take the ignored signal and
-    lose it, so there only a handler notes it (the ``mpz`` command holds SIGINT blocked from
-    its first import so that the threads of numpy's imports block it too: mpz._worker).
+    When no other thread of the process could be handed SIGINT (each blocks it), it is
+    also *ignored* for the while and blocked, so that the worker processes started
+    meanwhile are born ignoring it: the system keeps an ignored disposition across exec,
+    and Python then installs no KeyboardInterrupt handler. Otherwise a Ctrl-C in a
+    worker's first moments, before mpz._worker or the preload could ignore it, ended that
+    worker with its own traceback (on a slow machine that window is longer than 0.3 s;
+    CI of stop 30). The block keeps the signal pending rather than dropped while it is
+    ignored, and it is noted when the block ends. A thread that does not block SIGINT
+    could take the ignored signal and lose it, so with one only a handler notes it (the
+    ``mpz`` command holds SIGINT blocked from its first import so that the threads of
+    numpy's imports block it too: mpz._worker).
     """
     if threading.current_thread() is not threading.main_thread():
         yield
