@@ -963,12 +963,20 @@ def test_ctrl_c_while_the_workers_start_is_one_clean_line(tmp_path):
     proc = subprocess.Popen([_mpz(), "encode", "-r", str(src), "-o", f"{out}/", "--jobs", "2",
                              "--max-error", "1mm"], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
+    def workers() -> list:
+        """The Dask workers started so far (not multiprocessing's resource tracker, which
+        sets its own disposition once it runs)."""
+        found = []
+        for kid in psutil.Process(proc.pid).children(recursive=True):
+            with contextlib.suppress(psutil.Error):
+                if "spawn_main" in " ".join(kid.cmdline()):
+                    found.append(kid)
+        return found
+
     deadline = time.monotonic() + 120
     kids: list = []
-    while time.monotonic() < deadline and proc.poll() is None:
-        kids = psutil.Process(proc.pid).children(recursive=True)
-        if len(kids) >= 2:                      # the first worker processes, just spawned
-            break
+    while not kids and time.monotonic() < deadline and proc.poll() is None:
+        kids = workers()                        # the first worker, just started
         time.sleep(0.005)
     # no wait: a worker still in Python's own start-up has not imported mpz (CI of stop 30
     # sent it 0.3 s later, and a slow machine's worker printed its traceback); each is
