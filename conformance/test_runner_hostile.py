@@ -218,12 +218,19 @@ def test_a_malformed_manifest_is_a_usage_error(tmp_path, manifest):
 
 
 def test_ctrl_c_stops_at_once(tmp_path):
-    """Ctrl-C waited for the running decoder's timeout, then printed a traceback."""
-    proc = subprocess.Popen([PY, "-m", "mpz.conformance.runner", "--decoder",
-                             f"{PY} -c 'import time; time.sleep(60)'", "--only", ONE,
-                             "--timeout", "50"], stdout=subprocess.PIPE,
+    """Ctrl-C waited for the running decoder's timeout, then printed a traceback. The signal
+    is sent once the decoder runs (a fixed 3 s wait could still be the runner's imports
+    on a slow machine)."""
+    mark = tmp_path / "started"
+    decoder_cmd = (f'{PY} -c "import pathlib, time; pathlib.Path(\'{mark}\').touch(); '
+                   f'time.sleep(60)"')
+    proc = subprocess.Popen([PY, "-m", "mpz.conformance.runner", "--decoder", decoder_cmd,
+                             "--only", ONE, "--timeout", "50"], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    time.sleep(3)
+    deadline = time.monotonic() + 120
+    while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert mark.exists(), proc.communicate(timeout=30)
     t0 = time.monotonic()
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=30)
