@@ -980,17 +980,18 @@ def test_ctrl_c_while_the_workers_start_is_one_clean_line(tmp_path):
         time.sleep(0.005)
     # no wait: a worker still in Python's own start-up has not imported mpz (CI of stop 30
     # sent it 0.3 s later, and a slow machine's worker printed its traceback); each is
-    # born ignoring SIGINT
+    # born with SIGINT blocked, and ignores it once mpz._worker has run
     os.killpg(proc.pid, signal.SIGINT)
-    ignored = []
+    held = []
     for kid in kids:
         with contextlib.suppress(OSError):
             status = Path(f"/proc/{kid.pid}/status").read_text()
-            ignored.append(int(re.search(r"^SigIgn:\s*(\w+)", status, re.M).group(1), 16)
-                           >> (signal.SIGINT - 1) & 1)
+            masks = [int(re.search(rf"^{field}:\s*(\w+)", status, re.M).group(1), 16)
+                     for field in ("SigBlk", "SigIgn")]
+            held.append((masks[0] | masks[1]) >> (signal.SIGINT - 1) & 1)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err          # 2: the driver lost it and encoded all
-    assert ignored and all(ignored), ignored
+    assert held and all(held), held
     assert "Traceback" not in err and "Exception ignored" not in err, err
     assert err.strip().splitlines()[-1].endswith("interrupted"), err
     assert temporaries(out) == []
@@ -1014,41 +1015,21 @@ def test_only_a_child_of_the_mpz_script_ignores_sigint(monkeypatch):
     assert calls == [(signal.SIGINT, signal.SIG_IGN)] * 2
 
 
-def test_only_the_mpz_command_holds_sigint_while_it_imports(monkeypatch):
-    """mpz._worker blocks SIGINT in the mpz command itself (its __main__ is the script, and
-    it is no multiprocessing child), for the helper threads of its imports to block it."""
-    import types
-
-    from mpz import _worker
-    masks = []
-    monkeypatch.setattr(_worker.signal, "pthread_sigmask", lambda *a: masks.append(a))
-    monkeypatch.delitem(sys.modules, "__mp_main__", raising=False)
-    for path, acts in (("/venv/bin/mpz", True), ("/venv/bin/mpzinfo", False),
-                       ("/home/u/train.py", False), (None, False)):
-        fake = types.ModuleType("__main__")
-        fake.__file__ = path
-        monkeypatch.setitem(sys.modules, "__main__", fake)
-        assert _worker.hold_sigint_in_the_command() is acts, path
-    monkeypatch.setitem(sys.modules, "__mp_main__", fake)
-    fake.__file__ = "/venv/bin/mpz"                 # a worker of the command: not held
-    assert _worker.hold_sigint_in_the_command() is False
-    assert masks == [(signal.SIG_BLOCK, {signal.SIGINT})]
-
-
 _DEFERRED = """
 import os, signal, subprocess, sys, threading, time
-signal.pthread_sigmask(signal.SIG_BLOCK, {{signal.SIGINT}})  # as the mpz command does
 from mpz import corpus
-signal.pthread_sigmask(signal.SIG_UNBLOCK, {{signal.SIGINT}})
-if not {block}:                         # a thread that could take SIGINT
+if {other}:                     # a thread that could take SIGINT; else every thread blocks it
     threading.Thread(target=time.sleep, args=(60,), daemon=True).start()
+elif len(os.listdir("/proc/self/task")) > 1:   # numpy's OpenBLAS pool (held to one thread)
+    raise SystemExit("this process runs another thread")
 pending = []
 with corpus._sigint_deferred(pending):
-    child = subprocess.run([sys.executable, "-c", "import signal; "
-                            "print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)"],
+    child = subprocess.run([sys.executable, "-c", "import re, signal; "
+                            "s = open('/proc/self/status').read(); "
+                            "print(int(re.search(r'SigBlk:\\s*(\\w+)', s).group(1), 16) & 2)"],
                            capture_output=True, text=True, check=True)
     os.kill(os.getpid(), signal.SIGINT)
-    signal.pthread_sigmask(signal.SIG_BLOCK, [])        # a system call: delivered, if ever
+    time.sleep(0.2)
     print("went on", flush=True)
 print(child.stdout.strip(), pending == [signal.SIGINT],
       signal.getsignal(signal.SIGINT) is signal.default_int_handler,
@@ -1058,18 +1039,17 @@ print(child.stdout.strip(), pending == [signal.SIGINT],
 
 @pytest.mark.skipif(not hasattr(signal, "pthread_sigmask") or not Path("/proc/self/task").exists(),
                     reason="signal masks and /proc: Linux")
-@pytest.mark.parametrize("block", [True, False])
-def test_sigint_deferred_notes_it_and_starts_children_ignoring_it(block):
-    """While the local cluster starts, a SIGINT is noted, not raised, and the handler and the
-    mask come back after. When no other thread could take the signal (the mpz command
-    holds it blocked in the threads of its imports), it is also ignored, so that the
-    workers started meanwhile are born ignoring it; with another thread able to take it,
-    only the handler notes it."""
-    done = subprocess.run([sys.executable, "-c", _DEFERRED.format(block=block)],
-                          capture_output=True, text=True, timeout=120)
+@pytest.mark.parametrize("other", [True, False])
+def test_sigint_deferred_notes_it_and_starts_children_with_it_blocked(other):
+    """While the local cluster starts, a SIGINT is noted, not raised, and the handler and
+    the mask come back after. The processes started meanwhile are born with SIGINT blocked
+    (a worker's Ctrl-C waits until it ignores it). The signal is noted whether another
+    thread takes it or, with every thread blocking it, it waits for the block to end."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    done = subprocess.run([sys.executable, "-c", _DEFERRED.format(other=other)],
+                          capture_output=True, text=True, timeout=120, env=env)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["went", "on", str(block), "True", "True", "False"], \
-        done.stdout
+    assert done.stdout.split() == ["went", "on", "2", "True", "True", "False"], done.stdout
 
 
 # ------------------------------------------------------------- real recordings --

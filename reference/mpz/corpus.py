@@ -979,12 +979,13 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     # held to one thread in each task, _one_numba_thread)
     # the scheduler's HTTP endpoints (no dashboard) on a free local port, not 8787 on
     # every interface
-    # Ctrl-C is the driver's: the workers ignore SIGINT from birth (_sigint_deferred), or
-    # else from their preload (dask_setup; the mpz command's own workers from their first
-    # import, mpz._worker), and a Ctrl-C while the cluster starts waits for it to be up
-    # (stopped half-way, it failed an assertion in Dask's exit hook). Worker logs are
-    # silenced below CRITICAL: a worker's error is this run's failure of a file, reported
-    # with its reason, and shutting down after a Ctrl-C made them log lost heartbeats.
+    # Ctrl-C is the driver's: the workers are born with SIGINT blocked (_sigint_deferred)
+    # and ignore it from their preload (dask_setup; the mpz command's own workers from
+    # their first import, mpz._worker), and a Ctrl-C while the cluster starts waits for it
+    # to be up (stopped half-way, it failed an assertion in Dask's exit hook). Worker logs
+    # are silenced below CRITICAL: a worker's error is this run's failure of a file,
+    # reported with its reason, and shutting down after a Ctrl-C made them log lost
+    # heartbeats.
     pending: list[int] = []
     try:
         with _sigint_deferred(pending):
@@ -1014,20 +1015,18 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
 @contextlib.contextmanager
 def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     """Hold a SIGINT back for the while, in the main thread (the one Python lets set
-    handlers): ``pending`` gets its number once the block ends, for the caller to raise
-    KeyboardInterrupt once it can clean up.
+    handlers): ``pending`` gets its number, for the caller to raise KeyboardInterrupt once
+    it can clean up.
 
-    When no other thread of the process could be handed SIGINT (each blocks it), it is
-    also *ignored* for the while and blocked, so that the worker processes started
-    meanwhile are born ignoring it: the system keeps an ignored disposition across exec,
-    and Python then installs no KeyboardInterrupt handler. Otherwise a Ctrl-C in a
-    worker's first moments, before mpz._worker or the preload could ignore it, ended that
-    worker with its own traceback (on a slow machine that window is longer than 0.3 s;
-    CI of stop 30). The block keeps the signal pending rather than dropped while it is
-    ignored, and it is noted when the block ends. A thread that does not block SIGINT
-    could take the ignored signal and lose it, so with one only a handler notes it (the
-    ``mpz`` command holds SIGINT blocked from its first import so that the threads of
-    numpy's imports block it too: mpz._worker).
+    The main thread also *blocks* SIGINT for the while. The threads it starts meanwhile
+    inherit the block, and so do the processes they start: Dask's workers are born with
+    SIGINT blocked, so that a Ctrl-C in their start-up stays pending until mpz._worker or
+    the preload ignores it, which discards it. Before, a Ctrl-C in a worker's first
+    moments, before either had run, ended that worker with its own traceback (on a slow
+    machine that window is longer than 0.3 s; CI of stop 30). The driver still hears the
+    Ctrl-C: a thread that does not block SIGINT (numpy's OpenBLAS pool) takes it and
+    Python runs ``note`` in the main thread; if every thread blocks it, it stays pending
+    and is delivered when the block ends.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -1036,49 +1035,26 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     def note(signum: int, frame: object) -> None:
         pending.append(signum)
 
-    if hasattr(signal, "pthread_sigmask"):
-        # multiprocessing's resource tracker *unblocks* SIGINT in the thread that starts
-        # it (CPython's resource_tracker.ensure_running), Dask's event loop once the
-        # cluster makes its first queue: started here, it is not started again there
-        from multiprocessing import resource_tracker
-        resource_tracker.ensure_running()
-    if hasattr(signal, "pthread_sigmask") and not _another_thread_takes_sigint():
-        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    old = signal.signal(signal.SIGINT, note)
+    if not hasattr(signal, "pthread_sigmask"):
         try:
             yield
         finally:
-            # a handler keeps a pending signal; the mask restored delivers it, and
-            # signal.signal runs the handler (it checks signals first) before restoring
-            signal.signal(signal.SIGINT, note)
-            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
             signal.signal(signal.SIGINT, old)
         return
-    old = signal.signal(signal.SIGINT, note)
+    # multiprocessing's resource tracker *unblocks* SIGINT in the thread that starts it
+    # (CPython's resource_tracker.ensure_running), Dask's event loop once the cluster
+    # makes its first queue: started here, before the block, it is not started there
+    from multiprocessing import resource_tracker
+    resource_tracker.ensure_running()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
+        # the mask restored delivers a pending SIGINT to ``note``, which signal.signal
+        # runs (it checks signals first) before putting the old handler back
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         signal.signal(signal.SIGINT, old)
-
-
-def _another_thread_takes_sigint() -> bool:
-    """Whether a thread besides the calling one, native ones included, could be handed a
-    SIGINT: one that does not block it (Linux lists each thread's mask in /proc). Where the
-    system does not tell, True."""
-    me = str(threading.get_native_id())
-    bit = 1 << (signal.SIGINT - 1)
-    try:
-        for tid in os.listdir("/proc/self/task"):
-            if tid == me:
-                continue
-            with open(f"/proc/self/task/{tid}/status", encoding="ascii") as f:
-                status = f.read()
-            blocked = re.search(r"^SigBlk:\s*([0-9a-fA-F]+)", status, re.M)
-            if blocked is None or not int(blocked.group(1), 16) & bit:
-                return True
-    except (OSError, UnicodeDecodeError):      # no /proc, or a thread that has just ended
-        return True
-    return False
 
 
 def dask_setup(worker: object) -> None:

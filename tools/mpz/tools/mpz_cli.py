@@ -16,7 +16,6 @@ import argparse
 import importlib
 import sys
 
-from mpz._worker import release_sigint
 from mpz.errors import MPZError
 from mpz.tools._cli import (
     EXIT_CODES_HELP,
@@ -59,7 +58,6 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        release_sigint()        # held since the first import (mpz._worker)
         return int(args.func(args))
     except MPZError as exc:
         print(f"mpz {args.command}: error: {printable(str(exc))}", file=sys.stderr)
