@@ -1035,8 +1035,8 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     def note(signum: int, frame: object) -> None:
         pending.append(signum)
 
-    old = signal.signal(signal.SIGINT, note)
     if not hasattr(signal, "pthread_sigmask"):
+        old = signal.signal(signal.SIGINT, note)
         try:
             yield
         finally:
@@ -1047,6 +1047,7 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     # makes its first queue: started here, before the block, it is not started there
     from multiprocessing import resource_tracker
     resource_tracker.ensure_running()
+    old = signal.signal(signal.SIGINT, note)
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
