@@ -1015,6 +1015,28 @@ def test_only_a_child_of_the_mpz_script_ignores_sigint(monkeypatch):
     assert calls == [(signal.SIGINT, signal.SIG_IGN)] * 2
 
 
+def test_only_the_commands_hold_sigint_while_they_import(monkeypatch):
+    """mpz._worker blocks SIGINT in the mpz and mpz-conformance commands themselves (their
+    __main__ is the script, and they are no multiprocessing child) until their main."""
+    import types
+
+    from mpz import _worker
+    masks = []
+    monkeypatch.setattr(_worker.signal, "pthread_sigmask", lambda *a: masks.append(a))
+    monkeypatch.delitem(sys.modules, "__mp_main__", raising=False)
+    for path, acts in (("/venv/bin/mpz", True), ("/venv/bin/mpz-conformance", True),
+                       ("/venv/bin/mpzinfo", False), ("/home/u/train.py", False),
+                       (None, False)):
+        fake = types.ModuleType("__main__")
+        fake.__file__ = path
+        monkeypatch.setitem(sys.modules, "__main__", fake)
+        assert _worker.hold_sigint_in_a_command() is acts, path
+    monkeypatch.setitem(sys.modules, "__mp_main__", fake)
+    fake.__file__ = "/venv/bin/mpz"                 # a worker of the command: not held
+    assert _worker.hold_sigint_in_a_command() is False
+    assert masks == [(signal.SIG_BLOCK, {signal.SIGINT})] * 2
+
+
 _DEFERRED = """
 import os, signal, subprocess, sys, threading, time
 from mpz import corpus

@@ -8,6 +8,12 @@ printed a KeyboardInterrupt traceback, while the command itself cancels the task
 closes the cluster (docs/corpus.md). :func:`mpz.corpus.dask_setup` does the same for the
 workers of other drivers once they run. Only a multiprocessing child of the ``mpz``
 script is touched.
+
+In the ``mpz`` and ``mpz-conformance`` commands themselves, SIGINT is *blocked* in the
+main thread from this first import until the command's ``main`` starts
+(:func:`release_sigint`). A Ctrl-C in the second or so of imports (numpy, numba, Dask)
+printed a KeyboardInterrupt traceback and ended the command by the signal; held, it is
+delivered inside ``main``, which says "interrupted" and exits 130 as at any other time.
 """
 from __future__ import annotations
 
@@ -36,4 +42,31 @@ def ignore_sigint_in_a_worker() -> bool:
     return ignore_sigint()
 
 
-ignore_sigint_in_a_worker()
+#: the console scripts whose ``main`` reports a Ctrl-C as "interrupted", exit 130, and
+#: calls :func:`release_sigint` first
+COMMANDS = frozenset({"mpz", "mpz-conformance"})
+
+
+def hold_sigint_in_a_command() -> bool:
+    """Block SIGINT in the main thread when this process runs one of :data:`COMMANDS`
+    itself (not a multiprocessing child of it), until its ``main`` releases it; True if it
+    did."""
+    main = sys.modules.get("__main__")
+    script = os.path.splitext(os.path.basename(getattr(main, "__file__", None) or ""))[0]
+    if script not in COMMANDS or "__mp_main__" in sys.modules \
+            or threading.current_thread() is not threading.main_thread() \
+            or not hasattr(signal, "pthread_sigmask"):
+        return False
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    return True
+
+
+def release_sigint() -> None:
+    """Unblock SIGINT in the calling thread: a Ctrl-C held since the first import is
+    delivered now, as KeyboardInterrupt where the command reports it."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+if not ignore_sigint_in_a_worker():
+    hold_sigint_in_a_command()

@@ -52,6 +52,7 @@ try:
 except ImportError:          # not POSIX: no memory limit
     resource = None  # type: ignore[assignment]
 
+from mpz._worker import release_sigint
 from mpz.conformance import manifest as mf
 from mpz.errors import MPZError
 from mpz.tools._cli import EXIT_FAILED as EXIT_FAIL
@@ -682,11 +683,15 @@ def _command(text: str) -> list:
 
 @quiet_broken_pipe
 def main(argv: list[str] | None = None) -> int:
-    parser = _parser()
     try:
+        release_sigint()            # held since the first import (mpz._worker)
+        parser = _parser()
         args = parser.parse_args(argv)
     except SystemExit as exc:          # 0 for --help and --version, 64 for usage errors
         return int(exc.code or 0)
+    except KeyboardInterrupt:
+        print("mpz-conformance: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     from mpz.api import check_output, write_atomic
     try:
         if not (math.isfinite(args.timeout) and args.timeout > 0) or args.jobs < 1 \

@@ -16,6 +16,7 @@ import argparse
 import importlib
 import sys
 
+from mpz._worker import release_sigint
 from mpz.errors import MPZError
 from mpz.tools._cli import (
     EXIT_CODES_HELP,
@@ -55,8 +56,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 @quiet_broken_pipe
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        release_sigint()            # held since the first import (mpz._worker)
+        parser = build_parser()
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     try:
         return int(args.func(args))
     except MPZError as exc:
