@@ -628,7 +628,8 @@ def _sigint_blocked(pid: int) -> bool:
 @pytest.mark.parametrize("argv", [
     ["mpz", "encode", "-", "-o", "never.mpz"],          # then waits for standard input
     ["mpz-conformance", "--decoder", "sleep 60", "--only", "v01"],
-], ids=["mpz", "mpz-conformance"])
+    ["mpzinfo", "-"],
+], ids=["mpz", "mpz-conformance", "mpzinfo"])
 def test_ctrl_c_while_the_command_imports_is_one_line(argv: list[str], tmp_path: Path) -> None:
     """A Ctrl-C in the first second, while Python imports numpy, numba and Dask, printed a
     KeyboardInterrupt traceback and the command died by the signal (QA of stop 31, on the
@@ -651,7 +652,7 @@ def test_ctrl_c_while_the_command_imports_is_one_line(argv: list[str], tmp_path:
     assert held, "the command never blocked SIGINT while it imported"
     assert proc.returncode == 130, err
     assert err.decode().strip().splitlines() == [
-        "interrupted" if argv[0] == "mpz" else "mpz-conformance: interrupted"], err
+        "interrupted" if argv[0] == "mpz" else f"{argv[0]}: interrupted"], err
 
 
 def test_no_compile_notice_when_the_shipped_kernels_serve(inputs: dict[str, Path],

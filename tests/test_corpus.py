@@ -1016,7 +1016,7 @@ def test_only_a_child_of_the_mpz_script_ignores_sigint(monkeypatch):
 
 
 def test_only_the_commands_hold_sigint_while_they_import(monkeypatch):
-    """mpz._worker blocks SIGINT in the mpz and mpz-conformance commands themselves (their
+    """mpz._worker blocks SIGINT in the mpz, mpzinfo and mpz-conformance commands (their
     __main__ is the script, and they are no multiprocessing child) until their main."""
     import types
 
@@ -1025,8 +1025,8 @@ def test_only_the_commands_hold_sigint_while_they_import(monkeypatch):
     monkeypatch.setattr(_worker.signal, "pthread_sigmask", lambda *a: masks.append(a))
     monkeypatch.delitem(sys.modules, "__mp_main__", raising=False)
     for path, acts in (("/venv/bin/mpz", True), ("/venv/bin/mpz-conformance", True),
-                       ("/venv/bin/mpzinfo", False), ("/home/u/train.py", False),
-                       (None, False)):
+                       ("/venv/bin/mpzinfo", True), ("/venv/bin/spec_example", False),
+                       ("/home/u/train.py", False), (None, False)):
         fake = types.ModuleType("__main__")
         fake.__file__ = path
         monkeypatch.setitem(sys.modules, "__main__", fake)
@@ -1034,7 +1034,7 @@ def test_only_the_commands_hold_sigint_while_they_import(monkeypatch):
     monkeypatch.setitem(sys.modules, "__mp_main__", fake)
     fake.__file__ = "/venv/bin/mpz"                 # a worker of the command: not held
     assert _worker.hold_sigint_in_a_command() is False
-    assert masks == [(signal.SIG_BLOCK, {signal.SIGINT})] * 2
+    assert masks == [(signal.SIG_BLOCK, {signal.SIGINT})] * 3
 
 
 _DEFERRED = """

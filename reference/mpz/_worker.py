@@ -9,7 +9,7 @@ closes the cluster (docs/corpus.md). :func:`mpz.corpus.dask_setup` does the same
 workers of other drivers once they run. Only a multiprocessing child of the ``mpz``
 script is touched.
 
-In the ``mpz`` and ``mpz-conformance`` commands themselves, SIGINT is *blocked* in the
+In the ``mpz``, ``mpzinfo`` and ``mpz-conformance`` commands themselves, SIGINT is *blocked* in the
 main thread from this first import until the command's ``main`` starts
 (:func:`release_sigint`). A Ctrl-C in the second or so of imports (numpy, numba, Dask)
 printed a KeyboardInterrupt traceback and ended the command by the signal; held, it is
@@ -44,7 +44,7 @@ def ignore_sigint_in_a_worker() -> bool:
 
 #: the console scripts whose ``main`` reports a Ctrl-C as "interrupted", exit 130, and
 #: calls :func:`release_sigint` first
-COMMANDS = frozenset({"mpz", "mpz-conformance"})
+COMMANDS = frozenset({"mpz", "mpzinfo", "mpz-conformance"})
 
 
 def hold_sigint_in_a_command() -> bool:

@@ -13,7 +13,7 @@ code  meaning
 3     out of memory: the input may well be valid, this machine could not
       hold what it needs (spec §8, "Allocation failure"); not a verdict
 64    usage error: bad options or arguments (argparse's errors included)
-130   interrupted with Ctrl-C (``mpz``, ``mpz-conformance``)
+130   interrupted with Ctrl-C ("interrupted", no traceback, from the first import)
 143   terminated (SIGTERM) while writing an output
 ====  ===================================================================
 
