@@ -138,12 +138,24 @@ def test_what_the_decoder_prints_on_stdout_is_kept(tmp_path):
 
 def test_a_child_left_running_is_killed_and_costs_no_wait(tmp_path):
     """A decoder that leaves `sleep 30` behind (holding its stderr) cost 5 s a vector and
-    the sleep outlived the runner."""
+    the sleep outlived the runner. The decoder copies the reference decoder's output, made
+    beforehand, so that its own time is tens of milliseconds and 4 s tells the wait apart
+    on a loaded machine (running the reference decoder inside took 4.5 s on one: CI)."""
+    from mpz.conformance import manifest as mf
+    ref = tmp_path / "ref.npy"
+    made = subprocess.run([PY, "-m", "mpz.conformance.refdecoder",
+                           str(Path(mf.DEFAULT_DIR) / f"{ONE}.mpz"), str(ref)],
+                          capture_output=True, text=True, timeout=300)
+    assert made.returncode == 0 and Path(f"{ref}.json").exists(), made.stderr
     mark = tmp_path / "child.pid"
-    dec = decoder(tmp_path, f'''
-        p = subprocess.Popen(["sleep", "30"])
-        open({str(mark)!r}, "w").write(str(p.pid))
-        ''')
+    dec = python_script(tmp_path / "dec.py", f"""
+import shutil, subprocess
+OUT = sys.argv[-1]
+shutil.copyfile({str(ref)!r}, OUT)
+shutil.copyfile({str(ref)!r} + ".json", OUT + ".json")
+p = subprocess.Popen(["sleep", "30"])
+open({str(mark)!r}, "w").write(str(p.pid))
+""")
     t0 = time.monotonic()
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
     assert doc["results"][0]["passed"] and doc["results"][0]["seconds"] < 4
