@@ -9,11 +9,12 @@ closes the cluster (docs/corpus.md). :func:`mpz.corpus.dask_setup` does the same
 workers of other drivers once they run. Only a multiprocessing child of the ``mpz``
 script is touched.
 
-In the ``mpz``, ``mpzinfo`` and ``mpz-conformance`` commands themselves, SIGINT is *blocked* in the
-main thread from this first import until the command's ``main`` starts
-(:func:`release_sigint`). A Ctrl-C in the second or so of imports (numpy, numba, Dask)
-printed a KeyboardInterrupt traceback and ended the command by the signal; held, it is
-delivered inside ``main``, which says "interrupted" and exits 130 as at any other time.
+In the ``mpz``, ``mpzinfo`` and ``mpz-conformance`` commands themselves, SIGINT is
+*blocked* in the main thread from this first import until the command's ``main`` starts
+(:func:`release_sigint`, called by ``mpz.tools._cli.reports_ctrl_c``). A Ctrl-C in the
+second or so of imports (numpy, numba, Dask) printed a KeyboardInterrupt traceback and
+ended the command by the signal; held, it is delivered inside ``main``, which says
+"interrupted" and exits 130 as at any other time.
 """
 from __future__ import annotations
 
@@ -32,14 +33,18 @@ def ignore_sigint() -> bool:
     return True
 
 
+def _script(module: str) -> str | None:
+    """The name, without folder or extension, of the script run as ``module``
+    (``__main__``, or ``__mp_main__`` in a multiprocessing child); None if there is none."""
+    mod = sys.modules.get(module)
+    path = getattr(mod, "__file__", None)
+    return os.path.splitext(os.path.basename(path))[0] if mod is not None and path else None
+
+
 def ignore_sigint_in_a_worker() -> bool:
     """:func:`ignore_sigint` if this process is a multiprocessing child of the ``mpz``
     script; True if it did."""
-    mp_main = sys.modules.get("__mp_main__")
-    script = os.path.basename(getattr(mp_main, "__file__", None) or "")
-    if mp_main is None or os.path.splitext(script)[0] != "mpz":
-        return False
-    return ignore_sigint()
+    return _script("__mp_main__") == "mpz" and ignore_sigint()
 
 
 #: the console scripts whose ``main`` reports a Ctrl-C as "interrupted", exit 130, and
@@ -51,9 +56,7 @@ def hold_sigint_in_a_command() -> bool:
     """Block SIGINT in the main thread when this process runs one of :data:`COMMANDS`
     itself (not a multiprocessing child of it), until its ``main`` releases it; True if it
     did."""
-    main = sys.modules.get("__main__")
-    script = os.path.splitext(os.path.basename(getattr(main, "__file__", None) or ""))[0]
-    if script not in COMMANDS or "__mp_main__" in sys.modules \
+    if _script("__main__") not in COMMANDS or "__mp_main__" in sys.modules \
             or threading.current_thread() is not threading.main_thread() \
             or not hasattr(signal, "pthread_sigmask"):
         return False

@@ -1035,26 +1035,22 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     def note(signum: int, frame: object) -> None:
         pending.append(signum)
 
-    if not hasattr(signal, "pthread_sigmask"):
-        old = signal.signal(signal.SIGINT, note)
-        try:
-            yield
-        finally:
-            signal.signal(signal.SIGINT, old)
-        return
-    # multiprocessing's resource tracker *unblocks* SIGINT in the thread that starts it
-    # (CPython's resource_tracker.ensure_running), Dask's event loop once the cluster
-    # makes its first queue: started here, before the block, it is not started there
-    from multiprocessing import resource_tracker
-    resource_tracker.ensure_running()
+    masks = hasattr(signal, "pthread_sigmask")           # not on Windows: the handler only
+    if masks:
+        # multiprocessing's resource tracker *unblocks* SIGINT in the thread that starts it
+        # (CPython's resource_tracker.ensure_running), Dask's event loop once the cluster
+        # makes its first queue: started here, before the block, it is not started there
+        from multiprocessing import resource_tracker
+        resource_tracker.ensure_running()
     old = signal.signal(signal.SIGINT, note)
-    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if masks else None
     try:
         yield
     finally:
         # the mask restored delivers a pending SIGINT to ``note``, which signal.signal
         # runs (it checks signals first) before putting the old handler back
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        if mask is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         signal.signal(signal.SIGINT, old)
 
 

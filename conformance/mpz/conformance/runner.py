@@ -52,7 +52,6 @@ try:
 except ImportError:          # not POSIX: no memory limit
     resource = None  # type: ignore[assignment]
 
-from mpz._worker import release_sigint
 from mpz.conformance import manifest as mf
 from mpz.errors import MPZError
 from mpz.tools._cli import EXIT_FAILED as EXIT_FAIL
@@ -63,6 +62,7 @@ from mpz.tools._cli import (
     Parser,
     printable,
     quiet_broken_pipe,
+    reports_ctrl_c,
 )
 
 RESULTS_SCHEMA_VERSION = 2          # 2: sidecar, contract, peak_rss_mb, actual 'memory'
@@ -682,16 +682,13 @@ def _command(text: str) -> list:
 
 
 @quiet_broken_pipe
+@reports_ctrl_c("mpz-conformance: interrupted")
 def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
     try:
-        release_sigint()            # held since the first import (mpz._worker)
-        parser = _parser()
         args = parser.parse_args(argv)
     except SystemExit as exc:          # 0 for --help and --version, 64 for usage errors
         return int(exc.code or 0)
-    except KeyboardInterrupt:
-        print("mpz-conformance: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
     from mpz.api import check_output, write_atomic
     try:
         if not (math.isfinite(args.timeout) and args.timeout > 0) or args.jobs < 1 \

@@ -39,6 +39,8 @@ import os
 import sys
 from typing import IO, Any, NoReturn, ParamSpec
 
+from mpz._worker import release_sigint
+
 EXIT_OK = 0
 EXIT_WARN = 1
 EXIT_ERROR = 2
@@ -242,6 +244,28 @@ def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
         return code
 
     return wrapper
+
+
+# -- Ctrl-C --------------------------------------------------------------------------------
+
+def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, int]]:
+    """Decorate a command's ``main``: SIGINT, held since the command's first import of mpz
+    (:mod:`mpz._worker`), is released first, and a Ctrl-C anywhere in ``main`` (a held one
+    included) prints ``message`` and exits :data:`EXIT_INTERRUPTED`, without a traceback."""
+
+    def decorate(main: Callable[_P, int]) -> Callable[_P, int]:
+        @functools.wraps(main)
+        def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> int:
+            try:
+                release_sigint()
+                return main(*args, **kwargs)
+            except KeyboardInterrupt:
+                print(message, file=sys.stderr)
+                return EXIT_INTERRUPTED
+
+        return wrapper
+
+    return decorate
 
 
 def count(text: str) -> int:

@@ -16,17 +16,16 @@ import argparse
 import importlib
 import sys
 
-from mpz._worker import release_sigint
 from mpz.errors import MPZError
 from mpz.tools._cli import (
     EXIT_CODES_HELP,
     EXIT_ERROR,
-    EXIT_INTERRUPTED,
     EXIT_MEMORY,
     Parser,
     memory_message,
     printable,
     quiet_broken_pipe,
+    reports_ctrl_c,
 )
 
 #: subcommand name -> module implementing it
@@ -55,14 +54,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 @quiet_broken_pipe
+@reports_ctrl_c("interrupted")
 def main(argv: list[str] | None = None) -> int:
-    try:
-        release_sigint()            # held since the first import (mpz._worker)
-        parser = build_parser()
-        args = parser.parse_args(argv)
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    parser = build_parser()
+    args = parser.parse_args(argv)
     try:
         return int(args.func(args))
     except MPZError as exc:
@@ -71,9 +66,6 @@ def main(argv: list[str] | None = None) -> int:
     except MemoryError as exc:      # a resource error, not a verdict on the input (spec §8)
         print(f"mpz {args.command}: {memory_message(exc)}", file=sys.stderr)
         return EXIT_MEMORY
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -26,7 +26,6 @@ import json
 import sys
 from typing import Any
 
-from mpz._worker import release_sigint
 from mpz.chunks import Mhdr, Patt, Segs, Smrc, Smry
 from mpz.container import scan
 from mpz.decoder import decode_layers, read_stream
@@ -35,7 +34,6 @@ from mpz.format import MAX_SAMPLES, UNIT_NAMES, Units
 from mpz.tools._cli import (
     EXIT_CODES_HELP,
     EXIT_ERROR,
-    EXIT_INTERRUPTED,
     EXIT_MEMORY,
     EXIT_OK,
     EXIT_WARN,
@@ -47,6 +45,7 @@ from mpz.tools._cli import (
     print_json,
     printable,
     quiet_broken_pipe,
+    reports_ctrl_c,
 )
 
 SCHEMA = "mpzinfo/1"
@@ -196,13 +195,9 @@ def _unreadable(name: str, cls: str, message: str, section: str | None) -> dict:
 
 
 @quiet_broken_pipe
+@reports_ctrl_c("mpzinfo: interrupted")
 def main(argv: list[str] | None = None) -> int:
-    try:
-        release_sigint()            # held since the first import (mpz._worker)
-        return _main(argv)
-    except KeyboardInterrupt:
-        print("mpzinfo: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    return _main(argv)
 
 
 def _main(argv: list[str] | None = None) -> int:
