@@ -335,3 +335,123 @@ def test_compiled_builder_agrees_with_construct_on_any_values(nodes, entries, na
                 _build.build(grammar, obj)
         else:
             assert _build.fast_path(grammar, obj) == want
+
+
+# ---- the compiled parser (mpz.chunks._parse, issue 15.1): construct's fields, faster ----
+def _tree(v):
+    """A parse result as plain values to compare: records as dicts without construct's and
+    the fast path's private keys (``_io``, ``_``), arrays as lists, floats as their bits."""
+    if isinstance(v, dict):
+        return {k: _tree(x) for k, x in v.items() if not k.startswith("_")}
+    if isinstance(v, (list, tuple)):
+        return [_tree(x) for x in v]
+    if isinstance(v, float):
+        return ("float", struct.pack("<d", v))
+    return v
+
+
+def _agree(grammar, payload, where):
+    """The fast path gives construct's fields, or gives up exactly where construct raises;
+    and parse() gives construct's fields or construct's own error. Returns whether the
+    payload parsed."""
+    from mpz.chunks import _parse
+    try:
+        want = grammar.parse(payload)
+    except Exception as exc:
+        assert _parse.fast_path(grammar, payload) is None, where
+        with pytest.raises(type(exc)) as got:
+            _parse.parse(grammar, payload)
+        assert str(got.value) == str(exc), where
+        return False
+    got = _parse.fast_path(grammar, payload)
+    assert got is not None, (where, "the fast path gave up on a payload construct parses")
+    assert _tree(got) == _tree(want), where
+    return True
+
+
+def test_compiled_parser_gives_the_table_fields():
+    """The values of CASES and CONTENT_CASES (written independently of the parser) from
+    their struct-written bytes, by the fast path itself (not by falling back)."""
+    from mpz.chunks import _parse
+    for _, ctype, obj, data in CASES:
+        got = _parse.fast_path(CHUNKS[ctype].GRAMMAR, data)
+        assert got is not None and _tree(got) == _tree(obj), ctype
+    for grammar, obj, data in CONTENT_CASES:
+        got = _parse.fast_path(grammar, data)
+        assert got is not None and _tree(got) == _tree(obj)
+    # the chunk frame and its CRC, which container.scan parses per chunk
+    hdr = _parse.fast_path(g.ChunkHeader, b"MNAM" + struct.pack("<I", 70000))
+    assert (hdr.type, hdr.length) == (b"MNAM", 70000)
+    assert _parse.fast_path(g.ChunkCRC, struct.pack("<I", 0xDEADBEEF)) == 0xDEADBEEF
+
+
+def _payloads_of_vectors():
+    """(vector, grammar, payload) of every framed chunk of the table in every shipped
+    vector, the invalid ones included, and the content of each chdr and cprm that loads."""
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    out = []
+    for path in sorted(root.rglob("*.mpz")):
+        for c in container.scan(path.read_bytes()).chunks:
+            if c.type not in CHUNKS:
+                continue
+            out.append((path.name, CHUNKS[c.type].GRAMMAR if c.type not in ("chdr", "cprm")
+                        else {"chdr": g.CHDR, "cprm": g.CPRM}[c.type], c.payload))
+            if c.type == "cprm" and c.record is not None:
+                out.append((path.name, g.CPRM_SECTION, c.record.content()))
+            elif c.type == "chdr" and c.record is not None:
+                out.append((path.name, g.CHDR_BLOCK, c.record.block))
+    return out
+
+
+def test_compiled_parser_matches_construct_on_every_chunk_of_every_vector():
+    """Every payload of the vectors, valid or not: the same fields, or the same error."""
+    payloads = _payloads_of_vectors()
+    assert len(payloads) > 1000
+    parsed = sum(_agree(grammar, payload, name) for name, grammar, payload in payloads)
+    refused = len(payloads) - parsed
+    assert parsed > 1000 and refused > 0, (parsed, refused)   # both paths were taken
+
+
+@pytest.fixture(scope="module")
+def vector_payloads():
+    payloads = [(gr, p) for _, gr, p in _payloads_of_vectors()]
+    # the payloads that parse, one of each (grammar, length) kind, to mutate below
+    seen, out = set(), []
+    for gr, p in payloads:
+        key = (id(gr), len(p) // 64)
+        if key not in seen:
+            seen.add(key)
+            out.append((gr, p))
+    return out
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_compiled_parser_agrees_with_construct_on_mutated_payloads(vector_payloads, data):
+    """A vector's payload with bytes changed, cut or added (counts and lengths that do not
+    fit what follows, text that is not UTF-8, trailing bytes): construct's fields or its
+    error, never anything else."""
+    grammar, payload = data.draw(st.sampled_from(vector_payloads))
+    buf = bytearray(payload)
+    for _ in range(data.draw(st.integers(1, 4))):
+        kind = data.draw(st.sampled_from(["set", "cut", "add"]))
+        if kind == "set" and buf:
+            buf[data.draw(st.integers(0, len(buf) - 1))] = data.draw(st.integers(0, 255))
+        elif kind == "cut" and buf:
+            del buf[data.draw(st.integers(0, len(buf) - 1)):]
+        else:
+            buf += data.draw(st.binary(min_size=1, max_size=8))
+    _agree(grammar, bytes(buf), grammar)
+
+
+def test_compiled_parser_leaves_what_it_does_not_compile_to_construct():
+    """A class outside the grammar's set, or a parsed hook: construct parses."""
+    from mpz.chunks import _parse
+    seen = []
+    hooked = construct.Struct("a" / construct.Int8ul * (lambda obj, ctx: seen.append(obj)))
+    greedy = construct.Struct("xs" / construct.GreedyRange(construct.Int8ul))
+    for grammar in (hooked, greedy):
+        assert _parse.fast_path(grammar, b"\x05") is None
+        assert _tree(_parse.parse(grammar, b"\x05")) == _tree(grammar.parse(b"\x05"))
+    assert seen == [5, 5]               # the hook ran, once per construct parse

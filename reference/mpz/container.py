@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 import zlib
 
-from mpz.chunks import CHUNKS, Record, _build
+from mpz.chunks import CHUNKS, Record, _build, _parse
 from mpz.errors import ChecksumError, FormatError, LimitExceededError, MPZError
 from mpz.format import MAX_CHUNK_LENGTH
 from mpz.spec.grammar import SIGNATURE, ChunkCRC, ChunkHeader
@@ -110,7 +110,7 @@ def scan(data: bytes) -> Scan:
                 f"truncated chunk frame: {left} byte(s) left, a chunk needs 12",
                 offset=pos, section="§3.2"))
             return res
-        hdr = ChunkHeader.parse(data[pos: pos + 8])
+        hdr = _parse.parse(ChunkHeader, data[pos: pos + 8])
         ctype, length = hdr.type, hdr.length
         tname = ctype.decode("latin-1")
         if not all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype):
@@ -129,7 +129,7 @@ def scan(data: bytes) -> Scan:
                 offset=pos, chunk=tname, section="§3.2"))
             return res
         payload = data[pos + 8: pos + 8 + length]
-        stored = ChunkCRC.parse(data[pos + 8 + length: pos + 12 + length])
+        stored = _parse.parse(ChunkCRC, data[pos + 8 + length: pos + 12 + length])
         chunk = Chunk(tname, None, payload, pos, stored, crc32(ctype, payload))
         res.chunks.append(chunk)
         if not chunk.crc_ok:
@@ -188,7 +188,7 @@ def chunk_sizes(data: bytes) -> dict[str, int]:
     sizes: dict[str, int] = {}
     pos = len(SIGNATURE)
     while pos + 12 <= len(data):
-        hdr = ChunkHeader.parse(data[pos: pos + 8])
+        hdr = _parse.parse(ChunkHeader, data[pos: pos + 8])
         t = hdr.type.decode("latin-1")
         sizes[t] = sizes.get(t, 0) + 12 + hdr.length
         pos += 12 + hdr.length

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
 
 import construct
 
-from mpz.chunks import _build
+from mpz.chunks import _build, _parse
 from mpz.errors import FormatError, MPZError
 
 if TYPE_CHECKING:   # the Context names core records; core imports this module
@@ -103,13 +103,14 @@ class Record:
 
     @classmethod
     def from_parsed(cls: type[R], c: Any) -> R:
-        """The record of a construct parse result."""
+        """The record of a parse result (construct's, or :mod:`._parse`'s dicts and lists)."""
         values: dict[str, object] = {}
-        for f in fields(cls):
-            v = c[f.name]
-            nested = cls.NESTED.get(f.name)
-            values[f.name] = (tuple(nested.from_parsed(x) for x in v) if nested is not None
-                              else _plain(v))
+        nested_of = cls.NESTED
+        for name in _field_names(cls):
+            v = c[name]
+            nested = nested_of.get(name)
+            values[name] = (tuple(nested.from_parsed(x) for x in v) if nested is not None
+                            else _plain(v))
         return cls(**values)
 
     def to_build(self) -> dict[str, object]:
@@ -129,7 +130,7 @@ class Record:
     def load(cls: type[R], payload: bytes) -> R:
         """Parse a payload. Raises FormatError (§4) for bytes that do not fit the layout."""
         try:
-            parsed = cls.GRAMMAR.parse(payload)
+            parsed = _parse.parse(cls.GRAMMAR, payload)
         except (construct.ConstructError, UnicodeDecodeError, ValueError, OverflowError) as exc:
             # construct reports layout problems with these; translated here, at the one
             # boundary between the grammar and the rest of the decoder

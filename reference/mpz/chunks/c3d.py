@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.c3dcodec import FLOAT32, INT16, MODEL_LIMIT, decode_channel
+from mpz.chunks import _parse
 from mpz.chunks.base import JSON, Context, Record, kept
 from mpz.chunks.base import fail as _fail
 from mpz.entropy import BlockDecoder
@@ -192,7 +193,7 @@ class Chdr(Record):
             raise FormatError(f"malformed chdr payload: {len(payload)} bytes, shorter than "
                               f"its processor and coding bytes", chunk=cls.TYPE,
                               section="§4.13.1")
-        outer = grammar.CHDR.parse(payload)
+        outer = _parse.parse(grammar.CHDR, payload)
         content = _content(cls, outer.coding, outer.body, 512)
         block = _ChdrBlock.load(content).block
         return cls(processor=outer.processor, block=block, coding=outer.coding)
@@ -312,7 +313,7 @@ class Cprm(Record):
         if not payload:
             raise FormatError("malformed cprm payload: empty, no coding byte",
                               chunk=cls.TYPE, section="§4.13.2")
-        outer = grammar.CPRM.parse(payload)
+        outer = _parse.parse(grammar.CPRM, payload)
         content = _content(cls, outer.coding, outer.body, MAX_C3D_PARAMETER_BYTES)
         sec = _CprmSection.load(content)
         return cls(count=sec.count, records=sec.records, coding=outer.coding)

@@ -11,8 +11,10 @@ which raises :mod:`mpz.errors` exceptions carrying the byte offset and chunk typ
 construct pitfalls avoided on purpose: no ``GreedyRange`` for the chunk list (it
 silently drops a corrupt last chunk), ``Terminated`` ends every payload (trailing
 bytes are an error), no ``.compile()`` (compiled parsers lose error paths on untrusted
-input), and no ``Switch`` (an unknown key would parse as nothing): the chunk table
-names each layout, and a type missing from it is handled by §2.3 in Python.
+input; the reference's fast paths, ``mpz.chunks._build`` and ``mpz.chunks._parse``, walk
+these same objects and leave every error to construct), and no ``Switch`` (an unknown
+key would parse as nothing): the chunk table names each layout, and a type missing from
+it is handled by §2.3 in Python.
 """
 from typing import Any
 

@@ -1,0 +1,230 @@
+"""Payload parsing from the grammar, without construct's per-field cost (issue 15.1).
+
+construct parses a payload field by field through several Python calls each, with a
+``BytesIO`` read and a ``Container`` per record: the asfs chunk of a CMU skeleton took
+5.5 ms, a third of its file's decode, and MNAM about 1 ms. :func:`parse` walks the same
+grammar objects (spec/mpz/spec/grammar.py stays the one description of every layout),
+turned once into plain closures by :func:`_compile`, which follow construct 2.10's
+``_parse`` of each class step for step: the same bytes reach the same ``struct``
+formats, adapters and count expressions, in the same order. This is the parse-side twin
+of :mod:`._build`.
+
+The grammar's rule "no ``.compile()``: compiled parsers lose error paths on untrusted
+input" still holds, because the fast path never reports an error. It reads only what it
+has checked is there (every read is bounded by the end of its stream before it is made,
+so a count read from the payload cannot make it allocate more than the payload holds),
+and at the first thing it does not take as it is (too few bytes, trailing bytes before a
+``Terminated``, an adapter or a decoding that raises, a construct class or hook it does
+not compile) it gives up, and construct parses the payload instead: the result, record
+or error, is then construct's. tests/test_grammar.py checks that both give the same
+record for every chunk of every conformance vector (the invalid ones included) and of
+mutated payloads.
+
+Only the classes the grammar uses are compiled (``Struct``, ``Renamed``, ``FormatField``,
+``Array``, ``Bytes``, ``GreedyBytes``, ``Prefixed``, ``IfThenElse``, ``Pass``,
+``Terminated`` and any ``Adapter``, ``StringEncoded`` included); a grammar holding
+another class, or a field with a ``parsed`` hook, is parsed by construct.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+import functools
+import struct
+from typing import Any
+
+import construct
+
+from mpz.chunks._build import _Context, _format, _Unsupported
+
+__all__ = ["parse", "fast_path"]
+
+#: a compiled parser: ``(data, pos, end, ctx) -> (value, new pos)``, reading ``data``
+#: from ``pos`` up to at most ``end`` (the end of the stream construct would read from)
+_Parser = Callable[[bytes, int, int, Any], tuple[Any, int]]
+
+
+class _GiveUp(Exception):
+    """Bytes the fast path does not take as they are: construct parses the payload."""
+
+
+#: what the adapters and decodings of the grammar raise on bytes they refuse (construct's
+#: own errors, a codec's): the fast path gives up on them and construct raises its own
+_REFUSED = (_GiveUp, construct.ConstructError, struct.error, UnicodeError, ValueError,
+            OverflowError)
+
+
+def _none(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+    return None, pos                    # Pass
+
+
+def _terminated(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+    if pos != end:                      # construct: TerminatedError
+        raise _GiveUp
+    return None, pos
+
+
+def _greedy(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+    return data[pos:end], end
+
+
+def _compile(c: construct.Construct) -> _Parser:
+    if c.parsed is not None:
+        raise _Unsupported("a parsed hook")
+    t = type(c)
+    if t is construct.Renamed:
+        return _compile(c.subcon)
+    if t is construct.FormatField:
+        unpack, size = struct.Struct(c.fmtstr).unpack_from, c.length
+
+        def field(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+            if pos + size > end:
+                raise _GiveUp
+            return unpack(data, pos)[0], pos + size
+        return field
+    if t is construct.Struct:
+        return _struct(c)
+    if t is construct.Array:
+        if c.discard:
+            raise _Unsupported("Array(discard=True)")
+        return _array(c)
+    if t is construct.Bytes:
+        length = c.length
+
+        def fixed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+            n = length(ctx) if callable(length) else length
+            if not 0 <= n <= end - pos:
+                raise _GiveUp
+            return data[pos: pos + n], pos + n
+        return fixed
+    if c is construct.GreedyBytes:
+        return _greedy
+    if t is construct.Prefixed:
+        if c.includelength:
+            raise _Unsupported("Prefixed(includelength=True)")
+        sub, lengthfield = _compile(c.subcon), _compile(c.lengthfield)
+
+        def prefixed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+            n, pos = lengthfield(data, pos, end, ctx)
+            if not 0 <= n <= end - pos:
+                raise _GiveUp
+            value, _ = sub(data, pos, pos + n, ctx)    # its own stream: pos .. pos + n
+            return value, pos + n
+        return prefixed
+    if t is construct.IfThenElse:
+        cond, then, other = c.condfunc, _compile(c.thensubcon), _compile(c.elsesubcon)
+
+        def choice(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+            taken = then if (cond(ctx) if callable(cond) else cond) else other
+            return taken(data, pos, end, ctx)
+        return choice
+    if c is construct.Pass:
+        return _none
+    if c is construct.Terminated:
+        return _terminated
+    if isinstance(c, construct.Adapter):
+        decode, sub = c._decode, _compile(c.subcon)
+
+        def adapted(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+            value, pos = sub(data, pos, end, ctx)
+            return decode(value, ctx, "(parsing)"), pos
+        return adapted
+    raise _Unsupported(type(c).__name__)
+
+
+def _array(c: construct.Array) -> _Parser:
+    """An Array: a run of one little-endian FormatField by one ``struct`` call (after
+    checking that the stream holds it), any other item one by one."""
+    count = c.count
+    code = _format(c.subcon)
+    sub = _compile(c.subcon)            # also refuses a parsed hook on the item
+    if code is not None:
+        size = struct.calcsize("<" + code)
+
+        def packed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+            n = count(ctx) if callable(count) else count
+            if not 0 <= n * size <= end - pos:
+                raise _GiveUp
+            return struct.unpack_from("<" + str(n) + code, data, pos), pos + n * size
+        return packed
+
+    def array(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+        n = count(ctx) if callable(count) else count
+        if not 0 <= n <= end - pos:       # every item of the grammar takes a byte or more
+            raise _GiveUp
+        out = []
+        for _ in range(n):
+            value, pos = sub(data, pos, end, ctx)
+            out.append(value)
+        return tuple(out), pos
+    return array
+
+
+def _struct(c: construct.Struct) -> _Parser:
+    """A Struct: its fields in order, each run of consecutive named FormatFields unpacked
+    by one ``struct`` call (the values of unpacking them one by one: no padding with
+    ``<``). The record is its context, as in :mod:`._build`: construct's expressions read
+    the fields parsed so far from it, and ``_`` is the enclosing record."""
+    steps: list[tuple[tuple[str, ...], Any, int, _Parser | None]] = []
+    run: list[tuple[str, str]] = []
+
+    def close() -> None:
+        if run:
+            s = struct.Struct("<" + "".join(f for _, f in run))
+            steps.append((tuple(n for n, _ in run), s.unpack_from, s.size, None))
+            run.clear()
+    for sc in c.subcons:
+        code = _format(sc)
+        sub = _compile(sc)              # also refuses a parsed hook in a Renamed chain
+        if code is not None and sc.name:
+            run.append((sc.name, code))
+            continue
+        close()
+        steps.append(((sc.name,), None, 0, sub))
+    close()
+
+    def record(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+        context = _Context()
+        context["_"] = ctx
+        for names, unpack, size, sub in steps:
+            if unpack is not None:
+                if pos + size > end:
+                    raise _GiveUp
+                context.update(zip(names, unpack(data, pos), strict=True))
+                pos += size
+                continue
+            assert sub is not None
+            value, pos = sub(data, pos, end, context)
+            if names[0]:
+                context[names[0]] = value
+        return context, pos
+    return record
+
+
+@functools.cache
+def _parser(grammar: construct.Construct) -> _Parser | None:
+    try:
+        return _compile(grammar)
+    except _Unsupported:
+        return None
+
+
+def fast_path(grammar: construct.Construct, payload: bytes) -> Any | None:
+    """The parse of ``payload`` by the compiled grammar, or None where the fast path gives
+    up (an unsupported class, or bytes it does not take as they are). Records come as
+    dicts and arrays as tuples, which is what :meth:`Record.from_parsed` makes of
+    construct's containers and lists."""
+    p = _parser(grammar)
+    if p is None:
+        return None
+    data = bytes(payload)
+    try:
+        value, _ = p(data, 0, len(data), _Context())
+    except _REFUSED:
+        return None
+    return value
+
+
+def parse(grammar: construct.Construct, payload: bytes) -> Any:
+    """``grammar.parse(payload)``: the same fields, or construct's own error."""
+    value = fast_path(grammar, payload)
+    return value if value is not None else grammar.parse(payload)
