@@ -296,3 +296,39 @@ def test_ship_policy_and_the_off_switch() -> None:
     assert _jit.shipped_enabled({})
     assert not _jit.shipped_enabled({_jit.SHIPPED_ENV: "0"})
     assert not _jit.shipped_enabled({_jit.SHIP_ENV: "1"})    # make_kernels compiles afresh
+
+
+# ---- numba's BLAS check, skipped in mpz's own processes (skip_blas_check, issue 15.2) ----
+_BLAS_CHILD = r"""
+import json, sys
+import numpy as np
+import mpz
+from mpz.synth import generate
+data = mpz.encode(generate("walk", frames=24), max_error=1.0)
+mpz.decode(data)                                # the first kernels load here
+import numba, numba.np.arraymath, numba.np.linalg
+after_decode = "scipy.linalg" in sys.modules
+dot = numba.njit(lambda a, b: np.dot(a, b))      # numba's BLAS, typed after the check
+value = float(dot(np.arange(3.0), np.arange(3.0)))
+print(json.dumps({"linalg_after_decode": after_decode,
+                  "have_blas": numba.np.arraymath._HAVE_BLAS, "dot": value,
+                  "restored": numba.np.linalg.ensure_blas.__name__}))
+"""
+
+
+@pytest.mark.parametrize("script,skipped", [("mpz", True), ("mpz-conformance", True),
+                                             ("my_program.py", False)])
+def test_blas_check_is_skipped_in_mpz_commands_only(tmp_path: Path, script: str,
+                                                    skipped: bool) -> None:
+    """In a command's process the first decode does not import scipy.linalg, and numba's
+    np.dot still works afterwards (ensure_blas is numba's own again); in a program that
+    imports mpz, numba checks for BLAS as it always does."""
+    path = tmp_path / script
+    path.write_text(_BLAS_CHILD)
+    r = subprocess.run([sys.executable, str(path)], capture_output=True, text=True,
+                       timeout=300, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["dot"] == 5.0 and out["restored"] == "ensure_blas"
+    assert out["linalg_after_decode"] is not skipped
+    assert out["have_blas"] is not skipped

@@ -338,6 +338,41 @@ def _enable_cache(disp: Any, shippable: bool = True) -> None:
             pass
 
 
+def skip_blas_check() -> bool:
+    """Spare this process numba's BLAS check; True if it will be spared.
+
+    When numba loads its first kernel it imports ``numba.np.arraymath``, which asks once
+    whether BLAS is there by importing ``scipy.linalg.cython_blas``: all of scipy.linalg,
+    0.2 s of the first ``mpz decode`` of a short file (0.57 -> 0.39 s, issue 15.2), for a
+    flag that only numba's own ``np.correlate`` and ``np.convolve`` read (a BLAS dot or a
+    loop; no mpz kernel calls them, nor BLAS at all). Here the check finds no BLAS at
+    once: ``numba.np.linalg.ensure_blas`` is replaced by a function that puts the original
+    back and raises ImportError, which is what arraymath's check catches. Every later call
+    (numba typing ``np.dot`` in a kernel) gets the original, so BLAS still works. Done
+    only in mpz's own processes (:func:`mpz._worker.own_process`), where no other code
+    runs; anything unexpected in numba leaves its check as it is."""
+    if "numba.np.arraymath" in sys.modules:
+        return False                    # checked already
+    try:
+        import numba.np.linalg as linalg
+        original = linalg.ensure_blas
+    except (ImportError, AttributeError):
+        return False
+
+    def skipped() -> None:
+        linalg.ensure_blas = original
+        raise ImportError("not checked in an mpz command (mpz._jit.skip_blas_check)")
+    linalg.ensure_blas = skipped
+    return True
+
+
+# mpz._worker is the package's first import (mpz/__init__.py); a _jit loaded on its own,
+# as some tests do, has none and keeps numba's check
+_WORKER: Any = sys.modules.get("mpz._worker")
+if _WORKER is not None and _WORKER.own_process():
+    skip_blas_check()
+
+
 def njit(*args: Any, **options: Any) -> Any:
     """``numba.njit`` with ``cache=True`` meaning "where :func:`policy` says".
 

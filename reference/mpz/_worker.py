@@ -64,6 +64,15 @@ def hold_sigint_in_a_command() -> bool:
     return True
 
 
+def own_process() -> bool:
+    """True in a process that runs mpz's code alone: one of :data:`COMMANDS` itself, or a
+    multiprocessing child of the ``mpz`` script (a worker of ``mpz encode -j N``). Not in
+    a program that imports mpz as a library, nor in a Dask worker of someone else's
+    cluster."""
+    return ((_script("__main__") in COMMANDS and "__mp_main__" not in sys.modules)
+            or _script("__mp_main__") == "mpz")
+
+
 def release_sigint() -> None:
     """Unblock SIGINT in the calling thread: a Ctrl-C held since the first import is
     delivered now, as KeyboardInterrupt where the command reports it."""
