@@ -440,6 +440,10 @@ def test_a_field_of_mixed_channels_decodes_each_channel_as_on_its_own(data):
     for i, c in enumerate(codings):
         turn = 360 * 10 ** c.step_digits // c.step_mantissa if c.wrap else None
         assert x[:, i].tolist() == _stepwise(columns[i], c.order, c.low, turn), i
+    # and the encoder's side gives the field back (|e| < turn / 2: the nearest residue is e)
+    plans = [ch.Plan(ch.Step(c.step_mantissa, c.step_digits), bool(c.wrap), c.low, c.order)
+             for c in codings]
+    assert ch.coded_values(x, plans).tolist() == e.tolist()
 
 
 @given(st.integers(-2**31 + 1, 2**31 - 1), st.integers(1, 0xFFFF), st.integers(0, 9))

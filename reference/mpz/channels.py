@@ -156,8 +156,9 @@ def dequantise(x: IntArray, codings: Sequence[Coding]) -> FloatArray:
 
 
 # ---------------------------------------------------------------- encoding --
-def _wrap(e: IntArray, turn: int) -> IntArray:
-    """The residue of ``e`` modulo ``turn`` nearest to 0 (in -turn/2 .. turn/2 - 1)."""
+def _wrap(e: IntArray, turn: int | IntArray) -> IntArray:
+    """The residue of ``e`` modulo ``turn`` nearest to 0 (in -turn/2 .. turn/2 - 1); a
+    ``turn`` per column of ``e[F, k]`` when it is an array of k."""
     half = turn // 2
     return np.asarray(np.mod(e + half, turn) - half, np.int64)
 
@@ -175,15 +176,18 @@ class Plan:
 def coded_values(x: IntArray, plans: Sequence[Plan]) -> IntArray:
     """The values e ``[F, C]`` the coded field holds: each channel's prediction residuals,
     taken modulo its turn (the residue nearest to 0) when it wraps (:func:`decode` inverts
-    them)."""
+    them). The channels of one order are taken together, each column as on its own (issue
+    15.1, as in :func:`decode`)."""
     e = np.empty_like(x)
-    for c, p in enumerate(plans):
-        r = residuals(x[:, c], p.order)
-        if p.wrap:
-            turn = p.step.turn
-            assert turn is not None
-            r = _wrap(r, turn)
-        e[:, c] = r
+    orders = np.array([p.order for p in plans], np.int64)
+    assert all(p.step.turn is not None for p in plans if p.wrap)    # plan() wraps only then
+    turns = np.array([(p.step.turn or 0) if p.wrap else 0 for p in plans], np.int64)
+    for order in np.unique(orders).tolist():
+        cols = np.flatnonzero(orders == order)
+        e[:, cols] = residuals(x[:, cols], order)
+        wrapped = cols[turns[cols] > 0]
+        if wrapped.size:
+            e[:, wrapped] = _wrap(e[:, wrapped], turns[wrapped])
     return e
 
 
