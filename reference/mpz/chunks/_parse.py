@@ -149,7 +149,7 @@ def _array(c: construct.Array) -> _Parser:
 
     def array(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
         n = count(ctx) if callable(count) else count
-        if not 0 <= n <= end - pos:       # every item of the grammar takes a byte or more
+        if not 0 <= n <= end - pos:       # n items of a byte or more cannot fit: give up
             raise _GiveUp
         out = []
         for _ in range(n):
