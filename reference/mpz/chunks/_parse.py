@@ -214,8 +214,8 @@ def fast_path(grammar: construct.Construct, payload: bytes) -> Any | None:
     dicts and arrays as tuples, which is what :meth:`Record.from_parsed` makes of
     construct's containers and lists."""
     p = _parser(grammar)
-    if p is None:
-        return None
+    if p is None or (isinstance(payload, memoryview) and not payload.c_contiguous):
+        return None                     # construct's BytesIO refuses a strided view
     data = bytes(payload)
     try:
         value, _ = p(data, 0, len(data), _Context())
