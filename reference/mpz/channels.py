@@ -176,19 +176,27 @@ class Plan:
 def coded_values(x: IntArray, plans: Sequence[Plan]) -> IntArray:
     """The values e ``[F, C]`` the coded field holds: each channel's prediction residuals,
     taken modulo its turn (the residue nearest to 0) when it wraps (:func:`decode` inverts
-    them). The channels of one order are taken together, each column as on its own (issue
-    15.1, as in :func:`decode`)."""
+    them), the channels of one order together (:func:`_by_order`)."""
     e = np.empty_like(x)
-    orders = np.array([p.order for p in plans], np.int64)
     assert all(p.step.turn is not None for p in plans if p.wrap)    # plan() wraps only then
     turns = np.array([(p.step.turn or 0) if p.wrap else 0 for p in plans], np.int64)
-    for order in np.unique(orders).tolist():
-        cols = np.flatnonzero(orders == order)
-        e[:, cols] = residuals(x[:, cols], order)
-        wrapped = cols[turns[cols] > 0]
+    for order, plain, wrapped in _by_order([p.order for p in plans], turns):
+        if plain.size:
+            e[:, plain] = residuals(x[:, plain], order)
         if wrapped.size:
-            e[:, wrapped] = _wrap(e[:, wrapped], turns[wrapped])
+            e[:, wrapped] = _wrap(residuals(x[:, wrapped], order), turns[wrapped])
     return e
+
+
+def _by_order(orders: Sequence[int], turns: NDArray[np.int64]
+              ) -> list[tuple[int, NDArray[np.int64], NDArray[np.int64]]]:
+    """(order, columns that do not wrap, columns that wrap) for each predictor order in
+    use, lowest first; ``turns`` is each channel's turn, 0 where it does not wrap. The
+    channel layer is coded and decoded a group at a time (issue 15.1: a numpy call or
+    two per channel was a tenth of an AMC file's decode), each column as on its own."""
+    o = np.asarray(orders, np.int64)
+    return [(order, np.flatnonzero((o == order) & (turns == 0)),
+             np.flatnonzero((o == order) & (turns > 0))) for order in np.unique(o).tolist()]
 
 
 def _cost(e: IntArray) -> FloatArray:
@@ -288,19 +296,14 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
         e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]          # step 1: group g
     dec.close()
     x = np.empty_like(e)
-    # steps 2 and 3 on the channels of one order and kind at a time, each column as on its
-    # own (issue 15.1: a numpy call per channel was a tenth of an AMC file's decode)
-    orders = np.array([cc.order for cc in codings], np.int64)
     turns = np.array([(turn_steps(cc.step_mantissa, cc.step_digits) or 0) if cc.wrap else 0
                       for cc in codings], np.int64)
     lows = np.array([cc.low for cc in codings], np.int64)
-    for order in np.unique(orders).tolist():
-        cols = np.flatnonzero((orders == order) & (turns == 0))
-        if cols.size:
-            x[:, cols] = reconstruct(e[:, cols], order, chunk=chunk, offset=offset)  # step 2
-        cols = np.flatnonzero((orders == order) & (turns > 0))
-        if cols.size:
-            x[:, cols] = unwrap(e[:, cols], order, lows[cols], turns[cols])         # step 3
+    for order, plain, wrapped in _by_order([cc.order for cc in codings], turns):
+        if plain.size:
+            x[:, plain] = reconstruct(e[:, plain], order, chunk=chunk, offset=offset)  # step 2
+        if wrapped.size:
+            x[:, wrapped] = unwrap(e[:, wrapped], order, lows[wrapped], turns[wrapped])  # step 3
     if x.size and int(np.abs(x).max()) >= CHANNEL_VALUE_LIMIT:
         c = int(np.argmax(np.abs(x).max(axis=0)))
         t = int(np.argmax(np.abs(x[:, c])))

@@ -103,7 +103,7 @@ class Record:
 
     @classmethod
     def from_parsed(cls: type[R], c: Any) -> R:
-        """The record of a parse result (construct's, or :mod:`._parse`'s dicts and lists)."""
+        """The record of a parse result (construct's, or :mod:`._parse`'s dicts and tuples)."""
         values: dict[str, object] = {}
         nested_of = cls.NESTED
         for name in _field_names(cls):
