@@ -461,3 +461,38 @@ def test_compiled_parser_leaves_what_it_does_not_compile_to_construct():
         assert _parse.fast_path(grammar, b"\x05") is None
         assert _tree(_parse.parse(grammar, b"\x05")) == _tree(grammar.parse(b"\x05"))
     assert seen == [5, 5]               # the hook ran, once per construct parse
+
+
+def _offsets_by_prefixes(grammar, payload):
+    """The definition of ``Record.field_offsets``: field i starts where a parse of the
+    fields before it ends; the list stops at the first field whose start does not parse."""
+    subcons = [s for s in grammar.subcons if s.name]
+    out = []
+    for i, sc in enumerate(subcons):
+        try:
+            start = construct.Struct(*subcons[:i], "_pos" / construct.Tell).parse(payload)._pos
+        except (construct.ConstructError, UnicodeDecodeError, ValueError, OverflowError):
+            break
+        out.append((sc.name, start))
+    return out
+
+
+def test_field_offsets_are_where_each_prefix_ends_on_every_chunk_of_every_vector():
+    """mpzinfo -vv's offsets, taken in one parse (issue 15), are the prefix definition's on
+    every framed chunk of the vectors, and on each cut short (malformed: the fields that
+    parse, by the slow path)."""
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    checked = cut = 0
+    for path in sorted(root.rglob("*.mpz")):
+        for c in container.scan(path.read_bytes()).chunks:
+            cls = CHUNKS.get(c.type)
+            if cls is None:
+                continue
+            for payload in (c.payload, c.payload[: len(c.payload) * 2 // 3]):
+                expected = _offsets_by_prefixes(cls.GRAMMAR, payload)
+                assert cls.field_offsets(payload) == expected, (path.name, c.type)
+                cut += payload is not c.payload and 0 < len(expected) < len(
+                    [s for s in cls.GRAMMAR.subcons if s.name])
+            checked += 1
+    assert checked > 1000 and cut > 50, (checked, cut)
