@@ -811,7 +811,13 @@ class GridCoordinates:
         self.x, self.offset, self.step = x, offset, step
 
     def __getitem__(self, key: Any) -> FloatArray:
-        out = self.x[key]
+        if (isinstance(key, tuple) and len(key) == 2 and key[0] == slice(None)
+                and isinstance(key[1], list)):
+            # u[:, members] by take: a C-ordered copy, where numpy's fancy index gives one
+            # laid out marker-major, which the kernels then copied again (issue 15.1)
+            out = np.take(self.x, key[1], axis=1)
+        else:
+            out = self.x[key]
         if np.may_share_memory(out, self.x):     # a view (basic indexing): a new array
             out = out - self.offset
         else:                                    # already a copy (fancy indexing)
