@@ -395,6 +395,56 @@ def test_asf_bad(mutate):
         parse_asf(mutate(ASF_TEXT))
 
 
+_TRC_HEAD = "60.00\t60.00\t3\t2\tm\t60.00\t1\t3\n"
+
+
+@pytest.mark.parametrize("fmt,mutate,match", [
+    # Python's int() and float() took these: read silently as 1000, 120, 40, 6, 0.45
+    ("trc", lambda t: t.replace(_TRC_HEAD, _TRC_HEAD.replace("60.00", "6_0.00", 1)),
+     "DataRate: '6_0.00' is not a plain"),
+    ("trc", lambda t: t.replace(_TRC_HEAD, "\uff16\uff10" + _TRC_HEAD[5:]),
+     "DataRate: '\uff16\uff10' is not a plain"),
+    ("bvh", lambda t: t.replace("Frames: 3", "Frames: \u0663"), "MOTION header: '\u0663'"),
+    ("bvh", lambda t: t.replace("CHANNELS 3", "CHANNELS 0_3"),
+     "CHANNELS of joint 'Chest': '0_3' is not a whole number"),
+    ("asf", lambda t: t.replace("length 0.45", "length 0_45"), ":units length: '0_45'"),
+    ("amc", lambda t: t.replace("\n2\n", "\n\u0662\n"), "unknown bone '\u0662'"),
+    # were "cannot read: ValueError ..." (or OverflowError, IndexError) from Python's int()
+    ("trc", lambda t: t.replace(_TRC_HEAD, "\t" + _TRC_HEAD[5:]), "DataRate: '' is not"),
+    ("trc", lambda t: t.replace(_TRC_HEAD, _TRC_HEAD.replace("\t3\t2\t", "\tinf\t2\t")),
+     "NumFrames: 'inf' is not a finite"),
+    ("trc", lambda t: t.replace(_TRC_HEAD, _TRC_HEAD.replace("\t3\t2\t", "\t3\tnan\t")),
+     "NumMarkers: 'nan' is not a finite"),
+    ("trc", lambda t: t.replace(_TRC_HEAD, _TRC_HEAD.replace("\t3\t2\t", "\t3\t1.5\t")),
+     "NumMarkers: '1.5' is not a count"),
+    ("bvh", lambda t: t.replace("Frames: 3", "Frames: 3.0"), "MOTION header: '3.0'"),
+    ("bvh", lambda t: t.replace("0 0 0 90 0 0", "0 0 0 0x10 0 0"), "MOTION: '0x10' is not"),
+    ("bvh", lambda t: t.replace("0 0 0 90 0 0", "0 0 0 9-0 0 0"), "MOTION: '9-0' is not"),
+    ("asf", lambda t: t.replace("id 2", "id 2.5"), "id of bone 'b2': '2.5'"),
+    ("asf", lambda t: t.replace("length 1\n", "length\n"), "bone 'b2' has no length"),
+    ("asf", lambda t: t.replace("length 0.45", "length"), ":units length: '' is not"),
+    ("asf", lambda t: t.replace("limits (-180 180)\n  end", "limits (-1.0.0 180)\n  end"),
+     "bad limits of b2: '-1.0.0' is not"),
+])
+def test_header_fields_are_plain_numbers_and_errors_name_them(tmp_path, fmt, mutate, match):
+    """A hostile-input QA (stop 33): header counts and numbers read by Python's int() and
+    float() took '1_000' and other scripts' digits silently, and reported malformed ones
+    as the reader's 'cannot read: ValueError'. Now each is read as the data are
+    (:func:`mpz.io._common.number`, :func:`~mpz.io._common.integer`) and an error names
+    the field."""
+    text = {"trc": TRC_TEXT, "bvh": BVH_TEXT, "asf": ASF_TEXT, "amc": AMC_TEXT}[fmt]
+    changed = mutate(text)
+    assert changed != text
+    (tmp_path / "tiny.asf").write_text(changed if fmt == "asf" else ASF_TEXT)
+    (tmp_path / "tiny_01.amc").write_text(changed if fmt == "amc" else AMC_TEXT)
+    path = tmp_path / {"asf": "tiny_01.amc"}.get(fmt, f"tiny_01.{fmt}")
+    if fmt in ("trc", "bvh"):
+        path.write_text(changed)
+    with pytest.raises(InputFormatError) as ei:
+        read(path)
+    assert match in str(ei.value) and "cannot read" not in str(ei.value), str(ei.value)
+
+
 # -- C3D bytes built by hand -------------------------------------------------
 
 

@@ -18,6 +18,7 @@ import struct
 from typing import Concatenate, ParamSpec, TypeAlias, TypeVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError, MPZError
 from mpz.motion import Motion
@@ -95,14 +96,48 @@ def number(text: str, *, nan: bool = False) -> float:
     return v
 
 
-def plain_numbers(tokens: list[str]) -> None:
-    """Raise InputFormatError unless every token reads as a :func:`number` (no NaN):
-    one pass over their joined text for the common case, the first offender named."""
-    joined = "".join(tokens)
-    if joined.isascii() and "_" not in joined and not any(c in joined for c in "iInN"):
-        return                             # float() then takes only plain numbers
+def integer(text: str) -> int:
+    """A whole number of a text motion file (a count, a frame number, a bone id): an
+    optional sign and at most 18 ASCII digits.
+
+    Python's ``int`` also takes ``1_000`` and digits of other scripts (``١٢``): a
+    hostile-input QA found BVH's ``Frames:`` and ``CHANNELS`` counts read silently from
+    them. Raises InputFormatError naming the text.
+    """
+    t = text.strip()
+    digits = t[1:] if t[:1] in ("+", "-") else t
+    if not (digits.isascii() and digits.isdigit()):
+        raise InputFormatError(f"{t!r} is not a whole number")
+    if len(digits) > 18:
+        raise InputFormatError(f"{t[:24]!r}... is too large a number")
+    return int(t)
+
+
+def count(text: str) -> int:
+    """A count written as a :func:`number` (``151`` or ``151.0``): whole, 0 or more, and
+    below 2^62. Raises InputFormatError naming the text."""
+    v = number(text)
+    if not (v.is_integer() and 0 <= v < 2.0 ** 62):
+        raise InputFormatError(f"{text.strip()!r} is not a count")
+    return int(v)
+
+
+#: the characters of plain decimal numbers (no NaN, no inf, no hexadecimal)
+_PLAIN = "0123456789+-.eE"
+
+
+def plain_numbers(tokens: list[str]) -> NDArray[np.float64]:
+    """The tokens as float64, each a :func:`number` (no NaN): one conversion of them all in
+    the common case, where every character is a plain number's; else the first offender
+    is named (raises InputFormatError)."""
+    if not "".join(tokens).strip(_PLAIN):
+        try:
+            return np.array(tokens, dtype=np.float64)
+        except ValueError:                 # plain characters, not a number: "1-2", "1.0.0"
+            pass
     for t in tokens:
         number(t)
+    return np.array(tokens, dtype=np.float64)
 
 
 def decode_text(data: bytes) -> str:

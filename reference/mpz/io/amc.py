@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
-from mpz.io._common import StrPath, decode_text, number, reader
+from mpz.io._common import StrPath, decode_text, integer, number, reader
 from mpz.io.bvh import num, skeleton_of, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, forward
 from mpz.motion import Motion
@@ -90,13 +90,39 @@ def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
         raise _bad(f"{what}: {exc.message}") from None
 
 
+def _field(vals: list[str], what: str) -> float:
+    """The first of ``vals`` as a finite :func:`number`; an error names ``what``."""
+    try:
+        return number(vals[0])
+    except InputFormatError as exc:
+        raise _bad(f"{what}: {exc.message}") from None
+
+
+def _whole(text: str, what: str) -> int:
+    """``text`` as an :func:`integer`; an error names ``what``."""
+    try:
+        return integer(text)
+    except InputFormatError as exc:
+        raise _bad(f"{what}: {exc.message}") from None
+
+
+def _limit(text: str) -> float:
+    """A bound of a ``limits`` pair: a :func:`number`, or ``inf`` / ``-inf``."""
+    if text.lower() in ("inf", "-inf", "+inf"):
+        return float(text)
+    return number(text)
+
+
 def _limits(text: str, what: str) -> list[tuple[float, float]]:
     """``(lo hi)`` pairs of a ``limits`` entry; ``inf`` and ``-inf`` allowed."""
     pairs = re.findall(r"\(\s*([^\s()]+)\s+([^\s()]+)\s*\)", text)
     rest = re.sub(r"\(\s*[^\s()]+\s+[^\s()]+\s*\)", "", text).strip()
     if rest:
         raise _bad(f"bad limits of {what}: {text!r}")
-    out = [(float(a), float(b)) for a, b in pairs]
+    try:
+        out = [(_limit(a), _limit(b)) for a, b in pairs]
+    except InputFormatError as exc:
+        raise _bad(f"bad limits of {what}: {exc.message}") from None
     if any(math.isnan(v) for p in out for v in p):
         raise _bad(f"NaN in the limits of {what}")
     return out
@@ -183,7 +209,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
             raise _bad(f"ASF has no :{need} section")
     units = _keyvals(sec.get("units", []))
     dropped += [f":units {k}" for k in units if k not in ("mass", "length", "angle")]
-    length = float(units.get("length", ["1.0"])[0])
+    length = _field(units.get("length", ["1.0"]) or [""], ":units length")
     if not (math.isfinite(length) and length > 0):
         raise _bad(f":units length must be positive, got {length}")
     if not math.isfinite(25.4 / length):     # 1e-320: millimetres per unit overflow
@@ -241,9 +267,9 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         axis_order = (axis[3] if len(axis) > 3 else "XYZ").upper()
         if sorted(axis_order) != ["X", "Y", "Z"]:
             raise _bad(f"bone {name!r} has bad axis order {axis_order!r}")
-        bone_len = float(f.get("length", ["nan"])[0])
-        if not math.isfinite(bone_len):
+        if not f.get("length"):
             raise _bad(f"bone {name!r} has no length")
+        bone_len = _field(f["length"], f"length of bone {name!r}")
         if b.limits and len(b.limits) != len(dofs):
             raise _bad(f"bone {name!r} has {len(b.limits)} limits for {len(dofs)} dofs")
         ids = f.get("id", [])
@@ -252,7 +278,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
                             direction=_vec3(f.get("direction", []), f"direction of {name}"),
                             length=bone_len, axis=_vec3(axis, f"axis of {name}"),
                             axis_order=axis_order, limits=tuple(b.limits),
-                            bone_id=int(ids[0]) if ids else 0))
+                            bone_id=_whole(ids[0], f"id of bone {name!r}") if ids else 0))
     doc = "\n".join(sec.get("documentation", []))
     skel = Skeleton("asf", tuple(joints), angle_unit=angle_unit, encoding=encoding,
                     length=length, mass=" ".join(units.get("mass", [])),
@@ -331,7 +357,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         if not line or line.startswith(":"):
             continue
         parts = line.split()
-        if len(parts) == 1 and parts[0].isdigit():
+        if len(parts) == 1 and parts[0].isascii() and parts[0].isdigit():
             n = int(parts[0])
             if expected_frame is not None and n != expected_frame:
                 raise _bad(f"line {lineno}: frame {n} follows frame {expected_frame - 1}")

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
-from mpz.io._common import StrPath, decode_text, number, plain_numbers, reader
+from mpz.io._common import StrPath, decode_text, integer, number, plain_numbers, reader
 from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
 from mpz.motion import Motion
 
@@ -114,7 +114,10 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
             if stack[-1] in with_channels:      # the second replaced the first's columns
                 raise _bad(f"joint {j.name!r} has two CHANNELS lines")
             with_channels.add(stack[-1])
-            n = int(tokens[pos + 1])
+            try:
+                n = integer(tokens[pos + 1]) if pos + 1 < len(tokens) else -1
+            except InputFormatError as exc:
+                raise _bad(f"CHANNELS of joint {j.name!r}: {exc.message}") from None
             if not 0 <= n <= MAX_CHANNELS_PER_JOINT:
                 raise _bad(f"bad channel count {n} for joint {j.name!r}")
             chans = tokens[pos + 2:pos + 2 + n]
@@ -203,8 +206,11 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     if (len(head) < 5 or head[0].rstrip(":").upper() != "FRAMES"
             or head[2].upper() != "FRAME" or head[3].rstrip(":").upper() != "TIME"):
         raise _bad(f"expected 'Frames: n' and 'Frame Time: t' after MOTION, got {head}")
-    n_frames = int(head[1])
-    ft = number(head[4])
+    try:
+        n_frames = integer(head[1])
+        ft = number(head[4])
+    except InputFormatError as exc:
+        raise _bad(f"MOTION header: {exc.message}") from None
     rate = frame_rate_from_frame_time(ft)
     data = tokens[pos + 6:]
     if n_frames <= 0:
@@ -221,11 +227,10 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     if len(data) > need:
         raise _bad(f"{len(data) - need} values beyond {n_frames} frames x {n_channels} channels")
     try:
-        plain_numbers(data)
+        values = plain_numbers(data).reshape(n_frames, n_channels) if n_channels \
+            else np.zeros((n_frames, 0))
     except InputFormatError as exc:
         raise _bad(f"MOTION: {exc.message}") from None
-    values = np.array(data, dtype=np.float64).reshape(n_frames, n_channels) if n_channels \
-        else np.zeros((n_frames, 0))
     if not np.isfinite(values).all():
         raise _bad("non-finite channel value")
     skel = Skeleton("bvh", tuple(j.joint() for j in joints), frame_time=ft, encoding=encoding)

@@ -26,16 +26,28 @@ so that a TRC decoded from a TRC is the same table.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 import math
 import os
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
-from mpz.io._common import StrPath, decode_text, number, reader, start_frame, unique_names
+from mpz.io._common import (
+    StrPath,
+    count,
+    decode_text,
+    integer,
+    number,
+    reader,
+    start_frame,
+    unique_names,
+)
 from mpz.motion import Motion, finite_samples
 
+_N = TypeVar("_N", int, float)
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in"}
 
 
@@ -80,7 +92,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     header = {k: v for k, v in zip(keys, vals, strict=False) if k}
     if "DataRate" not in header:
         raise _bad("header has no DataRate")
-    rate = float(header["DataRate"])
+    rate = _field(number, header, "DataRate")
     units_raw = header.get("Units", "").strip()
     units = _UNITS.get(units_raw.lower(), "")
     name_row = lines[3].rstrip("\r\n").split("\t")
@@ -96,9 +108,10 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         coord_row.pop()
     n_markers = len(names)
     declared = header.get("NumMarkers")
-    if declared not in (None, "") and int(float(declared)) != n_markers:
-        if int(float(declared)) < n_markers and all(n == "" for n in names[int(float(declared)):]):
-            n_markers = int(float(declared))
+    listed = _field(count, header, "NumMarkers") if declared not in (None, "") else n_markers
+    if listed != n_markers:
+        if listed < n_markers and all(n == "" for n in names[listed:]):
+            n_markers = listed
             names = names[:n_markers]
         else:
             raise _bad(f"NumMarkers says {declared}, the name row has {n_markers} names")
@@ -145,7 +158,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if skipped:
         meta["warning"] = skipped
     declared_frames = header.get("NumFrames", "").strip()
-    if declared_frames and int(float(declared_frames)) != len(pos):
+    if declared_frames and _field(count, header, "NumFrames") != len(pos):
         said = f"NumFrames says {declared_frames}, file has {len(rows)} rows"
         meta["warning"] = f"{meta['warning']}; {said}" if "warning" in meta else said
     valid = finite_samples(pos)
@@ -165,10 +178,19 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     return Motion(pos, names, rate, units, valid, meta)
 
 
+def _field(read: Callable[[str], _N], header: dict[str, str], key: str) -> _N:
+    """Header field ``key`` read by ``read`` (:func:`number` or :func:`count`); an error
+    names the field."""
+    try:
+        return read(header[key])
+    except InputFormatError as exc:
+        raise _bad(f"{key}: {exc.message}") from None
+
+
 def _is_int(x: str) -> bool:
     try:
-        int(x)
-    except ValueError:
+        integer(x)
+    except InputFormatError:
         return False
     return True
 
@@ -181,8 +203,8 @@ def _frames_by_number(pos: NDArray[np.float64], numbers: list[str]
     warning, when the numbers are not increasing integers, or when filling would more
     than double the frames (a hostile Frame# must not allocate without bound)."""
     try:
-        n = [int(x) for x in numbers]
-    except ValueError:
+        n = [integer(x) for x in numbers]
+    except InputFormatError:
         bad = next(x for x in numbers if not _is_int(x))
         return pos, (f"the Frame# column is not whole numbers ({bad!r}): the rows are taken "
                      "as consecutive frames at DataRate")
