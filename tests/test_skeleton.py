@@ -454,6 +454,19 @@ def test_step_ladder():
         ch.step_for(1e-11)
 
 
+@pytest.mark.parametrize("value", [1e308, -1e308, 2.0 ** 40])
+def test_a_value_too_large_for_its_step_is_an_error_without_a_numpy_warning(value):
+    """A channel value of 1e308 made ``v / step`` overflow, and numpy printed a
+    RuntimeWarning before the EncoderError (QA, stop 33): only the error now."""
+    import warnings
+    steps = [ch.step_for(0.01), ch.step_for(0.5)]
+    vals = np.array([[0.0, 1.0], [value, 2.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(EncoderError, match="channel 0 reaches"):
+            ch.quantise(vals, steps)
+
+
 # ================================================== the chunk checks, by rule --
 def _tiny_bvh_skeleton(channels: int = 6) -> sk.Skeleton:
     kinds = (0, 1, 2, 5, 3, 4)[:channels] if channels > 1 else (5,)

@@ -138,7 +138,8 @@ def quantise(values: FloatArray, steps: Sequence[Step]) -> IntArray:
     """
     v = np.asarray(values, np.float64)
     scale = np.array([10.0 ** s.digits / s.mantissa for s in steps])
-    x = np.floor(v * scale + 0.5) if v.size else np.zeros(v.shape)
+    with np.errstate(over="ignore"):          # a value of 1e308 is reported just below
+        x = np.floor(v * scale + 0.5) if v.size else np.zeros(v.shape)
     if x.size and np.abs(x).max() >= 2.0 ** (MAX_EXP - 3):
         c = int(np.argmax(np.abs(x).max(axis=0)))
         raise EncoderError(f"channel {c} reaches {float(np.abs(v[:, c]).max()):g}, too large "
