@@ -557,3 +557,90 @@ def test_show_json_is_utf8_when_a_c3d_string_is_not(tmp_path: Path) -> None:
             return [x for k, w in v.items() for x in [k, *strings(w)]]
         return [x for w in v for x in strings(w)] if isinstance(v, list) else [v]
     assert "\\xff\\xfe" in strings(doc)                 # the four characters \ x f f ...
+
+
+_ASF = """:version 1.10
+:units
+  length 0.45
+  angle deg
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name b1
+     direction 1 0 0
+     length 2
+     axis 0 0 0 XYZ
+    dof rx
+  end
+:hierarchy
+  begin
+    root b1
+  end
+"""
+
+
+def test_special_files_named_beside_the_input_are_refused(small: dict[str, Path],
+                                                          tmp_path: Path) -> None:
+    """QA, stop 33: an ASF given by --asf / asf=, a file inside a folder for
+    ``encode -r`` (hashed before it was read) and ``mpz search``'s query were read with a
+    plain open(): /dev/zero read until memory ran out, a FIFO hung."""
+    fifo = tmp_path / "pipe.asf"
+    os.mkfifo(fifo)
+    amc = tmp_path / "t_01.amc"
+    amc.write_text(":FULLY-SPECIFIED\n:DEGREES\n1\nroot 0 0 0 0 0 0\nb1 10\n")
+    (tmp_path / "t.asf").write_text(_ASF)
+    assert read(amc).n_frames == 1                       # the pair itself reads
+    for asf in (fifo, "/dev/zero"):
+        with pytest.raises(mpz.MPZError, match="not a regular file"):
+            read(amc, asf=asf)
+        p = run(["mpz", "show", str(amc), "--asf", str(asf)], tmp_path, timeout=60)
+        assert p.returncode == 2 and b"not a regular file" in p.stderr, p.stderr
+    # a folder with a FIFO and a device beside a good file: they fail, the good one is done
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copy(small["trc"], src / "a.trc")
+    os.mkfifo(src / "f.trc")
+    (src / "z.trc").symlink_to("/dev/zero")
+    (tmp_path / "arch").mkdir()
+    p = run(["mpz", "encode", "-r", str(src), "-o", str(tmp_path / "arch") + "/", "--max-error",
+             "1mm", "-j", "0"], tmp_path, timeout=120)
+    out = p.stdout + p.stderr
+    assert p.returncode == 2, out
+    assert b"a FIFO, not a regular file" in out and b"a character device" in out, out
+    assert (tmp_path / "arch" / "a.mpz").exists()
+    assert not (tmp_path / "arch" / "f.mpz").exists()
+    # mpz search: a query that is a FIFO, or a device named .c3d or .mpz
+    (tmp_path / "q.mpz").symlink_to("/dev/zero")
+    (tmp_path / "q.c3d").symlink_to("/dev/zero")
+    os.mkfifo(tmp_path / "q.trc")
+    for q in ("q.mpz", "q.c3d", "q.trc"):
+        p = run(["mpz", "search", q, "--index", str(tmp_path / "arch")], tmp_path, timeout=60)
+        assert p.returncode == 2 and b"not a regular file" in p.stderr, (q, p.stderr)
+
+
+def test_a_corrupt_file_in_a_decode_batch_fails_alone(small: dict[str, Path],
+                                                      tmp_path: Path) -> None:
+    """QA, stop 33: without --format, ``mpz decode`` reads each file's source format to name
+    its output, and a corrupt file then stopped the whole batch before any was decoded."""
+    d = tmp_path / "in"
+    d.mkdir()
+    shutil.copy(small["trc"], tmp_path / "a.trc")           # an encode names its source
+    assert run(["mpz", "encode", "a.trc", "-o", "a.mpz", "--max-error", "1mm"],
+               tmp_path).returncode == 0
+    good = (tmp_path / "a.mpz").read_bytes()
+    (d / "a.mpz").write_bytes(good)
+    (d / "b.mpz").write_bytes(good[:200])
+    (d / "c.mpz").write_bytes(good)
+    (tmp_path / "back").mkdir()
+    p = run(["mpz", "decode", "-r", str(d), "-o", str(tmp_path / "back") + "/"], tmp_path)
+    err = p.stderr.decode()
+    assert p.returncode == 2, err
+    assert sorted(f.name for f in (tmp_path / "back").iterdir()) == ["a.trc", "c.trc"]
+    assert "3 inputs: 2 done, 1 failed" in err
+    line = next(ln for ln in err.splitlines() if "b.mpz" in ln)
+    assert line.count("b.mpz") == 1 and "§3.2" in line, line

@@ -76,6 +76,22 @@ def reader(func: Callable[Concatenate[StrPath, _P], _R]) -> Callable[Concatenate
     return wrapper
 
 
+def read_regular(path: StrPath) -> bytes:
+    """The bytes of the file at ``path``, opened by :func:`mpz.api.open_regular`: a device
+    (``/dev/zero``), a FIFO or a socket is refused before it is read, which
+    :func:`mpz.io.read`'s check did only for the file it was given, not for an ASF named
+    beside an AMC (a QA run: ``--asf /dev/zero`` read until memory ran out, a FIFO hung).
+    Raises InputFormatError naming the path."""
+    from mpz.api import open_regular
+    from mpz.errors import FormatError
+    try:
+        fh = open_regular(path)
+    except FormatError as exc:
+        raise InputFormatError(exc.message, path=os.fspath(path)) from None
+    with fh:
+        return fh.read()
+
+
 def number(text: str, *, nan: bool = False) -> float:
     """A number of a text motion file (TRC, CSV, BVH, ASF/AMC): decimal ASCII as C's
     ``strtod`` reads it, finite; ``nan`` in any case only where ``nan`` is true (a TRC gap).

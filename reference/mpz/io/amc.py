@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
-from mpz.io._common import StrPath, decode_text, integer, number, reader
+from mpz.io._common import StrPath, decode_text, integer, number, read_regular, reader
 from mpz.io.bvh import num, skeleton_of, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, forward
 from mpz.motion import Motion
@@ -446,8 +446,7 @@ def find_asf(amc_path: StrPath) -> str:
 @reader
 def read_asf(path: StrPath) -> Skeleton:
     """Read an ASF skeleton file (see :func:`parse_asf`)."""
-    with open(path, "rb") as fh:
-        data = fh.read()
+    data = read_regular(path)
     return parse_asf(decode_text(data), encoding=text_encoding(data))
 
 
@@ -475,11 +474,9 @@ def read_amc(amc_path: StrPath, asf_path: StrPath | None = None, *,
     """
     if asf_path is None:
         asf_path = find_asf(amc_path)
-    with open(asf_path, "rb") as fh:
-        asf_data = fh.read()
+    asf_data = read_regular(asf_path)
     skel, dropped = _parse_asf(decode_text(asf_data), text_encoding(asf_data))
-    with open(amc_path, "rb") as fh:
-        data = fh.read()
+    data = read_regular(amc_path)
     m = parse_amc(decode_text(data), skel, rate=rate,
                   source=os.path.basename(os.fspath(amc_path)), encoding=text_encoding(data))
     m.metadata["asf"] = os.path.basename(os.fspath(asf_path))

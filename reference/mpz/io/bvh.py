@@ -25,7 +25,15 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
-from mpz.io._common import StrPath, decode_text, integer, number, plain_numbers, reader
+from mpz.io._common import (
+    StrPath,
+    decode_text,
+    integer,
+    number,
+    plain_numbers,
+    read_regular,
+    reader,
+)
 from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
 from mpz.motion import Motion
 
@@ -273,8 +281,7 @@ def read_bvh(path: StrPath) -> Motion:
     ------
     InputFormatError
     """
-    with open(path, "rb") as fh:
-        data = fh.read()
+    data = read_regular(path)
     return parse_bvh(decode_text(data), source=os.path.basename(os.fspath(path)),
                      encoding=text_encoding(data))
 

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpz.errors import InputFormatError
-from mpz.io._common import StrPath, decode_text, number, reader
+from mpz.io._common import StrPath, decode_text, number, read_regular, reader
 from mpz.motion import Motion, finite_samples
 
 MAX_NPY_BYTES = 1 << 34  # refuse absurd arrays before loading (16 GiB)
@@ -160,8 +160,7 @@ def read_csv(path: StrPath, *, rate: float | None = None, units: str = "") -> Mo
     ------
     InputFormatError
     """
-    with open(path, "rb") as fh:
-        text = decode_text(fh.read())
+    text = decode_text(read_regular(path))
     return parse_csv(text, rate=rate, units=units, source=os.path.basename(os.fspath(path)))
 
 

@@ -41,6 +41,7 @@ from mpz.io._common import (
     decode_text,
     integer,
     number,
+    read_regular,
     reader,
     start_frame,
     unique_names,
@@ -329,8 +330,7 @@ def read_trc(path: StrPath) -> Motion:
     ------
     InputFormatError
     """
-    with open(path, "rb") as fh:
-        text = decode_text(fh.read())
+    text = decode_text(read_regular(path))
     return parse_trc(text, source=os.path.basename(os.fspath(path)))
 
 

@@ -426,7 +426,12 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
         if path == STDIO and output is None:
             jobs.append(Job(path, STDIO))
             continue
-        name = name_for(path)
+        try:
+            name = name_for(path)
+        except MPZError as exc:     # naming read the file (decode: its source's format), and
+            exc.path = None         # it is corrupt: this file fails, not the batch (QA); the
+            jobs.append(Job(path, None, str(exc)))      # line names the file once
+            continue
         if name is None:
             jobs.append(Job(path, None, f"cannot name the {what} output: give -o or "
                                         "--format"))

@@ -63,13 +63,9 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
     from mpz.corpus import META_SHA256, sha256_file
     from mpz.similarity import from_smry, summarize
     if path.lower().endswith(".mpz"):
-        from mpz.api import read_summary
+        from mpz.api import read_source, read_summary
         from mpz.decoder import read_stream
-        try:
-            with open(path, "rb") as fh:
-                data = fh.read()
-        except OSError as exc:
-            raise EncoderError(f"cannot read: {exc.strerror or exc}", path=path) from None
+        data, _ = read_source(path)          # a regular file of at most 4 GiB (QA: FIFOs)
         sha = read_stream(data).meta.get(META_SHA256)
         for r in rows:
             if sha is not None and r["source_sha256"] == sha:
