@@ -460,6 +460,27 @@ def test_info_reads_the_facts_without_decoding(inputs: dict[str, Path]) -> None:
 
 # -- 11. plots ------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("command", ["compare", "summary"])
+def test_a_plot_replaces_a_file_only_with_force_and_needs_a_known_extension(
+        command: str, inputs: dict[str, Path], tmp_path: Path) -> None:
+    """QA, stop 33: --plot replaced any existing file (a C3D, another figure) without
+    --force, against the README's rule for outputs, and an extension matplotlib cannot
+    write raised its ValueError as a traceback after the work."""
+    pytest.importorskip("matplotlib")
+    src = ([str(inputs["c3d"]), str(inputs["mpz"])] if command == "compare"
+           else [str(inputs["c3d"]), "--k", "6,12"])
+    (tmp_path / "keep.png").write_bytes(b"precious")
+    for target, extra, code, said in (("keep.png", [], 2, "exists; use --force"),
+                                      ("plot.txt", [], 2, "matplotlib writes"),
+                                      ("noext", [], 2, "not a file without an extension"),
+                                      ("keep.png", ["--force"], 0, "")):
+        p = run(["mpz", command, *src, "--plot", target, *extra], tmp_path)
+        assert p.returncode == code, (target, p.stderr)
+        assert said.encode() in p.stderr and b"Traceback" not in p.stderr, p.stderr
+    assert (tmp_path / "keep.png").read_bytes().startswith(b"\x89PNG")   # replaced, with -f
+    assert not (tmp_path / "plot.txt").exists() and not (tmp_path / "noext").exists()
+
+
 def test_compare_plot_shows_the_error_over_time_with_the_bound(inputs: dict[str, Path],
                                                                tmp_path: Path) -> None:
     pytest.importorskip("matplotlib")

@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 
 import numpy as np
 
-from mpz.errors import MotionError
+from mpz.errors import EncoderError, MotionError
 from mpz.tools._cli import count, print_json, printable
 
 
@@ -38,6 +39,8 @@ def add_parser(sub):
     p.add_argument("--plot", metavar="PNG", help="plot the error over time of the worst "
                    "markers, with the bound as a line (needs matplotlib)")
     p.add_argument("--marker", action="append", help="marker(s) to plot instead of the worst")
+    p.add_argument("-f", "--force", action="store_true", help="replace the --plot file if it "
+                   "exists")
     p.add_argument("--bound", metavar="E", help="bound to draw, with a unit (default: the one "
                    "declared in an .mpz input)")
     p.set_defaults(func=run)
@@ -145,11 +148,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"mpz compare: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     if args.plot:  # a bad plot path fails before the work
-        from mpz.api import check_output
-        for src in (args.original, args.decoded):
-            if src != "-":
-                check_output(args.plot, force=True, source=src)
-        _matplotlib()
+        check_plot(args.plot, args.force, (args.original, args.decoded))
     names = (_label(args.original), _label(args.decoded))
     a, ext_a = read_input(args.original, args.asf)
     b, ext_b = read_input(args.decoded, args.asf)
@@ -202,10 +201,28 @@ def run(args: argparse.Namespace) -> int:
         bound = (bound_given if bound_given is not None
                  else _declared_bound(args.decoded, units)
                  or _declared_bound(args.original, units))
-        plot(a, b, plot_names, args.plot, bound=bound, units=units)
+        plot(a, b, plot_names, args.plot, bound=bound, units=units, force=args.force)
         if not args.json:
             print(f"plot written to {printable(args.plot)}")
     return 2 if gaps_lost or gaps_added else 0
+
+
+def check_plot(path: str, force: bool, sources: tuple[str, ...]) -> None:
+    """Refuse a --plot path before the work (an EncoderError, exit 2): as any output
+    (``mpz.api.check_output``: an existing file only with ``--force``; a QA run found plots
+    replacing any file), and with an extension matplotlib cannot write (it raised a
+    ValueError traceback after the work)."""
+    from mpz.api import check_output
+    for src in sources:
+        check_output(path, force=force, source=None if src == "-" else src)
+    plt = _matplotlib()
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    kinds = plt.figure().canvas.get_supported_filetypes()
+    plt.close("all")
+    if ext not in kinds:
+        raise EncoderError(f"--plot {printable(path)}: matplotlib writes "
+                           f"{', '.join('.' + k for k in sorted(kinds))}, not "
+                           f"{'.' + ext if ext else 'a file without an extension'}")
 
 
 def _matplotlib():
@@ -223,7 +240,8 @@ def plot_label(name: str) -> str:
     return printable(name).replace("$", r"\$")
 
 
-def plot(a, b, names, path, *, bound: float | None = None, units: str | None = None) -> None:
+def plot(a, b, names, path, *, bound: float | None = None, units: str | None = None,
+         force: bool = False) -> None:
     """Error over time per marker: one panel each, the bound as a line, one shared legend."""
     from mpz.metrics import errors
     plt = _matplotlib()
@@ -261,6 +279,6 @@ def plot(a, b, names, path, *, bound: float | None = None, units: str | None = N
                ncol=len(handles), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / (1.2 + 2.0 * len(names))))
     from mpz.api import atomic_output
-    with atomic_output(path, force=True) as tmp:
-        fig.savefig(tmp, dpi=110)
+    with atomic_output(path, force=force) as tmp:
+        fig.savefig(tmp, dpi=110, format=os.path.splitext(path)[1].lstrip(".").lower())
     plt.close(fig)

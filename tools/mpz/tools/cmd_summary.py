@@ -63,6 +63,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--asf", metavar="FILE",
                    help="skeleton for .amc input (default: found beside it)")
     p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs matplotlib)")
+    p.add_argument("-f", "--force", action="store_true", help="replace the --plot file if it "
+                   "exists")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.add_argument("--no-decode", action="store_true",
                    help=".mpz input: do not decode the motion (the WSSSE %% column stays "
@@ -304,7 +306,7 @@ def segment_colours(k: int) -> list[tuple[float, float, float]]:
     return out
 
 
-def _plot(path, info, levels, poses, parents) -> None:
+def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -383,8 +385,9 @@ def _plot(path, info, levels, poses, parents) -> None:
                  "below. Bottom: every level's segments over time, each in its own colour.",
                  ha="center", va="top", fontsize=7, wrap=True)
     from mpz.api import atomic_output
-    with atomic_output(path, force=True) as tmp:
-        fig.savefig(tmp, dpi=130, bbox_inches="tight")
+    with atomic_output(path, force=force) as tmp:
+        fig.savefig(tmp, dpi=130, bbox_inches="tight",
+                    format=os.path.splitext(path)[1].lstrip(".").lower())
     plt.close(fig)
 
 
@@ -397,8 +400,8 @@ def run(args) -> int:
             print("mpz summary: --plot needs matplotlib (pip install 'mpz[plot]')", file=sys.stderr)
             return EXIT_ERROR
     if args.plot:  # a bad plot path fails before the work
-        from mpz.api import check_output
-        check_output(args.plot, force=True, source=None if args.file == "-" else args.file)
+        from mpz.tools.cmd_compare import check_plot
+        check_plot(args.plot, args.force, (args.file,))
     path = Path(args.file)
     args.stdin_data, args.stdin_format = None, None
     if args.file == "-":
@@ -424,7 +427,7 @@ def run(args) -> int:
     else:
         _print_text(info, levels, sys.stdout)
     if args.plot:
-        _plot(args.plot, info, levels, poses, parents)
+        _plot(args.plot, info, levels, poses, parents, args.force)
         if not args.json:
             print(f"\nplot written to {printable(args.plot)}")
     return EXIT_WARN if warnings else EXIT_OK
