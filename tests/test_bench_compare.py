@@ -31,3 +31,34 @@ def test_cli_exit_codes(tmp_path, capsys):
     assert "REGRESSION a E=1.0: ratio dropped" in capsys.readouterr().out
     (tmp_path / "bad.json").write_text("{}")
     assert mpz_cli.main(["bench", "--compare", str(old), str(tmp_path / "bad.json")]) == 2
+
+
+def test_cli_refuses_malformed_rows_and_figures_that_would_pass_every_check(tmp_path, capsys):
+    """QA, stop 33: valid JSON of the wrong shape gave tracebacks (exit 1, "regressions");
+    a NaN figure or a NaN / inf tolerance made every check false: '0 regression(s)', exit
+    0, for a run whose ratio halved. Now exit 2 for the files, 64 for the options."""
+    import pytest
+    r = list(rows().values())[0]
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"schema": 1, "rows": [r, dict(r, E="op"), dict(r, E=None)]}))
+    assert mpz_cli.main(["bench", "--compare", str(old), str(old)]) == 0   # op and lossy rows
+    bad = {"list": [], "rows not a list": {"schema": 1, "rows": {}},
+           "row not a dict": {"schema": 1, "rows": [3]},
+           "no file": {"schema": 1, "rows": [{k: v for k, v in r.items() if k != "file"}]},
+           "no ratio": {"schema": 1, "rows": [{"file": "a", "E": 1}]},
+           "E a list": {"schema": 1, "rows": [dict(r, E=[1])]},
+           "negative time": {"schema": 1, "rows": [dict(r, enc_s=-1.0)]},
+           "ratio a string": {"schema": 1, "rows": [dict(r, mpz_ratio="20")]}}
+    for what, doc in bad.items():
+        f = tmp_path / "new.json"
+        f.write_text(json.dumps(doc))
+        assert mpz_cli.main(["bench", "--compare", str(old), str(f)]) == 2, what
+    for figure in ("mpz_ratio", "max", "enc_s"):
+        f = tmp_path / "nan.json"
+        f.write_text(json.dumps({"schema": 1, "rows": [dict(r, **{figure: float("nan")})]}))
+        assert mpz_cli.main(["bench", "--compare", str(old), str(f)]) == 2, figure
+        assert "NaN" in capsys.readouterr().err
+    for tol in ("nan", "inf", "-0.5", "x"):
+        with pytest.raises(SystemExit) as ei:
+            mpz_cli.main(["bench", "--compare", str(old), str(old), "--ratio-tolerance", tol])
+        assert ei.value.code == 64, tol

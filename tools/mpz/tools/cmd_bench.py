@@ -9,31 +9,85 @@ noise). Exit 0: no regression; 1: regressions flagged; 2: unreadable input.
 """
 from __future__ import annotations
 
+import argparse
 import json
+import math
 
 from mpz.errors import FormatError
 from mpz.tools._cli import print_json, printable
+
+
+def _fraction(text: str) -> float:
+    """argparse type of a tolerance: a finite fraction, 0 or more (a QA run: NaN and inf
+    turned every check off and printed '0 regression(s)')."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"wants a number, got {text!r}") from None
+    if not (math.isfinite(v) and v >= 0):
+        raise argparse.ArgumentTypeError(f"wants a finite number, 0 or more, got {text!r}")
+    return v
 
 
 def add_parser(sub):
     p = sub.add_parser("bench", help="compare two benchmark result files",
                        description=__doc__.split("\n\n")[1])
     p.add_argument("--compare", nargs=2, metavar=("OLD", "NEW"), required=True)
-    p.add_argument("--ratio-tolerance", type=float, default=0.01)
-    p.add_argument("--speed-tolerance", type=float, default=0.25)
+    p.add_argument("--ratio-tolerance", type=_fraction, default=0.01,
+                   help="flag a ratio that drops by more than this fraction (default 0.01)")
+    p.add_argument("--speed-tolerance", type=_fraction, default=0.25,
+                   help="flag a time that grows by more than this fraction (default 0.25)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=run)
 
 
+def _refuse(token: str) -> float:
+    raise ValueError(f"{token} is not a number a result can hold")
+
+
+#: a row's figures: (name, required); each a finite number (times and errors 0 or more,
+#: the ratio above 0)
+_FIGURES = (("mpz_ratio", True), ("max", False), ("enc_s", False), ("dec_s", False))
+
+
 def _load(path):
+    """The rows of a bench_rd.py result by (file, E: a bound, None for lossy, or a label such
+    as "op"). Anything else, or a figure that is
+    not a finite number (NaN passed every check: a QA run), is a FormatError (exit 2)."""
+    from mpz.api import read_source
+    from mpz.errors import MPZError
     try:
-        with open(path) as fh:
-            doc = json.load(fh)
-    except (OSError, ValueError) as exc:
+        data, _ = read_source(path)
+        doc = json.loads(data, parse_constant=_refuse)
+    except MPZError as exc:
+        raise FormatError(f"cannot read benchmark results: {exc.message}", path=path) from None
+    except ValueError as exc:          # JSON, UTF-8, or a NaN / Infinity token
         raise FormatError(f"cannot read benchmark results: {exc}", path=path) from None
-    if doc.get("schema") != 1 or "rows" not in doc:
+    if (not isinstance(doc, dict) or doc.get("schema") != 1
+            or not isinstance(doc.get("rows"), list)):
         raise FormatError("not a bench_rd.py result (schema 1 with rows)", path=path)
-    return {(r["file"], r.get("E")): r for r in doc["rows"]}
+    rows = {}
+    for i, r in enumerate(doc["rows"]):
+        if not _row_ok(r):
+            raise FormatError(f"row {i} is not a result row (file, E, and finite figures "
+                              f"{', '.join(n for n, _ in _FIGURES)})", path=path)
+        rows[(r["file"], r.get("E"))] = r
+    return rows
+
+
+def _row_ok(r: object) -> bool:
+    if not (isinstance(r, dict) and isinstance(r.get("file"), str)
+            and (r.get("E") is None or isinstance(r["E"], str) or _number(r["E"]))):
+        return False
+    for name, required in _FIGURES:
+        if (name in r or required) and not (_number(r.get(name)) and r[name] >= 0):
+            return False
+    return bool(r["mpz_ratio"] > 0)
+
+
+def _number(v: object) -> bool:
+    return (isinstance(v, (int, float)) and not isinstance(v, bool)
+            and math.isfinite(v))
 
 
 def compare(old: dict, new: dict, ratio_tol=0.01, speed_tol=0.25) -> list:
