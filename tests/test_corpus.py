@@ -779,6 +779,30 @@ def test_search_on_a_damaged_index_is_a_clean_error(corpus, capsys):
     assert code == 2 and "no table levels" in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize("damage,said", [
+    ("UPDATE corpus SET value = 'a,b' WHERE key = 'levels'", "its levels read 'a,b'"),
+    ("UPDATE corpus SET value = '6,-1' WHERE key = 'levels'", "its levels read '6,-1'"),
+    ("ALTER TABLE files DROP COLUMN frames", "has no column frames"),
+])
+def test_search_on_an_index_with_damaged_levels_or_columns_is_a_clean_error(
+        corpus, capsys, damage, said):
+    """QA (stop 33): stored levels that are not numbers raised int()'s ValueError, and a
+    dropped column sqlite3's OperationalError, as tracebacks."""
+    import sqlite3
+
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    run_corpus(src, out)
+    db = sqlite3.connect(out / INDEX_NAME)
+    assert db.execute("SELECT value FROM corpus WHERE key = 'levels'").fetchone()
+    db.execute(damage)
+    db.commit()
+    db.close()
+    code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and said in err and "damaged" in err and "Traceback" not in err, err
+
+
 def _arm_bvh(frames: int = 60) -> str:
     """A three-joint arm waving (BVH: no length unit), its rotations smooth, in degrees."""
     t = np.arange(frames) / 30.0

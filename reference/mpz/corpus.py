@@ -590,6 +590,12 @@ class Index:
         if missing:
             raise EncoderError(f"{self.path}: not an MPZ corpus index (no table "
                                f"{', '.join(missing)}); encode the folder again to rebuild it")
+        columns = {r[1] for r in self.db.execute("PRAGMA table_info(files)")}
+        lost = [c for c in _FILE_COLUMNS if c not in columns]
+        if lost:                   # a query naming it raised sqlite3's error (QA, stop 33)
+            raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files table "
+                               f"has no column {', '.join(lost)}); encode the folder again "
+                               "to rebuild it")
 
     def close(self) -> None:
         self.db.close()
@@ -697,7 +703,13 @@ class Index:
     def levels(self) -> tuple[int, ...]:
         """The summary levels the index was built with (its ``corpus`` table)."""
         text = self.info().get("levels", "")
-        return tuple(int(k) for k in text.split(",") if k) or SUMMARY_LEVELS
+        ks = [k.strip() for k in text.split(",") if k.strip()]
+        from mpz.format import MAX_FRAMES, MAX_SUMMARY_LEVELS
+        if len(ks) > MAX_SUMMARY_LEVELS or not all(
+                k.isascii() and k.isdigit() and 0 < int(k) <= MAX_FRAMES for k in ks):
+            raise EncoderError(f"{self.path}: a damaged MPZ corpus index (its levels read "
+                               f"{text[:40]!r}); encode the folder again to rebuild it")
+        return tuple(int(k) for k in ks) or SUMMARY_LEVELS
 
     def descriptors(self) -> tuple[list[dict[str, Any]], np.ndarray]:
         """Every row (without its levels) and the matrix of their descriptors.
