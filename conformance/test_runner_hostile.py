@@ -92,6 +92,23 @@ def test_a_huge_integer_units_code_is_a_mismatch(tmp_path):
     assert doc["results"][0]["sidecar"] == "mismatch"
 
 
+def test_huge_files_beside_the_output_are_not_read(tmp_path):
+    """QA (stop 33): a decoder that left a 1.5 GB (sparse) sidecar or integer-layer digest
+    took the runner to 3.2 GB while it read them whole. Past their caps they are named,
+    not read, and the vector fails."""
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            for ext in (".json", ".intlayer"):
+                with open(OUT + ext, "r+b" if ext == ".json" else "wb") as fh:
+                    fh.truncate(1 << 31)
+        ''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    r = doc["results"][0]
+    assert not r["passed"] and r["sidecar"] == "unreadable", r
+    assert "larger than" in r["message"], r["message"]
+
+
 @pytest.mark.parametrize("last_lines, verdict", [
     ("Traceback (most recent call last):\\nnumpy._core._exceptions._ArrayMemoryError: "
      "Unable to allocate 8.00 TiB", "memory"),
