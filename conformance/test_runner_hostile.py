@@ -246,6 +246,34 @@ def test_a_malformed_manifest_is_a_usage_error(tmp_path, manifest):
     assert proc.returncode == 64 and "Traceback" not in proc.stderr
 
 
+@pytest.mark.parametrize("kind", ["step a string", "names a number", "fifo", "device"])
+def test_a_hostile_vectors_folder_is_a_usage_error(tmp_path, kind):
+    """QA (stop 33): a header fact of the wrong type (step "abc") was a traceback in the
+    comparison, a FIFO as manifest.json hung, and /dev/zero was read without end."""
+    from mpz.conformance import manifest as mf
+    vdir = tmp_path / "v"
+    if kind in ("fifo", "device"):
+        vdir.mkdir()
+        if kind == "fifo":
+            os.mkfifo(vdir / "manifest.json")
+        else:
+            (vdir / "manifest.json").symlink_to("/dev/zero")
+    else:
+        vdir = _copy_vectors(tmp_path)
+        man = json.loads((vdir / "manifest.json").read_text())
+        v = next(x for x in man["vectors"] if x["name"] == ONE)
+        if kind == "step a string":
+            v["header"]["step"] = "abc"
+        else:
+            v["header"]["names"] = 3
+        (vdir / "manifest.json").write_text(json.dumps(man))
+        with pytest.raises(mf.ManifestError, match="header"):
+            mf.load(vdir)
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--vectors",
+                  str(vdir), "--only", ONE, timeout=120)
+    assert proc.returncode == 64 and "Traceback" not in proc.stderr, proc.stderr
+
+
 def test_ctrl_c_stops_at_once(tmp_path):
     """Ctrl-C waited for the running decoder's timeout, then printed a traceback. The signal
     is sent once the decoder runs (a fixed 3 s wait could still be the runner's imports

@@ -186,6 +186,10 @@ def spec_rules(text: str) -> list:
     return rows
 
 
+def _finite(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
 def _need(cond, msg):
     if not cond:
         raise ManifestError(msg)
@@ -229,7 +233,17 @@ def validate(man: dict) -> dict:
             for key in ("frames", "markers", "rate", "names", "units", "units_code", "meta",
                         "error_bound", "step"):
                 _need(key in v["header"], f"{name}: header facts lack {key!r}")
-            _need(isinstance(v["header"]["meta"], dict), f"{name}: header meta is not an object")
+            h = v["header"]
+            _need(isinstance(h["meta"], dict), f"{name}: header meta is not an object")
+            # the runner computes with these: a string step was a traceback (QA, stop 33)
+            _need(all(_finite(h[k]) for k in ("rate", "step", "error_bound"))
+                  and h["step"] > 0 and h["rate"] > 0,
+                  f"{name}: header rate, step and error_bound must be finite numbers")
+            _need(all(isinstance(h[k], int) and not isinstance(h[k], bool) and h[k] >= 0
+                      for k in ("frames", "markers", "units_code")),
+                  f"{name}: header frames, markers and units_code must be whole numbers")
+            _need(isinstance(h["names"], list) and all(isinstance(x, str) for x in h["names"])
+                  and isinstance(h["units"], str), f"{name}: header names or units malformed")
         else:
             for key in ("expected_error", "corruption", "risk"):
                 _need(v.get(key), f"{name}: invalid vector without {key!r}")
@@ -243,12 +257,24 @@ def validate(man: dict) -> dict:
     return man
 
 
+#: the most of a manifest.json that is read (the shipped one is well under 1 MiB)
+MAX_MANIFEST_BYTES = 64 << 20
+
+
 def load(directory=None) -> dict:
     """Read and validate ``manifest.json`` of ``directory`` (default: the shipped vectors)."""
     d = Path(directory) if directory is not None else DEFAULT_DIR
     path = d / MANIFEST_NAME
-    try:
-        text = path.read_text(encoding="utf-8")
+    from mpz.api import open_regular
+    from mpz.errors import FormatError
+    try:                    # a FIFO hung and /dev/zero read without end (QA, stop 33)
+        with open_regular(path) as fh:
+            raw = fh.read(MAX_MANIFEST_BYTES + 1)
+        if len(raw) > MAX_MANIFEST_BYTES:
+            raise ManifestError(f"{path}: larger than {MAX_MANIFEST_BYTES} bytes")
+        text = raw.decode("utf-8")
+    except FormatError as exc:
+        raise ManifestError(f"cannot read {path}: {exc.message}") from None
     except OSError as exc:
         raise ManifestError(f"cannot read {path}: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
