@@ -559,33 +559,9 @@ def test_show_json_is_utf8_when_a_c3d_string_is_not(tmp_path: Path) -> None:
     assert "\\xff\\xfe" in strings(doc)                 # the four characters \ x f f ...
 
 
-_ASF = """:version 1.10
-:units
-  length 0.45
-  angle deg
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-  begin
-     id 1
-     name b1
-     direction 1 0 0
-     length 2
-     axis 0 0 0 XYZ
-    dof rx
-  end
-:hierarchy
-  begin
-    root b1
-  end
-"""
-
-
 def test_special_files_named_beside_the_input_are_refused(small: dict[str, Path],
-                                                          tmp_path: Path) -> None:
+                                                          tmp_path: Path,
+                                                          one_bone_asf) -> None:
     """QA, stop 33: an ASF given by --asf / asf=, a file inside a folder for
     ``encode -r`` (hashed before it was read) and ``mpz search``'s query were read with a
     plain open(): /dev/zero read until memory ran out, a FIFO hung."""
@@ -593,7 +569,7 @@ def test_special_files_named_beside_the_input_are_refused(small: dict[str, Path]
     os.mkfifo(fifo)
     amc = tmp_path / "t_01.amc"
     amc.write_text(":FULLY-SPECIFIED\n:DEGREES\n1\nroot 0 0 0 0 0 0\nb1 10\n")
-    (tmp_path / "t.asf").write_text(_ASF)
+    (tmp_path / "t.asf").write_text(one_bone_asf(dofs="rx"))
     assert read(amc).n_frames == 1                       # the pair itself reads
     for asf in (fifo, "/dev/zero"):
         with pytest.raises(mpz.MPZError, match="not a regular file"):
