@@ -771,3 +771,39 @@ def test_a_text_file_cut_inside_its_last_line_is_said(tmp_path, ext, text, cut):
     assert "line break" not in read(p).metadata.get("warning", "")
     p.write_text(text[:-cut])                     # the last line's break (and last digit)
     assert "does not end with a line break" in read(p).metadata["warning"]
+
+
+def test_wrong_argument_types_are_named(tmp_path):
+    """QA (stop 33): wrong types reached internal code: AttributeError in write, an int
+    asf opened as the caller's file descriptor 3 (read, then closed), bytes taken for a
+    path, a model_errors value and a text stream failing without naming themselves."""
+    import io as _io
+    import os
+
+    import mpz
+    from mpz.errors import EncoderError
+    from mpz.synth import generate
+    m = generate("walk", frames=30, seed=1)
+    with pytest.raises(TypeError, match="expected an mpz.Motion, got ndarray"):
+        write(m.positions, tmp_path / "x.trc")
+    with pytest.raises(TypeError, match="file_name must be a str"):
+        write(m, tmp_path / "x.trc", file_name=3)
+    write(m, tmp_path / "x.trc")
+    with pytest.raises(TypeError, match="path must be a file name"):
+        read((tmp_path / "x.trc").read_bytes())
+    r, w = os.pipe()
+    try:
+        with pytest.raises(TypeError, match="asf must be a file name"):
+            read(tmp_path / "x.trc", asf=r)
+        os.fstat(r)                                   # still the caller's
+    finally:
+        os.close(r)
+        os.close(w)
+    with pytest.raises(EncoderError, match=r"model_errors\['ANGLES'\]"):
+        mpz.encode(m, max_error=1.0, model_errors={"ANGLES": "x"})
+
+    class TextRead(_io.RawIOBase):
+        def read(self, n=-1):
+            return "abc"
+    with pytest.raises(TypeError, match="binary mode"):
+        mpz.decode(TextRead())

@@ -98,6 +98,9 @@ def _read_exact(fh: IO[bytes], n: int) -> bytes:
         b = fh.read(min(n, _READ_BLOCK))
         if not b:
             break
+        if not isinstance(b, (bytes, bytearray)):   # a text stream (QA, stop 33)
+            raise TypeError(f"the stream's read() gave {type(b).__name__}, not bytes: open "
+                            "the MPZ file in binary mode ('rb')")
         parts.append(b)
         n -= len(b)
     return b"".join(parts)

@@ -228,8 +228,10 @@ class EncodeOptions:
             raise EncoderError("group error bounds need a bound: not with lossy")
         for name, v in (("default_error_mm", self.default_error_mm),
                         ("default_error_fraction", self.default_error_fraction),
-                        ("model_error", self.model_error), *self.model_errors.items()):
-            if not (math.isfinite(v) and v > 0):
+                        ("model_error", self.model_error),
+                        *((f"model_errors[{k!r}]", e) for k, e in self.model_errors.items())):
+            if (isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating))
+                    or not (math.isfinite(v) and v > 0)):
                 raise EncoderError(f"{name} must be finite and > 0, got {v!r}")
         kinds = {k.name for k in ModelKind}
         unknown = sorted(set(self.model_errors) - kinds)

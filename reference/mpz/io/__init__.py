@@ -116,6 +116,9 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
                              or not (math.isfinite(rate) and rate > 0)):
         raise ValueError(f"rate must be a finite number of frames per second above 0, got "
                          f"{rate!r}")
+    _path_arg("path", path)           # a QA run (stop 33): bytes were taken for a path,
+    if asf is not None:               # and asf=3 read and closed the caller's descriptor 3
+        _path_arg("asf", asf)
     _check_regular(path)
     ext = ext_of(path)
     fn = READERS.get(ext)
@@ -187,6 +190,11 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     FileNotFoundError
         When the folder of ``path`` does not exist (ezc3d then wrote nothing, silently).
     """
+    if not isinstance(motion, Motion):    # it failed deep in check_writable (QA, stop 33)
+        raise TypeError(f"mpz.io.write: expected an mpz.Motion, got {type(motion).__name__}")
+    _path_arg("path", path)
+    if file_name is not None and not isinstance(file_name, str):
+        raise TypeError(f"file_name must be a str, got {type(file_name).__name__}")
     ext = ext_of(path)
     fn = WRITERS.get(ext)
     if fn is None:
@@ -207,6 +215,14 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
         raise OSError(f"the {FORMAT_NAMES.get(ext, ext)} writer wrote nothing to "
                       f"{os.fspath(path)!r}")
     return notes
+
+
+def _path_arg(name: str, value: object) -> None:
+    """Raise TypeError unless ``value`` is a path: a str or an os.PathLike of str."""
+    if not (isinstance(value, str) or (isinstance(value, os.PathLike)
+                                       and isinstance(os.fspath(value), str))):
+        raise TypeError(f"{name} must be a file name (str or os.PathLike), got "
+                        f"{type(value).__name__}")
 
 
 def _check_regular(path: StrPath) -> None:
