@@ -265,15 +265,11 @@ def load(directory=None) -> dict:
     """Read and validate ``manifest.json`` of ``directory`` (default: the shipped vectors)."""
     d = Path(directory) if directory is not None else DEFAULT_DIR
     path = d / MANIFEST_NAME
-    from mpz.api import open_regular
+    from mpz.api import read_source
     from mpz.errors import FormatError
     try:                    # a FIFO hung and /dev/zero read without end (QA, stop 33)
-        with open_regular(path) as fh:
-            raw = fh.read(MAX_MANIFEST_BYTES + 1)
-        if len(raw) > MAX_MANIFEST_BYTES:
-            raise ManifestError(f"{path}: larger than {MAX_MANIFEST_BYTES} bytes")
-        text = raw.decode("utf-8")
-    except FormatError as exc:
+        text = read_source(path, limit=MAX_MANIFEST_BYTES)[0].decode("utf-8")
+    except FormatError as exc:      # not a regular file, or larger than the limit
         raise ManifestError(f"cannot read {path}: {exc.message}") from None
     except OSError as exc:
         raise ManifestError(f"cannot read {path}: {exc.strerror or exc}") from None

@@ -119,10 +119,14 @@ MAX_ENCODED_BYTES = 256 << 20
 
 
 def _read_capped(path: Path, limit: int) -> bytes | None:
-    """The bytes of ``path``, or None when it holds more than ``limit`` (not read further)."""
-    with open(path, "rb") as fh:
-        data = fh.read(limit + 1)
-    return None if len(data) > limit else data
+    """The bytes of ``path`` (:func:`mpz.api.read_source`), or None when it holds more
+    than ``limit`` (then nothing is read)."""
+    from mpz.api import read_source
+    from mpz.errors import LimitExceededError
+    try:
+        return read_source(path, limit=limit)[0]
+    except LimitExceededError:
+        return None
 
 #: bytes of a command's output kept (its tail): the rest is read and dropped, so that a
 #: decoder that prints gigabytes costs the runner no memory

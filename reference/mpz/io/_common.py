@@ -28,6 +28,7 @@ StrPath: TypeAlias = str | os.PathLike[str]
 
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
+_N = TypeVar("_N", int, float)
 
 #: exception types a parser may raise on bad input; translated by type
 #: (``MemoryError`` is not one: running out of memory says nothing about the file, and
@@ -127,6 +128,16 @@ def integer(text: str) -> int:
     if len(digits) > 18:
         raise InputFormatError(f"{t[:24]!r}... is too large a number")
     return int(t)
+
+
+def named(read: Callable[[str], _N], text: str, what: str,
+          bad: Callable[[str], InputFormatError]) -> _N:
+    """``text`` read by ``read`` (:func:`number`, :func:`integer`, :func:`count`); an error
+    names the field ``what``, in the reader's words (``bad`` adds its format's prefix)."""
+    try:
+        return read(text)
+    except InputFormatError as exc:
+        raise bad(f"{what}: {exc.message}") from None
 
 
 def count(text: str) -> int:

@@ -33,7 +33,15 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
-from mpz.io._common import StrPath, decode_text, integer, number, read_regular, reader
+from mpz.io._common import (
+    StrPath,
+    decode_text,
+    integer,
+    named,
+    number,
+    read_regular,
+    reader,
+)
 from mpz.io.bvh import num, skeleton_of, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, forward
 from mpz.motion import Motion
@@ -87,22 +95,6 @@ def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
     try:
         return number(vals[0]), number(vals[1]), number(vals[2])
     except InputFormatError as exc:                # the skeleton chunk holds finite ones
-        raise _bad(f"{what}: {exc.message}") from None
-
-
-def _field(vals: list[str], what: str) -> float:
-    """The first of ``vals`` as a finite :func:`number`; an error names ``what``."""
-    try:
-        return number(vals[0])
-    except InputFormatError as exc:
-        raise _bad(f"{what}: {exc.message}") from None
-
-
-def _whole(text: str, what: str) -> int:
-    """``text`` as an :func:`integer`; an error names ``what``."""
-    try:
-        return integer(text)
-    except InputFormatError as exc:
         raise _bad(f"{what}: {exc.message}") from None
 
 
@@ -209,7 +201,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
             raise _bad(f"ASF has no :{need} section")
     units = _keyvals(sec.get("units", []))
     dropped += [f":units {k}" for k in units if k not in ("mass", "length", "angle")]
-    length = _field(units.get("length", ["1.0"]) or [""], ":units length")
+    length = named(number, (units.get("length", ["1.0"]) or [""])[0], ":units length", _bad)
     if not (math.isfinite(length) and length > 0):
         raise _bad(f":units length must be positive, got {length}")
     if not math.isfinite(25.4 / length):     # 1e-320: millimetres per unit overflow
@@ -269,7 +261,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
             raise _bad(f"bone {name!r} has bad axis order {axis_order!r}")
         if not f.get("length"):
             raise _bad(f"bone {name!r} has no length")
-        bone_len = _field(f["length"], f"length of bone {name!r}")
+        bone_len = named(number, f["length"][0], f"length of bone {name!r}", _bad)
         if b.limits and len(b.limits) != len(dofs):
             raise _bad(f"bone {name!r} has {len(b.limits)} limits for {len(dofs)} dofs")
         ids = f.get("id", [])
@@ -278,7 +270,8 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
                             direction=_vec3(f.get("direction", []), f"direction of {name}"),
                             length=bone_len, axis=_vec3(axis, f"axis of {name}"),
                             axis_order=axis_order, limits=tuple(b.limits),
-                            bone_id=_whole(ids[0], f"id of bone {name!r}") if ids else 0))
+                            bone_id=named(integer, ids[0], f"id of bone {name!r}", _bad)
+                            if ids else 0))
     doc = "\n".join(sec.get("documentation", []))
     skel = Skeleton("asf", tuple(joints), angle_unit=angle_unit, encoding=encoding,
                     length=length, mass=" ".join(units.get("mass", [])),

@@ -29,6 +29,7 @@ from mpz.io._common import (
     StrPath,
     decode_text,
     integer,
+    named,
     number,
     plain_numbers,
     read_regular,
@@ -122,10 +123,8 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
             if stack[-1] in with_channels:      # the second replaced the first's columns
                 raise _bad(f"joint {j.name!r} has two CHANNELS lines")
             with_channels.add(stack[-1])
-            try:
-                n = integer(tokens[pos + 1]) if pos + 1 < len(tokens) else -1
-            except InputFormatError as exc:
-                raise _bad(f"CHANNELS of joint {j.name!r}: {exc.message}") from None
+            n = (named(integer, tokens[pos + 1], f"CHANNELS of joint {j.name!r}", _bad)
+                 if pos + 1 < len(tokens) else -1)
             if not 0 <= n <= MAX_CHANNELS_PER_JOINT:
                 raise _bad(f"bad channel count {n} for joint {j.name!r}")
             chans = tokens[pos + 2:pos + 2 + n]
@@ -214,11 +213,8 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     if (len(head) < 5 or head[0].rstrip(":").upper() != "FRAMES"
             or head[2].upper() != "FRAME" or head[3].rstrip(":").upper() != "TIME"):
         raise _bad(f"expected 'Frames: n' and 'Frame Time: t' after MOTION, got {head}")
-    try:
-        n_frames = integer(head[1])
-        ft = number(head[4])
-    except InputFormatError as exc:
-        raise _bad(f"MOTION header: {exc.message}") from None
+    n_frames = named(integer, head[1], "MOTION header", _bad)
+    ft = named(number, head[4], "MOTION header", _bad)
     rate = frame_rate_from_frame_time(ft)
     data = tokens[pos + 6:]
     if n_frames <= 0:

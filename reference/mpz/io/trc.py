@@ -26,10 +26,8 @@ so that a TRC decoded from a TRC is the same table.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 import math
 import os
-from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +38,7 @@ from mpz.io._common import (
     count,
     decode_text,
     integer,
+    named,
     number,
     read_regular,
     reader,
@@ -48,7 +47,6 @@ from mpz.io._common import (
 )
 from mpz.motion import Motion, finite_samples
 
-_N = TypeVar("_N", int, float)
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in"}
 
 
@@ -93,7 +91,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     header = {k: v for k, v in zip(keys, vals, strict=False) if k}
     if "DataRate" not in header:
         raise _bad("header has no DataRate")
-    rate = _field(number, header, "DataRate")
+    rate = named(number, header["DataRate"], "DataRate", _bad)
     units_raw = header.get("Units", "").strip()
     units = _UNITS.get(units_raw.lower(), "")
     name_row = lines[3].rstrip("\r\n").split("\t")
@@ -109,7 +107,8 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         coord_row.pop()
     n_markers = len(names)
     declared = header.get("NumMarkers")
-    listed = _field(count, header, "NumMarkers") if declared not in (None, "") else n_markers
+    listed = (named(count, declared, "NumMarkers", _bad) if declared not in (None, "")
+              else n_markers)
     if listed != n_markers:
         if listed < n_markers and all(n == "" for n in names[listed:]):
             n_markers = listed
@@ -159,7 +158,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if skipped:
         meta["warning"] = skipped
     declared_frames = header.get("NumFrames", "").strip()
-    if declared_frames and _field(count, header, "NumFrames") != len(pos):
+    if declared_frames and named(count, declared_frames, "NumFrames", _bad) != len(pos):
         said = f"NumFrames says {declared_frames}, file has {len(rows)} rows"
         meta["warning"] = f"{meta['warning']}; {said}" if "warning" in meta else said
     valid = finite_samples(pos)
@@ -177,15 +176,6 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if "trc.TimeDecimals" in meta:
         meta["trc.TimeDigits"] = str(digits)
     return Motion(pos, names, rate, units, valid, meta)
-
-
-def _field(read: Callable[[str], _N], header: dict[str, str], key: str) -> _N:
-    """Header field ``key`` read by ``read`` (:func:`number` or :func:`count`); an error
-    names the field."""
-    try:
-        return read(header[key])
-    except InputFormatError as exc:
-        raise _bad(f"{key}: {exc.message}") from None
 
 
 def _is_int(x: str) -> bool:

@@ -459,6 +459,30 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
     return jobs
 
 
+def plot_format(path: str) -> str:
+    """The figure format of a ``--plot`` path: its extension, lower case, without the dot
+    (given to ``savefig`` explicitly: it writes to a temporary name)."""
+    return os.path.splitext(path)[1].lstrip(".").lower()
+
+
+def check_plot(path: str, force: bool, sources: Sequence[str]) -> None:
+    """Refuse a ``--plot`` path before the work (an EncoderError, exit 2): as any output
+    (``mpz.api.check_output``: an existing file only with ``--force``; a QA run found plots
+    replacing any file), and with an extension matplotlib cannot write (it raised a
+    ValueError traceback after the work). Needs matplotlib."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from mpz.api import check_output
+    for src in sources:
+        check_output(path, force=force, source=None if src == STDIO else src)
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    ext = plot_format(path)
+    if ext not in kinds:
+        raise EncoderError(f"--plot {printable(path)}: matplotlib writes "
+                           f"{', '.join('.' + k for k in sorted(kinds))}, not "
+                           f"{'.' + ext if ext else 'a file without an extension'}")
+
+
 def make_folder(folder: str) -> None:
     """Create ``folder`` and its parents if missing (``--mirror``'s folders below
     ``-o FOLDER/``).

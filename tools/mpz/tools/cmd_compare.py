@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 
 import numpy as np
 
-from mpz.errors import EncoderError, MotionError
+from mpz.errors import MotionError
 from mpz.tools._cli import count, print_json, printable
+from mpz.tools._common import check_plot, plot_format
 
 
 def add_parser(sub):
@@ -149,6 +149,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     if args.plot:  # a bad plot path fails before the work
         check_plot(args.plot, args.force, (args.original, args.decoded))
+        _matplotlib()
     names = (_label(args.original), _label(args.decoded))
     a, ext_a = read_input(args.original, args.asf)
     b, ext_b = read_input(args.decoded, args.asf)
@@ -207,24 +208,6 @@ def run(args: argparse.Namespace) -> int:
     return 2 if gaps_lost or gaps_added else 0
 
 
-def check_plot(path: str, force: bool, sources: tuple[str, ...]) -> None:
-    """Refuse a --plot path before the work (an EncoderError, exit 2): as any output
-    (``mpz.api.check_output``: an existing file only with ``--force``; a QA run found plots
-    replacing any file), and with an extension matplotlib cannot write (it raised a
-    ValueError traceback after the work)."""
-    from mpz.api import check_output
-    for src in sources:
-        check_output(path, force=force, source=None if src == "-" else src)
-    plt = _matplotlib()
-    ext = os.path.splitext(path)[1].lower().lstrip(".")
-    kinds = plt.figure().canvas.get_supported_filetypes()
-    plt.close("all")
-    if ext not in kinds:
-        raise EncoderError(f"--plot {printable(path)}: matplotlib writes "
-                           f"{', '.join('.' + k for k in sorted(kinds))}, not "
-                           f"{'.' + ext if ext else 'a file without an extension'}")
-
-
 def _matplotlib():
     try:
         import matplotlib
@@ -280,5 +263,5 @@ def plot(a, b, names, path, *, bound: float | None = None, units: str | None = N
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / (1.2 + 2.0 * len(names))))
     from mpz.api import atomic_output
     with atomic_output(path, force=force) as tmp:
-        fig.savefig(tmp, dpi=110, format=os.path.splitext(path)[1].lstrip(".").lower())
+        fig.savefig(tmp, dpi=110, format=plot_format(path))
     plt.close(fig)

@@ -386,8 +386,8 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
                  ha="center", va="top", fontsize=7, wrap=True)
     from mpz.api import atomic_output
     with atomic_output(path, force=force) as tmp:
-        fig.savefig(tmp, dpi=130, bbox_inches="tight",
-                    format=os.path.splitext(path)[1].lstrip(".").lower())
+        from mpz.tools._common import plot_format
+        fig.savefig(tmp, dpi=130, bbox_inches="tight", format=plot_format(path))
     plt.close(fig)
 
 
@@ -400,7 +400,7 @@ def run(args) -> int:
             print("mpz summary: --plot needs matplotlib (pip install 'mpz[plot]')", file=sys.stderr)
             return EXIT_ERROR
     if args.plot:  # a bad plot path fails before the work
-        from mpz.tools.cmd_compare import check_plot
+        from mpz.tools._common import check_plot
         check_plot(args.plot, args.force, (args.file,))
     path = Path(args.file)
     args.stdin_data, args.stdin_format = None, None
