@@ -756,6 +756,34 @@ def test_a_bad_option_value_is_a_usage_error(inputs: dict[str, Path], tmp_path: 
     assert not (tmp_path / "x.mpz").exists()
 
 
+OUT_OF_RANGE = [
+    ["encode", "--max-error", "0mm"], ["encode", "--max-error", "1e999mm"],
+    ["encode", "--max-error", "1e-320mm"], ["encode", "--max-error", "1mm", "--grid", "0mm"],
+    ["encode", "--max-error", "1mm", "--group-error", "root=0cm"],
+    ["encode", "--meta", "=v"], ["encode", "--rate", "nan"], ["encode", "--rate", "0"],
+    ["encode", "--angle-error", "inf"], ["encode", "--translation-error", "0"],
+    ["encode", "--translation-error", "nan"], ["encode", "--translation-error", "0mm"],
+    ["compare", "--bound", "0mm"], ["compare", "--bound", "1e400mm"],
+    ["search", "--index", "idx", "-n", "-1"],
+]
+
+
+@pytest.mark.parametrize("argv", OUT_OF_RANGE, ids=" ".join)
+def test_a_value_out_of_range_is_a_usage_error_before_the_input_is_read(
+        tmp_path: Path, argv: list[str]) -> None:
+    """QA finding 10 (stop 33): zero, infinite and denormal lengths, an empty --meta key,
+    a NaN rate and a negative count were judged only after the input was read, with the
+    exit code of an input error (2). None of them depends on the input, so they are usage
+    errors (64, README); the input here does not exist, and reading it would exit 2."""
+    cmd, *opts = argv
+    inputs = {"encode": ["missing.amc", "-o", "x.mpz"], "compare": ["a.c3d", "b.mpz"],
+              "search": ["missing.c3d"]}[cmd]
+    p = run(["mpz", cmd, *inputs, *opts], tmp_path)
+    assert p.returncode == 64, (p.returncode, p.stderr)
+    assert opts[-2].encode() in p.stderr or b"metadata key" in p.stderr, p.stderr
+    assert not list(tmp_path.iterdir())
+
+
 def test_a_group_error_that_is_not_tighter_is_said(inputs: dict[str, Path],
                                                    tmp_path: Path) -> None:
     """A node is coded within the smaller of its group error and the bound: a looser group

@@ -189,8 +189,8 @@ def inputs(tmp_path_factory: pytest.TempPathFactory, walk: Motion) -> Path:
 
 # (arguments after the input, the input, words the error must hold)
 CLI: list[tuple[list[str], str, tuple[str, ...]]] = [
-    (["--max-error", "5e-324"], "walk.npy", ("max_error", "5e-324")),
-    (["--max-error", "1e308"], "walk.npy", ("max_error", "1e+308")),
+    (["--max-error", "5e-324"], "walk.npy", ("--max-error", "5e-324", "1e-300")),
+    (["--max-error", "1e308"], "walk.npy", ("--max-error", "1e308", "1e+300")),
     (["--summary", "x"], "walk.npy", ("--summary", "x")),
     (["--summary", "0"], "walk.npy", ("summary", "0")),
     (["--weight", "M1=abc"], "walk.npy", ("--weight", "M1=abc")),
@@ -311,6 +311,8 @@ def test_metadata_beyond_the_limits_is_refused_not_cut(meta, match):
     m = generate("walk", frames=20, seed=1)
     with pytest.raises(EncoderError, match=match):
         mpz.encode(m, max_error=1.0, metadata=meta)
+    with pytest.raises(EncoderError, match=match):      # judged without a motion too (stop 34)
+        EncodeOptions(max_error=1.0, metadata=meta).validate()
     ok = {"k" * 255: "v" * 65535}
     assert mpz.decode(mpz.encode(m, max_error=1.0, metadata=ok)).metadata["k" * 255] == "v" * 65535
 

@@ -385,6 +385,7 @@ def check_option_values(o: EncodeOptions) -> None:
     for k, text in o.metadata.items():
         _utf8(k, "metadata key")
         _utf8(text, f"metadata value of {k!r}")
+    check_metadata(o.metadata)      # an empty key was refused only with the motion's own
 
 
 def _consistent(motion: Motion) -> None:

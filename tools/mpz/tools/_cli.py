@@ -279,6 +279,18 @@ def count(text: str) -> int:
     return n
 
 
+def positive(text: str) -> float:
+    """argparse type of a finite number above 0 (``--rate HZ``, ``--angle-error DEG``): nan,
+    inf and 0 were judged only after the input was read, as input errors (exit 2)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"wants a number, got {text!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"wants a finite number above 0, got {text!r}")
+    return v
+
+
 def max_samples(text: str) -> int:
     """argparse type of ``--max-samples N`` (issue 11.1): a lower F x M limit, 1 .. 2^26.
 

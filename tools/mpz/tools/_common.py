@@ -50,6 +50,10 @@ class UsageError(Exception):
 
 # -- lengths and units -------------------------------------------------------------------
 
+#: a length on the command line: a plain decimal number and an optional unit
+_LENGTH = re.compile(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([A-Za-z]*)\s*")
+
+
 def parse_length(text: str, units: str, option: str = "--max-error") -> float:
     """``'2mm'``, ``'0.2 cm'``, ``'0.002m'`` -> a length in the motion's ``units``.
 
@@ -63,7 +67,7 @@ def parse_length(text: str, units: str, option: str = "--max-error") -> float:
     EncoderError
         Naming ``option``, the text and the accepted units.
     """
-    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([A-Za-z]*)\s*", text)
+    m = _LENGTH.fullmatch(text)
     if not m:
         raise EncoderError(f"{option}: cannot read a length from {text!r}; write a number "
                            f"and a unit ({ACCEPTED_UNITS}), e.g. 2mm or 0.5cm")
@@ -84,13 +88,21 @@ def parse_length(text: str, units: str, option: str = "--max-error") -> float:
     return value * UNITS_MM[unit] / UNITS_MM[units]
 
 
-def check_length_syntax(text: str | None, option: str) -> None:
-    """Refuse a malformed length or an unknown unit before any input is read."""
+def check_length(text: str | None, option: str) -> None:
+    """Refuse, before any input is read, a length that no input's units can make valid: a
+    malformed one, an unknown unit, or a number outside the encoder's range of lengths as
+    written (0, 1e999 = inf, 1e-320). A unit's conversion is at most a factor of 1000, so
+    what passes here fails later only at the range's very ends."""
     if text is None:
         return
-    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([A-Za-z]*)\s*", text)
+    from mpz.encoder import MAX_LENGTH, MIN_LENGTH
+    m = _LENGTH.fullmatch(text)
     if not m or (m.group(2) and m.group(2).lower() not in UNITS_MM):
         parse_length(text, "mm", option)        # raises with the precise message
+        raise AssertionError("parse_length accepted what the syntax refused")
+    if not MIN_LENGTH <= float(m.group(1)) <= MAX_LENGTH:
+        raise EncoderError(f"{option} {text.strip()}: a length's number must be from "
+                           f"{MIN_LENGTH:g} to {MAX_LENGTH:g}")
 
 
 def human_size(n: int) -> str:

@@ -139,11 +139,11 @@ def run(args: argparse.Namespace) -> int:
     from mpz.errors import EncoderError
     from mpz.metrics import summary
     from mpz.tools._cli import EXIT_USAGE
-    from mpz.tools._common import check_length_syntax, parse_length, read_input
+    from mpz.tools._common import check_length, parse_length, read_input
     if args.original == "-" and args.decoded == "-":
         raise MotionError("only one of the two inputs can be standard input (-)")
     try:                        # a usage error (64), as encode's lengths: not an input error
-        check_length_syntax(args.bound, "--bound")
+        check_length(args.bound, "--bound")
     except EncoderError as exc:
         print(f"mpz compare: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -165,9 +165,7 @@ def run(args: argparse.Namespace) -> int:
     # have units, as for every length option (README); before, it was read only for a plot
     bound_given = None
     if args.bound is not None:
-        bound_given = parse_length(args.bound, units, "--bound")
-        if not (math.isfinite(bound_given) and bound_given > 0):
-            raise MotionError(f"--bound {args.bound}: not a positive finite length")
+        bound_given = parse_length(args.bound, units, "--bound")   # in range: check_length
         if not args.plot:
             notes.append("--bound is drawn on --plot, which was not asked for")
     for note in notes:

@@ -16,7 +16,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError
-from mpz.tools._cli import printable
+from mpz.tools._cli import positive, printable
 
 if TYPE_CHECKING:
     from mpz.encoder import EncodeOptions
@@ -54,10 +54,10 @@ def add_parser(sub):
     p.add_argument("--units", choices=("mm", "cm", "m", "in"),
                    help="the length unit of an input that has none (BVH), e.g. --units cm; "
                    "then lengths with units work (--max-error 1mm)")
-    p.add_argument("--rate", metavar="HZ", type=float,
+    p.add_argument("--rate", metavar="HZ", type=positive,
                    help="the frame rate of an input that stores none (AMC: 120 Hz is assumed, "
                    "NPY: 1 Hz), e.g. --rate 60; an error for an input that has one")
-    p.add_argument("--angle-error", metavar="DEG", type=float,
+    p.add_argument("--angle-error", metavar="DEG", type=positive,
                    help="BVH, AMC: bound on the rotation channels, in degrees (default 0.01, "
                    "or as --max-error allows)")
     p.add_argument("--translation-error", metavar="LEN",
@@ -190,17 +190,19 @@ def _summary_ks(text: str | None) -> tuple[int, ...]:
 
 
 def _check_options(args: argparse.Namespace) -> None:
-    """Everything about the options that can be judged before an input is read: the
-    syntax of lengths, and every other value as the encoder checks it (EncodeOptions'
-    ``validate``, with the lengths left out: they need the input's units). An error here is
-    a usage error (exit 64): --threads 0 or --smoothing 17 exited 2, as an input error."""
+    """Everything about the options that can be judged before an input is read: lengths
+    whatever the input's units can be (:func:`~mpz.tools._common.check_length`), and every
+    other value as the encoder checks it (EncodeOptions' ``validate``, with the lengths
+    left out: they need the input's units). An error here is a usage error (exit 64):
+    --threads 0, --smoothing 17 or --max-error 0mm exited 2, as an input error."""
     import copy
 
-    from mpz.tools._common import check_length_syntax
-    check_length_syntax(args.max_error, "--max-error")
-    check_length_syntax(args.grid, "--grid")
+    from mpz.tools._common import check_length
+    check_length(args.max_error, "--max-error")
+    check_length(args.grid, "--grid")
     for _, v in _pairs(args.group_error, "--group-error").items():
-        check_length_syntax(v, "--group-error")
+        check_length(v, "--group-error")
+    _translation_error(args.translation_error, None)
     unitless = copy.copy(args)       # _options parses --meta, --weight and --summary too
     unitless.max_error = None if args.max_error is None else "1"    # a bound is asked for
     unitless.grid = unitless.group_error = None
@@ -427,8 +429,6 @@ def _rate(args: argparse.Namespace, motion, *, batch: bool = False):
         raise EncoderError(f"--rate {args.rate:g}: this {fmt.upper() or 'input'} stores its "
                            f"rate ({motion.rate:g} Hz); --rate is for inputs without one "
                            "(AMC, NPY)")
-    if not (math.isfinite(args.rate) and args.rate > 0):
-        raise EncoderError(f"--rate {args.rate!r}: a rate is finite and > 0 (Hz)")
     meta = {k: v for k, v in motion.metadata.items() if k != "rate_assumed"}
     return replace(motion, rate=float(args.rate), metadata=meta)
 
@@ -471,8 +471,6 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
     skeleton left out by --no-skeleton is not a note but the file's ``not_kept``."""
     from dataclasses import replace
 
-    from mpz.skeleton import mm_per_unit
-    from mpz.tools._common import parse_length
     if motion.extras.get("skeleton") is None:
         if not batch and (args.angle_error is not None or args.translation_error is not None):
             raise EncoderError("--angle-error and --translation-error apply to skeletal input "
@@ -487,21 +485,35 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
             notes.append("--no-skeleton: the skeleton and its channels are not kept, only the "
                          "joint positions")
         return replace(opts, keep_skeleton=False), notes
-    lin = None
-    text = args.translation_error
-    if text is not None:
-        try:
-            lin = float(text)                          # the skeleton's own length unit
-        except ValueError:
-            per = mm_per_unit(motion)
-            if per is None:
-                raise EncoderError(f"--translation-error {text}: the input has no length "
-                                   "unit; name it with --units, or give a plain number in "
-                                   "the file's own units") from None
-            lin = parse_length(text, "mm", "--translation-error") / per
+    lin = _translation_error(args.translation_error, motion)
     # the marker layer's default is the preview bound (mpz.encoder.default_error)
     return replace(opts, angle_error=args.angle_error, translation_error=lin,
                    position_error=opts.max_error), notes
+
+
+def _translation_error(text: str | None, motion) -> float | None:
+    """--translation-error: a plain number in the skeleton's own length unit, or a length
+    with a unit converted to it. With ``motion`` None only what needs no input is judged
+    (the number's range, a length's syntax), as a usage error."""
+    from mpz.skeleton import mm_per_unit
+    from mpz.tools._common import check_length, parse_length
+    if text is None:
+        return None
+    try:
+        lin = float(text)                          # the skeleton's own length unit
+    except ValueError:
+        check_length(text, "--translation-error")
+        if motion is None:
+            return None
+        per = mm_per_unit(motion)
+        if per is None:
+            raise EncoderError(f"--translation-error {text}: the input has no length "
+                               "unit; name it with --units, or give a plain number in "
+                               "the file's own units") from None
+        return parse_length(text, "mm", "--translation-error") / per
+    if not (math.isfinite(lin) and lin > 0):
+        raise EncoderError(f"--translation-error {text}: give a finite length above 0")
+    return lin
 
 
 class PerFile:

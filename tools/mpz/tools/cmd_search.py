@@ -24,7 +24,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from mpz.errors import EncoderError
-from mpz.tools._cli import EXIT_OK
+from mpz.tools._cli import EXIT_OK, count
 
 if TYPE_CHECKING:
     from mpz.similarity import MotionSummary
@@ -40,7 +40,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("query", help="a capture file (.c3d, .trc, .bvh, .amc, .npy, .csv) or .mpz")
     p.add_argument("--index", required=True, metavar="INDEX",
                    help="the index file, or the folder that holds index.sqlite")
-    p.add_argument("-n", "--top", type=int, default=10, metavar="N",
+    p.add_argument("-n", "--top", type=count, default=10, metavar="N",
                    help="show the N nearest files (default 10; 0 for all)")
     p.add_argument("--asf", help="skeleton for an .amc query (default: found beside it)")
     p.add_argument("--json", action="store_true", help="print JSON (schema mpz-search/1)")
@@ -99,8 +99,6 @@ def run(args: argparse.Namespace) -> int:
     from mpz.similarity import descriptor, features_for, rank
     from mpz.tools._cli import print_json, printable
 
-    if args.top < 0:
-        raise EncoderError(f"-n must be 0 or more, got {args.top}")
     with open_index(args.index) as index:
         levels = index.levels()
         values, table = index.descriptors()
