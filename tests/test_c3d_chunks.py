@@ -189,6 +189,62 @@ def test_int16_channels_are_exact(values):
     assert back.tolist() == x.tolist()
 
 
+#: 32-bit words at the ends of the ordered map (§6.9): NaN patterns, infinities, +-0
+EXTREME_WORDS = [0x7FFFFFFF, 0x7FFFFFFE, 0x80000000, 0x80000001, 0xFFFFFFFF, 0xFFFFFFFE,
+                 0x00000000, 0x00000001, 0x7F800000, 0xFF800000]
+words32 = st.one_of(st.sampled_from(EXTREME_WORDS), st.integers(0, 2 ** 32 - 1))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(words32, min_size=1, max_size=12))
+def test_float_channels_of_any_bit_pattern_are_bit_exact(words):
+    """Every float32 word a C3D can hold, NaN payloads included. The word 0xFFFFFFFE (e =
+    -(2^31 - 1) at order 0) was refused with LimitExceededError: b was taken from |e|
+    alone, and floor division gave h = -2^30, outside the coder's range (spec review,
+    stop 34)."""
+    x = np.array(words, np.uint32).view("<f4")
+    p = plan(x)
+    enc = BlockEncoder()
+    encode_channel(enc, p)
+    dec = BlockDecoder(enc.finish())
+    back = decode_channel(dec, x.size, p.mode, p.shift, p.order, p.low_bits,
+                          np.dtype("<f4"), "§6.9")
+    dec.close()
+    assert back.view(np.uint32).tolist() == list(words)
+
+
+def _orders_as_defined(column: list[int], max_low: int) -> tuple[int, int]:
+    """(order, b) of one column by the definition, in Python integers: the cheapest order
+    by sum(log2(1 + |e|)), lowest on a tie, among those with a b <= max_low that puts every
+    floor(e / 2^b) strictly within +-2^30 (§5.4); (0, -1) if none has one."""
+    best: tuple[float, int, int] | None = None
+    for order in range(3):
+        e = [v - (column[t - 1] if order and t >= 1 else 0)
+             - ((column[t - 1] - column[t - 2]) if order == 2 and t >= 2 else 0)
+             for t, v in enumerate(column)]
+        fit = [b for b in range(max_low + 1)
+               if all(-(2 ** 30) < (r // 2 ** b) < 2 ** 30 for r in e)]
+        cost = float(np.log2(1.0 + np.abs(np.array(e, np.float64))).sum())
+        if fit and (best is None or cost < best[0]):
+            best = (cost, order, fit[0])
+    return (0, -1) if best is None else (best[1], best[2])
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 8), st.integers(1, 4), st.sampled_from([0, 3]), st.data())
+def test_best_orders_takes_only_orders_the_coder_can_code(T, C, max_low, data):
+    """A channel's order and b (§6.9) and a model output's order (§4.13.3, b = 0): an
+    order whose residuals do not fit the coder is never chosen, however cheap."""
+    from mpz.c3dcodec import best_orders
+    ends = st.sampled_from([-(2 ** 31), -(2 ** 31) + 1, 2 ** 31 - 1, -(2 ** 30) + 1, 2 ** 30 - 1,
+                            -(2 ** 29), 2 ** 29, 0])
+    value = st.one_of(ends, st.integers(-(2 ** 31), 2 ** 31 - 1), st.integers(-4, 4))
+    cols = [data.draw(st.lists(value, min_size=T, max_size=T)) for _ in range(C)]
+    orders, lows = best_orders(np.array(cols, np.int64).T.copy(), max_low)
+    for c, col in enumerate(cols):
+        assert (int(orders[c]), int(lows[c])) == _orders_as_defined(col, max_low), col
+
+
 def _lowest_bit_exponent(x: float) -> int:
     """e with x = odd x 2^e, from Python's exact ratio (independent of c3dcodec)."""
     n, d = abs(x).as_integer_ratio()                       # d is a power of two

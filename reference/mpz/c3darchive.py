@@ -301,7 +301,7 @@ def _model_batch(a: C3DArchive, opts: EncodeOptions, j0: int, j1: int, names: li
     del u
     far = np.asarray((np.abs(k) >= MODEL_LIMIT // 2).any(axis=0))
     err = np.where(ok, np.abs(k.astype(np.float64) * step + offset - x), 0.0).max(axis=0)
-    orders, _ = best_orders(k)
+    orders, _ = best_orders(k, max_low=0)       # each k residual coded whole (§5.4)
     axes = [ModelAxis(offset=float(offset[c]), step=float(step[c]), bound=float(declared[c]),
                       order=int(orders[c])) for c in range(n)]
     for c, ax in enumerate(axes):   # refused here, not written for the decoder to refuse

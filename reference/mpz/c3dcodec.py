@@ -156,12 +156,6 @@ def _dyadic_kernel(bits: NDArray[np.uint32], lo: int, hi: int, usable: NDArray[n
         shift[c] = s
 
 
-def _low_bits(peak: int) -> int:
-    """The smallest b with every |e div 2^b| < 2^30 (§5.4: the coder's range), for
-    residuals e of largest magnitude ``peak``."""
-    return max(0, int(peak).bit_length() - MAX_EXP)
-
-
 #: values per batch of channels in :func:`best_orders` and :func:`encode_channels` (as
 #: ``predict._BLOCK_VALUES``): their temporaries stay a few MiB however long the capture
 #: (issue 11.11), and a short clip is one batch (issue 15.1)
@@ -198,30 +192,47 @@ def plan(words: NDArray[np.int16] | NDArray[np.float32]) -> Plan:
     return plan_all(words[:, None])[0]
 
 
-def best_orders(v: IntArray) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
+def best_orders(v: IntArray, max_low: int = C3D_MAX_LOW_BITS
+                ) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
     """The predictor order of each column of ``v[T, C]`` (§6.2), the one whose residuals
-    e cost least by the size proxy ``sum(log2(1 + |e|))`` (the lowest order on a tie), and
-    the largest |e| of that order.
+    e cost least by the size proxy ``sum(log2(1 + |e|))`` (the lowest order on a tie)
+    among the orders the coder can take, and its b (:func:`low_bits`; -1 where no order
+    fits with b <= ``max_low``).
 
     Each column's cost is summed over its own samples as a contiguous row (numpy's order
     for a 1-D sum), so a column's order does not depend on the other columns; the columns
     are taken in :func:`batches`, one order at a time."""
     T, C = v.shape
     orders = np.zeros(C, np.intp)
-    peaks = np.zeros(C, np.int64)
+    lows = np.zeros(C, np.int64)
     for c0, c1 in batches(T, C):
         costs = np.empty((MAX_ORDER + 1, c1 - c0))
-        peak = np.empty((MAX_ORDER + 1, c1 - c0), np.int64)
+        low = np.empty((MAX_ORDER + 1, c1 - c0), np.int64)
         for order in range(MAX_ORDER + 1):
-            e = np.abs(residuals(v[:, c0:c1], order))
-            peak[order] = e.max(axis=0, initial=0)
-            costs[order] = np.ascontiguousarray(np.log2(1.0 + e.astype(np.float64)).T).sum(
-                axis=1)
+            e = residuals(v[:, c0:c1], order)
+            low[order] = low_bits(e.max(axis=0, initial=0), e.min(axis=0, initial=0),
+                                  max_low)
+            costs[order] = np.ascontiguousarray(
+                np.log2(1.0 + np.abs(e).astype(np.float64)).T).sum(axis=1)
             del e
+        costs[low < 0] = np.inf                 # h would not fit the coder (§5.4)
         best = np.argmin(costs, axis=0)
         orders[c0:c1] = best
-        peaks[c0:c1] = peak[best, np.arange(c1 - c0)]
-    return orders, peaks
+        lows[c0:c1] = low[best, np.arange(c1 - c0)]
+    return orders, lows
+
+
+def low_bits(hi: NDArray[np.int64], lo: NDArray[np.int64], max_low: int) -> NDArray[np.int64]:
+    """For residuals from ``lo`` <= 0 to ``hi`` >= 0 (per column), the smallest b <=
+    ``max_low`` that puts every h = e div 2^b (floor division, §6.9) within the coder's
+    -2^30 < h < 2^30 (§5.4), or -1 where none does. Both ends bound b: for e < 0, floor
+    division reaches -2^30 from |e| = (2^30 - 1) x 2^b + 1 on, so b is not bitlen(|e|) -
+    30 (the word 0xFFFFFFFE, e = -(2^31 - 1) at order 0, needs b = 2, not 1)."""
+    out = np.full(hi.shape, -1, np.int64)
+    for b in range(max_low, -1, -1):             # the fit is monotonic in b
+        fits = ((hi >> b) < (1 << MAX_EXP)) & ((lo >> b) > -(1 << MAX_EXP))
+        out[fits] = b
+    return out
 
 
 def plan_all(words: NDArray[Any]) -> list[Plan]:
@@ -232,14 +243,11 @@ def plan_all(words: NDArray[Any]) -> list[Plan]:
     v = np.empty((T, C), np.int64)
     for c, (_, _, vc) in enumerate(coded):
         v[:, c] = vc
-    best, peaks = best_orders(v)
+    best, lows = best_orders(v)
     del v
-    out = []
-    for c, (mode, shift, vc) in enumerate(coded):
-        low = _low_bits(peaks[c])
-        assert low <= C3D_MAX_LOW_BITS
-        out.append(Plan(mode, shift, int(best[c]), low, vc))
-    return out
+    assert (lows >= 0).all()        # order 0 of 32-bit words fits with b <= 2
+    return [Plan(mode, shift, int(best[c]), int(lows[c]), vc)
+            for c, (mode, shift, vc) in enumerate(coded)]
 
 
 def residual_rows(v: IntArray, orders: NDArray[np.integer[Any]]) -> IntArray:
