@@ -72,7 +72,7 @@ class ResidualBase(IntEnum):
 class SummarySpace(IntEnum):
     """§4.10 ``space``: what the summary's segment means describe."""
 
-    POSITIONS = 0          # marker positions relative to the root marker, D = 3M
+    POSITIONS = 0          # marker positions relative to the per-frame centroid, D = 3M
     ANGLES = 1             # joint angles, any D
 
 

@@ -582,7 +582,7 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     d[~both] = 0.0
     facts["measured_max_error"] = float(d.max(initial=0.0))
     bound = float(h.error_bound)
-    # the float tier of §7.1 is allowed on top of the declared bound
+    # §7.2: the float slack max|x| * 2^-50 (the float tier of §7.1) on top of the bound
     slack = mf.tolerances(0.0, float(np.nanmax(np.abs(x))) if both.any() else 0.0)["max_abs"]
     if h.error_metric == 1 and (d > bound + slack).any():
         f, m = (int(i) for i in np.argwhere(d > bound + slack)[0])

@@ -64,7 +64,7 @@ MHDR = Struct(
     "rate" / Float64l * "§4.1 frames per second, finite and > 0, exact as captured",
     "units" / Int8ul * "§4.1 0 unknown, 1 mm, 2 cm, 3 m, 4 in",
     "error_metric" / Int8ul * "§4.1 0 none declared, 1 max Euclidean error per valid sample",
-    "error_bound" / Float64l * "§4.1 the declared bound in units (0 when metric is 0)",
+    "error_bound" / Float64l * "§4.1 the declared bound in units (SHOULD be 0 when metric is 0)",
     "smoothing" / Int8ul * "§4.1 h, half-width of the boundary smoothing filter, 0..16",
     Terminated,
 )
@@ -165,7 +165,8 @@ ROOT = Struct(
 PATT = Struct(
     "node" / Int16ul * "§4.7 node index, 1..N-1",
     "pattern_count" / Int16ul * "§4.7 K, 0..65535",
-    "length" / Int16ul * "§4.7 L, frames per pattern (reference frame number), 1..4096",
+    "length" / Int16ul * "§4.7 L, frames per pattern (reference frame number), 1..4096 if K > 0, "
+                          "not checked if K = 0",
     "scale" / Int16ul * "§4.7 pattern grid multiplier, >= 1",
     "order" / Int8ul * "§4.7 temporal predictor order 0..2 within each pattern (1 = deltas)",
     "coded" / GreedyBytes * "§4.7 range-coded [K*L, n_i, 3], contexts restart every L rows",
@@ -243,7 +244,8 @@ MEND = Struct(
 ChannelCoding = Struct(
     "step_mantissa" / Int16ul * "§4.14 m >= 1",
     "step_digits" / Int8ul * "§4.14 d, 0..9: the step is m x 10^-d",
-    "wrap" / Int8ul * "§4.14 0 none, 1 modulo one turn of 360 degrees",
+    "wrap" / Int8ul * "§4.14 0 none, 1 modulo 360 of the channel's own units "
+                       "(N = 360 x 10^d / m steps)",
     "low" / Int32sl * "§4.14 wrap 1: the lowest value of the turn, in steps; wrap 0: 0",
     "order" / Int8ul * "§4.14 temporal predictor order 0..2",
     "group" / Int8ul * "§4.14 the block of the coded field that holds this channel",
