@@ -441,6 +441,35 @@ def test_encoder_threads_do_not_change_the_bytes():
         assert encode_motion(m, EncodeOptions(threads=3, **kw))[0] == one
 
 
+@pytest.mark.parametrize("can_start", [0, 1, 2])
+def test_threads_that_cannot_start_leave_the_encode_on_one_thread(monkeypatch, can_start):
+    """--threads 64 under a memory limit: the pool's threads started as work came, and the
+    one that could not start raised "can't start new thread" in the middle of the encode
+    (a QA run, exit 1 with a traceback). The pool's threads now start first, and an encode
+    that cannot have them all runs on its own thread, with the same bytes."""
+    import threading
+
+    from mpz.encoder import EncodeOptions, encode_motion, start_pool
+    from mpz.synth import generate
+    m = generate("walk", frames=120, markers=12, seed=5)
+    one, _ = encode_motion(m, EncodeOptions(threads=1, max_error=1.0))
+    started = []
+    real_start = threading.Thread.start
+
+    def start(self):
+        if self.name.startswith("mpz"):
+            if len(started) >= can_start:
+                raise RuntimeError("can't start new thread")
+            started.append(self)
+        real_start(self)
+    monkeypatch.setattr(threading.Thread, "start", start)
+    assert start_pool(4) is None
+    assert encode_motion(m, EncodeOptions(threads=4, max_error=1.0))[0] == one
+    for t in started:
+        t.join(10)
+        assert not t.is_alive()         # the threads that did start were let go
+
+
 def _bases(data):
     """The residual base of each node's RESI, read back by the decoder."""
     from mpz.decoder import read_stream

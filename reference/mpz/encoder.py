@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
+import contextlib
 from dataclasses import dataclass, field, fields, replace
 import math
 import os
@@ -495,6 +496,30 @@ class EncodeReport:
     @property
     def ratio(self) -> float:
         return self.raw_bytes / max(self.file_bytes, 1)
+
+
+def start_pool(threads: int) -> ThreadPoolExecutor | None:
+    """A pool of ``threads`` threads, every one started now; None for one thread, or when
+    the system cannot start them all (under a memory limit each thread's stack counts):
+    the encode then runs on the calling thread, with the same bytes. Started as work came,
+    the thread that could not start raised "can't start new thread" in the middle of the
+    encode (a QA run: --threads 64 under ulimit -v)."""
+    if threads <= 1:
+        return None
+    pool = ThreadPoolExecutor(threads, thread_name_prefix="mpz")
+    everyone = threading.Barrier(threads)      # each task holds its thread until all have one
+
+    def arrive() -> None:
+        with contextlib.suppress(threading.BrokenBarrierError):
+            everyone.wait()
+    try:
+        for _ in range(threads):
+            pool.submit(arrive)
+    except RuntimeError:                       # "can't start new thread"
+        everyone.abort()
+        pool.shutdown(wait=True)
+        return None
+    return pool
 
 
 def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
@@ -1376,7 +1401,7 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     opts, bound_rule = resolve_bound(motion, opts)          # issue 12: never unbounded unasked
     # issue 15: the bytes do not depend on it
     threads = thread_count(opts, motion.n_frames * motion.n_markers)
-    pool = ThreadPoolExecutor(threads, thread_name_prefix="mpz") if threads > 1 else None
+    pool = start_pool(threads)
     # the ancillary chunks need only the motion: made on a thread meanwhile (issue 15.1)
     ancillary = pool.submit(ancillary_records, motion, opts) if pool is not None else None
     try:
