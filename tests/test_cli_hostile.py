@@ -620,3 +620,46 @@ def test_a_corrupt_file_in_a_decode_batch_fails_alone(small: dict[str, Path],
     assert "3 inputs: 2 done, 1 failed" in err
     line = next(ln for ln in err.splitlines() if "b.mpz" in ln)
     assert line.count("b.mpz") == 1 and "§3.2" in line, line
+
+
+# ---------------------------------------------- QA campaign 3 (stop 34): names, sizes --
+@pytest.mark.parametrize("ext", [".c3d", ".trc"])
+def test_a_file_whose_name_is_not_utf8_encodes(tmp_path, ext):
+    """A file name that is not UTF-8 (lone surrogates in Python): a C3D failed with
+    ezc3d's SWIG TypeError ("Wrong number or type of arguments"), and every format then
+    failed on the metadata 'source'. The C3D is read by mpz.io.c3dbin, and 'source'
+    holds the name's bytes as \\xNN, with a note."""
+    m = generate("walk", frames=40, markers=6, seed=4)
+    name = os.fsdecode(b"w\xff" + ext.encode())
+    write(m, tmp_path / name)
+    p = run(["mpz", "encode", name, "-o", "out.mpz", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert b"the file name is not UTF-8" in p.stderr and b"Traceback" not in p.stderr
+    assert mpz.info(tmp_path / "out.mpz").metadata["source"] == "w\\xff" + ext
+    back = mpz.decode((tmp_path / "out.mpz").read_bytes())
+    assert np.abs(back.positions - read(tmp_path / name).positions).max() <= 1.0
+
+
+def test_a_huge_file_that_is_not_c3d_is_refused_from_its_first_bytes(tmp_path):
+    """A 5 GB sparse file of zeros named .c3d was read whole (5.4 GB resident) before its
+    key byte was checked, and under a memory limit the verdict was "out of memory, the
+    input may be valid". Here 2 GiB under a 1 GiB address-space limit: refused at once."""
+    huge = tmp_path / "huge.c3d"
+    with open(huge, "wb") as fh:
+        fh.truncate(2 << 30)
+    script = ("import resource, sys\n"
+              "resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
+              "from mpz.tools import mpz_cli\n"
+              "sys.exit(mpz_cli.main(['encode', sys.argv[1], '-o', sys.argv[2]]))\n")
+    p = subprocess.run([sys.executable, "-c", script, str(huge), str(tmp_path / "h.mpz")],
+                       capture_output=True, timeout=120)
+    assert p.returncode == 2, p.stderr
+    assert b"bad key byte 0x00 at offset 1" in p.stderr, p.stderr
+
+
+def test_the_memory_report_offers_only_options_the_command_has():
+    """mpz encode's out-of-memory report advised --max-samples, which it does not have."""
+    from mpz.tools._cli import memory_message
+    assert "--max-samples" not in memory_message(MemoryError(), "encode")
+    for command in ("decode", "show", "mpzinfo"):
+        assert "--max-samples" in memory_message(MemoryError(), command)

@@ -46,7 +46,7 @@ import numpy as np
 
 from mpz.errors import InputFormatError
 from mpz.io import c3dbin
-from mpz.io._common import StrPath, ext_of, start_frame
+from mpz.io._common import StrPath, ext_of, is_utf8, start_frame, utf8_name
 from mpz.io.amc import asf_text_changes, find_asf, read_amc, read_asf, write_amc
 from mpz.io.bvh import read_bvh, skeleton_problems, write_bvh
 from mpz.io.c3d import read_c3d, write_c3d
@@ -139,11 +139,21 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     if ext in (".trc", ".csv", ".bvh", ".amc") and not _ends_a_line(path):
         # a text file cut in the middle of its last number reads as fewer digits (a QA
         # run); every writer of these formats, and every real file here, ends its lines
-        note = ("the file does not end with a line break: its last line may have been "
-                "cut short (check that the file is complete)")
-        old = m.metadata.get("warning")
-        m.metadata["warning"] = note if not old else f"{old}; {note}"
+        _warn(m, "the file does not end with a line break: its last line may have been "
+              "cut short (check that the file is complete)")
+    source = m.metadata.get("source")
+    if source is not None and not is_utf8(source):
+        # MPZ's strings are UTF-8 (§4.11): such a name made the encoder refuse the file
+        m.metadata["source"] = utf8_name(source)
+        _warn(m, f"the file name is not UTF-8: metadata 'source' holds it as "
+                 f"{m.metadata['source']!r}")
     return m
+
+
+def _warn(m: Motion, note: str) -> None:
+    """Add ``note`` to the motion's ``warning`` metadata (what the tools print)."""
+    old = m.metadata.get("warning")
+    m.metadata["warning"] = note if not old else f"{old}; {note}"
 
 
 def _ends_a_line(path: StrPath) -> bool:

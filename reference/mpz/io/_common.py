@@ -220,6 +220,22 @@ def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
     return out, notes
 
 
+def is_utf8(name: str) -> bool:
+    """Whether UTF-8 can hold ``name``: a file name that is not UTF-8 comes from the
+    system as lone surrogates (``os.fsdecode``), which ezc3d, SQLite and MPZ's strings
+    cannot take."""
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def utf8_name(name: str) -> str:
+    """``name`` as UTF-8 text: the bytes of a name that is not UTF-8 as ``\\xNN``."""
+    return name if is_utf8(name) else os.fsencode(name).decode("utf-8", "backslashreplace")
+
+
 def ext_of(path: StrPath) -> str:
     """Lower-case extension with the dot, e.g. ``".c3d"``."""
     return os.path.splitext(os.fspath(path))[1].lower()

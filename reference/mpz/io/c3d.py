@@ -28,6 +28,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 import math
 import os
+import shutil
+import tempfile
 from typing import Any
 
 import numpy as np
@@ -35,7 +37,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.io import c3dbin
-from mpz.io._common import StrPath, reader, start_frame, unique_names
+from mpz.io._common import StrPath, is_utf8, reader, start_frame, unique_names
 from mpz.motion import Motion, finite_samples
 
 #: POINT:UNITS values we recognise; anything else is unknown ("")
@@ -215,6 +217,8 @@ def read_c3d(path: StrPath) -> Motion:
     """
     path = os.fspath(path)
     with open(path, "rb") as fh:  # FileNotFoundError -> "no such file"
+        c3dbin.check_key(fh.read(2))     # before the rest is read
+        fh.seek(0)
         data = fh.read()
     full = _read_points(path, data)
     try:
@@ -305,6 +309,10 @@ def _read_points(path: str, data: bytes) -> Motion:
     if checks.conflict is not None:    # ezc3d takes the storage from the header's scale
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": f"not read with ezc3d: {checks.conflict}; read with mpz.io.c3dbin"})
+    if not is_utf8(path):          # ezc3d takes a str path to UTF-8: a TypeError of SWIG
+        return motion_from_c3d_bytes(data, source=source, extra={
+            "warning": "not read with ezc3d, which cannot open a file whose name is not "
+                       "UTF-8; read with mpz.io.c3dbin"})
     if checks.data_start != checks.word9:
         # ezc3d reads from header word 9: the data is elsewhere (c3dbin.data_start says why)
         return motion_from_c3d_bytes(data, source=source, extra={
@@ -372,6 +380,15 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     c["data"]["meta_points"]["residuals"] = res
     c["data"]["meta_points"]["camera_masks"] = np.zeros((7, motion.n_markers, motion.n_frames),
                                                         dtype=bool)
+    if not is_utf8(path):
+        # ezc3d takes a str path to UTF-8 only (a SWIG TypeError): write under a name it
+        # takes, then copy
+        with tempfile.TemporaryDirectory(prefix="mpz-c3d-") as folder:
+            tmp = os.path.join(folder, "motion.c3d")
+            c.write(tmp)
+            with open(tmp, "rb") as src, open(path, "wb") as dst:
+                shutil.copyfileobj(src, dst)
+        return
     if path.endswith(".c3d"):
         c.write(path)
         return

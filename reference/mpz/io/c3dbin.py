@@ -470,12 +470,19 @@ def frame_range(params: dict[str, dict[str, ParamValue | None]], first: int,
     return first, n
 
 
+def check_key(head: bytes) -> None:
+    """Refuse bytes whose header byte 1 is not the C3D key (80), from the first bytes alone:
+    a reader can check it before it reads the rest (a 5 GB file of zeros was read whole
+    first, a QA run)."""
+    if len(head) >= 2 and head[1] != C3D_KEY:
+        _fail(f"bad key byte 0x{head[1]:02x} at offset 1, expected 0x50", 1)
+
+
 def _open(data: bytes) -> tuple[_Codec, int, dict[str, dict[str, ParamValue | None]]]:
     """The codec, parameter-section offset and parameters of C3D bytes (checked)."""
     if len(data) < 2 * BLOCK:
         _fail(f"file too short ({len(data)} bytes) for a header and a parameter block")
-    if data[1] != C3D_KEY:
-        _fail(f"bad key byte 0x{data[1]:02x} at offset 1, expected 0x50", 1)
+    check_key(data)
     pstart = (data[0] - 1) * BLOCK
     if data[0] < 2 or pstart + 4 > len(data):
         _fail(f"parameter section block {data[0]} is outside the file", 0)

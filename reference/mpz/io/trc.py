@@ -44,6 +44,7 @@ from mpz.io._common import (
     reader,
     start_frame,
     unique_names,
+    utf8_name,
 )
 from mpz.motion import Motion, finite_samples
 
@@ -337,7 +338,7 @@ def write_trc(motion: Motion, path: StrPath, *, file_name: str | None = None) ->
     from mpz.io import check_writable
     check_writable(motion, ".trc", path=file_name or os.fspath(path))
     file_name = "".join("?" if ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F else c
-                        for c in file_name)
+                        for c in utf8_name(file_name))     # a name that is not UTF-8
     text = format_trc(motion, file_name=file_name)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(text)

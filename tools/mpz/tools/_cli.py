@@ -206,12 +206,18 @@ class SubcommandParser(Parser):
 
 # -- memory --------------------------------------------------------------------------------
 
-def memory_message(exc: MemoryError) -> str:
-    """The one report of an allocation failure (spec §8: a resource error, not a verdict)."""
+#: the commands that take ``--max-samples`` (a lower limit on what a decode holds)
+MAX_SAMPLES_COMMANDS = ("decode", "show", "mpzinfo")
+
+
+def memory_message(exc: MemoryError, command: str = "mpzinfo") -> str:
+    """The one report of an allocation failure (spec §8: a resource error, not a verdict).
+    ``--max-samples`` is offered only by the commands that have it (encode advised it)."""
     what = str(exc).strip()
     detail = f" ({printable(what)})" if what else ""
+    cure = (", or lower --max-samples" if command in MAX_SAMPLES_COMMANDS else "")
     return (f"out of memory{detail}; the input may be valid: this machine could not hold "
-            "what it needs (free memory, raise the limit, or lower --max-samples)")
+            f"what it needs (free memory or raise the limit{cure})")
 
 
 # -- broken pipes --------------------------------------------------------------------------

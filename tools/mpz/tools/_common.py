@@ -551,7 +551,7 @@ def run_batch(command: str, jobs: list[Job], one: Callable[[Job], int], *,
             codes.append(EXIT_ERROR)
             failed += 1
         except MemoryError as exc:
-            print(f"mpz {command}: {name}: {memory_message(exc)}", file=sys.stderr)
+            print(f"mpz {command}: {name}: {memory_message(exc, command)}", file=sys.stderr)
             codes.append(EXIT_MEMORY)
             failed += 1
     if len(jobs) > 1 and not quiet:

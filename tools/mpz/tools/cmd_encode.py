@@ -131,10 +131,11 @@ def add_parser(sub):
 def _options(args: argparse.Namespace, units: str, source: str | None) -> EncodeOptions:
     """The EncodeOptions of the command line, lengths converted to the input's units."""
     from mpz.encoder import EncodeOptions
+    from mpz.io._common import utf8_name
     from mpz.tools._common import parse_length
     metadata = _pairs(args.meta, "--meta")
-    if source is not None:
-        metadata.setdefault("source", os.path.basename(source))
+    if source is not None:          # a name that is not UTF-8 as \xNN (mpz.io.read's note)
+        metadata.setdefault("source", utf8_name(os.path.basename(source)))
     return EncodeOptions(
         max_error=None if args.max_error is None else parse_length(args.max_error, units),
         group_errors={k: parse_length(v, units, "--group-error")

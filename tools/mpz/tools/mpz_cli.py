@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mpz {args.command}: error: {printable(str(exc))}", file=sys.stderr)
         return EXIT_ERROR
     except MemoryError as exc:      # a resource error, not a verdict on the input (spec §8)
-        print(f"mpz {args.command}: {memory_message(exc)}", file=sys.stderr)
+        print(f"mpz {args.command}: {memory_message(exc, args.command)}", file=sys.stderr)
         return EXIT_MEMORY
 
 
