@@ -1241,3 +1241,160 @@ def test_an_output_folder_that_cannot_be_written_is_a_clean_error(corpus, capsys
     finally:
         subprocess.run(["chattr", "-i", str(out)], capture_output=True)
         out.chmod(0o755)
+
+
+# ------------------------------------------- QA campaign 3 (stop 34): hostile corpora --
+def test_a_path_that_is_not_utf8_fails_alone(corpus):
+    """A file name that is not UTF-8 stopped the whole run with sqlite3's
+    UnicodeEncodeError (the index holds paths as text), and nothing was encoded."""
+    import mpz.corpus as corpus_mod
+    src, out, paths = corpus
+    odd = os.fsdecode(bytes(src) + b"/\xff\xfe.trc")
+    shutil.copy(paths["walk"], odd)
+    rep = run_corpus(src, out)
+    got = {r.source: (r.status, r.reason) for r in rep.results}
+    assert got[odd] == ("failed", corpus_mod.NOT_UTF8)
+    assert {Path(s).stem: st for s, (st, _) in got.items() if s != odd} == {
+        "bad": "failed", "jump": "encoded", "walk": "encoded", "wave": "encoded"}
+    with open_index(out) as ix:
+        stored = dict(ix.failures())
+    assert stored[str(src.resolve()) + "/\\xff\\xfe.trc"] == corpus_mod.NOT_UTF8
+
+
+@needs_dask
+def test_a_scheduler_address_that_is_not_dask_fails_within_a_deadline(corpus, monkeypatch):
+    """An address that answers but is not a Dask scheduler (an HTTP server) made the run
+    wait for ever: Client's own timeout did not end the handshake."""
+    import socket
+    import threading
+
+    import mpz.corpus as corpus_mod
+    monkeypatch.setattr(corpus_mod, "CONNECT_SECONDS", 2.0)
+    server = socket.create_server(("127.0.0.1", 0))
+    server.settimeout(0.2)
+    stop = threading.Event()
+
+    held = []
+
+    def answer() -> None:                        # every connection: held open, silent
+        while not stop.is_set():
+            with contextlib.suppress(OSError):
+                held.append(server.accept()[0])
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    src, out, _ = corpus
+    try:
+        t0 = time.monotonic()
+        with pytest.raises(EncoderError, match="no Dask scheduler answered"):
+            encode_corpus(mirror_jobs(src, out), out, OPTS, levels=LEVELS,
+                          scheduler=f"tcp://127.0.0.1:{server.getsockname()[1]}")
+        assert time.monotonic() - t0 < 20
+    finally:
+        stop.set()
+        thread.join(5)
+        for conn in held:     # the connecting thread left behind now fails and ends
+            conn.close()
+        server.close()
+
+
+def test_a_lock_file_that_cannot_be_removed_ends_the_run_normally(tmp_path, monkeypatch):
+    """An output folder made read-only during the run: removing the lock file raised
+    PermissionError (EROFS on a read-only mount), and the run's report became a
+    traceback. The lock goes with its descriptor; the file can stay."""
+    import mpz.corpus as corpus_mod
+    real_unlink = os.unlink
+
+    def unlink(path, *a, **k):
+        if os.path.basename(path) == corpus_mod.LOCK_NAME:
+            raise PermissionError(13, "Permission denied", path)
+        return real_unlink(path, *a, **k)
+    monkeypatch.setattr(os, "unlink", unlink)
+    with corpus_mod._one_run(str(tmp_path)):
+        pass
+    assert (tmp_path / corpus_mod.LOCK_NAME).exists()
+    with corpus_mod._one_run(str(tmp_path)):       # the next run takes the file
+        pass
+
+
+def test_an_output_that_is_a_link_to_nothing_or_a_fifo_is_not_replaced(corpus):
+    """A symbolic link to a missing file at an output path was replaced without --force
+    (the one-file path refuses it), and a FIFO there would have been read from."""
+    src, out, _ = corpus
+    out.mkdir()
+    (out / "walk.mpz").symlink_to(out / "missing.mpz")
+    os.mkfifo(out / "jump.mpz")
+    rep = run_corpus(src, out)
+    got = {Path(r.source).stem: (r.status, r.reason) for r in rep.results}
+    assert got["walk"][0] == "failed" and "symbolic link to a missing file" in got["walk"][1]
+    assert got["jump"][0] == "failed" and "not a regular file" in got["jump"][1]
+    assert got["wave"][0] == "encoded"
+    assert (out / "walk.mpz").is_symlink() and not (out / "missing.mpz").exists()
+    rep = run_corpus(src, out, force=True)           # --force replaces the link
+    assert statuses(rep)["walk"] == "encoded" and not (out / "walk.mpz").is_symlink()
+
+
+def test_the_index_is_left_readable_without_write_access(corpus):
+    """mpz search of an index in a folder the user cannot write failed ("not an MPZ
+    corpus index"): the run left the file in WAL mode, which SQLite cannot read without
+    making a -shm file beside it. The run now ends in rollback mode, and readers open
+    the index read-only."""
+    import sqlite3
+    src, out, _ = corpus
+    run_corpus(src, out)
+    db = sqlite3.connect(out / INDEX_NAME)
+    assert db.execute("PRAGMA journal_mode").fetchone() == ("delete",)
+    db.close()
+    with open_index(out) as ix:
+        with pytest.raises(sqlite3.OperationalError, match="readonly"):
+            ix.db.execute("CREATE TABLE x (a)")
+        assert len(ix.rows()) == 3
+    db = sqlite3.connect(out / INDEX_NAME)          # as a killed run leaves it
+    db.execute("PRAGMA journal_mode = WAL")
+    db.close()
+    with open_index(out) as ix:
+        assert len(ix.rows()) == 3
+
+
+def test_a_folder_that_cannot_be_made_fails_its_files_alone(corpus):
+    """A file where a mirrored folder must go (or a folder without permission) stopped
+    the whole run with FileExistsError before any file was encoded."""
+    src, out, _ = corpus
+    out.mkdir()
+    (out / "sub").write_text("in the way\n")
+    rep = run_corpus(src, out)
+    got = {Path(r.source).stem: (r.status, r.reason) for r in rep.results}
+    assert got["wave"][0] == "failed" and "cannot make the folder" in got["wave"][1]
+    assert got["walk"][0] == got["jump"][0] == "encoded"
+    with open_index(out) as ix:
+        assert str(src.resolve() / "sub" / "wave.trc") in dict(ix.failures())
+
+
+def _unlistable(monkeypatch, folder: Path) -> None:
+    """os.scandir refuses ``folder`` as it would a user without permission (root, who
+    runs the tests here, may list everything)."""
+    real = os.scandir
+
+    def scandir(path=".", *a, **k):
+        if os.path.abspath(os.fspath(path)) == str(folder.resolve()):
+            raise PermissionError(13, "Permission denied", os.fspath(path))
+        return real(path, *a, **k)
+    monkeypatch.setattr(os, "scandir", scandir)
+
+
+def test_a_folder_that_cannot_be_listed_is_a_failure_not_silence(corpus, monkeypatch):
+    """-r skipped a sub-folder it could not list without a word and exited 0, and an
+    unlistable folder given as the input was "no input files in this folder"."""
+    from mpz.tools._common import expand_inputs
+    src, out, _ = corpus
+    _unlistable(monkeypatch, src / "sub")
+    got = expand_inputs([str(src)], True, lambda name: name.endswith((".trc", ".c3d")))
+    errors = [(p, e) for p, e, _ in got if e is not None]
+    assert errors == [(str(src / "sub"), "cannot list this folder: Permission denied")]
+    assert sorted(Path(p).name for p, e, _ in got if e is None) == [
+        "bad.trc", "jump.c3d", "walk.trc"]
+    with pytest.raises(EncoderError, match="cannot list the folder .*sub: Permission"):
+        mirror_jobs(src, out)
+    monkeypatch.undo()
+    _unlistable(monkeypatch, src)
+    got = expand_inputs([str(src)], True, lambda name: True)
+    assert got == [(str(src), "cannot list this folder: Permission denied", str(src))]

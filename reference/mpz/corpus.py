@@ -37,6 +37,7 @@ not.
 from __future__ import annotations
 
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from concurrent.futures import CancelledError
 import contextlib
 from dataclasses import asdict, dataclass, field, fields, replace
 import datetime
@@ -52,12 +53,14 @@ import sqlite3
 import threading
 import time
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+import urllib.parse
 
 import numpy as np
 
 from mpz.encoder import DEFAULTS, EncodeOptions
 from mpz.errors import EncoderError, MPZError
 from mpz.hierarchy import BUILDERS
+from mpz.io._common import is_utf8, utf8_name
 from mpz.similarity import (
     DESCRIPTOR_VERSION,
     EXACT_MAX_FRAMES,
@@ -354,9 +357,17 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
     ------
     EncoderError
         When the output exists but is not an MPZ file written by a corpus run, or does not
-        read as MPZ and the index does not list it (replacing it needs ``force``).
+        read as MPZ and the index does not list it (replacing it needs ``force``), or is
+        not a regular file or a symbolic link to one (:func:`mpz.api.check_output`).
     """
+    from mpz.api import check_output
     from mpz.decoder import read_stream
+    if not os.path.lexists(output):
+        return None
+    if not os.path.isfile(output):
+        # a symbolic link to a missing file was replaced without a word (a QA run), and a
+        # FIFO would have been read from; check_output says why each is refused
+        check_output(output)
     try:
         data = Path(output).read_bytes()
         st = os.stat(output)
@@ -566,8 +577,9 @@ class Index:
         if not create and not os.path.isfile(self.path):
             raise EncoderError(f"{self.path}: no such index (encode a folder with "
                                "mpz encode -r FOLDER -o OUT/ to make OUT/index.sqlite)")
+        self.create = create
         try:
-            self.db = sqlite3.connect(self.path)
+            self.db = sqlite3.connect(self.path) if create else _read_only(self.path)
             self.db.execute("PRAGMA foreign_keys = ON")
             if create:
                 # a commit per file without an fsync each (a row lost to a power cut is
@@ -579,6 +591,9 @@ class Index:
                                 (str(SCHEMA_VERSION),))
                 self.db.commit()
             got = self.db.execute("SELECT value FROM corpus WHERE key = 'schema'").fetchone()
+        except sqlite3.OperationalError as exc:    # it was "not an MPZ corpus index"
+            raise EncoderError(f"{self.path}: cannot {'write' if create else 'read'} the "
+                               f"index: {exc}") from None
         except sqlite3.DatabaseError as exc:
             raise EncoderError(f"{self.path}: not an MPZ corpus index ({exc})") from None
         if got is None or got[0] != str(SCHEMA_VERSION):
@@ -598,6 +613,12 @@ class Index:
                                "to rebuild it")
 
     def close(self) -> None:
+        if self.create:
+            # back to a rollback journal: a WAL file needs its -shm beside it to be read,
+            # which a reader without write access to the folder cannot make (a QA run:
+            # mpz search of another user's index failed)
+            with contextlib.suppress(sqlite3.Error):
+                self.db.execute("PRAGMA journal_mode = DELETE")
         self.db.close()
 
     def __enter__(self) -> Index:
@@ -615,10 +636,10 @@ class Index:
         """Record a result: a row and its levels, or a failure (committed at once)."""
         now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
         with self.db:
-            if result.status == "failed":
+            if result.status == "failed":     # a name that is not UTF-8 as \xNN
                 self.db.execute("INSERT OR REPLACE INTO failures VALUES (?, ?, ?, ?)",
-                                (os.path.abspath(result.source), output_key, result.reason,
-                                 now))
+                                (utf8_name(os.path.abspath(result.source)),
+                                 utf8_name(output_key), result.reason, now))
                 return
             if result.row is None:      # skipped: the row is already there
                 self.db.execute("DELETE FROM failures WHERE path = ?",
@@ -742,6 +763,21 @@ class Index:
         return self.db.execute("SELECT path, reason FROM failures ORDER BY path").fetchall()
 
 
+def _read_only(path: str) -> sqlite3.Connection:
+    """``path`` opened for reading only: no write access is needed, to the file or its
+    folder. An index left in WAL mode by a killed run needs a -shm file that such a reader
+    cannot make; it is then read as immutable (no other process may write it meanwhile,
+    and none does: a run would have changed the journal mode back)."""
+    uri = "file:" + urllib.parse.quote(os.fsencode(os.path.abspath(path))) + "?mode=ro"
+    db = sqlite3.connect(uri, uri=True)
+    try:
+        db.execute("SELECT count(*) FROM sqlite_master").fetchone()
+    except sqlite3.OperationalError:
+        db.close()
+        db = sqlite3.connect(uri + "&immutable=1", uri=True)
+    return db
+
+
 def open_index(path: str | os.PathLike[str]) -> Index:
     """Open an existing index; ``path`` may be the file or the folder holding it."""
     p = os.fspath(path)
@@ -838,12 +874,22 @@ def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
 
     ``a/b/walk.c3d`` becomes ``OUT/a/b/walk.mpz``. Hidden files and folders are left
     out; files are in sorted order.
+
+    Raises
+    ------
+    EncoderError
+        Naming a folder under ``folder`` (or ``folder`` itself) that cannot be listed: it
+        was skipped without a word.
     """
     from mpz.io import READERS
     exts = tuple(extensions) if extensions is not None else tuple(READERS)
     root = os.fspath(folder)
     out: list[tuple[str, str]] = []
-    for here, dirs, files in os.walk(root):
+
+    def unlisted(exc: OSError) -> None:
+        raise EncoderError(f"cannot list the folder {exc.filename or root}: "
+                           f"{exc.strerror or exc}")
+    for here, dirs, files in os.walk(root, onerror=unlisted):
         dirs[:] = sorted(d for d in dirs if not d.startswith("."))
         for name in sorted(files):
             if name.startswith(".") or os.path.splitext(name)[1].lower() not in exts:
@@ -936,7 +982,10 @@ def _one_run(index_dir: str) -> Iterator[None]:
     try:
         yield
     finally:
-        with contextlib.suppress(FileNotFoundError):
+        # a lock file that cannot be removed (the folder made read-only during the run) is
+        # harmless: the lock goes with the descriptor, and the next run takes the file.
+        # Its PermissionError replaced the run's report with a traceback (a QA run).
+        with contextlib.suppress(OSError):
             os.unlink(path)
         os.close(fd)                                     # and with it the lock
 
@@ -980,11 +1029,7 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
                            "'mpz[corpus]' (or use workers=0 / --jobs 0 to encode "
                            "without it)") from None
     if scheduler is not None:
-        try:
-            client = Client(scheduler, timeout="30s")
-        except (OSError, ValueError) as exc:    # unreachable; a malformed address
-            raise EncoderError(f"cannot reach the Dask scheduler at {scheduler}: "
-                               f"{exc}") from None
+        client = _connect(Client, scheduler)
         try:
             yield client, f"scheduler {scheduler}"
         finally:
@@ -1025,6 +1070,42 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     finally:
         client.close()
         cluster.close()
+
+
+#: how long a connection to ``--scheduler`` may take: Client's own 30 s timeout, and a
+#: margin (the deadline of :func:`_connect`)
+CONNECT_SECONDS = 40.0
+
+
+def _connect(client_class: type[Client], scheduler: str) -> Client:
+    """A Client of the scheduler at ``scheduler``, or EncoderError within
+    :data:`CONNECT_SECONDS`. Client's timeout alone did not end the wait when the address
+    answered but was not a Dask scheduler (an HTTP server: a QA run waited for ever), so
+    the Client is made in a daemon thread that is left behind at the deadline."""
+    box: dict[str, Any] = {}
+
+    def make() -> None:
+        try:
+            box["client"] = client_class(scheduler, timeout="30s")
+        except BaseException as exc:       # handed to the caller's thread, as it is
+            box["error"] = exc
+
+    thread = threading.Thread(target=make, name="mpz-dask-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_SECONDS)
+    if thread.is_alive():
+        raise EncoderError(f"no Dask scheduler answered at {scheduler} within "
+                           f"{CONNECT_SECONDS:.0f} s: is it the address of a "
+                           "dask.distributed scheduler (tcp://HOST:8786)?")
+    exc = box.get("error")
+    # unreachable; a malformed address; a peer whose answer Dask read as a frame length
+    # (it asked numpy for exabytes)
+    if isinstance(exc, (OSError, ValueError, MemoryError)):
+        raise EncoderError(f"cannot reach the Dask scheduler at {scheduler}: "
+                           f"{type(exc).__name__}: {exc}")
+    if exc is not None:
+        raise exc
+    return box["client"]
 
 
 @contextlib.contextmanager
@@ -1084,6 +1165,12 @@ def _killed(exc: BaseException) -> bool:
     except ImportError:
         return False
     return isinstance(exc, KilledWorker)
+
+
+#: the reason a file whose path is not UTF-8 fails a corpus run (mpz encode of the file
+#: alone encodes it, its metadata 'source' holding the name's bytes as \\xNN)
+NOT_UTF8 = ("its path is not UTF-8, and the index stores paths as UTF-8 text: rename it, "
+            "or encode it alone (mpz encode FILE -o OUT.mpz)")
 
 
 def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike[str]]],
@@ -1156,6 +1243,11 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     skeleton = None if asf is None else os.path.abspath(os.fspath(asf))
     tasks = [Task(os.fspath(s), os.fspath(o), _key(os.fspath(o), index_dir), per_file,
                   levels, force, skeleton) for s, o in jobs]
+    # the index holds paths as UTF-8 text: such a name stopped the run with a traceback
+    unnamed = [t for t in tasks if not (is_utf8(os.path.abspath(t.source))
+                                        and is_utf8(t.output_key))]
+    tasks = [t for t in tasks if t not in unnamed]
+    failed = [*failed, *((t.source, t.output, NOT_UTF8) for t in unnamed)]
     results: list[FileResult | None] = [None] * len(tasks)
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
     early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
@@ -1187,8 +1279,15 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             else:
                 tasks[i] = replace(t, indexed=row is not None)
                 todo.append(i)
-        for i in todo:
-            os.makedirs(os.path.dirname(os.path.abspath(tasks[i].output)), exist_ok=True)
+        for i in list(todo):       # a folder that cannot be made fails its files alone
+            folder = os.path.dirname(os.path.abspath(tasks[i].output))
+            try:
+                os.makedirs(folder, exist_ok=True)
+            except OSError as exc:      # (a file in its place, no permission: a QA run)
+                todo.remove(i)
+                finish(i, FileResult(tasks[i].source, tasks[i].output, "failed",
+                                     f"cannot make the folder {folder}: "
+                                     f"{exc.strerror or exc}"))
         # every output's folder, not only those with work: a leftover stays no longer
         sweep_temporaries([t.output for t in tasks], before=wall0)
         inflight: dict[Future[FileResult], int] = {}
@@ -1234,6 +1333,15 @@ WATCH_SECONDS = 5.0
 NO_WORKER_SECONDS = 60.0
 
 
+def _lost(exc: CancelledError) -> EncoderError:
+    """The error of a run whose cluster cancelled its tasks (the scheduler died or the
+    connection to it was lost)."""
+    reason = " ".join(str(exc).split())[:300]
+    return EncoderError(f"the Dask cluster cancelled the run's tasks ({reason}); the files "
+                        "that finished are written and indexed: run the same command again "
+                        "to encode the rest")
+
+
 def _run_on(client: Client, tasks: list[Task], todo: list[int],
             finish: Callable[[int, FileResult], None],
             inflight: dict[Future[FileResult], int]) -> int:
@@ -1266,6 +1374,8 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
             try:
                 done, _ = wait(list(inflight), timeout=WATCH_SECONDS,
                                return_when="FIRST_COMPLETED")
+            except CancelledError as exc:    # the scheduler is gone: it was a traceback
+                raise _lost(exc) from None
             except TimeoutError:
                 if client.nthreads():
                     idle_since = None
@@ -1283,6 +1393,8 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                 i = inflight.pop(fut)
                 try:
                     r = fut.result()
+                except CancelledError as exc:
+                    raise _lost(exc) from None
                 except Exception as exc:
                     if not _killed(exc):
                         raise        # a bug in the task: stop the run, keep what finished

@@ -376,11 +376,14 @@ def expand_inputs(inputs: Sequence[str], recursive: bool,
                 out.append((item, "is a folder; use -r to take the files in it", item))
                 continue
             found: list[str] = []
-            for root, dirs, files in os.walk(item):
+            unlisted: list[OSError] = []      # were skipped without a word (a QA run)
+            for root, dirs, files in os.walk(item, onerror=unlisted.append):
                 dirs[:] = sorted(d for d in dirs if not d.startswith("."))
                 found += [os.path.join(root, f) for f in sorted(files)
                           if not f.startswith(".") and accept(f)]
-            if not found:
+            out += [(exc.filename or item, f"cannot list this folder: "
+                     f"{exc.strerror or exc}", item) for exc in unlisted]
+            if not found and not unlisted:
                 out.append((item, "no input files in this folder", item))
             out += [(f, None, item) for f in found]
         else:
