@@ -165,28 +165,25 @@ floats = st.floats(width=32, allow_nan=True, allow_infinity=True)
 @given(st.lists(floats, min_size=1, max_size=40))
 def test_float_channels_are_bit_exact(values):
     x = np.array(values, "<f4")
+    assert _coded_and_back(x).view(np.uint32).tolist() == x.view(np.uint32).tolist()
+
+
+def _coded_and_back(x: np.ndarray) -> np.ndarray:
+    """One channel of words planned, range-coded and decoded again (§6.9)."""
     p = plan(x)
     enc = BlockEncoder()
     encode_channel(enc, p)
     dec = BlockDecoder(enc.finish())
-    back = decode_channel(dec, x.size, p.mode, p.shift, p.order, p.low_bits,
-                          np.dtype("<f4"), "§6.9")
+    back = decode_channel(dec, x.size, p.mode, p.shift, p.order, p.low_bits, x.dtype, "§6.9")
     dec.close()
-    assert back.view(np.uint32).tolist() == x.view(np.uint32).tolist()
+    return back
 
 
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.integers(-32768, 32767), min_size=1, max_size=40))
 def test_int16_channels_are_exact(values):
     x = np.array(values, "<i2")
-    p = plan(x)
-    enc = BlockEncoder()
-    encode_channel(enc, p)
-    dec = BlockDecoder(enc.finish())
-    back = decode_channel(dec, x.size, p.mode, p.shift, p.order, p.low_bits,
-                          np.dtype("<i2"), "§6.9")
-    dec.close()
-    assert back.tolist() == x.tolist()
+    assert _coded_and_back(x).tolist() == x.tolist()
 
 
 #: 32-bit words at the ends of the ordered map (§6.9): NaN patterns, infinities, +-0
@@ -203,14 +200,7 @@ def test_float_channels_of_any_bit_pattern_are_bit_exact(words):
     alone, and floor division gave h = -2^30, outside the coder's range (spec review,
     stop 34)."""
     x = np.array(words, np.uint32).view("<f4")
-    p = plan(x)
-    enc = BlockEncoder()
-    encode_channel(enc, p)
-    dec = BlockDecoder(enc.finish())
-    back = decode_channel(dec, x.size, p.mode, p.shift, p.order, p.low_bits,
-                          np.dtype("<f4"), "§6.9")
-    dec.close()
-    assert back.view(np.uint32).tolist() == list(words)
+    assert _coded_and_back(x).view(np.uint32).tolist() == list(words)
 
 
 def _orders_as_defined(column: list[int], max_low: int) -> tuple[int, int]:
