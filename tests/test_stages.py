@@ -445,8 +445,9 @@ def test_encoder_threads_do_not_change_the_bytes():
 def test_threads_that_cannot_start_leave_the_encode_on_one_thread(monkeypatch, can_start):
     """--threads 64 under a memory limit: the pool's threads started as work came, and the
     one that could not start raised "can't start new thread" in the middle of the encode
-    (a QA run, exit 1 with a traceback). The pool's threads now start first, and an encode
-    that cannot have them all runs on its own thread, with the same bytes."""
+    (a QA run, exit 1 with a traceback). Now the work of a thread that cannot start waits
+    for the pool's running ones, and an encode whose pool cannot start even one runs on
+    its own thread; the bytes are the same."""
     import threading
 
     from mpz.encoder import EncodeOptions, encode_motion, start_pool
@@ -463,7 +464,13 @@ def test_threads_that_cannot_start_leave_the_encode_on_one_thread(monkeypatch, c
             started.append(self)
         real_start(self)
     monkeypatch.setattr(threading.Thread, "start", start)
-    assert start_pool(4) is None
+    pool, first = start_pool(4, int)
+    if can_start == 0:
+        assert pool is None and first is None
+    else:
+        assert pool is not None and first is not None and first.result() == 0
+        assert [f.result() for f in [pool.submit(int, "7") for _ in range(8)]] == [7] * 8
+        pool.shutdown()
     assert encode_motion(m, EncodeOptions(threads=4, max_error=1.0))[0] == one
     for t in started:
         t.join(10)

@@ -24,14 +24,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
-import contextlib
 from dataclasses import dataclass, field, fields, replace
 import math
 import os
 import threading
 import time
 from types import MappingProxyType
-from typing import Any, Never
+from typing import Any, Never, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -498,28 +497,38 @@ class EncodeReport:
         return self.raw_bytes / max(self.file_bytes, 1)
 
 
-def start_pool(threads: int) -> ThreadPoolExecutor | None:
-    """A pool of ``threads`` threads, every one started now; None for one thread, or when
-    the system cannot start them all (under a memory limit each thread's stack counts):
-    the encode then runs on the calling thread, with the same bytes. Started as work came,
-    the thread that could not start raised "can't start new thread" in the middle of the
-    encode (a QA run: --threads 64 under ulimit -v)."""
-    if threads <= 1:
-        return None
-    pool = ThreadPoolExecutor(threads, thread_name_prefix="mpz")
-    everyone = threading.Barrier(threads)      # each task holds its thread until all have one
+_T = TypeVar("_T")
 
-    def arrive() -> None:
-        with contextlib.suppress(threading.BrokenBarrierError):
-            everyone.wait()
+
+class _Pool(ThreadPoolExecutor):
+    """A ThreadPoolExecutor whose ``submit`` does not fail when the system cannot start one
+    more thread while one of the pool's runs: the work waits for a running thread."""
+
+    def _adjust_thread_count(self) -> None:
+        try:
+            super()._adjust_thread_count()
+        except RuntimeError:                 # "can't start new thread"
+            if not self._threads:
+                raise
+
+
+def start_pool(threads: int, first: Callable[..., _T], *args: Any
+               ) -> tuple[ThreadPoolExecutor | None, Future[_T] | None]:
+    """A pool of up to ``threads`` threads and its first task, ``first(*args)``, submitted;
+    (None, None) for one thread, or when not even the pool's first thread can start: the
+    encode then runs on the calling thread, with the same bytes. Under a memory limit each
+    thread's stack counts, and a thread that could not start raised "can't start new
+    thread" in the middle of the encode (a QA run: --threads 64 under ulimit -v); a later
+    one that cannot start now leaves its work to the pool's running threads
+    (:class:`_Pool`)."""
+    if threads <= 1:
+        return None, None
+    pool = _Pool(threads, thread_name_prefix="mpz")
     try:
-        for _ in range(threads):
-            pool.submit(arrive)
-    except RuntimeError:                       # "can't start new thread"
-        everyone.abort()
-        pool.shutdown(wait=True)
-        return None
-    return pool
+        return pool, pool.submit(first, *args)
+    except RuntimeError:                       # the task waits in the queue: cancelled
+        pool.shutdown(wait=True, cancel_futures=True)
+        return None, None
 
 
 def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
@@ -1401,9 +1410,8 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     opts, bound_rule = resolve_bound(motion, opts)          # issue 12: never unbounded unasked
     # issue 15: the bytes do not depend on it
     threads = thread_count(opts, motion.n_frames * motion.n_markers)
-    pool = start_pool(threads)
     # the ancillary chunks need only the motion: made on a thread meanwhile (issue 15.1)
-    ancillary = pool.submit(ancillary_records, motion, opts) if pool is not None else None
+    pool, ancillary = start_pool(threads, ancillary_records, motion, opts)
     try:
         hier = plan_hierarchy(motion, opts)
         addh, addh_rule = head_scale(motion, hier)
