@@ -346,3 +346,26 @@ def test_a_long_parameter_record_is_written_with_an_unsigned_offset(size, ok):
     assert any("'BIG'" in n and "signed" in n for n in notes), notes
     back = c3dbin.parse_records(raw, 512, c3dbin._Codec(c3dbin.PROC_INTEL))
     assert any(r.name == b"BIG" and r.data == bytes(size) for r in back)
+
+
+@pytest.mark.parametrize("case", ["analog", "model"])
+def test_channels_whose_residuals_reach_the_coders_edge_encode(case):
+    """Spec review (stop 34), through mpz.encode: an analog channel of the NaN word
+    0xFFFFFFFE (order 1's first residual -(2^31 - 1), whose h with b = 1 is -2^30), and a
+    model output whose cheapest order has a residual of 2^30 or more (a spike across an
+    axis of about 2^31 grid steps), were refused with LimitExceededError. Each now takes
+    a b, or an order, that the coder can code, and decodes exactly or within its bound."""
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(7, storage=1, F=16, M=3, J=1, C=2, n=2)
+    a = m.extras["c3d"]
+    if case == "analog":
+        a.analog[:, 1] = np.full(a.analog.shape[0], 0xFFFFFFFE, np.uint32).view("<f4")
+    else:
+        a.models[:] = 0.0
+        a.models[8, 0, :] = 1000.0
+        a.models[~a.model_valid] = np.nan
+    back = mpz.decode(mpz.encode(m, max_error=1.0, model_errors={"ANGLES": 3e-10}))
+    b = back.extras["c3d"]
+    assert np.array_equal(b.analog.view(np.uint32), a.analog.view(np.uint32))
+    ok = a.model_valid
+    assert np.abs(b.models[ok] - a.models[ok]).max() <= 1000.0 * 3e-10
