@@ -634,7 +634,7 @@ def test_a_file_whose_name_is_not_utf8_encodes(tmp_path, ext):
     write(m, tmp_path / name)
     p = run(["mpz", "encode", name, "-o", "out.mpz", "--max-error", "1mm"], tmp_path)
     assert p.returncode == 0, p.stderr
-    assert b"the file name is not UTF-8" in p.stderr and b"Traceback" not in p.stderr
+    assert b"a file name is not UTF-8" in p.stderr and b"Traceback" not in p.stderr
     assert mpz.info(tmp_path / "out.mpz").metadata["source"] == "w\\xff" + ext
     back = mpz.decode((tmp_path / "out.mpz").read_bytes())
     assert np.abs(back.positions - read(tmp_path / name).positions).max() <= 1.0
@@ -663,3 +663,15 @@ def test_the_memory_report_offers_only_options_the_command_has():
     assert "--max-samples" not in memory_message(MemoryError(), "encode")
     for command in ("decode", "show", "mpzinfo"):
         assert "--max-samples" in memory_message(MemoryError(), command)
+
+
+def test_an_amc_whose_skeleton_name_is_not_utf8_encodes(tmp_path, shared_data):
+    """The AMC's metadata 'asf' (the skeleton's file name) held the name's surrogates, and
+    the encoder refused the file for it."""
+    amc, asf = os.fsdecode(b"a\xff.amc"), os.fsdecode(b"a\xff.asf")
+    shutil.copy(shared_data / "amc" / "02_01.amc", tmp_path / amc)
+    shutil.copy(shared_data / "amc" / "02.asf", tmp_path / asf)
+    p = run(["mpz", "encode", amc, "-o", "out.mpz", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    meta = mpz.info(tmp_path / "out.mpz").metadata
+    assert meta["asf"] == "a\\xff.asf" and meta["source"] == "a\\xff.amc"

@@ -141,12 +141,13 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
         # run); every writer of these formats, and every real file here, ends its lines
         _warn(m, "the file does not end with a line break: its last line may have been "
               "cut short (check that the file is complete)")
-    source = m.metadata.get("source")
-    if source is not None and not is_utf8(source):
-        # MPZ's strings are UTF-8 (§4.11): such a name made the encoder refuse the file
-        m.metadata["source"] = utf8_name(source)
-        _warn(m, f"the file name is not UTF-8: metadata 'source' holds it as "
-                 f"{m.metadata['source']!r}")
+    # file names that are not UTF-8 ('source', an AMC's 'asf'): MPZ's strings are UTF-8
+    # (§4.11), and such a name made the encoder refuse the file
+    for key, value in list(m.metadata.items()):
+        if isinstance(value, str) and not is_utf8(value):
+            m.metadata[key] = utf8_name(value)
+            _warn(m, f"a file name is not UTF-8: metadata {key!r} holds it as "
+                     f"{m.metadata[key]!r}")
     return m
 
 
