@@ -1398,3 +1398,31 @@ def test_a_folder_that_cannot_be_listed_is_a_failure_not_silence(corpus, monkeyp
     _unlistable(monkeypatch, src)
     got = expand_inputs([str(src)], True, lambda name: True)
     assert got == [(str(src), "cannot list this folder: Permission denied", str(src))]
+
+
+@needs_dask
+def test_a_scheduler_lost_mid_run_is_one_error_and_keeps_what_finished(corpus):
+    """The scheduler dying during a run gave Dask's FuturesCancelledError traceback and
+    exit 1; now it is one EncoderError, and the files that finished are indexed."""
+    from distributed import Client, LocalCluster
+    src, out, _ = corpus
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
+                      dashboard_address=None) as cluster, \
+            Client(cluster, timeout="3s") as client:
+        def progress(done, total, r):
+            if done == 1:
+                cluster.sync(cluster.scheduler.close)
+        with pytest.raises(EncoderError, match="cancelled the run's tasks.*run the same "
+                                               "command again"):
+            encode_corpus(mirror_jobs(src, out), out, OPTS, levels=LEVELS, client=client,
+                          progress=progress)
+    with open_index(out) as ix:
+        indexed = {r["output"] for r in ix.rows()} | {o for _, o in ix.failures()}
+    assert indexed                                    # the first file, committed
+    rep = run_corpus(src, out)                        # the next run finishes the rest
+    got = statuses(rep)
+    assert got.pop("bad") == "failed"
+    assert set(got.values()) <= {"encoded", "kept", "skipped"}, got
+    with open_index(out) as ix:
+        assert sorted(r["output"] for r in ix.rows()) == ["jump.mpz", "sub/wave.mpz",
+                                                           "walk.mpz"]
