@@ -1244,10 +1244,10 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     tasks = [Task(os.fspath(s), os.fspath(o), _key(os.fspath(o), index_dir), per_file,
                   levels, force, skeleton) for s, o in jobs]
     # the index holds paths as UTF-8 text: such a name stopped the run with a traceback
-    unnamed = [t for t in tasks if not (is_utf8(os.path.abspath(t.source))
-                                        and is_utf8(t.output_key))]
-    tasks = [t for t in tasks if t not in unnamed]
-    failed = [*failed, *((t.source, t.output, NOT_UTF8) for t in unnamed)]
+    named = [is_utf8(os.path.abspath(t.source)) and is_utf8(t.output_key) for t in tasks]
+    failed = [*failed, *((t.source, t.output, NOT_UTF8)
+                         for t, ok in zip(tasks, named, strict=True) if not ok)]
+    tasks = [t for t, ok in zip(tasks, named, strict=True) if ok]
     results: list[FileResult | None] = [None] * len(tasks)
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
     early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
@@ -1279,15 +1279,22 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             else:
                 tasks[i] = replace(t, indexed=row is not None)
                 todo.append(i)
-        for i in list(todo):       # a folder that cannot be made fails its files alone
+        # each output folder made once; one that cannot be made (a file in its place, no
+        # permission: a QA run) fails its files alone
+        unmade: dict[str, str | None] = {}
+        for i in todo:
             folder = os.path.dirname(os.path.abspath(tasks[i].output))
-            try:
-                os.makedirs(folder, exist_ok=True)
-            except OSError as exc:      # (a file in its place, no permission: a QA run)
-                todo.remove(i)
-                finish(i, FileResult(tasks[i].source, tasks[i].output, "failed",
-                                     f"cannot make the folder {folder}: "
-                                     f"{exc.strerror or exc}"))
+            if folder not in unmade:
+                try:
+                    os.makedirs(folder, exist_ok=True)
+                    unmade[folder] = None
+                except OSError as exc:
+                    unmade[folder] = f"cannot make the folder {folder}: {exc.strerror or exc}"
+            reason = unmade[folder]
+            if reason is not None:
+                finish(i, FileResult(tasks[i].source, tasks[i].output, "failed", reason))
+        todo = [i for i in todo if unmade[os.path.dirname(os.path.abspath(tasks[i].output))]
+                is None]
         # every output's folder, not only those with work: a leftover stays no longer
         sweep_temporaries([t.output for t in tasks], before=wall0)
         inflight: dict[Future[FileResult], int] = {}

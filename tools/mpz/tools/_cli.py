@@ -210,7 +210,7 @@ class SubcommandParser(Parser):
 MAX_SAMPLES_COMMANDS = ("decode", "show", "mpzinfo")
 
 
-def memory_message(exc: MemoryError, command: str = "mpzinfo") -> str:
+def memory_message(exc: MemoryError, command: str) -> str:
     """The one report of an allocation failure (spec §8: a resource error, not a verdict).
     ``--max-samples`` is offered only by the commands that have it (encode advised it)."""
     what = str(exc).strip()

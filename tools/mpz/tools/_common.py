@@ -67,25 +67,33 @@ def parse_length(text: str, units: str, option: str = "--max-error") -> float:
     EncoderError
         Naming ``option``, the text and the accepted units.
     """
-    m = _LENGTH.fullmatch(text)
-    if not m:
-        raise EncoderError(f"{option}: cannot read a length from {text!r}; write a number "
-                           f"and a unit ({ACCEPTED_UNITS}), e.g. 2mm or 0.5cm")
-    value, unit = float(m.group(1)), m.group(2).lower()
+    number, unit = _length_parts(text, option)
+    value = float(number)
     if not unit:
         if units in UNITS_MM:
             raise EncoderError(f"{option} {text}: give a unit ({ACCEPTED_UNITS}), e.g. "
-                               f"{m.group(1)}mm; a bare number would silently mean "
-                               f"{m.group(1)} {units}, the input's units")
+                               f"{number}mm; a bare number would silently mean "
+                               f"{number} {units}, the input's units")
         return value
-    if unit not in UNITS_MM:
-        raise EncoderError(f"{option}: unknown unit {unit!r} in {text!r}; accepted units: "
-                           f"{ACCEPTED_UNITS}")
     if units not in UNITS_MM:
         raise EncoderError(f"{option} {text}: the input does not say its units, so a length "
                            "in mm, cm, m or in cannot be converted; give a plain number in "
                            "the input's own units")
     return value * UNITS_MM[unit] / UNITS_MM[units]
+
+
+def _length_parts(text: str, option: str) -> tuple[str, str]:
+    """(number as written, unit in lower case or "") of a length, or EncoderError for a
+    malformed one or an unknown unit, naming ``option``."""
+    m = _LENGTH.fullmatch(text)
+    if not m:
+        raise EncoderError(f"{option}: cannot read a length from {text!r}; write a number "
+                           f"and a unit ({ACCEPTED_UNITS}), e.g. 2mm or 0.5cm")
+    unit = m.group(2).lower()
+    if unit and unit not in UNITS_MM:
+        raise EncoderError(f"{option}: unknown unit {unit!r} in {text!r}; accepted units: "
+                           f"{ACCEPTED_UNITS}")
+    return m.group(1), unit
 
 
 def check_length(text: str | None, option: str) -> None:
@@ -96,11 +104,8 @@ def check_length(text: str | None, option: str) -> None:
     if text is None:
         return
     from mpz.encoder import MAX_LENGTH, MIN_LENGTH
-    m = _LENGTH.fullmatch(text)
-    if not m or (m.group(2) and m.group(2).lower() not in UNITS_MM):
-        parse_length(text, "mm", option)        # raises with the precise message
-        raise AssertionError("parse_length accepted what the syntax refused")
-    if not MIN_LENGTH <= float(m.group(1)) <= MAX_LENGTH:
+    number, _ = _length_parts(text, option)
+    if not MIN_LENGTH <= float(number) <= MAX_LENGTH:
         raise EncoderError(f"{option} {text.strip()}: a length's number must be from "
                            f"{MIN_LENGTH:g} to {MAX_LENGTH:g}")
 

@@ -222,7 +222,7 @@ def _main(argv: list[str] | None = None) -> int:
         except MPZError as exc:                # unreadable: missing, a device, too long
             infos.append(_unreadable(f, type(exc).__name__, exc.message, exc.section))
         except MemoryError as exc:             # a resource error, not a verdict (spec §8)
-            info = _unreadable(f, "MemoryError", memory_message(exc), "§8")
+            info = _unreadable(f, "MemoryError", memory_message(exc, "mpzinfo"), "§8")
             info["status"] = "memory"
             infos.append(info)
     if args.json:
