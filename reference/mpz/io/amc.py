@@ -398,9 +398,32 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         meta["source"] = source
     if skel.name:
         meta["skeleton"] = skel.name
+    clash = _unit_clash(header, skel.angle_unit)
+    if clash:
+        meta["warning"] = clash
     names = [j.name for j in skel.joints]
     return Motion(positions, names, rate, "mm", None, meta, skel.parents(), values,
                   skel.channel_names(), {"skeleton": skel})
+
+
+def _unit_clash(header: list[str], angle_unit: str) -> str | None:
+    """The warning for an AMC whose ``:DEGREES`` or ``:RADIANS`` line contradicts the ASF's
+    ``:units angle``, else None.
+
+    The values are read in the ASF's unit either way, because the skeleton has one angle
+    unit for its axes, limits and channels (§4.14.2 ``angle_unit``). The AMC's header comes
+    back verbatim and its values exactly, so nothing of the file is lost; what may be wrong
+    is the positions computed from it, and so the error that a length bound measures.
+    """
+    lines = {line.split("#", 1)[0].strip().upper() for line in header}
+    said = [flag for flag, unit in ((":DEGREES", "deg"), (":RADIANS", "rad"))
+            if flag in lines and unit != angle_unit]
+    if not said:
+        return None
+    return (f"the AMC says {said[0]} but its ASF says ':units angle {angle_unit}': the "
+            f"values are read in {angle_unit} (the ASF's unit), so the joint positions, and "
+            "the error a length bound measures, are those of that reading; the AMC's values "
+            "and header are kept as written")
 
 
 def _check_frame(seen: list[int], skel: Skeleton, where: int | str) -> None:
