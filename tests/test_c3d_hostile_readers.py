@@ -281,3 +281,56 @@ def test_the_reader_checks_of_the_real_files(shared_data: Path) -> None:
         assert (got.first, got.declared) == c3dbin.declared_frames(blob)
         assert got.hazard is None and got.conflict is None, f.name
         assert (got.data_start, got.word9, got.note) == c3dbin.data_start(blob), f.name
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS and /proc: Linux")
+def test_a_read_that_may_not_fit_the_address_space_limit_is_not_given_to_ezc3d(
+        tmp_path: Path) -> None:
+    """Under ``ulimit -v``, ezc3d's ``std::bad_alloc`` can terminate the process (SIGABRT,
+    QA stop 34 finding 08): such a read goes to c3dbin, whose failures are MemoryErrors. The
+    child's limit is 300 MB above its own use: ezc3d needs about 330 MB for this file, and
+    the abort happened there before."""
+    from mpz.io import write
+    from mpz.synth import generate
+    path = tmp_path / "long.c3d"
+    write(generate("walk", frames=40000), path)
+    child = (
+        "import resource, sys\n"
+        "import mpz.io\n"
+        "status = dict(l.split(':', 1) for l in open('/proc/self/status'))\n"
+        "used = int(status['VmSize'].split()[0]) * 1024\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (used + (300 << 20), resource.RLIM_INFINITY))\n"
+        "try:\n"
+        "    m = mpz.io.read(sys.argv[1])\n"
+        "except MemoryError:\n"
+        "    print('MemoryError')\n"
+        "else:\n"
+        "    print(m.positions.shape, m.metadata.get('warning'))\n")
+    r = subprocess.run([sys.executable, "-c", child, str(path)], capture_output=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr.decode(errors="replace")[-2000:]
+    out = r.stdout.decode()
+    assert out.startswith("MemoryError") or (
+        out.startswith("(40000, 41, 3)") and "not read with ezc3d, which aborts" in out), out
+
+
+def test_memory_short_compares_the_need_with_the_limit_and_the_use(monkeypatch) -> None:
+    import resource
+
+    from mpz.io import c3d
+    if not Path("/proc/self/status").exists():
+        pytest.skip("no /proc/self/status")
+    limits = {resource.RLIMIT_AS: resource.RLIM_INFINITY,
+              resource.RLIMIT_DATA: resource.RLIM_INFINITY}
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (limits[which], limits[which]))
+    assert c3d.memory_short(1 << 60) is None               # no limit: ezc3d may try
+    status = dict(line.split(":", 1) for line in open("/proc/self/status"))
+    vm = int(status["VmSize"].split()[0]) * 1024
+    limits[resource.RLIMIT_AS] = vm + (100 << 20)
+    assert c3d.memory_short(10 << 20) is None
+    said = c3d.memory_short(400 << 20)
+    assert said is not None and "ulimit -v" in said and "about 400 MB" in said
+    limits[resource.RLIMIT_AS] = resource.RLIM_INFINITY
+    limits[resource.RLIMIT_DATA] = 1 << 20                 # below any process's data
+    said = c3d.memory_short(0)
+    assert said is not None and "ulimit -d" in said

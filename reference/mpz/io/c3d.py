@@ -289,6 +289,43 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
                   full.valid[:, marker], meta, extras={"c3d": archive})
 
 
+#: What ezc3d allocates to read a C3D, per byte of its data section, as an upper bound:
+#: about 200 bytes a point-frame (16 bytes in float storage, 8 in int16) and 17 an analog
+#: value (4 or 2 bytes), measured on the real files (docs/io-notes.md)
+EZC3D_BYTES_PER_BYTE = 26
+EZC3D_BYTES_FIXED = 32 << 20
+
+#: The address-space limits a failed allocation meets, with their /proc/self/status line
+_LIMITS = (("RLIMIT_AS", "VmSize", "ulimit -v"), ("RLIMIT_DATA", "VmData", "ulimit -d"))
+
+
+def memory_short(need: int) -> str | None:
+    """Why ``need`` more bytes would not fit under this process's address-space limits
+    (``ulimit -v``, ``ulimit -d``), else None; None too where the limits or the usage cannot
+    be read (not Linux).
+
+    ezc3d cannot be asked: where its C++ allocation fails outside the calls its Python
+    wrapper translates, ``std::bad_alloc`` terminates the process (SIGABRT), so a read
+    that may not fit is given to :mod:`mpz.io.c3dbin`, whose numpy allocations fail with
+    MemoryError (the command line's "out of memory", exit 3).
+    """
+    try:
+        import resource
+        with open("/proc/self/status", encoding="ascii") as f:
+            status = dict(line.split(":", 1) for line in f if ":" in line)
+    except (ImportError, OSError, ValueError):
+        return None
+    for name, field, flag in _LIMITS:
+        soft, _ = resource.getrlimit(getattr(resource, name))
+        if soft == resource.RLIM_INFINITY or field not in status:
+            continue
+        used = int(status[field].split()[0]) * 1024
+        if used + need > soft:
+            return (f"it would need about {need >> 20} MB beyond the {used >> 20} MB in "
+                    f"use, and the limit ({flag}) is {soft >> 20} MB")
+    return None
+
+
 def _read_points(path: str, data: bytes) -> Motion:
     """Every point of the C3D file as a Motion: ezc3d, or the numpy reader it refuses."""
     import ezc3d
@@ -318,6 +355,12 @@ def _read_points(path: str, data: bytes) -> Motion:
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": "not read with ezc3d, which reads from the header's data start; "
                        "read with mpz.io.c3dbin"})
+    short = memory_short(EZC3D_BYTES_PER_BYTE * (len(data) - checks.data_start)
+                         + EZC3D_BYTES_FIXED)
+    if short is not None:
+        return motion_from_c3d_bytes(data, source=source, extra={
+            "warning": f"not read with ezc3d, which aborts the process when an allocation "
+                       f"fails: {short}; read with mpz.io.c3dbin"})
     # only ezc3d's own refusals are caught, not what our code does with its result
     first_error: OSError | RuntimeError | ValueError
     try:
