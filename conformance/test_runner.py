@@ -66,8 +66,8 @@ THROUGH_RUNNER = [v["name"] for g in _EVERY
 def test_reference_decoder_passes_the_vectors(tmp_path):
     proc, doc = run(tmp_path, "--decoder", REF, *([] if FULL else ["--only", *THROUGH_RUNNER]))
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert doc["schema_version"] == 2 and doc["mode"] == "decoder"
-    assert doc["contract"] == "full"
+    assert doc["schema_version"] == 3 and doc["mode"] == "decoder"
+    assert doc["contract"] == "full" and doc["implements"] == "1.1"
     assert doc["totals"]["failed"] == 0
     assert doc["totals"]["total"] == len(THROUGH_RUNNER)
     assert {r["group"] for r in doc["results"]} == set(mf.GROUPS)
@@ -204,6 +204,72 @@ def test_array_only_keeps_the_1_0_contract(tmp_path):
     assert "names, rate, units and meta were not checked" in proc.stdout
 
 
+def _rules_of_1_1() -> set[str]:
+    """The rules spec §7.4 marks (1.1): those of the chunk types MPZ 1.1 added."""
+    text = (Path(__file__).parents[1] / "spec" / "mpz-1.md").read_text(encoding="utf-8")
+    return {rid for rid, _, _, what in mf.spec_rules(text) if what.startswith("(1.1)")}
+
+
+def test_a_1_0_decoder_must_decode_the_files_that_break_only_1_1_rules():
+    """Spec §2.1: a 1.0 decoder skips the 1.1 chunk types as unknown, so what it must do
+    with each vector differs from the manifest exactly where a vector breaks only (1.1)
+    rules (the spec's rule index, not the code, says which). Every such vector becomes one
+    to decode, unless it is also broken for 1.0 (and then outside the 1.1 chunks)."""
+    from mpz.chunks import CHUNKS
+    from mpz.conformance.runner import as_read_by
+    from mpz.decoder import decode_layers
+    from mpz.errors import MPZError
+    later = {t for t, c in CHUNKS.items() if c.MINOR > 0}
+    r11 = _rules_of_1_1()
+    assert len(r11) >= 30
+    vdir = mf.DEFAULT_DIR
+    changed = []
+    for v in MAN["vectors"]:
+        w, x = as_read_by(v, vdir, 0)
+        only_1_1 = v["expected"] == "reject" and set(v["rules"]) <= r11
+        if w is v:
+            assert x is None
+            if only_1_1:             # still invalid for 1.0: for a reason outside 1.1 chunks
+                with pytest.raises(MPZError) as err:
+                    decode_layers((vdir / v["file"]).read_bytes(), minor=0)
+                assert err.value.chunk not in later, (v["name"], str(err.value))
+            continue
+        changed.append(v["name"])
+        assert only_1_1, (v["name"], v["rules"])
+        assert w["expected"] == "decode" and x is not None and x.ndim == 3
+        assert w["header"]["names"] and w["tolerances"]["max_abs"] > 0
+        assert "unknown" in w["note"] and set(later) & set(w["note"].replace(",", " ").split())
+    assert len(changed) >= 100
+
+
+#: the vectors whose expectation a 1.0 decoder changes, one in sixteen (each run of each is a
+#: process: 3 runs of 9 vectors take about 20 s)
+_AS_1_0 = sorted(v["name"] for v in MAN["vectors"]
+                 if v["expected"] == "reject" and set(v["rules"]) <= _rules_of_1_1())[::16]
+
+
+def test_implements_1_0_passes_a_1_0_decoder_and_fails_a_1_1_one(tmp_path):
+    """The reference reading as 1.0 passes; the reference reading as 1.1 rejects, as a 1.1
+    decoder must, the files a 1.0 decoder must decode, and fails exactly those."""
+    only = ["--only", *_AS_1_0, "v10-c3d-archive-float32", _match("x01-bad-signature")]
+    proc, doc = run(tmp_path, "--decoder", f"{REF} --implements 1.0", "--implements", "1.0",
+                    *only)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert doc["implements"] == "1.0" and doc["totals"]["failed"] == 0
+    assert "judged as a 1.0 decoder must read them" in proc.stdout
+    got = by_name(doc)
+    assert all(got[n]["actual"] == "decode" for n in _AS_1_0 if n not in
+               ("x206-cana-samples-over-limit", "x236-skeleton-channel-samples-over-limit"))
+    proc, doc = run(tmp_path, "--decoder", REF, "--implements", "1.0", *only, name="r2.json")
+    assert proc.returncode == 1
+    failed = set(doc["failed"])
+    assert failed and failed <= set(_AS_1_0)
+    assert all("expected a decode, but decoder exited 2" in by_name(doc)[n]["message"]
+               for n in failed)
+    proc, doc = run(tmp_path, "--decoder", f"{REF} --implements 1.0", *only, name="r3.json")
+    assert proc.returncode == 1 and set(doc["failed"]) == failed
+
+
 def test_sidecar_comparison_unit(tmp_path):
     """compare_sidecar on hand-written files: every member, exact, JSON escapes allowed."""
     from mpz.conformance.runner import compare_sidecar
@@ -270,6 +336,10 @@ def test_encoder_mode(tmp_path):
     ["--decoder", REF, "--only", "no-such-vector"],
     ["--decoder", REF, "--vectors", "/nonexistent"],
     ["--decoder", REF, "--timeout", "0"],
+    ["--decoder", REF, "--implements", "1.2"],
+    ["--decoder", REF, "--implements", "2.0"],
+    ["--decoder", REF, "--implements", "1"],
+    ["--encoder", REF, "--implements", "1.0"],
 ])
 def test_usage_errors_exit_64(args, capsys):
     from mpz.conformance.runner import main  # in-process: no decoder is ever started

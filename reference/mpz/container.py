@@ -17,7 +17,7 @@ import zlib
 from mpz.chunks import CHUNKS, Record, _build, _parse
 from mpz.errors import ChecksumError, FormatError, LimitExceededError, MPZError
 from mpz.format import MAX_CHUNK_LENGTH
-from mpz.spec.grammar import SIGNATURE, ChunkCRC, ChunkHeader
+from mpz.spec.grammar import SIGNATURE, VERSION_MINOR, ChunkCRC, ChunkHeader
 
 
 @dataclass
@@ -75,13 +75,17 @@ def locate(exc: MPZError, chunk: Chunk) -> MPZError:
     return exc
 
 
-def scan(data: bytes) -> Scan:
+def scan(data: bytes, *, minor: int = VERSION_MINOR) -> Scan:
     """Walk the chunks of ``data`` and report everything found (never raises MPZError).
 
     Parameters
     ----------
     data : bytes
         A complete MPZ file.
+    minor : int, optional
+        The highest minor version of 1.x that the reading decoder implements (§2.1): chunk
+        types introduced after it are unknown to it, so their frame and CRC are checked and
+        their payload is not read (§2.3). ``minor=0`` reads a file as a 1.0 decoder does.
 
     Returns
     -------
@@ -136,7 +140,7 @@ def scan(data: bytes) -> Scan:
             res.errors.append(ChecksumError(
                 f"CRC-32 mismatch: computed 0x{chunk.crc_computed:08x}, stored 0x{stored:08x}",
                 offset=pos, chunk=tname, section="§3.3"))
-        if tname in CHUNKS:
+        if tname in CHUNKS and CHUNKS[tname].MINOR <= minor:
             try:
                 chunk.record = CHUNKS[tname].load(payload)
             except MPZError as exc:
@@ -157,15 +161,15 @@ def scan(data: bytes) -> Scan:
             return res
 
 
-def parse(data: bytes) -> list[Chunk]:
-    """Strictly parse the chunk list of ``data``.
+def parse(data: bytes, *, minor: int = VERSION_MINOR) -> list[Chunk]:
+    """Strictly parse the chunk list of ``data`` (``minor``: as in :func:`scan`).
 
     Raises
     ------
     FormatError, ChecksumError, LimitExceededError
         The first problem :func:`scan` found, with its offset and chunk.
     """
-    res = scan(data)
+    res = scan(data, minor=minor)
     if res.errors:
         raise res.errors[0]
     return res.chunks

@@ -48,7 +48,7 @@ from mpz.container import Chunk, locate, parse
 from mpz.entropy import BlockDecoder
 from mpz.errors import FormatError, MPZError
 from mpz.extensions import EXTENSIONS
-from mpz.format import LAYER_LIMIT, MAX_SAMPLES, ResidualBase, unit_name
+from mpz.format import LAYER_LIMIT, MAX_SAMPLES, VERSION_MINOR, ResidualBase, unit_name
 from mpz.keyframe import decode_payload_peak as decode_keyframes
 from mpz.motion import Motion
 from mpz.normalize import denormalize, segment_starts
@@ -137,7 +137,8 @@ def _checked(c: Chunk, cls: type[R], ctx: Context) -> Located[R]:
     return Located(rec, c.offset)
 
 
-def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
+def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
+                minor: int = VERSION_MINOR) -> Stream:
     """Parse and validate every structural rule of §3 and §4 (no sample decoding).
 
     Parameters
@@ -147,6 +148,11 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
     max_samples : int
         Refuse files with more than this many marker-frames (§8); lower it to
         bound memory further.
+    minor : int
+        Validate and read as a decoder of 1.0 .. 1.``minor`` (§2.1): the chunk types of
+        later minor versions are unknown ancillary chunks, skipped after their frame and CRC
+        are checked (§2.3). ``minor=0`` is a 1.0 decoder (the conformance runner's
+        ``--implements 1.0``).
 
     Raises
     ------
@@ -154,7 +160,7 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
         FormatError, ChecksumError, UnsupportedVersionError or
         LimitExceededError, with offset and chunk.
     """
-    chunks = parse(data)
+    chunks = parse(data, minor=minor)
     if not chunks or chunks[0].type != "MHDR":
         first = chunks[0] if chunks else None
         raise FormatError("the first chunk must be MHDR", section="§3.4",
@@ -192,8 +198,8 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
                           chunk=extra.type, section="§3.4")
 
     # ancillary chunks: one summary (smry or smrc, §3.4) and one meta at most (§4.10, §4.11,
-    # §4.15); the chunks extensions own are checked and kept for them; unknown types are
-    # kept, unread (§2.3)
+    # §4.15); the chunks extensions own are checked and kept for them; unknown types, and
+    # those of a minor version after ``minor``, are kept, unread (§2.3)
     summary: Located[Smry] | Located[Smrc] | None = None
     meta: dict[str, str] = {}
     unknown: list[Chunk] = []
@@ -202,7 +208,7 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Stream:
     for c in chunks:
         if c.critical:
             continue
-        if c.type not in CHUNKS:
+        if c.type not in CHUNKS or CHUNKS[c.type].MINOR > minor:
             unknown.append(c)
             continue
         if c.type in ("smry", "smrc", "meta"):
@@ -570,15 +576,17 @@ class Decoded:
         return m
 
 
-def decode_layers(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Decoded:
-    """Validate ``data`` and run the integer decoding process (§3-§6.7).
+def decode_layers(data: bytes, *, max_samples: int = MAX_SAMPLES,
+                  minor: int = VERSION_MINOR) -> Decoded:
+    """Validate ``data`` and run the integer decoding process (§3-§6.7); ``minor`` as in
+    :func:`read_stream`.
 
     Raises
     ------
     MPZError
         For any file the spec says to reject, with offset, chunk and §.
     """
-    s = read_stream(data, max_samples=max_samples)
+    s = read_stream(data, max_samples=max_samples, minor=minor)
     valid = decode_mask(s)
     return Decoded(s, valid, decode_integers(s))
 

@@ -1,6 +1,9 @@
 """The reference decoder as a conformance-runner command.
 
-Usage: ``python -m mpz.conformance.refdecoder IN.mpz OUT.npy``
+Usage: ``python -m mpz.conformance.refdecoder [--implements 1.N] IN.mpz OUT.npy``
+
+``--implements 1.0`` decodes as a decoder of MPZ 1.0 alone does (spec §2.1): the chunk
+types of 1.1 are unknown to it, so it checks their frame and CRC and skips them (§2.3).
 
 Writes the three files of the spec §7.3 contract: OUT.npy (float64
 [frames, markers, 3], NaN at gaps), OUT.npy.json (names, rate, units code and
@@ -32,14 +35,33 @@ def sidecar_of(stream: Any) -> dict[str, Any]:
             "meta": dict(stream.meta)}
 
 
-def decode_file(src: str) -> tuple[NDArray[np.float64], str, dict[str, Any]]:
-    """(positions float64 [F, M, 3] with NaN gaps, integer-layer digest hex, sidecar) of a file."""
-    from mpz.conformance.manifest import intlayer_digest
-    from mpz.decoder import decode_layers
+def decode_file(src: str, minor: int | None = None
+                ) -> tuple[NDArray[np.float64], str, dict[str, Any]]:
+    """(positions float64 [F, M, 3] with NaN gaps, integer-layer digest hex, sidecar) of a
+    file, read by a decoder of 1.0 .. 1.``minor`` (default: every minor version this package
+    implements)."""
     with open(src, "rb") as fh:
         data = fh.read()
-    d = decode_layers(data)
+    return decode_bytes(data, minor)
+
+
+def decode_bytes(data: bytes, minor: int | None = None
+                 ) -> tuple[NDArray[np.float64], str, dict[str, Any]]:
+    """:func:`decode_file` of the bytes of a file."""
+    from mpz.conformance.manifest import intlayer_digest
+    from mpz.decoder import decode_layers
+    d = decode_layers(data) if minor is None else decode_layers(data, minor=minor)
     return d.positions(), intlayer_digest(d.q, d.valid), sidecar_of(d.stream)
+
+
+def implemented_minor(text: str) -> int:
+    """The minor version of ``--implements 1.N``: 1.0 up to the version this package
+    implements. Raises ValueError naming what is allowed."""
+    from mpz.spec.grammar import VERSION_MAJOR, VERSION_MINOR
+    allowed = [f"{VERSION_MAJOR}.{n}" for n in range(VERSION_MINOR + 1)]
+    if text not in allowed:
+        raise ValueError(f"--implements {text!r}: one of {', '.join(allowed)}")
+    return int(text.split(".")[1])
 
 
 def sidecar_bytes(side: dict[str, Any]) -> bytes:
@@ -64,12 +86,21 @@ def write_output(dst: str, x: NDArray[np.float64], digest: str | None,
 def main(argv: list[str] | None = None) -> int:
     from mpz.errors import MPZError
     argv = sys.argv[1:] if argv is None else list(argv)
+    minor = None
+    if len(argv) == 4 and argv[0] == "--implements":
+        try:
+            minor = implemented_minor(argv[1])
+        except ValueError as exc:
+            print(f"refdecoder: {exc}", file=sys.stderr)
+            return 3
+        argv = argv[2:]
     if len(argv) != 2:
-        print("usage: python -m mpz.conformance.refdecoder IN.mpz OUT.npy", file=sys.stderr)
+        print("usage: python -m mpz.conformance.refdecoder [--implements 1.N] IN.mpz OUT.npy",
+              file=sys.stderr)
         return 3
     src, dst = argv
     try:
-        x, digest, side = decode_file(src)
+        x, digest, side = decode_file(src, minor)
     except MPZError as exc:
         print(f"{type(exc).__name__}: {exc}", file=sys.stderr)
         return 2

@@ -10,10 +10,11 @@ Contract (conformance/README.md has the full text):
   within max_abs and the RMS within rms (no slack), and the sidecar must be
   equal. If it also writes ``OUT.npy.intlayer`` (the hex integer-layer digest
   of spec §7.1) that digest must match exactly: Opus style, the integer tier is
-  exact and the float tier is within tolerance. ``--array-only`` keeps the 1.0
-  contract (no sidecar). A decoder killed by a signal (or whose shell reports
-  128 + a fatal signal), past its time limit or out of memory fails the vector
-  whatever its group: a crash is not a rejection (§8).
+  exact and the float tier is within tolerance. ``--array-only`` keeps the
+  contract of the spec's 1.0 text (no sidecar); ``--implements 1.0`` judges a decoder of
+  MPZ 1.0 alone, which skips the 1.1 chunks (:func:`as_read_by`). A decoder killed by a
+  signal (or whose shell reports 128 + a fatal signal), past its time limit or out of
+  memory fails the vector whatever its group: a crash is not a rejection (§8).
 * encoder mode: for every input motion and requested bound E the runner
   executes ``CMD IN.npy OUT.mpz --max-error E`` and checks OUT.mpz with the
   reference decoder: declared bound <= E, every valid sample within it, gaps
@@ -53,7 +54,9 @@ except ImportError:          # not POSIX: no memory limit
     resource = None  # type: ignore[assignment]
 
 from mpz.conformance import manifest as mf
+from mpz.conformance.refdecoder import implemented_minor
 from mpz.errors import MPZError
+from mpz.spec.grammar import VERSION_MAJOR, VERSION_MINOR
 from mpz.tools._cli import EXIT_FAILED as EXIT_FAIL
 from mpz.tools._cli import (
     EXIT_INTERRUPTED,
@@ -65,7 +68,8 @@ from mpz.tools._cli import (
     reports_ctrl_c,
 )
 
-RESULTS_SCHEMA_VERSION = 2          # 2: sidecar, contract, peak_rss_mb, actual 'memory'
+RESULTS_SCHEMA_VERSION = 3          # 2: sidecar, contract, peak_rss_mb, actual 'memory';
+#                                     3: implements
 STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
 FAIL_LIST = 10              # differing samples listed per vector
 
@@ -435,8 +439,54 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
 
 
 # ------------------------------------------------------------ decoder mode --
+def as_read_by(vec: dict[str, Any], vdir: Path, minor: int
+               ) -> tuple[dict[str, Any], np.ndarray | None]:
+    """What a decoder of 1.0 .. 1.``minor`` must do with vector ``vec``: (the vector's entry,
+    None) when that is what the manifest says, else (an entry with the expectation of such a
+    decoder, and its expected array when it must decode).
+
+    The manifest holds the expectations of a decoder of the suite's version (1.1). A decoder
+    of an earlier minor version does not know the chunk types added after it: it checks
+    their frame and CRC and skips them (spec §2.1, §2.3), so a file that breaks only a rule
+    of those chunks is valid for it. Its expectation is the reference decoder's, reading as
+    such a decoder (:func:`mpz.decoder.decode_layers` with ``minor``)."""
+    from mpz.chunks import CHUNKS
+    from mpz.conformance.refdecoder import sidecar_of
+    from mpz.container import scan
+    from mpz.decoder import decode_layers
+    data = (vdir / vec["file"]).read_bytes()
+    later = sorted({c.type for c in scan(data).chunks
+                    if c.type in CHUNKS and CHUNKS[c.type].MINOR > minor})
+    if not later:
+        return vec, None
+    why = (f"as a 1.{minor} decoder reads it, with {', '.join(later)} unknown "
+           f"(spec §2.1, §2.3)")
+    try:
+        d = decode_layers(data, minor=minor)
+    except MPZError as exc:
+        if vec["expected"] == "reject":
+            return vec, None
+        return dict(vec, expected="reject", expected_error=type(exc).__name__,
+                    corruption=f"{why}: {exc}"), None
+    digest = mf.intlayer_digest(d.q, d.valid)
+    if vec["expected"] == "decode" and vec["integer_layer_digest"] == digest:
+        return vec, None
+    x = d.positions()
+    side = sidecar_of(d.stream)
+    step = float(d.stream.quant.step)
+    header = {"names": side["names"], "rate": side["rate"], "units_code": side["units"],
+              "meta": side["meta"], "step": step}
+    return dict(vec, expected="decode", expected_error=None, corruption=None,
+                expected_output=None, integer_layer_digest=digest, header=header,
+                tolerances=mf.tolerances(step, float(np.abs(x[d.valid]).max(initial=0.0))),
+                note=why), x
+
+
 def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout: float,
-                       memory_mb: int | None, array_only: bool = False) -> dict[str, Any]:
+                       memory_mb: int | None, array_only: bool = False,
+                       expected_array: np.ndarray | None = None) -> dict[str, Any]:
+    """Run the decoder on one vector and judge what it did against ``vec``'s expectation
+    (and ``expected_array`` in place of the vector's .npy file, from :func:`as_read_by`)."""
     entry: dict[str, Any] = {
         "name": vec["name"], "group": vec["group"], "file": vec["file"],
         "expected": vec["expected"], "expected_error": vec.get("expected_error"),
@@ -500,7 +550,8 @@ def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout:
         if not isinstance(got, np.ndarray):     # np.load gives an NpzFile for a zip
             entry["message"] = "output is not a .npy file (a .npz archive?)"
             return entry
-        exp = np.load(vdir / vec["expected_output"]["file"], allow_pickle=False)
+        exp = (expected_array if expected_array is not None else
+               np.load(vdir / vec["expected_output"]["file"], allow_pickle=False))
         cmp = compare_output(got, exp, vec)
         del got                                  # the map, before the directory goes
         entry.update(max_abs=cmp["max_abs"], rms=cmp["rms"],
@@ -685,9 +736,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", "-j", type=int, default=1, metavar="N",
                    help="run N vectors at once (default 1)")
     p.add_argument("--quiet", "-q", action="store_true", help="print failures and the summary only")
+    p.add_argument("--implements", metavar="1.N", default=None,
+                   help="the MPZ version the decoder implements, 1.0 up to the suite's "
+                        "(default); a decoder of 1.0 skips the chunk types of 1.1 as unknown "
+                        "(spec §2.1), so the vectors that break only their rules must decode")
     p.add_argument("--array-only", action="store_true",
-                   help="the 1.0 decoder contract: check OUT.npy (and the digest) alone, "
-                        "without OUT.npy.json; names, rate, units and meta go unchecked")
+                   help="the contract of the spec's 1.0 text: check OUT.npy (and the "
+                        "digest) alone, without OUT.npy.json; names, rate, units and meta go "
+                        "unchecked")
     return p
 
 
@@ -725,6 +781,14 @@ def main(argv: list[str] | None = None) -> int:
                 or not 0 <= args.memory <= MAX_MEMORY_MB:
             raise UsageError(f"--timeout must be a finite number > 0, --jobs >= 1 and "
                              f"--memory 0 .. {MAX_MEMORY_MB}")
+        minor = VERSION_MINOR
+        if args.implements is not None:
+            if args.decoder is None:
+                raise UsageError("--implements is for --decoder")
+            try:
+                minor = implemented_minor(args.implements)
+            except ValueError as exc:
+                raise UsageError(str(exc)) from None
         cmd = _command(args.decoder if args.decoder is not None else args.encoder)
         vdir = Path(args.vectors)
         try:
@@ -774,8 +838,15 @@ def main(argv: list[str] | None = None) -> int:
     mode = "decoder" if args.decoder is not None else "encoder"
     t0 = time.perf_counter()
     if mode == "decoder":
-        def job(v):
-            return run_decoder_vector(cmd, vdir, v, args.timeout, args.memory, args.array_only)
+        # the expectations of a decoder of an earlier minor version, where they differ
+        plans = [as_read_by(v, vdir, minor) if minor < VERSION_MINOR else (v, None)
+                 for v in todo]
+        changed = sum(v is not w for (v, _), w in zip(plans, todo, strict=True))
+
+        def job(plan):
+            return run_decoder_vector(cmd, vdir, plan[0], args.timeout, args.memory,
+                                      args.array_only, plan[1])
+        todo = plans
     else:
         def job(ie):
             return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
@@ -805,6 +876,9 @@ def main(argv: list[str] | None = None) -> int:
                         for g, c in by_group.items())
     if mode == "decoder" and args.array_only:
         print("note: --array-only: names, rate, units and meta were not checked (spec §7.3)")
+    if mode == "decoder" and minor < VERSION_MINOR:
+        print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
+              f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else ""))
@@ -813,6 +887,7 @@ def main(argv: list[str] | None = None) -> int:
                "mode": mode, "command": cmd, "vectors": str(vdir),
                "contract": ("array-only" if args.array_only else "full") if mode == "decoder"
                else "encoder",
+               "implements": f"{VERSION_MAJOR}.{minor}" if mode == "decoder" else None,
                "manifest_schema_version": man["schema_version"],
                "timeout": args.timeout, "memory_mb": args.memory,
                "seconds": round(time.perf_counter() - t0, 3),
