@@ -385,3 +385,24 @@ def test_an_output_that_cannot_be_replaced_is_refused_before_the_work(tmp_path: 
             _chattr(p, "-i")
             _chattr(p, "-a")
         locked.chmod(0o755)
+
+
+@pytest.mark.parametrize("args", [["summary", "IN", "--k", "2,4"],
+                                  ["compare", "IN", "MPZ"]])
+def test_a_closed_pipe_does_not_lose_the_plot(small: tuple[Path, Path], tmp_path: Path,
+                                             args: list[str]) -> None:
+    """The --plot file is written before the report: a reader that stops reading (`| head`)
+    ended the tool quietly with exit 0 and no plot (docs audit, finding 7)."""
+    pytest.importorskip("matplotlib")
+    trc, enc = small
+    argv = [command("mpz"), *[str(trc) if a == "IN" else str(enc) if a == "MPZ" else a
+                              for a in args], "--plot", str(tmp_path / "p.png")]
+    r, w = os.pipe()
+    os.close(r)                         # every write to standard output fails: EPIPE
+    try:
+        proc = subprocess.run(argv, cwd=tmp_path, stdout=w, stderr=subprocess.PIPE,
+                              text=True, timeout=300)
+    finally:
+        os.close(w)
+    assert "Traceback" not in proc.stderr
+    assert (tmp_path / "p.png").stat().st_size > 1000, proc.stderr

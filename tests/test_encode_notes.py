@@ -39,6 +39,20 @@ def test_rate_does_not_override_a_rate_the_file_stores(tmp_path):
     assert not (tmp_path / "a.mpz").exists()
 
 
+def test_rate_in_a_batch_beside_its_inputs_names_only_the_rateless_ones(tmp_path):
+    """A batch without -o writes beside its inputs in this process, not as a corpus; --rate
+    names the rate of its inputs without one there too, as the README says, and leaves the
+    others (before, it failed every input that stores a rate: docs audit, finding 5)."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    write(generate("walk", frames=30), tmp_path / "a" / "walk.trc")
+    np.save(tmp_path / "b" / "walk.npy", generate("walk", frames=30).as_nan())
+    p = _mpz("encode", "a/walk.trc", "b/walk.npy", "--rate", "60", "-q", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert mpz.info(tmp_path / "a" / "walk.mpz").rate == 120.0      # the TRC's own
+    assert mpz.info(tmp_path / "b" / "walk.mpz").rate == 60.0       # the NPY's, from --rate
+
+
 def test_renamed_markers_are_said(tmp_path):
     lines = ["PathFileType\t4\t(X/Y/Z)\tt.trc",
              "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"

@@ -124,7 +124,7 @@ class EncodeOptions:
     Global distortion controls (paper §IV): ``theta`` (key-frame threshold, fraction of
     ADDH), ``k0`` (initial clusters), ``tau`` (clustering threshold, fraction of ADDH),
     ``metric`` ("max" or "ave"). Local controls: ``weights`` (marker or node name ->
-    weight) and ``group_errors`` (node name -> max error, with ``max_error``). Beyond the
+    weight) and ``group_errors`` (node name -> max error, under a bound). Beyond the
     paper: ``max_error`` (hard bound, motion units), ``patterns`` ("auto" keeps the
     pattern layer of a node only where it makes the file smaller; "on"; "off"; None: "off"
     under a bound, "on" without), ``segmentation`` ("adaptive" = Alg. 1, "optimal" =
@@ -1519,7 +1519,8 @@ def encode(motion: Motion, *,
         motion without units).
     group_errors : mapping of str to float, optional
         Tighter bounds for hierarchy nodes, node name -> bound in motion
-        units (needs ``max_error``). Default: none.
+        units (needs a bound, ``max_error`` or the default one: not with ``lossy``).
+        Default: none.
     theta : float, default 0.2
         Key-frame threshold, a fraction of the head size ADDH.
     k0 : int, default 10
@@ -1532,17 +1533,21 @@ def encode(motion: Motion, *,
         Marker or node name -> weight (local distortion control).
     hierarchy : str, path or mapping, optional
         "cmu41", "skeleton", "auto", "flat", a JSON hierarchy file or its
-        parsed dict. Default: chosen from the marker names.
+        parsed dict. Default: one flat node when the pattern layer is off and there are
+        no ``group_errors`` (every bounded encode by default), else chosen from the
+        marker names.
     smoothing : int, default 2
         Boundary smoothing half-width, 0..16 (spec §6.4).
     patterns : {"auto", "on", "off"}, optional
-        Pattern layer per node. Default: "off" with ``max_error``, else "on".
+        Pattern layer per node. Default: "on" with ``lossy``, else "off" (every bounded
+        encode, ``max_error`` or the default bound).
     segmentation : {"adaptive", "optimal"}, default "adaptive"
         Paper's Alg. 1, or Fisher's optimal partition.
     grid : float, optional
         Grid step in motion units: an upper limit under a bound (the step the bound needs
         is used when finer, and an int16 C3D's own grid when coded on it), the step
-        itself in ``lossy`` mode. Default: from ``max_error``, else ADDH/1000.
+        itself in ``lossy`` mode. Default: the step the bound needs (``max_error`` or the
+        default bound); ADDH/1000 with ``lossy``.
     max_segment : int, default 240
         Longest segment in frames, 2..4096.
     summary : sequence of int, default ()

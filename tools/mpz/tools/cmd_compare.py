@@ -178,6 +178,12 @@ def run(args: argparse.Namespace) -> int:
              notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added)
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
+    if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
+        plot_names = args.marker or [n for _, n in worst[:3]]
+        bound = (bound_given if bound_given is not None
+                 else _declared_bound(args.decoded, units)
+                 or _declared_bound(args.original, units))
+        plot(a, b, plot_names, args.plot, bound=bound, units=units, force=args.force)
     if args.json:
         print_json(s)
     else:
@@ -195,13 +201,7 @@ def run(args: argparse.Namespace) -> int:
             rms = s["per_marker_rms"][n]
             print(f"  {printable(n)[:16]:<16} {v:>8.4g} "
                   f"{(float('nan') if rms is None else rms):>10.4g}")
-    if args.plot:
-        plot_names = args.marker or [n for _, n in worst[:3]]
-        bound = (bound_given if bound_given is not None
-                 else _declared_bound(args.decoded, units)
-                 or _declared_bound(args.original, units))
-        plot(a, b, plot_names, args.plot, bound=bound, units=units, force=args.force)
-        if not args.json:
+        if args.plot:
             print(f"plot written to {printable(args.plot)}")
     return 2 if gaps_lost or gaps_added else 0
 

@@ -102,14 +102,19 @@ def add_parser(sub):
                    help=f"boundary smoothing half-width 0..16 (default {D.smoothing})")
     p.add_argument("--patterns", choices=("auto", "on", "off"), default=None,
                    help="pattern layer per node of the body-part hierarchy: auto keeps it "
-                   "where it makes that node smaller (default: on without --max-error, off "
-                   "with it, which codes one flat node and is usually smaller than auto)")
+                   "where it makes that node smaller (default: on with --lossy, off under a "
+                   "bound, --max-error or the default one, which codes one flat node and is "
+                   "usually smaller than auto)")
     p.add_argument("--segmentation", choices=("adaptive", "optimal"), default=D.segmentation,
                    help="adaptive = paper's Alg. 1; optimal = Fisher optimal partition")
-    p.add_argument("--grid", help="grid step (default: from --max-error, else ADDH/1000)")
+    p.add_argument("--grid", help="grid step with a unit, e.g. 0.5mm: an upper limit under a "
+                   "bound (default: the step the bound needs, --max-error or the default one; "
+                   "ADDH/1000 with --lossy)")
     p.add_argument("--summary", metavar="K,K,...", help="add the optimal-partition summary chunk "
                    "with these segment counts, e.g. 6,12,24,48")
-    p.add_argument("--summary-space", choices=("positions", "angles"), default=D.summary_space)
+    p.add_argument("--summary-space", choices=("positions", "angles"), default=D.summary_space,
+                   help="what --summary partitions: the marker positions relative to their "
+                   "centroid (default) or the joint angles of BVH or AMC input")
     p.add_argument("--summary-format", choices=("smrc", "smry"), default=D.summary_format,
                    help="smrc: the range-coded summary chunk (MPZ 1.1, the default); smry: the "
                    "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
@@ -236,14 +241,17 @@ def run(args: argparse.Namespace) -> int:
     data_on_stdout = any(j.output == STDIO for j in jobs)
     report = sys.stderr if data_on_stdout else sys.stdout
     results: list[dict] = []
-    code = run_batch("encode", jobs, lambda job: _encode_one(job, args, report, results),
+    batch = len(jobs) > 1         # --units and --rate name those of the inputs without one
+    code = run_batch("encode", jobs,
+                     lambda job: _encode_one(job, args, report, results, batch=batch),
                      report=report, quiet=args.quiet)
     if args.json:
         print_json(results[0] if len(jobs) == 1 and results else results, file=report)
     return code
 
 
-def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
+def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
+                batch: bool = False) -> int:
     import mpz
     from mpz.api import check_output
     from mpz.encoder import encode_motion
@@ -275,7 +283,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict]) -> int:
     if warning and not args.quiet:
         print(f"mpz encode: note: {printable(job.input)}: {printable(warning)}",
               file=sys.stderr)
-    motion = _rate(args, _units(args, motion))
+    motion = _rate(args, _units(args, motion, batch=batch), batch=batch)
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
     notes += _loose_group_errors(opts)

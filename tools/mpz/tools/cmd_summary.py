@@ -422,13 +422,13 @@ def run(args) -> int:
         return EXIT_ERROR
     for w in warnings:
         print(f"mpz summary: warning: {w}", file=sys.stderr)
+    if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
+        _plot(args.plot, info, levels, poses, parents, args.force)
     if args.json:
         print_json(_json(info, levels, warnings), indent=1)
     else:
         _print_text(info, levels, sys.stdout)
-    if args.plot:
-        _plot(args.plot, info, levels, poses, parents, args.force)
-        if not args.json:
+        if args.plot:
             print(f"\nplot written to {printable(args.plot)}")
     return EXIT_WARN if warnings else EXIT_OK
 
