@@ -274,6 +274,20 @@ def test_one_exit_code_table_for_every_tool(tmp_path: Path) -> None:
     assert cmd_show.EXIT_WARN == _cli.EXIT_WARN == 1
 
 
+def test_the_help_of_mpz_and_mpzinfo_lists_every_code_of_the_readme_table(
+        tmp_path: Path) -> None:
+    """Each exit code in the README's table is in both tools' --help (mpzinfo's lacked 130:
+    docs audit, finding 10)."""
+    import re
+    readme = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
+    codes = re.findall(r"^\| (\d+) \|", readme, re.M)
+    assert codes[:1] == ["0"] and "130" in codes
+    for tool in ("mpz", "mpzinfo"):
+        text = " ".join(run([tool, "--help"], tmp_path).stdout.split())
+        listed = re.findall(r"\b(\d+) [a-z]", text.split("exit codes:", 1)[1])
+        assert listed == codes, (tool, listed)
+
+
 def test_output_piped_into_head_stops_quietly(small: tuple[Path, Path], tmp_path: Path) -> None:
     _, enc = small
     files = [str(enc)] * 200                       # far more than a pipe buffer of -vv text
@@ -406,3 +420,20 @@ def test_a_closed_pipe_does_not_lose_the_plot(small: tuple[Path, Path], tmp_path
         os.close(w)
     assert "Traceback" not in proc.stderr
     assert (tmp_path / "p.png").stat().st_size > 1000, proc.stderr
+
+
+def test_an_unknown_unit_is_null_in_every_json_output(tmp_path: Path) -> None:
+    """README: every --json output has null for an unknown value; mpzinfo and encode gave ""
+    for a file without a length unit while show gave null (docs audit, finding 9)."""
+    import json
+    np.save(tmp_path / "walk.npy", generate("walk", frames=20).as_nan())   # NPY: no unit
+    p = run(["mpz", "encode", "walk.npy", "-o", "walk.mpz", "--json", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["units"] is None
+    p = run(["mpzinfo", "--json", "walk.mpz"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(p.stdout)
+    files = doc["files"] if "files" in doc else [doc]
+    assert files[0]["units"] is None
+    p = run(["mpz", "show", "--json", "walk.mpz"], tmp_path)
+    assert json.loads(p.stdout)["units"] is None

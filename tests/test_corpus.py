@@ -692,6 +692,31 @@ def test_search_cli_on_a_small_corpus(corpus, capsys):
     assert code == 2 and "no such index" in capsys.readouterr().err
 
 
+def test_search_reads_its_query_from_standard_input(corpus, tmp_path):
+    """`-` is standard input for search too (the README's "everywhere"; docs audit, finding
+    8): a capture and an .mpz, their format found from their content, rank as from a path."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    exe = Path(sys.executable).parent / "mpz"
+
+    def search(query: str, stdin: bytes | None = None) -> dict:
+        p = subprocess.run([str(exe), "search", query, "--index", str(out), "--json"],
+                           input=stdin, capture_output=True, timeout=120)
+        assert p.returncode == 0, p.stderr.decode(errors="replace")
+        return json.loads(p.stdout)
+
+    by_path = search(str(paths["walk"]))
+    by_stdin = search("-", paths["walk"].read_bytes())
+    assert [r["output"] for r in by_stdin["results"]] == [r["output"] for r in
+                                                          by_path["results"]]
+    assert by_stdin["results"][0]["identical"] and by_stdin["query"]["file"] == "-"
+    assert by_stdin["query"]["sha256"] == by_path["query"]["sha256"]
+    wave = (out / "sub" / "wave.mpz").read_bytes()
+    doc = search("-", wave)
+    assert doc["query"]["summary"] == "the index's row of its source"
+    assert doc["results"][0]["output"] == "sub/wave.mpz"
+
+
 # ------------------------------------------------------------ the mpz command --
 def test_mpz_encode_routes_batches_to_the_corpus(corpus, capsys):
     from mpz.tools import mpz_cli

@@ -53,7 +53,8 @@ EXIT_FAILED = EXIT_WARN
 
 #: one line for ``--help`` epilogs
 EXIT_CODES_HELP = ("exit codes: 0 ok, 1 warnings only, 2 errors in the input, "
-                   "3 out of memory, 64 usage error, 143 terminated while writing")
+                   "3 out of memory, 64 usage error, 130 interrupted, "
+                   "143 terminated while writing")
 
 _P = ParamSpec("_P")
 

@@ -320,7 +320,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     in_size = input_size(job.input)
     result = {
         "input": job.input, "output": job.output, "frames": rep.frames,
-        "markers": rep.markers, "units": units, "raw_float32_bytes": rep.raw_bytes,
+        "markers": rep.markers, "units": units or None, "raw_float32_bytes": rep.raw_bytes,
         "input_bytes": in_size, "file_bytes": rep.file_bytes,
         "ratio_float32": rep.raw_bytes / rep.file_bytes,
         # a skeletal source's data are its channels: the joint positions (raw_float32_bytes)

@@ -37,7 +37,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                        description="Rank the files of a corpus index (OUT/index.sqlite from "
                        "mpz encode -r) by motion similarity to QUERY, from their Fisher "
                        "summaries; nothing is decoded.")
-    p.add_argument("query", help="a capture file (.c3d, .trc, .bvh, .amc, .npy, .csv) or .mpz")
+    p.add_argument("query", help="a capture file (.c3d, .trc, .bvh, .amc, .npy, .csv) or "
+                   ".mpz, or - for standard input (its format found from its content)")
     p.add_argument("--index", required=True, metavar="INDEX",
                    help="the index file, or the folder that holds index.sqlite")
     p.add_argument("-n", "--top", type=count, default=10, metavar="N",
@@ -60,31 +61,23 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
     MPZError
         For an unreadable or undecodable query.
     """
-    from mpz.corpus import META_SHA256, sha256_file
-    from mpz.similarity import from_smry, summarize
+    from mpz.corpus import sha256_file
+    from mpz.similarity import summarize
+    from mpz.tools._common import STDIO
+    if path == STDIO:                        # its format from its content, as everywhere
+        import hashlib
+
+        from mpz.io import read_bytes
+        from mpz.tools._common import read_stdin
+        data, fmt = read_stdin()
+        if fmt == ".mpz":
+            return _mpz_query(data, rows, levels)
+        s = summarize(read_bytes(data, fmt=fmt, name=STDIO, asf=asf), levels)
+        return s, hashlib.sha256(data).hexdigest(), f"the capture ({s.method})"
     if path.lower().endswith(".mpz"):
-        from mpz.api import read_source, read_summary
-        from mpz.decoder import read_stream
+        from mpz.api import read_source
         data, _ = read_source(path)          # a regular file of at most 4 GiB (QA: FIFOs)
-        sha = read_stream(data).meta.get(META_SHA256)
-        for r in rows:
-            if sha is not None and r["source_sha256"] == sha:
-                return r["_summary"], sha, "the index's row of its source"
-        smry = read_summary(data)
-        frames = read_stream(data).header.frame_count
-        need = {k for k in levels if k <= frames}
-        have = set() if smry is None else {int(lv.k) for lv in smry.levels}
-        if smry is not None and smry.space == "positions" and need <= have:
-            return from_smry(smry), sha, "its summary chunk"
-        # its own levels are not the index's (ev_k would come from other k: its source ranked
-        # second, a QA run), or it has none: the summary of its decoded motion, as a capture's
-        from mpz.tools._common import read_mpz_input_bytes
-        why = ("no summary chunk" if smry is None else
-               "a summary of joint angles" if smry.space != "positions" else
-               f"summary levels k = {', '.join(map(str, sorted(have)))}, not the index's "
-               f"{', '.join(map(str, sorted(need)))}")
-        s = summarize(read_mpz_input_bytes(data), levels)
-        return s, sha, f"its decoded motion ({s.method}; the file holds {why})"
+        return _mpz_query(data, rows, levels)
     from mpz.io import read
     try:
         sha = sha256_file(path)
@@ -92,6 +85,34 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
         raise EncoderError(f"cannot read: {exc.strerror or exc}", path=path) from None
     s = summarize(read(path, asf=asf), levels)
     return s, sha, f"the capture ({s.method})"
+
+
+def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...]
+               ) -> tuple[MotionSummary, str | None, str]:
+    """:func:`query_summary` of an MPZ file's bytes."""
+    from mpz.api import read_summary
+    from mpz.corpus import META_SHA256
+    from mpz.decoder import read_stream
+    from mpz.similarity import from_smry, summarize
+    sha = read_stream(data).meta.get(META_SHA256)
+    for r in rows:
+        if sha is not None and r["source_sha256"] == sha:
+            return r["_summary"], sha, "the index's row of its source"
+    smry = read_summary(data)
+    frames = read_stream(data).header.frame_count
+    need = {k for k in levels if k <= frames}
+    have = set() if smry is None else {int(lv.k) for lv in smry.levels}
+    if smry is not None and smry.space == "positions" and need <= have:
+        return from_smry(smry), sha, "its summary chunk"
+    # its own levels are not the index's (ev_k would come from other k: its source ranked
+    # second, a QA run), or it has none: the summary of its decoded motion, as a capture's
+    from mpz.tools._common import read_mpz_input_bytes
+    why = ("no summary chunk" if smry is None else
+           "a summary of joint angles" if smry.space != "positions" else
+           f"summary levels k = {', '.join(map(str, sorted(have)))}, not the index's "
+           f"{', '.join(map(str, sorted(need)))}")
+    s = summarize(read_mpz_input_bytes(data), levels)
+    return s, sha, f"its decoded motion ({s.method}; the file holds {why})"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -102,7 +123,8 @@ def run(args: argparse.Namespace) -> int:
     with open_index(args.index) as index:
         levels = index.levels()
         values, table = index.descriptors()
-        need_summaries = args.query.lower().endswith(".mpz")
+        # an .mpz query may be found by its source's row; standard input may be one
+        need_summaries = args.query == "-" or args.query.lower().endswith(".mpz")
         if need_summaries:
             by_out = {r["output"]: r.summary for r in index.rows()}
             for v in values:

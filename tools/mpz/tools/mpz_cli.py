@@ -43,7 +43,7 @@ SUBCOMMANDS = {
 def build_parser() -> argparse.ArgumentParser:
     from mpz import __version__
     parser = Parser(prog="mpz", description="MPZ motion-capture compression tools.",
-                    epilog=EXIT_CODES_HELP + ", 130 interrupted")
+                    epilog=EXIT_CODES_HELP)
     parser.add_argument("--version", action="version", version=f"mpz {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True

@@ -96,7 +96,8 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
     if hdr is not None:
         info.update(version=f"{hdr.version_major}.{hdr.version_minor}", rate=hdr.rate,
                     frames=hdr.frame_count, markers=hdr.marker_count, nodes=hdr.node_count,
-                    units=UNIT_NAMES.get(Units(hdr.units)) if hdr.units in set(Units) else None,
+                    units=(UNIT_NAMES.get(Units(hdr.units)) or None) if hdr.units in set(Units)
+                    else None,   # unknown: null, as in every --json output (README)
                     error_metric=hdr.error_metric,
                     error_bound=hdr.error_bound if hdr.error_metric else None,
                     raw_size=12 * hdr.frame_count * hdr.marker_count)
