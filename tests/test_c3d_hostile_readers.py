@@ -314,6 +314,39 @@ def test_a_read_that_may_not_fit_the_address_space_limit_is_not_given_to_ezc3d(
         out.startswith("(40000, 41, 3)") and "not read with ezc3d, which aborts" in out), out
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS and /proc: Linux")
+def test_a_write_that_may_not_fit_the_address_space_limit_is_not_given_to_ezc3d(
+        tmp_path: Path) -> None:
+    """The writer's side of the same abort (review of stop 35): a motion without an archive
+    goes to our own writer when ezc3d may not have the address space; the file holds the
+    same points."""
+    child = (
+        "import resource, sys\n"
+        "import numpy as np\n"
+        "import mpz.io\n"
+        "from mpz.synth import generate\n"
+        "m = generate('walk', frames=40000)\n"
+        "status = dict(l.split(':', 1) for l in open('/proc/self/status'))\n"
+        "used = int(status['VmSize'].split()[0]) * 1024\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (used + (250 << 20), resource.RLIM_INFINITY))\n"
+        "try:\n"
+        "    mpz.io.write(m, sys.argv[1])\n"
+        "except MemoryError:\n"
+        "    print('MemoryError')\n"
+        "else:\n"
+        "    np.save(sys.argv[1] + '.npy', m.as_nan())\n"
+        "    print('written')\n")
+    out = tmp_path / "long.c3d"
+    r = subprocess.run([sys.executable, "-c", child, str(out)], capture_output=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr.decode(errors="replace")[-2000:]
+    if r.stdout.decode().startswith("written"):
+        back = read(out)
+        want = np.load(str(out) + ".npy")
+        assert back.n_frames == 40000
+        np.testing.assert_allclose(back.as_nan(), want.astype(np.float32), rtol=0, atol=1e-3)
+
+
 def test_memory_short_compares_the_need_with_the_limit_and_the_use(monkeypatch) -> None:
     import resource
 

@@ -294,6 +294,9 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
 #: value (4 or 2 bytes), measured on the real files (docs/io-notes.md)
 EZC3D_BYTES_PER_BYTE = 26
 EZC3D_BYTES_FIXED = 32 << 20
+#: What :func:`write_c3d` allocates through ezc3d per point-frame, as an upper bound: the
+#: numpy arrays it is given (96 bytes) and ezc3d's own copy; 257 measured on 1.64 million
+EZC3D_WRITE_BYTES = 320
 
 #: The address-space limits a failed allocation meets, with their /proc/self/status line
 _LIMITS = (("RLIMIT_AS", "VmSize", "ulimit -v"), ("RLIMIT_DATA", "VmData", "ulimit -d"))
@@ -394,7 +397,8 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     frames that it reads back, and numbers them from 1, so a longer motion without an
     archive, or one whose source counted its frames from another number (a TRC's first
     Frame#, :func:`mpz.io._common.start_frame`), goes through our own writer instead
-    (:func:`long_bytes`).
+    (:func:`long_bytes`); so does one that ezc3d may not have the address space for
+    (:func:`memory_short`: its failed allocation would abort the process).
 
     Parameters
     ----------
@@ -405,7 +409,8 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
 
     path = os.fspath(path)
     if motion.extras.get("c3d") is not None or motion.n_frames > c3dbin.HEADER_MAX_FRAME \
-            or start_frame(motion) != 1:
+            or start_frame(motion) != 1 or memory_short(
+                EZC3D_WRITE_BYTES * motion.n_frames * motion.n_markers + EZC3D_BYTES_FIXED):
         blob = archive_bytes(motion) if motion.extras.get("c3d") is not None else \
             long_bytes(motion)
         with open(path, "wb") as fh:
