@@ -86,6 +86,7 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR) -> Scan:
         The highest minor version of 1.x that the reading decoder implements (§2.1): chunk
         types introduced after it are unknown to it, so their frame and CRC are checked and
         their payload is not read (§2.3). ``minor=0`` reads a file as a 1.0 decoder does.
+        ValueError outside 0 .. VERSION_MINOR (an argument, not the file).
 
     Returns
     -------
@@ -95,6 +96,8 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR) -> Scan:
         framing error; a bad CRC or a malformed payload is recorded and the
         scan goes on with the next chunk.
     """
+    if not (isinstance(minor, int) and 0 <= minor <= VERSION_MINOR):
+        raise ValueError(f"minor must be an int 0 .. {VERSION_MINOR}, got {minor!r}")
     data = bytes(data)
     res = Scan(size=len(data))
     if len(data) < len(SIGNATURE) or data[: len(SIGNATURE)] != SIGNATURE:

@@ -48,9 +48,14 @@ def decode_file(src: str, minor: int | None = None
 def decode_bytes(data: bytes, minor: int | None = None
                  ) -> tuple[NDArray[np.float64], str, dict[str, Any]]:
     """:func:`decode_file` of the bytes of a file."""
-    from mpz.conformance.manifest import intlayer_digest
     from mpz.decoder import decode_layers
-    d = decode_layers(data) if minor is None else decode_layers(data, minor=minor)
+    return outputs(decode_layers(data) if minor is None else decode_layers(data, minor=minor))
+
+
+def outputs(d: Any) -> tuple[NDArray[np.float64], str, dict[str, Any]]:
+    """(positions, integer-layer digest, sidecar) of a :class:`mpz.decoder.Decoded`: what
+    the §7.3 contract has a decoder write."""
+    from mpz.conformance.manifest import intlayer_digest
     return d.positions(), intlayer_digest(d.q, d.valid), sidecar_of(d.stream)
 
 
