@@ -437,3 +437,22 @@ def test_an_unknown_unit_is_null_in_every_json_output(tmp_path: Path) -> None:
     assert files[0]["units"] is None
     p = run(["mpz", "show", "--json", "walk.mpz"], tmp_path)
     assert json.loads(p.stdout)["units"] is None
+
+
+def test_compare_a_plot_of_a_marker_that_is_not_there_fails_before_any_output(
+        small: tuple[Path, Path], tmp_path: Path) -> None:
+    """With the plot written first, a mistyped --marker ended the command after nothing was
+    printed, where the report used to come first (review of stop 35): it is now judged
+    before both, in one line, and no plot file is left."""
+    pytest.importorskip("matplotlib")
+    trc, enc = small
+    p = run(["mpz", "compare", str(trc), str(enc), "--plot", "p.png", "--marker", "NOPE"],
+            tmp_path)
+    assert p.returncode == 2 and p.stdout == ""
+    assert "--marker: no marker named 'NOPE'" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "p.png").exists()
+    names = read(trc).names
+    p = run(["mpz", "compare", str(trc), str(enc), "--plot", "q.png", "--marker", names[0]],
+            tmp_path)
+    assert p.returncode == 0 and "plot written to q.png" in p.stdout
+    assert (tmp_path / "q.png").stat().st_size > 1000

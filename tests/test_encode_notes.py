@@ -53,6 +53,23 @@ def test_rate_in_a_batch_beside_its_inputs_names_only_the_rateless_ones(tmp_path
     assert mpz.info(tmp_path / "b" / "walk.mpz").rate == 60.0       # the NPY's, from --rate
 
 
+def test_rate_in_a_batch_does_not_depend_on_how_many_files_it_finds(tmp_path):
+    """-r over a folder of one TRC is a batch as over two (review of stop 35: one file was an
+    error, two were silently left); a --rate that names no input's rate says so."""
+    for n in (1, 2):
+        d = tmp_path / f"d{n}"
+        d.mkdir()
+        for k in range(n):
+            write(generate("walk", frames=20), d / f"w{k}.trc")
+        p = _mpz("encode", "-r", d.name, "--rate", "60", cwd=tmp_path)
+        assert p.returncode == 0, p.stderr
+        assert "--rate 60 changes nothing: every input of this batch stores its rate" \
+            in p.stderr
+        assert {mpz.info(f).rate for f in d.glob("*.mpz")} == {120.0}
+    p = _mpz("encode", "d1/w0.trc", "--rate", "60", "-f", cwd=tmp_path)     # one file: error
+    assert p.returncode == 2 and "stores its rate (120 Hz)" in p.stderr
+
+
 def test_renamed_markers_are_said(tmp_path):
     lines = ["PathFileType\t4\t(X/Y/Z)\tt.trc",
              "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"

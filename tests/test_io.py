@@ -351,17 +351,19 @@ def test_amc_forward_kinematics(tmp_path):
 @pytest.mark.parametrize("asf_unit, amc_flag, warned", [
     ("deg", ":DEGREES", False), ("deg", ":RADIANS", True), ("rad", ":RADIANS", False),
     ("rad", ":DEGREES", True), ("deg", "", False), ("rad", "", False),
-    ("deg", ":radians  # lower case, with a comment", True),
+    ("deg", ":radians  # lower case, with a comment", True), (None, ":RADIANS", True),
 ])
 def test_amc_angle_flag_against_asf_units(tmp_path, asf_unit, amc_flag, warned):
     """An AMC's :DEGREES/:RADIANS line that contradicts the ASF's :units angle is said in the
     motion's warning; the values are read in the ASF's unit either way, and the header kept."""
-    (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace("angle deg", f"angle {asf_unit}"))
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace(
+        "  angle deg\n", "" if asf_unit is None else f"  angle {asf_unit}\n"))
+    asf_unit = asf_unit or "deg"                   # an ASF without :units angle: degrees
     (tmp_path / "tiny_01.amc").write_bytes(
         AMC_TEXT.replace(":DEGREES", amc_flag).encode("latin-1"))
     m = read(tmp_path / "tiny_01.amc")
     warning = m.metadata.get("warning", "")
-    assert (f"':units angle {asf_unit}'" in warning) is warned
+    assert (f"its ASF's angles are in {asf_unit}" in warning) is warned
     assert (bool(amc_flag) and amc_flag[:9].upper() in warning) is warned
     assert m.extras["skeleton"].angle_unit == asf_unit
     assert not amc_flag or amc_flag in m.extras["skeleton"].amc_header.splitlines()

@@ -420,10 +420,10 @@ def _unit_clash(header: list[str], angle_unit: str) -> str | None:
             if flag in lines and unit != angle_unit]
     if not said:
         return None
-    return (f"the AMC says {said[0]} but its ASF says ':units angle {angle_unit}': the "
-            f"values are read in {angle_unit} (the ASF's unit), so the joint positions, and "
-            "the error a length bound measures, are those of that reading; the AMC's values "
-            "and header are kept as written")
+    return (f"the AMC says {said[0]} but its ASF's angles are in {angle_unit} (its ':units "
+            "angle', deg when it has none): the values are read in the ASF's unit, so the "
+            "joint positions, and the error a length bound measures, are those of that "
+            "reading; the AMC's values and header are kept as written")
 
 
 def _check_frame(seen: list[int], skel: Skeleton, where: int | str) -> None:

@@ -158,6 +158,10 @@ def run(args: argparse.Namespace) -> int:
     b = align(a, b)
     if a.n_frames != b.n_frames:
         raise MotionError(f"frame counts differ: {a.n_frames} vs {b.n_frames}")
+    if args.plot:             # a --marker that is not there fails before the report
+        unknown = [n for n in args.marker or () if n not in a.names]
+        if unknown:
+            raise MotionError(f"--marker: no marker named {printable(unknown[0])!r}")
     units_b = b.units
     b, units, more = common_units(a, b, names)
     notes += more

@@ -235,13 +235,19 @@ def run(args: argparse.Namespace) -> int:
     except UsageError as exc:
         print(f"mpz encode: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    # a batch (several inputs, -r or -o FOLDER/, however many files that makes): --units
+    # and --rate name the unit and rate of its inputs without one, and leave the others
+    batch = len(jobs) > 1 or args.recursive or (args.output or "").endswith(("/", os.sep))
+    if batch and args.rate is not None and not args.quiet \
+            and not any(ext_of(j.input) in RATELESS_FORMATS for j in jobs):
+        print(f"mpz encode: note: --rate {args.rate:g} changes nothing: every input of this "
+              "batch stores its rate (--rate is for AMC and NPY)", file=sys.stderr)
     from mpz.tools._corpus_cli import run_corpus, wants_corpus  # issue 15: Dask + index
     if wants_corpus(args, jobs):
         return run_corpus(args, jobs, PerFile(args))
     data_on_stdout = any(j.output == STDIO for j in jobs)
     report = sys.stderr if data_on_stdout else sys.stdout
     results: list[dict] = []
-    batch = len(jobs) > 1         # --units and --rate name those of the inputs without one
     code = run_batch("encode", jobs,
                      lambda job: _encode_one(job, args, report, results, batch=batch),
                      report=report, quiet=args.quiet)
