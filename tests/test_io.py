@@ -410,6 +410,8 @@ def test_amc_bad(tmp_path, mutate):
     lambda t: t.replace("direction 0 1 0", "direction 0 inf 0"),
     lambda t: t.replace("position 0 0 0", "position nan 0 0"),
     lambda t: t.replace("    b1 b2\n", "    b1 b2\n    root b2\n"),
+    lambda t: t.replace("  angle deg\n", "  angle\n"),      # was "cannot read: IndexError"
+    lambda t: t.replace("  angle deg\n", "  angle grad\n"),
 ])
 def test_asf_bad(mutate):
     with pytest.raises(InputFormatError):

@@ -207,9 +207,10 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     if not math.isfinite(25.4 / length):     # 1e-320: millimetres per unit overflow
         raise _bad(f":units length {length!r} is too small: 25.4 / length, the millimetres "
                    "per unit, overflows")
-    angle_unit = units.get("angle", ["deg"])[0].lower()
+    angle_unit = (units.get("angle", ["deg"]) or [""])[0].lower()
     if angle_unit not in ("deg", "rad"):
-        raise _bad(f"unknown :units angle {angle_unit!r}")
+        raise _bad(f":units angle {angle_unit!r}: deg or rad" if angle_unit else
+                   ":units angle has no value: deg or rad")
     root = _keyvals(sec["root"])
     dropped += [f":root {k}" for k in root if k not in ("order", "axis", "position",
                                                          "orientation")]
