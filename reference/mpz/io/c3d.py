@@ -314,13 +314,20 @@ def memory_short(need: int) -> str | None:
     """
     try:
         import resource
+    except ImportError:
+        return None
+    limits = [(soft, field, flag) for name, field, flag in _LIMITS
+              if (soft := resource.getrlimit(getattr(resource, name))[0])
+              != resource.RLIM_INFINITY]
+    if not limits:                  # the usual case: no /proc read on every C3D
+        return None
+    try:
         with open("/proc/self/status", encoding="ascii") as f:
             status = dict(line.split(":", 1) for line in f if ":" in line)
-    except (ImportError, OSError, ValueError):
+    except (OSError, ValueError):
         return None
-    for name, field, flag in _LIMITS:
-        soft, _ = resource.getrlimit(getattr(resource, name))
-        if soft == resource.RLIM_INFINITY or field not in status:
+    for soft, field, flag in limits:
+        if field not in status:
             continue
         used = int(status[field].split()[0]) * 1024
         if used + need > soft:

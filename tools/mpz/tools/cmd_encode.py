@@ -219,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
     from mpz.io import READERS
     from mpz.io._common import ext_of
     from mpz.tools._cli import EXIT_USAGE, print_json
-    from mpz.tools._common import STDIO, UsageError, plan_batch, run_batch
+    from mpz.tools._common import STDIO, UsageError, is_folder_target, plan_batch, run_batch
 
     try:
         _check_options(args)
@@ -237,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     # a batch (several inputs, -r or -o FOLDER/, however many files that makes): --units
     # and --rate name the unit and rate of its inputs without one, and leave the others
-    batch = len(jobs) > 1 or args.recursive or (args.output or "").endswith(("/", os.sep))
+    batch = len(jobs) > 1 or args.recursive or is_folder_target(args.output)
     if batch and args.rate is not None and not args.quiet \
             and not any(ext_of(j.input) in RATELESS_FORMATS for j in jobs):
         print(f"mpz encode: note: --rate {args.rate:g} changes nothing: every input of this "

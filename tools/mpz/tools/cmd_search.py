@@ -94,12 +94,13 @@ def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...]
     from mpz.corpus import META_SHA256
     from mpz.decoder import read_stream
     from mpz.similarity import from_smry, summarize
-    sha = read_stream(data).meta.get(META_SHA256)
+    stream = read_stream(data)
+    sha = stream.meta.get(META_SHA256)
     for r in rows:
         if sha is not None and r["source_sha256"] == sha:
             return r["_summary"], sha, "the index's row of its source"
     smry = read_summary(data)
-    frames = read_stream(data).header.frame_count
+    frames = stream.header.frame_count
     need = {k for k in levels if k <= frames}
     have = set() if smry is None else {int(lv.k) for lv in smry.levels}
     if smry is not None and smry.space == "positions" and need <= have:
