@@ -542,6 +542,47 @@ def test_chain_scores_are_the_numpy_expression_bit_for_bit(F, N, gaps, seed):
     assert np.array_equal(got, want)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 900), st.integers(4, 14), st.floats(0.0, 0.9),
+       st.integers(0, 2 ** 32 - 1))
+def test_chain_scores_of_the_motion_give_each_order_its_own(F, M, gaps, seed):
+    """The encoder scores every marker pair once, in marker order, while it chooses the
+    root (issue 15.1), and takes the rows and columns of [root] + members: the same bits
+    as scoring the markers in that order (the numpy expression above), so the member
+    order and the bytes do not change."""
+    from mpz.encoder import _chain, chain_scores_of
+    from mpz.keyframe import chain_order
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0, 10.0 ** rng.uniform(-3, 8), (F, M, 3))
+    valid = rng.random((F, M)) >= gaps
+    x[~valid] = np.nan
+    root = int(rng.integers(M))
+    idx = [root] + [int(m) for m in rng.permutation(M) if m != root]
+    want, _, _ = _numpy_chain_scores(x, valid, idx)
+    scores = chain_scores_of(x, valid)
+    assert scores is not None
+    assert np.array_equal(scores[np.ix_(idx, idx)], want)
+    assert _chain(scores, root, idx[1:]) == [idx[j] for j in chain_order(want)]
+
+
+def test_the_plan_is_the_same_with_a_pool():
+    """plan_hierarchy scores the members on a pool thread when it has one: the same
+    hierarchy as without, on motions with gaps and fewer markers than the scores need."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from mpz.encoder import EncodeOptions, plan_hierarchy
+    from mpz.synth import generate
+    opts = EncodeOptions(max_error=1.0)
+    for motion in (generate("walk", frames=300, gap_fraction=0.1, seed=4),
+                   generate("jump", frames=50, markers=3, seed=5),
+                   generate("wave", frames=700, markers=9, seed=6)):
+        with ThreadPoolExecutor(1) as pool:
+            threaded = plan_hierarchy(motion, opts, pool)
+        alone = plan_hierarchy(motion, opts)
+        assert [n.members for n in threaded.nodes] == [n.members for n in alone.nodes]
+        assert threaded.method == alone.method == "flat"
+
+
 @settings(max_examples=80, deadline=None)
 @given(st.integers(0, 3000), st.integers(0, 2 ** 32 - 1))
 def test_pairwise_sum_is_numpys_sum(n, seed):

@@ -690,26 +690,43 @@ def _weights_for(node: Node) -> FloatArray:
     return w if w.size else np.ones(len(node.members))
 
 
-def _chain(x, valid, root_marker, members):
+def _chain_sample(x: FloatArray, valid: NDArray[np.bool_]
+                  ) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """The frames :func:`_chain` scores (about 400, evenly spaced) of every marker: finite
+    coordinates ``[3, M, S]`` and their validity ``[M, S]``."""
+    step = max(1, x.shape[0] // 400)
+    sub = np.nan_to_num(x[::step])
+    return (np.ascontiguousarray(sub.transpose(2, 1, 0)),
+            np.ascontiguousarray(valid[::step].T))
+
+
+def chain_scores_of(x: FloatArray, valid: NDArray[np.bool_]) -> FloatArray | None:
+    """:func:`keyframe.chain_scores` of every pair of markers, in marker order; None when
+    :func:`_chain` needs none (fewer than 4 markers)."""
+    if x.shape[1] < 4:
+        return None
+    return keyframe.chain_scores(*_chain_sample(x, valid))
+
+
+def _chain(scores: FloatArray, root_marker: int, members: list[int]) -> list[int]:
     """Order ``members`` so that each follows the already ordered marker it moves most
     rigidly with (std over time of their distance), starting next to the root: every
-    marker then has a good key-frame reference before it (spec §6.5, base 2)."""
+    marker then has a good key-frame reference before it (spec §6.5, base 2). ``scores``:
+    :func:`chain_scores_of` the whole motion. A pair's score is the same bits whichever
+    marker comes first (the axis differences are squared), so the rows and columns of
+    ``[root] + members`` are what scoring the markers in that order gives."""
     if len(members) < 3:
         return list(members)
     idx = [root_marker] + list(members)
-    sub = np.nan_to_num(x[:: max(1, x.shape[0] // 400), idx])
-    ok = valid[:: max(1, x.shape[0] // 400)][:, idx]
-    score = keyframe.chain_scores(np.ascontiguousarray(sub.transpose(2, 1, 0)),
-                                  np.ascontiguousarray(ok.T))
-    return [idx[j] for j in keyframe.chain_order(score)]
+    return [idx[j] for j in keyframe.chain_order(scores[np.ix_(idx, idx)])]
 
 
-def _reroot(root_marker: int, M: int, x: FloatArray | None = None,
-            valid: NDArray[np.bool_] | None = None) -> Hierarchy:
-    """A flat hierarchy (root + one node) whose root is ``root_marker``."""
+def _reroot(root_marker: int, M: int, scores: FloatArray | None = None) -> Hierarchy:
+    """A flat hierarchy (root + one node) whose root is ``root_marker``; with ``scores``
+    (:func:`chain_scores_of`), its members in :func:`_chain`'s order."""
     rest = [m for m in range(M) if m != root_marker]
-    if x is not None and valid is not None:
-        rest = _chain(x, valid, root_marker, rest)
+    if scores is not None:
+        rest = _chain(scores, root_marker, rest)
     nodes = [Node("root", -1, root_marker, [root_marker], [1.0])]
     if rest:
         nodes.append(Node("body", 0, rest[0], rest, [1.0] * len(rest)))
@@ -791,13 +808,20 @@ def resolve_bound(motion: Motion, opts: EncodeOptions) -> tuple[EncodeOptions, s
 
 
 # ---------------------------------------------------------- 1-2: the plan --
-def plan_hierarchy(motion: Motion, opts: EncodeOptions) -> Hierarchy:
-    """Stage 1: the coding hierarchy (paper §III-A)."""
+def plan_hierarchy(motion: Motion, opts: EncodeOptions, pool: Executor | None = None
+                   ) -> Hierarchy:
+    """Stage 1: the coding hierarchy (paper §III-A). With a ``pool`` (issue 15.1), the flat
+    hierarchy's member scores are computed on one of its threads while this one chooses
+    the root: they do not depend on it (:func:`_chain`), so the result is the same."""
     if opts.pattern_mode == "off" and opts.hierarchy is None and not opts.group_errors:
         # without patterns the residual layers are absolute (base 1/2) and the tree carries
         # nothing; one node for all non-root markers lets the models adapt once (smaller)
+        scoring = (pool.submit(chain_scores_of, motion.positions, motion.valid)
+                   if pool is not None else None)
         root_marker = hierarchy_root(motion, None, weights=opts.weights)
-        hier = _reroot(root_marker, motion.n_markers, motion.positions, motion.valid)
+        scores = (scoring.result() if scoring is not None
+                  else chain_scores_of(motion.positions, motion.valid))
+        hier = _reroot(root_marker, motion.n_markers, scores)
     else:
         hier = build_hierarchy(motion, opts.hierarchy, weights=opts.weights)
     hier.validate(motion.n_markers)
@@ -1413,7 +1437,7 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     # the ancillary chunks need only the motion: made on a thread meanwhile (issue 15.1)
     pool, ancillary = start_pool(threads, ancillary_records, motion, opts)
     try:
-        hier = plan_hierarchy(motion, opts)
+        hier = plan_hierarchy(motion, opts, pool)
         addh, addh_rule = head_scale(motion, hier)
         x = _filled(motion.positions, motion.valid)   # issue 11.11: not copied without gaps
         grid = plan_grid(motion, opts, hier, addh, x)
