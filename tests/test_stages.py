@@ -435,7 +435,12 @@ def test_encoder_threads_do_not_change_the_bytes():
     from mpz.encoder import EncodeOptions, encode_motion
     from mpz.synth import generate
     m = generate("walk", frames=300, markers=20, seed=3)
-    for kw in ({"max_error": 1.0}, {"max_error": 5.0}, {}):
+    # the flat plan, whose member scores and root coding go to a pool thread, and
+    # hierarchies of several nodes with and without patterns, which read the root's track
+    for kw in ({"max_error": 1.0}, {"max_error": 5.0}, {},
+               {"max_error": 1.0, "hierarchy": "auto"},
+               {"max_error": 2.0, "hierarchy": "auto", "patterns": "on"},
+               {"lossy": True}):
         one, _ = encode_motion(m, EncodeOptions(threads=1, **kw))
         assert encode_motion(m, EncodeOptions(threads=2, **kw))[0] == one
         assert encode_motion(m, EncodeOptions(threads=3, **kw))[0] == one

@@ -1248,11 +1248,12 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
     """Stage 4: node i, coded against the *decoded* track of ``ref``, the reference marker of
     its parent (closed loop); ``pool``: threads for its independent work (issue 15)."""
     members = list(node.members)
-    ref_q = qhat[:, ref][:, None, :]
     rep = NodeReport(node.name, len(members))
     pat = None
     xl = None
+    ref_q = None                        # read only with patterns (see encode_motion)
     if opts.pattern_mode != "off":
+        ref_q = qhat[:, ref][:, None, :]
         xl = u[:, members]
         xl -= ref_q
         pat = code_patterns(xl, _weights_for(node), opts, addh_q, opts.seed + i)
@@ -1267,7 +1268,7 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
         local = layer.values.astype(np.int64)
         local *= layer.scale
         if layer.base == ResidualBase.PARENT:
-            assert pat is not None
+            assert pat is not None and ref_q is not None
             local += pat.prediction
             local += ref_q                  # P' + g w + q[ref]
         else:
@@ -1275,7 +1276,7 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
         rep.residual_bytes, rep.residual_scale = len(layer.coded), layer.scale
         rep.residual_order = layer.order
     else:
-        assert pat is not None              # validate(): lossy mode always has patterns
+        assert pat is not None and ref_q is not None    # validate(): lossy mode has patterns
         del xl
         local = pat.prediction
         local += ref_q                      # P' + q[ref]
@@ -1455,10 +1456,14 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
         # what the decoder will rebuild: the tracks the closed loop needs (issue 11.11)
         qhat = DecodedTracks({n.ref for n in hier.nodes})
         root_marker = hier.nodes[0].members[0]
-        root, root_q = code_root(u[:, root_marker], opts, grid)
-        qhat.add([root_marker], root_q[:, None, :])
-        exact = [np.array_equal(*_exact_pair(root_q[:, None, :], motion, [root_marker], grid))
-                 ] if grid.exact else []
+        # without patterns no node reads the root's decoded track (code_node), so a pool
+        # thread codes the root while this one codes the nodes (issue 15.1)
+        rooting = (pool.submit(code_root, u[:, root_marker], opts, grid)
+                   if pool is not None and opts.pattern_mode == "off" else None)
+        if rooting is None:
+            root, root_q = code_root(u[:, root_marker], opts, grid)
+            qhat.add([root_marker], root_q[:, None, :])
+        exact = []
         coded: list[NodeCode] = []
         n_nodes = len(hier.nodes)
         for i in range(1, n_nodes):
@@ -1475,7 +1480,12 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
             if progress is not None:
                 progress(i / (n_nodes - 1) if n_nodes > 1 else 1.0, node.name)
 
+        if rooting is not None:
+            root, root_q = rooting.result()
+            qhat.add([root_marker], root_q[:, None, :])
         if grid.exact:                                   # issue 12: the promise of error 0
+            exact.append(np.array_equal(*_exact_pair(root_q[:, None, :], motion,
+                                                     [root_marker], grid)))
             if not all(exact):                           # (checked node by node, issue 11.11)
                 raise EncoderError("exact grid coding did not reproduce every sample (a bug)")
         bits = qhat.peak.bit_length() + 1
