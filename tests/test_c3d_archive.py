@@ -13,6 +13,7 @@ ezc3d, never from our own writer.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -369,3 +370,76 @@ def test_channels_whose_residuals_reach_the_coders_edge_encode(case):
     assert np.array_equal(b.analog.view(np.uint32), a.analog.view(np.uint32))
     ok = a.model_valid
     assert np.abs(b.models[ok] - a.models[ok]).max() <= 1000.0 * 3e-10
+
+
+# -- an archive that no longer describes its motion (API review, stop 36) ----------------
+def _example_c3d(tmp_path: Path) -> mpz.Motion:
+    """The quick start's synthetic walk written as a C3D and read back: a motion with a
+    C3D archive whose POINT:UNITS, LABELS and RATE are mm, the CMU names and 120 Hz."""
+    from mpz.tools.make_example import make
+    path = tmp_path / "walk.c3d"
+    write(make(frames=60), path)
+    return read(path)
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda m: replace(m, positions=m.positions / 1000.0, units="m"),
+     "the units are 'm' in the motion, 'mm' in POINT:UNITS"),
+    (lambda m: replace(m, names=[f"S1:{n}" for n in m.names]),
+     "marker 0 is 'S1:LFHD' in the motion, 'LFHD' in POINT:LABELS"),
+    (lambda m: replace(m, rate=60.0),
+     "the rate is 60.0 Hz in the motion, 120.0 in POINT:RATE"),
+])
+def test_an_archive_that_contradicts_its_motion_is_refused(tmp_path, edit, said):
+    """A motion read from a C3D and then converted to metres, renamed or given another rate
+    kept its archive, whose parameters are written as stored: the file said mm of metre
+    values (1000x wrong), the old labels or the old rate, with no note. Now writing it and
+    encoding it are refused, naming the difference and the way out; without the archive
+    the file says what the motion says."""
+    from mpz.errors import EncoderError, InputFormatError
+    edited = edit(_example_c3d(tmp_path))
+    with pytest.raises(InputFormatError, match="no longer describes") as err:
+        write(edited, tmp_path / "edited.c3d")
+    assert said in str(err.value) and "extras={}" in str(err.value)
+    assert not (tmp_path / "edited.c3d").exists()
+    with pytest.raises(EncoderError, match="no longer describes") as err2:
+        mpz.encode(edited, max_error=1.0 if edited.units == "mm" else 0.001)
+    assert said in str(err2.value)
+    plain = replace(edited, extras={})
+    write(plain, tmp_path / "plain.c3d")
+    back = read(tmp_path / "plain.c3d")
+    assert (back.names, back.units, back.rate) == (plain.names, plain.units, plain.rate)
+    assert np.allclose(back.positions[back.valid], plain.positions[plain.valid], atol=1e-6)
+
+
+def test_an_archive_without_units_writes_the_motion_with_a_note(tmp_path):
+    """An archive whose POINT:UNITS is absent contradicts no unit: the C3D is written, and
+    the note says that the file does not name the motion's."""
+    from mpz.io import check_writable
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(3, storage=1, F=10, M=4, J=1, C=2, n=2)
+    assert m.units == "mm" and m.extras["c3d"].parameter("POINT", "UNITS") is None
+    notes = check_writable(m, ".c3d")
+    assert any("does not say 'mm'" in n for n in notes)
+    write(m, tmp_path / "m.c3d")
+    assert read(tmp_path / "m.c3d").units == ""
+
+
+def test_record_params_are_the_parsed_parameters(shared_data):
+    """c3dbin.record_params (the parameters of an archive's records, which the archive check
+    compares with the motion) gives what the reader's parse of the file's section gives,
+    on every real C3D: every group, name and value. The records may hold more: a section
+    that declares fewer blocks than it fills (c3d.org Dance1.c3d: 3 of 11) is parsed to its
+    declared end, and kept to the data start (c3dbin.parse_records), as it is written."""
+    for path in sorted((shared_data / "c3d").glob("*.c3d")):
+        d = c3dbin.parse_c3d(path.read_bytes())
+        got = c3dbin.record_params(list(d.records))
+        assert set(d.params) <= set(got) and "POINT" in d.params, path.name
+        for g, values in d.params.items():
+            for k, v in values.items():
+                w = got[g][k]
+                if isinstance(v, list):
+                    assert w == v, (path.name, g, k)
+                else:
+                    assert w is not None and np.array_equal(np.asarray(w), np.asarray(v),
+                                                            equal_nan=True), (path.name, g, k)

@@ -381,14 +381,44 @@ def smaller(stored: R, deflated: R) -> R:
     return deflated if len(deflated.dump()) < len(stored.dump()) else stored
 
 
-def check_matches(a: C3DArchive, motion: Motion) -> None:
-    """Refuse an archive that no longer describes ``motion`` (frames or markers changed)."""
+def mismatch(a: C3DArchive, motion: Motion) -> str | None:
+    """Why archive ``a`` no longer describes ``motion``, or None: frames or markers
+    changed, or marker names, units or rate other than those its parameters give them (a
+    motion renamed, converted to metres or given another rate after reading). The
+    parameters are written back as stored, so the file would contradict the markers. An
+    archive without a known POINT:UNITS contradicts no unit."""
     F, M = motion.n_frames, motion.n_markers
     P = len(a.slots)
     J = a.models.shape[1]
     if a.frames != F or P != M + J or sorted(a.slots) != list(range(P)):
-        raise EncoderError(f"the C3D archive describes {a.frames} frames and {P - J} markers, "
-                           f"the motion has {F} frames and {M} markers; it cannot be kept")
+        return (f"the C3D archive describes {a.frames} frames and {P - J} markers, the "
+                f"motion has {F} frames and {M} markers")
+    from mpz.io.c3d import archive_describes
+    names, units, rate = archive_describes(a, M)
+    differ = []
+    if list(motion.names) != names:
+        i = next(i for i, (x, y) in enumerate(zip(motion.names, names, strict=True))
+                 if x != y)
+        differ.append(f"marker {i} is {motion.names[i]!r} in the motion, {names[i]!r} in "
+                      "POINT:LABELS")
+    if units and motion.units != units:
+        differ.append(f"the units are {motion.units!r} in the motion, {units!r} in "
+                      "POINT:UNITS")
+    if np.float32(motion.rate) != np.float32(rate):
+        differ.append(f"the rate is {motion.rate!r} Hz in the motion, {rate!r} in "
+                      "POINT:RATE")
+    if not differ:
+        return None
+    return f"the C3D archive no longer describes the motion: {'; '.join(differ)}"
+
+
+def check_matches(a: C3DArchive, motion: Motion) -> None:
+    """Refuse an archive that no longer describes ``motion`` (:func:`mismatch`)."""
+    why = mismatch(a, motion)
+    if why is not None:
+        raise EncoderError(f"{why}; the archive cannot be kept. Drop it "
+                           "(dataclasses.replace(motion, extras={})) to keep the markers "
+                           f"alone, without {a.describe()}")
 
 
 # ------------------------------------------------------------------ decoding --
@@ -435,9 +465,9 @@ class C3DExtension:
         if not isinstance(a, C3DArchive):
             raise EncoderError(f"motion.extras['c3d'] is a {type(a).__name__}, not a "
                                "C3DArchive")
-        check_matches(a, motion)
-        out: list[Record] = [header_record(a), parameter_record(a),
-                             point_records(a, opts, motion.n_markers)]
+        prm = parameter_record(a)       # a section cprm cannot hold: refused by its rule
+        check_matches(a, motion)        # before its labels, units and rate are compared
+        out: list[Record] = [header_record(a), prm, point_records(a, opts, motion.n_markers)]
         ana = analog_record(a)
         if ana is not None:
             out.append(ana)

@@ -30,7 +30,7 @@ import math
 import os
 import shutil
 import tempfile
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,6 +39,9 @@ from mpz.errors import InputFormatError
 from mpz.io import c3dbin
 from mpz.io._common import StrPath, is_utf8, reader, start_frame, unique_names
 from mpz.motion import Motion, finite_samples
+
+if TYPE_CHECKING:
+    from mpz.c3darchive import C3DArchive
 
 #: POINT:UNITS values we recognise; anything else is unknown ("")
 _UNITS = {"mm": "mm", "cm": "cm", "m": "m"}
@@ -287,6 +290,23 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
                          d.analog_samples, storage)
     return Motion(full.positions[:, marker], names, full.rate, full.units,
                   full.valid[:, marker], meta, extras={"c3d": archive})
+
+
+def archive_describes(a: C3DArchive, markers: int) -> tuple[list[str], str, float]:
+    """The marker names, units and rate that the C3D of archive ``a`` gives its ``markers``
+    markers when read (:func:`read_c3d`, :func:`split_archive`): POINT:LABELS of the points
+    in marker slots, made unique; POINT:UNITS; POINT:RATE, or the header's rate."""
+    params = c3dbin.record_params(a.records)
+    point = params.get("POINT", {})
+    P = len(a.slots)
+    labels = _labels(point, P)
+    order = sorted((s, p) for p, s in enumerate(a.slots) if s < markers)
+    names, _ = unique_names([labels[p] for _, p in order])
+    units = _UNITS.get((_text(point, "UNITS", []) or [""])[0].strip().lower(), "")
+    with np.errstate(invalid="ignore"):
+        header_rate = float(np.frombuffer(a.header, "<f4", 1, 20)[0])
+    rate = c3dbin.param_number(params, "POINT", "RATE", header_rate)
+    return names, units, rate
 
 
 #: What ezc3d allocates to read a C3D, per byte of its data section, as an upper bound:

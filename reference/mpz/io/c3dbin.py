@@ -247,6 +247,38 @@ def _parse_value(data: bytes, pos: int, codec: _Codec, end: int) -> ParamValue |
         return codec.float32(data, pos, count).astype(np.float64)
 
 
+def record_params(records: list[ParamRecord]) -> dict[str, dict[str, ParamValue | None]]:
+    """The parameters of normalised ``records`` (:func:`parse_records`), as
+    :func:`_parse_parameters` gives those of the section they came from: by upper-case
+    group and name, a later record of a name replacing an earlier one."""
+    groups = {-r.group: r.name.decode("latin-1").upper() for r in records if r.is_group}
+    params: dict[str, dict[str, ParamValue | None]] = {name: {} for name in groups.values()}
+    for r in records:
+        if r.is_group or r.group not in groups:
+            continue
+        count = int(np.prod(r.dims)) if r.dims else 1
+        value: ParamValue | None
+        if r.type == -1:
+            if len(r.dims) <= 1:
+                value = [_text(r.data)]
+            elif r.dims[0] == 0:
+                value = [""] * (count and int(np.prod(r.dims[1:])))
+            else:
+                w = r.dims[0]
+                value = [_text(r.data[i:i + w]) for i in range(0, count, w)]
+        elif r.type == 1:
+            value = np.frombuffer(r.data, np.int8, count).astype(np.int64)
+        elif r.type == 2:
+            value = np.frombuffer(r.data, "<i2", count).astype(np.int64)
+        elif r.type == 4:
+            with np.errstate(invalid="ignore"):
+                value = np.frombuffer(r.data, "<f4", count).astype(np.float64)
+        else:
+            value = None
+        params[groups[r.group]][r.name.decode("latin-1").upper()] = value
+    return params
+
+
 def _text(raw: bytes) -> str:
     """A C3D char field (UTF-8, else Latin-1), padded with blanks or NULs."""
     try:
