@@ -68,6 +68,7 @@ OPTIONS: list[tuple[dict[str, Any], tuple[str, ...]]] = [
     ({"metadata": {"\udcff": "x"}}, ("metadata key", "surrogate")),
     ({"metadata": {"take": 3}}, ("metadata value", "take", "text")),
     ({"lossy": "yes"}, ("lossy",)),
+    ({"model_errors": None}, ("model_errors", "mapping")),
 ]
 
 
@@ -425,3 +426,31 @@ def test_a_long_marker_name_is_shown_short_in_the_error():
     with pytest.raises(EncoderError, match=r"\(100000 characters\): marker names are") as e:
         mpz.encode(m, max_error=1.0)
     assert len(str(e.value)) < 300
+
+
+def _encode_elsewhere(motion: Motion, opts: EncodeOptions) -> bytes:
+    return encode_motion(motion, opts)[0]
+
+
+def test_options_cross_processes_and_key_caches(walk: Motion) -> None:
+    """EncodeOptions (frozen, its mappings read-only) pickles, deep-copies, hashes and
+    turns into a dict (API review F2: its MappingProxyType fields made all four fail, so a
+    concurrent.futures process pool could not take it), and a process pool's encode gives
+    the bytes of this process's."""
+    from concurrent.futures import ProcessPoolExecutor
+    import copy
+    import dataclasses
+    import multiprocessing
+    import pickle
+    opts = EncodeOptions(max_error=1.0, group_errors={"body": 0.5}, metadata={"take": "1"},
+                         weights={"LFHD": 2.0}, model_errors={"angles": 1e-3})
+    for twin in (pickle.loads(pickle.dumps(opts)), copy.deepcopy(opts)):
+        assert twin == opts and hash(twin) == hash(opts)
+        assert dict(twin.model_errors) == {"ANGLES": 1e-3}
+    assert dataclasses.asdict(opts)["group_errors"] == {"body": 0.5}
+    assert hash(opts) != hash(dataclasses.replace(opts, metadata={"take": "2"}))
+    with pytest.raises(TypeError):
+        opts.metadata["take"] = "2"        # type: ignore[index]
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        got = pool.submit(_encode_elsewhere, walk, EncodeOptions(max_error=1.0)).result()
+    assert got == encode_motion(walk, EncodeOptions(max_error=1.0))[0]

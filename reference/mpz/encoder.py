@@ -22,14 +22,13 @@ The encoder never writes files; see :func:`mpz.write_mpz` for atomic output.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, fields, replace
 import math
 import os
 import threading
 import time
-from types import MappingProxyType
 from typing import Any, Never, TypeVar
 
 import numpy as np
@@ -105,6 +104,36 @@ KEY_REFINE = 2
 
 
 # ----------------------------------------------------------------- options --
+class FrozenMapping(Mapping[Any, Any]):
+    """A read-only mapping for :class:`EncodeOptions`' mapping fields: immutable like a
+    ``MappingProxyType``, and also picklable, deep-copyable and hashable (when its values
+    are), so that options cross process boundaries (``concurrent.futures``,
+    ``multiprocessing``) and can key a cache. Equal to any mapping with the same items."""
+
+    __slots__ = ("_items",)
+
+    def __init__(self, items: Mapping[Any, Any]) -> None:
+        self._items = dict(items)
+
+    def __getitem__(self, key: Any) -> Any:
+        return self._items[key]
+
+    def __iter__(self) -> Iterator[Any]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __hash__(self) -> int:
+        return hash(frozenset(self._items.items()))
+
+    def __repr__(self) -> str:
+        return repr(self._items)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (FrozenMapping, (self._items,))
+
+
 def _as_dict(value: object, name: str) -> dict[Any, Any]:
     """A mapping option as a dict (issue 11.6: anything else is an EncoderError)."""
     if not isinstance(value, Mapping):
@@ -186,14 +215,14 @@ class EncodeOptions:
     def __post_init__(self) -> None:
         # read-only views, so an options object cannot change after it is made
         object.__setattr__(self, "group_errors",
-                           MappingProxyType(_as_dict(self.group_errors, "group_errors")))
-        object.__setattr__(self, "metadata", MappingProxyType(_as_dict(self.metadata,
-                                                                       "metadata")))
-        object.__setattr__(self, "model_errors", MappingProxyType(
-            {str(k).upper(): v for k, v in dict(self.model_errors).items()}))
+                           FrozenMapping(_as_dict(self.group_errors, "group_errors")))
+        object.__setattr__(self, "metadata", FrozenMapping(_as_dict(self.metadata,
+                                                                    "metadata")))
+        object.__setattr__(self, "model_errors", FrozenMapping(
+            {str(k).upper(): v for k, v in _as_dict(self.model_errors, "model_errors").items()}))
         if self.weights is not None:
-            object.__setattr__(self, "weights", MappingProxyType(_as_dict(self.weights,
-                                                                          "weights")))
+            object.__setattr__(self, "weights", FrozenMapping(_as_dict(self.weights,
+                                                                       "weights")))
         if isinstance(self.summary, (str, bytes)) or not isinstance(self.summary, Iterable):
             raise EncoderError(f"summary must be a sequence of segment counts, got "
                                f"{self.summary!r}")
