@@ -506,7 +506,13 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
     Returns
     -------
     Motion
-        Positions in the file's units (``motion.units``), gaps restored.
+        Positions in the file's units (``motion.units``), gaps restored: the marker
+        layer (spec §6), within the file's declared bound. A file with a skeleton chunk
+        (from BVH or AMC, spec §4.14) also gives ``motion.angles`` and
+        ``extras["skeleton"]``; its marker layer is a preview of the joints, coarser than
+        the channels when no bound was given (Appendix C), and
+        :func:`mpz.skeleton.with_joint_positions` gives the joint positions that the
+        channels give, as ``mpz decode`` and ``mpz.io.write`` to BVH or AMC do.
 
     Raises
     ------

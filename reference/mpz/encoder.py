@@ -203,7 +203,8 @@ class EncodeOptions:
     angle_error: float | None = None
     #: bound on translation channels in the skeleton's length unit; None: as angle_error
     translation_error: float | None = None
-    #: bound on joint positions computed from the channels (spec §6.10), in motion units
+    #: bound on joint positions computed from the channels (spec §6.10), in motion units;
+    #: None: max_error when that is given (resolve_bound), else none
     position_error: float | None = None
     # issue 15, speed:
     #: threads for the independent work within one file (the candidate residual layers of a
@@ -824,6 +825,12 @@ def resolve_bound(motion: Motion, opts: EncodeOptions) -> tuple[EncodeOptions, s
         if grid is not None:
             return (replace(opts, source_grid=grid),
                     f"max error {opts.max_error:g} (given), on the source's int16 grid")
+        if opts.position_error is None and opts.keep_skeleton and "skeleton" in motion.extras:
+            # a skeletal motion's positions are its channels' (the marker layer is their
+            # preview, issue 13): a given bound bounds them too, as position_error
+            return (replace(opts, position_error=opts.max_error),
+                    f"max error {opts.max_error:g} (given), on the joint positions the "
+                    "channels give too")
         return opts, f"max error {opts.max_error:g} (given)"
     if grid is not None:
         return (replace(opts, source_grid=grid),
@@ -1576,10 +1583,14 @@ def encode(motion: Motion, *,
     motion : Motion
     max_error : float, optional
         Hard bound, in motion units: every valid sample decodes within this
-        Euclidean distance. Default None: the default bound (``lossy`` is the
-        only way to have none): exact on the grid of an int16 C3D source, else
-        ``default_error_mm`` (``default_error_fraction`` of the extent for a
-        motion without units).
+        Euclidean distance. For skeletal input (BVH, AMC: a motion with
+        ``extras["skeleton"]``) it bounds the joint positions that the decoded channels
+        give as well (``position_error``, unless that is given), as ``mpz encode
+        --max-error`` does. Default None: the default bound (``lossy`` is the only way
+        to have none): exact on the grid of an int16 C3D source; for skeletal input,
+        1/500 of the skeleton's size on the marker layer, a preview, with the channels
+        within ``angle_error`` and ``translation_error``; else ``default_error_mm``
+        (``default_error_fraction`` of the extent for a motion without units).
     group_errors : mapping of str to float, optional
         Tighter bounds for hierarchy nodes, node name -> bound in motion
         units (needs a bound, ``max_error`` or the default one: not with ``lossy``).
@@ -1642,7 +1653,8 @@ def encode(motion: Motion, *,
         skeleton's length unit). Default: 0.01 each, unless ``position_error`` is given.
     position_error : float, optional
         Bound on the joint positions computed from the channels (spec §6.10), in motion
-        units; the channel steps are then the coarsest that keep it.
+        units; the channel steps are then the coarsest that keep it. Default: ``max_error``
+        when that is given.
     threads : int, optional
         Threads for the independent work within the file (1..64); default: the CPU count,
         at most 2, and 1 for a motion of fewer than 10,000 marker-frames (a second thread

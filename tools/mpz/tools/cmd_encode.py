@@ -501,9 +501,9 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
                          "joint positions")
         return replace(opts, keep_skeleton=False), notes
     lin = _translation_error(args.translation_error, motion)
-    # the marker layer's default is the preview bound (mpz.encoder.default_error)
-    return replace(opts, angle_error=args.angle_error, translation_error=lin,
-                   position_error=opts.max_error), notes
+    # the marker layer's default is the preview bound (mpz.encoder.default_error); a given
+    # --max-error bounds the joint positions too (mpz.encoder.resolve_bound)
+    return replace(opts, angle_error=args.angle_error, translation_error=lin), notes
 
 
 def _translation_error(text: str | None, motion) -> float | None:
