@@ -32,6 +32,7 @@ from mpz.errors import EncoderError, FormatError, LimitExceededError, MPZError
 from mpz.format import MAX_CHUNK_LENGTH, MAX_SAMPLES
 
 if TYPE_CHECKING:
+    from mpz.encoder import EncodeReport
     from mpz.motion import Motion
 
 #: what :func:`decode`, :func:`info` and :func:`read_mpz` accept: a path, the bytes, or a
@@ -626,9 +627,14 @@ def info(source: Source) -> FileInfo:
                     chunk_bytes=chunk_sizes(data))
 
 
-def write_mpz(motion, path, *, source=None, **options):
-    """Encode ``motion`` and write it atomically; returns the EncodeReport."""
-    from mpz.encoder import EncodeOptions, encode_motion
+def write_mpz(motion: Motion, path: str | os.PathLike[str], *,
+              source: str | os.PathLike[str] | None = None, **options: Any) -> EncodeReport:
+    """Encode ``motion`` with ``options`` (the fields of :class:`~mpz.EncodeOptions`, as
+    :func:`mpz.encode` takes them) and write it to ``path`` atomically, replacing a file
+    there; returns the EncodeReport. ``source``: the input file, which ``path`` must not
+    be."""
+    from mpz.encoder import EncodeOptions, check_option_names, encode_motion
+    check_option_names(options)
     check_output(path, force=True, source=source)  # a bad path fails before the encode
     data, report = encode_motion(motion, EncodeOptions(**options))
     write_atomic(path, data, source=source)
@@ -636,32 +642,45 @@ def write_mpz(motion, path, *, source=None, **options):
 
 
 class SummaryLevel:
-    """One level of the smry chunk, dequantised."""
+    """One level of the summary chunk, dequantised: ``k`` segments starting at frames
+    ``starts`` [k], their means ``means`` [k, dims], the level's ``wssse`` and the
+    quantisation ``step`` of the means."""
 
-    def __init__(self, k, starts, means, wssse, step):
+    def __init__(self, k: int, starts: np.ndarray, means: np.ndarray, wssse: float,
+                 step: float) -> None:
         self.k, self.starts, self.means, self.wssse, self.step = k, starts, means, wssse, step
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"SummaryLevel(k={self.k}, wssse={self.wssse:.6g})"
 
 
 class Summary:
-    """The optimal-partition summary of a file (spec §4.10), read without decoding motion."""
+    """The optimal-partition summary of a file (spec §4.10), read without decoding motion:
+    its ``space`` ("positions" or "angles"), ``dims`` per frame, ``levels`` (one
+    :class:`SummaryLevel` per segment count), and the file's ``n_frames``, ``rate``,
+    marker ``names`` and ``units``."""
 
-    def __init__(self, space, dims, levels, n_frames, rate, names, units):
+    def __init__(self, space: str, dims: int, levels: list[SummaryLevel], n_frames: int,
+                 rate: float, names: list[str], units: str) -> None:
         self.space, self.dims, self.levels = space, dims, levels
         self.n_frames, self.rate, self.names, self.units = n_frames, rate, names, units
 
-    def level(self, k):
+    def level(self, k: int) -> SummaryLevel:
+        """The level of ``k`` segments; KeyError naming the levels there are."""
         for lv in self.levels:
             if lv.k == k:
                 return lv
-        raise KeyError(k)
+        raise KeyError(f"no summary level of {k} segments; the file has "
+                       f"{', '.join(str(lv.k) for lv in self.levels)}")
 
-    def preview(self, k=None, mode="constant"):
-        """A preview Motion rebuilt from the summary alone (positions relative to the root)."""
+    def preview(self, k: int | None = None, mode: str = "constant") -> Motion:
+        """A preview Motion rebuilt from the summary alone (positions relative to the root),
+        from the level of ``k`` segments (default: the finest); ``mode`` "constant" (each
+        frame its segment's mean) or "linear"."""
         from mpz.fisher import preview_series
         from mpz.motion import Motion
+        if mode not in ("constant", "linear"):
+            raise ValueError(f"mode must be 'constant' or 'linear', got {mode!r}")
         if self.space != "positions":
             raise FormatError("a preview Motion needs a position summary (space 0)")
         lv = self.levels[-1] if k is None else self.level(k)
@@ -671,9 +690,14 @@ class Summary:
                       metadata={"preview": f"summary k={lv.k} ({mode})"})
 
 
-def read_summary(data: bytes) -> Summary | None:
+def read_summary(source: Source) -> Summary | None:
     """Read the summary chunk (smry, §4.10, or smrc, §4.15) of an MPZ file without decoding
     the motion.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, bytes-like or binary file object
+        As for :func:`decode`.
 
     Returns None when the file has no summary chunk.
 
@@ -681,10 +705,18 @@ def read_summary(data: bytes) -> Summary | None:
     ------
     MPZError
         If the file is invalid.
+    TypeError
+        If ``source`` is none of the above.
     """
     from mpz.decoder import read_stream
     from mpz.format import SummarySpace, unit_name
-    s = read_stream(data)
+    data, name = read_source(source)
+    try:
+        s = read_stream(data)
+    except MPZError as exc:
+        if name is not None:
+            exc.path = name
+        raise
     if s.summary is None:
         return None
     from mpz.chunks import Smrc

@@ -357,6 +357,19 @@ def _utf8(text: object, what: str) -> str:
     return text
 
 
+def check_option_names(given: Iterable[str]) -> None:
+    """Refuse option names that are not fields of :class:`EncodeOptions`, naming the
+    closest field (only MPZError leaves the API, mpz.errors)."""
+    names = [f.name for f in fields(EncodeOptions)]
+    bad = sorted(set(given) - set(names))
+    if bad:
+        import difflib
+        close = difflib.get_close_matches(bad[0], names, n=1)
+        hint = f"; did you mean {close[0]}?" if close else ""
+        raise EncoderError(f"unknown option {', '.join(bad)}{hint} (the options are the "
+                           "fields of EncodeOptions)")
+
+
 def check_option_values(o: EncodeOptions) -> None:
     """Issue 11.6: the type and range of every option, naming the option at fault.
 
@@ -1679,14 +1692,7 @@ def encode(motion: Motion, *,
     >>> data[:4]
     b'\\x89MPZ'
     """
-    if unknown:                      # only MPZError leaves the API (mpz.errors)
-        import difflib
-        names = [f.name for f in fields(EncodeOptions)]
-        bad = sorted(unknown)
-        close = difflib.get_close_matches(bad[0], names, n=1)
-        hint = f"; did you mean {close[0]}?" if close else ""
-        raise EncoderError(f"unknown option {', '.join(bad)}{hint} (the options are the "
-                           "fields of EncodeOptions)")
+    check_option_names(unknown)
     opts = EncodeOptions(
         max_error=max_error, group_errors=group_errors or {}, theta=theta, k0=k0, tau=tau,
         metric=metric, weights=weights, hierarchy=hierarchy, smoothing=smoothing,

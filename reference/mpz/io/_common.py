@@ -12,10 +12,11 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 import csv
 import functools
+import inspect
 import math
 import os
 import struct
-from typing import Concatenate, ParamSpec, TypeAlias, TypeVar
+from typing import ParamSpec, TypeAlias, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,13 +59,16 @@ def translate(path: StrPath, exc: BaseException) -> InputFormatError:
     return InputFormatError(f"cannot read: {_reason(exc)}", path=p)
 
 
-def reader(func: Callable[Concatenate[StrPath, _P], _R]) -> Callable[Concatenate[StrPath, _P], _R]:
-    """Decorate a ``read_*(path, ...)`` function with the error boundary."""
+def reader(func: Callable[_P, _R]) -> Callable[_P, _R]:
+    """Decorate a ``read_*(path, ...)`` function with the error boundary. The signature is
+    kept whole, so that type checkers take the path by keyword too (``read_c3d(path=p)``)."""
+    first = next(iter(inspect.signature(func).parameters))
 
     @functools.wraps(func)
-    def wrapper(path: StrPath, *args: _P.args, **kwargs: _P.kwargs) -> _R:
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        path: StrPath = args[0] if args else kwargs[first]      # type: ignore[assignment]
         try:
-            return func(path, *args, **kwargs)
+            return func(*args, **kwargs)
         except MPZError as exc:
             if isinstance(exc, InputFormatError):
                 raise translate(path, exc) from None

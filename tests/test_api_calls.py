@@ -1,0 +1,72 @@
+"""The public API as a library user calls it (a review of the API at stop 36): every
+function that reads an MPZ file takes what ``mpz.decode`` takes, misspelled options are
+named, readers take their path by keyword, and the summary's lookups say what is there."""
+from __future__ import annotations
+
+import inspect
+import io
+from pathlib import Path
+
+import pytest
+
+import mpz
+from mpz.errors import EncoderError, InputFormatError
+from mpz.synth import generate
+
+
+@pytest.fixture(scope="module")
+def summarised() -> bytes:
+    return mpz.encode(generate("walk", frames=120, seed=2), max_error=1.0, summary=(4, 8))
+
+
+def test_read_summary_takes_what_decode_takes(summarised: bytes, tmp_path: Path) -> None:
+    """A path (str or Path), the bytes, a bytearray or a binary file object: the same
+    summary. Before, only bytes: a Path was read as the bytes of its own name."""
+    path = tmp_path / "s.mpz"
+    path.write_bytes(summarised)
+    want = mpz.read_summary(summarised)
+    assert want is not None and [lv.k for lv in want.levels] == [4, 8]
+    for source in (str(path), path, bytearray(summarised), io.BytesIO(summarised)):
+        got = mpz.read_summary(source)
+        assert got is not None
+        assert [(lv.k, lv.starts.tolist(), lv.means.tolist()) for lv in got.levels] == \
+            [(lv.k, lv.starts.tolist(), lv.means.tolist()) for lv in want.levels]
+    with pytest.raises(TypeError):
+        mpz.read_summary(12)                            # type: ignore[arg-type]
+    with pytest.raises(mpz.MPZError) as err:
+        mpz.read_summary(tmp_path / "missing.mpz")
+    assert "missing.mpz" in str(err.value)
+
+
+def test_summary_lookups_say_what_is_there(summarised: bytes) -> None:
+    s = mpz.read_summary(summarised)
+    assert s is not None
+    with pytest.raises(KeyError, match="no summary level of 3 segments; the file has 4, 8"):
+        s.level(3)
+    with pytest.raises(ValueError, match="mode must be 'constant' or 'linear'"):
+        s.preview(mode="cubic")
+    assert s.preview(8, mode="linear").n_frames == 120
+
+
+def test_write_mpz_names_a_misspelled_option(tmp_path: Path) -> None:
+    """As mpz.encode does: an EncoderError with the closest option, nothing written.
+    Before, a TypeError from EncodeOptions' constructor left the API."""
+    with pytest.raises(EncoderError, match="unknown option max_eror; did you mean max_error"):
+        mpz.write_mpz(generate("walk", frames=24), tmp_path / "w.mpz", max_eror=1.0)
+    assert not (tmp_path / "w.mpz").exists()
+    report = mpz.write_mpz(generate("walk", frames=24), tmp_path / "w.mpz", max_error=1.0)
+    assert report.file_bytes == (tmp_path / "w.mpz").stat().st_size
+
+
+@pytest.mark.parametrize("name", ["read_c3d", "read_trc", "read_bvh", "read_asf",
+                                  "read_amc", "read_npy", "read_csv"])
+def test_readers_take_their_path_by_keyword(name: str, tmp_path: Path) -> None:
+    """The error boundary keeps each reader's own signature (type checkers took the path as
+    positional-only), and a path given by keyword is named in the error."""
+    fn = getattr(mpz.io, name)
+    first = next(iter(inspect.signature(fn).parameters.values()))
+    assert first.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
+    missing = tmp_path / "missing.x"
+    with pytest.raises(InputFormatError) as err:
+        fn(**{first.name: missing})
+    assert "missing" in str(err.value)
