@@ -70,3 +70,16 @@ def test_readers_take_their_path_by_keyword(name: str, tmp_path: Path) -> None:
     with pytest.raises(InputFormatError) as err:
         fn(**{first.name: missing})
     assert "missing" in str(err.value)
+
+
+@pytest.mark.parametrize("name", ["read_amc", "read_npy", "read_csv"])
+@pytest.mark.parametrize("rate", ["x", -1, 0.0, float("nan"), True])
+def test_a_bad_rate_argument_is_the_callers_not_the_files(name: str, rate: object,
+                                                          tmp_path: Path) -> None:
+    """read_amc, read_npy and read_csv gave "cannot read" or "inconsistent data" naming
+    the file for a bad ``rate`` argument; it is a ValueError, as mpz.io.read gives, raised
+    before the file is opened (this one does not exist)."""
+    fn = getattr(mpz.io, name)
+    with pytest.raises(ValueError, match="rate must be a finite number") as err:
+        fn(tmp_path / "missing.x", rate=rate)
+    assert not isinstance(err.value, mpz.MPZError)

@@ -46,7 +46,14 @@ import numpy as np
 
 from mpz.errors import InputFormatError
 from mpz.io import c3dbin
-from mpz.io._common import StrPath, ext_of, is_utf8, start_frame, utf8_name
+from mpz.io._common import (
+    StrPath,
+    check_rate_argument,
+    ext_of,
+    is_utf8,
+    start_frame,
+    utf8_name,
+)
 from mpz.io.amc import asf_text_changes, find_asf, read_amc, read_asf, write_amc
 from mpz.io.bvh import read_bvh, skeleton_problems, write_bvh
 from mpz.io.c3d import read_c3d, write_c3d
@@ -111,11 +118,7 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     ValueError
         For a ``rate`` that is not a finite number above 0 (it was blamed on the file).
     """
-    number = (int, float, np.integer, np.floating)
-    if rate is not None and (isinstance(rate, bool) or not isinstance(rate, number)
-                             or not (math.isfinite(rate) and rate > 0)):
-        raise ValueError(f"rate must be a finite number of frames per second above 0, got "
-                         f"{rate!r}")
+    check_rate_argument(rate)
     _path_arg("path", path)           # a QA run (stop 33): bytes were taken for a path,
     if asf is not None:               # and asf=3 read and closed the caller's descriptor 3
         _path_arg("asf", asf)

@@ -59,14 +59,28 @@ def translate(path: StrPath, exc: BaseException) -> InputFormatError:
     return InputFormatError(f"cannot read: {_reason(exc)}", path=p)
 
 
+def check_rate_argument(rate: object) -> None:
+    """Raise ValueError unless ``rate`` (a reader's argument, not the file's) is None or a
+    finite number of frames per second above 0: a bad argument is the caller's, not the
+    file's, to blame."""
+    number = (int, float, np.integer, np.floating)
+    if rate is not None and (isinstance(rate, bool) or not isinstance(rate, number)
+                             or not (math.isfinite(rate) and rate > 0)):
+        raise ValueError(f"rate must be a finite number of frames per second above 0, got "
+                         f"{rate!r}")
+
+
 def reader(func: Callable[_P, _R]) -> Callable[_P, _R]:
-    """Decorate a ``read_*(path, ...)`` function with the error boundary. The signature is
-    kept whole, so that type checkers take the path by keyword too (``read_c3d(path=p)``)."""
+    """Decorate a ``read_*(path, ...)`` function with the error boundary: the file's faults
+    become InputFormatErrors naming it, a bad ``rate`` argument a ValueError
+    (:func:`check_rate_argument`). The signature is kept whole, so that type checkers take
+    the path by keyword too (``read_c3d(path=p)``)."""
     first = next(iter(inspect.signature(func).parameters))
 
     @functools.wraps(func)
     def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
         path: StrPath = args[0] if args else kwargs[first]      # type: ignore[assignment]
+        check_rate_argument(kwargs.get("rate"))    # before the file, which it is not about
         try:
             return func(*args, **kwargs)
         except MPZError as exc:
