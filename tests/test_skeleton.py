@@ -964,3 +964,39 @@ def test_cli_amc_with_asf_path(tmp_path):
 def test_source_files_are_never_copied(shared_data):
     """The real recordings are read in place (conftest); this module writes only to tmp."""
     assert not list(Path(__file__).parent.glob("*.bvh"))
+
+
+def _scanned_step(bound: float) -> tuple[int, int] | None:
+    """step_for's rule, by scanning every m x 10^-d (d from the finest, m in MANTISSAS):
+    the largest value at most 2 bound (1 + 1e-12), the first met of equal values."""
+    target = 2.0 * bound * (1 + 1e-12)
+    best = None
+    for d in range(ch.MAX_STEP_DIGITS, -1, -1):
+        for m in ch.MANTISSAS:
+            v = m / 10.0 ** d
+            if v <= target and (best is None or v > best[0]):
+                best = (v, m, d)
+    return None if best is None else (best[1], best[2])
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.floats(-10.5, 5.5), st.sampled_from([0, 1, -1]))
+def test_step_for_is_the_scan_of_every_step(exponent, nudge):
+    """step_for searches a sorted ladder (the position-bound search called it 2232 times an
+    encode of 02_01.amc): the step the scan of every step gives, at and beside the ladder's
+    own half-steps."""
+    bound = 10.0 ** exponent
+    if nudge:
+        v = ch._step_ladder()[0][int(abs(exponent) * 7) % len(ch._step_ladder()[0])] / 2
+        bound = math.nextafter(v, math.inf if nudge > 0 else 0.0)
+    want = _scanned_step(bound)
+    if want is None:
+        with pytest.raises(EncoderError):
+            ch.step_for(bound)
+        return
+    m, d = want
+    if d == 0:                           # steps of 10 and more: m x 10^k, d = 0
+        while m * 10 <= 2.0 * bound * (1 + 1e-12) and m * 10 <= 0xFFFF:
+            m *= 10
+    got = ch.step_for(bound)
+    assert (got.mantissa, got.digits) == (m, d)

@@ -17,8 +17,10 @@ is the reference encoder's choice (spec Appendix C).
 """
 from __future__ import annotations
 
+import bisect
 from collections.abc import Sequence
 from dataclasses import dataclass
+import functools
 import math
 from typing import Protocol
 
@@ -91,6 +93,21 @@ class Step:
         return f"{self.value:.{self.digits}f}"
 
 
+@functools.cache
+def _step_ladder() -> tuple[list[float], list[Step]]:
+    """Every step ``m x 10^-d`` (m in MANTISSAS, d = MAX_STEP_DIGITS..0) by increasing value,
+    each value's first in that order, with the values: :func:`step_for` takes the largest
+    at most its target (a search of the ladder; scanning it was the position-bound search's
+    cost, 2232 calls and 117 ms an encode of 02_01.amc at 1 mm)."""
+    first: dict[float, Step] = {}
+    for d in range(MAX_STEP_DIGITS, -1, -1):
+        for m in MANTISSAS:
+            s = Step(m, d)
+            first.setdefault(s.value, s)
+    values = sorted(first)
+    return values, [first[v] for v in values]
+
+
 def step_for(bound: float) -> Step:
     """The coarsest step ``m x 10^-d``, m in :data:`MANTISSAS` times a power of ten, whose
     rounding error (half the step) stays within ``bound``.
@@ -108,12 +125,9 @@ def step_for(bound: float) -> Step:
     if not (math.isfinite(bound) and bound > 0):
         raise EncoderError(f"a channel bound must be finite and > 0, got {bound!r}")
     target = 2.0 * bound * (1 + 1e-12)
-    best: Step | None = None
-    for d in range(MAX_STEP_DIGITS, -1, -1):
-        for m in MANTISSAS:
-            s = Step(m, d)
-            if s.value <= target and (best is None or s.value > best.value):
-                best = s
+    values, ladder = _step_ladder()
+    i = bisect.bisect_right(values, target)
+    best = ladder[i - 1] if i else None
     if best is None:
         raise EncoderError(f"a channel bound of {bound!r} is finer than the finest step, "
                            f"10^-{MAX_STEP_DIGITS}; give a larger --angle-error or "

@@ -202,12 +202,15 @@ def code_channels(values: FloatArray, skel: Skeleton, steps: Sequence[Step]
 
 
 # ------------------------------------------------------------ bounds --
-def position_error(skel: Skeleton, a: FloatArray, b: FloatArray) -> float:
+def position_error(skel: Skeleton, a: FloatArray, b: FloatArray,
+                   joints_a: FloatArray | None = None) -> float:
     """The largest distance, in marker units, between the joint positions of channel
-    values ``a`` and ``b`` (spec §6.10)."""
+    values ``a`` and ``b`` (spec §6.10); ``joints_a``: ``forward(skel, a)``, when the
+    caller already has it (the position-bound search compares one ``a`` many times)."""
     if skel.channel_count == 0:
         return 0.0
-    d = np.linalg.norm(forward(skel, a) - forward(skel, b), axis=2)
+    pa = forward(skel, a) if joints_a is None else joints_a
+    d = np.linalg.norm(pa - forward(skel, b), axis=2)
     return float(d.max(initial=0.0)) * marker_scale(skel)
 
 
@@ -255,6 +258,7 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     # the search measures the error on at most 256 frames; the result is then checked on
     # every frame and made finer until it holds there too
     sub = values[:: max(1, values.shape[0] // 256)]
+    joints = {id(sub): forward(skel, sub), id(values): pos}     # each source's, once
 
     def error(kappa: float, v: FloatArray = sub) -> float:
         st = steps(kappa)
@@ -263,7 +267,7 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         except EncoderError:             # too fine for the value range: cannot be used
             return math.inf
         back = dequantise(x, [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in st])
-        return position_error(skel, v, back)
+        return position_error(skel, v, back, joints[id(v)])
 
     # error(kappa) grows with kappa (in steps, as the step ladder is discrete): bracket the
     # target, then bisect to within 1 %
