@@ -83,3 +83,18 @@ def test_a_bad_rate_argument_is_the_callers_not_the_files(name: str, rate: objec
     with pytest.raises(ValueError, match="rate must be a finite number") as err:
         fn(tmp_path / "missing.x", rate=rate)
     assert not isinstance(err.value, mpz.MPZError)
+
+
+def test_file_info_is_read_only_and_hashable(summarised: bytes) -> None:
+    """FileInfo is a frozen dataclass: its metadata and chunk sizes are read-only too, and
+    it hashes (API review F10: its dicts made hash() fail and let metadata change)."""
+    import pickle
+    fi = mpz.info(summarised)
+    with pytest.raises(TypeError):
+        fi.metadata["take"] = "2"                       # type: ignore[index]
+    with pytest.raises(TypeError):
+        fi.chunk_bytes["MHDR"] = 0                      # type: ignore[index]
+    twin = pickle.loads(pickle.dumps(fi))
+    assert twin == fi and hash(twin) == hash(fi)
+    assert dict(fi.chunk_bytes) == fi.chunk_bytes and 0 < sum(fi.chunk_bytes.values()) <= fi.size
+    assert {fi: 1}[mpz.info(summarised)] == 1

@@ -644,3 +644,20 @@ def test_hierarchy_file_deeply_nested_bom_and_folder(tmp_path):
     m = mpz.Motion(np.zeros((3, 4, 3)), names, 100.0)
     with pytest.raises(EncoderError, match="is a folder"):
         build_hierarchy(m, tmp_path)
+
+
+def test_two_subjects_are_not_called_a_missing_marker() -> None:
+    """Two CMU subjects in one capture (S1:LFHD ... S2:LFHD ...): hierarchy="cmu41" said
+    "missing []" (API review F11); it names the labels that appear twice."""
+    import numpy as np
+
+    import mpz
+    from mpz.errors import EncoderError
+    from mpz.synth import generate
+    one = generate("walk", frames=30, seed=1)
+    two = mpz.Motion(np.concatenate([one.positions, one.positions + 1000.0], axis=1),
+                     [f"S1:{n}" for n in one.names] + [f"S2:{n}" for n in one.names],
+                     one.rate, one.units)
+    with pytest.raises(EncoderError, match="appear more than once") as err:
+        mpz.encode(two, max_error=1.0, hierarchy="cmu41")
+    assert "missing" not in str(err.value)

@@ -571,6 +571,14 @@ class FileInfo:
     metadata: Mapping[str, str] = field(default_factory=dict)
     chunk_bytes: Mapping[str, int] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # read-only and hashable, as a frozen dataclass promises (API review F10)
+        from mpz.encoder import FrozenMapping
+        object.__setattr__(self, "names", tuple(self.names))
+        object.__setattr__(self, "summary_levels", tuple(self.summary_levels))
+        object.__setattr__(self, "metadata", FrozenMapping(self.metadata))
+        object.__setattr__(self, "chunk_bytes", FrozenMapping(self.chunk_bytes))
+
     @property
     def duration(self) -> float:
         """Seconds from the first frame to the end of the last one (frames / rate)."""

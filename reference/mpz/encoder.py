@@ -1638,7 +1638,10 @@ def encode(motion: Motion, *,
     max_segment : int, default 240
         Longest segment in frames, 2..4096.
     summary : sequence of int, default ()
-        Segment counts k of the optional summary chunk (spec §4.15, or §4.10).
+        Segment counts k of the optional summary chunk (spec §4.15, or §4.10), each 1 to
+        MAX_FRAMES. A count above the motion's frame count gives the level of one segment
+        a frame (k = frames), and each count is written once, in increasing order:
+        ``Summary.level`` takes the k written (``mpz.info(...).summary_levels``).
     summary_space : {"positions", "angles"}, default "positions"
     summary_format : {"smrc", "smry"}, default "smrc"
         The summary chunk: smrc, range-coded (§4.15; the file is then MPZ 1.1), or smry,

@@ -70,9 +70,15 @@ def cmu41_hierarchy(motion: Motion) -> Hierarchy:
     names = list(motion.names)
     idx = cmu41_match(names)
     if idx is None:
-        have = {strip_subject(n) for n in names}
+        stripped = [strip_subject(n) for n in names]
+        twice = sorted({s for s in stripped if s in CMU41 and stripped.count(s) > 1})
+        if twice:       # two subjects, or a label repeated: not one CMU figure
+            raise EncoderError(f"the motion is not one CMU 41-marker set: "
+                               f"{', '.join(twice[:6])}{' ...' if len(twice) > 6 else ''} "
+                               "appear more than once (two subjects?); give each its own "
+                               "file, or a hierarchy that names every marker")
         raise EncoderError(f"the motion is not a CMU 41-marker set: missing "
-                           f"{sorted(set(CMU41) - have)}")
+                           f"{sorted(set(CMU41) - set(stripped))}")
     tpl = cmu41_template()
     frames = sample_frames(motion.n_frames, _FRAMES)
     nodes = _present_nodes(tpl, idx)
