@@ -830,3 +830,20 @@ def test_wrong_argument_types_are_named(tmp_path):
             return "abc"
     with pytest.raises(TypeError, match="binary mode"):
         mpz.decode(TextRead())
+
+
+def test_edited_positions_of_a_skeletal_motion_are_noted(two_joint_bvh, tmp_path):
+    """BVH and AMC are written from the skeleton's channels: positions edited after reading
+    (re-centred here) are not what the file gives, and io.write now says so (API review
+    F12: it returned no note). A motion as read gets no such note."""
+    import dataclasses
+
+    import mpz
+    from mpz.io.bvh import parse_bvh
+    m = parse_bvh(two_joint_bvh)
+    assert not [n for n in mpz.io.write(m, tmp_path / "same.bvh") if "not positions" in n]
+    moved = dataclasses.replace(m, positions=m.positions + 100.0)
+    notes = [n for n in mpz.io.write(moved, tmp_path / "moved.bvh") if "not positions" in n]
+    assert len(notes) == 1 and "173.2" in notes[0]          # |(100, 100, 100)|
+    back = mpz.io.read(tmp_path / "moved.bvh")
+    assert np.allclose(back.positions, m.positions)

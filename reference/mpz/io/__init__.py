@@ -470,6 +470,13 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             refuse.append(f"C3D labels hold at most 255 bytes: {', '.join(too_long)}")
     if ext in SKELETON_FORMATS:        # issue 13: the skeleton formats need their skeleton
         refuse += skeleton_problems(motion, ext)
+        if not refuse:
+            moved = _positions_off_channels(motion)
+            if moved is not None:
+                notes.append(f"{fmt} holds the skeleton and its channels, not positions: the "
+                             f"motion's positions differ from the joints its channels give by "
+                             f"up to {moved:.4g} {motion.units or 'units'} (an edit, or a "
+                             "lossy marker layer), and the file gives the channels' joints")
         if ext == ".amc" and rate != 120.0:
             notes.append(f"AMC does not store the rate: {rate!r} Hz reads back as 120 Hz "
                          "unless the reader is told")
@@ -498,6 +505,24 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         notes.append(f"{fmt} does not hold the first frame number ({first}): frames are "
                      "counted from " + ("0" if ext == ".csv" else "the start"))
     return refuse, notes
+
+
+def _positions_off_channels(motion: Motion) -> float | None:
+    """How far a skeletal motion's valid positions lie from the joints its channels give,
+    when that is more than 1 % of the skeleton's rest height: BVH and AMC are written from
+    the channels, so such positions (an edit after reading) are not what the file gives.
+    A decoded file's marker layer is a preview within far less (spec Appendix C)."""
+    from mpz.io.kinematics import rest_height
+    from mpz.skeleton import marker_scale, with_joint_positions
+    skel = motion.extras.get("skeleton")
+    if not isinstance(skel, Skeleton) or motion.angles is None or not motion.valid.any():
+        return None
+    joints = with_joint_positions(motion).positions
+    if joints.shape != motion.positions.shape:
+        return None
+    d = np.linalg.norm(joints - motion.positions, axis=2)[motion.valid]
+    worst = float(d.max())
+    return worst if worst > 0.01 * rest_height(skel) * marker_scale(skel) else None
 
 
 def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None) -> list[str]:
