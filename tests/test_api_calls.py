@@ -98,3 +98,24 @@ def test_file_info_is_read_only_and_hashable(summarised: bytes) -> None:
     assert twin == fi and hash(twin) == hash(fi)
     assert dict(fi.chunk_bytes) == fi.chunk_bytes and 0 < sum(fi.chunk_bytes.values()) <= fi.size
     assert {fi: 1}[mpz.info(summarised)] == 1
+
+
+def test_wrong_argument_types_are_named(tmp_path: Path) -> None:
+    """API review F7: these let an AttributeError, a bare TypeError or an
+    IsADirectoryError out of the API."""
+    import numpy as np
+    m = generate("walk", frames=10)
+    with pytest.raises(EncoderError, match="source_grid must be finite and > 0, got 'x'"):
+        mpz.encode(m, source_grid="x")                  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="decoded must be an mpz.Motion, got ndarray"):
+        mpz.max_error(m, np.zeros((10, 41, 3)))        # type: ignore[arg-type]
+    with pytest.raises(mpz.MotionError, match="can only concatenate Motions, got int"):
+        mpz.concatenate([1, m])                         # type: ignore[list-item]
+    with pytest.raises(TypeError, match="head must be bytes"):
+        mpz.io.detect_format(3)                         # type: ignore[arg-type]
+    assert mpz.io.detect_format(memoryview(b"HIERARCHY\n")) == ".bvh"
+    mpz.io.write(m, tmp_path / "m.trc")
+    assert mpz.io.read_bytes(memoryview((tmp_path / "m.trc").read_bytes())).n_frames == 10
+    (tmp_path / "x.trc").mkdir()
+    with pytest.raises(InputFormatError, match="a folder has that name"):
+        mpz.io.write(m, tmp_path / "x.trc")

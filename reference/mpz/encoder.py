@@ -259,6 +259,8 @@ class EncodeOptions:
         for name, v in (("default_error_mm", self.default_error_mm),
                         ("default_error_fraction", self.default_error_fraction),
                         ("model_error", self.model_error),
+                        *((("source_grid", self.source_grid),)
+                          if self.source_grid is not None else ()),
                         *((f"model_errors[{k!r}]", e) for k, e in self.model_errors.items())):
             if (isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating))
                     or not (math.isfinite(v) and v > 0)):
@@ -268,9 +270,6 @@ class EncodeOptions:
         if unknown:
             raise EncoderError(f"model error given for {', '.join(unknown)}; the model-output "
                                f"kinds are {', '.join(sorted(kinds))}")
-        if self.source_grid is not None and not (math.isfinite(self.source_grid)
-                                                 and self.source_grid > 0):
-            raise EncoderError(f"source_grid must be finite and > 0, got {self.source_grid!r}")
         if not self.theta > 0 or not self.tau > 0:
             raise EncoderError("theta and tau must be > 0 (fractions of the head size ADDH)")
         if not 1 <= self.k0 <= 65535:

@@ -16,6 +16,9 @@ from mpz.motion import Motion
 
 
 def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
+    for what, m in (("original", original), ("decoded", decoded)):
+        if not isinstance(m, Motion):       # an AttributeError deep inside, before
+            raise TypeError(f"{what} must be an mpz.Motion, got {type(m).__name__}")
     if original.positions.shape != decoded.positions.shape:
         raise MotionError(f"shapes differ: {original.positions.shape} vs {decoded.positions.shape}")
     # the same sample of the same marker in the same unit, or the distance means nothing

@@ -222,10 +222,11 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
     motions = list(motions)
     if not motions:
         raise MotionError("nothing to concatenate")
-    first = motions[0]
-    for m in motions[1:]:
+    for m in motions:
         if not isinstance(m, Motion):
             raise MotionError(f"can only concatenate Motions, got {type(m).__name__}")
+    first = motions[0]
+    for m in motions[1:]:
         if m.names != first.names or m.rate != first.rate or m.units != first.units:
             raise MotionError("can only concatenate motions with the same names, rate and units")
         if m.metadata != first.metadata:

@@ -219,6 +219,9 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     folder = os.path.dirname(os.path.abspath(os.fspath(path)))
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"cannot write {os.fspath(path)!r}: no folder {folder!r}")
+    if os.path.isdir(path):
+        raise InputFormatError(f"cannot write {FORMAT_NAMES.get(ext, ext)}: a folder has "
+                               "that name", path=os.fspath(path))
     if file_name is not None and ext == ".trc":
         fn(motion, path, file_name=file_name)
     elif ext == ".amc":
@@ -269,6 +272,16 @@ DETECT_BYTES = 4096
 _MPZ_SIGNATURE = b"\x89MPZ\r\n\x1a\n"   # spec §3.1
 
 
+def _as_bytes(data: object, name: str) -> bytes:
+    """``data`` as bytes: bytes, a bytearray or a memoryview; TypeError for anything else."""
+    if isinstance(data, bytes):
+        return data
+    if isinstance(data, (bytearray, memoryview)):
+        return bytes(data)
+    raise TypeError(f"{name} must be bytes, a bytearray or a memoryview, got "
+                    f"{type(data).__name__}")
+
+
 def detect_format(head: bytes) -> str | None:
     """The extension (``".c3d"``, ``".trc"``, ...) of a file whose first bytes are ``head``.
 
@@ -292,7 +305,9 @@ def detect_format(head: bytes) -> str | None:
     >>> detect_format(bytes(512)) is None
     True
     """
-    head = head[:DETECT_BYTES]
+    if isinstance(head, (bytearray, memoryview)):
+        head = head[:DETECT_BYTES]                  # no copy of the rest
+    head = _as_bytes(head, "head")[:DETECT_BYTES]
     if head.startswith(_MPZ_SIGNATURE):
         return ".mpz"
     if head.startswith(b"\x93NUMPY"):
@@ -335,6 +350,7 @@ def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
     InputFormatError
         For content of no known format, or that its reader refuses.
     """
+    data = _as_bytes(data, "data")
     ext = fmt or detect_format(data)
     if ext is None:
         raise InputFormatError(f"cannot tell the format from the content (first bytes "
