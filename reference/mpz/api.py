@@ -585,6 +585,19 @@ class FileInfo:
         return self.frames / self.rate if self.rate else float("nan")
 
 
+def _stream(source: Source) -> tuple[Any, bytes]:
+    """:func:`mpz.decoder.read_stream` of an MPZ ``source`` (every chunk's frame, CRC and §
+    checks; no payload decoded) and its bytes; an error names the file of a path."""
+    from mpz.decoder import read_stream
+    data, name = read_source(source)
+    try:
+        return read_stream(data), data
+    except MPZError as exc:
+        if name is not None:
+            exc.path = name
+        raise
+
+
 def info(source: Source) -> FileInfo:
     """Names, rate, frame count, bound and summary levels of an MPZ file, without decoding.
 
@@ -612,15 +625,8 @@ def info(source: Source) -> FileInfo:
     (24, 41, 120.0, 'mm', 1.0)
     """
     from mpz.container import chunk_sizes
-    from mpz.decoder import read_stream
     from mpz.format import ErrorMetric, Units, unit_name
-    data, name = read_source(source)
-    try:
-        s = read_stream(data)
-    except MPZError as exc:
-        if name is not None:
-            exc.path = name
-        raise
+    s, data = _stream(source)
     h = s.header
     units = unit_name(h.units) if h.units in set(Units) else ""
     meta = s.meta
@@ -716,15 +722,8 @@ def read_summary(source: Source) -> Summary | None:
     TypeError
         If ``source`` is none of the above.
     """
-    from mpz.decoder import read_stream
     from mpz.format import SummarySpace, unit_name
-    data, name = read_source(source)
-    try:
-        s = read_stream(data)
-    except MPZError as exc:
-        if name is not None:
-            exc.path = name
-        raise
+    s, _ = _stream(source)
     if s.summary is None:
         return None
     from mpz.chunks import Smrc
