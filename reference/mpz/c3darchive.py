@@ -381,18 +381,18 @@ def smaller(stored: R, deflated: R) -> R:
     return deflated if len(deflated.dump()) < len(stored.dump()) else stored
 
 
-def mismatch(a: C3DArchive, motion: Motion) -> str | None:
-    """Why archive ``a`` no longer describes ``motion``, or None: frames or markers
-    changed, or marker names, units or rate other than those its parameters give them (a
-    motion renamed, converted to metres or given another rate after reading). The
-    parameters are written back as stored, so the file would contradict the markers. An
-    archive without a known POINT:UNITS contradicts no unit."""
+def check_matches(a: C3DArchive, motion: Motion) -> None:
+    """Refuse an archive that no longer describes ``motion``: frames or markers changed, or
+    marker names, units or rate other than those its parameters give them (a motion
+    renamed, converted to metres or given another rate after reading). The parameters are
+    written back as stored, so the file would contradict the markers. An archive without
+    a known POINT:UNITS contradicts no unit."""
     F, M = motion.n_frames, motion.n_markers
     P = len(a.slots)
     J = a.models.shape[1]
     if a.frames != F or P != M + J or sorted(a.slots) != list(range(P)):
-        return (f"the C3D archive describes {a.frames} frames and {P - J} markers, the "
-                f"motion has {F} frames and {M} markers")
+        raise EncoderError(f"the C3D archive describes {a.frames} frames and {P - J} markers, "
+                           f"the motion has {F} frames and {M} markers; it cannot be kept")
     from mpz.io.c3d import archive_describes
     names, units, rate = archive_describes(a, M)
     differ = []
@@ -407,16 +407,9 @@ def mismatch(a: C3DArchive, motion: Motion) -> str | None:
     if np.float32(motion.rate) != np.float32(rate):
         differ.append(f"the rate is {motion.rate!r} Hz in the motion, {rate!r} in "
                       "POINT:RATE")
-    if not differ:
-        return None
-    return f"the C3D archive no longer describes the motion: {'; '.join(differ)}"
-
-
-def check_matches(a: C3DArchive, motion: Motion) -> None:
-    """Refuse an archive that no longer describes ``motion`` (:func:`mismatch`)."""
-    why = mismatch(a, motion)
-    if why is not None:
-        raise EncoderError(f"{why}; the archive cannot be kept. Drop it "
+    if differ:
+        raise EncoderError(f"the C3D archive no longer describes the motion: "
+                           f"{'; '.join(differ)}; the archive cannot be kept. Drop it "
                            "(dataclasses.replace(motion, extras={})) to keep the markers "
                            f"alone, without {a.describe()}")
 

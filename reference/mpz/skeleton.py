@@ -258,16 +258,16 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     # the search measures the error on at most 256 frames; the result is then checked on
     # every frame and made finer until it holds there too
     sub = values[:: max(1, values.shape[0] // 256)]
-    joints = {id(sub): forward(skel, sub), id(values): pos}     # each source's, once
+    sub_joints = forward(skel, sub)             # the source's joints, once
 
-    def error(kappa: float, v: FloatArray = sub) -> float:
+    def error(kappa: float, v: FloatArray = sub, joints: FloatArray = sub_joints) -> float:
         st = steps(kappa)
         try:
             x = quantise(v, st)
         except EncoderError:             # too fine for the value range: cannot be used
             return math.inf
         back = dequantise(x, [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in st])
-        return position_error(skel, v, back, joints[id(v)])
+        return position_error(skel, v, back, joints)
 
     # error(kappa) grows with kappa (in steps, as the step ladder is discrete): bracket the
     # target, then bisect to within 1 %
@@ -291,7 +291,7 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         else:
             hi = mid
     for _ in range(200):
-        if lo and error(lo, values) <= target:
+        if lo and error(lo, values, pos) <= target:
             break
         lo *= 0.97
     else:

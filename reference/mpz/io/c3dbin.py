@@ -250,32 +250,17 @@ def _parse_value(data: bytes, pos: int, codec: _Codec, end: int) -> ParamValue |
 def record_params(records: list[ParamRecord]) -> dict[str, dict[str, ParamValue | None]]:
     """The parameters of normalised ``records`` (:func:`parse_records`), as
     :func:`_parse_parameters` gives those of the section they came from: by upper-case
-    group and name, a later record of a name replacing an earlier one."""
+    group and name, a later record of a name replacing an earlier one; each value read by
+    :func:`_parse_value` from the record's type, dimensions and (Intel) data."""
     groups = {-r.group: r.name.decode("latin-1").upper() for r in records if r.is_group}
     params: dict[str, dict[str, ParamValue | None]] = {name: {} for name in groups.values()}
+    intel = _Codec(PROC_INTEL)
     for r in records:
         if r.is_group or r.group not in groups:
             continue
-        count = int(np.prod(r.dims)) if r.dims else 1
-        value: ParamValue | None
-        if r.type == -1:
-            if len(r.dims) <= 1:
-                value = [_text(r.data)]
-            elif r.dims[0] == 0:
-                value = [""] * (count and int(np.prod(r.dims[1:])))
-            else:
-                w = r.dims[0]
-                value = [_text(r.data[i:i + w]) for i in range(0, count, w)]
-        elif r.type == 1:
-            value = np.frombuffer(r.data, np.int8, count).astype(np.int64)
-        elif r.type == 2:
-            value = np.frombuffer(r.data, "<i2", count).astype(np.int64)
-        elif r.type == 4:
-            with np.errstate(invalid="ignore"):
-                value = np.frombuffer(r.data, "<f4", count).astype(np.float64)
-        else:
-            value = None
-        params[groups[r.group]][r.name.decode("latin-1").upper()] = value
+        body = bytes([r.type & 0xFF, len(r.dims), *r.dims]) + r.data
+        params[groups[r.group]][r.name.decode("latin-1").upper()] = \
+            _parse_value(body, 0, intel, len(body))
     return params
 
 
