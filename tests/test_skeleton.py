@@ -350,6 +350,70 @@ def test_channels_come_back_within_half_a_step(data):
     assert np.abs(v - vals).max() <= steps[0].value / 2 * (1 + 1e-9) + 1e-12
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 40), st.integers(-12, 12), st.data())
+def test_squared_lengths_sum_as_the_norm_does(n, exponent, data):
+    """The position search's distances (issue 15.1: a fraction of np.linalg.norm's time)
+    must be np.linalg.norm's bit for bit: a search step that compares them with the bound
+    could otherwise turn on the last bit. Magnitudes far apart expose any other order of
+    the three sums."""
+    from mpz.io.kinematics import squared_lengths
+    mags = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+    d = np.array(data.draw(st.lists(st.tuples(mags, mags, mags), min_size=n, max_size=n)),
+                 np.float64).reshape(n, 3) * 10.0 ** exponent
+    assert np.sqrt(squared_lengths(d)).tobytes() == np.linalg.norm(d, axis=-1).tobytes()
+    three = d.reshape(n, 1, 3).repeat(2, axis=1)                 # and over more axes
+    assert squared_lengths(three).tobytes() == np.add.reduce(three * three, axis=2).tobytes()
+
+
+def _lever_arms_by_definition(skel: sk.Skeleton, p: np.ndarray) -> np.ndarray:
+    """Per joint a, the largest |p[k] - pivot(a)| over frames and the points k that a's
+    rotation moves (a and its descendants), as lever_arms' docstring defines it."""
+    arm = np.zeros(len(skel.joints))
+    for a, j in enumerate(skel.joints):
+        pivot = a if skel.convention == "bvh" or j.parent < 0 else j.parent
+        for k in range(len(skel.joints)):
+            b = k
+            while b >= 0 and b != a:
+                b = skel.joints[b].parent
+            if b == a and len(p):
+                arm[a] = max(arm[a], float(np.linalg.norm(p[:, k] - p[:, pivot],
+                                                          axis=1).max()))
+    return arm
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.data())
+def test_lever_arms_are_the_largest_distances_to_the_pivots(data):
+    """lever_arms (vectorised over frame blocks, issue 15.1) against its definition, on
+    random trees of either convention, bit for bit: the search's steps are scaled by them."""
+    from mpz.io.kinematics import Joint, Skeleton, lever_arms
+    J = data.draw(st.integers(1, 12))
+    parents = [-1] + [data.draw(st.integers(-1 if k > 3 else 0, k - 1)) for k in range(1, J)]
+    skel = Skeleton(data.draw(st.sampled_from(["bvh", "asf"])),
+                    tuple(Joint(f"j{k}", parents[k]) for k in range(J)))
+    F = data.draw(st.integers(0, 30))
+    p = np.array(data.draw(st.lists(st.floats(-1e4, 1e4), min_size=F * J * 3,
+                                    max_size=F * J * 3)), np.float64).reshape(F, J, 3)
+    got = lever_arms(skel, p)
+    assert got.tobytes() == _lever_arms_by_definition(skel, p).tobytes()
+
+
+@pytest.mark.parametrize("name", ["amc/02_01.amc", "amc/49_18.amc"])
+def test_the_searched_steps_report_their_error_on_every_frame(shared_data, name):
+    """The search hands its last measurement to the chunk (issue 15.1: not measured twice).
+    It must be the error on every frame, not the one on the search's subsample: 49_18 (1102
+    frames) is searched on every 4th frame, 02_01 (343) on all."""
+    m = mpz.io.read(shared_data / name)
+    skel = m.extras["skeleton"]
+    for target in (1.0, 5.0):
+        got = sk.settings(m, skel, mpz.encoder.EncodeOptions(position_error=target))
+        x = ch.quantise(m.angles, got.steps)
+        codings = [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in got.steps]
+        again = sk.position_error(skel, m.angles, ch.dequantise(x, codings))
+        assert got.measured == again and 0 < again <= target == got.position_bound
+
+
 def _wrapped(walk: np.ndarray) -> np.ndarray:
     """Degrees folded into -180 .. 180 (as a file writes a spinning joint)."""
     return (walk + 180.0) % 360.0 - 180.0

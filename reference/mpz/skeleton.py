@@ -55,7 +55,15 @@ from mpz.format import (
     ChannelKind,
     TextEncoding,
 )
-from mpz.io.kinematics import MM_PER_INCH, Joint, Skeleton, forward, lever_arms, rest_height
+from mpz.io.kinematics import (
+    MM_PER_INCH,
+    Joint,
+    Skeleton,
+    forward,
+    lever_arms,
+    rest_height,
+    squared_lengths,
+)
 from mpz.motion import Motion
 
 if TYPE_CHECKING:
@@ -210,8 +218,9 @@ def position_error(skel: Skeleton, a: FloatArray, b: FloatArray,
     if skel.channel_count == 0:
         return 0.0
     pa = forward(skel, a) if joints_a is None else joints_a
-    d = np.linalg.norm(pa - forward(skel, b), axis=2)
-    return float(d.max(initial=0.0)) * marker_scale(skel)
+    # sqrt is monotone: the largest distance is the root of the largest squared one
+    far = float(squared_lengths(pa - forward(skel, b)).max(initial=0.0))
+    return math.sqrt(far) * marker_scale(skel)
 
 
 def declared(measured: float, scale: float) -> float:
@@ -222,8 +231,10 @@ def declared(measured: float, scale: float) -> float:
 
 
 def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
-                       angle_cap: float | None, translation_cap: float | None) -> list[Step]:
-    """The coarsest steps whose joint-position error stays within ``target`` marker units.
+                       angle_cap: float | None, translation_cap: float | None
+                       ) -> tuple[list[Step], float]:
+    """The coarsest steps whose joint-position error stays within ``target`` marker units,
+    and that error, measured on every frame.
 
     Each channel gets a bound inversely proportional to how far its error moves a joint
     (a rotation: its joint's lever arm; a translation: one to one), times a common factor
@@ -234,40 +245,57 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     pos = forward(skel, values)
     arms = lever_arms(skel, pos) * scale                       # marker units
     joint = skel.channel_joints()
-    kinds = skel.channel_kinds()
+    rotation = [is_rotation(k) for k in skel.channel_kinds()]
     rad = skel.angle_unit == "rad"
     per_rad = [max(float(arms[j]), 1e-9) for j in joint]      # marker units per radian
+    angle_limit = None if angle_cap is None else (math.radians(angle_cap) if rad
+                                                  else angle_cap)
 
     def steps(kappa: float) -> list[Step]:
+        # a channel's step depends on kappa and its joint's arm only: one step_for a value
+        cache: dict[float, Step] = {}
         out = []
-        for c, k in enumerate(kinds):
-            if is_rotation(k):
-                bound = kappa / per_rad[c]                     # radians
+        for turns, arm in zip(rotation, per_rad, strict=True):
+            if turns:
+                bound = kappa / arm                             # radians
                 bound = bound if rad else math.degrees(bound)
-                cap = None if angle_cap is None else (math.radians(angle_cap) if rad
-                                                      else angle_cap)
                 bound = min(bound, 90.0 if not rad else math.pi / 2)
+                cap = angle_limit
             else:
                 bound = kappa / scale
                 cap = translation_cap
             if cap is not None:
                 bound = min(bound, cap)
-            out.append(step_for(max(bound, 10.0 ** -MAX_STEP_DIGITS)))
+            bound = max(bound, 10.0 ** -MAX_STEP_DIGITS)
+            step = cache.get(bound)
+            if step is None:
+                step = cache[bound] = step_for(bound)
+            out.append(step)
         return out
 
     # the search measures the error on at most 256 frames; the result is then checked on
     # every frame and made finer until it holds there too
-    sub = values[:: max(1, values.shape[0] // 256)]
-    sub_joints = forward(skel, sub)             # the source's joints, once
+    stride = max(1, values.shape[0] // 256)
+    sub = values[::stride]
+    sub_joints = pos if stride == 1 else forward(skel, sub)      # the source's joints, once
+    # error() depends on kappa only through the steps, which are discrete: bisection meets
+    # the same steps again (and with stride 1 the whole check repeats a sub check)
+    measured: dict[tuple[bool, tuple[Step, ...]], float] = {}
 
-    def error(kappa: float, v: FloatArray = sub, joints: FloatArray = sub_joints) -> float:
+    def error(kappa: float, whole: bool = False) -> float:
         st = steps(kappa)
+        key = (whole and stride > 1, tuple(st))
+        if key in measured:
+            return measured[key]
+        v, joints = (values, pos) if whole else (sub, sub_joints)
         try:
             x = quantise(v, st)
         except EncoderError:             # too fine for the value range: cannot be used
+            measured[key] = math.inf
             return math.inf
         back = dequantise(x, [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in st])
-        return position_error(skel, v, back, joints)
+        measured[key] = e = position_error(skel, v, back, joints)
+        return e
 
     # error(kappa) grows with kappa (in steps, as the step ladder is discrete): bracket the
     # target, then bisect to within 1 %
@@ -291,15 +319,11 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         else:
             hi = mid
     for _ in range(200):
-        if lo and error(lo, values, pos) <= target:
-            break
+        if lo and (err := error(lo, whole=True)) <= target:
+            return steps(lo), err
         lo *= 0.97
-    else:
-        lo = 0.0
-    if lo == 0.0:
-        raise EncoderError(f"no channel steps keep the joint positions within {target:g}; "
-                           "give a larger --max-error")
-    return steps(lo)
+    raise EncoderError(f"no channel steps keep the joint positions within {target:g}; "
+                       "give a larger --max-error")
 
 
 def preview_bound(motion: Motion) -> float | None:
@@ -386,11 +410,13 @@ def with_units(motion: Motion, units: str) -> Motion:
 # ------------------------------------------------------------ extension --
 @dataclass(frozen=True)
 class Settings:
-    """The resolved skeleton options of one encode: per-channel steps and the position
-    bound to declare (None: the measured error)."""
+    """The resolved skeleton options of one encode: per-channel steps, the position
+    bound to declare (None: the measured error) and, when the steps were searched for that
+    bound, the joint error they give on every frame (None: not yet measured)."""
 
     steps: tuple[Step, ...]
     position_bound: float | None
+    measured: float | None = None
 
 
 def settings(motion: Motion, skel: Skeleton, opts: EncodeOptions) -> Settings:
@@ -406,7 +432,8 @@ def settings(motion: Motion, skel: Skeleton, opts: EncodeOptions) -> Settings:
         steps = plan_steps(skel, DEFAULT_CHANNEL_ERROR if angle is None else angle,
                            DEFAULT_CHANNEL_ERROR if lin is None else lin)
         return Settings(tuple(steps), None)
-    return Settings(tuple(steps_for_position(skel, values, pos, angle, lin)), pos)
+    steps, measured = steps_for_position(skel, values, pos, angle, lin)
+    return Settings(tuple(steps), pos, measured)
 
 
 def _values(motion: Motion, skel: Skeleton) -> FloatArray:
@@ -448,8 +475,9 @@ class SkeletonExtension:
         values = _values(motion, skel)
         st = settings(motion, skel, opts)
         codings, coded = code_channels(values, skel, st.steps)
-        back = dequantise(quantise(values, st.steps), codings)
-        err = position_error(skel, values, back)
+        err = st.measured
+        if err is None:
+            err = position_error(skel, values, dequantise(quantise(values, st.steps), codings))
         size = max(rest_height(skel) * marker_scale(skel), 1.0)
         bound = st.position_bound if st.position_bound is not None else declared(err, size)
         if err > bound:                                    # steps_for_position checked it
