@@ -414,6 +414,49 @@ def test_the_searched_steps_report_their_error_on_every_frame(shared_data, name)
         assert got.measured == again and 0 < again <= target == got.position_bound
 
 
+def _chain_bvh(depth: int, values: np.ndarray, offsets: list[float]) -> str:
+    """A BVH of a root (6 channels) and a chain of ``depth`` joints (3 rotations each)."""
+    head = ["HIERARCHY", "ROOT J0", "{", "OFFSET 0 0 0",
+            "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    for k in range(1, depth + 1):
+        head += [f"JOINT J{k}", "{", f"OFFSET 0 {offsets[k - 1]!r} 0",
+                 "CHANNELS 3 Zrotation Xrotation Yrotation"]
+    head += ["End Site", "{", "OFFSET 0 5 0", "}"] + ["}"] * (depth + 1)
+    rows = [" ".join(repr(float(v)) for v in row) for row in values]
+    return "\n".join(head + ["MOTION", f"Frames: {len(rows)}", "Frame Time: 0.01", *rows])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 5), st.integers(2, 1300), st.floats(1e-3, 100.0),
+       st.sampled_from([0.0, 1.0, 30.0, 1e6]), st.integers(0, 2**32 - 1))
+def test_the_position_search_keeps_its_bound_by_an_independent_fk(depth, F, target, swing,
+                                                                   seed):
+    """The steps the position search returns keep every joint within the target on every
+    frame, by this test's own forward kinematics (bvh_fk) of the values the decoder
+    rebuilds; or the search says that no steps can (values too large for fine steps). Any
+    chain, motion size (``swing``: still, small, large, too large for fine steps) and
+    target; from 512 frames on, the search measures a subsample, then checks every frame."""
+    rng = np.random.default_rng(seed)
+    values = np.cumsum(rng.normal(0.0, 1.0, (F, 6 + 3 * depth)), axis=0) * swing
+    text = _chain_bvh(depth, values, [float(o) for o in rng.uniform(1, 50, depth)])
+    m = parse_bvh(text)
+    skel = m.extras["skeleton"]
+    try:
+        steps, err = sk.steps_for_position(skel, m.angles, target, None, None)
+    except EncoderError as e:
+        assert "no channel steps keep the joint positions" in str(e)
+        assert swing == 1e6
+        return
+    codings = [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in steps]
+    back = ch.dequantise(ch.quantise(m.angles, steps), codings)
+    parsed = bvh_read(text)
+    src = bvh_fk(parsed)
+    parsed["values"] = back.tolist()
+    d = float(np.linalg.norm(bvh_fk(parsed) - src, axis=2).max())
+    assert d <= target * (1 + 1e-9) + 1e-9
+    assert math.isclose(d, err, rel_tol=1e-9, abs_tol=1e-9)
+
+
 def _wrapped(walk: np.ndarray) -> np.ndarray:
     """Degrees folded into -180 .. 180 (as a file writes a spinning joint)."""
     return (walk + 180.0) % 360.0 - 180.0
