@@ -1,6 +1,7 @@
 """Helpers shared by the benchmark scripts (not part of the mpz package)."""
 from __future__ import annotations
 
+import argparse
 import os
 from pathlib import Path
 
@@ -49,3 +50,18 @@ def coded_float32(m) -> bytes:
     if m.extras.get("skeleton") is not None and m.angles is not None:
         parts.append(m.angles)
     return b"".join(np.nan_to_num(np.asarray(a, dtype=np.float32)).tobytes() for a in parts)
+
+
+def two_versions(ap: argparse.ArgumentParser, argv: list[str] | None) -> argparse.Namespace:
+    """Parse ``argv`` for a bench of two forms: ``--json OUT`` measures the version that
+    runs, ``--compare BEFORE ... --against AFTER ...`` compares alternating runs of two
+    versions (bench_decode.py, bench_encode.py); one of them must be given."""
+    ap.add_argument("--json", type=Path, help="where the first form writes its rows")
+    ap.add_argument("--compare", nargs="+", type=Path, metavar="BEFORE")
+    ap.add_argument("--against", nargs="+", type=Path, metavar="AFTER")
+    args = ap.parse_args(argv)
+    if args.compare and not args.against:
+        ap.error("--compare needs --against")
+    if not args.compare and not args.json:
+        ap.error("give --json OUT, or --compare ... --against ...")
+    return args

@@ -23,7 +23,7 @@ import math
 from pathlib import Path
 import sys
 
-from _common import coded_float32, shared_data_dir
+from _common import coded_float32, shared_data_dir, two_versions
 
 
 def measure(files: list[str], bound: str, out: Path) -> None:
@@ -74,18 +74,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--files", nargs="+", default=["all"])
     ap.add_argument("--bound", default="1mm")
-    ap.add_argument("--json", type=Path, help="where the first form writes its rows")
-    ap.add_argument("--compare", nargs="+", type=Path, metavar="BEFORE")
-    ap.add_argument("--against", nargs="+", type=Path, metavar="AFTER")
-    args = ap.parse_args(argv)
+    args = two_versions(ap, argv)
     if args.compare:
-        if not args.against:
-            ap.error("--compare needs --against")
         compare(args.compare, args.against)
-    elif args.json:
-        measure(args.files, args.bound, args.json)
     else:
-        ap.error("give --json OUT, or --compare ... --against ...")
+        measure(args.files, args.bound, args.json)
     return 0
 
 

@@ -62,3 +62,63 @@ def test_cli_refuses_malformed_rows_and_figures_that_would_pass_every_check(tmp_
         with pytest.raises(SystemExit) as ei:
             mpz_cli.main(["bench", "--compare", str(old), str(old), "--ratio-tolerance", tol])
         assert ei.value.code == 64, tol
+
+
+# ------------------------------------------------ bench/bench_encode.py --compare --
+def _bench_encode(monkeypatch):
+    """``bench/bench_encode.py``, imported from its path (bench/ is not a package)."""
+    import importlib.util
+    from pathlib import Path
+    bench = Path(__file__).resolve().parents[1] / "bench"
+    monkeypatch.syspath_prepend(str(bench))            # its `from _common import ...`
+    spec = importlib.util.spec_from_file_location("mpz_bench_encode", bench / "bench_encode.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _encode_run(tmp_path, name, **rows):
+    """A bench_encode.py result: rows key -> (sha256, bytes, {threads: seconds})."""
+    doc = {"bench": "encode", "schema": 1, "threads": [1, 2], "rows": {
+        k: {"bound": "1mm", "sha256": sha, "bytes": n, "seconds": secs}
+        for k, (sha, n, secs) in rows.items()}}
+    path = tmp_path / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_encode_compare_reports_changed_bytes_and_times(tmp_path, capsys, monkeypatch):
+    """The maintainers' check of an encoder change (issue 15: "identical output or a
+    measured, reported ratio change"): exit 0 when every encode kept its bytes, 1 with the
+    sizes when some changed; times are each side's best over its runs and thread counts."""
+    be = _bench_encode(monkeypatch)
+    a1 = _encode_run(tmp_path, "a1.json", x=("aa", 1000, {"1": 0.020, "2": 0.015}),
+                     y=("bb", 500, {"1": 0.010, "2": 0.008}))
+    a2 = _encode_run(tmp_path, "a2.json", x=("aa", 1000, {"1": 0.018, "2": 0.016}),
+                     y=("bb", 500, {"1": 0.012, "2": 0.009}))
+    b1 = _encode_run(tmp_path, "b1.json", x=("aa", 1000, {"1": 0.012, "2": 0.010}),
+                     y=("cc", 510, {"1": 0.010, "2": 0.0096}))
+    assert be.best_times([be.load(a1), be.load(a2)]) == {"x": 0.015, "y": 0.008}
+    assert be.compare([a1, a2], [a1]) == 0
+    assert "all 2 encodes identical" in capsys.readouterr().out
+    assert be.compare([a1, a2], [b1]) == 1
+    out = capsys.readouterr().out
+    assert "1 of 2 encodes changed" in out and "500 ->       510 B (+2.00 %)" in out
+    assert "more than 10 % slower: y" in out                      # 8.0 -> 9.6 ms: +20 %
+    assert "x " in out and "-33.3%" in out                        # 15 -> 10 ms
+
+
+def test_encode_compare_refuses_what_it_cannot_judge(tmp_path, monkeypatch):
+    """Two runs of one side with different bytes (a nondeterministic encoder, or runs of
+    two versions mixed up) and files of another kind are errors, not a verdict."""
+    import pytest
+    be = _bench_encode(monkeypatch)
+    a1 = _encode_run(tmp_path, "a1.json", x=("aa", 1000, {"1": 0.02}))
+    a2 = _encode_run(tmp_path, "a2.json", x=("ab", 1000, {"1": 0.02}))
+    with pytest.raises(SystemExit, match="two runs of the same side gave different bytes"):
+        be.compare([a1, a2], [a1])
+    other = tmp_path / "rd.json"
+    other.write_text(json.dumps({"bench": "rd", "schema": 1, "rows": []}))
+    with pytest.raises(SystemExit, match="not a bench_encode.py result"):
+        be.compare([other], [a1])

@@ -1,0 +1,156 @@
+"""Encoder regressions between two versions: the bytes of every real encode, and its time.
+
+    python bench/bench_encode.py [--files all | NAME ...] [--bounds default,1mm,5mm]
+                                 [--threads 1,2] --json OUT.json
+    python bench/bench_encode.py --compare BEFORE.json ... --against AFTER.json ...
+
+The first form encodes each file (a name under ../shared/data as bench_speed.py takes it,
+or ``all``) at each bound ("default": the encoder's own; "1mm": 1 mm in the file's units,
+1 unit where it declares none) with each thread count. It records the SHA-256 and size of
+the bytes and the best wall time (bench_speed's ``timed``: at least 3 calls and 0.3 s).
+The bytes must not depend on the thread count (issue 15): a row whose thread counts give
+different bytes is printed as an ERROR, and the command exits 1.
+
+An encoder change that should not change the output is checked by the second form: run
+the first with the old code (``PYTHONPATH=OLD/reference:OLD/spec:OLD/tools`` from a
+``git worktree`` of the old commit) and with the new, in turns, several times, because
+the host's load moves short timings by more than most changes do. ``--compare`` then
+prints each encode whose bytes changed, with its size before and after, and the time of
+every encode before and after (each side's best over its runs), their geometric mean, and
+the encodes that got more than 10 % slower. It exits 1 when some bytes changed, so that a
+refactoring can be gated on it; a change meant to alter the output says so in CHANGELOG.md
+with the sizes this prints.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+from pathlib import Path
+import sys
+
+from _common import shared_data_dir, two_versions
+
+SCHEMA = 1
+
+
+def measure(files: list[str], bounds: list[str], threads: list[int], out: Path) -> int:
+    """Encode every file x bound x thread count; write the rows to ``out``. Returns 1 when
+    the thread counts of a row gave different bytes, else 0."""
+    from bench_speed import bound_kwargs, files_of, find, timed
+    import mpz
+    import mpz.io
+    root = shared_data_dir()
+    if root is None:
+        raise SystemExit("no ../shared/data beside the repository: nothing to measure")
+    warm = mpz.io.read(find(root, "c3d/cmu_02_01")).select_frames(0, 50)
+    mpz.decode(mpz.encode(warm, max_error=1.0))                 # JIT warm-up
+    rows: dict[str, dict] = {}
+    status = 0
+    for path in files_of(root, files):
+        m = mpz.io.read(path)
+        for bound in bounds:
+            kw, _, desc = bound_kwargs(m, bound)
+            key = f"{path.relative_to(root)} {bound}"
+            digests, row = set(), {"bound": desc, "seconds": {}}
+            for t in threads:
+                data = mpz.encode(m, threads=t, **kw)
+                digests.add(hashlib.sha256(data).hexdigest())
+                row["seconds"][str(t)], _ = timed(
+                    lambda m=m, kw=kw, t=t: mpz.encode(m, threads=t, **kw), 3)
+            row.update(sha256=sorted(digests)[0], bytes=len(data))
+            rows[key] = row
+            times = " ".join(f"{row['seconds'][str(t)] * 1e3:8.2f}" for t in threads)
+            flag = ""
+            if len(digests) > 1:
+                status = 1
+                flag = f"  ERROR: {len(digests)} different outputs for threads {threads}"
+            print(f"{key:<48} {len(data):>9} B  ms {times}{flag}", flush=True)
+    out.write_text(json.dumps({"bench": "encode", "schema": SCHEMA, "mpz": mpz.__file__,
+                               "threads": threads, "rows": rows}, indent=1))
+    return status
+
+
+def load(path: Path) -> dict[str, dict]:
+    doc = json.loads(path.read_text())
+    if not isinstance(doc, dict) or doc.get("bench") != "encode" or doc.get("schema") != SCHEMA:
+        raise SystemExit(f"{path}: not a bench_encode.py result of schema {SCHEMA}")
+    return doc["rows"]
+
+
+def best_times(runs: list[dict[str, dict]]) -> dict[str, float]:
+    """Each encode's best time over the runs and its thread counts (the fastest, as
+    bench_speed's verdict takes it)."""
+    return {k: min(min(r[k]["seconds"].values()) for r in runs if k in r) for k in runs[0]}
+
+
+def differences(before: list[dict[str, dict]], after: list[dict[str, dict]]
+                ) -> tuple[list[tuple[str, int, int]], list[str]]:
+    """(encodes whose bytes differ: key, bytes before, bytes after; encodes on one side
+    only). A side's runs must agree on the bytes: a run of a side that disagrees with
+    its first run is an error."""
+    for side in (before, after):
+        for run in side[1:]:
+            for k, row in run.items():
+                if k in side[0] and row["sha256"] != side[0][k]["sha256"]:
+                    raise SystemExit(f"{k}: two runs of the same side gave different bytes")
+    b, a = before[0], after[0]
+    changed = [(k, b[k]["bytes"], a[k]["bytes"]) for k in b
+               if k in a and b[k]["sha256"] != a[k]["sha256"]]
+    return changed, sorted(set(b) ^ set(a))
+
+
+def compare(before_paths: list[Path], after_paths: list[Path]) -> int:
+    before = [load(p) for p in before_paths]
+    after = [load(p) for p in after_paths]
+    changed, alone = differences(before, after)
+    tb, ta = best_times(before), best_times(after)
+    keys = [k for k in before[0] if k in after[0]]
+    print(f"{'encode':<48} {'ms before':>10} {'after':>8} {'change':>7}")
+    for k in keys:
+        print(f"{k:<48} {tb[k] * 1e3:>10.2f} {ta[k] * 1e3:>8.2f} "
+              f"{100 * (ta[k] / tb[k] - 1):>+6.1f}%")
+    geo = math.exp(sum(math.log(ta[k] / tb[k]) for k in keys) / len(keys)) if keys else 1.0
+    slower = [k for k in keys if ta[k] > 1.10 * tb[k]]
+    print(f"time after / before, geometric mean of {len(keys)} encodes: {geo:.3f}; "
+          f"more than 10 % slower: {', '.join(slower) if slower else 'none'}")
+    for k in alone:
+        print(f"only on one side: {k}")
+    if not changed:
+        print(f"bytes: all {len(keys)} encodes identical")
+        return 0
+    print(f"bytes: {len(changed)} of {len(keys)} encodes changed:")
+    for k, nb, na in changed:
+        print(f"  {k:<46} {nb:>9} -> {na:>9} B ({100 * (na / nb - 1):+.2f} %)")
+    return 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--files", nargs="+", default=["all"])
+    ap.add_argument("--bounds", default="default,1mm,5mm",
+                    help="comma-separated: default, or a length in mm such as 1mm")
+    ap.add_argument("--threads", default="1,2", help="comma-separated thread counts")
+    args = two_versions(ap, argv)
+    if args.compare:
+        return compare(args.compare, args.against)
+    try:
+        threads = [int(t) for t in args.threads.split(",")]
+    except ValueError:
+        ap.error(f"--threads wants whole numbers such as 1,2, got {args.threads!r}")
+    if any(t < 1 for t in threads):
+        ap.error("--threads wants counts of 1 or more")
+    bounds = args.bounds.split(",")
+    for b in bounds:
+        try:
+            ok = b == "default" or (b.endswith("mm") and 0 < float(b[:-2]) < math.inf)
+        except ValueError:
+            ok = False
+        if not ok:
+            ap.error(f"--bounds wants default or lengths in mm such as 1mm, got {b!r}")
+    return measure(args.files, bounds, threads, args.json)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
