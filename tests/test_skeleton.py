@@ -457,6 +457,105 @@ def test_the_position_search_keeps_its_bound_by_an_independent_fk(depth, F, targ
     assert math.isclose(d, err, rel_tol=1e-9, abs_tol=1e-9)
 
 
+#: 16 frames of a QA run's synthetic BVH (stop 37): angles near 7.3e6 degrees, given to
+#: 3 decimals, so that steps finer than about 0.05 degree cannot be quantised (§4.14)
+_HUGE_ANGLE_ROWS = [
+    ("7326366.713 -7326361.602 7326359.509 -7326363.646 -7326359.318 "
+     "7326365.525 -7326360.317 -7326358.612 -7326363.756"),
+    ("7326365.066 -7326362.926 7326359.650 -7326363.287 -7326352.246 "
+     "7326362.472 -7326362.588 -7326355.298 -7326362.104"),
+    ("7326362.964 -7326361.575 7326350.861 -7326364.051 -7326347.665 "
+     "7326364.005 -7326367.506 -7326353.983 -7326359.059"),
+    ("7326362.622 -7326358.073 7326348.538 -7326366.043 -7326345.174 "
+     "7326363.156 -7326363.134 -7326356.374 -7326359.996"),
+    ("7326361.524 -7326356.269 7326350.870 -7326368.401 -7326346.019 "
+     "7326357.387 -7326367.569 -7326356.798 -7326361.395"),
+    ("7326364.033 -7326351.916 7326350.619 -7326367.265 -7326343.194 "
+     "7326364.601 -7326367.843 -7326357.257 -7326357.053"),
+    ("7326366.421 -7326350.946 7326349.044 -7326370.081 -7326343.649 "
+     "7326364.304 -7326365.874 -7326351.715 -7326359.026"),
+    ("7326368.698 -7326347.870 7326350.722 -7326375.421 -7326339.325 "
+     "7326364.900 -7326365.079 -7326349.540 -7326358.905"),
+    ("7326370.853 -7326343.688 7326350.677 -7326373.253 -7326338.538 "
+     "7326363.394 -7326369.975 -7326344.915 -7326357.146"),
+    ("7326367.051 -7326343.902 7326351.054 -7326370.944 -7326339.828 "
+     "7326362.906 -7326367.798 -7326344.959 -7326353.795"),
+    ("7326369.010 -7326342.409 7326349.850 -7326367.674 -7326340.304 "
+     "7326362.565 -7326369.676 -7326343.684 -7326358.871"),
+    ("7326365.697 -7326342.716 7326352.276 -7326369.423 -7326340.222 "
+     "7326358.515 -7326371.342 -7326348.164 -7326361.032"),
+    ("7326364.335 -7326340.160 7326350.027 -7326369.583 -7326334.960 "
+     "7326358.797 -7326372.301 -7326348.603 -7326354.671"),
+    ("7326364.069 -7326338.700 7326348.151 -7326370.633 -7326338.520 "
+     "7326358.496 -7326369.946 -7326343.339 -7326357.439"),
+    ("7326365.649 -7326335.018 7326348.335 -7326369.510 -7326337.103 "
+     "7326358.438 -7326367.708 -7326344.091 -7326357.006"),
+    ("7326360.609 -7326331.263 7326352.648 -7326370.651 -7326337.869 "
+     "7326354.222 -7326364.645 -7326347.561 -7326357.259"),
+]
+_HUGE_ANGLES = """HIERARCHY
+ROOT J0
+{
+OFFSET 0.0 0.0 0.0
+CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+JOINT J1
+{
+OFFSET -1.096245166245547 -2.429649475783073 1.5121929910758773
+CHANNELS 3 Zrotation Xrotation Yrotation
+End Site
+{
+OFFSET -110.40487280068547 -192.67117803750756 82.62619008515209
+}
+}
+}
+MOTION
+Frames: 16
+Frame Time: 0.01
+""" + "\n".join(_HUGE_ANGLE_ROWS) + "\n"
+
+
+def _search_within(text: str, target: float) -> None:
+    """The position search on ``text`` finds steps within ``target`` by bvh_fk."""
+    m = parse_bvh(text)
+    steps, err = sk.steps_for_position(m.extras["skeleton"], m.angles, target, None, None)
+    codings = [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in steps]
+    parsed = bvh_read(text)
+    src = bvh_fk(parsed)
+    parsed["values"] = ch.dequantise(ch.quantise(m.angles, steps), codings).tolist()
+    assert float(np.linalg.norm(bvh_fk(parsed) - src, axis=2).max()) <= target
+    assert err <= target
+
+
+def test_the_search_finds_steps_between_too_fine_and_too_coarse():
+    """QA, stop 37: narrowing down from a kappa whose steps were too coarse, the search
+    jumped past the few kappas within the bound to steps too fine to quantise, and
+    refused (the search before stop 37, halving, had found steps)."""
+    _search_within(_HUGE_ANGLES, 0.40336992924609816)
+
+
+def test_the_search_tries_coarser_steps_when_the_first_are_too_fine():
+    """QA, stop 37: a rotation about the bone's own axis moves no joint, so any step
+    keeps the bound; at 1e9 degrees the steps that the target suggests cannot be quantised,
+    and the search refused instead of trying coarser ones."""
+    rng = np.random.default_rng(3)
+    rows = "\n".join(f"{v:.3f}" for v in 1e9 + np.cumsum(rng.uniform(-1, 1, 50)))
+    text = ("HIERARCHY\nROOT J0\n{\nOFFSET 0 0 0\nCHANNELS 1 Yrotation\nEnd Site\n{\n"
+            f"OFFSET 0 100 0\n}}\n}}\nMOTION\nFrames: 50\nFrame Time: 0.01\n{rows}\n")
+    _search_within(text, 1.0)
+
+
+@pytest.mark.parametrize("target", [1e295, 1e296, 1e300])
+def test_a_huge_bound_is_not_an_infinite_step(target):
+    """QA, stop 37: targets from about 1e296 made the search's upper limit (1e12 x the
+    target) infinite, and its steps "a channel bound must be finite and > 0, got inf"."""
+    text = ("HIERARCHY\nROOT J0\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition "
+            "Zposition Zrotation Xrotation Yrotation\nJOINT J1\n{\nOFFSET 0 10 0\n"
+            "CHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 5 0\n}\n}\n}"
+            "\nMOTION\nFrames: 3\nFrame Time: 0.01\n" + "0 0 0 0 0 0 0 0 0\n" * 3)
+    data = mpz.encode(parse_bvh(text), max_error=target)
+    assert sk.report(data)["position_bound"] == target
+
+
 def _wrapped(walk: np.ndarray) -> np.ndarray:
     """Degrees folded into -180 .. 180 (as a file writes a spinning joint)."""
     return (walk + 180.0) % 360.0 - 180.0

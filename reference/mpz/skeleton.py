@@ -266,7 +266,7 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
                 cap = translation_cap
             if cap is not None:
                 bound = min(bound, cap)
-            bound = max(bound, 10.0 ** -MAX_STEP_DIGITS)
+            bound = min(max(bound, 10.0 ** -MAX_STEP_DIGITS), 1e300)    # finite: step_for
             step = cache.get(bound)
             if step is None:
                 step = cache[bound] = step_for(bound)
@@ -298,48 +298,74 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         return e
 
     # error(kappa) grows with kappa (in steps, as the step ladder is discrete) and about in
-    # proportion to it. A joint's error adds up the errors of the channels along its chain,
-    # so error(kappa) is 2-5 x kappa on the real files: measure at a quarter of the target,
-    # aim at the target in proportion, bracket it with factors from 1.04 that square (up to
-    # 2) at each further step, then bisect to within 1 % (on the real files 3-11 measures,
-    # against 9-16 when doubling and halving from the target itself; issue 15.1)
-    kappa = target / 4
-    first = error(kappa)
-    if first == math.inf:                # too fine for the value range: from the target
-        kappa = target
-    elif first > 0.0:
-        kappa *= min(target / first, 1e6)
-    factor = 1.04
-    if error(kappa) <= target:
-        lo, hi = kappa, kappa * factor
-        while error(hi) <= target and hi < 1e12 * target:
-            factor = min(factor * factor, 2.0)
-            lo, hi = hi, hi * factor
-    else:
-        lo, hi = 0.0, kappa
-        for _ in range(64):
-            kappa /= factor
-            if error(kappa) <= target:
-                lo = kappa
-                break
-            hi = kappa
-            factor = min(factor * factor, 2.0)
-    while lo and hi - lo > 0.01 * lo:
-        mid = (lo + hi) / 2
-        if error(mid) <= target:
-            lo = mid
+    # proportion to it; it is inf where the steps are too fine for the value range, which
+    # only coarser steps (a larger kappa) cure. The search keeps the largest kappa found
+    # within the aim (lo), the smallest beyond it (hi) and the largest too fine (fine).
+    size = max(rest_height(skel) * scale, 1.0)
+    aim = (target - size * 2.0 ** -30) / (1 + 2.0 ** -20)     # declared(aim) = target
+    limit = min(1e12 * target, 1e300)
+    lo, hi, fine = 0.0, math.inf, 0.0
+
+    def probe(kappa: float) -> float:
+        nonlocal lo, hi, fine
+        e = error(kappa)
+        if e <= aim:
+            lo = max(lo, kappa)
+        elif e == math.inf:
+            fine = max(fine, kappa)
         else:
-            hi = mid
-    # the subsample may miss the worst frame: shrink in proportion to the whole's excess
+            hi = min(hi, kappa)
+        return e
+
+    if aim > 0.0:
+        # A joint's error adds up the errors of the channels along its chain, so error is
+        # 2-5 x kappa on the real files: measure at a quarter of the target and aim at it
+        # in proportion (coarser while too fine to quantise)
+        first = probe(target / 4)
+        kappa = target / 4 * min(aim / first, 1e6) if 0.0 < first < math.inf else target
+        while probe(kappa) == math.inf and kappa < limit:
+            kappa = min(kappa * 2, limit)
+        # bracket it: factors from 1.04 that square (up to 2) at each further step, never
+        # below a kappa known within, and halving the gap to one too fine
+        factor = 1.04
+        for _ in range(200):
+            if lo >= kappa and hi == math.inf and kappa < limit:
+                kappa = min(kappa * factor, limit)                      # coarser
+            elif lo == 0.0 and fine == 0.0:
+                kappa = hi / factor                                     # finer
+            elif lo == 0.0 and hi < math.inf and hi - fine > 0.01 * fine:
+                kappa = (fine + hi) / 2                                 # finer, not too fine
+            else:
+                break
+            probe(kappa)
+            factor = min(factor * factor, 2.0)
+        # then bisect to within 1 % (on the real files 3-11 measures in all, against 9-16
+        # when doubling and halving from the target itself; issue 15.1)
+        while lo and hi < math.inf and hi - lo > 0.01 * lo:
+            probe((lo + hi) / 2)
+    # the subsample may miss the worst frame: check every frame, shrink in proportion to
+    # the excess until it holds, then bisect back to within 3 %
+    good, bad = 0.0, 0.0
+    kappa = lo
     for _ in range(200):
-        if not lo:
+        if not kappa:
             break
-        err = error(lo, whole=True)
-        if err <= target:
-            return steps(lo), err
-        lo *= min(0.97, target / err)             # 0 once too fine for the value range
-    raise EncoderError(f"no channel steps keep the joint positions within {target:g}; "
-                       "give a larger --max-error")
+        err = error(kappa, whole=True)
+        if err <= aim:
+            good = kappa
+            break
+        bad = kappa
+        kappa *= min(0.97, aim / err)             # 0 once too fine for the value range
+    if not good:
+        raise EncoderError(f"no channel steps keep the joint positions within {target:g}; "
+                           "give a larger --max-error")
+    while bad and bad - good > 0.03 * good:
+        mid = (good + bad) / 2
+        if error(mid, whole=True) <= aim:
+            good = mid
+        else:
+            bad = mid
+    return steps(good), error(good, whole=True)
 
 
 def preview_bound(motion: Motion) -> float | None:
