@@ -339,7 +339,7 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
                 break
             probe(kappa)
             factor = min(factor * factor, 2.0)
-        # then bisect to within 1 % (on the real files 3-11 measures in all, against 9-16
+        # then bisect to within 1 % (on the real files 3-12 measures in all, against 9-16
         # when doubling and halving from the target itself; issue 15.1)
         while lo and hi < math.inf and hi - lo > 0.01 * lo:
             probe((lo + hi) / 2)
