@@ -451,3 +451,28 @@ def test_options_cross_processes_and_key_caches(walk: Motion) -> None:
         # the function a spawned process can import: mpz's own (not this test module's)
         got, _ = pool.submit(encode_motion, walk, EncodeOptions(max_error=1.0)).result()
     assert got == encode_motion(walk, EncodeOptions(max_error=1.0))[0]
+
+
+# ------------------------------------ residuals beyond the coder's range (stop 37) --
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(3, 80), st.integers(1, 5), st.floats(1.0e8, 2.4e8), st.integers(1, 2),
+       st.sampled_from(["off", "on"]), st.integers(0, 2**32 - 1))
+def test_values_near_the_grid_limit_encode_within_the_bound(F, M, P, threads, patterns, seed):
+    """A QA run (stop 37): markers that swing between -P and +P every frame, with P just
+    inside the grid's check (|u| < 2^29 at 1 mm), made the encoder raise LimitExceededError
+    (a FormatError) from the coder: their order-2 residuals (4P) or key-frame residuals
+    passed 2^30. Such an order or base now cannot be chosen, and order 1 (2P) always can;
+    with patterns, a cluster left empty was coded as a NaN centre. The file must decode
+    within the bound."""
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.0, 1.0, (F, M, 3))
+    swing = np.where(np.arange(F) % 2, P, -P)
+    for k in range(M):
+        x[:, k, int(rng.integers(0, 3))] = rng.choice([-1, 1]) * swing * rng.uniform(0.5, 1)
+    m = Motion(x, [f"m{k}" for k in range(M)], 100.0, "mm")
+    back = mpz.decode(mpz.encode(m, max_error=1.0, threads=threads, patterns=patterns))
+    assert float(np.linalg.norm(back.positions - x, axis=2).max()) <= 1.0

@@ -59,7 +59,7 @@ from mpz.chunks.summary import CodedSummaryLevel
 from mpz.chunks.summary import encode_levels as encode_summary_levels
 from mpz.cluster import adaptive_kmeans
 from mpz.entropy import MAX_EXP, BlockEncoder
-from mpz.errors import EncoderError, MotionError
+from mpz.errors import EncoderError, LimitExceededError, MotionError
 from mpz.extensions import EXTENSIONS
 from mpz.format import (
     FLAG_RESIDUAL,
@@ -682,9 +682,14 @@ def _lattice(y: FloatArray, radius: float, order: int) -> IntArray:
 def _coded(e: IntArray, limit: int | None) -> bytes | None:
     """The payload of residuals ``e``, or None when it is longer than ``limit`` bytes (the
     coder stops as soon as it is sure of that, issue 15.1; the flush can still add bytes
-    past the limit, so the finished length is checked too)."""
+    past the limit, so the finished length is checked too), or when a residual is beyond
+    the coder's range (§5.4: |e| < 2^30): order 2 of values that pass the grid's check
+    (|u| < 2^29) can reach 2^31, and that order then cannot be chosen (a QA run, stop 37)."""
     enc = BlockEncoder(capacity=_capacity(e.size), limit=limit)
-    enc.block(e)
+    try:
+        enc.block(e)
+    except LimitExceededError:
+        return None
     if enc.over:
         return None
     data = enc.finish()
@@ -723,8 +728,14 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
             best = None                          # let the previous best go first
             best = _kept(e, order, data)
         del e
-    assert best is not None or limit is not None
+    if best is None and limit is None:
+        raise EncoderError(_BEYOND_RANGE)
     return best
+
+
+#: when no candidate's residuals fit the coder (unreachable when |u| < 2^29, kept as a guard)
+_BEYOND_RANGE = ("the residuals of every prediction order exceed the coder's range (spec §5.4: "
+                 "|e| < 2^30); give a larger --max-error")
 
 
 def _weights_for(node: Node) -> FloatArray:
@@ -1129,6 +1140,9 @@ def code_patterns(x: FloatArray, w: FloatArray, opts: EncodeOptions, addh_q: flo
     vec = (segs * sw).reshape(S, -1)
     labels, _ = adaptive_kmeans(vec, opts.k0, opts.tau * addh_q / boost,
                                 metric=opts.metric, per_sample=L * n, seed=seed)
+    # only the clusters that kept a segment become patterns (an empty one has no mean: a
+    # QA run, stop 37, met one and coded its NaN centre as -2^63)
+    labels = np.unique(labels, return_inverse=True)[1].reshape(-1)
     K = int(labels.max()) + 1
     # relabel by frequency so the most used pattern gets index 0
     order = np.argsort(-np.bincount(labels, minlength=K), kind="stable")
@@ -1209,8 +1223,6 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         T, n = y.shape[0], y.shape[1]
         fitted = keyframe.fit_members(y, grid.bounds[i] / (gk * grid.step), pool=pool)
         del y
-        # at most T keys a member: 3 key values, a span, plus a source and a count each
-        enc = BlockEncoder(capacity=_capacity(4 * T * n + 2 * n))
 
         def targets() -> FloatArray:            # base 1's targets: a copy of its own
             y = u_members()
@@ -1223,7 +1235,7 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
             # lattice of order 1 and codes order 1; the lattice of order 2 is made by
             # whichever thread is free first, and this thread codes order 2. The smaller
             # wins, order 1 on a tie: _bounded's choice.
-            klen: Future[int] = Future()
+            klen: Future[int | None] = Future()
             second: Future[IntArray] = Future()
             claim = threading.Lock()            # held by the thread that makes order 2's
 
@@ -1244,15 +1256,14 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
                 return e1, _coded(e1, klen.result())
             job = pool.submit(first)
             try:
-                keyframe.write_blocks(enc, fitted, T)
-                kdata = enc.finish()
+                kdata = _keyframes_coded(fitted, T, n)
             except BaseException as exc:
                 klen.set_exception(exc)
                 raise
-            klen.set_result(len(kdata))
+            klen.set_result(None if kdata is None else len(kdata))
             make_second()
             e2 = second.result()
-            data2 = _coded(e2, len(kdata))
+            data2 = _coded(e2, None if kdata is None else len(kdata))
             e1, data1 = job.result()
             del job
             if data1 is not None and (data2 is None or len(data1) <= len(data2)):
@@ -1264,17 +1275,33 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
                 absolute = None if data2 is None else _kept(e2, 2, data2)
                 del e2
         else:
-            keyframe.write_blocks(enc, fitted, T)
-            kdata = enc.finish()
-            absolute = _bounded(targets(), radius, (1, 2), len(kdata))
+            kdata = _keyframes_coded(fitted, T, n)
+            absolute = _bounded(targets(), radius, (1, 2), None if kdata is None else len(kdata))
+        if absolute is None and kdata is None:
+            raise EncoderError(_BEYOND_RANGE)
         wk = fitted.out
         del fitted
         if absolute is not None:
             order, wv, data = absolute
             del absolute
             out.append((len(data), ResidualLayer(ResidualBase.ABSOLUTE, order, g, wv, data)))
-        out.append((len(kdata), ResidualLayer(ResidualBase.KEYFRAMES, 0, gk, wk, kdata)))
+        if kdata is not None:
+            out.append((len(kdata), ResidualLayer(ResidualBase.KEYFRAMES, 0, gk, wk, kdata)))
     return out
+
+
+def _keyframes_coded(fitted: keyframe.Fitted, T: int, n: int) -> bytes | None:
+    """The key-frame layer's payload of ``n`` members over ``T`` frames, or None when a key
+    residual is beyond the coder's range (§5.4: |e| < 2^30; keys near |u| = 2^29 predicted
+    from a member on the other side can be): that base then cannot be chosen, and base 1's
+    order 1 (|e| <= 2 |u| + 1 < 2^30) always can (a QA run, stop 37)."""
+    # at most T keys a member: 3 key values, a span, plus a source and a count each
+    enc = BlockEncoder(capacity=_capacity(4 * T * n + 2 * n))
+    try:
+        keyframe.write_blocks(enc, fitted, T)
+    except LimitExceededError:
+        return None
+    return enc.finish()
 
 
 @dataclass(frozen=True)
