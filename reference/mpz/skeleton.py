@@ -238,8 +238,9 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
 
     Each channel gets a bound inversely proportional to how far its error moves a joint
     (a rotation: its joint's lever arm; a translation: one to one), times a common factor
-    found by bisection on the measured error; ``angle_cap`` / ``translation_cap`` (when
-    given) cap the bounds.
+    made as large as the measured error allows (spec Appendix C: aimed at in proportion,
+    bracketed, bisected), aiming below ``target`` by the rounding margin of
+    :func:`declared`; ``angle_cap`` / ``translation_cap`` (when given) cap the bounds.
     """
     scale = marker_scale(skel)
     pos = forward(skel, values)
