@@ -556,6 +556,21 @@ def test_a_huge_bound_is_not_an_infinite_step(target):
     assert sk.report(data)["position_bound"] == target
 
 
+def test_a_bound_within_the_rounding_of_forward_kinematics_is_refused_as_such():
+    """A given position bound leaves 2^-30 of the skeleton's size for the rounding of an
+    independent forward kinematics, as the declared bound without one does (Appendix C);
+    a bound below that is refused, saying so and what would do (a QA run of stop 37 met
+    "no channel steps keep the joint positions" for it)."""
+    rng = np.random.default_rng(5)
+    values = np.cumsum(rng.normal(0.0, 1.0, (20, 12)), axis=0)
+    m = parse_bvh(_chain_bvh(2, values, [3e6, 3e6]))             # about 6e6 units tall
+    with pytest.raises(EncoderError, match=r"within the rounding of forward kinematics"
+                                           r".*give a --max-error above 0\.00"):
+        sk.steps_for_position(m.extras["skeleton"], m.angles, 1e-4, None, None)
+    steps, err = sk.steps_for_position(m.extras["skeleton"], m.angles, 0.05, None, None)
+    assert 0 <= err <= 0.05
+
+
 def _wrapped(walk: np.ndarray) -> np.ndarray:
     """Degrees folded into -180 .. 180 (as a file writes a spinning joint)."""
     return (walk + 180.0) % 360.0 - 180.0

@@ -304,6 +304,11 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     # within the aim (lo), the smallest beyond it (hi) and the largest too fine (fine).
     size = max(rest_height(skel) * scale, 1.0)
     aim = (target - size * 2.0 ** -30) / (1 + 2.0 ** -20)     # declared(aim) = target
+    if aim <= 0.0:
+        raise EncoderError(f"a joint-position bound of {target:g} is within the rounding of "
+                           f"forward kinematics on this skeleton (2^-30 of its size "
+                           f"{size:g}, spec Appendix C); give a --max-error above "
+                           f"{size * 2.0 ** -30:.3g}")
     limit = min(1e12 * target, 1e300)
     lo, hi, fine = 0.0, math.inf, 0.0
 
@@ -318,32 +323,31 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
             hi = min(hi, kappa)
         return e
 
-    if aim > 0.0:
-        # A joint's error adds up the errors of the channels along its chain, so error is
-        # 2-5 x kappa on the real files: measure at a quarter of the target and aim at it
-        # in proportion (coarser while too fine to quantise)
-        first = probe(target / 4)
-        kappa = target / 4 * min(aim / first, 1e6) if 0.0 < first < math.inf else target
-        while probe(kappa) == math.inf and kappa < limit:
-            kappa = min(kappa * 2, limit)
-        # bracket it: factors from 1.04 that square (up to 2) at each further step, never
-        # below a kappa known within, and halving the gap to one too fine
-        factor = 1.04
-        for _ in range(200):
-            if lo >= kappa and hi == math.inf and kappa < limit:
-                kappa = min(kappa * factor, limit)                      # coarser
-            elif lo == 0.0 and fine == 0.0:
-                kappa = hi / factor                                     # finer
-            elif lo == 0.0 and hi < math.inf and hi - fine > 0.01 * fine:
-                kappa = (fine + hi) / 2                                 # finer, not too fine
-            else:
-                break
-            probe(kappa)
-            factor = min(factor * factor, 2.0)
-        # then bisect to within 1 % (on the real files 3-12 measures in all, against 9-16
-        # when doubling and halving from the target itself; issue 15.1)
-        while lo and hi < math.inf and hi - lo > 0.01 * lo:
-            probe((lo + hi) / 2)
+    # A joint's error adds up the errors of the channels along its chain, so error is
+    # 2-5 x kappa on the real files: measure at a quarter of the target and aim at it
+    # in proportion (coarser while too fine to quantise)
+    first = probe(target / 4)
+    kappa = target / 4 * min(aim / first, 1e6) if 0.0 < first < math.inf else target
+    while probe(kappa) == math.inf and kappa < limit:
+        kappa = min(kappa * 2, limit)
+    # bracket it: factors from 1.04 that square (up to 2) at each further step, never
+    # below a kappa known within, and halving the gap to one too fine
+    factor = 1.04
+    for _ in range(200):
+        if lo >= kappa and hi == math.inf and kappa < limit:
+            kappa = min(kappa * factor, limit)                      # coarser
+        elif lo == 0.0 and fine == 0.0:
+            kappa = hi / factor                                     # finer
+        elif lo == 0.0 and hi < math.inf and hi - fine > 0.01 * fine:
+            kappa = (fine + hi) / 2                                 # finer, not too fine
+        else:
+            break
+        probe(kappa)
+        factor = min(factor * factor, 2.0)
+    # then bisect to within 1 % (on the real files 3-12 measures in all, against 9-16
+    # when doubling and halving from the target itself; issue 15.1)
+    while lo and hi < math.inf and hi - lo > 0.01 * lo:
+        probe((lo + hi) / 2)
     # the subsample may miss the worst frame: check every frame, shrink in proportion to
     # the excess until it holds, then bisect back to within 3 %
     good, bad = 0.0, 0.0
