@@ -544,6 +544,60 @@ def test_the_search_tries_coarser_steps_when_the_first_are_too_fine():
     _search_within(text, 1.0)
 
 
+#: a QA run's synthetic BVH (stop 37): whole angles near 1e7 degrees over 2 frames
+_WHOLE_ANGLES_HIERARCHY = [
+    'HIERARCHY',
+    'ROOT J0',
+    '{',
+    'OFFSET 42.264211533968876 -8.798212980684283 -38.71001219749351',
+    'CHANNELS 6 Zrotation Xposition Zposition Yrotation Xrotation Yposition',
+    'JOINT J1',
+    '{',
+    'OFFSET -44.142033147484895 2.85239070355788 -7.870076053356755',
+    'CHANNELS 5 Xrotation Zrotation Yrotation Zposition Yposition',
+    'End Site',
+    '{',
+    'OFFSET -9.878441736838791 25.520711671515933 14.82300920159578',
+    '}',
+    '}',
+    'JOINT J2',
+    '{',
+    'OFFSET 22.596710783476837 -46.525902741838976 33.17209152043564',
+    'CHANNELS 3 Yrotation Zrotation Xrotation',
+    'End Site',
+    '{',
+    'OFFSET 12.654689314570845 -2.7701383300825313 -2.937579382597036',
+    '}',
+    '}',
+    'JOINT J3',
+    '{',
+    'OFFSET 15.088223854057418 -34.58655864207857 49.50538171647176',
+    'CHANNELS 3 Yrotation Xrotation Zrotation',
+    '}',
+    '}',
+]
+_WHOLE_ANGLES_ROWS = [
+    [-10000001, -10000000, 9999999, 9999999, -9999999, -10000000, 10000002, 9999999, 10000000,
+     -9999999, -9999999, 10000001, 9999999, 10000001, -10000000, -10000000, -10000001],
+    [-10000003, -9999999, 9999999, 9999999, -9999999, -10000002, 10000001, 10000000, 10000001,
+     -10000000, -9999997, 10000000, 9999999, 10000001, -10000000, -10000003, -9999999],
+]
+
+
+def test_a_motion_no_common_factor_fits_is_kept_at_its_own_decimals():
+    """QA, stop 37: no factor of the lever-arm allocation keeps these joints within 40.5
+    (the channels' steps are too fine to quantise or too coarse), yet whole degrees give
+    every value back, so the search now falls back on each channel's own decimals."""
+    text = "\n".join(_WHOLE_ANGLES_HIERARCHY) + "\nMOTION\nFrames: 2\nFrame Time: 0.0083333\n"
+    text += "\n".join(" ".join(str(v) for v in r) for r in _WHOLE_ANGLES_ROWS) + "\n"
+    m = parse_bvh(text)
+    steps, err = sk.steps_for_position(m.extras["skeleton"], m.angles, 40.47601644560008,
+                                       None, None)
+    assert {(s.mantissa, s.digits) for s in steps} == {(1, 0)} and err == 0.0
+    assert sk.exact_steps(np.array([[1.5, 2.0], [0.25, 3.0]])) == [ch.Step(1, 2), ch.Step(1, 0)]
+    assert sk.exact_steps(np.array([[1e-10]])) is None         # finer than 10^-9
+
+
 @pytest.mark.parametrize("target", [1e295, 1e296, 1e300])
 def test_a_huge_bound_is_not_an_infinite_step(target):
     """QA, stop 37: targets from about 1e296 made the search's upper limit (1e12 x the

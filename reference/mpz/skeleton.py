@@ -284,7 +284,9 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     measured: dict[tuple[bool, tuple[Step, ...]], float] = {}
 
     def error(kappa: float, whole: bool = False) -> float:
-        st = steps(kappa)
+        return measure(steps(kappa), whole)
+
+    def measure(st: list[Step], whole: bool = False) -> float:
         key = (whole and stride > 1, tuple(st))
         if key in measured:
             return measured[key]
@@ -362,6 +364,11 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         bad = kappa
         kappa *= min(0.97, aim / err)             # 0 once too fine for the value range
     if not good:
+        # no common factor: the channels' own decimals may still give every value back
+        # (a QA run, stop 37: integer angles near 1e7 degrees, refused at any factor)
+        exact = exact_steps(values)
+        if exact is not None and (err := measure(exact, whole=True)) <= aim:
+            return exact, err
         raise EncoderError(f"no channel steps keep the joint positions within {target:g}; "
                            "give a larger --max-error")
     while bad and bad - good > 0.03 * good:
@@ -371,6 +378,25 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         else:
             bad = mid
     return steps(good), error(good, whole=True)
+
+
+def exact_steps(values: FloatArray) -> list[Step] | None:
+    """Per channel of ``values[F, C]``, the coarsest step 10^-d (d = 0 .. 9) at which every
+    value comes back exactly (a file's own decimals), or None when a channel has none."""
+    out = []
+    for col in np.asarray(values, np.float64).T:
+        for d in range(MAX_STEP_DIGITS + 1):
+            step = Step(1, d)
+            try:
+                x = quantise(col[:, None], [step])
+            except EncoderError:                  # finer steps cannot be quantised either
+                return None
+            if np.array_equal(dequantise(x, [ChannelCoding(1, d, 0, 0, 0, 0)])[:, 0], col):
+                out.append(step)
+                break
+        else:
+            return None
+    return out
 
 
 def preview_bound(motion: Motion) -> float | None:
