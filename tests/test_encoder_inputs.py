@@ -476,3 +476,15 @@ def test_values_near_the_grid_limit_encode_within_the_bound(F, M, P, threads, pa
     m = Motion(x, [f"m{k}" for k in range(M)], 100.0, "mm")
     back = mpz.decode(mpz.encode(m, max_error=1.0, threads=threads, patterns=patterns))
     assert float(np.linalg.norm(back.positions - x, axis=2).max()) <= 1.0
+
+
+@pytest.mark.parametrize("frames", [2, 8, 41])
+def test_a_lossy_root_near_the_grid_limit_is_coded(frames):
+    """A second QA run (stop 37): in lossy mode the root is coded by _best_order, which
+    passed order 1 and 2 residuals of values near 2^29 grid steps (2P, 4P) to the coder:
+    LimitExceededError. Order 0 always fits; the decode must give the values back within
+    the grid's rounding."""
+    P = round(0.51 * 2**29)
+    x = np.where(np.arange(frames)[:, None, None] % 2 == 0, -1.0, 1.0) * np.ones((frames, 1, 3)) * P
+    back = mpz.decode(mpz.encode(Motion(x, ["a"], 100.0, "mm"), lossy=True, grid=1.0, threads=1))
+    assert np.isfinite(back.positions).all() and back.positions.shape == x.shape

@@ -661,15 +661,21 @@ def _round(a):
 
 def _best_order(block: IntArray, period: int | None = None,
                 orders: tuple[int, ...] = (0, 1, 2)) -> tuple[int, bytes]:
-    """Code ``block`` with each predictor order; return (order, payload) of the smallest."""
+    """Code ``block`` with each predictor order; return (order, payload) of the smallest.
+    An order whose residuals pass the coder's range (§5.4) is not chosen (as in
+    :func:`_coded`; a QA run, stop 37: the lossy root of values near 2^29 grid steps)."""
     best: tuple[int, bytes] | None = None
     for order in orders:
         enc = BlockEncoder(capacity=_capacity(block.size))
-        enc.block(residuals(block, order, period), period=period)
+        try:
+            enc.block(residuals(block, order, period), period=period)
+        except LimitExceededError:
+            continue
         data = enc.finish()
         if best is None or len(data) < len(best[1]):
             best = (order, data)
-    assert best is not None
+    if best is None:
+        raise EncoderError(_BEYOND_RANGE)
     return best
 
 
@@ -733,7 +739,9 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
     return best
 
 
-#: when no candidate's residuals fit the coder (unreachable when |u| < 2^29, kept as a guard)
+#: when no candidate's residuals fit the coder: without patterns base 1's order 1 always
+#: fits (|u| < 2^29); with patterns the residual against a pattern's prediction can pass
+#: 2^30 near that limit (a QA run, stop 37), and this refusal is then the answer
 _BEYOND_RANGE = ("the residuals of every prediction order exceed the coder's range (spec §5.4: "
                  "|e| < 2^30); give a larger --max-error")
 
