@@ -230,6 +230,22 @@ def declared(measured: float, scale: float) -> float:
     return measured * (1 + 2.0 ** -20) + scale * 2.0 ** -30
 
 
+def within(bound: float, scale: float) -> float:
+    """The largest measured error that :func:`declared` keeps within ``bound`` (the inverse
+    of its margin); 0 or less when the bound is inside the margin itself."""
+    return (bound - scale * 2.0 ** -30) / (1 + 2.0 ** -20)
+
+
+def skeleton_size(skel: Skeleton) -> float:
+    """The skeleton's size in marker units, at least 1: the ``scale`` of :func:`declared`."""
+    return max(rest_height(skel) * marker_scale(skel), 1.0)
+
+
+def _rebuilt(x: IntArray, steps: Sequence[Step]) -> FloatArray:
+    """The channel values a decoder rebuilds from integers ``x[F, C]`` at ``steps``."""
+    return dequantise(x, [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in steps])
+
+
 def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
                        angle_cap: float | None, translation_cap: float | None
                        ) -> tuple[list[Step], float]:
@@ -296,16 +312,15 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         except EncoderError:             # too fine for the value range: cannot be used
             measured[key] = math.inf
             return math.inf
-        back = dequantise(x, [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in st])
-        measured[key] = e = position_error(skel, v, back, joints)
+        measured[key] = e = position_error(skel, v, _rebuilt(x, st), joints)
         return e
 
     # error(kappa) grows with kappa (in steps, as the step ladder is discrete) and about in
     # proportion to it; it is inf where the steps are too fine for the value range, which
     # only coarser steps (a larger kappa) cure. The search keeps the largest kappa found
     # within the aim (lo), the smallest beyond it (hi) and the largest too fine (fine).
-    size = max(rest_height(skel) * scale, 1.0)
-    aim = (target - size * 2.0 ** -30) / (1 + 2.0 ** -20)     # declared(aim) = target
+    size = skeleton_size(skel)
+    aim = within(target, size)
     if aim <= 0.0:
         raise EncoderError(f"a joint-position bound of {target:g} is within the rounding of "
                            f"forward kinematics on this skeleton (2^-30 of its size "
@@ -391,7 +406,7 @@ def exact_steps(values: FloatArray) -> list[Step] | None:
                 x = quantise(col[:, None], [step])
             except EncoderError:                  # finer steps cannot be quantised either
                 return None
-            if np.array_equal(dequantise(x, [ChannelCoding(1, d, 0, 0, 0, 0)])[:, 0], col):
+            if np.array_equal(_rebuilt(x, [step])[:, 0], col):
                 out.append(step)
                 break
         else:
@@ -551,8 +566,9 @@ class SkeletonExtension:
         err = st.measured
         if err is None:
             err = position_error(skel, values, dequantise(quantise(values, st.steps), codings))
-        size = max(rest_height(skel) * marker_scale(skel), 1.0)
-        bound = st.position_bound if st.position_bound is not None else declared(err, size)
+        bound = st.position_bound
+        if bound is None:
+            bound = declared(err, skeleton_size(skel))
         if err > bound:                                    # steps_for_position checked it
             raise EncoderError(f"the channels move joints by {err:g}, beyond the bound "
                                f"{bound:g} (spec §7.2)")
