@@ -294,6 +294,64 @@ def test_a_large_radius_follows_the_rule_through_choose_lattice():
             _lattice_by_the_rule(y.tolist(), 12.0, order)
 
 
+def _axis_least(y, p, lam=1e-3):
+    """The first integer x of least |x - p| + lam (x - y)^2, over a range wide enough for
+    any lam >= 1e-3 (the least is within 1 / (2 lam) + 1 of y)."""
+    x = np.arange(np.floor(y) - 600, np.ceil(y) + 601)
+    return int(x[np.argmin(np.abs(x - p) + lam * (x - y) ** 2)])
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(868.0, 1e12), st.integers(0, 2 ** 32 - 1),
+       st.sampled_from([0.0, 1.0, 30.0, 499.0, 501.0, 2000.0, 1e6]), st.booleans())
+def test_a_radius_far_past_the_reach_picks_each_axis_own_least(radius, seed, far, snap):
+    """From a radius of 868 grid steps (sqrt(3) x 501) the ball holds the point where each
+    axis's share of the cost is least, so the lattice choice is that point, the first on a
+    tie axis by axis (a grid 10^5-10^7 times finer than the bound made radii this large:
+    seconds to minutes for 40 samples, and 11 GB for the key frames; a QA run, stop 37)."""
+    from mpz import quantize
+    rng = np.random.default_rng(seed)
+    y = rng.normal(0, 1e6, 3)
+    if snap:
+        y = np.round(2 * y) / 2                              # half steps: the axes tie
+    p = np.round(y + rng.normal(0, 1, 3) * far)
+    want = tuple(_axis_least(y[k], p[k]) for k in range(3))
+    assert quantize._pick_pruned(*y, radius, *p) == want
+    w = quantize.choose_lattice(np.array([[np.round(p)], [y]]), radius, 1)
+    assert tuple(w[1, 0]) == want
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6), st.integers(0, 10 ** 6))
+def test_no_grid_point_past_the_reach_can_win(y, p, beyond):
+    """quantize._REACH, the box the lattice choice searches whatever the radius: a point
+    farther along an axis than it costs more on that axis than the one a step back towards
+    the target (which is in the ball if the point was)."""
+    from mpz import quantize
+    lam = quantize._LAMBDA
+
+    def g(x):
+        return abs(x - p) + lam * (x - y) ** 2
+    up = np.ceil(y + quantize._REACH) + beyond
+    down = np.floor(y - quantize._REACH) - beyond
+    assert g(up) > g(up - 1)
+    assert g(down) > g(down + 1)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(2, 30), st.floats(4.0, 1e9), st.integers(0, 2 ** 32 - 1))
+def test_a_keyframe_radius_past_the_cap_is_searched_within_it(T, radius, seed):
+    """The key-frame fit lists every grid point of its ball, (2r)^3: a radius past
+    keyframe.MAX_RADIUS is searched within MAX_RADIUS (the keys the rule gives there, so
+    every sample is within the given radius too), where a radius of 350 allocated 11 GB."""
+    from mpz.keyframe import MAX_RADIUS, fit
+    rng = np.random.default_rng(seed)
+    y = np.cumsum(rng.normal(0, 3, (T, 3)), axis=0) + rng.normal(0, 1e4, 3)
+    times, vals = fit(y, radius)
+    want_t, want_v = _fit_by_the_rule(y.tolist(), MAX_RADIUS, 256, 1.0)
+    assert (times.tolist(), vals.tolist()) == (want_t, want_v)
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.integers(1, 6), st.integers(3, 50), st.integers(0, 2 ** 32 - 1))
 def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):

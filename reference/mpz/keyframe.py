@@ -40,6 +40,14 @@ if TYPE_CHECKING:
 
 _VALUE_LIMIT = 1 << 31
 _T = TypeVar("_T")
+#: the key values are searched within this radius (grid steps) when a larger one is given:
+#: :func:`_fit` lists every grid point of the ball, (2r)^3 of them, so a radius of 350
+#: (a grid step 10^7 times finer than the bound, the scale g at its cap of 65535) would
+#: allocate 11 GB. Every sample is then within the smaller radius, so within the given
+#: one too. The encoder's own radii stay below 2 sqrt(3) = 3.46 while g < 65535 (key
+#: frames use g // 2 steps, per-sample layers g: g = 2 or 3 with key frames on g = 1),
+#: and are then unchanged
+MAX_RADIUS = 4.0
 
 
 def interpolate(times: ArrayLike, values: ArrayLike, F: int) -> NDArray[np.int64]:
@@ -482,14 +490,20 @@ def fit(y: ArrayLike, radius: float, max_span: int = 256, lam: float = 1.0,
 
     Returns the key times ``[K]`` and the key values ``[K, 3]`` on the grid; with
     ``track`` (C-contiguous int32 ``[T, 3]``), also writes there what the decoder rebuilds
-    from them (:func:`interpolate`).
+    from them (:func:`interpolate`). A ``radius`` above :data:`MAX_RADIUS` is searched
+    within :data:`MAX_RADIUS`.
     """
-    if radius < np.sqrt(3.0) / 2:
-        raise ValueError("radius < sqrt(3)/2 cannot guarantee a grid point")
     y = np.ascontiguousarray(y, dtype=np.float64)
     if track is None:
         track = np.empty((len(y), 3), np.int32)
-    return _fit(y, float(radius), int(max_span), float(lam), track)
+    return _fit(y, _search_radius(radius), int(max_span), float(lam), track)
+
+
+def _search_radius(radius: float) -> float:
+    """The radius :func:`_fit` searches for a given one: at most :data:`MAX_RADIUS`."""
+    if not radius >= np.sqrt(3.0) / 2:
+        raise ValueError("radius < sqrt(3)/2 cannot guarantee a grid point")
+    return min(float(radius), MAX_RADIUS)
 
 
 @njit(cache=True)
@@ -871,16 +885,16 @@ def fit_members(y: NDArray[np.float64], radius: float, max_span: int = 256,
     that length on), spread over this thread and those of ``pool`` when one is given (the
     kernels release the GIL); the key lists held meanwhile are K-sized, not T-sized. Then
     each member's reference is chosen, also independently (from the finished tracks), so
-    the result does not depend on the threads or the tasks.
+    the result does not depend on the threads or the tasks. A ``radius`` above
+    :data:`MAX_RADIUS` is searched within :data:`MAX_RADIUS`, as in :func:`fit`.
     """
-    if radius < np.sqrt(3.0) / 2:
-        raise ValueError("radius < sqrt(3)/2 cannot guarantee a grid point")
+    radius = _search_radius(radius)
     T, n, _ = y.shape
     y = np.ascontiguousarray(y, dtype=np.float64)
     tracks = np.empty((n, T, 3), np.int32)     # member-major: each fit writes its own
     per = max(1, TASK_FRAMES // max(T, 1))
     ranges = [(lo, min(n, lo + per)) for lo in range(0, n, per)]
-    parts = _spread(pool, lambda lo, hi: _fit_range(y, lo, hi, float(radius), int(max_span),
+    parts = _spread(pool, lambda lo, hi: _fit_range(y, lo, hi, radius, int(max_span),
                                                     1.0, tracks), ranges)
     times = np.concatenate([t for t, _, _ in parts]) if parts else np.zeros(0, np.int64)
     w = np.concatenate([v for _, v, _ in parts]) if parts else np.zeros((0, 3), np.int64)

@@ -25,6 +25,12 @@ _LAMBDA = 1e-3
 #: what cannot win and picks the same point; smaller ones (the usual radius of 0.87-2 grid
 #: steps: 8-125 points) by :func:`_pick_box`, which is quicker there
 _BOX_MAX = 512
+#: no grid point farther than this from the target along any axis can win, whatever the
+#: radius: one step back towards the target stays in the ball and lowers that axis's
+#: cost by at least _LAMBDA (the L1 term rises by at most 1, the squared term falls by
+#: at least _LAMBDA (2 x 501 - 1)). So a radius of 1e5 grid steps (a grid far finer
+#: than the bound) is searched in a box of 1,003 points an axis, not 200,001
+_REACH = 0.5 / _LAMBDA + 1.0
 
 
 @njit(cache=True, nogil=True)
@@ -133,31 +139,39 @@ def _pick_pruned(y0: float, y1: float, y2: float, radius: float,
     is left; the least of g1 + g2 over the disc of b and c is bounded from below by
     :func:`_disc_bound` as well, which is tighter when p is outside the ball. Everything
     else is tried in the same (a, b, c) order, with the same test and
-    cost as :func:`_pick_box`, so the first least point is the same. The first cost reached
-    is the least of three points in the ball: the nearest grid point, the prediction, and
-    the point nearest the prediction in L1 (within rounding). Margins of 1e-9 cover the
-    rounding of sums and square roots. A radius of 177 grid steps (a root bound 100 times
-    a group's) takes microseconds a sample, where the box takes 0.1 s.
+    cost as :func:`_pick_box`, so the first least point is the same. Only the box within
+    ``_REACH`` of the target is searched: nothing beyond it can win. The first cost
+    reached is the least of four points in the ball: the nearest grid point, each axis at
+    its own least, the prediction, and the point nearest the prediction in L1 (within
+    rounding). Margins of 1e-9 cover the rounding of sums and square roots. A radius of
+    177 grid steps (a root bound 100 times a group's) takes microseconds a sample, where
+    the box takes 0.1 s; so does a radius of 1e9.
     """
     r2 = radius * radius
     slack = 1e-9 * (1.0 + r2)
-    lo0, hi0 = math.ceil(y0 - radius), math.floor(y0 + radius)
-    lo1, hi1 = math.ceil(y1 - radius), math.floor(y1 + radius)
-    lo2, hi2 = math.ceil(y2 - radius), math.floor(y2 + radius)
+    reach = min(radius, _REACH)
+    lo0, hi0 = math.ceil(y0 - reach), math.floor(y0 + reach)
+    lo1, hi1 = math.ceil(y1 - reach), math.floor(y1 + reach)
+    lo2, hi2 = math.ceil(y2 - reach), math.floor(y2 + reach)
     g0 = _axis_costs(lo0, hi0, y0, p0)
     g1 = _axis_costs(lo1, hi1, y1, p1)
     g2 = _axis_costs(lo2, hi2, y2, p2)
+    s0 = lo0 + int(np.argmin(g0))
     s1 = lo1 + int(np.argmin(g1))
     s2 = lo2 + int(np.argmin(g2))
     b0 = math.floor(y0 + 0.5)
     b1 = math.floor(y1 + 0.5)
     b2 = math.floor(y2 + 0.5)
-    # the first cost reached: three points, each counted only if in the ball
+    # the first cost reached: four points, each counted only if in the ball
     bound = 1e300
     da, db, dc = b0 - y0, b1 - y1, b2 - y2
     d2 = da * da + db * db + dc * dc
     if d2 <= r2:
         bound = abs(b0 - p0) + abs(b1 - p1) + abs(b2 - p2) + _LAMBDA * d2
+    da, db, dc = s0 - y0, s1 - y1, s2 - y2      # each axis at its own least: the least
+    d2 = da * da + db * db + dc * dc            # of all when in the ball, as it always
+    if d2 <= r2:                                # is from a radius of 868
+        bound = min(bound, abs(s0 - p0) + abs(s1 - p1) + abs(s2 - p2) + _LAMBDA * d2)
     da, db, dc = p0 - y0, p1 - y1, p2 - y2
     d2 = da * da + db * db + dc * dc
     if d2 <= r2:
@@ -219,7 +233,7 @@ def _pick_pruned(y0: float, y1: float, y2: float, radius: float,
 def _choose(y: NDArray[np.float64], radius: float, order: int) -> NDArray[np.int64]:
     T, M = y.shape[0], y.shape[1]
     w = np.empty((T, M, 3), np.int64)       # every value is written below
-    side = math.floor(2.0 * radius) + 1      # grid points per axis in the box, at most
+    side = math.floor(2.0 * min(radius, _REACH)) + 1     # grid points an axis in the box
     pruned = side * side * side > _BOX_MAX
     for t in range(T):              # each track is independent: frame by frame, so that
         for m in range(M):          # w[t - 1] and y[t] are read in memory order
