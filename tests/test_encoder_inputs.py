@@ -514,3 +514,35 @@ def test_a_grid_far_finer_than_the_bound_encodes_within_it(make, kw, bound):
     m = make()
     back = mpz.decode(mpz.encode(m, threads=1, **kw))
     assert float(np.linalg.norm(back.positions - m.positions, axis=2).max()) <= bound
+
+
+# -------------------------- patterns near the grid's limit (stop 38, Q2 of stop 37) --
+@settings(max_examples=25, deadline=None)
+@given(st.integers(4, 40), st.integers(2, 4), st.floats(0.5, 0.999), st.booleans(),
+       st.integers(0, 2**32 - 1))
+def test_patterns_near_the_grid_limit_give_way_under_auto(F, M, frac, on_source, seed):
+    """A QA run (stop 37, Q2): markers jumping at random between -P and +P, P from 0.9 x
+    2^29 grid steps, encoded with patterns="off" but were refused under "auto" ("the
+    residuals of every prediction order exceed the coder's range"): against a pattern's
+    prediction a residual can reach 2P. Under "auto" such a node now goes without
+    patterns; under "on" the refusal names the node and the options that code it."""
+    rng = np.random.default_rng(seed)
+    x = np.sign(rng.normal(size=(F, M, 3)))
+    x[0], x[1] = -1, 1
+    if on_source:
+        x = np.round(x * frac * 2**29) * 0.08
+        kw: dict[str, Any] = {"source_grid": 0.08}
+        bound = 0.0
+    else:
+        step = 2.0 * 1.0 / np.sqrt(3) * (1.0 - 2.0**-20) / 2    # plan_grid's at 1 mm
+        x = x * frac * 2**29 * step
+        kw, bound = {"max_error": 1.0}, 1.0
+    m = Motion(x, [f"m{k}" for k in range(M)], 100.0, "mm")
+    back = mpz.decode(mpz.encode(m, patterns="auto", threads=1, **kw))
+    assert float(np.linalg.norm(back.positions - x, axis=2).max()) <= bound
+    try:
+        back = mpz.decode(mpz.encode(m, patterns="on", threads=1, **kw))
+    except EncoderError as exc:
+        assert "motion patterns" in str(exc) and "patterns='auto' or 'off'" in str(exc)
+    else:
+        assert float(np.linalg.norm(back.positions - x, axis=2).max()) <= bound

@@ -660,10 +660,11 @@ def _round(a):
 
 
 def _best_order(block: IntArray, period: int | None = None,
-                orders: tuple[int, ...] = (0, 1, 2)) -> tuple[int, bytes]:
-    """Code ``block`` with each predictor order; return (order, payload) of the smallest.
-    An order whose residuals pass the coder's range (§5.4) is not chosen (as in
-    :func:`_coded`; a QA run, stop 37: the lossy root of values near 2^29 grid steps)."""
+                orders: tuple[int, ...] = (0, 1, 2)) -> tuple[int, bytes] | None:
+    """Code ``block`` with each predictor order; return (order, payload) of the smallest,
+    or None when none fits. An order whose residuals pass the coder's range (§5.4) is not
+    chosen (as in :func:`_coded`; a QA run, stop 37: the lossy root of values near 2^29
+    grid steps)."""
     best: tuple[int, bytes] | None = None
     for order in orders:
         enc = BlockEncoder(capacity=_capacity(block.size))
@@ -674,8 +675,6 @@ def _best_order(block: IntArray, period: int | None = None,
         data = enc.finish()
         if best is None or len(data) < len(best[1]):
             best = (order, data)
-    if best is None:
-        raise EncoderError(_BEYOND_RANGE)
     return best
 
 
@@ -715,9 +714,10 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
     With ``limit`` (issue 15.1), an order whose payload is sure to be longer than ``limit``
     bytes stops being coded (and a later order longer than the best so far), and None is
     returned when no order fits in ``limit``: the caller's other candidate, of ``limit``
-    bytes, wins against it anyway. The result is otherwise the same. ``limit`` may be a
-    Future: its value is waited for only once the first order's values are chosen, so the
-    choice overlaps the work that sets it (on another thread).
+    bytes, wins against it anyway. The result is otherwise the same. None is also
+    returned when every order's residuals pass the coder's range (see :func:`_coded`).
+    ``limit`` may be a Future: its value is waited for only once the first order's values
+    are chosen, so the choice overlaps the work that sets it (on another thread).
 
     Memory (issue 11.11): the values of each order become their residuals in place and,
     for the best order, turn back and are kept as int32 (|w| < 2^30); so besides ``y`` at
@@ -734,16 +734,26 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
             best = None                          # let the previous best go first
             best = _kept(e, order, data)
         del e
-    if best is None and limit is None:
-        raise EncoderError(_BEYOND_RANGE)
     return best
 
 
-#: when no candidate's residuals fit the coder: without patterns base 1's order 1 always
-#: fits (|u| < 2^29); with patterns the residual against a pattern's prediction can pass
-#: 2^30 near that limit (a QA run, stop 37), and this refusal is then the answer
+#: when no candidate's residuals fit the coder; unreachable (the root's and base 1's order
+#: 1 always fits: |u| < 2^29), kept as a clear refusal rather than an assertion
 _BEYOND_RANGE = ("the residuals of every prediction order exceed the coder's range (spec §5.4: "
                  "|e| < 2^30); give a larger --max-error")
+
+
+def _patterns_beyond_range(i: int, opts: EncodeOptions) -> EncoderError:
+    """The refusal when node i's pattern layer cannot be coded and patterns are asked for
+    ("on", or lossy): near the grid's limit (|u| close to 2^29), pattern values relative
+    to the parent's reference, and residuals against a pattern's prediction, can reach
+    2^30 (a QA run, stop 37: random-sign values from 0.9 x 2^29 steps). Under "auto" the
+    node is coded without patterns instead."""
+    fix = ("give a coarser --grid" if opts.lossy else
+           "patterns='auto' or 'off' code it without them")
+    return EncoderError(f"node {i}: its values relative to its motion patterns exceed the "
+                        f"coder's range (spec §5.4: |e| < 2^30), near the grid's limit of "
+                        f"2^29 steps; {fix}")
 
 
 def _weights_for(node: Node) -> FloatArray:
@@ -1062,12 +1072,15 @@ def code_root(u_root: FloatArray, opts: EncodeOptions, grid: Grid) -> tuple[Root
     integer track ``[F, 3]``."""
     if opts.bounded:
         best = _bounded(u_root[:, None, :], grid.bounds[0] / grid.step)
-        assert best is not None                 # no limit: always a result
+        if best is None:
+            raise EncoderError(_BEYOND_RANGE)
         order, w, data = best
         return Root(order=order, coded=data), w[:, 0].astype(np.int64)
     q = _round(u_root)
-    order, data = _best_order(q[:, None, :])
-    return Root(order=order, coded=data), q
+    lossy = _best_order(q[:, None, :])
+    if lossy is None:
+        raise EncoderError(_BEYOND_RANGE)
+    return Root(order=lossy[0], coded=lossy[1]), q
 
 
 # ------------------------------------------------------------ 4: one node --
@@ -1131,8 +1144,9 @@ def _segments(x: FloatArray, w: FloatArray, threshold: float, n: int,
 
 
 def code_patterns(x: FloatArray, w: FloatArray, opts: EncodeOptions, addh_q: float,
-                  seed: int) -> PatternLayer:
-    """The pattern layer of ``x[F, n, 3]`` (grid units, relative to the parent's reference).
+                  seed: int) -> PatternLayer | None:
+    """The pattern layer of ``x[F, n, 3]`` (grid units, relative to the parent's reference),
+    or None when its pattern values pass the coder's range (:func:`_patterns_beyond_range`).
 
     The node's mean weight divides its thresholds (paper §IV: a heavier marker group is
     segmented and clustered more finely); the relative weights of its members shape the
@@ -1163,7 +1177,10 @@ def code_patterns(x: FloatArray, w: FloatArray, opts: EncodeOptions, addh_q: flo
     # pattern grid: a fraction of the clustering threshold (paper: 8-bit deltas)
     scale = int(max(1, min(65535, math.floor(opts.tau * addh_q / boost / 3))))
     v = _round(centers / scale)
-    porder, pdata = _best_order(v.reshape(K * L, n, 3), period=L, orders=(1, 2))
+    coded = _best_order(v.reshape(K * L, n, 3), period=L, orders=(1, 2))
+    if coded is None:
+        return None
+    porder, pdata = coded
     enc = BlockEncoder()
     enc.block(np.stack([labels, counts - L], axis=1)[:, None, :])
     sdata = enc.finish()
@@ -1219,11 +1236,14 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         y = xl - pat.prediction
         y /= g
         parent = _bounded(y, radius)
-        assert parent is not None
-        order, wv, data = parent
-        del y, parent
-        out.append((pat.cost + len(data),
-                    ResidualLayer(ResidualBase.PARENT, order, g, wv, data)))
+        del y
+        if parent is not None:
+            order, wv, data = parent
+            del parent
+            out.append((pat.cost + len(data),
+                        ResidualLayer(ResidualBase.PARENT, order, g, wv, data)))
+        elif opts.pattern_mode == "on":
+            raise _patterns_beyond_range(i, opts)
     if opts.pattern_mode != "on":
         gk = max(1, g // KEY_REFINE)
         y = u_members()
@@ -1340,6 +1360,10 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
         xl = u[:, members]
         xl -= ref_q
         pat = code_patterns(xl, _weights_for(node), opts, addh_q, opts.seed + i)
+        if pat is None:
+            if opts.pattern_mode == "on":
+                raise _patterns_beyond_range(i, opts)
+            xl = ref_q = None                   # "auto": the node goes without them
     records: list[Record] = []
     # the decoded values, formed in place on the chosen layer's own arrays (exact integers,
     # so the order of the sums does not matter): issue 11.11
