@@ -275,6 +275,9 @@ def test_what_an_encode_does_not_keep(walk: Motion, two_joint_bvh: str) -> None:
     (dict(rate=True), "rate must be a number"),
     (dict(valid=np.full((2, 2), 0.5)), "booleans"),          # 0.5 was True
     (dict(positions=np.zeros((2, 2, 3), complex)), "real numbers"),   # imaginary part lost
+    (dict(metadata={1: "x"}), "metadata must map str to str"),   # became "1" (stop 37's
+    (dict(metadata={"take": 2.5}), "metadata must map str to str"),   # QA); encode(metadata=)
+    (dict(metadata={"n": None}), "metadata must map str to str"),     # refused them
 ])
 def test_motion_refuses_what_it_converted_silently(change, match):
     args = dict(positions=np.zeros((2, 2, 3)), names=["A", "B"], rate=100.0)

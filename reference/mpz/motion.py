@@ -54,7 +54,8 @@ class Motion:
     valid : array_like of bool, shape (frames, markers), optional
         False where a marker is occluded. Default: every finite sample.
     metadata : dict of str to str, optional
-        Free metadata (subject, take, source file, ...).
+        Free metadata (subject, take, source file, ...). Keys and values must be str:
+        others are refused, not converted (as ``mpz.encode(metadata=...)`` refuses them).
     parents : sequence of int, optional
         For skeleton-derived points, the parent point of each point (-1 for
         the root). Used as the coding hierarchy for BVH and AMC input.
@@ -166,7 +167,13 @@ class Motion:
         self.valid = valid
         self.names = names
         self.rate = rate
-        self.metadata = {str(k): str(v) for k, v in dict(self.metadata).items()}
+        meta = dict(self.metadata)
+        pair = next(((k, v) for k, v in meta.items()
+                     if not isinstance(k, str) or not isinstance(v, str)), None)
+        if pair is not None:    # as encode(metadata=...) refuses them: no silent str()
+            raise MotionError(f"metadata must map str to str, got {type(pair[0]).__name__} "
+                              f"{ascii(pair[0])[:60]}: {type(pair[1]).__name__}")
+        self.metadata = meta
         self.extras = dict(self.extras)
 
     # -- derived facts ---------------------------------------------------
