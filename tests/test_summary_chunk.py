@@ -208,6 +208,51 @@ def test_a_one_zero_decoder_skips_smrc(monkeypatch):
     assert mpz.read_summary(data) is not None
 
 
+def test_a_long_motion_has_its_summary_cut_on_blocks(monkeypatch, tmp_path, capsys):
+    """Appendix C item 8: past EXACT_MAX_FRAMES frames (16,384; 12 here) the summary's cuts
+    fall on blocks of ceil(F / 16384) frames, since the exact programme is quadratic in F
+    (half an hour for a 30-minute capture, with no word of it). The DP runs on the block
+    means, each k lowered to the block count; means and WSSSE are of every frame. The
+    encode report and the CLI say so."""
+    import itertools
+
+    import mpz.fisher
+    from mpz.tools import mpz_cli
+    m = generate("walk", frames=46, seed=3)
+    assert mpz.encode_motion(m, EncodeOptions(max_error=1.0, summary=(3,)))[1].summary_blocks == 1
+    assert mpz.encode_motion(m, EncodeOptions(max_error=1.0))[1].summary_blocks == 0
+    monkeypatch.setattr(mpz.fisher, "EXACT_MAX_FRAMES", 12)    # 46 frames: blocks of 4
+    data, rep = mpz.encode_motion(m, EncodeOptions(max_error=1.0, summary=(3, 40)))
+    assert rep.summary_blocks == 4
+    s = mpz.read_summary(data)
+    assert [lv.k for lv in s.levels] == [3, 12]             # 40 lowered to the 12 blocks
+    series, _ = motion_series(m, space="positions")
+    blocks = np.stack([series[i:i + 4].mean(axis=0) for i in range(0, 46, 4)])
+
+    def cost(cuts):                       # the blocks' SSE, every block weighed alike
+        edges = [0, *cuts, len(blocks)]
+        return sum(float(((blocks[a:b] - blocks[a:b].mean(axis=0)) ** 2).sum())
+                   for a, b in zip(edges, edges[1:], strict=False))
+    best = min(itertools.combinations(range(1, 12), 2), key=cost)
+    for lv in s.levels:
+        assert all(v % 4 == 0 for v in lv.starts)
+        exact = _segment_means(series, lv.starts)
+        assert np.abs(lv.means - exact).max() <= lv.step / 2 + 1e-9
+        ends = np.append(lv.starts[1:], 46)
+        w = sum(float(((series[a:b] - series[a:b].mean(axis=0)) ** 2).sum())
+                for a, b in zip(lv.starts, ends, strict=True))
+        assert lv.wssse == pytest.approx(w, rel=1e-12)
+    assert s.levels[0].starts.tolist() == [0, 4 * best[0], 4 * best[1]]
+    assert s.levels[1].starts.tolist() == list(range(0, 46, 4))
+    src = tmp_path / "long.npy"
+    np.save(src, m.positions)
+    assert mpz_cli.main(["encode", str(src), "--rate", "120", "--max-error", "1",
+                         "--summary", "3", "-o", str(tmp_path / "long.mpz")]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines()
+                if x.strip().startswith("summary"))
+    assert "cuts on blocks of 4 frames" in line, line
+
+
 def _smry_bytes(ks, dims) -> int:
     """§4.10 layout: 6 bytes, then per level 20 + 4k + 4kD; plus the 12-byte chunk frame."""
     return 12 + 6 + sum(20 + 4 * k + 4 * k * dims for k in ks)

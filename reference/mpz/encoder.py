@@ -533,6 +533,9 @@ class EncodeReport:
     bound_rule: str = ""
     #: what of the source the file does not keep (:func:`not_kept`; empty: everything)
     not_kept: list[str] = field(default_factory=list)
+    #: the summary chunk's partitions: 0 none, 1 exact, b > 1 cuts on blocks of b frames
+    #: (a motion over :data:`mpz.fisher.EXACT_MAX_FRAMES` frames)
+    summary_blocks: int = 0
 
     @property
     def ratio(self) -> float:
@@ -1402,8 +1405,10 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
 def summary_record(motion: Motion, ks: tuple[int, ...] | list[int], space: str,
                    step: float, fmt: str = "smry") -> Smry | Smrc:
     """The ancillary summary chunk from the optimal partition: smry (spec §4.10, raw s32
-    means) or, with ``fmt="smrc"``, smrc (§4.15, MPZ 1.1: the same levels, range-coded)."""
-    from mpz.fisher import motion_series, optimal_partitions
+    means) or, with ``fmt="smrc"``, smrc (§4.15, MPZ 1.1: the same levels, range-coded).
+    Over :data:`mpz.fisher.EXACT_MAX_FRAMES` frames the cuts fall on blocks of frames
+    (:func:`mpz.fisher.summary_partitions`, spec Appendix C item 8)."""
+    from mpz.fisher import motion_series, summary_partitions
     series, _ = motion_series(motion, space=space)
     levels_k = sorted({int(k) for k in ks})
     if not levels_k or levels_k[0] < 1:
@@ -1411,11 +1416,10 @@ def summary_record(motion: Motion, ks: tuple[int, ...] | list[int], space: str,
     if len(levels_k) > MAX_SUMMARY_LEVELS:
         raise EncoderError(f"at most {MAX_SUMMARY_LEVELS} summary levels")
     F = series.shape[0]
-    levels_k = sorted({min(k, F) for k in levels_k})
-    parts = optimal_partitions(series, max(levels_k), ks=levels_k)
+    _, parts = summary_partitions(series, levels_k)
     levels = []
     coded: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
-    for k in levels_k:
+    for k in sorted(parts):
         p = parts[k]
         means_q = _round(np.asarray(p.means) / step)
         if np.abs(means_q).max(initial=0) >= 2 ** 31:
@@ -1606,6 +1610,9 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
             pool.shutdown(wait=True, cancel_futures=True)
     report.chunk_bytes = container.chunk_sizes(data)
     report.file_bytes = len(data)
+    if opts.summary:
+        from mpz.fisher import summary_block
+        report.summary_blocks = summary_block(F)
     report.seconds = time.perf_counter() - t0
     return data, report
 

@@ -13,10 +13,10 @@ Strategy:
 * The summary is exact (:func:`mpz.fisher.optimal_partitions`) up to
   :data:`EXACT_MAX_FRAMES` frames. The dynamic programme is quadratic in the frame count
   (about 1 s at 5,000 frames, 30 min at 216,000), so a longer motion is partitioned on the
-  means of blocks of ``b = ceil(frames / EXACT_MAX_FRAMES)`` frames: the result is the
-  least-WSSSE partition among those whose cuts fall on block boundaries (every block but
-  the last has ``b`` frames, and the DP weighs them equally), and its means and WSSSE are
-  recomputed on every frame. :attr:`MotionSummary.method` says which was used.
+  means of blocks of ``b = ceil(frames / EXACT_MAX_FRAMES)`` frames
+  (:func:`mpz.fisher.summary_partitions`, which the encoder's summary chunks use too),
+  and its means and WSSSE are recomputed on every frame. :attr:`MotionSummary.method`
+  says which was used.
 * Means are kept as float32, the precision of C3D data, which halves an index; a query
   summarised here is rounded the same way, so the same capture gives the same descriptor
   bit for bit.
@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import EncoderError
-from mpz.fisher import motion_series, optimal_partitions, segment_means, wssse
+from mpz.fisher import EXACT_MAX_FRAMES, motion_series, summary_partitions
 
 if TYPE_CHECKING:
     from mpz.api import Summary
@@ -54,9 +54,6 @@ __all__ = ["SUMMARY_LEVELS", "EXACT_MAX_FRAMES", "FEATURES", "DESCRIPTOR_VERSION
 
 #: segment counts of the stored summary (those of ``mpz summary``'s default)
 SUMMARY_LEVELS: tuple[int, ...] = (6, 12, 24, 48)
-#: frames up to which the partition is exact; beyond, cuts fall on blocks of frames
-#: (2^14: about 10 s of dynamic programme for 41 markers on one core, measured)
-EXACT_MAX_FRAMES = 16384
 
 #: changes whenever :func:`descriptor` computes anything differently (indexes store it)
 DESCRIPTOR_VERSION = "1"
@@ -103,11 +100,6 @@ class MotionSummary:
         return tuple(lv.k for lv in self.levels)
 
 
-def _blocks(n: int, max_frames: int) -> int:
-    """Block length for a motion of ``n`` frames (1: exact)."""
-    return max(1, -(-n // max_frames))
-
-
 def summarize(motion: Motion, levels: Sequence[int] = SUMMARY_LEVELS, *,
               max_frames: int = EXACT_MAX_FRAMES) -> MotionSummary:
     """The Fisher summary of a motion's marker positions (relative to their centroid).
@@ -141,26 +133,11 @@ def summarize(motion: Motion, levels: Sequence[int] = SUMMARY_LEVELS, *,
     if not ks or ks[0] < 1:
         raise EncoderError(f"summary levels must be positive integers, got {list(levels)}")
     series, _ = motion_series(motion, space="positions")
-    n = series.shape[0]
-    b = _blocks(n, max_frames)
-    if b == 1:
-        ks = sorted({min(k, n) for k in ks})
-        parts = optimal_partitions(series, max(ks), ks=ks)
-        out = tuple(Level(k, p.starts.astype(np.int64), p.means.astype(np.float32),
-                          float(p.wssse)) for k, p in ((k, parts[k]) for k in ks))
-        return MotionSummary(n, motion.rate, series.shape[1], "exact", out)
-    # cuts on block boundaries: the DP runs on block means, means and WSSSE on every frame
-    block_starts = np.arange(0, n, b)
-    blocks = np.add.reduceat(series, block_starts, axis=0)
-    blocks /= np.diff(np.append(block_starts, n))[:, None]
-    ks = sorted({min(k, blocks.shape[0]) for k in ks})
-    parts = optimal_partitions(blocks, max(ks), ks=ks)
-    out_levels = []
-    for k in ks:
-        starts = parts[k].starts.astype(np.int64) * b
-        out_levels.append(Level(k, starts, segment_means(series, starts).astype(np.float32),
-                                wssse(series, starts)))
-    return MotionSummary(n, motion.rate, series.shape[1], f"blocks:{b}", tuple(out_levels))
+    b, parts = summary_partitions(series, ks, max_frames)
+    out = tuple(Level(k, p.starts.astype(np.int64), p.means.astype(np.float32), float(p.wssse))
+                for k, p in sorted(parts.items()))
+    return MotionSummary(series.shape[0], motion.rate, series.shape[1],
+                         "exact" if b == 1 else f"blocks:{b}", out)
 
 
 def from_stored(n_frames: int, rate: float, dims: int, method: str,

@@ -342,6 +342,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         "hierarchy": rep.hierarchy, "seconds": rep.seconds, "chunk_bytes": rep.chunk_bytes,
         "summary_bytes": rep.chunk_bytes.get("smrc", rep.chunk_bytes.get("smry")),
         "summary_levels": stored_levels,
+        "summary_blocks": rep.summary_blocks,
         "summary_chunk": next((t for t in ("smrc", "smry") if t in rep.chunk_bytes), None),
         "skeleton": _skeleton_report(data),
         "nodes": [vars(n) for n in rep.nodes]}
@@ -379,13 +380,18 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         smry = rep.chunk_bytes[kind]
         stored = stored_levels
         asked = sorted(set(opts.summary))
+        per = ("frame" if rep.summary_blocks <= 1 else
+               f"block of {rep.summary_blocks} frames")
         clipped = ("" if stored == asked else
-                   f" (asked {', '.join(map(str, asked))}: at most one segment a frame, "
+                   f" (asked {', '.join(map(str, asked))}: at most one segment a {per}, "
                    f"{rep.frames} frames)")
         pct = 100 * smry / rep.file_bytes
         share = f"{pct:.0f}" if pct >= 1 else f"{pct:.2g}"      # 0.46 %, not "0 %"
+        blocks = ("" if rep.summary_blocks <= 1 else
+                  f"; cuts on blocks of {rep.summary_blocks} frames (the exact partition is "
+                  f"quadratic in the frames: spec Appendix C item 8)")
         print(f"  summary  {kind} chunk {human_size(smry)} ({share} % of the file), "
-              f"k = {', '.join(str(k) for k in stored)}{clipped}", file=out)
+              f"k = {', '.join(str(k) for k in stored)}{clipped}{blocks}", file=out)
         if smry > rep.file_bytes - smry:
             # smry stores k x D means as raw 32-bit integers (spec §4.10); smrc (§4.15)
             # range-codes them (docs/summary-size.md)
