@@ -81,7 +81,7 @@ from mpz.format import (
 )
 from mpz.hierarchy import Hierarchy, Node, build_hierarchy, head_scale
 from mpz.hierarchy import root_marker as hierarchy_root
-from mpz.motion import Motion
+from mpz.motion import Motion, metadata_type_error
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import reconstruct, residuals
 from mpz.quantize import choose_lattice
@@ -450,10 +450,10 @@ def check_metadata(meta: Mapping[str, str]) -> None:
     were cut to fit, silently: two long keys could become one, an empty one '_'."""
     if len(meta) > 65535:
         raise EncoderError(f"{len(meta)} metadata entries, more than the 65535 of §4.11")
+    bad = metadata_type_error(meta)
+    if bad is not None:
+        raise EncoderError(bad)
     for k, v in meta.items():
-        if not isinstance(k, str) or not isinstance(v, str):
-            raise EncoderError(f"metadata must map str to str, got {type(k).__name__} "
-                               f"{ascii(k)[:60]}: {type(v).__name__}")
         n = len(k.encode("utf-8", "surrogatepass"))
         if not 1 <= n <= 255:
             raise EncoderError(f"metadata key {ascii(k[:60])}: {n} bytes; keys are 1..255 "
@@ -748,10 +748,10 @@ _BEYOND_RANGE = ("the residuals of every prediction order exceed the coder's ran
 
 def _patterns_beyond_range(i: int, opts: EncodeOptions) -> EncoderError:
     """The refusal when node i's pattern layer cannot be coded and patterns are asked for
-    ("on", or lossy): near the grid's limit (|u| close to 2^29), pattern values relative
-    to the parent's reference, and residuals against a pattern's prediction, can reach
-    2^30 (a QA run, stop 37: random-sign values from 0.9 x 2^29 steps). Under "auto" the
-    node is coded without patterns instead."""
+    ("on"; or lossy, where the pattern layer is all there is): near the grid's limit (|u|
+    close to 2^29), pattern values relative to the parent's reference, and residuals
+    against a pattern's prediction, can reach 2^30 (a QA run, stop 37: random-sign values
+    from 0.9 x 2^29 steps). Under "auto" with a bound the node goes without patterns."""
     fix = ("give a coarser --grid" if opts.lossy else
            "patterns='auto' or 'off' code it without them")
     return EncoderError(f"node {i}: its values relative to its motion patterns exceed the "
@@ -1364,7 +1364,7 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
         xl -= ref_q
         pat = code_patterns(xl, _weights_for(node), opts, addh_q, opts.seed + i)
         if pat is None:
-            if opts.pattern_mode == "on":
+            if opts.pattern_mode == "on" or not opts.bounded:   # lossy: nothing else codes it
                 raise _patterns_beyond_range(i, opts)
             xl = ref_q = None                   # "auto": the node goes without them
     records: list[Record] = []

@@ -27,6 +27,25 @@ def unit_scale_mm(units: str) -> float | None:
     return MM_PER_UNIT.get(units)
 
 
+def metadata_type_error(meta: Mapping[Any, Any]) -> str | None:
+    """The first key or value of ``meta`` that is not a str, said as an error message (None
+    when all are): a Motion and ``mpz.encode(metadata=...)`` refuse them in the same words,
+    rather than convert them with str()."""
+    for k, v in meta.items():
+        if not isinstance(k, str):
+            return f"metadata must map str to str: a key is {type(k).__name__} {_shown(k)}"
+        if not isinstance(v, str):
+            return (f"metadata must map str to str: the value of {_shown(k)} is "
+                    f"{type(v).__name__}")
+    return None
+
+
+def _shown(x: object, width: int = 60) -> str:
+    """``ascii(x)``, cut to ``width`` characters with "..." when longer."""
+    a = ascii(x)
+    return a if len(a) <= width else a[:width - 3] + "..."
+
+
 def finite_samples(pos: NDArray[np.float64]) -> NDArray[np.bool_]:
     """``[F, M]``: whether each sample of ``pos[F, M, 3]`` has three finite coordinates.
 
@@ -54,8 +73,9 @@ class Motion:
     valid : array_like of bool, shape (frames, markers), optional
         False where a marker is occluded. Default: every finite sample.
     metadata : dict of str to str, optional
-        Free metadata (subject, take, source file, ...). Keys and values must be str:
-        others are refused, not converted (as ``mpz.encode(metadata=...)`` refuses them).
+        Free metadata (subject, take, source file, ...); None is none. Keys and values must
+        be str: others are refused, not converted (as ``mpz.encode(metadata=...)`` refuses
+        them).
     parents : sequence of int, optional
         For skeleton-derived points, the parent point of each point (-1 for
         the root). Used as the coding hierarchy for BVH and AMC input.
@@ -167,12 +187,15 @@ class Motion:
         self.valid = valid
         self.names = names
         self.rate = rate
+        if self.metadata is None:
+            self.metadata = {}
+        if not isinstance(self.metadata, Mapping):
+            raise MotionError(f"metadata must be a mapping of str to str, got "
+                              f"{type(self.metadata).__name__}")
         meta = dict(self.metadata)
-        pair = next(((k, v) for k, v in meta.items()
-                     if not isinstance(k, str) or not isinstance(v, str)), None)
-        if pair is not None:    # as encode(metadata=...) refuses them: no silent str()
-            raise MotionError(f"metadata must map str to str, got {type(pair[0]).__name__} "
-                              f"{ascii(pair[0])[:60]}: {type(pair[1]).__name__}")
+        said = metadata_type_error(meta)
+        if said is not None:    # as encode(metadata=...) refuses them: no silent str()
+            raise MotionError(said)
         self.metadata = meta
         self.extras = dict(self.extras)
 
