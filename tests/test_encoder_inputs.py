@@ -66,7 +66,8 @@ OPTIONS: list[tuple[dict[str, Any], tuple[str, ...]]] = [
     ({"weights": "LFHD=2"}, ("weights", "mapping")),
     ({"metadata": {"take": "a\udcff"}}, ("metadata value", "take", "surrogate")),
     ({"metadata": {"\udcff": "x"}}, ("metadata key", "surrogate")),
-    ({"metadata": {"take": 3}}, ("metadata value", "take", "text")),
+    ({"metadata": {"take": 3}}, ("metadata must map str to str", "value of 'take'", "int")),
+    ({"metadata": {3: "x"}}, ("metadata must map str to str", "a key is int 3")),
     ({"lossy": "yes"}, ("lossy",)),
     ({"model_errors": None}, ("model_errors", "mapping")),
 ]

@@ -342,6 +342,17 @@ def _length(value: object, name: str) -> float:
     return v
 
 
+def _metadata_utf8(meta: Mapping[Any, Any]) -> None:
+    """Metadata that maps str to str (in :func:`mpz.motion.metadata_type_error`'s words, a
+    Motion's too) and that UTF-8 can hold (§4.11)."""
+    said = metadata_type_error(meta)
+    if said is not None:
+        raise EncoderError(said)
+    for k, text in meta.items():
+        _utf8(k, "metadata key")
+        _utf8(text, f"metadata value of {k!r}")
+
+
 def _utf8(text: object, what: str) -> str:
     """``text`` if it is a str that UTF-8 can hold (no lone surrogates, which readers make
     of undecodable bytes); the MPZ strings (MNAM, meta) are UTF-8 (§4.2, §4.11)."""
@@ -424,9 +435,7 @@ def check_option_values(o: EncodeOptions) -> None:
         if not MIN_WEIGHT <= v <= MAX_WEIGHT:
             raise EncoderError(f"weight of {k!r} must be from 1/16 to 16 (what HIER holds, "
                                f"§4.3), got {w!r}")
-    for k, text in o.metadata.items():
-        _utf8(k, "metadata key")
-        _utf8(text, f"metadata value of {k!r}")
+    _metadata_utf8(o.metadata)
     check_metadata(o.metadata)      # an empty key was refused only with the motion's own
 
 
@@ -480,9 +489,7 @@ def check_motion(motion: Motion) -> None:
                      else f"{ascii(name[:60])}... ({len(name)} characters)")
             raise EncoderError(f"marker {i} name {shown}: marker names are 1..255 bytes "
                                f"of UTF-8 without NUL (§4.2)")
-    for k, text in motion.metadata.items():
-        _utf8(k, "metadata key")
-        _utf8(text, f"metadata value of {k!r}")
+    _metadata_utf8(motion.metadata)
     F = motion.n_frames
     step = max(1, (1 << 20) // max(1, motion.n_markers))    # bounded temporaries
     for t0 in range(0, F, step):
