@@ -251,6 +251,15 @@ def test_a_long_motion_has_its_summary_cut_on_blocks(monkeypatch, tmp_path, caps
     line = next(x for x in capsys.readouterr().out.splitlines()
                 if x.strip().startswith("summary"))
     assert "cuts on blocks of 4 frames" in line, line
+    # mpz summary of the motion file: the same rule, said in the head line and in JSON
+    assert mpz_cli.main(["summary", str(src), "--k", "3"]) == 0
+    assert "cuts on blocks of 4 frames" in capsys.readouterr().out.splitlines()[0]
+    assert mpz_cli.main(["summary", str(src), "--k", "3,13", "--json"]) == 1
+    got = capsys.readouterr()
+    js = json.loads(got.out)
+    assert js["method"] == "blocks:4" and [lv["k"] for lv in js["levels"]] == [3]
+    assert [g["start"] for g in js["levels"][0]["segments"]] == s.levels[0].starts.tolist()
+    assert "k=13 dropped: the motion has only 12 blocks of 4 frames" in got.err
 
 
 def _smry_bytes(ks, dims) -> int:

@@ -1,7 +1,9 @@
 """``mpz summary FILE``: optimal-partition summary of a motion (Yang et al. 2016).
 
 Contract: for a motion-capture file (anything :func:`mpz.io.read` reads) the
-command computes the least-WSSSE partitions for each requested ``k`` and prints
+command computes the least-WSSSE partitions for each requested ``k`` (past 16,384
+frames, with cuts on blocks of frames, as the encoder and the index make them:
+:func:`mpz.fisher.summary_partitions`; JSON ``method`` says ``blocks:B``) and prints
 one segment table per level: index, start frame, start time, length and the
 segment's share of the level's WSSSE. For a ``.mpz`` file it prints the levels
 stored in the file (through :func:`mpz.read_summary`); each segment's share of
@@ -76,7 +78,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 # -- gathering the levels ------------------------------------------------------------
 def _levels_from_motion(args, ks):
     """Partitions of a motion file; returns (info, levels, pose_series, parents, warnings)."""
-    from mpz.fisher import motion_series, optimal_partitions
+    from mpz.fisher import motion_series, summary_block, summary_partitions
     try:
         from mpz.io import read
     except ImportError as exc:
@@ -89,13 +91,16 @@ def _levels_from_motion(args, ks):
     x, what = motion_series(motion, args.space)
     n = x.shape[0]
     warnings = []
-    dropped = [k for k in ks if k > n]
+    b = summary_block(n)                # past 16,384 frames the cuts fall on blocks of b
+    units_of = f"{n} frames" if b == 1 else f"{-(-n // b)} blocks of {b} frames"
+    dropped = [k for k in ks if k > -(-n // b)]
     if dropped:
-        warnings.append(f"k={','.join(map(str, dropped))} dropped: the motion has only {n} frames")
-    ks = [k for k in ks if k <= n]
+        warnings.append(f"k={','.join(map(str, dropped))} dropped: the motion has only "
+                        f"{units_of}")
+    ks = [k for k in ks if k <= -(-n // b)]
     if not ks:
-        raise _Fail(f"no requested k fits the {n} frames of the motion")
-    parts = optimal_partitions(x, max(ks), ks=ks)
+        raise _Fail(f"no requested k fits the {units_of} of the motion")
+    _, parts = summary_partitions(x, ks)
     levels = []
     for k in ks:
         p = parts[k]
@@ -111,7 +116,8 @@ def _levels_from_motion(args, ks):
         what += channels
     info = {"file": os.fspath(args.file), "kind": "motion", "n_frames": n, "rate": motion.rate,
             "units": units, "space": args.space, "description": what,
-            "dims": int(x.shape[1]), "markers": motion.n_markers}
+            "dims": int(x.shape[1]), "markers": motion.n_markers,
+            "method": "exact" if b == 1 else f"blocks:{b}"}
     return info, levels, poses, motion.parents, warnings
 
 
@@ -238,6 +244,10 @@ def _print_text(info, levels, out):
         head += f" at {rate:g} Hz ({info['n_frames'] / rate:.2f} s)"
     if info["dims"]:
         head += f", {info['dims']} dims: {info['description']}"
+    if info.get("method", "exact") != "exact":
+        b = info["method"].removeprefix("blocks:")
+        head += (f"; cuts on blocks of {b} frames (the exact partition is quadratic in the "
+                 "frames: spec Appendix C item 8)")
     print(head, file=out)
     for lv in levels:
         w = lv["wssse"]
