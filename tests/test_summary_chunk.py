@@ -262,6 +262,46 @@ def test_a_long_motion_has_its_summary_cut_on_blocks(monkeypatch, tmp_path, caps
     assert "k=13 dropped: the motion has only 12 blocks of 4 frames" in got.err
 
 
+def test_a_summary_whose_tables_pass_the_limit_is_refused_up_front(monkeypatch):
+    """k = 20,000 on 40,000 frames took 2.4 GB and six minutes (a QA run, stop 38): the
+    programme's tables, (rows + 1) x k entries, are held to fisher.MAX_TABLE (here 100),
+    and the encoder says so before coding anything, naming the largest k that fits."""
+    from mpz import encoder
+    import mpz.fisher
+    monkeypatch.setattr(mpz.fisher, "MAX_TABLE", 100)
+    m = generate("walk", frames=46, seed=3)
+
+    def never(*a, **k):
+        raise AssertionError("the motion was planned before the summary was checked")
+    with monkeypatch.context() as mp:
+        mp.setattr(encoder, "plan_hierarchy", never)
+        with pytest.raises(EncoderError, match=r"46 frames .* 3 segments .* at most k = 2 "):
+            mpz.encode(m, max_error=1.0, summary=(1, 3))
+    assert [lv.k for lv in mpz.read_summary(mpz.encode(m, max_error=1.0, summary=(2,))).levels] \
+        == [2]
+    with pytest.raises(EncoderError, match="at most k = 2 "):     # the API refuses it too
+        mpz.fisher.optimal_partitions(np.zeros((46, 1)), 3)
+
+
+def test_optimal_segmentation_of_a_long_node_runs_on_blocks(monkeypatch):
+    """segmentation="optimal" ran Fisher's programme on every frame of a node (hours and
+    1.3 GB for a 30-minute capture); past EXACT_MAX_FRAMES it runs on the means of blocks
+    (Appendix C item 6), so the segments start on block boundaries; the file still
+    decodes within its bound."""
+    from mpz import encoder
+    import mpz.fisher
+    m = generate("walk", frames=60, seed=2)
+    x = m.positions[:, :4]
+    opts = EncodeOptions(segmentation="optimal", patterns="on", max_error=2.0)
+    starts, counts = encoder._segments(x, np.ones(4), 30.0, 4, opts)
+    assert any(v % 5 for v in starts)                  # exact: any frame may start one
+    monkeypatch.setattr(mpz.fisher, "EXACT_MAX_FRAMES", 12)      # 60 frames: blocks of 5
+    starts, counts = encoder._segments(x, np.ones(4), 30.0, 4, opts)
+    assert starts[0] == 0 and all(v % 5 == 0 for v in starts) and counts.sum() == 60
+    back = mpz.decode(mpz.encode(m, max_error=2.0, segmentation="optimal", patterns="on"))
+    assert float(np.linalg.norm(back.positions - m.positions, axis=2).max()) <= 2.0
+
+
 def _smry_bytes(ks, dims) -> int:
     """§4.10 layout: 6 bytes, then per level 20 + 4k + 4kD; plus the 12-byte chunk frame."""
     return 12 + 6 + sum(20 + 4 * k + 4 * k * dims for k in ks)

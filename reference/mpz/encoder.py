@@ -1136,18 +1136,22 @@ def _segments(x: FloatArray, w: FloatArray, threshold: float, n: int,
               opts: EncodeOptions) -> tuple[IntArray, IntArray]:
     """Segment starts and frame counts: Alg. 1, or the Fisher optimal partition."""
     if opts.segmentation == "optimal":
-        from mpz.fisher import choose_k_for_threshold, optimal_partitions
+        from mpz.fisher import choose_k_for_threshold, optimal_partitions, summary_block
         F = x.shape[0]
         flat = x.reshape(F, -1)
+        b = summary_block(F)        # past 16,384 frames, on the means of blocks of b frames
+        if b > 1:                   # (Appendix C item 6: the programme is quadratic in F)
+            at = np.arange(0, F, b)
+            flat = np.add.reduceat(flat, at, axis=0) / np.diff(np.append(at, F))[:, None]
         # the Fisher deviation is the norm over all n members; Alg. 1's is a mean
         # marker distance, so scale by sqrt(n) to make theta mean the same thing
         thr = threshold * math.sqrt(n)
-        k_max = max(1, min(F, F // 4 + 1, 512))
+        k_max = max(1, min(flat.shape[0], F // 4 + 1, 512))
         try:
             part = choose_k_for_threshold(flat, thr, k_max)
         except EncoderError:       # no k <= k_max fits: take the finest partition
             part = optimal_partitions(flat, k_max, ks=[k_max])[k_max]
-        starts = np.asarray(part.starts, dtype=np.int64)
+        starts = np.asarray(part.starts, dtype=np.int64) * b
         counts = np.diff(np.append(starts, F))
         return starts, counts
     return segment(x, w, threshold, max_len=opts.max_segment)
@@ -1550,6 +1554,9 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     F, M = motion.n_frames, motion.n_markers
     if F > MAX_FRAMES or M > MAX_MARKERS or F * M > MAX_SAMPLES:
         raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8")
+    if opts.summary:
+        from mpz.fisher import summary_check
+        summary_check(F, opts.summary)      # a summary too large for its tables, up front
     opts, bound_rule = resolve_bound(motion, opts)          # issue 12: never unbounded unasked
     # issue 15: the bytes do not depend on it
     threads = thread_count(opts, motion.n_frames * motion.n_markers)

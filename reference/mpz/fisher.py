@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from mpz.motion import Motion
 
 __all__ = ["Partition", "optimal_partitions", "summary_partitions", "summary_block",
-           "EXACT_MAX_FRAMES",
+           "summary_check", "check_table", "EXACT_MAX_FRAMES", "MAX_TABLE",
            "wssse", "segment_means", "motion_series", "preview_series",
            "choose_k_for_threshold", "max_deviation"]
 
@@ -54,6 +54,11 @@ _BLOCK = 128
 #: The dynamic programme is quadratic in the frame count: about 10 s at 2^14 frames of 41
 #: markers on one core, half an hour for a 30-minute capture (216,000 frames)
 EXACT_MAX_FRAMES = 16384
+#: entries of the dynamic programme's tables, (rows + 1) x k_max of 12 bytes (the least
+#: WSSSE in float64, the back-pointer in int32), at most: 400 MB. More is refused
+#: (:func:`check_table`): k = 20,000 on 40,000 frames (13,334 blocks) took 2.4 GB and six
+#: minutes (a QA run, stop 38); at 16,384 rows this allows k up to 2,047
+MAX_TABLE = 1 << 25
 
 #: numba's on-disk cache records the importing module's name; a doctest run that
 #: imports this file as ``reference.fisher`` would leave entries that
@@ -281,8 +286,20 @@ def _fisher_tables(S: NDArray[np.float64], Q: NDArray[np.float64], K: int, block
     return F, P
 
 
+def check_table(rows: int, k_max: int) -> None:
+    """Refuse a partition of ``rows`` frames (or blocks) into up to ``k_max`` segments whose
+    tables would pass :data:`MAX_TABLE` entries, naming the largest k that fits."""
+    if (rows + 1) * k_max > MAX_TABLE:
+        raise EncoderError(
+            f"a partition of {rows} frames (or blocks of frames) into up to {k_max} segments "
+            f"needs tables of {(rows + 1) * k_max * 12 / 1e9:.2g} GB, more than the "
+            f"{MAX_TABLE * 12 / 1e6:.0f} MB allowed; at most k = {MAX_TABLE // (rows + 1)} "
+            "here (fewer segments summarise as well)")
+
+
 def _tables(a: NDArray[np.float64], k_max: int) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
-    """Prefix sums of the centred series, then the DP tables."""
+    """Prefix sums of the centred series, then the DP tables (:func:`check_table` first)."""
+    check_table(a.shape[0], int(k_max))
     xc = a - a.mean(axis=0)  # centring keeps the prefix sums small
     n, D = xc.shape
     S = np.zeros((n + 1, D))
@@ -361,6 +378,16 @@ def optimal_partitions(x: ArrayLike, k_max: int,
             raise EncoderError(f"k={k} exceeds k_max={k_max}")
     _, P = _tables(a, max(ks) if ks else 1)
     return {k: _partition(a, _backtrack(P, n, k)) for k in ks}
+
+
+def summary_check(n: int, ks: Iterable[int]) -> None:
+    """Refuse, before any work, summary levels ``ks`` of a motion of ``n`` frames that
+    :func:`summary_partitions` would refuse for the size of its tables."""
+    b = summary_block(n)
+    rows = -(-int(n) // b)
+    top = max((min(int(k), rows) for k in ks), default=0)
+    if top:
+        check_table(rows, top)
 
 
 def summary_block(n: int, max_frames: int | None = None) -> int:
