@@ -1136,13 +1136,17 @@ def _segments(x: FloatArray, w: FloatArray, threshold: float, n: int,
               opts: EncodeOptions) -> tuple[IntArray, IntArray]:
     """Segment starts and frame counts: Alg. 1, or the Fisher optimal partition."""
     if opts.segmentation == "optimal":
-        from mpz.fisher import choose_k_for_threshold, optimal_partitions, summary_block
+        from mpz.fisher import (
+            block_means,
+            choose_k_for_threshold,
+            optimal_partitions,
+            summary_block,
+        )
         F = x.shape[0]
         flat = x.reshape(F, -1)
         b = summary_block(F)        # past 16,384 frames, on the means of blocks of b frames
         if b > 1:                   # (Appendix C item 6: the programme is quadratic in F)
-            at = np.arange(0, F, b)
-            flat = np.add.reduceat(flat, at, axis=0) / np.diff(np.append(at, F))[:, None]
+            flat = block_means(flat, b)
         # the Fisher deviation is the norm over all n members; Alg. 1's is a mean
         # marker distance, so scale by sqrt(n) to make theta mean the same thing
         thr = threshold * math.sqrt(n)

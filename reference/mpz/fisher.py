@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from mpz.motion import Motion
 
 __all__ = ["Partition", "optimal_partitions", "summary_partitions", "summary_block",
-           "summary_check", "check_table", "EXACT_MAX_FRAMES", "MAX_TABLE",
+           "summary_check", "check_table", "block_means", "EXACT_MAX_FRAMES", "MAX_TABLE",
            "wssse", "segment_means", "motion_series", "preview_series",
            "choose_k_for_threshold", "max_deviation"]
 
@@ -398,6 +398,12 @@ def summary_block(n: int, max_frames: int | None = None) -> int:
     return max(1, -(-int(n) // top))
 
 
+def block_means(a: NDArray[np.float64], b: int) -> NDArray[np.float64]:
+    """The means of consecutive blocks of ``b`` rows of ``a`` (the last may be shorter)."""
+    at = np.arange(0, a.shape[0], b)
+    return np.add.reduceat(a, at, axis=0) / np.diff(np.append(at, a.shape[0]))[:, None]
+
+
 def summary_partitions(x: ArrayLike, ks: Iterable[int],
                        max_frames: int | None = None) -> tuple[int, dict[int, Partition]]:
     """The partitions a summary holds for the segment counts ``ks``: ``(b, {k: Partition})``.
@@ -423,9 +429,7 @@ def summary_partitions(x: ArrayLike, ks: Iterable[int],
     if b == 1:
         levels = sorted({min(k, n) for k in counts})
         return 1, optimal_partitions(a, max(levels, default=1), ks=levels)
-    block_starts = np.arange(0, n, b)
-    blocks = np.add.reduceat(a, block_starts, axis=0)
-    blocks /= np.diff(np.append(block_starts, n))[:, None]
+    blocks = block_means(a, b)
     levels = sorted({min(k, blocks.shape[0]) for k in counts})
     parts = optimal_partitions(blocks, max(levels, default=1), ks=levels)
     return b, {k: _partition(a, parts[k].starts.astype(np.int64) * b) for k in levels}

@@ -101,7 +101,7 @@ class MotionSummary:
 
 
 def summarize(motion: Motion, levels: Sequence[int] = SUMMARY_LEVELS, *,
-              max_frames: int = EXACT_MAX_FRAMES) -> MotionSummary:
+              max_frames: int | None = None) -> MotionSummary:
     """The Fisher summary of a motion's marker positions (relative to their centroid).
 
     Parameters
@@ -110,8 +110,9 @@ def summarize(motion: Motion, levels: Sequence[int] = SUMMARY_LEVELS, *,
     levels : sequence of int
         Segment counts; a count above the number of frames (or blocks) is lowered to it,
         as the encoder does for the ``smry`` chunk.
-    max_frames : int
-        Longest motion partitioned exactly (see the module docstring).
+    max_frames : int, optional
+        Longest motion partitioned exactly (see the module docstring); default
+        :data:`EXACT_MAX_FRAMES`, as the encoder's summary chunks.
 
     Returns
     -------
