@@ -308,6 +308,16 @@ def test_encode_checks_a_motion_changed_after_it_was_made(change):
         mpz.encode(m, max_error=1.0)
 
 
+def test_metadata_set_to_none_after_the_motion_was_made_is_refused():
+    """Motion(metadata=None) is no metadata, but None set afterwards reached the encoder's
+    checks as None: AttributeError (a QA run, stop 38). It is refused in words."""
+    m = generate("walk", frames=20, seed=1)
+    m.metadata = None   # type: ignore[assignment]
+    with pytest.raises(EncoderError, match="metadata must be a mapping of str to str, got "
+                       "NoneType"):
+        mpz.encode(m, max_error=1.0)
+
+
 @pytest.mark.parametrize("meta,match", [
     ({"k" * 256: "v"}, "256 bytes"),
     ({"": "v"}, "0 bytes"),

@@ -260,6 +260,8 @@ def test_a_long_motion_has_its_summary_cut_on_blocks(monkeypatch, tmp_path, caps
     assert js["method"] == "blocks:4" and [lv["k"] for lv in js["levels"]] == [3]
     assert [g["start"] for g in js["levels"][0]["segments"]] == s.levels[0].starts.tolist()
     assert "k=13 dropped: the motion has only 12 blocks of 4 frames" in got.err
+    assert mpz_cli.main(["summary", str(tmp_path / "long.mpz"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["method"] == "stored"
 
 
 def test_a_summary_whose_tables_pass_the_limit_is_refused_up_front(monkeypatch):
@@ -275,7 +277,8 @@ def test_a_summary_whose_tables_pass_the_limit_is_refused_up_front(monkeypatch):
         raise AssertionError("the motion was planned before the summary was checked")
     with monkeypatch.context() as mp:
         mp.setattr(encoder, "plan_hierarchy", never)
-        with pytest.raises(EncoderError, match=r"46 frames .* 3 segments .* at most k = 2 "):
+        with pytest.raises(EncoderError, match=r"46 frames .* 3 segments .* 47 x 3 = 141 "
+                           r"entries .* more than the 100 .* at most k = 2 "):
             mpz.encode(m, max_error=1.0, summary=(1, 3))
     assert [lv.k for lv in mpz.read_summary(mpz.encode(m, max_error=1.0, summary=(2,))).levels] \
         == [2]

@@ -345,6 +345,9 @@ def _length(value: object, name: str) -> float:
 def _metadata_utf8(meta: Mapping[Any, Any]) -> None:
     """Metadata that maps str to str (in :func:`mpz.motion.metadata_type_error`'s words, a
     Motion's too) and that UTF-8 can hold (§4.11)."""
+    if not isinstance(meta, Mapping):       # a Motion's set to None after it was made
+        raise EncoderError(f"metadata must be a mapping of str to str, got "
+                           f"{type(meta).__name__}")
     said = metadata_type_error(meta)
     if said is not None:
         raise EncoderError(said)

@@ -55,7 +55,7 @@ _BLOCK = 128
 #: markers on one core, half an hour for a 30-minute capture (216,000 frames)
 EXACT_MAX_FRAMES = 16384
 #: entries of the dynamic programme's tables, (rows + 1) x k_max of 12 bytes (the least
-#: WSSSE in float64, the back-pointer in int32), at most: 400 MB. More is refused
+#: WSSSE in float64, the back-pointer in int32), at most: 403 MB. More is refused
 #: (:func:`check_table`): k = 20,000 on 40,000 frames (13,334 blocks) took 2.4 GB and six
 #: minutes (a QA run, stop 38); at 16,384 rows this allows k up to 2,047
 MAX_TABLE = 1 << 25
@@ -292,9 +292,9 @@ def check_table(rows: int, k_max: int) -> None:
     if (rows + 1) * k_max > MAX_TABLE:
         raise EncoderError(
             f"a partition of {rows} frames (or blocks of frames) into up to {k_max} segments "
-            f"needs tables of {(rows + 1) * k_max * 12 / 1e9:.2g} GB, more than the "
-            f"{MAX_TABLE * 12 / 1e6:.0f} MB allowed; at most k = {MAX_TABLE // (rows + 1)} "
-            "here (fewer segments summarise as well)")
+            f"needs tables of {rows + 1} x {k_max} = {(rows + 1) * k_max:,} entries of 12 "
+            f"bytes, more than the {MAX_TABLE:,} ({MAX_TABLE * 12 / 1e6:.0f} MB) allowed; at "
+            f"most k = {MAX_TABLE // (rows + 1)} here (fewer segments summarise as well)")
 
 
 def _tables(a: NDArray[np.float64], k_max: int) -> tuple[NDArray[np.float64], NDArray[np.int32]]:

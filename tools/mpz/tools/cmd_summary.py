@@ -6,10 +6,11 @@ frames, with cuts on blocks of frames, as the encoder and the index make them:
 :func:`mpz.fisher.summary_partitions`; JSON ``method`` says ``blocks:B``) and prints
 one segment table per level: index, start frame, start time, length and the
 segment's share of the level's WSSSE. For a ``.mpz`` file it prints the levels
-stored in the file (through :func:`mpz.read_summary`); each segment's share of
-the WSSSE is then measured on the decoded motion (the file stores the level's
-total only). ``-`` reads standard input. ``--json`` prints the same as JSON
-(schema ``mpz-summary/1``; unknown and non-finite values are ``null``).
+stored in the file (through :func:`mpz.read_summary`; JSON ``method`` is
+``stored``); each segment's share of the WSSSE is then measured on the decoded
+motion (the file stores the level's total only). ``-`` reads standard input.
+``--json`` prints the same as JSON (schema ``mpz-summary/1``; unknown and
+non-finite values are ``null``).
 ``--plot OUT.png`` draws a timeline like the paper's Fig. 2: one bar per level
 with its segments in distinct colours, and the mean pose of each segment of
 the coarsest level, explained in a caption.
@@ -179,7 +180,7 @@ def _levels_from_mpz(args, ks):
     info = {"file": os.fspath(args.file), "kind": "mpz", "n_frames": n,
             "rate": float(summ.rate) if getattr(summ, "rate", None) else None,
             "units": unit, "space": summ.space, "description": what, "dims": summ.dims,
-            "markers": len(summ.names)}
+            "markers": len(summ.names), "method": "stored"}
     return info, levels, None, None, warnings
 
 
