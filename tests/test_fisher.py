@@ -481,6 +481,23 @@ def test_choose_k_respects_bound(x, thr):
     assert_valid(p, x, p.k)
 
 
+@settings(max_examples=80, deadline=None)
+@given(series_small, st.floats(0, 50), st.integers(1, 14))
+def test_threshold_partition_is_choose_k_else_the_finest(x, thr, k_max):
+    """What segmentation="optimal" takes, from one run of the programme where it ran it
+    twice: choose_k_for_threshold's partition, or where that refuses, the least-WSSSE
+    partition of k_max segments (k_max clamped to the frames)."""
+    from mpz.errors import EncoderError
+    from mpz.fisher import threshold_partition
+    k = min(k_max, x.shape[0])
+    got = threshold_partition(x, thr, k_max)
+    try:
+        want = choose_k_for_threshold(x, thr, k_max)
+    except EncoderError:
+        want = optimal_partitions(x, k, ks=[k])[k]
+    assert got.starts.tolist() == want.starts.tolist() and got.wssse == want.wssse
+
+
 def test_baselines_are_not_in_the_runtime_package():
     import mpz.fisher
     for name in ("paa", "dft_approx", "haar_approx", "_haar_forward", "_haar_inverse"):

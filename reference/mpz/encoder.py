@@ -1139,12 +1139,7 @@ def _segments(x: FloatArray, w: FloatArray, threshold: float, n: int,
               opts: EncodeOptions) -> tuple[IntArray, IntArray]:
     """Segment starts and frame counts: Alg. 1, or the Fisher optimal partition."""
     if opts.segmentation == "optimal":
-        from mpz.fisher import (
-            block_means,
-            choose_k_for_threshold,
-            optimal_partitions,
-            summary_block,
-        )
+        from mpz.fisher import block_means, summary_block, threshold_partition
         F = x.shape[0]
         flat = x.reshape(F, -1)
         b = summary_block(F)        # past 16,384 frames, on the means of blocks of b frames
@@ -1154,10 +1149,8 @@ def _segments(x: FloatArray, w: FloatArray, threshold: float, n: int,
         # marker distance, so scale by sqrt(n) to make theta mean the same thing
         thr = threshold * math.sqrt(n)
         k_max = max(1, min(flat.shape[0], F // 4 + 1, 512))
-        try:
-            part = choose_k_for_threshold(flat, thr, k_max)
-        except EncoderError:       # no k <= k_max fits: take the finest partition
-            part = optimal_partitions(flat, k_max, ks=[k_max])[k_max]
+        # the smallest k within thr, else the finest (k_max), from one run of the programme
+        part = threshold_partition(flat, thr, k_max)
         starts = np.asarray(part.starts, dtype=np.int64) * b
         counts = np.diff(np.append(starts, F))
         return starts, counts

@@ -40,7 +40,8 @@ from mpz.errors import EncoderError
 if TYPE_CHECKING:
     from mpz.motion import Motion
 
-__all__ = ["Partition", "optimal_partitions", "summary_partitions", "summary_block",
+__all__ = ["Partition", "optimal_partitions", "threshold_partition", "summary_partitions",
+           "summary_block",
            "summary_check", "check_table", "block_means", "EXACT_MAX_FRAMES", "MAX_TABLE",
            "wssse", "segment_means", "motion_series", "preview_series",
            "choose_k_for_threshold", "max_deviation"]
@@ -464,24 +465,39 @@ def choose_k_for_threshold(x: ArrayLike, threshold: float, k_max: int) -> Partit
     [0, 2]
     """
     a = _as_series(x)
+    part, dev, threshold, k_max = _threshold_partition(a, threshold, k_max)
+    if dev > threshold:
+        raise EncoderError(f"no partition with k <= {k_max} keeps every frame within "
+                           f"{threshold:g} of its segment mean (at k={k_max} the worst frame "
+                           f"is {dev:.6g} away); raise k_max or the threshold")
+    return part
+
+
+def threshold_partition(x: ArrayLike, threshold: float, k_max: int) -> Partition:
+    """:func:`choose_k_for_threshold`'s partition, or, where no ``k <= k_max`` keeps every
+    frame within ``threshold``, the least-WSSSE one of ``k_max`` segments (from the same
+    tables: the programme runs once). ``k_max`` is clamped to the frame count."""
+    return _threshold_partition(_as_series(x), threshold, k_max)[0]
+
+
+def _threshold_partition(a: NDArray[np.float64], threshold: object,
+                         k_max: object) -> tuple[Partition, float, float, int]:
+    """The first k whose partition's worst frame is within ``threshold``, else k_max's:
+    (partition, its worst frame's deviation, the threshold and k_max as checked)."""
     n = a.shape[0]
-    threshold = float(threshold)
-    if not math.isfinite(threshold) or threshold < 0:
+    thr = float(threshold)      # type: ignore[arg-type]  # anything float() takes
+    if not math.isfinite(thr) or thr < 0:
         raise EncoderError(f"threshold must be finite and non-negative, got {threshold!r}")
     if isinstance(k_max, (int, np.integer)) and k_max > n:
         k_max = n
-    k_max = _check_k(k_max, n, "k_max")
-    _, P = _tables(a, k_max)
-    worst: list[float] = []
-    for k in range(1, k_max + 1):
+    top = _check_k(k_max, n, "k_max")
+    _, P = _tables(a, top)
+    for k in range(1, top + 1):
         s = _backtrack(P, n, k)
         dev = float(_max_dev(a, s).max())
-        if dev <= threshold:
-            return _partition(a, s)
-        worst.append(dev)
-    raise EncoderError(f"no partition with k <= {k_max} keeps every frame within {threshold:g} "
-                       f"of its segment mean (at k={k_max} the worst frame is "
-                       f"{worst[-1]:.6g} away); raise k_max or the threshold")
+        if dev <= thr or k == top:
+            return _partition(a, s), dev, thr, top
+    raise AssertionError("unreachable: k_max >= 1")
 
 
 # -- motions as series, previews ------------------------------------------------------
