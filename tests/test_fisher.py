@@ -498,6 +498,15 @@ def test_threshold_partition_is_choose_k_else_the_finest(x, thr, k_max):
     assert got.starts.tolist() == want.starts.tolist() and got.wssse == want.wssse
 
 
+@pytest.mark.parametrize("bad", [0, -3, 2.5, True])
+def test_summary_max_frames_is_checked(bad):
+    """summary_partitions' max_frames of 0 divided by zero (ZeroDivisionError)."""
+    from mpz.errors import EncoderError
+    from mpz.fisher import summary_partitions
+    with pytest.raises(EncoderError, match="max_frames"):
+        summary_partitions(np.zeros((5, 2)), (2,), bad)
+
+
 def test_baselines_are_not_in_the_runtime_package():
     import mpz.fisher
     for name in ("paa", "dft_approx", "haar_approx", "_haar_forward", "_haar_inverse"):

@@ -395,7 +395,8 @@ def summary_block(n: int, max_frames: int | None = None) -> int:
     """The block length of a summary of ``n`` frames (:func:`summary_partitions`): 1, the
     exact partition, up to ``max_frames`` (default :data:`EXACT_MAX_FRAMES`) frames, else
     ``ceil(n / max_frames)``."""
-    top = EXACT_MAX_FRAMES if max_frames is None else int(max_frames)
+    top = EXACT_MAX_FRAMES if max_frames is None else _check_k(max_frames, 1 << 62,
+                                                                "max_frames")
     return max(1, -(-int(n) // top))
 
 
