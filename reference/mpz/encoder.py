@@ -462,10 +462,7 @@ def check_metadata(meta: Mapping[str, str]) -> None:
     were cut to fit, silently: two long keys could become one, an empty one '_'."""
     if len(meta) > 65535:
         raise EncoderError(f"{len(meta)} metadata entries, more than the 65535 of §4.11")
-    bad = metadata_type_error(meta)
-    if bad is not None:
-        raise EncoderError(bad)
-    for k, v in meta.items():
+    for k, v in meta.items():       # str to str: _metadata_utf8 checked both sources
         n = len(k.encode("utf-8", "surrogatepass"))
         if not 1 <= n <= 255:
             raise EncoderError(f"metadata key {ascii(k[:60])}: {n} bytes; keys are 1..255 "
@@ -1139,10 +1136,10 @@ def _segments(x: FloatArray, w: FloatArray, threshold: float, n: int,
               opts: EncodeOptions) -> tuple[IntArray, IntArray]:
     """Segment starts and frame counts: Alg. 1, or the Fisher optimal partition."""
     if opts.segmentation == "optimal":
-        from mpz.fisher import block_means, summary_block, threshold_partition
+        from mpz.fisher import block_length, block_means, threshold_partition
         F = x.shape[0]
         flat = x.reshape(F, -1)
-        b = summary_block(F)        # past 16,384 frames, on the means of blocks of b frames
+        b = block_length(F)         # past 16,384 frames, on the means of blocks of b frames
         if b > 1:                   # (Appendix C item 6: the programme is quadratic in F)
             flat = block_means(flat, b)
         # the Fisher deviation is the norm over all n members; Alg. 1's is a mean
@@ -1625,8 +1622,8 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     report.chunk_bytes = container.chunk_sizes(data)
     report.file_bytes = len(data)
     if opts.summary:
-        from mpz.fisher import summary_block
-        report.summary_blocks = summary_block(F)
+        from mpz.fisher import block_length
+        report.summary_blocks = block_length(F)
     report.seconds = time.perf_counter() - t0
     return data, report
 

@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from mpz.motion import Motion
 
 __all__ = ["Partition", "optimal_partitions", "threshold_partition", "summary_partitions",
-           "summary_block",
+           "block_length",
            "summary_check", "check_table", "block_means", "EXACT_MAX_FRAMES", "MAX_TABLE",
            "wssse", "segment_means", "motion_series", "preview_series",
            "choose_k_for_threshold", "max_deviation"]
@@ -384,17 +384,17 @@ def optimal_partitions(x: ArrayLike, k_max: int,
 def summary_check(n: int, ks: Iterable[int]) -> None:
     """Refuse, before any work, summary levels ``ks`` of a motion of ``n`` frames that
     :func:`summary_partitions` would refuse for the size of its tables."""
-    b = summary_block(n)
+    b = block_length(n)
     rows = -(-int(n) // b)
     top = max((min(int(k), rows) for k in ks), default=0)
     if top:
         check_table(rows, top)
 
 
-def summary_block(n: int, max_frames: int | None = None) -> int:
-    """The block length of a summary of ``n`` frames (:func:`summary_partitions`): 1, the
-    exact partition, up to ``max_frames`` (default :data:`EXACT_MAX_FRAMES`) frames, else
-    ``ceil(n / max_frames)``."""
+def block_length(n: int, max_frames: int | None = None) -> int:
+    """The block length the programme uses for ``n`` frames (summaries:
+    :func:`summary_partitions`; the encoder's optimal segmentation): 1, exact, up to
+    ``max_frames`` (default :data:`EXACT_MAX_FRAMES`) frames, else ``ceil(n / max_frames)``."""
     top = EXACT_MAX_FRAMES if max_frames is None else _check_k(max_frames, 1 << 62,
                                                                 "max_frames")
     return max(1, -(-int(n) // top))
@@ -427,7 +427,7 @@ def summary_partitions(x: ArrayLike, ks: Iterable[int],
     a = _as_series(x)
     n = a.shape[0]
     counts = [_check_k(k, 1 << 62) for k in ks]      # integers >= 1; lowered below
-    b = summary_block(n, max_frames)
+    b = block_length(n, max_frames)
     if b == 1:
         levels = sorted({min(k, n) for k in counts})
         return 1, optimal_partitions(a, max(levels, default=1), ks=levels)

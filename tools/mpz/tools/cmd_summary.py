@@ -79,7 +79,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 # -- gathering the levels ------------------------------------------------------------
 def _levels_from_motion(args, ks):
     """Partitions of a motion file; returns (info, levels, pose_series, parents, warnings)."""
-    from mpz.fisher import motion_series, summary_block, summary_partitions
+    from mpz.fisher import block_length, motion_series, summary_partitions
     try:
         from mpz.io import read
     except ImportError as exc:
@@ -92,13 +92,14 @@ def _levels_from_motion(args, ks):
     x, what = motion_series(motion, args.space)
     n = x.shape[0]
     warnings = []
-    b = summary_block(n)                # past 16,384 frames the cuts fall on blocks of b
-    units_of = f"{n} frames" if b == 1 else f"{-(-n // b)} blocks of {b} frames"
-    dropped = [k for k in ks if k > -(-n // b)]
+    b = block_length(n)                 # past 16,384 frames the cuts fall on blocks of b
+    rows = -(-n // b)
+    units_of = f"{n} frames" if b == 1 else f"{rows} blocks of {b} frames"
+    dropped = [k for k in ks if k > rows]
     if dropped:
         warnings.append(f"k={','.join(map(str, dropped))} dropped: the motion has only "
                         f"{units_of}")
-    ks = [k for k in ks if k <= -(-n // b)]
+    ks = [k for k in ks if k <= rows]
     if not ks:
         raise _Fail(f"no requested k fits the {units_of} of the motion")
     _, parts = summary_partitions(x, ks)
