@@ -230,13 +230,15 @@ def _pick_pruned(y0: float, y1: float, y2: float, radius: float,
 
 
 @njit(cache=True, nogil=True)
-def _choose(y: NDArray[np.float64], radius: float, order: int) -> NDArray[np.int64]:
-    T, M = y.shape[0], y.shape[1]
-    w = np.empty((T, M, 3), np.int64)       # every value is written below
+def _choose(y: NDArray[np.float64], radius: float, order: int, w: NDArray[np.int64],
+            cols: NDArray[np.int64]) -> None:
+    """:func:`choose_lattice` of the tracks ``cols`` of ``y``, written to the same tracks of
+    ``w`` (the others are not touched: each track is independent of the others)."""
+    T = y.shape[0]
     side = math.floor(2.0 * min(radius, _REACH)) + 1     # grid points an axis in the box
     pruned = side * side * side > _BOX_MAX
-    for t in range(T):              # each track is independent: frame by frame, so that
-        for m in range(M):          # w[t - 1] and y[t] are read in memory order
+    for t in range(T):              # frame by frame, so that w[t - 1] and y[t] are read
+        for m in cols:              # in memory order
             p0 = 0.0
             p1 = 0.0
             p2 = 0.0
@@ -262,10 +264,11 @@ def _choose(y: NDArray[np.float64], radius: float, order: int) -> NDArray[np.int
             w[t, m, 0] = a
             w[t, m, 1] = b
             w[t, m, 2] = c
-    return w
 
 
-def choose_lattice(y: ArrayLike, radius: float, order: int) -> NDArray[np.int64]:
+def choose_lattice(y: ArrayLike, radius: float, order: int,
+                   known: tuple[ArrayLike, NDArray[np.int64]] | None = None
+                   ) -> NDArray[np.int64]:
     """Integer values ``w[T, M, 3]`` with ``|w - y| <= radius`` (Euclidean, per sample).
 
     Parameters
@@ -277,6 +280,11 @@ def choose_lattice(y: ArrayLike, radius: float, order: int) -> NDArray[np.int64]
         nearest grid point always qualifies.
     order : int
         Temporal predictor order the values will be coded with (0..2).
+    known : (columns, values), optional
+        Tracks already chosen, by an earlier call on ``y[:, columns]`` with the same
+        radius and order: ``values[T, len(columns), 3]`` is that call's result. They are
+        copied, not chosen again (each track is chosen independently of the others, so
+        the result is the same as without ``known``).
 
     Returns
     -------
@@ -289,4 +297,12 @@ def choose_lattice(y: ArrayLike, radius: float, order: int) -> NDArray[np.int64]
     """
     if radius < np.sqrt(3.0) / 2:
         raise ValueError(f"radius {radius} < sqrt(3)/2 cannot guarantee a grid point")
-    return _choose(np.ascontiguousarray(y, dtype=np.float64), float(radius), int(order))
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    w = np.empty(y.shape, np.int64)             # every value is written below
+    todo = np.ones(y.shape[1], np.bool_)
+    if known is not None:
+        cols = np.asarray(known[0], np.int64)
+        w[:, cols] = known[1]
+        todo[cols] = False
+    _choose(y, float(radius), int(order), w, np.flatnonzero(todo).astype(np.int64))
+    return w
