@@ -257,6 +257,26 @@ def test_lattice_choice_follows_its_rule(T, M, radius, order, noise, on_grid, se
     assert (((w - y) ** 2).sum(axis=2) <= radius * radius).all()
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 30), st.integers(1, 6), st.sampled_from([0.9, 1.7320508, 2.5, 20.0]),
+       st.integers(0, 2), st.integers(0, 2 ** 32 - 1))
+def test_lattice_choice_copies_known_tracks_and_chooses_the_others(T, M, radius, order, seed):
+    """choose_lattice(known=(cols, values)) copies those tracks and chooses the rest, each
+    by the rule: base 1 reuses the tracks of its sample (issue 15.1). The known values are
+    offset here, so a choice that redid them, or wrote them to other tracks, would show."""
+    from mpz.quantize import choose_lattice
+    rng = np.random.default_rng(seed)
+    y = np.cumsum(rng.normal(0, 2, (T, M, 3)), axis=0)
+    cols = np.flatnonzero(rng.random(M) < 0.5)
+    known = choose_lattice(y[:, cols], radius, order) + 1000
+    w = choose_lattice(y, radius, order, (cols, known))
+    rule = np.array(_lattice_by_the_rule(y.tolist(), radius, order)).reshape(T, M, 3)
+    rest = np.setdiff1d(np.arange(M), cols)
+    assert w[:, cols].tolist() == known.tolist()
+    assert w[:, rest].tolist() == rule[:, rest].tolist()
+    assert (known - 1000).tolist() == rule[:, cols].tolist()
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.floats(0.8661, 40.0), st.integers(0, 2 ** 32 - 1),
        st.sampled_from([0.0, 0.1, 0.5, 1.0, 2.0, 5.0, 100.0]), st.sampled_from([1.0, 2.0, 0.0]))
@@ -563,6 +583,101 @@ def test_encoder_threads_when_absolute_residuals_win():
         assert set(_bases(one)) == {int(base)}
         for threads in (2, 3):
             assert encode_motion(motion, EncodeOptions(max_error=1.0, threads=threads))[0] == one
+
+
+def test_base1_sample_is_every_fourth_member_by_key_count():
+    """sample_absolute takes every 4th member in order of key count, the fewest first and
+    the lower index on a tie (so that still and moving members are both in it), and asks
+    for base 1's targets of those members only."""
+    from mpz.encoder import sample_absolute
+    from mpz.keyframe import Fitted
+    keys = [3, 1, 4, 1, 5, 9, 2, 6, 5]
+    T = 20
+    # by (keys, index): 1, 3, 6, 0, 2, 4, 8, 7, 5 -> every 4th: 1, 2, 5
+    fitted = Fitted([np.linspace(0, T - 1, k).astype(np.int64) if k > 1 else
+                     np.array([0], np.int64) for k in keys], [0] * 9,
+                    [np.zeros((k, 3), np.int64) for k in keys], np.zeros((T, 9, 3), np.int32))
+    asked = []
+    rng = np.random.default_rng(1)
+    y = rng.normal(0, 5, (T, 9, 3))
+
+    def targets(cols=None):
+        asked.append(None if cols is None else list(cols))
+        return y.copy() if cols is None else y[:, list(cols)].copy()
+    sample = sample_absolute(fitted, targets, 1.0)
+    assert sample.cols.tolist() == [1, 2, 5] and asked == [[1, 2, 5]]
+    assert sorted(sample.values) == [1, 2]
+    assert all(v.shape == (T, 3, 3) for v in sample.values.values())
+
+
+def test_base1_sample_is_taken_only_where_keys_are_sparse():
+    """worth_sampling: at most a third of the member-frames are keys (30 frames x 4
+    members: 40 keys is a third, 41 is more)."""
+    from mpz.encoder import worth_sampling
+    from mpz.keyframe import Fitted
+
+    def fitted(keys):
+        return Fitted([np.arange(k, dtype=np.int64) for k in keys], [0] * len(keys),
+                      [np.zeros((k, 3), np.int64) for k in keys],
+                      np.zeros((30, len(keys), 3), np.int32))
+    assert worth_sampling(fitted([10, 10, 10, 10]))
+    assert worth_sampling(fitted([2, 2, 2, 34]))
+    assert not worth_sampling(fitted([10, 10, 10, 11]))
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_base1_is_left_untried_only_where_it_loses(monkeypatch, threads):
+    """Base 1 is not tried when its sample codes over ABSOLUTE_LOSES times the sample's key
+    frames (Appendix C item 6). Smooth motion: the sample says so, and the file is the one
+    that trying base 1 gives (the key frames win). Noise: its keys are too dense for a
+    sample; taken anyway, it does not say so, and base 1 wins. "Trying" is the margin set
+    so high that no sample stops it."""
+    import mpz.encoder as E
+    from mpz.format import ResidualBase
+    from mpz.motion import Motion
+    from mpz.synth import generate
+    rng = np.random.default_rng(11)
+    noise = Motion(rng.normal(0, 50.0, (200, 8, 3)), [f"m{i}" for i in range(8)], 100.0)
+    smooth = generate("walk", frames=300, markers=12, seed=5)
+    verdicts = []
+    real = E.sample_absolute
+
+    def spy(*a):
+        verdicts.append(real(*a).loses)
+        return real(*a)
+    monkeypatch.setattr(E, "sample_absolute", spy)
+    for motion, bound, base, before, keys, loses in (
+            (noise, 1.0, ResidualBase.ABSOLUTE, [], 1.0, False),
+            (smooth, 5.0, ResidualBase.KEYFRAMES, [True], E.ABSOLUTE_KEYS, True)):
+        opts = E.EncodeOptions(max_error=bound, threads=threads)
+        verdicts.clear()
+        data, _ = E.encode_motion(motion, opts)
+        assert verdicts == before and set(_bases(data)) == {int(base)}
+        with monkeypatch.context() as mp:
+            mp.setattr(E, "ABSOLUTE_KEYS", keys)
+            verdicts.clear()
+            assert E.encode_motion(motion, opts)[0] == data and verdicts == [loses]
+            mp.setattr(E, "ABSOLUTE_LOSES", 1e9)
+            verdicts.clear()
+            assert E.encode_motion(motion, opts)[0] == data and verdicts == [False]
+
+
+@pytest.mark.parametrize("name,bound", [
+    ("c3d/cmu_135_02.c3d", 1.0),               # the sample nearest the margin (1.31)
+    ("c3d/c3dorg_Sample_Jump2.c3d", 1.0),      # left untried
+    ("c3d/auckland_FMC_MH0222_BP06.c3d", None),  # base 1 within 2 % of the key frames
+    ("c3d/c3dorg_Dance1.c3d", 1.0),            # base 1 wins by 2 %
+    ("trc/opensim_hamner_subject02_running.trc", 1.0)])     # base 1 wins by 7 %
+def test_base1_sample_changes_no_real_file(shared_data, monkeypatch, name, bound):
+    """On real captures the sample's verdict gives the bytes of trying base 1 everywhere:
+    where base 1 wins or nearly does, and where the sample is nearest the margin."""
+    import mpz.encoder as E
+    import mpz.io
+    m = mpz.io.read(shared_data / name)
+    opts = E.EncodeOptions(max_error=bound, threads=1)
+    data, _ = E.encode_motion(m, opts)
+    monkeypatch.setattr(E, "ABSOLUTE_LOSES", 1e9)
+    assert E.encode_motion(m, opts)[0] == data
 
 
 def _numpy_chain_scores(x, valid, idx):

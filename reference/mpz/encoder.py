@@ -27,7 +27,6 @@ from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, fields, replace
 import math
 import os
-import threading
 import time
 from typing import Any, Never, TypeVar
 
@@ -688,10 +687,13 @@ def _best_order(block: IntArray, period: int | None = None,
     return best
 
 
-def _lattice(y: FloatArray, radius: float, order: int) -> IntArray:
+def _lattice(y: FloatArray, radius: float, order: int,
+             sample: AbsoluteSample | None = None) -> IntArray:
     """The residuals of order ``order`` of the lattice values chosen for targets ``y``
-    (grid units) within ``radius`` (:func:`choose_lattice`), formed in place."""
-    return residuals(choose_lattice(y, radius, order), order, inplace=True)
+    (grid units) within ``radius`` (:func:`choose_lattice`), formed in place; the tracks
+    of ``sample`` are its values, not chosen again."""
+    known = None if sample is None else (sample.cols, sample.values[order])
+    return residuals(choose_lattice(y, radius, order, known), order, inplace=True)
 
 
 def _coded(e: IntArray, limit: int | None) -> bytes | None:
@@ -718,7 +720,8 @@ def _kept(e: IntArray, order: int, data: bytes) -> tuple[int, Int32Array, bytes]
 
 
 def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
-             limit: int | Future[int] | None = None) -> tuple[int, Int32Array, bytes] | None:
+             limit: int | None = None, sample: AbsoluteSample | None = None
+             ) -> tuple[int, Int32Array, bytes] | None:
     """Best (order, values, payload) for targets ``y`` (grid units) within ``radius``.
 
     With ``limit`` (issue 15.1), an order whose payload is sure to be longer than ``limit``
@@ -726,8 +729,9 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
     returned when no order fits in ``limit``: the caller's other candidate, of ``limit``
     bytes, wins against it anyway. The result is otherwise the same. None is also
     returned when every order's residuals pass the coder's range (see :func:`_coded`).
-    ``limit`` may be a Future: its value is waited for only once the first order's values
-    are chosen, so the choice overlaps the work that sets it (on another thread).
+
+    ``sample``: :func:`sample_absolute`'s result for these targets, whose tracks are not
+    chosen again.
 
     Memory (issue 11.11): the values of each order become their residuals in place and,
     for the best order, turn back and are kept as int32 (|w| < 2^30); so besides ``y`` at
@@ -735,9 +739,7 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
     """
     best: tuple[int, Int32Array, bytes] | None = None
     for order in orders:
-        e = _lattice(y, radius, order)
-        if isinstance(limit, Future):
-            limit = limit.result()
+        e = _lattice(y, radius, order, sample)
         # a later order replaces the best only if strictly smaller
         data = _coded(e, limit if best is None else len(best[2]) - 1)
         if data is not None:
@@ -1215,7 +1217,68 @@ def _prediction(patterns: IntArray, labels: IntArray, counts: IntArray, h: int,
     return p
 
 
-def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], FloatArray],
+#: base 1 is not tried when, on every ABSOLUTE_SAMPLE-th member of a node, it codes
+#: longer than ABSOLUTE_LOSES times the key frames (spec Appendix C item 6). On the 87
+#: real encodes (29 files x the default bound, 1 mm, 5 mm) the sample's ratio is 0.88-1.22
+#: times the whole node's, and base 1 is longer than the key frames wherever the sample
+#: says 1.3: the margin is that spread and a quarter more
+ABSOLUTE_SAMPLE = 4
+ABSOLUTE_LOSES = 1.3
+#: the sample is taken only when at most this share of a node's member-frames are keys:
+#: denser key frames lose to base 1 or win by less than the margin (on the real encodes
+#: the ratio is 0.82-1.18 there), and the sample's coding would be spent for nothing
+ABSOLUTE_KEYS = 1 / 3
+
+
+def worth_sampling(fitted: keyframe.Fitted) -> bool:
+    """Whether :func:`sample_absolute` may leave base 1 untried: at most
+    :data:`ABSOLUTE_KEYS` of the member-frames are keys."""
+    T, n = fitted.out.shape[0], len(fitted.times)
+    return sum(len(t) for t in fitted.times) <= ABSOLUTE_KEYS * T * n
+
+
+@dataclass
+class AbsoluteSample:
+    """Base 1 on a sample of a node's members (:func:`sample_absolute`)."""
+
+    cols: IntArray                      # the sampled members, in member order
+    values: dict[int, IntArray]         # order -> their lattice values [T, len(cols), 3]
+    loses: bool                         # longer than ABSOLUTE_LOSES x the key frames
+
+
+def sample_absolute(fitted: keyframe.Fitted, targets: Callable[..., FloatArray],
+                    radius: float) -> AbsoluteSample:
+    """Whether base 1 (absolute values, orders 1 and 2) is sure enough to code longer than
+    the key frames ``fitted`` to be left untried, judged on every
+    :data:`ABSOLUTE_SAMPLE`-th member in order of key count (from the stillest to the
+    most moving, so that the sample mixes them as the node does): both orders' payloads
+    of the sample against :data:`ABSOLUTE_LOSES` times the sample's key frames (each
+    coded as the whole node would be, its key residuals predicted as they are there).
+
+    ``targets(cols)`` gives base 1's targets of those members. The sample's lattice values
+    are kept: the whole node's choice (:func:`_bounded`) reuses them, so a node whose base
+    1 is tried pays only the sample's coding for the test (issue 15.1).
+    """
+    T = fitted.out.shape[0]
+    keys = [len(t) for t in fitted.times]
+    by_keys = sorted(range(len(keys)), key=lambda m: (keys[m], m))
+    cols = np.array(sorted(by_keys[::ABSOLUTE_SAMPLE]), np.int64)
+    part = keyframe.Fitted([fitted.times[m] for m in cols], [fitted.refs[m] for m in cols],
+                           [fitted.residuals[m] for m in cols], fitted.out[:0])
+    kdata = _keyframes_coded(part, T, len(cols))
+    y = targets(cols)
+    values = {order: choose_lattice(y, radius, order) for order in (2, 1)}
+    del y
+    # longer than the limit, or beyond the coder's range (then so is the whole node's);
+    # order 2 first: where base 1 is tried, it is the smaller on most real captures, and
+    # one order within the limit settles it
+    loses = kdata is not None and all(
+        _coded(residuals(w, order), math.floor(ABSOLUTE_LOSES * len(kdata))) is None
+        for order, w in values.items())
+    return AbsoluteSample(cols, values, loses)
+
+
+def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., FloatArray],
                         pat: PatternLayer | None, opts: EncodeOptions,
                         grid: Grid, pool: Executor | None = None
                         ) -> list[tuple[int, ResidualLayer]]:
@@ -1224,20 +1287,21 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
     (base 2).
 
     ``u_members()`` gives a new copy of the members' grid coordinates each time it is
-    called: each candidate divides its own copy in place (issue 11.11).
+    called, ``u_members(cols)`` of the members at those positions: each candidate divides
+    its own copy in place (issue 11.11).
 
-    The key frames are made first, so that base 1 stops coding an order as soon as it is
-    sure to be longer than them: it would lose then (the key frames come after it in the
-    list, so it wins only ties). The same layer is chosen as when every candidate is coded
-    in full, and that is most of the encoder's work saved at 1 mm (issue 15.1). With a
-    ``pool`` (issue 15), the key-frame members are fitted on its threads; then, while this
-    thread codes the key frames, a pool thread chooses the lattice of base 1's order 1
-    and codes it; order 2's lattice is chosen by whichever thread is free first, and this
-    thread codes it; each order against the key frames' length (the critical path first:
-    a thread per order had three threads on two cores and both orders waiting for the
-    limit, and a fixed split left one core idle for 17 ms). The smaller wins, order 1 on a
-    tie, which is what :func:`_bounded` picks from the two in turn. That holds both
-    orders' arrays at once, where the sequential path keeps one (issue 11.11).
+    The key frames are made first. Where they are sparse (:func:`worth_sampling`), base 1
+    is then tried on a sample of the members (:func:`sample_absolute`): when it codes well
+    beyond the key frames there, base 1 is not tried on the node (spec Appendix C item
+    6). Otherwise it stops coding an order as
+    soon as it is sure to be longer than the key frames: it would lose then (the key
+    frames come after it in the list, so it wins only ties). Both save most of the
+    encoder's work at 1 mm (issue 15.1). With a ``pool`` (issue 15), the key-frame
+    members are fitted on its threads; then a pool thread takes the sample while this
+    one codes the key frames, and if base 1 is tried, a pool thread chooses and codes
+    order 1 while this thread does order 2. The smaller wins, order 1 on a tie, which is
+    what :func:`_bounded` picks from the two in turn. That holds both orders' arrays at
+    once, where the sequential path keeps one (issue 11.11).
     """
     g = grid.scale.get(i, 1)
     radius = grid.bounds[i] / (g * grid.step)
@@ -1263,59 +1327,47 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[[], F
         fitted = keyframe.fit_members(y, grid.bounds[i] / (gk * grid.step), pool=pool)
         del y
 
-        def targets() -> FloatArray:            # base 1's targets: a copy of its own
-            y = u_members()
+        def targets(cols: IntArray | None = None) -> FloatArray:    # base 1's, a copy
+            y = u_members(cols)
             y /= g
             return y
-        absolute: tuple[int, Int32Array, bytes] | None
+        absolute: tuple[int, Int32Array, bytes] | None = None
+        sample: AbsoluteSample | None = None
         if pool is not None:
-            # Both cores stay busy until the end: while this thread codes the key frames
-            # (their length is the limit of both orders), a pool thread chooses the
-            # lattice of order 1 and codes order 1; the lattice of order 2 is made by
-            # whichever thread is free first, and this thread codes order 2. The smaller
-            # wins, order 1 on a tie: _bounded's choice.
-            klen: Future[int | None] = Future()
-            second: Future[IntArray] = Future()
-            claim = threading.Lock()            # held by the thread that makes order 2's
-
-            def make_second(y: FloatArray | None = None) -> None:
-                if not claim.acquire(blocking=False):
-                    return                      # the other thread has it
-                try:
-                    second.set_result(_lattice(targets() if y is None else y, radius, 2))
-                except BaseException as exc:
-                    second.set_exception(exc)
-                    raise
-
-            def first() -> tuple[IntArray, bytes | None]:
-                y = targets()
-                e1 = _lattice(y, radius, 1)
-                make_second(y)
-                del y
-                return e1, _coded(e1, klen.result())
-            job = pool.submit(first)
+            sampling = (pool.submit(sample_absolute, fitted, targets, radius)
+                        if worth_sampling(fitted) else None)
             try:
                 kdata = _keyframes_coded(fitted, T, n)
-            except BaseException as exc:
-                klen.set_exception(exc)
-                raise
-            klen.set_result(None if kdata is None else len(kdata))
-            make_second()
-            e2 = second.result()
-            data2 = _coded(e2, None if kdata is None else len(kdata))
-            e1, data1 = job.result()
-            del job
-            if data1 is not None and (data2 is None or len(data1) <= len(data2)):
-                del e2
-                absolute = _kept(e1, 1, data1)
-                del e1
-            else:
-                del e1
-                absolute = None if data2 is None else _kept(e2, 2, data2)
-                del e2
+            finally:
+                sample = None if sampling is None else sampling.result()
+            limit = None if kdata is None else len(kdata)
+            if kdata is None or sample is None or not sample.loses:
+                # order 1 on a pool thread, order 2 here, each against the key frames
+                def first() -> tuple[IntArray, bytes | None]:
+                    e = _lattice(targets(), radius, 1, sample)
+                    return e, _coded(e, limit)
+                job = pool.submit(first)
+                try:
+                    e2 = _lattice(targets(), radius, 2, sample)
+                    data2 = _coded(e2, limit)
+                finally:
+                    e1, data1 = job.result()
+                    del job
+                del sample
+                if data1 is not None and (data2 is None or len(data1) <= len(data2)):
+                    del e2
+                    absolute = _kept(e1, 1, data1)
+                    del e1
+                else:
+                    del e1
+                    absolute = None if data2 is None else _kept(e2, 2, data2)
+                    del e2
         else:
             kdata = _keyframes_coded(fitted, T, n)
-            absolute = _bounded(targets(), radius, (1, 2), None if kdata is None else len(kdata))
+            sample = sample_absolute(fitted, targets, radius) if worth_sampling(fitted) else None
+            if kdata is None or sample is None or not sample.loses:
+                absolute = _bounded(targets(), radius, (1, 2),
+                                    None if kdata is None else len(kdata), sample)
         if absolute is None and kdata is None:
             raise EncoderError(_BEYOND_RANGE)
         wk = fitted.out
@@ -1380,8 +1432,10 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
     # so the order of the sums does not matter): issue 11.11
     if opts.bounded:
         # the cheapest candidate; on a tie the first (min keeps the first minimum)
-        _, layer = min(residual_candidates(i, xl, lambda: u[:, members], pat, opts, grid,
-                                           pool), key=lambda c: c[0])
+        def u_members(cols: IntArray | None = None) -> FloatArray:    # a new copy each time
+            return u[:, members if cols is None else [members[int(c)] for c in cols]]
+        _, layer = min(residual_candidates(i, xl, u_members, pat, opts, grid, pool),
+                       key=lambda c: c[0])
         del xl
         local = layer.values.astype(np.int64)
         local *= layer.scale
