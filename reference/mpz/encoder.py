@@ -27,6 +27,7 @@ from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, fields, replace
 import math
 import os
+import threading
 import time
 from typing import Any, Never, TypeVar
 
@@ -1334,26 +1335,50 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
         absolute: tuple[int, Int32Array, bytes] | None = None
         sample: AbsoluteSample | None = None
         if pool is not None:
+            # Both cores stay busy until the end. Without a sample, a pool thread chooses
+            # the lattice of order 1 while this one codes the key frames (their length is
+            # the limit of both orders); with one, a pool thread takes the sample
+            # meanwhile, and the lattices start once it is known. The lattice of order 2
+            # is made by whichever thread is free first, and this thread codes it. The
+            # smaller wins, order 1 on a tie: _bounded's choice.
+            klen: Future[int | None] = Future()
+            second: Future[IntArray] = Future()
+            claim = threading.Lock()            # held by the thread that makes order 2's
+
+            def make_second(y: FloatArray | None = None) -> None:
+                if not claim.acquire(blocking=False):
+                    return                      # the other thread has it
+                try:
+                    second.set_result(_lattice(targets() if y is None else y, radius, 2,
+                                               sample))
+                except BaseException as exc:
+                    second.set_exception(exc)
+                    raise
+
+            def first() -> tuple[IntArray, bytes | None]:
+                y = targets()
+                e1 = _lattice(y, radius, 1, sample)
+                make_second(y)
+                del y
+                return e1, _coded(e1, klen.result())
             sampling = (pool.submit(sample_absolute, fitted, targets, radius)
                         if worth_sampling(fitted) else None)
+            job = pool.submit(first) if sampling is None else None
             try:
                 kdata = _keyframes_coded(fitted, T, n)
-            finally:
-                sample = None if sampling is None else sampling.result()
-            limit = None if kdata is None else len(kdata)
+            except BaseException as exc:
+                klen.set_exception(exc)
+                raise
+            klen.set_result(None if kdata is None else len(kdata))
+            sample = None if sampling is None else sampling.result()
             if kdata is None or sample is None or not sample.loses:
-                # order 1 on a pool thread, order 2 here, each against the key frames
-                def first() -> tuple[IntArray, bytes | None]:
-                    e = _lattice(targets(), radius, 1, sample)
-                    return e, _coded(e, limit)
-                job = pool.submit(first)
-                try:
-                    e2 = _lattice(targets(), radius, 2, sample)
-                    data2 = _coded(e2, limit)
-                finally:
-                    e1, data1 = job.result()
-                    del job
-                del sample
+                if job is None:
+                    job = pool.submit(first)
+                make_second()
+                e2 = second.result()
+                data2 = _coded(e2, None if kdata is None else len(kdata))
+                e1, data1 = job.result()
+                del job
                 if data1 is not None and (data2 is None or len(data1) <= len(data2)):
                     del e2
                     absolute = _kept(e1, 1, data1)
@@ -1362,6 +1387,7 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
                     del e1
                     absolute = None if data2 is None else _kept(e2, 2, data2)
                     del e2
+            del sample
         else:
             kdata = _keyframes_coded(fitted, T, n)
             sample = sample_absolute(fitted, targets, radius) if worth_sampling(fitted) else None
