@@ -610,19 +610,24 @@ def test_base1_sample_is_every_fourth_member_by_key_count():
     assert all(v.shape == (T, 3, 3) for v in sample.values.values())
 
 
-def test_base1_sample_is_taken_only_where_keys_are_sparse():
-    """worth_sampling: at most a third of the member-frames are keys (30 frames x 4
-    members: 40 keys is a third, 41 is more)."""
+def test_base1_sample_is_taken_only_where_keys_are_sparse_and_it_is_large_enough():
+    """worth_sampling: at most a third of the member-frames are keys (500 frames x 8
+    members: 1,333 keys, not 1,334), and the sample (ceil(n / 4) members) holds at least 2
+    members and 1,000 member-frames."""
     from mpz.encoder import worth_sampling
     from mpz.keyframe import Fitted
 
-    def fitted(keys):
+    def fitted(keys, T=500):
         return Fitted([np.arange(k, dtype=np.int64) for k in keys], [0] * len(keys),
                       [np.zeros((k, 3), np.int64) for k in keys],
-                      np.zeros((30, len(keys), 3), np.int32))
-    assert worth_sampling(fitted([10, 10, 10, 10]))
-    assert worth_sampling(fitted([2, 2, 2, 34]))
-    assert not worth_sampling(fitted([10, 10, 10, 11]))
+                      np.zeros((T, len(keys), 3), np.int32))
+    assert worth_sampling(fitted([167] * 7 + [164]))
+    assert worth_sampling(fitted([2] * 7 + [400]))
+    assert not worth_sampling(fitted([167] * 7 + [165]))
+    assert worth_sampling(fitted([2] * 5))                  # 2 members x 500 frames
+    assert not worth_sampling(fitted([2] * 4))              # a sample of one member
+    assert not worth_sampling(fitted([2] * 8, T=499))       # 998 member-frames
+    assert worth_sampling(fitted([2] * 40, T=100))          # 10 members x 100 frames
 
 
 @pytest.mark.parametrize("threads", [1, 2])
@@ -637,8 +642,8 @@ def test_base1_is_left_untried_only_where_it_loses(monkeypatch, threads):
     from mpz.motion import Motion
     from mpz.synth import generate
     rng = np.random.default_rng(11)
-    noise = Motion(rng.normal(0, 50.0, (200, 8, 3)), [f"m{i}" for i in range(8)], 100.0)
-    smooth = generate("walk", frames=300, markers=12, seed=5)
+    noise = Motion(rng.normal(0, 50.0, (600, 8, 3)), [f"m{i}" for i in range(8)], 100.0)
+    smooth = generate("walk", frames=400, markers=12, seed=5)
     verdicts = []
     real = E.sample_absolute
 
