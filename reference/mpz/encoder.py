@@ -1307,11 +1307,12 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
     soon as it is sure to be longer than the key frames: it would lose then (the key
     frames come after it in the list, so it wins only ties). Both save most of the
     encoder's work at 1 mm (issue 15.1). With a ``pool`` (issue 15), the key-frame
-    members are fitted on its threads; then a pool thread takes the sample while this
-    one codes the key frames, and if base 1 is tried, a pool thread chooses and codes
-    order 1 while this thread does order 2. The smaller wins, order 1 on a tie, which is
-    what :func:`_bounded` picks from the two in turn. That holds both orders' arrays at
-    once, where the sequential path keeps one (issue 11.11).
+    members are fitted on its threads; then, while this thread codes the key frames, a
+    pool thread takes the sample, or, without one, chooses order 1's values; if base 1
+    is tried, a pool thread codes order 1 and order 2's values are chosen by whichever
+    thread is free first (the comment in the code). The smaller wins, order 1 on a tie,
+    which is what :func:`_bounded` picks from the two in turn. That holds both orders'
+    arrays at once, where the sequential path keeps one (issue 11.11).
     """
     g = grid.scale.get(i, 1)
     radius = grid.bounds[i] / (g * grid.step)
