@@ -8,8 +8,10 @@ markers, noise and gaps drawn at random), then one of: unchanged, every 2nd-4th 
 held still, every 2nd-4th marker plus white noise, some markers jittered, or the first
 half of the clip frozen. It is encoded at a random bound (0.05-10 mm, one thread) twice:
 with the encoder's rule, and with ``ABSOLUTE_LOSES`` so high that base 1 is always
-tried. The rule can only make a file larger (base 1 left untried where it would have
-won); the table lists every case whose bytes differ.
+tried. In a node the rule can only make the residual layer larger (base 1 left untried
+where it would have won); across a file of several nodes, later nodes are coded against
+decoded tracks, so they may move either way (the default plan has one node). The table
+lists every case whose bytes differ.
 """
 from __future__ import annotations
 

@@ -612,8 +612,9 @@ def test_base1_sample_is_every_fourth_member_by_key_count():
 
 def test_base1_sample_is_taken_only_where_keys_are_sparse_and_it_is_large_enough():
     """worth_sampling: at most a third of the member-frames are keys (500 frames x 8
-    members: 1,333 keys, not 1,334), and the sample (ceil(n / 4) members) holds at least 2
-    members and 1,000 member-frames."""
+    members: 1,333 keys, not 1,334; 68 x 60: 1,360 exactly, which a test of keys against
+    the float F n / 3 refused: a QA run), and the sample (ceil(n / 4) members) holds at
+    least 2 members and 1,000 member-frames."""
     from mpz.encoder import worth_sampling
     from mpz.keyframe import Fitted
 
@@ -624,6 +625,8 @@ def test_base1_sample_is_taken_only_where_keys_are_sparse_and_it_is_large_enough
     assert worth_sampling(fitted([167] * 7 + [164]))
     assert worth_sampling(fitted([2] * 7 + [400]))
     assert not worth_sampling(fitted([167] * 7 + [165]))
+    assert worth_sampling(fitted([22] * 40 + [24] * 20, T=68))         # 1,360 = 68 x 60 / 3
+    assert not worth_sampling(fitted([22] * 39 + [24] * 21, T=68))
     assert worth_sampling(fitted([2] * 5))                  # 2 members x 500 frames
     assert not worth_sampling(fitted([2] * 4))              # a sample of one member
     assert not worth_sampling(fitted([2] * 8, T=499))       # 998 member-frames
@@ -652,14 +655,14 @@ def test_base1_is_left_untried_only_where_it_loses(monkeypatch, threads):
         return real(*a)
     monkeypatch.setattr(E, "sample_absolute", spy)
     for motion, bound, base, before, keys, loses in (
-            (noise, 1.0, ResidualBase.ABSOLUTE, [], 1.0, False),
-            (smooth, 5.0, ResidualBase.KEYFRAMES, [True], E.ABSOLUTE_KEYS, True)):
+            (noise, 1.0, ResidualBase.ABSOLUTE, [], 0, False),
+            (smooth, 5.0, ResidualBase.KEYFRAMES, [True], E.ABSOLUTE_FRAMES_PER_KEY, True)):
         opts = E.EncodeOptions(max_error=bound, threads=threads)
         verdicts.clear()
         data, _ = E.encode_motion(motion, opts)
         assert verdicts == before and set(_bases(data)) == {int(base)}
         with monkeypatch.context() as mp:
-            mp.setattr(E, "ABSOLUTE_KEYS", keys)
+            mp.setattr(E, "ABSOLUTE_FRAMES_PER_KEY", keys)
             verdicts.clear()
             assert E.encode_motion(motion, opts)[0] == data and verdicts == [loses]
             mp.setattr(E, "ABSOLUTE_LOSES", 1e9)

@@ -1225,10 +1225,11 @@ def _prediction(patterns: IntArray, labels: IntArray, counts: IntArray, h: int,
 #: says 1.3: the margin is that spread and a quarter more
 ABSOLUTE_SAMPLE = 4
 ABSOLUTE_LOSES = 1.3
-#: the sample is taken only when at most this share of a node's member-frames are keys:
-#: denser key frames lose to base 1 or win by less than the margin (on the real encodes
-#: the ratio is 0.82-1.18 there), and the sample's coding would be spent for nothing
-ABSOLUTE_KEYS = 1 / 3
+#: the sample is taken only when a node has at least this many member-frames per key
+#: (at most a third of them are keys): denser key frames lose to base 1 or win by less
+#: than the margin (on the real encodes the ratio is 0.82-1.18 there), and the sample's
+#: coding would be spent for nothing
+ABSOLUTE_FRAMES_PER_KEY = 3
 #: and only when the sample holds at least 2 members and 1,000 member-frames: a smaller
 #: one misjudges by the coder's learning (its models start empty) and by one member's
 #: motion; on 2,000 synthetic motions 21 files came out up to 7.3 % larger without these
@@ -1238,13 +1239,14 @@ ABSOLUTE_MIN_SAMPLES = 1000
 
 
 def worth_sampling(fitted: keyframe.Fitted) -> bool:
-    """Whether :func:`sample_absolute` may leave base 1 untried: at most
-    :data:`ABSOLUTE_KEYS` of the member-frames are keys, and the sample holds at least
-    :data:`ABSOLUTE_MIN_MEMBERS` members and :data:`ABSOLUTE_MIN_SAMPLES` member-frames."""
+    """Whether :func:`sample_absolute` may leave base 1 untried: the node has at least
+    :data:`ABSOLUTE_FRAMES_PER_KEY` member-frames per key (in integers: keys x 3 <= F n,
+    exactly), and the sample holds at least :data:`ABSOLUTE_MIN_MEMBERS` members and
+    :data:`ABSOLUTE_MIN_SAMPLES` member-frames."""
     T, n = fitted.out.shape[0], len(fitted.times)
     size = -(-n // ABSOLUTE_SAMPLE)                  # the sample's members: ceil(n / 4)
     return (size >= ABSOLUTE_MIN_MEMBERS and size * T >= ABSOLUTE_MIN_SAMPLES
-            and sum(len(t) for t in fitted.times) <= ABSOLUTE_KEYS * T * n)
+            and sum(len(t) for t in fitted.times) * ABSOLUTE_FRAMES_PER_KEY <= T * n)
 
 
 @dataclass
