@@ -277,6 +277,28 @@ def test_lattice_choice_copies_known_tracks_and_chooses_the_others(T, M, radius,
     assert (known - 1000).tolist() == rule[:, cols].tolist()
 
 
+@pytest.mark.parametrize("cols,values,match", [
+    (np.array([0.0, 1.0]), np.zeros((4, 2, 3), np.int64), "integers"),         # float columns
+    (np.array([True, False, True]), np.zeros((4, 3, 3), np.int64), "integers"),  # a mask
+    (np.array([[0], [1]]), np.zeros((4, 2, 3), np.int64), "1-D"),
+    (np.array([0, 0]), np.zeros((4, 2, 3), np.int64), "distinct"),
+    (np.array([-1]), np.zeros((4, 1, 3), np.int64), "distinct"),
+    (np.array([3]), np.zeros((4, 1, 3), np.int64), "distinct"),
+    (np.array([1]), np.zeros((4, 1, 3)), "integers"),                          # float values
+    (np.array([1]), np.zeros((4, 3), np.int64), "shape"),
+    (np.array([1, 2]), np.zeros((4, 1, 3), np.int64), "shape")])
+def test_lattice_choice_refuses_known_tracks_it_cannot_use(cols, values, match):
+    """choose_lattice(known=) checks what it copies: distinct integer columns of y and
+    integer values of their shape (a QA run: float values were truncated past the radius,
+    and a boolean mask was taken as the columns 0 and 1)."""
+    from mpz.quantize import choose_lattice
+    y = np.zeros((4, 3, 3))
+    with pytest.raises(ValueError, match=match):
+        choose_lattice(y, 1.0, 1, (cols, values))
+    assert choose_lattice(y, 1.0, 1, ([], np.zeros((4, 0, 3), np.int64))).tolist() == \
+        choose_lattice(y, 1.0, 1).tolist()
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.floats(0.8661, 40.0), st.integers(0, 2 ** 32 - 1),
        st.sampled_from([0.0, 0.1, 0.5, 1.0, 2.0, 5.0, 100.0]), st.sampled_from([1.0, 2.0, 0.0]))

@@ -293,7 +293,8 @@ def choose_lattice(y: ArrayLike, radius: float, order: int,
     Raises
     ------
     ValueError
-        If ``radius`` is below sqrt(3)/2.
+        If ``radius`` is below sqrt(3)/2, or ``known`` is not distinct integer columns
+        of ``y`` with integer values of shape ``(T, len(columns), 3)``.
     """
     if radius < np.sqrt(3.0) / 2:
         raise ValueError(f"radius {radius} < sqrt(3)/2 cannot guarantee a grid point")
@@ -301,8 +302,18 @@ def choose_lattice(y: ArrayLike, radius: float, order: int,
     w = np.empty(y.shape, np.int64)             # every value is written below
     todo = np.ones(y.shape[1], np.bool_)
     if known is not None:
-        cols = np.asarray(known[0], np.int64)
-        w[:, cols] = known[1]
+        cols, values = np.asarray(known[0]), np.asarray(known[1])
+        if cols.ndim != 1 or (cols.size and not np.issubdtype(cols.dtype, np.integer)):
+            raise ValueError("known columns must be a 1-D array of integers")
+        if cols.size and (cols.min() < 0 or cols.max() >= y.shape[1]
+                          or np.unique(cols).size != cols.size):
+            raise ValueError(f"known columns must be distinct, in 0..{y.shape[1] - 1}")
+        want = (y.shape[0], cols.size, 3)
+        if values.shape != want or not np.issubdtype(values.dtype, np.integer):
+            raise ValueError(f"known values must be integers of shape {want}, got "
+                             f"{values.dtype} {values.shape}")
+        cols = cols.astype(np.int64)
+        w[:, cols] = values
         todo[cols] = False
     _choose(y, float(radius), int(order), w, np.flatnonzero(todo).astype(np.int64))
     return w
