@@ -1222,7 +1222,7 @@ def _prediction(patterns: IntArray, labels: IntArray, counts: IntArray, h: int,
 #: longer than ABSOLUTE_LOSES times the key frames (spec Appendix C item 6). On the 87
 #: real encodes (29 files x the default bound, 1 mm, 5 mm) the sample's ratio is 0.88-1.22
 #: times the whole node's, and base 1 is longer than the key frames wherever the sample
-#: says 1.3: the margin is that spread and a quarter more
+#: says 1.3 (the node's own ratio is 1.17 or more there)
 ABSOLUTE_SAMPLE = 4
 ABSOLUTE_LOSES = 1.3
 #: the sample is taken only when a node has at least this many member-frames per key
@@ -1233,7 +1233,8 @@ ABSOLUTE_FRAMES_PER_KEY = 3
 #: and only when the sample holds at least 2 members and 1,000 member-frames: a smaller
 #: one misjudges by the coder's learning (its models start empty) and by one member's
 #: motion; on 2,000 synthetic motions 21 files came out up to 7.3 % larger without these
-#: limits and none with them (docs/speed.md, stop 39). Every real node passes them.
+#: limits, and 4 of 6,000 (1.2-6.6 %) with them (bench/bench_sample.py, docs/speed.md,
+#: stop 39). Every real node passes them.
 ABSOLUTE_MIN_MEMBERS = 2
 ABSOLUTE_MIN_SAMPLES = 1000
 
