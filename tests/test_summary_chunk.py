@@ -262,6 +262,9 @@ def test_a_long_motion_has_its_summary_cut_on_blocks(monkeypatch, tmp_path, caps
     assert "k=13 dropped: the motion has only 12 blocks of 4 frames" in got.err
     assert mpz_cli.main(["summary", str(tmp_path / "long.mpz"), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["method"] == "stored"
+    # an .mpz's stored levels: its head line said "cuts on blocks of stored frames"
+    assert mpz_cli.main(["summary", str(tmp_path / "long.mpz")]) == 0
+    assert "blocks" not in capsys.readouterr().out.splitlines()[0]
 
 
 def test_a_summary_whose_tables_pass_the_limit_is_refused_up_front(monkeypatch):

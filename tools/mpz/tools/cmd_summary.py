@@ -246,10 +246,10 @@ def _print_text(info, levels, out):
         head += f" at {rate:g} Hz ({info['n_frames'] / rate:.2f} s)"
     if info["dims"]:
         head += f", {info['dims']} dims: {info['description']}"
-    if info.get("method", "exact") != "exact":
-        b = info["method"].removeprefix("blocks:")
-        head += (f"; cuts on blocks of {b} frames (the exact partition is quadratic in the "
-                 "frames: spec Appendix C item 8)")
+    method = info.get("method", "exact")
+    if method.startswith("blocks:"):           # not "exact", nor "stored" (an .mpz's levels)
+        head += (f"; cuts on blocks of {method.removeprefix('blocks:')} frames (the exact "
+                 "partition is quadratic in the frames: spec Appendix C item 8)")
     print(head, file=out)
     for lv in levels:
         w = lv["wssse"]
