@@ -1276,9 +1276,7 @@ def sample_absolute(fitted: keyframe.Fitted, targets: Callable[..., FloatArray],
     keys = [len(t) for t in fitted.times]
     by_keys = sorted(range(len(keys)), key=lambda m: (keys[m], m))
     cols = np.array(sorted(by_keys[::ABSOLUTE_SAMPLE]), np.int64)
-    part = keyframe.Fitted([fitted.times[m] for m in cols], [fitted.refs[m] for m in cols],
-                           [fitted.residuals[m] for m in cols], fitted.out[:0])
-    kdata = _keyframes_coded(part, T, len(cols))
+    kdata = _keyframes_coded(fitted.part(cols), T, len(cols))
     y = targets(cols)
     values = {order: choose_lattice(y, radius, order) for order in (2, 1)}
     del y

@@ -22,7 +22,7 @@ halves the key residuals at 5 mm on real captures.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass
 import functools
@@ -870,6 +870,13 @@ class Fitted:
     refs: list[int]                     # p_m (§6.5)
     residuals: list[NDArray[np.int64]]  # member m's key values minus their prediction
     out: NDArray[np.int32]              # what the decoder rebuilds, [T, n, 3]
+
+    def part(self, cols: Sequence[int] | NDArray[np.int64]) -> Fitted:
+        """The members ``cols`` alone, in that order, for :func:`write_blocks` to code
+        (the encoder's base-1 sample): their refs are kept as they are, so they may name
+        members outside the part."""
+        return Fitted([self.times[m] for m in cols], [self.refs[m] for m in cols],
+                      [self.residuals[m] for m in cols], self.out[:, cols])
 
 
 def fit_members(y: NDArray[np.float64], radius: float, max_span: int = 256,
