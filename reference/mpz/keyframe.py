@@ -844,6 +844,19 @@ def _best_references(lo: int, hi: int, times: NDArray[np.int64], w: NDArray[np.i
     return ps
 
 
+def task_ranges(n: int, T: int) -> list[tuple[int, int]]:
+    """Members ``0 .. n-1`` of ``T`` frames in k consecutive ranges ``(lo, hi)``, where
+    k = ceil(n / max(1, floor(TASK_FRAMES / T))) is the number of tasks of about
+    :data:`TASK_FRAMES` frames (of one member at least), with sizes that differ by at most
+    one member: two threads then finish together, where ranges of a full task each left
+    one thread waiting (a 151-frame clip's 40 members split 27 + 13)."""
+    if n <= 0:
+        return []
+    per = max(1, TASK_FRAMES // max(T, 1))
+    k = -(-n // per)                        # the tasks that ranges of per members make
+    return [(i * n // k, (i + 1) * n // k) for i in range(k)]
+
+
 def _spread(pool: Executor | None, task: Callable[[int, int], _T],
             ranges: list[tuple[int, int]]) -> list[_T]:
     """``task(lo, hi)`` of every range, in order: the first on this thread and the others on
@@ -889,18 +902,18 @@ def fit_members(y: NDArray[np.float64], radius: float, max_span: int = 256,
 
     Speed (issue 15): the members are fitted independently of each other, in tasks of
     consecutive members holding about :data:`TASK_FRAMES` frames (one member a task from
-    that length on), spread over this thread and those of ``pool`` when one is given (the
-    kernels release the GIL); the key lists held meanwhile are K-sized, not T-sized. Then
-    each member's reference is chosen, also independently (from the finished tracks), so
-    the result does not depend on the threads or the tasks. A ``radius`` above
-    :data:`MAX_RADIUS` is searched within :data:`MAX_RADIUS`, as in :func:`fit`.
+    that length on), of sizes as equal as can be (:func:`task_ranges`), spread over this
+    thread and those of ``pool`` when one is given (the kernels release the GIL); the key
+    lists held meanwhile are K-sized, not T-sized. Then each member's reference is chosen,
+    also independently (from the finished tracks), so the result does not depend on the
+    threads or the tasks. A ``radius`` above :data:`MAX_RADIUS` is searched within
+    :data:`MAX_RADIUS`, as in :func:`fit`.
     """
     radius = _search_radius(radius)
     T, n, _ = y.shape
     y = np.ascontiguousarray(y, dtype=np.float64)
     tracks = np.empty((n, T, 3), np.int32)     # member-major: each fit writes its own
-    per = max(1, TASK_FRAMES // max(T, 1))
-    ranges = [(lo, min(n, lo + per)) for lo in range(0, n, per)]
+    ranges = task_ranges(n, T)
     parts = _spread(pool, lambda lo, hi: _fit_range(y, lo, hi, radius, int(max_span),
                                                     1.0, tracks), ranges)
     times = np.concatenate([t for t, _, _ in parts]) if parts else np.zeros(0, np.int64)
