@@ -366,6 +366,89 @@ def test_squared_lengths_sum_as_the_norm_does(n, exponent, data):
     assert squared_lengths(three).tobytes() == np.add.reduce(three * three, axis=2).tobytes()
 
 
+# ---- the group search (spec Appendix C item 11) --------------------------------------
+def _search_by_the_text(length: dict[int, int]) -> int:
+    """The count that Appendix C item 11's search keeps, given the coded length of every
+    count: from 8 (or the largest count below it), the smaller of its neighbours, then
+    further in that direction while smaller; smaller = shorter, or as short with fewer
+    groups."""
+    counts = sorted(length)
+    at = max(i for i, G in enumerate(counts) if G <= 8)
+
+    def smaller(i: int, j: int) -> bool:
+        return (length[counts[i]], counts[i]) < (length[counts[j]], counts[j])
+
+    best = at
+    for i in (at - 1, at + 1):
+        if 0 <= i < len(counts) and smaller(i, best):
+            best = i
+    step = best - at
+    while step and 0 <= best + step < len(counts) and smaller(best + step, best):
+        best += step
+    return counts[best]
+
+
+def _fake_lengths(monkeypatch, lengths: dict[int, int]) -> list[int]:
+    """Make ch._encode_groups code grouping G in lengths[G] bytes (None past its limit, as
+    the coder stops); returns the list of counts it was asked for."""
+    asked: list[int] = []
+
+    def fake(e, groups, limit=None):
+        G = int(groups.max()) + 1
+        asked.append(G)
+        n = lengths[G]
+        return None if limit is not None and n > limit else bytes(n)
+
+    monkeypatch.setattr(ch, "_encode_groups", fake)
+    return asked
+
+
+@pytest.mark.parametrize("lengths, kept, asked", [
+    ([100, 90, 80, 70, 60, 50], 16, [8, 4, 12, 16]),     # falling: on up to 16
+    ([50, 60, 70, 80, 90, 100], 1, [8, 4, 12, 2, 1]),    # rising: down to 1
+    ([100, 90, 80, 85, 84, 86], 4, [8, 4, 12, 2]),       # least at 4
+    ([100, 90, 81, 80, 81, 82], 8, [8, 4, 12]),          # least at 8: three codings
+    ([5, 5, 5, 5, 5, 5], 1, [8, 4, 12, 2, 1]),           # a tie: the fewest groups
+    ([100, 90, 80, 85, 84, 79], 4, [8, 4, 12, 2]),       # not falling then rising: 16 missed
+])
+def test_group_search_keeps_what_its_rule_says(monkeypatch, lengths, kept, asked):
+    """channels.group on coded lengths given by hand, C = 40 channels: the count it keeps
+    and the counts it codes. Where the length falls and then rises, the count kept is the
+    least length's (the fewest groups on a tie), what coding all six and keeping the
+    smallest gave; the last case is where the search misses the smallest (16 at 79)."""
+    by_count = dict(zip(ch.GROUP_COUNTS, lengths, strict=True))
+    tried = _fake_lengths(monkeypatch, by_count)
+    e = np.arange(40 * 3, dtype=np.int64).reshape(3, 40)
+    groups, data = ch.group(e)
+    assert int(groups.max()) + 1 == kept == _search_by_the_text(by_count)
+    assert len(data) == by_count[kept]
+    assert tried == asked
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), F=st.integers(1, 80), C=st.integers(1, 40))
+def test_group_search_on_coded_channels(seed, F, C):
+    """channels.group on random residuals: the count the rule keeps for the real coded
+    length of every count (each coded in full here), its grouping (channels ranked by
+    cost, cut into G equal groups) and the very bytes of coding that grouping, and the
+    smallest of all six wherever the length falls and then rises."""
+    rng = np.random.default_rng(seed)
+    e = np.rint(rng.laplace(0, 1, (F, C)) * 10.0 ** rng.uniform(-1, 3, C)).astype(np.int64)
+    rank = np.empty(C, np.int64)
+    rank[np.argsort(np.log2(1.0 + np.abs(e)).sum(axis=0), kind="stable")] = np.arange(C)
+    full = {G: ch._encode_groups(e, (rank * G) // C) for G in ch.GROUP_COUNTS if G <= C}
+    length = {G: len(b) for G, b in full.items()}
+    groups, data = ch.group(e)
+    G = _search_by_the_text(length)
+    assert groups.tolist() == ((rank * G) // C).tolist()
+    assert data == full[G]
+    L = [length[g] for g in sorted(length)]
+    low = L.index(min(L))
+    if all(L[i] >= L[i + 1] for i in range(low)) and \
+            all(L[i] <= L[i + 1] for i in range(low, len(L) - 1)):
+        assert G == sorted(length)[low]
+
+
 def _lever_arms_by_definition(skel: sk.Skeleton, p: np.ndarray) -> np.ndarray:
     """Per joint a, the largest |p[k] - pivot(a)| over frames and the points k that a's
     rotation moves (a and its descendants), as lever_arms' docstring defines it."""
@@ -385,7 +468,7 @@ def _lever_arms_by_definition(skel: sk.Skeleton, p: np.ndarray) -> np.ndarray:
 @settings(max_examples=100, deadline=None)
 @given(st.data())
 def test_lever_arms_are_the_largest_distances_to_the_pivots(data):
-    """lever_arms (vectorised over frame blocks, issue 15.1) against its definition, on
+    """lever_arms (a kernel over the frames, issue 15.1) against its definition, on
     random trees of either convention, bit for bit: the search's steps are scaled by them."""
     from mpz.io.kinematics import Joint, Skeleton, lever_arms
     J = data.draw(st.integers(1, 12))
@@ -397,6 +480,34 @@ def test_lever_arms_are_the_largest_distances_to_the_pivots(data):
                                     max_size=F * J * 3)), np.float64).reshape(F, J, 3)
     got = lever_arms(skel, p)
     assert got.tobytes() == _lever_arms_by_definition(skel, p).tobytes()
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, 1e200])
+@pytest.mark.parametrize("convention", ["bvh", "asf"])
+def test_lever_arms_carry_what_numpy_did(bad, convention):
+    """A NaN, an infinity or an overflowing square among the positions gives the arms that
+    numpy's maximum gave (NaN stays NaN in every arm whose pairs reach it), as the numpy
+    blocks of issue 15.1 computed them; positions of the wrong shape are refused, never
+    read out of bounds by the kernel."""
+    from mpz.io.kinematics import Joint, Skeleton, _lever_pairs, lever_arms
+    skel = Skeleton(convention, (Joint("r", -1), Joint("a", 0), Joint("b", 1),
+                                 Joint("c", 0)))
+    p = np.random.default_rng(5).normal(0, 100, (7, 4, 3))
+    p[3, 2, 1] = bad
+    moved, pivots, turner = _lever_pairs(skel)
+    with np.errstate(all="ignore"):
+        d = p[:, moved] - p[:, pivots]
+        far = np.maximum(np.zeros(len(moved)),
+                         (d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]
+                          + d[..., 2] * d[..., 2]).max(axis=0, initial=0.0))
+        want = np.zeros(4)
+        np.maximum.at(want, turner, np.sqrt(far))
+    got = lever_arms(skel, p)
+    assert got.tobytes() == want.tobytes()
+    assert not np.isfinite(got).all()               # the bad value reached the arms
+    for shape in [(7, 3, 3), (7, 4, 2), (4, 3)]:
+        with pytest.raises(ValueError, match="positions must be"):
+            lever_arms(skel, np.zeros(shape))
 
 
 @pytest.mark.parametrize("name", ["amc/02_01.amc", "amc/49_18.amc"])
