@@ -268,11 +268,16 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     angle_limit = None if angle_cap is None else (math.radians(angle_cap) if rad
                                                   else angle_cap)
 
+    # a channel's step depends on kappa and on whether it turns and its joint's arm only:
+    # each distinct (turns, arm) is worked out once a kappa (31 for an ASF's 62 channels)
+    index: dict[tuple[bool, float], int] = {}
+    kind_of = [index.setdefault(k, len(index)) for k in zip(rotation, per_rad, strict=True)]
+    kinds = list(index)
+
     def steps(kappa: float) -> list[Step]:
-        # a channel's step depends on kappa and its joint's arm only: one step_for a value
-        cache: dict[float, Step] = {}
-        out = []
-        for turns, arm in zip(rotation, per_rad, strict=True):
+        cache: dict[float, Step] = {}                 # one step_for a bound
+        of_kind = []
+        for turns, arm in kinds:
             if turns:
                 bound = kappa / arm                             # radians
                 bound = bound if rad else math.degrees(bound)
@@ -287,8 +292,8 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
             step = cache.get(bound)
             if step is None:
                 step = cache[bound] = step_for(bound)
-            out.append(step)
-        return out
+            of_kind.append(step)
+        return [of_kind[k] for k in kind_of]
 
     # the search measures the error on at most 256 frames; the result is then checked on
     # every frame and made finer until it holds there too
