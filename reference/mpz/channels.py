@@ -40,8 +40,10 @@ TURN_DEGREES = 360
 #: step mantissas the reference encoder uses; each divides 360 x 10^d, so every one of its
 #: steps can wrap (§4.14)
 MANTISSAS = (1, 2, 4, 5, 8)
-#: group counts the reference encoder tries (§4.14 allows 1..256); it keeps the smallest
+#: group counts the reference encoder may try (§4.14 allows 1..256), in increasing order;
+#: :func:`group` searches them from FIRST_GROUP_COUNT (spec Appendix C item 11)
 GROUP_COUNTS = (1, 2, 4, 8, 12, 16)
+FIRST_GROUP_COUNT = 8
 
 
 class Coding(Protocol):
@@ -265,8 +267,19 @@ def _encode_groups(e: IntArray, groups: NDArray[np.int64], limit: int | None = N
 
 def group(e: IntArray) -> tuple[NDArray[np.int64], bytes]:
     """Channels grouped by activity (quantiles of their :func:`_cost`), each group one block
-    with its own models: of the groupings of :data:`GROUP_COUNTS`, the one that codes
-    smallest. Returns (group of each channel, the coded field)."""
+    with its own models. Returns (group of each channel, the coded field).
+
+    The count of groups G is searched among :data:`GROUP_COUNTS` up to C, from
+    :data:`FIRST_GROUP_COUNT` (or the largest count below it), and the next smaller and
+    next larger counts; from the one of these that codes smallest, on to further counts
+    in the same direction while each codes smaller. "Smaller" is a shorter field, or as
+    short with fewer groups, and the smallest count found is kept. Where the coded length
+    falls and then rises with G, that is the count coding every one of them would keep,
+    with 3-4 codings instead of 6 (issue 15.1: they were the skeleton chunk's longest
+    step). Elsewhere it can miss the smallest: 2 of 480 real channel sets, +0.0002 % of
+    their bytes (spec Appendix C item 11, bench/bench_grouping.py). A coding stops once it
+    cannot be smaller.
+    """
     C = e.shape[1]
     if C == 0:
         return np.zeros(0, np.int64), BlockEncoder().finish()
@@ -275,17 +288,30 @@ def group(e: IntArray) -> tuple[NDArray[np.int64], bytes]:
                            "larger --angle-error or --translation-error")
     rank = np.empty(C, np.int64)
     rank[np.argsort(_cost(e), kind="stable")] = np.arange(C)
-    best: tuple[NDArray[np.int64], bytes] | None = None
-    for G in GROUP_COUNTS:
-        if G > C:
-            break
-        groups = (rank * G) // C
-        # a later grouping replaces the best only if strictly smaller: stop it otherwise
-        data = _encode_groups(e, groups, None if best is None else len(best[1]) - 1)
-        if data is not None and (best is None or len(data) < len(best[1])):
-            best = (groups, data)
-    assert best is not None
-    return best
+    counts = [G for G in GROUP_COUNTS if G <= C]
+    start = max(i for i, G in enumerate(counts) if G <= FIRST_GROUP_COUNT)   # 1 <= C
+    first = _encode_groups(e, (rank * counts[start]) // C)
+    assert first is not None                     # no limit: the coder does not stop
+    best, field = start, first
+
+    def smaller(i: int) -> bool:
+        """Whether count i codes smaller than the best so far (then the best)."""
+        nonlocal best, field
+        limit = len(field) - (1 if i > best else 0)      # more groups: strictly shorter
+        data = _encode_groups(e, (rank * counts[i]) // C, limit)
+        if data is None or len(data) > limit:            # (None: stopped past the limit)
+            return False
+        best, field = i, data
+        return True
+
+    for i in (start - 1, start + 1):
+        if 0 <= i < len(counts):
+            smaller(i)
+    step = best - start
+    i = best + step
+    while step and 0 <= i < len(counts) and smaller(i):
+        i += step
+    return (rank * counts[best]) // C, field
 
 
 # ----------------------------------------------------------- §6.10 decoding --
