@@ -212,6 +212,36 @@ def test_shipped_kernels_match_the_sources() -> None:
         assert any(Path(_jit.SHIPPED_DIR).rglob(f"keyframe._fit-*.{tag}.nbi")), v
 
 
+#: kernels of the shipped sources that no encode or decode calls (the tests' references
+#: of what a faster kernel must equal), so make_kernels' workload does not compile them
+_NOT_IN_THE_CODEC = {"mpz/keyframe._cost", "mpz/keyframe._pairwise_sum",
+                     "mpz/keyframe._predict", "mpz/keyframe._residuals"}
+
+
+def test_every_codec_kernel_is_shipped() -> None:
+    """Each kernel of a shipped source (not inlined) has an index file for every CPython
+    of the manifest, but for the test-only references above: a new kernel that
+    make_kernels' workload never calls would otherwise compile on a user's first run
+    (kinematics._farthest did, as the workload's skeletal encodes had no position
+    bound)."""
+    import re
+    info = json.loads(Path(_jit.SHIPPED_DIR, "manifest.json").read_text())
+    root = Path(_jit.SHIPPED_DIR)
+    package = Path(_jit.__file__).parent.parent             # the folder holding mpz/
+    for v in info["python"]:
+        tag = ".py" + v.replace(".", "")
+        shipped = {p.relative_to(root).as_posix().split(tag)[0].rsplit("-", 1)[0]
+                   for p in root.rglob(f"*{tag}.nbi")}
+        defined = set()
+        for src in info["sources"]:
+            text = (package / src).read_text(encoding="utf-8")
+            for m in re.finditer(r"@(njit\([^)]*\)|_kernel)\s*\ndef (\w+)", text):
+                if 'inline="always"' not in m.group(1):
+                    defined.add(f"{src.removesuffix('.py')}.{m.group(2)}")
+        assert defined - _NOT_IN_THE_CODEC <= shipped, (v, sorted(defined - shipped))
+        assert _NOT_IN_THE_CODEC <= defined                 # the list names real kernels
+
+
 def _shipped_unusable() -> str | None:
     """Why this interpreter cannot load the shipped kernels, or None."""
     import numba
