@@ -16,6 +16,7 @@ import construct
 
 from mpz.chunks import _build, _parse
 from mpz.errors import FormatError, MPZError
+from mpz.format import MAX_ANALOG_SAMPLES, MAX_CHANNEL_SAMPLES, MAX_SAMPLES
 
 if TYPE_CHECKING:   # the Context names core records; core imports this module
     from mpz.chunks.core import HierNode, Mhdr, Patt
@@ -86,6 +87,21 @@ class Context:
     def members(self) -> int:
         """n_i, the member count of the node being checked."""
         return self.nodes[self.node].member_count
+
+    def limit(self, name: str) -> tuple[int, str]:
+        """The limit ``name`` of §8 as this decode applies it, and what to add to an error
+        naming it: "" for the table's value, else why it is lower. ``max_samples`` below
+        MAX_SAMPLES lowers MAX_SAMPLES to it, and with it MAX_ANALOG_SAMPLES to 4 x
+        max_samples and MAX_CHANNEL_SAMPLES to max_samples (the table's ratios), so that
+        one option bounds the memory of every chunk (§8, memory budget)."""
+        spec, per = {"MAX_SAMPLES": (MAX_SAMPLES, 1),
+                     "MAX_ANALOG_SAMPLES": (MAX_ANALOG_SAMPLES, 4),
+                     "MAX_CHANNEL_SAMPLES": (MAX_CHANNEL_SAMPLES, 1)}[name]
+        if self.max_samples >= MAX_SAMPLES:
+            return spec, ""
+        low = min(spec, per * self.max_samples)
+        times = "" if per == 1 else f"{per} x "
+        return low, f" (this decoder's {name}: {times}its max_samples {self.max_samples})"
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,6 @@ from mpz.format import (
     C3D_MAX_SHIFT,
     C3D_MIN_SHIFT,
     C3D_MINOR,
-    MAX_ANALOG_SAMPLES,
     MAX_C3D_PARAMETER_BYTES,
     MAX_MARKERS,
     MAX_ORDER,
@@ -96,10 +95,11 @@ class Channel(Record):
         if self.low_bits > C3D_MAX_LOW_BITS:
             _fail(f"{what}: low_bits {self.low_bits} not in 0..{C3D_MAX_LOW_BITS}", section)
 
-    def decode(self, dec: BlockDecoder, T: int, storage: int, section: str
+    def decode(self, dec: BlockDecoder, T: int, storage: int, section: str,
+               out: NDArray[np.int16] | NDArray[np.float32] | None = None
                ) -> NDArray[np.int16] | NDArray[np.float32]:
         return decode_channel(dec, T, self.mode, self.shift, self.order, self.low_bits,
-                              _dtype(storage), section)
+                              _dtype(storage), section, out)
 
 
 def _dtype(storage: int) -> np.dtype[Any]:
@@ -475,15 +475,17 @@ class Cpnt(Record):
         dec = BlockDecoder(self.coded, chunk=self.TYPE)
         words = np.empty((F, self.point_count), _dtype(self.storage))
         for p, ch in enumerate(self.words):
-            words[:, p] = ch.decode(dec, F, self.storage, s)
-        models = np.full((F, J, 3), np.nan)
+            ch.decode(dec, F, self.storage, s, words[:, p])
         valid = np.ones((F, J), bool)
         if J:
             flags = dec.block(F, J, 1, signed=False)[:, :, 0]
-            if (flags > 1).any():
+            if flags.size and int(flags.max()) > 1:
                 raise FormatError(f"model-output gap flag {int(flags.max())}, not 0 or 1",
                                   section=s)
             valid = flags == 0
+            del flags                   # before the outputs are allocated (§8 budget)
+        models = np.full((F, J, 3), np.nan)
+        if J:
             for j, m in enumerate(self.models):
                 for a, ax in enumerate(m.axes):
                     e = dec.block(F, 1, 1)
@@ -527,9 +529,10 @@ class Cana(Record):
         if C * n > 0xFFFF:
             _fail(f"channels x samples = {C * n} exceeds 65535, the analog words per frame a "
                   f"C3D header holds", s)
-        if F * n * C > MAX_ANALOG_SAMPLES:
+        limit, lowered = ctx.limit("MAX_ANALOG_SAMPLES")
+        if F * n * C > limit:
             _fail(f"{F} frames x {n} samples x {C} channels exceed MAX_ANALOG_SAMPLES "
-                  f"{MAX_ANALOG_SAMPLES}", "§8", LimitExceededError)
+                  f"{limit}{lowered}", "§8", LimitExceededError)
         for c, ch in enumerate(self.table):
             ch.check_entry(self.storage, f"analog channel {c}", s)
         self.decode(F)
@@ -542,8 +545,8 @@ class Cana(Record):
         T = F * self.samples
         out = np.empty((T, self.channels), _dtype(self.storage))
         dec = BlockDecoder(self.coded, chunk=self.TYPE)
-        for c, ch in enumerate(self.table):
-            out[:, c] = ch.decode(dec, T, self.storage, "§4.13.4")
+        for c, ch in enumerate(self.table):              # each into its column (§8)
+            ch.decode(dec, T, self.storage, "§4.13.4", out[:, c])
         dec.close()
         return out
 

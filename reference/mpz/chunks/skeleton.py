@@ -27,7 +27,6 @@ from mpz.errors import LimitExceededError
 from mpz.format import (
     AXIS_ORDERS,
     CHANNEL_VALUE_LIMIT,
-    MAX_CHANNEL_SAMPLES,
     MAX_ORDER,
     MAX_STEP_DIGITS,
     ROOT_PARENT,
@@ -94,9 +93,10 @@ def _check_layer(channel_count: int, expected: int, position_bound: float,
     if channel_count != expected:
         _fail(f"the channel layer holds {channel_count} channels, the skeleton has {expected}",
               section)
-    if F * channel_count > MAX_CHANNEL_SAMPLES:
+    limit, lowered = ctx.limit("MAX_CHANNEL_SAMPLES")
+    if F * channel_count > limit:
         _fail(f"frame_count x channel_count = {F} x {channel_count} exceeds "
-              f"{MAX_CHANNEL_SAMPLES}", "§8", LimitExceededError)
+              f"{limit}{lowered}", "§8", LimitExceededError)
     if not (math.isfinite(position_bound) and position_bound >= 0):
         _fail(f"position bound {position_bound!r} is not finite and >= 0", "§4.14")
     for k, c in enumerate(channels):
