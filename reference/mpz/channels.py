@@ -164,12 +164,23 @@ def quantise(values: FloatArray, steps: Sequence[Step]) -> IntArray:
     return x.astype(np.int64)
 
 
+#: values of the channel layer worked on at a time while decoding (spec §8, memory budget:
+#: whole-layer temporaries took about 30 bytes a channel value, a QA run of stop 40)
+_CELLS = 1 << 20
+
+
 def dequantise(x: IntArray, codings: Sequence[Coding]) -> FloatArray:
     """§6.10 step 4: ``v = x m / 10^d``, one correctly rounded binary64 division of the exact
-    integer ``x m`` (|x m| < 2^47, exact in binary64) by ``10^d`` (exact for d <= 22)."""
+    integer ``x m`` (|x m| < 2^47, exact in binary64) by ``10^d`` (exact for d <= 22);
+    a block of rows at a time into the output, so that no temporary is of its size."""
     m = np.array([c.step_mantissa for c in codings], np.int64)
     p = np.array([10.0 ** c.step_digits for c in codings])
-    return (x * m).astype(np.float64) / p
+    x = np.asarray(x)
+    out = np.empty(x.shape, np.float64)
+    rows = max(1, _CELLS // max(x.shape[-1] if x.ndim else 1, 1))
+    for r0 in range(0, x.shape[0] if x.ndim else 1, rows):
+        out[r0: r0 + rows] = (x[r0: r0 + rows] * m).astype(np.float64) / p
+    return out
 
 
 # ---------------------------------------------------------------- encoding --
@@ -330,22 +341,32 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
     """
     F, C = frames, len(codings)
     dec = BlockDecoder(coded, chunk=chunk, offset=offset)
-    e = np.empty((F, C), np.int64)
     groups = np.array([c.group for c in codings], np.int64)
-    for g in range(int(groups.max(initial=-1)) + 1):
-        cols = np.flatnonzero(groups == g)
-        e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]          # step 1: group g
+    G = int(groups.max(initial=-1)) + 1
+    if G == 1 and (groups == 0).all():                  # one block of every column: as is
+        e = dec.block(F, C, 1).reshape(F, C)
+    else:
+        e = np.empty((F, C), np.int64)
+        for g in range(G):
+            cols = np.flatnonzero(groups == g)
+            e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]      # step 1: group g
     dec.close()
-    x = np.empty_like(e)
+    # steps 2 and 3 overwrite e, a few columns at a time (spec §8: temporaries of
+    # _CELLS values, not of the layer; each column is computed from its own residuals)
+    x = e
     turns = np.array([(turn_steps(cc.step_mantissa, cc.step_digits) or 0) if cc.wrap else 0
                       for cc in codings], np.int64)
     lows = np.array([cc.low for cc in codings], np.int64)
+    per = max(1, _CELLS // max(F, 1))
     for order, plain, wrapped in _by_order([cc.order for cc in codings], turns):
-        if plain.size:
-            x[:, plain] = reconstruct(e[:, plain], order, chunk=chunk, offset=offset)  # step 2
-        if wrapped.size:
-            x[:, wrapped] = unwrap(e[:, wrapped], order, lows[wrapped], turns[wrapped])  # step 3
-    if x.size and int(np.abs(x).max()) >= CHANNEL_VALUE_LIMIT:
+        for c0 in range(0, plain.size, per):
+            cols = plain[c0: c0 + per]
+            x[:, cols] = reconstruct(e[:, cols], order, chunk=chunk, offset=offset,
+                                     inplace=True)                         # step 2
+        for c0 in range(0, wrapped.size, per):
+            cols = wrapped[c0: c0 + per]
+            x[:, cols] = unwrap(e[:, cols], order, lows[cols], turns[cols])   # step 3
+    if x.size and max(int(x.max()), -int(x.min())) >= CHANNEL_VALUE_LIMIT:
         c = int(np.argmax(np.abs(x).max(axis=0)))
         t = int(np.argmax(np.abs(x[:, c])))
         raise FormatError(f"channel {c}, frame {t}: decoded value {int(x[t, c])} is outside "
