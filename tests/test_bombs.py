@@ -250,6 +250,146 @@ def test_bombs_decode_to_the_pattern() -> None:
         assert (m.positions[:, 0] == 0).all() and (m.positions[:, 1:] == 1).all()
 
 
+# ------------------------------------------------------- the 1.1 chunks (§8) --
+def budget_11(F: int, M: int, size: int, *, words: int = 0, rows: int = 0,
+              models: int = 0, channels: int = 0) -> int:
+    """The §8 promise with the 1.1 chunks' terms: 4 bytes an analog word (``words`` = F n
+    C) and 16 a row of its longest channel (``rows`` = F n: the int64 residuals and low
+    parts of the channel being decoded), 32 a model output (``models`` = F J: its three
+    binary64 values, word and flag), 16 a skeleton channel value (``channels`` = F C: the
+    channel integers, then the values)."""
+    return (budget(F, M, 0, size) + 4 * words + 16 * rows + 32 * models
+            + 16 * channels)
+
+
+def _coded_zeros(*shapes: tuple[int, int, int], signed: bool = True) -> bytes:
+    return _coded(*((np.zeros(shape, np.int64), {"signed": signed}) for shape in shapes))
+
+
+def _markers(F: int, M: int = 1) -> list[Record]:
+    """MHDR (1.1) .. the marker layer of M markers, every position 0: the root, and the
+    others in one node with a residual layer of zeros."""
+    hdr = Mhdr(version_major=1, version_minor=1, flags=int(M > 1), frame_count=F,
+               marker_count=M, node_count=1 + (M > 1), rate=120.0, units=1, error_metric=0,
+               error_bound=0.0, smoothing=0)
+    nodes = [HierNode(parent=0xFFFF, ref=0, member_count=1, members=(0,), weights=(1.0,))]
+    rest: list[Record] = []
+    if M > 1:
+        nodes.append(HierNode(parent=0, ref=1, member_count=M - 1,
+                              members=tuple(range(1, M)), weights=(1.0,) * (M - 1)))
+        rest = [Resi(node=1, base=1, order=0, scale=1, coded=_coded_zeros((F, M - 1, 3)))]
+    return [hdr, Mnam(count=M, names=tuple(f"m{i}" for i in range(M))),
+            Hier(count=len(nodes), nodes=tuple(nodes)),
+            Qunt(step=1.0, offset=(0.0, 0.0, 0.0), bits=8),
+            Root(order=0, coded=_coded_zeros((F, 1, 3))), *rest]
+
+
+def c3d_bomb(F: int, *, samples: int = 0, channels: int = 0, low_bits: int = 0,
+             models: int = 0) -> bytes:
+    """A C3D archive of one marker: ``models`` model outputs in its cpnt, and ``channels``
+    analog channels of ``samples`` words a frame in a cana (none for 0), all zero."""
+    from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis
+    word = Channel(mode=0, shift=0, order=0, low_bits=0)
+    axis = ModelAxis(offset=0.0, step=1.0, bound=0.0, order=0)
+    P = 1 + models
+    cpnt = Cpnt(storage=1, point_count=P, slots=tuple(range(P)), words=(word,) * P,
+                model_count=models, models=(Model(kind=0, axes=(axis,) * 3),) * models,
+                coded=_coded(*[(np.zeros((F, 1, 1), np.int64), {})] * P,
+                             *([(np.zeros((F, models, 1), np.int64), {"signed": False})]
+                               if models else []),
+                             *[(np.zeros((F, 1, 1), np.int64), {})] * (3 * models)))
+    layers: list[Record] = [Chdr(processor=84, coding=0, block=bytes([2, 0x50]) + bytes(510)),
+                            Cprm(coding=0, count=0, records=()), cpnt]
+    if channels:
+        rows = F * samples
+        blocks = [((rows, 1, 1), True)] + ([((rows, 1, 1), False)] if low_bits else [])
+        layers.append(Cana(
+            storage=1, channels=channels, samples=samples,
+            table=(Channel(mode=0, shift=0, order=1, low_bits=low_bits),) * channels,
+            coded=_coded(*[(np.zeros(shape, np.int64), {"signed": sg})
+                           for _ in range(channels) for shape, sg in blocks])))
+    return container.build([*_markers(F), *layers, Mend()])
+
+
+def skeleton_bomb(F: int, C: int, *, groups: int = 1, wrap: bool = True) -> bytes:
+    """A BVH skeleton of C channels (a chain of C / 3 joints of three rotations, all zero),
+    in ``groups`` blocks, over F frames of its C / 3 joint markers."""
+    from mpz.chunks.skeleton import BvhJoint, Bvhs, ChannelCoding
+    J = C // 3
+    joints = tuple(BvhJoint(name=f"j{j}", parent=0xFFFF if j == 0 else j - 1,
+                            offset=(0.0, 1.0, 0.0), channel_count=3, channels=(5, 4, 3))
+                   for j in range(J))
+    codings = tuple(ChannelCoding(step_mantissa=1, step_digits=2, wrap=int(wrap),
+                                  low=-18000 if wrap else 0, order=2, group=c % groups)
+                    for c in range(C))
+    counts = [sum(1 for c in range(C) if c % groups == g) for g in range(groups)]
+    bvhs = Bvhs(encoding=0, frame_time=1 / 120, joint_count=J, joints=joints,
+                channel_count=C, position_bound=0.0, channels=codings,
+                coded=_coded_zeros(*[(F, n, 1) for n in counts]))
+    return container.build([*_markers(F, J), bvhs, Mend()])
+
+
+# (name, builder, F, M, the budget's keywords of budget_11)
+ANCILLARY = [
+    ("cana: one channel of 2^24 words", lambda: c3d_bomb(256, samples=65535, channels=1),
+     256, 1, {"words": 256 * 65535, "rows": 256 * 65535}),
+    ("cana: one channel of 2^24 words with low parts",
+     lambda: c3d_bomb(256, samples=65535, channels=1, low_bits=3),
+     256, 1, {"words": 256 * 65535, "rows": 256 * 65535}),
+    ("cana: 256 channels of 2^16 words", lambda: c3d_bomb(4096, samples=16, channels=256),
+     4096, 1, {"words": 4096 * 16 * 256, "rows": 4096 * 16}),
+    ("cpnt: 2^22 model outputs", lambda: c3d_bomb(8192, models=512), 8192, 1,
+     {"models": 8192 * 512}),
+    ("bvhs: 15 x 2^20 channel values, one group", lambda: skeleton_bomb(1 << 20, 15),
+     1 << 20, 5, {"channels": (1 << 20) * 15}),
+    ("bvhs: 15 x 2^20 channel values, two groups, not wrapped",
+     lambda: skeleton_bomb(1 << 20, 15, groups=2, wrap=False),
+     1 << 20, 5, {"channels": (1 << 20) * 15}),
+]
+
+
+@pytest.mark.parametrize("name,build,F,M,terms", ANCILLARY, ids=[c[0] for c in ANCILLARY])
+def test_ancillary_bomb_within_the_budget(name: str, build: Callable[[], bytes], F: int,
+                                          M: int, terms: dict[str, int], tmp_path: Path,
+                                          warm_file: Path) -> None:
+    """Files of a few hundred KB whose 1.1 chunks declare 2^22-2^24 values decode within
+    the §8 budget with those chunks' terms (a QA run, stop 40: the 2^28 analog words of
+    a 740 KB file took 8 GiB, 32 bytes a word, before the channels were decoded in
+    place; this file's 2^24 took 0.5 GiB, over the 0.38 GiB allowed here)."""
+    data = build()
+    assert len(data) < 1 << 20
+    path = tmp_path / "bomb.mpz"
+    path.write_bytes(data)
+    out = _decode_capped(path, warm_file, "decode+mpzinfo",
+                         budget_11(F, M, len(data), **terms))
+    assert out["result"] == "ok", out
+    assert out["shape"] == [F, M, 3] and out["finite"] and out["exit"] == 0
+
+
+@pytest.mark.parametrize("build,need", [
+    (lambda: c3d_bomb(64, samples=1000, channels=1),
+     r"exceed MAX_ANALOG_SAMPLES 4000 \(this decoder's MAX_ANALOG_SAMPLES: 4 x its "
+     r"max_samples 1000\)"),
+    (lambda: skeleton_bomb(64, 30),
+     r"exceeds 1000 \(this decoder's MAX_CHANNEL_SAMPLES: its max_samples 1000\)"),
+], ids=["cana", "bvhs"])
+def test_max_samples_lowers_the_ancillary_limits(build: Callable[[], bytes],
+                                                 need: str) -> None:
+    """§8: a decoder's lower MAX_SAMPLES lowers MAX_ANALOG_SAMPLES (to 4x) and
+    MAX_CHANNEL_SAMPLES with it in the reference, so that --max-samples bounds every
+    chunk's memory: 64 x 1000 analog words > 4 x 1000, 64 x 30 channel values > 1000
+    (the 64 and 640 marker-frames are within it). Without it, and with 64,000, both
+    decode."""
+    import mpz
+    from mpz.errors import LimitExceededError
+    data = build()
+    M = mpz.decode(data).positions.shape[1]
+    with pytest.raises(LimitExceededError, match=need) as err:
+        mpz.decode(data, max_samples=1000)
+    assert err.value.section == "§8"
+    assert mpz.decode(data, max_samples=64 * 1000).positions.shape == (64, M, 3)
+
+
 # ------------------------------------------- blocks of frames change no value --
 def _vectors() -> list[tuple[str, Path, Path, str]]:
     root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
@@ -281,6 +421,43 @@ def test_tiny_blocks_decode_every_vector_the_same(monkeypatch: pytest.MonkeyPatc
         assert np.array_equal(x, want, equal_nan=True), name
         checked += 1
     assert checked >= 40
+
+
+def test_tiny_blocks_decode_the_ancillary_chunks_the_same(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The C3D words and analog channels converted 7 rows at a time, and skeleton channels
+    reconstructed 5 values (so one column) at a time and dequantised a row at a time, give
+    every vector with those chunks the same words, model outputs, analog words (bit for
+    bit) and channel values as the default blocks (§8's budget, stop 40)."""
+    import mpz
+    from mpz import c3dcodec, channels
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    man = json.loads((root / "manifest.json").read_text())
+
+    def parts(data: bytes) -> list[np.ndarray] | None:
+        try:
+            m = mpz.decode(data)
+        except mpz.MPZError:
+            return None
+        arc = m.extras.get("c3d")
+        out = [] if m.angles is None else [m.angles]
+        if arc is not None:
+            out += [arc.words.view(np.uint8), arc.models, arc.analog.view(np.uint8)]
+        return out
+
+    files = [(root / v["file"]).read_bytes() for v in man["vectors"]]
+    before = [parts(data) for data in files]
+    monkeypatch.setattr(c3dcodec, "_ROWS", 7)
+    monkeypatch.setattr(channels, "_CELLS", 5)
+    checked = 0
+    for data, want in zip(files, before, strict=True):
+        got = parts(data)
+        assert (got is None) == (want is None)
+        if got:
+            assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(got, want,
+                                                                           strict=True))
+            checked += 1
+    assert checked >= 10
 
 
 def _denormalize_by_hand(pat: np.ndarray, index: list[int], counts: list[int]) -> np.ndarray:
