@@ -332,6 +332,57 @@ def test_fixed_point_floats_take_mode_0():
 
 
 # ------------------------------------------------------------- hostile input --
+@pytest.mark.parametrize("dims", [bytes([255]) * 200, bytes([2]) * 17 + bytes([8])])
+def test_a_parameter_larger_than_any_section_is_named_so(dims):
+    """A parameter record of more than 7 dimensions that multiply past the 2^17 bytes of
+    a section (a misread or hostile dims count of up to 255) is refused with a message of
+    one line that says so, not construct's request for a read of a 600-digit length (a
+    QA run, stop 40): 255^200 bytes, and 2^17 x 8 (its 18th dimension passes the
+    limit). Up to 7 dimensions the read fails as before (vector x183)."""
+    from mpz.chunks.c3d import Cprm
+    record = bytes([1, 0, 1]) + b"A" + bytes([0, 1, len(dims)]) + dims   # no data follows
+    payload = bytes([0]) + (1).to_bytes(2, "little") + record        # coding 0: stored
+    with pytest.raises(FormatError, match=r"malformed cprm payload: a parameter of "
+                       rf"{len(dims)} dimensions .* holds more than the 131072 bytes "
+                       r"of a parameter section \(§4.13.2, §8\)") as err:
+        Cprm.load(payload)
+    assert len(str(err.value)) < 300 and "\n" not in str(err.value)
+
+
+def test_a_misread_string_quotes_a_few_bytes():
+    """A payload whose strings are read from the wrong place (an asfs with a bone count
+    too large) gives a message that quotes the first bytes of the string and its length,
+    not all of them (a QA run, stop 40: 507 characters)."""
+    from mpz.chunks.base import _short
+    junk = bytes(range(128, 256)) * 3
+    try:
+        junk.decode("utf-8")
+    except UnicodeDecodeError:
+        pass
+    msg = _short(ValueError(f"cannot use encoding 'utf8' to decode {junk!r}"))
+    assert msg.startswith("cannot use encoding 'utf8' to decode b'\\x80\\x81")
+    assert msg.endswith(f"... ({len(repr(junk))} characters)") and len(msg) < 100
+    assert _short(ValueError("requested " + "7" * 40 + " bytes")) == \
+        "requested <a 40-digit number> bytes"
+    assert _short(ValueError("short b'abc' 12345")) == "short b'abc' 12345"    # as it was
+
+
+def test_a_coordinate_past_float32_is_refused_without_a_numpy_warning(archive_file):
+    """Writing a decoded C3D archive back whose marker holds 1e308 (valid in MPZ) refuses
+    with the writer's error alone: its int16 test divided by the scale first, and numpy's
+    overflow warning came out before the error (a QA run, stop 40)."""
+    import warnings
+
+    from mpz.errors import InputFormatError
+    from mpz.io.c3d import archive_bytes
+    m = mpz.decode(archive_file)
+    m.positions[0, 0, 0] = 1e308
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputFormatError, match="does not fit a float32 C3D"):
+            archive_bytes(m)
+
+
 def _only_mpz_errors(data: bytes) -> None:
     try:
         mpz.decode(data)

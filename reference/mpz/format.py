@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-from mpz.spec.grammar import SIGNATURE, VERSION_MAJOR, VERSION_MINOR
+from mpz.spec.grammar import MAX_C3D_PARAMETER_BYTES, SIGNATURE, VERSION_MAJOR, VERSION_MINOR
 
 __all__ = [
     "SIGNATURE", "VERSION_MAJOR", "VERSION_MINOR", "Units", "ErrorMetric", "ResidualBase",
@@ -208,10 +208,8 @@ class ByteCoding(IntEnum):
     DEFLATE = 1            # one raw DEFLATE stream (RFC 1951), inflated before the checks
 
 
-#: §4.13.2, §8 the largest inflated cprm section: a C3D parameter section has at most 255
-#: blocks of 512 bytes (its block count is one byte), and the normalised records are no
-#: larger than the C3D ones plus the 2-byte count
-MAX_C3D_PARAMETER_BYTES = 1 << 17
+#: §4.13.2, §8 the largest inflated cprm section (defined with the grammar, which bounds a
+#: record's data by it)
 LIMITS["MAX_C3D_PARAMETER_BYTES"] = MAX_C3D_PARAMETER_BYTES
 __all__ += ["C3D_MINOR", "C3DProcessor", "C3DStorage", "ChannelMode", "ModelKind",
             "C3D_MIN_SHIFT", "C3D_MAX_SHIFT", "C3D_MAX_LOW_BITS", "MAX_ANALOG_SAMPLES",

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, fields
+import re
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
 
 import construct
@@ -208,8 +209,21 @@ def _field_names(cls: type[Record]) -> tuple[str, ...]:
     return names
 
 
+#: a bytes literal in a message, and a number of many digits (construct quotes both)
+_BYTES_LITERAL = re.compile(r"b'(?:[^'\\]|\\.)*'" + r'|b"(?:[^"\\]|\\.)*"')
+_LONG_NUMBER = re.compile(r"\d{25,}")
+
+
 def _short(exc: BaseException) -> str:
+    """The last line of construct's message, with a quoted run of bytes cut to its first
+    32 characters and a number of 25 digits or more named by its length: a misread
+    count could otherwise put hundreds of payload bytes into the error (a QA run, stop
+    40: 507 characters for an asfs string read from the wrong place)."""
     text = str(exc).strip().splitlines()
-    return text[-1] if text else type(exc).__name__
+    line = text[-1] if text else type(exc).__name__
+    line = _BYTES_LITERAL.sub(
+        lambda m: m.group(0) if len(m.group(0)) <= 40 else
+        f"{m.group(0)[:32]}... ({len(m.group(0))} characters)", line)
+    return _LONG_NUMBER.sub(lambda m: f"<a {len(m.group(0))}-digit number>", line)
 
 

@@ -527,8 +527,9 @@ def archive_bytes(motion: Motion) -> bytes:
             v, ok = a.models[:, slot - M], a.model_valid[:, slot - M]
         xyz[:, p] = np.where(ok[:, None], v, 0.0)
     scale = a.point_scale()
-    q = np.rint(xyz / scale)
-    int16 = (a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
-             and np.array_equal(q * scale, xyz) and np.abs(q).max(initial=0) <= 32767)
+    with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
+        q = np.rint(xyz / scale)                          # and build_c3d says why not float32
+        int16 = (a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
+                 and np.array_equal(q * scale, xyz) and np.abs(q).max(initial=0) <= 32767)
     return c3dbin.build_c3d(a.header, a.records, xyz, a.words, a.analog,
                             float_storage=not int16, scale=scale)

@@ -342,11 +342,29 @@ CHDR_BLOCK = Struct(
 )
 
 
+#: §4.13.2, §8 the largest inflated cprm section: a C3D parameter section has at most 255
+#: blocks of 512 bytes (its block count is one byte), and the normalised records are no
+#: larger than the C3D ones plus the 2-byte count (mpz.format.LIMITS holds it); no
+#: record's data is longer
+MAX_C3D_PARAMETER_BYTES = 1 << 17
+
+
 def _data_size(ctx: Any) -> int:
-    """§4.13.2 |type| x the product of the dimensions (1 element without dimensions)."""
+    """§4.13.2 |type| x the product of the dimensions (1 element without dimensions).
+
+    A record of more than the 7 dimensions §4.13.2 allows is refused here when its
+    product passes the 2^17 bytes a section holds, since no such data can follow: its up
+    to 255 dimension bytes would ask for a read of a 600-digit length, which the error
+    quoted (a QA run, stop 40). Up to 7 the product is below 4 x 255^7 < 2^58, and the
+    read fails as any data longer than the bytes left does."""
     n = abs(int(ctx.type))
     for d in ctx.dims:
         n *= int(d)
+        if n > MAX_C3D_PARAMETER_BYTES and len(ctx.dims) > 7:
+            raise ExplicitError(f"a parameter of {len(ctx.dims)} dimensions "
+                                f"{list(ctx.dims)[:8]}... holds more than the "
+                                f"{MAX_C3D_PARAMETER_BYTES} bytes of a parameter section "
+                                f"(§4.13.2, §8)")
     return n
 
 
