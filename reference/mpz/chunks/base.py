@@ -90,13 +90,12 @@ class Context:
         return self.nodes[self.node].member_count
 
     def limit(self, name: str) -> tuple[int, str]:
-        """The limit ``name`` of §8 as this decode applies it, and what to add to an error
-        naming it: "" for the table's value, else why it is lower. ``max_samples`` below
-        MAX_SAMPLES lowers MAX_SAMPLES to it, and with it MAX_ANALOG_SAMPLES to 4 x
-        max_samples and MAX_CHANNEL_SAMPLES to max_samples (the table's ratios), so that
-        one option bounds the memory of every chunk (§8, memory budget)."""
-        spec, per = {"MAX_SAMPLES": (MAX_SAMPLES, 1),
-                     "MAX_ANALOG_SAMPLES": (MAX_ANALOG_SAMPLES, 4),
+        """MAX_ANALOG_SAMPLES or MAX_CHANNEL_SAMPLES (``name``) as this decode applies it,
+        and what to add to an error naming it: "" for the table's value, else why it is
+        lower. ``max_samples`` below MAX_SAMPLES (a decoder's lower MAX_SAMPLES, §8) lowers
+        them to 4 x max_samples and max_samples (the table's ratios), so that one option
+        bounds the memory of every chunk (§8, memory budget)."""
+        spec, per = {"MAX_ANALOG_SAMPLES": (MAX_ANALOG_SAMPLES, 4),
                      "MAX_CHANNEL_SAMPLES": (MAX_CHANNEL_SAMPLES, 1)}[name]
         if self.max_samples >= MAX_SAMPLES:
             return spec, ""
