@@ -502,7 +502,9 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
         beyond: other data may follow in the stream).
     max_samples : int, optional
         A lower F × M limit for a memory budget (spec §8); files above it are
-        rejected with :class:`~mpz.errors.LimitExceededError`.
+        rejected with :class:`~mpz.errors.LimitExceededError`. Below MAX_SAMPLES it
+        also lowers MAX_ANALOG_SAMPLES to 4 × max_samples and MAX_CHANNEL_SAMPLES to
+        max_samples.
 
     Returns
     -------

@@ -147,7 +147,8 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
         A complete MPZ file.
     max_samples : int
         Refuse files with more than this many marker-frames (§8); lower it to
-        bound memory further.
+        bound memory further (below MAX_SAMPLES it also lowers MAX_ANALOG_SAMPLES to 4x
+        and MAX_CHANNEL_SAMPLES to 1x it: :meth:`mpz.chunks.Context.limit`).
     minor : int
         Validate and read as a decoder of 1.0 .. 1.``minor`` (§2.1): the chunk types of
         later minor versions are unknown ancillary chunks, skipped after their frame and CRC
@@ -599,7 +600,9 @@ def decode(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Motion:
     data : bytes
         The whole file.
     max_samples : int, optional
-        Reject files declaring more than this many marker-frames (§8).
+        Reject files declaring more than this many marker-frames (§8), and below
+        MAX_SAMPLES more than 4x as many analog words or as many skeleton channel
+        values.
 
     Returns
     -------

@@ -316,5 +316,6 @@ def max_samples(text: str) -> int:
 
 
 #: the help of ``--max-samples`` (mpzinfo, mpz decode, mpz show)
-MAX_SAMPLES_HELP = ("refuse files of more than N marker-frames (F x M, at most 2^26): decoding "
-                    "needs about 50 bytes per marker-frame (spec §8)")
+MAX_SAMPLES_HELP = ("refuse files of more than N marker-frames (F x M, at most 2^26), and below "
+                    "2^26 also of more than 4N analog words or N skeleton channel values: "
+                    "decoding needs about 50 bytes per marker-frame (spec §8)")
