@@ -252,13 +252,14 @@ def test_bombs_decode_to_the_pattern() -> None:
 
 # ------------------------------------------------------- the 1.1 chunks (§8) --
 def budget_11(F: int, M: int, size: int, *, words: int = 0, rows: int = 0,
-              models: int = 0, channels: int = 0) -> int:
+              points: int = 0, models: int = 0, channels: int = 0) -> int:
     """The §8 promise with the 1.1 chunks' terms: 4 bytes an analog word (``words`` = F n
     C) and 16 a row of its longest channel (``rows`` = F n: the int64 residuals and low
-    parts of the channel being decoded), 32 a model output (``models`` = F J: its three
-    binary64 values, word and flag), 16 a skeleton channel value (``channels`` = F C: the
-    channel integers, then the values)."""
-    return (budget(F, M, 0, size) + 4 * words + 16 * rows + 32 * models
+    parts of the channel being decoded), 4 a C3D point word (``points`` = F P, P = M +
+    J), 28 a model output (``models`` = F J: its three binary64 values and its gap
+    flag), 16 a skeleton channel value (``channels`` = F C: the channel integers, then
+    the values)."""
+    return (budget(F, M, 0, size) + 4 * words + 16 * rows + 4 * points + 28 * models
             + 16 * channels)
 
 
@@ -285,13 +286,13 @@ def _markers(F: int, M: int = 1) -> list[Record]:
 
 
 def c3d_bomb(F: int, *, samples: int = 0, channels: int = 0, low_bits: int = 0,
-             models: int = 0) -> bytes:
-    """A C3D archive of one marker: ``models`` model outputs in its cpnt, and ``channels``
+             models: int = 0, M: int = 1) -> bytes:
+    """A C3D archive of M markers: ``models`` model outputs in its cpnt, and ``channels``
     analog channels of ``samples`` words a frame in a cana (none for 0), all zero."""
     from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis
     word = Channel(mode=0, shift=0, order=0, low_bits=0)
     axis = ModelAxis(offset=0.0, step=1.0, bound=0.0, order=0)
-    P = 1 + models
+    P = M + models
     cpnt = Cpnt(storage=1, point_count=P, slots=tuple(range(P)), words=(word,) * P,
                 model_count=models, models=(Model(kind=0, axes=(axis,) * 3),) * models,
                 coded=_coded(*[(np.zeros((F, 1, 1), np.int64), {})] * P,
@@ -308,7 +309,7 @@ def c3d_bomb(F: int, *, samples: int = 0, channels: int = 0, low_bits: int = 0,
             table=(Channel(mode=0, shift=0, order=1, low_bits=low_bits),) * channels,
             coded=_coded(*[(np.zeros(shape, np.int64), {"signed": sg})
                            for _ in range(channels) for shape, sg in blocks])))
-    return container.build([*_markers(F), *layers, Mend()])
+    return container.build([*_markers(F, M), *layers, Mend()])
 
 
 def skeleton_bomb(F: int, C: int, *, groups: int = 1, wrap: bool = True) -> bytes:
@@ -332,14 +333,16 @@ def skeleton_bomb(F: int, C: int, *, groups: int = 1, wrap: bool = True) -> byte
 # (name, builder, F, M, the budget's keywords of budget_11)
 ANCILLARY = [
     ("cana: one channel of 2^24 words", lambda: c3d_bomb(256, samples=65535, channels=1),
-     256, 1, {"words": 256 * 65535, "rows": 256 * 65535}),
+     256, 1, {"words": 256 * 65535, "rows": 256 * 65535, "points": 256}),
     ("cana: one channel of 2^24 words with low parts",
      lambda: c3d_bomb(256, samples=65535, channels=1, low_bits=3),
-     256, 1, {"words": 256 * 65535, "rows": 256 * 65535}),
+     256, 1, {"words": 256 * 65535, "rows": 256 * 65535, "points": 256}),
     ("cana: 256 channels of 2^16 words", lambda: c3d_bomb(4096, samples=16, channels=256),
-     4096, 1, {"words": 4096 * 16 * 256, "rows": 4096 * 16}),
+     4096, 1, {"words": 4096 * 16 * 256, "rows": 4096 * 16, "points": 4096}),
     ("cpnt: 2^22 model outputs", lambda: c3d_bomb(8192, models=512), 8192, 1,
-     {"models": 8192 * 512}),
+     {"points": 8192 * 513, "models": 8192 * 512}),
+    ("cpnt: the point words of 2^22 marker-frames", lambda: c3d_bomb(1 << 16, M=64),
+     1 << 16, 64, {"points": 1 << 22}),
     ("bvhs: 15 x 2^20 channel values, one group", lambda: skeleton_bomb(1 << 20, 15),
      1 << 20, 5, {"channels": (1 << 20) * 15}),
     ("bvhs: 15 x 2^20 channel values, two groups, not wrapped",
