@@ -253,12 +253,11 @@ def test_bombs_decode_to_the_pattern() -> None:
 # ------------------------------------------------------- the 1.1 chunks (§8) --
 def budget_11(F: int, M: int, size: int, *, words: int = 0, rows: int = 0,
               points: int = 0, models: int = 0, channels: int = 0) -> int:
-    """The §8 promise with the 1.1 chunks' terms: 4 bytes an analog word (``words`` = F n
-    C) and 16 a row of its longest channel (``rows`` = F n: the int64 residuals and low
-    parts of the channel being decoded), 4 a C3D point word (``points`` = F P, P = M +
-    J), 28 a model output (``models`` = F J: its three binary64 values and its gap
-    flag), 16 a skeleton channel value (``channels`` = F C: the channel integers, then
-    the values)."""
+    """The §8 promise with the 1.1 chunks' terms: 4 bytes an analog word (``words`` = W)
+    and 16 a word of one analog channel (``rows`` = R: the int64 residuals and low parts
+    of the channel being decoded), 4 a C3D point word (``points`` = F (M + J)), 28 a
+    model output (``models`` = F J: its three binary64 values and its gap flag), 16 a
+    skeleton channel value (``channels`` = V: the channel integers, then the values)."""
     return (budget(F, M, 0, size) + 4 * words + 16 * rows + 4 * points + 28 * models
             + 16 * channels)
 
