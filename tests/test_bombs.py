@@ -53,9 +53,11 @@ def _coded(*blocks: tuple[np.ndarray, dict[str, Any]]) -> bytes:
 
 
 def _file(F: int, M: int, nodes: list[tuple[int, list[int]]], layers: list[Record], *,
-          residual: bool = False, smoothing: int = 0, root_order: int = 0) -> bytes:
-    """A complete file: all-zero root track, then ``layers`` (PATT/SEGS/RESI records)."""
-    hdr = Mhdr(version_major=1, version_minor=0, flags=1 if residual else 0, frame_count=F,
+          residual: bool = False, smoothing: int = 0, root_order: int = 0,
+          minor: int = 0) -> bytes:
+    """A complete file of version 1.``minor``: all-zero root track, then ``layers``
+    (PATT/SEGS/RESI records, and the ancillary chunks of 1.1)."""
+    hdr = Mhdr(version_major=1, version_minor=minor, flags=1 if residual else 0, frame_count=F,
                marker_count=M, node_count=len(nodes), rate=120.0, units=1, error_metric=0,
                error_bound=0.0, smoothing=smoothing)
     hier = Hier(count=len(nodes), nodes=tuple(
@@ -266,22 +268,13 @@ def _coded_zeros(*shapes: tuple[int, int, int], signed: bool = True) -> bytes:
     return _coded(*((np.zeros(shape, np.int64), {"signed": signed}) for shape in shapes))
 
 
-def _markers(F: int, M: int = 1) -> list[Record]:
-    """MHDR (1.1) .. the marker layer of M markers, every position 0: the root, and the
-    others in one node with a residual layer of zeros."""
-    hdr = Mhdr(version_major=1, version_minor=1, flags=int(M > 1), frame_count=F,
-               marker_count=M, node_count=1 + (M > 1), rate=120.0, units=1, error_metric=0,
-               error_bound=0.0, smoothing=0)
-    nodes = [HierNode(parent=0xFFFF, ref=0, member_count=1, members=(0,), weights=(1.0,))]
-    rest: list[Record] = []
-    if M > 1:
-        nodes.append(HierNode(parent=0, ref=1, member_count=M - 1,
-                              members=tuple(range(1, M)), weights=(1.0,) * (M - 1)))
-        rest = [Resi(node=1, base=1, order=0, scale=1, coded=_coded_zeros((F, M - 1, 3)))]
-    return [hdr, Mnam(count=M, names=tuple(f"m{i}" for i in range(M))),
-            Hier(count=len(nodes), nodes=tuple(nodes)),
-            Qunt(step=1.0, offset=(0.0, 0.0, 0.0), bits=8),
-            Root(order=0, coded=_coded_zeros((F, 1, 3))), *rest]
+def _with_markers(F: int, M: int, layers: list[Record]) -> bytes:
+    """A 1.1 file of M markers at 0, the root and the others in one node with a residual
+    layer of zeros, then ``layers``."""
+    if M == 1:
+        return _file(F, 1, [(0, [0])], layers, minor=1)
+    resi = Resi(node=1, base=1, order=0, scale=1, coded=_coded_zeros((F, M - 1, 3)))
+    return _file(F, M, _two_nodes(M), [resi, *layers], residual=True, minor=1)
 
 
 def c3d_bomb(F: int, *, samples: int = 0, channels: int = 0, low_bits: int = 0,
@@ -308,7 +301,7 @@ def c3d_bomb(F: int, *, samples: int = 0, channels: int = 0, low_bits: int = 0,
             table=(Channel(mode=0, shift=0, order=1, low_bits=low_bits),) * channels,
             coded=_coded(*[(np.zeros(shape, np.int64), {"signed": sg})
                            for _ in range(channels) for shape, sg in blocks])))
-    return container.build([*_markers(F, M), *layers, Mend()])
+    return _with_markers(F, M, layers)
 
 
 def skeleton_bomb(F: int, C: int, *, groups: int = 1, wrap: bool = True) -> bytes:
@@ -326,7 +319,7 @@ def skeleton_bomb(F: int, C: int, *, groups: int = 1, wrap: bool = True) -> byte
     bvhs = Bvhs(encoding=0, frame_time=1 / 120, joint_count=J, joints=joints,
                 channel_count=C, position_bound=0.0, channels=codings,
                 coded=_coded_zeros(*[(F, n, 1) for n in counts]))
-    return container.build([*_markers(F, J), bvhs, Mend()])
+    return _with_markers(F, J, [bvhs])
 
 
 # (name, builder, F, M, the budget's keywords of budget_11)

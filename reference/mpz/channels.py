@@ -171,14 +171,14 @@ _CELLS = 1 << 20
 
 def dequantise(x: IntArray, codings: Sequence[Coding]) -> FloatArray:
     """§6.10 step 4: ``v = x m / 10^d``, one correctly rounded binary64 division of the exact
-    integer ``x m`` (|x m| < 2^47, exact in binary64) by ``10^d`` (exact for d <= 22);
-    a block of rows at a time into the output, so that no temporary is of its size."""
+    integer ``x m`` (|x m| < 2^47, exact in binary64) by ``10^d`` (exact for d <= 22), of
+    ``x[F, C]``; a block of rows at a time into the output, so that no temporary is of
+    its size."""
     m = np.array([c.step_mantissa for c in codings], np.int64)
     p = np.array([10.0 ** c.step_digits for c in codings])
-    x = np.asarray(x)
     out = np.empty(x.shape, np.float64)
-    rows = max(1, _CELLS // max(x.shape[-1] if x.ndim else 1, 1))
-    for r0 in range(0, x.shape[0] if x.ndim else 1, rows):
+    rows = max(1, _CELLS // max(x.shape[1], 1))
+    for r0 in range(0, x.shape[0], rows):
         out[r0: r0 + rows] = (x[r0: r0 + rows] * m).astype(np.float64) / p
     return out
 
@@ -351,9 +351,8 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
             cols = np.flatnonzero(groups == g)
             e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]      # step 1: group g
     dec.close()
-    # steps 2 and 3 overwrite e, a few columns at a time (spec §8: temporaries of
+    # steps 2 and 3 overwrite e with x, a few columns at a time (spec §8: temporaries of
     # _CELLS values, not of the layer; each column is computed from its own residuals)
-    x = e
     turns = np.array([(turn_steps(cc.step_mantissa, cc.step_digits) or 0) if cc.wrap else 0
                       for cc in codings], np.int64)
     lows = np.array([cc.low for cc in codings], np.int64)
@@ -361,17 +360,17 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
     for order, plain, wrapped in _by_order([cc.order for cc in codings], turns):
         for c0 in range(0, plain.size, per):
             cols = plain[c0: c0 + per]
-            x[:, cols] = reconstruct(e[:, cols], order, chunk=chunk, offset=offset,
+            e[:, cols] = reconstruct(e[:, cols], order, chunk=chunk, offset=offset,
                                      inplace=True)                         # step 2
         for c0 in range(0, wrapped.size, per):
             cols = wrapped[c0: c0 + per]
-            x[:, cols] = unwrap(e[:, cols], order, lows[cols], turns[cols])   # step 3
-    if x.size and max(int(x.max()), -int(x.min())) >= CHANNEL_VALUE_LIMIT:
-        c = int(np.argmax(np.abs(x).max(axis=0)))
-        t = int(np.argmax(np.abs(x[:, c])))
-        raise FormatError(f"channel {c}, frame {t}: decoded value {int(x[t, c])} is outside "
+            e[:, cols] = unwrap(e[:, cols], order, lows[cols], turns[cols])   # step 3
+    if e.size and max(int(e.max()), -int(e.min())) >= CHANNEL_VALUE_LIMIT:
+        c = int(np.argmax(np.abs(e).max(axis=0)))
+        t = int(np.argmax(np.abs(e[:, c])))
+        raise FormatError(f"channel {c}, frame {t}: decoded value {int(e[t, c])} is outside "
                           f"|x| < 2^31", chunk=chunk, section="§6.10")
-    return x
+    return e
 
 
 def unwrap(e: IntArray, order: int, low: int | IntArray, turn: int | IntArray) -> IntArray:
