@@ -201,6 +201,7 @@ def test_batch_rules(inputs: dict[str, Path], tmp_path: Path) -> None:
     # (a batch into -o FOLDER/ is a corpus: the failure is in its summary, as the others)
     assert p.returncode == 2 and b"FAILED a.trc: its output" in p.stdout
     assert b"also the output of" in p.stdout and b"1 failed" in p.stderr
+    assert b"--mirror" not in p.stdout          # one folder: --mirror would not help
     assert [n for n in os.listdir(tmp_path / "out") if n.endswith(".mpz")] == ["a.mpz"]
     assert mpz.decode(tmp_path / "out" / "a.mpz").n_frames == 120
 
@@ -220,6 +221,7 @@ def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[s
     p = run(["mpz", "encode", "-r", "captures", "-o", "flat/", "--max-error", "1mm", "-q"],
             tmp_path)
     assert p.returncode == 2 and b"also the output of" in p.stderr     # flat: names clash
+    assert b"--mirror keeps each file's folder below -o" in p.stderr    # and the way out
     (tmp_path / "archive").mkdir()
     p = run(["mpz", "encode", "-r", "captures", "loose.trc", "-o", "archive/", "--mirror",
              "--max-error", "1mm", "-q"], tmp_path)

@@ -414,7 +414,8 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
     * no ``-o``: beside each input; standard input goes to standard output.
 
     Two inputs that would write the same output make the later one fail, unless they
-    are the same file (named twice, or by two paths): it is coded once.
+    are the same file (named twice, or by two paths): it is coded once. Where ``-r``
+    found them in two folders, the failure names ``--mirror``, which keeps them apart.
 
     Raises
     ------
@@ -471,8 +472,13 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
                 taken[key]):
             continue            # the same file named again: it is coded once
         if key in taken:
+            # found by -r in another folder than the first: --mirror would keep both
+            apart = (base is not None and not mirror and os.path.dirname(os.path.abspath(
+                path)) != os.path.dirname(os.path.abspath(taken[key])))
             jobs.append(Job(path, None, f"its output {printable(target)} is also the output "
-                                        f"of {printable(taken[key])} in this batch"))
+                                        f"of {printable(taken[key])} in this batch"
+                                        + ("; --mirror keeps each file's folder below -o"
+                                           if apart else "")))
             continue
         taken[key] = path
         jobs.append(Job(path, target, make_folder=make))
