@@ -258,3 +258,203 @@ def test_summary_of_an_mpz_warns_of_a_k_it_does_not_store(tmp_path, capsys):
     assert code == 0 and [lv["k"] for lv in json.loads(out)["levels"]] == [3, 20]
     code, out, err = cli(capsys, "summary", packed, "--no-decode", "--k", "300")
     assert code == 1 and "k=300 not stored in the file (stored: 3, 20)" in err
+
+
+# -- 5. besides the markers: what else a source keeps comes back -----------------------------
+# A C3D's archive and a BVH's skeleton and channels (issue 12's "nothing is lost"): mpz
+# compare says which parts came back the same, within their declared bound, changed, or not.
+
+def parts(doc: dict) -> dict[str, dict]:
+    return {p["name"]: p for p in doc["besides_markers"]}
+
+
+@pytest.fixture(scope="module")
+def c3d_pair(tmp_path_factory) -> tuple[Path, Path, Motion]:
+    """A synthetic C3D with model outputs, analog words and events, and its .mpz."""
+    from mpz.tools.make_vectors import c3d_motion
+    d = tmp_path_factory.mktemp("c3d")
+    src, packed = d / "a.c3d", d / "a.mpz"
+    write(c3d_motion(3, storage=1, F=30, M=5, J=2, C=3, n=2), src)
+    m = mpz.io.read(src)
+    packed.write_bytes(mpz.encode(m, max_error=0.5))
+    return src, packed, m
+
+
+def test_compare_says_a_c3d_archive_came_back(c3d_pair, tmp_path, capsys):
+    src, packed, m = c3d_pair
+    a, b = m.extras["c3d"], mpz.decode(packed.read_bytes()).extras["c3d"]
+    code, out, err = cli(capsys, "compare", src, packed, "--json")
+    got = parts(json.loads(out))
+    assert code == 0 and list(got) == ["C3D header", "C3D parameters", "point words",
+                                       "analog", "model outputs"]
+    assert all(got[n]["status"] == "same" for n in list(got)[:4])
+    assert got["C3D header"]["detail"] == "512 bytes, 2 events in its event block"
+    assert got["analog"]["detail"] == f"3 channels x {30 * 2} samples"
+    e = np.abs(a.models - b.models)[a.model_valid]
+    assert got["model outputs"]["status"] == "within"
+    assert got["model outputs"]["error"] == float(e.max())
+    assert got["model outputs"]["bound"] == float(b.model_bounds.max())
+    code, out, _ = cli(capsys, "compare", src, packed)
+    assert "besides the markers:" in out and "analog              same: 3 channels" in out
+    # written back as C3D: the model outputs have no bound in a C3D file
+    back = tmp_path / "back.c3d"
+    code, _, err = cli(capsys, "decode", packed, "-o", back)
+    assert code == 0, err
+    code, out, _ = cli(capsys, "compare", src, back, "--json")
+    got = parts(json.loads(out))
+    assert code == 0 and got["C3D header"]["status"] == "same"
+    assert got["C3D parameters"]["status"] == "same"
+    assert got["model outputs"]["status"] == "changed"
+    c = mpz.io.read(back).extras["c3d"]                    # float32 values of the decode
+    assert got["model outputs"]["error"] == float(np.abs(a.models - c.models)[
+        a.model_valid].max()) > 0
+
+
+def test_compare_names_a_lost_archive_and_fails_on_a_changed_one(c3d_pair, tmp_path, capsys):
+    src, packed, m = c3d_pair
+    code, out, err = cli(capsys, "decode", packed, "-o", tmp_path / "a.csv")
+    assert code == 0, err
+    code, out, err = cli(capsys, "compare", src, tmp_path / "a.csv", "--json")
+    got = parts(json.loads(out))
+    assert code == 0 and got["C3D archive"]["status"] == "missing"       # as decode's note
+    assert "a.csv does not hold the original's C3D archive: 2 model outputs" in err
+    # one analog word changed in a C3D otherwise the same: exit 2, the part named
+    a = m.extras["c3d"]
+    analog = a.analog.copy()
+    analog[5, 2] += 1
+    import dataclasses
+    changed = dataclasses.replace(m, extras={"c3d": dataclasses.replace(a, analog=analog)})
+    write(changed, tmp_path / "b.c3d")
+    code, out, _ = cli(capsys, "compare", src, tmp_path / "b.c3d")
+    assert code == 2 and "analog              differs: 3 channels" in out
+    assert "C3D header          same" in out
+
+
+def test_each_part_of_an_archive_is_compared():
+    """Each change the comparison must see, and the two it must not (the data start)."""
+    import dataclasses
+
+    from mpz.metrics import besides_markers
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(4, storage=1, F=20, M=4, J=2, C=2, n=2)
+    a = m.extras["c3d"]
+    b = dataclasses.replace(a, model_bounds=np.full((2, 3), 1e-9))
+    start = next(i for i, r in enumerate(a.records) if r.name == b"DATA_START")
+    other = next(i for i, r in enumerate(a.records) if r.name == b"RATE")
+
+    def status(**change) -> dict[str, str]:
+        d = dataclasses.replace(m, extras={"c3d": dataclasses.replace(b, **change)})
+        return {p.name: p.status for p in besides_markers(m, d)}
+
+    def header(at: int) -> bytes:
+        h = bytearray(a.header)
+        h[at] ^= 1
+        return bytes(h)
+
+    def record(i: int) -> list:
+        rs = list(a.records)
+        rs[i] = dataclasses.replace(rs[i], data=bytes([rs[i].data[0] ^ 1]) + rs[i].data[1:])
+        return rs
+    assert set(status().values()) == {"same", "within"}
+    assert status(header=header(16))["C3D header"] == "same"          # word 9: data start
+    assert status(header=header(17))["C3D header"] == "same"
+    assert status(header=header(18))["C3D header"] == "differs"
+    assert status(header=header(0))["C3D header"] == "differs"
+    assert status(header=a.header[:500])["C3D header"] == "differs"
+    assert status(records=record(start))["C3D parameters"] == "same"
+    assert status(records=record(other))["C3D parameters"] == "differs"
+    assert status(records=a.records[:-1])["C3D parameters"] == "differs"
+    words = a.words.copy()
+    words[3, 1] = -words[3, 1] - 1
+    assert status(words=words)["point words"] == "differs"
+    assert status(slots=a.slots[::-1])["point words"] == "differs"
+    assert status(analog=a.analog.astype("<f8"))["analog"] == "differs"    # same values
+    nan = a.analog.copy()
+    nan.view("<u4")[nan != nan] ^= 1                                       # NaN payload
+    assert (nan != nan).any() and status(analog=nan)["analog"] == "differs"
+    models = a.models.copy()
+    models[~np.isnan(models)] += 2e-9
+    assert status(models=models)["model outputs"] == "differs"             # beyond 1e-9
+    assert status(models=models, model_bounds=np.full((2, 3), 3e-9))["model outputs"] \
+        == "within"
+    gaps = a.model_valid.copy()
+    gaps[0, 1] = False
+    assert status(model_valid=gaps)["model outputs"] == "differs"
+    assert status(model_bounds=None)["model outputs"] == "same"           # no bound: equal
+    assert status(models=models, model_bounds=None)["model outputs"] == "changed"
+    lost = dataclasses.replace(m, extras={})
+    assert [p.status for p in besides_markers(m, lost)] == ["missing"]
+
+
+def test_compare_holds_joint_channels_to_the_steps_bound(tmp_path, capsys):
+    src, packed = encoded_sweep(capsys, tmp_path, "--angle-error", "0.3",
+                                "--translation-error", "0.05")
+    a = mpz.io.read(src)
+    b = mpz.decode(packed.read_bytes())
+    from mpz.skeleton import is_rotation, report
+    rep = report(packed.read_bytes())
+    turns = np.array([is_rotation(k) for k in a.extras["skeleton"].channel_kinds()])
+    d = np.abs(a.angles - b.angles)
+    code, out, _ = cli(capsys, "compare", src, packed, "--json")
+    got = parts(json.loads(out))
+    assert code == 0 and got["skeleton"]["status"] == "same"
+    rot, tra = got["joint rotations"], got["joint translations"]
+    assert rot["status"] == tra["status"] == "within"
+    assert rot["error"] == float(d[:, turns].max()) and rot["bound"] == rep["angle_bound"]
+    assert tra["error"] == float(d[:, ~turns].max()) and tra["bound"] == rep["translation_bound"]
+    assert 0 < rot["error"] <= 0.3 and 0 < tra["error"] <= 0.05 + 1e-12    # decimal steps
+    # from standard input, the bound is read from the same bytes
+    import subprocess
+    import sys
+    p = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "compare", str(src), "-",
+                        "--json"], stdin=packed.open("rb"), capture_output=True, check=False)
+    assert p.returncode == 0, p.stderr
+    assert parts(json.loads(p.stdout))["joint rotations"] == rot
+    # a BVH written back holds no bound; a CSV holds no skeleton
+    code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / "back.bvh")
+    code, out, _ = cli(capsys, "compare", src, tmp_path / "back.bvh", "--json")
+    assert parts(json.loads(out))["joint rotations"]["status"] == "changed"
+    code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / "back.csv")
+    code, out, err = cli(capsys, "compare", src, tmp_path / "back.csv", "--json")
+    assert code == 0 and parts(json.loads(out))["skeleton"]["status"] == "missing"
+    assert "does not hold the original's skeleton: 5 joints" in err
+
+
+def test_joint_channels_beyond_their_bound_differ():
+    from mpz.metrics import besides_markers
+    from mpz.motion import Motion as M_
+    a = mpz.io.read_bytes(bvh_text().encode(), fmt=".bvh")
+    moved = a.angles.copy()
+    moved[7, 4] += 0.25                                    # a rotation (Xrotation of Hips)
+    b = M_(a.positions, a.names, a.rate, a.units, a.valid, a.metadata, a.parents, moved,
+           a.angle_names, a.extras)
+    got = {p.name: p for p in besides_markers(a, b, channel_bounds=(0.2, 1.0))}
+    assert got["joint rotations"].status == "differs"
+    assert got["joint rotations"].error == pytest.approx(0.25)
+    assert got["joint translations"].status == "within" and got["joint translations"].error == 0
+    got = {p.name: p for p in besides_markers(a, b, channel_bounds=(0.3, 1.0))}
+    assert got["joint rotations"].status == "within"
+
+
+def test_real_c3d_archives_come_back(shared_data, tmp_path, capsys):
+    """auckland: 36 model outputs, 24 analog channels, 12 events, 10 parameter groups."""
+    src = shared_data / "c3d" / "auckland_FMC_MH0222_BP06.c3d"
+    packed = tmp_path / "a.mpz"
+    code, _, err = cli(capsys, "encode", src, "-o", packed, "--max-error", "1mm", "-q")
+    assert code == 0, err
+    code, out, _ = cli(capsys, "compare", src, packed, "--json")
+    got = parts(json.loads(out))
+    assert code == 0 and [p["status"] for p in got.values()] == ["same"] * 4 + ["within"]
+    assert "EVENT:USED 12" in got["C3D parameters"]["detail"]
+    # cmu_02_01 written back as C3D: its data starts elsewhere (header word 9 and
+    # POINT:DATA_START), which is not a difference
+    src = shared_data / "c3d" / "cmu_02_01.c3d"
+    code, _, err = cli(capsys, "encode", src, "-o", packed, "--max-error", "1mm", "-q", "-f")
+    code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / "back.c3d")
+    assert code == 0, err
+    assert mpz.io.read(tmp_path / "back.c3d").extras["c3d"].header[16:18] != \
+        mpz.io.read(src).extras["c3d"].header[16:18]
+    code, out, _ = cli(capsys, "compare", src, tmp_path / "back.c3d", "--json")
+    got = parts(json.loads(out))
+    assert code == 0 and got["C3D header"]["status"] == got["C3D parameters"]["status"] \
+        == "same"

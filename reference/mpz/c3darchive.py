@@ -140,6 +140,13 @@ class C3DArchive:
                                                                            "little") << 16
         return first
 
+    def header_events(self) -> int:
+        """The events of the header's event block: word 151 (bytes 300-301) when word 150
+        holds its key, 12345; else 0 (the C3D user guide)."""
+        if int.from_bytes(self.header[298:300], "little") != 12345:
+            return 0
+        return min(int.from_bytes(self.header[300:302], "little"), 18)
+
     def contents(self) -> dict[str, Any]:
         """What the archive holds beyond the markers (``mpz show``, :meth:`describe`):
         model outputs and the share of their samples that are gaps, analog channels and

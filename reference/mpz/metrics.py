@@ -6,13 +6,19 @@ original was valid counts as an infinite error, so it cannot hide).
 """
 from __future__ import annotations
 
-from typing import Any
+import dataclasses
+from dataclasses import dataclass, replace
+import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import MotionError
 from mpz.motion import Motion
+
+if TYPE_CHECKING:
+    from mpz.c3darchive import C3DArchive
 
 
 def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
@@ -93,3 +99,157 @@ def summary(original: Motion, decoded: Motion) -> dict[str, Any]:
         "per_marker_rms": {n: (None if np.isnan(v) else float(v))
                            for n, v in zip(original.names, per_rms, strict=False)},
     }
+
+
+# -- besides the markers ---------------------------------------------------------------
+@dataclass(frozen=True)
+class Part:
+    """What a comparison found for one part of the original besides its markers.
+
+    ``status`` is ``"same"`` (bit for bit), ``"within"`` (a lossy part within the bound
+    the decoded file declares), ``"changed"`` (a lossy part, with no declared bound to
+    hold it to), ``"differs"`` (a lossless part that is not the same, or a lossy one
+    beyond its bound) or ``"missing"`` (the decoded motion does not hold it). ``error``
+    and ``bound`` are a lossy part's largest difference and its declared bound.
+    """
+
+    name: str
+    status: str
+    detail: str
+    error: float | None = None
+    bound: float | None = None
+
+
+#: bytes 16-17 of a C3D header, word 9: the block where the data starts, which a written
+#: C3D moves to just after its parameters (as POINT:DATA_START; docs/io-notes.md)
+_DATA_START = slice(16, 18)
+
+
+def besides_markers(original: Motion, decoded: Motion, *,
+                    channel_bounds: tuple[float, float] | None = None) -> list[Part]:
+    """Each part of ``original`` besides its marker trajectories, compared with
+    ``decoded``: a C3D's archive (header, parameters with the events, the points' fourth
+    words, analog words, model outputs) and a BVH's or AMC's skeleton and joint channels.
+
+    Where the data starts is not compared (a written C3D moves it); nor is the processor
+    type (a written C3D is Intel; the archive keeps its values normalised). Model outputs
+    are held to the bounds the decoded archive declares (per coordinate, spec §6.9); the
+    joint channels to ``channel_bounds``, (rotations in degrees, translations in skeleton
+    units), the largest error the decoded file's channel steps allow
+    (:func:`mpz.skeleton.report`), when given.
+    """
+    return _archive_parts(original, decoded) + _skeleton_parts(original, decoded,
+                                                               channel_bounds)
+
+
+def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
+    from mpz.c3darchive import C3DArchive
+    a, b = original.extras.get("c3d"), decoded.extras.get("c3d")
+    if not isinstance(a, C3DArchive):
+        return []
+    if not isinstance(b, C3DArchive):
+        return [Part("C3D archive", "missing", a.describe())]
+    ha, hb = bytearray(a.header), bytearray(b.header)
+    ha[_DATA_START] = hb[_DATA_START] = b"\0\0"
+    at = next((i for i in range(min(len(ha), len(hb))) if ha[i] != hb[i]),
+              None if len(ha) == len(hb) else min(len(ha), len(hb)))
+    ev = a.header_events()
+    parts = [Part("C3D header", "same" if at is None else "differs",
+                  (f"{len(ha)} bytes" if at is None else f"byte {at} differs")
+                  + (f", {ev} events in its event block" if ev else ""))]
+    c = a.contents()
+    events = f", EVENT:USED {c['events']}" if c["events"] else ""
+    groups = c["parameter_groups"]
+    if len(a.records) != len(b.records):
+        parts.append(Part("C3D parameters", "differs",
+                          f"{len(a.records)} records against {len(b.records)}"))
+    else:
+        start = _data_start_record(a)
+        bad = [r.name.decode("latin-1") for i, (r, s) in enumerate(zip(a.records, b.records,
+                                                                      strict=True))
+               if r != s and not (i == start and r == replace(s, data=r.data))]
+        parts.append(Part("C3D parameters", "differs" if bad else "same",
+                          f"{groups} groups, {len(a.records) - groups} parameters{events}"
+                          + (f"; differ: {', '.join(bad[:5])}" if bad else "")))
+    parts.append(Part("point words", "same" if a.slots == b.slots and _bits(a.words, b.words)
+                      else "differs", f"residual and camera words, {a.words.shape[1]} points"
+                      f" x {a.frames} frames"))
+    if a.channels:
+        parts.append(Part("analog", "same" if (a.analog_samples == b.analog_samples
+                                                and _bits(a.analog, b.analog)) else "differs",
+                          f"{a.channels} channels x {a.analog.shape[0]} samples"))
+    J = a.models.shape[1]
+    if J:
+        parts.append(_models(a, b))
+    return parts
+
+
+def _data_start_record(a: C3DArchive) -> int | None:
+    """The index of POINT:DATA_START among the archive's records."""
+    point = {-r.group for r in a.records if r.is_group and r.name.upper() == b"POINT"}
+    return next((i for i, r in enumerate(a.records) if r.group in point
+                 and r.name.upper() == b"DATA_START"), None)
+
+
+def _bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
+    """The same dtype, shape and bytes (NaNs with their payloads, -0.0 apart from 0.0)."""
+    return x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+
+
+def _models(a: C3DArchive, b: C3DArchive) -> Part:
+    """Model outputs: the same gaps, and each coordinate within the decoded bound."""
+    J = a.models.shape[1]
+    what = f"{J} points"
+    if (b.models.shape != a.models.shape or a.model_kinds != b.model_kinds
+            or not np.array_equal(a.model_valid, b.model_valid)):
+        return Part("model outputs", "differs", f"{what}: other points, kinds or gaps")
+    ok = a.model_valid
+    err = np.abs(a.models - b.models)[ok]                            # [n, 3]
+    e = float(err.max(initial=0.0))
+    if b.model_bounds is None:
+        return Part("model outputs", "same" if e == 0 else "changed",
+                    f"{what}; no bound declared", error=e)
+    bound = np.broadcast_to(b.model_bounds[None], a.models.shape)[ok]
+    within = bool((err <= bound).all())
+    return Part("model outputs", "within" if within else "differs", what, error=e,
+                bound=float(b.model_bounds.max(initial=0.0)))
+
+
+def _skeleton_parts(original: Motion, decoded: Motion,
+                    bounds: tuple[float, float] | None) -> list[Part]:
+    from mpz.io.kinematics import Skeleton
+    from mpz.skeleton import is_rotation
+    sa, sb = original.extras.get("skeleton"), decoded.extras.get("skeleton")
+    if not isinstance(sa, Skeleton) or original.angles is None:
+        return []
+    if not isinstance(sb, Skeleton) or decoded.angles is None:
+        return [Part("skeleton", "missing", f"{len(sa.joints)} joints and their "
+                     f"{sa.channel_count} channels")]
+    fields = [f.name for f in dataclasses.fields(sa)
+              if getattr(sa, f.name) != getattr(sb, f.name)]
+    parts = [Part("skeleton", "differs" if fields else "same", f"{len(sa.joints)} joints"
+                  + (f"; differ: {', '.join(fields)}" if fields else ""))]
+    x, y = original.angles, decoded.angles
+    if x.shape != y.shape or original.angle_names != decoded.angle_names:
+        return parts + [Part("joint channels", "differs",
+                             f"{x.shape[1]} channels against {y.shape[1]}, or other names")]
+    turns = np.array([is_rotation(k) for k in sa.channel_kinds()], bool)
+    to_deg = 180 / math.pi if sa.angle_unit == "rad" else 1.0
+    for name, cols, scale, unit, k in (("joint rotations", turns, to_deg, "deg", 0),
+                                       ("joint translations", ~turns, 1.0,
+                                        "skeleton units", 1)):
+        if not cols.any():
+            continue
+        d = np.abs(x[:, cols] - y[:, cols])
+        e = float(d.max(initial=0.0)) * scale
+        what = f"{int(cols.sum())} channels, in {unit}"
+        if bounds is None:
+            parts.append(Part(name, "same" if e == 0 else "changed",
+                              f"{what}; no bound declared", error=e))
+            continue
+        # a value k x step comes back within step / 2 and the rounding of that product
+        slack = 4 * np.spacing(np.maximum(np.abs(x[:, cols]), np.abs(y[:, cols])))
+        within = bool((d <= bounds[k] / scale + slack).all())
+        parts.append(Part(name, "within" if within else "differs", what, error=e,
+                          bound=bounds[k]))
+    return parts

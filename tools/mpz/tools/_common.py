@@ -287,13 +287,27 @@ def read_motion(path: str, asf: str | None = None, *,
 def read_input(path: str, asf: str | None = None, *,
                max_samples: int | None = None) -> tuple[Motion, str | None]:
     """:func:`read_motion`, and the extension of the format that was read (``".mpz"``...)."""
+    motion, ext, _ = _read_input(path, asf, max_samples, keep=False)
+    return motion, ext
+
+
+def read_input_keeping(path: str, asf: str | None = None
+                       ) -> tuple[Motion, str | None, bytes | None]:
+    """:func:`read_input`, and the bytes of an MPZ input (None for other formats), for a
+    caller that reads its chunks too (``mpz compare``: the skeleton chunk's steps). A file
+    is read again for them; standard input, once."""
+    return _read_input(path, asf, None, keep=True)
+
+
+def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bool
+                ) -> tuple[Motion, str | None, bytes | None]:
     from mpz.io._common import ext_of
     if path == STDIO:
         data, fmt = read_stdin()
         if fmt == ".mpz":
-            return read_mpz_input_bytes(data, max_samples), fmt
+            return read_mpz_input_bytes(data, max_samples), fmt, data if keep else None
         from mpz.io import read_bytes
-        return read_bytes(data, fmt=fmt, name=STDIO, asf=asf), fmt
+        return read_bytes(data, fmt=fmt, name=STDIO, asf=asf), fmt, None
     from mpz.io import READERS, read
     ext = ext_of(path)
     if ext not in READERS and ext != ".mpz":      # no known extension: ask the content
@@ -302,8 +316,12 @@ def read_input(path: str, asf: str | None = None, *,
         with open_regular(path) as fh:
             ext = detect_format(fh.read(DETECT_BYTES)) or ext
     if ext == ".mpz":
-        return read_mpz_input(path, max_samples), ext
-    return read(path, asf=asf), ext
+        motion = read_mpz_input(path, max_samples)
+        if not keep:
+            return motion, ext, None
+        from mpz.api import read_source
+        return motion, ext, read_source(path)[0]
+    return read(path, asf=asf), ext, None
 
 
 def read_mpz_input_bytes(data: bytes, max_samples: int | None = None) -> Motion:

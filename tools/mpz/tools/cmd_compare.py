@@ -7,6 +7,12 @@ Two frame rates that differ are an error (exit 2; an NPY stores none: not checke
 Lengths in two known units (mm, cm, m, in) are converted to the original's before
 comparing; an input without units against one with units is compared as numbers, the
 figures in the unit there is. Both are said on stderr.
+Besides the markers, each part a source keeps is compared too: a C3D's header,
+parameters (with the events), the points' residual and camera words, analog words and
+model outputs, and a BVH's or AMC's skeleton and joint channels: the same bit for bit,
+within the bound the .mpz input declares (model outputs; joint channels, by the steps of
+its skeleton chunk), changed (no bound declared), differs (exit 2) or missing from the
+decoded motion (a note: a format that cannot hold the part, as ``mpz decode`` says).
 ``--plot OUT.png`` draws the Euclidean error over time of the worst markers
 (or ``--marker``), one panel each, in the motion's units, with the declared
 bound (from an .mpz input, or ``--bound``) as a line and one legend for all
@@ -16,7 +22,9 @@ non-finite values).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
+from typing import cast
 
 import numpy as np
 
@@ -29,7 +37,10 @@ def add_parser(sub):
     p = sub.add_parser("compare", help="error statistics between two motions (any format)",
                        description="Compare a decoded motion with its original: max, p99, RMS "
                        "and ARMS (paper Eq. 3), overall and per marker; optional plot of the "
-                       "error over time.")
+                       "error over time. Then each part the original keeps besides its "
+                       "markers (a C3D's header, parameters, analog and model outputs; a "
+                       "skeleton and its channels): the same, within the declared bound, "
+                       "changed, missing, or differs (exit 2).")
     p.add_argument("original", help="original motion file, or - for standard input")
     p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
     p.add_argument("--asf", help="skeleton for AMC input")
@@ -137,9 +148,9 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from mpz.errors import EncoderError
-    from mpz.metrics import summary
+    from mpz.metrics import besides_markers, summary
     from mpz.tools._cli import EXIT_USAGE
-    from mpz.tools._common import check_length, parse_length, read_input
+    from mpz.tools._common import check_length, parse_length, read_input_keeping
     if args.original == "-" and args.decoded == "-":
         raise MotionError("only one of the two inputs can be standard input (-)")
     try:                        # a usage error (64), as encode's lengths: not an input error
@@ -151,9 +162,13 @@ def run(args: argparse.Namespace) -> int:
         check_plot(args.plot, args.force, (args.original, args.decoded))
         _matplotlib()
     names = (_label(args.original), _label(args.decoded))
-    a, ext_a = read_input(args.original, args.asf)
-    b, ext_b = read_input(args.decoded, args.asf)
+    a, ext_a, data_a = read_input_keeping(args.original, args.asf)
+    b, ext_b, data_b = read_input_keeping(args.decoded, args.asf)
     notes = check_rates(a, b, ext_a, ext_b, names)
+    parts = besides_markers(a, b, channel_bounds=_channel_bounds(data_b or data_a))
+    del data_a, data_b
+    notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
+              for p in parts if p.status == "missing"]
     pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
     b = align(a, b)
     if a.n_frames != b.n_frames:
@@ -179,7 +194,8 @@ def run(args: argparse.Namespace) -> int:
     gaps_added = int((~a.valid & b.valid).sum())
     s.update(frames=a.n_frames, markers=a.n_markers, units=units or None,
              original_units=a.units or None, decoded_units=units_b or None, positions=pos,
-             notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added)
+             notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added,
+             besides_markers=[dataclasses.asdict(p) for p in parts])
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
     if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
@@ -205,9 +221,37 @@ def run(args: argparse.Namespace) -> int:
             rms = s["per_marker_rms"][n]
             print(f"  {printable(n)[:16]:<16} {v:>8.4g} "
                   f"{(float('nan') if rms is None else rms):>10.4g}")
+        if parts:
+            print("  besides the markers:")
+        for p in parts:
+            print(f"  {p.name:<19} {_status(p, units)}")
         if args.plot:
             print(f"plot written to {printable(args.plot)}")
-    return 2 if gaps_lost or gaps_added else 0
+    differs = any(p.status == "differs" for p in parts)
+    return 2 if gaps_lost or gaps_added or differs else 0
+
+
+def _channel_bounds(data: bytes | None) -> tuple[float, float] | None:
+    """(rotations in degrees, translations) within which an .mpz input's joint channels
+    come back: half of its skeleton chunk's largest steps (None without one)."""
+    if data is None:
+        return None
+    from mpz.skeleton import report
+    r = report(data)
+    if r is None:
+        return None
+    return cast(float, r["angle_bound"]), cast(float, r["translation_bound"])
+
+
+def _status(p, units: str) -> str:
+    """A :class:`mpz.metrics.Part` as a line of the report."""
+    u = {"model outputs": f" {units}" if units else "", "joint rotations": " deg"}.get(p.name,
+                                                                                       "")
+    if p.status == "within":
+        return f"within {p.bound:.4g}{u}: largest {p.error:.4g}{u}; {p.detail}"
+    if p.status == "changed":
+        return f"changed: largest {p.error:.4g}{u}; {p.detail}"
+    return f"{p.status}: {p.detail}"
 
 
 def _matplotlib():
