@@ -139,6 +139,8 @@ def test_compare_converts_lengths_to_one_unit(walk, tmp_path, capsys):
     write(with_(walk, positions=walk.positions / 1000, units="m"), same)
     code, out, err = cli(capsys, "compare", a, same, "--json")
     assert code == 0 and json.loads(out)["max"] < 1e-3 and "converted to mm" in err
+    meta = parts(json.loads(out))["metadata"]         # the header's Units: not a failure
+    assert meta["status"] == "changed" and "trc.Units" in meta["detail"]
     relabelled = tmp_path / "walk_relabelled_m.trc"   # the numbers of mm, labelled m (QA)
     write(with_(walk, units="m"), relabelled)
     want = max_error(walk.positions, 1000 * walk.positions)
@@ -458,3 +460,34 @@ def test_real_c3d_archives_come_back(shared_data, tmp_path, capsys):
     got = parts(json.loads(out))
     assert code == 0 and got["C3D header"]["status"] == got["C3D parameters"]["status"] \
         == "same"
+
+
+def test_compare_says_whether_a_trcs_header_fields_came_back(walk, tmp_path, capsys):
+    """A TRC's header fields are free metadata (not mpz.io.READER_KEYS): kept in the .mpz,
+    written back to a TRC, not held by a CSV."""
+    import dataclasses
+
+    from mpz.io import READER_KEYS
+    from mpz.metrics import besides_markers
+    src, packed = tmp_path / "w.trc", tmp_path / "w.mpz"
+    write(walk, src)
+    m = mpz.io.read(src)
+    fields = sorted(k for k in m.metadata if k not in READER_KEYS)
+    assert len(fields) >= 10 and all(k.startswith("trc.") for k in fields)
+    code, _, err = cli(capsys, "encode", src, "-o", packed, "--max-error", "0.01mm", "-q")
+    assert code == 0, err
+    code, out, _ = cli(capsys, "compare", src, packed, "--json")
+    assert code == 0 and parts(json.loads(out))["metadata"] == {
+        "name": "metadata", "status": "same", "detail": f"{len(fields)} entries",
+        "error": None, "bound": None}
+    for ext, status in ((".trc", "same"), (".csv", "missing")):
+        code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / f"back{ext}")
+        code, out, err = cli(capsys, "compare", src, tmp_path / f"back{ext}", "--json")
+        assert code == 0 and parts(json.loads(out))["metadata"]["status"] == status
+    assert f"does not hold the original's metadata: {len(fields)} of its" in err
+    edited = dataclasses.replace(m, metadata={**m.metadata, fields[0]: "edited"})
+    (got,) = besides_markers(m, edited)
+    assert got.status == "changed" and got.detail.endswith(f"other values: {fields[0]}")
+    (got,) = besides_markers(m, dataclasses.replace(m, metadata={**m.metadata,
+                                                                 "source": "other.trc"}))
+    assert got.status == "same"                     # the name of the file read: not content

@@ -108,9 +108,10 @@ class Part:
 
     ``status`` is ``"same"`` (bit for bit), ``"within"`` (a lossy part within the bound
     the decoded file declares), ``"changed"`` (a lossy part, with no declared bound to
-    hold it to), ``"differs"`` (a lossless part that is not the same, or a lossy one
-    beyond its bound) or ``"missing"`` (the decoded motion does not hold it). ``error``
-    and ``bound`` are a lossy part's largest difference and its declared bound.
+    hold it to; or metadata entries with other values), ``"differs"`` (a lossless part
+    that is not the same, or a lossy one beyond its bound) or ``"missing"`` (the decoded
+    motion does not hold it). ``error`` and ``bound`` are a lossy part's largest
+    difference and its declared bound.
     """
 
     name: str
@@ -128,8 +129,9 @@ _DATA_START = slice(16, 18)
 def besides_markers(original: Motion, decoded: Motion, *,
                     channel_bounds: tuple[float, float] | None = None) -> list[Part]:
     """Each part of ``original`` besides its marker trajectories, compared with
-    ``decoded``: a C3D's archive (header, parameters with the events, the points' fourth
-    words, analog words, model outputs) and a BVH's or AMC's skeleton and joint channels.
+    ``decoded``: its metadata (a TRC's header fields...), a C3D's archive (header,
+    parameters with the events, the points' fourth words, analog words, model outputs)
+    and a BVH's or AMC's skeleton and joint channels.
 
     Where the data starts is not compared (a written C3D moves it); nor is the processor
     type (a written C3D is Intel; the archive keeps its values normalised). Model outputs
@@ -138,8 +140,28 @@ def besides_markers(original: Motion, decoded: Motion, *,
     units), the largest error the decoded file's channel steps allow
     (:func:`mpz.skeleton.report`), when given.
     """
-    return _archive_parts(original, decoded) + _skeleton_parts(original, decoded,
-                                                               channel_bounds)
+    return (_metadata_parts(original, decoded) + _archive_parts(original, decoded)
+            + _skeleton_parts(original, decoded, channel_bounds))
+
+
+def _metadata_parts(original: Motion, decoded: Motion) -> list[Part]:
+    """The original's metadata entries besides those a reader sets to describe the file it
+    read (:data:`mpz.io.READER_KEYS`: its name, format, reader...; a written file read
+    again gets its own): a TRC's header fields, and what was given at encoding."""
+    from mpz.io import READER_KEYS
+    keys = sorted(k for k in original.metadata if k not in READER_KEYS)
+    if not keys:
+        return []
+    got = decoded.metadata
+    changed = [k for k in keys if k in got and got[k] != original.metadata[k]]
+    lost = [k for k in keys if k not in got]
+    if changed:         # not a failure: a file rewritten in other units has other fields
+        return [Part("metadata", "changed", f"{len(keys)} entries; other values: "
+                     f"{', '.join(changed[:5])}")]
+    if lost:
+        return [Part("metadata", "missing", f"{len(lost)} of its {len(keys)} entries: "
+                     f"{', '.join(lost[:5])}" + (", ..." if len(lost) > 5 else ""))]
+    return [Part("metadata", "same", f"{len(keys)} entries")]
 
 
 def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:

@@ -7,12 +7,13 @@ Two frame rates that differ are an error (exit 2; an NPY stores none: not checke
 Lengths in two known units (mm, cm, m, in) are converted to the original's before
 comparing; an input without units against one with units is compared as numbers, the
 figures in the unit there is. Both are said on stderr.
-Besides the markers, each part a source keeps is compared too: a C3D's header,
-parameters (with the events), the points' residual and camera words, analog words and
-model outputs, and a BVH's or AMC's skeleton and joint channels: the same bit for bit,
-within the bound the .mpz input declares (model outputs; joint channels, by the steps of
-its skeleton chunk), changed (no bound declared), differs (exit 2) or missing from the
-decoded motion (a note: a format that cannot hold the part, as ``mpz decode`` says).
+Besides the markers, each part a source keeps is compared too: its metadata (a TRC's
+header fields), a C3D's header, parameters (with the events), the points' residual and
+camera words, analog words and model outputs, and a BVH's or AMC's skeleton and joint
+channels: the same bit for bit, within the bound the .mpz input declares (model
+outputs; joint channels, by the steps of its skeleton chunk), changed (no bound
+declared; metadata with other values), differs (exit 2) or missing from the decoded
+motion (a note: a format that cannot hold the part, as ``mpz decode`` says).
 ``--plot OUT.png`` draws the Euclidean error over time of the worst markers
 (or ``--marker``), one panel each, in the motion's units, with the declared
 bound (from an .mpz input, or ``--bound``) as a line and one legend for all
@@ -38,9 +39,9 @@ def add_parser(sub):
                        description="Compare a decoded motion with its original: max, p99, RMS "
                        "and ARMS (paper Eq. 3), overall and per marker; optional plot of the "
                        "error over time. Then each part the original keeps besides its "
-                       "markers (a C3D's header, parameters, analog and model outputs; a "
-                       "skeleton and its channels): the same, within the declared bound, "
-                       "changed, missing, or differs (exit 2).")
+                       "markers (metadata; a C3D's header, parameters, analog and model "
+                       "outputs; a skeleton and its channels): the same, within the declared "
+                       "bound, changed, missing, or differs (exit 2).")
     p.add_argument("original", help="original motion file, or - for standard input")
     p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
     p.add_argument("--asf", help="skeleton for AMC input")
