@@ -622,6 +622,40 @@ def test_long_motion_is_partitioned_on_blocks():
     assert lv.starts.tolist() == [4 * v for v in best]
 
 
+def test_an_output_that_does_not_give_the_archive_back_fails(tmp_path, monkeypatch):
+    """Each output's other parts are checked as its error is (mpz.metrics.besides_markers):
+    a decoder that changed one analog word makes the file fail, named, and its row is
+    not written; the same file with the real decoder is indexed."""
+    import dataclasses
+
+    import mpz.decoder
+    from mpz.tools.make_vectors import c3d_motion
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    write(c3d_motion(2, storage=1, F=30, M=5, J=0, C=3, n=2), src / "trial.c3d")
+    real = mpz.decoder.decode
+
+    def damaged(data, *a, **k):
+        m = real(data, *a, **k)
+        arch = m.extras["c3d"]
+        analog = arch.analog.copy()
+        analog[3, 1] = analog[3, 1] + 1
+        return dataclasses.replace(m, extras={"c3d": dataclasses.replace(arch,
+                                                                          analog=analog)})
+    monkeypatch.setattr(mpz.decoder, "decode", damaged)
+    rep = run_corpus(src, out)
+    (bad,) = rep.failed
+    assert "does not give back the source's analog (3 channels x 60 samples)" in bad.reason
+    with open_index(out) as ix:
+        assert [r["output"] for r in ix.rows()] == []
+        assert [p for p, _ in ix.failures()] == [str((src / "trial.c3d").resolve())]
+    monkeypatch.setattr(mpz.decoder, "decode", real)
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"trial": "kept"} and not rep.failed
+    with open_index(out) as ix:
+        assert [r["output"] for r in ix.rows()] == ["trial.mpz"] and not ix.failures()
+
+
 # ---------------------------------------------------------------- ranking --
 @settings(max_examples=60, deadline=None)
 @given(st.integers(2, 12), st.integers(1, 6), st.integers(0, 2**32 - 1), st.data())

@@ -397,7 +397,8 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     from mpz.container import chunk_sizes
     from mpz.decoder import decode, read_stream
     from mpz.format import unit_name
-    from mpz.metrics import arms, max_error
+    from mpz.metrics import arms, besides_markers, max_error
+    from mpz.skeleton import channel_bounds
 
     h = read_stream(data).header
     sizes = chunk_sizes(data)
@@ -406,7 +407,15 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     smry = sizes.get("smry", 0) + sizes.get("smrc", 0)     # at most one of the two (§4.15)
     decoded = decode(data)
     err, avg = max_error(motion, decoded), arms(motion, decoded)
+    # what the source keeps besides its markers must come back too (mpz compare's check)
+    wrong = [p for p in besides_markers(motion, decoded, channel_bounds=channel_bounds(data))
+             if p.status == "differs"]
     del decoded
+    if wrong:
+        raise EncoderError(f"the output does not give back the source's "
+                           f"{', '.join(p.name for p in wrong)} ({wrong[0].detail}): a defect "
+                           f"of mpz {mpz.__version__}, please report it; the output is left "
+                           "for the report")
     raw = motion.raw_size()
     return {
         "output": task.output_key, "path": os.path.abspath(task.source), "source_sha256": sha,

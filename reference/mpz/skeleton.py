@@ -480,6 +480,19 @@ def report(data: bytes) -> dict[str, object] | None:
     return None
 
 
+def channel_bounds(data: bytes) -> tuple[float, float] | None:
+    """(rotations in degrees, translations in skeleton units): the largest error with which
+    the joint channels of MPZ ``data`` come back, half of its skeleton chunk's largest
+    steps (:func:`report`); None without a skeleton chunk. For
+    :func:`mpz.metrics.besides_markers`."""
+    r = report(data)
+    if r is None:
+        return None
+    rot, lin = r["angle_bound"], r["translation_bound"]
+    assert isinstance(rot, float) and isinstance(lin, float)
+    return rot, lin
+
+
 def with_units(motion: Motion, units: str) -> Motion:
     """The motion with its length unit set (``mpz encode --units``): BVH files have none.
 

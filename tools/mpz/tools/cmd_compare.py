@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-from typing import cast
 
 import numpy as np
 
@@ -150,6 +149,7 @@ def run(args: argparse.Namespace) -> int:
 
     from mpz.errors import EncoderError
     from mpz.metrics import besides_markers, summary
+    from mpz.skeleton import channel_bounds
     from mpz.tools._cli import EXIT_USAGE
     from mpz.tools._common import check_length, parse_length, read_input_keeping
     if args.original == "-" and args.decoded == "-":
@@ -166,8 +166,10 @@ def run(args: argparse.Namespace) -> int:
     a, ext_a, data_a = read_input_keeping(args.original, args.asf)
     b, ext_b, data_b = read_input_keeping(args.decoded, args.asf)
     notes = check_rates(a, b, ext_a, ext_b, names)
-    parts = besides_markers(a, b, channel_bounds=_channel_bounds(data_b or data_a))
-    del data_a, data_b
+    data = data_b or data_a                 # the bounds an .mpz input declares
+    parts = besides_markers(a, b, channel_bounds=None if data is None
+                            else channel_bounds(data))
+    del data_a, data_b, data
     notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
               for p in parts if p.status == "missing"]
     pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
@@ -230,18 +232,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"plot written to {printable(args.plot)}")
     differs = any(p.status == "differs" for p in parts)
     return 2 if gaps_lost or gaps_added or differs else 0
-
-
-def _channel_bounds(data: bytes | None) -> tuple[float, float] | None:
-    """(rotations in degrees, translations) within which an .mpz input's joint channels
-    come back: half of its skeleton chunk's largest steps (None without one)."""
-    if data is None:
-        return None
-    from mpz.skeleton import report
-    r = report(data)
-    if r is None:
-        return None
-    return cast(float, r["angle_bound"]), cast(float, r["translation_bound"])
 
 
 def _status(p, units: str) -> str:
