@@ -141,6 +141,8 @@ def test_compare_converts_lengths_to_one_unit(walk, tmp_path, capsys):
     assert code == 0 and json.loads(out)["max"] < 1e-3 and "converted to mm" in err
     meta = parts(json.loads(out))["metadata"]         # the header's Units: not a failure
     assert meta["status"] == "changed" and "trc.Units" in meta["detail"]
+    code, out, err = cli(capsys, "compare", a, same)  # the text report too (QA: a crash)
+    assert code == 0 and "metadata            changed: " in out and "trc.Units" in out
     relabelled = tmp_path / "walk_relabelled_m.trc"   # the numbers of mm, labelled m (QA)
     write(with_(walk, units="m"), relabelled)
     want = max_error(walk.positions, 1000 * walk.positions)

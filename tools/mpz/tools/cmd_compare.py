@@ -240,7 +240,7 @@ def _status(p, units: str) -> str:
                                                                                        "")
     if p.status == "within":
         return f"within {p.bound:.4g}{u}: largest {p.error:.4g}{u}; {p.detail}"
-    if p.status == "changed":
+    if p.status == "changed" and p.error is not None:    # metadata has no figure
         return f"changed: largest {p.error:.4g}{u}; {p.detail}"
     return f"{p.status}: {p.detail}"
 
