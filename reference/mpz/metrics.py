@@ -186,10 +186,9 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
         parts.append(Part("C3D parameters", "differs",
                           f"{len(a.records)} records against {len(b.records)}"))
     else:
-        start = _data_start_record(a)
-        bad = [r.name.decode("latin-1") for i, (r, s) in enumerate(zip(a.records, b.records,
-                                                                      strict=True))
-               if r != s and not (i == start and r == replace(s, data=r.data))]
+        start = a.parameter("POINT", "DATA_START")
+        bad = [r.name.decode("latin-1") for r, s in zip(a.records, b.records, strict=True)
+               if r != s and not (r is start and r == replace(s, data=r.data))]
         parts.append(Part("C3D parameters", "differs" if bad else "same",
                           f"{groups} groups, {len(a.records) - groups} parameters{events}"
                           + (f"; differ: {', '.join(bad[:5])}" if bad else "")))
@@ -204,13 +203,6 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
     if J:
         parts.append(_models(a, b))
     return parts
-
-
-def _data_start_record(a: C3DArchive) -> int | None:
-    """The index of POINT:DATA_START among the archive's records."""
-    point = {-r.group for r in a.records if r.is_group and r.name.upper() == b"POINT"}
-    return next((i for i, r in enumerate(a.records) if r.group in point
-                 and r.name.upper() == b"DATA_START"), None)
 
 
 def _bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
