@@ -79,6 +79,25 @@ def test_c3d_and_trc_keep_units(tmp_path, units):
         assert read(tmp_path / f"u{ext}").units == units
 
 
+@pytest.mark.parametrize(("to", "scale", "decimals"),
+                         [("m", 1e-3, 5), ("cm", 0.1, 3), ("in", 1 / 25.4, 4), ("mm", 1, 2)])
+def test_trc_header_says_the_units_the_positions_are_in(tmp_path, to, scale, decimals):
+    # A TRC read in mm with 2 decimals (10 um), rescaled and written again: the header's
+    # stale "mm" would make every length wrong by the scale. The resolution is kept:
+    # 0.01 mm is 0.00001 m (5 decimals), 0.001 cm (3), 0.0004 in (4: 0.0001 in < 0.01 mm).
+    import dataclasses
+    m = synthetic(units="mm")
+    m = dataclasses.replace(m, positions=np.round(m.positions, 2),
+                            metadata={"trc.Units": "mm", "trc.Decimals": "2"})
+    rescaled = dataclasses.replace(m, positions=m.positions * scale, units=to)
+    write(rescaled, tmp_path / "r.trc")
+    back = read(tmp_path / "r.trc")
+    assert back.units == to
+    assert back.metadata["trc.Decimals"] == str(decimals)
+    np.testing.assert_allclose(back.positions[m.valid] / scale, m.positions[m.valid],
+                               rtol=0, atol=0.005 + 1e-9)
+
+
 def test_c3d_written_by_ezc3d_reads_the_same_with_the_numpy_reader(tmp_path):
     m = synthetic()
     write(m, tmp_path / "m.c3d")

@@ -255,6 +255,16 @@ def _header_meta(lines: list[str], header: dict[str, str],
     return out
 
 
+def _decimals_in(units: str, read_as: str, decimals: int) -> int:
+    """The column decimals a TRC read in ``read_as`` needs in ``units`` to keep its
+    resolution (mm with 2 decimals is m with 5), never fewer than it had."""
+    from mpz.format import MM_PER_UNIT
+    if units == read_as or units not in MM_PER_UNIT or read_as not in MM_PER_UNIT:
+        return decimals
+    shift = math.ceil(math.log10(MM_PER_UNIT[units] / MM_PER_UNIT[read_as]) - 1e-9)
+    return max(decimals, decimals + shift)
+
+
 def _fmt(v: float, decimals: int = 6) -> str:
     return "" if not math.isfinite(v) else f"{v:.{decimals}f}"
 
@@ -263,7 +273,8 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
     """TRC text for a Motion (OpenSim layout, gaps as empty fields).
 
     A motion read from a TRC (``trc.*`` metadata) gets its header fields, first frame
-    number, first time and column decimals back; otherwise the rate is written with
+    number, first time and column decimals back (``Units`` and the decimals follow
+    ``motion.units`` when the motion was rescaled since); otherwise the rate is written with
     ``repr`` (it reads back exactly), frames from 1, times from 0, 6 decimals.
     ``file_name`` is used when the source's file name is not known.
     """
@@ -281,6 +292,9 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
             head[key] = str(n)
     if float(head["DataRate"]) != motion.rate:        # the header text must give the rate
         head["DataRate"] = rate
+    read_as = _UNITS.get(head["Units"].strip().lower(), "")
+    if read_as != motion.units:    # the header must give the positions' unit, not a stale one
+        head["Units"] = motion.units
     kind = meta.get("trc.PathFileType", "4\t(X/Y/Z)")
     name = meta.get("trc.FileName", file_name) or file_name
     first = start_frame(motion)
@@ -290,7 +304,7 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
         # a C3D's frame n is at (n - 1) / rate (its frames count from 1)
         t0 = float(meta.get("start_time", repr((first - 1) / motion.rate)))
         dt = int(meta.get("trc.TimeDecimals", "6"))
-        dv = int(meta.get("trc.Decimals", "6"))
+        dv = _decimals_in(motion.units, read_as, int(meta.get("trc.Decimals", "6")))
         tdig = int(meta.get("trc.TimeDigits", str(dt)))
     except ValueError:
         t0, dt, dv, tdig = 0.0, 6, 6, 6
