@@ -440,6 +440,37 @@ def test_joint_channels_beyond_their_bound_differ():
     assert got["joint rotations"].status == "within"
 
 
+def test_compare_reads_a_decoded_amc_with_its_own_asf(tmp_path, capsys, one_bone_asf):
+    """--asf is the original's skeleton: a decoded AMC is read with the .asf mpz decode
+    wrote beside it, so a bone that came back another length is seen (it was not)."""
+    rng = np.random.default_rng(3)
+    (tmp_path / "t.asf").write_text(one_bone_asf())
+    (tmp_path / "t.amc").write_text(amc(np.round(rng.normal(0, 5, (12, 8)), 2), "deg"))
+    src, asf, packed = tmp_path / "t.amc", tmp_path / "t.asf", tmp_path / "t.mpz"
+    code, _, err = cli(capsys, "encode", src, "--asf", asf, "-o", packed, "-q")
+    assert code == 0, err
+    out_dir = tmp_path / "back"
+    out_dir.mkdir()
+    code, _, err = cli(capsys, "decode", packed, "-o", out_dir / "t.amc")
+    assert code == 0 and (out_dir / "t.asf").exists(), err
+    code, out, _ = cli(capsys, "compare", src, out_dir / "t.amc", "--asf", asf, "--json")
+    assert code == 0 and parts(json.loads(out))["skeleton"]["status"] == "same"
+    text = (out_dir / "t.asf").read_text()
+    assert "     length 2\n" in text
+    (out_dir / "t.asf").write_text(text.replace("     length 2\n", "     length 3\n"))
+    for extra in ((), ("--decoded-asf", out_dir / "t.asf")):
+        code, out, _ = cli(capsys, "compare", src, out_dir / "t.amc", "--asf", asf, "--json",
+                           *extra)
+        assert code == 2 and parts(json.loads(out))["skeleton"]["status"] == "differs"
+    # an AMC with no .asf beside it is read with --asf's, and the report says so
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "x.amc").write_bytes((out_dir / "t.amc").read_bytes())
+    code, out, err = cli(capsys, "compare", src, lone / "x.amc", "--asf", asf, "--json")
+    assert code == 0 and parts(json.loads(out))["skeleton"]["status"] == "same"
+    assert "has no .asf beside it" in err and "is not checked" in err
+
+
 def test_real_c3d_archives_come_back(shared_data, tmp_path, capsys):
     """auckland: 36 model outputs, 24 analog channels, 12 events, 10 parameter groups."""
     src = shared_data / "c3d" / "auckland_FMC_MH0222_BP06.c3d"

@@ -3,6 +3,9 @@
 Either input may be ``-`` (standard input, format found from its content).
 An .mpz of a BVH or AMC is compared as ``mpz decode`` writes it: the joint positions
 computed from its skeleton's channels (the report says so), not its marker layer.
+``--asf`` names an AMC original's skeleton; an AMC decoded input is read with the .asf
+beside it, which ``mpz decode`` writes (``--decoded-asf`` names another; with neither,
+``--asf``'s is used and a note says its skeleton is then not checked).
 Two frame rates that differ are an error (exit 2; an NPY stores none: not checked).
 Lengths in two known units (mm, cm, m, in) are converted to the original's before
 comparing; an input without units against one with units is compared as numbers, the
@@ -43,7 +46,10 @@ def add_parser(sub):
                        "bound, changed, missing, or differs (exit 2).")
     p.add_argument("original", help="original motion file, or - for standard input")
     p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
-    p.add_argument("--asf", help="skeleton for AMC input")
+    p.add_argument("--asf", help="skeleton of an AMC original")
+    p.add_argument("--decoded-asf", metavar="ASF", help="skeleton of an AMC decoded input "
+                   "(default: the .asf beside it, as mpz decode writes it; else --asf's, "
+                   "with a note that its skeleton is then not checked)")
     p.add_argument("--json", action="store_true",
                    help="print the statistics as one JSON document (strict: null for NaN)")
     p.add_argument("--top", type=count, default=10, help="markers to list, worst first")
@@ -84,6 +90,27 @@ def _declared_bound(path: str, units: str) -> float | None:
     if fi.units == units or not (fi.units in MM_PER_UNIT and units in MM_PER_UNIT):
         return fi.error_bound
     return fi.error_bound * MM_PER_UNIT[fi.units] / MM_PER_UNIT[units]
+
+
+def _decoded_asf(args: argparse.Namespace) -> tuple[str | None, bool]:
+    """The skeleton to read an AMC decoded input with, and whether it is ``--asf``'s in
+    place of its own: ``--decoded-asf``; else its own (None: the reader finds the .asf
+    beside it, which mpz decode writes), so that a skeleton that came back different is
+    seen; else ``--asf``'s (standard input: no .asf beside it)."""
+    if args.decoded_asf is not None or args.asf is None:
+        return args.decoded_asf, False
+    from mpz.io._common import ext_of
+    if args.decoded == "-":
+        return args.asf, True
+    if ext_of(args.decoded) != ".amc":
+        return args.asf, False                    # not an AMC by its name: not used
+    from mpz.errors import InputFormatError
+    from mpz.io.amc import find_asf
+    try:
+        find_asf(args.decoded)
+    except InputFormatError:
+        return args.asf, True
+    return None, False
 
 
 #: relative tolerance on two frame rates (a C3D stores its rate as a float32, a TRC as text)
@@ -164,8 +191,12 @@ def run(args: argparse.Namespace) -> int:
         _matplotlib()
     names = (_label(args.original), _label(args.decoded))
     a, ext_a, data_a = read_input_keeping(args.original, args.asf)
-    b, ext_b, data_b = read_input_keeping(args.decoded, args.asf)
+    asf_b, borrowed = _decoded_asf(args)
+    b, ext_b, data_b = read_input_keeping(args.decoded, asf_b)
     notes = check_rates(a, b, ext_a, ext_b, names)
+    if borrowed and ext_b == ".amc":
+        notes.append(f"{names[1]} has no .asf beside it (name one with --decoded-asf): read "
+                     "with --asf's, so its skeleton is the original's and is not checked")
     data = data_b or data_a                 # the bounds an .mpz input declares
     parts = besides_markers(a, b, channel_bounds=None if data is None
                             else channel_bounds(data))
