@@ -645,7 +645,9 @@ def test_an_output_that_does_not_give_the_archive_back_fails(tmp_path, monkeypat
     monkeypatch.setattr(mpz.decoder, "decode", damaged)
     rep = run_corpus(src, out)
     (bad,) = rep.failed
-    assert "does not give back the source's analog (3 channels x 60 samples)" in bad.reason
+    # analog[3, 1]: sample index 3 of the second channel (unlabelled), 2 samples a frame
+    assert ("does not give back the source's analog (3 channels x 60 samples; 1 word "
+            "differs, the first of 'channel 2' at sample index 3 (frame index 1))") in bad.reason
     with open_index(out) as ix:
         assert [r["output"] for r in ix.rows()] == []
         assert [p for p, _ in ix.failures()] == [str((src / "trial.c3d").resolve())]

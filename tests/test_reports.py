@@ -170,6 +170,24 @@ def test_compare_with_an_npy_does_not_check_the_rate_it_lacks(walk, tmp_path, ca
     assert code == 0 and "NPY stores no frame rate" in err and "max 0 mm" in out
 
 
+def test_compare_with_an_npy_takes_its_unnamed_markers_in_order(walk, tmp_path, capsys):
+    """NPY stores no names: an NPY that mpz decode wrote is compared marker by marker in
+    order (before, it failed: "markers missing"); another count cannot be matched."""
+    write(walk, tmp_path / "walk.trc")
+    moved = walk.positions.copy()
+    moved[:, 2, 0] += 0.5                                   # the third marker, 0.5 mm in x
+    np.save(tmp_path / "walk.npy", moved)
+    code, out, err = cli(capsys, "compare", tmp_path / "walk.trc", tmp_path / "walk.npy",
+                         "--json")
+    doc = json.loads(out)
+    assert code == 0 and "NPY stores no marker names; markers compared in order" in err
+    assert doc["max"] == pytest.approx(0.5) and doc["per_marker_max"][walk.names[2]] == \
+        pytest.approx(0.5) and doc["per_marker_max"][walk.names[0]] == 0
+    np.save(tmp_path / "few.npy", moved[:, :3])
+    code, out, err = cli(capsys, "compare", tmp_path / "walk.trc", tmp_path / "few.npy")
+    assert code == 2 and out == "" and f"marker counts differ ({walk.n_markers} vs 3)" in err
+
+
 def test_compare_unitless_against_units_compares_numbers(walk, tmp_path, capsys):
     a = tmp_path / "walk.trc"
     write(walk, a)
@@ -289,15 +307,19 @@ def test_compare_says_a_c3d_archive_came_back(c3d_pair, tmp_path, capsys):
     a, b = m.extras["c3d"], mpz.decode(packed.read_bytes()).extras["c3d"]
     code, out, err = cli(capsys, "compare", src, packed, "--json")
     got = parts(json.loads(out))
+    # one part per model output kind: c3d_motion(3) has an angle (kind 0) and a power (3)
+    assert a.model_kinds == [0, 3]
     assert code == 0 and list(got) == ["C3D header", "C3D parameters", "point words",
-                                       "analog", "model outputs"]
+                                       "analog", "model angles", "model powers"]
     assert all(got[n]["status"] == "same" for n in list(got)[:4])
     assert got["C3D header"]["detail"] == "512 bytes, 2 events in its event block"
     assert got["analog"]["detail"] == f"3 channels x {30 * 2} samples"
-    e = np.abs(a.models - b.models)[a.model_valid]
-    assert got["model outputs"]["status"] == "within"
-    assert got["model outputs"]["error"] == float(e.max())
-    assert got["model outputs"]["bound"] == float(b.model_bounds.max())
+    for j, name in enumerate(("model angles", "model powers")):
+        e = np.abs(a.models[:, j] - b.models[:, j])[a.model_valid[:, j]]
+        assert got[name]["status"] == "within"
+        assert got[name]["error"] == float(e.max())
+        assert got[name]["bound"] == float(b.model_bounds[j].max())
+        assert got[name]["unit"] is None        # the synthetic file names no POINT:*_UNITS
     code, out, _ = cli(capsys, "compare", src, packed)
     assert "besides the markers:" in out and "analog              same: 3 channels" in out
     # written back as C3D: the model outputs have no bound in a C3D file
@@ -308,10 +330,11 @@ def test_compare_says_a_c3d_archive_came_back(c3d_pair, tmp_path, capsys):
     got = parts(json.loads(out))
     assert code == 0 and got["C3D header"]["status"] == "same"
     assert got["C3D parameters"]["status"] == "same"
-    assert got["model outputs"]["status"] == "changed"
     c = mpz.io.read(back).extras["c3d"]                    # float32 values of the decode
-    assert got["model outputs"]["error"] == float(np.abs(a.models - c.models)[
-        a.model_valid].max()) > 0
+    for j, name in enumerate(("model angles", "model powers")):
+        assert got[name]["status"] == "changed"
+        assert got[name]["error"] == float(np.abs(a.models[:, j] - c.models[:, j])[
+            a.model_valid[:, j]].max()) > 0
 
 
 def test_compare_names_a_lost_archive_and_fails_on_a_changed_one(c3d_pair, tmp_path, capsys):
@@ -338,6 +361,7 @@ def test_each_part_of_an_archive_is_compared():
     """Each change the comparison must see, and the two it must not (the data start)."""
     import dataclasses
 
+    from mpz.io.c3dbin import record_params
     from mpz.metrics import besides_markers
     from mpz.tools.make_vectors import c3d_motion
     m = c3d_motion(4, storage=1, F=20, M=4, J=2, C=2, n=2)
@@ -349,6 +373,11 @@ def test_each_part_of_an_archive_is_compared():
     def status(**change) -> dict[str, str]:
         d = dataclasses.replace(m, extras={"c3d": dataclasses.replace(b, **change)})
         return {p.name: p.status for p in besides_markers(m, d)}
+
+    def where(name: str, **change) -> str:
+        """What the detail says after the part's own description, where it differs."""
+        d = dataclasses.replace(m, extras={"c3d": dataclasses.replace(b, **change)})
+        return next(p.detail for p in besides_markers(m, d) if p.name == name).split("; ", 1)[-1]
 
     def header(at: int) -> bytes:
         h = bytearray(a.header)
@@ -378,14 +407,39 @@ def test_each_part_of_an_archive_is_compared():
     assert (nan != nan).any() and status(analog=nan)["analog"] == "differs"
     models = a.models.copy()
     models[~np.isnan(models)] += 2e-9
-    assert status(models=models)["model outputs"] == "differs"             # beyond 1e-9
-    assert status(models=models, model_bounds=np.full((2, 3), 3e-9))["model outputs"] \
+    assert status(models=models)["model angles"] == "differs"              # beyond 1e-9
+    assert status(models=models, model_bounds=np.full((2, 3), 3e-9))["model angles"] \
         == "within"
+    assert a.model_valid[0, 1]
     gaps = a.model_valid.copy()
     gaps[0, 1] = False
-    assert status(model_valid=gaps)["model outputs"] == "differs"
-    assert status(model_bounds=None)["model outputs"] == "same"           # no bound: equal
-    assert status(models=models, model_bounds=None)["model outputs"] == "changed"
+    assert status(model_valid=gaps)["model powers"] == "differs"
+    assert status(model_valid=gaps)["model angles"] == "within"
+    assert status(model_bounds=None)["model angles"] == "same"            # no bound: equal
+    assert status(models=models, model_bounds=None)["model powers"] == "changed"
+    assert status(model_kinds=[0, 0])["model outputs"] == "differs"
+    # where each differs: the C3D points are RFHD LBHD LFHD OUT1 OUT0 RBHD (slots 1 2 0 5 4
+    # 3: model output 0 is OUT0, 1 is OUT1); the analog channels have no labels
+    rf = record_params(a.records)["POINT"]["LABELS"]
+    assert rf == ["RFHD", "LBHD", "LFHD", "OUT1", "OUT0", "RBHD"] and a.model_kinds == [0, 3]
+    assert where("C3D header", header=header(18)).startswith("byte 18 (word 10) differs")
+    rates = [f"{g}:RATE" for g in record_params(a.records) if "RATE" in
+             record_params(a.records)[g]]
+    assert where("C3D parameters", records=record(other)) == f"differ: {rates[0]}"
+    assert where("C3D parameters", records=a.records[:-1]).endswith(
+        f"{len(a.records)} records against {len(a.records) - 1}; lost: group 9:ORPHAN")
+    assert where("point words", words=words) == "first at 'LBHD', frame index 3"
+    changed = a.analog.copy()
+    changed[7, 1] = 12345.0
+    changed[9, 0] = -2.5
+    assert a.analog[7, 1] != 12345.0 and a.analog[9, 0] != -2.5
+    assert where("analog", analog=changed) == ("2 words differ, the first of 'channel 2' at "
+                                               "sample index 7 (frame index 3)")
+    assert where("model powers", model_valid=gaps) == "a gap came at 'OUT1', frame index 0"
+    one = a.models.copy()
+    one[5, 0, 2] += 2e-9
+    assert where("model angles", models=one).startswith(
+        "first beyond its bound at 'OUT0', frame index 5, z: 2e-09 > 1e-09")
     lost = dataclasses.replace(m, extras={})
     assert [p.status for p in besides_markers(m, lost)] == ["missing"]
 
@@ -425,6 +479,8 @@ def test_compare_holds_joint_channels_to_the_steps_bound(tmp_path, capsys):
 
 
 def test_joint_channels_beyond_their_bound_differ():
+    import dataclasses
+
     from mpz.metrics import besides_markers
     from mpz.motion import Motion as M_
     a = mpz.io.read_bytes(bvh_text().encode(), fmt=".bvh")
@@ -435,6 +491,18 @@ def test_joint_channels_beyond_their_bound_differ():
     got = {p.name: p for p in besides_markers(a, b, channel_bounds=(0.2, 1.0))}
     assert got["joint rotations"].status == "differs"
     assert got["joint rotations"].error == pytest.approx(0.25)
+    assert a.angle_names[4] == "Hips.Xrotation"    # bvh_text: X/Y/Zposition Z/X/Yrotation
+    assert got["joint rotations"].detail == ("7 channels, in deg; first beyond its bound at "
+                                             "'Hips.Xrotation', frame index 7: 0.25 > 0.2")
+    sk = a.extras["skeleton"]
+    joints = list(sk.joints)
+    joints[1] = dataclasses.replace(joints[1], offset=(0.0, 11.0, 0.0))
+    other = dataclasses.replace(sk, joints=tuple(joints))
+    c = M_(a.positions, a.names, a.rate, a.units, a.valid, a.metadata, a.parents, a.angles,
+           a.angle_names, {**a.extras, "skeleton": other})
+    (skel, *_) = besides_markers(a, c)
+    assert (skel.status, skel.detail) == ("differs", f"{len(joints)} joints; differ: joints "
+                                          "Spine")
     assert got["joint translations"].status == "within" and got["joint translations"].error == 0
     got = {p.name: p for p in besides_markers(a, b, channel_bounds=(0.3, 1.0))}
     assert got["joint rotations"].status == "within"
@@ -479,8 +547,16 @@ def test_real_c3d_archives_come_back(shared_data, tmp_path, capsys):
     assert code == 0, err
     code, out, _ = cli(capsys, "compare", src, packed, "--json")
     got = parts(json.loads(out))
-    assert code == 0 and [p["status"] for p in got.values()] == ["same"] * 4 + ["within"]
+    assert code == 0 and [p["status"] for p in got.values()] == ["same"] * 4 + ["within"] * 4
     assert "EVENT:USED 12" in got["C3D parameters"]["detail"]
+    # each kind in the unit its POINT parameter names (auckland: deg, W, N, Nmm)
+    assert {n: (p["unit"], p["detail"]) for n, p in got.items() if n.startswith("model")} == {
+        "model angles": ("deg", "12 points, in deg (POINT:ANGLE_UNITS)"),
+        "model powers": ("W", "6 points, in W (POINT:POWER_UNITS)"),
+        "model forces": ("N", "10 points, in N (POINT:FORCE_UNITS)"),
+        "model moments": ("Nmm", "8 points, in Nmm (POINT:MOMENT_UNITS)")}
+    code, out, _ = cli(capsys, "compare", src, packed)
+    assert "model moments       within " in out and " Nmm: largest " in out
     # cmu_02_01 written back as C3D: its data starts elsewhere (header word 9 and
     # POINT:DATA_START), which is not a difference
     src = shared_data / "c3d" / "cmu_02_01.c3d"
@@ -512,7 +588,7 @@ def test_compare_says_whether_a_trcs_header_fields_came_back(walk, tmp_path, cap
     code, out, _ = cli(capsys, "compare", src, packed, "--json")
     assert code == 0 and parts(json.loads(out))["metadata"] == {
         "name": "metadata", "status": "same", "detail": f"{len(fields)} entries",
-        "error": None, "bound": None}
+        "error": None, "bound": None, "unit": None}
     for ext, status in ((".trc", "same"), (".csv", "missing")):
         code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / f"back{ext}")
         code, out, err = cli(capsys, "compare", src, tmp_path / f"back{ext}", "--json")
@@ -520,7 +596,15 @@ def test_compare_says_whether_a_trcs_header_fields_came_back(walk, tmp_path, cap
     assert f"does not hold the original's metadata: {len(fields)} of its" in err
     edited = dataclasses.replace(m, metadata={**m.metadata, fields[0]: "edited"})
     (got,) = besides_markers(m, edited)
-    assert got.status == "changed" and got.detail.endswith(f"other values: {fields[0]}")
+    assert got.status == "changed"
+    assert got.detail == f"1 of its {len(fields)} entries with other values: {fields[0]}"
+    # an entry lost beside one changed: both said, the one does not hide the other
+    md = {**m.metadata, fields[0]: "edited"}
+    del md[fields[1]], md[fields[2]]
+    assert [(p.status, p.detail) for p in besides_markers(m, dataclasses.replace(
+        m, metadata=md))] == [
+        ("changed", f"1 of its {len(fields)} entries with other values: {fields[0]}"),
+        ("missing", f"2 of its {len(fields)} entries: {fields[1]}, {fields[2]}")]
     (got,) = besides_markers(m, dataclasses.replace(m, metadata={**m.metadata,
                                                                  "source": "other.trc"}))
     assert got.status == "same"                     # the name of the file read: not content

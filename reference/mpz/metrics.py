@@ -110,8 +110,10 @@ class Part:
     the decoded file declares), ``"changed"`` (a lossy part, with no declared bound to
     hold it to; or metadata entries with other values), ``"differs"`` (a lossless part
     that is not the same, or a lossy one beyond its bound) or ``"missing"`` (the decoded
-    motion does not hold it). ``error`` and ``bound`` are a lossy part's largest
-    difference and its declared bound.
+    motion does not hold it). ``detail`` says what the part is and, when it differs,
+    where first (a byte, a parameter's group and name, a channel or point and a frame
+    index from 0). ``error`` and ``bound`` are a lossy part's largest difference and its
+    declared bound, in ``unit`` (None: the part's own unit is not known).
     """
 
     name: str
@@ -119,19 +121,29 @@ class Part:
     detail: str
     error: float | None = None
     bound: float | None = None
+    unit: str | None = None
 
 
 #: bytes 16-17 of a C3D header, word 9: the block where the data starts, which a written
 #: C3D moves to just after its parameters (as POINT:DATA_START; docs/io-notes.md)
 _DATA_START = slice(16, 18)
+#: at most this many names listed in a detail, then "and N more"
+_LISTED = 5
+
+
+def _listed(names: list[str]) -> str:
+    """``names`` for a detail: the first :data:`_LISTED`, then how many more."""
+    more = len(names) - _LISTED
+    return ", ".join(names[:_LISTED]) + (f" and {more} more" if more > 0 else "")
 
 
 def besides_markers(original: Motion, decoded: Motion, *,
                     channel_bounds: tuple[float, float] | None = None) -> list[Part]:
     """Each part of ``original`` besides its marker trajectories, compared with
     ``decoded``: its metadata (a TRC's header fields...), a C3D's archive (header,
-    parameters with the events, the points' fourth words, analog words, model outputs)
-    and a BVH's or AMC's skeleton and joint channels.
+    parameters with the events, the points' fourth words, analog words, model outputs
+    one part per kind, in the unit its POINT parameter names) and a BVH's or AMC's
+    skeleton and joint channels.
 
     Where the data starts is not compared (a written C3D moves it); nor is the processor
     type (a written C3D is Intel; the archive keeps its values normalised). Model outputs
@@ -147,7 +159,8 @@ def besides_markers(original: Motion, decoded: Motion, *,
 def _metadata_parts(original: Motion, decoded: Motion) -> list[Part]:
     """The original's metadata entries besides those a reader sets to describe the file it
     read (:data:`mpz.io.READER_KEYS`: its name, format, reader...; a written file read
-    again gets its own): a TRC's header fields, and what was given at encoding."""
+    again gets its own): a TRC's header fields, and what was given at encoding. Entries
+    with other values and lost entries are two parts: one does not hide the other."""
     from mpz.io import READER_KEYS
     keys = sorted(k for k in original.metadata if k not in READER_KEYS)
     if not keys:
@@ -155,17 +168,22 @@ def _metadata_parts(original: Motion, decoded: Motion) -> list[Part]:
     got = decoded.metadata
     changed = [k for k in keys if k in got and got[k] != original.metadata[k]]
     lost = [k for k in keys if k not in got]
+
+    def of(n: int) -> str:
+        return f"{n} of its {len(keys)} entries" if len(keys) > 1 else "its one entry"
+    parts = []
     if changed:         # not a failure: a file rewritten in other units has other fields
-        return [Part("metadata", "changed", f"{len(keys)} entries; other values: "
-                     f"{', '.join(changed[:5])}")]
+        parts.append(Part("metadata", "changed",
+                          f"{of(len(changed))} with other values: {_listed(changed)}"))
     if lost:
-        return [Part("metadata", "missing", f"{len(lost)} of its {len(keys)} entries: "
-                     f"{', '.join(lost[:5])}" + (", ..." if len(lost) > 5 else ""))]
-    return [Part("metadata", "same", f"{len(keys)} entries")]
+        parts.append(Part("metadata", "missing", f"{of(len(lost))}: {_listed(lost)}"))
+    return parts or [Part("metadata", "same", f"{len(keys)} entr"
+                          f"{'ies' if len(keys) > 1 else 'y'}")]
 
 
 def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
     from mpz.c3darchive import C3DArchive
+    from mpz.io.c3dbin import record_params
     a, b = original.extras.get("c3d"), decoded.extras.get("c3d")
     if not isinstance(a, C3DArchive):
         return []
@@ -177,32 +195,93 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
               None if len(ha) == len(hb) else min(len(ha), len(hb)))
     ev = a.header_events()
     parts = [Part("C3D header", "same" if at is None else "differs",
-                  (f"{len(ha)} bytes" if at is None else f"byte {at} differs")
+                  (f"{len(ha)} bytes" if at is None else
+                   f"byte {at} (word {at // 2 + 1}) differs")
                   + (f", {ev} events in its event block" if ev else ""))]
+    parts.append(_parameters(a, b))
+    params = record_params(a.records)
+    parts.append(_words(a, b, params.get("POINT", {})))
+    if a.channels:
+        parts.append(_analog(a, b, params.get("ANALOG", {})))
+    if a.models.shape[1]:
+        parts += _models(a, b, params.get("POINT", {}))
+    return parts
+
+
+def _parameters(a: C3DArchive, b: C3DArchive) -> Part:
+    """The parameter records, each the same (POINT:DATA_START's value aside); those that
+    differ, are added or are lost named by group and name."""
     c = a.contents()
     events = f", EVENT:USED {c['events']}" if c["events"] else ""
     groups = c["parameter_groups"]
-    if len(a.records) != len(b.records):
-        parts.append(Part("C3D parameters", "differs",
-                          f"{len(a.records)} records against {len(b.records)}"))
-    else:
-        start = a.parameter("POINT", "DATA_START")
-        bad = [r.name.decode("latin-1") for r, s in zip(a.records, b.records, strict=True)
+    what = f"{groups} groups, {len(a.records) - groups} parameters{events}"
+    ka, kb = _record_keys(a), _record_keys(b)
+    start = a.parameter("POINT", "DATA_START")
+    if len(a.records) == len(b.records) and ka == kb:
+        bad = [k for k, r, s in zip(ka, a.records, b.records, strict=True)
                if r != s and not (r is start and r == replace(s, data=r.data))]
-        parts.append(Part("C3D parameters", "differs" if bad else "same",
-                          f"{groups} groups, {len(a.records) - groups} parameters{events}"
-                          + (f"; differ: {', '.join(bad[:5])}" if bad else "")))
-    parts.append(Part("point words", "same" if a.slots == b.slots and _bits(a.words, b.words)
-                      else "differs", f"residual and camera words, {a.words.shape[1]} points"
-                      f" x {a.frames} frames"))
-    if a.channels:
-        parts.append(Part("analog", "same" if (a.analog_samples == b.analog_samples
-                                                and _bits(a.analog, b.analog)) else "differs",
-                          f"{a.channels} channels x {a.analog.shape[0]} samples"))
-    J = a.models.shape[1]
-    if J:
-        parts.append(_models(a, b))
-    return parts
+        return Part("C3D parameters", "differs" if bad else "same",
+                    what + (f"; differ: {_listed(bad)}" if bad else ""))
+    lost = [k for k in ka if k not in set(kb)]
+    added = [k for k in kb if k not in set(ka)]
+    found = ([f"lost: {_listed(lost)}"] if lost else []) + \
+        ([f"added: {_listed(added)}"] if added else [])
+    return Part("C3D parameters", "differs", f"{what}; {len(a.records)} records against "
+                f"{len(b.records)}; " + ("; ".join(found) or "in another order"))
+
+
+def _record_keys(a: C3DArchive) -> list[str]:
+    """Each record as ``GROUP:NAME`` (a group as ``GROUP``), for saying which differ."""
+    groups = {-r.group: r.name.decode("latin-1") for r in a.records if r.is_group}
+    return [r.name.decode("latin-1") if r.is_group else
+            f"{groups.get(r.group, f'group {r.group}')}:{r.name.decode('latin-1')}"
+            for r in a.records]
+
+
+def _words(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> Part:
+    """The points' fourth words (residual and camera mask), bit for bit, in the same
+    point order."""
+    from mpz.io.c3d import point_labels
+    F, P = a.words.shape
+    what = f"residual and camera words, {P} points x {F} frames"
+    if a.slots != b.slots:
+        return Part("point words", "differs", f"{what}; the points in another order")
+    if _bits(a.words, b.words):
+        return Part("point words", "same", what)
+    if a.words.dtype != b.words.dtype or a.words.shape != b.words.shape:
+        return Part("point words", "differs", f"{what}; stored as {b.words.dtype} "
+                    f"{list(b.words.shape)}")
+    f, p = _first_other(a.words, b.words)
+    name = point_labels(point, P)[p] or f"point {p + 1}"
+    return Part("point words", "differs", f"{what}; first at {name!r}, frame index {f}")
+
+
+def _analog(a: C3DArchive, b: C3DArchive, analog: dict[str, Any]) -> Part:
+    """The analog words, bit for bit (NaN payloads too)."""
+    from mpz.io.c3d import point_labels
+    what = f"{a.channels} channels x {a.analog.shape[0]} samples"
+    if a.analog_samples == b.analog_samples and _bits(a.analog, b.analog):
+        return Part("analog", "same", what)
+    if (a.analog_samples != b.analog_samples or a.analog.dtype != b.analog.dtype
+            or a.analog.shape != b.analog.shape):
+        return Part("analog", "differs", f"{what}; {b.channels} channels x "
+                    f"{b.analog.shape[0]} samples of {b.analog.dtype} against "
+                    f"{a.analog.dtype}, {b.analog_samples} a frame against "
+                    f"{a.analog_samples}")
+    n, c = _first_other(a.analog, b.analog)
+    name = point_labels(analog, a.channels)[c] or f"channel {c + 1}"
+    count = int((a.analog.view(f"u{a.analog.itemsize}")
+                 != b.analog.view(f"u{b.analog.itemsize}")).sum())
+    return Part("analog", "differs", f"{what}; {count} word{'s' * (count != 1)} "
+                f"differ{'s' * (count == 1)}, the first of "
+                f"{name!r} at sample index {n} (frame index {n // a.analog_samples})")
+
+
+def _first_other(x: NDArray[Any], y: NDArray[Any]) -> tuple[int, int]:
+    """The first (row, column) where two arrays of one dtype and shape differ bit for bit."""
+    u = f"u{x.itemsize}"
+    rows, cols = np.nonzero(x.view(u) != y.view(u))
+    return int(rows[0]), int(cols[0])
 
 
 def _bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
@@ -210,23 +289,66 @@ def _bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
     return x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
 
 
-def _models(a: C3DArchive, b: C3DArchive) -> Part:
-    """Model outputs: the same gaps, and each coordinate within the decoded bound."""
+#: the POINT parameter naming each model output kind's unit (the C3D user guide; SCALARS
+#: and REACTIONS have none)
+_KIND_UNITS = {0: "ANGLE_UNITS", 1: "FORCE_UNITS", 2: "MOMENT_UNITS", 3: "POWER_UNITS"}
+
+
+def _models(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> list[Part]:
+    """Model outputs, one part per kind, in its unit (POINT:ANGLE_UNITS...): the same
+    gaps, and each coordinate within the decoded bound. The first place beyond it (or
+    where a gap came or went) is named by its point's label and frame index."""
+    from mpz.format import ModelKind
+    from mpz.io.c3d import point_labels
     J = a.models.shape[1]
-    what = f"{J} points"
-    if (b.models.shape != a.models.shape or a.model_kinds != b.model_kinds
-            or not np.array_equal(a.model_valid, b.model_valid)):
-        return Part("model outputs", "differs", f"{what}: other points, kinds or gaps")
-    ok = a.model_valid
-    err = np.abs(a.models - b.models)[ok]                            # [n, 3]
+    if b.models.shape != a.models.shape or a.model_kinds != b.model_kinds:
+        return [Part("model outputs", "differs", f"{J} points: {b.models.shape[1]} points "
+                     f"x {b.models.shape[0]} frames against {J} x {a.models.shape[0]}, or "
+                     "other kinds")]
+    labels = point_labels(point, len(a.slots))
+    M = len(a.slots) - J
+    label = {s - M: labels[p] for p, s in enumerate(a.slots) if s >= M}
+    kinds = np.array(a.model_kinds)
+    parts = []
+    for kind in dict.fromkeys(a.model_kinds):
+        js = np.flatnonzero(kinds == kind)
+        kname = ModelKind(kind).name
+        key = _KIND_UNITS.get(kind)
+        rows = [str(t) for t in point.get(key, ())] if key else []
+        unit = rows[0].strip() if rows and rows[0].strip() else None
+        what = f"{len(js)} points, " + (f"in {unit} (POINT:{key})" if unit else
+                                         "no unit named" if key is None else
+                                         f"no POINT:{key}")
+
+        def where(f: int, j: int) -> str:
+            return f"{label.get(int(j)) or f'model output {int(j) + 1}'!r}, frame index {f}"
+        part = _model_kind(a, b, js, where, f"model {kname.lower()}", what)
+        parts.append(dataclasses.replace(part, unit=unit))
+    return parts
+
+
+def _model_kind(a: C3DArchive, b: C3DArchive, js: NDArray[np.intp], where: Any, name: str,
+                what: str) -> Part:
+    """The model outputs ``js`` of one kind compared (:func:`_models`)."""
+    va, vb = a.model_valid[:, js], b.model_valid[:, js]
+    if not np.array_equal(va, vb):
+        f, j = (int(v[0]) for v in np.nonzero(va != vb))
+        return Part(name, "differs", f"{what}; a gap {'came' if va[f, j] else 'went'} at "
+                    f"{where(f, js[j])}")
+    err = np.abs(a.models[:, js] - b.models[:, js])                 # [F, j, 3]
+    err[~va] = 0.0
     e = float(err.max(initial=0.0))
     if b.model_bounds is None:
-        return Part("model outputs", "same" if e == 0 else "changed",
-                    f"{what}; no bound declared", error=e)
-    bound = np.broadcast_to(b.model_bounds[None], a.models.shape)[ok]
-    within = bool((err <= bound).all())
-    return Part("model outputs", "within" if within else "differs", what, error=e,
-                bound=float(b.model_bounds.max(initial=0.0)))
+        return Part(name, "same" if e == 0 else "changed", f"{what}; no bound declared",
+                    error=e)
+    bound = np.broadcast_to(b.model_bounds[js][None], err.shape)
+    beyond = ~(err <= bound)                                          # NaN too
+    top = float(b.model_bounds[js].max(initial=0.0))
+    if not beyond.any():
+        return Part(name, "within", what, error=e, bound=top)
+    f, j, x = (int(v[0]) for v in np.nonzero(beyond))
+    return Part(name, "differs", f"{what}; first beyond its bound at {where(f, js[j])}, "
+                f"{'xyz'[x]}: {err[f, j, x]:.4g} > {bound[f, j, x]:.4g}", error=e, bound=top)
 
 
 def _skeleton_parts(original: Motion, decoded: Motion,
@@ -239,31 +361,56 @@ def _skeleton_parts(original: Motion, decoded: Motion,
     if not isinstance(sb, Skeleton) or decoded.angles is None:
         return [Part("skeleton", "missing", f"{len(sa.joints)} joints and their "
                      f"{sa.channel_count} channels")]
-    fields = [f.name for f in dataclasses.fields(sa)
-              if getattr(sa, f.name) != getattr(sb, f.name)]
-    parts = [Part("skeleton", "differs" if fields else "same", f"{len(sa.joints)} joints"
-                  + (f"; differ: {', '.join(fields)}" if fields else ""))]
+    parts = [_skeleton(sa, sb)]
     x, y = original.angles, decoded.angles
     if x.shape != y.shape or original.angle_names != decoded.angle_names:
         return parts + [Part("joint channels", "differs",
-                             f"{x.shape[1]} channels against {y.shape[1]}, or other names")]
+                             f"{x.shape[1]} channels x {x.shape[0]} frames against "
+                             f"{y.shape[1]} x {y.shape[0]}, or other names")]
     turns = np.array([is_rotation(k) for k in sa.channel_kinds()], bool)
     to_deg = 180 / math.pi if sa.angle_unit == "rad" else 1.0
-    for name, cols, scale, unit, k in (("joint rotations", turns, to_deg, "deg", 0),
-                                       ("joint translations", ~turns, 1.0,
-                                        "skeleton units", 1)):
+    if sa.convention == "asf":
+        length, unit = f"the ASF's length unit (1/{sa.length:g} in)", None
+    else:
+        length, unit = ((original.units, original.units) if original.units else
+                        ("the BVH's length unit", None))
+    for name, cols, scale, k, u in (("joint rotations", turns, to_deg, 0, "deg"),
+                                    ("joint translations", ~turns, 1.0, 1, unit)):
         if not cols.any():
             continue
         d = np.abs(x[:, cols] - y[:, cols])
         e = float(d.max(initial=0.0)) * scale
-        what = f"{int(cols.sum())} channels, in {unit}"
+        what = f"{int(cols.sum())} channels, in {u if k == 0 else length}"
         if bounds is None:
             parts.append(Part(name, "same" if e == 0 else "changed",
-                              f"{what}; no bound declared", error=e))
+                              f"{what}; no bound declared", error=e, unit=u))
             continue
         # a value k x step comes back within step / 2 and the rounding of that product
         slack = 4 * np.spacing(np.maximum(np.abs(x[:, cols]), np.abs(y[:, cols])))
-        within = bool((d <= bounds[k] / scale + slack).all())
-        parts.append(Part(name, "within" if within else "differs", what, error=e,
-                          bound=bounds[k]))
+        beyond = ~(d <= bounds[k] / scale + slack)
+        if beyond.any():
+            f, c = (int(v[0]) for v in np.nonzero(beyond))
+            i = int(np.flatnonzero(cols)[c])
+            channel = (original.angle_names or [])[i:i + 1] or [f"channel {i + 1}"]
+            what += (f"; first beyond its bound at {channel[0]!r}, frame index {f}: "
+                     f"{d[f, c] * scale:.4g} > {bounds[k]:.4g}")
+        parts.append(Part(name, "differs" if beyond.any() else "within", what, error=e,
+                          bound=bounds[k], unit=u))
     return parts
+
+
+def _skeleton(sa: Any, sb: Any) -> Part:
+    """The skeleton's fields, each the same; the joints that differ named."""
+    fields = [f.name for f in dataclasses.fields(sa)
+              if getattr(sa, f.name) != getattr(sb, f.name)]
+    if not fields:
+        return Part("skeleton", "same", f"{len(sa.joints)} joints")
+    found = [f for f in fields if f != "joints"]
+    if "joints" in fields:
+        if len(sa.joints) != len(sb.joints):
+            found.append(f"{len(sb.joints)} joints against {len(sa.joints)}")
+        else:
+            bad = [ja.name or f"end site of {sa.joints[ja.parent].name}"
+                   for ja, jb in zip(sa.joints, sb.joints, strict=True) if ja != jb]
+            found.append(f"joints {_listed(bad)}")
+    return Part("skeleton", "differs", f"{len(sa.joints)} joints; differ: {', '.join(found)}")

@@ -66,10 +66,11 @@ def _numeric_text(numeric: list[str]) -> str:
             "not used for names or units")
 
 
-def _labels(point_params: Mapping[str, Any], used: int,
+def point_labels(point_params: Mapping[str, Any], used: int,
             numeric: list[str] | None = None) -> list[str]:
-    """POINT:LABELS, then LABELS2, LABELS3, ... (files with > 255 points); label
-    parameters stored as numbers are skipped and named in ``numeric`` (:func:`_text`)."""
+    """POINT:LABELS, then LABELS2, LABELS3, ... (files with > 255 points), ``used`` of
+    them ("" past the last; ANALOG's the same way); label parameters stored as numbers
+    are skipped and named in ``numeric`` (:func:`_text`)."""
     numeric = [] if numeric is None else numeric
     labels = _text(point_params, "LABELS", numeric)
     k = 2
@@ -102,7 +103,7 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
     """
     used = points.shape[1]
     numeric: list[str] = []
-    names, renamed = unique_names(_labels(point_params, used, numeric))
+    names, renamed = unique_names(point_labels(point_params, used, numeric))
     units_raw = (_text(point_params, "UNITS", numeric) or [""])[0].strip().lower()
     units = _UNITS.get(units_raw, "")
     pos = np.asarray(points, dtype=np.float64)
@@ -254,7 +255,7 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
             f"chunk: {fault} (§4.13.2)"))
         return full
     point = d.params.get("POINT", {})
-    labels = _labels(point, P)
+    labels = point_labels(point, P)
     kinds: list[int | None] = [None] * P
     for kind, key in enumerate(MODEL_PARAMETERS):
         value = point.get(key)
@@ -299,7 +300,7 @@ def archive_describes(a: C3DArchive, markers: int) -> tuple[list[str], str, floa
     params = c3dbin.record_params(a.records)
     point = params.get("POINT", {})
     P = len(a.slots)
-    labels = _labels(point, P)
+    labels = point_labels(point, P)
     order = sorted((s, p) for p, s in enumerate(a.slots) if s < markers)
     names, _ = unique_names([labels[p] for _, p in order])
     units = _UNITS.get((_text(point, "UNITS", []) or [""])[0].strip().lower(), "")

@@ -14,9 +14,11 @@ Besides the markers, each part a source keeps is compared too: its metadata (a T
 header fields), a C3D's header, parameters (with the events), the points' residual and
 camera words, analog words and model outputs, and a BVH's or AMC's skeleton and joint
 channels: the same bit for bit, within the bound the .mpz input declares (model
-outputs; joint channels, by the steps of its skeleton chunk), changed (no bound
-declared; metadata with other values), differs (exit 2) or missing from the decoded
-motion (a note: a format that cannot hold the part, as ``mpz decode`` says).
+outputs, one part per kind in its POINT:*_UNITS; joint channels, by the steps of its
+skeleton chunk), changed (no bound declared; metadata with other values), differs
+(exit 2, saying where first) or missing from the decoded motion (a note: a format that
+cannot hold the part, as ``mpz decode`` says). An NPY input (no names) is matched with
+the other marker by marker in order, with a note.
 ``--plot OUT.png`` draws the Euclidean error over time of the worst markers
 (or ``--marker``), one panel each, in the motion's units, with the declared
 bound (from an .mpz input, or ``--bound``) as a line and one legend for all
@@ -63,10 +65,21 @@ def add_parser(sub):
     p.set_defaults(func=run)
 
 
-def align(a, b):
-    """Reorder ``b``'s markers to ``a``'s names."""
+def align(a, b, unnamed: list[str] | None = None, notes: list[str] | None = None):
+    """Reorder ``b``'s markers to ``a``'s names; when an input stores no names (NPY, named
+    in ``unnamed``), take them in order, with a note."""
     if a.names == b.names:
         return b
+    if unnamed:
+        if a.n_markers != b.n_markers:
+            raise MotionError(f"{' and '.join(unnamed)}: NPY stores no marker names, and the "
+                              f"marker counts differ ({a.n_markers} vs {b.n_markers}): "
+                              "nothing says which marker is which")
+        if notes is not None:
+            notes.append(f"{' and '.join(unnamed)}: NPY stores no marker names; markers "
+                         "compared in order")
+        from mpz.motion import Motion
+        return Motion(b.positions, list(a.names), b.rate, b.units, b.valid)
     index = {n: i for i, n in enumerate(b.names)}
     missing = [n for n in a.names if n not in index]
     if missing:
@@ -204,7 +217,8 @@ def run(args: argparse.Namespace) -> int:
     notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
               for p in parts if p.status == "missing"]
     pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
-    b = align(a, b)
+    b = align(a, b, unnamed=[n for n, e in zip(names, (ext_a, ext_b), strict=True)
+                             if e == ".npy"], notes=notes)
     if a.n_frames != b.n_frames:
         raise MotionError(f"frame counts differ: {a.n_frames} vs {b.n_frames}")
     if args.plot:             # a --marker that is not there fails before the report
@@ -258,17 +272,16 @@ def run(args: argparse.Namespace) -> int:
         if parts:
             print("  besides the markers:")
         for p in parts:
-            print(f"  {p.name:<19} {_status(p, units)}")
+            print(f"  {p.name:<19} {_status(p)}")
         if args.plot:
             print(f"plot written to {printable(args.plot)}")
     differs = any(p.status == "differs" for p in parts)
     return 2 if gaps_lost or gaps_added or differs else 0
 
 
-def _status(p, units: str) -> str:
-    """A :class:`mpz.metrics.Part` as a line of the report."""
-    u = {"model outputs": f" {units}" if units else "", "joint rotations": " deg"}.get(p.name,
-                                                                                       "")
+def _status(p) -> str:
+    """A :class:`mpz.metrics.Part` as a line of the report, its figures in its own unit."""
+    u = f" {p.unit}" if p.unit else ""
     if p.status == "within":
         return f"within {p.bound:.4g}{u}: largest {p.error:.4g}{u}; {p.detail}"
     if p.status == "changed" and p.error is not None:    # metadata has no figure
