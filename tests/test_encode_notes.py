@@ -70,6 +70,25 @@ def test_rate_in_a_batch_does_not_depend_on_how_many_files_it_finds(tmp_path):
     assert p.returncode == 2 and "stores its rate (120 Hz)" in p.stderr
 
 
+def test_meta_keeps_a_value_with_equals_signs_and_names_reader_keys(tmp_path):
+    """--meta splits at the first '=' (a URL's query kept whole; before: key
+    'url=http://x/?a', value 'b'). A key the readers set (subject) is no free metadata:
+    no writer writes it back, so the note says so, in a batch too."""
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--meta", "url=http://x/?a=b&c=d",
+             "--meta", "subject=Bob", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    meta = mpz.decode((tmp_path / "a.mpz").read_bytes()).metadata
+    assert meta["url"] == "http://x/?a=b&c=d" and meta["subject"] == "Bob"
+    assert "--meta subject: a key the readers set" in p.stderr and "subject_name" in p.stderr
+    assert "--meta url" not in p.stderr
+    (tmp_path / "in").mkdir()
+    write(generate("walk", frames=30), tmp_path / "in" / "w.trc")
+    (tmp_path / "out").mkdir()
+    p = _mpz("encode", "-r", "in", "-o", "out/", "--meta", "format=x", cwd=tmp_path)
+    assert p.returncode == 0 and "--meta format: a key the readers set" in p.stdout  # summary
+
+
 def test_renamed_markers_are_said(tmp_path):
     lines = ["PathFileType\t4\t(X/Y/Z)\tt.trc",
              "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"

@@ -22,12 +22,15 @@ if TYPE_CHECKING:
     from mpz.encoder import EncodeOptions
 
 
-def _pairs(items, what):
+def _pairs(items, what, *, name_first=False):
+    """``NAME=VALUE`` items as a dict. The split is at the last ``=`` (a marker or node
+    name may hold one), or with ``name_first`` at the first (--meta: a value such as a
+    URL with a query holds them more often than a key)."""
     out = {}
     for item in items or []:
         if "=" not in item:
             raise EncoderError(f"{what} must look like NAME=VALUE, got {item!r}")
-        k, v = item.rsplit("=", 1)
+        k, v = item.split("=", 1) if name_first else item.rsplit("=", 1)
         out[k] = v
     return out
 
@@ -118,7 +121,8 @@ def add_parser(sub):
     p.add_argument("--summary-format", choices=("smrc", "smry"), default=D.summary_format,
                    help="smrc: the range-coded summary chunk (MPZ 1.1, the default); smry: the "
                    "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
-    p.add_argument("--meta", action="append", metavar="KEY=VALUE", help="metadata (repeatable)")
+    p.add_argument("--meta", action="append", metavar="KEY=VALUE",
+                   help="metadata (repeatable; split at the first '=': a value may hold more)")
     p.add_argument("--threads", type=int, metavar="N", default=D.threads,
                    help="threads within each file, 1..64 (default: the CPU count, at most 2, and 1 "
                    "below 10,000 marker-frames); the output is the same for any N")
@@ -138,7 +142,7 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
     from mpz.encoder import EncodeOptions
     from mpz.io._common import utf8_name
     from mpz.tools._common import parse_length
-    metadata = _pairs(args.meta, "--meta")
+    metadata = _pairs(args.meta, "--meta", name_first=True)
     if source is not None:          # a name that is not UTF-8 as \xNN (mpz.io.read's note)
         metadata.setdefault("source", utf8_name(os.path.basename(source)))
     return EncodeOptions(
@@ -152,6 +156,24 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
         summary=_summary_ks(args.summary), summary_space=args.summary_space,
         summary_format=args.summary_format, metadata=metadata, lossy=args.lossy,
         model_errors=_model_errors(args.model_error), threads=args.threads)
+
+
+def _option_notes(args: argparse.Namespace, opts: EncodeOptions) -> list[str]:
+    """The notes on options that do less than they seem to: a --group-error not tighter
+    than the bound, and a --meta key that readers set (:func:`_reader_keys`)."""
+    return _loose_group_errors(opts) + _reader_keys(args)
+
+
+def _reader_keys(args: argparse.Namespace) -> list[str]:
+    """A note for each --meta key that is one a reader sets to describe the file it read
+    (:data:`mpz.io.READER_KEYS`, e.g. subject from a C3D's SUBJECTS): kept in the .mpz,
+    but no writer writes it back, so it is lost again without a word on decoding."""
+    from mpz.io import READER_KEYS
+    keys = [k for k in _pairs(args.meta, "--meta", name_first=True) if k in READER_KEYS]
+    return [f"--meta {k}: a key the readers set to describe the file they read: kept in the "
+            ".mpz (mpz show --json), but no format writes it back and mpz compare does not "
+            f"check it; a name of your own (e.g. {k}_name) is free metadata, which compare "
+            "checks" for k in keys]
 
 
 def _loose_group_errors(opts: EncodeOptions) -> list[str]:
@@ -292,7 +314,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     motion = _rate(args, _units(args, motion, batch=batch), batch=batch)
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
-    notes += _loose_group_errors(opts)
+    notes += _option_notes(args, opts)
     notes = _input_notes(args, motion, job.input) + notes
     if not args.quiet:
         for note in notes:
@@ -562,7 +584,7 @@ class PerFile:
         opts, notes = _skeleton_options(self.args, motion, self.options(motion.units),
                                         batch=True)
         return motion, opts, (_input_notes(self.args, motion, source) + notes
-                              + _loose_group_errors(opts))
+                              + _option_notes(self.args, opts))
 
     def key(self, source: str) -> str:
         from mpz.io import SKELETON_FORMATS
