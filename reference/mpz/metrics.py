@@ -18,6 +18,8 @@ from mpz.errors import MotionError
 from mpz.motion import Motion
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from mpz.c3darchive import C3DArchive
 
 
@@ -290,7 +292,7 @@ def _bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
 
 
 #: the POINT parameter naming each model output kind's unit (the C3D user guide; SCALARS
-#: and REACTIONS have none)
+#: and REACTIONS have none), by :class:`mpz.format.ModelKind` value
 _KIND_UNITS = {0: "ANGLE_UNITS", 1: "FORCE_UNITS", 2: "MOMENT_UNITS", 3: "POWER_UNITS"}
 
 
@@ -314,8 +316,8 @@ def _models(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> list[Part]:
         js = np.flatnonzero(kinds == kind)
         kname = ModelKind(kind).name
         key = _KIND_UNITS.get(kind)
-        rows = [str(t) for t in point.get(key, ())] if key else []
-        unit = rows[0].strip() if rows and rows[0].strip() else None
+        rows = point.get(key) if key else None         # text: a list (numbers: not a unit)
+        unit = rows[0].strip() or None if isinstance(rows, list) and rows else None
         what = f"{len(js)} points, " + (f"in {unit} (POINT:{key})" if unit else
                                          "no unit named" if key is None else
                                          f"no POINT:{key}")
@@ -327,8 +329,8 @@ def _models(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> list[Part]:
     return parts
 
 
-def _model_kind(a: C3DArchive, b: C3DArchive, js: NDArray[np.intp], where: Any, name: str,
-                what: str) -> Part:
+def _model_kind(a: C3DArchive, b: C3DArchive, js: NDArray[np.intp],
+                where: Callable[[int, int], str], name: str, what: str) -> Part:
     """The model outputs ``js`` of one kind compared (:func:`_models`)."""
     va, vb = a.model_valid[:, js], b.model_valid[:, js]
     if not np.array_equal(va, vb):
@@ -410,7 +412,9 @@ def _skeleton(sa: Any, sb: Any) -> Part:
         if len(sa.joints) != len(sb.joints):
             found.append(f"{len(sb.joints)} joints against {len(sa.joints)}")
         else:
-            bad = [ja.name or f"end site of {sa.joints[ja.parent].name}"
-                   for ja, jb in zip(sa.joints, sb.joints, strict=True) if ja != jb]
+            bad = [ja.name or (f"end site of {sa.joints[ja.parent].name}"
+                               if 0 <= ja.parent < len(sa.joints) else f"joint {i + 1}")
+                   for i, (ja, jb) in enumerate(zip(sa.joints, sb.joints, strict=True))
+                   if ja != jb]
             found.append(f"joints {_listed(bad)}")
     return Part("skeleton", "differs", f"{len(sa.joints)} joints; differ: {', '.join(found)}")
