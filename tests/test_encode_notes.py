@@ -82,6 +82,11 @@ def test_meta_keeps_a_value_with_equals_signs_and_names_reader_keys(tmp_path):
     assert meta["url"] == "http://x/?a=b&c=d" and meta["subject"] == "Bob"
     assert "--meta subject: a key the readers set" in p.stderr and "subject_name" in p.stderr
     assert "--meta url" not in p.stderr
+    p = _mpz("show", "a.mpz", cwd=tmp_path)          # the text says they are there
+    assert p.returncode == 0 and "subject:   Bob\n" in p.stdout
+    free = [k for k in meta if k.startswith("trc.")] + ["url"]
+    assert f"metadata:  {len(free)} entries: trc." in p.stdout and "(--json: the values)" \
+        in p.stdout
     (tmp_path / "in").mkdir()
     write(generate("walk", frames=30), tmp_path / "in" / "w.trc")
     (tmp_path / "out").mkdir()

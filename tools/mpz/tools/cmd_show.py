@@ -70,6 +70,20 @@ def _archive(motion) -> dict | None:
     return None if a is None else a.contents()
 
 
+def _metadata_lines(meta: dict[str, str]) -> list[str]:
+    """The subject, and the free metadata's keys (not those a reader sets to describe the
+    file it read: :data:`mpz.io.READER_KEYS`); ``--json`` gives every value."""
+    from mpz.io import READER_KEYS
+    lines = [f"subject:   {printable(meta['subject'])}"] if meta.get("subject") else []
+    free = [k for k in meta if k not in READER_KEYS]
+    if free:
+        more = len(free) - 6
+        lines.append(f"metadata:  {len(free)} entr{'ies' if len(free) != 1 else 'y'}: "
+                     + ", ".join(printable(k) for k in free[:6])
+                     + (f" and {more} more" if more > 0 else "") + " (--json: the values)")
+    return lines
+
+
 def run(args) -> int:
     from mpz.io import FORMAT_NAMES
     from mpz.tools._common import read_input
@@ -109,6 +123,7 @@ def run(args) -> int:
             parts.append(f"{c['events']} events")
         parts.append(f"{c['parameter_records']} parameter records")
         lines.append("c3d:       " + ", ".join(parts))
+    lines += _metadata_lines(motion.metadata)
     if "warning" in motion.metadata:
         lines.append(f"warning:   {printable(motion.metadata['warning'])}")
     print("\n".join(lines))
