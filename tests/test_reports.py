@@ -152,6 +152,49 @@ def test_compare_converts_lengths_to_one_unit(walk, tmp_path, capsys):
     assert doc["units"] == "mm" and doc["decoded_units"] == "m"
 
 
+def test_compare_holds_the_markers_to_the_bound_the_mpz_declares(walk, tmp_path, capsys):
+    """Against an .mpz the marker errors are held to its bound as spec §7.2 states it
+    (E + max|x| 2^-50); a source moved 5 mm at one sample is beyond it: exit 2, the
+    sample named. Before, the report gave max 5 mm and exit 0, the bound unmentioned."""
+    src, packed = tmp_path / "w.trc", tmp_path / "w.mpz"
+    write(walk, src)
+    code, _, err = cli(capsys, "encode", src, "-o", packed, "--max-error", "1mm", "-q")
+    assert code == 0, err
+    code, out, _ = cli(capsys, "compare", src, packed, "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["bound_check"] == {"bound": 1.0, "beyond": 0, "first": None}
+    code, out, _ = cli(capsys, "compare", src, packed)
+    assert "  bound 1 mm declared by " in out and "every sample within" in out
+    moved = walk.positions.copy()
+    moved[9, 2, 1] += 5.0
+    write(with_(walk, positions=moved), tmp_path / "moved.trc")
+    decoded = mpz.decode(packed.read_bytes()).positions
+    want = float(np.linalg.norm(moved[9, 2] - decoded[9, 2]))
+    assert want > 1.0
+    code, out, _ = cli(capsys, "compare", tmp_path / "moved.trc", packed, "--json")
+    doc = json.loads(out)
+    assert code == 2 and doc["bound_check"]["beyond"] == 1
+    assert doc["bound_check"]["first"] == {"frame": 9, "marker": walk.names[2],
+                                           "error": pytest.approx(want, rel=1e-12)}
+    code, out, _ = cli(capsys, "compare", tmp_path / "moved.trc", packed)
+    assert f"BEYOND at 1 sample, the first {walk.names[2]!r} at frame index 9" in out
+    # not against a file that declares no bound (the .mpz as the original: its bound is
+    # against its own source)
+    code, out, _ = cli(capsys, "compare", packed, src, "--json")
+    assert code == 0 and json.loads(out)["bound_check"] is None
+
+
+def test_compare_names_markers_the_decoded_file_added(walk, tmp_path, capsys):
+    """A marker the original has not is a difference (exit 2), named; it was ignored."""
+    write(walk, tmp_path / "a.trc")
+    more = Motion(np.concatenate([walk.positions, walk.positions[:, :1] + 1], axis=1),
+                  [*walk.names, "EXTRA"], walk.rate, walk.units)
+    write(more, tmp_path / "b.csv")
+    code, out, err = cli(capsys, "compare", tmp_path / "a.trc", tmp_path / "b.csv", "--json")
+    assert code == 2 and json.loads(out)["added_markers"] == ["EXTRA"]
+    assert "has 1 marker the original has not: EXTRA" in err
+
+
 def test_compare_refuses_two_frame_rates(walk, tmp_path, capsys):
     a = tmp_path / "walk_60.trc"
     b = tmp_path / "walk_120.trc"
@@ -332,9 +375,11 @@ def test_compare_says_a_c3d_archive_came_back(c3d_pair, tmp_path, capsys):
     assert got["C3D parameters"]["status"] == "same"
     c = mpz.io.read(back).extras["c3d"]                    # float32 values of the decode
     for j, name in enumerate(("model angles", "model powers")):
-        assert got[name]["status"] == "changed"
-        assert got[name]["error"] == float(np.abs(a.models[:, j] - c.models[:, j])[
-            a.model_valid[:, j]].max()) > 0
+        d = np.where(a.model_valid[:, j, None], np.abs(a.models[:, j] - c.models[:, j]), 0)
+        f, x = np.unravel_index(int(np.argmax(d)), d.shape)
+        assert got[name]["status"] == "changed" and got[name]["error"] == float(d.max()) > 0
+        assert got[name]["detail"].endswith(f"largest at 'OUT{j}', frame index {f}, "
+                                            f"{'xyz'[x]}")
 
 
 def test_compare_names_a_lost_archive_and_fails_on_a_changed_one(c3d_pair, tmp_path, capsys):
@@ -471,11 +516,29 @@ def test_compare_holds_joint_channels_to_the_steps_bound(tmp_path, capsys):
     # a BVH written back holds no bound; a CSV holds no skeleton
     code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / "back.bvh")
     code, out, _ = cli(capsys, "compare", src, tmp_path / "back.bvh", "--json")
-    assert parts(json.loads(out))["joint rotations"]["status"] == "changed"
+    got = parts(json.loads(out))["joint rotations"]
+    c = mpz.io.read(tmp_path / "back.bvh")
+    d = np.abs(a.angles - c.angles)[:, turns]
+    f, k = np.unravel_index(int(np.argmax(d)), d.shape)
+    name = [n for n, t in zip(a.angle_names, turns, strict=True) if t][k]
+    assert got["status"] == "changed" and got["error"] == float(d.max()) > 0
+    assert got["detail"].endswith(f"no bound declared; largest at {name!r}, frame index {f}")
     code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / "back.csv")
     code, out, err = cli(capsys, "compare", src, tmp_path / "back.csv", "--json")
     assert code == 0 and parts(json.loads(out))["skeleton"]["status"] == "missing"
     assert "does not hold the original's skeleton: 5 joints" in err
+
+
+def test_joint_translations_are_in_the_unit_units_named(tmp_path, capsys):
+    """A BVH has no length unit; its .mpz has the one --units named: the translations'
+    figures are in it (before: "the BVH's length unit", unit null)."""
+    src, packed = encoded_sweep(capsys, tmp_path, "--units", "cm")
+    code, out, _ = cli(capsys, "compare", src, packed, "--json")
+    got = parts(json.loads(out))["joint translations"]
+    assert code == 0 and got["unit"] == "cm" and got["detail"].startswith("3 channels, in cm")
+    code, out, _ = cli(capsys, "compare", src, tmp_path / "sweep.bvh", "--json")
+    got = parts(json.loads(out))["joint translations"]
+    assert got["unit"] is None and "in the BVH's length unit" in got["detail"]
 
 
 def test_joint_channels_beyond_their_bound_differ():
@@ -535,8 +598,20 @@ def test_compare_reads_a_decoded_amc_with_its_own_asf(tmp_path, capsys, one_bone
     lone.mkdir()
     (lone / "x.amc").write_bytes((out_dir / "t.amc").read_bytes())
     code, out, err = cli(capsys, "compare", src, lone / "x.amc", "--asf", asf, "--json")
-    assert code == 0 and parts(json.loads(out))["skeleton"]["status"] == "same"
+    assert code == 0 and parts(json.loads(out))["skeleton"]["status"] == "unchecked"
     assert "has no .asf beside it" in err and "is not checked" in err
+    # without --asf either: the error names the option for the decoded input
+    code, out, err = cli(capsys, "compare", out_dir / "t.amc", lone / "x.amc")
+    assert code == 2 and "no .asf skeleton found beside the decoded x.amc; name it: " \
+        "--decoded-asf PATH" in err
+    # an .asf found by its prefix, not <stem>.asf: named in a note
+    (lone / "x.asf").write_bytes((out_dir / "t.asf").read_bytes())
+    (lone / "x.amc").rename(lone / "x_01.amc")
+    code, out, err = cli(capsys, "compare", src, lone / "x_01.amc", "--asf", asf)
+    assert "x_01.amc is read with " in err and "x.asf (the .asf beside it" in err
+    # a skeleton option for an input that is no AMC: said, not silently unused
+    code, out, err = cli(capsys, "compare", src, packed, "--asf", asf, "--decoded-asf", asf)
+    assert code == 0 and "--decoded-asf names an AMC decoded input's skeleton" in err
 
 
 def test_real_c3d_archives_come_back(shared_data, tmp_path, capsys):
@@ -596,14 +671,16 @@ def test_compare_says_whether_a_trcs_header_fields_came_back(walk, tmp_path, cap
     assert f"does not hold the original's metadata: {len(fields)} of its" in err
     edited = dataclasses.replace(m, metadata={**m.metadata, fields[0]: "edited"})
     (got,) = besides_markers(m, edited)
-    assert got.status == "changed"
+    assert got.status == "differs"                 # a header field came back edited
     assert got.detail == f"1 of its {len(fields)} entries with other values: {fields[0]}"
+    (got,) = besides_markers(m, dataclasses.replace(edited, units="m"))
+    assert got.status == "changed"                 # a file in other units: Units differs
     # an entry lost beside one changed: both said, the one does not hide the other
     md = {**m.metadata, fields[0]: "edited"}
     del md[fields[1]], md[fields[2]]
     assert [(p.status, p.detail) for p in besides_markers(m, dataclasses.replace(
         m, metadata=md))] == [
-        ("changed", f"1 of its {len(fields)} entries with other values: {fields[0]}"),
+        ("differs", f"1 of its {len(fields)} entries with other values: {fields[0]}"),
         ("missing", f"2 of its {len(fields)} entries: {fields[1]}, {fields[2]}")]
     (got,) = besides_markers(m, dataclasses.replace(m, metadata={**m.metadata,
                                                                  "source": "other.trc"}))

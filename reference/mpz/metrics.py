@@ -109,13 +109,17 @@ class Part:
     """What a comparison found for one part of the original besides its markers.
 
     ``status`` is ``"same"`` (bit for bit), ``"within"`` (a lossy part within the bound
-    the decoded file declares), ``"changed"`` (a lossy part, with no declared bound to
-    hold it to; or metadata entries with other values), ``"differs"`` (a lossless part
-    that is not the same, or a lossy one beyond its bound) or ``"missing"`` (the decoded
-    motion does not hold it). ``detail`` says what the part is and, when it differs,
-    where first (a byte, a parameter's group and name, a channel or point and a frame
-    index from 0). ``error`` and ``bound`` are a lossy part's largest difference and its
-    declared bound, in ``unit`` (None: the part's own unit is not known).
+    the decoded file declares, with 4 units in the last place of the values for the
+    rounding of a step's multiple), ``"changed"`` (a lossy part, with no declared bound
+    to hold it to; metadata entries with other values in a motion of other units),
+    ``"differs"`` (a lossless part that is not the same, metadata entries with other
+    values, or a lossy part beyond its bound), ``"missing"`` (the
+    decoded motion does not hold it) or, from ``mpz compare`` only, ``"unchecked"`` (an
+    AMC decoded input read with the original's skeleton). ``detail`` says what the part
+    is and where it differs first, or where a changed part changed most (a byte, a
+    parameter's group and name, a channel or point and a frame index from 0). ``error``
+    and ``bound`` are a lossy part's largest difference and its declared bound, in
+    ``unit`` (None: the part's own unit is not known).
     """
 
     name: str
@@ -162,7 +166,8 @@ def _metadata_parts(original: Motion, decoded: Motion) -> list[Part]:
     """The original's metadata entries besides those a reader sets to describe the file it
     read (:data:`mpz.io.READER_KEYS`: its name, format, reader...; a written file read
     again gets its own): a TRC's header fields, and what was given at encoding. Entries
-    with other values and lost entries are two parts: one does not hide the other."""
+    with other values (differs) and lost entries (missing: a format without a place for
+    them) are two parts: one does not hide the other."""
     from mpz.io import READER_KEYS
     keys = sorted(k for k in original.metadata if k not in READER_KEYS)
     if not keys:
@@ -174,8 +179,10 @@ def _metadata_parts(original: Motion, decoded: Motion) -> list[Part]:
     def of(n: int) -> str:
         return f"{n} of its {len(keys)} entries" if len(keys) > 1 else "its one entry"
     parts = []
-    if changed:         # not a failure: a file rewritten in other units has other fields
-        parts.append(Part("metadata", "changed",
+    if changed:     # a header field written back with another value: not the file; but a
+        # file in other units (compared converted) has other fields by right: Units...
+        parts.append(Part("metadata", "differs" if original.units == decoded.units
+                          else "changed",
                           f"{of(len(changed))} with other values: {_listed(changed)}"))
     if lost:
         parts.append(Part("metadata", "missing", f"{of(len(lost))}: {_listed(lost)}"))
@@ -216,7 +223,9 @@ def _parameters(a: C3DArchive, b: C3DArchive) -> Part:
     c = a.contents()
     events = f", EVENT:USED {c['events']}" if c["events"] else ""
     groups = c["parameter_groups"]
-    what = f"{groups} groups, {len(a.records) - groups} parameters{events}"
+    n = len(a.records) - groups
+    what = (f"{groups} group{'s' * (groups != 1)}, {n} parameter{'s' * (n != 1)}"
+            f"{events}")
     ka, kb = _record_keys(a), _record_keys(b)
     start = a.parameter("POINT", "DATA_START")
     if len(a.records) == len(b.records) and ka == kb:
@@ -341,8 +350,11 @@ def _model_kind(a: C3DArchive, b: C3DArchive, js: NDArray[np.intp],
     err[~va] = 0.0
     e = float(err.max(initial=0.0))
     if b.model_bounds is None:
-        return Part(name, "same" if e == 0 else "changed", f"{what}; no bound declared",
-                    error=e)
+        if e == 0:
+            return Part(name, "same", f"{what}; no bound declared", error=e)
+        f, j, x = _largest(err)
+        return Part(name, "changed", f"{what}; no bound declared; largest at "
+                    f"{where(f, js[j])}, {'xyz'[x]}", error=e)
     bound = np.broadcast_to(b.model_bounds[js][None], err.shape)
     beyond = ~(err <= bound)                                          # NaN too
     top = float(b.model_bounds[js].max(initial=0.0))
@@ -373,9 +385,9 @@ def _skeleton_parts(original: Motion, decoded: Motion,
     to_deg = 180 / math.pi if sa.angle_unit == "rad" else 1.0
     if sa.convention == "asf":
         length, unit = f"the ASF's length unit (1/{sa.length:g} in)", None
-    else:
-        length, unit = ((original.units, original.units) if original.units else
-                        ("the BVH's length unit", None))
+    else:                       # a BVH has none; the .mpz of one has what --units named
+        known = original.units or decoded.units
+        length, unit = (known, known) if known else ("the BVH's length unit", None)
     for name, cols, scale, k, u in (("joint rotations", turns, to_deg, 0, "deg"),
                                     ("joint translations", ~turns, 1.0, 1, unit)):
         if not cols.any():
@@ -384,21 +396,37 @@ def _skeleton_parts(original: Motion, decoded: Motion,
         e = float(d.max(initial=0.0)) * scale
         what = f"{int(cols.sum())} channels, in {u if k == 0 else length}"
         if bounds is None:
-            parts.append(Part(name, "same" if e == 0 else "changed",
-                              f"{what}; no bound declared", error=e, unit=u))
+            if e != 0:
+                f, c = _largest(d)
+                what += f"; no bound declared; largest at {_channel(original, cols, c)}, " \
+                    f"frame index {f}"
+            else:
+                what += "; no bound declared"
+            parts.append(Part(name, "same" if e == 0 else "changed", what, error=e, unit=u))
             continue
         # a value k x step comes back within step / 2 and the rounding of that product
         slack = 4 * np.spacing(np.maximum(np.abs(x[:, cols]), np.abs(y[:, cols])))
         beyond = ~(d <= bounds[k] / scale + slack)
         if beyond.any():
             f, c = (int(v[0]) for v in np.nonzero(beyond))
-            i = int(np.flatnonzero(cols)[c])
-            channel = (original.angle_names or [])[i:i + 1] or [f"channel {i + 1}"]
-            what += (f"; first beyond its bound at {channel[0]!r}, frame index {f}: "
+            what += (f"; first beyond its bound at {_channel(original, cols, c)}, "
+                     f"frame index {f}: "
                      f"{d[f, c] * scale:.4g} > {bounds[k]:.4g}")
         parts.append(Part(name, "differs" if beyond.any() else "within", what, error=e,
                           bound=bounds[k], unit=u))
     return parts
+
+
+def _largest(d: NDArray[np.float64]) -> tuple[int, ...]:
+    """The index of the largest value of ``d``, a NaN counting as the largest."""
+    flat = int(np.argmax(np.where(np.isnan(d), np.inf, d)))
+    return tuple(int(v) for v in np.unravel_index(flat, d.shape))
+
+
+def _channel(motion: Motion, cols: NDArray[np.bool_], c: int) -> str:
+    """The name of column ``c`` of the joint channels ``cols`` selects, quoted."""
+    i = int(np.flatnonzero(cols)[c])
+    return repr(((motion.angle_names or [])[i:i + 1] or [f"channel {i + 1}"])[0])
 
 
 def _skeleton(sa: Any, sb: Any) -> Part:

@@ -5,7 +5,10 @@ An .mpz of a BVH or AMC is compared as ``mpz decode`` writes it: the joint posit
 computed from its skeleton's channels (the report says so), not its marker layer.
 ``--asf`` names an AMC original's skeleton; an AMC decoded input is read with the .asf
 beside it, which ``mpz decode`` writes (``--decoded-asf`` names another; with neither,
-``--asf``'s is used and a note says its skeleton is then not checked).
+``--asf``'s is used, its skeleton reported "unchecked").
+Against a decoded .mpz input (not the joint positions of a skeletal one) the marker errors
+are held to the bound it declares, as spec §7.2 states the check; a sample beyond it,
+or a marker the decoded input adds, exits 2.
 Two frame rates that differ are an error (exit 2; an NPY stores none: not checked).
 Lengths in two known units (mm, cm, m, in) are converted to the original's before
 comparing; an input without units against one with units is compared as numbers, the
@@ -15,9 +18,10 @@ header fields), a C3D's header, parameters (with the events), the points' residu
 camera words, analog words and model outputs, and a BVH's or AMC's skeleton and joint
 channels: the same bit for bit, within the bound the .mpz input declares (model
 outputs, one part per kind in its POINT:*_UNITS; joint channels, by the steps of its
-skeleton chunk), changed (no bound declared; metadata with other values), differs
-(exit 2, saying where first) or missing from the decoded motion (a note: a format that
-cannot hold the part, as ``mpz decode`` says). An NPY input (no names) is matched with
+skeleton chunk), changed (no bound declared: where it changed most; metadata with other
+values between files in other units), differs (exit 2, saying where first) or missing
+from the decoded motion (a note: a format that cannot hold the part, as ``mpz decode``
+says). An NPY input (no names) is matched with
 the other marker by marker in order, with a note.
 ``--plot OUT.png`` draws the Euclidean error over time of the worst markers
 (or ``--marker``), one panel each, in the motion's units, with the declared
@@ -30,6 +34,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 
 import numpy as np
 
@@ -90,10 +95,11 @@ def align(a, b, unnamed: list[str] | None = None, notes: list[str] | None = None
     return Motion(b.positions[:, order], list(a.names), b.rate, b.units, b.valid[:, order])
 
 
-def _declared_bound(path: str, units: str) -> float | None:
-    """The bound an .mpz file declares, converted to ``units`` (None if none or unknown)."""
+def _declared_bound(path: str | bytes, units: str) -> float | None:
+    """The bound an .mpz file (a path, or its bytes) declares, converted to ``units``
+    (None if none or unknown)."""
     from mpz.io._common import ext_of
-    if ext_of(path) != ".mpz":
+    if isinstance(path, str) and ext_of(path) != ".mpz":
         return None
     import mpz
     from mpz.format import MM_PER_UNIT
@@ -105,25 +111,39 @@ def _declared_bound(path: str, units: str) -> float | None:
     return fi.error_bound * MM_PER_UNIT[fi.units] / MM_PER_UNIT[units]
 
 
-def _decoded_asf(args: argparse.Namespace) -> tuple[str | None, bool]:
-    """The skeleton to read an AMC decoded input with, and whether it is ``--asf``'s in
-    place of its own: ``--decoded-asf``; else its own (None: the reader finds the .asf
-    beside it, which mpz decode writes), so that a skeleton that came back different is
-    seen; else ``--asf``'s (standard input: no .asf beside it)."""
-    if args.decoded_asf is not None or args.asf is None:
-        return args.decoded_asf, False
+def _decoded_asf(args: argparse.Namespace) -> tuple[str | None, bool, list[str]]:
+    """The skeleton to read an AMC decoded input with, whether it is ``--asf``'s in place
+    of its own, and a note naming the one found: ``--decoded-asf``; else its own, the .asf
+    beside it that ``mpz decode`` writes (so that a skeleton that came back different is
+    seen); else ``--asf``'s (standard input: no .asf beside it).
+
+    Raises
+    ------
+    InputFormatError
+        An AMC decoded input with neither an .asf beside it nor an option naming one.
+    """
     from mpz.io._common import ext_of
+    if args.decoded_asf is not None:
+        return args.decoded_asf, False, []
     if args.decoded == "-":
-        return args.asf, True
+        return args.asf, args.asf is not None, []
     if ext_of(args.decoded) != ".amc":
-        return args.asf, False                    # not an AMC by its name: not used
+        return args.asf, False, []                 # not an AMC by its name: not used
     from mpz.errors import InputFormatError
     from mpz.io.amc import find_asf
     try:
-        find_asf(args.decoded)
-    except InputFormatError:
-        return args.asf, True
-    return None, False
+        found = find_asf(args.decoded)
+    except InputFormatError as exc:
+        if args.asf is not None:
+            return args.asf, True, []
+        raise InputFormatError(f"no .asf skeleton found beside the decoded "
+                               f"{os.path.basename(args.decoded)}; name it: --decoded-asf "
+                               "PATH", path=args.decoded) from exc
+    stem = os.path.splitext(os.path.basename(args.decoded))[0]
+    own = os.path.splitext(os.path.basename(found))[0] == stem
+    return found, False, [] if own else [f"{_label(args.decoded)} is read with "
+                                         f"{printable(found)} (the .asf beside it whose name "
+                                         "begins its name); --decoded-asf names another"]
 
 
 #: relative tolerance on two frame rates (a C3D stores its rate as a float32, a TRC as text)
@@ -191,7 +211,12 @@ def run(args: argparse.Namespace) -> int:
     from mpz.metrics import besides_markers, summary
     from mpz.skeleton import channel_bounds
     from mpz.tools._cli import EXIT_USAGE
-    from mpz.tools._common import check_length, parse_length, read_input_keeping
+    from mpz.tools._common import (
+        check_length,
+        joint_positions_from_channels,
+        parse_length,
+        read_input_keeping,
+    )
     if args.original == "-" and args.decoded == "-":
         raise MotionError("only one of the two inputs can be standard input (-)")
     try:                        # a usage error (64), as encode's lengths: not an input error
@@ -204,21 +229,34 @@ def run(args: argparse.Namespace) -> int:
         _matplotlib()
     names = (_label(args.original), _label(args.decoded))
     a, ext_a, data_a = read_input_keeping(args.original, args.asf)
-    asf_b, borrowed = _decoded_asf(args)
+    asf_b, borrowed, found = _decoded_asf(args)
     b, ext_b, data_b = read_input_keeping(args.decoded, asf_b)
-    notes = check_rates(a, b, ext_a, ext_b, names)
-    if borrowed and ext_b == ".amc":
-        notes.append(f"{names[1]} has no .asf beside it (name one with --decoded-asf): read "
-                     "with --asf's, so its skeleton is the original's and is not checked")
+    notes = check_rates(a, b, ext_a, ext_b, names) + found
+    notes += _asf_notes(args, ext_a, ext_b, names, borrowed and ext_b == ".amc")
     data = data_b or data_a                 # the bounds an .mpz input declares
     parts = besides_markers(a, b, channel_bounds=None if data is None
                             else channel_bounds(data))
+    if borrowed and ext_b == ".amc":         # its own skeleton was not read: not checked
+        parts = [dataclasses.replace(p, status="unchecked", detail=f"{p.detail}; read with "
+                                     "--asf's (the decoded AMC has no .asf of its own)")
+                 if p.name == "skeleton" else p for p in parts]
+    # the marker bound an .mpz decoded input declares against its source (spec §7.2);
+    # not for joint positions computed from a skeleton's channels (their own steps)
+    declared = (data_b if ext_b == ".mpz" and not joint_positions_from_channels(b, ext_b)
+                else None)
     del data_a, data_b, data
     notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
               for p in parts if p.status == "missing"]
     pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
+    npy = ext_a == ".npy" or ext_b == ".npy"           # no names: taken in order
+    added = [n for n in b.names if n not in set(a.names)] if not npy else []
     b = align(a, b, unnamed=[n for n, e in zip(names, (ext_a, ext_b), strict=True)
                              if e == ".npy"], notes=notes)
+    if added:
+        notes.append(f"{names[1]} has {len(added)} marker{'s' * (len(added) != 1)} the "
+                     f"original has not: {', '.join(printable(n) for n in added[:5])}"
+                     + (f" and {len(added) - 5} more" if len(added) > 5 else "")
+                     + " (not compared; a difference: exit 2)")
     if a.n_frames != b.n_frames:
         raise MotionError(f"frame counts differ: {a.n_frames} vs {b.n_frames}")
     if args.plot:             # a --marker that is not there fails before the report
@@ -240,9 +278,11 @@ def run(args: argparse.Namespace) -> int:
     s = summary(a, b)
     gaps_lost = int((a.valid & ~b.valid).sum())
     gaps_added = int((~a.valid & b.valid).sum())
+    check = marker_bound(a, b, None if declared is None else _declared_bound(declared, units))
     s.update(frames=a.n_frames, markers=a.n_markers, units=units or None,
              original_units=a.units or None, decoded_units=units_b or None, positions=pos,
              notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added,
+             added_markers=added, bound_check=check,
              besides_markers=[dataclasses.asdict(p) for p in parts])
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
@@ -264,6 +304,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"  max {s['max']:.4g}{u}  p99 {s['p99']:.4g}{u}  RMS {s['rms']:.4g}{u}  "
               f"ARMS {s['arms']:.4g}{u}  mean {s['mean']:.4g}{u}")
         print(f"  gaps: {gaps_lost} valid samples became gaps, {gaps_added} gaps became valid")
+        if check is not None:
+            print(f"  bound {check['bound']:.4g}{u} declared by {names[1]} (spec §7.2): "
+                  + ("every sample within" if not check["beyond"] else
+                     f"BEYOND at {check['beyond']} sample{'s' * (check['beyond'] != 1)}, "
+                     f"the first {printable(check['first']['marker'])!r} at frame index "
+                     f"{check['first']['frame']} ({check['first']['error']:.4g}{u})"))
         print("  marker            max        RMS")
         for v, n in worst[: args.top]:
             rms = s["per_marker_rms"][n]
@@ -275,8 +321,44 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {p.name:<19} {_status(p)}")
         if args.plot:
             print(f"plot written to {printable(args.plot)}")
-    differs = any(p.status == "differs" for p in parts)
+    differs = any(p.status == "differs" for p in parts) or added or (
+        check is not None and check["beyond"])
     return 2 if gaps_lost or gaps_added or differs else 0
+
+
+def marker_bound(a, b, bound: float | None) -> dict | None:
+    """The marker errors held to the ``bound`` an .mpz declares (None: no check), as spec
+    §7.2 states it: error <= E + max|x| x 2^-50, x the original's valid coordinates. The
+    samples beyond it, and the first (frame index, marker, error); samples that became
+    gaps are counted apart (``valid_became_gap``)."""
+    if bound is None:
+        return None
+    from mpz.metrics import errors
+    err = errors(a, b)                                    # [F, M], NaN at original gaps
+    x = np.abs(a.positions[a.valid])
+    tol = bound + (float(x.max()) if x.size else 0.0) * 2.0 ** -50
+    beyond = np.isfinite(err) & (err > tol)
+    out: dict = {"bound": bound, "beyond": int(beyond.sum()), "first": None}
+    if out["beyond"]:
+        f, m = (int(v[0]) for v in np.nonzero(beyond))
+        out["first"] = {"frame": f, "marker": a.names[m], "error": float(err[f, m])}
+    return out
+
+
+def _asf_notes(args: argparse.Namespace, ext_a: str | None, ext_b: str | None,
+               names: tuple[str, str], borrowed: bool) -> list[str]:
+    """What the skeleton options did: an AMC decoded input read with --asf's (its own
+    skeleton unchecked), and --asf or --decoded-asf given for an input that is no AMC."""
+    notes = []
+    if borrowed:
+        notes.append(f"{names[1]} has no .asf beside it (name one with --decoded-asf): read "
+                     "with --asf's, so its skeleton is the original's and is not checked")
+    if args.asf is not None and ext_a != ".amc":
+        notes.append(f"--asf names an AMC original's skeleton; {names[0]} is no AMC: unused")
+    if args.decoded_asf is not None and ext_b != ".amc":
+        notes.append(f"--decoded-asf names an AMC decoded input's skeleton; {names[1]} is no "
+                     "AMC: unused")
+    return notes
 
 
 def _status(p) -> str:
