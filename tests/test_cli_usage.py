@@ -678,6 +678,62 @@ def test_ctrl_c_while_the_command_imports_is_one_line(argv: list[str], tmp_path:
         "interrupted" if argv[0] == "mpz" else f"{argv[0]}: interrupted"], err
 
 
+def _kernel_interrupt(depth: int) -> SystemError:
+    """What a numba kernel raises when a Ctrl-C lands in one of its Python callbacks:
+    SystemError "returned a result with an exception set", each the direct cause of the
+    next, the KeyboardInterrupt first (the QA of stop 42: _fisher_tables, _fit_range)."""
+    exc: BaseException = KeyboardInterrupt()
+    for _ in range(depth):
+        outer = SystemError("CPUDispatcher(<function _fit_range>) returned a result with "
+                            "an exception set")
+        outer.__cause__ = exc
+        exc = outer
+    assert isinstance(exc, SystemError)
+    return exc
+
+
+def test_a_ctrl_c_a_kernel_heard_is_reported_as_interrupted(capsys) -> None:
+    """Before, it ended the command with a SystemError traceback and exit 1; any other
+    SystemError is still a bug and is raised."""
+    from mpz.tools._cli import EXIT_INTERRUPTED, interrupted, reports_ctrl_c
+    assert interrupted(_kernel_interrupt(1)) and interrupted(_kernel_interrupt(3))
+    other = SystemError("a bug")
+    other.__cause__ = ValueError()
+    assert not interrupted(other) and not interrupted(SystemError("a bug"))
+    wrapped = SystemError("in a handler")
+    wrapped.__context__ = KeyboardInterrupt()                # not the cause: not taken
+    assert not interrupted(wrapped)
+
+    def raises(exc: BaseException) -> int:
+        raise exc
+
+    main = reports_ctrl_c("interrupted")(raises)
+    assert main(_kernel_interrupt(2)) == EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "interrupted\n"
+    with pytest.raises(SystemError, match="a bug"):
+        main(other)
+
+
+def test_a_command_ignores_ctrl_c_once_its_work_is_done(tmp_path: Path) -> None:
+    """The interpreter's shutdown gives SIGINT its default action back: a Ctrl-C in it
+    ended the command by the signal, without a word, after a complete output (QA of stop
+    42). A command's main ignores it when done; a program that imports mpz keeps its own
+    handler (this test's process)."""
+    import signal as sig
+
+    from mpz._worker import ignore_sigint_when_done
+    assert not ignore_sigint_when_done()
+    assert sig.getsignal(sig.SIGINT) is not sig.SIG_IGN
+    script = tmp_path / "mpz"                              # run as the mpz command is
+    script.write_text("import signal, sys\n"
+                      "from mpz.tools._cli import reports_ctrl_c\n"
+                      "print(reports_ctrl_c('interrupted')(lambda: 3)(), "
+                      "signal.getsignal(signal.SIGINT) is signal.SIG_IGN)\n")
+    p = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                       timeout=120, check=False)
+    assert p.stdout.split() == ["3", "True"], p.stderr
+
+
 def test_no_compile_notice_when_the_shipped_kernels_serve(inputs: dict[str, Path],
                                                           tmp_path: Path) -> None:
     """With an empty cache but the kernels shipped with the package (mpz/_kernels), the

@@ -64,6 +64,16 @@ def hold_sigint_in_a_command() -> bool:
     return True
 
 
+def ignore_sigint_when_done() -> bool:
+    """In one of :data:`COMMANDS`, once its ``main`` is done: ignore SIGINT for the rest,
+    the interpreter's shutdown; True if it did. The shutdown gives SIGINT its default
+    action back, so a Ctrl-C in it (0.2 s after a one-file encode: numba's, llvmlite's and
+    the threads' teardown) ended the process by the signal, exit 130 without a word,
+    after the output had been written whole (a QA of stop 42). The work is done and its
+    exit status stands."""
+    return own_process() and ignore_sigint()
+
+
 def own_process() -> bool:
     """True in a process that runs mpz's code alone: one of :data:`COMMANDS` itself, or a
     multiprocessing child of the ``mpz`` script (a worker of ``mpz encode -j N``). Not in

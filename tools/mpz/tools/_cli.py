@@ -39,7 +39,7 @@ import os
 import sys
 from typing import IO, Any, NoReturn, ParamSpec
 
-from mpz._worker import release_sigint
+from mpz._worker import ignore_sigint_when_done, release_sigint
 
 EXIT_OK = 0
 EXIT_WARN = 1
@@ -269,10 +269,32 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
             except KeyboardInterrupt:
                 print(message, file=sys.stderr)
                 return EXIT_INTERRUPTED
+            except SystemError as exc:
+                if not interrupted(exc):
+                    raise
+                print(message, file=sys.stderr)
+                return EXIT_INTERRUPTED
+            finally:
+                ignore_sigint_when_done()
 
         return wrapper
 
     return decorate
+
+
+def interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` is a Ctrl-C as a compiled kernel reports it: a numba kernel that
+    hears the KeyboardInterrupt in one of its Python callbacks (``_numba_unpickle``) raises
+    ``SystemError: ... returned a result with an exception set``, with the
+    KeyboardInterrupt at the end of a chain of such SystemErrors (each the direct cause of
+    the next). Any other SystemError is a bug and is not taken for one (a QA of stop 42:
+    a Ctrl-C during the Fisher tables or the key-frame fit gave a traceback and exit 1)."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while isinstance(e, SystemError) and id(e) not in seen:
+        seen.add(id(e))
+        e = e.__cause__
+    return isinstance(e, KeyboardInterrupt)
 
 
 def count(text: str) -> int:
