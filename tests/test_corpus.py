@@ -777,6 +777,29 @@ def test_mpz_encode_routes_batches_to_the_corpus(corpus, capsys):
 
 
 
+def test_an_output_folder_inside_the_input_folder_is_not_an_input(corpus, capsys):
+    """`mpz encode -r IN -o IN/archive/`: the next run took what lay in the archive (its
+    .mpz are no input, but files decoded there are) as inputs (QA of stop 42: their
+    outputs collided, or went to archive/archive/ with --mirror)."""
+    from mpz.tools import mpz_cli
+    src, _, paths = corpus
+    paths["bad"].unlink()
+    archive = src / "archive"
+    archive.mkdir()
+    argv = ["encode", "-r", str(src), "-o", f"{archive}/", "--jobs", "0", "--json"]
+    for mirror in ([], ["--mirror"]):
+        assert mpz_cli.main([*argv, *mirror, "-f"]) == 0, capsys.readouterr().err
+        json.loads(capsys.readouterr().out)
+        write(generate("walk", frames=40, seed=9), archive / "decoded_here.trc")
+        assert mpz_cli.main([*argv, *mirror]) == 0, capsys.readouterr().err
+        doc = json.loads(capsys.readouterr().out)
+        assert doc["counts"]["encoded"] == 0 and sum(doc["counts"].values()) == 3
+        assert not (archive / "decoded_here.mpz").exists()
+        assert not (archive / "archive").exists()
+    assert [s for s, _ in mirror_jobs(src, archive)] == [
+        str(paths["jump"]), str(paths["walk"]), str(paths["wave"])]
+
+
 @needs_dask
 @pytest.mark.parametrize("option", [["--scheduler", "notaurl"], ["--memory-limit", "lots"],
                                     ["--memory-limit", "0"]])
@@ -862,6 +885,14 @@ def test_search_on_an_index_with_damaged_levels_or_columns_is_a_clean_error(
     code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and said in err and "damaged" in err and "Traceback" not in err, err
+    # what the error says to do works: encoding again, --force too, failed on the same
+    # index (QA of stop 42: "encode the folder again" was a loop); removed, it is rebuilt
+    assert "remove it: the next mpz encode -r into its folder rebuilds its rows" in err
+    (out / INDEX_NAME).unlink()
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "kept", "walk": "kept", "wave": "kept"}
+    code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out)])
+    assert code == 0, capsys.readouterr().err
 
 
 def _arm_bvh(frames: int = 60) -> str:

@@ -571,6 +571,12 @@ class IndexRow:
         return self.values[key]
 
 
+#: how to recover from a damaged index: encoding again keeps failing on it, and --force
+#: too (a QA of stop 42); a run without one rebuilds each output's row from its meta chunk
+_REBUILD = ("remove it: the next mpz encode -r into its folder rebuilds its rows from the "
+            ".mpz files there, without encoding them again")
+
+
 class Index:
     """The SQLite index of a corpus (:data:`SCHEMA`); one writer, the process that runs
     the corpus.
@@ -604,7 +610,9 @@ class Index:
             raise EncoderError(f"{self.path}: cannot {'write' if create else 'read'} the "
                                f"index: {exc}") from None
         except sqlite3.DatabaseError as exc:
-            raise EncoderError(f"{self.path}: not an MPZ corpus index ({exc})") from None
+            raise EncoderError(f"{self.path}: not an MPZ corpus index, or a damaged one "
+                               f"({exc}); if it is the index of its folder, {_REBUILD}"
+                               ) from None
         if got is None or got[0] != str(SCHEMA_VERSION):
             raise EncoderError(f"{self.path}: index schema {got and got[0]!r}, this mpz reads "
                                f"schema {SCHEMA_VERSION}")
@@ -613,13 +621,12 @@ class Index:
         missing = sorted({"corpus", "files", "levels", "failures"} - tables)
         if missing:
             raise EncoderError(f"{self.path}: not an MPZ corpus index (no table "
-                               f"{', '.join(missing)}); encode the folder again to rebuild it")
+                               f"{', '.join(missing)}); {_REBUILD}")
         columns = {r[1] for r in self.db.execute("PRAGMA table_info(files)")}
         lost = [c for c in _FILE_COLUMNS if c not in columns]
         if lost:                   # a query naming it raised sqlite3's error (QA, stop 33)
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files table "
-                               f"has no column {', '.join(lost)}); encode the folder again "
-                               "to rebuild it")
+                               f"has no column {', '.join(lost)}); {_REBUILD}")
 
     def close(self) -> None:
         if self.create:
@@ -713,7 +720,7 @@ class Index:
                                levels)
         except (MPZError, ValueError) as exc:
             raise EncoderError(f"{self.path}: the row of {v['output']} is damaged ({exc}); "
-                               "encode the folder again to rebuild it") from None
+                               f"{_REBUILD}") from None
 
     def info(self) -> dict[str, str]:
         return dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
@@ -738,7 +745,7 @@ class Index:
         if len(ks) > MAX_SUMMARY_LEVELS or not all(
                 k.isascii() and k.isdigit() and 0 < int(k) <= MAX_FRAMES for k in ks):
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index (its levels read "
-                               f"{text[:40]!r}); encode the folder again to rebuild it")
+                               f"{text[:40]!r}); {_REBUILD}")
         return tuple(int(k) for k in ks) or SUMMARY_LEVELS
 
     def descriptors(self) -> tuple[list[dict[str, Any]], np.ndarray]:
@@ -766,7 +773,7 @@ class Index:
             return descriptor(r.summary, levels)
         except EncoderError as exc:
             raise EncoderError(f"{self.path}: the row of {r['output']} is damaged ({exc}); "
-                               "encode the folder again to rebuild it") from None
+                               f"{_REBUILD}") from None
 
     def failures(self) -> list[tuple[str, str]]:
         return self.db.execute("SELECT path, reason FROM failures ORDER BY path").fetchall()
@@ -882,7 +889,8 @@ def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
     """``(source, output)`` for every motion file under ``folder``, mirrored under ``outdir``.
 
     ``a/b/walk.c3d`` becomes ``OUT/a/b/walk.mpz``. Hidden files and folders are left
-    out; files are in sorted order.
+    out, and so is ``outdir`` when it lies inside ``folder``; links to folders are not
+    followed; files are in sorted order.
 
     Raises
     ------
@@ -898,8 +906,10 @@ def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
     def unlisted(exc: OSError) -> None:
         raise EncoderError(f"cannot list the folder {exc.filename or root}: "
                            f"{exc.strerror or exc}")
+    skipped = os.path.realpath(outdir)
     for here, dirs, files in os.walk(root, onerror=unlisted):
-        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        dirs[:] = sorted(d for d in dirs if not d.startswith(".")
+                         and os.path.realpath(os.path.join(here, d)) != skipped)
         for name in sorted(files):
             if name.startswith(".") or os.path.splitext(name)[1].lower() not in exts:
                 continue

@@ -382,17 +382,21 @@ class Job:
     make_folder: str | None = None
 
 
-def expand_inputs(inputs: Sequence[str], recursive: bool,
-                  accept: Callable[[str], bool]) -> list[tuple[str, str | None, str]]:
+def expand_inputs(inputs: Sequence[str], recursive: bool, accept: Callable[[str], bool],
+                  skip: str | None = None) -> list[tuple[str, str | None, str]]:
     """Inputs with folders expanded (``-r``): (path, planning error or None, base), in order.
 
     A folder without ``-r`` is an error for that input (as zstd: "is a
     directory -- ignored"); with ``-r`` its files that ``accept`` (by name) are
-    taken, sorted, recursively. Hidden files and folders are skipped. ``base`` is
-    the folder a path was found in with ``-r`` (as given), else the path's own
-    folder: ``--mirror`` keeps the path below it.
+    taken, sorted, recursively. Hidden files and folders are skipped, and so is the
+    folder ``skip`` (the ``-o FOLDER/`` of the batch: outputs written inside an input
+    folder, or files decoded there, were taken as inputs by the next run, a QA of stop
+    42); links to folders are not followed (os.walk's default: a loop cannot hang the
+    walk). ``base`` is the folder a path was found in with ``-r`` (as given), else the
+    path's own folder: ``--mirror`` keeps the path below it.
     """
     out: list[tuple[str, str | None, str]] = []
+    skipped = os.path.realpath(skip) if skip is not None else None
     for item in inputs:
         if item != STDIO and os.path.isdir(item):
             if not recursive:
@@ -401,7 +405,8 @@ def expand_inputs(inputs: Sequence[str], recursive: bool,
             found: list[str] = []
             unlisted: list[OSError] = []      # were skipped without a word (a QA run)
             for root, dirs, files in os.walk(item, onerror=unlisted.append):
-                dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+                dirs[:] = sorted(d for d in dirs if not d.startswith(".") and
+                                 os.path.realpath(os.path.join(root, d)) != skipped)
                 found += [os.path.join(root, f) for f in sorted(files)
                           if not f.startswith(".") and accept(f)]
             out += [(exc.filename or item, f"cannot list this folder: "
@@ -441,10 +446,10 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
         For several inputs with one output file, ``-`` used twice, a ``-o FOLDER/`` that
         does not exist, or ``mirror`` without ``-o FOLDER/``.
     """
-    items = expand_inputs(inputs, recursive, accept)
+    folder = is_folder_target(output)
+    items = expand_inputs(inputs, recursive, accept, skip=output if folder else None)
     if sum(1 for p, _, _ in items if p == STDIO) > 1:
         raise UsageError("standard input (-) can be read only once")
-    folder = is_folder_target(output)
     if mirror and not folder:
         raise UsageError("--mirror keeps the input folders' layout below -o FOLDER/ (ending "
                          "in /); give one")
