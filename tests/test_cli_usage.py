@@ -222,6 +222,16 @@ def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[s
             tmp_path)
     assert p.returncode == 2 and b"also the output of" in p.stderr     # flat: names clash
     assert b"--mirror keeps each file's folder below -o" in p.stderr    # and the way out
+    # the file that failed counts its bytes, and the index names its output (QA, stop 42:
+    # 0.00 MB and an empty output)
+    import sqlite3
+    db = sqlite3.connect(tmp_path / "flat" / "index.sqlite")
+    assert db.execute("SELECT path, output FROM failures").fetchall() == [
+        (str((src / "s02" / "walk.trc").resolve()), "walk.mpz")]
+    db.close()
+    mb = (src / "s02" / "walk.trc").stat().st_size / 1e6
+    p = run(["mpz", "encode", "-r", "captures", "-o", "flat/", "--max-error", "1mm"], tmp_path)
+    assert re.search(rf"^\s+failed\s+1\s+{mb:.2f}\s", p.stdout.decode(), re.M), p.stdout
     (tmp_path / "archive").mkdir()
     p = run(["mpz", "encode", "-r", "captures", "loose.trc", "-o", "archive/", "--mirror",
              "--max-error", "1mm", "-q"], tmp_path)

@@ -577,6 +577,15 @@ _REBUILD = ("remove it: the next mpz encode -r into its folder rebuilds its rows
             ".mpz files there, without encoding them again")
 
 
+def _size(path: str | os.PathLike[str]) -> int:
+    """A source's size for the report's totals; 0 if it cannot be stat'ed (a file that
+    failed before it was read still counts its bytes: a QA of stop 42 found 0.00 MB)."""
+    try:
+        return os.stat(path).st_size
+    except (OSError, ValueError):
+        return 0
+
+
 class Index:
     """The SQLite index of a corpus (:data:`SCHEMA`); one writer, the process that runs
     the corpus.
@@ -1270,7 +1279,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     results: list[FileResult | None] = [None] * len(tasks)
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
     early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
-                        reason) for src, out, reason in failed]
+                        reason, _size(src)) for src, out, reason in failed]
     with _one_run(index_dir), Index(os.path.join(index_dir, INDEX_NAME), create=True) as index:
         index.refresh_descriptors()
         index.set_info({"levels": ",".join(map(str, levels)),
@@ -1426,8 +1435,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                         raise        # a bug in the task: stop the run, keep what finished
                     r = FileResult(tasks[i].source, tasks[i].output, "failed",
                                    "its worker died each time it ran (over the memory "
-                                   f"limit?): {exc}", os.stat(tasks[i].source).st_size
-                                   if os.path.exists(tasks[i].source) else 0)
+                                   f"limit?): {exc}", _size(tasks[i].source))
                 finish(i, replace(r, source=tasks[i].source, output=tasks[i].output))
             submit()
     except BaseException:

@@ -374,7 +374,8 @@ class Job:
     """One input of a batch and where its output goes (None: a planning error).
 
     ``make_folder``: a folder below ``-o FOLDER/`` that :func:`run_batch` creates before
-    the job runs (``--mirror``), else None."""
+    the job runs (``--mirror``), else None. A job with an ``error`` is not run; its
+    ``output`` is the one it would have had when it was named (a name clash), else None."""
 
     input: str
     output: str | None
@@ -498,7 +499,7 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
             # found by -r in another folder than the first: --mirror would keep both
             apart = (base is not None and not mirror and os.path.dirname(os.path.abspath(
                 path)) != os.path.dirname(os.path.abspath(taken[key])))
-            jobs.append(Job(path, None, f"its output {printable(target)} is also the output "
+            jobs.append(Job(path, target, f"its output {printable(target)} is also the output "
                                         f"of {printable(taken[key])} in this batch"
                                         + ("; --mirror keeps each file's folder below -o"
                                            if apart else "")))
