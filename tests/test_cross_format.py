@@ -60,6 +60,19 @@ def test_the_first_frame_number_goes_where_the_format_holds_it(tmp_path):
     assert any("first frame number (100)" in n for n in notes)
 
 
+def test_a_trcs_header_fields_written_elsewhere_are_said(tmp_path):
+    """A TRC's header fields (trc.* metadata) have no place in C3D, CSV or NPY: before,
+    decode said nothing of them (the 'free metadata' note leaves out dotted keys)."""
+    m = read(_trc(tmp_path, list(range(1, 31))))
+    fields = [k for k in m.metadata if k.startswith("trc.")]
+    assert len(fields) >= 8
+    for ext in (".c3d", ".csv", ".npy"):
+        _, notes = writer_problems(m, ext)
+        assert any(f"the {len(fields)} trc.* entries" in n for n in notes), (ext, notes)
+    _, notes = writer_problems(m, ".trc")
+    assert not any("trc.*" in n for n in notes)
+
+
 def test_a_c3d_archive_written_as_trc_keeps_its_frame_numbers_and_says_what_it_drops(tmp_path):
     m = c3d_motion(7, storage=1, F=12, M=4, J=2, C=3, n=2)   # header first frame 10
     first = int.from_bytes(m.extras["c3d"].header[6:8], "little")

@@ -470,6 +470,10 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append(f"{fmt} has no place for free metadata: not written: "
                          + ", ".join(repr(k) for k in free[:8])
                          + (f" and {len(free) - 8} more" if len(free) > 8 else ""))
+    header = [k for k in motion.metadata if k.startswith("trc.")]
+    if header and ext != ".trc":        # a TRC source's header fields (mpz compare: missing)
+        notes.append(f"{fmt} has no place for a TRC's header fields: not written: the "
+                     f"{len(header)} trc.* entries (file name, rates, decimals...)")
     if ext == ".c3d":
         zero = motion.valid & (motion.positions == 0.0).all(axis=2)
         if zero.any():
