@@ -233,8 +233,9 @@ def _parameters(a: C3DArchive, b: C3DArchive) -> Part:
                if r != s and not (r is start and r == replace(s, data=r.data))]
         return Part("C3D parameters", "differs" if bad else "same",
                     what + (f"; differ: {_listed(bad)}" if bad else ""))
-    lost = [k for k in ka if k not in set(kb)]
-    added = [k for k in kb if k not in set(ka)]
+    sa, sb = set(ka), set(kb)                     # up to 2^16 records each: not per item
+    lost = [k for k in ka if k not in sb]
+    added = [k for k in kb if k not in sa]
     found = ([f"lost: {_listed(lost)}"] if lost else []) + \
         ([f"added: {_listed(added)}"] if added else [])
     return Part("C3D parameters", "differs", f"{what}; {len(a.records)} records against "

@@ -21,8 +21,8 @@ outputs, one part per kind in its POINT:*_UNITS; joint channels, by the steps of
 skeleton chunk), changed (no bound declared: where it changed most; metadata with other
 values between files in other units), differs (exit 2, saying where first) or missing
 from the decoded motion (a note: a format that cannot hold the part, as ``mpz decode``
-says). An NPY input (no names) is matched with
-the other marker by marker in order, with a note.
+says). An NPY input (no names) is matched with the other marker by marker in order, with
+a note.
 ``--plot OUT.png`` draws the Euclidean error over time of the worst markers
 (or ``--marker``), one panel each, in the motion's units, with the declared
 bound (from an .mpz input, or ``--bound``) as a line and one legend for all
@@ -249,7 +249,8 @@ def run(args: argparse.Namespace) -> int:
               for p in parts if p.status == "missing"]
     pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
     npy = ext_a == ".npy" or ext_b == ".npy"           # no names: taken in order
-    added = [n for n in b.names if n not in set(a.names)] if not npy else []
+    known = set(a.names)
+    added = [n for n in b.names if n not in known] if not npy else []
     b = align(a, b, unnamed=[n for n, e in zip(names, (ext_a, ext_b), strict=True)
                              if e == ".npy"], notes=notes)
     if added:
