@@ -385,6 +385,19 @@ def test_max_samples_lowers_the_ancillary_limits(build: Callable[[], bytes],
     assert mpz.decode(data, max_samples=64 * 1000).positions.shape == (64, M, 3)
 
 
+@pytest.mark.parametrize("bad", [0, -1, (1 << 26) + 1, 1 << 40])
+def test_max_samples_can_lower_the_limit_not_raise_it(bad: int) -> None:
+    """§8: a decoder MAY have lower limits, not higher ones. A max_samples above
+    MAX_SAMPLES let a file of 2^27 marker-frames through the F x M check (a spec audit of
+    stop 42); 2^26 itself is the default."""
+    import mpz
+    from mpz.synth import generate
+    data = mpz.encode(generate("walk", frames=8), max_error=1.0)
+    with pytest.raises(ValueError, match=r"max_samples must be 1 \.\. 67108864"):
+        mpz.decode(data, max_samples=bad)
+    assert mpz.decode(data, max_samples=1 << 26).n_frames == 8
+
+
 # ------------------------------------------- blocks of frames change no value --
 def _vectors() -> list[tuple[str, Path, Path, str]]:
     root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"

@@ -164,13 +164,17 @@ def read_stream_bytes(fh: IO[bytes], *, limit: int = MAX_INPUT_BYTES,
 
 
 def check_max_samples(max_samples: object) -> int:
-    """``max_samples`` as an int >= 1, or TypeError / ValueError naming it."""
+    """``max_samples`` as an int in 1 .. MAX_SAMPLES, or TypeError / ValueError naming it.
+    It is a lower limit only (spec §8: a decoder MUST enforce the table's limits and MAY
+    have lower ones); a larger value let files past MAX_SAMPLES through the limit check."""
     if isinstance(max_samples, (bool, np.bool_)) or not isinstance(
             max_samples, (int, np.integer)):
         raise TypeError(f"max_samples must be an integer, got {type(max_samples).__name__} "
                         f"{max_samples!r}")
-    if max_samples < 1:
-        raise ValueError(f"max_samples must be at least 1, got {max_samples}")
+    if not 1 <= max_samples <= MAX_SAMPLES:
+        raise ValueError(f"max_samples must be 1 .. {MAX_SAMPLES} (2^26, spec §8's "
+                         f"MAX_SAMPLES: a decoder may lower it, not raise it), got "
+                         f"{max_samples}")
     return int(max_samples)
 
 
@@ -501,8 +505,8 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
         read from its current position to the end of the MPZ file (not
         beyond: other data may follow in the stream).
     max_samples : int, optional
-        A lower F × M limit for a memory budget (spec §8); files above it are
-        rejected with :class:`~mpz.errors.LimitExceededError`. Below MAX_SAMPLES it
+        A lower F × M limit for a memory budget (spec §8), 1 .. MAX_SAMPLES; files
+        above it are rejected with :class:`~mpz.errors.LimitExceededError`. Below MAX_SAMPLES it
         also lowers MAX_ANALOG_SAMPLES to 4 × max_samples and MAX_CHANNEL_SAMPLES to
         max_samples.
 

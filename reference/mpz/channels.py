@@ -170,7 +170,7 @@ _CELLS = 1 << 20
 
 
 def dequantise(x: IntArray, codings: Sequence[Coding]) -> FloatArray:
-    """§6.10 step 4: ``v = x m / 10^d``, one correctly rounded binary64 division of the exact
+    """§6.10 step 5: ``v = x m / 10^d``, one correctly rounded binary64 division of the exact
     integer ``x m`` (|x m| < 2^47, exact in binary64) by ``10^d`` (exact for d <= 22), of
     ``x[F, C]``; a block of rows at a time into the output, so that no temporary is of
     its size."""

@@ -203,8 +203,8 @@ class Bvhs(_Layer, Record):
         M = ctx.header.marker_count
         if self.joint_count != M:
             _fail(f"bvhs lists {self.joint_count} joints for {M} markers", "§4.14.1")
-        # spec §4.14.1: "each joint's parent is the joint before it or one of that
-        # joint's ancestors" (depth-first order), or none for a ROOT
+        # spec §4.14.1: a joint's parent is joint i - 1 or an ancestor of joint i - 1
+        # (depth-first order), or none for a ROOT
         chain: list[int] = []          # joint i - 1, its parent, its grandparent, ...
         for i, j in enumerate(self.joints):
             what = f"joint {i}"

@@ -80,8 +80,8 @@ def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
     for lv in rec.levels:
         k = lv.k
         lengths = dec.block(k, 1, 1, period=k, signed=False).reshape(k) + 1
-        # step 1: the lengths add up to F (the sum formed in 64 bits: k < 2^24 values below
-        # 2^31) before any start is formed (§1.1)
+        # §4.15 step 2: the lengths add up to F (the sum formed in 64 bits: k < 2^24 values
+        # of at most 2^31, c_j + 1) before any start is formed (§1.1)
         if int(lengths.sum()) != frames:
             _fail(f"summary level k = {k}: segment lengths add up to {int(lengths.sum())}, "
                   f"not {frames} frames", "§4.15")

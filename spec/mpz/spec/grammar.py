@@ -1,4 +1,4 @@
-"""The MPZ 1.0 container grammar (spec §3 and §4), written with construct.
+"""The MPZ 1.x container grammar (spec §3 and §4), written with construct.
 
 Strategy: construct describes structure only: the signature, the chunk frame
 and each chunk's fixed fields. Range-coded payloads are opaque ``GreedyBytes``
@@ -42,7 +42,8 @@ from construct import (
 #: conversion and DOS type, as in PNG.
 SIGNATURE = b"\x89MPZ\r\n\x1a\n"
 
-#: §2.1 the version this grammar describes (1.1: the C3D archive chunks of §4.13)
+#: §2.1 the version this grammar describes (1.1: the C3D archive chunks of §4.13, the
+#: skeleton chunks of §4.14 and the coded summary of §4.15)
 VERSION_MAJOR, VERSION_MINOR = 1, 1
 
 #: §3.2 chunk frame: type, length, payload, CRC-32 over type + payload
@@ -268,7 +269,7 @@ BVHS = Struct(
     "joint_count" / Int16ul * "§4.14.1 J, equals marker_count",
     "joints" / Array(this.joint_count, BvhJoint) * "§4.14.1 in file (depth-first) order",
     "channel_count" / Int16ul * "§4.14 C of the channel layer, the sum of the joints' counts",
-    "position_bound" / Float64l * "§4.14.1 declared joint position error, MHDR units; 0 none",
+    "position_bound" / Float64l * "§4.14 declared joint position error, MHDR units; 0 none",
     "channels" / Array(this.channel_count, ChannelCoding) * "§4.14.1 the channel layer (§4.14)",
     "coded" / GreedyBytes * "§4.14.1 range-coded: one signed block [F, n_g, 1] per group",
 )
@@ -313,7 +314,7 @@ ASFS = Struct(
     "amc_count" / Int16ul * "§4.14.2 1..B + 1",
     "amc_order" / Array(this.amc_count, Int16ul) * "§4.14.2 joints in AMC line order",
     "channel_count" / Int16ul * "§4.14.2 C, root order count plus the bones' dof counts",
-    "position_bound" / Float64l * "§4.14.2 declared joint position error, MHDR units; 0 none",
+    "position_bound" / Float64l * "§4.14 declared joint position error, MHDR units; 0 none",
     "channels" / Array(this.channel_count, ChannelCoding) * "§4.14.2 the channel layer (§4.14)",
     "coded" / GreedyBytes * "§4.14.2 range-coded: one signed block [F, n_g, 1] per group",
 )
