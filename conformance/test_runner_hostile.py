@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+import re
 import shutil
 import signal
 import subprocess
@@ -311,3 +312,119 @@ def test_control_characters_from_the_decoder_are_escaped(tmp_path):
                         "sys.exit(3)\n")
     proc, _ = run(tmp_path, "--decoder", str(dec), "--only", ONE)
     assert "\x1b" not in proc.stdout and "bad \\x1b[2J file" in proc.stdout
+
+
+# -- QA of stop 42 ----------------------------------------------------------------------------
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+@pytest.mark.parametrize("signame", ["SIGTERM", "SIGHUP"])
+def test_sigterm_and_sighup_kill_the_decoders_too(tmp_path, signame):
+    """The decoders run in their own process groups: a SIGTERM (a CI job's timeout) or
+    SIGHUP to the runner alone ended it and left every running decoder behind."""
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    dec = python_script(tmp_path / "hang.py", f"import os, time\n"
+                        f"open(os.path.join({str(pids)!r}, str(os.getpid())), 'w').close()\n"
+                        "time.sleep(120)\n")
+    proc = subprocess.Popen([PY, "-m", "mpz.conformance.runner", "--decoder", str(dec),
+                             "--only", BAD, "x02-signature-only", "--jobs", "2",
+                             "--timeout", "100"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while len(list(pids.iterdir())) < 2 and proc.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.02)
+    started = [int(p.name) for p in pids.iterdir()]
+    assert len(started) == 2, proc.communicate(timeout=30)
+    sig = getattr(signal, signame)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 128 + sig and f"stopped by {signame}" in err, err
+    assert "Traceback" not in err
+
+    def alive(pid: int) -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        return True
+    deadline = time.monotonic() + 10
+    while any(alive(p) for p in started) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(alive(p) for p in started), "a decoder outlived the runner"
+
+
+def test_a_value_just_beyond_tolerance_shows_the_difference(tmp_path):
+    """An FMA-sized error printed 'got 1673.000000, expected 1673.000000 (... 0.000 grid
+    steps)': nothing looked wrong. Both values now show where they differ."""
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            x = np.load(OUT); i = tuple(np.argwhere(np.isfinite(x))[0])
+            x[i] += 4.9e-7; np.save(OUT, x)           # below the 6th decimal's half
+            import os; os.path.exists(OUT + ".intlayer") and os.remove(OUT + ".intlayer")
+        ''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    r = doc["results"][0]
+    f = r["first_failure"]
+    assert r["allowed_max_abs"] < 4.9e-7 and not r["passed"] and f["got"] != f["expected"]
+    shown = re.search(r"got (\S+), expected (\S+) \(off by \S+ = (\S+) grid steps", r["message"])
+    assert shown and shown.group(1) != shown.group(2), r["message"]
+    assert float(shown.group(1)) == f["got"] and float(shown.group(3)) != 0, r["message"]
+
+
+@pytest.mark.parametrize("body, said", [
+    ('open(OUT, "w").write("not an array")', "does not begin with the NPY magic"),
+    ('d = open(OUT, "rb").read(); open(OUT, "wb").write(d[:len(d) // 2])',
+     "bytes of data, and the file holds"),
+])
+def test_an_unreadable_npy_is_told_in_the_formats_terms(tmp_path, body, said):
+    """numpy said a text file 'contains pickled (object) data' and a short one 'mmap length
+    is greater than file size'."""
+    dec = decoder(tmp_path, f"if rc == 0:\n    {body}\n")
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    msg = doc["results"][0]["message"]
+    assert said in msg and "pickle" not in msg and "mmap" not in msg, msg
+    assert "Warning" not in proc.stderr, proc.stderr
+
+
+def test_only_takes_the_labels_the_runner_prints(tmp_path):
+    proc, doc = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only",
+                    f"valid/{ONE}", f"invalid/{BAD}")
+    assert proc.returncode == 0 and sorted(r["name"] for r in doc["results"]) == [ONE, BAD]
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only",
+                  "valid/nothing-of-that-name")
+    assert proc.returncode == 64 and "no vector named valid/nothing-of-that-name" in proc.stderr
+
+
+@pytest.mark.parametrize("code", [131, 152, 153, 159])
+def test_a_shells_report_of_any_fatal_signal_is_a_crash(tmp_path, code):
+    """128 + SIGQUIT, SIGXCPU (ulimit -t), SIGXFSZ and SIGSYS (seccomp) passed as
+    rejections, while the same signals delivered directly were crashes."""
+    dec = script(tmp_path / "dec.sh", f"#!/bin/sh\nexit {code}\n")
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    r = doc["results"][0]
+    assert r["actual"] == "crash" and not r["passed"], r
+
+
+def test_a_command_that_decodes_nothing_is_warned_of(tmp_path):
+    """`python3 -m mydec` finds no module from the temporary directory: it exits 1 on
+    every vector, and every invalid one passed as rejected, without a word."""
+    (tmp_path / "mydec.py").write_text("raise SystemExit(0)\n")
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mydec", "--only", ONE, BAD)
+    assert proc.returncode == 1 and "No module named mydec" in proc.stdout
+    assert "decoded none of the 1 valid vector(s)" in proc.stderr
+    assert "prove nothing" in proc.stderr
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only",
+                  ONE, BAD)
+    assert proc.returncode == 0 and "warning" not in proc.stderr
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--jobs", "0"], "--jobs must be at least 1, got 0"),
+    (["--timeout", "0"], "--timeout must be a finite number > 0, got 0.0"),
+    (["--memory", "-1"], "--memory must be 0 (no limit) .. "),
+])
+def test_each_bad_option_is_named_alone(tmp_path, args, said):
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only", ONE,
+                  *args)
+    assert proc.returncode == 64 and said in proc.stderr, proc.stderr

@@ -304,15 +304,19 @@ def check_hashes(man: dict, directory=None) -> list:
 
 
 def vectors(man: dict, only=None) -> list:
-    """The manifest's vectors, optionally restricted to names/files/groups in ``only``."""
+    """The manifest's vectors, optionally restricted to ``only``: names, files (with or
+    without their folder and extension), groups, or ``group/name`` as the runner prints
+    them (:func:`selectors`)."""
     vs = man["vectors"]
     if not only:
         return list(vs)
     want = set(only)
-    out = []
-    for v in vs:
-        stem = Path(v["file"]).name
-        keys = {v["name"], v["file"], stem, Path(stem).stem, v["group"]}
-        if keys & want:
-            out.append(v)
-    return out
+    return [v for v in vs if selectors(v) & want]
+
+
+def selectors(v: dict) -> set[str]:
+    """What ``--only`` may call vector ``v``: its name, its file with and without its
+    folder and extension, its group, and ``group/name`` (the runner's PASS/FAIL label:
+    it was refused, a QA of stop 42)."""
+    stem = Path(v["file"]).name
+    return {v["name"], v["file"], stem, Path(stem).stem, v["group"], f"{v['group']}/{v['name']}"}

@@ -30,7 +30,9 @@ error (bad arguments, missing or invalid vectors, command not found, a
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+import contextlib
 import json
 import math
 import os
@@ -45,6 +47,7 @@ import tempfile
 import threading
 import time
 from typing import Any
+import warnings
 
 import numpy as np
 
@@ -230,9 +233,9 @@ def _kill_group(proc: subprocess.Popen[bytes]) -> None:
 
 #: exit statuses a shell reports for a child killed by a fatal signal (128 + N): a decoder
 #: run through a wrapper script that crashes exits with these, and they count as a crash
-SHELL_CRASH_CODES = {128 + int(s): s.name for s in (
-    signal.SIGILL, signal.SIGABRT, signal.SIGBUS, signal.SIGFPE, signal.SIGSEGV,
-    signal.SIGKILL) if hasattr(signal, s.name)}
+SHELL_CRASH_CODES = {128 + int(getattr(signal, n)): n for n in (
+    "SIGQUIT", "SIGILL", "SIGTRAP", "SIGABRT", "SIGBUS", "SIGFPE", "SIGKILL", "SIGSEGV",
+    "SIGXCPU", "SIGXFSZ", "SIGSYS") if hasattr(signal, n)}
 #: a line, anywhere in the output, that only a runtime out of memory prints before its
 #: stack trace: C++'s std::bad_alloc, Rust's allocation failure, Go's fatal error, Java's
 #: OutOfMemoryError
@@ -289,6 +292,43 @@ def _fmt(v: float) -> str:
     if isinstance(v, float) and math.isnan(v):
         return "NaN"
     return f"{v:.6f}" if abs(v) < 1e7 else f"{v:.6g}"
+
+
+def _npy_problem(path: Path, exc: Exception) -> str:
+    """What is wrong with a decoder's ``OUT.npy`` that numpy could not load, in the terms
+    of the format: numpy's own messages misled (a text file "contains pickled (object)
+    data", a short one gave "mmap length is greater than file size"; a QA of stop 42)."""
+    fmt = np.lib.format
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as fh:
+            if fh.read(6) != b"\x93NUMPY":
+                return "it does not begin with the NPY magic \\x93NUMPY"
+            fh.seek(0)
+            version = fmt.read_magic(fh)
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")
+                shape, _, dtype = (fmt.read_array_header_1_0(fh) if version == (1, 0)
+                                   else fmt.read_array_header_2_0(fh))
+            start = fh.tell()
+    except Exception as why:            # the header itself is unreadable: the decoder's
+        return f"its header cannot be read ({type(why).__name__}: {why})"[:500]
+    if dtype.hasobject:
+        return f"it holds Python objects ({dtype}), which are not read (no pickles)"
+    need = math.prod(int(n) for n in shape) * dtype.itemsize
+    if need > size - start:
+        return (f"its header declares shape {tuple(shape)} of {dtype.str}, {need} bytes of "
+                f"data, and the file holds {size - start}")
+    return f"{type(exc).__name__}: {exc}"[:500]
+
+
+def _pair(got: float, expected: float) -> tuple[str, str]:
+    """Two values as :func:`_fmt` writes them, or to 17 significant digits where that
+    would show them the same (an FMA or a float32 intermediate is off by less than the 6
+    decimals: "got 1673.000000, expected 1673.000000" showed nothing wrong, a QA of stop
+    42)."""
+    a, b = _fmt(got), _fmt(expected)
+    return (a, b) if a != b or got == expected else (f"{got:.17g}", f"{expected:.17g}")
 
 
 def _where(idx, names):
@@ -348,8 +388,9 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
             g, e = float(got[tuple(i)]), float(exp[tuple(i)])
             off = g - e
             steps = off / step
-            lines.append(f"{where}: got {_fmt(g)}, expected {_fmt(e)} (off by {off:.6g} = "
-                         + (f"{steps:.3f}" if abs(steps) < 1e7 else f"{steps:.6g}")
+            gs, es = _pair(g, e)
+            lines.append(f"{where}: got {gs}, expected {es} (off by {off:.6g} = "
+                         + (f"{steps:.3f}" if 1e-3 <= abs(steps) < 1e7 else f"{steps:.3g}")
                          + " grid steps)")
             if k == 0:
                 res["first_failure"] = {"frame": f, "marker": m,
@@ -548,11 +589,12 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
             return entry
         try:
             # mapped, not read: a huge output costs the runner no memory before its shape
-            # is compared
-            got = np.load(out, mmap_mode="r", allow_pickle=False)
+            # is compared; numpy's overflow warnings on a huge declared shape are its own
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")
+                got = np.load(out, mmap_mode="r", allow_pickle=False)
         except Exception as exc:  # any unreadable output is the decoder's failure
-            entry["message"] = (f"output is not a readable .npy file: {type(exc).__name__}: "
-                                f"{exc}"[:500])
+            entry["message"] = f"output is not a readable .npy file: {_npy_problem(out, exc)}"
             return entry
         if not isinstance(got, np.ndarray):     # np.load gives an NpzFile for a zip
             entry["message"] = "output is not a .npy file (a .npz archive?)"
@@ -774,6 +816,50 @@ def _command(text: str) -> list:
                         and not os.path.isabs(a) else a for a in argv[1:]]
 
 
+def _warn_if_nothing_decoded(results: list[dict[str, Any]]) -> None:
+    """Say so when a command meant to decode decoded none of the valid vectors: it may not
+    run at all (``python -m NAME`` finds no module from the temporary working directory),
+    and then its exits of 1 pass every invalid vector as a rejection (a QA of stop 42:
+    "277/277 invalid passed" for a command that never started)."""
+    valid = [r for r in results if r.get("expected") == "decode"]
+    if valid and not any(r["passed"] for r in valid):
+        said = printable(valid[0]["message"])[:300]
+        print(f"mpz-conformance: warning: the command decoded none of the {len(valid)} valid "
+              f"vector(s) (the first: {said}); check that it runs at all from a temporary "
+              "working directory (python -m NAME does not find a module beside you: give "
+              "its path): until it does, its rejections of invalid vectors prove nothing",
+              file=sys.stderr)
+
+
+class Stopped(BaseException):
+    """A SIGTERM or SIGHUP, raised in the main thread as KeyboardInterrupt is for SIGINT, so
+    that the runner kills the decoders it started before it ends: they run in their own
+    process groups, which no signal to the runner reaches (a CI job's timeout left hung
+    decoders behind; a QA of stop 42)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _stopped_by(*signums: int | None) -> Iterator[None]:
+    """Raise :class:`Stopped` on ``signums`` for the while (main thread only; elsewhere, and
+    where a signal does not exist, nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, _frame: object) -> None:
+        raise Stopped(signum)
+    before = {n: signal.signal(n, stop) for n in signums if n is not None}
+    try:
+        yield
+    finally:
+        for n, handler in before.items():
+            signal.signal(n, handler)
+
+
 @quiet_broken_pipe
 @reports_ctrl_c("mpz-conformance: interrupted")
 def main(argv: list[str] | None = None) -> int:
@@ -784,10 +870,13 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     from mpz.api import check_output, write_atomic
     try:
-        if not (math.isfinite(args.timeout) and args.timeout > 0) or args.jobs < 1 \
-                or not 0 <= args.memory <= MAX_MEMORY_MB:
-            raise UsageError(f"--timeout must be a finite number > 0, --jobs >= 1 and "
-                             f"--memory 0 .. {MAX_MEMORY_MB}")
+        if not (math.isfinite(args.timeout) and args.timeout > 0):
+            raise UsageError(f"--timeout must be a finite number > 0, got {args.timeout}")
+        if args.jobs < 1:
+            raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+        if not 0 <= args.memory <= MAX_MEMORY_MB:
+            raise UsageError(f"--memory must be 0 (no limit) .. {MAX_MEMORY_MB} MiB, got "
+                             f"{args.memory}")
         minor = VERSION_MINOR
         if args.implements is not None:
             if args.decoder is None:
@@ -805,11 +894,12 @@ def main(argv: list[str] | None = None) -> int:
         if args.decoder is not None:
             todo = mf.vectors(man, args.only)
             if args.only:
-                unknown = set(args.only) - {k for v in todo for k in
-                                            (v["name"], v["file"], Path(v["file"]).name,
-                                             v["group"])}
+                unknown = set(args.only) - {k for v in todo for k in mf.selectors(v)}
                 if unknown:
-                    raise UsageError(f"no vector named {', '.join(sorted(unknown))}")
+                    raise UsageError(f"no vector named {', '.join(sorted(unknown))} (names "
+                                     "as the runner prints them, v04-orders-residual-only, "
+                                     "valid/v04-orders-residual-only, a file name, or a "
+                                     "group)")
         else:
             todo = [(item, float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"]
@@ -860,10 +950,15 @@ def main(argv: list[str] | None = None) -> int:
             return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
     pool = ThreadPoolExecutor(max_workers=args.jobs)
     try:
-        results = list(pool.map(job, todo))          # every vector runs before reporting
-    except KeyboardInterrupt:
+        with _stopped_by(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+            results = list(pool.map(job, todo))      # every vector runs before reporting
+    except (KeyboardInterrupt, Stopped) as exc:
         STOP.set()                  # the running commands are killed, no other one starts
         pool.shutdown(wait=True, cancel_futures=True)
+        if isinstance(exc, Stopped):
+            print(f"mpz-conformance: stopped by {signal.Signals(exc.signum).name}",
+                  file=sys.stderr)
+            return 128 + exc.signum
         print("mpz-conformance: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     pool.shutdown()
@@ -890,6 +985,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else ""))
+    _warn_if_nothing_decoded(results)
     if args.results:
         doc = {"schema_version": RESULTS_SCHEMA_VERSION, "tool": "mpz-conformance",
                "mode": mode, "command": cmd, "vectors": str(vdir),

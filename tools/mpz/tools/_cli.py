@@ -14,7 +14,8 @@ code  meaning
       hold what it needs (spec §8, "Allocation failure"); not a verdict
 64    usage error: bad options or arguments (argparse's errors included)
 130   interrupted with Ctrl-C ("interrupted", no traceback, from the first import)
-143   terminated (SIGTERM) while writing an output
+143   terminated (SIGTERM) while writing an output; ``mpz-conformance``:
+      stopped by SIGTERM (129: SIGHUP), its decoders killed
 ====  ===================================================================
 
 Output piped into a command that stops reading (``mpzinfo -vv *.mpz | head``)
