@@ -72,6 +72,30 @@ def test_vv_prints_fields_with_offsets(files, capsys):
     assert "0x00014  frame_count = 120" in out.out
 
 
+def test_vv_shows_the_fields_the_grammar_adapts_as_stored():
+    """MNAM's front coding (shared, suffix) and HIER's weight codes were shown decoded
+    only (names, weights 1.0): an implementer could not follow a front-coding bug in the
+    dump (a QA of stop 42). Built here by hand: names "ab", "ac" -> (0, "ab"), (1, "c");
+    weight 1.0 is code 15 (w = (c + 1) / 16)."""
+    import mpz
+    from mpz.motion import Motion
+    m = Motion(np.zeros((3, 2, 3)), ["ab", "ac"], 10.0, "mm")
+    data = mpz.encode(m, max_error=1.0)
+    from mpz.tools.mpzinfo import inspect
+    info = inspect(data, "x.mpz")
+    mnam = next(c for c in info["chunks"] if c["type"] == "MNAM")
+    hier = next(c for c in info["chunks"] if c["type"] == "HIER")
+    names = mnam["stored"]["names"]
+    start = mnam["offset"] + 8                       # the payload after the 8-byte frame
+    assert [(e["shared"], bytes.fromhex(e["suffix"]["hex"])) for e in names] == \
+        [(0, b"ab"), (1, b"c")]
+    assert [e["at"] for e in names] == [start + 2, start + 2 + 1 + 1 + 2]  # u16 count
+    assert data[names[1]["at"]] == 1 and data[names[1]["at"] + 2:names[1]["at"] + 3] == b"c"
+    codes = [w for node in hier["stored"]["nodes"] for w in node["weights"]]
+    shown = [w for node in hier["fields"]["nodes"] for w in node["weights"]]
+    assert shown == [1.0] * len(codes) and codes == [15] * len(codes) and codes
+
+
 def test_json_schema(files, capsys):
     paths, _ = files
     code, out = run(capsys, mpzinfo.main, ["--json", str(paths["ok"]), str(paths["badcrc"])])

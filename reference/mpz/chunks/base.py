@@ -192,6 +192,55 @@ class Record:
         return out
 
 
+    @classmethod
+    def stored_fields(cls, payload: bytes) -> dict[str, Any]:
+        """The top-level fields that the grammar adapts (§4.2's front-coded names, §4.3's
+        weight codes) as they are stored, for ``mpzinfo -vv``: lists and dicts, each
+        struct of them with ``at``, its offset in the payload. Empty when no field is
+        adapted or the payload does not parse (the record's own checks say why)."""
+        named = [sc for sc in cls.GRAMMAR.subcons if sc.name and _adapts(sc)]
+        if not named:
+            return {}
+        try:
+            parsed = _stored(cls.GRAMMAR).parse(payload)
+        except _LAYOUT_ERRORS:
+            return {}
+        return {sc.name: _as_stored(parsed[sc.name]) for sc in named}
+
+
+def _adapts(c: construct.Construct) -> bool:
+    """Whether an Adapter lies anywhere in ``c``."""
+    if isinstance(c, construct.Adapter):
+        return True
+    inner = [*getattr(c, "subcons", ()), *([c.subcon] if hasattr(c, "subcon") else [])]
+    return any(_adapts(s) for s in inner)
+
+
+def _stored(c: construct.Construct) -> construct.Construct:
+    """``c`` without its adapters, each Struct beginning with ``at`` (its offset)."""
+    if isinstance(c, construct.Adapter):
+        return _stored(c.subcon)
+    if isinstance(c, construct.Renamed):
+        return construct.Renamed(_stored(c.subcon), newname=c.name, newdocs=c.docs)
+    if isinstance(c, construct.Struct):
+        return construct.Struct("at" / construct.Tell, *[_stored(s) for s in c.subcons])
+    if isinstance(c, construct.Array):
+        return construct.Array(c.count, _stored(c.subcon))
+    return c
+
+
+def _as_stored(v: Any) -> Any:
+    """A construct parse result as plain lists and dicts (no ``_io``), bytes as their
+    length and hex digits."""
+    if isinstance(v, dict):
+        return {k: _as_stored(x) for k, x in v.items() if not k.startswith("_")}
+    if isinstance(v, list):
+        return [_as_stored(x) for x in v]
+    if isinstance(v, bytes):
+        return {"bytes": len(v), "hex": v.hex()}
+    return v
+
+
 #: the exceptions construct reports a payload that does not fit its layout with
 _LAYOUT_ERRORS = (construct.ConstructError, UnicodeDecodeError, ValueError, OverflowError)
 

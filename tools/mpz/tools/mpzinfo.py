@@ -7,7 +7,9 @@ Default: one line per file (pngcheck style)::
 
 ``-v`` adds one line per chunk (type, offset, length, CRC ok or bad with the
 computed and stored values); ``-vv`` adds every field of every chunk with its
-byte offset; ``--json`` prints a versioned document (schema ``mpzinfo/1``).
+byte offset, and the fields the grammar decodes further (MNAM's front-coded names,
+HIER's weight codes) also as stored, one line per entry at its offset (``stored``
+in ``--json``); ``--json`` prints a versioned document (schema ``mpzinfo/1``).
 mpzinfo keeps going past a bad CRC and shows what can still be read; it also
 runs the full integer decoding (``--no-decode`` skips it) so that a file that
 cannot be decoded never passes.
@@ -88,6 +90,9 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
             base = (c.offset or 0) + 8      # scanned chunks always have an offset
             entry["field_offsets"] = {n: base + o for n, o in
                                       type(c.record).field_offsets(c.payload)}
+            stored = type(c.record).stored_fields(c.payload)
+            if stored:                      # MNAM's shared/suffix, HIER's weight codes
+                entry["stored"] = {n: _at_file(v, base) for n, v in stored.items()}
         info["chunks"].append(entry)
     errors = list(res.errors)
     warnings = list(res.warnings)
@@ -159,6 +164,28 @@ def summary_line(info: dict) -> str:
     return line
 
 
+def _at_file(v: Any, base: int) -> Any:
+    """:meth:`mpz.chunks.base.Record.stored_fields` with each ``at`` a file offset."""
+    if isinstance(v, dict):
+        return {k: (x + base if k == "at" else _at_file(x, base)) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_at_file(x, base) for x in v]
+    return v
+
+
+def _print_stored(c: dict, out) -> None:
+    """``-vv``: each struct of a field the grammar adapts, as stored, at its offset (the
+    decoded view alone hid MNAM's front coding and HIER's weight codes)."""
+    for name, items in c.get("stored", {}).items():
+        for i, item in enumerate(items if isinstance(items, list) else [items]):
+            if not isinstance(item, dict):
+                continue
+            parts = ", ".join(f"{k} = {json.dumps(jsonable(x))}" for k, x in item.items()
+                              if k != "at")
+            print(f"      0x{item['at']:05x}  {name}[{i}], as stored: {printable(parts)}",
+                  file=out)
+
+
 def _print_chunks(info: dict, verbose: int, out):
     for i, c in enumerate(info["chunks"]):
         crc = ("CRC ok" if c["crc_ok"] else
@@ -174,6 +201,7 @@ def _print_chunks(info: dict, verbose: int, out):
                 if len(text) > 100:
                     text = text[:97] + "..."
                 print(f"      {at}  {k} = {printable(text)}", file=out)
+            _print_stored(c, out)
     for w in info["warnings"]:
         print(f"  warning: {printable(w['message'])}", file=out)
     for e in info["errors"]:
