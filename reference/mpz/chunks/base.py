@@ -191,7 +191,6 @@ class Record:
             out.append((sc.name, int(start)))
         return out
 
-
     @classmethod
     def stored_fields(cls, payload: bytes) -> dict[str, Any]:
         """The top-level fields that the grammar adapts (§4.2's front-coded names, §4.3's

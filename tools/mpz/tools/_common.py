@@ -371,7 +371,8 @@ def is_folder_target(output: str | None) -> bool:
 
 @dataclass
 class Job:
-    """One input of a batch and where its output goes (None: a planning error).
+    """One input of a batch and where its output goes (None: a planning error that names
+    no output).
 
     ``make_folder``: a folder below ``-o FOLDER/`` that :func:`run_batch` creates before
     the job runs (``--mirror``), else None. A job with an ``error`` is not run; its
