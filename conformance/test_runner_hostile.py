@@ -428,3 +428,14 @@ def test_each_bad_option_is_named_alone(tmp_path, args, said):
     proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only", ONE,
                   *args)
     assert proc.returncode == 64 and said in proc.stderr, proc.stderr
+
+
+def test_a_crash_under_a_small_memory_limit_names_the_limit(tmp_path):
+    """Under --memory 1 a shell cannot even start and dies by SIGSEGV: the report said only
+    "killed by SIGSEGV". Below 64 MiB a crash names the limit; above, it does not."""
+    dec = script(tmp_path / "segv.sh", "#!/bin/sh\nkill -SEGV $$\n")
+    for memory, hinted in (("32", True), ("2048", False)):
+        proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD, "--memory", memory)
+        r = doc["results"][0]
+        assert r["actual"] == "crash", r
+        assert ("perhaps too little for the command to start" in r["message"]) == hinted, r

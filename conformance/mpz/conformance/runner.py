@@ -231,6 +231,10 @@ def _kill_group(proc: subprocess.Popen[bytes]) -> None:
         proc.kill()
 
 
+#: below this --memory (MiB), a crash is said to have perhaps come from the limit: a shell
+#: or a language runtime may need more address space than that to start at all
+SMALL_MEMORY_MB = 64
+
 #: exit statuses a shell reports for a child killed by a fatal signal (128 + N): a decoder
 #: run through a wrapper script that crashes exits with these, and they count as a crash
 SHELL_CRASH_CODES = {128 + int(getattr(signal, n)): n for n in (
@@ -559,7 +563,12 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
                 entry["message"] = why
             else:
                 limit = (f"{timeout:g} s" if kind == "timeout" else
-                         f"{memory_mb} MB" if kind == "memory" else "")
+                         f"{memory_mb} MB" if kind == "memory" else
+                         # a shell or runtime cannot start in a few MiB of address space:
+                         # it dies by a signal, which said nothing of the limit (QA, stop 42)
+                         f"--memory {memory_mb} MiB, perhaps too little for the command to "
+                         f"start" if kind == "crash" and memory_mb and memory_mb < SMALL_MEMORY_MB
+                         else "")
                 entry["message"] = (f"decoder {why}" + (f" (limit {limit})" if limit else "")
                                     + f"; expected it to {vec['expected']} this file"
                                     + (" with a clean non-zero exit: a crash, a hang or running "
