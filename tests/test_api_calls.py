@@ -7,10 +7,12 @@ import inspect
 import io
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import mpz
 from mpz.errors import EncoderError, InputFormatError
+from mpz.motion import Motion
 from mpz.synth import generate
 
 
@@ -119,3 +121,62 @@ def test_wrong_argument_types_are_named(tmp_path: Path) -> None:
     (tmp_path / "x.trc").mkdir()
     with pytest.raises(InputFormatError, match="a folder has that name"):
         mpz.io.write(m, tmp_path / "x.trc")
+
+
+# -- a QA of the Python API (stop 42) --------------------------------------------------------
+
+DOCUMENTED = ["mpz", "mpz.api", "mpz.io", "mpz.encoder", "mpz.decoder", "mpz.corpus",
+              "mpz.motion", "mpz.synth", "mpz.similarity", "mpz.metrics", "mpz.fisher",
+              "mpz.io._common", "mpz.io.bvh", "mpz.io.kinematics"]
+
+
+@pytest.mark.parametrize("name", DOCUMENTED)
+def test_the_docstring_examples_run_as_written(name):
+    """mpz.io's example printed the [] that write returns where it showed nothing: a
+    reader copying it saw a failure. Every public module's examples run."""
+    import doctest
+    import importlib
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+    assert result.failed == 0, result
+
+
+def test_a_motion_refuses_a_str_of_names_and_ragged_positions():
+    """Motion(..., "LFHD") had four markers L, F, H, D; ragged lists gave numpy's own
+    ValueError."""
+    from mpz.errors import MotionError
+    with pytest.raises(MotionError, match="names must be a sequence of str"):
+        Motion(np.zeros((2, 4, 3)), "LFHD", rate=100.0)
+    with pytest.raises(MotionError, match=r"shape \(frames, markers, 3\)"):
+        Motion([[[0.0, 0.0, 0.0]], [[0.0, 0.0]]], ["A"], rate=100.0)
+
+
+def test_besides_markers_checks_its_arguments_and_the_rate():
+    """channel_bounds of -1 or NaN made every channel 'differ', a str gave a TypeError deep
+    inside, None an AttributeError; a motion at half the rate came back 'same'."""
+    import dataclasses
+
+    from mpz.metrics import besides_markers
+    m = Motion(np.zeros((3, 2, 3)), ["A", "B"], rate=120.0)
+    for bad in ((-1.0, 1.0), (float("nan"), 1.0), ("1", 1.0), (1.0,)):
+        with pytest.raises(ValueError, match="channel_bounds must be two finite numbers"):
+            besides_markers(m, m, channel_bounds=bad)
+    with pytest.raises(TypeError, match="decoded must be an mpz.Motion"):
+        besides_markers(m, None)
+    assert besides_markers(m, m, channel_bounds=(0.0, 0.0)) == []
+    (rate,) = besides_markers(m, dataclasses.replace(m, rate=60.0))
+    assert (rate.name, rate.status, rate.detail) == ("rate", "differs", "60 Hz against 120 Hz")
+
+
+def test_bad_corpus_workers_and_a_str_of_mpz_bytes_are_refused_at_once(tmp_path):
+    """encode_corpus(workers=-1) waited 60 s, then blamed the memory limit; a file's bytes
+    decoded to str were taken for a path ('embedded null byte')."""
+    import time
+
+    from mpz.corpus import encode_corpus
+    t0 = time.monotonic()
+    with pytest.raises(ValueError, match="workers must be an int >= 0"):
+        encode_corpus([], tmp_path / "out", workers=-1)
+    assert time.monotonic() - t0 < 5
+    data = mpz.encode(Motion(np.zeros((2, 1, 3)), ["A"], rate=10.0), max_error=1.0)
+    with pytest.raises(TypeError, match="pass the MPZ data as bytes"):
+        mpz.decode(data.decode("latin-1"))

@@ -812,7 +812,22 @@ def test_a_text_file_cut_inside_its_last_line_is_said(tmp_path, ext, text, cut):
     p.write_text(text)
     assert "line break" not in read(p).metadata.get("warning", "")
     p.write_text(text[:-cut])                     # the last line's break (and last digit)
-    assert "does not end with a line break" in read(p).metadata["warning"]
+    m = read(p)
+    assert "does not end with a line break" in m.metadata["warning"]
+    if ext != ".bvh":
+        # ending inside a number, which may be cut, the last marker of the row (B's z "9"
+        # in the TRC; A's 3.2 of 3.25 in the CSV) is a gap, said, not a wrong value
+        p.write_text(text[:-1])
+        m = read(p)
+        j = m.n_markers - 1
+        assert not m.valid[-1, j] and np.isnan(m.positions[-1, j]).all()
+        assert f"marker {m.names[j]!r} at frame index {m.n_frames - 1} is taken as a gap" \
+            in m.metadata["warning"]
+        assert m.valid[0].all()                                 # the rows before: as read
+        p.write_text(text[:-1] + "\t")            # no break, but not inside a number
+        m = read(p)
+        assert "line break" in m.metadata["warning"] and "taken as a gap" not in \
+            m.metadata["warning"] and m.valid[-1, j]
 
 
 def test_wrong_argument_types_are_named(tmp_path):

@@ -199,6 +199,9 @@ def read_source(source: Source, *, limit: int = MAX_INPUT_BYTES) -> tuple[bytes,
         p = os.fspath(source)
         if not isinstance(p, str):
             raise TypeError("a path must be str or os.PathLike[str]")
+        if "\0" in p:         # a file's bytes decoded to str: os.open's "embedded null byte"
+            raise TypeError("a str is a path, and this one holds a NUL: pass the MPZ data as "
+                            "bytes (open the file in 'rb'), or its path")
         with open_regular(p) as fh:
             size = os.fstat(fh.fileno()).st_size
             if size > limit:

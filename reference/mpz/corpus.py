@@ -1262,6 +1262,10 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         (:data:`LOCK_NAME`), or Dask is missing or unreachable.
     """
     t0 = time.perf_counter()
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 0):
+        # -1 waited 60 s for a worker, then blamed the memory limit (a QA of stop 42)
+        raise ValueError(f"workers must be an int >= 0 (0: in this process), got {workers!r}")
     wall0 = time.time()
     index_dir = os.path.abspath(os.fspath(outdir))
     os.makedirs(index_dir, exist_ok=True)

@@ -123,7 +123,11 @@ class Motion:
 
     def __post_init__(self) -> None:
         valid_arg = cast("ArrayLike | None", self.valid)  # still the argument, see above
-        raw = np.asarray(self.positions)
+        try:
+            raw = np.asarray(self.positions)
+        except ValueError as exc:           # ragged nested lists: numpy's own wording
+            raise MotionError(f"positions must be an array of shape (frames, markers, 3): "
+                              f"{exc}") from None
         if raw.dtype.kind not in "fiu":    # complex lost its imaginary part, bool became 0/1
             raise MotionError(f"positions must be real numbers, got dtype {raw.dtype}")
         pos = np.asarray(raw, dtype=np.float64)
@@ -134,6 +138,9 @@ class Motion:
             raise MotionError("a motion needs at least one frame, got 0")
         if markers == 0:
             raise MotionError("a motion needs at least one marker, got 0")
+        if isinstance(self.names, (str, bytes)):   # list("LFHD") is four names, silently
+            raise MotionError(f"names must be a sequence of str (one per marker), got a "
+                              f"{type(self.names).__name__} {self.names!r:.60}")
         names = list(self.names)
         odd = next((n for n in names if not isinstance(n, str)), None)
         if odd is not None:               # str(b"x") is "b'x'": no silent conversion

@@ -24,8 +24,10 @@ Examples
 >>> from mpz.io import read, write
 >>> m = Motion(np.arange(6.0).reshape(2, 1, 3), ["A"], rate=100.0)
 >>> with tempfile.TemporaryDirectory() as d:
-...     write(m, os.path.join(d, "a.trc"))
+...     notes = write(m, os.path.join(d, "a.trc"))      # what the format drops: none here
 ...     back = read(os.path.join(d, "a.trc"))
+>>> notes
+[]
 >>> back.names, back.rate, back.units
 (['A'], 100.0, 'mm')
 
@@ -139,11 +141,14 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
         m = fn(path, rate=rate)
     else:
         m = fn(path)
-    if ext in (".trc", ".csv", ".bvh", ".amc") and not _ends_a_line(path):
+    last = _last_byte(path)
+    if ext in (".trc", ".csv", ".bvh", ".amc") and last not in (None, b"\n", b"\r"):
         # a text file cut in the middle of its last number reads as fewer digits (a QA
         # run); every writer of these formats, and every real file here, ends its lines
         _warn(m, "the file does not end with a line break: its last line may have been "
               "cut short (check that the file is complete)")
+        if ext in (".trc", ".csv") and last in b"0123456789.":
+            _gap_the_last_value(m)
     # file names that are not UTF-8 ('source', an AMC's 'asf'): MPZ's strings are UTF-8
     # (§4.11), and such a name made the encoder refuse the file
     for key, value in list(m.metadata.items()):
@@ -160,14 +165,29 @@ def _warn(m: Motion, note: str) -> None:
     m.metadata["warning"] = note if not old else f"{old}; {note}"
 
 
-def _ends_a_line(path: StrPath) -> bool:
-    """Whether a (non-empty) file's last byte ends a line."""
+def _last_byte(path: StrPath) -> bytes | None:
+    """A file's last byte (None: the file is empty)."""
     with open(path, "rb") as fh:
         fh.seek(0, os.SEEK_END)
         if fh.tell() == 0:
-            return True
+            return None
         fh.seek(-1, os.SEEK_END)
-        return fh.read(1) in (b"\n", b"\r")
+        return fh.read(1)
+
+
+def _gap_the_last_value(m: Motion) -> None:
+    """A TRC or CSV that ends inside a number: the number may have been cut ("726." of
+    "726.93756" read as 726.0, valid, a QA of stop 42), and it is the last coordinate of
+    the last marker present on the last row, so that sample becomes a gap, said."""
+    f = m.n_frames - 1
+    present = np.flatnonzero(m.valid[f])
+    if f < 0 or not present.size:
+        return
+    j = int(present[-1])
+    m.valid[f, j] = False
+    m.positions[f, j] = np.nan
+    _warn(m, f"the file ends inside a number, which may have been cut: marker "
+             f"{m.names[j]!r} at frame index {f} is taken as a gap")
 
 
 #: metadata keys the readers set to describe the source (mpz.io's readers), rebuilt when a

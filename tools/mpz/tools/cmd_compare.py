@@ -39,6 +39,7 @@ import os
 import numpy as np
 
 from mpz.errors import MotionError
+from mpz.metrics import RATE_TOLERANCE  # one tolerance for compare and metrics
 from mpz.tools._cli import count, print_json, printable
 from mpz.tools._common import check_plot, plot_format
 
@@ -146,8 +147,6 @@ def _decoded_asf(args: argparse.Namespace) -> tuple[str | None, bool, list[str]]
                                          "begins its name); --decoded-asf names another"]
 
 
-#: relative tolerance on two frame rates (a C3D stores its rate as a float32, a TRC as text)
-RATE_TOLERANCE = 1e-6
 
 
 def _label(path: str) -> str:
