@@ -644,6 +644,13 @@ def test_hierarchy_file_deeply_nested_bom_and_folder(tmp_path):
     m = mpz.Motion(np.zeros((3, 4, 3)), names, 100.0)
     with pytest.raises(EncoderError, match="is a folder"):
         build_hierarchy(m, tmp_path)
+    # a path that is not there: said so (it was "unknown hierarchy ...: expected one of")
+    for missing in (tmp_path / "none.json", str(tmp_path / "none.json"), "none.json",
+                    "sub/none"):
+        with pytest.raises(EncoderError, match="does not exist"):
+            build_hierarchy(m, missing)
+    with pytest.raises(EncoderError, match="unknown hierarchy 'tree'"):
+        build_hierarchy(m, "tree")                     # a name: the known names listed
 
 
 def test_two_subjects_are_not_called_a_missing_marker() -> None:

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -184,6 +185,10 @@ def _build(motion: Motion, names: Sequence[str], spec: str | Path | dict[str, An
         return read_hierarchy(spec, names)
     if isinstance(spec, (str, Path)) and Path(spec).is_dir():
         raise EncoderError(f"hierarchy {str(spec)!r} is a folder, not a JSON file")
+    if isinstance(spec, Path) or (isinstance(spec, str) and (
+            spec.lower().endswith(".json") or os.sep in spec or "/" in spec)):
+        # a path that is not there was "unknown hierarchy ...: expected one of [...]"
+        raise EncoderError(f"hierarchy file {str(spec)!r} does not exist")
     raise EncoderError(f"unknown hierarchy {spec!r}: expected one of "
                        f"{[m for m in METHODS if m != 'file']}, a dict or a JSON file path")
 
