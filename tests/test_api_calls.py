@@ -157,7 +157,7 @@ def test_besides_markers_checks_its_arguments_and_the_rate():
 
     from mpz.metrics import besides_markers
     m = Motion(np.zeros((3, 2, 3)), ["A", "B"], rate=120.0)
-    for bad in ((-1.0, 1.0), (float("nan"), 1.0), ("1", 1.0), (1.0,)):
+    for bad in ((-1.0, 1.0), (float("nan"), 1.0), ("1", 1.0), (1.0,), 1.0):
         with pytest.raises(ValueError, match="channel_bounds must be two finite numbers"):
             besides_markers(m, m, channel_bounds=bad)
     with pytest.raises(TypeError, match="decoded must be an mpz.Motion"):

@@ -23,10 +23,15 @@ if TYPE_CHECKING:
     from mpz.c3darchive import C3DArchive
 
 
-def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
+def _motions(original: object, decoded: object) -> None:
+    """Refuse what is not a Motion (an AttributeError deep inside, before)."""
     for what, m in (("original", original), ("decoded", decoded)):
-        if not isinstance(m, Motion):       # an AttributeError deep inside, before
+        if not isinstance(m, Motion):
             raise TypeError(f"{what} must be an mpz.Motion, got {type(m).__name__}")
+
+
+def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
+    _motions(original, decoded)
     if original.positions.shape != decoded.positions.shape:
         raise MotionError(f"shapes differ: {original.positions.shape} vs {decoded.positions.shape}")
     # the same sample of the same marker in the same unit, or the distance means nothing
@@ -158,11 +163,9 @@ def besides_markers(original: Motion, decoded: Motion, *,
     units), the largest error the decoded file's channel steps allow
     (:func:`mpz.skeleton.report`), when given.
     """
-    for what, m in (("original", original), ("decoded", decoded)):
-        if not isinstance(m, Motion):       # an AttributeError deep inside, before
-            raise TypeError(f"{what} must be an mpz.Motion, got {type(m).__name__}")
+    _motions(original, decoded)
     if channel_bounds is not None and not (
-            len(channel_bounds) == 2 and all(
+            isinstance(channel_bounds, (tuple, list)) and len(channel_bounds) == 2 and all(
                 isinstance(b, (int, float, np.integer, np.floating)) and not isinstance(b, bool)
                 and math.isfinite(b) and b >= 0 for b in channel_bounds)):
         raise ValueError(f"channel_bounds must be two finite numbers >= 0 (rotations in "
