@@ -177,6 +177,15 @@ def test_bad_corpus_workers_and_a_str_of_mpz_bytes_are_refused_at_once(tmp_path)
     with pytest.raises(ValueError, match="workers must be an int >= 0"):
         encode_corpus([], tmp_path / "out", workers=-1)
     assert time.monotonic() - t0 < 5
+    with pytest.raises(TypeError, match="jobs must be a sequence of"):
+        encode_corpus(str(tmp_path), tmp_path / "out", workers=0)       # a folder's name
+    with pytest.raises(TypeError, match="options must be EncodeOptions"):
+        encode_corpus([], tmp_path / "out", {"max_error": 1.0}, workers=0)  # type: ignore
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(EncoderError, match="not a folder"):
+        encode_corpus([], tmp_path / "afile", workers=0)
+    rep = encode_corpus(iter([]), tmp_path / "out", workers=0)      # an iterator: fine
+    assert rep.results == []
     data = mpz.encode(Motion(np.zeros((2, 1, 3)), ["A"], rate=10.0), max_error=1.0)
     with pytest.raises(TypeError, match="pass the MPZ data as bytes"):
         mpz.decode(data.decode("latin-1"))

@@ -1201,6 +1201,28 @@ NOT_UTF8 = ("its path is not UTF-8, and the index stores paths as UTF-8 text: re
             "or encode it alone (mpz encode FILE -o OUT.mpz)")
 
 
+def _check_corpus_arguments(jobs: Sequence[Any], outdir: str | os.PathLike[str],
+                            options: Any, workers: int | None) -> None:
+    """Refuse :func:`encode_corpus` arguments of the wrong kind at once, naming them (a QA
+    of stop 42: workers=-1 waited 60 s and blamed the memory limit; options as a dict
+    gave "'dict' object is not callable"; jobs as a folder's name "not enough values to
+    unpack"; an outdir that is a file os.makedirs' FileExistsError)."""
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 0):
+        raise ValueError(f"workers must be an int >= 0 (0: in this process), got {workers!r}")
+    if isinstance(jobs, (str, bytes, os.PathLike)) or not all(
+            isinstance(j, (tuple, list)) and len(j) == 2 for j in jobs):
+        raise TypeError("jobs must be a sequence of (source, output) pairs, such as "
+                        "mirror_jobs(folder, outdir) gives")
+    if not isinstance(options, (EncodeOptions, FileOptions)) and not callable(options):
+        raise TypeError(f"options must be EncodeOptions, a FileOptions or a function of the "
+                        f"units giving EncodeOptions, got {type(options).__name__}")
+    folder = os.fspath(outdir)
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise EncoderError(f"{folder}: not a folder; outdir holds the outputs and "
+                           "index.sqlite")
+
+
 def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike[str]]],
                   outdir: str | os.PathLike[str],
                   options: EncodeOptions | OptionsFor | FileOptions = DEFAULTS, *,
@@ -1262,10 +1284,9 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         (:data:`LOCK_NAME`), or Dask is missing or unreachable.
     """
     t0 = time.perf_counter()
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 0):
-        # -1 waited 60 s for a worker, then blamed the memory limit (a QA of stop 42)
-        raise ValueError(f"workers must be an int >= 0 (0: in this process), got {workers!r}")
+    if not isinstance(jobs, (str, bytes, os.PathLike)):
+        jobs = list(jobs)                   # a generator: checked, then used, once
+    _check_corpus_arguments(jobs, outdir, options, workers)
     wall0 = time.time()
     index_dir = os.path.abspath(os.fspath(outdir))
     os.makedirs(index_dir, exist_ok=True)
