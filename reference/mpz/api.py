@@ -306,26 +306,29 @@ def _immutable(path: str) -> bool:
 
 
 @contextlib.contextmanager
-def _sigterm_raises() -> Iterator[None]:
-    """While an output is written, SIGTERM raises ``SystemExit(143)`` so cleanup code runs.
+def signals_exit(*signums: int | None) -> Iterator[None]:
+    """While the block runs, each of ``signums`` (SIGTERM, SIGHUP; None is skipped, for a
+    signal the platform lacks) raises ``SystemExit(128 + signum)``, so that cleanup code
+    runs: a temporary output is removed, the commands a runner started are killed.
 
-    Only where SIGTERM still has its default action and only in the main
-    thread (the only one Python lets set handlers); the old handler comes back
-    afterwards. SIGINT needs nothing: it already raises KeyboardInterrupt.
+    Only for a signal that still has its default action, and only in the main thread
+    (the only one Python lets set handlers); the old handlers come back afterwards.
+    SIGINT needs nothing: it already raises KeyboardInterrupt.
     """
-    if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL):
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def terminate(signum: int, frame: FrameType | None) -> None:
         raise SystemExit(128 + signum)
 
-    old = signal.signal(signal.SIGTERM, terminate)
+    old = {n: signal.signal(n, terminate) for n in signums
+           if n is not None and signal.getsignal(n) is signal.SIG_DFL}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for n, handler in old.items():
+            signal.signal(n, handler)
 
 
 @contextlib.contextmanager
@@ -442,7 +445,7 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
       :class:`~mpz.errors.EncoderError` "exists; use --force".
     * With ``force`` an existing file is replaced and keeps its mode; a new
       file gets mode 0o666 minus the umask.
-    * On any exception, and on SIGTERM (see :func:`_sigterm_raises`), the
+    * On any exception, and on SIGTERM (see :func:`signals_exit`), the
       temporary file is removed. An ``OSError`` becomes ``EncoderError``
       naming ``path`` (never the temporary name).
 
@@ -461,7 +464,7 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     folder = os.path.dirname(os.path.abspath(target))
     name = os.path.basename(target)
     ext = os.path.splitext(name)[1] if suffix is None else suffix
-    with _sigterm_raises():
+    with signals_exit(signal.SIGTERM):
         tmp: str | None = None
         try:
             with _signals_held():

@@ -298,6 +298,15 @@ def _fmt(v: float) -> str:
     return f"{v:.6f}" if abs(v) < 1e7 else f"{v:.6g}"
 
 
+@contextlib.contextmanager
+def _numpy_quiet() -> Iterator[None]:
+    """numpy's warnings off for the while: reading a decoder's OUT.npy whose header
+    declares a huge shape printed its overflow warnings on the runner's stderr."""
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        yield
+
+
 def _npy_problem(path: Path, exc: Exception) -> str:
     """What is wrong with a decoder's ``OUT.npy`` that numpy could not load, in the terms
     of the format: numpy's own messages misled (a text file "contains pickled (object)
@@ -310,8 +319,7 @@ def _npy_problem(path: Path, exc: Exception) -> str:
                 return "it does not begin with the NPY magic \\x93NUMPY"
             fh.seek(0)
             version = fmt.read_magic(fh)
-            with warnings.catch_warnings(), np.errstate(all="ignore"):
-                warnings.simplefilter("ignore")
+            with _numpy_quiet():
                 shape, _, dtype = (fmt.read_array_header_1_0(fh) if version == (1, 0)
                                    else fmt.read_array_header_2_0(fh))
             start = fh.tell()
@@ -599,8 +607,7 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
         try:
             # mapped, not read: a huge output costs the runner no memory before its shape
             # is compared; numpy's overflow warnings on a huge declared shape are its own
-            with warnings.catch_warnings(), np.errstate(all="ignore"):
-                warnings.simplefilter("ignore")
+            with _numpy_quiet():
                 got = np.load(out, mmap_mode="r", allow_pickle=False)
         except Exception as exc:  # any unreadable output is the decoder's failure
             entry["message"] = f"output is not a readable .npy file: {_npy_problem(out, exc)}"
@@ -840,35 +847,6 @@ def _warn_if_nothing_decoded(results: list[dict[str, Any]]) -> None:
               file=sys.stderr)
 
 
-class Stopped(BaseException):
-    """A SIGTERM or SIGHUP, raised in the main thread as KeyboardInterrupt is for SIGINT, so
-    that the runner kills the decoders it started before it ends: they run in their own
-    process groups, which no signal to the runner reaches (a CI job's timeout left hung
-    decoders behind; a QA of stop 42)."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signum)
-        self.signum = signum
-
-
-@contextlib.contextmanager
-def _stopped_by(*signums: int | None) -> Iterator[None]:
-    """Raise :class:`Stopped` on ``signums`` for the while (main thread only; elsewhere, and
-    where a signal does not exist, nothing changes)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def stop(signum: int, _frame: object) -> None:
-        raise Stopped(signum)
-    before = {n: signal.signal(n, stop) for n in signums if n is not None}
-    try:
-        yield
-    finally:
-        for n, handler in before.items():
-            signal.signal(n, handler)
-
-
 @quiet_broken_pipe
 @reports_ctrl_c("mpz-conformance: interrupted")
 def main(argv: list[str] | None = None) -> int:
@@ -877,7 +855,7 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:          # 0 for --help and --version, 64 for usage errors
         return int(exc.code or 0)
-    from mpz.api import check_output, write_atomic
+    from mpz.api import check_output, signals_exit, write_atomic
     try:
         if not (math.isfinite(args.timeout) and args.timeout > 0):
             raise UsageError(f"--timeout must be a finite number > 0, got {args.timeout}")
@@ -959,15 +937,19 @@ def main(argv: list[str] | None = None) -> int:
             return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
     pool = ThreadPoolExecutor(max_workers=args.jobs)
     try:
-        with _stopped_by(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+        # SIGTERM (a CI job's timeout) and SIGHUP raise SystemExit here, as Ctrl-C raises
+        # KeyboardInterrupt: the decoders run in their own process groups, which no signal
+        # to the runner reaches, and were left running (a QA of stop 42)
+        with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
             results = list(pool.map(job, todo))      # every vector runs before reporting
-    except (KeyboardInterrupt, Stopped) as exc:
+    except (KeyboardInterrupt, SystemExit) as exc:
         STOP.set()                  # the running commands are killed, no other one starts
         pool.shutdown(wait=True, cancel_futures=True)
-        if isinstance(exc, Stopped):
-            print(f"mpz-conformance: stopped by {signal.Signals(exc.signum).name}",
+        if isinstance(exc, SystemExit):
+            code = int(exc.code or 0)
+            print(f"mpz-conformance: stopped by {signal.Signals(code - 128).name}",
                   file=sys.stderr)
-            return 128 + exc.signum
+            return code
         print("mpz-conformance: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     pool.shutdown()

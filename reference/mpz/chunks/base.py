@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, fields
+import functools
 import re
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
 
@@ -197,14 +198,23 @@ class Record:
         weight codes) as they are stored, for ``mpzinfo -vv``: lists and dicts, each
         struct of them with ``at``, its offset in the payload. Empty when no field is
         adapted or the payload does not parse (the record's own checks say why)."""
-        named = [sc for sc in cls.GRAMMAR.subcons if sc.name and _adapts(sc)]
+        named, grammar = _stored_grammar(cls.GRAMMAR)
         if not named:
             return {}
         try:
-            parsed = _stored(cls.GRAMMAR).parse(payload)
+            parsed = grammar.parse(payload)
         except _LAYOUT_ERRORS:
             return {}
-        return {sc.name: _as_stored(parsed[sc.name]) for sc in named}
+        return {name: _as_stored(parsed[name]) for name in named}
+
+
+@functools.cache
+def _stored_grammar(grammar: construct.Construct) -> tuple[tuple[str, ...],
+                                                           construct.Construct]:
+    """The names of ``grammar``'s adapted top-level fields, and the grammar without its
+    adapters (:func:`_stored`): built once per chunk type, not per chunk shown."""
+    named = tuple(sc.name for sc in grammar.subcons if sc.name and _adapts(sc))
+    return named, _stored(grammar)
 
 
 def _adapts(c: construct.Construct) -> bool:

@@ -179,9 +179,9 @@ def _gap_the_last_value(m: Motion) -> None:
     """A TRC or CSV that ends inside a number: the number may have been cut ("726." of
     "726.93756" read as 726.0, valid, a QA of stop 42), and it is the last coordinate of
     the last marker present on the last row, so that sample becomes a gap, said."""
-    f = m.n_frames - 1
+    f = m.n_frames - 1                       # a Motion has at least one frame
     present = np.flatnonzero(m.valid[f])
-    if f < 0 or not present.size:
+    if not present.size:
         return
     j = int(present[-1])
     m.valid[f, j] = False
