@@ -347,14 +347,14 @@ def test_a_signal_delivered_to_another_thread_waits_for_the_held_region() -> Non
     the signal act when it ends."""
     import threading
 
-    from mpz.api import _signals_held, _sigterm_raises
+    from mpz.api import _signals_held, signals_exit
     go = threading.Event()
     # made before the region, so this thread does not inherit the blocked mask
     killer = threading.Thread(target=lambda: (go.wait(10), os.kill(os.getpid(), signal.SIGTERM)))
     killer.start()
     finished = []
     with pytest.raises(SystemExit) as exc:
-        with _sigterm_raises():
+        with signals_exit(signal.SIGTERM):
             with _signals_held():
                 go.set()
                 killer.join()
