@@ -179,8 +179,8 @@ def test_declared_range_names_the_first_node_out_of_range(name, layer):
 # ----------------------------------------------------- the other 1.0.1 rejections --
 #: name -> (class, §, chunk, which chunk of that type holds the offset)
 REJECTED = {
-    "x63-meta-value-surrogate": (FormatError, "§4", "meta", None),
-    "x64-meta-value-overlong-nul": (FormatError, "§4", "meta", None),
+    "x63-meta-value-surrogate": (FormatError, "§4.11", "meta", None),
+    "x64-meta-value-overlong-nul": (FormatError, "§4.11", "meta", None),
     "x65-smry-starts-not-at-0": (FormatError, "§4.10", "smry", 0),
     "x66-smry-starts-repeated": (FormatError, "§4.10", "smry", 0),
     "x67-smry-last-start-at-f": (FormatError, "§4.10", "smry", 0),
@@ -194,7 +194,7 @@ REJECTED = {
     "x75-keyframe-value-2pow32-minus-2": (FormatError, "§6.5", "RESI", 1),
     "x76-patt-samples-2pow32": (LimitExceededError, "§8", "PATT", 0),
     "x77-patt-samples-2pow40": (LimitExceededError, "§8", "PATT", 0),
-    "x78-smry-4kd-wraps-32-bits": (FormatError, "§4", "smry", None),
+    "x78-smry-4kd-wraps-32-bits": (FormatError, "§4.10", "smry", None),
     "x79-root-order2-difference-2pow32": (FormatError, "§6.2", "ROOT", 0),
     "x80-keyframe-prediction-2pow47": (FormatError, "§6.5", "RESI", 0),
     "x81-patt-left-out-without-residual-flag": (FormatError, "§3.4", "MEND", 0),
@@ -211,6 +211,44 @@ def test_101_vector_is_rejected_where_the_spec_says(name):
     start = _chunk_offset(data, ctype, n or 0)
     # a payload that does not fit its layout is located at the payload (§3.2, §4)
     assert exc.offset == (start + 8 if n is None else start), str(exc)
+
+
+#: §4.1's table: (offset, width, field) of MHDR's 31 bytes
+MHDR_FIELDS = [(0, 1, "version_major"), (1, 1, "version_minor"), (2, 2, "flags"),
+               (4, 4, "frame_count"), (8, 2, "marker_count"), (10, 2, "node_count"),
+               (12, 8, "rate"), (20, 1, "units"), (21, 1, "error_metric"),
+               (22, 8, "error_bound"), (30, 1, "smoothing")]
+
+
+def _with_payload(data: bytes, ctype: str, change) -> bytes:
+    return container.build([(c.type, change(c.payload) if c.type == ctype else c.payload)
+                            for c in container.parse(data)])
+
+
+@pytest.mark.parametrize("cut", range(31))
+def test_short_payload_names_the_field_it_ends_inside(cut):
+    """§3.2/§4: an MHDR cut to ``cut`` bytes is rejected under §4.1, naming the field of
+    §4.1's table that the payload ends inside, its width and the bytes left of it."""
+    offset, width, field = next(f for f in MHDR_FIELDS if f[0] <= cut < f[0] + f[1])
+    exc = _reject(_with_payload(_vector("v01-walk-bounded-1mm"), "MHDR", lambda p: p[:cut]))
+    assert (type(exc), exc.section, exc.chunk, exc.offset) == (FormatError, "§4.1", "MHDR",
+                                                              8 + 8), str(exc)
+    need = f"{width} byte{'s' if width > 1 else ''} needed"
+    assert f"ends inside field '{field}': {need}, {cut - offset} left" in exc.message
+
+
+@pytest.mark.parametrize("ctype,section", [("MHDR", "§4.1"), ("QUNT", "§4.4"),
+                                           ("MEND", "§4.12")])
+def test_payload_longer_than_its_layout_says_so(ctype, section):
+    exc = _reject(_with_payload(_vector("v01-walk-bounded-1mm"), ctype, lambda p: p + b"\0"))
+    assert (type(exc), exc.section, exc.chunk) == (FormatError, section, ctype), str(exc)
+    assert "left after the last field" in exc.message
+
+
+def test_string_not_utf8_names_its_bytes():
+    exc = _reject(_vector("x64-meta-value-overlong-nul"))
+    assert "not valid UTF-8" in exc.message and "b'\\xc0\\x80'" in exc.message
+    assert "construct" not in exc.message and "cannot use encoding" not in exc.message
 
 
 def test_layer_range_tests_the_unscaled_value_first():

@@ -145,14 +145,15 @@ class Record:
 
     @classmethod
     def load(cls: type[R], payload: bytes) -> R:
-        """Parse a payload. Raises FormatError (§4) for bytes that do not fit the layout."""
+        """Parse a payload. Raises FormatError, under the chunk's own § (its layout), for
+        bytes that do not fit the layout."""
         try:
             parsed = _parse.parse(cls.GRAMMAR, payload)
         except _LAYOUT_ERRORS as exc:
             # construct reports layout problems with these; translated here, at the one
             # boundary between the grammar and the rest of the decoder
-            raise FormatError(f"malformed {cls.TYPE} payload: {_short(exc)}",
-                              chunk=cls.TYPE, section="§4") from None
+            raise FormatError(f"malformed {cls.TYPE} payload: {_layout_problem(exc)}",
+                              chunk=cls.TYPE, section=cls.SECTION) from None
         return cls.from_parsed(parsed)
 
     def dump(self) -> bytes:
@@ -269,6 +270,36 @@ def _field_names(cls: type[Record]) -> tuple[str, ...]:
 #: a bytes literal in a message, and a number of many digits (construct quotes both)
 _BYTES_LITERAL = re.compile(r"b'(?:[^'\\]|\\.)*'" + r'|b"(?:[^"\\]|\\.)*"')
 _LONG_NUMBER = re.compile(r"\d{25,}")
+
+
+#: construct's path to the field it was reading ("Error in path (parsing) -> a -> a -> b")
+_PATH = re.compile(r"Error in path \(parsing\)((?: -> [^\n]*)?)")
+_SHORT_READ = re.compile(r"stream read less than specified amount, expected (\d+), found (\d+)")
+
+
+def _layout_problem(exc: BaseException) -> str:
+    """What construct's error says about the payload, in the spec's terms: the field where
+    the payload ends (construct's path, each name once: it names a field and then its
+    subconstruct), bytes left after the last field, or a string that is not UTF-8; its
+    other messages (the grammar's own checks among them) as they are, shortened."""
+    text = str(exc)
+    path = _PATH.search(text)
+    names = [] if path is None else [n for n in path.group(1).split(" -> ") if n]
+    field = ".".join(n for i, n in enumerate(names) if i == 0 or n != names[i - 1])
+    short = _SHORT_READ.search(text)
+    if short is not None:
+        need, left = int(short.group(1)), int(short.group(2))
+        need_text = (f"{need} byte{'s' if need != 1 else ''}" if need < 10 ** 25 else
+                     f"<a {len(short.group(1))}-digit number of> bytes")
+        where = f"field '{field}'" if field else "a field"
+        return f"the payload ends inside {where}: {need_text} needed, {left} left"
+    if isinstance(exc, construct.TerminatedError):
+        return "bytes are left after the last field of the layout"
+    if isinstance(exc, construct.StringError) and "decode" in text:
+        stored = _BYTES_LITERAL.search(_short(exc))
+        return (f"a string{f' ({field})' if field else ''} is not valid UTF-8"
+                + (f": {stored.group(0)}" if stored else ""))
+    return _short(exc)
 
 
 def _short(exc: BaseException) -> str:
