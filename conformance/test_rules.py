@@ -77,6 +77,13 @@ def test_manifest_names_only_rules_of_the_spec():
     assert named - set(KIND) == set()
 
 
+def test_every_decodable_vector_probes_a_rule():
+    """A decodable vector with no rule tells an implementer nothing about what it tests
+    (v13-smrc-positions had none: it is a marker file like the others, with smrc)."""
+    missing = [v["name"] for v in MAN["vectors"] if v["expected"] == "decode" and not v["rules"]]
+    assert not missing
+
+
 def test_every_invalid_vector_probes_a_reject_rule():
     missing = [v["name"] for v in INVALID if not any(KIND.get(r) == "reject" for r in v["rules"])]
     assert not missing

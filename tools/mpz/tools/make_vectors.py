@@ -1942,7 +1942,7 @@ def _rules(*pairs) -> dict:
 _DECODABLE_BASICS = ("walk-bounded-1mm jump-lossy-gaps wave-bounded-2mm-summary "
                      "orders-residual-only patterns-scale3-lossy-cm "
                      "patterns-residual-g2-smooth4-m absolute-residual-base1-g3-in "
-                     "units-unknown-meta-smry all-chunk-types spec-example")
+                     "units-unknown-meta-smry all-chunk-types spec-example smrc-positions")
 
 #: rule (spec §7.4) -> the vectors that probe it, by slug; make_vectors writes each vector's
 #: ``rules`` from this table, and conformance/test_rules.py checks it against the spec
