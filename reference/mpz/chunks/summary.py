@@ -157,11 +157,8 @@ class Smrc(Record):
     coded: bytes
 
     def check_header(self, ctx: Context) -> None:
-        """The rules of §4.15 that come before the coded field is decoded (§1.1)."""
-        n = sum(ctx.types.count(t) for t in SUMMARY_TYPES)
-        if n > 1:
-            _fail(f"a file holds at most one summary chunk (smry or smrc); this one has {n}",
-                  "§3.4")
+        """The rules of §4.15 that come before the coded field is decoded (§1.1). At most
+        one summary chunk (R-4.15-1) is the chunk walk's rule, checked in decoder.py."""
         F, M = ctx.header.frame_count, ctx.header.marker_count
         if self.space not in set(SummarySpace):
             _fail(f"unknown summary space {self.space}", "§4.15")
