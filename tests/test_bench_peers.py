@@ -1,0 +1,81 @@
+"""The benchmarks' error-bounded peers (``bench/peers.py``) give back every valid sample
+within their bound, and the gaps where the source has them: a peer that broke its bound
+would make MPZ look worse than it is, one that dropped the gaps better than it is.
+
+``bench/peers.py`` is loaded from its path (as tests/test_fisher.py loads baselines.py);
+the peers need the ``bench`` extra (zstandard, pysz) and are skipped without it.
+"""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+import sys
+
+import numpy as np
+import pytest
+
+from mpz.synth import generate
+
+pytest.importorskip("zstandard", reason="the bench extra is not installed")
+
+
+def _load_peers():
+    bench = Path(__file__).resolve().parents[1] / "bench"
+    spec = importlib.util.spec_from_file_location("mpz_bench_peers", bench / "peers.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+peers = _load_peers()
+
+
+def _motion_with_gaps():
+    m = generate("walk", frames=150, markers=12, seed=7)
+    m.valid[40:55, 3] = False          # a gap inside, one at the start, one marker at the end
+    m.valid[:10, 5] = False
+    m.valid[140:, 11] = False
+    m.positions[~m.valid] = np.nan
+    return m
+
+
+def _check(m, back, E):
+    assert back.shape == m.positions.shape
+    assert np.array_equal(np.isnan(back).any(-1), ~m.valid)      # the gaps, and only them
+    d = np.linalg.norm(back[m.valid] - m.positions[m.valid], axis=-1)
+    assert d.max() <= E
+    assert d.max() > E / 10            # a lossy peer at this bound does use it
+
+
+@pytest.mark.parametrize("E", [0.5, 2.0])
+def test_qpz_keeps_its_bound_and_the_gaps(E):
+    m = _motion_with_gaps()
+    enc, dec = peers.qpz_codec(m, E)
+    _check(m, dec(enc()), E)
+
+
+@pytest.mark.parametrize("layout", peers.SZ3_LAYOUTS)
+def test_each_sz3_layout_keeps_its_bound_and_the_gaps(layout):
+    pytest.importorskip("pysz", reason="pysz (SZ3) is not installed")
+    m = _motion_with_gaps()
+    enc, dec = peers.sz3_one(m, 1.0, layout, "LORENZO_REG")
+    _check(m, dec(enc()), 1.0)
+
+
+def test_sz3_best_is_the_smallest_configuration():
+    pytest.importorskip("pysz", reason="pysz (SZ3) is not installed")
+    m = _motion_with_gaps()
+    (enc, dec), name, size = peers.sz3_codec(m, 1.0)
+    assert len(enc()) == size
+    sizes = [len(peers.sz3_one(m, 1.0, lay, alg)[0]())
+             for lay in peers.SZ3_LAYOUTS for alg in peers.SZ3_ALGORITHMS]
+    assert size == min(sizes), name
+    _check(m, dec(enc()), 1.0)
+
+
+def test_a_missing_peer_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "pysz", None)           # import pysz raises ImportError
+    with pytest.raises(peers.PeerMissing, match=r"\[bench\]"):
+        peers.sz3_one(_motion_with_gaps(), 1.0, "F,M,3", "INTERP")
