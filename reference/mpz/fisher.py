@@ -556,8 +556,9 @@ def motion_series(motion: Motion, space: str = "positions",
     """
     if space == "angles":
         if getattr(motion, "angles", None) is None:
-            raise EncoderError("this motion has no joint angles (space='angles' needs skeletal "
-                               "input such as AMC/ASF or BVH); use space='positions'")
+            # worded for both callers: space="angles" in Python, --space angles in the CLI
+            raise EncoderError("this motion has no joint angles: the angles space needs "
+                               "skeletal input (AMC/ASF or BVH); use the positions space")
         ang = np.asarray(motion.angles, dtype=np.float64)
         if not np.all(np.isfinite(ang)):
             raise EncoderError("joint angles contain NaN or inf")
