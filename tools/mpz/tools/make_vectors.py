@@ -847,7 +847,8 @@ def spec_example(vs: VectorSet):
     vs.valid("valid", "spec-example", p.read_bytes(),
              "the worked example of spec Appendix A: 3 frames, 2 markers, one gap, one pattern "
              "stretched from 2 to 3 frames, residual layer", {}, ["§5.7"],
-             "python -m mpz.tools.spec_example (not written by make_vectors)",
+             "python -m mpz.tools.spec_example conformance/vectors/spec-example.mpz "
+             "(not written by make_vectors)",
              file=mf.SPEC_EXAMPLE)
 
 
@@ -991,7 +992,7 @@ def invalid_vectors(vs: VectorSet):
         "FormatError", ["§4.1"])
     add("frames-x-markers-over-limit", assemble(_with_field(base, "MHDR", frame_count=1 << 24,
                                                             marker_count=4096, node_count=3)),
-        "a 400-byte file declaring 2^24 frames x 4096 markers",
+        "a 632-byte file declaring 2^24 frames x 4096 markers",
         "MHDR frame_count = 2^24, marker_count = 4096",
         "allocating [F, M, 3] float64 up front (1.6 TB) before reading any data",
         "LimitExceededError", ["§4.1", "§8"])
