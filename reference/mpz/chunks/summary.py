@@ -64,7 +64,8 @@ def overlap_prediction(starts: IntArray, source_q: IntArray, source_starts: IntA
     acc = np.zeros((starts.shape[0], source_q.shape[1]), np.int64)
     np.add.at(acc, j, source_q[i] * widths[:, None])
     n = np.diff(np.append(starts, frames))[:, None]
-    return (2 * acc + n) // (2 * n)
+    out: IntArray = (2 * acc + n) // (2 * n)
+    return out
 
 
 def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
