@@ -358,6 +358,19 @@ def test_a_trc_from_bvh_never_has_an_empty_units_field(inputs: dict[str, Path],
         assert not (tmp_path / "arm.trc").exists()
 
 
+def test_options_that_exclude_each_other_are_usage_errors(inputs: dict[str, Path],
+                                                          tmp_path: Path) -> None:
+    """README: options that exclude each other exit 64, judged before any input is read.
+    --lossy with --group-error exited 2, an input error (a QA reader of the docs)."""
+    for opt in (["--lossy", "--max-error", "1mm"], ["--lossy", "--group-error", "l_foot=1mm"]):
+        p = run(["mpz", "encode", "missing.c3d", "-o", "x.mpz", *opt], tmp_path)
+        assert p.returncode == 64, (opt, p.stderr)
+        assert b"lossy" in p.stderr and b"missing.c3d" not in p.stderr
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "x.mpz", "--max-error", "1mm",
+             "--group-error", "l_foot=0.5mm"], tmp_path)
+    assert p.returncode == 0, p.stderr                    # bounds given together: fine
+
+
 # -- 9. option errors --------------------------------------------------------------------------
 
 def test_option_errors_come_from_the_subcommand_with_a_hint(inputs: dict[str, Path],

@@ -685,3 +685,20 @@ def test_compare_says_whether_a_trcs_header_fields_came_back(walk, tmp_path, cap
     (got,) = besides_markers(m, dataclasses.replace(m, metadata={**m.metadata,
                                                                  "source": "other.trc"}))
     assert got.status == "same"                     # the name of the file read: not content
+
+
+def test_compare_top_0_lists_every_marker(capsys, tmp_path):
+    """--top's help says 0 lists them all (as mpz search -n 0): it listed none (a QA run)."""
+    m = generate("walk", frames=40, markers=6, seed=3)
+    src = tmp_path / "w.npy"
+    write(m, src)
+    back = m.positions.copy()
+    back[:, 2, 0] += np.linspace(0, 0.5, 40)              # marker 2 the worst
+    np.save(tmp_path / "b.npy", back)
+    code, out, _ = cli(capsys, "compare", src, tmp_path / "b.npy", "--top", "0")
+    rows = out.split("marker            max        RMS\n")[1].splitlines()
+    listed = [r.split()[0] for r in rows if r.startswith("  ") and len(r.split()) == 3]
+    assert len(listed) == 6 and listed[0] == "M2", out   # an NPY's markers are M0, M1...
+    code, out, _ = cli(capsys, "compare", src, tmp_path / "b.npy", "--top", "1")
+    rows = out.split("marker            max        RMS\n")[1].splitlines()
+    assert [r.split()[0] for r in rows if len(r.split()) == 3][:1] == ["M2"]

@@ -60,14 +60,16 @@ def add_parser(sub):
                    "with a note that its skeleton is then not checked)")
     p.add_argument("--json", action="store_true",
                    help="print the statistics as one JSON document (strict: null for NaN)")
-    p.add_argument("--top", type=count, default=10, help="markers to list, worst first")
+    p.add_argument("--top", type=count, default=10, help="markers to list, worst first "
+                   "(default 10; 0 for all)")
     p.add_argument("--plot", metavar="PNG", help="plot the error over time of the worst "
                    "markers, with the bound as a line (needs matplotlib)")
     p.add_argument("--marker", action="append", help="marker(s) to plot instead of the worst")
     p.add_argument("-f", "--force", action="store_true", help="replace the --plot file if it "
                    "exists")
-    p.add_argument("--bound", metavar="E", help="bound to draw, with a unit (default: the one "
-                   "declared in an .mpz input)")
+    p.add_argument("--bound", metavar="E", help="bound to draw on --plot, with a unit (default: "
+                   "the one declared in an .mpz input); drawn only: the check is against the "
+                   "bound an .mpz declares")
     p.set_defaults(func=run)
 
 
@@ -311,7 +313,7 @@ def run(args: argparse.Namespace) -> int:
                      f"the first {printable(check['first']['marker'])!r} at frame index "
                      f"{check['first']['frame']} ({check['first']['error']:.4g}{u})"))
         print("  marker            max        RMS")
-        for v, n in worst[: args.top]:
+        for v, n in worst[: args.top or None]:                  # --top 0: every marker
             rms = s["per_marker_rms"][n]
             print(f"  {printable(n)[:16]:<16} {v:>8.4g} "
                   f"{(float('nan') if rms is None else rms):>10.4g}")

@@ -85,8 +85,11 @@ def add_parser(sub):
                    f"per kind (ANGLES, FORCES, MOMENTS, POWERS, SCALARS, REACTIONS; default "
                    f"{D.model_error:g}), e.g. ANGLES=1e-3 (repeatable)")
     p.add_argument("--group-error", action="append", metavar="NODE=E",
-                   help="tighter bound for one node of the body-part hierarchy (auto or "
-                   "--hierarchy; not the default's flat one), e.g. l_foot=0.5mm (repeatable)")
+                   help="tighter bound for one node of the body-part hierarchy (the "
+                   "--hierarchy given, else cmu41 with 37 or more of CMU's 41 markers, skeleton "
+                   "for BVH/AMC, else auto; not the flat one a bounded encode uses without "
+                   "it), e.g. l_foot=0.5mm (repeatable; a bound looser than --max-error "
+                   "changes nothing)")
     p.add_argument("--theta", type=float, default=D.theta,
                    help=f"key-frame threshold, fraction of the head size ADDH (default {D.theta})")
     p.add_argument("--k0", type=int, default=D.k0,
@@ -97,10 +100,14 @@ def add_parser(sub):
     p.add_argument("--tau", type=float, default=D.tau,
                    help=f"clustering threshold, fraction of ADDH (default {D.tau})")
     p.add_argument("--metric", choices=("max", "ave"), default=D.metric,
-                   help="clustering error metric, paper Eq. 2 (max) or Eq. 1 (ave)")
+                   help=f"clustering error metric, paper Eq. 2 (max) or Eq. 1 (ave) "
+                   f"(default {D.metric})")
     p.add_argument("--weight", action="append", metavar="NAME=W",
                    help="weight of a marker or node (local distortion control; repeatable)")
-    p.add_argument("--hierarchy", help="cmu41, skeleton, auto, flat or a JSON hierarchy file")
+    p.add_argument("--hierarchy", help="cmu41, skeleton, auto, flat or a JSON hierarchy file "
+                   "(default: flat under a bound without --patterns on or --group-error; "
+                   "else cmu41 with 37 or more of CMU's 41 markers, skeleton for BVH/AMC, else "
+                   "auto)")
     p.add_argument("--smoothing", type=int, default=D.smoothing,
                    help=f"boundary smoothing half-width 0..16 (default {D.smoothing})")
     p.add_argument("--patterns", choices=("auto", "on", "off"), default=None,
@@ -109,7 +116,8 @@ def add_parser(sub):
                    "bound, --max-error or the default one, which codes one flat node and is "
                    "usually smaller than auto)")
     p.add_argument("--segmentation", choices=("adaptive", "optimal"), default=D.segmentation,
-                   help="adaptive = paper's Alg. 1; optimal = Fisher optimal partition")
+                   help="adaptive = paper's Alg. 1; optimal = Fisher optimal partition "
+                   f"(default {D.segmentation})")
     p.add_argument("--grid", help="grid step with a unit, e.g. 0.5mm: an upper limit under a "
                    "bound (default: the step the bound needs, --max-error or the default one; "
                    "ADDH/1000 with --lossy)")
@@ -228,12 +236,15 @@ def _check_options(args: argparse.Namespace) -> None:
     from mpz.tools._common import check_length
     check_length(args.max_error, "--max-error")
     check_length(args.grid, "--grid")
-    for _, v in _pairs(args.group_error, "--group-error").items():
+    groups = _pairs(args.group_error, "--group-error")
+    for v in groups.values():
         check_length(v, "--group-error")
     _translation_error(args.translation_error, None)
     unitless = copy.copy(args)       # _options parses --meta, --weight and --summary too
     unitless.max_error = None if args.max_error is None else "1"    # a bound is asked for
-    unitless.grid = unitless.group_error = None
+    unitless.grid = None
+    # group bounds asked for (their lengths need the units): --lossy with them exited 2
+    unitless.group_error = [f"{name}=1" for name in groups] or None
     _options(unitless, "", None).validate()
 
 
