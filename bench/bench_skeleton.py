@@ -9,13 +9,15 @@ Part 1, for every BVH and AMC file of ../shared/data and each setting, one row:
 - the MPZ file (the reference encoder, as ``mpz encode`` runs it), its ratio against each
   of those (``/gz`` > 1 means smaller than gzip -9 of the text), and its parts: the
   skeleton chunk (skeleton + channels) and the marker layer;
-- ``ch err``: the largest channel error after decoding (rotations in degrees,
-  translations in the skeleton's length unit), ``pos err``: the largest joint-position
-  error of the decoded channels (spec §6.10) and the declared bound, ``mk err``: the
-  marker layer's largest error (what a 1.0 decoder returns).
+- ``rot err`` and ``tr err``: the largest channel error after decoding (rotations in
+  degrees, translations in the skeleton's length unit), ``pos err``: the largest
+  joint-position error of the decoded channels (spec §6.10) and ``bound`` the declared one,
+  ``mk err``: the marker layer's largest error (what a 1.0 decoder returns).
 
-Settings: ``default`` (no options: channels within 0.01, marker layer within 1/1000 of the
-skeleton's size), ``1mm`` and ``5mm`` (``--max-error``: joint positions and marker layer).
+Settings: ``default`` (no options: ``mpz.encode(m)``, the same bytes as ``mpz encode FILE``
+(with ``--units cm`` for the BVH files read as cm); channels within 0.01 (degrees or length
+units), marker layer within the preview bound, ``PREVIEW_FRACTION`` of the skeleton's
+size), ``1mm`` and ``5mm`` (``--max-error``: joint positions and marker layer).
 BVH has no unit: cmu_10/11/14 are read as centimetres (``--units cm``, docs/io-notes.md);
 cmu_131_03 has ASF-like units of 1/0.45 inch (about 5.64 cm), so "1mm" there is
 0.45/25.4 of a file unit, without declaring a unit.
@@ -28,7 +30,8 @@ Part 2, the alternatives measured (channel bytes only, same files):
 - per-joint rotations as quaternions or exponential maps instead of the file's Euler
   channels, each quantised so that the joint positions stay within the same bound as the
   Euler channels (1 mm), with the same lever-arm allocation and coder;
-- the marker layer at the preview bound against the joint-position bound.
+- the marker layer at the preview bound (the default encode) against the joint-position
+  bound.
 """
 from __future__ import annotations
 
@@ -61,11 +64,23 @@ BVH_UNITS = {"cmu_10_01": "cm", "cmu_11_01": "cm", "cmu_14_19": "cm", "cmu_131_0
 SETTINGS = ("default", "1mm", "5mm")
 
 
-def files(names: list[str] | None) -> list[Path]:
+def files(names: list[str] | None) -> list[Path] | int:
+    """The BVH and AMC files to measure (every one, or those whose stems are ``names``), or
+    the exit code, said: 0 (skipped) when the data folder holds none, 2 for a name given
+    that is not there (a typo is not a skip)."""
     d = shared_data_dir()
     if d is None:
-        sys.exit("../shared/data is absent (set MPZ_SHARED_DATA)")
+        print("skipped: ../shared/data is absent (set MPZ_SHARED_DATA)")
+        return 0
     out = sorted((d / "bvh").glob("*.bvh")) + sorted((d / "amc").glob("*.amc"))
+    if not out:
+        print(f"skipped: no BVH or AMC file under {d}")
+        return 0
+    missing = [n for n in names or [] if not any(p.stem == n for p in out)]
+    if missing:
+        print(f"error: no bvh/NAME.bvh or amc/NAME.amc under {d} for "
+              f"{', '.join(map(repr, missing))}", file=sys.stderr)
+        return 2
     return [p for p in out if not names or p.stem in names]
 
 
@@ -86,9 +101,11 @@ def load(path: Path) -> tuple[mpz.Motion, float]:
 
 
 def options(m: mpz.Motion, setting: str, mm: float) -> EncodeOptions:
-    """What ``mpz encode`` passes for a setting (cmd_encode._skeleton_options)."""
+    """What ``mpz encode`` passes for a setting (cmd_encode._skeleton_options). The default
+    is no option at all: ``max_error=preview_bound`` would set ``position_error`` too
+    (``resolve_bound``) and code the channels about 1 degree coarse (QA 45, item 3)."""
     if setting == "default":
-        return EncodeOptions(max_error=sk.preview_bound(m))
+        return EncodeOptions()
     e = float(setting.removesuffix("mm")) / mm            # marker units
     return EncodeOptions(max_error=e, position_error=e)
 
@@ -266,7 +283,7 @@ def representation_bytes(m: mpz.Motion, target: float) -> dict:
     skel = m.extras["skeleton"]
     values = m.angles
     scale = sk.marker_scale(skel)
-    euler_steps = sk.steps_for_position(skel, values, target, None, None)
+    euler_steps, _ = sk.steps_for_position(skel, values, target, None, None)
     _, coded = sk.code_channels(values, skel, euler_steps)
     out = {"euler (kept)": len(coded)}
     kinds = skel.channel_kinds()
@@ -321,16 +338,18 @@ def _coding(s: ch.Step):
 
 def marker_layer_bytes(m: mpz.Motion, mm: float) -> dict:
     """Marker layer bytes at the preview bound and at the default joint-position bound."""
+    def skeleton_bytes(data: bytes) -> int:
+        sizes = chunk_sizes(data)
+        return sizes.get("bvhs", 0) + sizes.get("asfs", 0)
+
     out = {}
-    data, _ = encode_motion(m, EncodeOptions(max_error=sk.preview_bound(m)))
+    data, _ = encode_motion(m, EncodeOptions())          # the default: the preview bound
     info = sk.report(data)
     assert info is not None
-    sizes = chunk_sizes(data)
-    sk_bytes = sizes.get("bvhs", 0) + sizes.get("asfs", 0)
-    out["preview (kept)"] = (len(data) - sk_bytes, sk.preview_bound(m) * mm)
+    out["preview (kept)"] = (len(data) - skeleton_bytes(data), sk.preview_bound(m) * mm)
     pos = float(info["position_bound"])
     data2, _ = encode_motion(m, EncodeOptions(max_error=pos, keep_skeleton=True))
-    out["at the position bound"] = (len(data2) - sk_bytes, pos * mm)
+    out["at the position bound"] = (len(data2) - skeleton_bytes(data2), pos * mm)
     return out
 
 
@@ -341,6 +360,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", help="write the rows here")
     args = ap.parse_args(argv)
     paths = files(args.files)
+    if isinstance(paths, int):
+        return paths
     rows = [row(p, s) for p in paths for s in (("default",) if args.quick else SETTINGS)]
     print_rows(rows)
     worst = min(r["ratio_gzip"] for r in rows if r["setting"] == "default")

@@ -64,6 +64,119 @@ def test_cli_refuses_malformed_rows_and_figures_that_would_pass_every_check(tmp_
         assert ei.value.code == 64, tol
 
 
+
+# -- QA 45 (items 5 and 14): the checks `mpz bench --compare` missed; expected figures
+# -- worked out by hand from the rows below
+def _write(tmp_path, name, *rs):
+    f = tmp_path / name
+    f.write_text(json.dumps({"schema": 1, "rows": list(rs)}))
+    return str(f)
+
+
+def test_operating_point_row_is_bound_checked():
+    """The "op" row is a bounded 6.5 mm encode: a max error of 9.0 breaks it (the old code
+    checked only numeric E). A row's own "bound" is used when it has one."""
+    ok = rows(E="op", max=6.5)
+    assert compare(ok, ok) == []
+    flags = compare(ok, rows(E="op", max=9.0))
+    assert flags == [(("a", "op"), "bound violated: max error 9.0 > 6.5")]
+    flags = compare(rows(E="x", bound=2.0, max=1.9), rows(E="x", bound=2.0, max=2.0001))
+    assert flags == [(("a", "x"), "bound violated: max error 2.0001 > 2.0")]
+
+
+def test_bound_violation_prints_the_digits_that_break_it():
+    """1.0001 > 1.0 printed as 'max error 1 > 1.0' with .4g."""
+    flags = compare(rows(), rows(max=1.0001))
+    assert flags == [(("a", 1.0), "bound violated: max error 1.0001 > 1.0")]
+
+
+def test_lossy_row_distortion_is_checked():
+    """An unbounded row: ARMS 3.66 -> 20 and max 20 -> 200 with the ratio up 10 % passed.
+    The default tolerance is 1 %: 3.66 x 1.01 = 3.6966, so 3.69 passes and 3.70 does not."""
+    old = rows(E=None, arms=3.66, max=20.0)
+    flags = compare(old, rows(E=None, mpz_ratio=22.0, arms=20.0, max=200.0))
+    assert flags == [(("a", None), "ARMS grew 3.6600 -> 20.0000"),
+                     (("a", None), "max error grew 20.0000 -> 200.0000")]
+    assert compare(old, rows(E=None, arms=3.69, max=20.0)) == []
+    assert [p for _, p in compare(old, rows(E=None, arms=3.70, max=20.0))] == [
+        "ARMS grew 3.6600 -> 3.7000"]
+    # a bounded row may trade distortion within its bound: not a regression
+    assert compare(rows(arms=0.5), rows(arms=0.6)) == []
+
+
+def test_time_floor_is_a_growth_in_seconds_not_a_minimum_time():
+    """A decode 0.006 -> 0.5 s (80x) was skipped because the old time was under 50 ms.
+    Now a time is flagged when it grows by more than 25 % and by more than 0.05 s:
+    0.006 -> 0.009 (+50 %, +3 ms) and 0.100 -> 0.140 (+40 %, +40 ms) are noise,
+    0.100 -> 0.160 (+60 %, +60 ms) is not."""
+    assert [p for _, p in compare(rows(dec_s=0.006), rows(dec_s=0.5))] == [
+        "decoding slower 0.006 s -> 0.500 s"]
+    assert compare(rows(dec_s=0.006), rows(dec_s=0.009)) == []
+    assert compare(rows(enc_s=0.100), rows(enc_s=0.140)) == []
+    assert [p for _, p in compare(rows(enc_s=0.100), rows(enc_s=0.160))] == [
+        "encoding slower 0.100 s -> 0.160 s"]
+
+
+def test_cpu_seconds_are_compared_when_both_runs_have_them():
+    """Two back-to-back runs of the same code on a loaded machine: the wall-clock best of
+    three went 0.141 -> 0.432 s while the CPU time stayed. With enc_cpu_s on both sides
+    that is compared: 0.20 -> 0.21 (+5 %) is no regression whatever the wall clock did;
+    0.20 -> 0.30 (+50 %, +0.1 s) is, and is named as CPU time."""
+    old = rows(enc_s=0.141, enc_cpu_s=0.20)
+    assert compare(old, rows(enc_s=0.432, enc_cpu_s=0.21)) == []
+    assert [p for _, p in compare(old, rows(enc_s=0.141, enc_cpu_s=0.30))] == [
+        "encoding slower (CPU) 0.200 s -> 0.300 s"]
+    # one side without CPU seconds: the wall clock, as before (0.141 -> 0.432: +206 %)
+    assert [p for _, p in compare(rows(enc_s=0.141), rows(enc_s=0.432, enc_cpu_s=0.2))] == [
+        "encoding slower 0.141 s -> 0.432 s"]
+
+
+def test_duplicate_rows_and_unbounded_checks_are_refused(tmp_path, capsys):
+    """Two rows with the same (file, E): the last one won silently. A bounded row without
+    max skipped its bound check silently. Both are now unreadable input (exit 2)."""
+    r = list(rows().values())[0]
+    good = _write(tmp_path, "good.json", r)
+    dup = _write(tmp_path, "dup.json", r, dict(r, max=0.5))
+    assert mpz_cli.main(["bench", "--compare", good, dup]) == 2
+    assert "rows 0 and 1 are both file 'a' at E=1.0" in capsys.readouterr().err
+    nomax = _write(tmp_path, "nomax.json", {k: v for k, v in r.items() if k != "max"})
+    assert mpz_cli.main(["bench", "--compare", good, nomax]) == 2
+    assert "no max error" in capsys.readouterr().err
+    # an unbounded row needs none
+    lossy = _write(tmp_path, "lossy.json", {"file": "a", "E": None, "mpz_ratio": 8.0})
+    assert mpz_cli.main(["bench", "--compare", lossy, lossy]) == 0
+
+
+def test_dash_reads_standard_input(tmp_path, monkeypatch, capsys):
+    """README: '-' means standard input everywhere; it gave '-: no such file'."""
+    import io
+    import types
+
+    import pytest
+    r = list(rows().values())[0]
+    old = _write(tmp_path, "old.json", r)
+    half = json.dumps({"schema": 1, "rows": [dict(r, mpz_ratio=10.0)]}).encode()
+    monkeypatch.setattr("sys.stdin", types.SimpleNamespace(buffer=io.BytesIO(half)))
+    assert mpz_cli.main(["bench", "--compare", old, "-"]) == 1        # 20 -> 10: -50 %
+    assert "ratio dropped 20.00 -> 10.00 (-50.0 %)" in capsys.readouterr().out
+    monkeypatch.setattr("sys.stdin", types.SimpleNamespace(buffer=io.BytesIO(half)))
+    assert mpz_cli.main(["bench", "--compare", "-", old]) == 0        # 10 -> 20: no drop
+    with pytest.raises(SystemExit) as ei:
+        mpz_cli.main(["bench", "--compare", "-", "-"])
+    assert ei.value.code == 64
+
+
+def test_ratio_tolerance_must_be_a_fraction_below_one(tmp_path):
+    """--ratio-tolerance 1.5 was accepted and switched the ratio check off (a ratio cannot
+    drop by 150 %); 1 and 0 are outside (0, 1) too."""
+    import pytest
+    old = _write(tmp_path, "old.json", list(rows().values())[0])
+    for tol in ("1.5", "1", "0"):
+        with pytest.raises(SystemExit) as ei:
+            mpz_cli.main(["bench", "--compare", old, old, "--ratio-tolerance", tol])
+        assert ei.value.code == 64, tol
+    assert mpz_cli.main(["bench", "--compare", old, old, "--ratio-tolerance", "0.5"]) == 0
+
 # ------------------------------------------------ bench/bench_encode.py --compare --
 def _bench_encode(monkeypatch):
     """``bench/bench_encode.py``, imported from its path (bench/ is not a package)."""
@@ -122,3 +235,16 @@ def test_encode_compare_refuses_what_it_cannot_judge(tmp_path, monkeypatch):
     other.write_text(json.dumps({"bench": "rd", "schema": 1, "rows": []}))
     with pytest.raises(SystemExit, match="not a bench_encode.py result"):
         be.compare([other], [a1])
+
+
+def test_runs_of_different_inputs_are_not_compared(tmp_path, capsys):
+    """bench_rd.py's ratios were against the whole MPZ file (a C3D's archive included)
+    before it coded the marker positions alone and said so ("input"): an old baseline
+    against a new run compares two different figures, so it is refused (exit 2)."""
+    r = list(rows().values())[0]
+    old = _write(tmp_path, "old.json", r)
+    new = tmp_path / "new.json"
+    new.write_text(json.dumps({"schema": 1, "input": "marker positions only", "rows": [r]}))
+    assert mpz_cli.main(["bench", "--compare", old, str(new)]) == 2
+    assert "different inputs" in capsys.readouterr().err
+    assert mpz_cli.main(["bench", "--compare", str(new), str(new)]) == 0

@@ -1,20 +1,36 @@
 """``mpz bench --compare OLD.json NEW.json``: flag regressions between two benchmark runs.
 
-The JSON files are written by ``python bench/bench_rd.py --json FILE`` (schema 1:
-one row per file and bound with ratio, max error, ARMS and times). A row is
-flagged when its ratio drops by more than ``--ratio-tolerance`` (default 1 %),
-when the new run breaks its declared bound, or when encode or decode time
-grows by more than ``--speed-tolerance`` (default 25 %, to stay above timing
-noise). Exit 0: no regression; 1: regressions flagged; 2: unreadable input.
+The JSON files are written by ``python bench/bench_rd.py --json FILE`` (schema 1: one row
+per file and bound with ratio, max error, ARMS and times); ``-`` reads one of them from
+standard input. A row is flagged when its ratio drops by more than ``--ratio-tolerance``
+(default 1 %); when a bounded row of the new run (a numeric E, the "op" operating point, or
+any row with a "bound") has a max error above its bound; when an unbounded (lossy) row's
+ARMS or max error grows by more than ``--distortion-tolerance`` (default 1 %: the encoder
+is deterministic, so the same code gives the same figures); or when its encode or decode
+time grows by more than ``--speed-tolerance`` (default 25 %) and by more than
+``--time-floor`` seconds (default 0.05 s: a few milliseconds either way is the timer's
+noise on a shared machine). The times compared are the process CPU seconds (enc_cpu_s,
+dec_cpu_s: bench_rd's best of several runs, which other processes hardly move) when both
+runs have them, else the wall-clock ones (enc_s, dec_s). A file with two rows
+of the same file and E is refused, and so are two runs that measured different inputs
+(bench_rd.py's "input": before it coded the marker positions alone, its MPZ ratios counted
+a C3D's archive as well). Exit 0: no regression; 1: regressions flagged; 2:
+unreadable input.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import os
+import sys
 
 from mpz.errors import FormatError
 from mpz.tools._cli import print_json, printable
+
+#: the bound, in mm, of bench_rd.py's "op" row (the paper's operating point) in results
+#: written before the rows carried their "bound"
+OPERATING_BOUND = 6.5
 
 
 def _fraction(text: str) -> float:
@@ -29,16 +45,35 @@ def _fraction(text: str) -> float:
     return v
 
 
+def _open_fraction(text: str) -> float:
+    """argparse type of a ratio tolerance: a fraction strictly between 0 and 1 (1 or more
+    turned the ratio check off: a ratio cannot drop by 100 %)."""
+    v = _fraction(text)
+    if not 0 < v < 1:
+        raise argparse.ArgumentTypeError(f"wants a fraction between 0 and 1 (exclusive), "
+                                         f"got {text!r}")
+    return v
+
+
 def add_parser(sub):
     p = sub.add_parser("bench", help="compare two benchmark result files",
                        description=__doc__.split("\n\n")[1])
-    p.add_argument("--compare", nargs=2, metavar=("OLD", "NEW"), required=True)
-    p.add_argument("--ratio-tolerance", type=_fraction, default=0.01,
-                   help="flag a ratio that drops by more than this fraction (default 0.01)")
+    p.add_argument("--compare", nargs=2, metavar=("OLD", "NEW"), required=True,
+                   help="two bench_rd.py --json results; '-' for standard input (one of them)")
+    p.add_argument("--ratio-tolerance", type=_open_fraction, default=0.01,
+                   help="flag a ratio that drops by more than this fraction, in (0, 1) "
+                        "(default 0.01)")
+    p.add_argument("--distortion-tolerance", type=_fraction, default=0.01,
+                   help="flag an unbounded row whose ARMS or max error grows by more than "
+                        "this fraction (default 0.01)")
     p.add_argument("--speed-tolerance", type=_fraction, default=0.25,
-                   help="flag a time that grows by more than this fraction (default 0.25)")
+                   help="flag a time that grows by more than this fraction (default 0.25) "
+                        "and by more than --time-floor")
+    p.add_argument("--time-floor", type=_fraction, default=0.05, metavar="SECONDS",
+                   help="a time must also grow by more than this many seconds to be flagged "
+                        "(default 0.05: smaller differences are timing noise)")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, bench_parser=p)
 
 
 def _refuse(token: str) -> float:
@@ -47,32 +82,66 @@ def _refuse(token: str) -> float:
 
 #: a row's figures: (name, required); each a finite number (times and errors 0 or more,
 #: the ratio above 0)
-_FIGURES = (("mpz_ratio", True), ("max", False), ("enc_s", False), ("dec_s", False))
+_FIGURES = (("mpz_ratio", True), ("max", False), ("arms", False), ("enc_s", False),
+            ("dec_s", False), ("enc_cpu_s", False), ("dec_cpu_s", False), ("bound", False))
+
+
+def bound_of(key: tuple, row: dict) -> float | None:
+    """The bound a row declares: its "bound", else a numeric E, else 6.5 for the "op" row
+    (:data:`OPERATING_BOUND`); None for an unbounded (lossy) row."""
+    if "bound" in row:
+        return row["bound"]
+    if _number(key[1]):
+        return key[1]
+    if key[1] == "op":
+        return OPERATING_BOUND
+    return None
+
+
+def _read(path):
+    """The bytes of a result file, or of standard input for ``-``."""
+    if path == "-":
+        return sys.stdin.buffer.read()
+    from mpz.api import read_source
+    return read_source(path)[0]
 
 
 def _load(path):
     """The rows of a bench_rd.py result by (file, E: a bound, None for lossy, or a label such
-    as "op"). Anything else, or a figure that is
-    not a finite number (NaN passed every check: a QA run), is a FormatError (exit 2)."""
-    from mpz.api import read_source
+    as "op"), and the input it declares it measured (None: before bench_rd said; its MPZ
+    ratios counted a C3D's archive too). Anything else, a figure that is not a finite
+    number (NaN passed every check: a QA run), two rows with the same key, or a bounded
+    row without its max error is a FormatError (exit 2)."""
     from mpz.errors import MPZError
+    where = "standard input" if path == "-" else path
     try:
-        data, _ = read_source(path)
-        doc = json.loads(data, parse_constant=_refuse)
+        doc = json.loads(_read(path), parse_constant=_refuse)
     except MPZError as exc:
-        raise FormatError(f"cannot read benchmark results: {exc.message}", path=path) from None
+        hint = ("" if path == "-" or os.path.lexists(path) else
+                " (bench_rd.py writes no JSON when it skips for want of data: see its output)")
+        raise FormatError(f"cannot read benchmark results: {exc.message}{hint}",
+                          path=where) from None
     except ValueError as exc:          # JSON, UTF-8, or a NaN / Infinity token
-        raise FormatError(f"cannot read benchmark results: {exc}", path=path) from None
+        raise FormatError(f"cannot read benchmark results: {exc}", path=where) from None
     if (not isinstance(doc, dict) or doc.get("schema") != 1
             or not isinstance(doc.get("rows"), list)):
-        raise FormatError("not a bench_rd.py result (schema 1 with rows)", path=path)
-    rows = {}
+        raise FormatError("not a bench_rd.py result (schema 1 with rows)", path=where)
+    rows: dict = {}
+    first: dict = {}
     for i, r in enumerate(doc["rows"]):
         if not _row_ok(r):
             raise FormatError(f"row {i} is not a result row (file, E, and finite figures "
-                              f"{', '.join(n for n, _ in _FIGURES)})", path=path)
-        rows[(r["file"], r.get("E"))] = r
-    return rows
+                              f"{', '.join(n for n, _ in _FIGURES)})", path=where)
+        key = (r["file"], r.get("E"))
+        if key in rows:
+            raise FormatError(f"rows {first[key]} and {i} are both file {r['file']!r} at "
+                              f"E={key[1]}: which one to compare is ambiguous", path=where)
+        if bound_of(key, r) is not None and "max" not in r:
+            raise FormatError(f"row {i} ({r['file']!r}, E={key[1]}) is bounded but has no "
+                              f"max error: its bound cannot be checked", path=where)
+        rows[key] = r
+        first[key] = i
+    return rows, doc.get("input")
 
 
 def _row_ok(r: object) -> bool:
@@ -90,29 +159,54 @@ def _number(v: object) -> bool:
             and math.isfinite(v))
 
 
-def compare(old: dict, new: dict, ratio_tol=0.01, speed_tol=0.25) -> list:
+def compare(old: dict, new: dict, ratio_tol=0.01, speed_tol=0.25, distortion_tol=0.01,
+            time_floor=0.05) -> list:
     """List of (key, problem) for every regression of ``new`` against ``old``."""
     flags = []
     for key, n in new.items():
-        if isinstance(key[1], (int, float)) and n.get("max", 0) > key[1]:
-            flags.append((key, f"bound violated: max error {n['max']:.4g} > {key[1]}"))
+        bound = bound_of(key, n)
+        if bound is not None and n.get("max", 0) > bound:
+            # repr: the shortest text that reads back as the same float (2.0001, not "2")
+            flags.append((key, f"bound violated: max error {float(n['max'])!r} > "
+                               f"{float(bound)!r}"))
         o = old.get(key)
         if o is None:
             continue
         if n["mpz_ratio"] < o["mpz_ratio"] * (1 - ratio_tol):
             flags.append((key, f"ratio dropped {o['mpz_ratio']:.2f} -> {n['mpz_ratio']:.2f} "
                                f"({100 * (n['mpz_ratio'] / o['mpz_ratio'] - 1):+.1f} %)"))
-        for t in ("enc_s", "dec_s"):
-            if t in n and t in o and o[t] > 0.05 and n[t] > o[t] * (1 + speed_tol):
-                flags.append((key, f"{t[:3]}oding slower {o[t]:.3f} s -> {n[t]:.3f} s"))
+        if bound is None:
+            for d in ("arms", "max"):
+                if d not in o:
+                    continue
+                if d not in n:
+                    flags.append((key, f"{d} missing from the new run's unbounded row"))
+                elif n[d] > o[d] * (1 + distortion_tol):
+                    flags.append((key, f"{'ARMS' if d == 'arms' else 'max error'} grew "
+                                       f"{o[d]:.4f} -> {n[d]:.4f}"))
+        for what in ("enc", "dec"):
+            # the process CPU time when both runs have it: other processes hardly move it
+            t = f"{what}_cpu_s" if f"{what}_cpu_s" in n and f"{what}_cpu_s" in o else f"{what}_s"
+            if (t in n and t in o and n[t] > o[t] * (1 + speed_tol)
+                    and n[t] - o[t] > time_floor):
+                flags.append((key, f"{what}oding slower{' (CPU)' if 'cpu' in t else ''} "
+                                   f"{o[t]:.3f} s -> {n[t]:.3f} s"))
     missing = sorted(set(old) - set(new), key=str)
     flags.extend((k, "missing from the new run") for k in missing)
     return flags
 
 
 def run(args) -> int:
-    old, new = _load(args.compare[0]), _load(args.compare[1])
-    flags = compare(old, new, args.ratio_tolerance, args.speed_tolerance)
+    if args.compare == ["-", "-"]:
+        args.bench_parser.error("only one of OLD and NEW can be '-' (standard input)")
+    (old, old_input), (new, new_input) = _load(args.compare[0]), _load(args.compare[1])
+    if old_input != new_input:
+        before = "marker positions plus the C3D archive (a run before bench_rd said)"
+        raise FormatError(f"the two runs measured different inputs ({old_input or before} "
+                          f"against {new_input or before}): their ratios cannot be "
+                          f"compared; rerun the old version's bench")
+    flags = compare(old, new, args.ratio_tolerance, args.speed_tolerance,
+                    args.distortion_tolerance, args.time_floor)
     if args.json:
         print_json([{"file": k[0], "E": k[1], "problem": p} for k, p in flags])
     else:
