@@ -18,6 +18,48 @@ def shared_data_dir() -> Path | None:
     return cand if cand.is_dir() else None
 
 
+#: the recordings the benches read
+RECORDING_EXTS = (".c3d", ".trc", ".bvh", ".amc")
+
+
+def shared_data_name() -> str:
+    """How messages name the data folder: ``MPZ_SHARED_DATA=<value>`` when that is set,
+    else ``../shared/data``."""
+    env = os.environ.get("MPZ_SHARED_DATA")
+    return f"MPZ_SHARED_DATA={env}" if env else "../shared/data"
+
+
+def recordings(root: Path, folder: str = "") -> list[Path]:
+    """Every recording (C3D, TRC, BVH, AMC) under ``root`` (or its ``folder``), sorted."""
+    base = root / folder if folder else root
+    return sorted(p for p in base.rglob("*") if p.suffix.lower() in RECORDING_EXTS
+                  and p.is_file())
+
+
+def no_data_reason(folder: str = "", exts: tuple[str, ...] = RECORDING_EXTS) -> str | None:
+    """None when the data folder holds a recording (of ``exts``, under ``folder``), else
+    why a bench that needs one is skipped (the folder named as :func:`shared_data_name`
+    does): it is absent, or holds no such file."""
+    root = shared_data_dir()
+    where = shared_data_name()
+    if root is None:
+        return f"{where} is absent (set MPZ_SHARED_DATA to the recordings)"
+    if not any(p.suffix.lower() in exts for p in recordings(root, folder)):
+        what = "/".join(e.lstrip(".").upper() for e in exts)
+        return f"no {what} recording under {where}" + (f"/{folder}" if folder else "")
+    return None
+
+
+def warm_up(path: Path) -> None:
+    """Load the numba kernels (compile or read the cache) on the first 50 frames of the
+    recording ``path``, so that no timed call pays for it: the first file a bench is
+    given, not a fixed one that the data folder may lack."""
+    import mpz
+    import mpz.io
+    m = mpz.io.read(path)
+    mpz.decode(mpz.encode(m.select_frames(0, min(50, m.n_frames)), max_error=1.0))
+
+
 def best_of(fn, n=3):
     """Fastest of ``n`` timed calls of ``fn``, in seconds."""
     import time

@@ -1,6 +1,8 @@
 """Analog coding of the C3D archive (spec §4.13.4) against zstd -19 and FLAC, one process.
 
-Usage: ``python bench/bench_c3d.py`` (reads the C3D files of ../shared/data in place).
+Usage: ``python bench/bench_c3d.py`` (reads the C3D files of ../shared/data, or
+``$MPZ_SHARED_DATA``, in place; without a C3D that has analog channels it prints
+"skipped: ..." and exits 0).
 
 For every real C3D with analog channels:
 
@@ -16,12 +18,13 @@ Every coder is checked to give back its input exactly. Sizes in bytes; ratios vs
 """
 from __future__ import annotations
 
+import argparse
 import io
 import sys
 
 import numpy as np
 
-from _common import shared_data_dir
+from _common import no_data_reason, shared_data_dir, shared_data_name
 
 
 def _flac(k: np.ndarray, rate: int) -> int | None:
@@ -68,15 +71,27 @@ def _mpz(words: np.ndarray) -> int:
     return 12 + 5 + 4 * words.shape[1] + len(coded)
 
 
-def main() -> int:
-    import zstandard
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        description="Analog coding of the C3D archive (spec §4.13.4) against zstd -19 and "
+        "FLAC, on every C3D with analog channels under ../shared/data (or "
+        "$MPZ_SHARED_DATA). Takes no options.")
+    ap.parse_args(argv)
+    reason = no_data_reason("c3d", (".c3d",))
+    if reason:
+        print(f"skipped: {reason}")
+        return 0
+    try:
+        import zstandard
+    except ImportError:
+        print("skipped: zstandard is not installed (the bench extra: pip install -e "
+              "'.[bench]')")
+        return 0
 
     from mpz.c3dcodec import plan
     from mpz.io import read
     data_dir = shared_data_dir()
-    if data_dir is None:
-        print("no shared data (../shared/data or MPZ_SHARED_DATA): nothing to measure")
-        return 0
+    assert data_dir is not None
     try:
         import soundfile  # noqa: F401
         have_flac = True
@@ -88,11 +103,13 @@ def main() -> int:
           f"{'raw':>9} {'MPZ':>8} {'zstd19':>8} {'FLAC':>8}")
     tot = np.zeros(7)
     flac_tot = np.zeros(4)      # raw, MPZ, zstd, FLAC over the files FLAC can hold
+    measured = 0
     for path in sorted((data_dir / "c3d").glob("*.c3d")):
         m = read(path)
         a = m.extras.get("c3d")
         if a is None or a.channels == 0:
             continue
+        measured += 1
         words = a.analog
         raw = words.size * words.itemsize
         mpz_all = _mpz(words)
@@ -123,10 +140,15 @@ def main() -> int:
         else:
             tot += [raw, mpz_all, zst_all, 0, 0, 0, 0]
         print(line)
+    if not measured:
+        print(f"skipped: no C3D under {shared_data_name()}/c3d has analog channels")
+        return 0
     print(f"{'total':<42} {'':>3} {int(tot[0]):>9} {int(tot[1]):>8} {int(tot[2]):>8} | "
           f"{'':>6} {int(tot[3]):>9} {int(tot[4]):>8} {int(tot[5]):>8} {int(tot[6]):>8}")
+    ints = (f"integer channels MPZ {tot[3] / tot[4]:.2f}, zstd-19 {tot[3] / tot[5]:.2f}"
+            if tot[4] else "no integer channels")
     print(f"ratio vs raw: all channels MPZ {tot[0] / tot[1]:.2f}, zstd-19 {tot[0] / tot[2]:.2f}; "
-          f"integer channels MPZ {tot[3] / tot[4]:.2f}, zstd-19 {tot[3] / tot[5]:.2f}")
+          + ints)
     if flac_tot[3]:
         print(f"integer channels FLAC can hold (|k| < 2^23; Qualisys and Vicon fixed-point "
               f"channels need 24 bits and more): MPZ {flac_tot[0] / flac_tot[1]:.2f}, "

@@ -3,11 +3,13 @@
     python bench/bench_corpus.py [--quick] [--long] [--workers 0,1,2,4] [--json OUT.json]
 
 1. The developer set (every capture of ../shared/data, 29 files) encoded by
-   :func:`mpz.corpus.encode_corpus` at a 1 mm bound (files without units: no bound) with
+   :func:`mpz.corpus.encode_corpus` at a 1 mm bound (files without units: the encoder's
+   default bound, as ``mpz encode`` gives them) with
    0 workers (in this process, no Dask), then LocalClusters of 1, 2 and 4 worker processes
    (4 on this 2-core machine shows what oversubscription does). Wall time includes
    starting the cluster; files/s and MB/s of float32 positions and of source bytes; the
-   summed CPU seconds of the workers; then an incremental re-run (all up to date).
+   summed CPU seconds of the workers; then an incremental re-run (all up to date: nothing
+   is encoded, so its MB/s f32 is "-" and its MB/s src is the source bytes checked).
 2. Throughput against corpus size on 2 workers: 4, 8, 16, 29 and 58 files (58 = the set
    twice, under other names).
 3. ``--long``: a 30-minute capture (cmu_135_02 tiled 42 times: 218,484 frames x 41
@@ -17,7 +19,8 @@
    labels the developer set allows (docs/corpus.md).
 
 The machine is shared: the load average is printed with each table, and CPU seconds are
-given beside wall seconds.
+given beside wall seconds. ``--json OUT`` writes every number measured (with ``--only-ab``
+too). An absent or empty data folder prints "skipped: ..." and exits 0.
 """
 from __future__ import annotations
 
@@ -33,7 +36,7 @@ import time
 
 import numpy as np
 
-from _common import shared_data_dir
+from _common import no_data_reason, shared_data_dir
 from mpz.corpus import DEFAULT_MEMORY_LIMIT, encode_corpus, open_index
 from mpz.encoder import EncodeOptions
 from mpz.format import MM_PER_UNIT
@@ -42,7 +45,8 @@ from mpz.similarity import rank
 
 @dataclass(frozen=True)
 class BoundMM:
-    """A bound in millimetres, converted to each file's units (none for unitless files)."""
+    """A bound in millimetres, converted to each file's units; a file without units gets
+    the encoder's default bound."""
 
     mm: float
 
@@ -114,8 +118,10 @@ def show(rows: list[dict], first: str) -> None:
     for r in rows:
         key = r.get("label", r["workers"])
         busy = r["task_wall_s"] / r["wall_s"] if r["wall_s"] else 0.0
+        # nothing encoded (an up-to-date re-run): no float32 rate to give
+        f32 = "-" if r["raw_mb"] == 0 and r["skipped"] else f"{r['raw_mb_per_s']:.2f}"
         print(f"{key!s:>8} {r['files']:>6} {r['wall_s']:>8.1f} {r['files_per_s']:>8.2f} "
-              f"{r['raw_mb_per_s']:>9.2f} {r['source_mb_per_s']:>9.2f} {r['cpu_s']:>7.1f} "
+              f"{f32:>9} {r['source_mb_per_s']:>9.2f} {r['cpu_s']:>7.1f} "
               f"{busy:>5.2f} {r['peak_rss_mb']:>8.0f}  {r['load']}")
         for src, why in r["failures"]:
             print(f"         FAILED {src}: {why}")
@@ -137,6 +143,8 @@ def search_quality(out: Path, data: Path) -> dict:
     for c, members in CLASSES.items():
         rel = [m for m in members if m in names]
         r = len(rel) - 1
+        if r < 1:                  # fewer than two of the class in this data folder
+            continue
         precisions, aps = [], []
         for q in rel:
             others = ranked[q]
@@ -152,15 +160,18 @@ def search_quality(out: Path, data: Path) -> dict:
                                 "map": float(np.mean(aps)), "chance": r / (len(names) - 1)}
     # the walk class with the Eb015 triplet counted once (vr, sr left out of the candidates)
     drop = {"c3d/c3dorg_Eb015vr.c3d", "c3d/c3dorg_Eb015sr.c3d"}
-    rel = [m for m in CLASSES["walk"] if m not in drop]
-    ps = []
-    for q in rel:
-        others = [o for o in ranked[q] if o not in drop]
-        ps.append(sum(o in rel for o in others[:len(rel) - 1]) / (len(rel) - 1))
-    result["classes"]["walk (Eb015 once)"] = {"files": len(rel), "r_precision": float(np.mean(ps)),
-                                              "map": None,
-                                              "chance": (len(rel) - 1) / (len(names) - 3)}
+    rel = [m for m in CLASSES["walk"] if m not in drop and m in names]
+    if len(rel) > 1 and drop <= set(names) and len(names) > 3:
+        ps = []
+        for q in rel:
+            others = [o for o in ranked[q] if o not in drop]
+            ps.append(sum(o in rel for o in others[:len(rel) - 1]) / (len(rel) - 1))
+        result["classes"]["walk (Eb015 once)"] = {
+            "files": len(rel), "r_precision": float(np.mean(ps)), "map": None,
+            "chance": (len(rel) - 1) / (len(names) - 3)}
     for a, b in SAME_TAKE:
+        if a not in ranked or b not in ranked:
+            continue
         result["same_take"].append({"query": a, "other": b, "rank": ranked[a].index(b) + 1,
                                     "rank_back": ranked[b].index(a) + 1})
     label_of = {n: label.get(n, "-") for n in names}
@@ -190,10 +201,12 @@ def main(argv: list[str] | None = None) -> int:
                    "(default 0,1,2,4)")
     p.add_argument("--json", metavar="OUT", help="write every number as JSON")
     args = p.parse_args(argv)
-    data = shared_data_dir()
-    if data is None:
-        print("skipped: ../shared/data is absent (set MPZ_SHARED_DATA)")
+    reason = no_data_reason()
+    if reason:
+        print(f"skipped: {reason}")
         return 0
+    data = shared_data_dir()
+    assert data is not None
     files = captures(data)
     counts = [int(w) for w in (args.workers or ("0,2" if args.quick else "0,1,2,4")).split(",")]
     report: dict = {"workers": [], "sizes": [], "long": None, "search": None}
@@ -205,9 +218,10 @@ def main(argv: list[str] | None = None) -> int:
             args.ab, args.long, counts, sizes = True, False, [], []
         else:
             sizes = [4, 8, 16] if args.quick else [4, 8, 16, 29, 58]
-        print(f"1. the developer set: {len(files)} captures, "
-              f"{sum(f.stat().st_size for f in files) / 1e6:.1f} MB of source files, "
-              "1 mm bound")
+        if counts:
+            print(f"1. the developer set: {len(files)} captures, "
+                  f"{sum(f.stat().st_size for f in files) / 1e6:.1f} MB of source files, "
+                  "1 mm bound")
         for w in counts:
             out = tmp / f"w{w}"
             report["workers"].append(run(jobs_for(files, out), out, w))
@@ -218,7 +232,8 @@ def main(argv: list[str] | None = None) -> int:
             report["workers"].append(again)
             show(report["workers"], "workers")
 
-        print("\n2. throughput against corpus size, 2 workers")
+        if sizes:
+            print("\n2. throughput against corpus size, 2 workers")
         order = [files[i] for i in np.random.default_rng(0).permutation(len(files))]
         for n in sizes:
             out = tmp / f"n{n}"
@@ -264,26 +279,30 @@ def main(argv: list[str] | None = None) -> int:
             print("speed-up of 2 workers over 1, per pair: "
                   + ", ".join(f"{r:.2f}" for r in ratios))
 
-        if not counts:
-            return 0
-        print("\n4. search from the index of (1): no motion decoded")
-        q = search_quality(tmp / f"w{counts[0]}", data)
-        report["search"] = q
-        print(f"self-retrieval: {q['self_first']}/{q['files']} captures rank their own file "
-              "first")
-        print(f"{'class':<20} {'files':>5} {'R-prec':>7} {'MAP':>6} {'chance':>7}")
-        for c, v in q["classes"].items():
-            mp = "-" if v["map"] is None else f"{v['map']:.2f}"
-            print(f"{c:<20} {v['files']:>5} {v['r_precision']:>7.2f} {mp:>6} "
-                  f"{v['chance']:>7.2f}")
-        print("same take, rank of the other encoding among the other files (1 = nearest):")
-        for s in q["same_take"]:
-            print(f"  {s['query']} -> {s['other']}: {s['rank']}; back: {s['rank_back']}")
+        if counts:
+            search(report, tmp / f"w{counts[0]}", data)
         if args.json:
             Path(args.json).write_text(json.dumps(report, indent=1))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return 0
+
+
+def search(report: dict, index: Path, data: Path) -> None:
+    """(4): search quality on the index of (1), printed and put in ``report``."""
+    print("\n4. search from the index of (1): no motion decoded")
+    q = search_quality(index, data)
+    report["search"] = q
+    print(f"self-retrieval: {q['self_first']}/{q['files']} captures rank their own file "
+          "first")
+    print(f"{'class':<20} {'files':>5} {'R-prec':>7} {'MAP':>6} {'chance':>7}")
+    for c, v in q["classes"].items():
+        mp = "-" if v["map"] is None else f"{v['map']:.2f}"
+        print(f"{c:<20} {v['files']:>5} {v['r_precision']:>7.2f} {mp:>6} "
+              f"{v['chance']:>7.2f}")
+    print("same take, rank of the other encoding among the other files (1 = nearest):")
+    for s in q["same_take"]:
+        print(f"  {s['query']} -> {s['other']}: {s['rank']}; back: {s['rank_back']}")
 
 
 if __name__ == "__main__":

@@ -40,7 +40,7 @@ from numba import njit
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import shared_data_dir
+from _common import no_data_reason, shared_data_dir
 from bench_entropy import _context8
 import mpz
 from mpz import container, entropy
@@ -169,8 +169,9 @@ def study_models(files: list[str], opts: dict[str, Any], label: str) -> None:
         print(f"\n[{label}] initial model states, leave one subject out")
         print(f"  {'file':44s} {'frames':>6s} {'without':>8s} {'with':>8s} {'change':>7s}")
         short, long_ = [], []
+        agg: dict[tuple[str, int], Counts] = {}
         for f in files:
-            agg: dict[tuple[str, int], Counts] = {}
+            agg = {}
             for g in files:
                 if subject(g) == subject(f):
                     continue
@@ -228,13 +229,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--lossy", action="store_true", help="also the paper's lossy mode")
     ap.add_argument("--files", default="*/*", help="glob under the data folder")
     args = ap.parse_args(argv)
-    data = shared_data_dir()
-    if data is None:
-        print("bench_dictionary: no ../shared/data (set MPZ_SHARED_DATA); skipped")
+    reason = no_data_reason()
+    if reason:
+        print(f"skipped: {reason}")
         return 0
+    data = shared_data_dir()
+    assert data is not None
     warnings.simplefilter("ignore")
     files = sorted(f for f in glob.glob(str(data / args.files))
                    if f.endswith((".c3d", ".trc", ".bvh", ".amc")))
+    if not files:
+        print(f"skipped: no recording matches --files {args.files!r} under {data}")
+        return 0
     for b in (float(x) for x in args.bounds.split(",") if x):
         study_models(files, {"max_error": b}, f"bound {b:g} mm")
     if args.lossy:

@@ -17,9 +17,14 @@ the first with the old code (``PYTHONPATH=OLD/reference:OLD/spec:OLD/tools`` fro
 the host's load moves short timings by more than most changes do. ``--compare`` then
 prints each encode whose bytes changed, with its size before and after, and the time of
 every encode before and after (each side's best over its runs), their geometric mean, and
-the encodes that got more than 10 % slower. It exits 1 when some bytes changed, so that a
-refactoring can be gated on it; a change meant to alter the output says so in CHANGELOG.md
-with the sizes this prints.
+the encodes that got more than 10 % slower. It exits 1 when some bytes changed (any
+thread count's: each row keeps one digest per thread count, ``sha256_threads``, and every
+one of them is compared), and when an encode is in one run set only or the sets share
+none (a gate must not pass with nothing compared), so that a refactoring can be gated on
+it; a change meant to alter the output says so in CHANGELOG.md with the sizes this prints.
+
+The numba kernels are loaded first on the first file asked for (not timed). An absent or
+empty data folder prints "skipped: ..." and exits 0.
 """
 from __future__ import annotations
 
@@ -30,7 +35,7 @@ import math
 from pathlib import Path
 import sys
 
-from _common import shared_data_dir, two_versions
+from _common import no_data_reason, shared_data_dir, two_versions, warm_up
 
 SCHEMA = 1
 
@@ -38,45 +43,73 @@ SCHEMA = 1
 def measure(files: list[str], bounds: list[str], threads: list[int], out: Path) -> int:
     """Encode every file x bound x thread count; write the rows to ``out``. Returns 1 when
     the thread counts of a row gave different bytes, else 0."""
-    from bench_speed import bound_kwargs, files_of, find, timed
+    from bench_speed import bound_kwargs, files_of, timed
     import mpz
     import mpz.io
     root = shared_data_dir()
-    if root is None:
-        raise SystemExit("no ../shared/data beside the repository: nothing to measure")
-    warm = mpz.io.read(find(root, "c3d/cmu_02_01")).select_frames(0, 50)
-    mpz.decode(mpz.encode(warm, max_error=1.0))                 # JIT warm-up
+    assert root is not None
+    paths = files_of(root, files)
+    warm_up(paths[0])                                           # JIT warm-up, not timed
     rows: dict[str, dict] = {}
     status = 0
-    for path in files_of(root, files):
+    # the ms columns: the best time with each thread count, in the order of --threads
+    print(f"{'encode':<48} {'bytes':>11}  ms " + " ".join(f"{f'{t} thr':>8}" for t in threads),
+          flush=True)
+    for path in paths:
         m = mpz.io.read(path)
         for bound in bounds:
             kw, _, desc = bound_kwargs(m, bound)
             key = f"{path.relative_to(root)} {bound}"
-            digests, row = set(), {"bound": desc, "seconds": {}}
+            row: dict = {"bound": desc, "seconds": {}, "sha256_threads": {},
+                         "bytes_threads": {}}
             for t in threads:
                 data = mpz.encode(m, threads=t, **kw)
-                digests.add(hashlib.sha256(data).hexdigest())
+                row["sha256_threads"][str(t)] = hashlib.sha256(data).hexdigest()
+                row["bytes_threads"][str(t)] = len(data)
                 row["seconds"][str(t)], _ = timed(
                     lambda m=m, kw=kw, t=t: mpz.encode(m, threads=t, **kw), 3)
-            row.update(sha256=sorted(digests)[0], bytes=len(data))
+            outputs = set(row["sha256_threads"].values())
+            # sha256, bytes: the first thread count's (every one's is in *_threads)
+            first = str(threads[0])
+            row.update(sha256=row["sha256_threads"][first], bytes=row["bytes_threads"][first])
             rows[key] = row
             times = " ".join(f"{row['seconds'][str(t)] * 1e3:8.2f}" for t in threads)
             flag = ""
-            if len(digests) > 1:
+            if len(outputs) > 1:
                 status = 1
-                flag = f"  ERROR: {len(digests)} different outputs for threads {threads}"
-            print(f"{key:<48} {len(data):>9} B  ms {times}{flag}", flush=True)
+                flag = f"  ERROR: {len(outputs)} different outputs for threads {threads}"
+            print(f"{key:<48} {row['bytes']:>9} B  ms {times}{flag}", flush=True)
     out.write_text(json.dumps({"bench": "encode", "schema": SCHEMA, "mpz": mpz.__file__,
                                "threads": threads, "rows": rows}, indent=1))
     return status
 
 
 def load(path: Path) -> dict[str, dict]:
-    doc = json.loads(path.read_text())
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise SystemExit(f"{path}: cannot read it as JSON: {exc}") from None
     if not isinstance(doc, dict) or doc.get("bench") != "encode" or doc.get("schema") != SCHEMA:
         raise SystemExit(f"{path}: not a bench_encode.py result of schema {SCHEMA}")
-    return doc["rows"]
+    rows = doc.get("rows")
+    if not isinstance(rows, dict) or not all(
+            isinstance(r, dict) and isinstance(r.get("sha256"), str)
+            and isinstance(r.get("bytes"), int) and isinstance(r.get("seconds"), dict)
+            and r["seconds"] for r in rows.values()):
+        raise SystemExit(f"{path}: malformed rows (each wants sha256, bytes and seconds)")
+    return rows
+
+
+def digests(row: dict) -> dict[str, str]:
+    """A row's digest per thread count (``sha256_threads``), or its one ``sha256`` under
+    ``"*"`` for a row written before the thread counts were kept apart."""
+    per = row.get("sha256_threads")
+    return dict(per) if isinstance(per, dict) and per else {"*": row["sha256"]}
+
+
+def sizes(row: dict) -> dict[str, int]:
+    per = row.get("bytes_threads")
+    return dict(per) if isinstance(per, dict) and per else {"*": row["bytes"]}
 
 
 def best_times(runs: list[dict[str, dict]]) -> dict[str, float]:
@@ -88,17 +121,23 @@ def best_times(runs: list[dict[str, dict]]) -> dict[str, float]:
 def differences(before: list[dict[str, dict]], after: list[dict[str, dict]]
                 ) -> tuple[list[tuple[str, int, int]], list[str]]:
     """(encodes whose bytes differ: key, bytes before, bytes after; encodes on one side
-    only). A side's runs must agree on the bytes: a run of a side that disagrees with
-    its first run is an error."""
+    only, each with the side it is on). An encode differs when its digests over both
+    sides and every thread count are not all one: changed bytes, or a thread count that
+    gives other bytes than the rest (issue 15) on either side. A side's runs must agree
+    on the bytes: a run of a side that disagrees with its first run is an error."""
     for side in (before, after):
         for run in side[1:]:
             for k, row in run.items():
-                if k in side[0] and row["sha256"] != side[0][k]["sha256"]:
+                if k in side[0] and digests(row) != digests(side[0][k]):
                     raise SystemExit(f"{k}: two runs of the same side gave different bytes")
     b, a = before[0], after[0]
-    changed = [(k, b[k]["bytes"], a[k]["bytes"]) for k in b
-               if k in a and b[k]["sha256"] != a[k]["sha256"]]
-    return changed, sorted(set(b) ^ set(a))
+    changed = []
+    for k in b:
+        if k in a and len(set(digests(b[k]).values()) | set(digests(a[k]).values())) > 1:
+            changed.append((k, b[k]["bytes"], a[k]["bytes"]))
+    alone = [f"{k} (before only)" for k in sorted(set(b) - set(a))]
+    alone += [f"{k} (after only)" for k in sorted(set(a) - set(b))]
+    return changed, alone
 
 
 def compare(before_paths: list[Path], after_paths: list[Path]) -> int:
@@ -117,13 +156,26 @@ def compare(before_paths: list[Path], after_paths: list[Path]) -> int:
           f"more than 10 % slower: {', '.join(slower) if slower else 'none'}")
     for k in alone:
         print(f"only on one side: {k}")
-    if not changed:
+    status = 0
+    if not keys:
+        print("bytes: no encode in both run sets: nothing compared")
+        status = 1
+    elif not changed:
         print(f"bytes: all {len(keys)} encodes identical")
-        return 0
-    print(f"bytes: {len(changed)} of {len(keys)} encodes changed:")
-    for k, nb, na in changed:
-        print(f"  {k:<46} {nb:>9} -> {na:>9} B ({100 * (na / nb - 1):+.2f} %)")
-    return 1
+    else:
+        status = 1
+        print(f"bytes: {len(changed)} of {len(keys)} encodes changed:")
+        for k, nb, na in changed:
+            print(f"  {k:<46} {nb:>9} -> {na:>9} B ({100 * (na / nb - 1):+.2f} %)")
+            for side, row in (("before", before[0][k]), ("after", after[0][k])):
+                d, n = digests(row), sizes(row)
+                if len(set(d.values())) > 1:
+                    print(f"    {side}: the thread counts disagree: " + ", ".join(
+                        f"{t} thread(s) {n.get(t, '?')} B {h[:12]}" for t, h in d.items()))
+    if alone:
+        status = 1
+        print(f"FAIL: {len(alone)} encode(s) on one side only: {', '.join(alone)}")
+    return status
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -149,6 +201,10 @@ def main(argv: list[str] | None = None) -> int:
             ok = False
         if not ok:
             ap.error(f"--bounds wants default or lengths in mm such as 1mm, got {b!r}")
+    reason = no_data_reason()
+    if reason:
+        print(f"skipped: {reason}")
+        return 0
     return measure(args.files, bounds, threads, args.json)
 
 

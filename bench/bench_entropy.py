@@ -31,7 +31,7 @@ import sys
 from numba import njit
 import numpy as np
 
-from _common import best_of, shared_data_dir
+from _common import best_of, no_data_reason, shared_data_dir
 from mpz.conformance.rangecoder import RefEncoder
 from mpz.entropy import BlockDecoder, BlockEncoder
 
@@ -403,8 +403,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.synthetic or both:
         synthetic()
     if args.real or both:
-        if shared_data_dir() is None:
-            print("real blocks skipped: ../shared/data is absent")
+        root = shared_data_dir()
+        reason = no_data_reason(exts=(".c3d",))
+        missing = [n for n in args.files
+                   if root is not None and next(root.rglob(n + ".c3d"), None) is None]
+        if reason:
+            print(f"real blocks skipped: {reason}")
+        elif missing:
+            print(f"real blocks skipped: no C3D named {', '.join(missing)} under {root}")
         else:
             real(args.files, args.bound)
     return 0

@@ -25,12 +25,11 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-import sys
 import time
 
 import numpy as np
 
-from _common import shared_data_dir
+from _common import no_data_reason, shared_data_dir
 from bench_speed import bound_kwargs
 from mpz import channels as ch
 from mpz import skeleton as sk
@@ -145,13 +144,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
     out = {}
-    root = shared_data_dir()
-    if root is None:
-        print("../shared/data not found: real channels skipped", file=sys.stderr)
+    reason = no_data_reason(exts=(".bvh", ".amc"))
+    if reason:
+        print(f"real channels skipped: {reason}")
     else:
+        root = shared_data_dir()
+        assert root is not None
         out["real"] = run(real_cases(root))
-    out["synthetic"] = run(synthetic_cases(args.synthetic, args.seed))
+    if args.synthetic > 0:
+        out["synthetic"] = run(synthetic_cases(args.synthetic, args.seed))
+    else:
+        print("synthetic channels skipped: --synthetic 0")
     for name, r in out.items():
+        if not r["cases"]:
+            print(f"{name:10s} skipped: no case")
+            continue
         print(f"{name:10s} {r['cases']:5d} cases, {r['differ']} choose another count; "
               f"bytes {r['bytes_ratio']:.6f} x coding every count "
               f"(worst +{100 * r['worst_excess']:.2f} %: {r['worst'] or '-'}); "

@@ -1,0 +1,107 @@
+"""bench/bench_decode.py --compare, the maintainers' gate for decoder changes: a verdict
+(exit 1) for a decode slower beyond the documented 25 % of the best-of time, for decoded
+output that differs, and for files not compared; clear errors for a JSON of another bench
+(QA 45d, item 8). Small result files built in tmp_path; no real data."""
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+
+def _bench_decode(monkeypatch):
+    """``bench/bench_decode.py``, imported from its path (bench/ is not a package)."""
+    bench = Path(__file__).resolve().parents[1] / "bench"
+    monkeypatch.syspath_prepend(str(bench))            # its `from _common import ...`
+    spec = importlib.util.spec_from_file_location("mpz_bench_decode_gate",
+                                                  bench / "bench_decode.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _run(tmp_path, name, rows):
+    """A result file as bench_decode.py writes it; ``rows``: file -> (seconds, positions
+    digest, encoded-bytes digest)."""
+    doc = {"bench": "decode", "schema": 1, "bound": "1mm", "rows": {
+        k: {"mb": 0.5, "sec": sec, "bound": "1mm", "mpz_sha256": enc,
+            "decoded": {"positions": dec}}
+        for k, (sec, dec, enc) in rows.items()}}
+    path = tmp_path / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def _gate(bd, before, after) -> int:
+    return bd.main(["--compare", *map(str, before), "--against", *map(str, after)])
+
+
+def test_the_tolerance_is_25_percent_of_the_best_of_times(tmp_path, monkeypatch, capsys):
+    """Before: runs of 10 and 12 ms, best 10 ms. After 12.4 ms is +24 % (passes); 12.6 ms
+    is +26 % (fails); a 3x slower decode (10 -> 30 ms) fails. Before the verdict, every
+    one of these exited 0."""
+    bd = _bench_decode(monkeypatch)
+    assert bd.SLOWER == 0.25
+    b1 = _run(tmp_path, "b1.json", {"a.c3d": (0.010, "p", "e")})
+    b2 = _run(tmp_path, "b2.json", {"a.c3d": (0.012, "p", "e")})
+    ok = _run(tmp_path, "ok.json", {"a.c3d": (0.0124, "p", "e")})
+    assert _gate(bd, [b1, b2], [ok]) == 0
+    assert "verdict: PASS" in capsys.readouterr().out
+    over = _run(tmp_path, "over.json", {"a.c3d": (0.0126, "p", "e")})
+    assert _gate(bd, [b1, b2], [over]) == 1
+    slow = _run(tmp_path, "slow.json", {"a.c3d": (0.030, "p", "e")})
+    assert _gate(bd, [b1, b2], [slow]) == 1
+    out = capsys.readouterr().out
+    assert "a.c3d: decodes slower, 10.00 -> 30.00 ms (+200 %" in out
+    # the best of the after runs counts: one slow run among fast ones passes
+    assert _gate(bd, [b1], [slow, ok]) == 0
+
+
+def test_decoded_output_that_differs_fails(tmp_path, monkeypatch, capsys):
+    """Same time, other positions digest: the decoder changed (the encoded bytes are the
+    same); with other encoded bytes too, it says so."""
+    bd = _bench_decode(monkeypatch)
+    b = _run(tmp_path, "b.json", {"a.c3d": (0.010, "p", "e")})
+    a = _run(tmp_path, "a.json", {"a.c3d": (0.010, "q", "e")})
+    assert _gate(bd, [b], [a]) == 1
+    assert "decoded output differs (positions); the encoded bytes are the same" in \
+        capsys.readouterr().out
+    a2 = _run(tmp_path, "a2.json", {"a.c3d": (0.010, "q", "f")})
+    assert _gate(bd, [b], [a2]) == 1
+    assert "the encoded bytes differ too" in capsys.readouterr().out
+
+
+def test_files_not_compared_fail_and_no_common_file_is_no_crash(tmp_path, monkeypatch,
+                                                                capsys):
+    """Two runs with no file in common raised ZeroDivisionError; a file on one side only
+    passed unremarked."""
+    bd = _bench_decode(monkeypatch)
+    b = _run(tmp_path, "b.json", {"a.c3d": (0.010, "p", "e")})
+    other = _run(tmp_path, "o.json", {"b.c3d": (0.010, "p", "e")})
+    assert _gate(bd, [b], [other]) == 1
+    assert "no file in both run sets" in capsys.readouterr().out
+    both = _run(tmp_path, "both.json", {"a.c3d": (0.010, "p", "e"),
+                                        "b.c3d": (0.010, "p", "e")})
+    assert _gate(bd, [both], [b]) == 1
+    assert "b.c3d: only in the before runs" in capsys.readouterr().out
+
+
+def test_another_bench_json_is_a_clear_error(tmp_path, monkeypatch):
+    """A bench_encode.py result given by mistake gave "TypeError: string indices must be
+    integers"; two runs of one side that decoded differently are refused."""
+    bd = _bench_decode(monkeypatch)
+    b = _run(tmp_path, "b.json", {"a.c3d": (0.010, "p", "e")})
+    enc = tmp_path / "enc.json"
+    enc.write_text(json.dumps({"bench": "encode", "schema": 1, "rows": {}}))
+    with pytest.raises(SystemExit, match="not a bench_decode.py result of schema 1"):
+        _gate(bd, [b], [enc])
+    listed = tmp_path / "list.json"
+    listed.write_text("[1, 2]")
+    with pytest.raises(SystemExit, match="not a bench_decode.py result"):
+        _gate(bd, [listed], [b])
+    b2 = _run(tmp_path, "b2.json", {"a.c3d": (0.010, "q", "e")})
+    with pytest.raises(SystemExit, match="two runs of the same side decoded differently"):
+        _gate(bd, [b, b2], [b])
