@@ -300,6 +300,8 @@ def test_encoder_only_names_are_checked_and_compared_as_numbers(tmp_path):
     enc = f"{PY} -m mpz.conformance.refencoder"
     proc, _ = run(tmp_path, "--encoder", enc, "--only", "e01-walk-41-gaps", "bogus")
     assert proc.returncode == 64 and "bogus" in proc.stderr
+    proc, _ = run(tmp_path, "--encoder", enc, "--only", "bogus")        # alone, too (QA)
+    assert proc.returncode == 64 and "bogus" in proc.stderr, proc.stderr
     from mpz.conformance import manifest as mf
     item = mf.load()["encoder_inputs"][0]
     E = float(item["max_errors"][0])

@@ -757,7 +757,7 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
     else:
         entry["passed"] = True
         entry["message"] = (f"{len(data)} bytes, declared bound {facts['declared_bound']:g} <= "
-                            f"{E:g}, measured max error {facts['measured_max_error']:.4g}")
+                            f"{E:g}, measured max error {facts['measured_max_error']:.6g}")
     return entry
 
 
@@ -782,7 +782,8 @@ def _parser() -> argparse.ArgumentParser:
                     "(see conformance/README.md for the contract).",
         epilog="exit codes: 0 every selected vector passed, 1 at least one failed, "
                "64 usage error (bad options, missing or invalid vectors, command not found), "
-               "130 interrupted, 143 terminated while writing --results")
+               "130 interrupted, 143 terminated (SIGTERM; 129 for SIGHUP): the commands "
+               "running are killed and no --results is written")
     p.add_argument("--version", action="version", version=f"mpz-conformance {__version__}")
     who = p.add_mutually_exclusive_group(required=True)
     who.add_argument("--decoder", metavar="CMD",
@@ -892,14 +893,14 @@ def main(argv: list[str] | None = None) -> int:
                     for E in item["max_errors"]
                     if not args.only or any(_selects(o, item["name"], float(E))
                                             for o in args.only)]
-            if not todo:
-                raise UsageError("no encoder inputs selected")
-            if args.only:
+            if args.only:     # every --only that names nothing, before "none selected"
                 unmatched = [o for o in args.only if not any(
                     _selects(o, item["name"], float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"])]
                 if unmatched:
                     raise UsageError(f"no encoder input named {', '.join(unmatched)}")
+            if not todo:
+                raise UsageError("no encoder inputs selected")
         missing = mf.check_hashes({"vectors": [v for v in todo if isinstance(v, dict)],
                                    "encoder_inputs": list({id(ie[0]): ie[0] for ie in todo
                                                            if isinstance(ie, tuple)}.values())},
