@@ -50,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     for modname in SUBCOMMANDS.values():
         mod = importlib.import_module(modname)
         mod.add_parser(sub)
+    for sp in sub.choices.values():     # each subcommand's --help gives the exit codes too
+        if sp.epilog is None and "Exit 0" not in (sp.description or ""):
+            sp.epilog = EXIT_CODES_HELP
     return parser
 
 
