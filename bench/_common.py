@@ -36,6 +36,32 @@ def recordings(root: Path, folder: str = "") -> list[Path]:
                   and p.is_file())
 
 
+def find_recording(root: Path, name: str) -> Path | None:
+    """The recording ``name`` names under ``root`` (``folder/stem``, ``stem``, with or
+    without its extension), or None: the folder given first (amc/HDM_dg_... is the AMC),
+    then a bare name anywhere below the root."""
+    p = root / name
+    if p.is_file() and p.suffix.lower() in RECORDING_EXTS:
+        return p
+    for ext in RECORDING_EXTS:
+        if (root / (name + ext)).is_file():
+            return root / (name + ext)
+    for ext in RECORDING_EXTS:
+        hits = sorted(root.rglob(Path(name).name + ext))
+        if hits:
+            return hits[0]
+    return None
+
+
+def is_bound_label(text: str) -> bool:
+    """A bound as the benches take it: ``default`` or a finite positive length in mm."""
+    import math
+    try:
+        return text == "default" or (text.endswith("mm") and 0 < float(text[:-2]) < math.inf)
+    except ValueError:
+        return False
+
+
 def no_data_reason(folder: str = "", exts: tuple[str, ...] = RECORDING_EXTS) -> str | None:
     """None when the data folder holds a recording (of ``exts``, under ``folder``), else
     why a bench that needs one is skipped (the folder named as :func:`shared_data_name`

@@ -43,7 +43,14 @@ import sys
 
 import numpy as np
 
-from _common import coded_float32, no_data_reason, shared_data_dir, two_versions, warm_up
+from _common import (
+    coded_float32,
+    is_bound_label,
+    no_data_reason,
+    shared_data_dir,
+    two_versions,
+    warm_up,
+)
 
 SCHEMA = 1
 #: ``--compare`` flags a file whose best decode time after is above (1 + SLOWER) x before
@@ -212,12 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     args = two_versions(ap, argv)
     if args.compare:
         return compare(args.compare, args.against)
-    try:
-        ok = args.bound == "default" or (args.bound.endswith("mm")
-                                         and 0 < float(args.bound[:-2]) < math.inf)
-    except ValueError:
-        ok = False
-    if not ok:
+    if not is_bound_label(args.bound):
         ap.error(f"--bound wants default or a length in mm such as 1mm, got {args.bound!r}")
     reason = no_data_reason()
     if reason:

@@ -35,7 +35,7 @@ import math
 from pathlib import Path
 import sys
 
-from _common import no_data_reason, shared_data_dir, two_versions, warm_up
+from _common import is_bound_label, no_data_reason, shared_data_dir, two_versions, warm_up
 
 SCHEMA = 1
 
@@ -195,11 +195,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--threads wants counts of 1 or more")
     bounds = args.bounds.split(",")
     for b in bounds:
-        try:
-            ok = b == "default" or (b.endswith("mm") and 0 < float(b[:-2]) < math.inf)
-        except ValueError:
-            ok = False
-        if not ok:
+        if not is_bound_label(b):
             ap.error(f"--bounds wants default or lengths in mm such as 1mm, got {b!r}")
     reason = no_data_reason()
     if reason:

@@ -49,6 +49,7 @@ import time
 
 import numpy as np
 
+from _common import find_recording
 from _common import shared_data_dir as shared_data
 import mpz
 from mpz.format import MM_PER_UNIT
@@ -63,23 +64,6 @@ DEFAULT_FILES = ["c3d/cmu_02_01", "c3d/cmu_01_01", "c3d/cmu_135_02",
 BOUNDS = [0.5, 1.0, 2.0, 5.0]
 #: the paper's operating point (ARMS 4-6 mm) as a bounded encode, in mm
 OPERATING_BOUND = 6.5
-EXTS = (".c3d", ".trc", ".bvh", ".amc")
-
-
-def find(root: Path, name: str) -> Path | None:
-    """The file ``name`` names under ``root`` (``folder/stem``, ``stem``, with or without
-    its extension), or None."""
-    p = root / name
-    if p.is_file() and p.suffix.lower() in EXTS:
-        return p
-    for ext in EXTS:                # the folder given first: amc/HDM_dg_... is the AMC
-        if (root / (name + ext)).is_file():
-            return root / (name + ext)
-    for ext in EXTS:                # then a bare name anywhere below the root
-        hits = sorted(root.rglob(Path(name).name + ext))
-        if hits:
-            return hits[0]
-    return None
 
 
 def key_of(root: Path, path: Path) -> str:
@@ -293,7 +277,7 @@ def main(argv=None):
     names = args.files or (DEFAULT_FILES[:2] if args.quick else DEFAULT_FILES)
     files = []
     for n in names:
-        path = find(root, n)
+        path = find_recording(root, n)
         if path is not None:
             files.append((key_of(root, path), path))
         elif given:                     # a name asked for: a typo is an error, not a skip

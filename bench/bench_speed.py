@@ -76,6 +76,7 @@ import numpy as np
 from _common import (
     RECORDING_EXTS,
     coded_float32,
+    find_recording,
     no_data_reason,
     shared_data_dir,
     shared_data_name,
@@ -95,16 +96,10 @@ HAS_THREADS = "threads" in {f.name for f in __import__("dataclasses").fields(
 
 
 def find(root: Path, name: str) -> Path:
-    p = root / name
-    if p.is_file():
+    """:func:`_common.find_recording`, or SystemExit naming what is missing."""
+    p = find_recording(root, name)
+    if p is not None:
         return p
-    for ext in EXTS:                # the folder given first: amc/HDM_dg_... is the AMC
-        if (root / (name + ext)).is_file():
-            return root / (name + ext)
-    for ext in EXTS:                # then a bare name anywhere below the root
-        hits = sorted(root.rglob(Path(name).name + ext))
-        if hits:
-            return hits[0]
     raise SystemExit(f"no file {name!r} under {root} ({shared_data_name()})")
 
 

@@ -85,3 +85,21 @@ def _one_bone_asf(angle: str = "deg", axis: str = "0 0 90", dofs: str = "rx rz")
 def one_bone_asf():
     """A function giving a one-bone ASF text (angle unit, bone axis and dofs as asked)."""
     return _one_bone_asf
+
+
+@pytest.fixture
+def bench_script(monkeypatch):
+    """``load(name)``: the script ``bench/<name>.py`` as a module, imported from its path
+    (bench/ is not a package; its scripts import their neighbours, ``_common`` and
+    ``peers``, so bench/ goes on sys.path for the test)."""
+    import importlib.util
+    bench = Path(__file__).resolve().parents[1] / "bench"
+    monkeypatch.syspath_prepend(str(bench))
+
+    def load(name: str):
+        spec = importlib.util.spec_from_file_location(f"mpz_bench_{name}", bench / f"{name}.py")
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+    return load

@@ -4,23 +4,9 @@ output that differs, and for files not compared; clear errors for a JSON of anot
 (QA 45d, item 8). Small result files built in tmp_path; no real data."""
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import pytest
-
-
-def _bench_decode(monkeypatch):
-    """``bench/bench_decode.py``, imported from its path (bench/ is not a package)."""
-    bench = Path(__file__).resolve().parents[1] / "bench"
-    monkeypatch.syspath_prepend(str(bench))            # its `from _common import ...`
-    spec = importlib.util.spec_from_file_location("mpz_bench_decode_gate",
-                                                  bench / "bench_decode.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _run(tmp_path, name, rows):
@@ -39,11 +25,11 @@ def _gate(bd, before, after) -> int:
     return bd.main(["--compare", *map(str, before), "--against", *map(str, after)])
 
 
-def test_the_tolerance_is_25_percent_of_the_best_of_times(tmp_path, monkeypatch, capsys):
+def test_the_tolerance_is_25_percent_of_the_best_of_times(tmp_path, bench_script, capsys):
     """Before: runs of 10 and 12 ms, best 10 ms. After 12.4 ms is +24 % (passes); 12.6 ms
     is +26 % (fails); a 3x slower decode (10 -> 30 ms) fails. Before the verdict, every
     one of these exited 0."""
-    bd = _bench_decode(monkeypatch)
+    bd = bench_script("bench_decode")
     assert bd.SLOWER == 0.25
     b1 = _run(tmp_path, "b1.json", {"a.c3d": (0.010, "p", "e")})
     b2 = _run(tmp_path, "b2.json", {"a.c3d": (0.012, "p", "e")})
@@ -60,10 +46,10 @@ def test_the_tolerance_is_25_percent_of_the_best_of_times(tmp_path, monkeypatch,
     assert _gate(bd, [b1], [slow, ok]) == 0
 
 
-def test_decoded_output_that_differs_fails(tmp_path, monkeypatch, capsys):
+def test_decoded_output_that_differs_fails(tmp_path, bench_script, capsys):
     """Same time, other positions digest: the decoder changed (the encoded bytes are the
     same); with other encoded bytes too, it says so."""
-    bd = _bench_decode(monkeypatch)
+    bd = bench_script("bench_decode")
     b = _run(tmp_path, "b.json", {"a.c3d": (0.010, "p", "e")})
     a = _run(tmp_path, "a.json", {"a.c3d": (0.010, "q", "e")})
     assert _gate(bd, [b], [a]) == 1
@@ -74,11 +60,11 @@ def test_decoded_output_that_differs_fails(tmp_path, monkeypatch, capsys):
     assert "the encoded bytes differ too" in capsys.readouterr().out
 
 
-def test_files_not_compared_fail_and_no_common_file_is_no_crash(tmp_path, monkeypatch,
+def test_files_not_compared_fail_and_no_common_file_is_no_crash(tmp_path, bench_script,
                                                                 capsys):
     """Two runs with no file in common raised ZeroDivisionError; a file on one side only
     passed unremarked."""
-    bd = _bench_decode(monkeypatch)
+    bd = bench_script("bench_decode")
     b = _run(tmp_path, "b.json", {"a.c3d": (0.010, "p", "e")})
     other = _run(tmp_path, "o.json", {"b.c3d": (0.010, "p", "e")})
     assert _gate(bd, [b], [other]) == 1
@@ -89,10 +75,10 @@ def test_files_not_compared_fail_and_no_common_file_is_no_crash(tmp_path, monkey
     assert "b.c3d: only in the before runs" in capsys.readouterr().out
 
 
-def test_another_bench_json_is_a_clear_error(tmp_path, monkeypatch):
+def test_another_bench_json_is_a_clear_error(tmp_path, bench_script):
     """A bench_encode.py result given by mistake gave "TypeError: string indices must be
     integers"; two runs of one side that decoded differently are refused."""
-    bd = _bench_decode(monkeypatch)
+    bd = bench_script("bench_decode")
     b = _run(tmp_path, "b.json", {"a.c3d": (0.010, "p", "e")})
     enc = tmp_path / "enc.json"
     enc.write_text(json.dumps({"bench": "encode", "schema": 1, "rows": {}}))

@@ -4,21 +4,7 @@ bytes changed (QA 45d, items 6 and 7). Small result files built in tmp_path; no 
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
-
-
-def _bench_encode(monkeypatch):
-    """``bench/bench_encode.py``, imported from its path (bench/ is not a package)."""
-    bench = Path(__file__).resolve().parents[1] / "bench"
-    monkeypatch.syspath_prepend(str(bench))            # its `from _common import ...`
-    spec = importlib.util.spec_from_file_location("mpz_bench_encode_gate",
-                                                  bench / "bench_encode.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _run(tmp_path, name, rows):
@@ -40,17 +26,17 @@ def _run(tmp_path, name, rows):
 SAME = {"1": ("aa", 1000), "2": ("aa", 1000)}
 
 
-def test_identical_runs_pass(tmp_path, monkeypatch, capsys):
-    be = _bench_encode(monkeypatch)
+def test_identical_runs_pass(tmp_path, bench_script, capsys):
+    be = bench_script("bench_encode")
     a = _run(tmp_path, "a.json", {"c3d/x.c3d 1mm": SAME, "bvh/y.bvh 1mm": SAME})
     assert be.compare([a], [a]) == 0
     assert "all 2 encodes identical" in capsys.readouterr().out
 
 
-def test_an_after_run_without_rows_fails(tmp_path, monkeypatch, capsys):
+def test_an_after_run_without_rows_fails(tmp_path, bench_script, capsys):
     """Nothing compared is not "all identical": before, this printed "all 0 encodes
     identical" and exited 0."""
-    be = _bench_encode(monkeypatch)
+    be = bench_script("bench_encode")
     a = _run(tmp_path, "a.json", {"c3d/x.c3d 1mm": SAME})
     empty = _run(tmp_path, "empty.json", {})
     assert be.compare([a], [empty]) == 1
@@ -59,10 +45,10 @@ def test_an_after_run_without_rows_fails(tmp_path, monkeypatch, capsys):
     assert be.main(["--compare", str(a), "--against", str(empty)]) == 1
 
 
-def test_a_dropped_or_renamed_row_fails_and_is_named(tmp_path, monkeypatch, capsys):
+def test_a_dropped_or_renamed_row_fails_and_is_named(tmp_path, bench_script, capsys):
     """One row compared identical and one on each side only (the key spelled otherwise):
     the identical one does not make the gate pass."""
-    be = _bench_encode(monkeypatch)
+    be = bench_script("bench_encode")
     a = _run(tmp_path, "a.json", {"c3d/x.c3d 1mm": SAME, "c3d/y.c3d 1mm": SAME})
     b = _run(tmp_path, "b.json", {"c3d/x.c3d 1mm": SAME, "C3D/y.c3d 1mm": SAME})
     assert be.compare([a], [b]) == 1
@@ -72,11 +58,11 @@ def test_a_dropped_or_renamed_row_fails_and_is_named(tmp_path, monkeypatch, caps
     assert be.compare([a], [dropped]) == 1
 
 
-def test_a_thread_count_that_changed_the_bytes_fails(tmp_path, monkeypatch, capsys):
+def test_a_thread_count_that_changed_the_bytes_fails(tmp_path, bench_script, capsys):
     """The after run's 2-thread encode gave other bytes; its 1-thread digest (the one a
     single stored digest would keep) is unchanged. Before, that passed: "all 1 encodes
     identical", exit 0."""
-    be = _bench_encode(monkeypatch)
+    be = bench_script("bench_encode")
     a = _run(tmp_path, "a.json", {"c3d/x.c3d 1mm": SAME})
     thr = _run(tmp_path, "thr.json", {"c3d/x.c3d 1mm": {"1": ("aa", 1000),
                                                         "2": ("ab", 1000)}})
@@ -86,9 +72,9 @@ def test_a_thread_count_that_changed_the_bytes_fails(tmp_path, monkeypatch, caps
     assert be.compare([thr], [a]) == 1                  # and the other way round
 
 
-def test_changed_bytes_of_one_thread_count_only(tmp_path, monkeypatch):
+def test_changed_bytes_of_one_thread_count_only(tmp_path, bench_script):
     """Both sides agree within themselves, but the 2-thread bytes moved between them."""
-    be = _bench_encode(monkeypatch)
+    be = bench_script("bench_encode")
     a = _run(tmp_path, "a.json", {"k 1mm": {"1": ("aa", 9), "2": ("aa", 9)}})
     b = _run(tmp_path, "b.json", {"k 1mm": {"1": ("aa", 9), "2": ("ac", 9)}})
     c = _run(tmp_path, "c.json", {"k 1mm": {"1": ("ac", 9), "2": ("ac", 9)}})
