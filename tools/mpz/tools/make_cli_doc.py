@@ -71,8 +71,9 @@ def main(argv: list[str] | None = None) -> int:
                                 description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=DOC, help=f"default: {DOC}")
     args = p.parse_args(argv)
+    from mpz.tools._cli import printable
     args.out.write_text(render(), encoding="utf-8")
-    print(f"wrote {args.out}")
+    print(f"wrote {printable(str(args.out))}")
     return 0
 
 
