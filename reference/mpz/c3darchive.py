@@ -150,8 +150,10 @@ class C3DArchive:
     def contents(self) -> dict[str, Any]:
         """What the archive holds beyond the markers (``mpz show``, :meth:`describe`):
         model outputs and the share of their samples that are gaps, analog channels and
-        samples a frame, the event count (EVENT:USED; None without one), the first frame,
-        the parameter section's groups and parameters, and the point storage."""
+        samples a frame, the event count (EVENT:USED; None without one), the events of
+        the header's event block (:meth:`header_events`, 0 without one: c3dorg_Eb015pi has
+        3 there and no EVENT group), the first frame, the parameter section's groups and
+        parameters, and the point storage."""
         J = int(self.models.shape[1])
         used = self.parameter("EVENT", "USED")
         groups = sum(r.is_group for r in self.records)
@@ -162,6 +164,7 @@ class C3DArchive:
                 "events": (int(np.frombuffer(used.data, "<i2", 1)[0])
                            if used is not None and used.type == 2 and len(used.data) >= 2
                            else None),
+                "header_events": self.header_events(),
                 "first_frame": self.first_frame(), "parameter_records": len(self.records),
                 "parameter_groups": groups,
                 "storage": "int16" if self.word_storage == C3DStorage.INT16 else "float32"}
@@ -181,6 +184,9 @@ class C3DArchive:
             parts.append(f"{E} event{'s' * (E != 1)}")
         elif E is None and self.parameter("EVENT", "TIMES") is not None:
             parts.append("the events")
+        H = c["header_events"]
+        if H:
+            parts.append(f"{H} event{'s' * (H != 1)} (header)")
         groups = c["parameter_groups"]
         parts += [f"the parameter section ({groups} groups, {c['parameter_records'] - groups} "
                   "parameters)", "the header", "the points' residual and camera words"]

@@ -490,6 +490,13 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append(f"{fmt} has no place for free metadata: not written: "
                          + ", ".join(repr(k) for k in free[:8])
                          + (f" and {len(free) - 8} more" if len(free) > 8 else ""))
+    renamed = motion.metadata.get("renamed_points")
+    if renamed and ext in (".trc", ".csv"):
+        pairs = [p for p in str(renamed).split("; ") if p]
+        notes.append(f"the source C3D repeats point labels: {len(pairs)} point"
+                     f"{'s' * (len(pairs) != 1)} are written under the names given them "
+                     f"on reading ({'; '.join(pairs[:4])}"
+                     + (f" and {len(pairs) - 4} more" if len(pairs) > 4 else "") + ")")
     header = [k for k in motion.metadata if k.startswith("trc.")]
     if header and ext != ".trc":        # a TRC source's header fields (mpz compare: missing)
         notes.append(f"{fmt} has no place for a TRC's header fields: not written: the "
@@ -501,6 +508,9 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append(f"{int(zero.sum())} valid sample(s) at exactly (0, 0, 0) (the first: "
                          f"frame {f}, marker {names[m]!r}) read back as gaps: C3D readers "
                          "take a point at the origin as missing")
+        over = _float32_overflow(motion)
+        if over:
+            refuse.append(over)
         too_long = _names_with(names, lambda n: len(n.encode("utf-8")) > 255)
         if too_long:
             refuse.append(f"C3D labels hold at most 255 bytes: {', '.join(too_long)}")
@@ -561,8 +571,97 @@ def _positions_off_channels(motion: Motion) -> float | None:
     return worst if worst > 0.01 * rest_height(skel) * marker_scale(skel) else None
 
 
-def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None) -> list[str]:
-    """Raise if format ``ext`` cannot hold ``motion`` faithfully; return the notes.
+def _float32_overflow(motion: Motion) -> str | None:
+    """Why C3D's float32 points cannot hold the motion's valid coordinates (some beyond
+    float32's largest finite value, 3.4028235e38, would be written as infinities that read
+    back as valid: a QA run), or None."""
+    v = motion.positions[motion.valid]
+    with np.errstate(over="ignore", invalid="ignore"):
+        inf = np.isinf(v.astype(np.float32)) & np.isfinite(v)
+    if not inf.any():
+        return None
+    k, j = (int(i) for i in np.argwhere(inf)[0])
+    f, m = (int(i) for i in np.argwhere(motion.valid)[k])
+    x = float(motion.positions[f, m, j])
+    return (f"C3D stores points as float32, whose largest value is "
+            f"{float(np.finfo(np.float32).max):.8g}: {int(inf.sum())} valid coordinate(s) "
+            f"are beyond it and would be written as infinities (the first: frame {f}, "
+            f"marker {motion.names[m]!r}, {x!r}); write .npy or .csv, which keep them")
+
+
+#: the float slack of spec §7.2, relative to the largest |coordinate|
+SPEC_FLOAT_SLACK = 2.0 ** -50
+
+#: :func:`rounding_notes` says nothing of a rounding that can take a value beyond a bound
+#: above 0 by no more than this share of it (TRC's 6 decimals round by 8.7e-7 mm at most,
+#: 1e-6 of a 1 mm bound: a note on every TRC would be noise); a bound of 0 gets every one
+ROUNDING_NOTE_SHARE = 1e-4
+
+
+def rounding_notes(motion: Motion, ext: str, bound: float | None) -> list[str]:
+    """What the number format of ``ext`` adds to a decoded motion's error, when it can put
+    values beyond the file's declared ``bound`` (None: no bound, no note).
+
+    C3D without an archive stores float32 points, TRC a fixed number of decimals
+    (:func:`mpz.io.trc.column_decimals`); CSV (``repr``) and NPY (float64) keep every
+    value, and a C3D archive's points are either int16 words on the source's own grid
+    (exact) or float32 values the encoder coded within the bound less float32's rounding
+    (spec Appendix C item 3, :func:`mpz.c3darchive.float32_bound`). The rounding is
+    measured on the valid values; it is said when it exceeds what the bound leaves for
+    it: spec §7.2's float slack max|x| x 2^-50, plus for a float C3D source the margin
+    :func:`~mpz.c3darchive.float32_bound` kept (estimated from below). A bound of 0 (the
+    source's int16 grid, exact) leaves nothing, so every rounded sample is over it and
+    counted; otherwise the decoder cannot know each sample's own error, so the note says
+    how far beyond the bound a value may lie, when that is more than
+    :data:`ROUNDING_NOTE_SHARE` of the bound.
+    """
+    from mpz.c3darchive import C3DArchive, C3DStorage, float32_bound
+    if bound is None or not math.isfinite(bound) or ext not in (".c3d", ".trc") \
+            or not motion.valid.any():
+        return []
+    archive = motion.extras.get("c3d")
+    if ext == ".c3d" and isinstance(archive, C3DArchive):
+        return []
+    v = motion.positions[motion.valid]
+    peak = float(np.abs(v).max())
+    if not math.isfinite(peak):
+        return []
+    with np.errstate(over="ignore", invalid="ignore"):
+        if ext == ".c3d":
+            w = v.astype(np.float32).astype(np.float64)
+            what = "C3D stores points as float32"
+        else:
+            from mpz.io.trc import column_decimals
+            d = column_decimals(motion)
+            w = np.round(v, d)
+            what = f"TRC is written with {d} decimals"
+        r = np.sqrt(((w - v) ** 2).sum(axis=1))
+    r = np.where(np.isfinite(r), r, 0.0)     # an overflow is refused, not noted
+    bound = max(float(bound), 0.0)
+    kept = 0.0
+    if isinstance(archive, C3DArchive) and archive.word_storage != C3DStorage.INT16 \
+            and bound > 0:
+        # the encoder coded within float32_bound(e, peak of the source); the source's
+        # peak is at least the decoded one less e, and a lower peak gives a lower margin
+        kept = bound - float32_bound(bound, max(0.0, peak - bound), lambda: True)
+    over = r > kept + SPEC_FLOAT_SLACK * peak
+    if not over.any() or float(r.max()) - kept <= ROUNDING_NOTE_SHARE * bound:
+        return []
+    u = f" {motion.units}" if motion.units else ""
+    worst = float(r.max())
+    if bound == 0:
+        return [f"{what}: values rounded by up to {worst:.2g}{u}, beyond the file's "
+                f"declared bound of 0{u} (exact) at {int(over.sum())} of {r.size} valid "
+                "samples; write .csv or .npy for the exact values"]
+    return [f"{what}: values rounded by up to {worst:.2g}{u}, which the file's declared "
+            f"{bound:g}{u} bound does not budget: a value may lie up to "
+            f"{worst - kept:.2g}{u} beyond it; write .csv or .npy to keep the bound"]
+
+
+def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None,
+                   bound: float | None = None) -> list[str]:
+    """Raise if format ``ext`` cannot hold ``motion`` faithfully; return the notes, with
+    :func:`rounding_notes` against a decoded file's declared ``bound`` when given.
 
     Raises
     ------
@@ -574,11 +673,11 @@ def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None) -> 
         raise InputFormatError(f"cannot write {FORMAT_NAMES.get(ext, ext)}: "
                                + "; ".join(refuse),
                                path=None if path is None else os.fspath(path))
-    return notes
+    return notes + rounding_notes(motion, ext, bound)
 
 
 __all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES", "SKELETON_FORMATS",
            "read_c3d", "write_c3d", "read_trc", "write_trc", "read_bvh",
            "read_amc", "read_asf", "find_asf", "read_npy", "write_npy",
            "read_csv", "write_csv", "detect_format", "read_bytes", "check_writable",
-           "writer_problems"]
+           "writer_problems", "rounding_notes"]

@@ -265,6 +265,17 @@ def _decimals_in(units: str, read_as: str, decimals: int) -> int:
     return max(decimals, decimals + shift)
 
 
+def column_decimals(motion: Motion) -> int:
+    """The decimals :func:`format_trc` writes the coordinates with: the source TRC's
+    (``trc.Decimals``, more when the units were rescaled since), else 6."""
+    meta = motion.metadata
+    read_as = _UNITS.get(meta.get("trc.Units", motion.units).strip().lower(), "")
+    try:
+        return _decimals_in(motion.units, read_as, int(meta.get("trc.Decimals", "6")))
+    except ValueError:
+        return 6
+
+
 def _fmt(v: float, decimals: int = 6) -> str:
     return "" if not math.isfinite(v) else f"{v:.{decimals}f}"
 
@@ -304,7 +315,7 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
         # a C3D's frame n is at (n - 1) / rate (its frames count from 1)
         t0 = float(meta.get("start_time", repr((first - 1) / motion.rate)))
         dt = int(meta.get("trc.TimeDecimals", "6"))
-        dv = _decimals_in(motion.units, read_as, int(meta.get("trc.Decimals", "6")))
+        dv = column_decimals(motion)
         tdig = int(meta.get("trc.TimeDigits", str(dt)))
     except ValueError:
         t0, dt, dv, tdig = 0.0, 6, 6, 6

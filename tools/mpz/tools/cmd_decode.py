@@ -16,9 +16,13 @@ import argparse
 import os
 import sys
 import tempfile
+from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError, MPZError
 from mpz.tools._cli import printable
+
+if TYPE_CHECKING:
+    from mpz.motion import Motion
 
 #: --format choices, as extensions
 FORMATS = ("c3d", "trc", "npy", "csv", "bvh", "amc")
@@ -87,9 +91,35 @@ def run(args: argparse.Namespace) -> int:
     except UsageError as exc:
         print(f"mpz decode: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    problem = _asf_usage(args, jobs)
+    if problem:
+        print(f"mpz decode: error: {problem}", file=sys.stderr)
+        return EXIT_USAGE
     report = sys.stderr if any(j.output == STDIO for j in jobs) else sys.stdout
     return run_batch("decode", jobs, lambda job: _decode_one(job, args, report),
                      report=report, quiet=args.quiet)
+
+
+def _asf_usage(args: argparse.Namespace, jobs: list) -> str | None:
+    """Why ``--asf`` cannot be used with these jobs, checked before anything is written (a
+    QA run: ``-o a.amc --asf a.amc`` wrote the ASF, then refused or replaced it with the
+    AMC; ``--asf -`` made a file named ``-``), or None."""
+    from mpz.api import _same_file
+    from mpz.tools._common import STDIO
+    if args.asf is None:
+        return None
+    if args.asf == STDIO:
+        return ("--asf -: the ASF cannot go to standard output (the AMC is the output); "
+                "give the ASF a file name")
+    if len(jobs) > 1:
+        return "--asf names one file: with it, decode one input at a time"
+    for job in jobs:
+        if job.output not in (None, STDIO) and _same_file(args.asf, job.output):
+            return (f"--asf {printable(args.asf)} and -o {printable(job.output)} name the "
+                    "same file: the ASF and the AMC need a file each")
+        if job.input != STDIO and _same_file(args.asf, job.input):
+            return f"--asf {printable(args.asf)} is the input file"
+    return None
 
 
 def _target_ext(args: argparse.Namespace, output: str, motion: object = None) -> str:
@@ -126,7 +156,6 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         STDIO,
         compile_notice,
         joint_positions_from_channels,
-        read_mpz_input,
         write_stdout,
     )
 
@@ -141,13 +170,19 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
     asf = _asf_output(args, job.output, ext if not to_stdout or args.format else None, source)
     compile_notice(args.quiet, args.verbose, announce=False)
     # a skeletal file's joint positions come from its channels (read_mpz_input, §6.10)
-    motion = read_mpz_input(job.input, args.max_samples)
+    motion, bound, skipped = _read_mpz(job.input, args.max_samples)
     if to_stdout:
         ext = _target_ext(args, STDIO, motion)
         if ext in (".npy", ".c3d") and not args.force and sys.stdout.isatty():
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
-    notes = check_writable(motion, ext, path=job.output)
+    notes = check_writable(motion, ext, path=job.output, bound=bound)
+    if skipped:
+        many = len(skipped) != 1
+        notes.append(f"the file's unknown ancillary chunk{'s' * many} "
+                     f"{', '.join(repr(t) for t in skipped)} "
+                     f"{'were' if many else 'was'} skipped (spec §2.3: a decoder ignores "
+                     "what it does not know)")
     if ext not in SKELETON_FORMATS and joint_positions_from_channels(motion, ".mpz"):
         notes.append("its positions are the joint positions computed from the skeleton's "
                      "channels (spec §6.10), not the file's marker layer (what a 1.0 decoder "
@@ -189,6 +224,55 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
             for k, v in motion.metadata.items():
                 print(f"  {printable(k)}: {printable(v)}", file=out)
     return 0
+
+
+def _read_mpz(path: str, max_samples: int | None
+              ) -> tuple[Motion, float | None, list[str]]:
+    """Decode an MPZ input (a file or ``-``) as :func:`mpz.tools._common.read_mpz_input`
+    does, with its declared bound (None: none declared) for the notes on what the output's
+    number format adds to it, and the unknown ancillary chunks the decoder skipped. An
+    input that is another motion format is named, with what to do instead."""
+    from mpz.api import read_source
+    from mpz.chunks import Mhdr
+    from mpz.container import scan
+    from mpz.errors import FormatError
+    from mpz.format import SIGNATURE
+    from mpz.tools._common import STDIO, read_mpz_input_bytes, read_stdin
+    if path == STDIO:
+        data, fmt = read_stdin()
+        if fmt != ".mpz":
+            raise FormatError(f"standard input is not an MPZ file (first bytes {data[:8]!r})"
+                              + _not_mpz_hint(fmt), path=STDIO)
+        motion = read_mpz_input_bytes(data, max_samples)
+    else:
+        data = read_source(path)[0]
+        if not data.startswith(SIGNATURE):             # spec §3.1
+            from mpz.io import detect_format
+            hint = _not_mpz_hint(detect_format(data[:4096]))
+            if hint:
+                raise FormatError(f"not an MPZ file (first bytes {data[:8]!r}){hint}",
+                                  path=path, section="§3.1")
+        try:
+            motion = read_mpz_input_bytes(data, max_samples)
+        except MPZError as exc:
+            exc.path = path
+            raise
+    res = scan(data)                   # the decode above checked every chunk
+    hdr = res.chunks[0].record if res.chunks else None
+    bound = (float(hdr.error_bound) if isinstance(hdr, Mhdr) and hdr.error_metric
+             else None)
+    skipped = [w.chunk for w in res.warnings
+               if w.chunk and "unknown ancillary chunk" in w.message]
+    return motion, bound, skipped
+
+
+def _not_mpz_hint(fmt: str | None) -> str:
+    """``: this is a C3D file; ...`` for input of a motion format, else ``""``."""
+    from mpz.io import FORMAT_NAMES
+    if fmt is None or fmt == ".mpz" or fmt not in FORMAT_NAMES:
+        return ""
+    return (f": this is a {FORMAT_NAMES[fmt]} file; use mpz encode to compress it "
+            "(mpz show summarises it)")
 
 
 # ------------------------------------------------- issue 13: skeletal output --

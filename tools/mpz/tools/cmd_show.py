@@ -13,8 +13,10 @@ in JSON), 2 unreadable input (the dispatcher turns
 from __future__ import annotations
 
 import os
+import sys
 
-from mpz.tools._cli import EXIT_OK, EXIT_WARN, print_json, printable
+from mpz.errors import MPZError
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, print_json, printable
 
 JSON_SCHEMA_VERSION = 1
 
@@ -70,6 +72,17 @@ def _archive(motion) -> dict | None:
     return None if a is None else a.contents()
 
 
+def _declared_bound(data: bytes) -> float | None:
+    """MHDR's declared error bound of MPZ bytes (None: error_metric 0, no bound)."""
+    from mpz.chunks import Mhdr
+    from mpz.container import scan
+    res = scan(data)
+    hdr = res.chunks[0].record if res.chunks else None
+    if not isinstance(hdr, Mhdr) or not hdr.error_metric:
+        return None
+    return float(hdr.error_bound)
+
+
 def _metadata_lines(meta: dict[str, str]) -> list[str]:
     """The subject, and the free metadata's keys (not those a reader sets to describe the
     file it read: :data:`mpz.io.READER_KEYS`); ``--json`` gives every value."""
@@ -86,13 +99,24 @@ def _metadata_lines(meta: dict[str, str]) -> list[str]:
 
 def run(args) -> int:
     from mpz.io import FORMAT_NAMES
-    from mpz.tools._common import read_input
+    from mpz.tools._common import _read_input
 
     path = args.file
-    motion, ext = read_input(path, args.asf,   # MPZError -> exit 2 in the dispatcher
-                             max_samples=args.max_samples)
+    try:
+        motion, ext, data = _read_input(path, args.asf, args.max_samples, keep=True)
+    except MPZError as exc:        # exit 2 as the dispatcher gives it, and with --json a
+        if not args.json:          # document that says so, as mpzinfo --json gives one
+            raise
+        print(f"mpz show: error: {printable(str(exc))}", file=sys.stderr)
+        print_json({"schema": JSON_SCHEMA_VERSION, "file": path, "status": "error",
+                    "error": {"class": type(exc).__name__, "message": exc.message,
+                              "offset": exc.offset, "chunk": exc.chunk,
+                              "section": exc.section}})
+        return EXIT_ERROR
     info = summary(motion, path)
     info["format"] = "MPZ" if ext == ".mpz" else FORMAT_NAMES.get(ext or "")
+    # an .mpz file's declared bound (None: none declared, or not an .mpz), as mpzinfo says
+    info["error_bound"] = _declared_bound(data) if data is not None else None
     code = EXIT_WARN if "warning" in motion.metadata else EXIT_OK
     if args.json:
         print_json(info)
@@ -107,6 +131,11 @@ def run(args) -> int:
         f"duration:  {info['duration']:.3f} s",
         f"gaps:      {info['gap_fraction']:.2%}",
     ]
+    if ext == ".mpz":
+        bound = info["error_bound"]
+        u = f" {info['units']}" if info["units"] else ""
+        lines.append("bound:     " + ("none declared" if bound is None
+                                      else f"max error \u2264 {bound:g}{u} (declared)"))
     if info["channels"] is not None:
         lines.append(f"channels:  {info['channels']}")
     c = info["c3d"]
@@ -121,6 +150,9 @@ def run(args) -> int:
                          f"{'s' * (c['analog_samples_per_frame'] != 1)} a frame")
         if c["events"]:
             parts.append(f"{c['events']} events")
+        if c.get("header_events"):
+            parts.append(f"{c['header_events']} event{'s' * (c['header_events'] != 1)} "
+                         "(header)")
         parts.append(f"{c['parameter_records']} parameter records")
         lines.append("c3d:       " + ", ".join(parts))
     lines += _metadata_lines(motion.metadata)

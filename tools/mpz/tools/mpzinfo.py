@@ -3,7 +3,14 @@
 Default: one line per file (pngcheck style)::
 
     OK: walk.mpz (MPZ 1.0, 120 Hz, 5202 frames, 41 markers, 9 nodes, 312 patterns,
-        1.8 MB -> 71 KB, 35.2:1, max error <= 2.0 mm)
+        markers 1.8 MB as float32 -> file 71 KB, 35.2:1, max error <= 2.0 mm)
+
+The ratio compares the markers as float32 with the whole file (``ratio_of`` in
+``--json``), as ``mpz encode``'s "ratio vs float32" does; a file that keeps more
+(analog channels, a skeleton, C3D parameters) also gets its bytes by part, and the
+markers' chunks against the markers (``bytes_by_part``, ``ratio_markers``). A file in error gets
+no ratio, and fields from an MHDR whose CRC failed are marked unverified
+(``header_crc_ok``).
 
 ``-v`` adds one line per chunk (type, offset, length, CRC ok or bad with the
 computed and stored values); ``-vv`` adds every field of every chunk with its
@@ -78,7 +85,9 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
         "file": name, "size": len(data), "status": "ok", "version": None, "rate": None,
         "frames": None, "markers": None, "nodes": None, "patterns": None, "segments": None,
         "units": None, "error_metric": None, "error_bound": None, "raw_size": None,
-        "ratio": None, "summary_levels": None, "chunks": [], "errors": [], "warnings": []}
+        "ratio": None, "ratio_of": RATIO_OF, "bytes_by_part": None, "ratio_markers": None,
+        "header_crc_ok": None, "summary_levels": None, "chunks": [], "errors": [],
+        "warnings": []}
     for c in res.chunks:
         entry: dict[str, Any] = {
             "type": c.type, "offset": c.offset, "length": c.length, "critical": c.critical,
@@ -106,7 +115,7 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
                     error_metric=hdr.error_metric,
                     error_bound=hdr.error_bound if hdr.error_metric else None,
                     raw_size=12 * hdr.frame_count * hdr.marker_count)
-        info["ratio"] = info["raw_size"] / len(data) if data else None
+        info["header_crc_ok"] = bool(res.chunks[0].crc_ok)
     patt = [r for r in records if isinstance(r, Patt)]
     segs = [r for r in records if isinstance(r, Segs)]
     if patt:
@@ -127,7 +136,33 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
     info["errors"] = [_err(e) for e in errors]
     info["warnings"] = [_err(w) for w in warnings]
     info["status"] = "error" if errors else ("warning" if warnings else "ok")
+    if hdr is not None and not errors:
+        # no ratio for a file in error: its sizes say nothing of what a valid one keeps
+        parts = _parts(res.chunks, len(data))
+        info["bytes_by_part"] = parts
+        info["ratio"] = info["raw_size"] / len(data) if data else None
+        info["ratio_markers"] = (info["raw_size"] / parts["markers"] if parts["markers"]
+                                 else None)
     return _finite(info)
+
+
+#: what ``ratio`` compares (the yardstick of mpz encode's "ratio ... vs float32")
+RATIO_OF = "markers as float32 (12 bytes a marker-frame) / the whole file"
+
+
+def _parts(chunks: list, size: int) -> dict[str, int]:
+    """Bytes of the file by part, as mpz encode counts them (cmd_encode._kept): the
+    markers (signature and the critical MPZ 1.0 chunks), analog (cana), the skeleton and
+    its channels (bvhs, asfs), and the rest (C3D parameters and model outputs, metadata,
+    summary...). Each chunk with its 12 bytes of frame."""
+    out = {"markers": 8, "analog": 0, "skeleton": 0, "rest": 0}
+    for c in chunks:
+        n = c.length + 12
+        key = ("markers" if c.type[:1].isupper() else "analog" if c.type == "cana"
+               else "skeleton" if c.type in ("bvhs", "asfs") else "rest")
+        out[key] += n
+    out["rest"] += size - sum(out.values())        # nothing, for a file without errors
+    return out
 
 
 def _where(e: dict) -> str:
@@ -148,10 +183,24 @@ def summary_line(info: dict) -> str:
     rate = "unknown rate" if info["rate"] is None else f"{info['rate']:g} Hz"
     parts = [f"MPZ {info['version']}", rate, f"{info['frames']} frames",
              f"{info['markers']} markers", f"{info['nodes']} nodes"]
+    if info.get("header_crc_ok") is False:     # fields from an MHDR whose CRC failed
+        parts[0] = f"MHDR CRC bad, unverified: {parts[0]}"
     if info["patterns"] is not None:
         parts.append(f"{info['patterns']} patterns")
-    parts.append(f"{_size(info['raw_size'])} \u2192 {_size(info['size'])}")
-    parts.append(f"{info['ratio']:.1f}:1")
+    if info.get("ratio") is None:              # a file in error: its size, no ratio
+        parts.append(f"{_size(info['size'])}")
+    else:
+        parts.append(f"markers {_size(info['raw_size'])} as float32 \u2192 file "
+                     f"{_size(info['size'])}, {info['ratio']:.1f}:1")
+        b = info.get("bytes_by_part") or {}
+        if b.get("analog") or b.get("skeleton") or b.get("rest", 0) > 200:
+            more = [f"parts: markers {_size(b['markers'])}"
+                    + (f" ({info['ratio_markers']:.1f}:1)" if info["ratio_markers"] else "")]
+            for key, what in (("analog", "analog"), ("skeleton", "skeleton and channels"),
+                              ("rest", "the rest")):
+                if b.get(key):
+                    more.append(f"{what} {_size(b[key])}")
+            parts.append(" + ".join(more))
     units = f" {info['units']}" if info["units"] else ""
     if info["error_bound"] is not None:
         parts.append(f"max error \u2264 {info['error_bound']:g}{units}")
@@ -161,6 +210,11 @@ def summary_line(info: dict) -> str:
     if info["errors"]:
         e = info["errors"][0]
         line += f"\n  error: {printable(e['message'])}{_where(e)}"
+    elif info["warnings"]:                     # a WARN says why, as an ERROR does
+        w = info["warnings"][0]
+        n_more = len(info["warnings"]) - 1
+        line += (f"\n  warning: {printable(w['message'])}{_where(w)}"
+                 + (f" (and {n_more} more; -v lists them)" if n_more else ""))
     return line
 
 
@@ -194,6 +248,8 @@ def _print_chunks(info: dict, verbose: int, out):
         print(f"  chunk #{i} {printable(c['type'])} ({kind}) at offset 0x{c['offset']:05x}, "
               f"length {c['length']}, {crc}", file=out)
         if verbose >= 2 and c["fields"] is not None:
+            if not c["crc_ok"]:
+                print("      (CRC bad: the fields below are as read, unverified)", file=out)
             offs = c.get("field_offsets", {})
             for k, v in c["fields"].items():
                 at = f"0x{offs[k]:05x}" if k in offs else "       "

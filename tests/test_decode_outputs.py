@@ -1,0 +1,190 @@
+"""What ``mpz decode`` and ``mpz show`` say of what comes out (QA 45c, D1-D3, D5): an ASF
+that would be the AMC itself, float32 and decimals rounding beyond the declared bound, a
+coordinate beyond float32, the C3D header's event block, skipped ancillary chunks, renamed
+duplicate labels, a C3D given to decode. Expected values are reasoned from the inputs built
+here or read with ezc3d, not taken from the code's output."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import mpz
+from mpz import Motion
+from mpz.io import write
+
+REPO = Path(__file__).resolve().parents[1]
+U16 = REPO / "conformance" / "vectors" / "uncommon" / "u16-qunt-range-rounds-to-max-finite.mpz"
+U06 = REPO / "conformance" / "vectors" / "uncommon" / "u06-unknown-ancillary-zzzz.mpz"
+
+
+def _mpz(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    exe = Path(sys.executable).parent / "mpz"
+    return subprocess.run([str(exe), *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=300)
+
+
+# ------------------------------------------------------------------ D1: --asf --
+@pytest.fixture(scope="module")
+def amc_mpz(tmp_path_factory, shared_data) -> Path:
+    d = tmp_path_factory.mktemp("amc")
+    src = shared_data / "amc" / "HDM_dg_06-03_03_120.amc"
+    p = _mpz("encode", str(src), "-o", "h.mpz", "--max-error", "1mm", "-q", cwd=d)
+    assert p.returncode == 0, p.stderr
+    return d / "h.mpz"
+
+
+@pytest.mark.parametrize("asf", ["h3.amc", "./h3.amc", "sub/../h3.amc"])
+def test_asf_naming_the_amc_is_refused_before_anything_is_written(amc_mpz, asf, tmp_path):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "h.mpz").write_bytes(amc_mpz.read_bytes())
+    for extra in ([], ["-f"]):
+        p = _mpz("decode", "h.mpz", "-o", "h3.amc", "--asf", asf, *extra, cwd=tmp_path)
+        assert p.returncode == 64, p.stderr
+        assert "same file" in p.stderr
+        assert sorted(x.name for x in tmp_path.iterdir()) == ["h.mpz", "sub"]
+
+
+def test_asf_dash_makes_no_file_named_dash(amc_mpz, tmp_path):
+    (tmp_path / "h.mpz").write_bytes(amc_mpz.read_bytes())
+    p = _mpz("decode", "h.mpz", "-o", "h5.amc", "--asf", "-", cwd=tmp_path)
+    assert p.returncode == 64 and "standard output" in p.stderr
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["h.mpz"]
+    # the ordinary use still writes both
+    p = _mpz("decode", "h.mpz", "-o", "h6.amc", "--asf", "s.asf", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert ":bonedata" in (tmp_path / "s.asf").read_text(encoding="latin-1")
+    assert ":bonedata" not in (tmp_path / "h6.amc").read_text(encoding="latin-1")
+
+
+# ------------------------------------------------------- D2: float32 and decimals --
+def test_c3d_beyond_float32_is_refused_and_nothing_written(tmp_path):
+    # u16's values reach 1.8e308, far beyond float32's 3.4e38 (IEEE 754 binary32)
+    back = mpz.decode(U16)
+    assert np.abs(back.positions[back.valid]).max() > 3.5e38
+    p = _mpz("decode", str(U16), "-o", "out.c3d", cwd=tmp_path)
+    assert p.returncode == 2
+    assert "float32" in p.stderr and "infinit" in p.stderr
+    assert not (tmp_path / "out.c3d").exists()
+    assert _mpz("decode", str(U16), "-o", "out.npy", "-q", cwd=tmp_path).returncode == 0
+
+
+def _off_grid_motion() -> Motion:
+    """60 frames x 4 markers near 1500 mm, at coordinates no float32 holds (k/3 + 0.1)."""
+    rng = np.random.default_rng(7)
+    pos = 1500.0 + rng.uniform(-400, 400, size=(60, 4, 3))
+    pos = np.round(pos * 3) / 3 + 0.1
+    return Motion(pos, ["A", "B", "C", "D"], rate=100.0, units="mm")
+
+
+def test_c3d_float32_rounding_beyond_the_bound_is_noted(tmp_path):
+    import ezc3d
+    m = _off_grid_motion()
+    write(m, tmp_path / "s.trc")
+    assert _mpz("encode", "s.trc", "-o", "s.mpz", "--max-error", "0.01mm", "-q",
+                cwd=tmp_path).returncode == 0
+    p = _mpz("decode", "s.mpz", "-o", "s.c3d", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    # by hand: float32 spacing at 1024..2048 mm is 2^-13 mm, so rounding moves each axis
+    # by <= 2^-14 and a point by <= sqrt(3) 2^-14 = 1.06e-4 mm, against a bound of 0.01 mm
+    pts = ezc3d.c3d(str(tmp_path / "s.c3d"))["data"]["points"][:3].transpose(2, 1, 0)
+    dec = mpz.decode(tmp_path / "s.mpz").positions
+    moved = np.linalg.norm(pts - dec, axis=2).max()
+    assert 0 < moved <= np.sqrt(3) * 2.0 ** -14
+    note = [ln for ln in p.stderr.splitlines() if "float32" in ln]
+    assert len(note) == 1 and "0.01 mm bound" in note[0], p.stderr
+    stated = float(note[0].split("rounded by up to ")[1].split()[0])
+    assert stated == pytest.approx(moved, rel=0.05)
+    # NPY and CSV keep every value: no such note
+    for ext in ("npy", "csv"):
+        p = _mpz("decode", "s.mpz", "-o", f"s.{ext}", cwd=tmp_path)
+        assert p.returncode == 0 and "rounded" not in p.stderr
+
+
+def test_c3d_from_a_c3d_gets_no_rounding_note(tmp_path, shared_data):
+    """A float C3D source: the encoder coded within the bound less float32's rounding."""
+    src = shared_data / "c3d" / "ezc3d_Vicon.c3d"
+    assert _mpz("encode", str(src), "-o", "v.mpz", "--max-error", "1mm", "-q",
+                cwd=tmp_path).returncode == 0
+    for ext in ("c3d", "trc"):
+        p = _mpz("decode", "v.mpz", "-o", f"v.{ext}", cwd=tmp_path)
+        assert p.returncode == 0 and "rounded by" not in p.stderr, p.stderr
+
+
+@pytest.fixture(scope="module")
+def eb015(tmp_path_factory, shared_data) -> Path:
+    d = tmp_path_factory.mktemp("eb")
+    p = _mpz("encode", str(shared_data / "c3d" / "c3dorg_Eb015pi.c3d"), "-o", "e.mpz", "-q",
+             cwd=d)
+    assert p.returncode == 0, p.stderr
+    return d / "e.mpz"
+
+
+def test_trc_decimals_beyond_an_exact_bound_are_noted(eb015, shared_data, tmp_path):
+    import ezc3d
+    c = ezc3d.c3d(str(shared_data / "c3d" / "c3dorg_Eb015pi.c3d"))
+    pts = c["data"]["points"]
+    valid = c["data"]["meta_points"]["residuals"][0] >= 0
+    xyz = pts[:3].transpose(2, 1, 0)[valid.T]               # int16 x POINT:SCALE, in mm
+    off6 = np.abs(np.round(xyz, 6) - xyz).max(axis=1) > 0
+    assert mpz.info(eb015).error_bound == 0.0
+    p = _mpz("decode", str(eb015), "-o", "e.trc", cwd=tmp_path)
+    assert p.returncode == 0
+    note = [ln for ln in p.stderr.splitlines() if "decimals" in ln]
+    assert len(note) == 1, p.stderr
+    assert f"at {int(off6.sum())} of {int(valid.sum())} valid samples" in note[0]
+    # the C3D is written as int16 on the source's grid: exact, no note
+    p = _mpz("decode", str(eb015), "-o", "e.c3d", cwd=tmp_path)
+    assert p.returncode == 0 and "rounded" not in p.stderr
+
+
+# -------------------------------------------------------------- D3: header events --
+def test_header_events_are_counted_by_show_and_decode_notes(eb015, shared_data, tmp_path):
+    import ezc3d
+    ev = ezc3d.c3d(str(shared_data / "c3d" / "c3dorg_Eb015pi.c3d"))["header"]["events"]
+    n = sum(1 for label in ev["events_label"] if label.strip())
+    assert n == 3                                   # RIC, RHS, RTO
+    p = _mpz("show", "--json", str(eb015), cwd=tmp_path)
+    c = json.loads(p.stdout)["c3d"]
+    assert c["header_events"] == n and c["events"] is None
+    assert f"{n} events (header)" in _mpz("show", str(eb015), cwd=tmp_path).stdout
+    for ext in ("trc", "csv", "npy"):
+        p = _mpz("decode", str(eb015), "-o", f"e.{ext}", cwd=tmp_path)
+        assert p.returncode == 0 and f"{n} events (header)" in p.stderr, (ext, p.stderr)
+
+
+# ------------------------------------------------------------------------ D5 --
+def test_show_gives_the_declared_bound_and_a_json_error(tmp_path):
+    from mpz.synth import generate
+    (tmp_path / "w.mpz").write_bytes(mpz.encode(generate("walk", frames=30), max_error=0.5))
+    p = _mpz("show", "w.mpz", cwd=tmp_path)
+    assert "max error \u2264 0.5 mm" in p.stdout
+    assert json.loads(_mpz("show", "--json", "w.mpz", cwd=tmp_path).stdout)[
+        "error_bound"] == 0.5
+    data = (tmp_path / "w.mpz").read_bytes()
+    (tmp_path / "cut.mpz").write_bytes(data[:len(data) // 2])
+    p = _mpz("show", "--json", "cut.mpz", cwd=tmp_path)
+    assert p.returncode == 2
+    doc = json.loads(p.stdout)
+    assert doc["status"] == "error" and doc["error"]["message"]
+
+
+def test_decode_names_skipped_chunks_and_renamed_labels(tmp_path):
+    p = _mpz("decode", str(U06), "-o", "u.npy", cwd=tmp_path)
+    assert p.returncode == 0 and "'qqqq', 'zzzz'" in p.stderr and "skipped" in p.stderr
+    m = Motion(np.ones((3, 2, 3)), ["RKNE", "RKNE#2"], rate=50.0, units="mm")
+    m.metadata["renamed_points"] = "RKNE->RKNE#2"
+    (tmp_path / "r.mpz").write_bytes(mpz.encode(m, max_error=0.1))
+    p = _mpz("decode", "r.mpz", "-o", "r.trc", cwd=tmp_path)
+    assert p.returncode == 0 and "RKNE->RKNE#2" in p.stderr and "repeats" in p.stderr
+
+
+def test_decode_of_a_c3d_says_to_encode_it(shared_data, tmp_path):
+    p = _mpz("decode", str(shared_data / "c3d" / "c3dorg_Eb015pi.c3d"), "-o", "z.trc",
+             cwd=tmp_path)
+    assert p.returncode == 2 and "this is a C3D file; use mpz encode" in p.stderr
+    assert not (tmp_path / "z.trc").exists()
