@@ -1232,6 +1232,37 @@ def test_every_real_output_finds_its_source_first(real_index, capsys):
         assert code == 0 and doc["results"][0]["output"] == p.relative_to(out).as_posix()
 
 
+def test_a_marker_seen_in_a_few_frames_does_not_move_a_real_take(real_index, tmp_path,
+                                                                 capsys):
+    """QA (qa45a, D6): in CMU 01_01, RBAC-1 is valid in frames 120-127 of 2,751; the gap
+    filling held it there for 22 s and it set the shape of the mean pose. The same take
+    without that marker ranked its own file 7th, and cropped by 5 % at each end (which
+    drops its frames) 9th. Left out of the summary (valid in under 10 % of the frames), it
+    changes nothing: without it the summary is the same, so the distance is 0."""
+    from mpz.tools import mpz_cli
+    out, caps = real_index
+    src = next(p for p in caps if p.name == "cmu_01_01.c3d")
+    m = read(src)
+    j = m.names.index("RBAC-1")
+    assert int(np.asarray(m.valid)[:, j].sum()) == 8
+    keep = [i for i in range(m.n_markers) if i != j]
+    pos, valid = np.asarray(m.positions), np.asarray(m.valid)
+    without = tmp_path / "without.trc"
+    write(Motion(pos[:, keep], [m.names[i] for i in keep], m.rate, units=m.units,
+                 valid=valid[:, keep]), without)
+    cut = m.n_frames // 20
+    cropped = tmp_path / "cropped.trc"
+    write(Motion(pos[cut:-cut], m.names, m.rate, units=m.units, valid=valid[cut:-cut]),
+          cropped)
+    for q in (without, cropped):
+        code = mpz_cli.main(["search", str(q), "--index", str(out), "--json", "-n", "1"])
+        doc = json.loads(capsys.readouterr().out)
+        assert code == 0 and doc["results"][0]["path"] == str(src.resolve()), q.name
+    assert doc["results"][0]["distance"] > 0       # the crop is another motion
+    code = mpz_cli.main(["search", str(without), "--index", str(out), "--json", "-n", "1"])
+    assert json.loads(capsys.readouterr().out)["results"][0]["distance"] < 0.01
+
+
 def test_a_feature_that_hardly_varies_is_not_scaled_up():
     """Two takes holding the same values differ by rounding (1e-9) in some features; each
     feature was divided by that spread and every distance became 3e8 (a QA run)."""

@@ -24,6 +24,9 @@ is the summary table of ``mpz encode -r``).
   After a crash, a kill or Ctrl-C, the next run skips what was done; hidden temporary files
   that a killed worker could not remove are deleted when the run stops and before the
   next one starts.
+* **Files the index cannot describe** (:class:`~mpz.similarity.NotDescribable`: one
+  frame, fewer than three markers seen) are encoded and indexed without a summary
+  (:data:`NO_SUMMARY`), with a note; ``mpz search`` leaves them out.
 * **Failures** are per file: bad input and :class:`~mpz.errors.MPZError` of any kind,
   ``OSError`` on a source, a worker killed for exceeding its memory limit. Each is reported
   with its reason (and kept in the index's ``failures`` table) while the other files go
@@ -66,6 +69,7 @@ from mpz.similarity import (
     EXACT_MAX_FRAMES,
     SUMMARY_LEVELS,
     MotionSummary,
+    NotDescribable,
     descriptor,
     features_for,
     from_stored,
@@ -76,13 +80,18 @@ if TYPE_CHECKING:
 
     from mpz.motion import Motion
 
-__all__ = ["INDEX_NAME", "SCHEMA", "META_FINGERPRINT", "META_SHA256", "FileOptions", "FileResult",
+__all__ = ["INDEX_NAME", "NO_SUMMARY", "SCHEMA", "META_FINGERPRINT", "META_SHA256",
+           "FileOptions", "FileResult",
            "CorpusReport", "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint",
            "mirror_jobs", "open_index", "sha256_file", "sweep_temporaries",
            "DEFAULT_MEMORY_LIMIT"]
 
 #: the index's file name inside the output folder
 INDEX_NAME = "index.sqlite"
+#: ``summary_method`` of a file the index cannot describe (:class:`~mpz.similarity.
+#: NotDescribable`: one frame, fewer than three markers seen): encoded and indexed, with
+#: no summary and an empty descriptor; not a candidate of ``mpz search``
+NO_SUMMARY = "none"
 #: version of the index's tables (the ``corpus`` table's ``schema`` value)
 SCHEMA_VERSION = 1
 #: meta keys the corpus adds to every output
@@ -130,9 +139,10 @@ CREATE TABLE IF NOT EXISTS files (
     ratio           REAL NOT NULL,     -- raw_bytes / total_bytes
     max_error       REAL,              -- measured: decoded vs source, file units
     arms            REAL,              -- measured: average per-frame RMS error
-    summary_method  TEXT NOT NULL,     -- exact | blocks:B (see mpz.similarity)
+    summary_method  TEXT NOT NULL,     -- exact | blocks:B (see mpz.similarity) | none
     summary_dims    INTEGER NOT NULL,  -- 3 x markers
-    descriptor      BLOB NOT NULL,     -- float64 LE features (mpz.similarity.descriptor)
+    descriptor      BLOB NOT NULL,     -- float64 LE features (mpz.similarity.descriptor);
+                                       -- empty for summary_method none
     fingerprint     TEXT NOT NULL,     -- of the encode options (mpz.corpus.fingerprint)
     mpz_version     TEXT NOT NULL,
     encoded_at      TEXT NOT NULL,     -- UTC, ISO 8601
@@ -391,8 +401,10 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
 
 
 def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp: str,
-         summary: MotionSummary, seconds: float) -> dict[str, Any]:
-    """The index row of one file, from its output bytes and its source motion."""
+         summary: MotionSummary | None, seconds: float) -> dict[str, Any]:
+    """The index row of one file, from its output bytes and its source motion; a file
+    without a ``summary`` (:class:`~mpz.similarity.NotDescribable`) has the method
+    :data:`NO_SUMMARY` and an empty descriptor."""
     import mpz
     from mpz.container import chunk_sizes
     from mpz.decoder import decode, read_stream
@@ -427,8 +439,11 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
         "marker_bytes": marker, "analog_bytes": analog, "summary_bytes": smry,
         "other_bytes": len(data) - marker - analog - smry, "total_bytes": len(data),
         "chunk_bytes": json.dumps(sizes), "ratio": raw / len(data), "max_error": err,
-        "arms": avg, "summary_method": summary.method, "summary_dims": summary.dims,
-        "descriptor": descriptor(summary, task.levels).astype("<f8").tobytes(),
+        "arms": avg,
+        "summary_method": NO_SUMMARY if summary is None else summary.method,
+        "summary_dims": 3 * motion.n_markers if summary is None else summary.dims,
+        "descriptor": (b"" if summary is None else
+                       descriptor(summary, task.levels).astype("<f8").tobytes()),
         "fingerprint": fp, "mpz_version": mpz.__version__,
         "encoded_at": datetime.datetime.now(datetime.UTC).isoformat(
             timespec="seconds"),
@@ -477,6 +492,17 @@ def encode_file(task: Task) -> FileResult:
         motion, opts, notes = task.options.prepare(task.source, motion)
         if motion.metadata.get("warning"):       # the reader's (kept in the file's meta)
             notes = [motion.metadata["warning"], *notes]
+        # a file the index cannot describe (one frame, no valid sample, fewer than three
+        # markers: one frame stopped the whole run with a traceback, a QA run) is encoded
+        # and indexed as any other, without a summary: mpz search leaves it out, said
+        summary: MotionSummary | None
+        try:
+            summary = summarize(motion, task.levels)
+            descriptor(summary, task.levels)
+        except NotDescribable as exc:
+            summary = None
+            notes = [*notes, f"not searchable ({exc}): indexed without a summary, and "
+                             "mpz search leaves it out"]
         fp = _fingerprint(task, motion.units)
         data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns,
                                              task.indexed)
@@ -496,7 +522,6 @@ def encode_file(task: Task) -> FileResult:
             # "not older than the source", so the output takes the source's time
             if os.stat(task.output).st_mtime_ns < st.st_mtime_ns:
                 os.utime(task.output, ns=(time.time_ns(), st.st_mtime_ns))
-        summary = summarize(motion, task.levels)
         row = _row(task, data, motion, sha, st, fp, summary, 0.0)
     except (MPZError, OSError) as exc:
         return FileResult(task.source, task.output, "failed", _reason(exc, task.source),
@@ -508,7 +533,8 @@ def encode_file(task: Task) -> FileResult:
     row["seconds"] = seconds = time.perf_counter() - t0
     row["cpu_seconds"] = cpu = time.process_time() - c0
     levels = [(lv.k, lv.wssse, lv.starts.astype("<u4").tobytes(),
-               np.ascontiguousarray(lv.means, "<f4").tobytes()) for lv in summary.levels]
+               np.ascontiguousarray(lv.means, "<f4").tobytes())
+              for lv in (summary.levels if summary is not None else ())]
     return FileResult(task.source, task.output, status, "", src_bytes, len(data),
                       row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes,
                       not_kept(motion, opts))
@@ -562,10 +588,11 @@ def _reason(exc: BaseException, source: str) -> str:
 # ----------------------------------------------------------------------- index --
 @dataclass(frozen=True)
 class IndexRow:
-    """One indexed file: its ``files`` row (a dict) and its summary."""
+    """One indexed file: its ``files`` row (a dict) and its summary (None for a file the
+    index could not describe, :data:`NO_SUMMARY`)."""
 
     values: dict[str, Any]
-    summary: MotionSummary
+    summary: MotionSummary | None
 
     def __getitem__(self, key: str) -> Any:
         return self.values[key]
@@ -586,6 +613,31 @@ def _size(path: str | os.PathLike[str]) -> int:
         return 0
 
 
+_F = Callable[..., Any]
+
+
+def _sql(method: _F) -> _F:
+    """An :class:`Index` method whose ``sqlite3.DatabaseError`` becomes an EncoderError that
+    names the index and says what to do: a page damaged inside the file (its header intact)
+    passes the checks of the opening and raised "database disk image is malformed" from a
+    later query, a traceback with exit 1 (a QA run)."""
+    @functools.wraps(method)
+    def wrapper(self: Index, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except sqlite3.OperationalError as exc:    # locked, read-only, disk full, I/O
+            raise EncoderError(f"{self.path}: cannot {'write' if self.create else 'read'} "
+                               f"the index: {exc}") from None
+        except sqlite3.DatabaseError as exc:       # malformed, not a database, ...
+            raise EncoderError(f"{self.path}: a damaged MPZ corpus index ({exc}); "
+                               f"{_REBUILD}") from None
+    return wrapper
+
+
+def _tables(db: sqlite3.Connection) -> set[str]:
+    return {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+
+
 class Index:
     """The SQLite index of a corpus (:data:`SCHEMA`); one writer, the process that runs
     the corpus.
@@ -593,7 +645,9 @@ class Index:
     Raises
     ------
     EncoderError
-        If the file is not an MPZ corpus index or has an unknown schema version.
+        If the file is not an MPZ corpus index (for writing: a database that holds other
+        tables is refused, not written into), is damaged, or has an unknown schema
+        version.
     """
 
     def __init__(self, path: str | os.PathLike[str], *, create: bool = False) -> None:
@@ -605,6 +659,28 @@ class Index:
         try:
             self.db = sqlite3.connect(self.path) if create else _read_only(self.path)
             self.db.execute("PRAGMA foreign_keys = ON")
+            # another program's database at OUT/index.sqlite was written into, our tables
+            # beside its own (a QA run); an empty one (0 bytes, no table) is made ours
+            tables = _tables(self.db)
+            got = None
+            if "corpus" in tables:
+                try:
+                    got = self.db.execute(
+                        "SELECT value FROM corpus WHERE key = 'schema'").fetchone()
+                except sqlite3.OperationalError:   # a 'corpus' table of other columns
+                    got = None
+            if got is None and {"files", "levels"} <= tables:
+                raise EncoderError(f"{self.path}: a damaged MPZ corpus index (its corpus "
+                                   f"table holds no schema); {_REBUILD}")
+            if got is None and (tables or not create):
+                what = (f"it holds the table{'' if len(tables) == 1 else 's'} "
+                        f"{', '.join(sorted(tables)[:5])}{', ...' if len(tables) > 5 else ''}"
+                        if tables else "an empty database")
+                raise EncoderError(
+                    f"{self.path}: not an MPZ corpus index ({what}, and no MPZ schema); "
+                    + ("mpz encode -r keeps its index in OUT/index.sqlite: move this file "
+                       "away or write to another folder" if create and tables else
+                       "make one with mpz encode -r FOLDER -o OUT/"))
             if create:
                 # a commit per file without an fsync each (a row lost to a power cut is
                 # rebuilt by the next run from the output's meta chunk)
@@ -614,28 +690,39 @@ class Index:
                 self.db.execute("INSERT OR IGNORE INTO corpus VALUES ('schema', ?)",
                                 (str(SCHEMA_VERSION),))
                 self.db.commit()
-            got = self.db.execute("SELECT value FROM corpus WHERE key = 'schema'").fetchone()
-        except sqlite3.OperationalError as exc:    # it was "not an MPZ corpus index"
+                got = self.db.execute(
+                    "SELECT value FROM corpus WHERE key = 'schema'").fetchone()
+            if got is None or got[0] != str(SCHEMA_VERSION):
+                raise EncoderError(f"{self.path}: index schema {got and got[0]!r}, this mpz "
+                                   f"reads schema {SCHEMA_VERSION}")
+            missing = sorted({"corpus", "files", "levels", "failures"} - _tables(self.db))
+            if missing:
+                raise EncoderError(f"{self.path}: not an MPZ corpus index (no table "
+                                   f"{', '.join(missing)}); {_REBUILD}")
+            columns = {r[1] for r in self.db.execute("PRAGMA table_info(files)")}
+        except sqlite3.OperationalError as exc:
+            self._close_quietly()
             raise EncoderError(f"{self.path}: cannot {'write' if create else 'read'} the "
                                f"index: {exc}") from None
         except sqlite3.DatabaseError as exc:
+            self._close_quietly()
             raise EncoderError(f"{self.path}: not an MPZ corpus index, or a damaged one "
                                f"({exc}); if it is the index of its folder, {_REBUILD}"
                                ) from None
-        if got is None or got[0] != str(SCHEMA_VERSION):
-            raise EncoderError(f"{self.path}: index schema {got and got[0]!r}, this mpz reads "
-                               f"schema {SCHEMA_VERSION}")
-        tables = {r[0] for r in self.db.execute(
-            "SELECT name FROM sqlite_master WHERE type = 'table'")}
-        missing = sorted({"corpus", "files", "levels", "failures"} - tables)
-        if missing:
-            raise EncoderError(f"{self.path}: not an MPZ corpus index (no table "
-                               f"{', '.join(missing)}); {_REBUILD}")
-        columns = {r[1] for r in self.db.execute("PRAGMA table_info(files)")}
+        except EncoderError:
+            self._close_quietly()
+            raise
         lost = [c for c in _FILE_COLUMNS if c not in columns]
         if lost:                   # a query naming it raised sqlite3's error (QA, stop 33)
+            self._close_quietly()
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files table "
                                f"has no column {', '.join(lost)}); {_REBUILD}")
+
+    def _close_quietly(self) -> None:
+        db = getattr(self, "db", None)
+        if db is not None:
+            with contextlib.suppress(sqlite3.Error):
+                db.close()
 
     def close(self) -> None:
         if self.create:
@@ -653,10 +740,12 @@ class Index:
         self.close()
 
     # -- writing
+    @_sql
     def set_info(self, items: Mapping[str, str]) -> None:
         self.db.executemany("INSERT OR REPLACE INTO corpus VALUES (?, ?)", items.items())
         self.db.commit()
 
+    @_sql
     def put(self, result: FileResult, output_key: str) -> None:
         """Record a result: a row and its levels, or a failure (committed at once)."""
         now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
@@ -681,6 +770,7 @@ class Index:
                                 [(output_key, k, w, s, m) for k, w, s, m in result.levels])
             self.db.execute("DELETE FROM failures WHERE path = ?", (result.row["path"],))
 
+    @_sql
     def forget_missing(self, index_dir: str, keep: Collection[str] = ()) -> list[str]:
         """Remove the rows whose output is no longer in ``index_dir`` (deleted or moved
         away since it was indexed: a search would rank a file that is not there), except
@@ -694,6 +784,7 @@ class Index:
                 self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
         return keys
 
+    @_sql
     def same_sources(self) -> list[list[str]]:
         """Outputs that hold the same source bytes (sha256), each group in output order: a
         source moved or copied within the input folder is encoded again under its new
@@ -705,12 +796,14 @@ class Index:
         return [g for g in groups.values() if len(g) > 1]
 
     # -- reading
+    @_sql
     def row(self, output_key: str) -> dict[str, Any] | None:
         cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files WHERE output = ?",
                               (output_key,))
         got = cur.fetchone()
         return None if got is None else dict(zip(_FILE_COLUMNS, got, strict=True))
 
+    @_sql
     def rows(self) -> list[IndexRow]:
         """Every indexed file with its summary, in output order."""
         cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files ORDER BY output")
@@ -719,7 +812,8 @@ class Index:
         for out, k, w, s, m in self.db.execute(
                 "SELECT output, k, wssse, starts, means FROM levels ORDER BY output, k"):
             levels.setdefault(out, []).append((k, s, m, w))
-        return [IndexRow(v, self._summary(v, levels.get(v["output"], []))) for v in values]
+        return [IndexRow(v, None if v["summary_method"] == NO_SUMMARY else
+                         self._summary(v, levels.get(v["output"], []))) for v in values]
 
     def _summary(self, v: dict[str, Any], levels: list[tuple[int, bytes, bytes, float]]
                  ) -> Any:
@@ -731,21 +825,56 @@ class Index:
             raise EncoderError(f"{self.path}: the row of {v['output']} is damaged ({exc}); "
                                f"{_REBUILD}") from None
 
+    @_sql
     def info(self) -> dict[str, str]:
         return dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
 
-    def refresh_descriptors(self) -> None:
-        """Recompute every stored descriptor from its levels if an older
-        :data:`~mpz.similarity.DESCRIPTOR_VERSION` wrote them; then record this version."""
-        if self.info().get("descriptor_version") not in (None, DESCRIPTOR_VERSION):
-            levels = self.levels()
-            with self.db:
-                for r in self.rows():
-                    self.db.execute("UPDATE files SET descriptor = ? WHERE output = ?",
-                                    (descriptor(r.summary, levels).astype("<f8").tobytes(),
-                                     r["output"]))
-        self.set_info({"descriptor_version": DESCRIPTOR_VERSION})
+    @_sql
+    def refresh_descriptors(self) -> list[str]:
+        """Make the index this :data:`~mpz.similarity.DESCRIPTOR_VERSION`'s; returns the
+        output keys of the rows it removed.
 
+        The rows of an index of another version (its summaries leave out other markers:
+        version 1 kept the markers valid in a few frames) are removed, so that the run
+        rebuilds each from its output (status ``kept``, nothing encoded again), as for a
+        removed index; then this version is recorded. Recomputing the descriptors from the
+        stored summaries would keep those summaries."""
+        version = self.info().get("descriptor_version")
+        dropped: list[str] = []
+        if version != DESCRIPTOR_VERSION:
+            dropped = [k for (k,) in self.db.execute("SELECT output FROM files ORDER BY output")]
+            with self.db:
+                self.db.execute("DELETE FROM levels")
+                self.db.execute("DELETE FROM files")
+        self.set_info({"descriptor_version": DESCRIPTOR_VERSION})
+        return dropped
+
+    @_sql
+    def damaged(self) -> set[str]:
+        """Output keys of rows that cannot be searched: a descriptor that is not finite or
+        not of the index's width, no level, or a level whose byte strings are not of its
+        ``k`` and ``summary_dims`` (cut short). Read from the lengths and the 80-byte
+        descriptors alone; a run rebuilds such rows (they passed it as up to date, and
+        a NaN descriptor made every distance of a search unscaled: a QA run)."""
+        width = 8 * len(features_for(self.levels()))
+        bad = set()
+        for out, d in self.db.execute("SELECT output, descriptor FROM files WHERE "
+                                      "summary_method != ?", (NO_SUMMARY,)):
+            if not isinstance(d, bytes) or len(d) != width or not np.all(
+                    np.isfinite(np.frombuffer(d, "<f8"))):
+                bad.add(out)
+        return bad | self._cut_short()
+
+    def _cut_short(self) -> set[str]:
+        """Output keys of rows without a level, or with a level whose byte strings are not
+        of its ``k`` and ``summary_dims`` (lengths only: no blob is read)."""
+        return {out for (out,) in self.db.execute(
+            "SELECT f.output FROM files f WHERE f.summary_method != ? AND (NOT EXISTS "
+            "(SELECT 1 FROM levels l WHERE l.output = f.output) OR EXISTS "
+            "(SELECT 1 FROM levels l WHERE l.output = f.output AND (length(l.starts) != 4 * l.k "
+            "OR length(l.means) != 4 * l.k * f.summary_dims)))", (NO_SUMMARY,))}
+
+    @_sql
     def levels(self) -> tuple[int, ...]:
         """The summary levels the index was built with (its ``corpus`` table)."""
         text = self.info().get("levels", "")
@@ -757,33 +886,70 @@ class Index:
                                f"{text[:40]!r}); {_REBUILD}")
         return tuple(int(k) for k in ks) or SUMMARY_LEVELS
 
+    @_sql
     def descriptors(self) -> tuple[list[dict[str, Any]], np.ndarray]:
-        """Every row (without its levels) and the matrix of their descriptors.
+        """Every searchable row (without its levels) and the matrix of their descriptors:
+        the rows of files the index could not describe (:data:`NO_SUMMARY`) are left out.
 
-        The stored descriptors are used when the index was written with this
-        :data:`~mpz.similarity.DESCRIPTOR_VERSION`; otherwise they are recomputed from
-        the stored levels (nothing is decoded either way).
+        The stored descriptors are used; rows of other levels (a run with other levels
+        into the same index) are recomputed from their stored summaries (nothing is
+        decoded either way).
+
+        Raises
+        ------
+        EncoderError
+            For an index of another :data:`~mpz.similarity.DESCRIPTOR_VERSION` (its
+            summaries are not this version's: a corpus run into its folder rebuilds
+            them), and for a damaged row (a descriptor that is not finite, a summary that
+            is cut short), named.
         """
+        version = self.info().get("descriptor_version")
         levels = self.levels()
         width = len(features_for(levels))
-        if self.info().get("descriptor_version") == DESCRIPTOR_VERSION:
-            cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files "
-                                  "ORDER BY output")
-            values = [dict(zip(_FILE_COLUMNS, r, strict=True)) for r in cur.fetchall()]
-            if all(len(v["descriptor"]) == 8 * width for v in values):
-                table = np.array([np.frombuffer(v["descriptor"], "<f8") for v in values])
-                return values, table.reshape(len(values), width)
-        rows = self.rows()     # rows of other levels or versions: recompute them all
-        table = np.array([self._descriptor(r, levels) for r in rows])
-        return [r.values for r in rows], table.reshape(len(rows), width)
+        cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files WHERE "
+                              "summary_method != ? ORDER BY output", (NO_SUMMARY,))
+        values = [dict(zip(_FILE_COLUMNS, r, strict=True)) for r in cur.fetchall()]
+        if values and version != DESCRIPTOR_VERSION:
+            raise EncoderError(
+                f"{self.path}: an index of descriptor version {version or '(none)'}, this mpz "
+                f"searches version {DESCRIPTOR_VERSION} (its summaries are made another "
+                "way): run mpz encode -r into its folder again, which rebuilds its rows "
+                "from the .mpz files there without encoding them again (or remove it: "
+                "the next run does the same)")
+        if all(isinstance(v["descriptor"], bytes) and len(v["descriptor"]) == 8 * width
+               for v in values):
+            table = np.array([np.frombuffer(v["descriptor"], "<f8") for v in values]
+                             ).reshape(len(values), width)
+        else:
+            rows = [r for r in self.rows() if r.summary is not None]   # other levels:
+            values = [r.values for r in rows]                          # recompute all
+            table = np.array([self._descriptor(r, levels) for r in rows]
+                             ).reshape(len(rows), width)
+        for v, d in zip(values, table, strict=True):
+            if not np.all(np.isfinite(d)):
+                raise EncoderError(f"{self.path}: the row of {v['output']} is damaged (its "
+                                   f"descriptor is not finite); {_REBUILD}")
+        bad = sorted(self._cut_short())
+        if bad:
+            raise EncoderError(f"{self.path}: the row of {bad[0]} is damaged (its stored "
+                               f"summary is cut short or missing); {_REBUILD}")
+        return values, table
 
     def _descriptor(self, r: IndexRow, levels: tuple[int, ...]) -> np.ndarray:
+        assert r.summary is not None, "rows without a summary are not searched"
         try:
             return descriptor(r.summary, levels)
         except EncoderError as exc:
             raise EncoderError(f"{self.path}: the row of {r['output']} is damaged ({exc}); "
                                f"{_REBUILD}") from None
 
+    @_sql
+    def unsearchable(self) -> int:
+        """How many rows have no summary (:data:`NO_SUMMARY`): archived, not searched."""
+        return int(self.db.execute("SELECT COUNT(*) FROM files WHERE summary_method = ?",
+                                   (NO_SUMMARY,)).fetchone()[0])
+
+    @_sql
     def failures(self) -> list[tuple[str, str]]:
         return self.db.execute("SELECT path, reason FROM failures ORDER BY path").fetchall()
 
@@ -825,6 +991,9 @@ class CorpusReport:
     forgotten: list[str] = field(default_factory=list)
     #: groups of outputs of the same source bytes (Index.same_sources)
     same_source: list[list[str]] = field(default_factory=list)
+    #: what the run did to the index itself: rows rebuilt for a new descriptor version or
+    #: because they were damaged
+    index_notes: list[str] = field(default_factory=list)
 
     def count(self, status: str) -> int:
         return sum(r.status == status for r in self.results)
@@ -839,7 +1008,8 @@ class CorpusReport:
                 "counts": {s: self.count(s) for s in ("encoded", "kept", "skipped", "failed")},
                 "files": [{k: v for k, v in asdict(r).items() if k not in ("row", "levels")}
                           for r in self.results],
-                "forgotten": self.forgotten, "same_source": self.same_source}
+                "forgotten": self.forgotten, "same_source": self.same_source,
+                "index_notes": self.index_notes}
 
     def table(self, name: Callable[[str], str] = str) -> str:
         """The summary table: files, bytes in and out per status, and each failure.
@@ -888,6 +1058,7 @@ class CorpusReport:
             lines.append(f"  NOTE the same source bytes in {name(', '.join(group))} (a "
                          "source moved or copied: remove the outputs not wanted, and the "
                          "next run forgets their rows)")
+        lines += [f"  NOTE {name(note)}" for note in self.index_notes]
         lines.append(f"  index {name(self.index)}")
         return "\n".join(lines)
 
@@ -1306,7 +1477,18 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
                         reason, _size(src)) for src, out, reason in failed]
     with _one_run(index_dir), Index(os.path.join(index_dir, INDEX_NAME), create=True) as index:
-        index.refresh_descriptors()
+        dropped = index.refresh_descriptors()
+        damaged = index.damaged()
+        notes = []
+        if dropped:
+            notes.append(f"the index was of another descriptor version: its {len(dropped)} "
+                         f"row{'' if len(dropped) == 1 else 's'} are rebuilt from the outputs "
+                         "(status kept, nothing encoded again)")
+        if damaged:
+            notes.append(f"{len(damaged)} damaged index row{'' if len(damaged) == 1 else 's'} "
+                         f"(a descriptor that is not finite or a summary cut short) "
+                         f"rebuilt: {', '.join(sorted(damaged)[:5])}"
+                         f"{', ...' if len(damaged) > 5 else ''}")
         index.set_info({"levels": ",".join(map(str, levels)),
                         "exact_max_frames": str(EXACT_MAX_FRAMES)})
         done = 0
@@ -1325,7 +1507,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         todo: list[int] = []
         for i, t in enumerate(tasks):
             row = index.row(t.output_key)
-            if _up_to_date(row, t):
+            if t.output_key not in damaged and _up_to_date(row, t):
                 assert row is not None
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
                                      row["total_bytes"], row["raw_bytes"]))
@@ -1374,7 +1556,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         same = index.same_sources()
     final = [r for r in results if r is not None] + early
     return CorpusReport(final, time.perf_counter() - t0, n_workers, cluster,
-                        os.path.join(index_dir, INDEX_NAME), forgotten, same)
+                        os.path.join(index_dir, INDEX_NAME), forgotten, same, notes)
 
 
 def _absolute(task: Task) -> Task:

@@ -17,6 +17,10 @@ Strategy:
   (:func:`mpz.fisher.summary_partitions`, which the encoder's summary chunks use too),
   and its means and WSSSE are recomputed on every frame. :attr:`MotionSummary.method`
   says which was used.
+* A marker valid in fewer than :data:`MIN_VALID_SHARE` of the frames is left out of the
+  summary (its columns are zeros, as a marker's that is a gap throughout); a motion of
+  fewer than :data:`MIN_FRAMES` frames or :data:`MIN_MARKERS` such markers has no pose
+  to describe (:class:`NotDescribable`).
 * Means are kept as float32, the precision of C3D data, which halves an index; a query
   summarised here is rounded the same way, so the same capture gives the same descriptor
   bit for bit.
@@ -24,9 +28,10 @@ Strategy:
   share of the motion's variance that ``k`` segments explain (one per level), the
   amplitude of the motion and the speed of the mean pose relative to the body's size, the
   shape of the mean pose (eigenvalues of its marker cloud), the duration and the spread of
-  segment lengths. :func:`rank` standardises each feature over the candidates and sorts by
-  Euclidean distance; ties go to a candidate whose source is byte-identical to the query
-  (same sha256), then to the path.
+  segment lengths; the speed has a floor (:data:`MIN_SPEED`), so that a static file does
+  not set the feature's spread over an index. :func:`rank` standardises each feature
+  over the candidates and sorts by Euclidean distance; ties go to a candidate whose
+  source is byte-identical to the query (same sha256), then to the path.
 
 The module works on arrays only (no file I/O); :mod:`mpz.corpus` stores summaries in an
 index and ``mpz search`` queries it.
@@ -49,14 +54,34 @@ if TYPE_CHECKING:
     from mpz.motion import Motion
 
 __all__ = ["SUMMARY_LEVELS", "EXACT_MAX_FRAMES", "FEATURES", "DESCRIPTOR_VERSION", "Level",
-           "MotionSummary", "summarize", "from_stored", "from_smry", "descriptor", "rank",
-           "features_for"]
+           "MotionSummary", "NotDescribable", "summarize", "from_stored", "from_smry",
+           "descriptor", "rank", "features_for", "MIN_VALID_SHARE", "MIN_FRAMES",
+           "MIN_MARKERS", "MIN_SPEED"]
 
 #: segment counts of the stored summary (those of ``mpz summary``'s default)
 SUMMARY_LEVELS: tuple[int, ...] = (6, 12, 24, 48)
 
-#: changes whenever :func:`descriptor` computes anything differently (indexes store it)
-DESCRIPTOR_VERSION = "1"
+#: changes whenever :func:`summarize` or :func:`descriptor` computes anything differently
+#: (indexes store it; an index of another version is rebuilt by the next corpus run and
+#: refused by a search until then). 2: markers valid in under :data:`MIN_VALID_SHARE` of
+#: the frames are left out of the summary, and the speed has a floor (:data:`MIN_SPEED`).
+DESCRIPTOR_VERSION = "2"
+
+#: a marker valid in fewer than this share of a motion's frames is left out of its summary
+#: (as a marker that is a gap throughout is): the gap filling holds it at its last valid
+#: position, and a marker seen in 8 of 2,751 frames (CMU 01_01's RBAC-1, a QA run) then
+#: stood still in the world for 22 s and set the shape of the mean pose
+MIN_VALID_SHARE = 0.1
+#: fewest frames a descriptor describes (one frame has no motion: no variance, no speed)
+MIN_FRAMES = 2
+#: fewest markers (valid in at least :data:`MIN_VALID_SHARE` of the frames) of a pose:
+#: relative to their centroid, one marker is always at 0, and two have no shape
+MIN_MARKERS = 3
+#: floor of the speed feature (body sizes per second) before its log: a perfectly static
+#: file gave log(1e-9) = -20.7 and raised the feature's spread over an index from 0.73 to
+#: 3.77, which switched the feature off for every query; the slowest capture of the
+#: developer set has 0.14
+MIN_SPEED = 0.05
 
 #: names of the descriptor's features, in order; ``ev_k`` is one per level
 FEATURES_FIXED = ("amplitude", "log_speed", "shape_1", "shape_2", "log_duration",
@@ -70,6 +95,12 @@ def features_for(levels: Sequence[int]) -> tuple[str, ...]:
 
 #: the features of a descriptor over :data:`SUMMARY_LEVELS`
 FEATURES = features_for(SUMMARY_LEVELS)
+
+
+class NotDescribable(EncoderError):
+    """A motion the descriptor cannot describe: fewer than :data:`MIN_FRAMES` frames, or
+    fewer than :data:`MIN_MARKERS` markers valid in at least :data:`MIN_VALID_SHARE` of
+    them (no valid sample at all, one marker). Its numbers would be NaN or meaningless."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,10 +149,17 @@ def summarize(motion: Motion, levels: Sequence[int] = SUMMARY_LEVELS, *,
     -------
     MotionSummary
 
+    A marker valid in fewer than :data:`MIN_VALID_SHARE` of the frames is left out (its
+    columns are zeros, as those of a marker that is a gap throughout, and it is not part
+    of the centroid).
+
     Raises
     ------
     EncoderError
         For levels that are not positive integers.
+    NotDescribable
+        For fewer than :data:`MIN_FRAMES` frames or :data:`MIN_MARKERS` markers valid in
+        at least :data:`MIN_VALID_SHARE` of them.
 
     Examples
     --------
@@ -133,12 +171,42 @@ def summarize(motion: Motion, levels: Sequence[int] = SUMMARY_LEVELS, *,
     ks = sorted({int(k) for k in levels})
     if not ks or ks[0] < 1:
         raise EncoderError(f"summary levels must be positive integers, got {list(levels)}")
+    motion = _without_sparse_markers(motion)
     series, _ = motion_series(motion, space="positions")
     b, parts = summary_partitions(series, ks, max_frames)
     out = tuple(Level(k, p.starts.astype(np.int64), p.means.astype(np.float32), float(p.wssse))
                 for k, p in sorted(parts.items()))
     return MotionSummary(series.shape[0], motion.rate, series.shape[1],
                          "exact" if b == 1 else f"blocks:{b}", out)
+
+
+def _without_sparse_markers(motion: Motion) -> Motion:
+    """``motion`` with the markers valid in fewer than :data:`MIN_VALID_SHARE` of its frames
+    made gaps throughout (the same object when there are none).
+
+    Raises
+    ------
+    NotDescribable
+        See :func:`summarize`.
+    """
+    from dataclasses import replace
+    frames = motion.n_frames
+    if frames < MIN_FRAMES:
+        raise NotDescribable(f"too short to describe: {frames} frame{'' if frames == 1 else 's'}"
+                             f" (a motion needs at least {MIN_FRAMES})")
+    valid = np.asarray(motion.valid, bool)
+    share = valid.mean(axis=0) if valid.size else np.zeros(motion.n_markers)
+    keep = share >= MIN_VALID_SHARE
+    if int(keep.sum()) < MIN_MARKERS:
+        seen = int((share > 0).sum())
+        what = ("no valid marker sample" if not seen else
+                f"{int(keep.sum())} marker{'' if keep.sum() == 1 else 's'} valid in at least "
+                f"{MIN_VALID_SHARE:.0%} of its frames ({seen} valid at all)")
+        raise NotDescribable(f"no pose to describe: {what}; a pose needs at least "
+                             f"{MIN_MARKERS} markers")
+    if keep.all():
+        return motion
+    return replace(motion, valid=valid & keep[None, :])
 
 
 def from_stored(n_frames: int, rate: float, dims: int, method: str,
@@ -189,25 +257,40 @@ def descriptor(s: MotionSummary, levels: Sequence[int] = SUMMARY_LEVELS) -> NDAr
     """Marker-set-, unit-, axis- and rate-free features of a summary (:func:`features_for`).
 
     ``ev_k`` is taken from the stored level nearest to ``k`` (a short motion stores fewer
-    segments than asked). The other features use the finest level.
+    segments than asked). The other features use the finest level. The speed has a floor
+    of :data:`MIN_SPEED` before its log.
 
     Raises
     ------
+    NotDescribable
+        For fewer than :data:`MIN_FRAMES` frames, or fewer than :data:`MIN_MARKERS`
+        markers that are not zero throughout (a gap throughout, or left out by
+        :func:`summarize`).
     EncoderError
-        If the summary is not of marker positions (``dims`` not a multiple of 3) or has
-        no level.
+        If the summary is not of marker positions (``dims`` not a multiple of 3), has
+        no level, or holds a value that is not finite (a damaged one).
     """
     if not s.levels or s.dims % 3:
         raise EncoderError(f"a descriptor needs a position summary, got dims={s.dims} and "
                            f"{len(s.levels)} levels")
     F, rate = s.n_frames, s.rate
+    if F < MIN_FRAMES:
+        raise NotDescribable(f"too short to describe: {F} frame{'' if F == 1 else 's'} (a "
+                             f"motion needs at least {MIN_FRAMES})")
+    if not (math.isfinite(rate) and rate > 0) or not all(
+            math.isfinite(lv.wssse) and np.all(np.isfinite(lv.means)) for lv in s.levels):
+        raise EncoderError("the summary holds values that are not finite (or a rate that "
+                           "is not above 0)")
     fine = max(s.levels, key=lambda lv: lv.k)
     n = np.diff(np.append(fine.starts, F)).astype(np.float64)
     mu = fine.means.astype(np.float64)
     # markers that are zero in every segment were gaps throughout: not part of the body
     pts = mu.reshape(fine.k, -1, 3)
     present = np.any(pts != 0.0, axis=(0, 2))
-    m = max(int(present.sum()), 1)
+    m = int(present.sum())
+    if m < MIN_MARKERS:
+        raise NotDescribable(f"no pose to describe: {m} marker{'' if m == 1 else 's'} with "
+                             f"a position (a pose needs at least {MIN_MARKERS})")
     # sum over frames of |x_t|^2 = sum_i n_i |mu_i|^2 + WSSSE (x relative to the centroid)
     sq = float((n * np.einsum("ij,ij->i", mu, mu)).sum()) + fine.wssse
     radius = math.sqrt(sq / (F * m)) or 1.0
@@ -226,15 +309,20 @@ def descriptor(s: MotionSummary, levels: Sequence[int] = SUMMARY_LEVELS) -> NDAr
         evs.append(explained(lv))
     amplitude = math.sqrt(total / (F * m)) / radius
     duration = F / rate
-    step = np.linalg.norm((pts[1:] - pts[:-1])[:, present].reshape(fine.k - 1, -1), axis=1)
+    # one segment (an index of level 1) has no step between segment means: speed 0
+    step = (np.linalg.norm((pts[1:] - pts[:-1])[:, present].reshape(fine.k - 1, -1), axis=1)
+            if fine.k > 1 else np.zeros(0))
     speed = float(step.sum()) / math.sqrt(m) / radius / duration
     pose = grand.reshape(-1, 3)[present]
     pose = pose - pose.mean(axis=0)
     eig = np.sort(np.linalg.eigvalsh(pose.T @ pose / m))[::-1]
     eig = eig / eig.sum() if eig.sum() > 0 else np.full(3, 1 / 3)
     cv = float(n.std() / n.mean())
-    return np.array([*evs, amplitude, math.log(speed + 1e-9), float(eig[0]), float(eig[1]),
-                     math.log(duration), cv], dtype=np.float64)
+    out = np.array([*evs, amplitude, math.log(max(speed, MIN_SPEED)), float(eig[0]),
+                    float(eig[1]), math.log(duration), cv], dtype=np.float64)
+    if not np.all(np.isfinite(out)):
+        raise EncoderError("the summary gives a descriptor that is not finite")
+    return out
 
 
 def rank(query: NDArray[np.float64], table: NDArray[np.float64], *,

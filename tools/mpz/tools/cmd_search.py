@@ -11,10 +11,17 @@ a Fisher summary and a descriptor per file (:mod:`mpz.similarity`); no motion is
   --summary``). Its motion is never decoded.
 
 Files are ranked by the Euclidean distance of their standardised descriptors; ties go to
-a byte-identical source (marked ``=``), then to the output name. ``--json`` prints schema
-``mpz-search/1``.
+a byte-identical source (marked ``=``), then to the output name. Each result names its
+``.mpz`` (relative to the index's folder) and its source, and says when either is no
+longer there. ``--json`` prints schema ``mpz-search/1`` (docs/corpus.md lists its fields).
 
-Exit codes: 0 ok; 2 errors (no index, unreadable query, nothing to compare); 64 usage.
+A query the descriptor cannot describe (one frame, no valid sample, fewer than three
+markers) is refused. ``--rate HZ`` gives the rate of an AMC or NPY query, which stores
+none (a note says when it is assumed); ``--asf`` the skeleton of an AMC query.
+
+Exit codes: 0 ok; 1 a result's ``.mpz`` is gone (warnings only); 2 errors (no index, a
+damaged or foreign index, an unreadable or undescribable query, nothing to compare, an
+option that does not apply to the query); 64 usage.
 """
 from __future__ import annotations
 
@@ -23,10 +30,11 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
-from mpz.errors import EncoderError
-from mpz.tools._cli import EXIT_OK, count
+from mpz.errors import EncoderError, MPZError
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, count, positive
 
 if TYPE_CHECKING:
+    from mpz.motion import Motion
     from mpz.similarity import MotionSummary
 
 JSON_SCHEMA = "mpz-search/1"
@@ -43,27 +51,50 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                    help="the index file, or the folder that holds index.sqlite")
     p.add_argument("-n", "--top", type=count, default=10, metavar="N",
                    help="show the N nearest files (default 10; 0 for all)")
-    p.add_argument("--asf", help="skeleton for an .amc query (default: found beside it)")
+    p.add_argument("--asf", metavar="FILE.asf",
+                   help="skeleton for an .amc query (default: found beside it; needed for "
+                   "an AMC on standard input); an error for any other query")
+    p.add_argument("--rate", metavar="HZ", type=positive,
+                   help="the frame rate of a query that stores none (AMC: 120 Hz is "
+                   "assumed, NPY: 1 Hz), e.g. --rate 120; an error for a query that has one")
     p.add_argument("--json", action="store_true", help="print JSON (schema mpz-search/1)")
     p.set_defaults(func=run)
     return p
 
 
 def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
-                  asf: str | None = None) -> tuple[MotionSummary, str | None, str]:
+                  asf: str | None = None, *, rate: float | None = None,
+                  notes: list[str] | None = None) -> tuple[MotionSummary, str | None, str]:
     """The query's summary, the sha256 of its source (if known) and where the summary came from.
 
     ``rows`` are the index's rows, each with its summary under ``"_summary"`` when the
-    query is an .mpz file.
+    query is an .mpz file. ``rate`` is that of an AMC or NPY query (they store none);
+    ``notes`` gets what the user should know (an assumed rate).
 
     Raises
     ------
     MPZError
-        For an unreadable or undecodable query.
+        For an unreadable, undecodable or undescribable query, and for ``asf`` or
+        ``rate`` given for a query they do not apply to; each names the query (or the
+        ASF).
     """
+    try:
+        return _query_summary(path, rows, levels, asf, rate,
+                              notes if notes is not None else [])
+    except MPZError as exc:          # a damaged .mpz query's error named no file (QA)
+        if exc.path is None:
+            exc.path = path
+        raise
+
+
+def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
+                   asf: str | None, rate: float | None, notes: list[str]
+                   ) -> tuple[MotionSummary, str | None, str]:
     from mpz.corpus import sha256_file
     from mpz.similarity import summarize
     from mpz.tools._common import STDIO
+    if asf is not None:
+        _check_asf(asf)
     if path == STDIO:                        # its format from its content, as everywhere
         import hashlib
 
@@ -71,11 +102,17 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
         from mpz.tools._common import read_stdin
         data, fmt = read_stdin()
         if fmt == ".mpz":
+            _no_options_for(".mpz", asf, rate)
             return _mpz_query(data, rows, levels)
-        s = summarize(read_bytes(data, fmt=fmt, name=STDIO, asf=asf), levels)
+        if fmt == ".amc" and asf is None:
+            raise EncoderError("an AMC query on standard input needs its skeleton: give "
+                               "the .asf file with --asf FILE.asf", path=STDIO)
+        motion = _as_query(read_bytes(data, fmt=fmt, name=STDIO, asf=asf), asf, rate, notes)
+        s = summarize(motion, levels)
         return s, hashlib.sha256(data).hexdigest(), f"the capture ({s.method})"
     if path.lower().endswith(".mpz"):
         from mpz.api import read_source
+        _no_options_for(".mpz", asf, rate)
         data, _ = read_source(path)          # a regular file of at most 4 GiB (QA: FIFOs)
         return _mpz_query(data, rows, levels)
     from mpz.io import read
@@ -83,8 +120,60 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
         sha = sha256_file(path)
     except OSError as exc:
         raise EncoderError(f"cannot read: {exc.strerror or exc}", path=path) from None
-    s = summarize(read(path, asf=asf), levels)
+    s = summarize(_as_query(read(path, asf=asf), asf, rate, notes), levels)
     return s, sha, f"the capture ({s.method})"
+
+
+#: the query formats that store no frame rate (their readers assume one): as mpz encode's
+RATELESS_FORMATS = (".amc", ".npy")
+
+
+def _as_query(motion: Motion, asf: str | None, rate: float | None, notes: list[str]
+              ) -> Motion:
+    """The query's motion with ``--rate`` applied, as mpz encode applies it: to an AMC or
+    NPY (which store no rate), an error for any other; ``--asf`` for anything but an AMC
+    is an error too (it was ignored without a word, a QA run)."""
+    from dataclasses import replace
+    fmt = f".{motion.metadata.get('format', '')}"
+    _no_options_for(fmt, None if fmt == ".amc" else asf,
+                    None if fmt in RATELESS_FORMATS else rate)
+    if fmt not in RATELESS_FORMATS:
+        return motion
+    if rate is None:        # an NPY query was taken at 1 Hz without a word (a QA run)
+        notes.append(f"{fmt[1:].upper()} stores no frame rate: {motion.rate:g} Hz is "
+                     "assumed; give the true one with --rate HZ")
+        return motion
+    meta = {k: v for k, v in motion.metadata.items() if k != "rate_assumed"}
+    return replace(motion, rate=float(rate), metadata=meta)
+
+
+def _shown(path: str) -> str:
+    """A path as the results print it: relative to the current folder when it lies
+    below it, else absolute (not ../../../tmp/...)."""
+    rel = os.path.relpath(path)
+    return path if rel == ".." or rel.startswith(".." + os.sep) else rel
+
+
+def _no_options_for(fmt: str, asf: str | None, rate: float | None) -> None:
+    """Refuse ``--asf`` or ``--rate`` for a query of format ``fmt`` they do not apply to."""
+    what = fmt[1:].upper() or "query"
+    if asf is not None:
+        raise EncoderError(f"--asf is the skeleton of an AMC query; this query is {what}")
+    if rate is not None:
+        raise EncoderError(f"--rate {rate:g}: this {what} stores its rate; --rate is for "
+                           "queries without one (AMC, NPY)")
+
+
+def _check_asf(asf: str) -> None:
+    """``--asf`` must read as an ASF skeleton (a C3D given there gave "cannot read:
+    IndexError: list index out of range", a QA run)."""
+    from mpz.io.amc import read_asf
+    try:
+        read_asf(asf)
+    except MPZError as exc:
+        text = getattr(exc, "message", str(exc))
+        why = "" if text.startswith("cannot read:") else f": {text}"
+        raise EncoderError(f"--asf: not a readable ASF skeleton file{why}", path=asf) from None
 
 
 def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...]
@@ -124,6 +213,7 @@ def run(args: argparse.Namespace) -> int:
     with open_index(args.index) as index:
         levels = index.levels()
         values, table = index.descriptors()
+        left_out = index.unsearchable()     # archived without a summary: not candidates
         # an .mpz query may be found by its source's row; standard input may be one
         need_summaries = args.query == "-" or args.query.lower().endswith(".mpz")
         if need_summaries:
@@ -133,37 +223,69 @@ def run(args: argparse.Namespace) -> int:
         index_path = index.path
     if not values:
         raise EncoderError("the index holds no files", path=index_path)
-    summary, sha, origin = query_summary(args.query, values, levels, args.asf)
-    q = descriptor(summary, levels)
+    notes: list[str] = []
+    summary, sha, origin = query_summary(args.query, values, levels, args.asf,
+                                         rate=args.rate, notes=notes)
+    try:
+        q = descriptor(summary, levels)
+    except MPZError as exc:                # a summary chunk of no pose: the query's
+        exc.path = exc.path or args.query
+        raise
+    for note in notes:
+        print(f"mpz search: note: {printable(note)}", file=sys.stderr)
     same = [v["source_sha256"] == sha for v in values]
     order, dist = rank(q, table, identical=same, names=[v["output"] for v in values])
     shown = order if args.top == 0 else order[:args.top]
+    folder = os.path.dirname(os.path.abspath(index_path))
     results = [{"rank": n + 1, "distance": float(dist[i]), "identical": bool(same[i]),
                 "output": values[i]["output"], "path": values[i]["path"],
+                "output_exists": os.path.isfile(
+                    os.path.join(folder, *values[i]["output"].split("/"))),
+                "source_exists": os.path.isfile(values[i]["path"]),
                 "frames": values[i]["frames"], "rate": values[i]["rate"],
                 "duration_s": values[i]["duration_s"], "markers": values[i]["markers"],
                 "units": values[i]["units"] or None, "format": values[i]["format"]}
                for n, i in enumerate(shown)]
     query = {"file": args.query, "frames": summary.n_frames, "rate": summary.rate,
+             "rate_assumed": any("Hz is assumed" in n for n in notes),
              "dims": summary.dims, "summary": origin, "levels": list(summary.level_ks()),
              "sha256": sha}
+    gone = sum(not r["output_exists"] for r in results)
+    code = EXIT_WARN if gone else EXIT_OK
     if args.json:
         print_json({"schema": JSON_SCHEMA, "index": index_path, "query": query,
                     "features": list(features_for(levels)),
                     "descriptor": [float(v) for v in q], "candidates": len(values),
+                    "not_searchable": left_out,
                     "results": results})
-        return EXIT_OK
+        return code
     secs = summary.n_frames / summary.rate
     print(f"query {printable(args.query)}: {summary.n_frames} frames, {secs:.2f} s, "
           f"{summary.dims // 3} markers; summary from {origin}")
-    print(f"{len(values)} files in {printable(index_path)}; nearest first "
-          "(= marks a byte-identical source)")
-    print(f"{'rank':>4} {'distance':>9} {'frames':>7} {'secs':>7} {'markers':>7}  file")
+    also = (f" (and {left_out} not searchable: fewer than 2 frames or 3 markers)"
+            if left_out else "")
+    print(f"{len(values)} files in {printable(index_path)}{also}; nearest first (= marks a "
+          f"byte-identical source; outputs relative to {printable(_shown(folder))})")
+    print(f"{'rank':>4} {'distance':>9} {'frames':>7} {'secs':>7} {'markers':>7}  "
+          "output  <- source")
     for r in results:
         mark = "=" if r["identical"] else " "
+        out_gone = "" if r["output_exists"] else " [missing]"
+        src_gone = "" if r["source_exists"] else " [missing]"
         print(f"{r['rank']:>4} {r['distance']:>9.3f} {r['frames']:>7} {r['duration_s']:>7.2f} "
-              f"{r['markers']:>7} {mark}{printable(os.path.relpath(r['path']))}")
-    return EXIT_OK
+              f"{r['markers']:>7} {mark}{printable(r['output'])}{out_gone}  <- "
+              f"{printable(_shown(r['path']))}{src_gone}")
+    moved = sum(not r["source_exists"] for r in results)
+    if gone:
+        print(f"mpz search: warning: {gone} of the files listed {'is' if gone == 1 else 'are'}"
+              " no longer in the index's folder ([missing] after the output); the next mpz "
+              "encode -r into it forgets such rows", file=sys.stderr)
+    if moved:
+        its = "it is" if moved == 1 else "they are"
+        print(f"mpz search: note: {moved} of the sources listed {its} no longer at the "
+              "path the index holds ([missing] after the source); the .mpz holds the motion",
+              file=sys.stderr)
+    return code
 
 
 def main(argv: list[str] | None = None) -> int:
