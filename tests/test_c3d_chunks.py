@@ -379,7 +379,7 @@ def test_a_coordinate_past_float32_is_refused_without_a_numpy_warning(archive_fi
     m.positions[0, 0, 0] = 1e308
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        with pytest.raises(InputFormatError, match="does not fit a float32 C3D"):
+        with pytest.raises(InputFormatError, match=r"float32.* beyond it"):   # check_writable
             archive_bytes(m)
 
 
@@ -469,7 +469,7 @@ def test_coordinates_beyond_float32_are_refused_by_the_c3d_writer(tmp_path):
                       dict(m.metadata), extras=dict(m.extras))
     back = mpz.decode(mpz.encode(huge, max_error=1e33))
     assert float(np.nanmax(np.abs(back.positions))) > float(np.finfo(np.float32).max)
-    with pytest.raises(InputFormatError, match="does not fit a float32 C3D"):
+    with pytest.raises(InputFormatError, match=r"float32.* beyond it"):   # check_writable
         mpz.io.write(back, tmp_path / "out.c3d")
 
 

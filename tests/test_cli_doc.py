@@ -28,3 +28,23 @@ def test_the_page_covers_the_subcommands_and_the_other_tools():
     assert {"mpz", "mpz encode", "mpz decode", "mpz search", "mpzinfo",
             "mpz-conformance"} <= set(helps)
     assert "--max-error" in helps["mpz encode"] and "--max-samples" in helps["mpzinfo"]
+
+
+def test_mpzinfo_json_fields_are_documented_and_always_present(tmp_path, capsys):
+    """docs/mpzinfo.md names every field of an mpzinfo --json entry, and an unreadable
+    file's entry has the same fields as a valid one's (it had six: a script reading
+    entry["ratio"] failed on a missing file)."""
+    import json
+
+    import mpz
+    from mpz.synth import generate
+    from mpz.tools import mpzinfo
+    (tmp_path / "w.mpz").write_bytes(mpz.encode(generate("walk", frames=20, seed=1),
+                                                max_error=1.0))
+    mpzinfo.main(["--json", str(tmp_path / "w.mpz"), str(tmp_path / "missing.mpz")])
+    ok, missing = json.loads(capsys.readouterr().out)["files"]
+    assert ok["status"] == "ok" and missing["status"] == "error"
+    assert set(ok) == set(missing)
+    page = (make_cli_doc.DOC.parent / "mpzinfo.md").read_text(encoding="utf-8")
+    named = set(re.findall(r"`(\w+)`", page))
+    assert set(ok) <= named, sorted(set(ok) - named)

@@ -81,13 +81,7 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
     """Everything mpzinfo knows about one file, as a JSON-ready dict (``max_samples``: a
     lower F x M limit, spec §8)."""
     res = scan(data)
-    info: dict[str, Any] = {
-        "file": name, "size": len(data), "status": "ok", "version": None, "rate": None,
-        "frames": None, "markers": None, "nodes": None, "patterns": None, "segments": None,
-        "units": None, "error_metric": None, "error_bound": None, "raw_size": None,
-        "ratio": None, "ratio_of": RATIO_OF, "bytes_by_part": None, "ratio_markers": None,
-        "header_crc_ok": None, "summary_levels": None, "chunks": [], "errors": [],
-        "warnings": []}
+    info = _blank(name, len(data))
     for c in res.chunks:
         entry: dict[str, Any] = {
             "type": c.type, "offset": c.offset, "length": c.length, "critical": c.critical,
@@ -273,10 +267,23 @@ def _read(name: str) -> bytes:
     return read_source(name)[0]
 
 
+def _blank(name: str, size: int | None) -> dict[str, Any]:
+    """A file's entry before anything is known: every field of docs/mpzinfo.md."""
+    return {"file": name, "size": size, "status": "ok", "version": None, "rate": None,
+            "frames": None, "markers": None, "nodes": None, "patterns": None,
+            "segments": None, "units": None, "error_metric": None, "error_bound": None,
+            "raw_size": None, "ratio": None, "ratio_of": RATIO_OF, "bytes_by_part": None,
+            "ratio_markers": None, "header_crc_ok": None, "summary_levels": None,
+            "chunks": [], "errors": [], "warnings": []}
+
+
 def _unreadable(name: str, cls: str, message: str, section: str | None) -> dict:
-    return {"file": name, "status": "error", "frames": None, "chunks": [], "warnings": [],
-            "errors": [{"class": cls, "message": message, "offset": None, "chunk": None,
-                        "section": section}]}
+    """The entry of a file that could not be read at all: every field, null or empty."""
+    info = _blank(name, None)
+    info["status"] = "error"
+    info["errors"] = [{"class": cls, "message": message, "offset": None, "chunk": None,
+                       "section": section}]
+    return info
 
 
 @quiet_broken_pipe
