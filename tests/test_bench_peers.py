@@ -49,10 +49,11 @@ def _check(m, back, E):
     assert d.max() > E / 10            # a lossy peer at this bound does use it
 
 
-@pytest.mark.parametrize("E", [0.5, 2.0])
-def test_qpz_keeps_its_bound_and_the_gaps(E):
+@pytest.mark.parametrize("E", [0.5, 2.0, 1e-4])       # 1e-4: residuals past 16 bits
+@pytest.mark.parametrize("planes", [True, False])
+def test_qpz_keeps_its_bound_and_the_gaps(E, planes):
     m = _motion_with_gaps()
-    enc, dec = peers.qpz_codec(m, E)
+    enc, dec = peers.qpz_codec(m, E, planes=planes)
     _check(m, dec(enc()), E)
 
 
@@ -62,6 +63,24 @@ def test_each_sz3_layout_keeps_its_bound_and_the_gaps(layout):
     m = _motion_with_gaps()
     enc, dec = peers.sz3_one(m, 1.0, layout, "LORENZO_REG")
     _check(m, dec(enc()), 1.0)
+
+
+@pytest.mark.parametrize("predictor", peers.SZ3_ALGORITHMS)
+def test_each_sz3_predictor_keeps_its_bound_and_its_settings_take_effect(predictor):
+    pytest.importorskip("pysz", reason="pysz (SZ3) is not installed")
+    m = _motion_with_gaps()
+    enc, dec = peers.sz3_one(m, 1.0, "1-D by channel", predictor)
+    _check(m, dec(enc()), 1.0)
+
+
+def test_sz3_config_settings_change_the_coding():
+    """The [AlgoSettings] reach SZ3 (a config file that failed to load would leave every
+    LORENZO_REG mix at its defaults, and the search would try one predictor four times)."""
+    pytest.importorskip("pysz", reason="pysz (SZ3) is not installed")
+    m = _motion_with_gaps()
+    sizes = {p: len(peers.sz3_one(m, 1.0, "1-D by channel", p)[0]())
+             for p in ("LORENZO_REG", "Lorenzo 2", "Lorenzo 1")}
+    assert len(set(sizes.values())) == 3, sizes
 
 
 def test_sz3_best_is_the_smallest_configuration():
@@ -78,4 +97,4 @@ def test_sz3_best_is_the_smallest_configuration():
 def test_a_missing_peer_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "pysz", None)           # import pysz raises ImportError
     with pytest.raises(peers.PeerMissing, match=r"\[bench\]"):
-        peers.sz3_one(_motion_with_gaps(), 1.0, "F,M,3", "INTERP")
+        peers.sz3_one(_motion_with_gaps(), 1.0, "F,M,3", "INTERP cubic")
