@@ -24,8 +24,8 @@ the ones bench_rd.py runs:
 
 - ``zstd -19``: lossless, on the yardstick input;
 - ``qpz``: quantise with step 2E/sqrt(3), second-order prediction, zstd -19 on the
-  int16/int32 residuals, and the validity mask when the motion has gaps (so that it can
-  give the gaps back); decode = zstd + reconstruct + scale;
+  residuals as zigzag byte planes, and the validity mask when the motion has gaps (so that
+  it can give the gaps back); decode = zstd + reconstruct + scale;
 - ``SZ3``: SZ3 (``pysz``, the ``bench`` extra) at an absolute bound per value, in the
   configuration (layout x predictor) that gives the fewest bytes within the bound for this
   file and bound, chosen once before the timing (``peers.sz3_codec``; the choice is in the
@@ -77,6 +77,7 @@ from _common import (
     RECORDING_EXTS,
     coded_float32,
     find_recording,
+    is_bound_label,
     no_data_reason,
     shared_data_dir,
     shared_data_name,
@@ -182,11 +183,7 @@ def thread_counts(text: str) -> list[int]:
 def bound_label(text: str) -> str:
     """``--bounds``: ``default``, or a positive length in mm such as ``1mm`` (argparse
     type)."""
-    try:
-        ok = text == "default" or (text.endswith("mm") and 0 < float(text[:-2]) < math.inf)
-    except ValueError:
-        ok = False
-    if not ok:
+    if not is_bound_label(text):
         raise argparse.ArgumentTypeError(
             f"wants default or a length in mm such as 1mm, got {text!r}")
     return text
