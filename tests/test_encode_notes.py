@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 import mpz
 from mpz.io import write
@@ -90,8 +91,19 @@ def test_meta_keeps_a_value_with_equals_signs_and_names_reader_keys(tmp_path):
     (tmp_path / "in").mkdir()
     write(generate("walk", frames=30), tmp_path / "in" / "w.trc")
     (tmp_path / "out").mkdir()
-    p = _mpz("encode", "-r", "in", "-o", "out/", "--meta", "format=x", cwd=tmp_path)
-    assert p.returncode == 0 and "--meta format: a key the readers set" in p.stdout  # summary
+    p = _mpz("encode", "-r", "in", "-o", "out/", "--meta", "subject=x", cwd=tmp_path)
+    assert p.returncode == 0 and "--meta subject: a key the readers set" in p.stdout  # summary
+
+
+@pytest.mark.parametrize("meta", [["format=bvh"], ["source=x.c3d"], ["a=1", "a=2"]])
+def test_meta_that_would_misdescribe_the_file_is_a_usage_error(tmp_path, meta):
+    """QA (stop 45): --meta format=bvh was kept with a note, and every later mpz decode of
+    the file tried to write BVH and failed; a key given twice kept its last value."""
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    args = [a for m in meta for a in ("--meta", m)]
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", *args, cwd=tmp_path)
+    assert p.returncode == 64 and "--meta" in p.stderr, p.stderr
+    assert not (tmp_path / "a.mpz").exists()
 
 
 def test_renamed_markers_are_said(tmp_path):
@@ -194,3 +206,15 @@ def test_the_summary_line_gives_the_k_the_file_holds(tmp_path):
     p = _mpz("encode", "walk.trc", "-o", "b.mpz", "--summary", "6,300", "--json",
              cwd=tmp_path)
     assert json.loads(p.stdout)["summary_levels"] == [6, 30]
+
+
+def test_a_model_error_beyond_the_range_is_a_usage_error(tmp_path):
+    """--model-error ANGLES=1e308 gave "bound inf is not finite" from inside the encoder
+    (exit 2, QA stop 45): the value is a fraction of a channel's range, at most 1."""
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    for v in ("1e308", "1.5"):
+        p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--model-error", f"ANGLES={v}",
+                 cwd=tmp_path)
+        assert p.returncode == 64 and "at most 1" in p.stderr, p.stderr
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--model-error", "ANGLES=1", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr

@@ -1386,3 +1386,23 @@ def test_step_for_is_the_scan_of_every_step(exponent, nudge):
             m *= 10
     got = ch.step_for(bound)
     assert (got.mantissa, got.digits) == (m, d)
+
+
+def test_group_errors_on_a_skeletal_file_are_refused_unless_the_skeleton_is_dropped(
+        tmp_path, shared_data):
+    """QA (stop 45): --group-error lfoot=0.3mm on an AMC came back at 1.145 mm in the joint
+    positions mpz decode computes from the channels (spec §6.10): group bounds hold on the
+    marker layer only. With the skeleton they are refused; without it they hold."""
+    from mpz.io import read
+    m = read(shared_data / "amc" / "HDM_dg_06-03_03_120.amc")
+    with pytest.raises(EncoderError, match="--no-skeleton"):
+        mpz.encode(m, max_error=1.0, group_errors={"lfoot": 0.3})
+    data = mpz.encode(m, max_error=1.0, group_errors={"lfoot": 0.3}, keep_skeleton=False)
+    back = mpz.decode(data)
+    assert back.angles is None                                 # markers only: no channels
+    hier = mpz.info(data)
+    assert hier.markers == m.n_markers
+    # the lfoot node's markers (the skeleton hierarchy's joint lfoot), measured here
+    j = m.names.index("lfoot")
+    err = np.linalg.norm(back.positions[:, j] - m.positions[:, j], axis=-1)
+    assert float(err[m.valid[:, j]].max()) <= 0.3

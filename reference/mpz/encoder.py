@@ -265,6 +265,11 @@ class EncodeOptions:
             if (isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating))
                     or not (math.isfinite(v) and v > 0)):
                 raise EncoderError(f"{name} must be finite and > 0, got {v!r}")
+        for name, v in (("model_error", self.model_error),
+                        *((f"model_errors[{k!r}]", e) for k, e in self.model_errors.items())):
+            if v > 1:         # a fraction of a channel's range (1e308 made an infinite bound)
+                raise EncoderError(f"{name} (--model-error) is a fraction of each channel's "
+                                   f"range, at most 1, got {v!r}")
         kinds = {k.name for k in ModelKind}
         unknown = sorted(set(self.model_errors) - kinds)
         if unknown:
@@ -862,6 +867,15 @@ def resolve_bound(motion: Motion, opts: EncodeOptions) -> tuple[EncodeOptions, s
     ``source_grid`` is kept; otherwise an int16 C3D source is coded exactly on its own grid,
     and any other motion within the default bound (:func:`default_error`).
     """
+    if opts.group_errors and opts.keep_skeleton and "skeleton" in motion.extras:
+        # they bound the marker layer, and a skeletal file's positions are its channels'
+        # (spec §6.10, what mpz decode gives): a QA run found a 0.3 mm group at 1.1 mm
+        raise EncoderError(
+            "group error bounds hold on the marker layer, and a skeletal file's joint "
+            "positions come from its channels, which they do not bound: bound the joints "
+            "with max_error (--max-error), the channels with angle_error and "
+            "translation_error, or drop the skeleton (keep_skeleton=False, --no-skeleton) "
+            "to code markers that keep the group bounds")
     if opts.lossy:
         grid = source_grid_of(motion)
         if grid is not None and on_grid(motion, grid):

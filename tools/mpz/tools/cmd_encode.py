@@ -89,7 +89,8 @@ def add_parser(sub):
                    "--hierarchy given, else cmu41 with 37 or more of CMU's 41 markers, skeleton "
                    "for BVH/AMC, else auto; not the flat one a bounded encode uses without "
                    "it), e.g. l_foot=0.5mm (repeatable; a bound looser than --max-error "
-                   "changes nothing)")
+                   "changes nothing; BVH/AMC only with --no-skeleton: their joints come "
+                   "from the channels, which it does not bound)")
     p.add_argument("--theta", type=float, default=D.theta,
                    help=f"key-frame threshold, fraction of the head size ADDH (default {D.theta})")
     p.add_argument("--k0", type=int, default=D.k0,
@@ -130,7 +131,9 @@ def add_parser(sub):
                    help="smrc: the range-coded summary chunk (MPZ 1.1, the default); smry: the "
                    "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
     p.add_argument("--meta", action="append", metavar="KEY=VALUE",
-                   help="metadata (repeatable; split at the first '=': a value may hold more)")
+                   help="metadata (repeatable, each key once; split at the first '=': a "
+                   "value may hold more); not the keys the readers set (format, source...), "
+                   "but subject")
     p.add_argument("--threads", type=int, metavar="N", default=D.threads,
                    help="threads within each file, 1..64 (default: the CPU count, at most 2, and 1 "
                    "below 10,000 marker-frames); the output is the same for any N")
@@ -170,6 +173,28 @@ def _option_notes(args: argparse.Namespace, opts: EncodeOptions) -> list[str]:
     """The notes on options that do less than they seem to: a --group-error not tighter
     than the bound, and a --meta key that readers set (:func:`_reader_keys`)."""
     return _loose_group_errors(opts) + _reader_keys(args)
+
+
+#: the reader keys --meta may set: descriptive ones, which nothing reads back to decide
+#: anything (the others name the format, source, skeleton... a decoder goes by)
+META_KEYS_ALLOWED = frozenset({"subject"})
+
+
+def _check_meta_keys(items: list[str] | None) -> None:
+    """Refuse a --meta key that a reader sets and the tools read back (a QA run: --meta
+    format=bvh made every later mpz decode of the file try to write BVH, and fail), and a
+    key given twice (the last value was kept without a word)."""
+    from mpz.io import READER_KEYS
+    seen: set[str] = set()
+    for item in items or []:
+        key = item.split("=", 1)[0] if "=" in item else item
+        if key in READER_KEYS and key not in META_KEYS_ALLOWED:
+            raise EncoderError(f"--meta {key}: a key the readers set to describe the file "
+                               f"they read, which the tools go by (mpz decode, mpz show); "
+                               f"give your own name, e.g. --meta {key}_note=...")
+        if key in seen:
+            raise EncoderError(f"--meta {key} is given twice: give each key once")
+        seen.add(key)
 
 
 def _reader_keys(args: argparse.Namespace) -> list[str]:
@@ -236,6 +261,7 @@ def _check_options(args: argparse.Namespace) -> None:
     from mpz.tools._common import check_length
     check_length(args.max_error, "--max-error")
     check_length(args.grid, "--grid")
+    _check_meta_keys(args.meta)
     groups = _pairs(args.group_error, "--group-error")
     for v in groups.values():
         check_length(v, "--group-error")
