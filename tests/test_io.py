@@ -881,3 +881,15 @@ def test_edited_positions_of_a_skeletal_motion_are_noted(two_joint_bvh, tmp_path
     assert len(notes) == 1 and "173.2" in notes[0]          # |(100, 100, 100)|
     back = mpz.io.read(tmp_path / "moved.bvh")
     assert np.allclose(back.positions, m.positions)
+
+
+def test_a_broken_asf_is_named_as_the_asf(tmp_path, shared_data):
+    """QA (stop 45): an ASF line of ':' alone gave "cannot read: IndexError: list index out
+    of range", and every ASF fault named the .amc file."""
+    src = (shared_data / "amc" / "02.asf").read_text(encoding="latin-1")
+    bad = tmp_path / "colon.asf"
+    bad.write_text(":\n" + src, encoding="latin-1")
+    with pytest.raises(InputFormatError) as info:
+        read(shared_data / "amc" / "02_01.amc", asf=bad)
+    assert info.value.path == str(bad)
+    assert "':' with no keyword" in info.value.message and "IndexError" not in str(info.value)

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
 from mpz.io._common import (
+    _PARSE_ERRORS,
     StrPath,
     decode_text,
     integer,
@@ -41,6 +42,7 @@ from mpz.io._common import (
     number,
     read_regular,
     reader,
+    translate,
 )
 from mpz.io.bvh import num, skeleton_of, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, forward
@@ -71,6 +73,8 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
             continue
         if line.startswith(":"):
             parts = line[1:].split(None, 1)
+            if not parts:                  # ':' alone: an IndexError, reported by name (QA)
+                raise _bad("a line of the ASF holds ':' with no keyword after it")
             cur = parts[0].lower()
             out.setdefault(cur, [])
             if len(parts) > 1:
@@ -491,8 +495,12 @@ def read_amc(amc_path: StrPath, asf_path: StrPath | None = None, *,
     """
     if asf_path is None:
         asf_path = find_asf(amc_path)
-    asf_data = read_regular(asf_path)
-    skel, dropped = _parse_asf(decode_text(asf_data), text_encoding(asf_data))
+    try:            # the ASF's faults name the ASF, not the AMC (a QA run)
+        asf_data = read_regular(asf_path)
+        skel, dropped = _parse_asf(decode_text(asf_data), text_encoding(asf_data))
+    except _PARSE_ERRORS + (InputFormatError,) as exc:
+        raise translate(asf_path, exc) from (None if isinstance(exc, InputFormatError)
+                                             else exc)
     data = read_regular(amc_path)
     m = parse_amc(decode_text(data), skel, rate=rate,
                   source=os.path.basename(os.fspath(amc_path)), encoding=text_encoding(data))
