@@ -218,3 +218,23 @@ def test_a_model_error_beyond_the_range_is_a_usage_error(tmp_path):
         assert p.returncode == 64 and "at most 1" in p.stderr, p.stderr
     p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--model-error", "ANGLES=1", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
+
+
+def test_options_that_change_nothing_are_said(tmp_path, two_joint_bvh):
+    """QA (stop 45): --asf and --no-skeleton on a TRC, --summary-format without --summary,
+    and --angle-error with --no-skeleton were accepted without a word (exit 0)."""
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--asf", "x.asf", "--no-skeleton",
+             "--summary-format", "smry", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    for said in ("--asf changes nothing", "--no-skeleton changes nothing",
+                 "--summary-format changes nothing without --summary"):
+        assert said in p.stderr, p.stderr
+    p = _mpz("encode", "walk.trc", "-o", "b.mpz", "--summary", "2", "--summary-format",
+             "smry", cwd=tmp_path)
+    assert p.returncode == 0 and "changes nothing" not in p.stderr
+    assert "smry" in mpz.info(tmp_path / "b.mpz").chunk_bytes          # it did apply
+    (tmp_path / "j.bvh").write_text(two_joint_bvh)
+    p = _mpz("encode", "j.bvh", "-o", "j.mpz", "--no-skeleton", "--angle-error", "0.5",
+             cwd=tmp_path)
+    assert p.returncode == 0 and "change nothing with --no-skeleton" in p.stderr, p.stderr

@@ -124,10 +124,10 @@ def add_parser(sub):
                    "ADDH/1000 with --lossy)")
     p.add_argument("--summary", metavar="K,K,...", help="add the optimal-partition summary chunk "
                    "with these segment counts, e.g. 6,12,24,48")
-    p.add_argument("--summary-space", choices=("positions", "angles"), default=D.summary_space,
+    p.add_argument("--summary-space", choices=("positions", "angles"), default=None,
                    help="what --summary partitions: the marker positions relative to their "
                    "centroid (default) or the joint angles of BVH or AMC input")
-    p.add_argument("--summary-format", choices=("smrc", "smry"), default=D.summary_format,
+    p.add_argument("--summary-format", choices=("smrc", "smry"), default=None,
                    help="smrc: the range-coded summary chunk (MPZ 1.1, the default); smry: the "
                    "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
     p.add_argument("--meta", action="append", metavar="KEY=VALUE",
@@ -164,15 +164,22 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
         weights=_weights(args.weight), hierarchy=args.hierarchy, smoothing=args.smoothing,
         patterns=args.patterns, segmentation=args.segmentation,
         grid=None if args.grid is None else parse_length(args.grid, units, "--grid"),
-        summary=_summary_ks(args.summary), summary_space=args.summary_space,
-        summary_format=args.summary_format, metadata=metadata, lossy=args.lossy,
+        summary=_summary_ks(args.summary), metadata=metadata, lossy=args.lossy,
+        # None: not given (the encoder's default; a note says when they change nothing)
+        **{k: v for k, v in (("summary_space", args.summary_space),
+                             ("summary_format", args.summary_format)) if v is not None},
         model_errors=_model_errors(args.model_error), threads=args.threads)
 
 
 def _option_notes(args: argparse.Namespace, opts: EncodeOptions) -> list[str]:
     """The notes on options that do less than they seem to: a --group-error not tighter
-    than the bound, and a --meta key that readers set (:func:`_reader_keys`)."""
-    return _loose_group_errors(opts) + _reader_keys(args)
+    than the bound, a --meta key that readers set (:func:`_reader_keys`), and --summary-
+    space or --summary-format without --summary (a QA run: they changed nothing, unsaid)."""
+    unused = [o for o, v in (("--summary-space", args.summary_space),
+                             ("--summary-format", args.summary_format)) if v is not None]
+    idle = ([f"{' and '.join(unused)} change{'s' * (len(unused) == 1)} nothing without "
+             "--summary (no summary chunk is written)"] if unused and not args.summary else [])
+    return _loose_group_errors(opts) + _reader_keys(args) + idle
 
 
 #: the reader keys --meta may set: descriptive ones, which nothing reads back to decide
@@ -513,13 +520,17 @@ def _rate(args: argparse.Namespace, motion, *, batch: bool = False):
     return replace(motion, rate=float(args.rate), metadata=meta)
 
 
-def _input_notes(args: argparse.Namespace, motion, source: str) -> list[str]:
+def _input_notes(args: argparse.Namespace, motion, source: str, *,
+                 batch: bool = False) -> list[str]:
     """What the input itself makes the user want to know, said once per file (QA of issue
-    15): an assumed rate, renamed markers, and an MPZ input whose own error adds to the
-    new one."""
+    15): an assumed rate, renamed markers, an MPZ input whose own error adds to the new
+    one, and (one file) an --asf that a non-AMC input does not use."""
     from mpz.io._common import ext_of
     notes = []
     fmt = motion.metadata.get("format", "")
+    if args.asf is not None and fmt != "amc" and not batch:
+        notes.append(f"--asf changes nothing: the input is {fmt.upper() or 'not AMC'}, "
+                     "not AMC")
     if args.rate is None and f".{fmt}" in RATELESS_FORMATS:
         notes.append(f"{fmt.upper()} stores no frame rate: {motion.rate:g} Hz is assumed; "
                      "give the true one with --rate HZ")
@@ -555,6 +566,8 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
         if not batch and (args.angle_error is not None or args.translation_error is not None):
             raise EncoderError("--angle-error and --translation-error apply to skeletal input "
                                "(BVH, AMC/ASF) only")
+        if not batch and args.no_skeleton:
+            return opts, ["--no-skeleton changes nothing: the input has no skeleton"]
         return opts, []
     notes: list[str] = []                          # nothing is lost without a word
     dropped = motion.metadata.get("asf_dropped")
@@ -564,6 +577,9 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
         if not batch:
             notes.append("--no-skeleton: the skeleton and its channels are not kept, only the "
                          "joint positions")
+            if args.angle_error is not None or args.translation_error is not None:
+                notes.append("--angle-error and --translation-error change nothing with "
+                             "--no-skeleton (no channels are coded)")
         return replace(opts, keep_skeleton=False), notes
     lin = _translation_error(args.translation_error, motion)
     # the marker layer's default is the preview bound (mpz.encoder.default_error); a given
@@ -620,7 +636,7 @@ class PerFile:
         motion = _rate(self.args, _units(self.args, motion, batch=True), batch=True)
         opts, notes = _skeleton_options(self.args, motion, self.options(motion.units),
                                         batch=True)
-        return motion, opts, (_input_notes(self.args, motion, source) + notes
+        return motion, opts, (_input_notes(self.args, motion, source, batch=True) + notes
                               + _option_notes(self.args, opts))
 
     def key(self, source: str) -> str:
