@@ -893,3 +893,27 @@ def test_a_broken_asf_is_named_as_the_asf(tmp_path, shared_data):
         read(shared_data / "amc" / "02_01.amc", asf=bad)
     assert info.value.path == str(bad)
     assert "':' with no keyword" in info.value.message and "IndexError" not in str(info.value)
+
+
+@pytest.mark.parametrize("bug", [IndexError, KeyError, TypeError, AttributeError,
+                                 ZeroDivisionError])
+def test_a_readers_bug_is_not_reported_as_bad_input(tmp_path, monkeypatch, bug):
+    """A reader that indexes past what it checked has a bug: the exception surfaces as
+    itself, not as "cannot read: IndexError: ..." blaming the file (until stop 45 these
+    were translated into InputFormatError). A ValueError of a bad number still is."""
+    import mpz.io.trc as trc
+    from mpz.synth import generate
+    p = tmp_path / "w.trc"
+    write(generate("walk", frames=5, markers=2), p)
+
+    def broken(text, **kw):
+        raise bug("a reader's own mistake")
+    monkeypatch.setattr(trc, "parse_trc", broken)
+    with pytest.raises(bug):
+        read(p)
+
+    def bad_number(text, **kw):
+        return int("x1")
+    monkeypatch.setattr(trc, "parse_trc", bad_number)
+    with pytest.raises(InputFormatError, match="ValueError"):
+        read(p)
