@@ -40,10 +40,19 @@ def test_option_mappings_cannot_be_changed_behind_the_options_back():
 
 
 def test_cli_defaults_are_the_options_defaults():
+    """The options mpz encode builds from a command line without options are the
+    encoder's defaults (one definition of each; --summary-space and --summary-format
+    parse to None, so that a note can say when they change nothing, and take the
+    encoder's default then)."""
+    from mpz.tools.cmd_encode import _options
     from mpz.tools.mpz_cli import build_parser
     args = build_parser().parse_args(["encode", "in.c3d", "-o", "out.mpz"])
-    for name in ("theta", "k0", "tau", "metric", "smoothing", "segmentation", "summary_space"):
+    for name in ("theta", "k0", "tau", "metric", "smoothing", "segmentation"):
         assert getattr(args, name) == getattr(DEFAULTS, name), name
+    opts = _options(args, "mm", None)
+    for name in ("theta", "k0", "tau", "metric", "smoothing", "segmentation",
+                 "summary_space", "summary_format", "patterns", "hierarchy", "lossy"):
+        assert getattr(opts, name) == getattr(DEFAULTS, name), name
 
 
 def test_every_chunk_type_is_one_table_entry_with_its_layout_and_section():
