@@ -238,3 +238,25 @@ def test_options_that_change_nothing_are_said(tmp_path, two_joint_bvh):
     p = _mpz("encode", "j.bvh", "-o", "j.mpz", "--no-skeleton", "--angle-error", "0.5",
              cwd=tmp_path)
     assert p.returncode == 0 and "change nothing with --no-skeleton" in p.stderr, p.stderr
+
+
+def test_a_model_error_too_fine_to_hold_is_said():
+    """QA (stop 45): --model-error ANGLES=1e-10 was coded at the finest bound that holds
+    and declared it, while the report said the outputs were within their bound. A model
+    output of values 0 and 1000 has a range of 1000: 3e-10 of it is 3e-7, below 1000 /
+    2^31 = 4.66e-7, the finest step 2^31 grid steps allow."""
+    from mpz.encoder import EncodeOptions
+    from mpz.tools.cmd_encode import _model_bound_notes
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(7, storage=1, F=16, M=3, J=1, C=2, n=2)
+    a = m.extras["c3d"]
+    a.models[:] = 0.0
+    a.models[8, 0, :] = 1000.0
+    a.models[~a.model_valid] = np.nan
+    fine = EncodeOptions(max_error=1.0, model_errors={"ANGLES": 3e-10})
+    notes = _model_bound_notes(m, fine, mpz.encode(m, max_error=1.0,
+                                                   model_errors={"ANGLES": 3e-10}))
+    assert len(notes) == 1 and "ANGLES=3e-10" in notes[0] and "cannot be held" in notes[0]
+    ok = EncodeOptions(max_error=1.0, model_errors={"ANGLES": 1e-4})
+    assert _model_bound_notes(m, ok, mpz.encode(m, max_error=1.0,
+                                                model_errors={"ANGLES": 1e-4})) == []

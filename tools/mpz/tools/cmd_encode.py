@@ -216,6 +216,41 @@ def _reader_keys(args: argparse.Namespace) -> list[str]:
             "checks" for k in keys]
 
 
+def _model_bound_notes(motion, opts: EncodeOptions, data: bytes) -> list[str]:
+    """A note per --model-error kind whose bound some axes could not keep: finer than
+    float32 values or 2^31 grid steps allow, they are coded at the finest bound that holds
+    and declare it (spec §4.13.3, the axis's ``bound``), which went unsaid (a QA run:
+    ANGLES=1e-10 declared 4.7e-10 of the range)."""
+    import numpy as np
+
+    from mpz.c3darchive import C3DArchive
+    from mpz.chunks import Cpnt
+    from mpz.container import parse
+    from mpz.format import ModelKind
+    arc = motion.extras.get("c3d")
+    if not opts.model_errors or not isinstance(arc, C3DArchive) or not arc.model_kinds:
+        return []
+    payload = next((c.payload for c in parse(data) if c.type == "cpnt"), None)
+    if payload is None:
+        return []
+    coarser: dict[str, list[float]] = {}
+    for j, model in enumerate(Cpnt.load(payload).models):
+        name = ModelKind(arc.model_kinds[j]).name
+        rel = opts.model_errors.get(name)
+        ok = arc.model_valid[:, j]
+        if rel is None or not ok.any():
+            continue
+        for axis, ax in enumerate(model.axes):
+            col = arc.models[ok, j, axis]
+            span = float(np.max(col) - np.min(col))
+            if span > 0 and ax.bound > rel * span * (1 + 1e-9):
+                coarser.setdefault(name, []).append(ax.bound / span)
+    return [f"--model-error {name}={opts.model_errors[name]:g}: {len(fr)} axis(es) cannot "
+            f"be held that fine (float32 values, or 2^31 grid steps) and declare the finest "
+            f"bound that holds, up to {max(fr):.2g} of their range"
+            for name, fr in coarser.items()]
+
+
 def _loose_group_errors(opts: EncodeOptions) -> list[str]:
     """A note for each --group-error that is not tighter than the bound: it changes nothing
     (a node is coded within the smaller of the two), which went unsaid."""
@@ -375,6 +410,9 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                else "the source's own grid")
         print(f"mpz encode: note: --grid {args.grid}: the grid step is {rep.step:.6g}"
               f"{' ' + units if units else ''} instead ({why})", file=sys.stderr)
+    if not args.quiet:
+        for note in _model_bound_notes(motion, opts, data):
+            print(f"mpz encode: note: {note}", file=sys.stderr)
     if args.weight and not any(n.used_patterns for n in rep.nodes) and not args.quiet:
         print("mpz encode: note: --weight: the weights act on the pattern layer only (the "
               "paper's distortion control), and no node kept one (under a bound, key frames "
