@@ -53,6 +53,17 @@ def find_recording(root: Path, name: str) -> Path | None:
     return None
 
 
+def positive_int(text: str) -> int:
+    """argparse type of a whole number of 1 or more (``--repeat N``)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"wants 1 or more, got {text!r}")
+    return n
+
+
 def is_bound_label(text: str) -> bool:
     """A bound as the benches take it: ``default`` or a finite positive length in mm."""
     import math

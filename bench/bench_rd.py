@@ -51,7 +51,7 @@ import time
 
 import numpy as np
 
-from _common import find_recording
+from _common import find_recording, positive_int
 from _common import shared_data_dir as shared_data
 import mpz
 from mpz.format import MM_PER_UNIT
@@ -254,23 +254,13 @@ def report(rows):
             f"{x['file']} {x['mpz_ratio']:.1f}:1 @ ARMS {x['arms']:.1f}" for x in lossy))
 
 
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"wants 1 or more, got {text!r}")
-    return v
-
-
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="two files only")
     p.add_argument("--files", nargs="*", metavar="NAME",
                    help="folder/name under the data folder (default: eight C3D files)")
-    p.add_argument("--repeat", type=_positive_int, default=3,
+    p.add_argument("--repeat", type=positive_int, default=3,
                    help="time MPZ's encode and decode as the best of this many runs "
                         "(default 3)")
     p.add_argument("--json", help="save the rows as JSON (for mpz bench --compare)")

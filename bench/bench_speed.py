@@ -79,6 +79,7 @@ from _common import (
     find_recording,
     is_bound_label,
     no_data_reason,
+    positive_int,
     shared_data_dir,
     shared_data_name,
     warm_up,
@@ -187,16 +188,6 @@ def bound_label(text: str) -> str:
         raise argparse.ArgumentTypeError(
             f"wants default or a length in mm such as 1mm, got {text!r}")
     return text
-
-
-def positive_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"wants a whole number of 1 or more, got {text!r}")
-    return n
 
 
 def _sz3_missing() -> str | None:

@@ -401,10 +401,11 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
 
 
 def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp: str,
-         summary: MotionSummary | None, seconds: float) -> dict[str, Any]:
-    """The index row of one file, from its output bytes and its source motion; a file
-    without a ``summary`` (:class:`~mpz.similarity.NotDescribable`) has the method
-    :data:`NO_SUMMARY` and an empty descriptor."""
+         summary: MotionSummary | None, features: bytes, seconds: float) -> dict[str, Any]:
+    """The index row of one file, from its output bytes and its source motion; ``features``
+    is the summary's descriptor as stored (float64 LE). A file without a ``summary``
+    (:class:`~mpz.similarity.NotDescribable`) has the method :data:`NO_SUMMARY` and an
+    empty descriptor."""
     import mpz
     from mpz.container import chunk_sizes
     from mpz.decoder import decode, read_stream
@@ -442,8 +443,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
         "arms": avg,
         "summary_method": NO_SUMMARY if summary is None else summary.method,
         "summary_dims": 3 * motion.n_markers if summary is None else summary.dims,
-        "descriptor": (b"" if summary is None else
-                       descriptor(summary, task.levels).astype("<f8").tobytes()),
+        "descriptor": features,
         "fingerprint": fp, "mpz_version": mpz.__version__,
         "encoded_at": datetime.datetime.now(datetime.UTC).isoformat(
             timespec="seconds"),
@@ -496,9 +496,10 @@ def encode_file(task: Task) -> FileResult:
         # markers: one frame stopped the whole run with a traceback, a QA run) is encoded
         # and indexed as any other, without a summary: mpz search leaves it out, said
         summary: MotionSummary | None
+        features: bytes = b""                 # the descriptor, worked out once, for _row
         try:
             summary = summarize(motion, task.levels)
-            descriptor(summary, task.levels)
+            features = descriptor(summary, task.levels).astype("<f8").tobytes()
         except NotDescribable as exc:
             summary = None
             notes = [*notes, f"not searchable ({exc}): indexed without a summary, and "
@@ -522,7 +523,7 @@ def encode_file(task: Task) -> FileResult:
             # "not older than the source", so the output takes the source's time
             if os.stat(task.output).st_mtime_ns < st.st_mtime_ns:
                 os.utime(task.output, ns=(time.time_ns(), st.st_mtime_ns))
-        row = _row(task, data, motion, sha, st, fp, summary, 0.0)
+        row = _row(task, data, motion, sha, st, fp, summary, features, 0.0)
     except (MPZError, OSError) as exc:
         return FileResult(task.source, task.output, "failed", _reason(exc, task.source),
                           src_bytes,

@@ -34,6 +34,7 @@ from mpz.tools._cli import (
 )
 
 if TYPE_CHECKING:
+    from mpz.container import Scan
     from mpz.motion import Motion
 
 #: the input and output name that means standard input / output
@@ -291,12 +292,41 @@ def read_input(path: str, asf: str | None = None, *,
     return motion, ext
 
 
-def read_input_keeping(path: str, asf: str | None = None
+def read_input_keeping(path: str, asf: str | None = None, *,
+                       max_samples: int | None = None
                        ) -> tuple[Motion, str | None, bytes | None]:
     """:func:`read_input`, and the bytes of an MPZ input (None for other formats), for a
-    caller that reads its chunks too (``mpz compare``: the skeleton chunk's steps). A file
-    is read again for them; standard input, once."""
-    return _read_input(path, asf, None, keep=True)
+    caller that reads its chunks too (``mpz compare``: the skeleton chunk's steps; ``mpz
+    show``: the declared bound). A file is read again for them; standard input, once."""
+    return _read_input(path, asf, max_samples, keep=True)
+
+
+#: the chunk types of each part of a file besides the markers (the critical chunks)
+ANALOG_CHUNKS = ("cana",)
+SKELETON_CHUNKS = ("bvhs", "asfs")
+
+
+def parts_of(chunk_bytes: dict[str, int], file_bytes: int) -> dict[str, int]:
+    """Bytes of an MPZ file by part, each chunk with its 12-byte frame: ``markers`` (the
+    signature and the critical chunks, MHDR .. MEND), ``analog`` (cana), ``skeleton``
+    (bvhs, asfs: the skeleton and its channels) and ``rest`` (C3D parameters and model
+    outputs, metadata, summary, unknown chunks). What ``mpz encode`` and ``mpzinfo``
+    report."""
+    markers = 8 + sum(n for t, n in chunk_bytes.items() if t[:1].isupper())
+    analog = sum(chunk_bytes.get(t, 0) for t in ANALOG_CHUNKS)
+    skeleton = sum(chunk_bytes.get(t, 0) for t in SKELETON_CHUNKS)
+    return {"markers": markers, "analog": analog, "skeleton": skeleton,
+            "rest": file_bytes - markers - analog - skeleton}
+
+
+def declared_bound(res: Scan) -> float | None:
+    """The error bound MHDR declares (spec §4.1, §7.2) in a :func:`mpz.container.scan` of
+    MPZ bytes; None when it declares none or has no readable MHDR."""
+    from mpz.chunks import Mhdr
+    hdr = res.chunks[0].record if res.chunks else None
+    if not isinstance(hdr, Mhdr) or not hdr.error_metric:
+        return None
+    return float(hdr.error_bound)
 
 
 def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bool

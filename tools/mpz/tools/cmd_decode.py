@@ -233,11 +233,10 @@ def _read_mpz(path: str, max_samples: int | None
     number format adds to it, and the unknown ancillary chunks the decoder skipped. An
     input that is another motion format is named, with what to do instead."""
     from mpz.api import read_source
-    from mpz.chunks import Mhdr
     from mpz.container import scan
     from mpz.errors import FormatError
     from mpz.format import SIGNATURE
-    from mpz.tools._common import STDIO, read_mpz_input_bytes, read_stdin
+    from mpz.tools._common import STDIO, declared_bound, read_mpz_input_bytes, read_stdin
     if path == STDIO:
         data, fmt = read_stdin()
         if fmt != ".mpz":
@@ -258,12 +257,9 @@ def _read_mpz(path: str, max_samples: int | None
             exc.path = path
             raise
     res = scan(data)                   # the decode above checked every chunk
-    hdr = res.chunks[0].record if res.chunks else None
-    bound = (float(hdr.error_bound) if isinstance(hdr, Mhdr) and hdr.error_metric
-             else None)
     skipped = [w.chunk for w in res.warnings
                if w.chunk and "unknown ancillary chunk" in w.message]
-    return motion, bound, skipped
+    return motion, declared_bound(res), skipped
 
 
 def _not_mpz_hint(fmt: str | None) -> str:

@@ -707,17 +707,16 @@ def _print_skeleton(rep: dict | None, units: str, out) -> None:
 
 # --------------------------------------------------- issue 12: truthful sizes --
 #: chunk types by part of the file: markers (the MPZ 1.0 critical chunks), analog, the rest
-_ANALOG = ("cana",)
 
 
 def _kept(motion, rep, in_size: int | None) -> dict:
     """Sizes by part, and the ratio against the input counting only what was kept: the whole
     input when nothing was dropped, else None and what was dropped."""
+    from mpz.tools._common import parts_of
     cb = rep.chunk_bytes
-    markers = 8 + sum(n for t, n in cb.items() if t[:1].isupper())
-    analog = sum(cb.get(t, 0) for t in _ANALOG)
-    skeleton = cb.get("bvhs", 0) + cb.get("asfs", 0)
-    rest = rep.file_bytes - markers - analog - skeleton
+    parts = parts_of(cb, rep.file_bytes)
+    markers, analog, skeleton, rest = (parts[k] for k in ("markers", "analog", "skeleton",
+                                                          "rest"))
     dropped = list(rep.not_kept)                  # mpz.encoder.not_kept: the one rule
     a = motion.extras.get("c3d")
     model = None

@@ -72,17 +72,6 @@ def _archive(motion) -> dict | None:
     return None if a is None else a.contents()
 
 
-def _declared_bound(data: bytes) -> float | None:
-    """MHDR's declared error bound of MPZ bytes (None: error_metric 0, no bound)."""
-    from mpz.chunks import Mhdr
-    from mpz.container import scan
-    res = scan(data)
-    hdr = res.chunks[0].record if res.chunks else None
-    if not isinstance(hdr, Mhdr) or not hdr.error_metric:
-        return None
-    return float(hdr.error_bound)
-
-
 def _metadata_lines(meta: dict[str, str]) -> list[str]:
     """The subject, and the free metadata's keys (not those a reader sets to describe the
     file it read: :data:`mpz.io.READER_KEYS`); ``--json`` gives every value."""
@@ -98,12 +87,14 @@ def _metadata_lines(meta: dict[str, str]) -> list[str]:
 
 
 def run(args) -> int:
+    from mpz.container import scan
     from mpz.io import FORMAT_NAMES
-    from mpz.tools._common import _read_input
+    from mpz.tools._common import declared_bound, read_input_keeping
 
     path = args.file
     try:
-        motion, ext, data = _read_input(path, args.asf, args.max_samples, keep=True)
+        motion, ext, data = read_input_keeping(path, args.asf,
+                                               max_samples=args.max_samples)
     except MPZError as exc:        # exit 2 as the dispatcher gives it, and with --json a
         if not args.json:          # document that says so, as mpzinfo --json gives one
             raise
@@ -116,7 +107,7 @@ def run(args) -> int:
     info = summary(motion, path)
     info["format"] = "MPZ" if ext == ".mpz" else FORMAT_NAMES.get(ext or "")
     # an .mpz file's declared bound (None: none declared, or not an .mpz), as mpzinfo says
-    info["error_bound"] = _declared_bound(data) if data is not None else None
+    info["error_bound"] = declared_bound(scan(data)) if data is not None else None
     code = EXIT_WARN if "warning" in motion.metadata else EXIT_OK
     if args.json:
         print_json(info)

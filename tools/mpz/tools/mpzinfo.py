@@ -145,18 +145,12 @@ RATIO_OF = "markers as float32 (12 bytes a marker-frame) / the whole file"
 
 
 def _parts(chunks: list, size: int) -> dict[str, int]:
-    """Bytes of the file by part, as mpz encode counts them (cmd_encode._kept): the
-    markers (signature and the critical MPZ 1.0 chunks), analog (cana), the skeleton and
-    its channels (bvhs, asfs), and the rest (C3D parameters and model outputs, metadata,
-    summary...). Each chunk with its 12 bytes of frame."""
-    out = {"markers": 8, "analog": 0, "skeleton": 0, "rest": 0}
+    """Bytes of the file by part, as mpz encode counts them (:func:`parts_of`)."""
+    from mpz.tools._common import parts_of
+    framed: dict[str, int] = {}
     for c in chunks:
-        n = c.length + 12
-        key = ("markers" if c.type[:1].isupper() else "analog" if c.type == "cana"
-               else "skeleton" if c.type in ("bvhs", "asfs") else "rest")
-        out[key] += n
-    out["rest"] += size - sum(out.values())        # nothing, for a file without errors
-    return out
+        framed[c.type] = framed.get(c.type, 0) + c.length + 12
+    return parts_of(framed, size)
 
 
 def _where(e: dict) -> str:
