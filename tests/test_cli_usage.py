@@ -281,6 +281,24 @@ def test_a_ratio_against_the_input_counts_only_what_was_kept(inputs: dict[str, P
     assert b"vs input file n/a (joint angles and the skeleton not kept)" in p.stdout
 
 
+@pytest.mark.parametrize("ext", ["trc", "c3d", "mpz"])
+def test_standard_input_is_sized_like_a_file(inputs: dict[str, Path], tmp_path: Path,
+                                              ext: str) -> None:
+    """What standard input held is the input's size: the report gives it and the ratio
+    against it, as for the same file named (it said "input ?" and no ratio)."""
+    src = inputs[ext]
+    p = run(["mpz", "encode", "-", "-o", "piped.mpz", "--max-error", "1mm", "--json"],
+            tmp_path, stdin=src.read_bytes())
+    assert p.returncode == 0, p.stderr
+    doc = strict_json(p.stdout)
+    assert doc["input_bytes"] == src.stat().st_size
+    assert doc["ratio_input"] == pytest.approx(
+        src.stat().st_size / (tmp_path / "piped.mpz").stat().st_size)
+    p = run(["mpz", "encode", "-", "-o", "piped.mpz", "--max-error", "1mm", "-f"],
+            tmp_path, stdin=src.read_bytes())
+    assert b"input ?" not in p.stdout and b"vs input file" in p.stdout
+
+
 # -- 3. short flags --------------------------------------------------------------------------
 
 def test_short_flags_on_encode_and_decode(inputs: dict[str, Path], tmp_path: Path) -> None:

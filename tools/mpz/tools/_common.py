@@ -277,18 +277,20 @@ def joint_positions_from_channels(motion: Motion, ext: str | None) -> bool:
 
 
 def read_motion(path: str, asf: str | None = None, *,
-                max_samples: int | None = None) -> Motion:
-    """Any supported input: a motion file, an .mpz file (decoded), or ``-``.
+                max_samples: int | None = None) -> tuple[Motion, int | None]:
+    """Any supported input: a motion file, an .mpz file (decoded), or ``-``; and its size
+    in bytes (what standard input held; None when a file's size cannot be had).
 
     ``-`` is read from standard input, its format found from its content.
     """
-    return read_input(path, asf, max_samples=max_samples)[0]
+    motion, _, _, size = _read_input(path, asf, max_samples, keep=False)
+    return motion, size
 
 
 def read_input(path: str, asf: str | None = None, *,
                max_samples: int | None = None) -> tuple[Motion, str | None]:
     """:func:`read_motion`, and the extension of the format that was read (``".mpz"``...)."""
-    motion, ext, _ = _read_input(path, asf, max_samples, keep=False)
+    motion, ext, _, _ = _read_input(path, asf, max_samples, keep=False)
     return motion, ext
 
 
@@ -298,7 +300,8 @@ def read_input_keeping(path: str, asf: str | None = None, *,
     """:func:`read_input`, and the bytes of an MPZ input (None for other formats), for a
     caller that reads its chunks too (``mpz compare``: the skeleton chunk's steps; ``mpz
     show``: the declared bound). A file is read again for them; standard input, once."""
-    return _read_input(path, asf, max_samples, keep=True)
+    motion, ext, data, _ = _read_input(path, asf, max_samples, keep=True)
+    return motion, ext, data
 
 
 #: the chunk types of each part of a file besides the markers (the critical chunks)
@@ -330,14 +333,17 @@ def declared_bound(res: Scan) -> float | None:
 
 
 def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bool
-                ) -> tuple[Motion, str | None, bytes | None]:
+                ) -> tuple[Motion, str | None, bytes | None, int | None]:
+    """The motion, its format's extension, the MPZ bytes if ``keep``, and the input's
+    size in bytes."""
     from mpz.io._common import ext_of
     if path == STDIO:
         data, fmt = read_stdin()
         if fmt == ".mpz":
-            return read_mpz_input_bytes(data, max_samples), fmt, data if keep else None
+            return (read_mpz_input_bytes(data, max_samples), fmt, data if keep else None,
+                    len(data))
         from mpz.io import read_bytes
-        return read_bytes(data, fmt=fmt, name=STDIO, asf=asf), fmt, None
+        return read_bytes(data, fmt=fmt, name=STDIO, asf=asf), fmt, None, len(data)
     from mpz.io import READERS, read
     ext = ext_of(path)
     if ext not in READERS and ext != ".mpz":      # no known extension: ask the content
@@ -345,13 +351,17 @@ def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bo
         from mpz.io import DETECT_BYTES, detect_format
         with open_regular(path) as fh:
             ext = detect_format(fh.read(DETECT_BYTES)) or ext
+    try:
+        size: int | None = os.path.getsize(path)
+    except OSError:
+        size = None
     if ext == ".mpz":
         motion = read_mpz_input(path, max_samples)
         if not keep:
-            return motion, ext, None
+            return motion, ext, None, size
         from mpz.api import read_source
-        return motion, ext, read_source(path)[0]
-    return read(path, asf=asf), ext, None
+        return motion, ext, read_source(path)[0], size
+    return read(path, asf=asf), ext, None, size
 
 
 def read_mpz_input_bytes(data: bytes, max_samples: int | None = None) -> Motion:
@@ -361,16 +371,6 @@ def read_mpz_input_bytes(data: bytes, max_samples: int | None = None) -> Motion:
     except MPZError as exc:
         exc.path = STDIO
         raise
-
-
-def input_size(path: str) -> int | None:
-    """Bytes of an input file (None for standard input or when unknown)."""
-    if path == STDIO:
-        return None
-    try:
-        return os.path.getsize(path)
-    except OSError:
-        return None
 
 
 # -- outputs -----------------------------------------------------------------------------------

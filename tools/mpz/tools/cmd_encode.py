@@ -369,7 +369,6 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         Progress,
         compile_notice,
         human_size,
-        input_size,
         read_motion,
         write_stdout,
     )
@@ -385,7 +384,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     elif not args.force and sys.stdout.isatty():
         raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
-    motion = read_motion(job.input, args.asf)
+    motion, in_size = read_motion(job.input, args.asf)
     warning = motion.metadata.get("warning")      # the reader's; kept in the file's meta
     if warning and not args.quiet:
         print(f"mpz encode: note: {printable(job.input)}: {printable(warning)}",
@@ -427,7 +426,6 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     err = error_summary(motion, decoded)
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
                      and opts.keep_skeleton else None)
-    in_size = input_size(job.input)
     result = {
         "input": job.input, "output": job.output, "frames": rep.frames,
         "markers": rep.markers, "units": units or None, "raw_float32_bytes": rep.raw_bytes,
