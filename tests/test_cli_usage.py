@@ -206,6 +206,31 @@ def test_batch_rules(inputs: dict[str, Path], tmp_path: Path) -> None:
     assert mpz.decode(tmp_path / "out" / "a.mpz").n_frames == 120
 
 
+
+def test_a_missing_output_folder_is_made(inputs: dict[str, Path], tmp_path: Path) -> None:
+    """``-o FOLDER/`` that does not exist is made with its parents (it was a usage error:
+    an archive team's first ``mpz encode -r raw/ -o archive/`` failed), for one file, a
+    corpus and a decode; a file where the folder would go fails, named, exit 2."""
+    shutil.copy(inputs["c3d"], tmp_path / "a.c3d")
+    shutil.copy(inputs["trc"], tmp_path / "b.trc")
+    p = run(["mpz", "encode", "a.c3d", "-o", "one/deeper/", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert mpz.decode(tmp_path / "one" / "deeper" / "a.mpz").n_frames == 120
+    p = run(["mpz", "encode", "a.c3d", "b.trc", "-o", "corpus/x/", "--max-error", "1mm"],
+            tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert sorted(os.listdir(tmp_path / "corpus" / "x")) == ["a.mpz", "b.mpz", "index.sqlite"]
+    p = run(["mpz", "decode", "corpus/x/a.mpz", "corpus/x/b.mpz", "-o", "back/t/", "-F",
+             "trc"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert sorted(os.listdir(tmp_path / "back" / "t")) == ["a.trc", "b.trc"]
+    (tmp_path / "afile").write_text("in the way")
+    for args in (["a.c3d"], ["a.c3d", "b.trc"]):
+        p = run(["mpz", "encode", *args, "-o", "afile/sub/", "--max-error", "1mm"], tmp_path)
+        assert p.returncode == 2, p.stderr
+        assert b"cannot make the folder afile/sub" in p.stderr and b"Traceback" not in p.stderr
+    assert (tmp_path / "afile").read_text() == "in the way"
+
 def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[str, Path],
                                                                   tmp_path: Path) -> None:
     """``--mirror`` (zstd's --output-dir-mirror): with -r, each output keeps its path below

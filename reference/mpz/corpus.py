@@ -1452,8 +1452,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         After cancelling the tasks in flight, removing their temporary files and
         committing the rows of the files that finished.
     EncoderError
-        When the index cannot be opened, another run is writing ``outdir``
-        (:data:`LOCK_NAME`), or Dask is missing or unreachable.
+        When ``outdir`` cannot be made, the index cannot be opened, another run is
+        writing ``outdir`` (:data:`LOCK_NAME`), or Dask is missing or unreachable.
     """
     t0 = time.perf_counter()
     if not isinstance(jobs, (str, bytes, os.PathLike)):
@@ -1461,7 +1461,11 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     _check_corpus_arguments(jobs, outdir, options, workers)
     wall0 = time.time()
     index_dir = os.path.abspath(os.fspath(outdir))
-    os.makedirs(index_dir, exist_ok=True)
+    try:
+        os.makedirs(index_dir, exist_ok=True)
+    except OSError as exc:
+        raise EncoderError(f"cannot make the folder {os.fspath(outdir)}: "
+                           f"{exc.strerror or exc}") from None
     per_file = (options if isinstance(options, FileOptions) else
                 _Fixed(options) if isinstance(options, EncodeOptions) else _ByUnits(options))
     levels = tuple(sorted({int(k) for k in levels}))

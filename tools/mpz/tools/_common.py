@@ -404,9 +404,10 @@ class Job:
     """One input of a batch and where its output goes (None: a planning error that names
     no output).
 
-    ``make_folder``: a folder below ``-o FOLDER/`` that :func:`run_batch` creates before
-    the job runs (``--mirror``), else None. A job with an ``error`` is not run; its
-    ``output`` is the one it would have had when it was named (a name clash), else None."""
+    ``make_folder``: ``-o FOLDER/`` or a folder below it (``--mirror``) that
+    :func:`run_batch` creates before the job runs, when it is missing; else None. A job
+    with an ``error`` is not run; its ``output`` is the one it would have had when it was
+    named (a name clash), else None."""
 
     input: str
     output: str | None
@@ -463,9 +464,11 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
     * ``-o FOLDER/`` with ``mirror`` (``--mirror``): a file found with ``-r`` keeps its
       path below the folder given as input (``-r CAPTURES`` with
       ``CAPTURES/s01/walk.c3d`` -> ``FOLDER/s01/walk.mpz``, as zstd's
-      ``--output-dir-mirror``, for archives whose file names repeat across folders); the
-      folders below ``FOLDER/`` are made when the job runs; a file given by name goes to
-      ``FOLDER/`` as without ``mirror``;
+      ``--output-dir-mirror``, for archives whose file names repeat across folders); a
+      file given by name goes to ``FOLDER/`` as without ``mirror``;
+    * a missing ``FOLDER/`` and the folders below it are made, with their parents, when
+      the first job that writes there runs (nothing is made for a batch that fails
+      before);
     * no ``-o``: beside each input; standard input goes to standard output.
 
     Two inputs that would write the same output make the later one fail, unless they
@@ -475,8 +478,8 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
     Raises
     ------
     UsageError
-        For several inputs with one output file, ``-`` used twice, a ``-o FOLDER/`` that
-        does not exist, or ``mirror`` without ``-o FOLDER/``.
+        For several inputs with one output file, ``-`` used twice, or ``mirror``
+        without ``-o FOLDER/``.
     """
     folder = is_folder_target(output)
     items = expand_inputs(inputs, recursive, accept, skip=output if folder else None)
@@ -488,8 +491,9 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
     if output is not None and not folder and len(items) != 1:
         raise UsageError(f"{len(items)} inputs and one output {printable(output)}: give "
                          "-o FOLDER/ (ending in /) or leave -o out to write beside each input")
-    if folder and output is not None and not os.path.isdir(output):
-        raise UsageError(f"-o {printable(output)}: no such folder")
+    # a missing -o FOLDER/ is made, with its parents, when its first job runs (the
+    # trailing separator says it is meant as a folder; zstd's --output-dir-* do the same)
+    made = folder and output is not None and not os.path.isdir(output)
     jobs: list[Job] = []
     taken: dict[str, str] = {}
     for path, err, base in items:
@@ -520,6 +524,7 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
                 make = os.path.join(output, os.path.dirname(below))
         elif folder and output is not None:
             target = os.path.join(output, os.path.basename(name))
+            make = output if made else None
         else:
             target = name
         key = os.path.normcase(os.path.abspath(target))
