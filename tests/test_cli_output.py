@@ -9,6 +9,7 @@ with a real umask, real pipes and real signals.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+import json
 import os
 from pathlib import Path
 import shutil
@@ -214,6 +215,37 @@ def test_bad_output_paths_fail_first_in_one_line(small: tuple[Path, Path],
         assert ".part" not in p.stderr and "mpz-decode" not in p.stderr
     assert sorted(os.listdir(tmp_path)) == ["folder"]
     assert os.listdir(tmp_path / "folder") == []
+
+
+@pytest.mark.skipif(not os.path.exists(os.devnull) or os.name != "posix",
+                    reason="needs a null device that is a character device")
+def test_the_null_device_takes_a_whole_output_and_drops_it(small: tuple[Path, Path],
+                                                           tmp_path: Path) -> None:
+    """``-o /dev/null`` times or checks a writer (as ``zstd -o /dev/null``): it was refused as
+    "not a regular file" even with --force. The whole file is written, then dropped; the
+    device stays a device, no format or --force is needed (decode takes the format the
+    file was encoded from), and nothing is left behind."""
+    trc, enc = small
+    before = os.stat(os.devnull)
+    p = run(["mpz", "encode", str(trc), "-o", "x.mpz", "--max-error", "1mm", "--json"],
+            tmp_path)
+    written = json.loads(p.stdout)["file_bytes"]
+    for argv in (["mpz", "encode", str(trc), "-o", os.devnull, "--max-error", "1mm"],
+                 ["mpz", "decode", "x.mpz", "-o", os.devnull],        # as TRC, its source
+                 ["mpz", "decode", str(enc), "-o", os.devnull, "-F", "c3d"]):
+        p = run(argv, tmp_path)
+        assert p.returncode == 0, (argv, p.stderr)
+        assert f"-> {os.devnull}: 60 frames x " in p.stdout + p.stderr, argv
+    # an .mpz that names no source format needs --format, as for standard output
+    p = run(["mpz", "decode", str(enc), "-o", os.devnull], tmp_path)
+    assert p.returncode == 2 and f"writing to {os.devnull} needs --format" in p.stderr
+    after = os.stat(os.devnull)
+    assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev
+    assert os.listdir(tmp_path) == ["x.mpz"]
+    # the report still measures what was written: MPZ bytes, as to a file
+    p = run(["mpz", "encode", str(trc), "-o", os.devnull, "--max-error", "1mm", "--json"],
+            tmp_path)
+    assert json.loads(p.stdout)["file_bytes"] == written > 0
 
 
 def test_trc_header_names_the_output_not_the_temporary_file(small: tuple[Path, Path],

@@ -248,7 +248,8 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         One line naming the path, when the path is the ``source`` file (even
         with ``force``); is a folder or ends in a separator; lies in a folder
         that does not exist; exists, or is a symbolic link to a missing file,
-        and ``force`` is false; exists but is not a regular file, or is marked
+        and ``force`` is false; exists but is not a regular file (the null
+        device, :data:`os.devnull`, excepted: :func:`atomic_output`), or is marked
         immutable or append-only (Linux's ``chattr +i``, ``+a``); or lies in a
         folder that is not writable.
     """
@@ -268,6 +269,8 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
             raise EncoderError(f"{target} is a symbolic link to a missing file; "
                                "use --force to replace it")
         return
+    if is_null_device(target):
+        return                          # written and discarded (atomic_output)
     if os.path.lexists(target):
         # a FIFO, device or socket first: --force would not help, so it is not offered
         if not stat.S_ISREG(os.stat(target).st_mode):
@@ -368,6 +371,16 @@ def _signals_held() -> Iterator[None]:
             signal.raise_signal(signum)                # to the handler it was meant for
 
 
+def is_null_device(path: str) -> bool:
+    """``path`` is the null device (:data:`os.devnull`, by any name that leads to it): an
+    output written in full and then discarded, to time or check a writer (``-o
+    /dev/null``), never replaced by a rename."""
+    try:
+        return os.path.samefile(path, os.devnull)
+    except (OSError, ValueError):
+        return False
+
+
 def _create_temp(folder: str, name: str, suffix: str) -> str:
     """A new hidden file beside the output, created with mode 0o666 minus the umask.
 
@@ -440,6 +453,8 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     the folder are flushed to disk (fsync).
 
     * ``path`` is checked first with :func:`check_output`.
+    * The null device (``os.devnull``) takes a whole file that is then dropped: the
+      temporary path is in the system's temporary folder and is removed afterwards.
     * Without ``force`` the name is created exclusively: of two writers of
       the same new file exactly one succeeds; the other gets
       :class:`~mpz.errors.EncoderError` "exists; use --force".
@@ -461,9 +476,16 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     """
     target = os.fspath(path)
     check_output(target, force=force, source=source)
-    folder = os.path.dirname(os.path.abspath(target))
     name = os.path.basename(target)
     ext = os.path.splitext(name)[1] if suffix is None else suffix
+    if is_null_device(target):
+        # the writer writes a whole file, in the temporary folder; then it is dropped
+        import tempfile
+        with contextlib.ExitStack() as stack:
+            scratch = stack.enter_context(tempfile.TemporaryDirectory(prefix="mpz-null-"))
+            yield os.path.join(scratch, f"null{ext}")
+        return
+    folder = os.path.dirname(os.path.abspath(target))
     with signals_exit(signal.SIGTERM):
         tmp: str | None = None
         try:

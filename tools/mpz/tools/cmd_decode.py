@@ -124,16 +124,17 @@ def _asf_usage(args: argparse.Namespace, jobs: list) -> str | None:
 
 def _target_ext(args: argparse.Namespace, output: str, motion: object = None) -> str:
     """The extension to write ``output`` in; refuses a name that does not say that format."""
+    from mpz.api import is_null_device
     from mpz.io import WRITERS
     from mpz.io._common import ext_of
     from mpz.tools._common import STDIO
-    if output == STDIO:
+    if output == STDIO or is_null_device(output):     # no name to take a format from
         if args.format:
             return "." + args.format
         ext = _source_ext(getattr(motion, "metadata", None))
         if ext is None:
-            raise EncoderError("writing to standard output needs --format "
-                               f"({', '.join(FORMATS)})")
+            where = "standard output" if output == STDIO else output
+            raise EncoderError(f"writing to {where} needs --format ({', '.join(FORMATS)})")
         return ext
     name_ext = ext_of(output)
     if args.format:
@@ -150,7 +151,7 @@ def _target_ext(args: argparse.Namespace, output: str, motion: object = None) ->
 
 
 def _decode_one(job, args: argparse.Namespace, out) -> int:
-    from mpz.api import atomic_output, check_output
+    from mpz.api import atomic_output, check_output, is_null_device
     from mpz.io import SKELETON_FORMATS, check_writable, write
     from mpz.tools._common import (
         STDIO,
@@ -164,15 +165,22 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
     # every check on the output comes before the decode
     if not to_stdout:
         check_output(job.output, force=args.force, source=source)
+    # standard output and the null device have no name to take a format from: --format,
+    # else the format the file was encoded from, known once it is read
+    ext: str | None
+    if to_stdout or is_null_device(job.output):
+        ext = "." + args.format if args.format else None
+    else:
         ext = _target_ext(args, job.output)
-    elif args.format:
-        ext = "." + args.format
-    asf = _asf_output(args, job.output, ext if not to_stdout or args.format else None, source)
+    asf = _asf_output(args, job.output, ext, source)
     compile_notice(args.quiet, args.verbose, announce=False)
     # a skeletal file's joint positions come from its channels (read_mpz_input, §6.10)
     motion, bound, skipped = _read_mpz(job.input, args.max_samples)
+    if ext is None:
+        ext = _target_ext(args, job.output, motion)
+        if ext == ".amc" and not to_stdout:
+            asf = _asf_output(args, job.output, ext, source)
     if to_stdout:
-        ext = _target_ext(args, STDIO, motion)
         if ext in (".npy", ".c3d") and not args.force and sys.stdout.isatty():
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
@@ -275,7 +283,7 @@ def _not_mpz_hint(fmt: str | None) -> str:
 def _asf_output(args: argparse.Namespace, output: str, ext: str | None,
                 source: str | None) -> str | None:
     """Where AMC output writes its ASF (checked like the output itself), else None."""
-    from mpz.api import check_output
+    from mpz.api import check_output, is_null_device
     from mpz.io.amc import default_asf_path
     from mpz.tools._common import STDIO
     if ext != ".amc":
@@ -284,6 +292,8 @@ def _asf_output(args: argparse.Namespace, output: str, ext: str | None,
         return None
     if args.asf is None and output == STDIO:
         raise EncoderError("AMC on standard output needs --asf PATH for its ASF skeleton")
+    if args.asf is None and is_null_device(output):
+        return os.devnull                   # discarded with the AMC
     asf = args.asf if args.asf is not None else default_asf_path(output)
     check_output(asf, force=args.force, source=source)
     return asf

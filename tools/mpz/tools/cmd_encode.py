@@ -360,7 +360,7 @@ def run(args: argparse.Namespace) -> int:
 def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                 batch: bool = False) -> int:
     import mpz
-    from mpz.api import check_output
+    from mpz.api import check_output, is_null_device
     from mpz.encoder import encode_motion
     from mpz.io._common import ext_of
     from mpz.metrics import summary as error_summary
@@ -378,7 +378,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     # every check on the output comes before the encode
     if not to_stdout:
         check_output(job.output, force=args.force, source=source)
-        if ext_of(job.output) != ".mpz" and not args.force:
+        if ext_of(job.output) != ".mpz" and not args.force and not is_null_device(job.output):
             raise EncoderError(f"{job.output}: an MPZ file should end in .mpz; "
                                "use --force to write it under this name")
     elif not args.force and sys.stdout.isatty():
