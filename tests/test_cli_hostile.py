@@ -258,6 +258,21 @@ def test_every_json_output_is_strict_with_a_denormal_rate(tmp_path: Path) -> Non
     assert isinstance(show, dict) and show["rate"] == 5e-324 and show["duration"] is None
 
 
+@pytest.mark.parametrize(("rate", "shown"), [(1e-300, "3e+301 s"), (1e300, "3e-299 s"),
+                                             (5e-324, "inf s"), (120.0, "0.250 s")])
+def test_show_prints_a_duration_of_any_legal_rate_in_a_line(tmp_path: Path, rate: float,
+                                                            shown: str) -> None:
+    """Any finite rate > 0 is legal (spec §4.1): a rate of 1e-300 Hz printed a duration of
+    302 digits, 1e300 Hz "0.000 s"."""
+    m = generate("walk", frames=30, seed=4)
+    odd = Motion(m.positions, m.names, rate, m.units, m.valid)
+    (tmp_path / "r.mpz").write_bytes(mpz.encode(odd, max_error=1.0))
+    p = run(["mpz", "show", "r.mpz"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    line = next(x for x in p.stdout.decode().splitlines() if x.startswith("duration:"))
+    assert line == f"duration:  {shown}"
+
+
 def test_one_json_writer() -> None:
     from mpz.tools import _cli
     text = _cli.json_text({"a": float("inf"), "b": [float("nan"), 1.5], "c": np.float64(2)})

@@ -86,6 +86,12 @@ def _metadata_lines(meta: dict[str, str]) -> list[str]:
     return lines
 
 
+def _seconds(d: float) -> str:
+    """A duration to the millisecond; one from a rate far from any capture's (spec §4.1
+    allows any finite rate > 0) in exponent form, not hundreds of digits or "0.000"."""
+    return f"{d:.3f}" if d == 0 or 1e-3 <= d < 1e9 else f"{d:.6g}"
+
+
 def run(args) -> int:
     from mpz.container import scan
     from mpz.io import FORMAT_NAMES
@@ -119,7 +125,7 @@ def run(args) -> int:
         f"markers:   {info['markers']}" + (" (skeleton points)" if info["skeletal"] else ""),
         f"rate:      {info['rate']!r} Hz",
         f"units:     {info['units'] or 'unknown'}",
-        f"duration:  {info['duration']:.3f} s",
+        f"duration:  {_seconds(info['duration'])} s",
         f"gaps:      {info['gap_fraction']:.2%}",
     ]
     if ext == ".mpz":
