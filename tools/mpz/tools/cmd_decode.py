@@ -36,8 +36,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help=".mpz files, folders (with -r), or - for standard input")
     p.add_argument("-o", "--output", help="OUT.c3d, OUT.trc, OUT.bvh, OUT.amc (with its ASF; "
                    "both need the file's skeleton), OUT.npy or OUT.csv, FOLDER/ for "
-                   "several inputs, or - for standard output (written atomically; default: "
-                   "beside each input)")
+                   "several inputs (made if missing), - for standard output, or /dev/null to "
+                   "write and drop it (written atomically; default: beside each input)")
     p.add_argument("--asf", metavar="PATH", help="AMC output: where to write its ASF skeleton "
                    "(default: beside the AMC, with its name)")
     p.add_argument("-F", "--format", choices=FORMATS,

@@ -43,9 +43,9 @@ def add_parser(sub):
                        "on every valid sample; without it the paper's thresholds control quality.")
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="motion files, folders (with -r), or - for standard input")
-    p.add_argument("-o", "--output", help="output .mpz file, FOLDER/ for several inputs, or - "
-                   "for standard output (default: IN.mpz beside each input; stdin -> stdout); "
-                   "written atomically")
+    p.add_argument("-o", "--output", help="output .mpz file, FOLDER/ for several inputs (made "
+                   "if missing), - for standard output, or /dev/null to encode and drop it "
+                   "(default: IN.mpz beside each input; stdin -> stdout); written atomically")
     p.add_argument("-r", "--recursive", action="store_true",
                    help="encode every motion file in the folders given as inputs")
     p.add_argument("--mirror", action="store_true",
