@@ -370,8 +370,20 @@ def test_the_bound_holds_at_large_coordinates(shift, bound):
     back = mpz.decode(mpz.encode(m, max_error=bound))
     err = np.linalg.norm(back.positions[m.valid] - m.positions[m.valid], axis=1)
     assert err.max() <= bound
-    with pytest.raises(EncoderError, match="too fine for coordinates"):
+    with pytest.raises(EncoderError, match="^max error [0-9.e+-]+ is too fine for coordinates"):
         mpz.encode(m, max_error=shift * 2.0 ** -52)
+
+
+def test_a_group_error_too_fine_for_its_coordinates_is_named() -> None:
+    """The message named the max error (its value too) when a node's group error was the
+    bound too fine to hold (QA, stop 45)."""
+    m = generate("walk", frames=40, seed=2)
+    fine = float(np.abs(m.positions[m.valid]).max()) * 2.0 ** -52
+    with pytest.raises(EncoderError, match=f"^group error torso={fine:g} is too fine "
+                                           "for coordinates of "):
+        mpz.encode(m, max_error=1.0, group_errors={"torso": fine})
+    with pytest.raises(EncoderError, match=f"^max error {fine:g} is too fine"):
+        mpz.encode(m, max_error=fine, group_errors={"torso": 1.0})
 
 
 @pytest.mark.parametrize("kw,match", [

@@ -1083,7 +1083,11 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
     # real files the margin is below 10^-11 of the bound and changes no byte.
     margin = 2.0 ** -51 * (peak + 3.0 * float((hi - lo).max()) / 2.0 + 3.0 * e_min)
     if margin > e_min / 2:
-        raise EncoderError(f"max error {opts.max_error:g} is too fine for coordinates of "
+        # the finest bound sets e_min: name it as it was given (max error or a node's)
+        tight = [hier.nodes[i].name for i, e in group.items() if e == e_min]
+        finest = (f"max error {opts.max_error:g}" if e_min == e_all_nodes else
+                  "group error " + ", ".join(f"{n}={opts.group_errors[n]:g}" for n in tight))
+        raise EncoderError(f"{finest} is too fine for coordinates of "
                            f"{peak:g} {motion.units or 'units'}: binary64 rounds them by up "
                            f"to {margin:g}")
     bounds = {i: group.get(i, e_all_nodes) - margin for i in range(len(hier.nodes))}
