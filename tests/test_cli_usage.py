@@ -919,3 +919,15 @@ def test_a_group_error_that_is_not_tighter_is_said(inputs: dict[str, Path],
     p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "y.mpz", "--max-error", "1mm",
              "--hierarchy", "auto", "--group-error", "root=0.5mm"], tmp_path)
     assert p.returncode == 0 and b"not tighter" not in p.stderr, p.stderr
+
+
+def test_quiet_with_json_prints_the_report_and_nothing_else(inputs: dict[str, Path],
+                                                            tmp_path: Path) -> None:
+    """``-q --json``: the JSON report that was asked for on standard output, and no note
+    or progress on standard error (an NPY input has a note: its rate is assumed)."""
+    argv = ["mpz", "encode", str(inputs["npy"]), "-o", "q.mpz", "--max-error", "1", "--json"]
+    p = run(argv, tmp_path)
+    assert p.returncode == 0 and b"note:" in p.stderr
+    p = run([*argv, "-q", "-f"], tmp_path)
+    assert p.returncode == 0 and p.stderr == b""
+    assert strict_json(p.stdout)["output"] == "q.mpz"

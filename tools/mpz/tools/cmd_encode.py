@@ -140,7 +140,9 @@ def add_parser(sub):
     p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
                    "write it under a name not ending in .mpz, or write to a terminal")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
-    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="print nothing on success (no notes, no progress) but the report "
+                   "--json asks for")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="also print the bytes of every chunk type")
     from mpz.tools._corpus_cli import add_corpus_options  # issue 15: --jobs, --scheduler
