@@ -188,6 +188,24 @@ def test_trailing_bytes_in_payload_rejected():
         g.QUNT.parse(struct.pack("<ddddB", 0.5, 1, 2, 3, 20) + b"\x00")
 
 
+@pytest.mark.parametrize("bug", [ValueError("a bug"), OverflowError("a bug"),
+                                 IndexError("a bug")])
+def test_a_bug_in_parsing_is_not_reported_as_a_malformed_payload(monkeypatch, bug):
+    """Only construct's errors are the payload's fault (FormatError, the chunk's §); an
+    exception of any other kind from parsing is a bug of the decoder and surfaces as it is
+    (ValueError and OverflowError were translated into "malformed payload")."""
+    from mpz.chunks import _parse
+
+    def broken(grammar, payload):
+        raise bug
+    monkeypatch.setattr(_parse, "parse", broken)
+    with pytest.raises(type(bug), match="a bug"):
+        CHUNKS["QUNT"].load(struct.pack("<ddddB", 0.5, 1, 2, 3, 20))
+    monkeypatch.undo()
+    with pytest.raises(FormatError, match="malformed QUNT payload"):
+        CHUNKS["QUNT"].load(struct.pack("<ddddB", 0.5, 1, 2, 3, 20) + b"\x00")
+
+
 def test_scan_reports_errors_without_raising():
     data = g.SIGNATURE + container.build_chunk("MEND", b"")
     assert container.scan(data).complete

@@ -252,7 +252,7 @@ def _as_stored(v: Any) -> Any:
 
 
 #: the exceptions construct reports a payload that does not fit its layout with
-_LAYOUT_ERRORS = (construct.ConstructError, UnicodeDecodeError, ValueError, OverflowError)
+_LAYOUT_ERRORS = (construct.ConstructError, UnicodeDecodeError)
 
 
 _NAMES: dict[type, tuple[str, ...]] = {}
