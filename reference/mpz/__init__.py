@@ -34,6 +34,7 @@ from mpz.errors import (
 from mpz.metrics import arms, max_error
 from mpz.motion import Motion, concatenate
 
+#: the package version; the bitstream version is separate (spec Appendix B, CHANGELOG.md)
 __version__ = "0.1.0"
 
 __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError",

@@ -578,7 +578,8 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
 
 
 def read_mpz(path: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
-    """Decode the MPZ file at ``path`` into a Motion (the same as :func:`decode`)."""
+    """Decode the MPZ file at ``path`` into a Motion (the same as :func:`decode`, whose
+    ``max_samples`` it takes)."""
     return decode(path, max_samples=max_samples)
 
 
@@ -592,16 +593,23 @@ class FileInfo:
     summary; read them with :func:`read_summary`).
     """
 
+    #: the bitstream version MHDR declares, "major.minor" (spec §2.1), e.g. "1.1"
     version: str
+    #: F, the frame count (MHDR)
     frames: int
+    #: M, the marker count (MHDR; for a skeletal file, its joint positions)
     markers: int
     rate: float
     units: str
+    #: the marker names in marker order (MNAM, §4.2)
     names: tuple[str, ...]
+    #: the body-part hierarchy's node count (HIER, §4.3)
     nodes: int
     error_bound: float | None
+    #: the file's length in bytes
     size: int
     summary_levels: tuple[int, ...] = ()
+    #: the file's metadata entries (MMET, §4.11), as stored
     metadata: Mapping[str, str] = field(default_factory=dict)
     chunk_bytes: Mapping[str, int] = field(default_factory=dict)
 

@@ -167,18 +167,27 @@ class EncodeOptions:
     tau: float = 0.05
     metric: str = "max"
     weights: Mapping[str, float] | None = None
+    #: "cmu41", "skeleton", "auto", "flat", a JSON hierarchy file or its dict; None: one
+    #: flat node when patterns are off and no group_errors are given, else from the names
     hierarchy: Any = None
+    #: boundary smoothing half-width, 0..16 (spec §6.4)
     smoothing: int = 2
     patterns: str | None = None
     segmentation: str = "adaptive"
+    #: grid step in motion units: an upper limit under a bound, the step itself if lossy
     grid: float | None = None
+    #: the longest segment in frames, 2..4096
     max_segment: int = 240
+    #: segment counts k of the optional summary chunk (Fisher's partition, §4.15 / §4.10)
     summary: tuple[int, ...] = ()
+    #: what the summary segments: "positions" (relative to the centroid) or "angles"
     summary_space: str = "positions"
     #: issue 14.12: "smrc" the range-coded summary chunk (§4.15, MPZ 1.1; the default), or
     #: "smry" the raw 1.0 chunk (§4.10) for readers that know only 1.0
     summary_format: str = "smrc"
+    #: extra §4.11 metadata, added to ``motion.metadata``
     metadata: Mapping[str, str] = field(default_factory=dict)
+    #: seed of the clustering (the encoder is deterministic)
     seed: int = 0
     # issue 12: a safe default bound, the paper's unbounded mode only by name, model outputs
     #: the paper's lossy mode (no residual layer, no declared bound): only when asked for
@@ -529,19 +538,32 @@ class NodeReport:
 class EncodeReport:
     """What the encoder did: sizes, grid, per-node segments and patterns."""
 
+    #: F, the motion's frame count
     frames: int
+    #: M, the motion's marker count
     markers: int
+    #: the motion as float32 xyz (:meth:`Motion.raw_size`), what :attr:`ratio` divides
     raw_bytes: int
+    #: the MPZ file's length in bytes
     file_bytes: int = 0
+    #: the grid step (QUNT, §4.4) in the motion's units
     step: float = 0.0
+    #: the head scale ADDH (paper §V) in the motion's units
     addh: float = 0.0
+    #: how ``addh`` was found (:func:`mpz.hierarchy.head_scale`): "addh" (head markers),
+    #: "bbox" (a tenth of the body's bounding box) or "unit"
     addh_rule: str = ""
+    #: how the coding hierarchy was made: one of :data:`mpz.hierarchy.METHODS`
     hierarchy: str = ""
+    #: one report a hierarchy node: its markers, segments, patterns and bytes
     nodes: list[NodeReport] = field(default_factory=list)
+    #: each chunk type's bytes in the file, its 12-byte frame included
     chunk_bytes: dict[str, int] = field(default_factory=dict)
+    #: the encode's wall-clock time
     seconds: float = 0.0
-    #: issue 12: the declared bound (None: lossy, 0.0: exact) and how it was chosen
+    #: issue 12: the declared bound (None: lossy, 0.0: exact)
     bound: float | None = None
+    #: how the bound was chosen, in words ("max error 1 (given)", "default ...")
     bound_rule: str = ""
     #: what of the source the file does not keep (:func:`not_kept`; empty: everything)
     not_kept: list[str] = field(default_factory=list)
@@ -551,6 +573,8 @@ class EncodeReport:
 
     @property
     def ratio(self) -> float:
+        """Compression ratio: ``raw_bytes`` (the motion as float32 xyz,
+        :meth:`Motion.raw_size`) over ``file_bytes``."""
         return self.raw_bytes / max(self.file_bytes, 1)
 
 

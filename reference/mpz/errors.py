@@ -13,6 +13,8 @@ class MPZError(Exception):
 
     Attributes
     ----------
+    message : str
+        What is wrong, without the location (``str(exc)`` adds path, chunk, offset and §).
     offset : int or None
         Byte offset in the bitstream where the problem was found.
     chunk : str or None

@@ -56,7 +56,11 @@ def errors(original: Motion, decoded: Motion) -> NDArray[np.float64]:
 
 
 def max_error(original: Motion, decoded: Motion) -> float:
-    """Largest Euclidean error over valid samples (0 if there are none)."""
+    """Largest Euclidean error over valid samples (0 if there are none).
+
+    ``original`` and ``decoded`` must have the same shape, marker names in the same order
+    and the same units (either may have none); a sample counts where ``original`` is
+    valid. Raises :class:`~mpz.MotionError` otherwise."""
     d = _dist(original, decoded)
     return float(np.nanmax(d)) if np.isfinite(d).any() or np.isinf(d).any() else 0.0
 
@@ -79,7 +83,8 @@ def _rms_over(d: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
 def arms(original: Motion, decoded: Motion) -> float:
     """Paper Eq. 3: mean over frames of the RMS marker error of the frame (valid markers only).
 
-    Frames without a valid marker do not count.
+    Frames without a valid marker do not count. ``original`` and ``decoded`` as for
+    :func:`max_error`.
     """
     d = _dist(original, decoded)
     per_frame = _rms_over(d, axis=1)

@@ -209,10 +209,12 @@ class Motion:
     # -- derived facts ---------------------------------------------------
     @property
     def n_frames(self) -> int:
+        """Number of frames: ``positions.shape[0]``."""
         return self.positions.shape[0]
 
     @property
     def n_markers(self) -> int:
+        """Number of markers: ``positions.shape[1]``."""
         return self.positions.shape[1]
 
     @property

@@ -172,5 +172,6 @@ def read_hierarchy(path: PathLike, names: Sequence[str]) -> Hierarchy:
 
 
 def write_hierarchy(h: Hierarchy, path: PathLike, names: Sequence[str]) -> None:
-    """Write ``h`` as an ``mpz-hierarchy`` JSON file, markers by name."""
+    """Write ``h`` to the file ``path`` as an ``mpz-hierarchy`` JSON file, each marker by
+    its name in ``names`` (the motion's marker names, which the hierarchy indexes)."""
     Path(path).write_text(json.dumps(h.to_dict(names), indent=1) + "\n", encoding="utf-8")

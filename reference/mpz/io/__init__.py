@@ -87,6 +87,7 @@ WRITERS: dict[str, Callable[..., None]] = {
     ".amc": write_amc,      # a motion with an ASF skeleton: the AMC, and the ASF beside it
 }
 
+#: extension -> the format's name, as messages say it
 FORMAT_NAMES = {".c3d": "C3D", ".trc": "TRC", ".bvh": "BVH", ".amc": "AMC/ASF",
                 ".npy": "NPY", ".csv": "CSV"}
 
