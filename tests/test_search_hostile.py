@@ -363,10 +363,15 @@ def test_query_errors_name_the_file_and_the_option(corpus, tmp_path, capsys):
 @pytest.mark.parametrize("damage", [
     "UPDATE files SET descriptor = ? WHERE output = 'walk.mpz'",
     "UPDATE levels SET means = substr(means, 1, 10) WHERE output = 'walk.mpz' AND k = 4",
+    # the right length, a NaN in it (stop 45 left it unchecked: it was, through the
+    # descriptor the query's identical row is described by)
+    "UPDATE levels SET means = substr(means, 1, 4) || x'0000c07f' || substr(means, 9) "
+    "WHERE output = 'walk.mpz' AND k = 4",
 ])
 def test_damaged_rows_are_refused_by_search_and_rebuilt_by_a_run(corpus, capsys, damage):
     """D9: a NaN descriptor and a summary cut short passed encode -r as up to date (exit
-    0); search used the NaN (every distance unscaled, the query's file ranked last)."""
+    0); search used the NaN (every distance unscaled, the query's file ranked last). A
+    NaN among a level's means, of the right length, is refused alike."""
     src, out, paths = corpus
     run_corpus(src, out)
     db = sqlite3.connect(out / INDEX_NAME)
