@@ -91,7 +91,9 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
     ----------
     points : ndarray, shape (frames, points, 3)
     residuals : ndarray, shape (frames, points)
-        Residual values; negative or NaN marks a gap.
+        Residual values; negative marks a gap. A NaN residual (a float file's fourth
+        word NaN) does not: ezc3d reads it as 0, and both readers keep the sample and its
+        coordinates (nothing is dropped; the word itself is kept in the C3D archive).
     point_params : dict
         ``{"LABELS": [...], "UNITS": [...], ...}`` (stripped strings).
     rate : float
@@ -108,8 +110,7 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
     units = _UNITS.get(units_raw, "")
     pos = np.asarray(points, dtype=np.float64)
     res = np.asarray(residuals, dtype=np.float64)
-    valid = (finite_samples(pos) & ~(res < 0) & ~np.isnan(res)
-             & ~np.all(pos == 0, axis=2))
+    valid = finite_samples(pos) & ~(res < 0) & ~np.all(pos == 0, axis=2)
     pos = pos.copy()
     pos[~valid] = np.nan
     meta = {"format": "c3d"}

@@ -983,9 +983,10 @@ def parse_c3d(data: bytes) -> C3DData:
     analog = np.ascontiguousarray(words[:, 4 * used:]).astype(store).reshape(
         n_frames * samples if channels else 0, channels)
     if float_storage:
-        # the residual word is stored as a float holding an integer
+        # the residual word is stored as a float holding an integer; a NaN one holds none:
+        # residual 0, as ezc3d reads it (read_c3d), so both readers keep the sample
         r = pts[:, :, 3]
-        res = np.where(np.isfinite(r), np.clip(r, -32768, 32767), -1.0).astype(np.int64)
+        res = np.where(np.isnan(r), 0.0, np.clip(r, -32768, 32767)).astype(np.int64)
         xyz = pts[:, :, :3]
     else:
         res = pts[:, :, 3].astype(np.int64)

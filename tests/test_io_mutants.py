@@ -1,0 +1,528 @@
+"""mpz.io readers and writers against the formats' own definitions (mutation audit, stop 46).
+
+Each test here kills a mutant of mpz.io that the other tests let through (the table is
+in the audit's report). Expected values come from the file formats (the TRC header
+fields, the C3D user guide's words and parameters, the BVH and ASF/AMC text), from the
+real recordings' own text and from ezc3d, never from the code under test. Real
+recordings come from ../shared/data and the tests that need them skip when it is absent.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mpz import Motion
+from mpz.io import read_trc
+from mpz.io.trc import format_trc, parse_trc
+
+WALK = "trc/opensim_subject01_walk1.trc"
+
+
+def _table(text: str) -> list[list[str]]:
+    """The data rows of TRC text, each split at tabs (the rows after the 5 header lines
+    and the optional blank line)."""
+    return [ln.split("\t") for ln in text.splitlines()[5:] if ln.strip()]
+
+
+def _header(text: str) -> dict[str, str]:
+    """Line 2's keys with line 3's values, stripped (the TRC header fields)."""
+    lines = text.splitlines()
+    return {k.strip(): v.strip() for k, v in zip(lines[1].split("\t"), lines[2].split("\t"),
+                                                  strict=False) if k.strip()}
+
+
+SMALL = ("PathFileType\t4\t(X/Y/Z)\tsmall.trc\n"
+         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+         "OrigDataStartFrame\tOrigNumFrames\n"
+         "60.00\t60.00\t4\t2\tmm\t60.00\t1\t4\n"
+         "Frame#\tTime\tA\t\t\tB\t\t\n"
+         "\t\tX1\tY1\tZ1\tX2\tY2\tZ2\n"
+         "\n"
+         "1\t0.000\t1.5\t2.5\t3.5\t4.0\t5.0\t6.0\n"
+         "2\t0.017\t1.6\t2.6\t3.6\t\t\t\n"
+         "3\t0.033\t1.7\t2.7\t3.7\t4.2\t5.2\t6.2\n"
+         "4\t0.050\t1.8\t2.8\t3.8\t4.3\t5.3\t6.3\n")
+
+
+# -- TRC ---------------------------------------------------------------------------------
+def test_trc_time_column_written_back_as_the_file_has_it(shared_data: Path) -> None:
+    """A TRC read and written again has the source's time column, field for field: the
+    file's own text is the expected value (its last time, 2.500000, has one significant
+    decimal; the others three)."""
+    text = (shared_data / WALK).read_text()
+    back = format_trc(parse_trc(text))
+    src = [row[1].strip() for row in _table(text)]
+    got = [row[1].strip() for row in _table(back)]
+    assert got == src
+
+
+def test_trc_written_after_a_rate_change_says_the_new_rate() -> None:
+    """DataRate is the rate of the rows (the TRC header): a motion read at 60 Hz and
+    given 120 Hz must not be written with the source's 60.00."""
+    m = parse_trc(SMALL)
+    faster = replace(m, rate=120.0)
+    text = format_trc(faster)
+    assert float(_header(text)["DataRate"]) == 120.0
+    assert parse_trc(text).rate == 120.0
+
+
+def test_trc_written_after_a_cut_says_its_frame_count() -> None:
+    """NumFrames counts the rows: 2 frames cut from 4 are written as NumFrames 2."""
+    m = parse_trc(SMALL).select_frames(1, 3)
+    text = format_trc(m)
+    assert _header(text)["NumFrames"] == "2"
+    assert len(_table(text)) == 2
+    assert "warning" not in parse_trc(text).metadata
+
+
+def test_trc_with_a_byte_order_mark_reads_as_without(tmp_path: Path) -> None:
+    """A UTF-8 TRC that starts with a BOM (Windows editors write one) is the same file."""
+    plain, bom = tmp_path / "plain.trc", tmp_path / "bom.trc"
+    plain.write_bytes(SMALL.encode())
+    bom.write_bytes(b"\xef\xbb\xbf" + SMALL.encode())
+    a, b = read_trc(plain), read_trc(bom)
+    assert b.names == ["A", "B"] and b.rate == 60.0 and b.units == "mm"
+    np.testing.assert_array_equal(a.valid, b.valid)
+    np.testing.assert_array_equal(a.as_nan(), b.as_nan())
+    assert not b.valid[1, 1] and b.valid[1, 0]          # the empty fields of row 2
+
+
+
+def test_trc_of_a_motion_from_elsewhere_counts_from_frame_1_at_time_0() -> None:
+    """format_trc without a TRC source: frames from 1, times from 0 (its docstring), one
+    frame every 1 / rate."""
+    m = Motion(np.ones((3, 1, 3)), ["A"], 4.0, "mm")
+    rows = _table(format_trc(m))
+    assert [r[0] for r in rows] == ["1", "2", "3"]
+    assert [float(r[1]) for r in rows] == [0.0, 0.25, 0.5]
+
+
+def test_trc_values_keep_the_most_decimals_of_the_first_row() -> None:
+    """Values written back with as many decimals as the most precise of the source's first
+    row (here 3), so that each reads back as the source's number."""
+    text = SMALL.replace("1\t0.000\t1.5\t2.5\t3.5\t4.0\t5.0\t6.0",
+                         "1\t0.000\t1.5\t2.25\t3.125\t4.0\t5.0\t6.0")
+    m = parse_trc(text)
+    back = parse_trc(format_trc(m))
+    np.testing.assert_array_equal(back.positions[0, 0], [1.5, 2.25, 3.125])
+    np.testing.assert_array_equal(back.as_nan(), m.as_nan())
+
+
+# -- NPY / CSV ---------------------------------------------------------------------------
+def test_npy_sample_with_one_nan_coordinate_is_a_gap(tmp_path: Path) -> None:
+    """NPY layout (mpz.io.table): NaN at gaps; a sample missing any of its three
+    coordinates is a gap, and the other samples stay valid."""
+    from mpz.io import read_npy
+    arr = np.arange(2 * 3 * 3, dtype=np.float64).reshape(2, 3, 3)
+    arr[1, 2, 1] = np.nan                       # only y of marker 2 at frame 1
+    p = tmp_path / "one.npy"
+    np.save(p, arr)
+    m = read_npy(p, rate=50.0, units="mm")
+    want = np.ones((2, 3), bool)
+    want[1, 2] = False
+    np.testing.assert_array_equal(m.valid, want)
+    np.testing.assert_array_equal(m.positions[0], arr[0])
+    assert m.rate == 50.0 and m.units == "mm"
+
+
+
+def test_npy_units_argument_is_the_motions_unit(tmp_path: Path) -> None:
+    """NPY stores no unit: read_npy takes it as an argument (mpz.io.table)."""
+    from mpz.io import read_npy
+    p = tmp_path / "u.npy"
+    np.save(p, np.ones((2, 1, 3)))
+    assert read_npy(p, units="m").units == "m"
+    assert read_npy(p).units == ""
+
+
+@pytest.mark.parametrize("rate", [65.0364227294921875, 127.05968475341797, 250.51327514648438,
+                                  60.0033, 119.88, 29.97, 1000 / 7,
+                                  100.0 / 3, 250.0, 0.1])
+def test_csv_rate_survives_the_time_column_exactly(rate: float) -> None:
+    """The CSV layout stores times as repr(frame / rate), so that the rate comes back
+    exactly (mpz.io.table): the rate read back is the one written, bit for bit. Among the
+    rates, float32 ones as C3D files store them (127.0597 Hz, 250.5133 Hz) whose
+    1 / times[1] lands a few ulps above the rate, and 60.0033 Hz (c3d.org's arthuman)."""
+    from mpz.io.table import format_csv, parse_csv
+    m = Motion(np.ones((50, 1, 3)), ["A"], rate, "")
+    assert parse_csv(format_csv(m)).rate == rate
+
+
+# -- BVH ---------------------------------------------------------------------------------
+FINE_BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0.123456789 10.5 -3.25
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0 10.000000125 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0 5.5 0
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.0083333
+1.2345678901 90.87654321 -3.000000004 12.3456789 -45.6789012 0.000123456789 1 2 3
+-1.2345678901 91.87654321 3.000000004 -12.3456789 45.6789012 -0.000123456789 4 5 6
+"""
+
+
+def test_bvh_written_back_keeps_every_digit_of_its_values() -> None:
+    """A BVH written from a BVH holds its numbers, not rounded ones: each value read
+    back is the binary64 of the source's text (the digits above are more than float32
+    or six significant digits hold)."""
+    from mpz.io.bvh import format_bvh, parse_bvh
+    back = parse_bvh(format_bvh(parse_bvh(FINE_BVH)))
+    rows = FINE_BVH.split("Frame Time: 0.0083333\n", 1)[1].split("\n")
+    want = np.array([[float(t) for t in ln.split()] for ln in rows if ln.strip()])
+    assert back.angles is not None
+    np.testing.assert_array_equal(back.angles, want)
+    skel = back.extras["skeleton"]
+    assert skel.joints[0].offset == (0.123456789, 10.5, -3.25)
+    assert skel.joints[1].offset == (0.0, 10.000000125, 0.0)
+    assert skel.frame_time == 0.0083333
+
+
+# -- ASF / AMC ---------------------------------------------------------------------------
+TINY_ASF = """:version 1.10
+:name tiny
+:units
+  mass 1.0
+  length 0.45
+  angle rad
+:documentation
+   hand-made for the mutation audit
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name femur
+     direction 0 -1 0
+     length 10
+     axis 0.5 0 0.25 XYZ
+    dof rx ry rz
+    limits (-1.5 1.5)
+           (-0.5 0.75)
+           (-1 1)
+  end
+:hierarchy
+  begin
+    root femur
+  end
+"""
+TINY_AMC = """:FULLY-SPECIFIED
+:RADIANS
+5
+root 1 2 3 0 0 0
+femur 0.1 0.2 0.3
+6
+root 1 2 3 0.1 0 0
+femur 0 0 0
+"""
+#: millimetres per ASF length unit: 1 / 0.45 inch (the ASF's ``:units length``)
+MM = 25.4 / 0.45
+
+
+def _rot(axis: str, a: float) -> np.ndarray:
+    """The right-handed rotation by ``a`` radians about one principal axis."""
+    c, s = np.cos(a), np.sin(a)
+    return {"X": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
+            "Y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+            "Z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])}[axis]
+
+
+def _tiny() -> Motion:
+    from mpz.io.amc import parse_amc, parse_asf
+    return parse_amc(TINY_AMC, parse_asf(TINY_ASF))
+
+
+def test_amc_joint_positions_by_hand() -> None:
+    """The Acclaim convention (spec §6.10): ``W = C M C^-1`` with ``XYZ`` meaning X first
+    (``Rz Ry Rx``), angles in the ASF's ``:units angle`` (rad here), lengths times
+    25.4 / 0.45 mm. Frame 5 turns the femur, frame 6 the root."""
+    m = _tiny()
+    root = np.array([1.0, 2.0, 3.0]) * MM
+    bone = np.array([0.0, -10.0, 0.0]) * MM
+    C = _rot("Z", 0.25) @ _rot("Y", 0.0) @ _rot("X", 0.5)
+    M = _rot("Z", 0.3) @ _rot("Y", 0.2) @ _rot("X", 0.1)
+    want = np.array([[root, root + C @ M @ C.T @ bone],
+                     [root, root + _rot("X", 0.1) @ bone]])
+    assert m.names == ["root", "femur"] and m.units == "mm"
+    np.testing.assert_allclose(m.positions, want, rtol=0, atol=1e-9)
+
+
+def test_amc_written_back_numbers_its_frames_from_the_source() -> None:
+    """The AMC's frame numbers (5 and 6 here) come back as written, not renumbered
+    from 1."""
+    from mpz.io.amc import format_amc
+    text = format_amc(_tiny())
+    numbers = [ln.strip() for ln in text.splitlines() if ln.strip().isdigit()]
+    assert numbers == ["5", "6"]
+
+
+def test_asf_written_back_keeps_its_angle_unit_and_limits() -> None:
+    """``:units angle rad`` and each dof's (lo hi) limits, in order, come back."""
+    from mpz.io.amc import format_asf, parse_asf
+    skel = parse_asf(format_asf(_tiny().extras["skeleton"]))
+    assert skel.angle_unit == "rad"
+    assert skel.joints[1].limits == ((-1.5, 1.5), (-0.5, 0.75), (-1.0, 1.0))
+    assert skel.length == 0.45
+
+
+
+
+def test_amc_metadata_says_millimetres_per_asf_unit() -> None:
+    """:units length 0.45: one ASF unit is 1 / 0.45 inch, 25.4 / 0.45 mm."""
+    assert float(_tiny().metadata["mm_per_unit"]) == pytest.approx(MM, rel=1e-15)
+
+
+def test_amc_frame_numbers_must_follow_each_other() -> None:
+    """Frame 5 then frame 7: a frame is missing, and the AMC is refused (parse_amc)."""
+    from mpz.errors import InputFormatError
+    from mpz.io.amc import parse_amc, parse_asf
+    with pytest.raises(InputFormatError, match="frame 7"):
+        parse_amc(TINY_AMC.replace("\n6\n", "\n7\n"), parse_asf(TINY_ASF))
+
+
+def test_asf_root_axis_order_is_used() -> None:
+    """The root's ``axis ZYX`` with an orientation on two axes: C = Rx Ry Rz (Z first),
+    the root's rotation C M C^-1 (spec §6.10), M from the root's RX RY RZ values (X
+    first: Rz Ry Rx). The femur (no dof turned) ends at root + W bone."""
+    from mpz.io.amc import parse_amc, parse_asf
+    asf = TINY_ASF.replace("   axis XYZ\n   position 0 0 0\n   orientation 0 0 0",
+                           "   axis ZYX\n   position 0 0 0\n   orientation 0.3 0 0.2")
+    amc = ":FULLY-SPECIFIED\n:RADIANS\n1\nroot 1 2 3 0.1 0.2 0\nfemur 0 0 0\n"
+    m = parse_amc(amc, parse_asf(asf))
+    C = _rot("X", 0.3) @ _rot("Y", 0.0) @ _rot("Z", 0.2)
+    M = _rot("Z", 0.0) @ _rot("Y", 0.2) @ _rot("X", 0.1)
+    root = np.array([1.0, 2.0, 3.0]) * MM
+    want = root + C @ M @ C.T @ (np.array([0.0, -10.0, 0.0]) * MM)
+    np.testing.assert_allclose(m.positions[0, 0], root, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(m.positions[0, 1], want, rtol=0, atol=1e-9)
+
+
+# -- C3D ---------------------------------------------------------------------------------
+def _ezc3d_file(path: Path, labels: list[str], frames: int = 3, rate: float = 100.0) -> None:
+    """A float C3D written by ezc3d (an independent writer): point p at (p+1, 2p, 3) mm
+    in every frame, residual 0."""
+    import ezc3d
+    c = ezc3d.c3d()
+    P = len(labels)
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([rate])
+    c["parameters"]["POINT"]["LABELS"]["value"] = list(labels)
+    c.add_parameter("POINT", "UNITS", ["mm"])
+    pts = np.ones((4, P, frames))
+    pts[0] = (np.arange(P) + 1.0)[:, None]
+    pts[1] = (2.0 * np.arange(P))[:, None]
+    pts[2] = 3.0
+    c["data"]["points"] = pts
+    c.write(str(path))
+
+
+def test_c3d_of_more_than_255_points_names_them_from_labels2(tmp_path: Path) -> None:
+    """The C3D user guide: POINT:LABELS holds 255 labels, LABELS2 the next 255 ... ezc3d
+    writes 300 labels so; every point keeps its own name."""
+    from mpz.io import read_c3d
+    labels = [f"P{i}" for i in range(300)]
+    _ezc3d_file(tmp_path / "many.c3d", labels)
+    m = read_c3d(tmp_path / "many.c3d")
+    assert m.names == labels
+    np.testing.assert_array_equal(m.positions[0, :, 0], np.arange(300) + 1.0)
+
+
+def test_c3d_labels_padded_with_nuls_are_the_labels(tmp_path: Path) -> None:
+    """A C3D char field is padded with blanks or NULs (writers differ): a label "A" padded
+    with NULs is "A", as ezc3d reads it."""
+    import ezc3d
+
+    from mpz.io import read_c3d
+    src = tmp_path / "spaces.c3d"
+    _ezc3d_file(src, ["A", "LONGNAME"])
+    data = src.read_bytes()
+    assert data.count(b"A       LONGNAME") == 1           # ezc3d pads with blanks
+    nul = tmp_path / "nuls.c3d"
+    nul.write_bytes(data.replace(b"A       LONGNAME", b"A" + b"\0" * 7 + b"LONGNAME"))
+    want = [str(s).strip() for s in ezc3d.c3d(str(nul))["parameters"]["POINT"]["LABELS"]["value"]]
+    assert want == ["A", "LONGNAME"]
+    m = read_c3d(nul)
+    assert m.names == want
+    assert "renamed_points" not in m.metadata
+
+
+def test_c3d_model_outputs_gaps_are_ezc3ds(shared_data: Path) -> None:
+    """Model outputs (POINT:ANGLES, FORCES ...) of the Auckland file: valid where the
+    fourth word (residual) is not negative, as ezc3d reads it: a residual of 0 is a valid
+    sample (the C3D user guide: only a negative residual marks an invalid point)."""
+    import ezc3d
+
+    from mpz.io import read_c3d
+    path = shared_data / "c3d/auckland_FMC_MH0222_BP06.c3d"
+    m = read_c3d(path)
+    a = m.extras["c3d"]
+    c = ezc3d.c3d(str(path))
+    res = np.asarray(c["data"]["meta_points"]["residuals"])[0].T          # [F, P]
+    pts = np.asarray(c["data"]["points"])[:3].transpose(2, 1, 0)          # [F, P, 3]
+    M = m.n_markers
+    models = [(p, s - M) for p, s in enumerate(a.slots) if s >= M]
+    assert len(models) == 36
+    for p, j in models:
+        want = (res[:, p] >= 0) & np.isfinite(pts[:, p]).all(axis=1)
+        np.testing.assert_array_equal(a.model_valid[:, j], want)
+        np.testing.assert_allclose(a.models[want, j], pts[want, p], rtol=1e-6, atol=1e-4)
+    assert 0 < a.model_valid.mean() < 1
+
+
+def _raw_words(data: bytes) -> tuple[np.ndarray, float]:
+    """The x, y, z words of every point of an Intel C3D as stored (int16 or float32), and
+    the header's scale, from the C3D user guide's layout alone (no reader): header word 2
+    the points, word 3 the analog words a frame, words 4-5 the frame range, word 7 the
+    scale (negative: float32), word 9 the data block."""
+    head = np.frombuffer(data[:512], "<u2")
+    P, A, first, last = int(head[1]), int(head[2]), int(head[3]), int(head[4])
+    scale = float(np.frombuffer(data, "<f4", 1, 12)[0])
+    start = (int(head[8]) - 1) * 512
+    F = last - first + 1
+    dtype = "<f4" if scale < 0 else "<i2"
+    words = np.frombuffer(data, dtype, F * (4 * P + A), start).reshape(F, 4 * P + A)
+    return words[:, :4 * P].reshape(F, P, 4)[:, :, :3], scale
+
+
+def _raw_points(data: bytes) -> np.ndarray:
+    """The x, y, z of every point of an Intel C3D (:func:`_raw_words`, times the scale
+    for int16 storage)."""
+    xyz, scale = _raw_words(data)
+    return xyz.astype(np.float64) if scale < 0 else xyz.astype(np.float64) * scale
+
+
+def test_c3d_written_with_its_archive_stores_zeros_at_gaps(shared_data: Path,
+                                                           tmp_path: Path) -> None:
+    """write_c3d (the archive's C3D): 0 at gaps, whatever a Motion holds under a gap (its
+    contract: the position stored under a gap is ignored). A reader that goes by the
+    coordinates alone (the (0, 0, 0) rule of Vicon-style exporters) must not see junk."""
+    import ezc3d
+
+    from mpz.io import read_c3d, write_c3d
+    m = read_c3d(shared_data / "c3d/cmu_01_01.c3d")
+    gaps = ~m.valid
+    assert gaps.any()
+    pos = m.positions.copy()
+    pos[gaps] = 12345.0                             # junk under the gaps
+    junk = replace(m, positions=pos)
+    out = tmp_path / "out.c3d"
+    write_c3d(junk, out)
+    c = ezc3d.c3d(str(out))
+    labels = [str(s).strip() for s in c["parameters"]["POINT"]["LABELS"]["value"]]
+    cols = [labels.index(n) for n in m.names]
+    raw = _raw_points(out.read_bytes())[:, cols]
+    np.testing.assert_allclose(raw[m.valid], m.positions[m.valid], rtol=1e-6, atol=1e-3)
+    at_gaps = raw[gaps]
+    assert not (at_gaps == 12345.0).any()
+    np.testing.assert_array_equal(at_gaps, 0.0)
+
+
+def test_c3d_nan_residual_word_read_alike_by_both_readers(tmp_path: Path) -> None:
+    """A float C3D whose fourth word is NaN at one sample (a damaged or hand-edited file):
+    the numpy reader (mpz.io.c3dbin, used for the files ezc3d refuses) and read_c3d
+    (through ezc3d) give the same valid mask for the same bytes (the numpy reader made it
+    a gap, ezc3d reads the word as residual 0): the sample is kept, coordinates and all."""
+    from mpz.io import read_c3d
+    from mpz.io.c3d import motion_from_c3d_bytes
+    src = tmp_path / "src.c3d"
+    _ezc3d_file(src, ["A", "B"], frames=4)
+    data = bytearray(src.read_bytes())
+    head = np.frombuffer(bytes(data[:512]), "<u2")
+    P, A, start = int(head[1]), int(head[2]), (int(head[8]) - 1) * 512
+    assert np.frombuffer(bytes(data), "<f4", 1, 12)[0] < 0          # float storage
+    f, p = 2, 1
+    at = start + 4 * (f * (4 * P + A) + 4 * p + 3)                  # B's fourth word, frame 2
+    data[at:at + 4] = np.array([np.nan], "<f4").tobytes()
+    bad = tmp_path / "nan.c3d"
+    bad.write_bytes(bytes(data))
+    through_ezc3d = read_c3d(bad)
+    assert through_ezc3d.metadata["reader"] == "ezc3d"
+    assert np.isnan(through_ezc3d.extras["c3d"].words[f, p])       # the word is kept
+    by_numpy = motion_from_c3d_bytes(bytes(data))
+    np.testing.assert_array_equal(by_numpy.valid, through_ezc3d.valid)
+    assert by_numpy.valid[f, p]                                      # kept, not a gap
+    np.testing.assert_array_equal(by_numpy.positions[f, p], through_ezc3d.positions[f, p])
+
+
+def test_c3d_of_100000_frames_counts_them_all(tmp_path: Path) -> None:
+    """Past 65535 frames the C3D user guide puts the range in TRIAL:ACTUAL_START_FIELD and
+    ACTUAL_END_FIELD, each two *unsigned* 16-bit words (low, high): frame 100000 is
+    (34464, 1), whose low word read as a signed int16 is negative."""
+    import ezc3d
+
+    from mpz.io import read_c3d, write_c3d
+    F = 100_000
+    pos = np.zeros((F, 1, 3))
+    pos[:, 0, 0] = np.arange(F) % 1000 + 1.0
+    pos[:, 0, 1] = 2.0
+    m = Motion(pos, ["A"], 100.0, "mm")
+    out = tmp_path / "long.c3d"
+    write_c3d(m, out)
+    trial = ezc3d.c3d(str(out), ignore_bad_formatting=True)["parameters"]["TRIAL"]
+    end = [int(v) & 0xFFFF for v in trial["ACTUAL_END_FIELD"]["value"]]
+    assert end[0] + (end[1] << 16) == F and end[0] >= 1 << 15
+    back = read_c3d(out)
+    assert back.n_frames == F
+    np.testing.assert_array_equal(back.positions[:, 0, 0], pos[:, 0, 0])
+
+
+def test_c3d_int16_file_written_back_has_its_words(shared_data: Path, tmp_path: Path) -> None:
+    """An int16 C3D (c3d.org's AlbertoINT, scale 0.3076) read and written again stores the
+    same int16 coordinate words: each value is a multiple of the scale, and the writer
+    must find that multiple again (the source file is the expected value)."""
+    from mpz.io import read_c3d, write_c3d
+    src = shared_data / "c3d/c3dorg_AlbertoINT.c3d"
+    out = tmp_path / "out.c3d"
+    write_c3d(read_c3d(src), out)
+    a, sa = _raw_words(src.read_bytes())
+    b, sb = _raw_words(out.read_bytes())
+    assert sa > 0 and sb == sa                        # int16 storage, the same scale
+    assert a.dtype == b.dtype == np.dtype("<i2")
+    np.testing.assert_array_equal(b, a)
+
+
+def test_c3d_of_a_trc_keeps_its_first_frame_number(tmp_path: Path) -> None:
+    """A TRC whose Frame# starts at 5, written as C3D: header word 4 (the first frame, the
+    C3D user guide) is 5, and reading the C3D back keeps the numbering."""
+    from mpz.io import read_c3d, write_c3d
+    text = SMALL
+    for k in (4, 3, 2, 1):
+        text = text.replace(f"\n{k}\t0.", f"\n{k + 4}\t0.")
+    m = parse_trc(text)
+    out = tmp_path / "five.c3d"
+    write_c3d(m, out)
+    head = np.frombuffer(out.read_bytes()[:512], "<u2")
+    assert (int(head[3]), int(head[4])) == (5, 8)
+    assert read_c3d(out).extras["c3d"].first_frame() == 5
+
+
+def test_c3d_written_without_an_archive_names_300_points(tmp_path: Path) -> None:
+    """Our own C3D writer (a motion numbered from frame 3, which ezc3d cannot write):
+    labels 256 to 300 go to POINT:LABELS2 (the C3D user guide), and ezc3d reads every
+    name back."""
+    import ezc3d
+
+    from mpz.io import write_c3d
+    names = [f"M{i}" for i in range(300)]
+    m = Motion(np.ones((2, 300, 3)), names, 50.0, "mm", metadata={"trc.FirstFrame": "3"})
+    out = tmp_path / "many.c3d"
+    write_c3d(m, out)
+    point = ezc3d.c3d(str(out))["parameters"]["POINT"]
+    got = [str(s).strip() for s in point["LABELS"]["value"]]
+    got += [str(s).strip() for s in point["LABELS2"]["value"]]
+    assert got == names
