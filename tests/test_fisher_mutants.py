@@ -198,3 +198,14 @@ def test_rank_does_not_scale_up_a_feature_that_hardly_varies() -> None:
     order, dist = rank(np.array([0.0, 0.0]), table)
     assert order.tolist() == [0, 1]
     np.testing.assert_allclose(dist, [2.0, 4.0], rtol=1e-12)
+
+
+def test_ev_of_a_k_between_two_stored_levels_takes_the_smaller() -> None:
+    """``ev_k`` comes from the stored level nearest to ``k``, the smaller of two equally
+    near (the docstring's rule, written down after the audit): with levels 2 and 6,
+    ev_4 is ev_2, not ev_6 (which differ on this motion)."""
+    from mpz.synth import generate
+    s = summarize(generate("walk", frames=240, seed=5), (2, 6))
+    ev = {k: float(descriptor(s, (k,))[0]) for k in (2, 4, 6)}
+    assert ev[2] != ev[6]
+    assert ev[4] == ev[2]

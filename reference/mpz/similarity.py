@@ -257,8 +257,8 @@ def descriptor(s: MotionSummary, levels: Sequence[int] = SUMMARY_LEVELS) -> NDAr
     """Marker-set-, unit-, axis- and rate-free features of a summary (:func:`features_for`).
 
     ``ev_k`` is taken from the stored level nearest to ``k`` (a short motion stores fewer
-    segments than asked). The other features use the finest level. The speed has a floor
-    of :data:`MIN_SPEED` before its log.
+    segments than asked), the smaller of two equally near. The other features use the
+    finest level. The speed has a floor of :data:`MIN_SPEED` before its log.
 
     Raises
     ------
