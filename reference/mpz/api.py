@@ -22,6 +22,7 @@ import secrets
 import signal
 import stat
 import sys
+import tempfile
 import threading
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any, BinaryIO, TypeAlias
@@ -480,10 +481,12 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     ext = os.path.splitext(name)[1] if suffix is None else suffix
     if is_null_device(target):
         # the writer writes a whole file, in the temporary folder; then it is dropped
-        import tempfile
-        with contextlib.ExitStack() as stack:
-            scratch = stack.enter_context(tempfile.TemporaryDirectory(prefix="mpz-null-"))
-            yield os.path.join(scratch, f"null{ext}")
+        with signals_exit(signal.SIGTERM), \
+                tempfile.TemporaryDirectory(prefix="mpz-null-") as scratch:
+            try:
+                yield os.path.join(scratch, f"null{ext}")
+            except OSError as exc:
+                raise EncoderError(f"cannot write {target}: {exc.strerror or exc}") from exc
         return
     folder = os.path.dirname(os.path.abspath(target))
     with signals_exit(signal.SIGTERM):
