@@ -228,8 +228,12 @@ def test_a_missing_output_folder_is_made(inputs: dict[str, Path], tmp_path: Path
     for args in (["a.c3d"], ["a.c3d", "b.trc"]):
         p = run(["mpz", "encode", *args, "-o", "afile/sub/", "--max-error", "1mm"], tmp_path)
         assert p.returncode == 2, p.stderr
-        assert b"cannot make the folder afile/sub" in p.stderr and b"Traceback" not in p.stderr
+        assert b"cannot make the folder afile/sub/: a file (not a folder) is in its path" \
+            in p.stderr and b"Traceback" not in p.stderr
     assert (tmp_path / "afile").read_text() == "in the way"
+    p = run(["mpz", "encode", "a.c3d", "-o", "afile/", "--max-error", "1mm"], tmp_path)
+    assert p.returncode == 2 and (b"cannot make the folder afile/: a file (not a folder) is "
+                                  b"in its place") in p.stderr
 
 def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[str, Path],
                                                                   tmp_path: Path) -> None:

@@ -372,6 +372,16 @@ def _signals_held() -> Iterator[None]:
             signal.raise_signal(signum)                # to the handler it was meant for
 
 
+def folder_problem(exc: OSError) -> str:
+    """Why ``os.makedirs`` could not make a folder, in words: its "File exists" and "Not a
+    directory" name neither the file in the way nor that it is a file."""
+    if isinstance(exc, FileExistsError):
+        return "a file (not a folder) is in its place"
+    if isinstance(exc, NotADirectoryError):
+        return "a file (not a folder) is in its path"
+    return exc.strerror or str(exc)
+
+
 def is_null_device(path: str) -> bool:
     """``path`` is the null device (:data:`os.devnull`, by any name that leads to it): an
     output written in full and then discarded, to time or check a writer (``-o

@@ -60,6 +60,7 @@ import urllib.parse
 
 import numpy as np
 
+from mpz.api import folder_problem
 from mpz.encoder import DEFAULTS, EncodeOptions
 from mpz.errors import EncoderError, MPZError
 from mpz.hierarchy import BUILDERS
@@ -1465,7 +1466,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         os.makedirs(index_dir, exist_ok=True)
     except OSError as exc:
         raise EncoderError(f"cannot make the folder {os.fspath(outdir)}: "
-                           f"{exc.strerror or exc}") from None
+                           f"{folder_problem(exc)}") from None
     per_file = (options if isinstance(options, FileOptions) else
                 _Fixed(options) if isinstance(options, EncodeOptions) else _ByUnits(options))
     levels = tuple(sorted({int(k) for k in levels}))
@@ -1529,7 +1530,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                     os.makedirs(folder, exist_ok=True)
                     unmade[folder] = None
                 except OSError as exc:
-                    unmade[folder] = f"cannot make the folder {folder}: {exc.strerror or exc}"
+                    unmade[folder] = f"cannot make the folder {folder}: {folder_problem(exc)}"
             reason = unmade[folder]
             if reason is not None:
                 finish(i, FileResult(tasks[i].source, tasks[i].output, "failed", reason))

@@ -570,19 +570,21 @@ def check_plot(path: str, force: bool, sources: Sequence[str]) -> None:
 
 
 def make_folder(folder: str) -> None:
-    """Create ``folder`` and its parents if missing (``--mirror``'s folders below
-    ``-o FOLDER/``).
+    """Create ``folder`` and its parents if missing (``-o FOLDER/`` and ``--mirror``'s
+    folders below it).
 
     Raises
     ------
     EncoderError
         Naming the folder, when it cannot be made (a file in its place, no permission).
     """
+    from mpz.api import folder_problem
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as exc:
         raise EncoderError(f"cannot make the folder {printable(folder)}: "
-                           f"{exc.strerror or exc}") from None
+                           f"{folder_problem(exc)}") from None
+
 
 
 #: how bad each exit code is, for a batch's overall code
