@@ -5,6 +5,8 @@ import argparse
 import os
 from pathlib import Path
 
+from mpz.tools._cli import whole_number
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -53,15 +55,8 @@ def find_recording(root: Path, name: str) -> Path | None:
     return None
 
 
-def positive_int(text: str) -> int:
-    """argparse type of a whole number of 1 or more (``--repeat N``)."""
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"wants 1 or more, got {text!r}")
-    return n
+#: argparse type of a whole number of 1 or more (``--repeat N``)
+positive_int = whole_number(1)
 
 
 def is_bound_label(text: str) -> bool:

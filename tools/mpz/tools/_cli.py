@@ -298,15 +298,21 @@ def interrupted(exc: BaseException) -> bool:
     return isinstance(e, KeyboardInterrupt)
 
 
-def count(text: str) -> int:
-    """argparse type of a count that may be 0 (``--jobs N``, ``compare --top N``)."""
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"wants 0 or more, got {n}")
-    return n
+def whole_number(low: int) -> Callable[[str], int]:
+    """argparse type of a whole number of ``low`` or more."""
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
+        if n < low:
+            raise argparse.ArgumentTypeError(f"wants {low} or more, got {n}")
+        return n
+    return parse
+
+
+#: argparse type of a count that may be 0 (``--jobs N``, ``compare --top N``)
+count = whole_number(0)
 
 
 def positive(text: str) -> float:
