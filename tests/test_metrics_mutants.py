@@ -148,52 +148,29 @@ def test_motions_in_other_units_are_refused() -> None:
         max_error(Motion(pos, ["A"], 100.0, "cm"), Motion(10 * pos, ["A"], 100.0, "mm"))
 
 
-ASF_RAD = """:version 1.10
-:name tiny
-:units
-  mass 1.0
-  length 0.45
-  angle rad
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-  begin
-     id 1
-     name femur
-     direction 0 -1 0
-     length 10
-     axis 0 0 0 XYZ
-    dof rx ry rz
-  end
-:hierarchy
-  begin
-    root femur
-  end
-"""
+#: two frames of conftest's one-bone ASF (bone b1, dofs rx ry rz), in radians
 AMC_RAD = """:FULLY-SPECIFIED
 :RADIANS
 1
 root 1 2 3 0 0 0
-femur 0.1 0.2 0.3
+b1 0.1 0.2 0.3
 2
 root 1 2 3 0 0 0
-femur 0.1 0.2 0.3
+b1 0.1 0.2 0.3
 """
 
 
-def test_joint_rotation_error_of_a_radian_skeleton_is_in_degrees() -> None:
+def test_joint_rotation_error_of_a_radian_skeleton_is_in_degrees(one_bone_asf) -> None:
     """besides_markers reports joint rotations in degrees: a channel of an ASF in radians
     changed by 0.01 rad is 0.01 * 180 / pi = 0.5729578 degrees off."""
     from dataclasses import replace
 
     from mpz.io.amc import parse_amc, parse_asf
     from mpz.metrics import besides_markers
-    m = parse_amc(AMC_RAD, parse_asf(ASF_RAD))
+    m = parse_amc(AMC_RAD, parse_asf(one_bone_asf(angle="rad", axis="0 0 0",
+                                                  dofs="rx ry rz")))
     assert m.angles is not None and m.angle_names is not None
-    k = m.angle_names.index("femur.ry")
+    k = m.angle_names.index("b1.ry")
     angles = m.angles.copy()
     angles[1, k] += 0.01
     parts = {p.name: p for p in besides_markers(m, replace(m, angles=angles))}
