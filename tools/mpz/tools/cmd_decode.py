@@ -165,13 +165,10 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
     # every check on the output comes before the decode
     if not to_stdout:
         check_output(job.output, force=args.force, source=source)
-    # standard output and the null device have no name to take a format from: --format,
-    # else the format the file was encoded from, known once it is read
-    ext: str | None
-    if to_stdout or is_null_device(job.output):
-        ext = "." + args.format if args.format else None
-    else:
-        ext = _target_ext(args, job.output)
+    # standard output and the null device have no name to take a format from: without
+    # --format, the format the file was encoded from, known once it is read (None here)
+    nameless = to_stdout or is_null_device(job.output)
+    ext = None if nameless and not args.format else _target_ext(args, job.output)
     asf = _asf_output(args, job.output, ext, source)
     compile_notice(args.quiet, args.verbose, announce=False)
     # a skeletal file's joint positions come from its channels (read_mpz_input, §6.10)
