@@ -361,6 +361,25 @@ def test_c3d_labels_padded_with_nuls_are_the_labels(tmp_path: Path) -> None:
     assert "renamed_points" not in m.metadata
 
 
+
+def test_c3d_byte_parameter_reads_signed_as_ezc3d_reads_it(tmp_path: Path) -> None:
+    """The C3D user guide's parameter type 1 is a one-byte integer; ezc3d reads it signed
+    (0xFD is -3). The numpy reader (the files ezc3d refuses, MIPS files) reads the same
+    bytes the same way: the audit's D3 (read as unsigned) gave 253 and 128."""
+    import ezc3d
+
+    from mpz.io.c3dbin import ParamRecord, build_c3d, parse_c3d, plain_parts
+    head, records = plain_parts(["A", "B"], 100.0, "mm", 3)
+    records += [ParamRecord(-4, False, b"TEST", b""),
+                ParamRecord(4, False, b"BYTES", b"type 1", 1, (3,), bytes([0x05, 0xFD, 0x80]))]
+    data = build_c3d(head, records, np.ones((3, 2, 3)), np.zeros((3, 2), np.float32),
+                     np.zeros((3, 0), np.float32), float_storage=True, scale=1.0)
+    (tmp_path / "bytes.c3d").write_bytes(data)
+    by_ezc3d = ezc3d.c3d(str(tmp_path / "bytes.c3d"))["parameters"]["TEST"]["BYTES"]
+    assert by_ezc3d["type"] == 1
+    assert list(by_ezc3d["value"]) == [5, -3, -128]
+    assert list(parse_c3d(data).params["TEST"]["BYTES"]) == [5, -3, -128]
+
 def test_c3d_model_outputs_gaps_are_ezc3ds(shared_data: Path) -> None:
     """Model outputs (POINT:ANGLES, FORCES ...) of the Auckland file: valid where the
     fourth word (residual) is not negative, as ezc3d reads it: a residual of 0 is a valid
