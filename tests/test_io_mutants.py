@@ -91,6 +91,15 @@ def test_trc_with_a_byte_order_mark_reads_as_without(tmp_path: Path) -> None:
 
 
 
+@pytest.mark.parametrize(("written", "units"), [("MM", "mm"), (" Cm ", "cm"), ("Inches", "in"),
+                                                ("M", "m"), ("mms", "")])
+def test_trc_units_match_whatever_their_case(written: str, units: str) -> None:
+    """docs/io-notes.md, TRC: the Units field is matched without regard to case or the
+    blanks around it (writers differ: "mm", "MM"); a word it does not know is no unit."""
+    m = parse_trc(SMALL.replace("\t60.00\t4\t2\tmm\t", f"\t60.00\t4\t2\t{written}\t"))
+    assert m.units == units
+
+
 def test_trc_of_a_motion_from_elsewhere_counts_from_frame_1_at_time_0() -> None:
     """format_trc without a TRC source: frames from 1, times from 0 (its docstring), one
     frame every 1 / rate."""
@@ -379,6 +388,47 @@ def test_c3d_byte_parameter_reads_signed_as_ezc3d_reads_it(tmp_path: Path) -> No
     assert by_ezc3d["type"] == 1
     assert list(by_ezc3d["value"]) == [5, -3, -128]
     assert list(parse_c3d(data).params["TEST"]["BYTES"]) == [5, -3, -128]
+
+def _both_readers(path: Path) -> list[Motion]:
+    """The motion of the C3D file ``path`` by read_c3d (through ezc3d) and by the numpy
+    reader (mpz.io.c3dbin: MIPS files and the files ezc3d refuses)."""
+    from mpz.io import read_c3d
+    from mpz.io.c3d import motion_from_c3d_bytes
+    by_ezc3d = read_c3d(path)
+    assert by_ezc3d.metadata["reader"] == "ezc3d"
+    return [by_ezc3d, motion_from_c3d_bytes(path.read_bytes())]
+
+
+@pytest.mark.parametrize(("written", "units"), [("MM", "mm"), ("Cm", "cm"), ("M", "m"),
+                                                ("inch", "")])
+def test_c3d_units_match_whatever_their_case(tmp_path: Path, written: str, units: str) -> None:
+    """docs/io-notes.md, C3D: POINT:UNITS is matched without regard to case; a word it does
+    not know is no unit and stays in metadata["units_in_file"]. Both readers alike."""
+    import ezc3d
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["A"]
+    c.add_parameter("POINT", "UNITS", [written])
+    c["data"]["points"] = np.ones((4, 1, 2))
+    c.write(str(tmp_path / "u.c3d"))
+    for m in _both_readers(tmp_path / "u.c3d"):
+        assert m.units == units
+        assert m.metadata.get("units_in_file") == (None if units else written)
+
+
+def test_c3d_subject_is_every_name_of_subjects_names(tmp_path: Path) -> None:
+    """docs/io-notes.md, C3D: metadata["subject"] is every non-blank entry of
+    SUBJECTS:NAMES, in stored order, joined by ", " (a trial with two subjects names both).
+    Both readers alike."""
+    src = tmp_path / "two.c3d"
+    _ezc3d_file(src, ["A"])
+    import ezc3d
+    c = ezc3d.c3d(str(src))
+    c.add_parameter("SUBJECTS", "NAMES", ["Ann", "  ", "Bob"])
+    c.write(str(src))
+    for m in _both_readers(src):
+        assert m.metadata["subject"] == "Ann, Bob"
+
 
 def test_c3d_model_outputs_gaps_are_ezc3ds(shared_data: Path) -> None:
     """Model outputs (POINT:ANGLES, FORCES ...) of the Auckland file: valid where the
