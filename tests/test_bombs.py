@@ -125,6 +125,9 @@ data = open(path, "rb").read()
 small = open(warm, "rb").read()
 mpz.decode(small)                     # load every kernel the decode will use
 decode_layers(small)
+from mpz.predict import add_overlap   # and the smrc levels' (§4.15), which small lacks
+add_overlap(np.zeros(1, np.int64), np.zeros((1, 1), np.int64), np.zeros(1, np.int64), 1,
+            np.zeros((1, 1), np.int64), 1)
 if "mpzinfo" in what:
     from mpz.tools.mpzinfo import main
 v0 = vm("VmSize")
@@ -254,14 +257,17 @@ def test_bombs_decode_to_the_pattern() -> None:
 
 # ------------------------------------------------------- the 1.1 chunks (§8) --
 def budget_11(F: int, M: int, size: int, *, words: int = 0, rows: int = 0,
-              points: int = 0, models: int = 0, channels: int = 0) -> int:
+              points: int = 0, models: int = 0, channels: int = 0, means: int = 0,
+              segments: int = 0) -> int:
     """The §8 promise with the 1.1 chunks' terms: 4 bytes an analog word (``words`` = W)
     and 16 a word of one analog channel (``rows`` = R: the int64 residuals and low parts
     of the channel being decoded), 4 a C3D point word (``points`` = F (M + J)), 28 a
     model output (``models`` = F J: its three binary64 values and its gap flag), 16 a
-    skeleton channel value (``channels`` = V: the channel integers, then the values)."""
+    skeleton channel value (``channels`` = V: the channel integers, then the values), 12
+    an smrc mean (``means`` = S = sum of k D: its residual, then its value, and a share
+    of one level's row of sums) and 16 an smrc segment (``segments`` = K = sum of k)."""
     return (budget(F, M, 0, size) + 4 * words + 16 * rows + 4 * points + 28 * models
-            + 16 * channels)
+            + 16 * channels + 12 * means + 16 * segments)
 
 
 def _coded_zeros(*shapes: tuple[int, int, int], signed: bool = True) -> bytes:
@@ -322,6 +328,22 @@ def skeleton_bomb(F: int, C: int, *, groups: int = 1, wrap: bool = True) -> byte
     return _with_markers(F, J, [bvhs])
 
 
+def smrc_bomb(F: int, M: int, ks: list[int], D: int) -> bytes:
+    """A 1.1 file of M markers at 0 and an angle summary (space 1) of D dims whose levels
+    have ``ks`` segments (of lengths as equal as can be) and means 0."""
+    from mpz.chunks.summary import CodedSummaryLevel, Smrc
+    blocks: list[tuple[np.ndarray, dict[str, Any]]] = []
+    for k in ks:
+        lengths = np.diff((np.arange(k + 1) * F) // k) - 1
+        blocks.append((lengths.reshape(k, 1, 1), {"period": k, "signed": False}))
+        if D:
+            blocks.append((np.zeros((k, D, 1), np.int64), {"period": k}))
+    smrc = Smrc(space=1, dims=D, level_count=len(ks),
+                levels=tuple(CodedSummaryLevel(k=k, wssse=0.0, step=1.0) for k in ks),
+                coded=_coded(*blocks))
+    return _with_markers(F, M, [smrc])
+
+
 # (name, builder, F, M, the budget's keywords of budget_11)
 ANCILLARY = [
     ("cana: one channel of 2^24 words", lambda: c3d_bomb(256, samples=65535, channels=1),
@@ -340,6 +362,14 @@ ANCILLARY = [
     ("bvhs: 15 x 2^20 channel values, two groups, not wrapped",
      lambda: skeleton_bomb(1 << 20, 15, groups=2, wrap=False),
      1 << 20, 5, {"channels": (1 << 20) * 15}),
+    # a review of stop 47: these took 24, 16 and 58 bytes a mean (0.38, 0.25 and 0.7 GiB)
+    ("smrc: one level of 2^24 means", lambda: smrc_bomb(3, 1, [3], (1 << 24) // 3),
+     3, 1, {"means": 3 * ((1 << 24) // 3), "segments": 3}),
+    ("smrc: 64 levels of 2^18 means", lambda: smrc_bomb(3, 1, [3] * 64, (1 << 24) // 192),
+     3, 1, {"means": 192 * ((1 << 24) // 192), "segments": 192}),
+    ("smrc: 2^20 + 2^21 segments of one mean", lambda: smrc_bomb(1 << 21, 1,
+                                                               [1 << 20, 1 << 21], 1),
+     1 << 21, 1, {"means": 3 << 20, "segments": 3 << 20}),
 ]
 
 

@@ -92,6 +92,43 @@ def test_overlap_weights_with_unaligned_boundaries():
     assert q0.ravel().tolist() == [30, 61]
 
 
+@st.composite
+def _two_partitions(draw):
+    F = draw(st.integers(1, 40))
+
+    def starts():
+        cuts = draw(st.sets(st.integers(1, F - 1), max_size=F - 1)) if F > 1 else set()
+        return np.asarray([0, *sorted(cuts)], np.int64)
+    s, src_s = starts(), starts()
+    D = draw(st.integers(0, 4))
+    big = 2**31 - 1
+    src = np.asarray(draw(st.lists(st.integers(-big, big), min_size=len(src_s) * D,
+                                   max_size=len(src_s) * D)), np.int64).reshape(len(src_s), D)
+    return F, s, src_s, src
+
+
+@settings(max_examples=300, deadline=None)
+@given(_two_partitions())
+def test_overlap_prediction_is_the_frame_by_frame_mean(case):
+    """§4.15 step 4 read frame by frame, in Python integers: every frame t of segment j
+    adds the source mean of the segment holding t, and the prediction is
+    floor((2 sum + n_j) / (2 n_j)). Means at the s32 limits, partitions of any shape."""
+    from mpz.chunks.summary import overlap_prediction
+    F, s, src_s, src = case
+    seg = np.searchsorted(s, np.arange(F), side="right") - 1
+    src_seg = np.searchsorted(src_s, np.arange(F), side="right") - 1
+    D = src.shape[1]
+    want = []
+    for j in range(len(s)):
+        frames = [t for t in range(F) if seg[t] == j]
+        n = len(frames)
+        want.append([(2 * sum(int(src[src_seg[t], d]) for t in frames) + n) // (2 * n)
+                     for d in range(D)])
+    got = overlap_prediction(s, src, src_s, F)
+    assert got.shape == (len(s), D)
+    assert got.tolist() == want
+
+
 # -------------------------------------------------------- round trip (prop) --
 @st.composite
 def _levels(draw):

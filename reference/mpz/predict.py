@@ -1,4 +1,5 @@
-"""Temporal prediction of integer blocks (spec §6.2).
+"""Temporal prediction of integer blocks (spec §6.2), and the summary levels' prediction
+from one another (§4.15, :func:`add_overlap`).
 
 Strategy: a block ``x[T, M, A]`` is split into runs of ``period`` rows (one
 pattern each, or the whole clip); within a run the order-p predictor gives
@@ -123,6 +124,46 @@ def _integrate(x: NDArray[np.int64], P: int, order: int) -> int:
                 d[c] = dd
                 x[t, c] = x[t - 1, c] + dd
     return -1
+
+
+@njit(cache=True, nogil=True)
+def add_overlap(starts: NDArray[np.int64], src: NDArray[np.int64],
+                src_starts: NDArray[np.int64], frames: int, x: NDArray[np.int64],
+                sign: int) -> None:
+    """§4.15 step 4: add ``sign`` x the prediction of a summary level to ``x[k, D]`` in
+    place. Segment j (``starts[j]`` .. the next start or ``frames``: n_j frames) is
+    predicted, per dimension d, by (2 sum_i src[i, d] ov(j, i) + n_j) div (2 n_j), where
+    ov(j, i) is the number of frames it shares with segment i of the source level
+    (``src_starts``, ``src[k', D]``); div is floor division. Both start lists begin at 0
+    and increase. sign 1 turns residuals into means (the decoder), -1 means into
+    residuals (the encoder).
+
+    One merge of the two start lists, O((k + k') D) and one row of scratch (spec §8: the
+    numpy version made [k + k', D] temporaries and took 0.7 GiB and 9 s on an 80 KB file
+    of two levels of 2^22 and 2^23 segments). Every value is below 2^57 in magnitude
+    (|src| < 2^31, the overlaps of a segment add up to n_j <= 2^24): int64 is exact."""
+    k, D = x.shape
+    ks = src_starts.shape[0]
+    acc = np.zeros(D, np.int64)
+    i = 0
+    for j in range(k):
+        a = starts[j]
+        b = starts[j + 1] if j + 1 < k else frames
+        acc[:] = 0
+        while i + 1 < ks and src_starts[i + 1] <= a:
+            i += 1                                   # the source segment holding frame a
+        t = a
+        while t < b:
+            end = src_starts[i + 1] if i + 1 < ks else frames
+            w = min(end, b) - t
+            for d in range(D):
+                acc[d] += src[i, d] * w
+            t += w
+            if end <= b and i + 1 < ks:
+                i += 1
+        n = b - a
+        for d in range(D):
+            x[j, d] += sign * ((2 * acc[d] + n) // (2 * n))
 
 
 def _overflow(chunk: str | None, offset: int | None) -> FormatError:

@@ -27,6 +27,7 @@ from mpz.chunks.base import fail as _fail
 from mpz.entropy import BlockDecoder, BlockEncoder
 from mpz.errors import EncoderError, LimitExceededError
 from mpz.format import MAX_SUMMARY_LEVELS, MAX_SUMMARY_VALUES, SummarySpace
+from mpz.predict import add_overlap
 from mpz.spec import grammar
 
 __all__ = ["CodedSummaryLevel", "Smrc", "SUMMARY", "SUMMARY_TYPES", "SMRC_MINOR",
@@ -53,18 +54,11 @@ def overlap_prediction(starts: IntArray, source_q: IntArray, source_starts: IntA
                        frames: int) -> IntArray:
     """§4.15 the prediction of a level from another: for each segment j (n_j frames) and
     dimension d, (2 x sum_i q'[i, d] x ov(j, i) + n_j) div (2 n_j), where ov(j, i) is the
-    number of frames segment j shares with segment i of the source level.
-
-    Every value is below 2^57 in magnitude (|q'| < 2^31, the overlaps of one segment add up
-    to n_j <= 2^24), so int64 is exact (§1.2)."""
-    cuts = np.union1d(starts, source_starts)                     # both begin at 0
-    widths = np.diff(np.append(cuts, frames))
-    j = np.searchsorted(starts, cuts, side="right") - 1
-    i = np.searchsorted(source_starts, cuts, side="right") - 1
-    acc = np.zeros((starts.shape[0], source_q.shape[1]), np.int64)
-    np.add.at(acc, j, source_q[i] * widths[:, None])
-    n = np.diff(np.append(starts, frames))[:, None]
-    out: IntArray = (2 * acc + n) // (2 * n)
+    number of frames segment j shares with segment i of the source level
+    (:func:`mpz.predict.add_overlap`, which the decoder applies in place)."""
+    out = np.zeros((starts.shape[0], source_q.shape[1]), np.int64)
+    if out.size:
+        add_overlap(starts, source_q, source_starts, frames, out, 1)
     return out
 
 
@@ -73,38 +67,46 @@ def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
     """§4.15 decoding steps 1-4: (starts [k], integer means q [k, D]) of every level.
 
     Call after the header checks of :meth:`Smrc.check` (k and the two sums, §1.1).
+    Memory (§8): each level's residual block becomes its means in place, and its starts
+    are one int64 array; nothing else of the summary's size is held.
     """
     dec = BlockDecoder(rec.coded, chunk=rec.TYPE, offset=offset)
     D = rec.dims
     starts_of: list[IntArray] = []
-    resid_of: list[IntArray] = []
+    means: list[IntArray] = []
     for lv in rec.levels:
         k = lv.k
-        lengths = dec.block(k, 1, 1, period=k, signed=False).reshape(k) + 1
+        lengths = dec.block(k, 1, 1, period=k, signed=False).reshape(k)
+        lengths += 1
         # §4.15 step 2: the lengths add up to F (the sum formed in 64 bits: k < 2^24 values
         # of at most 2^31, c_j + 1) before any start is formed (§1.1)
-        if int(lengths.sum()) != frames:
-            _fail(f"summary level k = {k}: segment lengths add up to {int(lengths.sum())}, "
+        total = int(lengths.sum())
+        if total != frames:
+            _fail(f"summary level k = {k}: segment lengths add up to {total}, "
                   f"not {frames} frames", "§4.15")
-        starts_of.append(np.concatenate(([0], np.cumsum(lengths[:-1]))).astype(np.int64))
+        np.cumsum(lengths, out=lengths)                  # the end of each segment
+        lengths[1:] = lengths[:-1].copy()
+        lengths[0] = 0
+        starts_of.append(lengths)
         if D:
             shape = block_shape(rec.space, k, D)
-            resid_of.append(dec.block(*shape, period=k, signed=True).reshape(k, D))
+            means.append(dec.block(*shape, period=k, signed=True).reshape(k, D))
         else:
-            resid_of.append(np.zeros((k, 0), np.int64))
+            means.append(np.zeros((k, 0), np.int64))
     dec.close()
-    # steps 3-4: the last level along its segments, then each level from the one after it
-    means: list[IntArray] = [np.zeros(0, np.int64)] * len(rec.levels)
+    # steps 3-4, in place: the last level along its segments, then each level from the one
+    # after it (already means)
     for li in range(len(rec.levels) - 1, -1, -1):
-        e = resid_of[li]
+        q = means[li]
+        if not q.size:
+            continue
         if li == len(rec.levels) - 1:
-            q = np.cumsum(e, axis=0)                 # |partial sums| < 2^55: exact in int64
+            np.cumsum(q, axis=0, out=q)              # |partial sums| < 2^55: exact in int64
         else:
-            q = overlap_prediction(starts_of[li], means[li + 1], starts_of[li + 1], frames) + e
-        if q.size and int(np.abs(q).max()) >= MEAN_LIMIT:
+            add_overlap(starts_of[li], means[li + 1], starts_of[li + 1], frames, q, 1)
+        if int(q.max()) >= MEAN_LIMIT or int(q.min()) <= -MEAN_LIMIT:
             _fail(f"summary level k = {rec.levels[li].k}: a decoded mean is 2^31 steps or "
                   f"more in magnitude", "§4.15")
-        means[li] = q
     return list(zip(starts_of, means, strict=True))
 
 
