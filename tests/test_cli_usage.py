@@ -234,6 +234,32 @@ def test_a_missing_output_folder_is_made(inputs: dict[str, Path], tmp_path: Path
     p = run(["mpz", "encode", "a.c3d", "-o", "afile/", "--max-error", "1mm"], tmp_path)
     assert p.returncode == 2 and (b"cannot make the folder afile/: a file (not a folder) is "
                                   b"in its place") in p.stderr
+    # --mirror makes it too, for a file at the top of -r's folder as for one below it (a
+    # QA run of stop 47: "back/a.c3d: back does not exist", the README's own example)
+    p = run(["mpz", "decode", "-r", "corpus/x", "-o", "mirrored/back/", "--mirror", "-F",
+             "trc", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert sorted(os.listdir(tmp_path / "mirrored" / "back")) == ["a.trc", "b.trc"]
+
+
+def test_standard_input_into_an_output_folder_is_refused_by_name(inputs: dict[str, Path],
+                                                                 tmp_path: Path) -> None:
+    """Standard input has no name to give its output in ``-o FOLDER/``: that input fails,
+    saying so, and the others are coded (a QA run of stop 47: encode wrote FOLDER/-.mpz,
+    decode said "-: no such file", and --jobs blamed the output)."""
+    shutil.copy(inputs["c3d"], tmp_path / "a.c3d")
+    need = b"-: standard input has no file name to name its output in out/: give -o FILE"
+    stdin = inputs["c3d"].read_bytes()
+    for extra in ([], ["a.c3d"], ["a.c3d", "--jobs", "0"]):
+        shutil.rmtree(tmp_path / "out", ignore_errors=True)
+        p = run(["mpz", "encode", "-", *extra, "-o", "out/", "--max-error", "1mm"], tmp_path,
+                stdin=stdin)
+        assert p.returncode == 2 and need in p.stdout + p.stderr, (extra, p.stderr)
+        made = sorted(os.listdir(tmp_path / "out")) if (tmp_path / "out").exists() else []
+        assert "-.mpz" not in made and ("a.mpz" in made) == bool(extra)
+    mpz_bytes = (tmp_path / "out" / "a.mpz").read_bytes()
+    p = run(["mpz", "decode", "-", "-o", "back/"], tmp_path, stdin=mpz_bytes)
+    assert p.returncode == 2 and need.replace(b"out/", b"back/") in p.stderr, p.stderr
 
 def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[str, Path],
                                                                   tmp_path: Path) -> None:

@@ -469,7 +469,8 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
     * a missing ``FOLDER/`` and the folders below it are made, with their parents, when
       the first job that writes there runs (nothing is made for a batch that fails
       before);
-    * no ``-o``: beside each input; standard input goes to standard output.
+    * no ``-o``: beside each input; standard input goes to standard output (with
+      ``-o FOLDER/`` it fails: it has no name to give its output there).
 
     Two inputs that would write the same output make the later one fail, unless they
     are the same file (named twice, or by two paths): it is coded once. Where ``-r``
@@ -506,6 +507,11 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
         if path == STDIO and output is None:
             jobs.append(Job(path, STDIO))
             continue
+        if path == STDIO:           # -o FOLDER/: the output would be named after "-" (QA)
+            jobs.append(Job(path, None, "standard input has no file name to name its "
+                                        f"output in {printable(output or '')}: give -o FILE, "
+                                        "or -o - for standard output"))
+            continue
         try:
             name = name_for(path)
         except MPZError as exc:     # naming read the file (decode: its source's format), and
@@ -517,11 +523,11 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
                                         "--format"))
             continue
         make = None
-        if folder and output is not None and mirror and path != STDIO:
+        if folder and output is not None and mirror:
             below = os.path.relpath(name, base or os.curdir)    # name lies beside path
             target = os.path.join(output, below)
-            if os.path.dirname(below):
-                make = os.path.join(output, os.path.dirname(below))
+            if os.path.dirname(below) or made:      # a file at the top of -r's folder
+                make = os.path.join(output, os.path.dirname(below))     # (QA, stop 47)
         elif folder and output is not None:
             target = os.path.join(output, os.path.basename(name))
             make = output if made else None

@@ -86,7 +86,7 @@ def wants_corpus(args: argparse.Namespace, jobs: Sequence[Any]) -> bool:
         return True
     several = len(jobs) > 1 or bool(getattr(args, "recursive", False))
     return several and is_folder_target(args.output) and not any(
-        j.input == STDIO or j.output == STDIO for j in jobs)
+        j.output == STDIO for j in jobs)
 
 
 def _dask_installed() -> bool:
@@ -119,8 +119,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     from mpz.corpus import encode_corpus
     from mpz.tools._cli import EXIT_USAGE, print_json, printable
     from mpz.tools._common import STDIO, is_folder_target
-    if not is_folder_target(args.output) or any(
-            j.input == STDIO or j.output == STDIO for j in jobs):
+    if not is_folder_target(args.output) or any(j.output == STDIO for j in jobs):
         print("mpz encode: error: --jobs and --scheduler encode files into -o FOLDER/ "
               "(ending in /), not to one file or standard output", file=sys.stderr)
         return EXIT_USAGE
