@@ -100,6 +100,31 @@ def test_trc_units_match_whatever_their_case(written: str, units: str) -> None:
     assert m.units == units
 
 
+@pytest.mark.parametrize(("first", "rate", "start"), [(50, 120.0, None), (1368, 120.0, None),
+                                                      (1, 60.0, 0.25)])
+def test_trc_time_column_written_again_is_the_same(first: int, rate: float,
+                                                   start: float | None) -> None:
+    """A trimmed trial's Time column (frame n at (n - 1) / rate, 6 decimals) is written back
+    as it was, again and again (a QA run of stop 47: each write counted from the rounded
+    first time, and 0.408333 + 1/120 printed 0.416666 where the file had 0.416667, on a
+    third of the rows). A column that starts elsewhere (0.25 s at frame 1) keeps its start
+    and its step."""
+    n = 400
+    t0 = (first - 1) / rate if start is None else start
+    times = [f"{t0 + i / rate:.6f}" for i in range(n)]
+    rows = "".join(f"{first + i}\t{times[i]}\t1.000\t2.000\t3.000\n" for i in range(n))
+    text = ("PathFileType\t4\t(X/Y/Z)\tt.trc\n"
+            "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+            "OrigDataStartFrame\tOrigNumFrames\n"
+            f"{rate:.2f}\t{rate:.2f}\t{n}\t1\tmm\t{rate:.2f}\t{first}\t{n}\n"
+            "Frame#\tTime\tA\t\t\n\t\tX1\tY1\tZ1\n\n" + rows)
+    once = format_trc(parse_trc(text))
+    twice = format_trc(parse_trc(once))
+    for written in (once, twice):
+        assert [r[1] for r in _table(written)] == times
+        assert [r[0] for r in _table(written)] == [str(first + i) for i in range(n)]
+
+
 def test_trc_of_a_motion_from_elsewhere_counts_from_frame_1_at_time_0() -> None:
     """format_trc without a TRC source: frames from 1, times from 0 (its docstring), one
     frame every 1 / rate."""

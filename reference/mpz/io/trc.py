@@ -313,10 +313,16 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
         head["OrigDataStartFrame"] = str(first)
     try:
         # a C3D's frame n is at (n - 1) / rate (its frames count from 1)
-        t0 = float(meta.get("start_time", repr((first - 1) / motion.rate)))
+        on_grid = (first - 1) / motion.rate
+        t0 = float(meta.get("start_time", repr(on_grid)))
         dt = int(meta.get("trc.TimeDecimals", "6"))
         dv = column_decimals(motion)
         tdig = int(meta.get("trc.TimeDigits", str(dt)))
+        if round(t0, tdig) == round(on_grid, tdig):
+            # the first time as printed is (first - 1) / rate's: count from that, not from
+            # its rounding, so that a file written again keeps every time (a QA run of
+            # stop 47: 0.408333 + 1/120 printed 0.416666 where the source had 0.416667)
+            t0 = on_grid
     except ValueError:
         t0, dt, dv, tdig = 0.0, 6, 6, 6
     out = [
