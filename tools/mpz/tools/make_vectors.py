@@ -3238,7 +3238,8 @@ SMRC_VECTOR_RULES = _rules(
     ("R-4.15-2", "smrc-k-over-frames smrc-step-zero smrc-space-2 smrc-dims-not-3m"),
     ("R-4.15-3", "smrc-values-over-limit smrc-segments-over-limit"),
     ("R-4.15-4", "smrc-coded-overrun smrc-coded-leftover"),
-    ("R-4.15-5", "smrc-lengths-over-frames smrc-lengths-under-frames"),
+    ("R-4.15-5", "smrc-lengths-over-frames smrc-lengths-under-frames "
+                 "smrc-lengths-wrap-32-bits"),
     ("R-4.15-6", "smrc-mean-2pow31"),
     ("R-4.15-7", "smrc-angles-no-dims smrc-one-level-k1 smrc-levels-any-order"),
 )
@@ -3363,6 +3364,28 @@ def clarified_accept_vectors(vs: VectorSet):
              "fields changed by hand")
 
 
+def smrc_wrap_vectors(vs: VectorSet):
+    """An smrc level whose segment lengths add up to F only modulo 2^32 (spec §4.15 step 2,
+    §1.2), in the v-smrc-positions file; a builder of its own, after the others, so that
+    the vectors before it keep their numbers."""
+    m = _synth("walk", 24, markers=4, seed=141)
+    good = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    F, M = 24, 4
+    # c_j = n_j - 1 = (2^31 - 1, 2^31 - 1, 23): the lengths (2^31, 2^31, 24) add up to
+    # 2^32 + 24, which a decoder summing in 32 bits reads as 24 = F
+    lengths = np.array([(1 << 31) - 1, (1 << 31) - 1, F - 1]).reshape(3, 1, 1)
+    e = np.arange(3 * M * 3, dtype=np.int64).reshape(3, M, 3) % 7 - 3
+    coded = rc_wide((lengths, {"period": 3, "signed": False}), (e, {"period": 3}))
+    body = _smrc_payload(0, 3 * M, [(3, 1.0, 1.0, [0, 1, 2], None)], coded=coded)
+    vs.invalid(_numbered(vs, "x", "smrc-lengths-wrap-32-bits"), _with_smrc(good, body),
+               "an smrc level of k = 3 whose segment lengths 2^31, 2^31 and 24 add up to "
+               "2^32 + 24, which is 24 = F in 32 bits",
+               "hand-made smrc, wide length block: c = (2^31 - 1, 2^31 - 1, 23)",
+               "a decoder that sums the lengths in 32 bits accepts the level and forms "
+               "starts 0, 2^31, 2^32 (0 in 32 bits)", "FormatError",
+               ["§1.2", "§4.15", "§5.4"])
+
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -3376,6 +3399,7 @@ BUILDERS = (
     smrc_vectors,                             # issue 14.12 (MPZ 1.1)
     c3d_coding_vectors,                       # §4.13 byte coding (MPZ 1.1)
     clarified_accept_vectors,                 # §4.13.1, §4.14.2 text of stop 27
+    smrc_wrap_vectors,                        # §4.15 lengths that wrap in 32 bits
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
