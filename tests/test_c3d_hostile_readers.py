@@ -308,7 +308,7 @@ def test_a_read_that_may_not_fit_the_address_space_limit_is_not_given_to_ezc3d(
         "except MemoryError:\n"
         "    print('MemoryError')\n"
         "else:\n"
-        "    print(m.positions.shape, m.metadata.get('warning'))\n")
+        "    print(m.positions.shape, m.metadata.get('reader_note'))\n")
     r = subprocess.run([sys.executable, "-c", child, str(path)], capture_output=True,
                        timeout=300)
     assert r.returncode == 0, r.stderr.decode(errors="replace")[-2000:]

@@ -313,23 +313,28 @@ def _overstate_frames(trc: Path, by: int) -> str:
     return f"NumFrames says {rows + by}, file has {rows} rows"
 
 
-def test_a_readers_warning_is_a_note_of_its_file(corpus, capsys):
+def test_a_readers_warning_is_a_warning_of_its_file(corpus, capsys):
     """What the reader warns of (a TRC header that claims more frames than it has) is said
-    per file in the report, the table and --json, and kept in the file's meta."""
+    per file in the report, the table and --json, kept in the file's meta, and makes the
+    exit code 1, "warnings only", with -q too (a QA run of stop 47: a note, exit 0, and
+    with -q no sign at all of a file cut short)."""
     from mpz.tools import mpz_cli
     src, out, paths = corpus
     said = _overstate_frames(paths["walk"], 9)
     rep = run_corpus(src, out)
-    notes = {Path(r.source).stem: r.notes for r in rep.results}
-    assert notes == {"bad": [], "jump": [], "walk": [said], "wave": []}
-    assert f"  NOTE {paths['walk']}: {said}" in rep.table().splitlines()
+    warned = {Path(r.source).stem: r.warning for r in rep.results}
+    assert warned == {"bad": "", "jump": "", "walk": said, "wave": ""}
+    assert f"  WARNING {paths['walk']}: {said}" in rep.table().splitlines()
     assert mpz.decode(out / "walk.mpz").metadata["warning"] == said
     code = mpz_cli.main(["encode", str(paths["walk"]), "-o", str(out / "one.mpz"),
                          "--max-error", "1mm"])
-    assert code == 0 and f"note: {paths['walk']}: {said}" in capsys.readouterr().err
+    assert code == 1 and f"warning: {paths['walk']}: {said}" in capsys.readouterr().err
     code = mpz_cli.main(["encode", str(paths["walk"]), "-o", str(out / "one.mpz"), "-f",
                          "--max-error", "1mm", "-q"])
-    assert code == 0 and capsys.readouterr().err == ""
+    assert code == 1 and capsys.readouterr().err == ""
+    code = mpz_cli.main(["encode", str(paths["walk"]), str(paths["jump"]), "-o",
+                         str(out / "two") + "/", "--jobs", "0", "--max-error", "1mm", "-q"])
+    assert code == 1 and capsys.readouterr().err == ""       # a corpus run, the same code
 
 def test_the_summary_ratio_leaves_out_files_that_drop_part_of_their_source():
     """The table's source/MPZ ratio counts what was kept: a file that drops part of its

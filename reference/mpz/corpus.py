@@ -329,12 +329,15 @@ class FileResult:
     levels: list[tuple[int, float, bytes, bytes]] = field(default_factory=list)
     #: the worker process's peak resident memory so far, in bytes (None where unknown)
     worker_peak_rss: int | None = None
-    #: said of the file: its reader's warning, then what :meth:`FileOptions.prepare` said
-    #: (what is not kept, what changed)
+    #: said of the file: what :meth:`FileOptions.prepare` said (what is not kept, what
+    #: changed)
     notes: list[str] = field(default_factory=list)
     #: what of the source the output does not keep (:func:`mpz.encoder.not_kept`); such a
     #: file is left out of the report's ratio against the source
     not_kept: list[str] = field(default_factory=list)
+    #: the reader's warning about the source (a file cut short, a header that disagrees
+    #: with the rows: ``metadata["warning"]``), "" when none; the CLI exits 1 for it
+    warning: str = ""
 
 
 def sha256_file(path: str | os.PathLike[str]) -> str:
@@ -491,8 +494,7 @@ def encode_file(task: Task) -> FileResult:
         sha = sha256_file(task.source)
         motion = read(task.source, asf=task.asf)
         motion, opts, notes = task.options.prepare(task.source, motion)
-        if motion.metadata.get("warning"):       # the reader's (kept in the file's meta)
-            notes = [motion.metadata["warning"], *notes]
+        warning = str(motion.metadata.get("warning", ""))   # the reader's (kept in the meta)
         # a file the index cannot describe (one frame, no valid sample, fewer than three
         # markers: one frame stopped the whole run with a traceback, a QA run) is encoded
         # and indexed as any other, without a summary: mpz search leaves it out, said
@@ -539,7 +541,7 @@ def encode_file(task: Task) -> FileResult:
               for lv in (summary.levels if summary is not None else ())]
     return FileResult(task.source, task.output, status, "", src_bytes, len(data),
                       row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes,
-                      not_kept(motion, opts))
+                      not_kept(motion, opts), warning)
 
 
 def _fingerprint(task: Task, units: str) -> str:
@@ -1046,6 +1048,9 @@ class CorpusReport:
                          f"{mb / self.seconds:.2f} MB/s of float32 positions")
         for r in self.failed:
             lines.append(f"  FAILED {name(r.source)}: {name(r.reason)}")
+        for r in self.results:
+            if r.warning:
+                lines.append(f"  WARNING {name(r.source)}: {name(r.warning)}")
         for r in self.results:
             lines += [f"  NOTE {name(r.source)}: {name(note)}" for note in r.notes]
             if r.not_kept:

@@ -194,7 +194,8 @@ def _gap_the_last_value(m: Motion) -> None:
 #: metadata keys the readers set to describe the source (mpz.io's readers), rebuilt when a
 #: written file is read: not counted as free metadata that a format drops
 READER_KEYS = frozenset({
-    "format", "source", "reader", "warning", "units_in_file", "start_time", "frame_time",
+    "format", "source", "reader", "reader_note", "warning", "units_in_file", "start_time",
+    "frame_time",
     "channels", "joints", "end_sites", "mm_per_unit", "rate_assumed", "subject",
     "renamed_points", "processor", "model_outputs", "asf_length_unit", "skeleton", "asf"})
 

@@ -373,15 +373,17 @@ def _read_points(path: str, data: bytes) -> Motion:
     checks = c3dbin.reader_checks(data)
     declared, note = checks.declared, checks.note
     if checks.hazard is not None:
+        fault = c3dbin.hazard_is_fault(checks.hazard)     # else ezc3d's own fragility
         return motion_from_c3d_bytes(data, source=source, extra={
-            "warning": f"not read with ezc3d: {checks.hazard}; read with mpz.io.c3dbin"})
+            "warning" if fault else "reader_note":
+                f"not read with ezc3d: {checks.hazard}; read with mpz.io.c3dbin"})
     if checks.conflict is not None:    # ezc3d takes the storage from the header's scale
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": f"not read with ezc3d: {checks.conflict}; read with mpz.io.c3dbin"})
     if not is_utf8(path):          # ezc3d takes a str path to UTF-8: a TypeError of SWIG
         return motion_from_c3d_bytes(data, source=source, extra={
-            "warning": "not read with ezc3d, which cannot open a file whose name is not "
-                       "UTF-8; read with mpz.io.c3dbin"})
+            "reader_note": "not read with ezc3d, which cannot open a file whose name is not "
+                           "UTF-8; read with mpz.io.c3dbin"})
     if checks.data_start != checks.word9:
         # ezc3d reads from header word 9: the data is elsewhere (c3dbin.data_start says why)
         return motion_from_c3d_bytes(data, source=source, extra={
@@ -391,8 +393,8 @@ def _read_points(path: str, data: bytes) -> Motion:
                          + EZC3D_BYTES_FIXED)
     if short is not None:
         return motion_from_c3d_bytes(data, source=source, extra={
-            "warning": f"not read with ezc3d, which aborts the process when an allocation "
-                       f"fails: {short}; read with mpz.io.c3dbin"})
+            "reader_note": f"not read with ezc3d, which aborts the process when an "
+                           f"allocation fails: {short}; read with mpz.io.c3dbin"})
     # only ezc3d's own refusals are caught, not what our code does with its result
     first_error: OSError | RuntimeError | ValueError
     try:
@@ -410,10 +412,15 @@ def _read_points(path: str, data: bytes) -> Motion:
     else:
         return _from_ezc3d(c, source, {} if note is None else {"warning": note}, declared,
                            data)
+    # a MIPS file is valid C3D that ezc3d does not read (a note); any other refusal is
+    # about the file (Facial-Sing: a parameter type ezc3d does not know): a warning
+    pstart = (data[0] - 1) * c3dbin.BLOCK
+    mips = 0 <= pstart < len(data) - 3 and data[pstart + 3] == c3dbin.PROC_MIPS
     return motion_from_c3d_bytes(data, source=source, extra={
-        "warning": f"ezc3d refused the file ({type(first_error).__name__}: "
-                   f"{str(first_error).splitlines()[0] if str(first_error) else ''}); "
-                   "read with mpz.io.c3dbin"})
+        "reader_note" if mips else "warning":
+            f"ezc3d refused the file ({type(first_error).__name__}: "
+            f"{str(first_error).splitlines()[0] if str(first_error) else ''}); "
+            "read with mpz.io.c3dbin"})
 
 
 def write_c3d(motion: Motion, path: StrPath) -> None:

@@ -774,6 +774,19 @@ def declared_frames(data: bytes) -> tuple[int, int]:
     return frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
 
 
+#: the starts of :func:`ezc3d_hazard`'s reasons that are faults of the file itself (a
+#: section that loops or runs past the file, a record's data past its record, a type or a
+#: dimension count no C3D has), not ezc3d's fragility on a file C3D allows: the reader
+#: warns of these, and only notes the others (which reader read the file, and why)
+FILE_FAULTS = ("a parameter section whose records loop", "a parameter record past the end",
+               "a parameter with ", "a parameter of type ", "the record of parameter ")
+
+
+def hazard_is_fault(why: str) -> bool:
+    """Whether an :func:`ezc3d_hazard` reason is a fault of the file (:data:`FILE_FAULTS`)."""
+    return why.startswith(FILE_FAULTS)
+
+
 def ezc3d_hazard(data: bytes) -> str | None:
     """Why ezc3d must not open these C3D bytes, or None.
 

@@ -117,7 +117,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     to the workers, so it must pickle.
     """
     from mpz.corpus import encode_corpus
-    from mpz.tools._cli import EXIT_USAGE, print_json, printable
+    from mpz.tools._cli import EXIT_USAGE, EXIT_WARN, print_json, printable
     from mpz.tools._common import STDIO, is_folder_target
     if not is_folder_target(args.output) or any(j.output == STDIO for j in jobs):
         print("mpz encode: error: --jobs and --scheduler encode files into -o FOLDER/ "
@@ -160,7 +160,9 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     if failed:          # the closing line of a sequential batch, on stderr even with -q
         print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed} done, "
               f"{failed} failed", file=sys.stderr)
-    return EXIT_ERROR if failed else EXIT_OK
+    # a source read with a warning (cut short, a header that disagrees) is "warnings only"
+    warned = any(r.warning for r in report.results)
+    return EXIT_ERROR if failed else EXIT_WARN if warned else EXIT_OK
 
 
 def _plural(n: int, noun: str) -> str:

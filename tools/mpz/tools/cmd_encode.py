@@ -16,7 +16,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError
-from mpz.tools._cli import positive, printable
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, positive, printable
 
 if TYPE_CHECKING:
     from mpz.encoder import EncodeOptions
@@ -387,10 +387,16 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
     motion, in_size = read_motion(job.input, args.asf)
-    warning = motion.metadata.get("warning")      # the reader's; kept in the file's meta
+    # the reader's (a file cut short, a header that disagrees with the rows); kept in the
+    # file's meta, and the exit code is 1, "warnings only" (a QA run of stop 47: a note,
+    # exit 0, and nothing at all with -q)
+    warning = motion.metadata.get("warning")
     if warning and not args.quiet:
-        print(f"mpz encode: note: {printable(job.input)}: {printable(warning)}",
+        print(f"mpz encode: warning: {printable(job.input)}: {printable(warning)}",
               file=sys.stderr)
+    if motion.metadata.get("reader_note") and not args.quiet:     # which reader read it
+        print(f"mpz encode: note: {printable(job.input)}: "
+              f"{printable(motion.metadata['reader_note'])}", file=sys.stderr)
     motion = _rate(args, _units(args, motion, batch=batch), batch=batch)
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
@@ -449,10 +455,11 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         "summary_blocks": rep.summary_blocks,
         "summary_chunk": next((t for t in ("smrc", "smry") if t in rep.chunk_bytes), None),
         "skeleton": _skeleton_report(data),
-        "nodes": [vars(n) for n in rep.nodes]}
+        "nodes": [vars(n) for n in rep.nodes], "warning": warning or None}
     results.append(result)
+    code = EXIT_WARN if warning else EXIT_OK
     if args.json or args.quiet:
-        return 0
+        return code
     u = f" {units}" if units else " (input units)"
     print(f"{printable(job.input)} -> {printable(job.output)}: {rep.frames} frames x "
           f"{rep.markers} markers, {rep.seconds:.2f} s", file=out)
@@ -512,7 +519,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         print(f"  {printable(n.name)[:16]:<16} {n.members:>7} {n.segments:>8} "
               f"{n.patterns:>8} {n.pattern_length:>3} {n.pattern_bytes + n.segment_bytes:>10} "
               f"{n.residual_bytes:>8} {n.residual_scale:>2}", file=out)
-    return 0
+    return code
 
 
 # ---------------------------------------------------- issue 13: skeletal input --

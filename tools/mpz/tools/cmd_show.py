@@ -7,7 +7,8 @@ numbers). A ``.mpz`` file is decoded and shown the same way (``mpzinfo``
 dumps its chunks). ``-`` reads standard input, its format found from its
 content. Names and metadata are printed escaped. Exit codes: 0 ok, 1 the
 file was read with a warning (the ``warning`` line, or ``metadata.warning``
-in JSON), 2 unreadable input (the dispatcher turns
+in JSON; the ``note`` line, ``metadata.reader_note``, says which reader read it and
+why, and is no warning), 2 unreadable input (the dispatcher turns
 :class:`mpz.errors.MPZError` into 2), 3 out of memory.
 """
 from __future__ import annotations
@@ -153,6 +154,8 @@ def run(args) -> int:
         parts.append(f"{c['parameter_records']} parameter records")
         lines.append("c3d:       " + ", ".join(parts))
     lines += _metadata_lines(motion.metadata)
+    if "reader_note" in motion.metadata:      # which reader, and why: not about the data
+        lines.append(f"note:      {printable(motion.metadata['reader_note'])}")
     if "warning" in motion.metadata:
         lines.append(f"warning:   {printable(motion.metadata['warning'])}")
     print("\n".join(lines))
