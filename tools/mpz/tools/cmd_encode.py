@@ -56,7 +56,9 @@ def add_parser(sub):
     # issue 13: skeletal input (BVH, AMC/ASF)
     p.add_argument("--units", choices=("mm", "cm", "m", "in"),
                    help="the length unit of an input that has none (BVH), e.g. --units cm; "
-                   "then lengths with units work (--max-error 1mm)")
+                   "then lengths with units work (--max-error 1mm). In a corpus run it is "
+                   "one of every file's options: adding or changing it encodes every file "
+                   "again (docs/corpus.md)")
     p.add_argument("--rate", metavar="HZ", type=positive,
                    help="the frame rate of an input that stores none (AMC: 120 Hz is assumed, "
                    "NPY: 1 Hz), e.g. --rate 60; an error for an input that has one")
