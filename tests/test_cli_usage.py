@@ -641,7 +641,7 @@ def test_encode_reports_the_summary_chunk_and_summary_shows_units(inputs: dict[s
     assert p.returncode == 0, p.stderr
     size = mpz.info(tmp_path / "s.mpz").chunk_bytes["smrc"]    # the 1.1 default (§4.15)
     line = [ln for ln in p.stdout.decode().splitlines() if "smrc chunk" in ln]
-    shown = f"{size} B" if size < 1024 else f"{size / 1024:.1f} KB"
+    shown = f"{size} B" if size < 1024 else f"{size / 1024:.1f} KiB"
     assert len(line) == 1 and shown in line[0]
     p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "s2.mpz", "--max-error", "2mm",
              "--summary", "4,8", "--json"], tmp_path)

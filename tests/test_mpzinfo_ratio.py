@@ -28,7 +28,7 @@ def test_ratio_is_markers_float32_over_the_file_and_labelled():
     assert "markers as float32" in info["ratio_of"] and "whole file" in info["ratio_of"]
     parts = info["bytes_by_part"]
     assert sum(parts.values()) == len(data) and parts["analog"] == 0
-    assert "markers 19.2 KB as float32 \u2192 file" in summary_line(info)   # 19680 B
+    assert "markers 19.2 KiB as float32 \u2192 file" in summary_line(info)   # 19680 B
 
 
 def test_a_file_in_error_gets_no_ratio():
@@ -64,7 +64,7 @@ def test_parts_of_a_c3d_with_analog(tmp_path, shared_data):
             cana += n + 12
         pos += n + 12
     assert cana > 0 and info["bytes_by_part"]["analog"] == cana
-    assert f"analog {cana / 1024:.1f} KB" in summary_line(info)
+    assert f"analog {cana / 1024:.1f} KiB" in summary_line(info)
 
 
 def test_a_warning_line_gives_its_reason():

@@ -112,7 +112,9 @@ def check_length(text: str | None, option: str) -> None:
 
 
 def human_size(n: int) -> str:
-    for unit, div in (("GB", 1 << 30), ("MB", 1 << 20), ("KB", 1 << 10)):
+    """``n`` bytes in binary units, named as such (KiB, MiB, GiB: "KB" for 1024 bytes
+    disagreed with the corpus table's decimal MB by 5 %, a QA run of stop 47)."""
+    for unit, div in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
         if n >= div:
             return f"{n / div:.1f} {unit}"
     return f"{n} B"

@@ -56,15 +56,9 @@ from mpz.tools._cli import (
     quiet_broken_pipe,
     reports_ctrl_c,
 )
+from mpz.tools._common import human_size
 
 SCHEMA = "mpzinfo/1"
-
-
-def _size(n: int) -> str:
-    for unit, div in (("GB", 1 << 30), ("MB", 1 << 20), ("KB", 1 << 10)):
-        if n >= div:
-            return f"{n / div:.1f} {unit}"
-    return f"{n} B"
 
 
 def _err(e: MPZError) -> dict:
@@ -176,18 +170,18 @@ def summary_line(info: dict) -> str:
     if info["patterns"] is not None:
         parts.append(f"{info['patterns']} patterns")
     if info.get("ratio") is None:              # a file in error: its size, no ratio
-        parts.append(f"{_size(info['size'])}")
+        parts.append(f"{human_size(info['size'])}")
     else:
-        parts.append(f"markers {_size(info['raw_size'])} as float32 \u2192 file "
-                     f"{_size(info['size'])}, {info['ratio']:.1f}:1")
+        parts.append(f"markers {human_size(info['raw_size'])} as float32 \u2192 file "
+                     f"{human_size(info['size'])}, {info['ratio']:.1f}:1")
         b = info.get("bytes_by_part") or {}
         if b.get("analog") or b.get("skeleton") or b.get("rest", 0) > 200:
-            more = [f"parts: markers {_size(b['markers'])}"
+            more = [f"parts: markers {human_size(b['markers'])}"
                     + (f" ({info['ratio_markers']:.1f}:1)" if info["ratio_markers"] else "")]
             for key, what in (("analog", "analog"), ("skeleton", "skeleton and channels"),
                               ("rest", "the rest")):
                 if b.get(key):
-                    more.append(f"{what} {_size(b[key])}")
+                    more.append(f"{what} {human_size(b[key])}")
             parts.append(" + ".join(more))
     units = f" {info['units']}" if info["units"] else ""
     if info["error_bound"] is not None:
