@@ -658,6 +658,33 @@ def test_encode_reports_the_summary_chunk_and_summary_shows_units(inputs: dict[s
     assert sum(shares[:4]) == pytest.approx(100.0, abs=0.3)
 
 
+
+def test_summary_of_an_mpz_without_a_summary_chunk_segments_its_motion(tmp_path: Path) -> None:
+    """`mpz summary x.mpz` of a file encoded without --summary segments the decoded motion,
+    as for any motion file, and says so (a QA run of stop 47: it was refused); with
+    --no-decode there is nothing to segment (exit 2, said). At k = 1 the WSSSE is the
+    series' total squared deviation from its mean, here the marker positions relative to
+    their centroid, computed with numpy from the decoded motion."""
+    m = generate("walk", frames=90, markers=8, seed=3)
+    assert m.valid.all()
+    write(m, tmp_path / "w.trc")
+    p = run(["mpz", "encode", "w.trc", "-o", "w.mpz", "--max-error", "1mm", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert mpz.info(tmp_path / "w.mpz").summary_levels == ()
+    p = run(["mpz", "summary", "w.mpz", "--k", "1,3", "--json"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert b"note: w.mpz has no summary chunk" in p.stderr
+    doc = strict_json(p.stdout)
+    levels = {lv["k"]: lv for lv in doc["levels"]}  # type: ignore[index]
+    pos = mpz.decode(tmp_path / "w.mpz").positions
+    rel = (pos - pos.mean(axis=1, keepdims=True)).reshape(len(pos), -1)
+    total = float(((rel - rel.mean(axis=0)) ** 2).sum())
+    assert levels[1]["wssse"] == pytest.approx(total, rel=1e-9)
+    assert levels[3]["wssse"] < levels[1]["wssse"]
+    p = run(["mpz", "summary", "w.mpz", "--no-decode"], tmp_path)
+    assert p.returncode == 2 and b"--no-decode leaves nothing to segment" in p.stderr
+
+
 # -- 13. small things ----------------------------------------------------------------------------
 
 def test_no_runtime_warning_from_metrics_on_gap_only_markers() -> None:

@@ -59,7 +59,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("file", help="motion file (.c3d, .trc, .bvh, .amc, .npy, .csv) or .mpz; "
                    "- reads standard input")
     p.add_argument("--k", type=_ks, default=None, metavar="K1,K2,...",
-                   help=f"numbers of segments (default {DEFAULT_KS}; for .mpz: every stored level)")
+                   help=f"numbers of segments (default {DEFAULT_KS}; for .mpz: every stored "
+                   "level, or the default of a file without a summary chunk, whose decoded "
+                   "motion is segmented)")
     p.add_argument("--space", choices=("positions", "angles"), default="positions",
                    help="segment marker positions relative to their centroid (default) or the "
                         "joint angles of AMC/BVH input")
@@ -77,14 +79,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 # -- gathering the levels ------------------------------------------------------------
-def _levels_from_motion(args, ks):
-    """Partitions of a motion file; returns (info, levels, pose_series, parents, warnings)."""
+def _levels_from_motion(args, ks, motion=None):
+    """Partitions of a motion file (or of ``motion``, an .mpz file's decoded motion);
+    returns (info, levels, pose_series, parents, warnings)."""
     from mpz.fisher import block_length, motion_series, summary_partitions
     try:
         from mpz.io import read
     except ImportError as exc:
         raise _Fail(f"reading motion files needs mpz.io, which is not available: {exc}") from None
-    if args.file == "-":
+    if motion is not None:
+        pass
+    elif args.file == "-":
         from mpz.io import read_bytes
         motion = read_bytes(args.stdin_data, fmt=args.stdin_format, asf=args.asf)
     else:
@@ -132,9 +137,21 @@ def _levels_from_mpz(args, ks):
     from mpz.api import read_source
     data = args.stdin_data if args.file == "-" else read_source(args.file)[0]
     summ = read_summary(data)
-    if summ is None:
-        raise _Fail(f"{printable(args.file)} has no summary chunk "
-                    "(encode with: mpz encode --summary 6,12,24,48)")
+    if summ is None and args.no_decode:
+        raise _Fail(f"{printable(args.file)} has no summary chunk, and --no-decode leaves "
+                    "nothing to segment (encode with: mpz encode --summary 6,12,24,48)")
+    if summ is None:     # segment the decoded motion, as any motion file (a QA run, stop 47)
+        from mpz.errors import MPZError
+        from mpz.tools._common import read_mpz_input_bytes
+        try:
+            motion = read_mpz_input_bytes(data)
+        except MPZError as exc:
+            exc.path = args.file
+            raise
+        print(f"mpz summary: note: {printable(args.file)} has no summary chunk: the levels "
+              "are computed from its decoded motion (mpz encode --summary stores them)",
+              file=sys.stderr)
+        return _levels_from_motion(args, ks if ks is not None else _ks(DEFAULT_KS), motion)
     n = int(summ.n_frames)
     series = None
     if not args.no_decode:       # the per-segment shares, measured on the decoded motion
