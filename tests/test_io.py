@@ -918,3 +918,25 @@ def test_a_readers_bug_is_not_reported_as_bad_input(tmp_path, monkeypatch, bug):
     monkeypatch.setattr(trc, "parse_trc", bad_number)
     with pytest.raises(InputFormatError, match="ValueError"):
         read(p)
+
+
+@pytest.mark.parametrize("ext", [".c3d", ".trc", ".csv"])
+def test_a_name_that_is_not_unicode_text_is_refused_and_nothing_written(tmp_path, ext):
+    """A lone surrogate (a file name's undecodable byte, as os.fsdecode gives it) cannot be
+    written as text: mpz.io.write raised UnicodeEncodeError and left an empty TRC or CSV
+    (a QA run of stop 47). It is refused by name, as check_writable refuses what a format
+    cannot hold, and no file is made."""
+    m = Motion(np.zeros((5, 2, 3)), ["A\udcff", "C"], 100.0)
+    with pytest.raises(InputFormatError, match="not valid Unicode"):
+        write(m, tmp_path / f"s{ext}")
+    assert not (tmp_path / f"s{ext}").exists()
+
+
+def test_a_c3d_name_with_a_nul_is_refused(tmp_path):
+    """C3D labels are padded with NULs, which readers strip: "A\\0" read back as "A", and
+    the marker really called "A" became "A#2", with no note (a QA run of stop 47)."""
+    m = Motion(np.ones((5, 2, 3)), ["A\0", "A"], 100.0)
+    with pytest.raises(InputFormatError, match="NUL"):
+        write(m, tmp_path / "n.c3d")
+    assert not (tmp_path / "n.c3d").exists()
+    write(m, tmp_path / "n.npy")                     # a format without names takes it

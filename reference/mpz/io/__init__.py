@@ -424,6 +424,12 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if padded:
             refuse.append(f"{fmt} strips spaces around marker names: "
                           f"{', '.join(padded)}")
+        # a lone surrogate (a file name's undecodable byte, os.fsdecode) is no text: the
+        # writers raised UnicodeEncodeError and left an empty file (a QA run of stop 47)
+        unencodable = _names_with(names, lambda n: not is_utf8(n))
+        if unencodable:
+            refuse.append(f"{fmt} stores marker names as text, and these are not valid "
+                          f"Unicode (lone surrogates): {', '.join(unencodable)}")
     if ext in (".trc", ".csv"):
         ctl = _names_with(names, control)
         if ctl:
@@ -513,9 +519,13 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         over = _float32_overflow(motion)
         if over:
             refuse.append(over)
-        too_long = _names_with(names, lambda n: len(n.encode("utf-8")) > 255)
+        too_long = _names_with(names, lambda n: is_utf8(n) and len(n.encode("utf-8")) > 255)
         if too_long:
             refuse.append(f"C3D labels hold at most 255 bytes: {', '.join(too_long)}")
+        nul = _names_with(names, lambda n: "\0" in n)
+        if nul:         # "A\0" read back as "A", and the real "A" became "A#2" (QA, stop 47)
+            refuse.append("C3D pads labels with NULs, which readers strip: marker names with "
+                          f"a NUL would read back as other names: {', '.join(nul)}")
     if ext in SKELETON_FORMATS:        # issue 13: the skeleton formats need their skeleton
         refuse += skeleton_problems(motion, ext)
         if not refuse:
