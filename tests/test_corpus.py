@@ -1554,3 +1554,20 @@ def test_a_scheduler_lost_mid_run_is_one_error_and_keeps_what_finished(corpus):
     with open_index(out) as ix:
         assert sorted(r["output"] for r in ix.rows()) == ["jump.mpz", "sub/wave.mpz",
                                                            "walk.mpz"]
+
+
+def test_local_workers_that_cannot_start_fail_the_run_with_dask_s_reason(corpus, monkeypatch):
+    """Dask's LocalCluster raises RuntimeError("Nanny failed to start.") when its worker
+    processes cannot run (a QA run of stop 47: a Python the worker's user cannot execute):
+    that reached the command as a traceback with exit 1. It is the run's EncoderError,
+    with Dask's words and the way out."""
+    pytest.importorskip("distributed")
+    import distributed
+
+    def refuse(*args, **kwargs):
+        raise RuntimeError("Nanny failed to start.")
+    monkeypatch.setattr(distributed, "LocalCluster", refuse)
+    src, out, _ = corpus
+    with pytest.raises(EncoderError, match=r"did not start \(RuntimeError: Nanny failed to "
+                                           r"start\.\); --jobs 0 encodes in this process"):
+        run_corpus(src, out, workers=1)

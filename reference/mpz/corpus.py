@@ -1265,9 +1265,17 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
             except BaseException:
                 cluster.close()
                 raise
-    except Exception:
+    except Exception as exc:
         if pending:         # a worker stopped by the same Ctrl-C before it could ignore it
             raise KeyboardInterrupt from None
+        if isinstance(exc, (RuntimeError, OSError, TimeoutError)):
+            # Dask's own words for workers that cannot start ("Nanny failed to start": a
+            # Python the worker processes cannot run, no free port ...): a failure of this
+            # run, said, not a traceback with exit 1 (a QA run of stop 47)
+            raise EncoderError(f"the local Dask cluster of {workers} worker process"
+                               f"{'es' if workers != 1 else ''} did not start "
+                               f"({type(exc).__name__}: {exc}); --jobs 0 encodes in this "
+                               "process") from None
         raise
     try:
         if pending:
