@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 from decimal import Decimal
 from fractions import Fraction
+import json
 import math
 from pathlib import Path
 import struct
@@ -1406,3 +1407,49 @@ def test_group_errors_on_a_skeletal_file_are_refused_unless_the_skeleton_is_drop
     j = m.names.index("lfoot")
     err = np.linalg.norm(back.positions[:, j] - m.positions[:, j], axis=-1)
     assert float(err[m.valid[:, j]].max()) <= 0.3
+
+
+def test_decoding_a_no_skeleton_file_to_bvh_names_what_can_hold_it(tmp_path, shared_data):
+    """An .mpz made from BVH with --no-skeleton holds the joint positions alone: decoding it
+    to its source format said that BVH "needs a motion read from BVH (or an .mpz made from
+    one)", which it is (a QA run of stop 47). The refusal names --no-skeleton and the
+    formats that can hold the positions, and writing one of those works."""
+    from mpz.tools import mpz_cli
+    bvh = shared_data / "bvh" / "cmu_131_03.bvh"
+    out = tmp_path / "ns.mpz"
+    assert mpz_cli.main(["encode", str(bvh), "-o", str(out), "--no-skeleton", "-q"]) == 0
+    with pytest.raises(InputFormatError, match=r"not --no-skeleton\); the joint positions "
+                                               r"alone can be written as \.npy or \.csv"):
+        mpz.io.write(mpz.decode(out), tmp_path / "back.bvh")
+    assert mpz_cli.main(["decode", str(out), "-o", str(tmp_path / "back.npy"), "-q"]) == 0
+
+
+def test_compare_holds_joint_positions_to_the_position_bound(tmp_path, shared_data, capsys):
+    """`mpz compare SOURCE.bvh FILE.mpz` compares the joint positions of the channels, and
+    held them to no bound (a QA run of stop 47: bound_check null, though the file declares
+    position_bound, §4.14). Now the bound is the skeleton chunk's: within it for the file
+    made from the source; beyond it, exit 2, for a file made from a source whose root turned
+    by 5 degrees."""
+    from mpz.tools import mpz_cli
+    src = shared_data / "bvh" / "cmu_131_03.bvh"
+    ok = tmp_path / "ok.mpz"
+    assert mpz_cli.main(["encode", str(src), "-o", str(ok), "--units", "cm",
+                         "--max-error", "1mm", "-q"]) == 0
+    declared = sk.report(ok.read_bytes())["position_bound"]
+    assert declared == pytest.approx(0.1)                       # 1 mm in cm
+    capsys.readouterr()
+    assert mpz_cli.main(["compare", str(src), str(ok), "--json"]) == 0
+    check = json.loads(capsys.readouterr().out)["bound_check"]
+    assert check["of"] == "joint positions" and check["bound"] == declared
+    assert check["beyond"] == 0
+    text = src.read_text()
+    m = parse_bvh(text)
+    turned = m.angles.copy()
+    rot = [i for i, name in enumerate(m.extras["skeleton"].channel_names()) if "rotation"
+           in name.lower()][0]
+    turned[:, rot] += 5.0
+    other = tmp_path / "turned.mpz"
+    mpz.write_mpz(dataclasses.replace(m, angles=turned, units="cm"), other, max_error=0.1)
+    assert mpz_cli.main(["compare", str(src), str(other), "--json"]) == 2
+    check = json.loads(capsys.readouterr().out)["bound_check"]
+    assert check["of"] == "joint positions" and check["beyond"] > 0

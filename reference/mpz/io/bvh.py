@@ -306,8 +306,11 @@ def skeleton_problem(motion: Motion, convention: str) -> str | None:
         have = "no skeleton" if not isinstance(skel, Skeleton) else \
             {"bvh": "a BVH skeleton", "asf": "an ASF skeleton"}.get(
                 skel.convention, f"a {skel.convention} skeleton")
-        return (f"the motion has {have}; {what} output needs a motion read from {what} (or "
-                f"an .mpz made from one)")
+        # (an .mpz made from BVH with --no-skeleton holds the joint positions alone: the
+        # hint was "an .mpz made from one", which it was; a QA run of stop 47)
+        return (f"the motion has {have}; {what} output needs a motion read from {what}, or "
+                f"an .mpz made from one with its skeleton (not --no-skeleton); the joint "
+                f"positions alone can be written as .npy or .csv (.c3d, .trc: with units)")
     C = skel.channel_count
     ang = motion.angles
     if (ang is None and C) or (ang is not None and ang.shape != (motion.n_frames, C)):

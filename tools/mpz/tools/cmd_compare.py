@@ -6,9 +6,10 @@ computed from its skeleton's channels (the report says so), not its marker layer
 ``--asf`` names an AMC original's skeleton; an AMC decoded input is read with the .asf
 beside it, which ``mpz decode`` writes (``--decoded-asf`` names another; with neither,
 ``--asf``'s is used, its skeleton reported "unchecked").
-Against a decoded .mpz input (not the joint positions of a skeletal one) the marker errors
-are held to the bound it declares, as spec §7.2 states the check; a sample beyond it,
-or a marker the decoded input adds, exits 2.
+Against a decoded .mpz input the marker errors are held to the bound it declares, as spec
+§7.2 states the check; for the joint positions of a skeletal one, to its skeleton chunk's
+position_bound (§4.14: the joints of the decoded channels against the source's; none when
+it is 0); a sample beyond it, or a marker the decoded input adds, exits 2.
 Two frame rates that differ are an error (exit 2; an NPY stores none: not checked).
 Lengths in two known units (mm, cm, m, in) are converted to the original's before
 comparing; an input without units against one with units is compared as numbers, the
@@ -98,20 +99,29 @@ def align(a, b, unnamed: list[str] | None = None, notes: list[str] | None = None
     return Motion(b.positions[:, order], list(a.names), b.rate, b.units, b.valid[:, order])
 
 
-def _declared_bound(path: str | bytes, units: str) -> float | None:
+def _declared_bound(path: str | bytes, units: str, *, joints: bool = False) -> float | None:
     """The bound an .mpz file (a path, or its bytes) declares, converted to ``units``
-    (None if none or unknown)."""
+    (None if none or unknown): MHDR's on the markers, or with ``joints`` its skeleton
+    chunk's position_bound on the joint positions of its channels (§4.14; 0: none)."""
     from mpz.io._common import ext_of
     if isinstance(path, str) and ext_of(path) != ".mpz":
         return None
     import mpz
     from mpz.format import MM_PER_UNIT
     fi = mpz.info(path)
-    if fi.error_bound is None:
+    bound = fi.error_bound
+    if joints:
+        from mpz.skeleton import report
+        data = path if isinstance(path, bytes) else open(path, "rb").read()
+        rep = report(data)
+        pb = rep["position_bound"] if rep is not None else 0.0
+        assert isinstance(pb, float)
+        bound = pb if pb > 0 else None
+    if bound is None:
         return None
     if fi.units == units or not (fi.units in MM_PER_UNIT and units in MM_PER_UNIT):
-        return fi.error_bound
-    return fi.error_bound * MM_PER_UNIT[fi.units] / MM_PER_UNIT[units]
+        return bound
+    return bound * MM_PER_UNIT[fi.units] / MM_PER_UNIT[units]
 
 
 def _decoded_asf(args: argparse.Namespace) -> tuple[str | None, bool, list[str]]:
@@ -241,10 +251,11 @@ def run(args: argparse.Namespace) -> int:
         parts = [dataclasses.replace(p, status="unchecked", detail=f"{p.detail}; read with "
                                      "--asf's (the decoded AMC has no .asf of its own)")
                  if p.name == "skeleton" else p for p in parts]
-    # the marker bound an .mpz decoded input declares against its source (spec §7.2);
-    # not for joint positions computed from a skeleton's channels (their own steps)
-    declared = (data_b if ext_b == ".mpz" and not joint_positions_from_channels(b, ext_b)
-                else None)
+    # the marker bound an .mpz decoded input declares against its source (spec §7.2); for
+    # joint positions computed from a skeleton's channels, its position_bound (§4.14: it
+    # was not checked at all, a QA run of stop 47)
+    declared = data_b if ext_b == ".mpz" else None
+    joints = declared is not None and joint_positions_from_channels(b, ext_b)
     del data_a, data_b, data
     notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
               for p in parts if p.status == "missing"]
@@ -280,7 +291,10 @@ def run(args: argparse.Namespace) -> int:
     s = summary(a, b)
     gaps_lost = int((a.valid & ~b.valid).sum())
     gaps_added = int((~a.valid & b.valid).sum())
-    check = marker_bound(a, b, None if declared is None else _declared_bound(declared, units))
+    check = marker_bound(a, b, None if declared is None
+                         else _declared_bound(declared, units, joints=joints))
+    if check is not None:
+        check["of"] = "joint positions" if joints else "markers"
     s.update(frames=a.n_frames, markers=a.n_markers, units=units or None,
              original_units=a.units or None, decoded_units=units_b or None, positions=pos,
              notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added,
@@ -307,7 +321,9 @@ def run(args: argparse.Namespace) -> int:
               f"ARMS {s['arms']:.4g}{u}  mean {s['mean']:.4g}{u}")
         print(f"  gaps: {gaps_lost} valid samples became gaps, {gaps_added} gaps became valid")
         if check is not None:
-            print(f"  bound {check['bound']:.4g}{u} declared by {names[1]} (spec §7.2): "
+            what = ("position_bound of the joint positions (spec §4.14)" if joints
+                    else "spec §7.2")
+            print(f"  bound {check['bound']:.4g}{u} declared by {names[1]} ({what}): "
                   + ("every sample within" if not check["beyond"] else
                      f"BEYOND at {check['beyond']} sample{'s' * (check['beyond'] != 1)}, "
                      f"the first {printable(check['first']['marker'])!r} at frame index "
