@@ -195,6 +195,31 @@ def test_compare_names_markers_the_decoded_file_added(walk, tmp_path, capsys):
     assert "has 1 marker the original has not: EXTRA" in err
 
 
+
+def test_compare_gives_the_errors_of_the_samples_valid_in_both(walk, tmp_path, capsys):
+    """A valid sample that became a gap is an infinite error (it cannot hide), and it hid
+    every other error: "max inf  p99 0" (a QA run of stop 47). The report also gives the
+    figures over the samples valid in both, here one sample moved by (0.5, 0.5, 0.5):
+    max sqrt(3) / 2, computed with numpy."""
+    write(walk, tmp_path / "a.trc")
+    pos = walk.positions.copy()
+    valid = walk.valid.copy()
+    valid[5:9, 2] = False
+    pos[20, 4] += 0.5
+    write(Motion(pos, walk.names, walk.rate, walk.units, valid), tmp_path / "b.trc")
+    code, out, _ = cli(capsys, "compare", tmp_path / "a.trc", tmp_path / "b.trc", "--json")
+    doc = json.loads(out)
+    assert code == 2 and doc["valid_became_gap"] == 4 and doc["max"] is None   # inf: null
+    both = doc["valid_in_both"]
+    d = np.linalg.norm(pos - walk.positions, axis=2)[valid & walk.valid]
+    assert both["max"] == pytest.approx(np.sqrt(3) / 2, rel=1e-9)
+    assert both["rms"] == pytest.approx(float(np.sqrt((d ** 2).mean())), rel=1e-9)
+    code, out, _ = cli(capsys, "compare", tmp_path / "a.trc", tmp_path / "b.trc")
+    assert f"valid in both: max {np.sqrt(3) / 2:.4g} mm" in out
+    write(walk, tmp_path / "c.trc")                 # no sample lost: no such line
+    code, out, _ = cli(capsys, "compare", tmp_path / "a.trc", tmp_path / "c.trc", "--json")
+    assert json.loads(out)["valid_in_both"] is None
+
 def test_compare_refuses_two_frame_rates(walk, tmp_path, capsys):
     a = tmp_path / "walk_60.trc"
     b = tmp_path / "walk_120.trc"

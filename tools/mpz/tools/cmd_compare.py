@@ -291,6 +291,14 @@ def run(args: argparse.Namespace) -> int:
     s = summary(a, b)
     gaps_lost = int((a.valid & ~b.valid).sum())
     gaps_added = int((~a.valid & b.valid).sum())
+    # a valid sample that became a gap is an infinite error (mpz.metrics), which hides the
+    # errors of every other sample: those too, over the samples valid in both (a QA run of
+    # stop 47 saw "max inf  p99 0")
+    both = None
+    if gaps_lost:
+        from mpz.motion import Motion
+        kept = Motion(a.positions, list(a.names), a.rate, a.units, a.valid & b.valid)
+        both = {k: v for k, v in summary(kept, b).items() if not k.startswith("per_marker")}
     check = marker_bound(a, b, None if declared is None
                          else _declared_bound(declared, units, joints=joints))
     if check is not None:
@@ -298,7 +306,7 @@ def run(args: argparse.Namespace) -> int:
     s.update(frames=a.n_frames, markers=a.n_markers, units=units or None,
              original_units=a.units or None, decoded_units=units_b or None, positions=pos,
              notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added,
-             added_markers=added, bound_check=check,
+             added_markers=added, bound_check=check, valid_in_both=both,
              besides_markers=[dataclasses.asdict(p) for p in parts])
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
@@ -320,6 +328,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"  max {s['max']:.4g}{u}  p99 {s['p99']:.4g}{u}  RMS {s['rms']:.4g}{u}  "
               f"ARMS {s['arms']:.4g}{u}  mean {s['mean']:.4g}{u}")
         print(f"  gaps: {gaps_lost} valid samples became gaps, {gaps_added} gaps became valid")
+        if both is not None:
+            print(f"  valid in both: max {both['max']:.4g}{u}  p99 {both['p99']:.4g}{u}  "
+                  f"RMS {both['rms']:.4g}{u}  ARMS {both['arms']:.4g}{u}  "
+                  f"mean {both['mean']:.4g}{u}")
         if check is not None:
             what = ("position_bound of the joint positions (spec §4.14)" if joints
                     else "spec §7.2")
