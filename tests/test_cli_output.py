@@ -433,6 +433,21 @@ def test_an_output_that_cannot_be_replaced_is_refused_before_the_work(tmp_path: 
         locked.chmod(0o755)
 
 
+
+def test_a_folder_that_cannot_be_entered_is_named_so(tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """A folder writable but without execute permission was reported "is not writable"
+    (a QA run of stop 47, as a user other than root). os.access answers for that user;
+    here it is told to answer as for such a folder (root passes every check)."""
+    from mpz import api
+    (tmp_path / "nox").mkdir()
+    monkeypatch.setattr(api.os, "access", lambda path, mode: mode == os.W_OK)
+    with pytest.raises(EncoderError, match=r"nox cannot be entered \(no execute permission\)"):
+        api.check_output(tmp_path / "nox" / "x.mpz")
+    monkeypatch.setattr(api.os, "access", lambda path, mode: False)
+    with pytest.raises(EncoderError, match="nox is not writable"):
+        api.check_output(tmp_path / "nox" / "x.mpz")
+
 @pytest.mark.parametrize("args", [["summary", "IN", "--k", "2,4"],
                                   ["compare", "IN", "MPZ"]])
 def test_a_closed_pipe_does_not_lose_the_plot(small: tuple[Path, Path], tmp_path: Path,

@@ -283,8 +283,11 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
                                "only (chattr +i or +a); the rename that replaces it would fail")
     if not os.access(folder or ".", os.W_OK | os.X_OK):
         # read-only, or (for root, whom permissions do not stop) marked immutable: the
-        # temporary file beside the output could not be made, after all the work
-        raise EncoderError(f"cannot write {target}: {folder or '.'} is not writable")
+        # temporary file beside the output could not be made, after all the work; a folder
+        # that is writable but cannot be entered (no x) is said as such (QA, stop 47)
+        why = ("cannot be entered (no execute permission)"
+               if os.access(folder or ".", os.W_OK) else "is not writable")
+        raise EncoderError(f"cannot write {target}: {folder or '.'} {why}")
 
 
 def _immutable(path: str) -> bool:
