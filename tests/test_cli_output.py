@@ -503,3 +503,23 @@ def test_compare_a_plot_of_a_marker_that_is_not_there_fails_before_any_output(
             tmp_path)
     assert p.returncode == 0 and "plot written to q.png" in p.stdout
     assert (tmp_path / "q.png").stat().st_size > 1000
+
+
+def test_a_ctrl_c_after_the_output_is_written_says_so(tmp_path: Path, capsys,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """mpz encode writes its output, then measures the report's figures. A Ctrl-C there
+    exited 130, "interrupted", with a --force target already replaced (a QA run of stop
+    47: a user who reads 130 as "nothing changed" has lost the old file). It still exits
+    130, and now says that the output was written."""
+    from mpz.tools import mpz_cli
+    write(generate("walk", frames=30, markers=5, seed=2), tmp_path / "w.trc")
+    (tmp_path / "w.mpz").write_bytes(b"old")
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+    monkeypatch.setattr(mpz, "decode", interrupted)
+    code = mpz_cli.main(["encode", str(tmp_path / "w.trc"), "-o", str(tmp_path / "w.mpz"),
+                         "--max-error", "1mm", "--force"])
+    assert code == 130
+    assert f"{tmp_path / 'w.mpz'} was written" in capsys.readouterr().err
+    assert mpz.info(tmp_path / "w.mpz").frames == 30                  # the new file, whole

@@ -431,9 +431,15 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         write_stdout(data, binary=True, force=args.force)
     else:
         mpz.write_atomic(job.output, data, source=source, force=args.force)
-    decoded = mpz.decode(data)
-    stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
-    err = error_summary(motion, decoded)
+    try:            # the report's figures: a Ctrl-C here finds the output already written
+        decoded = mpz.decode(data)
+        stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
+        err = error_summary(motion, decoded)
+    except KeyboardInterrupt:
+        if not to_stdout:       # 130 read as "nothing changed" lost a --force target (QA)
+            print(f"mpz encode: {printable(job.output)} was written (the interrupt came "
+                  "while its report was measured)", file=sys.stderr)
+        raise
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
                      and opts.keep_skeleton else None)
     result = {
