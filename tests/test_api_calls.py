@@ -146,6 +146,9 @@ def test_a_motion_refuses_a_str_of_names_and_ragged_positions():
     from mpz.errors import MotionError
     with pytest.raises(MotionError, match="names must be a sequence of str"):
         Motion(np.zeros((2, 4, 3)), "LFHD", rate=100.0)
+    for names in (None, 4):                  # a bare TypeError, "not iterable" (QA, stop 47)
+        with pytest.raises(MotionError, match="names must be a sequence of str"):
+            Motion(np.zeros((2, 4, 3)), names, rate=100.0)  # type: ignore[arg-type]
     with pytest.raises(MotionError, match=r"shape \(frames, markers, 3\)"):
         Motion([[[0.0, 0.0, 0.0]], [[0.0, 0.0]]], ["A"], rate=100.0)
 

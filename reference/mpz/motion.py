@@ -138,7 +138,8 @@ class Motion:
             raise MotionError("a motion needs at least one frame, got 0")
         if markers == 0:
             raise MotionError("a motion needs at least one marker, got 0")
-        if isinstance(self.names, (str, bytes)):   # list("LFHD") is four names, silently
+        # list("LFHD") is four names, silently; None or 5 raised a bare TypeError (QA)
+        if isinstance(self.names, (str, bytes)) or not hasattr(self.names, "__iter__"):
             raise MotionError(f"names must be a sequence of str (one per marker), got a "
                               f"{type(self.names).__name__} {self.names!r:.60}")
         names = list(self.names)
