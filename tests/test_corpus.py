@@ -380,7 +380,7 @@ def test_a_bug_stops_the_run_and_keeps_what_finished(corpus):
                 raise RuntimeError("a bug")
             return motion, OPTS, []
 
-        def key(self, source: str) -> str:
+        def key(self, source: str, units: str) -> str:
             return ""
 
     with pytest.raises(RuntimeError, match="a bug"):
@@ -974,10 +974,11 @@ def test_mpz_encode_batch_gives_each_file_what_the_one_file_command_gives(tmp_pa
     code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--max-error", "1mm",
                          "--units", "cm", "--jobs", "0", "--no-skeleton"])
     assert code == 0 and "NOTE " not in capsys.readouterr().out      # up to date: not opened
-    # --units changes every file's fingerprint: a unitless input given --units cm may be
-    # read in another unit than before
+    # --units changes the fingerprint of the files whose unit it names: the unitless BVH is
+    # read in another unit than before, the C3D (mm) is not (stop 47: it was encoded again)
     doc = batch("--units", "m")
-    assert doc["counts"]["encoded"] == 2
+    assert {f["source"]: f["status"] for f in doc["files"]} == \
+        {str(src / "arm.bvh"): "encoded", str(src / "walk.c3d"): "skipped"}
     assert mpz.decode(out / "arm.mpz").units == "m"
 
 
@@ -1571,3 +1572,32 @@ def test_local_workers_that_cannot_start_fail_the_run_with_dask_s_reason(corpus,
     with pytest.raises(EncoderError, match=r"did not start \(RuntimeError: Nanny failed to "
                                            r"start\.\); --jobs 0 encodes in this process"):
         run_corpus(src, out, workers=1)
+
+
+def test_units_re_encode_only_the_files_whose_unit_they_name(tmp_path, two_joint_bvh,
+                                                             capsys):
+    """`--units` names the unit of an input without one (a BVH) and leaves the others: in a
+    corpus run it re-encodes only those (a QA run of stop 47: adding --units cm for one
+    BVH encoded every file of the folder again). The TRC (mm) stays up to date through
+    adding, changing and removing --units; the BVH is encoded again each time, and its
+    output says the unit asked for."""
+    from mpz.tools import mpz_cli
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    write(generate("walk", frames=30, markers=6, seed=1), src / "a.trc")
+    (src / "b.bvh").write_text(two_joint_bvh)
+
+    def run(*units: str) -> dict[str, str]:
+        code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0",
+                             "--json", "-q", *units])
+        assert code == 0, capsys.readouterr().err
+        doc = json.loads(capsys.readouterr().out)
+        return {Path(f["source"]).stem: f["status"] for f in doc["files"]}
+
+    assert run("--units", "cm") == {"a": "encoded", "b": "encoded"}
+    assert run("--units", "cm") == {"a": "skipped", "b": "skipped"}
+    assert run("--units", "m") == {"a": "skipped", "b": "encoded"}
+    assert mpz.info(out / "b.mpz").units == "m"
+    assert run() == {"a": "skipped", "b": "encoded"}
+    assert mpz.info(out / "b.mpz").units == ""
+    assert run() == {"a": "skipped", "b": "skipped"}

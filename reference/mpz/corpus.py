@@ -187,10 +187,11 @@ class FileOptions(Protocol):
     these three methods; it goes to the workers, so it must pickle.
 
     A file's fingerprint (:func:`fingerprint`) is that of ``options(units)`` and
-    ``key(source)``, computed without opening the file (the up-to-date check); ``key``
-    must therefore name every input of ``prepare`` that ``options`` does not show, and
-    ``options`` must depend on the units alone (it is called more than once for a file:
-    in the up-to-date check, and on the worker).
+    ``key(source, units)``, computed without opening the file (the up-to-date check, with
+    the units of the output the index records); ``key`` must therefore name every input of
+    ``prepare`` that ``options`` does not show, and ``options`` must depend on the units
+    alone (it is called more than once for a file: in the up-to-date check, and on the
+    worker).
     """
 
     def options(self, units: str) -> EncodeOptions:
@@ -200,8 +201,9 @@ class FileOptions(Protocol):
         """The motion to encode, its options, and notes for the report (what is not kept
         or what changed), for ``source`` as read."""
 
-    def key(self, source: str) -> str:
-        """What ``prepare`` adds to ``options`` for ``source`` ('' for nothing)."""
+    def key(self, source: str, units: str) -> str:
+        """What ``prepare`` adds to ``options`` for ``source``, whose output is in ``units``
+        ('' for nothing)."""
 
 
 class _Plain:
@@ -213,7 +215,7 @@ class _Plain:
     def prepare(self, source: str, motion: Motion) -> tuple[Motion, EncodeOptions, list[str]]:
         return motion, self.options(motion.units), []
 
-    def key(self, source: str) -> str:
+    def key(self, source: str, units: str) -> str:
         return ""
 
 
@@ -547,7 +549,7 @@ def encode_file(task: Task) -> FileResult:
 def _fingerprint(task: Task, units: str) -> str:
     """The fingerprint of ``task``'s output for a source in ``units``: its options, and
     what the output depends on besides the source file (:func:`_beside`)."""
-    key = ";".join(k for k in (_beside(task), task.options.key(task.source)) if k)
+    key = ";".join(k for k in (_beside(task), task.options.key(task.source, units)) if k)
     return fingerprint(task.options.options(units), task.levels, key)
 
 

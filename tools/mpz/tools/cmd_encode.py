@@ -56,9 +56,9 @@ def add_parser(sub):
     # issue 13: skeletal input (BVH, AMC/ASF)
     p.add_argument("--units", choices=("mm", "cm", "m", "in"),
                    help="the length unit of an input that has none (BVH), e.g. --units cm; "
-                   "then lengths with units work (--max-error 1mm). In a corpus run it is "
-                   "one of every file's options: adding or changing it encodes every file "
-                   "again (docs/corpus.md)")
+                   "then lengths with units work (--max-error 1mm). In a corpus run, "
+                   "adding or changing it encodes again the files it names a unit for, and "
+                   "leaves the others up to date (docs/corpus.md)")
     p.add_argument("--rate", metavar="HZ", type=positive,
                    help="the frame rate of an input that stores none (AMC: 120 Hz is assumed, "
                    "NPY: 1 Hz), e.g. --rate 60; an error for an input that has one")
@@ -692,11 +692,16 @@ class PerFile:
         return motion, opts, (_input_notes(self.args, motion, source, batch=True) + notes
                               + _option_notes(self.args, opts))
 
-    def key(self, source: str) -> str:
+    def key(self, source: str, units: str) -> str:
         from mpz.io import SKELETON_FORMATS
         from mpz.io._common import ext_of
         a = self.args
-        parts = [] if a.units is None else [f"units={a.units}"]
+        # --units names the unit of a file without one, and leaves the others: it joins the
+        # key of an output in that unit (given it, or declaring it) or in none (written
+        # before --units, which would now name its unit), not of the others, so that adding
+        # --units for the BVH files of an archive leaves its C3D files up to date (a QA run
+        # of stop 47 saw every file encoded again)
+        parts = [] if a.units is None or units not in (a.units, "") else [f"units={a.units}"]
         if a.rate is not None and ext_of(source) in RATELESS_FORMATS:
             parts.append(f"rate={a.rate!r}")
         if ext_of(source) in SKELETON_FORMATS:
