@@ -1601,3 +1601,38 @@ def test_units_re_encode_only_the_files_whose_unit_they_name(tmp_path, two_joint
     assert run() == {"a": "skipped", "b": "encoded"}
     assert mpz.info(out / "b.mpz").units == ""
     assert run() == {"a": "skipped", "b": "skipped"}
+
+
+def test_a_result_lost_with_the_last_worker_does_not_wait_for_ever(monkeypatch):
+    """A finished task whose worker died holds its result nowhere: Dask computes it again,
+    and `Future.result()` waited for that for ever once no worker was left (a QA run of
+    stop 47, --scheduler: the run hung until killed). The result is awaited a while at a
+    time, and the no-worker watch fails the run. Here a stand-in client has no worker and
+    a future that is done but whose result never comes."""
+    pytest.importorskip("distributed")
+    import distributed
+
+    from mpz import corpus
+
+    class Lost:
+        def result(self, timeout=None):
+            if timeout is None:
+                raise AssertionError("result() without a timeout waits for ever here")
+            raise TimeoutError
+
+    class NoWorkers:
+        def nthreads(self):
+            return {}
+
+        def submit(self, *args, **kwargs):
+            return Lost()
+
+        def cancel(self, futures):
+            pass
+
+    monkeypatch.setattr(distributed, "wait", lambda fs, **kw: (set(fs), set()))
+    monkeypatch.setattr(corpus, "WATCH_SECONDS", 0.01)
+    monkeypatch.setattr(corpus, "NO_WORKER_SECONDS", 0.05)
+    task = corpus.Task("a.trc", "a.mpz", "a.mpz", corpus._Fixed(corpus.DEFAULTS), ())
+    with pytest.raises(EncoderError, match="has had no worker"):
+        corpus._run_on(NoWorkers(), [task], [0], lambda i, r: None, {})

@@ -1226,6 +1226,16 @@ def sweep_temporaries(outputs: Sequence[str], *, before: float | None = None) ->
 Progress = Callable[[int, int, FileResult], None]
 
 
+class _QuietLostGather(logging.Filter):
+    """Drops asyncio's "Task exception was never retrieved" for Dask's AllExit: the gather
+    of a result lost with its worker, left when :func:`_run_on` stops waiting for it (a QA
+    run of stop 47 printed its traceback above the run's own error)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        return type(exc).__name__ != "AllExit"
+
+
 @contextlib.contextmanager
 def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | None
                  ) -> Iterator[tuple[Client, str]]:
@@ -1236,6 +1246,9 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
         raise EncoderError("running on Dask needs dask.distributed: pip install "
                            "'mpz[corpus]' (or use workers=0 / --jobs 0 to encode "
                            "without it)") from None
+    asyncio_log = logging.getLogger("asyncio")
+    if not any(isinstance(f, _QuietLostGather) for f in asyncio_log.filters):
+        asyncio_log.addFilter(_QuietLostGather())
     if scheduler is not None:
         client = _connect(Client, scheduler)
         try:
@@ -1630,9 +1643,24 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                                 key=f"mpz-encode-{i}-{os.urandom(4).hex()}")
             inflight[fut] = i
 
+    idle_since: float | None = None
+
+    def watch() -> None:
+        """Fail the run when the cluster has had no worker for NO_WORKER_SECONDS."""
+        nonlocal idle_since
+        if client.nthreads():
+            idle_since = None
+        elif idle_since is None:
+            idle_since = time.monotonic()
+        elif time.monotonic() - idle_since > NO_WORKER_SECONDS:
+            raise EncoderError(
+                f"the Dask cluster has had no worker for {NO_WORKER_SECONDS:.0f} s "
+                "while files wait: its workers cannot start (is the memory limit "
+                "below what a worker needs, about 200 MB?) or none is connected"
+            ) from None
+
     try:
         submit()
-        idle_since: float | None = None
         while inflight:
             try:
                 done, _ = wait(list(inflight), timeout=WATCH_SECONDS,
@@ -1640,22 +1668,19 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
             except CancelledError as exc:    # the scheduler is gone: it was a traceback
                 raise _lost(exc) from None
             except TimeoutError:
-                if client.nthreads():
-                    idle_since = None
-                elif idle_since is None:
-                    idle_since = time.monotonic()
-                elif time.monotonic() - idle_since > NO_WORKER_SECONDS:
-                    raise EncoderError(
-                        f"the Dask cluster has had no worker for {NO_WORKER_SECONDS:.0f} s "
-                        "while files wait: its workers cannot start (is the memory limit "
-                        "below what a worker needs, about 200 MB?) or none is connected"
-                    ) from None
+                watch()
                 continue
-            idle_since = None
             for fut in sorted(done, key=lambda f: inflight[f]):
                 i = inflight.pop(fut)
                 try:
-                    r = fut.result()
+                    # a result held by a worker that died is computed again, and result()
+                    # waited for it for ever once the last worker was gone (a QA run of
+                    # stop 47, --scheduler): it waits a while, and the watch runs
+                    r = fut.result(timeout=WATCH_SECONDS)
+                except TimeoutError:
+                    inflight[fut] = i
+                    watch()
+                    continue
                 except CancelledError as exc:
                     raise _lost(exc) from None
                 except Exception as exc:
@@ -1664,6 +1689,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                     r = FileResult(tasks[i].source, tasks[i].output, "failed",
                                    "its worker died each time it ran (over the memory "
                                    f"limit?): {exc}", _size(tasks[i].source))
+                idle_since = None                   # a result came: workers were there
                 finish(i, replace(r, source=tasks[i].source, output=tasks[i].output))
             submit()
     except BaseException:
