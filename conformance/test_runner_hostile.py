@@ -421,6 +421,43 @@ def test_a_command_that_decodes_nothing_is_warned_of(tmp_path):
     assert proc.returncode == 0 and "warning" not in proc.stderr
 
 
+
+def test_a_decoder_that_runs_but_fails_every_check_is_not_sent_after_its_path(tmp_path):
+    """A decoder that runs and exits 0 with float32 output passes no valid vector; the
+    warning told it to check that it starts at all (a QA run of stop 47). It says that the
+    command ran, and the FAIL line says why."""
+    dec = decoder(tmp_path, """
+        if rc == 0:
+            np.save(OUT, np.load(OUT).astype(np.float32))
+        """)
+    proc, _ = run(tmp_path, "--decoder", str(dec), "--only", ONE, BAD)
+    assert proc.returncode == 1 and "float64" in proc.stdout
+    assert "passed none of the 1 valid vector(s), though it ran and exited 0" in proc.stderr
+    assert "check that it runs at all" not in proc.stderr
+
+
+def test_an_encoder_that_renames_a_marker_is_told_which(tmp_path):
+    """The encoder check quoted the first four names of each list, which were equal when
+    the last marker was renamed (a QA run of stop 47). It names the first index that
+    differs."""
+    enc = python_script(tmp_path / "enc.py", textwrap.dedent("""\
+        import json, subprocess
+        IN, OUT = sys.argv[1], sys.argv[2]
+        side = IN[:-len(".npy")] + ".json"
+        meta = json.load(open(side))
+        meta["names"][-1] = meta["names"][-1] + "_X"
+        json.dump(meta, open(side, "w"))
+        sys.exit(subprocess.run([sys.executable, "-m", "mpz.conformance.refencoder",
+                                 *sys.argv[1:]]).returncode)
+        """))
+    from mpz.conformance import manifest as mf
+    item = mf.load()["encoder_inputs"][0]
+    proc, _ = run(tmp_path, "--encoder", str(enc), "--only", item["name"])
+    names = json.loads((mf.DEFAULT_DIR / item["sidecar"]).read_text())["names"]
+    assert proc.returncode == 1, proc.stdout[-600:]
+    assert (f"marker names[{len(names) - 1}] = {names[-1] + '_X'!r} != input {names[-1]!r}"
+            in proc.stdout), proc.stdout[-600:]
+
 @pytest.mark.parametrize("args, said", [
     (["--jobs", "0"], "--jobs must be at least 1, got 0"),
     (["--timeout", "0"], "--timeout must be a finite number > 0, got 0.0"),
