@@ -807,9 +807,13 @@ def test_an_output_folder_inside_the_input_folder_is_not_an_input(corpus, capsys
 
 @needs_dask
 @pytest.mark.parametrize("option", [["--scheduler", "notaurl"], ["--memory-limit", "lots"],
-                                    ["--memory-limit", "0"]])
+                                    ["--memory-limit", "0"],
+                                    ["--scheduler", "tcp://127.0.0.1:99999"],
+                                    ["--scheduler", "http://127.0.0.1:8786"]])
 def test_bad_cluster_options_are_usage_errors(corpus, capsys, option):
-    """QA (stop 28): these ended in a Python traceback (exit 1)."""
+    """QA (stop 28): these ended in a Python traceback (exit 1). Stop 47: a port beyond
+    65535 waited 30 s for a connection, and http:// failed once the run had started, each
+    leaving an empty index behind."""
     from mpz.tools import mpz_cli
     _, out, paths = corpus
     out.mkdir()

@@ -49,10 +49,16 @@ def _scheduler(text: str) -> str:
         from distributed.comm.addressing import parse_address, parse_host_port
     except ImportError:
         return text              # run_corpus says that Dask is missing
+    from distributed.comm.registry import backends
     try:
         proto, loc = parse_address(text)
+        if proto not in backends:       # http:// failed only once the run had started (QA)
+            raise ValueError(f"unknown address scheme {proto!r} (Dask knows "
+                             f"{', '.join(sorted(backends))})")
         if proto in ("tcp", "tls"):
-            parse_host_port(loc)
+            _, port = parse_host_port(loc)
+            if not 0 < int(port) < 65536:  # :99999 waited 30 s for a connection (QA)
+                raise ValueError(f"port {port} is not in 1..65535")
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"--scheduler wants an address such as "
                                          f"tcp://host:8786, got {text!r}: {exc}") from None

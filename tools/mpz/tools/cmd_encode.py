@@ -52,7 +52,9 @@ def add_parser(sub):
                    help="with -r and -o FOLDER/: keep each file's path below the folder given "
                    "as input (-r IN with IN/s01/walk.c3d -> FOLDER/s01/walk.mpz), as zstd's "
                    "--output-dir-mirror; default: every output in FOLDER/ itself")
-    p.add_argument("--asf", help="skeleton file for AMC input (default: found beside it)")
+    p.add_argument("--asf", help="skeleton file for AMC input (default: found beside it); "
+                   "with several inputs, every AMC file takes this one, in place of the one "
+                   "beside it")
     # issue 13: skeletal input (BVH, AMC/ASF)
     p.add_argument("--units", choices=("mm", "cm", "m", "in"),
                    help="the length unit of an input that has none (BVH), e.g. --units cm; "
