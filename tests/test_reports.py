@@ -162,7 +162,8 @@ def test_compare_holds_the_markers_to_the_bound_the_mpz_declares(walk, tmp_path,
     assert code == 0, err
     code, out, _ = cli(capsys, "compare", src, packed, "--json")
     doc = json.loads(out)
-    assert code == 0 and doc["bound_check"] == {"bound": 1.0, "beyond": 0, "first": None}
+    assert code == 0 and doc["bound_check"] == {"bound": 1.0, "beyond": 0, "first": None,
+                                             "of": "markers"}
     code, out, _ = cli(capsys, "compare", src, packed)
     assert "  bound 1 mm declared by " in out and "every sample within" in out
     moved = walk.positions.copy()
