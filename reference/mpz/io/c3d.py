@@ -414,10 +414,8 @@ def _read_points(path: str, data: bytes) -> Motion:
                            data)
     # a MIPS file is valid C3D that ezc3d does not read (a note); any other refusal is
     # about the file (Facial-Sing: a parameter type ezc3d does not know): a warning
-    pstart = (data[0] - 1) * c3dbin.BLOCK
-    mips = 0 <= pstart < len(data) - 3 and data[pstart + 3] == c3dbin.PROC_MIPS
     return motion_from_c3d_bytes(data, source=source, extra={
-        "reader_note" if mips else "warning":
+        "reader_note" if c3dbin.is_mips(data) else "warning":
             f"ezc3d refused the file ({type(first_error).__name__}: "
             f"{str(first_error).splitlines()[0] if str(first_error) else ''}); "
             "read with mpz.io.c3dbin"})

@@ -774,6 +774,13 @@ def declared_frames(data: bytes) -> tuple[int, int]:
     return frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
 
 
+def is_mips(data: bytes) -> bool:
+    """Whether C3D bytes say MIPS (big-endian) in their parameter section's processor byte:
+    valid C3D that ezc3d refuses before reading its parameters."""
+    start = (data[0] - 1) * BLOCK if data else -1
+    return 0 <= start < len(data) - 3 and data[start + 3] == PROC_MIPS
+
+
 #: the starts of :func:`ezc3d_hazard`'s reasons that are faults of the file itself (a
 #: section that loops or runs past the file, a record's data past its record, a type or a
 #: dimension count no C3D has), not ezc3d's fragility on a file C3D allows: the reader
@@ -820,7 +827,7 @@ def ezc3d_hazard(data: bytes) -> str | None:
     start = (data[0] - 1) * BLOCK if len(data) > BLOCK else -1
     if start < BLOCK or start + 4 > len(data):
         return None                       # parse_c3d gives the precise error
-    if data[start + 3] == PROC_MIPS:
+    if is_mips(data):
         return None                       # ezc3d refuses these before their parameters
     why = _ezc3d_walk(data, start)
     if why is None:

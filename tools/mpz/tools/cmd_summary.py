@@ -87,12 +87,10 @@ def _levels_from_motion(args, ks, motion=None):
         from mpz.io import read
     except ImportError as exc:
         raise _Fail(f"reading motion files needs mpz.io, which is not available: {exc}") from None
-    if motion is not None:
-        pass
-    elif args.file == "-":
+    if motion is None and args.file == "-":
         from mpz.io import read_bytes
         motion = read_bytes(args.stdin_data, fmt=args.stdin_format, asf=args.asf)
-    else:
+    elif motion is None:
         motion = read(args.file, **({"asf": args.asf} if args.asf else {}))
     x, what = motion_series(motion, args.space)
     n = x.shape[0]
