@@ -1640,3 +1640,30 @@ def test_a_result_lost_with_the_last_worker_does_not_wait_for_ever(monkeypatch):
     task = corpus.Task("a.trc", "a.mpz", "a.mpz", corpus._Fixed(corpus.DEFAULTS), ())
     with pytest.raises(EncoderError, match="has had no worker"):
         corpus._run_on(NoWorkers(), [task], [0], lambda i, r: None, {})
+
+
+@pytest.mark.parametrize("option, limit, note", [
+    ([], "DEFAULT", False),
+    (["--memory-limit", "700MB"], "700MB", False),
+    (["--memory-limit", "700MB", "--scheduler", "tcp://127.0.0.1:8786"], "700MB", True)])
+def test_the_memory_limit_reaches_local_workers_and_is_said_unused_by_a_scheduler(
+        corpus, monkeypatch, capsys, option, limit, note):
+    """QA (stop 47): --memory-limit with --scheduler changed nothing, without a word (the
+    remote workers keep the limit they were started with)."""
+    import mpz.corpus as corpus_mod
+    from mpz.tools import mpz_cli
+    _, out, paths = corpus
+    out.mkdir()
+    asked = []
+
+    def fake(workers, scheduler, memory_limit):
+        asked.append(memory_limit)
+        raise EncoderError("stopped here by the test")
+    monkeypatch.setattr(corpus_mod, "_dask_client", fake)
+    extra = [] if "--scheduler" in option else ["--jobs", "1"]
+    code = mpz_cli.main(["encode", str(paths["walk"]), "-o", f"{out}/", *extra, *option])
+    err = capsys.readouterr().err
+    assert code == 2 and "stopped here by the test" in err
+    assert asked == [corpus_mod.DEFAULT_MEMORY_LIMIT if limit == "DEFAULT" else limit]
+    assert ("--memory-limit 700MB changes nothing: the workers of --scheduler's cluster"
+            in err) is note, err

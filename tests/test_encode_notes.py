@@ -260,3 +260,19 @@ def test_a_model_error_too_fine_to_hold_is_said():
     ok = EncodeOptions(max_error=1.0, model_errors={"ANGLES": 1e-4})
     assert _model_bound_notes(m, ok, mpz.encode(m, max_error=1.0,
                                                 model_errors={"ANGLES": 1e-4})) == []
+
+
+def test_a_memory_limit_that_limits_nothing_is_said(tmp_path):
+    """QA (stop 47): --memory-limit limits the local Dask workers of a corpus run only; with
+    --jobs 0, or one file to one file, it was accepted without a word (exit 0). With
+    --scheduler the same note is printed before the run (tests/test_corpus.py)."""
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--memory-limit", "1GiB", cwd=tmp_path)
+    assert p.returncode == 0 and "--memory-limit 1GiB changes nothing" in p.stderr, p.stderr
+    (tmp_path / "out").mkdir()
+    p = _mpz("encode", "walk.trc", "-o", "out/", "--jobs", "0", "--memory-limit", "1GiB",
+             cwd=tmp_path)
+    assert p.returncode == 0 and "--jobs 0 encodes in this process" in p.stderr, p.stderr
+    assert (tmp_path / "out" / "walk.mpz").exists()
+    p = _mpz("encode", "walk.trc", "-o", "b.mpz", cwd=tmp_path)        # the default: silent
+    assert p.returncode == 0 and "memory" not in p.stderr, p.stderr

@@ -37,10 +37,11 @@ def add_corpus_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS", type=_scheduler,
                    help="run on an existing dask.distributed cluster, e.g. tcp://host:8786 "
                    "(its workers must see the inputs and FOLDER at the same paths)")
-    p.add_argument("--memory-limit", default=DEFAULT_MEMORY_LIMIT, metavar="SIZE",
-                   type=_memory_limit,
-                   help=f"memory limit of each local worker, e.g. 2GiB or 500MB (default "
-                   f"{DEFAULT_MEMORY_LIMIT}); a worker needs about 200 MB to start")
+    p.add_argument("--memory-limit", metavar="SIZE", type=_memory_limit,
+                   help=f"memory limit of each local Dask worker, e.g. 2GiB or 500MB "
+                   f"(default {DEFAULT_MEMORY_LIMIT}); a worker needs about 200 MB to start. "
+                   "Unused (with a note) by --scheduler, whose workers have their own, by "
+                   "--jobs 0 and by an encode that is not a corpus run")
 
 
 def _scheduler(text: str) -> str:
@@ -122,7 +123,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     ``options`` makes each file's options (``mpz.tools.cmd_encode.PerFile``); it is sent
     to the workers, so it must pickle.
     """
-    from mpz.corpus import encode_corpus
+    from mpz.corpus import DEFAULT_MEMORY_LIMIT, encode_corpus
     from mpz.tools._cli import EXIT_USAGE, EXIT_WARN, print_json, printable
     from mpz.tools._common import STDIO, is_folder_target
     if not is_folder_target(args.output) or any(j.output == STDIO for j in jobs):
@@ -140,11 +141,18 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
                   "(pip install 'mpz[corpus]' to use every core)", file=sys.stderr)
     elif workers is None:
         workers = min(os.cpu_count() or 1, max(len(planned), 1))
+    memory_limit = getattr(args, "memory_limit", None)
+    if memory_limit is not None and (scheduler or workers == 0) and not quiet:
+        # QA (stop 47): --memory-limit with --scheduler was dropped without a word
+        why = ("the workers of --scheduler's cluster have the limit they were started with"
+               if scheduler else "--jobs 0 encodes in this process")
+        print(f"mpz encode: note: --memory-limit {memory_limit} changes nothing: {why}",
+              file=sys.stderr)
     bar = _Bar(enabled=not quiet and not args.json)
     try:
         report = encode_corpus([(j.input, j.output) for j in planned], args.output, options,
                                workers=workers, scheduler=scheduler,
-                               memory_limit=getattr(args, "memory_limit", None),
+                               memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
                                force=bool(getattr(args, "force", False)), progress=bar,
                                asf=getattr(args, "asf", None),
                                failed=[(j.input, j.output, j.error) for j in jobs

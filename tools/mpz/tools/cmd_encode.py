@@ -352,6 +352,10 @@ def run(args: argparse.Namespace) -> int:
     from mpz.tools._corpus_cli import run_corpus, wants_corpus  # issue 15: Dask + index
     if wants_corpus(args, jobs):
         return run_corpus(args, jobs, PerFile(args))
+    if args.memory_limit is not None and not args.quiet:
+        print(f"mpz encode: note: --memory-limit {args.memory_limit} changes nothing: it "
+              "limits the Dask workers of a corpus run (several inputs or -r into "
+              "-o FOLDER/, or --jobs N)", file=sys.stderr)
     data_on_stdout = any(j.output == STDIO for j in jobs)
     report = sys.stderr if data_on_stdout else sys.stdout
     results: list[dict] = []
