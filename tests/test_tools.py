@@ -143,3 +143,82 @@ def test_encode_decode_compare_cli(tmp_path, capsys):
     leftovers = [p.name for p in tmp_path.iterdir()
                  if p.name.startswith(".") or ".part" in p.name]
     assert leftovers == []
+
+
+
+def test_vv_and_the_plain_dump_agree_on_every_vector(capsys):
+    """``mpzinfo -vv`` crashed (KeyError) on every file with an asfs chunk, whose strings
+    are top-level adapted fields without an offset of their own, and exited 1, "warnings
+    only", for valid and invalid files alike (a QA of stop 48). Each vector's -vv code is
+    now its plain code, which the manifest fixes: 2 for a vector expected to be rejected,
+    0 or 1 for one expected to decode."""
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    vectors = json.loads((root / "manifest.json").read_text())["vectors"]
+    for v in vectors:
+        path = root / v["file"]                     # e.g. "invalid/x01-....mpz"
+        code, out = run(capsys, mpzinfo.main, ["-vv", str(path)])
+        plain, _ = run(capsys, mpzinfo.main, [str(path)])
+        assert code == plain and "Traceback" not in out.err, (v["name"], out.err[-800:])
+        assert (code == 2) if v["expected"] != "decode" else code in (0, 1), v["name"]
+    assert len(vectors) == 335
+
+
+def test_vv_shows_a_string_field_as_stored_at_its_offset():
+    """asfs's top-level strings (name, version, documentation ...) are shown as stored,
+    each with its offset in the file: the u8/u16 length there, then the bytes."""
+    from pathlib import Path
+
+    from mpz.tools.mpzinfo import inspect
+    path = (Path(__file__).resolve().parents[1] / "conformance" / "vectors" / "valid"
+            / "v12-asfs-synthetic-default.mpz")
+    data = path.read_bytes()
+    asfs = next(c for c in inspect(data, path.name)["chunks"] if c["type"] == "asfs")
+    name = asfs["stored"]["name"]
+    raw = bytes.fromhex(name["hex"])
+    assert raw == asfs["fields"]["name"].encode() and raw
+    at = name["at"]
+    assert data[at] == len(raw) and data[at + 1:at + 1 + len(raw)] == raw    # str8
+    lines = [ln for ln in _vv_lines(path) if ln.strip().startswith(f"0x{at:05x}")]
+    assert lines == [f"      0x{at:05x}  name = {raw.decode()!r}",           # decoded
+                     f"      0x{at:05x}  name, as stored: bytes = {len(raw)}, "
+                     f"hex = \"{raw.hex()}\""]
+
+
+def _vv_lines(path) -> list[str]:
+    from pathlib import Path
+    import subprocess
+    import sys
+    exe = Path(sys.executable).parent / "mpzinfo"
+    p = subprocess.run([str(exe), "-vv", str(path)], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr
+    return p.stdout.splitlines()
+
+
+@pytest.mark.parametrize("command", ["mpzinfo", "mpz", "mpz-conformance"])
+def test_a_bug_is_a_traceback_and_its_own_exit_code(command, monkeypatch, capsys, tmp_path):
+    """An exception no command handles exited 1, which the tools' help defines as
+    "warnings only" (mpz-conformance: "a vector failed"): a crash read as a pass with
+    warnings (a QA of stop 48). It is now 70, after the traceback and a line that calls it
+    a bug, and it is not taken for invalid input."""
+    from mpz.conformance import runner
+
+    def broken(*args, **kwargs):
+        raise KeyError("planted by the test")
+    path = tmp_path / "x.mpz"
+    path.write_bytes(mpz.encode(generate("walk", frames=10), max_error=1.0))
+    if command == "mpzinfo":
+        monkeypatch.setattr(mpzinfo, "inspect", broken)
+        code = mpzinfo.main([str(path)])
+    elif command == "mpz":
+        from mpz.tools import cmd_show
+        monkeypatch.setattr(cmd_show, "summary", broken)
+        code = mpz_cli.main(["show", str(path)])
+    else:
+        monkeypatch.setattr(runner, "_parser", broken)
+        code = runner.main(["--help"])
+    err = capsys.readouterr().err
+    assert code == 70, err
+    assert "Traceback" in err and "KeyError: 'planted by the test'" in err
+    assert f"{command}: internal error: this is a bug in mpz" in err

@@ -206,16 +206,27 @@ class Record:
             parsed = grammar.parse(payload)
         except _LAYOUT_ERRORS:
             return {}
-        return {name: _as_stored(parsed[name]) for name in named}
+        out = {}
+        for name in named:
+            v = _as_stored(parsed[name])
+            if isinstance(v, dict) and "at" not in v:   # a string: asfs's name, version ...
+                v = {"at": int(parsed[f"_at_{name}"]), **v}
+            out[name] = v
+        return out
 
 
 @functools.cache
 def _stored_grammar(grammar: construct.Construct) -> tuple[tuple[str, ...],
                                                            construct.Construct]:
     """The names of ``grammar``'s adapted top-level fields, and the grammar without its
-    adapters (:func:`_stored`): built once per chunk type, not per chunk shown."""
+    adapters (:func:`_stored`), each top-level field after ``_at_NAME``, its offset:
+    built once per chunk type, not per chunk shown."""
     named = tuple(sc.name for sc in grammar.subcons if sc.name and _adapts(sc))
-    return named, _stored(grammar)
+    # each top-level field preceded by its offset, for the fields that are no Struct
+    marked = [x for sc in grammar.subcons
+              for x in ((f"_at_{sc.name}" / construct.Tell, _stored(sc)) if sc.name
+                        else (_stored(sc),))]
+    return named, construct.Struct(*marked)
 
 
 def _adapts(c: construct.Construct) -> bool:

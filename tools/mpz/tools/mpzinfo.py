@@ -213,12 +213,14 @@ def _print_stored(c: dict, out) -> None:
     """``-vv``: each struct of a field the grammar adapts, as stored, at its offset (the
     decoded view alone hid MNAM's front coding and HIER's weight codes)."""
     for name, items in c.get("stored", {}).items():
-        for i, item in enumerate(items if isinstance(items, list) else [items]):
+        listed = isinstance(items, list)            # a string of asfs is one dict
+        for i, item in enumerate(items if listed else [items]):
             if not isinstance(item, dict):
                 continue
             parts = ", ".join(f"{k} = {json.dumps(jsonable(x))}" for k, x in item.items()
                               if k != "at")
-            print(f"      0x{item['at']:05x}  {name}[{i}], as stored: {printable(parts)}",
+            label = f"{name}[{i}]" if listed else name
+            print(f"      0x{item['at']:05x}  {label}, as stored: {printable(parts)}",
                   file=out)
 
 
