@@ -817,8 +817,8 @@ def _kernel_interrupt(depth: int) -> SystemError:
 
 def test_a_ctrl_c_a_kernel_heard_is_reported_as_interrupted(capsys) -> None:
     """Before, it ended the command with a SystemError traceback and exit 1; any other
-    SystemError is still a bug and is raised."""
-    from mpz.tools._cli import EXIT_INTERRUPTED, interrupted, reports_ctrl_c
+    SystemError is still a bug: its traceback, then exit 70 (EXIT_BUG)."""
+    from mpz.tools._cli import EXIT_BUG, EXIT_INTERRUPTED, interrupted, reports_ctrl_c
     assert interrupted(_kernel_interrupt(1)) and interrupted(_kernel_interrupt(3))
     other = SystemError("a bug")
     other.__cause__ = ValueError()
@@ -833,8 +833,9 @@ def test_a_ctrl_c_a_kernel_heard_is_reported_as_interrupted(capsys) -> None:
     main = reports_ctrl_c("interrupted")(raises)
     assert main(_kernel_interrupt(2)) == EXIT_INTERRUPTED
     assert capsys.readouterr().err == "interrupted\n"
-    with pytest.raises(SystemError, match="a bug"):
-        main(other)
+    assert main(other) == EXIT_BUG
+    err = capsys.readouterr().err
+    assert "SystemError: a bug" in err and "mpz: internal error: this is a bug" in err
 
 
 def test_a_command_ignores_ctrl_c_once_its_work_is_done(tmp_path: Path) -> None:

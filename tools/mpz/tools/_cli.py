@@ -13,6 +13,8 @@ code  meaning
 3     out of memory: the input may well be valid, this machine could not
       hold what it needs (spec §8, "Allocation failure"); not a verdict
 64    usage error: bad options or arguments (argparse's errors included)
+70    internal error: a bug in mpz (its traceback is printed), never a verdict on
+      the input; it exited 1, which says "warnings only"
 130   interrupted with Ctrl-C ("interrupted", no traceback, from the first import)
 143   terminated (SIGTERM) while writing an output; ``mpz-conformance``:
       stopped by SIGTERM (129: SIGHUP), its decoders killed
@@ -47,6 +49,7 @@ EXIT_WARN = 1
 EXIT_ERROR = 2
 EXIT_MEMORY = 3
 EXIT_USAGE = 64
+EXIT_BUG = 70                   # sysexits.h's EX_SOFTWARE
 EXIT_INTERRUPTED = 130
 
 #: ``mpz-conformance``'s code for "at least one vector failed" (the code of EXIT_WARN)
@@ -54,7 +57,7 @@ EXIT_FAILED = EXIT_WARN
 
 #: one line for ``--help`` epilogs
 EXIT_CODES_HELP = ("exit codes: 0 ok, 1 warnings only, 2 errors in the input, "
-                   "3 out of memory, 64 usage error, 130 interrupted, "
+                   "3 out of memory, 64 usage error, 70 a bug in mpz, 130 interrupted, "
                    "143 terminated while writing")
 
 _P = ParamSpec("_P")
@@ -259,7 +262,14 @@ def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
 def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, int]]:
     """Decorate a command's ``main``: SIGINT, held since the command's first import of mpz
     (:mod:`mpz._worker`), is released first, and a Ctrl-C anywhere in ``main`` (a held one
-    included) prints ``message`` and exits :data:`EXIT_INTERRUPTED`, without a traceback."""
+    included) prints ``message`` and exits :data:`EXIT_INTERRUPTED`, without a traceback.
+
+    An exception that no command handles is a bug: its traceback is printed, then a line
+    that says so, and the code is :data:`EXIT_BUG`. It exited 1, which means "warnings
+    only" (``mpz-conformance``: "a vector failed"), so a script took a crash of
+    ``mpzinfo -vv`` on a valid file for a warning (a QA of stop 48). A MemoryError is left
+    to the command (each reports its own, exit 3)."""
+    prog = message.split(":")[0] if ":" in message else "mpz"
 
     def decorate(main: Callable[_P, int]) -> Callable[_P, int]:
         @functools.wraps(main)
@@ -272,15 +282,30 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                 return EXIT_INTERRUPTED
             except SystemError as exc:
                 if not interrupted(exc):
-                    raise
+                    return _bug(prog)
                 print(message, file=sys.stderr)
                 return EXIT_INTERRUPTED
+            except MemoryError:
+                raise
+            except Exception:
+                return _bug(prog)
             finally:
                 ignore_sigint_when_done()
 
         return wrapper
 
     return decorate
+
+
+def _bug(prog: str) -> int:
+    """Print the exception being handled as the bug it is (see :func:`reports_ctrl_c`)."""
+    import traceback
+
+    from mpz import __version__
+    traceback.print_exc()
+    print(f"{prog}: internal error: this is a bug in mpz {__version__}, not a verdict on "
+          "the input; please report it with the traceback above", file=sys.stderr)
+    return EXIT_BUG
 
 
 def interrupted(exc: BaseException) -> bool:
