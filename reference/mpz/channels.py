@@ -378,9 +378,11 @@ def unwrap(e: IntArray, order: int, low: int | IntArray, turn: int | IntArray) -
     ``low .. low + turn - 1``, along the first axis: ``e[F]`` with one ``low`` and
     ``turn``, or ``e[F, k]`` with one of each per column (arrays of k).
 
-    Computed on residues, so that no intermediate value exceeds 2^56: the running sums of
-    §6.2 are reduced modulo ``turn`` before they are summed again, which gives the same
-    residue (reduction commutes with sums).
+    Computed on residues, so that no intermediate value exceeds 2^56: every value added
+    into a running sum is first reduced modulo ``turn`` (order 2: the running sums of
+    ``e``, the first differences, before they are summed again), which gives the same
+    residue (reduction commutes with sums). The bound needs ``turn`` < 2^32, which §4.14's
+    wrap check has established when the chunk was read (spec §1.2, §6.10 step 3).
 
     Examples
     --------
