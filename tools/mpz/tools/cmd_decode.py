@@ -234,14 +234,21 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
 def _read_mpz(path: str, max_samples: int | None
               ) -> tuple[Motion, float | None, list[str]]:
     """Decode an MPZ input (a file or ``-``) as :func:`mpz.tools._common.read_mpz_input`
-    does, with its declared bound (None: none declared) for the notes on what the output's
-    number format adds to it, and the unknown ancillary chunks the decoder skipped. An
-    input that is another motion format is named, with what to do instead."""
+    does, with the bound it declares on those positions (None: none declared; a skeletal
+    file's position_bound) for the notes on what the output's number format adds to it,
+    and the unknown ancillary chunks the decoder skipped. An input that is another motion
+    format is named, with what to do instead."""
     from mpz.api import read_source
     from mpz.container import scan
     from mpz.errors import FormatError
     from mpz.format import SIGNATURE
-    from mpz.tools._common import STDIO, declared_bound, read_mpz_input_bytes, read_stdin
+    from mpz.tools._common import (
+        STDIO,
+        declared_bound,
+        joint_positions_from_channels,
+        read_mpz_input_bytes,
+        read_stdin,
+    )
     if path == STDIO:
         data, fmt = read_stdin()
         if fmt != ".mpz":
@@ -264,7 +271,15 @@ def _read_mpz(path: str, max_samples: int | None
     res = scan(data)                   # the decode above checked every chunk
     skipped = [w.chunk for w in res.warnings
                if w.chunk and "unknown ancillary chunk" in w.message]
-    return motion, declared_bound(res), skipped
+    bound = declared_bound(res)
+    if joint_positions_from_channels(motion, ".mpz"):
+        # the positions are the joints of the channels: position_bound is theirs (§4.14,
+        # 0: none), not MHDR's (a QA of stop 48: a C3D's float32 note quoted MHDR's)
+        from mpz.skeleton import report
+        rep = report(data)
+        pb = float(rep["position_bound"]) if rep is not None else 0.0  # type: ignore[arg-type]
+        bound = pb if pb > 0 else None
+    return motion, bound, skipped
 
 
 def _not_mpz_hint(fmt: str | None) -> str:
