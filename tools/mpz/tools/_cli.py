@@ -268,7 +268,8 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
     that says so, and the code is :data:`EXIT_BUG`. It exited 1, which means "warnings
     only" (``mpz-conformance``: "a vector failed"), so a script took a crash of
     ``mpzinfo -vv`` on a valid file for a warning (a QA of stop 48). A MemoryError is left
-    to the command (each reports its own, exit 3)."""
+    to the command (each reports its own, exit 3), and a BrokenPipeError to the quiet
+    handling of a closed pipe (:func:`quiet_broken_pipe`)."""
     prog = message.split(":")[0] if ":" in message else "mpz"
 
     def decorate(main: Callable[_P, int]) -> Callable[_P, int]:
@@ -285,8 +286,8 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                     return _bug(prog)
                 print(message, file=sys.stderr)
                 return EXIT_INTERRUPTED
-            except MemoryError:
-                raise
+            except (MemoryError, BrokenPipeError):
+                raise            # each command's own report; a pipe closed by `head`
             except Exception:
                 return _bug(prog)
             finally:
