@@ -940,3 +940,59 @@ def test_a_c3d_name_with_a_nul_is_refused(tmp_path):
         write(m, tmp_path / "n.c3d")
     assert not (tmp_path / "n.c3d").exists()
     write(m, tmp_path / "n.npy")                     # a format without names takes it
+
+
+def _trc_rows(path) -> tuple[list[str], list[list[str]]]:
+    lines = path.read_text().splitlines()
+    return lines[:6], [ln.split("\t") for ln in lines[6:] if ln.strip()]
+
+
+def test_trc_values_a_gap_cannot_keep_are_said(tmp_path):
+    """A QA of stop 48: a sample with one cell empty lost its two other coordinates, and a
+    time off the rate's grid came back as the rate's, both without a word. The edits are
+    made on the text here; an unedited file reads without a warning."""
+    m = Motion(np.arange(10 * 2 * 3, dtype=float).reshape(10, 2, 3) + 1.0, ["A", "B"],
+               100.0, "mm")
+    write(m, tmp_path / "a.trc")
+    assert "warning" not in read(tmp_path / "a.trc").metadata
+    head, rows = _trc_rows(tmp_path / "a.trc")
+    rows[4][2 + 3 + 1] = ""                       # frame index 4, marker B, Y empty
+    rows[7][1] = f"{float(rows[7][1]) + 0.004:.6f}"   # frame index 7, 4 ms late
+    (tmp_path / "b.trc").write_text("\n".join(head + ["\t".join(r) for r in rows]) + "\n")
+    got = read(tmp_path / "b.trc")
+    warning = got.metadata["warning"]
+    assert ("1 sample with 1 or 2 of 3 coordinates empty (the first: frame index 4, marker "
+            "'B'): each is a gap" in warning)
+    assert ("the Time column is not the first time plus (frame - first) / DataRate at 1 of "
+            "10 rows (the first: frame index 7, 0.074 s where the rate gives 0.07)"
+            in warning), warning
+    assert not got.valid[4, 1] and got.valid.sum() == 19
+
+
+def test_c3d_values_a_gap_cannot_keep_are_said(tmp_path):
+    """A QA of stop 48: coordinates beside a negative residual, or beside a NaN, and a NaN
+    sample with a residual >= 0 (written back as a point at the origin) went without a
+    word. The float C3D is patched here by its layout (C3D: header word 9 is the data's
+    first 512-byte block, then per frame and point x, y, z and the residual word)."""
+    m = Motion(np.arange(5 * 3 * 3, dtype=float).reshape(5, 3, 3) + 1.0, ["A", "B", "C"],
+               100.0, "mm")
+    write(m, tmp_path / "a.c3d")
+    assert "warning" not in read(tmp_path / "a.c3d").metadata
+    data = bytearray((tmp_path / "a.c3d").read_bytes())
+    base = (struct.unpack_from("<H", data, 16)[0] - 1) * 512
+
+    def put(f: int, p: int, k: int, v: float) -> None:
+        struct.pack_into("<f", data, base + ((f * 3 + p) * 4 + k) * 4, v)
+    put(1, 0, 3, -1.0)                      # residual -1, coordinates kept
+    put(2, 1, 1, float("nan"))              # y NaN, residual 0
+    for k in range(3):
+        put(3, 2, k, float("nan"))          # all NaN, residual 0
+    (tmp_path / "b.c3d").write_bytes(bytes(data))
+    got = read(tmp_path / "b.c3d")
+    warning = got.metadata["warning"]
+    assert ("2 samples with a negative residual or a NaN coordinate (the first: frame index "
+            "1, marker 'A'): each is a gap, and the coordinates it holds are not kept"
+            in warning), warning
+    assert "2 samples with a NaN coordinate and a residual >= 0 will be written back as " \
+           "(0, 0, 0)" in warning
+    assert got.valid.sum() == 15 - 3

@@ -37,7 +37,14 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.io import c3dbin
-from mpz.io._common import StrPath, is_utf8, reader, start_frame, unique_names
+from mpz.io._common import (
+    StrPath,
+    is_utf8,
+    reader,
+    start_frame,
+    unique_names,
+    values_at_gaps,
+)
 from mpz.motion import Motion, finite_samples
 
 if TYPE_CHECKING:
@@ -111,9 +118,9 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
     pos = np.asarray(points, dtype=np.float64)
     res = np.asarray(residuals, dtype=np.float64)
     valid = finite_samples(pos) & ~(res < 0) & ~np.all(pos == 0, axis=2)
+    meta = {"format": "c3d"}
     pos = pos.copy()
     pos[~valid] = np.nan
-    meta = {"format": "c3d"}
     if source:
         meta["source"] = source
     if subject:
@@ -232,7 +239,28 @@ def read_c3d(path: StrPath) -> Motion:
         full.metadata["warning"] = _joined(full.metadata.get("warning"),
                                            f"C3D archive not kept: {exc}")
         return full
+    for lost in _values_at_gaps(full, d):
+        full.metadata["warning"] = _joined(full.metadata.get("warning"), lost)
     return split_archive(full, d)
+
+
+def _values_at_gaps(full: Motion, d: c3dbin.C3DData) -> list[str]:
+    """What of the points' values at gaps the archive cannot give back, from the words as
+    stored (ezc3d reads a negative residual's coordinates as NaN): coordinates at a gap
+    (a gap keeps none, spec §4.5), and gaps that the C3D written back will show as a point
+    at the origin (§6.9 writes (0, 0, 0) and the fourth word as stored, so a NaN
+    coordinate beside a residual >= 0 becomes one). A QA of stop 48: both went without a
+    word."""
+    if d.points.shape[:2] != full.valid.shape:
+        return []                       # split_archive says the archive is not kept
+    out = [values_at_gaps(d.points, ~full.valid, full.names,
+                          "with a negative residual or a NaN coordinate")]
+    origin = int((~finite_samples(d.points) & (d.residual_words >= 0)).sum())
+    if origin:
+        out.append(f"{origin} sample{'s' * (origin != 1)} with a NaN coordinate and a "
+                   "residual >= 0 will be written back as (0, 0, 0) with that residual, "
+                   "which C3D readers that do not take the origin for a gap read as a point")
+    return [text for text in out if text]
 
 
 def _joined(old: str | None, new: str) -> str:

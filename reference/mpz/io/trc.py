@@ -45,6 +45,7 @@ from mpz.io._common import (
     start_frame,
     unique_names,
     utf8_name,
+    values_at_gaps,
 )
 from mpz.motion import Motion, finite_samples
 
@@ -163,8 +164,11 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         said = f"NumFrames says {declared_frames}, file has {len(rows)} rows"
         meta["warning"] = f"{meta['warning']}; {said}" if "warning" in meta else said
     valid = finite_samples(pos)
-    pos[~valid] = np.nan
     names, renamed = unique_names(names)
+    partial = values_at_gaps(pos, ~valid, names, "with 1 or 2 of 3 coordinates empty")
+    if partial:
+        meta["warning"] = f"{meta['warning']}; {partial}" if "warning" in meta else partial
+    pos[~valid] = np.nan
     if renamed:
         meta["renamed_points"] = "; ".join(renamed)
     if source:
@@ -176,7 +180,16 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     meta.update(_header_meta(lines, header, frames))
     if "trc.TimeDecimals" in meta:
         meta["trc.TimeDigits"] = str(digits)
-    return Motion(pos, names, rate, units, valid, meta)
+    motion = Motion(pos, names, rate, units, valid, meta)
+    if times and math.isfinite(times[0]):
+        placed = len(pos) != len(rows)          # rows put at their Frame# (frames skipped)
+        at = (np.array([integer(x) for x in numbers], np.int64) - integer(numbers[0])
+              if placed else np.arange(len(rows), dtype=np.int64))
+        lost = _times_not_kept(motion, times, at)
+        if lost:
+            old = motion.metadata.get("warning")
+            motion.metadata["warning"] = f"{old}; {lost}" if old else lost
+    return motion
 
 
 def _is_int(x: str) -> bool:
@@ -280,6 +293,49 @@ def _fmt(v: float, decimals: int = 6) -> str:
     return "" if not math.isfinite(v) else f"{v:.{decimals}f}"
 
 
+def _time_column(motion: Motion) -> tuple[float, int, int]:
+    """How :func:`format_trc` writes the Time column: frame f's time is
+    ``round(t0 + f / rate, tdig)`` printed with ``dt`` decimals; returns (t0, dt, tdig).
+    A motion read from a TRC keeps its first time and decimals (``start_time``,
+    ``trc.TimeDecimals``, ``trc.TimeDigits``); others start at (first frame - 1) / rate,
+    6 decimals."""
+    meta = motion.metadata
+    try:
+        # a C3D's frame n is at (n - 1) / rate (its frames count from 1)
+        on_grid = (start_frame(motion) - 1) / motion.rate
+        t0 = float(meta.get("start_time", repr(on_grid)))
+        dt = int(meta.get("trc.TimeDecimals", "6"))
+        tdig = int(meta.get("trc.TimeDigits", str(dt)))
+        if round(t0, tdig) == round(on_grid, tdig):
+            # the first time as printed is (first - 1) / rate's: count from that, not from
+            # its rounding, so that a file written again keeps every time (a QA run of
+            # stop 47: 0.408333 + 1/120 printed 0.416666 where the source had 0.416667)
+            t0 = on_grid
+    except ValueError:
+        return 0.0, 6, 6
+    return t0, dt, tdig
+
+
+def _times_not_kept(motion: Motion, times: list[float], rows: NDArray[np.int64]) -> str:
+    """A warning when the Time column is not what :func:`format_trc` writes back (times
+    from the first, at the rate): those times are not kept (a QA of stop 48: an edited
+    time came back as the rate's without a word). ``rows`` is each row's frame index.
+    One unit of the last decimal is allowed for the source's own rounding."""
+    t0, _, tdig = _time_column(motion)
+    got = np.array(times, dtype=np.float64)
+    want = np.round(t0 + rows / motion.rate, tdig)
+    with np.errstate(invalid="ignore"):
+        off = ~(np.abs(got - want) <= 1.01 * 10.0 ** -tdig)
+    n = int(off.sum())
+    if not n:
+        return ""
+    r = int(np.flatnonzero(off)[0])
+    return (f"the Time column is not the first time plus (frame - first) / DataRate at {n} "
+            f"of {len(times)} rows (the first: frame index {int(rows[r])}, {times[r]!r} s "
+            f"where the rate gives {float(want[r])!r}): those times are not kept, a TRC "
+            "written back takes them from the rate")
+
+
 def format_trc(motion: Motion, *, file_name: str = "") -> str:
     """TRC text for a Motion (OpenSim layout, gaps as empty fields).
 
@@ -311,20 +367,11 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
     first = start_frame(motion)
     if "trc.OrigDataStartFrame" not in meta:
         head["OrigDataStartFrame"] = str(first)
+    t0, dt, tdig = _time_column(motion)
     try:
-        # a C3D's frame n is at (n - 1) / rate (its frames count from 1)
-        on_grid = (first - 1) / motion.rate
-        t0 = float(meta.get("start_time", repr(on_grid)))
-        dt = int(meta.get("trc.TimeDecimals", "6"))
         dv = column_decimals(motion)
-        tdig = int(meta.get("trc.TimeDigits", str(dt)))
-        if round(t0, tdig) == round(on_grid, tdig):
-            # the first time as printed is (first - 1) / rate's: count from that, not from
-            # its rounding, so that a file written again keeps every time (a QA run of
-            # stop 47: 0.408333 + 1/120 printed 0.416666 where the source had 0.416667)
-            t0 = on_grid
     except ValueError:
-        t0, dt, dv, tdig = 0.0, 6, 6, 6
+        dv = 6
     out = [
         f"PathFileType\t{kind}\t{name}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
