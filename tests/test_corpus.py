@@ -380,7 +380,7 @@ def test_a_bug_stops_the_run_and_keeps_what_finished(corpus):
                 raise RuntimeError("a bug")
             return motion, OPTS, []
 
-        def key(self, source: str, units: str) -> str:
+        def key(self, source: str, own_units: bool) -> str:
             return ""
 
     with pytest.raises(RuntimeError, match="a bug"):
@@ -1583,8 +1583,8 @@ def test_units_re_encode_only_the_files_whose_unit_they_name(tmp_path, two_joint
     """`--units` names the unit of an input without one (a BVH) and leaves the others: in a
     corpus run it re-encodes only those (a QA run of stop 47: adding --units cm for one
     BVH encoded every file of the folder again). The TRC (mm) stays up to date through
-    adding, changing and removing --units; the BVH is encoded again each time, and its
-    output says the unit asked for."""
+    adding, changing and removing --units, also when --units names its own unit; the BVH
+    is encoded again each time, and its output says the unit asked for."""
     from mpz.tools import mpz_cli
     src, out = tmp_path / "src", tmp_path / "out"
     src.mkdir()
@@ -1605,6 +1605,14 @@ def test_units_re_encode_only_the_files_whose_unit_they_name(tmp_path, two_joint
     assert run() == {"a": "skipped", "b": "encoded"}
     assert mpz.info(out / "b.mpz").units == ""
     assert run() == {"a": "skipped", "b": "skipped"}
+    # the unit the TRC declares itself (a QA run of stop 48: naming it, and leaving it,
+    # encoded the TRC again each time)
+    assert mpz.info(out / "a.mpz").units == "mm"
+    assert run("--units", "mm") == {"a": "skipped", "b": "encoded"}
+    assert run("--units", "cm") == {"a": "skipped", "b": "encoded"}
+    assert run("--units", "mm") == {"a": "skipped", "b": "encoded"}
+    assert run("--units", "mm") == {"a": "skipped", "b": "skipped"}
+    assert mpz.info(out / "b.mpz").units == "mm"
 
 
 def test_a_result_lost_with_the_last_worker_does_not_wait_for_ever(monkeypatch):

@@ -187,8 +187,9 @@ class FileOptions(Protocol):
     these three methods; it goes to the workers, so it must pickle.
 
     A file's fingerprint (:func:`fingerprint`) is that of ``options(units)`` and
-    ``key(source, units)``, computed without opening the file (the up-to-date check, with
-    the units of the output the index records); ``key`` must therefore name every input of
+    ``key(source, own_units)``, computed without opening the file (the up-to-date check,
+    with the units of the output the index records, tried both with and without a unit of
+    the source's own: :func:`_up_to_date`); ``key`` must therefore name every input of
     ``prepare`` that ``options`` does not show, and ``options`` must depend on the units
     alone (it is called more than once for a file: in the up-to-date check, and on the
     worker).
@@ -201,9 +202,10 @@ class FileOptions(Protocol):
         """The motion to encode, its options, and notes for the report (what is not kept
         or what changed), for ``source`` as read."""
 
-    def key(self, source: str, units: str) -> str:
-        """What ``prepare`` adds to ``options`` for ``source``, whose output is in ``units``
-        ('' for nothing)."""
+    def key(self, source: str, own_units: bool) -> str:
+        """What ``prepare`` adds to ``options`` for ``source`` ('' for nothing);
+        ``own_units``: whether the source declares its length unit (a C3D in mm), so that
+        an option naming the unit of sources without one (``--units``) leaves it out."""
 
 
 class _Plain:
@@ -215,7 +217,7 @@ class _Plain:
     def prepare(self, source: str, motion: Motion) -> tuple[Motion, EncodeOptions, list[str]]:
         return motion, self.options(motion.units), []
 
-    def key(self, source: str, units: str) -> str:
+    def key(self, source: str, own_units: bool) -> str:
         return ""
 
 
@@ -495,6 +497,7 @@ def encode_file(task: Task) -> FileResult:
         src_bytes = st.st_size
         sha = sha256_file(task.source)
         motion = read(task.source, asf=task.asf)
+        own_units = bool(motion.units)        # before --units names a unit for it
         motion, opts, notes = task.options.prepare(task.source, motion)
         warning = str(motion.metadata.get("warning", ""))   # the reader's (kept in the meta)
         # a file the index cannot describe (one frame, no valid sample, fewer than three
@@ -509,7 +512,7 @@ def encode_file(task: Task) -> FileResult:
             summary = None
             notes = [*notes, f"not searchable ({exc}): indexed without a summary, and "
                              "mpz search leaves it out"]
-        fp = _fingerprint(task, motion.units)
+        fp = _fingerprint(task, motion.units, own_units)
         data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns,
                                              task.indexed)
         status = "kept"
@@ -546,10 +549,11 @@ def encode_file(task: Task) -> FileResult:
                       not_kept(motion, opts), warning)
 
 
-def _fingerprint(task: Task, units: str) -> str:
-    """The fingerprint of ``task``'s output for a source in ``units``: its options, and
-    what the output depends on besides the source file (:func:`_beside`)."""
-    key = ";".join(k for k in (_beside(task), task.options.key(task.source, units)) if k)
+def _fingerprint(task: Task, units: str, own_units: bool) -> str:
+    """The fingerprint of ``task``'s output in ``units`` of a source that declares its unit
+    or not (``own_units``): its options, and what the output depends on besides the source
+    file (:func:`_beside`)."""
+    key = ";".join(k for k in (_beside(task), task.options.key(task.source, own_units)) if k)
     return fingerprint(task.options.options(units), task.levels, key)
 
 
@@ -1121,10 +1125,14 @@ def _up_to_date(row: dict[str, Any] | None, task: Task) -> bool:
     try:
         st = os.stat(task.source)
         out = os.stat(task.output)
-        fp = _fingerprint(task, row["units"])
+        # the index does not say whether the source declares its unit: an output with a
+        # unit is up to date under either reading (a source without one got it from the
+        # options, which the key then names); one without a unit had none of its own
+        fps = {_fingerprint(task, row["units"], own) for own in
+               ((False, True) if row["units"] else (False,))}
     except (OSError, MPZError):
         return False
-    return (row["fingerprint"] == fp and row["source_bytes"] == st.st_size
+    return (row["fingerprint"] in fps and row["source_bytes"] == st.st_size
             and row["source_mtime_ns"] == st.st_mtime_ns and out.st_size == row["total_bytes"]
             and out.st_mtime_ns >= st.st_mtime_ns)
 

@@ -698,16 +698,15 @@ class PerFile:
         return motion, opts, (_input_notes(self.args, motion, source, batch=True) + notes
                               + _option_notes(self.args, opts))
 
-    def key(self, source: str, units: str) -> str:
+    def key(self, source: str, own_units: bool) -> str:
         from mpz.io import SKELETON_FORMATS
         from mpz.io._common import ext_of
         a = self.args
         # --units names the unit of a file without one, and leaves the others: it joins the
-        # key of an output in that unit (given it, or declaring it) or in none (written
-        # before --units, which would now name its unit), not of the others, so that adding
-        # --units for the BVH files of an archive leaves its C3D files up to date (a QA run
-        # of stop 47 saw every file encoded again)
-        parts = [] if a.units is None or units not in (a.units, "") else [f"units={a.units}"]
+        # key of a source without a unit only, so that adding or changing --units for the
+        # BVH files of an archive leaves its C3D files up to date (a QA run of stop 47 saw
+        # every file encoded again; one of stop 48, those already in the unit named)
+        parts = [f"units={a.units}"] if a.units is not None and not own_units else []
         if a.rate is not None and ext_of(source) in RATELESS_FORMATS:
             parts.append(f"rate={a.rate!r}")
         if ext_of(source) in SKELETON_FORMATS:
