@@ -36,6 +36,7 @@ import pytest
 import mpz
 from mpz.corpus import (
     INDEX_NAME,
+    LOCK_NAME,
     META_FINGERPRINT,
     META_SHA256,
     CorpusReport,
@@ -1076,6 +1077,49 @@ def test_mpz_encode_r_interrupted_with_sigint_then_resumed(tmp_path):
 
 
 @needs_dask
+@pytest.mark.skipif(os.name != "posix", reason="SIGTERM to a child process is POSIX")
+def test_sigterm_ends_a_run_as_ctrl_c_does(tmp_path):
+    """A QA run of stop 48: SIGTERM (what `timeout`, `kill`, a batch system send, to the
+    command alone) ended the run with no word and left the index in WAL mode, its
+    committed rows in index.sqlite-wal alone (a copy of index.sqlite was an empty
+    database), and the lock file behind. The index's header is read here by the SQLite
+    file format (bytes 18-19: 1 rollback journal, 2 WAL), then copied alone and opened."""
+    import sqlite3
+    src, out = tmp_path / "src", tmp_path / "out"
+    make_sources(src, frames=1500)
+    for i in range(3):
+        write(generate("mixed", frames=1500, seed=10 + i), src / f"mixed{i}.trc")
+    out.mkdir()
+    argv = [_mpz(), "encode", "-r", str(src), "-o", f"{out}/", "--jobs", "1",
+            "--max-error", "1mm"]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+
+    def indexed() -> int:                         # rows committed so far (WAL: readable)
+        try:
+            uri = f"file:{out / INDEX_NAME}?mode=ro"          # never creates the file
+            with contextlib.closing(sqlite3.connect(uri, uri=True, timeout=0.1)) as db:
+                return int(db.execute("SELECT COUNT(*) FROM files").fetchone()[0])
+        except sqlite3.Error:
+            return 0
+    deadline = time.monotonic() + 120
+    while not indexed() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)              # the command alone, not its group
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert "terminated (signal 15)" in err and "Traceback" not in err, err
+    assert not (out / LOCK_NAME).exists() and not (out / f"{INDEX_NAME}-wal").exists()
+    assert (out / INDEX_NAME).read_bytes()[18:20] == b"\x01\x01"
+    shutil.copy(out / INDEX_NAME, tmp_path / "copy.sqlite")
+    db = sqlite3.connect(tmp_path / "copy.sqlite")
+    rows = {Path(o).name for (o,) in db.execute("SELECT output FROM files")}
+    db.close()
+    assert rows and rows <= {p.name for p in out.glob("*.mpz")}
+    assert temporaries(out) == []
+
+
+@needs_dask
 def test_ctrl_c_while_the_workers_start_is_one_clean_line(tmp_path):
     """Ctrl-C as the local cluster's workers start: each worker, still importing, printed a
     KeyboardInterrupt traceback, and the driver, stopped inside LocalCluster, a failed
@@ -1314,7 +1358,6 @@ def test_a_second_run_into_the_same_folder_stops_at_once(corpus, capsys):
     leaves no lock file behind."""
     import fcntl
 
-    from mpz.corpus import LOCK_NAME
     from mpz.tools import mpz_cli
     src, out, _ = corpus
     out.mkdir()

@@ -9,8 +9,9 @@ progress bar on stderr (a terminal only; none with ``-q``), then the summary tab
 bytes in and out, failures with their reasons) on stdout, or ``--json`` (schema
 ``mpz-corpus/1``).
 
-Exit codes: 0 every file encoded or up to date; 2 some failed; 64 usage; 130 interrupted
-(the files that finished are kept and indexed; the next run resumes).
+Exit codes: 0 every file encoded or up to date; 2 some failed; 64 usage; 130 interrupted,
+143 terminated (SIGTERM; 129 SIGHUP): the files that finished are kept and indexed, and
+the next run resumes.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ import argparse
 from collections.abc import Sequence
 import importlib.util
 import os
+import signal
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -123,6 +125,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     ``options`` makes each file's options (``mpz.tools.cmd_encode.PerFile``); it is sent
     to the workers, so it must pickle.
     """
+    from mpz.api import signals_exit
     from mpz.corpus import DEFAULT_MEMORY_LIMIT, encode_corpus
     from mpz.tools._cli import EXIT_USAGE, EXIT_WARN, print_json, printable
     from mpz.tools._common import STDIO, is_folder_target
@@ -150,13 +153,25 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
               file=sys.stderr)
     bar = _Bar(enabled=not quiet and not args.json)
     try:
-        report = encode_corpus([(j.input, j.output) for j in planned], args.output, options,
-                               workers=workers, scheduler=scheduler,
-                               memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
-                               force=bool(getattr(args, "force", False)), progress=bar,
-                               asf=getattr(args, "asf", None),
-                               failed=[(j.input, j.output, j.error) for j in jobs
-                                       if j.error is not None])
+        # SIGTERM (a batch system's kill, `timeout`, Docker) and SIGHUP end the run as
+        # Ctrl-C does: the index goes back to its rollback journal, the lock is removed,
+        # the local cluster is closed (a QA run of stop 48: a SIGTERM left the committed
+        # rows in index.sqlite-wal alone, so a copy of index.sqlite was empty)
+        with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+            report = encode_corpus([(j.input, j.output) for j in planned], args.output,
+                                   options, workers=workers, scheduler=scheduler,
+                                   memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
+                                   force=bool(getattr(args, "force", False)), progress=bar,
+                                   asf=getattr(args, "asf", None),
+                                   failed=[(j.input, j.output, j.error) for j in jobs
+                                           if j.error is not None])
+    except SystemExit as exc:
+        if exc.code not in (128 + signal.SIGTERM, 128 + getattr(signal, "SIGHUP", 1)):
+            raise
+        print(f"mpz encode: terminated (signal {int(exc.code) - 128}): the files that "
+              "finished are written and indexed; run the same command again to encode the "
+              "rest", file=sys.stderr)
+        return int(exc.code)
     finally:
         bar.close()
     failed = len(report.failed)
