@@ -873,7 +873,23 @@ class Index:
             if not isinstance(d, bytes) or len(d) != width or not np.all(
                     np.isfinite(np.frombuffer(d, "<f8"))):
                 bad.add(out)
-        return bad | self._cut_short()
+        return bad | self._cut_short() | self._levels_missing()
+
+    def _levels_missing(self) -> set[str]:
+        """Output keys of rows of the index's levels (a descriptor of its width) whose
+        stored levels are not the summary's, min(k, frames) for each k of them: a level
+        row deleted (a QA run of stop 48: the row passed the run as up to date, and a
+        query by its own file ranked it at 0.635, not 0). Rows of other levels (a run
+        with other levels into the index) are left to :meth:`descriptors`."""
+        levels = self.levels()
+        width = 8 * len(features_for(levels))
+        have: dict[str, set[int]] = {}
+        for out, k in self.db.execute("SELECT output, k FROM levels"):
+            have.setdefault(out, set()).add(int(k))
+        return {out for out, frames, d in self.db.execute(
+                    "SELECT output, frames, length(descriptor) FROM files WHERE "
+                    "summary_method != ?", (NO_SUMMARY,))
+                if d == width and have.get(out, set()) != {min(k, frames) for k in levels}}
 
     def _cut_short(self) -> set[str]:
         """Output keys of rows without a level, or with a level whose byte strings are not
@@ -939,7 +955,7 @@ class Index:
             if not np.all(np.isfinite(d)):
                 raise EncoderError(f"{self.path}: the row of {v['output']} is damaged (its "
                                    f"descriptor is not finite); {_REBUILD}")
-        bad = sorted(self._cut_short())
+        bad = sorted(self._cut_short() | self._levels_missing())
         if bad:
             raise EncoderError(f"{self.path}: the row of {bad[0]} is damaged (its stored "
                                f"summary is cut short or missing); {_REBUILD}")
