@@ -335,6 +335,27 @@ def test_metadata_beyond_the_limits_is_refused_not_cut(meta, match):
     assert mpz.decode(mpz.encode(m, max_error=1.0, metadata=ok)).metadata["k" * 255] == "v" * 65535
 
 
+@pytest.mark.parametrize("key", ["format", "units_in_file", "channels"])
+def test_metadata_keys_the_readers_set_are_refused_as_by_the_cli(key, tmp_path):
+    """A QA run of stop 48: mpz.encode(metadata={"format": "bvh"}) was taken (the CLI's
+    --meta format=bvh is refused), and `mpz decode` of the file could not name its output.
+    "subject" describes a person and "source" names the file (mpz decode names its output
+    by it): both stay allowed; a reader's own keys still go in."""
+    m = generate("walk", frames=20, seed=1)
+    with pytest.raises(EncoderError, match=f"metadata '{key}': a key the readers set"):
+        mpz.encode(m, max_error=1.0, metadata={key: "bvh"})
+    data = mpz.encode(m, max_error=1.0, metadata={"subject": "P07", "source": "w.c3d"})
+    assert mpz.decode(data).metadata["subject"] == "P07"
+    (tmp_path / "g.mpz").write_bytes(data)
+    p = subprocess.run([str(Path(sys.executable).parent / "mpz"), "decode", "g.mpz"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and (tmp_path / "g.c3d").exists(), p.stderr
+    from mpz.io import read, write
+    write(m, tmp_path / "w.trc")
+    got = mpz.decode(mpz.encode(read(tmp_path / "w.trc"), max_error=1.0)).metadata
+    assert got["format"] == "trc" and got["source"] == "w.trc"
+
+
 @pytest.mark.parametrize("ext", [".c3d", ".trc", ".npy", ".csv"])
 def test_write_to_a_missing_folder_says_so(tmp_path, ext):
     """ezc3d wrote nothing and returned: a C3D lost without a word."""

@@ -641,7 +641,7 @@ class FileInfo:
     #: the file's length in bytes
     size: int
     summary_levels: tuple[int, ...] = ()
-    #: the file's metadata entries (MMET, §4.11), as stored
+    #: the file's metadata entries (the meta chunk, §4.11), as stored
     metadata: Mapping[str, str] = field(default_factory=dict)
     chunk_bytes: Mapping[str, int] = field(default_factory=dict)
 

@@ -185,7 +185,9 @@ class EncodeOptions:
     #: issue 14.12: "smrc" the range-coded summary chunk (§4.15, MPZ 1.1; the default), or
     #: "smry" the raw 1.0 chunk (§4.10) for readers that know only 1.0
     summary_format: str = "smrc"
-    #: extra §4.11 metadata, added to ``motion.metadata``
+    #: extra §4.11 metadata, added to ``motion.metadata``; not the keys the readers set to
+    #: describe their file (``mpz.io.READER_KEYS``: ``format`` ...), but for ``subject``
+    #: and ``source`` (:func:`reader_key`)
     metadata: Mapping[str, str] = field(default_factory=dict)
     #: seed of the clustering (the encoder is deterministic)
     seed: int = 0
@@ -454,6 +456,27 @@ def check_option_values(o: EncodeOptions) -> None:
                                f"§4.3), got {w!r}")
     _metadata_utf8(o.metadata)
     check_metadata(o.metadata)      # an empty key was refused only with the motion's own
+    reserved = [k for k in o.metadata if reader_key(k)]
+    if reserved:
+        raise EncoderError(f"metadata {reserved[0]!r}: a key the readers set to describe the "
+                           "file they read, which the tools go by (mpz decode, mpz show); "
+                           f"give your own name, e.g. {reserved[0]}_note")
+
+
+#: the reader keys (:data:`mpz.io.READER_KEYS`) that the options' metadata may set: a C3D's
+#: subject names a person, which a caller may give a motion from any source; the source's
+#: file name, which the CLI and corpus runs set this way and by which `mpz decode` names
+#: its output (a caller encoding a motion made in memory may give one)
+OWN_METADATA_KEYS = frozenset({"subject", "source"})
+
+
+def reader_key(key: str) -> bool:
+    """Whether ``key`` is one the readers set to describe the file they read and the tools
+    go by (``format`` picks ``mpz decode``'s writer): refused in ``metadata`` (the CLI's
+    ``--meta``), since a file claiming ``format=bvh`` could not be decoded by name (a QA
+    run of stop 48: the API took it, the CLI refused it), except :data:`OWN_METADATA_KEYS`."""
+    from mpz.io import READER_KEYS
+    return key in READER_KEYS and key not in OWN_METADATA_KEYS
 
 
 def _consistent(motion: Motion) -> None:

@@ -188,20 +188,15 @@ def _option_notes(args: argparse.Namespace, opts: EncodeOptions) -> list[str]:
     return _loose_group_errors(opts) + _reader_keys(args) + idle
 
 
-#: the reader keys --meta may set: descriptive ones, which nothing reads back to decide
-#: anything (the others name the format, source, skeleton... a decoder goes by)
-META_KEYS_ALLOWED = frozenset({"subject"})
-
-
 def _check_meta_keys(items: list[str] | None) -> None:
     """Refuse a --meta key that a reader sets and the tools read back (a QA run: --meta
     format=bvh made every later mpz decode of the file try to write BVH, and fail), and a
     key given twice (the last value was kept without a word)."""
-    from mpz.io import READER_KEYS
+    from mpz.encoder import reader_key
     seen: set[str] = set()
     for item in items or []:
         key = item.split("=", 1)[0] if "=" in item else item
-        if key in READER_KEYS and key not in META_KEYS_ALLOWED:
+        if reader_key(key) or key == "source":        # the CLI names it from the input
             raise EncoderError(f"--meta {key}: a key the readers set to describe the file "
                                f"they read, which the tools go by (mpz decode, mpz show); "
                                f"give your own name, e.g. --meta {key}_note=...")
