@@ -6,6 +6,7 @@ from __future__ import annotations
 import inspect
 import io
 from pathlib import Path
+import re
 
 import numpy as np
 import pytest
@@ -192,3 +193,35 @@ def test_bad_corpus_workers_and_a_str_of_mpz_bytes_are_refused_at_once(tmp_path)
     data = mpz.encode(Motion(np.zeros((2, 1, 3)), ["A"], rate=10.0), max_error=1.0)
     with pytest.raises(TypeError, match="pass the MPZ data as bytes"):
         mpz.decode(data.decode("latin-1"))
+
+
+@pytest.mark.parametrize("kw, said", [
+    ({"seed": "a"}, "seed must be a whole number, got 'a'"),
+    ({"seed": -1}, "seed must be at least 0, got -1"),
+    ({"frames": "10"}, "frames must be a whole number, got '10'"),
+    ({"frames": 2.5}, "frames must be a whole number, got 2.5"),
+    ({"markers": 3.0}, "markers must be a whole number, got 3.0"),
+])
+def test_generate_refuses_what_is_not_a_whole_number(kw, said):
+    """A QA run of stop 48: frames="10" was taken, 2.5 cut to 2, and a seed of "a" or -1
+    failed inside numpy (TypeError, ValueError) where the docs promise MotionError."""
+    from mpz.errors import MotionError
+    from mpz.synth import generate
+    with pytest.raises(MotionError, match=re.escape(said)):
+        generate("walk", **kw)
+    assert generate("walk", frames=np.int64(12), seed=np.int32(3)).n_frames == 12
+
+
+def test_select_frames_refuses_bounds_that_are_not_whole_numbers():
+    """A QA run of stop 48: select_frames(0.5, 3) and ("a", 3) raised numpy's TypeError."""
+    from mpz.errors import MotionError
+    from mpz.synth import generate
+    m = generate("walk", frames=20)
+    for bounds in ((0.5, 3), ("a", 3), (0, True)):
+        with pytest.raises(MotionError, match="must be a whole number or None"):
+            m.select_frames(*bounds)
+    with pytest.raises(MotionError, match=r"select_frames\(5, 5\) holds no frame of the 20"):
+        m.select_frames(5, 5)
+    part = m.select_frames(-3, None)
+    assert part.n_frames == 3 and np.array_equal(part.positions, m.positions[17:],
+                                                 equal_nan=True)

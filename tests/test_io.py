@@ -996,3 +996,14 @@ def test_c3d_values_a_gap_cannot_keep_are_said(tmp_path):
     assert "2 samples with a NaN coordinate and a residual >= 0 will be written back as " \
            "(0, 0, 0)" in warning
     assert got.valid.sum() == 15 - 3
+
+
+@pytest.mark.parametrize("ext", [".xyz", "npy", ""])
+def test_check_writable_refuses_an_extension_no_writer_has(ext):
+    """A QA run of stop 48: check_writable(m, ".xyz") and (m, "npy") returned [], no note,
+    as if the format could hold the motion; the writers are named."""
+    from mpz.io import check_writable
+    m = Motion(np.ones((2, 1, 3)), ["A"], 10.0, "mm")
+    with pytest.raises(InputFormatError, match=r"cannot write .*; can write \.c3d"):
+        check_writable(m, ext)
+    assert check_writable(m, ".trc") == []           # a writer that holds it all

@@ -239,9 +239,23 @@ class Motion:
         """Bytes of the same data as float32 xyz: 12 bytes per marker-frame."""
         return 12 * self.n_frames * self.n_markers
 
-    def select_frames(self, start: int, stop: int) -> Motion:
+    def select_frames(self, start: int | None, stop: int | None) -> Motion:
         """A copy holding frames ``start:stop`` (``extras``, which describe a whole source
-        file, are not carried over)."""
+        file, are not carried over).
+
+        Raises
+        ------
+        MotionError
+            For a bound that is not a whole number (None: the start or the end), or a
+            range without frames (it raised numpy's TypeError, or a Motion's own error
+            about its positions; a QA run of stop 48)."""
+        for name, v in (("start", start), ("stop", stop)):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
+                raise MotionError(f"select_frames: {name} must be a whole number or None, "
+                                  f"got {v!r}")
+        if not len(range(self.n_frames)[start:stop]):
+            raise MotionError(f"select_frames({start}, {stop}) holds no frame of the "
+                              f"{self.n_frames}")
         return Motion(self.positions[start:stop].copy(), list(self.names), self.rate, self.units,
                       self.valid[start:stop].copy(), dict(self.metadata), self.parents,
                       None if self.angles is None else self.angles[start:stop].copy(),

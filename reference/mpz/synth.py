@@ -373,6 +373,17 @@ def _place(sole: _F64, air: _F64, vx: _F64, dt: float) -> _F64:
     return root
 
 
+def _whole(value: object, name: str, low: int) -> int:
+    """``value`` as a whole number of at least ``low`` (an int or numpy integer; not
+    "10", 2.5 or True), else MotionError: "10" was taken, 2.5 cut to 2, and a seed of "a"
+    or -1 failed inside numpy (a QA run of stop 48)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise MotionError(f"{name} must be a whole number, got {value!r}")
+    if value < low:
+        raise MotionError(f"{name} must be at least {low}, got {value}")
+    return int(value)
+
+
 def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed: int = 0,
              noise_mm: float = 0.3, gap_fraction: float = 0.0,
              markers: int | None = None) -> Motion:
@@ -423,9 +434,8 @@ def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed
     """
     if kind not in _KIND_FUNCS:
         raise MotionError(f"unknown synthetic motion kind {kind!r}, expected one of {KINDS}")
-    frames = int(frames)
-    if frames < 1:
-        raise MotionError(f"frames must be at least 1, got {frames}")
+    frames = _whole(frames, "frames", 1)
+    seed = _whole(seed, "seed", 0)
     rate = float(rate)
     if not np.isfinite(rate) or rate <= 0:
         raise MotionError(f"rate must be finite and positive, got {rate!r}")
@@ -433,7 +443,7 @@ def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed
         raise MotionError(f"noise_mm must be finite and >= 0, got {noise_mm!r}")
     if not (0.0 <= gap_fraction <= 1.0):
         raise MotionError(f"gap_fraction must be in [0, 1], got {gap_fraction!r}")
-    n_out = len(MARKERS) if markers is None else int(markers)
+    n_out = len(MARKERS) if markers is None else _whole(markers, "markers", 1)
     if not 1 <= n_out <= len(MARKERS):
         raise MotionError(f"markers must be in 1..{len(MARKERS)}, got {markers!r}")
 

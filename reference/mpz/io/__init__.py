@@ -683,8 +683,14 @@ def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None,
     Raises
     ------
     InputFormatError
-        Naming ``path`` and every reason (see :func:`writer_problems`).
+        Naming ``path`` and every reason (see :func:`writer_problems`); for an ``ext``
+        that no writer has (``".xyz"``, or ``"npy"`` without its dot: it returned no
+        note, as if writable; a QA run of stop 48).
     """
+    if ext not in WRITERS:      # ".xyz", or "npy" without its dot, passed as writable
+        raise InputFormatError(f"cannot write {ext or '(no extension)'!r}; can write "
+                               f"{', '.join(WRITERS)}",
+                               path=None if path is None else os.fspath(path))
     refuse, notes = writer_problems(motion, ext)
     if refuse:
         raise InputFormatError(f"cannot write {FORMAT_NAMES.get(ext, ext)}: "
