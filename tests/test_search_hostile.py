@@ -390,3 +390,17 @@ def test_damaged_rows_are_refused_by_search_and_rebuilt_by_a_run(corpus, capsys,
     code, o, _ = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
     top = json.loads(o)["results"][0]
     assert code == 0 and top["output"] == "walk.mpz" and top["distance"] == 0.0
+
+
+def test_one_file_and_one_moved_source_are_said_in_the_singular(tmp_path, capsys):
+    """A QA run of stop 48: "1 files in OUT/index.sqlite" and "1 of the sources listed it
+    is no longer at the path"."""
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    write(generate("walk", frames=90, seed=1), src / "walk.trc")
+    run_corpus(src, out)
+    query = tmp_path / "q.trc"
+    (src / "walk.trc").rename(query)
+    code, o, err = search(capsys, str(query), "--index", str(out))
+    assert code == 0 and f"\n1 file in {out / INDEX_NAME};" in o, o
+    assert "note: 1 of the sources listed is no longer at the path the index holds" in err

@@ -188,8 +188,10 @@ class C3DArchive:
         if H:
             parts.append(f"{H} event{'s' * (H != 1)} (header)")
         groups = c["parameter_groups"]
-        parts += [f"the parameter section ({groups} groups, {c['parameter_records'] - groups} "
-                  "parameters)", "the header", "the points' residual and camera words"]
+        params = c["parameter_records"] - groups
+        parts += [f"the parameter section ({groups} group{'s' * (groups != 1)}, {params} "
+                  f"parameter{'s' * (params != 1)})", "the header",
+                  "the points' residual and camera words"]
         return ", ".join(parts)
 
     def sizes(self) -> dict[str, int]:

@@ -264,7 +264,8 @@ def run(args: argparse.Namespace) -> int:
           f"{summary.dims // 3} markers; summary from {origin}")
     also = (f" (and {left_out} not searchable: fewer than 2 frames or 3 markers)"
             if left_out else "")
-    print(f"{len(values)} files in {printable(index_path)}{also}; nearest first (= marks a "
+    n = len(values)
+    print(f"{n} file{'s' * (n != 1)} in {printable(index_path)}{also}; nearest first (= marks a "
           f"byte-identical source; outputs relative to {printable(_shown(folder))})")
     print(f"{'rank':>4} {'distance':>9} {'frames':>7} {'secs':>7} {'markers':>7}  "
           "output  <- source")
@@ -281,10 +282,10 @@ def run(args: argparse.Namespace) -> int:
               " no longer in the index's folder ([missing] after the output); the next mpz "
               "encode -r into it forgets such rows", file=sys.stderr)
     if moved:
-        its = "it is" if moved == 1 else "they are"
-        print(f"mpz search: note: {moved} of the sources listed {its} no longer at the "
-              "path the index holds ([missing] after the source); the .mpz holds the motion",
-              file=sys.stderr)
+        what = ("1 of the sources listed is" if moved == 1 else
+                f"{moved} of the sources listed are")
+        print(f"mpz search: note: {what} no longer at the path the index holds ([missing] "
+              "after the source); the .mpz holds the motion", file=sys.stderr)
     return code
 
 
