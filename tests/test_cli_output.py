@@ -525,6 +525,27 @@ def test_a_ctrl_c_after_the_output_is_written_says_so(tmp_path: Path, capsys,
     assert mpz.info(tmp_path / "w.mpz").frames == 30                  # the new file, whole
 
 
+def test_a_sigterm_after_the_output_is_written_says_so(tmp_path: Path) -> None:
+    """The same for SIGTERM (a QA run of stop 48: exit 143, which README gives as
+    "terminated while writing an output", and no word, with the output complete). In a
+    child process: on code without the handler the signal ends the process."""
+    write(generate("walk", frames=30, markers=5, seed=2), tmp_path / "w.trc")
+    script = (
+        "import os, signal, sys, time\n"
+        "import mpz\n"
+        "from mpz.tools import mpz_cli\n"
+        "def terminated(*a, **k):\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    time.sleep(5)\n"
+        "mpz.decode = terminated\n"
+        "sys.exit(mpz_cli.main(['encode', 'w.trc', '-o', 'w.mpz', '--max-error', '1mm']))\n")
+    p = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 143, (p.returncode, p.stderr)
+    assert "w.mpz was written (the SIGTERM came while its report was measured)" in p.stderr
+    assert mpz.info(tmp_path / "w.mpz").frames == 30
+
+
 def test_another_users_file_in_a_sticky_folder_is_refused_before_the_work(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """In a folder with the sticky bit (/tmp, shared folders) only a file's owner, the

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import signal
 import sys
 from typing import TYPE_CHECKING
 
@@ -432,13 +433,19 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         write_stdout(data, binary=True, force=args.force)
     else:
         mpz.write_atomic(job.output, data, source=source, force=args.force)
-    try:            # the report's figures: a Ctrl-C here finds the output already written
-        decoded = mpz.decode(data)
-        stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
-        err = error_summary(motion, decoded)
-    except KeyboardInterrupt:
-        if not to_stdout:       # 130 read as "nothing changed" lost a --force target (QA)
-            print(f"mpz encode: {printable(job.output)} was written (the interrupt came "
+    # the report's figures: a Ctrl-C or SIGTERM here finds the output already written
+    from mpz.api import signals_exit
+    try:
+        with signals_exit(signal.SIGTERM):
+            decoded = mpz.decode(data)
+            stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
+            err = error_summary(motion, decoded)
+    except (KeyboardInterrupt, SystemExit) as exc:
+        # 130 or 143 read as "nothing changed" lost a --force target (QA, stops 47, 48)
+        if not to_stdout and (isinstance(exc, KeyboardInterrupt)
+                              or exc.code == 128 + signal.SIGTERM):
+            print(f"mpz encode: {printable(job.output)} was written (the "
+                  f"{'interrupt' if isinstance(exc, KeyboardInterrupt) else 'SIGTERM'} came "
                   "while its report was measured)", file=sys.stderr)
         raise
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
