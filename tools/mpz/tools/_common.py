@@ -198,7 +198,8 @@ def compile_notice(quiet: bool = False, verbose: bool = False, *, announce: bool
         return
     if kernels_need_compiling():
         print("mpz: first run after install: compiling the codec's kernels "
-              "(10-25 s, cached for later runs)", file=sys.stderr, flush=True)
+              "(about 10-30 s, longer on a busy machine; cached for later runs)",
+              file=sys.stderr, flush=True)
 
 
 # -- inputs: files, standard input ----------------------------------------------------------
