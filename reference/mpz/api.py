@@ -588,7 +588,9 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
         regular file, or beyond a limit. ``MemoryError`` is not caught: running
         out of memory says nothing about the file (spec §8).
     TypeError
-        If ``source`` is none of the above.
+        If ``source`` is none of the above, or ``max_samples`` is not an integer.
+    ValueError
+        If ``max_samples`` is outside 1 .. MAX_SAMPLES.
 
     Examples
     --------
@@ -764,7 +766,9 @@ class Summary:
     def preview(self, k: int | None = None, mode: str = "constant") -> Motion:
         """A preview Motion rebuilt from the summary alone (positions relative to the root),
         from the level of ``k`` segments (default: the finest); ``mode`` "constant" (each
-        frame its segment's mean) or "linear"."""
+        frame its segment's mean) or "linear". KeyError (as :meth:`level`) for a ``k`` the
+        file does not hold, ValueError for another mode, FormatError for a summary of
+        joint angles (space 1)."""
         from mpz.fisher import preview_series
         from mpz.motion import Motion
         if mode not in ("constant", "linear"):
