@@ -1038,16 +1038,22 @@ def _mpz() -> str:
     return found
 
 
-@needs_dask
-@pytest.mark.skipif(os.name != "posix", reason="SIGINT to a child process is POSIX")
-def test_mpz_encode_r_interrupted_with_sigint_then_resumed(tmp_path):
+def _slow_run(tmp_path: Path) -> tuple[Path, list[str]]:
+    """A folder of sources that one worker takes seconds to encode, its output folder, and
+    the `mpz encode -r` command line for it (to stop it half-way)."""
     src, out = tmp_path / "src", tmp_path / "out"
     make_sources(src, frames=1500)
     for i in range(3):
         write(generate("mixed", frames=1500, seed=10 + i), src / f"mixed{i}.trc")
     out.mkdir()
-    argv = [_mpz(), "encode", "-r", str(src), "-o", f"{out}/", "--jobs", "1",
-            "--max-error", "1mm"]
+    return out, [_mpz(), "encode", "-r", str(src), "-o", f"{out}/", "--jobs", "1",
+                 "--max-error", "1mm"]
+
+
+@needs_dask
+@pytest.mark.skipif(os.name != "posix", reason="SIGINT to a child process is POSIX")
+def test_mpz_encode_r_interrupted_with_sigint_then_resumed(tmp_path):
+    out, argv = _slow_run(tmp_path)
     # its own process group, as a shell runs it: Ctrl-C reaches the workers too
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
@@ -1085,13 +1091,7 @@ def test_sigterm_ends_a_run_as_ctrl_c_does(tmp_path):
     database), and the lock file behind. The index's header is read here by the SQLite
     file format (bytes 18-19: 1 rollback journal, 2 WAL), then copied alone and opened."""
     import sqlite3
-    src, out = tmp_path / "src", tmp_path / "out"
-    make_sources(src, frames=1500)
-    for i in range(3):
-        write(generate("mixed", frames=1500, seed=10 + i), src / f"mixed{i}.trc")
-    out.mkdir()
-    argv = [_mpz(), "encode", "-r", str(src), "-o", f"{out}/", "--jobs", "1",
-            "--max-error", "1mm"]
+    out, argv = _slow_run(tmp_path)
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
 
