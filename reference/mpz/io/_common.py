@@ -285,9 +285,9 @@ def values_at_gaps(pos: NDArray[np.float64], gap: NDArray[np.bool_], names: list
                    what: str) -> str:
     """A reader's warning for the samples of ``pos[F, M, 3]`` that become gaps (``gap``)
     while they hold a coordinate (other than C3D's usual gap, exactly (0, 0, 0)): a gap
-    keeps none (spec §4.5), so the value is lost.
-    ``what`` says which samples those are in the format's words. Empty when there are
-    none. (A QA of stop 48: TRC cells and C3D coordinates went without a word.)"""
+    keeps none (spec §4.5), so the value is lost. ``what`` says which samples those are
+    in the format's words. Empty when there are none. (A QA of stop 48: TRC cells and C3D
+    coordinates went without a word.)"""
     # a finite coordinate, unless the sample is (0, 0, 0), C3D's usual gap
     held = gap & np.isfinite(pos).any(axis=2) & ~(pos == 0).all(axis=2)
     n = int(held.sum())

@@ -118,9 +118,9 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
     pos = np.asarray(points, dtype=np.float64)
     res = np.asarray(residuals, dtype=np.float64)
     valid = finite_samples(pos) & ~(res < 0) & ~np.all(pos == 0, axis=2)
-    meta = {"format": "c3d"}
     pos = pos.copy()
     pos[~valid] = np.nan
+    meta = {"format": "c3d"}
     if source:
         meta["source"] = source
     if subject:
