@@ -14,8 +14,9 @@ asked for (not timed). An absent or empty data folder prints "skipped: ..." (exi
 
 Decoder changes move the figures by less than the machine's noise from one process to the
 next, so compare several runs of each version made alternately: run the first form with
-the old code (``PYTHONPATH=OLD/reference:OLD/spec`` from a ``git worktree`` of the old
-commit) and the new, in turns, then ``--compare`` takes each file's best over the old
+the old code (the Python of a venv where ``pip install -e`` put a ``git worktree`` of the
+old commit: a ``PYTHONPATH`` of its folders mixes in the editable install's new
+``mpz.spec``) and the new, in turns, then ``--compare`` takes each file's best over the old
 runs and over the new, and prints the table: ms and MB/s before and after, the geometric
 mean of the rows, the files together, and the rows below 20 MB/s (issue 4's decode line).
 

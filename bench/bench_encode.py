@@ -12,8 +12,10 @@ The bytes must not depend on the thread count (issue 15): a row whose thread cou
 different bytes is printed as an ERROR, and the command exits 1.
 
 An encoder change that should not change the output is checked by the second form: run
-the first with the old code (``PYTHONPATH=OLD/reference:OLD/spec:OLD/tools`` from a
-``git worktree`` of the old commit) and with the new, in turns, several times, because
+the first with the old code (the Python of a venv where ``pip install -e`` put a ``git
+worktree`` of the old commit: a ``PYTHONPATH`` of its folders mixes in the editable
+install's new ``mpz.spec`` and ``mpz.tools``, README "Benchmarks") and with the new, in
+turns, several times, because
 the host's load moves short timings by more than most changes do. ``--compare`` then
 prints each encode whose bytes changed, with its size before and after, and the time of
 every encode before and after (each side's best over its runs), their geometric mean, and

@@ -3,19 +3,24 @@
 The JSON files are written by ``python bench/bench_rd.py --json FILE`` (schema 1: one row
 per file and bound with ratio, max error, ARMS and times); ``-`` reads one of them from
 standard input. A row is flagged when its ratio drops by more than ``--ratio-tolerance``
-(default 1 %); when a bounded row of the new run (a numeric E, the "op" operating point, or
-any row with a "bound") has a max error above its bound; when an unbounded (lossy) row's
-ARMS or max error grows by more than ``--distortion-tolerance`` (default 1 %: the encoder
-is deterministic, so the same code gives the same figures); or when its encode or decode
-time grows by more than ``--speed-tolerance`` (default 25 %) and by more than
-``--time-floor`` seconds (default 0.05 s: a few milliseconds either way is the timer's
-noise on a shared machine). The times compared are the process CPU seconds (enc_cpu_s,
-dec_cpu_s: bench_rd's best of several runs, which other processes hardly move) when both
-runs have them, else the wall-clock ones (enc_s, dec_s). A file with two rows
-of the same file and E is refused, and so are two runs that measured different inputs
-(bench_rd.py's "input": before it coded the marker positions alone, its MPZ ratios counted
-a C3D's archive as well). Exit 0: no regression; 1: regressions flagged; 2:
-unreadable input.
+(default 1 %); when a bounded row of the new run (a numeric E, the "op" operating point,
+or any row with a "bound") has a max error above its bound; when an unbounded (lossy)
+row's ARMS or max error grows by more than ``--distortion-tolerance`` (default 1 %: the
+encoder is deterministic, so the same code gives the same figures); or when its encode or
+decode time grows by more than ``--speed-tolerance`` (default 25 %) and by more than
+``--time-floor`` seconds (default 0.005 s: below that, timing noise; the best-of CPU times
+of two runs of the same code moved by 15 % at most here, and the 0.05 s floor before stop
+48 hid a decoder three times slower, whose times are milliseconds). The times compared are
+the process CPU seconds (enc_cpu_s, dec_cpu_s: bench_rd's best of several runs, which
+other processes hardly move) when both runs have them, else the wall-clock ones (enc_s,
+dec_s). A file with two rows of the same file and E is refused, and so are two runs that
+measured different inputs (bench_rd.py's "input": before it coded the marker positions
+alone, its MPZ ratios counted a C3D's archive as well), or a row whose raw size differs
+(other data under the same name). Besides the regressions, every row whose file size, max
+error or ARMS is not the same in both runs is listed as CHANGED, improvements too: the
+encoder is deterministic, so a change means the code or the data changed, which a
+maintainer wants to see even below the tolerances. Exit 0: no regression (changes or not);
+1: regressions flagged; 2: unreadable input.
 """
 from __future__ import annotations
 
@@ -69,9 +74,9 @@ def add_parser(sub):
     p.add_argument("--speed-tolerance", type=_fraction, default=0.25,
                    help="flag a time that grows by more than this fraction (default 0.25) "
                         "and by more than --time-floor")
-    p.add_argument("--time-floor", type=_fraction, default=0.05, metavar="SECONDS",
+    p.add_argument("--time-floor", type=_fraction, default=0.005, metavar="SECONDS",
                    help="a time must also grow by more than this many seconds to be flagged "
-                        "(default 0.05: smaller differences are timing noise)")
+                        "(default 0.005: smaller differences are timing noise)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=run, bench_parser=p)
 
@@ -83,7 +88,8 @@ def _refuse(token: str) -> float:
 #: a row's figures: (name, required); each a finite number (times and errors 0 or more,
 #: the ratio above 0)
 _FIGURES = (("mpz_ratio", True), ("max", False), ("arms", False), ("enc_s", False),
-            ("dec_s", False), ("enc_cpu_s", False), ("dec_cpu_s", False), ("bound", False))
+            ("dec_s", False), ("enc_cpu_s", False), ("dec_cpu_s", False), ("bound", False),
+            ("bytes", False), ("raw", False))
 
 
 def bound_of(key: tuple, row: dict) -> float | None:
@@ -160,7 +166,7 @@ def _number(v: object) -> bool:
 
 
 def compare(old: dict, new: dict, ratio_tol=0.01, speed_tol=0.25, distortion_tol=0.01,
-            time_floor=0.05) -> list:
+            time_floor=0.005) -> list:
     """List of (key, problem) for every regression of ``new`` against ``old``."""
     flags = []
     for key, n in new.items():
@@ -196,6 +202,39 @@ def compare(old: dict, new: dict, ratio_tol=0.01, speed_tol=0.25, distortion_tol
     return flags
 
 
+def changes(old: dict, new: dict) -> list:
+    """List of (key, what changed) for every row of both runs whose file size, max error
+    or ARMS differs at all, better or worse (a QA run of stop 48: an encoder change that
+    moved 15 of 18 file sizes by -0.5 .. +0.7 % printed what two runs of the same code
+    print). The times are left out: they differ between any two runs."""
+    out = []
+    for key, n in new.items():
+        o = old.get(key)
+        if o is None:
+            continue
+        said = []
+        if "bytes" in o and "bytes" in n and o["bytes"] != n["bytes"]:
+            said.append(f"{o['bytes']} -> {n['bytes']} B "
+                        f"({100 * (n['bytes'] / o['bytes'] - 1):+.2f} %)")
+        elif "bytes" not in o or "bytes" not in n:
+            if o["mpz_ratio"] != n["mpz_ratio"]:
+                said.append(f"ratio {o['mpz_ratio']:.4g} -> {n['mpz_ratio']:.4g}")
+        for d, name in (("max", "max error"), ("arms", "ARMS")):
+            if d in o and d in n and o[d] != n[d]:
+                said.append(f"{name} {o[d]:.6g} -> {n[d]:.6g} "
+                            f"({100 * (n[d] / o[d] - 1) if o[d] else math.inf:+.2f} %)")
+        if said:
+            out.append((key, "; ".join(said)))
+    return out
+
+
+def _other_data(old: dict, new: dict) -> list:
+    """The keys of rows of both runs whose raw float32 size differs: the same file name,
+    other data (another copy of the corpus), whose ratios do not compare."""
+    return [k for k, n in new.items() if k in old and "raw" in n and "raw" in old[k]
+            and n["raw"] != old[k]["raw"]]
+
+
 def run(args) -> int:
     if args.compare == ["-", "-"]:
         args.bench_parser.error("only one of OLD and NEW can be '-' (standard input)")
@@ -205,12 +244,26 @@ def run(args) -> int:
         raise FormatError(f"the two runs measured different inputs ({old_input or before} "
                           f"against {new_input or before}): their ratios cannot be "
                           f"compared; rerun the old version's bench")
+    other = _other_data(old, new)
+    if other:
+        (f, e) = other[0]
+        raise FormatError(f"the two runs measured other data under the same names ({len(other)} "
+                          f"row(s), the first {f!r} at E={e}: {old[other[0]]['raw']} against "
+                          f"{new[other[0]]['raw']} raw bytes): their ratios cannot be compared")
     flags = compare(old, new, args.ratio_tolerance, args.speed_tolerance,
                     args.distortion_tolerance, args.time_floor)
+    changed = changes(old, new)
+    matched = sum(k in old for k in new)
     if args.json:
-        print_json([{"file": k[0], "E": k[1], "problem": p} for k, p in flags])
+        print_json([{"file": k[0], "E": k[1], "problem": p} for k, p in flags]
+                   + [{"file": k[0], "E": k[1], "change": c} for k, c in changed])
     else:
         for (f, e), problem in flags:
             print(f"REGRESSION {printable(f)} E={e}: {printable(problem)}")
-        print(f"{len(new)} rows compared, {len(flags)} regression(s)")
+        for (f, e), change in changed:
+            print(f"CHANGED {printable(f)} E={e}: {printable(change)}")
+        unmatched = (f", {len(new) - matched} without a row in the old run"
+                     if matched != len(new) else "")
+        print(f"{matched} rows compared{unmatched}; {len(flags)} regression(s), "
+              f"{len(changed)} changed (size, max error or ARMS)")
     return 1 if flags else 0
