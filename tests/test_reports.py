@@ -728,3 +728,28 @@ def test_compare_top_0_lists_every_marker(capsys, tmp_path):
     code, out, _ = cli(capsys, "compare", src, tmp_path / "b.npy", "--top", "1")
     rows = out.split("marker            max        RMS\n")[1].splitlines()
     assert [r.split()[0] for r in rows if len(r.split()) == 3][:1] == ["M2"]
+
+
+def test_two_mpz_files_of_one_source_are_held_to_the_sum_of_their_bounds(
+        shared_data, tmp_path, capsys):
+    """A QA run of stop 48: `mpz compare A.mpz B.mpz` (one capture encoded at 1 and at
+    2 mm, or by two versions) held B's 2 mm against A as if A were the source: BEYOND,
+    exit 2, for two good files, and nothing said of the files themselves. Each is within
+    its own bound of the source, so they are within the sum of each other; the sizes and
+    bounds are shown. The distance is measured here on the two decodes."""
+    src = shared_data / "c3d" / "cmu_02_01.c3d"
+    a, b = tmp_path / "a.mpz", tmp_path / "b.mpz"
+    for out, e in ((a, "1mm"), (b, "2mm")):
+        assert mpz_cli.main(["encode", str(src), "-o", str(out), "--max-error", e, "-q"]) == 0
+    da, db = mpz.decode(a), mpz.decode(b)
+    far = float(np.nanmax(np.linalg.norm(da.positions - db.positions, axis=2)))
+    assert 2.0 < far <= 3.0                                   # beyond B's bound alone
+    capsys.readouterr()
+    assert mpz_cli.main(["compare", str(a), str(b), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["bound_check"]["bound"] == pytest.approx(3.0)
+    assert doc["bound_check"]["beyond"] == 0 and doc["max"] == pytest.approx(far)
+    assert doc["mpz_files"] == {"sizes": [a.stat().st_size, b.stat().st_size],
+                                "bounds": [1.0, 2.0], "identical": False}
+    assert mpz_cli.main(["compare", str(a), str(a)]) == 0
+    assert "(byte-identical), bounds 1 mm and 1 mm" in capsys.readouterr().out

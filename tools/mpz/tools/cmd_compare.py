@@ -9,7 +9,10 @@ beside it, which ``mpz decode`` writes (``--decoded-asf`` names another; with ne
 Against a decoded .mpz input the marker errors are held to the bound it declares, as spec
 §7.2 states the check; for the joint positions of a skeletal one, to its skeleton chunk's
 position_bound (§4.14: the joints of the decoded channels against the source's; none when
-it is 0); a sample beyond it, or a marker the decoded input adds, exits 2.
+it is 0); a sample beyond it, or a marker the decoded input adds, exits 2. When both
+inputs are .mpz files (two encodes of one source: two bounds, two versions), neither is
+the source: they are held to the sum of their bounds, and their sizes and bounds are
+shown (byte-identical files are said to be).
 Two frame rates that differ are an error (exit 2; an NPY stores none: not checked).
 Lengths in two known units (mm, cm, m, in) are converted to the original's before
 comparing; an input without units against one with units is compared as numbers, the
@@ -36,6 +39,7 @@ import argparse
 import dataclasses
 import math
 import os
+from typing import Any
 
 import numpy as np
 
@@ -256,6 +260,11 @@ def run(args: argparse.Namespace) -> int:
     # was not checked at all, a QA run of stop 47)
     declared = data_b if ext_b == ".mpz" else None
     joints = declared is not None and joint_positions_from_channels(b, ext_b)
+    # two .mpz files (two encodes of one source: two versions, two bounds): neither is the
+    # source, each is within its own bound of it, so they are held to the sum (a QA run of
+    # stop 48: B's bound alone against A gave BEYOND, exit 2, for two good files)
+    first_mpz = data_a if ext_a == ".mpz" and declared is not None else None
+    first_joints = first_mpz is not None and joint_positions_from_channels(a, ext_a)
     del data_a, data_b, data
     notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
               for p in parts if p.status == "missing"]
@@ -299,15 +308,26 @@ def run(args: argparse.Namespace) -> int:
         from mpz.motion import Motion
         kept = Motion(a.positions, list(a.names), a.rate, a.units, a.valid & b.valid)
         both = {k: v for k, v in summary(kept, b).items() if not k.startswith("per_marker")}
-    check = marker_bound(a, b, None if declared is None
-                         else _declared_bound(declared, units, joints=joints))
+    bound_b = None if declared is None else _declared_bound(declared, units, joints=joints)
+    pair: dict[str, Any] | None = None
+    if first_mpz is not None and declared is not None:
+        bound_a = _declared_bound(first_mpz, units, joints=first_joints)
+        pair = {"sizes": [len(first_mpz), len(declared)], "bounds": [bound_a, bound_b],
+                "identical": first_mpz == declared}
+        if bound_a is None and bound_b is not None:
+            print(f"mpz compare: note: {names[0]} declares no bound: the two .mpz files "
+                  "are not held to one against each other", file=sys.stderr)
+        bound_b = None if bound_a is None or bound_b is None else bound_a + bound_b
+    check = marker_bound(a, b, bound_b)
     if check is not None:
         check["of"] = "joint positions" if joints else "markers"
+        if pair is not None:
+            check["declared_by"] = "both"
     s.update(frames=a.n_frames, markers=a.n_markers, units=units or None,
              original_units=a.units or None, decoded_units=units_b or None, positions=pos,
              notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added,
              added_markers=added, bound_check=check, valid_in_both=both,
-             besides_markers=[dataclasses.asdict(p) for p in parts])
+             besides_markers=[dataclasses.asdict(p) for p in parts], mpz_files=pair)
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
     if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
@@ -332,10 +352,19 @@ def run(args: argparse.Namespace) -> int:
             print(f"  valid in both: max {both['max']:.4g}{u}  p99 {both['p99']:.4g}{u}  "
                   f"RMS {both['rms']:.4g}{u}  ARMS {both['arms']:.4g}{u}  "
                   f"mean {both['mean']:.4g}{u}")
+        if pair is not None:
+            (sa, sb), (ba, bb) = pair["sizes"], pair["bounds"]
+            print(f"  .mpz files: {sa} and {sb} bytes"
+                  + (" (byte-identical)" if pair["identical"] else
+                     f" ({100 * (sb / sa - 1):+.2f} %)")
+                  + f", bounds {'none' if ba is None else f'{ba:.4g}{u}'} and "
+                  f"{'none' if bb is None else f'{bb:.4g}{u}'}")
         if check is not None:
             what = ("position_bound of the joint positions (spec §4.14)" if joints
                     else "spec §7.2")
-            print(f"  bound {check['bound']:.4g}{u} declared by {names[1]} ({what}): "
+            by = (f"the sum of the bounds of {names[0]} and {names[1]}" if pair is not None
+                  else f"declared by {names[1]}")
+            print(f"  bound {check['bound']:.4g}{u} {by} ({what}): "
                   + ("every sample within" if not check["beyond"] else
                      f"BEYOND at {check['beyond']} sample{'s' * (check['beyond'] != 1)}, "
                      f"the first {printable(check['first']['marker'])!r} at frame index "
