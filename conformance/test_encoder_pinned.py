@@ -38,7 +38,9 @@ def test_encoder_reproduces_its_vectors_byte_for_byte(vec):
     shipped = (mf.DEFAULT_DIR / vec["file"]).read_bytes()
     assert data == shipped, (f"{vec['name']}: the reference encoder no longer writes the shipped "
                              f"vector ({len(data)} vs {len(shipped)} bytes); if intended, "
-                             f"regenerate the vectors and say why in CHANGELOG.md")
+                             f"run python -m mpz.tools.make_vectors (many vectors are built "
+                             f"by the encoder and change with it), then python -m "
+                             f"mpz.tools.make_golden, and say why in CHANGELOG.md")
 
 
 # (order, run length): every order on runs of 1..6 rows, the 3-row order-2 run included

@@ -23,11 +23,13 @@ def current():
 
 
 def test_golden_matches_current_codec(frozen, current):
-    changed = sorted(name for name in set(frozen["vectors"]) | set(current["vectors"])
-                     if frozen["vectors"].get(name) != current["vectors"].get(name))
-    assert not changed, (
-        f"golden output changed for {len(changed)} vector(s), e.g. {changed[:5]}; if intended, run "
-        f"python -m mpz.tools.make_golden and say why in CHANGELOG.md")
+    from mpz.tools.make_golden import describe_changes
+    said = describe_changes(frozen, current)
+    assert not said, (
+        f"golden output changed: {'; '.join(said)}. See each change with python -m "
+        f"mpz.tools.make_golden --out /tmp/golden and a JSON diff against "
+        f"conformance/golden/golden.json; if intended, run python -m mpz.tools.make_golden "
+        f"and say why in CHANGELOG.md")
     assert frozen["golden_id"] == current["golden_id"]
 
 
@@ -49,3 +51,26 @@ def test_vector_set_and_spec_version_history_in_step():
     assert fmt in versions
     assert max(versions, key=lambda v: tuple(map(int, v.split(".")))) == fmt, \
         "the newest spec version has no vector set: run python -m mpz.tools.make_vectors"
+
+
+def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatch, capsys):
+    """A QA run of stop 48: the failure said "changed for 120 vector(s)" whether a vector
+    decoded otherwise or only its mpzinfo report moved, and make_golden asked for a
+    CHANGELOG entry even when the id had not changed."""
+    from mpz.tools import make_golden
+    entry = {"decoded_sha256": "a", "integer_layer_digest": "b", "error_class": None,
+             "mpzinfo": {"size": 1}}
+    old = {"golden_id": "x", "vectors": {"v1": entry, "v2": entry, "v3": entry}}
+    new = {"golden_id": "y", "vectors": {"v1": dict(entry, decoded_sha256="c"),
+                                         "v2": dict(entry, mpzinfo={"size": 2}),
+                                         "v3": entry, "v4": entry}}
+    assert make_golden.describe_changes(old, new) == [
+        "2 vector(s) decode otherwise (output, integer layer or verdict), e.g. v1, v4",
+        "1 vector(s) only report otherwise (mpzinfo --json), e.g. v2"]
+    assert make_golden.describe_changes(old, old) == []
+    monkeypatch.setattr(make_golden, "compute", lambda: new)
+    make_golden.main(["--out", str(tmp_path)])
+    assert "names golden id y (was None)" in capsys.readouterr().out
+    make_golden.main(["--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert "the golden id is unchanged: nothing for CHANGELOG.md" in out and "decode" not in out
