@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import struct
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
 
@@ -1007,3 +1009,36 @@ def test_check_writable_refuses_an_extension_no_writer_has(ext):
     with pytest.raises(InputFormatError, match=r"cannot write .*; can write \.c3d"):
         check_writable(m, ext)
     assert check_writable(m, ".trc") == []           # a writer that holds it all
+
+
+_TRC_KEYS = ["trc.PathFileType", "trc.FileName", "trc.DataRate", "trc.CameraRate",
+             "trc.NumFrames", "trc.Units", "trc.OrigDataStartFrame", "trc.FirstFrame",
+             "trc.Decimals", "trc.TimeDecimals", "trc.TimeDigits", "start_time"]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.dictionaries(st.sampled_from(_TRC_KEYS),
+                       st.one_of(st.text(max_size=12),
+                                 st.sampled_from(["abc", "-3", "-1", "100000000", "31", "nan",
+                                                  "inf", "1e309", "4\n\n\nFrame#", "a\tb",
+                                                  "9" * 40, "0", "30"])),
+                       max_size=6))
+def test_trc_writer_takes_any_trc_metadata_and_writes_a_file_it_reads(tmp_path_factory, meta):
+    """A file's meta chunk is free text (spec §4.11), and the TRC writer wrote its trc.*
+    entries back unchecked: a DataRate of "abc" or negative decimals crashed it (exit 70),
+    decimals of 10^8 asked for 24 GB of text, a line break in PathFileType wrote a TRC its
+    own reader refused (a fuzzing QA run of stop 48). Whatever the entries, the TRC is
+    written, reads back with the names, frames and (to its decimals) the positions, and
+    each entry the writer could not use is named in a note."""
+    from mpz.io.trc import column_decimals, trc_meta_problems
+    pos = np.arange(4 * 2 * 3, dtype=float).reshape(4, 2, 3) * 1.25 + 0.5
+    m = Motion(pos, ["A", "B"], 100.0, "mm", metadata=meta)
+    path = tmp_path_factory.mktemp("trc") / "m.trc"
+    notes = write(m, path)
+    back = read(path)
+    assert back.names == ["A", "B"] and back.n_frames == 4 and back.rate == 100.0
+    d = column_decimals(m)                           # the source's, when it can be used
+    assert 0 <= d <= 30
+    assert np.abs(back.positions - pos).max() <= 0.5 * 10.0 ** -d + 1e-9
+    for key in trc_meta_problems(meta):
+        assert any(f"metadata {key} " in n for n in notes), (key, notes)

@@ -477,6 +477,10 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if motion.units == "":
             refuse.append("TRC needs units (mm, cm, m, in) and this motion has none (a BVH "
                           "source?); write .npy or .csv, or encode the source with its units")
+        from mpz.io.trc import trc_meta_problems
+        for key, why in trc_meta_problems(motion.metadata).items():
+            notes.append(f"metadata {key} {motion.metadata[key][:40]!r} {why}: the TRC "
+                         "writer's own value is written in its place")
     if ext == ".csv":
         notes.append("CSV does not store units" + (f" ({motion.units})" if motion.units else ""))
         if F < 2:

@@ -269,7 +269,9 @@ def start_frame(motion: Motion) -> int:
     meta = motion.metadata
     try:
         if "trc.FirstFrame" in meta:
-            return int(meta["trc.FirstFrame"])
+            n = int(meta["trc.FirstFrame"])
+            if abs(n) < 2**31:        # a file's free text: 10^4000 made rows of 4 KB
+                return n
     except ValueError:
         pass
     a = motion.extras.get("c3d")

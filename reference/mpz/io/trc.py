@@ -26,6 +26,7 @@ so that a TRC decoded from a TRC is the same table.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 import math
 import os
 
@@ -268,6 +269,62 @@ def _header_meta(lines: list[str], header: dict[str, str],
     return out
 
 
+#: the most decimals a TRC's columns are written with (trc.Decimals, trc.TimeDecimals,
+#: trc.TimeDigits): more than binary64 holds, far fewer than a hostile value asks for
+MAX_DECIMALS = 30
+
+#: the largest |first frame number| (trc.FirstFrame, mpz.io._common.start_frame)
+MAX_FIRST_FRAME = 2**31 - 1
+
+
+def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
+    """The ``trc.*`` entries (and ``start_time``) of ``meta`` that :func:`format_trc` cannot
+    write back as they are, each with why; the writer uses its own value for them, and
+    ``mpz.io.writer_problems`` says so. A file's meta chunk is free text (spec §4.11), and
+    these came from one: a DataRate of "abc" and negative decimals crashed the writer,
+    decimals of 10^8 asked for 24 GB of text, and a line break in PathFileType wrote a TRC
+    that its own reader refused (a fuzzing QA run of stop 48)."""
+    bad: dict[str, str] = {}
+    for key, value in meta.items():
+        if not (key.startswith("trc.") or key == "start_time"):
+            continue
+        name = key[4:]
+        if value.splitlines() not in ([], [value]):   # \f, \x1c, U+2028 ... as well
+            bad[key] = "holds a line break"
+        elif name == "PathFileType" and value.count("\t") > 1:
+            bad[key] = "holds more than one tab"
+        elif name != "PathFileType" and "\t" in value:
+            bad[key] = "holds a tab"
+        elif name in ("Decimals", "TimeDecimals", "TimeDigits") and not _whole_in(
+                value, 0, MAX_DECIMALS):
+            bad[key] = f"is not a whole number 0 .. {MAX_DECIMALS}"
+        elif name == "FirstFrame" and not _whole_in(value, -MAX_FIRST_FRAME, MAX_FIRST_FRAME):
+            bad[key] = "is not a whole number of magnitude below 2^31"
+        elif (name == "DataRate" or key == "start_time") and not _finite_text(value):
+            bad[key] = "is not a finite number"
+    return bad
+
+
+def _whole_in(text: str, low: int, high: int) -> bool:
+    t = text.strip()
+    if not 0 < len(t) <= 12 or not t.lstrip("+-").isdigit():
+        return False
+    return low <= int(t) <= high
+
+
+def _finite_text(text: str) -> bool:
+    try:
+        return len(text) <= 100 and math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
+def _usable(meta: Mapping[str, str]) -> dict[str, str]:
+    """``meta`` without what :func:`trc_meta_problems` names."""
+    bad = trc_meta_problems(meta)
+    return {k: v for k, v in meta.items() if k not in bad}
+
+
 def _decimals_in(units: str, read_as: str, decimals: int) -> int:
     """The column decimals a TRC read in ``read_as`` needs in ``units`` to keep its
     resolution (mm with 2 decimals is m with 5), never fewer than it had."""
@@ -281,7 +338,7 @@ def _decimals_in(units: str, read_as: str, decimals: int) -> int:
 def column_decimals(motion: Motion) -> int:
     """The decimals :func:`format_trc` writes the coordinates with: the source TRC's
     (``trc.Decimals``, more when the units were rescaled since), else 6."""
-    meta = motion.metadata
+    meta = _usable(motion.metadata)
     read_as = _UNITS.get(meta.get("trc.Units", motion.units).strip().lower(), "")
     try:
         return _decimals_in(motion.units, read_as, int(meta.get("trc.Decimals", "6")))
@@ -299,7 +356,7 @@ def _time_column(motion: Motion) -> tuple[float, int, int]:
     A motion read from a TRC keeps its first time and decimals (``start_time``,
     ``trc.TimeDecimals``, ``trc.TimeDigits``); others start at (first frame - 1) / rate,
     6 decimals."""
-    meta = motion.metadata
+    meta = _usable(motion.metadata)
     try:
         # a C3D's frame n is at (n - 1) / rate (its frames count from 1)
         on_grid = (start_frame(motion) - 1) / motion.rate
@@ -345,7 +402,7 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
     ``repr`` (it reads back exactly), frames from 1, times from 0, 6 decimals.
     ``file_name`` is used when the source's file name is not known.
     """
-    meta = motion.metadata
+    meta = _usable(motion.metadata)
     rate = repr(float(motion.rate))
     F, M = motion.n_frames, motion.n_markers
     head = {"DataRate": rate, "CameraRate": rate, "NumFrames": str(F), "NumMarkers": str(M),
