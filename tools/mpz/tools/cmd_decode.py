@@ -268,9 +268,9 @@ def _read_mpz(path: str, max_samples: int | None
         except MPZError as exc:
             exc.path = path
             raise
-    res = scan(data)                   # the decode above checked every chunk
-    skipped = [w.chunk for w in res.warnings
-               if w.chunk and "unknown ancillary chunk" in w.message]
+    # the decode above checked every chunk; the skipped ones are counted, not kept
+    res = scan(data, keep_unknown=False)
+    skipped = list(res.skipped)
     bound = declared_bound(res)
     if joint_positions_from_channels(motion, ".mpz"):
         # the positions are the joints of the channels: position_bound is theirs (§4.14,
