@@ -290,7 +290,8 @@ def _main(argv: list[str] | None = None) -> int:
                    help="-v: one line per chunk; -vv: every field with its byte offset")
     p.add_argument("--json", action="store_true", help=f"machine-readable output ({SCHEMA})")
     p.add_argument("--no-decode", action="store_true",
-                   help="check structure only, skip decoding the range-coded payloads")
+                   help="check structure only: skip decoding the marker layer (the 1.1 chunks' "
+                        "payloads are still decoded: their rules need it)")
     p.add_argument("--max-samples", type=max_samples, default=MAX_SAMPLES, metavar="N",
                    help=MAX_SAMPLES_HELP)
     p.add_argument("--version", action="version", version=f"mpzinfo {__version__}")
