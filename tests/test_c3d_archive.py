@@ -26,6 +26,7 @@ import mpz
 from mpz.c3darchive import C3DArchive
 from mpz.encoder import EncodeOptions, encode_motion
 from mpz.io import c3dbin, read, write
+from mpz.synth import generate
 
 ezc3d = pytest.importorskip("ezc3d")
 
@@ -443,3 +444,40 @@ def test_record_params_are_the_parsed_parameters(shared_data):
                 else:
                     assert w is not None and np.array_equal(np.asarray(w), np.asarray(v),
                                                             equal_nan=True), (path.name, g, k)
+
+
+def test_a_marker_layer_the_archive_no_longer_describes_decodes_to_a_plain_c3d(tmp_path):
+    """A valid file whose MNAM names a marker otherwise than the archive's POINT:LABELS (no
+    rule of §4.13 ties them) could not be written to C3D by the command line at all: the
+    writer refused it, exit 2, without offset or § (a fuzzing QA run of stop 48). `mpz
+    decode` now writes the markers alone with a warning naming what is left out (exit 1);
+    the file is edited here chunk by chunk (spec §3.2, §3.3)."""
+    import subprocess
+    import sys
+
+    import ezc3d
+
+    from mpz import container
+    from mpz.chunks import Mnam
+    write(generate("walk", frames=20, markers=4, seed=3), tmp_path / "a.c3d")
+    data = mpz.encode(read(tmp_path / "a.c3d"), max_error=1.0)
+    res = container.scan(data)
+    out = b"\x89MPZ\r\n\x1a\n"
+    for c in res.chunks:
+        payload = c.payload
+        if c.type == "MNAM":
+            rec = Mnam.load(payload)
+            names = list(rec.names)
+            names[0] += "X"
+            payload = Mnam(count=rec.count, names=tuple(names)).dump()
+        out += container.build_chunk(c.type, payload)
+    (tmp_path / "r.mpz").write_bytes(out)
+    assert mpz.decode(out).names[0].endswith("X")             # valid
+    p = subprocess.run([str(Path(sys.executable).parent / "mpz"), "decode", "r.mpz", "-o",
+                        "r.c3d"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 1, p.stderr
+    assert "the C3D archive no longer describes the motion: marker 0 is" in p.stderr
+    assert "written as a C3D of the markers alone, without" in p.stderr
+    c = ezc3d.c3d(str(tmp_path / "r.c3d"))
+    labels = [s.strip() for s in c["parameters"]["POINT"]["LABELS"]["value"]]
+    assert labels[0].endswith("X") and len(labels) == 4

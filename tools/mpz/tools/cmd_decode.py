@@ -13,13 +13,14 @@ what a format drops (NPY: names, rate, units) is said on stderr.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import tempfile
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError, MPZError
-from mpz.tools._cli import printable
+from mpz.tools._cli import EXIT_WARN, printable
 
 if TYPE_CHECKING:
     from mpz.motion import Motion
@@ -181,6 +182,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         if ext in (".npy", ".c3d") and not args.force and sys.stdout.isatty():
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
+    motion, warned = _without_a_stale_archive(motion, ext, job.output, args.quiet)
     notes = check_writable(motion, ext, path=job.output, bound=bound)
     if skipped:
         many = len(skipped) != 1
@@ -228,7 +230,31 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         if args.verbose:
             for k, v in motion.metadata.items():
                 print(f"  {printable(k)}: {printable(v)}", file=out)
-    return 0
+    return EXIT_WARN if warned else 0
+
+
+def _without_a_stale_archive(motion: Motion, ext: str, output: str, quiet: bool
+                             ) -> tuple[Motion, bool]:
+    """For a C3D output: ``motion`` without its C3D archive when the archive no longer
+    describes the marker layer (another name, unit or rate: a valid file, since no rule
+    of spec §4.13 ties MNAM or MHDR to cprm), with a warning that says what is not
+    written; (motion, False) otherwise. The writer refused such a file, and the command
+    line had no way to write it to C3D at all (a fuzzing QA run of stop 48)."""
+    from mpz.c3darchive import C3DArchive, check_matches
+    a = motion.extras.get("c3d")
+    if ext != ".c3d" or not isinstance(a, C3DArchive):
+        return motion, False
+    try:
+        check_matches(a, motion)
+    except EncoderError as exc:
+        reason = str(exc).split("; the archive cannot be kept")[0]
+        if not quiet:
+            print(f"mpz decode: warning: {printable(output)}: {printable(reason)}: written as "
+                  f"a C3D of the markers alone, without {printable(a.describe())}",
+                  file=sys.stderr)
+        return dataclasses.replace(motion, extras={k: v for k, v in motion.extras.items()
+                                                   if k != "c3d"}), True
+    return motion, False
 
 
 def _read_mpz(path: str, max_samples: int | None
