@@ -183,15 +183,17 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
             return res
 
 
-def parse(data: bytes, *, minor: int = VERSION_MINOR) -> list[Chunk]:
-    """Strictly parse the chunk list of ``data`` (``minor``: as in :func:`scan`).
+def parse(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True
+          ) -> list[Chunk]:
+    """Strictly parse the chunk list of ``data`` (``minor`` and ``keep_unknown``: as in
+    :func:`scan`; the decoder keeps no unknown ancillary chunk).
 
     Raises
     ------
     FormatError, ChecksumError, LimitExceededError
         The first problem :func:`scan` found, with its offset and chunk.
     """
-    res = scan(data, minor=minor, keep_unknown=False)
+    res = scan(data, minor=minor, keep_unknown=keep_unknown)
     if res.errors:
         raise res.errors[0]
     return res.chunks

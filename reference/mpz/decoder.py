@@ -161,7 +161,9 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
         FormatError, ChecksumError, UnsupportedVersionError or
         LimitExceededError, with offset and chunk.
     """
-    chunks = parse(data, minor=minor)
+    # the unknown ancillary chunks are checked and counted, not kept (§8: nothing per
+    # skipped chunk)
+    chunks = parse(data, minor=minor, keep_unknown=False)
     if not chunks or chunks[0].type != "MHDR":
         first = chunks[0] if chunks else None
         raise FormatError("the first chunk must be MHDR", section="§3.4",
