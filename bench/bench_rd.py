@@ -293,9 +293,17 @@ def main(argv=None):
         return 2
     report(rows)
     if args.json:
+        import platform
+
+        import mpz
+        # where and with what the times were measured: mpz bench --compare does not weigh
+        # the times of runs from two machines (a QA run of stop 48: every time flagged)
         doc = {"bench": "rd", "schema": 1,
                "input": "marker positions only (float32 xyz, 12 B per marker-frame)",
-               "repeat": args.repeat, "rows": rows}
+               "repeat": args.repeat, "host": platform.node(),
+               "machine": f"{platform.machine()} {platform.processor()}".strip(),
+               "python": platform.python_version(), "mpz": mpz.__version__,
+               "rows": rows}
         Path(args.json).write_text(json.dumps(doc, indent=1))
         print(f"\nrows written to {args.json}")
     return 0

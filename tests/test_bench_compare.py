@@ -274,3 +274,23 @@ def test_changes_below_the_tolerances_and_improvements_are_listed(tmp_path, caps
     other = _write(tmp_path, "other.json", dict(base, raw=30000, mpz_ratio=30.0))
     assert mpz_cli.main(["bench", "--compare", old, other]) == 2
     assert "other data under the same names" in capsys.readouterr().err
+
+
+def test_times_of_runs_on_two_machines_are_not_compared(tmp_path, capsys):
+    """A QA run of stop 48: a baseline from another machine flagged every time as a
+    regression, with no hint. bench_rd.py now records where it ran; two hosts' times are
+    left out, said in a note; one host's are compared as before."""
+    r = dict(list(rows().values())[0], enc_s=1.0)
+    slow = dict(r, enc_s=3.0)
+
+    def run_file(name, row, host):
+        f = tmp_path / name
+        f.write_text(json.dumps({"schema": 1, "host": host, "machine": "x86_64",
+                                 "rows": [row]}))
+        return str(f)
+    old = run_file("old.json", r, "laptop")
+    assert mpz_cli.main(["bench", "--compare", old, run_file("a.json", slow, "ci")]) == 0
+    out = capsys.readouterr().out
+    assert "different machines (host 'laptop' and 'ci'): their times are not compared" in out
+    assert mpz_cli.main(["bench", "--compare", old, run_file("b.json", slow, "laptop")]) == 1
+    assert "encoding slower 1.000 s -> 3.000 s" in capsys.readouterr().out

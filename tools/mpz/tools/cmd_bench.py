@@ -19,7 +19,9 @@ alone, its MPZ ratios counted a C3D's archive as well), or a row whose raw size 
 (other data under the same name). Besides the regressions, every row whose file size, max
 error or ARMS is not the same in both runs is listed as CHANGED, improvements too: the
 encoder is deterministic, so a change means the code or the data changed, which a
-maintainer wants to see even below the tolerances. Exit 0: no regression (changes or not);
+maintainer wants to see even below the tolerances. Times of two runs that bench_rd.py
+recorded on different machines ("host", "machine") are not compared, and a note says so.
+Exit 0: no regression (changes or not);
 1: regressions flagged; 2: unreadable input.
 """
 from __future__ import annotations
@@ -147,7 +149,8 @@ def _load(path):
                               f"max error: its bound cannot be checked", path=where)
         rows[key] = r
         first[key] = i
-    return rows, doc.get("input")
+    return rows, doc.get("input"), {k: doc[k] for k in ("host", "machine")
+                                    if isinstance(doc.get(k), str)}
 
 
 def _row_ok(r: object) -> bool:
@@ -238,7 +241,8 @@ def _other_data(old: dict, new: dict) -> list:
 def run(args) -> int:
     if args.compare == ["-", "-"]:
         args.bench_parser.error("only one of OLD and NEW can be '-' (standard input)")
-    (old, old_input), (new, new_input) = _load(args.compare[0]), _load(args.compare[1])
+    (old, old_input, old_at), (new, new_input, new_at) = (_load(args.compare[0]),
+                                                          _load(args.compare[1]))
     if old_input != new_input:
         before = "marker positions plus the C3D archive (a run before bench_rd said)"
         raise FormatError(f"the two runs measured different inputs ({old_input or before} "
@@ -250,8 +254,17 @@ def run(args) -> int:
         raise FormatError(f"the two runs measured other data under the same names ({len(other)} "
                           f"row(s), the first {f!r} at E={e}: {old[other[0]]['raw']} against "
                           f"{new[other[0]]['raw']} raw bytes): their ratios cannot be compared")
-    flags = compare(old, new, args.ratio_tolerance, args.speed_tolerance,
+    # times from two machines do not compare (bench_rd.py records where it ran since stop
+    # 48): they are left out, and said to be, instead of flagging every row (a QA run)
+    elsewhere = [k for k in ("host", "machine") if k in old_at and k in new_at
+                 and old_at[k] != new_at[k]]
+    speed_tol = math.inf if elsewhere else args.speed_tolerance
+    flags = compare(old, new, args.ratio_tolerance, speed_tol,
                     args.distortion_tolerance, args.time_floor)
+    if elsewhere and not args.json:
+        k = elsewhere[0]
+        print(f"note: the runs were made on different machines ({k} {old_at[k]!r} and "
+              f"{new_at[k]!r}): their times are not compared")
     changed = changes(old, new)
     matched = sum(k in old for k in new)
     if args.json:
