@@ -458,6 +458,29 @@ def test_an_encoder_that_renames_a_marker_is_told_which(tmp_path):
     assert (f"marker names[{len(names) - 1}] = {names[-1] + '_X'!r} != input {names[-1]!r}"
             in proc.stdout), proc.stdout[-600:]
 
+def test_an_encoder_that_drops_a_marker_is_told_which(tmp_path):
+    """A dropped marker was reported as a shape alone, "(60, 40, 3) != input (60, 41, 3)"
+    (a QA run of stop 48): the missing marker is named."""
+    enc = python_script(tmp_path / "enc.py", textwrap.dedent("""\
+        import json, subprocess
+        import numpy as np
+        IN, OUT = sys.argv[1], sys.argv[2]
+        side = IN[:-len(".npy")] + ".json"
+        meta = json.load(open(side))
+        meta["names"] = meta["names"][:-1]
+        json.dump(meta, open(side, "w"))
+        np.save(IN, np.load(IN)[:, :-1])
+        sys.exit(subprocess.run([sys.executable, "-m", "mpz.conformance.refencoder",
+                                 *sys.argv[1:]]).returncode)
+        """))
+    from mpz.conformance import manifest as mf
+    item = mf.load()["encoder_inputs"][0]
+    proc, _ = run(tmp_path, "--encoder", str(enc), "--only", item["name"])
+    names = json.loads((mf.DEFAULT_DIR / item["sidecar"]).read_text())["names"]
+    assert proc.returncode == 1, proc.stdout[-600:]
+    assert f"markers missing: {names[-1]!r}" in proc.stdout, proc.stdout[-600:]
+
+
 @pytest.mark.parametrize("args, said", [
     (["--jobs", "0"], "--jobs must be at least 1, got 0"),
     (["--timeout", "0"], "--timeout must be a finite number > 0, got 0.0"),

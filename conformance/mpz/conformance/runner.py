@@ -678,7 +678,19 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     if not h.error_bound <= E:
         problems.append(f"declared error_bound {h.error_bound!r} > requested --max-error {E!r}")
     if out.positions.shape != x.shape:
-        problems.append(f"shape {out.positions.shape} != input {x.shape}")
+        said = f"shape {out.positions.shape} != input {x.shape}"
+        got, want = list(out.names), list(side["names"])
+        lost = [n for n in want if n not in got]
+        extra = [n for n in got if n not in want]
+        if lost or extra:      # which markers, not only how many (a QA run of stop 48)
+            said += "; " + "; ".join(
+                f"{what} {', '.join(repr(printable(n)) for n in names[:5])}"
+                + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+                for what, names in (("markers missing:", lost), ("markers added:", extra))
+                if names)
+        elif out.positions.shape[0] != x.shape[0]:
+            said += f"; {out.positions.shape[0]} frames decoded of the {x.shape[0]} given"
+        problems.append(said)
         return problems, facts
     if list(out.names) != list(side["names"]):
         # the first that differs, by index (the first four of each said nothing when the
