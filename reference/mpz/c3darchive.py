@@ -402,6 +402,18 @@ def check_matches(a: C3DArchive, motion: Motion) -> None:
     renamed, converted to metres or given another rate after reading). The parameters are
     written back as stored, so the file would contradict the markers. An archive without
     a known POINT:UNITS contradicts no unit."""
+    differ = described_otherwise(a, motion)
+    if differ:
+        raise EncoderError(f"the C3D archive no longer describes the motion: "
+                           f"{differ}; the archive cannot be kept. Drop it "
+                           "(dataclasses.replace(motion, extras={})) to keep the markers "
+                           f"alone, without {a.describe()}")
+
+
+def described_otherwise(a: C3DArchive, motion: Motion) -> str:
+    """How the archive's parameters describe ``motion``'s markers otherwise (names, units,
+    rate), '' when they agree; EncoderError for an archive of other frames or markers,
+    which cannot be kept at all (:func:`check_matches`)."""
     F, M = motion.n_frames, motion.n_markers
     P = len(a.slots)
     J = a.models.shape[1]
@@ -422,11 +434,7 @@ def check_matches(a: C3DArchive, motion: Motion) -> None:
     if np.float32(motion.rate) != np.float32(rate):
         differ.append(f"the rate is {motion.rate!r} Hz in the motion, {rate!r} in "
                       "POINT:RATE")
-    if differ:
-        raise EncoderError(f"the C3D archive no longer describes the motion: "
-                           f"{'; '.join(differ)}; the archive cannot be kept. Drop it "
-                           "(dataclasses.replace(motion, extras={})) to keep the markers "
-                           f"alone, without {a.describe()}")
+    return "; ".join(differ)
 
 
 # ------------------------------------------------------------------ decoding --

@@ -144,24 +144,20 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
                 offset=pos, chunk=tname, section="§3.2"))
             return res
         stored = _parse.parse(ChunkCRC, data[pos + 8 + length: pos + 12 + length])
+        computed = crc32(ctype, memoryview(data)[pos + 8: pos + 8 + length])
+        if computed != stored:
+            res.errors.append(ChecksumError(
+                f"CRC-32 mismatch: computed 0x{computed:08x}, stored 0x{stored:08x}",
+                offset=pos, chunk=tname, section="§3.3"))
         known = tname in CHUNKS and CHUNKS[tname].MINOR <= minor
         if not known and not tname[:1].isupper():
             res.skipped[tname] = res.skipped.get(tname, 0) + 1
-            if not keep_unknown:
-                computed = crc32(ctype, memoryview(data)[pos + 8: pos + 8 + length])
-                if computed != stored:
-                    res.errors.append(ChecksumError(
-                        f"CRC-32 mismatch: computed 0x{computed:08x}, stored 0x{stored:08x}",
-                        offset=pos, chunk=tname, section="§3.3"))
+            if not keep_unknown:            # checked and counted, nothing kept
                 pos += 12 + length
                 continue
         payload = data[pos + 8: pos + 8 + length]
-        chunk = Chunk(tname, None, payload, pos, stored, crc32(ctype, payload))
+        chunk = Chunk(tname, None, payload, pos, stored, computed)
         res.chunks.append(chunk)
-        if not chunk.crc_ok:
-            res.errors.append(ChecksumError(
-                f"CRC-32 mismatch: computed 0x{chunk.crc_computed:08x}, stored 0x{stored:08x}",
-                offset=pos, chunk=tname, section="§3.3"))
         if known:
             try:
                 chunk.record = CHUNKS[tname].load(payload)

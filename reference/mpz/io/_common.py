@@ -262,6 +262,11 @@ def ext_of(path: StrPath) -> str:
     return os.path.splitext(os.fspath(path))[1].lower()
 
 
+#: the largest |first frame number| read from metadata (``trc.FirstFrame``): it is a file's
+#: free text, and 10^4000 made every TRC row 4 KB
+MAX_FIRST_FRAME = 2**31 - 1
+
+
 def start_frame(motion: Motion) -> int:
     """The number of the motion's first frame in its source: a TRC's first Frame#, a
     C3D's first frame (header word 4, or TRIAL:ACTUAL_START_FIELD past 65535 frames:
@@ -270,7 +275,7 @@ def start_frame(motion: Motion) -> int:
     try:
         if "trc.FirstFrame" in meta:
             n = int(meta["trc.FirstFrame"])
-            if abs(n) < 2**31:        # a file's free text: 10^4000 made rows of 4 KB
+            if abs(n) <= MAX_FIRST_FRAME:
                 return n
     except ValueError:
         pass

@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.io._common import (
+    MAX_FIRST_FRAME,
     StrPath,
     count,
     decode_text,
@@ -157,19 +158,21 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         raise _bad("no data rows")
     pos = np.array(rows, dtype=np.float64).reshape(len(rows), n_markers, 3)
     meta = {"format": "trc"}
+    warnings: list[str] = []                     # metadata "warning", joined by "; "
     pos, skipped = _frames_by_number(pos, numbers)
     if skipped:
-        meta["warning"] = skipped
+        warnings.append(skipped)
     declared_frames = header.get("NumFrames", "").strip()
     if declared_frames and named(count, declared_frames, "NumFrames", _bad) != len(pos):
-        said = f"NumFrames says {declared_frames}, file has {len(rows)} rows"
-        meta["warning"] = f"{meta['warning']}; {said}" if "warning" in meta else said
+        warnings.append(f"NumFrames says {declared_frames}, file has {len(rows)} rows")
     valid = finite_samples(pos)
     names, renamed = unique_names(names)
     partial = values_at_gaps(pos, ~valid, names, "with 1 or 2 of 3 coordinates empty")
     if partial:
-        meta["warning"] = f"{meta['warning']}; {partial}" if "warning" in meta else partial
+        warnings.append(partial)
     pos[~valid] = np.nan
+    if warnings:                                 # second, as it always was
+        meta["warning"] = "; ".join(warnings)
     if renamed:
         meta["renamed_points"] = "; ".join(renamed)
     if source:
@@ -182,14 +185,13 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if "trc.TimeDecimals" in meta:
         meta["trc.TimeDigits"] = str(digits)
     motion = Motion(pos, names, rate, units, valid, meta)
-    if times and math.isfinite(times[0]):
+    if times and math.isfinite(times[0]):        # the writer's times need the motion
         placed = len(pos) != len(rows)          # rows put at their Frame# (frames skipped)
         at = (np.array([integer(x) for x in numbers], np.int64) - integer(numbers[0])
               if placed else np.arange(len(rows), dtype=np.int64))
         lost = _times_not_kept(motion, times, at)
         if lost:
-            old = motion.metadata.get("warning")
-            motion.metadata["warning"] = f"{old}; {lost}" if old else lost
+            motion.metadata["warning"] = "; ".join([*warnings, lost])
     return motion
 
 
@@ -272,10 +274,6 @@ def _header_meta(lines: list[str], header: dict[str, str],
 #: the most decimals a TRC's columns are written with (trc.Decimals, trc.TimeDecimals,
 #: trc.TimeDigits): more than binary64 holds, far fewer than a hostile value asks for
 MAX_DECIMALS = 30
-
-#: the largest |first frame number| (trc.FirstFrame, mpz.io._common.start_frame)
-MAX_FIRST_FRAME = 2**31 - 1
-
 
 def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
     """The ``trc.*`` entries (and ``start_time``) of ``meta`` that :func:`format_trc` cannot

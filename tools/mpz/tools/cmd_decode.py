@@ -240,21 +240,22 @@ def _without_a_stale_archive(motion: Motion, ext: str, output: str, quiet: bool
     of spec §4.13 ties MNAM or MHDR to cprm), with a warning that says what is not
     written; (motion, False) otherwise. The writer refused such a file, and the command
     line had no way to write it to C3D at all (a fuzzing QA run of stop 48)."""
-    from mpz.c3darchive import C3DArchive, check_matches
+    from mpz.c3darchive import C3DArchive, described_otherwise
     a = motion.extras.get("c3d")
     if ext != ".c3d" or not isinstance(a, C3DArchive):
         return motion, False
     try:
-        check_matches(a, motion)
-    except EncoderError as exc:
-        reason = str(exc).split("; the archive cannot be kept")[0]
-        if not quiet:
-            print(f"mpz decode: warning: {printable(output)}: {printable(reason)}: written as "
-                  f"a C3D of the markers alone, without {printable(a.describe())}",
-                  file=sys.stderr)
-        return dataclasses.replace(motion, extras={k: v for k, v in motion.extras.items()
-                                                   if k != "c3d"}), True
-    return motion, False
+        differ = described_otherwise(a, motion)
+    except EncoderError as exc:                 # other frames or markers: kept out too
+        differ = str(exc)
+    if not differ:
+        return motion, False
+    if not quiet:
+        print(f"mpz decode: warning: {printable(output)}: the C3D archive no longer describes "
+              f"the motion: {printable(differ)}: written as a C3D of the markers alone, "
+              f"without {printable(a.describe())}", file=sys.stderr)
+    return dataclasses.replace(motion, extras={k: v for k, v in motion.extras.items()
+                                               if k != "c3d"}), True
 
 
 def _read_mpz(path: str, max_samples: int | None
