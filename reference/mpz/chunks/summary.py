@@ -37,7 +37,7 @@ __all__ = ["CodedSummaryLevel", "Smrc", "SUMMARY", "SUMMARY_TYPES", "SMRC_MINOR"
 SMRC_MINOR = 1
 #: §3.4, §4.15: a file holds at most one of these (one summary, coded or not)
 SUMMARY_TYPES = ("smry", "smrc")
-#: §4.15 every decoded mean q satisfies |q| < 2^31 (the s32 range of smry's means)
+#: §4.15 step 5: every decoded mean q satisfies |q| < 2^31 (smry's s32 range without -2^31)
 MEAN_LIMIT = 1 << 31
 
 IntArray = NDArray[np.int64]
