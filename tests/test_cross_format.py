@@ -8,6 +8,7 @@ silently. Expected values come from how each input is built here, never from the
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -94,3 +95,58 @@ def test_a_motion_without_units_written_as_c3d_says_so():
     m = mpz.Motion(m.positions, m.names, m.rate, "", m.valid)
     _, notes = writer_problems(m, ".c3d")
     assert any("no length unit" in n and "POINT:UNITS is left empty" in n for n in notes)
+
+
+def test_a_subject_no_written_file_holds_is_said(tmp_path):
+    """QA, stop 49: `--meta subject=Alice` decoded to C3D (no archive), TRC or CSV was
+    dropped without a word, because subject is also a key the C3D reader sets. Only a C3D
+    whose archive's SUBJECTS:NAMES gives the same subject holds it."""
+    m = generate("walk", frames=4)
+    m = mpz.Motion(m.positions, m.names, m.rate, "mm", m.valid, {"subject": "Alice"})
+    for ext in (".c3d", ".trc", ".csv"):
+        _, notes = writer_problems(m, ext)
+        assert any("'subject'" in n and "not written" in n for n in notes), (ext, notes)
+
+
+def test_a_subject_the_archive_holds_is_not_said_dropped(tmp_path):
+    from mpz.io import c3dbin
+    m = c3d_motion(7, storage=1, F=12, M=4, J=0, C=0, n=0)
+    # SUBJECTS:NAMES as the reader takes it, checked on the archive's own records
+    params = c3dbin.record_params(m.extras["c3d"].records)
+    held = ", ".join(str(x).strip() for x in params.get("SUBJECTS", {}).get("NAMES", [])
+                     if str(x).strip())
+    meta = {**m.metadata, "subject": held} if held else {
+        k: v for k, v in m.metadata.items() if k != "subject"}
+    m = dataclasses.replace(m, metadata=meta)
+    _, notes = writer_problems(m, ".c3d")
+    assert not any("'subject'" in n for n in notes), notes
+    other = dataclasses.replace(m, metadata={**meta, "subject": held + "Bob"})
+    _, notes = writer_problems(other, ".c3d")
+    assert any("'subject'" in n for n in notes), notes
+
+
+def test_a_first_frame_c3d_cannot_number_is_said_and_written_from_1(tmp_path):
+    """QA, stop 49: a TRC whose Frame# starts at 0 became a C3D whose header word 4 is 0
+    (C3D counts from 1; ezc3d and mpz then numbered its frames differently), without a
+    word; a negative first frame failed inside the writer after check_writable passed."""
+    for first in (0, -5):
+        m = read(_trc(tmp_path, list(range(first, first + 30))))
+        refuse, notes = writer_problems(m, ".c3d")
+        assert not refuse
+        assert any(f"first frame {first}" in n and "from 1" in n for n in notes), notes
+        write(m, tmp_path / "out.c3d")
+        head = (tmp_path / "out.c3d").read_bytes()[:512]
+        assert int.from_bytes(head[6:8], "little") == 1                   # word 4
+        assert int.from_bytes(head[8:10], "little") == 30                 # word 5
+
+
+def test_units_a_bvh_cannot_hold_are_said(tmp_path, two_joint_bvh):
+    """QA, stop 49: a BVH encoded with --units cm and decoded to .bvh lost the unit
+    without a note (CSV says so)."""
+    (tmp_path / "t.bvh").write_text(two_joint_bvh)
+    m = read(tmp_path / "t.bvh")
+    assert m.units == ""
+    _, notes = writer_problems(m, ".bvh")
+    assert not any("units" in n for n in notes)
+    _, notes = writer_problems(dataclasses.replace(m, units="cm"), ".bvh")
+    assert any("BVH does not store units (cm)" in n for n in notes), notes

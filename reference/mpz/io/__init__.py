@@ -473,6 +473,10 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append("this motion has no length unit (a BVH source?): POINT:UNITS is "
                          "left empty, and most C3D readers will take millimetres; encode "
                          "the source with --units to name it")
+        first = start_frame(motion)
+        if archive is None and first < 1:
+            notes.append(f"C3D counts frames from 1: the source's first frame {first} is "
+                         f"written as 1 (every frame number {1 - first} higher)")
     if ext == ".trc":
         if motion.units == "":
             refuse.append("TRC needs units (mm, cm, m, in) and this motion has none (a BVH "
@@ -494,10 +498,15 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             if back != rate:
                 refuse.append(f"CSV times cannot give back the rate {rate!r} Hz "
                               f"(they read back as {back!r})")
+    if ext == ".bvh" and motion.units:
+        notes.append(f"BVH does not store units ({motion.units}): the file reads back "
+                     "without a unit")
     if ext == ".npy":
         notes.append("NPY holds positions only: marker names, rate and units are not stored")
     if ext in (".c3d", ".trc", ".csv"):
         free = [k for k in motion.metadata if k not in READER_KEYS and "." not in k]
+        if motion.metadata.get("subject") and not _subject_held(motion, ext):
+            free.insert(0, "subject")     # a reader key, but here the file has no place
         if free:
             notes.append(f"{fmt} has no place for free metadata: not written: "
                          + ", ".join(repr(k) for k in free[:8])
@@ -567,6 +576,17 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         notes.append(f"{fmt} does not hold the first frame number ({first}): frames are "
                      "counted from " + ("0" if ext == ".csv" else "the start"))
     return refuse, notes
+
+
+def _subject_held(motion: Motion, ext: str) -> bool:
+    """Whether the file written as ``ext`` gives back ``motion``'s subject: only a C3D whose
+    archive's SUBJECTS:NAMES names the same (the archive's parameters are written as
+    stored; no writer makes a SUBJECTS group of its own)."""
+    archive = motion.extras.get("c3d")
+    if ext != ".c3d" or archive is None:
+        return False
+    from mpz.io.c3d import archive_subject
+    return archive_subject(archive) == motion.metadata.get("subject")
 
 
 def _positions_off_channels(motion: Motion) -> float | None:

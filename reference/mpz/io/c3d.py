@@ -143,6 +143,19 @@ def _subject(params: Mapping[str, Any]) -> str:
     return ", ".join(n for n in (str(x).strip() for x in names) if n)
 
 
+def archive_subject(a: C3DArchive) -> str:
+    """The subject that the C3D of archive ``a`` gives when read (SUBJECTS:NAMES, as
+    :func:`read_c3d` takes it), '' when it names none."""
+    return _subject(c3dbin.record_params(a.records))
+
+
+def c3d_first_frame(motion: Motion) -> int:
+    """The first frame number a C3D of ``motion`` without an archive gets: the source's
+    (:func:`mpz.io._common.start_frame`), or 1 when that is below 1, where C3D does not
+    count (header word 4 is 1-based; :func:`mpz.io.check_writable` says so)."""
+    return max(1, start_frame(motion))
+
+
 def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
                 data: bytes) -> Motion:
     """A Motion from an ``ezc3d.c3d`` object of the C3D bytes ``data``; ``declared`` is
@@ -471,7 +484,7 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
 
     path = os.fspath(path)
     if motion.extras.get("c3d") is not None or motion.n_frames > c3dbin.HEADER_MAX_FRAME \
-            or start_frame(motion) != 1 or memory_short(
+            or c3d_first_frame(motion) != 1 or memory_short(
                 EZC3D_WRITE_BYTES * motion.n_frames * motion.n_markers + EZC3D_BYTES_FIXED):
         blob = archive_bytes(motion) if motion.extras.get("c3d") is not None else \
             long_bytes(motion)
@@ -523,7 +536,7 @@ def long_bytes(motion: Motion) -> bytes:
         For names or a point count a C3D cannot hold.
     """
     header, records = c3dbin.plain_parts(list(motion.names), motion.rate, motion.units,
-                                         motion.n_frames, first=start_frame(motion))
+                                         motion.n_frames, first=c3d_first_frame(motion))
     valid = motion.valid
     xyz = np.where(valid[:, :, None], motion.positions, 0.0)
     words = np.where(valid, np.float32(0.0), np.float32(-1.0)).astype("<f4")
