@@ -161,7 +161,7 @@ def test_vv_and_the_plain_dump_agree_on_every_vector(capsys):
         plain, _ = run(capsys, mpzinfo.main, [str(path)])
         assert code == plain and "Traceback" not in out.err, (v["name"], out.err[-800:])
         assert (code == 2) if v["expected"] != "decode" else code in (0, 1), v["name"]
-    assert len(vectors) == 335
+    assert len(vectors) >= 335             # every vector, not an empty list
 
 
 def test_vv_shows_a_string_field_as_stored_at_its_offset():

@@ -3386,6 +3386,131 @@ def smrc_wrap_vectors(vs: VectorSet):
                ["§1.2", "§4.15", "§5.4"])
 
 
+def summary_edge_vectors(vs: VectorSet):
+    """Summary rules that no earlier vector isolated (a review of stop 49, spec §4.10,
+    §4.15): limits and header fields of smrc, its coded field when D = 0, a mean out of
+    range in a predicted level, and space 1 with D > 0 in both summary chunks; in the
+    v-smrc-positions file."""
+    import dataclasses
+
+    from mpz.chunks.summary import Smrc
+    m = _synth("walk", 24, markers=4, seed=141)
+    good = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    F, M = 24, 4
+    rng = np.random.default_rng(149)
+    secs = ["§2.1", "§2.3", "§3.4", "§4.15", "§5.5"]
+    rec = next(Smrc.load(c.payload) for c in container.parse(good) if c.type == "smrc")
+
+    def add(slug, body, description, corruption, risk, error, sections):
+        vs.invalid(_numbered(vs, "x", slug), _with_smrc(good, body), description,
+                   corruption, risk, error, sections)
+
+    # space 1 with D > 0: the B blocks of shape [k, D, 1] (smrc) and raw s32 means (smry)
+    qa = rng.integers(-500, 500, (3, 5))
+    qb = rng.integers(-500, 500, (2, 5))
+    body = _smrc_payload(1, 5, [(2, 3.5, 0.001, [0, 11], qb), (3, 1.25, 0.001, [0, 7, 16], qa)],
+                         frames=F)
+    vs.valid("uncommon", _numbered(vs, "u", "smrc-angles-d5"), _with_smrc(good, body),
+             "an angle smrc (space 1) with D = 5: levels k = 2 and 3, mean blocks of shape "
+             "[k, 5, 1], the k = 2 level predicted from the k = 3 level",
+             {"summary": "smrc", "dims": 5, "levels": [2, 3]}, secs,
+             "make_vectors.summary_edge_vectors: hand-made smrc in the v-smrc-positions file")
+    smry = payload("smry", {"space": 1, "dims": 5, "level_count": 2, "levels": [
+        {"k": k, "wssse": w, "step": 0.001, "starts": np.asarray(st, "<u4").tobytes(),
+         "means": np.asarray(q, "<i4").tobytes()}
+        for k, w, st, q in ((2, 3.5, [0, 11], qb), (3, 1.25, [0, 7, 16], qa))]})
+    ch = [["smry", smry] if c.type == "smrc" else [c.type, c.payload]
+          for c in container.parse(good)]
+    vs.valid("uncommon", _numbered(vs, "u", "smry-angles-d5"), assemble(ch),
+             "an angle smry (space 1) with D = 5 in a 1.1 file: levels k = 2 and 3, five "
+             "s32 means per segment", {"summary": "smry", "dims": 5, "levels": [2, 3]},
+             ["§2.3", "§3.4", "§4.10"],
+             "make_vectors.summary_edge_vectors: the smrc of v-smrc-positions replaced by a "
+             "hand-made smry")
+    # Σ k x D = 2^24 + 1 with a coded field that decodes: only the limit rejects it
+    big = (1 << 24) + 1
+    body = _smrc_payload(1, big, [(1, 0.0, 1.0, [0], np.zeros((1, big), np.int64))],
+                         frames=F)
+    add("smrc-values-over-limit-coded", body,
+        "an angle smrc of one level, k = 1 and D = 2^24 + 1, whose coded field holds every "
+        "block: 2^24 + 1 means, one above MAX_SUMMARY_VALUES",
+        "hand-made smrc, the 2^24 + 1 zero residuals coded in about 46 KB",
+        "a decoder without the limit decodes it (the other limit vectors also fail for "
+        "their short coded fields)", "LimitExceededError", ["§4.15", "§8"])
+    # the coded field when D = 0: still decoded and closed
+    body0 = _smrc_payload(1, 0, [(3, 0.0, 0.5, [0, 1, 23], np.zeros((3, 0)))], frames=F)
+    rec0 = Smrc.load(body0)
+    add("smrc-no-dims-leftover", dataclasses.replace(rec0, coded=rec0.coded + b"\x00").dump(),
+        "an angle smrc with D = 0 and a byte left after its length block",
+        "one 0 byte appended to the coded field", "a decoder that skips the coded field "
+        "when there are no means", "FormatError", ["§4.15", "§5.3"])
+    add("smrc-no-dims-overrun", dataclasses.replace(rec0, coded=rec0.coded[:-1]).dump(),
+        "an angle smrc with D = 0 whose coded field is cut by one byte",
+        "last byte of the coded field dropped", "a decoder that skips the coded field when "
+        "there are no means", "FormatError", ["§4.15", "§5.3"])
+    # §5.3 on smrc: a payload of 4 bytes, a first byte other than 0
+    add("smrc-coded-4-bytes", dataclasses.replace(rec0, coded=b"\x00" * 4).dump(),
+        "an angle smrc with D = 0 whose coded field is 4 bytes", "coded field -> 00 00 00 00",
+        "a decoder that reads the 4-byte code value and stops", "FormatError",
+        ["§2.4", "§4.15", "§5.3"])
+    add("smrc-coded-first-byte", dataclasses.replace(
+        rec0, coded=b"\x01" + rec0.coded[1:]).dump(),
+        "an smrc coded field whose first byte is 1", "first byte 00 -> 01",
+        "a decoder that skips the first byte without checking it", "FormatError",
+        ["§2.4", "§4.15", "§5.3"])
+    # header fields
+    add("smrc-level-count-0", dataclasses.replace(rec0, level_count=0, levels=(),
+                                                  coded=b"\x00" * 5).dump(),
+        "an smrc with level_count 0", "no levels, a 5-byte coded field",
+        "a summary with nothing in it", "FormatError", ["§2.4", "§4.15"])
+    body = _smrc_payload(1, 0, [(1, 0.0, 1.0, [0], np.zeros((1, 0)))] * 65, frames=F)
+    add("smrc-level-count-65", body, "an angle smrc of 65 levels of k = 1 (D = 0)",
+        "level_count 65, one length block each", "a decoder that sizes a 64-entry table",
+        "FormatError", ["§4.15", "§8"])
+    add("smrc-k-zero", dataclasses.replace(rec0, levels=(dataclasses.replace(
+        rec0.levels[0], k=0),)).dump(), "an smrc level with k = 0",
+        "level 0 k 3 -> 0", "a decoder that codes an empty length block", "FormatError",
+        ["§4.15"])
+    add("smrc-wssse-nan", dataclasses.replace(rec, levels=(dataclasses.replace(
+        rec.levels[0], wssse=math.nan), rec.levels[1])).dump(), "an smrc level with wssse "
+        "NaN", "level 0 wssse -> NaN", "a ranking by WSSSE that compares NaN", "FormatError",
+        ["§4.15", "§1.3"])
+    add("smrc-wssse-negative", dataclasses.replace(rec, levels=(dataclasses.replace(
+        rec.levels[0], wssse=-1.0), rec.levels[1])).dump(), "an smrc level with wssse -1",
+        "level 0 wssse -> -1.0", "a negative error read as a better partition",
+        "FormatError", ["§4.15"])
+    # a predicted level out of range: level 1 (k = 2) is at 2^31 - 1, level 0 (k = 1) is
+    # predicted from it as 2^31 - 1 and adds 1
+    e1 = np.zeros((2, M, 3), np.int64)
+    e1[0, 0, 0] = (1 << 31) - 1
+    e0 = np.zeros((1, M, 3), np.int64)
+    e0[0, 0, 0] = 1
+    coded = rc_wide((np.array([F - 1]).reshape(1, 1, 1), {"period": 1, "signed": False}),
+                    (e0, {"period": 1}),
+                    (np.array([11, 11]).reshape(2, 1, 1), {"period": 2, "signed": False}),
+                    (e1, {"period": 2}))
+    body = _smrc_payload(0, 3 * M, [(1, 1.0, 1.0, [0], None), (2, 1.0, 1.0, [0, 12], None)],
+                         coded=coded)
+    add("smrc-predicted-mean-2pow31", body,
+        "an smrc whose last level (k = 2) holds means of 2^31 - 1 and whose level k = 1, "
+        "predicted from it as 2^31 - 1, adds 1: a mean of 2^31 in a predicted level",
+        "hand-made smrc, wide residuals", "a decoder that range-checks the last level only",
+        "FormatError", ["§4.15", "§1.2"])
+
+
+#: the §7.4 rules the summary edge vectors probe (merged into VECTOR_RULES)
+SUMMARY_EDGE_VECTOR_RULES = _rules(
+    ("R-4.15-2", "smrc-level-count-0 smrc-level-count-65 smrc-k-zero smrc-wssse-nan "
+                 "smrc-wssse-negative"),
+    ("R-4.15-3", "smrc-values-over-limit-coded"),
+    ("R-4.15-4", "smrc-no-dims-leftover smrc-no-dims-overrun smrc-coded-4-bytes "
+                 "smrc-coded-first-byte"),
+    ("R-4.15-6", "smrc-predicted-mean-2pow31"),
+    ("R-4.10-3", "smry-angles-d5"),
+    ("R-4.15-8", "smrc-angles-d5"),
+)
+VECTOR_RULES.update(SUMMARY_EDGE_VECTOR_RULES)
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -3400,6 +3525,7 @@ BUILDERS = (
     c3d_coding_vectors,                       # §4.13 byte coding (MPZ 1.1)
     clarified_accept_vectors,                 # §4.13.1, §4.14.2 text of stop 27
     smrc_wrap_vectors,                        # §4.15 lengths that wrap in 32 bits
+    summary_edge_vectors,                     # §4.10, §4.15 rules isolated (stop 49)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
