@@ -194,3 +194,27 @@ def test_the_readme_vector_table_is_the_manifest():
     entries = json.loads((Path(__file__).parent / "vectors" / "manifest.json").read_text())
     assert table == vector_table(entries["vectors"])
     assert table.count("\n") - 1 == len(entries["vectors"])
+
+
+def test_summary_digests_match_the_public_api():
+    """A review of stop 49: an implementer could not check decoded summary values without
+    the reference. ``features.summary_sha256`` is recomputed here from ``mpz.read_summary``
+    (means in units, divided back by the step) by the rule the manifest states; every
+    decodable vector with a summary chunk has one."""
+    import hashlib
+    with_summary = [v for v in DECODABLE
+                    if {"smry", "smrc"} & set(v["features"].get("chunks", []))]
+    assert len(with_summary) >= 10
+    for v in with_summary:
+        feats = v["features"]
+        assert "int64 little-endian" in feats["summary_digest_rule"]
+        summary = mpz.read_summary(VDIR / v["file"])
+        h = hashlib.sha256()
+        for lv in summary.levels:
+            q = np.rint(np.asarray(lv.means, np.float64) / lv.step)
+            assert np.array_equal(q * lv.step, lv.means), v["name"]     # one rounding, §4.10
+            h.update(np.asarray(lv.starts, "<i8").tobytes())
+            h.update(np.ascontiguousarray(q.astype("<i8")).tobytes())
+        assert h.hexdigest() == feats["summary_sha256"], v["name"]
+    assert not [v["name"] for v in MAN["vectors"] if "summary_sha256" in v["features"]
+                and v not in with_summary]

@@ -321,6 +321,7 @@ class VectorSet:
                 types.append(c.type)
         feats = {"chunks": types}
         feats.update(features)
+        feats.update(_summary_features(s))
         self.entries.append({
             "name": name, "file": rel, "sha256": sha, "size": len(data), "group": group,
             "description": description, "provenance": provenance,
@@ -2218,6 +2219,29 @@ def c3d_motion(seed, *, storage, F=24, M=5, J=2, C=3, n=4):
                    [0 if j % 2 == 0 else 3 for j in range(J)], analog, n, storage)
     return mpz.Motion(pos, m.names, m.rate, m.units, m.valid, {"format": "c3d"},
                       extras={"c3d": a})
+
+
+def _summary_features(s) -> dict:
+    """What a file's summary chunk decodes to, for implementers (a review of stop 49 found
+    no way to check decoded summary values without the reference): sha256 of its integer
+    levels; {} without a summary."""
+    import hashlib
+    if s.summary is None:
+        return {}
+    rec = s.summary.record
+    if rec.TYPE == "smry":
+        levels = [(np.frombuffer(lv.starts, "<u4"), np.frombuffer(lv.means, "<i4"))
+                  for lv in rec.levels]
+    else:
+        levels = rec.levels_decoded(s.header.frame_count)
+    h = hashlib.sha256()
+    for starts, q in levels:
+        h.update(np.ascontiguousarray(starts, "<i8").tobytes())
+        h.update(np.ascontiguousarray(q, "<i8").tobytes())
+    return {"summary_sha256": h.hexdigest(),
+            "summary_digest_rule": "sha256, level after level in stored order, of the starts "
+                                   "[k] then the integer means q [k, D] (smry: as stored; "
+                                   "smrc: §4.15 steps 1-5), both int64 little-endian, C order"}
 
 
 def _c3d_features(data):
