@@ -309,3 +309,49 @@ def test_a_c3d_of_joint_positions_notes_float32_against_position_bound(tmp_path,
         assert float(note[1]) == pytest.approx(err.max(), rel=0.05)
         if bound:
             assert err.max() < 1e-4 * pb
+
+
+def test_a_source_grid_with_a_max_error_is_not_reported_exact():
+    """QA, stop 49: source_grid=0.5 with max_error=1.0 coded 55 of 60 samples off the
+    source (within 1.0, as declared) and reported "exact on the grid ... (error 0)"."""
+    rng = np.random.default_rng(0)
+    p = np.round(rng.normal(size=(20, 3, 3)) * 100) * 0.5
+    m = mpz.Motion(p, ["a", "b", "c"], rate=10.0, units="mm")
+    data, rep = mpz.encode_motion(m, mpz.EncodeOptions(max_error=1.0, source_grid=0.5))
+    err = float(np.sqrt(((mpz.decode(data).positions - p) ** 2).sum(-1)).max())
+    assert 0 < err <= 1.0                               # measured: not exact
+    assert "error 0" not in rep.bound_rule and "exact" not in rep.bound_rule
+    assert "max error 1 (given)" in rep.bound_rule and "0.5" in rep.bound_rule
+    data, rep = mpz.encode_motion(m, mpz.EncodeOptions(source_grid=0.5))
+    assert np.array_equal(mpz.decode(data).positions, p) and "error 0" in rep.bound_rule
+
+
+def test_a_default_bound_too_fine_says_it_is_the_default():
+    """QA, stop 49: with no option, a motion of tiny extent far from the origin was refused
+    as 'max error 4.19e-13 is too fine', a max error the caller never gave."""
+    rng = np.random.default_rng(0)
+    m = mpz.Motion(1e6 + rng.normal(size=(20, 3, 3)) * 1e-9, ["a", "b", "c"], rate=10.0,
+                   units="")
+    with pytest.raises(mpz.EncoderError, match=r"default.*max_error|max_error.*default"):
+        mpz.encode(m)
+    assert mpz.info(mpz.encode(m, max_error=1e-6)).error_bound == 1e-6
+
+
+def test_the_default_rule_names_what_gave_the_bound_when_there_is_no_extent():
+    """QA, stop 49: a unitless motion without extent (constant, all gaps) declared 0.1 and
+    said '0.0001 of the largest extent' (which is 0)."""
+    for p in (np.full((5, 2, 3), 1234.5), np.full((5, 2, 3), np.nan)):
+        m = mpz.Motion(p, ["a", "b"], rate=10.0, units="")
+        data, rep = mpz.encode_motion(m)
+        assert mpz.info(data).error_bound == 0.1
+        assert "extent" in rep.bound_rule and "0.0001 of the largest extent" not in \
+            rep.bound_rule, rep.bound_rule
+    m = mpz.Motion(np.array([[[0.0, 0, 0]], [[1000.0, 0, 0]]]), ["a"], rate=10.0, units="")
+    data, rep = mpz.encode_motion(m)
+    assert mpz.info(data).error_bound == 0.1 and "0.0001 of the largest extent" in rep.bound_rule
+
+
+def test_a_limit_refusal_names_the_limit():
+    m = mpz.Motion(np.zeros((1, 4097, 3)), [f"m{i}" for i in range(4097)], rate=1.0)
+    with pytest.raises(mpz.EncoderError, match="4096"):
+        mpz.encode(m, max_error=1.0)

@@ -556,7 +556,7 @@ def test_the_position_search_keeps_its_bound_by_an_independent_fk(depth, F, targ
     try:
         steps, err = sk.steps_for_position(skel, m.angles, target, None, None)
     except EncoderError as e:
-        assert "no channel steps keep the joint positions" in str(e)
+        assert "found no channel steps that keep the joint positions" in str(e)
         assert swing == 1e6
         return
     codings = [ChannelCoding(s.mantissa, s.digits, 0, 0, 0, 0) for s in steps]
@@ -1453,3 +1453,47 @@ def test_compare_holds_joint_positions_to_the_position_bound(tmp_path, shared_da
     assert mpz_cli.main(["compare", str(src), str(other), "--json"]) == 2
     check = json.loads(capsys.readouterr().out)["bound_check"]
     assert check["of"] == "joint positions" and check["beyond"] > 0
+
+
+FAR_BVH = """HIERARCHY
+ROOT hip
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT j0
+  {
+    OFFSET 3.455842 8.216181 3.304371
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT j1
+    {
+      OFFSET -13.031572 9.053559 4.463746
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET -5.369532 5.811181 3.645724
+      }
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.0083333
+100294.132497 100028.422241 100546.712987 2.994231 0.198611 -1.462284 -3.909542 -1.285961 \
+0.040711 -1.378015 6.470319 5.033622
+99557.678410 99865.512293 100064.593674 -13.555812 -9.445066 -0.873860 -2.110952 1.068215 \
+1.086610 10.589194 -5.560104 -1.888025
+""".replace("\\\n", "")
+
+
+def test_a_search_that_finds_no_steps_says_how_to_choose_them(tmp_path):
+    """QA, stop 49: a root 10^5 units from the origin at a bound of 0.001 was refused with
+    "no channel steps keep the joint positions within 0.001", yet steps chosen with
+    --angle-error and --translation-error keep it (measured here by this file's own FK)."""
+    m = parse_bvh(FAR_BVH)
+    m = dataclasses.replace(m, units="cm")
+    with pytest.raises(EncoderError, match=r"--angle-error.*--translation-error"):
+        mpz.encode(m, max_error=0.001)
+    out = tmp_path / "back.bvh"
+    mpz.io.write(mpz.decode(mpz.encode(m, angle_error=0.0005, translation_error=0.0005)), out)
+    d = np.linalg.norm(bvh_fk(bvh_read(FAR_BVH)) - bvh_fk(bvh_read(out.read_text())), axis=2)
+    assert float(d.max()) <= 0.001

@@ -889,22 +889,29 @@ def on_grid(motion: Motion, step: float) -> bool:
     return bool(np.array_equal(q * step, x) and np.abs(q).max(initial=0) < 2.0 ** (MAX_EXP - 1))
 
 
-def default_error(motion: Motion, opts: EncodeOptions) -> float:
-    """The default bound in motion units: ``default_error_mm`` for known units, else
-    ``default_error_fraction`` of the largest extent of the data (spec Appendix C); for a
-    skeletal motion whose skeleton chunk is written, the marker layer's preview bound
-    (issue 13, :func:`mpz.skeleton.preview_bound`)."""
+def default_error(motion: Motion, opts: EncodeOptions) -> tuple[float, str]:
+    """The default bound in motion units, and what gave it: ``default_error_mm`` for known
+    units, else ``default_error_fraction`` of the largest extent of the data, or
+    ``default_error_mm`` units when the data has none (spec Appendix C); for a skeletal
+    motion whose skeleton chunk is written, the marker layer's preview bound (issue 13,
+    :func:`mpz.skeleton.preview_bound`)."""
     if opts.keep_skeleton:
         from mpz.skeleton import preview_bound
         preview = preview_bound(motion)
         if preview is not None:
-            return preview
+            return preview, ("1/500 of the skeleton's size: a preview, the channels hold "
+                             "the motion")
     mm = MM_PER_UNIT.get(motion.units)
     if mm is not None:
-        return opts.default_error_mm / mm
+        return opts.default_error_mm / mm, f"{opts.default_error_mm:g} mm"
     x = motion.positions[motion.valid]
     extent = float((x.max(0) - x.min(0)).max()) if x.size else 0.0
-    return opts.default_error_fraction * extent if extent > 0 else opts.default_error_mm
+    if extent > 0:
+        return (opts.default_error_fraction * extent,
+                f"{opts.default_error_fraction:g} of the largest extent")
+    # a QA run (stop 49): this was said to be "0.0001 of the largest extent", which is 0
+    return opts.default_error_mm, (f"{opts.default_error_mm:g} units: the motion has no "
+                                   "extent and no unit")
 
 
 def resolve_bound(motion: Motion, opts: EncodeOptions) -> tuple[EncodeOptions, str]:
@@ -932,6 +939,11 @@ def resolve_bound(motion: Motion, opts: EncodeOptions) -> tuple[EncodeOptions, s
         if not on_grid(motion, opts.source_grid):
             raise EncoderError(f"source_grid {opts.source_grid!r}: the positions are not exact "
                                "multiples of it")
+        if opts.max_error is not None:
+            # coded within it on multiples of the grid, exactly only when it is below the
+            # grid's diagonal (plan_grid): "error 0" said of 55 changed samples, a QA run
+            return opts, (f"max error {opts.max_error:g} (given), on the grid of step "
+                          f"{opts.source_grid:g}")
         return opts, f"exact on the grid of step {opts.source_grid:g} (error 0)"
     grid = source_grid_of(motion)
     if grid is not None and not on_grid(motion, grid):
@@ -950,11 +962,7 @@ def resolve_bound(motion: Motion, opts: EncodeOptions) -> tuple[EncodeOptions, s
     if grid is not None:
         return (replace(opts, source_grid=grid),
                 f"exact on the source's int16 grid (POINT:SCALE {grid:g}), error 0 (default)")
-    e = default_error(motion, opts)
-    how = (f"{opts.default_error_mm:g} mm" if motion.units in MM_PER_UNIT
-           else f"{opts.default_error_fraction:g} of the largest extent")
-    if opts.keep_skeleton and "skeleton" in motion.extras:      # issue 13
-        how = "1/500 of the skeleton's size: a preview, the channels hold the motion"
+    e, how = default_error(motion, opts)
     return replace(opts, max_error=e), f"max error {e:g} ({how}, default)"
 
 
@@ -1706,7 +1714,9 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     check_metadata({**motion.metadata, **opts.metadata})
     F, M = motion.n_frames, motion.n_markers
     if F > MAX_FRAMES or M > MAX_MARKERS or F * M > MAX_SAMPLES:
-        raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8")
+        raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8: at "
+                           f"most {MAX_FRAMES} frames, {MAX_MARKERS} markers and "
+                           f"{MAX_SAMPLES} frames x markers")
     if opts.summary:
         from mpz.fisher import summary_check
         summary_check(F, opts.summary)      # a summary too large for its tables, up front
@@ -1719,7 +1729,15 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
         hier = plan_hierarchy(motion, opts, pool)
         addh, addh_rule = head_scale(motion, hier)
         x = _filled(motion.positions, motion.valid)   # issue 11.11: not copied without gaps
-        grid = plan_grid(motion, opts, hier, addh, x)
+        try:
+            grid = plan_grid(motion, opts, hier, addh, x)
+        except EncoderError as exc:
+            if not bound_rule.endswith(", default)"):
+                raise
+            # the caller gave no bound: a QA run (stop 49) was told of a max error it never
+            # gave
+            raise EncoderError(f"{exc}; that is the default bound ({bound_rule}): give a "
+                               "max_error (--max-error) these coordinates allow") from None
         report = EncodeReport(F, M, motion.raw_size(), step=grid.step, addh=addh,
                               addh_rule=addh_rule, hierarchy=hier.method,
                               bound=(opts.max_error if opts.max_error is not None
@@ -1887,8 +1905,11 @@ def encode(motion: Motion, *,
     default_error_mm, default_error_fraction : float, default 0.1 and 1e-4
         The default bound (see ``max_error``).
     source_grid : float, optional
-        Code the positions exactly on this grid (error 0); by default an int16
-        C3D source's |POINT:SCALE| when no bound is given.
+        Code the positions on this grid (every coordinate must be a multiple of
+        it): exactly (error 0), unless ``max_error`` is also given and above
+        about sqrt(3) times the grid, when they are coded within ``max_error`` on
+        this grid (the report says which). By default an int16 C3D source's
+        |POINT:SCALE| when no bound is given.
     model_error : float, default 1e-4
         Model outputs of a C3D (spec §4.13.3): max error as a fraction of each
         channel's range.

@@ -389,8 +389,14 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         exact = exact_steps(values)
         if exact is not None and (err := measure(exact, whole=True)) <= aim:
             return exact, err
-        raise EncoderError(f"no channel steps keep the joint positions within {target:g}; "
-                           "give a larger --max-error")
+        # the search ties every channel's step to one factor; a QA run (stop 49) met a root
+        # 10^5 units from the origin whose translations, at the factor the rotations need,
+        # were too fine for their values, while steps chosen apart kept the bound
+        raise EncoderError(f"the step search found no channel steps that keep the joint "
+                           f"positions within {target:g} and stay coarse enough for the "
+                           f"channels' values (|value / step| < 2^27); choose the steps "
+                           f"with angle_error and translation_error (--angle-error, "
+                           f"--translation-error), or give a larger max error")
     while bad and bad - good > 0.03 * good:
         mid = (good + bad) / 2
         if error(mid, whole=True) <= aim:
