@@ -218,3 +218,37 @@ def test_summary_digests_match_the_public_api():
         assert h.hexdigest() == feats["summary_sha256"], v["name"]
     assert not [v["name"] for v in MAN["vectors"] if "summary_sha256" in v["features"]
                 and v not in with_summary]
+
+
+def test_c3d_archive_digests_match_the_public_api():
+    """A mutation run: a decoder that rounded the model-output values to float32 (or lost a
+    word's bits) passed every test, because nothing compared a decoded archive with the
+    manifest. ``features.c3d_archive_sha256`` is recomputed here from ``mpz.decode(path)
+    .extras["c3d"]`` by the rule the manifest states beside it (spec §7.3): the words [F, P]
+    and the analog words [F n, C] as stored (int16 or float32, little-endian), then the
+    model values [F, J, 3] as float64 little-endian with the quiet NaN at gaps."""
+    import hashlib
+    with_archive = [v for v in DECODABLE if "c3d_archive_sha256" in v["features"]]
+    assert len(with_archive) >= 4
+    for v in with_archive:
+        feats = v["features"]
+        rule = feats["c3d_archive_digest_rule"]
+        assert "words [F, P]" in rule and "analog words [F n, C]" in rule, v["name"]
+        assert "model values [F, J, 3]" in rule and "float64 LE, NaN at gaps" in rule, v["name"]
+        a = mpz.decode(VDIR / v["file"]).extras["c3d"]
+        F, J = a.models.shape[0], a.models.shape[1]
+        assert feats["c3d_points"] == a.words.shape[1] == len(a.slots), v["name"]
+        assert feats["c3d_model_outputs"] == J and a.words.shape[0] == F, v["name"]
+        assert feats["c3d_analog_channels"] == a.channels, v["name"]
+        h = hashlib.sha256()
+        for x, storage in ((a.words, a.word_storage), (a.analog, a.analog_storage)):
+            want = np.dtype("<i2") if storage == 0 else np.dtype("<f4")
+            assert x.size == 0 or x.dtype == want, (v["name"], x.dtype, storage)
+            h.update(np.ascontiguousarray(x, want).tobytes())
+        models = np.array(a.models, dtype="<f8")
+        gaps = ~np.asarray(a.model_valid, bool)
+        assert np.isnan(models[gaps]).all() and np.isfinite(models[~gaps]).all(), v["name"]
+        models[gaps] = np.nan                     # the quiet NaN 0x7FF8000000000000
+        assert (models.view("<u8")[gaps] == 0x7FF8000000000000).all()
+        h.update(np.ascontiguousarray(models).tobytes())
+        assert h.hexdigest() == feats["c3d_archive_sha256"], v["name"]

@@ -3535,6 +3535,198 @@ SUMMARY_EDGE_VECTOR_RULES = _rules(
 )
 VECTOR_RULES.update(SUMMARY_EDGE_VECTOR_RULES)
 
+
+def mutation_gap_vectors(vs: VectorSet):
+    """Checks that a mutation-testing run could remove without any vector failing (spec
+    §4.13, §4.14, §4.15, §6.9): each file changes one thing in a good file of the builders
+    above (the C3D archives of c3d_archive_vectors, the skeletons of skeleton_vectors, the
+    v-smrc-positions file), so that a decoder without that one check accepts it; and an
+    archive whose analog channel is coded with the least shift, -128. A builder of its own,
+    last, so that the vectors before it keep their numbers."""
+    import dataclasses
+    from typing import Any
+
+    from mpz.chunks import Cana, Cpnt
+    from mpz.io.amc import parse_amc, parse_asf
+    from mpz.io.bvh import parse_bvh
+
+    def add(slug, data, description, corruption, risk, error, sections):
+        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
+                   sections)
+
+    # -- C3D archives: the float32 file of v-c3d-archive-float32, the int16 one of
+    # u-c3d-int16-exact-on-grid
+    good = mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+    exact = mpz.encode(c3d_motion(72, storage=0, J=1, C=2, n=2))
+    ch = _c3d_chunks(good)
+    pnt = Cpnt.load(next(p for t, p in ch if t == "cpnt"))
+    cana = Cana.load(next(p for t, p in ch if t == "cana"))
+    ch16 = _c3d_chunks(exact)
+    pnt16 = Cpnt.load(next(p for t, p in ch16 if t == "cpnt"))
+    cana16 = Cana.load(next(p for t, p in ch16 if t == "cana"))
+    assert pnt16.storage == 0 and pnt16.words[0].mode == 0 and pnt16.words[0].shift == 0
+    w16 = list(pnt16.words)
+    w16[0] = dataclasses.replace(w16[0], shift=1)
+    add("cpnt-int16-shift-1", _c3d_rebuild(exact, "cpnt", words=tuple(w16)),
+        "an int16 cpnt (storage 0) whose point 0 word channel has mode 0 with shift 1",
+        "words[0].shift 0 -> 1", "a decoder that checks only the mode of int16 channels "
+        "doubles every word, or writes words that int16 cannot hold", "FormatError",
+        ["§4.13", "§4.13.3"])
+    P = pnt.point_count
+    sl = list(pnt.slots)
+    sl[0] = P
+    add("cpnt-slot-equals-point-count", _c3d_rebuild(good, "cpnt", slots=tuple(sl)),
+        f"cpnt slots all distinct but not a permutation: point 0 in slot P = {P}",
+        f"slots[0] = {P}", "a decoder that checks only that slots are distinct indexes "
+        "past the markers and model outputs", "FormatError", ["§4.13.3"])
+    akw: Any                    # offset and step, or bound: floats of a ModelAxis
+    for slug, akw, what, risk in (
+            ("cpnt-model-sum-rounds-to-inf",
+             {"offset": 1.7976931348623157e308, "step": 2.0 ** 939},
+             "offset 1.7976931348623157e308 (the largest binary64) and step 2^939: step x "
+             "2^31 = 2^970 is finite, |offset| + step x 2^31 = 2^1024 - 2^970 rounds (ties "
+             "to even) to +inf",
+             "a decoder that checks offset and step x 2^31 apart, or the exact sum against "
+             "the largest binary64, accepts values that overflow"),
+            ("cpnt-model-bound-inf", {"bound": math.inf}, "bound +inf",
+             "a decoder that checks bound >= 0 only declares an infinite error")):
+        md = list(pnt.models)
+        axes = list(md[0].axes)
+        axes[1] = dataclasses.replace(axes[1], **akw)
+        md[0] = dataclasses.replace(md[0], axes=tuple(axes))
+        add(slug, _c3d_rebuild(good, "cpnt", models=tuple(md)),
+            f"a model-output axis with {what}", f"models[0].axes[1] {what.split(':')[0]}",
+            risk, "FormatError", ["§4.13.3"])
+    add("cana-coded-leftover-byte", _c3d_rebuild(good, "cana", coded=cana.coded + b"\x00"),
+        "one byte after the last symbol of cana", "coded + 00",
+        "a decoder that does not close() the cana payload", "FormatError",
+        ["§4.13.4", "§5.3", "§6.9"])
+    T16 = 24 * cana16.samples
+    t0 = tuple(dataclasses.replace(x, order=0, low_bits=0) for x in cana16.table)
+    for slug, value in (("cana-int16-value-32768", 32768),
+                        ("cana-int16-value-minus-32769", -32769)):
+        col = np.zeros((T16, 1, 1), np.int64)
+        col[5, 0, 0] = value
+        zero = np.zeros((T16, 1, 1), np.int64)
+        add(slug, _c3d_rebuild(exact, "cana", table=t0, coded=rc(
+            *([(col, {})] + [(zero, {})] * (cana16.channels - 1)))),
+            f"an int16 analog word of {value}, one past the int16 range",
+            f"channel 0 (order 0) word 5 = {value}, every other word 0",
+            "a decoder whose range check is off by one writes a word int16 cannot hold "
+            f"({value} wraps to {(value + 32768) % 65536 - 32768})", "FormatError",
+            ["§4.13.4", "§6.9"])
+    # a float32 bit-pattern word channel (mode 1, order 1) reaching v = 2^31
+    F, J = 24, pnt.model_count
+    zeros = np.zeros((F, 1, 1), np.int64)
+    w0 = [dataclasses.replace(x, mode=0, shift=0, order=0, low_bits=0) for x in pnt.words]
+    w0[0] = dataclasses.replace(w0[0], mode=1, order=1)
+    md0 = tuple(dataclasses.replace(mm, axes=tuple(dataclasses.replace(ax, order=0)
+                                                   for ax in mm.axes)) for mm in pnt.models)
+    big = np.zeros((F, 1, 1), np.int64)
+    big[3, 0, 0] = (1 << 31) - 1
+    big[4, 0, 0] = 1
+    coded = rc_wide(*([(big, {})] + [(zeros, {})] * (P - 1)
+                      + [(np.zeros((F, J, 1), np.int64), {"signed": False})]
+                      + [(zeros, {})] * (3 * J)))
+    add("cpnt-bits-value-2pow31", _c3d_rebuild(good, "cpnt", words=tuple(w0), models=md0,
+                                               coded=coded),
+        "a float32 bit-pattern word channel (mode 1, order 1) whose value reaches v = 2^31 "
+        "at frame 4 (residuals 2^31 - 1, then 1)", "point 0 word channel: mode 1, order 1, "
+        "residuals chosen (wide); other channels and model axes order 0, all zero",
+        "a decoder that checks only the mode 0 ranges writes the word 0x80000000 (-0.0); "
+        "one that keeps v in 32 bits wraps it to -2^31, the word 0xFFFFFFFF (a NaN)",
+        "FormatError", ["§4.13.3", "§6.9"])
+
+    # -- skeletons: the files of v-bvhs-synthetic-default and v-asfs-synthetic-default
+    bvh = mpz.encode(parse_bvh(_skeleton_bvh_text(), source="synthetic.bvh"))
+    amc = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
+                               source="synthetic_01.amc"))
+    arec = _skeleton_record(amc)
+
+    def bad(slug, src, changes, what, risk, section):
+        add(slug, _skeleton_rebuild(src, **changes), what, what, risk, "FormatError",
+            [section])
+
+    bad("bvhs-frame-time-inf", bvh, {"frame_time": math.inf}, "bvhs frame_time +inf",
+        "a decoder that checks frame_time > 0 only: a writer prints Frame Time: inf",
+        "§4.14.1")
+    bad("skeleton-position-bound-inf", bvh, {"position_bound": math.inf},
+        "position_bound +inf", "a decoder that checks position_bound >= 0 only: a promise "
+        "that means nothing", "§4.14")
+    bad("asfs-root-orientation-nan", amc, {"root_orientation": (0.0, math.nan, 0.0)},
+        "an asfs root_orientation with a NaN (y)", "forward kinematics gives NaN for every "
+        "joint", "§4.14.2")
+    bones = list(arec.bones)
+    b = 1
+    assert bones[b].parent <= b
+    bones[b] = dataclasses.replace(bones[b], parent=b + 1)
+    bad("asfs-parent-itself", amc, {"bones": tuple(bones)},
+        f"bone {b}'s parent is joint {b + 1}, which is bone {b} itself (bone b is joint b + 1)",
+        "a decoder that compares the parent with b + 1, mixing bone and joint numbers, "
+        "loops on a bone that is its own parent", "§4.14.2")
+    assert arec.amc_order[0] == 0 and 0 not in arec.amc_order[1:]
+    bad("asfs-amc-order-misses-root", amc, {"amc_count": arec.amc_count - 1,
+                                            "amc_order": arec.amc_order[1:]},
+        f"AMC order {list(arec.amc_order[1:])} leaves out joint 0, the root",
+        "an AMC frame always has a root line: a writer drops the root's values", "§4.14.2")
+    joints = arec.bone_count + 1
+    bad("asfs-amc-order-one-past-end", amc, {"amc_count": arec.amc_count + 1,
+                                             "amc_order": (*arec.amc_order, joints)},
+        f"AMC order names joint {joints} = bone_count + 1, one past the last joint",
+        "a decoder whose range check is off by one indexes past the joints", "§4.14.2")
+
+    # -- smrc: the mirror of smrc-mean-2pow31 in the v-smrc-positions file
+    m = _synth("walk", 24, markers=4, seed=141)
+    srcf = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    M = 4
+    e = np.zeros((2, M, 3), np.int64)
+    e[0, 0, 0], e[1, 0, 0] = -((1 << 31) - 1), -1
+    coded = rc_wide((np.array([11, 11]).reshape(2, 1, 1), {"period": 2, "signed": False}),
+                    (e, {"period": 2}))
+    body = _smrc_payload(0, 3 * M, [(2, 1.0, 1.0, [0, 12], None)], coded=coded)
+    add("smrc-mean-minus-2pow31", _with_smrc(srcf, body),
+        "a mean of -2^31: residuals -(2^31 - 1), then -1 along the segments",
+        "hand-made smrc, wide residuals", "a decoder that checks q > -2^31 - 1, or q < 2^31 "
+        "only, accepts a mean smry cannot hold (-2^31 is not a mean, §4.15)", "FormatError",
+        ["§4.15", "§1.2"])
+
+    # -- uncommon: an analog channel whose words are k x 2^-128 (mode 0, shift -128)
+    mc = c3d_motion(75, storage=1)
+    a = mc.extras["c3d"]
+    T = a.analog.shape[0]
+    bits = np.where(np.arange(T) % 3 == 0, 0x00600000, 0x00200000).astype("<u4")
+    bits[np.arange(T) % 5 == 4] = 0
+    a.analog[:, 2] = bits.view("<f4")
+    low = mpz.encode(mc, max_error=1.0)
+    table = Cana.load(next(p for t, p in _c3d_chunks(low) if t == "cana")).table
+    assert (table[2].mode, table[2].shift) == (0, -128), table[2]
+    back = mpz.decode(low).extras["c3d"].analog[:, 2]
+    assert np.array_equal(np.ascontiguousarray(back).view("<u4"), bits)
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-analog-shift-minus-128"), low,
+             "a float32 C3D archive whose analog channel 2 holds the subnormal words "
+             "0x00200000 and 0x00600000 (2^-128 and 3 x 2^-128) and 0: coded in mode 0 with "
+             "shift -128, the least shift, k = 1 and 3", _c3d_features(low),
+             ["§2.1", "§2.3", "§4.13", "§4.13.4", "§6.9"],
+             "make_vectors.c3d_motion(75, storage=1), analog channel 2 set to the bit "
+             "patterns by hand -> mpz.encode(max_error=1.0)")
+
+
+#: the §7.4 rules the mutation gap vectors probe (merged into VECTOR_RULES)
+MUTATION_GAP_VECTOR_RULES = _rules(
+    ("R-4.13-2", "cpnt-int16-shift-1 c3d-analog-shift-minus-128"),
+    ("R-4.13.3-1", "cpnt-slot-equals-point-count cpnt-model-sum-rounds-to-inf "
+                   "cpnt-model-bound-inf"),
+    ("R-6.9-1", "cana-coded-leftover-byte cana-int16-value-32768 "
+                "cana-int16-value-minus-32769 cpnt-bits-value-2pow31"),
+    ("R-6.9-2", "c3d-analog-shift-minus-128"),
+    ("R-4.14.1-1", "bvhs-frame-time-inf"),
+    ("R-4.14-2", "skeleton-position-bound-inf"),
+    ("R-4.14.2-1", "asfs-root-orientation-nan asfs-parent-itself asfs-amc-order-misses-root "
+                   "asfs-amc-order-one-past-end"),
+    ("R-4.15-6", "smrc-mean-minus-2pow31"),
+)
+VECTOR_RULES.update(MUTATION_GAP_VECTOR_RULES)
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -3550,6 +3742,7 @@ BUILDERS = (
     clarified_accept_vectors,                 # §4.13.1, §4.14.2 text of stop 27
     smrc_wrap_vectors,                        # §4.15 lengths that wrap in 32 bits
     summary_edge_vectors,                     # §4.10, §4.15 rules isolated (stop 49)
+    mutation_gap_vectors,                     # checks no vector isolated (mutation run)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
