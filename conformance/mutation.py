@@ -5,6 +5,7 @@ Usage::
     python conformance/mutation.py                 # every mutant, against a copy of this checkout
     python conformance/mutation.py --only C1 K5    # some mutants
     python conformance/mutation.py --tree DIR      # against another tree (e.g. an older commit)
+    python conformance/mutation.py --series X      # the MPZ 1.1 chunk layer alone (X1-X50)
     python conformance/mutation.py --list          # the table
 
 Strategy: a small explicit mutant table, not mutmut or cosmic-ray. mutmut 3 rewrites every
@@ -19,7 +20,8 @@ of bugs and stays reviewable.
 The tree is copied to a temporary directory (never edited in place); a ``sitecustomize``
 shim puts the copy's four source roots in front of the editable install, also for the
 subprocesses that the runner tests start. For each mutant the file is patched, the
-relevant tests run (``pytest -x``, the decoder tests or the runner tests, with numba's
+relevant tests run (``pytest -x``: the decoder tests, the runner tests, or a row's own set
+for the 1.1 chunks, with a fixed hypothesis seed and numba's
 bounds checking on, as a sanitizer), and the file is restored. A mutant is *killed* when
 pytest fails, *survived* when it passes, *stale* when its text is no longer in the file (the
 table needs updating). Rows marked ``equivalent``
@@ -45,7 +47,8 @@ REPO = Path(__file__).resolve().parents[1]
 ROOTS = {"mpz": "reference/mpz", "mpz.spec": "spec/mpz/spec", "mpz.tools": "tools/mpz/tools",
          "mpz.conformance": "conformance/mpz/conformance",
          "mpz.conformance.vectors": "conformance/vectors"}
-COPY = ("reference", "spec", "tools", "conformance", "tests", "pyproject.toml", "CHANGELOG.md")
+COPY = ("reference", "spec", "tools", "conformance", "tests", "pyproject.toml", "CHANGELOG.md",
+        "README.md")
 
 #: the tests that judge a mutant of the decoding path / of the runner (missing files skipped)
 DECODER_TESTS = ("conformance/test_manifest.py", "conformance/test_rules.py",
@@ -67,10 +70,15 @@ class Mutant:
     edits: tuple[tuple[str, str], ...]   # alternatives: the first (old, new) whose old is found
     what: str
     equivalent: str = ""                 # why it changes nothing observable, if so
+    tests: tuple[str, ...] = ()          # the tests that judge it (default: by file)
 
     @property
     def runner(self) -> bool:
         return self.file.startswith("conformance/")
+
+    @property
+    def judges(self) -> tuple[str, ...]:
+        return self.tests or (RUNNER_TESTS if self.runner else DECODER_TESTS)
 
 
 def M(id: str, file: str, old: str, new: str, what: str, equivalent: str = "",
@@ -94,7 +102,7 @@ MUTANTS = [
       "chunk length 2^30 + 1 allowed"),
     M("C4", C, "if length > MAX_CHUNK_LENGTH:", "if length >= MAX_CHUNK_LENGTH:",
       "chunk length 2^30 refused"),
-    M("C5", C, "if not chunk.crc_ok:", "if not chunk.crc_ok and chunk.critical:",
+    M("C5", C, "if computed != stored:", "if computed != stored and tname[:1].isupper():",
       "CRC of ancillary chunks ignored"),
     M("C6", C, "elif chunk.critical:\n", "elif False:\n", "unknown critical chunks skipped"),
     M("C7", C, "if pos != len(data):", "if pos > len(data):", "bytes after MEND ignored"),
@@ -214,17 +222,17 @@ MUTANTS = [
     M("E1", E, "if n < 5:", "if n < 4:", "4-byte payload"),
     M("E2", E, "if self._buf[0] != 0:", "if False:", "first byte not checked"),
     M("E3", E, "        if left:\n", "        if left > 1:\n", "one byte left over allowed"),
-    M("E4", E, "                        if pos >= n:", "                        if pos > n:",
-      "reads one byte past the payload (close() then finds -1 bytes left)"),
-    M("E5", E, "                    code -= bound & mk\n"
-      "                    rng = bound + ((rng - 2 * bound) & mk)\n"
-      "                    probs[i] = p + (((2048 - p) >> MOVE_BITS) & ~mk)",
-      "                    code -= bound & mk\n"
-      "                    rng = bound + ((rng - 2 * bound) & mk)\n"
-      "                    probs[i] = p + (((2048 - p) >> (MOVE_BITS + 1)) & ~mk)",
+    M("E4", E, "        if pos >= buf.shape[0]:", "        if pos > buf.shape[0]:",
+      "reads one byte past the payload (numba's bounds check, or garbage)"),
+    M("E5", E, "    code -= bound & mk\n"
+      "    rng = bound + ((rng - 2 * bound) & mk)\n"
+      "    probs[i] = p + (((2048 - p) >> MOVE_BITS) & ~mk)",
+      "    code -= bound & mk\n"
+      "    rng = bound + ((rng - 2 * bound) & mk)\n"
+      "    probs[i] = p + (((2048 - p) >> (MOVE_BITS + 1)) & ~mk)",
       "decoder adapts differently"),
-    M("E6", E, "if bit == 0 or k == MAX_EXP:", "if bit == 0 or k == MAX_EXP - 1:",
-      "exponent k = 30 not read"),
+    M("E6", E, "while k < MAX_EXP:                # no zero-bit after k = 30",
+      "while k < MAX_EXP - 1:", "exponent k = 30 not read"),
     M("E7", E, "                if not first:\n                    ctx_v += 2",
       "                if t != 0:\n                    ctx_v += 2",
       "decoder ignores the period in contexts"),
@@ -338,8 +346,8 @@ MUTANTS = [
       '    if False:\n        return "timeout"', "a hang counted as a rejection",
       alt=(('        if run["timed_out"]:\n            entry["actual"] = "timeout"',
             '        if False:\n            entry["actual"] = "timeout"'),)),
-    M("R6", R, "if code != 0 and lines and OUT_OF_MEMORY.match(lines[-1].strip()):",
-      "if False:", "out of memory counted as a rejection"),
+    M("R6", R, "    if code != 0 and lines:\n        hit = next(",
+      "    if False:\n        hit = next(", "out of memory counted as a rejection"),
     M("R7", R, "    if code in SHELL_CRASH_CODES:", "    if False:",
       "a shell's 128 + SIGSEGV counted as a rejection"),
     M("R8", R, "    elif names != want:", "    elif len(names) != len(want):",
@@ -356,6 +364,153 @@ MUTANTS = [
       '            if True:\n                entry["actual"] = "reject"',
       "exit 0 on an invalid vector counted as a rejection"),
 ]
+
+
+# ---------------------------------------------------------------- MPZ 1.1 chunk layer --
+# §4.13 / §6.9 C3D archive, §4.14 / §6.10 skeleton chunks, §4.15 smrc (issue: QA of the
+# 1.1 chunk layer). Each row is judged by C3D_TESTS, SKELETON_TESTS or SUMMARY_TESTS.
+CK, CC, CA = ("reference/mpz/chunks/c3d.py", "reference/mpz/c3dcodec.py",
+              "reference/mpz/c3darchive.py")
+SK, CH, SM = ("reference/mpz/chunks/skeleton.py", "reference/mpz/channels.py",
+              "reference/mpz/chunks/summary.py")
+#: the conformance vectors first (fast, and they name the rule), then the unit tests
+_CONF11 = ("conformance/test_manifest.py", "conformance/test_rules.py")
+C3D_TESTS = _CONF11 + ("tests/test_c3d_chunks.py", "tests/test_c3d_coding.py",
+                       "tests/test_c3d_archive.py", "tests/test_c3d_long.py",
+                       "tests/test_spec_clarified.py")
+SKELETON_TESTS = _CONF11 + ("tests/test_skeleton.py", "tests/test_spec_clarified.py")
+SUMMARY_TESTS = _CONF11 + ("tests/test_summary_chunk.py",)
+
+
+def X(id: str, file: str, old: str, new: str, what: str, equivalent: str = "") -> Mutant:
+    tests = (C3D_TESTS if file in (CK, CC, CA) else SKELETON_TESTS if file in (SK, CH)
+             else SUMMARY_TESTS)
+    return Mutant(id, file, ((old, new),), what, equivalent, tests)
+
+
+MUTANTS_11 = [
+    # §4.13 set rules, channel entries, byte coding (chunks/c3d.py)
+    X("X1", CK, "if counts[t] != 1:", "if counts[t] > 1:",
+      "R-4.13-1: an archive without cprm (or chdr, cpnt)"),
+    X("X2", CK, "not C3D_MIN_SHIFT <= self.shift <= C3D_MAX_SHIFT:",
+      "not C3D_MIN_SHIFT < self.shift <= C3D_MAX_SHIFT:", "R-4.13-2: shift -128 refused"),
+    X("X3", CK, "not C3D_MIN_SHIFT <= self.shift <= C3D_MAX_SHIFT:",
+      "not C3D_MIN_SHIFT <= self.shift <= C3D_MAX_SHIFT + 1:", "R-4.13-2: shift 105 allowed"),
+    X("X4", CK, "(self.mode != ChannelMode.INTEGER or self.shift)",
+      "(self.mode != ChannelMode.INTEGER)", "R-4.13-2: int16 storage with shift != 0"),
+    X("X5", CK, "if self.low_bits > C3D_MAX_LOW_BITS:", "if self.low_bits >= C3D_MAX_LOW_BITS:",
+      "R-4.13-2: low_bits 3 refused"),
+    X("X6", CK, "if len(out) > limit:", "if len(out) > limit + 1:",
+      "R-4.13-3: inflated size not limited (limit + 1 bytes kept)"),
+    X("X7", CK, "if not d.eof:", "if False:", "R-4.13-3: DEFLATE stream without its final block"),
+    X("X8", CK, "if len(body) > limit:", "if len(body) > limit + 1:",
+      "R-4.13.2-4: stored content of limit + 1 bytes"),
+    X("X9", CK, "if r.locked > 1:", "if r.locked > 2:", "R-4.13.2-1: cprm locked 2 allowed"),
+    # §4.13.3 cpnt
+    X("X10", CK, "if J > MAX_MARKERS or F * J > ctx.max_samples:", "if J > MAX_MARKERS:",
+      "R-4.13.3-2: F x J not limited"),
+    X("X11", CK, "if sorted(self.slots) != list(range(P)):", "if len(set(self.slots)) != P:",
+      "R-4.13.3-1: distinct slots >= P allowed"),
+    X("X12", CK, "abs(self.offset) + self.step * float(MODEL_LIMIT)",
+      "self.step * float(MODEL_LIMIT)", "R-4.13.3-1: offset left out of the range test"),
+    X("X13", CK, "if not (math.isfinite(self.bound) and self.bound >= 0):",
+      "if not (self.bound >= 0):", "R-4.13.3-1: model bound +inf allowed"),
+    X("X14", CK, "if (np.abs(k) >= MODEL_LIMIT).any():", "if (np.abs(k) > MODEL_LIMIT).any():",
+      "R-6.9-1: model k = 2^31 allowed"),
+    X("X15", CK, "models[:, j, a] = x + np.float64(ax.offset)",
+      "models[:, j, a] = np.float32(x + np.float64(ax.offset))",
+      "R-6.9-2: model values rounded to float32"),
+    X("X16", CK, "            models[~valid] = np.nan\n", "",
+      "R-6.9-2: model-output gaps output as values"),
+    # §4.13.4 cana
+    X("X17", CK, "            ch.decode(dec, T, self.storage, \"§4.13.4\", out[:, c])\n"
+      "        dec.close()\n",
+      "            ch.decode(dec, T, self.storage, \"§4.13.4\", out[:, c])\n",
+      "R-6.9-1: cana payload not closed"),
+    X("X18", CK, "if F * n * C > limit:", "if F * C > limit:",
+      "R-4.13.4-2: samples per frame left out of the analog limit"),
+    # §6.9 channels (c3dcodec.py)
+    X("X19", CC, "np.add(e, lo, out=e)", "np.bitwise_or(e, lo, out=e)",
+      "§6.9 h x 2^b + l formed with OR",
+      equivalent="h x 2^b has b zero low bits (two's complement, h of either sign) and "
+                 "0 <= l < 2^b is checked before, so OR and + agree (a control row)"),
+    X("X20", CC, "(bottom < -32768 or top > 32767)", "(bottom < -32768 or top > 32768)",
+      "R-6.9-1: int16 word 32768 allowed (wraps to -32768)"),
+    X("X21", CC, "    elif bottom < -(1 << 31) or top >= (1 << 31):",
+      "    elif False:", "R-6.9-1: mode-1 values outside -2^31..2^31-1 allowed"),
+    X("X22", CC, "(-v - 1) | (1 << 31)", "(-v) | (1 << 31)",
+      "R-6.9-2: mode-1 map for v < 0 off by one"),
+    X("X23", CC, "np.ldexp(part.astype(np.float64), shift)",
+      "np.ldexp(part.astype(np.float64), -shift)", "R-6.9-2: mode-0 shift sign flipped"),
+    # §6.9 the archive / the writer's scale (c3darchive.py)
+    X("X24", CA, 's = float(np.frombuffer(self.header, "<f4", 1, 12)[0])',
+      's = float(np.frombuffer(self.header, "<f4", 1, 14)[0])',
+      "§6.9 writer: header scale read from words 8-9"),
+    X("X25", CA, 'samples = int.from_bytes(hdr.block[18:20], "little")',
+      'samples = int.from_bytes(hdr.block[16:18], "little")',
+      "§6.9: without cana, n taken from word 9, not word 10"),
+    # §4.14 / §4.14.1 / §4.14.2 (chunks/skeleton.py)
+    X("X26", SK, "if not (math.isfinite(self.frame_time) and self.frame_time > 0):",
+      "if not (self.frame_time > 0):", "R-4.14.1-1: frame_time +inf allowed"),
+    X("X27", SK, "elif j.parent in chain:", "elif j.parent < i:",
+      "R-4.14.1-1: any earlier joint as parent (not depth first)"),
+    X("X28", SK, 'c.isspace() or c == "\\x00"', "c.isspace()",
+      "R-4.14.1-1 / R-4.14.2-1: U+0000 in names allowed"),
+    X("X29", SK, "if not (math.isfinite(position_bound) and position_bound >= 0):",
+      "if not (position_bound >= 0):", "R-4.14-2: position_bound +inf allowed"),
+    X("X30", SK, "c.low + turn <= CHANNEL_VALUE_LIMIT)", "c.low + turn <= CHANNEL_VALUE_LIMIT + 1)",
+      "R-4.14-2: turn ending at 2^31 allowed"),
+    X("X31", SK, "-CHANNEL_VALUE_LIMIT < c.low and", "-CHANNEL_VALUE_LIMIT <= c.low and",
+      "R-4.14-2: low = -2^31 allowed"),
+    X("X32", SK, 'if "\\n" in text or "\\r" in text:', 'if "\\n" in text:',
+      "R-4.14.2-1: U+000D in mass/version/name allowed"),
+    X("X33", SK, "if self.root_axis_order >= len(AXIS_ORDERS):",
+      "if self.root_axis_order > len(AXIS_ORDERS):", "R-4.14.2-1: root axis order 6 allowed"),
+    X("X34", SK, "if not _finite(self.root_position + self.root_orientation):",
+      "if not _finite(self.root_position):", "R-4.14.2-1: root orientation not checked"),
+    X("X35", SK, 'bone.name == "root"', 'bone.name.lower() == "root"',
+      "R-4.14.2-2: bones named Root / ROOT refused"),
+    X("X36", SK, "if bone.parent > b:", "if bone.parent > b + 1:",
+      "R-4.14.2-1: a bone its own parent"),
+    X("X37", SK, "need = {0} | {b + 1", "need = set() | {b + 1",
+      "R-4.14.2-1: AMC order without the root"),
+    X("X38", SK, "if k >= joints or k in seen:", "if k > joints or k in seen:",
+      "R-4.14.2-1: AMC order naming joint B + 1"),
+    # §6.10 (channels.py)
+    X("X39", CH,
+      "            e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]      # step 1: group g\n"
+      "    dec.close()\n",
+      "            e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]      # step 1: group g\n",
+      "R-6.10-1: channel field not closed"),
+    X("X40", CH, "max(int(e.max()), -int(e.min())) >= CHANNEL_VALUE_LIMIT:",
+      "max(int(e.max()), -int(e.min())) > CHANNEL_VALUE_LIMIT:", "R-6.10-1: |x| = 2^31 allowed"),
+    X("X41", CH, "return np.asarray(low + np.mod(y - low, turn), np.int64)",
+      "return np.asarray(np.mod(y, turn), np.int64)",
+      "R-6.10-2: wrap folds into 0..N-1, not low.."),
+    X("X42", CH, "d = np.mod(np.cumsum(e[1:], axis=0), turn)",
+      "d = np.mod(np.cumsum(e, axis=0)[1:], turn)",
+      "R-6.10-2: wrapped order 2 takes e[0] into the first differences"),
+    X("X43", CH, "(x[r0: r0 + rows] * m).astype(np.float64) / p",
+      "x[r0: r0 + rows].astype(np.float64) * (m / p)",
+      "R-6.10-2: v = x x (m / 10^d), two roundings"),
+    # §4.15 smrc (chunks/summary.py, the §4.15 step 4 kernel, the chunk walk)
+    X("X44", SM, "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS:",
+      "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS + 1:", "R-4.15-2: 65 levels allowed"),
+    X("X45", SM, "lv.step > 0 and math.isfinite(lv.wssse)\n                    and lv.wssse >= 0",
+      "lv.step > 0", "R-4.15-2: wssse not checked"),
+    X("X46", SM, "if values > MAX_SUMMARY_VALUES or segments > MAX_SUMMARY_VALUES:",
+      "if values > MAX_SUMMARY_VALUES:", "R-4.15-3: sum of k not limited"),
+    X("X47", SM, "total = int(lengths.sum())", "total = int(lengths.sum()) % (1 << 32)",
+      "R-4.15-5: length sum in 32 bits"),
+    X("X48", SM, "int(q.min()) <= -MEAN_LIMIT", "int(q.min()) < -MEAN_LIMIT",
+      "R-4.15-6: mean -2^31 allowed"),
+    X("X49", "reference/mpz/predict.py", "x[j, d] += sign * ((2 * acc[d] + n) // (2 * n))",
+      "x[j, d] += sign * ((2 * acc[d]) // (2 * n))",
+      "§4.15 step 4: overlap mean rounded down (encoder and decoder alike)"),
+    X("X50", "reference/mpz/decoder.py", "            if role in seen:\n",
+      "            if False:\n", "R-4.15-1: smry and smrc in one file"),
+]
+MUTANTS += MUTANTS_11
 
 
 # ------------------------------------------------------------------ machinery --
@@ -407,12 +562,16 @@ def run_tests(tree: Path, tests: tuple[str, ...], timeout: float) -> tuple[str, 
     env.setdefault("MPZ_SHARED_DATA", str(REPO.parent / "shared" / "data"))
     t0 = time.perf_counter()
     try:
+        # a fixed hypothesis seed, as in the baseline run: a rare failure of a property test
+        # that never runs the mutated code was saved in the tree's example database and
+        # replayed for every later mutant (two false kills in the first run of the 1.1 table)
         proc = subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
-                               *files], cwd=tree, env=env, capture_output=True, text=True,
-                              timeout=timeout)
+                               "--hypothesis-seed=0", *files], cwd=tree, env=env,
+                              capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return "killed", time.perf_counter() - t0, "timeout"
-    tail = (proc.stdout.strip().splitlines() or [""])[-1]
+    lines = proc.stdout.strip().splitlines() or [""]
+    tail = next((ln for ln in lines if ln.startswith(("FAILED", "ERROR"))), lines[-1])
     return ("survived" if proc.returncode == 0 else "killed"), time.perf_counter() - t0, tail
 
 
@@ -428,8 +587,7 @@ def run(tree: Path, mutants: list[Mutant], timeout: float, log) -> list[dict]:
         else:
             path.write_text(text.replace(edit[0], edit[1]), encoding="utf-8")
             try:
-                status, secs, tail = run_tests(tree, RUNNER_TESTS if mu.runner
-                                               else DECODER_TESTS, timeout)
+                status, secs, tail = run_tests(tree, mu.judges, timeout)
             finally:
                 path.write_text(text, encoding="utf-8")
             res = {"id": mu.id, "status": status, "seconds": round(secs, 1), "detail": tail}
@@ -460,8 +618,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant")
     p.add_argument("--results", help="write JSON results here")
     p.add_argument("--list", action="store_true", help="print the table and exit")
+    p.add_argument("--series", help="only the mutants whose id starts with this (X: MPZ 1.1)")
     args = p.parse_args(argv)
-    todo = [m for m in MUTANTS if not args.only or m.id in args.only]
+    todo = [m for m in MUTANTS if (not args.only or m.id in args.only)
+            and (not args.series or m.id.startswith(args.series))]
     if args.list:
         for m in todo:
             print(f"{m.id:4} {m.file:40} {m.what}" + ("  (equivalent)" if m.equivalent else ""))
@@ -470,10 +630,13 @@ def main(argv: list[str] | None = None) -> int:
         tree = Path(tmp) / "tree"
         tree.mkdir()
         make_tree(Path(args.tree) if args.tree else REPO, tree)
-        status, secs, tail = run_tests(tree, DECODER_TESTS, args.timeout)   # warm numba caches
-        if status != "survived":
-            print(f"the unmutated tree fails its tests ({tail}); fix that first", file=sys.stderr)
-            return 1
+        for tests in dict.fromkeys(m.judges for m in todo):     # warm numba caches, baseline
+            status, secs, tail = run_tests(tree, tests, args.timeout)
+            print(f"baseline {len(tests)} files: {status} {secs:.1f}s", flush=True)
+            if status != "survived":
+                print(f"the unmutated tree fails its tests ({tail}); fix that first",
+                      file=sys.stderr)
+                return 1
         results = run(tree, todo, args.timeout, lambda s: print(s, flush=True))
     s = summary(results)
     print(json.dumps(s, indent=1))

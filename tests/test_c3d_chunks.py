@@ -613,3 +613,25 @@ def test_channel_batches_do_not_change_the_bytes(seed, storage, F, J, C, batch):
         mp.setattr(c3dcodec, "BATCH_VALUES", batch)
         mp.setattr("mpz.c3darchive.BATCH_VALUES", batch)
         assert (point_records(a, opts, 3).dump(), analog_record(a).dump()) == want
+
+
+def test_model_outputs_beyond_a_lowered_sample_limit_are_refused_before_allocation():
+    """§4.13.3 / §8: F x J <= MAX_SAMPLES (lowered by max_samples) before the model outputs
+    are allocated. A mutation run removed the F x J test and no test failed: a valid file of
+    2 markers and 5 model outputs passes F x M = 48 and must stop at F x J = 120."""
+    m = c3d_motion(74, storage=1, M=2, J=5, C=0)
+    data = mpz.encode(m, max_error=1.0)
+    assert mpz.decode(data, max_samples=24 * 5).extras["c3d"].models.shape[1] == 5
+    with pytest.raises(LimitExceededError, match="5 model outputs x 24 frames") as err:
+        mpz.decode(data, max_samples=24 * 2)
+    assert err.value.chunk == "cpnt"
+
+
+def test_an_archive_without_cana_keeps_header_word_10_as_its_analog_samples():
+    """§6.9: without a cana chunk, the archive's analog samples per frame come from header
+    word 10 (bytes 18-19), which a writer puts back; a mutation run read word 9 (here 11,
+    the analog words a frame) and no test failed."""
+    m = c3d_motion(73, storage=1, C=0, n=4, J=0)
+    assert m.extras["c3d"].header[16:20] == bytes([11, 0, 4, 0])       # words 9 and 10
+    back = mpz.decode(mpz.encode(m, max_error=1.0)).extras["c3d"]
+    assert back.analog_samples == 4
