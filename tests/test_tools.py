@@ -222,3 +222,25 @@ def test_a_bug_is_a_traceback_and_its_own_exit_code(command, monkeypatch, capsys
     assert code == 70, err
     assert "Traceback" in err and "KeyError: 'planted by the test'" in err
     assert f"{command}: internal error: this is a bug in mpz" in err
+
+
+def test_vv_shows_every_record_of_a_chunk_whole(capsys):
+    """A QA audit of stop 49: -vv cut every field at 100 characters, so a cprm's records
+    past the first (and its type, dims and data) never showed. Records are listed one a
+    line, each the whole record that --json gives; v10's parameter section has 16
+    records, the last the undeclared group 9's ORPHAN (make_vectors.c3d_motion)."""
+    import json
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    path = root / "valid" / "v10-c3d-archive-float32.mpz"
+    code, out = run(capsys, mpzinfo.main, ["-vv", str(path)])
+    assert code == 0
+    lines = [ln.strip() for ln in out.out.splitlines() if ln.strip().startswith("records[")]
+    _, dumped = run(capsys, mpzinfo.main, ["--json", str(path)])
+    cprm = next(c for c in json.loads(dumped.out)["files"][0]["chunks"]
+                if c["type"] == "cprm")
+    records = cprm["fields"]["records"]
+    assert len(lines) == len(records) == 16
+    for i, (ln, rec) in enumerate(zip(lines, records, strict=True)):
+        assert ln.startswith(f"records[{i}] = ") and json.loads(ln.split(" = ", 1)[1]) == rec
+    assert any('"name": "ORPHAN"' in ln and '"type": 2' in ln for ln in lines)

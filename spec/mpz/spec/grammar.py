@@ -194,8 +194,12 @@ SummaryLevel = Struct(
     "k" / Int32ul * "§4.10 segments in this level, 1..F",
     "wssse" / Float64l * "§4.10 within-segment sum of squared error, units^2",
     "step" / Float64l * "§4.10 quantisation step of the means, > 0",
-    "starts" / Bytes(4 * this.k) * "§4.10 u32 first frame of each segment, starts[0] = 0",
-    "means" / Bytes(4 * this.k * this._.dims) * "§4.10 s32 mean of each segment / step",
+    # kept as bytes, read as one numpy array each (k x D values, up to 2^24): the elements
+    # are little-endian u32 and s32, as the doc strings say (a QA audit, stop 49)
+    "starts" / Bytes(4 * this.k) * "§4.10 u32 little-endian x k: first frame of each "
+    "segment, starts[0] = 0",
+    "means" / Bytes(4 * this.k * this._.dims) * "§4.10 s32 little-endian x k x D: mean of "
+    "segment j, dimension d at index j D + d, / step",
 )
 SMRY = Struct(
     "space" / Int8ul * "§4.10 0 positions relative to the per-frame centroid root, "
