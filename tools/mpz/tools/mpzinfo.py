@@ -237,18 +237,19 @@ def _print_chunks(info: dict, verbose: int, out):
             offs = c.get("field_offsets", {})
             for k, v in c["fields"].items():
                 at = f"0x{offs[k]:05x}" if k in offs else "       "
-                v = jsonable(v)
-                if isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+                shown = jsonable(v)
+                if isinstance(shown, list) and shown and all(isinstance(x, dict)
+                                                             for x in shown):
                     # records (cprm's, cpnt's channels and models, asfs's bones ...): one line
                     # each, whole; cut at 100 characters, most fields of a record never
                     # showed (a QA audit of stop 49: cprm's type, dims and data)
-                    print(f"      {at}  {k} = [{len(v)} record{'s' * (len(v) != 1)}]",
-                          file=out)
-                    for j, x in enumerate(v):
-                        print(f"               {k}[{j}] = {printable(json.dumps(x))}",
-                              file=out)
+                    print(f"      {at}  {k} = [{len(shown)} record"
+                          f"{'s' * (len(shown) != 1)}]", file=out)
+                    for j, x in enumerate(shown):
+                        print(f"               {k}[{j}] = "
+                              f"{printable(json.dumps(jsonable(x)))}", file=out)
                     continue
-                text = json.dumps(v) if not isinstance(v, str) else repr(v)
+                text = json.dumps(jsonable(v)) if not isinstance(v, str) else repr(v)
                 if len(text) > 100:
                     text = text[:97] + "..."
                 print(f"      {at}  {k} = {printable(text)}", file=out)
