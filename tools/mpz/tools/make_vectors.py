@@ -3727,6 +3727,160 @@ MUTATION_GAP_VECTOR_RULES = _rules(
 )
 VECTOR_RULES.update(MUTATION_GAP_VECTOR_RULES)
 
+
+def range_gap_vectors(vs: VectorSet):
+    """Range rules of the §4.13 and §4.14 layout tables that no invalid vector isolated (an
+    audit: only R-4.13.2-1, R-4.13.4-1, R-4.14.1-1 and R-4.14.2-1 paraphrased them): each
+    file changes one field of a good file of the builders above (the asfs file and the bvhs
+    file of mutation_gap_vectors, the float32 C3D archive) to a value its Range column
+    forbids, with the channel layer kept consistent where a count changes. Every one breaks
+    only (1.1) rules, so a 1.0 decoder skips the chunk and decodes the file. A builder of its
+    own, last, so that the vectors before it keep their numbers.
+
+    A count one past its Range (bvhs channel_count 7, asfs dof_count 8) cannot come alone:
+    more kinds than there are repeat one, which the reference checks after the count. Not
+    here: an amc_count other than the length of amc_order (the u16 count is that length, so
+    no file holds it); a root_order_count of 7 (it too repeats a kind: asfs-root-order-repeats
+    has the repeat alone, with the count in range); a dof_count of 7, which the Range
+    allows."""
+    import dataclasses
+
+    from mpz.chunks import Cprm
+    from mpz.io.amc import parse_amc, parse_asf
+    from mpz.io.bvh import parse_bvh
+
+    def add(slug, data, description, corruption, risk, error, sections):
+        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
+                   sections)
+
+    bvh = mpz.encode(parse_bvh(_skeleton_bvh_text(), source="synthetic.bvh"))
+    amc = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
+                               source="synthetic_01.amc"))
+    arec = _skeleton_record(amc)
+    brec = _skeleton_record(bvh)
+
+    def bad(slug, src, changes, what, risk, section):
+        add(slug, _skeleton_rebuild(src, **changes), what, what, risk, "FormatError",
+            [section])
+
+    def bone(b, **kw):
+        bb = list(arec.bones)
+        bb[b] = dataclasses.replace(bb[b], **kw)
+        return {"bones": tuple(bb)}
+
+    def widened(rec, F, at, extra):
+        """The channel layer of ``rec`` with ``extra`` channels inserted at channel ``at``
+        (entries copied from channel at - 1 without wrap, values 0): what a skeleton that
+        declares ``extra`` more channels there needs, so that only its Range is broken."""
+        e = dataclasses.replace(rec.channels[at - 1], wrap=0, low=0)
+        ch = (*rec.channels[:at], *(e,) * extra, *rec.channels[at:])
+        x = rec.integers(F)
+        x = np.concatenate([x[:, :at], np.zeros((F, extra), np.int64), x[:, at:]], axis=1)
+        wide = dataclasses.replace(rec, channel_count=len(ch), channels=ch)
+        return {"channel_count": len(ch), "channels": ch,
+                "coded": _skeleton_layer(wide, x)}
+
+    # -- asfs: the file of v-asfs-synthetic-default
+    bad("asfs-encoding-2", amc, {"encoding": 2}, "asfs encoding 2",
+        "an unknown text encoding: a writer cannot choose the bytes of the ASF", "§4.14.2")
+    bad("asfs-mass-line-feed", amc, {"mass": "1.0\n0"}, "an ASF mass text with a line feed "
+        "(U+000A)", "the ':units mass' line of an ASF written from it breaks: a reader reads "
+        "mass 1.0 and then a stray line '0'",
+        "§4.14.2")
+    bad("asfs-version-carriage-return", amc, {"version": "1.10\r2"},
+        "an ASF version text with a carriage return (U+000D)",
+        "the ':version' line breaks for a reader that splits lines on CR (Python's "
+        "splitlines does)", "§4.14.2")
+    ro = arec.root_order
+    assert ro == (0, 1, 2, 3, 4, 5), ro
+    bad("asfs-root-order-repeats", amc, {"root_order": (0, 1, 2, 3, 4, 3)},
+        "the root's order lists RX twice (TX TY TZ RX RY RX), its count 6 in range",
+        "a decoder that checks only the kinds' range gives the root two x rotations and no "
+        "y rotation", "§4.14.2")
+    bad("asfs-root-position-inf", amc,
+        {"root_position": (math.inf, *arec.root_position[1:])},
+        "an asfs root_position with +inf (x)", "forward kinematics gives inf and NaN for "
+        "every joint", "§4.14.2")
+    b = 1                                     # lfemur: 3 dofs, 3 limits
+    bn = arec.bones[b]
+    assert bn.dof_count == 3 and bn.limit_count == 3, bn
+    bad("asfs-bone-direction-nan", amc, bone(b, direction=(bn.direction[0], math.nan,
+                                                           bn.direction[2])),
+        f"bone {b}'s direction with a NaN (y)", "the bone's joint position is NaN, and that "
+        "of every joint below it", "§4.14.2")
+    bad("asfs-bone-length-inf", amc, bone(b, length=math.inf), f"bone {b}'s length +inf",
+        "a decoder that checks only the lengths it can print writes 'length inf'; the joint "
+        "positions below it are not finite (a length <= 0 is allowed, +inf is not)",
+        "§4.14.2")
+    bad("asfs-bone-axis-nan", amc, bone(b, axis=(bn.axis[0], bn.axis[1], math.nan)),
+        f"bone {b}'s axis with a NaN (z)", "the bone's rotation is NaN: every joint below "
+        "it is NaN", "§4.14.2")
+    # dof_count 8: eight kinds of 0..6 repeat one, so the count's Range cannot be broken
+    # alone; the limits drop to 0 (allowed) and the channel layer gets the 5 new channels
+    at = len(arec.root_order) + sum(x.dof_count for x in arec.bones[:b + 1])
+    bad("asfs-dof-count-8", amc, {**bone(b, dof_count=8, dofs=(*bn.dofs, 0, 1, 2, 6, 3),
+                                         limit_count=0, limits=()),
+                                  **widened(arec, 40, at, 5)},
+        f"bone {b} with 8 dofs (rx ry rz tx ty tz l rx), one past the Range 0..7; no "
+        "limits; the channel layer holds the 5 added channels",
+        "a decoder that reads the dofs into a 7-entry array before it checks them writes "
+        "past it (the repeated rx is then also refused)", "§4.14.2")
+    for slug, name, what in (
+            ("asfs-bone-name-empty", "", "an empty name (the Range is 1..255 bytes)"),
+            ("asfs-bone-name-no-break-space", "l\u00a0femur",
+             "the name 'l\\u00a0femur', with U+00A0 (NO-BREAK SPACE, a Latin-1 byte A0)"),
+            ("asfs-bone-name-nul", "l\u0000femur", "the name 'l\\u0000femur', with U+0000")):
+        bad(slug, amc, bone(b, name=name), f"bone {b} with {what}",
+            "the AMC frame line of the bone does not start with its name as one word (or "
+            "a C reader ends the name at NUL)", "§4.14.2")
+
+    # -- bvhs: the file of v-bvhs-synthetic-default
+    j = 0
+    jt = brec.joints[j]
+    assert jt.channel_count == 6 and jt.parent == ROOT_PARENT, jt
+    ch7 = (*jt.channels, jt.channels[3])
+    joints = list(brec.joints)
+    joints[j] = dataclasses.replace(jt, channel_count=7, channels=ch7)
+    bad("bvhs-channel-count-7", bvh, {"joints": tuple(joints), **widened(brec, 60, 6, 1)},
+        f"joint {j} (the ROOT) with 7 channels, one past the Range 0..6 (its Zrotation "
+        "twice); the channel layer holds the added channel",
+        "a decoder that reads a joint's channels into a 6-entry array before it checks them "
+        "writes past it", "§4.14.1")
+
+    # -- C3D: the float32 archive of v-c3d-archive-float32
+    good = mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+    ch = _c3d_chunks(good)
+    add("cana-channels-0", _c3d_rebuild(good, "cana", channels=0, table=(),
+                                        coded=BlockEncoder().finish()),
+        "a cana with no analog channel (C = 0): an empty table and a coded field of no "
+        "block, closed", "channels = 0, table and coded emptied to match",
+        "a decoder that checks only C x n <= 65535 accepts an analog chunk with nothing in "
+        "it; a C3D writer writes 0 analog words a frame with an analog rate",
+        "FormatError", ["§4.13.4"])
+    prm = Cprm.load(next(p for t, p in ch if t == "cprm"))
+    r = 2                                     # POINT:SCALE, not locked
+    assert prm.records[r].group > 0 and prm.records[r].locked == 0, prm.records[r]
+    recs = list(prm.records)
+    recs[r] = dataclasses.replace(recs[r], locked=2)
+    add("cprm-locked-2", _c3d_rebuild(good, "cprm", records=tuple(recs)),
+        f"a parameter record ({recs[r].name.decode()}) whose locked flag is 2",
+        f"record {r} locked 0 -> 2",
+        "a decoder that tests locked != 0 writes it as locked (a negative name length): "
+        "what the source held is not what comes back", "FormatError", ["§4.13.2"])
+
+
+#: the §7.4 rules the range gap vectors probe (merged into VECTOR_RULES)
+RANGE_GAP_VECTOR_RULES = _rules(
+    ("R-4.13.2-1", "cprm-locked-2"),
+    ("R-4.13.4-1", "cana-channels-0"),
+    ("R-4.14.1-1", "bvhs-channel-count-7"),
+    ("R-4.14.2-1", "asfs-encoding-2 asfs-mass-line-feed asfs-version-carriage-return "
+                   "asfs-root-order-repeats asfs-root-position-inf asfs-bone-direction-nan "
+                   "asfs-bone-length-inf asfs-bone-axis-nan asfs-dof-count-8 "
+                   "asfs-bone-name-empty asfs-bone-name-no-break-space asfs-bone-name-nul"),
+)
+VECTOR_RULES.update(RANGE_GAP_VECTOR_RULES)
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -3743,6 +3897,7 @@ BUILDERS = (
     smrc_wrap_vectors,                        # §4.15 lengths that wrap in 32 bits
     summary_edge_vectors,                     # §4.10, §4.15 rules isolated (stop 49)
     mutation_gap_vectors,                     # checks no vector isolated (mutation run)
+    range_gap_vectors,                        # §4.13, §4.14 Range columns (audit)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
