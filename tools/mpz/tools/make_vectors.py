@@ -23,6 +23,7 @@ Tests never call this; they only read what it wrote.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 from pathlib import Path
@@ -2260,6 +2261,23 @@ def _c3d_features(data):
                                        "(float64 LE, NaN at gaps)"}
 
 
+def _add_invalid(vs: VectorSet, slug: str, data: bytes, description: str, corruption: str,
+                 risk: str, error: str, sections: list[str]) -> None:
+    """An invalid vector named by the next free x number and ``slug`` (the builders' add)."""
+    vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
+               sections)
+
+
+def _axis_changed(models, **changes) -> tuple:
+    """cpnt models with axis 1 (y) of model output 0 changed."""
+    import dataclasses
+    md = list(models)
+    axes = list(md[0].axes)
+    axes[1] = dataclasses.replace(axes[1], **changes)
+    md[0] = dataclasses.replace(md[0], axes=tuple(axes))
+    return tuple(md)
+
+
 def _numbered(vs: VectorSet, letter: str, slug: str) -> str:
     import re
     found = [re.match(r"[a-z](\d+)-", e["name"]) for e in vs.entries
@@ -2323,9 +2341,7 @@ def c3d_archive_vectors(vs: VectorSet):
              "(J = 0)", _c3d_features(bare), secs,
              "make_vectors.c3d_motion(73, storage=1, J=0, C=0) -> mpz.encode(max_error=2.0)")
 
-    def add(slug, data, description, corruption, risk, error, sections):
-        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
-                   sections)
+    add = functools.partial(_add_invalid, vs)
 
     ch = _c3d_chunks(good)
     i_hdr = next(i for i, c in enumerate(ch) if c[0] == "chdr")
@@ -2429,11 +2445,7 @@ def c3d_archive_vectors(vs: VectorSet):
                             "step 2^994: |offset| + step x 2^31 overflows"),
                            ("cpnt-model-bound-negative", {"bound": -1.0}, "bound -1"),
                            ("cpnt-model-order-3", {"order": 3}, "order 3")):
-        md = list(pnt.models)
-        axes = list(md[0].axes)
-        axes[1] = dataclasses.replace(axes[1], **akw)
-        md[0] = dataclasses.replace(md[0], axes=tuple(axes))
-        add(slug, _c3d_rebuild(good, "cpnt", models=tuple(md)),
+        add(slug, _c3d_rebuild(good, "cpnt", models=_axis_changed(pnt.models, **akw)),
             f"a model-output axis with {what}", f"models[0].axes[1] {what}",
             "values that are not finite, or no declared accuracy", "FormatError",
             ["§4.13.3"])
@@ -2883,9 +2895,7 @@ def skeleton_vectors(vs: VectorSet):
              "make_vectors.skeleton_vectors: the v-asfs file, fields changed by hand")
 
     # -- invalid: one change each
-    def add(slug, data, description, corruption, risk, error, sections):
-        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
-                   sections)
+    add = functools.partial(_add_invalid, vs)
 
     def bad(slug, changes, what, risk, section, src=good, error="FormatError"):
         add(slug, _skeleton_rebuild(src, **changes), what, what, risk, error, [section])
@@ -3169,9 +3179,7 @@ def smrc_vectors(vs: VectorSet):
              secs, "make_vectors.smrc_vectors: hand-made smrc (wide residuals) in the "
              "v-smrc-positions file")
 
-    def add(slug, data, description, corruption, risk, error, sections):
-        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
-                   sections)
+    add = functools.partial(_add_invalid, vs)
 
     ch = [[c.type, c.payload] for c in container.parse(good)]
     k = next(i for i, c in enumerate(ch) if c[0] == "smrc")
@@ -3550,9 +3558,7 @@ def mutation_gap_vectors(vs: VectorSet):
     from mpz.io.amc import parse_amc, parse_asf
     from mpz.io.bvh import parse_bvh
 
-    def add(slug, data, description, corruption, risk, error, sections):
-        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
-                   sections)
+    add = functools.partial(_add_invalid, vs)
 
     # -- C3D archives: the float32 file of v-c3d-archive-float32, the int16 one of
     # u-c3d-int16-exact-on-grid
@@ -3590,11 +3596,7 @@ def mutation_gap_vectors(vs: VectorSet):
              "the largest binary64, accepts values that overflow"),
             ("cpnt-model-bound-inf", {"bound": math.inf}, "bound +inf",
              "a decoder that checks bound >= 0 only declares an infinite error")):
-        md = list(pnt.models)
-        axes = list(md[0].axes)
-        axes[1] = dataclasses.replace(axes[1], **akw)
-        md[0] = dataclasses.replace(md[0], axes=tuple(axes))
-        add(slug, _c3d_rebuild(good, "cpnt", models=tuple(md)),
+        add(slug, _c3d_rebuild(good, "cpnt", models=_axis_changed(pnt.models, **akw)),
             f"a model-output axis with {what}", f"models[0].axes[1] {what.split(':')[0]}",
             risk, "FormatError", ["§4.13.3"])
     add("cana-coded-leftover-byte", _c3d_rebuild(good, "cana", coded=cana.coded + b"\x00"),
@@ -3749,9 +3751,7 @@ def range_gap_vectors(vs: VectorSet):
     from mpz.io.amc import parse_amc, parse_asf
     from mpz.io.bvh import parse_bvh
 
-    def add(slug, data, description, corruption, risk, error, sections):
-        vs.invalid(_numbered(vs, "x", slug), data, description, corruption, risk, error,
-                   sections)
+    add = functools.partial(_add_invalid, vs)
 
     bvh = mpz.encode(parse_bvh(_skeleton_bvh_text(), source="synthetic.bvh"))
     amc = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
