@@ -753,3 +753,73 @@ def test_two_mpz_files_of_one_source_are_held_to_the_sum_of_their_bounds(
                                 "bounds": [1.0, 2.0], "identical": False}
     assert mpz_cli.main(["compare", str(a), str(a)]) == 0
     assert "(byte-identical), bounds 1 mm and 1 mm" in capsys.readouterr().out
+
+
+# -- summaries as the spec allows them (QA, stop 49) -----------------------------------------
+VECTORS = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+
+
+def _reordered_summary(tmp_path: Path) -> Path:
+    """A file whose smry holds its levels k = 5, then k = 2 (spec §4.10: any order)."""
+    import dataclasses
+
+    from mpz.chunks import Smry
+    from mpz.container import parse
+    from mpz.tools.make_vectors import assemble
+    data = mpz.encode(generate("walk", frames=60, seed=3), max_error=1.0, summary=(2, 5),
+                      summary_format="smry")
+    chunks = []
+    for c in parse(data):
+        payload = c.payload
+        if c.type == "smry":
+            rec = Smry.load(payload)
+            assert [lv.k for lv in rec.levels] == [2, 5]
+            payload = dataclasses.replace(rec, levels=rec.levels[::-1]).dump()
+        chunks.append([c.type, payload])
+    path = tmp_path / "reordered.mpz"
+    path.write_bytes(assemble(chunks))
+    assert [lv.k for lv in mpz.read_summary(path).levels] == [5, 2]
+    return path
+
+
+def test_the_finest_and_coarsest_levels_are_chosen_by_k_not_by_place(tmp_path, capsys):
+    """A summary's levels may come in any order: preview()'s default "finest" took the last
+    level stored (k = 2 here) and the plot's "coarsest" the first (k = 5)."""
+    path = _reordered_summary(tmp_path)
+    assert mpz.read_summary(path).preview().metadata["preview"] == "summary k=5 (constant)"
+    pytest.importorskip("matplotlib")
+    png = tmp_path / "s.png"
+    code, out, err = cli(capsys, "summary", str(path), "--plot", str(png))
+    assert code == 0 and png.is_file()
+    from mpz.tools.cmd_summary import thumbnail_level
+    assert thumbnail_level([{"k": 5}, {"k": 2}, {"k": 2}])["k"] == 2
+
+
+@pytest.mark.parametrize("name", ["uncommon/u21-smry-angles-no-dims.mpz",
+                                  "uncommon/u38-smrc-angles-no-dims.mpz",
+                                  "uncommon/u44-smrc-angles-d5.mpz"])
+def test_a_plot_of_an_angle_summary_draws_no_poses(name, tmp_path, capsys):
+    """An angle summary with D = 0 crashed --plot (exit 70: its empty means taken for
+    poses, since 0 % 3 == 0), and one of a BVH (D = 6 + 3 J) drew degrees as poses."""
+    pytest.importorskip("matplotlib")
+    png = tmp_path / "s.png"
+    code, out, err = cli(capsys, "summary", str(VECTORS / name), "--plot", str(png))
+    assert code == 0 and png.is_file(), err
+    from mpz.tools.cmd_summary import thumbnail_means
+    level = {"k": 2, "means": np.zeros((2, 6))}
+    assert thumbnail_means({"space": "angles"}, level) is None
+    assert thumbnail_means({"space": "positions"}, level) is not None
+    assert thumbnail_means({"space": "positions"}, {"k": 2, "means": np.zeros((2, 0))}) is None
+
+
+def test_space_that_an_mpz_summary_is_not_in_is_said(capsys):
+    code, out, err = cli(capsys, "summary", str(VECTORS / "valid/v13-smrc-positions.mpz"),
+                         "--space", "angles")
+    assert code == 1 and "positions" in err and "--space angles" in err
+    code, out, err = cli(capsys, "summary", str(VECTORS / "valid/v13-smrc-positions.mpz"))
+    assert code == 0 and "--space" not in err
+
+
+def test_a_wssse_of_minus_zero_prints_as_zero(capsys):
+    code, out, err = cli(capsys, "summary", str(VECTORS / "uncommon/u21-smry-angles-no-dims.mpz"))
+    assert code == 0 and "-0 " not in out and "WSSSE 0 " in out, out

@@ -760,7 +760,9 @@ class Summary:
         self.n_frames, self.rate, self.names, self.units = n_frames, rate, names, units
 
     def level(self, k: int) -> SummaryLevel:
-        """The level of ``k`` segments; KeyError naming the levels there are."""
+        """The level of ``k`` segments, the first stored when two have that k (spec §4.10
+        allows it; :attr:`levels` holds every one, in stored order); KeyError naming the
+        levels there are."""
         for lv in self.levels:
             if lv.k == k:
                 return lv
@@ -779,7 +781,8 @@ class Summary:
             raise ValueError(f"mode must be 'constant' or 'linear', got {mode!r}")
         if self.space != "positions":
             raise FormatError("a preview Motion needs a position summary (space 0)")
-        lv = self.levels[-1] if k is None else self.level(k)
+        # the finest by k, not by place: levels may come in any order (§4.10; a QA run)
+        lv = max(self.levels, key=lambda lv: lv.k) if k is None else self.level(k)
         series = preview_series(lv.starts, lv.means, self.n_frames, mode=mode)
         pos = series.reshape(self.n_frames, -1, 3)
         return Motion(pos, list(self.names), self.rate, self.units,

@@ -62,9 +62,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help=f"numbers of segments (default {DEFAULT_KS}; for .mpz: every stored "
                    "level, or the default of a file without a summary chunk, whose decoded "
                    "motion is segmented)")
-    p.add_argument("--space", choices=("positions", "angles"), default="positions",
+    p.add_argument("--space", choices=("positions", "angles"), default=None,
                    help="segment marker positions relative to their centroid (default) or the "
-                        "joint angles of AMC/BVH input")
+                        "joint angles of AMC/BVH input; an .mpz summary chunk is shown in "
+                        "its own space (another is warned)")
     p.add_argument("--asf", metavar="FILE",
                    help="skeleton for .amc input (default: found beside it)")
     p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs matplotlib)")
@@ -170,6 +171,9 @@ def _levels_from_mpz(args, ks):
     stored = [int(lv.k) for lv in summ.levels]
     missing = [] if ks is None else [k for k in ks if k not in stored]
     warnings = []
+    if args.space_asked not in (None, summ.space):    # was ignored without a word (QA)
+        warnings.append(f"--space {args.space_asked}: the file's summary chunk is of "
+                        f"{summ.space}, shown as stored")
     if missing:
         warnings.append(f"k={','.join(map(str, missing))} not stored in the file (stored: "
                         f"{', '.join(map(str, stored))})")
@@ -267,7 +271,7 @@ def _print_text(info, levels, out):
                  "partition is quadratic in the frames: spec Appendix C item 8)")
     print(head, file=out)
     for lv in levels:
-        w = lv["wssse"]
+        w = None if lv["wssse"] is None else lv["wssse"] + 0.0      # -0.0 (§1.3) as 0
         line = f"\nk={lv['k']}"
         if w is not None:
             unit = f" {info['units']}" if info.get("units") else ""
@@ -333,6 +337,23 @@ def segment_colours(k: int) -> list[tuple[float, float, float]]:
     return out
 
 
+def thumbnail_level(levels: list[dict]) -> dict:
+    """The level that gets mean-pose thumbnails: the coarsest, the first of the least k
+    (spec §4.10 lets levels come in any order: the first stored one was taken)."""
+    return min(levels, key=lambda lv: lv["k"])
+
+
+def thumbnail_means(info: dict, level: dict) -> np.ndarray | None:
+    """A stored level's means as poses [k, 3M], or None: only a position summary's (space
+    0) are poses. An angle summary's D = 0 means crashed the plot, and a BVH's channel
+    values (D = 6 + 3 J, a multiple of 3 too) were drawn as points (a QA run, stop 49)."""
+    means = level.get("means")
+    if info.get("space") != "positions" or means is None or not means.shape[1] \
+            or means.shape[1] % 3:
+        return None
+    return np.asarray(means)
+
+
 def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
     import matplotlib
     matplotlib.use("Agg")
@@ -340,14 +361,14 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
 
     n, rate = info["n_frames"], info["rate"] or 1.0
     unit = "s" if info["rate"] else "frames"
-    thumb = levels[0]  # the coarsest level gets mean-pose thumbnails
+    thumb = thumbnail_level(levels)
     kt = thumb["k"]
     means = None
     if poses is not None:
         from mpz.fisher import segment_means
         means = segment_means(poses, thumb["starts"])
-    elif thumb.get("means") is not None and thumb["means"].shape[1] % 3 == 0:
-        means = thumb["means"]
+    else:
+        means = thumbnail_means(info, thumb)
     show_thumbs = means is not None and kt <= 24
     fig = plt.figure(figsize=(max(8.0, 0.9 * kt if show_thumbs else 8.0), 1.2 + 0.45 * len(levels)
                               + (2.0 if show_thumbs else 0.0)))
@@ -430,6 +451,7 @@ def run(args) -> int:
         from mpz.tools._common import check_plot
         check_plot(args.plot, args.force, (args.file,))
     path = Path(args.file)
+    args.space_asked, args.space = args.space, args.space or "positions"
     args.stdin_data, args.stdin_format = None, None
     if args.file == "-":
         from mpz.tools._common import read_stdin
