@@ -1042,3 +1042,16 @@ def test_trc_writer_takes_any_trc_metadata_and_writes_a_file_it_reads(tmp_path_f
     assert np.abs(back.positions - pos).max() <= 0.5 * 10.0 ** -d + 1e-9
     for key in trc_meta_problems(meta):
         assert any(f"metadata {key} " in n for n in notes), (key, notes)
+
+
+def test_an_mpz_given_to_read_is_named_as_such(tmp_path):
+    """QA, stop 49: `mpz encode A.mpz B.mpz -o OUT/` (mpz.io.read in a batch) said
+    "unknown file extension '.mpz' and no known format in the content" of an MPZ file."""
+    import mpz
+    from mpz.synth import generate
+    data = mpz.encode(generate("walk", frames=20), max_error=1.0)
+    for name in ("a.mpz", "a.bin"):
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(InputFormatError, match=r"an MPZ file.*mpz\.decode") as err:
+            read(tmp_path / name)
+        assert "no known format" not in str(err.value)

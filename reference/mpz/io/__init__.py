@@ -131,6 +131,11 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     if fn is None:                   # no known extension: the content may still say
         found = _sniff(path)
         fn = READERS.get(found or "")
+        if found == ".mpz":       # a batch said "no known format in the content" (a QA run)
+            raise InputFormatError(
+                "an MPZ file, not a motion file: mpz.decode reads it (mpz encode re-encodes "
+                "one .mpz given alone, within the bounds of both encodes)",
+                path=os.fspath(path))
         if fn is None:
             raise InputFormatError(
                 f"unknown file extension {ext or '(none)'!r} and no known format in the "
