@@ -19,7 +19,17 @@ from mpz import (
                         _worker,  # noqa: F401  (first: a worker process's SIGINT, mpz._worker)
                         io,
 )
-from mpz.api import FileInfo, decode, info, read_mpz, read_summary, write_atomic, write_mpz
+from mpz.api import (
+    FileInfo,
+    Summary,
+    SummaryLevel,
+    decode,
+    info,
+    read_mpz,
+    read_summary,
+    write_atomic,
+    write_mpz,
+)
 from mpz.encoder import EncodeOptions, EncodeReport, encode, encode_motion
 from mpz.errors import (
                         ChecksumError,
@@ -42,4 +52,4 @@ __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError"
            "Motion", "concatenate", "decode", "info", "FileInfo", "io", "encode",
            "encode_motion", "EncodeOptions",
            "EncodeReport", "arms", "max_error", "read_mpz", "write_mpz", "read_summary",
-           "write_atomic", "__version__"]
+           "Summary", "SummaryLevel", "write_atomic", "__version__"]

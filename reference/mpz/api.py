@@ -623,7 +623,7 @@ class FileInfo:
 
     ``rate`` is in Hz, ``error_bound`` (None: no bound declared) in ``units``;
     ``chunk_bytes`` maps each chunk type to its bytes in the file (frame
-    included); ``summary_levels`` lists the k of the smry levels (empty: no
+    included); ``summary_levels`` lists the k of the smry or smrc levels, in stored order (empty: no
     summary; read them with :func:`read_summary`).
     """
 
@@ -749,10 +749,12 @@ class SummaryLevel:
 
 
 class Summary:
-    """The optimal-partition summary of a file (spec §4.10), read without decoding motion:
-    its ``space`` ("positions" or "angles"), ``dims`` per frame, ``levels`` (one
-    :class:`SummaryLevel` per segment count), and the file's ``n_frames``, ``rate``,
-    marker ``names`` and ``units``."""
+    """The optimal-partition summary of a file (its smry or smrc chunk, spec §4.10, §4.15),
+    read without decoding motion (:func:`read_summary`): its ``space`` ("positions" or
+    "angles"), ``dims`` per frame (0 for an angle summary without means), ``levels`` (one
+    :class:`SummaryLevel` per stored level, in stored order: the spec lets them come in any
+    order and repeat a k; the reference encoder writes each k once, increasing), and the
+    file's ``n_frames``, ``rate``, marker ``names`` and ``units``."""
 
     def __init__(self, space: str, dims: int, levels: list[SummaryLevel], n_frames: int,
                  rate: float, names: list[str], units: str) -> None:
