@@ -698,3 +698,56 @@ def test_an_amc_whose_skeleton_name_is_not_utf8_encodes(tmp_path, shared_data):
     assert p.returncode == 1 and b"warning: " in p.stderr, p.stderr     # the names changed
     meta = mpz.info(tmp_path / "out.mpz").metadata
     assert meta["asf"] == "a\\xff.asf" and meta["source"] == "a\\xff.amc"
+
+
+# -- a machine that cannot take the output (QA, stop 49) --------------------------------------
+
+def test_a_full_disk_is_an_error_not_a_bug(tmp_path: Path) -> None:
+    """`mpzinfo -vv x.mpz > /dev/full` and `mpz encode x -o - > /dev/full` ended with a
+    traceback and exit 70 ("a bug"); a full disk is the machine's state: exit 2."""
+    if not Path("/dev/full").exists():
+        pytest.skip("no /dev/full on this system")
+    m = generate("walk", frames=30, seed=6)
+    write(m, tmp_path / "w.c3d")
+    (tmp_path / "w.mpz").write_bytes(mpz.encode(m, max_error=1.0))
+    for argv in (["mpzinfo", "-vv", "w.mpz"], ["mpz", "encode", "w.c3d", "-o", "-"],
+                 ["mpz", "show", "w.c3d"]):
+        with open("/dev/full", "wb") as full:
+            p = subprocess.run(argv, cwd=tmp_path, stdout=full, stderr=subprocess.PIPE,
+                               timeout=300)
+        err = p.stderr.decode()
+        assert p.returncode == 2 and "Traceback" not in err, (argv, err[-600:])
+        assert "No space left on device" in err, (argv, err)
+
+
+def test_a_file_size_limit_on_standard_output_is_not_a_short_file_and_exit_0(tmp_path: Path):
+    """Past a file-size limit, the write to standard output returned a short count and
+    raised nothing: a file of 1024 of 7573 bytes, exit 0."""
+    m = generate("walk", frames=200, seed=6)
+    write(m, tmp_path / "w.c3d")
+    p = subprocess.run(["bash", "-c", "ulimit -f 1 && exec mpz encode w.c3d -o - > out.mpz"],
+                       cwd=tmp_path, stderr=subprocess.PIPE, timeout=300)
+    err = p.stderr.decode()
+    assert p.returncode == 2 and "File too large" in err and "Traceback" not in err, err[-600:]
+
+
+def test_an_input_that_becomes_a_fifo_while_read_does_not_hang(tmp_path: Path):
+    """mpz.io.read checked the path, read it, then opened it again for its last byte: a FIFO
+    renamed over it meanwhile hung that open for ever (a QA run: 7 of 40 encodes), and a
+    file deleted meanwhile was a traceback. In a process of its own, which the old code
+    never left (a timeout)."""
+    os.mkfifo(tmp_path / "in.trc")
+    code = ("import sys\n"
+            "from mpz.errors import InputFormatError\n"
+            "from mpz.io import _last_byte\n"
+            "for name in ('in.trc', 'gone.trc'):\n"
+            "    try:\n"
+            "        _last_byte(name)\n"
+            "    except InputFormatError as exc:\n"
+            "        print(exc)\n")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=60)
+    lines = p.stdout.splitlines()
+    assert p.returncode == 0 and len(lines) == 2, (p.stdout, p.stderr[-600:])
+    assert all("changed while it was read" in ln for ln in lines), lines
+    assert "not a regular file" in lines[0] and "no such file" in lines[1], lines

@@ -46,7 +46,7 @@ import tempfile
 
 import numpy as np
 
-from mpz.errors import InputFormatError
+from mpz.errors import InputFormatError, MPZError
 from mpz.io import c3dbin
 from mpz.io._common import (
     StrPath,
@@ -172,8 +172,16 @@ def _warn(m: Motion, note: str) -> None:
 
 
 def _last_byte(path: StrPath) -> bytes | None:
-    """A file's last byte (None: the file is empty)."""
-    with open(path, "rb") as fh:
+    """A file's last byte (None: the file is empty). Opened without blocking and checked on
+    the open descriptor: a FIFO swapped in for the file after the reader had read it hung
+    here, and a file deleted meanwhile was a traceback (a QA run of stop 49)."""
+    from mpz.api import open_regular
+    try:
+        fh = open_regular(path)
+    except MPZError as exc:
+        raise InputFormatError(f"the file changed while it was read: {exc.message}",
+                               path=os.fspath(path)) from None
+    with fh:
         fh.seek(0, os.SEEK_END)
         if fh.tell() == 0:
             return None

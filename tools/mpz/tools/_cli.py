@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable, Iterable
 import difflib
+import errno
 import functools
 import json
 import math
@@ -259,6 +260,11 @@ def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
 
 # -- Ctrl-C --------------------------------------------------------------------------------
 
+#: errors of a write that the machine's state causes: no space, a file-size limit, a quota,
+#: an I/O error (what :func:`reports_ctrl_c` reports as an error, not a bug)
+OUTPUT_FULL = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EIO})
+
+
 def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, int]]:
     """Decorate a command's ``main``: SIGINT, held since the command's first import of mpz
     (:mod:`mpz._worker`), is released first, and a Ctrl-C anywhere in ``main`` (a held one
@@ -288,6 +294,13 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                 return EXIT_INTERRUPTED
             except (MemoryError, BrokenPipeError):
                 raise            # each command's own report; a pipe closed by `head`
+            except OSError as exc:
+                if exc.errno not in OUTPUT_FULL:
+                    return _bug(prog)
+                # a full disk or a file-size limit where a command writes (standard output
+                # above all: mpzinfo > /dev/full): the machine's state, not a bug (a QA run)
+                print(f"{prog}: error: cannot write: {exc.strerror or exc}", file=sys.stderr)
+                return EXIT_ERROR
             except Exception:
                 return _bug(prog)
             finally:

@@ -385,7 +385,13 @@ def write_stdout(data: bytes, *, binary: bool, force: bool) -> None:
         raise EncoderError("refusing to write binary data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
     out.flush()
-    out.buffer.write(data)
+    # the count write returns: on a full disk or past a file-size limit it was short (1024
+    # of 7573 bytes) and nothing was raised, so a cut file left with exit 0 (a QA run of
+    # stop 49); writing the rest raises the OSError that says why
+    view = memoryview(data)
+    while view:
+        n = out.buffer.write(view)
+        view = view[len(view) if n is None else n:]
     out.buffer.flush()
 
 
