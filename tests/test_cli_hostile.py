@@ -751,3 +751,25 @@ def test_an_input_that_becomes_a_fifo_while_read_does_not_hang(tmp_path: Path):
     assert p.returncode == 0 and len(lines) == 2, (p.stdout, p.stderr[-600:])
     assert all("changed while it was read" in ln for ln in lines), lines
     assert "not a regular file" in lines[0] and "no such file" in lines[1], lines
+
+
+def test_a_sigterm_while_decoding_to_standard_output_leaves_no_temporary_folder(tmp_path):
+    """Decode to -o - writes a temporary copy first; a SIGTERM meanwhile left its folder in
+    $TMPDIR, sometimes with a partial copy (a QA run: 8 of 8), while SIGINT cleaned up."""
+    m = generate("walk", frames=30, seed=6)
+    (tmp_path / "w.mpz").write_bytes(mpz.encode(m, max_error=1.0))
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    code = ("import os, signal, sys\n"
+            "import mpz.io as d\n"
+            "from mpz.tools import mpz_cli\n"
+            "real = d.write\n"
+            "def write(*a, **k):\n"
+            "    real(*a, **k)\n"
+            "    os.kill(os.getpid(), signal.SIGTERM)\n"
+            "d.write = write\n"
+            "sys.exit(mpz_cli.main(['decode', 'w.mpz', '-o', '-', '-F', 'csv']))\n")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       env={**os.environ, "TMPDIR": str(tmp)}, timeout=300)
+    assert p.returncode == 143 and b"Traceback" not in p.stderr, p.stderr[-600:]
+    assert list(tmp.iterdir()) == []

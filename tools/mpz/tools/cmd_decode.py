@@ -199,7 +199,13 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
             print(f"mpz decode: note: {printable(job.output)}: {printable(note)}",
                   file=sys.stderr)
     if to_stdout:
-        with tempfile.TemporaryDirectory(prefix="mpz-decode-") as d:
+        import signal
+
+        from mpz.api import signals_exit
+        # SIGTERM and SIGHUP end the command through the folder's cleanup: they left it,
+        # sometimes with a partial copy, in $TMPDIR (a QA run of stop 49)
+        with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)), \
+                tempfile.TemporaryDirectory(prefix="mpz-decode-") as d:
             tmp = os.path.join(d, "stdout" + ext)
             if ext == ".amc" and asf is None:     # issue 13: the ASF goes to --asf
                 asf = _asf_output(args, STDIO, ext, source)
