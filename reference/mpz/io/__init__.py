@@ -428,6 +428,7 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
     names = list(motion.names)
     rate, F = float(motion.rate), motion.n_frames
     fmt = FORMAT_NAMES.get(ext, ext)
+    first = start_frame(motion)            # the source's first frame number
 
     def control(n: str) -> bool:
         return any(ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F for c in n)
@@ -486,7 +487,6 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append("this motion has no length unit (a BVH source?): POINT:UNITS is "
                          "left empty, and most C3D readers will take millimetres; encode "
                          "the source with --units to name it")
-        first = start_frame(motion)
         if archive is None and first < 1:
             notes.append(f"C3D counts frames from 1: the source's first frame {first} is "
                          f"written as 1 (every frame number {1 - first} higher)")
@@ -584,7 +584,6 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         what = value.describe() if hasattr(value, "describe") else key
         notes.append(f"{fmt} does not hold the source's {'C3D archive' if key == 'c3d' else key}"
                      f", not written: {what}")
-    first = start_frame(motion)
     if first != 1 and ext in (".npy", ".csv", ".bvh"):
         notes.append(f"{fmt} does not hold the first frame number ({first}): frames are "
                      "counted from " + ("0" if ext == ".csv" else "the start"))

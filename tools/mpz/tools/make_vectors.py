@@ -2278,6 +2278,34 @@ def _axis_changed(models, **changes) -> tuple:
     return tuple(md)
 
 
+@functools.cache
+def _smrc_base() -> bytes:
+    """v-smrc-positions: a 4-marker walk with levels k = 2 and 5 in smrc, which the smrc
+    builders edit (encoded once)."""
+    return mpz.encode(_synth("walk", 24, markers=4, seed=141), max_error=1.0, summary=(2, 5))
+
+
+@functools.cache
+def _c3d_float_base() -> bytes:
+    """v-c3d-archive-float32, which the C3D archive builders edit (encoded once)."""
+    return mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+
+
+@functools.cache
+def _bvhs_base() -> bytes:
+    """v-bvhs-synthetic-default, which the skeleton builders edit (encoded once)."""
+    from mpz.io.bvh import parse_bvh
+    return mpz.encode(parse_bvh(_skeleton_bvh_text(), source="synthetic.bvh"))
+
+
+@functools.cache
+def _asfs_base() -> bytes:
+    """v-asfs-synthetic-default, which the skeleton builders edit (encoded once)."""
+    from mpz.io.amc import parse_amc, parse_asf
+    return mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
+                                source="synthetic_01.amc"))
+
+
 def _numbered(vs: VectorSet, letter: str, slug: str) -> str:
     import re
     found = [re.match(r"[a-z](\d+)-", e["name"]) for e in vs.entries
@@ -3122,8 +3150,7 @@ def smrc_vectors(vs: VectorSet):
 
     from mpz.chunks.summary import Smrc, overlap_prediction
     secs = ["§2.1", "§2.3", "§3.4", "§4.15", "§5.5"]
-    m = _synth("walk", 24, markers=4, seed=141)
-    good = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    good = _smrc_base()
     vs.valid("valid", _numbered(vs, "v", "smrc-positions"), good,
              "a 4-marker walk with the coded summary smrc (1.1): levels k = 2 and 5 of a "
              "position summary (D = 12), step = the 1 mm bound, the k = 2 level predicted from "
@@ -3363,8 +3390,7 @@ def clarified_accept_vectors(vs: VectorSet):
     import struct
 
     from mpz.chunks import Chdr
-    from mpz.io.amc import parse_amc, parse_asf
-    good = mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+    good = _c3d_float_base()
     block = bytearray(Chdr.load(bytes(next(p for t, p in _c3d_chunks(good)
                                            if t == "chdr"))).block)
     # words 2 (points), 3 (analog words a frame), 4-5 (first, last frame), 10 (analog
@@ -3379,8 +3405,7 @@ def clarified_accept_vectors(vs: VectorSet):
              _c3d_features(stale), ["§4.13", "§4.13.1", "§6.9"],
              "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0), chdr "
              "words 2-5 and 10 changed")
-    amc = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
-                               source="synthetic_01.amc"))
+    amc = _asfs_base()
     rec = _skeleton_record(amc)
     bones = list(rec.bones)
     bones[0] = dataclasses.replace(bones[0], name="Root")
@@ -3400,8 +3425,7 @@ def smrc_wrap_vectors(vs: VectorSet):
     """An smrc level whose segment lengths add up to F only modulo 2^32 (spec §4.15 step 2,
     §1.2), in the v-smrc-positions file; a builder of its own, after the others, so that
     the vectors before it keep their numbers."""
-    m = _synth("walk", 24, markers=4, seed=141)
-    good = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    good = _smrc_base()
     F, M = 24, 4
     # c_j = n_j - 1 = (2^31 - 1, 2^31 - 1, 23): the lengths (2^31, 2^31, 24) add up to
     # 2^32 + 24, which a decoder summing in 32 bits reads as 24 = F
@@ -3426,8 +3450,7 @@ def summary_edge_vectors(vs: VectorSet):
     import dataclasses
 
     from mpz.chunks.summary import Smrc
-    m = _synth("walk", 24, markers=4, seed=141)
-    good = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    good = _smrc_base()
     F, M = 24, 4
     rng = np.random.default_rng(149)
     secs = ["§2.1", "§2.3", "§3.4", "§4.15", "§5.5"]
@@ -3555,14 +3578,12 @@ def mutation_gap_vectors(vs: VectorSet):
     from typing import Any
 
     from mpz.chunks import Cana, Cpnt
-    from mpz.io.amc import parse_amc, parse_asf
-    from mpz.io.bvh import parse_bvh
 
     add = functools.partial(_add_invalid, vs)
 
     # -- C3D archives: the float32 file of v-c3d-archive-float32, the int16 one of
     # u-c3d-int16-exact-on-grid
-    good = mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+    good = _c3d_float_base()
     exact = mpz.encode(c3d_motion(72, storage=0, J=1, C=2, n=2))
     ch = _c3d_chunks(good)
     pnt = Cpnt.load(next(p for t, p in ch if t == "cpnt"))
@@ -3640,9 +3661,8 @@ def mutation_gap_vectors(vs: VectorSet):
         "FormatError", ["§4.13.3", "§6.9"])
 
     # -- skeletons: the files of v-bvhs-synthetic-default and v-asfs-synthetic-default
-    bvh = mpz.encode(parse_bvh(_skeleton_bvh_text(), source="synthetic.bvh"))
-    amc = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
-                               source="synthetic_01.amc"))
+    bvh = _bvhs_base()
+    amc = _asfs_base()
     arec = _skeleton_record(amc)
 
     def bad(slug, src, changes, what, risk, section):
@@ -3678,8 +3698,7 @@ def mutation_gap_vectors(vs: VectorSet):
         "a decoder whose range check is off by one indexes past the joints", "§4.14.2")
 
     # -- smrc: the mirror of smrc-mean-2pow31 in the v-smrc-positions file
-    m = _synth("walk", 24, markers=4, seed=141)
-    srcf = mpz.encode(m, max_error=1.0, summary=(2, 5))
+    srcf = _smrc_base()
     M = 4
     e = np.zeros((2, M, 3), np.int64)
     e[0, 0, 0], e[1, 0, 0] = -((1 << 31) - 1), -1
@@ -3748,14 +3767,11 @@ def range_gap_vectors(vs: VectorSet):
     import dataclasses
 
     from mpz.chunks import Cprm
-    from mpz.io.amc import parse_amc, parse_asf
-    from mpz.io.bvh import parse_bvh
 
     add = functools.partial(_add_invalid, vs)
 
-    bvh = mpz.encode(parse_bvh(_skeleton_bvh_text(), source="synthetic.bvh"))
-    amc = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
-                               source="synthetic_01.amc"))
+    bvh = _bvhs_base()
+    amc = _asfs_base()
     arec = _skeleton_record(amc)
     brec = _skeleton_record(bvh)
 
@@ -3848,7 +3864,7 @@ def range_gap_vectors(vs: VectorSet):
         "writes past it", "§4.14.1")
 
     # -- C3D: the float32 archive of v-c3d-archive-float32
-    good = mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+    good = _c3d_float_base()
     ch = _c3d_chunks(good)
     add("cana-channels-0", _c3d_rebuild(good, "cana", channels=0, table=(),
                                         coded=BlockEncoder().finish()),
