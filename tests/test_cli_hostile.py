@@ -731,26 +731,37 @@ def test_a_file_size_limit_on_standard_output_is_not_a_short_file_and_exit_0(tmp
     assert p.returncode == 2 and "File too large" in err and "Traceback" not in err, err[-600:]
 
 
-def test_an_input_that_becomes_a_fifo_while_read_does_not_hang(tmp_path: Path):
-    """mpz.io.read checked the path, read it, then opened it again for its last byte: a FIFO
-    renamed over it meanwhile hung that open for ever (a QA run: 7 of 40 encodes), and a
-    file deleted meanwhile was a traceback. In a process of its own, which the old code
-    never left (a timeout)."""
-    os.mkfifo(tmp_path / "in.trc")
-    code = ("import sys\n"
-            "from mpz.errors import InputFormatError\n"
-            "from mpz.io import _last_byte\n"
-            "for name in ('in.trc', 'gone.trc'):\n"
-            "    try:\n"
-            "        _last_byte(name)\n"
-            "    except InputFormatError as exc:\n"
-            "        print(exc)\n")
+def test_an_input_replaced_by_a_fifo_while_read_is_read_from_the_file_first_opened(
+        tmp_path: Path):
+    """mpz.io.read checked the path, then its readers opened it again (ezc3d, for a C3D;
+    a last-byte check, for text): a FIFO renamed over it meanwhile hung that open for ever
+    (a QA run of stop 49: 7 of 40 encodes), or the read failed. The file is now opened
+    once, and ezc3d reads that open file. The FIFO is swapped in while the file is parsed;
+    in a process of its own, which the old code never left (a timeout)."""
+    m = generate("walk", frames=30, seed=6)
+    write(m, tmp_path / "in.c3d")
+    write(m, tmp_path / "in.trc")
+    code = ("import os\n"
+            "import mpz.io, mpz.io.c3dbin as c3dbin, mpz.io.trc as trc\n"
+            "def swap(name):\n"
+            "    os.mkfifo('fifo')\n"
+            "    os.rename('fifo', name)\n"
+            "real_checks, real_parse = c3dbin.reader_checks, trc.parse_trc\n"
+            "def checks(data):\n"
+            "    swap('in.c3d')\n"
+            "    return real_checks(data)\n"
+            "def parse(text, **kw):\n"
+            "    swap('in.trc')\n"
+            "    return real_parse(text, **kw)\n"
+            "c3dbin.reader_checks, trc.parse_trc = checks, parse\n"
+            "for name in ('in.c3d', 'in.trc'):\n"
+            "    got = mpz.io.read(name)\n"
+            "    print(name, got.n_frames, got.metadata.get('reader', '-'),\n"
+            "          got.metadata.get('source'))\n")
     p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
-                       text=True, timeout=60)
-    lines = p.stdout.splitlines()
-    assert p.returncode == 0 and len(lines) == 2, (p.stdout, p.stderr[-600:])
-    assert all("changed while it was read" in ln for ln in lines), lines
-    assert "not a regular file" in lines[0] and "no such file" in lines[1], lines
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr[-800:]
+    assert p.stdout.splitlines() == ["in.c3d 30 ezc3d in.c3d", "in.trc 30 - in.trc"], p.stdout
 
 
 def test_a_sigterm_while_decoding_to_standard_output_leaves_no_temporary_folder(tmp_path):
@@ -773,3 +784,27 @@ def test_a_sigterm_while_decoding_to_standard_output_leaves_no_temporary_folder(
                        env={**os.environ, "TMPDIR": str(tmp)}, timeout=300)
     assert p.returncode == 143 and b"Traceback" not in p.stderr, p.stderr[-600:]
     assert list(tmp.iterdir()) == []
+
+
+@pytest.mark.parametrize("ext", [".trc", ".bvh", ".npy"])
+def test_a_motion_file_past_the_size_limit_is_refused_before_it_is_read(tmp_path, ext):
+    """A sparse 10 GiB .trc was read whole (21 GB resident) before any check: a motion file
+    past MAX_MOTION_BYTES (4 GiB, as standard input; NPY: MAX_NPY_BYTES) is refused from
+    its size. Under a 1 GiB address-space limit, so that reading it could not pass."""
+    from mpz.io._common import MAX_MOTION_BYTES
+    from mpz.io.table import MAX_NPY_BYTES
+    limit = MAX_NPY_BYTES if ext == ".npy" else MAX_MOTION_BYTES
+    assert limit == (1 << 34 if ext == ".npy" else 1 << 32)
+    huge = tmp_path / f"huge{ext}"
+    with open(huge, "wb") as fh:
+        fh.write(b"PathFileType\t4\t(X/Y/Z)\thuge.trc\n" if ext == ".trc" else b"\x93NUMPY")
+        fh.truncate(limit + 1)
+    script = ("import resource, sys\n"
+              "resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
+              "from mpz.tools import mpz_cli\n"
+              "sys.exit(mpz_cli.main(['encode', sys.argv[1], '-o', sys.argv[2]]))\n")
+    p = subprocess.run([sys.executable, "-c", script, str(huge), str(tmp_path / "h.mpz")],
+                       capture_output=True, timeout=120)
+    assert p.returncode == 2, p.stderr
+    assert f"{limit + 1} bytes, more than the {limit}".encode() in p.stderr, p.stderr
+    assert not (tmp_path / "h.mpz").exists()

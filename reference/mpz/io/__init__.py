@@ -41,27 +41,46 @@ from __future__ import annotations
 from collections.abc import Callable
 import math
 import os
-import stat
 import tempfile
 
 import numpy as np
 
-from mpz.errors import InputFormatError, MPZError
+from mpz.errors import InputFormatError
 from mpz.io import c3dbin
 from mpz.io._common import (
+    MAX_MOTION_BYTES,
     StrPath,
     check_rate_argument,
     ext_of,
     is_utf8,
+    open_input,
+    read_open,
+    reopen_name,
     start_frame,
+    translate,
     utf8_name,
 )
-from mpz.io.amc import asf_text_changes, find_asf, read_amc, read_asf, write_amc
-from mpz.io.bvh import read_bvh, skeleton_problems, write_bvh
-from mpz.io.c3d import read_c3d, write_c3d
+from mpz.io.amc import (
+    amc_from_bytes,
+    asf_text_changes,
+    find_asf,
+    read_amc,
+    read_asf,
+    write_amc,
+)
+from mpz.io.bvh import bvh_from_bytes, read_bvh, skeleton_problems, write_bvh
+from mpz.io.c3d import c3d_from_bytes, read_c3d, write_c3d
 from mpz.io.kinematics import Skeleton
-from mpz.io.table import read_csv, read_npy, write_csv, write_npy
-from mpz.io.trc import read_trc, write_trc
+from mpz.io.table import (
+    MAX_NPY_BYTES,
+    csv_from_bytes,
+    npy_from_bytes,
+    read_csv,
+    read_npy,
+    write_csv,
+    write_npy,
+)
+from mpz.io.trc import read_trc, trc_from_bytes, write_trc
 from mpz.motion import Motion
 
 #: extension -> reader(path, **options)
@@ -72,6 +91,17 @@ READERS: dict[str, Callable[..., Motion]] = {
     ".amc": read_amc,
     ".npy": read_npy,
     ".csv": read_csv,
+}
+
+#: extension -> reader(path, data, **options) of a file's bytes, read once by :func:`read`
+#: (``path`` names the file; it is not opened again)
+BYTES_READERS: dict[str, Callable[..., Motion]] = {
+    ".c3d": c3d_from_bytes,
+    ".trc": trc_from_bytes,
+    ".bvh": bvh_from_bytes,
+    ".amc": amc_from_bytes,
+    ".npy": npy_from_bytes,
+    ".csv": csv_from_bytes,
 }
 
 #: the formats that carry a skeleton (issue 13): read with it, written from it
@@ -125,30 +155,20 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     _path_arg("path", path)           # a QA run (stop 33): bytes were taken for a path,
     if asf is not None:               # and asf=3 read and closed the caller's descriptor 3
         _path_arg("asf", asf)
-    _check_regular(path)
     ext = ext_of(path)
-    fn = READERS.get(ext)
-    if fn is None:                   # no known extension: the content may still say
-        found = _sniff(path)
-        fn = READERS.get(found or "")
-        if found == ".mpz":       # a batch said "no known format in the content" (a QA run)
-            raise InputFormatError(
-                "an MPZ file, not a motion file: mpz.decode reads it (mpz encode re-encodes "
-                "one .mpz given alone, within the bounds of both encodes)",
-                path=os.fspath(path))
-        if fn is None:
-            raise InputFormatError(
-                f"unknown file extension {ext or '(none)'!r} and no known format in the "
-                f"content; can read {', '.join(READERS)}", path=os.fspath(path))
-        ext = found or ext
-    if ext == ".amc":
-        m = fn(path, asf, **({} if rate is None else {"rate": rate}))
-    elif ext in (".npy", ".csv") and rate is not None:
-        m = fn(path, rate=rate)
-    else:
-        m = fn(path)
-    last = _last_byte(path)
-    if ext in (".trc", ".csv", ".bvh", ".amc") and last not in (None, b"\n", b"\r"):
+    # the file is opened once, refused unless regular, and read once: a FIFO swapped in for
+    # it after a check hung a later open (a QA run of stop 49), and the bytes that were
+    # checked are the bytes that are parsed; a C3D's ezc3d reads the same open file
+    with open_input(path) as fh:
+        head = fh.read(DETECT_BYTES)
+        if ext not in READERS:        # no known extension: the content may still say
+            ext = _format_of_content(path, head, ext)
+        if ext == ".c3d":             # a 5 GB sparse file of zeros named .c3d was read
+            _check_c3d_key(path, head)  # whole before its key byte was checked (QA)
+        data = read_open(fh, path, MAX_NPY_BYTES if ext == ".npy" else MAX_MOTION_BYTES)
+        m = _from_bytes(ext, path, data, asf=asf, rate=rate, reopen=reopen_name(fh, path))
+    last = data[-1:]
+    if ext in (".trc", ".csv", ".bvh", ".amc") and last not in (b"", b"\n", b"\r"):
         # a text file cut in the middle of its last number reads as fewer digits (a QA
         # run); every writer of these formats, and every real file here, ends its lines
         _warn(m, "the file does not end with a line break: its last line may have been "
@@ -169,24 +189,6 @@ def _warn(m: Motion, note: str) -> None:
     """Add ``note`` to the motion's ``warning`` metadata (what the tools print)."""
     old = m.metadata.get("warning")
     m.metadata["warning"] = note if not old else f"{old}; {note}"
-
-
-def _last_byte(path: StrPath) -> bytes | None:
-    """A file's last byte (None: the file is empty). Opened without blocking and checked on
-    the open descriptor: a FIFO swapped in for the file after the reader had read it hung
-    here, and a file deleted meanwhile was a traceback (a QA run of stop 49)."""
-    from mpz.api import open_regular
-    try:
-        fh = open_regular(path)
-    except MPZError as exc:
-        raise InputFormatError(f"the file changed while it was read: {exc.message}",
-                               path=os.fspath(path)) from None
-    with fh:
-        fh.seek(0, os.SEEK_END)
-        if fh.tell() == 0:
-            return None
-        fh.seek(-1, os.SEEK_END)
-        return fh.read(1)
 
 
 def _gap_the_last_value(m: Motion) -> None:
@@ -277,28 +279,41 @@ def _path_arg(name: str, value: object) -> None:
                         f"{type(value).__name__}")
 
 
-def _check_regular(path: StrPath) -> None:
-    """Refuse a device, FIFO or socket before a reader opens it (reading could never end)."""
-    p = os.fspath(path)
-    try:
-        mode = os.stat(p).st_mode
-    except OSError:
-        return                       # the reader reports a missing file in its own words
-    if stat.S_ISDIR(mode):
-        raise InputFormatError("is a folder, not a file", path=p)
-    if not stat.S_ISREG(mode):
-        raise InputFormatError("not a regular file (a device, FIFO or socket): refusing to "
-                               "read it; to read a stream, redirect it to standard input "
-                               "and name the input -", path=p)
+def _format_of_content(path: StrPath, head: bytes, ext: str) -> str:
+    """The format of a file without a known extension, from its first bytes ``head``
+    (:func:`detect_format`); InputFormatError when none is known, or for an MPZ file."""
+    found = detect_format(head)
+    if found == ".mpz":           # a batch said "no known format in the content" (a QA run)
+        raise InputFormatError(
+            "an MPZ file, not a motion file: mpz.decode reads it (mpz encode re-encodes "
+            "one .mpz given alone, within the bounds of both encodes)", path=os.fspath(path))
+    if found not in READERS:
+        raise InputFormatError(
+            f"unknown file extension {ext or '(none)'!r} and no known format in the "
+            f"content; can read {', '.join(READERS)}", path=os.fspath(path))
+    return found
 
 
-def _sniff(path: StrPath) -> str | None:
-    """:func:`detect_format` of a file's first bytes (None if it cannot be read)."""
+def _check_c3d_key(path: StrPath, head: bytes) -> None:
     try:
-        with open(path, "rb") as fh:
-            return detect_format(fh.read(DETECT_BYTES))
-    except OSError:
-        return None
+        c3dbin.check_key(head[:2])
+    except InputFormatError as exc:
+        raise translate(path, exc) from None
+
+
+def _from_bytes(ext: str, path: StrPath, data: bytes, *, asf: StrPath | None,
+                rate: float | None, reopen: StrPath | None) -> Motion:
+    """The motion in ``data``, the bytes of a file of format ``ext`` named ``path``
+    (messages and ``metadata["source"]`` name it; it is not opened again: a C3D's ezc3d
+    opens ``reopen``, which holds the same bytes)."""
+    kw = {} if rate is None else {"rate": rate}
+    if ext == ".c3d":
+        return c3d_from_bytes(path, data, reopen=reopen)
+    if ext == ".amc":
+        return amc_from_bytes(path, data, asf, **kw)
+    if ext in (".npy", ".csv"):
+        return BYTES_READERS[ext](path, data, **kw)
+    return BYTES_READERS[ext](path, data)
 
 
 #: ``detect_format`` looks at no more than this many leading bytes

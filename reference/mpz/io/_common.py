@@ -16,7 +16,7 @@ import inspect
 import math
 import os
 import struct
-from typing import ParamSpec, TypeAlias, TypeVar
+from typing import BinaryIO, ParamSpec, TypeAlias, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -98,20 +98,58 @@ def reader(func: Callable[_P, _R]) -> Callable[_P, _R]:
     return wrapper
 
 
-def read_regular(path: StrPath) -> bytes:
-    """The bytes of the file at ``path``, opened by :func:`mpz.api.open_regular`: a device
-    (``/dev/zero``), a FIFO or a socket is refused before it is read, which
-    :func:`mpz.io.read`'s check did only for the file it was given, not for an ASF named
-    beside an AMC (a QA run: ``--asf /dev/zero`` read until memory ran out, a FIFO hung).
-    Raises InputFormatError naming the path."""
+#: The most bytes read of one motion file other than NPY (4 GiB, as of an MPZ file or of
+#: standard input, :data:`mpz.api.MAX_INPUT_BYTES`), refused from its size before it is
+#: read. The text readers hold about 4 bytes of memory per byte of a TRC (docs/io-notes.md):
+#: a sparse 10 GiB .trc read whole took 21 GB (a QA run of stop 49).
+MAX_MOTION_BYTES = 1 << 32
+
+
+def open_input(path: StrPath) -> BinaryIO:
+    """``path`` opened for reading by :func:`mpz.api.open_regular` (a device such as
+    ``/dev/zero``, a FIFO or a socket is refused before it is read, without blocking, and
+    checked on the open descriptor); InputFormatError naming the path."""
     from mpz.api import open_regular
     from mpz.errors import FormatError
     try:
-        fh = open_regular(path)
+        return open_regular(path)
     except FormatError as exc:
         raise InputFormatError(exc.message, path=os.fspath(path)) from None
-    with fh:
-        return fh.read()
+
+
+def read_open(fh: BinaryIO, path: StrPath, limit: int = MAX_MOTION_BYTES) -> bytes:
+    """All of the regular file ``fh`` (opened by :func:`open_input`) from its start: its
+    size is checked against ``limit`` before anything is read, and a file that grows
+    past it while read is refused too."""
+    size = os.fstat(fh.fileno()).st_size
+    if size > limit:
+        raise InputFormatError(f"{size} bytes, more than the {limit} this reader reads of "
+                               "one file", path=os.fspath(path))
+    fh.seek(0)
+    data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise InputFormatError(f"the file grew past {limit} bytes while it was read",
+                               path=os.fspath(path))
+    return data
+
+
+def reopen_name(fh: BinaryIO, path: StrPath) -> str:
+    """A name that opens the very file ``fh`` holds open, for a library that reads only
+    from a name (ezc3d): on Linux ``/proc/self/fd/N``, which opens that file even when
+    ``path`` has been renamed, replaced (by a FIFO: a hang) or deleted since; elsewhere
+    ``path`` itself."""
+    proc = f"/proc/self/fd/{fh.fileno()}"
+    return proc if os.path.exists(proc) else os.fspath(path)
+
+
+def read_regular(path: StrPath, limit: int = MAX_MOTION_BYTES) -> bytes:
+    """The bytes of the file at ``path``, opened once by :func:`open_input` and read by
+    :func:`read_open`: a device, FIFO or socket is refused before it is read, which
+    :func:`mpz.io.read`'s check did only for the file it was given, not for an ASF named
+    beside an AMC (a QA run: ``--asf /dev/zero`` read until memory ran out, a FIFO hung).
+    Raises InputFormatError naming the path."""
+    with open_input(path) as fh:
+        return read_open(fh, path, limit)
 
 
 def number(text: str, *, nan: bool = False) -> float:

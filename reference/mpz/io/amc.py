@@ -493,6 +493,14 @@ def read_amc(amc_path: StrPath, asf_path: StrPath | None = None, *,
     ------
     InputFormatError
     """
+    return amc_from_bytes(amc_path, read_regular(amc_path), asf_path, rate=rate)
+
+
+@reader
+def amc_from_bytes(amc_path: StrPath, data: bytes, asf_path: StrPath | None = None, *,
+                   rate: float = 120.0) -> Motion:
+    """:func:`read_amc` of the AMC's bytes, read once by :func:`mpz.io.read` (``amc_path``
+    names the file and finds the ASF when ``asf_path`` is None; it is not opened)."""
     if asf_path is None:
         asf_path = find_asf(amc_path)
     try:            # the ASF's faults name the ASF, not the AMC (a QA run)
@@ -501,7 +509,6 @@ def read_amc(amc_path: StrPath, asf_path: StrPath | None = None, *,
     except _PARSE_ERRORS + (InputFormatError,) as exc:
         raise translate(asf_path, exc) from (None if isinstance(exc, InputFormatError)
                                              else exc)
-    data = read_regular(amc_path)
     m = parse_amc(decode_text(data), skel, rate=rate,
                   source=os.path.basename(os.fspath(amc_path)), encoding=text_encoding(data))
     m.metadata["asf"] = os.path.basename(os.fspath(asf_path))

@@ -40,7 +40,10 @@ from mpz.io import c3dbin
 from mpz.io._common import (
     StrPath,
     is_utf8,
+    open_input,
+    read_open,
     reader,
+    reopen_name,
     start_frame,
     unique_names,
     values_at_gaps,
@@ -240,12 +243,19 @@ def read_c3d(path: StrPath) -> Motion:
     InputFormatError
         If the file is missing or is not a readable C3D file.
     """
-    path = os.fspath(path)
-    with open(path, "rb") as fh:  # FileNotFoundError -> "no such file"
+    with open_input(path) as fh:
         c3dbin.check_key(fh.read(2))     # before the rest is read
-        fh.seek(0)
-        data = fh.read()
-    full = _read_points(path, data)
+        return c3d_from_bytes(path, read_open(fh, path), reopen=reopen_name(fh, path))
+
+
+@reader
+def c3d_from_bytes(path: StrPath, data: bytes, *, reopen: StrPath | None = None) -> Motion:
+    """:func:`read_c3d` of the file's bytes, read once by :func:`mpz.io.read`: ``path``
+    names the file in messages and ``metadata["source"]``; ezc3d, which reads only from
+    a file, opens ``reopen`` (default ``path``; :func:`mpz.io.read` gives it the open
+    file, :func:`reopen_name`, so that both readers see the same bytes)."""
+    path = os.fspath(path)
+    full = _read_points(path, data, os.fspath(path if reopen is None else reopen))
     try:
         d = c3dbin.parse_c3d(data)
     except InputFormatError as exc:
@@ -399,8 +409,9 @@ def memory_short(need: int) -> str | None:
     return None
 
 
-def _read_points(path: str, data: bytes) -> Motion:
-    """Every point of the C3D file as a Motion: ezc3d, or the numpy reader it refuses."""
+def _read_points(path: str, data: bytes, reopen: str) -> Motion:
+    """Every point of the C3D file as a Motion: ezc3d (reading the file ``reopen``, which
+    holds ``data``), or the numpy reader it refuses."""
     import ezc3d
 
     source = os.path.basename(path)
@@ -421,7 +432,7 @@ def _read_points(path: str, data: bytes) -> Motion:
     if checks.conflict is not None:    # ezc3d takes the storage from the header's scale
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": f"not read with ezc3d: {checks.conflict}; read with mpz.io.c3dbin"})
-    if not is_utf8(path):          # ezc3d takes a str path to UTF-8: a TypeError of SWIG
+    if not is_utf8(reopen):        # ezc3d takes a str path to UTF-8: a TypeError of SWIG
         return motion_from_c3d_bytes(data, source=source, extra={
             "reader_note": "not read with ezc3d, which cannot open a file whose name is not "
                            "UTF-8; read with mpz.io.c3dbin"})
@@ -439,13 +450,13 @@ def _read_points(path: str, data: bytes) -> Motion:
     # only ezc3d's own refusals are caught, not what our code does with its result
     first_error: OSError | RuntimeError | ValueError
     try:
-        c = ezc3d.c3d(path)
+        c = ezc3d.c3d(reopen)
     except (RuntimeError, ValueError) as exc:  # "MIPS processor type not supported",
         first_error = exc                      # "SCALE parameter is not a FLOAT"
     except OSError as exc:  # "The format is not standard ..."
         warning = _joined(note, f"non-standard C3D read with ignore_bad_formatting: {exc}")
         try:
-            c = ezc3d.c3d(path, ignore_bad_formatting=True)
+            c = ezc3d.c3d(reopen, ignore_bad_formatting=True)
         except (OSError, RuntimeError, ValueError) as exc2:
             first_error = exc2
         else:

@@ -13,7 +13,7 @@ Contract:
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 import csv
 import io
 import math
@@ -71,45 +71,52 @@ def read_npy(path: StrPath, *, rate: float = 1.0, units: str = "") -> Motion:
         If the file is not an .npy array of that shape (object arrays are
         refused: ``allow_pickle=False``).
     """
-    size = os.path.getsize(path)
-    if size > MAX_NPY_BYTES:
-        raise _bad("npy", f"file larger than {MAX_NPY_BYTES} bytes")
-    _check_npy_header(path, size)
-    arr = np.load(path, allow_pickle=False)
-    if not isinstance(arr, np.ndarray):
-        raise _bad("npy", "not a single .npy array")
+    return npy_from_bytes(path, read_regular(path, MAX_NPY_BYTES), rate=rate, units=units)
+
+
+@reader
+def npy_from_bytes(path: StrPath, data: bytes, *, rate: float = 1.0,
+                   units: str = "") -> Motion:
+    """:func:`read_npy` of the file's bytes, read once by :func:`mpz.io.read` (``path``
+    names the file; it is not opened). The array is taken from the bytes after the header
+    has been checked (:func:`_npy_layout`), not by ``np.load``."""
+    shape, fortran, dtype, start = _npy_layout(data)
+    arr = np.frombuffer(data, dtype=dtype, count=math.prod(shape), offset=start)
+    arr = arr.reshape(shape, order="F" if fortran else "C")
     return motion_from_array(arr, rate=rate, units=units,
                              source=os.path.basename(os.fspath(path)))
 
 
-def _check_npy_header(path: StrPath, size: int) -> None:
-    """Refuse an .npy whose header does not parse, or whose declared shape and dtype do
-    not fill exactly the bytes after it: before ``np.load`` allocates by the header (a
-    2 KB file declaring 895 TiB), reads part of the data (a header of 10 frames over 20)
-    or fails in its header parser with an exception of its own (``TokenError``)."""
+def _npy_layout(data: bytes) -> tuple[tuple[int, ...], bool, np.dtype, int]:
+    """The shape, Fortran order, dtype and data offset of an .npy file's bytes. Refuses a
+    header that does not parse, or whose declared shape and dtype do not fill exactly the
+    bytes after it: before anything is allocated by the header (a 2 KB file declaring
+    895 TiB), part of the data read (a header of 10 frames over 20), or numpy's header
+    parser fails with an exception of its own (``TokenError``)."""
     fmt = np.lib.format
-    with open(path, "rb") as fh:
-        try:
-            version = fmt.read_magic(fh)
-            if version == (1, 0):
-                shape, _, dtype = fmt.read_array_header_1_0(fh)
-            elif version == (2, 0):
-                shape, _, dtype = fmt.read_array_header_2_0(fh)
-            else:
-                raise _bad("npy", f"format version {version[0]}.{version[1]} is not read "
-                                  "(numpy writes 1.0, or 2.0 for a long header)")
-        except (ValueError, EOFError, SyntaxError, tokenize.TokenError) as exc:
-            why = str(exc) if len(str(exc)) <= 120 else str(exc)[:117] + "..."
-            raise _bad("npy", f"not a valid .npy header ({why})") from None
-        start = fh.tell()
+    fh = io.BytesIO(data)
+    try:
+        version = fmt.read_magic(fh)
+        if version == (1, 0):
+            shape, fortran, dtype = fmt.read_array_header_1_0(fh)
+        elif version == (2, 0):
+            shape, fortran, dtype = fmt.read_array_header_2_0(fh)
+        else:
+            raise _bad("npy", f"format version {version[0]}.{version[1]} is not read "
+                              "(numpy writes 1.0, or 2.0 for a long header)")
+    except (ValueError, EOFError, SyntaxError, tokenize.TokenError) as exc:
+        why = str(exc) if len(str(exc)) <= 120 else str(exc)[:117] + "..."
+        raise _bad("npy", f"not a valid .npy header ({why})") from None
+    start = fh.tell()
     if dtype.hasobject:
         raise _bad("npy", "holds Python objects (pickled data), not numbers")
     if any(int(n) < 0 for n in shape):
         raise _bad("npy", f"the header declares a negative dimension: {tuple(shape)}")
     need = math.prod(int(n) for n in shape) * dtype.itemsize
-    if need != size - start:
+    if need != len(data) - start:
         raise _bad("npy", f"the header declares {tuple(shape)} {dtype} ({need} bytes of "
-                          f"data), but the file holds {size - start} after it")
+                          f"data), but the file holds {len(data) - start} after it")
+    return tuple(int(n) for n in shape), bool(fortran), dtype, start
 
 
 def write_npy(motion: Motion, path: StrPath) -> None:
@@ -160,18 +167,28 @@ def read_csv(path: StrPath, *, rate: float | None = None, units: str = "") -> Mo
     ------
     InputFormatError
     """
-    text = decode_text(read_regular(path))
-    return parse_csv(text, rate=rate, units=units, source=os.path.basename(os.fspath(path)))
+    return csv_from_bytes(path, read_regular(path), rate=rate, units=units)
+
+
+@reader
+def csv_from_bytes(path: StrPath, data: bytes, *, rate: float | None = None,
+                   units: str = "") -> Motion:
+    """:func:`read_csv` of the file's bytes, read once by :func:`mpz.io.read` (``path``
+    names the file; it is not opened)."""
+    return parse_csv(decode_text(data), rate=rate, units=units,
+                     source=os.path.basename(os.fspath(path)))
 
 
 def parse_csv(text: str, *, rate: float | None = None, units: str = "",
               source: str = "") -> Motion:
     """Parse CSV text (see :func:`read_csv`)."""
-    rows = list(csv.reader(io.StringIO(text)))
-    rows = [r for r in rows if r]
-    if not rows:
+    # read a record at a time into arrays: a list of every row's fields took 13 bytes of
+    # memory per byte of CSV (a QA of stop 50); csv.reader takes lines, "\n" kept
+    records = (r for r in csv.reader(_lines(text)) if r)
+    first = next(records, None)
+    if first is None:
         raise _bad("csv", "empty file")
-    head = [h.strip() for h in rows[0]]
+    head = [h.strip() for h in first]
     if head[:2] != ["frame", "time"]:
         raise _bad("csv", f"header must start with 'frame,time', got {head[:2]}")
     cols = head[2:]
@@ -184,12 +201,11 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
         if sfx != ["_x", "_y", "_z"] or len(set(base)) != 1:
             raise _bad("csv", f"columns {cols[i:i + 3]} are not <name>_x,<name>_y,<name>_z")
         names.append(base[0])
-    data = rows[1:]
-    if not data:
-        raise _bad("csv", "no data rows")
-    vals = np.full((len(data), len(cols)), np.nan)
-    times = np.empty(len(data))
-    for k, r in enumerate(data):
+    most = text.count("\n") + 1                # records: at most one a line
+    vals = np.full((most, len(cols)), np.nan)
+    times = np.empty(most)
+    n = 0
+    for k, r in enumerate(records):
         if len(r) != len(head):
             raise _bad("csv", f"row {k + 2} has {len(r)} fields, header has {len(head)}")
         try:
@@ -197,8 +213,12 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
             vals[k] = [number(v, nan=True) if v.strip(" \t") else math.nan for v in r[2:]]
         except InputFormatError as exc:
             raise _bad("csv", f"row {k + 2}: {exc.message}") from None
+        n = k + 1
+    if not n:
+        raise _bad("csv", "no data rows")
+    vals, times = vals[:n], times[:n]
     if rate is None:
-        rate = rate_from_times(times) if len(data) > 1 else 1.0
+        rate = rate_from_times(times) if n > 1 else 1.0
         # one rate stands for every time: a column that is not t0 + k / rate (a quarter of
         # a frame allows times printed to a few decimals) would be read as another motion
         off = np.abs(times - times[0] - np.arange(len(times)) / rate)
@@ -208,8 +228,17 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
                               f"{float(times[k])!r} where {rate:g} Hz gives "
                               f"{float(times[0] + k / rate)!r} (mpz encode --rate ignores the "
                               "time column)")
-    return motion_from_array(vals.reshape(len(data), -1, 3), rate=rate, units=units,
+    return motion_from_array(vals.reshape(n, -1, 3), rate=rate, units=units,
                              names=names, source=source, fmt="csv")
+
+
+def _lines(text: str) -> Iterator[str]:
+    """The lines of ``text``, each with its ``"\n"``, one at a time."""
+    start = 0
+    while start < len(text):
+        end = text.find("\n", start) + 1 or len(text)
+        yield text[start:end]
+        start = end
 
 
 def format_csv(motion: Motion) -> str:

@@ -124,7 +124,9 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if len(coord_row) < 3 * n_markers:
         raise _bad(f"coordinate row has {len(coord_row)} labels for {n_markers} markers")
 
-    rows = []
+    # filled a row at a time: a list of rows of Python floats took 32 bytes a value
+    table = np.full((max(len(lines) - 5, 0), 3 * n_markers), np.nan)
+    n_rows = 0
     times = []
     numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
@@ -142,11 +144,11 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         if len(values) > 3 * n_markers:
             raise _bad(f"line {lineno}: {len(values)} values for {n_markers} markers")
         try:
-            row = [_num(v) for v in values] + [math.nan] * (3 * n_markers - len(values))
+            table[n_rows, :len(values)] = [_num(v) for v in values]
             times.append(_num(fields[1]))
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {exc.message}") from None
-        rows.append(row)
+        n_rows += 1
         numbers.append(fields[0].strip())
         if not frames:
             frames.append(fields)
@@ -154,9 +156,9 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
             t = fields[1].strip().rstrip("0")
             if "." in t and "e" not in t.lower():
                 digits = max(digits, len(t.split(".", 1)[1]))
-    if not rows:
+    if not n_rows:
         raise _bad("no data rows")
-    pos = np.array(rows, dtype=np.float64).reshape(len(rows), n_markers, 3)
+    pos = table[:n_rows].reshape(n_rows, n_markers, 3)
     meta = {"format": "trc"}
     warnings: list[str] = []                     # metadata "warning", joined by "; "
     pos, skipped = _frames_by_number(pos, numbers)
@@ -164,7 +166,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         warnings.append(skipped)
     declared_frames = header.get("NumFrames", "").strip()
     if declared_frames and named(count, declared_frames, "NumFrames", _bad) != len(pos):
-        warnings.append(f"NumFrames says {declared_frames}, file has {len(rows)} rows")
+        warnings.append(f"NumFrames says {declared_frames}, file has {n_rows} rows")
     valid = finite_samples(pos)
     names, renamed = unique_names(names)
     partial = values_at_gaps(pos, ~valid, names, "with 1 or 2 of 3 coordinates empty")
@@ -186,9 +188,9 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         meta["trc.TimeDigits"] = str(digits)
     motion = Motion(pos, names, rate, units, valid, meta)
     if times and math.isfinite(times[0]):        # the writer's times need the motion
-        placed = len(pos) != len(rows)          # rows put at their Frame# (frames skipped)
+        placed = len(pos) != n_rows             # rows put at their Frame# (frames skipped)
         at = (np.array([integer(x) for x in numbers], np.int64) - integer(numbers[0])
-              if placed else np.arange(len(rows), dtype=np.int64))
+              if placed else np.arange(n_rows, dtype=np.int64))
         lost = _times_not_kept(motion, times, at)
         if lost:
             motion.metadata["warning"] = "; ".join([*warnings, lost])
@@ -454,8 +456,14 @@ def read_trc(path: StrPath) -> Motion:
     ------
     InputFormatError
     """
-    text = decode_text(read_regular(path))
-    return parse_trc(text, source=os.path.basename(os.fspath(path)))
+    return trc_from_bytes(path, read_regular(path))
+
+
+@reader
+def trc_from_bytes(path: StrPath, data: bytes) -> Motion:
+    """:func:`read_trc` of the file's bytes, read once by :func:`mpz.io.read`: ``path``
+    names the file in messages and ``metadata["source"]``; it is not opened."""
+    return parse_trc(decode_text(data), source=os.path.basename(os.fspath(path)))
 
 
 def write_trc(motion: Motion, path: StrPath, *, file_name: str | None = None) -> None:
