@@ -2,10 +2,13 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 import os
 from pathlib import Path
 
-from mpz.tools._cli import whole_number
+# Nothing of the mpz package is imported here: bench_rd, bench_encode and bench_decode are
+# run with an older version installed, to compare versions (README), and an import of a
+# helper that version lacks failed for 515 of 593 revisions (a QA run of stop 50).
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -53,6 +56,19 @@ def find_recording(root: Path, name: str) -> Path | None:
         if hits:
             return hits[0]
     return None
+
+
+def whole_number(low: int) -> Callable[[str], int]:
+    """argparse type of a whole number of ``low`` or more (as ``mpz.tools._cli``'s)."""
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"wants a whole number, got {text!r}") from None
+        if n < low:
+            raise argparse.ArgumentTypeError(f"wants {low} or more, got {n}")
+        return n
+    return parse
 
 
 #: argparse type of a whole number of 1 or more (``--repeat N``)

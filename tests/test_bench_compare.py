@@ -294,3 +294,74 @@ def test_times_of_runs_on_two_machines_are_not_compared(tmp_path, capsys):
     assert "different machines (host 'laptop' and 'ci'): their times are not compared" in out
     assert mpz_cli.main(["bench", "--compare", old, run_file("b.json", slow, "laptop")]) == 1
     assert "encoding slower 1.000 s -> 3.000 s" in capsys.readouterr().out
+
+
+# -- a maintainer's QA run of stop 50 ---------------------------------------------------------
+
+def test_the_version_benches_import_nothing_of_mpz_from_their_shared_helpers():
+    """bench_rd.py, bench_encode.py and bench_decode.py are run with an older version
+    installed (README): bench/_common.py imported mpz.tools._cli.whole_number, which 515 of
+    593 revisions lack, so every such run ended in an ImportError. _common may use mpz
+    only inside functions, through the public API."""
+    import ast
+    from pathlib import Path
+    tree = ast.parse((Path(__file__).resolve().parents[1] / "bench" / "_common.py")
+                     .read_text())
+    top = [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))]
+    names = [a.name for n in top if isinstance(n, ast.Import) for a in n.names]
+    names += [n.module or "" for n in top if isinstance(n, ast.ImportFrom)]
+    assert top and not [m for m in names if m.split(".")[0] == "mpz"], names
+
+
+def test_bench_rd_meets_no_target_with_a_broken_bound(bench_script, capsys):
+    """bench_rd.py printed "MPZ bound violations: 10" and, for the same rows, "MET" for
+    both ratio targets (exit 0): a ratio reached by breaking the bound is no ratio at it."""
+    rd = bench_script("bench_rd")
+    row = {"file": "a", "E": 1.0, "mm_per_unit": 1.0, "vs_qpz": 2.0, "vs_qpz16": 2.0,
+           "ok": True}
+    rd.report([row])
+    assert "geometric mean 2.00 (target 1.5) MET" in capsys.readouterr().out
+    rd.report([row, dict(row, file="b", ok=False)])
+    out = capsys.readouterr().out
+    assert "MET" not in out and "MISSED: 1 file(s) broke the bound" in out, out
+    op = {"file": "a", "E": "op", "mm_per_unit": 1.0, "mpz_ratio": 130.1, "arms": 3.9,
+          "ok": True}
+    rd.report([op])                    # better than the paper's point is not a miss
+    assert "paper operating point, ARMS 4-6 mm, >= 25:1 vs float32: MET" in \
+        capsys.readouterr().out
+    rd.report([dict(op, ok=False)])
+    assert "vs float32: MISSED" in capsys.readouterr().out
+
+
+def test_bench_rd_refuses_a_json_path_it_cannot_write_before_measuring(bench_script,
+                                                                       tmp_path, capsys):
+    """`bench_rd.py --json /tmp` measured every file, then ended in IsADirectoryError (a
+    missing folder: FileNotFoundError), losing the run."""
+    rd = bench_script("bench_rd")
+    assert rd.main(["--files", "c3d/cmu_02_01", "--json", str(tmp_path)]) == 2
+    assert "a folder" in capsys.readouterr().err
+    assert rd.main(["--files", "c3d/cmu_02_01", "--json", str(tmp_path / "no" / "x.json")]) == 2
+    assert "no folder" in capsys.readouterr().err
+
+
+def test_compare_names_what_it_cannot_check(tmp_path, capsys):
+    """A row without E was taken for the lossy row; rows without a raw size skipped the
+    same-data check without a word; a new row without an old one was counted, not named;
+    lossy rows printed as E=None; with --json the notes were lost."""
+    base = dict(list(rows().values())[0], bytes=1000, raw=20000, arms=0.3)
+    old = _write(tmp_path, "old.json", base, dict(base, E=None))
+    no_e = _write(tmp_path, "noe.json", {k: v for k, v in base.items() if k != "E"})
+    assert mpz_cli.main(["bench", "--compare", old, no_e]) == 2
+    assert "E: a bound, a label or null for lossy" in capsys.readouterr().err
+    new = _write(tmp_path, "new.json", {k: v for k, v in base.items() if k != "raw"},
+                 dict(base, E=None, mpz_ratio=10.0), dict(base, file="c"))
+    assert mpz_cli.main(["bench", "--compare", old, new]) == 1
+    out = capsys.readouterr().out
+    assert "REGRESSION a E=lossy: ratio dropped" in out
+    assert "1 row(s) have no raw size in one of the runs (the first a E=1.0)" in out
+    assert "1 row(s) of the new run have no row in the old run: c E=1.0" in out
+    assert mpz_cli.main(["bench", "--compare", old, new, "--json"]) == 1
+    got = capsys.readouterr()
+    assert json.loads(got.out)[0] == {"file": "a", "E": None,
+                                      "problem": "ratio dropped 20.00 -> 10.00 (-50.0 %)"}
+    assert "no row in the old run: c E=1.0" in got.err

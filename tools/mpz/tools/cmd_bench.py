@@ -79,7 +79,10 @@ def add_parser(sub):
     p.add_argument("--time-floor", type=_fraction, default=0.005, metavar="SECONDS",
                    help="a time must also grow by more than this many seconds to be flagged "
                         "(default 0.005: smaller differences are timing noise)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true",
+                   help="print the regressions and changes as a JSON list, one object each "
+                        "with file, E (null for a lossy row) and problem or change; notes go "
+                        "to standard error")
     p.set_defaults(func=run, bench_parser=p)
 
 
@@ -138,14 +141,17 @@ def _load(path):
     first: dict = {}
     for i, r in enumerate(doc["rows"]):
         if not _row_ok(r):
-            raise FormatError(f"row {i} is not a result row (file, E, and finite figures "
-                              f"{', '.join(n for n, _ in _FIGURES)})", path=where)
+            raise FormatError(f"row {i} is not a result row (file, E: a bound, a label or "
+                              f"null for lossy, mpz_ratio above 0, and where present the "
+                              f"finite figures 0 or more "
+                              f"{', '.join(n for n, req in _FIGURES if not req)})",
+                              path=where)
         key = (r["file"], r.get("E"))
         if key in rows:
             raise FormatError(f"rows {first[key]} and {i} are both file {r['file']!r} at "
-                              f"E={key[1]}: which one to compare is ambiguous", path=where)
+                              f"E={_e(key[1])}: which one to compare is ambiguous", path=where)
         if bound_of(key, r) is not None and "max" not in r:
-            raise FormatError(f"row {i} ({r['file']!r}, E={key[1]}) is bounded but has no "
+            raise FormatError(f"row {i} ({r['file']!r}, E={_e(key[1])}) is bounded but has no "
                               f"max error: its bound cannot be checked", path=where)
         rows[key] = r
         first[key] = i
@@ -154,8 +160,9 @@ def _load(path):
 
 
 def _row_ok(r: object) -> bool:
-    if not (isinstance(r, dict) and isinstance(r.get("file"), str)
-            and (r.get("E") is None or isinstance(r["E"], str) or _number(r["E"]))):
+    # E is required, null for a lossy row: a row without it was taken as the lossy one
+    if not (isinstance(r, dict) and isinstance(r.get("file"), str) and "E" in r
+            and (r["E"] is None or isinstance(r["E"], str) or _number(r["E"]))):
         return False
     for name, required in _FIGURES:
         if (name in r or required) and not (_number(r.get(name)) and r[name] >= 0):
@@ -261,22 +268,42 @@ def run(args) -> int:
     speed_tol = math.inf if elsewhere else args.speed_tolerance
     flags = compare(old, new, args.ratio_tolerance, speed_tol,
                     args.distortion_tolerance, args.time_floor)
-    if elsewhere and not args.json:
+    notes = []            # on standard error with --json, which keeps standard output JSON
+    if elsewhere:
         k = elsewhere[0]
-        print(f"note: the runs were made on different machines ({k} {old_at[k]!r} and "
-              f"{new_at[k]!r}): their times are not compared")
+        notes.append(f"the runs were made on different machines ({k} {old_at[k]!r} and "
+                     f"{new_at[k]!r}): their times are not compared")
+    unsized = [k for k in new if k in old and ("raw" not in new[k] or "raw" not in old[k])]
+    if unsized:             # _other_data cannot check these (a run from an older bench_rd)
+        notes.append(f"{len(unsized)} row(s) have no raw size in one of the runs (the first "
+                     f"{_label(unsized[0])}): that both measured the same data is not checked")
     changed = changes(old, new)
-    matched = sum(k in old for k in new)
+    unmatched = [k for k in new if k not in old]
+    if unmatched:
+        names = ", ".join(_label(k) for k in unmatched[:5])
+        notes.append(f"{len(unmatched)} row(s) of the new run have no row in the old run: "
+                     f"{names}{', ...' if len(unmatched) > 5 else ''}")
+    for note in notes:
+        print(f"note: {printable(note)}", file=sys.stderr if args.json else sys.stdout)
     if args.json:
         print_json([{"file": k[0], "E": k[1], "problem": p} for k, p in flags]
                    + [{"file": k[0], "E": k[1], "change": c} for k, c in changed])
     else:
-        for (f, e), problem in flags:
-            print(f"REGRESSION {printable(f)} E={e}: {printable(problem)}")
-        for (f, e), change in changed:
-            print(f"CHANGED {printable(f)} E={e}: {printable(change)}")
-        unmatched = (f", {len(new) - matched} without a row in the old run"
-                     if matched != len(new) else "")
-        print(f"{matched} rows compared{unmatched}; {len(flags)} regression(s), "
-              f"{len(changed)} changed (size, max error or ARMS)")
+        for key, problem in flags:
+            print(f"REGRESSION {printable(_label(key))}: {printable(problem)}")
+        for key, change in changed:
+            print(f"CHANGED {printable(_label(key))}: {printable(change)}")
+        print(f"{len(new) - len(unmatched)} rows compared"
+              f"{f', {len(unmatched)} without a row in the old run' if unmatched else ''}; "
+              f"{len(flags)} regression(s), {len(changed)} changed (size, max error or ARMS)")
     return 1 if flags else 0
+
+
+def _label(key: tuple) -> str:
+    """A row as messages name it: ``c3d/cmu_02_01 E=1.0``, ``... E=lossy`` (E null)."""
+    return f"{key[0]} E={_e(key[1])}"
+
+
+def _e(e: object) -> object:
+    """A row's E as messages say it: ``lossy`` for null (it printed ``None``)."""
+    return "lossy" if e is None else e
