@@ -68,9 +68,20 @@ def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatc
         "2 vector(s) decode otherwise (output, integer layer or verdict), e.g. v1, v4",
         "1 vector(s) only report otherwise (mpzinfo --json), e.g. v2"]
     assert make_golden.describe_changes(old, old) == []
+    shipped = tmp_path / "golden"
+    shipped.mkdir()
+    (shipped / "golden.json").write_text(json.dumps(old))
+    monkeypatch.setattr(make_golden, "GOLDEN_DIR", shipped)
     monkeypatch.setattr(make_golden, "compute", lambda: new)
-    make_golden.main(["--out", str(tmp_path)])
-    assert "names golden id y (was None)" in capsys.readouterr().out
-    make_golden.main(["--out", str(tmp_path)])
+    # "--out /tmp/golden: see what changed first" compared with the empty /tmp/golden (a
+    # QA run of stop 50: no change said, "was None"): it compares with the shipped file
+    make_golden.main(["--out", str(tmp_path / "look")])
+    out = capsys.readouterr().out
+    assert "2 vector(s) decode otherwise" in out and "1 vector(s) only report" in out
+    assert "would change from x to y" in out and "untouched" in out
+    assert (shipped / "golden.json").read_text() == json.dumps(old)
+    make_golden.main(["--out", str(shipped)])
+    assert "names golden id y (was x)" in capsys.readouterr().out
+    make_golden.main(["--out", str(tmp_path / "again")])
     out = capsys.readouterr().out
     assert "the golden id is unchanged: nothing for CHANGELOG.md" in out and "decode" not in out

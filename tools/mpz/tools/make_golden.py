@@ -96,17 +96,23 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     doc = compute()
     out = Path(args.out)
+    # compared with the shipped file wherever it is written: "--out /tmp/golden, see what
+    # changed first" compared with the empty /tmp/golden (a QA run of stop 50: "was None")
+    shipped = GOLDEN_DIR / GOLDEN_FILE
     old_id = None
-    if (out / GOLDEN_FILE).exists():
-        old = json.loads((out / GOLDEN_FILE).read_text())
+    if shipped.exists():
+        old = json.loads(shipped.read_text())
         old_id = old.get("golden_id")
         for line in describe_changes(old, doc):
-            print(line)
+            print(f"{line} (against {shipped})")
     out.mkdir(parents=True, exist_ok=True)
     (out / GOLDEN_FILE).write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n")
     print(f"wrote {out / GOLDEN_FILE}: {len(doc['vectors'])} vectors, golden id {doc['golden_id']}")
     if doc["golden_id"] == old_id:
         print("the golden id is unchanged: nothing for CHANGELOG.md")
+    elif out.resolve() != GOLDEN_DIR.resolve():
+        print(f"the golden id would change from {old_id} to {doc['golden_id']}; "
+              f"{GOLDEN_DIR} is untouched (run without --out to write it)")
     else:
         print(f"add a CHANGELOG.md entry that names golden id {doc['golden_id']} "
               f"(was {old_id}) and says why")
