@@ -355,3 +355,34 @@ def test_a_limit_refusal_names_the_limit():
     m = mpz.Motion(np.zeros((1, 4097, 3)), [f"m{i}" for i in range(4097)], rate=1.0)
     with pytest.raises(mpz.EncoderError, match="4096"):
         mpz.encode(m, max_error=1.0)
+
+
+def test_a_file_that_breaks_its_declared_bound_is_a_bug_and_is_not_left(tmp_path, monkeypatch,
+                                                                        capsys):
+    """A maintainer's QA run (stop 50): an encoder broken on purpose reported "error max
+    1.59963 mm (bound 1 mm)" and exited 0, the file kept. The command checks the bound on
+    what it wrote: a breach is a bug (exit 70) and the file is removed. The breach is made
+    here by shifting what the decode gives back by 2 mm."""
+    import dataclasses
+
+    import mpz
+    from mpz.io import write
+    from mpz.synth import generate
+    from mpz.tools import mpz_cli
+    write(generate("walk", frames=40, seed=3), tmp_path / "w.c3d")
+    real = mpz.decode
+
+    def shifted(data, **kw):
+        m = real(data, **kw)
+        return dataclasses.replace(m, positions=m.positions + 2.0)
+    monkeypatch.setattr(mpz, "decode", shifted)
+    out = tmp_path / "w.mpz"
+    code = mpz_cli.main(["encode", str(tmp_path / "w.c3d"), "-o", str(out), "--max-error",
+                         "1mm", "-q"])
+    err = capsys.readouterr().err
+    assert code == 70 and "breaks its declared bound: max error " in err, err
+    assert " > 1.0 (" in err and "internal error: this is a bug" in err, err
+    assert "the output was removed" in err and not out.exists()
+    monkeypatch.setattr(mpz, "decode", real)
+    assert mpz_cli.main(["encode", str(tmp_path / "w.c3d"), "-o", str(out), "--max-error",
+                         "1mm", "-q"]) == 0 and out.exists()

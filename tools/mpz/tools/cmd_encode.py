@@ -448,6 +448,16 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                   f"{'interrupt' if isinstance(exc, KeyboardInterrupt) else 'SIGTERM'} came "
                   "while its report was measured)", file=sys.stderr)
         raise
+    if rep.bound is not None and not err["max"] <= rep.bound:
+        # the encoder's own guarantee, checked on what it wrote (a QA run of stop 50: an
+        # encoder broken on purpose reported "max 1.6 mm (bound 1 mm)", exit 0): a file
+        # that breaks its declared bound is not left behind; the bug is reported (exit 70)
+        if not to_stdout:
+            os.remove(job.output)
+        raise AssertionError(
+            f"the encoded file breaks its declared bound: max error {err['max']!r} > "
+            f"{rep.bound!r} ({job.input}); "
+            f"{'it was written to standard output' if to_stdout else 'the output was removed'}")
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
                      and opts.keep_skeleton else None)
     result = {
