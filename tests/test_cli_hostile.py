@@ -808,3 +808,23 @@ def test_a_motion_file_past_the_size_limit_is_refused_before_it_is_read(tmp_path
     assert p.returncode == 2, p.stderr
     assert f"{limit + 1} bytes, more than the {limit}".encode() in p.stderr, p.stderr
     assert not (tmp_path / "h.mpz").exists()
+
+
+def test_a_small_file_reads_under_an_address_space_limit(tmp_path):
+    """mpz.io.read set aside 4 GiB for every file, its size limit (fh.read(limit + 1)):
+    under ulimit -v below about 5.5 GB every read failed, "out of memory" for a 231 KB
+    C3D (a QA run of stop 50). Each format, under a 1.5 GiB limit."""
+    m = generate("walk", frames=30, seed=6)
+    names = []
+    for ext in (".c3d", ".trc", ".csv", ".npy"):
+        write(m, tmp_path / f"w{ext}")
+        names.append(f"w{ext}")
+    script = ("import resource, sys\n"
+              "import mpz.io\n"
+              "resource.setrlimit(resource.RLIMIT_AS, (3 << 29, 3 << 29))\n"
+              "for name in sys.argv[1:]:\n"
+              "    print(name, mpz.io.read(name).n_frames)\n")
+    p = subprocess.run([sys.executable, "-c", script, *names], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr[-800:]
+    assert p.stdout.split() == [x for n in names for x in (n, "30")], p.stdout
