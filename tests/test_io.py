@@ -1055,3 +1055,36 @@ def test_an_mpz_given_to_read_is_named_as_such(tmp_path):
         with pytest.raises(InputFormatError, match=r"an MPZ file.*mpz\.decode") as err:
             read(tmp_path / name)
         assert "no known format" not in str(err.value)
+
+
+@pytest.mark.parametrize("ext", [".trc", ".amc"])
+def test_write_leaves_no_cut_file_and_names_a_full_disk(tmp_path, monkeypatch, ext, request):
+    """mpz.io.write wrote in place: a full disk left a cut file over the old one, and a raw
+    OSError (a QA run of stop 49; the CLI's writes were atomic, the library's were not).
+    The disk fills here in the writer, half-way through (and, for AMC, in the ASF)."""
+    import errno
+
+    from mpz.errors import EncoderError
+    import mpz.io
+    from mpz.synth import generate
+    if ext == ".amc":
+        m = mpz.io.read(request.getfixturevalue("shared_data") / "amc" / "02_01.amc")
+    else:
+        m = generate("walk", frames=20, seed=2)
+    target = tmp_path / f"out{ext}"
+    mpz.io.write(m, target)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def full(motion, path, **kw):
+        with open(path, "wb") as fh:
+            fh.write(b"PathFileType\t4")
+        raise OSError(errno.ENOSPC, "No space left on device")
+    if ext == ".amc":                      # the disk fills in the ASF
+        monkeypatch.setattr(mpz.io.amc, "write_asf", full)
+        target = target.with_suffix(".asf")
+    else:
+        monkeypatch.setitem(mpz.io.WRITERS, ext, full)
+    with pytest.raises(EncoderError, match="No space left on device") as got:
+        mpz.io.write(m, tmp_path / f"out{ext}")
+    assert f"cannot write {target}:" in str(got.value)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

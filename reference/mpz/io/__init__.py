@@ -46,7 +46,7 @@ import tempfile
 import numpy as np
 
 from mpz.errors import InputFormatError
-from mpz.io import c3dbin
+from mpz.io import amc, c3dbin
 from mpz.io._common import (
     MAX_MOTION_BYTES,
     StrPath,
@@ -63,6 +63,7 @@ from mpz.io._common import (
 from mpz.io.amc import (
     amc_from_bytes,
     asf_text_changes,
+    default_asf_path,
     find_asf,
     read_amc,
     read_asf,
@@ -216,7 +217,7 @@ READER_KEYS = frozenset({
 
 
 def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
-          asf: StrPath | None = None) -> list[str]:
+          asf: StrPath | None = None, atomic: bool = True) -> list[str]:
     """Write a Motion, choosing the writer by extension; returns the notes of
     :func:`check_writable`: what the format does not hold of the motion (for example
     NPY's marker names, rate and units, or a C3D's metadata), each a sentence.
@@ -232,6 +233,10 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
         default: the base name of ``path``. For writing to a temporary file.
     asf : str or os.PathLike, optional
         Where ``.amc`` output puts its ASF skeleton (default: beside it, same stem).
+    atomic : bool, optional
+        True (default): each file is written under a hidden name beside it and renamed
+        when whole. False: written in place, for a caller that writes to a temporary
+        file of its own (``mpz decode``).
 
     Raises
     ------
@@ -240,10 +245,16 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
         hold so that it reads back (see :func:`check_writable`).
     FileNotFoundError
         When the folder of ``path`` does not exist (ezc3d then wrote nothing, silently).
+    EncoderError
+        With ``atomic``, when the file cannot be written (a full disk, no permission),
+        naming ``path``; ``path`` (and an AMC's ASF) is never left cut short
+        (:func:`mpz.api.atomic_output`); an existing file is replaced.
     """
     if not isinstance(motion, Motion):    # it failed deep in check_writable (QA, stop 33)
         raise TypeError(f"mpz.io.write: expected an mpz.Motion, got {type(motion).__name__}")
     _path_arg("path", path)
+    if not isinstance(atomic, bool):
+        raise TypeError(f"atomic must be True or False, got {atomic!r}")
     if file_name is not None and not isinstance(file_name, str):
         raise TypeError(f"file_name must be a str, got {type(file_name).__name__}")
     ext = ext_of(path)
@@ -259,16 +270,38 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     if os.path.isdir(path):
         raise InputFormatError(f"cannot write {FORMAT_NAMES.get(ext, ext)}: a folder has "
                                "that name", path=os.fspath(path))
-    if file_name is not None and ext == ".trc":
-        fn(motion, path, file_name=file_name)
+    name = os.path.basename(os.fspath(path)) if file_name is None else file_name
+    asf_path = default_asf_path(path) if asf is None else asf
+    if not atomic:
+        _write_in_place(motion, ext, path, name, asf_path)
+        return notes
+    # through a hidden file beside each output, renamed when whole (mpz.api.atomic_output):
+    # a full disk left a cut file and a raw OSError (a QA run of stop 49)
+    from mpz.api import atomic_output
+    with atomic_output(path, force=True) as tmp:
+        if ext == ".amc":          # the ASF first: its faults name it, not the AMC
+            with atomic_output(asf_path, force=True) as tmp_asf:
+                amc.write_asf(motion, tmp_asf)
+            amc.write_amc_text(motion, tmp)
+        else:
+            _write_in_place(motion, ext, tmp, name, asf_path)
+        if not os.path.exists(tmp):                 # a writer that failed without a word
+            raise OSError(f"the {FORMAT_NAMES.get(ext, ext)} writer wrote nothing to "
+                          f"{os.fspath(path)!r}")
+    return notes
+
+
+def _write_in_place(motion: Motion, ext: str, path: StrPath, name: str,
+                    asf: StrPath) -> None:
+    """The writer of ``ext`` writing ``path`` itself (``name``: the TRC's own file name;
+    ``asf``: where an AMC's ASF goes)."""
+    fn = WRITERS[ext]
+    if ext == ".trc":
+        fn(motion, path, file_name=name)
     elif ext == ".amc":
         fn(motion, path, asf=asf)
     else:
         fn(motion, path)
-    if not os.path.exists(path):                 # a writer that failed without a word
-        raise OSError(f"the {FORMAT_NAMES.get(ext, ext)} writer wrote nothing to "
-                      f"{os.fspath(path)!r}")
-    return notes
 
 
 def _path_arg(name: str, value: object) -> None:

@@ -629,8 +629,14 @@ def write_amc(motion: Motion, path: StrPath, *, asf: StrPath | None = None) -> N
     InputFormatError
         If the motion has no ASF skeleton.
     """
+    write_amc_text(motion, path)
+    write_asf(motion, default_asf_path(path) if asf is None else asf)
+
+
+def write_amc_text(motion: Motion, path: StrPath) -> None:
+    """Write the AMC of a motion with an ASF skeleton, without its ASF (see
+    :func:`write_amc`)."""
     skel = skeleton_of(motion, "asf")
     text = format_amc(motion)
     with open(path, "wb") as fh:
         fh.write(text.encode(skel.encoding, "replace"))
-    write_asf(motion, default_asf_path(path) if asf is None else asf)

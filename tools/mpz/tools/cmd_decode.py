@@ -211,9 +211,9 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
                 asf = _asf_output(args, STDIO, ext, source)
             if asf is not None:
                 with atomic_output(asf, force=args.force, source=source) as tmp_asf:
-                    write(motion, tmp, file_name="", asf=tmp_asf)
+                    write(motion, tmp, file_name="", asf=tmp_asf, atomic=False)
             else:
-                write(motion, tmp, file_name="")
+                write(motion, tmp, file_name="", atomic=False)
             with open(tmp, "rb") as fh:
                 write_stdout(fh.read(), binary=ext in (".npy", ".c3d"), force=True)
     else:
@@ -222,9 +222,9 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
                 if asf is not None:          # issue 13: AMC output writes its ASF too
                     with atomic_output(asf, force=args.force, source=source) as tmp_asf:
                         write(motion, tmp, file_name=os.path.basename(job.output),
-                              asf=tmp_asf)
+                              asf=tmp_asf, atomic=False)
                 else:
-                    write(motion, tmp, file_name=os.path.basename(job.output))
+                    write(motion, tmp, file_name=os.path.basename(job.output), atomic=False)
             except MPZError as exc:  # name the output, not the temporary file
                 if exc.path == tmp:
                     exc.path = job.output
