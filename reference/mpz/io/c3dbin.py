@@ -813,9 +813,11 @@ def ezc3d_hazard(data: bytes) -> str | None:
     4. a ROTATION group with RATIO < 0, or without RATIO and a negative ROTATION:RATE or
        POINT:RATE;
     5. ROTATION:USED > 0 with a rotation block not inside the file (an abort);
-    6. a description length of 255, a dimension count above 7, an unknown type or a
-       record past the end of the file, walked as ezc3d walks the section (signed
-       bytes, past records :func:`parse_records` would stop at);
+    6. a description length of 128 or more (ezc3d reads the byte signed: 255 crashed it,
+       and 185, one byte changed in a real file's SUBJECT group, took 17 s and 12.6 GB
+       before an exception, a QA run of stop 50), a dimension count above 7, an unknown
+       type or a record past the end of the file, walked as ezc3d walks the section
+       (signed bytes, past records :func:`parse_records` would stop at);
     7. ANALOG:RATE more than 10,000 times POINT:RATE (ezc3d allocates for it, or hangs);
     8. a parameter whose data (its type times its dimensions) runs past its record's
        next-record offset, or, for the last record, past the parameter section
@@ -878,8 +880,8 @@ def _ezc3d_walk(data: bytes, start: int) -> str | None:
                 name = f"{group}:{name}" if group is not None else name
                 return (f"the record of parameter {name} (dimensions {tuple(dims)}, "
                         f"{desc_at - body - 2 - ndim} data bytes) runs {where}")
-        if desc_at < len(data) and data[desc_at] == 255:
-            return "a description length of 255"
+        if desc_at < len(data) and data[desc_at] >= 128:
+            return f"a description length of {data[desc_at]} (128 or more)"
         if nxt == 0:
             return None
         pos = off + nxt
