@@ -12,6 +12,7 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import mpz
 from mpz.io import read, write, writer_problems
@@ -150,3 +151,30 @@ def test_units_a_bvh_cannot_hold_are_said(tmp_path, two_joint_bvh):
     assert not any("units" in n for n in notes)
     _, notes = writer_problems(dataclasses.replace(m, units="cm"), ".bvh")
     assert any("BVH does not store units (cm)" in n for n in notes), notes
+
+
+def test_c3d_names_past_the_parameter_blocks_a_header_counts(tmp_path):
+    """A QA run of stop 50: 1000 names of 254 bytes written to .c3d with no note; ezc3d
+    wrote the parameter block count modulo 256, and 490 names read back as _unnamed_*.
+    Such names are refused; 300 of them (149 blocks) are written, by our writer, and read
+    back whole, by ezc3d too."""
+    import ezc3d
+
+    import mpz
+    from mpz.errors import InputFormatError
+    import mpz.io
+    rng = np.random.default_rng(0)
+
+    def motion(n):
+        return mpz.Motion(rng.normal(size=(2, n, 3)) * 100,
+                          [f"{i:04d}" + "x" * 250 for i in range(n)], 100.0, "mm")
+    with pytest.raises(InputFormatError, match="need a parameter section of 49[0-9] blocks"):
+        mpz.io.write(motion(1000), tmp_path / "big.c3d")
+    assert not (tmp_path / "big.c3d").exists()
+    m = motion(300)
+    assert mpz.io.write(m, tmp_path / "ok.c3d") == []
+    back = mpz.io.read(tmp_path / "ok.c3d")
+    assert back.names == m.names and back.metadata.get("warning") is None
+    labels = ezc3d.c3d(str(tmp_path / "ok.c3d"))["parameters"]["POINT"]["LABELS"]["value"]
+    labels += ezc3d.c3d(str(tmp_path / "ok.c3d"))["parameters"]["POINT"]["LABELS2"]["value"]
+    assert [x.strip() for x in labels] == m.names

@@ -459,6 +459,25 @@ def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
     return m
 
 
+def _c3d_section_problems(motion: Motion) -> list[str]:
+    """Why the parameter section of a C3D of ``motion``'s bare points
+    (:func:`mpz.io.c3dbin.plain_parts`) cannot be written: more blocks than a C3D header
+    counts (ezc3d wrote the count modulo 256: 490 of 1000 long names came back unnamed, a
+    QA run of stop 50), too many points, a name too long."""
+    from mpz.io.c3d import c3d_first_frame
+    try:
+        _, records = c3dbin.plain_parts(list(motion.names), 1.0, motion.units,
+                                        motion.n_frames, first=c3d_first_frame(motion))
+    except InputFormatError as exc:
+        return [exc.message]
+    blocks = c3dbin.param_blocks(records)
+    if blocks <= c3dbin.MAX_PARAM_BLOCKS:
+        return []
+    return [f"C3D: the {motion.n_markers} marker names need a parameter section of {blocks} "
+            f"blocks of 512 bytes, and a C3D header counts at most "
+            f"{c3dbin.MAX_PARAM_BLOCKS}: give fewer or shorter names"]
+
+
 def _names_with(names: list[str], bad: Callable[[str], bool]) -> list[str]:
     return [repr(n) for n in names if bad(n)][:5]
 
@@ -538,6 +557,8 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if archive is None and first < 1:
             notes.append(f"C3D counts frames from 1: the source's first frame {first} is "
                          f"written as 1 (every frame number {1 - first} higher)")
+        if archive is None:
+            refuse += _c3d_section_problems(motion)
     if ext == ".trc":
         if motion.units == "":
             refuse.append("TRC needs units (mm, cm, m, in) and this motion has none (a BVH "

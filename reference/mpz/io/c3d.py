@@ -496,7 +496,8 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     path = os.fspath(path)
     if motion.extras.get("c3d") is not None or motion.n_frames > c3dbin.HEADER_MAX_FRAME \
             or c3d_first_frame(motion) != 1 or memory_short(
-                EZC3D_WRITE_BYTES * motion.n_frames * motion.n_markers + EZC3D_BYTES_FIXED):
+                EZC3D_WRITE_BYTES * motion.n_frames * motion.n_markers + EZC3D_BYTES_FIXED) \
+            or _many_parameter_blocks(motion):
         blob = archive_bytes(motion) if motion.extras.get("c3d") is not None else \
             long_bytes(motion)
         with open(path, "wb") as fh:
@@ -530,6 +531,15 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     from mpz.api import atomic_output
     with atomic_output(path, force=True, suffix=".c3d") as tmp:
         c.write(tmp)
+
+
+def _many_parameter_blocks(motion: Motion) -> bool:
+    """True when the motion's names alone take more than a quarter of the 255 parameter
+    blocks a C3D header counts: ezc3d writes that count modulo 256 (a QA run of stop 50),
+    and its section is not exactly ours, so such a file is written by :func:`long_bytes`,
+    which refuses what does not fit."""
+    width = max((len(n.encode("utf-8", "surrogatepass")) for n in motion.names), default=0)
+    return width * motion.n_markers > 64 * c3dbin.BLOCK       # POINT:LABELS, n x width
 
 
 def long_bytes(motion: Motion) -> bytes:

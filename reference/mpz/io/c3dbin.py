@@ -30,6 +30,7 @@ that is what :func:`plain_parts` stores there.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 import math
 from typing import Any, NoReturn
@@ -1085,6 +1086,14 @@ def _param(group: int, name: str, ptype: int, dims: tuple[int, ...], data: bytes
                        ptype, dims, data)
 
 
+def param_blocks(records: Sequence[ParamRecord]) -> int:
+    """The 512-byte blocks a parameter section of ``records`` takes, its 4-byte header
+    included (a C3D header can count at most :data:`MAX_PARAM_BLOCKS`)."""
+    recs = list(records)
+    size = 4 + sum(len(_record_bytes(r, i == len(recs) - 1)) for i, r in enumerate(recs))
+    return max(1, -(-size // BLOCK))
+
+
 def plain_parts(names: list[str], rate: float, units: str, frames: int,
                 first: int = 1) -> tuple[bytes, list[ParamRecord]]:
     """The header block and parameter section of a float C3D of bare points (no analog,
@@ -1190,8 +1199,7 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
     recs = list(records)
     signed_scale = -abs(scale) if float_storage else abs(scale)
     _patched(recs, b"SCALE", 4, np.array([signed_scale], "<f4").tobytes())
-    section = b"".join(_record_bytes(r, i == len(recs) - 1) for i, r in enumerate(recs))
-    n_blocks = max(1, -(-(4 + len(section)) // BLOCK))
+    n_blocks = param_blocks(recs)
     if n_blocks > MAX_PARAM_BLOCKS:
         raise InputFormatError(f"C3D: the parameter section needs {n_blocks} blocks; a C3D "
                                f"header can point past at most {MAX_PARAM_BLOCKS}")
