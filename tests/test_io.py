@@ -1088,3 +1088,11 @@ def test_write_leaves_no_cut_file_and_names_a_full_disk(tmp_path, monkeypatch, e
         mpz.io.write(m, tmp_path / f"out{ext}")
     assert f"cannot write {target}:" in str(got.value)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+@pytest.mark.parametrize("text", ["¹", "١٢", "+²"])
+def test_trc_metadata_digits_of_other_scripts_are_no_whole_number(text):
+    """hypothesis (stop 50): trc.FirstFrame '¹' passed str.isdigit, then int() raised
+    ValueError inside mpz.io.write; it is a value the writer does not use."""
+    from mpz.io.trc import trc_meta_problems
+    assert "FirstFrame" in str(trc_meta_problems({"trc.FirstFrame": text}))

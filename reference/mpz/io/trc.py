@@ -307,7 +307,8 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
 
 def _whole_in(text: str, low: int, high: int) -> bool:
     t = text.strip()
-    if not 0 < len(t) <= 12 or not t.lstrip("+-").isdigit():
+    # isdigit is true of "¹" and "١", which int() refuses or reads (hypothesis, stop 50)
+    if not 0 < len(t) <= 12 or not t.isascii() or not t.lstrip("+-").isdigit():
         return False
     return low <= int(t) <= high
 
