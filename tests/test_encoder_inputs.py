@@ -614,3 +614,21 @@ def test_a_lossy_node_whose_patterns_cannot_be_coded_is_refused(monkeypatch):
         mpz.encode(m, max_error=1.0, patterns="on", threads=1)
     back = mpz.decode(mpz.encode(m, max_error=1.0, patterns="auto", threads=1))
     assert float(np.linalg.norm(back.positions - m.positions, axis=2).max()) <= 1.0
+
+
+def test_extras_the_file_cannot_hold_are_said_or_refused():
+    """A QA run of stop 50: extras no extension writes ({"force_plates": ...}) and a
+    skeleton that is no Skeleton were dropped without a word (not_kept [], the decoded
+    extras {}), while the docs say extras are written to ancillary chunks."""
+    import numpy as np
+
+    import mpz
+    from mpz.errors import EncoderError
+    pos = np.random.default_rng(0).normal(size=(5, 2, 3)) * 100
+    m = mpz.Motion(pos, ["A", "B"], 100.0, extras={"force_plates": np.zeros(3)})
+    data, rep = mpz.encode_motion(m)
+    assert rep.not_kept == ["motion.extras['force_plates'] (no extension of mpz.extensions "
+                            "writes it)"]
+    assert mpz.decode(data).extras == {}
+    with pytest.raises(EncoderError, match=r"extras\['skeleton'\] is a str, not an mpz"):
+        mpz.encode(mpz.Motion(pos, ["A", "B"], 100.0, extras={"skeleton": "x"}))

@@ -640,7 +640,8 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     report counts the whole source file against what was kept (issue 12): a C3D's analog
     data, parameters and residuals when its reader could not keep the C3D archive (with
     the reader's reason), and a skeletal motion's joint angles and skeleton when no
-    skeleton chunk is written (``keep_skeleton=False``, or no skeleton was read)."""
+    skeleton chunk is written (``keep_skeleton=False``, or no skeleton was read), and any
+    ``motion.extras`` key that no extension (:data:`mpz.extensions.EXTENSIONS`) writes."""
     out = []
     if motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras:
         why = motion.metadata.get("warning", "C3D archive not kept")
@@ -648,6 +649,11 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     if motion.angles is not None and (not opts.keep_skeleton
                                       or "skeleton" not in motion.extras):
         out.append("joint angles and the skeleton")
+    # extras that no extension writes were dropped without a word (a QA run of stop 50)
+    from mpz.extensions import EXTENSIONS
+    known = {ext.name for ext in EXTENSIONS}
+    out += [f"motion.extras[{k!r}] (no extension of mpz.extensions writes it)"
+            for k in motion.extras if k not in known]
     return out
 
 

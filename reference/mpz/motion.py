@@ -110,7 +110,8 @@ class Motion:
     angles: NDArray[np.float64] | None = None
     angle_names: list[str] | None = None
     #: what the source file holds besides marker positions, by extension name (see
-    #: :mod:`mpz.extensions`): written to ancillary chunks and rebuilt on decoding
+    #: :mod:`mpz.extensions`: ``"c3d"``, ``"skeleton"``): written to ancillary chunks and
+    #: rebuilt on decoding; other keys are not written (``EncodeReport.not_kept`` names them)
     extras: dict[str, Any] = field(default_factory=dict)
 
     if TYPE_CHECKING:

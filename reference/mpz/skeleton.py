@@ -582,8 +582,11 @@ class SkeletonExtension:
 
     def records(self, motion: Motion, opts: EncodeOptions) -> list[Record]:
         skel = motion.extras.get(self.name)
-        if not isinstance(skel, Skeleton) or not opts.keep_skeleton:
+        if skel is None or not opts.keep_skeleton:
             return []
+        if not isinstance(skel, Skeleton):     # it was dropped without a word (QA, stop 50)
+            raise EncoderError(f"motion.extras[{self.name!r}] is a {type(skel).__name__}, not "
+                               "an mpz.io.kinematics.Skeleton")
         values = _values(motion, skel)
         st = settings(motion, skel, opts)
         codings, coded = code_channels(values, skel, st.steps)
