@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import mpz
-from mpz.errors import EncoderError, InputFormatError
+from mpz.errors import EncoderError, InputFormatError, MotionError
 from mpz.motion import Motion
 from mpz.synth import generate
 
@@ -225,3 +225,34 @@ def test_select_frames_refuses_bounds_that_are_not_whole_numbers():
     part = m.select_frames(-3, None)
     assert part.n_frames == 3 and np.array_equal(part.positions, m.positions[17:],
                                                  equal_nan=True)
+
+
+@pytest.mark.parametrize("kw, said", [
+    ({"parents": 5}, "parents must be a sequence of int"),
+    ({"parents": ["a"]}, "parents must be whole indices, got 'a'"),
+    ({"parents": [None]}, "parents must be whole indices, got None"),
+    ({"parents": [0.7]}, "parents must be whole indices, got 0.7"),
+    ({"parents": [0]}, "parents loop: marker 0 is its own ancestor"),
+    ({"angles": [["x"], ["y"]]}, "angles must be real numbers"),
+    ({"angles": [[1], [1, 2]]}, "angles must be an array of shape"),
+    ({"angles": np.ones((2, 1)) * 1j}, "angles must be real numbers, got dtype complex128"),
+    ({"angle_names": ["a"]}, "angle_names without angles"),
+    ({"angles": np.ones((2, 1)), "angle_names": ["a", "b"]}, "2 angle_names for 1"),
+    ({"extras": None}, "extras must be a mapping of str keys"),
+    ({"extras": [1]}, "extras must be a mapping of str keys"),
+    ({"rate": 10 ** 400}, "frame rate must be finite and positive"),
+])
+def test_motion_refuses_bad_parents_angles_extras_and_rate(kw, said):
+    """A QA run of the library (stop 50): these raised TypeError, ValueError or
+    OverflowError of their own, or were taken (0.7 as parent 0, a loop, complex angles
+    without their imaginary part, names for channels that do not exist)."""
+    kw = dict(kw)
+    rate = kw.pop("rate", 1.0)
+    with pytest.raises(MotionError, match=re.escape(said)):
+        Motion(np.zeros((2, 1, 3)), ["A"], rate, **kw)
+
+
+def test_motion_takes_a_two_level_skeleton():
+    m = Motion(np.zeros((2, 3, 3)), ["R", "A", "B"], 1.0, parents=[-1, 0, np.int64(1)],
+               angles=np.zeros((2, 2), np.float32), angle_names=["x", "y"])
+    assert m.parents == [-1, 0, 1] and m.angles.dtype == np.float64

@@ -177,21 +177,29 @@ class Motion:
                 self.rate, (int, float, np.integer, np.floating)):
             raise MotionError(f"frame rate must be a number, got {type(self.rate).__name__} "
                               f"{self.rate!r}")
-        rate = float(self.rate)
+        try:
+            rate = float(self.rate)
+        except OverflowError:          # an int past float's range (10**400): a QA run
+            rate = math.inf
         if not math.isfinite(rate) or rate <= 0:
-            raise MotionError(f"frame rate must be finite and positive, got {self.rate!r}")
+            raise MotionError(f"frame rate must be finite and positive, got {self.rate!r:.40}")
         if self.units not in UNITS:
             raise MotionError(f"unknown units {self.units!r}, expected one of {UNITS}")
         if self.parents is not None:
-            parents = [int(p) for p in self.parents]
-            if len(parents) != markers or any(p < -1 or p >= markers for p in parents):
-                raise MotionError("parents must give one index in [-1, markers) per marker")
-            self.parents = parents
+            self.parents = _parents(self.parents, markers)
         if self.angles is not None:
-            ang = np.asarray(self.angles, dtype=np.float64)
-            if ang.ndim != 2 or ang.shape[0] != frames:
-                raise MotionError(f"angles must have shape (frames, channels), got {ang.shape}")
-            self.angles = ang
+            self.angles = _angles(self.angles, frames)
+        if self.angle_names is not None:
+            if self.angles is None:
+                raise MotionError("angle_names without angles")
+            an = self.angle_names
+            if isinstance(an, (str, bytes)) or not hasattr(an, "__iter__") or \
+                    not all(isinstance(n, str) for n in an):
+                raise MotionError(f"angle_names must be a sequence of str, got {an!r:.60}")
+            if len(list(an)) != self.angles.shape[1]:
+                raise MotionError(f"{len(list(an))} angle_names for "
+                                  f"{self.angles.shape[1]} angle channels")
+            self.angle_names = list(an)
         self.positions = pos
         self.valid = valid
         self.names = names
@@ -206,6 +214,10 @@ class Motion:
         if said is not None:    # as encode(metadata=...) refuses them: no silent str()
             raise MotionError(said)
         self.metadata = meta
+        if not isinstance(self.extras, Mapping) or \
+                not all(isinstance(k, str) for k in self.extras):
+            raise MotionError(f"extras must be a mapping of str keys, got "
+                              f"{self.extras!r:.60}")
         self.extras = dict(self.extras)
 
     # -- derived facts ---------------------------------------------------
@@ -302,3 +314,46 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
     return Motion(np.concatenate([m.positions for m in motions]), list(first.names), first.rate,
                   first.units, np.concatenate([m.valid for m in motions]), dict(first.metadata),
                   first.parents, angles, first.angle_names, dict(first.extras))
+
+
+def _parents(given: object, markers: int) -> list[int]:
+    """``parents`` checked (see :class:`Motion`): one whole index in [-1, markers) per
+    marker, and no marker its own ancestor. A QA run of stop 50: 5 and ['a'] raised
+    TypeError and ValueError of their own, 0.7 was taken as 0, a cycle passed."""
+    if isinstance(given, (str, bytes)) or not hasattr(given, "__iter__"):
+        raise MotionError(f"parents must be a sequence of int, got {given!r:.60}")
+    parents = list(given)
+    odd = [p for p in parents if isinstance(p, (bool, np.bool_))
+           or not isinstance(p, (int, np.integer))]
+    if odd:
+        raise MotionError(f"parents must be whole indices, got {odd[0]!r}")
+    out = [int(p) for p in parents]
+    if len(out) != markers or any(p < -1 or p >= markers for p in out):
+        raise MotionError("parents must give one index in [-1, markers) per marker")
+    depth = [0] * markers              # 0 unknown, 1 on the current walk, 2 reaches -1
+    for start in range(markers):
+        walk, m = [], start
+        while m != -1 and depth[m] == 0:
+            depth[m] = 1
+            walk.append(m)
+            m = out[m]
+        if m != -1 and depth[m] == 1:
+            raise MotionError(f"parents loop: marker {m} is its own ancestor")
+        for w in walk:
+            depth[w] = 2
+    return out
+
+
+def _angles(given: object, frames: int) -> NDArray[np.float64]:
+    """``angles`` checked (see :class:`Motion`): real numbers of shape (frames, channels)."""
+    try:
+        raw = np.asarray(given)
+    except ValueError as exc:          # ragged rows
+        raise MotionError(f"angles must be an array of shape (frames, channels): {exc}") \
+            from None
+    if raw.dtype.kind not in "fiu":    # strings, objects; complex lost its imaginary part
+        raise MotionError(f"angles must be real numbers, got dtype {raw.dtype}")
+    ang = raw.astype(np.float64)
+    if ang.ndim != 2 or ang.shape[0] != frames:
+        raise MotionError(f"angles must have shape (frames, channels), got {ang.shape}")
+    return ang
