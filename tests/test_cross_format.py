@@ -172,9 +172,32 @@ def test_c3d_names_past_the_parameter_blocks_a_header_counts(tmp_path):
         mpz.io.write(motion(1000), tmp_path / "big.c3d")
     assert not (tmp_path / "big.c3d").exists()
     m = motion(300)
-    assert mpz.io.write(m, tmp_path / "ok.c3d") == []
+    assert [n[:41] for n in mpz.io.write(m, tmp_path / "ok.c3d")] == [
+        "C3D stores points as float32: 600 of 600 "]
     back = mpz.io.read(tmp_path / "ok.c3d")
     assert back.names == m.names and back.metadata.get("warning") is None
     labels = ezc3d.c3d(str(tmp_path / "ok.c3d"))["parameters"]["POINT"]["LABELS"]["value"]
     labels += ezc3d.c3d(str(tmp_path / "ok.c3d"))["parameters"]["POINT"]["LABELS2"]["value"]
     assert [x.strip() for x in labels] == m.names
+
+
+def test_writing_says_what_float32_and_decimals_round(tmp_path):
+    """A QA run of stop 50: a float64 motion written to .c3d came back changed by up to
+    1.2e-4 mm (amc/02_01) with no note, while check_writable noted the rate's float32
+    rounding; the TRC writer's 6 decimals likewise. Values they hold exactly: no note."""
+    base = np.arange(12.0).reshape(2, 2, 3)
+    exact = mpz.Motion(base * 0.5, ["A", "B"], 100.0, "mm")
+    assert write(exact, tmp_path / "e.c3d") == [] and write(exact, tmp_path / "e.trc") == []
+    m = dataclasses.replace(exact, positions=base + 0.1234567891)
+    notes = write(m, tmp_path / "m.c3d")
+    assert len(notes) == 1 and notes[0].startswith(
+        "C3D stores points as float32: 4 of 4 valid samples change, by up to "), notes
+    back = read(tmp_path / "m.c3d")
+    worst = float(np.sqrt(((back.positions - m.positions) ** 2).sum(axis=2)).max())
+    assert f"by up to {worst:.2g} mm" in notes[0]
+    notes = write(m, tmp_path / "m.trc")
+    back = read(tmp_path / "m.trc")               # 0.1234567891 -> 0.123457 on each axis
+    worst = float(np.sqrt(((back.positions - m.positions) ** 2).sum(axis=2)).max())
+    assert notes == [f"TRC is written with 6 decimals: 4 of 4 valid samples change, by up "
+                     f"to {worst:.2g} mm; write .csv or .npy for the exact values"], notes
+    assert 3.6e-7 < worst < 3.7e-7                # sqrt(3) x 2.109e-7

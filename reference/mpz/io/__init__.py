@@ -720,7 +720,9 @@ ROUNDING_NOTE_SHARE = 1e-4
 
 def rounding_notes(motion: Motion, ext: str, bound: float | None) -> list[str]:
     """What the number format of ``ext`` adds to a decoded motion's error, when it can put
-    values beyond the file's declared ``bound`` (None: no bound, no note).
+    values beyond the file's declared ``bound``; with no bound (None: a motion written by
+    :func:`write`), how many valid samples the number format changes at all, and by how
+    much.
 
     C3D without an archive stores float32 points, TRC a fixed number of decimals
     (:func:`mpz.io.trc.column_decimals`); CSV (``repr``) and NPY (float64) keep every
@@ -736,7 +738,7 @@ def rounding_notes(motion: Motion, ext: str, bound: float | None) -> list[str]:
     that is more than :data:`ROUNDING_NOTE_SHARE` of the bound.
     """
     from mpz.c3darchive import C3DArchive, C3DStorage, float32_bound
-    if bound is None or not math.isfinite(bound) or ext not in (".c3d", ".trc") \
+    if (bound is not None and not math.isfinite(bound)) or ext not in (".c3d", ".trc") \
             or not motion.valid.any():
         return []
     archive = motion.extras.get("c3d")
@@ -757,6 +759,12 @@ def rounding_notes(motion: Motion, ext: str, bound: float | None) -> list[str]:
             what = f"TRC is written with {d} decimals"
         r = np.sqrt(((w - v) ** 2).sum(axis=1))
     r = np.where(np.isfinite(r), r, 0.0)     # an overflow is refused, not noted
+    u = f" {motion.units}" if motion.units else ""
+    if bound is None:        # no bound to weigh it against: any change is said (QA, stop 50)
+        changed = int((r > 0).sum())
+        return [] if not changed else [
+            f"{what}: {changed} of {r.size} valid samples change, by up to "
+            f"{float(r.max()):.2g}{u}; write .csv or .npy for the exact values"]
     bound = max(float(bound), 0.0)
     kept = 0.0
     if isinstance(archive, C3DArchive) and archive.word_storage != C3DStorage.INT16 \
@@ -771,7 +779,6 @@ def rounding_notes(motion: Motion, ext: str, bound: float | None) -> list[str]:
     share = ROUNDING_NOTE_SHARE if ext == ".trc" else 0.0
     if not over.any() or float(r.max()) - kept <= share * bound:
         return []
-    u = f" {motion.units}" if motion.units else ""
     worst = float(r.max())
     if bound == 0:
         return [f"{what}: values rounded by up to {worst:.2g}{u}, beyond the file's "
