@@ -201,3 +201,12 @@ def test_writing_says_what_float32_and_decimals_round(tmp_path):
     assert notes == [f"TRC is written with 6 decimals: 4 of 4 valid samples change, by up "
                      f"to {worst:.2g} mm; write .csv or .npy for the exact values"], notes
     assert 3.6e-7 < worst < 3.7e-7                # sqrt(3) x 2.109e-7
+
+
+def test_npy_says_the_metadata_it_drops():
+    """A QA run of stop 50: metadata subject and take vanished from an .npy with only the
+    note that names, rate and units are not stored; TRC and CSV named them."""
+    m = mpz.Motion(np.zeros((2, 1, 3)), ["A"], 100.0, "mm",
+                   metadata={"subject": "s1", "take": "t1"})
+    notes = writer_problems(m, ".npy")[1]
+    assert "NPY has no place for free metadata: not written: 'subject', 'take'" in notes

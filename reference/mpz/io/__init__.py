@@ -587,7 +587,7 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
                      "without a unit")
     if ext == ".npy":
         notes.append("NPY holds positions only: marker names, rate and units are not stored")
-    if ext in (".c3d", ".trc", ".csv"):
+    if ext in (".c3d", ".trc", ".csv", ".npy"):     # NPY's were not said (QA, stop 50)
         free = [k for k in motion.metadata if k not in READER_KEYS and "." not in k]
         if motion.metadata.get("subject") and not _subject_held(motion, ext):
             free.insert(0, "subject")     # a reader key, but here the file has no place
