@@ -256,3 +256,40 @@ def test_motion_takes_a_two_level_skeleton():
     m = Motion(np.zeros((2, 3, 3)), ["R", "A", "B"], 1.0, parents=[-1, 0, np.int64(1)],
                angles=np.zeros((2, 2), np.float32), angle_names=["x", "y"])
     assert m.parents == [-1, 0, 1] and m.angles.dtype == np.float64
+
+
+def test_wrong_argument_types_are_type_errors_not_attribute_errors(tmp_path):
+    """A QA run of the library (stop 50): None for a motion or a hierarchy raised
+    AttributeError deep inside; generate(rate="x") a bare ValueError of float(); frames
+    of 10**9 ran until the kernel ended the process; Summary.level('2') a KeyError."""
+    from mpz.hierarchy import write_hierarchy
+    from mpz.io import check_writable, read_bytes
+    from mpz.skeleton import with_joint_positions
+    with pytest.raises(TypeError, match="expected an mpz.Motion, got NoneType"):
+        check_writable(None, ".trc")
+    with pytest.raises(TypeError, match="expected an mpz.Motion, got NoneType"):
+        with_joint_positions(None)
+    with pytest.raises(TypeError, match="expected an mpz Hierarchy, got NoneType"):
+        write_hierarchy(None, tmp_path / "h.json", ["A"])
+    for kw, said in (({"frames": 10 ** 9}, "frames must be at most 16777216"),
+                     ({"rate": "x"}, "rate must be a number, got 'x'"),
+                     ({"gap_fraction": None}, "gap_fraction must be a number")):
+        with pytest.raises(MotionError, match=said):
+            generate(**kw)
+    summary = mpz.read_summary(mpz.encode(generate("walk", frames=60), summary=[2, 4]))
+    with pytest.raises(TypeError, match="k must be a whole number of segments, got '2'"):
+        summary.level("2")
+    assert summary.level(np.int64(2)).k == 2
+    m = generate("walk", frames=3)
+    assert check_writable(m, ".TRC") == check_writable(m, ".trc")   # as write(m, "Z.TRC")
+    with pytest.raises(ValueError, match="fmt must be an extension with its dot"):
+        read_bytes(b"PathFileType\t4", fmt="trc")
+
+
+def test_write_atomic_takes_force_as_a_bool_only(tmp_path):
+    """write_atomic(p, data, force="no") replaced the file (a QA run of stop 50)."""
+    p = tmp_path / "x.mpz"
+    p.write_bytes(b"old")
+    with pytest.raises(TypeError, match="force must be True or False, got 'no'"):
+        mpz.write_atomic(p, b"new", force="no")
+    assert p.read_bytes() == b"old"

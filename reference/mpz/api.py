@@ -551,6 +551,8 @@ def write_atomic(path: str | os.PathLike[str], data: bytes, *,
     EncoderError
         See :func:`atomic_output`.
     """
+    if not isinstance(force, bool):      # "no" replaced the file (a QA run of stop 50)
+        raise TypeError(f"force must be True or False, got {force!r}")
     with atomic_output(path, force=force, source=source) as tmp, open(tmp, "wb") as fh:
         fh.write(data)
 
@@ -764,7 +766,9 @@ class Summary:
     def level(self, k: int) -> SummaryLevel:
         """The level of ``k`` segments, the first stored when two have that k (spec §4.10
         allows it; :attr:`levels` holds every one, in stored order); KeyError naming the
-        levels there are."""
+        levels there are, TypeError for a ``k`` that is not a whole number."""
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):   # '2' (QA, stop 50)
+            raise TypeError(f"k must be a whole number of segments, got {k!r}")
         for lv in self.levels:
             if lv.k == k:
                 return lv
@@ -772,7 +776,8 @@ class Summary:
                        f"{', '.join(str(lv.k) for lv in self.levels)}")
 
     def preview(self, k: int | None = None, mode: str = "constant") -> Motion:
-        """A preview Motion rebuilt from the summary alone (positions relative to the root),
+        """A preview Motion rebuilt from the summary alone (positions relative to the
+        per-frame centroid, the root :func:`mpz.fisher.motion_series` takes by default),
         from the level of ``k`` segments (default: the finest); ``mode`` "constant" (each
         frame its segment's mean) or "linear". KeyError (as :meth:`level`) for a ``k`` the
         file does not hold, ValueError for another mode, FormatError for a summary of

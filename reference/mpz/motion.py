@@ -62,7 +62,9 @@ class Motion:
     Parameters
     ----------
     positions : array_like, shape (frames, markers, 3)
-        Marker positions in ``units``. Values under a gap are ignored.
+        Marker positions in ``units``. Values under a gap are ignored. A float64
+        array is kept as given, not copied (``valid`` always is): change it afterwards
+        only through the Motion's own methods, or the mask no longer matches it.
     names : sequence of str
         One unique, non-empty name per marker.
     rate : float

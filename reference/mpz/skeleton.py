@@ -443,6 +443,8 @@ def with_joint_positions(motion: Motion) -> Motion:
     channels (spec §6.10: within the file's declared position bound of the source's),
     instead of the marker layer (within MHDR's bound, which the reference encoder makes
     coarser, Appendix C)."""
+    if not isinstance(motion, Motion):       # AttributeError of None (a QA run, stop 50)
+        raise TypeError(f"expected an mpz.Motion, got {type(motion).__name__}")
     skel = motion.extras.get("skeleton")
     if not isinstance(skel, Skeleton):
         return motion

@@ -21,11 +21,13 @@ in the developer data set, whose point data are Z-up with the floor at z ~ 0.
 from __future__ import annotations
 
 from collections.abc import Callable
+import math
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import MotionError
+from mpz.format import MAX_FRAMES
 from mpz.motion import Motion
 
 _F64 = NDArray[np.float64]
@@ -384,6 +386,18 @@ def _whole(value: object, name: str, low: int) -> int:
     return int(value)
 
 
+def _real(value: object, name: str) -> float:
+    """``value`` as a float if it is a real number (not a str, not a bool), else
+    MotionError: rate="x" was a bare ValueError of float() (a QA run of stop 50)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
+                                                         np.floating)):
+        raise MotionError(f"{name} must be a number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
 def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed: int = 0,
              noise_mm: float = 0.3, gap_fraction: float = 0.0,
              markers: int | None = None) -> Motion:
@@ -435,12 +449,17 @@ def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed
     if kind not in _KIND_FUNCS:
         raise MotionError(f"unknown synthetic motion kind {kind!r}, expected one of {KINDS}")
     frames = _whole(frames, "frames", 1)
+    if frames > MAX_FRAMES:      # 10**9 ran until the kernel ended the process (QA, stop 50)
+        raise MotionError(f"frames must be at most {MAX_FRAMES} (MAX_FRAMES, spec §8), got "
+                          f"{frames}")
     seed = _whole(seed, "seed", 0)
-    rate = float(rate)
+    rate = _real(rate, "rate")
     if not np.isfinite(rate) or rate <= 0:
         raise MotionError(f"rate must be finite and positive, got {rate!r}")
+    noise_mm = _real(noise_mm, "noise_mm")
     if not (np.isfinite(noise_mm) and noise_mm >= 0):
         raise MotionError(f"noise_mm must be finite and >= 0, got {noise_mm!r}")
+    gap_fraction = _real(gap_fraction, "gap_fraction")
     if not (0.0 <= gap_fraction <= 1.0):
         raise MotionError(f"gap_fraction must be in [0, 1], got {gap_fraction!r}")
     n_out = len(MARKERS) if markers is None else _whole(markers, "markers", 1)

@@ -174,4 +174,6 @@ def read_hierarchy(path: PathLike, names: Sequence[str]) -> Hierarchy:
 def write_hierarchy(h: Hierarchy, path: PathLike, names: Sequence[str]) -> None:
     """Write ``h`` to the file ``path`` as an ``mpz-hierarchy`` JSON file, each marker by
     its name in ``names`` (the motion's marker names, which the hierarchy indexes)."""
+    if not isinstance(h, Hierarchy):         # AttributeError of None (a QA run, stop 50)
+        raise TypeError(f"expected an mpz Hierarchy, got {type(h).__name__}")
     Path(path).write_text(json.dumps(h.to_dict(names), indent=1) + "\n", encoding="utf-8")

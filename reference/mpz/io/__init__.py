@@ -434,7 +434,11 @@ def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
         For content of no known format, or that its reader refuses.
     """
     data = _as_bytes(data, "data")
-    ext = fmt or detect_format(data)
+    if fmt is not None and (not isinstance(fmt, str) or not fmt.startswith(".")):
+        # "trc" was "trc content cannot be read as a motion here" (a QA run, stop 50)
+        raise ValueError(f"fmt must be an extension with its dot, such as '.trc', got "
+                         f"{fmt!r}")
+    ext = fmt.lower() if fmt else detect_format(data)
     if ext is None:
         raise InputFormatError(f"cannot tell the format from the content (first bytes "
                                f"{data[:8]!r}); can read {', '.join(READERS)} and .mpz",
@@ -801,6 +805,11 @@ def check_writable(motion: Motion, ext: str, *, path: StrPath | None = None,
         that no writer has (``".xyz"``, or ``"npy"`` without its dot: it returned no
         note, as if writable; a QA run of stop 48).
     """
+    if not isinstance(motion, Motion):       # AttributeError of None (a QA run, stop 50)
+        raise TypeError(f"expected an mpz.Motion, got {type(motion).__name__}")
+    if not isinstance(ext, str):
+        raise TypeError(f"ext must be a str such as '.trc', got {type(ext).__name__}")
+    ext = ext.lower()           # ".C3D", as write(m, "Z.C3D") takes it (a QA run, stop 50)
     if ext not in WRITERS:      # ".xyz", or "npy" without its dot, passed as writable
         raise InputFormatError(f"cannot write {ext or '(no extension)'!r}; can write "
                                f"{', '.join(WRITERS)}",
