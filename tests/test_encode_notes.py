@@ -386,3 +386,24 @@ def test_a_file_that_breaks_its_declared_bound_is_a_bug_and_is_not_left(tmp_path
     monkeypatch.setattr(mpz, "decode", real)
     assert mpz_cli.main(["encode", str(tmp_path / "w.c3d"), "-o", str(out), "--max-error",
                          "1mm", "-q"]) == 0 and out.exists()
+
+
+def test_re_encoding_an_mpz_keeps_its_summary(tmp_path):
+    """`mpz encode x.mpz` (stop 49's list): the input's summary chunk was dropped without a
+    word unless --summary was given. It is made again with the same levels, space and
+    chunk type, and said; --summary-format given with it is used, not called idle."""
+    m = generate("walk", frames=120, seed=4)
+    (tmp_path / "a.mpz").write_bytes(mpz.encode(m, max_error=0.5, summary=[3, 6],
+                                                summary_format="smry"))
+    p = _mpz("encode", "a.mpz", "-o", "b.mpz", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "the input's summary (k = 3,6) is made again from its decoded motion, as smry " \
+           "of the positions" in p.stderr
+    info = mpz.info(tmp_path / "b.mpz")
+    assert info.summary_levels == (3, 6) and "smry" in info.chunk_bytes
+    p = _mpz("encode", "a.mpz", "-o", "c.mpz", "--summary-format", "smrc", cwd=tmp_path)
+    assert p.returncode == 0 and "changes nothing" not in p.stderr, p.stderr
+    assert "smrc" in mpz.info(tmp_path / "c.mpz").chunk_bytes
+    p = _mpz("encode", "a.mpz", "-o", "d.mpz", "--summary", "2", cwd=tmp_path)
+    assert p.returncode == 0 and "made again" not in p.stderr
+    assert mpz.info(tmp_path / "d.mpz").summary_levels == (2,)

@@ -185,7 +185,7 @@ def _option_notes(args: argparse.Namespace, opts: EncodeOptions) -> list[str]:
     unused = [o for o, v in (("--summary-space", args.summary_space),
                              ("--summary-format", args.summary_format)) if v is not None]
     idle = ([f"{' and '.join(unused)} change{'s' * (len(unused) == 1)} nothing without "
-             "--summary (no summary chunk is written)"] if unused and not args.summary else [])
+             "--summary (no summary chunk is written)"] if unused and not opts.summary else [])
     return _loose_group_errors(opts) + _reader_keys(args) + idle
 
 
@@ -404,7 +404,8 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     motion = _rate(args, _units(args, motion, batch=batch), batch=batch)
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
-    notes += _option_notes(args, opts)
+    opts, kept = _summary_of_mpz_input(args, opts, job.input)
+    notes += kept + _option_notes(args, opts)
     notes = _input_notes(args, motion, job.input) + notes
     if not args.quiet:
         for note in notes:
@@ -619,6 +620,30 @@ def _input_notes(args: argparse.Namespace, motion, source: str, *,
                          "the new bound is against its decoded motion, so against that "
                          "source the errors can add up")
     return notes
+
+
+def _summary_of_mpz_input(args: argparse.Namespace, opts: EncodeOptions, source: str
+                          ) -> tuple[EncodeOptions, list[str]]:
+    """An .mpz input's summary chunk, made again from its decoded motion with the same
+    levels, space and chunk type unless --summary is given: a re-encode dropped it without
+    a word (stop 49's list). Standard input's MPZ bytes are not kept to ask: a note."""
+    from dataclasses import replace
+
+    from mpz.io._common import ext_of
+    if args.summary is not None or source == "-" or ext_of(source) != ".mpz":
+        return opts, []
+    import mpz
+    info = mpz.info(source)
+    if not info.summary_levels:
+        return opts, []
+    summary = mpz.read_summary(source)
+    chunk = "smrc" if "smrc" in info.chunk_bytes else "smry"
+    ks = ",".join(str(k) for k in info.summary_levels)
+    space, chunk = args.summary_space or summary.space, args.summary_format or chunk
+    return (replace(opts, summary=tuple(info.summary_levels), summary_space=space,
+                    summary_format=chunk),
+            [f"the input's summary (k = {ks}) is made again from its decoded motion, as "
+             f"{chunk} of the {space} (--summary K,... chooses other levels)"])
 
 
 def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
