@@ -634,9 +634,9 @@ def _summary_of_mpz_input(args: argparse.Namespace, opts: EncodeOptions, source:
         return opts, []
     import mpz
     info = mpz.info(source)
-    if not info.summary_levels:
+    summary = mpz.read_summary(source) if info.summary_levels else None
+    if summary is None:
         return opts, []
-    summary = mpz.read_summary(source)
     chunk = "smrc" if "smrc" in info.chunk_bytes else "smry"
     ks = ",".join(str(k) for k in info.summary_levels)
     space, chunk = args.summary_space or summary.space, args.summary_format or chunk
