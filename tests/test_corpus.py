@@ -1461,10 +1461,14 @@ def test_a_scheduler_address_that_is_not_dask_fails_within_a_deadline(corpus, mo
     src, out, _ = corpus
     try:
         t0 = time.monotonic()
+        fresh = out / "fresh"
         with pytest.raises(EncoderError, match="no Dask scheduler answered"):
-            encode_corpus(mirror_jobs(src, out), out, OPTS, levels=LEVELS,
+            encode_corpus(mirror_jobs(src, fresh), fresh, OPTS, levels=LEVELS,
                           scheduler=f"tcp://127.0.0.1:{server.getsockname()[1]}")
         assert time.monotonic() - t0 < 20
+        # the scheduler is reached before the index is made: an empty index was left
+        # behind (stop 48's list)
+        assert not (fresh / "index.sqlite").exists()
     finally:
         stop.set()
         thread.join(5)

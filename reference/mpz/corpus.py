@@ -1534,7 +1534,14 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
     early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
                         reason, _size(src)) for src, out, reason in failed]
-    with _one_run(index_dir), Index(os.path.join(index_dir, INDEX_NAME), create=True) as index:
+    with contextlib.ExitStack() as stack:
+        remote = None
+        if scheduler is not None and client is None:
+            # reached before the index is made: an unreachable address left an empty
+            # index behind (stop 48's list)
+            remote = stack.enter_context(_dask_client(n_workers, scheduler, memory_limit))
+        stack.enter_context(_one_run(index_dir))
+        index = stack.enter_context(Index(os.path.join(index_dir, INDEX_NAME), create=True))
         dropped = index.refresh_descriptors()
         damaged = index.damaged()
         notes = []
@@ -1602,6 +1609,9 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         elif client is not None:
             cluster = "given client"
             n_workers = _run_on(client, tasks, todo, finish, inflight)
+        elif remote is not None:
+            c, cluster = remote
+            n_workers = _run_on(c, tasks, todo, finish, inflight)
         else:
             try:
                 with _dask_client(n_workers, scheduler, memory_limit) as (c, cluster):
