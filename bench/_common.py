@@ -75,6 +75,30 @@ def whole_number(low: int) -> Callable[[str], int]:
 positive_int = whole_number(1)
 
 
+class Unreadable(SystemExit):
+    """A results file that cannot be compared (not JSON, another bench's, malformed rows,
+    two runs of one side that disagree): exit 2 with the message, as ``mpz bench``; exit 1
+    is a regression (a QA run of stop 50: both were 1). ``str()`` is the message."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(2)
+        self.message = message
+
+    def __str__(self) -> str:
+        return self.message
+
+
+def compare_main(run: Callable[[], int]) -> int:
+    """``run()``, a bench's ``--compare``, with :class:`Unreadable` said on standard error
+    as ``error: ...`` and exit 2."""
+    import sys
+    try:
+        return run()
+    except Unreadable as exc:
+        print(f"error: {exc.message}", file=sys.stderr)
+        return 2
+
+
 def is_bound_label(text: str) -> bool:
     """A bound as the benches take it: ``default`` or a finite positive length in mm."""
     import math

@@ -30,7 +30,8 @@ The verdict of ``--compare`` (exit 1, each cause named; exit 0 otherwise):
 - a file is in one run set only, or the two share no file.
 
 Two runs of one side that disagree on the decoded output, and a JSON that is not a
-bench_decode.py result of this schema, are errors (exit 1 with a message).
+bench_decode.py result of this schema, are errors (exit 2 with a message, as ``mpz
+bench``).
 """
 from __future__ import annotations
 
@@ -45,7 +46,9 @@ import sys
 import numpy as np
 
 from _common import (
+    Unreadable,
     coded_float32,
+    compare_main,
     is_bound_label,
     no_data_reason,
     shared_data_dir,
@@ -131,10 +134,10 @@ def load(path: Path) -> dict[str, dict]:
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
-        raise SystemExit(f"{path}: cannot read it as JSON: {exc}") from None
+        raise Unreadable(f"{path}: cannot read it as JSON: {exc}") from None
     if not isinstance(doc, dict) or doc.get("bench") != "decode" or doc.get("schema") != SCHEMA:
         what = doc.get("bench") if isinstance(doc, dict) else None
-        raise SystemExit(f"{path}: not a bench_decode.py result of schema {SCHEMA}"
+        raise Unreadable(f"{path}: not a bench_decode.py result of schema {SCHEMA}"
                          + (f" (it is bench {what!r})" if isinstance(what, str) else ""))
     rows = doc.get("rows")
     ok = isinstance(rows, dict) and all(
@@ -142,7 +145,7 @@ def load(path: Path) -> dict[str, dict]:
         and isinstance(r.get("sec"), (int, float)) and r["sec"] > 0
         and isinstance(r.get("decoded"), dict) for r in rows.values())
     if not ok:
-        raise SystemExit(f"{path}: malformed rows (each wants mb, sec > 0 and decoded)")
+        raise Unreadable(f"{path}: malformed rows (each wants mb, sec > 0 and decoded)")
     return rows
 
 
@@ -158,7 +161,7 @@ def _side(paths: list[Path]) -> dict[str, dict]:
                            "mpz_sha256": r.get("mpz_sha256")}
                 continue
             if r["decoded"] != side[k]["decoded"]:
-                raise SystemExit(f"{k}: two runs of the same side decoded differently ({p})")
+                raise Unreadable(f"{k}: two runs of the same side decoded differently ({p})")
             side[k]["sec"] = min(side[k]["sec"], r["sec"])
     return side
 
@@ -219,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="default, or a length in mm such as 1mm (default 1mm)")
     args = two_versions(ap, argv)
     if args.compare:
-        return compare(args.compare, args.against)
+        return compare_main(lambda: compare(args.compare, args.against))
     if not is_bound_label(args.bound):
         ap.error(f"--bound wants default or a length in mm such as 1mm, got {args.bound!r}")
     reason = no_data_reason()

@@ -9,7 +9,9 @@ or ``all``) at each bound ("default": the encoder's own; "1mm": 1 mm in the file
 1 unit where it declares none) with each thread count. It records the SHA-256 and size of
 the bytes and the best wall time (bench_speed's ``timed``: at least 3 calls and 0.3 s).
 The bytes must not depend on the thread count (issue 15): a row whose thread counts give
-different bytes is printed as an ERROR, and the command exits 1.
+different bytes is printed as an ERROR, and the command exits 1; a results file it cannot
+compare (not JSON, another bench's, malformed rows, two runs of one side that disagree)
+exits 2 with the reason.
 
 An encoder change that should not change the output is checked by the second form: run
 the first with the old code (the Python of a venv where ``pip install -e`` put a ``git
@@ -37,7 +39,15 @@ import math
 from pathlib import Path
 import sys
 
-from _common import is_bound_label, no_data_reason, shared_data_dir, two_versions, warm_up
+from _common import (
+    Unreadable,
+    compare_main,
+    is_bound_label,
+    no_data_reason,
+    shared_data_dir,
+    two_versions,
+    warm_up,
+)
 
 SCHEMA = 1
 
@@ -90,15 +100,15 @@ def load(path: Path) -> dict[str, dict]:
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
-        raise SystemExit(f"{path}: cannot read it as JSON: {exc}") from None
+        raise Unreadable(f"{path}: cannot read it as JSON: {exc}") from None
     if not isinstance(doc, dict) or doc.get("bench") != "encode" or doc.get("schema") != SCHEMA:
-        raise SystemExit(f"{path}: not a bench_encode.py result of schema {SCHEMA}")
+        raise Unreadable(f"{path}: not a bench_encode.py result of schema {SCHEMA}")
     rows = doc.get("rows")
     if not isinstance(rows, dict) or not all(
             isinstance(r, dict) and isinstance(r.get("sha256"), str)
             and isinstance(r.get("bytes"), int) and isinstance(r.get("seconds"), dict)
             and r["seconds"] for r in rows.values()):
-        raise SystemExit(f"{path}: malformed rows (each wants sha256, bytes and seconds)")
+        raise Unreadable(f"{path}: malformed rows (each wants sha256, bytes and seconds)")
     return rows
 
 
@@ -131,7 +141,7 @@ def differences(before: list[dict[str, dict]], after: list[dict[str, dict]]
         for run in side[1:]:
             for k, row in run.items():
                 if k in side[0] and digests(row) != digests(side[0][k]):
-                    raise SystemExit(f"{k}: two runs of the same side gave different bytes")
+                    raise Unreadable(f"{k}: two runs of the same side gave different bytes")
     b, a = before[0], after[0]
     changed = []
     for k in b:
@@ -188,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--threads", default="1,2", help="comma-separated thread counts")
     args = two_versions(ap, argv)
     if args.compare:
-        return compare(args.compare, args.against)
+        return compare_main(lambda: compare(args.compare, args.against))
     try:
         threads = [int(t) for t in args.threads.split(",")]
     except ValueError:

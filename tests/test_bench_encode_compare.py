@@ -80,3 +80,14 @@ def test_changed_bytes_of_one_thread_count_only(tmp_path, bench_script):
     c = _run(tmp_path, "c.json", {"k 1mm": {"1": ("ac", 9), "2": ("ac", 9)}})
     assert be.compare([a], [b]) == 1
     assert be.compare([a], [c]) == 1
+
+
+def test_a_results_file_that_cannot_be_compared_exits_2(tmp_path, bench_script, capsys):
+    """A maintainer's QA run (stop 50): an unreadable results file exited 1, the code of a
+    regression; mpz bench gives 2."""
+    be = bench_script("bench_encode")
+    a = _run(tmp_path, "a.json", {"c3d/x.c3d 1mm": SAME})
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    assert be.main(["--compare", str(a), "--against", str(bad)]) == 2
+    assert "cannot read it as JSON" in capsys.readouterr().err

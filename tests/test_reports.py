@@ -823,3 +823,15 @@ def test_space_that_an_mpz_summary_is_not_in_is_said(capsys):
 def test_a_wssse_of_minus_zero_prints_as_zero(capsys):
     code, out, err = cli(capsys, "summary", str(VECTORS / "uncommon/u21-smry-angles-no-dims.mpz"))
     assert code == 0 and "-0 " not in out and "WSSSE 0 " in out, out
+
+
+def test_compare_says_marker_without_plot_changes_nothing(tmp_path, capsys):
+    """A maintainer's QA run (stop 50): --marker NOPE without --plot was ignored without a
+    word, while --bound without --plot was noted."""
+    m = generate("walk", frames=30, seed=2)
+    write(m, tmp_path / "a.trc")
+    (tmp_path / "a.mpz").write_bytes(mpz.encode(m, max_error=1.0))
+    code, _, err = cli(capsys, "compare", str(tmp_path / "a.trc"), str(tmp_path / "a.mpz"),
+                       "--marker", "NOPE")
+    assert code == 0, err
+    assert "--marker chooses the markers of --plot, which was not asked for" in err

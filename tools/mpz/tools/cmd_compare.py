@@ -295,6 +295,8 @@ def run(args: argparse.Namespace) -> int:
         bound_given = parse_length(args.bound, units, "--bound")   # in range: check_length
         if not args.plot:
             notes.append("--bound is drawn on --plot, which was not asked for")
+    if args.marker and not args.plot:     # it was ignored without a word (QA, stop 50)
+        notes.append("--marker chooses the markers of --plot, which was not asked for")
     for note in notes:
         print(f"mpz compare: note: {note}", file=sys.stderr)
     s = summary(a, b)
