@@ -293,3 +293,17 @@ def test_write_atomic_takes_force_as_a_bool_only(tmp_path):
     with pytest.raises(TypeError, match="force must be True or False, got 'no'"):
         mpz.write_atomic(p, b"new", force="no")
     assert p.read_bytes() == b"old"
+
+
+def test_a_hierarchy_fifo_and_a_bytes_output_path_are_named_for_what_they_are(tmp_path):
+    """A QA run of the library (stop 50): hierarchy=<a FIFO> said "does not exist", and
+    write_mpz(m, b"/tmp/x.mpz") raised "Can't mix strings and bytes in path components"."""
+    import os
+    fifo = tmp_path / "h.json"
+    os.mkfifo(fifo)
+    m = generate("walk", frames=10)
+    with pytest.raises(EncoderError, match="is not a regular file"):
+        mpz.encode(m, hierarchy=str(fifo))
+    with pytest.raises(TypeError, match="output path must be a str or an os.PathLike"):
+        mpz.write_mpz(m, os.fsencode(tmp_path / "x.mpz"))
+    assert not (tmp_path / "x.mpz").exists()

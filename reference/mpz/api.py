@@ -253,8 +253,14 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         device, :data:`os.devnull`, excepted: :func:`atomic_output`), or is marked
         immutable or append-only (Linux's ``chattr +i``, ``+a``); or lies in a
         folder that is not writable.
+    TypeError
+        For a ``path`` that is not a str or an os.PathLike of str (bytes raised "Can't mix
+        strings and bytes in path components", a QA run of stop 50).
     """
     target = os.fspath(path)
+    if not isinstance(target, str):
+        raise TypeError(f"the output path must be a str or an os.PathLike of str, got "
+                        f"{type(path).__name__}")
     if source is not None and _same_file(target, os.fspath(source)):
         raise EncoderError(f"refusing to overwrite the input file {os.fspath(source)}")
     if not os.path.basename(target):

@@ -185,6 +185,10 @@ def _build(motion: Motion, names: Sequence[str], spec: str | Path | dict[str, An
         return read_hierarchy(spec, names)
     if isinstance(spec, (str, Path)) and Path(spec).is_dir():
         raise EncoderError(f"hierarchy {str(spec)!r} is a folder, not a JSON file")
+    if isinstance(spec, (str, Path)) and spec != "file" and Path(spec).exists():
+        # a FIFO or a device was "does not exist" (a QA run of stop 50)
+        raise EncoderError(f"hierarchy {str(spec)!r} is not a regular file (a FIFO, a "
+                           "device or a socket), not a JSON file")
     if isinstance(spec, Path) or (isinstance(spec, str) and (
             spec.lower().endswith(".json") or os.sep in spec or "/" in spec)):
         # a path that is not there was "unknown hierarchy ...: expected one of [...]"
