@@ -1390,7 +1390,17 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
         # (CPython's resource_tracker.ensure_running), Dask's event loop once the cluster
         # makes its first queue: started here, before the block, it is not started there
         from multiprocessing import resource_tracker
-        resource_tracker.ensure_running()
+        # the tracker ignores SIGINT and SIGTERM (CPython's resource_tracker.main) but not
+        # SIGHUP: a hangup of the process group ended it, and the driver relaunched it with
+        # a warning and six KeyError tracebacks (a QA run of stop 50). An ignored signal
+        # stays ignored across the tracker's exec.
+        hup = getattr(signal, "SIGHUP", None)
+        old_hup = signal.signal(hup, signal.SIG_IGN) if hup is not None else None
+        try:
+            resource_tracker.ensure_running()
+        finally:
+            if hup is not None:
+                signal.signal(hup, signal.SIG_DFL if old_hup is None else old_hup)
     old = signal.signal(signal.SIGINT, note)
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if masks else None
     try:
