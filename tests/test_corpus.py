@@ -978,7 +978,9 @@ def test_mpz_encode_batch_gives_each_file_what_the_one_file_command_gives(tmp_pa
     _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm", "--no-skeleton"))
     code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--max-error", "1mm",
                          "--units", "cm", "--jobs", "0", "--no-skeleton"])
-    assert code == 0 and "NOTE " not in capsys.readouterr().out      # up to date: not opened
+    said = capsys.readouterr().out                  # up to date: not opened, yet what its
+    assert code == 0 and said.count("NOTE ") == 1   # output does not keep is named (QA,
+    assert "arm.bvh: not kept: joint angles and the skeleton" in said        # stop 50)
     # --units changes the fingerprint of the files whose unit it names: the unitless BVH is
     # read in another unit than before, the C3D (mm) is not (stop 47: it was encoded again)
     doc = batch("--units", "m")
@@ -1731,3 +1733,47 @@ def test_the_memory_limit_reaches_local_workers_and_is_said_unused_by_a_schedule
     assert asked == [corpus_mod.DEFAULT_MEMORY_LIMIT if limit == "DEFAULT" else limit]
     assert ("--memory-limit 700MB changes nothing: the workers of --scheduler's cluster"
             in err) is note, err
+
+
+# -- an archive team's QA run of stop 50 -------------------------------------------------------
+
+def test_another_source_of_the_same_size_and_time_is_not_up_to_date(tmp_path):
+    """Two folders each with trial.c3d of the same size and modification time, other
+    points: the second run into the same output folder said "up to date", the index kept
+    the first file's path and sha256, and the archive held the wrong recording."""
+    m = generate("walk", frames=60, seed=1)
+    for folder, shift in (("pa", 0.0), ("pb", 500.0)):
+        (tmp_path / folder).mkdir()
+        write(Motion(m.positions + shift, m.names, m.rate, m.units), tmp_path / folder / "t.c3d")
+        os.utime(tmp_path / folder / "t.c3d", ns=(1_700_000_000 * 10**9,) * 2)
+    a, b = tmp_path / "pa" / "t.c3d", tmp_path / "pb" / "t.c3d"
+    assert a.stat().st_size == b.stat().st_size and a.read_bytes() != b.read_bytes()
+    out = tmp_path / "out"
+    encode_corpus([(a, out / "t.mpz")], out, OPTS, levels=LEVELS, workers=0)
+    rep = encode_corpus([(b, out / "t.mpz")], out, OPTS, levels=LEVELS, workers=0)
+    assert [r.status for r in rep.results] == ["encoded"]
+    with contextlib.closing(open_index(out / INDEX_NAME)) as index:
+        row = index.row("t.mpz")
+    assert row["path"] == str(b) and row["source_sha256"] == \
+        hashlib.sha256(b.read_bytes()).hexdigest()
+    assert mpz.max_error(read(b), mpz.decode(out / "t.mpz")) <= 1.0
+
+
+def test_a_rerun_still_names_what_its_outputs_do_not_keep(tmp_path, two_joint_bvh):
+    """A rerun counted the files that drop part of their source (--no-skeleton) in its
+    ratio, and no longer named what they drop: the first run said 54.0 (without the 4 that
+    drop part of their source), the rerun 52.7 with no qualifier and "not_kept": []."""
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "arm.bvh").write_text(two_joint_bvh)
+    write(generate("walk", frames=30, seed=2), src / "walk.trc")
+    out = tmp_path / "out"
+    opts = EncodeOptions(max_error=1.0, keep_skeleton=False)
+    first = encode_corpus(mirror_jobs(src, out), out, opts, levels=LEVELS, workers=0)
+    again = encode_corpus(mirror_jobs(src, out), out, opts, levels=LEVELS, workers=0)
+    for rep, status in ((first, "encoded"), (again, "skipped")):
+        got = {Path(r.source).name: (r.status, r.not_kept) for r in rep.results}
+        assert got == {"arm.bvh": (status, ["joint angles and the skeleton"]),
+                       "walk.trc": (status, [])}, got
+    assert "NOTE" in again.table() and "not kept: joint angles and the skeleton" in \
+        again.table()

@@ -1148,9 +1148,32 @@ def _up_to_date(row: dict[str, Any] | None, task: Task) -> bool:
                ((False, True) if row["units"] else (False,))}
     except (OSError, MPZError):
         return False
-    return (row["fingerprint"] in fps and row["source_bytes"] == st.st_size
+    # the row must be this source's: another file of the same size and time at another
+    # path (a second folder into the same output, a moved input folder) was "up to date"
+    # and never archived (an archive team's QA run of stop 50)
+    return (row["path"] == os.path.abspath(task.source)
+            and row["fingerprint"] in fps and row["source_bytes"] == st.st_size
             and row["source_mtime_ns"] == st.st_mtime_ns and out.st_size == row["total_bytes"]
             and out.st_mtime_ns >= st.st_mtime_ns)
+
+
+def _not_kept_of_row(row: dict[str, Any]) -> list[str]:
+    """What an output that is up to date by its index row does not keep of its source, told
+    by the chunks the row says it holds (:func:`mpz.encoder.not_kept`'s rule for a file a
+    reader read): a C3D's archive, a skeletal source's skeleton. A rerun counted such files
+    in its ratio and stopped naming them (an archive team's QA run of stop 50)."""
+    from mpz.c3darchive import C3D_EXTENSION
+    from mpz.skeleton import EXTENSION as SKELETON_EXTENSION
+    try:
+        held = set(json.loads(row["chunk_bytes"]))
+    except (TypeError, ValueError):
+        held = set()
+    out = []
+    if row["format"] == ".c3d" and not held & set(C3D_EXTENSION.chunk_types):
+        out.append("analog, parameters and residuals (the output holds no C3D archive)")
+    if row["format"] in (".bvh", ".amc") and not held & set(SKELETON_EXTENSION.chunk_types):
+        out.append("joint angles and the skeleton")
+    return out
 
 
 def _temp_pattern(output: str) -> re.Pattern[str]:
@@ -1585,7 +1608,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             if t.output_key not in damaged and _up_to_date(row, t):
                 assert row is not None
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
-                                     row["total_bytes"], row["raw_bytes"]))
+                                     row["total_bytes"], row["raw_bytes"],
+                                     not_kept=_not_kept_of_row(row)))
             else:
                 tasks[i] = replace(t, indexed=row is not None)
                 todo.append(i)
