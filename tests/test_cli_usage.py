@@ -989,3 +989,18 @@ def test_quiet_with_json_prints_the_report_and_nothing_else(inputs: dict[str, Pa
     p = run([*argv, "-q", "-f"], tmp_path)
     assert p.returncode == 0 and p.stderr == b""
     assert strict_json(p.stdout)["output"] == "q.mpz"
+
+
+def test_two_formats_of_one_take_in_one_folder_are_told_the_way_out(tmp_path: Path) -> None:
+    """An archive team's QA run (stop 50): walk.c3d and walk.trc in one folder, with
+    --mirror, failed "its output ... is also the output of ..." with no remedy, where the
+    flat clash names --mirror."""
+    src = tmp_path / "takes"
+    src.mkdir()
+    m = generate("walk", frames=30, seed=5)
+    write(m, src / "walk.c3d")
+    write(m, src / "walk.trc")
+    p = run(["mpz", "encode", "-r", "takes", "-o", "arch/", "--mirror", "--max-error", "1mm",
+             "--jobs", "0", "-q"], tmp_path)
+    assert p.returncode == 2 and b"also the output of" in p.stderr, p.stderr
+    assert b"encode it alone with -o NAME.mpz, or rename one of the two" in p.stderr

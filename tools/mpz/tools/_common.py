@@ -550,10 +550,14 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
             # found by -r in another folder than the first: --mirror would keep both
             apart = (base is not None and not mirror and os.path.dirname(os.path.abspath(
                 path)) != os.path.dirname(os.path.abspath(taken[key])))
+            # two formats of one take beside each other (walk.c3d, walk.trc): no option
+            # names outputs by extension, so the remedy is said (a QA run of stop 50)
             jobs.append(Job(path, target, f"its output {printable(target)} is also the output "
                                         f"of {printable(taken[key])} in this batch"
                                         + ("; --mirror keeps each file's folder below -o"
-                                           if apart else "")))
+                                           if apart else
+                                           "; encode it alone with -o NAME.mpz, or rename "
+                                           "one of the two")))
             continue
         taken[key] = path
         jobs.append(Job(path, target, make_folder=make))
