@@ -667,6 +667,17 @@ def test_a_file_whose_name_is_not_utf8_encodes(tmp_path, ext):
     assert np.abs(back.positions - read(tmp_path / name).positions).max() <= 1.0
 
 
+def _encode_in_1_gib(source: Path, output: Path) -> subprocess.CompletedProcess[bytes]:
+    """``mpz encode SOURCE -o OUTPUT`` in a process of its own under a 1 GiB address-space
+    limit, where reading a huge input whole cannot pass."""
+    script = ("import resource, sys\n"
+              "resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
+              "from mpz.tools import mpz_cli\n"
+              "sys.exit(mpz_cli.main(['encode', sys.argv[1], '-o', sys.argv[2]]))\n")
+    return subprocess.run([sys.executable, "-c", script, str(source), str(output)],
+                          capture_output=True, timeout=120)
+
+
 def test_a_huge_file_that_is_not_c3d_is_refused_from_its_first_bytes(tmp_path):
     """A 5 GB sparse file of zeros named .c3d was read whole (5.4 GB resident) before its
     key byte was checked, and under a memory limit the verdict was "out of memory, the
@@ -674,12 +685,7 @@ def test_a_huge_file_that_is_not_c3d_is_refused_from_its_first_bytes(tmp_path):
     huge = tmp_path / "huge.c3d"
     with open(huge, "wb") as fh:
         fh.truncate(2 << 30)
-    script = ("import resource, sys\n"
-              "resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
-              "from mpz.tools import mpz_cli\n"
-              "sys.exit(mpz_cli.main(['encode', sys.argv[1], '-o', sys.argv[2]]))\n")
-    p = subprocess.run([sys.executable, "-c", script, str(huge), str(tmp_path / "h.mpz")],
-                       capture_output=True, timeout=120)
+    p = _encode_in_1_gib(huge, tmp_path / "h.mpz")
     assert p.returncode == 2, p.stderr
     assert b"bad key byte 0x00 at offset 1" in p.stderr, p.stderr
 
@@ -803,12 +809,7 @@ def test_a_motion_file_past_the_size_limit_is_refused_before_it_is_read(tmp_path
     with open(huge, "wb") as fh:
         fh.write(b"PathFileType\t4\t(X/Y/Z)\thuge.trc\n" if ext == ".trc" else b"\x93NUMPY")
         fh.truncate(limit + 1)
-    script = ("import resource, sys\n"
-              "resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
-              "from mpz.tools import mpz_cli\n"
-              "sys.exit(mpz_cli.main(['encode', sys.argv[1], '-o', sys.argv[2]]))\n")
-    p = subprocess.run([sys.executable, "-c", script, str(huge), str(tmp_path / "h.mpz")],
-                       capture_output=True, timeout=120)
+    p = _encode_in_1_gib(huge, tmp_path / "h.mpz")
     assert p.returncode == 2, p.stderr
     assert f"{limit + 1} bytes, more than the {limit}".encode() in p.stderr, p.stderr
     assert not (tmp_path / "h.mpz").exists()
