@@ -6,6 +6,7 @@ under test.
 """
 from __future__ import annotations
 
+import re
 import struct
 
 from hypothesis import given, settings
@@ -1096,3 +1097,66 @@ def test_trc_metadata_digits_of_other_scripts_are_no_whole_number(text):
     ValueError inside mpz.io.write; it is a value the writer does not use."""
     from mpz.io.trc import trc_meta_problems
     assert "FirstFrame" in str(trc_meta_problems({"trc.FirstFrame": text}))
+
+
+# -- a review of the stop 50 parsers (TRC, CSV and BVH fill arrays) ---------------------------
+
+def test_a_bvh_joint_named_motion_does_not_end_the_hierarchy(two_joint_bvh):
+    """The hierarchy's words were taken up to the first MOTION anywhere: a joint named
+    Motion made a valid file "HIERARCHY ends inside a joint block"."""
+    from mpz.io.bvh import parse_bvh
+    m = parse_bvh(two_joint_bvh.replace("JOINT Spine", "JOINT Motion"))
+    assert m.names == ["Hips", "Motion", "Motion_End"] and m.n_frames == 3
+
+
+@pytest.mark.parametrize("frames, said", [
+    ("99999999999999999", "27 values for 99999999999999999 frames x 9 channels (truncated"),
+    ("2", "18 values beyond 2 frames x 9 channels"),     # 3 rows and one more of 9
+])
+def test_a_bvh_frame_count_the_text_cannot_hold_is_no_allocation(two_joint_bvh, frames, said):
+    """A 179-byte BVH declaring 10^17 frames asked numpy for 2 EiB (MemoryError: "out of
+    memory, the input may be valid"); the count is checked against what the text can hold
+    first, as the words were counted before the rewrite."""
+    from mpz.io.bvh import parse_bvh
+    text = two_joint_bvh.replace("Frames: 3", f"Frames: {frames}")
+    if frames == "2":
+        text = text.replace("2 0 0 0 10 0 20 0 0", "2 0 0 0 10 0 20 0 0\n" + "1 " * 9)
+    with pytest.raises(InputFormatError, match=re.escape(said)):
+        parse_bvh(text)
+
+
+def test_a_bvh_cut_short_is_said_before_a_bad_number_in_it(two_joint_bvh):
+    """The count was checked before the values: a truncated BVH with a bad word in it said
+    "truncated"; the rewrite said the word. The count comes first again."""
+    from mpz.io.bvh import parse_bvh
+    with pytest.raises(InputFormatError, match="truncated motion data"):
+        parse_bvh(two_joint_bvh.replace("1 0 0 0 5 0 10 0 0\n2 0 0 0 10 0 20 0 0\n", "x\n"))
+
+
+def test_blank_lines_do_not_size_the_arrays(tmp_path):
+    """A 557 KB CSV (2000 markers, 500,000 blank lines, one row) asked numpy for 22 GiB:
+    the arrays were sized by lines times columns. Read here under a 1.5 GiB address-space
+    limit, each format in a process of its own."""
+    import subprocess
+    import sys
+    names = [f"m{i}" for i in range(2000)]
+    (tmp_path / "b.csv").write_text(
+        "frame,time," + ",".join(f"{n}_{c}" for n in names for c in "xyz") + "\n"
+        + "\n" * 200_000 + "0,0.0," + ",".join(["1.5"] * 6000) + "\n")
+    head = ["PathFileType\t4\t(X/Y/Z)\tb.trc",
+            "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
+            "100\t100\t1\t2000\tmm",
+            "Frame#\tTime\t" + "\t".join(f"{n}\t\t" for n in names),
+            "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, 2001))]
+    (tmp_path / "b.trc").write_text("\n".join(head) + "\n" + "\n" * 200_000 + "1\t0.0\t"
+                                    + "\t".join(["1.5"] * 6000) + "\n")
+    script = ("import resource, sys\n"
+              "import mpz.io\n"
+              "resource.setrlimit(resource.RLIMIT_AS, (3 << 29, 3 << 29))\n"
+              "m = mpz.io.read(sys.argv[1])\n"
+              "print(m.n_frames, m.n_markers, float(m.positions[0, 1999, 2]))\n")
+    for name in ("b.csv", "b.trc"):
+        p = subprocess.run([sys.executable, "-c", script, str(tmp_path / name)],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0 and p.stdout.split() == ["1", "2000", "1.5"], \
+            (name, p.stderr[-600:])

@@ -17,6 +17,7 @@ centimetre-like, see docs/io-notes.md).
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 import math
 import os
 import re
@@ -379,20 +380,23 @@ def format_bvh(motion: Motion) -> str:
 
 
 def _head_tokens(text: str) -> tuple[list[str], int]:
-    """The words of a BVH up to the five after the first ``MOTION`` (``Frames: n Frame
-    Time: t``), and the offset in ``text`` where the motion's values start. The values are
-    not split into words here: a list of every word took 14 bytes of memory per byte of
-    BVH (a QA of stop 50)."""
+    """The words of a BVH up to the five after the ``MOTION`` that ends the hierarchy
+    (``Frames: n Frame Time: t``), and the offset in ``text`` where the motion's values
+    start. The values are not split into words here: a list of every word took 14 bytes of
+    memory per byte of BVH (a QA of stop 50). A joint named ``Motion`` (the word after
+    ROOT or JOINT) does not end the hierarchy, as :func:`_parse_hierarchy` reads it."""
     words: list[str] = []
     after = -1                    # words left to take after MOTION
     end = 0
     for m in re.finditer(r"\S+", text):
-        words.append(m.group())
-        end = m.end()
-        if after < 0 and m.group().upper() == "MOTION":
+        word = m.group()
+        if after < 0 and word.upper() == "MOTION" and not (
+                words and words[-1].upper() in ("ROOT", "JOINT")):
             after = 5
         elif after > 0:
             after -= 1
+        words.append(word)
+        end = m.end()
         if after == 0:
             break
     return words, end if after == 0 else len(text)
@@ -400,34 +404,55 @@ def _head_tokens(text: str) -> tuple[list[str], int]:
 
 #: characters of motion values converted at a time by :func:`_motion_values`
 _VALUES_CHUNK = 1 << 22
+_SPACE = re.compile(r"\s")
+
+
+def _word_chunks(text: str, start: int) -> Iterator[list[str]]:
+    """The words of ``text[start:]``, a list for each piece of about :data:`_VALUES_CHUNK`
+    characters, each piece cut at white space."""
+    pos = start
+    while pos < len(text):
+        stop = len(text)
+        if pos + _VALUES_CHUNK < len(text):
+            space = _SPACE.search(text, pos + _VALUES_CHUNK)
+            stop = len(text) if space is None else space.start()
+        yield text[pos:stop].split()
+        pos = stop
 
 
 def _motion_values(text: str, start: int, n_frames: int, n_channels: int
                    ) -> NDArray[np.float64]:
-    """The ``n_frames x n_channels`` values written in ``text[start:]``, converted a chunk
-    of text at a time (each cut at white space); InputFormatError when there are fewer or
-    more, or one is not a plain number (:func:`plain_numbers`)."""
+    """The ``n_frames x n_channels`` values written in ``text[start:]``, converted a piece
+    of text at a time (:func:`_word_chunks`); InputFormatError when there are fewer or
+    more (said first, as the count was checked before the values), or one is not a plain
+    number (:func:`plain_numbers`). Nothing is allocated for more values than the text
+    can hold: 179 bytes declaring 10^17 frames asked numpy for 2 EiB (a QA of stop 50)."""
     need = n_frames * n_channels
+
+    def wrong_count() -> InputFormatError | None:
+        got = sum(len(words) for words in _word_chunks(text, start))
+        if got < need:
+            return _bad(f"{got} values for {n_frames} frames x {n_channels} channels "
+                        f"(truncated motion data)")
+        if got > need:
+            return _bad(f"{got - need} values beyond {n_frames} frames x {n_channels} "
+                        "channels")
+        return None
+
+    if need > (len(text) - start + 1) // 2:     # words of one character and one space
+        raise wrong_count() or _bad("fewer values than declared")
     out = np.empty(need)
     got = 0
-    pos = start
-    while pos < len(text):
-        stop = min(len(text), pos + _VALUES_CHUNK)
-        while stop < len(text) and not text[stop].isspace():
-            stop += 1
-        words = text[pos:stop].split()
-        pos = stop
+    for words in _word_chunks(text, start):
         if got + len(words) > need:
-            extra = got + len(words) - need + len(text[pos:].split())
-            raise _bad(f"{extra} values beyond {n_frames} frames x {n_channels} channels")
+            raise wrong_count() or _bad("more values than declared")
         try:
             out[got:got + len(words)] = plain_numbers(words)
         except InputFormatError as exc:
-            raise _bad(f"MOTION: {exc.message}") from None
+            raise wrong_count() or _bad(f"MOTION: {exc.message}") from None
         got += len(words)
     if got < need:
-        raise _bad(f"{got} values for {n_frames} frames x {n_channels} channels "
-                   f"(truncated motion data)")
+        raise wrong_count() or _bad("fewer values than declared")
     return out.reshape(n_frames, n_channels)
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpz.errors import InputFormatError
-from mpz.io._common import StrPath, decode_text, number, read_regular, reader
+from mpz.io._common import RowTable, StrPath, decode_text, number, read_regular, reader
 from mpz.motion import Motion, finite_samples
 
 MAX_NPY_BYTES = 1 << 34  # refuse absurd arrays before loading (16 GiB)
@@ -201,22 +201,20 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
         if sfx != ["_x", "_y", "_z"] or len(set(base)) != 1:
             raise _bad("csv", f"columns {cols[i:i + 3]} are not <name>_x,<name>_y,<name>_z")
         names.append(base[0])
-    most = text.count("\n") + 1                # records: at most one a line
-    vals = np.full((most, len(cols)), np.nan)
-    times = np.empty(most)
-    n = 0
+    table = RowTable(1 + len(cols))             # the time, then the coordinates
     for k, r in enumerate(records):
         if len(r) != len(head):
             raise _bad("csv", f"row {k + 2} has {len(r)} fields, header has {len(head)}")
         try:
-            times[k] = number(r[1])
-            vals[k] = [number(v, nan=True) if v.strip(" \t") else math.nan for v in r[2:]]
+            table.append([number(r[1])] + [number(v, nan=True) if v.strip(" \t")
+                                           else math.nan for v in r[2:]])
         except InputFormatError as exc:
             raise _bad("csv", f"row {k + 2}: {exc.message}") from None
-        n = k + 1
+    n = table.n
     if not n:
         raise _bad("csv", "no data rows")
-    vals, times = vals[:n], times[:n]
+    got = table.rows()
+    times, vals = got[:, 0], got[:, 1:]
     if rate is None:
         rate = rate_from_times(times) if n > 1 else 1.0
         # one rate stands for every time: a column that is not t0 + k / rate (a quarter of

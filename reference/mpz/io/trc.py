@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from mpz.errors import InputFormatError
 from mpz.io._common import (
     MAX_FIRST_FRAME,
+    RowTable,
     StrPath,
     count,
     decode_text,
@@ -124,9 +125,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if len(coord_row) < 3 * n_markers:
         raise _bad(f"coordinate row has {len(coord_row)} labels for {n_markers} markers")
 
-    # filled a row at a time: a list of rows of Python floats took 32 bytes a value
-    table = np.full((max(len(lines) - 5, 0), 3 * n_markers), np.nan)
-    n_rows = 0
+    table = RowTable(3 * n_markers)   # a list of rows of Python floats: 32 bytes a value
     times = []
     numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
@@ -144,11 +143,11 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         if len(values) > 3 * n_markers:
             raise _bad(f"line {lineno}: {len(values)} values for {n_markers} markers")
         try:
-            table[n_rows, :len(values)] = [_num(v) for v in values]
+            row = [_num(v) for v in values]
             times.append(_num(fields[1]))
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {exc.message}") from None
-        n_rows += 1
+        table.append(row)
         numbers.append(fields[0].strip())
         if not frames:
             frames.append(fields)
@@ -156,9 +155,10 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
             t = fields[1].strip().rstrip("0")
             if "." in t and "e" not in t.lower():
                 digits = max(digits, len(t.split(".", 1)[1]))
+    n_rows = table.n
     if not n_rows:
         raise _bad("no data rows")
-    pos = table[:n_rows].reshape(n_rows, n_markers, 3)
+    pos = table.rows().reshape(n_rows, n_markers, 3)
     meta = {"format": "trc"}
     warnings: list[str] = []                     # metadata "warning", joined by "; "
     pos, skipped = _frames_by_number(pos, numbers)
