@@ -3,9 +3,9 @@
 Contract: for a motion with ``parents`` (BVH or AMC input), every point is its
 own node, with itself as the only member and reference, parented like the
 skeleton, in breadth-first order from the skeleton root (children in point
-order). The first point with parent -1 is the root; other parentless points,
-and points unreachable from the root (a cycle in ``parents``), become children
-of the root node, in point order. A motion without ``parents`` raises
+order). The first point with parent -1 is the root; other parentless points
+become children of the root node, in point order (so would points in a cycle of
+``parents``, which :class:`mpz.Motion` refuses since stop 50: kept as a defence). A motion without ``parents`` raises
 :class:`mpz.errors.EncoderError`. The result is not validated here.
 """
 from __future__ import annotations
@@ -20,9 +20,8 @@ from mpz.motion import Motion
 def skeleton_hierarchy(motion: Motion) -> Hierarchy:
     """One node per skeleton point, parented like the skeleton, breadth first.
 
-    The first point with parent -1 is the root; other parentless points and
-    points unreachable from the root (a cycle in ``parents``) become children
-    of the root node.
+    The first point with parent -1 is the root; other parentless points become
+    children of the root node (and points of a cycle, which Motion refuses).
     """
     parents = motion.parents
     if parents is None:

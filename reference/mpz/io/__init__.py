@@ -248,7 +248,8 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     EncoderError
         With ``atomic``, when the file cannot be written (a full disk, no permission),
         naming ``path``; ``path`` (and an AMC's ASF) is never left cut short
-        (:func:`mpz.api.atomic_output`); an existing file is replaced.
+        (:func:`mpz.api.atomic_output`); an existing file is replaced, and so is a
+        symbolic link at ``path`` (its target is left as it was), as the commands do.
     """
     if not isinstance(motion, Motion):    # it failed deep in check_writable (QA, stop 33)
         raise TypeError(f"mpz.io.write: expected an mpz.Motion, got {type(motion).__name__}")

@@ -290,6 +290,15 @@ def read_motion(path: str, asf: str | None = None, *,
     return motion, size
 
 
+def read_motion_stdin_mpz(path: str, asf: str | None = None
+                          ) -> tuple[Motion, int | None, bytes | None]:
+    """:func:`read_motion`, and the MPZ bytes when ``path`` is ``-`` and standard input
+    held an MPZ file (None otherwise: a file can be read again, standard input cannot),
+    for ``mpz encode``'s look at the input's summary chunk."""
+    motion, ext, data, size = _read_input(path, asf, None, keep=path == STDIO)
+    return motion, size, data if ext == ".mpz" else None
+
+
 def read_input(path: str, asf: str | None = None, *,
                max_samples: int | None = None) -> tuple[Motion, str | None]:
     """:func:`read_motion`, and the extension of the format that was read (``".mpz"``...)."""

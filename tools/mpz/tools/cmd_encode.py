@@ -375,7 +375,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         Progress,
         compile_notice,
         human_size,
-        read_motion,
+        read_motion_stdin_mpz,
         write_stdout,
     )
 
@@ -390,7 +390,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     elif not args.force and sys.stdout.isatty():
         raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
-    motion, in_size = read_motion(job.input, args.asf)
+    motion, in_size, stdin_mpz = read_motion_stdin_mpz(job.input, args.asf)
     # the reader's (a file cut short, a header that disagrees with the rows); kept in the
     # file's meta, and the exit code is 1, "warnings only" (a QA run of stop 47: a note,
     # exit 0, and nothing at all with -q)
@@ -404,7 +404,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     motion = _rate(args, _units(args, motion, batch=batch), batch=batch)
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
-    opts, kept = _summary_of_mpz_input(args, opts, job.input)
+    opts, kept = _summary_of_mpz_input(args, opts, job.input, stdin_mpz)
     notes += kept + _option_notes(args, opts)
     notes = _input_notes(args, motion, job.input) + notes
     if not args.quiet:
@@ -622,19 +622,22 @@ def _input_notes(args: argparse.Namespace, motion, source: str, *,
     return notes
 
 
-def _summary_of_mpz_input(args: argparse.Namespace, opts: EncodeOptions, source: str
-                          ) -> tuple[EncodeOptions, list[str]]:
-    """An .mpz input's summary chunk, made again from its decoded motion with the same
-    levels, space and chunk type unless --summary is given: a re-encode dropped it without
-    a word (stop 49's list). Standard input's MPZ bytes are not kept to ask: a note."""
+def _summary_of_mpz_input(args: argparse.Namespace, opts: EncodeOptions, source: str,
+                          stdin_mpz: bytes | None) -> tuple[EncodeOptions, list[str]]:
+    """An .mpz input's summary chunk (a file, or ``stdin_mpz``: the MPZ bytes standard
+    input held), made again from its decoded motion with the same levels, space and chunk
+    type unless --summary is given: a re-encode dropped it without a word (stop 49's
+    list; from standard input too, a review of stop 50)."""
     from dataclasses import replace
 
     from mpz.io._common import ext_of
-    if args.summary is not None or source == "-" or ext_of(source) != ".mpz":
+    mpz_input = stdin_mpz if source == "-" else source
+    if args.summary is not None or mpz_input is None or (
+            source != "-" and ext_of(source) != ".mpz"):
         return opts, []
     import mpz
-    info = mpz.info(source)
-    summary = mpz.read_summary(source) if info.summary_levels else None
+    info = mpz.info(mpz_input)
+    summary = mpz.read_summary(mpz_input) if info.summary_levels else None
     if summary is None:
         return opts, []
     chunk = "smrc" if "smrc" in info.chunk_bytes else "smry"
