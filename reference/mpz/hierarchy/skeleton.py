@@ -5,8 +5,9 @@ own node, with itself as the only member and reference, parented like the
 skeleton, in breadth-first order from the skeleton root (children in point
 order). The first point with parent -1 is the root; other parentless points
 become children of the root node, in point order (so would points in a cycle of
-``parents``, which :class:`mpz.Motion` refuses since stop 50: kept as a defence). A motion without ``parents`` raises
-:class:`mpz.errors.EncoderError`. The result is not validated here.
+``parents``, which :class:`mpz.Motion` refuses since stop 50: kept as a defence).
+A motion without ``parents`` raises :class:`mpz.errors.EncoderError`. The result
+is not validated here.
 """
 from __future__ import annotations
 
