@@ -385,3 +385,15 @@ def test_a_minor_version_the_reference_does_not_implement_is_an_argument_error(m
     assert decode_layers(data, minor=0).q.shape == decode_layers(data).q.shape
     with pytest.raises(ValueError, match="minor must be an int 0 .. 1"):
         decode_layers(data, minor=minor)
+
+
+def test_an_accepted_invalid_vector_names_the_rules_it_breaks(tmp_path_factory):
+    """An implementer's QA run (stop 50): "expected rejection (byte 1 XOR 0x20)" sent them to
+    the manifest for the rule; the message names its §7.4 IDs, from the manifest."""
+    only = [_match(n) for n in BROKEN[next(i for i, b in enumerate(BROKEN)
+                                           if b[0] == "accept-all")][1]]
+    _, doc = broken_run(tmp_path_factory, "accept-all", only)
+    man = {v["name"]: v for v in mf.load()["vectors"]}
+    for name in (n for n in only if n.startswith("x")):
+        rules = man[name]["rules"]
+        assert rules and f"rules {', '.join(rules)} (spec §7.4)" in by_name(doc)[name]["message"]

@@ -617,8 +617,12 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
                 entry["message"] = f"rejected (exit {run['exit_code']})"
             else:
                 entry["actual"] = "decode"
+                # the rules it breaks, by their spec §7.4 IDs: "byte 1 XOR 0x20" alone sent
+                # an implementer to the manifest (a QA run of stop 50)
+                rules = ", ".join(vec.get("rules") or [])
                 entry["message"] = (f"expected rejection ({vec['corruption']}), but decoder "
-                                    f"exited 0; the reference raises {vec['expected_error']}")
+                                    f"exited 0; the reference raises {vec['expected_error']}"
+                                    + (f"; rules {rules} (spec §7.4)" if rules else ""))
             return entry
         # expected: decode
         if run["exit_code"] != 0:
