@@ -307,3 +307,15 @@ def test_a_hierarchy_fifo_and_a_bytes_output_path_are_named_for_what_they_are(tm
     with pytest.raises(TypeError, match="output path must be a str or an os.PathLike"):
         mpz.write_mpz(m, os.fsencode(tmp_path / "x.mpz"))
     assert not (tmp_path / "x.mpz").exists()
+
+
+def test_any_bytes_like_object_is_a_source():
+    """A QA run of the library (stop 50): array.array('B', data) was "expected a path, bytes
+    or a binary file object, got array", while a NumPy uint8 array and a memoryview were
+    taken; an array of wider items is refused, not read as its raw bytes."""
+    import array
+    data = mpz.encode(generate("walk", frames=20), max_error=1.0)
+    assert mpz.info(array.array("B", data)).frames == 20
+    assert mpz.decode(array.array("b", data)).n_frames == 20
+    with pytest.raises(TypeError, match="must be single bytes"):
+        mpz.decode(array.array("I", data[:len(data) // 4 * 4]))

@@ -25,7 +25,7 @@ import sys
 import tempfile
 import threading
 from types import FrameType
-from typing import IO, TYPE_CHECKING, Any, BinaryIO, TypeAlias
+from typing import IO, TYPE_CHECKING, Any, BinaryIO, TypeAlias, cast
 
 import numpy as np
 
@@ -222,6 +222,15 @@ def read_source(source: Source, *, limit: int = MAX_INPUT_BYTES) -> tuple[bytes,
         name = getattr(source, "name", None)
         data = read_stream_bytes(source, limit=limit, trailing=False)
         return data, name if isinstance(name, str) else None
+    try:                     # any other bytes-like object (array.array('B'), a QA run of
+        view = memoryview(cast(Any, source))     # stop 50: "expected a path ..., got array")
+    except TypeError:
+        view = None
+    if view is not None:
+        if view.itemsize != 1:
+            raise TypeError(f"{type(source).__name__}: the MPZ bytes must be single bytes "
+                            f"(itemsize 1), got itemsize {view.itemsize}")
+        return view.tobytes(), None
     raise TypeError(f"expected a path, bytes or a binary file object, got "
                     f"{type(source).__name__}")
 
