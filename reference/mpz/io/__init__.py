@@ -469,15 +469,13 @@ def _c3d_section_problems(motion: Motion) -> list[str]:
     (:func:`mpz.io.c3dbin.plain_parts`) cannot be written: more blocks than a C3D header
     counts (ezc3d wrote the count modulo 256: 490 of 1000 long names came back unnamed, a
     QA run of stop 50), too many points, a name too long."""
-    from mpz.io.c3d import c3d_first_frame
+    from mpz.io.c3d import plain_blocks
     if not all(is_utf8(n) for n in motion.names):
         return []                                 # refused as names that are not text
     try:
-        _, records = c3dbin.plain_parts(list(motion.names), 1.0, motion.units,
-                                        motion.n_frames, first=c3d_first_frame(motion))
+        blocks = plain_blocks(motion)
     except InputFormatError as exc:
         return [exc.message]
-    blocks = c3dbin.param_blocks(records)
     if blocks <= c3dbin.MAX_PARAM_BLOCKS:
         return []
     return [f"C3D: the {motion.n_markers} marker names need a parameter section of {blocks} "

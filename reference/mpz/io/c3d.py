@@ -533,13 +533,28 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
         c.write(tmp)
 
 
+def plain_blocks(motion: Motion) -> int:
+    """The 512-byte blocks of the parameter section of a C3D of ``motion``'s bare points
+    (:func:`long_bytes`' records, :func:`mpz.io.c3dbin.plain_parts`), which a C3D header
+    counts up to :data:`mpz.io.c3dbin.MAX_PARAM_BLOCKS`. Raises InputFormatError as
+    plain_parts does (too many points, a name too long)."""
+    _, records = c3dbin.plain_parts(list(motion.names), 1.0, motion.units, motion.n_frames,
+                                    first=c3d_first_frame(motion))
+    return c3dbin.param_blocks(records)
+
+
 def _many_parameter_blocks(motion: Motion) -> bool:
-    """True when the motion's names alone take more than a quarter of the 255 parameter
+    """True when the section (:func:`plain_blocks`) takes more than a quarter of the
     blocks a C3D header counts: ezc3d writes that count modulo 256 (a QA run of stop 50),
     and its section is not exactly ours, so such a file is written by :func:`long_bytes`,
-    which refuses what does not fit."""
-    width = max((len(n.encode("utf-8", "surrogatepass")) for n in motion.names), default=0)
-    return width * motion.n_markers > 64 * c3dbin.BLOCK       # POINT:LABELS, n x width
+    which refuses what does not fit. Names that are not text are left to the writers'
+    own refusal."""
+    if not all(is_utf8(n) for n in motion.names):
+        return False
+    try:
+        return plain_blocks(motion) > c3dbin.MAX_PARAM_BLOCKS // 4
+    except InputFormatError:
+        return True                    # long_bytes says why it cannot be written
 
 
 def long_bytes(motion: Motion) -> bytes:

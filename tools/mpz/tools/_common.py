@@ -279,22 +279,16 @@ def joint_positions_from_channels(motion: Motion, ext: str | None) -> bool:
     return ext == ".mpz" and isinstance(motion.extras.get("skeleton"), Skeleton)
 
 
-def read_motion(path: str, asf: str | None = None, *,
-                max_samples: int | None = None) -> tuple[Motion, int | None]:
-    """Any supported input: a motion file, an .mpz file (decoded), or ``-``; and its size
-    in bytes (what standard input held; None when a file's size cannot be had).
+def read_motion(path: str, asf: str | None = None
+                ) -> tuple[Motion, int | None, bytes | None]:
+    """Any supported input: a motion file, an .mpz file (decoded), or ``-``; its size in
+    bytes (what standard input held; None when a file's size cannot be had); and the MPZ
+    bytes when ``path`` is ``-`` and standard input held an MPZ file (None otherwise: a
+    file can be read again, standard input cannot), for ``mpz encode``'s look at the
+    input's summary chunk.
 
     ``-`` is read from standard input, its format found from its content.
     """
-    motion, _, _, size = _read_input(path, asf, max_samples, keep=False)
-    return motion, size
-
-
-def read_motion_stdin_mpz(path: str, asf: str | None = None
-                          ) -> tuple[Motion, int | None, bytes | None]:
-    """:func:`read_motion`, and the MPZ bytes when ``path`` is ``-`` and standard input
-    held an MPZ file (None otherwise: a file can be read again, standard input cannot),
-    for ``mpz encode``'s look at the input's summary chunk."""
     motion, ext, data, size = _read_input(path, asf, None, keep=path == STDIO)
     return motion, size, data if ext == ".mpz" else None
 

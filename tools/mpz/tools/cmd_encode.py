@@ -375,7 +375,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         Progress,
         compile_notice,
         human_size,
-        read_motion_stdin_mpz,
+        read_motion,
         write_stdout,
     )
 
@@ -390,7 +390,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     elif not args.force and sys.stdout.isatty():
         raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
-    motion, in_size, stdin_mpz = read_motion_stdin_mpz(job.input, args.asf)
+    motion, in_size, stdin_mpz = read_motion(job.input, args.asf)
     # the reader's (a file cut short, a header that disagrees with the rows); kept in the
     # file's meta, and the exit code is 1, "warnings only" (a QA run of stop 47: a note,
     # exit 0, and nothing at all with -q)
