@@ -337,6 +337,89 @@ def test_a_readers_warning_is_a_warning_of_its_file(corpus, capsys):
                          str(out / "two") + "/", "--jobs", "0", "--max-error", "1mm", "-q"])
     assert code == 1 and capsys.readouterr().err == ""       # a corpus run, the same code
 
+def test_a_rerun_says_again_what_the_first_run_said_of_each_file(corpus, capsys):
+    """A rerun that finds a file up to date says its reader's warning and its notes
+    again, and exits 1 as the first run did: the index records them (columns warning,
+    not_kept, notes). Before, the rerun's table had no WARNING line, no note, and exit 0
+    (stop 50's list)."""
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    said = _overstate_frames(paths["walk"], 9)
+    write(generate("walk", frames=1, seed=4), src / "still.trc")      # not searchable
+    first, again = run_corpus(src, out), run_corpus(src, out)
+    for rep, status in ((first, "encoded"), (again, "skipped")):
+        got = {Path(r.source).stem: (r.status, r.warning, len(r.notes)) for r in rep.results
+               if r.status != "failed"}
+        assert got == {"jump": (status, "", 0), "walk": (status, said, 0),
+                       "wave": (status, "", 0), "still": (status, "", 1)}, got
+        assert f"  WARNING {paths['walk']}: {said}" in rep.table().splitlines()
+        assert "not searchable" in next(r for r in rep.results
+                                        if r.source.endswith("still.trc")).notes[0]
+    argv = ["encode", "-r", str(src), "-o", str(out) + "/", "--jobs", "0", "--max-error",
+            "1mm", "-q"]
+    assert mpz_cli.main(argv) == 2                   # bad.trc fails, as in the first run
+    (src / "bad.trc").unlink()
+    assert mpz_cli.main(argv) == 1                   # every file up to date, one warning
+    with contextlib.closing(open_index(out / INDEX_NAME)) as index:
+        row = index.row("walk.mpz")
+    assert row is not None and (row["warning"], row["not_kept"]) == (said, "[]")
+
+
+def _drop_recorded_columns(index: Path) -> None:
+    """Make ``index`` as an mpz before the warning, not_kept and notes columns wrote it:
+    the same tables without them (mpz.corpus.SCHEMA as it was), the rows copied over."""
+    import sqlite3
+
+    from mpz.corpus import SCHEMA
+    old_schema, n = re.subn(r",( +--[^\n]*\n) *-- said of the file.*?\n *notes +TEXT[^\n]*\n",
+                            r"\1", SCHEMA, flags=re.S)
+    assert n == 1 and "not_kept" not in old_schema
+    old = index.with_name("old.sqlite")
+    db = sqlite3.connect(old)
+    db.executescript(old_schema)
+    db.execute("ATTACH DATABASE ? AS new", (str(index),))
+    for table in ("corpus", "files", "levels", "failures"):
+        names = ", ".join(r[1] for r in db.execute(f"PRAGMA main.table_info({table})"))
+        db.execute(f"INSERT INTO main.{table} SELECT {names} FROM new.{table}")
+    db.commit()
+    db.execute("DETACH DATABASE new")
+    db.close()
+    old.replace(index)
+
+
+def test_an_index_from_before_the_recorded_columns_is_read_and_completed(corpus):
+    """An index written before the warning, not_kept and notes columns: mpz search reads
+    it as it is; the next run adds the columns and reads each source again (status kept,
+    nothing encoded, the warning said), and the run after finds them up to date. A row
+    whose columns another program broke is read again the same way, not a crash."""
+    import sqlite3
+    src, out, paths = corpus
+    said = _overstate_frames(paths["walk"], 9)
+    run_corpus(src, out)
+    _drop_recorded_columns(out / INDEX_NAME)
+    with contextlib.closing(open_index(out / INDEX_NAME)) as index:
+        rows = index.rows()
+    assert {r["output"]: r["warning"] for r in rows} == \
+        {"jump.mpz": None, "walk.mpz": None, "sub/wave.mpz": None}
+    stamp = (out / "walk.mpz").stat().st_mtime_ns
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "kept", "walk": "kept", "wave": "kept"}
+    assert (out / "walk.mpz").stat().st_mtime_ns == stamp        # not written again
+    assert next(r.warning for r in rep.results if r.source.endswith("walk.trc")) == said
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "skipped", "walk": "skipped",
+                             "wave": "skipped"}
+    assert next(r.warning for r in rep.results if r.source.endswith("walk.trc")) == said
+    db = sqlite3.connect(out / INDEX_NAME)
+    db.execute("UPDATE files SET not_kept = '{' WHERE output = 'jump.mpz'")
+    db.execute("UPDATE files SET notes = '[1]' WHERE output = 'walk.mpz'")
+    db.commit()
+    db.close()
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "kept", "walk": "kept",
+                             "wave": "skipped"}
+
+
 def test_the_summary_ratio_leaves_out_files_that_drop_part_of_their_source():
     """The table's source/MPZ ratio counts what was kept: a file that drops part of its
     source (``not_kept``) adds its bytes to the totals, not to the ratio, and says so."""

@@ -148,7 +148,12 @@ CREATE TABLE IF NOT EXISTS files (
     mpz_version     TEXT NOT NULL,
     encoded_at      TEXT NOT NULL,     -- UTC, ISO 8601
     seconds         REAL NOT NULL,     -- read + encode + write + check + summary, wall
-    cpu_seconds     REAL NOT NULL      -- the same, CPU time of the worker process
+    cpu_seconds     REAL NOT NULL,     -- the same, CPU time of the worker process
+    -- said of the file when it was encoded, and said again by a run that finds it up to
+    -- date; NULL in a row written by an mpz before these columns (_RECORDED)
+    warning         TEXT,              -- the reader's warning about the source; '' none
+    not_kept        TEXT,              -- JSON list: what the output does not keep of it
+    notes           TEXT               -- JSON list: the options' notes on the file
 );
 CREATE INDEX IF NOT EXISTS files_sha256 ON files(source_sha256);
 CREATE TABLE IF NOT EXISTS levels (
@@ -173,6 +178,11 @@ _FILE_COLUMNS = ("output", "path", "source_sha256", "source_bytes", "source_mtim
                  "other_bytes", "total_bytes", "chunk_bytes", "ratio", "max_error", "arms",
                  "summary_method", "summary_dims", "descriptor", "fingerprint", "mpz_version",
                  "encoded_at", "seconds", "cpu_seconds")
+#: columns added after the first indexes were written (stop 51: a rerun that found a file
+#: up to date no longer said its reader's warning or its notes): an index without them
+#: gets them (ALTER TABLE, NULL in its rows) when a run opens it for writing, and a row
+#: whose value is NULL is read again from its source by the next run (status kept)
+_RECORDED = ("warning", "not_kept", "notes")
 
 
 #: the encode options for a file, from its units (so that lengths given with a unit convert)
@@ -544,9 +554,11 @@ def encode_file(task: Task) -> FileResult:
     levels = [(lv.k, lv.wssse, lv.starts.astype("<u4").tobytes(),
                np.ascontiguousarray(lv.means, "<f4").tobytes())
               for lv in (summary.levels if summary is not None else ())]
+    dropped = not_kept(motion, opts)
+    row.update(warning=warning, not_kept=json.dumps(dropped), notes=json.dumps(notes))
     return FileResult(task.source, task.output, status, "", src_bytes, len(data),
                       row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes,
-                      not_kept(motion, opts), warning)
+                      dropped, warning)
 
 
 def _fingerprint(task: Task, units: str, own_units: bool) -> str:
@@ -710,6 +722,12 @@ class Index:
                 raise EncoderError(f"{self.path}: not an MPZ corpus index (no table "
                                    f"{', '.join(missing)}); {_REBUILD}")
             columns = {r[1] for r in self.db.execute("PRAGMA table_info(files)")}
+            if create:
+                for c in _RECORDED:
+                    if c not in columns:
+                        self.db.execute(f"ALTER TABLE files ADD COLUMN {c} TEXT")
+                        columns.add(c)
+                self.db.commit()
         except sqlite3.OperationalError as exc:
             self._close_quietly()
             raise EncoderError(f"{self.path}: cannot {'write' if create else 'read'} the "
@@ -727,6 +745,9 @@ class Index:
             self._close_quietly()
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files table "
                                f"has no column {', '.join(lost)}); {_REBUILD}")
+        # read-only, an index written before the _RECORDED columns reads them as NULL
+        self._select = ", ".join([*_FILE_COLUMNS, *(c if c in columns else f"NULL AS {c}"
+                                                    for c in _RECORDED)])
 
     def _close_quietly(self) -> None:
         db = getattr(self, "db", None)
@@ -773,9 +794,9 @@ class Index:
             # levels go with their file (ON DELETE CASCADE), but a tool without foreign
             # keys enabled may have left some behind
             self.db.execute("DELETE FROM levels WHERE output = ?", (output_key,))
-            self.db.execute(f"INSERT INTO files ({', '.join(_FILE_COLUMNS)}) VALUES "
-                            f"({', '.join('?' * len(_FILE_COLUMNS))})",
-                            [result.row[c] for c in _FILE_COLUMNS])
+            names = (*_FILE_COLUMNS, *_RECORDED)
+            self.db.execute(f"INSERT INTO files ({', '.join(names)}) VALUES "
+                            f"({', '.join('?' * len(names))})", [result.row[c] for c in names])
             self.db.executemany("INSERT INTO levels VALUES (?, ?, ?, ?, ?)",
                                 [(output_key, k, w, s, m) for k, w, s, m in result.levels])
             self.db.execute("DELETE FROM failures WHERE path = ?", (result.row["path"],))
@@ -806,18 +827,22 @@ class Index:
         return [g for g in groups.values() if len(g) > 1]
 
     # -- reading
+    def _files(self, where: str, args: Sequence[Any] = ()) -> list[dict[str, Any]]:
+        """``files`` rows as dicts of every column (those of :data:`_RECORDED` None in an
+        index written before them)."""
+        cur = self.db.execute(f"SELECT {self._select} FROM files {where}", args)
+        return [dict(zip((*_FILE_COLUMNS, *_RECORDED), r, strict=True))
+                for r in cur.fetchall()]
+
     @_sql
     def row(self, output_key: str) -> dict[str, Any] | None:
-        cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files WHERE output = ?",
-                              (output_key,))
-        got = cur.fetchone()
-        return None if got is None else dict(zip(_FILE_COLUMNS, got, strict=True))
+        got = self._files("WHERE output = ?", (output_key,))
+        return got[0] if got else None
 
     @_sql
     def rows(self) -> list[IndexRow]:
         """Every indexed file with its summary, in output order."""
-        cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files ORDER BY output")
-        values = [dict(zip(_FILE_COLUMNS, r, strict=True)) for r in cur.fetchall()]
+        values = self._files("ORDER BY output")
         levels: dict[str, list[tuple[int, bytes, bytes, float]]] = {}
         for out, k, w, s, m in self.db.execute(
                 "SELECT output, k, wssse, starts, means FROM levels ORDER BY output, k"):
@@ -932,9 +957,7 @@ class Index:
         version = self.info().get("descriptor_version")
         levels = self.levels()
         width = len(features_for(levels))
-        cur = self.db.execute(f"SELECT {', '.join(_FILE_COLUMNS)} FROM files WHERE "
-                              "summary_method != ? ORDER BY output", (NO_SUMMARY,))
-        values = [dict(zip(_FILE_COLUMNS, r, strict=True)) for r in cur.fetchall()]
+        values = self._files("WHERE summary_method != ? ORDER BY output", (NO_SUMMARY,))
         if values and version != DESCRIPTOR_VERSION:
             raise EncoderError(
                 f"{self.path}: an index of descriptor version {version or '(none)'}, this mpz "
@@ -1151,29 +1174,31 @@ def _up_to_date(row: dict[str, Any] | None, task: Task) -> bool:
     # the row must be this source's: another file of the same size and time at another
     # path (a second folder into the same output, a moved input folder) was "up to date"
     # and never archived (an archive team's QA run of stop 50)
-    return (row["path"] == os.path.abspath(task.source)
+    # a row of an mpz before the _RECORDED columns cannot say its file's warning and notes
+    return (_said_of_row(row) is not None
+            and row["path"] == os.path.abspath(task.source)
             and row["fingerprint"] in fps and row["source_bytes"] == st.st_size
             and row["source_mtime_ns"] == st.st_mtime_ns and out.st_size == row["total_bytes"]
             and out.st_mtime_ns >= st.st_mtime_ns)
 
 
-def _not_kept_of_row(row: dict[str, Any]) -> list[str]:
-    """What an output that is up to date by its index row does not keep of its source, told
-    by the chunks the row says it holds (:func:`mpz.encoder.not_kept`'s rule for a file a
-    reader read): a C3D's archive, a skeletal source's skeleton. A rerun counted such files
-    in its ratio and stopped naming them (an archive team's QA run of stop 50)."""
-    from mpz.c3darchive import C3D_EXTENSION
-    from mpz.skeleton import EXTENSION as SKELETON_EXTENSION
+def _said_of_row(row: dict[str, Any]) -> dict[str, Any] | None:
+    """What a run said of a file when it encoded it, from its index row: the reader's
+    warning, what the output does not keep, and the notes (a rerun that found the file up
+    to date skipped the warning and the notes, and counted a file that drops part of its
+    source in its ratio: archive teams' QA runs of stops 50 and 51). None for a row that
+    cannot say: written by an mpz before these columns (NULL), or changed by another
+    program into something else."""
     try:
-        held = set(json.loads(row["chunk_bytes"]))
+        said = {"warning": row["warning"], "not_kept": json.loads(row["not_kept"]),
+                "notes": json.loads(row["notes"])}
     except (TypeError, ValueError):
-        held = set()
-    out = []
-    if row["format"] == ".c3d" and not held & set(C3D_EXTENSION.chunk_types):
-        out.append("analog, parameters and residuals (the output holds no C3D archive)")
-    if row["format"] in (".bvh", ".amc") and not held & set(SKELETON_EXTENSION.chunk_types):
-        out.append("joint angles and the skeleton")
-    return out
+        return None
+    lists = [said["not_kept"], said["notes"]]
+    if not (isinstance(said["warning"], str) and all(
+            isinstance(v, list) and all(isinstance(x, str) for x in v) for v in lists)):
+        return None
+    return said
 
 
 def _temp_pattern(output: str) -> re.Pattern[str]:
@@ -1607,9 +1632,10 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             row = index.row(t.output_key)
             if t.output_key not in damaged and _up_to_date(row, t):
                 assert row is not None
+                said = _said_of_row(row)
+                assert said is not None             # _up_to_date checked it
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
-                                     row["total_bytes"], row["raw_bytes"],
-                                     not_kept=_not_kept_of_row(row)))
+                                     row["total_bytes"], row["raw_bytes"], **said))
             else:
                 tasks[i] = replace(t, indexed=row is not None)
                 todo.append(i)
