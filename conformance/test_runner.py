@@ -66,7 +66,7 @@ THROUGH_RUNNER = [v["name"] for g in _EVERY
 def test_reference_decoder_passes_the_vectors(tmp_path):
     proc, doc = run(tmp_path, "--decoder", REF, *([] if FULL else ["--only", *THROUGH_RUNNER]))
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert doc["schema_version"] == 3 and doc["mode"] == "decoder"
+    assert doc["schema_version"] == 4 and doc["mode"] == "decoder"
     assert doc["contract"] == "full" and doc["implements"] == "1.1"
     assert doc["totals"]["failed"] == 0
     assert doc["totals"]["total"] == len(THROUGH_RUNNER)
@@ -266,6 +266,11 @@ def test_implements_1_0_passes_a_1_0_decoder_and_fails_a_1_1_one(tmp_path):
     assert doc["implements"] == "1.0" and doc["totals"]["failed"] == 0
     assert "judged as a 1.0 decoder must read them" in proc.stdout
     got = by_name(doc)
+    # a re-judged vector says so when it passes too (only its failure said it: stop 50)
+    for n in _AS_1_0:
+        assert got[n]["judged_as"].startswith("as a 1.0 decoder reads it, with "), got[n]
+        assert got[n]["message"].endswith(f"[judged {got[n]['judged_as']}]")
+    assert [got[n]["judged_as"] for n in only[-2:]] == [None, None]     # as written
     assert all(got[n]["actual"] == "decode" for n in _AS_1_0 if n not in
                ("x206-cana-samples-over-limit", "x236-skeleton-channel-samples-over-limit"))
     proc, doc = run(tmp_path, "--decoder", REF, "--implements", "1.0", *only, name="r2.json")

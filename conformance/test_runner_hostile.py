@@ -437,6 +437,21 @@ def test_a_decoder_that_runs_but_fails_every_check_is_not_sent_after_its_path(tm
     assert "check that it runs at all" not in proc.stderr
 
 
+def test_a_decoder_that_crashes_or_hangs_is_not_sent_after_its_path(tmp_path):
+    """A decoder that starts and then crashes (SIGSEGV) or hangs on every valid vector was
+    told to check that it runs at all from a temporary directory (an implementer's QA run
+    of stop 50); the warning says what it did instead."""
+    crash = script(tmp_path / "crash.sh", "#!/bin/sh\nkill -SEGV $$\n")
+    proc, _ = run(tmp_path, "--decoder", str(crash), "--only", ONE, BAD)
+    assert proc.returncode == 1
+    assert "the command crashed on each of the 1 valid vector(s)" in proc.stderr
+    assert "check that it runs at all" not in proc.stderr
+    hang = script(tmp_path / "hang.sh", "#!/bin/sh\nexec sleep 60\n")
+    proc, _ = run(tmp_path, "--decoder", str(hang), "--timeout", "1", "--only", ONE)
+    assert "the command timed out on each of the 1 valid vector(s)" in proc.stderr
+    assert "check that it runs at all" not in proc.stderr
+
+
 def test_an_encoder_that_renames_a_marker_is_told_which(tmp_path):
     """The encoder check quoted the first four names of each list, which were equal when
     the last marker was renamed (a QA run of stop 47). It names the first index that

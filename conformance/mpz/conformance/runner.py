@@ -71,8 +71,8 @@ from mpz.tools._cli import (
     reports_ctrl_c,
 )
 
-RESULTS_SCHEMA_VERSION = 3          # 2: sidecar, contract, peak_rss_mb, actual 'memory';
-#                                     3: implements
+RESULTS_SCHEMA_VERSION = 4          # 2: sidecar, contract, peak_rss_mb, actual 'memory';
+#                                     3: implements; 4: judged_as
 STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
 FAIL_LIST = 10              # differing samples listed per vector
 
@@ -566,7 +566,11 @@ def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout:
     whose reason a failure's message ends with)."""
     entry = _run_decoder_vector(cmd, vdir, vec, timeout, memory_mb, array_only,
                                 expected_array)
-    if not entry["passed"] and vec.get("note"):
+    # a vector re-judged for an earlier minor version says so whether it passed or not: a
+    # pass was told from a pass of the vector as written by nothing (an implementer's QA
+    # run of stop 50)
+    entry["judged_as"] = vec.get("note")
+    if vec.get("note"):
         entry["message"] += f" [judged {vec['note']}]"
     return entry
 
@@ -902,6 +906,16 @@ def _warn_if_nothing_decoded(results: list[dict[str, Any]]) -> None:
                   f"valid vector(s), though it ran and exited 0 (the first: {said}): until "
                   "its outputs pass, its rejections of invalid vectors prove little",
                   file=sys.stderr)
+            return
+        kinds = sorted({str(r.get("actual")) for r in valid})
+        if set(kinds) <= {"crash", "timeout", "memory"}:
+            # it started: the start-up hint below sent a decoder that crashes or hangs after
+            # a path problem (an implementer's QA run of stop 50)
+            what = " or ".join({"crash": "crashed", "timeout": "timed out",
+                                "memory": "ran out of memory"}[k] for k in kinds)
+            print(f"mpz-conformance: warning: the command {what} on each of the "
+                  f"{len(valid)} valid vector(s) (the first: {said}): until it decodes "
+                  "them, its rejections of invalid vectors prove nothing", file=sys.stderr)
             return
         print(f"mpz-conformance: warning: the command decoded none of the {len(valid)} valid "
               f"vector(s) (the first: {said}); check that it runs at all from a temporary "
