@@ -23,7 +23,8 @@ REPO = Path(__file__).resolve().parents[1]
 SPEC = REPO / "spec" / "mpz-1.md"
 EXAMPLE = REPO / "conformance" / "vectors" / "spec-example.mpz"
 GRAMMAR = REPO / "spec" / "mpz" / "spec" / "grammar.py"
-CITING = sorted((REPO / "reference" / "mpz").rglob("*.py")) + [GRAMMAR]
+CITING = sorted([*(REPO / "reference" / "mpz").rglob("*.py"),
+                 *(REPO / "tools" / "mpz").rglob("*.py")]) + [GRAMMAR]
 
 HEADING = re.compile(r"^#{2,4} (\d+(?:\.\d+)*)\.? +(.*)$", re.M)
 SECTION_REF = re.compile(r"§(\d+(?:\.\d+)*)")
