@@ -73,9 +73,12 @@ def test_validate_rejects(what, nodes, n, words):
 
 
 def test_validate_rejects_too_many_nodes():
+    """Spec §4.1: node_count <= marker_count, which §8 holds to 4096 (the limit said was
+    65535, "node indices are 16-bit", which no § says)."""
+    assert MAX_NODES == 4096
     n = MAX_NODES + 1
     nodes = [Node("root", -1, 0, [0])] + [Node(f"n{i}", 0, i, [i]) for i in range(1, n)]
-    with pytest.raises(EncoderError, match="65535"):
+    with pytest.raises(EncoderError, match="at most 4096 allowed"):
         Hierarchy(nodes, "file").validate(n)
 
 

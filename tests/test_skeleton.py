@@ -1040,7 +1040,7 @@ BVH_RULES = [
     ("§4.14.1", "channel kind twice", lambda r: _joint(r, 1, channels=(5, 3, 5))),
     ("§4.14.1", "seven channels", lambda r: _joint(r, 1, channel_count=7,
                                                    channels=(0, 1, 2, 3, 4, 5, 0))),
-    ("§4.14.1", "channel count differs", lambda r: dataclasses.replace(
+    ("§4.14", "channel count differs", lambda r: dataclasses.replace(     # R-4.14-2
         r, channel_count=r.channel_count - 1, channels=r.channels[:-1])),
     ("§4.14", "position bound NaN", lambda r: dataclasses.replace(r, position_bound=math.nan)),
     ("§4.14", "position bound < 0", lambda r: dataclasses.replace(r, position_bound=-1.0)),
@@ -1115,7 +1115,7 @@ ASF_RULES = [
     ("§4.14.2", "AMC order repeats", lambda r: dataclasses.replace(r, amc_order=(0, 0))),
     ("§4.14.2", "AMC order misses a bone with dofs",
      lambda r: dataclasses.replace(r, amc_count=1, amc_order=(0,))),
-    ("§4.14.2", "channel count differs", lambda r: dataclasses.replace(
+    ("§4.14", "channel count differs", lambda r: dataclasses.replace(     # R-4.14-2
         r, channel_count=r.channel_count - 1, channels=r.channels[:-1])),
 ]
 

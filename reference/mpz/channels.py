@@ -35,7 +35,8 @@ from mpz.predict import reconstruct, residuals
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
 
-#: one turn, in degrees: what a wrapped channel is taken modulo (§4.14)
+#: what a wrapped channel is taken modulo, in its own units (§4.14): one turn of an angle
+#: in degrees
 TURN_DEGREES = 360
 #: step mantissas the reference encoder uses; each divides 360 x 10^d, so every one of its
 #: steps can wrap (§4.14)
@@ -64,8 +65,8 @@ class Coding(Protocol):
 
 
 def turn_steps(mantissa: int, digits: int) -> int | None:
-    """N, the steps in one turn of 360 degrees at step ``m x 10^-d``, or None when 360 is not
-    a whole number of steps (§4.14)."""
+    """N, the steps in 360 of a channel's units (one turn of an angle in degrees) at step
+    ``m x 10^-d``, or None when 360 is not a whole number of steps (§4.14)."""
     whole = TURN_DEGREES * 10 ** digits
     return None if whole % mantissa else whole // mantissa
 

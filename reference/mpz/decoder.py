@@ -1,11 +1,14 @@
-"""The MPZ 1.0 decoder: spec §6, step by step.
+"""The MPZ 1.x decoder: spec §6, step by step.
 
 Strategy: :func:`read_stream` turns bytes into a validated :class:`Stream`: framing via
 :mod:`mpz.container`, then the §3.4 order of the critical chunks, each chunk checked by
 its own entry in :mod:`mpz.chunks` (which holds the §4 rules) with the limits of §8
 checked before anything is allocated. :func:`decode_layers` runs the integer decoding
 process of §6.1-§6.7, which every conforming decoder must reproduce exactly;
-:func:`decode` adds the one floating-point step (§6.8).
+:func:`decode` adds the one floating-point step (§6.8). The 1.1 ancillary chunks decode
+inside their own checks, at step 3 (§6 lets a decoder reorder the steps): §6.9 in
+:mod:`mpz.chunks.c3d` with :func:`mpz.c3dcodec.decode_channel`, §6.10 in
+:mod:`mpz.chunks.skeleton` with :func:`mpz.channels.decode`.
 
 Memory (§8, the budget this decoder promises): besides q, one node's decoded block at a
 time; de-normalisation, smoothing, composition and §6.8 go a block of frames at a time
@@ -218,7 +221,7 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
             role = "meta" if c.type == "meta" else "summary"
             if c.type in seen:
                 raise FormatError(f"more than one {c.type} chunk", offset=c.offset,
-                                  chunk=c.type, section=CHUNKS[c.type].SECTION)
+                                  chunk=c.type, section="§3.4")     # R-3.4-10
             if role in seen:
                 raise FormatError("a file holds at most one summary chunk: smry or smrc, not "
                                   "both", offset=c.offset, chunk=c.type, section="§4.15")

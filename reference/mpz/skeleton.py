@@ -600,7 +600,7 @@ class SkeletonExtension:
             bound = declared(err, skeleton_size(skel))
         if err > bound:                                    # steps_for_position checked it
             raise EncoderError(f"the channels move joints by {err:g}, beyond the bound "
-                               f"{bound:g} (spec §7.2)")
+                               f"{bound:g} (spec §4.14, position_bound)")
         return [skeleton_record(skel, codings, coded, bound)]
 
     def attach(self, records: dict[str, list[Record]], motion: Motion) -> None:

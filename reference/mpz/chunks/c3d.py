@@ -157,7 +157,7 @@ def _content(cls: type[Record], coding: int, body: bytes, limit: int) -> bytes:
                               f"more than {limit}", chunk=cls.TYPE, section=cls.SECTION)
         return body
     if coding == ByteCoding.DEFLATE:
-        return inflate(body, limit, cls.TYPE, cls.SECTION)
+        return inflate(body, limit, cls.TYPE, "§4.13")     # the byte coding's rule
     raise FormatError(f"malformed {cls.TYPE} payload: coding {coding}, not 0 (stored) or 1 "
                       f"(DEFLATE)", chunk=cls.TYPE, section="§4.13")
 
@@ -455,7 +455,7 @@ class Cpnt(Record):
         if sorted(self.slots) != list(range(P)):
             _fail("slots are not a permutation of 0 .. point_count - 1", s)
         for p, ch in enumerate(self.words):
-            ch.check_entry(self.storage, f"point {p} word channel", s)
+            ch.check_entry(self.storage, f"point {p} word channel", "§4.13")
         for j, m in enumerate(self.models):
             if m.kind not in set(ModelKind):
                 _fail(f"model output {j}: unknown kind {m.kind}", s)
@@ -470,7 +470,7 @@ class Cpnt(Record):
         return kept(self, (F, M), lambda: self._decode(F))
 
     def _decode(self, F: int) -> PointsDecoded:
-        s = "§4.13.3"
+        s = "§6.9"                      # every check of the decoded values is §6.9's
         J = self.model_count
         dec = BlockDecoder(self.coded, chunk=self.TYPE)
         words = np.empty((F, self.point_count), _dtype(self.storage))
@@ -534,7 +534,7 @@ class Cana(Record):
             _fail(f"{F} frames x {n} samples x {C} channels exceed MAX_ANALOG_SAMPLES "
                   f"{limit}{lowered}", "§8", LimitExceededError)
         for c, ch in enumerate(self.table):
-            ch.check_entry(self.storage, f"analog channel {c}", s)
+            ch.check_entry(self.storage, f"analog channel {c}", "§4.13")
         self.decode(F)
 
     def decode(self, F: int) -> NDArray[Any]:
@@ -546,7 +546,7 @@ class Cana(Record):
         out = np.empty((T, self.channels), _dtype(self.storage))
         dec = BlockDecoder(self.coded, chunk=self.TYPE)
         for c, ch in enumerate(self.table):              # each into its column (§8)
-            ch.decode(dec, T, self.storage, "§4.13.4", out[:, c])
+            ch.decode(dec, T, self.storage, "§6.9", out[:, c])
         dec.close()
         return out
 

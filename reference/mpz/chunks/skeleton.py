@@ -87,12 +87,12 @@ def _set_rule(ctx: Context) -> None:
 
 
 def _check_layer(channel_count: int, expected: int, position_bound: float,
-                 channels: tuple[ChannelCoding, ...], ctx: Context, section: str) -> None:
+                 channels: tuple[ChannelCoding, ...], ctx: Context) -> None:
     """The §4.14 rules of a channel layer whose skeleton has ``expected`` channels."""
     F = ctx.header.frame_count
     if channel_count != expected:
         _fail(f"the channel layer holds {channel_count} channels, the skeleton has {expected}",
-              section)
+              "§4.14")
     limit, lowered = ctx.limit("MAX_CHANNEL_SAMPLES")
     if F * channel_count > limit:
         _fail(f"frame_count x channel_count = {F} x {channel_count} exceeds "
@@ -109,8 +109,9 @@ def _check_layer(channel_count: int, expected: int, position_bound: float,
         if c.wrap:
             turn = turn_steps(c.step_mantissa, c.step_digits)
             if turn is None:
-                _fail(f"{what}: a wrapped channel needs a step that divides 360 degrees; "
-                      f"{c.step_mantissa} x 10^-{c.step_digits} does not", "§4.14")
+                _fail(f"{what}: a wrapped channel needs a step that divides 360 of its units "
+                      f"(360 x 10^d a multiple of m); {c.step_mantissa} x 10^-{c.step_digits} "
+                      "does not", "§4.14")
                 return
             # spec §4.14: "every value low .. low + N - 1 satisfies |x| < 2^31"
             if not (-CHANNEL_VALUE_LIMIT < c.low and c.low + turn <= CHANNEL_VALUE_LIMIT):
@@ -231,7 +232,7 @@ class Bvhs(_Layer, Record):
                       "§4.14.1")
             _kinds(j.channels, ChannelKind.RZ, what, "§4.14.1")
         _check_layer(self.channel_count, self.skeleton_channels, self.position_bound,
-                     self.channels, ctx, "§4.14.1")
+                     self.channels, ctx)
         self.integers(ctx.header.frame_count)          # §6.10: the layer must decode
 
 
@@ -353,7 +354,7 @@ class Asfs(_Layer, Record):
         if not need <= seen:
             _fail(f"AMC order leaves out joints {sorted(need - seen)} that have channels", sec)
         _check_layer(self.channel_count, self.skeleton_channels, self.position_bound,
-                     self.channels, ctx, sec)
+                     self.channels, ctx)
         self.integers(ctx.header.frame_count)          # §6.10: the layer must decode
 
 

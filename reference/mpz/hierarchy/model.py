@@ -16,9 +16,11 @@ import math
 from typing import Any
 
 from mpz.errors import EncoderError
+from mpz.format import MAX_MARKERS
 
-#: spec §8: node indices are 16-bit.
-MAX_NODES = 65535  # 2^16 - 1
+#: the most nodes a hierarchy has: spec §4.1's node_count is 1 .. marker_count, and
+#: marker_count is at most MAX_MARKERS (§8)
+MAX_NODES = MAX_MARKERS
 
 
 @dataclass
@@ -124,7 +126,8 @@ def _check_shape(nodes: Sequence[Node], n_markers: int) -> None:
     if not nodes:
         raise EncoderError("a hierarchy needs at least one node, got 0")
     if len(nodes) > MAX_NODES:
-        raise EncoderError(f"{len(nodes)} nodes, at most {MAX_NODES} allowed")
+        raise EncoderError(f"{len(nodes)} nodes, at most {MAX_NODES} allowed (spec §4.1: "
+                           "node_count <= marker_count <= MAX_MARKERS)")
     if n_markers < 1:
         raise EncoderError(f"a hierarchy needs at least one marker, got {n_markers}")
     root = nodes[0]
