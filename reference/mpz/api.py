@@ -30,7 +30,7 @@ from typing import IO, TYPE_CHECKING, Any, BinaryIO, TypeAlias, cast
 import numpy as np
 
 from mpz.errors import EncoderError, FormatError, LimitExceededError, MPZError
-from mpz.format import MAX_CHUNK_LENGTH, MAX_SAMPLES
+from mpz.format import MAX_CHUNK_LENGTH, MAX_SAMPLES, SIGNATURE
 
 if TYPE_CHECKING:
     from mpz.encoder import EncodeReport
@@ -46,7 +46,6 @@ Source: TypeAlias = "str | os.PathLike[str] | bytes | bytearray | memoryview | I
 #: limit of this decoder ("A decoder MAY use lower limits", §8), before it is read.
 MAX_INPUT_BYTES = 1 << 32
 
-_SIGNATURE = b"\x89MPZ\r\n\x1a\n"   # spec §3.1 (mpz.spec.grammar.SIGNATURE)
 _READ_BLOCK = 1 << 20
 
 
@@ -141,7 +140,7 @@ def read_stream_bytes(fh: IO[bytes], *, limit: int = MAX_INPUT_BYTES,
 
     if len(out) < 8 and not take(8 - len(out)):
         return bytes(out)
-    if bytes(out[:8]) != _SIGNATURE:
+    if bytes(out[:8]) != SIGNATURE:
         return bytes(out)
     pos = 8
     while True:

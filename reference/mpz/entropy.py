@@ -22,8 +22,8 @@ from numpy.typing import ArrayLike, NDArray
 from mpz._jit import njit
 from mpz.errors import FormatError, LimitExceededError
 
-# §5.1 constants
-PROB_BITS = 11          # probabilities are 11-bit: p in [1, 2047], p(0) = p / 2048
+# §5.1-§5.2 constants
+PROB_BITS = 11          # probabilities are 11-bit, p(0) = p / 2048; p stays in 31..2017 (§5.2)
 PROB_INIT = 1 << (PROB_BITS - 1)   # 1024: 50 %
 MOVE_BITS = 5           # adaptation rate 2^-5
 TOP = 1 << 24           # renormalise when range < 2^24

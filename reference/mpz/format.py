@@ -1,4 +1,7 @@
-"""Every constant of the MPZ 1.x format, in one place: code tables, flags and limits.
+"""The MPZ 1.x format's shared constants, in one place: code tables, flags and limits.
+A constant that one module alone needs stays beside its rule there (for example
+:data:`mpz.channels.TURN_DEGREES`, :data:`mpz.c3dcodec.K_LIMIT`, ``SMRC_MINOR`` in
+:mod:`mpz.chunks.summary`).
 
 Contract: nothing here computes anything. Code tables of the spec are ``IntEnum`` s,
 limits are plain integers with their derivation. The grammar
@@ -95,7 +98,7 @@ MAX_PATTERN_LENGTH = 4096       # L, frames per pattern
 MAX_PATTERN_SAMPLES = 1 << 24   # K * L * n_i per node
 MAX_SMOOTHING = 16              # h, the boundary filter's half-width
 MAX_SUMMARY_LEVELS = 64
-MAX_SUMMARY_VALUES = 1 << 24    # sum over smry levels of k * D
+MAX_SUMMARY_VALUES = 1 << 24    # sum over the levels of k * D (smry or smrc), and of k (smrc)
 #: the §8 limits table, by name (the spec's machine-readable ``mpz:limits`` block lists the same)
 LIMITS: dict[str, int] = {
     "MAX_FRAMES": MAX_FRAMES, "MAX_MARKERS": MAX_MARKERS, "MAX_SAMPLES": MAX_SAMPLES,

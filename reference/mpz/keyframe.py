@@ -34,11 +34,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from mpz._jit import njit
 from mpz.errors import FormatError
+from mpz.format import KEY_VALUE_LIMIT
 
 if TYPE_CHECKING:
     from mpz.entropy import BlockDecoder, BlockEncoder
 
-_VALUE_LIMIT = 1 << 31
 _T = TypeVar("_T")
 #: the key values are searched within this radius (grid steps) when a larger one is given:
 #: :func:`_fit` lists every grid point of the ball, (2r)^3 of them, so a radius of 350
@@ -140,7 +140,9 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
              keys: NDArray[np.int64], F: int, out: NDArray[np.int64],
              cols: NDArray[np.int64]) -> tuple[int, int, int]:
     """Key values from residuals (§6.5) and their interpolation, member m into
-    ``out[:, cols[m]]``; returns an error code (0: none), the member and a detail, which
+    ``out[:, cols[m]]``; returns an error code (0: none; 2: key value k, the detail, has
+    |w_k| >= 2^31; 3: the member names a reference that is not an earlier member, which
+    the caller has refused first), the member and a detail, which
     is max |w_k| over every key value when the code is 0: the largest magnitude of the
     whole layer, since each interpolated value lies between its two keys (§6.7 rule 1
     without reading the layer again: that was 12 % of decoding cmu_135_02).
@@ -161,7 +163,7 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
         p = refs[m]
         mode = 0 if p == 0 else (1 if p % 2 == 1 else 2)
         j = (p - 1) // 2 if p > 0 else 0
-        if p > 0 and j >= m:
+        if p > 0 and j >= m:            # checked by the caller first: a guard of memory
             return 3, m, j
         R = out[:, cols[j]]
         col = cols[m]
@@ -175,7 +177,7 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
                     tk += 1
             for c in range(3):
                 v = _predict_key(mode, k, tk, t1, t2, w1[c], w2[c], R, c) + keys[k_at + k, c]
-                if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:
+                if v >= KEY_VALUE_LIMIT or v <= -KEY_VALUE_LIMIT:
                     return 2, m, k
                 wk[c] = v
                 if abs(v) > peak:
@@ -244,6 +246,9 @@ def decode_payload_peak(dec: BlockDecoder, F: int, n: int, *, chunk: str | None 
     if code == 2:
         # checked as each w_k is computed, before it enters a later prediction (§6.5, §1.1)
         fail(f"member {m}: key value w_{detail} has |w_k| >= 2^31")
+    if code == 3:       # the references were checked above: a defect, never a bad file
+        raise AssertionError(f"_rebuild: member {m} references member {detail}, not an "
+                             "earlier one, after the check of the references")
     return out, int(detail)
 
 

@@ -5,8 +5,10 @@ build (``dump``) and what mpzinfo shows (``info``). See :mod:`mpz.chunks.base`.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 import math
+from typing import Protocol
 
 import numpy as np
 
@@ -352,32 +354,63 @@ class Smry(Record):
     levels: tuple[SummaryLevel, ...]
 
     def check(self, ctx: Context) -> None:
-        F, M = ctx.header.frame_count, ctx.header.marker_count
-        if self.space not in set(SummarySpace):
-            _fail(f"unknown summary space {self.space}", "§4.10")
-        if self.space == SummarySpace.POSITIONS and self.dims != 3 * M:
-            _fail(f"position summary has {self.dims} dims, expected {3 * M}", "§4.10")
-        if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS:
-            _fail(f"summary level count {self.level_count} not in 1..{MAX_SUMMARY_LEVELS}",
-                  "§4.10")
-        total = 0
+        F = ctx.header.frame_count
+        values, _ = check_summary_head(self, ctx, "§4.10")
         for lv in self.levels:
-            # §1.1: 1 <= k <= F before k x D joins the sum; levels may come in any order and
-            # repeat k, and D = 0 is allowed for space 1 (§4.10: not checked)
-            if not 1 <= lv.k <= F:
-                _fail(f"summary level with k = {lv.k} for {F} frames", "§4.10")
-            total += lv.k * self.dims
-            if not (math.isfinite(lv.step) and lv.step > 0 and math.isfinite(lv.wssse)
-                    and lv.wssse >= 0):
-                _fail("summary step must be > 0 and wssse >= 0, both finite", "§4.10")
             starts = lv.start_frames()
             if (starts[0] != 0 or (np.diff(starts.astype(np.int64)) <= 0).any()
                     or starts[-1] >= F):
                 _fail("summary starts must begin at 0, increase strictly and stay below F",
                       "§4.10")
-        if total > MAX_SUMMARY_VALUES:
-            _fail(f"summary holds {total} values, limit {MAX_SUMMARY_VALUES}", "§8",
+        if values > MAX_SUMMARY_VALUES:
+            _fail(f"summary holds {values} values, limit {MAX_SUMMARY_VALUES}", "§8",
                   LimitExceededError)
+
+
+class _SummaryLevelHead(Protocol):         # a level of smry or smrc
+    @property
+    def k(self) -> int: ...
+    @property
+    def step(self) -> float: ...
+    @property
+    def wssse(self) -> float: ...
+
+
+class _SummaryHead(Protocol):              # smry or smrc
+    @property
+    def space(self) -> int: ...
+    @property
+    def dims(self) -> int: ...
+    @property
+    def level_count(self) -> int: ...
+    @property
+    def levels(self) -> Sequence[_SummaryLevelHead]: ...
+
+
+def check_summary_head(rec: _SummaryHead, ctx: Context, section: str) -> tuple[int, int]:
+    """The rules that smry (§4.10) and smrc (§4.15, "as for smry") share: the space, D =
+    3M for positions, 1 .. MAX_SUMMARY_LEVELS levels, 1 <= k <= F and a finite step > 0
+    and wssse >= 0 at each level. Returns the sums of k x D and of k, formed after each k
+    is checked (§1.1), for the caller's §8 limit."""
+    F, M = ctx.header.frame_count, ctx.header.marker_count
+    if rec.space not in set(SummarySpace):
+        _fail(f"unknown summary space {rec.space}", section)
+    if rec.space == SummarySpace.POSITIONS and rec.dims != 3 * M:
+        _fail(f"position summary has {rec.dims} dims, expected {3 * M}", section)
+    if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS:
+        _fail(f"summary level count {rec.level_count} not in 1..{MAX_SUMMARY_LEVELS}",
+              section)
+    values = segments = 0
+    for lv in rec.levels:
+        # levels may come in any order and repeat k, and D = 0 is allowed for space 1
+        if not 1 <= lv.k <= F:
+            _fail(f"summary level with k = {lv.k} for {F} frames", section)
+        segments += lv.k
+        values += lv.k * rec.dims
+        if not (math.isfinite(lv.step) and lv.step > 0 and math.isfinite(lv.wssse)
+                and lv.wssse >= 0):
+            _fail("summary step must be > 0 and wssse >= 0, both finite", section)
+    return values, segments
 
 
 # ------------------------------------------------------------------ §4.11 meta --

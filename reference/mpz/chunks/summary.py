@@ -17,16 +17,16 @@ the starts and the integer means, which :func:`mpz.read_summary` dequantises.
 from __future__ import annotations
 
 from dataclasses import dataclass
-import math
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mpz.chunks.base import JSON, Context, Record
 from mpz.chunks.base import fail as _fail
+from mpz.chunks.core import check_summary_head
 from mpz.entropy import BlockDecoder, BlockEncoder
 from mpz.errors import EncoderError, LimitExceededError
-from mpz.format import MAX_SUMMARY_LEVELS, MAX_SUMMARY_VALUES, SummarySpace
+from mpz.format import MAX_SUMMARY_VALUES, SummarySpace
 from mpz.predict import add_overlap
 from mpz.spec import grammar
 
@@ -162,24 +162,7 @@ class Smrc(Record):
     def check_header(self, ctx: Context) -> None:
         """The rules of §4.15 that come before the coded field is decoded (§1.1). At most
         one summary chunk (R-4.15-1) is the chunk walk's rule, checked in decoder.py."""
-        F, M = ctx.header.frame_count, ctx.header.marker_count
-        if self.space not in set(SummarySpace):
-            _fail(f"unknown summary space {self.space}", "§4.15")
-        if self.space == SummarySpace.POSITIONS and self.dims != 3 * M:
-            _fail(f"position summary has {self.dims} dims, expected {3 * M}", "§4.15")
-        if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS:
-            _fail(f"summary level count {self.level_count} not in 1..{MAX_SUMMARY_LEVELS}",
-                  "§4.15")
-        values = segments = 0
-        for lv in self.levels:
-            # §1.1: 1 <= k <= F before k and k x D join the sums
-            if not 1 <= lv.k <= F:
-                _fail(f"summary level with k = {lv.k} for {F} frames", "§4.15")
-            segments += lv.k
-            values += lv.k * self.dims
-            if not (math.isfinite(lv.step) and lv.step > 0 and math.isfinite(lv.wssse)
-                    and lv.wssse >= 0):
-                _fail("summary step must be > 0 and wssse >= 0, both finite", "§4.15")
+        values, segments = check_summary_head(self, ctx, "§4.15")
         if values > MAX_SUMMARY_VALUES or segments > MAX_SUMMARY_VALUES:
             _fail(f"summary holds {values} means and {segments} segments, limit "
                   f"{MAX_SUMMARY_VALUES} each", "§8", LimitExceededError)

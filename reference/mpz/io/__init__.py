@@ -46,6 +46,7 @@ import tempfile
 import numpy as np
 
 from mpz.errors import InputFormatError
+from mpz.format import SIGNATURE
 from mpz.io import amc, c3dbin
 from mpz.io._common import (
     MAX_MOTION_BYTES,
@@ -353,7 +354,6 @@ def _from_bytes(ext: str, path: StrPath, data: bytes, *, asf: StrPath | None,
 #: ``detect_format`` looks at no more than this many leading bytes
 DETECT_BYTES = 4096
 
-_MPZ_SIGNATURE = b"\x89MPZ\r\n\x1a\n"   # spec §3.1
 
 
 def _as_bytes(data: object, name: str) -> bytes:
@@ -392,7 +392,7 @@ def detect_format(head: bytes) -> str | None:
     if isinstance(head, (bytearray, memoryview)):
         head = head[:DETECT_BYTES]                  # no copy of the rest
     head = _as_bytes(head, "head")[:DETECT_BYTES]
-    if head.startswith(_MPZ_SIGNATURE):
+    if head.startswith(SIGNATURE):        # spec §3.1
         return ".mpz"
     if head.startswith(b"\x93NUMPY"):
         return ".npy"
