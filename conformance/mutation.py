@@ -94,10 +94,10 @@ R, G = "conformance/mpz/conformance/runner.py", "reference/mpz/encoder.py"
 
 MUTANTS = [
     # §3 framing (container.py)
-    M("C1", C, "if not all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype):",
-      "if not all(65 <= b <= 122 for b in ctype):", "type bytes 0x5B-0x60 accepted"),
-    M("C2", C, "if not all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype):",
-      "if not (65 <= ctype[0] <= 90 or 97 <= ctype[0] <= 122):", "only the first type byte tested"),
+    M("C1", C, "all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype)",
+      "all(65 <= b <= 122 for b in ctype)", "type bytes 0x5B-0x60 accepted"),
+    M("C2", C, "all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype)",
+      "(65 <= ctype[0] <= 90 or 97 <= ctype[0] <= 122)", "only the first type byte tested"),
     M("C3", C, "if length > MAX_CHUNK_LENGTH:", "if length > MAX_CHUNK_LENGTH + 1:",
       "chunk length 2^30 + 1 allowed"),
     M("C4", C, "if length > MAX_CHUNK_LENGTH:", "if length >= MAX_CHUNK_LENGTH:",
@@ -198,20 +198,21 @@ MUTANTS = [
       "base 2 on a node with patterns"),
     M("K45", K, "if self.base == ResidualBase.KEYFRAMES and self.order != 0:", "if False:",
       "base 2 with order != 0 (decoding ignores the order)"),
-    M("K46", K, "if self.space not in set(SummarySpace):", "if False:", "smry space 2 allowed"),
-    M("K47", K, "if self.space == SummarySpace.POSITIONS and self.dims != 3 * M:", "if False:",
+    # the smry head rules are check_summary_head's, which smrc shares (X44, X45)
+    M("K46", K, "if rec.space not in set(SummarySpace):", "if False:", "smry space 2 allowed"),
+    M("K47", K, "if rec.space == SummarySpace.POSITIONS and rec.dims != 3 * M:", "if False:",
       "smry dims not checked"),
-    M("K48", K, "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS:",
-      "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS + 1:", "65 smry levels allowed"),
-    M("K49", K, "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS:",
-      "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS - 1:", "64 smry levels refused"),
+    M("K48", K, "if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS:",
+      "if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS + 1:", "65 smry levels allowed"),
+    M("K49", K, "if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS:",
+      "if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS - 1:", "64 smry levels refused"),
     M("K50", K, "if not 1 <= lv.k <= F:", "if not 1 <= lv.k <= F + 1:",
       "smry k = F + 1 (the starts rule still rejects, with another message)"),
-    M("K51", K, "total += lv.k * self.dims", "total += lv.k", "sum of k x D not limited"),
-    M("K52", K, "if total > MAX_SUMMARY_VALUES:", "if total >= MAX_SUMMARY_VALUES:",
+    M("K51", K, "values += lv.k * rec.dims", "values += lv.k", "sum of k x D not limited"),
+    M("K52", K, "if values > MAX_SUMMARY_VALUES:", "if values >= MAX_SUMMARY_VALUES:",
       "sum k x D = 2^24 refused"),
     M("K53", K, "if not (math.isfinite(lv.step) and lv.step > 0 and math.isfinite(lv.wssse)\n"
-      "                    and lv.wssse >= 0):",
+      "                and lv.wssse >= 0):",
       "if not (math.isfinite(lv.step) and lv.step > 0):", "smry wssse not checked"),
     M("K54", K, "starts[0] != 0 or ", "", "smry starts[0] not checked"),
     M("K55", K, "(np.diff(starts.astype(np.int64)) <= 0).any()",
@@ -322,10 +323,10 @@ MUTANTS = [
       equivalent="counts are >= 1, so counts != 1 with F = 1 means counts > F, which the "
                  "first test rejects with the same §6.5"),
     M("F4", F, "if total != F - 1:", "if total > F - 1:", "spans short of F - 1"),
-    M("F5", F, "if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:", "if False:",
+    M("F5", F, "if v >= KEY_VALUE_LIMIT or v <= -KEY_VALUE_LIMIT:", "if False:",
       "key values not range-checked"),
-    M("F6", F, "if v >= _VALUE_LIMIT or v <= -_VALUE_LIMIT:",
-      "if v > _VALUE_LIMIT or v < -_VALUE_LIMIT:", "key value 2^31 allowed"),
+    M("F6", F, "if v >= KEY_VALUE_LIMIT or v <= -KEY_VALUE_LIMIT:",
+      "if v > KEY_VALUE_LIMIT or v < -KEY_VALUE_LIMIT:", "key value 2^31 allowed"),
     M("F7", F, "return w1 + (2 * (w1 - w2) * d1 + d0) // (2 * d0)",
       "return w1 + (2 * (w1 - w2) * d1) // (2 * d0)", "own-key prediction rounded down"),
     M("F8", F, "w1[c] + (2 * (wk[c] - w1[c]) * jj + nn) // (2 * nn)",
@@ -494,9 +495,10 @@ MUTANTS_11 = [
       "x[r0: r0 + rows].astype(np.float64) * (m / p)",
       "R-6.10-2: v = x x (m / 10^d), two roundings"),
     # §4.15 smrc (chunks/summary.py, the §4.15 step 4 kernel, the chunk walk)
-    X("X44", SM, "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS:",
-      "if not 1 <= self.level_count <= MAX_SUMMARY_LEVELS + 1:", "R-4.15-2: 65 levels allowed"),
-    X("X45", SM, "lv.step > 0 and math.isfinite(lv.wssse)\n                    and lv.wssse >= 0",
+    # smrc's head rules are smry's (check_summary_head in core.py), run against smrc's tests
+    X("X44", K, "if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS:",
+      "if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS + 1:", "R-4.15-2: 65 levels allowed"),
+    X("X45", K, "lv.step > 0 and math.isfinite(lv.wssse)\n                and lv.wssse >= 0",
       "lv.step > 0", "R-4.15-2: wssse not checked"),
     X("X46", SM, "if values > MAX_SUMMARY_VALUES or segments > MAX_SUMMARY_VALUES:",
       "if values > MAX_SUMMARY_VALUES:", "R-4.15-3: sum of k not limited"),
@@ -575,12 +577,18 @@ def run_tests(tree: Path, tests: tuple[str, ...], timeout: float) -> tuple[str, 
     return ("survived" if proc.returncode == 0 else "killed"), time.perf_counter() - t0, tail
 
 
+def applicable(mu: Mutant, text: str) -> tuple[str, str] | None:
+    """The first of ``mu``'s edits whose text occurs exactly once in ``text``; None: the
+    mutant is stale (the code it mutates moved or changed, and the table needs updating)."""
+    return next(((o, n) for o, n in mu.edits if text.count(o) == 1), None)
+
+
 def run(tree: Path, mutants: list[Mutant], timeout: float, log) -> list[dict]:
     results = []
     for mu in mutants:
         path = tree / mu.file
         text = path.read_text(encoding="utf-8")
-        edit = next(((o, n) for o, n in mu.edits if text.count(o) == 1), None)
+        edit = applicable(mu, text)
         if edit is None:
             res = {"id": mu.id, "status": "stale", "seconds": 0.0, "detail": "text not found "
                    "exactly once"}

@@ -128,6 +128,7 @@ def read_stream_bytes(fh: IO[bytes], *, limit: int = MAX_INPUT_BYTES,
     LimitExceededError
         If the file would exceed ``limit`` bytes (§8).
     """
+    from mpz.container import is_chunk_type
     out = bytearray(prefix)
 
     def take(n: int) -> bool:
@@ -147,7 +148,7 @@ def read_stream_bytes(fh: IO[bytes], *, limit: int = MAX_INPUT_BYTES,
         if len(out) < pos + 8 and not take(pos + 8 - len(out)):
             return bytes(out)
         ctype = bytes(out[pos:pos + 4])
-        if not all(0x41 <= c <= 0x5A or 0x61 <= c <= 0x7A for c in ctype):
+        if not is_chunk_type(ctype):
             return bytes(out)
         length = int.from_bytes(out[pos + 4:pos + 8], "little")
         if length > MAX_CHUNK_LENGTH:     # §3.2: rejected before the payload is read; the

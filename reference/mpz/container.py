@@ -62,6 +62,11 @@ class Scan:
     skipped: dict[str, int] = field(default_factory=dict)
 
 
+def is_chunk_type(ctype: bytes) -> bool:
+    """§3.2: a chunk type is four bytes, each an ASCII letter A-Z or a-z."""
+    return len(ctype) == 4 and all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype)
+
+
 def crc32(ctype: bytes, payload: bytes | memoryview) -> int:
     """§3.3 CRC-32 over the type and the payload."""
     return zlib.crc32(payload, zlib.crc32(ctype)) & 0xFFFFFFFF
@@ -128,7 +133,7 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
         hdr = _parse.parse(ChunkHeader, data[pos: pos + 8])
         ctype, length = hdr.type, hdr.length
         tname = ctype.decode("latin-1")
-        if not all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype):
+        if not is_chunk_type(ctype):
             res.errors.append(FormatError(f"chunk type {ctype!r} is not four ASCII letters",
                                           offset=pos, section="§3.2"))
             return res

@@ -128,24 +128,25 @@ def inflate(body: bytes, limit: int, chunk: str, section: str) -> bytes:
     Raises
     ------
     FormatError
-        For a stream that is not valid DEFLATE, ends before its final block, is followed
-        by other bytes, or inflates to more than ``limit`` bytes.
+        For a stream that is not valid DEFLATE, ends before its final block or is followed
+        by other bytes (§4.13's byte coding, R-4.13-3), or inflates to more than ``limit``
+        bytes (cited as ``section``, the chunk's content limit, as for stored content).
     """
     d = zlib.decompressobj(-15)
     try:
         out = d.decompress(body, limit + 1)
     except zlib.error as exc:
         raise FormatError(f"malformed {chunk} payload: invalid DEFLATE stream ({exc})",
-                          chunk=chunk, section=section) from None
+                          chunk=chunk, section="§4.13") from None
     if len(out) > limit:
         raise FormatError(f"malformed {chunk} payload: the DEFLATE stream inflates to more "
                           f"than {limit} bytes", chunk=chunk, section=section)
     if not d.eof:
         raise FormatError(f"malformed {chunk} payload: the DEFLATE stream ends before its "
-                          f"final block", chunk=chunk, section=section)
+                          f"final block", chunk=chunk, section="§4.13")
     if d.unused_data:
         raise FormatError(f"malformed {chunk} payload: {len(d.unused_data)} byte(s) after "
-                          f"the end of the DEFLATE stream", chunk=chunk, section=section)
+                          f"the end of the DEFLATE stream", chunk=chunk, section="§4.13")
     return out
 
 
@@ -157,7 +158,7 @@ def _content(cls: type[Record], coding: int, body: bytes, limit: int) -> bytes:
                               f"more than {limit}", chunk=cls.TYPE, section=cls.SECTION)
         return body
     if coding == ByteCoding.DEFLATE:
-        return inflate(body, limit, cls.TYPE, "§4.13")     # the byte coding's rule
+        return inflate(body, limit, cls.TYPE, cls.SECTION)
     raise FormatError(f"malformed {cls.TYPE} payload: coding {coding}, not 0 (stored) or 1 "
                       f"(DEFLATE)", chunk=cls.TYPE, section="§4.13")
 
