@@ -420,6 +420,26 @@ def test_an_index_from_before_the_recorded_columns_is_read_and_completed(corpus)
                              "wave": "skipped"}
 
 
+def test_an_output_its_decoder_refuses_is_a_bug_and_is_removed(tmp_path, monkeypatch,
+                                                                two_joint_bvh):
+    """An output that its own decoder refuses (here: the decoder's skeleton limit lowered
+    below a valid file's) failed its file as bad input and stayed on disk, which the next
+    run then refused as "exists and does not read as MPZ" (a QA run of stop 51). It is the
+    encoder's bug: removed, and raised."""
+    import mpz.chunks.base
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "arm.bvh").write_text(two_joint_bvh)
+    out = tmp_path / "out"
+    monkeypatch.setattr(mpz.chunks.base, "MAX_CHANNEL_SAMPLES", 4)
+    with pytest.raises(AssertionError, match="the encoder wrote a file that its decoder "
+                                             "refuses: .* exceeds 4 .*the output was removed"):
+        run_corpus(src, out)
+    assert not (out / "arm.mpz").exists() and temporaries(out) == []
+    monkeypatch.undo()
+    assert statuses(run_corpus(src, out)) == {"arm": "encoded"}
+
+
 def test_the_summary_ratio_leaves_out_files_that_drop_part_of_their_source():
     """The table's source/MPZ ratio counts what was kept: a file that drops part of its
     source (``not_kept``) adds its bytes to the totals, not to the ratio, and says so."""

@@ -634,3 +634,72 @@ def test_extras_the_file_cannot_hold_are_said_or_refused():
     assert mpz.decode(data).extras == {}
     with pytest.raises(EncoderError, match=r"extras\['skeleton'\] is a str, not an mpz"):
         mpz.encode(mpz.Motion(pos, ["A", "B"], 100.0, extras={"skeleton": "x"}))
+
+
+# ------------------------------------------------- the ancillary chunks' §8 limits --
+def _bvh_motion(tmp_path: Path, text: str) -> Motion:
+    (tmp_path / "arm.bvh").write_text(text)
+    return mpz.io.read(tmp_path / "arm.bvh")
+
+
+def test_a_skeleton_past_its_chunk_limit_is_refused_before_any_encoding(
+        tmp_path, monkeypatch, two_joint_bvh):
+    """A 2-hour BVH (864,000 frames x 96 channels, past MAX_CHANNEL_SAMPLES) was encoded for
+    minutes into a file its decoder refused, which was left behind (a QA run of stop 51).
+    The limit is checked first, with the way out; the limit is lowered here to the clip's
+    size so that a small file stands in for the 2-hour one."""
+    import mpz.encoder
+    import mpz.skeleton
+    m = _bvh_motion(tmp_path, two_joint_bvh)
+    F, C = m.angles.shape
+    monkeypatch.setattr(mpz.skeleton, "MAX_CHANNEL_SAMPLES", F * C - 1)
+    planned = []
+    real = mpz.encoder.plan_hierarchy
+    monkeypatch.setattr(mpz.encoder, "plan_hierarchy",
+                        lambda *a, **k: planned.append(1) or real(*a, **k))
+    with pytest.raises(EncoderError) as info:
+        encode_motion(m, EncodeOptions(max_error=1.0))
+    said = str(info.value)
+    assert f"skeleton's {C} channels over {F} frames are {F * C} values" in said, said
+    assert "MAX_CHANNEL_SAMPLES" in said and "--no-skeleton" in said, said
+    assert planned == []                                     # nothing was encoded first
+    data, rep = encode_motion(m, EncodeOptions(max_error=1.0, keep_skeleton=False))
+    assert rep.not_kept and mpz.decode(data).angles is None
+    monkeypatch.setattr(mpz.skeleton, "MAX_CHANNEL_SAMPLES", F * C)         # at the limit
+    assert mpz.decode(encode_motion(m, EncodeOptions(max_error=1.0))[0]).angles is not None
+
+
+def test_a_c3d_archive_past_its_chunk_limits_is_refused_before_any_encoding(monkeypatch):
+    """The C3D archive's cpnt and cana limits (§8, §4.13.4) are checked first too."""
+    import mpz.c3darchive
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(5, storage=1, F=12, M=4, J=2, C=2, n=2)
+    words = 12 * 2 * 2                                       # F x n analog samples x C
+    monkeypatch.setattr(mpz.c3darchive, "MAX_ANALOG_SAMPLES", words - 1)
+    with pytest.raises(EncoderError, match=f"= {words} words, more than {words - 1} "
+                                           r"\(spec §8, MAX_ANALOG_SAMPLES\)"):
+        encode_motion(m, EncodeOptions(max_error=1.0))
+    monkeypatch.setattr(mpz.c3darchive, "MAX_ANALOG_SAMPLES", words)
+    monkeypatch.setattr(mpz.c3darchive, "MAX_SAMPLES", 12 * 2 - 1)      # F x J outputs
+    with pytest.raises(EncoderError, match="the C3D archive cannot be kept: 2 model outputs"):
+        encode_motion(m, EncodeOptions(max_error=1.0))
+    monkeypatch.setattr(mpz.c3darchive, "MAX_SAMPLES", 12 * 2)
+    assert mpz.decode(encode_motion(m, EncodeOptions(max_error=1.0))[0]).extras["c3d"]
+
+
+def test_a_file_its_own_decoder_refuses_is_a_bug_and_is_not_left(tmp_path, monkeypatch,
+                                                                 capsys, two_joint_bvh):
+    """Whatever an encoder check misses, `mpz encode` decodes what it wrote: a file its
+    decoder refuses was left on disk with exit 2 and a decoder's message, as if the input
+    were bad (a QA run of stop 51). It is removed and reported as a bug (exit 70). The
+    decoder's limit is lowered here so that it refuses a valid file."""
+    import mpz.chunks.base
+    from mpz.tools import mpz_cli
+    (tmp_path / "arm.bvh").write_text(two_joint_bvh)
+    monkeypatch.setattr(mpz.chunks.base, "MAX_CHANNEL_SAMPLES", 4)
+    out = tmp_path / "arm.mpz"
+    code = mpz_cli.main(["encode", str(tmp_path / "arm.bvh"), "-o", str(out), "-q"])
+    err = capsys.readouterr().err
+    assert code == 70 and "the encoder wrote a file that its decoder refuses: " in err, err
+    assert "frame_count x channel_count = " in err and " exceeds 4 (§8)" in err, err
+    assert "the output was removed" in err and not out.exists(), err

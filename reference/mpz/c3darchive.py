@@ -39,7 +39,14 @@ from mpz.chunks.base import forget
 from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param
 from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
-from mpz.format import ByteCoding, C3DStorage, ModelKind
+from mpz.format import (
+    MAX_ANALOG_SAMPLES,
+    MAX_MARKERS,
+    MAX_SAMPLES,
+    ByteCoding,
+    C3DStorage,
+    ModelKind,
+)
 from mpz.io.c3dbin import ParamRecord, header_range_holds
 
 if TYPE_CHECKING:
@@ -474,6 +481,31 @@ class C3DExtension:
     name: str = "c3d"
     chunk_types: tuple[str, ...] = ("chdr", "cprm", "cpnt", "cana")
 
+    def check(self, motion: Motion, opts: EncodeOptions) -> None:
+        """The §8 limits of the cpnt and cana chunks, before anything is encoded (the
+        skeleton's limit was found only by decoding the file written: a QA run of stop
+        51)."""
+        a = motion.extras.get(self.name)
+        if not isinstance(a, C3DArchive):
+            return                          # records() says what is wrong with it
+        F = motion.n_frames
+        J = a.models.shape[1]
+        T, C = a.analog.shape
+        fault = ""
+        if J > MAX_MARKERS or F * J > MAX_SAMPLES:
+            fault = (f"{J} model outputs over {F} frames: at most {MAX_MARKERS}, and "
+                     f"{MAX_SAMPLES} frames x outputs (spec §8, MAX_SAMPLES)")
+        elif C and T * C > MAX_ANALOG_SAMPLES:
+            fault = (f"{T} analog samples x {C} channels = {T * C} words, more than "
+                     f"{MAX_ANALOG_SAMPLES} (spec §8, MAX_ANALOG_SAMPLES)")
+        elif C and C * a.analog_samples > 0xFFFF:
+            fault = (f"{C} analog channels x {a.analog_samples} samples a frame, more than "
+                     "the 65535 analog words a frame of a C3D (§4.13.4)")
+        if fault:
+            raise EncoderError(f"the C3D archive cannot be kept: {fault}. Split the capture, "
+                               "or keep the markers alone without the archive (in Python: "
+                               "dataclasses.replace(motion, extras={}))")
+
     def records(self, motion: Motion, opts: EncodeOptions) -> list[Record]:
         a = motion.extras.get(self.name)
         if a is None:
@@ -481,6 +513,7 @@ class C3DExtension:
         if not isinstance(a, C3DArchive):
             raise EncoderError(f"motion.extras['c3d'] is a {type(a).__name__}, not a "
                                "C3DArchive")
+        self.check(motion, opts)
         prm = parameter_record(a)       # a section cprm cannot hold: refused by its rule
         check_matches(a, motion)        # before its labels, units and rate are compared
         out: list[Record] = [header_record(a), prm, point_records(a, opts, motion.n_markers)]

@@ -1723,6 +1723,8 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
         raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8: at "
                            f"most {MAX_FRAMES} frames, {MAX_MARKERS} markers and "
                            f"{MAX_SAMPLES} frames x markers")
+    for ext in EXTENSIONS:              # the ancillary chunks' limits, up front too
+        ext.check(motion, opts)
     if opts.summary:
         from mpz.fisher import summary_check
         summary_check(F, opts.summary)      # a summary too large for its tables, up front

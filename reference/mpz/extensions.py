@@ -35,6 +35,12 @@ class Extension(Protocol):
     #: the ancillary chunk types it owns, in the order it writes them
     chunk_types: tuple[str, ...]
 
+    def check(self, motion: Motion, opts: EncodeOptions) -> None:
+        """Raise EncoderError if ``motion``'s part for this extension is past a §8 limit of
+        its chunks: called before anything is encoded, so that no work is spent on a file
+        the decoder would refuse."""
+        ...
+
     def records(self, motion: Motion, opts: EncodeOptions) -> list[Record]:
         """The chunk records for ``motion`` (empty when the motion has nothing for it)."""
         ...

@@ -48,6 +48,7 @@ from mpz.chunks.skeleton import AsfBone, Asfs, BvhJoint, Bvhs, ChannelCoding
 from mpz.errors import EncoderError
 from mpz.format import (
     AXIS_ORDERS,
+    MAX_CHANNEL_SAMPLES,
     MAX_STEP_DIGITS,
     MM_PER_UNIT,
     ROOT_PARENT,
@@ -582,6 +583,24 @@ class SkeletonExtension:
     name: str = "skeleton"
     chunk_types: tuple[str, ...] = ("bvhs", "asfs")
 
+    def check(self, motion: Motion, opts: EncodeOptions) -> None:
+        """The §8 limit of the chunk this motion would get, before anything is encoded: a
+        2-hour BVH was encoded for minutes into a file that its decoder refused (F x C
+        past MAX_CHANNEL_SAMPLES), and the file was left behind (a QA run of stop 51)."""
+        skel = motion.extras.get(self.name)
+        if skel is None or not opts.keep_skeleton or motion.angles is None:
+            return
+        F, C = motion.angles.shape
+        if F * C > MAX_CHANNEL_SAMPLES:
+            most = MAX_CHANNEL_SAMPLES // max(C, 1)
+            raise EncoderError(
+                f"the skeleton's {C} channels over {F} frames are {F * C} values, more than "
+                f"the {MAX_CHANNEL_SAMPLES} (2^26) a skeleton chunk holds (spec §8, "
+                f"MAX_CHANNEL_SAMPLES): at most {most} frames "
+                f"({most / motion.rate / 60:.1f} minutes at {motion.rate:g} Hz) with "
+                f"{C} channels. Split the capture, or keep the joint positions alone "
+                "without the skeleton and its channels (--no-skeleton, keep_skeleton=False)")
+
     def records(self, motion: Motion, opts: EncodeOptions) -> list[Record]:
         skel = motion.extras.get(self.name)
         if skel is None or not opts.keep_skeleton:
@@ -589,6 +608,7 @@ class SkeletonExtension:
         if not isinstance(skel, Skeleton):     # it was dropped without a word (QA, stop 50)
             raise EncoderError(f"motion.extras[{self.name!r}] is a {type(skel).__name__}, not "
                                "an mpz.io.kinematics.Skeleton")
+        self.check(motion, opts)
         values = _values(motion, skel)
         st = settings(motion, skel, opts)
         codings, coded = code_channels(values, skel, st.steps)

@@ -16,7 +16,7 @@ import signal
 import sys
 from typing import TYPE_CHECKING
 
-from mpz.errors import EncoderError
+from mpz.errors import EncoderError, MPZError
 from mpz.tools._cli import EXIT_OK, EXIT_WARN, positive, printable
 
 if TYPE_CHECKING:
@@ -438,7 +438,18 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     from mpz.api import signals_exit
     try:
         with signals_exit(signal.SIGTERM):
-            decoded = mpz.decode(data)
+            try:
+                decoded = mpz.decode(data)
+            except MPZError as exc:
+                # a file its own decoder refuses is the encoder's bug, not bad input: it was
+                # left behind, exit 2 with a decoder's message (a 2-hour BVH, QA of stop 51)
+                if not to_stdout:
+                    os.remove(job.output)
+                raise AssertionError(
+                    f"the encoder wrote a file that its decoder refuses: {exc} "
+                    f"({job.input}); "
+                    + ("it was written to standard output" if to_stdout else
+                       "the output was removed")) from None
             stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
             err = error_summary(motion, decoded)
     except (KeyboardInterrupt, SystemExit) as exc:
