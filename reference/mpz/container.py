@@ -113,7 +113,7 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
         raise ValueError(f"minor must be an int 0 .. {VERSION_MINOR}, got {minor!r}")
     data = bytes(data)
     res = Scan(size=len(data))
-    if len(data) < len(SIGNATURE) or data[: len(SIGNATURE)] != SIGNATURE:
+    if len(data) < len(SIGNATURE) or data[: len(SIGNATURE)] != SIGNATURE:  # R-2.4-1, R-3.1-1
         got = data[: len(SIGNATURE)]
         res.errors.append(FormatError(f"bad signature {got!r}, expected {SIGNATURE!r}",
                                       offset=0, section="§3.1"))
@@ -121,11 +121,11 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
     pos = len(SIGNATURE)
     while True:
         left = len(data) - pos
-        if left == 0:
+        if left == 0:  # R-3.4-12
             res.errors.append(FormatError("file ends without an MEND chunk (truncated?)",
                                           offset=pos, section="§3.4"))
             return res
-        if left < 12:
+        if left < 12:  # R-3.2-1
             res.errors.append(FormatError(
                 f"truncated chunk frame: {left} byte(s) left, a chunk needs 12",
                 offset=pos, section="§3.2"))
@@ -133,15 +133,18 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
         hdr = _parse.parse(ChunkHeader, data[pos: pos + 8])
         ctype, length = hdr.type, hdr.length
         tname = ctype.decode("latin-1")
+        # R-2.4-2
         if not is_chunk_type(ctype):
             res.errors.append(FormatError(f"chunk type {ctype!r} is not four ASCII letters",
                                           offset=pos, section="§3.2"))
             return res
+        # R-2.4-3, R-8-2
         if length > MAX_CHUNK_LENGTH:
             res.errors.append(LimitExceededError(
                 f"chunk length {length} exceeds the limit {MAX_CHUNK_LENGTH}",
                 offset=pos, chunk=tname, section="§8"))
             return res
+        # R-3.2-2
         if length > left - 12:
             res.errors.append(LimitExceededError(
                 f"chunk length {length} exceeds the {left - 12} byte(s) left in the file "
@@ -150,11 +153,12 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
             return res
         stored = _parse.parse(ChunkCRC, data[pos + 8 + length: pos + 12 + length])
         computed = crc32(ctype, memoryview(data)[pos + 8: pos + 8 + length])
+        # R-2.3-3, R-3.3-1, R-3.3-2
         if computed != stored:
             res.errors.append(ChecksumError(
                 f"CRC-32 mismatch: computed 0x{computed:08x}, stored 0x{stored:08x}",
                 offset=pos, chunk=tname, section="§3.3"))
-        known = tname in CHUNKS and CHUNKS[tname].MINOR <= minor
+        known = tname in CHUNKS and CHUNKS[tname].MINOR <= minor  # R-2.3-5
         if not known and not tname[:1].isupper():
             res.skipped[tname] = res.skipped.get(tname, 0) + 1
             if not keep_unknown:            # checked and counted, nothing kept
@@ -169,6 +173,7 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
             except MPZError as exc:
                 exc.offset = pos + 8           # the payload that does not fit its layout
                 res.errors.append(exc)
+        # R-2.3-1
         elif chunk.critical:
             res.errors.append(FormatError(f"unknown critical chunk {tname!r}", offset=pos,
                                           chunk=tname, section="§2.3"))
@@ -176,8 +181,9 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
             res.warnings.append(FormatError(f"unknown ancillary chunk {tname!r} skipped",
                                             offset=pos, chunk=tname, section="§2.3"))
         pos += 12 + length
-        if ctype == b"MEND":
+        if ctype == b"MEND":  # R-2.3-5
             res.complete = True
+            # R-3.4-11
             if pos != len(data):
                 res.errors.append(FormatError(f"{len(data) - pos} byte(s) after the MEND chunk",
                                               offset=pos, section="§3.4"))

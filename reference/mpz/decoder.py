@@ -110,9 +110,9 @@ class _Order:
     def take(self, cls: type[R], ctx: Context, *, optional: bool = False) -> Located[R] | None:
         """The next chunk, which must be of type ``cls`` (or, if optional, is put back)."""
         c = self._next()
-        if c is None:
+        if c is None:  # R-3.4-2
             raise FormatError(f"missing {cls.TYPE} chunk", section="§3.4")
-        if c.type != cls.TYPE:
+        if c.type != cls.TYPE:  # R-2.4-4, R-3.4-2, R-3.4-3, R-3.4-5, R-3.4-6, R-3.4-8
             if optional:
                 self._pending = c
                 return None
@@ -167,6 +167,7 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
     # the unknown ancillary chunks are checked and counted, not kept (§8: nothing per
     # skipped chunk)
     chunks = parse(data, minor=minor, keep_unknown=False)
+    # R-3.4-1
     if not chunks or chunks[0].type != "MHDR":
         first = chunks[0] if chunks else None
         raise FormatError("the first chunk must be MHDR", section="§3.4",
@@ -190,15 +191,17 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
     for i in range(1, h.node_count):
         node_ctx = Context(h, max_samples, nodes, i)
         # §3.4: with a residual layer, PATT may be left out when the node has no patterns
+        # R-3.4-8
         p = order.take(Patt, node_ctx, optional=h.residual)
         patt[i] = p if p is not None else Located(Patt.absent(i), None)
         node_ctx = Context(h, max_samples, nodes, i, patt[i].record)
-        if patt[i].record.pattern_count:
+        if patt[i].record.pattern_count:  # R-3.4-5
             segs[i] = order.need(Segs, node_ctx)
-        if h.residual:
+        if h.residual:  # R-3.4-6
             resi[i] = order.need(Resi, node_ctx)
     order.need(Mend, ctx)
     extra = order.rest()
+    # R-3.4-3
     if extra is not None:
         raise FormatError(f"unexpected {extra.type} chunk", offset=extra.offset,
                           chunk=extra.type, section="§3.4")
@@ -217,11 +220,13 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
         if c.type not in CHUNKS or CHUNKS[c.type].MINOR > minor:
             unknown.append(c)
             continue
-        if c.type in ("smry", "smrc", "meta"):
+        if c.type in ("smry", "smrc", "meta"):  # R-2.3-4
             role = "meta" if c.type == "meta" else "summary"
+            # R-3.4-10, R-4.15-1
             if c.type in seen:
                 raise FormatError(f"more than one {c.type} chunk", offset=c.offset,
-                                  chunk=c.type, section="§3.4")     # R-3.4-10
+                                  chunk=c.type, section="§3.4")
+            # R-4.15-1
             if role in seen:
                 raise FormatError("a file holds at most one summary chunk: smry or smrc, not "
                                   "both", offset=c.offset, chunk=c.type, section="§4.15")
@@ -265,6 +270,7 @@ def decode_mask(s: Stream) -> NDArray[np.bool_]:
     dec = _coded(s.mask)
     flags = dec.block(F, M, 1, signed=False)[:, :, 0]
     dec.close()
+    # R-2.4-25
     if (flags > 1).any():
         raise FormatError("gap flags must be 0 or 1", offset=s.mask.offset, chunk="MASK",
                           section="§4.5")
@@ -324,13 +330,16 @@ def decode_segments(s: Stream, i: int) -> tuple[IntArray, IntArray]:
     def fail(message: str) -> FormatError:
         return FormatError(message, offset=c.offset, chunk="SEGS", section="§4.8")
 
+    # R-2.4-30
     if (index < 0).any() or (index >= K).any():
         bad = int(index[(index < 0) | (index >= K)][0])
         # spec §4.8: "A decoder MUST reject a SEGS chunk whose pattern index
         # is not less than the pattern count of its node."
         raise fail(f"pattern index {bad} out of range 0..{K - 1}")
+    # R-2.4-31
     if (counts < 1).any():
         raise fail(f"segment frame count {int(counts.min())} < 1")
+    # R-2.4-31
     if int(counts.sum()) != s.header.frame_count:
         raise fail(f"segment frame counts add up to {int(counts.sum())}, not "
                    f"{s.header.frame_count}")
@@ -441,9 +450,11 @@ def _layer_range(v: IntArray, scale: int, c: Located[Patt] | Located[Resi]) -> N
 def _check_peak(peak: int, scale: int, c: Located[Patt] | Located[Resi]) -> None:
     """§6.7 rule 1 for a layer whose largest magnitude is ``peak``."""
     what = f"node {c.record.node} {c.record.TYPE}"
+    # R-6.7-1
     if peak >= LAYER_LIMIT:
         raise FormatError(f"{what}: reconstructed value {peak} reaches 2^36 before scaling",
                           offset=c.offset, chunk=c.record.TYPE, section="§6.7")
+    # R-6.7-1
     if peak * scale >= LAYER_LIMIT:
         raise FormatError(f"{what}: scaled value {peak} x {scale} = {peak * scale} reaches 2^36",
                           offset=c.offset, chunk=c.record.TYPE, section="§6.7")
@@ -500,13 +511,13 @@ def _declared_range(s: Stream, q: IntArray) -> None:
     file without a residual layer, its PATT.
     """
     limit = 1 << s.quant.bits
-    if q.size == 0 or (int(q.max()) < limit and int(q.min()) > -limit):
+    if q.size == 0 or (int(q.max()) < limit and int(q.min()) > -limit):  # R-6.7-3
         return                          # every value in range: no node to report
     for i, node in enumerate(s.nodes):
         members = np.asarray(node.members, np.intp)
         for t0, t1 in frame_blocks(q.shape[0], len(members)):
             blk = q[t0:t1, members]
-            if not blk.size or (blk.max() < limit and blk.min() > -limit):
+            if not blk.size or (blk.max() < limit and blk.min() > -limit):  # R-6.7-3
                 continue
             mag = np.abs(blk)
             t, m, a = (int(k) for k in np.unravel_index(int(np.argmax(mag >= limit)),
@@ -592,6 +603,7 @@ def decode_layers(data: bytes, *, max_samples: int = MAX_SAMPLES,
     MPZError
         For any file the spec says to reject, with offset, chunk and §.
     """
+    # R-8-1 (no one check: every check of a rule raises MPZError, nothing else is caught)
     s = read_stream(data, max_samples=max_samples, minor=minor)
     valid = decode_mask(s)
     return Decoded(s, valid, decode_integers(s))

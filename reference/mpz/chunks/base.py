@@ -149,7 +149,7 @@ class Record:
         bytes that do not fit the layout."""
         try:
             parsed = _parse.parse(cls.GRAMMAR, payload)
-        except _LAYOUT_ERRORS as exc:
+        except _LAYOUT_ERRORS as exc:  # R-3.2-3
             # construct reports layout problems with these; translated here, at the one
             # boundary between the grammar and the rest of the decoder
             raise FormatError(f"malformed {cls.TYPE} payload: {_layout_problem(exc)}",

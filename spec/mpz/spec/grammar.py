@@ -80,14 +80,14 @@ class FrontCodedNames(Adapter):
         names: list[str] = []
         prev = b""
         for i, e in enumerate(obj):
-            if e.shared > len(prev):
+            if e.shared > len(prev):  # R-4.2-2
                 raise ExplicitError(f"name {i} shares {e.shared} bytes of a {len(prev)}-byte name")
             raw = prev[: e.shared] + e.suffix
-            if not 1 <= len(raw) <= 255:
+            if not 1 <= len(raw) <= 255:  # R-2.4-16, R-4.2-3
                 raise ExplicitError(f"name {i} has {len(raw)} bytes, not 1..255")
             try:
                 names.append(raw.decode("utf-8"))
-            except UnicodeDecodeError:
+            except UnicodeDecodeError:  # R-2.4-16
                 raise ExplicitError(f"name {i} is not valid UTF-8") from None
             prev = raw
         return names
@@ -229,8 +229,8 @@ SMRC = Struct(
 
 #: §4.11 meta, key/value metadata (ancillary)
 MetaEntry = Struct(
-    "key" / PascalString(Int8ul, "utf8") * "§4.11 1..255 bytes",
-    "value" / PascalString(Int16ul, "utf8") * "§4.11 0..65535 bytes",
+    "key" / PascalString(Int8ul, "utf8") * "§4.11 1..255 bytes",  # R-2.4-41
+    "value" / PascalString(Int16ul, "utf8") * "§4.11 0..65535 bytes",  # R-2.4-42
 )
 META = Struct(
     "count" / Int16ul,
@@ -240,7 +240,7 @@ META = Struct(
 
 #: §4.12 MEND, the end chunk: empty
 MEND = Struct(
-    Terminated,
+    Terminated,  # R-4.12-1
 )
 
 
@@ -342,6 +342,7 @@ CHDR = Struct(
 )
 #: §4.13.1 the inflated header block
 CHDR_BLOCK = Struct(
+    # R-4.13.1-2
     "block" / Bytes(512) * "§4.13.1 the 512-byte C3D header: integers LE, floats binary32 LE",
     Terminated,
 )
@@ -365,7 +366,7 @@ def _data_size(ctx: Any) -> int:
     n = abs(int(ctx.type))
     for d in ctx.dims:
         n *= int(d)
-        if n > MAX_C3D_PARAMETER_BYTES and len(ctx.dims) > 7:
+        if n > MAX_C3D_PARAMETER_BYTES and len(ctx.dims) > 7:  # R-4.13.2-1, R-4.13.2-2
             raise ExplicitError(f"a parameter of {len(ctx.dims)} dimensions "
                                 f"{list(ctx.dims)[:8]}... holds more than the "
                                 f"{MAX_C3D_PARAMETER_BYTES} bytes of a parameter section "
@@ -382,7 +383,7 @@ C3dParam = Struct(
     "type" / If(this.group > 0, Int8sl) * "§4.13.2 parameters: -1 char, 1 byte, 2 int16, 4 float32",
     "dims" / If(this.group > 0, Prefixed(Int8ul, GreedyBytes))
     * "§4.13.2 parameters: 0..7 dimensions, one byte each",
-    "data" / If(this.group > 0, Bytes(_data_size))
+    "data" / If(this.group > 0, Bytes(_data_size))  # R-4.13.2-2
     * "§4.13.2 parameters: |type| x prod(dims) bytes, int16 LE, float32 binary32 LE",
 )
 #: §4.13.2 cprm, the C3D parameter section (ancillary, 1.1); ``body`` is the section as
@@ -395,7 +396,7 @@ CPRM = Struct(
 CPRM_SECTION = Struct(
     "count" / Int16ul * "§4.13.2 R, records",
     "records" / Array(this.count, C3dParam) * "§4.13.2 groups and parameters in file order",
-    Terminated,
+    Terminated,  # R-4.13.2-4
 )
 
 #: §4.13.3 one model-output axis: x = offset + k x step
