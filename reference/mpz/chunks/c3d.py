@@ -58,10 +58,11 @@ def _set_rules(ctx: Context) -> None:
         return
     counts = {t: ctx.types.count(t) for t in C3D_TYPES}
     for t in C3D_TYPES[:3]:
+        # R-4.13-1
         if counts[t] != 1:
             _fail(f"a C3D archive has exactly one {t} chunk; this file has {counts[t]}",
                   "§4.13")
-    if counts["cana"] > 1:
+    if counts["cana"] > 1:  # R-4.13-1
         _fail(f"a C3D archive has at most one cana chunk; this file has {counts['cana']}",
               "§4.13")
 
@@ -80,18 +81,21 @@ class Channel(Record):
 
     def check_entry(self, storage: int, what: str, section: str) -> None:
         """The §4.13 rules of a channel entry, for words stored as ``storage``."""
-        if self.mode not in set(ChannelMode):
+        if self.mode not in set(ChannelMode):  # R-4.13-2
             _fail(f"{what}: unknown channel mode {self.mode}", section)
+        # R-4.13-2
         if self.mode == ChannelMode.INTEGER and not C3D_MIN_SHIFT <= self.shift <= C3D_MAX_SHIFT:
             _fail(f"{what}: shift {self.shift} not in {C3D_MIN_SHIFT}..{C3D_MAX_SHIFT}", section)
-        if self.mode == ChannelMode.BITS and self.shift != 0:
+        if self.mode == ChannelMode.BITS and self.shift != 0:  # R-4.13-2
             _fail(f"{what}: a float32 bit-pattern channel has shift 0, got {self.shift}",
                   section)
+        # R-4.13-2
         if storage == C3DStorage.INT16 and (self.mode != ChannelMode.INTEGER or self.shift):
             _fail(f"{what}: int16 words are coded as integers with shift 0 (mode "
                   f"{self.mode}, shift {self.shift})", section)
-        if self.order > MAX_ORDER:
+        if self.order > MAX_ORDER:  # R-4.13-2
             _fail(f"{what}: predictor order {self.order} not in 0..{MAX_ORDER}", section)
+        # R-4.13-2
         if self.low_bits > C3D_MAX_LOW_BITS:
             _fail(f"{what}: low_bits {self.low_bits} not in 0..{C3D_MAX_LOW_BITS}", section)
 
@@ -107,7 +111,7 @@ def _dtype(storage: int) -> np.dtype[Any]:
 
 
 def _check_storage(storage: int, section: str) -> None:
-    if storage not in set(C3DStorage):
+    if storage not in set(C3DStorage):  # R-4.13.3-1, R-4.13.4-1
         _fail(f"unknown storage code {storage} (0 int16, 1 float32)", section)
 
 
@@ -135,16 +139,18 @@ def inflate(body: bytes, limit: int, chunk: str, section: str) -> bytes:
     d = zlib.decompressobj(-15)
     try:
         out = d.decompress(body, limit + 1)
-    except zlib.error as exc:
+    except zlib.error as exc:  # R-4.13-3
         raise FormatError(f"malformed {chunk} payload: invalid DEFLATE stream ({exc})",
                           chunk=chunk, section="§4.13") from None
+    # R-4.13-3, R-4.13.1-2, R-4.13.2-4
     if len(out) > limit:
         raise FormatError(f"malformed {chunk} payload: the DEFLATE stream inflates to more "
                           f"than {limit} bytes", chunk=chunk, section=section)
+    # R-4.13-3
     if not d.eof:
         raise FormatError(f"malformed {chunk} payload: the DEFLATE stream ends before its "
                           f"final block", chunk=chunk, section="§4.13")
-    if d.unused_data:
+    if d.unused_data:  # R-4.13-3
         raise FormatError(f"malformed {chunk} payload: {len(d.unused_data)} byte(s) after "
                           f"the end of the DEFLATE stream", chunk=chunk, section="§4.13")
     return out
@@ -153,12 +159,14 @@ def inflate(body: bytes, limit: int, chunk: str, section: str) -> bytes:
 def _content(cls: type[Record], coding: int, body: bytes, limit: int) -> bytes:
     """The content bytes of a chdr or cprm body, by ``coding`` (§4.13)."""
     if coding == ByteCoding.STORED:
+        # R-4.13-3, R-4.13.1-2, R-4.13.2-4
         if len(body) > limit:
             raise FormatError(f"malformed {cls.TYPE} payload: {len(body)} bytes of content, "
                               f"more than {limit}", chunk=cls.TYPE, section=cls.SECTION)
         return body
     if coding == ByteCoding.DEFLATE:
         return inflate(body, limit, cls.TYPE, cls.SECTION)
+    # R-4.13-3
     raise FormatError(f"malformed {cls.TYPE} payload: coding {coding}, not 0 (stored) or 1 "
                       f"(DEFLATE)", chunk=cls.TYPE, section="§4.13")
 
@@ -190,7 +198,7 @@ class Chdr(Record):
 
     @classmethod
     def load(cls, payload: bytes) -> Chdr:
-        if len(payload) < 2:
+        if len(payload) < 2:  # R-4.13.1-2
             raise FormatError(f"malformed chdr payload: {len(payload)} bytes, shorter than "
                               f"its processor and coding bytes", chunk=cls.TYPE,
                               section="§4.13.1")
@@ -212,9 +220,9 @@ class Chdr(Record):
 
     def check(self, ctx: Context) -> None:
         _set_rules(ctx)
-        if self.processor not in set(C3DProcessor):
+        if self.processor not in set(C3DProcessor):  # R-4.13.1-1
             _fail(f"unknown C3D processor type {self.processor} (84, 85 or 86)", "§4.13.1")
-        if self.block[1] != C3D_KEY:
+        if self.block[1] != C3D_KEY:  # R-4.13.1-1
             _fail(f"C3D header byte 1 is 0x{self.block[1]:02x}, not the key 0x50", "§4.13.1")
 
     def info(self) -> dict[str, JSON]:
@@ -311,7 +319,7 @@ class Cprm(Record):
 
     @classmethod
     def load(cls, payload: bytes) -> Cprm:
-        if not payload:
+        if not payload:  # R-4.13.2-4
             raise FormatError("malformed cprm payload: empty, no coding byte",
                               chunk=cls.TYPE, section="§4.13.2")
         outer = _parse.parse(grammar.CPRM, payload)
@@ -350,7 +358,7 @@ class Cprm(Record):
     def check(self, ctx: Context) -> None:
         _set_rules(ctx)
         fault = self.fault()
-        if fault is not None:
+        if fault is not None:  # R-4.13.2-1
             _fail(fault, "§4.13.2")
 
     def fault(self) -> str | None:
@@ -358,7 +366,7 @@ class Cprm(Record):
         decoder (:meth:`check`), and of the reader and the encoder before a C3D's
         parameter section is kept (a C3D may declare a group twice; MPZ may not)."""
         groups: set[int] = set()
-        for i, r in enumerate(self.records):
+        for i, r in enumerate(self.records):  # R-4.13.2-1
             if r.group == 0:
                 return f"record {i}: group id 0"
             if not 1 <= len(r.name) <= 127:
@@ -447,22 +455,24 @@ class Cpnt(Record):
         _check_storage(self.storage, s)
         F, M = ctx.header.frame_count, ctx.header.marker_count
         J, P = self.model_count, self.point_count
+        # R-4.13.3-2, R-8-2
         if J > MAX_MARKERS or F * J > ctx.max_samples:
             _fail(f"{J} model outputs x {F} frames exceed the limits of §8 (at most "
                   f"{MAX_MARKERS} outputs, {ctx.max_samples} samples)", "§8",
                   LimitExceededError)
-        if P != M + J:
+        if P != M + J:  # R-4.13.3-1
             _fail(f"point_count {P} is not marker_count {M} + model_count {J}", s)
+        # R-4.13.3-1
         if sorted(self.slots) != list(range(P)):
             _fail("slots are not a permutation of 0 .. point_count - 1", s)
         for p, ch in enumerate(self.words):
             ch.check_entry(self.storage, f"point {p} word channel", "§4.13")
         for j, m in enumerate(self.models):
-            if m.kind not in set(ModelKind):
+            if m.kind not in set(ModelKind):  # R-4.13.3-1
                 _fail(f"model output {j}: unknown kind {m.kind}", s)
             for a, ax in enumerate(m.axes):
                 fault = ax.fault()
-                if fault is not None:
+                if fault is not None:  # R-4.13.3-1
                     _fail(f"model output {j} axis {'xyz'[a]}: {fault}", s)
         self.decode(F, M)
 
@@ -480,7 +490,7 @@ class Cpnt(Record):
         valid = np.ones((F, J), bool)
         if J:
             flags = dec.block(F, J, 1, signed=False)[:, :, 0]
-            if flags.size and int(flags.max()) > 1:
+            if flags.size and int(flags.max()) > 1:  # R-6.9-1
                 raise FormatError(f"model-output gap flag {int(flags.max())}, not 0 or 1",
                                   section=s)
             valid = flags == 0
@@ -491,6 +501,7 @@ class Cpnt(Record):
                 for a, ax in enumerate(m.axes):
                     e = dec.block(F, 1, 1)
                     k = reconstruct(e, ax.order)[:, 0, 0]
+                    # R-6.9-1
                     if (np.abs(k) >= MODEL_LIMIT).any():
                         raise FormatError(f"model output {j} axis {'xyz'[a]}: value "
                                           f"{int(np.abs(k).max())} is not below 2^31",
@@ -499,6 +510,7 @@ class Cpnt(Record):
                     x = k.astype(np.float64) * np.float64(ax.step)
                     models[:, j, a] = x + np.float64(ax.offset)
             models[~valid] = np.nan
+        # R-6.9-1
         dec.close()
         return PointsDecoded(words, models, valid)
 
@@ -525,12 +537,13 @@ class Cana(Record):
         _set_rules(ctx)
         _check_storage(self.storage, s)
         C, n, F = self.channels, self.samples, ctx.header.frame_count
-        if C < 1 or n < 1:
+        if C < 1 or n < 1:  # R-4.13.4-1
             _fail(f"channels {C} and samples {n} must both be >= 1", s)
-        if C * n > 0xFFFF:
+        if C * n > 0xFFFF:  # R-4.13.4-1
             _fail(f"channels x samples = {C * n} exceeds 65535, the analog words per frame a "
                   f"C3D header holds", s)
         limit, lowered = ctx.limit("MAX_ANALOG_SAMPLES")
+        # R-4.13.4-2, R-8-2
         if F * n * C > limit:
             _fail(f"{F} frames x {n} samples x {C} channels exceed MAX_ANALOG_SAMPLES "
                   f"{limit}{lowered}", "§8", LimitExceededError)
@@ -545,7 +558,7 @@ class Cana(Record):
     def _decode(self, F: int) -> NDArray[Any]:
         T = F * self.samples
         out = np.empty((T, self.channels), _dtype(self.storage))
-        dec = BlockDecoder(self.coded, chunk=self.TYPE)
+        dec = BlockDecoder(self.coded, chunk=self.TYPE)  # R-6.9-1
         for c, ch in enumerate(self.table):              # each into its column (§8)
             ch.decode(dec, T, self.storage, "§6.9", out[:, c])
         dec.close()

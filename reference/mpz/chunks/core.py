@@ -63,29 +63,38 @@ class Mhdr(Record):
         return bool(self.flags & FLAG_RESIDUAL)
 
     def check(self, ctx: Context) -> None:
-        if self.version_major != VERSION_MAJOR:
+        if self.version_major != VERSION_MAJOR:  # R-2.1-1, R-2.4-5
             _fail(f"unsupported major version {self.version_major}, this decoder reads "
                   f"{VERSION_MAJOR}", "§2.1", UnsupportedVersionError)
+        # R-2.4-6
         if self.flags & ~FLAG_RESIDUAL:
             _fail(f"reserved header flag bits set: 0x{self.flags:04x}", "§4.1")
         F, M = self.frame_count, self.marker_count
+        # R-2.4-7, R-8-2
         if not 1 <= F <= MAX_FRAMES:
             _fail(f"frame_count {F} not in 1..{MAX_FRAMES}", "§8", LimitExceededError)
+        # R-2.4-8, R-8-2
         if not 1 <= M <= MAX_MARKERS:
             _fail(f"marker_count {M} not in 1..{MAX_MARKERS}", "§8", LimitExceededError)
+        # R-2.4-9, R-4.1-1, R-8-2
         if F * M > ctx.max_samples:
             _fail(f"frame_count x marker_count = {F * M} exceeds the limit {ctx.max_samples}",
                   "§8", LimitExceededError)
+        # R-2.4-10
         if not 1 <= self.node_count <= M:
             _fail(f"node_count {self.node_count} not in 1..marker_count ({M})", "§4.1")
+        # R-2.4-11
         if not (math.isfinite(self.rate) and self.rate > 0):
             _fail(f"frame rate {self.rate!r} is not finite and positive", "§4.1")
-        if self.units not in set(Units):
+        if self.units not in set(Units):  # R-2.4-12
             _fail(f"unknown units code {self.units}", "§4.1")
+        # R-2.4-13
         if self.error_metric not in set(ErrorMetric):
             _fail(f"unknown error metric {self.error_metric}", "§4.1")
+        # R-2.4-14
         if not (math.isfinite(self.error_bound) and self.error_bound >= 0):
             _fail(f"error bound {self.error_bound!r} is not finite and >= 0", "§4.1")
+        # R-2.4-15
         if self.smoothing > MAX_SMOOTHING:
             _fail(f"smoothing half-width {self.smoothing} exceeds {MAX_SMOOTHING}", "§4.1")
 
@@ -104,14 +113,17 @@ class Mnam(Record):
 
     def check(self, ctx: Context) -> None:
         M = ctx.header.marker_count
+        # R-4.2-1
         if self.count != M:
             _fail(f"MNAM lists {self.count} names for {M} markers", "§4.2")
         # §4.2: names are equal only if their bytes are: strict UTF-8 decoding is one-to-one,
         # so comparing the decoded str (no normalisation, no case folding) is the same
         seen: set[str] = set()
         for n in self.names:
+            # R-2.4-16
             if not n or "\x00" in n:
                 _fail("marker names must be non-empty and contain no NUL", "§4.2")
+            # R-2.4-16
             if n in seen:
                 _fail(f"duplicate marker name {n!r}", "§4.2")
             seen.add(n)
@@ -145,27 +157,35 @@ class Hier(Record):
 
     def check(self, ctx: Context) -> None:
         M, N = ctx.header.marker_count, ctx.header.node_count
+        # R-4.3-1
         if self.count != N:
             _fail(f"HIER lists {self.count} nodes, header says {N}", "§4.3")
         owner = np.full(M, -1, np.int64)
         for i, node in enumerate(self.nodes):
             if i == 0:
+                # R-2.4-17, R-2.4-18
                 if node.parent != ROOT_PARENT or node.member_count != 1:
                     _fail("node 0 must be the root: parent 0xFFFF and exactly one member",
                           "§4.3")
+            # R-2.4-17
             elif not node.parent < i:
                 _fail(f"node {i} has parent {node.parent}; parents must precede their children",
                       "§4.3")
+            # R-2.4-18
             if node.member_count == 0:
                 _fail(f"node {i} has no members", "§4.3")
             for m in node.members:
+                # R-2.4-19
                 if m >= M:
                     _fail(f"node {i} names marker {m}, but there are {M}", "§4.3")
+                # R-2.4-19
                 if owner[m] >= 0:
                     _fail(f"marker {m} belongs to nodes {owner[m]} and {i}", "§4.3")
                 owner[m] = i
+            # R-2.4-20
             if node.ref not in node.members:
                 _fail(f"node {i}: reference marker {node.ref} is not a member", "§4.3")
+        # R-2.4-19
         if (owner < 0).any():
             _fail(f"marker {int(np.argmin(owner))} belongs to no node", "§4.3")
 
@@ -184,16 +204,20 @@ class Qunt(Record):
     bits: int
 
     def check(self, ctx: Context) -> None:
+        # R-2.4-21
         if not (math.isfinite(self.step) and self.step > 0):
             _fail(f"grid step {self.step!r} is not finite and positive", "§4.4")
+        # R-2.4-22
         if not all(math.isfinite(o) for o in self.offset):
             _fail("grid offsets must be finite", "§4.4")
+        # R-2.4-23
         if not 1 <= self.bits <= MAX_BITS:
             _fail(f"bits {self.bits} not in 1..{MAX_BITS}", "§4.4")
         # §4.4 output range (1.0.1): B_a = |o_a| + s * 2^bits, evaluated in binary64 (the
         # product is exact unless it overflows, the sum rounds once), must not be +inf, so
         # every output of §6.8 is finite. Not math.ldexp: it raises where C returns +inf.
         for a, o in enumerate(self.offset):
+            # R-2.4-24
             if not math.isfinite(abs(o) + self.step * 2.0 ** self.bits):
                 _fail(f"axis {a}: |offset| + step x 2^{self.bits} = |{o!r}| + {self.step!r} x "
                       f"2^{self.bits} is not finite in binary64, so outputs could be infinite",
@@ -225,6 +249,7 @@ class Root(Record):
     coded: bytes
 
     def check(self, ctx: Context) -> None:
+        # R-2.4-26
         if self.order > MAX_ORDER:
             _fail(f"predictor order {self.order} not in 0..{MAX_ORDER}", "§4.6")
 
@@ -252,16 +277,20 @@ class Patt(Record):
 
     def check(self, ctx: Context) -> None:
         i = ctx.node
-        if self.node != i:
+        if self.node != i:  # R-3.4-4
             _fail(f"PATT for node {self.node} where node {i} was expected", "§3.4")
+        # R-2.4-27, R-8-2
         if self.pattern_count and not 1 <= self.length <= MAX_PATTERN_LENGTH:
             _fail(f"pattern length {self.length} not in 1..{MAX_PATTERN_LENGTH}", "§8",
                   LimitExceededError)
+        # R-4.7-2, R-8-2
         if self.pattern_count * self.length * ctx.members > MAX_PATTERN_SAMPLES:
             _fail(f"{self.pattern_count} patterns x {self.length} frames x {ctx.members} markers "
                   f"exceeds {MAX_PATTERN_SAMPLES}", "§8", LimitExceededError)
+        # R-2.4-26, R-2.4-28, R-4.7-1
         if self.scale < 1 or self.order > MAX_ORDER:
             _fail(f"pattern scale {self.scale} / order {self.order} out of range", "§4.7")
+        # R-4.7-3
         if not self.pattern_count and not ctx.header.residual:
             _fail(f"node {i} has no patterns and the file has no residual layer", "§4.7")
 
@@ -281,8 +310,9 @@ class Segs(Record):
 
     def check(self, ctx: Context) -> None:
         i, F = ctx.node, ctx.header.frame_count
-        if self.node != i:
+        if self.node != i:  # R-3.4-4
             _fail(f"SEGS for node {self.node} where node {i} was expected", "§3.4")
+        # R-2.4-29, R-8-2
         if not 1 <= self.segment_count <= F:
             _fail(f"segment_count {self.segment_count} not in 1..{F}", "§4.8", LimitExceededError)
 
@@ -304,14 +334,17 @@ class Resi(Record):
 
     def check(self, ctx: Context) -> None:
         i = ctx.node
-        if self.node != i:
+        if self.node != i:  # R-3.4-4
             _fail(f"RESI for node {self.node} where node {i} was expected", "§3.4")
+        # R-2.4-26, R-2.4-32, R-2.4-33
         if self.order > MAX_ORDER or self.scale < 1 or self.base not in set(ResidualBase):
             _fail(f"residual base {self.base} / order {self.order} / scale {self.scale} out of "
                   f"range", "§4.9")
+        # R-2.4-32
         if self.base != ResidualBase.PARENT and ctx.patt is not None and ctx.patt.pattern_count:
             _fail(f"node {i}: an absolute residual layer (base {self.base}) needs "
                   f"pattern_count 0", "§4.9")
+        # R-2.4-32
         if self.base == ResidualBase.KEYFRAMES and self.order != 0:
             _fail(f"node {i}: a key-frame layer (base 2) has order 0, got {self.order}", "§4.9")
 
@@ -358,11 +391,11 @@ class Smry(Record):
         values, _ = check_summary_head(self, ctx, "§4.10")
         for lv in self.levels:
             starts = lv.start_frames()
-            if (starts[0] != 0 or (np.diff(starts.astype(np.int64)) <= 0).any()
+            if (starts[0] != 0 or (np.diff(starts.astype(np.int64)) <= 0).any()  # R-2.4-40
                     or starts[-1] >= F):
                 _fail("summary starts must begin at 0, increase strictly and stay below F",
                       "§4.10")
-        if values > MAX_SUMMARY_VALUES:
+        if values > MAX_SUMMARY_VALUES:  # R-4.10-1, R-8-2
             _fail(f"summary holds {values} values, limit {MAX_SUMMARY_VALUES}", "§8",
                   LimitExceededError)
 
@@ -393,20 +426,22 @@ def check_summary_head(rec: _SummaryHead, ctx: Context, section: str) -> tuple[i
     and wssse >= 0 at each level. Returns the sums of k x D and of k, formed after each k
     is checked (§1.1), for the caller's §8 limit."""
     F, M = ctx.header.frame_count, ctx.header.marker_count
-    if rec.space not in set(SummarySpace):
+    if rec.space not in set(SummarySpace):  # R-2.4-34, R-4.15-2
         _fail(f"unknown summary space {rec.space}", section)
-    if rec.space == SummarySpace.POSITIONS and rec.dims != 3 * M:
+    if rec.space == SummarySpace.POSITIONS and rec.dims != 3 * M:  # R-2.4-35, R-4.15-2
         _fail(f"position summary has {rec.dims} dims, expected {3 * M}", section)
-    if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS:
+    if not 1 <= rec.level_count <= MAX_SUMMARY_LEVELS:  # R-2.4-36, R-4.15-2
         _fail(f"summary level count {rec.level_count} not in 1..{MAX_SUMMARY_LEVELS}",
               section)
     values = segments = 0
     for lv in rec.levels:
         # levels may come in any order and repeat k, and D = 0 is allowed for space 1
+        # R-2.4-37, R-4.15-2
         if not 1 <= lv.k <= F:
             _fail(f"summary level with k = {lv.k} for {F} frames", section)
         segments += lv.k
         values += lv.k * rec.dims
+        # R-2.4-38, R-2.4-39, R-4.15-2
         if not (math.isfinite(lv.step) and lv.step > 0 and math.isfinite(lv.wssse)
                 and lv.wssse >= 0):
             _fail("summary step must be > 0 and wssse >= 0, both finite", section)
@@ -448,6 +483,7 @@ class Meta(Record):
         # keys and values are strict UTF-8 (the layout decodes them, §1, §4.11); U+0000 is
         # allowed in both; repeated keys are allowed (the last value counts)
         for e in self.entries:
+            # R-2.4-41
             if not e.key:
                 _fail("empty metadata key", "§4.11")
 

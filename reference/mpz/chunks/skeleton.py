@@ -55,10 +55,10 @@ def _token(name: str) -> bool:
 
 def _kinds(channels: tuple[int, ...], top: int, what: str, section: str) -> None:
     """Channel kinds 0..top, none repeated."""
-    if any(c > top for c in channels):
+    if any(c > top for c in channels):  # R-4.14.1-1, R-4.14.2-1
         bad = next(c for c in channels if c > top)
         _fail(f"{what}: channel kind {bad} is not in 0..{top}", section)
-    if len(set(channels)) != len(channels):
+    if len(set(channels)) != len(channels):  # R-4.14.1-1, R-4.14.2-1
         _fail(f"{what}: a channel kind repeats in {list(channels)}", section)
 
 
@@ -81,7 +81,7 @@ def _set_rule(ctx: Context) -> None:
     """§4.14: at most one skeleton chunk (bvhs or asfs) in a file (checked wherever the chunk
     list is known, that is for every chunk the decoder reads)."""
     n = sum(ctx.types.count(t) for t in SKELETON_TYPES)
-    if n > 1:
+    if n > 1:  # R-4.14-1
         _fail(f"a file holds at most one skeleton chunk (bvhs or asfs); this one has {n}",
               "§4.14")
 
@@ -90,38 +90,40 @@ def _check_layer(channel_count: int, expected: int, position_bound: float,
                  channels: tuple[ChannelCoding, ...], ctx: Context) -> None:
     """The §4.14 rules of a channel layer whose skeleton has ``expected`` channels."""
     F = ctx.header.frame_count
-    if channel_count != expected:
+    if channel_count != expected:  # R-4.14-2
         _fail(f"the channel layer holds {channel_count} channels, the skeleton has {expected}",
               "§4.14")
     limit, lowered = ctx.limit("MAX_CHANNEL_SAMPLES")
-    if F * channel_count > limit:
+    if F * channel_count > limit:  # R-4.14-3, R-8-2
         _fail(f"frame_count x channel_count = {F} x {channel_count} exceeds "
               f"{limit}{lowered}", "§8", LimitExceededError)
+    # R-4.14-2
     if not (math.isfinite(position_bound) and position_bound >= 0):
         _fail(f"position bound {position_bound!r} is not finite and >= 0", "§4.14")
     for k, c in enumerate(channels):
         what = f"channel {k}"
-        if c.step_mantissa < 1 or c.step_digits > MAX_STEP_DIGITS:
+        if c.step_mantissa < 1 or c.step_digits > MAX_STEP_DIGITS:  # R-4.14-2
             _fail(f"{what}: step {c.step_mantissa} x 10^-{c.step_digits} needs m >= 1 and "
                   f"d <= {MAX_STEP_DIGITS}", "§4.14")
-        if c.order > MAX_ORDER or c.wrap > 1:
+        if c.order > MAX_ORDER or c.wrap > 1:  # R-4.14-2
             _fail(f"{what}: order {c.order} / wrap {c.wrap} out of range", "§4.14")
         if c.wrap:
             turn = turn_steps(c.step_mantissa, c.step_digits)
-            if turn is None:
+            if turn is None:  # R-4.14-2
                 _fail(f"{what}: a wrapped channel needs a step that divides 360 of its units "
                       f"(360 x 10^d a multiple of m); {c.step_mantissa} x 10^-{c.step_digits} "
                       "does not", "§4.14")
                 return
             # spec §4.14: "every value low .. low + N - 1 satisfies |x| < 2^31"
+            # R-4.14-2
             if not (-CHANNEL_VALUE_LIMIT < c.low and c.low + turn <= CHANNEL_VALUE_LIMIT):
                 _fail(f"{what}: the turn {c.low} .. {c.low} + {turn} - 1 leaves |x| < 2^31",
                       "§4.14")
-        elif c.low:
+        elif c.low:  # R-4.14-2
             _fail(f"{what}: low is {c.low}, but must be 0 when wrap is 0", "§4.14")
     groups = {c.group for c in channels}
     G = 1 + max(groups, default=-1)
-    if groups != set(range(G)):
+    if groups != set(range(G)):  # R-4.14-2
         _fail(f"groups {sorted(set(range(G)) - groups)} hold no channel; groups are "
               f"numbered 0 .. G - 1", "§4.14")
 
@@ -197,12 +199,13 @@ class Bvhs(_Layer, Record):
 
     def check(self, ctx: Context) -> None:
         _set_rule(ctx)
-        if self.encoding not in set(TextEncoding):
+        if self.encoding not in set(TextEncoding):  # R-4.14.1-1
             _fail(f"unknown text encoding {self.encoding}", "§4.14.1")
+        # R-4.14.1-1
         if not (math.isfinite(self.frame_time) and self.frame_time > 0):
             _fail(f"frame time {self.frame_time!r} is not finite and > 0", "§4.14.1")
         M = ctx.header.marker_count
-        if self.joint_count != M:
+        if self.joint_count != M:  # R-4.14.1-1
             _fail(f"bvhs lists {self.joint_count} joints for {M} markers", "§4.14.1")
         # spec §4.14.1: a joint's parent is joint i - 1 or an ancestor of joint i - 1
         # (depth-first order), or none for a ROOT
@@ -213,21 +216,21 @@ class Bvhs(_Layer, Record):
                 above: list[int] = []
             elif j.parent in chain:
                 above = chain[chain.index(j.parent):]
-                if self.joints[j.parent].end_site:
+                if self.joints[j.parent].end_site:  # R-4.14.1-1
                     _fail(f"{what} is the child of an End Site (joint {j.parent})", "§4.14.1")
-            else:
+            else:  # R-4.14.1-1
                 _fail(f"{what} has parent {j.parent}, which is neither joint {i - 1} nor one "
                       f"of its ancestors (joints are listed depth first)", "§4.14.1")
             chain = [i, *above]
             if j.end_site:
-                if j.parent == ROOT_PARENT or j.channel_count:
+                if j.parent == ROOT_PARENT or j.channel_count:  # R-4.14.1-1
                     _fail(f"{what}: an End Site (empty name) needs a parent and no channels",
                           "§4.14.1")
-            elif not _token(j.name):
+            elif not _token(j.name):  # R-4.14.1-1
                 _fail(f"{what}: name {j.name!r} contains white space or NUL", "§4.14.1")
-            if not _finite(j.offset):
+            if not _finite(j.offset):  # R-4.14.1-1
                 _fail(f"{what}: OFFSET must be finite", "§4.14.1")
-            if j.channel_count > MAX_BVH_CHANNELS:
+            if j.channel_count > MAX_BVH_CHANNELS:  # R-4.14.1-1
                 _fail(f"{what}: {j.channel_count} channels, at most {MAX_BVH_CHANNELS}",
                       "§4.14.1")
             _kinds(j.channels, ChannelKind.RZ, what, "§4.14.1")
@@ -299,59 +302,65 @@ class Asfs(_Layer, Record):
     def check(self, ctx: Context) -> None:
         sec = "§4.14.2"
         _set_rule(ctx)
-        if ctx.header.units != Units.MM:
+        if ctx.header.units != Units.MM:  # R-4.14.2-1
             _fail(f"an asfs file's markers are in mm (units 1), not units "
                   f"{ctx.header.units}", sec)
-        if self.encoding not in set(TextEncoding):
+        if self.encoding not in set(TextEncoding):  # R-4.14.2-1
             _fail(f"unknown text encoding {self.encoding}", sec)
-        if self.angle_unit not in set(AngleUnit):
+        if self.angle_unit not in set(AngleUnit):  # R-4.14.2-1
             _fail(f"unknown angle unit {self.angle_unit}", sec)
-        if not (math.isfinite(self.length_unit) and self.length_unit > 0):
+        if not (math.isfinite(self.length_unit) and self.length_unit > 0):  # R-4.14.2-1
             _fail(f"length unit {self.length_unit!r} is not finite and > 0", sec)
         for what, text in (("mass", self.mass), ("version", self.version), ("name", self.name)):
+            # R-4.14.2-1
             if "\n" in text or "\r" in text:
                 _fail(f"the {what} text is one line; it holds a line break", sec)
-        if self.root_order_count > ChannelKind.RZ + 1:
+        if self.root_order_count > ChannelKind.RZ + 1:  # R-4.14.2-1
             _fail(f"root order lists {self.root_order_count} channels, at most 6", sec)
         _kinds(self.root_order, ChannelKind.RZ, "root", sec)
+        # R-4.14.2-1
         if self.root_axis_order >= len(AXIS_ORDERS):
             _fail(f"root axis order {self.root_axis_order} not in 0..5", sec)
+        # R-4.14.2-1
         if not _finite(self.root_position + self.root_orientation):
             _fail("root position and orientation must be finite", sec)
         M = ctx.header.marker_count
-        if self.bone_count != M - 1:
+        if self.bone_count != M - 1:  # R-4.14.2-1
             _fail(f"asfs lists {self.bone_count} bones for {M} markers (the root is marker 0)",
                   sec)
         names: set[str] = set()
         for b, bone in enumerate(self.bones):
             what = f"bone {b} ({bone.name!r})"
-            if not _token(bone.name) or bone.name == "root" or bone.name in names:
+            if not _token(bone.name) or bone.name == "root" or bone.name in names:  # R-4.14.2-1
                 _fail(f"{what}: names are unique words other than 'root'", sec)
             names.add(bone.name)
             # bone b is joint b + 1: its parent is the root (0) or an earlier bone
+            # R-4.14.2-1
             if bone.parent > b:
                 _fail(f"{what} has parent joint {bone.parent}; parents come first", sec)
+            # R-4.14.2-1
             if not (_finite(bone.direction + bone.axis) and math.isfinite(bone.length)):
                 _fail(f"{what}: direction, length and axis must be finite", sec)
-            if bone.axis_order >= len(AXIS_ORDERS):
+            if bone.axis_order >= len(AXIS_ORDERS):  # R-4.14.2-1
                 _fail(f"{what}: axis order {bone.axis_order} not in 0..5", sec)
-            if bone.dof_count > ChannelKind.L + 1:
+            if bone.dof_count > ChannelKind.L + 1:  # R-4.14.2-1
                 _fail(f"{what}: {bone.dof_count} dofs, at most 7", sec)
             _kinds(bone.dofs, ChannelKind.L, what, sec)
-            if bone.limit_count not in (0, bone.dof_count):
+            if bone.limit_count not in (0, bone.dof_count):  # R-4.14.2-1
                 _fail(f"{what}: {bone.limit_count} limits for {bone.dof_count} dofs", sec)
-            if any(math.isnan(v) for lim in bone.limits for v in lim):
+            if any(math.isnan(v) for lim in bone.limits for v in lim):  # R-4.14.2-1
                 _fail(f"{what}: a limit is NaN", sec)
         joints = self.bone_count + 1
-        if not 1 <= self.amc_count <= joints:
+        if not 1 <= self.amc_count <= joints:  # R-4.14.2-1
             _fail(f"AMC order lists {self.amc_count} joints, not 1..{joints}", sec)
         seen: set[int] = set()
         for k in self.amc_order:
+            # R-4.14.2-1
             if k >= joints or k in seen:
                 _fail(f"AMC order: joint {k} is out of range or repeated", sec)
             seen.add(k)
         need = {0} | {b + 1 for b, bone in enumerate(self.bones) if bone.dof_count}
-        if not need <= seen:
+        if not need <= seen:  # R-4.14.2-1
             _fail(f"AMC order leaves out joints {sorted(need - seen)} that have channels", sec)
         _check_layer(self.channel_count, self.skeleton_channels, self.position_bound,
                      self.channels, ctx)

@@ -70,7 +70,7 @@ def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
     Memory (§8): each level's residual block becomes its means in place, and its starts
     are one int64 array; nothing else of the summary's size is held.
     """
-    dec = BlockDecoder(rec.coded, chunk=rec.TYPE, offset=offset)
+    dec = BlockDecoder(rec.coded, chunk=rec.TYPE, offset=offset)  # R-4.15-4
     D = rec.dims
     starts_of: list[IntArray] = []
     means: list[IntArray] = []
@@ -81,7 +81,7 @@ def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
         # §4.15 step 2: the lengths add up to F (the sum formed in 64 bits: k < 2^24 values
         # of at most 2^31, c_j + 1) before any start is formed (§1.1)
         total = int(lengths.sum())
-        if total != frames:
+        if total != frames:  # R-4.15-5
             _fail(f"summary level k = {k}: segment lengths add up to {total}, "
                   f"not {frames} frames", "§4.15")
         np.cumsum(lengths, out=lengths)                  # the end of each segment
@@ -93,7 +93,7 @@ def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
             means.append(dec.block(*shape, period=k, signed=True).reshape(k, D))
         else:
             means.append(np.zeros((k, 0), np.int64))
-    dec.close()
+    dec.close()  # R-4.15-4
     # steps 3-4, in place: the last level along its segments, then each level from the one
     # after it (already means)
     for li in range(len(rec.levels) - 1, -1, -1):
@@ -104,7 +104,7 @@ def decode_levels(rec: Smrc, frames: int, *, offset: int | None = None
             np.cumsum(q, axis=0, out=q)              # |partial sums| < 2^55: exact in int64
         else:
             add_overlap(starts_of[li], means[li + 1], starts_of[li + 1], frames, q, 1)
-        if int(q.max()) >= MEAN_LIMIT or int(q.min()) <= -MEAN_LIMIT:
+        if int(q.max()) >= MEAN_LIMIT or int(q.min()) <= -MEAN_LIMIT:  # R-4.15-6
             _fail(f"summary level k = {rec.levels[li].k}: a decoded mean is 2^31 steps or "
                   f"more in magnitude", "§4.15")
     return list(zip(starts_of, means, strict=True))
@@ -163,6 +163,7 @@ class Smrc(Record):
         """The rules of §4.15 that come before the coded field is decoded (§1.1). At most
         one summary chunk (R-4.15-1) is the chunk walk's rule, checked in decoder.py."""
         values, segments = check_summary_head(self, ctx, "§4.15")
+        # R-4.15-3, R-8-2
         if values > MAX_SUMMARY_VALUES or segments > MAX_SUMMARY_VALUES:
             _fail(f"summary holds {values} means and {segments} segments, limit "
                   f"{MAX_SUMMARY_VALUES} each", "§8", LimitExceededError)
