@@ -319,7 +319,7 @@ def decode_channel(dec: BlockDecoder, T: int, mode: int, shift: int, order: int,
     e = dec.block(T, 1, 1)
     if low_bits:
         lo = dec.block(T, 1, 1, signed=False)
-        if T and int(lo.max()) >= (1 << low_bits):
+        if T and int(lo.max()) >= (1 << low_bits):  # R-6.9-1
             raise _fail(f"low part {int(lo.max())} of a residual is not below 2^{low_bits}",
                         section)
         np.left_shift(e, low_bits, out=e)                   # h x 2^b + lo, |h| < 2^31
@@ -330,11 +330,12 @@ def decode_channel(dec: BlockDecoder, T: int, mode: int, shift: int, order: int,
     v = reconstruct(e, order, inplace=True)[:, 0, 0]
     top, bottom = (int(v.max()), int(v.min())) if T else (0, 0)     # (no temporaries)
     if mode == ChannelMode.INTEGER:
-        if max(top, -bottom) >= K_LIMIT:
+        if max(top, -bottom) >= K_LIMIT:  # R-6.9-1
             raise _fail(f"integer channel value {max(top, -bottom)} is not below 2^24",
                         section)
-        if storage == INT16 and (bottom < -32768 or top > 32767):
+        if storage == INT16 and (bottom < -32768 or top > 32767):  # R-6.9-1
             raise _fail("an int16 channel decodes to a value outside -32768..32767", section)
+    # R-6.9-1
     elif bottom < -(1 << 31) or top >= (1 << 31):
         raise _fail("a float32 bit-pattern channel decodes outside -2^31..2^31-1", section)
     if out is None:

@@ -341,7 +341,7 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
         value with |x| >= 2^31.
     """
     F, C = frames, len(codings)
-    dec = BlockDecoder(coded, chunk=chunk, offset=offset)
+    dec = BlockDecoder(coded, chunk=chunk, offset=offset)  # R-6.10-1
     groups = np.array([c.group for c in codings], np.int64)
     G = int(groups.max(initial=-1)) + 1
     if G == 1 and (groups == 0).all():                  # one block of every column: as is
@@ -361,12 +361,12 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
     for order, plain, wrapped in _by_order([cc.order for cc in codings], turns):
         for c0 in range(0, plain.size, per):
             cols = plain[c0: c0 + per]
-            e[:, cols] = reconstruct(e[:, cols], order, chunk=chunk, offset=offset,
+            e[:, cols] = reconstruct(e[:, cols], order, chunk=chunk, offset=offset,  # R-6.10-1
                                      inplace=True)                         # step 2
         for c0 in range(0, wrapped.size, per):
             cols = wrapped[c0: c0 + per]
             e[:, cols] = unwrap(e[:, cols], order, lows[cols], turns[cols])   # step 3
-    if e.size and max(int(e.max()), -int(e.min())) >= CHANNEL_VALUE_LIMIT:
+    if e.size and max(int(e.max()), -int(e.min())) >= CHANNEL_VALUE_LIMIT:  # R-6.10-1
         c = int(np.argmax(np.abs(e).max(axis=0)))
         t = int(np.argmax(np.abs(e[:, c])))
         raise FormatError(f"channel {c}, frame {t}: decoded value {int(e[t, c])} is outside "

@@ -498,9 +498,11 @@ class BlockDecoder:
         self._buf = np.frombuffer(bytes(data), np.uint8)
         self.chunk, self.offset = chunk, offset
         n = self._buf.shape[0]
+        # R-2.4-43
         if n < 5:
             self._fail(f"range-coded payload of {n} bytes is shorter than its 5-byte preamble",
                        n)
+        # R-2.4-44
         if self._buf[0] != 0:
             self._fail(f"range-coded payload must start with byte 0, got {int(self._buf[0])}", 0)
         code = 0
@@ -525,7 +527,7 @@ class BlockDecoder:
         period = max(1, T if period is None else int(period))
         _decode_block(self._buf, self._ds, T, M, period, signed, _flat_models(models), out,
                       self._err)
-        if self._err[0] == ERR_OVERRUN:
+        if self._err[0] == ERR_OVERRUN:  # R-5.3-1
             n = self._buf.shape[0]
             self._fail(f"range-coded payload ends before its last symbol (renormalisation "
                        f"needs byte {n} of a {n}-byte field)", n)
@@ -538,5 +540,6 @@ class BlockDecoder:
     def close(self) -> None:
         """Check that every byte of the payload was consumed (§5.3)."""
         left = self._buf.shape[0] - self.consumed
+        # R-5.3-2
         if left:
             self._fail(f"{left} byte(s) left after the last range-coded symbol", self.consumed)

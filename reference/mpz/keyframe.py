@@ -124,6 +124,7 @@ def _mark_keys(counts: NDArray[np.int64], spans: NDArray[np.int64], F: int,
         total = 0
         for k in range(K - 1):
             total += spans[at + k] + 1
+        # R-6.5-3
         if total != F - 1:
             return 1, m, total
         t = 0
@@ -163,6 +164,7 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
         p = refs[m]
         mode = 0 if p == 0 else (1 if p % 2 == 1 else 2)
         j = (p - 1) // 2 if p > 0 else 0
+        # R-6.5-1
         if p > 0 and j >= m:            # checked by the caller first: a guard of memory
             return 3, m, j
         R = out[:, cols[j]]
@@ -177,7 +179,7 @@ def _rebuild(refs: NDArray[np.int64], counts: NDArray[np.int64], bits: NDArray[n
                     tk += 1
             for c in range(3):
                 v = _predict_key(mode, k, tk, t1, t2, w1[c], w2[c], R, c) + keys[k_at + k, c]
-                if v >= KEY_VALUE_LIMIT or v <= -KEY_VALUE_LIMIT:
+                if v >= KEY_VALUE_LIMIT or v <= -KEY_VALUE_LIMIT:  # R-6.5-4
                     return 2, m, k
                 wk[c] = v
                 if abs(v) > peak:
@@ -222,17 +224,18 @@ def decode_payload_peak(dec: BlockDecoder, F: int, n: int, *, chunk: str | None 
         raise FormatError(msg, chunk=chunk, offset=offset, section="§6.5")
     refs = dec.block(n, 1, 1, signed=False)[:, 0, 0]
     bad = np.flatnonzero((refs > 0) & ((refs - 1) // 2 >= np.arange(n)))
-    if bad.size:
+    if bad.size:  # R-6.5-1
         fail(f"member {int(bad[0])} names reference {int(refs[bad[0]])}: it must be a member "
              f"before it")
     counts = dec.block(n, 1, 1, signed=False)[:, 0, 0] + 1
+    # R-6.5-2
     if (counts > F).any() or (F > 1 and (counts < 2).any()) or (F == 1 and (counts != 1).any()):
         fail(f"key counts must be 2..F per member (1 when F = 1), got {counts.tolist()[:8]}")
     total_spans = int((counts - 1).sum())
     spans = dec.block(total_spans, 1, 1, signed=False).reshape(-1)     # d - 1
     bits = np.zeros((n, (F + 7) // 8), np.uint8)
     code, m, detail = _mark_keys(counts.astype(np.int64), spans, F, bits)
-    if code == 1:
+    if code == 1:  # R-6.5-3
         fail(f"member {m}: key spans add up to {detail}, not F - 1 = {F - 1}")
     del spans
     keys = dec.block(int(counts.sum()), 1)[:, 0]
@@ -243,7 +246,7 @@ def decode_payload_peak(dec: BlockDecoder, F: int, n: int, *, chunk: str | None 
         cols = np.asarray(columns, dtype=np.int64)
     code, m, detail = _rebuild(refs.astype(np.int64), counts.astype(np.int64), bits, keys, F,
                                out, cols)
-    if code == 2:
+    if code == 2:  # R-6.5-4
         # checked as each w_k is computed, before it enters a later prediction (§6.5, §1.1)
         fail(f"member {m}: key value w_{detail} has |w_k| >= 2^31")
     if code == 3:       # the references were checked above: a defect, never a bad file

@@ -96,7 +96,7 @@ def reconstruct(e: ArrayLike, order: int, period: int | None = None, *,
     P = _runs(x, period).shape[1]
     work = x if x.flags.c_contiguous else np.ascontiguousarray(x)
     bad = _integrate(work.reshape(T, -1), P, int(order))
-    if bad >= 0:
+    if bad >= 0:  # R-6.2-1
         raise _overflow(chunk, offset)
     if work is not x:
         x[...] = work
@@ -119,6 +119,7 @@ def _integrate(x: NDArray[np.int64], P: int, order: int) -> int:
                     x[t, c] += x[t - 1, c]
                     continue
                 dd = x[t, c] if t == r0 + 1 else d[c] + x[t, c]
+                # R-6.2-1
                 if dd >= _DIFF_LIMIT or dd <= -_DIFF_LIMIT:
                     return t
                 d[c] = dd
