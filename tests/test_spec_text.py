@@ -7,8 +7,10 @@ makes a test fail.
 """
 from __future__ import annotations
 
+import io
 from pathlib import Path
 import re
+import tokenize
 import zlib
 
 import numpy as np
@@ -16,6 +18,7 @@ import pytest
 
 from mpz import container, format
 from mpz.chunks import CHUNKS
+from mpz.conformance.manifest import spec_rules
 from mpz.entropy import BlockDecoder, BlockEncoder
 from mpz.spec.grammar import SIGNATURE
 
@@ -26,8 +29,12 @@ GRAMMAR = REPO / "spec" / "mpz" / "spec" / "grammar.py"
 CITING = sorted([*(REPO / "reference" / "mpz").rglob("*.py"),
                  *(REPO / "tools" / "mpz").rglob("*.py")]) + [GRAMMAR]
 
+#: where the checks of the §7.4 rules are: the reference decoder and the grammar
+ENFORCING = sorted((REPO / "reference" / "mpz").rglob("*.py")) + [GRAMMAR]
+
 HEADING = re.compile(r"^#{2,4} (\d+(?:\.\d+)*)\.? +(.*)$", re.M)
 SECTION_REF = re.compile(r"§(\d+(?:\.\d+)*)")
+RULE_ID = re.compile(r"\bR-\d+(?:\.\d+)*-\d+\b")
 
 
 @pytest.fixture(scope="module")
@@ -156,6 +163,33 @@ def test_spec_cross_references_resolve(text):
     have = set(headings(text))
     bad = sorted({n for n in SECTION_REF.findall(text) if n not in have})
     assert not bad, f"spec refers to missing sections {bad}"
+
+
+# (3b) §7.4 rule IDs: from a rule to the check that enforces it, and back --------------
+def comment_rule_ids(path: Path) -> set[str]:
+    """The rule IDs that the ``#`` comments of a Python file cite."""
+    tokens = tokenize.generate_tokens(io.StringIO(path.read_text(encoding="utf-8")).readline)
+    return {rid for t in tokens if t.type == tokenize.COMMENT for rid in RULE_ID.findall(t.string)}
+
+
+def test_every_reject_rule_id_is_cited_at_its_check(text):
+    """Each ``reject`` rule of the §7.4 index is named in a comment (``# R-4.13-2``) on or
+    above the check that raises for it, in reference/mpz or the grammar."""
+    cited = set().union(*(comment_rule_ids(p) for p in ENFORCING))
+    reject = [rid for rid, _, kind, _ in spec_rules(text) if kind == "reject"]
+    assert len(reject) > 100
+    missing = [rid for rid in reject if rid not in cited]
+    assert not missing, f"reject rules no comment in reference/mpz or the grammar cites: {missing}"
+
+
+def test_every_rule_id_cited_in_the_code_is_in_the_index(text):
+    index = {rid for rid, *_ in spec_rules(text)}
+    unknown: dict[str, list[str]] = {}
+    for path in sorted(set(CITING) | set(ENFORCING)):
+        for rid in RULE_ID.findall(path.read_text(encoding="utf-8")):
+            if rid not in index:
+                unknown.setdefault(rid, []).append(path.name)
+    assert not unknown, f"rule IDs cited in code but absent from the §7.4 index: {unknown}"
 
 
 # (4) the worked entropy example -----------------------------------------------
