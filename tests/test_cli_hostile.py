@@ -695,7 +695,10 @@ def test_the_memory_report_offers_only_options_the_command_has():
     from mpz.tools._cli import memory_message
     assert "--max-samples" not in memory_message(MemoryError(), "encode")
     for command in ("decode", "show", "mpzinfo"):
-        assert "--max-samples" in memory_message(MemoryError(), command)
+        # ... and says it bounds an .mpz input alone (`mpz show walk.trc`, a QA run of
+        # stop 51)
+        assert "lower --max-samples for an .mpz input" in memory_message(MemoryError(),
+                                                                          command)
 
 
 def test_an_amc_whose_skeleton_name_is_not_utf8_encodes(tmp_path, shared_data):

@@ -566,3 +566,36 @@ def test_another_users_file_in_a_sticky_folder_is_refused_before_the_work(
         api.check_output(tmp_path / "sticky" / "x.mpz", force=True)
     monkeypatch.setattr(api.os, "access", lambda path, mode: True)      # as for root
     api.check_output(tmp_path / "plain" / "x.mpz", force=True)          # no sticky bit
+
+
+def test_long_inputs_say_each_long_step_on_a_terminal(tmp_path, monkeypatch, capsys):
+    """A 2-hour capture was read for 20 s and decoded for minutes with nothing on the
+    terminal, and a bounded encode's bar came at its end (a scale QA run of stop 51).
+    On a terminal, an input past STAGE_BYTES gets a line before each long step, and the
+    encoding bar starts at once; off a terminal, and with -q, nothing is added."""
+    import mpz.tools._common as common
+    from mpz.io import write
+    from mpz.synth import generate
+    from mpz.tools import mpz_cli
+    write(generate("walk", frames=60, seed=5), tmp_path / "w.trc")
+    argv = ["encode", str(tmp_path / "w.trc"), "-o", str(tmp_path / "w.mpz"), "-f",
+            "--max-error", "1mm"]
+    back = ["decode", str(tmp_path / "w.mpz"), "-o", str(tmp_path / "b.trc"), "-f"]
+    assert mpz_cli.main(argv) == 0 and mpz_cli.main(back) == 0
+    assert "mpz encode: reading" not in capsys.readouterr().err      # not a terminal
+    monkeypatch.setattr(common, "on_terminal", lambda: True)
+    monkeypatch.setattr(common, "STAGE_BYTES", 1)
+    assert mpz_cli.main(argv) == 0
+    err = capsys.readouterr().err
+    size = (tmp_path / "w.trc").stat().st_size
+    lines = [ln for ln in err.split("\n") if ln.startswith("mpz encode: ")]
+    assert lines[:1] == [f"mpz encode: reading {tmp_path / 'w.trc'} "
+                         f"({common.human_size(size)})"], err
+    assert "mpz encode: decoding what was written, to measure its error" in lines, err
+    assert "encoding [------------------------------]   0% planning" in err, err
+    assert mpz_cli.main(back) == 0
+    err = capsys.readouterr().err
+    assert f"mpz decode: decoding {tmp_path / 'w.mpz'}\n" in err, err
+    assert f"mpz decode: writing {tmp_path / 'b.trc'}\n" in err, err
+    assert mpz_cli.main([*argv, "-q"]) == 0 and mpz_cli.main([*back, "-q"]) == 0
+    assert capsys.readouterr().err == ""

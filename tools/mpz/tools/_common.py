@@ -122,12 +122,43 @@ def human_size(n: int) -> str:
 
 # -- progress and first-run notice ---------------------------------------------------------
 
+#: inputs at least this large get a line on stderr at each long step of a command (on a
+#: terminal): a 2-hour capture read for 20 s, decoded for minutes, with nothing shown (a
+#: QA run of stop 51)
+STAGE_BYTES = 32 << 20
+
+
+#: what an .mpz input counts for :func:`stage`: about this many bytes of source a byte (the
+#: 29 real files at the default bound code 10-40 x their float32 positions)
+MPZ_EXPANSION = 16
+
+
+def on_terminal() -> bool:
+    """stderr is a terminal (progress and stage lines are for a person watching)."""
+    return sys.stderr.isatty()
+
+
+def input_size(path: str) -> int:
+    """The size of an input file, 0 when it has none (standard input, a pipe)."""
+    try:
+        return os.stat(path).st_size if path != STDIO else 0
+    except (OSError, ValueError):
+        return 0
+
+
+def stage(command: str, quiet: bool, size: int, what: str) -> None:
+    """One line on stderr before a long step of ``command`` on an input of ``size``
+    bytes: on a terminal, without -q, for inputs of :data:`STAGE_BYTES` or more."""
+    if not quiet and size >= STAGE_BYTES and on_terminal():
+        print(f"mpz {command}: {what}", file=sys.stderr, flush=True)
+
+
 class Progress:
     """A one-line progress bar on stderr, shown only when stderr is a terminal."""
 
     def __init__(self, label: str, enabled: bool | None = None):
         self.label = label
-        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.enabled = on_terminal() if enabled is None else enabled
         self.t0 = time.perf_counter()
 
     def __call__(self, fraction: float, message: str = "") -> None:

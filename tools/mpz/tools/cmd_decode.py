@@ -155,13 +155,17 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
     from mpz.api import atomic_output, check_output, is_null_device
     from mpz.io import SKELETON_FORMATS, check_writable, write
     from mpz.tools._common import (
+        MPZ_EXPANSION,
         STDIO,
         compile_notice,
+        input_size,
         joint_positions_from_channels,
+        stage,
         write_stdout,
     )
 
     source = None if job.input == STDIO else job.input
+    size = input_size(job.input) * MPZ_EXPANSION          # what the .mpz decodes to, about
     to_stdout = job.output == STDIO
     # every check on the output comes before the decode
     if not to_stdout:
@@ -173,6 +177,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
     asf = _asf_output(args, job.output, ext, source)
     compile_notice(args.quiet, args.verbose, announce=False)
     # a skeletal file's joint positions come from its channels (read_mpz_input, §6.10)
+    stage("decode", args.quiet, size, f"decoding {printable(job.input)}")
     motion, bound, skipped = _read_mpz(job.input, args.max_samples)
     if ext is None:
         ext = _target_ext(args, job.output, motion)
@@ -198,6 +203,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         for note in notes:
             print(f"mpz decode: note: {printable(job.output)}: {printable(note)}",
                   file=sys.stderr)
+    stage("decode", args.quiet, size, f"writing {printable(job.output)}")
     if to_stdout:
         import signal
 

@@ -375,11 +375,14 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         Progress,
         compile_notice,
         human_size,
+        input_size,
         read_motion,
+        stage,
         write_stdout,
     )
 
     source = None if job.input == STDIO else job.input
+    size = input_size(job.input)
     to_stdout = job.output == STDIO
     # every check on the output comes before the encode
     if not to_stdout:
@@ -390,6 +393,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     elif not args.force and sys.stdout.isatty():
         raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
+    stage("encode", args.quiet, size, f"reading {printable(job.input)} ({human_size(size)})")
     motion, in_size, stdin_mpz = read_motion(job.input, args.asf)
     # the reader's (a file cut short, a header that disagrees with the rows); kept in the
     # file's meta, and the exit code is 1, "warnings only" (a QA run of stop 47: a note,
@@ -413,6 +417,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     compile_notice(args.quiet, args.verbose)
     bar = Progress("encoding", enabled=None if not args.quiet else False)
     try:
+        bar(0.0, "planning")    # a bounded encode has one node: the bar came at its end
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
@@ -436,6 +441,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         mpz.write_atomic(job.output, data, source=source, force=args.force)
     # the report's figures: a Ctrl-C or SIGTERM here finds the output already written
     from mpz.api import signals_exit
+    stage("encode", args.quiet, size, "decoding what was written, to measure its error")
     try:
         with signals_exit(signal.SIGTERM):
             try:
