@@ -573,10 +573,10 @@ def test_long_inputs_say_each_long_step_on_a_terminal(tmp_path, monkeypatch, cap
     terminal, and a bounded encode's bar came at its end (a scale QA run of stop 51).
     On a terminal, an input past STAGE_BYTES gets a line before each long step, and the
     encoding bar starts at once; off a terminal, and with -q, nothing is added."""
-    import mpz.tools._common as common
     from mpz.io import write
     from mpz.synth import generate
     from mpz.tools import mpz_cli
+    import mpz.tools._common as common
     write(generate("walk", frames=60, seed=5), tmp_path / "w.trc")
     argv = ["encode", str(tmp_path / "w.trc"), "-o", str(tmp_path / "w.mpz"), "-f",
             "--max-error", "1mm"]
