@@ -1642,9 +1642,7 @@ def file_records(motion: Motion, opts: EncodeOptions, hier: Hierarchy, grid: Gri
                  ancillary: list[Record] | None = None) -> list[Record]:
     """Stage 5: every chunk of the file, in the §3.4 order; ``ancillary``:
     :func:`ancillary_records`' result, if already made."""
-    F, M = motion.n_frames, motion.n_markers
-    if any(not 1 <= len(n.encode("utf-8")) <= 255 for n in motion.names):
-        raise EncoderError("marker names must be 1..255 bytes of UTF-8 (spec §4.2)")
+    F, M = motion.n_frames, motion.n_markers       # names: checked by check_motion (§4.2)
     records: list[Record] = [
         Mhdr(version_major=VERSION_MAJOR, version_minor=0,
              flags=FLAG_RESIDUAL if opts.bounded else 0, frame_count=F, marker_count=M,
