@@ -413,11 +413,34 @@ def test_an_index_from_before_the_recorded_columns_is_read_and_completed(corpus)
     db = sqlite3.connect(out / INDEX_NAME)
     db.execute("UPDATE files SET not_kept = '{' WHERE output = 'jump.mpz'")
     db.execute("UPDATE files SET notes = '[1]' WHERE output = 'walk.mpz'")
+    # nested too deep for json.loads: a RecursionError traceback, exit 70 (a review)
+    db.execute("UPDATE files SET notes = ? WHERE output = 'sub/wave.mpz'", ("[" * 100000,))
     db.commit()
     db.close()
     rep = run_corpus(src, out)
     assert statuses(rep) == {"bad": "failed", "jump": "kept", "walk": "kept",
-                             "wave": "skipped"}
+                             "wave": "kept"}
+
+
+def test_a_damaged_old_index_is_refused_as_it_was(corpus):
+    """An index of an older mpz that is also damaged (a column dropped) got the new
+    columns, committed, before it was refused (a review of stop 51): it is refused first
+    and left unchanged."""
+    import sqlite3
+    src, out, _ = corpus
+    run_corpus(src, out)
+    _drop_recorded_columns(out / INDEX_NAME)
+    db = sqlite3.connect(out / INDEX_NAME)
+    db.execute("ALTER TABLE files DROP COLUMN frames")
+    db.commit()
+    before = [r[1] for r in db.execute("PRAGMA table_info(files)")]
+    db.close()
+    with pytest.raises(EncoderError, match="has no column frames"):
+        run_corpus(src, out)
+    db = sqlite3.connect(out / INDEX_NAME)
+    assert [r[1] for r in db.execute("PRAGMA table_info(files)")] == before
+    db.close()
+    assert "warning" not in before
 
 
 def test_an_output_its_decoder_refuses_is_a_bug_and_is_removed(tmp_path, monkeypatch,

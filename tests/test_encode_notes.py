@@ -419,3 +419,18 @@ def test_re_encoding_an_mpz_from_standard_input_keeps_its_summary(tmp_path):
     assert p.returncode == 0, p.stderr
     assert b"the input's summary (k = 2,4) is made again" in p.stderr
     assert mpz.info(tmp_path / "b.mpz").summary_levels == (2, 4)
+
+
+def test_a_bad_output_on_the_null_device_is_not_removed(tmp_path):
+    """The bound check and the decoder check remove a bad output; `-o /dev/null` was
+    os.remove'd too, which as root unlinks the device (a review of stop 51). The helper
+    that removes says what became of each kind of output."""
+    import os
+
+    from mpz.tools.cmd_encode import _remove_output
+    assert _remove_output(os.devnull, False) == "it was written to a file that is not kept"
+    assert os.path.exists(os.devnull)
+    assert _remove_output("-", True) == "it was written to standard output"
+    bad = tmp_path / "bad.mpz"
+    bad.write_bytes(b"x")
+    assert _remove_output(str(bad), False) == "the output was removed" and not bad.exists()

@@ -734,7 +734,11 @@ class Index:
                 raise EncoderError(f"{self.path}: not an MPZ corpus index (no table "
                                    f"{', '.join(missing)}); {_REBUILD}")
             columns = {r[1] for r in self.db.execute("PRAGMA table_info(files)")}
-            if create:
+            lost = [c for c in _FILE_COLUMNS if c not in columns]
+            if lost:               # a query naming it raised sqlite3's error (QA, stop 33)
+                raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files "
+                                   f"table has no column {', '.join(lost)}); {_REBUILD}")
+            if create:             # (after the checks: a damaged index is left as it was)
                 for c in _RECORDED:
                     if c not in columns:
                         self.db.execute(f"ALTER TABLE files ADD COLUMN {c} TEXT")
@@ -752,11 +756,6 @@ class Index:
         except EncoderError:
             self._close_quietly()
             raise
-        lost = [c for c in _FILE_COLUMNS if c not in columns]
-        if lost:                   # a query naming it raised sqlite3's error (QA, stop 33)
-            self._close_quietly()
-            raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files table "
-                               f"has no column {', '.join(lost)}); {_REBUILD}")
         # read-only, an index written before the _RECORDED columns reads them as NULL
         self._select = ", ".join([*_FILE_COLUMNS, *(c if c in columns else f"NULL AS {c}"
                                                     for c in _RECORDED)])
@@ -1204,7 +1203,7 @@ def _said_of_row(row: dict[str, Any]) -> dict[str, Any] | None:
     try:
         said = {"warning": row["warning"], "not_kept": json.loads(row["not_kept"]),
                 "notes": json.loads(row["notes"])}
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, RecursionError):   # RecursionError: '[' x 10^5 (review)
         return None
     lists = [said["not_kept"], said["notes"]]
     if not (isinstance(said["warning"], str) and all(

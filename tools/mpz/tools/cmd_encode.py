@@ -363,6 +363,19 @@ def run(args: argparse.Namespace) -> int:
     return code
 
 
+def _remove_output(output: str, to_stdout: bool) -> str:
+    """Remove a bad output that this command wrote, and say what became of it. Standard
+    output is gone already, and the null device is never removed: as root, `-o
+    /dev/null` would have unlinked it (a review of stop 51)."""
+    from mpz.api import is_null_device
+    if to_stdout:
+        return "it was written to standard output"
+    if is_null_device(output) or not os.path.isfile(output):
+        return "it was written to a file that is not kept"
+    os.remove(output)
+    return "the output was removed"
+
+
 def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                 batch: bool = False) -> int:
     import mpz
@@ -449,13 +462,9 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
             except MPZError as exc:
                 # a file its own decoder refuses is the encoder's bug, not bad input: it was
                 # left behind, exit 2 with a decoder's message (a 2-hour BVH, QA of stop 51)
-                if not to_stdout:
-                    os.remove(job.output)
                 raise AssertionError(
                     f"the encoder wrote a file that its decoder refuses: {exc} "
-                    f"({job.input}); "
-                    + ("it was written to standard output" if to_stdout else
-                       "the output was removed")) from None
+                    f"({job.input}); {_remove_output(job.output, to_stdout)}") from None
             stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
             err = error_summary(motion, decoded)
     except (KeyboardInterrupt, SystemExit) as exc:
@@ -470,12 +479,9 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         # the encoder's own guarantee, checked on what it wrote (a QA run of stop 50: an
         # encoder broken on purpose reported "max 1.6 mm (bound 1 mm)", exit 0): a file
         # that breaks its declared bound is not left behind; the bug is reported (exit 70)
-        if not to_stdout:
-            os.remove(job.output)
         raise AssertionError(
             f"the encoded file breaks its declared bound: max error {err['max']!r} > "
-            f"{rep.bound!r} ({job.input}); "
-            f"{'it was written to standard output' if to_stdout else 'the output was removed'}")
+            f"{rep.bound!r} ({job.input}); {_remove_output(job.output, to_stdout)}")
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
                      and opts.keep_skeleton else None)
     result = {
