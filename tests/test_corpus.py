@@ -1834,6 +1834,46 @@ def test_a_result_lost_with_the_last_worker_does_not_wait_for_ever(monkeypatch):
         corpus._run_on(NoWorkers(), [task], [0], lambda i, r: None, {})
 
 
+def test_a_file_whose_worker_dies_is_told_the_memory_limit(corpus, monkeypatch):
+    """A 2-hour capture whose local worker died each time it ran (the nanny's memory
+    limit) failed with "over the memory limit?", naming no limit and no way out (a scale
+    QA run of stop 51). A stand-in cluster's task raises KilledWorker here."""
+    pytest.importorskip("distributed")
+    import contextlib as cl
+
+    import distributed
+
+    from mpz import corpus as corpus_mod
+    src, out, paths = corpus
+
+    class Died:
+        def result(self, timeout=None):
+            from types import SimpleNamespace
+            raise distributed.KilledWorker("task", SimpleNamespace(address="tcp://w:1"), 3)
+
+    class OneWorker:
+        def nthreads(self):
+            return {"tcp://127.0.0.1:1": 1}
+
+        def submit(self, *args, **kwargs):
+            return Died()
+
+        def cancel(self, futures):
+            pass
+
+    @cl.contextmanager
+    def fake(workers, scheduler, memory_limit):
+        yield OneWorker(), "stand-in"
+    monkeypatch.setattr(corpus_mod, "_dask_client", fake)
+    monkeypatch.setattr(distributed, "wait", lambda fs, **kw: (set(fs), set()))
+    rep = encode_corpus([(paths["walk"], out / "walk.mpz")], out, OPTS, levels=LEVELS,
+                        workers=1, memory_limit="700MB")
+    assert [r.status for r in rep.results] == ["failed"]
+    assert rep.results[0].reason.startswith(
+        "its worker died each time it ran (over the workers' memory limit, 700MB? "
+        "--memory-limit raises it): "), rep.results[0].reason
+
+
 @pytest.mark.parametrize("option, limit, note", [
     ([], "DEFAULT", False),
     (["--memory-limit", "700MB"], "700MB", False),

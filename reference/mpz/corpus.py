@@ -1686,7 +1686,12 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         else:
             try:
                 with _dask_client(n_workers, scheduler, memory_limit) as (c, cluster):
-                    n_workers = _run_on(c, tasks, todo, finish, inflight)
+                    # a local worker's death is most often its memory limit: say which
+                    # (a scale QA run of stop 51: "over the memory limit?" named none)
+                    limit = memory_limit if memory_limit is not None else DEFAULT_MEMORY_LIMIT
+                    n_workers = _run_on(c, tasks, todo, finish, inflight,
+                                        f"over the workers' memory limit, {limit}? "
+                                        "--memory-limit raises it")
             finally:
                 # the local workers are gone now: a task killed mid-write left a hidden
                 # temporary file (a remote worker's task finishes or removes its own)
@@ -1725,7 +1730,8 @@ def _lost(exc: CancelledError) -> EncoderError:
 
 def _run_on(client: Client, tasks: list[Task], todo: list[int],
             finish: Callable[[int, FileResult], None],
-            inflight: dict[Future[FileResult], int]) -> int:
+            inflight: dict[Future[FileResult], int],
+            died: str = "over the memory limit?") -> int:
     """Run ``todo`` on the cluster, a bounded window of tasks at a time; returns the
     worker count. ``inflight`` holds the tasks not finished yet; on any exception,
     KeyboardInterrupt included, they are cancelled before it propagates.
@@ -1733,7 +1739,8 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     Workers get the tasks with absolute paths (:func:`_absolute`); the results name the
     files as they were given. A cluster that has had no worker for
     :data:`NO_WORKER_SECONDS` while tasks wait fails the run (EncoderError) rather than
-    waiting for ever."""
+    waiting for ever. ``died`` is the likely cause said of a file whose worker died each
+    time it ran it."""
     from distributed import wait
     pending = iter(todo)
     threads = max(sum(client.nthreads().values()), 1)
@@ -1792,8 +1799,8 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                     if not _killed(exc):
                         raise        # a bug in the task: stop the run, keep what finished
                     r = FileResult(tasks[i].source, tasks[i].output, "failed",
-                                   "its worker died each time it ran (over the memory "
-                                   f"limit?): {exc}", _size(tasks[i].source))
+                                   f"its worker died each time it ran ({died}): {exc}",
+                                   _size(tasks[i].source))
                 idle_since = None                   # a result came: workers were there
                 finish(i, replace(r, source=tasks[i].source, output=tasks[i].output))
             submit()
