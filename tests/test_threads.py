@@ -114,3 +114,56 @@ def test_real_files_from_several_threads(shared_data: Path, tmp_path: Path,
     got = _together(work)
     assert got == _serial(work)
     assert all(len(r) == len(paths) for r in got)
+
+
+# ---------------------------------------------------- processes: fork, numba's layers --
+_FORK_SCRIPT = r"""
+import concurrent.futures as cf, multiprocessing as mp, sys, threading
+import mpz
+from mpz.synth import generate
+
+def encode(i):
+    return mpz.encode(generate("walk", frames=300, seed=i), max_error=1.0, summary=(6, 12))
+
+if __name__ == "__main__":
+    first = encode(0)                     # the parent starts the summary's parallel kernel
+    if sys.argv[1] == "fork":
+        with cf.ProcessPoolExecutor(1, mp_context=mp.get_context("fork")) as ex:
+            child = ex.submit(encode, 0).result(timeout=120)
+        assert child == first, "the forked child's file differs"
+    else:                                 # two threads in the parallel kernel at once
+        out = [None, None]
+        gate = threading.Barrier(2)
+        def run(i):
+            gate.wait(timeout=60)
+            out[i] = encode(i)
+        ts = [threading.Thread(target=run, args=(i,)) for i in range(2)]
+        [t.start() for t in ts]
+        [t.join(timeout=300) for t in ts]
+        assert out == [encode(0), encode(1)], "threads changed the bytes"
+    print("ok")
+"""
+
+
+@pytest.mark.parametrize("how, layer", [("fork", None), ("threads", "workqueue"),
+                                        ("fork", "workqueue")])
+def test_summaries_in_forked_children_and_under_the_workqueue_layer(tmp_path, how, layer):
+    """An ML pipeline's QA run (stop 51): once a process had made a summary (numba's
+    parallel kernel, GNU OpenMP by default), a child it forked that made one too was
+    terminated by numba, and a multiprocessing.Pool waited for it for ever; with
+    NUMBA_THREADING_LAYER=workqueue (fork-safe), two threads making summaries at once
+    aborted the process. Forked children use the serial compile of the kernel, and one
+    parallel kernel runs at a time; the bytes are the same."""
+    import os
+    import subprocess
+    import sys
+    script = tmp_path / "fork_check.py"
+    script.write_text(_FORK_SCRIPT)
+    env = dict(os.environ)
+    env.pop("NUMBA_THREADING_LAYER", None)
+    if layer:
+        env["NUMBA_THREADING_LAYER"] = layer
+    p = subprocess.run([sys.executable, str(script), how], capture_output=True, text=True,
+                       timeout=600, env=env, cwd=tmp_path)
+    assert p.returncode == 0 and p.stdout.strip() == "ok", (p.returncode, p.stdout,
+                                                              p.stderr[-2000:])

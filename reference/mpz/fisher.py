@@ -24,10 +24,13 @@ live with the benchmarks, in ``bench/baselines.py``.
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 import math
-from typing import TYPE_CHECKING, cast
+import os
+import threading
+import types
+from typing import TYPE_CHECKING, Any, cast
 
 import numba
 from numba import prange
@@ -239,9 +242,8 @@ def _relax(Ft: NDArray[np.float64], d: float, t: int, bb: NDArray[np.float64],
         ba[m] = t if better else ba[m]
 
 
-@njit(cache=_CACHE, parallel=True)
-def _fisher_tables(S: NDArray[np.float64], Q: NDArray[np.float64], K: int, block: int,
-                   nthr: int) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
+def _fisher_tables_py(S: NDArray[np.float64], Q: NDArray[np.float64], K: int, block: int,
+                      nthr: int) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
     """F[j, m]: least WSSSE of frames 0..j-1 in m+1 segments; P[j, m]: start of the last one."""
     n = S.shape[0] - 1
     F = np.full((n + 1, K), np.inf)
@@ -287,6 +289,41 @@ def _fisher_tables(S: NDArray[np.float64], Q: NDArray[np.float64], K: int, block
     return F, P
 
 
+def _named(fn: Callable[..., Any], name: str) -> Callable[..., Any]:
+    """``fn`` under another name: numba's cache files are named by a function's qualified
+    name and line, and do not tell a parallel compile from a serial one."""
+    out = types.FunctionType(fn.__code__, fn.__globals__, name, fn.__defaults__,
+                             fn.__closure__)
+    out.__qualname__ = name
+    return out
+
+
+_fisher_tables = njit(cache=_CACHE, parallel=True)(_named(_fisher_tables_py, "_fisher_tables"))
+#: the same kernel compiled without threads (``prange`` is ``range``): the same tables, as
+#: the chunks' minima merge in order of t
+_fisher_tables_serial = njit(cache=_CACHE)(_named(_fisher_tables_py, "_fisher_tables_serial"))
+
+#: set in a child made by fork(): there the tables are made by the serial kernel. A parent
+#: whose parallel kernel had started GNU OpenMP's threads (numba's default layer here)
+#: forks children that cannot start them: numba terminates the child ("fork() called from
+#: a process already using GNU OpenMP"), and a multiprocessing.Pool waited for it for ever
+#: (an ML pipeline's QA run of stop 51)
+_FORKED = False
+#: one parallel kernel at a time: numba's workqueue layer (NUMBA_THREADING_LAYER=workqueue,
+#: fork-safe) aborts the process when two threads enter it at once (the same QA run), and
+#: two at once gain nothing on the cores the first already uses
+_PARALLEL = threading.Lock()
+
+
+def _after_fork_in_child() -> None:
+    global _FORKED
+    _FORKED = True
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
 def check_table(rows: int, k_max: int) -> None:
     """Refuse a partition of ``rows`` frames (or blocks) into up to ``k_max`` segments whose
     tables would pass :data:`MAX_TABLE` entries, naming the largest k that fits."""
@@ -307,7 +344,10 @@ def _tables(a: NDArray[np.float64], k_max: int) -> tuple[NDArray[np.float64], ND
     np.cumsum(xc, axis=0, out=S[1:])
     Q = np.zeros(n + 1)
     np.cumsum(np.einsum("ij,ij->i", xc, xc), out=Q[1:])
-    return _fisher_tables(S, Q, int(k_max), _BLOCK, numba.get_num_threads())
+    if _FORKED:               # numba.get_num_threads() would start the threads too
+        return _fisher_tables_serial(S, Q, int(k_max), _BLOCK, 1)
+    with _PARALLEL:
+        return _fisher_tables(S, Q, int(k_max), _BLOCK, numba.get_num_threads())
 
 
 def _backtrack(P: NDArray[np.int32], n: int, k: int) -> NDArray[np.int64]:
