@@ -319,3 +319,35 @@ def test_any_bytes_like_object_is_a_source():
     assert mpz.decode(array.array("b", data)).n_frames == 20
     with pytest.raises(TypeError, match="must be single bytes"):
         mpz.decode(array.array("I", data[:len(data) // 4 * 4]))
+
+
+def test_markers_only_decodes_as_a_1_0_decoder(two_joint_bvh, tmp_path):
+    """A data loader training on markers paid for a C3D archive's analog data on every
+    decode, about 90 % of it (an ML pipeline's QA run of stop 51). markers_only=True
+    decodes as a 1.0 decoder (spec §2.1): the same markers, names, rate and units; the
+    1.1 chunks are skipped unread, so a broken one inside goes unseen, as for a 1.0
+    decoder; a full decode still refuses it."""
+    from mpz.container import build, scan
+    from mpz.errors import MPZError
+    import mpz.io
+    from mpz.tools.make_vectors import c3d_motion
+    (tmp_path / "arm.bvh").write_text(two_joint_bvh)
+    for m in (c3d_motion(5, storage=1, F=12, M=4, J=2, C=2, n=2),
+              mpz.io.read(tmp_path / "arm.bvh")):
+        data = mpz.encode(m, max_error=1.0, summary=[2], summary_format="smrc")
+        full, marks = mpz.decode(data), mpz.decode(data, markers_only=True)
+        assert np.array_equal(full.positions, marks.positions, equal_nan=True)
+        assert (full.names, full.rate, full.units) == (marks.names, marks.rate, marks.units)
+        assert full.extras and not marks.extras and marks.angles is None
+        # a 1.1 chunk whose payload breaks its rules (CRC repaired): skipped unread
+        chunks = scan(data).chunks
+        bad = next(c for c in chunks if c.type in ("cpnt", "bvhs"))
+        payload = bytearray(bad.payload)
+        payload[0] ^= 0xFF
+        broken = build([(c.type, bytes(payload) if c is bad else c.payload) for c in chunks])
+        with pytest.raises(MPZError):
+            mpz.decode(broken)
+        assert np.array_equal(mpz.decode(broken, markers_only=True).positions,
+                              marks.positions, equal_nan=True)
+    with pytest.raises(TypeError, match="markers_only must be True or False"):
+        mpz.decode(data, markers_only="yes")

@@ -609,7 +609,8 @@ def decode_layers(data: bytes, *, max_samples: int = MAX_SAMPLES,
     return Decoded(s, valid, decode_integers(s))
 
 
-def decode(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Motion:
+def decode(data: bytes, *, max_samples: int = MAX_SAMPLES,
+           minor: int = VERSION_MINOR) -> Motion:
     """Decode an MPZ file into a :class:`mpz.Motion`.
 
     Parameters
@@ -620,6 +621,8 @@ def decode(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Motion:
         Reject files declaring more than this many marker-frames (§8), and below
         MAX_SAMPLES more than 4x as many analog words or as many skeleton channel
         values.
+    minor : int, optional
+        As in :func:`read_stream`: ``0`` decodes as an MPZ 1.0 decoder would.
 
     Returns
     -------
@@ -641,4 +644,4 @@ def decode(data: bytes, *, max_samples: int = MAX_SAMPLES) -> Motion:
     >>> bool(mpz.max_error(m, out) <= 1.0)
     True
     """
-    return decode_layers(data, max_samples=max_samples).motion(reuse_q=True)
+    return decode_layers(data, max_samples=max_samples, minor=minor).motion(reuse_q=True)

@@ -297,9 +297,10 @@ def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
 
 def _decode(source: str | bytes, max_samples: int | None) -> Motion:
     import mpz
+    from mpz.format import MAX_SAMPLES
     from mpz.skeleton import with_joint_positions
-    kw = {} if max_samples is None else {"max_samples": max_samples}
-    return with_joint_positions(mpz.decode(source, **kw))
+    return with_joint_positions(mpz.decode(
+        source, max_samples=MAX_SAMPLES if max_samples is None else max_samples))
 
 
 def joint_positions_from_channels(motion: Motion, ext: str | None) -> bool:
