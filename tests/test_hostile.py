@@ -225,3 +225,21 @@ def test_every_rejection_is_located(name, path):
         assert (any(c.type == e.chunk and c.offset <= e.offset <= c.offset + 12 + c.length
                     for c in container.scan(data).chunks)
                 or data[e.offset: e.offset + 4] == e.chunk.encode("latin-1")), (name, str(e))
+
+
+def test_a_payload_that_does_not_load_names_its_chunk(monkeypatch):
+    """A record whose load raised an MPZError without naming its chunk reached the user
+    with an offset and no chunk (a newcomer adding a chunk type, stop 51): spec errors
+    carry offset, chunk and §. The scan names the chunk it was loading."""
+    from mpz import container
+    from mpz.chunks import CHUNKS
+    from mpz.errors import FormatError
+    from mpz.synth import generate
+    data = mpz.encode(generate("walk", frames=20, seed=1), max_error=1.0)
+
+    def fails(payload):
+        raise FormatError("does not fit its layout", section="§4.4")
+    monkeypatch.setattr(CHUNKS["QUNT"], "load", staticmethod(fails))
+    errors = container.scan(data).errors
+    assert [(e.chunk, e.section) for e in errors] == [("QUNT", "§4.4")], errors
+    assert errors[0].offset is not None

@@ -172,6 +172,8 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True) 
                 chunk.record = CHUNKS[tname].load(payload)
             except MPZError as exc:
                 exc.offset = pos + 8           # the payload that does not fit its layout
+                if exc.chunk is None:          # (a record's load may not name it)
+                    exc.chunk = tname
                 res.errors.append(exc)
         # R-2.3-1
         elif chunk.critical:
