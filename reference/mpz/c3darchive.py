@@ -513,7 +513,6 @@ class C3DExtension:
         if not isinstance(a, C3DArchive):
             raise EncoderError(f"motion.extras['c3d'] is a {type(a).__name__}, not a "
                                "C3DArchive")
-        self.check(motion, opts)
         prm = parameter_record(a)       # a section cprm cannot hold: refused by its rule
         check_matches(a, motion)        # before its labels, units and rate are compared
         out: list[Record] = [header_record(a), prm, point_records(a, opts, motion.n_markers)]

@@ -1185,9 +1185,7 @@ def _up_to_date(row: dict[str, Any] | None, task: Task) -> bool:
     # the row must be this source's: another file of the same size and time at another
     # path (a second folder into the same output, a moved input folder) was "up to date"
     # and never archived (an archive team's QA run of stop 50)
-    # a row of an mpz before the _RECORDED columns cannot say its file's warning and notes
-    return (_said_of_row(row) is not None
-            and row["path"] == os.path.abspath(task.source)
+    return (row["path"] == os.path.abspath(task.source)
             and row["fingerprint"] in fps and row["source_bytes"] == st.st_size
             and row["source_mtime_ns"] == st.st_mtime_ns and out.st_size == row["total_bytes"]
             and out.st_mtime_ns >= st.st_mtime_ns)
@@ -1641,10 +1639,11 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         todo: list[int] = []
         for i, t in enumerate(tasks):
             row = index.row(t.output_key)
-            if t.output_key not in damaged and _up_to_date(row, t):
+            # a row of an mpz before the _RECORDED columns cannot say its file's warning and
+            # notes: such a file is read again
+            said = None if row is None else _said_of_row(row)
+            if t.output_key not in damaged and said is not None and _up_to_date(row, t):
                 assert row is not None
-                said = _said_of_row(row)
-                assert said is not None             # _up_to_date checked it
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
                                      row["total_bytes"], row["raw_bytes"], **said))
             else:

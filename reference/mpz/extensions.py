@@ -37,8 +37,8 @@ class Extension(Protocol):
 
     def check(self, motion: Motion, opts: EncodeOptions) -> None:
         """Raise EncoderError if ``motion``'s part for this extension is past a §8 limit of
-        its chunks: called before anything is encoded, so that no work is spent on a file
-        the decoder would refuse."""
+        its chunks: the encoder calls it before anything is encoded (and before
+        :meth:`records`), so that no work is spent on a file the decoder would refuse."""
         ...
 
     def records(self, motion: Motion, opts: EncodeOptions) -> list[Record]:

@@ -608,7 +608,6 @@ class SkeletonExtension:
         if not isinstance(skel, Skeleton):     # it was dropped without a word (QA, stop 50)
             raise EncoderError(f"motion.extras[{self.name!r}] is a {type(skel).__name__}, not "
                                "an mpz.io.kinematics.Skeleton")
-        self.check(motion, opts)
         values = _values(motion, skel)
         st = settings(motion, skel, opts)
         codings, coded = code_channels(values, skel, st.steps)

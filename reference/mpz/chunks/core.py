@@ -5,10 +5,9 @@ build (``dump``) and what mpzinfo shows (``info``). See :mod:`mpz.chunks.base`.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 import math
-from typing import Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +33,9 @@ from mpz.format import (
     Units,
 )
 from mpz.spec import grammar
+
+if TYPE_CHECKING:
+    from mpz.chunks.summary import Smrc
 
 
 # ------------------------------------------------------------------- §4.1 MHDR --
@@ -400,27 +402,7 @@ class Smry(Record):
                   LimitExceededError)
 
 
-class _SummaryLevelHead(Protocol):         # a level of smry or smrc
-    @property
-    def k(self) -> int: ...
-    @property
-    def step(self) -> float: ...
-    @property
-    def wssse(self) -> float: ...
-
-
-class _SummaryHead(Protocol):              # smry or smrc
-    @property
-    def space(self) -> int: ...
-    @property
-    def dims(self) -> int: ...
-    @property
-    def level_count(self) -> int: ...
-    @property
-    def levels(self) -> Sequence[_SummaryLevelHead]: ...
-
-
-def check_summary_head(rec: _SummaryHead, ctx: Context, section: str) -> tuple[int, int]:
+def check_summary_head(rec: Smry | Smrc, ctx: Context, section: str) -> tuple[int, int]:
     """The rules that smry (§4.10) and smrc (§4.15, "as for smry") share: the space, D =
     3M for positions, 1 .. MAX_SUMMARY_LEVELS levels, 1 <= k <= F and a finite step > 0
     and wssse >= 0 at each level. Returns the sums of k x D and of k, formed after each k
