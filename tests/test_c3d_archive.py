@@ -481,3 +481,15 @@ def test_a_marker_layer_the_archive_no_longer_describes_decodes_to_a_plain_c3d(t
     c = ezc3d.c3d(str(tmp_path / "r.c3d"))
     labels = [s.strip() for s in c["parameters"]["POINT"]["LABELS"]["value"]]
     assert labels[0].endswith("X") and len(labels) == 4
+
+
+def test_motions_holding_a_c3d_archive_are_not_joined(tmp_path):
+    """An archive's point words and analog samples belong to its own frames: joining two
+    such motions end to end would keep the first archive for every frame. The rule is
+    the extension's ``per_frame``, not a name written into ``concatenate``."""
+    from mpz.errors import MotionError
+    m = _example_c3d(tmp_path)
+    with pytest.raises(MotionError, match="belongs to its own frames"):
+        mpz.concatenate([m, m])
+    bare = replace(m, extras={})
+    assert mpz.concatenate([bare, bare]).n_frames == 2 * m.n_frames

@@ -285,3 +285,24 @@ def test_no_chunk_type_is_newer_than_the_version_written():
         "raise VERSION_MINOR (spec/mpz/spec/grammar.py) with them"
     written = {t for ext in EXTENSIONS for t in ext.chunk_types}
     assert written <= set(CHUNKS), written - set(CHUNKS)
+
+
+def test_every_ancillary_chunk_has_one_reader():
+    """The decoder reads the summary and meta chunks itself and hands every other known
+    ancillary chunk to the extension that owns it (``mpz.decoder.read_stream``). A chunk
+    type in the table that no extension owns is checked and then dropped: its data would
+    vanish from every decode with no error. Each owned chunk's § lies within its
+    extension's family §, which the vectors' ``spec_sections`` take from the extension."""
+    from mpz.chunks import CHUNKS
+    from mpz.extensions import EXTENSIONS
+    own = ("smry", "smrc", "meta")                  # read_stream's own (§3.4, §4.10, §4.15)
+    for t, cls in CHUNKS.items():
+        if t[:1].isupper() or t in own:
+            continue
+        owners = [e.name for e in EXTENSIONS if t in e.chunk_types]
+        assert len(owners) == 1, f"chunk type {t} is owned by {owners or 'no extension'}"
+        ext = next(e for e in EXTENSIONS if t in e.chunk_types)
+        family = ext.sections[0]
+        assert cls.SECTION == family or cls.SECTION.startswith(family + "."), \
+            f"{t}'s {cls.SECTION} is not within {ext.name}'s {family}"
+    assert {t for t, c in CHUNKS.items() if c.PART == "summary"} == {"smry", "smrc"}

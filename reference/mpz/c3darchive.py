@@ -36,7 +36,7 @@ from mpz.c3dcodec import (
     residual_rows,
 )
 from mpz.chunks.base import forget
-from mpz.chunks.c3d import Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param
+from mpz.chunks.c3d import C3D_TYPES, Cana, Channel, Chdr, Cpnt, Cprm, Model, ModelAxis, Param
 from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
 from mpz.format import (
@@ -479,7 +479,9 @@ class C3DExtension:
     """The ``c3d`` entry of :data:`mpz.extensions.EXTENSIONS` (spec §4.13, §6.9)."""
 
     name: str = "c3d"
-    chunk_types: tuple[str, ...] = ("chdr", "cprm", "cpnt", "cana")
+    chunk_types: tuple[str, ...] = C3D_TYPES
+    sections: tuple[str, ...] = ("§4.13", "§6.9")
+    per_frame: bool = True
 
     def check(self, motion: Motion, opts: EncodeOptions) -> None:
         """The §8 limits of the cpnt and cana chunks, before anything is encoded (the

@@ -105,10 +105,6 @@ META_SOURCE = "source"
 #: C3D of 65,535 frames peaked at 2.7 GB in a worker (the C3D reader alone takes about
 #: 0.9 GB). Dask's nanny restarts a worker at 95 % of its limit.
 DEFAULT_MEMORY_LIMIT = "4GiB"
-#: chunk types counted as analog bytes in the index: the analog samples of a C3D source
-#: (spec §4.13; the c3d extension's other chunks, header, parameters and point extras,
-#: count as other bytes)
-ANALOG_CHUNK_TYPES = ("cana",)
 
 #: the index's tables (SQLite); docs/corpus.md explains every column
 SCHEMA = """
@@ -425,6 +421,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     (:class:`~mpz.similarity.NotDescribable`) has the method :data:`NO_SUMMARY` and an
     empty descriptor."""
     import mpz
+    from mpz.chunks import types_of_part
     from mpz.container import chunk_sizes
     from mpz.decoder import decode, read_stream
     from mpz.format import unit_name
@@ -434,8 +431,10 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     h = read_stream(data).header
     sizes = chunk_sizes(data)
     marker = 8 + sum(n for t, n in sizes.items() if t[:1].isupper())   # with the signature
-    analog = sum(n for t, n in sizes.items() if t in ANALOG_CHUNK_TYPES)
-    smry = sizes.get("smry", 0) + sizes.get("smrc", 0)     # at most one of the two (§4.15)
+    # the analog samples of a C3D source (§4.13.4; the archive's other chunks count as
+    # other bytes), and the summary, smry or smrc (at most one of the two, §4.15)
+    analog = sum(sizes.get(t, 0) for t in types_of_part("analog"))
+    smry = sum(sizes.get(t, 0) for t in types_of_part("summary"))
     decoded = decode(data)
     err, avg = max_error(motion, decoded), arms(motion, decoded)
     # what the source keeps besides its markers must come back too (mpz compare's check)

@@ -34,6 +34,15 @@ class Extension(Protocol):
     name: str
     #: the ancillary chunk types it owns, in the order it writes them
     chunk_types: tuple[str, ...]
+    #: the spec's § of its chunks as a family and of their decoding (each chunk's own §
+    #: is its record's ``SECTION``): what a file holding them exercises (the vectors'
+    #: ``sections``)
+    sections: tuple[str, ...]
+    #: True when its part of a Motion holds values per frame (a C3D archive's point words
+    #: and analog samples), so that motions holding it cannot be joined end to end
+    #: (:func:`mpz.concatenate`); False when it describes every frame alike (a skeleton,
+    #: whose channel values are ``Motion.angles``)
+    per_frame: bool
 
     def check(self, motion: Motion, opts: EncodeOptions) -> None:
         """Raise EncoderError if ``motion``'s part for this extension is past a §8 limit of

@@ -294,6 +294,8 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
     for m in motions:
         if not isinstance(m, Motion):
             raise MotionError(f"can only concatenate Motions, got {type(m).__name__}")
+    from mpz.extensions import EXTENSIONS  # here: the extensions import this module
+    per_frame = {e.name for e in EXTENSIONS if e.per_frame}
     first = motions[0]
     for m in motions[1:]:
         if m.names != first.names or m.rate != first.rate or m.units != first.units:
@@ -306,7 +308,7 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
         if (m.angles is None) != (first.angles is None) or m.angle_names != first.angle_names:
             raise MotionError("joint angles on some motions only, or with other channels")
         if m.extras.keys() != first.extras.keys() or any(
-                k == "c3d" or m.extras[k] != first.extras[k] for k in m.extras):
+                k in per_frame or m.extras[k] != first.extras[k] for k in m.extras):
             raise MotionError(f"cannot join what the motions hold besides positions "
                               f"({', '.join(sorted(m.extras)) or 'none'} vs "
                               f"{', '.join(sorted(first.extras)) or 'none'}); a C3D archive "

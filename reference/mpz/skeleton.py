@@ -44,7 +44,7 @@ from mpz.channels import (
     step_for,
 )
 from mpz.chunks import Record
-from mpz.chunks.skeleton import AsfBone, Asfs, BvhJoint, Bvhs, ChannelCoding
+from mpz.chunks.skeleton import SKELETON_TYPES, AsfBone, Asfs, BvhJoint, Bvhs, ChannelCoding
 from mpz.errors import EncoderError
 from mpz.format import (
     AXIS_ORDERS,
@@ -581,7 +581,9 @@ class SkeletonExtension:
     """
 
     name: str = "skeleton"
-    chunk_types: tuple[str, ...] = ("bvhs", "asfs")
+    chunk_types: tuple[str, ...] = SKELETON_TYPES
+    sections: tuple[str, ...] = ("§4.14", "§6.10")
+    per_frame: bool = False
 
     def check(self, motion: Motion, opts: EncodeOptions) -> None:
         """The §8 limit of the chunk this motion would get, before anything is encoded: a

@@ -87,7 +87,9 @@ def exercised_sections(stream) -> list:
     patterns, §6.4 smoothing h > 0 across at least one boundary, §6.5 a RESI
     chunk, §6.6 a non-root node.
     """
+    from mpz.chunks import CHUNKS
     from mpz.decoder import decode_segments
+    from mpz.extensions import owner
     secs = {"§3.1", "§3.2", "§3.3", "§3.4", "§4.1", "§4.2", "§4.3", "§4.4", "§4.6", "§4.12",
             "§5.1", "§5.2", "§5.3", "§5.4", "§5.5", "§5.6", "§6.2", "§6.7", "§6.8", "§7.1"}
     if s_has(stream.mask):
@@ -108,13 +110,10 @@ def exercised_sections(stream) -> list:
         secs.add("§4.11")
     if stream.unknown:
         secs.add("§2.3")
-    for ctype, sec in (("chdr", "§4.13.1"), ("cprm", "§4.13.2"), ("cpnt", "§4.13.3"),
-                       ("cana", "§4.13.4")):                         # issue 12 (1.1)
-        if ctype in stream.extras:
-            secs |= {"§2.1", "§4.13", sec, "§6.9"}
-    for ctype, sec in (("bvhs", "§4.14.1"), ("asfs", "§4.14.2")):   # issue 13 (1.1)
-        if ctype in stream.extras:
-            secs |= {"§2.1", "§4.14", sec, "§6.10"}
+    for ctype in stream.extras:              # the extensions' chunks (1.1: issues 12, 13)
+        ext = owner(ctype)
+        assert ext is not None, f"{ctype} is kept as an extra but no extension owns it"
+        secs |= {"§2.1", *ext.sections, CHUNKS[ctype].SECTION}
     return sorted(secs, key=section_key)
 
 

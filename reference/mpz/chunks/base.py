@@ -114,6 +114,10 @@ class Record:
     #: the minor version that introduced this chunk type (§2.1): a file holding it is
     #: written as 1.MINOR at least
     MINOR: ClassVar[int] = 0
+    #: the part of a file it counts in when sizes are reported by part (``mpz encode``,
+    #: ``mpzinfo``, the corpus index): "analog", "skeleton" or "summary", else "other"
+    #: (the critical chunks are the "markers" part by their upper-case type, §3.2)
+    PART: ClassVar[str] = "other"
     GRAMMAR: ClassVar[construct.Construct]
     #: nested record class of a field holding a list of records
     NESTED: ClassVar[dict[str, type[Record]]] = {}

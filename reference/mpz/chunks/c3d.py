@@ -525,6 +525,7 @@ class Cana(Record):
     GRAMMAR = grammar.CANA
     NESTED = {"table": Channel}
     MINOR = C3D_MINOR
+    PART = "analog"
 
     storage: int
     channels: int

@@ -382,6 +382,7 @@ class Smry(Record):
     SECTION = "§4.10"
     GRAMMAR = grammar.SMRY
     NESTED = {"levels": SummaryLevel}
+    PART = "summary"
 
     space: int
     dims: int

@@ -182,6 +182,7 @@ class Bvhs(_Layer, Record):
     GRAMMAR = grammar.BVHS
     NESTED = {"joints": BvhJoint, "channels": ChannelCoding}
     MINOR = SKELETON_MINOR
+    PART = "skeleton"
 
     encoding: int
     frame_time: float
@@ -269,6 +270,7 @@ class Asfs(_Layer, Record):
     GRAMMAR = grammar.ASFS
     NESTED = {"bones": AsfBone, "channels": ChannelCoding}
     MINOR = SKELETON_MINOR
+    PART = "skeleton"
 
     encoding: int
     angle_unit: int

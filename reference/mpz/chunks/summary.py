@@ -152,6 +152,7 @@ class Smrc(Record):
     GRAMMAR = grammar.SMRC
     NESTED = {"levels": CodedSummaryLevel}
     MINOR = SMRC_MINOR
+    PART = "summary"
 
     space: int
     dims: int

@@ -342,20 +342,16 @@ def read_input_keeping(path: str, asf: str | None = None, *,
     return motion, ext, data
 
 
-#: the chunk types of each part of a file besides the markers (the critical chunks)
-ANALOG_CHUNKS = ("cana",)
-SKELETON_CHUNKS = ("bvhs", "asfs")
-
-
 def parts_of(chunk_bytes: dict[str, int], file_bytes: int) -> dict[str, int]:
     """Bytes of an MPZ file by part, each chunk with its 12-byte frame: ``markers`` (the
     signature and the critical chunks, MHDR .. MEND), ``analog`` (cana), ``skeleton``
     (bvhs, asfs: the skeleton and its channels) and ``rest`` (C3D parameters and model
     outputs, metadata, summary, unknown chunks). What ``mpz encode`` and ``mpzinfo``
-    report."""
+    report. The parts are the records' ``PART`` (:func:`mpz.chunks.types_of_part`)."""
+    from mpz.chunks import types_of_part
     markers = 8 + sum(n for t, n in chunk_bytes.items() if t[:1].isupper())
-    analog = sum(chunk_bytes.get(t, 0) for t in ANALOG_CHUNKS)
-    skeleton = sum(chunk_bytes.get(t, 0) for t in SKELETON_CHUNKS)
+    analog = sum(chunk_bytes.get(t, 0) for t in types_of_part("analog"))
+    skeleton = sum(chunk_bytes.get(t, 0) for t in types_of_part("skeleton"))
     return {"markers": markers, "analog": analog, "skeleton": skeleton,
             "rest": file_bytes - markers - analog - skeleton}
 
