@@ -404,3 +404,14 @@ def test_real_files_smrc_smaller_than_smry(shared_data):
     print("\nfile  F  M  smry  smrc  ratio")
     for name, F, M, a, b in rows:
         print(f"{name} {F} {M} {a} {b} {a / b:.1f}")
+
+
+@pytest.mark.parametrize("fmt", ["smry", "smrc"])
+def test_means_past_32_bits_are_refused_before_they_wrap(fmt):
+    """Means of 10^4 mm at a step of 10^-9 are about 10^13 steps: written as int32 they
+    would wrap to other values with no error. The encoder refuses them (§4.10's s32 field,
+    §4.15 step 5's |q| < 2^31)."""
+    m = generate("walk", frames=20, seed=3)
+    with pytest.raises(EncoderError, match="do not fit 32 bits"):
+        summary_record(m, (1, 2), "positions", 1e-9, fmt)
+    assert summary_record(m, (1, 2), "positions", 1e-3, fmt).level_count == 2

@@ -55,7 +55,7 @@ from mpz.chunks import (
     Smry,
     SummaryLevel,
 )
-from mpz.chunks.summary import CodedSummaryLevel
+from mpz.chunks.summary import MEAN_LIMIT, CodedSummaryLevel
 from mpz.chunks.summary import encode_levels as encode_summary_levels
 from mpz.cluster import adaptive_kmeans
 from mpz.entropy import MAX_EXP, BlockEncoder
@@ -1600,7 +1600,7 @@ def summary_record(motion: Motion, ks: tuple[int, ...] | list[int], space: str,
     for k in sorted(parts):
         p = parts[k]
         means_q = _round(np.asarray(p.means) / step)
-        if np.abs(means_q).max(initial=0) >= 2 ** 31:
+        if np.abs(means_q).max(initial=0) >= MEAN_LIMIT:   # §4.10, §4.15 step 5
             raise EncoderError("summary means do not fit 32 bits at this step")
         levels.append(SummaryLevel(k=int(p.k), wssse=float(p.wssse), step=float(step),
                                    starts=np.asarray(p.starts, "<u4").tobytes(),
