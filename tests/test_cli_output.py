@@ -28,6 +28,7 @@ from mpz.io import read, write
 from mpz.synth import generate
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="umask, signals and modes are POSIX")
+VECTORS = Path(__file__).parents[1] / "conformance" / "vectors"
 
 
 def command(name: str) -> str:
@@ -333,6 +334,51 @@ def test_output_piped_into_head_stops_quietly(small: tuple[Path, Path], tmp_path
         proc.stderr.close()
         assert proc.wait(timeout=120) == 0, err
         assert "Traceback" not in err and "BrokenPipeError" not in err and err == ""
+
+
+def _into_a_closed_pipe(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
+    """Run ``argv`` with a standard output whose reader has gone: every write fails (EPIPE),
+    as after `| head` stopped reading, but at the first write, whatever the timing."""
+    r, w = os.pipe()
+    os.close(r)
+    try:
+        return subprocess.run([command(argv[0]), *argv[1:]], cwd=cwd, stdout=w,
+                              stderr=subprocess.PIPE, text=True, timeout=300)
+    finally:
+        os.close(w)
+
+
+def test_a_closed_pipe_keeps_the_exit_code_of_what_was_found(small: tuple[Path, Path],
+                                                             tmp_path: Path) -> None:
+    """README: a tool whose output is cut ends "with the code it would have had". An
+    invalid file gave 0 from `mpzinfo -vv BAD | head -1`, a difference 0 from `mpz compare
+    ... | head -1`, and a batch with a failed input 0 (a docs QA run, stop 52): the error
+    was found, and often printed, before the pipe broke."""
+    trc, enc = small
+    bad = VECTORS / "invalid" / "x05-bad-crc-root.mpz"
+    other = tmp_path / "other.mpz"
+    m = generate("walk", frames=60, seed=3, gap_fraction=0.02)
+    other.write_bytes(mpz.encode(m, max_error=1.0))
+    (tmp_path / "broken.trc").write_text("not a TRC\n")
+    for argv, code in ((["mpzinfo", str(bad)], 2),
+                       (["mpzinfo", "-vv", str(enc), str(bad)], 2),
+                       (["mpz", "compare", str(trc), str(other)], 2),
+                       (["mpz", "show", str(enc)], 0),
+                       (["mpz", "encode", "broken.trc", str(trc), "-o", "out/"], 2)):
+        proc = _into_a_closed_pipe(argv, tmp_path)
+        assert proc.returncode == code, (argv, proc.stderr)
+        assert "Traceback" not in proc.stderr
+
+
+def test_a_closed_pipe_does_not_lose_the_conformance_results(tmp_path: Path) -> None:
+    """mpz-conformance writes --results before its report: `| head` stopped it before the
+    file was written, and exited 0 with a vector failed (a docs QA run, stop 52)."""
+    valid = sorted(p.stem for p in (VECTORS / "valid").glob("*.mpz"))[0]
+    proc = _into_a_closed_pipe(["mpz-conformance", "--decoder", "false", "--only", valid,
+                                "--results", "r.json"], tmp_path)
+    assert proc.returncode == 1, proc.stderr
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert doc["totals"]["failed"] == 1
 
 
 # -- the atomic writer itself (in-process) -------------------------------------------------

@@ -66,6 +66,7 @@ from mpz.tools._cli import (
     EXIT_OK,
     EXIT_USAGE,
     Parser,
+    found,
     printable,
     quiet_broken_pipe,
     reports_ctrl_c,
@@ -1033,29 +1034,15 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     pool.shutdown()
 
-    for r in results:
-        if r["passed"] and args.quiet:
-            continue
-        # the message may quote the decoder's output: its control characters are escaped,
-        # so that a decoder cannot drive the terminal
-        print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: "
-              f"{printable(r['message'])}")
     n_fail = sum(not r["passed"] for r in results)
+    found(EXIT_FAIL if n_fail else EXIT_OK)     # what a pipe closed in the report exits with
     by_group: dict[str, dict[str, int]] = {}
     for r in results:
         g = by_group.setdefault(r["group"], {"passed": 0, "failed": 0})
         g["passed" if r["passed"] else "failed"] += 1
-    summary = ", ".join(f"{g} {c['passed']}/{c['passed'] + c['failed']}"
-                        for g, c in by_group.items())
-    if mode == "decoder" and args.array_only:
-        print("note: --array-only: names, rate, units and meta were not checked (spec §7.3)")
-    if mode == "decoder" and minor < VERSION_MINOR:
-        print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
-              f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
-    print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
-          + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
-             if n_fail else ""))
-    _warn_if_nothing_decoded(results)
+    # the results file before the report: a reader that closes the pipe (`| head`) stopped
+    # the command before it wrote the file (a docs QA run, stop 52)
+    results_error = None
     if args.results:
         doc = {"schema_version": RESULTS_SCHEMA_VERSION, "tool": "mpz-conformance",
                "mode": mode, "command": cmd, "vectors": str(vdir),
@@ -1076,8 +1063,28 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 write_atomic(args.results, text.encode("utf-8"), force=True)
         except MPZError as exc:
-            print(f"mpz-conformance: error: --results: {exc}", file=sys.stderr)
-            return EXIT_USAGE
+            results_error = found(EXIT_USAGE) and str(exc)
+    for r in results:
+        if r["passed"] and args.quiet:
+            continue
+        # the message may quote the decoder's output: its control characters are escaped,
+        # so that a decoder cannot drive the terminal
+        print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: "
+              f"{printable(r['message'])}")
+    summary = ", ".join(f"{g} {c['passed']}/{c['passed'] + c['failed']}"
+                        for g, c in by_group.items())
+    if mode == "decoder" and args.array_only:
+        print("note: --array-only: names, rate, units and meta were not checked (spec §7.3)")
+    if mode == "decoder" and minor < VERSION_MINOR:
+        print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
+              f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
+    print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
+          + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
+             if n_fail else ""))
+    _warn_if_nothing_decoded(results)
+    if results_error is not None:
+        print(f"mpz-conformance: error: --results: {results_error}", file=sys.stderr)
+        return EXIT_USAGE
     return EXIT_FAIL if n_fail else EXIT_OK
 
 

@@ -21,8 +21,9 @@ code  meaning
 ====  ===================================================================
 
 Output piped into a command that stops reading (``mpzinfo -vv *.mpz | head``)
-ends the tool quietly with the code it would have had otherwise, or 0 when the
-pipe broke before it knew; no ``BrokenPipeError`` traceback.
+ends the tool quietly, with no ``BrokenPipeError`` traceback, and with the worst
+code of what it had found by then (:func:`found`): a failed file, or a verdict
+decided before its report was printed; 0 when it had found nothing wrong.
 
 Everything a tool prints that comes from a file (names, file names, metadata,
 error messages quoting them) goes through :func:`printable`, so a marker
@@ -228,6 +229,35 @@ def memory_message(exc: MemoryError, command: str) -> str:
             f"what it needs (free memory or raise the limit{cure})")
 
 
+# -- exit codes of a batch, and of a report cut short --------------------------------------
+
+#: how bad each exit code is, for the code of a batch and of a report cut short
+_SEVERITY = {EXIT_OK: 0, EXIT_WARN: 1, EXIT_ERROR: 2, EXIT_MEMORY: 3, EXIT_USAGE: 4}
+
+
+def worst(codes: Iterable[int]) -> int:
+    """The exit code of a batch: its worst job's (usage > memory > error > warning > ok)."""
+    out = EXIT_OK
+    for c in codes:
+        if _SEVERITY.get(c, 2) > _SEVERITY.get(out, 2):
+            out = c
+    return out
+
+
+#: the worst exit code the running command has found so far (:func:`found`)
+_found = [EXIT_OK]
+
+
+def found(code: int) -> int:
+    """Note ``code`` as found by the running command (a job's result; a verdict decided
+    before its report is printed) and return it. A reader that closes the pipe in the
+    middle of the output ends the command with the worst code found
+    (:func:`quiet_broken_pipe`): it exited 0 after an error line had been printed (a docs
+    QA run, stop 52: ``mpzinfo -vv BAD.mpz | head -1``)."""
+    _found[0] = worst((_found[0], code))
+    return code
+
+
 # -- broken pipes --------------------------------------------------------------------------
 
 def _silence_stdout() -> None:
@@ -244,17 +274,19 @@ def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
     """Decorate a command's ``main``: a reader closing the pipe ends the command quietly.
 
     The decorated function flushes stdout before returning, so that a broken
-    pipe shows up here and not in the interpreter's exit handler.
+    pipe shows up here and not in the interpreter's exit handler. It then returns the
+    worst code the command had noted with :func:`found`, else 0.
     """
 
     @functools.wraps(main)
     def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> int:
-        code = EXIT_OK
+        _found[0] = EXIT_OK
         try:
             code = main(*args, **kwargs)
             sys.stdout.flush()
         except BrokenPipeError:
             _silence_stdout()
+            code = _found[0]       # the worst it had found (found()), else 0
         return code
 
     return wrapper

@@ -13,7 +13,7 @@ Contract:
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 import os
 import re
@@ -26,11 +26,10 @@ from mpz.format import MM_PER_UNIT
 from mpz.tools._cli import (
     EXIT_ERROR,
     EXIT_MEMORY,
-    EXIT_OK,
-    EXIT_USAGE,
-    EXIT_WARN,
+    found,
     memory_message,
     printable,
+    worst,
 )
 
 if TYPE_CHECKING:
@@ -637,19 +636,6 @@ def make_folder(folder: str) -> None:
 
 
 
-#: how bad each exit code is, for a batch's overall code
-_SEVERITY = {EXIT_OK: 0, EXIT_WARN: 1, EXIT_ERROR: 2, EXIT_MEMORY: 3, EXIT_USAGE: 4}
-
-
-def worst(codes: Iterable[int]) -> int:
-    """The exit code of a batch: its worst job's (memory > error > warning > ok)."""
-    out = EXIT_OK
-    for c in codes:
-        if _SEVERITY.get(c, 2) > _SEVERITY.get(out, 2):
-            out = c
-    return out
-
-
 def run_batch(command: str, jobs: list[Job], one: Callable[[Job], int], *,
               report: IO[str], quiet: bool) -> int:
     """Run ``one`` per job; a failed job is reported on stderr and the others still run.
@@ -663,22 +649,22 @@ def run_batch(command: str, jobs: list[Job], one: Callable[[Job], int], *,
         name = printable(job.input)
         if job.error is not None:
             print(f"mpz {command}: error: {name}: {printable(job.error)}", file=sys.stderr)
-            codes.append(EXIT_ERROR)
+            codes.append(found(EXIT_ERROR))
             failed += 1
             continue
         try:
             if job.make_folder is not None:
                 make_folder(job.make_folder)
-            codes.append(one(job))
+            codes.append(found(one(job)))
         except MPZError as exc:
             text = printable(str(exc))
             shown = text if exc.path or len(jobs) == 1 else f"{name}: {text}"
             print(f"mpz {command}: error: {shown}", file=sys.stderr)
-            codes.append(EXIT_ERROR)
+            codes.append(found(EXIT_ERROR))
             failed += 1
         except MemoryError as exc:
             print(f"mpz {command}: {name}: {memory_message(exc, command)}", file=sys.stderr)
-            codes.append(EXIT_MEMORY)
+            codes.append(found(EXIT_MEMORY))
             failed += 1
     if len(jobs) > 1 and not quiet:
         ok = len(jobs) - failed

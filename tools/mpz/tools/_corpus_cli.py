@@ -23,7 +23,7 @@ import signal
 import sys
 from typing import TYPE_CHECKING, Any
 
-from mpz.tools._cli import EXIT_ERROR, EXIT_OK, count
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK, count, found
 
 if TYPE_CHECKING:
     from mpz.corpus import FileOptions, FileResult
@@ -175,6 +175,9 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     finally:
         bar.close()
     failed = len(report.failed)
+    # a source read with a warning (cut short, a header that disagrees) is "warnings only"
+    warned = any(r.warning for r in report.results)
+    code = found(EXIT_ERROR if failed else EXIT_WARN if warned else EXIT_OK)
     if args.json:
         doc = report.as_dict()
         doc["planning_errors"] = [{"input": j.input, "reason": j.error}
@@ -189,9 +192,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     if failed:          # the closing line of a sequential batch, on stderr even with -q
         print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed} done, "
               f"{failed} failed", file=sys.stderr)
-    # a source read with a warning (cut short, a header that disagrees) is "warnings only"
-    warned = any(r.warning for r in report.results)
-    return EXIT_ERROR if failed else EXIT_WARN if warned else EXIT_OK
+    return code
 
 
 def _plural(n: int, noun: str) -> str:

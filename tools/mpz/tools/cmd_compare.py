@@ -225,7 +225,7 @@ def run(args: argparse.Namespace) -> int:
     from mpz.errors import EncoderError
     from mpz.metrics import besides_markers, summary
     from mpz.skeleton import channel_bounds
-    from mpz.tools._cli import EXIT_USAGE
+    from mpz.tools._cli import EXIT_USAGE, found
     from mpz.tools._common import (
         check_length,
         joint_positions_from_channels,
@@ -244,9 +244,9 @@ def run(args: argparse.Namespace) -> int:
         _matplotlib()
     names = (_label(args.original), _label(args.decoded))
     a, ext_a, data_a = read_input_keeping(args.original, args.asf)
-    asf_b, borrowed, found = _decoded_asf(args)
+    asf_b, borrowed, asf_found = _decoded_asf(args)
     b, ext_b, data_b = read_input_keeping(args.decoded, asf_b)
-    notes = check_rates(a, b, ext_a, ext_b, names) + found
+    notes = check_rates(a, b, ext_a, ext_b, names) + asf_found
     notes += _asf_notes(args, ext_a, ext_b, names, borrowed and ext_b == ".amc")
     data = data_b or data_a                 # the bounds an .mpz input declares
     parts = besides_markers(a, b, channel_bounds=None if data is None
@@ -332,6 +332,9 @@ def run(args: argparse.Namespace) -> int:
              besides_markers=[dataclasses.asdict(p) for p in parts], mpz_files=pair)
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
+    differs = any(p.status == "differs" for p in parts) or added or (
+        check is not None and check["beyond"])
+    code = found(2 if gaps_lost or gaps_added or differs else 0)   # before the report
     if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
         plot_names = args.marker or [n for _, n in worst[:3]]
         bound = (bound_given if bound_given is not None
@@ -382,9 +385,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {p.name:<19} {_status(p)}")
         if args.plot:
             print(f"plot written to {printable(args.plot)}")
-    differs = any(p.status == "differs" for p in parts) or added or (
-        check is not None and check["beyond"])
-    return 2 if gaps_lost or gaps_added or differs else 0
+    return code
 
 
 def marker_bound(a, b, bound: float | None) -> dict | None:

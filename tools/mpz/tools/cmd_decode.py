@@ -20,7 +20,7 @@ import tempfile
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError, MPZError
-from mpz.tools._cli import EXIT_WARN, printable
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, found, printable
 
 if TYPE_CHECKING:
     from mpz.motion import Motion
@@ -235,6 +235,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
                 if exc.path == tmp:
                     exc.path = job.output
                 raise
+    found(EXIT_WARN if warned else EXIT_OK)
     if not args.quiet:
         print(f"{printable(job.input)} -> {printable(job.output)}: {motion.n_frames} frames x "
               f"{motion.n_markers} markers, {motion.rate:g} Hz, gaps {motion.gap_fraction:.1%}",
@@ -242,7 +243,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         if args.verbose:
             for k, v in motion.metadata.items():
                 print(f"  {printable(k)}: {printable(v)}", file=out)
-    return EXIT_WARN if warned else 0
+    return EXIT_WARN if warned else EXIT_OK
 
 
 def _without_a_stale_archive(motion: Motion, ext: str, output: str, quiet: bool

@@ -17,7 +17,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError, MPZError
-from mpz.tools._cli import EXIT_OK, EXIT_WARN, positive, printable
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, found, positive, printable
 
 if TYPE_CHECKING:
     from mpz.encoder import EncodeOptions
@@ -507,7 +507,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         "skeleton": _skeleton_report(data),
         "nodes": [vars(n) for n in rep.nodes], "warning": warning or None}
     results.append(result)
-    code = EXIT_WARN if warning else EXIT_OK
+    code = found(EXIT_WARN if warning else EXIT_OK)
     if args.json or args.quiet:
         return code
     u = f" {units}" if units else " (input units)"

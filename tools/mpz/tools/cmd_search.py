@@ -31,7 +31,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from mpz.errors import EncoderError, MPZError
-from mpz.tools._cli import EXIT_OK, EXIT_WARN, count, positive
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, count, found, positive
 
 if TYPE_CHECKING:
     from mpz.motion import Motion
@@ -251,7 +251,7 @@ def run(args: argparse.Namespace) -> int:
              "dims": summary.dims, "summary": origin, "levels": list(summary.level_ks()),
              "sha256": sha}
     gone = sum(not r["output_exists"] for r in results)
-    code = EXIT_WARN if gone else EXIT_OK
+    code = found(EXIT_WARN if gone else EXIT_OK)
     if args.json:
         print_json({"schema": JSON_SCHEMA, "index": index_path, "query": query,
                     "features": list(features_for(levels)),

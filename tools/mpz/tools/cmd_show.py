@@ -17,7 +17,7 @@ import os
 import sys
 
 from mpz.errors import MPZError
-from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, print_json, printable
+from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, found, print_json, printable
 
 JSON_SCHEMA_VERSION = 1
 
@@ -115,7 +115,7 @@ def run(args) -> int:
     info["format"] = "MPZ" if ext == ".mpz" else FORMAT_NAMES.get(ext or "")
     # an .mpz file's declared bound (None: none declared, or not an .mpz), as mpzinfo says
     info["error_bound"] = declared_bound(scan(data)) if data is not None else None
-    code = EXIT_WARN if "warning" in motion.metadata else EXIT_OK
+    code = found(EXIT_WARN if "warning" in motion.metadata else EXIT_OK)
     if args.json:
         print_json(info)
         return code

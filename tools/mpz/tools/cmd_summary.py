@@ -34,7 +34,15 @@ import sys
 
 import numpy as np
 
-from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, Parser, print_json, printable
+from mpz.tools._cli import (
+    EXIT_ERROR,
+    EXIT_OK,
+    EXIT_WARN,
+    Parser,
+    found,
+    print_json,
+    printable,
+)
 
 JSON_SCHEMA = "mpz-summary/1"
 DEFAULT_KS = "6,12,24,48"
@@ -471,6 +479,7 @@ def run(args) -> int:
         return EXIT_ERROR
     for w in warnings:
         print(f"mpz summary: warning: {w}", file=sys.stderr)
+    code = found(EXIT_WARN if warnings else EXIT_OK)
     if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
         _plot(args.plot, info, levels, poses, parents, args.force)
     if args.json:
@@ -479,7 +488,7 @@ def run(args) -> int:
         _print_text(info, levels, sys.stdout)
         if args.plot:
             print(f"\nplot written to {printable(args.plot)}")
-    return EXIT_WARN if warnings else EXIT_OK
+    return code
 
 
 def main(argv=None) -> int:

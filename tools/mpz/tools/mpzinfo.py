@@ -48,6 +48,7 @@ from mpz.tools._cli import (
     EXIT_WARN,
     MAX_SAMPLES_HELP,
     Parser,
+    found,
     jsonable,
     max_samples,
     memory_message,
@@ -320,6 +321,9 @@ def _main(argv: list[str] | None = None) -> int:
             info = _unreadable(f, "MemoryError", memory_message(exc, "mpzinfo"), "§8")
             info["status"] = "memory"
             infos.append(info)
+    statuses = {i["status"] for i in infos}
+    code = found(EXIT_MEMORY if "memory" in statuses else EXIT_ERROR if "error" in statuses
+                 else EXIT_WARN if "warning" in statuses else EXIT_OK)
     if args.json:
         print_json({"schema": SCHEMA, "tool_version": __version__, "files": infos})
     else:
@@ -327,14 +331,7 @@ def _main(argv: list[str] | None = None) -> int:
             print(summary_line(info))
             if args.verbose:
                 _print_chunks(info, args.verbose, sys.stdout)
-    statuses = {i["status"] for i in infos}
-    if "memory" in statuses:
-        return EXIT_MEMORY
-    if "error" in statuses:
-        return EXIT_ERROR
-    if "warning" in statuses:
-        return EXIT_WARN
-    return EXIT_OK
+    return code
 
 
 if __name__ == "__main__":
