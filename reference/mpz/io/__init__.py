@@ -425,7 +425,8 @@ def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
     fmt : str, optional
         An extension (``".c3d"``) to use instead of detecting it.
     name : str, optional
-        What messages and ``metadata["source"]`` call the input.
+        What messages call the input, and ``metadata["source"]`` unless it is the
+        default ``"-"`` (then the motion has no ``source``).
     asf, rate
         As for :func:`read`; AMC from bytes needs ``asf``.
 
