@@ -25,6 +25,7 @@ import pytest
 import mpz
 from mpz.c3darchive import C3DArchive
 from mpz.encoder import EncodeOptions, encode_motion
+from mpz.errors import EncoderError
 from mpz.io import c3dbin, read, write
 from mpz.synth import generate
 
@@ -493,3 +494,37 @@ def test_motions_holding_a_c3d_archive_are_not_joined(tmp_path):
         mpz.concatenate([m, m])
     bare = replace(m, extras={})
     assert mpz.concatenate([bare, bare]).n_frames == 2 * m.n_frames
+
+
+def test_a_parameter_section_past_the_cprm_limit_is_dropped_with_a_warning(tmp_path):
+    """ezc3d writes a section of 3,000 parameters (271 blocks, the header's count modulo
+    256) and reads it back; its records take more than MAX_C3D_PARAMETER_BYTES. It was
+    encoded into a file its own decoder refused (exit 70, a QA run of stop 52). The
+    markers are kept and the archive is dropped, said in the warning."""
+    import ezc3d
+
+    from mpz.c3darchive import parameter_record
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["A", "B"]
+    c.add_parameter("POINT", "UNITS", ["mm"])
+    for i in range(3000):
+        c.add_parameter("META", f"P{i:05d}", [float(i)] * 8)
+    pts = np.random.default_rng(0).normal(0, 100, (4, 2, 50))
+    pts[3] = 1
+    c["data"]["points"] = pts
+    path = tmp_path / "big.c3d"
+    c.write(str(path))
+    m = read(path)
+    assert "c3d" not in m.extras
+    assert "C3D archive not kept" in m.metadata["warning"]
+    assert "more than the 131072 of a cprm chunk" in m.metadata["warning"]
+    back = mpz.decode(mpz.encode(m, max_error=1.0))
+    assert mpz.max_error(m, back) <= 1.0
+    a = _example_c3d(tmp_path).extras["c3d"]
+    gid = next(r.group for r in a.records if not r.is_group)
+    many = [c3dbin.ParamRecord(gid, False, b"X%05d" % i, type=4, dims=(8,), data=bytes(32))
+            for i in range(3000)]
+    big = replace(a, records=[*a.records, *many])
+    with pytest.raises(EncoderError, match="cannot be kept: .*more than the 131072"):
+        parameter_record(big)

@@ -41,6 +41,7 @@ from mpz.entropy import BlockEncoder
 from mpz.errors import EncoderError
 from mpz.format import (
     MAX_ANALOG_SAMPLES,
+    MAX_C3D_PARAMETER_BYTES,
     MAX_MARKERS,
     MAX_SAMPLES,
     ByteCoding,
@@ -380,14 +381,29 @@ def stored_parameters(records: list[ParamRecord]) -> Cprm:
     return Cprm(coding=ByteCoding.STORED, count=len(recs), records=recs)
 
 
-def parameter_record(a: C3DArchive) -> Cprm:
-    """§4.13.2 the cprm record of an archive. A section that breaks a §4.13.2 rule (a
-    group declared twice, which a C3D may hold) is refused here, not written for the
-    decoder to refuse."""
-    stored = stored_parameters(a.records)
+def section_fault(stored: Cprm) -> str | None:
+    """Why a cprm chunk cannot hold the parameter section ``stored``
+    (:func:`stored_parameters`), or None: a §4.13.2 record rule it breaks (a group declared
+    twice, which a C3D may hold), or a section longer than MAX_C3D_PARAMETER_BYTES (§8; a
+    C3D written by ezc3d with 3,000 parameters, 271 blocks, was encoded into a file its
+    decoder refused: a QA run of stop 52)."""
     fault = stored.fault()
     if fault is not None:
-        raise EncoderError(f"the C3D parameter section cannot be kept: {fault} (§4.13.2)")
+        return f"{fault} (§4.13.2)"
+    n = len(stored.content())
+    if n > MAX_C3D_PARAMETER_BYTES:
+        return (f"its records take {n} bytes, more than the {MAX_C3D_PARAMETER_BYTES} of a "
+                "cprm chunk (spec §8, MAX_C3D_PARAMETER_BYTES)")
+    return None
+
+
+def parameter_record(a: C3DArchive) -> Cprm:
+    """§4.13.2 the cprm record of an archive. A section that a cprm cannot hold
+    (:func:`section_fault`) is refused here, not written for the decoder to refuse."""
+    stored = stored_parameters(a.records)
+    fault = section_fault(stored)
+    if fault is not None:
+        raise EncoderError(f"the C3D parameter section cannot be kept: {fault}")
     return smaller(stored, stored.recoded(ByteCoding.DEFLATE))
 
 

@@ -293,18 +293,18 @@ def _joined(old: str | None, new: str) -> str:
 def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
     """The markers of ``full`` (every C3D point) with the rest of the file in
     ``extras["c3d"]``: model outputs leave the marker set (spec §4.13.3)."""
-    from mpz.c3darchive import MODEL_PARAMETERS, C3DArchive, stored_parameters
+    from mpz.c3darchive import MODEL_PARAMETERS, C3DArchive, section_fault, stored_parameters
     F, P = full.n_frames, full.n_markers
     if d.points.shape[:2] != (F, P) or d.point_words.shape != (F, P):
         full.metadata["warning"] = _joined(full.metadata.get("warning"), (
             f"C3D archive not kept: the numpy reader sees {d.points.shape[1]} points x "
             f"{d.points.shape[0]} frames, ezc3d {P} x {F}"))
         return full
-    fault = stored_parameters(list(d.records)).fault()
-    if fault is not None:          # a C3D may, MPZ's cprm (§4.13.2) may not
+    fault = section_fault(stored_parameters(list(d.records)))
+    if fault is not None:          # a C3D may, MPZ's cprm (§4.13.2, §8) may not
         full.metadata["warning"] = _joined(full.metadata.get("warning"), (
-            f"C3D archive not kept: its parameter section breaks a rule of MPZ's cprm "
-            f"chunk: {fault} (§4.13.2)"))
+            f"C3D archive not kept (its analog data, events and parameters are dropped): "
+            f"MPZ's cprm chunk cannot hold its parameter section: {fault}"))
         return full
     point = d.params.get("POINT", {})
     labels = point_labels(point, P)

@@ -835,7 +835,7 @@ def ezc3d_hazard(data: bytes) -> str | None:
     why = _ezc3d_walk(data, start)
     if why is None:
         why = _ezc3d_values(data, start)
-    return None if why is None else f"{why} (ezc3d 1.7 crashes on it)"
+    return None if why is None else f"{why} (files like it crash ezc3d 1.7)"
 
 
 def _ezc3d_walk(data: bytes, start: int) -> str | None:
