@@ -528,3 +528,14 @@ def test_a_parameter_section_past_the_cprm_limit_is_dropped_with_a_warning(tmp_p
     big = replace(a, records=[*a.records, *many])
     with pytest.raises(EncoderError, match="cannot be kept: .*more than the 131072"):
         parameter_record(big)
+
+
+def test_a_c3d_without_points_is_refused_as_such():
+    """A legal C3D of analog channels alone (POINT:USED 0) was refused as "inconsistent
+    data: a motion needs at least one marker, got 0", which reads as a broken file (a C3D
+    QA run of stop 52). Both readers build the motion here."""
+    from mpz.errors import InputFormatError
+    from mpz.io.c3d import motion_from_points
+    with pytest.raises(InputFormatError, match=r"no points \(POINT:USED 0\).*analog "
+                                               "channels alone"):
+        motion_from_points(np.zeros((5, 0, 3)), np.zeros((5, 0)), {}, 100.0)

@@ -114,6 +114,10 @@ def motion_from_points(points: NDArray[Any], residuals: NDArray[Any],
         More metadata.
     """
     used = points.shape[1]
+    if used == 0:       # "inconsistent data: a motion needs at least one marker" (QA, stop 52)
+        raise InputFormatError("C3D: the file holds no points (POINT:USED 0): MPZ codes "
+                               "marker trajectories, and a C3D of analog channels alone "
+                               "(force plates, EMG) is not supported")
     numeric: list[str] = []
     names, renamed = unique_names(point_labels(point_params, used, numeric))
     units_raw = (_text(point_params, "UNITS", numeric) or [""])[0].strip().lower()
