@@ -203,3 +203,21 @@ def test_a_model_output_that_came_back_nan_is_beyond_its_bound(shared_data: Path
     bad = [p for p in besides_markers(m, replace(m, extras={"c3d": broken}))
            if p.name.startswith("model ")]
     assert sorted(p.status for p in bad).count("differs") == 1
+
+
+def test_p99_of_samples_that_became_gaps_is_infinite_and_silent():
+    """With more than 1 % of the valid samples lost to gaps, the 99th percentile lies
+    between two infinite errors: numpy's interpolation took inf - inf, gave NaN and
+    printed a RuntimeWarning into `mpz compare`'s report (QA runs of stop 52)."""
+    import warnings
+    pos = np.zeros((100, 1, 3))
+    a = Motion(pos, ["m"], 100.0, "mm")
+    lost = np.ones((100, 1), bool)
+    lost[:5] = False                    # 5 % of the samples became gaps
+    b = Motion(pos, ["m"], 100.0, "mm", lost)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s = summary(a, b)
+    assert s["p99"] == math.inf and s["max"] == math.inf
+    b = Motion(pos + 1.0, ["m"], 100.0, "mm")
+    assert summary(a, b)["p99"] == pytest.approx(math.sqrt(3))
