@@ -539,3 +539,35 @@ def test_a_c3d_without_points_is_refused_as_such():
     with pytest.raises(InputFormatError, match=r"no points \(POINT:USED 0\).*analog "
                                                "channels alone"):
         motion_from_points(np.zeros((5, 0, 3)), np.zeros((5, 0)), {}, 100.0)
+
+
+def test_a_whole_c3d_whose_header_and_analog_rate_disagree_is_read_whole(tmp_path):
+    """Header word 10 says 2 analog samples a frame, and the data is laid out so;
+    ANALOG:RATE says 5. ezc3d sizes frames from the parameters and finds fewer frames
+    than declared, and the file was refused as truncated (a C3D QA run of stop 52).
+    c3dbin, which follows the header, reads it whole, with a warning."""
+    import struct
+
+    import ezc3d
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["A", "B"]
+    c.add_parameter("POINT", "UNITS", ["mm"])
+    c["parameters"]["ANALOG"]["RATE"]["value"] = np.array([200.0])
+    c["parameters"]["ANALOG"]["LABELS"]["value"] = ["a0", "a1", "a2", "a3"]
+    rng = np.random.default_rng(1)
+    pts = rng.normal(0, 100, (4, 2, 60))
+    pts[3] = 1
+    c["data"]["points"] = pts
+    c["data"]["analogs"] = rng.normal(size=(1, 4, 120))
+    path = tmp_path / "ratio.c3d"
+    c.write(str(path))
+    data = bytearray(path.read_bytes())
+    at = data.index(struct.pack("<f", 200.0), 512)         # ANALOG:RATE's value
+    data[at:at + 4] = struct.pack("<f", 500.0)
+    path.write_bytes(bytes(data))
+    m = read(path)
+    assert m.n_frames == 60 and "ezc3d found 36 of the 60 frames" in m.metadata["warning"]
+    assert m.extras["c3d"].analog.shape == (120, 4)
+    back = mpz.decode(mpz.encode(m, max_error=1.0))
+    assert back.extras["c3d"].analog.tobytes() == m.extras["c3d"].analog.tobytes()

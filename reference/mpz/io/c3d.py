@@ -170,6 +170,18 @@ def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
     params = c["parameters"]
     got = np.asarray(c["data"]["points"]).shape[2]
     if got < declared:  # ezc3d silently returns the frames that fit
+        # ezc3d sizes a frame from the parameters (ANALOG:RATE / POINT:RATE samples), the
+        # C3D user guide and c3dbin from the header (word 10): a whole file whose two
+        # disagree was refused as truncated (a C3D QA run of stop 52)
+        try:
+            m = motion_from_c3d_bytes(data, source=source, extra={**extra, "warning": _joined(
+                extra.get("warning"), f"ezc3d found {got} of the {declared} frames the "
+                "header declares (it sizes a frame from the parameters, which disagree with "
+                "the header here); read with mpz.io.c3dbin, which follows the header")})
+        except InputFormatError:
+            raise c3dbin.frames_missing(data, declared, got) from None
+        if m.n_frames == declared:
+            return m
         raise c3dbin.frames_missing(data, declared, got)
     point = {k: v["value"] for k, v in params["POINT"].items() if k != "__METADATA__"}
     pts = np.asarray(c["data"]["points"])[:3].transpose(2, 1, 0)
