@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 import numpy as np
 import pytest
 
@@ -620,3 +622,25 @@ def test_c3d_written_without_an_archive_names_300_points(tmp_path: Path) -> None
     got = [str(s).strip() for s in point["LABELS"]["value"]]
     got += [str(s).strip() for s in point["LABELS2"]["value"]]
     assert got == names
+
+
+@given(st.binary(min_size=4, max_size=4))
+@example(b"\xff\x7f\xff\xff")        # exponent 255: 1.70e38, read as NaN before
+@example(b"\x80\x00\x00\x00")        # exponent 1: 2^-128, a float32 subnormal
+@settings(max_examples=400, deadline=None)
+def test_dec_floats_convert_exactly_above_2_to_the_minus_126(word):
+    """A VAX F_floating word (high 16-bit word first) against its definition, computed in
+    binary64: (-1)^s x 0.1f x 2^(e - 128). Exact for exponents 3-255 (the significands
+    are the same, spec §4.13); exponent 255, 2^126 and above, came back inf or NaN (a C3D
+    QA run of stop 52: 1.70e38 read as nan). Exponents 1-2 are rounded, and counted."""
+    from mpz.io.c3dbin import _dec_to_ieee
+    w = int.from_bytes(word[2:4] + word[0:2], "little")
+    s, e, f = w >> 31, (w >> 23) & 0xFF, w & 0x7FFFFF
+    got, rounded = _dec_to_ieee(word)
+    assert rounded == (1 if e in (1, 2) else 0)
+    if e >= 3:
+        want = (-1.0) ** s * (0.5 + f / 2.0 ** 24) * 2.0 ** (e - 128)
+        assert float(got[0]) == want
+    elif e:
+        want = (-1.0) ** s * (0.5 + f / 2.0 ** 24) * 2.0 ** (e - 128)
+        assert float(got[0]) == float(np.float32(want))          # rounded to nearest
