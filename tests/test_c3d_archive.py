@@ -571,3 +571,39 @@ def test_a_whole_c3d_whose_header_and_analog_rate_disagree_is_read_whole(tmp_pat
     assert m.extras["c3d"].analog.shape == (120, 4)
     back = mpz.decode(mpz.encode(m, max_error=1.0))
     assert back.extras["c3d"].analog.tobytes() == m.extras["c3d"].analog.tobytes()
+
+
+def test_encode_says_what_the_decoded_c3d_will_not_give_back(shared_data, tmp_path):
+    """An int16 C3D whose marker stays within a grid step of the origin: at --max-error
+    1mm it decodes to exactly (0, 0, 0), which C3D readers (this one too) read as gaps,
+    and a coordinate word of -32768 makes the decoded C3D float32 (spec §6.9: |q| <=
+    32767). mpz encode said neither, and exited 0 (a C3D QA run of stop 52); now each is
+    a warning, exit 1."""
+    import subprocess
+    import sys
+
+    from mpz.io.c3d import round_trip_warnings
+    m = read(shared_data / "c3d" / "c3dorg_Eb015pi.c3d")
+    a = m.extras["c3d"]
+    assert a.word_storage == 0
+    s = a.point_scale()
+    pos = m.positions.copy()
+    pos[:, 0] = np.random.default_rng(4).choice([-1.0, 1.0], (m.n_frames, 3)) * s
+    valid = m.valid.copy()
+    valid[:, 0] = True
+    near = replace(m, positions=pos, valid=valid)
+    said = round_trip_warnings(near, mpz.decode(mpz.encode(near, max_error=1.0)))
+    assert len(said) == 1 and "decode to exactly (0, 0, 0)" in said[0]
+    assert round_trip_warnings(near, mpz.decode(mpz.encode(near))) == []   # exact: none
+    low = pos.copy()
+    low[5, 1, 1] = -32768 * s
+    said = round_trip_warnings(replace(near, positions=low),
+                               mpz.decode(mpz.encode(replace(near, positions=low))))
+    assert any("will store float32" in w for w in said)
+    path = tmp_path / "near.c3d"
+    write(near, path)
+    run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode", str(path),
+                          "-o", str(tmp_path / "near.mpz"), "--max-error", "1mm"],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 1, run.stderr
+    assert "warning" in run.stderr and "read as gaps" in run.stderr

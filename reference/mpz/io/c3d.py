@@ -617,6 +617,15 @@ def archive_bytes(motion: Motion) -> bytes:
         check_matches(a, motion)
     except EncoderError as exc:
         raise InputFormatError(str(exc)) from None
+    xyz, scale, int16 = _points_to_write(motion, a)
+    return c3dbin.build_c3d(a.header, a.records, xyz, a.words, a.analog,
+                            float_storage=not int16, scale=scale)
+
+
+def _points_to_write(motion: Motion, a: C3DArchive) -> tuple[NDArray[np.float64], float, bool]:
+    """Spec §6.9: every C3D point of ``motion`` and its archive ``a`` ([F, P, 3], 0 at
+    gaps), the point scale s, and whether int16 storage holds them (the source's storage,
+    and every coordinate on the grid with |q| <= 32767), else float32."""
     F, P = a.words.shape
     M = motion.n_markers
     xyz = np.zeros((F, P, 3))
@@ -629,7 +638,43 @@ def archive_bytes(motion: Motion) -> bytes:
     scale = a.point_scale()
     with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
         q = np.rint(xyz / scale)                          # and build_c3d says why not float32
-        int16 = (a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
-                 and np.array_equal(q * scale, xyz) and np.abs(q).max(initial=0) <= 32767)
-    return c3dbin.build_c3d(a.header, a.records, xyz, a.words, a.analog,
-                            float_storage=not int16, scale=scale)
+        int16 = bool(a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
+                     and np.array_equal(q * scale, xyz) and np.abs(q).max(initial=0) <= 32767)
+    return xyz, scale, int16
+
+
+def round_trip_warnings(source: Motion, decoded: Motion) -> list[str]:
+    """What the C3D file of ``decoded`` (an .mpz of ``source``, a C3D read with its
+    archive, decoded) does not give back as ``source`` read it, for ``mpz encode`` to
+    say (a C3D QA run of stop 52 found both said by nothing, or only by a note of
+    ``mpz decode`` that -q hides):
+
+    - valid samples written at exactly (0, 0, 0), which C3D readers, this one included,
+      take for gaps: a marker within the bound of the origin;
+    - an int16 source written as float32 (§6.9: a coordinate decoded off the int16 grid,
+      or at -32768), and with it ANALOG:FORMAT UNSIGNED words, which a float file holds
+      as the signed value (65535 becomes -1.0)."""
+    from mpz.c3darchive import C3DArchive
+    a, b = source.extras.get("c3d"), decoded.extras.get("c3d")
+    if not isinstance(a, C3DArchive) or not isinstance(b, C3DArchive) or \
+            decoded.positions.shape != source.positions.shape:
+        return []
+    out = []
+    zero = decoded.valid & source.valid & (decoded.positions == 0.0).all(axis=2) \
+        & ~(source.positions == 0.0).all(axis=2)
+    if zero.any():
+        f, m = (int(i) for i in np.argwhere(zero)[0])
+        out.append(f"{int(zero.sum())} valid sample(s) within the bound of the origin (the "
+                   f"first: frame {f}, marker {source.names[m]!r}) decode to exactly (0, 0, 0), "
+                   "which C3D readers, mpz's included, read as gaps: a --max-error smaller "
+                   "than their distance from the origin keeps them")
+    if a.word_storage == 0 and not _points_to_write(decoded, b)[2]:
+        fmt = b.parameter("ANALOG", "FORMAT")
+        unsigned = (fmt is not None and fmt.data.strip(b" \0").upper() == b"UNSIGNED"
+                    and b.analog.size and b.analog_storage == 0 and (b.analog < 0).any())
+        out.append("the source stores int16 points, and the decoded C3D will store float32 "
+                   "(a coordinate decoded off the int16 grid or outside -32767..32767, spec "
+                   "§6.9): the file is larger, and POINT:SCALE is written negative"
+                   + ("; its ANALOG:FORMAT UNSIGNED words of 32768 and more will read as "
+                      "negative values (65535 as -1.0)" if unsigned else ""))
+    return out

@@ -482,6 +482,14 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         raise AssertionError(
             f"the encoded file breaks its declared bound: max error {err['max']!r} > "
             f"{rep.bound!r} ({job.input}); {_remove_output(job.output, to_stdout)}")
+    # what the C3D it decodes to will not give back (exit 1, as the reader's warnings)
+    from mpz.io.c3d import round_trip_warnings
+    for note in round_trip_warnings(motion, decoded):
+        warning = f"{warning}; {note}" if warning else note
+        if not args.quiet:
+            print(f"mpz encode: warning: {printable(job.input)}: {printable(note)}",
+                  file=sys.stderr)
+    del decoded
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
                      and opts.keep_skeleton else None)
     result = {
