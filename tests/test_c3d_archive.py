@@ -607,3 +607,26 @@ def test_encode_says_what_the_decoded_c3d_will_not_give_back(shared_data, tmp_pa
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 1, run.stderr
     assert "warning" in run.stderr and "read as gaps" in run.stderr
+
+
+def test_a_repeated_point_scale_with_other_values_is_a_warning(tmp_path):
+    """Two POINT:SCALE records of other values: the readers (ezc3d, c3dbin) take the
+    last, spec §6.9's writer the first, so the decoded C3D's residuals changed scale
+    with no word (a C3D QA run of stop 52)."""
+    import ezc3d
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["A", "B"]
+    c.add_parameter("POINT", "UNITS", ["mm"])
+    c.add_parameter("POINT", "SCALX", [0.25])
+    pts = np.random.default_rng(2).normal(0, 100, (4, 2, 30))
+    pts[3] = 1
+    c["data"]["points"] = pts
+    path = tmp_path / "twice.c3d"
+    c.write(str(path))
+    data = path.read_bytes()
+    assert data.count(b"SCALX") == 1
+    path.write_bytes(data.replace(b"SCALX", b"SCALE"))
+    m = read(path)
+    assert "POINT:SCALE is given 2 times, with other values" in m.metadata["warning"]
+    assert "0.25" in m.metadata["warning"]

@@ -357,8 +357,25 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
     archive = C3DArchive(d.processor, d.header_block, list(d.records), slots, d.point_words,
                          storage, vals, ok, [int(kinds[p] or 0) for p in model], d.analog,
                          d.analog_samples, storage)
+    scales = _point_scales(archive)
+    if len(set(scales)) > 1:
+        # the readers take the last, spec §6.9's writer the first (a C3D QA run of stop 52)
+        meta["warning"] = _joined(meta.get("warning"), (
+            f"POINT:SCALE is given {len(scales)} times, with other values "
+            f"({', '.join(f'{v:g}' for v in scales)}): the points are read with the last, "
+            "as ezc3d reads them, and the decoded C3D is written with the first (spec §6.9), "
+            "so its residuals are scaled by the first, and an int16 source may not stay on "
+            "its grid"))
     return Motion(full.positions[:, marker], names, full.rate, full.units,
                   full.valid[:, marker], meta, extras={"c3d": archive})
+
+
+def _point_scales(a: C3DArchive) -> list[float]:
+    """The values of every POINT:SCALE record of ``a`` (float32, at least one element)."""
+    gids = {-r.group for r in a.records if r.is_group and r.name.upper() == b"POINT"}
+    return [float(np.frombuffer(r.data, "<f4", 1)[0]) for r in a.records
+            if not r.is_group and r.group in gids and r.name.upper() == b"SCALE"
+            and r.type == 4 and len(r.data) >= 4]
 
 
 def archive_describes(a: C3DArchive, markers: int) -> tuple[list[str], str, float]:
