@@ -618,7 +618,7 @@ def test_a_repeated_point_scale_with_other_values_is_a_warning(tmp_path):
     c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
     c["parameters"]["POINT"]["LABELS"]["value"] = ["A", "B"]
     c.add_parameter("POINT", "UNITS", ["mm"])
-    c.add_parameter("POINT", "SCALX", [0.25])
+    c.add_parameter("POINT", "SCALX", [-0.25])
     pts = np.random.default_rng(2).normal(0, 100, (4, 2, 30))
     pts[3] = 1
     c["data"]["points"] = pts
@@ -629,4 +629,5 @@ def test_a_repeated_point_scale_with_other_values_is_a_warning(tmp_path):
     path.write_bytes(data.replace(b"SCALX", b"SCALE"))
     m = read(path)
     assert "POINT:SCALE is given 2 times, with other values" in m.metadata["warning"]
-    assert "0.25" in m.metadata["warning"]
+    assert "(-1, -0.25)" in m.metadata["warning"]
+    assert "disagrees" not in m.metadata["warning"]
