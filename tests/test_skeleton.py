@@ -1497,3 +1497,130 @@ def test_a_search_that_finds_no_steps_says_how_to_choose_them(tmp_path):
     mpz.io.write(mpz.decode(mpz.encode(m, angle_error=0.0005, translation_error=0.0005)), out)
     d = np.linalg.norm(bvh_fk(bvh_read(FAR_BVH)) - bvh_fk(bvh_read(out.read_text())), axis=2)
     assert float(d.max()) <= 0.001
+
+
+# -- unusual legal BVH and ASF/AMC files (a skeleton QA run of stop 52) ------------------
+def _asf_pair(tmp_path: Path, *, name: str = "Skel", doc: str = "plain docs",
+              angle: str = "deg", header: str = ":FULLY-SPECIFIED\n:DEGREES\n",
+              first: int = 1, amc_encoding: str = "utf-8") -> tuple[Path, Path]:
+    """An ASF of a root, femur (3 dofs) and tibia (1 dof), and a 3-frame AMC of it."""
+    asf = f"""# demo
+:version 1.10
+:name {name}
+:units
+  mass 1.0
+  length 0.45
+  angle {angle}
+:documentation
+   {doc}
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name femur
+     direction 0 -1 0
+     length 7
+     axis 0 0 0 XYZ
+    dof rx ry rz
+  end
+  begin
+     id 2
+     name tibia
+     direction 0 -1 0
+     length 7
+     axis 0 0 0 XYZ
+    dof rx
+  end
+:hierarchy
+  begin
+    root femur
+    femur tibia
+  end
+"""
+    rows = []
+    for f in range(3):
+        rows += [str(first + f), f"root 1 2 3 0.{f}1 0.2 0.3", f"femur 0.{f}5 0.1 0.2",
+                 f"tibia 0.{f}7"]
+    (tmp_path / "s.asf").write_bytes(asf.encode("utf-8"))
+    (tmp_path / "s.amc").write_bytes((header + "\n".join(rows) + "\n").encode(amc_encoding))
+    return tmp_path / "s.amc", tmp_path / "s.asf"
+
+
+def _amc_round_trip(tmp_path: Path, amc: Path, asf: Path) -> tuple[str, str]:
+    """The ASF and AMC texts that an encode and decode of the pair writes back."""
+    m = mpz.io.read(amc, asf=asf)
+    back = mpz.decode(mpz.encode(m))
+    out = tmp_path / "back.amc"
+    mpz.io.write(back, out)
+    return ((tmp_path / "back.asf").read_bytes().decode("utf-8"),
+            out.read_bytes().decode("latin-1"))
+
+
+def test_a_hash_in_the_asf_name_and_documentation_is_text(tmp_path):
+    """`:name Subject#3 take #2` came back `:name Subject`, the documentation cut at its
+    '#', with nothing said; a line that starts with '#' stays a comment."""
+    amc, asf = _asf_pair(tmp_path, name="Subject#3 take #2", doc="capture take #7, #4")
+    m = mpz.io.read(amc, asf=asf)
+    skel = m.extras["skeleton"]
+    assert skel.name == "Subject#3 take #2" and skel.documentation == "capture take #7, #4"
+    text, _ = _amc_round_trip(tmp_path, amc, asf)
+    assert ":name Subject#3 take #2" in text and "capture take #7, #4" in text
+
+
+def test_a_utf8_asf_beside_a_latin1_amc_keeps_its_characters(tmp_path):
+    """The skeleton keeps the AMC's encoding; the ASF was written in it with '?' for each
+    character Latin-1 lacks ("Sujet_→_测试" came back "Sujet_?_??")."""
+    amc, asf = _asf_pair(tmp_path, name="Sujet_\u2192_\u6d4b\u8bd5", amc_encoding="latin-1",
+                         header="# capture \u00fcber Bonn\n:FULLY-SPECIFIED\n:DEGREES\n")
+    text, amc_text = _amc_round_trip(tmp_path, amc, asf)
+    assert ":name Sujet_\u2192_\u6d4b\u8bd5" in text
+    assert (tmp_path / "back.amc").read_bytes().startswith("# capture \u00fcber".encode("latin-1"))
+
+
+def test_an_amc_without_header_on_a_radians_asf_comes_back_saying_radians(tmp_path):
+    """The writer's default header said :DEGREES beside an `angle rad` ASF, so readers that
+    trust the flag took radians for degrees."""
+    amc, asf = _asf_pair(tmp_path, angle="rad", header="")
+    _, text = _amc_round_trip(tmp_path, amc, asf)
+    assert text.splitlines()[:2] == [":FULLY-SPECIFIED", ":RADIANS"]
+
+
+def test_an_amc_first_frame_past_32_bits_is_refused_before_encoding(tmp_path):
+    """§4.14.2's first_frame is a u32: 2^32 stopped the encode in the chunk's build with a
+    struct error (exit 70); 2^32 - 1 is kept."""
+    amc, asf = _asf_pair(tmp_path, first=2 ** 32)
+    with pytest.raises(EncoderError, match=r"first frame number 4294967296 is outside"):
+        mpz.encode(mpz.io.read(amc, asf=asf))
+    amc, asf = _asf_pair(tmp_path, first=2 ** 32 - 1)
+    back = mpz.decode(mpz.encode(mpz.io.read(amc, asf=asf)))
+    assert back.extras["skeleton"].first_frame == 2 ** 32 - 1
+
+
+def test_a_joint_inside_an_end_site_is_refused_by_the_reader(tmp_path):
+    """Spec §4.14.1: an End Site has no children. The reader took it, and the encoder wrote
+    a file its decoder refused (exit 70)."""
+    p = tmp_path / "e.bvh"
+    p.write_text("HIERARCHY\nROOT R\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition "
+                 "Zposition\n End Site\n {\n  OFFSET 0 1 0\n  JOINT K\n  {\n   OFFSET 0 1 0\n"
+                 "   CHANNELS 1 Zrotation\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n"
+                 "0 0 0 5\n1 1 1 6\n")
+    with pytest.raises(InputFormatError, match="JOINT inside the End Site of 'R'"):
+        mpz.io.read(p)
+
+
+def test_bvh_names_that_repeat_next_to_a_suffixed_one_are_made_unique(tmp_path):
+    """Joints A, A, A#2: the second A became A#2 too, and the file was refused as
+    "duplicate marker name 'A#2'" (spec §4.14.1: names may repeat)."""
+    p = tmp_path / "d.bvh"
+    p.write_text("HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition "
+                 "Zposition\n JOINT A\n {\n  OFFSET 0 1 0\n  CHANNELS 1 Zrotation\n  JOINT A#2\n"
+                 "  {\n   OFFSET 0 1 0\n   CHANNELS 1 Zrotation\n  }\n }\n}\nMOTION\nFrames: 2\n"
+                 "Frame Time: 0.04\n0 0 0 10 20\n1 1 1 11 21\n")
+    m = mpz.io.read(p)
+    assert len(set(m.names)) == len(m.names) and m.names[:2] == ["A", "A#2"]
+    back = mpz.decode(mpz.encode(m))
+    assert [j.name for j in back.extras["skeleton"].joints][:3] == ["A", "A", "A#2"]

@@ -592,6 +592,14 @@ class SkeletonExtension:
         skel = motion.extras.get(self.name)
         if skel is None or not opts.keep_skeleton or motion.angles is None:
             return
+        first = getattr(skel, "first_frame", 0)
+        if isinstance(first, int) and not 0 <= first <= 0xFFFFFFFF:
+            # §4.14.2's u32: it failed in the chunk's build, exit 70 (a QA run of stop 52)
+            raise EncoderError(
+                f"the AMC's first frame number {first} is outside 0..{0xFFFFFFFF} (2^32 - 1), "
+                "what an asfs chunk holds (spec §4.14.2): renumber the AMC's frames, or keep "
+                "the joint positions alone without the skeleton (--no-skeleton, "
+                "keep_skeleton=False)")
         F, C = motion.angles.shape
         if F * C > MAX_CHANNEL_SAMPLES:
             most = MAX_CHANNEL_SAMPLES // max(C, 1)

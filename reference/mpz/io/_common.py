@@ -314,6 +314,17 @@ def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
     return out, notes
 
 
+def encoded_text(text: str, encoding: str) -> bytes:
+    """``text`` in the source's ``encoding`` (a skeleton's: "utf-8" or "latin-1"), or in
+    UTF-8 when that cannot hold it. A skeleton keeps one encoding, an AMC's, and a UTF-8 ASF
+    read beside a Latin-1 AMC was written in Latin-1 with '?' for each character it lacks
+    (a QA run of stop 52); the readers tell the two apart (:func:`mpz.io.bvh.text_encoding`)."""
+    try:
+        return text.encode(encoding)
+    except UnicodeEncodeError:
+        return text.encode("utf-8")
+
+
 def is_utf8(name: str) -> bool:
     """Whether UTF-8 can hold ``name``: a file name that is not UTF-8 comes from the
     system as lone surrogates (``os.fsdecode``), which ezc3d, SQLite and MPZ's strings

@@ -37,6 +37,7 @@ from mpz.io._common import (
     _PARSE_ERRORS,
     StrPath,
     decode_text,
+    encoded_text,
     integer,
     named,
     number,
@@ -59,6 +60,12 @@ def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"ASF/AMC: {msg}")
 
 
+#: the sections whose lines are text, where a '#' after the line's first character is
+#: part of the text, not a comment (``:name Subject#3`` was read as "Subject", silently:
+#: a QA run of stop 52); a line that starts with '#' is a comment there too
+_TEXT_SECTIONS = ("name", "documentation")
+
+
 def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
     """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':', and the
     comment lines that come before the first keyword (their text after the '#')."""
@@ -68,7 +75,12 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
     for raw in text.splitlines():
         if cur is None and raw.lstrip().startswith("#"):
             comments.append(raw.lstrip()[1:])
-        line = raw.split("#", 1)[0].strip()
+        line = raw.strip()
+        key = line[1:].split(None, 1)[0].lower() if line.startswith(":") and line[1:].split() \
+            else None
+        if line.startswith("#") or not (key in _TEXT_SECTIONS
+                                        or (key is None and cur in _TEXT_SECTIONS)):
+            line = line.split("#", 1)[0].strip()
         if not line:
             continue
         if line.startswith(":"):
@@ -596,7 +608,11 @@ def format_amc(motion: Motion) -> str:
     starts = skel.channel_starts()
     order = list(skel.amc_order) or [i for i, j in enumerate(skel.joints)
                                      if j.channels or i == 0]
-    out = skel.amc_header.split("\n") if skel.amc_header else [":FULLY-SPECIFIED", ":DEGREES"]
+    # no header lines (a source without any, a skeleton built in Python): the two most
+    # AMC files start with, the angle unit the ASF's (":DEGREES" beside an `angle rad` ASF
+    # made readers that trust the flag take radians for degrees: a QA run of stop 52)
+    out = (skel.amc_header.split("\n") if skel.amc_header else
+           [":FULLY-SPECIFIED", ":RADIANS" if skel.angle_unit == "rad" else ":DEGREES"])
     rows = values.tolist()
     for t, row in enumerate(rows):
         out.append(str(skel.first_frame + t))
@@ -617,7 +633,7 @@ def write_asf(motion: Motion, path: StrPath) -> None:
     """Write the ASF skeleton of a motion read from (or decoded from) AMC/ASF."""
     skel = skeleton_of(motion, "asf")
     with open(path, "wb") as fh:
-        fh.write(format_asf(skel).encode(skel.encoding, "replace"))
+        fh.write(encoded_text(format_asf(skel), skel.encoding))
 
 
 def write_amc(motion: Motion, path: StrPath, *, asf: StrPath | None = None) -> None:
@@ -639,4 +655,5 @@ def write_amc_text(motion: Motion, path: StrPath) -> None:
     skel = skeleton_of(motion, "asf")
     text = format_amc(motion)
     with open(path, "wb") as fh:
-        fh.write(text.encode(skel.encoding, "replace"))
+        fh.write(encoded_text(text, skel.encoding))
+

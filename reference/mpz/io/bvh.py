@@ -30,12 +30,14 @@ from mpz.format import ChannelKind
 from mpz.io._common import (
     StrPath,
     decode_text,
+    encoded_text,
     integer,
     named,
     number,
     plain_numbers,
     read_regular,
     reader,
+    unique_names,
 )
 from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
 from mpz.motion import Motion
@@ -79,6 +81,9 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
         if up in ("ROOT", "JOINT"):
             if up == "JOINT" and not stack:
                 raise _bad("JOINT outside of a ROOT block")
+            if stack and joints[stack[-1]].end:     # spec §4.14.1: an End Site has no
+                raise _bad(f"{t} inside the End Site of "    # children (a QA run: exit 70)
+                           f"{joints[joints[stack[-1]].parent].name!r}")
             if pos + 1 >= len(tokens):
                 raise _bad(f"{t} without a name")
             if "\x00" in tokens[pos + 1]:         # spec §4.14.1: a name holds no U+0000
@@ -88,6 +93,9 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
         elif up == "END":
             if not stack:
                 raise _bad("End Site outside of a joint")
+            if joints[stack[-1]].end:
+                raise _bad(f"End Site inside the End Site of "
+                           f"{joints[joints[stack[-1]].parent].name!r}")
             # "End Site": named after its parent
             pending = _Joint(f"{joints[stack[-1]].name}_End", stack[-1], end=True)
             pos += 2
@@ -147,18 +155,10 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
 
 
 def _names(joints: list[_Joint]) -> list[str]:
-    """Unique point names: a repeated name gets '#2', '#3', ..."""
-    seen: dict[str, int] = {}
-    out: list[str] = []
-    for j in joints:
-        n = j.name
-        if n in seen:
-            seen[n] += 1
-            n = f"{n}#{seen[j.name]}"
-        else:
-            seen[n] = 1
-        out.append(n)
-    return out
+    """Unique point names: a repeated name gets '#2', '#3', ... (:func:`unique_names`, which
+    skips a suffix that another joint's name already holds: joints A, A, A#2 were named
+    A, A#2, A#2 and refused as "duplicate marker name", a QA run of stop 52)."""
+    return unique_names([j.name for j in joints])[0]
 
 
 def frame_rate_from_frame_time(ft: float) -> float:
@@ -481,6 +481,5 @@ def write_bvh(motion: Motion, path: StrPath) -> None:
         If the motion has no BVH skeleton (see :func:`skeleton_of`).
     """
     text = format_bvh(motion)
-    enc = motion.extras["skeleton"].encoding
     with open(path, "wb") as fh:
-        fh.write(text.encode(enc, "replace" if enc != "utf-8" else "strict"))
+        fh.write(encoded_text(text, motion.extras["skeleton"].encoding))
