@@ -1624,3 +1624,17 @@ def test_bvh_names_that_repeat_next_to_a_suffixed_one_are_made_unique(tmp_path):
     assert len(set(m.names)) == len(m.names) and m.names[:2] == ["A", "A#2"]
     back = mpz.decode(mpz.encode(m))
     assert [j.name for j in back.extras["skeleton"].joints][:3] == ["A", "A", "A#2"]
+
+
+def test_a_headerless_amc_on_standard_input_is_read_with_asf(tmp_path):
+    """`mpz encode - --asf S.asf` of an AMC without header lines: its content names no
+    format, and --asf, which names an AMC's skeleton, was not taken to say it."""
+    import subprocess
+    import sys
+    amc, asf = _asf_pair(tmp_path, header="")
+    with amc.open("rb") as fh:
+        run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode", "-", "--asf",
+                              str(asf), "-o", str(tmp_path / "o.mpz")], stdin=fh,
+                             capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert mpz.decode((tmp_path / "o.mpz").read_bytes()).n_frames == 3

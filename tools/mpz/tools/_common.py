@@ -243,8 +243,11 @@ def _stdin() -> IO[bytes]:
     return sys.stdin.buffer
 
 
-def read_stdin(limit: int | None = None) -> tuple[bytes, str | None]:
-    """All of standard input, bounded, and its format from the content.
+def read_stdin(limit: int | None = None, *, assume: str | None = None
+               ) -> tuple[bytes, str | None]:
+    """All of standard input, bounded, and its format from the content, or ``assume`` when
+    the content does not say (``".amc"`` when ``--asf`` names its skeleton: an AMC without
+    header lines has nothing to be known by, a QA run of stop 52).
 
     MPZ is read chunk by chunk (:func:`mpz.api.read_stream_bytes`: a chunk
     over 2^30 bytes is refused before it is read, reading stops at MEND);
@@ -266,7 +269,7 @@ def read_stdin(limit: int | None = None) -> tuple[bytes, str | None]:
     if detect_format(head) == ".mpz":
         return read_stream_bytes(fh, limit=cap, prefix=head), ".mpz"
     head += _read_exact(fh, DETECT_BYTES - len(head))
-    fmt = detect_format(head)
+    fmt = detect_format(head) or assume
     if fmt is None:
         return head, None
     rest = _read_exact(fh, cap - len(head) + 1)
@@ -371,7 +374,7 @@ def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bo
     size in bytes."""
     from mpz.io._common import ext_of
     if path == STDIO:
-        data, fmt = read_stdin()
+        data, fmt = read_stdin(assume=".amc" if asf is not None else None)
         if fmt == ".mpz":
             return (read_mpz_input_bytes(data, max_samples), fmt, data if keep else None,
                     len(data))
