@@ -370,6 +370,31 @@ def test_a_closed_pipe_keeps_the_exit_code_of_what_was_found(small: tuple[Path, 
         assert "Traceback" not in proc.stderr
 
 
+def test_a_closed_pipe_keeps_the_warning_of_an_output_on_standard_output(
+        small: tuple[Path, Path], tmp_path: Path) -> None:
+    """`mpz encode -o -` and `mpz decode -o -` write the output to standard output before
+    their report: a closed pipe there exited 0 after the reader's warning had been
+    printed (the review of stop 52)."""
+    trc, _ = small
+    cut = tmp_path / "cut.trc"
+    cut.write_bytes(trc.read_bytes().rstrip(b"\r\n"))     # no final line break: a warning
+    proc = _into_a_closed_pipe(["mpz", "encode", str(cut), "-o", "-"], tmp_path)
+    assert proc.returncode == 1 and "warning" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_standard_input_with_asf_is_not_read_whole_when_it_is_no_text(tmp_path: Path) -> None:
+    """--asf makes content of no known format an AMC, but zeros (binary) are refused at
+    their first bytes as before: they were read whole, up to 4 GiB, and then refused as an
+    AMC (the review of stop 52)."""
+    (tmp_path / "s.asf").write_text(":version 1.10\n")
+    with open("/dev/zero", "rb") as zeros:
+        proc = subprocess.run([command("mpz"), "encode", "-", "--asf", "s.asf", "-o", "z.mpz"],
+                              cwd=tmp_path, stdin=zeros, capture_output=True, text=True,
+                              timeout=60)
+    assert proc.returncode == 2 and "cannot tell the format" in proc.stderr, proc.stderr
+
+
 def test_a_closed_pipe_does_not_lose_the_conformance_results(tmp_path: Path) -> None:
     """mpz-conformance writes --results before its report: `| head` stopped it before the
     file was written, and exited 0 with a vector failed (a docs QA run, stop 52)."""

@@ -246,8 +246,10 @@ def _stdin() -> IO[bytes]:
 def read_stdin(limit: int | None = None, *, assume: str | None = None
                ) -> tuple[bytes, str | None]:
     """All of standard input, bounded, and its format from the content, or ``assume`` when
-    the content does not say (``".amc"`` when ``--asf`` names its skeleton: an AMC without
-    header lines has nothing to be known by, a QA run of stop 52).
+    the content does not say and is text, without a NUL byte in its first 4096 bytes
+    (``".amc"`` when ``--asf`` names its skeleton: an AMC without header lines has nothing
+    to be known by, a QA run of stop 52; zeros or a binary file are still refused at their
+    first bytes).
 
     MPZ is read chunk by chunk (:func:`mpz.api.read_stream_bytes`: a chunk
     over 2^30 bytes is refused before it is read, reading stops at MEND);
@@ -269,7 +271,7 @@ def read_stdin(limit: int | None = None, *, assume: str | None = None
     if detect_format(head) == ".mpz":
         return read_stream_bytes(fh, limit=cap, prefix=head), ".mpz"
     head += _read_exact(fh, DETECT_BYTES - len(head))
-    fmt = detect_format(head) or assume
+    fmt = detect_format(head) or (assume if head.strip() and b"\0" not in head else None)
     if fmt is None:
         return head, None
     rest = _read_exact(fh, cap - len(head) + 1)

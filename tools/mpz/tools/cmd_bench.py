@@ -33,7 +33,7 @@ import os
 import sys
 
 from mpz.errors import FormatError
-from mpz.tools._cli import print_json, printable
+from mpz.tools._cli import found, print_json, printable
 
 #: the bound, in mm, of bench_rd.py's "op" row (the paper's operating point) in results
 #: written before the rows carried their "bound"
@@ -283,6 +283,7 @@ def run(args) -> int:
         names = ", ".join(_label(k) for k in unmatched[:5])
         notes.append(f"{len(unmatched)} row(s) of the new run have no row in the old run: "
                      f"{names}{', ...' if len(unmatched) > 5 else ''}")
+    found(1 if flags else 0)      # what a pipe closed in the report exits with
     for note in notes:
         print(f"note: {printable(note)}", file=sys.stderr if args.json else sys.stdout)
     if args.json:

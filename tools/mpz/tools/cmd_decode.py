@@ -188,6 +188,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
     motion, warned = _without_a_stale_archive(motion, ext, job.output, args.quiet)
+    found(EXIT_WARN if warned else EXIT_OK)     # before -o - writes to standard output
     notes = check_writable(motion, ext, path=job.output, bound=bound)
     if skipped:
         many = len(skipped) != 1
@@ -235,7 +236,6 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
                 if exc.path == tmp:
                     exc.path = job.output
                 raise
-    found(EXIT_WARN if warned else EXIT_OK)
     if not args.quiet:
         print(f"{printable(job.input)} -> {printable(job.output)}: {motion.n_frames} frames x "
               f"{motion.n_markers} markers, {motion.rate:g} Hz, gaps {motion.gap_fraction:.1%}",

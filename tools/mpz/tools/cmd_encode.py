@@ -412,6 +412,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     # file's meta, and the exit code is 1, "warnings only" (a QA run of stop 47: a note,
     # exit 0, and nothing at all with -q)
     warning = motion.metadata.get("warning")
+    found(EXIT_WARN if warning else EXIT_OK)    # before -o - writes to standard output
     if warning and not args.quiet:
         print(f"mpz encode: warning: {printable(job.input)}: {printable(warning)}",
               file=sys.stderr)
@@ -485,6 +486,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     # what the C3D it decodes to will not give back (exit 1, as the reader's warnings)
     from mpz.io.c3d import round_trip_warnings
     for note in round_trip_warnings(motion, decoded):
+        found(EXIT_WARN)
         warning = f"{warning}; {note}" if warning else note
         if not args.quiet:
             print(f"mpz encode: warning: {printable(job.input)}: {printable(note)}",
