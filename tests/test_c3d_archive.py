@@ -607,6 +607,14 @@ def test_encode_says_what_the_decoded_c3d_will_not_give_back(shared_data, tmp_pa
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 1, run.stderr
     assert "warning" in run.stderr and "read as gaps" in run.stderr
+    # the corpus path too (it said nothing, exit 0: the review of stop 52)
+    (tmp_path / "in").mkdir()
+    write(near, tmp_path / "in" / "near.c3d")
+    run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode", "-r",
+                          str(tmp_path / "in"), "-o", str(tmp_path / "out") + "/", "--jobs", "0",
+                          "--max-error", "1mm"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 1, run.stdout + run.stderr
+    assert "read as gaps" in run.stdout + run.stderr
 
 
 def test_a_repeated_point_scale_with_other_values_is_a_warning(tmp_path):
@@ -631,3 +639,21 @@ def test_a_repeated_point_scale_with_other_values_is_a_warning(tmp_path):
     assert "POINT:SCALE is given 2 times, with other values" in m.metadata["warning"]
     assert "(-1, -0.25)" in m.metadata["warning"]
     assert "disagrees" not in m.metadata["warning"]
+
+
+def test_a_dec_float_below_2_to_the_minus_126_is_a_warning_on_every_read(shared_data,
+                                                                          tmp_path):
+    """Spec §4.13: DEC floats convert exactly but for values below 2^-126, rounded to
+    float32 subnormals, which the reference says in a warning. The warning reached only
+    files read by c3dbin alone; a DEC file that ezc3d reads said nothing (the review of
+    stop 52)."""
+    data = bytearray((shared_data / "c3d" / "c3dorg_Eb015vr.c3d").read_bytes())
+    start = (int.from_bytes(data[16:18], "little") - 1) * 512
+    data[start:start + 4] = b"\x80\x00\x00\x00"          # VAX exponent 1: 2^-128
+    path = tmp_path / "tiny.c3d"
+    path.write_bytes(bytes(data))
+    m = read(path)
+    assert m.metadata.get("reader") != "mpz.io.c3dbin"      # ezc3d read the points
+    assert c3dbin.DEC_ROUNDED in m.metadata["warning"]
+    plain = read(shared_data / "c3d" / "c3dorg_Eb015vr.c3d")
+    assert c3dbin.DEC_ROUNDED not in plain.metadata.get("warning", "")

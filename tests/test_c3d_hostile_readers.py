@@ -144,6 +144,20 @@ def test_a_header_first_frame_0_is_not_called_truncated(tmp_path: Path) -> None:
     assert "POINT:FRAMES 10" in str(err.value) and "0..19" in str(err.value)
 
 
+def test_a_point_frames_below_the_header_and_the_data_is_read_whole(tmp_path: Path) -> None:
+    """POINT:FRAMES 5 where the header and the data hold 10: ezc3d stops at 5. The file
+    was refused ("POINT:FRAMES is wrong"); it is read whole by c3dbin, and the warning
+    gives that cause, not another (the review of stop 52)."""
+    def five(rs: list, gid: dict, R: type) -> None:
+        i = next(i for i, r in enumerate(rs) if r.name == b"FRAMES")
+        rs[i] = R(gid[b"POINT"], False, b"FRAMES", b"", 2, (), struct.pack("<h", 5))
+    m = read(_write(tmp_path, "frames5.c3d", _records(five)))
+    assert m.n_frames == 10
+    assert "ezc3d found 5 of the 10 frames" in m.metadata["warning"]
+    assert "disagrees with POINT:FRAMES 5" in m.metadata["warning"]
+    assert "POINT:FRAMES is wrong" in m.metadata["warning"]
+
+
 # -- 3. header word 9 against POINT:DATA_START -----------------------------------------
 
 @pytest.mark.parametrize("word9", [0, 1, 2])

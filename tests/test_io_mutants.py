@@ -9,6 +9,7 @@ recordings come from ../shared/data and the tests that need them skip when it is
 from __future__ import annotations
 
 from dataclasses import replace
+import math
 from pathlib import Path
 
 from hypothesis import example, given, settings
@@ -627,6 +628,7 @@ def test_c3d_written_without_an_archive_names_300_points(tmp_path: Path) -> None
 @given(st.binary(min_size=4, max_size=4))
 @example(b"\xff\x7f\xff\xff")        # exponent 255: 1.70e38, read as NaN before
 @example(b"\x80\x00\x00\x00")        # exponent 1: 2^-128, a float32 subnormal
+@example(b"\x7f\x00\xff\xff")        # exponent 0, a fraction: a VAX (dirty) zero
 @settings(max_examples=400, deadline=None)
 def test_dec_floats_convert_exactly_above_2_to_the_minus_126(word):
     """A VAX F_floating word (high 16-bit word first) against its definition, computed in
@@ -637,10 +639,11 @@ def test_dec_floats_convert_exactly_above_2_to_the_minus_126(word):
     w = int.from_bytes(word[2:4] + word[0:2], "little")
     s, e, f = w >> 31, (w >> 23) & 0xFF, w & 0x7FFFFF
     got, rounded = _dec_to_ieee(word)
-    assert rounded == (1 if e in (1, 2) else 0)
+    assert rounded == (e in (1, 2))
+    want = (-1.0) ** s * (0.5 + f / 2.0 ** 24) * 2.0 ** (e - 128)
     if e >= 3:
-        want = (-1.0) ** s * (0.5 + f / 2.0 ** 24) * 2.0 ** (e - 128)
         assert float(got[0]) == want
     elif e:
-        want = (-1.0) ** s * (0.5 + f / 2.0 ** 24) * 2.0 ** (e - 128)
         assert float(got[0]) == float(np.float32(want))          # rounded to nearest
+    else:                                   # a VAX zero, whatever its fraction: +-0.0
+        assert float(got[0]) == 0.0 and math.copysign(1.0, float(got[0])) == (-1.0) ** s

@@ -425,6 +425,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     from mpz.container import chunk_sizes
     from mpz.decoder import decode, read_stream
     from mpz.format import unit_name
+    from mpz.io.c3d import round_trip_warnings
     from mpz.metrics import arms, besides_markers, max_error
     from mpz.skeleton import channel_bounds
 
@@ -437,6 +438,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     smry = sum(sizes.get(t, 0) for t in types_of_part("summary"))
     decoded = decode(data)
     err, avg = max_error(motion, decoded), arms(motion, decoded)
+    trip = round_trip_warnings(motion, decoded)         # what its C3D will not give back
     # what the source keeps besides its markers must come back too (mpz compare's check)
     wrong = [p for p in besides_markers(motion, decoded, channel_bounds=channel_bounds(data))
              if p.status == "differs"]
@@ -461,7 +463,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
         "summary_method": NO_SUMMARY if summary is None else summary.method,
         "summary_dims": 3 * motion.n_markers if summary is None else summary.dims,
         "descriptor": features,
-        "fingerprint": fp, "mpz_version": mpz.__version__,
+        "fingerprint": fp, "mpz_version": mpz.__version__, "warning": "; ".join(trip),
         "encoded_at": datetime.datetime.now(datetime.UTC).isoformat(
             timespec="seconds"),
         "seconds": seconds, "cpu_seconds": 0.0}
@@ -566,6 +568,8 @@ def encode_file(task: Task) -> FileResult:
                np.ascontiguousarray(lv.means, "<f4").tobytes())
               for lv in (summary.levels if summary is not None else ())]
     dropped = not_kept(motion, opts)
+    # the reader's warning, and what the output's C3D will not give back (_row's)
+    warning = "; ".join(w for w in (warning, row["warning"]) if w)
     row.update(warning=warning, not_kept=json.dumps(dropped), notes=json.dumps(notes))
     return FileResult(task.source, task.output, status, "", src_bytes, len(data),
                       row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes,

@@ -170,19 +170,24 @@ def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
     params = c["parameters"]
     got = np.asarray(c["data"]["points"]).shape[2]
     if got < declared:  # ezc3d silently returns the frames that fit
-        # ezc3d sizes a frame from the parameters (ANALOG:RATE / POINT:RATE samples), the
-        # C3D user guide and c3dbin from the header (word 10): a whole file whose two
-        # disagree was refused as truncated (a C3D QA run of stop 52)
+        # ezc3d stops at POINT:FRAMES and sizes a frame from the parameters (ANALOG:RATE /
+        # POINT:RATE samples), the C3D user guide and c3dbin from the header (words 4-5,
+        # 10): a whole file whose two disagree was refused as truncated (a C3D QA run of
+        # stop 52). c3dbin reads it, and the warning gives the cause frames_missing finds
+        short = c3dbin.frames_missing(data, declared, got)
+        why = ("its parameters size a frame otherwise than the header"
+               if short.message.startswith("C3D: truncated") else
+               short.message.removeprefix("C3D: "))
         try:
             m = motion_from_c3d_bytes(data, source=source, extra={**extra, "warning": _joined(
                 extra.get("warning"), f"ezc3d found {got} of the {declared} frames the "
-                "header declares (it sizes a frame from the parameters, which disagree with "
-                "the header here); read with mpz.io.c3dbin, which follows the header")})
+                f"header declares ({why}); read with mpz.io.c3dbin, which follows the "
+                "header")})
         except InputFormatError:
-            raise c3dbin.frames_missing(data, declared, got) from None
+            raise short from None
         if m.n_frames == declared:
             return m
-        raise c3dbin.frames_missing(data, declared, got)
+        raise short
     point = {k: v["value"] for k, v in params["POINT"].items() if k != "__METADATA__"}
     pts = np.asarray(c["data"]["points"])[:3].transpose(2, 1, 0)
     res = np.asarray(c["data"]["meta_points"]["residuals"])[0].T
@@ -278,7 +283,7 @@ def c3d_from_bytes(path: StrPath, data: bytes, *, reopen: StrPath | None = None)
         full.metadata["warning"] = _joined(full.metadata.get("warning"),
                                            f"C3D archive not kept: {exc}")
         return full
-    for lost in _values_at_gaps(full, d):
+    for lost in [*_values_at_gaps(full, d), *([c3dbin.DEC_ROUNDED] if d.dec_rounded else [])]:
         full.metadata["warning"] = _joined(full.metadata.get("warning"), lost)
     return split_archive(full, d)
 

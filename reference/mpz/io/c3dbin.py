@@ -104,6 +104,8 @@ class C3DData:
     first_frame: int = 1
     #: what the file says twice and differently, and what was read (:func:`_layout`)
     warnings: list[str] = field(default_factory=list)
+    #: a DEC float below 2^-126 was rounded to a float32 subnormal (:data:`DEC_ROUNDED`)
+    dec_rounded: bool = False
 
 
 @dataclass(frozen=True)
@@ -143,30 +145,39 @@ def truncated(declared: int, present: int, offset: int | None = None) -> InputFo
                             f"{present} present", offset=offset)
 
 
-def _dec_to_ieee(raw: bytes) -> tuple[NDArray[np.float32], int]:
-    """DEC (VAX F_floating) 4-byte values to float32, and how many were rounded.
+def _dec_to_ieee(raw: bytes) -> tuple[NDArray[np.float32], bool]:
+    """DEC (VAX F_floating) 4-byte values to float32, and whether one was rounded.
 
     VAX F stores the high 16-bit word first (each word little-endian) and uses a 0.1f
     mantissa with exponent bias 128: swapping the words gives the IEEE bit pattern of 4x
-    the value, whose exponent field less 2 is the value's own, exactly (spec §4.13:
-    the 24-bit significands are the same). That holds for VAX exponents 3 to 255: the
-    division by 4 that was here turned exponent 255 (2^126 and above) into inf and NaN (a
-    C3D QA run of stop 52). Exponents 1 and 2 (below 2^-126) are float32 subnormals,
-    rounded to nearest (counted); exponent 0 is a VAX zero, or -0.0 and subnormals as the
-    division gives them, as before.
+    the value, whose exponent field less 2 is the value's own, exactly (spec §4.13: the
+    24-bit significands are the same). That holds for VAX exponents 3 to 255: a division
+    by 4, here before, turned exponent 255 (2^126 and above) into inf and NaN (a C3D QA
+    run of stop 52). Exponents 1 and 2 (below 2^-126) are float32 subnormals, rounded to
+    nearest (said: the flag); exponent 0 is a VAX zero, whatever its fraction, kept with
+    its sign.
     """
     u = np.ascontiguousarray(np.frombuffer(raw, dtype=np.uint8).reshape(-1, 4)[:, [2, 3, 0, 1]]
                              ).view("<u4").ravel()
     e = (u >> np.uint32(23)) & np.uint32(0xFF)
     out = (u - np.uint32(2 << 23)).view("<f4")          # right wherever e >= 3
     low = e < 3
-    rounded = 0
+    rounded = False
     if low.any():
-        small = u[low].view("<f4")
-        with np.errstate(invalid="ignore"):     # a signalling NaN's bits divide quietly
-            out[low] = (small / np.float32(4.0)).astype(np.float32)
-        rounded = int(np.count_nonzero(e[low] > 0))
+        small = u[low]
+        zero = ((small >> np.uint32(23)) & np.uint32(0xFF)) == 0
+        with np.errstate(invalid="ignore"):              # exponents 1-2: rounded to nearest
+            vals = (small.view("<f4") / np.float32(4.0)).astype(np.float32)
+        vals[zero] = (small[zero] & np.uint32(0x80000000)).view("<f4")      # VAX zero: +-0.0
+        out[low] = vals
+        rounded = bool((~zero).any())
     return out, rounded
+
+
+#: the warning for :attr:`C3DData.dec_rounded` (spec §4.13: the one value a DEC float
+#: cannot keep exactly)
+DEC_ROUNDED = ("DEC float values below 2^-126 (about 1.2e-38) are kept as the nearest float32, "
+               "a subnormal that holds fewer bits")
 
 
 class _Codec:
@@ -178,8 +189,8 @@ class _Codec:
         self.i2 = np.dtype(">i2" if big else "<i2")
         self.u2 = np.dtype(">u2" if big else "<u2")
         self.f4 = np.dtype(">f4" if big else "<f4")
-        #: DEC floats below 2^-126 read so far, rounded to float32 subnormals
-        self.rounded = 0
+        #: whether a DEC float below 2^-126 was read, rounded to a float32 subnormal
+        self.rounded = False
 
     def int16(self, data: bytes, off: int, n: int = 1) -> NDArray[np.int16]:
         return np.frombuffer(data, self.i2, n, off)
@@ -193,7 +204,7 @@ class _Codec:
             _fail("float data runs past the end of the file", off)
         if self.processor == PROC_DEC:
             out, rounded = _dec_to_ieee(raw)
-            self.rounded += rounded
+            self.rounded |= rounded
             return out
         return np.frombuffer(raw, self.f4).astype(np.float32)
 
@@ -1031,12 +1042,8 @@ def parse_c3d(data: bytes) -> C3DData:
     else:
         res = pts[:, :, 3].astype(np.int64)
         xyz = pts[:, :, :3] * abs(scale)
-    warnings = list(lay.warnings)
-    if codec.rounded:
-        warnings.append(f"{codec.rounded} DEC float value(s) below 2^-126 (about 1.2e-38) are "
-                        "kept as the nearest float32, a subnormal that holds fewer bits")
     return C3DData(xyz, res, params, processor, float_storage, hdr_rate, header_block, records,
-                   point_words, analog, samples, first, warnings)
+                   point_words, analog, samples, first, lay.warnings, codec.rounded)
 
 
 # ------------------------------------------------------------------ writing --
