@@ -221,3 +221,24 @@ def test_p99_of_samples_that_became_gaps_is_infinite_and_silent():
     assert s["p99"] == math.inf and s["max"] == math.inf
     b = Motion(pos + 1.0, ["m"], 100.0, "mm")
     assert summary(a, b)["p99"] == pytest.approx(math.sqrt(3))
+
+
+@pytest.mark.parametrize("frames, lost, want", [
+    (100, 5, math.inf),             # between two infinite errors: inf - inf
+    (101, 1, math.sqrt(3)),         # weight 0 on an infinite error: inf x 0, p99 finite
+    (1000, 1, math.sqrt(3)),
+    (3, 3, math.inf),               # every sample lost
+])
+def test_p99_with_lost_samples_is_what_the_finite_errors_make_it(frames, lost, want):
+    """The review of stop 52's first fix: it took every NaN of numpy's interpolation for
+    +inf, where weight 0 on an infinite neighbour (inf x 0) hides a finite percentile."""
+    import warnings
+    pos = np.zeros((frames, 1, 3))
+    a = Motion(pos, ["m"], 100.0, "mm")
+    kept = np.ones((frames, 1), bool)
+    kept[frames - lost:] = False
+    b = Motion(pos + 1.0, ["m"], 100.0, "mm", kept)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = summary(a, b)["p99"]
+    assert got == pytest.approx(want) if math.isfinite(want) else got == want
