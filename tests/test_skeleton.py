@@ -1621,7 +1621,9 @@ def test_bvh_names_that_repeat_next_to_a_suffixed_one_are_made_unique(tmp_path):
                  "  {\n   OFFSET 0 1 0\n   CHANNELS 1 Zrotation\n  }\n }\n}\nMOTION\nFrames: 2\n"
                  "Frame Time: 0.04\n0 0 0 10 20\n1 1 1 11 21\n")
     m = mpz.io.read(p)
-    assert len(set(m.names)) == len(m.names) and m.names[:2] == ["A", "A#2"]
+    # the joint named A#2 keeps its name; the second A takes the next free one, said
+    assert m.names[:3] == ["A", "A#3", "A#2"] and len(set(m.names)) == len(m.names)
+    assert m.metadata["renamed_points"] == "A->A#3"
     back = mpz.decode(mpz.encode(m))
     assert [j.name for j in back.extras["skeleton"].joints][:3] == ["A", "A", "A#2"]
 
@@ -1638,3 +1640,16 @@ def test_a_headerless_amc_on_standard_input_is_read_with_asf(tmp_path):
                              capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert mpz.decode((tmp_path / "o.mpz").read_bytes()).n_frames == 3
+
+
+def test_an_asf_documentation_line_that_starts_with_a_hash_comes_back(tmp_path):
+    """`:documentation #1 take` was kept as "#1 take" and written on a line of its own,
+    which the reader then took for a comment: gone on the second round (the review of
+    stop 52)."""
+    amc, asf = _asf_pair(tmp_path, doc="#1 take")
+    text = asf.read_text().replace(":documentation\n   #1 take", ":documentation #1 take")
+    asf.write_text(text)
+    assert mpz.io.read(amc, asf=asf).extras["skeleton"].documentation == "#1 take"
+    back_asf, _ = _amc_round_trip(tmp_path, amc, asf)
+    again = mpz.io.read(tmp_path / "back.amc", asf=tmp_path / "back.asf")
+    assert again.extras["skeleton"].documentation == "#1 take", back_asf

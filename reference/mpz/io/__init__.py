@@ -602,7 +602,7 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
     renamed = motion.metadata.get("renamed_points")
     if renamed and ext in (".trc", ".csv"):
         pairs = [p for p in str(renamed).split("; ") if p]
-        notes.append(f"the source C3D repeats point labels: {len(pairs)} point"
+        notes.append(f"the source repeats point names: {len(pairs)} point"
                      f"{'s' * (len(pairs) != 1)} are written under the names given them "
                      f"on reading ({'; '.join(pairs[:4])}"
                      + (f" and {len(pairs) - 4} more" if len(pairs) > 4 else "") + ")")

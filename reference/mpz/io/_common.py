@@ -279,7 +279,8 @@ def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
     Empty names become ``_unnamed_<i>`` (``i`` is the 0-based point index); a NUL inside
     a name, which an MPZ name cannot hold (spec §4.2), becomes U+FFFD (a fuzzed C3D label
     ``Dani\x00l:LFRM`` stopped the encode); exact duplicates get ``#2``, ``#3``, ... in
-    order of appearance.
+    order of appearance, skipping a suffixed name that the list itself holds (A, A, A#2
+    gave A, A#2, A#2#2: the second A took the name of the joint called A#2).
 
     Returns
     -------
@@ -292,17 +293,18 @@ def unique_names(names: Iterable[object]) -> tuple[list[str], list[str]]:
     >>> unique_names(["A", "", "A", "A"])
     (['A', '_unnamed_1', 'A#2', 'A#3'], ['->_unnamed_1', 'A->A#2', 'A->A#3'])
     """
+    given = [str(n) for n in names]
     out: list[str] = []
     notes: list[str] = []
     seen: set[str] = set()
+    literal = {n.replace("\x00", "\ufffd") for n in given if n}   # names the list holds
     counts: dict[str, int] = {}
-    for i, n in enumerate(names):
-        n = str(n)
+    for i, n in enumerate(given):
         new = n.replace("\x00", "\ufffd") if n else f"_unnamed_{i}"
         if new in seen:
             k = counts.get(new, 1)
             cand = new
-            while cand in seen:
+            while cand in seen or cand in literal:
                 k += 1
                 cand = f"{new}#{k}"
             counts[new] = k

@@ -60,9 +60,9 @@ def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"ASF/AMC: {msg}")
 
 
-#: the sections whose lines are text, where a '#' after the line's first character is
-#: part of the text, not a comment (``:name Subject#3`` was read as "Subject", silently:
-#: a QA run of stop 52); a line that starts with '#' is a comment there too
+#: the sections whose lines are text, where a '#' is part of the text, not a comment
+#: (``:name Subject#3`` was read as "Subject", silently: a QA run of stop 52); a whole
+#: line there too, since the writer puts each documentation line on a line of its own
 _TEXT_SECTIONS = ("name", "documentation")
 
 
@@ -78,8 +78,7 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
         line = raw.strip()
         key = line[1:].split(None, 1)[0].lower() if line.startswith(":") and line[1:].split() \
             else None
-        if line.startswith("#") or not (key in _TEXT_SECTIONS
-                                        or (key is None and cur in _TEXT_SECTIONS)):
+        if not (key in _TEXT_SECTIONS or (key is None and cur in _TEXT_SECTIONS)):
             line = line.split("#", 1)[0].strip()
         if not line:
             continue

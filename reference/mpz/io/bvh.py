@@ -154,13 +154,6 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
     return joints, n_channels, pos
 
 
-def _names(joints: list[_Joint]) -> list[str]:
-    """Unique point names: a repeated name gets '#2', '#3', ... (:func:`unique_names`, which
-    skips a suffix that another joint's name already holds: joints A, A, A#2 were named
-    A, A#2, A#2 and refused as "duplicate marker name", a QA run of stop 52)."""
-    return unique_names([j.name for j in joints])[0]
-
-
 def frame_rate_from_frame_time(ft: float) -> float:
     """``1 / ft``, snapped to the nearest integer when within 1e-3 of it.
 
@@ -235,8 +228,11 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
             "end_sites": str(sum(j.end for j in joints))}
     if source:
         meta["source"] = source
+    points, renamed = unique_names([j.name for j in joints])   # BVH names may repeat
+    if renamed:
+        meta["renamed_points"] = "; ".join(renamed)
     names = [f"{j.name}.{BVH_CHANNELS[ChannelKind(c)]}" for j in joints for c in j.channels]
-    return Motion(positions, _names(joints), rate, "", None, meta,
+    return Motion(positions, points, rate, "", None, meta,
                   [j.parent for j in joints], values, names, {"skeleton": skel})
 
 
