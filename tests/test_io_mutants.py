@@ -148,6 +148,26 @@ def test_trc_values_keep_the_most_decimals_of_the_first_row() -> None:
     np.testing.assert_array_equal(back.as_nan(), m.as_nan())
 
 
+def test_trc_decimals_are_the_most_of_any_row_not_of_the_first() -> None:
+    """Times written by repr start at "0.0" and values at "10.5": the first row's decimals
+    (1) were used for every row, so 0.016666... came back as 0.0 and later values lost
+    their decimals, past a 0.01 mm bound (a text-formats QA run of stop 52). Exact
+    round trip: every time and value reads back as the source's number."""
+    rows = [f"{f + 1}\t{f / 60!r}\t{10.5 + f * 0.12345:.5f}\t20.25\t30.0" for f in range(6)]
+    rows[0] = "1\t0.0\t10.5\t20.25\t30.0"
+    text = ("PathFileType\t4\t(X/Y/Z)\tr.trc\nDataRate\tCameraRate\tNumFrames\tNumMarkers\t"
+            "Units\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames\n"
+            "60\t60\t6\t1\tmm\t60\t1\t6\nFrame#\tTime\tA\t\t\n\t\tX1\tY1\tZ1\n\n"
+            + "\n".join(rows) + "\n")
+    m = parse_trc(text)
+    assert m.metadata["trc.Decimals"] == "5" and int(m.metadata["trc.TimeDecimals"]) >= 17
+    again = format_trc(m)
+    back = parse_trc(again)
+    np.testing.assert_array_equal(back.as_nan(), m.as_nan())
+    times = [float(line.split("\t")[1]) for line in again.splitlines()[6:]]
+    assert times == [f / 60 for f in range(6)]
+
+
 # -- NPY / CSV ---------------------------------------------------------------------------
 def test_npy_sample_with_one_nan_coordinate_is_a_gap(tmp_path: Path) -> None:
     """NPY layout (mpz.io.table): NaN at gaps; a sample missing any of its three
