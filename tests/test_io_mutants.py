@@ -667,3 +667,17 @@ def test_dec_floats_convert_exactly_above_2_to_the_minus_126(word):
         assert float(got[0]) == float(np.float32(want))          # rounded to nearest
     else:                                   # a VAX zero, whatever its fraction: +-0.0
         assert float(got[0]) == 0.0 and math.copysign(1.0, float(got[0])) == (-1.0) ** s
+
+
+def test_trc_header_fields_past_the_standard_eight_come_back() -> None:
+    """A Subject and a Comment column in the header, and an exporter's name after the file
+    name on line 1, were dropped without a word (a text-formats QA run of stop 52), where
+    the module promises that nothing of the header is lost."""
+    text = SMALL.replace("small.trc\n", "small.trc\tExported by X\n").replace(
+        "OrigNumFrames\n", "OrigNumFrames\tSubject\tComment\n").replace(
+        "60.00\t1\t4\n", "60.00\t1\t4\tS01\tcalib 2\n")
+    m = parse_trc(text)
+    assert m.metadata["trc.MoreNames"] == "Subject\tComment"
+    again = format_trc(m)
+    assert again.splitlines()[:3] == text.splitlines()[:3]
+    assert parse_trc(SMALL).metadata.keys().isdisjoint({"trc.MoreNames", "trc.MoreFileFields"})

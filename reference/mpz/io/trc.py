@@ -290,6 +290,24 @@ def _header_meta(lines: list[str], header: dict[str, str], frames: list[list[str
     for key in _KEPT:
         if key in header:
             out[f"trc.{key}"] = raw.get(key, header[key])      # as written, padding and all
+    # what else lines 1-3 hold (a Subject column, an exporter's name after the file name:
+    # dropped without a word before, a QA run of stop 52); trailing empty fields are not
+    # kept (the OpenSim files pad with tabs)
+    names = lines[1].rstrip("\r\n").split("\t")
+    values = lines[2].rstrip("\r\n").split("\t")
+    more = [(k, values[i] if i < len(values) else "") for i, k in enumerate(names)
+            if k.strip() not in _KEPT]
+    more += [("", v) for v in values[len(names):]]
+    while more and not (more[-1][0].strip() or more[-1][1].strip()):
+        more.pop()
+    if more:
+        out["trc.MoreNames"] = "\t".join(k for k, _ in more)
+        out["trc.MoreValues"] = "\t".join(v for _, v in more)
+    after = first[4:]
+    while after and not after[-1].strip():
+        after.pop()
+    if after:
+        out["trc.MoreFileFields"] = "\t".join(after)
     if frames:
         out["trc.FirstFrame"] = frames[0][0].strip()
         if time_decimals >= 0:
@@ -298,6 +316,10 @@ def _header_meta(lines: list[str], header: dict[str, str], frames: list[list[str
             out["trc.Decimals"] = str(value_decimals)
     return out
 
+
+#: the trc.* entries that hold tab-separated fields: the first line's type, the header
+#: fields besides _KEPT (names and values) and the first line's fields after the file name
+_TABBED = ("PathFileType", "MoreNames", "MoreValues", "MoreFileFields")
 
 #: the most decimals a TRC's columns are written with (trc.Decimals, trc.TimeDecimals,
 #: trc.TimeDigits): more than binary64 holds, far fewer than a hostile value asks for
@@ -319,8 +341,11 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
             bad[key] = "holds a line break"
         elif name == "PathFileType" and value.count("\t") > 1:
             bad[key] = "holds more than one tab"
-        elif name != "PathFileType" and "\t" in value:
+        elif name not in _TABBED and "\t" in value:
             bad[key] = "holds a tab"
+        elif name == "MoreValues" and value.count("\t") != meta.get(
+                "trc.MoreNames", "").count("\t"):
+            bad[key] = "does not have a field for each of trc.MoreNames"
         elif name in ("Decimals", "TimeDecimals", "TimeDigits") and not _whole_in(
                 value, 0, MAX_DECIMALS):
             bad[key] = f"is not a whole number 0 .. {MAX_DECIMALS}"
@@ -456,13 +481,18 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
         dv = column_decimals(motion)
     except ValueError:
         dv = 6
+    more = {k: "\t" + meta[f"trc.{k}"] if f"trc.{k}" in meta else ""
+            for k in ("MoreFileFields", "MoreNames", "MoreValues")}
+    if bool(more["MoreNames"]) != bool(more["MoreValues"]):
+        more["MoreNames"] = more["MoreValues"] = ""
     out = [
-        f"PathFileType\t{kind}\t{name}",
+        f"PathFileType\t{kind}\t{name}{more['MoreFileFields']}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
-        "OrigDataStartFrame\tOrigNumFrames",
+        f"OrigDataStartFrame\tOrigNumFrames{more['MoreNames']}",
         f"{head['DataRate']}\t{head['CameraRate']}\t{head['NumFrames']}\t"
         f"{head['NumMarkers']}\t{head['Units']}\t"
-        f"{head['OrigDataRate']}\t{head['OrigDataStartFrame']}\t{head['OrigNumFrames']}",
+        f"{head['OrigDataRate']}\t{head['OrigDataStartFrame']}\t{head['OrigNumFrames']}"
+        f"{more['MoreValues']}",
         "Frame#\tTime\t" + "\t".join(f"{n}\t\t" for n in motion.names),
         "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, M + 1)),
         "",
