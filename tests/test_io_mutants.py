@@ -681,3 +681,39 @@ def test_trc_header_fields_past_the_standard_eight_come_back() -> None:
     again = format_trc(m)
     assert again.splitlines()[:3] == text.splitlines()[:3]
     assert parse_trc(SMALL).metadata.keys().isdisjoint({"trc.MoreNames", "trc.MoreFileFields"})
+
+
+def _csv(frames: list[str], times: list[str]) -> str:
+    rows = [f"{f},{t},{1.5 + k},{2.5},{3.5}"
+            for k, (f, t) in enumerate(zip(frames, times, strict=True))]
+    return "frame,time,A_x,A_y,A_z\n" + "\n".join(rows) + "\n"
+
+
+def test_csv_first_frame_and_time_come_back_and_nice_rates_are_found() -> None:
+    """The frame column was not read, and times from 1.0 gave 99.99999999999991 Hz: frames
+    100.. and times 1.0.. came back from 0, with nothing said; times printed to 6
+    decimals at 60 Hz gave 59.99997 Hz (a text-formats QA run of stop 52)."""
+    from mpz.io.table import format_csv, parse_csv
+    m = parse_csv(_csv([str(100 + k) for k in range(30)], [f"{1 + k / 100:.2f}"
+                                                            for k in range(30)]))
+    assert m.rate == 100.0 and "warning" not in m.metadata
+    again = format_csv(m).splitlines()
+    assert again[1].startswith("100,1.0,") and again[30].startswith("129,1.29,")
+    six = parse_csv(_csv([str(k) for k in range(41)], [f"{k / 60:.6f}" for k in range(41)]))
+    assert six.rate == 60.0 and "warning" not in six.metadata
+    exact = 65.0364227294921875
+    assert parse_csv(_csv([str(k) for k in range(9)], [repr(k / exact) for k in range(9)])
+                     ).rate == exact
+
+
+def test_csv_times_or_frames_the_file_cannot_keep_are_a_warning() -> None:
+    """Odd times 1 ms late at 100 Hz were read as 98.9 Hz without a word (the TRC reader
+    warns of the same), and a frame column of "f0" was taken silently."""
+    from mpz.io.table import parse_csv
+    late = [f"{k / 100 + (0.001 if k % 2 else 0):.3f}" for k in range(10)]
+    m = parse_csv(_csv([str(k) for k in range(10)], late))
+    assert "the time column is not the first time plus frame / rate" in m.metadata["warning"]
+    m = parse_csv(_csv(["f0", "f1", "f2"], ["0.0", "0.01", "0.02"]))
+    assert "the frame column is not consecutive whole numbers (row 2 has frame 'f0')" in \
+        m.metadata["warning"]
+    assert "csv.FirstFrame" not in m.metadata

@@ -8,8 +8,9 @@ Contract:
   ``rate`` (default 1.0) and ``units`` (default ``""``) as arguments.
 * CSV has the header ``frame,time,<name>_x,<name>_y,<name>_z,...`` and an
   empty field at a gap. Times are written with ``repr`` so that the rate
-  can be recovered exactly (see :func:`rate_from_times`). Units are not
-  stored (default ``""``).
+  can be recovered exactly (see :func:`rate_from_times`); a CSV source's
+  first frame number and time are kept (``csv.FirstFrame``, ``start_time``).
+  Units are not stored (default ``""``).
 """
 from __future__ import annotations
 
@@ -24,7 +25,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpz.errors import InputFormatError
-from mpz.io._common import RowTable, StrPath, decode_text, number, read_regular, reader
+from mpz.io._common import (
+    RowTable,
+    StrPath,
+    decode_text,
+    integer,
+    number,
+    read_regular,
+    reader,
+)
 from mpz.motion import Motion, finite_samples
 
 MAX_NPY_BYTES = 1 << 34  # refuse absurd arrays before loading (16 GiB)
@@ -126,12 +135,15 @@ def write_npy(motion: Motion, path: StrPath) -> None:
         np.save(fh, motion.as_nan().astype(np.float64, copy=False), allow_pickle=False)
 
 
-def rate_from_times(times: ArrayLike) -> float:
-    """The frame rate whose ``frame / rate`` reproduces ``times`` exactly.
+def rate_from_times(times: ArrayLike, tolerance: float = 0.0) -> float:
+    """The frame rate whose ``t0 + frame / rate`` reproduces ``times`` exactly.
 
-    Starts from ``1 / times[1]`` and tries neighbouring float64 values so a
-    rate such as 65.0364227294921875 survives a CSV round trip bit-exactly;
-    falls back to ``(n - 1) / (t[-1] - t[0])``.
+    Starts from ``1 / (times[1] - t0)`` and tries neighbouring float64 values so a
+    rate such as 65.0364227294921875 survives a CSV round trip bit-exactly. Else the rate
+    of fewest significant digits whose times are all within ``tolerance`` of the column
+    (times printed to a few decimals: 0.016667 at 60 Hz gave 59.99997 Hz, and times from
+    1.0 at 100 Hz 99.99999999999991: a QA run of stop 52); else ``(n - 1) / (t[-1] -
+    t[0])``.
     """
     t = np.asarray(times, dtype=np.float64)
     if len(t) < 2 or not np.isfinite(t).all():
@@ -140,15 +152,30 @@ def rate_from_times(times: ArrayLike) -> float:
     if not span > 0:
         raise ValueError("times do not increase")
     frames = np.arange(len(t), dtype=np.float64)
-    if t[0] == 0.0:
-        r = 1.0 / t[1]
+    t0 = float(t[0])
+    fit = float((len(t) - 1) / span)
+
+    def gives(r: float, within: float) -> bool:
+        got = t0 + frames / r if t0 else frames / r
+        return bool(r > 0 and np.abs(got - t).max() <= within)
+
+    nice = [float(f"{fit:.{digits}g}") for digits in range(1, 16)]
+    for r in nice:                      # the rate of fewest digits that gives them exactly
+        if gives(r, 0.0):
+            return r
+    step = t[1] - t0
+    if step > 0:
+        r = 1.0 / step
         for _ in range(8):  # a few ulps either side
             r = np.nextafter(r, -np.inf)
         for _ in range(17):
-            if np.array_equal(frames / r, t):
+            if gives(float(r), 0.0):
                 return float(r)
             r = np.nextafter(r, np.inf)
-    return float((len(t) - 1) / span)
+    for r in nice:                      # else the one of fewest digits within the tolerance
+        if gives(r, tolerance):
+            return r
+    return fit
 
 
 @reader
@@ -202,9 +229,27 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
             raise _bad("csv", f"columns {cols[i:i + 3]} are not <name>_x,<name>_y,<name>_z")
         names.append(base[0])
     table = RowTable(1 + len(cols))             # the time, then the coordinates
+    # the frame column: consecutive whole numbers from its first, kept as csv.FirstFrame;
+    # it was not read at all, and frames from 100 came back from 0 (a QA run of stop 52)
+    first_frame: int | None = None
+    frame_fault = ""
+    time_decimals = 0                           # the most of any row: the times' precision
     for k, r in enumerate(records):
         if len(r) != len(head):
             raise _bad("csv", f"row {k + 2} has {len(r)} fields, header has {len(head)}")
+        if not frame_fault:
+            try:
+                f = integer(r[0])
+            except InputFormatError:
+                f = None
+            if k == 0 and f is not None:
+                first_frame = f
+            if f is None or first_frame is None or f != first_frame + k:
+                frame_fault = f"row {k + 2} has frame {r[0].strip()!r}"
+        t = r[1].strip()
+        at = t.find(".")
+        if at >= 0 and "e" not in t and "E" not in t:
+            time_decimals = max(time_decimals, len(t) - at - 1)
         try:
             table.append([number(r[1])] + [number(v, nan=True) if v.strip(" \t")
                                            else math.nan for v in r[2:]])
@@ -215,8 +260,12 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
         raise _bad("csv", "no data rows")
     got = table.rows()
     times, vals = got[:, 0], got[:, 1:]
+    warnings = []
+    # half a unit of the times' last decimal, and what binary64 adds: what a time printed
+    # with those decimals may be off by
+    tolerance = 0.5 * 10.0 ** -time_decimals + 4 * np.spacing(np.abs(times).max(initial=0))
     if rate is None:
-        rate = rate_from_times(times) if n > 1 else 1.0
+        rate = rate_from_times(times, tolerance) if n > 1 else 1.0
         # one rate stands for every time: a column that is not t0 + k / rate (a quarter of
         # a frame allows times printed to a few decimals) would be read as another motion
         off = np.abs(times - times[0] - np.arange(len(times)) / rate)
@@ -226,8 +275,26 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
                               f"{float(times[k])!r} where {rate:g} Hz gives "
                               f"{float(times[0] + k / rate)!r} (mpz encode --rate ignores the "
                               "time column)")
-    return motion_from_array(vals.reshape(n, -1, 3), rate=rate, units=units,
-                             names=names, source=source, fmt="csv")
+        beyond = off > tolerance
+        if beyond.any():     # the TRC reader says so too (a QA run of stop 52: silent here)
+            k = int(np.flatnonzero(beyond)[0])
+            warnings.append(f"the time column is not the first time plus frame / rate "
+                            f"({rate!r} Hz) at {int(beyond.sum())} of {n} rows (the first: row "
+                            f"{k + 2}, {float(times[k])!r} s where the rate gives "
+                            f"{float(times[0] + k / rate)!r}): those times are not kept, a "
+                            "CSV written back takes them from the rate")
+    if frame_fault:
+        warnings.append(f"the frame column is not consecutive whole numbers ({frame_fault}): "
+                        "not kept, a CSV written back numbers its frames from 0")
+    m = motion_from_array(vals.reshape(n, -1, 3), rate=rate, units=units,
+                          names=names, source=source, fmt="csv")
+    if not frame_fault and first_frame:
+        m.metadata["csv.FirstFrame"] = str(first_frame)
+    if times[0] != 0.0 and math.isfinite(times[0]):
+        m.metadata["start_time"] = repr(float(times[0]))
+    if warnings:
+        m.metadata["warning"] = "; ".join(warnings)
+    return m
 
 
 def _lines(text: str) -> Iterator[str]:
@@ -245,10 +312,25 @@ def format_csv(motion: Motion) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["frame", "time"] + [f"{n}_{c}" for n in motion.names for c in "xyz"])
     pos = motion.as_nan()
+    first, t0 = _csv_start(motion)
     for f in range(motion.n_frames):
-        w.writerow([f, repr(f / motion.rate)]
+        w.writerow([first + f, repr(t0 + f / motion.rate if t0 else f / motion.rate)]
                    + ["" if not math.isfinite(v) else repr(float(v)) for v in pos[f].ravel()])
     return buf.getvalue()
+
+
+def _csv_start(motion: Motion) -> tuple[int, float]:
+    """The first frame number and time a CSV is written with: a CSV source's
+    (``csv.FirstFrame``, ``start_time``), else 0 and 0.0."""
+    meta = motion.metadata
+    try:
+        first = int(meta.get("csv.FirstFrame", "0"))
+        t0 = float(meta.get("start_time", "0")) if meta.get("format") == "csv" else 0.0
+    except ValueError:
+        return 0, 0.0
+    if not (abs(first) < 2 ** 31 and math.isfinite(t0)):
+        return 0, 0.0
+    return first, t0
 
 
 def write_csv(motion: Motion, path: StrPath) -> None:
