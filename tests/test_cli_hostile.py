@@ -327,6 +327,11 @@ def test_every_written_file_reads_back(ext: str, tmp_path: Path) -> None:
     for bad in ("tab\tx", "new\nline", " padded", "trailing "):
         m = Motion(np.zeros((2, 2, 3)), ["ok", bad], 100.0, "mm")
         refuse, _ = writer_problems(m, ext)
+        if ext == ".csv" and bad == "trailing ":    # its column "trailing _x" keeps it
+            assert not refuse, refuse
+            write(m, tmp_path / "trailing.csv")
+            assert read(tmp_path / "trailing.csv").names == ["ok", bad]
+            continue
         if ext != ".c3d" or bad.strip() != bad:
             assert refuse, (ext, bad)
             with pytest.raises(mpz.MPZError, match="cannot write"):

@@ -717,3 +717,41 @@ def test_csv_times_or_frames_the_file_cannot_keep_are_a_warning() -> None:
     assert "the frame column is not consecutive whole numbers (row 2 has frame 'f0')" in \
         m.metadata["warning"]
     assert "csv.FirstFrame" not in m.metadata
+
+
+def test_trc_lines_end_at_line_ends_only_and_unit_words_are_read() -> None:
+    """str.splitlines broke a header at U+2028 or U+0085 inside a marker name ("NumMarkers
+    says 2, the name row has 1 names"), and Units "millimeters" was no unit, so the TRC
+    could not be written back (a text-formats QA run of stop 52)."""
+    for name in ("A\u2028x", "A\x85x", "A\x0cx"):
+        text = SMALL.replace("\tA\t", f"\t{name}\t").replace("\tmm\t", "\tmillimeters\t")
+        m = parse_trc(text)
+        assert m.names == [name, "B"] and m.units == "mm" and m.n_frames == 4
+        assert parse_trc(format_trc(m)).names == [name, "B"]
+    assert parse_trc(SMALL.replace("\n", "\r")).n_frames == 4           # CR alone: still a line end
+
+
+def test_a_csv_name_ending_in_a_space_is_written_back(tmp_path: Path) -> None:
+    """"B _x" reads as marker "B ", and the writer refused it: only a leading space is lost
+    in a CSV column name (a text-formats QA run of stop 52)."""
+    from mpz.io import read, write
+    from mpz.io.table import parse_csv
+    m = parse_csv("frame,time,B _x,B _y,B _z\n0,0.0,1,2,3\n1,0.01,1,2,3\n")
+    assert m.names == ["B "]
+    write(m, tmp_path / "b.csv")
+    assert read(tmp_path / "b.csv").names == ["B "]
+
+
+def test_npy_samples_with_a_coordinate_nan_or_infinite_are_said(tmp_path: Path) -> None:
+    """[nan, 10, 11] and [21, inf, 23] became gaps with exit 0 and nothing said, where the
+    TRC reader warns of the coordinates a gap drops (a text-formats QA run of stop 52)."""
+    from mpz.io import read_npy
+    arr = np.arange(2 * 2 * 3, dtype=np.float64).reshape(2, 2, 3) + 1.0
+    arr[0, 0, 0] = np.nan
+    arr[1, 1, 1] = np.inf
+    np.save(tmp_path / "p.npy", arr)
+    m = read_npy(tmp_path / "p.npy")
+    assert not m.valid[0, 0] and not m.valid[1, 1]
+    assert "2 samples with a coordinate NaN or infinite" in m.metadata["warning"]
+    np.save(tmp_path / "q.npy", np.where(np.isfinite(arr), arr, 0.0))
+    assert "warning" not in read_npy(tmp_path / "q.npy").metadata

@@ -507,7 +507,10 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         return any(ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F for c in n)
 
     if ext in (".c3d", ".trc", ".csv"):
-        padded = _names_with(names, lambda n: n != n.strip())
+        # a CSV column is <name>_x, so only a leading space is lost ("B " was read from
+        # "B _x" and refused on writing: a QA run of stop 52)
+        padded = _names_with(names, (lambda n: n != n.lstrip()) if ext == ".csv"
+                             else (lambda n: n != n.strip()))
         if padded:
             refuse.append(f"{fmt} strips spaces around marker names: "
                           f"{', '.join(padded)}")

@@ -33,6 +33,7 @@ from mpz.io._common import (
     number,
     read_regular,
     reader,
+    values_at_gaps,
 )
 from mpz.motion import Motion, finite_samples
 
@@ -54,9 +55,14 @@ def motion_from_array(arr: ArrayLike, *, rate: float = 1.0, units: str = "",
         raise _bad(fmt, f"array shape {arr.shape} is not (frames, markers, 3)")
     pos = arr.astype(np.float64)
     valid = finite_samples(pos)
-    pos[~valid] = np.nan
     names = list(names) if names is not None else [f"M{i}" for i in range(pos.shape[1])]
+    # a sample with one or two coordinates NaN or infinite is a gap, said as the TRC reader
+    # says it (it became a gap silently: a QA run of stop 52)
+    partial = values_at_gaps(pos, ~valid, names, "with a coordinate NaN or infinite")
+    pos[~valid] = np.nan
     meta = {"format": fmt}
+    if partial:
+        meta["warning"] = partial
     if source:
         meta["source"] = source
     return Motion(pos, names, rate, units, valid, meta)
@@ -293,7 +299,8 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     if times[0] != 0.0 and math.isfinite(times[0]):
         m.metadata["start_time"] = repr(float(times[0]))
     if warnings:
-        m.metadata["warning"] = "; ".join(warnings)
+        m.metadata["warning"] = "; ".join([*filter(None, [m.metadata.get("warning")]),
+                                           *warnings])
     return m
 
 

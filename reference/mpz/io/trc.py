@@ -53,7 +53,13 @@ from mpz.io._common import (
 )
 from mpz.motion import Motion, finite_samples
 
-_UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in"}
+_UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": "in",
+          # the words some exporters write (a QA run of stop 52: 'millimeters' was no unit)
+          "millimeters": "mm", "millimetres": "mm", "millimeter": "mm", "millimetre": "mm",
+          "centimeters": "cm", "centimetres": "cm", "centimeter": "cm", "centimetre": "cm",
+          "meters": "m", "metres": "m", "meter": "m", "metre": "m"}
+#: where a TRC's lines end (see :func:`parse_trc`)
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
 def _bad(msg: str) -> InputFormatError:
@@ -87,7 +93,13 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         marker-name and coordinate counts that disagree, a data row that is
         too long or not numeric, or no data rows.
     """
-    lines = text.splitlines()
+    # lines end at CR LF, LF or CR alone, and nowhere else: str.splitlines also breaks at
+    # U+0085 (a cp1252 "..." read as Latin-1), U+2028 and form feeds inside a marker name,
+    # which made the header refuse itself ("NumMarkers says 2, the name row has 1 names",
+    # a QA run of stop 52)
+    lines = _LINE_BREAK.split(text)
+    if lines and lines[-1] == "":
+        lines.pop()
     if len(lines) < 5:
         raise _bad(f"only {len(lines)} lines; a TRC file needs 5 header lines and data")
     if not lines[0].startswith("PathFileType"):
