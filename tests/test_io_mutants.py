@@ -755,3 +755,26 @@ def test_npy_samples_with_a_coordinate_nan_or_infinite_are_said(tmp_path: Path) 
     assert "2 samples with a coordinate NaN or infinite" in m.metadata["warning"]
     np.save(tmp_path / "q.npy", np.where(np.isfinite(arr), arr, 0.0))
     assert "warning" not in read_npy(tmp_path / "q.npy").metadata
+
+
+def test_trc_numframes_warning_counts_the_frames_when_frame_numbers_skip() -> None:
+    """Frame# 1, 2, 4, 5 make 5 frames of 4 rows; with NumFrames 4 the warning said
+    "NumFrames says 4, file has 4 rows", which reads as no disagreement at all."""
+    text = (SMALL.replace("\n3\t0.033\t", "\n4\t0.050\t", 1)
+            .replace("\n4\t0.050\t1.8", "\n5\t0.067\t1.8", 1))
+    m = parse_trc(text)
+    assert m.n_frames == 5
+    assert "NumFrames says 4, file has 4 rows over 5 frames" in m.metadata["warning"]
+
+
+def test_a_trc_unit_word_that_is_no_unit_is_named_in_the_bound_error(tmp_path: Path) -> None:
+    """--max-error 1mm on a TRC whose Units say "unknown" was refused with "TRC stores
+    none", which is not so: the field is there and holds no length unit."""
+    import subprocess
+    import sys
+    (tmp_path / "u.trc").write_text(SMALL.replace("\tmm\t", "\tunknown\t"))
+    run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode",
+                          str(tmp_path / "u.trc"), "-o", str(tmp_path / "u.mpz"),
+                          "--max-error", "1mm"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 2
+    assert "its units 'unknown' are not mm, cm, m or in" in run.stderr, run.stderr

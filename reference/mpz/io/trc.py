@@ -195,7 +195,11 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         warnings.append(skipped)
     declared_frames = header.get("NumFrames", "").strip()
     if declared_frames and named(count, declared_frames, "NumFrames", _bad) != len(pos):
-        warnings.append(f"NumFrames says {declared_frames}, file has {n_rows} rows")
+        # the frames as Frame# places them: "NumFrames says 5, file has 5 rows" when rows
+        # skipped frames (a QA run of stop 52)
+        held = (f"{n_rows} rows" if len(pos) == n_rows
+                else f"{n_rows} rows over {len(pos)} frames (Frame# skips some)")
+        warnings.append(f"NumFrames says {declared_frames}, file has {held}")
     valid = finite_samples(pos)
     names, renamed = unique_names(names)
     partial = values_at_gaps(pos, ~valid, names, "with 1 or 2 of 3 coordinates empty")

@@ -596,8 +596,13 @@ def _units(args: argparse.Namespace, motion, *, batch: bool = False):
         if lengths and motion.units == "":
             option, text = lengths[0]
             fmt = motion.metadata.get("format", "").upper() or "this input"
-            raise EncoderError(f"{option} {text}: the input has no length unit ({fmt} "
-                               "stores none); name it with --units (mm, cm, m or in), e.g. "
+            said = motion.metadata.get("units_in_file")
+            # a TRC's Units field may hold a word that is no length unit: "TRC stores none"
+            # was wrong of it (a QA run of stop 52)
+            why = (f"its units {said!r} are not mm, cm, m or in" if said else
+                   f"{fmt} stores none")
+            raise EncoderError(f"{option} {text}: the input has no length unit ({why}); "
+                               "name it with --units (mm, cm, m or in), e.g. "
                                "--units cm, or give a plain number in the file's own units")
         return motion
     return with_units(motion, args.units)
