@@ -1500,51 +1500,15 @@ def test_a_search_that_finds_no_steps_says_how_to_choose_them(tmp_path):
 
 
 # -- unusual legal BVH and ASF/AMC files (a skeleton QA run of stop 52) ------------------
-def _asf_pair(tmp_path: Path, *, name: str = "Skel", doc: str = "plain docs",
+def _asf_pair(asf_text, tmp_path: Path, *, name: str = "Skel", doc: str = "plain docs",
               angle: str = "deg", header: str = ":FULLY-SPECIFIED\n:DEGREES\n",
               first: int = 1, amc_encoding: str = "utf-8") -> tuple[Path, Path]:
-    """An ASF of a root, femur (3 dofs) and tibia (1 dof), and a 3-frame AMC of it."""
-    asf = f"""# demo
-:version 1.10
-:name {name}
-:units
-  mass 1.0
-  length 0.45
-  angle {angle}
-:documentation
-   {doc}
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-  begin
-     id 1
-     name femur
-     direction 0 -1 0
-     length 7
-     axis 0 0 0 XYZ
-    dof rx ry rz
-  end
-  begin
-     id 2
-     name tibia
-     direction 0 -1 0
-     length 7
-     axis 0 0 0 XYZ
-    dof rx
-  end
-:hierarchy
-  begin
-    root femur
-    femur tibia
-  end
-"""
+    """conftest's one-bone ASF (``asf_text``, the ``one_bone_asf`` fixture) with ``name``
+    and ``doc``, and a 3-frame AMC of it."""
+    asf = asf_text(angle).replace(":name T\n", f":name {name}\n:documentation\n   {doc}\n")
     rows = []
     for f in range(3):
-        rows += [str(first + f), f"root 1 2 3 0.{f}1 0.2 0.3", f"femur 0.{f}5 0.1 0.2",
-                 f"tibia 0.{f}7"]
+        rows += [str(first + f), f"root 1 2 3 0.{f}1 0.2 0.3", f"b1 0.{f}5 0.1"]
     (tmp_path / "s.asf").write_bytes(asf.encode("utf-8"))
     (tmp_path / "s.amc").write_bytes((header + "\n".join(rows) + "\n").encode(amc_encoding))
     return tmp_path / "s.amc", tmp_path / "s.asf"
@@ -1560,10 +1524,11 @@ def _amc_round_trip(tmp_path: Path, amc: Path, asf: Path) -> tuple[str, str]:
             out.read_bytes().decode("latin-1"))
 
 
-def test_a_hash_in_the_asf_name_and_documentation_is_text(tmp_path):
+def test_a_hash_in_the_asf_name_and_documentation_is_text(tmp_path, one_bone_asf):
     """`:name Subject#3 take #2` came back `:name Subject`, the documentation cut at its
     '#', with nothing said; a line that starts with '#' stays a comment."""
-    amc, asf = _asf_pair(tmp_path, name="Subject#3 take #2", doc="capture take #7, #4")
+    amc, asf = _asf_pair(one_bone_asf, tmp_path, name="Subject#3 take #2",
+                         doc="capture take #7, #4")
     m = mpz.io.read(amc, asf=asf)
     skel = m.extras["skeleton"]
     assert skel.name == "Subject#3 take #2" and skel.documentation == "capture take #7, #4"
@@ -1571,31 +1536,32 @@ def test_a_hash_in_the_asf_name_and_documentation_is_text(tmp_path):
     assert ":name Subject#3 take #2" in text and "capture take #7, #4" in text
 
 
-def test_a_utf8_asf_beside_a_latin1_amc_keeps_its_characters(tmp_path):
+def test_a_utf8_asf_beside_a_latin1_amc_keeps_its_characters(tmp_path, one_bone_asf):
     """The skeleton keeps the AMC's encoding; the ASF was written in it with '?' for each
     character Latin-1 lacks ("Sujet_→_测试" came back "Sujet_?_??")."""
-    amc, asf = _asf_pair(tmp_path, name="Sujet_\u2192_\u6d4b\u8bd5", amc_encoding="latin-1",
+    amc, asf = _asf_pair(one_bone_asf, tmp_path, name="Sujet_\u2192_\u6d4b\u8bd5",
+                         amc_encoding="latin-1",
                          header="# capture \u00fcber Bonn\n:FULLY-SPECIFIED\n:DEGREES\n")
     text, amc_text = _amc_round_trip(tmp_path, amc, asf)
     assert ":name Sujet_\u2192_\u6d4b\u8bd5" in text
     assert (tmp_path / "back.amc").read_bytes().startswith("# capture \u00fcber".encode("latin-1"))
 
 
-def test_an_amc_without_header_on_a_radians_asf_comes_back_saying_radians(tmp_path):
+def test_an_amc_without_header_on_a_radians_asf_comes_back_saying_radians(tmp_path, one_bone_asf):
     """The writer's default header said :DEGREES beside an `angle rad` ASF, so readers that
     trust the flag took radians for degrees."""
-    amc, asf = _asf_pair(tmp_path, angle="rad", header="")
+    amc, asf = _asf_pair(one_bone_asf, tmp_path, angle="rad", header="")
     _, text = _amc_round_trip(tmp_path, amc, asf)
     assert text.splitlines()[:2] == [":FULLY-SPECIFIED", ":RADIANS"]
 
 
-def test_an_amc_first_frame_past_32_bits_is_refused_before_encoding(tmp_path):
+def test_an_amc_first_frame_past_32_bits_is_refused_before_encoding(tmp_path, one_bone_asf):
     """§4.14.2's first_frame is a u32: 2^32 stopped the encode in the chunk's build with a
     struct error (exit 70); 2^32 - 1 is kept."""
-    amc, asf = _asf_pair(tmp_path, first=2 ** 32)
+    amc, asf = _asf_pair(one_bone_asf, tmp_path, first=2 ** 32)
     with pytest.raises(EncoderError, match=r"first frame number 4294967296 is outside"):
         mpz.encode(mpz.io.read(amc, asf=asf))
-    amc, asf = _asf_pair(tmp_path, first=2 ** 32 - 1)
+    amc, asf = _asf_pair(one_bone_asf, tmp_path, first=2 ** 32 - 1)
     back = mpz.decode(mpz.encode(mpz.io.read(amc, asf=asf)))
     assert back.extras["skeleton"].first_frame == 2 ** 32 - 1
 
@@ -1628,12 +1594,12 @@ def test_bvh_names_that_repeat_next_to_a_suffixed_one_are_made_unique(tmp_path):
     assert [j.name for j in back.extras["skeleton"].joints][:3] == ["A", "A", "A#2"]
 
 
-def test_a_headerless_amc_on_standard_input_is_read_with_asf(tmp_path):
+def test_a_headerless_amc_on_standard_input_is_read_with_asf(tmp_path, one_bone_asf):
     """`mpz encode - --asf S.asf` of an AMC without header lines: its content names no
     format, and --asf, which names an AMC's skeleton, was not taken to say it."""
     import subprocess
     import sys
-    amc, asf = _asf_pair(tmp_path, header="")
+    amc, asf = _asf_pair(one_bone_asf, tmp_path, header="")
     with amc.open("rb") as fh:
         run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode", "-", "--asf",
                               str(asf), "-o", str(tmp_path / "o.mpz")], stdin=fh,
@@ -1642,11 +1608,11 @@ def test_a_headerless_amc_on_standard_input_is_read_with_asf(tmp_path):
     assert mpz.decode((tmp_path / "o.mpz").read_bytes()).n_frames == 3
 
 
-def test_an_asf_documentation_line_that_starts_with_a_hash_comes_back(tmp_path):
+def test_an_asf_documentation_line_that_starts_with_a_hash_comes_back(tmp_path, one_bone_asf):
     """`:documentation #1 take` was kept as "#1 take" and written on a line of its own,
     which the reader then took for a comment: gone on the second round (the review of
     stop 52)."""
-    amc, asf = _asf_pair(tmp_path, doc="#1 take")
+    amc, asf = _asf_pair(one_bone_asf, tmp_path, doc="#1 take")
     text = asf.read_text().replace(":documentation\n   #1 take", ":documentation #1 take")
     asf.write_text(text)
     assert mpz.io.read(amc, asf=asf).extras["skeleton"].documentation == "#1 take"
