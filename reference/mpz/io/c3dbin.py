@@ -570,8 +570,10 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
     if not (math.isfinite(scale) and scale != 0):
         # its sign chooses the storage and its size scales int16 words: 0, NaN or inf made
         # every point a gap, silently (a hostile-input QA)
+        # an Intel file marked DEC reads its scale -1.0 as a VAX zero: the processor byte
+        # may be the fault, as for an implausible rate
         _fail(f"POINT:SCALE {scale!r} is not a finite number other than 0 (its sign says "
-              "float32 or int16 storage, its size the int16 step)")
+              f"float32 or int16 storage, its size the int16 step){processor_hint(data)}")
     # the header frame range, or the frame parameters when it cannot say (frame_range)
     first, n_frames = frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
     frame_bytes = (4 * used + hdr_analog) * (4 if scale < 0 else 2)
@@ -735,8 +737,9 @@ _PROCESSOR_NAMES = {PROC_INTEL: "Intel", PROC_DEC: "DEC", PROC_MIPS: "MIPS"}
 
 
 def processor_hint(data: bytes) -> str:
-    """For the message about an implausible frame rate: what the processor byte says, and
-    the frame rate (POINT:RATE, else header words 11-12) each other processor type reads,
+    """For the message about an implausible frame rate or point scale: what the processor
+    byte says, and the frame rate (POINT:RATE, else header words 11-12) each other
+    processor type reads,
     where that is a plausible rate (a finite float32 of 1e-6 Hz or more); "" when none
     is, or the bytes are no C3D file."""
     try:
