@@ -778,3 +778,16 @@ def test_a_trc_unit_word_that_is_no_unit_is_named_in_the_bound_error(tmp_path: P
                           "--max-error", "1mm"], capture_output=True, text=True, timeout=300)
     assert run.returncode == 2
     assert "its units 'unknown' are not mm, cm, m or in" in run.stderr, run.stderr
+
+
+def test_a_trc_whose_units_word_is_unknown_is_written_back_as_it_was(tmp_path: Path) -> None:
+    """Units "unknown": encoded (no unit), and then refused when decoded to TRC as "TRC
+    needs units ... (a BVH source?)" (a text-formats QA run of stop 52)."""
+    import mpz
+    from mpz.io import read, write
+    (tmp_path / "u.trc").write_text(SMALL.replace("\tmm\t", "\tunknown\t"))
+    m = read(tmp_path / "u.trc")
+    assert m.units == "" and m.metadata["trc.Units"] == "unknown"
+    write(mpz.decode(mpz.encode(m)), tmp_path / "back.trc")
+    back = (tmp_path / "back.trc").read_text().splitlines()
+    assert back[2].split("\t")[4] == "unknown"

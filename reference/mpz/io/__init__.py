@@ -569,7 +569,13 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if archive is None:
             refuse += _c3d_section_problems(motion)
     if ext == ".trc":
-        if motion.units == "":
+        said = motion.metadata.get("trc.Units", "").strip()
+        if motion.units == "" and said:
+            # a TRC source whose Units word is no unit MPZ knows ("unknown"): written back
+            # as it was, so that the file round-trips (it was refused: a QA run of stop 52)
+            notes.append(f"the source TRC's Units {said!r} is no length unit MPZ knows: "
+                         "written back as it was")
+        elif motion.units == "":
             refuse.append("TRC needs units (mm, cm, m, in) and this motion has none (a BVH "
                           "source?); write .npy or .csv, or encode the source with its units")
         from mpz.io.trc import trc_meta_problems
