@@ -791,3 +791,12 @@ def test_a_trc_whose_units_word_is_unknown_is_written_back_as_it_was(tmp_path: P
     write(mpz.decode(mpz.encode(m)), tmp_path / "back.trc")
     back = (tmp_path / "back.trc").read_text().splitlines()
     assert back[2].split("\t")[4] == "unknown"
+
+
+def test_a_trc_without_a_file_name_is_written_back_without_one() -> None:
+    """An empty file name on line 1 was replaced by the output's name, and mpz compare
+    then reported the header changed (trc.FileName)."""
+    m = parse_trc(SMALL.replace("\tsmall.trc\n", "\t\n"))
+    assert m.metadata["trc.FileName"] == ""
+    assert format_trc(m, file_name="out.trc").splitlines()[0] == "PathFileType\t4\t(X/Y/Z)\t"
+    assert "small.trc" in format_trc(parse_trc(SMALL), file_name="out.trc").splitlines()[0]

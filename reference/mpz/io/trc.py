@@ -488,7 +488,9 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
     if read_as != motion.units:    # the header must give the positions' unit, not a stale one
         head["Units"] = motion.units
     kind = meta.get("trc.PathFileType", "4\t(X/Y/Z)")
-    name = meta.get("trc.FileName", file_name) or file_name
+    # a TRC source's file name as it was, empty too (the output's name took an empty one's
+    # place, and mpz compare then found the header changed: a QA run of stop 52)
+    name = meta["trc.FileName"] if "trc.FileName" in meta else file_name
     first = start_frame(motion)
     if "trc.OrigDataStartFrame" not in meta:
         head["OrigDataStartFrame"] = str(first)
