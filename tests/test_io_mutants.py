@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
+import mpz
 from mpz import Motion
 from mpz.io import read_trc
 from mpz.io.trc import format_trc, parse_trc
@@ -800,3 +801,94 @@ def test_a_trc_without_a_file_name_is_written_back_without_one() -> None:
     assert m.metadata["trc.FileName"] == ""
     assert format_trc(m, file_name="out.trc").splitlines()[0] == "PathFileType\t4\t(X/Y/Z)\t"
     assert "small.trc" in format_trc(parse_trc(SMALL), file_name="out.trc").splitlines()[0]
+
+
+def test_a_trc_count_written_as_a_float_is_written_back_as_it_was() -> None:
+    """NumFrames "4.0" was rewritten "4", and mpz compare reported the header changed; a
+    count that no longer holds is still corrected."""
+    m = parse_trc(SMALL.replace("\t4\t2\tmm\t", "\t4.0\t2\tmm\t"))
+    assert format_trc(m).splitlines()[2].split("\t")[2] == "4.0"
+    fewer = Motion(m.positions[:3], m.names, m.rate, m.units, m.valid[:3], m.metadata)
+    assert format_trc(fewer).splitlines()[2].split("\t")[2] == "3"
+
+
+@pytest.mark.parametrize("rate, rows", [(120.0, 100), (120.0, 25), (59.94, 200)])
+def test_csv_times_in_scientific_notation_give_their_rate(rate, rows) -> None:
+    """numpy.savetxt's "%.6e" times added no decimals, so every time was allowed 0.5 s:
+    120 Hz over 100 rows was refused as uneven at 100 Hz, 59.94 Hz read as 60 (the review
+    of stop 52). Each time is allowed half a unit of its own last digit."""
+    from mpz.io.table import parse_csv
+    m = parse_csv(_csv([f"{k:.18e}" for k in range(rows)], [f"{k / rate:.6e}"
+                                                             for k in range(rows)]))
+    assert m.rate == pytest.approx(rate, rel=1e-6) and "warning" not in m.metadata
+
+
+def test_csv_short_files_and_first_times_keep_their_exact_rate(tmp_path: Path) -> None:
+    """A 2-frame motion at 494.12123170888594 Hz was written, read back as the rounder
+    494.121231708886 (which gives its 2 times too), and so refused by the writer's check;
+    that check took times from 0 where the writer writes them from the start time; a first
+    frame past 2^31 dropped the start time with it (the review of stop 52)."""
+    from mpz.io import read, write
+    from mpz.io.table import format_csv, parse_csv
+    r = 494.12123170888594
+    m = Motion(np.zeros((2, 1, 3)), ["a"], r, "mm")
+    write(m, tmp_path / "two.csv")
+    assert read(tmp_path / "two.csv").rate == r
+    late = parse_csv(_csv([str(k) for k in range(9)], [repr(1000 + k / 65.0364227294921875)
+                                                        for k in range(9)]),
+                     rate=65.0364227294921875)
+    # times from 1000 s cannot give that rate back to the bit: refused, not changed
+    with pytest.raises(mpz.MPZError, match="cannot give back the rate 65.036"):
+        write(late, tmp_path / "late.csv")
+    big = parse_csv(_csv([str(3_000_000_000 + k) for k in range(3)], ["2.5", "2.51", "2.52"]))
+    assert format_csv(big).splitlines()[1].startswith("3000000000,2.5,")
+
+
+def test_csv_frame_numbers_in_float_form_and_empty_fields_are_said_rightly() -> None:
+    """savetxt writes frame 0 as 0.000000000000000000e+00: not "not consecutive whole
+    numbers"; an empty field was called "NaN or infinite"."""
+    from mpz.io.table import parse_csv
+    m = parse_csv(_csv([f"{k:.18e}" for k in range(3)], ["0.0", "0.01", "0.02"]))
+    assert "warning" not in m.metadata
+    m = parse_csv("frame,time,A_x,A_y,A_z\n0,0.0,,2,3\n1,0.01,1,2,3\n")
+    assert "1 sample with a coordinate empty or NaN" in m.metadata["warning"]
+
+
+def test_trc_decimals_skip_mantissas_and_rows_without_values() -> None:
+    """"1.5E-03" was counted as 1 decimal and written back as 0.0; "10." gave no
+    decimals (written 10.000000); a row of a frame and a time alone scanned the time (the
+    review of stop 52)."""
+    sci = SMALL.replace("1\t0.000\t1.5\t2.5\t3.5\t4.0\t5.0\t6.0",
+                        "1\t0.000\t1.5E-03\t2.5E-03\t-3.5e-04\t4.0\t5.0\t6.0")
+    m = parse_trc(sci)
+    back = parse_trc(format_trc(m))
+    np.testing.assert_allclose(back.positions[0, 0], [1.5e-3, 2.5e-3, -3.5e-4], atol=1e-6)
+    assert m.metadata["trc.Decimals"] == "5"              # -3.5e-04 is -0.00035
+    dots = SMALL.replace("\t4.0\t5.0\t6.0\n", "\t4.\t5.\t6.\n").replace(
+        "1.5\t2.5\t3.5", "1.\t2.\t3.").replace("1.6\t2.6\t3.6", "1.\t2.\t3.").replace(
+        "1.7\t2.7\t3.7\t4.2\t5.2\t6.2", "1.\t2.\t3.\t4.\t5.\t6.").replace(
+        "1.8\t2.8\t3.8\t4.3\t5.3\t6.3", "1.\t2.\t3.\t4.\t5.\t6.")
+    assert parse_trc(dots).metadata["trc.Decimals"] == "0"
+
+
+def test_trc_more_names_cannot_name_a_standard_field() -> None:
+    """trc.MoreNames "DataRate" (meta is free text) wrote a second DataRate column, the one
+    a reader takes: written at 60 Hz, read back at 999 (the review of stop 52)."""
+    from mpz.io.trc import trc_meta_problems
+    m = parse_trc(SMALL)
+    m.metadata.update({"trc.MoreNames": "DataRate", "trc.MoreValues": "999"})
+    assert trc_meta_problems(m.metadata)["trc.MoreNames"] == \
+        "names a field the writer writes itself"
+    assert parse_trc(format_trc(m)).rate == 60.0
+
+
+def test_a_csv_first_frame_written_elsewhere_is_a_note(tmp_path: Path) -> None:
+    """A CSV numbered from 100 decoded to TRC: mpz compare then found csv.FirstFrame
+    missing, and the writer had said nothing (the review of stop 52)."""
+    from mpz.io import writer_problems
+    from mpz.io.table import parse_csv
+    m = parse_csv(_csv(["100", "101", "102"], ["0.0", "0.01", "0.02"]))
+    m.units = "mm"
+    _, notes = writer_problems(m, ".trc")
+    assert any("the first, '100', is not written" in n for n in notes)
+    assert not any("CSV's frame numbers" in n for n in writer_problems(m, ".csv")[1])

@@ -587,9 +587,11 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if F < 2:
             notes.append(f"a one-frame CSV does not hold the rate ({rate!r} Hz)")
         elif not refuse:
-            from mpz.io.table import rate_from_times
+            from mpz.io.table import csv_start, rate_from_times
+            t0 = csv_start(motion)[1]          # the times the writer writes (a review)
+            frames = np.arange(F, dtype=np.float64)
             try:
-                back = rate_from_times(np.arange(F, dtype=np.float64) / rate)
+                back = rate_from_times(t0 + frames / rate if t0 else frames / rate)
             except ValueError:
                 back = math.nan
             if back != rate:
@@ -619,6 +621,10 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
     if header and ext != ".trc":        # a TRC source's header fields (mpz compare: missing)
         notes.append(f"{fmt} has no place for a TRC's header fields: not written: the "
                      f"{len(header)} trc.* entries (file name, rates, decimals...)")
+    first_csv = motion.metadata.get("csv.FirstFrame")
+    if first_csv is not None and ext != ".csv":     # mpz compare: missing (a review)
+        notes.append(f"{fmt} does not take a CSV's frame numbers: the first, {first_csv!r}, "
+                     "is not written")
     if ext == ".c3d":
         zero = motion.valid & (motion.positions == 0.0).all(axis=2)
         if zero.any():

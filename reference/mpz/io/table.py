@@ -58,7 +58,8 @@ def motion_from_array(arr: ArrayLike, *, rate: float = 1.0, units: str = "",
     names = list(names) if names is not None else [f"M{i}" for i in range(pos.shape[1])]
     # a sample with one or two coordinates NaN or infinite is a gap, said as the TRC reader
     # says it (it became a gap silently: a QA run of stop 52)
-    partial = values_at_gaps(pos, ~valid, names, "with a coordinate NaN or infinite")
+    partial = values_at_gaps(pos, ~valid, names, "with a coordinate empty or NaN" if fmt == "csv"
+                             else "with a coordinate NaN or infinite")
     pos[~valid] = np.nan
     meta = {"format": fmt}
     if partial:
@@ -141,15 +142,17 @@ def write_npy(motion: Motion, path: StrPath) -> None:
         np.save(fh, motion.as_nan().astype(np.float64, copy=False), allow_pickle=False)
 
 
-def rate_from_times(times: ArrayLike, tolerance: float = 0.0) -> float:
+def rate_from_times(times: ArrayLike, tolerance: ArrayLike = 0.0) -> float:
     """The frame rate whose ``t0 + frame / rate`` reproduces ``times`` exactly.
 
-    Starts from ``1 / (times[1] - t0)`` and tries neighbouring float64 values so a
-    rate such as 65.0364227294921875 survives a CSV round trip bit-exactly. Else the rate
-    of fewest significant digits whose times are all within ``tolerance`` of the column
-    (times printed to a few decimals: 0.016667 at 60 Hz gave 59.99997 Hz, and times from
-    1.0 at 100 Hz 99.99999999999991: a QA run of stop 52); else ``(n - 1) / (t[-1] -
-    t[0])``.
+    From t0 = 0 (what :func:`format_csv` writes): the float64 within 8 ulps of
+    ``1 / times[1]`` that does, so a rate such as 65.0364227294921875 survives a CSV round
+    trip bit-exactly, else the rate of fewest significant digits that does. From another
+    t0, the rate of fewest digits first (the ulps around 1 / (t1 - t0) gave
+    99.99999999999991 for times from 1.0 at 100 Hz: a QA run of stop 52), then the ulps.
+    Else the rate of fewest digits whose times are all within ``tolerance`` (one figure,
+    or one per time) of the column (times printed to a few decimals: 0.016667 at 60 Hz
+    gave 59.99997 Hz); else ``(n - 1) / (t[-1] - t[0])``.
     """
     t = np.asarray(times, dtype=np.float64)
     if len(t) < 2 or not np.isfinite(t).all():
@@ -161,16 +164,14 @@ def rate_from_times(times: ArrayLike, tolerance: float = 0.0) -> float:
     t0 = float(t[0])
     fit = float((len(t) - 1) / span)
 
-    def gives(r: float, within: float) -> bool:
+    def gives(r: float, within: ArrayLike) -> bool:
         got = t0 + frames / r if t0 else frames / r
-        return bool(r > 0 and np.abs(got - t).max() <= within)
+        return bool(r > 0 and (np.abs(got - t) <= within).all())
 
-    nice = [float(f"{fit:.{digits}g}") for digits in range(1, 16)]
-    for r in nice:                      # the rate of fewest digits that gives them exactly
-        if gives(r, 0.0):
-            return r
-    step = t[1] - t0
-    if step > 0:
+    def ulps() -> float | None:
+        step = t[1] - t0
+        if not step > 0:
+            return None
         r = 1.0 / step
         for _ in range(8):  # a few ulps either side
             r = np.nextafter(r, -np.inf)
@@ -178,6 +179,19 @@ def rate_from_times(times: ArrayLike, tolerance: float = 0.0) -> float:
             if gives(float(r), 0.0):
                 return float(r)
             r = np.nextafter(r, np.inf)
+        return None
+
+    nice = [float(f"{fit:.{digits}g}") for digits in range(1, 16)]
+    if t0 == 0.0:      # the writer's own times: the exact rate, before a rounder one that
+        exact = ulps()  # also gives 2 or 3 times (494.12123170888594 Hz, a review)
+        if exact is not None:
+            return exact
+    for r in nice:                      # the rate of fewest digits that gives them exactly
+        if gives(r, 0.0):
+            return r
+    exact = ulps() if t0 != 0.0 else None
+    if exact is not None:
+        return exact
     for r in nice:                      # else the one of fewest digits within the tolerance
         if gives(r, tolerance):
             return r
@@ -239,23 +253,17 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     # it was not read at all, and frames from 100 came back from 0 (a QA run of stop 52)
     first_frame: int | None = None
     frame_fault = ""
-    time_decimals = 0                           # the most of any row: the times' precision
+    resolution: list[float] = []                # each time's last printed digit: its unit
     for k, r in enumerate(records):
         if len(r) != len(head):
             raise _bad("csv", f"row {k + 2} has {len(r)} fields, header has {len(head)}")
         if not frame_fault:
-            try:
-                f = integer(r[0])
-            except InputFormatError:
-                f = None
+            f = _whole(r[0])
             if k == 0 and f is not None:
                 first_frame = f
             if f is None or first_frame is None or f != first_frame + k:
                 frame_fault = f"row {k + 2} has frame {r[0].strip()!r}"
-        t = r[1].strip()
-        at = t.find(".")
-        if at >= 0 and "e" not in t and "E" not in t:
-            time_decimals = max(time_decimals, len(t) - at - 1)
+        resolution.append(_unit_of_last_digit(r[1]))
         try:
             table.append([number(r[1])] + [number(v, nan=True) if v.strip(" \t")
                                            else math.nan for v in r[2:]])
@@ -267,9 +275,10 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     got = table.rows()
     times, vals = got[:, 0], got[:, 1:]
     warnings = []
-    # half a unit of the times' last decimal, and what binary64 adds: what a time printed
-    # with those decimals may be off by
-    tolerance = 0.5 * 10.0 ** -time_decimals + 4 * np.spacing(np.abs(times).max(initial=0))
+    # each time may be off by half a unit of its own last digit (0.0 by 0.05, 1.234567e-02
+    # by 5e-9: one figure for every row took 0.5 s for times in scientific notation, a
+    # review of stop 52), and what binary64 adds
+    tolerance = 0.5 * np.array(resolution) + 4 * np.spacing(np.abs(times).max(initial=0))
     if rate is None:
         rate = rate_from_times(times, tolerance) if n > 1 else 1.0
         # one rate stands for every time: a column that is not t0 + k / rate (a quarter of
@@ -304,6 +313,34 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     return m
 
 
+def _unit_of_last_digit(text: str) -> float:
+    """The value of one unit in the last digit of a number as written: 0.01 for "1.25",
+    1 for "5", 1e-8 for "1.234567e-02" (a time's printing precision)."""
+    t = text.strip()
+    mant, _, exp = t.replace("E", "e").partition("e")
+    at = mant.find(".")
+    digits = len(mant) - at - 1 if at >= 0 else 0
+    try:
+        shift = int(exp) if exp else 0
+    except ValueError:
+        shift = 0
+    return 10.0 ** (shift - digits) if -300 < shift - digits < 300 else 0.0
+
+
+def _whole(text: str) -> int | None:
+    """A frame number as written: a whole number, also in float form ("3.0",
+    "0.000000000000000000e+00", numpy.savetxt's), else None."""
+    try:
+        return integer(text)
+    except InputFormatError:
+        pass
+    try:
+        v = float(text)
+    except ValueError:
+        return None
+    return int(v) if v.is_integer() and abs(v) < 2 ** 53 else None
+
+
 def _lines(text: str) -> Iterator[str]:
     """The lines of ``text``, each with its ``"\n"``, one at a time."""
     start = 0
@@ -319,25 +356,26 @@ def format_csv(motion: Motion) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["frame", "time"] + [f"{n}_{c}" for n in motion.names for c in "xyz"])
     pos = motion.as_nan()
-    first, t0 = _csv_start(motion)
+    first, t0 = csv_start(motion)
     for f in range(motion.n_frames):
         w.writerow([first + f, repr(t0 + f / motion.rate if t0 else f / motion.rate)]
                    + ["" if not math.isfinite(v) else repr(float(v)) for v in pos[f].ravel()])
     return buf.getvalue()
 
 
-def _csv_start(motion: Motion) -> tuple[int, float]:
+def csv_start(motion: Motion) -> tuple[int, float]:
     """The first frame number and time a CSV is written with: a CSV source's
     (``csv.FirstFrame``, ``start_time``), else 0 and 0.0."""
     meta = motion.metadata
     try:
         first = int(meta.get("csv.FirstFrame", "0"))
+    except ValueError:
+        first = 0
+    try:
         t0 = float(meta.get("start_time", "0")) if meta.get("format") == "csv" else 0.0
     except ValueError:
-        return 0, 0.0
-    if not (abs(first) < 2 ** 31 and math.isfinite(t0)):
-        return 0, 0.0
-    return first, t0
+        t0 = 0.0
+    return (first if abs(first) < 2 ** 53 else 0), (t0 if math.isfinite(t0) else 0.0)
 
 
 def write_csv(motion: Motion, path: StrPath) -> None:

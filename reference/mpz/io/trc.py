@@ -172,11 +172,19 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         # a value with more decimals than any before it, looked for by one regular
         # expression over the row past its first two fields (a C scan; per value in Python
         # it made reading 60 % slower)
-        more = _MORE_DECIMALS[value_decimals + 1].search(
-            line, line.find("\t", len(fields[0]) + 1) + 1)
+        values_at = line.find("\t", len(fields[0]) + 1) + 1       # 0: a row without values
+        more = (_MORE_DECIMALS[value_decimals + 1].search(line, values_at)
+                if values_at and value_decimals < MAX_DECIMALS else None)
         while more is not None:
-            value_decimals = len(more.group(1))
-            more = _MORE_DECIMALS[value_decimals + 1].search(line, more.end())
+            value_decimals = min(len(more.group(1)), MAX_DECIMALS)
+            more = (_MORE_DECIMALS[value_decimals + 1].search(line, more.end())
+                    if value_decimals < MAX_DECIMALS else None)
+        if values_at and ("e" in line or "E" in line):
+            # 1.5E-03 needs 4 decimals in the fixed-point form the writer uses (it was
+            # written back as 0.0: the review of stop 52)
+            for frac, exp in _SCIENTIFIC.findall(line, values_at):
+                value_decimals = max(value_decimals, min(max(len(frac) - int(exp), 0),
+                                                         MAX_DECIMALS))
         numbers.append(fields[0].strip())
         if not frames:
             frames.append(fields)
@@ -284,14 +292,18 @@ def _decimals(text: str) -> int | None:
 
 
 class _MoreDecimals(dict[int, "re.Pattern[str]"]):
-    """``[n]``: a pattern of a decimal point followed by n or more digits (compiled once)."""
+    """``[n]``: a pattern of a decimal point followed by n or more digits, not those of a
+    mantissa ("1.5E-03" has no decimals here: counted as 1, it was written back as 0.0, a
+    review of stop 52), compiled once; n is at most MAX_DECIMALS + 1."""
 
     def __missing__(self, n: int) -> re.Pattern[str]:
-        self[n] = pattern = re.compile(rf"\.(\d{{{max(n, 1)},}})")
+        self[n] = pattern = re.compile(rf"\.(\d{{{n},}})(?![\deE])")
         return pattern
 
 
 _MORE_DECIMALS = _MoreDecimals()
+#: a number in scientific notation: the digits after its point, and its exponent
+_SCIENTIFIC = re.compile(r"\d(?:\.(\d*))?[eE]([-+]?\d{1,4})")
 
 
 def _header_meta(lines: list[str], header: dict[str, str], frames: list[list[str]],
@@ -353,8 +365,12 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
         if not (key.startswith("trc.") or key == "start_time"):
             continue
         name = key[4:]
-        if value.splitlines() not in ([], [value]):   # \f, \x1c, U+2028 ... as well
+        if _LINE_BREAK.search(value):    # the reader's line ends (U+2028 is text there)
             bad[key] = "holds a line break"
+        elif name == "MoreNames" and {k.strip() for k in value.split("\t")} & set(_KEPT):
+            # a second DataRate column would be the one a reader takes (a review of stop 52:
+            # written at 100 Hz, read back at 999)
+            bad[key] = "names a field the writer writes itself"
         elif name == "PathFileType" and value.count("\t") > 1:
             bad[key] = "holds more than one tab"
         elif name not in _TABBED and "\t" in value:
@@ -370,6 +386,14 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
         elif (name == "DataRate" or key == "start_time") and not _finite_text(value):
             bad[key] = "is not a finite number"
     return bad
+
+
+def _counts(text: str, n: int) -> bool:
+    """Whether a header count as written (``50``, `` 50``, ``50.0``) reads as ``n``."""
+    try:
+        return float(text) == n
+    except ValueError:
+        return False
 
 
 def _whole_in(text: str, low: int, high: int) -> bool:
@@ -480,7 +504,7 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
         if f"trc.{key}" in meta:
             head[key] = meta[f"trc.{key}"]
     for key, n in (("NumFrames", F), ("NumMarkers", M)):
-        if head[key].strip() != str(n):
+        if not _counts(head[key], n):      # "50.0" stays as written (a QA run of stop 52)
             head[key] = str(n)
     if float(head["DataRate"]) != motion.rate:        # the header text must give the rate
         head["DataRate"] = rate
