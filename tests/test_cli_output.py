@@ -383,6 +383,21 @@ def test_a_closed_pipe_keeps_the_warning_of_an_output_on_standard_output(
     assert "Traceback" not in proc.stderr
 
 
+def test_quiet_still_prints_a_warning(small: tuple[Path, Path], tmp_path: Path) -> None:
+    """-q "prints nothing on success", and a warning-only run (exit 1) printed nothing at
+    all, single files and folders alike (a text-formats QA run of stop 52)."""
+    trc, _ = small
+    (tmp_path / "in").mkdir()
+    cut = tmp_path / "in" / "cut.trc"
+    cut.write_bytes(trc.read_bytes().rstrip(b"\r\n"))     # no final line break: a warning
+    for argv in (["mpz", "encode", str(cut), "-o", "one.mpz", "-q"],
+                 ["mpz", "encode", "-r", "in", "-o", "out/", "--jobs", "0", "-q"]):
+        p = run(argv, tmp_path)
+        assert p.returncode == 1, p.stderr
+        assert "warning" in p.stderr and "line break" in p.stderr, argv
+        assert p.stdout == ""
+
+
 def test_standard_input_with_asf_is_not_read_whole_when_it_is_no_text(tmp_path: Path) -> None:
     """--asf makes content of no known format an AMC, but zeros (binary) are refused at
     their first bytes as before: they were read whole, up to 4 GiB, and then refused as an

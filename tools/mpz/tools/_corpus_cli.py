@@ -189,6 +189,10 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         for r in report.failed:
             print(f"mpz encode: error: {printable(r.source)}: {printable(r.reason)}",
                   file=sys.stderr)
+        for r in report.results:        # -q prints nothing on success: a warning is none
+            if r.warning:
+                print(f"mpz encode: warning: {printable(r.source)}: {printable(r.warning)}",
+                      file=sys.stderr)
     if failed:          # the closing line of a sequential batch, on stderr even with -q
         print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed} done, "
               f"{failed} failed", file=sys.stderr)

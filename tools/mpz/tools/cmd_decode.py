@@ -52,7 +52,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "--output-dir-mirror; default: every output in FOLDER/ itself")
     p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
                    "write --format under another extension, or write to a terminal")
-    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="print nothing on success; warnings (exit 1) are still printed")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="also print the file's metadata")
     from mpz.tools._cli import MAX_SAMPLES_HELP, max_samples
@@ -187,7 +188,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         if ext in (".npy", ".c3d") and not args.force and sys.stdout.isatty():
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
-    motion, warned = _without_a_stale_archive(motion, ext, job.output, args.quiet)
+    motion, warned = _without_a_stale_archive(motion, ext, job.output)
     found(EXIT_WARN if warned else EXIT_OK)     # before -o - writes to standard output
     notes = check_writable(motion, ext, path=job.output, bound=bound)
     if skipped:
@@ -246,8 +247,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
     return EXIT_WARN if warned else EXIT_OK
 
 
-def _without_a_stale_archive(motion: Motion, ext: str, output: str, quiet: bool
-                             ) -> tuple[Motion, bool]:
+def _without_a_stale_archive(motion: Motion, ext: str, output: str) -> tuple[Motion, bool]:
     """For a C3D output: ``motion`` without its C3D archive when the archive no longer
     describes the marker layer (another name, unit or rate: a valid file, since no rule
     of spec §4.13 ties MNAM or MHDR to cprm), with a warning that says what is not
@@ -263,10 +263,10 @@ def _without_a_stale_archive(motion: Motion, ext: str, output: str, quiet: bool
         differ = str(exc)
     if not differ:
         return motion, False
-    if not quiet:
-        print(f"mpz decode: warning: {printable(output)}: the C3D archive no longer describes "
-              f"the motion: {printable(differ)}: written as a C3D of the markers alone, "
-              f"without {printable(a.describe())}", file=sys.stderr)
+    # printed with -q too: a warning is no success (it exits 1)
+    print(f"mpz decode: warning: {printable(output)}: the C3D archive no longer describes "
+          f"the motion: {printable(differ)}: written as a C3D of the markers alone, "
+          f"without {printable(a.describe())}", file=sys.stderr)
     return dataclasses.replace(motion, extras={k: v for k, v in motion.extras.items()
                                                if k != "c3d"}), True
 

@@ -147,7 +147,7 @@ def add_parser(sub):
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="print nothing on success (no notes, no progress) but the report "
-                   "--json asks for")
+                   "--json asks for; warnings (exit 1) are still printed")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="also print the bytes of every chunk type")
     from mpz.tools._corpus_cli import add_corpus_options  # issue 15: --jobs, --scheduler
@@ -413,7 +413,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     # exit 0, and nothing at all with -q)
     warning = motion.metadata.get("warning")
     found(EXIT_WARN if warning else EXIT_OK)    # before -o - writes to standard output
-    if warning and not args.quiet:
+    if warning:     # -q too: it is no success, and it exits 1 (a QA run of stop 52)
         print(f"mpz encode: warning: {printable(job.input)}: {printable(warning)}",
               file=sys.stderr)
     if motion.metadata.get("reader_note") and not args.quiet:     # which reader read it
@@ -488,9 +488,8 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     for note in round_trip_warnings(motion, decoded):
         found(EXIT_WARN)
         warning = f"{warning}; {note}" if warning else note
-        if not args.quiet:
-            print(f"mpz encode: warning: {printable(job.input)}: {printable(note)}",
-                  file=sys.stderr)
+        print(f"mpz encode: warning: {printable(job.input)}: {printable(note)}",
+              file=sys.stderr)
     del decoded
     channel_bytes = (4 * motion.angles.size if motion.angles is not None
                      and opts.keep_skeleton else None)
