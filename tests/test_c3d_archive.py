@@ -657,3 +657,26 @@ def test_a_dec_float_below_2_to_the_minus_126_is_a_warning_on_every_read(shared_
     assert c3dbin.DEC_ROUNDED in m.metadata["warning"]
     plain = read(shared_data / "c3d" / "c3dorg_Eb015vr.c3d")
     assert c3dbin.DEC_ROUNDED not in plain.metadata.get("warning", "")
+
+
+def test_unsigned_analog_words_keep_their_meaning_in_a_float_c3d(shared_data, tmp_path):
+    """Spec §6.9: an int16 source written float32 (a coordinate off its grid) turned its
+    ANALOG:FORMAT UNSIGNED word 65535 into -1.0, another value for every reader of the
+    float file (a C3D QA run of stop 52); it is written 65535.0. A signed source's -1
+    stays -1.0, and only the first ANALOG:FORMAT counts."""
+    from mpz.io.c3dbin import ParamRecord, analog_unsigned, build_c3d, parse_c3d
+    m = read(shared_data / "c3d" / "c3dorg_Eb015pi.c3d")
+    a = m.extras["c3d"]
+    assert a.analog_storage == 0 and a.analog.size
+    gid = next(-r.group for r in a.records if r.is_group and r.name.upper() == b"ANALOG")
+    fmt = ParamRecord(gid, False, b"FORMAT", type=-1, dims=(8,), data=b"unsigned")
+    signed = ParamRecord(gid, False, b"FORMAT", type=-1, dims=(6,), data=b"SIGNED")
+    words = a.analog.copy()
+    words[0, 0] = -1
+    xyz = np.zeros((a.frames, a.words.shape[1], 3))
+    for records, want in (([*a.records, fmt], 65535.0), ([*a.records, signed], -1.0),
+                          ([*a.records, signed, fmt], -1.0)):
+        assert analog_unsigned(records) == (want > 0)
+        data = build_c3d(a.header, records, xyz, a.words, words, float_storage=True,
+                         scale=a.point_scale())
+        assert float(parse_c3d(data).analog[0, 0]) == want

@@ -674,8 +674,8 @@ def round_trip_warnings(source: Motion, decoded: Motion) -> list[str]:
     - valid samples written at exactly (0, 0, 0), which C3D readers, this one included,
       take for gaps: a marker within the bound of the origin;
     - an int16 source written as float32 (§6.9: a coordinate decoded off the int16 grid,
-      or at -32768), and with it ANALOG:FORMAT UNSIGNED words, which a float file holds
-      as the signed value (65535 becomes -1.0)."""
+      or at -32768): a larger file, POINT:SCALE negative (its ANALOG:FORMAT UNSIGNED
+      words are written as their unsigned values, §6.9)."""
     from mpz.c3darchive import C3DArchive
     a, b = source.extras.get("c3d"), decoded.extras.get("c3d")
     if not isinstance(a, C3DArchive) or not isinstance(b, C3DArchive) or \
@@ -691,12 +691,7 @@ def round_trip_warnings(source: Motion, decoded: Motion) -> list[str]:
                    "which C3D readers, mpz's included, read as gaps: a --max-error smaller "
                    "than their distance from the origin keeps them")
     if a.word_storage == 0 and not _points_to_write(decoded, b)[2]:
-        fmt = b.parameter("ANALOG", "FORMAT")
-        unsigned = (fmt is not None and fmt.data.strip(b" \0").upper() == b"UNSIGNED"
-                    and b.analog.size and b.analog_storage == 0 and (b.analog < 0).any())
         out.append("the source stores int16 points, and the decoded C3D will store float32 "
                    "(a coordinate decoded off the int16 grid or outside -32767..32767, spec "
-                   "§6.9): the file is larger, and POINT:SCALE is written negative"
-                   + ("; its ANALOG:FORMAT UNSIGNED words of 32768 and more will read as "
-                      "negative values (65535 as -1.0)" if unsigned else ""))
+                   "§6.9): the file is larger, and POINT:SCALE is written negative")
     return out

@@ -1090,6 +1090,16 @@ def _record_bytes(r: ParamRecord, last: bool) -> bytes:
     return head + nxt.to_bytes(2, "little") + body
 
 
+def analog_unsigned(records: list[ParamRecord]) -> bool:
+    """Spec §6.9: whether the first parameter record named FORMAT in a group named ANALOG
+    (names as ASCII without case) is a char value that reads UNSIGNED (without case, blanks
+    and NULs around it): the source's int16 analog words are then unsigned."""
+    analog = {-r.group for r in records if r.is_group and r.name.upper() == b"ANALOG"}
+    r = next((r for r in records if not r.is_group and r.group in analog
+              and r.name.upper() == b"FORMAT"), None)
+    return r is not None and r.type == -1 and r.data.strip(b" \0").upper() == b"UNSIGNED"
+
+
 def _patched(records: list[ParamRecord], name: bytes, ptype: int, data: bytes) -> None:
     """Replace the data of POINT:``name`` (one element of ``ptype``) in place, if present."""
     point = {-r.group for r in records if r.is_group and r.name.upper() == b"POINT"}
@@ -1255,7 +1265,12 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
         pts = np.empty((F, P, 4), "<f4")
         pts[:, :, :3] = xyz.astype("<f4")
         pts[:, :, 3] = point_words.astype("<f4")     # int16 words convert exactly
-        an = analog.astype("<f4").reshape(F, per * analog.shape[1])
+        words = analog
+        if analog.dtype.kind == "i" and analog_unsigned(recs):
+            # spec §6.9: an UNSIGNED source's words as their unsigned values, which a float
+            # file's readers take as they are (65535 was written -1.0: a QA run of stop 52)
+            words = analog.astype(np.int64) & 0xFFFF
+        an = words.astype("<f4").reshape(F, per * analog.shape[1])
     else:
         ipts = np.empty((F, P, 4), "<i2")
         ipts[:, :, :3] = np.rint(xyz / abs(scale)).astype("<i2")
