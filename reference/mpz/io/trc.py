@@ -166,32 +166,16 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {exc.message}") from None
         table.append(row)
-        d = _decimals(fields[1])
-        if d is not None and d > time_decimals:
-            time_decimals = d
-        # a value with more decimals than any before it, looked for by one regular
-        # expression over the row past its first two fields (a C scan; per value in Python
-        # it made reading 60 % slower)
-        values_at = line.find("\t", len(fields[0]) + 1) + 1       # 0: a row without values
-        more = (_MORE_DECIMALS[value_decimals + 1].search(line, values_at)
-                if values_at and value_decimals < MAX_DECIMALS else None)
-        while more is not None:
-            value_decimals = min(len(more.group(1)), MAX_DECIMALS)
-            more = (_MORE_DECIMALS[value_decimals + 1].search(line, more.end())
-                    if value_decimals < MAX_DECIMALS else None)
-        if values_at and ("e" in line or "E" in line):
-            # 1.5E-03 needs 4 decimals in the fixed-point form the writer uses (it was
-            # written back as 0.0: the review of stop 52)
-            for frac, exp in _SCIENTIFIC.findall(line, values_at):
-                value_decimals = max(value_decimals, min(max(len(frac) - int(exp), 0),
-                                                         MAX_DECIMALS))
+        t = fields[1].strip()
+        if "." in t and "e" not in t.lower():      # the time's decimals: printed, significant
+            printed = len(t) - t.index(".") - 1
+            time_decimals = max(time_decimals, printed)
+            digits = max(digits, printed - (len(t) - len(t.rstrip("0"))))
+        value_decimals = _most_decimals(line, line.find("\t", len(fields[0]) + 1) + 1,
+                                        value_decimals)
         numbers.append(fields[0].strip())
         if not frames:
             frames.append(fields)
-        if len(fields) > 1:
-            t = fields[1].strip().rstrip("0")
-            if "." in t and "e" not in t.lower():
-                digits = max(digits, len(t.split(".", 1)[1]))
     n_rows = table.n
     if not n_rows:
         raise _bad("no data rows")
@@ -284,13 +268,6 @@ _KEPT = ("DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units", "OrigData
          "OrigDataStartFrame", "OrigNumFrames")
 
 
-def _decimals(text: str) -> int | None:
-    text = text.strip()
-    if not text or "." not in text or "e" in text.lower():
-        return None
-    return len(text.split(".", 1)[1])
-
-
 class _MoreDecimals(dict[int, "re.Pattern[str]"]):
     """``[n]``: a pattern of a decimal point followed by n or more digits, not those of a
     mantissa ("1.5E-03" has no decimals here: counted as 1, it was written back as 0.0, a
@@ -304,6 +281,25 @@ class _MoreDecimals(dict[int, "re.Pattern[str]"]):
 _MORE_DECIMALS = _MoreDecimals()
 #: a number in scientific notation: the digits after its point, and its exponent
 _SCIENTIFIC = re.compile(r"\d(?:\.(\d*))?[eE]([-+]?\d{1,4})")
+
+
+def _most_decimals(line: str, start: int, known: int) -> int:
+    """The most decimals of the values of a TRC row (from ``start``; 0: the row has none)
+    and ``known``, at most MAX_DECIMALS: a value with more than ``known`` is looked for by
+    one regular expression (a C scan; per value in Python it made reading 60 % slower),
+    and a value in scientific notation counts the decimals of its fixed-point form
+    (1.5E-03 has 4: it was written back as 0.0, a review of stop 52)."""
+    if not start:
+        return known
+    more = _MORE_DECIMALS[known + 1].search(line, start) if known < MAX_DECIMALS else None
+    while more is not None:
+        known = min(len(more.group(1)), MAX_DECIMALS)
+        more = (_MORE_DECIMALS[known + 1].search(line, more.end())
+                if known < MAX_DECIMALS else None)
+    if "e" in line or "E" in line:
+        for frac, exp in _SCIENTIFIC.findall(line, start):
+            known = max(known, min(max(len(frac) - int(exp), 0), MAX_DECIMALS))
+    return known
 
 
 def _header_meta(lines: list[str], header: dict[str, str], frames: list[list[str]],
