@@ -48,7 +48,7 @@ from mpz.format import (
     C3DStorage,
     ModelKind,
 )
-from mpz.io.c3dbin import ParamRecord, header_range_holds
+from mpz.io.c3dbin import ParamRecord, header_range_holds, named
 
 if TYPE_CHECKING:
     from mpz.chunks import Record
@@ -110,14 +110,9 @@ class C3DArchive:
         return int(self.analog.shape[1])
 
     def parameter(self, group: str, name: str) -> ParamRecord | None:
-        """The record of parameter ``group:name`` (names compared without case)."""
-        gids = {-r.group for r in self.records
-                if r.is_group and r.name.upper() == group.encode("latin-1").upper()}
-        for r in self.records:
-            if not r.is_group and r.group in gids and r.name.upper() == \
-                    name.encode("latin-1").upper():
-                return r
-        return None
+        """The first record of parameter ``group:name`` (names compared without case)."""
+        at = named(self.records, group.encode("latin-1"), name.encode("latin-1"))
+        return self.records[at[0]] if at else None
 
     def point_scale(self) -> float:
         """|POINT:SCALE| (the int16 grid step), or the header's scale without one."""

@@ -377,10 +377,9 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
 
 def _point_scales(a: C3DArchive) -> list[float]:
     """The values of every POINT:SCALE record of ``a`` (float32, at least one element)."""
-    gids = {-r.group for r in a.records if r.is_group and r.name.upper() == b"POINT"}
-    return [float(np.frombuffer(r.data, "<f4", 1)[0]) for r in a.records
-            if not r.is_group and r.group in gids and r.name.upper() == b"SCALE"
-            and r.type == 4 and len(r.data) >= 4]
+    records = [a.records[i] for i in c3dbin.named(a.records, b"POINT", b"SCALE")]
+    return [float(np.frombuffer(r.data, "<f4", 1)[0]) for r in records
+            if r.type == 4 and len(r.data) >= 4]
 
 
 def archive_describes(a: C3DArchive, markers: int) -> tuple[list[str], str, float]:

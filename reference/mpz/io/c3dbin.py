@@ -165,7 +165,7 @@ def _dec_to_ieee(raw: bytes) -> tuple[NDArray[np.float32], bool]:
     rounded = False
     if low.any():
         small = u[low]
-        zero = ((small >> np.uint32(23)) & np.uint32(0xFF)) == 0
+        zero = e[low] == 0
         with np.errstate(invalid="ignore"):              # exponents 1-2: rounded to nearest
             vals = (small.view("<f4") / np.float32(4.0)).astype(np.float32)
         vals[zero] = (small[zero] & np.uint32(0x80000000)).view("<f4")      # VAX zero: +-0.0
@@ -1090,22 +1090,29 @@ def _record_bytes(r: ParamRecord, last: bool) -> bytes:
     return head + nxt.to_bytes(2, "little") + body
 
 
+def named(records: list[ParamRecord], group: bytes, name: bytes) -> list[int]:
+    """The indexes, in file order, of the parameter records ``group:name``: the name is
+    ``name`` and the group is any group record named ``group`` (names compared as ASCII
+    without case, as spec §6.9 compares them)."""
+    gids = {-r.group for r in records if r.is_group and r.name.upper() == group.upper()}
+    return [i for i, r in enumerate(records)
+            if not r.is_group and r.group in gids and r.name.upper() == name.upper()]
+
+
 def analog_unsigned(records: list[ParamRecord]) -> bool:
     """Spec §6.9: whether the first parameter record named FORMAT in a group named ANALOG
     (names as ASCII without case) is a char value that reads UNSIGNED (without case, blanks
     and NULs around it): the source's int16 analog words are then unsigned."""
-    analog = {-r.group for r in records if r.is_group and r.name.upper() == b"ANALOG"}
-    r = next((r for r in records if not r.is_group and r.group in analog
-              and r.name.upper() == b"FORMAT"), None)
-    return r is not None and r.type == -1 and r.data.strip(b" \0").upper() == b"UNSIGNED"
+    first = named(records, b"ANALOG", b"FORMAT")[:1]
+    return any(records[i].type == -1 and records[i].data.strip(b" \0").upper() == b"UNSIGNED"
+               for i in first)
 
 
 def _patched(records: list[ParamRecord], name: bytes, ptype: int, data: bytes) -> None:
     """Replace the data of POINT:``name`` (one element of ``ptype``) in place, if present."""
-    point = {-r.group for r in records if r.is_group and r.name.upper() == b"POINT"}
-    for i, r in enumerate(records):
-        if (not r.is_group and r.group in point and r.name.upper() == name and r.type == ptype
-                and len(r.data) == len(data)):
+    for i in named(records, b"POINT", name):
+        r = records[i]
+        if r.type == ptype and len(r.data) == len(data):
             records[i] = ParamRecord(r.group, r.locked, r.name, r.description, r.type, r.dims,
                                      data)
 
