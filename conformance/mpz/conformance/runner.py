@@ -1063,7 +1063,8 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 write_atomic(args.results, text.encode("utf-8"), force=True)
         except MPZError as exc:
-            results_error = found(EXIT_USAGE) and str(exc)
+            found(EXIT_USAGE)
+            results_error = str(exc)
     for r in results:
         if r["passed"] and args.quiet:
             continue
