@@ -32,7 +32,9 @@ FORMATS = ("c3d", "trc", "npy", "csv", "bvh", "amc")
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("decode", help="decompress .mpz to C3D, TRC, BVH, AMC, NPY or CSV",
                        description="Decode MPZ files. NPY output is float64 [frames, markers, 3] "
-                       "in the input's marker order and units, NaN for gaps.")
+                       "in the input's marker order and units, NaN for gaps; for a file "
+                       "with a skeleton (BVH, AMC), the joint positions its channels give "
+                       "(spec §6.10), not the marker layer that mpz.decode returns.")
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help=".mpz files, folders (with -r), or - for standard input")
     p.add_argument("-o", "--output", help="OUT.c3d, OUT.trc, OUT.bvh, OUT.amc (with its ASF; "
