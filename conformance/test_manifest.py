@@ -252,3 +252,40 @@ def test_c3d_archive_digests_match_the_public_api():
         assert (models.view("<u8")[gaps] == 0x7FF8000000000000).all()
         h.update(np.ascontiguousarray(models).tobytes())
         assert h.hexdigest() == feats["c3d_archive_sha256"], v["name"]
+
+
+#: The SHA-256 of the C3D file that an independent writer, written from spec §6.9 alone
+#: (a clean-room review of stop 53, its own decoder and range coder, no mpz code), made of
+#: each C3D vector: expected values that do not come from the code under test.
+INDEPENDENT_C3D_FILES = {
+    "v10-c3d-archive-float32":
+        "5be0e0c61151b3ac9427885bfa06a468ef9f9376e0aae02984d6392372408b23",
+    "u32-c3d-int16-exact-on-grid":
+        "fc91a2b9e4b25531519c2aa4ca9b158587faec0dbd8a23ec3a1b556339eb14f8",
+    "u33-c3d-no-analog-no-models":
+        "f4a2d3ed0cb279627823fa17c230e02d333b6da26493fe49e2293aa5ee7f0ac6",
+    "u41-c3d-stored-header-and-parameters":
+        "bffde36e04e54338abc769fd00019ed14db7d526a3ac08b50f6e0ecfe72f0d65",
+    "u42-c3d-header-counts-stale":
+        "c2e3d84bed9eb2d559a5bc33aea3b8611b4c026e6f896d7546bfd232ac1be0eb",
+    "u46-c3d-analog-shift-minus-128":
+        "6f6b2b9eb8497165a8a7360094c51a69436ca2e010d028af6ce52dcc9b6ea6f8",
+}
+
+
+def test_c3d_file_digests_are_an_independent_writers_and_the_references():
+    """Nothing pinned the bytes of the C3D that §6.9 writes (a clean-room review of stop 53):
+    ``features.c3d_file_sha256`` of every C3D vector is the digest of an independent
+    writer's file, and ``mpz.io.write_c3d`` of the decoded vector writes those bytes."""
+    import hashlib
+
+    from mpz.io.c3d import archive_bytes
+    with_file = {Path(v["file"]).stem: v for v in DECODABLE
+                 if "c3d_file_sha256" in v["features"]}
+    assert set(with_file) == set(INDEPENDENT_C3D_FILES)
+    assert set(with_file) == {Path(v["file"]).stem for v in DECODABLE
+                              if "c3d_archive_sha256" in v["features"]}
+    for stem, v in with_file.items():
+        assert v["features"]["c3d_file_sha256"] == INDEPENDENT_C3D_FILES[stem], stem
+        written = archive_bytes(mpz.decode(VDIR / v["file"]))
+        assert hashlib.sha256(written).hexdigest() == INDEPENDENT_C3D_FILES[stem], stem

@@ -25,7 +25,7 @@ import pytest
 import mpz
 from mpz.c3darchive import C3DArchive
 from mpz.encoder import EncodeOptions, encode_motion
-from mpz.errors import EncoderError
+from mpz.errors import EncoderError, InputFormatError
 from mpz.io import c3dbin, read, write
 from mpz.synth import generate
 
@@ -311,6 +311,34 @@ def test_a_written_float_c3d_keeps_the_bound(tmp_path_factory, seed, offset, E):
         assert (err <= bound).all(), (err.max(axis=0), bound)
 
 
+@pytest.mark.parametrize("after,ok", [(65533, True), (65534, False)])
+def test_the_next_record_offset_counts_its_own_two_bytes(after, ok):
+    """Spec §6.9: the offset is 2 + the record's bytes after the offset field, at most 65535,
+    so 65533 bytes after the field are written and 65534 refused (the text said 65535
+    could be pointed past: a clean-room review of stop 53). The record: type, ndims, dims
+    (6, 67, 163), 65526 data bytes, the description's length and its bytes."""
+    import struct
+
+    from mpz.errors import MPZError
+    from mpz.io.c3d import archive_bytes
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(4, storage=1, F=6, M=3, J=0, C=0, n=1)
+    a = m.extras["c3d"]
+    gid = next(-r.group for r in a.records if r.group < 0)
+    desc = b"d" * (after - (1 + 1 + 3 + 65526 + 1))
+    big = c3dbin.ParamRecord(gid, False, b"BIG", desc, 1, (6, 67, 163), bytes(65526))
+    first_param = next(i for i, r in enumerate(a.records) if r.group > 0)
+    a.records.insert(first_param, big)
+    if not ok:
+        with pytest.raises(MPZError, match=r"next-record offset of 65536"):
+            archive_bytes(m)
+        return
+    raw = archive_bytes(m)
+    at = raw.index(b"\x03" + bytes([gid]) + b"BIG")
+    assert struct.unpack_from("<H", raw, at + 5) == (65535,)
+    assert raw[at + 7 + 65533 - 1 - len(desc): at + 7 + 65533] == bytes([len(desc)]) + desc
+
+
 def archive_source(m: mpz.Motion) -> bytes:
     """The C3D bytes of a synthetic motion as its source would hold them."""
     from mpz.io.c3d import archive_bytes
@@ -386,11 +414,11 @@ def _example_c3d(tmp_path: Path) -> mpz.Motion:
 
 @pytest.mark.parametrize("edit, said", [
     (lambda m: replace(m, positions=m.positions / 1000.0, units="m"),
-     "the units are 'm' in the motion, 'mm' in POINT:UNITS"),
+     "the units are 'm' in the motion, 'mm' in the file it was read from"),
     (lambda m: replace(m, names=[f"S1:{n}" for n in m.names]),
-     "marker 0 is 'S1:LFHD' in the motion, 'LFHD' in POINT:LABELS"),
+     "marker 0 is 'S1:LFHD' in the motion, 'LFHD' in the file it was read from"),
     (lambda m: replace(m, rate=60.0),
-     "the rate is 60.0 Hz in the motion, 120.0 in POINT:RATE"),
+     "the rate is 60.0 Hz in the motion, 120.0 in the file it was read from"),
 ])
 def test_an_archive_that_contradicts_its_motion_is_refused(tmp_path, edit, said):
     """A motion read from a C3D and then converted to metres, renamed or given another rate
@@ -447,41 +475,73 @@ def test_record_params_are_the_parsed_parameters(shared_data):
                                                             equal_nan=True), (path.name, g, k)
 
 
-def test_a_marker_layer_the_archive_no_longer_describes_decodes_to_a_plain_c3d(tmp_path):
+def _edited_mpz(data: bytes, edit) -> bytes:
+    """``data`` with each chunk's payload passed through ``edit(type, payload)``, framed
+    again (spec §3.2, §3.3: length, type, payload, CRC)."""
+    from mpz import container
+    out = b"\x89MPZ\r\n\x1a\n"
+    for c in container.scan(data).chunks:
+        out += container.build_chunk(c.type, edit(c.type, c.payload))
+    return out
+
+
+def test_a_marker_layer_named_otherwise_than_its_archive_decodes_to_the_archive_c3d(tmp_path):
     """A valid file whose MNAM names a marker otherwise than the archive's POINT:LABELS (no
-    rule of §4.13 ties them) could not be written to C3D by the command line at all: the
-    writer refused it, exit 2, without offset or § (a fuzzing QA run of stop 48). `mpz
-    decode` now writes the markers alone with a warning naming what is left out (exit 1);
-    the file is edited here chunk by chunk (spec §3.2, §3.3)."""
+    rule of §4.13 ties them) was written by `mpz decode` as a C3D of the markers alone,
+    without the archive's parameters, analog data and header, and `write_c3d` refused it
+    (a clean-room C3D writer of stop 53 wrote the archive, as §6.9 says). Now both write the
+    archive: the same bytes as the file before the edit, whose C3D only MNAM differs from."""
     import subprocess
     import sys
 
-    import ezc3d
-
-    from mpz import container
     from mpz.chunks import Mnam
-    write(generate("walk", frames=20, markers=4, seed=3), tmp_path / "a.c3d")
-    data = mpz.encode(read(tmp_path / "a.c3d"), max_error=1.0)
-    res = container.scan(data)
-    out = b"\x89MPZ\r\n\x1a\n"
-    for c in res.chunks:
-        payload = c.payload
-        if c.type == "MNAM":
-            rec = Mnam.load(payload)
-            names = list(rec.names)
-            names[0] += "X"
-            payload = Mnam(count=rec.count, names=tuple(names)).dump()
-        out += container.build_chunk(c.type, payload)
-    (tmp_path / "r.mpz").write_bytes(out)
-    assert mpz.decode(out).names[0].endswith("X")             # valid
-    p = subprocess.run([str(Path(sys.executable).parent / "mpz"), "decode", "r.mpz", "-o",
-                        "r.c3d"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
-    assert p.returncode == 1, p.stderr
-    assert "the C3D archive no longer describes the motion: marker 0 is" in p.stderr
-    assert "written as a C3D of the markers alone, without" in p.stderr
-    c = ezc3d.c3d(str(tmp_path / "r.c3d"))
-    labels = [s.strip() for s in c["parameters"]["POINT"]["LABELS"]["value"]]
-    assert labels[0].endswith("X") and len(labels) == 4
+
+    def renamed(ctype: str, payload: bytes) -> bytes:
+        if ctype != "MNAM":
+            return payload
+        rec = Mnam.load(payload)
+        names = list(rec.names)
+        names[0] += "X"
+        return Mnam(count=rec.count, names=tuple(names)).dump()
+
+    write(generate("walk", frames=20, markers=4, seed=3), tmp_path / "src.c3d")
+    data = mpz.encode(read(tmp_path / "src.c3d"), max_error=1.0)
+    (tmp_path / "a.mpz").write_bytes(data)
+    edited = _edited_mpz(data, renamed)
+    (tmp_path / "r.mpz").write_bytes(edited)
+    back = mpz.decode(edited)
+    assert back.names[0].endswith("X")                         # valid
+    mpz_cmd = str(Path(sys.executable).parent / "mpz")
+    for name in ("a", "r"):
+        p = subprocess.run([mpz_cmd, "decode", f"{name}.mpz", "-o", f"{name}.c3d"],
+                           cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0, p.stderr
+    assert (tmp_path / "r.c3d").read_bytes() == (tmp_path / "a.c3d").read_bytes()
+    write(back, tmp_path / "api.c3d")
+    assert (tmp_path / "api.c3d").read_bytes() == (tmp_path / "a.c3d").read_bytes()
+    # re-encoding the decoded motion keeps it as it is, and a rename after that is refused
+    assert mpz.decode(mpz.encode(back, max_error=1.0)).names == back.names
+    import re
+    with pytest.raises(InputFormatError, match=re.escape(f"'AX' in the motion, "
+                                                         f"{back.names[0]!r} in the file")):
+        write(replace(back, names=["AX"] + back.names[1:]), tmp_path / "no.c3d")
+
+
+def test_a_point_rate_stored_as_text_is_written_back(tmp_path):
+    """A POINT:RATE stored as text ("50Hz") stopped the writer and the encoder ("POINT:RATE
+    holds the text '50Hz', not a number", exit 2) where §6.9 writes every record as stored:
+    they compared the parameter with the motion's rate (a clean-room review of stop 53)."""
+    m = _example_c3d(tmp_path)
+    a = m.extras["c3d"]
+    at = c3dbin.named(a.records, b"POINT", b"RATE")[0]
+    r = a.records[at]
+    a.records[at] = c3dbin.ParamRecord(r.group, r.locked, r.name, r.description, -1, (4,),
+                                       b"50Hz")
+    write(m, tmp_path / "text_rate.c3d")
+    back = mpz.decode(mpz.encode(m, max_error=1.0))
+    assert back.extras["c3d"].parameter("POINT", "RATE").data == b"50Hz"
+    write(back, tmp_path / "back.c3d")
+    assert b"50Hz" in (tmp_path / "back.c3d").read_bytes()
 
 
 def test_motions_holding_a_c3d_archive_are_not_joined(tmp_path):

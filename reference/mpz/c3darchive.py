@@ -84,6 +84,11 @@ class C3DArchive:
         decoding (None before encoding).
     analog : ndarray, shape (frames * analog_samples, channels)
         The analog words in file order, int16 or float32 values (``analog_storage``).
+    layer : (names, units, rate) or None
+        The marker names, units and rate of the motion the archive was read or decoded
+        with: writing and encoding refuse a motion described otherwise since (renamed,
+        converted, another rate), whose archive would contradict it. None for an archive
+        made by hand, whose POINT parameters are compared instead.
     """
 
     processor: int
@@ -100,6 +105,11 @@ class C3DArchive:
     analog_storage: int
     model_bounds: NDArray[np.float64] | None = None
     notes: list[str] = field(default_factory=list)
+    #: the marker names, units and rate of the motion the archive was read or decoded with,
+    #: which writing and encoding compare with the motion's (:func:`described_otherwise`);
+    #: None for an archive made by hand, whose POINT parameters are compared instead
+    layer: tuple[tuple[str, ...], str, float] | None = field(default=None, compare=False,
+                                                              repr=False)
 
     @property
     def frames(self) -> int:
@@ -429,29 +439,38 @@ def check_matches(a: C3DArchive, motion: Motion) -> None:
 
 
 def described_otherwise(a: C3DArchive, motion: Motion) -> str:
-    """How the archive's parameters describe ``motion``'s markers otherwise (names, units,
-    rate), '' when they agree; EncoderError for an archive of other frames or markers,
-    which cannot be kept at all (:func:`check_matches`)."""
+    """How ``motion``'s markers are described otherwise (names, units, rate) than when the
+    archive was read or decoded (``a.layer``), or, for an archive made by hand, than its
+    POINT parameters give them; '' when they agree. EncoderError for an archive of other
+    frames or markers, which cannot be kept at all (:func:`check_matches`).
+
+    A decoded file is compared with itself, not with its POINT parameters: spec §6.9
+    writes those as stored even where they name the markers otherwise than MNAM does
+    (nothing ties them), and the command line wrote such a valid file as markers alone
+    (a clean-room review of stop 53)."""
     F, M = motion.n_frames, motion.n_markers
     P = len(a.slots)
     J = a.models.shape[1]
     if a.frames != F or P != M + J or sorted(a.slots) != list(range(P)):
         raise EncoderError(f"the C3D archive describes {a.frames} frames and {P - J} markers, "
                            f"the motion has {F} frames and {M} markers; it cannot be kept")
-    from mpz.io.c3d import archive_describes
-    names, units, rate = archive_describes(a, M)
+    if a.layer is not None:
+        names, units, rate = list(a.layer[0]), a.layer[1], a.layer[2]
+        where = ("in the file it was read from",) * 3
+    else:
+        from mpz.io.c3d import archive_describes
+        names, units, rate = archive_describes(a, M)
+        where = ("in POINT:LABELS", "in POINT:UNITS", "in POINT:RATE")
     differ = []
     if list(motion.names) != names:
         i = next(i for i, (x, y) in enumerate(zip(motion.names, names, strict=True))
                  if x != y)
-        differ.append(f"marker {i} is {motion.names[i]!r} in the motion, {names[i]!r} in "
-                      "POINT:LABELS")
+        differ.append(f"marker {i} is {motion.names[i]!r} in the motion, {names[i]!r} "
+                      f"{where[0]}")
     if units and motion.units != units:
-        differ.append(f"the units are {motion.units!r} in the motion, {units!r} in "
-                      "POINT:UNITS")
+        differ.append(f"the units are {motion.units!r} in the motion, {units!r} {where[1]}")
     if np.float32(motion.rate) != np.float32(rate):
-        differ.append(f"the rate is {motion.rate!r} Hz in the motion, {rate!r} in "
-                      "POINT:RATE")
+        differ.append(f"the rate is {motion.rate!r} Hz in the motion, {rate!r} {where[2]}")
     return "; ".join(differ)
 
 
@@ -483,7 +502,7 @@ def archive_from_records(records: Mapping[str, list[Record]], motion: Motion) ->
                       np.float64).reshape(-1, 3)
     return C3DArchive(hdr.processor, hdr.block, params, list(pnt.slots), pd.words, pnt.storage,
                       pd.models, pd.valid, [m.kind for m in pnt.models], analog, samples,
-                      astore, bounds)
+                      astore, bounds, layer=(tuple(motion.names), motion.units, motion.rate))
 
 
 class C3DExtension:

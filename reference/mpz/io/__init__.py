@@ -539,10 +539,10 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append(f"C3D stores the rate as float32: {rate!r} Hz reads back as {r32!r}")
         archive = motion.extras.get("c3d")
         from mpz.c3darchive import C3DArchive
-        from mpz.io.c3d import archive_describes
+        from mpz.io.c3d import archive_units
         # an archive that contradicts the motion is refused by its writer (archive_bytes)
         if isinstance(archive, C3DArchive):
-            if motion.units and archive_describes(archive, motion.n_markers)[1] == "":
+            if motion.units and archive_units(archive) == "":
                 notes.append(f"the source's POINT:UNITS names no unit C3D readers know, and "
                              f"is written as stored: the file does not say {motion.units!r}")
         long = c3dbin.long_offsets(list(getattr(archive, "records", [])))

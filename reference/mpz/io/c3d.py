@@ -361,7 +361,7 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
     storage = 1 if d.float_storage else 0
     archive = C3DArchive(d.processor, d.header_block, list(d.records), slots, d.point_words,
                          storage, vals, ok, [int(kinds[p] or 0) for p in model], d.analog,
-                         d.analog_samples, storage)
+                         d.analog_samples, storage, layer=(tuple(names), full.units, full.rate))
     scales = _point_scales(archive)
     if len(set(scales)) > 1:
         # the readers take the last, spec §6.9's writer the first (a C3D QA run of stop 52)
@@ -392,11 +392,18 @@ def archive_describes(a: C3DArchive, markers: int) -> tuple[list[str], str, floa
     labels = point_labels(point, P)
     order = sorted((s, p) for p, s in enumerate(a.slots) if s < markers)
     names, _ = unique_names([labels[p] for _, p in order])
-    units = _UNITS.get((_text(point, "UNITS", []) or [""])[0].strip().lower(), "")
+    units = archive_units(a)
     with np.errstate(invalid="ignore"):
         header_rate = float(np.frombuffer(a.header, "<f4", 1, 20)[0])
     rate = c3dbin.param_number(params, "POINT", "RATE", header_rate)
     return names, units, rate
+
+
+def archive_units(a: C3DArchive) -> str:
+    """The units the C3D of archive ``a`` gives its markers when read: POINT:UNITS, if it
+    names one of mm, cm and m (without case and spaces around it), else ''."""
+    point = c3dbin.record_params(a.records).get("POINT", {})
+    return _UNITS.get((_text(point, "UNITS", []) or [""])[0].strip().lower(), "")
 
 
 #: What ezc3d allocates to read a C3D, per byte of its data section, as an upper bound:

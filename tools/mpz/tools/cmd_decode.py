@@ -13,14 +13,13 @@ what a format drops (NPY: names, rate, units) is said on stderr.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import sys
 import tempfile
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError, MPZError
-from mpz.tools._cli import EXIT_OK, EXIT_WARN, found, printable
+from mpz.tools._cli import EXIT_OK, found, printable
 
 if TYPE_CHECKING:
     from mpz.motion import Motion
@@ -190,8 +189,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         if ext in (".npy", ".c3d") and not args.force and sys.stdout.isatty():
             raise EncoderError("refusing to write binary data to a terminal; redirect "
                                "standard output, or use -f", path=STDIO)
-    motion, warned = _without_a_stale_archive(motion, ext, job.output)
-    found(EXIT_WARN if warned else EXIT_OK)     # before -o - writes to standard output
+    found(EXIT_OK)                              # before -o - writes to standard output
     notes = check_writable(motion, ext, path=job.output, bound=bound)
     if skipped:
         many = len(skipped) != 1
@@ -246,31 +244,7 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
         if args.verbose:
             for k, v in motion.metadata.items():
                 print(f"  {printable(k)}: {printable(v)}", file=out)
-    return EXIT_WARN if warned else EXIT_OK
-
-
-def _without_a_stale_archive(motion: Motion, ext: str, output: str) -> tuple[Motion, bool]:
-    """For a C3D output: ``motion`` without its C3D archive when the archive no longer
-    describes the marker layer (another name, unit or rate: a valid file, since no rule
-    of spec §4.13 ties MNAM or MHDR to cprm), with a warning that says what is not
-    written; (motion, False) otherwise. The writer refused such a file, and the command
-    line had no way to write it to C3D at all (a fuzzing QA run of stop 48)."""
-    from mpz.c3darchive import C3DArchive, described_otherwise
-    a = motion.extras.get("c3d")
-    if ext != ".c3d" or not isinstance(a, C3DArchive):
-        return motion, False
-    try:
-        differ = described_otherwise(a, motion)
-    except EncoderError as exc:                 # other frames or markers: kept out too
-        differ = str(exc)
-    if not differ:
-        return motion, False
-    # printed with -q too: a warning is no success (it exits 1)
-    print(f"mpz decode: warning: {printable(output)}: the C3D archive no longer describes "
-          f"the motion: {printable(differ)}: written as a C3D of the markers alone, "
-          f"without {printable(a.describe())}", file=sys.stderr)
-    return dataclasses.replace(motion, extras={k: v for k, v in motion.extras.items()
-                                               if k != "c3d"}), True
+    return EXIT_OK
 
 
 def _read_mpz(path: str, max_samples: int | None

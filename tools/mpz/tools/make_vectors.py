@@ -2246,9 +2246,13 @@ def _summary_features(s) -> dict:
 
 
 def _c3d_features(data):
-    """What the archive decodes to, for implementers: sha256 of the words and model values."""
+    """What the archive decodes to, for implementers: sha256 of the words and model values,
+    and of the C3D file that spec §6.9's writer makes of it."""
     import hashlib
-    a = mpz.decode(data).extras["c3d"]
+
+    from mpz.io.c3d import archive_bytes
+    m = mpz.decode(data)
+    a = m.extras["c3d"]
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(a.words).tobytes())
     h.update(np.ascontiguousarray(a.analog).tobytes())
@@ -2258,7 +2262,8 @@ def _c3d_features(data):
             "c3d_archive_sha256": h.hexdigest(),
             "c3d_archive_digest_rule": "sha256 of the words [F, P] (int16 or float32 LE), the "
                                        "analog words [F n, C] and the model values [F, J, 3] "
-                                       "(float64 LE, NaN at gaps)"}
+                                       "(float64 LE, NaN at gaps)",
+            "c3d_file_sha256": hashlib.sha256(archive_bytes(m)).hexdigest()}
 
 
 def _add_invalid(vs: VectorSet, slug: str, data: bytes, description: str, corruption: str,
