@@ -835,3 +835,20 @@ def test_compare_says_marker_without_plot_changes_nothing(tmp_path, capsys):
                        "--marker", "NOPE")
     assert code == 0, err
     assert "--marker chooses the markers of --plot, which was not asked for" in err
+
+
+def test_compare_plots_an_original_of_gaps_alone(tmp_path, capsys):
+    """No marker of an all-gap original has an error, so the three worst were none and the
+    figure had no panel: matplotlib's ValueError, exit 70 (a QA run of stop 53). The first
+    three markers are drawn."""
+    pytest.importorskip("matplotlib")
+    m = Motion(np.full((60, 4, 3), np.nan), ["A", "B", "C", "D"], 120.0, "mm")
+    write(m, tmp_path / "g.trc")
+    code, out, err = cli(capsys, "compare", str(tmp_path / "g.trc"), str(tmp_path / "g.trc"),
+                         "--plot", str(tmp_path / "g.png"))
+    assert code == 0, err
+    png = (tmp_path / "g.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    import matplotlib.image
+    height = matplotlib.image.imread(str(tmp_path / "g.png")).shape[0]
+    assert height > 110 * 6, height             # three panels of 2 inches at 110 dpi

@@ -336,7 +336,9 @@ def run(args: argparse.Namespace) -> int:
         check is not None and check["beyond"])
     code = found(2 if gaps_lost or gaps_added or differs else 0)   # before the report
     if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
-        plot_names = args.marker or [n for _, n in worst[:3]]
+        # the three worst; the first three when no marker has an error (an original of
+        # gaps alone made a figure of no panel: exit 70, a QA run of stop 53)
+        plot_names = args.marker or [n for _, n in worst[:3]] or list(a.names[:3])
         bound = (bound_given if bound_given is not None
                  else _declared_bound(args.decoded, units)
                  or _declared_bound(args.original, units))
