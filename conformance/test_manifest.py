@@ -289,3 +289,11 @@ def test_c3d_file_digests_are_an_independent_writers_and_the_references():
         assert v["features"]["c3d_file_sha256"] == INDEPENDENT_C3D_FILES[stem], stem
         written = archive_bytes(mpz.decode(VDIR / v["file"]))
         assert hashlib.sha256(written).hexdigest() == INDEPENDENT_C3D_FILES[stem], stem
+
+
+def test_a_manifest_nested_too_deeply_is_a_manifest_error(tmp_path):
+    """A manifest of 100,000 nested brackets raised RecursionError through the runner's
+    report of a bad manifest (a QA run of stop 53)."""
+    (tmp_path / "manifest.json").write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(mf.ManifestError, match="nested too deeply"):
+        mf.load(tmp_path)

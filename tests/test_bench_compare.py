@@ -33,6 +33,17 @@ def test_cli_exit_codes(tmp_path, capsys):
     assert mpz_cli.main(["bench", "--compare", str(old), str(tmp_path / "bad.json")]) == 2
 
 
+def test_cli_refuses_json_nested_too_deeply(tmp_path, capsys):
+    """100,000 nested brackets raised RecursionError: exit 70 where an unreadable result
+    file is exit 2 (a QA run of stop 53)."""
+    deep = tmp_path / "deep.json"
+    deep.write_text('{"schema": 1, "rows": ' + "[" * 100_000 + "]" * 100_000 + "}")
+    ok = tmp_path / "ok.json"
+    ok.write_text(json.dumps({"schema": 1, "rows": list(rows().values())}))
+    assert mpz_cli.main(["bench", "--compare", str(deep), str(ok)]) == 2
+    assert "JSON nested too deeply" in capsys.readouterr().err
+
+
 def test_cli_refuses_malformed_rows_and_figures_that_would_pass_every_check(tmp_path, capsys):
     """QA, stop 33: valid JSON of the wrong shape gave tracebacks (exit 1, "regressions");
     a NaN figure or a NaN / inf tolerance made every check false: '0 regression(s)', exit

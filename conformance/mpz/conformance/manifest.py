@@ -278,6 +278,8 @@ def load(directory=None) -> dict:
         man = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ManifestError(f"{path}: not JSON: {exc}") from None
+    except RecursionError:          # 100,000 nested brackets
+        raise ManifestError(f"{path}: not JSON this runner reads: nested too deeply") from None
     return validate(man)
 
 

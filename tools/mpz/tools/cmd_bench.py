@@ -134,6 +134,9 @@ def _load(path):
                           path=where) from None
     except ValueError as exc:          # JSON, UTF-8, or a NaN / Infinity token
         raise FormatError(f"cannot read benchmark results: {exc}", path=where) from None
+    except RecursionError:             # 100,000 nested brackets: exit 70 (a QA run)
+        raise FormatError("cannot read benchmark results: JSON nested too deeply",
+                          path=where) from None
     if (not isinstance(doc, dict) or doc.get("schema") != 1
             or not isinstance(doc.get("rows"), list)):
         raise FormatError("not a bench_rd.py result (schema 1 with rows)", path=where)
