@@ -218,6 +218,26 @@ def test_bad_output_paths_fail_first_in_one_line(small: tuple[Path, Path],
     assert os.listdir(tmp_path / "folder") == []
 
 
+def test_a_file_encoded_from_standard_input_decodes_to_its_format(small: tuple[Path, Path],
+                                                                   tmp_path: Path) -> None:
+    """Standard input has no name, so the file records no ``source``: `mpz decode F.mpz`
+    and `-o -` failed with "cannot name the decoded output", where the reader's recorded
+    ``format`` says TRC (docs/cli.md: the default is the format the file was encoded
+    from; a QA run of stop 53)."""
+    trc, _ = small
+    with open(trc, "rb") as fh:
+        p = subprocess.run([command("mpz"), "encode", "-", "-o", "s.mpz", "-q"], cwd=tmp_path,
+                           stdin=fh, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "source" not in mpz.info(tmp_path / "s.mpz").metadata
+    p = run(["mpz", "decode", "s.mpz", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    back = read(tmp_path / "s.trc")
+    assert back.n_frames == 60 and back.names == read(trc).names
+    p = run(["mpz", "decode", "s.mpz", "-o", "-"], tmp_path)
+    assert p.returncode == 0 and p.stdout.startswith("PathFileType"), p.stderr
+
+
 @pytest.mark.skipif(not os.path.exists(os.devnull) or os.name != "posix",
                     reason="needs a null device that is a character device")
 def test_the_null_device_takes_a_whole_output_and_drops_it(small: tuple[Path, Path],

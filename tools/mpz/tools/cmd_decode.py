@@ -64,12 +64,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _source_ext(meta: dict[str, str] | object) -> str | None:
-    """The writable extension of the file the MPZ was encoded from, if recorded."""
+    """The writable extension of the file the MPZ was encoded from, if recorded: its name's
+    (``source``), else the format its reader recorded (``format``: a file encoded from
+    standard input has no name, and could not be decoded without -o or --format, a QA run
+    of stop 53)."""
     from mpz.io import WRITERS
     from mpz.io._common import ext_of
-    src = meta.get("source") if isinstance(meta, dict) else None
-    ext = ext_of(src) if src else ""
-    return ext if ext in WRITERS else None
+    if not isinstance(meta, dict):
+        return None
+    src = meta.get("source")
+    for ext in (ext_of(src) if src else "", "." + str(meta.get("format", "")).lower()):
+        if ext in WRITERS:
+            return ext
+    return None
 
 
 def _name_for(args: argparse.Namespace, path: str) -> str | None:
