@@ -404,3 +404,19 @@ def test_one_file_and_one_moved_source_are_said_in_the_singular(tmp_path, capsys
     code, o, err = search(capsys, str(query), "--index", str(out))
     assert code == 0 and f"\n1 file in {out / INDEX_NAME};" in o, o
     assert "note: 1 of the sources listed is no longer at the path the index holds" in err
+
+
+def test_a_finer_level_beside_the_index_levels_leaves_the_descriptor_as_it_is():
+    """An .mpz query whose summary chunk holds a level finer than the index's (--summary
+    6,12,24,48,96) was described from that level: amplitude and speed of 96 segments
+    against rows of 48, so its own source moved from 0.004 to 0.17 away, and to 1.08
+    with 580 (a QA run of stop 53). The features come from the finest of the index's."""
+    from mpz.similarity import descriptor, summarize
+    from mpz.synth import generate
+    m = generate("walk", frames=400, seed=5)
+    index = (6, 12, 24, 48)
+    plain = descriptor(summarize(m, index), index)
+    for extra in ((96,), (96, 200)):
+        finer = summarize(m, index + extra)
+        assert np.array_equal(descriptor(finer, index), plain), extra
+        assert not np.array_equal(descriptor(finer, index + extra), plain)

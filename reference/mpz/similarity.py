@@ -258,7 +258,10 @@ def descriptor(s: MotionSummary, levels: Sequence[int] = SUMMARY_LEVELS) -> NDAr
 
     ``ev_k`` is taken from the stored level nearest to ``k`` (a short motion stores fewer
     segments than asked), the smaller of two equally near. The other features use the
-    finest level. The speed has a floor of :data:`MIN_SPEED` before its log.
+    finest level of at most ``max(levels)`` segments, the coarsest stored when none is
+    that coarse: a finer level, which an .mpz query's summary chunk may hold beside the
+    index's, measures another amplitude and speed (its own source ranked past 1.0 away,
+    a QA run of stop 53). The speed has a floor of :data:`MIN_SPEED` before its log.
 
     Raises
     ------
@@ -281,7 +284,9 @@ def descriptor(s: MotionSummary, levels: Sequence[int] = SUMMARY_LEVELS) -> NDAr
             math.isfinite(lv.wssse) and np.all(np.isfinite(lv.means)) for lv in s.levels):
         raise EncoderError("the summary holds values that are not finite (or a rate that "
                            "is not above 0)")
-    fine = max(s.levels, key=lambda lv: lv.k)
+    top = max(levels, default=0)
+    fine = max((lv for lv in s.levels if lv.k <= top), key=lambda lv: lv.k,
+               default=min(s.levels, key=lambda lv: lv.k))
     n = np.diff(np.append(fine.starts, F)).astype(np.float64)
     mu = fine.means.astype(np.float64)
     # markers that are zero in every segment were gaps throughout: not part of the body
