@@ -321,7 +321,9 @@ def test_failure_kind_unit():
 
     assert kind(0) is None and kind(2, "FormatError: bad") is None and kind(1) is None
     assert kind(-11, sig="SIGSEGV") == "crash" and kind(139) == "crash" and kind(134) == "crash"
-    assert kind(130) is None                                  # 128 + SIGINT: not a crash
+    # spec §7.3: a rejection is 1 to 125; 128 + SIGINT is a child killed from outside, and
+    # 200 a status no rejection has
+    assert kind(125) is None and kind(130) == "crash" and kind(200) == "error"
     assert kind(1, "Traceback ...\nMemoryError") == "memory"
     assert kind(1, "terminate called after throwing an instance of 'std::bad_alloc'") == "memory"
     assert kind(2, "error: out of memory") == "memory"

@@ -409,6 +409,40 @@ def test_a_shells_report_of_any_fatal_signal_is_a_crash(tmp_path, code):
     assert r["actual"] == "crash" and not r["passed"], r
 
 
+@pytest.mark.parametrize("code, actual", [(130, "crash"), (141, "crash"), (143, "crash"),
+                                          (200, "error"), (255, "error")])
+def test_exit_statuses_above_125_are_no_rejection(tmp_path, code, actual):
+    """Spec §7.3: a rejection is an exit status from 1 to 125. 128 + SIGTERM, SIGINT or
+    SIGPIPE and statuses such as 200 or 255 passed as "rejected (exit 143)" (a QA run of
+    stop 53); only the fatal signals' 128 + N were counted as crashes."""
+    dec = script(tmp_path / "dec.sh", f"#!/bin/sh\nexit {code}\n")
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    r = doc["results"][0]
+    assert r["actual"] == actual and not r["passed"], r
+    assert "not a rejection" in r["message"] and "§7.3" in r["message"], r
+    dec = script(tmp_path / "ok.sh", "#!/bin/sh\nexit 125\n")
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    assert doc["results"][0]["passed"], doc["results"][0]
+
+
+def test_a_command_selected_for_invalid_vectors_alone_must_decode_one(tmp_path):
+    """With only invalid vectors selected, a command that never starts (python -m of no
+    module) "rejected" every one: "319/319 passed", exit 0 (a QA run of stop 53). The
+    runner decodes one valid vector as well, not counted, and fails when it cannot."""
+    proc, doc = run(tmp_path, "--decoder", f"{PY} -m no_such_decoder_module", "--only", BAD)
+    assert proc.returncode == 1, proc.stderr
+    assert doc["totals"] == {"total": 1, "passed": 1, "failed": 0, "groups": doc["totals"][
+        "groups"]}
+    assert not doc["probe"]["passed"] and "its rejections prove nothing" in proc.stderr
+    proc, doc = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only",
+                    BAD)
+    assert proc.returncode == 0 and doc["probe"]["passed"], proc.stderr
+    assert "run as a check that it decodes at all (not counted)" in proc.stdout
+    proc, doc = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only",
+                    BAD, ONE)
+    assert proc.returncode == 0 and "probe" not in doc
+
+
 def test_a_command_that_decodes_nothing_is_warned_of(tmp_path):
     """`python3 -m mydec` finds no module from the temporary directory: it exits 1 on
     every vector, and every invalid one passed as rejected, without a word."""
@@ -561,8 +595,9 @@ import resource
 open({str(seen)!r}, "w").write(str(resource.getrlimit(resource.RLIMIT_FSIZE)[0]))
 sys.exit(2)
 ''')
-    proc, _ = run(tmp_path, "--decoder", str(dec), "--only", BAD)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    assert doc["results"][0]["passed"], proc.stdout + proc.stderr      # rejected (exit 2);
+    assert proc.returncode == 1 and not doc["probe"]["passed"]       # it decodes nothing
     assert int(seen.read_text()) == 4 << 30
     proc = subprocess.run([PY, "-m", "mpz.conformance.runner", "--encoder", str(dec),
                            "--array-only"], capture_output=True, text=True, timeout=120,

@@ -269,6 +269,13 @@ SMALL_MEMORY_MB = 64
 SHELL_CRASH_CODES = {128 + int(getattr(signal, n)): n for n in (
     "SIGQUIT", "SIGILL", "SIGTRAP", "SIGABRT", "SIGBUS", "SIGFPE", "SIGKILL", "SIGSEGV",
     "SIGXCPU", "SIGXFSZ", "SIGSYS") if hasattr(signal, n)}
+#: every other 128 + N: a shell's report of a child killed by signal N (SIGTERM 143, SIGINT
+#: 130, SIGPIPE 141 ...), which spec §7.3 does not count as a rejection either; they passed
+#: as "rejected (exit 143)" (a QA run of stop 53)
+SHELL_SIGNAL_CODES = {128 + int(s): s.name for s in signal.Signals
+                      if 128 + int(s) not in SHELL_CRASH_CODES and 128 + int(s) <= 255}
+#: the exit statuses spec §7.3 takes as a rejection
+REJECTION_CODES = range(1, 126)
 #: a line, anywhere in the output, that only a runtime out of memory prints before its
 #: stack trace: C++'s std::bad_alloc, Rust's allocation failure, Go's fatal error, Java's
 #: OutOfMemoryError
@@ -317,6 +324,12 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
     if code in CANNOT_RUN_CODES:
         return "error", (f"exit {code}: a shell's code for a command {CANNOT_RUN_CODES[code]}, "
                          "not a rejection" + (f" ({lines[-1][:200]})" if lines else ""))
+    if code in SHELL_SIGNAL_CODES:
+        return "crash", (f"exit {code} = 128 + {SHELL_SIGNAL_CODES[code]}, a shell's report of "
+                         "a process killed by that signal, not a rejection (spec §7.3)")
+    if code != 0 and code not in REJECTION_CODES:
+        return "error", (f"exit {code}: not a rejection, which is an exit status from 1 to 125 "
+                         "(spec §7.3)" + (f" ({lines[-1][:200]})" if lines else ""))
     return None
 
 
@@ -1015,13 +1028,20 @@ def main(argv: list[str] | None = None) -> int:
     else:
         def job(ie):
             return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
+    # only vectors to reject: a command that never starts "rejects" every one, and nothing
+    # said so ("319/319 passed", exit 0: a QA run of stop 53). One valid vector more, not
+    # counted, shows whether it decodes at all.
+    probe = None
+    if mode == "decoder" and not any(plan[0]["expected"] == "decode" for plan in todo):
+        probe = _probe_plan(man, vdir, minor)
     pool = ThreadPoolExecutor(max_workers=args.jobs)
     try:
         # SIGTERM (a CI job's timeout) and SIGHUP raise SystemExit here, as Ctrl-C raises
         # KeyboardInterrupt: the decoders run in their own process groups, which no signal
         # to the runner reaches, and were left running (a QA of stop 42)
         with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
-            results = list(pool.map(job, todo))      # every vector runs before reporting
+            results = list(pool.map(job, todo + ([probe] if probe else [])))
+            probed = results.pop() if probe else None  # every vector runs before reporting
     except (KeyboardInterrupt, SystemExit) as exc:
         STOP.set()                  # the running commands are killed, no other one starts
         pool.shutdown(wait=True, cancel_futures=True)
@@ -1035,7 +1055,8 @@ def main(argv: list[str] | None = None) -> int:
     pool.shutdown()
 
     n_fail = sum(not r["passed"] for r in results)
-    found(EXIT_FAIL if n_fail else EXIT_OK)     # what a pipe closed in the report exits with
+    unproven = probed is not None and not probed["passed"]
+    found(EXIT_FAIL if n_fail or unproven else EXIT_OK)   # what a closed pipe exits with
     by_group: dict[str, dict[str, int]] = {}
     for r in results:
         g = by_group.setdefault(r["group"], {"passed": 0, "failed": 0})
@@ -1055,7 +1076,8 @@ def main(argv: list[str] | None = None) -> int:
                "totals": {"total": len(results), "passed": len(results) - n_fail,
                           "failed": n_fail, "groups": by_group},
                "failed": [r["name"] for r in results if not r["passed"]],
-               "results": results}
+               "results": results,
+               **({"probe": probed} if probed is not None else {})}
         text = json.dumps(_finite(doc), indent=1, allow_nan=False) + "\n"
         try:
             if stream:                    # /dev/stdout, a FIFO: not a file to replace
@@ -1083,10 +1105,31 @@ def main(argv: list[str] | None = None) -> int:
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else ""))
     _warn_if_nothing_decoded(results)
+    if probed is not None:
+        said = f"{probed['group']}/{probed['name']}"
+        if unproven:
+            print(f"mpz-conformance: error: only vectors to reject were selected, and the "
+                  f"command did not decode {said}, run as a check that it decodes at all "
+                  f"({printable(probed['message'])[:300]}): its rejections prove nothing",
+                  file=sys.stderr)
+        else:
+            print(f"note: only vectors to reject were selected; the command decoded {said}, "
+                  "run as a check that it decodes at all (not counted)")
     if results_error is not None:
         print(f"mpz-conformance: error: --results: {results_error}", file=sys.stderr)
         return EXIT_USAGE
-    return EXIT_FAIL if n_fail else EXIT_OK
+    return EXIT_FAIL if n_fail or unproven else EXIT_OK
+
+
+def _probe_plan(man: dict, vdir: Path, minor: int) -> tuple[dict, Any] | None:
+    """The first vector of the manifest that a decoder of 1.``minor`` must decode and whose
+    file matches the manifest, as :func:`run_decoder_vector` takes it; None if none."""
+    for v in mf.vectors(man, None):
+        plan = as_read_by(v, vdir, minor) if minor < VERSION_MINOR else (v, None)
+        if plan[0]["expected"] == "decode" and not mf.check_hashes(
+                {"vectors": [v], "encoder_inputs": []}, vdir):
+            return plan
+    return None
 
 
 if __name__ == "__main__":
