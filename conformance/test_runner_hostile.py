@@ -603,3 +603,36 @@ sys.exit(2)
                            "--array-only"], capture_output=True, text=True, timeout=120,
                           cwd=tmp_path)
     assert proc.returncode == 64 and "--array-only is for --decoder" in proc.stderr
+
+
+def test_a_rate_kept_as_binary32_fails_a_vector(tmp_path):
+    """Every decodable vector's rate was exact in binary32 and every encoder input at 120 Hz
+    with short ASCII names, so a decoder or encoder that kept the rate as a float32 (or cut
+    names) passed the whole suite (a QA run of stop 53): u47 (59.94 Hz) and e03 (59.94 Hz,
+    names of up to 64 bytes, a marker that is a gap throughout) catch them."""
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            import json
+            side = json.load(open(OUT + ".json"))
+            side["rate"] = float(np.float32(side["rate"]))
+            json.dump(side, open(OUT + ".json", "w"))
+        ''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", "u47-rate-59.94", ONE)
+    got = {r["name"]: r["passed"] for r in doc["results"]}
+    assert got == {"u47-rate-59.94": False, ONE: True}, proc.stdout
+    enc = python_script(tmp_path / "enc.py", '''
+import json
+from pathlib import Path
+import numpy as np
+import mpz
+src, dst, E = sys.argv[1], sys.argv[2], float(sys.argv[-1])
+side = json.loads(Path(src).with_suffix(".json").read_text(encoding="utf-8"))
+rate = float(np.float32(side["rate"]))
+mpz.write_mpz(mpz.Motion(np.load(src), side["names"], rate, side["units"]), dst, max_error=E)
+''')
+    proc, doc = run(tmp_path, "--encoder", str(enc), "--only", "e03-names-cm-59.94-gap-throughout",
+                    "e04-inches-23.976", "e05-no-units")
+    got = {r["name"]: r["passed"] for r in doc["results"]}
+    assert not got["e03-names-cm-59.94-gap-throughout@0.1"] and not got["e04-inches-23.976@0.05"]
+    assert got["e05-no-units@2"], doc["results"]            # 250 Hz is a binary32
+    assert any("rate" in r["message"] for r in doc["results"] if not r["passed"])

@@ -2070,8 +2070,9 @@ VECTOR_RULES = _rules(
     ("R-6.7-3", "value-beyond-bits gap-sample-beyond-bits"),
     ("R-6.7-4", "values-at-bits-limit root-values-k30"),
     ("R-6.8-2", "rate-65.0364227294921875 meta-nul names-compared-as-bytes "
-                "units-unknown-meta-smry"),
-    ("R-7.2-1 R-7.2-2", "walk-41-gaps mixed-10-metres"),
+                "units-unknown-meta-smry rate-59.94"),
+    ("R-7.2-1 R-7.2-2", "walk-41-gaps mixed-10-metres names-cm-59.94-gap-throughout "
+                        "inches-23.976 no-units"),
 )
 
 #: rules no small file can probe: the reason, and the unit test that covers the boundary
@@ -3890,6 +3891,39 @@ def range_gap_vectors(vs: VectorSet):
         "what the source held is not what comes back", "FormatError", ["§4.13.2"])
 
 
+def contract_gap_vectors(vs: VectorSet):
+    """What the decoder and encoder contracts keep (spec §6.8, §7.1 item 4, §7.2) and no file
+    could catch (a QA run of the runner, stop 53): every decodable vector's rate (120, 30,
+    100, 65.0364227294921875) is exact in binary32, so a decoder that reported the rate as
+    a float32 passed; the encoder inputs were at 120 Hz in mm and m, with ASCII names of at
+    most 4 bytes and no marker that is a gap throughout, so an encoder that stored the rate
+    as a float32, mixed up units, wrote no unit as mm, cut or upper-cased names or dropped
+    an empty marker passed. A builder of its own, last, so that the vectors before it keep
+    their numbers."""
+    m = _synth("walk", 24, markers=4, seed=51, rate=59.94)
+    d = design_from_motion(m, step=1.0, nodes=[(None, 0, [0]), (0, 1, [1, 2, 3])])
+    vs.valid("uncommon", _numbered(vs, "u", "rate-59.94"), d.build(),
+             "rate 59.94 Hz, which binary32 cannot hold (59.939998626708984): a decoder must "
+             "report the binary64 value exactly", {"rate": 59.94}, ["§4.1", "§6.8"],
+             "hand-built from mpz.synth walk (rate=59.94)")
+    names = ["Hüfte_links_vorn", "Ω-Marker", "x" * 40 + "_lange_Bezeichnung_äöü",
+             "名前", "LeftShoulderMarkerWithAVeryLongDescriptiveName_001", "ASIS r"]
+    m = _synth("walk", 50, markers=6, seed=52, rate=59.94, gap_fraction=0.04)
+    valid = m.valid.copy()
+    valid[:, 3] = False
+    m = mpz.Motion(m.positions / 10.0, names, m.rate, "cm", valid)
+    vs.encoder_input("e03-names-cm-59.94-gap-throughout", m, [0.1],
+                     "6 markers in cm at 59.94 Hz (not a binary32), names of up to 64 bytes "
+                     "with non-ASCII letters and a space, marker 3 a gap throughout, 4% gaps")
+    m = _synth("wave", 40, markers=5, seed=53, rate=23.976)
+    vs.encoder_input("e04-inches-23.976", mpz.Motion(m.positions / 25.4, m.names, m.rate,
+                                                      "in", m.valid), [0.05],
+                     "5 markers in inches at 23.976 Hz")
+    m = _synth("jump", 40, markers=5, seed=54, rate=250.0)
+    vs.encoder_input("e05-no-units", mpz.Motion(m.positions, m.names, m.rate, "", m.valid),
+                     [2.0], "5 markers without a length unit (MHDR units 0), 250 Hz")
+
+
 #: the §7.4 rules the range gap vectors probe (merged into VECTOR_RULES)
 RANGE_GAP_VECTOR_RULES = _rules(
     ("R-4.13.2-1", "cprm-locked-2"),
@@ -3919,6 +3953,7 @@ BUILDERS = (
     summary_edge_vectors,                     # §4.10, §4.15 rules isolated (stop 49)
     mutation_gap_vectors,                     # checks no vector isolated (mutation run)
     range_gap_vectors,                        # §4.13, §4.14 Range columns (audit)
+    contract_gap_vectors,                     # rate, units, names kept (runner QA, stop 53)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
