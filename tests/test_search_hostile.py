@@ -420,3 +420,41 @@ def test_a_finer_level_beside_the_index_levels_leaves_the_descriptor_as_it_is():
         finer = summarize(m, index + extra)
         assert np.array_equal(descriptor(finer, index), plain), extra
         assert not np.array_equal(descriptor(finer, index + extra), plain)
+
+
+def _cut_short(path: Path, out: Path) -> Path:
+    """``path``, a TRC, with a header that declares 999999 frames: read with a warning."""
+    lines = path.read_text().split("\n")
+    fields = lines[2].split("\t")
+    fields[2] = "999999"
+    lines[2] = "\t".join(fields)
+    out.write_text("\n".join(lines))
+    return out
+
+
+def test_a_readers_warning_about_the_query_is_said_and_exits_1(corpus, tmp_path, capsys):
+    """`mpz show` and `mpz encode` say a TRC's header disagrees with its rows and exit 1;
+    `mpz search`, `mpz summary` and `mpz compare` dropped the warning and exited 0 (a QA
+    run of stop 53)."""
+    from mpz.tools import mpz_cli
+
+    def cli(capsys, *argv: str) -> tuple[int, str, str]:
+        code = mpz_cli.main(list(argv))
+        cap = capsys.readouterr()
+        return code, cap.out, cap.err
+    src, out, paths = corpus
+    run_corpus(src, out, levels=(6, 12))
+    cut = _cut_short(paths["walk"], tmp_path / "cut.trc")
+    said = "NumFrames says 999999, file has 90 rows"
+    code, o, err = search(capsys, str(cut), "--index", str(out), "--json")
+    assert code == 1 and f"mpz search: warning: {cut}: {said}" in err, err
+    assert json.loads(o)["query"]["warnings"] == [said]
+    code, o, err = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
+    assert code == 0 and json.loads(o)["query"]["warnings"] == []
+    code, o, err = cli(capsys, "summary", str(cut), "--k", "2,3")
+    assert code == 1 and f"mpz summary: warning: {cut}: {said}" in err, err
+    code, o, err = cli(capsys, "compare", str(cut), str(cut))
+    assert code == 1 and f"mpz compare: warning: {cut}: {said}" in err, err
+    code, o, err = cli(capsys, "compare", str(paths["walk"]), str(paths["walk"]))
+    assert code == 0 and "warning" not in err
+

@@ -13,7 +13,9 @@ it is 0); a sample beyond it, or a marker the decoded input adds, exits 2. When 
 inputs are .mpz files (two encodes of one source: two bounds, two versions), neither is
 the source: they are held to the sum of their bounds, and their sizes and bounds are
 shown (byte-identical files are said to be).
-Two frame rates that differ are an error (exit 2; an NPY stores none: not checked).
+Two frame rates that differ are an error (exit 2; an NPY stores none: not checked). A
+reader's warning about a motion-file input (a file cut short, a C3D archive it could not
+keep) is printed, and exits 1 unless something exits 2.
 Lengths in two known units (mm, cm, m, in) are converted to the original's before
 comparing; an input without units against one with units is compared as numbers, the
 figures in the unit there is. Both are said on stderr.
@@ -56,7 +58,8 @@ def add_parser(sub):
                        "error over time. Then each part the original keeps besides its "
                        "markers (metadata; a C3D's header, parameters, analog and model "
                        "outputs; a skeleton and its channels): the same, within the declared "
-                       "bound, changed, missing, or differs (exit 2).")
+                       "bound, changed, missing, or differs (exit 2). A reader's warning "
+                       "about an input (a file cut short) exits 1.")
     p.add_argument("original", help="original motion file, or - for standard input")
     p.add_argument("decoded", help="decoded motion or .mpz file, or - for standard input")
     p.add_argument("--asf", help="skeleton of an AMC original")
@@ -246,6 +249,14 @@ def run(args: argparse.Namespace) -> int:
     a, ext_a, data_a = read_input_keeping(args.original, args.asf)
     asf_b, borrowed, asf_found = _decoded_asf(args)
     b, ext_b, data_b = read_input_keeping(args.decoded, asf_b)
+    # the readers' warnings (a file cut short; a C3D archive dropped, whose analog data
+    # then went unnoticed on both sides) were dropped, exit 0 (a QA run of stop 53); an
+    # .mpz file's is its source's, which encoding said
+    warned = [f"{printable(path)}: {printable(m.metadata['warning'])}"
+              for path, m, ext in ((args.original, a, ext_a), (args.decoded, b, ext_b))
+              if ext != ".mpz" and m.metadata.get("warning")]
+    for w in warned:                # -q has no meaning here; printed as encode prints it
+        print(f"mpz compare: warning: {w}", file=sys.stderr)
     notes = check_rates(a, b, ext_a, ext_b, names) + asf_found
     notes += _asf_notes(args, ext_a, ext_b, names, borrowed and ext_b == ".amc")
     data = data_b or data_a                 # the bounds an .mpz input declares
@@ -329,12 +340,13 @@ def run(args: argparse.Namespace) -> int:
              original_units=a.units or None, decoded_units=units_b or None, positions=pos,
              notes=notes, valid_became_gap=gaps_lost, gap_became_valid=gaps_added,
              added_markers=added, bound_check=check, valid_in_both=both,
-             besides_markers=[dataclasses.asdict(p) for p in parts], mpz_files=pair)
+             besides_markers=[dataclasses.asdict(p) for p in parts], mpz_files=pair,
+             warnings=warned)
     worst = sorted(((v, n) for n, v in s["per_marker_max"].items() if v is not None),
                    reverse=True)
     differs = any(p.status == "differs" for p in parts) or added or (
         check is not None and check["beyond"])
-    code = found(2 if gaps_lost or gaps_added or differs else 0)   # before the report
+    code = found(2 if gaps_lost or gaps_added or differs else 1 if warned else 0)
     if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
         # the three worst; the first three when no marker has an error (an original of
         # gaps alone made a figure of no panel: exit 70, a QA run of stop 53)

@@ -64,12 +64,15 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
                   asf: str | None = None, *, rate: float | None = None,
-                  notes: list[str] | None = None) -> tuple[MotionSummary, str | None, str]:
+                  notes: list[str] | None = None, warnings: list[str] | None = None
+                  ) -> tuple[MotionSummary, str | None, str]:
     """The query's summary, the sha256 of its source (if known) and where the summary came from.
 
     ``rows`` are the index's rows, each with its summary under ``"_summary"`` when the
     query is an .mpz file. ``rate`` is that of an AMC or NPY query (they store none);
-    ``notes`` gets what the user should know (an assumed rate).
+    ``notes`` gets what the user should know (an assumed rate), ``warnings`` the reader's
+    warning about a motion file (cut short, a header that disagrees with its rows: it was
+    dropped, exit 0, a QA run of stop 53).
 
     Raises
     ------
@@ -80,7 +83,8 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
     """
     try:
         return _query_summary(path, rows, levels, asf, rate,
-                              notes if notes is not None else [])
+                              notes if notes is not None else [],
+                              warnings if warnings is not None else [])
     except MPZError as exc:          # a damaged .mpz query's error named no file (QA)
         if exc.path is None:
             exc.path = path
@@ -88,7 +92,7 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
 
 
 def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
-                   asf: str | None, rate: float | None, notes: list[str]
+                   asf: str | None, rate: float | None, notes: list[str], warnings: list[str]
                    ) -> tuple[MotionSummary, str | None, str]:
     from mpz.corpus import sha256_file
     from mpz.similarity import summarize
@@ -107,7 +111,8 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         if fmt == ".amc" and asf is None:
             raise EncoderError("an AMC query on standard input needs its skeleton: give "
                                "the .asf file with --asf FILE.asf", path=STDIO)
-        motion = _as_query(read_bytes(data, fmt=fmt, name=STDIO, asf=asf), asf, rate, notes)
+        motion = _as_query(read_bytes(data, fmt=fmt, name=STDIO, asf=asf), asf, rate, notes,
+                           warnings)
         s = summarize(motion, levels)
         return s, hashlib.sha256(data).hexdigest(), f"the capture ({s.method})"
     if path.lower().endswith(".mpz"):
@@ -120,7 +125,7 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         sha = sha256_file(path)
     except OSError as exc:
         raise EncoderError(f"cannot read: {exc.strerror or exc}", path=path) from None
-    s = summarize(_as_query(read(path, asf=asf), asf, rate, notes), levels)
+    s = summarize(_as_query(read(path, asf=asf), asf, rate, notes, warnings), levels)
     return s, sha, f"the capture ({s.method})"
 
 
@@ -128,12 +133,15 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
 RATELESS_FORMATS = (".amc", ".npy")
 
 
-def _as_query(motion: Motion, asf: str | None, rate: float | None, notes: list[str]
-              ) -> Motion:
+def _as_query(motion: Motion, asf: str | None, rate: float | None, notes: list[str],
+              warnings: list[str]) -> Motion:
     """The query's motion with ``--rate`` applied, as mpz encode applies it: to an AMC or
     NPY (which store no rate), an error for any other; ``--asf`` for anything but an AMC
-    is an error too (it was ignored without a word, a QA run)."""
+    is an error too (it was ignored without a word, a QA run). The reader's warning goes
+    to ``warnings``."""
     from dataclasses import replace
+    if motion.metadata.get("warning"):
+        warnings.append(motion.metadata["warning"])
     fmt = f".{motion.metadata.get('format', '')}"
     _no_options_for(fmt, None if fmt == ".amc" else asf,
                     None if fmt in RATELESS_FORMATS else rate)
@@ -224,8 +232,9 @@ def run(args: argparse.Namespace) -> int:
     if not values:
         raise EncoderError("the index holds no files", path=index_path)
     notes: list[str] = []
+    warned: list[str] = []
     summary, sha, origin = query_summary(args.query, values, levels, args.asf,
-                                         rate=args.rate, notes=notes)
+                                         rate=args.rate, notes=notes, warnings=warned)
     try:
         q = descriptor(summary, levels)
     except MPZError as exc:                # a summary chunk of no pose: the query's
@@ -233,6 +242,9 @@ def run(args: argparse.Namespace) -> int:
         raise
     for note in notes:
         print(f"mpz search: note: {printable(note)}", file=sys.stderr)
+    for warning in warned:          # -q too: it is no success (exit 1)
+        print(f"mpz search: warning: {printable(args.query)}: {printable(warning)}",
+              file=sys.stderr)
     same = [v["source_sha256"] == sha for v in values]
     order, dist = rank(q, table, identical=same, names=[v["output"] for v in values])
     shown = order if args.top == 0 else order[:args.top]
@@ -249,9 +261,9 @@ def run(args: argparse.Namespace) -> int:
     query = {"file": args.query, "frames": summary.n_frames, "rate": summary.rate,
              "rate_assumed": any("Hz is assumed" in n for n in notes),
              "dims": summary.dims, "summary": origin, "levels": list(summary.level_ks()),
-             "sha256": sha}
+             "sha256": sha, "warnings": warned}
     gone = sum(not r["output_exists"] for r in results)
-    code = found(EXIT_WARN if gone else EXIT_OK)
+    code = found(EXIT_WARN if gone or warned else EXIT_OK)
     if args.json:
         print_json({"schema": JSON_SCHEMA, "index": index_path, "query": query,
                     "features": list(features_for(levels)),
