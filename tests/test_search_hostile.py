@@ -370,6 +370,18 @@ def test_query_errors_name_the_file_and_the_option(corpus, tmp_path, capsys):
     # a level row deleted: it passed the run as up to date, and a query by the file itself
     # ranked it at 0.635, not 0 (a QA run of stop 48)
     "DELETE FROM levels WHERE output = 'walk.mpz' AND k = 4",
+    # columns another program filled with what they cannot hold: exit 70 (a text frame
+    # count or duration, a BLOB path), a rate of 0 blamed on the query, a negative wssse
+    # and 2^63 - 1 frames shown as they were (a QA run of stop 53)
+    "UPDATE files SET frames = 'x' WHERE output = 'walk.mpz'",
+    "UPDATE files SET duration_s = 'x' WHERE output = 'walk.mpz'",
+    "UPDATE files SET path = CAST(path AS BLOB) WHERE output = 'walk.mpz'",
+    "UPDATE files SET units = CAST(units AS BLOB) WHERE output = 'walk.mpz'",
+    "UPDATE files SET rate = 0 WHERE output = 'walk.mpz'",
+    "UPDATE files SET frames = 9223372036854775807 WHERE output = 'walk.mpz'",
+    "UPDATE files SET max_error = -1 WHERE output = 'walk.mpz'",
+    "UPDATE levels SET wssse = -1 WHERE output = 'walk.mpz' AND k = 4",
+    "UPDATE levels SET k = 'x' WHERE output = 'walk.mpz' AND k = 4",
 ])
 def test_damaged_rows_are_refused_by_search_and_rebuilt_by_a_run(corpus, capsys, damage):
     """D9: a NaN descriptor and a summary cut short passed encode -r as up to date (exit
@@ -458,3 +470,20 @@ def test_a_readers_warning_about_the_query_is_said_and_exits_1(corpus, tmp_path,
     code, o, err = cli(capsys, "compare", str(paths["walk"]), str(paths["walk"]))
     assert code == 0 and "warning" not in err
 
+
+def test_a_row_whose_output_is_no_text_is_refused_and_dropped_by_a_run(corpus, capsys):
+    """An output key stored as a BLOB: the run crashed on it (bytes.split("/")), search
+    showed it (a QA run of stop 53)."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    db = sqlite3.connect(out / INDEX_NAME)
+    db.execute("UPDATE files SET output = CAST(output AS BLOB) WHERE output = 'walk.mpz'")
+    db.commit()
+    db.close()
+    code, _, err = search(capsys, str(paths["walk"]), "--index", str(out))
+    assert code == 2 and "the row of b'walk.mpz' is damaged" in err, err
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"walk": "kept", "jump": "skipped", "wave": "skipped"}
+    code, o, _ = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
+    results = json.loads(o)["results"]
+    assert code == 0 and results[0]["output"] == "walk.mpz" and len(results) == 3

@@ -180,6 +180,82 @@ _FILE_COLUMNS = ("output", "path", "source_sha256", "source_bytes", "source_mtim
 #: whose value is NULL is read again from its source by the next run (status kept)
 _RECORDED = ("warning", "not_kept", "notes")
 
+#: what each column of a ``files`` row may hold, checked as rows are read: SQLite keeps any
+#: value in any column, and a row changed by another program (a text in ``frames``, a BLOB
+#: path, a rate of 0, a negative wssse) crashed mpz search (exit 70), was blamed on the
+#: query, or was shown as it was (a QA run of stop 53). ``text``/``blob``: that type;
+#: ``int``: an integer; ``count``: an integer >= 0 (and within :data:`_COUNT_LIMITS`);
+#: ``real``: a finite number >= 0; ``rate``: a finite number > 0; a column in ``_NULLABLE``
+#: may also be NULL
+_COLUMN_KINDS = {
+    **dict.fromkeys(("output", "path", "source_sha256", "format", "units", "chunk_bytes",
+                     "summary_method", "fingerprint", "mpz_version", "encoded_at",
+                     *_RECORDED), "text"),
+    "source_mtime_ns": "int",            # before 1970: negative
+    **dict.fromkeys(("source_bytes", "frames", "markers", "raw_bytes",
+                     "marker_bytes", "analog_bytes", "summary_bytes", "other_bytes",
+                     "total_bytes", "summary_dims"), "count"),
+    **dict.fromkeys(("duration_s", "gap_fraction", "declared_bound", "ratio", "max_error",
+                     "arms", "seconds", "cpu_seconds"), "real"),
+    "rate": "rate", "descriptor": "blob",
+}
+_NULLABLE = frozenset(("declared_bound", "max_error", "arms", *_RECORDED))
+#: the limits a row's counts keep besides (spec §8: no file holds more)
+_COUNT_LIMITS = {"frames": "MAX_FRAMES", "markers": "MAX_MARKERS"}
+
+
+def _field_problem(column: str, value: Any) -> str | None:
+    """Why ``value`` cannot be a ``files`` row's ``column`` (:data:`_COLUMN_KINDS`), or
+    None."""
+    if value is None:
+        return None if column in _NULLABLE else "is NULL"
+    kind = _COLUMN_KINDS[column]
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "text" and isinstance(value, str) or kind == "blob" and isinstance(value, bytes):
+        return None
+    if kind == "int" and isinstance(value, int) and not isinstance(value, bool):
+        return None
+    if kind == "count" and isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+        import mpz.format as fmt
+        limit = getattr(fmt, _COUNT_LIMITS[column]) if column in _COUNT_LIMITS else value
+        return None if value <= limit else f"holds {value}, more than {limit}"
+    if kind in ("real", "rate") and number and np.isfinite(value) and (
+            value > 0 if kind == "rate" else value >= 0):
+        return None
+    what = {"text": "a text", "blob": "a BLOB", "int": "an integer",
+            "count": "a count (an integer >= 0)",
+            "real": "a finite number >= 0", "rate": "a finite number > 0"}[kind]
+    shown = repr(value if not isinstance(value, (str, bytes)) else value[:40])
+    return f"holds {shown}, not {what}"
+
+
+def _row_problem(row: Mapping[str, Any]) -> str | None:
+    """The first column of a ``files`` row that holds what it cannot, said; or None."""
+    for column in _COLUMN_KINDS:
+        problem = _field_problem(column, row[column])
+        if problem is not None:
+            return f"its {column} {problem}"
+    return None
+
+
+def _named(output: Any) -> str:
+    """A row's output key for a message: as it is, or its repr if it is not a text."""
+    return output[:200] if isinstance(output, str) else repr(output)[:200]
+
+
+def _level_problem(k: Any, wssse: Any, starts_type: str, means_type: str) -> str | None:
+    """Why a ``levels`` row cannot be a stored summary level, or None. ``*_type`` are
+    SQLite's ``typeof`` of its byte strings (a text there cannot even be read: "Could not
+    decode to UTF-8"); their lengths are checked against ``k`` by :meth:`Index._cut_short`
+    and :func:`mpz.similarity.from_stored`."""
+    if not (isinstance(k, int) and not isinstance(k, bool) and 0 < k <= (1 << 24)):
+        return f"a level's k holds {k!r:.40}, not a count of segments"
+    if not (isinstance(wssse, (int, float)) and np.isfinite(wssse) and wssse >= 0):
+        return f"level k={k} has a wssse of {wssse!r:.40}, not a finite number >= 0"
+    if starts_type != "blob" or means_type != "blob":
+        return f"level k={k} holds its starts or means as a {starts_type}/{means_type}, not a BLOB"
+    return None
+
 
 #: the encode options for a file, from its units (so that lengths given with a unit convert)
 OptionsFor = Callable[[str], EncodeOptions]
@@ -821,13 +897,16 @@ class Index:
         away since it was indexed: a search would rank a file that is not there), except
         those of ``keep`` (this run's outputs, which it writes again), and return their
         output keys. The failures table is left as it is."""
+        # an output key that is not a text names no file (another program's BLOB: it
+        # crashed the run, a QA run of stop 53)
         keys = [k for (k,) in self.db.execute("SELECT output FROM files ORDER BY output")
-                if k not in keep and not os.path.isfile(os.path.join(index_dir, *k.split("/")))]
+                if not isinstance(k, str) or k not in keep and not os.path.isfile(
+                    os.path.join(index_dir, *k.split("/")))]
         with self.db:
             for k in keys:
                 self.db.execute("DELETE FROM files WHERE output = ?", (k,))
                 self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
-        return keys
+        return [k if isinstance(k, str) else repr(k) for k in keys]
 
     @_sql
     def same_sources(self) -> list[list[str]]:
@@ -841,22 +920,40 @@ class Index:
         return [g for g in groups.values() if len(g) > 1]
 
     # -- reading
-    def _files(self, where: str, args: Sequence[Any] = ()) -> list[dict[str, Any]]:
+    def _files(self, where: str, args: Sequence[Any] = (), *, check: bool = True
+               ) -> list[dict[str, Any]]:
         """``files`` rows as dicts of every column (those of :data:`_RECORDED` None in an
-        index written before them)."""
+        index written before them).
+
+        Raises
+        ------
+        EncoderError
+            With ``check``, for a row whose column holds what it cannot
+            (:data:`_COLUMN_KINDS`), named.
+        """
         cur = self.db.execute(f"SELECT {self._select} FROM files {where}", args)
-        return [dict(zip((*_FILE_COLUMNS, *_RECORDED), r, strict=True))
+        rows = [dict(zip((*_FILE_COLUMNS, *_RECORDED), r, strict=True))
                 for r in cur.fetchall()]
+        if check:
+            for r in rows:
+                problem = _row_problem(r)
+                if problem is not None:
+                    raise EncoderError(f"{self.path}: the row of {_named(r['output'])} is damaged "
+                                       f"({problem}); {_REBUILD}")
+        return rows
 
     @_sql
     def row(self, output_key: str) -> dict[str, Any] | None:
-        got = self._files("WHERE output = ?", (output_key,))
+        """The row of ``output_key``, unchecked (a run rebuilds a damaged row:
+        :meth:`damaged` names it)."""
+        got = self._files("WHERE output = ?", (output_key,), check=False)
         return got[0] if got else None
 
     @_sql
     def rows(self) -> list[IndexRow]:
         """Every indexed file with its summary, in output order."""
         values = self._files("ORDER BY output")
+        self._check_levels()                 # (a text among them cannot even be read)
         levels: dict[str, list[tuple[int, bytes, bytes, float]]] = {}
         for out, k, w, s, m in self.db.execute(
                 "SELECT output, k, wssse, starts, means FROM levels ORDER BY output, k"):
@@ -902,9 +999,11 @@ class Index:
     def damaged(self) -> set[str]:
         """Output keys of rows that cannot be searched: a descriptor that is not finite or
         not of the index's width, no level, or a level whose byte strings are not of its
-        ``k`` and ``summary_dims`` (cut short). Read from the lengths and the 80-byte
-        descriptors alone; a run rebuilds such rows (they passed it as up to date, and
-        a NaN descriptor made every distance of a search unscaled: a QA run)."""
+        ``k`` and ``summary_dims`` (cut short), or a column or level that holds what it
+        cannot (:func:`_row_problem`, :func:`_level_problem`; a key that is not a text
+        as its repr). Read from the lengths, the types and the 80-byte descriptors
+        alone; a run rebuilds such rows (they passed it as up to date, and a NaN
+        descriptor made every distance of a search unscaled: a QA run)."""
         width = 8 * len(features_for(self.levels()))
         bad = set()
         for out, d in self.db.execute("SELECT output, descriptor FROM files WHERE "
@@ -912,23 +1011,50 @@ class Index:
             if not isinstance(d, bytes) or len(d) != width or not np.all(
                     np.isfinite(np.frombuffer(d, "<f8"))):
                 bad.add(out)
-        return bad | self._cut_short() | self._levels_missing()
+        mistyped = self._mistyped()          # first: the checks below need numbers
+        found = bad | mistyped | self._cut_short() | self._levels_missing(mistyped)
+        return {o if isinstance(o, str) else repr(o) for o in found}
 
-    def _levels_missing(self) -> set[str]:
+    def _mistyped(self) -> set[str]:
+        """Output keys of rows that hold in a column what it cannot (:func:`_row_problem`),
+        or a level that cannot be one (:func:`_level_problem`)."""
+        bad = {r["output"] for r in self._files("", check=False) if _row_problem(r)}
+        return bad | set(self._level_problems())
+
+    def _level_problems(self) -> dict[str, str]:
+        """The first :func:`_level_problem` of each output's levels that has one."""
+        found: dict[str, str] = {}
+        for out, k, w, st, mt in self.db.execute(
+                "SELECT output, k, wssse, typeof(starts), typeof(means) FROM levels "
+                "ORDER BY output, k"):
+            problem = _level_problem(k, w, st, mt)
+            if problem is not None:
+                found.setdefault(out, problem)
+        return found
+
+    def _check_levels(self) -> None:
+        """Raise for the first output whose levels hold what they cannot."""
+        for out, problem in self._level_problems().items():
+            raise EncoderError(f"{self.path}: the row of {_named(out)} is damaged "
+                               f"({problem}); {_REBUILD}")
+
+    def _levels_missing(self, mistyped: Collection[str] = ()) -> set[str]:
         """Output keys of rows of the index's levels (a descriptor of its width) whose
         stored levels are not the summary's, min(k, frames) for each k of them: a level
         row deleted (a QA run of stop 48: the row passed the run as up to date, and a
         query by its own file ranked it at 0.635, not 0). Rows of other levels (a run
-        with other levels into the index) are left to :meth:`descriptors`."""
+        with other levels into the index) are left to :meth:`descriptors`, those of
+        ``mistyped`` (:meth:`_mistyped`) left out."""
         levels = self.levels()
         width = 8 * len(features_for(levels))
         have: dict[str, set[int]] = {}
         for out, k in self.db.execute("SELECT output, k FROM levels"):
-            have.setdefault(out, set()).add(int(k))
+            have.setdefault(out, set()).add(k)
         return {out for out, frames, d in self.db.execute(
                     "SELECT output, frames, length(descriptor) FROM files WHERE "
                     "summary_method != ?", (NO_SUMMARY,))
-                if d == width and have.get(out, set()) != {min(k, frames) for k in levels}}
+                if out not in mistyped and d == width
+                and have.get(out, set()) != {min(k, frames) for k in levels}}
 
     def _cut_short(self) -> set[str]:
         """Output keys of rows without a level, or with a level whose byte strings are not
@@ -992,6 +1118,7 @@ class Index:
             if not np.all(np.isfinite(d)):
                 raise EncoderError(f"{self.path}: the row of {v['output']} is damaged (its "
                                    f"descriptor is not finite); {_REBUILD}")
+        self._check_levels()
         bad = sorted(self._cut_short() | self._levels_missing())
         if bad:
             raise EncoderError(f"{self.path}: the row of {bad[0]} is damaged (its stored "
@@ -1621,7 +1748,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                          "(status kept, nothing encoded again)")
         if damaged:
             notes.append(f"{len(damaged)} damaged index row{'' if len(damaged) == 1 else 's'} "
-                         f"(a descriptor that is not finite or a summary cut short) "
+                         f"(a descriptor that is not finite, a summary cut short, a column holding "
+                         f"what it cannot) "
                          f"rebuilt: {', '.join(sorted(damaged)[:5])}"
                          f"{', ...' if len(damaged) > 5 else ''}")
         index.set_info({"levels": ",".join(map(str, levels)),
@@ -1644,7 +1772,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             row = index.row(t.output_key)
             # a row of an mpz before the _RECORDED columns cannot say its file's warning and
             # notes: such a file is read again
-            said = None if row is None else _said_of_row(row)
+            said = None if row is None or t.output_key in damaged else _said_of_row(row)
             if t.output_key not in damaged and said is not None and _up_to_date(row, t):
                 assert row is not None
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
