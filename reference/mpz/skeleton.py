@@ -474,19 +474,27 @@ def report(data: bytes) -> dict[str, object] | None:
     for c in parse(data):
         rec = c.record
         if isinstance(rec, (Bvhs, Asfs)):
-            skel = skeleton_of_record(rec)
-            kinds = skel.channel_kinds()
-            rot = [c.step_mantissa / 10.0 ** c.step_digits / 2
-                   for c, k in zip(rec.channels, kinds, strict=True) if is_rotation(k)]
-            lin = [c.step_mantissa / 10.0 ** c.step_digits / 2
-                   for c, k in zip(rec.channels, kinds, strict=True) if not is_rotation(k)]
-            to_deg = 180 / math.pi if skel.angle_unit == "rad" else 1.0
-            return {"chunk": rec.TYPE, "bytes": 12 + len(c.payload),
-                    "joints": len(skel.joints), "channels": rec.channel_count,
-                    "angle_bound": max(rot, default=0.0) * to_deg,
-                    "translation_bound": max(lin, default=0.0),
-                    "position_bound": rec.position_bound}
+            return record_report(rec, len(c.payload))
     return None
+
+
+def record_report(rec: Bvhs | Asfs, payload_bytes: int) -> dict[str, object]:
+    """:func:`report` of a checked skeleton record whose payload is ``payload_bytes``
+    long: the figures spec §7.3 defines for ``features.skeleton`` (h = (m / 10^d) / 2
+    per channel, rotations times the binary64 180/π for radians; 0 without such a
+    channel), which ``mpzinfo`` shows."""
+    skel = skeleton_of_record(rec)
+    kinds = skel.channel_kinds()
+    rot = [c.step_mantissa / 10.0 ** c.step_digits / 2
+           for c, k in zip(rec.channels, kinds, strict=True) if is_rotation(k)]
+    lin = [c.step_mantissa / 10.0 ** c.step_digits / 2
+           for c, k in zip(rec.channels, kinds, strict=True) if not is_rotation(k)]
+    to_deg = 180 / math.pi if skel.angle_unit == "rad" else 1.0
+    return {"chunk": rec.TYPE, "bytes": 12 + payload_bytes,
+            "joints": len(skel.joints), "channels": rec.channel_count,
+            "angle_bound": max(rot, default=0.0) * to_deg,
+            "translation_bound": max(lin, default=0.0),
+            "position_bound": rec.position_bound}
 
 
 def channel_bounds(data: bytes) -> tuple[float, float] | None:

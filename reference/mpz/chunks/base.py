@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, fields
 import functools
+import math
 import re
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
 
@@ -54,8 +55,25 @@ def forget(rec: object) -> None:
     rec.__dict__.pop("_kept", None)
 
 
+def infinite_as_text(v: Any) -> Any:
+    """``v`` (a float, or lists, tuples and dicts of them) with each float that is not
+    finite as the text ``"inf"``, ``"-inf"`` or ``"nan"``: how mpzinfo shows a field
+    that JSON cannot hold (docs/mpzinfo.md)."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return "nan" if math.isnan(v) else "inf" if v > 0 else "-inf"
+    if isinstance(v, dict):
+        return {k: infinite_as_text(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [infinite_as_text(x) for x in v]
+    return v
+
+
 def _jsonable(v: object) -> JSON:
-    """A field value as mpzinfo shows it: bulk bytes as their size and first 16 bytes."""
+    """A field value as mpzinfo shows it: bulk bytes as their size and first 16 bytes;
+    a binary64 that is not finite as the text ``"inf"``, ``"-inf"`` or ``"nan"`` (JSON
+    has none: an asfs limit of ±∞, which §4.14.2 allows, showed as null, as if unknown)."""
+    if isinstance(v, float):
+        return infinite_as_text(v)
     if isinstance(v, (bytes, bytearray)):
         return {"bytes": len(v), "head": bytes(v[:16]).hex()}
     if isinstance(v, Record):

@@ -13,13 +13,15 @@ no ratio, and fields from an MHDR whose CRC failed are marked unverified
 (``header_crc_ok``).
 
 ``-v`` adds one line per chunk (type, offset, length, CRC ok or bad with the
-computed and stored values); ``-vv`` adds every field of every chunk with its
-byte offset, and the fields the grammar decodes further (MNAM's front-coded names,
-HIER's weight codes) also as stored, one line per entry at its offset (``stored``
-in ``--json``); ``--json`` prints a versioned document (schema ``mpzinfo/1``).
-mpzinfo keeps going past a bad CRC and shows what can still be read; it also
-runs the full integer decoding (``--no-decode`` skips it) so that a file that
-cannot be decoded never passes.
+computed and stored values); ``-vv`` adds every field of every chunk, a chunk's own
+fields with their byte offset (a value of more than 100 characters cut: ``--json``
+has it whole; a list of records, such as asfs's bones, one record a line), and the
+fields the grammar decodes further (MNAM's front-coded names, HIER's weight codes)
+also as stored, one line per entry at its offset (``stored`` in ``--json``);
+``--json`` prints a versioned document (schema ``mpzinfo/1``). mpzinfo keeps going
+past a bad CRC and shows what can still be read; it also runs the full integer
+decoding (``--no-decode`` skips it) so that a file that cannot be decoded never
+passes.
 
 ``-`` reads standard input (bounded: chunk by chunk, stopping at MEND). A
 device, FIFO or socket given by name is refused without being read. File
@@ -36,6 +38,7 @@ import sys
 from typing import Any
 
 from mpz.chunks import Mhdr, Patt, Segs, Smrc, Smry
+from mpz.chunks.base import infinite_as_text
 from mpz.container import scan
 from mpz.decoder import decode_layers, read_stream
 from mpz.errors import MPZError
@@ -90,7 +93,8 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
                                       type(c.record).field_offsets(c.payload)}
             stored = type(c.record).stored_fields(c.payload)
             if stored:                      # MNAM's shared/suffix, HIER's weight codes
-                entry["stored"] = {n: _at_file(v, base) for n, v in stored.items()}
+                entry["stored"] = {n: _at_file(infinite_as_text(v), base)
+                                   for n, v in stored.items()}
         info["chunks"].append(entry)
     errors = list(res.errors)
     warnings = list(res.warnings)
@@ -132,6 +136,14 @@ def inspect(data: bytes, name: str = "-", *, decode: bool = True,
         info["ratio"] = info["raw_size"] / len(data) if data else None
         info["ratio_markers"] = (info["raw_size"] / parts["markers"] if parts["markers"]
                                  else None)
+        # the figures of spec §7.3's features.skeleton, which says mpzinfo reports them
+        # (it did not: a QA run of stop 53)
+        from mpz.chunks import Asfs, Bvhs
+        from mpz.skeleton import record_report
+        for c in res.chunks:
+            if isinstance(c.record, (Asfs, Bvhs)):
+                info["skeleton"] = record_report(c.record, c.length)
+                break
     return _finite(info)
 
 
@@ -189,6 +201,13 @@ def summary_line(info: dict) -> str:
         parts.append(f"max error \u2264 {info['error_bound']:g}{units}")
     else:
         parts.append("no error bound declared")
+    sk = info.get("skeleton")
+    if sk:
+        joints = (f"joints within {sk['position_bound']:.3g}{units}"
+                  if sk["position_bound"] else "no joint bound declared")
+        parts.append(f"{sk['chunk']} skeleton of {sk['joints']} joints, {sk['channels']} "
+                     f"channels within {sk['angle_bound']:.3g} deg and "
+                     f"{sk['translation_bound']:.3g}, {joints}")
     line = f"{tag}: {name} ({', '.join(parts)})"
     if info["errors"]:
         e = info["errors"][0]
@@ -277,7 +296,7 @@ def _blank(name: str, size: int | None) -> dict[str, Any]:
             "segments": None, "units": None, "error_metric": None, "error_bound": None,
             "raw_size": None, "ratio": None, "ratio_of": RATIO_OF, "bytes_by_part": None,
             "ratio_markers": None, "header_crc_ok": None, "summary_levels": None,
-            "chunks": [], "errors": [], "warnings": []}
+            "skeleton": None, "chunks": [], "errors": [], "warnings": []}
 
 
 def _unreadable(name: str, cls: str, message: str, section: str | None) -> dict:
@@ -300,7 +319,9 @@ def _main(argv: list[str] | None = None) -> int:
     p = Parser(prog="mpzinfo", description="Dump and check MPZ files.", epilog=EXIT_CODES_HELP)
     p.add_argument("files", nargs="+", metavar="FILE", help="MPZ files; - reads standard input")
     p.add_argument("-v", "--verbose", action="count", default=0,
-                   help="-v: one line per chunk; -vv: every field with its byte offset")
+                   help="-v: one line per chunk; -vv: every field, a chunk's own fields "
+                        "with their byte offset, a value of more than 100 characters cut "
+                        "(--json has it whole), a list of records one line each")
     p.add_argument("--json", action="store_true", help=f"machine-readable output ({SCHEMA})")
     p.add_argument("--no-decode", action="store_true",
                    help="check structure only: skip decoding the marker layer (the 1.1 chunks' "
