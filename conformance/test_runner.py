@@ -150,8 +150,13 @@ def test_broken_decoder_is_caught(tmp_path_factory, mode, only, failing, phrase,
     res = by_name(doc)
     assert all(phrase in res[n]["message"] for n in failing), [res[n]["message"] for n in failing]
     assert {res[n]["actual"] for n in failing} == {actual}
+    man = {v["name"]: v for v in MAN["vectors"]}
     for n in failing:
         assert n in proc.stdout                          # named in the printed summary too
+        # every failure names the §7.4 rules of its vector, not a wrong acceptance alone
+        # (a QA run of stop 53: a wrong output or rejection sent them to the manifest)
+        rules = man[n]["rules"]
+        assert rules and f"rules {', '.join(rules)} (spec §7.4)" in res[n]["message"], n
 
 
 def test_offbyone_report_names_frame_marker_axis(tmp_path_factory):

@@ -636,3 +636,58 @@ mpz.write_mpz(mpz.Motion(np.load(src), side["names"], rate, side["units"]), dst,
     assert not got["e03-names-cm-59.94-gap-throughout@0.1"] and not got["e04-inches-23.976@0.05"]
     assert got["e05-no-units@2"], doc["results"]            # 250 Hz is a binary32
     assert any("rate" in r["message"] for r in doc["results"] if not r["passed"])
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full here")
+def test_results_on_a_device_that_fails_the_write_keep_the_report(tmp_path):
+    """``--results /dev/full``: the runner exited 2 with "cannot write" alone, the report of
+    every vector lost (a QA run of stop 53); now the report, then the error, exit 64."""
+    proc = subprocess.run([PY, "-m", "mpz.conformance.runner", "--decoder",
+                           f"{PY} -m mpz.conformance.refdecoder", "--only", ONE,
+                           "--results", "/dev/full"], capture_output=True, text=True,
+                          timeout=300, cwd=tmp_path)
+    assert proc.returncode == 64, proc.stderr
+    assert re.search(rf"^PASS \S*{ONE}: ", proc.stdout, re.M), proc.stdout
+    assert "1/1 passed" in proc.stdout
+    assert "--results: /dev/full: cannot write: No space left on device" in proc.stderr
+
+
+def test_a_1_1_decoder_run_as_1_0_is_told_so_not_sent_after_a_start_up_problem(tmp_path):
+    """``--implements 1.0`` with vectors that break only 1.1 rules, run with a 1.1 decoder
+    (which rejects them): the runner said "decoded none of the 2 valid vector(s)" of the
+    invalid group and to check that the command runs at all (a QA run of stop 53)."""
+    from mpz.conformance import manifest as mf
+    man = {v["name"]: v for v in mf.load()["vectors"]}
+    only = ["x171-c3d-two-chdr", "x172-c3d-no-cprm"]
+    proc, doc = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder",
+                    "--implements", "1.0", "--only", *only)
+    assert proc.returncode == 1 and doc is not None
+    assert "check that it runs at all" not in proc.stderr
+    assert "rejected each of the 2 invalid vector(s) that break only rules of a later" in \
+        proc.stderr and "leave out --implements" in proc.stderr, proc.stderr
+    for r in doc["results"]:
+        rules = ", ".join(man[r["name"]]["rules"])
+        assert f"rules {rules} (spec §7.4), rules of a later minor version" in r["message"]
+
+
+def test_a_decoder_whose_write_the_file_limit_cuts_off_did_not_reject(tmp_path):
+    """Python ignores SIGXFSZ: a decoder writing past the 4 GiB limit gets EFBIG, and its
+    clean exit 1 passed an invalid vector as rejected though it had decoded it (a QA run of
+    stop 53). The file is sparse: no disk is used."""
+    dec = python_script(tmp_path / "big.py", '''
+try:
+    with open(sys.argv[2], "wb") as f:
+        f.seek((4 << 30) - 1)
+        f.write(b"x")
+        f.flush()
+        f.write(b"y")
+        f.flush()
+except OSError as exc:
+    print(f"cannot write: {exc}", file=sys.stderr)
+    sys.exit(1)
+''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    r = doc["results"][0]
+    assert not r["passed"] and r["actual"] == "error", r
+    assert "the runner's file size limit (4 GiB, RLIMIT_FSIZE)" in r["message"]
+    assert proc.returncode == 1

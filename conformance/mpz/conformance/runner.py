@@ -294,6 +294,26 @@ OUT_OF_MEMORY_LAST = re.compile(r"^([\w.]*MemoryError\b|([\w./ -]+:\s*)?(out of 
 CANNOT_RUN_CODES = {126: "found but could not be executed", 127: "not found"}
 
 
+def _cut_off_by_the_file_limit(run: dict[str, Any], folder: Path) -> tuple[str, str] | None:
+    """("error", why) when a command that exited non-zero left a file of
+    :data:`MAX_FILE_BYTES` in its working ``folder``: a write cut off by RLIMIT_FSIZE. A
+    process that ignores SIGXFSZ (Python does) gets EFBIG, and its clean exit passed an
+    invalid vector as rejected after it had decoded it (a QA run of stop 53)."""
+    if not run["exit_code"]:
+        return None
+    for f in folder.iterdir():
+        try:
+            size = f.lstat().st_size
+        except OSError:
+            continue
+        if f.is_file() and size >= MAX_FILE_BYTES:
+            return "error", (f"wrote {size} bytes to {f.name}, the runner's file size limit "
+                             f"({MAX_FILE_BYTES >> 30} GiB, RLIMIT_FSIZE), and exited "
+                             f"{run['exit_code']}: a write the limit cut off is not a "
+                             "rejection")
+    return None
+
+
 def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
     """("timeout" | "crash" | "memory" | "error", why) when a run did not end by a clean exit.
 
@@ -584,6 +604,15 @@ def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout:
     # pass was told from a pass of the vector as written by nothing (an implementer's QA
     # run of stop 50)
     entry["judged_as"] = vec.get("note")
+    rules = ", ".join(vec.get("rules") or [])
+    if not entry["passed"] and rules and "(spec §7.4)" not in entry["message"]:
+        # every failure names the rules its vector tests, as a wrong acceptance did: a
+        # wrong rejection or a wrong output sent an implementer to the manifest to learn
+        # which rule of the spec to read (a QA run of stop 53)
+        later = vec["expected"] == "decode" and vec.get("group") == "invalid"
+        entry["message"] += f"; rules {rules} (spec §7.4)" + (
+            ", rules of a later minor version than --implements names (spec §2.1)"
+            if later else "")
     if vec.get("note"):
         entry["message"] += f" [judged {vec['note']}]"
     return entry
@@ -607,7 +636,7 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
         entry.update(exit_code=run["exit_code"], signal=run["signal"],
                      timed_out=run["timed_out"], seconds=run["seconds"],
                      peak_rss_mb=run["peak_rss_mb"], stderr_tail=run["stderr"])
-        bad = failure_kind(run)
+        bad = failure_kind(run) or _cut_off_by_the_file_limit(run, Path(tmp))
         if bad is not None:
             # a crash, a hang or running out of memory is never a rejection (§8)
             kind, why = bad
@@ -798,7 +827,7 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         entry.update(exit_code=run["exit_code"], signal=run["signal"],
                      timed_out=run["timed_out"], seconds=run["seconds"],
                      peak_rss_mb=run["peak_rss_mb"], stderr_tail=run["stderr"])
-        bad = failure_kind(run)
+        bad = failure_kind(run) or _cut_off_by_the_file_limit(run, Path(tmp))
         if bad is not None:
             entry["actual"] = bad[0]
             limit = (f" (limit {timeout:g} s)" if bad[0] == "timeout" else
@@ -913,6 +942,16 @@ def _warn_if_nothing_decoded(results: list[dict[str, Any]]) -> None:
     valid = [r for r in results if r.get("expected") == "decode"]
     if valid and not any(r["passed"] for r in valid):
         said = printable(valid[0]["message"])[:300]
+        if all(r["group"] == "invalid" and r["actual"] == "reject" for r in valid):
+            # --implements 1.0 with vectors of 1.1 rules alone: a decoder that applies them
+            # was sent after a start-up problem, "none of the 2 valid vector(s)" of the
+            # invalid group (a QA run of stop 53)
+            print(f"mpz-conformance: warning: the command rejected each of the {len(valid)} "
+                  f"invalid vector(s) that break only rules of a later minor version, which "
+                  f"a decoder of the version given to --implements must decode (spec §2.1) "
+                  f"(the first: {said}): if it implements the later version, leave out "
+                  "--implements", file=sys.stderr)
+            return
         if any(r.get("exit_code") == 0 for r in valid):
             # it runs and answers: its outputs fail the checks (a wrong dtype, no sidecar);
             # the hint below sent such a decoder after a path problem (QA, stop 47)
@@ -1087,6 +1126,11 @@ def main(argv: list[str] | None = None) -> int:
         except MPZError as exc:
             found(EXIT_USAGE)
             results_error = str(exc)
+        except OSError as exc:
+            # a device or FIFO that fails the write (/dev/full): the report below was lost
+            # with it, exit 2 and one line (a QA run of stop 53)
+            found(EXIT_USAGE)
+            results_error = f"{args.results}: cannot write: {exc.strerror or exc}"
     for r in results:
         if r["passed"] and args.quiet:
             continue
