@@ -347,8 +347,20 @@ def test_summary_of_an_mpz_warns_of_a_k_it_does_not_store(tmp_path, capsys):
     packed.write_bytes(mpz.encode(m, max_error=1.0, summary=(3, 300)))
     code, out, err = cli(capsys, "summary", packed, "--no-decode", "--json")
     assert code == 0 and [lv["k"] for lv in json.loads(out)["levels"]] == [3, 20]
-    code, out, err = cli(capsys, "summary", packed, "--no-decode", "--k", "300")
+    code, out, err = cli(capsys, "summary", packed, "--no-decode", "--k", "3,300")
     assert code == 1 and "k=300 not stored in the file (stored: 3, 20)" in err
+    assert [lv["k"] for lv in _levels_of_table(out)] == [3]
+    # none of the k asked is stored: an error, as for a motion none of whose k fits (it
+    # printed the header of a table of no row, exit 1: a QA run of stop 53)
+    code, out, err = cli(capsys, "summary", packed, "--no-decode", "--k", "300")
+    assert code == 2 and out == ""
+    assert f"{packed}: no requested k is stored in the file (stored: 3, 20)" in err
+
+
+def _levels_of_table(out: str) -> list[dict]:
+    """The k of each level table ``mpz summary`` prints ("k = 3: ..." lines)."""
+    import re
+    return [{"k": int(k)} for k in re.findall(r"^k\s*=\s*(\d+)", out, re.M)]
 
 
 # -- 5. besides the markers: what else a source keeps comes back -----------------------------

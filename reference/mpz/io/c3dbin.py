@@ -1260,36 +1260,44 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
     head[0], head[1] = 2, C3D_KEY
     head[12:16] = np.array([signed_scale], "<f4").tobytes()
     head[16:18] = int(data_start).to_bytes(2, "little")
-    # frames: every point's x, y, z and fourth word, then the analog words
+    # frames: every point's x, y, z and fourth word, then the analog words, each frame's
+    # bytes written in place in the one buffer of the file (the frames, their bytes, the
+    # padded body and the file were each a copy: 1.5 GB for 2^24 marker-frames)
     F, P = point_words.shape
     per = analog.shape[0] // F if F and analog.size else 0
+    row = 16 * P if float_storage else 8 * P
+    arow = per * analog.shape[1] * (4 if float_storage else 2)
+    n_body = F * (row + arow)
+    if int.from_bytes(head[8:10], "little") != HEADER_MAX_FRAME:
+        # the last block padded with zeros; not when the header's last frame is 65535:
+        # readers then count frames to the end of the file (ezc3d does), and padding
+        # would read as frames
+        n_body = -(-n_body // BLOCK) * BLOCK
+    out = np.zeros(len(head) + len(params) + n_body, np.uint8)
+    out[:BLOCK] = np.frombuffer(bytes(head), np.uint8)
+    out[BLOCK:BLOCK + len(params)] = np.frombuffer(params, np.uint8)
+    frames = out[BLOCK + len(params):][:F * (row + arow)].reshape(F, row + arow)
     if float_storage:
         big = float(np.abs(xyz).max(initial=0.0))
         if big > F32_MAX:
             # an MPZ file may hold coordinates up to 2^1024 (§4.4); a C3D cannot
             raise InputFormatError(f"C3D: a coordinate of magnitude {big:.6g} does not fit a "
                                    f"float32 C3D (at most {F32_MAX:.6g}); write another format")
-        pts = np.empty((F, P, 4), "<f4")
-        pts[:, :, :3] = xyz.astype("<f4")
-        pts[:, :, 3] = point_words.astype("<f4")     # int16 words convert exactly
+        pts = frames[:, :row].view("<f4").reshape(F, P, 4)
+        pts[:, :, :3] = xyz                          # rounded to float32 as astype does
+        pts[:, :, 3] = point_words                   # int16 words convert exactly
         words = analog
         if analog.dtype.kind == "i" and analog_unsigned(recs):
             # spec §6.9: an UNSIGNED source's words as their unsigned values, which a float
             # file's readers take as they are (65535 was written -1.0: a QA run of stop 52)
             words = analog.astype(np.int64) & 0xFFFF
-        an = words.astype("<f4").reshape(F, per * analog.shape[1])
+        if arow:
+            frames[:, row:].view("<f4")[:] = words.reshape(F, per * analog.shape[1])
     else:
-        ipts = np.empty((F, P, 4), "<i2")
+        ipts = frames[:, :row].view("<i2").reshape(F, P, 4)
         ipts[:, :, :3] = np.rint(xyz / abs(scale)).astype("<i2")
         ipts[:, :, 3] = point_words.astype("<i2")
-        pts = ipts.view("<i2")
-        an = analog.astype("<i2").reshape(F, per * analog.shape[1])
-    frames = np.concatenate([pts.reshape(F, 4 * P).view(np.uint8),
-                             np.ascontiguousarray(an).view(np.uint8)], axis=1)
-    body = frames.tobytes()
-    if int.from_bytes(head[8:10], "little") != HEADER_MAX_FRAME:
-        # the last block padded with zeros; not when the header's last frame is 65535:
-        # readers then count frames to the end of the file (ezc3d does), and padding
-        # would read as frames
-        body = body.ljust(-(-len(body) // BLOCK) * BLOCK, b"\x00")
-    return bytes(head) + params + body
+        if arow:
+            frames[:, row:].view("<i2")[:] = analog.astype("<i2").reshape(
+                F, per * analog.shape[1])
+    return out.tobytes()

@@ -26,7 +26,8 @@ so that a TRC decoded from a TRC is the same table.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+import itertools
 import math
 import os
 import re
@@ -482,7 +483,15 @@ def _times_not_kept(motion: Motion, times: list[float], rows: NDArray[np.int64])
 
 
 def format_trc(motion: Motion, *, file_name: str = "") -> str:
-    """TRC text for a Motion (OpenSim layout, gaps as empty fields).
+    """TRC text for a Motion (OpenSim layout, gaps as empty fields): the lines of
+    :func:`_trc_lines`, each ended by a line feed."""
+    return "".join(line + "\n" for line in _trc_lines(motion, file_name=file_name))
+
+
+def _trc_lines(motion: Motion, *, file_name: str = "") -> Iterator[str]:
+    """The lines of TRC text for a Motion (OpenSim layout, gaps as empty fields), one at a
+    time: :func:`write_trc` writes them as they come (the whole text and its lines took
+    2.9 GB for 2^24 marker-frames, 3.5 times what decoding needs).
 
     A motion read from a TRC (``trc.*`` metadata) gets its header fields, first frame
     number, first time and column decimals back (``Units`` and the decimals follow
@@ -523,7 +532,7 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
             for k in ("MoreFileFields", "MoreNames", "MoreValues")}
     if bool(more["MoreNames"]) != bool(more["MoreValues"]):
         more["MoreNames"] = more["MoreValues"] = ""
-    out = [
+    yield from [
         f"PathFileType\t{kind}\t{name}{more['MoreFileFields']}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
         f"OrigDataStartFrame\tOrigNumFrames{more['MoreNames']}",
@@ -535,12 +544,16 @@ def format_trc(motion: Motion, *, file_name: str = "") -> str:
         "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, M + 1)),
         "",
     ]
-    pos = motion.as_nan()
+    pos = motion.as_nan().reshape(F, 3 * M)
+    whole = np.isfinite(pos).all(axis=1)
+    # a row without a gap in one % (the same text as _fmt's format of each value: 4x
+    # faster; 42 s for the rows of 2^24 marker-frames)
+    row_format = "\t".join([f"%.{dv}f"] * (3 * M))
     for f in range(F):
-        vals = "\t".join(_fmt(v, dv) for v in pos[f].ravel())
+        vals = (row_format % tuple(pos[f].tolist()) if whole[f] else
+                "\t".join(_fmt(v, dv) for v in pos[f]))
         t = round(t0 + f / motion.rate, tdig)      # the source's significant decimals
-        out.append(f"{first + f}\t{t:.{dt}f}\t{vals}")
-    return "\n".join(out) + "\n"
+        yield f"{first + f}\t{t:.{dt}f}\t{vals}"
 
 
 @reader
@@ -575,6 +588,7 @@ def write_trc(motion: Motion, path: StrPath, *, file_name: str | None = None) ->
     check_writable(motion, ".trc", path=file_name or os.fspath(path))
     file_name = "".join("?" if ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F else c
                         for c in utf8_name(file_name))     # a name that is not UTF-8
-    text = format_trc(motion, file_name=file_name)
+    lines = _trc_lines(motion, file_name=file_name)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(text)
+        for batch in iter(lambda: list(itertools.islice(lines, 4096)), []):
+            fh.write("".join(line + "\n" for line in batch))

@@ -418,6 +418,12 @@ def max_samples(text: str) -> int:
 
 
 #: the help of ``--max-samples`` (mpzinfo, mpz decode, mpz show)
-MAX_SAMPLES_HELP = ("refuse files of more than N marker-frames (F x M, at most 2^26), and below "
-                    "2^26 also of more than 4N analog words or N skeleton channel values: "
-                    "decoding needs about 50 bytes per marker-frame (spec §8)")
+def max_samples_help(needs: str = "decoding needs about 50 bytes per marker-frame") -> str:
+    """``--max-samples``'s help, with what the command ``needs`` per marker-frame
+    (measured on a file of 2^24 marker-frames, peak RSS; docs/cli.md's figures)."""
+    return ("refuse files of more than N marker-frames (F x M, at most 2^26), and below 2^26 "
+            f"also of more than 4N analog words or N skeleton channel values: {needs} "
+            "(spec §8)")
+
+
+MAX_SAMPLES_HELP = max_samples_help()

@@ -66,6 +66,10 @@ def add_parser(sub):
     p.add_argument("--decoded-asf", metavar="ASF", help="skeleton of an AMC decoded input "
                    "(default: the .asf beside it, as mpz decode writes it; else --asf's, "
                    "with a note that its skeleton is then not checked)")
+    from mpz.tools._cli import max_samples, max_samples_help
+    p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
+                   help=max_samples_help("decoding and comparing two .mpz files need about "
+                                         "140 bytes per marker-frame") + "; .mpz inputs")
     p.add_argument("--json", action="store_true",
                    help="print the statistics as one JSON document (strict: null for NaN)")
     p.add_argument("--top", type=count, default=10, help="markers to list, worst first "
@@ -246,9 +250,9 @@ def run(args: argparse.Namespace) -> int:
         check_plot(args.plot, args.force, (args.original, args.decoded))
         _matplotlib()
     names = (_label(args.original), _label(args.decoded))
-    a, ext_a, data_a = read_input_keeping(args.original, args.asf)
+    a, ext_a, data_a = read_input_keeping(args.original, args.asf, max_samples=args.max_samples)
     asf_b, borrowed, asf_found = _decoded_asf(args)
-    b, ext_b, data_b = read_input_keeping(args.decoded, asf_b)
+    b, ext_b, data_b = read_input_keeping(args.decoded, asf_b, max_samples=args.max_samples)
     # the readers' warnings (a file cut short; a C3D archive dropped, whose analog data
     # then went unnoticed on both sides) were dropped, exit 0 (a QA run of stop 53); an
     # .mpz file's is its source's, which encoding said

@@ -57,9 +57,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="print nothing on success; warnings (exit 1) are still printed")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="also print the file's metadata")
-    from mpz.tools._cli import MAX_SAMPLES_HELP, max_samples
+    from mpz.tools._cli import max_samples, max_samples_help
     p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
-                   help=MAX_SAMPLES_HELP)
+                   help=max_samples_help("decoding and writing need about 60 bytes per "
+                                         "marker-frame, 95 for a C3D"))
     p.set_defaults(func=run)
 
 

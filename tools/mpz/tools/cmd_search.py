@@ -57,6 +57,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--rate", metavar="HZ", type=positive,
                    help="the frame rate of a query that stores none (AMC: 120 Hz is "
                    "assumed, NPY: 1 Hz), e.g. --rate 120; an error for a query that has one")
+    from mpz.tools._cli import max_samples, max_samples_help
+    p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
+                   help=max_samples_help("an .mpz query whose summary chunk is not the "
+                                         "index's levels is decoded and segmented, about "
+                                         "130 bytes per marker-frame") + "; .mpz query only")
     p.add_argument("--json", action="store_true", help="print JSON (schema mpz-search/1)")
     p.set_defaults(func=run)
     return p
@@ -64,15 +69,16 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
                   asf: str | None = None, *, rate: float | None = None,
-                  notes: list[str] | None = None, warnings: list[str] | None = None
-                  ) -> tuple[MotionSummary, str | None, str]:
+                  notes: list[str] | None = None, warnings: list[str] | None = None,
+                  max_samples: int | None = None) -> tuple[MotionSummary, str | None, str]:
     """The query's summary, the sha256 of its source (if known) and where the summary came from.
 
     ``rows`` are the index's rows, each with its summary under ``"_summary"`` when the
     query is an .mpz file. ``rate`` is that of an AMC or NPY query (they store none);
     ``notes`` gets what the user should know (an assumed rate), ``warnings`` the reader's
     warning about a motion file (cut short, a header that disagrees with its rows: it was
-    dropped, exit 0, a QA run of stop 53).
+    dropped, exit 0, a QA run of stop 53); ``max_samples`` is a lower F x M limit for an
+    .mpz query (spec §8).
 
     Raises
     ------
@@ -84,7 +90,7 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
     try:
         return _query_summary(path, rows, levels, asf, rate,
                               notes if notes is not None else [],
-                              warnings if warnings is not None else [])
+                              warnings if warnings is not None else [], max_samples)
     except MPZError as exc:          # a damaged .mpz query's error named no file (QA)
         if exc.path is None:
             exc.path = path
@@ -92,8 +98,8 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
 
 
 def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
-                   asf: str | None, rate: float | None, notes: list[str], warnings: list[str]
-                   ) -> tuple[MotionSummary, str | None, str]:
+                   asf: str | None, rate: float | None, notes: list[str], warnings: list[str],
+                   max_samples: int | None) -> tuple[MotionSummary, str | None, str]:
     from mpz.corpus import sha256_file
     from mpz.similarity import summarize
     from mpz.tools._common import STDIO
@@ -107,7 +113,7 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         data, fmt = read_stdin()
         if fmt == ".mpz":
             _no_options_for(".mpz", asf, rate)
-            return _mpz_query(data, rows, levels)
+            return _mpz_query(data, rows, levels, max_samples)
         if fmt == ".amc" and asf is None:
             raise EncoderError("an AMC query on standard input needs its skeleton: give "
                                "the .asf file with --asf FILE.asf", path=STDIO)
@@ -119,7 +125,7 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         from mpz.api import read_source
         _no_options_for(".mpz", asf, rate)
         data, _ = read_source(path)          # a regular file of at most 4 GiB (QA: FIFOs)
-        return _mpz_query(data, rows, levels)
+        return _mpz_query(data, rows, levels, max_samples)
     from mpz.io import read
     try:
         sha = sha256_file(path)
@@ -184,14 +190,14 @@ def _check_asf(asf: str) -> None:
         raise EncoderError(f"--asf: not a readable ASF skeleton file{why}", path=asf) from None
 
 
-def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...]
-               ) -> tuple[MotionSummary, str | None, str]:
+def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...],
+               max_samples: int | None = None) -> tuple[MotionSummary, str | None, str]:
     """:func:`query_summary` of an MPZ file's bytes."""
     from mpz.api import read_summary
     from mpz.corpus import META_SHA256
     from mpz.decoder import read_stream
     from mpz.similarity import from_smry, summarize
-    stream = read_stream(data)
+    stream = read_stream(data, **({} if max_samples is None else {"max_samples": max_samples}))
     sha = stream.meta.get(META_SHA256)
     for r in rows:
         if sha is not None and r["source_sha256"] == sha:
@@ -209,7 +215,7 @@ def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...]
            "a summary of joint angles" if smry.space != "positions" else
            f"summary levels k = {', '.join(map(str, sorted(have)))}, not the index's "
            f"{', '.join(map(str, sorted(need)))}")
-    s = summarize(read_mpz_input_bytes(data), levels)
+    s = summarize(read_mpz_input_bytes(data, max_samples), levels)
     return s, sha, f"its decoded motion ({s.method}; the file holds {why})"
 
 
@@ -234,7 +240,8 @@ def run(args: argparse.Namespace) -> int:
     notes: list[str] = []
     warned: list[str] = []
     summary, sha, origin = query_summary(args.query, values, levels, args.asf,
-                                         rate=args.rate, notes=notes, warnings=warned)
+                                         rate=args.rate, notes=notes, warnings=warned,
+                                         max_samples=args.max_samples)
     try:
         q = descriptor(summary, levels)
     except MPZError as exc:                # a summary chunk of no pose: the query's

@@ -83,6 +83,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--no-decode", action="store_true",
                    help=".mpz input: do not decode the motion (the WSSSE %% column stays "
                    "empty)")
+    from mpz.tools._cli import max_samples, max_samples_help
+    p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
+                   help=max_samples_help("decoding and segmenting need about 130 bytes per "
+                                         "marker-frame") + "; .mpz input only")
     p.set_defaults(func=run)
     return p
 
@@ -155,7 +159,7 @@ def _levels_from_mpz(args, ks):
         from mpz.errors import MPZError
         from mpz.tools._common import read_mpz_input_bytes
         try:
-            motion = read_mpz_input_bytes(data)
+            motion = read_mpz_input_bytes(data, args.max_samples)
         except MPZError as exc:
             exc.path = args.file
             raise
@@ -172,7 +176,7 @@ def _levels_from_mpz(args, ks):
         # a file whose motion does not decode is an error (exit 2), as in mpz decode; a
         # skeletal file gives the joint positions from its channels, as mpz decode does
         try:
-            motion = read_mpz_input_bytes(data)
+            motion = read_mpz_input_bytes(data, args.max_samples)
         except MPZError as exc:
             exc.path = args.file             # the file named, not standard input
             raise
@@ -186,6 +190,11 @@ def _levels_from_mpz(args, ks):
     if args.space_asked not in (None, summ.space):    # was ignored without a word (QA)
         warnings.append(f"--space {args.space_asked}: the file's summary chunk is of "
                         f"{summ.space}, shown as stored")
+    if missing and len(missing) == len(ks or ()):
+        # a table of no row, exit 1 (a QA run of stop 53); a motion file whose k all
+        # exceed its frames is an error too
+        raise _Fail(f"{args.file}: no requested k is stored in the file (stored: "
+                    f"{', '.join(map(str, stored))}); its summary chunk holds those alone")
     if missing:
         warnings.append(f"k={','.join(map(str, missing))} not stored in the file (stored: "
                         f"{', '.join(map(str, stored))})")
