@@ -71,7 +71,9 @@ def add_parser(sub):
                    help=max_samples_help("decoding and comparing two .mpz files need about "
                                          "140 bytes per marker-frame") + "; .mpz inputs")
     p.add_argument("--json", action="store_true",
-                   help="print the statistics as one JSON document (strict: null for NaN)")
+                   help="print the statistics as one JSON document (strict JSON: NaN and "
+                   "infinity are null; an error the text shows as inf is a valid sample "
+                   "that became a gap, counted in valid_became_gap, or an overflow)")
     p.add_argument("--top", type=count, default=10, help="markers to list, worst first "
                    "(default 10; 0 for all)")
     p.add_argument("--plot", metavar="PNG", help="plot the error over time of the worst "
