@@ -864,3 +864,19 @@ def test_compare_plots_an_original_of_gaps_alone(tmp_path, capsys):
     import matplotlib.image
     height = matplotlib.image.imread(str(tmp_path / "g.png")).shape[0]
     assert height > 110 * 6, height             # three panels of 2 inches at 110 dpi
+
+
+def test_summary_of_an_original_of_gaps_alone_says_so_and_plots_quietly(tmp_path, capsys):
+    """Every marker a gap throughout: mpz summary printed cuts at 0 WSSSE and exited 0,
+    and its plot made matplotlib warn of singular axis limits (a QA run of stop 53)."""
+    pytest.importorskip("matplotlib")
+    import warnings
+    m = Motion(np.full((50, 4, 3), np.nan), ["A", "B", "C", "D"], 100.0, "mm")
+    write(m, tmp_path / "g.trc")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")              # any matplotlib warning fails
+        code, out, err = cli(capsys, "summary", str(tmp_path / "g.trc"), "--k", "2",
+                             "--plot", str(tmp_path / "g.png"))
+    assert code == 1, err
+    assert "every marker is a gap throughout: there is no motion to segment" in err
+    assert (tmp_path / "g.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -112,6 +112,9 @@ def _levels_from_motion(args, ks, motion=None):
     n = x.shape[0]
     said = motion.metadata.get("warning") if read_here else None
     warnings = [f"{args.file}: {said}"] if said else []
+    if not motion.valid.any():      # a table of cuts at 0 WSSSE, exit 0 (a QA run of stop 53)
+        warnings.append(f"{args.file}: every marker is a gap throughout: there is no motion "
+                        "to segment, and the cuts below are arbitrary")
     b = block_length(n)                 # past 16,384 frames the cuts fall on blocks of b
     rows = -(-n // b)
     units_of = f"{n} frames" if b == 1 else f"{rows} blocks of {b} frames"
@@ -402,7 +405,9 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
         h, v = _pose_axes(pts_all)
         lo = pts_all.reshape(-1, 3).min(axis=0)
         hi = pts_all.reshape(-1, 3).max(axis=0)
-        pad = 0.05 * (hi - lo).max()
+        # a span of 0 (one pose: every marker a gap throughout, or a still capture) made
+        # matplotlib warn of singular limits (a QA run of stop 53): pad by 1 unit then
+        pad = 0.05 * float((hi - lo).max()) or 1.0
         for i in range(kt):
             ax = fig.add_subplot(gs[0, i])
             p = pts_all[i]
