@@ -880,3 +880,25 @@ def test_summary_of_an_original_of_gaps_alone_says_so_and_plots_quietly(tmp_path
     assert code == 1, err
     assert "every marker is a gap throughout: there is no motion to segment" in err
     assert (tmp_path / "g.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_summary_of_an_npy_says_the_rate_it_assumes_and_takes_rate(tmp_path, capsys):
+    """An NPY stores no rate: mpz summary segmented it at 1 Hz without a word, its times in
+    frames, and had no --rate (a QA run of stop 53); mpz encode and search had both."""
+    x = np.random.default_rng(0).normal(size=(200, 5, 3)).cumsum(axis=0)
+    np.save(tmp_path / "q.npy", x)
+    code, out, err = cli(capsys, "summary", str(tmp_path / "q.npy"), "--k", "2", "--json")
+    assert code == 0 and json.loads(out)["rate"] == 1.0
+    assert "NPY stores no frame rate: 1 Hz is assumed; give the true one with --rate HZ" in err
+    code, out, err = cli(capsys, "summary", str(tmp_path / "q.npy"), "--k", "2", "--json",
+                         "--rate", "100")
+    doc = json.loads(out)
+    assert code == 0 and doc["rate"] == 100.0 and "assumed" not in err
+    last = doc["levels"][0]["segments"][-1]
+    assert last["start_time"] == last["start"] / 100 and last["start"] > 0
+    write(generate("walk", frames=60), tmp_path / "w.trc")
+    code, _, err = cli(capsys, "summary", str(tmp_path / "w.trc"), "--rate", "100")
+    assert code == 2 and "this TRC stores its rate (120 Hz)" in err
+    (tmp_path / "w.mpz").write_bytes(mpz.encode(generate("walk", frames=60)))
+    code, _, err = cli(capsys, "summary", str(tmp_path / "w.mpz"), "--rate", "100")
+    assert code == 2 and "an .mpz file stores its rate" in err

@@ -281,6 +281,46 @@ def read_stdin(limit: int | None = None, *, assume: str | None = None
     return head + rest, fmt
 
 
+#: the motion formats that store no frame rate (their readers assume one): ``--rate`` of
+#: mpz encode, search and summary names it
+RATELESS_FORMATS = (".amc", ".npy")
+
+
+def with_rate(motion: Motion, rate: float | None, *, batch: bool = False) -> Motion:
+    """``--rate``: ``motion`` at ``rate`` Hz when its format stores none
+    (:data:`RATELESS_FORMATS`); unchanged for None. For a motion that has a rate of its own
+    it is an error (a file's rate is not overridden silently); in a ``batch`` of several
+    inputs, ``--rate`` names the rate of those without one and leaves the others.
+
+    Raises
+    ------
+    EncoderError
+        For a ``rate`` given to one motion that stores its own.
+    """
+    from dataclasses import replace
+    if rate is None:
+        return motion
+    fmt = motion.metadata.get("format", "")
+    if f".{fmt}" not in RATELESS_FORMATS:
+        if batch:
+            return motion
+        raise EncoderError(f"--rate {rate:g}: this {fmt.upper() or 'input'} stores its "
+                           f"rate ({motion.rate:g} Hz); --rate is for inputs without one "
+                           "(AMC, NPY)")
+    meta = {k: v for k, v in motion.metadata.items() if k != "rate_assumed"}
+    return replace(motion, rate=float(rate), metadata=meta)
+
+
+def assumed_rate(motion: Motion, rate: float | None) -> str | None:
+    """The note for a motion whose format stores no rate and was given no ``--rate``:
+    its reader's rate is assumed (an NPY was taken at 1 Hz without a word: QA runs)."""
+    fmt = motion.metadata.get("format", "")
+    if rate is not None or f".{fmt}" not in RATELESS_FORMATS:
+        return None
+    return (f"{fmt.upper()} stores no frame rate: {motion.rate:g} Hz is assumed; give the "
+            "true one with --rate HZ")
+
+
 def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
     """Decode an MPZ input: a file or ``-`` (standard input), as ``mpz decode`` writes it.
 

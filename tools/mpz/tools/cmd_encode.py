@@ -322,7 +322,14 @@ def run(args: argparse.Namespace) -> int:
     from mpz.io import READERS
     from mpz.io._common import ext_of
     from mpz.tools._cli import EXIT_USAGE, print_json
-    from mpz.tools._common import STDIO, UsageError, is_folder_target, plan_batch, run_batch
+    from mpz.tools._common import (
+        RATELESS_FORMATS,
+        STDIO,
+        UsageError,
+        is_folder_target,
+        plan_batch,
+        run_batch,
+    )
 
     try:
         _check_options(args)
@@ -607,26 +614,10 @@ def _units(args: argparse.Namespace, motion, *, batch: bool = False):
     return with_units(motion, args.units)
 
 
-#: the input formats that store no frame rate (the reader assumes one)
-RATELESS_FORMATS = (".amc", ".npy")
-
-
 def _rate(args: argparse.Namespace, motion, *, batch: bool = False):
-    """--rate: the frame rate of an input whose format stores none (AMC, NPY). In a batch it
-    names that of every such input and leaves the others; for one file with a rate of its
-    own it is an error (the file's rate is not overridden silently)."""
-    from dataclasses import replace
-    if args.rate is None:
-        return motion
-    fmt = motion.metadata.get("format", "")
-    if f".{fmt}" not in RATELESS_FORMATS:
-        if batch:
-            return motion
-        raise EncoderError(f"--rate {args.rate:g}: this {fmt.upper() or 'input'} stores its "
-                           f"rate ({motion.rate:g} Hz); --rate is for inputs without one "
-                           "(AMC, NPY)")
-    meta = {k: v for k, v in motion.metadata.items() if k != "rate_assumed"}
-    return replace(motion, rate=float(args.rate), metadata=meta)
+    """--rate: the frame rate of an input whose format stores none (:func:`with_rate`)."""
+    from mpz.tools._common import with_rate
+    return with_rate(motion, args.rate, batch=batch)
 
 
 def _input_notes(args: argparse.Namespace, motion, source: str, *,
@@ -640,9 +631,10 @@ def _input_notes(args: argparse.Namespace, motion, source: str, *,
     if args.asf is not None and fmt != "amc" and not batch:
         notes.append(f"--asf changes nothing: the input is {fmt.upper() or 'not AMC'}, "
                      "not AMC")
-    if args.rate is None and f".{fmt}" in RATELESS_FORMATS:
-        notes.append(f"{fmt.upper()} stores no frame rate: {motion.rate:g} Hz is assumed; "
-                     "give the true one with --rate HZ")
+    from mpz.tools._common import assumed_rate
+    assumed = assumed_rate(motion, args.rate)
+    if assumed:
+        notes.append(assumed)
     renamed = motion.metadata.get("renamed_points")
     if renamed:
         notes.append(f"marker names that repeat or are empty were made unique: {renamed} "
@@ -778,6 +770,7 @@ class PerFile:
     def key(self, source: str, own_units: bool) -> str:
         from mpz.io import SKELETON_FORMATS
         from mpz.io._common import ext_of
+        from mpz.tools._common import RATELESS_FORMATS
         a = self.args
         # --units names the unit of a file without one, and leaves the others: it joins the
         # key of a source without a unit only, so that adding or changing --units for the

@@ -135,30 +135,22 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
     return s, sha, f"the capture ({s.method})"
 
 
-#: the query formats that store no frame rate (their readers assume one): as mpz encode's
-RATELESS_FORMATS = (".amc", ".npy")
-
-
 def _as_query(motion: Motion, asf: str | None, rate: float | None, notes: list[str],
               warnings: list[str]) -> Motion:
     """The query's motion with ``--rate`` applied, as mpz encode applies it: to an AMC or
     NPY (which store no rate), an error for any other; ``--asf`` for anything but an AMC
     is an error too (it was ignored without a word, a QA run). The reader's warning goes
-    to ``warnings``."""
-    from dataclasses import replace
+    to ``warnings``, the rate assumed without ``--rate`` to ``notes``."""
+    from mpz.tools._common import RATELESS_FORMATS, assumed_rate, with_rate
     if motion.metadata.get("warning"):
         warnings.append(motion.metadata["warning"])
     fmt = f".{motion.metadata.get('format', '')}"
     _no_options_for(fmt, None if fmt == ".amc" else asf,
                     None if fmt in RATELESS_FORMATS else rate)
-    if fmt not in RATELESS_FORMATS:
-        return motion
-    if rate is None:        # an NPY query was taken at 1 Hz without a word (a QA run)
-        notes.append(f"{fmt[1:].upper()} stores no frame rate: {motion.rate:g} Hz is "
-                     "assumed; give the true one with --rate HZ")
-        return motion
-    meta = {k: v for k, v in motion.metadata.items() if k != "rate_assumed"}
-    return replace(motion, rate=float(rate), metadata=meta)
+    assumed = assumed_rate(motion, rate)    # an NPY was taken at 1 Hz without a word (QA)
+    if assumed:
+        notes.append(assumed)
+    return with_rate(motion, rate)
 
 
 def _shown(path: str) -> str:

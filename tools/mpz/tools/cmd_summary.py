@@ -40,6 +40,7 @@ from mpz.tools._cli import (
     EXIT_WARN,
     Parser,
     found,
+    positive,
     print_json,
     printable,
 )
@@ -74,6 +75,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="segment marker positions relative to their centroid (default) or the "
                         "joint angles of AMC/BVH input; an .mpz summary chunk is shown in "
                         "its own space (another is warned)")
+    p.add_argument("--rate", metavar="HZ", type=positive,
+                   help="the frame rate of an input that stores none (AMC: 120 Hz is "
+                   "assumed, NPY: 1 Hz), e.g. --rate 120; an error for one that has one")
     p.add_argument("--asf", metavar="FILE",
                    help="skeleton for .amc input (default: found beside it)")
     p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs matplotlib)")
@@ -108,6 +112,18 @@ def _levels_from_motion(args, ks, motion=None):
         motion = read_bytes(args.stdin_data, fmt=args.stdin_format, asf=args.asf)
     elif motion is None:
         motion = read(args.file, **({"asf": args.asf} if args.asf else {}))
+    if read_here:
+        # an NPY was segmented at 1 Hz without a word, its times in frames (a QA run of
+        # stop 53); --rate names the rate, as for mpz encode and search
+        from mpz.errors import EncoderError
+        from mpz.tools._common import assumed_rate, with_rate
+        assumed = assumed_rate(motion, args.rate)
+        if assumed:
+            print(f"mpz summary: note: {printable(args.file)}: {assumed}", file=sys.stderr)
+        try:
+            motion = with_rate(motion, args.rate)
+        except EncoderError as exc:
+            raise _Fail(f"{printable(args.file)}: {exc}") from None
     x, what = motion_series(motion, args.space)
     n = x.shape[0]
     said = motion.metadata.get("warning") if read_here else None
@@ -488,6 +504,9 @@ def run(args) -> int:
         return EXIT_ERROR
     try:
         if (args.stdin_format if args.file == "-" else path.suffix.lower()) == ".mpz":
+            if args.rate is not None:
+                raise _Fail(f"--rate {args.rate:g}: an .mpz file stores its rate; --rate is "
+                            "for inputs without one (AMC, NPY)")
             info, levels, poses, parents, warnings = _levels_from_mpz(args, args.k)
         else:
             ks = args.k if args.k is not None else _ks(DEFAULT_KS)
