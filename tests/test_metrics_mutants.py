@@ -148,6 +148,20 @@ def test_motions_in_other_units_are_refused() -> None:
         max_error(Motion(pos, ["A"], 100.0, "cm"), Motion(10 * pos, ["A"], 100.0, "mm"))
 
 
+def test_motions_at_other_rates_are_refused_unless_a_rate_was_assumed() -> None:
+    """Frame f at 120 Hz and at 60 Hz are not the same moment: max_error and arms scored
+    them as if they were (a QA run of stop 53). A rate within RATE_TOLERANCE (a C3D's
+    float32) is the same; one a reader assumed (NPY) is not compared."""
+    pos = np.ones((2, 1, 3))
+    a, b = Motion(pos, ["A"], 120.0, "mm"), Motion(pos, ["A"], 60.0, "mm")
+    for f in (max_error, arms, errors, summary):
+        with pytest.raises(MotionError, match="frame rates differ: 120 vs 60 Hz"):
+            f(a, b)
+    assert max_error(a, Motion(pos + 1, ["A"], 120.0 * (1 + 1e-7), "mm")) == math.sqrt(3)
+    npy = Motion(pos, ["A"], 1.0, "mm", metadata={"format": "npy"})
+    assert max_error(a, npy) == 0.0 and arms(npy, a) == 0.0
+
+
 #: two frames of conftest's one-bone ASF (bone b1, dofs rx ry rz), in radians
 AMC_RAD = """:FULLY-SPECIFIED
 :RADIANS

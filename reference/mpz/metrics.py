@@ -39,6 +39,12 @@ def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
     if original.units and decoded.units and original.units != decoded.units:
         raise MotionError(f"units differ: {original.units!r} vs {decoded.units!r} (convert "
                           "one first; a motion without units is compared as numbers)")
+    if _rates_differ(original, decoded):
+        # frame f is not the same moment in both: max_error and arms scored 120 Hz
+        # against 60 Hz as if it were (a QA run of stop 53; mpz compare refused it)
+        raise MotionError(f"frame rates differ: {original.rate:.10g} vs {decoded.rate:.10g} "
+                          "Hz, so the same frame is not the same moment (a motion read from "
+                          "NPY or AMC, which store no rate, is compared frame by frame)")
     if list(original.names) != list(decoded.names):
         k = next(i for i, (a, b) in enumerate(zip(original.names, decoded.names, strict=True))
                  if a != b)
@@ -58,9 +64,11 @@ def errors(original: Motion, decoded: Motion) -> NDArray[np.float64]:
 def max_error(original: Motion, decoded: Motion) -> float:
     """Largest Euclidean error over valid samples (0 if there are none).
 
-    ``original`` and ``decoded`` must have the same shape, marker names in the same order
-    and the same units (either may have none); a sample counts where ``original`` is
-    valid. Raises :class:`~mpz.MotionError` otherwise."""
+    ``original`` and ``decoded`` must have the same shape, marker names in the same order,
+    the same units (either may have none) and the same frame rate (within
+    :data:`RATE_TOLERANCE`; a rate a reader assumed, an NPY's or an AMC's, is not
+    compared); a sample counts where ``original`` is valid. Raises
+    :class:`~mpz.MotionError` otherwise."""
     d = _dist(original, decoded)
     return float(np.nanmax(d)) if np.isfinite(d).any() or np.isinf(d).any() else 0.0
 
@@ -199,13 +207,19 @@ def besides_markers(original: Motion, decoded: Motion, *,
 RATE_TOLERANCE = 1e-6
 
 
+def _rates_differ(original: Motion, decoded: Motion) -> bool:
+    """Whether two motions' frame rates differ beyond :data:`RATE_TOLERANCE`, both stored
+    (a rate assumed by a reader, an NPY's or an AMC's, is unknown: not compared)."""
+    return not math.isclose(original.rate, decoded.rate, rel_tol=RATE_TOLERANCE) and not any(
+        "rate_assumed" in m.metadata or m.metadata.get("format") == "npy"
+        for m in (original, decoded))
+
+
 def _rate_parts(original: Motion, decoded: Motion) -> list[Part]:
     """The frame rate, named only when it differs (beyond :data:`RATE_TOLERANCE`): the
     same frame is then not the same moment (a QA of stop 42: 120 Hz against 60 Hz gave
     max 0 and every part same)."""
-    if math.isclose(original.rate, decoded.rate, rel_tol=RATE_TOLERANCE) or any(
-            "rate_assumed" in m.metadata or m.metadata.get("format") == "npy"
-            for m in (original, decoded)):           # a rate assumed, not stored: unknown
+    if not _rates_differ(original, decoded):
         return []
     return [Part("rate", "differs", f"{decoded.rate:.10g} Hz against {original.rate:.10g} Hz")]
 
