@@ -35,6 +35,14 @@ def run_corpus(src: Path, out: Path, **kw) -> CorpusReport:
     return encode_corpus(mirror_jobs(src, out), out, OPTS, **kw)
 
 
+def change_index(out: Path, statement: str, *args: object) -> None:
+    """Run one SQL ``statement`` on ``out``'s index, as another program would."""
+    db = sqlite3.connect(out / INDEX_NAME)
+    db.execute(statement, args)
+    db.commit()
+    db.close()
+
+
 def statuses(rep: CorpusReport) -> dict[str, str]:
     return {Path(r.source).stem: r.status for r in rep.results}
 
@@ -290,10 +298,7 @@ def test_an_index_of_the_old_descriptor_is_refused_then_rebuilt(corpus, capsys):
     (kept, nothing encoded again)."""
     src, out, paths = corpus
     run_corpus(src, out)
-    db = sqlite3.connect(out / INDEX_NAME)
-    db.execute("UPDATE corpus SET value = '1' WHERE key = 'descriptor_version'")
-    db.commit()
-    db.close()
+    change_index(out, "UPDATE corpus SET value = '1' WHERE key = 'descriptor_version'")
     code, _, err = search(capsys, str(paths["walk"]), "--index", str(out))
     assert code == 2 and "an index of descriptor version 1" in err
     assert "run mpz encode -r into its folder again" in err
@@ -389,11 +394,8 @@ def test_damaged_rows_are_refused_by_search_and_rebuilt_by_a_run(corpus, capsys,
     NaN among a level's means, of the right length, is refused alike."""
     src, out, paths = corpus
     run_corpus(src, out)
-    db = sqlite3.connect(out / INDEX_NAME)
     nan = np.full(len(LEVELS) + 6, np.nan).astype("<f8").tobytes()
-    db.execute(damage, (nan,) if "?" in damage else ())
-    db.commit()
-    db.close()
+    change_index(out, damage, *((nan,) if "?" in damage else ()))
     code, _, err = search(capsys, str(paths["walk"]), "--index", str(out))
     assert code == 2 and "the row of walk.mpz is damaged" in err and "remove it" in err
     rep = run_corpus(src, out)
@@ -476,10 +478,7 @@ def test_a_row_whose_output_is_no_text_is_refused_and_dropped_by_a_run(corpus, c
     showed it (a QA run of stop 53)."""
     src, out, paths = corpus
     run_corpus(src, out)
-    db = sqlite3.connect(out / INDEX_NAME)
-    db.execute("UPDATE files SET output = CAST(output AS BLOB) WHERE output = 'walk.mpz'")
-    db.commit()
-    db.close()
+    change_index(out, "UPDATE files SET output = CAST(output AS BLOB) WHERE output = 'walk.mpz'")
     code, _, err = search(capsys, str(paths["walk"]), "--index", str(out))
     assert code == 2 and "the row of b'walk.mpz' is damaged" in err, err
     rep = run_corpus(src, out)
