@@ -101,7 +101,8 @@ def align(a, b, unnamed: list[str] | None = None, notes: list[str] | None = None
             notes.append(f"{' and '.join(unnamed)}: NPY stores no marker names; markers "
                          "compared in order")
         from mpz.motion import Motion
-        return Motion(b.positions, list(a.names), b.rate, b.units, b.valid)
+        return Motion(b.positions, list(a.names), b.rate, b.units, b.valid,
+                      metadata=b.metadata)     # its format: an NPY's rate is not compared
     index = {n: i for i, n in enumerate(b.names)}
     missing = [n for n in a.names if n not in index]
     if missing:
@@ -109,7 +110,8 @@ def align(a, b, unnamed: list[str] | None = None, notes: list[str] | None = None
                           f"{', '.join(printable(n) for n in missing[:5])}")
     order = [index[n] for n in a.names]
     from mpz.motion import Motion
-    return Motion(b.positions[:, order], list(a.names), b.rate, b.units, b.valid[:, order])
+    return Motion(b.positions[:, order], list(a.names), b.rate, b.units, b.valid[:, order],
+                  metadata=b.metadata)
 
 
 def _declared_bound(path: str | bytes, units: str, *, joints: bool = False) -> float | None:
@@ -221,7 +223,8 @@ def common_units(a, b, names: tuple[str, str]):
         scale = MM_PER_UNIT[b.units] / MM_PER_UNIT[a.units]
         note = (f"{names[1]} is in {b.units}, {names[0]} in {a.units}: lengths converted "
                 f"to {a.units} (x {scale:g}) before comparing")
-        return Motion(b.positions * scale, b.names, b.rate, a.units, b.valid), a.units, [note]
+        return (Motion(b.positions * scale, b.names, b.rate, a.units, b.valid,
+                       metadata=b.metadata), a.units, [note])
     has, lacks = (a, names[1]) if a.units else (b, names[0])
     return b, has.units, [f"{lacks} has no length unit, "
                           f"{names[0] if a.units else names[1]} is in {has.units}: compared "
@@ -325,7 +328,8 @@ def run(args: argparse.Namespace) -> int:
     both = None
     if gaps_lost:
         from mpz.motion import Motion
-        kept = Motion(a.positions, list(a.names), a.rate, a.units, a.valid & b.valid)
+        kept = Motion(a.positions, list(a.names), a.rate, a.units, a.valid & b.valid,
+                      metadata=a.metadata)
         both = {k: v for k, v in summary(kept, b).items() if not k.startswith("per_marker")}
     bound_b = None if declared is None else _declared_bound(declared, units, joints=joints)
     pair: dict[str, Any] | None = None
