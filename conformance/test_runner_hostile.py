@@ -668,6 +668,14 @@ def test_a_1_1_decoder_run_as_1_0_is_told_so_not_sent_after_a_start_up_problem(t
     for r in doc["results"]:
         rules = ", ".join(man[r["name"]]["rules"])
         assert f"rules {rules} (spec §7.4), rules of a later minor version" in r["message"]
+    assert doc["probe"]["passed"]             # it decodes: the hint is about --implements
+    # a command that never starts rejects them too: it was told to leave out --implements
+    # (a review of stop 53); the probe tells the two apart
+    proc, doc = run(tmp_path, "--decoder", f"{PY} -m no_such_decoder_module",
+                    "--implements", "1.0", "--only", *only)
+    assert proc.returncode == 1 and not doc["probe"]["passed"]
+    assert "leave out --implements" not in proc.stderr
+    assert "check that it runs at all" in proc.stderr, proc.stderr
 
 
 def test_a_decoder_whose_write_the_file_limit_cuts_off_did_not_reject(tmp_path):
@@ -691,3 +699,22 @@ except OSError as exc:
     assert not r["passed"] and r["actual"] == "error", r
     assert "the runner's file size limit (4 GiB, RLIMIT_FSIZE)" in r["message"]
     assert proc.returncode == 1
+    # one that removes its partial output (mpz decode does) says EFBIG: it passed (review)
+    tidy = python_script(tmp_path / "tidy.py", '''
+import os
+try:
+    with open(sys.argv[2], "wb") as f:
+        f.seek((4 << 30) - 1)
+        f.write(b"x")
+        f.flush()
+        f.write(b"y")
+        f.flush()
+except OSError as exc:
+    os.remove(sys.argv[2])
+    print(f"cannot write: {exc}", file=sys.stderr)
+    sys.exit(1)
+''')
+    proc, doc = run(tmp_path, "--decoder", str(tidy), "--only", BAD)
+    r = doc["results"][0]
+    assert not r["passed"] and r["actual"] == "error", r
+    assert "File too large" in r["message"] and "not a rejection" in r["message"]

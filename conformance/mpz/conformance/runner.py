@@ -294,13 +294,24 @@ OUT_OF_MEMORY_LAST = re.compile(r"^([\w.]*MemoryError\b|([\w./ -]+:\s*)?(out of 
 CANNOT_RUN_CODES = {126: "found but could not be executed", 127: "not found"}
 
 
+#: a line of stderr that reports EFBIG (strerror "File too large"): a write that
+#: RLIMIT_FSIZE cut off, in a command that removed the partial file (mpz decode does)
+TOO_LARGE = re.compile(r"File too large|\bEFBIG\b")
+
+
 def _cut_off_by_the_file_limit(run: dict[str, Any], folder: Path) -> tuple[str, str] | None:
-    """("error", why) when a command that exited non-zero left a file of
-    :data:`MAX_FILE_BYTES` in its working ``folder``: a write cut off by RLIMIT_FSIZE. A
+    """("error", why) when a command that exited non-zero said EFBIG (:data:`TOO_LARGE`)
+    or left a file of :data:`MAX_FILE_BYTES` in its working ``folder``: a write cut off by
+    RLIMIT_FSIZE. A
     process that ignores SIGXFSZ (Python does) gets EFBIG, and its clean exit passed an
     invalid vector as rejected after it had decoded it (a QA run of stop 53)."""
     if not run["exit_code"]:
         return None
+    said = next((ln.strip() for ln in run["stderr"].splitlines() if TOO_LARGE.search(ln)), None)
+    if said is not None:          # a command that removed what it had written says so
+        return "error", (f"exited {run['exit_code']} after a write past the runner's file "
+                         f"size limit ({MAX_FILE_BYTES >> 30} GiB, RLIMIT_FSIZE): "
+                         f"{said[:200]}: a write the limit cut off is not a rejection")
     for f in folder.iterdir():
         try:
             size = f.lstat().st_size
@@ -934,15 +945,19 @@ def _command(text: str) -> list:
                         and not os.path.isabs(a) else a for a in argv[1:]]
 
 
-def _warn_if_nothing_decoded(results: list[dict[str, Any]]) -> None:
+def _warn_if_nothing_decoded(results: list[dict[str, Any]],
+                             probed: dict[str, Any] | None = None) -> None:
     """Say so when a command meant to decode decoded none of the valid vectors: it may not
     run at all (``python -m NAME`` finds no module from the temporary working directory),
     and then its exits of 1 pass every invalid vector as a rejection (a QA of stop 42:
-    "277/277 invalid passed" for a command that never started)."""
+    "277/277 invalid passed" for a command that never started). ``probed``: the result of
+    the valid vector run to check that the command decodes at all, when none was
+    selected."""
     valid = [r for r in results if r.get("expected") == "decode"]
     if valid and not any(r["passed"] for r in valid):
         said = printable(valid[0]["message"])[:300]
-        if all(r["group"] == "invalid" and r["actual"] == "reject" for r in valid):
+        if all(r["group"] == "invalid" and r["actual"] == "reject" for r in valid) and \
+                probed is not None and probed["passed"]:
             # --implements 1.0 with vectors of 1.1 rules alone: a decoder that applies them
             # was sent after a start-up problem, "none of the 2 valid vector(s)" of the
             # invalid group (a QA run of stop 53)
@@ -1070,8 +1085,11 @@ def main(argv: list[str] | None = None) -> int:
     # only vectors to reject: a command that never starts "rejects" every one, and nothing
     # said so ("319/319 passed", exit 0: a QA run of stop 53). One valid vector more, not
     # counted, shows whether it decodes at all.
+    # So with --implements 1.0 and invalid vectors alone, some of which it must decode:
+    # a command that never started was told to leave out --implements (a review of stop 53).
     probe = None
-    if mode == "decoder" and not any(plan[0]["expected"] == "decode" for plan in todo):
+    if mode == "decoder" and not any(plan[0]["expected"] == "decode" and
+                                     plan[0]["group"] != "invalid" for plan in todo):
         probe = _probe_plan(man, vdir, minor)
     pool = ThreadPoolExecutor(max_workers=args.jobs)
     try:
@@ -1148,16 +1166,16 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else ""))
-    _warn_if_nothing_decoded(results)
+    _warn_if_nothing_decoded(results, probed)
     if probed is not None:
         said = f"{probed['group']}/{probed['name']}"
         if unproven:
-            print(f"mpz-conformance: error: only vectors to reject were selected, and the "
+            print(f"mpz-conformance: error: only invalid vectors were selected, and the "
                   f"command did not decode {said}, run as a check that it decodes at all "
                   f"({printable(probed['message'])[:300]}): its rejections prove nothing",
                   file=sys.stderr)
         else:
-            print(f"note: only vectors to reject were selected; the command decoded {said}, "
+            print(f"note: only invalid vectors were selected; the command decoded {said}, "
                   "run as a check that it decodes at all (not counted)")
     if results_error is not None:
         print(f"mpz-conformance: error: --results: {results_error}", file=sys.stderr)
