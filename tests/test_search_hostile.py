@@ -387,6 +387,10 @@ def test_query_errors_name_the_file_and_the_option(corpus, tmp_path, capsys):
     "UPDATE files SET max_error = -1 WHERE output = 'walk.mpz'",
     "UPDATE levels SET wssse = -1 WHERE output = 'walk.mpz' AND k = 4",
     "UPDATE levels SET k = 'x' WHERE output = 'walk.mpz' AND k = 4",
+    # a text that is not UTF-8: "cannot read the index: Could not decode to UTF-8", as if
+    # the disk were locked or full, and never rebuilt (a review of stop 53)
+    "UPDATE files SET path = CAST(x'ff41' AS TEXT) WHERE output = 'walk.mpz'",
+    "UPDATE files SET warning = CAST(x'ff41' AS TEXT) WHERE output = 'walk.mpz'",
 ])
 def test_damaged_rows_are_refused_by_search_and_rebuilt_by_a_run(corpus, capsys, damage):
     """D9: a NaN descriptor and a summary cut short passed encode -r as up to date (exit
@@ -486,3 +490,30 @@ def test_a_row_whose_output_is_no_text_is_refused_and_dropped_by_a_run(corpus, c
     code, o, _ = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
     results = json.loads(o)["results"]
     assert code == 0 and results[0]["output"] == "walk.mpz" and len(results) == 3
+
+
+def test_levels_of_no_file_are_dropped_and_an_uncovered_damaged_row_is_not_said_rebuilt(
+        corpus, capsys):
+    """A review of stop 53: a levels row of no file that holds what it cannot made search
+    refuse the index for good while every run said it "rebuilt" it; and a run over a part
+    of the inputs said it rebuilt a damaged row it never touched."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    change_index(out, "INSERT INTO levels VALUES ('gone.mpz', 'x', 1.0, x'00', x'00')")
+    code, o, err = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
+    assert code == 0 and json.loads(o)["results"][0]["output"] == "walk.mpz", err
+    rep = run_corpus(src, out)
+    assert not any("damaged" in n for n in rep.index_notes), rep.index_notes
+    db = sqlite3.connect(out / INDEX_NAME)
+    assert db.execute("SELECT COUNT(*) FROM levels WHERE output = 'gone.mpz'").fetchone() == (0,)
+    db.close()
+    # walk's row damaged, then a run over jump and wave alone: walk's row is not rebuilt
+    change_index(out, "UPDATE files SET frames = 'x' WHERE output = 'walk.mpz'")
+    rep = encode_corpus([j for j in mirror_jobs(src, out) if "walk" not in j[0]], out, OPTS,
+                        workers=0, levels=LEVELS)
+    assert not any("rebuilt: walk.mpz" in n for n in rep.index_notes), rep.index_notes
+    assert any("left as it is" in n and "walk.mpz" in n for n in rep.index_notes)
+    rep = run_corpus(src, out)
+    assert any("rebuilt: walk.mpz" in n for n in rep.index_notes)
+    code, _, _ = search(capsys, str(paths["walk"]), "--index", str(out))
+    assert code == 0

@@ -204,6 +204,12 @@ _NULLABLE = frozenset(("declared_bound", "max_error", "arms", *_RECORDED))
 _COUNT_LIMITS = {"frames": "MAX_FRAMES", "markers": "MAX_MARKERS"}
 
 
+def _text(raw: bytes) -> str:
+    """A TEXT value as read from the index: UTF-8, and any other byte as a lone surrogate
+    (which :func:`_field_problem` refuses)."""
+    return raw.decode("utf-8", "surrogateescape")
+
+
 def _field_problem(column: str, value: Any) -> str | None:
     """Why ``value`` cannot be a ``files`` row's ``column`` (:data:`_COLUMN_KINDS`), or
     None."""
@@ -211,6 +217,8 @@ def _field_problem(column: str, value: Any) -> str | None:
         return None if column in _NULLABLE else "is NULL"
     kind = _COLUMN_KINDS[column]
     number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "text" and isinstance(value, str) and not is_utf8(value):
+        return f"holds {utf8_name(value)[:40]!r}, a text that is not UTF-8"
     if kind == "text" and isinstance(value, str) or kind == "blob" and isinstance(value, bytes):
         return None
     if kind == "int" and isinstance(value, int) and not isinstance(value, bool):
@@ -771,6 +779,11 @@ class Index:
         self.create = create
         try:
             self.db = sqlite3.connect(self.path) if create else _read_only(self.path)
+            # a text that is not UTF-8 (another program's bytes cast to text) raised
+            # "Could not decode to UTF-8" from whatever query read it, reported as a locked
+            # or full disk (a review of stop 53): read as lone surrogates, _field_problem
+            # names it and a run rebuilds the row
+            self.db.text_factory = _text
             self.db.execute("PRAGMA foreign_keys = ON")
             # another program's database at OUT/index.sqlite was written into, our tables
             # beside its own (a QA run); an empty one (0 bytes, no table) is made ours
@@ -897,16 +910,31 @@ class Index:
         away since it was indexed: a search would rank a file that is not there), except
         those of ``keep`` (this run's outputs, which it writes again), and return their
         output keys. The failures table is left as it is."""
-        # an output key that is not a text names no file (another program's BLOB: it
-        # crashed the run, a QA run of stop 53)
         keys = [k for (k,) in self.db.execute("SELECT output FROM files ORDER BY output")
-                if not isinstance(k, str) or k not in keep and not os.path.isfile(
+                if isinstance(k, str) and k not in keep and not os.path.isfile(
                     os.path.join(index_dir, *k.split("/")))]
         with self.db:
             for k in keys:
                 self.db.execute("DELETE FROM files WHERE output = ?", (k,))
                 self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
-        return [k if isinstance(k, str) else repr(k) for k in keys]
+            # levels of no file (a tool without foreign keys left them, put() says): one
+            # that held what it cannot made search refuse the index for good, and the run
+            # said it rebuilt it (a review of stop 53)
+            self.db.execute("DELETE FROM levels WHERE output NOT IN (SELECT output FROM files)")
+        return keys
+
+    @_sql
+    def drop_unnamed(self) -> list[str]:
+        """Remove the rows whose output key is not a text (another program's BLOB: it names
+        no file, and crashed the run, a QA run of stop 53) and return their keys' reprs;
+        the run then rebuilds the row of each output that is there."""
+        keys = [k for (k,) in self.db.execute(
+            "SELECT output FROM files WHERE typeof(output) != 'text' ORDER BY output")]
+        with self.db:
+            for k in keys:
+                self.db.execute("DELETE FROM files WHERE output = ?", (k,))
+                self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
+        return [repr(k) for k in keys]
 
     @_sql
     def same_sources(self) -> list[list[str]]:
@@ -1025,8 +1053,8 @@ class Index:
         """The first :func:`_level_problem` of each output's levels that has one."""
         found: dict[str, str] = {}
         for out, k, w, st, mt in self.db.execute(
-                "SELECT output, k, wssse, typeof(starts), typeof(means) FROM levels "
-                "ORDER BY output, k"):
+                "SELECT l.output, l.k, l.wssse, typeof(l.starts), typeof(l.means) FROM levels l "
+                "JOIN files f ON f.output = l.output ORDER BY l.output, l.k"):
             problem = _level_problem(k, w, st, mt)
             if problem is not None:
                 found.setdefault(out, problem)
@@ -1740,18 +1768,34 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         stack.enter_context(_one_run(index_dir))
         index = stack.enter_context(Index(os.path.join(index_dir, INDEX_NAME), create=True))
         dropped = index.refresh_descriptors()
+        unnamed = index.drop_unnamed()
+        forgotten = index.forget_missing(index_dir, {t.output_key for t in tasks})
         damaged = index.damaged()
+        # a damaged row this run's inputs do not cover is not rebuilt (a run over a part of
+        # the inputs said it was, a review of stop 53)
+        rebuilt = sorted(damaged & {t.output_key for t in tasks})
+        left = sorted(damaged - set(rebuilt))
         notes = []
         if dropped:
             notes.append(f"the index was of another descriptor version: its {len(dropped)} "
                          f"row{'' if len(dropped) == 1 else 's'} are rebuilt from the outputs "
                          "(status kept, nothing encoded again)")
-        if damaged:
-            notes.append(f"{len(damaged)} damaged index row{'' if len(damaged) == 1 else 's'} "
-                         f"(a descriptor that is not finite, a summary cut short, a column holding "
-                         f"what it cannot) "
-                         f"rebuilt: {', '.join(sorted(damaged)[:5])}"
-                         f"{', ...' if len(damaged) > 5 else ''}")
+        if unnamed:
+            notes.append(f"{len(unnamed)} index row{'' if len(unnamed) == 1 else 's'} whose "
+                         f"output is not a text removed: {', '.join(unnamed[:5])}"
+                         f"{', ...' if len(unnamed) > 5 else ''}")
+        what = ("(a descriptor that is not finite, a summary cut short, a column holding what "
+                "it cannot)")
+        if rebuilt:
+            notes.append(f"{len(rebuilt)} damaged index row{'' if len(rebuilt) == 1 else 's'} "
+                         f"{what} rebuilt: {', '.join(rebuilt[:5])}"
+                         f"{', ...' if len(rebuilt) > 5 else ''}")
+        if left:
+            notes.append(f"{len(left)} damaged index row{'' if len(left) == 1 else 's'} {what} "
+                         f"of outputs this run's inputs do not cover, left as "
+                         f"{'it is' if len(left) == 1 else 'they are'} (mpz search refuses "
+                         f"the index): {', '.join(left[:5])}{', ...' if len(left) > 5 else ''}; "
+                         "run over their sources too, or remove the index to rebuild it")
         index.set_info({"levels": ",".join(map(str, levels)),
                         "exact_max_frames": str(EXACT_MAX_FRAMES)})
         done = 0
@@ -1764,7 +1808,6 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             if progress is not None:
                 progress(done, len(tasks), r)
 
-        forgotten = index.forget_missing(index_dir, {t.output_key for t in tasks})
         for r in early:
             index.put(r, "" if not r.output else _key(r.output, index_dir))
         todo: list[int] = []
