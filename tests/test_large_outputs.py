@@ -82,3 +82,17 @@ def test_summary_compare_and_search_take_max_samples(tmp_path: Path, capsys) -> 
         code = mpz_cli.main([*argv, "--max-samples", "4920", "--json"])
         doc = json.loads(capsys.readouterr().out)
         assert code == 0 and doc, argv
+
+
+def test_summary_no_decode_keeps_max_samples(tmp_path: Path, capsys) -> None:
+    """--no-decode reads the summary chunk alone, and took a file of any size (a review of
+    stop 53)."""
+    from mpz.tools import mpz_cli
+    f = tmp_path / "w.mpz"
+    f.write_bytes(mpz.encode(generate("walk", frames=100, seed=2), summary=(4, 8)))  # 4100
+    code = mpz_cli.main(["summary", str(f), "--no-decode", "--max-samples", "4099"])
+    err = capsys.readouterr().err
+    assert code == 2 and "= 4100 exceeds the limit 4099 (§8)" in err, err
+    code = mpz_cli.main(["summary", str(f), "--no-decode", "--max-samples", "4100", "--json"])
+    assert code == 0 and [lv["k"] for lv in json.loads(capsys.readouterr().out)["levels"]] \
+        == [4, 8]

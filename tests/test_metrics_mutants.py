@@ -162,6 +162,20 @@ def test_motions_at_other_rates_are_refused_unless_a_rate_was_assumed() -> None:
     assert max_error(a, npy) == 0.0 and arms(npy, a) == 0.0
 
 
+def test_a_one_row_csv_has_an_assumed_rate(tmp_path: Path) -> None:
+    """One time gives no rate: the CSV reader takes 1 Hz, and that was compared with the
+    TRC's 60 Hz as a stored rate (a review of stop 53)."""
+    from mpz.io import read, write
+    m = Motion(np.array([[[1.0, 2.0, 3.0]]]), ["A"], 60.0, "mm")
+    write(m, tmp_path / "one.trc")
+    write(m, tmp_path / "one.csv")
+    csv = read(tmp_path / "one.csv")
+    assert csv.rate == 1.0 and csv.metadata["rate_assumed"] == "1.0"
+    assert max_error(read(tmp_path / "one.trc"), csv) == 0.0
+    write(Motion(np.ones((2, 1, 3)), ["A"], 60.0, "mm"), tmp_path / "two.csv")
+    assert "rate_assumed" not in read(tmp_path / "two.csv").metadata
+
+
 #: two frames of conftest's one-bone ASF (bone b1, dofs rx ry rz), in radians
 AMC_RAD = """:FULLY-SPECIFIED
 :RADIANS

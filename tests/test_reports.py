@@ -902,3 +902,16 @@ def test_summary_of_an_npy_says_the_rate_it_assumes_and_takes_rate(tmp_path, cap
     (tmp_path / "w.mpz").write_bytes(mpz.encode(generate("walk", frames=60)))
     code, _, err = cli(capsys, "summary", str(tmp_path / "w.mpz"), "--rate", "100")
     assert code == 2 and "an .mpz file stores its rate" in err
+
+
+def test_summary_escapes_the_file_name_in_its_warnings_and_errors(tmp_path, capsys):
+    """The warnings and errors added at stop 53 printed the file name as it was: an ESC
+    or a line feed in it drove the terminal (a review of stop 53)."""
+    x = np.full((30, 4, 3), np.nan)
+    name = tmp_path / "a\x1b[31m\nb.npy"
+    np.save(name, x)
+    code, out, err = cli(capsys, "summary", str(name), "--k", "2")
+    assert code == 1 and "\x1b" not in err and "a\\x1b[31m\\x0ab.npy" in err, err
+    assert "every marker is a gap throughout" in err
+    code, out, err = cli(capsys, "summary", str(name), "--k", "500")
+    assert code == 2 and "\x1b" not in err and "a\\x1b[31m\\x0ab.npy: no requested k" in err

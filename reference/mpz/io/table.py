@@ -280,6 +280,7 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     # by 5e-9: one figure for every row took 0.5 s for times in scientific notation, a
     # review of stop 52), and what binary64 adds
     tolerance = 0.5 * np.array(resolution) + 4 * np.spacing(np.abs(times).max(initial=0))
+    assumed = rate is None and n <= 1      # one time gives no rate: 1 Hz is assumed
     if rate is None:
         rate = rate_from_times(times, tolerance) if n > 1 else 1.0
         # one rate stands for every time: a column that is not t0 + k / rate (a quarter of
@@ -304,6 +305,8 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
                         "not kept, a CSV written back numbers its frames from 0")
     m = motion_from_array(vals.reshape(n, -1, 3), rate=rate, units=units,
                           names=names, source=source, fmt="csv")
+    if assumed:             # as an AMC's: not compared with another rate (mpz.metrics)
+        m.metadata["rate_assumed"] = repr(float(rate))
     if not frame_fault and first_frame:
         m.metadata["csv.FirstFrame"] = str(first_frame)
     if times[0] != 0.0 and math.isfinite(times[0]):

@@ -140,7 +140,7 @@ def _levels_from_motion(args, ks, motion=None):
                         f"{units_of}")
     ks = [k for k in ks if k <= rows]
     if not ks:
-        raise _Fail(f"{args.file}: no requested k fits the {units_of} of the motion")
+        raise _Fail(f"{printable(args.file)}: no requested k fits the {units_of} of the motion")
     _, parts = summary_partitions(x, ks)
     levels = []
     for k in ks:
@@ -170,6 +170,16 @@ def _levels_from_mpz(args, ks):
                     "which this build does not provide yet") from None
     from mpz.api import read_source
     data = args.stdin_data if args.file == "-" else read_source(args.file)[0]
+    if args.max_samples is not None:
+        # the limit before the summary chunk is read: --no-decode decodes nothing, and
+        # took a file of any size (a review of stop 53)
+        from mpz.decoder import read_stream
+        from mpz.errors import MPZError
+        try:
+            read_stream(data, max_samples=args.max_samples)
+        except MPZError as exc:
+            exc.path = args.file
+            raise
     summ = read_summary(data)
     if summ is None and args.no_decode:
         raise _Fail(f"{printable(args.file)} has no summary chunk, and --no-decode leaves "
@@ -212,7 +222,7 @@ def _levels_from_mpz(args, ks):
     if missing and len(missing) == len(ks or ()):
         # a table of no row, exit 1 (a QA run of stop 53); a motion file whose k all
         # exceed its frames is an error too
-        raise _Fail(f"{args.file}: no requested k is stored in the file (stored: "
+        raise _Fail(f"{printable(args.file)}: no requested k is stored in the file (stored: "
                     f"{', '.join(map(str, stored))}); its summary chunk holds those alone")
     if missing:
         warnings.append(f"k={','.join(map(str, missing))} not stored in the file (stored: "
@@ -515,7 +525,9 @@ def run(args) -> int:
         print(f"mpz summary: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
     for w in warnings:
-        print(f"mpz summary: warning: {w}", file=sys.stderr)
+        # escaped here, kept as they are for --json: a file name or a reader's warning
+        # with control characters drove the terminal (a review of stop 53)
+        print(f"mpz summary: warning: {printable(w)}", file=sys.stderr)
     code = found(EXIT_WARN if warnings else EXIT_OK)
     if args.plot:     # the file first: a reader that closes the pipe early cannot stop it
         _plot(args.plot, info, levels, poses, parents, args.force)
