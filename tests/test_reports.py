@@ -915,3 +915,55 @@ def test_summary_escapes_the_file_name_in_its_warnings_and_errors(tmp_path, caps
     assert "every marker is a gap throughout" in err
     code, out, err = cli(capsys, "summary", str(name), "--k", "500")
     assert code == 2 and "\x1b" not in err and "a\\x1b[31m\\x0ab.npy: no requested k" in err
+
+
+def test_compare_an_amc_with_its_encode_at_another_rate(tmp_path, capsys, one_bone_asf):
+    """An AMC stores no rate (its reader assumes 120 Hz); encoded with --rate 60, as the
+    README says, it could never be compared with its source: "frame rates differ", exit
+    2 (a QA run of stop 53). The rates are not compared, with a note."""
+    rng = np.random.default_rng(4)
+    (tmp_path / "t.asf").write_text(one_bone_asf())
+    (tmp_path / "t.amc").write_text(amc(np.round(rng.normal(0, 5, (12, 8)), 2), "deg"))
+    src, asf, packed = tmp_path / "t.amc", tmp_path / "t.asf", tmp_path / "t.mpz"
+    code, _, err = cli(capsys, "encode", src, "--asf", asf, "--rate", "60", "-o", packed, "-q")
+    assert code == 0, err
+    code, out, err = cli(capsys, "compare", src, packed, "--asf", asf, "--json")
+    assert code == 0 and json.loads(out)["max"] <= json.loads(out)["bound_check"]["bound"]
+    assert "(120 Hz assumed): an AMC stores no frame rate; rates not compared (120 vs 60 Hz)" \
+        in err, err
+    m = generate("walk", frames=12)                               # a stored rate: refused
+    write(m, tmp_path / "w.trc")
+    write(Motion(m.positions, m.names, 60.0, m.units), tmp_path / "w60.trc")
+    code, _, err = cli(capsys, "compare", tmp_path / "w.trc", tmp_path / "w60.trc")
+    assert code == 2 and "frame rates differ: 120 Hz" in err
+
+
+def test_two_encodes_of_an_amc_are_held_to_the_sum_of_their_channel_steps(
+        tmp_path, capsys, one_bone_asf):
+    """Two .mpz files of one AMC at two angle errors: each is within its own steps of the
+    source, so they may differ by the sum; the channels were held to one file's steps and
+    two good files failed (exit 2, a QA run of stop 53). The markers already were."""
+    rng = np.random.default_rng(5)
+    (tmp_path / "t.asf").write_text(one_bone_asf())
+    (tmp_path / "t.amc").write_text(amc(np.round(rng.normal(0, 30, (40, 8)), 3), "deg"))
+    src, asf = tmp_path / "t.amc", tmp_path / "t.asf"
+    for name, err in (("fine", "0.01"), ("coarse", "0.2")):
+        code, _, e = cli(capsys, "encode", src, "--asf", asf, "--angle-error", err, "-o",
+                         tmp_path / f"{name}.mpz", "-q")
+        assert code == 0, e
+    for pair in (("fine", "coarse"), ("coarse", "fine")):
+        code, out, err = cli(capsys, "compare", *(tmp_path / f"{n}.mpz" for n in pair),
+                             "--json")
+        rot = parts(json.loads(out))["joint rotations"]
+        assert code == 0 and rot["status"] == "within", (pair, rot, err)
+        assert rot["bound"] == pytest.approx(0.01 + 0.2), rot
+
+
+def test_two_encodes_of_a_c3d_hold_model_outputs_to_the_sum(shared_data, tmp_path, capsys):
+    src = shared_data / "c3d" / "auckland_FMC_MH0222_BP06.c3d"
+    a, b = tmp_path / "a.mpz", tmp_path / "b.mpz"
+    assert cli(capsys, "encode", src, "-o", a, "-q")[0] == 0
+    assert cli(capsys, "encode", src, "--model-error", "ANGLES=1e-3", "-o", b, "-q")[0] == 0
+    code, out, err = cli(capsys, "compare", a, b, "--json")
+    angles = parts(json.loads(out))["model angles"]
+    assert code == 0 and angles["status"] == "within", (angles, err)

@@ -191,7 +191,7 @@ def _positions(motion, ext: str | None) -> str:
 
 def check_rates(a, b, ext_a: str | None, ext_b: str | None, names: tuple[str, str]) -> list[str]:
     """Refuse two motions at different frame rates (the same frame is not the same time);
-    return the notes (an NPY input stores no rate: not checked).
+    return the notes (an NPY input stores no rate, an AMC's is assumed: not checked).
 
     Raises
     ------
@@ -201,7 +201,15 @@ def check_rates(a, b, ext_a: str | None, ext_b: str | None, names: tuple[str, st
     unknown = [n for n, e in zip(names, (ext_a, ext_b), strict=True) if e == ".npy"]
     if unknown:
         return [f"{' and '.join(unknown)}: NPY stores no frame rate; rates not compared"]
-    if not math.isclose(a.rate, b.rate, rel_tol=RATE_TOLERANCE):
+    close = math.isclose(a.rate, b.rate, rel_tol=RATE_TOLERANCE)
+    # an AMC's rate is its reader's assumption (120 Hz): one encoded with --rate 60, as
+    # the README says, could never be compared with its source (a QA run of stop 53)
+    assumed = [f"{n} ({m.rate:g} Hz assumed)" for n, m in zip(names, (a, b), strict=True)
+               if "rate_assumed" in m.metadata]
+    if assumed and not close:
+        return [f"{' and '.join(assumed)}: an AMC stores no frame rate; rates not compared "
+                f"({a.rate:g} vs {b.rate:g} Hz), the frames taken in order"]
+    if not close:
         raise MotionError(f"frame rates differ: {a.rate:.10g} Hz ({names[0]}) vs "
                           f"{b.rate:.10g} Hz "
                           f"({names[1]}); the same frame is not the same moment, so the "
@@ -269,8 +277,12 @@ def run(args: argparse.Namespace) -> int:
     notes = check_rates(a, b, ext_a, ext_b, names) + asf_found
     notes += _asf_notes(args, ext_a, ext_b, names, borrowed and ext_b == ".amc")
     data = data_b or data_a                 # the bounds an .mpz input declares
-    parts = besides_markers(a, b, channel_bounds=None if data is None
-                            else channel_bounds(data))
+    # two .mpz files: each within its own steps of the source, so the sum (one file's
+    # failed two good encodes, a QA run of stop 53), as the markers below
+    steps = [c for c in (channel_bounds(d) for d in (data_a, data_b) if d is not None)
+             if c is not None]
+    parts = besides_markers(a, b, channel_bounds=None if not steps else
+                            (sum(r for r, _ in steps), sum(t for _, t in steps)))
     if borrowed and ext_b == ".amc":         # its own skeleton was not read: not checked
         parts = [dataclasses.replace(p, status="unchecked", detail=f"{p.detail}; read with "
                                      "--asf's (the decoded AMC has no .asf of its own)")
