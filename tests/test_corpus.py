@@ -1914,7 +1914,9 @@ def test_the_memory_limit_reaches_local_workers_and_is_said_unused_by_a_schedule
 def test_another_source_of_the_same_size_and_time_is_not_up_to_date(tmp_path):
     """Two folders each with trial.c3d of the same size and modification time, other
     points: the second run into the same output folder said "up to date", the index kept
-    the first file's path and sha256, and the archive held the wrong recording."""
+    the first file's path and sha256, and the archive held the wrong recording. Since
+    stop 53 that run fails instead of replacing the first file's archive (another
+    source's), and replaces it with --force."""
     m = generate("walk", frames=60, seed=1)
     for folder, shift in (("pa", 0.0), ("pb", 500.0)):
         (tmp_path / folder).mkdir()
@@ -1925,6 +1927,10 @@ def test_another_source_of_the_same_size_and_time_is_not_up_to_date(tmp_path):
     out = tmp_path / "out"
     encode_corpus([(a, out / "t.mpz")], out, OPTS, levels=LEVELS, workers=0)
     rep = encode_corpus([(b, out / "t.mpz")], out, OPTS, levels=LEVELS, workers=0)
+    assert [r.status for r in rep.results] == ["failed"]
+    assert f"is the archive of another source, {a} (still there)" in rep.results[0].reason
+    rep = encode_corpus([(b, out / "t.mpz")], out, OPTS, levels=LEVELS, workers=0,
+                        force=True)
     assert [r.status for r in rep.results] == ["encoded"]
     with contextlib.closing(open_index(out / INDEX_NAME)) as index:
         row = index.row("t.mpz")
@@ -1951,3 +1957,36 @@ def test_a_rerun_still_names_what_its_outputs_do_not_keep(tmp_path, two_joint_bv
                        "walk.trc": (status, [])}, got
     assert "NOTE" in again.table() and "not kept: joint angles and the skeleton" in \
         again.table()
+
+
+def test_a_run_from_another_folder_does_not_replace_another_sources_archive(tmp_path):
+    """An archive team's QA run of stop 53: ``encode -r a`` then ``encode -r b`` into the
+    same output folder, a/take.c3d and b/take.trc both mirrored to take.mpz: the second
+    run replaced the first file's archive, exit 0, and it was lost once a/take.c3d was
+    deleted after archiving. Now such a file fails (naming the other source) unless
+    --force; a moved input folder (the same bytes) is still kept, and a source changed in
+    place is still encoded again."""
+    a, b, c, out = (tmp_path / n for n in ("a", "b", "c", "out"))
+    for d in (a, b, c):
+        d.mkdir()
+    write(generate("walk", frames=60, seed=1), a / "take.trc")
+    write(generate("jump", frames=50, seed=2), b / "take.csv")
+    write(generate("wave", frames=40, seed=3), c / "take.trc")
+    assert statuses(run_corpus(a, out)) == {"take": "encoded"}
+    archived = (out / "take.mpz").read_bytes()
+    for other in (b, c):          # another name (take.csv), the same name in another folder
+        rep = run_corpus(other, out)
+        assert [r.status for r in rep.results] == ["failed"]
+        reason = rep.results[0].reason
+        assert f"is the archive of another source, {a / 'take.trc'} (still there)" in reason
+        assert "--force" in reason and (out / "take.mpz").read_bytes() == archived
+    (out / INDEX_NAME).unlink()    # without the index, the name in its meta chunk says it
+    rep = run_corpus(b, out)
+    assert "is the archive of another source, take.trc (which this run does not hold)" in \
+        rep.results[0].reason and (out / "take.mpz").read_bytes() == archived
+    a.rename(tmp_path / "moved")                                 # the same bytes: kept
+    assert statuses(run_corpus(tmp_path / "moved", out)) == {"take": "kept"}
+    write(generate("walk", frames=61, seed=1), tmp_path / "moved" / "take.trc")
+    assert statuses(run_corpus(tmp_path / "moved", out)) == {"take": "encoded"}
+    assert statuses(run_corpus(c, out, force=True)) == {"take": "encoded"}
+    assert mpz.decode((out / "take.mpz").read_bytes()).n_frames == 40

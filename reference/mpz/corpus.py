@@ -400,6 +400,9 @@ class Task:
     #: the index has a row for ``output``: a corpus run wrote it, so an output there that
     #: no longer reads as MPZ (damaged) is encoded again without ``force``
     indexed: bool = False
+    #: the source the index row of ``output`` names (absolute), None without a row: an
+    #: output that holds another source's bytes is not replaced without ``force``
+    indexed_path: str | None = None
 
 
 @dataclass
@@ -454,12 +457,14 @@ def _peak_rss() -> int | None:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024   # Linux: KiB
 
 
-def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = False
-          ) -> bytes | None:
+def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = False,
+          source: str | None = None, indexed_path: str | None = None) -> bytes | None:
     """The bytes of an existing output that is up to date, or None if it must be encoded.
 
     ``indexed``: the index lists ``output`` (a corpus run wrote it), so one that no longer
-    reads as MPZ is damaged and is encoded again.
+    reads as MPZ is damaged and is encoded again. ``source``: the file to encode into it;
+    an output that is the archive of another source (its meta names another file, or the
+    index row ``indexed_path`` another path) and holds other bytes is refused.
 
     Raises
     ------
@@ -492,6 +497,22 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
     if META_FINGERPRINT not in meta:
         raise EncoderError(f"{output} exists and was not written by an mpz corpus run; "
                            "use --force to replace it")
+    if source is not None and meta.get(META_SHA256) != sha:
+        # a run from another input folder into the same output folder replaced the archive
+        # of a file of the same name (b/take.trc over a/take.c3d's take.mpz), exit 0: lost
+        # when a/take.c3d was deleted after archiving (an archive team's QA run of stop 53)
+        named = meta.get(META_SOURCE)
+        other = (indexed_path if indexed_path is not None
+                 and indexed_path != os.path.abspath(source)
+                 else named if named is not None and named != os.path.basename(source)
+                 else None)
+        if other is not None:
+            there = ("still there" if os.path.isabs(other) and os.path.exists(other) else
+                     "which this run does not hold")
+            raise EncoderError(f"{output} is the archive of another source, {other} "
+                               f"({there}), not of {os.path.basename(source)}: a run from "
+                               "another input folder into this output folder? Give another "
+                               "-o FOLDER, or use --force to replace it")
     if (meta[META_FINGERPRINT] == fp and meta.get(META_SHA256) == sha
             and st.st_mtime_ns >= source_mtime_ns):
         return data
@@ -609,7 +630,7 @@ def encode_file(task: Task) -> FileResult:
                              "mpz search leaves it out"]
         fp = _fingerprint(task, motion.units, own_units)
         data = None if task.force else _ours(task.output, fp, sha, st.st_mtime_ns,
-                                             task.indexed)
+                                             task.indexed, task.source, task.indexed_path)
         status = "kept"
         if data is None:
             meta = dict(opts.metadata)
@@ -1821,7 +1842,9 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
                                      row["total_bytes"], row["raw_bytes"], **said))
             else:
-                tasks[i] = replace(t, indexed=row is not None)
+                path = None if row is None else row["path"]
+                tasks[i] = replace(t, indexed=row is not None,
+                                   indexed_path=path if isinstance(path, str) else None)
                 todo.append(i)
         # each output folder made once; one that cannot be made (a file in its place, no
         # permission: a QA run) fails its files alone
