@@ -1990,3 +1990,25 @@ def test_a_run_from_another_folder_does_not_replace_another_sources_archive(tmp_
     assert statuses(run_corpus(tmp_path / "moved", out)) == {"take": "encoded"}
     assert statuses(run_corpus(c, out, force=True)) == {"take": "encoded"}
     assert mpz.decode((out / "take.mpz").read_bytes()).n_frames == 40
+
+
+def test_a_run_of_inputs_that_are_not_there_makes_no_output_folder(tmp_path, capsys):
+    """mpz encode -r with mistyped paths made the output folder and an empty index all the
+    same (an archive team's QA run of stop 53: a stray folder); a single-file encode made
+    nothing."""
+    from mpz.tools import mpz_cli
+    out = tmp_path / "nx_out"
+    code = mpz_cli.main(["encode", "-r", str(tmp_path / "nosuch1"), str(tmp_path / "nosuch2"),
+                         "-o", f"{out}/", "--jobs", "0"])
+    o = capsys.readouterr().out
+    assert code == 2 and not out.exists()
+    assert "failed           2" in o and "index (not made)" in o
+    rep = encode_corpus([(tmp_path / "nosuch1", out / "a.mpz")], out, OPTS, workers=0)
+    assert rep.as_dict()["index"] is None and rep.failed[0].reason.startswith(
+        "No such file or directory") and not out.exists()
+    (tmp_path / "src").mkdir()                       # one input there: the folder is made
+    write(generate("walk", frames=30), tmp_path / "src" / "w.trc")
+    rep = encode_corpus([(tmp_path / "nosuch1", out / "a.mpz"),
+                         (tmp_path / "src" / "w.trc", out / "w.mpz")], out, OPTS, workers=0)
+    assert sorted(r.status for r in rep.results) == ["encoded", "failed"]
+    assert (out / INDEX_NAME).exists()

@@ -434,3 +434,16 @@ def test_a_bad_output_on_the_null_device_is_not_removed(tmp_path):
     bad = tmp_path / "bad.mpz"
     bad.write_bytes(b"x")
     assert _remove_output(str(bad), False) == "the output was removed" and not bad.exists()
+
+
+def test_grid_note_on_an_int16_c3d_names_its_grid_not_the_bound(shared_data, tmp_path):
+    """--grid 0.2mm at a 0.5 mm bound on an int16 C3D: the step is its POINT:SCALE (1/12
+    mm), and the note said "the bound 0.5 mm needs a finer one", which 0.2 mm does not (a
+    QA run of stop 53)."""
+    src = shared_data / "c3d" / "c3dorg_Eb015pi.c3d"
+    p = _mpz("encode", str(src), "--max-error", "0.5mm", "--grid", "0.2mm", "-o", "/dev/null",
+             cwd=tmp_path)
+    assert p.returncode in (0, 1), p.stderr
+    assert "the grid step is 0.0833333 mm instead (the source's int16 grid, POINT:SCALE " \
+        "0.0833333)" in p.stderr, p.stderr
+    assert "needs a finer one" not in p.stderr

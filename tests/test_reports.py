@@ -967,3 +967,16 @@ def test_two_encodes_of_a_c3d_hold_model_outputs_to_the_sum(shared_data, tmp_pat
     code, out, err = cli(capsys, "compare", a, b, "--json")
     angles = parts(json.loads(out))["model angles"]
     assert code == 0 and angles["status"] == "within", (angles, err)
+
+
+def test_summary_names_a_damaged_mpz_file_in_its_error(tmp_path, capsys):
+    """mpz summary of an .mpz file with a bad CRC said "error: chunk RESI, offset ...",
+    naming no file, where mpz show, decode, compare and search name it (a QA run of stop
+    53)."""
+    data = bytearray(mpz.encode(generate("walk", frames=60), max_error=1.0, summary=(4,)))
+    data[-40] ^= 0x55                                   # in the last chunks, before MEND
+    bad = tmp_path / "bad.mpz"
+    bad.write_bytes(bytes(data))
+    for extra in ((), ("--no-decode",)):
+        code, out, err = cli(capsys, "summary", str(bad), *extra)
+        assert code == 2 and f"mpz summary: error: {bad}, chunk " in err, (extra, err)

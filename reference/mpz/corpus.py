@@ -44,6 +44,7 @@ from concurrent.futures import CancelledError
 import contextlib
 from dataclasses import asdict, dataclass, field, fields, replace
 import datetime
+import errno
 import functools
 import hashlib
 import json
@@ -1225,6 +1226,7 @@ class CorpusReport:
     seconds: float
     workers: int
     cluster: str
+    #: the index file; "" when the run made none (no input there to read)
     index: str
     #: output keys whose rows were removed: the outputs were gone (Index.forget_missing)
     forgotten: list[str] = field(default_factory=list)
@@ -1243,7 +1245,7 @@ class CorpusReport:
 
     def as_dict(self) -> dict[str, Any]:
         return {"schema": "mpz-corpus/1", "seconds": self.seconds, "workers": self.workers,
-                "cluster": self.cluster, "index": self.index,
+                "cluster": self.cluster, "index": self.index or None,
                 "counts": {s: self.count(s) for s in ("encoded", "kept", "skipped", "failed")},
                 "files": [{k: v for k, v in asdict(r).items() if k not in ("row", "levels")}
                           for r in self.results],
@@ -1301,7 +1303,7 @@ class CorpusReport:
                          "source moved or copied: remove the outputs not wanted, and the "
                          "next run forgets their rows)")
         lines += [f"  NOTE {name(note)}" for note in self.index_notes]
-        lines.append(f"  index {name(self.index)}")
+        lines.append(f"  index {name(self.index) if self.index else '(not made)'}")
         return "\n".join(lines)
 
 
@@ -1760,6 +1762,16 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     _check_corpus_arguments(jobs, outdir, options, workers)
     wall0 = time.time()
     index_dir = os.path.abspath(os.fspath(outdir))
+    if not os.path.isdir(index_dir) and not any(os.path.lexists(s) for s, _ in jobs):
+        # no input there to read (mistyped paths): the output folder and an empty index
+        # were made all the same (an archive team's QA run of stop 53)
+        gone = [(s, o, f"{os.strerror(errno.ENOENT)}: {os.fspath(s)}") for s, o in jobs]
+        return CorpusReport([FileResult(os.fspath(src), "" if out is None else os.fspath(out),
+                                        "failed", reason, _size(src))
+                             for src, out, reason in [*failed, *gone]],
+                            time.perf_counter() - t0, 0, "nothing to do", "",
+                            index_notes=[f"no input to encode: the output folder "
+                                         f"{os.fspath(outdir)} was not made"])
     try:
         os.makedirs(index_dir, exist_ok=True)
     except OSError as exc:

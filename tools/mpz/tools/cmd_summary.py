@@ -34,6 +34,7 @@ import sys
 
 import numpy as np
 
+from mpz.errors import MPZError
 from mpz.tools._cli import (
     EXIT_ERROR,
     EXIT_OK,
@@ -524,6 +525,12 @@ def run(args) -> int:
     except _Fail as exc:
         print(f"mpz summary: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
+    except MPZError as exc:
+        # a damaged .mpz file's error named no file, where every other command's does (a
+        # QA run of stop 53)
+        if exc.path is None:
+            exc.path = args.file
+        raise
     for w in warnings:
         # escaped here, kept as they are for --json: a file name or a reader's warning
         # with control characters drove the terminal (a review of stop 53)
