@@ -718,3 +718,18 @@ except OSError as exc:
     r = doc["results"][0]
     assert not r["passed"] and r["actual"] == "error", r
     assert "File too large" in r["message"] and "not a rejection" in r["message"]
+
+
+def test_vectors_removed_during_a_run_are_a_clean_error(tmp_path):
+    """Vectors regenerated or removed while the runner went on ended it with a traceback,
+    exit 70 (a QA run of stop 53): the suite's own files, not the command, are at fault."""
+    vdir = _copy_vectors(tmp_path)
+    dec = python_script(tmp_path / "rm.py", f'''
+import os, subprocess
+os.remove({str(vdir / (ONE + ".npy"))!r})
+sys.exit(subprocess.call([{PY!r}, "-m", "mpz.conformance.refdecoder", *sys.argv[1:]]))
+''')
+    proc, _ = run(tmp_path, "--decoder", str(dec), "--vectors", str(vdir), "--only", ONE)
+    assert proc.returncode == 64, proc.stderr
+    assert "were the vectors regenerated or removed while the run went on?" in proc.stderr
+    assert "Traceback" not in proc.stderr

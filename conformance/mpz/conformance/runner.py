@@ -945,6 +945,26 @@ def _command(text: str) -> list:
                         and not os.path.isabs(a) else a for a in argv[1:]]
 
 
+class SuiteUnreadable(Exception):
+    """The runner could not read or copy a file of the suite itself (or make its temporary
+    folder) while the run went on: not the command's failure."""
+
+
+@contextlib.contextmanager
+def _suite_files() -> Iterator[None]:
+    """Turn an OSError or ValueError that escapes a vector's run (the decoder's own outputs
+    are judged inside it) into :class:`SuiteUnreadable`: vectors regenerated or removed
+    during a run, or a full temporary folder, ended it with a traceback, exit 70 (a QA run
+    of stop 53)."""
+    try:
+        yield
+    except (OSError, ValueError) as exc:
+        raise SuiteUnreadable(f"cannot read the suite's files or make a temporary folder "
+                              f"({type(exc).__name__}: {exc}): were the vectors regenerated "
+                              "or removed while the run went on? The hashes were checked at "
+                              "its start; run it again") from exc
+
+
 def _warn_if_nothing_decoded(results: list[dict[str, Any]],
                              probed: dict[str, Any] | None = None) -> None:
     """Say so when a command meant to decode decoded none of the valid vectors: it may not
@@ -1076,12 +1096,14 @@ def main(argv: list[str] | None = None) -> int:
                       for (v, _), w in zip(plans, todo, strict=True))
 
         def job(plan):
-            return run_decoder_vector(cmd, vdir, plan[0], args.timeout, args.memory,
-                                      args.array_only, plan[1])
+            with _suite_files():
+                return run_decoder_vector(cmd, vdir, plan[0], args.timeout, args.memory,
+                                          args.array_only, plan[1])
         todo = plans
     else:
         def job(ie):
-            return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
+            with _suite_files():
+                return run_encoder_item(cmd, vdir, ie[0], ie[1], args.timeout, args.memory)
     # only vectors to reject: a command that never starts "rejects" every one, and nothing
     # said so ("319/319 passed", exit 0: a QA run of stop 53). One valid vector more, not
     # counted, shows whether it decodes at all.
@@ -1099,6 +1121,11 @@ def main(argv: list[str] | None = None) -> int:
         with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
             results = list(pool.map(job, todo + ([probe] if probe else [])))
             probed = results.pop() if probe else None  # every vector runs before reporting
+    except SuiteUnreadable as exc:
+        STOP.set()
+        pool.shutdown(wait=True, cancel_futures=True)
+        print(f"mpz-conformance: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     except (KeyboardInterrupt, SystemExit) as exc:
         STOP.set()                  # the running commands are killed, no other one starts
         pool.shutdown(wait=True, cancel_futures=True)
