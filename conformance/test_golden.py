@@ -64,9 +64,22 @@ def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatc
     new = {"golden_id": "y", "vectors": {"v1": dict(entry, decoded_sha256="c"),
                                          "v2": dict(entry, mpzinfo={"size": 2}),
                                          "v3": entry, "v4": entry}}
+    # an added vector is said as added (it was "decodes otherwise": a QA run of stop 53),
+    # and a skeleton's channels are part of what a vector decodes to
     assert make_golden.describe_changes(old, new) == [
-        "2 vector(s) decode otherwise (output, integer layer or verdict), e.g. v1, v4",
+        "1 vector(s) added, e.g. v4",
+        "1 vector(s) decode otherwise (output, integer layer, skeleton channels or verdict), "
+        "e.g. v1",
         "1 vector(s) only report otherwise (mpzinfo --json), e.g. v2"]
+    assert make_golden.describe_changes(new, old) == [
+        "1 vector(s) removed, e.g. v4",
+        "1 vector(s) decode otherwise (output, integer layer, skeleton channels or verdict), "
+        "e.g. v1",
+        "1 vector(s) only report otherwise (mpzinfo --json), e.g. v2"]
+    skel = {"vectors": {"v1": dict(entry, channels_sha256="d")}}
+    assert make_golden.describe_changes(skel, {"vectors": {"v1": dict(entry,
+                                                                       channels_sha256="e")}}
+                                        )[0].startswith("1 vector(s) decode otherwise")
     assert make_golden.describe_changes(old, old) == []
     shipped = tmp_path / "golden"
     shipped.mkdir()
@@ -77,7 +90,7 @@ def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatc
     # QA run of stop 50: no change said, "was None"): it compares with the shipped file
     make_golden.main(["--out", str(tmp_path / "look")])
     out = capsys.readouterr().out
-    assert "2 vector(s) decode otherwise" in out and "1 vector(s) only report" in out
+    assert "1 vector(s) decode otherwise" in out and "1 vector(s) only report" in out
     assert "would change from x to y" in out and "untouched" in out
     assert (shipped / "golden.json").read_text() == json.dumps(old)
     make_golden.main(["--out", str(shipped)])
@@ -85,3 +98,16 @@ def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatc
     make_golden.main(["--out", str(tmp_path / "again")])
     out = capsys.readouterr().out
     assert "the golden id is unchanged: nothing for CHANGELOG.md" in out and "decode" not in out
+
+
+def test_an_out_that_is_a_file_is_refused_before_computing(tmp_path, monkeypatch, capsys):
+    """--out naming a file worked for 5 s, then ended in FileExistsError (a QA run of stop
+    53)."""
+    from mpz.tools import make_golden
+
+    def never() -> dict:
+        raise AssertionError("computed before --out was checked")
+    monkeypatch.setattr(make_golden, "compute", never)
+    (tmp_path / "new.json").write_text("{}")
+    assert make_golden.main(["--out", str(tmp_path / "new.json")]) == 64
+    assert "not a folder" in capsys.readouterr().err

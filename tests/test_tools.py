@@ -100,7 +100,7 @@ def test_json_schema(files, capsys):
     paths, _ = files
     code, out = run(capsys, mpzinfo.main, ["--json", str(paths["ok"]), str(paths["badcrc"])])
     doc = json.loads(out.out)
-    assert code == 2 and doc["schema"] == "mpzinfo/1"
+    assert code == 2 and doc["schema"] == "mpzinfo/2"
     ok, bad = doc["files"]
     assert ok["status"] == "ok" and ok["frames"] == 120 and isinstance(ok["ratio"], float)
     assert ok["errors"] == [] and ok["summary_levels"] == [4]

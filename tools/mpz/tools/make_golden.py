@@ -60,7 +60,7 @@ def compute(vectors_dir=None) -> dict:
 
 #: the parts of a vector's golden entry that are its decoded result (the rest, ``mpzinfo``,
 #: is the report)
-DECODED_PARTS = ("decoded_sha256", "integer_layer_digest", "error_class")
+DECODED_PARTS = ("decoded_sha256", "integer_layer_digest", "error_class", "channels_sha256")
 
 
 def describe_changes(old: dict, new: dict) -> list[str]:
@@ -68,19 +68,29 @@ def describe_changes(old: dict, new: dict) -> list[str]:
     output or its verdict) apart from the mpzinfo report alone (a QA run of stop 48: 120
     vectors "changed", of which 17 decoded otherwise and 103 only reported otherwise)."""
     names = sorted(set(old.get("vectors", {})) | set(new["vectors"]))
-    decoded, report = [], []
+    decoded, report, added, removed = [], [], [], []
     for name in names:
         a, b = old.get("vectors", {}).get(name), new["vectors"].get(name)
         if a == b:
             continue
-        if a is None or b is None or any(a.get(k) != b.get(k) for k in DECODED_PARTS):
+        # a vector added or removed was told as one that "decodes otherwise", which sent a
+        # maintainer after a decoder change (a QA run of stop 53: u47's addition)
+        if a is None:
+            added.append(name)
+        elif b is None:
+            removed.append(name)
+        elif any(a.get(k) != b.get(k) for k in DECODED_PARTS):
             decoded.append(name)
         else:
             report.append(name)
     out = []
+    if added:
+        out.append(f"{len(added)} vector(s) added, e.g. {', '.join(added[:5])}")
+    if removed:
+        out.append(f"{len(removed)} vector(s) removed, e.g. {', '.join(removed[:5])}")
     if decoded:
-        out.append(f"{len(decoded)} vector(s) decode otherwise (output, integer layer or "
-                   f"verdict), e.g. {', '.join(decoded[:5])}")
+        out.append(f"{len(decoded)} vector(s) decode otherwise (output, integer layer, "
+                   f"skeleton channels or verdict), e.g. {', '.join(decoded[:5])}")
     if report:
         out.append(f"{len(report)} vector(s) only report otherwise (mpzinfo --json), e.g. "
                    f"{', '.join(report[:5])}")
@@ -94,8 +104,12 @@ def main(argv=None) -> int:
                    help="folder to write golden.json into (default: conformance/golden; "
                         "another folder to see what changed without touching it)")
     args = p.parse_args(argv)
-    doc = compute()
     out = Path(args.out)
+    if out.exists() and not out.is_dir():        # found after the 5 s of computing (QA)
+        print(f"make_golden: error: --out {out}: not a folder (golden.json is written into "
+              "it)", file=sys.stderr)
+        return 64
+    doc = compute()
     # compared with the shipped file wherever it is written: "--out /tmp/golden, see what
     # changed first" compared with the empty /tmp/golden (a QA run of stop 50: "was None")
     shipped = GOLDEN_DIR / GOLDEN_FILE

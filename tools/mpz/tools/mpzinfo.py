@@ -18,7 +18,7 @@ fields with their byte offset (a value of more than 100 characters cut: ``--json
 has it whole; a list of records, such as asfs's bones, one record a line), and the
 fields the grammar decodes further (MNAM's front-coded names, HIER's weight codes)
 also as stored, one line per entry at its offset (``stored`` in ``--json``);
-``--json`` prints a versioned document (schema ``mpzinfo/1``). mpzinfo keeps going
+``--json`` prints a versioned document (schema ``mpzinfo/2``). mpzinfo keeps going
 past a bad CRC and shows what can still be read; it also runs the full integer
 decoding (``--no-decode`` skips it) so that a file that cannot be decoded never
 passes.
@@ -62,7 +62,9 @@ from mpz.tools._cli import (
 )
 from mpz.tools._common import human_size
 
-SCHEMA = "mpzinfo/1"
+#: the --json document's version: 2 since stop 53, when non-finite field values became
+#: texts (null in 1; docs/mpzinfo.md lists the versions)
+SCHEMA = "mpzinfo/2"
 
 
 def _err(e: MPZError) -> dict:
