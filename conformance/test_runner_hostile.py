@@ -682,25 +682,9 @@ def test_a_decoder_whose_write_the_file_limit_cuts_off_did_not_reject(tmp_path):
     """Python ignores SIGXFSZ: a decoder writing past the 4 GiB limit gets EFBIG, and its
     clean exit 1 passed an invalid vector as rejected though it had decoded it (a QA run of
     stop 53). The file is sparse: no disk is used."""
-    dec = python_script(tmp_path / "big.py", '''
-try:
-    with open(sys.argv[2], "wb") as f:
-        f.seek((4 << 30) - 1)
-        f.write(b"x")
-        f.flush()
-        f.write(b"y")
-        f.flush()
-except OSError as exc:
-    print(f"cannot write: {exc}", file=sys.stderr)
-    sys.exit(1)
-''')
-    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
-    r = doc["results"][0]
-    assert not r["passed"] and r["actual"] == "error", r
-    assert "the runner's file size limit (4 GiB, RLIMIT_FSIZE)" in r["message"]
-    assert proc.returncode == 1
-    # one that removes its partial output (mpz decode does) says EFBIG: it passed (review)
-    tidy = python_script(tmp_path / "tidy.py", '''
+    def past_the_limit(name: str, cleanup: str) -> Path:
+        """A decoder that writes one byte past 4 GiB (sparse), then ``cleanup``s."""
+        return python_script(tmp_path / name, f'''
 import os
 try:
     with open(sys.argv[2], "wb") as f:
@@ -710,10 +694,17 @@ try:
         f.write(b"y")
         f.flush()
 except OSError as exc:
-    os.remove(sys.argv[2])
-    print(f"cannot write: {exc}", file=sys.stderr)
+    {cleanup}
+    print(f"cannot write: {{exc}}", file=sys.stderr)
     sys.exit(1)
 ''')
+    proc, doc = run(tmp_path, "--decoder", str(past_the_limit("big.py", "pass")), "--only", BAD)
+    r = doc["results"][0]
+    assert not r["passed"] and r["actual"] == "error", r
+    assert "the runner's file size limit (4 GiB, RLIMIT_FSIZE)" in r["message"]
+    assert proc.returncode == 1
+    # one that removes its partial output (mpz decode does) says EFBIG: it passed (review)
+    tidy = past_the_limit("tidy.py", "os.remove(sys.argv[2])")
     proc, doc = run(tmp_path, "--decoder", str(tidy), "--only", BAD)
     r = doc["results"][0]
     assert not r["passed"] and r["actual"] == "error", r

@@ -311,6 +311,20 @@ def test_a_written_float_c3d_keeps_the_bound(tmp_path_factory, seed, offset, E):
         assert (err <= bound).all(), (err.max(axis=0), bound)
 
 
+def _with_record_before_the_parameters(desc: bytes, dims: tuple[int, ...], data: bytes
+                                        ) -> tuple[mpz.Motion, int]:
+    """A synthetic float C3D motion whose archive holds a byte record BIG (``desc``,
+    ``dims``, ``data``) before its first parameter, and that record's group id."""
+    from mpz.io import c3dbin
+    from mpz.tools.make_vectors import c3d_motion
+    m = c3d_motion(4, storage=1, F=6, M=3, J=0, C=0, n=1)
+    a = m.extras["c3d"]
+    gid = next(-r.group for r in a.records if r.group < 0)
+    first_param = next(i for i, r in enumerate(a.records) if r.group > 0)
+    a.records.insert(first_param, c3dbin.ParamRecord(gid, False, b"BIG", desc, 1, dims, data))
+    return m, gid
+
+
 @pytest.mark.parametrize("after,ok", [(65533, True), (65534, False)])
 def test_the_next_record_offset_counts_its_own_two_bytes(after, ok):
     """Spec §6.9: the offset is 2 + the record's bytes after the offset field, at most 65535,
@@ -321,14 +335,8 @@ def test_the_next_record_offset_counts_its_own_two_bytes(after, ok):
 
     from mpz.errors import MPZError
     from mpz.io.c3d import archive_bytes
-    from mpz.tools.make_vectors import c3d_motion
-    m = c3d_motion(4, storage=1, F=6, M=3, J=0, C=0, n=1)
-    a = m.extras["c3d"]
-    gid = next(-r.group for r in a.records if r.group < 0)
     desc = b"d" * (after - (1 + 1 + 3 + 65526 + 1))
-    big = c3dbin.ParamRecord(gid, False, b"BIG", desc, 1, (6, 67, 163), bytes(65526))
-    first_param = next(i for i, r in enumerate(a.records) if r.group > 0)
-    a.records.insert(first_param, big)
+    m, gid = _with_record_before_the_parameters(desc, (6, 67, 163), bytes(65526))
     if not ok:
         with pytest.raises(MPZError, match=r"next-record offset of 65536"):
             archive_bytes(m)
@@ -354,16 +362,9 @@ def test_a_long_parameter_record_is_written_with_an_unsigned_offset(size, ok):
     import struct
 
     from mpz.errors import MPZError
-    from mpz.io import c3dbin, check_writable
+    from mpz.io import check_writable
     from mpz.io.c3d import archive_bytes
-    from mpz.tools.make_vectors import c3d_motion
-    m = c3d_motion(4, storage=1, F=6, M=3, J=0, C=0, n=1)
-    a = m.extras["c3d"]
-    gid = next(-r.group for r in a.records if r.group < 0)
-    big = c3dbin.ParamRecord(gid, False, b"BIG", b"", 1, (size // 1000, 100, 10),
-                              bytes(size))
-    first_param = next(i for i, r in enumerate(a.records) if r.group > 0)
-    a.records.insert(first_param, big)
+    m, gid = _with_record_before_the_parameters(b"", (size // 1000, 100, 10), bytes(size))
     if not ok:
         with pytest.raises(MPZError, match=r"next-record offset of 66008.*65535"):
             archive_bytes(m)
