@@ -16,12 +16,12 @@ no ratio, and fields from an MHDR whose CRC failed are marked unverified
 computed and stored values); ``-vv`` adds every field of every chunk, a chunk's own
 fields with their byte offset (a value of more than 100 characters cut: ``--json``
 has it whole; a list of records, such as asfs's bones, one record a line), and the
-fields the grammar decodes further (MNAM's front-coded names, HIER's weight codes)
-also as stored, one line per entry at its offset (``stored`` in ``--json``);
-``--json`` prints a versioned document (schema ``mpzinfo/2``). mpzinfo keeps going
-past a bad CRC and shows what can still be read; it also runs the full integer
-decoding (``--no-decode`` skips it) so that a file that cannot be decoded never
-passes.
+fields the grammar decodes further (MNAM's front-coded names, HIER's weight codes,
+meta's and the skeleton chunks' texts) also as stored, one line per entry at its
+offset (``stored`` in ``--json``); ``--json`` prints a versioned document (schema
+``mpzinfo/2``). mpzinfo keeps going past a bad CRC and shows what can still be read;
+it also runs the full integer decoding (``--no-decode`` skips it) so that a file
+that cannot be decoded never passes.
 
 ``-`` reads standard input (bounded: chunk by chunk, stopping at MEND). A
 device, FIFO or socket given by name is refused without being read. File
