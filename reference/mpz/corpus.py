@@ -247,6 +247,16 @@ def _row_problem(row: Mapping[str, Any]) -> str | None:
     return None
 
 
+def _some(items: Sequence[str]) -> str:
+    """The first five of ``items`` for a message, then ", ..." if there are more."""
+    return ", ".join(items[:5]) + (", ..." if len(items) > 5 else "")
+
+
+def _rows(n: int, kind: str = "index") -> str:
+    """``n`` index row(s) (``kind``: "index", "damaged index"), in the singular for one."""
+    return f"{n} {kind} row{'' if n == 1 else 's'}"
+
+
 def _named(output: Any) -> str:
     """A row's output key for a message: as it is, or its repr if it is not a text."""
     return output[:200] if isinstance(output, str) else repr(output)[:200]
@@ -822,7 +832,7 @@ class Index:
                                    f"table holds no schema); {_REBUILD}")
             if got is None and (tables or not create):
                 what = (f"it holds the table{'' if len(tables) == 1 else 's'} "
-                        f"{', '.join(sorted(tables)[:5])}{', ...' if len(tables) > 5 else ''}"
+                        f"{_some(sorted(tables))}"
                         if tables else "an empty database")
                 raise EncoderError(
                     f"{self.path}: not an MPZ corpus index ({what}, and no MPZ schema); "
@@ -936,9 +946,7 @@ class Index:
                 if isinstance(k, str) and k not in keep and not os.path.isfile(
                     os.path.join(index_dir, *k.split("/")))]
         with self.db:
-            for k in keys:
-                self.db.execute("DELETE FROM files WHERE output = ?", (k,))
-                self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
+            self._delete(keys)
             # levels of no file (a tool without foreign keys left them, put() says): one
             # that held what it cannot made search refuse the index for good, and the run
             # said it rebuilt it (a review of stop 53)
@@ -953,10 +961,14 @@ class Index:
         keys = [k for (k,) in self.db.execute(
             "SELECT output FROM files WHERE typeof(output) != 'text' ORDER BY output")]
         with self.db:
-            for k in keys:
-                self.db.execute("DELETE FROM files WHERE output = ?", (k,))
-                self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
+            self._delete(keys)
         return [repr(k) for k in keys]
+
+    def _delete(self, keys: Collection[Any]) -> None:
+        """Delete the rows of ``keys`` and their levels (in the caller's transaction)."""
+        for k in keys:
+            self.db.execute("DELETE FROM files WHERE output = ?", (k,))
+            self.db.execute("DELETE FROM levels WHERE output = ?", (k,))
 
     @_sql
     def same_sources(self) -> list[list[str]]:
@@ -1762,21 +1774,6 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     _check_corpus_arguments(jobs, outdir, options, workers)
     wall0 = time.time()
     index_dir = os.path.abspath(os.fspath(outdir))
-    if not os.path.isdir(index_dir) and not any(os.path.lexists(s) for s, _ in jobs):
-        # no input there to read (mistyped paths): the output folder and an empty index
-        # were made all the same (an archive team's QA run of stop 53)
-        gone = [(s, o, f"{os.strerror(errno.ENOENT)}: {os.fspath(s)}") for s, o in jobs]
-        return CorpusReport([FileResult(os.fspath(src), "" if out is None else os.fspath(out),
-                                        "failed", reason, _size(src))
-                             for src, out, reason in [*failed, *gone]],
-                            time.perf_counter() - t0, 0, "nothing to do", "",
-                            index_notes=[f"no input to encode: the output folder "
-                                         f"{os.fspath(outdir)} was not made"])
-    try:
-        os.makedirs(index_dir, exist_ok=True)
-    except OSError as exc:
-        raise EncoderError(f"cannot make the folder {os.fspath(outdir)}: "
-                           f"{folder_problem(exc)}") from None
     per_file = (options if isinstance(options, FileOptions) else
                 _Fixed(options) if isinstance(options, EncodeOptions) else _ByUnits(options))
     levels = tuple(sorted({int(k) for k in levels}))
@@ -1792,6 +1789,19 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
     early = [FileResult(os.fspath(src), "" if out is None else os.fspath(out), "failed",
                         reason, _size(src)) for src, out, reason in failed]
+    if not os.path.isdir(index_dir) and not any(os.path.lexists(s) for s, _ in jobs):
+        # no input there to read (mistyped paths): the output folder and an empty index
+        # were made all the same (an archive team's QA run of stop 53)
+        gone = [FileResult(t.source, t.output, "failed",
+                           f"{os.strerror(errno.ENOENT)}: {t.source}") for t in tasks]
+        return CorpusReport(gone + early, time.perf_counter() - t0, 0, "nothing to do", "",
+                            index_notes=[f"no input to encode: the output folder "
+                                         f"{os.fspath(outdir)} was not made"])
+    try:
+        os.makedirs(index_dir, exist_ok=True)
+    except OSError as exc:
+        raise EncoderError(f"cannot make the folder {os.fspath(outdir)}: "
+                           f"{folder_problem(exc)}") from None
     with contextlib.ExitStack() as stack:
         remote = None
         if scheduler is not None and client is None:
@@ -1802,33 +1812,32 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         index = stack.enter_context(Index(os.path.join(index_dir, INDEX_NAME), create=True))
         dropped = index.refresh_descriptors()
         unnamed = index.drop_unnamed()
-        forgotten = index.forget_missing(index_dir, {t.output_key for t in tasks})
+        keys = {t.output_key for t in tasks}
+        forgotten = index.forget_missing(index_dir, keys)
         damaged = index.damaged()
         # a damaged row this run's inputs do not cover is not rebuilt (a run over a part of
         # the inputs said it was, a review of stop 53)
-        rebuilt = sorted(damaged & {t.output_key for t in tasks})
-        left = sorted(damaged - set(rebuilt))
+        rebuilt = sorted(damaged & keys)
+        left = sorted(damaged - keys)
         notes = []
         if dropped:
             notes.append(f"the index was of another descriptor version: its {len(dropped)} "
                          f"row{'' if len(dropped) == 1 else 's'} are rebuilt from the outputs "
                          "(status kept, nothing encoded again)")
         if unnamed:
-            notes.append(f"{len(unnamed)} index row{'' if len(unnamed) == 1 else 's'} whose "
-                         f"output is not a text removed: {', '.join(unnamed[:5])}"
-                         f"{', ...' if len(unnamed) > 5 else ''}")
+            notes.append(f"{_rows(len(unnamed))} whose output is not a text removed: "
+                         f"{_some(unnamed)}")
         what = ("(a descriptor that is not finite, a summary cut short, a column holding what "
                 "it cannot)")
         if rebuilt:
-            notes.append(f"{len(rebuilt)} damaged index row{'' if len(rebuilt) == 1 else 's'} "
-                         f"{what} rebuilt: {', '.join(rebuilt[:5])}"
-                         f"{', ...' if len(rebuilt) > 5 else ''}")
+            notes.append(f"{_rows(len(rebuilt), 'damaged index')} {what} rebuilt: "
+                         f"{_some(rebuilt)}")
         if left:
-            notes.append(f"{len(left)} damaged index row{'' if len(left) == 1 else 's'} {what} "
-                         f"of outputs this run's inputs do not cover, left as "
+            notes.append(f"{_rows(len(left), 'damaged index')} {what} of outputs this run's "
+                         f"inputs do not cover, left as "
                          f"{'it is' if len(left) == 1 else 'they are'} (mpz search refuses "
-                         f"the index): {', '.join(left[:5])}{', ...' if len(left) > 5 else ''}; "
-                         "run over their sources too, or remove the index to rebuild it")
+                         f"the index): {_some(left)}; run over their sources too, or remove "
+                         "the index to rebuild it")
         index.set_info({"levels": ",".join(map(str, levels)),
                         "exact_max_frames": str(EXACT_MAX_FRAMES)})
         done = 0

@@ -208,12 +208,17 @@ def besides_markers(original: Motion, decoded: Motion, *,
 RATE_TOLERANCE = 1e-6
 
 
+def rate_assumed(m: Motion) -> bool:
+    """Whether ``m``'s rate is its reader's assumption, not stored: an NPY's, an AMC's, a
+    one-row CSV's (``rate_assumed`` in its metadata)."""
+    return "rate_assumed" in m.metadata or m.metadata.get("format") == "npy"
+
+
 def _rates_differ(original: Motion, decoded: Motion) -> bool:
     """Whether two motions' frame rates differ beyond :data:`RATE_TOLERANCE`, both stored
-    (a rate assumed by a reader, an NPY's or an AMC's, is unknown: not compared)."""
-    return not math.isclose(original.rate, decoded.rate, rel_tol=RATE_TOLERANCE) and not any(
-        "rate_assumed" in m.metadata or m.metadata.get("format") == "npy"
-        for m in (original, decoded))
+    (a rate assumed by a reader is unknown: not compared)."""
+    return not math.isclose(original.rate, decoded.rate, rel_tol=RATE_TOLERANCE) and not (
+        rate_assumed(original) or rate_assumed(decoded))
 
 
 def _rate_parts(original: Motion, decoded: Motion) -> list[Part]:

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from mpz.errors import MotionError
-from mpz.metrics import RATE_TOLERANCE  # one tolerance for compare and metrics
+from mpz.metrics import RATE_TOLERANCE, rate_assumed  # one rule for compare and metrics
 from mpz.tools._cli import count, print_json, printable
 from mpz.tools._common import check_plot, plot_format
 
@@ -204,11 +204,13 @@ def check_rates(a, b, ext_a: str | None, ext_b: str | None, names: tuple[str, st
     close = math.isclose(a.rate, b.rate, rel_tol=RATE_TOLERANCE)
     # an AMC's rate is its reader's assumption (120 Hz): one encoded with --rate 60, as
     # the README says, could never be compared with its source (a QA run of stop 53)
-    assumed = [f"{n} ({m.rate:g} Hz assumed)" for n, m in zip(names, (a, b), strict=True)
-               if "rate_assumed" in m.metadata]
-    if assumed and not close:
-        return [f"{' and '.join(assumed)}: an AMC stores no frame rate; rates not compared "
-                f"({a.rate:g} vs {b.rate:g} Hz), the frames taken in order"]
+    pairs = [(n, m) for n, m in zip(names, (a, b), strict=True) if rate_assumed(m)]
+    if pairs and not close:
+        said = ("an AMC stores no frame rate" if all(m.metadata.get("format") == "amc"
+                                                     for _, m in pairs)
+                else "its reader assumed the frame rate")       # a one-row CSV's
+        return [f"{' and '.join(f'{n} ({m.rate:g} Hz assumed)' for n, m in pairs)}: {said}; "
+                f"rates not compared ({a.rate:g} vs {b.rate:g} Hz), the frames taken in order"]
     if not close:
         raise MotionError(f"frame rates differ: {a.rate:.10g} Hz ({names[0]}) vs "
                           f"{b.rate:.10g} Hz "
