@@ -107,6 +107,24 @@ def test_every_decoding_step_of_the_spec_is_exercised():
     assert not missing, "no vector exercises " + ", ".join(missing)
 
 
+def test_every_digest_in_the_manifest_is_defined_by_the_spec():
+    """Spec §7.3 defines each digest the manifest gives an implementer to check a layer
+    with (`*_sha256` in `features`) and its `*_digest_rule`; `summary_sha256` was defined
+    in conformance/README.md alone (a clean-room review of stop 54), and so is `rules`."""
+    if not SPEC.is_file():
+        pytest.skip("spec/mpz-1.md missing")
+    text = SPEC.read_text(encoding="utf-8")
+    section = text[text.index("### 7.3."):text.index("### 7.4.")]
+    keys = {"rules"}
+    for v in MAN["vectors"]:
+        features = v.get("features", {})
+        for part in (features, *(x for x in features.values() if isinstance(x, dict))):
+            keys |= {k for k in part if k.endswith(("_sha256", "_digest_rule"))}
+    assert {"summary_sha256", "c3d_file_sha256", "channels_sha256"} <= keys
+    missing = sorted(k for k in keys if f"`{k}`" not in section)
+    assert not missing, f"spec §7.3 does not define {missing}"
+
+
 def test_declared_sections_include_exercised_ones():
     for v in DECODABLE:
         got = set(mf.exercised_sections(read_stream((VDIR / v["file"]).read_bytes())))
@@ -297,3 +315,38 @@ def test_a_manifest_nested_too_deeply_is_a_manifest_error(tmp_path):
     (tmp_path / "manifest.json").write_text("[" * 100_000 + "]" * 100_000)
     with pytest.raises(mf.ManifestError, match="nested too deeply"):
         mf.load(tmp_path)
+
+
+def _frames(data: bytes) -> list[tuple[str, int, int]]:
+    """(type, first byte, last byte) of every chunk frame of ``data`` (§3.2), walked
+    without any check of the types, CRCs or payloads, up to the first frame whose length
+    passes the end of the file, which is listed up to the end."""
+    out, pos = [], 8
+    while len(data) - pos >= 8:
+        n = int.from_bytes(data[pos + 4:pos + 8], "little")
+        ctype = data[pos:pos + 4].decode("latin-1")
+        if n > len(data) - pos - 12:
+            out.append((ctype, pos, len(data) - 1))
+            break
+        out.append((ctype, pos, pos + 12 + n - 1))
+        pos += 12 + n
+    return out
+
+
+def test_every_reference_message_offset_lies_in_its_chunk():
+    """Spec §8 (Error reports): the offset of a chunk's error is a byte of that chunk. The
+    text did not say which byte, and the reference gives the frame's first byte for some
+    errors and the payload's for others (a clean-room review of stop 54): checked here on
+    every invalid vector whose message names a chunk."""
+    import re
+    checked = 0
+    for v in MAN["vectors"]:
+        m = re.match(r"chunk (\S{4}), offset (\d+) ", v.get("reference_message") or "")
+        if v["expected"] != "reject" or m is None:
+            continue
+        ctype, at = m.group(1), int(m.group(2))
+        frames = _frames((VDIR / v["file"]).read_bytes())
+        assert any(t == ctype and lo <= at <= hi for t, lo, hi in frames), (
+            v["name"], v["reference_message"], frames)
+        checked += 1
+    assert checked >= 250

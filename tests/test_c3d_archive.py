@@ -741,3 +741,55 @@ def test_unsigned_analog_words_keep_their_meaning_in_a_float_c3d(shared_data, tm
         data = build_c3d(a.header, records, xyz, a.words, words, float_storage=True,
                          scale=a.point_scale())
         assert float(parse_c3d(data).analog[0, 0]) == want
+
+
+def _with_point_scale(m: mpz.Motion, values: tuple[float, ...]) -> mpz.Motion:
+    """``m`` (a synthetic C3D motion) with its POINT:SCALE record holding ``values``."""
+    from mpz.io import c3dbin
+    a = m.extras["c3d"]
+    (i,) = c3dbin.named(a.records, b"POINT", b"SCALE")
+    r = a.records[i]
+    a.records[i] = c3dbin.ParamRecord(r.group, r.locked, r.name, r.description, 4,
+                                      (len(values),), np.array(values, "<f4").tobytes())
+    return m
+
+
+@pytest.mark.parametrize("values", [(0.5, 0.5), (0.5, -0.25, 2.0)])
+def test_every_element_of_point_scale_takes_the_sign_of_the_storage(tmp_path, values):
+    """Spec §6.9: a float32 C3D's POINT:SCALE records have their first element set to the
+    header's (negative) scale and every other element made negative. The writer set a
+    POINT:SCALE of one element only, so a source's [0.5, 0.5] stayed positive in a float
+    file, and ezc3d, which scales point p by element p and reads a positive one as int16,
+    read the second point 17,000 units off (a clean-room review of stop 54)."""
+    from mpz.io import c3dbin
+    from mpz.tools.make_vectors import c3d_motion
+    m = _with_point_scale(c3d_motion(5, storage=0, F=6, M=3, J=0, C=0, n=1), values)
+    # off the source's int16 grid of 0.5: written float32 (spec §6.9, Storage)
+    off = mpz.Motion(m.positions + 0.1, m.names, m.rate, m.units, m.valid, m.metadata,
+                     extras=m.extras)
+    path = tmp_path / "float.c3d"
+    write(off, path)
+    raw = path.read_bytes()
+    assert np.frombuffer(raw, "<f4", 1, 12)[0] == -0.5                # header words 7-8
+    params = c3dbin.parse_c3d(raw).params
+    assert params["POINT"]["SCALE"].tolist() == [-0.5] + [-abs(v) for v in values[1:]]
+    c = ezc3d.c3d(str(path))
+    labels = c["parameters"]["POINT"]["LABELS"]["value"]
+    pts = c["data"]["points"][:3].transpose(2, 1, 0)[:, [labels.index(n) for n in m.names]]
+    err = np.linalg.norm(pts - off.positions, axis=2)[off.valid]
+    assert err.max() < 1e-3
+
+
+def test_a_point_scale_of_several_values_is_a_warning(tmp_path):
+    """ezc3d scales point p by element p of POINT:SCALE, mpz reads every point with the
+    first (the C3D user guide's one scale): an int16 source with [0.5, 0.25] reads
+    otherwise in ezc3d, which the reader now says (a clean-room review of stop 54)."""
+    from mpz.tools.make_vectors import c3d_motion
+    m = _with_point_scale(c3d_motion(5, storage=0, F=6, M=3, J=0, C=0, n=1), (0.5, 0.25))
+    path = tmp_path / "scales.c3d"
+    path.write_bytes(archive_source(m))
+    warning = read(path).metadata["warning"]
+    assert "POINT:SCALE holds 2 values that differ (0.5, 0.25)" in warning
+    same = _with_point_scale(c3d_motion(5, storage=0, F=6, M=3, J=0, C=0, n=1), (0.5, 0.5))
+    path.write_bytes(archive_source(same))
+    assert "POINT:SCALE holds" not in read(path).metadata.get("warning", "")

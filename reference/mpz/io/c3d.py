@@ -371,15 +371,34 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
             "as ezc3d reads them, and the decoded C3D is written with the first (spec §6.9), "
             "so its residuals are scaled by the first, and an int16 source may not stay on "
             "its grid"))
+    for elements in _point_scale_elements(archive):
+        if len(set(elements)) > 1:
+            # ezc3d 1.7 scales point p by element p; the C3D user guide has one scale (a
+            # clean-room review of stop 54)
+            meta["warning"] = _joined(meta.get("warning"), (
+                f"POINT:SCALE holds {len(elements)} values that differ "
+                f"({', '.join(f'{v:g}' for v in elements[:8])}"
+                f"{', ...' if len(elements) > 8 else ''}): mpz reads every point with the "
+                "first, as the C3D user guide's one scale, while ezc3d scales point p by "
+                "element p, so the points of an int16 source may read otherwise there, and "
+                "the decoded C3D gives every element the sign of the first (spec §6.9)"))
+            break
     return Motion(full.positions[:, marker], names, full.rate, full.units,
                   full.valid[:, marker], meta, extras={"c3d": archive})
 
 
 def _point_scales(a: C3DArchive) -> list[float]:
-    """The values of every POINT:SCALE record of ``a`` (float32, at least one element)."""
+    """The values of every POINT:SCALE record of ``a`` (float32, at least one element):
+    each one's first element."""
+    return [e[0] for e in _point_scale_elements(a)]
+
+
+def _point_scale_elements(a: C3DArchive) -> list[list[float]]:
+    """The elements of every POINT:SCALE record of ``a`` that is a float32 of at least one
+    element, one list per record."""
     records = [a.records[i] for i in c3dbin.named(a.records, b"POINT", b"SCALE")]
-    return [float(np.frombuffer(r.data, "<f4", 1)[0]) for r in records
-            if r.type == 4 and len(r.data) >= 4]
+    return [np.frombuffer(r.data, "<f4", len(r.data) // 4).astype(float).tolist()
+            for r in records if r.type == 4 and len(r.data) >= 4]
 
 
 def archive_describes(a: C3DArchive, markers: int) -> tuple[list[str], str, float]:

@@ -1109,12 +1109,30 @@ def analog_unsigned(records: list[ParamRecord]) -> bool:
 
 
 def _patched(records: list[ParamRecord], name: bytes, ptype: int, data: bytes) -> None:
-    """Replace the data of POINT:``name`` (one element of ``ptype``) in place, if present."""
+    """Replace the first element of every POINT:``name`` record of type ``ptype`` with at
+    least one element by ``data`` (one element), in place; the other elements are kept
+    (spec §6.9)."""
     for i in named(records, b"POINT", name):
         r = records[i]
-        if r.type == ptype and len(r.data) == len(data):
+        if r.type == ptype and len(r.data) >= len(data):
             records[i] = ParamRecord(r.group, r.locked, r.name, r.description, r.type, r.dims,
-                                     data)
+                                     data + r.data[len(data):])
+
+
+def _scale_signed(records: list[ParamRecord], signed_scale: float) -> None:
+    """Spec §6.9: in every float32 POINT:SCALE record with at least one element, the first
+    element becomes ``signed_scale`` (header words 7-8) and every other one takes its sign.
+    ezc3d (1.7) scales point p by element p and reads a point whose element is positive as
+    int16: a POINT:SCALE of two elements was written positive in a float file, and its
+    second point read back 17,000 units off (a clean-room review of stop 54)."""
+    for i in named(records, b"POINT", b"SCALE"):
+        r = records[i]
+        if r.type == 4 and len(r.data) >= 4:
+            v = np.abs(np.frombuffer(r.data, "<f4", len(r.data) // 4))
+            v = -v if signed_scale < 0 else v
+            v[0] = signed_scale
+            records[i] = ParamRecord(r.group, r.locked, r.name, r.description, r.type, r.dims,
+                                     v.astype("<f4").tobytes() + r.data[len(v) * 4:])
 
 
 def frame_words(first: int, frames: int) -> tuple[int, int, bool]:
@@ -1246,7 +1264,7 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
     """
     recs = list(records)
     signed_scale = -abs(scale) if float_storage else abs(scale)
-    _patched(recs, b"SCALE", 4, np.array([signed_scale], "<f4").tobytes())
+    _scale_signed(recs, signed_scale)
     n_blocks = param_blocks(recs)
     if n_blocks > MAX_PARAM_BLOCKS:
         raise InputFormatError(f"C3D: the parameter section needs {n_blocks} blocks; a C3D "

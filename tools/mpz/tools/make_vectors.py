@@ -2610,9 +2610,12 @@ C3D_VECTOR_RULES = _rules(
      "chdr-inflates-to-513-bytes"),
     ("R-4.13-4", "c3d-stored-header-and-parameters c3d-archive-float32"),
     ("R-4.13.1-1", "chdr-processor-87 chdr-key-0x51"),
-    ("R-4.13.1-2", "chdr-stored-511-bytes chdr-payload-1-byte"),
+    # an inflated content over the limit breaks the byte coding (R-4.13-3) and the chunk's
+    # content limit, which its message cites (a clean-room review of stop 54)
+    ("R-4.13.1-2", "chdr-stored-511-bytes chdr-payload-1-byte chdr-inflates-to-513-bytes"),
     ("R-4.13.1-3", "c3d-header-counts-stale"),
-    ("R-4.13.2-4", "cprm-empty-payload cprm-stored-over-2pow17 cprm-records-short-of-content"),
+    ("R-4.13.2-4", "cprm-empty-payload cprm-stored-over-2pow17 cprm-records-short-of-content "
+                   "cprm-inflates-past-2pow17"),
     ("R-4.13.2-1", "cprm-group-0 cprm-name-empty cprm-name-128-bytes cprm-type-3 "
                    "cprm-eight-dims cprm-group-declared-twice"),
     ("R-4.13.2-2", "cprm-count-past-payload cprm-data-2x255pow7"),
@@ -2932,7 +2935,8 @@ def skeleton_vectors(vs: VectorSet):
     add = functools.partial(_add_invalid, vs)
 
     def bad(slug, changes, what, risk, section, src=good, error="FormatError"):
-        add(slug, _skeleton_rebuild(src, **changes), what, what, risk, error, [section])
+        add(slug, _skeleton_rebuild(src, **changes), what, what, risk, error,
+            [section] if isinstance(section, str) else list(section))
 
     chunks = [[c.type, c.payload] for c in container.parse(good)]
     k = next(i for i, c in enumerate(chunks) if c[0] == "bvhs")
@@ -3013,10 +3017,11 @@ def skeleton_vectors(vs: VectorSet):
     bad("skeleton-group-gap", entry(plain, group=last + 2), "a channel in a group two past "
         "the last", "an empty group has no block", "§4.14")
     # §6.10 and §5.3 on the coded field
+    # §6.10 states the rule (R-6.10-1), §5.3 the check (a clean-room review of stop 54)
     bad("skeleton-coded-short", {"coded": rec.coded[:-1]}, "the coded field lacks its last "
-        "byte", "a decoder that does not check the end reads past it", "§5.3")
+        "byte", "a decoder that does not check the end reads past it", ("§5.3", "§6.10"))
     bad("skeleton-coded-leftover", {"coded": rec.coded + b"\x00"}, "a byte after the last "
-        "block", "trailing data unnoticed", "§5.3")
+        "block", "trailing data unnoticed", ("§5.3", "§6.10"))
     # order 1, values 0, 2^31 - 1, 2^31, 2^31 - 1, 0, ...: every residual fits the coder
     ov = dataclasses.replace(rec, channels=tuple(dataclasses.replace(e, order=1, wrap=0, low=0)
                                                  if i == plain else e
