@@ -848,8 +848,9 @@ def test_a_command_ignores_ctrl_c_once_its_work_is_done(tmp_path: Path) -> None:
     from mpz._worker import ignore_sigint_when_done
     assert not ignore_sigint_when_done()
     assert sig.getsignal(sig.SIGINT) is not sig.SIG_IGN
-    script = tmp_path / "mpz"                              # run as the mpz command is
+    script = tmp_path / "mpz"           # run as the mpz command is: pip's script's import
     script.write_text("import signal, sys\n"
+                      "from mpz.tools.mpz_cli import main\n"
                       "from mpz.tools._cli import reports_ctrl_c\n"
                       "print(reports_ctrl_c('interrupted')(lambda: 3)(), "
                       "signal.getsignal(signal.SIGINT) is signal.SIG_IGN)\n")

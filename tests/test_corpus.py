@@ -1307,16 +1307,45 @@ def test_ctrl_c_while_the_workers_start_is_one_clean_line(tmp_path):
     assert temporaries(out) == []
 
 
-def test_only_a_child_of_the_mpz_script_ignores_sigint(monkeypatch):
+#: what pip writes as a console script (the first lines are what mpz._worker reads)
+_CONSOLE_SCRIPT = ("#!/venv/bin/python3\n# -*- coding: utf-8 -*-\nimport re\nimport sys\n"
+                   "from {} import main\nif __name__ == '__main__':\n    sys.exit(main())\n")
+#: pyproject.toml's [project.scripts]
+_ENTRY_MODULES = {"mpz": "mpz.tools.mpz_cli", "mpzinfo": "mpz.tools.mpzinfo",
+                  "mpz-conformance": "mpz.conformance.runner"}
+
+
+def _scripts(tmp_path: Path) -> dict[str, str]:
+    """Script files by role: pip's console scripts ``mpz``, ``mpzinfo`` and
+    ``mpz-conformance``, and a user's own scripts of the same names that import mpz (a QA
+    run of the API, stop 54: they had SIGINT blocked for good)."""
+    out = {}
+    for name in ("mpz", "mpzinfo", "mpz-conformance"):
+        (tmp_path / "bin").mkdir(exist_ok=True)
+        (tmp_path / "bin" / name).write_text(_CONSOLE_SCRIPT.format(_ENTRY_MODULES[name]))
+        out[name] = str(tmp_path / "bin" / name)
+        (tmp_path / "own").mkdir(exist_ok=True)
+        (tmp_path / "own" / f"{name}.py").write_text(
+            "import mpz\nfrom mpz.synth import generate\nfrom mpz.tools import _cli\n")
+        out[f"own {name}"] = str(tmp_path / "own" / f"{name}.py")
+    (tmp_path / "own" / "mpz").write_text("#!/usr/bin/env python3\nimport mpz\n")
+    out["own mpz, no extension"] = str(tmp_path / "own" / "mpz")
+    return out
+
+
+def test_only_a_child_of_the_mpz_script_ignores_sigint(monkeypatch, tmp_path):
     """mpz._worker acts in a multiprocessing child whose __mp_main__ is the mpz script,
-    and nowhere else (it runs at every import of mpz)."""
+    and nowhere else (it runs at every import of mpz): not a child of a user's script
+    named mpz."""
     import types
 
     from mpz import _worker
     calls = []
     monkeypatch.setattr(_worker.signal, "signal", lambda *a: calls.append(a))
     assert not _worker.ignore_sigint_in_a_worker()                 # no __mp_main__
-    for path, acts in (("/venv/bin/mpz", True), ("C:/env/Scripts/mpz.exe", True),
+    s = _scripts(tmp_path)
+    for path, acts in ((s["mpz"], True), ("C:/env/Scripts/mpz.exe", True),
+                       (s["own mpz"], False), (s["own mpz, no extension"], False),
                        ("/home/u/train.py", False), (None, False)):
         fake = types.ModuleType("__mp_main__")
         fake.__file__ = path
@@ -1325,24 +1354,29 @@ def test_only_a_child_of_the_mpz_script_ignores_sigint(monkeypatch):
     assert calls == [(signal.SIGINT, signal.SIG_IGN)] * 2
 
 
-def test_only_the_commands_hold_sigint_while_they_import(monkeypatch):
+def test_only_the_commands_hold_sigint_while_they_import(monkeypatch, tmp_path):
     """mpz._worker blocks SIGINT in the mpz, mpzinfo and mpz-conformance commands (their
-    __main__ is the script, and they are no multiprocessing child) until their main."""
+    __main__ is the script, and they are no multiprocessing child) until their main; not
+    in a user's script of one of those names, whose SIGINT stayed blocked for good."""
     import types
 
     from mpz import _worker
     masks = []
     monkeypatch.setattr(_worker.signal, "pthread_sigmask", lambda *a: masks.append(a))
     monkeypatch.delitem(sys.modules, "__mp_main__", raising=False)
-    for path, acts in (("/venv/bin/mpz", True), ("/venv/bin/mpz-conformance", True),
-                       ("/venv/bin/mpzinfo", True), ("/venv/bin/spec_example", False),
+    s = _scripts(tmp_path)
+    for path, acts in ((s["mpz"], True), (s["mpz-conformance"], True),
+                       (s["mpzinfo"], True), ("/venv/bin/spec_example", False),
+                       (s["own mpz"], False), (s["own mpzinfo"], False),
+                       (s["own mpz-conformance"], False), (s["own mpz, no extension"], False),
                        ("/home/u/train.py", False), (None, False)):
         fake = types.ModuleType("__main__")
         fake.__file__ = path
         monkeypatch.setitem(sys.modules, "__main__", fake)
         assert _worker.hold_sigint_in_a_command() is acts, path
+        assert _worker.own_process() is acts, path
     monkeypatch.setitem(sys.modules, "__mp_main__", fake)
-    fake.__file__ = "/venv/bin/mpz"                 # a worker of the command: not held
+    fake.__file__ = s["mpz"]                        # a worker of the command: not held
     assert _worker.hold_sigint_in_a_command() is False
     assert masks == [(signal.SIG_BLOCK, {signal.SIGINT})] * 3
 

@@ -19,6 +19,7 @@ ended the command by the signal; held, it is delivered inside ``main``, which sa
 from __future__ import annotations
 
 import os
+import re
 import signal
 import sys
 import threading
@@ -44,19 +45,46 @@ def _script(module: str) -> str | None:
 def ignore_sigint_in_a_worker() -> bool:
     """:func:`ignore_sigint` if this process is a multiprocessing child of the ``mpz``
     script; True if it did."""
-    return _script("__mp_main__") == "mpz" and ignore_sigint()
+    return _command_script("__mp_main__", MPZ) and ignore_sigint()
 
 
+#: the command whose ``encode -j N`` starts worker processes
+MPZ = frozenset({"mpz"})
 #: the console scripts whose ``main`` reports a Ctrl-C as "interrupted", exit 130, and
 #: calls :func:`release_sigint` first
 COMMANDS = frozenset({"mpz", "mpzinfo", "mpz-conformance"})
+
+
+def _command_script(module: str = "__main__", names: frozenset[str] | None = None) -> bool:
+    """Whether the script run as ``module`` is one of ``names`` (default :data:`COMMANDS`):
+    a script of that name (without extension) whose first 4 KB import a command's
+    ``main`` (:data:`_ENTRY`), as the console scripts pip writes do. A user's own script
+    named ``mpz`` or ``mpzinfo.py`` that imported mpz had SIGINT blocked for good, and so
+    did its children (a QA run of the API, stop 54)."""
+    mod = sys.modules.get(module)
+    path = getattr(mod, "__file__", None)
+    if not path or _script(module) not in (COMMANDS if names is None else names):
+        return False
+    if path.lower().endswith(".exe"):      # a Windows launcher: its name is all there is
+        return True
+    try:
+        with open(path, "rb") as fh:
+            return _ENTRY.search(fh.read(4096)) is not None
+    except OSError:
+        return False
+
+
+#: the line of a console script that pip writes for one of :data:`COMMANDS` (pyproject's
+#: ``[project.scripts]``: ``mpz.tools.mpz_cli``, ``mpz.tools.mpzinfo``,
+#: ``mpz.conformance.runner``)
+_ENTRY = re.compile(rb"^from mpz\.(?:tools|conformance)\.\w+ import main\s*$", re.M)
 
 
 def hold_sigint_in_a_command() -> bool:
     """Block SIGINT in the main thread when this process runs one of :data:`COMMANDS`
     itself (not a multiprocessing child of it), until its ``main`` releases it; True if it
     did."""
-    if _script("__main__") not in COMMANDS or "__mp_main__" in sys.modules \
+    if not _command_script() or "__mp_main__" in sys.modules \
             or threading.current_thread() is not threading.main_thread() \
             or not hasattr(signal, "pthread_sigmask"):
         return False
@@ -79,8 +107,8 @@ def own_process() -> bool:
     multiprocessing child of the ``mpz`` script (a worker of ``mpz encode -j N``). Not in
     a program that imports mpz as a library, nor in a Dask worker of someone else's
     cluster."""
-    return ((_script("__main__") in COMMANDS and "__mp_main__" not in sys.modules)
-            or _script("__mp_main__") == "mpz")
+    return ((_command_script() and "__mp_main__" not in sys.modules)
+            or _command_script("__mp_main__", MPZ))
 
 
 def release_sigint() -> None:
