@@ -351,3 +351,105 @@ def test_markers_only_decodes_as_a_1_0_decoder(two_joint_bvh, tmp_path):
                               marks.positions, equal_nan=True)
     with pytest.raises(TypeError, match="markers_only must be True or False"):
         mpz.decode(data, markers_only="yes")
+
+
+@pytest.mark.parametrize("kind", [np.float16, np.float32, np.longdouble])
+def test_numpy_scalar_options_encode_as_the_python_number(kind) -> None:
+    """A numpy scalar option is the number it holds: a np.float16 max_error made the
+    encoder's arithmetic float16, and the bound it declared was broken by up to 1.00025x
+    on a real file; np.float32 gave other bytes than float(x) (a QA run of the API, stop
+    54). The options and the report hold Python numbers."""
+    m = generate("walk", frames=60, seed=3)
+    for v in (1.1171875, 5.5, 0.3):
+        x = kind(v)
+        opts = mpz.EncodeOptions(max_error=x, group_errors={"head": x}, theta=kind(0.2),
+                                 k0=np.int16(10), summary=(np.int64(3),))
+        assert type(opts.max_error) is float and type(opts.group_errors["head"]) is float
+        assert type(opts.theta) is float and type(opts.k0) is int
+        assert type(opts.summary[0]) is int
+        data, report = mpz.encode_motion(m, opts)
+        plain, _ = mpz.encode_motion(m, mpz.EncodeOptions(
+            max_error=float(x), group_errors={"head": float(x)}, summary=(3,)))
+        assert data == plain
+        assert type(report.step) is float and type(report.bound) is float
+        err = np.linalg.norm(mpz.decode(data).positions - m.positions, axis=2)[m.valid]
+        assert err.max() <= float(x)
+
+
+def test_write_refuses_an_asf_it_would_lose(tmp_path: Path, one_bone_asf) -> None:
+    """``asf=`` the AMC output itself: the AMC replaced its skeleton, silently, and the
+    AMC could not be read back; ``asf=`` with another format was ignored (a QA run of the
+    API, stop 54; the CLI refused both)."""
+    from mpz.io import read, write
+    (tmp_path / "src.asf").write_text(one_bone_asf())
+    (tmp_path / "src.amc").write_text(":FULLY-SPECIFIED\n:DEGREES\n1\nroot 0 0 0 0 0 0\n"
+                                      "b1 10 20\n2\nroot 1 0 0 0 0 0\nb1 15 25\n")
+    m = read(tmp_path / "src.amc")
+    out = tmp_path / "c.amc"
+    with pytest.raises(ValueError, match="is the AMC output itself"):
+        write(m, out, asf=out)
+    with pytest.raises(ValueError, match="is the AMC output itself"):
+        write(m, out, asf=tmp_path / "." / "c.amc")
+    assert not out.exists()
+    with pytest.raises(ValueError, match="asf is where an AMC's ASF skeleton goes"):
+        write(m, tmp_path / "c.trc", asf=tmp_path / "c.asf")
+    assert write(m, out, asf=tmp_path / "c.asf") is not None
+    assert read(out, asf=tmp_path / "c.asf").n_frames == m.n_frames
+
+
+def test_a_set_of_names_is_refused() -> None:
+    """A set's order changes with PYTHONHASHSEED: the markers got other names on another
+    process (a QA run of the API, stop 54)."""
+    pos = np.zeros((2, 3, 3))
+    for names in ({"C7", "LFHD", "RFHD"}, frozenset({"C7", "LFHD", "RFHD"})):
+        with pytest.raises(MotionError, match="a set has no order"):
+            Motion(pos, names, 100.0)
+    assert Motion(pos, {"C7": 0, "LFHD": 1, "RFHD": 2}, 100.0).names == ["C7", "LFHD", "RFHD"]
+
+
+@pytest.mark.parametrize("attr,value,said", [
+    ("valid", None, "valid is a NoneType"),
+    ("positions", [[[0.0, 0.0, 0.0]]], "positions is a list"),
+    ("valid", np.ones((2, 2)), "valid is a ndarray of float64"),
+])
+def test_a_motion_changed_after_it_was_made_is_refused_by_encode_and_write(
+        tmp_path: Path, attr: str, value: object, said: str) -> None:
+    """``m.valid = None`` made mpz.encode raise TypeError and mpz.io.write AttributeError
+    (a QA run of the API, stop 54): both now say what is wrong."""
+    from mpz.io import write
+    m = generate("walk", frames=20, seed=1)
+    setattr(m, attr, value)
+    with pytest.raises(EncoderError, match=f"not consistent.*{said}"):
+        mpz.encode(m)
+    with pytest.raises(MotionError, match=said):
+        write(m, tmp_path / "x.trc")
+    assert not (tmp_path / "x.trc").exists()
+
+
+def test_a_reader_rate_past_binary64_is_a_value_error(tmp_path: Path) -> None:
+    """``read(p, rate=10**400)`` raised a raw OverflowError (a QA run of the API, stop 54);
+    the docs promise ValueError for a bad rate."""
+    from mpz.io import read, write
+    path = tmp_path / "m.npy"
+    write(generate("walk", frames=5), path)
+    with pytest.raises(ValueError, match="rate must be a finite number"):
+        read(path, rate=10 ** 400)
+
+
+def test_generate_refuses_a_motion_too_long_to_make() -> None:
+    """``generate(frames=50, rate=1e-9)`` asked numpy for 329 GiB (MemoryError, a QA run of
+    the API, stop 54): 5e10 s of motion, whose random functions hold a knot a second."""
+    from mpz.synth import MAX_SECONDS
+    with pytest.raises(MotionError, match="frames / rate must be at most"):
+        generate("walk", frames=50, rate=1e-9)
+    assert MAX_SECONDS >= 2 ** 24                       # MAX_FRAMES at 1 Hz is allowed
+    assert generate("walk", frames=3, rate=1e-6).n_frames == 3
+
+
+def test_an_unknown_group_error_node_is_not_blamed_on_the_default_bound() -> None:
+    """A misspelled node in ``group_errors`` was told to "give a max_error these
+    coordinates allow" (a QA run of the API, stop 54)."""
+    m = generate("walk", frames=30)
+    with pytest.raises(EncoderError, match="unknown node 'nosuch'") as err:
+        mpz.encode(m, group_errors={"nosuch": 1.0})
+    assert "default bound" not in str(err.value) and "max_error" not in str(err.value)

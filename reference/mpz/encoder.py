@@ -142,6 +142,16 @@ def _as_dict(value: object, name: str) -> dict[Any, Any]:
     return dict(value)
 
 
+def _plain(value: Any) -> Any:
+    """A numpy scalar as the Python number of the same value (float or int); anything else
+    as it is, for the checks to judge."""
+    if isinstance(value, np.floating):
+        return float(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
 @dataclass(frozen=True)
 class EncodeOptions:
     """Every control of the encoder; the field defaults are the one definition of the
@@ -225,6 +235,15 @@ class EncodeOptions:
     threads: int | None = None
 
     def __post_init__(self) -> None:
+        # numpy scalars as Python numbers: a np.float16 max_error made the encoder's
+        # arithmetic float16 and broke the bound it declared, by up to 1.00025x (a QA run
+        # of the API, stop 54); a np.float32 one gave other bytes than float(x)
+        for f in fields(self):
+            object.__setattr__(self, f.name, _plain(getattr(self, f.name)))
+        for name in ("group_errors", "weights", "model_errors"):
+            v = getattr(self, name)
+            if isinstance(v, Mapping):
+                object.__setattr__(self, name, {k: _plain(x) for k, x in v.items()})
         # read-only views, so an options object cannot change after it is made
         object.__setattr__(self, "group_errors",
                            FrozenMapping(_as_dict(self.group_errors, "group_errors")))
@@ -238,7 +257,7 @@ class EncodeOptions:
         if isinstance(self.summary, (str, bytes)) or not isinstance(self.summary, Iterable):
             raise EncoderError(f"summary must be a sequence of segment counts, got "
                                f"{self.summary!r}")
-        object.__setattr__(self, "summary", tuple(self.summary))
+        object.__setattr__(self, "summary", tuple(_plain(k) for k in self.summary))
 
     @property
     def bounded(self) -> bool:
@@ -484,10 +503,9 @@ def _consistent(motion: Motion) -> None:
     object, and a rate set to -5, a names list grown by one or NaN written into the
     caller's array after it was made gave a file the decoder rejects, or an IndexError
     (a QA run of the API)."""
+    from mpz.motion import check_consistent
     try:
-        Motion(motion.positions, motion.names, motion.rate, motion.units, motion.valid,
-               motion.metadata, motion.parents, motion.angles, motion.angle_names,
-               motion.extras)
+        check_consistent(motion)
     except MotionError as exc:
         raise EncoderError(f"the motion is not consistent (was it changed after it was "
                            f"made?): {exc.message}") from None
@@ -544,16 +562,31 @@ def check_motion(motion: Motion) -> None:
 # ----------------------------------------------------------------- reports --
 @dataclass
 class NodeReport:
+    """What the encoder did with one hierarchy node below the root, an entry of
+    :attr:`EncodeReport.nodes` (the root marker's own track is coded as ROOT, §4.6, and
+    has no entry)."""
+
+    #: the node's name in the coding hierarchy (HIER, §4.3)
     name: str
+    #: its member markers
     members: int
+    #: the segments of its pattern layer (SEGS, §4.8); 0 without patterns
     segments: int = 0
+    #: K, its motion patterns (PATT, §4.7); 0 without patterns
     patterns: int = 0
+    #: L, the frames of each pattern (§4.7); 0 without patterns
     pattern_length: int = 0
+    #: the bytes of its coded patterns (PATT's range-coded payload)
     pattern_bytes: int = 0
+    #: the bytes of its coded segments (SEGS's range-coded payload)
     segment_bytes: int = 0
+    #: the bytes of its coded residual layer (RESI, §4.9); 0 without one (lossy mode)
     residual_bytes: int = 0
+    #: the residual layer's scale g (§4.9); 1 without one
     residual_scale: int = 1
+    #: the residual layer's order field (§4.9); None without one
     residual_order: int | None = None
+    #: whether the node is coded with patterns (PATT and SEGS written)
     used_patterns: bool = False
 
 
@@ -578,7 +611,8 @@ class EncodeReport:
     addh_rule: str = ""
     #: how the coding hierarchy was made: one of :data:`mpz.hierarchy.METHODS`
     hierarchy: str = ""
-    #: one report a hierarchy node: its markers, segments, patterns and bytes
+    #: one :class:`NodeReport` a hierarchy node below the root, in HIER order: its markers,
+    #: segments, patterns and bytes (the root marker's track, ROOT, has none)
     nodes: list[NodeReport] = field(default_factory=list)
     #: each chunk type's bytes in the file, its 12-byte frame included
     chunk_bytes: dict[str, int] = field(default_factory=dict)
@@ -1086,6 +1120,12 @@ def c3d_bound(motion: Motion, opts: EncodeOptions, peak: float) -> Callable[[flo
     return lambda e: float32_bound(e, peak, exact)
 
 
+class _NodeNameError(EncoderError):
+    """A ``group_errors`` key that names no node: not a bound the coordinates cannot
+    allow, so :func:`encode_motion` does not add the default bound's advice (a QA run of
+    the API, stop 54: it told a caller with a misspelled node to give a max_error)."""
+
+
 def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
               x: FloatArray) -> Grid:
     """Stage 2: grid step, offset and per-node residual multipliers g (spec §4.4, §6.5)."""
@@ -1117,9 +1157,9 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
         if key not in names:
             # the default's flat hierarchy (root, body) gives way to the body-part one
             # when group errors are given: its names are the ones that count
-            raise EncoderError(f"group error given for unknown node {key!r}; the nodes of "
-                               f"the {hier.method} hierarchy (the one group errors use) "
-                               f"are {', '.join(names)}")
+            raise _NodeNameError(f"group error given for unknown node {key!r}; the nodes "
+                                 f"of the {hier.method} hierarchy (the one group errors "
+                                 f"use) are {', '.join(names)}")
         group[names[key]] = within(min(e, opts.max_error))
     e_all_nodes = within(opts.max_error)
     e_min = min([e_all_nodes, *group.values()])
@@ -1738,7 +1778,7 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
         try:
             grid = plan_grid(motion, opts, hier, addh, x)
         except EncoderError as exc:
-            if not bound_rule.endswith(", default)"):
+            if not bound_rule.endswith(", default)") or isinstance(exc, _NodeNameError):
                 raise
             # the caller gave no bound: a QA run (stop 49) was told of a max error it never
             # gave

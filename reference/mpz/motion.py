@@ -145,6 +145,11 @@ class Motion:
         if isinstance(self.names, (str, bytes)) or not hasattr(self.names, "__iter__"):
             raise MotionError(f"names must be a sequence of str (one per marker), got a "
                               f"{type(self.names).__name__} {self.names!r:.60}")
+        if isinstance(self.names, (set, frozenset)):
+            # the order of a set's names changes with PYTHONHASHSEED, so a Dask worker gave
+            # the markers other names than the driver (a QA run of the API, stop 54)
+            raise MotionError("names must be a sequence of str in marker order; a set has no "
+                              "order (give a list)")
         names = list(self.names)
         odd = next((n for n in names if not isinstance(n, str)), None)
         if odd is not None:               # str(b"x") is "b'x'": no silent conversion
@@ -195,7 +200,7 @@ class Motion:
             if self.angles is None:
                 raise MotionError("angle_names without angles")
             an = self.angle_names
-            if isinstance(an, (str, bytes)) or not hasattr(an, "__iter__") or \
+            if isinstance(an, (str, bytes, set, frozenset)) or not hasattr(an, "__iter__") or \
                     not all(isinstance(n, str) for n in an):
                 raise MotionError(f"angle_names must be a sequence of str, got {an!r:.60}")
             if len(list(an)) != self.angles.shape[1]:
@@ -279,6 +284,29 @@ class Motion:
     def __repr__(self) -> str:
         return (f"Motion({self.n_frames} frames, {self.n_markers} markers, {self.rate:g} Hz, "
                 f"units={self.units!r}, gaps={self.gap_fraction:.1%})")
+
+
+def check_consistent(motion: Motion) -> None:
+    """The checks of :class:`Motion`'s constructor, made again on a Motion that may have
+    been changed since it was made (it is a plain mutable object): a rate set to -5, a
+    names list grown by one, NaN written into its array where it is valid, or ``valid``
+    or ``positions`` replaced by None or a list (a TypeError or AttributeError deep in
+    the encoder and the writers, a QA run of the API at stop 54).
+
+    Raises
+    ------
+    MotionError
+        Naming what is not consistent.
+    """
+    for name, kind in (("positions", "f"), ("valid", "b")):
+        v = getattr(motion, name)
+        if not isinstance(v, np.ndarray) or v.dtype.kind != kind:
+            raise MotionError(f"{name} is a {type(v).__name__}"
+                              f"{' of ' + str(v.dtype) if isinstance(v, np.ndarray) else ''}, "
+                              f"not the {'float64' if kind == 'f' else 'bool'} array a Motion "
+                              "holds: make a new Motion rather than replacing it")
+    Motion(motion.positions, motion.names, motion.rate, motion.units, motion.valid,
+           motion.metadata, motion.parents, motion.angles, motion.angle_names, motion.extras)
 
 
 def concatenate(motions: Iterable[Motion]) -> Motion:

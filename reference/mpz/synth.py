@@ -398,6 +398,11 @@ def _real(value: object, name: str) -> float:
         return math.inf
 
 
+#: the longest motion :func:`generate` makes, in seconds (2^24, MAX_FRAMES at 1 Hz, about
+#: 194 days): its random functions of time hold a knot every second or so
+MAX_SECONDS = float(1 << 24)
+
+
 def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed: int = 0,
              noise_mm: float = 0.3, gap_fraction: float = 0.0,
              markers: int | None = None) -> Motion:
@@ -456,6 +461,11 @@ def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed
     rate = _real(rate, "rate")
     if not np.isfinite(rate) or rate <= 0:
         raise MotionError(f"rate must be finite and positive, got {rate!r}")
+    if frames / rate > MAX_SECONDS:
+        # the motion is a function of time with random knots about a second apart: rate
+        # 1e-9 asked numpy for 329 GiB (a QA run of the API, stop 54)
+        raise MotionError(f"frames / rate must be at most {MAX_SECONDS:g} s (MAX_SECONDS), "
+                          f"got {frames / rate:.6g} s ({frames} frames at {rate!r} Hz)")
     noise_mm = _real(noise_mm, "noise_mm")
     if not (np.isfinite(noise_mm) and noise_mm >= 0):
         raise MotionError(f"noise_mm must be finite and >= 0, got {noise_mm!r}")

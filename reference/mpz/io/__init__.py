@@ -84,7 +84,7 @@ from mpz.io.table import (
     write_npy,
 )
 from mpz.io.trc import read_trc, trc_from_bytes, write_trc
-from mpz.motion import Motion
+from mpz.motion import Motion, check_consistent
 
 #: extension -> reader(path, **options)
 READERS: dict[str, Callable[..., Motion]] = {
@@ -234,7 +234,8 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
         The name to record in formats that store their own file name (TRC);
         default: the base name of ``path``. For writing to a temporary file.
     asf : str or os.PathLike, optional
-        Where ``.amc`` output puts its ASF skeleton (default: beside it, same stem).
+        Where ``.amc`` output puts its ASF skeleton (default: beside it, same stem); only
+        for ``.amc``, and another file than ``path``.
     atomic : bool, optional
         True (default): each file is written under a hidden name beside it and renamed
         when whole. False: written in place, for a caller that writes to a temporary
@@ -242,11 +243,16 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
 
     Raises
     ------
+    MotionError
+        For a motion changed since it was made so that it is no longer consistent
+        (:func:`mpz.motion.check_consistent`).
     InputFormatError
         For an extension no writer handles, or a motion the format cannot
         hold so that it reads back (see :func:`check_writable`).
     FileNotFoundError
         When the folder of ``path`` does not exist (ezc3d then wrote nothing, silently).
+    ValueError
+        For an ``asf`` with another format than AMC, or naming ``path`` itself.
     EncoderError
         With ``atomic``, when the file cannot be written (a full disk, no permission),
         naming ``path``; ``path`` (and an AMC's ASF) is never left cut short
@@ -255,6 +261,7 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     """
     if not isinstance(motion, Motion):    # it failed deep in check_writable (QA, stop 33)
         raise TypeError(f"mpz.io.write: expected an mpz.Motion, got {type(motion).__name__}")
+    check_consistent(motion)
     _path_arg("path", path)
     if not isinstance(atomic, bool):
         raise TypeError(f"atomic must be True or False, got {atomic!r}")
@@ -266,6 +273,16 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
         raise InputFormatError(
             f"cannot write {ext or '(no extension)'!r}; can write {', '.join(WRITERS)}",
             path=os.fspath(path))
+    if asf is not None:
+        # the AMC replaced its own ASF, silently, and a BVH ignored it (a QA run of the
+        # API, stop 54; the CLI refused both)
+        _path_arg("asf", asf)
+        if ext != ".amc":
+            raise ValueError(f"asf is where an AMC's ASF skeleton goes; "
+                             f"{os.fspath(path)!r} is {FORMAT_NAMES.get(ext, ext)}")
+        if _same_path(asf, path):
+            raise ValueError(f"asf {os.fspath(asf)!r} is the AMC output itself: the AMC "
+                             "would replace its skeleton")
     notes = check_writable(motion, ext, path=file_name or os.fspath(path))
     folder = os.path.dirname(os.path.abspath(os.fspath(path)))
     if not os.path.isdir(folder):
@@ -305,6 +322,16 @@ def _write_in_place(motion: Motion, ext: str, path: StrPath, name: str,
         fn(motion, path, asf=asf)
     else:
         fn(motion, path)
+
+
+def _same_path(a: StrPath, b: StrPath) -> bool:
+    """Whether two paths name one file: the same absolute path, or one existing file."""
+    if os.path.abspath(os.fspath(a)) == os.path.abspath(os.fspath(b)):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:                          # either is missing: not one file yet
+        return False
 
 
 def _path_arg(name: str, value: object) -> None:
@@ -863,4 +890,4 @@ __all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES", "SKELETON_FORM
            "read_c3d", "write_c3d", "read_trc", "write_trc", "read_bvh",
            "read_amc", "read_asf", "find_asf", "read_npy", "write_npy",
            "read_csv", "write_csv", "detect_format", "read_bytes", "check_writable",
-           "writer_problems", "rounding_notes"]
+           "writer_problems", "rounding_notes", "READER_KEYS"]

@@ -62,13 +62,22 @@ def translate(path: StrPath, exc: BaseException) -> InputFormatError:
     return InputFormatError(f"cannot read: {_reason(exc)}", path=p)
 
 
+def _finite(x: float | np.integer | np.floating) -> bool:
+    """math.isfinite, False for an int past binary64's range (10**400 raised a raw
+    OverflowError from read(p, rate=...), a QA run of the API at stop 54)."""
+    try:
+        return math.isfinite(x)
+    except OverflowError:
+        return False
+
+
 def check_rate_argument(rate: object) -> None:
     """Raise ValueError unless ``rate`` (a reader's argument, not the file's) is None or a
     finite number of frames per second above 0: a bad argument is the caller's, not the
     file's, to blame."""
     number = (int, float, np.integer, np.floating)
     if rate is not None and (isinstance(rate, bool) or not isinstance(rate, number)
-                             or not (math.isfinite(rate) and rate > 0)):
+                             or not (_finite(rate) and rate > 0)):
         raise ValueError(f"rate must be a finite number of frames per second above 0, got "
                          f"{rate!r}")
 
