@@ -34,7 +34,12 @@ def readme_names(readme: str) -> set[str]:
 
 
 def missing_from_all(page: str) -> list[str]:
-    return sorted(f"mpz.{n}" for n in mpz.__all__ if f"mpz.{n}" not in entries(page))
+    """The names ``mpz`` and ``mpz.io`` export that the page has no entry for (mpz.io's
+    per-format readers and writers and NodeReport were exported without one: a QA run of
+    the API, stop 54)."""
+    import mpz.io
+    names = [f"mpz.{n}" for n in mpz.__all__] + [f"mpz.io.{n}" for n in mpz.io.__all__]
+    return sorted(n for n in names if n not in entries(page))
 
 
 def missing_from_readme(page: str, readme: str) -> list[str]:

@@ -30,7 +30,7 @@ from mpz.api import (
     write_atomic,
     write_mpz,
 )
-from mpz.encoder import EncodeOptions, EncodeReport, encode, encode_motion
+from mpz.encoder import EncodeOptions, EncodeReport, NodeReport, encode, encode_motion
 from mpz.errors import (
                         ChecksumError,
                         EncoderError,
@@ -50,6 +50,6 @@ __version__ = "0.1.0"
 __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError",
            "LimitExceededError", "InputFormatError", "MotionError", "EncoderError",
            "Motion", "concatenate", "decode", "info", "FileInfo", "io", "encode",
-           "encode_motion", "EncodeOptions",
-           "EncodeReport", "arms", "max_error", "read_mpz", "write_mpz", "read_summary",
+           "encode_motion", "EncodeOptions", "EncodeReport", "NodeReport",
+           "arms", "max_error", "read_mpz", "write_mpz", "read_summary",
            "Summary", "SummaryLevel", "write_atomic", "__version__"]

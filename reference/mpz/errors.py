@@ -1,8 +1,13 @@
 """The MPZ error hierarchy.
 
-Contract: only subclasses of :class:`MPZError` escape the public API. Errors
-about bad input also subclass :class:`ValueError`, so callers that already
-catch ``ValueError`` keep working. Each error carries what a caller needs to
+Contract: what the data holds (a file, a motion, the options' values) fails
+with a subclass of :class:`MPZError` and nothing else. A call itself made
+wrongly fails as Python's own calls do: an argument of the wrong type (a
+bytes path, a number where a Motion goes) with ``TypeError``, a bad argument
+value that is not data (a reader's ``rate``, a ``fmt`` no reader has, an
+``asf`` for another format than AMC) with ``ValueError``; the docstrings say
+which. Errors about bad input also subclass :class:`ValueError`, so callers
+that already catch ``ValueError`` keep working. Each error carries what a caller needs to
 act on it as attributes (byte offset, chunk type, spec section, file name).
 """
 from __future__ import annotations

@@ -454,6 +454,11 @@ def find_asf(amc_path: StrPath) -> str:
     stem is a prefix of the AMC stem (``02_01.amc`` -> ``02.asf``,
     ``HDM_dg_06-03_03_120.amc`` -> ``HDM_dg.asf``).
 
+    Parameters
+    ----------
+    amc_path : str or os.PathLike
+        The AMC file (it need not exist: only its folder and stem are used).
+
     Raises
     ------
     InputFormatError
@@ -477,7 +482,18 @@ def find_asf(amc_path: StrPath) -> str:
 
 @reader
 def read_asf(path: StrPath) -> Skeleton:
-    """Read an ASF skeleton file (see :func:`parse_asf`)."""
+    """Read an ASF skeleton file (see :func:`parse_asf`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ASF file.
+
+    Returns
+    -------
+    Skeleton
+        The skeleton alone; :func:`read_amc` reads a motion with it.
+    """
     data = read_regular(path)
     return parse_asf(decode_text(data), encoding=text_encoding(data))
 

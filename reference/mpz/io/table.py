@@ -137,7 +137,16 @@ def _npy_layout(data: bytes) -> tuple[tuple[int, ...], bool, np.dtype, int]:
 
 
 def write_npy(motion: Motion, path: StrPath) -> None:
-    """Write ``motion.as_nan()`` (float64 ``[frames, markers, 3]``) as .npy."""
+    """Write ``motion.as_nan()`` (float64 ``[frames, markers, 3]``) as .npy: the positions
+    alone, without the names, rate and units (:func:`mpz.io.write` says so in its notes).
+
+    Parameters
+    ----------
+    motion : Motion
+    path : str or os.PathLike
+        The file, written in place (:func:`mpz.io.write` writes through a hidden file
+        beside it, renamed when whole, and says what the format does not hold).
+    """
     with open(path, "wb") as fh:
         # as_nan() is already a new float64 array: no second copy (issue 11.1, §8 budget)
         np.save(fh, motion.as_nan().astype(np.float64, copy=False), allow_pickle=False)
@@ -394,7 +403,15 @@ def csv_start(motion: Motion) -> tuple[int, float]:
 
 
 def write_csv(motion: Motion, path: StrPath) -> None:
-    """Write a Motion as CSV (see :func:`format_csv`)."""
+    """Write a Motion as CSV (see :func:`format_csv`).
+
+    Parameters
+    ----------
+    motion : Motion
+    path : str or os.PathLike
+        The file, written in place (:func:`mpz.io.write` writes through a hidden file
+        beside it, renamed when whole, and says what the format does not hold).
+    """
     lines = _csv_lines(motion)
     with open(path, "w", encoding="utf-8", newline="") as fh:
         for batch in iter(lambda: list(itertools.islice(lines, 4096)), []):

@@ -558,11 +558,22 @@ def _trc_lines(motion: Motion, *, file_name: str = "") -> Iterator[str]:
 
 @reader
 def read_trc(path: StrPath) -> Motion:
-    """Read a TRC file (see :func:`parse_trc`).
+    """Read a TRC file (see :func:`parse_trc`); :func:`mpz.io.read` does the same for a
+    ``.trc`` name.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    Motion
 
     Raises
     ------
     InputFormatError
+        For a file this reader cannot read, naming it.
     """
     return trc_from_bytes(path, read_regular(path))
 
@@ -577,8 +588,20 @@ def trc_from_bytes(path: StrPath, data: bytes) -> Motion:
 def write_trc(motion: Motion, path: StrPath, *, file_name: str | None = None) -> None:
     """Write a Motion as TRC (see :func:`format_trc`).
 
-    ``file_name`` is the name recorded in the header (default: the base name
-    of ``path``); give the final name when ``path`` is a temporary file.
+    Parameters
+    ----------
+    motion : Motion
+    path : str or os.PathLike
+        The file, written in place (:func:`mpz.io.write` writes through a hidden file
+        beside it, renamed when whole, and says what the format does not hold).
+    file_name : str, optional
+        The name recorded in the header (default: the base name of ``path``); give the
+        final name when ``path`` is a temporary file.
+
+    Raises
+    ------
+    InputFormatError
+        For marker names a TRC line cannot hold (:func:`mpz.io.check_writable`).
     """
     if file_name is None:
         file_name = os.path.basename(os.fspath(path))
