@@ -793,3 +793,26 @@ def test_a_point_scale_of_several_values_is_a_warning(tmp_path):
     same = _with_point_scale(c3d_motion(5, storage=0, F=6, M=3, J=0, C=0, n=1), (0.5, 0.5))
     path.write_bytes(archive_source(same))
     assert "POINT:SCALE holds" not in read(path).metadata.get("warning", "")
+
+
+def test_a_stale_c3d_header_is_said_when_written(tmp_path):
+    """Spec §4.13.1 keeps header counts that disagree with the chunks, and a writer writes
+    them back: u42's C3D, or one of a valid file whose cana was left out, read back
+    "truncated" with no word when written (a fuzzing QA run of stop 54). The writer's
+    notes now say which words disagree; files whose header agrees get no such note."""
+    from mpz.container import build, scan
+    from mpz.io import writer_problems
+    vec = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
+    u42 = mpz.decode(next((vec / "uncommon").glob("u42-*.mpz")).read_bytes())
+    _, notes = writer_problems(u42, ".c3d")
+    (note,) = [n for n in notes if "C3D header is written back" in n]
+    for part in ("word 2 says 3 points, the file holds 7",
+                 "word 3 says 7 analog words a frame, the file holds 12",
+                 "word 10 says 9 analog samples a frame, the file holds 4",
+                 "words 4-5 say frames 40..41, the file holds 24"):
+        assert part in note
+    v10 = next((vec / "valid").glob("v10-*.mpz")).read_bytes()
+    assert not [n for n in writer_problems(mpz.decode(v10), ".c3d")[1] if "header" in n]
+    no_cana = build([(c.type, c.payload) for c in scan(v10).chunks if c.type != "cana"])
+    _, notes = writer_problems(mpz.decode(no_cana), ".c3d")
+    assert any("word 3 says 12 analog words a frame, the file holds 0" in n for n in notes)

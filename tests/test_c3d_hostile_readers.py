@@ -109,6 +109,30 @@ def test_a_parameter_whose_data_runs_into_the_next_record_is_read_without_ezc3d(
     assert m.metadata["reader"] == "mpz.io.c3dbin" and m.n_frames == 10
 
 
+def test_a_group_name_declared_twice_is_read_without_ezc3d(tmp_path: Path) -> None:
+    """Two ANALOG groups, the first holding POINT's parameters (USED 4, no OFFSET): the
+    hazard rules looked parameters up in the last group of a name and ezc3d in the
+    first, so `mpz show`, `encode`, `compare` and `summary` ended in a segmentation
+    fault (a QA run of stop 54, from a valid MPZ file whose cprm renames POINT). Run in
+    a subprocess: a crash is a return code here."""
+    from mpz.io import c3dbin
+
+    def rename(records: list, gid: dict, R: type) -> None:
+        i = next(i for i, r in enumerate(records) if r.group == -gid[b"POINT"])
+        r = records[i]
+        records[i] = R(r.group, r.locked, b"ANALOG", r.description, r.type, r.dims, r.data)
+        records.sort(key=lambda r: r.group != -gid[b"POINT"])   # that group first
+
+    data = _records(rename)
+    assert c3dbin.ezc3d_hazard(data) == ("a group name declared twice (ANALOG) (files like "
+                                         "it crash ezc3d 1.7)")
+    path = _write(tmp_path, "twice.c3d", data)
+    for args in (["show", str(path)], ["encode", "-q", str(path), "-o", "out.mpz"]):
+        p = _mpz(args, tmp_path)
+        assert p.returncode in (0, 1, 2), (args, p.returncode, p.stderr[-400:])
+        assert b"Traceback" not in p.stderr
+
+
 # -- 2. internal exception texts -------------------------------------------------------
 
 @pytest.mark.parametrize("name, ptype", [(b"LABELS", 1), (b"LABELS", 4), (b"UNITS", 1)])
@@ -387,3 +411,20 @@ def test_memory_short_compares_the_need_with_the_limit_and_the_use(monkeypatch) 
     limits[resource.RLIMIT_DATA] = 1 << 20                 # below any process's data
     said = c3d.memory_short(0)
     assert said is not None and "ulimit -d" in said
+
+
+def test_a_repeated_point_used_is_named_not_called_truncation(tmp_path: Path) -> None:
+    """POINT:RATE renamed USED (one byte pattern in a real file): the last POINT:USED set
+    the frame size, and the error said "truncated point data" of a whole file (a fuzzing
+    QA run of stop 54). It now names the repeated parameter and its values."""
+    def rename(records: list, gid: dict, R: type) -> None:
+        i = next(i for i, r in enumerate(records)
+                 if r.group == gid[b"POINT"] and r.name == b"RATE")
+        r = records[i]
+        records[i] = R(r.group, r.locked, b"USED", r.description, r.type, r.dims, r.data)
+
+    path = _write(tmp_path, "used.c3d", _records(rename))
+    with pytest.raises(InputFormatError) as err:
+        read(path)
+    text = str(err.value)
+    assert "POINT:USED given 2 times (5, " in text and "truncated" not in text, text

@@ -82,6 +82,22 @@ def test_trc_written_after_a_cut_says_its_frame_count() -> None:
     assert "warning" not in parse_trc(text).metadata
 
 
+@pytest.mark.parametrize("rate", ["1e-320", "5e-324", "1e-308"])
+def test_trc_data_rate_whose_frame_times_overflow_is_refused(rate: str) -> None:
+    """A subnormal DataRate made numpy warn of an overflow on stderr and `mpz show` print
+    a duration of "inf s" (a fuzzing QA run of stop 54); the TRC writer refuses such a
+    rate, so the reader does too, naming it."""
+    import warnings
+
+    from mpz.errors import InputFormatError
+    text = SMALL.replace("60.00\t60.00\t4", f"{rate}\t60.00\t4", 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputFormatError, match=f"DataRate {float(rate)!r} is too small"):
+            parse_trc(text)
+    assert parse_trc(SMALL.replace("60.00\t60.00\t4", "1e-300\t60.00\t4", 1)).n_frames == 4
+
+
 def test_trc_with_a_byte_order_mark_reads_as_without(tmp_path: Path) -> None:
     """A UTF-8 TRC that starts with a BOM (Windows editors write one) is the same file."""
     plain, bom = tmp_path / "plain.trc", tmp_path / "bom.trc"

@@ -14,6 +14,7 @@ from fractions import Fraction
 import json
 import math
 from pathlib import Path
+import re
 import struct
 
 from hypothesis import HealthCheck, given, settings
@@ -1619,3 +1620,73 @@ def test_an_asf_documentation_line_that_starts_with_a_hash_comes_back(tmp_path, 
     back_asf, _ = _amc_round_trip(tmp_path, amc, asf)
     again = mpz.io.read(tmp_path / "back.amc", asf=tmp_path / "back.asf")
     assert again.extras["skeleton"].documentation == "#1 take", back_asf
+
+
+# -- hostile ASF and BVH values (a fuzzing QA run of stop 54: exit 70 each) --------------
+def test_an_asf_root_axis_without_a_value_is_an_input_error(tmp_path, one_bone_asf):
+    """`axis` alone on the :root line raised IndexError (exit 70)."""
+    amc, asf = _asf_pair(one_bone_asf, tmp_path)
+    asf.write_text(asf.read_text().replace("   axis XYZ\n", "   axis\n", 1))
+    with pytest.raises(InputFormatError, match=":root axis has no value"):
+        mpz.io.read(amc, asf=asf)
+
+
+def test_joint_positions_that_overflow_are_an_input_error(tmp_path, one_bone_asf,
+                                                          two_joint_bvh):
+    """A bone length of 1e308 (ASF) or offsets that add up past binary64 (BVH) made joint
+    positions infinite: the Motion took them for gaps, silently, and the encoder failed
+    on NaN (exit 70)."""
+    amc, asf = _asf_pair(one_bone_asf, tmp_path)
+    asf.write_text(asf.read_text().replace("     length 2\n", "     length 1e308\n", 1))
+    with pytest.raises(InputFormatError, match="joint 'b1' at frame 0 overflows binary64"):
+        mpz.io.read(amc, asf=asf)
+    bvh = tmp_path / "far.bvh"
+    bvh.write_text(two_joint_bvh.replace("OFFSET 0 10 0", "OFFSET 0 1e308 0", 1)
+                   .replace("\n0 0 0 0 0 0 0 0 0\n", "\n0 1e308 0 0 0 0 0 0 0\n", 1))
+    with pytest.raises(InputFormatError, match="joint 'Spine' at frame 0 overflows"):
+        mpz.io.read(bvh)
+
+
+@pytest.mark.parametrize("bone_id", [-1, 2 ** 32])
+def test_an_asf_bone_id_an_asfs_chunk_cannot_hold_is_said_before_encoding(
+        tmp_path, one_bone_asf, bone_id):
+    """§4.14.2 stores a bone id as u32: -1 or 2^32 failed in construct's build (exit
+    70)."""
+    amc, asf = _asf_pair(one_bone_asf, tmp_path)
+    asf.write_text(asf.read_text().replace("     id 1\n", f"     id {bone_id}\n", 1))
+    m = mpz.io.read(amc, asf=asf)
+    with pytest.raises(EncoderError, match=f"bone 'b1' has the id {bone_id}, outside"):
+        mpz.encode(m)
+    assert mpz.decode(mpz.encode(m, keep_skeleton=False)).n_frames == 3
+
+
+@pytest.mark.parametrize("edit, said", [
+    ("bone", "ltibia has 0 values"),
+    ("keyword", "lacks [':bonedata']"),
+    ("header", "data before the first frame number"),
+])
+def test_an_amc_that_would_not_read_back_is_refused(tmp_path, edit, said):
+    """A valid asfs (§4.14.2 allows '#' and ':' in a bone name and takes the AMC header
+    as text) decoded, exit 0 and no note, to an AMC that mpz itself could not read back
+    (a fuzzing QA run of stop 54). The writer now refuses it, saying why."""
+    import dataclasses
+
+    from mpz.tools.make_vectors import _skeleton_rebuild, _skeleton_record
+    vec = Path(__file__).resolve().parents[1] / "conformance" / "vectors" / "valid"
+    data = next(vec.glob("v12-*.mpz")).read_bytes()
+    rec = _skeleton_record(data)
+    if edit == "header":
+        changed = _skeleton_rebuild(data, amc_header=rec.amc_header + "\nx")
+    else:
+        i = next(i for i, b in enumerate(rec.bones) if b.name == "ltibia")
+        name = "ltibia#x" if edit == "bone" else ":bonedata"
+        bones = tuple(dataclasses.replace(b, name=name) if k == i else b
+                      for k, b in enumerate(rec.bones))
+        changed = _skeleton_rebuild(data, bones=bones)
+    m = mpz.decode(changed)
+    out = tmp_path / "x.amc"
+    with pytest.raises(InputFormatError, match=f"would not read back .*{re.escape(said)}"):
+        mpz.io.write(m, out)
+    assert not out.exists() and not (tmp_path / "x.asf").exists()
+    mpz.io.write(mpz.decode(data), out)                  # the vector itself reads back
+    assert mpz.io.read(out).n_frames == m.n_frames

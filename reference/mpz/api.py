@@ -808,7 +808,9 @@ class Summary:
         from the level of ``k`` segments (default: the finest); ``mode`` "constant" (each
         frame its segment's mean) or "linear". KeyError (as :meth:`level`) for a ``k`` the
         file does not hold, ValueError for another mode, FormatError for a summary of
-        joint angles (space 1)."""
+        joint angles (space 1). Every sample of the preview is valid: a summary holds no
+        gap mask (:func:`mpz.fisher.motion_series` filled the gaps, and a marker that was
+        a gap throughout is at the centroid, 0, in every frame)."""
         from mpz.fisher import preview_series
         from mpz.motion import Motion
         if mode not in ("constant", "linear"):

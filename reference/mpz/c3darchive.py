@@ -111,6 +111,26 @@ class C3DArchive:
     layer: tuple[tuple[str, ...], str, float] | None = field(default=None, compare=False,
                                                               repr=False)
 
+    def stale_header(self, frames: int) -> list[str]:
+        """What header words 2, 3, 10 and 4-5 (§4.13.1) say that the archive's points,
+        analog words and ``frames`` frames contradict, each as "what it says, what the
+        file holds"; empty when they agree. §4.13.1 keeps such stale counts and a writer
+        writes them back, so the C3D it writes is read otherwise by its readers: the
+        writers say so (a fuzzing QA run of stop 54, an archive without its cana)."""
+        w = np.frombuffer(self.header[:20], "<u2")
+        C = self.channels
+        n = self.analog_samples if C else 0
+        out = []
+        for word, says, holds, what in ((2, w[1], len(self.slots), "points"),
+                                        (3, w[2], C * n, "analog words a frame"),
+                                        (10, w[9], n, "analog samples a frame")):
+            if int(says) != holds and not (word == 10 and C == 0):
+                out.append(f"word {word} says {int(says)} {what}, the file holds {holds}")
+        first, last = int(w[3]), int(w[4])
+        if last != 0xFFFF and last - first + 1 != frames:
+            out.append(f"words 4-5 say frames {first}..{last}, the file holds {frames}")
+        return out
+
     @property
     def frames(self) -> int:
         return int(self.words.shape[0])

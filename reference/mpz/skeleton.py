@@ -608,6 +608,16 @@ class SkeletonExtension:
                 "what an asfs chunk holds (spec §4.14.2): renumber the AMC's frames, or keep "
                 "the joint positions alone without the skeleton (--no-skeleton, "
                 "keep_skeleton=False)")
+        odd = next((j for j in skel.joints if isinstance(j.bone_id, int)
+                    and not 0 <= j.bone_id <= 0xFFFFFFFF), None)
+        if odd is not None:
+            # §4.14.2's u32 too: construct refused it in the chunk's build, exit 70 (a QA run
+            # of stop 54)
+            raise EncoderError(
+                f"the ASF's bone {odd.name!r} has the id {odd.bone_id}, outside 0..{0xFFFFFFFF} "
+                "(2^32 - 1), what an asfs chunk holds (spec §4.14.2): renumber it in the ASF, "
+                "or keep the joint positions alone without the skeleton (--no-skeleton, "
+                "keep_skeleton=False)")
         F, C = motion.angles.shape
         if F * C > MAX_CHANNEL_SAMPLES:
             most = MAX_CHANNEL_SAMPLES // max(C, 1)

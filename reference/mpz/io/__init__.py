@@ -570,6 +570,14 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         from mpz.io.c3d import archive_units
         # an archive that contradicts the motion is refused by its writer (archive_bytes)
         if isinstance(archive, C3DArchive):
+            stale = archive.stale_header(F)
+            if stale:
+                # spec §4.13.1 keeps stale counts, so a valid file without its cana wrote a
+                # C3D that read back "truncated", with no word (a fuzzing QA run of stop 54)
+                notes.append("the C3D header is written back as the archive holds it (spec "
+                             "§4.13.1), and disagrees with the file's content: "
+                             + "; ".join(stale) + "; readers that go by the header read the "
+                             "file otherwise")
             if motion.units and archive_units(archive) == "":
                 notes.append(f"the source's POINT:UNITS names no unit C3D readers know, and "
                              f"is written as stored: the file does not say {motion.units!r}")
@@ -683,6 +691,11 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             notes.append(f"AMC does not store the rate: {rate!r} Hz reads back as 120 Hz "
                          "unless the reader is told")
         skel = motion.extras.get("skeleton")
+        if ext == ".amc" and isinstance(skel, Skeleton) and skel.convention == "asf" \
+                and not refuse:
+            problem = amc.amc_read_back_problem(motion)
+            if problem is not None:
+                refuse.append(problem)
         if ext == ".amc" and isinstance(skel, Skeleton) and skel.convention == "asf" \
                 and not refuse:
             changed = asf_text_changes(skel)

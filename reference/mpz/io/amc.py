@@ -46,7 +46,7 @@ from mpz.io._common import (
     translate,
 )
 from mpz.io.bvh import num, skeleton_of, text_encoding
-from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, forward
+from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, source_joints
 from mpz.motion import Motion
 
 _DOF = {name: int(kind) for kind, name in ASF_DOFS.items()}
@@ -232,7 +232,9 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     order = [c.lower() for c in root.get("order", ["TX", "TY", "TZ", "RX", "RY", "RZ"])]
     if any(c not in _DOF or c == "l" for c in order) or len(set(order)) != len(order):
         raise _bad(f"bad root order {order}")
-    root_axis = root.get("axis", ["XYZ"])[0].upper()
+    root_axis = (root.get("axis", ["XYZ"]) or [""])[0].upper()
+    if not root_axis:       # "axis" alone: an IndexError, exit 70 (a QA run of stop 54)
+        raise _bad(":root axis has no value: XYZ or another order of X, Y and Z")
     if sorted(root_axis) != ["X", "Y", "Z"]:
         raise _bad(f"bad root axis order {root_axis!r}")
     root_joint = Joint("root", -1, tuple(_DOF[c] for c in order),
@@ -407,7 +409,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         header.pop()
     skel = replace(skel, amc_header="\n".join(header), first_frame=first or 0,
                    amc_order=tuple(order), encoding=encoding or skel.encoding)
-    positions = forward(skel, values) * (MM_PER_INCH / skel.length)
+    positions = source_joints(skel, values, MM_PER_INCH / skel.length)
     meta = {"format": "amc", "asf_length_unit": repr(skel.length),
             "mm_per_unit": repr(MM_PER_INCH / skel.length), "rate_assumed": repr(float(rate))}
     if source:
@@ -547,6 +549,33 @@ def amc_from_bytes(amc_path: StrPath, data: bytes, asf_path: StrPath | None = No
 # ------------------------------------------------------------------ writing --
 #: the ASF text fields a skeleton keeps as written (spec §4.14.2), in file order
 ASF_TEXT_FIELDS = ("comments", "version", "name", "mass", "documentation")
+
+
+def amc_read_back_problem(motion: Motion) -> str | None:
+    """Why the AMC and ASF that :func:`write_amc` makes of ``motion`` would not read back
+    (:func:`parse_asf`, :func:`parse_amc`), or None: a bone name with a ``#`` (the rest of
+    its AMC line reads as a comment) or that reads as a keyword (``:bonedata``), an AMC
+    header line that is neither a comment nor a keyword. §4.14.2 allows these names and
+    takes the header as informative text, so a valid file decoded, without a word, to an
+    AMC that no reader read back (a fuzzing QA run of stop 54). Checked on the first two
+    frames: the names and the header are the same in every frame, and the numbers are
+    written as they read back."""
+    skel = motion.extras.get("skeleton")
+    if not isinstance(skel, Skeleton) or skel.convention != "asf":
+        return None
+    n = min(2, motion.n_frames)
+    angles = None if motion.angles is None else motion.angles[:n]
+    head = replace(motion, positions=motion.positions[:n], valid=motion.valid[:n],
+                   angles=angles)              # select_frames drops the skeleton
+    try:
+        back, _ = _parse_asf(format_asf(skel), skel.encoding)
+        parse_amc(format_amc(head), back, encoding=skel.encoding)
+    except InputFormatError as exc:
+        return (f"the AMC and ASF written would not read back ({exc.message}): a bone name "
+                "with '#' or that starts with ':', or an AMC header line that is neither a "
+                "comment nor a keyword, reads otherwise; write the joint positions (.npy, "
+                ".csv) instead")
+    return None
 
 
 def asf_text_changes(skel: Skeleton) -> dict[str, str]:

@@ -39,7 +39,7 @@ from mpz.io._common import (
     reader,
     unique_names,
 )
-from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
+from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, source_joints
 from mpz.motion import Motion
 
 _CODES = {name.upper(): int(kind) for kind, name in BVH_CHANNELS.items()}
@@ -222,7 +222,7 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     if not np.isfinite(values).all():
         raise _bad("non-finite channel value")
     skel = Skeleton("bvh", tuple(j.joint() for j in joints), frame_time=ft, encoding=encoding)
-    positions = forward(skel, values)
+    positions = source_joints(skel, values)
     meta = {"format": "bvh", "frame_time": repr(ft), "channels": str(n_channels),
             "joints": str(sum(not j.end for j in joints)),
             "end_sites": str(sum(j.end for j in joints))}

@@ -776,8 +776,15 @@ def frames_missing(data: bytes, declared: int, present: int,
         codec, pstart, params = _open(data)
         frames = param_number(params, "POINT", "FRAMES", -1)
         lay = _layout(data, codec, pstart, params)
+        repeated = _repeated_layout(parse_records(data, pstart, codec))
     except InputFormatError:
         return truncated(declared, present, offset)
+    if repeated:
+        # the last of a repeated POINT:USED is the one read (ezc3d's too): a file whose
+        # POINT:RATE was renamed USED was called "truncated" (a fuzzing QA run of stop 54)
+        return InputFormatError(f"C3D: {declared} frames declared, {present} present, with "
+                                f"{repeated}, the last of which sets the frame size here: "
+                                "is the file whole and one of them wrong?", offset=offset)
     first, last = codec.uint16(data, 6), codec.uint16(data, 8)
     room = len(data) - (lay.data_start - 1) * BLOCK
     holds = room // lay.frame_bytes if lay.frame_bytes else declared
@@ -791,6 +798,24 @@ def frames_missing(data: bytes, declared: int, present: int,
             f"with POINT:FRAMES {fp}, and the data holds {holds} frames: {wrong} is wrong",
             offset=6)
     return truncated(declared, present, offset)
+
+
+def _repeated_layout(records: list[ParamRecord]) -> str:
+    """The parameters that set the data's layout (POINT:USED, ANALOG:USED, ANALOG:RATE,
+    POINT:RATE) given more than once with other values, as text ("" when none is)."""
+    said = []
+    for group, name in ((b"POINT", b"USED"), (b"ANALOG", b"USED"), (b"ANALOG", b"RATE"),
+                        (b"POINT", b"RATE")):
+        values = []
+        for i in named(records, group, name):
+            r = records[i]
+            if r.type in (1, 2, 4) and len(r.data) >= abs(r.type):
+                fmt = {1: "<i1", 2: "<i2", 4: "<f4"}[r.type]
+                values.append(float(np.frombuffer(r.data, fmt, 1)[0]))
+        if len(set(values)) > 1:
+            said.append(f"{group.decode()}:{name.decode()} given {len(values)} times "
+                        f"({', '.join(f'{v:g}' for v in values)})")
+    return "; ".join(said)
 
 
 def declared_frames(data: bytes) -> tuple[int, int]:
@@ -856,7 +881,10 @@ def ezc3d_hazard(data: bytes) -> str | None:
        (:func:`_section_end`): a dimension byte changed in a file that is otherwise whole
        (ANALOG:SCALE of 255 elements in a file of 32 channels; with
        ``ignore_bad_formatting`` ezc3d then crashes, found by a later QA run). The file
-       contradicts itself, so it is not one ezc3d is needed for.
+       contradicts itself, so it is not one ezc3d is needed for;
+    9. two group records of one name (compared in upper case): ezc3d looks a parameter up
+       in the first, and rules 2-5 and 7 would judge another (a QA run of stop 54: two
+       ANALOG groups, the first with USED 5 and no OFFSET, crashed ezc3d).
     """
     start = (data[0] - 1) * BLOCK if len(data) > BLOCK else -1
     if start < BLOCK or start + 4 > len(data):
@@ -921,7 +949,8 @@ def _ezc3d_walk(data: bytes, start: int) -> str | None:
 
 
 def _ezc3d_values(data: bytes, start: int) -> str | None:
-    """Rules 1-5 and 7 of :func:`ezc3d_hazard`, on the records :func:`parse_records` reads."""
+    """Rules 1-5, 7 and 9 of :func:`ezc3d_hazard`, on the records :func:`parse_records`
+    reads."""
     try:
         codec = _Codec(data[start + 3])
         records = parse_records(data, start, codec)
@@ -943,6 +972,13 @@ def _ezc3d_values(data: bytes, start: int) -> str | None:
     for r in records:
         if not r.is_group and r.type == -1 and not r.dims:
             return f"a char parameter without dimensions ({r.name.decode('latin-1')})"
+    names = [r.name.upper() for r in records if r.is_group]
+    twice = next((n for i, n in enumerate(names) if n in names[:i]), None)
+    if twice is not None:
+        # rule 9: the dict above keeps the last group of a name and ezc3d the first, so
+        # rule 3 looked at another ANALOG:USED than ezc3d's (a QA run of stop 54: a
+        # segmentation fault in mpz show, encode, compare and summary)
+        return f"a group name declared twice ({twice.decode('latin-1')})"
     needed = [(b"POINT", b"USED"), (b"POINT", b"SCALE"), (b"POINT", b"RATE"),
               (b"POINT", b"FRAMES"), (b"ANALOG", b"USED"), (b"ANALOG", b"RATE"),
               (b"ANALOG", b"GEN_SCALE")]

@@ -212,6 +212,11 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     meta.update(_header_meta(lines, header, frames, time_decimals, value_decimals))
     if "trc.TimeDecimals" in meta:
         meta["trc.TimeDigits"] = str(digits)
+    if rate > 0 and not math.isfinite(max(len(pos) - 1, 1) / rate):
+        # a subnormal DataRate: numpy warned of an overflow on stderr and a duration of
+        # "inf s" was shown (a fuzzing QA run of stop 54); the TRC writer refuses it too
+        raise _bad(f"DataRate {rate!r} is too small: the frame times (frame / DataRate) "
+                   "overflow")
     motion = Motion(pos, names, rate, units, valid, meta)
     if times and math.isfinite(times[0]):        # the writer's times need the motion
         placed = len(pos) != n_rows             # rows put at their Frame# (frames skipped)
