@@ -73,6 +73,25 @@ def test_c3d_beyond_float32_is_refused_and_nothing_written(tmp_path):
     assert _mpz("decode", str(U16), "-o", "out.npy", "-q", cwd=tmp_path).returncode == 0
 
 
+def test_trc_rounding_of_whole_numbers_past_2_to_52_is_none(tmp_path):
+    """A TRC of coordinates near 1e30 reads back exact (6 decimals print a whole number
+    exactly), and its note said "1 of 8 valid samples change, by up to 1.1e+12 mm":
+    np.round(v, 6) multiplies by 10^6 first (a QA run of the API, stop 54). The note is
+    checked against what the written file reads back as."""
+    from mpz.io import rounding_notes
+    rng = np.random.default_rng(1)
+    pos = rng.normal(0, 1e30, (4, 2, 3))
+    pos[0, 0] = [0.1234567, 2.0 ** 52 - 0.5, 3.0]       # below 2^52: rounded as before
+    m = Motion(pos, ["A", "B"], rate=100.0, units="mm")
+    mpz.io.write(m, tmp_path / "x.trc")
+    back = mpz.io.read(tmp_path / "x.trc").positions
+    err = np.linalg.norm(back - pos, axis=2)
+    changed = int((err > 0).sum())
+    (note,) = rounding_notes(m, ".trc", None)
+    assert changed == 1 and f"{changed} of 8 valid samples change, by up to " \
+        f"{err.max():.2g} mm" in note, (note, err)
+
+
 def _off_grid_motion() -> Motion:
     """60 frames x 4 markers near 1500 mm, at coordinates no float32 holds (k/3 + 0.1)."""
     rng = np.random.default_rng(7)

@@ -98,6 +98,19 @@ def test_trc_data_rate_whose_frame_times_overflow_is_refused(rate: str) -> None:
     assert parse_trc(SMALL.replace("60.00\t60.00\t4", "1e-300\t60.00\t4", 1)).n_frames == 4
 
 
+def test_a_cut_is_written_with_the_source_frame_numbers_and_times() -> None:
+    """select_frames(1, 3) of a TRC holds its frames 2-3: they were written as frames 1-2
+    from time 0 (a QA run of the API, stop 54); the rows now come back as the source had
+    them, and so do a CSV's times."""
+    from mpz.io.table import format_csv, parse_csv
+    cut = parse_trc(SMALL).select_frames(1, 3)
+    assert _table(format_trc(cut)) == _table(SMALL)[1:3]
+    csv = parse_csv(format_csv(parse_trc(SMALL)))
+    rows = format_csv(csv.select_frames(2, None)).splitlines()[1:]
+    assert rows == format_csv(csv).splitlines()[3:]
+    assert parse_trc(SMALL).select_frames(0, 2).metadata == parse_trc(SMALL).metadata
+
+
 def test_trc_with_a_byte_order_mark_reads_as_without(tmp_path: Path) -> None:
     """A UTF-8 TRC that starts with a BOM (Windows editors write one) is the same file."""
     plain, bom = tmp_path / "plain.trc", tmp_path / "bom.trc"

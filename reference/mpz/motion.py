@@ -261,7 +261,11 @@ class Motion:
 
     def select_frames(self, start: int | None, stop: int | None) -> Motion:
         """A copy holding frames ``start:stop`` (``extras``, which describe a whole source
-        file, are not carried over).
+        file, are not carried over). The metadata that says where the source's frames start
+        moves with the first frame kept: the first frame number of a TRC or CSV
+        (``trc.FirstFrame``, ``csv.FirstFrame``) and the first time (``start_time``), so
+        that the cut is written with the source's frame numbers and times (frames 51-100 of
+        a TRC were written as 1-50 from time 0: a QA run of the API, stop 54).
 
         Raises
         ------
@@ -273,17 +277,44 @@ class Motion:
             if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
                 raise MotionError(f"select_frames: {name} must be a whole number or None, "
                                   f"got {v!r}")
-        if not len(range(self.n_frames)[start:stop]):
+        kept = range(self.n_frames)[start:stop]
+        if not len(kept):
             raise MotionError(f"select_frames({start}, {stop}) holds no frame of the "
                               f"{self.n_frames}")
+        meta = dict(self.metadata)
+        if kept.start:
+            _moved_start(meta, kept.start, self.rate)
         return Motion(self.positions[start:stop].copy(), list(self.names), self.rate, self.units,
-                      self.valid[start:stop].copy(), dict(self.metadata), self.parents,
+                      self.valid[start:stop].copy(), meta, self.parents,
                       None if self.angles is None else self.angles[start:stop].copy(),
                       self.angle_names)
 
     def __repr__(self) -> str:
         return (f"Motion({self.n_frames} frames, {self.n_markers} markers, {self.rate:g} Hz, "
                 f"units={self.units!r}, gaps={self.gap_fraction:.1%})")
+
+
+def _moved_start(meta: dict[str, str], k: int, rate: float) -> None:
+    """``meta`` of a motion's frames from index ``k`` on (:meth:`Motion.select_frames`):
+    the first frame number (``trc.FirstFrame``; ``csv.FirstFrame``, 0 when a CSV's is not
+    given) plus k, and the first time (``start_time``, 0 when a CSV's is not given) plus
+    k / rate; values that are not numbers are left as they are (the writers then ignore
+    them, as before the cut)."""
+    csv = meta.get("format") == "csv"
+    for key, given in (("trc.FirstFrame", meta.get("trc.FirstFrame")),
+                       ("csv.FirstFrame", meta.get("csv.FirstFrame", "0" if csv else None))):
+        try:
+            if given is not None:
+                meta[key] = str(int(given) + k)
+        except ValueError:
+            pass
+    try:
+        t0 = meta.get("start_time", "0" if csv else None)
+        t = float(t0) + k / rate if t0 is not None else math.nan
+        if math.isfinite(t):
+            meta["start_time"] = repr(t)
+    except ValueError:
+        pass
 
 
 def check_consistent(motion: Motion) -> None:

@@ -830,7 +830,13 @@ def rounding_notes(motion: Motion, ext: str, bound: float | None) -> list[str]:
         """Each sample's distance to the value the format writes (0 at an overflow, which
         is refused, not noted)."""
         with np.errstate(over="ignore", invalid="ignore"):
-            w = v.astype(np.float32).astype(np.float64) if ext == ".c3d" else np.round(v, d)
+            if ext == ".c3d":
+                w = v.astype(np.float32).astype(np.float64)
+            else:
+                # a value of 2^52 or more is a whole number, which d decimals print
+                # exactly; np.round(v, d) multiplies by 10^d first, and so reported 1e30 as
+                # changed by 1.1e12 where the TRC reads back exact (a QA run of stop 54)
+                w = np.where(np.abs(v) >= 2.0 ** 52, v, np.round(v, d))
             r = np.sqrt(((w - v) ** 2).sum(axis=1))
         return np.where(np.isfinite(r), r, 0.0)
 
