@@ -354,7 +354,10 @@ def test_blas_check_is_skipped_in_mpz_commands_only(tmp_path: Path, script: str,
     np.dot still works afterwards (ensure_blas is numba's own again); in a program that
     imports mpz, numba checks for BLAS as it always does."""
     path = tmp_path / script
-    path.write_text(_BLAS_CHILD)
+    # a command is a script of its name that imports its main, as pip's console scripts
+    # do (mpz._worker: a user's own script named mpz is not one)
+    entry = "from mpz.tools.mpz_cli import main\n" if skipped else ""
+    path.write_text(entry + _BLAS_CHILD)
     r = subprocess.run([sys.executable, str(path)], capture_output=True, text=True,
                        timeout=300, cwd=tmp_path)
     assert r.returncode == 0, r.stderr

@@ -45,8 +45,8 @@ from mpz.io._common import (
     reader,
     translate,
 )
-from mpz.io.bvh import num, skeleton_of, text_encoding
-from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton, source_joints
+from mpz.io.bvh import num, skeleton_of, source_joints, text_encoding
+from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton
 from mpz.motion import Motion
 
 _DOF = {name: int(kind) for kind, name in ASF_DOFS.items()}

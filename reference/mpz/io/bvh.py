@@ -23,7 +23,7 @@ import os
 import re
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
@@ -39,7 +39,7 @@ from mpz.io._common import (
     reader,
     unique_names,
 )
-from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, source_joints
+from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
 from mpz.motion import Motion
 
 _CODES = {name.upper(): int(kind) for kind, name in BVH_CHANNELS.items()}
@@ -310,6 +310,30 @@ def skeleton_problem(motion: Motion, convention: str) -> str | None:
         shape = None if ang is None else ang.shape
         return f"the skeleton has {C} channels but the motion's angles are {shape}"
     return None
+
+
+def source_joints(skel: Skeleton, values: ArrayLike,
+                  scale: float = 1.0) -> NDArray[np.float64]:
+    """:func:`forward` times ``scale`` for a reader: the joint positions of a BVH or AMC
+    source, which must all be finite.
+
+    Raises
+    ------
+    InputFormatError
+        Where a position overflows binary64 (a bone length or offset near 1e308): the
+        positions became infinities that the Motion took for gaps, silently, and the
+        encoder then failed on NaN (a QA run of stop 54).
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        positions = forward(skel, values) * scale
+    bad = ~np.isfinite(positions)
+    if bad.any():
+        f, j, _ = np.argwhere(bad)[0]
+        raise InputFormatError(
+            f"{skel.convention.upper()}: the position of joint {skel.joints[j].name!r} at "
+            f"frame {f} overflows binary64: its bone lengths, offsets or translations are "
+            "too large for joint positions")
+    return positions
 
 
 def skeleton_problems(motion: Motion, ext: str) -> list[str]:

@@ -219,30 +219,6 @@ def forward(skel: Skeleton, values: ArrayLike) -> FloatArray:
     return _forward(np.ascontiguousarray(v), *_forward_arrays(skel))
 
 
-def source_joints(skel: Skeleton, values: ArrayLike, scale: float = 1.0) -> FloatArray:
-    """:func:`forward` times ``scale`` for a reader: the joint positions of a BVH or AMC
-    source, which must all be finite.
-
-    Raises
-    ------
-    InputFormatError
-        Where a position overflows binary64 (a bone length or offset near 1e308): the
-        positions became infinities that the Motion took for gaps, silently, and the
-        encoder then failed on NaN (a QA run of stop 54).
-    """
-    from mpz.errors import InputFormatError
-    with np.errstate(over="ignore", invalid="ignore"):
-        positions = forward(skel, values) * scale
-    bad = ~np.isfinite(positions)
-    if bad.any():
-        f, j, _ = np.argwhere(bad)[0]
-        raise InputFormatError(
-            f"{skel.convention.upper()}: the position of joint {skel.joints[j].name!r} at "
-            f"frame {f} overflows binary64: its bone lengths, offsets or translations are "
-            "too large for joint positions")
-    return positions
-
-
 @njit(cache=True, inline="always")
 def _rotate(R: FloatArray, kind: int, angle: float, rad: bool, left: bool) -> None:
     """R <- R @ A (``left`` False) or A @ R (``left`` True), in place, where A is
