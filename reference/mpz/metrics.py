@@ -165,6 +165,17 @@ class Part:
 #: bytes 16-17 of a C3D header, word 9: the block where the data starts, which a written
 #: C3D moves to just after its parameters (as POINT:DATA_START; docs/io-notes.md)
 _DATA_START = slice(16, 18)
+#: header words 7-8, the scale (float32), whose sign a C3D writer sets (spec §6.9)
+_SCALE = slice(12, 16)
+
+
+def _same_but_sign(x: bytes, y: bytes) -> bool:
+    """Whether two runs of float32 (little-endian) differ at most in the signs of their
+    elements: what spec §6.9's writer changes in POINT:SCALE and header words 7-8."""
+    if len(x) != len(y) or len(x) % 4:
+        return False
+    mask = np.uint32(0x7FFFFFFF)
+    return bool((np.frombuffer(x, "<u4") & mask == np.frombuffer(y, "<u4") & mask).all())
 #: at most this many names listed in a detail, then "and N more"
 _LISTED = 5
 
@@ -268,6 +279,10 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
         return [Part("C3D archive", "missing", a.describe())]
     ha, hb = bytearray(a.header), bytearray(b.header)
     ha[_DATA_START] = hb[_DATA_START] = b"\0\0"
+    # spec §6.9: a writer sets the data start, and the scale's sign for the storage it
+    # writes (a C3D decoded from a file was "differs" from that file: a QA run of stop 54)
+    if _same_but_sign(bytes(ha[_SCALE]), bytes(hb[_SCALE])):
+        ha[_SCALE] = hb[_SCALE]
     at = next((i for i in range(min(len(ha), len(hb))) if ha[i] != hb[i]),
               None if len(ha) == len(hb) else min(len(ha), len(hb)))
     ev = a.header_events()
@@ -286,19 +301,30 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
 
 
 def _parameters(a: C3DArchive, b: C3DArchive) -> Part:
-    """The parameter records, each the same (POINT:DATA_START's value aside); those that
-    differ, are added or are lost named by group and name."""
+    """The parameter records, each the same (POINT:DATA_START's value and POINT:SCALE's
+    signs aside, which spec §6.9's writer sets); those that differ, are added or are lost
+    named by group and name."""
     c = a.contents()
     events = f", EVENT:USED {c['events']}" if c["events"] else ""
     groups = c["parameter_groups"]
     n = len(a.records) - groups
     what = (f"{groups} group{'s' * (groups != 1)}, {n} parameter{'s' * (n != 1)}"
             f"{events}")
+    from mpz.io.c3dbin import ParamRecord, named
     ka, kb = _record_keys(a), _record_keys(b)
     start = a.parameter("POINT", "DATA_START")
+    scales = {id(a.records[i]) for i in named(a.records, b"POINT", b"SCALE")}
+
+    def as_written(r: ParamRecord, s: ParamRecord) -> bool:
+        """What spec §6.9's writer changes: POINT:DATA_START's value, POINT:SCALE's signs
+        (the first element of each, in fact; the others keep theirs but for the sign)."""
+        if r != replace(s, data=r.data):
+            return False
+        return r is start or (id(r) in scales and r.type == 4
+                              and _same_but_sign(r.data, s.data))
     if len(a.records) == len(b.records) and ka == kb:
         bad = [k for k, r, s in zip(ka, a.records, b.records, strict=True)
-               if r != s and not (r is start and r == replace(s, data=r.data))]
+               if r != s and not as_written(r, s)]
         return Part("C3D parameters", "differs" if bad else "same",
                     what + (f"; differ: {_listed(bad)}" if bad else ""))
     sa, sb = set(ka), set(kb)                     # up to 2^16 records each: not per item
@@ -324,8 +350,13 @@ def _words(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> Part:
     from mpz.io.c3d import point_labels
     F, P = a.words.shape
     what = f"residual and camera words, {P} points x {F} frames"
-    if a.slots != b.slots:
-        return Part("point words", "differs", f"{what}; the points in another order")
+    # both in the C3D's point order: the slots (which MPZ marker each point is) may
+    # number the markers otherwise, as for a C3D read again after it was written from a
+    # file whose slots are not in point order (a QA run of stop 54; the markers are
+    # compared by name), but must make the same points markers and model outputs
+    Ma, Mb = len(a.slots) - a.models.shape[1], len(b.slots) - b.models.shape[1]
+    if [s >= Ma for s in a.slots] != [s >= Mb for s in b.slots]:
+        return Part("point words", "differs", f"{what}; other points are model outputs")
     if _bits(a.words, b.words):
         return Part("point words", "same", what)
     if a.words.dtype != b.words.dtype or a.words.shape != b.words.shape:
@@ -381,6 +412,7 @@ def _models(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> list[Part]:
     from mpz.format import ModelKind
     from mpz.io.c3d import point_labels
     J = a.models.shape[1]
+    b = _models_in_point_order_of(a, b)
     if b.models.shape != a.models.shape or a.model_kinds != b.model_kinds:
         return [Part("model outputs", "differs", f"{J} points: {b.models.shape[1]} points "
                      f"x {b.models.shape[0]} frames against {J} x {a.models.shape[0]}, or "
@@ -405,6 +437,27 @@ def _models(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> list[Part]:
         part = _model_kind(a, b, js, where, f"model {kname.lower()}", what)
         parts.append(dataclasses.replace(part, unit=unit))
     return parts
+
+
+def _models_in_point_order_of(a: C3DArchive, b: C3DArchive) -> C3DArchive:
+    """``b`` with its model outputs renumbered as ``a`` numbers the same C3D points
+    (model output j is the point whose slot is M + j, and two archives of one C3D may
+    number them otherwise: a C3D written from a vector and read again); ``b`` as it is
+    when the two do not make the same points model outputs."""
+    Ma, Mb = len(a.slots) - a.models.shape[1], len(b.slots) - b.models.shape[1]
+    if len(a.slots) != len(b.slots):
+        return b
+    pairs = sorted((sa - Ma, sb - Mb) for sa, sb in zip(a.slots, b.slots, strict=True)
+                   if sa >= Ma or sb >= Mb)
+    if any(ja < 0 or jb < 0 for ja, jb in pairs) or len(pairs) != a.models.shape[1]:
+        return b
+    order = [jb for _, jb in pairs]
+    if order == list(range(len(order))):
+        return b
+    return dataclasses.replace(
+        b, models=b.models[:, order], model_valid=b.model_valid[:, order],
+        model_kinds=[b.model_kinds[j] for j in order],
+        model_bounds=None if b.model_bounds is None else b.model_bounds[order])
 
 
 def _model_kind(a: C3DArchive, b: C3DArchive, js: NDArray[np.intp],
