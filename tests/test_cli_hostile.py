@@ -841,3 +841,24 @@ def test_a_small_file_reads_under_an_address_space_limit(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr[-800:]
     assert p.stdout.split() == [x for n in names for x in (n, "30")], p.stdout
+
+
+@pytest.mark.parametrize("args", [["mpz", "decode", "{mpz}", "-o", "x.npy"],
+                                  ["mpz", "encode", "{trc}", "-o", "y.mpz"]])
+def test_a_deleted_working_folder_is_an_error_not_a_bug(small, tmp_path, args) -> None:
+    """A relative output path in a working folder that was deleted raised
+    FileNotFoundError from os.path.abspath: "internal error", exit 70 (a QA run of stop
+    54). It is the machine's state: exit 2, saying so; absolute paths still work there."""
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    argv = [command(args[0]), *(a.format(**{k: str(v) for k, v in small.items()})
+                                for a in args[1:])]
+    p = subprocess.run(["sh", "-c", 'cd "$0" && rmdir "$0" && exec "$@"', str(gone), *argv],
+                       capture_output=True, timeout=120)
+    assert p.returncode == 2, p.stderr[-600:]
+    assert b"the current folder no longer exists" in p.stderr and b"Traceback" not in p.stderr
+    ok = subprocess.run(["sh", "-c", 'mkdir "$0" && cd "$0" && rmdir "$0" && exec "$@"',
+                         str(gone), command("mpz"), "decode", "-q", str(small["mpz"]), "-o",
+                         str(tmp_path / "abs.npy")], capture_output=True, timeout=120)
+    assert ok.returncode == 0, ok.stderr[-600:]
+    assert (tmp_path / "abs.npy").exists()

@@ -329,6 +329,12 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
             except (MemoryError, BrokenPipeError):
                 raise            # each command's own report; a pipe closed by `head`
             except OSError as exc:
+                if isinstance(exc, FileNotFoundError) and _working_folder_gone():
+                    # os.path.abspath of a relative path raised deep in a command (a QA run
+                    # of stop 54: exit 70); absolute paths still work there
+                    print(f"{prog}: error: the current folder no longer exists (deleted?): "
+                          "cd to one that does, or give absolute paths", file=sys.stderr)
+                    return EXIT_ERROR
                 if exc.errno not in OUTPUT_FULL:
                     return _bug(prog)
                 # a full disk or a file-size limit where a command writes (standard output
@@ -343,6 +349,15 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
         return wrapper
 
     return decorate
+
+
+def _working_folder_gone() -> bool:
+    """Whether the process's working folder has been deleted (os.getcwd fails)."""
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        return True
+    return False
 
 
 def _bug(prog: str) -> int:
