@@ -263,7 +263,11 @@ def test_bvh_forward_kinematics(tmp_path):
 
 
 @pytest.mark.parametrize("ft,rate", [(0.0083333, 120.0), (0.00833333, 120.0), (0.04, 25.0),
-                                     (0.0333333, 30.0), (1 / 65.0364227, 65.0364227)])
+                                     (0.0333333, 30.0), (1 / 65.0364227, 65.0364227),
+                                     # below 1 Hz nothing snaps: 1/1500 Hz was snapped to 0
+                                     # and the file refused (a QA run of stop 54)
+                                     (1500.0, 1 / 1500), (999.0, 1 / 999), (2.0, 0.5),
+                                     (2.0 ** 31, 2.0 ** -31)])
 def test_bvh_frame_rate(ft, rate):
     assert frame_rate_from_frame_time(ft) == pytest.approx(rate, rel=1e-12)
 

@@ -165,13 +165,18 @@ def frame_rate_from_frame_time(ft: float) -> float:
     120.0
     >>> frame_rate_from_frame_time(0.04)
     25.0
+    >>> frame_rate_from_frame_time(1500.0) == 1 / 1500
+    True
     """
     if not ft > 0:
         raise _bad(f"Frame Time must be positive, got {ft!r}")
     r = 1.0 / ft
     if not math.isfinite(r):
         raise _bad(f"Frame Time {ft!r} is too small: its rate, 1 / Frame Time, overflows")
-    return float(round(r)) if abs(r - round(r)) < 1e-3 else r
+    n = round(r)
+    # never to 0: a Frame Time of 1500 s snapped 1/1500 Hz to 0, and the file was refused
+    # for a rate of 0 (a CLI fuzzing QA run of stop 54)
+    return float(n) if n >= 1 and abs(r - n) < 1e-3 else r
 
 
 def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion:
