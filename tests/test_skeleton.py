@@ -1690,3 +1690,23 @@ def test_an_amc_that_would_not_read_back_is_refused(tmp_path, edit, said):
     assert not out.exists() and not (tmp_path / "x.asf").exists()
     mpz.io.write(mpz.decode(data), out)                  # the vector itself reads back
     assert mpz.io.read(out).n_frames == m.n_frames
+
+
+@pytest.mark.parametrize("vector, ext, said", [
+    ("u36", ".bvh", "1 read back otherwise ('RightLeg' as 'Spine#2')"),
+    ("u43", ".amc", "2 read back otherwise ('lhip' as 'Root', 'lfemur' as 'ROOT')"),
+])
+def test_joint_names_the_skeleton_gives_otherwise_are_said(vector, ext, said):
+    """BVH and AMC name each joint as the skeleton chunk does; a valid file whose MNAM
+    names them otherwise (u36, u43) decoded, with no word, to a file whose compare with
+    its own .mpz found markers missing (a CLI fuzzing QA run of stop 54). The real files
+    get no such note."""
+    from mpz.io import writer_problems
+    vec = Path(__file__).resolve().parents[1] / "conformance" / "vectors" / "uncommon"
+    m = mpz.decode(next(vec.glob(f"{vector}-*.mpz")).read_bytes())
+    notes = writer_problems(m, ext)[1]
+    assert any("names each joint as the skeleton does" in n and said in n for n in notes), \
+        notes
+    v11 = next((vec.parent / "valid").glob("v11-*.mpz")).read_bytes()
+    assert not [n for n in writer_problems(mpz.decode(v11), ".bvh")[1]
+                if "names each joint" in n]
