@@ -367,6 +367,7 @@ def test_numpy_scalar_options_encode_as_the_python_number(kind) -> None:
         assert type(opts.max_error) is float and type(opts.group_errors["head"]) is float
         assert type(opts.theta) is float and type(opts.k0) is int
         assert type(opts.summary[0]) is int
+        assert mpz.EncodeOptions(lossy=np.False_, keep_skeleton=np.True_).lossy is False
         data, report = mpz.encode_motion(m, opts)
         plain, _ = mpz.encode_motion(m, mpz.EncodeOptions(
             max_error=float(x), group_errors={"head": float(x)}, summary=(3,)))
@@ -411,6 +412,7 @@ def test_a_set_of_names_is_refused() -> None:
     ("valid", None, "valid is a NoneType"),
     ("positions", [[[0.0, 0.0, 0.0]]], "positions is a list"),
     ("valid", np.ones((2, 2)), "valid is a ndarray of float64"),
+    ("metadata", {"n": 5}, "the value of 'n' is int"),
 ])
 def test_a_motion_changed_after_it_was_made_is_refused_by_encode_and_write(
         tmp_path: Path, attr: str, value: object, said: str) -> None:

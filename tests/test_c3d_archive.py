@@ -781,15 +781,31 @@ def test_every_element_of_point_scale_takes_the_sign_of_the_storage(tmp_path, va
 
 
 def test_a_point_scale_of_several_values_is_a_warning(tmp_path):
-    """ezc3d scales point p by element p of POINT:SCALE, mpz reads every point with the
-    first (the C3D user guide's one scale): an int16 source with [0.5, 0.25] reads
-    otherwise in ezc3d, which the reader now says (a clean-room review of stop 54)."""
+    """ezc3d scales point p by element p of POINT:SCALE, mpz's own reader every point by
+    the first (the C3D user guide has one scale): the reader says which it was, and a C3D
+    written from what was read gives it back (float32 points; int16 with the first
+    scale alone halved the second point: a clean-room review and a review of stop 54)."""
+    from mpz.io import c3dbin
+    from mpz.io.c3d import _points_to_write
     from mpz.tools.make_vectors import c3d_motion
     m = _with_point_scale(c3d_motion(5, storage=0, F=6, M=3, J=0, C=0, n=1), (0.5, 0.25))
+    a = m.extras["c3d"]
+    xyz, scale, _ = _points_to_write(m, a)     # an int16 source, as another tool writes it,
+    xyz = np.rint(xyz)                          # whole numbers: on both scales' grids
     path = tmp_path / "scales.c3d"
-    path.write_bytes(archive_source(m))
-    warning = read(path).metadata["warning"]
+    path.write_bytes(c3dbin.build_c3d(a.header, a.records, xyz, a.words, a.analog,
+                                      float_storage=False, scale=scale))
+    got = read(path)
+    warning = got.metadata["warning"]
     assert "POINT:SCALE holds 2 values that differ (0.5, 0.25)" in warning
+    assert got.metadata["reader"] == "ezc3d"
+    assert "ezc3d, which read this file, scales point p by element p" in warning
+    # what was read is what a C3D written from it gives back: float32 points (int16 with
+    # the first scale alone read back with the second point halved, a review of stop 54)
+    write(got, tmp_path / "again.c3d")
+    again = read(tmp_path / "again.c3d")
+    assert np.array_equal(again.positions[again.valid], got.positions[got.valid])
+    assert np.array_equal(again.valid, got.valid)
     same = _with_point_scale(c3d_motion(5, storage=0, F=6, M=3, J=0, C=0, n=1), (0.5, 0.5))
     path.write_bytes(archive_source(same))
     assert "POINT:SCALE holds" not in read(path).metadata.get("warning", "")

@@ -96,6 +96,9 @@ def test_trc_data_rate_whose_frame_times_overflow_is_refused(rate: str) -> None:
         with pytest.raises(InputFormatError, match=f"DataRate {float(rate)!r} is too small"):
             parse_trc(text)
     assert parse_trc(SMALL.replace("60.00\t60.00\t4", "1e-300\t60.00\t4", 1)).n_frames == 4
+    # one frame has the one time 0: written by the TRC writer, so read (a review of stop 54)
+    one = Motion(np.ones((1, 2, 3)), ["a", "b"], float(rate), "mm")
+    assert parse_trc(format_trc(one)).rate == float(rate)
 
 
 def test_a_cut_is_written_with_the_source_frame_numbers_and_times() -> None:

@@ -65,8 +65,6 @@ def _command_script(module: str = "__main__", names: frozenset[str] | None = Non
     path = getattr(mod, "__file__", None)
     if not path or _script(module) not in (COMMANDS if names is None else names):
         return False
-    if path.lower().endswith(".exe"):      # a Windows launcher: its name is all there is
-        return True
     try:
         with open(path, "rb") as fh:
             return _ENTRY.search(fh.read(4096)) is not None

@@ -143,8 +143,10 @@ def _as_dict(value: object, name: str) -> dict[Any, Any]:
 
 
 def _plain(value: Any) -> Any:
-    """A numpy scalar as the Python number of the same value (float or int); anything else
-    as it is, for the checks to judge."""
+    """A numpy scalar as the Python value it holds (float, int or bool); anything else as
+    it is, for the checks to judge."""
+    if isinstance(value, np.bool_):
+        return bool(value)
     if isinstance(value, np.floating):
         return float(value)
     if isinstance(value, np.integer):

@@ -46,7 +46,7 @@ import tempfile
 import numpy as np
 from numpy.typing import NDArray
 
-from mpz.errors import InputFormatError
+from mpz.errors import InputFormatError, MotionError
 from mpz.format import SIGNATURE
 from mpz.io import amc, bvh, c3dbin
 from mpz.io._common import (
@@ -261,7 +261,11 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     """
     if not isinstance(motion, Motion):    # it failed deep in check_writable (QA, stop 33)
         raise TypeError(f"mpz.io.write: expected an mpz.Motion, got {type(motion).__name__}")
-    check_consistent(motion)
+    try:
+        check_consistent(motion)
+    except MotionError as exc:          # as mpz.encode says it
+        raise MotionError(f"the motion is not consistent (was it changed after it was "
+                          f"made?): {exc.message}") from None
     _path_arg("path", path)
     if not isinstance(atomic, bool):
         raise TypeError(f"atomic must be True or False, got {atomic!r}")

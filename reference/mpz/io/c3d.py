@@ -378,10 +378,15 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
             meta["warning"] = _joined(meta.get("warning"), (
                 f"POINT:SCALE holds {len(elements)} values that differ "
                 f"({', '.join(f'{v:g}' for v in elements[:8])}"
-                f"{', ...' if len(elements) > 8 else ''}): mpz reads every point with the "
-                "first, as the C3D user guide's one scale, while ezc3d scales point p by "
-                "element p, so the points of an int16 source may read otherwise there, and "
-                "the decoded C3D gives every element the sign of the first (spec §6.9)"))
+                f"{', ...' if len(elements) > 8 else ''}), where the C3D user guide has "
+                "one scale: " + (
+                    "ezc3d, which read this file, scales point p by element p (mpz's own "
+                    "reader, for files ezc3d cannot read, takes the first)"
+                    if meta.get("reader") == "ezc3d" else
+                    "mpz's own reader, which read this file, scales every point by the "
+                    "first (ezc3d scales point p by element p)")
+                + "; a C3D written from it stores float32 points (spec §6.9), which need "
+                "no scale"))
             break
     return Motion(full.positions[:, marker], names, full.rate, full.units,
                   full.valid[:, marker], meta, extras={"c3d": archive})
@@ -683,10 +688,16 @@ def _points_to_write(motion: Motion, a: C3DArchive) -> tuple[NDArray[np.float64]
             v, ok = a.models[:, slot - M], a.model_valid[:, slot - M]
         xyz[:, p] = np.where(ok[:, None], v, 0.0)
     scale = a.point_scale()
+    # one scale for every point: ezc3d scales point p by element p of POINT:SCALE, so an
+    # int16 file written with the first element alone read back with point 1 halved for
+    # [0.5, 0.25] (a review of stop 54); float32 points need no scale
+    elements = _point_scale_elements(a)[:1]
+    one_scale = all(abs(e) == abs(elements[0][0]) for e in elements[0]) if elements else True
     with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
         q = np.rint(xyz / scale)                          # and build_c3d says why not float32
         int16 = bool(a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
-                     and np.array_equal(q * scale, xyz) and np.abs(q).max(initial=0) <= 32767)
+                     and one_scale and np.array_equal(q * scale, xyz)
+                     and np.abs(q).max(initial=0) <= 32767)
     return xyz, scale, int16
 
 

@@ -212,9 +212,10 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     meta.update(_header_meta(lines, header, frames, time_decimals, value_decimals))
     if "trc.TimeDecimals" in meta:
         meta["trc.TimeDigits"] = str(digits)
-    if rate > 0 and not math.isfinite(max(len(pos) - 1, 1) / rate):
+    if rate > 0 and len(pos) > 1 and not math.isfinite((len(pos) - 1) / rate):
         # a subnormal DataRate: numpy warned of an overflow on stderr and a duration of
-        # "inf s" was shown (a fuzzing QA run of stop 54); the TRC writer refuses it too
+        # "inf s" was shown (a fuzzing QA run of stop 54); the TRC writer refuses it too,
+        # from the same second frame on (one frame has the one time 0)
         raise _bad(f"DataRate {rate!r} is too small: the frame times (frame / DataRate) "
                    "overflow")
     motion = Motion(pos, names, rate, units, valid, meta)
