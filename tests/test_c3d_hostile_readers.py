@@ -428,3 +428,25 @@ def test_a_repeated_point_used_is_named_not_called_truncation(tmp_path: Path) ->
         read(path)
     text = str(err.value)
     assert "POINT:USED given 2 times (5, " in text and "truncated" not in text, text
+
+
+def test_frames_past_the_header_range_are_said(tmp_path: Path) -> None:
+    """The header's frame range is authoritative (frame_range), so frames the data holds
+    past it are not read: u42's C3D (a stale header kept by §4.13.1, written back) read
+    as 2 of its 24 frames with no word (a CLI fuzzing QA run of stop 54). A file padded to
+    its last block gets no such warning; one with a block of frames more does."""
+    import mpz
+    from mpz.io import write
+    vec = Path(__file__).resolve().parents[1] / "conformance" / "vectors" / "uncommon"
+    u42 = mpz.decode(next(vec.glob("u42-*.mpz")).read_bytes())
+    write(u42, tmp_path / "u42.c3d")
+    m = read(tmp_path / "u42.c3d")
+    assert m.n_frames == 2
+    assert "past the 2 frames of the header's frame range (words 4-5)" in \
+        m.metadata["warning"]
+    data = _records()
+    path = _write(tmp_path, "whole.c3d", data)
+    assert "frame range" not in read(path).metadata.get("warning", "")
+    longer = _write(tmp_path, "longer.c3d", data + data[-512:])        # one block more
+    w = read(longer).metadata.get("warning", "")
+    assert "bytes past the 10 frames of the header's frame range" in w, w

@@ -283,7 +283,9 @@ def c3d_from_bytes(path: StrPath, data: bytes, *, reopen: StrPath | None = None)
         full.metadata["warning"] = _joined(full.metadata.get("warning"),
                                            f"C3D archive not kept: {exc}")
         return full
-    for lost in [*_values_at_gaps(full, d), *([c3dbin.DEC_ROUNDED] if d.dec_rounded else [])]:
+    unread = c3dbin.frames_unread(data, full.n_frames)
+    for lost in [*_values_at_gaps(full, d), *([c3dbin.DEC_ROUNDED] if d.dec_rounded else []),
+                 *([unread] if unread else [])]:
         full.metadata["warning"] = _joined(full.metadata.get("warning"), lost)
     return split_archive(full, d)
 

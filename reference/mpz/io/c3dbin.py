@@ -800,6 +800,31 @@ def frames_missing(data: bytes, declared: int, present: int,
     return truncated(declared, present, offset)
 
 
+def frames_unread(data: bytes, read: int) -> str | None:
+    """A warning when the data holds whole frames past the ``read`` frames of the header's
+    range (the header is authoritative, :func:`frame_range`, as for ezc3d), beyond what
+    padding to a block explains, or None. Such a stale header (spec §4.13.1 keeps one:
+    vector u42's C3D written back) read as 2 of its 24 frames, with no word (a CLI
+    fuzzing QA run of stop 54)."""
+    try:
+        codec, pstart, params = _open(data)
+        lay = _layout(data, codec, pstart, params)
+    except InputFormatError:
+        return None
+    if not lay.frame_bytes:
+        return None
+    extra = len(data) - (lay.data_start - 1) * BLOCK - read * lay.frame_bytes
+    if extra < BLOCK:                          # the last block's padding, at most
+        return None
+    frames = param_number(params, "POINT", "FRAMES", -1)
+    said = (f", and POINT:FRAMES says {int(frames) & 0xFFFF}"
+            if math.isfinite(frames) and frames >= 0 else "")
+    return (f"the data holds {extra} bytes past the {read} frames of the header's frame "
+            f"range (words 4-5), room for {extra // lay.frame_bytes} more frames with the "
+            f"last block's padding{said}: they are not read (the C3D user guide and ezc3d "
+            "go by the header); is the header stale?")
+
+
 def _repeated_layout(records: list[ParamRecord]) -> str:
     """The parameters that set the data's layout (POINT:USED, ANALOG:USED, ANALOG:RATE,
     POINT:RATE) given more than once with other values, as text ("" when none is)."""
