@@ -433,8 +433,9 @@ def test_a_repeated_point_used_is_named_not_called_truncation(tmp_path: Path) ->
 def test_frames_past_the_header_range_are_said(tmp_path: Path) -> None:
     """The header's frame range is authoritative (frame_range), so frames the data holds
     past it are not read: u42's C3D (a stale header kept by §4.13.1, written back) read
-    as 2 of its 24 frames with no word (a CLI fuzzing QA run of stop 54). A file padded to
-    its last block gets no such warning; one with a block of frames more does."""
+    as 2 of its 24 frames with no word (a CLI fuzzing QA run of stop 54). A file padded by
+    up to a whole block more gets no such warning (mpz.tools.make_example's walk.c3d has
+    one); one with three blocks more does."""
     import mpz
     from mpz.io import write
     vec = Path(__file__).resolve().parents[1] / "conformance" / "vectors" / "uncommon"
@@ -447,6 +448,8 @@ def test_frames_past_the_header_range_are_said(tmp_path: Path) -> None:
     data = _records()
     path = _write(tmp_path, "whole.c3d", data)
     assert "frame range" not in read(path).metadata.get("warning", "")
-    longer = _write(tmp_path, "longer.c3d", data + data[-512:])        # one block more
+    block = _write(tmp_path, "block.c3d", data + bytes(512))    # a block of padding more,
+    assert "frame range" not in read(block).metadata.get("warning", "")   # as walk.c3d
+    longer = _write(tmp_path, "longer.c3d", data + data[-512:] * 3)     # 3 blocks more
     w = read(longer).metadata.get("warning", "")
     assert "bytes past the 10 frames of the header's frame range" in w, w

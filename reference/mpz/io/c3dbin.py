@@ -803,7 +803,7 @@ def frames_missing(data: bytes, declared: int, present: int,
 def frames_unread(data: bytes, read: int) -> str | None:
     """A warning when the data holds whole frames past the ``read`` frames of the header's
     range (the header is authoritative, :func:`frame_range`, as for ezc3d), beyond what
-    padding to a block explains, or None. Such a stale header (spec §4.13.1 keeps one:
+    padding explains (up to a whole block), or None. Such a stale header (spec §4.13.1 keeps one:
     vector u42's C3D written back) read as 2 of its 24 frames, with no word (a CLI
     fuzzing QA run of stop 54)."""
     try:
@@ -814,14 +814,16 @@ def frames_unread(data: bytes, read: int) -> str | None:
     if not lay.frame_bytes:
         return None
     extra = len(data) - (lay.data_start - 1) * BLOCK - read * lay.frame_bytes
-    if extra < BLOCK:                          # the last block's padding, at most
+    if extra < BLOCK + lay.frame_bytes:
+        # padding: up to a whole block of it, which some writers add after the last
+        # block's remainder (mpz.tools.make_example's walk.c3d: 512 bytes)
         return None
     frames = param_number(params, "POINT", "FRAMES", -1)
     said = (f", and POINT:FRAMES says {int(frames) & 0xFFFF}"
             if math.isfinite(frames) and frames >= 0 else "")
     return (f"the data holds {extra} bytes past the {read} frames of the header's frame "
-            f"range (words 4-5), room for {extra // lay.frame_bytes} more frames with the "
-            f"last block's padding{said}: they are not read (the C3D user guide and ezc3d "
+            f"range (words 4-5), room for up to {extra // lay.frame_bytes} more frames "
+            f"(padding included){said}: they are not read (the C3D user guide and ezc3d "
             "go by the header); is the header stale?")
 
 
