@@ -139,6 +139,11 @@ class C3DArchive:
     def channels(self) -> int:
         return int(self.analog.shape[1])
 
+    @property
+    def markers(self) -> int:
+        """M, the points in marker slots (``slots`` below M; model outputs from M on)."""
+        return len(self.slots) - int(self.models.shape[1])
+
     def parameter(self, group: str, name: str) -> ParamRecord | None:
         """The first record of parameter ``group:name`` (names compared without case)."""
         at = named(self.records, group.encode("latin-1"), name.encode("latin-1"))
@@ -152,6 +157,16 @@ class C3DArchive:
         else:
             s = float(np.frombuffer(self.header, "<f4", 1, 12)[0])
         return abs(s) if math.isfinite(s) and s != 0 else 1.0
+
+    def one_point_scale(self) -> bool:
+        """Whether the POINT:SCALE record :meth:`point_scale` reads (if any) gives every
+        point one scale: all its elements have its first one's magnitude (spec §6.9,
+        Storage: ezc3d scales point p by element p)."""
+        r = self.parameter("POINT", "SCALE")
+        if r is None or r.type != 4 or len(r.data) < 4:
+            return True
+        v = np.abs(np.frombuffer(r.data, "<f4", len(r.data) // 4))
+        return bool((v == v[0]).all())
 
     def point_grid(self) -> float | None:
         """The grid every point coordinate of an int16 source lies on (|POINT:SCALE|)."""

@@ -509,8 +509,7 @@ def _consistent(motion: Motion) -> None:
     try:
         check_consistent(motion)
     except MotionError as exc:
-        raise EncoderError(f"the motion is not consistent (was it changed after it was "
-                           f"made?): {exc.message}") from None
+        raise EncoderError(exc.message) from None
 
 
 def check_metadata(meta: Mapping[str, str]) -> None:

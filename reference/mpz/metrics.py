@@ -354,8 +354,7 @@ def _words(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> Part:
     # number the markers otherwise, as for a C3D read again after it was written from a
     # file whose slots are not in point order (a QA run of stop 54; the markers are
     # compared by name), but must make the same points markers and model outputs
-    Ma, Mb = len(a.slots) - a.models.shape[1], len(b.slots) - b.models.shape[1]
-    if [s >= Ma for s in a.slots] != [s >= Mb for s in b.slots]:
+    if [s >= a.markers for s in a.slots] != [s >= b.markers for s in b.slots]:
         return Part("point words", "differs", f"{what}; other points are model outputs")
     if _bits(a.words, b.words):
         return Part("point words", "same", what)
@@ -444,7 +443,7 @@ def _models_in_point_order_of(a: C3DArchive, b: C3DArchive) -> C3DArchive:
     (model output j is the point whose slot is M + j, and two archives of one C3D may
     number them otherwise: a C3D written from a vector and read again); ``b`` as it is
     when the two do not make the same points model outputs."""
-    Ma, Mb = len(a.slots) - a.models.shape[1], len(b.slots) - b.models.shape[1]
+    Ma, Mb = a.markers, b.markers
     if len(a.slots) != len(b.slots):
         return b
     pairs = sorted((sa - Ma, sb - Mb) for sa, sb in zip(a.slots, b.slots, strict=True)

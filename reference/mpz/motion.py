@@ -327,17 +327,23 @@ def check_consistent(motion: Motion) -> None:
     Raises
     ------
     MotionError
-        Naming what is not consistent.
+        "the motion is not consistent (was it changed after it was made?): " and what is
+        not (the encoder and :func:`mpz.io.write` say it so).
     """
-    for name, kind in (("positions", "f"), ("valid", "b")):
-        v = getattr(motion, name)
-        if not isinstance(v, np.ndarray) or v.dtype.kind != kind:
-            raise MotionError(f"{name} is a {type(v).__name__}"
-                              f"{' of ' + str(v.dtype) if isinstance(v, np.ndarray) else ''}, "
-                              f"not the {'float64' if kind == 'f' else 'bool'} array a Motion "
-                              "holds: make a new Motion rather than replacing it")
-    Motion(motion.positions, motion.names, motion.rate, motion.units, motion.valid,
-           motion.metadata, motion.parents, motion.angles, motion.angle_names, motion.extras)
+    try:
+        for name, kind in (("positions", "f"), ("valid", "b")):
+            v = getattr(motion, name)
+            if not isinstance(v, np.ndarray) or v.dtype.kind != kind:
+                dtype = f" of {v.dtype}" if isinstance(v, np.ndarray) else ""
+                raise MotionError(f"{name} is a {type(v).__name__}{dtype}, not the "
+                                  f"{'float64' if kind == 'f' else 'bool'} array a Motion "
+                                  "holds: make a new Motion rather than replacing it")
+        Motion(motion.positions, motion.names, motion.rate, motion.units, motion.valid,
+               motion.metadata, motion.parents, motion.angles, motion.angle_names,
+               motion.extras)
+    except MotionError as exc:
+        raise MotionError(f"the motion is not consistent (was it changed after it was "
+                          f"made?): {exc.message}") from None
 
 
 def concatenate(motions: Iterable[Motion]) -> Motion:

@@ -46,7 +46,7 @@ import tempfile
 import numpy as np
 from numpy.typing import NDArray
 
-from mpz.errors import InputFormatError, MotionError
+from mpz.errors import InputFormatError
 from mpz.format import SIGNATURE
 from mpz.io import amc, bvh, c3dbin
 from mpz.io._common import (
@@ -261,11 +261,7 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     """
     if not isinstance(motion, Motion):    # it failed deep in check_writable (QA, stop 33)
         raise TypeError(f"mpz.io.write: expected an mpz.Motion, got {type(motion).__name__}")
-    try:
-        check_consistent(motion)
-    except MotionError as exc:          # as mpz.encode says it
-        raise MotionError(f"the motion is not consistent (was it changed after it was "
-                          f"made?): {exc.message}") from None
+    check_consistent(motion)
     _path_arg("path", path)
     if not isinstance(atomic, bool):
         raise TypeError(f"atomic must be True or False, got {atomic!r}")
@@ -520,24 +516,31 @@ def _names_with(names: list[str], bad: Callable[[str], bool]) -> list[str]:
     return [repr(n) for n in names if bad(n)][:5]
 
 
-def skeleton_names_read_back(motion: Motion, ext: str) -> list[tuple[str, str]]:
-    """The (marker name, name read back) pairs that differ when ``motion`` is written as
-    BVH or AMC/ASF and read again: those formats name each joint as the skeleton does
-    (made unique, as the readers do), while the motion's names are MNAM's. Found by
-    writing and reading the first two frames; [] for a motion those formats refuse."""
+def skeleton_read_back(motion: Motion, ext: str) -> tuple[list[str], Skeleton | None]:
+    """The marker names that ``motion`` written as BVH or AMC/ASF reads back with (those
+    formats name each joint as the skeleton does, made unique as the readers do, while
+    the motion's names are MNAM's), and for AMC the ASF skeleton read back. Written and
+    read from the first two frames: the names, the skeleton and the AMC header are those
+    of every frame, and the numbers are written as they read back. For a motion that
+    format holds (:func:`mpz.io.bvh.skeleton_problems`).
+
+    Raises
+    ------
+    InputFormatError
+        The reader's, for a file that would not read back: §4.14.2 allows an ASF bone
+        name with a ``#`` or one that reads as a keyword, and takes an AMC header as
+        text, so a valid file decoded without a word to an AMC that no reader read back
+        (a fuzzing QA run of stop 54).
+    """
     from dataclasses import replace as _with
     n = min(2, motion.n_frames)
     head = _with(motion, positions=motion.positions[:n], valid=motion.valid[:n],
                  angles=None if motion.angles is None else motion.angles[:n])
-    try:
-        if ext == ".bvh":
-            back = bvh.parse_bvh(bvh.format_bvh(head)).names
-        else:
-            skel, _ = amc._parse_asf(amc.format_asf(motion.extras["skeleton"]), "utf-8")
-            back = amc.parse_amc(amc.format_amc(head), skel).names
-    except (InputFormatError, KeyError):
-        return []
-    return [(a, b) for a, b in zip(motion.names, back, strict=False) if a != b]
+    if ext == ".bvh":                       # (select_frames drops the skeleton)
+        return bvh.parse_bvh(bvh.format_bvh(head)).names, None
+    skel = motion.extras["skeleton"]
+    asf, _ = amc._parse_asf(amc.format_asf(skel), skel.encoding)
+    return amc.parse_amc(amc.format_amc(head), asf, encoding=skel.encoding).names, asf
 
 
 def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
@@ -721,28 +724,33 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
                              f"motion's positions differ from the joints its channels give by "
                              f"up to {moved:.4g} {motion.units or 'units'} (an edit, or a "
                              "lossy marker layer), and the file gives the channels' joints")
+        read_back: tuple[list[str], Skeleton | None] | None = None
         if not refuse:
-            otherwise = skeleton_names_read_back(motion, ext)
-            if otherwise:
-                # a valid file whose MNAM names its joints otherwise than its skeleton chunk
-                # (u36, u43) decoded to a BVH whose compare with its own .mpz found markers
-                # missing, with no word (a CLI fuzzing QA run of stop 54)
-                notes.append(f"{fmt} names each joint as the skeleton does, not as the "
-                             f"motion's marker names: {len(otherwise)} read back otherwise ("
-                             + ", ".join(f"{a!r} as {b!r}" for a, b in otherwise[:5])
-                             + (", ..." if len(otherwise) > 5 else "") + ")")
+            try:
+                read_back = skeleton_read_back(motion, ext)
+            except InputFormatError as exc:
+                if ext == ".amc":
+                    refuse.append(
+                        f"the AMC and ASF written would not read back ({exc.message}): a "
+                        "bone name with '#' or that starts with ':', or an AMC header line "
+                        "that is neither a comment nor a keyword, reads otherwise; write the "
+                        "joint positions (.npy, .csv) instead")
+        otherwise = [] if read_back is None else [
+            (a, b) for a, b in zip(motion.names, read_back[0], strict=False) if a != b]
+        if otherwise:
+            # a valid file whose MNAM names its joints otherwise than its skeleton chunk
+            # (u36, u43) decoded to a BVH whose compare with its own .mpz found markers
+            # missing, with no word (a CLI fuzzing QA run of stop 54)
+            notes.append(f"{fmt} names each joint as the skeleton does, not as the "
+                         f"motion's marker names: {len(otherwise)} read back otherwise ("
+                         + ", ".join(f"{a!r} as {b!r}" for a, b in otherwise[:5])
+                         + (", ..." if len(otherwise) > 5 else "") + ")")
         if ext == ".amc" and rate != 120.0:
             notes.append(f"AMC does not store the rate: {rate!r} Hz reads back as 120 Hz "
                          "unless the reader is told")
         skel = motion.extras.get("skeleton")
-        if ext == ".amc" and isinstance(skel, Skeleton) and skel.convention == "asf" \
-                and not refuse:
-            problem = amc.amc_read_back_problem(motion)
-            if problem is not None:
-                refuse.append(problem)
-        if ext == ".amc" and isinstance(skel, Skeleton) and skel.convention == "asf" \
-                and not refuse:
-            changed = asf_text_changes(skel)
+        if read_back is not None and read_back[1] is not None and isinstance(skel, Skeleton):
+            changed = asf_text_changes(skel, read_back[1])
             if changed:
                 notes.append("the ASF's text will not read back as stored: " + "; ".join(
                     f"{k} {getattr(skel, k, '')!r} reads back as {v!r}"

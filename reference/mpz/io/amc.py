@@ -551,34 +551,7 @@ def amc_from_bytes(amc_path: StrPath, data: bytes, asf_path: StrPath | None = No
 ASF_TEXT_FIELDS = ("comments", "version", "name", "mass", "documentation")
 
 
-def amc_read_back_problem(motion: Motion) -> str | None:
-    """Why the AMC and ASF that :func:`write_amc` makes of ``motion`` would not read back
-    (:func:`parse_asf`, :func:`parse_amc`), or None: a bone name with a ``#`` (the rest of
-    its AMC line reads as a comment) or that reads as a keyword (``:bonedata``), an AMC
-    header line that is neither a comment nor a keyword. §4.14.2 allows these names and
-    takes the header as informative text, so a valid file decoded, without a word, to an
-    AMC that no reader read back (a fuzzing QA run of stop 54). Checked on the first two
-    frames: the names and the header are the same in every frame, and the numbers are
-    written as they read back."""
-    skel = motion.extras.get("skeleton")
-    if not isinstance(skel, Skeleton) or skel.convention != "asf":
-        return None
-    n = min(2, motion.n_frames)
-    angles = None if motion.angles is None else motion.angles[:n]
-    head = replace(motion, positions=motion.positions[:n], valid=motion.valid[:n],
-                   angles=angles)              # select_frames drops the skeleton
-    try:
-        back, _ = _parse_asf(format_asf(skel), skel.encoding)
-        parse_amc(format_amc(head), back, encoding=skel.encoding)
-    except InputFormatError as exc:
-        return (f"the AMC and ASF written would not read back ({exc.message}): a bone name "
-                "with '#' or that starts with ':', or an AMC header line that is neither a "
-                "comment nor a keyword, reads otherwise; write the joint positions (.npy, "
-                ".csv) instead")
-    return None
-
-
-def asf_text_changes(skel: Skeleton) -> dict[str, str]:
+def asf_text_changes(skel: Skeleton, back: Skeleton | None = None) -> dict[str, str]:
     """The text fields of ``skel`` (:data:`ASF_TEXT_FIELDS`) that the ASF :func:`format_asf`
     writes would read back differently, each with the value it reads back as.
 
@@ -586,11 +559,14 @@ def asf_text_changes(skel: Skeleton) -> dict[str, str]:
     also splits lines at U+000B, U+000C, U+001C-U+001E, U+0085, U+2028 and U+2029
     (``str.splitlines``) and words at white space, so such a field, which only a hand-made
     skeleton holds, changes when written: the writers say so (:func:`mpz.io.writer_problems`).
+    ``back``: the ASF already read back (:func:`mpz.io.skeleton_read_back`), else it is
+    written and read here.
     """
-    try:
-        back, _ = _parse_asf(format_asf(skel), skel.encoding)
-    except InputFormatError as exc:          # the skeleton's own problems are refused
-        return {"the ASF": str(exc)}          # elsewhere (skeleton_problem)
+    if back is None:
+        try:
+            back, _ = _parse_asf(format_asf(skel), skel.encoding)
+        except InputFormatError as exc:          # the skeleton's own problems are refused
+            return {"the ASF": str(exc)}          # elsewhere (skeleton_problem)
     return {f: getattr(back, f) for f in ASF_TEXT_FIELDS if getattr(back, f) != getattr(skel, f)}
 
 

@@ -693,8 +693,7 @@ def _points_to_write(motion: Motion, a: C3DArchive) -> tuple[NDArray[np.float64]
     # one scale for every point: ezc3d scales point p by element p of POINT:SCALE, so an
     # int16 file written with the first element alone read back with point 1 halved for
     # [0.5, 0.25] (a review of stop 54); float32 points need no scale
-    elements = _point_scale_elements(a)[:1]
-    one_scale = all(abs(e) == abs(elements[0][0]) for e in elements[0]) if elements else True
+    one_scale = a.one_point_scale()
     with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
         q = np.rint(xyz / scale)                          # and build_c3d says why not float32
         int16 = bool(a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)

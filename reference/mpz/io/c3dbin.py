@@ -786,8 +786,7 @@ def frames_missing(data: bytes, declared: int, present: int,
                                 f"{repeated}, the last of which sets the frame size here: "
                                 "is the file whole and one of them wrong?", offset=offset)
     first, last = codec.uint16(data, 6), codec.uint16(data, 8)
-    room = len(data) - (lay.data_start - 1) * BLOCK
-    holds = room // lay.frame_bytes if lay.frame_bytes else declared
+    holds = _data_bytes(data, lay) // lay.frame_bytes if lay.frame_bytes else declared
     fp = int(frames) & 0xFFFF if math.isfinite(frames) and frames >= 0 else -1
     if header_range_holds(first, last) and last - first + 1 == declared and fp != declared \
             and holds in (fp, declared):
@@ -798,6 +797,11 @@ def frames_missing(data: bytes, declared: int, present: int,
             f"with POINT:FRAMES {fp}, and the data holds {holds} frames: {wrong} is wrong",
             offset=6)
     return truncated(declared, present, offset)
+
+
+def _data_bytes(data: bytes, lay: _Layout) -> int:
+    """The bytes of C3D ``data`` from the start of its 3D data (:class:`_Layout`) on."""
+    return len(data) - (lay.data_start - 1) * BLOCK
 
 
 def frames_unread(data: bytes, read: int) -> str | None:
@@ -813,7 +817,7 @@ def frames_unread(data: bytes, read: int) -> str | None:
         return None
     if not lay.frame_bytes:
         return None
-    extra = len(data) - (lay.data_start - 1) * BLOCK - read * lay.frame_bytes
+    extra = _data_bytes(data, lay) - read * lay.frame_bytes
     if extra < BLOCK + lay.frame_bytes:
         # padding: up to a whole block of it, which some writers add after the last
         # block's remainder (mpz.tools.make_example's walk.c3d: 512 bytes)
@@ -827,18 +831,23 @@ def frames_unread(data: bytes, read: int) -> str | None:
             "go by the header); is the header stale?")
 
 
+def first_number(r: ParamRecord) -> float | None:
+    """The first element of a numeric parameter record (normalised data: int8, int16 or
+    float32, little-endian), or None for a char one or one without an element."""
+    fmt = {1: "<i1", 2: "<i2", 4: "<f4"}.get(r.type)
+    if fmt is None or len(r.data) < abs(r.type):
+        return None
+    return float(np.frombuffer(r.data, fmt, 1)[0])
+
+
 def _repeated_layout(records: list[ParamRecord]) -> str:
     """The parameters that set the data's layout (POINT:USED, ANALOG:USED, ANALOG:RATE,
     POINT:RATE) given more than once with other values, as text ("" when none is)."""
     said = []
     for group, name in ((b"POINT", b"USED"), (b"ANALOG", b"USED"), (b"ANALOG", b"RATE"),
                         (b"POINT", b"RATE")):
-        values = []
-        for i in named(records, group, name):
-            r = records[i]
-            if r.type in (1, 2, 4) and len(r.data) >= abs(r.type):
-                fmt = {1: "<i1", 2: "<i2", 4: "<f4"}[r.type]
-                values.append(float(np.frombuffer(r.data, fmt, 1)[0]))
+        values = [v for v in (first_number(records[i]) for i in named(records, group, name))
+                  if v is not None]
         if len(set(values)) > 1:
             said.append(f"{group.decode()}:{name.decode()} given {len(values)} times "
                         f"({', '.join(f'{v:g}' for v in values)})")
@@ -991,10 +1000,7 @@ def _ezc3d_values(data: bytes, start: int) -> str | None:
 
     def first(key: tuple[bytes, bytes]) -> float | None:
         r = params.get(key)
-        if r is None or count(r) == 0 or r.type == -1:
-            return None
-        fmt = {1: "<i1", 2: "<i2", 4: "<f4"}[r.type]
-        return float(np.frombuffer(r.data, fmt, 1)[0])
+        return None if r is None or count(r) == 0 else first_number(r)
 
     for r in records:
         if not r.is_group and r.type == -1 and not r.dims:
