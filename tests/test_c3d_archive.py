@@ -26,7 +26,7 @@ import mpz
 from mpz.c3darchive import C3DArchive
 from mpz.encoder import EncodeOptions, encode_motion
 from mpz.errors import EncoderError, InputFormatError
-from mpz.io import c3dbin, read, write
+from mpz.io import READ_BACK_NOTE, c3dbin, read, write
 from mpz.synth import generate
 
 ezc3d = pytest.importorskip("ezc3d")
@@ -491,7 +491,9 @@ def test_a_marker_layer_named_otherwise_than_its_archive_decodes_to_the_archive_
     rule of §4.13 ties them) was written by `mpz decode` as a C3D of the markers alone,
     without the archive's parameters, analog data and header, and `write_c3d` refused it
     (a clean-room C3D writer of stop 53 wrote the archive, as §6.9 says). Now both write the
-    archive: the same bytes as the file before the edit, whose C3D only MNAM differs from."""
+    archive: the same bytes as the file before the edit, whose C3D only MNAM differs from.
+    Since stop 55 `mpz decode` warns (exit 1) that the C3D reads back with the label, not
+    MNAM's name, and `write` returns that note."""
     import subprocess
     import sys
 
@@ -513,12 +515,15 @@ def test_a_marker_layer_named_otherwise_than_its_archive_decodes_to_the_archive_
     back = mpz.decode(edited)
     assert back.names[0].endswith("X")                         # valid
     mpz_cmd = str(Path(sys.executable).parent / "mpz")
-    for name in ("a", "r"):
-        p = subprocess.run([mpz_cmd, "decode", f"{name}.mpz", "-o", f"{name}.c3d"],
+    for name, code in (("a", 0), ("r", 1)):
+        p = subprocess.run([mpz_cmd, "decode", f"{name}.mpz", "-o", f"{name}.c3d", "-q"],
                            cwd=tmp_path, capture_output=True, text=True, timeout=120)
-        assert p.returncode == 0, p.stderr
+        assert p.returncode == code, p.stderr
+    assert f"{back.names[0][:-1]!r} new" in p.stderr and "warning" in p.stderr
+    assert read(tmp_path / "r.c3d").names[0] == back.names[0][:-1]
     assert (tmp_path / "r.c3d").read_bytes() == (tmp_path / "a.c3d").read_bytes()
-    write(back, tmp_path / "api.c3d")
+    notes = write(back, tmp_path / "api.c3d")
+    assert [n for n in notes if n.startswith(READ_BACK_NOTE)]
     assert (tmp_path / "api.c3d").read_bytes() == (tmp_path / "a.c3d").read_bytes()
     # re-encoding the decoded motion keeps it as it is, and a rename after that is refused
     assert mpz.decode(mpz.encode(back, max_error=1.0)).names == back.names
@@ -867,3 +872,89 @@ def test_a_c3d_written_from_each_vector_compares_with_it_as_the_same(tmp_path):
             assert [q.status for q in worse if q.name.startswith("model")].count(
                 "differs") == 1, worse
     assert seen >= 5 and reordered >= 1
+
+
+# -- a C3D that reads back otherwise (a fuzzing QA run of stop 54) -------------------------
+def _header_word(m: mpz.Motion, word: int, value: int) -> mpz.Motion:
+    """``m`` whose archive's C3D header word ``word`` (1-based, 16 bits) is ``value``."""
+    import dataclasses
+    a = m.extras["c3d"]
+    h = bytearray(a.header)
+    h[2 * word - 2:2 * word] = value.to_bytes(2, "little")
+    return replace(m, extras={"c3d": dataclasses.replace(a, header=bytes(h))})
+
+
+def _labels_in_group(m: mpz.Motion, group: int) -> mpz.Motion:
+    """``m`` whose archive's POINT:LABELS record has group id ``group``."""
+    import dataclasses
+    a = m.extras["c3d"]
+    point = next(r.group for r in a.records if r.is_group and r.name == b"POINT")
+    records = [dataclasses.replace(r, group=group) if r.name == b"LABELS" and r.group == -point
+               else r for r in a.records]
+    return replace(m, extras={"c3d": dataclasses.replace(a, records=records)})
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda m: _header_word(m, 4, 0), "it does not read: "),
+    (lambda m: _header_word(m, 5, 65535), "it does not read: "),
+    (lambda m: _labels_in_group(m, 4), "its markers are named otherwise: 'LFHD', "),
+])
+def test_a_c3d_that_reads_back_otherwise_is_said(tmp_path, edit, said):
+    """Spec §6.9 writes an archive's header and parameters as stored. A valid archive made
+    by hand (a header first frame of 0, a last frame of 65535 without TRIAL, POINT:LABELS
+    in another group) was written with no word to a C3D that mpz refused or read with
+    other names (a fuzzing QA run of stop 54). `write` now reads the file it wrote back
+    and returns a note saying what a reader finds; the reader itself is asked here
+    whether the note is true. `mpz decode` prints it as a warning, -q too, exit 1."""
+    import subprocess
+    import sys
+    m = _example_c3d(tmp_path)
+    assert not [n for n in write(m, tmp_path / "same.c3d") if n.startswith(READ_BACK_NOTE)]
+    edited = edit(m)
+    notes = write(edited, tmp_path / "edited.c3d")
+    (note,) = [n for n in notes if n.startswith(READ_BACK_NOTE)]
+    assert said in note and "§6.9" in note
+    if said.startswith("it does not read"):
+        with pytest.raises(InputFormatError):
+            read(tmp_path / "edited.c3d")
+    else:
+        back = read(tmp_path / "edited.c3d")
+        assert back.names[0] != m.names[0] and m.names[0] not in back.names
+    (tmp_path / "edited.mpz").write_bytes(mpz.encode(edited, max_error=1.0))
+    p = subprocess.run([str(Path(sys.executable).parent / "mpz"), "decode", "edited.mpz",
+                        "-o", "out.c3d", "-q"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 1, p.stderr
+    assert "mpz decode: warning: out.c3d: " + READ_BACK_NOTE in p.stderr and said in p.stderr
+    assert (tmp_path / "out.c3d").exists() and p.stdout == ""
+
+
+def test_read_back_compares_frames_names_rate_and_the_first_frames(tmp_path):
+    """mpz.io.c3d.read_back against a C3D that is true to the motion it was written of,
+    and against motions changed after the file was written: the names, the rate, a gap
+    and a position of the first two frames are found; a change past the first two frames
+    is not looked at (the check reads the header, the parameters and two frames)."""
+    from mpz.io.c3d import READ_BACK_FRAMES, archive_bytes, read_back
+    m = _example_c3d(tmp_path)
+    blob = archive_bytes(m)
+    assert read_back(m, blob) == []
+
+    def moved(f: int, dx: float) -> mpz.Motion:
+        p = m.positions.copy()
+        p[f, 1, 0] += dx
+        return replace(m, positions=p)
+
+    assert read_back(moved(1, 0.5), blob) == [
+        f"marker {m.names[1]!r} in frame 1 reads back at {m.positions[1, 1, 0]!r}, not "
+        f"{m.positions[1, 1, 0] + 0.5!r} (x)"]
+    assert read_back(moved(1, 1e-9), blob) == []              # within float32's rounding
+    assert read_back(moved(READ_BACK_FRAMES, 0.5), blob) == []
+    valid = m.valid.copy()
+    valid[0, 2] = False
+    assert read_back(replace(m, valid=valid), blob) == [
+        f"marker {m.names[2]!r} in frame 0 is a point, not a gap"]
+    assert read_back(replace(m, rate=60.0), blob) == ["its rate is 120.0 Hz, not 60.0"]
+    names = [*m.names[:-1], "Z"]
+    assert read_back(replace(m, names=names), blob) == [
+        f"its markers are named otherwise: 'Z' missing, {m.names[-1]!r} new"]
+    assert read_back(m, blob[:len(blob) - 512])[0].startswith("it does not read: ")

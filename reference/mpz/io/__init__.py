@@ -110,8 +110,9 @@ BYTES_READERS: dict[str, Callable[..., Motion]] = {
 #: the formats that carry a skeleton (issue 13): read with it, written from it
 SKELETON_FORMATS = (".bvh", ".amc")
 
-#: extension -> writer(motion, path)
-WRITERS: dict[str, Callable[..., None]] = {
+#: extension -> writer(motion, path) (the C3D writer returns what its file reads back
+#: otherwise, :func:`mpz.io.c3d.read_back`; the others return None)
+WRITERS: dict[str, Callable[..., object]] = {
     ".c3d": write_c3d,
     ".trc": write_trc,
     ".npy": write_npy,
@@ -222,7 +223,9 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
           asf: StrPath | None = None, atomic: bool = True) -> list[str]:
     """Write a Motion, choosing the writer by extension; returns the notes of
     :func:`check_writable`: what the format does not hold of the motion (for example
-    NPY's marker names, rate and units, or a C3D's metadata), each a sentence.
+    NPY's marker names, rate and units, or a C3D's metadata), each a sentence; and, for
+    a C3D, a last note, beginning with :data:`READ_BACK_NOTE`, when mpz's reader reads
+    the file written otherwise (:func:`mpz.io.c3d.read_back`).
 
     Parameters
     ----------
@@ -293,8 +296,7 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
     name = os.path.basename(os.fspath(path)) if file_name is None else file_name
     asf_path = default_asf_path(path) if asf is None else asf
     if not atomic:
-        _write_in_place(motion, ext, path, name, asf_path)
-        return notes
+        return notes + _write_in_place(motion, ext, path, name, asf_path)
     # through a hidden file beside each output, renamed when whole (mpz.api.atomic_output):
     # a full disk left a cut file and a raw OSError (a QA run of stop 49)
     from mpz.api import atomic_output
@@ -304,7 +306,7 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
                 amc.write_asf(motion, tmp_asf)
             amc.write_amc_text(motion, tmp)
         else:
-            _write_in_place(motion, ext, tmp, name, asf_path)
+            notes += _write_in_place(motion, ext, tmp, name, asf_path)
         if not os.path.exists(tmp):                 # a writer that failed without a word
             raise OSError(f"the {FORMAT_NAMES.get(ext, ext)} writer wrote nothing to "
                           f"{os.fspath(path)!r}")
@@ -312,16 +314,29 @@ def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
 
 
 def _write_in_place(motion: Motion, ext: str, path: StrPath, name: str,
-                    asf: StrPath) -> None:
+                    asf: StrPath) -> list[str]:
     """The writer of ``ext`` writing ``path`` itself (``name``: the TRC's own file name;
-    ``asf``: where an AMC's ASF goes)."""
+    ``asf``: where an AMC's ASF goes); the notes of what the file written reads back
+    otherwise (C3D: :func:`mpz.io.c3d.read_back`)."""
     fn = WRITERS[ext]
     if ext == ".trc":
         fn(motion, path, file_name=name)
     elif ext == ".amc":
         fn(motion, path, asf=asf)
+    elif ext == ".c3d":
+        found = write_c3d(motion, path)
+        why = (" (spec §6.9 writes an archive's header and parameters as it holds them)"
+               if motion.extras.get("c3d") is not None else "")
+        return [READ_BACK_NOTE + "; ".join(found) + why] if found else []
     else:
         fn(motion, path)
+    return []
+
+
+#: How :func:`write` begins its last note when mpz's C3D reader reads the C3D it wrote
+#: otherwise than the motion (:func:`mpz.io.c3d.read_back`); ``mpz decode`` prints that note
+#: as a warning (exit 1).
+READ_BACK_NOTE = "mpz's C3D reader reads the file written otherwise: "
 
 
 def _same_path(a: StrPath, b: StrPath) -> bool:
@@ -961,4 +976,4 @@ __all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES", "SKELETON_FORM
            "read_c3d", "write_c3d", "read_trc", "write_trc", "read_bvh",
            "read_amc", "read_asf", "find_asf", "read_npy", "write_npy",
            "read_csv", "write_csv", "detect_format", "read_bytes", "check_writable",
-           "writer_problems", "rounding_notes", "READER_KEYS"]
+           "writer_problems", "rounding_notes", "READER_KEYS", "READ_BACK_NOTE"]

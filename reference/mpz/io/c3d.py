@@ -207,7 +207,12 @@ def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
 def motion_from_c3d_bytes(data: bytes, *, source: str = "",
                           extra: Mapping[str, str] | None = None) -> Motion:
     """Parse C3D bytes with the pure-numpy reader into a Motion."""
-    d = c3dbin.parse_c3d(data)
+    return _motion_from_data(c3dbin.parse_c3d(data), data, source=source, extra=extra)
+
+
+def _motion_from_data(d: c3dbin.C3DData, data: bytes, *, source: str = "",
+                      extra: Mapping[str, str] | None = None) -> Motion:
+    """:func:`motion_from_c3d_bytes` of ``d``, the parsed ``data``."""
     point = d.params.get("POINT", {})
     rate = c3dbin.param_number(d.params, "POINT", "RATE", d.header_rate)
     _check_rate(rate, data)
@@ -543,8 +548,10 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
             "read with mpz.io.c3dbin"})
 
 
-def write_c3d(motion: Motion, path: StrPath) -> None:
-    """Write a Motion as a C3D file.
+def write_c3d(motion: Motion, path: StrPath) -> list[str]:
+    """Write a Motion as a C3D file; return how mpz's own reader reads the file written
+    otherwise than ``motion`` (:func:`read_back`; always empty for a file written
+    through ezc3d).
 
     With ``extras["c3d"]`` (a motion read from, or decoded from, a C3D): the file
     it came from (:func:`archive_bytes`). Without: a float C3D of the points
@@ -560,6 +567,13 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
     ----------
     motion : Motion
     path : str or os.PathLike
+
+    Returns
+    -------
+    list of str
+        What the file reads back otherwise (its header or parameters as an archive made
+        by hand holds them, spec §6.9), each a phrase; the file is written all the same,
+        since it holds everything the archive holds.
     """
     import ezc3d
 
@@ -572,7 +586,7 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
             long_bytes(motion)
         with open(path, "wb") as fh:
             fh.write(blob)
-        return
+        return read_back(motion, blob)
     c = ezc3d.c3d()
     c["parameters"]["POINT"]["RATE"]["value"] = np.array([motion.rate])
     c["parameters"]["POINT"]["LABELS"]["value"] = list(motion.names)
@@ -593,14 +607,110 @@ def write_c3d(motion: Motion, path: StrPath) -> None:
             c.write(tmp)
             with open(tmp, "rb") as src, open(path, "wb") as dst:
                 shutil.copyfileobj(src, dst)
-        return
+        return []
     if path.endswith(".c3d"):
         c.write(path)
-        return
+        return []
     # ezc3d appends ".c3d" to any other name: write a temporary ".c3d" beside, then rename
     from mpz.api import atomic_output
     with atomic_output(path, force=True, suffix=".c3d") as tmp:
         c.write(tmp)
+    return []
+
+
+#: the frames of a C3D just written whose gaps and positions :func:`read_back` compares
+READ_BACK_FRAMES = 2
+
+
+def read_back(motion: Motion, blob: bytes) -> list[str]:
+    """How mpz's C3D reader (:mod:`mpz.io.c3dbin`) reads ``blob``, the C3D written of
+    ``motion``, otherwise than ``motion``: its refusal, or the frames, the markers' names,
+    units and rate, the first frame number, the model outputs, the analog channels, and
+    the gaps and positions of the first :data:`READ_BACK_FRAMES` frames, each a phrase;
+    empty when they agree. The header and parameters are read whole, the data of the
+    first frames only: the cost does not grow with the file, and what can go wrong is
+    in the header and the parameters, which say how every frame is read.
+
+    Spec §6.9 writes an archive's header and parameters as stored, and a valid archive
+    made by hand may hold ones that contradict its points (group ids, a renamed
+    parameter, a header first frame of 0 or a last frame of 65535 without TRIAL): such
+    files were written with exit 0 and read back with other values, or not at all (a
+    fuzzing QA run of stop 54). What was written is not changed, since it holds all the
+    archive does; the writers say what a reader finds.
+
+    Differences the writers already state are not repeated: a rate that float32 rounds,
+    units no C3D reader knows, and a valid sample at exactly (0, 0, 0), which C3D readers
+    take for a gap (:func:`mpz.io.check_writable`, :func:`round_trip_warnings`).
+    """
+    from mpz.c3darchive import C3DArchive
+    try:
+        d = c3dbin.parse_c3d(blob, frames=READ_BACK_FRAMES)
+        got = _motion_from_data(d, blob)
+        got = split_archive(got, d)
+    except InputFormatError as exc:
+        return [f"it does not read: {exc}"]
+    a = motion.extras.get("c3d")
+    out = []
+    if d.frames_in_file != motion.n_frames:
+        out.append(f"it holds {d.frames_in_file} frames, not {motion.n_frames}")
+    if sorted(got.names) != sorted(motion.names):
+        extra = [n for n in got.names if n not in motion.names]
+        gone = [n for n in motion.names if n not in got.names]
+        out.append(f"its markers are {got.n_markers}, not {motion.n_markers}" if
+                   got.n_markers != motion.n_markers else "its markers are named otherwise")
+        if gone:
+            out[-1] += f": {', '.join(repr(n) for n in gone[:3])} missing"
+        if extra:
+            out[-1] += f"{',' if gone else ':'} {', '.join(repr(n) for n in extra[:3])} new"
+        if not gone and not extra:      # the same names, some of them repeated otherwise
+            out[-1] += f": {list(got.names)[:5]!r}"
+    known = motion.units in _UNITS.values() and \
+        not (isinstance(a, C3DArchive) and archive_units(a) == "")
+    if known and got.units != motion.units:
+        out.append(f"its units are {got.units or 'unknown'}, not {motion.units}")
+    if np.float32(got.rate) != np.float32(motion.rate):
+        out.append(f"its rate is {got.rate!r} Hz, not {float(np.float32(motion.rate))!r}")
+    first = start_frame(motion) if isinstance(a, C3DArchive) else c3d_first_frame(motion)
+    if d.first_frame != first:
+        out.append(f"its first frame is {d.first_frame}, not {first}")
+    b = got.extras.get("c3d")
+    if isinstance(a, C3DArchive) and isinstance(b, C3DArchive):
+        J, K = a.models.shape[1], b.models.shape[1]
+        if J != K:
+            out.append(f"it holds {K} model outputs, not {J}")
+        if (a.channels, a.analog_samples if a.channels else 0) != \
+                (b.channels, b.analog_samples if b.channels else 0):
+            out.append(f"it holds {b.channels} analog channels of {b.analog_samples} "
+                       f"samples a frame, not {a.channels} of {a.analog_samples}")
+    if out or sorted(got.names) != sorted(motion.names):
+        return out
+    out += _head_differs(motion, got)
+    return out
+
+
+def _head_differs(motion: Motion, got: Motion) -> list[str]:
+    """How the first frames of ``got`` (``motion``'s C3D read back, the same marker names)
+    differ from ``motion``'s: gaps, or a position beyond float32's rounding (int16 points
+    lie on their grid exactly, :func:`_points_to_write`). A valid sample at exactly the
+    origin is a gap in C3D (:func:`read_back`)."""
+    n = got.n_frames
+    at = {name: i for i, name in enumerate(motion.names)}
+    order = [at[name] for name in got.names]
+    pos = motion.positions[:n, order]
+    valid = motion.valid[:n, order] & ~(pos == 0.0).all(axis=2)
+    if not np.array_equal(valid, got.valid):
+        f, m = (int(i) for i in np.argwhere(valid != got.valid)[0])
+        return [f"marker {got.names[m]!r} in frame {f} is {'a gap' if valid[f, m] else 'a point'}"
+                f", not {'a point' if valid[f, m] else 'a gap'}"]
+    want = np.where(valid[..., None], pos, 0.0)
+    have = np.where(valid[..., None], got.positions, 0.0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        off = ~(np.abs(have - want) <= 2.0 ** -22 * np.abs(want))
+    if off.any():
+        f, m, k = (int(i) for i in np.argwhere(off)[0])
+        return [f"marker {got.names[m]!r} in frame {f} reads back at {have[f, m, k]!r}, not "
+                f"{want[f, m, k]!r} ({'xyz'[k]})"]
+    return []
 
 
 def plain_blocks(motion: Motion) -> int:

@@ -106,6 +106,9 @@ class C3DData:
     warnings: list[str] = field(default_factory=list)
     #: a DEC float below 2^-126 was rounded to a float32 subnormal (:data:`DEC_ROUNDED`)
     dec_rounded: bool = False
+    #: the frames the file holds (more than ``points`` has when :func:`parse_c3d` was asked
+    #: for fewer); -1: not given
+    frames_in_file: int = -1
 
 
 @dataclass(frozen=True)
@@ -1048,13 +1051,17 @@ def _ezc3d_values(data: bytes, start: int) -> str | None:
     return None
 
 
-def parse_c3d(data: bytes) -> C3DData:
+def parse_c3d(data: bytes, *, frames: int | None = None) -> C3DData:
     """Parse a complete C3D file held in memory.
 
     Parameters
     ----------
     data : bytes
         The file contents.
+    frames : int, optional
+        Read the points and analog words of the first ``frames`` frames only (the
+        header, the parameters and the whole file's length are still checked); default:
+        every frame. For checking a file just written (:func:`mpz.io.c3d.read_back`).
 
     Returns
     -------
@@ -1082,11 +1089,14 @@ def parse_c3d(data: bytes) -> C3DData:
     avail = (len(data) - off) // frame_bytes if frame_bytes else n_frames
     if avail < n_frames:
         raise frames_missing(data, n_frames, avail, off)
+    in_file = n_frames
+    if frames is not None:
+        n_frames = min(n_frames, max(frames, 0))
     samples = codec.uint16(data, 18)  # header word 10: analog samples per channel per frame
     if used == 0:
         return C3DData(np.zeros((n_frames, 0, 3)), np.zeros((n_frames, 0), np.int64),
                        params, processor, float_storage, hdr_rate, header_block, records,
-                       first_frame=first, warnings=lay.warnings)
+                       first_frame=first, warnings=lay.warnings, frames_in_file=in_file)
 
     # read the frames, then keep the 4*used point words of each
     raw = data[off:off + n_frames * frame_bytes]
@@ -1115,7 +1125,7 @@ def parse_c3d(data: bytes) -> C3DData:
         res = pts[:, :, 3].astype(np.int64)
         xyz = pts[:, :, :3] * abs(scale)
     return C3DData(xyz, res, params, processor, float_storage, hdr_rate, header_block, records,
-                   point_words, analog, samples, first, lay.warnings, codec.rounded)
+                   point_words, analog, samples, first, lay.warnings, codec.rounded, in_file)
 
 
 # ------------------------------------------------------------------ writing --
