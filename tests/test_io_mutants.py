@@ -924,3 +924,58 @@ def test_a_csv_first_frame_written_elsewhere_is_a_note(tmp_path: Path) -> None:
     _, notes = writer_problems(m, ".trc")
     assert any("the first, '100', is not written" in n for n in notes)
     assert not any("CSV's frame numbers" in n for n in writer_problems(m, ".csv")[1])
+
+
+# -- reader messages a CLI QA run of stop 54 found unclear --------------------------------
+def test_a_csv_whose_lines_end_with_a_carriage_return_alone_is_read(tmp_path: Path) -> None:
+    """The old Mac line end, a carriage return alone, which spreadsheets still write: the
+    whole file reached csv.reader as one line ("new-line character seen in unquoted
+    field"). Read as the same CSV with line feeds is read."""
+    text = ("frame,time,A_x,A_y,A_z,B_x,B_y,B_z\n1,0,1.5,2,3,,,\n2,0.01,1,2,3.25,4,5,6\n"
+            "3,0.02,1,2,3,4,5,6\n")
+    (tmp_path / "lf.csv").write_bytes(text.encode())
+    (tmp_path / "cr.csv").write_bytes(text.replace("\n", "\r").encode())
+    lf, cr = mpz.io.read(tmp_path / "lf.csv"), mpz.io.read(tmp_path / "cr.csv")
+    assert (cr.names, cr.rate, cr.n_frames) == (["A", "B"], 100.0, 3)
+    assert (cr.names, cr.rate) == (lf.names, lf.rate)
+    assert np.array_equal(cr.as_nan(), lf.as_nan(), equal_nan=True)
+    assert cr.positions[0, 0].tolist() == [1.5, 2.0, 3.0] and not cr.valid[0, 1]
+
+
+@pytest.mark.parametrize("times, row, said", [
+    (["0", "0", "0.02"], 3, "row 3 has time 0.0, after 0.0 in row 2"),
+    (["0", "0.01", "0.005"], 4, "row 4 has time 0.005, after 0.01 in row 3"),
+])
+def test_csv_times_that_do_not_increase_name_the_row(tmp_path: Path, times, row, said) -> None:
+    """They gave "cannot read: ValueError: times do not increase", naming no row."""
+    rows = "".join(f"{k + 1},{t},1,2,3\n" for k, t in enumerate(times))
+    (tmp_path / "t.csv").write_text("frame,time,A_x,A_y,A_z\n" + rows)
+    with pytest.raises(mpz.InputFormatError) as err:
+        mpz.io.read(tmp_path / "t.csv")
+    assert said in str(err.value) and "ValueError" not in str(err.value)
+    assert mpz.io.read(tmp_path / "t.csv", rate=50.0).rate == 50.0     # the rate given
+
+
+def _npy_with_header(path: Path, descr: str, shape: str, fortran: bool,
+                     data: bytes) -> None:
+    """An .npy file of version 1.0 with this header (the NPY format's own layout: magic,
+    version, little-endian u16 header length, a dict literal padded to 64 bytes)."""
+    import struct
+    h = f"{{'descr': {descr}, 'fortran_order': {fortran}, 'shape': {shape}, }}"
+    h += " " * ((64 - (10 + len(h) + 1) % 64) % 64) + "\n"
+    path.write_bytes(b"\x93NUMPY\x01\x00" + struct.pack("<H", len(h)) + h.encode() + data)
+
+
+def test_an_npy_whose_elements_are_triples_is_read_as_frames_markers_xyz(tmp_path: Path
+                                                                         ) -> None:
+    """A header of shape (F, M) whose descr is ('<f8', (3,)): each element holds x, y and
+    z, so the array is (F, M, 3) of float64, in C order. It raised numpy's "cannot
+    reshape array of size 24 into shape (4,2)". Fortran order of such elements is not
+    defined by the format, and is refused by name."""
+    xyz = np.arange(24, dtype="<f8").reshape(4, 2, 3) + 0.5
+    _npy_with_header(tmp_path / "t.npy", "('<f8', (3,))", "(4, 2)", False, xyz.tobytes())
+    m = mpz.io.read(tmp_path / "t.npy")
+    assert (m.n_frames, m.n_markers) == (4, 2) and np.array_equal(m.positions, xyz)
+    _npy_with_header(tmp_path / "f.npy", "('<f8', (3,))", "(4, 2)", True, xyz.tobytes())
+    with pytest.raises(mpz.InputFormatError, match="Fortran-ordered array of .*not defined"):
+        mpz.io.read(tmp_path / "f.npy")

@@ -127,6 +127,16 @@ def _npy_layout(data: bytes) -> tuple[tuple[int, ...], bool, np.dtype, int]:
     start = fh.tell()
     if dtype.hasobject:
         raise _bad("npy", "holds Python objects (pickled data), not numbers")
+    if dtype.subdtype is not None:
+        # a header of shape (F, M) and descr ('<f8', (3,)): each element is 3 numbers, the
+        # array (F, M, 3) of the element type; it raised numpy's "cannot reshape array of
+        # size 24 into shape (4,2)" (a CLI QA run of stop 54). numpy writes no such header
+        base, sub = dtype.subdtype
+        if fortran:
+            raise _bad("npy", f"the header declares a Fortran-ordered array of {dtype}, "
+                              "elements that are arrays themselves: their order is not "
+                              "defined; write it as a C-ordered array of numbers")
+        shape, dtype = (*shape, *sub), base
     if any(int(n) < 0 for n in shape):
         raise _bad("npy", f"the header declares a negative dimension: {tuple(shape)}")
     need = math.prod(int(n) for n in shape) * dtype.itemsize
@@ -291,6 +301,14 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
     tolerance = 0.5 * np.array(resolution) + 4 * np.spacing(np.abs(times).max(initial=0))
     assumed = rate is None and n <= 1      # one time gives no rate: 1 Hz is assumed
     if rate is None:
+        # rate_from_times' ValueError came out as "cannot read: ValueError: times do not
+        # increase", naming no row (a CLI QA run of stop 54)
+        back = np.flatnonzero(np.diff(times) <= 0)
+        if back.size:
+            k = int(back[0]) + 1
+            raise _bad("csv", f"the times do not increase, and the rate is taken from "
+                       f"them: row {k + 2} has time {float(times[k])!r}, after "
+                       f"{float(times[k - 1])!r} in row {k + 1}")
         rate = rate_from_times(times, tolerance) if n > 1 else 1.0
         # one rate stands for every time: a column that is not t0 + k / rate (a quarter of
         # a frame allows times printed to a few decimals) would be read as another motion
@@ -355,10 +373,14 @@ def _whole(text: str) -> int | None:
 
 
 def _lines(text: str) -> Iterator[str]:
-    """The lines of ``text``, each with its ``"\n"``, one at a time."""
+    """The lines of ``text``, each with its end, one at a time: a line feed (a carriage
+    return before it is csv's), or a carriage return alone in a text without a line feed
+    (the old Mac line end, which spreadsheets still write: csv.reader met the whole file
+    as one line, "new-line character seen in unquoted field", a CLI QA run of stop 54)."""
+    end_of_line = "\n" if "\n" in text else "\r"
     start = 0
     while start < len(text):
-        end = text.find("\n", start) + 1 or len(text)
+        end = text.find(end_of_line, start) + 1 or len(text)
         yield text[start:end]
         start = end
 
