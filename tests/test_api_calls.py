@@ -455,3 +455,17 @@ def test_an_unknown_group_error_node_is_not_blamed_on_the_default_bound() -> Non
     with pytest.raises(EncoderError, match="unknown node 'nosuch'") as err:
         mpz.encode(m, group_errors={"nosuch": 1.0})
     assert "default bound" not in str(err.value) and "max_error" not in str(err.value)
+
+
+def test_write_atomic_names_the_python_argument_that_replaces(tmp_path):
+    """mpz.write_atomic(path, data, force=False) on an existing file said only "use
+    --force", an option of the commands that a Python caller does not have (a QA run of
+    the API, stop 54); the message now names force=True too, and the file is kept."""
+    from mpz.errors import EncoderError
+    path = tmp_path / "a.mpz"
+    path.write_bytes(b"old")
+    with pytest.raises(EncoderError, match=r"exists; use --force \(force=True\) to replace"):
+        mpz.write_atomic(path, b"new", force=False)
+    assert path.read_bytes() == b"old"
+    mpz.write_atomic(path, b"new", force=True)
+    assert path.read_bytes() == b"new"

@@ -124,7 +124,7 @@ def test_two_encoders_racing_for_one_new_output(tmp_path: Path) -> None:
     codes = sorted(code for code, _ in results)
     assert codes == [0, 2], results
     loser = next(err for code, err in results if code == 2)
-    assert f"{out} exists; use --force to replace it" in loser
+    assert f"{out} exists; use --force (force=True) to replace it" in loser
     assert "Traceback" not in loser and len(loser.strip().splitlines()) == 1
     back = mpz.read_mpz(out)                       # the winner's file is complete
     assert back.n_frames == 1500 and back.names == m.names

@@ -283,7 +283,7 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
     if os.path.islink(target) and not os.path.exists(target):
         if not force:
             raise EncoderError(f"{target} is a symbolic link to a missing file; "
-                               "use --force to replace it")
+                               "use --force (force=True) to replace it")
         return
     if is_null_device(target):
         return                          # written and discarded (atomic_output)
@@ -292,7 +292,7 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         if not stat.S_ISREG(os.stat(target).st_mode):
             raise EncoderError(f"{target} is not a regular file; refusing to replace it")
         if not force:
-            raise EncoderError(f"{target} exists; use --force to replace it")
+            raise EncoderError(f"{target} exists; use --force (force=True) to replace it")
         if _immutable(target):
             raise EncoderError(f"cannot write {target}: it is marked immutable or append-"
                                "only (chattr +i or +a); the rename that replaces it would fail")
@@ -467,7 +467,7 @@ def _commit(tmp: str, target: str, *, force: bool) -> None:
             os.chmod(tmp, stat.S_IMODE(os.stat(target).st_mode))
         os.replace(tmp, target)
         return
-    exists = EncoderError(f"{target} exists; use --force to replace it")
+    exists = EncoderError(f"{target} exists; use --force (force=True) to replace it")
     try:
         os.link(tmp, target)  # fails if the name exists, atomically: one writer wins
     except FileExistsError:
@@ -502,7 +502,7 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
       temporary path is in the system's temporary folder and is removed afterwards.
     * Without ``force`` the name is created exclusively: of two writers of
       the same new file exactly one succeeds; the other gets
-      :class:`~mpz.errors.EncoderError` "exists; use --force".
+      :class:`~mpz.errors.EncoderError` "exists; use --force (force=True)".
     * With ``force`` an existing file is replaced and keeps its mode; a new
       file gets mode 0o666 minus the umask.
     * On any exception, and on SIGTERM (see :func:`signals_exit`), the
