@@ -51,8 +51,12 @@ def find_recording(root: Path, name: str) -> Path | None:
     for ext in RECORDING_EXTS:
         if (root / (name + ext)).is_file():
             return root / (name + ext)
-    for ext in RECORDING_EXTS:
-        hits = sorted(root.rglob(Path(name).name + ext))
+    base = Path(name).name
+    # a bare name with its extension ("cmu_02_01.c3d") was looked for as
+    # "cmu_02_01.c3d.c3d" (a maintainer's QA run of stop 55)
+    for pattern in ([base] if Path(base).suffix.lower() in RECORDING_EXTS else []) + \
+            [base + ext for ext in RECORDING_EXTS]:
+        hits = sorted(p for p in root.rglob(pattern) if p.is_file())
         if hits:
             return hits[0]
     return None

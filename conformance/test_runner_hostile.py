@@ -119,10 +119,19 @@ def test_huge_files_beside_the_output_are_not_read(tmp_path):
      "\\tat Dec.main(Dec.java:3)", "memory"),
     ("error: the file declares 2^36 samples; refusing it, it would run out of memory",
      "reject"),
+    # Python under a small --memory: a MemoryError while starting, then a fatal error that
+    # ends in two more lines (it passed as "rejected (exit 1)", a QA run of stop 55)
+    ("MemoryError\\nFatal Python error: init_importlib_external: external importer setup "
+     "failed\\nPython runtime state: core initialized", "memory"),
+    ("Fatal Python error: _PyInterpreterState_GET: the function must be called with the GIL "
+     "held\\nPython runtime state: initialized", "crash"),
+    ("OpenBLAS error: Memory allocation still failed after 10 retries, giving up.", "crash"),
+    ("error: the file is no MPZ file: fatal error: bad signature", "reject"),
 ])
 def test_out_of_memory_is_told_from_a_rejection(tmp_path, last_lines, verdict):
     """numpy's, Go's and Java's out-of-memory ends passed as rejections of invalid files;
-    a rejection that only mentions memory failed as one."""
+    a rejection that only mentions memory failed as one. So did a Python runtime that
+    aborted, and OpenBLAS giving up its buffers, which exit 1 too."""
     dec = python_script(tmp_path / "oom.py", f'sys.stderr.write("{last_lines}\\n")\nsys.exit(2)\n')
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
     r = doc["results"][0]
@@ -724,3 +733,50 @@ sys.exit(subprocess.call([{PY!r}, "-m", "mpz.conformance.refdecoder", *sys.argv[
     assert proc.returncode == 64, proc.stderr
     assert "were the vectors regenerated or removed while the run went on?" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("output, noted", [
+    ("Traceback (most recent call last):\\n  File dec.py, line 3\\nIndexError: "
+     "index 9 is out of bounds", True),
+    ("thread 'main' panicked at src/main.rs:9:5:\\nindex out of bounds\\nnote: run with "
+     "`RUST_BACKTRACE=1`", True),
+    ("error: bad signature (spec §3.1)", False),
+])
+def test_a_rejection_by_an_uncaught_exception_or_a_panic_is_noted(tmp_path, output, noted):
+    """Spec §7.3 counts exit 1 or 101 as a rejection, but a traceback or a panic is no check
+    of the spec: such rejections passed with no word (a QA run of stop 55). They still
+    pass, with a note that says what the output shows."""
+    dec = python_script(tmp_path / "exc.py", f'sys.stderr.write("{output}\\n")\nsys.exit(1)\n')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    r = doc["results"][0]
+    assert r["passed"] and r["actual"] == "reject", r
+    assert ("uncaught exception or a panic" in r["message"]) == noted, r
+
+
+def test_nothing_decoded_under_a_memory_limit_names_the_limit(tmp_path):
+    """A command that could not start under --memory (numba's library fails to load under
+    256 MiB, and the reference decoder exits 1) was sent after a path problem; the
+    warning now names the limit too, and only when one is set."""
+    dec = python_script(tmp_path / "noload.py", 'sys.stderr.write("OSError: Could not find/load '
+                        'shared object file\\n")\nsys.exit(1)\n')
+    for memory, hinted in (("256", True), ("0", False)):
+        proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE, "--memory", memory)
+        assert "decoded none" in proc.stderr, proc.stderr
+        assert ("--memory 256 MiB is too little for it to start" in proc.stderr) == hinted
+
+
+@pytest.mark.parametrize("text, said", [
+    ("import sys\nsys.exit(1)\n", "a text file without a #! line"),
+    ("#!/bin/sh\r\nexit 1\r\n", "carriage return (CRLF line ends)"),
+    ("#!/nonexistent/python4\nexit 1\n", "names /nonexistent/python4, which does not exist"),
+])
+def test_a_script_the_system_cannot_start_is_a_usage_error(tmp_path, text, said):
+    """A script without a #! line, or whose #! line has a CRLF end or names no program, ran
+    every vector as "cannot start" (naming the script as missing) and exited 1 (a QA run
+    of stop 55): it is now refused before any vector runs, saying why (exit 64)."""
+    dec = tmp_path / "dec.py"
+    dec.write_bytes(text.encode())
+    dec.chmod(0o755)
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    assert proc.returncode == 64 and doc is None, proc.stdout + proc.stderr
+    assert said in proc.stderr

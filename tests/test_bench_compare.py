@@ -406,3 +406,28 @@ def test_rows_of_another_bound_or_unit_and_huge_numbers(tmp_path, capsys):
                          str(tmp_path / "old.json")])
     out = capsys.readouterr().out
     assert code == 1 and "no row was compared" in out and "0 rows compared" in out
+
+
+def test_find_recording_takes_every_form_of_a_name(tmp_path, monkeypatch):
+    """bench's --files takes a name with or without its folder and extension; a bare name
+    with its extension (cmu_02_01.c3d) was looked for as cmu_02_01.c3d.c3d and never
+    found (a maintainer's QA run of stop 55). A name that matches nothing is None."""
+    import importlib.util
+    from pathlib import Path
+    bench = Path(__file__).resolve().parents[1] / "bench"
+    monkeypatch.syspath_prepend(str(bench))
+    spec = importlib.util.spec_from_file_location("mpz_bench_common", bench / "_common.py")
+    assert spec is not None and spec.loader is not None
+    common = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(common)
+    (tmp_path / "c3d").mkdir()
+    (tmp_path / "amc").mkdir()
+    c3d = tmp_path / "c3d" / "walk.c3d"
+    amc = tmp_path / "amc" / "walk.amc"
+    c3d.write_bytes(b"x")
+    amc.write_bytes(b"x")
+    for name, want in (("walk.c3d", c3d), ("walk.amc", amc), ("c3d/walk", c3d),
+                       ("amc/walk.amc", amc), ("c3d/walk.c3d", c3d), ("WALK.bvh", None),
+                       ("run", None)):
+        assert common.find_recording(tmp_path, name) == want, name
+    assert common.find_recording(tmp_path, "walk") in (c3d, amc)

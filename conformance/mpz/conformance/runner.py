@@ -24,8 +24,9 @@ Every vector is run (each with a timeout and an address-space limit, in its own
 process group, killed when it exits) before anything is reported; Ctrl-C kills
 what runs and exits 130. Exit status (the table shared with ``mpz`` and
 ``mpzinfo``, :mod:`mpz.tools._cli`): 0 all passed, 1 any failure, 64 usage
-error (bad arguments, missing or invalid vectors, command not found, a
-``--results`` path that cannot be written).
+error (bad arguments, missing or invalid vectors, command not found, a script the
+system cannot start (no ``#!`` line, or one naming no program), a ``--results`` path
+that cannot be written).
 """
 from __future__ import annotations
 
@@ -290,6 +291,13 @@ OUT_OF_MEMORY = re.compile(r"^(.*\bstd::bad_alloc\b|memory allocation of \d+ byt
 #: line followed by another error, is an orderly rejection.
 OUT_OF_MEMORY_LAST = re.compile(r"^([\w.]*MemoryError\b|([\w./ -]+:\s*)?(out of memory|"
                                 r"cannot allocate memory)\b)", re.I)
+#: a line that a runtime prints when it aborts, not when a program chooses to exit: Python's
+#: "Fatal Python error" (a MemoryError while the interpreter starts ends in one, under a
+#: small --memory, and exits 1), OpenBLAS's failed thread buffers, and the dynamic
+#: loader's failed mapping of a shared library. Such a run passed an invalid vector as
+#: "rejected (exit 1)" (a conformance QA run of stop 55)
+RUNTIME_ABORT = re.compile(r"^(Fatal Python error: |.*Memory allocation still failed\b|"
+                           r".*failed to map segment from shared object\b)")
 #: exit statuses a shell (or exec wrapper) gives when the command cannot be run: 126 not
 #: executable, 127 not found; never a decoder's own rejection
 CANNOT_RUN_CODES = {126: "found but could not be executed", 127: "not found"}
@@ -353,6 +361,13 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
             hit = lines[-1]
         if hit is not None:
             return "memory", f"ran out of memory (exit {code}: {hit[:200]})"
+        abort = next((i for i, ln in enumerate(lines) if RUNTIME_ABORT.match(ln)), None)
+        if abort is not None:
+            if any(OUT_OF_MEMORY_LAST.match(ln) for ln in lines[:abort + 1]):
+                return "memory", (f"ran out of memory (exit {code}: "
+                                  f"{lines[abort][:200]})")
+            return "crash", (f"exit {code} after its runtime aborted ({lines[abort][:200]}), "
+                             "not a rejection")
     if code in CANNOT_RUN_CODES:
         return "error", (f"exit {code}: a shell's code for a command {CANNOT_RUN_CODES[code]}, "
                          "not a rejection" + (f" ({lines[-1][:200]})" if lines else ""))
@@ -363,6 +378,25 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
         return "error", (f"exit {code}: not a rejection, which is an exit status from 1 to 125 "
                          "(spec §7.3)" + (f" ({lines[-1][:200]})" if lines else ""))
     return None
+
+
+#: a line of an exit that no check of the decoder chose: Python's uncaught exception, a
+#: Rust panic, an uncaught Java exception
+UNPLANNED_EXIT = re.compile(r"^(Traceback \(most recent call last\):|thread '.*' panicked at |"
+                            r"Exception in thread )")
+
+
+def _unplanned(run: dict[str, Any]) -> str:
+    """A note for a rejection whose output shows an uncaught exception or a panic: spec
+    §7.3 counts its exit as a rejection, but it may be a bug that happens to stop on this
+    file rather than a check of the spec (a panic and a traceback passed invalid vectors
+    with no word: a conformance QA run of stop 55)."""
+    hit = next((ln.strip() for ln in run["stderr"].splitlines()
+                if UNPLANNED_EXIT.match(ln.strip())), None)
+    if hit is None:
+        return ""
+    return (f"; note: its output shows an uncaught exception or a panic ({hit[:120]}), "
+            "which may be a bug rather than a check of the spec")
 
 
 # ----------------------------------------------------------- comparisons --
@@ -673,7 +707,7 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
             if run["exit_code"] != 0:
                 entry["actual"] = "reject"
                 entry["passed"] = True
-                entry["message"] = f"rejected (exit {run['exit_code']})"
+                entry["message"] = f"rejected (exit {run['exit_code']})" + _unplanned(run)
             else:
                 entry["actual"] = "decode"
                 # the rules it breaks, by their spec §7.4 IDs: "byte 1 XOR 0x20" alone sent
@@ -894,7 +928,8 @@ def _parser() -> argparse.ArgumentParser:
         description="Run an MPZ decoder or encoder against the conformance vectors "
                     "(see conformance/README.md for the contract).",
         epilog="exit codes: 0 every selected vector passed, 1 at least one failed, "
-               "64 usage error (bad options, missing or invalid vectors, command not found), "
+               "64 usage error (bad options, missing or invalid vectors, command not found or "
+               "a script it cannot start), "
                "130 interrupted, 143 terminated (SIGTERM; 129 for SIGHUP): the commands "
                "running are killed and no --results is written")
     p.add_argument("--version", action="version", version=f"mpz-conformance {__version__}")
@@ -937,6 +972,7 @@ def _command(text: str) -> list:
     if os.sep in exe:
         if not (os.path.isfile(exe) and os.access(exe, os.X_OK)):
             raise UsageError(f"{exe}: not an executable file")
+        _check_script(exe)
         argv[0] = os.path.abspath(exe)             # the decoder runs in a temporary directory
     elif shutil.which(exe) is None:
         raise UsageError(f"{exe}: command not found on PATH")
@@ -944,6 +980,39 @@ def _command(text: str) -> list:
     # "java -jar dec.jar" would otherwise look for it there and fail every vector
     return [argv[0]] + [os.path.abspath(a) if not a.startswith("-") and os.path.exists(a)
                         and not os.path.isabs(a) else a for a in argv[1:]]
+
+
+def _check_script(exe: str) -> None:
+    """Refuse an executable text file that the system cannot start: no ``#!`` line ("Exec
+    format error"), or one naming an interpreter that does not exist, often ``python3\\r``
+    of a script with CRLF line ends. Each vector failed with "cannot start", naming the
+    script itself as missing (a conformance QA run of stop 55); a binary is left to run.
+
+    Raises
+    ------
+    UsageError
+        For such a script.
+    """
+    try:
+        with open(exe, "rb") as fh:
+            head = fh.read(256)
+    except OSError:
+        return                                       # run_command says why it cannot start
+    if head.startswith(b"#!"):
+        line = head[2:].split(b"\n", 1)[0]
+        words = line.split()
+        interp = words[0].decode("utf-8", "replace") if words else ""
+        if line.endswith(b"\r"):
+            raise UsageError(f"{exe}: its #! line ends in a carriage return (CRLF line ends), "
+                             "so the system looks for an interpreter whose name ends in one; "
+                             "convert the script to LF line ends")
+        if interp and not os.path.exists(interp):
+            raise UsageError(f"{exe}: its #! line names {interp}, which does not exist")
+        return
+    if b"\0" not in head and head.strip() and all(b >= 0x20 or b in b"\t\r\n" for b in head):
+        raise UsageError(f"{exe}: a text file without a #! line, which the system cannot start "
+                         "(Exec format error); add one, or name its interpreter: "
+                         f"--decoder \"python3 {exe}\"")
 
 
 class SuiteUnreadable(Exception):
@@ -967,16 +1036,21 @@ def _suite_files() -> Iterator[None]:
 
 
 def _warn_if_nothing_decoded(results: list[dict[str, Any]],
-                             probed: dict[str, Any] | None = None) -> None:
+                             probed: dict[str, Any] | None = None,
+                             memory_mb: int | None = None) -> None:
     """Say so when a command meant to decode decoded none of the valid vectors: it may not
     run at all (``python -m NAME`` finds no module from the temporary working directory),
     and then its exits of 1 pass every invalid vector as a rejection (a QA of stop 42:
     "277/277 invalid passed" for a command that never started). ``probed``: the result of
     the valid vector run to check that the command decodes at all, when none was
-    selected."""
+    selected. ``memory_mb``: the --memory limit, which may be too small for the command
+    to start (the reference decoder's numba cannot load its library under 256 MiB:
+    a conformance QA run of stop 55 was sent after a path problem)."""
     valid = [r for r in results if r.get("expected") == "decode"]
     if valid and not any(r["passed"] for r in valid):
         said = printable(valid[0]["message"])[:300]
+        limit = (f"; or --memory {memory_mb} MiB is too little for it to start: try one "
+                 "vector with --memory 0 (no limit)") if memory_mb else ""
         if all(r["group"] == "invalid" and r["actual"] == "reject" for r in valid) and \
                 probed is not None and probed["passed"]:
             # --implements 1.0 with vectors of 1.1 rules alone: a decoder that applies them
@@ -1004,13 +1078,14 @@ def _warn_if_nothing_decoded(results: list[dict[str, Any]],
                                 "memory": "ran out of memory"}[k] for k in kinds)
             print(f"mpz-conformance: warning: the command {what} on each of the "
                   f"{len(valid)} valid vector(s) (the first: {said}): until it decodes "
-                  "them, its rejections of invalid vectors prove nothing", file=sys.stderr)
+                  f"them, its rejections of invalid vectors prove nothing{limit}",
+                  file=sys.stderr)
             return
         print(f"mpz-conformance: warning: the command decoded none of the {len(valid)} valid "
               f"vector(s) (the first: {said}); check that it runs at all from a temporary "
               "working directory (python -m NAME does not find a module beside you: give "
-              "its path): until it does, its rejections of invalid vectors prove nothing",
-              file=sys.stderr)
+              f"its path){limit}: until it does, its rejections of invalid vectors prove "
+              "nothing", file=sys.stderr)
 
 
 @quiet_broken_pipe
@@ -1194,7 +1269,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else ""))
-    _warn_if_nothing_decoded(results, probed)
+    _warn_if_nothing_decoded(results, probed, args.memory)
     if probed is not None:
         said = f"{probed['group']}/{probed['name']}"
         if unproven:
