@@ -564,7 +564,7 @@ def test_compare_holds_joint_channels_to_the_steps_bound(tmp_path, capsys):
     code, _, err = cli(capsys, "decode", packed, "-o", tmp_path / "back.csv")
     code, out, err = cli(capsys, "compare", src, tmp_path / "back.csv", "--json")
     assert code == 0 and parts(json.loads(out))["skeleton"]["status"] == "missing"
-    assert "does not hold the original's skeleton: 5 joints" in err
+    assert "does not hold the original's skeleton: 3 joints and 2 End Sites" in err
 
 
 def test_joint_translations_are_in_the_unit_units_named(tmp_path, capsys):
@@ -602,8 +602,9 @@ def test_joint_channels_beyond_their_bound_differ():
     c = M_(a.positions, a.names, a.rate, a.units, a.valid, a.metadata, a.parents, a.angles,
            a.angle_names, {**a.extras, "skeleton": other})
     (skel, *_) = besides_markers(a, c)
-    assert (skel.status, skel.detail) == ("differs", f"{len(joints)} joints; differ: joints "
-                                          "Spine")
+    ends = sum(j.end_site for j in joints)                   # BVH End Sites (stop 55)
+    assert ends == 2 and (skel.status, skel.detail) == (
+        "differs", f"{len(joints) - ends} joints and 2 End Sites; differ: joints Spine")
     assert got["joint translations"].status == "within" and got["joint translations"].error == 0
     got = {p.name: p for p in besides_markers(a, b, channel_bounds=(0.3, 1.0))}
     assert got["joint rotations"].status == "within"

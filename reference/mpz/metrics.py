@@ -499,7 +499,7 @@ def _skeleton_parts(original: Motion, decoded: Motion,
     if not isinstance(sa, Skeleton) or original.angles is None:
         return []
     if not isinstance(sb, Skeleton) or decoded.angles is None:
-        return [Part("skeleton", "missing", f"{len(sa.joints)} joints and their "
+        return [Part("skeleton", "missing", f"{_joints(sa)} and their "
                      f"{sa.channel_count} channels")]
     parts = [_skeleton(sa, sb)]
     x, y = original.angles, decoded.angles
@@ -560,7 +560,7 @@ def _skeleton(sa: Any, sb: Any) -> Part:
     fields = [f.name for f in dataclasses.fields(sa)
               if getattr(sa, f.name) != getattr(sb, f.name)]
     if not fields:
-        return Part("skeleton", "same", f"{len(sa.joints)} joints")
+        return Part("skeleton", "same", _joints(sa))
     found = [f for f in fields if f != "joints"]
     if "joints" in fields:
         if len(sa.joints) != len(sb.joints):
@@ -571,4 +571,10 @@ def _skeleton(sa: Any, sb: Any) -> Part:
                    for i, (ja, jb) in enumerate(zip(sa.joints, sb.joints, strict=True))
                    if ja != jb]
             found.append(f"joints {_listed(bad)}")
-    return Part("skeleton", "differs", f"{len(sa.joints)} joints; differ: {', '.join(found)}")
+    return Part("skeleton", "differs", f"{_joints(sa)}; differ: {', '.join(found)}")
+
+
+def _joints(skel: Any) -> str:
+    """"31 joints and 7 End Sites" of a skeleton (:func:`mpz.skeleton.joints_text`)."""
+    from mpz.skeleton import joints_text
+    return joints_text(len(skel.joints), sum(bool(j.end_site) for j in skel.joints))

@@ -466,23 +466,28 @@ def mm_per_unit(motion: Motion) -> float | None:
     return MM_PER_UNIT.get(motion.units)
 
 
-def report(data: bytes) -> dict[str, object] | None:
+def report(data: bytes, *, end_sites: bool = False) -> dict[str, object] | None:
     """What the skeleton chunk of an MPZ file holds, for tools: its type and size, joints,
     channels, the largest channel error its steps allow (rotations in degrees, translations
-    in skeleton units) and its declared joint-position bound; None without one."""
+    in skeleton units) and its declared joint-position bound; None without one. With
+    ``end_sites``, also how many of the joints are BVH End Sites (:func:`record_report`)."""
     from mpz.container import parse
     for c in parse(data):
         rec = c.record
         if isinstance(rec, (Bvhs, Asfs)):
-            return record_report(rec, len(c.payload))
+            return record_report(rec, len(c.payload), end_sites=end_sites)
     return None
 
 
-def record_report(rec: Bvhs | Asfs, payload_bytes: int) -> dict[str, object]:
+def record_report(rec: Bvhs | Asfs, payload_bytes: int, *,
+                  end_sites: bool = False) -> dict[str, object]:
     """:func:`report` of a checked skeleton record whose payload is ``payload_bytes``
     long: the figures spec §7.3 defines for ``features.skeleton`` (h = (m / 10^d) / 2
     per channel, rotations times the binary64 180/π for radians; 0 without such a
-    channel), which ``mpzinfo`` shows."""
+    channel), which ``mpzinfo`` shows. ``joints`` is the chunk's joint count, BVH End
+    Sites included (§4.14.1); with ``end_sites`` the report also gives their number,
+    ``end_sites`` (not in §7.3's features), for the tools' "31 joints and 7 End Sites"
+    (:func:`joints_text`)."""
     skel = skeleton_of_record(rec)
     kinds = skel.channel_kinds()
     rot = [c.step_mantissa / 10.0 ** c.step_digits / 2
@@ -490,11 +495,26 @@ def record_report(rec: Bvhs | Asfs, payload_bytes: int) -> dict[str, object]:
     lin = [c.step_mantissa / 10.0 ** c.step_digits / 2
            for c, k in zip(rec.channels, kinds, strict=True) if not is_rotation(k)]
     to_deg = 180 / math.pi if skel.angle_unit == "rad" else 1.0
-    return {"chunk": rec.TYPE, "bytes": 12 + payload_bytes,
-            "joints": len(skel.joints), "channels": rec.channel_count,
-            "angle_bound": max(rot, default=0.0) * to_deg,
-            "translation_bound": max(lin, default=0.0),
-            "position_bound": rec.position_bound}
+    out: dict[str, object] = {
+        "chunk": rec.TYPE, "bytes": 12 + payload_bytes,
+        "joints": len(skel.joints), "channels": rec.channel_count,
+        "angle_bound": max(rot, default=0.0) * to_deg,
+        "translation_bound": max(lin, default=0.0),
+        "position_bound": rec.position_bound}
+    if end_sites:
+        out["end_sites"] = sum(j.end_site for j in skel.joints)
+    return out
+
+
+def joints_text(joints: int, end_sites: int) -> str:
+    """How the tools count a skeleton's ``joints``, ``end_sites`` of them BVH End Sites:
+    "31 joints and 7 End Sites". The chunk counts an End Site as a joint (§4.14.1: one
+    marker each), a reader of the BVH file does not: "38 joints" of cmu_131_03 was read
+    as a wrong count (a QA run of stop 55)."""
+    if not end_sites:
+        return f"{joints} joint{'s' * (joints != 1)}"
+    return (f"{joints - end_sites} joint{'s' * (joints - end_sites != 1)} and {end_sites} "
+            f"End Site{'s' * (end_sites != 1)}")
 
 
 def channel_bounds(data: bytes) -> tuple[float, float] | None:

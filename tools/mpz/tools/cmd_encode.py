@@ -794,14 +794,16 @@ class PerFile:
 
 def _skeleton_report(data: bytes) -> dict | None:
     from mpz.skeleton import report
-    return report(data)
+    return report(data, end_sites=True)
 
 
 def _print_skeleton(rep: dict | None, units: str, out) -> None:
     if rep is None:
         return
     u = f" {units}" if units else " (input units)"
-    print(f"  skeleton {rep['chunk']} {rep['bytes']} B: {rep['joints']} joints, "
+    from mpz.skeleton import joints_text
+    print(f"  skeleton {rep['chunk']} {rep['bytes']} B: "
+          f"{joints_text(rep['joints'], rep.get('end_sites', 0))}, "
           f"{rep['channels']} channels; rotations within {rep['angle_bound']:g} deg, "
           f"translations within {rep['translation_bound']:g} (skeleton units); joint "
           f"positions within {rep['position_bound']:.4g}{u}", file=out)
