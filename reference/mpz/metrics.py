@@ -286,11 +286,19 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
     at = next((i for i in range(min(len(ha), len(hb))) if ha[i] != hb[i]),
               None if len(ha) == len(hb) else min(len(ha), len(hb)))
     ev = a.header_events()
+    # the archive holds them normalised (Intel byte order, IEEE floats): a DEC or MIPS
+    # source's bytes differ from the Intel C3D decoded from it, and "same" said nothing
+    # of that (a report QA run of stop 55)
+    order = ({84: "Intel", 85: "DEC", 86: "MIPS"}.get(a.processor, str(a.processor)),
+             {84: "Intel", 85: "DEC", 86: "MIPS"}.get(b.processor, str(b.processor)))
+    values = (f"; compared as values: the bytes are in {order[0]} order against "
+              f"{order[1]} (spec §6.9 writes Intel)" if order[0] != order[1] else "")
     parts = [Part("C3D header", "same" if at is None else "differs",
                   (f"{len(ha)} bytes" if at is None else
                    f"byte {at} (word {at // 2 + 1}) differs")
-                  + (f", {ev} events in its event block" if ev else ""))]
-    parts.append(_parameters(a, b))
+                  + (f", {ev} events in its event block" if ev else "") + values)]
+    param = _parameters(a, b)
+    parts.append(replace(param, detail=param.detail + values))
     params = record_params(a.records)
     parts.append(_words(a, b, params.get("POINT", {})))
     if a.channels:

@@ -106,8 +106,18 @@ def align(a, b, unnamed: list[str] | None = None, notes: list[str] | None = None
     index = {n: i for i, n in enumerate(b.names)}
     missing = [n for n in a.names if n not in index]
     if missing:
+        # a renamed marker was told as missing alone, the new name unsaid (a report QA run
+        # of stop 55)
+        known = set(a.names)
+        new = [n for n in b.names if n not in known]
+        more = len(missing) - 5
         raise MotionError("markers missing from the decoded motion: "
-                          f"{', '.join(printable(n) for n in missing[:5])}")
+                          f"{', '.join(printable(n) for n in missing[:5])}"
+                          + (f" and {more} more" if more > 0 else "")
+                          + (f"; it has markers the original has not: "
+                             f"{', '.join(printable(n) for n in new[:5])}"
+                             + (f" and {len(new) - 5} more" if len(new) > 5 else "")
+                             if new else ""))
     order = [index[n] for n in a.names]
     from mpz.motion import Motion
     return Motion(b.positions[:, order], list(a.names), b.rate, b.units, b.valid[:, order],

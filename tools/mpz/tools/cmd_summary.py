@@ -10,7 +10,11 @@ stored in the file (through :func:`mpz.read_summary`; JSON ``method`` is
 ``stored``); each segment's share of the WSSSE is then measured on the decoded
 motion (the file stores the level's total only). ``-`` reads standard input.
 ``--json`` prints the same as JSON (schema ``mpz-summary/1``; unknown and
-non-finite values are ``null``).
+non-finite values are ``null``). Each level says what its ``wssse`` is of
+(``wssse_of``: the source, as stored, for an ``.mpz``) and what its segments'
+``wssse`` were measured on (``segments_of``: the decoded motion, for an ``.mpz``),
+with their sum (``segments_wssse_total``): an ``.mpz``'s two differ by the coding
+error.
 ``--plot OUT.png`` draws a timeline like the paper's Fig. 2: one bar per level
 with its segments in distinct colours, and the mean pose of each segment of
 the coarsest level, explained in a caption.
@@ -338,9 +342,19 @@ def _print_text(info, levels, out):
 
 
 def _json(info, levels, warnings):
+    # a stored level's wssse is the source's, its segments' are measured on the decoded
+    # motion, and they did not add up with nothing saying why (a report QA run of stop
+    # 55): each level says what its segments were measured on, and their sum
+    stored = info.get("method") == "stored"
     return {"schema": JSON_SCHEMA, **info, "warnings": warnings,
             "wssse_units": (f"{info['units']}^2" if info.get("units") else None),
-            "levels": [{"k": lv["k"], "wssse": lv["wssse"], "segments": _segments(lv, info["rate"])}
+            "levels": [{"k": lv["k"], "wssse": lv["wssse"],
+                        "wssse_of": "the source, as stored" if stored else "the motion read",
+                        "segments_wssse_total": None if lv["segment_wssse"] is None
+                        else float(np.sum(lv["segment_wssse"])),
+                        "segments_of": ("the decoded motion" if stored else "the motion read")
+                        if lv["segment_wssse"] is not None else None,
+                        "segments": _segments(lv, info["rate"])}
                        for lv in levels]}
 
 
