@@ -66,16 +66,22 @@ def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatc
                                          "v3": entry, "v4": entry}}
     # an added vector is said as added (it was "decodes otherwise": a QA run of stop 53),
     # and a skeleton's channels are part of what a vector decodes to
+    # which part of the decoded result moved is said, and an integer layer left as it was
+    # points past it (a QA run of stop 55: only the float conversion had changed)
+    past = ("; the integer layer is the same in each: the change is past it, in the "
+            "conversion to binary64 (spec §6.8) or later")
     assert make_golden.describe_changes(old, new) == [
         "1 vector(s) added, e.g. v4",
-        "1 vector(s) decode otherwise (output, integer layer, skeleton channels or verdict), "
-        "e.g. v1",
+        f"1 vector(s) decode otherwise (the output of 1{past}), e.g. v1",
         "1 vector(s) only report otherwise (mpzinfo --json), e.g. v2"]
     assert make_golden.describe_changes(new, old) == [
         "1 vector(s) removed, e.g. v4",
-        "1 vector(s) decode otherwise (output, integer layer, skeleton channels or verdict), "
-        "e.g. v1",
+        f"1 vector(s) decode otherwise (the output of 1{past}), e.g. v1",
         "1 vector(s) only report otherwise (mpzinfo --json), e.g. v2"]
+    both = {"vectors": {"v1": dict(entry, decoded_sha256="c", integer_layer_digest="e"),
+                        "v2": dict(entry, decoded_sha256="c")}}
+    assert make_golden.describe_changes({"vectors": {"v1": entry, "v2": entry}}, both) == [
+        "2 vector(s) decode otherwise (the output of 2; the integer layer of 1), e.g. v1, v2"]
     skel = {"vectors": {"v1": dict(entry, channels_sha256="d")}}
     assert make_golden.describe_changes(skel, {"vectors": {"v1": dict(entry,
                                                                        channels_sha256="e")}}

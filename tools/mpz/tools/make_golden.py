@@ -63,6 +63,11 @@ def compute(vectors_dir=None) -> dict:
 DECODED_PARTS = ("decoded_sha256", "integer_layer_digest", "error_class", "channels_sha256")
 
 
+#: how :func:`describe_changes` names each of :data:`DECODED_PARTS`
+PART_NAMES = {"decoded_sha256": "the output", "integer_layer_digest": "the integer layer",
+              "error_class": "the verdict", "channels_sha256": "the skeleton channels"}
+
+
 def describe_changes(old: dict, new: dict) -> list[str]:
     """Lines that say which vectors' golden entries changed, the decoded result (a decoder's
     output or its verdict) apart from the mpzinfo report alone (a QA run of stop 48: 120
@@ -89,8 +94,18 @@ def describe_changes(old: dict, new: dict) -> list[str]:
     if removed:
         out.append(f"{len(removed)} vector(s) removed, e.g. {', '.join(removed[:5])}")
     if decoded:
-        out.append(f"{len(decoded)} vector(s) decode otherwise (output, integer layer, "
-                   f"skeleton channels or verdict), e.g. {', '.join(decoded[:5])}")
+        # which part moved: "output, integer layer, skeleton channels or verdict" left a
+        # maintainer to find out that only the float conversion had changed (a QA run of
+        # stop 55); the integer layer the same says the change is past it (§6.8)
+        moved = {k: sum(old["vectors"][n].get(k) != new["vectors"][n].get(k) for n in decoded)
+                 for k in DECODED_PARTS}
+        what = "; ".join(f"{PART_NAMES[k]} of {moved[k]}" for k in DECODED_PARTS if moved[k])
+        after = ("; the integer layer is the same in each: the change is past it, in the "
+                 "conversion to binary64 (spec §6.8) or later"
+                 if moved["decoded_sha256"] and not moved["integer_layer_digest"]
+                 and not moved["error_class"] else "")
+        out.append(f"{len(decoded)} vector(s) decode otherwise ({what}{after}), e.g. "
+                   f"{', '.join(decoded[:5])}")
     if report:
         out.append(f"{len(report)} vector(s) only report otherwise (mpzinfo --json), e.g. "
                    f"{', '.join(report[:5])}")
