@@ -780,3 +780,49 @@ def test_a_script_the_system_cannot_start_is_a_usage_error(tmp_path, text, said)
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
     assert proc.returncode == 64 and doc is None, proc.stdout + proc.stderr
     assert said in proc.stderr
+
+
+def test_values_in_the_other_byte_order_are_said_so(tmp_path):
+    """A decoder that wrote big-endian float64 under a little-endian header was told "NaN
+    pattern differs" or values off by 1e300 (a QA run of stop 55); the failure now says
+    what happened. A value off by one step in that order is not taken for it."""
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            x = np.load(OUT); np.save(OUT, x.byteswap().view("<f8"))
+        ''')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    r = doc["results"][0]
+    assert not r["passed"] and "in the other byte order" in r["message"], r
+    dec = decoder(tmp_path, '''
+        if rc == 0:
+            x = np.load(OUT); i = tuple(np.argwhere(np.isfinite(x))[0]); x[i] += 1.0
+            np.save(OUT, x)
+        ''', name="off.py")
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    r = doc["results"][0]
+    assert not r["passed"] and "byte order" not in r["message"], r
+
+
+def test_small_usage_points_of_an_implementers_run(tmp_path):
+    """From a QA run of stop 55: `--results -` wrote a file named "-"; `--only uncommon/`
+    (a shell's completion of the folder) named nothing; a sidecar unit given by name
+    ("mm") was refused without the code it must be."""
+    dec = decoder(tmp_path, "")
+    proc = subprocess.run([PY, "-m", "mpz.conformance.runner", "--decoder", str(dec),
+                           "--only", "u01-one-frame", "--results", "-"],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == 64 and "--results -" in proc.stderr
+    assert not (tmp_path / "-").exists()
+    quick = script(tmp_path / "quick.sh", "#!/bin/sh\nexit 3\n")   # the selection, quickly
+    proc, doc = run(tmp_path, "--decoder", str(quick), "--only", "uncommon/")
+    assert proc.returncode == 1 and doc is not None and len(doc["results"]) > 10, proc.stderr
+    assert {r["group"] for r in doc["results"]} == {"uncommon"}
+    dec = decoder(tmp_path, '''
+        import json
+        if rc == 0:
+            s = json.load(open(OUT + ".json")); s["units"] = "mm"
+            json.dump(s, open(OUT + ".json", "w"))
+        ''', name="units.py")
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
+    r = doc["results"][0]
+    assert not r["passed"] and "not an integer code: 'mm' (MHDR's code, " in r["message"], r

@@ -457,6 +457,23 @@ def _where(idx, names):
     return f"frame {f}, marker {name!r} (index {m}), axis {'xyz'[a]}", f, m, a
 
 
+def _other_byte_order(got: np.ndarray, exp: np.ndarray, max_abs: float) -> bool:
+    """Whether ``got``, read in the other byte order, has ``exp``'s gaps and values within
+    ``max_abs``, where as read it has not: a decoder that wrote big-endian float64 under a
+    little-endian header."""
+    if got.size == 0:
+        return False
+    swapped = got.byteswap()
+    ok = ~np.isnan(exp)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not np.array_equal(np.isnan(swapped), ~ok):
+            return False
+        if not bool((np.abs(swapped[ok] - exp[ok]) <= max_abs).all()):
+            return False
+        return not (np.array_equal(np.isnan(got), ~ok)
+                    and bool((np.abs(got[ok] - exp[ok]) <= max_abs).all()))
+
+
 def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
     """Float-tier comparison of a decoded array with the expected one."""
     hdr = vec["header"]
@@ -474,6 +491,14 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
                                f"(frames, markers, 3)")
         return res
     gnan, enan = np.isnan(got), np.isnan(exp)
+    if _other_byte_order(got, exp, tol["max_abs"]):
+        # the values written big-endian under a '<f8' header were told as a NaN pattern
+        # or values that differ (a conformance QA run of stop 55)
+        res["problems"].append("the values are in the other byte order: the array read "
+                               "big-endian is the expected one, but the .npy header says "
+                               "little-endian ('<f8'); write the values little-endian (or "
+                               "a header that says '>f8', which the contract refuses too)")
+        return res
     if (gnan != enan).any():
         idx = np.argwhere(gnan != enan)
         where, f, m, a = _where(idx[0], names)
@@ -578,7 +603,9 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
                             f"binary64 of MHDR.rate; write 17 significant digits)")
     units: Any = doc.get("units")
     if not (_is_number(units) and (isinstance(units, int) or units.is_integer())):
-        problems.append(f"sidecar units is not an integer code: {units!r:.100}")
+        problems.append(f"sidecar units is not an integer code: {units!r:.100} (MHDR's "
+                        f"code, {hdr['units_code']} for this file: spec §4.1's table, not "
+                        "the unit's name, which the encoder's IN.json uses)")
     elif int(units) != int(hdr["units_code"]):
         problems.append(f"sidecar units {int(units)} != expected code {hdr['units_code']}")
     meta, want_meta = doc.get("meta"), dict(hdr["meta"])
@@ -1121,6 +1148,8 @@ def main(argv: list[str] | None = None) -> int:
             man = mf.load(vdir)
         except mf.ManifestError as exc:
             raise UsageError(str(exc)) from None
+        if args.only:        # "uncommon/", as a shell completes a folder, named nothing
+            args.only = [o.rstrip("/") or o for o in args.only]
         if args.decoder is not None:
             todo = mf.vectors(man, args.only)
             if args.only:
@@ -1150,6 +1179,9 @@ def main(argv: list[str] | None = None) -> int:
         if missing:
             raise UsageError(f"{len(missing)} vector file(s) do not match the manifest (a "
                              f"damaged or partial copy?): {'; '.join(missing[:3])}")
+        if args.results == "-":      # wrote a file named "-" (a QA run of stop 55)
+            raise UsageError("--results -: the report goes to standard output; give the "
+                             "JSON a file name (or /dev/stdout to mix the two)")
         if args.results and os.path.isdir(args.results):
             raise UsageError(f"--results {args.results}: a folder, not a file")
         stream = args.results and os.path.exists(args.results) and not os.path.isfile(args.results)
