@@ -826,3 +826,29 @@ def test_small_usage_points_of_an_implementers_run(tmp_path):
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
     r = doc["results"][0]
     assert not r["passed"] and "not an integer code: 'mm' (MHDR's code, " in r["message"], r
+
+
+def test_output_held_open_by_a_child_of_another_session_is_said(tmp_path):
+    """A decoder whose child starts a session of its own (a build tool's daemon) holds the
+    output open past its exit: the runner waited 5 s and kept nothing of what the decoder
+    had printed, with no word (a QA run of stop 55). What it printed is kept, and a line
+    says why the output stopped. The child sleeps 8 s and is killed here."""
+    mark = tmp_path / "child.pid"
+    dec = python_script(tmp_path / "dec.py", f"""
+import subprocess
+print("error: not an MPZ file (spec §3.1)", flush=True)
+p = subprocess.Popen(["sleep", "8"], start_new_session=True)
+open({str(mark)!r}, "w").write(str(p.pid))
+sys.exit(2)
+""")
+    try:
+        proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    finally:
+        if mark.exists():
+            try:
+                os.kill(int(mark.read_text()), signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    r = doc["results"][0]
+    assert r["passed"] and "not an MPZ file" in r["stderr_tail"], r
+    assert "a process it started in a session of its own holds it" in r["stderr_tail"], r
