@@ -126,6 +126,10 @@ def test_huge_files_beside_the_output_are_not_read(tmp_path):
     ("Fatal Python error: _PyInterpreterState_GET: the function must be called with the GIL "
      "held\\nPython runtime state: initialized", "crash"),
     ("OpenBLAS error: Memory allocation still failed after 10 retries, giving up.", "crash"),
+    # ... but a decoder that met it, said so and rejected the file rejected it (a review of
+    # stop 55: an optional library's loader note failed every invalid vector)
+    ("mydec: note: libfast.so: failed to map segment from shared object; using the "
+     "portable code\\nerror: bad signature (spec §3.1)", "reject"),
     ("error: the file is no MPZ file: fatal error: bad signature", "reject"),
 ])
 def test_out_of_memory_is_told_from_a_rejection(tmp_path, last_lines, verdict):
@@ -763,12 +767,18 @@ def test_nothing_decoded_under_a_memory_limit_names_the_limit(tmp_path):
         proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE, "--memory", memory)
         assert "decoded none" in proc.stderr, proc.stderr
         assert ("--memory 256 MiB is too little for it to start" in proc.stderr) == hinted
+    # a module not found says nothing of memory: no hint (a review of stop 55)
+    dec = python_script(tmp_path / "nomod.py", 'sys.stderr.write("ModuleNotFoundError: No '
+                        'module named mydec\\n")\nsys.exit(1)\n')
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE, "--memory", "256")
+    assert "decoded none" in proc.stderr and "too little" not in proc.stderr, proc.stderr
 
 
 @pytest.mark.parametrize("text, said", [
     ("import sys\nsys.exit(1)\n", "a text file without a #! line"),
     ("#!/bin/sh\r\nexit 1\r\n", "carriage return (CRLF line ends)"),
     ("#!/nonexistent/python4\nexit 1\n", "names /nonexistent/python4, which does not exist"),
+    ("#!\nexit 1\n", "its #! line names no program"),
 ])
 def test_a_script_the_system_cannot_start_is_a_usage_error(tmp_path, text, said):
     """A script without a #! line, or whose #! line has a CRLF end or names no program, ran

@@ -944,9 +944,10 @@ def test_read_back_compares_frames_names_rate_and_the_first_frames(tmp_path):
         p[f, 1, 0] += dx
         return replace(m, positions=p)
 
+    x = float(np.float32(m.positions[1, 1, 0]))             # the float32 the file holds
+    assert f"{x!r}".replace(".", "").lstrip("-").isdigit()   # printed as a plain number
     assert read_back(moved(1, 0.5), blob) == [
-        f"marker {m.names[1]!r} in frame 1 reads back at {m.positions[1, 1, 0]!r}, not "
-        f"{m.positions[1, 1, 0] + 0.5!r} (x)"]
+        f"marker {m.names[1]!r} in frame 1 reads back at {x!r}, not {x + 0.5!r} (x)"]
     assert read_back(moved(1, 1e-9), blob) == []              # within float32's rounding
     assert read_back(moved(READ_BACK_FRAMES, 0.5), blob) == []
     valid = m.valid.copy()
@@ -958,3 +959,23 @@ def test_read_back_compares_frames_names_rate_and_the_first_frames(tmp_path):
     assert read_back(replace(m, names=names), blob) == [
         f"its markers are named otherwise: 'Z' missing, {m.names[-1]!r} new"]
     assert read_back(m, blob[:len(blob) - 512])[0].startswith("it does not read: ")
+
+
+def test_read_back_takes_the_archives_first_frame_and_refuses_what_no_reader_reads(tmp_path):
+    """A review of stop 55: a C3D archive motion that also carried trc.FirstFrame metadata
+    (encode --meta) got a false read-back warning ("its first frame is 1, not 100"): the
+    archive's C3D writes its own header, not the TRC entry. And a rate of 1e-6 Hz, 9.99e-7
+    as float32, was written to a C3D that mpz's reader refuses: it is now refused on
+    writing, saying why."""
+    m = _example_c3d(tmp_path)
+    tagged = replace(m, metadata={**m.metadata, "trc.FirstFrame": "100"})
+    notes = write(tagged, tmp_path / "tagged.c3d")
+    assert not [n for n in notes if n.startswith(READ_BACK_NOTE)], notes
+    write(m, tmp_path / "untagged.c3d")
+    assert (tmp_path / "tagged.c3d").read_bytes() == (tmp_path / "untagged.c3d").read_bytes()
+    slow = mpz.Motion(np.ones((3, 2, 3)), ["a", "b"], 1e-6, "mm")
+    with pytest.raises(InputFormatError, match="below 1e-06 Hz, the slowest rate"):
+        write(slow, tmp_path / "slow.c3d")
+    assert not (tmp_path / "slow.c3d").exists()
+    write(replace(slow, rate=2e-6), tmp_path / "ok.c3d")
+    assert read(tmp_path / "ok.c3d").rate == float(np.float32(2e-6))

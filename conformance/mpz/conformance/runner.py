@@ -302,8 +302,12 @@ OUT_OF_MEMORY_LAST = re.compile(r"^([\w.]*MemoryError\b|([\w./ -]+:\s*)?(out of 
 #: small --memory, and exits 1), OpenBLAS's failed thread buffers, and the dynamic
 #: loader's failed mapping of a shared library. Such a run passed an invalid vector as
 #: "rejected (exit 1)" (a conformance QA run of stop 55)
-RUNTIME_ABORT = re.compile(r"^(Fatal Python error: |.*Memory allocation still failed\b|"
-                           r".*failed to map segment from shared object\b)")
+RUNTIME_ABORT = re.compile(r"^Fatal Python error: ")
+#: ... and those that count as its last line only: a decoder that met them, said so and
+#: went on to its own rejection is no abort (a review of stop 55: a loader note of an
+#: optional library failed every invalid vector)
+RUNTIME_ABORT_LAST = re.compile(r"^(.*Memory allocation still failed\b|"
+                                r".*failed to map segment from shared object\b)")
 #: exit statuses a shell (or exec wrapper) gives when the command cannot be run: 126 not
 #: executable, 127 not found; never a decoder's own rejection
 CANNOT_RUN_CODES = {126: "found but could not be executed", 127: "not found"}
@@ -367,7 +371,8 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
             hit = lines[-1]
         if hit is not None:
             return "memory", f"ran out of memory (exit {code}: {hit[:200]})"
-        abort = next((i for i, ln in enumerate(lines) if RUNTIME_ABORT.match(ln)), None)
+        abort = next((i for i, ln in enumerate(lines) if RUNTIME_ABORT.match(ln)),
+                     len(lines) - 1 if RUNTIME_ABORT_LAST.match(lines[-1]) else None)
         if abort is not None:
             if any(OUT_OF_MEMORY_LAST.match(ln) for ln in lines[:abort + 1]):
                 return "memory", (f"ran out of memory (exit {code}: "
@@ -973,7 +978,8 @@ def _parser() -> argparse.ArgumentParser:
                      help="encoder command; run as CMD IN.npy OUT.mpz --max-error E")
     p.add_argument("--vectors", metavar="DIR", default=str(mf.DEFAULT_DIR),
                    help="vector directory holding manifest.json (default: the shipped set)")
-    p.add_argument("--results", metavar="FILE", help="write JSON results here")
+    p.add_argument("--results", metavar="FILE", help="write JSON results here (a file name; "
+                   "not -: the report itself goes to standard output)")
     p.add_argument("--timeout", type=float, default=60.0, metavar="S",
                    help="seconds allowed per vector (default 60)")
     p.add_argument("--memory", type=int, default=2048, metavar="MB",
@@ -1039,7 +1045,9 @@ def _check_script(exe: str) -> None:
             raise UsageError(f"{exe}: its #! line ends in a carriage return (CRLF line ends), "
                              "so the system looks for an interpreter whose name ends in one; "
                              "convert the script to LF line ends")
-        if interp and not os.path.exists(interp):
+        if not interp:
+            raise UsageError(f"{exe}: its #! line names no program")
+        if not os.path.exists(interp):
             raise UsageError(f"{exe}: its #! line names {interp}, which does not exist")
         return
     if b"\0" not in head and head.strip() and all(b >= 0x20 or b in b"\t\r\n" for b in head):
@@ -1068,6 +1076,10 @@ def _suite_files() -> Iterator[None]:
                               "its start; run it again") from exc
 
 
+#: words of a command's output that a --memory limit may explain (:func:`_warn_if_nothing_decoded`)
+MEMORY_WORDS = re.compile(r"memory|MemoryError|shared object|map segment|allocat", re.I)
+
+
 def _warn_if_nothing_decoded(results: list[dict[str, Any]],
                              probed: dict[str, Any] | None = None,
                              memory_mb: int | None = None) -> None:
@@ -1082,8 +1094,12 @@ def _warn_if_nothing_decoded(results: list[dict[str, Any]],
     valid = [r for r in results if r.get("expected") == "decode"]
     if valid and not any(r["passed"] for r in valid):
         said = printable(valid[0]["message"])[:300]
+        # the limit is named when the outputs speak of memory or of a library that did not
+        # load, not after "No module named" (a review of stop 55)
+        starved = any(MEMORY_WORDS.search(r.get("stderr_tail") or "") or
+                      r.get("actual") in ("memory", "crash") for r in valid)
         limit = (f"; or --memory {memory_mb} MiB is too little for it to start: try one "
-                 "vector with --memory 0 (no limit)") if memory_mb else ""
+                 "vector with --memory 0 (no limit)") if memory_mb and starved else ""
         if all(r["group"] == "invalid" and r["actual"] == "reject" for r in valid) and \
                 probed is not None and probed["passed"]:
             # --implements 1.0 with vectors of 1.1 rules alone: a decoder that applies them

@@ -72,7 +72,7 @@ from mpz.io.amc import (
     write_amc,
 )
 from mpz.io.bvh import bvh_from_bytes, read_bvh, skeleton_problems, write_bvh
-from mpz.io.c3d import c3d_from_bytes, read_c3d, write_c3d
+from mpz.io.c3d import MIN_RATE, c3d_from_bytes, read_c3d, write_c3d
 from mpz.io.kinematics import Skeleton
 from mpz.io.table import (
     MAX_NPY_BYTES,
@@ -615,6 +615,12 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
         if not (math.isfinite(r32) and r32 > 0):
             refuse.append(f"C3D stores the rate as float32, which turns {rate!r} Hz into "
                           f"{r32!r}")
+        elif r32 < MIN_RATE:
+            # written, then refused by mpz's own reader (a review of stop 55): 1e-6 Hz is
+            # 9.99999997e-07 as float32
+            refuse.append(f"C3D stores the rate as float32, which turns {rate!r} Hz into "
+                          f"{r32!r}, below {MIN_RATE:g} Hz, the slowest rate mpz's C3D "
+                          "reader takes")
         elif r32 != rate:
             notes.append(f"C3D stores the rate as float32: {rate!r} Hz reads back as {r32!r}")
         archive = motion.extras.get("c3d")
