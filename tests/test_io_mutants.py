@@ -979,3 +979,12 @@ def test_an_npy_whose_elements_are_triples_is_read_as_frames_markers_xyz(tmp_pat
     _npy_with_header(tmp_path / "f.npy", "('<f8', (3,))", "(4, 2)", True, xyz.tobytes())
     with pytest.raises(mpz.InputFormatError, match="Fortran-ordered array of .*not defined"):
         mpz.io.read(tmp_path / "f.npy")
+
+
+def test_a_csv_with_mixed_line_ends_names_the_line(tmp_path: Path) -> None:
+    """A carriage return alone inside a file of line-feed lines gave csv's raw "new-line
+    character seen in unquoted field"; it now names the line (a review of stop 55)."""
+    (tmp_path / "m.csv").write_bytes(b"frame,time,A_x,A_y,A_z\r\n1,0,1,2,3\r\n2,0.01,1,2,3\r"
+                                     b"3,0.02,1,2,3\r\n")
+    with pytest.raises(mpz.InputFormatError, match=r"line \d+: .*are the line ends mixed"):
+        mpz.io.read(tmp_path / "m.csv")
