@@ -1859,7 +1859,7 @@ def test_a_result_lost_with_the_last_worker_does_not_wait_for_ever(monkeypatch):
             raise TimeoutError
 
     class NoWorkers:
-        def nthreads(self):
+        def nthreads(self, **kwargs):
             return {}
 
         def submit(self, *args, **kwargs):
@@ -1894,7 +1894,7 @@ def test_a_file_whose_worker_dies_is_told_the_memory_limit(corpus, monkeypatch):
             raise distributed.KilledWorker("task", SimpleNamespace(address="tcp://w:1"), 3)
 
     class OneWorker:
-        def nthreads(self):
+        def nthreads(self, **kwargs):
             return {"tcp://127.0.0.1:1": 1}
 
         def submit(self, *args, **kwargs):
@@ -2046,3 +2046,103 @@ def test_a_run_of_inputs_that_are_not_there_makes_no_output_folder(tmp_path, cap
                          (tmp_path / "src" / "w.trc", out / "w.mpz")], out, OPTS, workers=0)
     assert sorted(r.status for r in rep.results) == ["encoded", "failed"]
     assert (out / INDEX_NAME).exists()
+
+
+
+def test_a_scheduler_that_stops_answering_fails_the_run_within_a_deadline(monkeypatch):
+    """A --scheduler run whose scheduler froze (SIGSTOP: a frozen head node, a network cut)
+    waited for ever with no word: the watch's call to the scheduler had no deadline (a
+    corpus QA run of stop 55). Every call now has one, and the run fails with a message
+    that says so, without asking the silent scheduler to cancel anything. A stand-in
+    client answers once, then no more; its tasks never finish."""
+    pytest.importorskip("distributed")
+    import distributed
+
+    from mpz import corpus
+
+    class Never:
+        def result(self, timeout=None):
+            raise TimeoutError
+
+    class Frozen:
+        calls = 0
+        cancelled = False
+
+        def nthreads(self, callback_timeout=None):
+            if callback_timeout is None:
+                raise AssertionError("nthreads() without a deadline waits for ever here")
+            Frozen.calls += 1
+            if Frozen.calls > 1:
+                raise TimeoutError
+            return {"tcp://127.0.0.1:1": 1}
+
+        def submit(self, *args, **kwargs):
+            return Never()
+
+        def cancel(self, futures):
+            Frozen.cancelled = True
+
+    def waits(fs, timeout=None, **kw):
+        raise TimeoutError
+    monkeypatch.setattr(distributed, "wait", waits)
+    monkeypatch.setattr(corpus, "WATCH_SECONDS", 0.01)
+    task = corpus.Task("a.trc", "a.mpz", "a.mpz", corpus._Fixed(corpus.DEFAULTS), ())
+    with pytest.raises(EncoderError, match="scheduler has not answered for 60 s.*run the "
+                                           "same command again"):
+        corpus._run_on(Frozen(), [task], [0], lambda i, r: None, {})
+    assert Frozen.calls == 2 and not Frozen.cancelled
+
+
+def test_an_index_with_a_damaged_page_is_refused_before_use(corpus):
+    """A page of the files table damaged inside the index (its header intact) passed the
+    checks of the opening: search ranked from it and a run wrote its rows into it (a
+    corpus QA run of stop 55). SQLite's quick_check finds it: both refuse the index with
+    the way out. The damage is one cell pointer of the table's root page."""
+    import sqlite3
+    src, out, _ = corpus
+    run_corpus(src, out)
+    path = out / "index.sqlite"
+    db = sqlite3.connect(path)
+    page = db.execute("PRAGMA page_size").fetchone()[0]
+    root = db.execute("SELECT rootpage FROM sqlite_master WHERE name = 'files'").fetchone()[0]
+    db.close()
+    data = bytearray(path.read_bytes())
+    data[(root - 1) * page + 8] ^= 0xFF                   # the first cell's offset
+    path.write_bytes(bytes(data))
+    with pytest.raises(EncoderError, match=r"damaged MPZ corpus index \(SQLite's quick_check: "
+                                           r"On tree page \d+ .*remove it"):
+        open_index(out)
+    with pytest.raises(EncoderError, match="damaged MPZ corpus index"):
+        run_corpus(src, out)
+    assert path.read_bytes() == bytes(data)               # not written into
+
+
+def test_failures_of_sources_no_longer_there_are_forgotten(corpus):
+    """The failures table kept a deleted source's failure for ever, so its count never went
+    down (a corpus QA run of stop 55). The next run forgets it and says so; a failing
+    source still there stays listed."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    (src / "worse.trc").write_text("not a TRC either\n")
+    run_corpus(src, out)
+    with open_index(out) as ix:
+        assert sorted(Path(p).name for p, _ in ix.failures()) == ["bad.trc", "worse.trc"]
+    paths["bad"].unlink()
+    rep = run_corpus(src, out)
+    with open_index(out) as ix:
+        assert [Path(p).name for p, _ in ix.failures()] == ["worse.trc"]
+    assert any("1 failure of sources no longer there forgotten" in n and "bad.trc" in n
+               for n in rep.index_notes), rep.index_notes
+
+
+def test_a_file_whose_output_folder_cannot_be_made_counts_its_bytes(corpus):
+    """A file that failed because its output's folder could not be made counted 0 source
+    bytes in the summary table and the JSON (a corpus QA run of stop 55), where every
+    other failure counts its source's size."""
+    src, out, paths = corpus
+    out.mkdir()
+    (out / "sub").write_text("a file where the folder goes\n")
+    rep = run_corpus(src, out)
+    (r,) = [r for r in rep.results if Path(r.source).stem == "wave"]
+    assert r.status == "failed" and "cannot make the folder" in r.reason
+    assert r.source_bytes == paths["wave"].stat().st_size > 0

@@ -817,6 +817,16 @@ class Index:
             # names it and a run rebuilds the row
             self.db.text_factory = _text
             self.db.execute("PRAGMA foreign_keys = ON")
+            # a page damaged inside the file passed every check below: search ranked from
+            # it and a run wrote its rows into it (a corpus QA run of stop 55). SQLite's
+            # own walk of the b-trees finds it (a flipped byte inside a value it cannot:
+            # SQLite keeps no checksums)
+            bad = self.db.execute("PRAGMA quick_check(1)").fetchone()
+            if bad is None or bad[0] != "ok":
+                said = " ".join(str(bad and bad[0]).replace("*** in database main ***",
+                                                            "").split())
+                raise EncoderError(f"{self.path}: a damaged MPZ corpus index (SQLite's "
+                                   f"quick_check: {said}); {_REBUILD}")
             # another program's database at OUT/index.sqlite was written into, our tables
             # beside its own (a QA run); an empty one (0 bytes, no table) is made ours
             tables = _tables(self.db)
@@ -952,6 +962,20 @@ class Index:
             # said it rebuilt it (a review of stop 53)
             self.db.execute("DELETE FROM levels WHERE output NOT IN (SELECT output FROM files)")
         return keys
+
+    @_sql
+    def forget_gone_failures(self) -> list[str]:
+        """Remove the failures whose source is no longer there (deleted or moved since it
+        failed) and return their paths: they stayed for ever, and a count of the failures
+        never went down (a corpus QA run of stop 55). A source whose name is not UTF-8 is
+        kept as the \\xNN text :func:`utf8_name` made of it, which names no file: its row
+        is kept, and the run that meets the file again writes it again."""
+        gone = [p for (p,) in self.db.execute("SELECT path FROM failures ORDER BY path")
+                if isinstance(p, str) and "\\x" not in p and not os.path.lexists(p)]
+        with self.db:
+            for p in gone:
+                self.db.execute("DELETE FROM failures WHERE path = ?", (p,))
+        return gone
 
     @_sql
     def drop_unnamed(self) -> list[str]:
@@ -1528,7 +1552,10 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
         try:
             yield client, f"scheduler {scheduler}"
         finally:
-            client.close()
+            # bounded: a scheduler that stopped answering held the close too; the run's
+            # own error says what happened
+            with contextlib.suppress(TimeoutError):
+                client.close(timeout=CONNECT_SECONDS)
         return
     # one thread per worker process: the codec is CPU-bound (numba's parallel kernels are
     # held to one thread in each task, _one_numba_thread)
@@ -1814,6 +1841,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         unnamed = index.drop_unnamed()
         keys = {t.output_key for t in tasks}
         forgotten = index.forget_missing(index_dir, keys)
+        gone = index.forget_gone_failures()
         damaged = index.damaged()
         # a damaged row this run's inputs do not cover is not rebuilt (a run over a part of
         # the inputs said it was, a review of stop 53)
@@ -1827,6 +1855,9 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         if unnamed:
             notes.append(f"{_rows(len(unnamed))} whose output is not a text removed: "
                          f"{_some(unnamed)}")
+        if gone:
+            notes.append(f"{len(gone)} failure{'s' * (len(gone) != 1)} of sources no longer "
+                         f"there forgotten: {_some(gone)}")
         what = ("(a descriptor that is not finite, a summary cut short, a column holding what "
                 "it cannot)")
         if rebuilt:
@@ -1880,7 +1911,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                     unmade[folder] = f"cannot make the folder {folder}: {folder_problem(exc)}"
             reason = unmade[folder]
             if reason is not None:
-                finish(i, FileResult(tasks[i].source, tasks[i].output, "failed", reason))
+                finish(i, FileResult(tasks[i].source, tasks[i].output, "failed", reason,
+                                     _size(tasks[i].source)))
         todo = [i for i in todo if unmade[os.path.dirname(os.path.abspath(tasks[i].output))]
                 is None]
         # every output's folder, not only those with work: a leftover stays no longer
@@ -1945,6 +1977,34 @@ def _lost(exc: CancelledError) -> EncoderError:
                         "to encode the rest")
 
 
+#: how long one call to the scheduler may take before the run fails: one that stopped
+#: answering (a frozen head node, a network cut) held ``--scheduler`` runs for ever, with
+#: no word (a corpus QA run of stop 55: a SIGSTOPped scheduler)
+SCHEDULER_SECONDS = 60.0
+
+
+class _SchedulerSilent(EncoderError):
+    """The scheduler did not answer within :data:`SCHEDULER_SECONDS`: nothing more is
+    asked of it (cancelling the tasks would wait for it too)."""
+
+
+def _nthreads(client: Client) -> dict[str, int]:
+    """``client.nthreads()``, within :data:`SCHEDULER_SECONDS`.
+
+    Raises
+    ------
+    EncoderError
+        When the scheduler does not answer in that time.
+    """
+    try:
+        return dict(client.nthreads(callback_timeout=SCHEDULER_SECONDS))
+    except TimeoutError:
+        raise _SchedulerSilent(
+            f"the Dask scheduler has not answered for {SCHEDULER_SECONDS:.0f} s (is it "
+            "frozen, overloaded or cut off?); the files that finished are written and "
+            "indexed: run the same command again when it answers") from None
+
+
 def _run_on(client: Client, tasks: list[Task], todo: list[int],
             finish: Callable[[int, FileResult], None],
             inflight: dict[Future[FileResult], int],
@@ -1960,7 +2020,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     time it ran it."""
     from distributed import wait
     pending = iter(todo)
-    threads = max(sum(client.nthreads().values()), 1)
+    threads = max(sum(_nthreads(client).values()), 1)
     window = 2 * threads + 1     # queued work stays small: a stop loses little
 
     def submit() -> None:
@@ -1977,7 +2037,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     def watch() -> None:
         """Fail the run when the cluster has had no worker for NO_WORKER_SECONDS."""
         nonlocal idle_since
-        if client.nthreads():
+        if _nthreads(client):
             idle_since = None
         elif idle_since is None:
             idle_since = time.monotonic()
@@ -2021,9 +2081,9 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                 idle_since = None                   # a result came: workers were there
                 finish(i, replace(r, source=tasks[i].source, output=tasks[i].output))
             submit()
-    except BaseException:
-        if inflight:
+    except BaseException as exc:
+        if inflight and not isinstance(exc, _SchedulerSilent):
             with contextlib.suppress(Exception):
                 client.cancel(list(inflight))
         raise
-    return len(client.nthreads()) or threads
+    return len(_nthreads(client)) or threads
