@@ -988,3 +988,22 @@ def test_a_csv_with_mixed_line_ends_names_the_line(tmp_path: Path) -> None:
                                      b"3,0.02,1,2,3\r\n")
     with pytest.raises(mpz.InputFormatError, match=r"line \d+: .*are the line ends mixed"):
         mpz.io.read(tmp_path / "m.csv")
+
+
+def test_an_npy_sample_of_infinite_coordinates_is_a_gap_said_so(tmp_path: Path) -> None:
+    """A sample whose three coordinates are infinite became a gap with no word, while one
+    infinite coordinate beside finite ones was said (a corpus QA run of stop 55). NaN marks
+    an NPY gap; an all-NaN sample is a gap and says nothing."""
+    a = np.ones((4, 2, 3))
+    a[1, 0] = np.inf
+    a[2, 1] = [-np.inf, np.nan, np.inf]
+    a[3, 0] = np.nan
+    np.save(tmp_path / "a.npy", a)
+    m = mpz.io.read(tmp_path / "a.npy")
+    assert not m.valid[1, 0] and not m.valid[2, 1] and not m.valid[3, 0]
+    assert ("2 samples with no finite coordinate and an infinite one (the first: frame index "
+            "1, marker 'M0')") in m.metadata["warning"]
+    b = np.ones((4, 2, 3))
+    b[3, 0] = np.nan
+    np.save(tmp_path / "b.npy", b)
+    assert "warning" not in mpz.io.read(tmp_path / "b.npy").metadata

@@ -61,6 +61,17 @@ def motion_from_array(arr: ArrayLike, *, rate: float = 1.0, units: str = "",
     # says it (it became a gap silently: a QA run of stop 52)
     partial = values_at_gaps(pos, ~valid, names, "with a coordinate empty or NaN" if fmt == "csv"
                              else "with a coordinate NaN or infinite")
+    # a sample of infinite coordinates alone holds no finite one, so values_at_gaps says
+    # nothing of it, though NaN, not inf, marks a gap: it became one silently (a corpus QA
+    # run of stop 55)
+    infinite = ~valid & np.isinf(pos).any(axis=2) & ~np.isfinite(pos).any(axis=2)
+    if infinite.any():
+        n = int(infinite.sum())
+        f, m = (int(i) for i in np.argwhere(infinite)[0])
+        said = (f"{n} sample{'s' * (n != 1)} with no finite coordinate and an infinite one "
+                f"(the first: frame index {f}, marker {names[m]!r}): each is a gap (NaN marks "
+                "a gap; an infinite value is no position)")
+        partial = f"{partial}; {said}" if partial else said
     pos[~valid] = np.nan
     meta = {"format": fmt}
     if partial:
