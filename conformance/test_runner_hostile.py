@@ -862,3 +862,23 @@ sys.exit(2)
     r = doc["results"][0]
     assert r["passed"] and "not an MPZ file" in r["stderr_tail"], r
     assert "a process it started in a session of its own holds it" in r["stderr_tail"], r
+    # the note is the runner's, not the decoder's last line: a MemoryError before it is
+    # still out of memory, not a rejection (a review of stop 55)
+    dec = python_script(tmp_path / "oom.py", f"""
+import subprocess
+p = subprocess.Popen(["sleep", "8"], start_new_session=True)
+open({str(mark)!r}, "w").write(str(p.pid))
+print("MemoryError", flush=True)
+sys.exit(1)
+""")
+    try:
+        proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    finally:
+        if mark.exists():
+            try:
+                os.kill(int(mark.read_text()), signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    r = doc["results"][0]
+    assert not r["passed"] and r["actual"] == "memory", r
+    assert "a session of its own" in r["stderr_tail"], r

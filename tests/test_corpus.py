@@ -2133,6 +2133,21 @@ def test_failures_of_sources_no_longer_there_are_forgotten(corpus):
         assert [Path(p).name for p, _ in ix.failures()] == ["worse.trc"]
     assert any("1 failure of sources no longer there forgotten" in n and "bad.trc" in n
                for n in rep.index_notes), rep.index_notes
+    # an input of this run that is not there is this run's failure, not one it forgets (a
+    # review of stop 55: the NOTE and the FAILED line of one file, every run)
+    jobs = [(str(src / "typo.trc"), str(out / "typo.mpz"))]
+    for _ in range(2):
+        rep = encode_corpus(jobs, out, OPTS, levels=LEVELS, workers=0)
+        assert statuses(rep) == {"typo": "failed"}
+        assert not [n for n in rep.index_notes if "forgotten" in n], rep.index_notes
+    # a name that is not UTF-8 is kept as \xNN text, and found by its bytes
+    odd = os.fsdecode(b"bad-\xff.trc")
+    (src / odd).write_text("not a TRC\n")
+    run_corpus(src, out)
+    rep = run_corpus(src, out)
+    assert not [n for n in rep.index_notes if "forgotten" in n], rep.index_notes
+    with open_index(out) as ix:
+        assert any(p.endswith("bad-\\xff.trc") for p, _ in ix.failures()), ix.failures()
 
 
 def test_a_file_whose_output_folder_cannot_be_made_counts_its_bytes(corpus):
@@ -2146,3 +2161,39 @@ def test_a_file_whose_output_folder_cannot_be_made_counts_its_bytes(corpus):
     (r,) = [r for r in rep.results if Path(r.source).stem == "wave"]
     assert r.status == "failed" and "cannot make the folder" in r.reason
     assert r.source_bytes == paths["wave"].stat().st_size > 0
+
+
+
+def test_a_scheduler_silent_after_the_last_file_does_not_fail_the_run(monkeypatch):
+    """The worker count asked for the report after the last file failed the run once the
+    scheduler stopped answering, every file done (a review of stop 55): the count falls
+    back to the one of the start."""
+    pytest.importorskip("distributed")
+    import distributed
+
+    from mpz import corpus
+
+    class Done:
+        def result(self, timeout=None):
+            return corpus.FileResult("a.trc", "a.mpz", "encoded")
+
+    class SilentAtTheEnd:
+        calls = 0
+
+        def nthreads(self, callback_timeout=None):
+            SilentAtTheEnd.calls += 1
+            if SilentAtTheEnd.calls > 1:
+                raise TimeoutError
+            return {"tcp://127.0.0.1:1": 3}
+
+        def submit(self, *args, **kwargs):
+            return Done()
+
+        def cancel(self, futures):
+            raise AssertionError("nothing to cancel")
+
+    monkeypatch.setattr(distributed, "wait", lambda fs, **kw: (set(fs), set()))
+    task = corpus.Task("a.trc", "a.mpz", "a.mpz", corpus._Fixed(corpus.DEFAULTS), ())
+    got = []
+    assert corpus._run_on(SilentAtTheEnd(), [task], [0], lambda i, r: got.append(i), {}) == 3
+    assert got == [0] and SilentAtTheEnd.calls == 2

@@ -209,6 +209,7 @@ def run_command(argv: list[str], timeout: float, memory_mb: int | None,
                 "interrupted": False}
     timed_out = interrupted = False
     peak = None
+    note = ""
     if hasattr(os, "wait4"):
         # read the output in a thread and reap the child with wait4, which also gives its
         # rusage
@@ -235,10 +236,11 @@ def run_command(argv: list[str], timeout: float, memory_mb: int | None,
         err = bytes(buf[-OUTPUT_KEEP:])
         if reader.is_alive():
             # a process it started in a session of its own holds the output open: its
-            # output was lost and 5 s waited, with no word (a QA run of stop 55)
-            err += (b"\n[mpz-conformance: the output stayed open 5 s after the command "
-                    b"exited: a process it started in a session of its own holds it; what "
-                    b"it printed after this is not read]\n")
+            # output was lost and 5 s waited, with no word (a QA run of stop 55). Said
+            # apart from the output, which failure_kind reads by its last line
+            note = ("[mpz-conformance: the output stayed open 5 s after the command "
+                    "exited: a process it started in a session of its own holds it; what "
+                    "it printed after this is not read]")
     else:                               # no wait4 (Windows): no memory figure
         try:
             err, _ = proc.communicate(timeout=timeout)
@@ -258,7 +260,7 @@ def run_command(argv: list[str], timeout: float, memory_mb: int | None,
     text = err.decode("utf-8", "replace")
     return {"exit_code": code, "seconds": round(secs, 3),
             "stderr": text[-STDERR_TAIL:], "timed_out": timed_out, "signal": sig,
-            "peak_rss_mb": peak, "interrupted": interrupted}
+            "peak_rss_mb": peak, "interrupted": interrupted, "note": note}
 
 
 def _kill_group(proc: subprocess.Popen[bytes]) -> None:
@@ -395,6 +397,11 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
 #: Rust panic, an uncaught Java exception
 UNPLANNED_EXIT = re.compile(r"^(Traceback \(most recent call last\):|thread '.*' panicked at |"
                             r"Exception in thread )")
+
+
+def _tail_of(run: dict[str, Any]) -> str:
+    """What a result keeps of a run's output: its tail, and the runner's note on it."""
+    return run["stderr"] + (f"\n{run['note']}\n" if run.get("note") else "")
 
 
 def _unplanned(run: dict[str, Any]) -> str:
@@ -719,7 +726,7 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
         run = run_command(cmd + [str(src), str(out)], timeout, memory_mb, cwd=tmp)
         entry.update(exit_code=run["exit_code"], signal=run["signal"],
                      timed_out=run["timed_out"], seconds=run["seconds"],
-                     peak_rss_mb=run["peak_rss_mb"], stderr_tail=run["stderr"])
+                     peak_rss_mb=run["peak_rss_mb"], stderr_tail=_tail_of(run))
         bad = failure_kind(run) or _cut_off_by_the_file_limit(run, Path(tmp))
         if bad is not None:
             # a crash, a hang or running out of memory is never a rejection (§8)
@@ -910,7 +917,7 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
                           memory_mb, cwd=tmp)
         entry.update(exit_code=run["exit_code"], signal=run["signal"],
                      timed_out=run["timed_out"], seconds=run["seconds"],
-                     peak_rss_mb=run["peak_rss_mb"], stderr_tail=run["stderr"])
+                     peak_rss_mb=run["peak_rss_mb"], stderr_tail=_tail_of(run))
         bad = failure_kind(run) or _cut_off_by_the_file_limit(run, Path(tmp))
         if bad is not None:
             entry["actual"] = bad[0]
