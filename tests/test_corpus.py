@@ -2197,3 +2197,19 @@ def test_a_scheduler_silent_after_the_last_file_does_not_fail_the_run(monkeypatc
     got = []
     assert corpus._run_on(SilentAtTheEnd(), [task], [0], lambda i, r: got.append(i), {}) == 3
     assert got == [0] and SilentAtTheEnd.calls == 2
+
+
+def test_a_scheduler_address_where_nothing_listens_fails_at_once(corpus):
+    """A --scheduler address whose connection is refused (no scheduler running, a wrong
+    port) waited Dask's full 30 s before failing (a corpus QA run of stop 55): the refusal
+    is said at once, naming the host and port, and no index is made."""
+    import socket
+    src, out, _ = corpus
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.monotonic()
+    with pytest.raises(EncoderError, match=f"nothing listens at 127.0.0.1:{port} "
+                                           r"\(connection refused\)"):
+        run_corpus(src, out, scheduler=f"tcp://127.0.0.1:{port}")
+    assert time.monotonic() - t0 < 10 and not (out / "index.sqlite").exists()

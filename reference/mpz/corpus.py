@@ -1637,11 +1637,31 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
 CONNECT_SECONDS = 40.0
 
 
+def _refused(scheduler: str) -> None:
+    """Raise EncoderError at once when nothing listens at a ``tcp://`` scheduler address
+    (the connection refused): Dask retried it for its full 30 s (a corpus QA run of stop
+    55). Anything else (a timeout, another scheme) is left to the Client."""
+    import socket
+    parts = urllib.parse.urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
+    if parts.scheme != "tcp" or not parts.hostname or parts.port is None:
+        return
+    try:
+        with socket.create_connection((parts.hostname, parts.port), timeout=5.0):
+            return
+    except ConnectionRefusedError:
+        raise EncoderError(f"cannot reach the Dask scheduler at {scheduler}: nothing listens "
+                           f"at {parts.hostname}:{parts.port} (connection refused): is the "
+                           "scheduler running, on that port?") from None
+    except (OSError, ValueError):
+        return                              # unreachable, slow, unresolved: the Client says
+
+
 def _connect(client_class: type[Client], scheduler: str) -> Client:
     """A Client of the scheduler at ``scheduler``, or EncoderError within
     :data:`CONNECT_SECONDS`. Client's timeout alone did not end the wait when the address
     answered but was not a Dask scheduler (an HTTP server: a QA run waited for ever), so
     the Client is made in a daemon thread that is left behind at the deadline."""
+    _refused(scheduler)
     box: dict[str, Any] = {}
 
     def make() -> None:
