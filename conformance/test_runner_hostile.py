@@ -7,6 +7,7 @@ reference decoder and then break its output.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -838,47 +839,37 @@ def test_small_usage_points_of_an_implementers_run(tmp_path):
     assert not r["passed"] and "not an integer code: 'mm' (MHDR's code, " in r["message"], r
 
 
+def _held_open(tmp_path: Path, name: str, last: str, code: int) -> dict:
+    """The result of a decoder that prints ``last`` after (or before) starting a child in a
+    session of its own, which holds the output 8 s, and exits ``code``; the child is
+    killed here."""
+    mark = tmp_path / f"{name}.pid"
+    dec = python_script(tmp_path / f"{name}.py", f"""
+import subprocess
+print({last!r}, flush=True)
+p = subprocess.Popen(["sleep", "8"], start_new_session=True)
+open({str(mark)!r}, "w").write(str(p.pid))
+sys.exit({code})
+""")
+    try:
+        proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
+    finally:
+        if mark.exists():
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(int(mark.read_text()), signal.SIGKILL)
+    return doc["results"][0]
+
+
 def test_output_held_open_by_a_child_of_another_session_is_said(tmp_path):
     """A decoder whose child starts a session of its own (a build tool's daemon) holds the
     output open past its exit: the runner waited 5 s and kept nothing of what the decoder
     had printed, with no word (a QA run of stop 55). What it printed is kept, and a line
-    says why the output stopped. The child sleeps 8 s and is killed here."""
-    mark = tmp_path / "child.pid"
-    dec = python_script(tmp_path / "dec.py", f"""
-import subprocess
-print("error: not an MPZ file (spec §3.1)", flush=True)
-p = subprocess.Popen(["sleep", "8"], start_new_session=True)
-open({str(mark)!r}, "w").write(str(p.pid))
-sys.exit(2)
-""")
-    try:
-        proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
-    finally:
-        if mark.exists():
-            try:
-                os.kill(int(mark.read_text()), signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-    r = doc["results"][0]
+    says why the output stopped."""
+    r = _held_open(tmp_path, "dec", "error: not an MPZ file (spec §3.1)", 2)
     assert r["passed"] and "not an MPZ file" in r["stderr_tail"], r
     assert "a process it started in a session of its own holds it" in r["stderr_tail"], r
     # the note is the runner's, not the decoder's last line: a MemoryError before it is
     # still out of memory, not a rejection (a review of stop 55)
-    dec = python_script(tmp_path / "oom.py", f"""
-import subprocess
-p = subprocess.Popen(["sleep", "8"], start_new_session=True)
-open({str(mark)!r}, "w").write(str(p.pid))
-print("MemoryError", flush=True)
-sys.exit(1)
-""")
-    try:
-        proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD)
-    finally:
-        if mark.exists():
-            try:
-                os.kill(int(mark.read_text()), signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-    r = doc["results"][0]
+    r = _held_open(tmp_path, "oom", "MemoryError", 1)
     assert not r["passed"] and r["actual"] == "memory", r
     assert "a session of its own" in r["stderr_tail"], r

@@ -289,8 +289,8 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
     # the archive holds them normalised (Intel byte order, IEEE floats): a DEC or MIPS
     # source's bytes differ from the Intel C3D decoded from it, and "same" said nothing
     # of that (a report QA run of stop 55)
-    order = ({84: "Intel", 85: "DEC", 86: "MIPS"}.get(a.processor, str(a.processor)),
-             {84: "Intel", 85: "DEC", 86: "MIPS"}.get(b.processor, str(b.processor)))
+    from mpz.io.c3dbin import PROCESSOR_NAMES
+    order = [PROCESSOR_NAMES.get(x.processor, str(x.processor)) for x in (a, b)]
     values = (f"; compared as values: the bytes are in {order[0]} order against "
               f"{order[1]} (spec §6.9 writes Intel)" if order[0] != order[1] else "")
     parts = [Part("C3D header", "same" if at is None else "differs",

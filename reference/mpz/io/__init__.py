@@ -324,7 +324,7 @@ def _write_in_place(motion: Motion, ext: str, path: StrPath, name: str,
     elif ext == ".amc":
         fn(motion, path, asf=asf)
     elif ext == ".c3d":
-        found = write_c3d(motion, path)
+        found = write_c3d(motion, path)           # typed: its list of findings
         why = (" (spec §6.9 writes an archive's header and parameters as it holds them)"
                if motion.extras.get("c3d") is not None else "")
         return [READ_BACK_NOTE + "; ".join(found) + why] if found else []

@@ -633,7 +633,8 @@ def read_back(motion: Motion, blob: bytes) -> list[str]:
 
     Spec §6.9 writes an archive's header and parameters as stored, and a valid archive
     made by hand may hold ones that contradict its points (group ids, a renamed
-    parameter, a header first frame of 0 or a last frame of 65535 without TRIAL): such
+    parameter, a header frame range that disagrees with the frames, a last frame of 65535
+    without TRIAL): such
     files were written with exit 0 and read back with other values, or not at all (a
     fuzzing QA run of stop 54). What was written is not changed, since it holds all the
     archive does; the writers say what a reader finds.
@@ -653,7 +654,8 @@ def read_back(motion: Motion, blob: bytes) -> list[str]:
     out = []
     if d.frames_in_file != motion.n_frames:
         out.append(f"it holds {d.frames_in_file} frames, not {motion.n_frames}")
-    if sorted(got.names) != sorted(motion.names):
+    same_names = sorted(got.names) == sorted(motion.names)
+    if not same_names:
         extra = [n for n in got.names if n not in motion.names]
         gone = [n for n in motion.names if n not in got.names]
         out.append(f"its markers are {got.n_markers}, not {motion.n_markers}" if
@@ -686,10 +688,8 @@ def read_back(motion: Motion, blob: bytes) -> list[str]:
             out.append(f"it holds {b.channels} analog channel{'s' * (b.channels != 1)} of "
                        f"{b.analog_samples} sample{'s' * (b.analog_samples != 1)} a frame, "
                        f"not {a.channels} of {a.analog_samples}")
-    if out or sorted(got.names) != sorted(motion.names):
-        return out
-    out += _head_differs(motion, got)
-    return out
+    # the gaps and positions only when the rest agrees: they are read as the rest says
+    return out if out or not same_names else _head_differs(motion, got)
 
 
 def _head_differs(motion: Motion, got: Motion) -> list[str]:

@@ -736,7 +736,8 @@ def _scale_conflict(data: bytes, codec: _Codec,
             "and step were taken from POINT:SCALE)")
 
 
-_PROCESSOR_NAMES = {PROC_INTEL: "Intel", PROC_DEC: "DEC", PROC_MIPS: "MIPS"}
+#: the processor types' names, as messages say them
+PROCESSOR_NAMES = {PROC_INTEL: "Intel", PROC_DEC: "DEC", PROC_MIPS: "MIPS"}
 
 
 def processor_hint(data: bytes) -> str:
@@ -761,11 +762,11 @@ def processor_hint(data: bytes) -> str:
         except InputFormatError:
             continue
         if math.isfinite(rate) and 1e-6 <= rate <= F32_MAX:
-            others.append(f"as {_PROCESSOR_NAMES[other]} ({other}) it reads {rate:g} Hz")
+            others.append(f"as {PROCESSOR_NAMES[other]} ({other}) it reads {rate:g} Hz")
     if not others:
         return ""
     return (f"; is the processor byte (byte 4 of the parameter section: "
-            f"{_PROCESSOR_NAMES[proc]}, {proc}) wrong? " + "; ".join(others))
+            f"{PROCESSOR_NAMES[proc]}, {proc}) wrong? " + "; ".join(others))
 
 
 def frames_missing(data: bytes, declared: int, present: int,
