@@ -40,6 +40,7 @@ from mpz.corpus import (
     META_FINGERPRINT,
     META_SHA256,
     CorpusReport,
+    CorpusStopped,
     FileResult,
     encode_corpus,
     fingerprint,
@@ -219,6 +220,41 @@ def test_a_damaged_output_of_a_corpus_run_is_encoded_again(corpus):
     rep = run_corpus(src, out)
     assert statuses(rep)["walk"] == "encoded"
     assert (out / "walk.mpz").read_bytes() == whole
+
+
+def test_a_run_says_why_it_encodes_a_file_again(corpus):
+    """Changing --max-error encoded a whole folder again with no word (a corpus QA run of
+    stop 55): the report says which files were encoded again and why (other options, a
+    changed source, a changed output), and a source touched with the same bytes (kept) or
+    a file seen for the first time is not among them."""
+    src, out, paths = corpus
+    first = run_corpus(src, out)
+    assert first.encoded_again == {}
+    good = sorted(str(paths[n]) for n in ("walk", "jump", "wave"))
+
+    rep = run_corpus(src, out, options=EncodeOptions(max_error=2.0))
+    assert statuses(rep) == {"walk": "encoded", "jump": "encoded", "wave": "encoded",
+                             "bad": "failed"}
+    assert {k: sorted(v) for k, v in rep.encoded_again.items()} == {"options": good}
+    assert "NOTE 3 files encoded again, as the options differ from their last encode's" \
+        in rep.table()
+    assert rep.as_dict()["encoded_again"] == rep.encoded_again
+    assert run_corpus(src, out, options=EncodeOptions(max_error=2.0)).encoded_again == {}
+
+    write(generate("walk", frames=95, seed=7), paths["walk"])      # other bytes
+    before = paths["jump"].stat().st_mtime_ns - 10**9    # the same bytes, an earlier time
+    os.utime(paths["jump"], ns=(before, before))
+    wave = out / "sub" / "wave.mpz"
+    wave.write_bytes(wave.read_bytes()[:-1])                        # output cut short
+    rep = run_corpus(src, out, options=EncodeOptions(max_error=2.0))
+    assert statuses(rep) == {"walk": "encoded", "jump": "kept", "wave": "encoded",
+                             "bad": "failed"}
+    assert rep.encoded_again == {"source": [str(paths["walk"])],
+                                 "output": [str(paths["wave"])]}
+    table = rep.table()
+    assert f"NOTE 1 file encoded again, as the source changed (size or time) since the " \
+           f"last encode: {paths['walk']}" in table
+    assert "NOTE 1 file encoded again, as the output was changed or replaced" in table
 
 
 def test_a_source_dated_in_the_future_is_up_to_date_on_the_next_run(corpus):
@@ -1201,6 +1237,12 @@ def test_mpz_encode_r_interrupted_with_sigint_then_resumed(tmp_path):
         mpz.decode(p.read_bytes())
     with open_index(out) as ix:
         indexed = {Path(r["output"]).name for r in ix.rows()}
+        failures = len(ix.failures())
+    # how far it got, as the index has it (it said only "interrupted")
+    said = re.search(r"(\d+) of 7 files finished(?:, (\d+) of them failed)? before the "
+                     r"interrupt", err)
+    assert said, err
+    assert (int(said[1]), int(said[2] or 0)) == (len(indexed) + failures, failures), err
     done = subprocess.run(argv + ["--json"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 2                         # bad.trc
     doc = json.loads(done.stdout)
@@ -1771,13 +1813,30 @@ def test_a_scheduler_lost_mid_run_is_one_error_and_keeps_what_finished(corpus):
         def progress(done, total, r):
             if done == 1:
                 cluster.sync(cluster.scheduler.close)
-        with pytest.raises(EncoderError, match="cancelled the run's tasks.*run the same "
-                                               "command again"):
+        with pytest.raises(CorpusStopped, match="cancelled the run's tasks.*run the same "
+                                                "command again") as stop:
             encode_corpus(mirror_jobs(src, out), out, OPTS, levels=LEVELS, client=client,
                           progress=progress)
     with open_index(out) as ix:
-        indexed = {r["output"] for r in ix.rows()} | {o for _, o in ix.failures()}
-    assert indexed                                    # the first file, committed
+        indexed = {r["output"] for r in ix.rows()}
+        failed = {path for path, _ in ix.failures()}
+    assert indexed | failed                           # the first file, committed
+    # the report of what finished, and of what did not (a corpus QA run of stop 55: one
+    # error line, naming Dask's futures, and no table)
+    rep = stop.value.report
+    assert "Futures" not in str(stop.value)
+    assert rep.stopped == stop.value.message
+    done = {Path(r.source).name for r in rep.results}
+    left = {Path(s).name for s, _ in rep.not_run}
+    assert done and left and not done & left
+    assert done | left == {p.name for p in src.rglob("*") if p.is_file()}
+    assert {Path(os.path.relpath(r.output, out)).as_posix() for r in rep.results
+            if r.status != "failed"} == indexed
+    assert {os.path.abspath(r.source) for r in rep.failed} == failed
+    assert all(b == Path(s).stat().st_size for s, b in rep.not_run)
+    table = rep.table()
+    assert re.search(rf"not run\s+{len(left)}\s", table), table
+    assert f"STOPPED with {len(left)} file" in table
     rep = run_corpus(src, out)                        # the next run finishes the rest
     got = statuses(rep)
     assert got.pop("bad") == "failed"
@@ -1785,6 +1844,74 @@ def test_a_scheduler_lost_mid_run_is_one_error_and_keeps_what_finished(corpus):
     with open_index(out) as ix:
         assert sorted(r["output"] for r in ix.rows()) == ["jump.mpz", "sub/wave.mpz",
                                                            "walk.mpz"]
+
+
+def _stop_after_one(monkeypatch) -> None:
+    """Make the run's cluster encode one file, then lose its scheduler (Dask's words)."""
+    from concurrent.futures import CancelledError
+
+    import mpz.corpus as corpus_module
+
+    def one_then_lost(tasks, todo, finish, *args):
+        finish(todo[0], corpus_module.encode_file(tasks[todo[0]]))
+        raise corpus_module._lost(CancelledError(
+            "3 Futures cancelled: Reasons: 3 Futures cancelled for reason: "
+            "scheduler-connection-lost. Futures: ['mpz-encode-1-0a1b2c3d']"))
+    monkeypatch.setattr(corpus_module, "_dispatch", one_then_lost)
+
+
+def test_a_stopped_run_prints_the_table_of_what_finished(corpus, tmp_path, monkeypatch,
+                                                         capsys):
+    """`mpz encode -r` whose scheduler was lost mid-run printed Dask's traceback and one
+    error line (a corpus QA run of stop 55). It prints the summary table of what finished,
+    with the files not run and why, then the error and the count, exit 2; --json says the
+    same."""
+    from mpz.tools import mpz_cli
+    src, _, _ = corpus
+    _stop_after_one(monkeypatch)
+    argv = ["encode", "-r", str(src), "--jobs", "1", "--max-error", "1mm"]
+    assert mpz_cli.main([*argv, "-o", f"{tmp_path / 'a'}/", "--json"]) == 2
+    doc = json.loads(capsys.readouterr().out)
+    assert len(doc["files"]) == 1 and len(doc["not_run"]) == 3
+    assert "connection to the scheduler was lost" in doc["stopped"]
+    assert {Path(p).name for p in doc["not_run"]} | {Path(doc["files"][0]["source"]).name} \
+        == {"walk.trc", "jump.c3d", "wave.trc", "bad.trc"}
+    failed = doc["counts"]["failed"]
+
+    assert mpz_cli.main([*argv, "-o", f"{tmp_path / 'b'}/"]) == 2
+    got = capsys.readouterr()
+    assert re.search(r"^  not run\s+3\s", got.out, re.M), got.out
+    assert re.search(r"^  (encoded|failed)\s+1\s", got.out, re.M), got.out
+    assert "STOPPED with 3 files not run: the Dask cluster cancelled the run's tasks (the " \
+           "connection to the scheduler was lost" in got.out
+    assert "Futures" not in got.out + got.err
+    last = got.err.strip().splitlines()
+    assert last[-2].startswith("mpz encode: error: the Dask cluster cancelled"), got.err
+    assert last[-1] == f"mpz encode: 4 inputs: {1 - failed} done, {failed} failed, 3 not run"
+
+
+def test_dask_s_words_on_a_lost_scheduler_are_left_out():
+    """Closing a client that lost its scheduler cancels its reconnect, which Dask logs at
+    ERROR with 30 lines of traceback, then "Failed to reconnect to scheduler after 30.00
+    seconds": both came above the run's own error (a corpus QA run of stop 55). Any other
+    record of Dask's client still gets through."""
+    import asyncio
+    import logging
+
+    from mpz.corpus import _quiet_dask_logs
+    _quiet_dask_logs()
+    _quiet_dask_logs()                                 # installed once
+    log = logging.getLogger("distributed.client")
+    assert sum(type(f).__name__ == "_QuietCancelledReconnect" for f in log.filters) == 1
+
+    def passes(msg: str, exc: BaseException | None = None) -> bool:
+        record = log.makeRecord(log.name, logging.ERROR, __file__, 1, msg, (),
+                                None if exc is None else (type(exc), exc, None))
+        return bool(log.filter(record))
+    assert not passes("", asyncio.CancelledError())
+    assert not passes("Failed to reconnect to scheduler after %.2f seconds, closing client")
+    assert passes("", ConnectionRefusedError(111, "Connection refused"))
+    assert passes("Close client connection: Client side")
 
 
 def test_local_workers_that_cannot_start_fail_the_run_with_dask_s_reason(corpus, monkeypatch):

@@ -39,6 +39,7 @@ not.
 """
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from concurrent.futures import CancelledError
 import contextlib
@@ -83,8 +84,8 @@ if TYPE_CHECKING:
     from mpz.motion import Motion
 
 __all__ = ["INDEX_NAME", "NO_SUMMARY", "SCHEMA", "META_FINGERPRINT", "META_SHA256",
-           "FileOptions", "FileResult",
-           "CorpusReport", "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint",
+           "FileOptions", "FileResult", "CorpusReport", "CorpusStopped",
+           "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint",
            "mirror_jobs", "open_index", "sha256_file", "sweep_temporaries",
            "DEFAULT_MEMORY_LIMIT"]
 
@@ -290,7 +291,7 @@ class FileOptions(Protocol):
     A file's fingerprint (:func:`fingerprint`) is that of ``options(units)`` and
     ``key(source, own_units)``, computed without opening the file (the up-to-date check,
     with the units of the output the index records, tried both with and without a unit of
-    the source's own: :func:`_up_to_date`); ``key`` must therefore name every input of
+    the source's own: :func:`_stale`); ``key`` must therefore name every input of
     ``prepare`` that ``options`` does not show, and ``options`` must depend on the units
     alone (it is called more than once for a file: in the up-to-date check, and on the
     worker).
@@ -1301,6 +1302,15 @@ class CorpusReport:
     #: what the run did to the index itself: rows rebuilt for a new descriptor version or
     #: because they were damaged
     index_notes: list[str] = field(default_factory=list)
+    #: files that had an index row and were encoded again, by the reason (a key of
+    #: :data:`AGAIN`): a changed ``--max-error`` encoded a whole folder again with no word
+    #: (a corpus QA run of stop 55)
+    encoded_again: dict[str, list[str]] = field(default_factory=dict)
+    #: why the run stopped before every file was done ("" when it did not stop):
+    #: :class:`CorpusStopped` carries such a report
+    stopped: str = ""
+    #: ``(source, source bytes)`` of the files the stopped run did not get to
+    not_run: list[tuple[str, int]] = field(default_factory=list)
 
     def count(self, status: str) -> int:
         return sum(r.status == status for r in self.results)
@@ -1316,7 +1326,9 @@ class CorpusReport:
                 "files": [{k: v for k, v in asdict(r).items() if k not in ("row", "levels")}
                           for r in self.results],
                 "forgotten": self.forgotten, "same_source": self.same_source,
-                "index_notes": self.index_notes}
+                "index_notes": self.index_notes, "encoded_again": self.encoded_again,
+                "stopped": self.stopped or None,
+                "not_run": [source for source, _ in self.not_run]}
 
     def table(self, name: Callable[[str], str] = str) -> str:
         """The summary table: files, bytes in and out per status, and each failure.
@@ -1344,6 +1356,10 @@ class CorpusReport:
             lines.append(f"  {label:<11}{len(rs):>7}{src / 1e6:12.2f}{outs}{ratio}"
                          + (f"  (ratio without the {partial} that drop part of their "
                             "source)" if partial and status != "failed" else ""))
+        if self.not_run:
+            src = sum(b for _, b in self.not_run)
+            lines.append(f"  {'not run':<11}{len(self.not_run):>7}{src / 1e6:12.2f}"
+                         f"{'-':>10}{'-':>8}")
         done = [r for r in self.results if r.status == "encoded"]
         if done and self.seconds > 0:
             mb = sum(r.raw_bytes for r in done) / 1e6
@@ -1368,9 +1384,30 @@ class CorpusReport:
             lines.append(f"  NOTE the same source bytes in {name(', '.join(group))} (a "
                          "source moved or copied: remove the outputs not wanted, and the "
                          "next run forgets their rows)")
+        for why, sources in self.encoded_again.items():
+            n = len(sources)
+            lines.append(f"  NOTE {n} file{'' if n == 1 else 's'} encoded again, "
+                         f"{AGAIN[why]}: {name(_some(sources))}")
         lines += [f"  NOTE {name(note)}" for note in self.index_notes]
+        if self.stopped:
+            n = len(self.not_run)
+            lines.append(f"  STOPPED with {n} file{'' if n == 1 else 's'} not run: "
+                         f"{name(self.stopped)}")
         lines.append(f"  index {name(self.index) if self.index else '(not made)'}")
         return "\n".join(lines)
+
+
+class CorpusStopped(EncoderError):
+    """A corpus run that stopped before every file was done: its cluster was lost, stopped
+    answering or had no worker. The files that finished are written and indexed;
+    ``report`` says which (its :attr:`~CorpusReport.stopped` is the reason, its
+    :attr:`~CorpusReport.not_run` the files left), so that the summary table is printed
+    as at the end of any run (a corpus QA run of stop 55: a scheduler killed mid-run left
+    one error line and no account of what finished)."""
+
+    def __init__(self, message: str, report: CorpusReport) -> None:
+        super().__init__(message)
+        self.report = report
 
 
 # ---------------------------------------------------------------------- driver --
@@ -1415,27 +1452,47 @@ def _key(output: str, index_dir: str) -> str:
     return Path(rel).as_posix()
 
 
-def _up_to_date(row: dict[str, Any] | None, task: Task) -> bool:
-    """The index says the output is current: the fast path that opens nothing."""
-    if row is None or task.force:
-        return False
+#: why a file with an index row is encoded again (:func:`_stale`), as the report says it
+AGAIN = {"options": "as the options differ from their last encode's (--max-error, "
+                    "--summary, --units, a hierarchy, an ASF that changed ...)",
+         "source": "as the source changed (size or time) since the last encode",
+         "output": "as the output was changed or replaced since the index recorded it"}
+
+
+def _stale(row: dict[str, Any] | None, task: Task) -> str | None:
+    """Why the index cannot say that ``task``'s output is current: ``None`` when it can (the
+    fast path that opens nothing); otherwise "new" (no row of this source), "force", or
+    a key of :data:`AGAIN`, the first that applies."""
+    # the row must be this source's: another file of the same size and time at another
+    # path (a second folder into the same output, a moved input folder) was "up to date"
+    # and never archived (an archive team's QA run of stop 50)
+    if row is None or row["path"] != os.path.abspath(task.source):
+        return "new"
+    if task.force:
+        return "force"
     try:
         st = os.stat(task.source)
-        out = os.stat(task.output)
+    except OSError:
+        return "source"               # gone since it was listed: its read fails, and says so
+    if row["source_bytes"] != st.st_size or row["source_mtime_ns"] != st.st_mtime_ns:
+        return "source"
+    try:
         # the index does not say whether the source declares its unit: an output with a
         # unit is up to date under either reading (a source without one got it from the
         # options, which the key then names); one without a unit had none of its own
         fps = {_fingerprint(task, row["units"], own) for own in
                ((False, True) if row["units"] else (False,))}
     except (OSError, MPZError):
-        return False
-    # the row must be this source's: another file of the same size and time at another
-    # path (a second folder into the same output, a moved input folder) was "up to date"
-    # and never archived (an archive team's QA run of stop 50)
-    return (row["path"] == os.path.abspath(task.source)
-            and row["fingerprint"] in fps and row["source_bytes"] == st.st_size
-            and row["source_mtime_ns"] == st.st_mtime_ns and out.st_size == row["total_bytes"]
-            and out.st_mtime_ns >= st.st_mtime_ns)
+        return "options"             # an AMC's ASF gone: its read fails, and says so
+    if row["fingerprint"] not in fps:
+        return "options"
+    try:
+        out = os.stat(task.output)
+    except OSError:
+        return "output"
+    if out.st_size != row["total_bytes"] or out.st_mtime_ns < st.st_mtime_ns:
+        return "output"
+    return None
 
 
 def _said_of_row(row: dict[str, Any]) -> dict[str, Any] | None:
@@ -1564,6 +1621,29 @@ class _QuietLostGather(logging.Filter):
         return type(exc).__name__ != "AllExit"
 
 
+class _QuietCancelledReconnect(logging.Filter):
+    """Drops Dask's words on a cancelled reconnect: a client that lost its scheduler tries
+    to reconnect, and closing it cancels that, which Dask logs at ERROR with a traceback of
+    ConnectionRefusedError and CancelledError (a corpus QA run of stop 55: 30 lines above
+    the run's own error, which says what happened)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        # and its "Failed to reconnect to scheduler after 30.00 seconds, closing client",
+        # logged as the run closes the client (its own error names the lost scheduler)
+        return not (isinstance(exc, asyncio.CancelledError)
+                    or str(record.msg).startswith("Failed to reconnect to scheduler"))
+
+
+def _quiet_dask_logs() -> None:
+    """Install :class:`_QuietLostGather` and :class:`_QuietCancelledReconnect` (once)."""
+    for name, quiet in (("asyncio", _QuietLostGather),
+                        ("distributed.client", _QuietCancelledReconnect)):
+        log = logging.getLogger(name)
+        if not any(isinstance(f, quiet) for f in log.filters):
+            log.addFilter(quiet())
+
+
 @contextlib.contextmanager
 def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | None
                  ) -> Iterator[tuple[Client, str]]:
@@ -1574,9 +1654,6 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
         raise EncoderError("running on Dask needs dask.distributed: pip install "
                            "'mpz[corpus]' (or use workers=0 / --jobs 0 to encode "
                            "without it)") from None
-    asyncio_log = logging.getLogger("asyncio")
-    if not any(isinstance(f, _QuietLostGather) for f in asyncio_log.filters):
-        asyncio_log.addFilter(_QuietLostGather())
     if scheduler is not None:
         client = _connect(Client, scheduler)
         try:
@@ -1935,12 +2012,16 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         for r in early:
             index.put(r, "" if not r.output else _key(r.output, index_dir))
         todo: list[int] = []
+        again: dict[int, str] = {}          # why a file with a row is encoded again
         for i, t in enumerate(tasks):
             row = index.row(t.output_key)
             # a row of an mpz before the _RECORDED columns cannot say its file's warning and
             # notes: such a file is read again
             said = None if row is None or t.output_key in damaged else _said_of_row(row)
-            if t.output_key not in damaged and said is not None and _up_to_date(row, t):
+            why = _stale(row, t) if said is not None else None
+            if why in AGAIN:
+                again[i] = why
+            if said is not None and why is None:
                 assert row is not None
                 finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
                                      row["total_bytes"], row["raw_bytes"], **said))
@@ -1971,36 +2052,73 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         inflight: dict[Future[FileResult], int] = {}
         # no more local workers than files to encode (each costs a process and its memory)
         n_workers = min(n_workers, len(todo))
-        if not todo:
-            cluster = "nothing to do"          # no cluster is started for a no-op run
-        elif n_workers == 0 and scheduler is None and client is None:
-            cluster = "this process, no Dask"
-            for i in todo:       # an interrupted write removes its own temporary file
-                finish(i, encode_file(tasks[i]))
-        elif client is not None:
-            cluster = "given client"
-            n_workers = _run_on(client, tasks, todo, finish, inflight)
-        elif remote is not None:
-            c, cluster = remote
-            n_workers = _run_on(c, tasks, todo, finish, inflight)
-        else:
-            try:
-                with _dask_client(n_workers, scheduler, memory_limit) as (c, cluster):
-                    # a local worker's death is most often its memory limit: say which
-                    # (a scale QA run of stop 51: "over the memory limit?" named none)
-                    limit = memory_limit if memory_limit is not None else DEFAULT_MEMORY_LIMIT
-                    n_workers = _run_on(c, tasks, todo, finish, inflight,
-                                        f"over the workers' memory limit, {limit}? "
-                                        "--memory-limit raises it")
-            finally:
-                # the local workers are gone now: a task killed mid-write left a hidden
-                # temporary file (a remote worker's task finishes or removes its own)
-                if scheduler is None and inflight:
-                    sweep_temporaries([tasks[i].output for i in inflight.values()])
+        # what a report of a run stopped before _dispatch returns names as its cluster
+        cluster = ("given client" if client is not None else remote[1] if remote is not None
+                   else f"LocalCluster, {memory_limit} per worker")
+        try:
+            n_workers, cluster = _dispatch(tasks, todo, finish, inflight, n_workers, client,
+                                           remote, scheduler, memory_limit)
+        except EncoderError as exc:
+            # the run stopped (the cluster lost, silent or without a worker): what finished
+            # is indexed, and the report says so with the files left
+            left = [(tasks[i].source, _size(tasks[i].source))
+                    for i, r in enumerate(results) if r is None]
+            final = [r for r in results if r is not None] + early
+            raise CorpusStopped(exc.message, CorpusReport(
+                final, time.perf_counter() - t0, n_workers, cluster,
+                os.path.join(index_dir, INDEX_NAME), forgotten, [], notes,
+                _again(again, results), stopped=exc.message, not_run=left)) from None
         same = index.same_sources()
     final = [r for r in results if r is not None] + early
     return CorpusReport(final, time.perf_counter() - t0, n_workers, cluster,
-                        os.path.join(index_dir, INDEX_NAME), forgotten, same, notes)
+                        os.path.join(index_dir, INDEX_NAME), forgotten, same, notes,
+                        _again(again, results))
+
+
+def _again(again: Mapping[int, str], results: Sequence[FileResult | None]
+           ) -> dict[str, list[str]]:
+    """The sources that were encoded again, by the reason (:data:`AGAIN`)."""
+    out: dict[str, list[str]] = {}
+    for i, why in again.items():
+        r = results[i]
+        if r is not None and r.status == "encoded":     # kept: the same source bytes
+            out.setdefault(why, []).append(r.source)
+    return {k: out[k] for k in AGAIN if k in out}
+
+
+def _dispatch(tasks: list[Task], todo: list[int], finish: Callable[[int, FileResult], None],
+              inflight: dict[Future[FileResult], int], n_workers: int,
+              client: Client | None, remote: tuple[Client, str] | None,
+              scheduler: str | None, memory_limit: str | int | None) -> tuple[int, str]:
+    """Encode ``todo`` where :func:`encode_corpus` was told to; returns the worker count
+    and the cluster's description for the report."""
+    if not todo:
+        cluster = "nothing to do"          # no cluster is started for a no-op run
+    elif n_workers == 0 and scheduler is None and client is None:
+        cluster = "this process, no Dask"
+        for i in todo:       # an interrupted write removes its own temporary file
+            finish(i, encode_file(tasks[i]))
+    elif client is not None:
+        cluster = "given client"
+        n_workers = _run_on(client, tasks, todo, finish, inflight)
+    elif remote is not None:
+        c, cluster = remote
+        n_workers = _run_on(c, tasks, todo, finish, inflight)
+    else:
+        try:
+            with _dask_client(n_workers, scheduler, memory_limit) as (c, cluster):
+                # a local worker's death is most often its memory limit: say which
+                # (a scale QA run of stop 51: "over the memory limit?" named none)
+                limit = memory_limit if memory_limit is not None else DEFAULT_MEMORY_LIMIT
+                n_workers = _run_on(c, tasks, todo, finish, inflight,
+                                    f"over the workers' memory limit, {limit}? "
+                                    "--memory-limit raises it")
+        finally:
+            # the local workers are gone now: a task killed mid-write left a hidden
+            # temporary file (a remote worker's task finishes or removes its own)
+            if scheduler is None and inflight:
+                sweep_temporaries([tasks[i].output for i in inflight.values()])
+    return n_workers, cluster
 
 
 def _absolute(task: Task) -> Task:
@@ -2022,7 +2140,12 @@ NO_WORKER_SECONDS = 60.0
 def _lost(exc: CancelledError) -> EncoderError:
     """The error of a run whose cluster cancelled its tasks (the scheduler died or the
     connection to it was lost)."""
-    reason = " ".join(str(exc).split())[:300]
+    reason = " ".join(str(exc).split())
+    # Dask's text names every future cancelled ("3 Futures cancelled: Reasons: ...
+    # Futures: ['mpz-encode-21-...', ...]"): its reason is what the user can act on
+    lost = "scheduler-connection-lost" in reason
+    reason = ("the connection to the scheduler was lost: is it still running?" if lost
+              else reason[:300])
     return EncoderError(f"the Dask cluster cancelled the run's tasks ({reason}); the files "
                         "that finished are written and indexed: run the same command again "
                         "to encode the rest")
@@ -2070,6 +2193,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     waiting for ever. ``died`` is the likely cause said of a file whose worker died each
     time it ran it."""
     from distributed import wait
+    _quiet_dask_logs()                  # a given client's too
     pending = iter(todo)
     threads = max(sum(_nthreads(client).values()), 1)
     window = 2 * threads + 1     # queued work stays small: a stop loses little

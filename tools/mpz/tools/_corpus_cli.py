@@ -109,11 +109,20 @@ class _Bar:
         from mpz.tools._common import Progress
         self.bar = Progress("encoding", enabled=None if enabled else False)
         self.failed = 0
+        self.done = 0
+        self.total = 0
 
     def __call__(self, done: int, total: int, r: FileResult) -> None:
         self.failed += r.status == "failed"
+        self.done, self.total = done, total
         bad = f", {self.failed} failed" if self.failed else ""
         self.bar(done / max(total, 1), f"{done}/{total}{bad} {os.path.basename(r.source)}")
+
+    def finished(self, planned: int) -> str:
+        """How many files finished, of the run's (``planned`` until one finished), for the
+        line of an interrupted run."""
+        bad = f", {self.failed} of them failed" if self.failed else ""
+        return f"{self.done} of {_plural(self.total or planned, 'file')} finished{bad}"
 
     def close(self) -> None:
         self.bar.close()
@@ -126,7 +135,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     to the workers, so it must pickle.
     """
     from mpz.api import signals_exit
-    from mpz.corpus import DEFAULT_MEMORY_LIMIT, encode_corpus
+    from mpz.corpus import DEFAULT_MEMORY_LIMIT, CorpusStopped, encode_corpus
     from mpz.tools._cli import EXIT_USAGE, EXIT_WARN, print_json, printable
     from mpz.tools._common import STDIO, is_folder_target
     if not is_folder_target(args.output) or any(j.output == STDIO for j in jobs):
@@ -152,6 +161,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         print(f"mpz encode: note: --memory-limit {memory_limit} changes nothing: {why}",
               file=sys.stderr)
     bar = _Bar(enabled=not quiet and not args.json)
+    stopped: CorpusStopped | None = None
     try:
         # SIGTERM (a batch system's kill, `timeout`, Docker) and SIGHUP end the run as
         # Ctrl-C does: the index goes back to its rollback journal, the lock is removed,
@@ -165,19 +175,27 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
                                    asf=getattr(args, "asf", None),
                                    failed=[(j.input, j.output, j.error) for j in jobs
                                            if j.error is not None])
+    except CorpusStopped as exc:
+        # the cluster was lost or stopped answering: the table of what finished, then
+        # the error (the run's last line)
+        stopped, report = exc, exc.report
+    except KeyboardInterrupt:
+        print(f"mpz encode: {bar.finished(len(planned))} before the interrupt: written and "
+              "indexed; run the same command again to encode the rest", file=sys.stderr)
+        raise
     except SystemExit as exc:
         if exc.code not in (128 + signal.SIGTERM, 128 + getattr(signal, "SIGHUP", 1)):
             raise
-        print(f"mpz encode: terminated (signal {int(exc.code) - 128}): the files that "
-              "finished are written and indexed; run the same command again to encode the "
-              "rest", file=sys.stderr)
+        print(f"mpz encode: terminated (signal {int(exc.code) - 128}): "
+              f"{bar.finished(len(planned))}, written and indexed; run the same command "
+              "again to encode the rest", file=sys.stderr)
         return int(exc.code)
     finally:
         bar.close()
     failed = len(report.failed)
     # a source read with a warning (cut short, a header that disagrees) is "warnings only"
     warned = any(r.warning for r in report.results)
-    code = found(EXIT_ERROR if failed else EXIT_WARN if warned else EXIT_OK)
+    code = found(EXIT_ERROR if failed or stopped else EXIT_WARN if warned else EXIT_OK)
     if args.json:
         doc = report.as_dict()
         doc["planning_errors"] = [{"input": j.input, "reason": j.error}
@@ -193,7 +211,12 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
             if r.warning:
                 print(f"mpz encode: warning: {printable(r.source)}: {printable(r.warning)}",
                       file=sys.stderr)
-    if failed:          # the closing line of a sequential batch, on stderr even with -q
+    if stopped is not None:
+        print(f"mpz encode: error: {printable(str(stopped))}", file=sys.stderr)
+        left = len(report.not_run)
+        print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed - left} "
+              f"done, {failed} failed, {left} not run", file=sys.stderr)
+    elif failed:        # the closing line of a sequential batch, on stderr even with -q
         print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed} done, "
               f"{failed} failed", file=sys.stderr)
     return code
