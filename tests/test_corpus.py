@@ -46,6 +46,7 @@ from mpz.corpus import (
     fingerprint,
     mirror_jobs,
     open_index,
+    output_problem,
     sweep_temporaries,
 )
 from mpz.decoder import read_stream
@@ -255,6 +256,99 @@ def test_a_run_says_why_it_encodes_a_file_again(corpus):
     assert f"NOTE 1 file encoded again, as the source changed (size or time) since the " \
            f"last encode: {paths['walk']}" in table
     assert "NOTE 1 file encoded again, as the output was changed or replaced" in table
+
+
+def _flip_in_place(path: Path, at: float = 0.5) -> None:
+    """Change one byte of ``path``, keeping its size and times (bit rot, as the index's
+    size-and-time check cannot see it)."""
+    st = path.stat()
+    data = bytearray(path.read_bytes())
+    data[int(len(data) * at)] ^= 0x10
+    path.write_bytes(bytes(data))
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
+
+
+@pytest.mark.parametrize("workers", [0, pytest.param(1, marks=needs_dask)])
+def test_verify_finds_a_damaged_output_and_encodes_it_again(corpus, workers):
+    """An output damaged in place, its size and time unchanged, stayed "up to date" for
+    ever (a corpus QA run of stop 55): only --force or touching the source mended it.
+    ``verify`` reads every output the index calls up to date, on the workers; the damaged
+    one is encoded again, with the chunk, offset and § of what failed, the others are
+    counted as verified."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    walk = out / "walk.mpz"
+    _flip_in_place(walk)
+    with pytest.raises(mpz.MPZError):
+        mpz.decode(walk.read_bytes())
+    assert statuses(run_corpus(src, out, workers=workers))["walk"] == "skipped"
+
+    rep = run_corpus(src, out, workers=workers, verify=True)
+    assert statuses(rep) == {"walk": "encoded", "jump": "skipped", "wave": "skipped",
+                             "bad": "failed"}
+    assert rep.verified == 2
+    assert rep.encoded_again == {"damaged": [str(paths["walk"])]}
+    (walk_result,) = [r for r in rep.results if r.source == str(paths["walk"])]
+    assert re.search(r"failed the check of --verify \(chunk \w{4}, offset \d+ .*CRC-32 "
+                     r"mismatch.*§3\.3\)\): encoded again", " ".join(walk_result.notes))
+    mpz.decode(walk.read_bytes())
+    table = rep.table()
+    assert "verified 2 outputs up to date, read whole" in table
+    assert "NOTE 1 file encoded again, as the output failed the check of --verify" in table
+    with open_index(out) as ix:                  # said of that run, not kept in the row
+        assert "--verify" not in (ix.row("walk.mpz")["notes"] or "")
+
+    again = run_corpus(src, out, workers=workers, verify=True)
+    assert (again.verified, again.encoded_again) == (3, {})
+    assert set(statuses(again).values()) == {"skipped", "failed"}
+
+
+def test_verify_leaves_a_damaged_output_whose_source_fails(corpus):
+    """A damaged output whose source no longer reads (same size and time, other bytes) is
+    not replaced: the failure says both."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    _flip_in_place(out / "walk.mpz")
+    _flip_in_place(paths["walk"], at=0.02)        # the TRC's header, made unreadable
+    rep = run_corpus(src, out, verify=True)
+    (walk,) = [r for r in rep.failed if r.source == str(paths["walk"])]
+    assert walk.reason.endswith("and is left as it is")
+    assert "its output failed the check of --verify (chunk" in walk.reason
+    assert rep.encoded_again == {}
+
+
+def test_mpz_encode_verify(corpus, tmp_path, capsys):
+    """``mpz encode -r --verify``: the damaged output is encoded again and said; a note
+    where --verify has nothing to do (one file; with --force)."""
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    argv = ["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0", "--max-error", "1mm"]
+    assert mpz_cli.main([*argv, "-q"]) == 2                              # bad.trc
+    capsys.readouterr()
+    _flip_in_place(out / "wave.mpz")                 # -r without --mirror: one folder
+    assert mpz_cli.main([*argv, "--verify", "--json"]) == 2
+    doc = json.loads(capsys.readouterr().out)
+    assert (doc["verified"], doc["encoded_again"]) == (2, {"damaged": [str(paths["wave"])]})
+    assert mpz_cli.main([*argv, "--verify", "--force", "-q"]) == 2
+    assert "--verify changes nothing with --force" not in capsys.readouterr().err   # -q
+    assert mpz_cli.main([*argv, "--verify", "--force"]) == 2
+    assert "note: --verify changes nothing with --force" in capsys.readouterr().err
+    assert mpz_cli.main(["encode", str(paths["walk"]), "-o", str(tmp_path / "w.mpz"),
+                         "--verify"]) == 0
+    assert "note: --verify changes nothing: it checks the outputs of a corpus run" in \
+        capsys.readouterr().err
+
+
+def test_output_problem_names_what_does_not_match_the_row(corpus):
+    src, out, _ = corpus
+    run_corpus(src, out)
+    with open_index(out) as ix:
+        row = ix.row("walk.mpz")
+    path = str(out / "walk.mpz")
+    assert output_problem(path, row["fingerprint"], row["source_sha256"]) == ""
+    assert "another source" in output_problem(path, row["fingerprint"], "0" * 64)
+    assert "other options" in output_problem(path, "0" * 64, row["source_sha256"])
+    assert output_problem(str(out / "gone.mpz"), "", "").startswith("cannot be read: ")
 
 
 def test_a_source_dated_in_the_future_is_up_to_date_on_the_next_run(corpus):

@@ -222,6 +222,29 @@ def test_scan_reports_errors_without_raising():
         container.parse(huge)
 
 
+def test_scan_loads_only_the_types_asked_for_and_checks_every_crc():
+    """``load``: the records of those types alone (a corpus --verify reads the meta); every
+    frame and CRC is still checked, and a payload not loaded is not judged."""
+    import mpz
+    from mpz.synth import generate
+    data = mpz.encode(generate("walk", frames=40, markers=6, seed=1), max_error=1.0,
+                      metadata={"k": "v"})
+    every = container.scan(data)
+    some = container.scan(data, load=("meta",))
+    assert not every.errors and not some.errors and some.complete
+    assert [c.type for c in some.chunks] == [c.type for c in every.chunks]
+    assert {c.type for c in some.chunks if c.record is not None} == {"meta"}
+    assert [c.record for c in some.chunks if c.type == "meta"] == \
+        [c.record for c in every.chunks if c.type == "meta"]
+    qunt = next(c for c in every.chunks if c.type == "QUNT")
+    bad = bytearray(data)
+    bad[qunt.payload_offset] ^= 0x01                 # its CRC no longer holds
+    assert isinstance(container.scan(bytes(bad), load=()).errors[0], ChecksumError)
+    # the same change with the CRC mended: a payload that is not loaded is not read
+    mended = container.repair_crcs(bytes(bad))
+    assert not container.scan(mended, load=()).errors
+
+
 @settings(max_examples=80, deadline=None)
 @given(st.binary(max_size=64), st.sampled_from(["meta", "zzzz"]))
 def test_chunk_roundtrip_property(payload, ctype):

@@ -18,7 +18,9 @@ is the summary table of ``mpz encode -r``).
   newer than the source. Otherwise a worker looks at the output: one that carries the
   same fingerprint and the sha256 of the same source (its ``meta`` chunk, keys
   :data:`META_FINGERPRINT` and :data:`META_SHA256`) and is newer than the source is
-  *kept*: only its row is rebuilt. Anything else is encoded again.
+  *kept*: only its row is rebuilt. Anything else is encoded again, and the report says
+  why (:data:`AGAIN`). With ``verify``, an output up to date by the index is read whole
+  and checked on a worker first (:func:`output_problem`), and encoded again if damaged.
 * **Resumable.** Outputs are written through :func:`mpz.api.atomic_output`, so an output
   exists complete or not at all, and the index commits each row as its file finishes.
   After a crash, a kill or Ctrl-C, the next run skips what was done; hidden temporary files
@@ -85,7 +87,7 @@ if TYPE_CHECKING:
 
 __all__ = ["INDEX_NAME", "NO_SUMMARY", "SCHEMA", "META_FINGERPRINT", "META_SHA256",
            "FileOptions", "FileResult", "CorpusReport", "CorpusStopped",
-           "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint",
+           "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint", "output_problem",
            "mirror_jobs", "open_index", "sha256_file", "sweep_temporaries",
            "DEFAULT_MEMORY_LIMIT"]
 
@@ -415,6 +417,10 @@ class Task:
     #: the source the index row of ``output`` names (absolute), None without a row: an
     #: output that holds another source's bytes is not replaced without ``force``
     indexed_path: str | None = None
+    #: ``(fingerprint, source sha256)`` of an index row that says the output is up to date,
+    #: with ``verify``: the output is read whole and checked first (:func:`output_problem`);
+    #: a sound one is ``skipped``, a damaged one encoded again
+    verify: tuple[str, str] | None = None
 
 
 @dataclass
@@ -620,6 +626,13 @@ def encode_file(task: Task) -> FileResult:
     _one_numba_thread()
     t0, c0 = time.perf_counter(), time.process_time()
     src_bytes = 0
+    damage = ""
+    if task.verify is not None:
+        damage = output_problem(task.output, *task.verify)
+        if not damage:               # sound: the driver reports it from its index row
+            return FileResult(task.source, task.output, "skipped",
+                              seconds=time.perf_counter() - t0, worker_peak_rss=_peak_rss())
+        damage = f"its output failed the check of --verify ({damage})"
     try:
         st = os.stat(task.source)
         src_bytes = st.st_size
@@ -672,12 +685,12 @@ def encode_file(task: Task) -> FileResult:
                 os.remove(task.output)
             raise AssertionError(f"the encoder wrote a file that its decoder refuses: "
                                  f"{exc} ({task.source}); the output was removed") from None
-    except (MPZError, OSError) as exc:
-        return FileResult(task.source, task.output, "failed", _reason(exc, task.source),
-                          src_bytes,
-                          seconds=time.perf_counter() - t0, worker_peak_rss=_peak_rss())
-    except MemoryError:
-        return FileResult(task.source, task.output, "failed", "out of memory", src_bytes,
+    except (MPZError, OSError, MemoryError) as exc:
+        reason = ("out of memory" if isinstance(exc, MemoryError) else
+                  _reason(exc, task.source))
+        if damage:
+            reason += f"; {damage}, and is left as it is"
+        return FileResult(task.source, task.output, "failed", reason, src_bytes,
                           seconds=time.perf_counter() - t0, worker_peak_rss=_peak_rss())
     row["seconds"] = seconds = time.perf_counter() - t0
     row["cpu_seconds"] = cpu = time.process_time() - c0
@@ -689,8 +702,35 @@ def encode_file(task: Task) -> FileResult:
     warning = "; ".join(w for w in (warning, row["warning"]) if w)
     row.update(warning=warning, not_kept=json.dumps(dropped), notes=json.dumps(notes))
     return FileResult(task.source, task.output, status, "", src_bytes, len(data),
-                      row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(), notes,
-                      dropped, warning)
+                      row["raw_bytes"], seconds, cpu, row, levels, _peak_rss(),
+                      # said of this run alone, not kept in the row's notes
+                      [*notes, f"{damage}: "
+                       f"{'encoded again' if status == 'encoded' else 'its row rebuilt'}"]
+                      if damage else notes, dropped, warning)
+
+
+def output_problem(output: str, fingerprint: str, sha256: str) -> str:
+    """What is wrong with a corpus output that its index row says is up to date, "" when
+    nothing: it is read whole and must have the signature, every chunk's frame and CRC-32
+    and the MEND chunk of spec §3 (:func:`mpz.container.scan`, which loads the ``meta``
+    chunk alone: the samples and the other payloads were checked when the file was
+    written, by decoding it), and its meta must name the row's ``fingerprint`` and source
+    ``sha256``. Bit rot, a bad copy or another file of the same size and time passes the
+    index's size-and-time check; not this one."""
+    from mpz.chunks.core import Meta
+    from mpz.container import scan
+    try:
+        data = Path(output).read_bytes()
+    except OSError as exc:
+        return f"cannot be read: {exc.strerror or exc}"
+    found = scan(data, keep_unknown=False, load=("meta",))
+    if found.errors:
+        return str(found.errors[0])
+    meta = [c.record for c in found.chunks if c.type == "meta"]
+    items = meta[0].as_dict() if len(meta) == 1 and isinstance(meta[0], Meta) else {}
+    if items.get(META_FINGERPRINT) != fingerprint or items.get(META_SHA256) != sha256:
+        return "its meta chunk names other options or another source than its index row"
+    return ""
 
 
 def _fingerprint(task: Task, units: str, own_units: bool) -> str:
@@ -1306,6 +1346,8 @@ class CorpusReport:
     #: :data:`AGAIN`): a changed ``--max-error`` encoded a whole folder again with no word
     #: (a corpus QA run of stop 55)
     encoded_again: dict[str, list[str]] = field(default_factory=dict)
+    #: outputs read whole and found sound by ``verify`` (they are among the ``skipped``)
+    verified: int = 0
     #: why the run stopped before every file was done ("" when it did not stop):
     #: :class:`CorpusStopped` carries such a report
     stopped: str = ""
@@ -1327,6 +1369,7 @@ class CorpusReport:
                           for r in self.results],
                 "forgotten": self.forgotten, "same_source": self.same_source,
                 "index_notes": self.index_notes, "encoded_again": self.encoded_again,
+                "verified": self.verified,
                 "stopped": self.stopped or None,
                 "not_run": [source for source, _ in self.not_run]}
 
@@ -1360,6 +1403,10 @@ class CorpusReport:
             src = sum(b for _, b in self.not_run)
             lines.append(f"  {'not run':<11}{len(self.not_run):>7}{src / 1e6:12.2f}"
                          f"{'-':>10}{'-':>8}")
+        if self.verified:
+            lines.append(f"  verified {self.verified} output{'s' * (self.verified != 1)} up "
+                         "to date, read whole: every chunk's frame and CRC hold, and the "
+                         "meta names the indexed source (--verify)")
         done = [r for r in self.results if r.status == "encoded"]
         if done and self.seconds > 0:
             mb = sum(r.raw_bytes for r in done) / 1e6
@@ -1456,7 +1503,8 @@ def _key(output: str, index_dir: str) -> str:
 AGAIN = {"options": "as the options differ from their last encode's (--max-error, "
                     "--summary, --units, a hierarchy, an ASF that changed ...)",
          "source": "as the source changed (size or time) since the last encode",
-         "output": "as the output was changed or replaced since the index recorded it"}
+         "output": "as the output was changed or replaced since the index recorded it",
+         "damaged": "as the output failed the check of --verify (its NOTE says how)"}
 
 
 def _stale(row: dict[str, Any] | None, task: Task) -> str | None:
@@ -1870,7 +1918,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                   memory_limit: str | int | None = DEFAULT_MEMORY_LIMIT, force: bool = False,
                   progress: Progress | None = None,
                   asf: str | os.PathLike[str] | None = None,
-                  failed: Sequence[tuple[str, str | None, str]] = ()) -> CorpusReport:
+                  failed: Sequence[tuple[str, str | None, str]] = (),
+                  verify: bool = False) -> CorpusReport:
     """Encode ``(source, output)`` pairs in parallel and index them in ``outdir``.
 
     Parameters
@@ -1908,6 +1957,11 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         Inputs that failed before they could be planned (a repeated output, an input that
         cannot be read): reported and recorded in the index's ``failures`` table as the
         other failures are, so that every count agrees.
+    verify : bool
+        Read whole every output that the index says is up to date, on the workers, and
+        check it (:func:`output_problem`: every chunk's frame and CRC, and its meta
+        against its row); a damaged one is encoded again, and said. Without it,
+        up to date is the index's word (size and times) and no output is opened.
 
     Returns
     -------
@@ -1999,10 +2053,14 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                          "the index to rebuild it")
         index.set_info({"levels": ",".join(map(str, levels)),
                         "exact_max_frames": str(EXACT_MAX_FRAMES)})
-        done = 0
+        done = verified = 0
+        sound: dict[int, FileResult] = {}    # with verify: the report of each, if sound
 
         def finish(i: int, r: FileResult) -> None:
-            nonlocal done
+            nonlocal done, verified
+            if r.status == "skipped" and i in sound:
+                r = sound.pop(i)             # checked by its worker, and sound
+                verified += 1
             results[i] = r
             index.put(r, tasks[i].output_key)
             done += 1
@@ -2023,8 +2081,16 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                 again[i] = why
             if said is not None and why is None:
                 assert row is not None
-                finish(i, FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
-                                     row["total_bytes"], row["raw_bytes"], **said))
+                skipped = FileResult(t.source, t.output, "skipped", "", row["source_bytes"],
+                                     row["total_bytes"], row["raw_bytes"], **said)
+                if not verify:
+                    finish(i, skipped)
+                    continue
+                sound[i] = skipped
+                again[i] = "damaged"
+                tasks[i] = replace(t, indexed=True, indexed_path=row["path"],
+                                   verify=(row["fingerprint"], row["source_sha256"]))
+                todo.append(i)
             else:
                 path = None if row is None else row["path"]
                 tasks[i] = replace(t, indexed=row is not None,
@@ -2067,12 +2133,13 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             raise CorpusStopped(exc.message, CorpusReport(
                 final, time.perf_counter() - t0, n_workers, cluster,
                 os.path.join(index_dir, INDEX_NAME), forgotten, [], notes,
-                _again(again, results), stopped=exc.message, not_run=left)) from None
+                _again(again, results), verified, stopped=exc.message,
+                not_run=left)) from None
         same = index.same_sources()
     final = [r for r in results if r is not None] + early
     return CorpusReport(final, time.perf_counter() - t0, n_workers, cluster,
                         os.path.join(index_dir, INDEX_NAME), forgotten, same, notes,
-                        _again(again, results))
+                        _again(again, results), verified)
 
 
 def _again(again: Mapping[int, str], results: Sequence[FileResult | None]

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
 
 def add_corpus_options(p: argparse.ArgumentParser) -> None:
-    """``--jobs``, ``--scheduler`` and ``--memory-limit`` on ``mpz encode``."""
+    """``--jobs``, ``--scheduler``, ``--memory-limit`` and ``--verify`` on ``mpz encode``."""
     from mpz.corpus import DEFAULT_MEMORY_LIMIT
     p.add_argument("-j", "--jobs", type=count, metavar="N",
                    help="encode several files in parallel on N Dask worker processes "
@@ -44,6 +44,11 @@ def add_corpus_options(p: argparse.ArgumentParser) -> None:
                    f"(default {DEFAULT_MEMORY_LIMIT}); a worker needs about 200 MB to start. "
                    "Unused (with a note) by --scheduler, whose workers have their own, by "
                    "--jobs 0 and by an encode that is not a corpus run")
+    p.add_argument("--verify", action="store_true",
+                   help="corpus runs: read whole every output that the index says is up to "
+                   "date and check it (every chunk's frame and CRC, its meta against the "
+                   "index), on the workers; encode a damaged one again. Without "
+                   "it, up to date is the index's word (sizes and times)")
 
 
 def _scheduler(text: str) -> str:
@@ -160,6 +165,10 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
                if scheduler else "--jobs 0 encodes in this process")
         print(f"mpz encode: note: --memory-limit {memory_limit} changes nothing: {why}",
               file=sys.stderr)
+    verify = bool(getattr(args, "verify", False))
+    if verify and getattr(args, "force", False) and not quiet:
+        print("mpz encode: note: --verify changes nothing with --force, which encodes "
+              "every file again", file=sys.stderr)
     bar = _Bar(enabled=not quiet and not args.json)
     stopped: CorpusStopped | None = None
     try:
@@ -174,7 +183,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
                                    force=bool(getattr(args, "force", False)), progress=bar,
                                    asf=getattr(args, "asf", None),
                                    failed=[(j.input, j.output, j.error) for j in jobs
-                                           if j.error is not None])
+                                           if j.error is not None], verify=verify)
     except CorpusStopped as exc:
         # the cluster was lost or stopped answering: the table of what finished, then
         # the error (the run's last line)

@@ -359,6 +359,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"mpz encode: note: --memory-limit {args.memory_limit} changes nothing: it "
               "limits the Dask workers of a corpus run (several inputs or -r into "
               "-o FOLDER/, or --jobs N)", file=sys.stderr)
+    if args.verify and not args.quiet:
+        print("mpz encode: note: --verify changes nothing: it checks the outputs of a "
+              "corpus run (several inputs or -r into -o FOLDER/, or --jobs N), which an "
+              "index says are up to date", file=sys.stderr)
     data_on_stdout = any(j.output == STDIO for j in jobs)
     report = sys.stderr if data_on_stdout else sys.stdout
     results: list[dict] = []
