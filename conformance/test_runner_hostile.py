@@ -160,6 +160,27 @@ def test_relative_paths_in_the_command_are_found(tmp_path):
     assert all(r["passed"] for r in doc["results"])
 
 
+def test_an_argument_made_absolute_is_said_and_as_given_keeps_it(tmp_path):
+    """An argument that happens to name a folder where the runner runs ("fast", a mode of
+    the decoder) was made absolute without a word (a conformance QA run of stop 55): a
+    note names each one, and --as-given passes them as written."""
+    (tmp_path / "fast").mkdir()
+    seen = tmp_path / "seen.txt"
+    decoder(tmp_path, f"open({str(seen)!r}, 'w').write(sys.argv[1])")
+    proc, doc = run(tmp_path, "--decoder", f"{PY} dec.py fast", "--only", ONE)
+    assert proc.returncode == 0 and doc["results"][0]["passed"], proc.stdout + proc.stderr
+    assert seen.read_text() == str(tmp_path / "fast")
+    assert (f"note: arguments that name a file or folder here are given as absolute paths "
+            f"(the command runs in a temporary directory): dec.py -> {tmp_path / 'dec.py'}, "
+            f"fast -> {tmp_path / 'fast'}; --as-given leaves them as written") in proc.stderr
+    proc, doc = run(tmp_path, "--decoder", f"{PY} {tmp_path / 'dec.py'} fast", "--only", ONE,
+                    "--as-given")
+    assert proc.returncode == 0 and doc["results"][0]["passed"], proc.stdout + proc.stderr
+    assert seen.read_text() == "fast" and "note: arguments" not in proc.stderr
+    proc, _ = run(tmp_path, "--decoder", f"{PY} dec.py fast", "--only", ONE, "-q")
+    assert proc.returncode == 0 and "note: arguments" not in proc.stderr
+
+
 def test_what_the_decoder_prints_on_stdout_is_kept(tmp_path):
     """A JVM that cannot start under the memory limit says why on stdout, which was
     thrown away."""
