@@ -95,7 +95,8 @@ def test_meta_keeps_a_value_with_equals_signs_and_names_reader_keys(tmp_path):
     assert p.returncode == 0 and "--meta subject: a key the readers set" in p.stdout  # summary
 
 
-@pytest.mark.parametrize("meta", [["format=bvh"], ["source=x.c3d"], ["a=1", "a=2"]])
+@pytest.mark.parametrize("meta", [["format=bvh"], ["source=x.c3d"], ["a=1", "a=2"],
+                                  ["trc.Decimals=1"], ["csv.FirstFrame=99"]])
 def test_meta_that_would_misdescribe_the_file_is_a_usage_error(tmp_path, meta):
     """QA (stop 45): --meta format=bvh was kept with a note, and every later mpz decode of
     the file tried to write BVH and failed; a key given twice kept its last value."""

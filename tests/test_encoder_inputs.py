@@ -335,12 +335,15 @@ def test_metadata_beyond_the_limits_is_refused_not_cut(meta, match):
     assert mpz.decode(mpz.encode(m, max_error=1.0, metadata=ok)).metadata["k" * 255] == "v" * 65535
 
 
-@pytest.mark.parametrize("key", ["format", "units_in_file", "channels"])
+@pytest.mark.parametrize("key", ["format", "units_in_file", "channels", "trc.Decimals",
+                                 "trc.FirstFrame", "csv.FirstFrame"])
 def test_metadata_keys_the_readers_set_are_refused_as_by_the_cli(key, tmp_path):
     """A QA run of stop 48: mpz.encode(metadata={"format": "bvh"}) was taken (the CLI's
     --meta format=bvh is refused), and `mpz decode` of the file could not name its output.
     "subject" describes a person and "source" names the file (mpz decode names its output
-    by it): both stay allowed; a reader's own keys still go in."""
+    by it): both stay allowed; a reader's own keys still go in. So do a TRC's and a CSV's
+    header fields (stop 54's list: metadata={"trc.Decimals": "1"} replaced the source's
+    own, and its TRC was written back with one decimal)."""
     m = generate("walk", frames=20, seed=1)
     with pytest.raises(EncoderError, match=f"metadata '{key}': a key the readers set"):
         mpz.encode(m, max_error=1.0, metadata={key: "bvh"})

@@ -198,8 +198,9 @@ class EncodeOptions:
     #: "smry" the raw 1.0 chunk (§4.10) for readers that know only 1.0
     summary_format: str = "smrc"
     #: extra §4.11 metadata, added to ``motion.metadata``; not the keys the readers set to
-    #: describe their file (``mpz.io.READER_KEYS``: ``format`` ...), but for ``subject``
-    #: and ``source`` (:func:`reader_key`)
+    #: describe their file (``mpz.io.READER_KEYS``: ``format`` ...; ``mpz.io.
+    #: READER_PREFIXES``: ``trc.Decimals`` ...), but for ``subject`` and ``source``
+    #: (:func:`reader_key`)
     metadata: Mapping[str, str] = field(default_factory=dict)
     #: seed of the clustering (the encoder is deterministic)
     seed: int = 0
@@ -495,9 +496,13 @@ def reader_key(key: str) -> bool:
     """Whether ``key`` is one the readers set to describe the file they read and the tools
     go by (``format`` picks ``mpz decode``'s writer): refused in ``metadata`` (the CLI's
     ``--meta``), since a file claiming ``format=bvh`` could not be decoded by name (a QA
-    run of stop 48: the API took it, the CLI refused it), except :data:`OWN_METADATA_KEYS`."""
-    from mpz.io import READER_KEYS
-    return key in READER_KEYS and key not in OWN_METADATA_KEYS
+    run of stop 48: the API took it, the CLI refused it), except :data:`OWN_METADATA_KEYS`;
+    and the header fields a text reader keeps (:data:`mpz.io.READER_PREFIXES`)."""
+    from mpz.io import READER_KEYS, READER_PREFIXES
+    # a TRC's or CSV's header fields too: `--meta trc.Decimals=1` replaced the source's
+    # own value, and its TRC was written back with one decimal (stop 54's list)
+    return (key in READER_KEYS and key not in OWN_METADATA_KEYS
+            or key.startswith(READER_PREFIXES))
 
 
 def _consistent(motion: Motion) -> None:

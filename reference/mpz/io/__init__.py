@@ -217,6 +217,9 @@ READER_KEYS = frozenset({
     "frame_time",
     "channels", "joints", "end_sites", "mm_per_unit", "rate_assumed", "subject",
     "renamed_points", "processor", "model_outputs", "asf_length_unit", "skeleton", "asf"})
+#: the namespaces of the header fields a text reader keeps for its writer (``trc.Decimals``,
+#: ``trc.FirstFrame``, ``csv.FirstFrame``): set from the file read, like READER_KEYS
+READER_PREFIXES = ("trc.", "csv.")
 
 
 def write(motion: Motion, path: StrPath, *, file_name: str | None = None,
@@ -982,4 +985,5 @@ __all__ = ["read", "write", "READERS", "WRITERS", "FORMAT_NAMES", "SKELETON_FORM
            "read_c3d", "write_c3d", "read_trc", "write_trc", "read_bvh",
            "read_amc", "read_asf", "find_asf", "read_npy", "write_npy",
            "read_csv", "write_csv", "detect_format", "read_bytes", "check_writable",
-           "writer_problems", "rounding_notes", "READER_KEYS", "READ_BACK_NOTE"]
+           "writer_problems", "rounding_notes", "READER_KEYS", "READER_PREFIXES",
+           "READ_BACK_NOTE"]

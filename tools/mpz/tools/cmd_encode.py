@@ -137,8 +137,8 @@ def add_parser(sub):
                    "raw 1.0 chunk, for readers that know only MPZ 1.0 (several times larger)")
     p.add_argument("--meta", action="append", metavar="KEY=VALUE",
                    help="metadata (repeatable, each key once; split at the first '=': a "
-                   "value may hold more); not the keys the readers set (format, source...), "
-                   "but subject")
+                   "value may hold more); not the keys the readers set (format, source, "
+                   "trc.*, csv.* ...), but subject")
     p.add_argument("--threads", type=int, metavar="N", default=D.threads,
                    help="threads within each file, 1..64 (default: the CPU count, at most 2, and 1 "
                    "below 10,000 marker-frames); the output is the same for any N")
