@@ -186,7 +186,7 @@ def test_lost_index_row_is_rebuilt_without_encoding(corpus):
     with open_index(out) as ix:
         again = ix.row("walk.mpz")
     assert again is not None
-    volatile = {"encoded_at", "seconds", "cpu_seconds"}
+    volatile = {"encoded_at", "seconds", "cpu_seconds", "row_sha256"}   # (sums them too)
     assert {k: v for k, v in again.items() if k not in volatile} == \
         {k: v for k, v in full["walk.mpz"].items() if k not in volatile}
 
@@ -499,14 +499,15 @@ def test_a_rerun_says_again_what_the_first_run_said_of_each_file(corpus, capsys)
 
 
 def _drop_recorded_columns(index: Path) -> None:
-    """Make ``index`` as an mpz before the warning, not_kept and notes columns wrote it:
-    the same tables without them (mpz.corpus.SCHEMA as it was), the rows copied over."""
+    """Make ``index`` as an mpz before the warning, not_kept and notes columns wrote it
+    (and the row_sha256 after them): the same tables without them (mpz.corpus.SCHEMA as
+    it was), the rows copied over."""
     import sqlite3
 
     from mpz.corpus import SCHEMA
-    old_schema, n = re.subn(r",( +--[^\n]*\n) *-- said of the file.*?\n *notes +TEXT[^\n]*\n",
+    old_schema, n = re.subn(r",( +--[^\n]*\n) *-- said of the file.*?\n *row_sha256 +TEXT\n",
                             r"\1", SCHEMA, flags=re.S)
-    assert n == 1 and "not_kept" not in old_schema
+    assert n == 1 and "not_kept" not in old_schema and "row_sha256" not in old_schema
     old = index.with_name("old.sqlite")
     db = sqlite3.connect(old)
     db.executescript(old_schema)

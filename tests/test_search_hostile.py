@@ -7,6 +7,7 @@ motion, a marker left out of the summary), not copied from the code's output.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 from pathlib import Path
@@ -391,6 +392,15 @@ def test_query_errors_name_the_file_and_the_option(corpus, tmp_path, capsys):
     # the disk were locked or full, and never rebuilt (a review of stop 53)
     "UPDATE files SET path = CAST(x'ff41' AS TEXT) WHERE output = 'walk.mpz'",
     "UPDATE files SET warning = CAST(x'ff41' AS TEXT) WHERE output = 'walk.mpz'",
+    # values changed in place, each still of its kind: they passed every check, and search
+    # ranked from the changed descriptor (a corpus QA run of stop 55); row_sha256 finds them
+    "UPDATE files SET descriptor = CAST((CASE WHEN substr(descriptor, 1, 1) = x'00' THEN "
+    "x'01' ELSE x'00' END) || substr(descriptor, 2) AS BLOB) WHERE output = 'walk.mpz'",
+    "UPDATE files SET source_sha256 = (CASE WHEN substr(source_sha256, 1, 1) = '0' THEN '1' "
+    "ELSE '0' END) || substr(source_sha256, 2) WHERE output = 'walk.mpz'",
+    "UPDATE files SET frames = frames + 1 WHERE output = 'walk.mpz'",
+    "UPDATE files SET ratio = ratio * 2 WHERE output = 'walk.mpz'",
+    "UPDATE files SET notes = '[\"x\"]' WHERE output = 'walk.mpz'",
 ])
 def test_damaged_rows_are_refused_by_search_and_rebuilt_by_a_run(corpus, capsys, damage):
     """D9: a NaN descriptor and a summary cut short passed encode -r as up to date (exit
@@ -408,6 +418,26 @@ def test_damaged_rows_are_refused_by_search_and_rebuilt_by_a_run(corpus, capsys,
     code, o, _ = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
     top = json.loads(o)["results"][0]
     assert code == 0 and top["output"] == "walk.mpz" and top["distance"] == 0.0
+
+
+def test_a_row_without_a_checksum_is_read_unchecked(corpus, capsys):
+    """A row of an mpz before row_sha256 (NULL there) is read as it is: search ranks it
+    and a run leaves it up to date; a row written again gets its checksum."""
+    from mpz.corpus import row_digest
+    src, out, paths = corpus
+    run_corpus(src, out)
+    change_index(out, "UPDATE files SET row_sha256 = NULL")
+    change_index(out, "UPDATE files SET ratio = ratio * 2 WHERE output = 'jump.mpz'")
+    code, o, _ = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
+    assert code == 0 and json.loads(o)["results"][0]["output"] == "walk.mpz"
+    assert set(statuses(run_corpus(src, out)).values()) == {"skipped"}
+    (out / "walk.mpz").unlink()
+    assert statuses(run_corpus(src, out))["walk"] == "encoded"
+    with contextlib.closing(open_index(out)) as ix:
+        sums = {r["output"]: r.values["row_sha256"] for r in ix.rows()}
+        walk = ix.row("walk.mpz")
+    assert sums["jump.mpz"] is None and sums["walk.mpz"] == row_digest(walk)
+    assert len(sums["walk.mpz"]) == 64
 
 
 def test_one_file_and_one_moved_source_are_said_in_the_singular(tmp_path, capsys):

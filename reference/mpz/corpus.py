@@ -88,6 +88,7 @@ if TYPE_CHECKING:
 __all__ = ["INDEX_NAME", "NO_SUMMARY", "SCHEMA", "META_FINGERPRINT", "META_SHA256",
            "FileOptions", "FileResult", "CorpusReport", "CorpusStopped",
            "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint", "output_problem",
+           "row_digest",
            "mirror_jobs", "open_index", "sha256_file", "sweep_temporaries",
            "DEFAULT_MEMORY_LIMIT"]
 
@@ -153,7 +154,10 @@ CREATE TABLE IF NOT EXISTS files (
     -- date; NULL in a row written by an mpz before these columns (_RECORDED)
     warning         TEXT,              -- the reader's warning about the source; '' none
     not_kept        TEXT,              -- JSON list: what the output does not keep of it
-    notes           TEXT               -- JSON list: the options' notes on the file
+    notes           TEXT,              -- JSON list: the options' notes on the file
+    -- sha256 of every column above as written (mpz.corpus.row_digest), so that a value
+    -- changed in place is found; NULL in a row written by an mpz before it (unchecked)
+    row_sha256      TEXT
 );
 CREATE INDEX IF NOT EXISTS files_sha256 ON files(source_sha256);
 CREATE TABLE IF NOT EXISTS levels (
@@ -183,6 +187,11 @@ _FILE_COLUMNS = ("output", "path", "source_sha256", "source_bytes", "source_mtim
 #: gets them (ALTER TABLE, NULL in its rows) when a run opens it for writing, and a row
 #: whose value is NULL is read again from its source by the next run (status kept)
 _RECORDED = ("warning", "not_kept", "notes")
+#: the column of a row's checksum (:func:`row_digest`): SQLite keeps no checksums, and a
+#: byte changed inside a stored value (a descriptor, a sha256) passed every check and
+#: ranked a search from it (a corpus QA run of stop 55). Added to an older index as
+#: _RECORDED are; NULL in its rows, which are not checked until a run writes them again
+_CHECKSUM = "row_sha256"
 
 #: what each column of a ``files`` row may hold, checked as rows are read: SQLite keeps any
 #: value in any column, and a row changed by another program (a text in ``frames``, a BLOB
@@ -242,12 +251,46 @@ def _field_problem(column: str, value: Any) -> str | None:
 
 
 def _row_problem(row: Mapping[str, Any]) -> str | None:
-    """The first column of a ``files`` row that holds what it cannot, said; or None."""
+    """The first column of a ``files`` row that holds what it cannot, said; else a
+    checksum that does not match its values (:func:`row_digest`); or None."""
     for column in _COLUMN_KINDS:
         problem = _field_problem(column, row[column])
         if problem is not None:
             return f"its {column} {problem}"
+    stored = row.get(_CHECKSUM)
+    if stored is not None and stored != row_digest(row):
+        return (f"its values are not those written: their {_CHECKSUM} does not match "
+                "(a value changed in place)")
     return None
+
+
+def row_digest(row: Mapping[str, Any]) -> str:
+    """The ``row_sha256`` of a ``files`` row: the hexadecimal sha256 of its columns of
+    :data:`_FILE_COLUMNS` and :data:`_RECORDED`, in that order, each as its name, a tab,
+    its value and a line end, where a value is ``repr`` of the number (an integer as
+    such, a real as a float, so that 2 and 2.0 agree), the UTF-8 of a text, the hex of a
+    BLOB, or ``NULL``. What SQLite gives back of each value written gives the same
+    digest."""
+    parts = []
+    for column in _DIGESTED:
+        v = row[column]
+        if v is None:
+            text = "NULL"
+        elif isinstance(v, bytes):
+            text = v.hex()
+        elif isinstance(v, str):
+            text = v
+        elif column in _REALS and isinstance(v, (int, float)):
+            text = repr(float(v))
+        else:
+            text = repr(v)
+        parts.append(f"{column}\t{text}\n")
+    return hashlib.sha256("".join(parts).encode("utf-8", "surrogateescape")).hexdigest()
+
+
+#: the columns :func:`row_digest` sums, in order, and those of them that hold reals
+_DIGESTED = (*_FILE_COLUMNS, *_RECORDED)
+_REALS = frozenset(c for c, kind in _COLUMN_KINDS.items() if kind in ("real", "rate"))
 
 
 def _some(items: Sequence[str]) -> str:
@@ -926,7 +969,7 @@ class Index:
                 raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files "
                                    f"table has no column {', '.join(lost)}); {_REBUILD}")
             if create:             # (after the checks: a damaged index is left as it was)
-                for c in _RECORDED:
+                for c in (*_RECORDED, _CHECKSUM):
                     if c not in columns:
                         self.db.execute(f"ALTER TABLE files ADD COLUMN {c} TEXT")
                         columns.add(c)
@@ -945,7 +988,7 @@ class Index:
             raise
         # read-only, an index written before the _RECORDED columns reads them as NULL
         self._select = ", ".join([*_FILE_COLUMNS, *(c if c in columns else f"NULL AS {c}"
-                                                    for c in _RECORDED)])
+                                                    for c in (*_RECORDED, _CHECKSUM))])
 
     def _quick_check(self) -> str | None:
         """SQLite's quick_check of the tables a run and a search read first (corpus, files,
@@ -1009,9 +1052,10 @@ class Index:
             # levels go with their file (ON DELETE CASCADE), but a tool without foreign
             # keys enabled may have left some behind
             self.db.execute("DELETE FROM levels WHERE output = ?", (output_key,))
-            names = (*_FILE_COLUMNS, *_RECORDED)
+            names = (*_FILE_COLUMNS, *_RECORDED, _CHECKSUM)
+            values = {**result.row, _CHECKSUM: row_digest(result.row)}
             self.db.execute(f"INSERT INTO files ({', '.join(names)}) VALUES "
-                            f"({', '.join('?' * len(names))})", [result.row[c] for c in names])
+                            f"({', '.join('?' * len(names))})", [values[c] for c in names])
             self.db.executemany("INSERT INTO levels VALUES (?, ?, ?, ?, ?)",
                                 [(output_key, k, w, s, m) for k, w, s, m in result.levels])
             self.db.execute("DELETE FROM failures WHERE path = ?", (result.row["path"],))
@@ -1089,7 +1133,7 @@ class Index:
             (:data:`_COLUMN_KINDS`), named.
         """
         cur = self.db.execute(f"SELECT {self._select} FROM files {where}", args)
-        rows = [dict(zip((*_FILE_COLUMNS, *_RECORDED), r, strict=True))
+        rows = [dict(zip((*_FILE_COLUMNS, *_RECORDED, _CHECKSUM), r, strict=True))
                 for r in cur.fetchall()]
         if check:
             for r in rows:
@@ -2041,7 +2085,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             notes.append(f"{len(gone)} failure{'s' * (len(gone) != 1)} of sources no longer "
                          f"there forgotten: {_some(gone)}")
         what = ("(a descriptor that is not finite, a summary cut short, a column holding what "
-                "it cannot)")
+                "it cannot, values changed in place)")
         if rebuilt:
             notes.append(f"{_rows(len(rebuilt), 'damaged index')} {what} rebuilt: "
                          f"{_some(rebuilt)}")
