@@ -19,6 +19,7 @@ import sys
 import textwrap
 import time
 
+import numpy as np
 import pytest
 
 PY = sys.executable
@@ -564,6 +565,44 @@ def test_an_encoder_that_drops_a_marker_is_told_which(tmp_path):
     names = json.loads((mf.DEFAULT_DIR / item["sidecar"]).read_text())["names"]
     assert proc.returncode == 1, proc.stdout[-600:]
     assert f"markers missing: {names[-1]!r}" in proc.stdout, proc.stdout[-600:]
+
+
+def test_each_encoder_failure_names_its_rule():
+    """Encoder-mode failures said what was wrong without the §7.4 rule, where every
+    decoder-mode failure names its rules (a conformance QA run of stop 55): each names
+    R-7.2-1 (the bound) or R-7.2-2 (gaps, names, rate, units), or §7.2's valid files."""
+    import mpz
+    from mpz.conformance import manifest as mf
+    from mpz.conformance.runner import check_encoded
+    from mpz.motion import Motion
+    item = mf.load()["encoder_inputs"][0]
+    x = np.load(mf.DEFAULT_DIR / item["input"])
+    side = json.loads((mf.DEFAULT_DIR / item["sidecar"]).read_text())
+    E = float(item["max_errors"][0])
+    valid = ~np.isnan(x).any(axis=2)
+    assert (~valid).any()                    # the input has gaps to fill
+
+    def problems(bound: float = E, **change) -> list[str]:
+        m = {"positions": np.where(valid[..., None], x, np.nan), "names": side["names"],
+             "rate": side["rate"], "units": side.get("units", ""), **change}
+        data = mpz.encode(Motion(m["positions"], m["names"], m["rate"], m["units"]),
+                          max_error=bound)
+        return check_encoded(data, x, side, E)[0]
+
+    assert problems() == []
+    filled = np.where(valid[..., None], x, 0.0)
+    for change, rule in [({"bound": 2 * E}, "R-7.2-1"), ({"rate": side["rate"] + 1}, "R-7.2-2"),
+                         ({"names": [*side["names"][:-1], "other"]}, "R-7.2-2"),
+                         ({"units": "in" if side.get("units") != "in" else "m"}, "R-7.2-2"),
+                         ({"positions": filled}, "R-7.2-2")]:
+        got = problems(**change)
+        assert got and all(rule in p for p in got), (change.keys(), got)
+    shifted = np.where(valid[..., None], x + 3 * E, np.nan)   # valid, beyond the bound
+    got = check_encoded(mpz.encode(Motion(shifted, side["names"], side["rate"],
+                                          side.get("units", "")), max_error=E), x, side, E)[0]
+    assert len(got) == 1 and "declared bound" in got[0] and got[0].endswith("(R-7.2-1)")
+    got = check_encoded(b"not an MPZ file", x, side, E)[0]
+    assert got[0].endswith("(§7.2: a conforming encoder writes only valid files)")
 
 
 @pytest.mark.parametrize("args, said", [

@@ -840,16 +840,18 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     try:
         decoded = decode_layers(data)
     except mpz.MPZError as exc:
-        return [f"the reference decoder rejects the output: {type(exc).__name__}: {exc}"], facts
+        return [f"the reference decoder rejects the output: {type(exc).__name__}: {exc} "
+                f"(§7.2: a conforming encoder writes only valid files)"], facts
     out, s = decoded.motion(), decoded.stream
     h = s.header
     facts["declared_bound"] = float(h.error_bound)
     problems = []
     if h.error_metric != 1:
         problems.append(f"header error_metric {h.error_metric}, expected 1 (a declared max "
-                        f"Euclidean error, §4.1)")
+                        f"Euclidean error, §4.1; R-7.2-1)")
     if not h.error_bound <= E:
-        problems.append(f"declared error_bound {h.error_bound!r} > requested --max-error {E!r}")
+        problems.append(f"declared error_bound {h.error_bound!r} > requested --max-error {E!r} "
+                        "(R-7.2-1)")
     if out.positions.shape != x.shape:
         said = f"shape {out.positions.shape} != input {x.shape}"
         got, want = list(out.names), list(side["names"])
@@ -863,7 +865,7 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
                 if names)
         elif out.positions.shape[0] != x.shape[0]:
             said += f"; {out.positions.shape[0]} frames decoded of the {x.shape[0]} given"
-        problems.append(said)
+        problems.append(f"{said} (R-7.2-2)")
         return problems, facts
     if list(out.names) != list(side["names"]):
         # the first that differs, by index (the first four of each said nothing when the
@@ -871,18 +873,20 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
         k = next(i for i, (got, want) in enumerate(zip(out.names, side["names"],
                                                         strict=True)) if got != want)
         problems.append(f"marker names[{k}] = {printable(out.names[k])!r} != input "
-                        f"{printable(side['names'][k])!r}")
+                        f"{printable(side['names'][k])!r} (R-7.2-2)")
     if float(out.rate) != float(side["rate"]):
-        problems.append(f"rate {out.rate!r} != input {side['rate']!r} (rates are kept exactly)")
+        problems.append(f"rate {out.rate!r} != input {side['rate']!r} (rates are kept "
+                        "exactly, R-7.2-2)")
     if out.units != side.get("units", ""):
-        problems.append(f"units {out.units!r} != input {side.get('units')!r}")
+        problems.append(f"units {out.units!r} != input {side.get('units')!r} (R-7.2-2)")
     valid_in = ~np.isnan(x).any(axis=2)
     mask = decoded.valid
     if (mask != valid_in).any():
         f, m = (int(i) for i in np.argwhere(mask != valid_in)[0])
         what = "a gap" if valid_in[f, m] else "valid"
         problems.append(f"gaps not preserved: frame {f}, marker {side['names'][m]!r} decodes as "
-                        f"{what} ({int((mask != valid_in).sum())} marker-frames differ)")
+                        f"{what} ({int((mask != valid_in).sum())} marker-frames differ; "
+                        "R-7.2-2)")
     both = valid_in & mask
     d = _distances(out.positions, x)
     d[~both] = 0.0
@@ -895,7 +899,7 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
         problems.append(f"declared bound {bound!r} broken at {int((d > bound + slack).sum())} "
                         f"sample(s); first at frame {f}, marker {side['names'][m]!r}: error "
                         f"{float(d[f, m])!r}, beyond the bound by {float(d[f, m]) - bound:.3g} "
-                        f"where §7.2's float slack allows {slack:.3g}")
+                        f"where §7.2's float slack allows {slack:.3g} (R-7.2-1)")
     return problems, facts
 
 
