@@ -801,11 +801,12 @@ def test_ctrl_c_while_the_command_imports_is_one_line(argv: list[str], tmp_path:
         "interrupted" if argv[0] == "mpz" else f"{argv[0]}: interrupted"], err
 
 
-def _kernel_interrupt(depth: int) -> SystemError:
+def _kernel_interrupt(depth: int, first: BaseException | None = None) -> SystemError:
     """What a numba kernel raises when a Ctrl-C lands in one of its Python callbacks:
     SystemError "returned a result with an exception set", each the direct cause of the
-    next, the KeyboardInterrupt first (the QA of stop 42: _fisher_tables, _fit_range)."""
-    exc: BaseException = KeyboardInterrupt()
+    next, the KeyboardInterrupt first (the QA of stop 42: _fisher_tables, _fit_range); or
+    ``first``, the SystemExit that SIGTERM raises (signals_exit)."""
+    exc: BaseException = KeyboardInterrupt() if first is None else first
     for _ in range(depth):
         outer = SystemError("CPUDispatcher(<function _fit_range>) returned a result with "
                             "an exception set")
@@ -836,6 +837,49 @@ def test_a_ctrl_c_a_kernel_heard_is_reported_as_interrupted(capsys) -> None:
     assert main(other) == EXIT_BUG
     err = capsys.readouterr().err
     assert "SystemError: a bug" in err and "mpz: internal error: this is a bug" in err
+
+
+def test_a_sigterm_a_kernel_heard_exits_as_sigterm(tmp_path: Path, monkeypatch,
+                                                  capsys) -> None:
+    """SIGTERM (signals_exit's SystemExit 143) that lands inside a kernel came as a chain
+    of SystemErrors: a traceback and "internal error", exit 70 (a review of stop 56, 4 of 6
+    tries of a `--jobs 0` corpus run). It is the exit SIGTERM asked for, and a corpus run
+    says how far it got, as for a Ctrl-C there."""
+    from mpz.tools import mpz_cli
+    from mpz.tools._cli import reports_ctrl_c, signal_in
+    term = _kernel_interrupt(2, SystemExit(143))
+    assert isinstance(signal_in(term), SystemExit) and signal_in(SystemError("x")) is None
+
+    def raises(exc: BaseException) -> int:
+        raise exc
+    with pytest.raises(SystemExit) as got:
+        reports_ctrl_c("interrupted")(raises)(term)
+    assert got.value.code == 143 and capsys.readouterr().err == ""
+
+    import mpz.corpus
+    src = tmp_path / "src"
+    src.mkdir()
+    for i in range(3):
+        write(generate("walk", frames=20, seed=i), src / f"w{i}.trc")
+
+    def one_then(signal_exc: BaseException):
+        def run(jobs, *args, progress, **kwargs):
+            from mpz.corpus import FileResult
+            progress(1, len(jobs), FileResult(jobs[0][0], jobs[0][1], "encoded"))
+            raise _kernel_interrupt(2, signal_exc)
+        return run
+
+    argv = ["encode", "-r", str(src), "-o", f"{tmp_path / 'out'}/", "--jobs", "0"]
+    monkeypatch.setattr(mpz.corpus, "encode_corpus", one_then(SystemExit(143)))
+    assert mpz_cli.main(argv) == 143
+    err = capsys.readouterr().err
+    assert "terminated (signal 15): 1 of 3 files finished, written and indexed" in err, err
+    assert "Traceback" not in err and "internal error" not in err
+    monkeypatch.setattr(mpz.corpus, "encode_corpus", one_then(KeyboardInterrupt()))
+    assert mpz_cli.main(argv) == 130
+    err = capsys.readouterr().err
+    assert "1 of 3 files finished before the interrupt" in err and err.endswith(
+        "interrupted\n"), err
 
 
 def test_a_command_ignores_ctrl_c_once_its_work_is_done(tmp_path: Path) -> None:

@@ -252,6 +252,9 @@ def test_a_run_says_why_it_encodes_a_file_again(corpus):
                              "bad": "failed"}
     assert rep.encoded_again == {"source": [str(paths["walk"])],
                                  "output": [str(paths["wave"])]}
+    (out / "jump.mpz").unlink()
+    assert run_corpus(src, out, options=EncodeOptions(max_error=2.0)).encoded_again == \
+        {"gone": [str(paths["jump"])]}
     table = rep.table()
     assert f"NOTE 1 file encoded again, as the source changed (size or time) since the " \
            f"last encode: {paths['walk']}" in table
@@ -301,6 +304,41 @@ def test_verify_finds_a_damaged_output_and_encodes_it_again(corpus, workers):
     again = run_corpus(src, out, workers=workers, verify=True)
     assert (again.verified, again.encoded_again) == (3, {})
     assert set(statuses(again).values()) == {"skipped", "failed"}
+
+
+def test_verify_finds_swapped_outputs_and_leaves_them_to_force(tmp_path):
+    """Two outputs of the same size swapped, their times kept: --verify finds each holds
+    the other's archive. Such an output is another source's archive, which a run does not
+    replace without --force: each fails saying so, and that --verify found it (a review
+    of stop 56: "which this run does not hold" of an input of the same run)."""
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    m = generate("walk", frames=60, seed=1)
+    write(m, src / "a.trc")
+    p = np.array(m.positions)
+    p[30, 2, 0] += 5.0
+    write(Motion(p, m.names, m.rate, m.units), src / "b.trc")
+    run_corpus(src, out)
+    a, b = out / "a.mpz", out / "b.mpz"
+    assert a.stat().st_size == b.stat().st_size and a.read_bytes() != b.read_bytes()
+    times = [(f.stat().st_atime_ns, f.stat().st_mtime_ns) for f in (a, b)]
+    da, db = a.read_bytes(), b.read_bytes()
+    a.write_bytes(db)
+    b.write_bytes(da)
+    for f, t in zip((a, b), times, strict=True):
+        os.utime(f, ns=t)
+    assert set(statuses(run_corpus(src, out)).values()) == {"skipped"}     # by the index
+    rep = run_corpus(src, out, verify=True)
+    assert statuses(rep) == {"a": "failed", "b": "failed"} and rep.verified == 0
+    for r, other in zip(rep.results, ("b.trc", "a.trc"), strict=True):
+        assert f"is the archive of another source, {other} (named by the output's meta " \
+               "chunk)" in r.reason and "moved or copied over each other?" in r.reason
+        assert r.reason.endswith("its output failed the check of --verify (its meta chunk "
+                                 "names other options or another source than its index "
+                                 "row), and is left as it is")
+    assert a.read_bytes() == db
+    assert statuses(run_corpus(src, out, force=True)) == {"a": "encoded", "b": "encoded"}
+    assert (a.read_bytes(), b.read_bytes()) == (da, db)
 
 
 def test_verify_leaves_a_damaged_output_whose_source_fails(corpus):
@@ -1919,6 +1957,12 @@ def test_a_scheduler_lost_mid_run_is_one_error_and_keeps_what_finished(corpus):
     # the report of what finished, and of what did not (a corpus QA run of stop 55: one
     # error line, naming Dask's futures, and no table)
     rep = stop.value.report
+    assert rep.workers == 1                           # the cluster's, not the CPU count
+    import pickle
+
+    # it pickles, as every MPZError does (a run inside a Dask task, a review of stop 56)
+    again = pickle.loads(pickle.dumps(stop.value))
+    assert (str(again), again.report) == (str(stop.value), rep)
     assert "Futures" not in str(stop.value)
     assert rep.stopped == stop.value.message
     done = {Path(r.source).name for r in rep.results}
@@ -2238,8 +2282,8 @@ def test_a_run_from_another_folder_does_not_replace_another_sources_archive(tmp_
         assert "--force" in reason and (out / "take.mpz").read_bytes() == archived
     (out / INDEX_NAME).unlink()    # without the index, the name in its meta chunk says it
     rep = run_corpus(b, out)
-    assert "is the archive of another source, take.trc (which this run does not hold)" in \
-        rep.results[0].reason and (out / "take.mpz").read_bytes() == archived
+    assert "is the archive of another source, take.trc (named by the output's meta " \
+        "chunk)" in rep.results[0].reason and (out / "take.mpz").read_bytes() == archived
     a.rename(tmp_path / "moved")                                 # the same bytes: kept
     assert statuses(run_corpus(tmp_path / "moved", out)) == {"take": "kept"}
     write(generate("walk", frames=61, seed=1), tmp_path / "moved" / "take.trc")

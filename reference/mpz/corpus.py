@@ -568,12 +568,16 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
                  else named if named is not None and named != os.path.basename(source)
                  else None)
         if other is not None:
-            there = ("still there" if os.path.isabs(other) and os.path.exists(other) else
-                     "which this run does not hold")
+            # the index names a path; the meta a file name alone, which says nothing of
+            # where that file is (a review of stop 56: "which this run does not hold" of
+            # an input of the same run, whose output had been swapped with this one)
+            there = ("named by the output's meta chunk" if not os.path.isabs(other) else
+                     "still there" if os.path.exists(other) else "no longer there")
             raise EncoderError(f"{output} is the archive of another source, {other} "
                                f"({there}), not of {os.path.basename(source)}: a run from "
-                               "another input folder into this output folder? Give another "
-                               "-o FOLDER, or use --force to replace it")
+                               "another input folder into this output folder, or outputs "
+                               "moved or copied over each other? Give another -o FOLDER, "
+                               "or use --force to replace it")
     if (meta[META_FINGERPRINT] == fp and meta.get(META_SHA256) == sha
             and st.st_mtime_ns >= source_mtime_ns):
         return data
@@ -1500,6 +1504,10 @@ class CorpusStopped(EncoderError):
         super().__init__(message)
         self.report = report
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # as the other MPZErrors, it pickles (a run inside a Dask task or a subprocess)
+        return (type(self), (self.message, self.report))
+
 
 # ---------------------------------------------------------------------- driver --
 def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
@@ -1548,6 +1556,7 @@ AGAIN = {"options": "as the options differ from their last encode's (--max-error
                     "--summary, --units, a hierarchy, an ASF that changed ...)",
          "source": "as the source changed (size or time) since the last encode",
          "output": "as the output was changed or replaced since the index recorded it",
+         "gone": "as the output was no longer there",
          "damaged": "as the output failed the check of --verify (its NOTE says how)"}
 
 
@@ -1581,7 +1590,7 @@ def _stale(row: dict[str, Any] | None, task: Task) -> str | None:
     try:
         out = os.stat(task.output)
     except OSError:
-        return "output"
+        return "gone"
     if out.st_size != row["total_bytes"] or out.st_mtime_ns < st.st_mtime_ns:
         return "output"
     return None
@@ -2162,20 +2171,23 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         inflight: dict[Future[FileResult], int] = {}
         # no more local workers than files to encode (each costs a process and its memory)
         n_workers = min(n_workers, len(todo))
+        seen: list[int] = []            # the cluster's worker counts, as it said them
         # what a report of a run stopped before _dispatch returns names as its cluster
         cluster = ("given client" if client is not None else remote[1] if remote is not None
                    else f"LocalCluster, {memory_limit} per worker")
         try:
             n_workers, cluster = _dispatch(tasks, todo, finish, inflight, n_workers, client,
-                                           remote, scheduler, memory_limit)
+                                           remote, scheduler, memory_limit, seen)
         except EncoderError as exc:
             # the run stopped (the cluster lost, silent or without a worker): what finished
             # is indexed, and the report says so with the files left
             left = [(tasks[i].source, _size(tasks[i].source))
                     for i, r in enumerate(results) if r is None]
             final = [r for r in results if r is not None] + early
+            # the cluster's own count (a review of stop 56: the local CPU count was said of
+            # a --scheduler cluster of one worker, and of one with none)
             raise CorpusStopped(exc.message, CorpusReport(
-                final, time.perf_counter() - t0, n_workers, cluster,
+                final, time.perf_counter() - t0, seen[-1] if seen else n_workers, cluster,
                 os.path.join(index_dir, INDEX_NAME), forgotten, [], notes,
                 _again(again, results), verified, stopped=exc.message,
                 not_run=left)) from None
@@ -2200,9 +2212,11 @@ def _again(again: Mapping[int, str], results: Sequence[FileResult | None]
 def _dispatch(tasks: list[Task], todo: list[int], finish: Callable[[int, FileResult], None],
               inflight: dict[Future[FileResult], int], n_workers: int,
               client: Client | None, remote: tuple[Client, str] | None,
-              scheduler: str | None, memory_limit: str | int | None) -> tuple[int, str]:
+              scheduler: str | None, memory_limit: str | int | None,
+              seen: list[int]) -> tuple[int, str]:
     """Encode ``todo`` where :func:`encode_corpus` was told to; returns the worker count
-    and the cluster's description for the report."""
+    and the cluster's description for the report. ``seen`` gets the worker count each
+    time the cluster says it (for the report of a run that stops)."""
     if not todo:
         cluster = "nothing to do"          # no cluster is started for a no-op run
     elif n_workers == 0 and scheduler is None and client is None:
@@ -2211,10 +2225,10 @@ def _dispatch(tasks: list[Task], todo: list[int], finish: Callable[[int, FileRes
             finish(i, encode_file(tasks[i]))
     elif client is not None:
         cluster = "given client"
-        n_workers = _run_on(client, tasks, todo, finish, inflight)
+        n_workers = _run_on(client, tasks, todo, finish, inflight, seen=seen)
     elif remote is not None:
         c, cluster = remote
-        n_workers = _run_on(c, tasks, todo, finish, inflight)
+        n_workers = _run_on(c, tasks, todo, finish, inflight, seen=seen)
     else:
         try:
             with _dask_client(n_workers, scheduler, memory_limit) as (c, cluster):
@@ -2223,7 +2237,7 @@ def _dispatch(tasks: list[Task], todo: list[int], finish: Callable[[int, FileRes
                 limit = memory_limit if memory_limit is not None else DEFAULT_MEMORY_LIMIT
                 n_workers = _run_on(c, tasks, todo, finish, inflight,
                                     f"over the workers' memory limit, {limit}? "
-                                    "--memory-limit raises it")
+                                    "--memory-limit raises it", seen=seen)
         finally:
             # the local workers are gone now: a task killed mid-write left a hidden
             # temporary file (a remote worker's task finishes or removes its own)
@@ -2293,7 +2307,7 @@ def _nthreads(client: Client) -> dict[str, int]:
 def _run_on(client: Client, tasks: list[Task], todo: list[int],
             finish: Callable[[int, FileResult], None],
             inflight: dict[Future[FileResult], int],
-            died: str = "over the memory limit?") -> int:
+            died: str = "over the memory limit?", seen: list[int] | None = None) -> int:
     """Run ``todo`` on the cluster, a bounded window of tasks at a time; returns the
     worker count. ``inflight`` holds the tasks not finished yet; on any exception,
     KeyboardInterrupt included, they are cancelled before it propagates.
@@ -2302,11 +2316,18 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     files as they were given. A cluster that has had no worker for
     :data:`NO_WORKER_SECONDS` while tasks wait fails the run (EncoderError) rather than
     waiting for ever. ``died`` is the likely cause said of a file whose worker died each
-    time it ran it."""
+    time it ran it. ``seen`` gets the worker count each time the scheduler says it."""
     from distributed import wait
     _quiet_dask_logs()                  # a given client's too
     pending = iter(todo)
-    threads = max(sum(_nthreads(client).values()), 1)
+    said = seen if seen is not None else []
+
+    def workers() -> dict[str, int]:
+        nthreads = _nthreads(client)
+        said.append(len(nthreads))
+        return nthreads
+
+    threads = max(sum(workers().values()), 1)
     window = 2 * threads + 1     # queued work stays small: a stop loses little
 
     def submit() -> None:
@@ -2323,7 +2344,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     def watch() -> None:
         """Fail the run when the cluster has had no worker for NO_WORKER_SECONDS."""
         nonlocal idle_since
-        if _nthreads(client):
+        if workers():
             idle_since = None
         elif idle_since is None:
             idle_since = time.monotonic()
@@ -2375,6 +2396,6 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     # the worker count is for the report alone: a scheduler silent now, every file done,
     # failed a finished run (a review of stop 55)
     try:
-        return len(_nthreads(client)) or threads
+        return len(workers()) or threads
     except _SchedulerSilent:
         return threads

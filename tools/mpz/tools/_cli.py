@@ -322,7 +322,12 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                 print(message, file=sys.stderr)
                 return EXIT_INTERRUPTED
             except SystemError as exc:
-                if not interrupted(exc):
+                end = signal_in(exc)
+                if isinstance(end, SystemExit):
+                    # SIGTERM (signals_exit) heard inside a kernel: the exit it asked for,
+                    # not a bug (a review of stop 56: exit 70 and a traceback)
+                    raise end from None
+                if end is None:
                     return _bug(prog)
                 print(message, file=sys.stderr)
                 return EXIT_INTERRUPTED
@@ -378,12 +383,20 @@ def interrupted(exc: BaseException) -> bool:
     KeyboardInterrupt at the end of a chain of such SystemErrors (each the direct cause of
     the next). Any other SystemError is a bug and is not taken for one (a QA of stop 42:
     a Ctrl-C during the Fisher tables or the key-frame fit gave a traceback and exit 1)."""
+    return isinstance(signal_in(exc), KeyboardInterrupt)
+
+
+def signal_in(exc: BaseException) -> KeyboardInterrupt | SystemExit | None:
+    """The KeyboardInterrupt (Ctrl-C) or SystemExit (SIGTERM or SIGHUP, as
+    :func:`mpz.api.signals_exit` raises it) at the end of ``exc``'s chain of SystemErrors,
+    as a compiled kernel reports a signal heard in it (:func:`interrupted`); None for any
+    other exception."""
     seen: set[int] = set()
     e: BaseException | None = exc
     while isinstance(e, SystemError) and id(e) not in seen:
         seen.add(id(e))
         e = e.__cause__
-    return isinstance(e, KeyboardInterrupt)
+    return e if isinstance(e, (KeyboardInterrupt, SystemExit)) else None
 
 
 def whole_number(low: int) -> Callable[[str], int]:

@@ -141,7 +141,7 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     """
     from mpz.api import signals_exit
     from mpz.corpus import DEFAULT_MEMORY_LIMIT, CorpusStopped, encode_corpus
-    from mpz.tools._cli import EXIT_USAGE, EXIT_WARN, print_json, printable
+    from mpz.tools._cli import EXIT_USAGE, EXIT_WARN, print_json, printable, signal_in
     from mpz.tools._common import STDIO, is_folder_target
     if not is_folder_target(args.output) or any(j.output == STDIO for j in jobs):
         print("mpz encode: error: --jobs and --scheduler encode files into -o FOLDER/ "
@@ -172,18 +172,26 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     bar = _Bar(enabled=not quiet and not args.json)
     stopped: CorpusStopped | None = None
     try:
-        # SIGTERM (a batch system's kill, `timeout`, Docker) and SIGHUP end the run as
-        # Ctrl-C does: the index goes back to its rollback journal, the lock is removed,
-        # the local cluster is closed (a QA run of stop 48: a SIGTERM left the committed
-        # rows in index.sqlite-wal alone, so a copy of index.sqlite was empty)
-        with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
-            report = encode_corpus([(j.input, j.output) for j in planned], args.output,
-                                   options, workers=workers, scheduler=scheduler,
-                                   memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
-                                   force=bool(getattr(args, "force", False)), progress=bar,
-                                   asf=getattr(args, "asf", None),
-                                   failed=[(j.input, j.output, j.error) for j in jobs
-                                           if j.error is not None], verify=verify)
+        try:
+            # SIGTERM (a batch system's kill, `timeout`, Docker) and SIGHUP end the run as
+            # Ctrl-C does: the index goes back to its rollback journal, the lock is removed,
+            # the local cluster is closed (a QA run of stop 48: a SIGTERM left the committed
+            # rows in index.sqlite-wal alone, so a copy of index.sqlite was empty)
+            with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+                report = encode_corpus([(j.input, j.output) for j in planned], args.output,
+                                       options, workers=workers, scheduler=scheduler,
+                                       memory_limit=memory_limit or DEFAULT_MEMORY_LIMIT,
+                                       force=bool(getattr(args, "force", False)),
+                                       progress=bar, asf=getattr(args, "asf", None),
+                                       failed=[(j.input, j.output, j.error) for j in jobs
+                                               if j.error is not None], verify=verify)
+        except SystemError as exc:
+            # a signal heard inside a kernel of this process (--jobs 0) comes as a chain of
+            # SystemErrors: its Ctrl-C or SIGTERM, handled below (a review of stop 56)
+            end = signal_in(exc)
+            if end is None:
+                raise
+            raise end from None
     except CorpusStopped as exc:
         # the cluster was lost or stopped answering: the table of what finished, then
         # the error (the run's last line)

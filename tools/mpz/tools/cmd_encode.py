@@ -17,7 +17,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError, MPZError
-from mpz.tools._cli import EXIT_OK, EXIT_WARN, found, positive, printable
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, found, positive, printable, signal_in
 
 if TYPE_CHECKING:
     from mpz.encoder import EncodeOptions
@@ -486,14 +486,20 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                     f"({job.input}); {_remove_output(job.output, to_stdout)}") from None
             stored_levels = list(mpz.info(data).summary_levels)      # the k the file holds
             err = error_summary(motion, decoded)
-    except (KeyboardInterrupt, SystemExit) as exc:
+    except (KeyboardInterrupt, SystemExit, SystemError) as exc:
+        # a signal heard inside a kernel comes as a chain of SystemErrors (signal_in)
+        sig = signal_in(exc) if isinstance(exc, SystemError) else exc
+        if sig is None:
+            raise
         # 130 or 143 read as "nothing changed" lost a --force target (QA, stops 47, 48)
-        if not to_stdout and (isinstance(exc, KeyboardInterrupt)
-                              or exc.code == 128 + signal.SIGTERM):
+        if not to_stdout and (isinstance(sig, KeyboardInterrupt)
+                              or sig.code == 128 + signal.SIGTERM):
             print(f"mpz encode: {printable(job.output)} was written (the "
-                  f"{'interrupt' if isinstance(exc, KeyboardInterrupt) else 'SIGTERM'} came "
+                  f"{'interrupt' if isinstance(sig, KeyboardInterrupt) else 'SIGTERM'} came "
                   "while its report was measured)", file=sys.stderr)
-        raise
+        if sig is exc:
+            raise
+        raise sig from None
     if rep.bound is not None and not err["max"] <= rep.bound:
         # the encoder's own guarantee, checked on what it wrote (a QA run of stop 50: an
         # encoder broken on purpose reported "max 1.6 mm (bound 1 mm)", exit 0): a file
