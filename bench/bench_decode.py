@@ -1,6 +1,7 @@
 """Decode speed of every real file, and two runs compared: for decoder changes.
 
     python bench/bench_decode.py [--files all | NAME ...] [--bound 1mm] --json OUT.json
+        [--save-inputs DIR | --inputs DIR]
     python bench/bench_decode.py --compare BEFORE.json ... --against AFTER.json ...
 
 The first form encodes each file once at 1 mm (1 unit where the file declares no units)
@@ -11,6 +12,11 @@ of the encoded bytes (``mpz_sha256``) and of what the decode gave back (``decode
 positions as float64 bytes, and the C3D archive and skeleton outputs when the file has
 them; see :func:`decoded_digests`). The numba kernels are loaded first on the first file
 asked for (not timed). An absent or empty data folder prints "skipped: ..." (exit 0).
+
+When the encoder changed too, each version decodes its own encoder's bytes, so the times
+measure both changes: ``--save-inputs DIR`` on one run writes the encoded files, and
+``--inputs DIR`` on the others (either version) decodes those same bytes; the compare
+table says for how many files the encoded bytes are the same on both sides.
 
 Decoder changes move the figures by less than the machine's noise from one process to the
 next, so compare several runs of each version made alternately: run the first form with
@@ -104,7 +110,8 @@ def decoded_digests(out) -> dict[str, str]:  # type: ignore[no-untyped-def]
     return d
 
 
-def measure(files: list[str], bound: str, out: Path) -> None:
+def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
+            save: Path | None = None) -> None:
     from bench_speed import bound_kwargs, files_of, timed
     import mpz
     import mpz.io
@@ -113,10 +120,23 @@ def measure(files: list[str], bound: str, out: Path) -> None:
     paths = files_of(root, files)
     warm_up(paths[0])                                           # JIT warm-up, not timed
     rows = {}
+    if save is not None:
+        save.mkdir(parents=True, exist_ok=True)
     for path in paths:
         m = mpz.io.read(path)
         kw, _, desc = bound_kwargs(m, bound)
-        data = mpz.encode(m, threads=1, **kw)
+        if inputs is not None:             # another version's bytes: the decoders alone
+            given = inputs / f"{path.name}.mpz"
+            try:
+                data = given.read_bytes()
+            except OSError as exc:
+                raise SystemExit(f"bench_decode.py: --inputs: cannot read {given} "
+                                 f"({exc.strerror or exc}); write it with --save-inputs "
+                                 f"{inputs} and the same --files and --bound") from None
+        else:
+            data = mpz.encode(m, threads=1, **kw)
+        if save is not None:
+            (save / f"{path.name}.mpz").write_bytes(data)
         mb = len(coded_float32(m)) / 1e6
         sec, _ = timed(lambda data=data: mpz.decode(data), 5)
         rows[path.name] = {"mb": mb, "sec": sec, "bound": desc,
@@ -125,7 +145,8 @@ def measure(files: list[str], bound: str, out: Path) -> None:
         print(f"{path.name:<42} {mb:>6.3f} MB {sec * 1e3:>8.2f} ms {mb / sec:>7.1f} MB/s",
               flush=True)
     out.write_text(json.dumps({"bench": "decode", "schema": SCHEMA, "mpz": mpz.__file__,
-                               "bound": bound, "rows": rows}, indent=1))
+                               "bound": bound, "rows": rows,
+                               "inputs": None if inputs is None else str(inputs)}, indent=1))
 
 
 def load(path: Path) -> dict[str, dict]:
@@ -199,6 +220,14 @@ def compare(before: list[Path], after: list[Path]) -> int:
                             + ("the encoded bytes are the same: the decoder changed"
                                if same_input else "the encoded bytes differ too"))
     n = len(names)
+    same = sum(b[k]["mpz_sha256"] is not None and b[k]["mpz_sha256"] == a[k]["mpz_sha256"]
+               for k in names)
+    # whether the table measures the decoders alone: with other encoded bytes, a change of
+    # the encoder moves the times too (--save-inputs / --inputs give both the same bytes)
+    print(f"encoded bytes the same on both sides for {same} of {n} files"
+          + ("" if same == n else ": those rows time each version's own encoder output "
+             "too (--save-inputs DIR on one side, --inputs DIR on the other decode the "
+             "same bytes)"))
     for label, t in (("before", b), ("after", a)):
         geo = math.exp(sum(math.log(t[k]["mb"] / t[k]["sec"]) for k in names) / n)
         tot = sum(t[k]["mb"] for k in names) / sum(t[k]["sec"] for k in names)
@@ -220,6 +249,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--files", nargs="+", default=["all"])
     ap.add_argument("--bound", default="1mm",
                     help="default, or a length in mm such as 1mm (default 1mm)")
+    ap.add_argument("--save-inputs", type=Path, metavar="DIR",
+                    help="also write each encoded file to DIR/NAME.mpz")
+    ap.add_argument("--inputs", type=Path, metavar="DIR",
+                    help="decode DIR/NAME.mpz (from --save-inputs) instead of encoding each "
+                    "file with this version: both versions then decode the same bytes, and "
+                    "a change of the encoder does not move the figures")
     args = two_versions(ap, argv)
     if args.compare:
         return compare_main(lambda: compare(args.compare, args.against))
@@ -229,7 +264,10 @@ def main(argv: list[str] | None = None) -> int:
     if reason:
         print(f"skipped: {reason}")
         return 0
-    measure(args.files, args.bound, args.json)
+    if args.inputs is not None and args.save_inputs is not None:
+        ap.error("--inputs and --save-inputs: give one (the first run saves, the others "
+                 "decode what it saved)")
+    measure(args.files, args.bound, args.json, args.inputs, args.save_inputs)
     return 0
 
 

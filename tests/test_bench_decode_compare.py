@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 
 def _run(tmp_path, name, rows):
     """A result file as bench_decode.py writes it; ``rows``: file -> (seconds, positions
@@ -55,7 +57,11 @@ def test_decoded_output_that_differs_fails(tmp_path, bench_script, capsys):
         capsys.readouterr().out
     a2 = _run(tmp_path, "a2.json", {"a.c3d": (0.010, "q", "f")})
     assert _gate(bd, [b], [a2]) == 1
-    assert "the encoded bytes differ too" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "the encoded bytes differ too" in out
+    # whether the table times the decoders alone (stop 55's list: it could not say)
+    assert "encoded bytes the same on both sides for 0 of 1 files: those rows time each " \
+           "version's own encoder output too (--save-inputs DIR" in out
 
 
 def test_files_not_compared_fail_and_no_common_file_is_no_crash(tmp_path, bench_script,
@@ -90,3 +96,30 @@ def test_another_bench_json_is_a_clear_error(tmp_path, bench_script, capsys):
     b2 = _run(tmp_path, "b2.json", {"a.c3d": (0.010, "q", "e")})
     assert _gate(bd, [b, b2], [b]) == 2
     assert "two runs of the same side decoded differently" in capsys.readouterr().err
+
+
+def test_inputs_saved_by_one_run_are_what_another_decodes(tmp_path, bench_script, capsys,
+                                                          shared_data, monkeypatch):
+    """--save-inputs and --inputs: a run with another encoder (here, a bound of 2 mm
+    where 1 mm is asked) decodes the bytes the first run saved, so its rows compare the
+    decoders alone: the same encoded bytes, the same decoded output."""
+    import mpz
+    bd = bench_script("bench_decode")
+    name = "opensim_subject01_walk1.trc"
+    enc = tmp_path / "enc"
+    first, second, third = (tmp_path / f"{n}.json" for n in ("first", "second", "third"))
+    assert bd.main(["--files", name, "--json", str(first), "--save-inputs", str(enc)]) == 0
+    assert (enc / f"{name}.mpz").is_file()
+    real = mpz.encode
+    monkeypatch.setattr(mpz, "encode", lambda m, **kw: real(m, **{**kw, "max_error": 2.0}))
+    assert bd.main(["--files", name, "--json", str(second), "--inputs", str(enc)]) == 0
+    assert bd.main(["--files", name, "--json", str(third)]) == 0       # its own bytes
+    capsys.readouterr()
+    rows = [json.loads(p.read_text())["rows"][name] for p in (first, second, third)]
+    assert rows[0]["mpz_sha256"] == rows[1]["mpz_sha256"] != rows[2]["mpz_sha256"]
+    assert rows[0]["decoded"] == rows[1]["decoded"] != rows[2]["decoded"]
+    assert bd.main(["--compare", str(first), "--against", str(second)]) in (0, 1)
+    assert "encoded bytes the same on both sides for 1 of 1 files\n" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match="--inputs: cannot read"):
+        bd.main(["--files", "btk_SprintMotion.trc", "--json", str(third), "--inputs",
+                 str(enc)])
