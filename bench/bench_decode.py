@@ -42,6 +42,7 @@ bench``).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -120,12 +121,22 @@ def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
     paths = files_of(root, files)
     warm_up(paths[0])                                           # JIT warm-up, not timed
     rows = {}
+    saved = _saved_inputs(inputs, bound) if inputs is not None else None
     if save is not None:
-        save.mkdir(parents=True, exist_ok=True)
+        try:
+            save.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise SystemExit(f"bench_decode.py: --save-inputs {save}: cannot make the "
+                             f"folder ({exc.strerror or exc})") from None
+    listed: dict[str, str] = {}
+    if save is not None:                 # files saved before at this bound stay listed
+        with contextlib.suppress(SystemExit):
+            listed = _saved_inputs(save, bound)
     for path in paths:
         m = mpz.io.read(path)
         kw, _, desc = bound_kwargs(m, bound)
         if inputs is not None:             # another version's bytes: the decoders alone
+            assert saved is not None
             given = inputs / f"{path.name}.mpz"
             try:
                 data = given.read_bytes()
@@ -133,10 +144,20 @@ def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
                 raise SystemExit(f"bench_decode.py: --inputs: cannot read {given} "
                                  f"({exc.strerror or exc}); write it with --save-inputs "
                                  f"{inputs} and the same --files and --bound") from None
+            # the bytes saved for this file, as saved (a review of stop 56: a file copied
+            # under another name was timed as that file)
+            if saved.get(path.name) != hashlib.sha256(data).hexdigest():
+                said = "does not list it" if path.name not in saved else "says otherwise"
+                raise SystemExit(f"bench_decode.py: --inputs: {given} is not what "
+                                 f"--save-inputs wrote for {path.name} ({INPUTS_LIST} "
+                                 f"{said})")
         else:
             data = mpz.encode(m, threads=1, **kw)
         if save is not None:
             (save / f"{path.name}.mpz").write_bytes(data)
+            listed[path.name] = hashlib.sha256(data).hexdigest()
+            (save / INPUTS_LIST).write_text(json.dumps({"bound": bound, "files": listed},
+                                                       indent=1))
         mb = len(coded_float32(m)) / 1e6
         sec, _ = timed(lambda data=data: mpz.decode(data), 5)
         rows[path.name] = {"mb": mb, "sec": sec, "bound": desc,
@@ -147,6 +168,29 @@ def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
     out.write_text(json.dumps({"bench": "decode", "schema": SCHEMA, "mpz": mpz.__file__,
                                "bound": bound, "rows": rows,
                                "inputs": None if inputs is None else str(inputs)}, indent=1))
+
+
+#: what --save-inputs writes beside the files: the bound they were encoded at, and each
+#: file's SHA-256
+INPUTS_LIST = "inputs.json"
+
+
+def _saved_inputs(folder: Path, bound: str) -> dict[str, str]:
+    """The files a --save-inputs run wrote into ``folder``, name -> SHA-256; SystemExit
+    when there is no such list or it was saved at another bound (a review of stop 56: a
+    --bound 5mm run decoded the 1 mm bytes, and its compare with a 5 mm run made up a
+    decoder regression)."""
+    try:
+        doc = json.loads((folder / INPUTS_LIST).read_text())
+        files, saved_at = doc["files"], doc["bound"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(f"bench_decode.py: --inputs {folder}: no list of saved inputs "
+                         f"({folder / INPUTS_LIST}: {exc}); make it with --save-inputs "
+                         f"{folder}") from None
+    if saved_at != bound:
+        raise SystemExit(f"bench_decode.py: --inputs {folder}: saved at --bound {saved_at}, "
+                         f"not {bound}: give --bound {saved_at}")
+    return dict(files)
 
 
 def load(path: Path) -> dict[str, dict]:

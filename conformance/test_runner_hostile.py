@@ -178,6 +178,9 @@ def test_an_argument_made_absolute_is_said_and_as_given_keeps_it(tmp_path):
                     "--as-given")
     assert proc.returncode == 0 and doc["results"][0]["passed"], proc.stdout + proc.stderr
     assert seen.read_text() == "fast" and "note: arguments" not in proc.stderr
+    proc, _ = run(tmp_path, "--decoder", f"{PY} dec.py fast", "--only", ONE, "--as-given")
+    assert proc.returncode == 1 and "with --as-given, a relative path among its arguments " \
+        "is looked for there too" in proc.stderr, proc.stderr
     proc, _ = run(tmp_path, "--decoder", f"{PY} dec.py fast", "--only", ONE, "-q")
     assert proc.returncode == 0 and "note: arguments" not in proc.stderr
 
@@ -597,6 +600,16 @@ def test_each_encoder_failure_names_its_rule():
                          ({"positions": filled}, "R-7.2-2")]:
         got = problems(**change)
         assert got and all(rule in p for p in got), (change.keys(), got)
+    # two markers swapped, names and data together: the order alone is wrong (a review
+    # of stop 56: by index, a broken bound and gaps were said too)
+    swap = list(range(x.shape[1]))
+    gappy = next(j for j in range(x.shape[1]) if (~valid[:, j]).any())
+    other = next(j for j in range(x.shape[1]) if j != gappy)
+    swap[gappy], swap[other] = other, gappy
+    got = problems(positions=np.where(valid[..., None], x, np.nan)[:, swap],
+                   names=[side["names"][j] for j in swap])
+    assert len(got) == 1 and "the same markers in another order (gaps and bound checked " \
+        "by name) (R-7.2-2)" in got[0], got
     shifted = np.where(valid[..., None], x + 3 * E, np.nan)   # valid, beyond the bound
     got = check_encoded(mpz.encode(Motion(shifted, side["names"], side["rate"],
                                           side.get("units", "")), max_error=E), x, side, E)[0]

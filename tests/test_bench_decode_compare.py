@@ -123,3 +123,15 @@ def test_inputs_saved_by_one_run_are_what_another_decodes(tmp_path, bench_script
     with pytest.raises(SystemExit, match="--inputs: cannot read"):
         bd.main(["--files", "btk_SprintMotion.trc", "--json", str(third), "--inputs",
                  str(enc)])
+    # what a review of stop 56 found: bytes saved at another bound, or under another
+    # file's name, were timed as asked; a file given as the folder was a traceback
+    with pytest.raises(SystemExit, match=r"saved at --bound 1mm, not 5mm"):
+        bd.main(["--files", name, "--json", str(third), "--inputs", str(enc), "--bound",
+                 "5mm"])
+    other = "btk_SprintMotion.trc"
+    (enc / f"{other}.mpz").write_bytes((enc / f"{name}.mpz").read_bytes())
+    with pytest.raises(SystemExit, match=r"is not what --save-inputs wrote for "
+                                         r"btk_SprintMotion.trc \(inputs.json does not list"):
+        bd.main(["--files", other, "--json", str(third), "--inputs", str(enc)])
+    with pytest.raises(SystemExit, match="--save-inputs .*: cannot make the folder"):
+        bd.main(["--files", name, "--json", str(third), "--save-inputs", str(first)])

@@ -631,6 +631,43 @@ def test_a_ctrl_c_after_the_output_is_written_says_so(tmp_path: Path, capsys,
     assert mpz.info(tmp_path / "w.mpz").frames == 30                  # the new file, whole
 
 
+@pytest.mark.parametrize("when", ["in the write's last step", "before the report",
+                                  "before the write"])
+def test_a_ctrl_c_between_the_write_and_the_report_says_so(tmp_path, monkeypatch, capsys,
+                                                           when):
+    """The window between the output's rename and the report's handler: a Ctrl-C there
+    ended with exit 130 and "interrupted" alone, the output written (a review of stop 56,
+    1 in 30 tries). It says the file was written when it holds the new bytes, and not
+    when the write had not happened."""
+    from mpz.tools import _common, mpz_cli
+    write(generate("walk", frames=30, markers=5, seed=2), tmp_path / "w.trc")
+    (tmp_path / "w.mpz").write_bytes(b"old")
+    real_write, real_stage = mpz.write_atomic, _common.stage
+
+    def write_then(*args, **kwargs):
+        if when == "before the write":
+            raise KeyboardInterrupt
+        real_write(*args, **kwargs)
+        if when == "in the write's last step":
+            raise KeyboardInterrupt
+
+    def stage(command, quiet, size, text, *rest):
+        if when == "before the report" and text.startswith("decoding what was written"):
+            raise KeyboardInterrupt
+        return real_stage(command, quiet, size, text, *rest)
+    monkeypatch.setattr(mpz, "write_atomic", write_then)
+    monkeypatch.setattr(_common, "stage", stage)
+    code = mpz_cli.main(["encode", str(tmp_path / "w.trc"), "-o", str(tmp_path / "w.mpz"),
+                         "--max-error", "1mm", "--force"])
+    err = capsys.readouterr().err
+    assert code == 130 and err.endswith("interrupted\n"), err
+    if when == "before the write":
+        assert "was written" not in err and (tmp_path / "w.mpz").read_bytes() == b"old"
+    else:
+        assert f"{tmp_path / 'w.mpz'} was written" in err
+        assert mpz.info(tmp_path / "w.mpz").frames == 30
+
+
 def test_a_sigterm_after_the_output_is_written_says_so(tmp_path: Path) -> None:
     """The same for SIGTERM (a QA run of stop 48: exit 143, which README gives as
     "terminated while writing an output", and no word, with the output complete). In a

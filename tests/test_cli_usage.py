@@ -20,6 +20,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 
 import numpy as np
@@ -880,6 +881,53 @@ def test_a_sigterm_a_kernel_heard_exits_as_sigterm(tmp_path: Path, monkeypatch,
     err = capsys.readouterr().err
     assert "1 of 3 files finished before the interrupt" in err and err.endswith(
         "interrupted\n"), err
+
+
+def test_an_interrupted_encode_does_not_wait_for_a_stuck_pool_thread(monkeypatch) -> None:
+    """A Ctrl-C can leave a lock held that a pool thread then waits on for ever (numba's
+    compiler lock as a kernel loads): the encoder's shutdown(wait=True) hung the command
+    (a review of stop 56, about 1 in 50 tries). On an interrupt it does not wait."""
+    import threading
+
+    import mpz.encoder as encoder
+    stuck = threading.Event()
+    monkeypatch.setattr(encoder, "ancillary_records", lambda m, o: stuck.wait(60) or [])
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(encoder, "plan_hierarchy", interrupted)
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            mpz.encode(generate("walk", frames=40, markers=6, seed=1), max_error=1.0,
+                       threads=2)
+        assert time.monotonic() - t0 < 20
+        assert any(t.name.startswith(encoder.CODEC_THREADS) for t in threading.enumerate())
+    finally:
+        stuck.set()
+
+
+def test_a_command_leaves_a_stuck_codec_thread_behind(tmp_path: Path) -> None:
+    """...and the command ends after STUCK_SECONDS with the signal's code, where the
+    interpreter's exit joined the stuck thread for ever; what it printed is flushed."""
+    script = tmp_path / "stuck.py"
+    script.write_text(textwrap.dedent("""\
+        import sys, threading
+        import mpz.encoder
+        from mpz.tools._cli import reports_ctrl_c
+        threading.Thread(target=threading.Event().wait,
+                         name=mpz.encoder.CODEC_THREADS + "_0").start()
+        def main():
+            print("half a report", end="")
+            raise KeyboardInterrupt
+        sys.exit(reports_ctrl_c("mpz: interrupted")(main)())
+        """))
+    t0 = time.monotonic()
+    p = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 130 and p.stderr == "mpz: interrupted\n", p.stderr
+    assert p.stdout == "half a report"
+    assert time.monotonic() - t0 < 60
 
 
 def test_a_command_ignores_ctrl_c_once_its_work_is_done(tmp_path: Path) -> None:

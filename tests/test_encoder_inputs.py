@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+import re
 import subprocess
 import sys
 from typing import Any
@@ -345,8 +346,14 @@ def test_metadata_keys_the_readers_set_are_refused_as_by_the_cli(key, tmp_path):
     header fields (stop 54's list: metadata={"trc.Decimals": "1"} replaced the source's
     own, and its TRC was written back with one decimal)."""
     m = generate("walk", frames=20, seed=1)
-    with pytest.raises(EncoderError, match=f"metadata '{key}': a key the readers set"):
+    with pytest.raises(EncoderError, match=f"metadata '{key}': a key the readers set") as e:
         mpz.encode(m, max_error=1.0, metadata={key: "bvh"})
+    # the name it suggests is taken (a review of stop 56: trc.Decimals_note was refused
+    # in turn, suggesting trc.Decimals_note_note)
+    suggested = re.search(r"e\.g\. (\S+)$", str(e.value))
+    assert suggested, str(e.value)
+    assert mpz.decode(mpz.encode(m, max_error=1.0, metadata={suggested[1]: "v"})
+                      ).metadata[suggested[1]] == "v"
     data = mpz.encode(m, max_error=1.0, metadata={"subject": "P07", "source": "w.c3d"})
     assert mpz.decode(data).metadata["subject"] == "P07"
     (tmp_path / "g.mpz").write_bytes(data)

@@ -482,7 +482,7 @@ def check_option_values(o: EncodeOptions) -> None:
     if reserved:
         raise EncoderError(f"metadata {reserved[0]!r}: a key the readers set to describe the "
                            "file they read, which the tools go by (mpz decode, mpz show); "
-                           f"give your own name, e.g. {reserved[0]}_note")
+                           f"give your own name, e.g. {own_key(reserved[0])}")
 
 
 #: the reader keys (:data:`mpz.io.READER_KEYS`) that the options' metadata may set: a C3D's
@@ -490,6 +490,16 @@ def check_option_values(o: EncodeOptions) -> None:
 #: file name, which the CLI and corpus runs set this way and by which `mpz decode` names
 #: its output (a caller encoding a motion made in memory may give one)
 OWN_METADATA_KEYS = frozenset({"subject", "source"})
+
+
+def own_key(key: str) -> str:
+    """A name to suggest in place of the reader key ``key``, itself not one: ``format`` ->
+    ``format_note``, ``trc.Decimals`` -> ``note_trc_Decimals`` (``trc.Decimals_note`` is
+    a reader key too: a review of stop 56 was sent round that loop)."""
+    from mpz.io import READER_PREFIXES
+    if key.startswith(READER_PREFIXES):
+        return "note_" + key.replace(".", "_")
+    return f"{key}_note"
 
 
 def reader_key(key: str) -> bool:
@@ -644,6 +654,11 @@ class EncodeReport:
 _T = TypeVar("_T")
 
 
+#: the name prefix of the encoder's threads (``mpz-codec_0`` ...): what the commands wait
+#: for after an interrupt (:func:`mpz.tools._cli.reports_ctrl_c`)
+CODEC_THREADS = "mpz-codec"
+
+
 class _Pool(ThreadPoolExecutor):
     """A ThreadPoolExecutor whose ``submit`` does not fail when the system cannot start one
     more thread while one of the pool's runs: the work waits for a running thread."""
@@ -667,7 +682,7 @@ def start_pool(threads: int, first: Callable[..., _T], *args: Any
     (:class:`_Pool`)."""
     if threads <= 1:
         return None, None
-    pool = _Pool(threads, thread_name_prefix="mpz")
+    pool = _Pool(threads, thread_name_prefix=CODEC_THREADS)
     try:
         return pool, pool.submit(first, *args)
     except RuntimeError:                       # the task waits in the queue: cancelled
@@ -1842,6 +1857,14 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
                                "grid")
         data = container.build(file_records(motion, opts, hier, grid, root, coded, bits,
                                             None if ancillary is None else ancillary.result()))
+    except (KeyboardInterrupt, SystemExit, SystemError):
+        # a signal (or a kernel's report of one, SystemError): not waited for, since it may
+        # have left a lock held that a pool thread waits on (numba's compiler lock while a
+        # kernel loads): a review of stop 56 saw a Ctrl-C hang the command for good
+        if pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
+            pool = None
+        raise
     finally:
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)

@@ -867,20 +867,30 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
             said += f"; {out.positions.shape[0]} frames decoded of the {x.shape[0]} given"
         problems.append(f"{said} (R-7.2-2)")
         return problems, facts
+    positions, mask = out.positions, decoded.valid
     if list(out.names) != list(side["names"]):
         # the first that differs, by index (the first four of each said nothing when the
         # last was renamed, a QA run of stop 47); the shapes are equal here
         k = next(i for i, (got, want) in enumerate(zip(out.names, side["names"],
                                                         strict=True)) if got != want)
-        problems.append(f"marker names[{k}] = {printable(out.names[k])!r} != input "
-                        f"{printable(side['names'][k])!r} (R-7.2-2)")
+        said = (f"marker names[{k}] = {printable(out.names[k])!r} != input "
+                f"{printable(side['names'][k])!r}")
+        if sorted(out.names) == sorted(side["names"]) and \
+                len(set(side["names"])) == len(side["names"]):
+            # the same markers in another order: the gaps and the bound are checked marker
+            # by marker, by name (by index, a review of stop 56 was told of a broken bound
+            # and of gaps, where only the order was wrong)
+            at = {n: i for i, n in enumerate(out.names)}
+            order = [at[n] for n in side["names"]]
+            positions, mask = positions[:, order], mask[:, order]
+            said += ": the same markers in another order (gaps and bound checked by name)"
+        problems.append(f"{said} (R-7.2-2)")
     if float(out.rate) != float(side["rate"]):
         problems.append(f"rate {out.rate!r} != input {side['rate']!r} (rates are kept "
                         "exactly, R-7.2-2)")
     if out.units != side.get("units", ""):
         problems.append(f"units {out.units!r} != input {side.get('units')!r} (R-7.2-2)")
     valid_in = ~np.isnan(x).any(axis=2)
-    mask = decoded.valid
     if (mask != valid_in).any():
         f, m = (int(i) for i in np.argwhere(mask != valid_in)[0])
         what = "a gap" if valid_in[f, m] else "valid"
@@ -888,7 +898,7 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
                         f"{what} ({int((mask != valid_in).sum())} marker-frames differ; "
                         "R-7.2-2)")
     both = valid_in & mask
-    d = _distances(out.positions, x)
+    d = _distances(positions, x)
     d[~both] = 0.0
     facts["measured_max_error"] = float(d.max(initial=0.0))
     bound = float(h.error_bound)
@@ -1105,7 +1115,7 @@ MEMORY_WORDS = re.compile(r"memory|MemoryError|shared object|map segment|allocat
 
 def _warn_if_nothing_decoded(results: list[dict[str, Any]],
                              probed: dict[str, Any] | None = None,
-                             memory_mb: int | None = None) -> None:
+                             memory_mb: int | None = None, as_given: bool = False) -> None:
     """Say so when a command meant to decode decoded none of the valid vectors: it may not
     run at all (``python -m NAME`` finds no module from the temporary working directory),
     and then its exits of 1 pass every invalid vector as a rejection (a QA of stop 42:
@@ -1113,7 +1123,9 @@ def _warn_if_nothing_decoded(results: list[dict[str, Any]],
     the valid vector run to check that the command decodes at all, when none was
     selected. ``memory_mb``: the --memory limit, which may be too small for the command
     to start (the reference decoder's numba cannot load its library under 256 MiB:
-    a conformance QA run of stop 55 was sent after a path problem)."""
+    a conformance QA run of stop 55 was sent after a path problem). ``as_given``: the
+    command's arguments were passed as written (--as-given), which a relative path then
+    cannot be (a review of stop 56)."""
     valid = [r for r in results if r.get("expected") == "decode"]
     if valid and not any(r["passed"] for r in valid):
         said = printable(valid[0]["message"])[:300]
@@ -1156,7 +1168,10 @@ def _warn_if_nothing_decoded(results: list[dict[str, Any]],
         print(f"mpz-conformance: warning: the command decoded none of the {len(valid)} valid "
               f"vector(s) (the first: {said}); check that it runs at all from a temporary "
               "working directory (python -m NAME does not find a module beside you: give "
-              f"its path){limit}: until it does, its rejections of invalid vectors prove "
+              "its path"
+              + ("; with --as-given, a relative path among its arguments is looked for "
+                 "there too" if as_given else "")
+              + f"){limit}: until it does, its rejections of invalid vectors prove "
               "nothing", file=sys.stderr)
 
 
@@ -1195,7 +1210,8 @@ def main(argv: list[str] | None = None) -> int:
             # a word (a conformance QA run of stop 55)
             print("note: arguments that name a file or folder here are given as absolute "
                   "paths (the command runs in a temporary directory): "
-                  + ", ".join(f"{printable(a)} -> {printable(b)}" for a, b in moved)
+                  + ", ".join(f"{printable(shlex.quote(a))} -> {printable(shlex.quote(b))}"
+                              for a, b in moved)
                   + "; --as-given leaves them as written", file=sys.stderr)
         vdir = Path(args.vectors)
         try:
@@ -1355,7 +1371,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else ""))
-    _warn_if_nothing_decoded(results, probed, args.memory)
+    _warn_if_nothing_decoded(results, probed, args.memory, bool(getattr(args, "as_given",
+                                                                        False)))
     if probed is not None:
         said = f"{probed['group']}/{probed['name']}"
         if unproven:

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable, Iterable
+import contextlib
 import difflib
 import errno
 import functools
@@ -42,6 +43,7 @@ import json
 import math
 import os
 import sys
+import time
 from typing import IO, Any, NoReturn, ParamSpec
 
 from mpz._worker import ignore_sigint_when_done, release_sigint
@@ -320,17 +322,21 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                 return main(*args, **kwargs)
             except KeyboardInterrupt:
                 print(message, file=sys.stderr)
-                return EXIT_INTERRUPTED
+                return leave_stuck_threads(EXIT_INTERRUPTED)
+            except SystemExit as exc:
+                leave_stuck_threads(exc.code)
+                raise
             except SystemError as exc:
                 end = signal_in(exc)
                 if isinstance(end, SystemExit):
                     # SIGTERM (signals_exit) heard inside a kernel: the exit it asked for,
                     # not a bug (a review of stop 56: exit 70 and a traceback)
+                    leave_stuck_threads(end.code)
                     raise end from None
                 if end is None:
                     return _bug(prog)
                 print(message, file=sys.stderr)
-                return EXIT_INTERRUPTED
+                return leave_stuck_threads(EXIT_INTERRUPTED)
             except (MemoryError, BrokenPipeError):
                 raise            # each command's own report; a pipe closed by `head`
             except OSError as exc:
@@ -354,6 +360,35 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
         return wrapper
 
     return decorate
+
+
+#: how long a command that was interrupted waits for the encoder's threads to end
+STUCK_SECONDS = 3.0
+
+
+def leave_stuck_threads(code: Any) -> int:
+    """``code``, once the encoder's threads (:data:`mpz.encoder.CODEC_THREADS`) have ended;
+    if one has not within :data:`STUCK_SECONDS`, the process ends here with ``code``
+    (``os._exit``, after flushing its output). A signal can land while a lock is held that
+    such a thread then waits on for ever (numba's compiler lock as a kernel loads), and
+    the interpreter's exit joins every thread: a Ctrl-C hung the command, and a second one
+    did nothing (a review of stop 56, about 1 in 50 tries)."""
+    import threading
+    exit_code = 0 if code is None else code if isinstance(code, int) else EXIT_ERROR
+    encoder = sys.modules.get("mpz.encoder")    # not imported: none of its threads runs
+    if encoder is None:
+        return exit_code
+    prefix = encoder.CODEC_THREADS
+    deadline = time.monotonic() + STUCK_SECONDS
+    for t in threading.enumerate():
+        if t.name.startswith(prefix):
+            t.join(max(0.0, deadline - time.monotonic()))
+    if any(t.name.startswith(prefix) and t.is_alive() for t in threading.enumerate()):
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        os._exit(exit_code)
+    return exit_code
 
 
 def _working_folder_gone() -> bool:

@@ -193,14 +193,14 @@ def _check_meta_keys(items: list[str] | None) -> None:
     """Refuse a --meta key that a reader sets and the tools read back (a QA run: --meta
     format=bvh made every later mpz decode of the file try to write BVH, and fail), and a
     key given twice (the last value was kept without a word)."""
-    from mpz.encoder import reader_key
+    from mpz.encoder import own_key, reader_key
     seen: set[str] = set()
     for item in items or []:
         key = item.split("=", 1)[0] if "=" in item else item
         if reader_key(key) or key == "source":        # the CLI names it from the input
             raise EncoderError(f"--meta {key}: a key the readers set to describe the file "
                                f"they read, which the tools go by (mpz decode, mpz show); "
-                               f"give your own name, e.g. --meta {key}_note=...")
+                               f"give your own name, e.g. --meta {own_key(key)}=...")
         if key in seen:
             raise EncoderError(f"--meta {key} is given twice: give each key once")
         seen.add(key)
@@ -374,6 +374,16 @@ def run(args: argparse.Namespace) -> int:
     return code
 
 
+def _holds(path: str, data: bytes) -> bool:
+    """Whether the file ``path`` holds ``data`` (a write that an interrupt may have cut
+    short either put it there whole or left the old file)."""
+    try:
+        with open(path, "rb") as fh:
+            return os.fstat(fh.fileno()).st_size == len(data) and fh.read() == data
+    except OSError:
+        return False
+
+
 def _remove_output(output: str, to_stdout: bool) -> str:
     """Remove a bad output that this command wrote, and say what became of it. Standard
     output is gone already, and the null device is never removed: as root, `-o
@@ -467,14 +477,16 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
               "paper's distortion control), and no node kept one (under a bound, key frames "
               "or per-sample residuals won): they do not change the decoded motion",
               file=sys.stderr)
+    from mpz.api import signals_exit
     if to_stdout:
         write_stdout(data, binary=True, force=args.force)
-    else:
-        mpz.write_atomic(job.output, data, source=source, force=args.force)
-    # the report's figures: a Ctrl-C or SIGTERM here finds the output already written
-    from mpz.api import signals_exit
-    stage("encode", args.quiet, size, "decoding what was written, to measure its error")
+    # the write and the report's figures: a Ctrl-C or SIGTERM that comes once the output
+    # is in place (in the write's last steps, or between the two: a review of stop 56 saw
+    # exit 130 and "interrupted" alone with the file there) says it was written
     try:
+        if not to_stdout:
+            mpz.write_atomic(job.output, data, source=source, force=args.force)
+        stage("encode", args.quiet, size, "decoding what was written, to measure its error")
         with signals_exit(signal.SIGTERM):
             try:
                 decoded = mpz.decode(data)
@@ -493,7 +505,8 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
             raise
         # 130 or 143 read as "nothing changed" lost a --force target (QA, stops 47, 48)
         if not to_stdout and (isinstance(sig, KeyboardInterrupt)
-                              or sig.code == 128 + signal.SIGTERM):
+                              or sig.code == 128 + signal.SIGTERM) \
+                and _holds(job.output, data):
             print(f"mpz encode: {printable(job.output)} was written (the "
                   f"{'interrupt' if isinstance(sig, KeyboardInterrupt) else 'SIGTERM'} came "
                   "while its report was measured)", file=sys.stderr)
