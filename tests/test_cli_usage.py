@@ -908,7 +908,7 @@ def test_an_interrupted_encode_does_not_wait_for_a_stuck_pool_thread(monkeypatch
 
 
 def test_a_command_leaves_a_stuck_codec_thread_behind(tmp_path: Path) -> None:
-    """...and the command ends after STUCK_SECONDS with the signal's code, where the
+    """...and the command ends after INTERRUPT_WAIT_SECONDS with the signal's code, where the
     interpreter's exit joined the stuck thread for ever; what it printed is flushed."""
     script = tmp_path / "stuck.py"
     script.write_text(textwrap.dedent("""\

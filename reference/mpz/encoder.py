@@ -657,6 +657,9 @@ _T = TypeVar("_T")
 #: the name prefix of the encoder's threads (``mpz-codec_0`` ...): what the commands wait
 #: for after an interrupt (:func:`mpz.tools._cli.reports_ctrl_c`)
 CODEC_THREADS = "mpz-codec"
+#: how long an interrupted encode waits for its threads to finish their tasks; one still
+#: running then is stuck (a lock the signal left held), and is left behind
+INTERRUPT_WAIT_SECONDS = 3.0
 
 
 class _Pool(ThreadPoolExecutor):
@@ -1858,11 +1861,16 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
         data = container.build(file_records(motion, opts, hier, grid, root, coded, bits,
                                             None if ancillary is None else ancillary.result()))
     except (KeyboardInterrupt, SystemExit, SystemError):
-        # a signal (or a kernel's report of one, SystemError): not waited for, since it may
-        # have left a lock held that a pool thread waits on (numba's compiler lock while a
-        # kernel loads): a review of stop 56 saw a Ctrl-C hang the command for good
+        # a signal (or a kernel's report of one, SystemError): waited for a while only,
+        # since it may have left a lock held that a pool thread waits on for ever (numba's
+        # compiler lock while a kernel loads): a review of stop 56 saw a Ctrl-C hang the
+        # command for good. Not at all, it let this thread unwind while the pool's still
+        # ran kernels, and two of 60 interrupted runs then crashed (SIGSEGV).
         if pool is not None:
             pool.shutdown(wait=False, cancel_futures=True)
+            deadline = time.monotonic() + INTERRUPT_WAIT_SECONDS
+            for t in list(getattr(pool, "_threads", ())):
+                t.join(max(0.0, deadline - time.monotonic()))
             pool = None
         raise
     finally:

@@ -362,13 +362,10 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
     return decorate
 
 
-#: how long a command that was interrupted waits for the encoder's threads to end
-STUCK_SECONDS = 3.0
-
-
 def leave_stuck_threads(code: Any) -> int:
     """``code``, once the encoder's threads (:data:`mpz.encoder.CODEC_THREADS`) have ended;
-    if one has not within :data:`STUCK_SECONDS`, the process ends here with ``code``
+    if one has not within :data:`mpz.encoder.INTERRUPT_WAIT_SECONDS` (the encoder waited
+    as long already: such a thread is stuck), the process ends here with ``code``
     (``os._exit``, after flushing its output). A signal can land while a lock is held that
     such a thread then waits on for ever (numba's compiler lock as a kernel loads), and
     the interpreter's exit joins every thread: a Ctrl-C hung the command, and a second one
@@ -379,7 +376,7 @@ def leave_stuck_threads(code: Any) -> int:
     if encoder is None:
         return exit_code
     prefix = encoder.CODEC_THREADS
-    deadline = time.monotonic() + STUCK_SECONDS
+    deadline = time.monotonic() + encoder.INTERRUPT_WAIT_SECONDS
     for t in threading.enumerate():
         if t.name.startswith(prefix):
             t.join(max(0.0, deadline - time.monotonic()))
