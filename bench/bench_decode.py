@@ -42,7 +42,6 @@ bench``).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import hashlib
 import json
@@ -130,8 +129,11 @@ def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
                              f"folder ({exc.strerror or exc})") from None
     listed: dict[str, str] = {}
     if save is not None:                 # files saved before at this bound stay listed
-        with contextlib.suppress(SystemExit):
-            listed = _saved_inputs(save, bound)
+        try:
+            saved_at, before = _inputs_list(save)
+            listed = before if saved_at == bound else {}
+        except (OSError, ValueError):
+            pass
     for path in paths:
         m = mpz.io.read(path)
         kw, _, desc = bound_kwargs(m, bound)
@@ -175,22 +177,31 @@ def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
 INPUTS_LIST = "inputs.json"
 
 
+def _inputs_list(folder: Path) -> tuple[str, dict[str, str]]:
+    """The bound and the files (name -> SHA-256) that --save-inputs listed in ``folder``;
+    ValueError (or OSError) when there is no such list."""
+    doc = json.loads((folder / INPUTS_LIST).read_text())
+    if not (isinstance(doc, dict) and isinstance(doc.get("bound"), str)
+            and isinstance(doc.get("files"), dict)):
+        raise ValueError("not a list of saved inputs")
+    return doc["bound"], dict(doc["files"])
+
+
 def _saved_inputs(folder: Path, bound: str) -> dict[str, str]:
     """The files a --save-inputs run wrote into ``folder``, name -> SHA-256; SystemExit
     when there is no such list or it was saved at another bound (a review of stop 56: a
     --bound 5mm run decoded the 1 mm bytes, and its compare with a 5 mm run made up a
     decoder regression)."""
     try:
-        doc = json.loads((folder / INPUTS_LIST).read_text())
-        files, saved_at = doc["files"], doc["bound"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+        saved_at, files = _inputs_list(folder)
+    except (OSError, ValueError) as exc:
         raise SystemExit(f"bench_decode.py: --inputs {folder}: no list of saved inputs "
                          f"({folder / INPUTS_LIST}: {exc}); make it with --save-inputs "
                          f"{folder}") from None
     if saved_at != bound:
         raise SystemExit(f"bench_decode.py: --inputs {folder}: saved at --bound {saved_at}, "
                          f"not {bound}: give --bound {saved_at}")
-    return dict(files)
+    return files
 
 
 def load(path: Path) -> dict[str, dict]:

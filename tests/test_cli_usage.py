@@ -908,8 +908,9 @@ def test_an_interrupted_encode_does_not_wait_for_a_stuck_pool_thread(monkeypatch
 
 
 def test_a_command_leaves_a_stuck_codec_thread_behind(tmp_path: Path) -> None:
-    """...and the command ends after INTERRUPT_WAIT_SECONDS with the signal's code, where the
-    interpreter's exit joined the stuck thread for ever; what it printed is flushed."""
+    """...and the command, whose encoder has waited for that thread already, ends with the
+    signal's code, where the interpreter's exit joined the stuck thread for ever; what it
+    printed is flushed."""
     script = tmp_path / "stuck.py"
     script.write_text(textwrap.dedent("""\
         import sys, threading

@@ -1070,11 +1070,9 @@ class Index:
         of its values as they are now, and return how many: such rows were unchecked for
         good, since a run writes a row again only when its file changes (a review of stop
         56). A value changed before this is not found; one changed after is."""
-        names = (*_FILE_COLUMNS, *_RECORDED)
-        rows = self.db.execute(f"SELECT {', '.join(names)} FROM files WHERE {_CHECKSUM} "
-                               "IS NULL").fetchall()
-        done = [(row_digest(dict(zip(names, r, strict=True))), r[0]) for r in rows
-                if _row_problem(dict(zip(names, r, strict=True))) is None]
+        done = [(row_digest(r), r["output"])
+                for r in self._files(f"WHERE {_CHECKSUM} IS NULL", check=False)
+                if _row_problem(r) is None]
         with self.db:
             self.db.executemany(f"UPDATE files SET {_CHECKSUM} = ? WHERE output = ?", done)
         return len(done)
@@ -2128,6 +2126,13 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         done = verified = 0
         sound: dict[int, FileResult] = {}    # with verify: the report of each, if sound
 
+        def report(workers: int, same: list[list[str]], **stop: Any) -> CorpusReport:
+            """The run's report, of the files finished so far."""
+            return CorpusReport([r for r in results if r is not None] + early,
+                                time.perf_counter() - t0, workers, cluster,
+                                os.path.join(index_dir, INDEX_NAME), forgotten, same, notes,
+                                _again(again, results), verified, **stop)
+
         def finish(i: int, r: FileResult) -> None:
             nonlocal done, verified
             if r.status == "skipped" and i in sound:
@@ -2202,19 +2207,13 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             # is indexed, and the report says so with the files left
             left = [(tasks[i].source, _size(tasks[i].source))
                     for i, r in enumerate(results) if r is None]
-            final = [r for r in results if r is not None] + early
             # the cluster's own count (a review of stop 56: the local CPU count was said of
             # a --scheduler cluster of one worker, and of one with none)
-            raise CorpusStopped(exc.message, CorpusReport(
-                final, time.perf_counter() - t0, seen[-1] if seen else n_workers, cluster,
-                os.path.join(index_dir, INDEX_NAME), forgotten, [], notes,
-                _again(again, results), verified, stopped=exc.message,
-                not_run=left)) from None
+            raise CorpusStopped(exc.message, report(seen[-1] if seen else n_workers, [],
+                                                    stopped=exc.message, not_run=left)
+                                ) from None
         same = index.same_sources()
-    final = [r for r in results if r is not None] + early
-    return CorpusReport(final, time.perf_counter() - t0, n_workers, cluster,
-                        os.path.join(index_dir, INDEX_NAME), forgotten, same, notes,
-                        _again(again, results), verified)
+    return report(n_workers, same)
 
 
 def _again(again: Mapping[int, str], results: Sequence[FileResult | None]

@@ -43,7 +43,6 @@ import json
 import math
 import os
 import sys
-import time
 from typing import IO, Any, NoReturn, ParamSpec
 
 from mpz._worker import ignore_sigint_when_done, release_sigint
@@ -363,24 +362,18 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
 
 
 def leave_stuck_threads(code: Any) -> int:
-    """``code``, once the encoder's threads (:data:`mpz.encoder.CODEC_THREADS`) have ended;
-    if one has not within :data:`mpz.encoder.INTERRUPT_WAIT_SECONDS` (the encoder waited
-    as long already: such a thread is stuck), the process ends here with ``code``
-    (``os._exit``, after flushing its output). A signal can land while a lock is held that
-    such a thread then waits on for ever (numba's compiler lock as a kernel loads), and
-    the interpreter's exit joins every thread: a Ctrl-C hung the command, and a second one
-    did nothing (a review of stop 56, about 1 in 50 tries)."""
+    """``code``; or, when one of the encoder's threads (:data:`mpz.encoder.CODEC_THREADS`)
+    is still running, the process ends here with it (``os._exit``, after flushing its
+    output). An interrupted encode has waited :data:`mpz.encoder.INTERRUPT_WAIT_SECONDS`
+    for its threads already, so such a thread is stuck: a signal can land while a lock is
+    held that it then waits on for ever (numba's compiler lock as a kernel loads), and the
+    interpreter's exit joins every thread: a Ctrl-C hung the command, and a second one did
+    nothing (a review of stop 56, about 1 in 50 tries)."""
     import threading
     exit_code = 0 if code is None else code if isinstance(code, int) else EXIT_ERROR
     encoder = sys.modules.get("mpz.encoder")    # not imported: none of its threads runs
-    if encoder is None:
-        return exit_code
-    prefix = encoder.CODEC_THREADS
-    deadline = time.monotonic() + encoder.INTERRUPT_WAIT_SECONDS
-    for t in threading.enumerate():
-        if t.name.startswith(prefix):
-            t.join(max(0.0, deadline - time.monotonic()))
-    if any(t.name.startswith(prefix) and t.is_alive() for t in threading.enumerate()):
+    if encoder is not None and any(t.name.startswith(encoder.CODEC_THREADS) and t.is_alive()
+                                   for t in threading.enumerate()):
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(Exception):
                 stream.flush()
