@@ -33,8 +33,9 @@ infinities.
 """
 from __future__ import annotations
 
+import _thread
 import argparse
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 import contextlib
 import difflib
 import errno
@@ -42,7 +43,10 @@ import functools
 import json
 import math
 import os
+import signal
 import sys
+import threading
+import time
 from typing import IO, Any, NoReturn, ParamSpec
 
 from mpz._worker import ignore_sigint_when_done, release_sigint
@@ -303,7 +307,8 @@ OUTPUT_FULL = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EIO})
 def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, int]]:
     """Decorate a command's ``main``: SIGINT, held since the command's first import of mpz
     (:mod:`mpz._worker`), is released first, and a Ctrl-C anywhere in ``main`` (a held one
-    included) prints ``message`` and exits :data:`EXIT_INTERRUPTED`, without a traceback.
+    included, and one a finalizer dropped: :func:`signals_not_dropped`) prints ``message``
+    and exits :data:`EXIT_INTERRUPTED`, without a traceback.
 
     An exception that no command handles is a bug: its traceback is printed, then a line
     that says so, and the code is :data:`EXIT_BUG`. It exited 1, which means "warnings
@@ -318,7 +323,8 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
         def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> int:
             try:
                 release_sigint()
-                return main(*args, **kwargs)
+                with signals_not_dropped():
+                    return main(*args, **kwargs)
             except KeyboardInterrupt:
                 print(message, file=sys.stderr)
                 return leave_stuck_threads(EXIT_INTERRUPTED)
@@ -361,6 +367,73 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
     return decorate
 
 
+#: how long after a dropped signal it is raised again (:func:`signals_not_dropped`): time
+#: for the finalizer that dropped it to return
+SIGNAL_AGAIN_SECONDS = 0.01
+
+
+@contextlib.contextmanager
+def signals_not_dropped() -> Iterator[None]:
+    """While the block runs in the main thread: a Ctrl-C (or a SIGTERM or SIGHUP that
+    :func:`mpz.api.signals_exit` turns into SystemExit) whose exception Python drops is
+    raised again a moment later (:data:`SIGNAL_AGAIN_SECONDS`), in the main thread, by the
+    signal's own handler.
+
+    Python runs a signal's handler at the main thread's next instruction, wherever that
+    is; when it is inside a finalizer (``__del__``, a weakref callback: llvmlite's
+    ``ObjectRef.__del__`` as numba frees a kernel's module), the exception cannot leave
+    it, and Python prints "Exception ignored in ..." and goes on: the encode then finished
+    and exited 0 (about 1 in 60 interrupted runs of ``mpz encode``, stops 55-56). Python
+    hands such exceptions to :data:`sys.unraisablehook`; this one starts a thread that
+    signals the main thread again (``_thread.interrupt_main``) once the finalizer has
+    returned, and hands every other exception on. Low-level ``_thread`` calls only: the
+    hook runs wherever a finalizer runs, perhaps while :mod:`threading`'s own locks are
+    held."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    lock = _thread.allocate_lock()
+    armed = [True]
+    old_hook = sys.unraisablehook
+
+    def again(signum: signal.Signals) -> None:
+        time.sleep(SIGNAL_AGAIN_SECONDS)
+        with lock:
+            if armed[0]:
+                _thread.interrupt_main(signum)
+
+    def hook(unraisable: Any) -> None:
+        signum = _dropped_signal(unraisable.exc_value)
+        if signum is None or not armed[0]:
+            old_hook(unraisable)
+            return
+        _thread.start_new_thread(again, (signum,))
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        with lock:
+            armed[0] = False
+        if sys.unraisablehook is hook:
+            sys.unraisablehook = old_hook
+
+
+def _dropped_signal(exc: BaseException | None) -> signal.Signals | None:
+    """The signal whose handler raised ``exc`` (the end of its chain of SystemErrors, as a
+    kernel reports one: :func:`signal_in`): SIGINT for KeyboardInterrupt, the signal of
+    ``SystemExit(128 + signum)`` when that signal has a Python handler; None otherwise."""
+    end = None if exc is None else signal_in(exc)
+    if isinstance(end, KeyboardInterrupt):
+        return signal.SIGINT
+    if isinstance(end, SystemExit) and isinstance(end.code, int) and end.code > 128:
+        with contextlib.suppress(ValueError):
+            signum = signal.Signals(end.code - 128)
+            if callable(signal.getsignal(signum)):
+                return signum
+    return None
+
+
 def leave_stuck_threads(code: Any) -> int:
     """``code``; or, when one of the encoder's threads (:data:`mpz.encoder.CODEC_THREADS`)
     is still running, the process ends here with it (``os._exit``, after flushing its
@@ -369,7 +442,6 @@ def leave_stuck_threads(code: Any) -> int:
     held that it then waits on for ever (numba's compiler lock as a kernel loads), and the
     interpreter's exit joins every thread: a Ctrl-C hung the command, and a second one did
     nothing (a review of stop 56, about 1 in 50 tries)."""
-    import threading
     exit_code = 0 if code is None else code if isinstance(code, int) else EXIT_ERROR
     encoder = sys.modules.get("mpz.encoder")    # not imported: none of its threads runs
     if encoder is not None and any(t.name.startswith(encoder.CODEC_THREADS) and t.is_alive()
