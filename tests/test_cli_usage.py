@@ -972,6 +972,15 @@ def test_other_dropped_exceptions_still_reach_python_s_hook(monkeypatch) -> None
     time.sleep(0.2)                      # no KeyboardInterrupt comes here later
     assert seen == [ValueError]
     assert _dropped_signal(_kernel_interrupt(2)) == signal.SIGINT
+
+    import _thread
+
+    def no_thread(*args) -> None:
+        raise RuntimeError("can't start new thread")
+
+    monkeypatch.setattr(_thread, "start_new_thread", no_thread)
+    assert reports_ctrl_c("interrupted")(ends_at_once)() == 0   # Python's word, as before
+    assert seen == [ValueError, KeyboardInterrupt]
     assert _dropped_signal(SystemExit(3)) is None and _dropped_signal(ValueError()) is None
 
 

@@ -407,7 +407,10 @@ def signals_not_dropped() -> Iterator[None]:
         if signum is None or not armed[0]:
             old_hook(unraisable)
             return
-        _thread.start_new_thread(again, (signum,))
+        try:
+            _thread.start_new_thread(again, (signum,))
+        except RuntimeError:           # no thread to be had: Python's word, as before
+            old_hook(unraisable)
 
     sys.unraisablehook = hook
     try:
