@@ -15,6 +15,7 @@ from pathlib import Path
 import struct
 import subprocess
 import sys
+import types
 import warnings
 
 from hypothesis import example, given, settings
@@ -453,3 +454,60 @@ def test_frames_past_the_header_range_are_said(tmp_path: Path) -> None:
     longer = _write(tmp_path, "longer.c3d", data + data[-512:] * 3)     # 3 blocks more
     w = read(longer).metadata.get("warning", "")
     assert "bytes past the 10 frames of the header's frame range" in w, w
+
+
+def test_a_record_ezc3d_refuses_is_not_read_leniently_where_that_walk_meets_a_hazard(
+        tmp_path: Path, monkeypatch) -> None:
+    """A fuzzing run of the readers (stop 57): a 7.7 KB C3D whose POINT:LABELS description
+    ran past its record. ezc3d refuses such a file, and the reader asked it again with
+    ``ignore_bad_formatting``; ezc3d then reads on from where the description ends, not
+    from the next record, and there it read the point data as parameters (12 GB and 3 s;
+    where memory is short, the process ends). The walk ezc3d then makes is checked first
+    (``ezc3d_hazard(ignore_bad_formatting=True)``), and c3dbin reads the file."""
+    import ezc3d
+
+    from mpz.io import c3dbin
+    data = bytearray(_records())
+    at = _type_at(bytes(data), b"POINT", b"LABELS")
+    ptype, ndim = struct.unpack("<bB", data[at:at + 2])
+    dims = data[at + 2:at + 2 + ndim]
+    desc = at + 2 + ndim + abs(ptype) * int(np.prod(list(dims)))
+    # the writer's records follow each other (the next-record offset counts from its own
+    # two bytes, just before the type): 5 bytes more run into the next record
+    assert desc + 1 + data[desc] == at - 2 + struct.unpack("<H", data[at - 2:at])[0]
+    data[desc] += 5
+    blob = bytes(data)
+    assert c3dbin.ezc3d_hazard(blob) is None          # walked by the records' offsets
+    lenient = c3dbin.ezc3d_hazard(blob, ignore_bad_formatting=True)
+    assert lenient is not None and lenient.endswith("(files like it crash ezc3d 1.7)")
+    calls: list[dict] = []
+
+    def recorded(*args, **kwargs):
+        calls.append(kwargs)
+        return ezc3d.c3d(*args, **kwargs)
+
+    # the reader imports ezc3d where it reads; ezc3d's own code keeps its module
+    seen = types.ModuleType("ezc3d")
+    seen.__dict__.update(vars(ezc3d))
+    seen.c3d = recorded
+    monkeypatch.setitem(sys.modules, "ezc3d", seen)
+    m = read(_write(tmp_path, "overrun.c3d", blob))
+    assert calls and not any(c.get("ignore_bad_formatting") for c in calls), calls
+    assert m.metadata["reader"] == "mpz.io.c3dbin" and m.n_frames == 10
+    assert f"told to ignore that it would meet {lenient}" in m.metadata["warning"]
+
+
+def test_the_lenient_walk_finds_nothing_in_the_real_files_ezc3d_reads(
+        shared_data: Path) -> None:
+    """No false alarm: of the 18 real C3D files, ezc3d reads 16 as they are, so the walk
+    it would make with ignore_bad_formatting must find nothing there; Facial-Sing, which
+    ezc3d refuses, and refuses again with ignore_bad_formatting ("Parameter type
+    unrecognized"), holds a parameter of type 0 on that walk."""
+    from mpz.io import c3dbin
+    files = sorted((shared_data / "c3d").glob("*.c3d"))
+    if not files:
+        pytest.skip("no C3D files in the shared data")
+    found = {f.name: c3dbin.ezc3d_hazard(f.read_bytes(), ignore_bad_formatting=True)
+             for f in files}
+    assert {k: v for k, v in found.items() if v is not None} == {
+        "c3dorg_Facial-Sing.c3d": "a parameter of type 0 (files like it crash ezc3d 1.7)"}

@@ -98,12 +98,14 @@ def test_numediart_gap_share(shared_data):
 
 def test_quirky_c3d_files_are_read_with_a_note_or_a_warning(shared_data):
     """docs/io-notes.md: the MIPS file is valid C3D that ezc3d does not read (a note of the
-    reader, no warning); Facial-Sing has a parameter type ezc3d does not know (a warning)."""
+    reader, no warning); Facial-Sing has a parameter type ezc3d does not know (a warning:
+    ezc3d refuses it, and would meet that type if told to ignore that)."""
     m = read(shared_data / "c3d/c3dorg_Eb015sr.c3d")
     assert "warning" not in m.metadata and "MIPS" in m.metadata["reader_note"]
     m = read(shared_data / "c3d/c3dorg_Facial-Sing.c3d")
     assert "reader_note" not in m.metadata
-    assert "Parameter type unrecognized" in m.metadata["warning"]
+    assert "ezc3d refused the file" in m.metadata["warning"]
+    assert "told to ignore that it would meet a parameter of type 0" in m.metadata["warning"]
     assert read(shared_data / "c3d/cmu_02_01.c3d").metadata["subject"] == "TakeoMonday"
     names = read(shared_data / "c3d/c3dorg_Sample_Jump2.c3d").names
     assert "RKNE" in names and "RKNE#2" in names

@@ -529,6 +529,14 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
     except (RuntimeError, ValueError) as exc:  # "MIPS processor type not supported",
         first_error = exc                      # "SCALE parameter is not a FLOAT"
     except OSError as exc:  # "The format is not standard ..."
+        lenient = c3dbin.ezc3d_hazard(data, ignore_bad_formatting=True)
+        if lenient is not None:
+            # ezc3d then reads on where a record ends, not where the section says the next
+            # begins: what it reads there can crash it or take gigabytes (stop 57)
+            return motion_from_c3d_bytes(data, source=source, extra={
+                "warning": f"ezc3d refused the file ({type(exc).__name__}: "
+                           f"{str(exc).splitlines()[0] if str(exc) else ''}), and told to "
+                           f"ignore that it would meet {lenient}; read with mpz.io.c3dbin"})
         warning = _joined(note, f"non-standard C3D read with ignore_bad_formatting: {exc}")
         try:
             c = ezc3d.c3d(reopen, ignore_bad_formatting=True)

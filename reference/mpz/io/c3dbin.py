@@ -891,8 +891,9 @@ def hazard_is_fault(why: str) -> bool:
     return why.startswith(FILE_FAULTS)
 
 
-def ezc3d_hazard(data: bytes) -> str | None:
-    """Why ezc3d must not open these C3D bytes, or None.
+def ezc3d_hazard(data: bytes, *, ignore_bad_formatting: bool = False) -> str | None:
+    """Why ezc3d must not open these C3D bytes, or None; with ``ignore_bad_formatting``,
+    why it must not open them so (``ezc3d.c3d(path, ignore_bad_formatting=True)``).
 
     ezc3d 1.7.2 ends the process (a segmentation fault or an abort, not an exception), or
     does not return, on the parameter sections below. They were found by mutating real and
@@ -925,21 +926,29 @@ def ezc3d_hazard(data: bytes) -> str | None:
     9. two group records of one name (compared in upper case): ezc3d looks a parameter up
        in the first, and rules 2-5 and 7 would judge another (a QA run of stop 54: two
        ANALOG groups, the first with USED 5 and no OFFSET, crashed ezc3d).
+
+    With ``ignore_bad_formatting`` the section is walked as ezc3d walks it then: a record
+    that does not end where the one before it says the next begins is not refused, and
+    ezc3d reads on from the end of its description, not from that offset. Rules 6 and 8
+    are applied to the records so reached (a fuzzed 7.7 KB file whose POINT:LABELS
+    description ran past its record had ezc3d read its point data as parameters: 12 GB,
+    3 s; the walk by offsets found nothing, a fuzzing run of the readers, stop 57).
     """
     start = (data[0] - 1) * BLOCK if len(data) > BLOCK else -1
     if start < BLOCK or start + 4 > len(data):
         return None                       # parse_c3d gives the precise error
     if is_mips(data):
         return None                       # ezc3d refuses these before their parameters
-    why = _ezc3d_walk(data, start)
+    why = _ezc3d_walk(data, start, ignore_bad_formatting)
     if why is None:
         why = _ezc3d_values(data, start)
     return None if why is None else f"{why} (files like it crash ezc3d 1.7)"
 
 
-def _ezc3d_walk(data: bytes, start: int) -> str | None:
+def _ezc3d_walk(data: bytes, start: int, sequential: bool = False) -> str | None:
     """Rules 6 and 8 of :func:`ezc3d_hazard`: the section walked record by record as ezc3d
-    does."""
+    does: from each record's next-record offset, or, ``sequential``, from the end of its
+    description (ezc3d with ``ignore_bad_formatting``)."""
     pos, seen = start + 4, set()
     groups: dict[int, str] = {}
     section_end = _section_end(data, start, int.from_bytes(data[16:18], "little"))
@@ -984,7 +993,12 @@ def _ezc3d_walk(data: bytes, start: int) -> str | None:
             return f"a description length of {data[desc_at]} (128 or more)"
         if nxt == 0:
             return None
-        pos = off + nxt
+        if not sequential:
+            pos = off + nxt
+        elif desc_at < len(data):
+            pos = desc_at + 1 + data[desc_at]
+        else:
+            return "a parameter record past the end of the file"
     return None
 
 
