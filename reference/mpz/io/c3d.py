@@ -484,6 +484,13 @@ def memory_short(need: int) -> str | None:
     return None
 
 
+def _first_sentence(exc: BaseException) -> str:
+    """The first sentence of an ezc3d error: "The format is not standard", without its
+    advice to set ``ignoreBadFormatting``, which the reader decides."""
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return text.split(". ")[0]
+
+
 def _read_points(path: str, data: bytes, reopen: str) -> Motion:
     """Every point of the C3D file as a Motion: ezc3d (reading the file ``reopen``, which
     holds ``data``), or the numpy reader it refuses."""
@@ -535,8 +542,8 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
             # begins: what it reads there can crash it or take gigabytes (stop 57)
             return motion_from_c3d_bytes(data, source=source, extra={
                 "warning": f"ezc3d refused the file ({type(exc).__name__}: "
-                           f"{str(exc).splitlines()[0] if str(exc) else ''}), and told to "
-                           f"ignore that it would meet {lenient}; read with mpz.io.c3dbin"})
+                           f"{_first_sentence(exc)}), and told to ignore that it would meet "
+                           f"{lenient}; read with mpz.io.c3dbin"})
         warning = _joined(note, f"non-standard C3D read with ignore_bad_formatting: {exc}")
         try:
             c = ezc3d.c3d(reopen, ignore_bad_formatting=True)
