@@ -511,3 +511,48 @@ def test_the_lenient_walk_finds_nothing_in_the_real_files_ezc3d_reads(
              for f in files}
     assert {k: v for k, v in found.items() if v is not None} == {
         "c3dorg_Facial-Sing.c3d": "a parameter of type 0 (files like it crash ezc3d 1.7)"}
+
+
+def _group_at(data: bytes, group: bytes) -> int:
+    """The offset of group record ``group``'s next-record offset in Intel C3D bytes (found
+    by walking the offsets, as :func:`_type_at`)."""
+    pos = (data[0] - 1) * 512 + 4
+    while True:
+        n, g = struct.unpack("<bb", data[pos:pos + 2])
+        off = pos + 2 + abs(n)
+        if g < 0 and data[pos + 2:off] == group:
+            return off
+        pos = off + struct.unpack("<H", data[off:off + 2])[0]
+
+
+def test_a_group_offset_past_the_file_hides_no_hazard_from_the_lenient_walk(
+        tmp_path: Path) -> None:
+    """A fuzzing run of the readers (stop 57): an ANALOG group whose next-record offset
+    pointed past the file. Walked by the offsets, the section ends there, so no rule saw
+    its parameters; ezc3d refuses the file, and with ignore_bad_formatting reads on from
+    the group's description into them: an ANALOG:RATE without element, a segmentation
+    fault. The lenient walk reads the records ezc3d then reads."""
+    from mpz.io import c3dbin
+
+    def empty_rate(records: list, gid: dict, R: type) -> None:
+        i = next(i for i, r in enumerate(records)
+                 if r.group == gid[b"ANALOG"] and r.name == b"RATE")
+        records[i] = R(gid[b"ANALOG"], False, b"RATE", b"", 4, (0,), b"")
+
+    data = bytearray(_records(empty_rate))
+    assert c3dbin.ezc3d_hazard(bytes(data)) == ("ANALOG:RATE with no element (files like it "
+                                                "crash ezc3d 1.7)")
+    at = _group_at(bytes(data), b"ANALOG")
+    data[at:at + 2] = struct.pack("<H", 0xFFF0)           # the next record: past the file
+    blob = bytes(data)
+    assert c3dbin.ezc3d_hazard(blob) is None               # the walk by offsets ends there
+    assert c3dbin.ezc3d_hazard(blob, ignore_bad_formatting=True) == (
+        "ANALOG:RATE with no element (files like it crash ezc3d 1.7)")
+    path = _write(tmp_path, "hidden.c3d", blob)
+    lenient = subprocess.run([sys.executable, "-c", "import sys, ezc3d; "
+                              "ezc3d.c3d(sys.argv[1], ignore_bad_formatting=True)",
+                              str(path)], capture_output=True, timeout=120)
+    assert lenient.returncode < 0, lenient.returncode       # what the reader must not ask
+    p = _mpz(["show", str(path)], tmp_path)
+    assert p.returncode == 1, (p.returncode, p.stderr[-400:])      # read, with a warning
+    assert b"told to ignore that it would meet ANALOG:RATE with no element" in p.stdout

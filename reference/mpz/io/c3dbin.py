@@ -347,7 +347,8 @@ def _section_end(data: bytes, start: int, data_start: int) -> int:
     return min(len(data), max(start + max(n_blocks, 1) * BLOCK, (data_start - 1) * BLOCK))
 
 
-def parse_records(data: bytes, start: int, codec: _Codec) -> list[ParamRecord]:
+def parse_records(data: bytes, start: int, codec: _Codec, *,
+                  sequential: bool = False) -> list[ParamRecord]:
     """Every group and parameter record of the parameter section at ``start``, in file order.
 
     Follows the next-record offsets, ending at a record with a zero name length or group
@@ -356,9 +357,14 @@ def parse_records(data: bytes, start: int, codec: _Codec) -> list[ParamRecord]:
     the data start. A record whose type or dimensions do not fit its bytes ends the walk.
     The description is read only where the record's own offset leaves room for it (c3d.org
     Facial-Sing.c3d ends a record right after its data).
+
+    ``sequential``: the records ezc3d reads with ``ignore_bad_formatting``
+    (:func:`ezc3d_hazard`): each from the end of the one before (its description read
+    whole), the offsets only ending the walk where they are zero, up to the end of the
+    file.
     """
     out: list[ParamRecord] = []
-    end = _section_end(data, start, codec.uint16(data, 16))
+    end = len(data) if sequential else _section_end(data, start, codec.uint16(data, 16))
     pos = start + 4
     while pos + 2 <= end:
         name_len = _s8(data[pos])
@@ -370,12 +376,13 @@ def parse_records(data: bytes, start: int, codec: _Codec) -> list[ParamRecord]:
         if off_pos + 2 > end:
             break
         nxt = codec.uint16(data, off_pos)
-        rec_end = off_pos + nxt if nxt else end
+        rec_end = off_pos + nxt if nxt and not sequential else end
         body = off_pos + 2
         locked = name_len < 0
         if gid < 0:
             desc = _description(data, body, rec_end, end)
             out.append(ParamRecord(gid, locked, name, desc))
+            after = body
         else:
             if body + 2 > end:
                 break
@@ -391,9 +398,15 @@ def parse_records(data: bytes, start: int, codec: _Codec) -> list[ParamRecord]:
             raw = _normal_data(ptype, bytes(data[at:at + size]), codec)
             desc = _description(data, at + size, rec_end, end)
             out.append(ParamRecord(gid, locked, name, desc, ptype, dims, raw))
+            after = at + size
         if nxt == 0:
             break
-        pos = off_pos + nxt
+        if not sequential:
+            pos = off_pos + nxt
+        elif after < len(data):
+            pos = after + 1 + data[after]        # past the description's length and bytes
+        else:
+            break
     return out
 
 
@@ -929,10 +942,12 @@ def ezc3d_hazard(data: bytes, *, ignore_bad_formatting: bool = False) -> str | N
 
     With ``ignore_bad_formatting`` the section is walked as ezc3d walks it then: a record
     that does not end where the one before it says the next begins is not refused, and
-    ezc3d reads on from the end of its description, not from that offset. Rules 6 and 8
-    are applied to the records so reached (a fuzzed 7.7 KB file whose POINT:LABELS
-    description ran past its record had ezc3d read its point data as parameters: 12 GB,
-    3 s; the walk by offsets found nothing, a fuzzing run of the readers, stop 57).
+    ezc3d reads on from the end of its description, not from that offset, until a record
+    whose offset is zero. Every rule is applied to the records so reached (a fuzzing run
+    of the readers, stop 57: a 7.7 KB file whose POINT:LABELS description ran past its
+    record had ezc3d read its point data as parameters, 12 GB in 3 s; an ANALOG group
+    whose offset pointed past the file hid an ANALOG:RATE without element, a segmentation
+    fault; the walk by offsets found neither).
     """
     start = (data[0] - 1) * BLOCK if len(data) > BLOCK else -1
     if start < BLOCK or start + 4 > len(data):
@@ -941,7 +956,7 @@ def ezc3d_hazard(data: bytes, *, ignore_bad_formatting: bool = False) -> str | N
         return None                       # ezc3d refuses these before their parameters
     why = _ezc3d_walk(data, start, ignore_bad_formatting)
     if why is None:
-        why = _ezc3d_values(data, start)
+        why = _ezc3d_values(data, start, ignore_bad_formatting)
     return None if why is None else f"{why} (files like it crash ezc3d 1.7)"
 
 
@@ -1002,12 +1017,12 @@ def _ezc3d_walk(data: bytes, start: int, sequential: bool = False) -> str | None
     return None
 
 
-def _ezc3d_values(data: bytes, start: int) -> str | None:
+def _ezc3d_values(data: bytes, start: int, sequential: bool = False) -> str | None:
     """Rules 1-5, 7 and 9 of :func:`ezc3d_hazard`, on the records :func:`parse_records`
-    reads."""
+    reads (``sequential``: those ezc3d reads with ``ignore_bad_formatting``)."""
     try:
         codec = _Codec(data[start + 3])
-        records = parse_records(data, start, codec)
+        records = parse_records(data, start, codec, sequential=sequential)
     except InputFormatError:
         return None                       # parse_c3d gives the precise error
     groups = {-r.group: r.name for r in records if r.is_group}
