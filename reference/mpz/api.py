@@ -12,6 +12,7 @@ is read, and reading stops at MEND. No input longer than
 """
 from __future__ import annotations
 
+import _thread
 from collections.abc import Iterator, Mapping
 import contextlib
 from dataclasses import dataclass, field
@@ -24,6 +25,7 @@ import stat
 import sys
 import tempfile
 import threading
+import time
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any, BinaryIO, TypeAlias, cast
 
@@ -343,11 +345,114 @@ def _immutable(path: str) -> bool:
         os.close(fd)
 
 
+#: the packages whose Python code a signal's exception must not interrupt
+#: (:func:`in_compiler`)
+COMPILER_PACKAGES = ("numba", "llvmlite")
+
+
+def _compiler_dirs() -> tuple[str, ...]:
+    return tuple(os.path.dirname(m.__file__) + os.sep for name in COMPILER_PACKAGES
+                 if (m := sys.modules.get(name)) is not None and m.__file__)
+
+
+def in_compiler(frame: FrameType | None) -> bool:
+    """Whether ``frame``, or a frame that called it, runs the Python code of numba or
+    llvmlite (:data:`COMPILER_PACKAGES`): a compiled kernel's callbacks as it makes the
+    objects it returns (``_numba_unpickle``), its loading from the cache, llvmlite's
+    finalizers. An exception a signal handler raises there does not unwind cleanly: a
+    kernel returned a tuple with a missing item, and unpacking it ended the process
+    (SIGSEGV: ``mpz search``, 3 of 65 interrupted runs; ``mpz encode``, 1 of 150), a
+    kernel half loaded crashed the interpreter's exit, and llvmlite's ``__del__`` dropped
+    the exception (a QA run of stop 57)."""
+    dirs = _compiler_dirs()
+    while dirs and frame is not None:
+        if frame.f_code.co_filename.startswith(dirs):
+            return True
+        frame = frame.f_back
+    return False
+
+
+class SignalsPutOff:
+    """Signals a handler in the main thread puts off (:meth:`later`) while that thread
+    runs numba's or llvmlite's code (:func:`in_compiler`), each handed back to its
+    handler (``_thread.interrupt_main``) once the thread has left that code: a profile
+    function of the main thread (:func:`sys.setprofile`, set only while a signal waits)
+    sees the outermost such frame return, then the first event in other code. Where
+    another profile function is set already,
+    the signal is handed back every :data:`SIGNAL_RETRY_SECONDS` instead, by a thread of
+    :mod:`_thread`. Either way the handler then decides again.
+
+    :meth:`close` (in the main thread, when the block that installed the handler ends)
+    drops a SIGINT still waiting, as its work is done, and sends any other signal again
+    to the process, to the action it then has."""
+
+    def __init__(self) -> None:
+        self._lock = _thread.allocate_lock()
+        self._open = True
+        self._waiting: set[signal.Signals] = set()
+        self._watching = False
+        self._left = False
+
+    def later(self, signum: int) -> None:
+        """Hand ``signum`` back to its handler when the main thread has left numba's and
+        llvmlite's code (called by the handler, in the main thread)."""
+        self._waiting.add(signal.Signals(signum))    # no lock: a handler may run while
+        if self._watching:                            # this thread holds one
+            return
+        if sys.getprofile() is None:
+            self._watching, self._left = True, False
+            sys.setprofile(self._watch)
+        else:
+            _thread.start_new_thread(self._again, (signal.Signals(signum),))
+
+    def _watch(self, frame: FrameType, event: str, arg: object) -> None:
+        # the main thread's profile function while a signal waits: once the outermost
+        # frame of numba's or llvmlite's code has returned, the first event in other code
+        # hands the signals back (their handler then runs here, or in that code)
+        if not self._left:
+            self._left = (event == "return" and frame.f_code.co_filename.startswith(
+                _compiler_dirs()) and not in_compiler(frame.f_back))
+            return
+        if in_compiler(frame):
+            self._left = False            # back in (a kernel's callbacks, its loading)
+            return
+        sys.setprofile(None)
+        self._watching = False
+        waiting, self._waiting = self._waiting, set()
+        for signum in waiting:
+            _thread.interrupt_main(signum)
+
+    def _again(self, signum: signal.Signals) -> None:
+        time.sleep(SIGNAL_RETRY_SECONDS)
+        with self._lock:                # closed: close() has dealt with what waits
+            if self._open and signum in self._waiting:
+                self._waiting.discard(signum)
+                _thread.interrupt_main(signum)
+
+    def close(self) -> None:
+        """The block has ended (in the main thread)."""
+        with self._lock:
+            self._open = False
+        waiting, self._waiting = self._waiting, set()
+        if self._watching and sys.getprofile() == self._watch:
+            sys.setprofile(None)
+        self._watching = False
+        for signum in waiting - {signal.SIGINT}:
+            os.kill(os.getpid(), signum)
+
+
+#: how often a signal put off is handed back where a profile function of another is set
+#: (:class:`SignalsPutOff`)
+SIGNAL_RETRY_SECONDS = 0.01
+
+
 @contextlib.contextmanager
 def signals_exit(*signums: int | None) -> Iterator[None]:
     """While the block runs, each of ``signums`` (SIGTERM, SIGHUP; None is skipped, for a
     signal the platform lacks) raises ``SystemExit(128 + signum)``, so that cleanup code
     runs: a temporary output is removed, the commands a runner started are killed.
+    Not while the main thread runs numba's or llvmlite's code (:func:`in_compiler`): the
+    signal is then put off until it does not (:class:`SignalsPutOff`).
 
     Only for a signal that still has its default action, and only in the main thread
     (the only one Python lets set handlers); the old handlers come back afterwards.
@@ -356,8 +461,12 @@ def signals_exit(*signums: int | None) -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    put_off = SignalsPutOff()
 
     def terminate(signum: int, frame: FrameType | None) -> None:
+        if in_compiler(frame):
+            put_off.later(signum)
+            return
         raise SystemExit(128 + signum)
 
     old = {n: signal.signal(n, terminate) for n in signums
@@ -365,6 +474,7 @@ def signals_exit(*signums: int | None) -> Iterator[None]:
     try:
         yield
     finally:
+        put_off.close()
         for n, handler in old.items():
             signal.signal(n, handler)
 
