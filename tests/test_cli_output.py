@@ -162,7 +162,11 @@ def large(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def test_sigterm_while_decoding_leaves_no_temporary_file(large: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
+def test_sigterm_while_decoding_leaves_no_temporary_file(large: Path, tmp_path: Path,
+                                                         signum: int) -> None:
+    """SIGHUP (a terminal closed) left the hidden temporary file (a QA run of stop 57):
+    it ends the write as SIGTERM does, exit 129."""
     out = tmp_path / "big.trc"
     proc = subprocess.Popen([command("mpz"), "decode", str(large), "-o", str(out)],
                             cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -173,14 +177,14 @@ def test_sigterm_while_decoding_leaves_no_temporary_file(large: Path, tmp_path: 
         if seen:                    # the temporary file exists: the writer has started
             break
         time.sleep(0.002)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(signum)
     code = proc.wait(timeout=60)
     err = proc.stderr.read().decode() if proc.stderr else ""
     if proc.stderr:
         proc.stderr.close()
     assert seen and seen[0].startswith(".big.trc.") and ".part" in seen[0], \
         "the decoder finished before it was seen writing; make the input larger"
-    assert code == 128 + signal.SIGTERM, (code, err)
+    assert code == 128 + signum, (code, err)
     assert "Traceback" not in err
     assert hidden(tmp_path) == [] and not out.exists()
 

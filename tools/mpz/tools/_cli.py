@@ -16,8 +16,9 @@ code  meaning
 70    internal error: a bug in mpz (its traceback is printed), never a verdict on
       the input; it exited 1, which says "warnings only"
 130   interrupted with Ctrl-C ("interrupted", no traceback, from the first import)
-143   terminated (SIGTERM) while writing an output; ``mpz-conformance``:
-      stopped by SIGTERM (129: SIGHUP), its decoders killed
+143   terminated (SIGTERM) while writing an output (129: SIGHUP, as when the
+      terminal closes); ``mpz-conformance``: stopped by SIGTERM (129: SIGHUP),
+      its decoders killed
 ====  ===================================================================
 
 Output piped into a command that stops reading (``mpzinfo -vv *.mpz | head``)

@@ -374,6 +374,16 @@ def run(args: argparse.Namespace) -> int:
     return code
 
 
+def _signal_name(signum: int) -> str | None:
+    """"SIGTERM" or "SIGHUP" for the signal whose ``signals_exit`` code is ``128 + signum``;
+    None for any other code."""
+    import signal
+    names = {int(signal.SIGTERM): "SIGTERM"}
+    if hasattr(signal, "SIGHUP"):
+        names[int(signal.SIGHUP)] = "SIGHUP"
+    return names.get(signum)
+
+
 def _holds(path: str, data: bytes) -> bool:
     """Whether the file ``path`` holds ``data`` (a write that an interrupt may have cut
     short either put it there whole or left the old file)."""
@@ -487,7 +497,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         if not to_stdout:
             mpz.write_atomic(job.output, data, source=source, force=args.force)
         stage("encode", args.quiet, size, "decoding what was written, to measure its error")
-        with signals_exit(signal.SIGTERM):
+        with signals_exit(signal.SIGTERM, getattr(signal, "SIGHUP", None)):
             try:
                 decoded = mpz.decode(data)
             except MPZError as exc:
@@ -504,12 +514,13 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         if sig is None:
             raise
         # 130 or 143 read as "nothing changed" lost a --force target (QA, stops 47, 48)
-        if not to_stdout and (isinstance(sig, KeyboardInterrupt)
-                              or sig.code == 128 + signal.SIGTERM) \
+        terminated = (None if isinstance(sig, KeyboardInterrupt) or not isinstance(sig.code, int)
+                      else _signal_name(sig.code - 128))
+        if not to_stdout and (isinstance(sig, KeyboardInterrupt) or terminated) \
                 and _holds(job.output, data):
             print(f"mpz encode: {printable(job.output)} was written (the "
-                  f"{'interrupt' if isinstance(sig, KeyboardInterrupt) else 'SIGTERM'} came "
-                  "while its report was measured)", file=sys.stderr)
+                  f"{terminated or 'interrupt'} came while its report was measured)",
+                  file=sys.stderr)
         if sig is exc:
             raise
         raise sig from None
