@@ -881,6 +881,27 @@ def test_a_sigterm_a_kernel_heard_exits_as_sigterm(tmp_path: Path, monkeypatch,
     err = capsys.readouterr().err
     assert "1 of 3 files finished before the interrupt" in err and err.endswith(
         "interrupted\n"), err
+    assert "run the same command again to encode the rest" in err
+
+    def all_then(signal_exc: BaseException):
+        def run(jobs, *args, progress, **kwargs):
+            from mpz.corpus import FileResult
+            for i, job in enumerate(jobs):
+                progress(i + 1, len(jobs), FileResult(job[0], job[1], "encoded"))
+            raise signal_exc
+        return run
+
+    # a Ctrl-C as the cluster closed, every file done: it said "3 of 3 files finished
+    # ... run the same command again to encode the rest" (a QA run of stop 57)
+    monkeypatch.setattr(mpz.corpus, "encode_corpus", all_then(KeyboardInterrupt()))
+    assert mpz_cli.main(argv) == 130
+    err = capsys.readouterr().err
+    assert "all 3 files finished before the interrupt: written and indexed\n" in err, err
+    assert "again" not in err
+    monkeypatch.setattr(mpz.corpus, "encode_corpus", all_then(SystemExit(143)))
+    assert mpz_cli.main(argv) == 143
+    err = capsys.readouterr().err
+    assert "terminated (signal 15): all 3 files finished, written and indexed\n" in err, err
 
 
 class _DropsASignal:

@@ -2479,3 +2479,38 @@ def test_a_scheduler_address_where_nothing_listens_fails_at_once(corpus):
                                            r"\(connection refused\)"):
         run_corpus(src, out, scheduler=f"tcp://127.0.0.1:{port}")
     assert time.monotonic() - t0 < 10 and not (out / "index.sqlite").exists()
+
+
+@needs_dask
+@pytest.mark.skipif(os.name != "posix", reason="SIGINT to this process is POSIX")
+def test_a_ctrl_c_as_the_local_cluster_closes_waits_for_the_close(monkeypatch):
+    """A QA run of stop 57: a Ctrl-C in a run's last second cut `client.close()` short,
+    `cluster.close()` never ran, and Dask waited 10 s for what was left open. The close
+    now runs whole, then the Ctrl-C stops the run."""
+    import distributed
+
+    from mpz import corpus as corpus_mod
+    closed: list[str] = []
+
+    class Cluster:
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def close(self):
+            closed.append("cluster")
+
+    class Client:
+        def __init__(self, cluster):
+            pass
+
+        def close(self):
+            os.kill(os.getpid(), signal.SIGINT)        # the Ctrl-C lands here
+            time.sleep(0.05)
+            closed.append("client")
+
+    monkeypatch.setattr(distributed, "LocalCluster", Cluster)
+    monkeypatch.setattr(distributed, "Client", Client)
+    with pytest.raises(KeyboardInterrupt):
+        with corpus_mod._dask_client(1, None, None):
+            pass
+    assert closed == ["client", "cluster"]

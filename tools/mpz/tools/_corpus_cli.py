@@ -127,7 +127,18 @@ class _Bar:
         """How many files finished, of the run's (``planned`` until one finished), for the
         line of an interrupted run."""
         bad = f", {self.failed} of them failed" if self.failed else ""
+        if self.total and self.done == self.total:
+            # a Ctrl-C as the cluster closed, the work done: "3 of 3 files finished ...
+            # run the same command again to encode the rest" (a QA run of stop 57)
+            return f"all {_plural(self.total, 'file')} finished{bad}"
         return f"{self.done} of {_plural(self.total or planned, 'file')} finished{bad}"
+
+    def rest(self) -> str:
+        """What to do about the files an interrupted run did not finish: nothing when it
+        finished them all."""
+        if self.total and self.done == self.total:
+            return ""
+        return "; run the same command again to encode the rest"
 
     def close(self) -> None:
         self.bar.close()
@@ -198,14 +209,14 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         stopped, report = exc, exc.report
     except KeyboardInterrupt:
         print(f"mpz encode: {bar.finished(len(planned))} before the interrupt: written and "
-              "indexed; run the same command again to encode the rest", file=sys.stderr)
+              f"indexed{bar.rest()}", file=sys.stderr)
         raise
     except SystemExit as exc:
         if exc.code not in (128 + signal.SIGTERM, 128 + getattr(signal, "SIGHUP", 1)):
             raise
         print(f"mpz encode: terminated (signal {int(exc.code) - 128}): "
-              f"{bar.finished(len(planned))}, written and indexed; run the same command "
-              "again to encode the rest", file=sys.stderr)
+              f"{bar.finished(len(planned))}, written and indexed{bar.rest()}",
+              file=sys.stderr)
         return int(exc.code)
     finally:
         bar.close()
