@@ -60,7 +60,13 @@ def _modules() -> list[str]:
 
 
 def _instrument() -> None:
-    for name in _modules():
+    instrument(_modules())
+
+
+def instrument(names: list[str]) -> None:
+    """Instrument every function and method that the modules ``names`` define (also used
+    by fuzz_readers.py)."""
+    for name in names:
         mod = importlib.import_module(name)
         for obj in list(vars(mod).values()):
             if isinstance(obj, types.FunctionType) and obj.__module__ == name:

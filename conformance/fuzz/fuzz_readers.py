@@ -28,13 +28,10 @@ properties on them without atheris, with the traceback.
 from __future__ import annotations
 
 import argparse
-import importlib
-import inspect as _inspect
 import os
 import pkgutil
 import sys
 import tempfile
-import types
 import warnings
 
 import numpy as np
@@ -53,60 +50,8 @@ from mpz.motion import check_consistent
 FORMATS = (".c3d", ".trc", ".bvh", ".amc", ".npy", ".csv")
 
 #: in an AMC input, what parts an ASF (before) from its AMC (after); without it, the
-#: bytes are an AMC read with the fixed ASF of :data:`_ASF`
+#: bytes are an AMC read with the fixed ASF of :func:`_fixed_pair`
 PAIR = b"\n%%ASF-AMC%%\n"
-
-#: a small valid ASF and AMC (3 bones, 2 frames): the fixed partner of a fuzzed AMC or ASF
-_ASF = """:version 1.10
-:name fuzz
-:units
-  mass 1.0
-  length 1.0
-  angle deg
-:documentation
-:root
-  order TX TY TZ RX RY RZ
-  axis XYZ
-  position 0 0 0
-  orientation 0 0 0
-:bonedata
-  begin
-    id 1
-    name lfemur
-    direction 0 -1 0
-    length 7
-    axis 0 0 20 XYZ
-    dof rx ry rz
-    limits (-160.0 20.0)
-           (-70.0 70.0)
-           (-60.0 70.0)
-  end
-  begin
-    id 2
-    name ltibia
-    direction 0 -1 0
-    length 7
-    axis 0 0 20 XYZ
-    dof rx
-    limits (-10.0 170.0)
-  end
-:hierarchy
-  begin
-    root lfemur
-    lfemur ltibia
-  end
-"""
-_AMC = """:FULLY-SPECIFIED
-:DEGREES
-1
-root 1 2 3 10 20 30
-lfemur 5 6 7
-ltibia 8
-2
-root 1.5 2 3 11 20 30
-lfemur 5 6.5 7
-ltibia 9
-"""
 
 # keep each input cheap: encode only motions of at most 2^16 marker-frames
 MAX_SAMPLES = 1 << 16
@@ -116,18 +61,16 @@ BOUND = 1.0
 
 def _instrument() -> None:
     """Instrument the Python of the readers and writers (numba kernels cannot be)."""
-    import mpz.io
-    names = ["mpz.motion", "mpz.skeleton"] + [
-        f"mpz.io.{m.name}" for m in pkgutil.iter_modules(mpz.io.__path__)] + ["mpz.io"]
-    for name in names:
-        mod = importlib.import_module(name)
-        for obj in list(vars(mod).values()):
-            if isinstance(obj, types.FunctionType) and obj.__module__ == name:
-                atheris.instrument_func(obj)
-            elif _inspect.isclass(obj) and obj.__module__ == name:
-                for meth in vars(obj).values():
-                    if isinstance(meth, types.FunctionType):
-                        atheris.instrument_func(meth)
+    from fuzz_decoder import instrument  # this folder: the script's own
+    instrument(["mpz.motion", "mpz.skeleton", "mpz.io"] + [
+        f"mpz.io.{m.name}" for m in pkgutil.iter_modules(mpz.io.__path__)])
+
+
+def _fixed_pair() -> tuple[str, str]:
+    """The ASF and a 2-frame AMC of the synthetic skeleton of the vectors: the fixed
+    partner of a fuzzed AMC that holds no ASF of its own (:data:`PAIR`)."""
+    from mpz.tools.make_vectors import _SKELETON_ASF, _skeleton_amc_text
+    return _SKELETON_ASF, _skeleton_amc_text(F=2)
 
 
 def _warm_up() -> None:
@@ -148,7 +91,7 @@ def read_input(data: bytes, folder: str) -> mpz.Motion | None:
     if fmt == ".amc":
         skeleton, paired, amc = body.partition(PAIR)
         with open(asf, "wb") as fh:
-            fh.write(skeleton if paired else _ASF.encode())
+            fh.write(skeleton if paired else _fixed_pair()[0].encode())
         body = amc if paired else body
     with open(path, "wb") as fh:
         fh.write(body)
@@ -253,8 +196,9 @@ def make_seeds(folder: str, data: str, frames: int = 8) -> int:
                 mpz.io.write(m, p)
             with open(p, "rb") as fh:
                 put(ext, fh.read(), f"synth{ext}")
-    put(".amc", _AMC.encode(), "fixed.amc")
-    put(".amc", _ASF.encode() + PAIR + _AMC.encode(), "fixed-pair.amc")
+    asf_text, amc_text = _fixed_pair()
+    put(".amc", amc_text.encode(), "fixed.amc")
+    put(".amc", asf_text.encode() + PAIR + amc_text.encode(), "fixed-pair.amc")
     return n
 
 
