@@ -378,9 +378,9 @@ class SignalsPutOff:
     handler (``_thread.interrupt_main``) once the thread has left that code: a profile
     function of the main thread (:func:`sys.setprofile`, set only while a signal waits)
     sees the outermost such frame return, then the first event in other code. Where
-    another profile function is set already,
-    the signal is handed back every :data:`SIGNAL_RETRY_SECONDS` instead, by a thread of
-    :mod:`_thread`. Either way the handler then decides again.
+    another profile function is set already, the signal is handed back every
+    :data:`SIGNAL_RETRY_SECONDS` instead, by a thread of :mod:`_thread`. Either way the
+    handler then decides again.
 
     :meth:`close` (in the main thread, when the block that installed the handler ends)
     drops a SIGINT still waiting, as its work is done, and sends any other signal again

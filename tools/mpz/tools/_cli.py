@@ -370,9 +370,6 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
     return decorate
 
 
-#: how long after a dropped signal it is raised again (:func:`signals_not_dropped`): time
-#: for the finalizer that dropped it to return
-SIGNAL_AGAIN_SECONDS = 0.01
 
 
 @contextlib.contextmanager
@@ -410,8 +407,8 @@ def ctrl_c_outside_compiler() -> Iterator[None]:
 def signals_not_dropped() -> Iterator[None]:
     """While the block runs in the main thread: a Ctrl-C (or a SIGTERM or SIGHUP that
     :func:`mpz.api.signals_exit` turns into SystemExit) whose exception Python drops is
-    raised again a moment later (:data:`SIGNAL_AGAIN_SECONDS`), in the main thread, by the
-    signal's own handler.
+    raised again a moment later (:data:`mpz.api.SIGNAL_RETRY_SECONDS`), in the main
+    thread, by the signal's own handler.
 
     Python runs a signal's handler at the main thread's next instruction, wherever that
     is; when it is inside a finalizer (``__del__``, a weakref callback: llvmlite's
@@ -422,7 +419,9 @@ def signals_not_dropped() -> Iterator[None]:
     signals the main thread again (``_thread.interrupt_main``) once the finalizer has
     returned, and hands every other exception on. Low-level ``_thread`` calls only: the
     hook runs wherever a finalizer runs, perhaps while :mod:`threading`'s own locks are
-    held."""
+    held. (A finalizer of numba or llvmlite no longer gets the Ctrl-C at all:
+    :func:`ctrl_c_outside_compiler` puts it off; this one is for every other finalizer.)"""
+    from mpz.api import SIGNAL_RETRY_SECONDS
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -431,7 +430,7 @@ def signals_not_dropped() -> Iterator[None]:
     old_hook = sys.unraisablehook
 
     def again(signum: signal.Signals) -> None:
-        time.sleep(SIGNAL_AGAIN_SECONDS)
+        time.sleep(SIGNAL_RETRY_SECONDS)
         with lock:
             if armed[0]:
                 _thread.interrupt_main(signum)
