@@ -372,78 +372,71 @@ def in_compiler(frame: FrameType | None) -> bool:
     return False
 
 
-class SignalsPutOff:
-    """Signals a handler in the main thread puts off (:meth:`later`) while that thread
-    runs numba's or llvmlite's code (:func:`in_compiler`), each handed back to its
-    handler (``_thread.interrupt_main``) once the thread has left that code: a profile
-    function of the main thread (:func:`sys.setprofile`, set only while a signal waits)
-    sees the outermost such frame return, then the first event in other code. Where
-    another profile function is set already, the signal is handed back every
-    :data:`SIGNAL_RETRY_SECONDS` instead, by a thread of :mod:`_thread`. Either way the
-    handler then decides again.
+#: how often a thread looks whether the main thread has left numba's and llvmlite's code,
+#: while a signal waits (:class:`SignalsPutOff`)
+SIGNAL_POLL_SECONDS = 0.002
+#: how long after a signal's exception was dropped it is raised again
+#: (``mpz.tools._cli.signals_not_dropped``): time for the finalizer to return
+SIGNAL_RETRY_SECONDS = 0.01
 
-    :meth:`close` (in the main thread, when the block that installed the handler ends)
-    drops a SIGINT still waiting, as its work is done, and sends any other signal again
-    to the process, to the action it then has."""
+
+class SignalsPutOff:
+    """Signals that a handler in the main thread puts off (:meth:`later`) while that
+    thread runs numba's or llvmlite's code (:func:`in_compiler`). A thread of
+    :mod:`_thread` (a handler may run where :mod:`threading`'s locks are held) looks every
+    :data:`SIGNAL_POLL_SECONDS` at the main thread's frames, and once it has left that
+    code hands each signal back to its handler (``_thread.interrupt_main``), which then
+    decides again. A second signal of a kind already waiting is not put off: a second
+    Ctrl-C stops a command even in a long compile (a review of stop 57: a cold start's
+    compile made the first wait 2-20 s).
+
+    :meth:`close` (in the main thread, as the block that installed the handler ends)
+    stops the handing back and returns the signals still waiting but SIGINT (dropped:
+    the work it would have stopped is done), for the caller to send again once it has put
+    the handlers back."""
 
     def __init__(self) -> None:
         self._lock = _thread.allocate_lock()
         self._open = True
         self._waiting: set[signal.Signals] = set()
-        self._watching = False
-        self._left = False
+        self._polling = False
+        self._main = threading.main_thread().ident or 0
 
-    def later(self, signum: int) -> None:
-        """Hand ``signum`` back to its handler when the main thread has left numba's and
-        llvmlite's code (called by the handler, in the main thread)."""
-        self._waiting.add(signal.Signals(signum))    # no lock: a handler may run while
-        if self._watching:                            # this thread holds one
-            return
-        if sys.getprofile() is None:
-            self._watching, self._left = True, False
-            sys.setprofile(self._watch)
-        else:
-            _thread.start_new_thread(self._again, (signal.Signals(signum),))
+    def later(self, signum: int) -> bool:
+        """Put ``signum`` off (True), or, when one of its kind waits already, do not
+        (False: the handler acts now). Called by a handler, in the main thread; no lock,
+        as a handler may run while this thread holds one."""
+        sig = signal.Signals(signum)
+        if sig in self._waiting:
+            self._waiting.discard(sig)
+            return False
+        self._waiting.add(sig)
+        if not self._polling:
+            self._polling = True
+            _thread.start_new_thread(self._poll, ())
+        return True
 
-    def _watch(self, frame: FrameType, event: str, arg: object) -> None:
-        # the main thread's profile function while a signal waits: once the outermost
-        # frame of numba's or llvmlite's code has returned, the first event in other code
-        # hands the signals back (their handler then runs here, or in that code)
-        if not self._left:
-            self._left = (event == "return" and frame.f_code.co_filename.startswith(
-                _compiler_dirs()) and not in_compiler(frame.f_back))
-            return
-        if in_compiler(frame):
-            self._left = False            # back in (a kernel's callbacks, its loading)
-            return
-        sys.setprofile(None)
-        self._watching = False
+    def _poll(self) -> None:
+        while True:
+            time.sleep(SIGNAL_POLL_SECONDS)
+            with self._lock:
+                if not self._open:
+                    return
+                if in_compiler(sys._current_frames().get(self._main)):
+                    continue
+                self._polling = False
+                waiting, self._waiting = self._waiting, set()
+                for sig in waiting:
+                    _thread.interrupt_main(sig)
+                return
+
+    def close(self) -> set[signal.Signals]:
+        """Stop handing signals back; the signals still waiting, SIGINT left out."""
+        self._open = False            # first: no signal is handed back from now on
+        with self._lock:              # and one being handed back has been
+            pass
         waiting, self._waiting = self._waiting, set()
-        for signum in waiting:
-            _thread.interrupt_main(signum)
-
-    def _again(self, signum: signal.Signals) -> None:
-        time.sleep(SIGNAL_RETRY_SECONDS)
-        with self._lock:                # closed: close() has dealt with what waits
-            if self._open and signum in self._waiting:
-                self._waiting.discard(signum)
-                _thread.interrupt_main(signum)
-
-    def close(self) -> None:
-        """The block has ended (in the main thread)."""
-        with self._lock:
-            self._open = False
-        waiting, self._waiting = self._waiting, set()
-        if self._watching and sys.getprofile() == self._watch:
-            sys.setprofile(None)
-        self._watching = False
-        for signum in waiting - {signal.SIGINT}:
-            os.kill(os.getpid(), signum)
-
-
-#: how often a signal put off is handed back where a profile function of another is set
-#: (:class:`SignalsPutOff`)
-SIGNAL_RETRY_SECONDS = 0.01
+        return waiting - {signal.SIGINT}
 
 
 #: SIGHUP, where the platform has it (a terminal closed): a temporary output is removed on
@@ -469,8 +462,7 @@ def signals_exit(*signums: int | None) -> Iterator[None]:
     put_off = SignalsPutOff()
 
     def terminate(signum: int, frame: FrameType | None) -> None:
-        if in_compiler(frame):
-            put_off.later(signum)
+        if in_compiler(frame) and put_off.later(signum):
             return
         raise SystemExit(128 + signum)
 
@@ -479,9 +471,16 @@ def signals_exit(*signums: int | None) -> Iterator[None]:
     try:
         yield
     finally:
-        put_off.close()
-        for n, handler in old.items():
-            signal.signal(n, handler)
+        # the handlers back first, then a signal still put off to the action it has now
+        # (sent with this block's handler in place, it raised SystemExit here and the
+        # handler stayed for good: a review of stop 57)
+        late = put_off.close()
+        try:
+            for n, handler in old.items():
+                signal.signal(n, handler)
+        finally:
+            for sig in late:
+                os.kill(os.getpid(), sig)
 
 
 @contextlib.contextmanager

@@ -57,7 +57,6 @@ from pathlib import Path
 import re
 import signal
 import sqlite3
-import sys
 import threading
 import time
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
@@ -1822,13 +1821,11 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     finally:
         # a Ctrl-C as the cluster closed (the run's last second) cut the close short, and
         # Dask then waited 10 s for what it had not closed (a QA run of stop 57): the close
-        # is waited for, then the Ctrl-C stops the run
-        late: list[int] = []
-        with _sigint_noted(late):
+        # runs whole, and that Ctrl-C is dropped (the work is done, or stopping already);
+        # a second one stops the close
+        with _sigint_noted([]):
             client.close()
             cluster.close()
-        if late and sys.exc_info()[0] is None:
-            raise KeyboardInterrupt
 
 
 #: how long a connection to ``--scheduler`` may take: Client's own 30 s timeout, and a
@@ -1889,12 +1886,19 @@ def _connect(client_class: type[Client], scheduler: str) -> Client:
 
 @contextlib.contextmanager
 def _sigint_noted(pending: list[int]) -> Iterator[None]:
-    """While the block runs in the main thread, a SIGINT only appends its number to
-    ``pending`` (the handler before comes back afterwards); elsewhere nothing changes."""
+    """While the block runs in the main thread, a first SIGINT only appends its number to
+    ``pending``, and a second raises KeyboardInterrupt (the handler before comes back
+    afterwards); elsewhere nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = signal.signal(signal.SIGINT, lambda signum, frame: pending.append(signum))
+
+    def note(signum: int, frame: object) -> None:
+        if pending:
+            raise KeyboardInterrupt
+        pending.append(signum)
+
+    old = signal.signal(signal.SIGINT, note)
     try:
         yield
     finally:

@@ -541,9 +541,10 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
             # ezc3d then reads on where a record ends, not where the section says the next
             # begins: what it reads there can crash it or take gigabytes (stop 57)
             return motion_from_c3d_bytes(data, source=source, extra={
-                "warning": f"ezc3d refused the file ({type(exc).__name__}: "
-                           f"{_first_sentence(exc)}), and told to ignore that it would meet "
-                           f"{lenient}; read with mpz.io.c3dbin"})
+                "warning": _joined(note, f"ezc3d refused the file ({type(exc).__name__}: "
+                                         f"{_first_sentence(exc)}), and told to ignore "
+                                         f"that it would meet {lenient}; read with "
+                                         "mpz.io.c3dbin")})
         warning = _joined(note, f"non-standard C3D read with ignore_bad_formatting: {exc}")
         try:
             c = ezc3d.c3d(reopen, ignore_bad_formatting=True)

@@ -377,7 +377,8 @@ def ctrl_c_outside_compiler() -> Iterator[None]:
     """While the block runs in the main thread with Python's own SIGINT handler: a Ctrl-C
     raises KeyboardInterrupt as that handler does, but not while the main thread runs
     numba's or llvmlite's Python code (:func:`mpz.api.in_compiler`): there it is put off
-    until it has left it (:class:`mpz.api.SignalsPutOff`, every 10 ms). A KeyboardInterrupt
+    until it has left it (:class:`mpz.api.SignalsPutOff`; a second Ctrl-C is not put
+    off). A KeyboardInterrupt
     raised in a kernel's callbacks or its loading left a tuple with a missing item or a
     kernel half loaded: ``mpz search`` ended in a segmentation fault in 3 of 65
     interrupted runs, ``mpz encode`` in 1 of 150 (a QA run of stop 57)."""
@@ -389,8 +390,7 @@ def ctrl_c_outside_compiler() -> Iterator[None]:
     put_off = SignalsPutOff()
 
     def interrupt(signum: int, frame: Any) -> None:
-        if in_compiler(frame):
-            put_off.later(signum)
+        if in_compiler(frame) and put_off.later(signum):
             return
         raise KeyboardInterrupt
 
@@ -398,9 +398,11 @@ def ctrl_c_outside_compiler() -> Iterator[None]:
     try:
         yield
     finally:
-        put_off.close()
-        if signal.getsignal(signal.SIGINT) is interrupt:
-            signal.signal(signal.SIGINT, old)
+        try:
+            put_off.close()                 # a Ctrl-C still put off is dropped
+        finally:
+            if signal.getsignal(signal.SIGINT) is interrupt:
+                signal.signal(signal.SIGINT, old)
 
 
 @contextlib.contextmanager
@@ -449,10 +451,13 @@ def signals_not_dropped() -> Iterator[None]:
     try:
         yield
     finally:
-        with lock:
-            armed[0] = False
-        if sys.unraisablehook is hook:
-            sys.unraisablehook = old_hook
+        armed[0] = False           # first: a signal landing below cannot leave it armed
+        try:
+            with lock:             # a hand-back under way has finished
+                pass
+        finally:
+            if sys.unraisablehook is hook:
+                sys.unraisablehook = old_hook
 
 
 def _dropped_signal(exc: BaseException | None) -> signal.Signals | None:
