@@ -375,9 +375,6 @@ def in_compiler(frame: FrameType | None) -> bool:
 #: how often a thread looks whether the main thread has left numba's and llvmlite's code,
 #: while a signal waits (:class:`SignalsPutOff`)
 SIGNAL_POLL_SECONDS = 0.002
-#: how long after a signal's exception was dropped it is raised again
-#: (``mpz.tools._cli.signals_not_dropped``): time for the finalizer to return
-SIGNAL_RETRY_SECONDS = 0.01
 
 
 class SignalsPutOff:
@@ -413,7 +410,12 @@ class SignalsPutOff:
         self._waiting.add(sig)
         if not self._polling:
             self._polling = True
-            _thread.start_new_thread(self._poll, ())
+            try:
+                _thread.start_new_thread(self._poll, ())
+            except RuntimeError:          # no thread to be had: the caller says so
+                self._polling = False
+                self._waiting.discard(sig)
+                raise
         return True
 
     def _poll(self) -> None:

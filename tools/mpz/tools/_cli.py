@@ -34,7 +34,6 @@ infinities.
 """
 from __future__ import annotations
 
-import _thread
 import argparse
 from collections.abc import Callable, Iterable, Iterator
 import contextlib
@@ -47,7 +46,6 @@ import os
 import signal
 import sys
 import threading
-import time
 from typing import IO, Any, NoReturn, ParamSpec
 
 from mpz._worker import ignore_sigint_when_done, release_sigint
@@ -308,10 +306,9 @@ OUTPUT_FULL = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EIO})
 def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, int]]:
     """Decorate a command's ``main``: SIGINT, held since the command's first import of mpz
     (:mod:`mpz._worker`), is released first, and a Ctrl-C anywhere in ``main`` (a held one
-    included, and one a finalizer dropped: :func:`signals_not_dropped`) prints ``message``
-    and exits :data:`EXIT_INTERRUPTED`, without a traceback; one that lands in numba's or
-    llvmlite's code is put off until the main thread has left it
-    (:func:`ctrl_c_outside_compiler`).
+    included, and one a finalizer dropped) prints ``message`` and exits
+    :data:`EXIT_INTERRUPTED`, without a traceback; one that lands in numba's or llvmlite's
+    code is put off until the main thread has left it (:func:`ctrl_c_outside_compiler`).
 
     An exception that no command handles is a bug: its traceback is printed, then a line
     that says so, and the code is :data:`EXIT_BUG`. It exited 1, which means "warnings
@@ -325,7 +322,7 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
         @functools.wraps(main)
         def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> int:
             try:
-                with ctrl_c_outside_compiler(), signals_not_dropped():
+                with ctrl_c_outside_compiler():
                     release_sigint()
                     return main(*args, **kwargs)
             except KeyboardInterrupt:
@@ -378,86 +375,54 @@ def ctrl_c_outside_compiler() -> Iterator[None]:
     raises KeyboardInterrupt as that handler does, but not while the main thread runs
     numba's or llvmlite's Python code (:func:`mpz.api.in_compiler`): there it is put off
     until it has left it (:class:`mpz.api.SignalsPutOff`; a second Ctrl-C is not put
-    off). A KeyboardInterrupt
-    raised in a kernel's callbacks or its loading left a tuple with a missing item or a
-    kernel half loaded: ``mpz search`` ended in a segmentation fault in 3 of 65
-    interrupted runs, ``mpz encode`` in 1 of 150 (a QA run of stop 57)."""
+    off). A KeyboardInterrupt raised in a kernel's callbacks or its loading left a tuple
+    with a missing item or a kernel half loaded: ``mpz search`` ended in a segmentation
+    fault in 3 of 65 interrupted runs, ``mpz encode`` in 1 of 150 (a QA run of stop 57).
+
+    A Ctrl-C (or a SIGTERM or SIGHUP that :func:`mpz.api.signals_exit` turns into
+    SystemExit) whose exception Python drops is handed back the same way. Python runs a
+    signal's handler at the main thread's next instruction, wherever that is; inside a
+    finalizer (``__del__``, a weakref callback) the exception cannot leave it, and Python
+    prints "Exception ignored in ..." and goes on: the encode then finished and exited 0
+    (about 1 in 60 interrupted runs of ``mpz encode``, stops 55-56). Python hands such
+    exceptions to :data:`sys.unraisablehook`; this one puts the signal off (the poller
+    hands it back once the finalizer has returned) and hands every other exception on,
+    and Python's own message when no thread can be started."""
     from mpz.api import SignalsPutOff, in_compiler
-    if threading.current_thread() is not threading.main_thread() \
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
     put_off = SignalsPutOff()
+    old_hook = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        signum = _dropped_signal(unraisable.exc_value)
+        if signum is None:
+            old_hook(unraisable)
+            return
+        try:
+            put_off.later(signum)
+        except RuntimeError:           # no thread to be had: Python's word, as before
+            old_hook(unraisable)
 
     def interrupt(signum: int, frame: Any) -> None:
         if in_compiler(frame) and put_off.later(signum):
             return
         raise KeyboardInterrupt
 
-    old = signal.signal(signal.SIGINT, interrupt)
-    try:
-        yield
-    finally:
-        try:
-            put_off.close()                 # a Ctrl-C still put off is dropped
-        finally:
-            if signal.getsignal(signal.SIGINT) is interrupt:
-                signal.signal(signal.SIGINT, old)
-
-
-@contextlib.contextmanager
-def signals_not_dropped() -> Iterator[None]:
-    """While the block runs in the main thread: a Ctrl-C (or a SIGTERM or SIGHUP that
-    :func:`mpz.api.signals_exit` turns into SystemExit) whose exception Python drops is
-    raised again a moment later (:data:`mpz.api.SIGNAL_RETRY_SECONDS`), in the main
-    thread, by the signal's own handler.
-
-    Python runs a signal's handler at the main thread's next instruction, wherever that
-    is; when it is inside a finalizer (``__del__``, a weakref callback: llvmlite's
-    ``ObjectRef.__del__`` as numba frees a kernel's module), the exception cannot leave
-    it, and Python prints "Exception ignored in ..." and goes on: the encode then finished
-    and exited 0 (about 1 in 60 interrupted runs of ``mpz encode``, stops 55-56). Python
-    hands such exceptions to :data:`sys.unraisablehook`; this one starts a thread that
-    signals the main thread again (``_thread.interrupt_main``) once the finalizer has
-    returned, and hands every other exception on. Low-level ``_thread`` calls only: the
-    hook runs wherever a finalizer runs, perhaps while :mod:`threading`'s own locks are
-    held. (A finalizer of numba or llvmlite no longer gets the Ctrl-C at all:
-    :func:`ctrl_c_outside_compiler` puts it off; this one is for every other finalizer.)"""
-    from mpz.api import SIGNAL_RETRY_SECONDS
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    lock = _thread.allocate_lock()
-    armed = [True]
-    old_hook = sys.unraisablehook
-
-    def again(signum: signal.Signals) -> None:
-        time.sleep(SIGNAL_RETRY_SECONDS)
-        with lock:
-            if armed[0]:
-                _thread.interrupt_main(signum)
-
-    def hook(unraisable: Any) -> None:
-        signum = _dropped_signal(unraisable.exc_value)
-        if signum is None or not armed[0]:
-            old_hook(unraisable)
-            return
-        try:
-            _thread.start_new_thread(again, (signum,))
-        except RuntimeError:           # no thread to be had: Python's word, as before
-            old_hook(unraisable)
-
+    ours = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    old = signal.signal(signal.SIGINT, interrupt) if ours else None
     sys.unraisablehook = hook
     try:
         yield
     finally:
-        armed[0] = False           # first: a signal landing below cannot leave it armed
         try:
-            with lock:             # a hand-back under way has finished
-                pass
+            put_off.close()                 # a signal still put off is dropped
         finally:
             if sys.unraisablehook is hook:
                 sys.unraisablehook = old_hook
+            if ours and signal.getsignal(signal.SIGINT) is interrupt:
+                signal.signal(signal.SIGINT, old)
 
 
 def _dropped_signal(exc: BaseException | None) -> signal.Signals | None:
