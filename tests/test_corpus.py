@@ -1593,6 +1593,29 @@ def test_sigint_deferred_notes_it_and_starts_children_with_it_blocked(other):
     assert done.stdout.split() == ["went", "on", "2", "True", "True", "False"], done.stdout
 
 
+def test_sigint_noted_stops_at_the_second_or_notes_every_one():
+    """The close's handler (``_sigint_noted``) notes a first SIGINT and raises
+    KeyboardInterrupt at a second; the start's (``_sigint_deferred``, the masking aside)
+    notes every one and raises none. Both put the handler before back."""
+    from mpz import corpus as module
+    before = signal.getsignal(signal.SIGINT)
+    pending: list[int] = []
+    with pytest.raises(KeyboardInterrupt):
+        with module._sigint_noted(pending):
+            signal.raise_signal(signal.SIGINT)
+            assert pending == [signal.SIGINT]
+            signal.raise_signal(signal.SIGINT)
+            pytest.fail("a second SIGINT did not stop the block")
+    assert pending == [signal.SIGINT]
+    assert signal.getsignal(signal.SIGINT) is before
+    pending = []
+    with module._sigint_noted(pending, second_stops=False):      # _sigint_deferred's
+        for _ in range(3):
+            signal.raise_signal(signal.SIGINT)
+    assert pending == [signal.SIGINT] * 3
+    assert signal.getsignal(signal.SIGINT) is before
+
+
 # ------------------------------------------------------------- real recordings --
 def _captures(data: Path) -> list[Path]:
     from mpz.io import READERS

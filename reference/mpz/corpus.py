@@ -1885,16 +1885,16 @@ def _connect(client_class: type[Client], scheduler: str) -> Client:
 
 
 @contextlib.contextmanager
-def _sigint_noted(pending: list[int]) -> Iterator[None]:
+def _sigint_noted(pending: list[int], *, second_stops: bool = True) -> Iterator[None]:
     """While the block runs in the main thread, a first SIGINT only appends its number to
-    ``pending``, and a second raises KeyboardInterrupt (the handler before comes back
-    afterwards); elsewhere nothing changes."""
+    ``pending``, and a second raises KeyboardInterrupt (``second_stops``) or is appended
+    too (the handler before comes back afterwards); elsewhere nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def note(signum: int, frame: object) -> None:
-        if pending:
+        if pending and second_stops:
             raise KeyboardInterrupt
         pending.append(signum)
 
@@ -1909,7 +1909,7 @@ def _sigint_noted(pending: list[int]) -> Iterator[None]:
 def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     """Hold a SIGINT back for the while, in the main thread (the one Python lets set
     handlers): ``pending`` gets its number, for the caller to raise KeyboardInterrupt once
-    it can clean up.
+    it can clean up (:func:`_sigint_noted`, every SIGINT noted).
 
     The main thread also *blocks* SIGINT for the while. The threads it starts meanwhile
     inherit the block, and so do the processes they start: Dask's workers are born with
@@ -1918,16 +1918,12 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
     moments, before either had run, ended that worker with its own traceback (on a slow
     machine that window is longer than 0.3 s; CI of stop 30). The driver still hears the
     Ctrl-C: a thread that does not block SIGINT (numpy's OpenBLAS pool) takes it and
-    Python runs ``note`` in the main thread; if every thread blocks it, it stays pending
+    Python notes it in the main thread; if every thread blocks it, it stays pending
     and is delivered when the block ends.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-
-    def note(signum: int, frame: object) -> None:
-        pending.append(signum)
-
     masks = hasattr(signal, "pthread_sigmask")           # not on Windows: the handler only
     if masks:
         # multiprocessing's resource tracker *unblocks* SIGINT in the thread that starts it
@@ -1945,16 +1941,15 @@ def _sigint_deferred(pending: list[int]) -> Iterator[None]:
         finally:
             if hup is not None:
                 signal.signal(hup, signal.SIG_DFL if old_hup is None else old_hup)
-    old = signal.signal(signal.SIGINT, note)
-    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if masks else None
-    try:
-        yield
-    finally:
-        # the mask restored delivers a pending SIGINT to ``note``, which signal.signal
-        # runs (it checks signals first) before putting the old handler back
-        if mask is not None:
-            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-        signal.signal(signal.SIGINT, old)
+    with _sigint_noted(pending, second_stops=False):
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if masks else None
+        try:
+            yield
+        finally:
+            # the mask restored delivers a pending SIGINT to the noting handler, which
+            # signal.signal runs (it checks signals first) before putting the old one back
+            if mask is not None:
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def dask_setup(worker: object) -> None:

@@ -484,11 +484,15 @@ def memory_short(need: int) -> str | None:
     return None
 
 
+def _first_line(exc: BaseException) -> str:
+    """The first line of an ezc3d error ("" for none)."""
+    return str(exc).splitlines()[0] if str(exc) else ""
+
+
 def _first_sentence(exc: BaseException) -> str:
     """The first sentence of an ezc3d error: "The format is not standard", without its
     advice to set ``ignoreBadFormatting``, which the reader decides."""
-    text = str(exc).splitlines()[0] if str(exc) else ""
-    return text.split(". ")[0]
+    return _first_line(exc).split(". ")[0]
 
 
 def _read_points(path: str, data: bytes, reopen: str) -> Motion:
@@ -560,7 +564,7 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
     return motion_from_c3d_bytes(data, source=source, extra={
         "reader_note" if c3dbin.is_mips(data) else "warning":
             f"ezc3d refused the file ({type(first_error).__name__}: "
-            f"{str(first_error).splitlines()[0] if str(first_error) else ''}); "
+            f"{_first_line(first_error)}); "
             "read with mpz.io.c3dbin"})
 
 

@@ -123,22 +123,25 @@ class _Bar:
         bad = f", {self.failed} failed" if self.failed else ""
         self.bar(done / max(total, 1), f"{done}/{total}{bad} {os.path.basename(r.source)}")
 
+    @property
+    def all_done(self) -> bool:
+        """Whether every file of the run finished: a Ctrl-C as the cluster closed, the work
+        done, said "3 of 3 files finished ... run the same command again to encode the
+        rest" (a QA run of stop 57)."""
+        return bool(self.total) and self.done == self.total
+
     def finished(self, planned: int) -> str:
         """How many files finished, of the run's (``planned`` until one finished), for the
         line of an interrupted run."""
         bad = f", {self.failed} of them failed" if self.failed else ""
-        if self.total and self.done == self.total:
-            # a Ctrl-C as the cluster closed, the work done: "3 of 3 files finished ...
-            # run the same command again to encode the rest" (a QA run of stop 57)
+        if self.all_done:
             return f"all {_plural(self.total, 'file')} finished{bad}"
         return f"{self.done} of {_plural(self.total or planned, 'file')} finished{bad}"
 
     def rest(self) -> str:
         """What to do about the files an interrupted run did not finish: nothing when it
         finished them all."""
-        if self.total and self.done == self.total:
-            return ""
-        return "; run the same command again to encode the rest"
+        return "" if self.all_done else "; run the same command again to encode the rest"
 
     def close(self) -> None:
         self.bar.close()
