@@ -415,3 +415,14 @@ def test_means_past_32_bits_are_refused_before_they_wrap(fmt):
     with pytest.raises(EncoderError, match="do not fit 32 bits"):
         summary_record(m, (1, 2), "positions", 1e-9, fmt)
     assert summary_record(m, (1, 2), "positions", 1e-3, fmt).level_count == 2
+
+
+@pytest.mark.parametrize("fmt", ["smrc", "smry"])
+def test_each_k_is_written_once_in_increasing_order(fmt):
+    """Spec Appendix C item 8: in either chunk each requested k is written once, after it
+    is lowered to F, and the levels go by increasing k (an implementer's reading of the
+    spec found this said only in the API's help)."""
+    m = generate("walk", frames=40, seed=3)
+    data = mpz.encode(m, max_error=1.0, summary=(500, 400, 12, 6, 6),
+                      summary_format=fmt)
+    assert [lv.k for lv in mpz.read_summary(data).levels] == [6, 12, 40]
