@@ -538,14 +538,14 @@ def test_a_rerun_says_again_what_the_first_run_said_of_each_file(corpus, capsys)
 
 def _drop_recorded_columns(index: Path) -> None:
     """Make ``index`` as an mpz before the warning, not_kept and notes columns wrote it
-    (and the row_sha256 after them): the same tables without them (mpz.corpus.SCHEMA as
-    it was), the rows copied over."""
+    (and the row_sha256 and levels_sha256 after them): the same tables without them
+    (mpz.corpus.SCHEMA as it was), the rows copied over."""
     import sqlite3
 
     from mpz.corpus import SCHEMA
-    old_schema, n = re.subn(r",( +--[^\n]*\n) *-- said of the file.*?\n *row_sha256 +TEXT\n",
+    old_schema, n = re.subn(r",( +--[^\n]*\n) *-- said of the file.*?\n *levels_sha256 +TEXT\n",
                             r"\1", SCHEMA, flags=re.S)
-    assert n == 1 and "not_kept" not in old_schema and "row_sha256" not in old_schema
+    assert n == 1 and not {"not_kept", "row_sha256", "levels_sha256"} & set(old_schema.split())
     old = index.with_name("old.sqlite")
     db = sqlite3.connect(old)
     db.executescript(old_schema)

@@ -446,6 +446,76 @@ def test_a_row_without_a_checksum_is_read_unchecked_until_a_run_gives_it_one(cor
     assert code == 2 and "the row of jump.mpz is damaged" in err
 
 
+# a level changed in place, each value still of its kind and length: the levels were
+# checked by length and type only (stop 57's list), so the API's rows and an .mpz query's
+# summary were read from the changed level; levels_sha256 finds them
+_LEVEL_CHANGES = [
+    "UPDATE levels SET means = CAST((CASE WHEN substr(means, 1, 1) = x'00' THEN x'01' ELSE "
+    "x'00' END) || substr(means, 2) AS BLOB) WHERE output = 'walk.mpz' AND k = 4",
+    "UPDATE levels SET wssse = wssse * 2 WHERE output = 'walk.mpz' AND k = 2",
+    "UPDATE levels SET starts = CAST(substr(starts, 1, 4) || x'01000000' || "
+    "substr(starts, 9) AS BLOB) WHERE output = 'walk.mpz' AND k = 4",
+]
+
+
+@pytest.mark.parametrize("damage", _LEVEL_CHANGES)
+def test_a_level_changed_in_place_is_found_where_levels_are_read(corpus, capsys, damage):
+    """``Index.rows`` and an .mpz query of ``mpz search`` (which read the levels) refuse
+    the row; a run checks the levels' checksum only with ``verify`` (every level read
+    whole), and then rebuilds the row."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    mpz_query = out / "walk.mpz"
+    change_index(out, damage)
+    with contextlib.closing(open_index(out)) as ix, \
+            pytest.raises(EncoderError, match="the row of walk.mpz is damaged .its levels "
+                                              "are not those written: their levels_sha256"):
+        ix.rows()
+    code, _, err = search(capsys, str(mpz_query), "--index", str(out))
+    assert code == 2 and "the row of walk.mpz is damaged" in err, err
+    # a capture's query reads the descriptors alone: still searchable
+    code, o, _ = search(capsys, str(paths["walk"]), "--index", str(out), "--json")
+    assert code == 0 and json.loads(o)["results"][0]["output"] == "walk.mpz"
+    assert set(statuses(run_corpus(src, out)).values()) == {"skipped"}
+    rep = run_corpus(src, out, verify=True)
+    assert statuses(rep) == {"walk": "kept", "jump": "skipped", "wave": "skipped"}
+    assert any("damaged index row" in n and "walk.mpz" in n for n in rep.index_notes)
+    with contextlib.closing(open_index(out)) as ix:
+        assert len(ix.rows()) == 3
+    code, o, _ = search(capsys, str(mpz_query), "--index", str(out), "--json")
+    assert code == 0 and json.loads(o)["results"][0]["output"] == "walk.mpz"
+
+
+def test_levels_without_a_checksum_are_read_unchecked_until_a_run_gives_them_one(corpus):
+    """Rows of an mpz before levels_sha256 (NULL there) are read as they are; the next run
+    gives each the checksum of its levels as they are, and says so; a change after that is
+    found. The digest is that of the levels as stored, computed here with hashlib."""
+    import hashlib
+    src, out, _ = corpus
+    run_corpus(src, out)
+    change_index(out, "UPDATE files SET levels_sha256 = NULL")
+    change_index(out, "UPDATE levels SET wssse = wssse * 2 WHERE output = 'jump.mpz'")
+    with contextlib.closing(open_index(out)) as ix:
+        assert len(ix.rows()) == 3
+    rep = run_corpus(src, out)
+    assert set(statuses(rep).values()) == {"skipped"}
+    assert any(n.startswith("3 index rows written before levels_sha256 got the checksum of "
+                            "their levels as they are") for n in rep.index_notes), \
+        rep.index_notes
+    db = sqlite3.connect(out / INDEX_NAME)
+    for output, stored in db.execute("SELECT output, levels_sha256 FROM files"):
+        text = "".join(f"{k}\t{w!r}\t{s.hex()}\t{m.hex()}\n" for k, w, s, m in db.execute(
+            "SELECT k, wssse, starts, means FROM levels WHERE output = ? ORDER BY k",
+            (output,)))
+        assert stored == hashlib.sha256(text.encode()).hexdigest(), output
+    db.close()
+    assert run_corpus(src, out).index_notes == []
+    change_index(out, "UPDATE levels SET wssse = wssse * 2 WHERE output = 'jump.mpz'")
+    with contextlib.closing(open_index(out)) as ix, \
+            pytest.raises(EncoderError, match="the row of jump.mpz is damaged"):
+        ix.rows()
+
+
 def test_one_file_and_one_moved_source_are_said_in_the_singular(tmp_path, capsys):
     """A QA run of stop 48: "1 files in OUT/index.sqlite" and "1 of the sources listed it
     is no longer at the path"."""

@@ -20,7 +20,9 @@ is the summary table of ``mpz encode -r``).
   :data:`META_FINGERPRINT` and :data:`META_SHA256`) and is newer than the source is
   *kept*: only its row is rebuilt. Anything else is encoded again, and the report says
   why (:data:`AGAIN`). With ``verify``, an output up to date by the index is read whole
-  and checked on a worker first (:func:`output_problem`), and encoded again if damaged.
+  and checked on a worker first (:func:`output_problem`), and encoded again if damaged;
+  every row's levels are read whole and checked against its ``levels_sha256``
+  (:func:`levels_digest`), and a row whose levels changed is rebuilt.
 * **Resumable.** Outputs are written through :func:`mpz.api.atomic_output`, so an output
   exists complete or not at all, and the index commits each row as its file finishes.
   After a crash, a kill or Ctrl-C, the next run skips what was done; hidden temporary files
@@ -42,7 +44,7 @@ not.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import CancelledError
 import contextlib
 from dataclasses import asdict, dataclass, field, fields, replace
@@ -157,7 +159,9 @@ CREATE TABLE IF NOT EXISTS files (
     notes           TEXT,              -- JSON list: the options' notes on the file
     -- sha256 of every column above as written (mpz.corpus.row_digest), so that a value
     -- changed in place is found; NULL in a row written by an mpz before it (unchecked)
-    row_sha256      TEXT
+    row_sha256      TEXT,
+    -- sha256 of the row's levels as written (mpz.corpus.levels_digest); NULL likewise
+    levels_sha256   TEXT
 );
 CREATE INDEX IF NOT EXISTS files_sha256 ON files(source_sha256);
 CREATE TABLE IF NOT EXISTS levels (
@@ -192,6 +196,13 @@ _RECORDED = ("warning", "not_kept", "notes")
 #: ranked a search from it (a corpus QA run of stop 55). Added to an older index as
 #: _RECORDED are; NULL in its rows, which are not checked until a run writes them again
 _CHECKSUM = "row_sha256"
+#: the column of the checksum of a row's levels (:func:`levels_digest`): their blobs are
+#: checked by length and type on each run, so a value changed inside one passed (stop 57's
+#: list). Checked where the levels are read anyway: :meth:`Index.rows` and a run with
+#: ``verify``. Added to an older index as ``row_sha256`` is
+_LEVELS_CHECKSUM = "levels_sha256"
+#: the columns added to ``files`` after the first indexes, in order
+_ADDED = (*_RECORDED, _CHECKSUM, _LEVELS_CHECKSUM)
 
 #: what each column of a ``files`` row may hold, checked as rows are read: SQLite keeps any
 #: value in any column, and a row changed by another program (a text in ``frames``, a BLOB
@@ -288,6 +299,17 @@ def row_digest(row: Mapping[str, Any]) -> str:
     return hashlib.sha256("".join(parts).encode("utf-8", "surrogateescape")).hexdigest()
 
 
+def levels_digest(levels: Iterable[tuple[Any, Any, Any, Any]]) -> str:
+    """The ``levels_sha256`` of a row's levels ``(k, wssse, starts, means)``: the
+    hexadecimal sha256 of, for each level by increasing k, its k, a tab, ``repr`` of its
+    wssse as a float, a tab, the hex of its starts, a tab, the hex of its means and a line
+    end (the empty string's for a row without levels). What SQLite gives back of each
+    value written gives the same digest."""
+    lines = [f"{int(k)}\t{float(w)!r}\t{bytes(st).hex()}\t{bytes(mn).hex()}\n"
+             for k, w, st, mn in sorted(levels, key=lambda lv: int(lv[0]))]
+    return hashlib.sha256("".join(lines).encode("ascii")).hexdigest()
+
+
 #: the columns :func:`row_digest` sums, in order, and those of them that hold reals
 _DIGESTED = (*_FILE_COLUMNS, *_RECORDED)
 _REALS = frozenset(c for c, kind in _COLUMN_KINDS.items() if kind in ("real", "rate"))
@@ -306,6 +328,27 @@ def _rows(n: int, kind: str = "index") -> str:
 def _named(output: Any) -> str:
     """A row's output key for a message: as it is, or its repr if it is not a text."""
     return output[:200] if isinstance(output, str) else repr(output)[:200]
+
+
+def _levels_problem(row: Mapping[str, Any], levels: Sequence[tuple[Any, Any, Any, Any]]
+                    ) -> str | None:
+    """Why the levels ``(k, wssse, starts, means)`` of a ``files`` row are not those
+    written with it (its ``levels_sha256``, unchecked while NULL), or None; levels that
+    :func:`_level_problem` refuses are left to it."""
+    stored = row.get(_LEVELS_CHECKSUM)
+    if stored is None or any(_level_problem(k, w, _sql_type(st), _sql_type(mn)) is not None
+                             for k, w, st, mn in levels):
+        return None
+    if stored != levels_digest(levels):
+        return (f"its levels are not those written: their {_LEVELS_CHECKSUM} does not "
+                "match (a value changed in place, or a level added or removed)")
+    return None
+
+
+def _sql_type(value: Any) -> str:
+    """SQLite's ``typeof`` of a value as Python reads it back."""
+    return ("blob" if isinstance(value, bytes) else "text" if isinstance(value, str) else
+            "null" if value is None else "integer" if isinstance(value, int) else "real")
 
 
 def _level_problem(k: Any, wssse: Any, starts_type: str, means_type: str) -> str | None:
@@ -973,7 +1016,7 @@ class Index:
                 raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the files "
                                    f"table has no column {', '.join(lost)}); {_REBUILD}")
             if create:             # (after the checks: a damaged index is left as it was)
-                for c in (*_RECORDED, _CHECKSUM):
+                for c in _ADDED:
                     if c not in columns:
                         self.db.execute(f"ALTER TABLE files ADD COLUMN {c} TEXT")
                         columns.add(c)
@@ -992,7 +1035,7 @@ class Index:
             raise
         # read-only, an index written before the _RECORDED columns reads them as NULL
         self._select = ", ".join([*_FILE_COLUMNS, *(c if c in columns else f"NULL AS {c}"
-                                                    for c in (*_RECORDED, _CHECKSUM))])
+                                                    for c in _ADDED)])
 
     def _quick_check(self) -> str | None:
         """SQLite's quick_check of the tables a run and a search read first (corpus, files,
@@ -1056,8 +1099,9 @@ class Index:
             # levels go with their file (ON DELETE CASCADE), but a tool without foreign
             # keys enabled may have left some behind
             self.db.execute("DELETE FROM levels WHERE output = ?", (output_key,))
-            names = (*_FILE_COLUMNS, *_RECORDED, _CHECKSUM)
-            values = {**result.row, _CHECKSUM: row_digest(result.row)}
+            names = (*_FILE_COLUMNS, *_ADDED)
+            values = {**result.row, _CHECKSUM: row_digest(result.row),
+                      _LEVELS_CHECKSUM: levels_digest(result.levels)}
             self.db.execute(f"INSERT INTO files ({', '.join(names)}) VALUES "
                             f"({', '.join('?' * len(names))})", [values[c] for c in names])
             self.db.executemany("INSERT INTO levels VALUES (?, ?, ?, ?, ?)",
@@ -1065,17 +1109,41 @@ class Index:
             self.db.execute("DELETE FROM failures WHERE path = ?", (result.row["path"],))
 
     @_sql
-    def add_checksums(self) -> int:
+    def add_checksums(self) -> tuple[int, int]:
         """Give each row without a ``row_sha256`` (written by an mpz before it) the checksum
-        of its values as they are now, and return how many: such rows were unchecked for
-        good, since a run writes a row again only when its file changes (a review of stop
-        56). A value changed before this is not found; one changed after is."""
+        of its values as they are now, and each without a ``levels_sha256`` that of its
+        levels; return how many rows got each: such rows were unchecked for good, since a
+        run writes a row again only when its file changes (a review of stop 56). A value
+        changed before this is not found; one changed after is."""
         done = [(row_digest(r), r["output"])
                 for r in self._files(f"WHERE {_CHECKSUM} IS NULL", check=False)
                 if _row_problem(r) is None]
+        problems = self._level_problems()
+        unsummed = [k for (k,) in self.db.execute(
+            f"SELECT output FROM files WHERE {_LEVELS_CHECKSUM} IS NULL ORDER BY output")
+            if isinstance(k, str) and k not in problems]
+        levels = [(self._levels_of(k), k) for k in unsummed]
         with self.db:
             self.db.executemany(f"UPDATE files SET {_CHECKSUM} = ? WHERE output = ?", done)
-        return len(done)
+            self.db.executemany(f"UPDATE files SET {_LEVELS_CHECKSUM} = ? WHERE output = ?",
+                                [(levels_digest(lv), k) for lv, k in levels])
+        return len(done), len(levels)
+
+    def _levels_of(self, output_key: str) -> list[tuple[Any, Any, Any, Any]]:
+        """The levels ``(k, wssse, starts, means)`` of ``output_key``, by increasing k."""
+        return self.db.execute("SELECT k, wssse, starts, means FROM levels WHERE output = ? "
+                               "ORDER BY k", (output_key,)).fetchall()
+
+    def levels_changed(self) -> set[str]:
+        """Output keys of rows whose levels are not those written (:func:`_levels_problem`:
+        their ``levels_sha256``), reading every level whole: a run with ``verify`` only
+        (6 GB of reads for 100,000 files)."""
+        found = set()
+        for r in self._files(f"WHERE {_LEVELS_CHECKSUM} IS NOT NULL", check=False):
+            out = r["output"]
+            if isinstance(out, str) and _levels_problem(r, self._levels_of(out)) is not None:
+                found.add(out)
+        return found
 
     @_sql
     def forget_missing(self, index_dir: str, keep: Collection[str] = ()) -> list[str]:
@@ -1150,7 +1218,7 @@ class Index:
             (:data:`_COLUMN_KINDS`), named.
         """
         cur = self.db.execute(f"SELECT {self._select} FROM files {where}", args)
-        rows = [dict(zip((*_FILE_COLUMNS, *_RECORDED, _CHECKSUM), r, strict=True))
+        rows = [dict(zip((*_FILE_COLUMNS, *_ADDED), r, strict=True))
                 for r in cur.fetchall()]
         if check:
             for r in rows:
@@ -1176,6 +1244,12 @@ class Index:
         for out, k, w, s, m in self.db.execute(
                 "SELECT output, k, wssse, starts, means FROM levels ORDER BY output, k"):
             levels.setdefault(out, []).append((k, s, m, w))
+        for v in values:
+            problem = _levels_problem(v, [(k, w, s, m) for k, s, m, w in
+                                          levels.get(v["output"], [])])
+            if problem is not None:
+                raise EncoderError(f"{self.path}: the row of {_named(v['output'])} is "
+                                   f"damaged ({problem}); {_REBUILD}")
         return [IndexRow(v, None if v["summary_method"] == NO_SUMMARY else
                          self._summary(v, levels.get(v["output"], []))) for v in values]
 
@@ -2047,8 +2121,10 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     verify : bool
         Read whole every output that the index says is up to date, on the workers, and
         check it (:func:`output_problem`: every chunk's frame and CRC, and its meta
-        against its row); a damaged one is encoded again, and said. Without it,
-        up to date is the index's word (size and times) and no output is opened.
+        against its row); a damaged one is encoded again, and said. Every row's levels
+        are also read whole and checked against their ``levels_sha256``; such a row is
+        rebuilt from its output. Without it, up to date is the index's word (size and
+        times), no output is opened and the levels are checked by length and type only.
 
     Returns
     -------
@@ -2107,12 +2183,12 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         index = stack.enter_context(Index(os.path.join(index_dir, INDEX_NAME), create=True))
         dropped = index.refresh_descriptors()
         unnamed = index.drop_unnamed()
-        summed = index.add_checksums()
+        summed, levels_summed = index.add_checksums()
         keys = {t.output_key for t in tasks}
         forgotten = index.forget_missing(index_dir, keys)
         gone = index.forget_gone_failures({utf8_name(os.path.abspath(s)) for s in
                                            [*(s for s, _ in jobs), *(s for s, _, _ in failed)]})
-        damaged = index.damaged()
+        damaged = index.damaged() | (index.levels_changed() if verify else set())
         # a damaged row this run's inputs do not cover is not rebuilt (a run over a part of
         # the inputs said it was, a review of stop 53)
         rebuilt = sorted(damaged & keys)
@@ -2128,6 +2204,11 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         if summed:
             notes.append(f"{_rows(summed)} written before row_sha256 got the checksum of "
                          "their values as they are: a value changed from now on is found")
+        if levels_summed:
+            notes.append(f"{_rows(levels_summed)} written before levels_sha256 got the "
+                         "checksum of their levels as they are: a level changed from now "
+                         "on is found where the levels are read (Index.rows, an .mpz "
+                         "query of mpz search, a run with --verify)")
         if gone:
             notes.append(f"{len(gone)} failure{'s' * (len(gone) != 1)} of sources no longer "
                          f"there forgotten: {_some(gone)}")

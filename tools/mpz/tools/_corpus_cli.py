@@ -47,8 +47,10 @@ def add_corpus_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--verify", action="store_true",
                    help="corpus runs: read whole every output that the index says is up to "
                    "date and check it (every chunk's frame and CRC, its meta against the "
-                   "index), on the workers; encode a damaged one again. Without "
-                   "it, up to date is the index's word (sizes and times)")
+                   "index), on the workers; encode a damaged one again. Also check "
+                   "every row's stored summary levels against their checksum, and "
+                   "rebuild a row whose levels changed. Without it, up to date is the "
+                   "index's word (sizes and times)")
 
 
 def _scheduler(text: str) -> str:
