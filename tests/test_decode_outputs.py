@@ -202,6 +202,25 @@ def test_decode_names_skipped_chunks_and_renamed_labels(tmp_path):
     assert p.returncode == 0 and "RKNE->RKNE#2" in p.stderr and "repeats" in p.stderr
 
 
+@pytest.mark.parametrize("out", [None, "z.csv"])
+def test_decode_of_any_motion_file_says_to_encode_it_with_or_without_o(shared_data, tmp_path,
+                                                                      out):
+    """A newcomer's QA run: without -o, mpz decode of a TRC said only "bad signature
+    b'PathFile'" (the default output name is read from the file first), with -o it said
+    what to do; an ASF said "bad signature" either way, and the article was "a AMC/ASF"."""
+    np.save(tmp_path / "q.npy", np.zeros((3, 2, 3)))
+    cases = {str(shared_data / "trc" / "opensim_subject01_walk1.trc"): "a TRC file",
+             str(shared_data / "amc" / "35_01.amc"): "an AMC/ASF file",
+             str(tmp_path / "q.npy"): "an NPY file",
+             str(shared_data / "amc" / "35.asf"): "an ASF skeleton; mpz encode compresses "
+                                                  "the AMC motion that goes with it"}
+    for path, said in cases.items():
+        p = _mpz("decode", path, *(["-o", out] if out else []), cwd=tmp_path)
+        assert p.returncode == 2 and "not an MPZ file (first bytes " in p.stderr, p.stderr
+        assert f"this is {said}" in p.stderr and "bad signature" not in p.stderr, p.stderr
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["q.npy"]
+
+
 def test_decode_of_a_c3d_says_to_encode_it(shared_data, tmp_path):
     p = _mpz("decode", str(shared_data / "c3d" / "c3dorg_Eb015pi.c3d"), "-o", "z.trc",
              cwd=tmp_path)

@@ -85,6 +85,13 @@ def _name_for(args: argparse.Namespace, path: str) -> str | None:
     stem = os.path.splitext(path)[0]
     if args.format:
         return f"{stem}.{args.format}"
+    try:                              # a motion file named: what to do instead, as below
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:                   # mpz.info says what is wrong
+        head = None
+    if head is not None:
+        _refuse_other_formats(head, path)
     ext = _source_ext(dict(mpz.info(path).metadata))
     return None if ext is None else stem + ext
 
@@ -273,7 +280,6 @@ def _read_mpz(path: str, max_samples: int | None
     from mpz.api import read_source
     from mpz.container import scan
     from mpz.errors import FormatError
-    from mpz.format import SIGNATURE
     from mpz.tools._common import (
         STDIO,
         declared_bound,
@@ -289,12 +295,7 @@ def _read_mpz(path: str, max_samples: int | None
         motion = read_mpz_input_bytes(data, max_samples)
     else:
         data = read_source(path)[0]
-        if not data.startswith(SIGNATURE):             # spec §3.1
-            from mpz.io import detect_format
-            hint = _not_mpz_hint(detect_format(data[:4096]))
-            if hint:
-                raise FormatError(f"not an MPZ file (first bytes {data[:8]!r}){hint}",
-                                  path=path, section="§3.1")
+        _refuse_other_formats(data[:4096], path)
         try:
             motion = read_mpz_input_bytes(data, max_samples)
         except MPZError as exc:
@@ -314,12 +315,33 @@ def _read_mpz(path: str, max_samples: int | None
     return motion, bound, skipped
 
 
+def _refuse_other_formats(head: bytes, path: str) -> None:
+    """Raise FormatError, saying what to do instead, for a file whose first bytes ``head``
+    are those of another motion format (spec §3.1); anything else is left to the decoder.
+    """
+    from mpz.errors import FormatError
+    from mpz.format import SIGNATURE
+    from mpz.io import detect_format
+    from mpz.io._common import ext_of
+    if head.startswith(SIGNATURE):
+        return
+    hint = _not_mpz_hint(detect_format(head))
+    if not hint and ext_of(path) == ".asf":          # a skeleton alone: no motion format
+        hint = (": this is an ASF skeleton; mpz encode compresses the AMC motion that "
+                "goes with it (the ASF beside it is found, or give --asf)")
+    if hint:
+        raise FormatError(f"not an MPZ file (first bytes {head[:8]!r}){hint}", path=path,
+                          section="§3.1")
+
+
 def _not_mpz_hint(fmt: str | None) -> str:
     """``: this is a C3D file; ...`` for input of a motion format, else ``""``."""
     from mpz.io import FORMAT_NAMES
     if fmt is None or fmt == ".mpz" or fmt not in FORMAT_NAMES:
         return ""
-    return (f": this is a {FORMAT_NAMES[fmt]} file; use mpz encode to compress it "
+    name = FORMAT_NAMES[fmt]
+    article = "an" if name[0] in "AEFHILMNORSX" else "a"      # an AMC, an NPY, a C3D
+    return (f": this is {article} {name} file; use mpz encode to compress it "
             "(mpz show summarises it)")
 
 
