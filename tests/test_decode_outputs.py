@@ -221,6 +221,23 @@ def test_decode_of_any_motion_file_says_to_encode_it_with_or_without_o(shared_da
     assert sorted(f.name for f in tmp_path.iterdir()) == ["q.npy"]
 
 
+def test_decode_of_a_no_skeleton_amc_says_to_choose_the_format(shared_data, tmp_path):
+    """A newcomer's QA run: a file encoded from AMC with --no-skeleton could not be decoded
+    without options: the default output is the source's format, which needs the skeleton,
+    and the writer's refusal named an output (ns.amc) nobody had asked for."""
+    amc = shared_data / "amc" / "35_01.amc"
+    p = _mpz("encode", str(amc), "--no-skeleton", "-o", "ns.mpz", "-q", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    p = _mpz("decode", "ns.mpz", cwd=tmp_path)
+    assert p.returncode == 2, p.stderr
+    assert "ns.mpz: it was encoded from AMC/ASF without its skeleton (--no-skeleton)" \
+        in p.stderr and "give --format npy or csv" in p.stderr, p.stderr
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["ns.mpz"]
+    p = _mpz("decode", "ns.mpz", "--format", "npy", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert np.load(tmp_path / "ns.npy").shape == (mpz.info(tmp_path / "ns.mpz").frames, 31, 3)
+
+
 def test_decode_of_a_c3d_says_to_encode_it(shared_data, tmp_path):
     p = _mpz("decode", str(shared_data / "c3d" / "c3dorg_Eb015pi.c3d"), "-o", "z.trc",
              cwd=tmp_path)

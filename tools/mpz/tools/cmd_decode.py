@@ -82,6 +82,8 @@ def _source_ext(meta: dict[str, str] | object) -> str | None:
 
 def _name_for(args: argparse.Namespace, path: str) -> str | None:
     import mpz
+    from mpz.errors import InputFormatError
+    from mpz.io import FORMAT_NAMES, SKELETON_FORMATS
     stem = os.path.splitext(path)[0]
     if args.format:
         return f"{stem}.{args.format}"
@@ -92,7 +94,15 @@ def _name_for(args: argparse.Namespace, path: str) -> str | None:
         head = None
     if head is not None:
         _refuse_other_formats(head, path)
-    ext = _source_ext(dict(mpz.info(path).metadata))
+    info = mpz.info(path)
+    ext = _source_ext(dict(info.metadata))
+    if ext in SKELETON_FORMATS and not {"bvhs", "asfs"} & set(info.chunk_bytes):
+        # encoded with --no-skeleton: its own format cannot be written (a newcomer's QA
+        # run met the writer's refusal, naming an output nobody had asked for)
+        raise InputFormatError(f"it was encoded from {FORMAT_NAMES[ext]} without its "
+                               f"skeleton (--no-skeleton), which {FORMAT_NAMES[ext]} output "
+                               "needs: give --format npy or csv (c3d or trc: with units), "
+                               "or -o with one of those extensions", path=path)
     return None if ext is None else stem + ext
 
 
