@@ -15,7 +15,10 @@ import pytest
 
 import mpz
 from mpz import Motion
-from mpz.io import write
+from mpz.errors import MotionError
+from mpz.io import read, write
+from mpz.skeleton import with_joint_positions
+from mpz.synth import generate
 
 REPO = Path(__file__).resolve().parents[1]
 U16 = REPO / "conformance" / "vectors" / "uncommon" / "u16-qunt-range-rounds-to-max-finite.mpz"
@@ -190,6 +193,44 @@ def test_show_gives_the_declared_bound_and_a_json_error(tmp_path):
     assert p.returncode == 2
     doc = json.loads(p.stdout)
     assert doc["status"] == "error" and doc["error"]["message"]
+
+
+def test_show_gives_a_skeletal_files_bound_on_the_joints_it_shows(shared_data, tmp_path):
+    """A newcomer's QA run: mpz show summarises a skeletal file's joint positions computed
+    from its channels, and gave MHDR's bound (the marker layer's) as theirs. It now gives
+    the joints' declared bound, and the joints decoded are within it of the source's (its
+    own forward kinematics); MHDR's is named as the marker layer's."""
+    amc = shared_data / "amc" / "35_01.amc"
+    assert _mpz("encode", str(amc), "-o", "a.mpz", "-q", cwd=tmp_path).returncode == 0
+    doc = json.loads(_mpz("show", "--json", "a.mpz", cwd=tmp_path).stdout)
+    joints, layer = doc["position_bound"], doc["error_bound"]
+    assert joints is not None and layer is not None and joints != layer
+    got = with_joint_positions(mpz.decode(tmp_path / "a.mpz")).positions
+    want = read(amc).positions
+    err = float(np.sqrt(((got - want) ** 2).sum(-1)).max())
+    assert err <= joints, (err, joints)
+    text = _mpz("show", "a.mpz", cwd=tmp_path).stdout
+    assert f"bound:     joints within {joints:g} mm (declared), computed from the channels; " \
+           f"the marker layer: max error \u2264 {layer:g} mm (declared)" in text, text
+    # a file of markers: the one bound, the same in both fields
+    (tmp_path / "w.mpz").write_bytes(mpz.encode(read(amc), max_error=0.5, keep_skeleton=False))
+    doc = json.loads(_mpz("show", "--json", "w.mpz", cwd=tmp_path).stdout)
+    assert doc["position_bound"] == doc["error_bound"] == 0.5
+
+
+def test_with_joint_positions_refuses_a_motion_without_channels(shared_data, tmp_path):
+    """A newcomer's QA run: given a motion without a skeleton's channels (decoded with
+    markers_only=True, or a file of markers) it handed the marker layer back as it was,
+    which the caller took for the joints."""
+    amc = read(shared_data / "amc" / "35_01.amc")
+    data = mpz.encode(amc)
+    plain = mpz.encode(amc, keep_skeleton=False)
+    for motion in (mpz.decode(data, markers_only=True), mpz.decode(plain),
+                   generate("walk", frames=20)):
+        with pytest.raises(MotionError, match="no skeleton and channels to compute joint"):
+            with_joint_positions(motion)
+    joints = with_joint_positions(mpz.decode(data)).positions
+    assert joints.shape == amc.positions.shape
 
 
 def test_decode_names_skipped_chunks_and_renamed_labels(tmp_path):

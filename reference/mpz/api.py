@@ -766,7 +766,10 @@ def read_mpz(path: Source, *, max_samples: int = MAX_SAMPLES) -> Motion:
 class FileInfo:
     """What an MPZ file says about itself, read without decoding the motion (:func:`info`).
 
-    ``rate`` is in Hz, ``error_bound`` (None: no bound declared) in ``units``;
+    ``rate`` is in Hz, ``error_bound`` (None: no bound declared) in ``units``: MHDR's,
+    the bound on the marker layer (a skeletal file's joint positions computed from its
+    channels have the skeleton chunk's own, its ``position_bound``, §4.14, which
+    ``mpz show`` and ``mpzinfo`` print);
     ``chunk_bytes`` maps each chunk type to its bytes in the file (frame
     included); ``summary_levels`` lists the k of the smry or smrc levels, in stored order (empty: no
     summary; read them with :func:`read_summary`).

@@ -45,7 +45,7 @@ from mpz.channels import (
 )
 from mpz.chunks import Record
 from mpz.chunks.skeleton import SKELETON_TYPES, AsfBone, Asfs, BvhJoint, Bvhs, ChannelCoding
-from mpz.errors import EncoderError
+from mpz.errors import EncoderError, MotionError
 from mpz.format import (
     AXIS_ORDERS,
     MAX_CHANNEL_SAMPLES,
@@ -443,12 +443,24 @@ def with_joint_positions(motion: Motion) -> Motion:
     """A decoded skeletal motion whose positions are the joint positions computed from its
     channels (spec §6.10: within the file's declared position bound of the source's),
     instead of the marker layer (within MHDR's bound, which the reference encoder makes
-    coarser, Appendix C)."""
+    coarser, Appendix C).
+
+    Raises
+    ------
+    MotionError
+        For a motion without a skeleton and its channels (a file of markers, one encoded
+        with ``keep_skeleton=False``, or decoded with ``markers_only=True``): it has no
+        joints to compute. Before, it came back as it was, its positions the marker layer,
+        which a caller took for the joints (a newcomer's QA run).
+    """
     if not isinstance(motion, Motion):       # AttributeError of None (a QA run, stop 50)
         raise TypeError(f"expected an mpz.Motion, got {type(motion).__name__}")
     skel = motion.extras.get("skeleton")
-    if not isinstance(skel, Skeleton):
-        return motion
+    if not isinstance(skel, Skeleton) or motion.angles is None:
+        raise MotionError("the motion has no skeleton and channels to compute joint "
+                          "positions from (a file of markers, one encoded with "
+                          "keep_skeleton=False / --no-skeleton, or decoded with "
+                          "markers_only=True): its positions are already all it holds")
     values = _values(motion, skel)
     pos = forward(skel, values) * marker_scale(skel)
     return Motion(pos, motion.names, motion.rate, motion.units, None, motion.metadata,

@@ -342,9 +342,13 @@ def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
 def _decode(source: str | bytes, max_samples: int | None) -> Motion:
     import mpz
     from mpz.format import MAX_SAMPLES
+    from mpz.io.kinematics import Skeleton
     from mpz.skeleton import with_joint_positions
-    return with_joint_positions(mpz.decode(
-        source, max_samples=MAX_SAMPLES if max_samples is None else max_samples))
+    motion = mpz.decode(source, max_samples=MAX_SAMPLES if max_samples is None
+                        else max_samples)
+    if isinstance(motion.extras.get("skeleton"), Skeleton) and motion.angles is not None:
+        return with_joint_positions(motion)
+    return motion
 
 
 def joint_positions_from_channels(motion: Motion, ext: str | None) -> bool:
@@ -408,6 +412,20 @@ def declared_bound(res: Scan) -> float | None:
     if not isinstance(hdr, Mhdr) or not hdr.error_metric:
         return None
     return float(hdr.error_bound)
+
+
+def positions_bound(motion: Motion, ext: str | None, data: bytes, res: Scan) -> float | None:
+    """The bound declared on the positions of ``motion`` as read from the MPZ bytes
+    ``data`` (``res``: their :func:`mpz.container.scan`): for joint positions computed
+    from a skeleton's channels (:func:`joint_positions_from_channels`), the skeleton
+    chunk's ``position_bound`` (§4.14; None for 0, none); otherwise MHDR's
+    (:func:`declared_bound`), which is the marker layer's."""
+    if not joint_positions_from_channels(motion, ext):
+        return declared_bound(res)
+    from mpz.skeleton import report
+    rep = report(data)
+    pb = float(rep["position_bound"]) if rep is not None else 0.0  # type: ignore[arg-type]
+    return pb if pb > 0 else None
 
 
 def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bool

@@ -290,13 +290,7 @@ def _read_mpz(path: str, max_samples: int | None
     from mpz.api import read_source
     from mpz.container import scan
     from mpz.errors import FormatError
-    from mpz.tools._common import (
-        STDIO,
-        declared_bound,
-        joint_positions_from_channels,
-        read_mpz_input_bytes,
-        read_stdin,
-    )
+    from mpz.tools._common import STDIO, positions_bound, read_mpz_input_bytes, read_stdin
     if path == STDIO:
         data, fmt = read_stdin()
         if fmt != ".mpz":
@@ -313,16 +307,9 @@ def _read_mpz(path: str, max_samples: int | None
             raise
     # the decode above checked every chunk; the skipped ones are counted, not kept
     res = scan(data, keep_unknown=False)
-    skipped = list(res.skipped)
-    bound = declared_bound(res)
-    if joint_positions_from_channels(motion, ".mpz"):
-        # the positions are the joints of the channels: position_bound is theirs (§4.14,
-        # 0: none), not MHDR's (a QA of stop 48: a C3D's float32 note quoted MHDR's)
-        from mpz.skeleton import report
-        rep = report(data)
-        pb = float(rep["position_bound"]) if rep is not None else 0.0  # type: ignore[arg-type]
-        bound = pb if pb > 0 else None
-    return motion, bound, skipped
+    # the joints of a skeleton's channels: position_bound is theirs, not MHDR's (a QA of
+    # stop 48: a C3D's float32 note quoted MHDR's)
+    return motion, positions_bound(motion, ".mpz", data, res), list(res.skipped)
 
 
 def _refuse_other_formats(head: bytes, path: str) -> None:

@@ -96,7 +96,12 @@ def _seconds(d: float) -> str:
 def run(args) -> int:
     from mpz.container import scan
     from mpz.io import FORMAT_NAMES
-    from mpz.tools._common import declared_bound, read_input_keeping
+    from mpz.tools._common import (
+        declared_bound,
+        joint_positions_from_channels,
+        positions_bound,
+        read_input_keeping,
+    )
 
     path = args.file
     try:
@@ -113,8 +118,13 @@ def run(args) -> int:
         return EXIT_ERROR
     info = summary(motion, path)
     info["format"] = "MPZ" if ext == ".mpz" else FORMAT_NAMES.get(ext or "")
-    # an .mpz file's declared bound (None: none declared, or not an .mpz), as mpzinfo says
-    info["error_bound"] = declared_bound(scan(data)) if data is not None else None
+    # an .mpz file's declared bound (None: none declared, or not an .mpz), as mpzinfo says;
+    # and the one on the positions shown: for a skeletal file, the joints computed from
+    # its channels, which MHDR's does not bound (a newcomer's QA run read it as theirs)
+    res = scan(data) if data is not None else None
+    info["error_bound"] = declared_bound(res) if res is not None else None
+    info["position_bound"] = (positions_bound(motion, ext, data, res)
+                              if data is not None and res is not None else None)
     code = found(EXIT_WARN if "warning" in motion.metadata else EXIT_OK)
     if args.json:
         print_json(info)
@@ -132,8 +142,13 @@ def run(args) -> int:
     if ext == ".mpz":
         bound = info["error_bound"]
         u = f" {info['units']}" if info["units"] else ""
-        lines.append("bound:     " + ("none declared" if bound is None
-                                      else f"max error \u2264 {bound:g}{u} (declared)"))
+        said = "none declared" if bound is None else f"max error \u2264 {bound:g}{u} (declared)"
+        if joint_positions_from_channels(motion, ext):
+            joints = info["position_bound"]
+            said = ("joints " + ("none declared" if joints is None else
+                                 f"within {joints:g}{u} (declared)")
+                    + f", computed from the channels; the marker layer: {said}")
+        lines.append("bound:     " + said)
     if info["channels"] is not None:
         lines.append(f"channels:  {info['channels']}")
     c = info["c3d"]
