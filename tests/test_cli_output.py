@@ -746,3 +746,17 @@ def test_long_inputs_say_each_long_step_on_a_terminal(tmp_path, monkeypatch, cap
     assert f"mpz decode: writing {tmp_path / 'b.trc'}\n" in err, err
     assert mpz_cli.main([*argv, "-q"]) == 0 and mpz_cli.main([*back, "-q"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_encode_json_of_several_inputs_is_json_alone_on_stdout(small: tuple[Path, Path],
+                                                               tmp_path: Path) -> None:
+    """A CI audit: with several inputs, the batch's closing line ("mpz encode: 2 inputs: 2
+    done, 0 failed") went to stdout before the JSON, so stdout did not parse."""
+    trc, _ = small
+    for name in ("a.trc", "b.trc"):
+        shutil.copy(trc, tmp_path / name)
+    p = run(["mpz", "encode", "a.trc", "b.trc", "--max-error", "1mm", "--json"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(p.stdout)
+    assert [os.path.basename(r["output"]) for r in doc] == ["a.mpz", "b.mpz"], doc
+    assert "2 inputs: 2 done, 0 failed" in p.stderr
