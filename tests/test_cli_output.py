@@ -760,3 +760,30 @@ def test_encode_json_of_several_inputs_is_json_alone_on_stdout(small: tuple[Path
     doc = json.loads(p.stdout)
     assert [os.path.basename(r["output"]) for r in doc] == ["a.mpz", "b.mpz"], doc
     assert "2 inputs: 2 done, 0 failed" in p.stderr
+
+
+def test_no_valid_sample_gives_no_error_figures(tmp_path: Path) -> None:
+    """A CLI audit: a motion whose every sample is a gap was reported with a max, RMS and
+    ARMS error of 0.0 (a figure of nothing compared) and "every sample within" the bound.
+    The figures are null in JSON and said to be unmeasured in text."""
+    from mpz import Motion
+    m = Motion(np.full((20, 3, 3), np.nan), ["A", "B", "C"], rate=100.0, units="mm")
+    write(m, tmp_path / "gaps.c3d")
+    p = run(["mpz", "encode", "gaps.c3d", "--max-error", "1mm", "--json"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(p.stdout)
+    assert [doc[k] for k in ("max_error", "arms", "p99", "rms")] == [None] * 4, doc
+    p = run(["mpz", "encode", "gaps.c3d", "--max-error", "1mm", "-o", "t.mpz"], tmp_path)
+    assert "error    none measured: no sample of the input is valid" in p.stdout, p.stdout
+    p = run(["mpz", "compare", "gaps.c3d", "t.mpz", "--json"], tmp_path)
+    doc = json.loads(p.stdout)
+    assert [doc[k] for k in ("max", "arms", "rms", "p99", "mean")] == [None] * 5, doc
+    p = run(["mpz", "compare", "gaps.c3d", "t.mpz"], tmp_path)
+    assert "no sample of the original is valid: no error to measure" in p.stdout
+    assert "no valid sample to hold to it" in p.stdout and "every sample" not in p.stdout
+    # one valid sample: measured as before
+    m.positions[3, 1] = (1.0, 2.0, 3.0)
+    m.valid[3, 1] = True
+    write(m, tmp_path / "one.c3d")
+    p = run(["mpz", "encode", "one.c3d", "--max-error", "1mm", "--json"], tmp_path)
+    assert isinstance(json.loads(p.stdout)["max_error"], float)

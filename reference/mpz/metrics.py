@@ -115,19 +115,20 @@ def _percentile(values: NDArray[np.float64], q: float) -> float:
 
 
 def summary(original: Motion, decoded: Motion) -> dict[str, Any]:
-    """max, ARMS, RMS, p99 and mean error, plus per-marker max and RMS."""
+    """max, ARMS, RMS, p99 and mean error, plus per-marker max and RMS; each None where no
+    sample of the original is valid (nothing was compared: a CLI audit found 0.0 there, and
+    "every sample within" the bound)."""
     d = _dist(original, decoded)
     flat = d[~np.isnan(d)]
-    if flat.size == 0:
-        flat = np.zeros(1)
     per_max = np.where(np.isnan(d), -np.inf, d).max(axis=0, initial=-np.inf)
     per_rms = _rms_over(d, axis=0)
+    none = flat.size == 0
     return {
-        "max": float(flat.max()),
-        "arms": arms(original, decoded),
-        "rms": float(np.sqrt((flat ** 2).mean())),
-        "p99": _percentile(flat, 99),
-        "mean": float(flat.mean()),
+        "max": None if none else float(flat.max()),
+        "arms": None if none else arms(original, decoded),
+        "rms": None if none else float(np.sqrt((flat ** 2).mean())),
+        "p99": None if none else _percentile(flat, 99),
+        "mean": None if none else float(flat.mean()),
         "per_marker_max": {n: (None if not np.isfinite(v) and v < 0 else float(v))
                            for n, v in zip(original.names, per_max, strict=False)},
         "per_marker_rms": {n: (None if np.isnan(v) else float(v))

@@ -398,10 +398,15 @@ def run(args: argparse.Namespace) -> int:
         for which, path in (("original", args.original), ("decoded", args.decoded)):
             if pos[which] != "as read":
                 print(f"  {which} {_label(path)}: {pos[which]}")
-        print(f"  max {s['max']:.4g}{u}  p99 {s['p99']:.4g}{u}  RMS {s['rms']:.4g}{u}  "
-              f"ARMS {s['arms']:.4g}{u}  mean {s['mean']:.4g}{u}")
+        if s["max"] is None:
+            print("  no sample of the original is valid: no error to measure")
+        else:
+            print(f"  max {s['max']:.4g}{u}  p99 {s['p99']:.4g}{u}  RMS {s['rms']:.4g}{u}  "
+                  f"ARMS {s['arms']:.4g}{u}  mean {s['mean']:.4g}{u}")
         print(f"  gaps: {gaps_lost} valid samples became gaps, {gaps_added} gaps became valid")
-        if both is not None:
+        if both is not None and both["max"] is None:
+            print("  valid in both: no sample")
+        elif both is not None:
             print(f"  valid in both: max {both['max']:.4g}{u}  p99 {both['p99']:.4g}{u}  "
                   f"RMS {both['rms']:.4g}{u}  ARMS {both['arms']:.4g}{u}  "
                   f"mean {both['mean']:.4g}{u}")
@@ -418,7 +423,8 @@ def run(args: argparse.Namespace) -> int:
             by = (f"the sum of the bounds of {names[0]} and {names[1]}" if pair is not None
                   else f"declared by {names[1]}")
             print(f"  bound {check['bound']:.4g}{u} {by} ({what}): "
-                  + ("every sample within" if not check["beyond"] else
+                  + ("no valid sample to hold to it" if s["max"] is None else
+                     "every sample within" if not check["beyond"] else
                      f"BEYOND at {check['beyond']} sample{'s' * (check['beyond'] != 1)}, "
                      f"the first {printable(check['first']['marker'])!r} at frame index "
                      f"{check['first']['frame']} ({check['first']['error']:.4g}{u})"))

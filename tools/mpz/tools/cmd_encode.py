@@ -526,7 +526,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         if sig is exc:
             raise
         raise sig from None
-    if rep.bound is not None and not err["max"] <= rep.bound:
+    if rep.bound is not None and err["max"] is not None and not err["max"] <= rep.bound:
         # the encoder's own guarantee, checked on what it wrote (a QA run of stop 50: an
         # encoder broken on purpose reported "max 1.6 mm (bound 1 mm)", exit 0): a file
         # that breaks its declared bound is not left behind; the bug is reported (exit 70)
@@ -591,8 +591,12 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     layer = ("marker layer (what a 1.0 decoder reads; mpz decode computes the joints from "
              "the channels: skeleton below) " if result["bytes_skeleton"] else "")
     # max with the bound's digits: 0.3054 next to a bound of 0.305372 looked over it
-    print(f"  error    {layer}max {err['max']:.6g}{u}{bound}, p99 {err['p99']:.4g}{u}, "
-          f"ARMS {err['arms']:.4g}{u}", file=out)
+    if err["max"] is None:
+        print(f"  error    {layer}none measured: no sample of the input is valid{bound}",
+              file=out)
+    else:
+        print(f"  error    {layer}max {err['max']:.6g}{u}{bound}, p99 {err['p99']:.4g}{u}, "
+              f"ARMS {err['arms']:.4g}{u}", file=out)
     print(f"  grid     step {rep.step:.4g}{u}; ADDH {rep.addh:.4g}{u} ({rep.addh_rule}); "
           f"hierarchy {rep.hierarchy}", file=out)
     kind = result["summary_chunk"]
