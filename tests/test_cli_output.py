@@ -787,3 +787,21 @@ def test_no_valid_sample_gives_no_error_figures(tmp_path: Path) -> None:
     write(m, tmp_path / "one.c3d")
     p = run(["mpz", "encode", "one.c3d", "--max-error", "1mm", "--json"], tmp_path)
     assert isinstance(json.loads(p.stdout)["max_error"], float)
+
+
+def test_summary_of_a_short_motion_lowers_the_default_levels(tmp_path: Path) -> None:
+    """A CLI audit: `mpz summary` of a 5-frame file, no --k given, failed ("no requested k
+    fits the 5 frames", exit 2) and of a 10-frame one warned (exit 1) of default levels
+    nobody had asked for; 10 of the conformance suite's valid vectors failed so. The
+    default levels are lowered to the frames, as the encoder lowers a summary's; a k given
+    beyond them is still dropped with a warning."""
+    for frames, want in ((5, [5]), (10, [6, 10])):
+        write(generate("walk", frames=frames), tmp_path / f"f{frames}.c3d")
+        p = run(["mpz", "summary", f"f{frames}.c3d", "--json"], tmp_path)
+        assert p.returncode == 0 and "warning" not in p.stderr, p.stderr
+        levels = json.loads(p.stdout)["levels"]
+        assert [lv["k"] for lv in levels] == want
+        # k = frames: every frame a segment of its own, WSSSE 0
+        assert levels[-1]["wssse"] == 0.0
+    p = run(["mpz", "summary", "f10.c3d", "--k", "6,12", "--json"], tmp_path)
+    assert p.returncode == 1 and "k=12 dropped: the motion has only 10 frames" in p.stderr

@@ -73,7 +73,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("file", help="motion file (.c3d, .trc, .bvh, .amc, .npy, .csv) or .mpz; "
                    "- reads standard input")
     p.add_argument("--k", type=_ks, default=None, metavar="K1,K2,...",
-                   help=f"numbers of segments (default {DEFAULT_KS}; for .mpz: every stored "
+                   help=f"numbers of segments (default {DEFAULT_KS}, each lowered to the "
+                   "motion's frames; a k given beyond them is dropped, with a warning; for "
+                   ".mpz: every stored "
                    "level, or the default of a file without a summary chunk, whose decoded "
                    "motion is segmented)")
     p.add_argument("--space", choices=("positions", "angles"), default=None,
@@ -139,6 +141,11 @@ def _levels_from_motion(args, ks, motion=None):
     b = block_length(n)                 # past 16,384 frames the cuts fall on blocks of b
     rows = -(-n // b)
     units_of = f"{n} frames" if b == 1 else f"{rows} blocks of {b} frames"
+    if args.k is None:
+        # the default levels are lowered to what the motion has, as the encoder lowers a
+        # summary's (spec Appendix C): a 5-frame file failed (exit 2, "no requested k
+        # fits") and a 10-frame one warned (exit 1) of k nobody had asked for (a CLI audit)
+        ks = sorted({min(k, rows) for k in ks})
     dropped = [k for k in ks if k > rows]
     if dropped:
         warnings.append(f"k={','.join(map(str, dropped))} dropped: the motion has only "
