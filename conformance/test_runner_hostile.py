@@ -473,9 +473,13 @@ def test_a_command_selected_for_invalid_vectors_alone_must_decode_one(tmp_path):
     assert doc["totals"] == {"total": 1, "passed": 1, "failed": 0, "groups": doc["totals"][
         "groups"]}
     assert not doc["probe"]["passed"] and "its rejections prove nothing" in proc.stderr
+    # the summary line says it too: "1/1 passed" stood above exit 1 (a CLI audit)
+    assert "1/1 passed (invalid 1/1); not proven: the command did not decode valid/" \
+        in proc.stdout, proc.stdout
     proc, doc = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only",
                     BAD)
     assert proc.returncode == 0 and doc["probe"]["passed"], proc.stderr
+    assert "not proven" not in proc.stdout
     assert "run as a check that it decodes at all (not counted)" in proc.stdout
     proc, doc = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder", "--only",
                     BAD, ONE)
@@ -737,6 +741,21 @@ def test_results_on_a_device_that_fails_the_write_keep_the_report(tmp_path):
     assert re.search(rf"^PASS \S*{ONE}: ", proc.stdout, re.M), proc.stdout
     assert "1/1 passed" in proc.stdout
     assert "--results: /dev/full: cannot write: No space left on device" in proc.stderr
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full here")
+def test_a_report_that_cannot_be_written_exits_with_a_code_the_help_names(tmp_path):
+    """A CLI audit: standard output on a full disk ended the run with exit 2, a code the
+    help did not list."""
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run([PY, "-m", "mpz.conformance.runner", "--decoder",
+                               f"{PY} -m mpz.conformance.refdecoder", "--only", ONE],
+                              stdout=full, stderr=subprocess.PIPE, text=True, timeout=300,
+                              cwd=tmp_path)
+    assert proc.returncode == 2 and "cannot write" in proc.stderr, proc.stderr
+    helped = subprocess.run([PY, "-m", "mpz.conformance.runner", "--help"],
+                            capture_output=True, text=True, timeout=60).stdout
+    assert "2 the report could not be written to standard output" in " ".join(helped.split())
 
 
 def test_a_1_1_decoder_run_as_1_0_is_told_so_not_sent_after_a_start_up_problem(tmp_path):

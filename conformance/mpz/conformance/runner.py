@@ -985,9 +985,12 @@ def _parser() -> argparse.ArgumentParser:
         prog="mpz-conformance",
         description="Run an MPZ decoder or encoder against the conformance vectors "
                     "(see conformance/README.md for the contract).",
-        epilog="exit codes: 0 every selected vector passed, 1 at least one failed, "
+        epilog="exit codes: 0 every selected vector passed, 1 at least one failed (or, "
+               "with only invalid vectors selected, the command did not decode a valid one), "
+               "2 the report could not be written to standard output (a full disk), "
                "64 usage error (bad options, missing or invalid vectors, command not found or "
-               "a script it cannot start), "
+               "a script it cannot start, a --results file that cannot be written, said "
+               "after the report), "
                "130 interrupted, 143 terminated (SIGTERM; 129 for SIGHUP): the commands "
                "running are killed and no --results is written")
     p.add_argument("--version", action="version", version=f"mpz-conformance {__version__}")
@@ -1368,9 +1371,13 @@ def main(argv: list[str] | None = None) -> int:
     if mode == "decoder" and minor < VERSION_MINOR:
         print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
               f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
+    # an unproven run's line said "1/1 passed" above exit 1, the reason on stderr alone
+    # (a CLI audit): it says so on the summary line too
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
-             if n_fail else ""))
+             if n_fail else "")
+          + (f"; not proven: the command did not decode {probed['group']}/{probed['name']}"
+             if unproven and probed is not None else ""))
     _warn_if_nothing_decoded(results, probed, args.memory, bool(getattr(args, "as_given",
                                                                         False)))
     if probed is not None:
