@@ -805,3 +805,20 @@ def test_summary_of_a_short_motion_lowers_the_default_levels(tmp_path: Path) -> 
         assert levels[-1]["wssse"] == 0.0
     p = run(["mpz", "summary", "f10.c3d", "--k", "6,12", "--json"], tmp_path)
     assert p.returncode == 1 and "k=12 dropped: the motion has only 10 frames" in p.stderr
+
+
+def test_standard_input_given_twice_is_a_usage_error(small: tuple[Path, Path],
+                                                     tmp_path: Path) -> None:
+    """A CLI audit: `mpz compare - -` exited 2 (an input error) where `mpz bench --compare
+    - -` exits 64 for the same mistake, and `mpzinfo - -` read standard input twice, the
+    second time nothing ("bad signature b''", exit 2)."""
+    _, enc = small
+    data = enc.read_bytes()
+    for args in (["mpz", "compare", "-", "-"], ["mpzinfo", "-", "-"]):
+        p = subprocess.run([command(args[0]), *args[1:]], input=data, capture_output=True,
+                           cwd=tmp_path, timeout=300)
+        assert p.returncode == 64, (args, p.stderr)
+        assert b"standard input" in p.stderr and b"signature" not in p.stderr
+    p = subprocess.run([command("mpzinfo"), "-"], input=data, capture_output=True,
+                       cwd=tmp_path, timeout=300)
+    assert p.returncode == 0, p.stderr

@@ -265,7 +265,10 @@ def run(args: argparse.Namespace) -> int:
         read_input_keeping,
     )
     if args.original == "-" and args.decoded == "-":
-        raise MotionError("only one of the two inputs can be standard input (-)")
+        # a usage error (64), as mpz bench --compare - - says it (a CLI audit: exit 2)
+        print("mpz compare: error: only one of the two inputs can be standard input (-)",
+              file=sys.stderr)
+        return EXIT_USAGE
     try:                        # a usage error (64), as encode's lengths: not an input error
         check_length(args.bound, "--bound")
     except EncoderError as exc:

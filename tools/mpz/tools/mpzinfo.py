@@ -349,6 +349,8 @@ def _main(argv: list[str] | None = None) -> int:
                    help=MAX_SAMPLES_HELP)
     p.add_argument("--version", action="version", version=f"mpzinfo {__version__}")
     args = p.parse_args(argv)
+    if args.files.count("-") > 1:       # the second read nothing: "bad signature b''"
+        p.error("- (standard input) can be given once")
     infos = []
     for f in args.files:
         try:
