@@ -822,3 +822,25 @@ def test_standard_input_given_twice_is_a_usage_error(small: tuple[Path, Path],
     p = subprocess.run([command("mpzinfo"), "-"], input=data, capture_output=True,
                        cwd=tmp_path, timeout=300)
     assert p.returncode == 0, p.stderr
+
+
+def test_a_failing_command_run_with_json_prints_an_error_document(small: tuple[Path, Path],
+                                                                  tmp_path: Path) -> None:
+    """A CLI audit: `mpz show --json` and `mpzinfo --json` print an error document when
+    they fail, but `mpz compare`, `summary` and `search --json` printed nothing on stdout,
+    which a script then failed to parse."""
+    trc, enc = small
+    data = bytearray(enc.read_bytes())
+    data[len(data) // 2] ^= 0xFF                    # a CRC that no longer matches
+    (tmp_path / "flip.mpz").write_bytes(bytes(data))
+    for args, cls in ((["compare", str(trc), "flip.mpz"], "ChecksumError"),
+                      (["summary", "flip.mpz"], "ChecksumError"),
+                      (["summary", "nosuch.c3d"], None),
+                      (["search", str(trc), "--index", "nowhere.sqlite"], "EncoderError")):
+        p = run(["mpz", *args, "--json"], tmp_path)
+        assert p.returncode == 2, (args, p.stderr)
+        doc = json.loads(p.stdout)
+        assert doc["status"] == "error" and doc["command"] == f"mpz {args[0]}", doc
+        assert doc["error"]["class"] == cls and doc["error"]["message"], doc
+        if cls == "ChecksumError":
+            assert doc["error"]["section"] == "§3.3" and doc["error"]["offset"] > 0, doc

@@ -530,11 +530,10 @@ def run(args) -> int:
     if args.file == "-":
         from mpz.tools._common import read_stdin
         args.stdin_data, args.stdin_format = read_stdin()
-    elif not path.is_file():
-        what = "no such file" if not path.exists() else "not a regular file"
-        print(f"mpz summary: error: {printable(args.file)}: {what}", file=sys.stderr)
-        return EXIT_ERROR
     try:
+        if args.file != "-" and not path.is_file():
+            what = "no such file" if not path.exists() else "not a regular file"
+            raise _Fail(f"{printable(args.file)}: {what}")
         if (args.stdin_format if args.file == "-" else path.suffix.lower()) == ".mpz":
             if args.rate is not None:
                 raise _Fail(f"--rate {args.rate:g}: an .mpz file stores its rate; --rate is "
@@ -545,6 +544,9 @@ def run(args) -> int:
             info, levels, poses, parents, warnings = _levels_from_motion(args, ks)
     except _Fail as exc:
         print(f"mpz summary: error: {exc}", file=sys.stderr)
+        if args.json:                       # as the dispatcher does for an MPZError
+            from mpz.tools._cli import json_failure
+            print_json(json_failure("summary", str(exc)))
         return EXIT_ERROR
     except MPZError as exc:
         # a damaged .mpz file's error named no file, where every other command's does (a

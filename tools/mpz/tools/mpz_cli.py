@@ -22,7 +22,9 @@ from mpz.tools._cli import (
     EXIT_ERROR,
     EXIT_MEMORY,
     Parser,
+    json_failure,
     memory_message,
+    print_json,
     printable,
     quiet_broken_pipe,
     reports_ctrl_c,
@@ -61,13 +63,21 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    # a failing command run with --json says so on stdout too (encode's JSON lists the
+    # files it encoded, and its failures are said per file)
+    failure_doc = getattr(args, "json", False) and args.command != "encode"
     try:
         return int(args.func(args))
     except MPZError as exc:
         print(f"mpz {args.command}: error: {printable(str(exc))}", file=sys.stderr)
+        if failure_doc:
+            print_json(json_failure(args.command, exc))
         return EXIT_ERROR
     except MemoryError as exc:      # a resource error, not a verdict on the input (spec §8)
-        print(f"mpz {args.command}: {memory_message(exc, args.command)}", file=sys.stderr)
+        said = memory_message(exc, args.command)
+        print(f"mpz {args.command}: {said}", file=sys.stderr)
+        if failure_doc:
+            print_json(json_failure(args.command, said, "memory"))
         return EXIT_MEMORY
 
 
