@@ -458,6 +458,12 @@ def test_option_errors_come_from_the_subcommand_with_a_hint(inputs: dict[str, Pa
     p = run(["mpz", "decode", str(inputs["mpz"]), "--fromat", "csv"], tmp_path)
     assert p.returncode == 64 and b"usage: mpz decode" in p.stderr
     assert b"did you mean --format?" in p.stderr
+    # a unit written apart from its number (a newcomer's QA run: "unrecognized arguments:
+    # mm" alone)
+    for args in (["encode", str(inputs["c3d"]), "-o", "y.mpz", "--max-error", "1", "mm"],
+                 ["compare", str(inputs["c3d"]), str(inputs["mpz"]), "--bound", "2", "cm"]):
+        p = run(["mpz", *args], tmp_path)
+        assert p.returncode == 64 and b"a length takes its unit without a space" in p.stderr
     p = run(["mpz", "encdoe"], tmp_path)
     assert p.returncode == 64 and b"did you mean encode?" in p.stderr
 

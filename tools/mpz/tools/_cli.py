@@ -202,6 +202,9 @@ class Parser(argparse.ArgumentParser):
             words = message[len("unrecognized arguments: "):].split()
             message += _suggest([w for w in words if w.startswith("-")],
                                 self._option_strings())
+            if any(w in ("mm", "cm", "m", "in") for w in words):
+                # "--max-error 1 mm" (a newcomer's QA run: no hint)
+                message += "; a length takes its unit without a space, e.g. --max-error 1mm"
         elif "invalid choice: " in message:
             bad = message.split("invalid choice: ", 1)[1].split(" ", 1)[0].strip("'\"")
             message += _suggest([bad], self._subcommands())
