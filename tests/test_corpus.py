@@ -2504,6 +2504,17 @@ def test_a_scheduler_address_where_nothing_listens_fails_at_once(corpus):
     assert time.monotonic() - t0 < 10 and not (out / "index.sqlite").exists()
 
 
+def test_a_scheduler_host_that_does_not_resolve_fails_at_once(corpus):
+    """A newcomer's QA run: --scheduler head:8786, a host name that does not resolve,
+    waited Dask's full 30 s; it is said at once, naming the host, and no index is made.
+    (``.invalid`` never resolves, RFC 2606.)"""
+    src, out, _ = corpus
+    with pytest.raises(EncoderError, match="the host name 'no-such-scheduler.invalid' does "
+                                           "not resolve"):
+        run_corpus(src, out, scheduler="no-such-scheduler.invalid:8786")
+    assert not (out / "index.sqlite").exists()
+
+
 @needs_dask
 @pytest.mark.skipif(os.name != "posix", reason="SIGINT to this process is POSIX")
 def test_a_ctrl_c_as_the_local_cluster_closes_waits_for_the_close(monkeypatch):

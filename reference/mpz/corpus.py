@@ -1909,8 +1909,9 @@ CONNECT_SECONDS = 40.0
 
 def _refused(scheduler: str) -> None:
     """Raise EncoderError at once when nothing listens at a ``tcp://`` scheduler address
-    (the connection refused): Dask retried it for its full 30 s (a corpus QA run of stop
-    55). Anything else (a timeout, another scheme) is left to the Client."""
+    (the connection refused) or its host name does not resolve: Dask retried each for its
+    full 30 s (a corpus QA run of stop 55; a newcomer's of stop 58). Anything else (a
+    timeout, another scheme) is left to the Client."""
     import socket
     parts = urllib.parse.urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
     if parts.scheme != "tcp" or not parts.hostname or parts.port is None:
@@ -1918,6 +1919,12 @@ def _refused(scheduler: str) -> None:
     try:
         with socket.create_connection((parts.hostname, parts.port), timeout=5.0):
             return
+    except socket.gaierror as exc:
+        # a name that does not resolve: Dask retried it for its full 30 s too (a newcomer's
+        # QA run, --scheduler head:8786)
+        raise EncoderError(f"cannot reach the Dask scheduler at {scheduler}: the host name "
+                           f"{parts.hostname!r} does not resolve ({exc.strerror or exc}): "
+                           "is it the scheduler's host?") from None
     except ConnectionRefusedError:
         raise EncoderError(f"cannot reach the Dask scheduler at {scheduler}: nothing listens "
                            f"at {parts.hostname}:{parts.port} (connection refused): is the "
