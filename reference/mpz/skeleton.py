@@ -439,6 +439,12 @@ def preview_bound(motion: Motion) -> float | None:
     return PREVIEW_FRACTION * size
 
 
+def has_channels(motion: Motion) -> bool:
+    """Whether ``motion`` holds a skeleton and its channel values, which
+    :func:`with_joint_positions` computes joint positions from."""
+    return isinstance(motion.extras.get("skeleton"), Skeleton) and motion.angles is not None
+
+
 def with_joint_positions(motion: Motion) -> Motion:
     """A decoded skeletal motion whose positions are the joint positions computed from its
     channels (spec §6.10: within the file's declared position bound of the source's),
@@ -455,12 +461,12 @@ def with_joint_positions(motion: Motion) -> Motion:
     """
     if not isinstance(motion, Motion):       # AttributeError of None (a QA run, stop 50)
         raise TypeError(f"expected an mpz.Motion, got {type(motion).__name__}")
-    skel = motion.extras.get("skeleton")
-    if not isinstance(skel, Skeleton) or motion.angles is None:
+    if not has_channels(motion):
         raise MotionError("the motion has no skeleton and channels to compute joint "
                           "positions from (a file of markers, one encoded with "
                           "keep_skeleton=False / --no-skeleton, or decoded with "
                           "markers_only=True): its positions are already all it holds")
+    skel = motion.extras["skeleton"]
     values = _values(motion, skel)
     pos = forward(skel, values) * marker_scale(skel)
     return Motion(pos, motion.names, motion.rate, motion.units, None, motion.metadata,

@@ -342,13 +342,10 @@ def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
 def _decode(source: str | bytes, max_samples: int | None) -> Motion:
     import mpz
     from mpz.format import MAX_SAMPLES
-    from mpz.io.kinematics import Skeleton
-    from mpz.skeleton import with_joint_positions
+    from mpz.skeleton import has_channels, with_joint_positions
     motion = mpz.decode(source, max_samples=MAX_SAMPLES if max_samples is None
                         else max_samples)
-    if isinstance(motion.extras.get("skeleton"), Skeleton) and motion.angles is not None:
-        return with_joint_positions(motion)
-    return motion
+    return with_joint_positions(motion) if has_channels(motion) else motion
 
 
 def joint_positions_from_channels(motion: Motion, ext: str | None) -> bool:

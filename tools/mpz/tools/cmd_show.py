@@ -121,10 +121,11 @@ def run(args) -> int:
     # an .mpz file's declared bound (None: none declared, or not an .mpz), as mpzinfo says;
     # and the one on the positions shown: for a skeletal file, the joints computed from
     # its channels, which MHDR's does not bound (a newcomer's QA run read it as theirs)
-    res = scan(data) if data is not None else None
-    info["error_bound"] = declared_bound(res) if res is not None else None
-    info["position_bound"] = (positions_bound(motion, ext, data, res)
-                              if data is not None and res is not None else None)
+    info["error_bound"] = info["position_bound"] = None
+    if data is not None:
+        res = scan(data)
+        info["error_bound"] = declared_bound(res)
+        info["position_bound"] = positions_bound(motion, ext, data, res)
     code = found(EXIT_WARN if "warning" in motion.metadata else EXIT_OK)
     if args.json:
         print_json(info)
