@@ -217,6 +217,75 @@ def test_trc_bad(tmp_path, cut):
     assert ei.value.path == str(p)
 
 
+
+def _through_mpz(source, out):
+    """``source`` read, encoded, decoded and written to ``out``: the notes of the write."""
+    import mpz
+    return write(mpz.decode(mpz.encode(read(source), max_error=1.0)), out)
+
+
+def _trc_with_ends(ends):
+    """TRC_TEXT with header lines 1-5 ended by ``ends`` (the tabs after each line's last
+    field) instead of the ends this package's writer gives them (0, 0, 0, 2, 0)."""
+    lines = TRC_TEXT.split("\n")
+    return "\n".join([row.rstrip("\t") + end
+                      for row, end in zip(lines[:5], ends, strict=True)] + lines[5:])
+
+
+@pytest.mark.parametrize("ends", [
+    ("", "", "", "\t\t\t", "\t"),           # OpenSim's and BTK's: a tab closes lines 4-5
+    ("", "", "", "", ""),                   # nothing after the last name, B
+    ("\t" * 9, "\t" * 5, "\t" * 5, "\t\t", ""),  # lines 1-3 padded (another OpenSim file)
+], ids=["lines-4-5-end-with-a-tab", "no-tabs", "lines-1-3-padded"])
+def test_trc_header_lines_end_as_the_source_ends_them(tmp_path, ends):
+    """The written TRC dropped the tab that ends lines 4 and 5 of the OpenSim and BTK files
+    (the last name and three tabs came back with two, Z41 and a tab as Z41) and the tabs
+    that pad lines 1-3 of an OpenSim file: no field, but not what the source holds. Through
+    read, encode, decode and write, the five header lines come back byte for byte, and
+    nothing is said."""
+    text = _trc_with_ends(ends)
+    (tmp_path / "x.trc").write_text(text)
+    notes = _through_mpz(tmp_path / "x.trc", tmp_path / "back.trc")
+    back = (tmp_path / "back.trc").read_text()
+    assert back.split("\n")[:5] == text.split("\n")[:5]
+    assert not any("TrailingTabs" in n for n in notes), notes
+
+
+def test_trc_header_lines_the_writer_ends_so_anyway_add_no_metadata():
+    """A TRC whose header lines end as the writer ends them gets no trc.TrailingTabs: its
+    meta chunk, and so its MPZ file, is what it was before the key was kept."""
+    from mpz.io.trc import parse_trc
+    assert "trc.TrailingTabs" not in parse_trc(TRC_TEXT).metadata
+    assert parse_trc(_trc_with_ends(("", "", "", "\t\t\t", "\t"))).metadata[
+        "trc.TrailingTabs"] == "0 0 0 3 1"
+
+
+@pytest.mark.parametrize("value", ["3 1", "0 0 0 3 1 0", "0 0 0 x 1", "0 0 0 -1 1",
+                                   "0 0 0 3.0 1", "0  0 0 3 1", "0 0 0 3 1 ",
+                                   "0 0 0 1048577 1", "0 0 0 " + "9" * 13 + " 1", ""])
+def test_trc_hand_edited_trailing_tabs_are_said_and_not_used(tmp_path, value):
+    """trc.TrailingTabs is free text in the meta chunk: a value that is not five whole
+    numbers 0 .. 2^20 (a hand edit) is named in a note, and the header lines are written
+    as without it; a terabyte of tabs is not asked for."""
+    from mpz.io.trc import parse_trc, trc_meta_problems
+    m = parse_trc(_trc_with_ends(("", "", "", "\t\t\t", "\t")))
+    m.metadata["trc.TrailingTabs"] = value
+    assert "trc.TrailingTabs" in trc_meta_problems(m.metadata)
+    notes = write(m, tmp_path / "back.trc")
+    assert any(n.startswith("metadata trc.TrailingTabs ") for n in notes), notes
+    assert (tmp_path / "back.trc").read_text().split("\n")[:5] == TRC_TEXT.split("\n")[:5]
+
+
+def test_trc_header_line_of_more_tabs_than_are_kept_is_said():
+    """A header line that ends with more than 2^20 tabs keeps 2^20, with a warning."""
+    from mpz.io.trc import MAX_TRAILING_TABS, format_trc, parse_trc
+    m = parse_trc(_trc_with_ends(("", "", "", "\t" * (MAX_TRAILING_TABS + 5), "")))
+    assert m.metadata["trc.TrailingTabs"] == f"0 0 0 {MAX_TRAILING_TABS} 0"
+    assert (f"header line 4 ends with {MAX_TRAILING_TABS + 5} tabs: {MAX_TRAILING_TABS} are "
+            "written back") in m.metadata["warning"]
+    line = format_trc(m).split("\n")[3]
+    assert len(line) - len(line.rstrip("\t")) == MAX_TRAILING_TABS
+
 # -- BVH -------------------------------------------------------------------
 
 BVH_TEXT = """HIERARCHY
@@ -1019,7 +1088,8 @@ def test_check_writable_refuses_an_extension_no_writer_has(ext):
 
 _TRC_KEYS = ["trc.PathFileType", "trc.FileName", "trc.DataRate", "trc.CameraRate",
              "trc.NumFrames", "trc.Units", "trc.OrigDataStartFrame", "trc.FirstFrame",
-             "trc.Decimals", "trc.TimeDecimals", "trc.TimeDigits", "start_time"]
+             "trc.Decimals", "trc.TimeDecimals", "trc.TimeDigits", "trc.TrailingTabs",
+             "start_time"]
 
 
 @settings(max_examples=150, deadline=None)
@@ -1027,7 +1097,8 @@ _TRC_KEYS = ["trc.PathFileType", "trc.FileName", "trc.DataRate", "trc.CameraRate
                        st.one_of(st.text(max_size=12),
                                  st.sampled_from(["abc", "-3", "-1", "100000000", "31", "nan",
                                                   "inf", "1e309", "4\n\n\nFrame#", "a\tb",
-                                                  "9" * 40, "0", "30"])),
+                                                  "9" * 40, "0", "30", "0 0 0 3 1",
+                                                  "1 2 3 4 99999999"])),
                        max_size=6))
 def test_trc_writer_takes_any_trc_metadata_and_writes_a_file_it_reads(tmp_path_factory, meta):
     """A file's meta chunk is free text (spec §4.11), and the TRC writer wrote its trc.*

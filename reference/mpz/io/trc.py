@@ -22,7 +22,8 @@ Nothing of the header is lost (issue 12): every header field as written
 the file name and type of line 1), the first frame number, the first time and
 the decimals of the time and value columns (the most of any row) go to ``metadata`` under ``trc.*``
 keys (stored in the MPZ meta chunk), and :func:`format_trc` writes them back,
-so that a TRC decoded from a TRC is the same table.
+so that a TRC decoded from a TRC is the same table. The tabs that end header lines 1-5
+go to ``trc.TrailingTabs`` when they are not the ones :func:`format_trc` writes.
 """
 from __future__ import annotations
 
@@ -225,8 +226,35 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
               if placed else np.arange(n_rows, dtype=np.int64))
         lost = _times_not_kept(motion, times, at)
         if lost:
-            motion.metadata["warning"] = "; ".join([*warnings, lost])
+            warnings.append(lost)
+            motion.metadata["warning"] = "; ".join(warnings)
+    tabs, cut = _trailing_tabs(lines[:5], motion)
+    if tabs:                                     # last: the keys before keep their order
+        motion.metadata["trc.TrailingTabs"] = tabs
+    if cut:
+        motion.metadata["warning"] = "; ".join([*warnings, cut])
     return motion
+
+
+def _tabs_at_end(row: str) -> int:
+    return len(row) - len(row.rstrip("\t"))
+
+
+def _trailing_tabs(rows: list[str], motion: Motion) -> tuple[str, str]:
+    """``trc.TrailingTabs`` for a TRC whose header ``rows`` (lines 1-5) end with other tabs
+    than :func:`format_trc` writes for ``motion``: the tabs each line ends with, or "" when
+    they all end as it writes them (then the meta chunk is what it was before the key; an
+    MPZ file without it is written as before); and a warning when a line ends with more
+    than MAX_TRAILING_TABS, which are not kept. The writer dropped the tab that ends lines
+    4 and 5 of the OpenSim and BTK files and the tabs that pad lines 1-3 of another OpenSim
+    file (a fidelity review)."""
+    ends = [_tabs_at_end(row) for row in rows]
+    if ends == [_tabs_at_end(row) for row in itertools.islice(_trc_lines(motion), 5)]:
+        return "", ""
+    over = [(i, n) for i, n in enumerate(ends, 1) if n > MAX_TRAILING_TABS]
+    cut = "; ".join(f"header line {i} ends with {n} tabs: {MAX_TRAILING_TABS} are written "
+                    "back" for i, n in over)
+    return " ".join(str(min(n, MAX_TRAILING_TABS)) for n in ends), cut
 
 
 def _is_int(x: str) -> bool:
@@ -323,7 +351,7 @@ def _header_meta(lines: list[str], header: dict[str, str], frames: list[list[str
             out[f"trc.{key}"] = raw.get(key, header[key])      # as written, padding and all
     # what else lines 1-3 hold (a Subject column, an exporter's name after the file name:
     # dropped without a word before, a QA run of stop 52); trailing empty fields are not
-    # kept (the OpenSim files pad with tabs)
+    # kept as fields (the OpenSim files pad with tabs: trc.TrailingTabs keeps those)
     names = lines[1].rstrip("\r\n").split("\t")
     values = lines[2].rstrip("\r\n").split("\t")
     more = [(k, values[i] if i < len(values) else "") for i, k in enumerate(names)
@@ -355,6 +383,10 @@ _TABBED = ("PathFileType", "MoreNames", "MoreValues", "MoreFileFields")
 #: the most decimals a TRC's columns are written with (trc.Decimals, trc.TimeDecimals,
 #: trc.TimeDigits): more than binary64 holds, far fewer than a hostile value asks for
 MAX_DECIMALS = 30
+#: the most tabs trc.TrailingTabs gives a header line (1 MB of tabs): a hand-edited 10^12
+#: must not ask for a terabyte of text
+MAX_TRAILING_TABS = 1 << 20
+
 
 def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
     """The ``trc.*`` entries (and ``start_time``) of ``meta`` that :func:`format_trc` cannot
@@ -386,9 +418,20 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
             bad[key] = f"is not a whole number 0 .. {MAX_DECIMALS}"
         elif name == "FirstFrame" and not _whole_in(value, -MAX_FIRST_FRAME, MAX_FIRST_FRAME):
             bad[key] = "is not a whole number of magnitude below 2^31"
+        elif name == "TrailingTabs" and _tab_counts(value) is None:
+            bad[key] = f"is not 5 whole numbers 0 .. {MAX_TRAILING_TABS}, one space apart"
         elif (name == "DataRate" or key == "start_time") and not _finite_text(value):
             bad[key] = "is not a finite number"
     return bad
+
+
+def _tab_counts(text: str) -> list[int] | None:
+    """The tabs ``trc.TrailingTabs`` ends the header lines 1-5 with, or None when it is not
+    5 whole numbers 0 .. MAX_TRAILING_TABS, one space apart."""
+    parts = text.split(" ")
+    if len(parts) != 5 or not all(_whole_in(p, 0, MAX_TRAILING_TABS) for p in parts):
+        return None
+    return [int(p) for p in parts]
 
 
 def _counts(text: str, n: int) -> bool:
@@ -538,7 +581,7 @@ def _trc_lines(motion: Motion, *, file_name: str = "") -> Iterator[str]:
             for k in ("MoreFileFields", "MoreNames", "MoreValues")}
     if bool(more["MoreNames"]) != bool(more["MoreValues"]):
         more["MoreNames"] = more["MoreValues"] = ""
-    yield from [
+    header = [
         f"PathFileType\t{kind}\t{name}{more['MoreFileFields']}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
         f"OrigDataStartFrame\tOrigNumFrames{more['MoreNames']}",
@@ -548,8 +591,13 @@ def _trc_lines(motion: Motion, *, file_name: str = "") -> Iterator[str]:
         f"{more['MoreValues']}",
         "Frame#\tTime\t" + "\t".join(f"{n}\t\t" for n in motion.names),
         "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, M + 1)),
-        "",
     ]
+    # the tabs that end the source's header lines, as they were (meta holds the key only
+    # when trc_meta_problems finds it 5 counts)
+    tabs = _tab_counts(meta["trc.TrailingTabs"]) if "trc.TrailingTabs" in meta else None
+    if tabs is not None:
+        header = [row.rstrip("\t") + "\t" * n for row, n in zip(header, tabs, strict=True)]
+    yield from [*header, ""]
     pos = motion.as_nan().reshape(F, 3 * M)
     whole = np.isfinite(pos).all(axis=1)
     # a row without a gap in one % (the same text as _fmt's format of each value: 4x
