@@ -377,8 +377,12 @@ def test_compare_names_what_it_cannot_check(tmp_path, capsys):
     assert "1 row(s) of the new run have no row in the old run: c E=1.0" in out
     assert mpz_cli.main(["bench", "--compare", old, new, "--json"]) == 1
     got = capsys.readouterr()
-    assert json.loads(got.out)[0] == {"file": "a", "E": None,
-                                      "problem": "ratio dropped 20.00 -> 10.00 (-50.0 %)"}
+    doc = json.loads(got.out)
+    assert doc["schema"] == "mpz-bench-compare/1" and doc["compared"] == 2
+    assert doc["regressions"][0] == {"file": "a", "E": None,
+                                     "problem": "ratio dropped 20.00 -> 10.00 (-50.0 %)"}
+    assert doc["unmatched"] == [{"file": "c", "E": 1.0}]
+    assert any("no row in the old run: c E=1.0" in n for n in doc["notes"])
     assert "no row in the old run: c E=1.0" in got.err
 
 

@@ -758,7 +758,8 @@ def test_encode_json_of_several_inputs_is_json_alone_on_stdout(small: tuple[Path
     p = run(["mpz", "encode", "a.trc", "b.trc", "--max-error", "1mm", "--json"], tmp_path)
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
-    assert [os.path.basename(r["output"]) for r in doc] == ["a.mpz", "b.mpz"], doc
+    assert doc["schema"] == "mpz-encode-batch/1" and doc["failures"] == [], doc
+    assert [os.path.basename(r["output"]) for r in doc["files"]] == ["a.mpz", "b.mpz"], doc
     assert "2 inputs: 2 done, 0 failed" in p.stderr
 
 

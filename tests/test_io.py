@@ -794,7 +794,7 @@ def test_show_json(tmp_path, capsys):
     write(m, tmp_path / "s.c3d")
     assert show(["show", "--json", str(tmp_path / "s.c3d")]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert info["schema"] == 1 and info["format"] == "C3D"
+    assert info["schema"] == "mpz-show/2" and info["format"] == "C3D"
     assert info["frames"] == 7 and info["markers"] == 5 and info["rate"] == DANCE_RATE
     assert info["units"] == "mm"
     # 5 gaps out of 35 marker-frames, plus marker 3 missing in 6 of 7 frames

@@ -154,25 +154,35 @@ def print_json(doc: Any, *, file: IO[str] | None = None, indent: int | None = 2)
     print(json_text(doc, indent=indent), file=sys.stdout if file is None else file)
 
 
-def json_failure(command: str, exc: BaseException | str, status: str = "error"
-                 ) -> dict[str, Any]:
-    """The document a command run with ``--json`` prints on stdout when it fails (exit 2,
-    or 3 with ``status`` "memory"), as ``mpzinfo --json`` and ``mpz show --json`` give one:
-    a failing ``mpz compare``, ``summary``, ``search`` or ``bench --json`` printed nothing
-    (a CLI audit). ``error`` holds the exception's class and message, and an
-    :class:`~mpz.errors.MPZError`'s path, offset, chunk and spec section (None where
-    unknown)."""
+#: the schema of the document a failing command prints with ``--json`` (docs/json.md)
+ERROR_SCHEMA = "mpz-error/1"
+
+
+def json_error(exc: BaseException | str, path: str | None = None) -> dict[str, Any]:
+    """What went wrong, as every ``--json`` document says it (docs/json.md, "error"): the
+    exception's class (None for a message of the command's own) and message, and an
+    :class:`~mpz.errors.MPZError`'s path (else ``path``), offset, chunk and spec section;
+    None where unknown."""
     from mpz.errors import MPZError
     mpz_error = exc if isinstance(exc, MPZError) else None
     message = (mpz_error.message if mpz_error is not None else
                exc if isinstance(exc, str) else str(exc))
-    return {"command": f"mpz {command}", "status": status, "error": {
-        "class": None if isinstance(exc, str) else type(exc).__name__,
-        "message": message,
-        "path": None if mpz_error is None else mpz_error.path,
-        "offset": None if mpz_error is None else mpz_error.offset,
-        "chunk": None if mpz_error is None else mpz_error.chunk,
-        "section": None if mpz_error is None else mpz_error.section}}
+    return {"class": None if isinstance(exc, str) else type(exc).__name__,
+            "message": message,
+            "path": mpz_error.path if mpz_error is not None and mpz_error.path else path,
+            "offset": None if mpz_error is None else mpz_error.offset,
+            "chunk": None if mpz_error is None else mpz_error.chunk,
+            "section": None if mpz_error is None else mpz_error.section}
+
+
+def json_failure(command: str, exc: BaseException | str, status: str = "error", *,
+                 path: str | None = None) -> dict[str, Any]:
+    """The document (schema ``mpz-error/1``) a command run with ``--json`` prints on stdout
+    when it fails (exit 2, or 3 with ``status`` "memory"): a failing ``mpz compare``,
+    ``summary``, ``search`` or ``bench --json`` printed nothing (a CLI audit), and ``mpz
+    show`` and ``mpz encode`` printed documents of other shapes."""
+    return {"schema": ERROR_SCHEMA, "command": f"mpz {command}", "status": status,
+            "error": json_error(exc, path)}
 
 
 # -- argument parsing ----------------------------------------------------------------------

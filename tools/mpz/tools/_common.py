@@ -697,20 +697,30 @@ def make_folder(folder: str) -> None:
 
 
 def run_batch(command: str, jobs: list[Job], one: Callable[[Job], int], *,
-              report: IO[str], quiet: bool) -> int:
+              report: IO[str], quiet: bool,
+              failures: list[tuple[Job, BaseException | str, str]] | None = None) -> int:
     """Run ``one`` per job; a failed job is reported on stderr and the others still run.
 
     Returns the worst exit code (:func:`worst`): 2 when any input failed, 3 when
     one ran out of memory. With more than one job a closing line counts them.
+    ``failures``, when given, receives each failed job with its error and status
+    ("error" or "memory"), for a ``--json`` document.
     """
     codes: list[int] = []
     failed = 0
+
+    def fail(job: Job, error: BaseException | str, code: int) -> None:
+        nonlocal failed
+        codes.append(found(code))
+        failed += 1
+        if failures is not None:
+            failures.append((job, error, "memory" if code == EXIT_MEMORY else "error"))
+
     for job in jobs:
         name = printable(job.input)
         if job.error is not None:
             print(f"mpz {command}: error: {name}: {printable(job.error)}", file=sys.stderr)
-            codes.append(found(EXIT_ERROR))
-            failed += 1
+            fail(job, job.error, EXIT_ERROR)
             continue
         try:
             if job.make_folder is not None:
@@ -720,12 +730,11 @@ def run_batch(command: str, jobs: list[Job], one: Callable[[Job], int], *,
             text = printable(str(exc))
             shown = text if exc.path or len(jobs) == 1 else f"{name}: {text}"
             print(f"mpz {command}: error: {shown}", file=sys.stderr)
-            codes.append(found(EXIT_ERROR))
-            failed += 1
+            fail(job, exc, EXIT_ERROR)
         except MemoryError as exc:
-            print(f"mpz {command}: {name}: {memory_message(exc, command)}", file=sys.stderr)
-            codes.append(found(EXIT_MEMORY))
-            failed += 1
+            said = memory_message(exc, command)
+            print(f"mpz {command}: {name}: {said}", file=sys.stderr)
+            fail(job, said, EXIT_MEMORY)
     if len(jobs) > 1 and not quiet:
         ok = len(jobs) - failed
         print(f"mpz {command}: {len(jobs)} inputs: {ok} done, {failed} failed",

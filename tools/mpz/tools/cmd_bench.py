@@ -39,6 +39,9 @@ import sys
 from mpz.errors import FormatError
 from mpz.tools._cli import found, print_json, printable
 
+#: ``--json``'s schema (docs/json.md); a bare list before it had one
+JSON_SCHEMA = "mpz-bench-compare/1"
+
 #: the bound, in mm, of bench_rd.py's "op" row (the paper's operating point) in results
 #: written before the rows carried their "bound"
 OPERATING_BOUND = 6.5
@@ -84,9 +87,10 @@ def add_parser(sub):
                    help="a time must also grow by more than this many seconds to be flagged "
                         "(default 0.001: smaller differences are timing noise)")
     p.add_argument("--json", action="store_true",
-                   help="print the regressions and changes as a JSON list, one object each "
-                        "with file, E (null for a lossy row) and problem or change; notes go "
-                        "to standard error")
+                   help="print one JSON object (schema mpz-bench-compare/1, docs/json.md): "
+                        "regressions and changes, one object each with file, E (null for a "
+                        "lossy row) and problem or change; the notes also go to standard "
+                        "error")
     p.set_defaults(func=run, bench_parser=p)
 
 
@@ -307,8 +311,12 @@ def run(args) -> int:
     for note in notes:
         print(f"note: {printable(note)}", file=sys.stderr if args.json else sys.stdout)
     if args.json:
-        print_json([{"file": k[0], "E": k[1], "problem": p} for k, p in flags]
-                   + [{"file": k[0], "E": k[1], "change": c} for k, c in changed])
+        print_json({"schema": JSON_SCHEMA, "compared": compared,
+                    "unmatched": [{"file": k[0], "E": k[1]} for k in unmatched],
+                    "regressions": [{"file": k[0], "E": k[1], "problem": p}
+                                    for k, p in flags],
+                    "changes": [{"file": k[0], "E": k[1], "change": c} for k, c in changed],
+                    "notes": notes})
     else:
         for key, problem in flags:
             print(f"REGRESSION {printable(_label(key))}: {printable(problem)}")

@@ -50,6 +50,9 @@ from mpz.metrics import RATE_TOLERANCE, rate_assumed  # one rule for compare and
 from mpz.tools._cli import count, print_json, printable
 from mpz.tools._common import check_plot, plot_format
 
+#: ``--json``'s schema (docs/json.md)
+JSON_SCHEMA = "mpz-compare/1"
+
 
 def add_parser(sub):
     p = sub.add_parser("compare", help="error statistics between two motions (any format)",
@@ -393,7 +396,7 @@ def run(args: argparse.Namespace) -> int:
                  or _declared_bound(args.original, units))
         plot(a, b, plot_names, args.plot, bound=bound, units=units, force=args.force)
     if args.json:
-        print_json(s)
+        print_json({"schema": JSON_SCHEMA, **s})
     else:
         u = f" {units}" if units else ""
         print(f"{a.n_frames} frames x {a.n_markers} markers, "

@@ -144,7 +144,9 @@ def add_parser(sub):
                    "below 10,000 marker-frames); the output is the same for any N")
     p.add_argument("-f", "--force", action="store_true", help="replace OUTPUT if it exists, "
                    "write it under a name not ending in .mpz, or write to a terminal")
-    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.add_argument("--json", action="store_true",
+                   help="print the report as one JSON object (schema mpz-encode/1; a batch's "
+                   "mpz-encode-batch/1, a corpus run's mpz-corpus/1; docs/json.md)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="print nothing on success (no notes, no progress) but the report "
                    "--json asks for; warnings (exit 1) are still printed")
@@ -368,12 +370,39 @@ def run(args: argparse.Namespace) -> int:
     results: list[dict] = []
     # the batch's closing line: with --json, stdout holds the JSON alone (a CI audit found
     # "mpz encode: 2 inputs: 2 done, 0 failed" before it)
+    failures: list = []
     code = run_batch("encode", jobs,
                      lambda job: _encode_one(job, args, report, results, batch=batch),
-                     report=sys.stderr if args.json else report, quiet=args.quiet)
+                     report=sys.stderr if args.json else report, quiet=args.quiet,
+                     failures=failures)
     if args.json:
-        print_json(results[0] if len(jobs) == 1 and results else results, file=report)
+        print_json(_json_document(results, failures, batch), file=report)
     return code
+
+
+#: ``--json``'s schemas (docs/json.md): one input's report, and a batch's (several inputs,
+#: -r or -o FOLDER/ without a corpus run, which prints ``mpz-corpus/1``)
+JSON_SCHEMA = "mpz-encode/1"
+JSON_BATCH_SCHEMA = "mpz-encode-batch/1"
+
+
+def _json_document(results: list[dict], failures: list, batch: bool) -> dict:
+    """What ``--json`` prints: one input's report (``mpz-encode/1``), or the error document
+    when it failed; a batch's reports and failures (``mpz-encode-batch/1``), however many
+    files it found. Before, one input gave an object, a failed one ``[]`` and a batch a bare
+    list (a CLI audit of stop 58)."""
+    from mpz.tools._cli import json_error, json_failure
+    if not batch:
+        if failures:
+            _, error, status = failures[0]
+            return json_failure("encode", error, status, path=failures[0][0].input)
+        return {"schema": JSON_SCHEMA, **results[0]}
+    return {"schema": JSON_BATCH_SCHEMA, "inputs": len(results) + len(failures),
+            "encoded": len(results), "failed": len(failures),
+            "files": [{"schema": JSON_SCHEMA, **r} for r in results],
+            "failures": [{"input": job.input, "status": status,
+                          "error": json_error(error, job.input)}
+                         for job, error, status in failures]}
 
 
 def _signal_name(signum: int) -> str | None:

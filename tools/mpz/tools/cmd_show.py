@@ -17,9 +17,19 @@ import os
 import sys
 
 from mpz.errors import MPZError
-from mpz.tools._cli import EXIT_ERROR, EXIT_OK, EXIT_WARN, found, print_json, printable
+from mpz.tools._cli import (
+    EXIT_ERROR,
+    EXIT_OK,
+    EXIT_WARN,
+    found,
+    json_failure,
+    print_json,
+    printable,
+)
 
-JSON_SCHEMA_VERSION = 1
+#: ``--json``'s schema (docs/json.md); 2: a name as every command's, and a failure's
+#: document is ``mpz-error/1``
+JSON_SCHEMA = "mpz-show/2"
 
 #: the --help text (plain text: argparse shows it as it is)
 DESCRIPTION = ("Summarise a motion-capture file (C3D, TRC, BVH, AMC, NPY, CSV) or a decoded "
@@ -48,7 +58,7 @@ def summary(motion, path: str) -> dict:
     from mpz.io._common import ext_of
 
     return {
-        "schema": JSON_SCHEMA_VERSION,
+        "schema": JSON_SCHEMA,
         "file": path,
         "format": FORMAT_NAMES.get(ext_of(path)),
         "frames": motion.n_frames,
@@ -111,10 +121,7 @@ def run(args) -> int:
         if not args.json:          # document that says so, as mpzinfo --json gives one
             raise
         print(f"mpz show: error: {printable(str(exc))}", file=sys.stderr)
-        print_json({"schema": JSON_SCHEMA_VERSION, "file": path, "status": "error",
-                    "error": {"class": type(exc).__name__, "message": exc.message,
-                              "offset": exc.offset, "chunk": exc.chunk,
-                              "section": exc.section}})
+        print_json(json_failure("show", exc, path=path))
         return EXIT_ERROR
     info = summary(motion, path)
     info["format"] = "MPZ" if ext == ".mpz" else FORMAT_NAMES.get(ext or "")

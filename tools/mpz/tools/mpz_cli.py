@@ -63,8 +63,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    # a failing command run with --json says so on stdout too (encode's JSON lists the
-    # files it encoded, and its failures are said per file)
+    # a failing command run with --json says so on stdout too (mpz-error/1, docs/json.md;
+    # encode prints its own: one input's error document, or a batch's failures)
     failure_doc = getattr(args, "json", False) and args.command != "encode"
     try:
         return int(args.func(args))

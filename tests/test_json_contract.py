@@ -1,0 +1,203 @@
+"""The commands' JSON contract (docs/json.md): one object a run, ``schema`` first, and the
+fields each schema's table lists, no more and no fewer.
+
+A CLI audit of stop 58 found ``mpz encode --json`` printing an object, a list or ``[]``,
+a schema that was an integer for ``show``, a name for ``search`` and absent for
+``compare``, and most fields documented nowhere. The tables are read from the docs, so a
+field added to a command without a row in its table fails here, and so does a row for a
+field that is gone.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+import re
+
+import pytest
+
+import mpz
+from mpz.io import write
+from mpz.synth import generate
+from mpz.tools import mpz_cli, mpzinfo
+
+DOCS = Path(__file__).parents[1] / "docs"
+
+
+def _names(cell: str) -> set[str]:
+    """The field names of a table's first cell: "`a`, `b`" gives {"a", "b"}."""
+    return set(re.findall(r"`([^`]+)`", cell))
+
+
+def _table_after(text: str, start: int) -> set[str]:
+    """The field names of the first table after ``start``."""
+    names: set[str] = set()
+    lines = text[start:].splitlines()
+    i = next(n for n, line in enumerate(lines) if line.startswith("| field"))
+    for line in lines[i + 2:]:
+        if not line.startswith("|"):
+            break
+        names |= _names(line.split("|")[1])
+    return names
+
+
+def documented() -> dict[str, set[str]]:
+    """Each schema's documented top-level fields: docs/json.md's sections, corpus.md's
+    search table, mpzinfo.md's table of a file's entry (under ``files``)."""
+    text = (DOCS / "json.md").read_text(encoding="utf-8")
+    out = {m.group(1): _table_after(text, m.end())
+           for m in re.finditer(r"^## `([a-z-]+/\d+)`$", text, re.M)}
+    corpus = (DOCS / "corpus.md").read_text(encoding="utf-8")
+    out["mpz-search/1"] = _table_after(corpus, corpus.index("schema `mpz-search/1`"))
+    info = (DOCS / "mpzinfo.md").read_text(encoding="utf-8")
+    out["mpzinfo/2 files"] = _table_after(info, 0)
+    return out
+
+
+DOC = documented()
+
+
+def listed() -> set[str]:
+    """The schemas of docs/json.md's first table."""
+    text = (DOCS / "json.md").read_text(encoding="utf-8")
+    head = text[:text.index("## ")]
+    return {re.match(r"\| `([^`]+)`", line).group(1)          # type: ignore[union-attr]
+            for line in head.splitlines() if re.match(r"\| `[a-z-]+/\d+`", line)}
+
+
+def test_every_schema_listed_has_its_table() -> None:
+    have = {k for k in DOC if " " not in k} | {"mpzinfo/2"}
+    assert listed() == have, (listed() ^ have)
+    for name, fields in DOC.items():
+        assert "schema" in fields or name == "mpzinfo/2 files", name
+        assert len(fields) > 3, name
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("json")
+    paths = {}
+    for name, kind, seed in (("a", "walk", 1), ("b", "jump", 2)):
+        m = generate(kind, frames=50, seed=seed, gap_fraction=0.02)
+        paths[name] = d / f"{name}.trc"
+        write(m, paths[name])
+    paths["mpz"] = d / "a.mpz"
+    paths["bad"] = d / "bad.trc"
+    paths["bad"].write_text("not a TRC\n")
+    return paths
+
+
+def _doc(capsys: pytest.CaptureFixture[str], main, argv: list[str], code: int) -> dict:
+    assert main(argv) == code, capsys.readouterr().err
+    out = capsys.readouterr().out
+    doc = json.loads(out)
+    assert isinstance(doc, dict), out[:200]
+    assert next(iter(doc)) == "schema", list(doc)[:3]
+    return doc
+
+
+def _check(doc: dict, schema: str) -> None:
+    assert doc["schema"] == schema
+    assert set(doc) == DOC[schema], {"undocumented": set(doc) - DOC[schema],
+                                     "documented, not printed": DOC[schema] - set(doc)}
+
+
+def test_encode_one_input(files, capsys) -> None:
+    doc = _doc(capsys, mpz_cli.main, ["encode", str(files["a"]), "-o", str(files["mpz"]), "-f",
+                                      "--max-error", "1mm", "--summary", "4,8", "--json"], 0)
+    _check(doc, "mpz-encode/1")
+    assert doc["summary_levels"] == [4, 8] and doc["declared_bound"] == 1.0
+
+
+def test_a_failed_input_gives_the_error_document(files, capsys) -> None:
+    doc = _doc(capsys, mpz_cli.main, ["encode", str(files["bad"]), "-o",
+                                      str(files["bad"].with_suffix(".mpz")), "--json"], 2)
+    _check(doc, "mpz-error/1")
+    assert doc["command"] == "mpz encode" and doc["status"] == "error"
+    assert set(doc["error"]) == {"class", "message", "path", "offset", "chunk", "section"}
+    assert doc["error"]["path"] == str(files["bad"])
+    assert not files["bad"].with_suffix(".mpz").exists()
+
+
+def test_a_batch_is_one_object_with_its_failures(files, tmp_path, capsys) -> None:
+    for name in ("a", "b", "bad"):
+        (tmp_path / f"{name}.trc").write_bytes(files[name].read_bytes())
+    doc = _doc(capsys, mpz_cli.main, ["encode", "-r", str(tmp_path), "--max-error", "1mm",
+                                      "--json"], 2)
+    _check(doc, "mpz-encode-batch/1")
+    assert (doc["inputs"], doc["encoded"], doc["failed"]) == (3, 2, 1)
+    for report in doc["files"]:
+        _check(report, "mpz-encode/1")
+    (failure,) = doc["failures"]
+    assert failure["input"].endswith("bad.trc") and failure["status"] == "error"
+    assert set(failure["error"]) == {"class", "message", "path", "offset", "chunk",
+                                     "section"}
+    # the schema depends on the options, not on how many files a folder holds
+    one = tmp_path / "one"
+    one.mkdir()
+    (one / "a.trc").write_bytes(files["a"].read_bytes())
+    doc = _doc(capsys, mpz_cli.main, ["encode", "-r", str(one), "--max-error", "1mm",
+                                      "--json"], 0)
+    assert doc["schema"] == "mpz-encode-batch/1" and doc["encoded"] == 1
+
+
+def test_corpus_run_and_search(files, tmp_path, capsys) -> None:
+    pytest.importorskip("distributed")
+    src = tmp_path / "src"
+    src.mkdir()
+    for name in ("a", "b"):
+        (src / f"{name}.trc").write_bytes(files[name].read_bytes())
+    out = tmp_path / "out"
+    doc = _doc(capsys, mpz_cli.main, ["encode", "-r", str(src), "-o", f"{out}/", "--jobs",
+                                      "0", "--max-error", "1mm", "--json"], 0)
+    _check(doc, "mpz-corpus/1")
+    assert doc["counts"]["encoded"] == 2
+    doc = _doc(capsys, mpz_cli.main, ["search", str(src / "a.trc"), "--index", str(out),
+                                      "--json"], 0)
+    _check(doc, "mpz-search/1")
+    assert doc["results"][0]["identical"] is True
+
+
+def test_compare_show_summary(files, capsys) -> None:
+    if not files["mpz"].exists():
+        files["mpz"].write_bytes(mpz.encode(mpz.io.read(files["a"]), max_error=1.0,
+                                            summary_levels=(4, 8)))
+    doc = _doc(capsys, mpz_cli.main, ["compare", str(files["a"]), str(files["mpz"]),
+                                      "--json"], 0)
+    _check(doc, "mpz-compare/1")
+    assert doc["bound_check"]["beyond"] == 0
+    doc = _doc(capsys, mpz_cli.main, ["show", str(files["mpz"]), "--json"], 0)
+    _check(doc, "mpz-show/2")
+    assert doc["format"] == "MPZ" and doc["error_bound"] == 1.0
+    for argv in (["summary", str(files["mpz"]), "--json"],
+                 ["summary", str(files["a"]), "--k", "3", "--json"]):
+        doc = _doc(capsys, mpz_cli.main, argv, 0)
+        _check(doc, "mpz-summary/1")
+
+
+@pytest.mark.parametrize("argv", [["compare", "{bad}", "{a}"], ["show", "{bad}"],
+                                  ["summary", "{bad}"], ["encode", "{missing}"]])
+def test_every_failing_command_gives_the_error_document(files, capsys, argv) -> None:
+    argv = [a.format(bad=files["bad"], a=files["a"], missing=files["a"].parent / "no.trc")
+            for a in argv]
+    doc = _doc(capsys, mpz_cli.main, [*argv, "--json"], 2)
+    _check(doc, "mpz-error/1")
+    assert doc["command"] == f"mpz {argv[0]}" and doc["error"]["message"]
+
+
+def test_mpzinfo(files, capsys) -> None:
+    if not files["mpz"].exists():
+        files["mpz"].write_bytes(mpz.encode(mpz.io.read(files["a"]), max_error=1.0))
+    doc = _doc(capsys, mpzinfo.main, ["--json", str(files["mpz"])], 0)
+    assert doc["schema"] == "mpzinfo/2" and set(doc) == {"schema", "tool_version", "files"}
+    (entry,) = doc["files"]
+    assert set(entry) == DOC["mpzinfo/2 files"], set(entry) ^ DOC["mpzinfo/2 files"]
+
+
+def test_bench_compare(tmp_path, capsys) -> None:
+    row = {"file": "a", "E": 1.0, "mpz_ratio": 20.0, "max": 0.9, "enc_s": 1.0, "dec_s": 0.1}
+    old, new = tmp_path / "old.json", tmp_path / "new.json"
+    old.write_text(json.dumps({"schema": 1, "rows": [row]}))
+    new.write_text(json.dumps({"schema": 1, "rows": [dict(row, mpz_ratio=10.0)]}))
+    doc = _doc(capsys, mpz_cli.main, ["bench", "--compare", str(old), str(new), "--json"], 1)
+    _check(doc, "mpz-bench-compare/1")
+    assert doc["compared"] == 1 and "ratio dropped" in doc["regressions"][0]["problem"]
