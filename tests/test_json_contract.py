@@ -201,3 +201,13 @@ def test_bench_compare(tmp_path, capsys) -> None:
     doc = _doc(capsys, mpz_cli.main, ["bench", "--compare", str(old), str(new), "--json"], 1)
     _check(doc, "mpz-bench-compare/1")
     assert doc["compared"] == 1 and "ratio dropped" in doc["regressions"][0]["problem"]
+
+
+def test_the_error_class_is_one_a_caller_can_catch(files, capsys) -> None:
+    """A misspelled --group-error node raised the encoder's private ``_NodeNameError``,
+    and the document named it: ``EncoderError`` is the class a caller knows."""
+    doc = _doc(capsys, mpz_cli.main, ["encode", str(files["a"]), "-o",
+                                      str(files["a"].with_suffix(".x.mpz")), "--max-error",
+                                      "1mm", "--group-error", "nonode=1mm", "--json"], 2)
+    _check(doc, "mpz-error/1")
+    assert doc["error"]["class"] == "EncoderError" and "nonode" in doc["error"]["message"]

@@ -167,7 +167,11 @@ def json_error(exc: BaseException | str, path: str | None = None) -> dict[str, A
     mpz_error = exc if isinstance(exc, MPZError) else None
     message = (mpz_error.message if mpz_error is not None else
                exc if isinstance(exc, str) else str(exc))
-    return {"class": None if isinstance(exc, str) else type(exc).__name__,
+    # the first public class: a private subclass (encoder._NodeNameError) is the
+    # EncoderError a caller catches
+    public = None if isinstance(exc, str) else next(
+        c.__name__ for c in type(exc).__mro__ if not c.__name__.startswith("_"))
+    return {"class": public,
             "message": message,
             "path": mpz_error.path if mpz_error is not None and mpz_error.path else path,
             "offset": None if mpz_error is None else mpz_error.offset,
@@ -284,6 +288,15 @@ def worst(codes: Iterable[int]) -> int:
 
 #: the worst exit code the running command has found so far (:func:`found`)
 _found = [EXIT_OK]
+#: the running command's name for its messages ("mpz encode"), once its arguments are
+#: parsed (:func:`running`); before, the program's
+_running: list[str | None] = [None]
+
+
+def running(name: str) -> None:
+    """Name the running command (``mpz encode``) for the messages of
+    :func:`reports_ctrl_c`, which wraps the whole program before it knows the command."""
+    _running[0] = name
 
 
 def found(code: int) -> int:
@@ -337,6 +350,15 @@ def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
 OUTPUT_FULL = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EIO})
 
 
+def _failed_output(exc: OSError) -> str:
+    """Which output a write error ``exc`` that reached :func:`reports_ctrl_c` came from:
+    the file it names, else standard output. Every file a command writes goes through
+    :func:`mpz.api.atomic_output`, whose errors name their file (an
+    :class:`~mpz.errors.EncoderError`, reported as such); what is left unnamed is a write
+    to standard output (a print, a flush, ``-o -``)."""
+    return repr(exc.filename) if exc.filename else "standard output"
+
+
 def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, int]]:
     """Decorate a command's ``main``: SIGINT, held since the command's first import of mpz
     (:mod:`mpz._worker`), is released first, and a Ctrl-C anywhere in ``main`` (a held one
@@ -355,6 +377,7 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
     def decorate(main: Callable[_P, int]) -> Callable[_P, int]:
         @functools.wraps(main)
         def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> int:
+            _running[0] = None
             try:
                 with ctrl_c_outside_compiler():
                     release_sigint()
@@ -388,8 +411,11 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                 if exc.errno not in OUTPUT_FULL:
                     return _bug(prog)
                 # a full disk or a file-size limit where a command writes (standard output
-                # above all: mpzinfo > /dev/full): the machine's state, not a bug (a QA run)
-                print(f"{prog}: error: cannot write: {exc.strerror or exc}", file=sys.stderr)
+                # above all: mpzinfo > /dev/full): the machine's state, not a bug (a QA run).
+                # Which output failed: "mpz: error: cannot write" did not say, and left
+                # an encode's user to wonder whether the .mpz beside it was whole
+                print(f"{_running[0] or prog}: error: cannot write {_failed_output(exc)}: "
+                      f"{exc.strerror or exc}", file=sys.stderr)
                 return EXIT_ERROR
             except Exception:
                 return _bug(prog)

@@ -28,6 +28,7 @@ from mpz.tools._cli import (
     printable,
     quiet_broken_pipe,
     reports_ctrl_c,
+    running,
 )
 
 #: subcommand name -> module implementing it
@@ -63,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    running(f"mpz {args.command}")
     # a failing command run with --json says so on stdout too (mpz-error/1, docs/json.md;
     # encode prints its own: one input's error document, or a batch's failures)
     failure_doc = getattr(args, "json", False) and args.command != "encode"
