@@ -61,6 +61,19 @@ def test_write_mpz_names_a_misspelled_option(tmp_path: Path) -> None:
     assert report.file_bytes == (tmp_path / "w.mpz").stat().st_size
 
 
+@pytest.mark.parametrize("name", ["w.c3d", "w.TRC", "w.bvh", "w.amc", "w.asf", "w.npy",
+                                  "w.csv"])
+def test_write_mpz_refuses_a_motion_formats_name(tmp_path: Path, name: str) -> None:
+    """MPZ bytes in w.c3d would be read as a C3D by every tool (mpz's own too): the caller
+    meant mpz.io.write. Nothing is encoded or written; any other name is allowed."""
+    with pytest.raises(EncoderError, match=f"{name}: an MPZ file named "
+                       f"{name[1:].lower()} would be read as {name[2:].upper()}"):
+        mpz.write_mpz(generate("walk", frames=24), tmp_path / name, max_error=1.0)
+    assert not (tmp_path / name).exists()
+    mpz.write_mpz(generate("walk", frames=24), tmp_path / "w.bin", max_error=1.0)
+    assert mpz.decode(tmp_path / "w.bin").n_frames == 24
+
+
 @pytest.mark.parametrize("name", ["read_c3d", "read_trc", "read_bvh", "read_asf",
                                   "read_amc", "read_npy", "read_csv"])
 def test_readers_take_their_path_by_keyword(name: str, tmp_path: Path) -> None:

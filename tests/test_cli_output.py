@@ -209,8 +209,16 @@ def test_bad_output_paths_fail_first_in_one_line(small: tuple[Path, Path],
          f"refusing to overwrite the input file {enc}"),
         (["mpz", "encode", str(trc), "-o", str(trc), "--force"],
          f"refusing to overwrite the input file {trc}"),
-        (["mpz", "encode", str(trc), "-o", "x.c3d"],
-         "x.c3d: an MPZ file should end in .mpz; use --force to write it under this name"),
+        (["mpz", "encode", str(trc), "-o", "x.bin"],
+         "x.bin: an MPZ file should end in .mpz; use --force to write it under this name"),
+        # a motion format's name, even with --force: every tool would read it as one, and
+        # the user meant mpz decode (it was written with -f, without a word)
+        (["mpz", "encode", str(trc), "-o", "x.c3d", "--force"],
+         "x.c3d: an MPZ file named .c3d would be read as C3D; name it .mpz (to write C3D, "
+         "decode an .mpz: mpz decode FILE.mpz -o x.c3d)"),
+        (["mpz", "encode", str(trc), "-o", "x.Trc"],
+         "x.Trc: an MPZ file named .trc would be read as TRC; name it .mpz (to write TRC, "
+         "decode an .mpz: mpz decode FILE.mpz -o x.Trc)"),
     ]
     for argv, message in cases:
         p = run(argv, tmp_path)

@@ -869,14 +869,35 @@ def info(source: Source) -> FileInfo:
                     chunk_bytes=chunk_sizes(data))
 
 
+def check_mpz_name(path: str | os.PathLike[str]) -> None:
+    """Refuse to name an MPZ file as a motion format that :mod:`mpz.io` reads, or as an
+    ASF: every tool, mpz's own included, would take it for one. ``mpz encode x.trc -o
+    x.c3d`` wrote MPZ bytes into x.c3d without a word, for a user who meant to convert
+    (``mpz decode``). Any other name is the caller's choice.
+
+    Raises
+    ------
+    EncoderError
+        ``path`` ends in .c3d, .trc, .bvh, .amc, .asf, .npy or .csv (any case).
+    """
+    from mpz.io import READERS
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext in READERS or ext == ".asf":
+        kind = ext[1:].upper()
+        raise EncoderError(f"{os.fspath(path)}: an MPZ file named {ext} would be read as "
+                           f"{kind}; name it .mpz (to write {kind}, decode an .mpz: mpz "
+                           f"decode FILE.mpz -o {os.fspath(path)})")
+
+
 def write_mpz(motion: Motion, path: str | os.PathLike[str], *,
               source: str | os.PathLike[str] | None = None, **options: Any) -> EncodeReport:
     """Encode ``motion`` with ``options`` (the fields of :class:`~mpz.EncodeOptions`, as
     :func:`mpz.encode` takes them) and write it to ``path`` atomically, replacing a file
     there; returns the EncodeReport. ``source``: the input file, which ``path`` must not
-    be."""
+    be; ``path`` must not end in a motion format's extension (:func:`check_mpz_name`)."""
     from mpz.encoder import EncodeOptions, check_option_names, encode_motion
     check_option_names(options)
+    check_mpz_name(path)
     check_output(path, force=True, source=source)  # a bad path fails before the encode
     data, report = encode_motion(motion, EncodeOptions(**options))
     write_atomic(path, data, source=source)

@@ -46,7 +46,8 @@ def add_parser(sub):
                    help="motion files, folders (with -r), or - for standard input")
     p.add_argument("-o", "--output", help="output .mpz file, FOLDER/ for several inputs (made "
                    "if missing), - for standard output, or /dev/null to encode and drop it "
-                   "(default: IN.mpz beside each input; stdin -> stdout); written atomically")
+                   "(default: IN.mpz beside each input; stdin -> stdout); written atomically; "
+                   "another name needs -f, and a motion format's (.c3d, .trc, ...) is refused")
     p.add_argument("-r", "--recursive", action="store_true",
                    help="encode every motion file in the folders given as inputs")
     p.add_argument("--mirror", action="store_true",
@@ -441,7 +442,7 @@ def _remove_output(output: str, to_stdout: bool) -> str:
 def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                 batch: bool = False) -> int:
     import mpz
-    from mpz.api import check_output, is_null_device
+    from mpz.api import check_mpz_name, check_output, is_null_device
     from mpz.encoder import encode_motion
     from mpz.io._common import ext_of
     from mpz.metrics import summary as error_summary
@@ -462,6 +463,8 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     # every check on the output comes before the encode
     if not to_stdout:
         check_output(job.output, force=args.force, source=source)
+        if not is_null_device(job.output):    # -o x.c3d, even with -f: mpz decode was meant
+            check_mpz_name(job.output)
         if ext_of(job.output) != ".mpz" and not args.force and not is_null_device(job.output):
             raise EncoderError(f"{job.output}: an MPZ file should end in .mpz; "
                                "use --force to write it under this name")
