@@ -160,7 +160,7 @@ def test_corpus_run_and_search(files, tmp_path, capsys) -> None:
 def test_compare_show_summary(files, capsys) -> None:
     if not files["mpz"].exists():
         files["mpz"].write_bytes(mpz.encode(mpz.io.read(files["a"]), max_error=1.0,
-                                            summary_levels=(4, 8)))
+                                            summary=(4, 8)))
     doc = _doc(capsys, mpz_cli.main, ["compare", str(files["a"]), str(files["mpz"]),
                                       "--json"], 0)
     _check(doc, "mpz-compare/1")
@@ -211,3 +211,19 @@ def test_the_error_class_is_one_a_caller_can_catch(files, capsys) -> None:
                                       "1mm", "--group-error", "nonode=1mm", "--json"], 2)
     _check(doc, "mpz-error/1")
     assert doc["error"]["class"] == "EncoderError" and "nonode" in doc["error"]["message"]
+
+
+def test_show_says_a_readers_warning_on_stderr_and_in_warnings(files, tmp_path,
+                                                                capsys) -> None:
+    """`mpz show --json` of a cut file exited 1 with nothing on stderr and the warning only
+    inside ``metadata``; every other command gives it in ``warnings`` and on stderr."""
+    text = files["a"].read_text()
+    cut = tmp_path / "cut.trc"
+    cut.write_text(text[:len(text) // 2])          # mid-row: the reader warns
+    assert mpz_cli.main(["show", str(cut), "--json"]) == 1
+    got = capsys.readouterr()
+    doc = json.loads(got.out)
+    _check(doc, "mpz-show/2")
+    assert doc["warnings"] == [doc["metadata"]["warning"]] and doc["warnings"][0]
+    assert f"mpz show: warning: {cut}: " in got.err
+    assert _doc(capsys, mpz_cli.main, ["show", str(files["a"]), "--json"], 0)["warnings"] == []

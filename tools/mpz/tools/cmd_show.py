@@ -135,6 +135,11 @@ def run(args) -> int:
         info["position_bound"] = positions_bound(motion, ext, data, res)
     code = found(EXIT_WARN if "warning" in motion.metadata else EXIT_OK)
     if args.json:
+        # the reader's warning, as every command gives one with --json: on standard error
+        # and in "warnings" (it was only inside "metadata", and stderr said nothing)
+        info["warnings"] = [motion.metadata["warning"]] if "warning" in motion.metadata else []
+        for w in info["warnings"]:
+            print(f"mpz show: warning: {printable(path)}: {printable(w)}", file=sys.stderr)
         print_json(info)
         return code
     lines = [
