@@ -2022,6 +2022,28 @@ def _stop_after_one(monkeypatch) -> None:
     monkeypatch.setattr(corpus_module, "_dispatch", one_then_lost)
 
 
+def test_a_stopped_run_in_this_process_names_its_cluster(corpus, tmp_path, monkeypatch,
+                                                         capsys):
+    """A `--jobs 0` run that stopped (a file-size limit, a JSON audit of stop 59) said
+    "LocalCluster, 4GiB per worker" with 0 workers: no Dask cluster ran it."""
+    import mpz.corpus as corpus_mod
+    from mpz.tools import mpz_cli
+    src, _, _ = corpus
+    real, calls = corpus_mod.encode_file, []
+
+    def second_stops(task):
+        calls.append(task)
+        if len(calls) == 2:
+            raise EncoderError("stopped here by the test")
+        return real(task)
+    monkeypatch.setattr(corpus_mod, "encode_file", second_stops)
+    argv = ["encode", "-r", str(src), "--jobs", "0", "--max-error", "1mm", "--json"]
+    assert mpz_cli.main([*argv, "-o", f"{tmp_path / 'a'}/"]) == 2
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["stopped"] == "stopped here by the test" and len(doc["files"]) == 1
+    assert (doc["workers"], doc["cluster"]) == (0, "this process, no Dask")
+
+
 def test_a_stopped_run_prints_the_table_of_what_finished(corpus, tmp_path, monkeypatch,
                                                          capsys):
     """`mpz encode -r` whose scheduler was lost mid-run printed Dask's traceback and one

@@ -227,3 +227,67 @@ def test_show_says_a_readers_warning_on_stderr_and_in_warnings(files, tmp_path,
     assert doc["warnings"] == [doc["metadata"]["warning"]] and doc["warnings"][0]
     assert f"mpz show: warning: {cut}: " in got.err
     assert _doc(capsys, mpz_cli.main, ["show", str(files["a"]), "--json"], 0)["warnings"] == []
+
+
+@pytest.mark.parametrize("command", ["compare", "summary"])
+def test_plot_without_matplotlib_is_an_error_with_its_document(files, tmp_path, capsys,
+                                                               monkeypatch, command) -> None:
+    """Without matplotlib, `mpz compare --plot` ended in a traceback (exit 70: "a bug") and
+    `mpz summary --plot --json` exited 2 with nothing on stdout."""
+    import sys
+    for name in ("matplotlib", "matplotlib.backend_bases", "matplotlib.pyplot"):
+        monkeypatch.setitem(sys.modules, name, None)        # import raises ImportError
+    argv = ([command, str(files["a"]), str(files["a"])] if command == "compare"
+            else [command, str(files["a"])])
+    doc = _doc(capsys, mpz_cli.main, [*argv, "--plot", str(tmp_path / "p.png"), "--json"], 2)
+    _check(doc, "mpz-error/1")
+    assert doc["error"]["message"] == "--plot needs matplotlib: pip install 'mpz[plot]'"
+    assert not (tmp_path / "p.png").exists()
+
+
+def test_corpus_and_search_say_their_warnings_on_stderr_with_json(files, tmp_path,
+                                                                 capsys) -> None:
+    """With --json, a corpus run whose source its reader warned about, and a search whose
+    listed output is gone, exited 1 with nothing on stderr: the warnings were only inside
+    the document (a JSON audit of stop 59)."""
+    pytest.importorskip("distributed")
+    src = tmp_path / "src"
+    src.mkdir()
+    text = files["a"].read_text()
+    (src / "cut.trc").write_text(text[:len(text) // 2])
+    (src / "b.trc").write_bytes(files["b"].read_bytes())
+    out = tmp_path / "out"
+    assert mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0",
+                         "--max-error", "1mm", "--json"]) == 1
+    got = capsys.readouterr()
+    doc = json.loads(got.out)
+    (warned,) = [f for f in doc["files"] if f["warning"]]
+    assert f"mpz encode: warning: {warned['source']}: " in got.err
+    (out / "b.mpz").unlink()
+    assert mpz_cli.main(["search", str(src / "b.trc"), "--index", str(out), "--json"]) == 1
+    got = capsys.readouterr()
+    assert json.loads(got.out)["results"][0]["output_exists"] is False
+    assert "mpz search: warning: 1 of the files listed is no longer" in got.err
+
+
+def test_data_on_stdout_puts_the_document_last_on_stderr(files, tmp_path) -> None:
+    """docs/json.md's one exception: with `-o -` the document goes to stderr, the last
+    thing there, from a line that is "{" to the end; stdout holds the .mpz alone."""
+    import subprocess
+    import sys
+    text = files["a"].read_text()
+    cut = tmp_path / "cut.trc"
+    cut.write_text(text[:len(text) // 2])          # a reader warning printed before it
+    for source, code, schema in ((cut, 1, "mpz-encode/1"), (files["bad"], 2, "mpz-error/1")):
+        p = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode", str(source),
+                            "-o", "-", "--max-error", "1mm", "--json"], capture_output=True,
+                           timeout=300)
+        assert p.returncode == code, p.stderr.decode()
+        err = p.stderr.decode()
+        start = err.rindex("\n{\n") + 1 if "\n{\n" in err else err.index("{\n")
+        doc = json.loads(err[start:])
+        assert doc["schema"] == schema and err[:start].strip(), err
+        if code == 1:
+            assert mpz.decode(p.stdout).n_frames == doc["frames"]
+        else:
+            assert p.stdout == b""

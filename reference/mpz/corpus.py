@@ -2296,6 +2296,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         seen: list[int] = []            # the cluster's worker counts, as it said them
         # what a report of a run stopped before _dispatch returns names as its cluster
         cluster = ("given client" if client is not None else remote[1] if remote is not None
+                   else "this process, no Dask" if n_workers == 0 and scheduler is None
                    else f"LocalCluster, {memory_limit} per worker")
         try:
             n_workers, cluster = _dispatch(tasks, todo, finish, inflight, n_workers, client,

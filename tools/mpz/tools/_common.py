@@ -664,8 +664,13 @@ def check_plot(path: str, force: bool, sources: Sequence[str]) -> None:
     """Refuse a ``--plot`` path before the work (an EncoderError, exit 2): as any output
     (``mpz.api.check_output``: an existing file only with ``--force``; a QA run found plots
     replacing any file), and with an extension matplotlib cannot write (it raised a
-    ValueError traceback after the work). Needs matplotlib."""
-    from matplotlib.backend_bases import FigureCanvasBase
+    ValueError traceback after the work). Without matplotlib, an EncoderError that says
+    how to install it (``mpz compare --plot`` ended in a traceback, exit 70; ``mpz summary
+    --plot --json`` printed no document)."""
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        raise EncoderError("--plot needs matplotlib: pip install 'mpz[plot]'") from None
 
     from mpz.api import check_output
     for src in sources:

@@ -236,7 +236,9 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         print_json(doc)
     elif not quiet:
         print(report.table(printable))
-    else:
+    if args.json or quiet:
+        # the table says them; without it, standard error does (--json said them only
+        # inside its document, exit 1 with an empty stderr: a JSON audit of stop 59)
         for r in report.failed:
             print(f"mpz encode: error: {printable(r.source)}: {printable(r.reason)}",
                   file=sys.stderr)

@@ -269,6 +269,7 @@ def run(args: argparse.Namespace) -> int:
                     "descriptor": [float(v) for v in q], "candidates": len(values),
                     "not_searchable": left_out,
                     "results": results})
+        _say_missing(results, gone)         # exit 1 said nothing on stderr (a JSON audit)
         return code
     secs = summary.n_frames / summary.rate
     print(f"query {printable(args.query)}: {summary.n_frames} frames, {secs:.2f} s, "
@@ -287,17 +288,23 @@ def run(args: argparse.Namespace) -> int:
         print(f"{r['rank']:>4} {r['distance']:>9.3f} {r['frames']:>7} {r['duration_s']:>7.2f} "
               f"{r['markers']:>7} {mark}{printable(r['output'])}{out_gone}  <- "
               f"{printable(_shown(r['path']))}{src_gone}")
+    _say_missing(results, gone)
+    return code
+
+
+def _say_missing(results: list[dict], gone: int) -> None:
+    """On stderr: the outputs listed that are gone (exit 1), the sources that moved."""
     moved = sum(not r["source_exists"] for r in results)
     if gone:
         print(f"mpz search: warning: {gone} of the files listed {'is' if gone == 1 else 'are'}"
-              " no longer in the index's folder ([missing] after the output); the next mpz "
-              "encode -r into it forgets such rows", file=sys.stderr)
+              " no longer in the index's folder ([missing] after the output, output_exists "
+              "false in --json); the next mpz encode -r into it forgets such rows",
+              file=sys.stderr)
     if moved:
         what = ("1 of the sources listed is" if moved == 1 else
                 f"{moved} of the sources listed are")
         print(f"mpz search: note: {what} no longer at the path the index holds ([missing] "
               "after the source); the .mpz holds the motion", file=sys.stderr)
-    return code
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -515,13 +515,7 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
 
 # -- entry points --------------------------------------------------------------------------
 def run(args) -> int:
-    if args.plot:
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            print("mpz summary: --plot needs matplotlib (pip install 'mpz[plot]')", file=sys.stderr)
-            return EXIT_ERROR
-    if args.plot:  # a bad plot path fails before the work
+    if args.plot:  # a bad plot path, or no matplotlib, fails before the work
         from mpz.tools._common import check_plot
         check_plot(args.plot, args.force, (args.file,))
     path = Path(args.file)
