@@ -291,3 +291,35 @@ def test_data_on_stdout_puts_the_document_last_on_stderr(files, tmp_path) -> Non
             assert mpz.decode(p.stdout).n_frames == doc["frames"]
         else:
             assert p.stdout == b""
+
+
+@pytest.mark.parametrize("stop, said", [(KeyboardInterrupt, "the interrupt"),
+                                        (SystemExit(143), "SIGTERM")])
+def test_an_interrupted_batch_says_which_outputs_it_wrote(files, tmp_path, capsys,
+                                                          monkeypatch, stop, said) -> None:
+    """A batch stopped by Ctrl-C printed no document (as documented) and, with --json,
+    nothing said which outputs it had written whole (a JSON audit of stop 59)."""
+    from mpz.tools import cmd_encode
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.trc").write_bytes(files[name].read_bytes())
+    real, calls = cmd_encode._encode_one, []
+
+    def second_interrupted(job, *args, **kw):
+        calls.append(job)
+        if len(calls) == 2:
+            raise stop
+        return real(job, *args, **kw)
+    monkeypatch.setattr(cmd_encode, "_encode_one", second_interrupted)
+    argv = ["encode", str(tmp_path / "a.trc"), str(tmp_path / "b.trc"), "--max-error", "1mm",
+            "--json"]
+    if stop is KeyboardInterrupt:
+        assert mpz_cli.main(argv) == 130
+    else:
+        with pytest.raises(SystemExit) as end:
+            mpz_cli.main(argv)
+        assert end.value.code == 143
+    got = capsys.readouterr()
+    assert got.out == ""
+    assert (f"mpz encode: 1 of 2 inputs written before {said}: {tmp_path / 'a.mpz'}; "
+            "the others are not (no partial file is left)") in got.err, got.err
+    assert (tmp_path / "a.mpz").exists() and not (tmp_path / "b.mpz").exists()

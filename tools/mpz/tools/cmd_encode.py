@@ -372,10 +372,17 @@ def run(args: argparse.Namespace) -> int:
     # the batch's closing line: with --json, stdout holds the JSON alone (a CI audit found
     # "mpz encode: 2 inputs: 2 done, 0 failed" before it)
     failures: list = []
-    code = run_batch("encode", jobs,
-                     lambda job: _encode_one(job, args, report, results, batch=batch),
-                     report=sys.stderr if args.json else report, quiet=args.quiet,
-                     failures=failures)
+    try:
+        code = run_batch("encode", jobs,
+                         lambda job: _encode_one(job, args, report, results, batch=batch),
+                         report=sys.stderr if args.json else report, quiet=args.quiet,
+                         failures=failures)
+    except (KeyboardInterrupt, SystemExit) as exc:
+        signal_name = (_signal_name(exc.code - 128) if isinstance(exc, SystemExit)
+                       and isinstance(exc.code, int) else None)
+        if batch and (isinstance(exc, KeyboardInterrupt) or signal_name is not None):
+            _say_interrupted(signal_name or "the interrupt", jobs, results)
+        raise
     if args.json:
         print_json(_json_document(results, failures, batch), file=report)
     return code
@@ -404,6 +411,18 @@ def _json_document(results: list[dict], failures: list, batch: bool) -> dict:
             "failures": [{"input": job.input, "status": status,
                           "error": json_error(error, job.input)}
                          for job, error, status in failures]}
+
+
+def _say_interrupted(what: str, jobs: list, results: list[dict]) -> None:
+    """The line of a batch stopped by Ctrl-C or a signal (``what``): which outputs it
+    wrote, whole (with --json, nothing said which: no document is printed, a JSON audit of
+    stop 59)."""
+    from mpz.tools._cli import printable
+    names = [printable(r["output"]) for r in results]
+    shown = ", ".join(names[:10]) + (f" and {len(names) - 10} more" if len(names) > 10 else "")
+    print(f"mpz encode: {len(results)} of {len(jobs)} inputs written before {what}"
+          + (f": {shown}" if names else "") + "; the others are not (no partial file is left)",
+          file=sys.stderr)
 
 
 def _signal_name(signum: int) -> str | None:
