@@ -236,7 +236,8 @@ def _trc_with_ends(ends):
     ("", "", "", "\t\t\t", "\t"),           # OpenSim's and BTK's: a tab closes lines 4-5
     ("", "", "", "", ""),                   # nothing after the last name, B
     ("\t" * 9, "\t" * 5, "\t" * 5, "\t\t", ""),  # lines 1-3 padded (another OpenSim file)
-], ids=["lines-4-5-end-with-a-tab", "no-tabs", "lines-1-3-padded"])
+    ("", "", "", "\t\t", "\t"),             # line 5 alone differs from the writer's ends
+], ids=["lines-4-5-end-with-a-tab", "no-tabs", "lines-1-3-padded", "line-5-alone"])
 def test_trc_header_lines_end_as_the_source_ends_them(tmp_path, ends):
     """The written TRC dropped the tab that ends lines 4 and 5 of the OpenSim and BTK files
     (the last name and three tabs came back with two, Z41 and a tab as Z41) and the tabs
@@ -262,7 +263,11 @@ def test_trc_header_lines_the_writer_ends_so_anyway_add_no_metadata():
 
 @pytest.mark.parametrize("value", ["3 1", "0 0 0 3 1 0", "0 0 0 x 1", "0 0 0 -1 1",
                                    "0 0 0 3.0 1", "0  0 0 3 1", "0 0 0 3 1 ",
-                                   "0 0 0 1048577 1", "0 0 0 " + "9" * 13 + " 1", ""])
+                                   "0 0 0 1048577 1", "0 0 0 " + "9" * 13 + " 1", "",
+                                   # a doubled sign crashed the writer (exit 70), and a
+                                   # sign, a leading zero or a no-break space passed
+                                   "+-1 0 0 0 0", "--0 0 0 3 1", "+1 0 0 3 1", "-0 0 0 3 1",
+                                   "0 0 0 0003 1", "0\u00a0 0 0 3 1", "\u0663 0 0 3 1"])
 def test_trc_hand_edited_trailing_tabs_are_said_and_not_used(tmp_path, value):
     """trc.TrailingTabs is free text in the meta chunk: a value that is not five whole
     numbers 0 .. 2^20 (a hand edit) is named in a note, and the header lines are written
@@ -285,6 +290,23 @@ def test_trc_header_line_of_more_tabs_than_are_kept_is_said():
             "written back") in m.metadata["warning"]
     line = format_trc(m).split("\n")[3]
     assert len(line) - len(line.rstrip("\t")) == MAX_TRAILING_TABS
+    # exactly 2^20 are kept without a word
+    m = parse_trc(_trc_with_ends(("", "", "", "\t" * MAX_TRAILING_TABS, "")))
+    assert m.metadata["trc.TrailingTabs"] == f"0 0 0 {MAX_TRAILING_TABS} 0"
+    assert "warning" not in m.metadata
+
+
+def test_trc_too_many_tabs_keeps_the_other_warnings():
+    """The warning of a header line past 2^20 tabs is added to the reader's others (an
+    edited time here), not put in their place."""
+    from mpz.io.trc import MAX_TRAILING_TABS, parse_trc
+    lines = _trc_with_ends(("", "", "", "\t" * (MAX_TRAILING_TABS + 1), "")).split("\n")
+    cells = lines[6].split("\t")
+    cells[1] = str(float(cells[1]) + 0.5)             # a time that is not frame / rate
+    lines[6] = "\t".join(cells)
+    warning = parse_trc("\n".join(lines)).metadata["warning"]
+    assert f"header line 4 ends with {MAX_TRAILING_TABS + 1} tabs" in warning, warning
+    assert "time" in warning.split("header line 4")[0], warning
 
 # -- BVH -------------------------------------------------------------------
 
@@ -1167,12 +1189,14 @@ def test_write_leaves_no_cut_file_and_names_a_full_disk(tmp_path, monkeypatch, e
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 
 
-@pytest.mark.parametrize("text", ["¹", "١٢", "+²"])
+@pytest.mark.parametrize("text", ["¹", "١٢", "+²", "+-1", "-+1", "--0", "++3"])
 def test_trc_metadata_digits_of_other_scripts_are_no_whole_number(text):
     """hypothesis (stop 50): trc.FirstFrame '¹' passed str.isdigit, then int() raised
-    ValueError inside mpz.io.write; it is a value the writer does not use."""
+    ValueError inside mpz.io.write; it is a value the writer does not use. A doubled sign
+    did the same (a review of stop 59: exit 70 from mpz decode), for every whole-number key."""
     from mpz.io.trc import trc_meta_problems
-    assert "FirstFrame" in str(trc_meta_problems({"trc.FirstFrame": text}))
+    for key in ("trc.FirstFrame", "trc.Decimals", "trc.TimeDecimals", "trc.TimeDigits"):
+        assert key in trc_meta_problems({key: text}), key
 
 
 # -- a review of the stop 50 parsers (TRC, CSV and BVH fill arrays) ---------------------------

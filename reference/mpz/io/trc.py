@@ -419,7 +419,8 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
         elif name == "FirstFrame" and not _whole_in(value, -MAX_FIRST_FRAME, MAX_FIRST_FRAME):
             bad[key] = "is not a whole number of magnitude below 2^31"
         elif name == "TrailingTabs" and _tab_counts(value) is None:
-            bad[key] = f"is not 5 whole numbers 0 .. {MAX_TRAILING_TABS}, one space apart"
+            bad[key] = (f"is not 5 whole numbers 0 .. {MAX_TRAILING_TABS} (digits, no sign or "
+                        "leading zero), one space apart")
         elif (name == "DataRate" or key == "start_time") and not _finite_text(value):
             bad[key] = "is not a finite number"
     return bad
@@ -428,10 +429,11 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
 def _tab_counts(text: str) -> list[int] | None:
     """The tabs ``trc.TrailingTabs`` ends the header lines 1-5 with, or None when it is not
     5 whole numbers 0 .. MAX_TRAILING_TABS, one space apart."""
-    parts = text.split(" ")
-    if len(parts) != 5 or not all(_whole_in(p, 0, MAX_TRAILING_TABS) for p in parts):
+    # as the reader writes it: digits alone ("+1", "0001" and a no-break space were taken)
+    if re.fullmatch(r"(?:0|[1-9][0-9]{0,6})(?: (?:0|[1-9][0-9]{0,6})){4}", text) is None:
         return None
-    return [int(p) for p in parts]
+    counts = [int(p) for p in text.split(" ")]
+    return counts if max(counts) <= MAX_TRAILING_TABS else None
 
 
 def _counts(text: str, n: int) -> bool:
@@ -444,8 +446,10 @@ def _counts(text: str, n: int) -> bool:
 
 def _whole_in(text: str, low: int, high: int) -> bool:
     t = text.strip()
-    # isdigit is true of "¹" and "١", which int() refuses or reads (hypothesis, stop 50)
-    if not 0 < len(t) <= 12 or not t.isascii() or not t.lstrip("+-").isdigit():
+    # isdigit is true of "¹" and "١", which int() refuses or reads (hypothesis, stop 50);
+    # one sign at most: "+-1" passed lstrip("+-") and int() raised (a review of stop 59)
+    digits = t[1:] if t[:1] in ("+", "-") else t
+    if not 0 < len(t) <= 12 or not digits.isascii() or not digits.isdigit():
         return False
     return low <= int(t) <= high
 
