@@ -252,6 +252,19 @@ def test_trc_header_lines_end_as_the_source_ends_them(tmp_path, ends):
     assert not any("TrailingTabs" in n for n in notes), notes
 
 
+def test_trc_header_tabs_before_a_trailing_blank_are_kept(tmp_path):
+    """A line 4 ending "B<tab><tab><tab> " was counted as ending in no tab and came back as
+    "B", where the writer's own ends give "B<tab><tab>": the tabs are kept, the blank after
+    them (a whitespace-only field) is not."""
+    from mpz.io.trc import parse_trc
+    text = _trc_with_ends(("", "", "", "\t\t\t ", ""))
+    assert parse_trc(text).metadata["trc.TrailingTabs"] == "0 0 0 3 0"
+    (tmp_path / "x.trc").write_text(text)
+    _through_mpz(tmp_path / "x.trc", tmp_path / "back.trc")
+    line = (tmp_path / "back.trc").read_text().split("\n")[3]
+    assert line == text.split("\n")[3][:-1], repr(line)
+
+
 def test_trc_header_lines_the_writer_ends_so_anyway_add_no_metadata():
     """A TRC whose header lines end as the writer ends them gets no trc.TrailingTabs: its
     meta chunk, and so its MPZ file, is what it was before the key was kept."""

@@ -237,7 +237,11 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
 
 
 def _tabs_at_end(row: str) -> int:
-    return len(row) - len(row.rstrip("\t"))
+    """The tabs a header line ends with, before any other trailing whitespace: of
+    "B\t\t\t " the three tabs are kept and the blank is not (a review of stop 59: they
+    were counted as none, and written back as none, where the writer's own gave two)."""
+    end = re.search(r"(\t*)[^\S\t]*\Z", row)
+    return 0 if end is None else len(end.group(1))
 
 
 def _trailing_tabs(rows: list[str], motion: Motion) -> tuple[str, str]:
