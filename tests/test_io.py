@@ -265,6 +265,23 @@ def test_trc_header_tabs_before_a_trailing_blank_are_kept(tmp_path):
     assert line == text.split("\n")[3][:-1], repr(line)
 
 
+def test_trc_header_tab_runs_inside_a_line_are_read_in_linear_time():
+    """A regex that counted a line's last tabs backtracked over every run of tabs inside
+    it: 40,000 tabs took 27 s (a self-review of stop 59), a hostile header line hours.
+    A line of 2^21 inner tabs, in its own process: the old code did not return (days), so
+    the generous timeout guards a hang, it times nothing."""
+    import subprocess
+    import sys
+
+    from mpz.io.trc import _tabs_at_end
+    assert _tabs_at_end("a\t\t \t\t\x0c ") == 2 and _tabs_at_end("a\t\tx") == 0
+    code = ("from mpz.io.trc import _tabs_at_end; "
+            "print(_tabs_at_end('a' + chr(9) * (1 << 21) + 'x'))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 0 and p.stdout.strip() == "0", p.stderr
+
+
 def test_trc_header_lines_the_writer_ends_so_anyway_add_no_metadata():
     """A TRC whose header lines end as the writer ends them gets no trc.TrailingTabs: its
     meta chunk, and so its MPZ file, is what it was before the key was kept."""

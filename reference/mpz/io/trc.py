@@ -240,8 +240,11 @@ def _tabs_at_end(row: str) -> int:
     """The tabs a header line ends with, before any other trailing whitespace: of
     "B\t\t\t " the three tabs are kept and the blank is not (a review of stop 59: they
     were counted as none, and written back as none, where the writer's own gave two)."""
-    end = re.search(r"(\t*)[^\S\t]*\Z", row)
-    return 0 if end is None else len(end.group(1))
+    end = len(row)          # a loop, not a regex: "(\t*)[^\S\t]*\Z" took 27 s for a line
+    while end and row[end - 1] != "\t" and row[end - 1].isspace():   # of 40,000 inner tabs
+        end -= 1
+    core = row[:end]
+    return len(core) - len(core.rstrip("\t"))
 
 
 def _trailing_tabs(rows: list[str], motion: Motion) -> tuple[str, str]:
