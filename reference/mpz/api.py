@@ -881,7 +881,8 @@ def check_mpz_name(path: str | os.PathLike[str]) -> None:
         ``path`` ends in .c3d, .trc, .bvh, .amc, .asf, .npy or .csv (any case).
     """
     from mpz.io import READERS
-    ext = os.path.splitext(os.fspath(path))[1].lower()
+    from mpz.io._common import ext_of
+    ext = ext_of(path)
     if ext in READERS or ext == ".asf":
         kind = ext[1:].upper()
         raise EncoderError(f"{os.fspath(path)}: an MPZ file named {ext} would be read as "

@@ -2296,7 +2296,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         seen: list[int] = []            # the cluster's worker counts, as it said them
         # what a report of a run stopped before _dispatch returns names as its cluster
         cluster = ("given client" if client is not None else remote[1] if remote is not None
-                   else "this process, no Dask" if n_workers == 0 and scheduler is None
+                   else IN_PROCESS if n_workers == 0 and scheduler is None
                    else f"LocalCluster, {memory_limit} per worker")
         try:
             n_workers, cluster = _dispatch(tasks, todo, finish, inflight, n_workers, client,
@@ -2313,6 +2313,10 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                                 ) from None
         same = index.same_sources()
     return report(n_workers, same)
+
+
+#: the report's cluster of a run without Dask (``workers=0``: this process encodes)
+IN_PROCESS = "this process, no Dask"
 
 
 def _again(again: Mapping[int, str], results: Sequence[FileResult | None]
@@ -2337,7 +2341,7 @@ def _dispatch(tasks: list[Task], todo: list[int], finish: Callable[[int, FileRes
     if not todo:
         cluster = "nothing to do"          # no cluster is started for a no-op run
     elif n_workers == 0 and scheduler is None and client is None:
-        cluster = "this process, no Dask"
+        cluster = IN_PROCESS
         for i in todo:       # an interrupted write removes its own temporary file
             finish(i, encode_file(tasks[i]))
     elif client is not None:

@@ -482,11 +482,11 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     # every check on the output comes before the encode
     if not to_stdout:
         check_output(job.output, force=args.force, source=source)
-        if not is_null_device(job.output):    # -o x.c3d, even with -f: mpz decode was meant
-            check_mpz_name(job.output)
-        if ext_of(job.output) != ".mpz" and not args.force and not is_null_device(job.output):
-            raise EncoderError(f"{job.output}: an MPZ file should end in .mpz; "
-                               "use --force to write it under this name")
+        if not is_null_device(job.output):
+            check_mpz_name(job.output)        # -o x.c3d, even with -f: mpz decode was meant
+            if ext_of(job.output) != ".mpz" and not args.force:
+                raise EncoderError(f"{job.output}: an MPZ file should end in .mpz; "
+                                   "use --force to write it under this name")
     elif not args.force and sys.stdout.isatty():
         raise EncoderError("refusing to write MPZ data to a terminal; redirect standard "
                            "output, or use -f", path=STDIO)
