@@ -1,0 +1,191 @@
+"""Where a one-thread encode's time goes: inside the compiled kernels, or around them,
+against the time issue 15.1 allows (half of zstd -19's on the same float32 bytes).
+
+    python bench/bench_kernels.py [--files walk1 amc/35_01 ... | --files all]
+                                  [--bound 1mm] [--repeat 9] [--json F]
+
+For every file (a name under ../shared/data, or ``$MPZ_SHARED_DATA``, as in
+bench_speed.py; default: the rows bench_speed.py found below 2x at stop 59) it prints, in
+ms: ``zstd/2``, half of zstd -19's time on the same bytes (``_common.coded_float32``), which
+is the whole encode's budget at 2x; MPZ's best one-thread and two-thread encode; ``kernels``,
+the time a one-thread encode spends inside the numba kernels (cProfile's own time of every
+numba dispatcher of the mpz package, found by walking its modules, so a kernel added or
+renamed is counted without editing this file; the least over the rounds, each profiled
+alone); ``rest``,
+the one-thread time minus the kernels (Python, numpy, construct); and the four largest
+kernels. The two verdict columns say whether a row is over its budget even split perfectly
+over both cores: ``x1/2 over``, the whole one-thread encode (no use of the two threads can
+reach 2x there; only less work can), and ``k/2 over``, its kernels alone (no change to the
+Python around them can either; only kernels that search less, which changes the bytes).
+docs/speed.md, "Where it stands", reads the table.
+
+Times are the best of ``--repeat`` rounds, each round one call of zstd, of each encode and
+of the profiled encode, so that the host's drift moves all of them alike. cProfile adds a
+little to each kernel call, not to its inside, so ``kernels`` is a fair floor and ``rest`` a
+fair upper estimate.
+
+Exit status: 0; 1 when zstandard (the ``bench`` extra) is missing; 2 for a usage error. An
+absent or empty data folder prints "skipped: ..." and exits 0.
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+from functools import partial
+import importlib
+import json
+import math
+import os
+from pathlib import Path
+import pkgutil
+import pstats
+import sys
+import time
+
+from _common import coded_float32, no_data_reason, positive_int, shared_data_dir, warm_up
+from bench_speed import bound_kwargs, bound_label, files_of
+import mpz
+import mpz.io
+
+#: the rows below 2x in stop 59's `bench_speed.py --files all --bounds 1mm --repeat 3`
+DEFAULT_FILES = ["trc/opensim_subject01_walk1", "amc/35_01", "amc/HDM_dg_06-03_03_120",
+                 "amc/02_01", "trc/opensim_hamner_subject02_running", "c3d/c3dorg_Dance1",
+                 "c3d/cmu_02_01", "trc/btk_SprintMotion", "c3d/c3dorg_Sample_Jump2",
+                 "c3d/HDM_dg_06-03_03_120"]
+
+
+def kernel_sites() -> dict[tuple[str, str], str]:
+    """Every numba dispatcher defined in the mpz package: (source file, function name) ->
+    its dotted name. cProfile records a dispatcher's call under its Python function's file
+    and name, which is how :func:`kernel_times` finds them."""
+    from numba.core.registry import CPUDispatcher
+    sites: dict[tuple[str, str], str] = {}
+    for info in pkgutil.walk_packages(mpz.__path__, "mpz."):
+        if ".tools" in info.name or ".conformance" in info.name:
+            continue                                    # no codec kernels there
+        module = importlib.import_module(info.name)
+        for name, obj in vars(module).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == info.name:
+                code = obj.py_func.__code__
+                sites[(os.path.realpath(code.co_filename), code.co_name)] = \
+                    f"{info.name}.{name}"
+    return sites
+
+
+def kernel_times(stats: pstats.Stats, sites: dict[tuple[str, str], str]
+                 ) -> dict[str, float]:
+    """Seconds inside each kernel of ``sites`` (cProfile's own time) in a profiled run."""
+    out: dict[str, float] = {}
+    for (path, _line, func), (_cc, _nc, own, _cum, _callers) in stats.stats.items():
+        name = sites.get((os.path.realpath(path), func))
+        if name is not None:
+            out[name] = out.get(name, 0.0) + own
+    return out
+
+
+def profiled(fn, sites: dict[tuple[str, str], str]) -> dict[str, float]:
+    """Seconds inside each kernel during one call of ``fn``, profiled alone."""
+    profile = cProfile.Profile()
+    profile.enable()
+    fn()
+    profile.disable()
+    return kernel_times(pstats.Stats(profile), sites)
+
+
+def rounds(fns: dict, kernel_run, sites: dict[tuple[str, str], str], repeat: int
+           ) -> tuple[dict[str, float], dict[str, float]]:
+    """Best wall seconds of each of ``fns``, and the kernel times of the profiled call of
+    ``kernel_run`` whose kernels took least: ``repeat`` rounds of one call of each (the
+    profiled one last), so that the host's drift moves all of them alike."""
+    best = dict.fromkeys(fns, math.inf)
+    least: dict[str, float] = {}
+    for _ in range(repeat):
+        for k, fn in fns.items():
+            t = time.perf_counter()
+            fn()
+            best[k] = min(best[k], time.perf_counter() - t)
+        times = profiled(kernel_run, sites)
+        if not least or sum(times.values()) < sum(least.values()):
+            least = times
+    return best, least
+
+
+def yes(flag: bool) -> str:
+    return "over" if flag else "-"
+
+
+def run(args) -> list[dict]:
+    import zstandard
+    root = shared_data_dir()
+    assert root is not None
+    paths = files_of(root, args.files)
+    warm_up(paths[0])
+    sites = kernel_sites()
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; ms, best of "
+          f"{args.repeat} rounds (kernels: the least of the profiled one-thread encodes; "
+          f"{len(sites)} kernels found); bound {args.bound}")
+    print(f"{'file':<34} {'zstd/2':>7} {'x1':>7} {'x2':>7} {'kernels':>7} {'rest':>7}  "
+          f"{'x1/2 over':>9} {'k/2 over':>8}  largest kernels")
+    rows = []
+    zc = zstandard.ZstdCompressor(level=19)
+    for path in paths:
+        m = mpz.io.read(path)
+        kw, _, _ = bound_kwargs(m, args.bound)
+        data = coded_float32(m)
+        one = partial(mpz.encode, m, threads=1, **kw)
+        one()
+        best, per = rounds({"zstd": partial(zc.compress, data), "x1": one,
+                            "x2": partial(mpz.encode, m, threads=2, **kw)}, one, sites,
+                           args.repeat)
+        kernels = sum(per.values())
+        budget = best["zstd"] / 2
+        top = sorted(per.items(), key=lambda kv: -kv[1])[:4]
+        row = {"file": path.name, "frames": m.n_frames, "markers": m.n_markers,
+               "bytes": len(data), "budget_ms": budget * 1e3, "x1_ms": best["x1"] * 1e3,
+               "x2_ms": best["x2"] * 1e3, "kernels_ms": kernels * 1e3,
+               "rest_ms": (best["x1"] - kernels) * 1e3,
+               "kernels_ms_by_name": {k: v * 1e3 for k, v in per.items()}}
+        rows.append(row)
+        print(f"{path.name[:34]:<34} {budget * 1e3:>7.1f} {best['x1'] * 1e3:>7.1f} "
+              f"{best['x2'] * 1e3:>7.1f} {kernels * 1e3:>7.1f} "
+              f"{(best['x1'] - kernels) * 1e3:>7.1f}  {yes(best['x1'] / 2 > budget):>9} "
+              f"{yes(kernels / 2 > budget):>8}  "
+              + ", ".join(f"{k.rsplit('.', 1)[1]} {v * 1e3:.1f}" for k, v in top), flush=True)
+    for what, key in (("the whole one-thread encode", "x1_ms"), ("its kernels alone",
+                                                                   "kernels_ms")):
+        over = [r["file"] for r in rows if r[key] / 2 > r["budget_ms"]]
+        print(f"{what}, split perfectly over two cores, over the 2x budget: {len(over)} of "
+              f"{len(rows)}" + (f" ({', '.join(over)})" if over else ""))
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--files", nargs="+", default=DEFAULT_FILES,
+                    help="names under the data folder, or all (default: stop 59's rows "
+                         "below 2x)")
+    ap.add_argument("--bound", type=bound_label, default="1mm",
+                    help="default, or a length in mm such as 1mm (default 1mm)")
+    ap.add_argument("--repeat", type=positive_int, default=9,
+                    help="rounds of zstd, the two encodes and a profiled one-thread encode "
+                         "(default 9)")
+    ap.add_argument("--json", help="write the rows here")
+    args = ap.parse_args(argv)
+    reason = no_data_reason()
+    if reason:
+        print(f"skipped: {reason}")
+        return 0
+    try:
+        import zstandard  # noqa: F401
+    except ImportError:
+        print("bench_kernels: zstandard is not installed; it is in the bench extra: "
+              "pip install -e '.[bench]'", file=sys.stderr)
+        return 1
+    rows = run(args)
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

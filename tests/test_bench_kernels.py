@@ -1,0 +1,67 @@
+"""bench/bench_kernels.py counts the time inside every numba kernel of the package, and
+nothing else: a kernel it missed would make the floor it reports too low, a Python function
+counted as a kernel too high (docs/speed.md, "Where it stands")."""
+from __future__ import annotations
+
+import cProfile
+import importlib.util
+from pathlib import Path
+import pstats
+
+import pytest
+
+from mpz.synth import generate
+
+pytest.importorskip("zstandard", reason="the bench extra is not installed")
+
+
+@pytest.fixture(scope="module")
+def bench(request):
+    """``bench/bench_kernels.py``, imported from its path (bench/ is not a package)."""
+    folder = Path(__file__).resolve().parents[1] / "bench"
+    mp = pytest.MonkeyPatch()
+    request.addfinalizer(mp.undo)
+    mp.syspath_prepend(str(folder))                    # its `from _common import ...`
+    spec = importlib.util.spec_from_file_location("mpz_bench_kernels",
+                                                  folder / "bench_kernels.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_codec_kernel_is_found_and_nothing_else(bench):
+    from numba.core.registry import CPUDispatcher
+
+    sites = bench.kernel_sites()
+    names = set(sites.values())
+    # the hot kernels of stops 54-59's profiles, named here independently of the walk
+    for hot in ("mpz.keyframe._fit_range", "mpz.keyframe._best_references",
+                "mpz.entropy._encode_block", "mpz.quantize._choose",
+                "mpz.keyframe.chain_scores", "mpz.io.kinematics._forward",
+                "mpz.hierarchy.auto._distance_sums"):
+        assert hot in names, hot
+    for dotted in names:
+        module, _, attr = dotted.rpartition(".")
+        assert isinstance(getattr(__import__(module, fromlist=[attr]), attr), CPUDispatcher)
+    # a plain Python function of the same modules is not a kernel
+    assert "mpz.keyframe.fit_members" not in names
+    assert "mpz.encoder.encode_motion" not in names
+
+
+def test_kernel_times_count_a_profiled_encode(bench):
+    """The kernels of a real encode are found in its profile, and their time is part of
+    the encode's, not more."""
+    import mpz
+    m = generate("walk", frames=240, markers=20, seed=3)
+    mpz.encode(m, max_error=1.0, threads=1)               # loaded, not timed
+    profile = cProfile.Profile()
+    profile.enable()
+    mpz.encode(m, max_error=1.0, threads=1)
+    profile.disable()
+    stats = pstats.Stats(profile)
+    times = bench.kernel_times(stats, bench.kernel_sites())
+    assert times.get("mpz.keyframe._fit_range", 0.0) > 0.0
+    assert times.get("mpz.entropy._encode_block", 0.0) > 0.0
+    total = stats.total_tt
+    assert 0.0 < sum(times.values()) < total
