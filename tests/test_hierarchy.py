@@ -542,6 +542,56 @@ def test_root_marker_keeps_build_hierarchys_errors_and_specs():
         root_marker(m, "nonesuch")
 
 
+def _root_or_error(fn):
+    try:
+        return fn()
+    except EncoderError as exc:
+        return f"EncoderError: {exc}"
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(0, 7), st.integers(0, 4), st.booleans(),
+       st.booleans(), st.floats(0.0, 0.6))
+def test_cmu41_root_is_the_built_hierarchys(seed, missing, extras, prefix, repeat, gaps):
+    """The CMU set's root without its tree (issue 15.1) is the built tree's node 0, or the
+    same error, for any of the set's markers missing (the root's candidates among them,
+    past the 4 the builder allows), extra markers, a subject prefix, a label given twice
+    (two subjects), and gaps; with the builder named and chosen by default."""
+    rng = np.random.default_rng(seed)
+    names = [n for n in CMU41 if n not in set(rng.choice(CMU41, missing, replace=False))]
+    names += [f"extra{i}" for i in range(extras)]
+    if repeat:                                  # a second subject's label of one of them
+        names.append("Other:" + names[int(rng.integers(len(names)))])
+    names = [names[i] for i in rng.permutation(len(names))]
+    if prefix:
+        names = [f"Sub:{n}" for n in names]
+    F, M = 30, len(names)
+    x = np.cumsum(rng.normal(0, 5, (F, M, 3)), axis=0) + rng.normal(0, 300, (1, M, 3))
+    valid = rng.random((F, M)) >= gaps
+    x[~valid] = np.nan
+    m = mpz.Motion(x, names, 100.0, valid=valid)
+    from mpz.hierarchy import root_marker
+    for spec in ("cmu41", None):
+        want = _root_or_error(lambda spec=spec: build_hierarchy(m, spec).nodes[0].members[0])
+        assert _root_or_error(lambda spec=spec: root_marker(m, spec)) == want
+
+
+def test_cmu41_root_measures_no_distance(monkeypatch):
+    """The encoder's default mode keeps only the root: on a CMU set with extra markers the
+    tree's mean distances (14 ms of HDM_mm's encode) are not measured for it."""
+    from mpz.hierarchy import root_marker
+    import mpz.hierarchy.cmu41 as cmu41
+    m = generate("walk", frames=60, seed=3)
+    x = np.concatenate([m.positions, m.positions[:, :2] + 40.0], axis=1)
+    m = mpz.Motion(x, list(m.names) + ["extraA", "extraB"], m.rate, units=m.units)
+    want = build_hierarchy(m).nodes[0].members[0]
+
+    def measured(*args, **kwargs):
+        raise AssertionError("a distance was measured for the root alone")
+    monkeypatch.setattr(cmu41, "mean_distance", measured)
+    assert root_marker(m) == want
+
+
 @pytest.mark.parametrize("stem", C3D_FILES)
 def test_root_marker_on_real_captures(shared_data, stem):
     m = _real_c3d(shared_data, stem)

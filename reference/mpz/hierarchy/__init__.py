@@ -73,6 +73,7 @@ from mpz.hierarchy.cmu41 import (
     CMU41_MAX_MISSING,
     cmu41_hierarchy,
     cmu41_match,
+    cmu41_root,
     cmu41_template,
 )
 from mpz.hierarchy.flat import flat_hierarchy
@@ -156,13 +157,17 @@ def build_hierarchy(motion: Motion, spec: Spec = None, *,
 def root_marker(motion: Motion, spec: Spec = None, *,
                 weights: Mapping[str, float] | None = None) -> int:
     """The root marker of ``build_hierarchy(motion, spec, weights=weights)`` (its node 0),
-    with the same errors; the ``"auto"`` builder's group tree, which the root does not
-    depend on, is not built (:func:`~mpz.hierarchy.auto.auto_root`; issue 15)."""
+    with the same errors; the ``"auto"`` and ``"cmu41"`` builders' trees, which the root
+    does not depend on, are not built (:func:`~mpz.hierarchy.auto.auto_root`,
+    :func:`~mpz.hierarchy.cmu41.cmu41_root`; issue 15)."""
     names = list(motion.names)
     if spec is None:
         spec = _default_spec(motion, names)
-    if spec == "auto" and not weights:     # weights may name the tree's nodes: build it
-        return auto_root(motion)
+    if not weights:                        # weights may name the tree's nodes: build it
+        if spec == "auto":
+            return auto_root(motion)
+        if spec == "cmu41":
+            return cmu41_root(motion)
     return build_hierarchy(motion, spec, weights=weights).nodes[0].members[0]
 
 

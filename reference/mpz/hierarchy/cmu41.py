@@ -40,6 +40,8 @@ def cmu41_template() -> dict[str, Any]:
 
 #: The 41 marker names, in the template's node order.
 CMU41 = tuple(m for n in cmu41_template()["nodes"] for m in n["members"])
+#: The template's root candidates, first present first (its ``root_fallback``).
+_ROOTS = tuple(cmu41_template()["root_fallback"])
 
 
 def cmu41_match(names: Sequence[str]) -> dict[str, int] | None:
@@ -68,17 +70,7 @@ def cmu41_hierarchy(motion: Motion) -> Hierarchy:
     ``extra_fallback`` node when they share no valid frame with any).
     """
     names = list(motion.names)
-    idx = cmu41_match(names)
-    if idx is None:
-        stripped = [strip_subject(n) for n in names]
-        twice = sorted({s for s in stripped if s in CMU41 and stripped.count(s) > 1})
-        if twice:       # two subjects, or a label repeated: not one CMU figure
-            raise EncoderError(f"the motion is not one CMU 41-marker set: "
-                               f"{', '.join(twice[:6])}{' ...' if len(twice) > 6 else ''} "
-                               "appear more than once (two subjects?); give each its own "
-                               "file, or a hierarchy that names every marker")
-        raise EncoderError(f"the motion is not a CMU 41-marker set: missing "
-                           f"{sorted(set(CMU41) - set(stripped))}")
+    idx = _matched(names)
     tpl = cmu41_template()
     frames = sample_frames(motion.n_frames, _FRAMES)
     nodes = _present_nodes(tpl, idx)
@@ -89,6 +81,32 @@ def cmu41_hierarchy(motion: Motion) -> Hierarchy:
     h = Hierarchy(nodes, "cmu41")
     h.validate(len(names))
     return h
+
+
+def cmu41_root(motion: Motion) -> int:
+    """The root marker of :func:`cmu41_hierarchy` (its node 0), with the same errors: the
+    first present marker of the template's ``root_fallback``, which is all the node 0 of
+    :func:`_present_nodes` holds and which no later step changes. The encoder's default
+    mode keeps only the root (issue 15.1: on HDM_mm the rest of the tree, each extra
+    marker's mean distance to each node, took 14 ms of measurements made to be dropped)."""
+    return _first_present(list(_ROOTS), _matched(list(motion.names)))
+
+
+def _matched(names: list[str]) -> dict[str, int]:
+    """:func:`cmu41_match` of ``names``, or the EncoderError saying why they are not one
+    CMU 41-marker set."""
+    idx = cmu41_match(names)
+    if idx is not None:
+        return idx
+    stripped = [strip_subject(n) for n in names]
+    twice = sorted({s for s in stripped if s in CMU41 and stripped.count(s) > 1})
+    if twice:       # two subjects, or a label repeated: not one CMU figure
+        raise EncoderError(f"the motion is not one CMU 41-marker set: "
+                           f"{', '.join(twice[:6])}{' ...' if len(twice) > 6 else ''} "
+                           "appear more than once (two subjects?); give each its own "
+                           "file, or a hierarchy that names every marker")
+    raise EncoderError(f"the motion is not a CMU 41-marker set: missing "
+                       f"{sorted(set(CMU41) - set(stripped))}")
 
 
 def _present_nodes(tpl: dict[str, Any], idx: dict[str, int]) -> list[Node]:
