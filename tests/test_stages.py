@@ -908,3 +908,47 @@ def test_finite_samples_is_all_three_coordinates_finite(F, M, pool):
     pos = np.array(pool[:F * M * 3]).reshape(F, M, 3)
     assert np.array_equal(finite_samples(pos), np.isfinite(pos).all(axis=2))
     assert np.array_equal(finite_samples(pos[:, ::-1]), np.isfinite(pos[:, ::-1]).all(axis=2))
+
+
+# -- progress (encode_motion's callback): a long capture's bar moves within its one node --
+def _progress_calls(motion, **options):
+    from mpz.encoder import EncodeOptions, encode_motion
+    calls: list[tuple[float, str]] = []
+    data, _ = encode_motion(motion, EncodeOptions(**options),
+                            progress=lambda f, msg: calls.append((f, msg)))
+    return data, calls
+
+
+def test_progress_moves_within_the_default_modes_one_node():
+    """The default (bounded) mode codes one flat node; its progress was one call at 100 %,
+    so `mpz encode` of a 30-minute capture stood at 0 % for its 30 s. The plan, the node's
+    start, its key frames' fit and coding are reported, in order, never going back, and
+    the bytes do not depend on the callback."""
+    import mpz
+    from mpz.synth import generate
+    m = generate("walk", frames=300, seed=5)
+    data, calls = _progress_calls(m, max_error=1.0)
+    assert data == mpz.encode(m, max_error=1.0)
+    fractions = [f for f, _ in calls]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert [msg for _, msg in calls] == ["body: key frames", "body: coding key frames",
+                                         "body: residuals", "body"]
+    assert 0.0 < fractions[0] < fractions[1] < fractions[2] < 1.0
+
+
+def test_progress_gives_each_node_its_share_of_the_markers():
+    """With a body-part hierarchy, each node starts where the previous one ended and
+    spans its share of the coded markers (the root is coded apart)."""
+    from mpz.encoder import PLANNED
+    from mpz.hierarchy import build_hierarchy
+    from mpz.synth import generate
+    m = generate("walk", frames=120, seed=2)
+    hier = build_hierarchy(m, "cmu41")
+    _, calls = _progress_calls(m, max_error=2.0, hierarchy="cmu41", patterns="on")
+    ends = [f for f, msg in calls if ":" not in msg]          # each node's last call
+    assert [msg for _, msg in calls if ":" not in msg] == [n.name for n in hier.nodes[1:]]
+    sizes = np.array([len(n.members) for n in hier.nodes[1:]], float)
+    want = PLANNED + (1 - PLANNED) * np.cumsum(sizes) / sizes.sum()
+    assert np.allclose(ends, want)
+    starts = [f for f, msg in calls if msg.endswith(": patterns")]
+    assert np.allclose(starts, [PLANNED, *want[:-1]])

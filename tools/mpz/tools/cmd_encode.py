@@ -515,7 +515,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     compile_notice(args.quiet, args.verbose)
     bar = Progress("encoding", enabled=None if not args.quiet else False)
     try:
-        bar(0.0, "planning")    # a bounded encode has one node: the bar came at its end
+        bar(0.0, "planning")    # then the nodes, and the stages within each (encode_motion)
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
