@@ -243,3 +243,53 @@ def test_a_payload_that_does_not_load_names_its_chunk(monkeypatch):
     errors = container.scan(data).errors
     assert [(e.chunk, e.section) for e in errors] == [("QUNT", "§4.4")], errors
     assert errors[0].offset is not None
+
+
+# -- messages that name a writer's likely mistake (a clean-room encoder, stop 60) ---------
+def _chunk_at(data: bytes, ctype: bytes) -> int:
+    """The offset of the first chunk of type ``ctype`` (its type field)."""
+    pos = len(SIGNATURE)
+    while data[pos:pos + 4] != ctype:
+        pos += 12 + struct.unpack_from("<I", data, pos + 4)[0]
+    return pos
+
+
+def test_resi_without_the_residual_flag_names_the_flag(small):
+    """A bounded file's RESI chunks with MHDR flags bit 0 cleared: the order error said
+    'expected a PATT chunk here, found RESI' and nothing of the flag the writer forgot."""
+    b = bytearray(small)
+    flags = _chunk_at(small, b"MHDR") + 8 + 2               # §4.1: flags at offset 2
+    assert b[flags] & 1
+    b[flags] &= 0xFE
+    with pytest.raises(FormatError, match=r"found RESI; .*MHDR flags bit 0") as ei:
+        mpz.decode(container.repair_crcs(bytes(b)))
+    assert ei.value.section == "§3.4"
+
+
+def test_a_big_endian_chunk_length_is_named(small):
+    """A length written big-endian read as 'exceeds the bytes left (truncated?)', which
+    sent the writer after a cut file."""
+    b = bytearray(small)
+    pos = _chunk_at(small, b"MNAM")
+    length = struct.unpack_from("<I", b, pos + 4)[0]
+    struct.pack_into(">I", b, pos + 4, length)
+    with pytest.raises(MPZError, match=rf"big-endian: its bytes the other way round are "
+                                       rf"{length}\b"):
+        mpz.decode(bytes(b))
+
+
+def test_a_truncated_file_gets_no_byte_order_hint(small):
+    with pytest.raises(MPZError, match=r"truncated\?\)") as ei:
+        mpz.decode(small[:len(small) // 2])
+    assert "big-endian" not in str(ei.value)
+
+
+def test_a_range_error_names_quntbits(small):
+    """Values beyond |q| < 2^bits: the §6.7 message gave 2^bits, not the field that sets
+    it, so a writer one bit short looked for a wrong value rather than a wrong header."""
+    b = bytearray(small)
+    bits = _chunk_at(small, b"QUNT") + 8 + 32                # §4.4: bits at offset 32
+    b[bits] -= 2             # the reference writes one bit more than |q| < 2^bits needs
+    with pytest.raises(FormatError, match=rf"QUNT's bits field \({b[bits]}\) declares") as ei:
+        mpz.decode(container.repair_crcs(bytes(b)))
+    assert ei.value.section == "§6.7"

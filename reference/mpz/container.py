@@ -67,6 +67,17 @@ def is_chunk_type(ctype: bytes) -> bool:
     return len(ctype) == 4 and all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype)
 
 
+def _byte_order_hint(length: int, left: int) -> str:
+    """What to add to "chunk length exceeds the bytes left (truncated?)" when the length's
+    four bytes read the other way round would fit: a writer that put it big-endian (a
+    clean-room encoder's mistake, stop 60) was told only that the file looked cut."""
+    swapped = int.from_bytes(length.to_bytes(4, "little"), "big")
+    if swapped <= left:
+        return (f" or a length written big-endian: its bytes the other way round are "
+                f"{swapped}; lengths are little-endian")
+    return ""
+
+
 def crc32(ctype: bytes, payload: bytes | memoryview) -> int:
     """§3.3 CRC-32 over the type and the payload."""
     return zlib.crc32(payload, zlib.crc32(ctype)) & 0xFFFFFFFF
@@ -153,7 +164,7 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True,
         if length > left - 12:
             res.errors.append(LimitExceededError(
                 f"chunk length {length} exceeds the {left - 12} byte(s) left in the file "
-                f"(truncated?)",
+                f"(truncated?{_byte_order_hint(length, left - 12)})",
                 offset=pos, chunk=tname, section="§3.2"))
             return res
         stored = _parse.parse(ChunkCRC, data[pos + 8 + length: pos + 12 + length])

@@ -116,7 +116,12 @@ class _Order:
             if optional:
                 self._pending = c
                 return None
-            raise FormatError(f"expected a {cls.TYPE} chunk here, found {c.type}",
+            # a RESI where the header says there is no residual layer: the writer's
+            # likely mistake is the flag, not the order (a clean-room encoder, stop 60)
+            hint = ("; RESI chunks belong only to a file whose MHDR flags bit 0 (the "
+                    "residual layer, §4.1) is set, and this one's is not"
+                    if c.type == "RESI" and not ctx.header.residual else "")
+            raise FormatError(f"expected a {cls.TYPE} chunk here, found {c.type}{hint}",
                               offset=c.offset, chunk=c.type, section="§3.4")
         return _checked(c, cls, ctx)
 
@@ -528,7 +533,8 @@ def _declared_range(s: Stream, q: IntArray) -> None:
                 s.root if i == 0 else s.resi[i] if s.residual else s.patt[i])
             raise FormatError(f"node {i}: decoded value {int(q[t, marker, a])} (frame {t}, "
                               f"marker {marker} {s.names[marker]!r}, axis {'xyz'[a]}) is "
-                              f"outside the declared range |q| < 2^{s.quant.bits}",
+                              f"outside the range |q| < 2^{s.quant.bits} that QUNT's "
+                              f"bits field ({s.quant.bits}) declares",
                               offset=c.offset, chunk=c.record.TYPE, section="§6.7")
 
 
