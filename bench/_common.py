@@ -5,6 +5,7 @@ import argparse
 from collections.abc import Callable
 import os
 from pathlib import Path
+import sys
 
 # Nothing of the mpz package is imported here: bench_rd, bench_encode and bench_decode are
 # run with an older version installed, to compare versions (README), and an import of a
@@ -123,6 +124,23 @@ def no_data_reason(folder: str = "", exts: tuple[str, ...] = RECORDING_EXTS) -> 
     if not any(p.suffix.lower() in exts for p in recordings(root, folder)):
         what = "/".join(e.lstrip(".").upper() for e in exts)
         return f"no {what} recording under {where}" + (f"/{folder}" if folder else "")
+    return None
+
+
+def cannot_run(bench: str) -> int | None:
+    """The exit status of a bench that needs the recordings and zstandard (the ``bench``
+    extra) when it cannot run, having said why: 0 with "skipped: ..." when the data
+    folder holds no recording, 1 when zstandard is missing; None when it can run."""
+    reason = no_data_reason()
+    if reason:
+        print(f"skipped: {reason}")
+        return 0
+    try:
+        import zstandard  # noqa: F401
+    except ImportError:
+        print(f"{bench}: zstandard is not installed; it is in the bench extra: "
+              "pip install -e '.[bench]'", file=sys.stderr)
+        return 1
     return None
 
 

@@ -42,7 +42,7 @@ import pstats
 import sys
 import time
 
-from _common import coded_float32, no_data_reason, positive_int, shared_data_dir, warm_up
+from _common import cannot_run, coded_float32, positive_int, shared_data_dir, warm_up
 from bench_speed import bound_kwargs, bound_label, files_of
 import mpz
 import mpz.io
@@ -171,16 +171,9 @@ def main(argv: list[str] | None = None) -> int:
                          "(default 9)")
     ap.add_argument("--json", help="write the rows here")
     args = ap.parse_args(argv)
-    reason = no_data_reason()
-    if reason:
-        print(f"skipped: {reason}")
-        return 0
-    try:
-        import zstandard  # noqa: F401
-    except ImportError:
-        print("bench_kernels: zstandard is not installed; it is in the bench extra: "
-              "pip install -e '.[bench]'", file=sys.stderr)
-        return 1
+    status = cannot_run("bench_kernels")
+    if status is not None:
+        return status
     rows = run(args)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))

@@ -75,10 +75,10 @@ import numpy as np
 
 from _common import (
     RECORDING_EXTS,
+    cannot_run,
     coded_float32,
     find_recording,
     is_bound_label,
-    no_data_reason,
     positive_int,
     shared_data_dir,
     shared_data_name,
@@ -376,16 +376,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="at least this many timed runs of each codec (default 3)")
     ap.add_argument("--json", help="write the rows here")
     args = ap.parse_args(argv)
-    reason = no_data_reason()
-    if reason:
-        print(f"skipped: {reason}")
-        return 0
-    try:
-        import zstandard  # noqa: F401
-    except ImportError:
-        print("bench_speed: zstandard is not installed; it is in the bench extra: "
-              "pip install -e '.[bench]'", file=sys.stderr)
-        return 1
+    status = cannot_run("bench_speed")
+    if status is not None:
+        return status
     try:
         rows, status = run(args)
     except PeerMissing as exc:
