@@ -266,21 +266,58 @@ def test_resi_without_the_residual_flag_names_the_flag(small):
     assert ei.value.section == "§3.4"
 
 
-def test_a_big_endian_chunk_length_is_named(small):
-    """A length written big-endian read as 'exceeds the bytes left (truncated?)', which
-    sent the writer after a cut file."""
-    b = bytearray(small)
-    pos = _chunk_at(small, b"MNAM")
-    length = struct.unpack_from("<I", b, pos + 4)[0]
-    struct.pack_into(">I", b, pos + 4, length)
-    with pytest.raises(MPZError, match=rf"big-endian: its bytes the other way round are "
-                                       rf"{length}\b"):
-        mpz.decode(bytes(b))
+def _chunks(data: bytes) -> list[tuple[bytes, int, int]]:
+    """(type, offset, payload length) of every chunk of a valid file."""
+    out, pos = [], len(SIGNATURE)
+    while pos < len(data):
+        length = struct.unpack_from("<I", data, pos + 4)[0]
+        out.append((data[pos:pos + 4], pos, length))
+        pos += 12 + length
+    return out
+
+
+def test_a_big_endian_chunk_length_is_named():
+    """A length written big-endian read as 'exceeds the bytes left (truncated?)', or, with
+    a low byte of 0x40 or more, as over the §8 limit, and sent the writer after a cut file
+    (a review of stop 60 found the limit's case without the hint). Every chunk of a file,
+    one at a time."""
+    data = mpz.encode(generate("walk", frames=60, seed=2), max_error=1.0,
+                      metadata={"subject": "s"})
+    seen = set()
+    for ctype, pos, length in _chunks(data):
+        if int.from_bytes(length.to_bytes(4, "little"), "big") == length:
+            continue                                  # a palindrome: nothing to tell
+        b = bytearray(data)
+        struct.pack_into(">I", b, pos + 4, length)
+        with pytest.raises(MPZError) as ei:
+            mpz.decode(bytes(b))
+        assert f"read big-endian, the length would be {length} and the chunk's CRC " \
+            "would match" in str(ei.value), (ctype, str(ei.value))
+        assert "truncated?" not in str(ei.value)
+        seen.add(ei.value.section)
+    assert {"§8", "§3.2"} <= seen                     # both framing errors were met
 
 
 def test_a_truncated_file_gets_no_byte_order_hint(small):
+    """Cut inside any chunk, a file is said to be cut; also where the cut chunk's length,
+    read the other way round, fits what is left (a 131,328-byte meta chunk cut 100,000
+    bytes in: 66,048 fits, and the hint was given before it checked the CRC)."""
+    for _, pos, length in _chunks(small):
+        with pytest.raises(MPZError) as ei:
+            mpz.decode(small[:pos + 8 + length // 2])
+        assert "big-endian" not in str(ei.value)
+    m = generate("walk", frames=30, markers=6, seed=1)
+
+    def with_meta(c: int) -> tuple[bytes, int, int]:
+        data = mpz.encode(m, max_error=1.0,
+                          metadata={"a": "x" * 65535, "b": "y" * 65535, "c": "z" * c})
+        _, pos, length = next(c for c in _chunks(data) if c[0] == b"meta")
+        return data, pos, length
+    _, _, length = with_meta(244)                    # then the encoder's own entries less
+    data, pos, length = with_meta(244 - (length - 131328))
+    assert length == 131328 and length & 0xFF == 0
     with pytest.raises(MPZError, match=r"truncated\?\)") as ei:
-        mpz.decode(small[:len(small) // 2])
+        mpz.decode(data[:pos + 8 + 100_000])
     assert "big-endian" not in str(ei.value)
 
 

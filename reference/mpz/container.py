@@ -67,15 +67,20 @@ def is_chunk_type(ctype: bytes) -> bool:
     return len(ctype) == 4 and all(65 <= b <= 90 or 97 <= b <= 122 for b in ctype)
 
 
-def _byte_order_hint(length: int, left: int) -> str:
-    """What to add to "chunk length exceeds the bytes left (truncated?)" when the length's
-    four bytes read the other way round would fit: a writer that put it big-endian (a
-    clean-room encoder's mistake, stop 60) was told only that the file looked cut."""
+def _byte_order_hint(data: bytes, pos: int, ctype: bytes, length: int) -> str:
+    """What to add to a framing or CRC error when the chunk at ``pos`` checks out with its
+    length's four bytes read the other way round (its CRC then matches, stored either
+    way): a writer that put the length big-endian (a clean-room encoder's mistake, stop 60)
+    was told that the file looked cut. Only error paths call it."""
     swapped = int.from_bytes(length.to_bytes(4, "little"), "big")
-    if swapped <= left:
-        return (f" or a length written big-endian: its bytes the other way round are "
-                f"{swapped}; lengths are little-endian")
-    return ""
+    if swapped == length or pos + 12 + swapped > len(data):
+        return ""
+    crc = crc32(ctype, memoryview(data)[pos + 8: pos + 8 + swapped])
+    tail = data[pos + 8 + swapped: pos + 12 + swapped]
+    if crc not in (int.from_bytes(tail, "little"), int.from_bytes(tail, "big")):
+        return ""
+    return (f"; read big-endian, the length would be {swapped} and the chunk's CRC would "
+            f"match: lengths are little-endian")
 
 
 def crc32(ctype: bytes, payload: bytes | memoryview) -> int:
@@ -157,14 +162,16 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True,
         # R-2.4-3, R-8-2
         if length > MAX_CHUNK_LENGTH:
             res.errors.append(LimitExceededError(
-                f"chunk length {length} exceeds the limit {MAX_CHUNK_LENGTH}",
+                f"chunk length {length} exceeds the limit {MAX_CHUNK_LENGTH}"
+                f"{_byte_order_hint(data, pos, ctype, length)}",
                 offset=pos, chunk=tname, section="§8"))
             return res
         # R-3.2-2
         if length > left - 12:
+            hint = _byte_order_hint(data, pos, ctype, length)
             res.errors.append(LimitExceededError(
-                f"chunk length {length} exceeds the {left - 12} byte(s) left in the file "
-                f"(truncated?{_byte_order_hint(length, left - 12)})",
+                f"chunk length {length} exceeds the {left - 12} byte(s) left in the file"
+                f"{hint or ' (truncated?)'}",
                 offset=pos, chunk=tname, section="§3.2"))
             return res
         stored = _parse.parse(ChunkCRC, data[pos + 8 + length: pos + 12 + length])
@@ -172,7 +179,8 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True,
         # R-2.3-3, R-3.3-1, R-3.3-2
         if computed != stored:
             res.errors.append(ChecksumError(
-                f"CRC-32 mismatch: computed 0x{computed:08x}, stored 0x{stored:08x}",
+                f"CRC-32 mismatch: computed 0x{computed:08x}, stored 0x{stored:08x}"
+                f"{_byte_order_hint(data, pos, ctype, length)}",
                 offset=pos, chunk=tname, section="§3.3"))
         known = tname in CHUNKS and CHUNKS[tname].MINOR <= minor  # R-2.3-5
         if not known and not tname[:1].isupper():
