@@ -931,7 +931,7 @@ def test_progress_moves_within_the_default_modes_one_node():
     assert data == mpz.encode(m, max_error=1.0)
     fractions = [f for f, _ in calls]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
-    assert [msg for _, msg in calls] == ["body: key frames", "body: coding key frames",
+    assert [msg for _, msg in calls] == ["body: key frames", "body: coding keys",
                                          "body: residuals", "body"]
     assert 0.0 < fractions[0] < fractions[1] < fractions[2] < 1.0
 
@@ -952,3 +952,22 @@ def test_progress_gives_each_node_its_share_of_the_markers():
     assert np.allclose(ends, want)
     starts = [f for f, msg in calls if msg.endswith(": patterns")]
     assert np.allclose(starts, [PLANNED, *want[:-1]])
+
+
+def test_progress_of_a_root_alone_ends_at_one():
+    """A one-marker motion's hierarchy is its root: no node above it, and the callback was
+    never called, so `mpz encode`'s bar stood at 'planning' (a review of stop 60)."""
+    from mpz.synth import generate
+    m = generate("walk", frames=50, markers=1, seed=4)
+    for options in ({"max_error": 1.0}, {"lossy": True}):
+        _, calls = _progress_calls(m, **options)
+        assert calls == [(1.0, "root")], options
+
+
+def test_progress_messages_fit_the_bar_with_the_cmu_node_names():
+    """The CLI bar shows 24 characters of the message; the stage words were cut off
+    behind the CMU hierarchy's node names ('l_upper_arm: coding key ')."""
+    from mpz.synth import generate
+    m = generate("walk", frames=60, seed=2)
+    _, calls = _progress_calls(m, max_error=1.0, hierarchy="cmu41", patterns="off")
+    assert calls and max(len(msg) for _, msg in calls) <= 24

@@ -1493,7 +1493,7 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
         fitted = keyframe.fit_members(y, grid.bounds[i] / (gk * grid.step), pool=pool)
         del y
         if stage is not None:
-            stage(FITTED, "coding key frames")
+            stage(FITTED, "coding keys")
 
         def targets(cols: IntArray | None = None) -> FloatArray:    # base 1's, a copy
             y = u_members(cols)
@@ -1784,8 +1784,9 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     progress : callable(fraction, message), optional
         Called on this thread as each node starts (the first at :data:`PLANNED`, once the
         hierarchy and the grid are planned) and ends, and within a node as its key
-        frames' fit and coding end; the fraction never decreases, and each node's share
-        of the rest is its share of the coded markers.
+        frames' fit and coding end; the fraction never decreases and ends at 1.0, and each
+        node's share of the rest is its share of the coded markers. A hierarchy of the
+        root alone (one marker) gets one call, at 1.0, once it is coded.
 
     Raises
     ------
@@ -1883,6 +1884,8 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
         if rooting is not None:
             root, root_q = rooting.result()
             qhat.add([root_marker], root_q[:, None, :])
+        if progress is not None and n_nodes == 1:      # the root alone: no node above
+            progress(1.0, hier.nodes[0].name)
         if grid.exact:                                   # issue 12: the promise of error 0
             exact.append(np.array_equal(*_exact_pair(root_q[:, None, :], motion,
                                                      [root_marker], grid)))
