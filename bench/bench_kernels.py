@@ -57,19 +57,21 @@ DEFAULT_FILES = ["trc/opensim_subject01_walk1", "amc/35_01", "amc/HDM_dg_06-03_0
 def kernel_sites() -> dict[tuple[str, str], str]:
     """Every numba dispatcher defined in the mpz package: (source file, function name) ->
     its dotted name. cProfile records a dispatcher's call under its Python function's file
-    and name, which is how :func:`kernel_times` finds them."""
+    and name, which is how :func:`kernel_times` finds them; dispatchers that share one
+    Python function (mpz.fisher's parallel and serial tables) cannot be told apart there,
+    and their site names both, "a / b"."""
     from numba.core.registry import CPUDispatcher
-    sites: dict[tuple[str, str], str] = {}
+    names: dict[tuple[str, str], list[str]] = {}
     for info in pkgutil.walk_packages(mpz.__path__, "mpz."):
-        if ".tools" in info.name or ".conformance" in info.name:
+        if info.name.startswith(("mpz.tools", "mpz.conformance")):
             continue                                    # no codec kernels there
         module = importlib.import_module(info.name)
         for name, obj in vars(module).items():
             if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == info.name:
                 code = obj.py_func.__code__
-                sites[(os.path.realpath(code.co_filename), code.co_name)] = \
-                    f"{info.name}.{name}"
-    return sites
+                names.setdefault((os.path.realpath(code.co_filename), code.co_name),
+                                 []).append(f"{info.name}.{name}")
+    return {site: " / ".join(sorted(n)) for site, n in names.items()}
 
 
 def kernel_times(stats: pstats.Stats, sites: dict[tuple[str, str], str]
@@ -123,7 +125,8 @@ def run(args) -> list[dict]:
     sites = kernel_sites()
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; ms, best of "
           f"{args.repeat} rounds (kernels: the least of the profiled one-thread encodes; "
-          f"{len(sites)} kernels found); bound {args.bound}")
+          f"{sum(len(v.split(' / ')) for v in sites.values())} kernels found); bound "
+          f"{args.bound}")
     print(f"{'file':<34} {'zstd/2':>7} {'x1':>7} {'x2':>7} {'kernels':>7} {'rest':>7}  "
           f"{'x1/2 over':>9} {'k/2 over':>8}  largest kernels")
     rows = []

@@ -30,23 +30,34 @@ def bench(request):
     return module
 
 
-def test_every_codec_kernel_is_found_and_nothing_else(bench):
+def test_every_codec_kernel_is_found(bench):
+    """Each numba dispatcher of the codec's modules, counted here by object, is named by a
+    site of the bench; two that share one Python function (mpz.fisher's parallel and
+    serial tables) share a site, which names both (a review of stop 60: one of the two
+    was dropped, 55 dispatchers and 54 sites)."""
+    import importlib
+    import pkgutil
+
     from numba.core.registry import CPUDispatcher
 
-    sites = bench.kernel_sites()
-    names = set(sites.values())
-    # the hot kernels of stops 54-59's profiles, named here independently of the walk
+    import mpz
+    found = {}
+    for info in pkgutil.walk_packages(mpz.__path__, "mpz."):
+        if info.name.startswith(("mpz.tools", "mpz.conformance")):
+            continue
+        module = importlib.import_module(info.name)
+        for name, obj in vars(module).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == info.name:
+                found[id(obj)] = f"{info.name}.{name}"
+    named = {n for label in bench.kernel_sites().values() for n in label.split(" / ")}
+    assert set(found.values()) == named
+    # the hot kernels of stops 54-59's profiles, named here independently of any walk
     for hot in ("mpz.keyframe._fit_range", "mpz.keyframe._best_references",
                 "mpz.entropy._encode_block", "mpz.quantize._choose",
                 "mpz.keyframe.chain_scores", "mpz.io.kinematics._forward",
-                "mpz.hierarchy.auto._distance_sums"):
-        assert hot in names, hot
-    for dotted in names:
-        module, _, attr = dotted.rpartition(".")
-        assert isinstance(getattr(__import__(module, fromlist=[attr]), attr), CPUDispatcher)
-    # a plain Python function of the same modules is not a kernel
-    assert "mpz.keyframe.fit_members" not in names
-    assert "mpz.encoder.encode_motion" not in names
+                "mpz.hierarchy.auto._distance_sums", "mpz.fisher._fisher_tables",
+                "mpz.fisher._fisher_tables_serial"):
+        assert hot in named, hot
 
 
 def test_kernel_times_count_a_profiled_encode(bench):
@@ -63,5 +74,6 @@ def test_kernel_times_count_a_profiled_encode(bench):
     times = bench.kernel_times(stats, bench.kernel_sites())
     assert times.get("mpz.keyframe._fit_range", 0.0) > 0.0
     assert times.get("mpz.entropy._encode_block", 0.0) > 0.0
-    total = stats.total_tt
-    assert 0.0 < sum(times.values()) < total
+    # kernels are most of a 240-frame encode's time; an attribution that matched a few
+    # calls only would fall far below that
+    assert sum(times.values()) > 0.2 * stats.total_tt
