@@ -19,8 +19,9 @@ reach 2x there; only less work can), and ``k/2 over``, its kernels alone (no cha
 Python around them can either; only kernels that search less, which changes the bytes).
 docs/speed.md, "Where it stands", reads the table.
 
-Times are the best of ``--repeat`` rounds, each round one call of zstd, of each encode and
-of the profiled encode, so that the host's drift moves all of them alike. cProfile adds a
+Times are the best of ``--repeat`` rounds or more (bench_speed.py's ``timed_together``:
+each round one call of zstd, of each encode and of the profiled encode, in turn, until
+each has had 0.3 s), so that the host's drift moves all of them alike. cProfile adds a
 little to each kernel call, not to its inside, so ``kernels`` is a fair floor and ``rest`` a
 fair upper estimate.
 
@@ -34,16 +35,14 @@ import cProfile
 from functools import partial
 import importlib
 import json
-import math
 import os
 from pathlib import Path
 import pkgutil
 import pstats
 import sys
-import time
 
 from _common import cannot_run, coded_float32, positive_int, shared_data_dir, warm_up
-from bench_speed import bound_kwargs, bound_label, files_of
+from bench_speed import bound_kwargs, bound_label, files_of, timed_together
 import mpz
 import mpz.io
 
@@ -54,12 +53,12 @@ DEFAULT_FILES = ["trc/opensim_subject01_walk1", "amc/35_01", "amc/HDM_dg_06-03_0
                  "c3d/HDM_dg_06-03_03_120"]
 
 
-def kernel_sites() -> dict[tuple[str, str], str]:
+def kernel_sites() -> dict[tuple[str, str], tuple[str, ...]]:
     """Every numba dispatcher defined in the mpz package: (source file, function name) ->
-    its dotted name. cProfile records a dispatcher's call under its Python function's file
-    and name, which is how :func:`kernel_times` finds them; dispatchers that share one
-    Python function (mpz.fisher's parallel and serial tables) cannot be told apart there,
-    and their site names both, "a / b"."""
+    the dotted names of the dispatchers there. cProfile records a dispatcher's call under
+    its Python function's file and name, which is how :func:`kernel_times` finds them;
+    dispatchers that share one Python function (mpz.fisher's parallel and serial tables)
+    cannot be told apart there, and share a site."""
     from numba.core.registry import CPUDispatcher
     names: dict[tuple[str, str], list[str]] = {}
     for info in pkgutil.walk_packages(mpz.__path__, "mpz."):
@@ -71,45 +70,29 @@ def kernel_sites() -> dict[tuple[str, str], str]:
                 code = obj.py_func.__code__
                 names.setdefault((os.path.realpath(code.co_filename), code.co_name),
                                  []).append(f"{info.name}.{name}")
-    return {site: " / ".join(sorted(n)) for site, n in names.items()}
+    return {site: tuple(sorted(n)) for site, n in names.items()}
 
 
-def kernel_times(stats: pstats.Stats, sites: dict[tuple[str, str], str]
+def kernel_times(stats: pstats.Stats, sites: dict[tuple[str, str], tuple[str, ...]]
                  ) -> dict[str, float]:
-    """Seconds inside each kernel of ``sites`` (cProfile's own time) in a profiled run."""
+    """Seconds inside each kernel of ``sites`` (cProfile's own time) in a profiled run,
+    by dotted name ("a / b" for a site that several dispatchers share)."""
     out: dict[str, float] = {}
     for (path, _line, func), (_cc, _nc, own, _cum, _callers) in stats.stats.items():
-        name = sites.get((os.path.realpath(path), func))
-        if name is not None:
+        names = sites.get((os.path.realpath(path), func))
+        if names is not None:
+            name = " / ".join(names)
             out[name] = out.get(name, 0.0) + own
     return out
 
 
-def profiled(fn, sites: dict[tuple[str, str], str]) -> dict[str, float]:
+def profiled(fn, sites: dict[tuple[str, str], tuple[str, ...]]) -> dict[str, float]:
     """Seconds inside each kernel during one call of ``fn``, profiled alone."""
     profile = cProfile.Profile()
     profile.enable()
     fn()
     profile.disable()
     return kernel_times(pstats.Stats(profile), sites)
-
-
-def rounds(fns: dict, kernel_run, sites: dict[tuple[str, str], str], repeat: int
-           ) -> tuple[dict[str, float], dict[str, float]]:
-    """Best wall seconds of each of ``fns``, and the kernel times of the profiled call of
-    ``kernel_run`` whose kernels took least: ``repeat`` rounds of one call of each (the
-    profiled one last), so that the host's drift moves all of them alike."""
-    best = dict.fromkeys(fns, math.inf)
-    least: dict[str, float] = {}
-    for _ in range(repeat):
-        for k, fn in fns.items():
-            t = time.perf_counter()
-            fn()
-            best[k] = min(best[k], time.perf_counter() - t)
-        times = profiled(kernel_run, sites)
-        if not least or sum(times.values()) < sum(least.values()):
-            least = times
-    return best, least
 
 
 def yes(flag: bool) -> str:
@@ -125,7 +108,7 @@ def run(args) -> list[dict]:
     sites = kernel_sites()
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; ms, best of "
           f"{args.repeat} rounds (kernels: the least of the profiled one-thread encodes; "
-          f"{sum(len(v.split(' / ')) for v in sites.values())} kernels found); bound "
+          f"{sum(len(names) for names in sites.values())} kernels found); bound "
           f"{args.bound}")
     print(f"{'file':<34} {'zstd/2':>7} {'x1':>7} {'x2':>7} {'kernels':>7} {'rest':>7}  "
           f"{'x1/2 over':>9} {'k/2 over':>8}  largest kernels")
@@ -137,23 +120,32 @@ def run(args) -> list[dict]:
         data = coded_float32(m)
         one = partial(mpz.encode, m, threads=1, **kw)
         one()
-        best, per = rounds({"zstd": partial(zc.compress, data), "x1": one,
-                            "x2": partial(mpz.encode, m, threads=2, **kw)}, one, sites,
-                           args.repeat)
-        kernels = sum(per.values())
-        budget = best["zstd"] / 2
-        top = sorted(per.items(), key=lambda kv: -kv[1])[:4]
+        per: dict[str, float] = {}
+
+        def profile_one(one=one) -> None:          # keeps the least of the profiled runs
+            nonlocal per
+            times = profiled(one, sites)
+            if not per or sum(times.values()) < sum(per.values()):
+                per = times
+        # bench_speed's rounds: the profiled encode in turn with zstd and the timed ones
+        best = {k: w for k, (w, _) in timed_together(
+            {"zstd": partial(zc.compress, data), "x1": one,
+             "x2": partial(mpz.encode, m, threads=2, **kw), "profiled": profile_one},
+            args.repeat).items()}
+        ms = {k: v * 1e3 for k, v in per.items()}
         row = {"file": path.name, "frames": m.n_frames, "markers": m.n_markers,
-               "bytes": len(data), "budget_ms": budget * 1e3, "x1_ms": best["x1"] * 1e3,
-               "x2_ms": best["x2"] * 1e3, "kernels_ms": kernels * 1e3,
-               "rest_ms": (best["x1"] - kernels) * 1e3,
-               "kernels_ms_by_name": {k: v * 1e3 for k, v in per.items()}}
+               "bytes": len(data), "budget_ms": best["zstd"] / 2 * 1e3,
+               "x1_ms": best["x1"] * 1e3, "x2_ms": best["x2"] * 1e3,
+               "kernels_ms": sum(ms.values()), "rest_ms": best["x1"] * 1e3 - sum(ms.values()),
+               "kernels_ms_by_name": ms}
         rows.append(row)
-        print(f"{path.name[:34]:<34} {budget * 1e3:>7.1f} {best['x1'] * 1e3:>7.1f} "
-              f"{best['x2'] * 1e3:>7.1f} {kernels * 1e3:>7.1f} "
-              f"{(best['x1'] - kernels) * 1e3:>7.1f}  {yes(best['x1'] / 2 > budget):>9} "
-              f"{yes(kernels / 2 > budget):>8}  "
-              + ", ".join(f"{k.rsplit('.', 1)[1]} {v * 1e3:.1f}" for k, v in top), flush=True)
+        top = sorted(ms.items(), key=lambda kv: -kv[1])[:4]
+        print(f"{path.name[:34]:<34} " + " ".join(
+              f"{row[k]:>7.1f}" for k in ("budget_ms", "x1_ms", "x2_ms", "kernels_ms",
+                                           "rest_ms"))
+              + f"  {yes(row['x1_ms'] / 2 > row['budget_ms']):>9} "
+              f"{yes(row['kernels_ms'] / 2 > row['budget_ms']):>8}  "
+              + ", ".join(f"{k.rsplit('.', 1)[1]} {v:.1f}" for k, v in top), flush=True)
     for what, key in (("the whole one-thread encode", "x1_ms"), ("its kernels alone",
                                                                    "kernels_ms")):
         over = [r["file"] for r in rows if r[key] / 2 > r["budget_ms"]]
@@ -170,8 +162,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bound", type=bound_label, default="1mm",
                     help="default, or a length in mm such as 1mm (default 1mm)")
     ap.add_argument("--repeat", type=positive_int, default=9,
-                    help="rounds of zstd, the two encodes and a profiled one-thread encode "
-                         "(default 9)")
+                    help="at least this many rounds of zstd, the two encodes and a profiled "
+                         "one-thread encode (default 9)")
     ap.add_argument("--json", help="write the rows here")
     args = ap.parse_args(argv)
     status = cannot_run("bench_kernels")

@@ -49,7 +49,7 @@ def test_every_codec_kernel_is_found(bench):
         for name, obj in vars(module).items():
             if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == info.name:
                 found[id(obj)] = f"{info.name}.{name}"
-    named = {n for label in bench.kernel_sites().values() for n in label.split(" / ")}
+    named = {n for names in bench.kernel_sites().values() for n in names}
     assert set(found.values()) == named
     # the hot kernels of stops 54-59's profiles, named here independently of any walk
     for hot in ("mpz.keyframe._fit_range", "mpz.keyframe._best_references",

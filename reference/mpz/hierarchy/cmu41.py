@@ -89,7 +89,7 @@ def cmu41_root(motion: Motion) -> int:
     :func:`_present_nodes` holds and which no later step changes. The encoder's default
     mode keeps only the root (issue 15.1: on HDM_mm the rest of the tree, each extra
     marker's mean distance to each node, took 14 ms of measurements made to be dropped)."""
-    return _first_present(list(_ROOTS), _matched(list(motion.names)))
+    return _first_present(_ROOTS, _matched(list(motion.names)))
 
 
 def _matched(names: list[str]) -> dict[str, int]:
@@ -132,7 +132,7 @@ def _present_nodes(tpl: dict[str, Any], idx: dict[str, int]) -> list[Node]:
     return nodes
 
 
-def _first_present(fallback: list[str], idx: dict[str, int]) -> int:
+def _first_present(fallback: Sequence[str], idx: dict[str, int]) -> int:
     """Index of the first present marker of the template's ``root_fallback`` list."""
     for name in fallback:
         if name in idx:
