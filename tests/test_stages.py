@@ -502,8 +502,14 @@ def test_member_tasks_keep_order_and_stop_on_an_error():
 
     from mpz.keyframe import _spread
     ranges = [(0, 2), (2, 4), (4, 5), (5, 9)]
-    with ThreadPoolExecutor(2) as pool:
-        assert _spread(pool, lambda lo, hi: (lo, hi), ranges) == ranges
+    for pool in (ThreadPoolExecutor(2), None):
+        done: list[tuple[int, int]] = []
+        me = threading.get_ident()
+        assert _spread(pool, lambda lo, hi: (lo, hi), ranges,
+                       lambda i, done=done: done.append((i, threading.get_ident()))) == ranges
+        assert done == [(1, me), (2, me), (3, me), (4, me)]     # in order, on this thread
+        if pool is not None:
+            pool.shutdown()
     ran: list[int] = []
     gate = threading.Event()
 
@@ -931,9 +937,47 @@ def test_progress_moves_within_the_default_modes_one_node():
     assert data == mpz.encode(m, max_error=1.0)
     fractions = [f for f, _ in calls]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
-    assert [msg for _, msg in calls] == ["body: key frames", "body: coding keys",
-                                         "body: residuals", "body"]
-    assert 0.0 < fractions[0] < fractions[1] < fractions[2] < 1.0
+    messages = [msg for _, msg in calls]
+    k = messages.count("body: references")     # the fit's tasks (test below)
+    assert k >= 1 and messages == (["body: key frames"] * (k + 1) + ["body: references"] * k
+                                   + ["body: coding keys", "body: residuals", "body"])
+    assert 0.0 < fractions[0] < fractions[k + 1] < fractions[-2] < 1.0
+
+
+def test_progress_moves_with_each_member_fitted_on_a_long_capture():
+    """Past keyframe.TASK_FRAMES frames each member is a fitting task of its own; the bar
+    stood at the node's start for the whole fit (9.6 s of a 30-minute capture's 15 s).
+    Now each task's fit, then its reference choice, is reported as its result is in hand:
+    on this thread, in member order, the fit's share of the node from FITTED * FIT_SHARE /
+    k to FITTED, with one thread or two and the same bytes."""
+    import threading
+
+    import mpz
+    from mpz import keyframe
+    from mpz.encoder import FITTED, PLANNED
+    from mpz.synth import generate
+    m = generate("walk", frames=keyframe.TASK_FRAMES + 200, markers=6, seed=3)
+    want = mpz.encode(m, max_error=2.0, threads=1)
+    from mpz.encoder import EncodeOptions, encode_motion
+    me = threading.get_ident()
+    for threads in (1, 2):
+        calls: list[tuple[float, str, int]] = []
+        data, _ = encode_motion(m, EncodeOptions(max_error=2.0, threads=threads),
+                                progress=lambda f, msg, calls=calls: calls.append(
+                                    (f, msg, threading.get_ident())))
+        assert data == want and {t for _, _, t in calls} == {me}
+        n = 5                                          # the markers below the root
+        fit = [f for f, msg, _ in calls if msg == "body: key frames"]
+        refs = [f for f, msg, _ in calls if msg == "body: references"]
+        assert len(fit) == n + 1 and len(refs) == n, calls       # the start, then each member
+        node = 1.0 - PLANNED                                      # the one node's share
+        assert fit[0] == pytest.approx(PLANNED)
+        assert np.allclose(fit[1:], PLANNED + node * FITTED * keyframe.FIT_SHARE
+                           * np.arange(1, n + 1) / n)
+        assert np.allclose(refs, PLANNED + node * FITTED * (
+            keyframe.FIT_SHARE + (1 - keyframe.FIT_SHARE) * np.arange(1, n + 1) / n))
+        fractions = [f for f, _, _ in calls]
+        assert fractions == sorted(fractions) and fractions[-1] == 1.0
 
 
 def test_progress_gives_each_node_its_share_of_the_markers():

@@ -1466,8 +1466,9 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
     which is what :func:`_bounded` picks from the two in turn. That holds both orders'
     arrays at once, where the sequential path keeps one (issue 11.11).
 
-    ``stage(fraction, message)``, when given, is told as the key frames' fit and coding
-    end (:data:`FITTED`, :data:`KEYS_CODED` of the node), on this thread.
+    ``stage(fraction, message)``, when given, is told on this thread as each task of the
+    key frames' fit ends (:func:`keyframe.fit_members`' progress, up to :data:`FITTED` of
+    the node) and as their coding ends (:data:`KEYS_CODED`).
     """
     g = grid.scale.get(i, 1)
     radius = grid.bounds[i] / (g * grid.step)
@@ -1490,7 +1491,9 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
         y = u_members()
         y /= gk
         T, n = y.shape[0], y.shape[1]
-        fitted = keyframe.fit_members(y, grid.bounds[i] / (gk * grid.step), pool=pool)
+        fitted = keyframe.fit_members(
+            y, grid.bounds[i] / (gk * grid.step), pool=pool,
+            progress=None if stage is None else lambda f, what: stage(FITTED * f, what))
         del y
         if stage is not None:
             stage(FITTED, "coding keys")
@@ -1783,8 +1786,10 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     opts : EncodeOptions
     progress : callable(fraction, message), optional
         Called on this thread as each node starts (the first at :data:`PLANNED`, once the
-        hierarchy and the grid are planned) and ends, and within a node as its key
-        frames' fit and coding end; the fraction never decreases and ends at 1.0, and each
+        hierarchy and the grid are planned) and ends, and within a node as each task of
+        its key frames' fit ends (the members in tasks of about
+        :data:`keyframe.TASK_FRAMES` frames, so one member a task on a long capture) and as
+        their coding ends; the fraction never decreases and ends at 1.0, and each
         node's share of the rest is its share of the coded markers. A hierarchy of the
         root alone (one marker) gets one call, at 1.0, once it is coded.
 
