@@ -1961,10 +1961,14 @@ def test_a_folder_that_cannot_be_listed_is_a_failure_not_silence(corpus, monkeyp
 def test_a_scheduler_lost_mid_run_is_one_error_and_keeps_what_finished(corpus):
     """The scheduler dying during a run gave Dask's FuturesCancelledError traceback and
     exit 1; now it is one EncoderError, and the files that finished are indexed."""
+    import dask
     from distributed import Client, LocalCluster
     src, out, _ = corpus
-    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
-                      dashboard_address=None) as cluster, \
+    # the cluster's own close, with its scheduler gone, waits for a connection to it
+    # (distributed.comm.timeouts.connect, 30 s by default): 30 of this test's 31 s
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}), \
+            LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
+                         dashboard_address=None) as cluster, \
             Client(cluster, timeout="3s") as client:
         def progress(done, total, r):
             if done == 1:
