@@ -1028,6 +1028,22 @@ def test_search_cli_on_a_small_corpus(corpus, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert code == 0 and doc["results"][0]["path"] == str(paths["walk"].resolve())
     assert "summary levels k = 4, 16" in doc["query"]["summary"]
+    # one whose summary chunk has the index's levels but keeps a marker valid in 5 % of
+    # its frames, which the index's summaries leave out: the chunk is another motion's
+    # summary (a CMU take's own .mpz with --summary ranked it 13th, a QA run of stop 61)
+    walk = read(paths["walk"])
+    F = walk.n_frames
+    extra = np.where((np.arange(F) % 20 == 0)[:, None], [[900.0, -400.0, 1500.0]], np.nan)
+    sparse = Motion(np.concatenate([walk.positions, extra[:, None, :]], axis=1),
+                    [*walk.names, "RBAC-1"], walk.rate, walk.units)
+    chunked = out / "sparse-marker.mpz"
+    chunked.write_bytes(mpz.encode(sparse, max_error=1.0, summary=LEVELS))
+    code = mpz_cli.main(["search", str(chunked), "--index", str(out), "--json", "-n", "1"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and doc["results"][0]["path"] == str(paths["walk"].resolve())
+    assert doc["results"][0]["distance"] < 0.05, doc["results"][0]
+    assert "its decoded motion" in doc["query"]["summary"]
+    assert "1 marker valid in fewer than 10% of its frames" in doc["query"]["summary"]
     code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(src)])
     assert code == 2 and "no such index" in capsys.readouterr().err
 

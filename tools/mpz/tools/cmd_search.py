@@ -1,14 +1,18 @@
 """``mpz search QUERY --index INDEX``: indexed files ranked by motion similarity.
 
 Contract: the index (``OUT/index.sqlite``, written by ``mpz encode -r FOLDER -o OUT/``) holds
-a Fisher summary and a descriptor per file (:mod:`mpz.similarity`); no motion is decoded.
+a Fisher summary and a descriptor per file (:mod:`mpz.similarity`); no indexed file is
+decoded.
 ``QUERY`` is
 
 * a capture file (C3D, TRC, BVH, AMC, NPY, CSV): it is read and summarised as the corpus
   summarised its files (same levels, same rule for long captures);
 * an ``.mpz`` file: if its ``meta`` chunk names a source (sha256) that the index holds,
-  that row's stored summary is the query; otherwise its ``smry`` chunk (``mpz encode
-  --summary``). Its motion is never decoded.
+  that row's stored summary is the query; otherwise its summary chunk (``mpz encode
+  --summary``), when it has the index's levels and summarises what the index's summaries
+  do (no marker valid in fewer than :data:`mpz.similarity.MIN_VALID_SHARE` of the frames,
+  which they leave out); otherwise its decoded motion, summarised as a capture's, and
+  the result says which.
 
 Files are ranked by the Euclidean distance of their standardised descriptors; ties go to
 a byte-identical source (marked ``=``), then to the output name. Each result names its
@@ -43,8 +47,8 @@ JSON_SCHEMA = "mpz-search/1"
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     p = sub.add_parser("search", help="rank the files of a corpus index by motion similarity",
                        description="Rank the files of a corpus index (OUT/index.sqlite from "
-                       "mpz encode -r) by motion similarity to QUERY, from their Fisher "
-                       "summaries; nothing is decoded.")
+                       "mpz encode -r) by motion similarity to QUERY, from their stored "
+                       "Fisher summaries; no indexed file is decoded.")
     p.add_argument("query", help="a capture file (.c3d, .trc, .bvh, .amc, .npy, .csv) or "
                    ".mpz, or - for standard input (its format found from its content)")
     p.add_argument("--index", required=True, metavar="INDEX",
@@ -198,17 +202,41 @@ def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...],
     frames = stream.header.frame_count
     need = {k for k in levels if k <= frames}
     have = set() if smry is None else {int(lv.k) for lv in smry.levels}
+    sparse = 0
     if smry is not None and smry.space == "positions" and need <= have:
-        return from_smry(smry), sha, "its summary chunk"
+        # the chunk summarises every marker; the index's summaries leave out those valid in
+        # fewer than MIN_VALID_SHARE of the frames: with one, the chunk is another motion's
+        # summary (a CMU take's own .mpz ranked it 13th, a QA run of stop 61)
+        sparse = _sparse_markers(stream)
+        if not sparse:
+            return from_smry(smry), sha, "its summary chunk"
     # its own levels are not the index's (ev_k would come from other k: its source ranked
     # second, a QA run), or it has none: the summary of its decoded motion, as a capture's
+    from mpz.similarity import MIN_VALID_SHARE
     from mpz.tools._common import read_mpz_input_bytes
     why = ("no summary chunk" if smry is None else
            "a summary of joint angles" if smry.space != "positions" else
+           f"a summary chunk that includes {sparse} marker{'' if sparse == 1 else 's'} "
+           f"valid in fewer than {MIN_VALID_SHARE:.0%} of its frames, which the index's "
+           f"summaries leave out" if sparse else
            f"summary levels k = {', '.join(map(str, sorted(have)))}, not the index's "
            f"{', '.join(map(str, sorted(need)))}")
     s = summarize(read_mpz_input_bytes(data, max_samples), levels)
     return s, sha, f"its decoded motion ({s.method}; the file holds {why})"
+
+
+def _sparse_markers(stream: Any) -> int:
+    """How many markers of an MPZ stream are valid in some but fewer than
+    :data:`mpz.similarity.MIN_VALID_SHARE` of its frames, from its validity mask alone."""
+    import numpy as np
+
+    from mpz.decoder import decode_mask
+    from mpz.similarity import MIN_VALID_SHARE
+    valid = decode_mask(stream)
+    if not valid.size:
+        return 0
+    share = valid.mean(axis=0)
+    return int(np.count_nonzero((share > 0) & (share < MIN_VALID_SHARE)))
 
 
 def run(args: argparse.Namespace) -> int:
