@@ -989,9 +989,71 @@ def test_fingerprint_ignores_per_file_metadata_and_new_defaults():
     assert fingerprint(EncodeOptions()) != base
 
 
+def test_an_index_locked_by_a_writer_is_said_so_not_called_damaged(corpus, capsys,
+                                                                   monkeypatch):
+    """Another program holding a write transaction on the index (an SQLite browser keeps
+    one open until its changes are saved) made a search read its half-written pages as
+    immutable and call the index damaged, with the advice to remove it (a QA run of stop
+    61). It is refused as locked; once the writer rolls back, the index reads whole."""
+    import sqlite3
+
+    from mpz import corpus as corpus_module
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    run_corpus(src, out)
+    monkeypatch.setattr(corpus_module, "LOCK_WAIT", 0.2)
+    writer = sqlite3.connect(out / INDEX_NAME, isolation_level=None)
+    try:
+        writer.execute("PRAGMA cache_size = 1")          # its changes spill into the file
+        writer.execute("BEGIN EXCLUSIVE")
+        writer.execute("DELETE FROM levels")
+        writer.execute("DELETE FROM files")
+        with pytest.raises(EncoderError, match="locked by another process") as exc:
+            open_index(out)
+        assert "damaged" not in str(exc.value) and "remove it" not in str(exc.value)
+        code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and "locked by another process" in err and "damaged" not in err
+        writer.execute("ROLLBACK")
+    finally:
+        writer.close()
+    with open_index(out) as ix:
+        assert len(ix.rows()) == 3
+
+
+def test_a_search_during_a_run_says_it_ranks_what_is_indexed_so_far(corpus, capsys):
+    """A search while a run writes the folder ranked the files indexed so far with no word
+    (a QA run of stop 61: 5, 9, 11 ... 24 candidates in turn). The run's lock, tried
+    without being taken, tells it: a note, and run_in_progress in --json."""
+    from mpz.corpus import _one_run, run_in_progress
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    run_corpus(src, out)
+    assert not run_in_progress(out)
+    with _one_run(str(out)):                          # what a run holds while it runs
+        assert run_in_progress(out)
+        code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out), "--json"])
+        got = capsys.readouterr()
+        doc = json.loads(got.out)
+        assert code == 0 and doc["run_in_progress"] is True
+        assert "a corpus run is writing this index now: the ranking is of the 3 files " \
+               "indexed so far" in got.err
+    assert not run_in_progress(out)                  # the lock file is gone with the run
+    code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out), "--json"])
+    got = capsys.readouterr()
+    assert code == 0 and json.loads(got.out)["run_in_progress"] is False
+    assert "writing this index" not in got.err
+
+
 def test_bad_index_is_a_clean_error(tmp_path):
     with pytest.raises(EncoderError, match="no such index"):
         open_index(tmp_path / "nothing.sqlite")
+    # a path that is there but is no file was "no such index" too (a QA run of stop 61)
+    fifo = tmp_path / "fifo.sqlite"
+    os.mkfifo(fifo)
+    for there in (fifo, Path(os.devnull)):
+        with pytest.raises(EncoderError, match="not a regular file"):
+            open_index(there)
     junk = tmp_path / "junk.sqlite"
     junk.write_bytes(b"this is no database" * 100)
     with pytest.raises(EncoderError, match="not an MPZ corpus index"):

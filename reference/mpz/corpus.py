@@ -937,6 +937,9 @@ class Index:
     def __init__(self, path: str | os.PathLike[str], *, create: bool = False) -> None:
         self.path = os.fspath(path)
         if not create and not os.path.isfile(self.path):
+            if os.path.exists(self.path):   # a device, a pipe: "no such index" (QA, stop 61)
+                raise EncoderError(f"{self.path}: not a regular file (an index is the file "
+                                   "OUT/index.sqlite that mpz encode -r FOLDER -o OUT/ writes)")
             raise EncoderError(f"{self.path}: no such index (encode a folder with "
                                "mpz encode -r FOLDER -o OUT/ to make OUT/index.sqlite)")
         self.create = create
@@ -1425,17 +1428,36 @@ class Index:
         return self.db.execute("SELECT path, reason FROM failures ORDER BY path").fetchall()
 
 
+#: seconds a reader of the index waits for another process's write transaction to end
+#: (sqlite3's busy timeout; a corpus run's commit of one file takes milliseconds)
+LOCK_WAIT = 5.0
+
+
+def _locked(exc: sqlite3.OperationalError) -> bool:
+    """Whether SQLite said the database is locked (another connection's transaction)."""
+    return (getattr(exc, "sqlite_errorname", "") in ("SQLITE_BUSY", "SQLITE_LOCKED")
+            or "database is locked" in str(exc))
+
+
 def _read_only(path: str) -> sqlite3.Connection:
     """``path`` opened for reading only: no write access is needed, to the file or its
     folder. An index left in WAL mode by a killed run needs a -shm file that such a reader
-    cannot make; it is then read as immutable (no other process may write it meanwhile,
-    and none does: a run would have changed the journal mode back)."""
+    cannot make; it is then read as immutable (a run would have changed the journal mode
+    back). An index that another process holds locked for writing for :data:`LOCK_WAIT`
+    seconds is refused as such: read as immutable, its half-written pages were reported
+    as damage, with the advice to remove it (a QA run of stop 61: a program that holds a
+    write transaction open, as SQLite browsers do until their changes are saved)."""
     uri = "file:" + urllib.parse.quote(os.fsencode(os.path.abspath(path))) + "?mode=ro"
-    db = sqlite3.connect(uri, uri=True)
+    db = sqlite3.connect(uri, uri=True, timeout=LOCK_WAIT)
     try:
         db.execute("SELECT count(*) FROM sqlite_master").fetchone()
-    except sqlite3.OperationalError:
+    except sqlite3.OperationalError as exc:
         db.close()
+        if _locked(exc):
+            raise EncoderError(f"{path}: the index is locked by another process writing it "
+                               f"(a corpus run into its folder, or a program holding a write "
+                               f"transaction open) and stayed locked for {LOCK_WAIT:g} s; "
+                               f"try again once it has finished or saved its changes") from None
         db = sqlite3.connect(uri + "&immutable=1", uri=True)
     return db
 
@@ -1758,6 +1780,29 @@ def _one_run(index_dir: str) -> Iterator[None]:
         with contextlib.suppress(OSError):
             os.unlink(path)
         os.close(fd)                                     # and with it the lock
+
+
+def run_in_progress(index_dir: str | os.PathLike[str]) -> bool:
+    """Whether a corpus run holds ``index_dir``'s lock (:func:`_one_run`) now: its index is
+    being written, so a reader sees the files indexed so far. Asked without writing (a
+    shared lock tried and given back at once); False where there is no ``fcntl``."""
+    try:
+        import fcntl
+    except ImportError:                                  # pragma: no cover - Windows
+        return False
+    try:
+        fd = os.open(os.path.join(index_dir, LOCK_NAME), os.O_RDONLY)
+    except OSError:                       # no lock file: no run since the last one ended
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:                       # a file system without locks: runs are not locked
+        return False
+    finally:
+        os.close(fd)                      # and with it a shared lock taken
+    return False
 
 
 def sweep_temporaries(outputs: Sequence[str], *, before: float | None = None) -> list[str]:

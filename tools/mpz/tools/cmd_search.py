@@ -240,7 +240,7 @@ def _sparse_markers(stream: Any) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mpz.corpus import open_index
+    from mpz.corpus import open_index, run_in_progress
     from mpz.similarity import descriptor, features_for, rank
     from mpz.tools._cli import print_json, printable
 
@@ -255,6 +255,9 @@ def run(args: argparse.Namespace) -> int:
             for v in values:
                 v["_summary"] = by_out[v["output"]]
         index_path = index.path
+    # a run writing the folder now: the ranking is of the files indexed so far (a QA run
+    # of stop 61 ranked 5, 9, 11 ... 24 candidates in turn, with no word)
+    writing = run_in_progress(os.path.dirname(os.path.abspath(index_path)))
     if not values:
         raise EncoderError("the index holds no files", path=index_path)
     notes: list[str] = []
@@ -267,6 +270,9 @@ def run(args: argparse.Namespace) -> int:
     except MPZError as exc:                # a summary chunk of no pose: the query's
         exc.path = exc.path or args.query
         raise
+    if writing:
+        notes.append(f"a corpus run is writing this index now: the ranking is of the "
+                     f"{len(values)} file{'s' * (len(values) != 1)} indexed so far")
     for note in notes:
         print(f"mpz search: note: {printable(note)}", file=sys.stderr)
     for warning in warned:          # -q too: it is no success (exit 1)
@@ -295,7 +301,7 @@ def run(args: argparse.Namespace) -> int:
         print_json({"schema": JSON_SCHEMA, "index": index_path, "query": query,
                     "features": list(features_for(levels)),
                     "descriptor": [float(v) for v in q], "candidates": len(values),
-                    "not_searchable": left_out,
+                    "not_searchable": left_out, "run_in_progress": writing,
                     "results": results})
         _say_missing(results, gone)         # exit 1 said nothing on stderr (a JSON audit)
         return code
