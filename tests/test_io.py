@@ -736,6 +736,18 @@ def test_unknown_extension(tmp_path):
         write(synthetic(), tmp_path / "a.bvh")
 
 
+def test_an_asf_read_as_a_motion_is_told_it_is_a_skeleton(tmp_path):
+    """An AMC's skeleton given where its motion goes (mpz search 35.asf, mpz encode 35.asf)
+    was an 'unknown file extension' whose list of formats names .amc, with no word that
+    the ASF belongs to one (a QA run of stop 61)."""
+    p = tmp_path / "35.asf"
+    p.write_text(":version 1.10\n:name VICON\n:units\n  mass 1.0\n")
+    with pytest.raises(InputFormatError, match="an ASF file is the skeleton of AMC motions, "
+                       "not a motion: read an .amc") as ei:
+        read(p)
+    assert ei.value.path == str(p)
+
+
 @pytest.mark.parametrize("ext", [".c3d", ".trc", ".bvh", ".amc", ".npy", ".csv"])
 def test_missing_file(tmp_path, ext):
     with pytest.raises(InputFormatError, match="no such file"):

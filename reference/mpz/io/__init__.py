@@ -368,6 +368,10 @@ def _format_of_content(path: StrPath, head: bytes, ext: str) -> str:
         raise InputFormatError(
             "an MPZ file, not a motion file: mpz.decode reads it (mpz encode re-encodes "
             "one .mpz given alone, within the bounds of both encodes)", path=os.fspath(path))
+    if found not in READERS and ext == ".asf":   # the skeleton given for its motion (QA)
+        raise InputFormatError(
+            "an ASF file is the skeleton of AMC motions, not a motion: read an .amc (its "
+            "ASF is found beside it, or given with --asf / asf=)", path=os.fspath(path))
     if found not in READERS:
         raise InputFormatError(
             f"unknown file extension {ext or '(none)'!r} and no known format in the "
