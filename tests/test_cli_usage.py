@@ -79,6 +79,33 @@ def inputs(tmp_path_factory: pytest.TempPathFactory, two_joint_bvh: str) -> dict
     return out
 
 
+def test_summary_refuses_options_that_do_nothing_for_its_input(
+        inputs: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """mpz summary refused --rate where it did nothing but ignored --asf, --no-decode and
+    --max-samples there (exit 0; a QA run of stop 61); mpz search refuses them. Each is
+    an error naming the option; where it applies, it works."""
+    from mpz.tools import mpz_cli
+    asf = inputs["bvh"].with_suffix(".asf")        # only named: refused before reading
+    refused = [
+        ([str(inputs["c3d"]), "--asf", str(asf)], "--asf: the skeleton of .amc input; this "
+                                                   "input is .c3d"),
+        ([str(inputs["mpz"]), "--asf", str(asf)], "--asf: an .mpz file holds its own"),
+        ([str(inputs["trc"]), "--no-decode"], "--no-decode is for .mpz input"),
+        ([str(inputs["csv"]), "--max-samples", "100000"], "--max-samples 100000: a limit on "
+                                                          "decoding .mpz input"),
+        ([str(inputs["mpz"]), "--rate", "50"], "--rate 50: an .mpz file stores its rate")]
+    for argv, said in refused:
+        code = mpz_cli.main(["summary", *argv, "--k", "3"])
+        err = capsys.readouterr().err
+        assert code == 2 and said in err, (argv, err)
+    summarised = tmp_path / "summarised.mpz"
+    summarised.write_bytes(mpz.encode(read(inputs["trc"]), max_error=1.0, summary=(3,)))
+    for argv in ([str(summarised), "--no-decode"], [str(inputs["mpz"]), "--max-samples",
+                                                    "100000"]):
+        assert mpz_cli.main(["summary", *argv, "--k", "3"]) == 0, capsys.readouterr().err
+    capsys.readouterr()
+
+
 # -- 1. pipes ------------------------------------------------------------------------------
 
 def test_encode_to_stdout_through_a_real_pipe_into_decode(inputs: dict[str, Path],
@@ -658,7 +685,13 @@ def test_encode_reports_the_summary_chunk_and_summary_shows_units(inputs: dict[s
     text = p.stdout.decode()
     assert "RMS per frame" in text
     rms_line = [ln for ln in text.splitlines() if "RMS per frame" in ln][0]
-    assert rms_line.rstrip().endswith(" mm")
+    # every marker of a pose together, then one marker's: per frame / sqrt(markers)
+    got = re.search(r"RMS per frame ([\d.e+-]+) mm \(all (\d+) markers; per marker "
+                    r"([\d.e+-]+) mm\)$", rms_line.rstrip())
+    assert got, rms_line
+    frame, markers, marker = float(got[1]), int(got[2]), float(got[3])
+    assert markers == read(inputs["c3d"]).n_markers
+    assert marker == pytest.approx(frame / math.sqrt(markers), rel=2e-3)
     rows = [ln.split() for ln in text.splitlines() if ln.strip()[:1].isdigit()]
     shares = [float(r[-1]) for r in rows]
     assert rows and all(math.isfinite(s) for s in shares)   # the WSSSE % column is filled

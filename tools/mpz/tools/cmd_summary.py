@@ -86,14 +86,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="the frame rate of an input that stores none (AMC: 120 Hz is "
                    "assumed, NPY: 1 Hz), e.g. --rate 120; an error for one that has one")
     p.add_argument("--asf", metavar="FILE",
-                   help="skeleton for .amc input (default: found beside it)")
+                   help="skeleton for .amc input (default: found beside it); an error "
+                   "for any other input")
     p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs matplotlib)")
     p.add_argument("-f", "--force", action="store_true", help="replace the --plot file if it "
                    "exists")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.add_argument("--no-decode", action="store_true",
                    help=".mpz input: do not decode the motion (the WSSSE %% column stays "
-                   "empty)")
+                   "empty); an error for any other input")
     from mpz.tools._cli import max_samples, max_samples_help
     p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
                    help=max_samples_help("decoding and segmenting need about 130 bytes per "
@@ -322,7 +323,8 @@ def _segments(level, rate):
 
 def _print_text(info, levels, out):
     rate = info["rate"]
-    head = f"{printable(info['file'])}: {info['n_frames']} frames"
+    n = info["n_frames"]
+    head = f"{printable(info['file'])}: {n} frame{'' if n == 1 else 's'}"
     if rate:
         head += f" at {rate:g} Hz ({info['n_frames'] / rate:.2f} s)"
     if info["dims"]:
@@ -340,6 +342,13 @@ def _print_text(info, levels, out):
             sq = f"{unit}\u00b2" if unit else ""
             line += f"  WSSSE {w:.6g}{sq}  sqrt {math.sqrt(w):.6g}{unit}"
             line += f"  RMS per frame {math.sqrt(w / info['n_frames']):.4g}{unit}"
+            # that is every coordinate of a pose together: a QA run read it as one
+            # marker's (454.5 mm on a 41-marker take whose markers' RMS is 71 mm)
+            each = ("marker", info["dims"] // 3) if info.get("space") == "positions" \
+                else ("channel", info["dims"])
+            if each[1] > 1:
+                line += (f" (all {each[1]} {each[0]}s; per {each[0]} "
+                         f"{math.sqrt(w / (info['n_frames'] * each[1])):.4g}{unit})")
         print(line, file=out)
         print(f"{'seg':>5} {'start':>7} {'time s':>9} {'frames':>7} {'WSSSE %':>8}", file=out)
         for s in _segments(lv, rate):
@@ -514,6 +523,29 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
 
 
 # -- entry points --------------------------------------------------------------------------
+def _check_applies(args, fmt: str | None) -> None:
+    """Refuse an option that does nothing for this input (format ``fmt``, an extension):
+    --asf, --no-decode and --max-samples were ignored where --rate was refused (a QA run
+    of stop 61), as mpz search refuses them."""
+    from mpz.io import READERS
+    if fmt == ".mpz":
+        if args.rate is not None:
+            raise _Fail(f"--rate {args.rate:g}: an .mpz file stores its rate; --rate is "
+                        "for inputs without one (AMC, NPY)")
+        if args.asf is not None:
+            raise _Fail("--asf: an .mpz file holds its own skeleton; --asf is for .amc "
+                        "input")
+        return
+    if args.no_decode:
+        raise _Fail("--no-decode is for .mpz input, whose stored summary it shows; a "
+                    "motion file is segmented as it is read")
+    if args.max_samples is not None:
+        raise _Fail(f"--max-samples {args.max_samples}: a limit on decoding .mpz input "
+                    "(spec §8); a motion file's readers have their own limits")
+    if args.asf is not None and fmt in READERS and fmt != ".amc":
+        raise _Fail(f"--asf: the skeleton of .amc input; this input is {fmt}")
+
+
 def run(args) -> int:
     if args.plot:  # a bad plot path, or no matplotlib, fails before the work
         from mpz.tools._common import check_plot
@@ -528,10 +560,9 @@ def run(args) -> int:
         if args.file != "-" and not path.is_file():
             what = "no such file" if not path.exists() else "not a regular file"
             raise _Fail(f"{printable(args.file)}: {what}")
-        if (args.stdin_format if args.file == "-" else path.suffix.lower()) == ".mpz":
-            if args.rate is not None:
-                raise _Fail(f"--rate {args.rate:g}: an .mpz file stores its rate; --rate is "
-                            "for inputs without one (AMC, NPY)")
+        fmt = args.stdin_format if args.file == "-" else path.suffix.lower()
+        _check_applies(args, fmt)
+        if fmt == ".mpz":
             info, levels, poses, parents, warnings = _levels_from_mpz(args, args.k)
         else:
             ks = args.k if args.k is not None else _ks(DEFAULT_KS)
