@@ -127,6 +127,27 @@ def show(rows: list[dict], first: str) -> None:
             print(f"         FAILED {src}: {why}")
 
 
+def _class_scores(rel: list[str], ranked: dict[str, list[str]], n: int) -> dict | None:
+    """R-precision and mean average precision of the class ``rel`` (its members' ranked
+    lists of the other ``n - 1`` files in ``ranked``), and the chance level; None when the
+    class has fewer than two members."""
+    r = len(rel) - 1
+    if r < 1:
+        return None
+    precisions, aps = [], []
+    for q in rel:
+        hits = [o in rel for o in ranked[q]]
+        precisions.append(sum(hits[:r]) / r)
+        found, ap = 0, 0.0
+        for k, h in enumerate(hits, 1):
+            if h:
+                found += 1
+                ap += found / k
+        aps.append(ap / r)
+    return {"files": len(rel), "r_precision": float(np.mean(precisions)),
+            "map": float(np.mean(aps)), "chance": r / (n - 1)}
+
+
 def search_quality(out: Path, data: Path) -> dict:
     """Self-retrieval and precision from the index's stored descriptors (no decoding)."""
     with open_index(out) as ix:
@@ -141,23 +162,9 @@ def search_quality(out: Path, data: Path) -> dict:
         result["self_first"] += int(order[0] == i)
         ranked[n] = [names[j] for j in order if j != i]
     for c, members in CLASSES.items():
-        rel = [m for m in members if m in names]
-        r = len(rel) - 1
-        if r < 1:                  # fewer than two of the class in this data folder
-            continue
-        precisions, aps = [], []
-        for q in rel:
-            others = ranked[q]
-            hits = [o in rel for o in others]
-            precisions.append(sum(hits[:r]) / r)
-            found, ap = 0, 0.0
-            for k, h in enumerate(hits, 1):
-                if h:
-                    found += 1
-                    ap += found / k
-            aps.append(ap / r)
-        result["classes"][c] = {"files": len(rel), "r_precision": float(np.mean(precisions)),
-                                "map": float(np.mean(aps)), "chance": r / (len(names) - 1)}
+        scores = _class_scores([m for m in members if m in names], ranked, len(names))
+        if scores is not None:     # None: fewer than two of the class in this data folder
+            result["classes"][c] = scores
     # the walk class with the Eb015 triplet counted once (vr, sr left out of the candidates)
     drop = {"c3d/c3dorg_Eb015vr.c3d", "c3d/c3dorg_Eb015sr.c3d"}
     rel = [m for m in CLASSES["walk"] if m not in drop and m in names]
@@ -169,6 +176,15 @@ def search_quality(out: Path, data: Path) -> dict:
         result["classes"]["walk (Eb015 once)"] = {
             "files": len(rel), "r_precision": float(np.mean(ps)), "map": None,
             "chance": (len(rel) - 1) / (len(names) - 3)}
+    # every class counted in distinct takes: the second encoding of each take of SAME_TAKE
+    # (CMU 02_01's AMC, HDM's AMC, Eb015 vr and sr) is neither a query nor a candidate, so
+    # that a take does not find its own other encoding as a hit (a QA run of stop 61)
+    again = {b for _, b in SAME_TAKE}
+    distinct = {n: [o for o in ranked[n] if o not in again] for n in names if n not in again}
+    for c, members in CLASSES.items():
+        scores = _class_scores([m for m in members if m in distinct], distinct, len(distinct))
+        if scores is not None:
+            result["classes"][f"{c} (distinct takes)"] = scores
     for a, b in SAME_TAKE:
         if a not in ranked or b not in ranked:
             continue
@@ -295,10 +311,10 @@ def search(report: dict, index: Path, data: Path) -> None:
     report["search"] = q
     print(f"self-retrieval: {q['self_first']}/{q['files']} captures rank their own file "
           "first")
-    print(f"{'class':<20} {'files':>5} {'R-prec':>7} {'MAP':>6} {'chance':>7}")
+    print(f"{'class':<24} {'files':>5} {'R-prec':>7} {'MAP':>6} {'chance':>7}")
     for c, v in q["classes"].items():
         mp = "-" if v["map"] is None else f"{v['map']:.2f}"
-        print(f"{c:<20} {v['files']:>5} {v['r_precision']:>7.2f} {mp:>6} "
+        print(f"{c:<24} {v['files']:>5} {v['r_precision']:>7.2f} {mp:>6} "
               f"{v['chance']:>7.2f}")
     print("same take, rank of the other encoding among the other files (1 = nearest):")
     for s in q["same_take"]:
