@@ -86,9 +86,13 @@ def test_summary_refuses_options_that_do_nothing_for_its_input(
     an error naming the option; where it applies, it works."""
     from mpz.tools import mpz_cli
     asf = inputs["bvh"].with_suffix(".asf")        # only named: refused before reading
+    renamed = tmp_path / "walk.dat"                # a C3D known by its content alone
+    renamed.write_bytes(inputs["c3d"].read_bytes())
     refused = [
         ([str(inputs["c3d"]), "--asf", str(asf)], "--asf: the skeleton of .amc input; this "
-                                                   "input is .c3d"),
+                                                   "input is C3D"),
+        ([str(renamed), "--asf", str(asf)], "--asf: the skeleton of .amc input; this input "
+                                            "is C3D"),
         ([str(inputs["mpz"]), "--asf", str(asf)], "--asf: an .mpz file holds its own"),
         ([str(inputs["trc"]), "--no-decode"], "--no-decode is for .mpz input"),
         ([str(inputs["csv"]), "--max-samples", "100000"], "--max-samples 100000: a limit on "

@@ -998,6 +998,34 @@ def test_progress_gives_each_node_its_share_of_the_markers():
     assert np.allclose(starts, [PLANNED, *want[:-1]])
 
 
+def test_a_progress_callback_that_raises_inside_the_fit_leaves_no_thread():
+    """The fit's progress is called between its tasks, while the pool's threads fit
+    others: a callback that raises there (a bar whose terminal went away, Ctrl-C) must
+    reach the caller, and the encode must leave no pool thread behind."""
+    import threading
+    import time
+
+    from mpz import keyframe
+    from mpz.encoder import EncodeOptions, encode_motion
+    from mpz.synth import generate
+    m = generate("walk", frames=keyframe.TASK_FRAMES + 200, markers=6, seed=3)
+    before = threading.active_count()
+    for stop in (RuntimeError, KeyboardInterrupt):
+        calls = []
+
+        def bar(f, msg, stop=stop, calls=calls):
+            calls.append(msg)
+            if calls.count("body: key frames") == 3:        # within the fit's tasks
+                raise stop("the bar went away")
+        with pytest.raises(stop, match="the bar went away"):
+            encode_motion(m, EncodeOptions(max_error=2.0, threads=2), progress=bar)
+        for _ in range(100):                                # the pool's shutdown
+            if threading.active_count() <= before:
+                break
+            time.sleep(0.05)
+        assert threading.active_count() <= before, threading.enumerate()
+
+
 def test_progress_of_a_root_alone_ends_at_one():
     """A one-marker motion's hierarchy is its root: no node above it, and the callback was
     never called, so `mpz encode`'s bar stood at 'planning' (a review of stop 60)."""

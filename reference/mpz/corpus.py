@@ -59,6 +59,7 @@ from pathlib import Path
 import re
 import signal
 import sqlite3
+import stat
 import threading
 import time
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
@@ -92,7 +93,7 @@ __all__ = ["INDEX_NAME", "NO_SUMMARY", "SCHEMA", "META_FINGERPRINT", "META_SHA25
            "Index", "IndexRow", "encode_corpus", "encode_file", "fingerprint", "output_problem",
            "row_digest",
            "mirror_jobs", "open_index", "sha256_file", "sweep_temporaries",
-           "DEFAULT_MEMORY_LIMIT"]
+           "run_in_progress", "DEFAULT_MEMORY_LIMIT", "LOCK_WAIT"]
 
 #: the index's file name inside the output folder
 INDEX_NAME = "index.sqlite"
@@ -1428,6 +1429,9 @@ class Index:
         return self.db.execute("SELECT path, reason FROM failures ORDER BY path").fetchall()
 
 
+#: seconds a run starting waits for its lock while it is held in shared mode: a search's
+#: probe (:func:`run_in_progress`) holds it for microseconds
+PROBE_WAIT = 1.0
 #: seconds a reader of the index waits for another process's write transaction to end
 #: (sqlite3's busy timeout; a corpus run's commit of one file takes milliseconds)
 LOCK_WAIT = 5.0
@@ -1453,12 +1457,38 @@ def _read_only(path: str) -> sqlite3.Connection:
         db.execute("SELECT count(*) FROM sqlite_master").fetchone()
     except sqlite3.OperationalError as exc:
         db.close()
+        if getattr(exc, "sqlite_errorname", "") == "SQLITE_READONLY_ROLLBACK":
+            return _rolled_back(path, uri)
         if _locked(exc):
             raise EncoderError(f"{path}: the index is locked by another process writing it "
                                f"(a corpus run into its folder, or a program holding a write "
                                f"transaction open) and stayed locked for {LOCK_WAIT:g} s; "
                                f"try again once it has finished or saved its changes") from None
         db = sqlite3.connect(uri + "&immutable=1", uri=True)
+    return db
+
+
+def _rolled_back(path: str, uri: str) -> sqlite3.Connection:
+    """The index at ``path`` read-only, after the rollback of the journal that a writer
+    killed mid-transaction left beside it (a "hot" journal, ``index.sqlite-journal``).
+    A read-only connection cannot roll it back: read as immutable, the half-written pages
+    were reported as damage, with the advice to remove the index (a review of stop 61).
+    One read-write connection does what any SQLite reader with write access does on
+    opening; without write access, the error says what to do."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not (os.access(path, os.W_OK) and os.access(folder, os.W_OK)):
+        raise EncoderError(f"{path}: a program writing the index was stopped in the middle "
+                           f"of a change and left its journal ({os.path.basename(path)}"
+                           f"-journal), which a reader without write access to the folder "
+                           f"cannot roll back; open it once with write access (any mpz "
+                           f"encode -r into the folder, or sqlite3) and search again")
+    rw = sqlite3.connect(path, timeout=LOCK_WAIT)
+    try:
+        rw.execute("SELECT count(*) FROM sqlite_master").fetchone()     # rolls it back
+    finally:
+        rw.close()
+    db = sqlite3.connect(uri, uri=True, timeout=LOCK_WAIT)
+    db.execute("SELECT count(*) FROM sqlite_master").fetchone()
     return db
 
 
@@ -1756,13 +1786,21 @@ def _one_run(index_dir: str) -> Iterator[None]:
             raise EncoderError(f"cannot write in {index_dir}: {exc.strerror} "
                                f"({LOCK_NAME}, the run's lock, is the first file a run "
                                "makes there)") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            os.close(fd)
-            raise EncoderError(
-                f"another corpus run is writing {index_dir} (it holds {path}); wait for "
-                "it to finish, or write to another folder") from None
+        # a search's probe (run_in_progress) holds a shared lock for an instant: a run
+        # starting then was refused as if another run held it (a review of stop 61)
+        deadline = time.monotonic() + PROBE_WAIT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() < deadline:
+                    time.sleep(0.01)
+                    continue
+                os.close(fd)
+                raise EncoderError(
+                    f"another corpus run is writing {index_dir} (it holds {path}); wait "
+                    "for it to finish, or write to another folder") from None
         here = os.fstat(fd)
         try:
             there = os.stat(path)
@@ -1782,24 +1820,34 @@ def _one_run(index_dir: str) -> Iterator[None]:
         os.close(fd)                                     # and with it the lock
 
 
-def run_in_progress(index_dir: str | os.PathLike[str]) -> bool:
+def run_in_progress(index_dir: str | os.PathLike[str]) -> bool | None:
     """Whether a corpus run holds ``index_dir``'s lock (:func:`_one_run`) now: its index is
-    being written, so a reader sees the files indexed so far. Asked without writing (a
-    shared lock tried and given back at once); False where there is no ``fcntl``."""
+    being written, so a reader sees the files indexed so far. None when it cannot be told:
+    a lock file this process may not open (another user's run), one that is not a regular
+    file, a file system without locks, or no ``fcntl`` (Windows).
+
+    Asked without writing: a shared lock tried and given back at once (a run starting in
+    that instant waits :data:`PROBE_WAIT` for it); the file is opened without blocking and
+    without following a link (a FIFO there hung the search: a review of stop 61)."""
     try:
         import fcntl
     except ImportError:                                  # pragma: no cover - Windows
-        return False
+        return None
+    path = os.path.join(os.path.realpath(index_dir), LOCK_NAME)
     try:
-        fd = os.open(os.path.join(index_dir, LOCK_NAME), os.O_RDONLY)
-    except OSError:                       # no lock file: no run since the last one ended
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0))
+    except FileNotFoundError:             # no lock file: no run since the last one ended
         return False
+    except OSError:                       # not ours to open, a link: cannot be told
+        return None
     try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return None
         fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
     except BlockingIOError:
         return True
-    except OSError:                       # a file system without locks: runs are not locked
-        return False
+    except OSError:                       # a file system without locks
+        return None
     finally:
         os.close(fd)                      # and with it a shared lock taken
     return False

@@ -56,7 +56,7 @@ if TYPE_CHECKING:
 __all__ = ["SUMMARY_LEVELS", "EXACT_MAX_FRAMES", "FEATURES", "DESCRIPTOR_VERSION", "Level",
            "MotionSummary", "NotDescribable", "summarize", "from_stored", "from_smry",
            "descriptor", "rank", "features_for", "MIN_VALID_SHARE", "MIN_FRAMES",
-           "MIN_MARKERS", "MIN_SPEED"]
+           "MIN_MARKERS", "MIN_SPEED", "described_markers"]
 
 #: segment counts of the stored summary (those of ``mpz summary``'s default)
 SUMMARY_LEVELS: tuple[int, ...] = (6, 12, 24, 48)
@@ -180,6 +180,15 @@ def summarize(motion: Motion, levels: Sequence[int] = SUMMARY_LEVELS, *,
                          "exact" if b == 1 else f"blocks:{b}", out)
 
 
+def described_markers(valid: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The markers a summary describes, of a validity mask ``valid[F, M]``: those valid
+    in at least :data:`MIN_VALID_SHARE` of the frames (none of a motion of no frames)."""
+    valid = np.asarray(valid, bool)
+    if not valid.size:
+        return np.zeros(valid.shape[1] if valid.ndim == 2 else 0, bool)
+    return valid.mean(axis=0) >= MIN_VALID_SHARE
+
+
 def _without_sparse_markers(motion: Motion) -> Motion:
     """``motion`` with the markers valid in fewer than :data:`MIN_VALID_SHARE` of its frames
     made gaps throughout (the same object when there are none).
@@ -195,8 +204,8 @@ def _without_sparse_markers(motion: Motion) -> Motion:
         raise NotDescribable(f"too short to describe: {frames} frame{'' if frames == 1 else 's'}"
                              f" (a motion needs at least {MIN_FRAMES})")
     valid = np.asarray(motion.valid, bool)
+    keep = described_markers(valid)
     share = valid.mean(axis=0) if valid.size else np.zeros(motion.n_markers)
-    keep = share >= MIN_VALID_SHARE
     if int(keep.sum()) < MIN_MARKERS:
         seen = int((share > 0).sum())
         what = ("no valid marker sample" if not seen else

@@ -63,9 +63,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                    "assumed, NPY: 1 Hz), e.g. --rate 120; an error for a query that has one")
     from mpz.tools._cli import max_samples, max_samples_help
     p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
-                   help=max_samples_help("an .mpz query whose summary chunk is not the "
-                                         "index's levels is decoded and segmented, about "
-                                         "130 bytes per marker-frame") + "; .mpz query only")
+                   help=max_samples_help("an .mpz query whose summary chunk cannot serve "
+                                         "(other levels, a marker the index leaves out) is "
+                                         "decoded and segmented, about 130 bytes per "
+                                         "marker-frame") + "; .mpz query only, an error "
+                   "for any other")
     p.add_argument("--json", action="store_true", help="print JSON (schema mpz-search/1)")
     p.set_defaults(func=run)
     return p
@@ -118,6 +120,7 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         if fmt == ".mpz":
             _no_options_for(".mpz", asf, rate)
             return _mpz_query(data, rows, levels, max_samples)
+        _no_max_samples(max_samples)
         if fmt == ".amc" and asf is None:
             raise EncoderError("an AMC query on standard input needs its skeleton: give "
                                "the .asf file with --asf FILE.asf", path=STDIO)
@@ -130,6 +133,7 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         _no_options_for(".mpz", asf, rate)
         data, _ = read_source(path)          # a regular file of at most 4 GiB (QA: FIFOs)
         return _mpz_query(data, rows, levels, max_samples)
+    _no_max_samples(max_samples)
     from mpz.io import read
     try:
         sha = sha256_file(path)
@@ -172,6 +176,14 @@ def _no_options_for(fmt: str, asf: str | None, rate: float | None) -> None:
     if rate is not None:
         raise EncoderError(f"--rate {rate:g}: this {what} stores its rate; --rate is for "
                            "queries without one (AMC, NPY)")
+
+
+def _no_max_samples(max_samples: int | None) -> None:
+    """Refuse ``--max-samples`` for a capture query: it limits the decoding of an .mpz
+    query (it was ignored there, where mpz summary now refuses it: a review of stop 61)."""
+    if max_samples is not None:
+        raise EncoderError(f"--max-samples {max_samples}: a limit on decoding an .mpz query "
+                           "(spec §8); a capture query's readers have their own limits")
 
 
 def _check_asf(asf: str) -> None:
@@ -226,24 +238,31 @@ def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...],
 
 
 def _sparse_markers(stream: Any) -> int:
-    """How many markers of an MPZ stream are valid in some but fewer than
-    :data:`mpz.similarity.MIN_VALID_SHARE` of its frames, from its validity mask alone."""
+    """How many markers of an MPZ stream are valid in some frames but not described by a
+    summary (:func:`mpz.similarity.described_markers`), from its validity mask alone: a
+    file without a MASK chunk has none, and its mask is not made."""
     import numpy as np
 
     from mpz.decoder import decode_mask
-    from mpz.similarity import MIN_VALID_SHARE
-    valid = decode_mask(stream)
-    if not valid.size:
+    from mpz.similarity import described_markers
+    if stream.mask is None:                         # every sample valid (§4.5)
         return 0
-    share = valid.mean(axis=0)
-    return int(np.count_nonzero((share > 0) & (share < MIN_VALID_SHARE)))
+    valid = decode_mask(stream)
+    return int(np.count_nonzero(valid.any(axis=0) & ~described_markers(valid)))
 
 
 def run(args: argparse.Namespace) -> int:
-    from mpz.corpus import open_index, run_in_progress
+    from mpz.corpus import INDEX_NAME, open_index, run_in_progress
     from mpz.similarity import descriptor, features_for, rank
     from mpz.tools._cli import print_json, printable
 
+    # a run writing the folder: the ranking is of the files indexed so far (a QA run of
+    # stop 61 ranked 5, 9, 11 ... 24 candidates in turn, with no word). Asked before and
+    # after the reading, so that a run ending in between is still said (a review)
+    # the index's own folder, a link to it followed: its lock and its outputs are there
+    folder = os.path.dirname(os.path.realpath(os.path.join(args.index, INDEX_NAME)
+                                              if os.path.isdir(args.index) else args.index))
+    before = run_in_progress(folder)
     with open_index(args.index) as index:
         levels = index.levels()
         values, table = index.descriptors()
@@ -255,11 +274,12 @@ def run(args: argparse.Namespace) -> int:
             for v in values:
                 v["_summary"] = by_out[v["output"]]
         index_path = index.path
-    # a run writing the folder now: the ranking is of the files indexed so far (a QA run
-    # of stop 61 ranked 5, 9, 11 ... 24 candidates in turn, with no word)
-    writing = run_in_progress(os.path.dirname(os.path.abspath(index_path)))
+    after = run_in_progress(folder)
+    writing = True if True in (before, after) else (False if before is after is False
+                                                      else None)
     if not values:
-        raise EncoderError("the index holds no files", path=index_path)
+        raise EncoderError("the index holds no files" + (
+            " yet: a corpus run is writing it now" if writing else ""), path=index_path)
     notes: list[str] = []
     warned: list[str] = []
     summary, sha, origin = query_summary(args.query, values, levels, args.asf,
@@ -281,7 +301,6 @@ def run(args: argparse.Namespace) -> int:
     same = [v["source_sha256"] == sha for v in values]
     order, dist = rank(q, table, identical=same, names=[v["output"] for v in values])
     shown = order if args.top == 0 else order[:args.top]
-    folder = os.path.dirname(os.path.abspath(index_path))
     results = [{"rank": n + 1, "distance": float(dist[i]), "identical": bool(same[i]),
                 "output": values[i]["output"], "path": values[i]["path"],
                 "output_exists": os.path.isfile(

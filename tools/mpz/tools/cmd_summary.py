@@ -121,6 +121,12 @@ def _levels_from_motion(args, ks, motion=None):
     elif motion is None:
         motion = read(args.file, **({"asf": args.asf} if args.asf else {}))
     if read_here:
+        # --asf for what did not read as an AMC (by its content, whatever its name) was
+        # ignored (a QA run of stop 61), as mpz search refuses it
+        fmt = motion.metadata.get("format", "")
+        if args.asf is not None and fmt != "amc":
+            raise _Fail(f"--asf: the skeleton of .amc input; this input is "
+                        f"{fmt.upper() or 'not an AMC'}")
         # an NPY was segmented at 1 Hz without a word, its times in frames (a QA run of
         # stop 53); --rate names the rate, as for mpz encode and search
         from mpz.errors import EncoderError
@@ -526,8 +532,8 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
 def _check_applies(args, fmt: str | None) -> None:
     """Refuse an option that does nothing for this input (format ``fmt``, an extension):
     --asf, --no-decode and --max-samples were ignored where --rate was refused (a QA run
-    of stop 61), as mpz search refuses them."""
-    from mpz.io import READERS
+    of stop 61); mpz search refuses them too. --asf for a motion file is checked against
+    the format it reads as (:func:`_levels_from_motion`)."""
     if fmt == ".mpz":
         if args.rate is not None:
             raise _Fail(f"--rate {args.rate:g}: an .mpz file stores its rate; --rate is "
@@ -542,8 +548,6 @@ def _check_applies(args, fmt: str | None) -> None:
     if args.max_samples is not None:
         raise _Fail(f"--max-samples {args.max_samples}: a limit on decoding .mpz input "
                     "(spec §8); a motion file's readers have their own limits")
-    if args.asf is not None and fmt in READERS and fmt != ".amc":
-        raise _Fail(f"--asf: the skeleton of .amc input; this input is {fmt}")
 
 
 def run(args) -> int:
