@@ -302,6 +302,41 @@ def test_the_api_bound_holds_for_the_amc_written(shared_data, tmp_path, stem, as
     assert 0 < d <= 1.0
 
 
+@pytest.mark.parametrize("end_site", [None, "0 0 0"])     # None: the root alone
+def test_a_rotation_that_moves_no_joint_keeps_the_default_channel_bound(tmp_path, end_site):
+    """Under a joint-position bound (--max-error), each rotation's bound is set by how far
+    it moves a joint; a rotation that moves none (a one-joint BVH: a camera or a prop; a
+    joint whose End Site is at the joint) had the 90-degree cap and came back up to 31
+    degrees off (a QA run of stop 61). It keeps the default channel bound, 0.01 degrees,
+    and the joint positions keep theirs."""
+    F = 200
+    t = np.arange(F)
+    pose = np.stack([t * 0.5, 100 + np.sin(t / 9) * 3, t * 0.2,           # position, cm
+                     (t * 1.7) % 300 - 150, 20 * np.sin(t / 13), 35 * np.cos(t / 7)], axis=1)
+    tail = "" if end_site is None else (
+        "  JOINT Lens\n  {\n    OFFSET 0 0 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        f"    End Site\n    {{\n      OFFSET {end_site}\n    }}\n  }}\n")
+    values = pose if end_site is None else np.concatenate(
+        [pose, np.stack([10 * np.sin(t / 5), (t * 0.9) % 90, -40 + t * 0.1], axis=1)], axis=1)
+    end = "  End Site\n  {\n    OFFSET 0 0 0\n  }\n" if end_site is None else ""
+    text = ("HIERARCHY\nROOT Camera\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition "
+            "Zposition Zrotation Xrotation Yrotation\n" + end + tail + "}\nMOTION\n"
+            f"Frames: {F}\nFrame Time: 0.0333333\n"
+            + "".join(" ".join(f"{v:.4f}" for v in row) + "\n" for row in values))
+    src = tmp_path / "camera.bvh"
+    src.write_text(text)
+    m = mpz.io.read(src)
+    data = mpz.encode(sk.with_units(m, "cm"), max_error=0.1, position_error=0.1)
+    back = mpz.decode(data).angles
+    want = np.round(values, 4)                                   # as printed
+    rotations = [i for i, name in enumerate(mpz.decode(data).angle_names)
+                 if "rotation" in name]
+    err = np.abs(back[:, rotations] - want[:, rotations])
+    err = np.minimum(err, 360 - err)                              # a wrapped turn
+    assert err.max() <= 0.01 * (1 + 1e-9), err.max()
+    assert _bound_of(data)["position_bound"] == 0.1
+
+
 def test_position_bound_is_kept(shared_data, tmp_path):
     """--max-error on skeletal input bounds the joint positions computed from the channels
     (and the marker layer); the test's own FK confirms it."""

@@ -265,9 +265,16 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     joint = skel.channel_joints()
     rotation = [is_rotation(k) for k in skel.channel_kinds()]
     rad = skel.angle_unit == "rad"
-    per_rad = [max(float(arms[j]), 1e-9) for j in joint]      # marker units per radian
+    # marker units per radian; 0 for a rotation that moves no joint (a one-joint BVH: a
+    # camera or a prop; End Sites at their joint), whose error no joint position shows:
+    # it had the 90-degree cap, and lost up to 31 degrees (a QA run of stop 61)
+    still = skeleton_size(skel) * 2.0 ** -30
+    per_rad = [float(arms[j]) if arms[j] > still else 0.0 for j in joint]
     angle_limit = None if angle_cap is None else (math.radians(angle_cap) if rad
                                                   else angle_cap)
+    # such a rotation keeps the default channel bound, or --angle-error's when given
+    unmoved = angle_limit if angle_limit is not None else (
+        math.radians(DEFAULT_CHANNEL_ERROR) if rad else DEFAULT_CHANNEL_ERROR)
 
     # a channel's step depends on kappa and on whether it turns and its joint's arm only:
     # each distinct (turns, arm) is worked out once a kappa (31 for an ASF's 62 channels)
@@ -279,7 +286,10 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         cache: dict[float, Step] = {}                 # one step_for a bound
         of_kind = []
         for turns, arm in kinds:
-            if turns:
+            if turns and arm == 0.0:
+                bound = unmoved
+                cap = None
+            elif turns:
                 bound = kappa / arm                             # radians
                 bound = bound if rad else math.degrees(bound)
                 bound = min(bound, 90.0 if not rad else math.pi / 2)

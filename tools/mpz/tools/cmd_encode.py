@@ -68,7 +68,8 @@ def add_parser(sub):
                    "NPY: 1 Hz), e.g. --rate 60; an error for an input that has one")
     p.add_argument("--angle-error", metavar="DEG", type=positive,
                    help="BVH, AMC: bound on the rotation channels, in degrees (default 0.01, "
-                   "or as --max-error allows)")
+                   "or as --max-error allows: then each rotation's bound follows how far it "
+                   "moves a joint, up to 90, and one that moves none keeps 0.01)")
     p.add_argument("--translation-error", metavar="LEN",
                    help="BVH, AMC: bound on the translation channels, e.g. 0.1mm, or a plain "
                    "number in the skeleton's length unit (default 0.01 of it, or as "
