@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+import sys
 
 import pytest
 
@@ -100,6 +101,7 @@ def bench_script(monkeypatch):
         spec = importlib.util.spec_from_file_location(f"mpz_bench_{name}", bench / f"{name}.py")
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
+        monkeypatch.setitem(sys.modules, spec.name, module)   # a dataclass looks it up
         spec.loader.exec_module(module)
         return module
     return load

@@ -2,27 +2,14 @@
 average precision and chance, per class, and per class counted in distinct takes."""
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
-import sys
 
 import pytest
 
 
-@pytest.fixture(scope="module")
-def bench(request):
-    """``bench/bench_corpus.py``, imported from its path (bench/ is not a package)."""
-    folder = Path(__file__).resolve().parents[1] / "bench"
-    mp = pytest.MonkeyPatch()
-    request.addfinalizer(mp.undo)
-    mp.syspath_prepend(str(folder))                    # its `from _common import ...`
-    spec = importlib.util.spec_from_file_location("mpz_bench_corpus",
-                                                  folder / "bench_corpus.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    mp.setitem(sys.modules, spec.name, module)         # its dataclass looks itself up there
-    spec.loader.exec_module(module)
-    return module
+@pytest.fixture
+def bench(bench_script):
+    return bench_script("bench_corpus")
 
 
 def test_class_scores_by_hand(bench):

@@ -1324,6 +1324,33 @@ def test_asf_child_listed_before_its_parent_is_moved_after_it():
     assert [j.parent for j in skel.joints] == [-1, 0, 1, 2]
 
 
+def test_what_an_asf_and_amc_hold_beyond_the_skeleton_is_reported_as_dropped(tmp_path):
+    """Comments after the ASF's first keyword or among the AMC's frames, and a bone's
+    'id 0' line, are not kept (io-notes.md), yet the encode's report said dropped: [] and
+    gave a ratio against the input (a QA run of stop 61). Each is counted by the reader
+    (extras[READER_NOT_KEPT], this read only) and reported; a file without them has
+    nothing dropped."""
+    from mpz.encoder import EncodeOptions, not_kept
+    asf = TINY_ASF.replace("     id 1\n", "     id 0\n").replace(
+        ":hierarchy", "# the tree below\n:hierarchy").replace("     length 1\n",
+                                                               "     length 1 # cm?\n")
+    amc = TINY_AMC.replace("2\nroot 0", "# operator: marker swap fixed\n2\nroot 0")
+    (tmp_path / "t.asf").write_text(asf)
+    (tmp_path / "t_1.amc").write_text(amc)
+    m = mpz.io.read(tmp_path / "t_1.amc")
+    assert not_kept(m, EncodeOptions()) == [
+        "from the ASF: 2 comments after the first keyword; the id 0 line of bone b1",
+        "from the AMC: 1 comment or ':' line after its first frame"]
+    data = mpz.encode(m)
+    assert mpz.decode(data).metadata["asf_dropped"] == \
+        "2 comments after the first keyword; the id 0 line of bone b1"
+    again = mpz.decode(data)                    # the metadata stays; this read's list not
+    assert not_kept(again, EncodeOptions()) == []
+    (tmp_path / "u.asf").write_text(TINY_ASF)
+    (tmp_path / "u_1.amc").write_text(TINY_AMC)
+    assert not_kept(mpz.io.read(tmp_path / "u_1.amc"), EncodeOptions()) == []
+
+
 def test_asf_limits_and_dropped_keys(tmp_path):
     (tmp_path / "t.asf").write_text(TINY_ASF.replace("     length 1\n",
                                                      "     length 1\n     bodymass 3\n"))

@@ -81,7 +81,7 @@ from mpz.format import (
 )
 from mpz.hierarchy import Hierarchy, Node, build_hierarchy, head_scale
 from mpz.hierarchy import root_marker as hierarchy_root
-from mpz.motion import Motion, metadata_type_error
+from mpz.motion import READER_NOT_KEPT, Motion, metadata_type_error
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import reconstruct, residuals
 from mpz.quantize import choose_lattice
@@ -705,7 +705,8 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     report counts the whole source file against what was kept (issue 12): a C3D's analog
     data, parameters and residuals when its reader could not keep the C3D archive (with
     the reader's reason), and a skeletal motion's joint angles and skeleton when no
-    skeleton chunk is written (``keep_skeleton=False``, or no skeleton was read), and any
+    skeleton chunk is written (``keep_skeleton=False``, or no skeleton was read), what the
+    reader listed under ``motion.extras[READER_NOT_KEPT]``, and any other
     ``motion.extras`` key that no extension (:data:`mpz.extensions.EXTENSIONS`) writes."""
     out = []
     if motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras:
@@ -714,9 +715,12 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     if motion.angles is not None and (not opts.keep_skeleton
                                       or "skeleton" not in motion.extras):
         out.append("joint angles and the skeleton")
+    # what the reader itself could not carry (an AMC's comments among its frames, an
+    # ASF's unknown keys): listed by the reader of this read (a QA run of stop 61)
+    out += [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]
     # extras that no extension writes were dropped without a word (a QA run of stop 50)
     from mpz.extensions import EXTENSIONS
-    known = {ext.name for ext in EXTENSIONS}
+    known = {ext.name for ext in EXTENSIONS} | {READER_NOT_KEPT}
     out += [f"motion.extras[{k!r}] (no extension of mpz.extensions writes it)"
             for k in motion.extras if k not in known]
     return out

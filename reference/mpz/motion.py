@@ -20,6 +20,10 @@ from mpz.format import MM_PER_UNIT
 
 #: Units a Motion may declare (spec §4.1 lists their codes).
 UNITS = ("mm", "cm", "m", "in", "")
+#: the ``extras`` key where a reader lists, one sentence each, what of its source the
+#: motion does not hold (an AMC's comments among its frames, an ASF's unknown keys);
+#: :func:`mpz.encoder.not_kept` reports it, and no file stores it
+READER_NOT_KEPT = "not_kept"
 
 
 def unit_scale_mm(units: str) -> float | None:

@@ -47,7 +47,7 @@ from mpz.io._common import (
 )
 from mpz.io.bvh import num, skeleton_of, source_joints, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton
-from mpz.motion import Motion
+from mpz.motion import READER_NOT_KEPT, Motion
 
 _DOF = {name: int(kind) for kind, name in ASF_DOFS.items()}
 MAX_BONES = 1000
@@ -66,11 +66,13 @@ def _bad(msg: str) -> InputFormatError:
 _TEXT_SECTIONS = ("name", "documentation")
 
 
-def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
-    """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':', and the
-    comment lines that come before the first keyword (their text after the '#')."""
+def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
+    """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':', the comment
+    lines that come before the first keyword (their text after the '#'), and how many
+    lines after it hold a comment (not kept: ``metadata["asf_dropped"]``)."""
     out: dict[str, list[str]] = {}
     comments: list[str] = []
+    later = 0
     cur = None
     for raw in text.splitlines():
         if cur is None and raw.lstrip().startswith("#"):
@@ -79,6 +81,8 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
         key = line[1:].split(None, 1)[0].lower() if line.startswith(":") and line[1:].split() \
             else None
         if not (key in _TEXT_SECTIONS or (key is None and cur in _TEXT_SECTIONS)):
+            if cur is not None and "#" in line:
+                later += 1
             line = line.split("#", 1)[0].strip()
         if not line:
             continue
@@ -92,7 +96,7 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str]]:
                 out[cur].append(parts[1])
         elif cur is not None:
             out[cur].append(line)
-    return out, comments
+    return out, comments, later
 
 
 def _keyvals(lines: list[str]) -> dict[str, list[str]]:
@@ -209,8 +213,10 @@ def parse_asf(text: str, *, encoding: str = "utf-8") -> Skeleton:
 
 
 def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
-    sec, comments = _sections(text)
+    sec, comments, later = _sections(text)
     dropped = [f":{k}" for k in sec if k not in _SECTIONS]
+    if later:           # kept before the first keyword only (a QA run of stop 61)
+        dropped.append(f"{later} comment{'' if later == 1 else 's'} after the first keyword")
     for need in ("root", "bonedata", "hierarchy"):
         if need not in sec:
             raise _bad(f"ASF has no :{need} section")
@@ -267,6 +273,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     if missing:
         raise _bad(f"bones not in :hierarchy: {missing}")
     joints = [root_joint]
+    with_id: set[str] = set()             # the bones that have an id line
     index = {"root": 0}
     for b in _ordered(raw, parent):
         name, f = b.name, b.fields
@@ -283,6 +290,8 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         if b.limits and len(b.limits) != len(dofs):
             raise _bad(f"bone {name!r} has {len(b.limits)} limits for {len(dofs)} dofs")
         ids = f.get("id", [])
+        if ids:
+            with_id.add(name)
         index[name] = len(joints)
         joints.append(Joint(name, index[parent[name]], tuple(_DOF[d] for d in dofs),
                             direction=_vec3(f.get("direction", []), f"direction of {name}"),
@@ -290,6 +299,10 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
                             axis_order=axis_order, limits=tuple(b.limits),
                             bone_id=named(integer, ids[0], f"id of bone {name!r}", _bad)
                             if ids else 0))
+    zero = [j.name for j in joints if j.bone_id == 0 and j.name in with_id]
+    if zero:            # the chunk's 0 is "no id": written back without the line
+        dropped.append(f"the id 0 line of bone{'' if len(zero) == 1 else 's'} "
+                       f"{', '.join(zero[:3])}{' ...' if len(zero) > 3 else ''}")
     doc = "\n".join(sec.get("documentation", []))
     skel = Skeleton("asf", tuple(joints), angle_unit=angle_unit, encoding=encoding,
                     length=length, mass=" ".join(units.get("mass", [])),
@@ -360,11 +373,14 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     cur: NDArray[np.float64] | None = None
     first: int | None = None
     expected_frame: int | None = None
+    later = 0                       # lines after the first frame that hold no value
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].strip()
         if cur is None and (not line or line.startswith(":")):
             header.append(raw.rstrip("\r"))
             continue
+        if cur is not None and ("#" in raw or line.startswith(":")):
+            later += 1              # a comment, or a header line among the frames
         if not line or line.startswith(":"):
             continue
         parts = line.split()
@@ -420,8 +436,12 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     if clash:
         meta["warning"] = clash
     names = [j.name for j in skel.joints]
+    extras: dict[str, object] = {"skeleton": skel}
+    if later:               # kept before the first frame only (a QA run of stop 61)
+        extras[READER_NOT_KEPT] = [f"from the AMC: {later} comment or ':' line"
+                              f"{'' if later == 1 else 's'} after its first frame"]
     return Motion(positions, names, rate, "mm", None, meta, skel.parents(), values,
-                  skel.channel_names(), {"skeleton": skel})
+                  skel.channel_names(), extras)
 
 
 def _unit_clash(header: list[str], angle_unit: str) -> str | None:
@@ -543,6 +563,10 @@ def amc_from_bytes(amc_path: StrPath, data: bytes, asf_path: StrPath | None = No
     m.metadata["asf"] = os.path.basename(os.fspath(asf_path))
     if dropped:
         m.metadata["asf_dropped"] = "; ".join(dropped)
+        # what this read drops, for mpz.encoder.not_kept (the report's "dropped"); the
+        # metadata entry stays with the file, this one with this read only
+        m.extras[READER_NOT_KEPT] = [f"from the ASF: {'; '.join(dropped)}",
+                                     *m.extras.get(READER_NOT_KEPT, [])]
     return m
 
 
