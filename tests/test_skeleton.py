@@ -337,6 +337,20 @@ def test_a_rotation_that_moves_no_joint_keeps_the_default_channel_bound(tmp_path
     assert _bound_of(data)["position_bound"] == 0.1
 
 
+def test_info_says_how_accurate_the_channels_and_joints_are(tiny_bvh):
+    """mpz.info gave a skeletal file's marker-layer bound only; the channels' and the
+    joints' came from mpz show and mpzinfo alone (a QA run of stop 61). FileInfo.skeleton
+    holds them: here the steps of angle_error and translation_error 0.01 (tiny_bvh) and
+    the joint-position bound asked for; None for a file without a skeleton."""
+    got = mpz.info(tiny_bvh).skeleton
+    assert got is not None and got["chunk"] == "bvhs"
+    assert 0 < got["angle_bound"] <= 0.01 and 0 < got["translation_bound"] <= 0.01
+    data = mpz.encode(parse_bvh(TINY_BVH), max_error=0.5, position_error=0.5)
+    assert mpz.info(data).skeleton["position_bound"] == 0.5
+    from mpz.synth import generate
+    assert mpz.info(mpz.encode(generate("walk", frames=24), max_error=1.0)).skeleton is None
+
+
 def test_position_bound_is_kept(shared_data, tmp_path):
     """--max-error on skeletal input bounds the joint positions computed from the channels
     (and the marker layer); the test's own FK confirms it."""

@@ -772,7 +772,12 @@ class FileInfo:
     ``mpz show`` and ``mpzinfo`` print);
     ``chunk_bytes`` maps each chunk type to its bytes in the file (frame
     included); ``summary_levels`` lists the k of the smry or smrc levels, in stored order (empty: no
-    summary; read them with :func:`read_summary`).
+    summary; read them with :func:`read_summary`). ``skeleton`` (None without a bvhs or
+    asfs chunk) gives how accurate a skeletal file's channels and joints are, as
+    ``mpzinfo --json``'s ``skeleton``: ``chunk``, ``bytes``, ``joints``, ``channels``,
+    ``angle_bound`` (degrees) and ``translation_bound`` (skeleton units), the largest
+    error the channel steps allow, and ``position_bound``, the declared bound on the joint
+    positions computed from them (marker units; 0: none declared).
     """
 
     #: the bitstream version MHDR declares, "major.minor" (spec §2.1), e.g. "1.1"
@@ -794,6 +799,8 @@ class FileInfo:
     #: the file's metadata entries (the meta chunk, §4.11), as stored
     metadata: Mapping[str, str] = field(default_factory=dict)
     chunk_bytes: Mapping[str, int] = field(default_factory=dict)
+    #: the skeleton chunk's figures (see above); None without one
+    skeleton: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         # read-only and hashable, as a frozen dataclass promises (API review F10)
@@ -802,6 +809,8 @@ class FileInfo:
         object.__setattr__(self, "summary_levels", tuple(self.summary_levels))
         object.__setattr__(self, "metadata", FrozenMapping(self.metadata))
         object.__setattr__(self, "chunk_bytes", FrozenMapping(self.chunk_bytes))
+        if self.skeleton is not None:
+            object.__setattr__(self, "skeleton", FrozenMapping(self.skeleton))
 
     @property
     def duration(self) -> float:
@@ -861,12 +870,15 @@ def info(source: Source) -> FileInfo:
     levels: tuple[int, ...] = ()
     if s.summary is not None:
         levels = tuple(int(lv.k) for lv in s.summary.record.levels)
+    from mpz.skeleton import report
+    # how accurate a skeletal file's channels and joints are: mpz show and mpzinfo gave
+    # it, the API did not (a QA run of an animation pipeline, stop 61)
     return FileInfo(version=f"{h.version_major}.{h.version_minor}", frames=h.frame_count,
                     markers=h.marker_count, rate=h.rate, units=units, names=tuple(s.names),
                     nodes=h.node_count,
                     error_bound=(h.error_bound if h.error_metric != ErrorMetric.NONE else None),
                     size=len(data), summary_levels=levels, metadata=dict(meta),
-                    chunk_bytes=chunk_sizes(data))
+                    chunk_bytes=chunk_sizes(data), skeleton=report(data))
 
 
 def check_mpz_name(path: str | os.PathLike[str]) -> None:
