@@ -774,10 +774,11 @@ class FileInfo:
     included); ``summary_levels`` lists the k of the smry or smrc levels, in stored order (empty: no
     summary; read them with :func:`read_summary`). ``skeleton`` (None without a bvhs or
     asfs chunk) gives how accurate a skeletal file's channels and joints are, as
-    ``mpzinfo --json``'s ``skeleton``: ``chunk``, ``bytes``, ``joints``, ``channels``,
-    ``angle_bound`` (degrees) and ``translation_bound`` (skeleton units), the largest
-    error the channel steps allow, and ``position_bound``, the declared bound on the joint
-    positions computed from them (marker units; 0: none declared).
+    ``mpzinfo --json``'s ``skeleton``: ``chunk``, ``bytes``, ``joints`` (BVH End Sites
+    included), ``end_sites``, ``channels``, ``angle_bound`` (degrees) and
+    ``translation_bound`` (skeleton units), the largest error the channel steps allow,
+    and ``position_bound``, the declared bound on the joint positions computed from them
+    (marker units; 0: none declared).
     """
 
     #: the bitstream version MHDR declares, "major.minor" (spec §2.1), e.g. "1.1"
@@ -870,15 +871,19 @@ def info(source: Source) -> FileInfo:
     levels: tuple[int, ...] = ()
     if s.summary is not None:
         levels = tuple(int(lv.k) for lv in s.summary.record.levels)
-    from mpz.skeleton import report
+    from mpz.skeleton import SKELETON_TYPES, record_report
+    sizes = chunk_sizes(data)
     # how accurate a skeletal file's channels and joints are: mpz show and mpzinfo gave
-    # it, the API did not (a QA run of an animation pipeline, stop 61)
+    # it, the API did not (a QA run of an animation pipeline, stop 61); from the record
+    # read_stream has checked (§4.13: one skeleton chunk at most)
+    skeleton = next((record_report(s.extras[t][0], sizes[t] - 12, end_sites=True)
+                     for t in SKELETON_TYPES if t in s.extras), None)
     return FileInfo(version=f"{h.version_major}.{h.version_minor}", frames=h.frame_count,
                     markers=h.marker_count, rate=h.rate, units=units, names=tuple(s.names),
                     nodes=h.node_count,
                     error_bound=(h.error_bound if h.error_metric != ErrorMetric.NONE else None),
                     size=len(data), summary_levels=levels, metadata=dict(meta),
-                    chunk_bytes=chunk_sizes(data), skeleton=report(data))
+                    chunk_bytes=sizes, skeleton=skeleton)
 
 
 def check_mpz_name(path: str | os.PathLike[str]) -> None:

@@ -376,17 +376,24 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
                               f"{m.metadata.get(k)!r} (make them equal first)")
         if (m.angles is None) != (first.angles is None) or m.angle_names != first.angle_names:
             raise MotionError("joint angles on some motions only, or with other channels")
-        if m.extras.keys() != first.extras.keys() or any(
-                k in per_frame or m.extras[k] != first.extras[k] for k in m.extras):
+        # what each reader dropped is not held data: the lists are joined (a review of
+        # stop 61: two takes of one ASF, one with a comment among its frames, were refused)
+        mine, theirs = (set(x.extras) - {READER_NOT_KEPT} for x in (m, first))
+        if mine != theirs or any(k in per_frame or m.extras[k] != first.extras[k]
+                                 for k in mine):
             raise MotionError(f"cannot join what the motions hold besides positions "
                               f"({', '.join(sorted(m.extras)) or 'none'} vs "
                               f"{', '.join(sorted(first.extras)) or 'none'}); a C3D archive "
                               "belongs to its own frames")
     angles = (None if first.angles is None
               else np.concatenate([m.angles for m in motions if m.angles is not None]))
+    extras = {k: v for k, v in first.extras.items() if k != READER_NOT_KEPT}
+    dropped = [s for m in motions for s in m.extras.get(READER_NOT_KEPT, ())]
+    if dropped:
+        extras[READER_NOT_KEPT] = list(dict.fromkeys(dropped))
     return Motion(np.concatenate([m.positions for m in motions]), list(first.names), first.rate,
                   first.units, np.concatenate([m.valid for m in motions]), dict(first.metadata),
-                  first.parents, angles, first.angle_names, dict(first.extras))
+                  first.parents, angles, first.angle_names, extras)
 
 
 def _parents(given: object, markers: int) -> list[int]:

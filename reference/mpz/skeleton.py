@@ -265,10 +265,12 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     joint = skel.channel_joints()
     rotation = [is_rotation(k) for k in skel.channel_kinds()]
     rad = skel.angle_unit == "rad"
-    # marker units per radian; 0 for a rotation that moves no joint (a one-joint BVH: a
-    # camera or a prop; End Sites at their joint), whose error no joint position shows:
-    # it had the 90-degree cap, and lost up to 31 degrees (a QA run of stop 61)
-    still = skeleton_size(skel) * 2.0 ** -30
+    # marker units per radian; 0 for a rotation that moves no joint measurably (a one-
+    # joint BVH: a camera or a prop; End Sites at or a hair off their joint): its arm is at
+    # most 1/256 of the bound, so that even half a turn moves what it moves by less than
+    # 1/128 of it, and no joint position shows its error. It had the 90-degree cap and
+    # came back 40 degrees off (a QA run and a review of stop 61)
+    still = max(skeleton_size(skel) * 2.0 ** -30, target / 256)
     per_rad = [float(arms[j]) if arms[j] > still else 0.0 for j in joint]
     angle_limit = None if angle_cap is None else (math.radians(angle_cap) if rad
                                                   else angle_cap)

@@ -81,7 +81,9 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
         key = line[1:].split(None, 1)[0].lower() if line.startswith(":") and line[1:].split() \
             else None
         if not (key in _TEXT_SECTIONS or (key is None and cur in _TEXT_SECTIONS)):
-            if cur is not None and "#" in line:
+            # a whole-line comment before the first keyword is kept; any other is not,
+            # the first keyword's own included (a review of stop 61)
+            if "#" in line and not (cur is None and line.startswith("#")):
                 later += 1
             line = line.split("#", 1)[0].strip()
         if not line:
@@ -156,17 +158,19 @@ def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
     bones: list[_RawBone] = []
     cur: _RawBone | None = None
     last = ""
-    for ln in lines:
+    pending: list[str] = []     # the bone's dropped lines, named at its end (a line before
+    for ln in lines:            # 'name' said "bone ?": a review of stop 61)
         parts = ln.split()
         key = parts[0].lower()
         if key == "begin":
-            cur, last = _RawBone(), ""
+            cur, last, pending = _RawBone(), "", []
             continue
         if cur is None:
             continue
         if key == "end":
             if not cur.fields.get("name"):
                 raise _bad("bone without a name")
+            dropped += [f"bone {cur.name}: {what}" for what in pending]
             bones.append(cur)
             if len(bones) > MAX_BONES:
                 raise _bad(f"more than {MAX_BONES} bones")
@@ -177,10 +181,12 @@ def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
         elif last == "limits" and ln.startswith("("):
             cur.limits += _limits(ln, cur.name)       # one more (lo hi) pair per line
         elif key in _BONE_KEYS:
+            if key in cur.fields:     # the last is kept (a review of stop 61: "id 1, id 5")
+                pending.append(f"an earlier {key} line (the last is kept)")
             cur.fields[key] = parts[1:]
             last = key
         else:
-            dropped.append(f"bone {cur.name}: {key}")
+            pending.append(key)
             last = key
     if cur is not None:
         raise _bad("'begin' without 'end' in :bonedata")
@@ -292,6 +298,8 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         ids = f.get("id", [])
         if ids:
             with_id.add(name)
+        if len(ids) > 1:        # "id 1 5": the first is kept (a review of stop 61)
+            dropped.append(f"bone {name}: id values after the first ({' '.join(ids[1:])})")
         index[name] = len(joints)
         joints.append(Joint(name, index[parent[name]], tuple(_DOF[d] for d in dofs),
                             direction=_vec3(f.get("direction", []), f"direction of {name}"),
@@ -379,8 +387,9 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         if cur is None and (not line or line.startswith(":")):
             header.append(raw.rstrip("\r"))
             continue
-        if cur is not None and ("#" in raw or line.startswith(":")):
-            later += 1              # a comment, or a header line among the frames
+        if "#" in raw or (cur is not None and line.startswith(":")):
+            later += 1              # a comment from the first frame line on, or a header
+            #                         line among the frames (a review of stop 61)
         if not line or line.startswith(":"):
             continue
         parts = line.split()
