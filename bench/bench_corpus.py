@@ -169,13 +169,10 @@ def search_quality(out: Path, data: Path) -> dict:
     drop = {"c3d/c3dorg_Eb015vr.c3d", "c3d/c3dorg_Eb015sr.c3d"}
     rel = [m for m in CLASSES["walk"] if m not in drop and m in names]
     if len(rel) > 1 and drop <= set(names) and len(names) > 3:
-        ps = []
-        for q in rel:
-            others = [o for o in ranked[q] if o not in drop]
-            ps.append(sum(o in rel for o in others[:len(rel) - 1]) / (len(rel) - 1))
-        result["classes"]["walk (Eb015 once)"] = {
-            "files": len(rel), "r_precision": float(np.mean(ps)), "map": None,
-            "chance": (len(rel) - 1) / (len(names) - 3)}
+        once = {q: [o for o in ranked[q] if o not in drop] for q in rel}
+        scores = _class_scores(rel, once, len(names) - 2)
+        assert scores is not None
+        result["classes"]["walk (Eb015 once)"] = {**scores, "map": None}   # as first shown
     # every class counted in distinct takes: the second encoding of each take of SAME_TAKE
     # (CMU 02_01's AMC, HDM's AMC, Eb015 vr and sr) is neither a query nor a candidate, so
     # that a take does not find its own other encoding as a hit (a QA run of stop 61)

@@ -1443,7 +1443,7 @@ def _locked(exc: sqlite3.OperationalError) -> bool:
             or "database is locked" in str(exc))
 
 
-def _read_only(path: str) -> sqlite3.Connection:
+def _read_only(path: str, *, rolled_back: bool = False) -> sqlite3.Connection:
     """``path`` opened for reading only: no write access is needed, to the file or its
     folder. An index left in WAL mode by a killed run needs a -shm file that such a reader
     cannot make; it is then read as immutable (a run would have changed the journal mode
@@ -1457,8 +1457,10 @@ def _read_only(path: str) -> sqlite3.Connection:
         db.execute("SELECT count(*) FROM sqlite_master").fetchone()
     except sqlite3.OperationalError as exc:
         db.close()
-        if getattr(exc, "sqlite_errorname", "") == "SQLITE_READONLY_ROLLBACK":
-            return _rolled_back(path, uri)
+        if (getattr(exc, "sqlite_errorname", "") == "SQLITE_READONLY_ROLLBACK"
+                and not rolled_back):
+            _roll_back(path)
+            return _read_only(path, rolled_back=True)
         if _locked(exc):
             raise EncoderError(f"{path}: the index is locked by another process writing it "
                                f"(a corpus run into its folder, or a program holding a write "
@@ -1468,9 +1470,9 @@ def _read_only(path: str) -> sqlite3.Connection:
     return db
 
 
-def _rolled_back(path: str, uri: str) -> sqlite3.Connection:
-    """The index at ``path`` read-only, after the rollback of the journal that a writer
-    killed mid-transaction left beside it (a "hot" journal, ``index.sqlite-journal``).
+def _roll_back(path: str) -> None:
+    """Roll back the journal that a writer killed mid-transaction left beside the index at
+    ``path`` (a "hot" journal, ``index.sqlite-journal``).
     A read-only connection cannot roll it back: read as immutable, the half-written pages
     were reported as damage, with the advice to remove the index (a review of stop 61).
     One read-write connection does what any SQLite reader with write access does on
@@ -1487,9 +1489,6 @@ def _rolled_back(path: str, uri: str) -> sqlite3.Connection:
         rw.execute("SELECT count(*) FROM sqlite_master").fetchone()     # rolls it back
     finally:
         rw.close()
-    db = sqlite3.connect(uri, uri=True, timeout=LOCK_WAIT)
-    db.execute("SELECT count(*) FROM sqlite_master").fetchone()
-    return db
 
 
 def open_index(path: str | os.PathLike[str]) -> Index:

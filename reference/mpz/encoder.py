@@ -81,7 +81,7 @@ from mpz.format import (
 )
 from mpz.hierarchy import Hierarchy, Node, build_hierarchy, head_scale
 from mpz.hierarchy import root_marker as hierarchy_root
-from mpz.motion import READER_NOT_KEPT, Motion, metadata_type_error
+from mpz.motion import READER_NOT_KEPT, Motion, held_extras, metadata_type_error
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import reconstruct, residuals
 from mpz.quantize import choose_lattice
@@ -720,9 +720,9 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     out += [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]
     # extras that no extension writes were dropped without a word (a QA run of stop 50)
     from mpz.extensions import EXTENSIONS
-    known = {ext.name for ext in EXTENSIONS} | {READER_NOT_KEPT}
+    known = {ext.name for ext in EXTENSIONS}
     out += [f"motion.extras[{k!r}] (no extension of mpz.extensions writes it)"
-            for k in motion.extras if k not in known]
+            for k in motion.extras if k in held_extras(motion.extras) - known]
     return out
 
 

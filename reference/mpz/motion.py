@@ -26,6 +26,13 @@ UNITS = ("mm", "cm", "m", "in", "")
 READER_NOT_KEPT = "not_kept"
 
 
+def held_extras(extras: Mapping[str, Any]) -> set[str]:
+    """The keys of ``extras`` that hold part of the source (a C3D archive, a skeleton, an
+    extension's data): all but :data:`READER_NOT_KEPT`, the reader's list of what it did
+    not keep, which no writer writes and which motions joined together merge."""
+    return set(extras) - {READER_NOT_KEPT}
+
+
 def unit_scale_mm(units: str) -> float | None:
     """Millimetres per unit, or None for unitless/unknown data."""
     return MM_PER_UNIT.get(units)
@@ -378,7 +385,7 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
             raise MotionError("joint angles on some motions only, or with other channels")
         # what each reader dropped is not held data: the lists are joined (a review of
         # stop 61: two takes of one ASF, one with a comment among its frames, were refused)
-        mine, theirs = (set(x.extras) - {READER_NOT_KEPT} for x in (m, first))
+        mine, theirs = held_extras(m.extras), held_extras(first.extras)
         if mine != theirs or any(k in per_frame or m.extras[k] != first.extras[k]
                                  for k in mine):
             raise MotionError(f"cannot join what the motions hold besides positions "

@@ -84,7 +84,7 @@ from mpz.io.table import (
     write_npy,
 )
 from mpz.io.trc import read_trc, trc_from_bytes, write_trc
-from mpz.motion import READER_NOT_KEPT, Motion, check_consistent
+from mpz.motion import Motion, check_consistent, held_extras
 
 #: extension -> reader(path, **options)
 READERS: dict[str, Callable[..., Motion]] = {
@@ -790,8 +790,7 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
     held = {".c3d": {"c3d"}, ".bvh": {"skeleton"}, ".amc": {"skeleton"}}.get(ext, set())
     if motion.angles is not None:      # the note above already says the skeleton is dropped
         held = held | {"skeleton"}
-    held = held | {READER_NOT_KEPT}    # what the reader dropped: no data to write (review)
-    for key in sorted(set(motion.extras) - held):
+    for key in sorted(held_extras(motion.extras) - held):   # the reader's list: no data
         value = motion.extras[key]
         what = value.describe() if hasattr(value, "describe") else key
         notes.append(f"{fmt} does not hold the source's {'C3D archive' if key == 'c3d' else key}"

@@ -279,7 +279,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     if missing:
         raise _bad(f"bones not in :hierarchy: {missing}")
     joints = [root_joint]
-    with_id: set[str] = set()             # the bones that have an id line
+    zero: list[str] = []                  # the bones whose id line says 0
     index = {"root": 0}
     for b in _ordered(raw, parent):
         name, f = b.name, b.fields
@@ -296,8 +296,9 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         if b.limits and len(b.limits) != len(dofs):
             raise _bad(f"bone {name!r} has {len(b.limits)} limits for {len(dofs)} dofs")
         ids = f.get("id", [])
-        if ids:
-            with_id.add(name)
+        bone_id = named(integer, ids[0], f"id of bone {name!r}", _bad) if ids else 0
+        if ids and bone_id == 0:
+            zero.append(name)
         if len(ids) > 1:        # "id 1 5": the first is kept (a review of stop 61)
             dropped.append(f"bone {name}: id values after the first ({' '.join(ids[1:])})")
         index[name] = len(joints)
@@ -305,9 +306,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
                             direction=_vec3(f.get("direction", []), f"direction of {name}"),
                             length=bone_len, axis=_vec3(axis, f"axis of {name}"),
                             axis_order=axis_order, limits=tuple(b.limits),
-                            bone_id=named(integer, ids[0], f"id of bone {name!r}", _bad)
-                            if ids else 0))
-    zero = [j.name for j in joints if j.bone_id == 0 and j.name in with_id]
+                            bone_id=bone_id))
     if zero:            # the chunk's 0 is "no id": written back without the line
         dropped.append(f"the id 0 line of bone{'' if len(zero) == 1 else 's'} "
                        f"{', '.join(zero[:3])}{' ...' if len(zero) > 3 else ''}")

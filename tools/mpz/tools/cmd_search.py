@@ -275,8 +275,7 @@ def run(args: argparse.Namespace) -> int:
                 v["_summary"] = by_out[v["output"]]
         index_path = index.path
     after = run_in_progress(folder)
-    writing = True if True in (before, after) else (False if before is after is False
-                                                      else None)
+    writing = True if True in (before, after) else None if None in (before, after) else False
     if not values:
         raise EncoderError("the index holds no files" + (
             " yet: a corpus run is writing it now" if writing else ""), path=index_path)
