@@ -121,7 +121,7 @@ BROKEN = [
     ("oom-on-invalid", ["u01-one-frame", "x31-frames-x-markers-over-limit"],
      {"x31-frames-x-markers-over-limit"}, "ran out of memory", "memory", ()),
     ("hang-on-invalid", ["x01-bad-signature"], {"x01-bad-signature"},
-     "did not finish within the time limit", "timeout", ("--timeout", "8")),
+     "did not finish within the time limit", "timeout", ("--timeout", "2")),
 ]
 
 _RUNS: dict = {}

@@ -16,7 +16,7 @@ import pytest
 
 from mpz import Motion
 from mpz.errors import InputFormatError, MPZError
-from mpz.io import c3dbin, read, read_amc, read_bvh, read_c3d, write
+from mpz.io import c3dbin, detect_format, read, read_amc, read_bvh, read_bytes, read_c3d, write
 from mpz.io.amc import find_asf, parse_asf
 from mpz.io.bvh import frame_rate_from_frame_time
 from mpz.io.table import rate_from_times
@@ -746,6 +746,26 @@ def test_an_asf_read_as_a_motion_is_told_it_is_a_skeleton(tmp_path):
                        "not a motion: read an .amc") as ei:
         read(p)
     assert ei.value.path == str(p)
+
+
+@pytest.mark.parametrize("head", [
+    "# AST/ASF file\n:version 1.10\n:name VICON\n:units\n  mass 1.0\n",  # CMU's first lines
+    ":version 1.10\n:name x\n",
+    ":root\n   order TX TY TZ RX RY RZ\n:bonedata\n"])
+def test_an_asf_without_its_extension_is_told_it_is_a_skeleton(tmp_path, head):
+    """Only the name told an ASF apart: on standard input (mpz encode - < 35.asf) and
+    under another extension it was 'cannot tell the format' or 'unknown file extension'
+    (stop 61's list of what was not done)."""
+    said = "an ASF file is the skeleton of AMC motions, not a motion"
+    with pytest.raises(InputFormatError, match=said) as ei:
+        read_bytes(head.encode())
+    assert ei.value.path == "-"
+    p = tmp_path / "skeleton.txt"
+    p.write_text(head)
+    with pytest.raises(InputFormatError, match=said):
+        read(p)
+    # an AMC, whose header may name its ASF in a comment, is still read as one
+    assert detect_format(b"#!OML:ASF 35.asf\n:FULLY-SPECIFIED\n:DEGREES\n1\n") == ".amc"
 
 
 @pytest.mark.parametrize("ext", [".c3d", ".trc", ".bvh", ".amc", ".npy", ".csv"])

@@ -360,6 +360,23 @@ def _path_arg(name: str, value: object) -> None:
                         f"{type(value).__name__}")
 
 
+#: what reading an AMC's skeleton as a motion says (a QA run of stop 61: "unknown file
+#: extension" by name, "cannot tell the format" on standard input)
+ASF_NOT_A_MOTION = ("an ASF file is the skeleton of AMC motions, not a motion: read an .amc "
+                    "(its ASF is found beside it, or given with --asf / asf=)")
+
+
+def _is_asf_text(head: bytes) -> bool:
+    """Whether ``head`` starts like an ASF file: among its first keyword lines, one of the
+    sections only an ASF has (``:bonedata``, ``:root``, ``:hierarchy``) or ``:version``
+    with ``:name`` (the first two lines of every ASF; an AMC has neither)."""
+    text = head.decode("latin-1")
+    keys = {ln.split(None, 1)[0].lower() for ln in (x.strip() for x in text.splitlines())
+            if ln.startswith(":")}
+    return bool(keys & {":bonedata", ":root", ":hierarchy"}) or \
+        {":version", ":name"} <= keys
+
+
 def _format_of_content(path: StrPath, head: bytes, ext: str) -> str:
     """The format of a file without a known extension, from its first bytes ``head``
     (:func:`detect_format`); InputFormatError when none is known, or for an MPZ file."""
@@ -368,10 +385,8 @@ def _format_of_content(path: StrPath, head: bytes, ext: str) -> str:
         raise InputFormatError(
             "an MPZ file, not a motion file: mpz.decode reads it (mpz encode re-encodes "
             "one .mpz given alone, within the bounds of both encodes)", path=os.fspath(path))
-    if found not in READERS and ext == ".asf":   # the skeleton given for its motion (QA)
-        raise InputFormatError(
-            "an ASF file is the skeleton of AMC motions, not a motion: read an .amc (its "
-            "ASF is found beside it, or given with --asf / asf=)", path=os.fspath(path))
+    if found not in READERS and (ext == ".asf" or _is_asf_text(head)):
+        raise InputFormatError(ASF_NOT_A_MOTION, path=os.fspath(path))
     if found not in READERS:
         raise InputFormatError(
             f"unknown file extension {ext or '(none)'!r} and no known format in the "
@@ -491,6 +506,8 @@ def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
         raise ValueError(f"fmt must be an extension with its dot, such as '.trc', got "
                          f"{fmt!r}")
     ext = fmt.lower() if fmt else detect_format(data)
+    if ext is None and _is_asf_text(data[:DETECT_BYTES]):   # `mpz encode - < 35.asf`
+        raise InputFormatError(ASF_NOT_A_MOTION, path=name)
     if ext is None:
         raise InputFormatError(f"cannot tell the format from the content (first bytes "
                                f"{data[:8]!r}); can read {', '.join(READERS)} and .mpz",
