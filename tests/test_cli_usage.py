@@ -499,6 +499,25 @@ def test_option_errors_come_from_the_subcommand_with_a_hint(inputs: dict[str, Pa
     assert p.returncode == 64 and b"did you mean encode?" in p.stderr
 
 
+def test_an_option_of_another_subcommand_is_named_as_such(
+        inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    """`mpz decode walk.mpz -o back.trc --units cm` (a newcomer reading the README's
+    decode line) was told "did you mean --quiet?; a length takes its unit without a space":
+    the unit was --units' value, and --units is encode's (a QA run of stop 62)."""
+    from mpz.tools import mpz_cli
+    cases = [(["decode", str(inputs["mpz"]), "-o", "back.trc", "--units", "cm"],
+              "unrecognized arguments: --units cm; --units is an option of mpz encode"),
+             (["show", str(inputs["mpz"]), "--max-error=1mm"],
+              "--max-error is an option of mpz encode"),
+             (["decode", str(inputs["mpz"]), "--fromat", "csv"], "did you mean --format?")]
+    for argv, said in cases:
+        with pytest.raises(SystemExit) as exc:
+            mpz_cli.main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 64 and said in err, err
+        assert "without a space" not in err and "--quiet" not in err, err
+
+
 def test_the_group_error_example_in_the_help_works(inputs: dict[str, Path],
                                                    tmp_path: Path) -> None:
     p = run(["mpz", "encode", "--help"], tmp_path)

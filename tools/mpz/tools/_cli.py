@@ -214,10 +214,12 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         if message.startswith("unrecognized arguments: "):
             words = message[len("unrecognized arguments: "):].split()
-            message += _suggest([w for w in words if w.startswith("-")],
-                                self._option_strings())
-            if any(w in ("mm", "cm", "m", "in") for w in words):
-                # "--max-error 1 mm" (a newcomer's QA run: no hint)
+            options = [w for w in words if w.startswith("-")]
+            message += self._elsewhere(options) or _suggest(options, self._option_strings())
+            # "--max-error 1 mm" (a newcomer's QA run: no hint); not the value of an option
+            # this command lacks ("mpz decode --units cm", a QA run of stop 62)
+            if any(w in ("mm", "cm", "m", "in") and not (i and words[i - 1].startswith("-"))
+                   for i, w in enumerate(words)):
                 message += "; a length takes its unit without a space, e.g. --max-error 1mm"
         elif "invalid choice: " in message:
             bad = message.split("invalid choice: ", 1)[1].split(" ", 1)[0].strip("'\"")
@@ -230,6 +232,18 @@ class Parser(argparse.ArgumentParser):
         return [s for a in self._actions for s in a.option_strings if s.startswith("--")] + \
             [s for a in self._actions for s in a.option_strings if not s.startswith("--")]
 
+    def _elsewhere(self, words: Iterable[str]) -> str:
+        """``; --units is an option of mpz encode`` for the first long option that another
+        subcommand of the same command has ("mpz decode --units cm" was offered --quiet)."""
+        family: dict[str, Parser] = getattr(self, "family", {})
+        for w in words:
+            key = w.split("=", 1)[0]
+            owners = [p.prog for p in family.values()
+                      if p is not self and key.startswith("--") and key in p._option_strings()]
+            if owners:
+                return f"; {key} is an option of {' and '.join(sorted(set(owners)))}"
+        return ""
+
     def _subcommands(self) -> list[str]:
         out: list[str] = []
         for a in self._actions:
@@ -239,7 +253,15 @@ class Parser(argparse.ArgumentParser):
 
     def add_subparsers(self, **kwargs: Any) -> Any:
         kwargs.setdefault("parser_class", SubcommandParser)
-        return super().add_subparsers(**kwargs)
+        action = super().add_subparsers(**kwargs)
+        add_parser = action.add_parser
+
+        def add_one(name: str, **kw: Any) -> Any:
+            parser = add_parser(name, **kw)
+            parser.family = action.choices       # its siblings, for _elsewhere
+            return parser
+        action.add_parser = add_one
+        return action
 
 
 class SubcommandParser(Parser):
