@@ -8,7 +8,9 @@ import warnings
 from hypothesis import given, settings
 from hypothesis import strategies as st
 import numpy as np
+from packaging.version import Version
 import pytest
+import scipy
 
 import mpz
 from mpz.errors import EncoderError
@@ -395,6 +397,11 @@ def test_auto_distance_sums_on_real_samples(shared_data, stem):
 
 
 # -- the auto builder's clustering (issue 15: kernels in place of scipy's calls) -------
+#: scipy before 1.15 cut two points 2 apart into two clusters under maxclust=1 (found on the
+#: lowest scipy pyproject.toml allows, 1.11.1; 1.15.0 gives one): not an oracle there
+_SCIPY_MAXCLUST_RIGHT = Version(scipy.__version__) >= Version("1.15")
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.integers(2, 30), st.sampled_from(["ties", "tenths", "any"]), st.integers(1, 32),
        st.floats(0.0, 3.5), st.integers(0, 2 ** 32 - 1))
@@ -418,7 +425,10 @@ def test_auto_clustering_is_scipys(n, kind, mc, t, seed):
     cut = float(rng.choice(a[np.triu_indices(n, 1)])) if kind != "any" else t
     assert np.array_equal(_fcluster_distance(got, cut),
                           fcluster(z, t=cut, criterion="distance"))
-    assert np.array_equal(_fcluster_maxclust(got, mc), fcluster(z, t=mc, criterion="maxclust"))
+    if _SCIPY_MAXCLUST_RIGHT:
+        assert np.array_equal(_fcluster_maxclust(got, mc),
+                              fcluster(z, t=mc, criterion="maxclust"))
+    assert len(set(_fcluster_maxclust(got, mc))) <= mc    # what maxclust promises, any scipy
 
 
 def test_auto_clustering_ties_by_hand():

@@ -1,0 +1,49 @@
+"""The lowest versions of what mpz needs at run time: pyproject.toml's floors are the pins of
+.ci/lowest.txt, the environment the whole suite was run on (README "Install and test").
+
+Before, the floors were never installed: ``ezc3d>=1.5`` let a user keep ezc3d 1.5.16, which
+ends the process on a C3D that 1.7.2 reads, with no error to catch.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+import tomllib
+
+from packaging.requirements import Requirement
+from packaging.version import Version
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _floors() -> dict[str, Version]:
+    """Each run-time dependency and the lowest version pyproject.toml allows."""
+    deps = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["dependencies"]
+    floors = {}
+    for line in deps:
+        req = Requirement(line)
+        lows = [s for s in req.specifier if s.operator in (">=", "==")]
+        assert len(lows) == 1, f"{line}: one lower bound (>= or ==) expected"
+        floors[req.name.lower()] = Version(lows[0].version)
+    return floors
+
+
+def _pins() -> dict[str, Version]:
+    pins = {}
+    for line in (REPO / ".ci" / "lowest.txt").read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line:
+            name, _, version = line.partition("==")
+            assert version, f".ci/lowest.txt: {line!r} is not NAME==VERSION"
+            pins[name.strip().lower()] = Version(version.strip())
+    return pins
+
+
+def test_the_lowest_pins_are_the_stated_floors() -> None:
+    assert _pins() == _floors()
+
+
+def test_the_c3d_reader_floor_is_the_version_its_hazard_rules_are_for() -> None:
+    """mpz.io.c3dbin's rules say which files would crash ezc3d 1.7.2 (docs/io-notes.md);
+    an older ezc3d crashes on others (1.5.16) or reads DEC residuals otherwise (1.7.1)."""
+    assert _floors()["ezc3d"] == Version("1.7.2")
+    assert "ezc3d` 1.7.2" in (REPO / "docs" / "io-notes.md").read_text()
