@@ -35,7 +35,7 @@ infinities.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 import contextlib
 import difflib
 import errno
@@ -211,6 +211,9 @@ class Parser(argparse.ArgumentParser):
     gets the same hint.
     """
 
+    #: the parsers of the command's other subcommands (set by the command's parser)
+    family: Mapping[str, argparse.ArgumentParser] = {}
+
     def error(self, message: str) -> NoReturn:
         if message.startswith("unrecognized arguments: "):
             words = message[len("unrecognized arguments: "):].split()
@@ -235,11 +238,10 @@ class Parser(argparse.ArgumentParser):
     def _elsewhere(self, words: Iterable[str]) -> str:
         """``; --units is an option of mpz encode`` for the first long option that another
         subcommand of the same command has ("mpz decode --units cm" was offered --quiet)."""
-        family: dict[str, Parser] = getattr(self, "family", {})
         for w in words:
             key = w.split("=", 1)[0]
-            owners = [p.prog for p in family.values()
-                      if p is not self and key.startswith("--") and key in p._option_strings()]
+            owners = [p.prog for p in self.family.values() if p is not self and isinstance(
+                p, Parser) and key.startswith("--") and key in p._option_strings()]
             if owners:
                 return f"; {key} is an option of {' and '.join(sorted(set(owners)))}"
         return ""
@@ -253,15 +255,15 @@ class Parser(argparse.ArgumentParser):
 
     def add_subparsers(self, **kwargs: Any) -> Any:
         kwargs.setdefault("parser_class", SubcommandParser)
-        action = super().add_subparsers(**kwargs)
-        add_parser = action.add_parser
+        return super().add_subparsers(**kwargs)
 
-        def add_one(name: str, **kw: Any) -> Any:
-            parser = add_parser(name, **kw)
-            parser.family = action.choices       # its siblings, for _elsewhere
-            return parser
-        action.add_parser = add_one
-        return action
+    def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:
+        for action in self._actions:            # each subcommand knows its siblings
+            if isinstance(action, argparse._SubParsersAction):
+                for parser in action.choices.values():
+                    if isinstance(parser, Parser):
+                        parser.family = action.choices
+        return super().parse_known_args(args, namespace)
 
 
 class SubcommandParser(Parser):
