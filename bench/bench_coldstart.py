@@ -37,7 +37,7 @@ import sys
 import tempfile
 import time
 
-from _common import REPO, shared_data_dir
+from _common import REPO, shared_data_dir, shared_data_name
 
 #: dependencies installed into the fresh venv at the versions of this environment
 DEPS = ("numpy", "scipy", "construct", "ezc3d", "numba", "llvmlite")
@@ -135,7 +135,7 @@ def main() -> int:
     if src is None:
         d = shared_data_dir()
         if d is None:
-            print("skipped: ../shared/data is absent (or give --input)")
+            print(f"skipped: {shared_data_name()} is absent (or give --input)")
             return 0
         src = d / "c3d" / "cmu_02_01.c3d"
     work = Path(tempfile.mkdtemp(prefix="mpz-coldstart-"))

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from _common import shared_data_dir
+from _common import shared_data_dir, shared_data_name
 import mpz
 from mpz.encoder import EncodeOptions, encode_motion
 from mpz.format import MM_PER_UNIT
@@ -68,7 +68,7 @@ def main(argv=None):
     args = p.parse_args(argv)
     d = shared_data_dir()
     if d is None:
-        print("skipped: ../shared/data is absent (set MPZ_SHARED_DATA)")
+        print(f"skipped: {shared_data_name()} is absent (set MPZ_SHARED_DATA)")
         return 0
     summary = {(seg, t): [] for seg in ("adaptive", "optimal") for t in TARGETS}
     bounded = {"adaptive": [], "optimal": []}

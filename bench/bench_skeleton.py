@@ -46,7 +46,7 @@ import time
 
 import numpy as np
 
-from _common import shared_data_dir
+from _common import shared_data_dir, shared_data_name
 import mpz
 from mpz import channels as ch
 from mpz import skeleton as sk
@@ -70,7 +70,7 @@ def files(names: list[str] | None) -> list[Path] | int:
     that is not there (a typo is not a skip)."""
     d = shared_data_dir()
     if d is None:
-        print("skipped: ../shared/data is absent (set MPZ_SHARED_DATA)")
+        print(f"skipped: {shared_data_name()} is absent (set MPZ_SHARED_DATA)")
         return 0
     out = sorted((d / "bvh").glob("*.bvh")) + sorted((d / "amc").glob("*.amc"))
     if not out:

@@ -22,7 +22,10 @@ def shared_data_dir() -> Path | None:
 def shared_data() -> Path:
     d = shared_data_dir()
     if d is None:
-        pytest.skip("real recordings not available: ../shared/data is absent (set MPZ_SHARED_DATA)")
+        env = os.environ.get("MPZ_SHARED_DATA")    # the value tried, when it is set (QA)
+        pytest.skip(f"real recordings not available: MPZ_SHARED_DATA={env} is not a folder"
+                    if env else "real recordings not available: ../shared/data is absent "
+                    "(set MPZ_SHARED_DATA)")
     return d
 
 

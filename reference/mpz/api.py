@@ -708,9 +708,10 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES,
         names, rate, units and ``meta``; the 1.1 chunks (a C3D archive, a skeleton and
         its channels, the coded summary) are skipped after their frame and CRC are
         checked, not decoded or checked further (§2.3). The markers are the same. On a
-        C3D file with analog data it is about 17 times faster (ezc3d_Vicon: 2.0 ms
-        against 35 ms, docs/partial-decode.md; a data loader that trains on markers:
-        an ML pipeline's QA run of stop 51); ``extras`` and ``angles`` are then empty.
+        C3D file with analog data it is 10-17 times faster (ezc3d_Vicon: 2.0-2.9 ms
+        against 35 ms, the machine idle or loaded, docs/partial-decode.md; a data loader
+        that trains on markers: an ML pipeline's QA run of stop 51); ``extras`` and
+        ``angles`` are then empty.
 
     Returns
     -------
@@ -951,9 +952,9 @@ class Summary:
     def level(self, k: int) -> SummaryLevel:
         """The level of ``k`` segments, the first stored when two have that k (spec §4.10
         allows it; :attr:`levels` holds every one, in stored order); KeyError naming the
-        levels there are, TypeError for a ``k`` that is not a whole number."""
+        levels there are, TypeError for a ``k`` that is not an int (``6.0``, ``'6'``)."""
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)):   # '2' (QA, stop 50)
-            raise TypeError(f"k must be a whole number of segments, got {k!r}")
+            raise TypeError(f"k must be an int (a number of segments), got {k!r}")
         for lv in self.levels:
             if lv.k == k:
                 return lv

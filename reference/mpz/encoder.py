@@ -2072,6 +2072,7 @@ def encode(motion: Motion, *,
 
     Examples
     --------
+    >>> from mpz import encode
     >>> from mpz.synth import generate
     >>> data = encode(generate("walk", frames=30), max_error=2.0)
     >>> data[:4]

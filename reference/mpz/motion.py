@@ -105,6 +105,7 @@ class Motion:
     Examples
     --------
     >>> import numpy as np
+    >>> from mpz import Motion
     >>> m = Motion(np.zeros((2, 1, 3)), ["A"], rate=120.0, units="mm")
     >>> m.n_frames, m.n_markers, m.duration
     (2, 1, 0.016666666666666666)

@@ -445,6 +445,7 @@ def generate(kind: str = "walk", *, frames: int = 240, rate: float = 120.0, seed
 
     Examples
     --------
+    >>> from mpz.synth import generate
     >>> m = generate("walk", frames=120, seed=1)
     >>> m.n_frames, m.n_markers, m.units, m.names[4]
     (120, 41, 'mm', 'C7')

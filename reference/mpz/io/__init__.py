@@ -449,6 +449,7 @@ def detect_format(head: bytes) -> str | None:
 
     Returns None when nothing matches.
 
+    >>> from mpz.io import detect_format
     >>> detect_format(b"PathFileType\\t4\\t(X/Y/Z)\\tx.trc\\n")
     '.trc'
     >>> detect_format(bytes(512)) is None
