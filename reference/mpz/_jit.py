@@ -33,8 +33,11 @@ with the baseline's features (checked once per process), the same CPython minor 
 (in the file names), the same numba version, the same target triple, and source files
 with the same contents (numba's stamp is their SHA-256), checked entry by entry;
 anywhere else the kernel compiles as before. Baseline code computes the same values: the
-shipped kernels are exact integer and IEEE code (no ``fastmath``, no ``parallel``, which
-are never shipped), and run as fast as host code within the noise (docs/cold-start.md).
+codec's shipped kernels are exact integer and IEEE code (no ``fastmath``), and run as fast
+as host code within the noise (docs/cold-start.md). The one exception, marked
+``ship=True``: the optimal partition's kernels (:mod:`mpz.fisher`, the summary chunk),
+whose ``fastmath`` sums already differ between CPUs (FMA or not, the vector width), and
+which compiled for 2.5-4 s on the first ``--summary`` (a newcomer's QA run, stop 62).
 ``MPZ_SHIPPED_KERNELS=0`` turns the lookup off.
 
 Modules use :func:`njit` exactly as ``numba.njit`` (``from mpz._jit import njit``);
@@ -383,9 +386,11 @@ def njit(*args: Any, **options: Any) -> Any:
         return numba.njit(args[0])
     cache = bool(options.pop("cache", False))
     sigs = args[0] if args else None
-    # fastmath may contract differently on another CPU, and parallel kernels are
-    # threading-layer specific: such kernels are never shipped (module docstring)
-    shippable = not options.get("fastmath") and not options.get("parallel")
+    # fastmath may contract differently on another CPU, so such kernels are not shipped
+    # unless they say ship=True: the summary's, whose values vary by CPU anyway (module
+    # docstring)
+    shippable = bool(options.pop("ship", not options.get("fastmath")
+                                 and not options.get("parallel")))
 
     def wrap(fn: Callable[..., Any]) -> Any:
         disp = numba.njit(**options)(fn)

@@ -220,7 +220,7 @@ def _max_dev(a: NDArray[np.float64], s: NDArray[np.int64]) -> NDArray[np.float64
 
 
 # -- the dynamic programme ----------------------------------------------------------
-@njit(cache=_CACHE, fastmath={"reassoc", "contract"})
+@njit(cache=_CACHE, fastmath={"reassoc", "contract"}, ship=True)
 def _cost(S: NDArray[np.float64], Q: NDArray[np.float64], t: int, j: int) -> float:
     """d(t, j): squared error of frames t..j-1 about their mean, from prefix sums."""
     acc = 0.0
@@ -298,10 +298,14 @@ def _named(fn: Callable[..., Any], name: str) -> Callable[..., Any]:
     return out
 
 
-_fisher_tables = njit(cache=_CACHE, parallel=True)(_named(_fisher_tables_py, "_fisher_tables"))
+# shipped (mpz._jit): a first --summary compiled them for 2.5-4 s (QA, stop 62); a kernel
+# cached by one threading layer (omp) loads under another (workqueue), the same tables
+_fisher_tables = njit(cache=_CACHE, parallel=True, ship=True)(
+    _named(_fisher_tables_py, "_fisher_tables"))
 #: the same kernel compiled without threads (``prange`` is ``range``): the same tables, as
 #: the chunks' minima merge in order of t
-_fisher_tables_serial = njit(cache=_CACHE)(_named(_fisher_tables_py, "_fisher_tables_serial"))
+_fisher_tables_serial = njit(cache=_CACHE, ship=True)(
+    _named(_fisher_tables_py, "_fisher_tables_serial"))
 
 #: set in a child made by fork(): there the tables are made by the serial kernel. A parent
 #: whose parallel kernel had started GNU OpenMP's threads (numba's default layer here)

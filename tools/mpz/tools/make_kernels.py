@@ -73,6 +73,12 @@ def workload() -> None:
     for m in motions:
         for kw in options:
             mpz.decode(mpz.encode(m, **kw))
+    from mpz import fisher                           # the summary's kernel in a forked child
+    fisher._FORKED = True
+    try:
+        mpz.encode(motions[0], max_error=1.0, summary=(4, 8))
+    finally:
+        fisher._FORKED = False
     with tempfile.TemporaryDirectory() as tmp:      # a C3D source: the archive chunks
         path = os.path.join(tmp, "walk.c3d")
         mpz.io.write(motions[0], path)
