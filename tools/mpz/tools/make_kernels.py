@@ -60,6 +60,7 @@ def workload() -> None:
     import warnings
 
     import mpz
+    from mpz import fisher
     from mpz.conformance import manifest as mf
     from mpz.errors import MPZError
     from mpz.synth import generate
@@ -73,8 +74,7 @@ def workload() -> None:
     for m in motions:
         for kw in options:
             mpz.decode(mpz.encode(m, **kw))
-    from mpz import fisher                           # the summary's kernel in a forked child
-    fisher._FORKED = True
+    fisher._FORKED = True                            # the summary's kernel in a forked child
     try:
         mpz.encode(motions[0], max_error=1.0, summary=(4, 8))
     finally:
