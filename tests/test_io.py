@@ -20,6 +20,7 @@ from mpz.io import c3dbin, detect_format, read, read_amc, read_bvh, read_bytes, 
 from mpz.io.amc import find_asf, parse_asf
 from mpz.io.bvh import frame_rate_from_frame_time
 from mpz.io.table import rate_from_times
+from mpz.synth import generate
 from mpz.tools import cmd_show, mpz_cli
 
 DANCE_RATE = 65.0364227294921875  # float32 POINT:RATE of c3d.org Dance1.c3d
@@ -1322,3 +1323,27 @@ def test_blank_lines_do_not_size_the_arrays(tmp_path):
                            capture_output=True, text=True, timeout=120)
         assert p.returncode == 0 and p.stdout.split() == ["1", "2000", "1.5"], \
             (name, p.stderr[-600:])
+
+
+def test_records_past_the_declared_parameter_blocks_are_read_and_said(tmp_path):
+    """c3d.org Dance1 declares 3 parameter blocks and holds records in 11: mpz reads them
+    all, as ezc3d does, and a C3D written back declares what it fills, so a reader that
+    stops at the declared count (py-c3d) found two more groups there, and analog values of
+    the other sign (ANALOG:GEN_SCALE -1), while encode, decode and compare said nothing (a
+    QA run of stop 62). The reader now says so; a file whose count is right says nothing."""
+    m = generate("walk", frames=20, seed=1)
+    p = tmp_path / "w.c3d"
+    write(m, p)
+    data = bytearray(p.read_bytes())
+    pstart = (data[0] - 1) * 512
+    assert data[pstart + 2] >= 2, "the test needs a parameter section of several blocks"
+    assert "parameter section declares" not in (read(p).metadata.get("warning") or "")
+    data[pstart + 2] = 1                        # the count says one block; the records go on
+    short = tmp_path / "short.c3d"
+    short.write_bytes(bytes(data))
+    back = read(short)
+    said = back.metadata.get("warning") or ""
+    assert "the parameter section declares 1 block but its records go on past it" in said
+    assert "a reader that stops at the declared count" in said
+    assert back.names == m.names                 # everything read, as before
+    assert "in a C3D written back but not in this file" in said

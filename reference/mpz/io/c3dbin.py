@@ -594,7 +594,7 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
     first, n_frames = frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
     frame_bytes = (4 * used + hdr_analog) * (4 if scale < 0 else 2)
     start, warning = _data_start(data, codec, pstart, params, n_frames * frame_bytes)
-    warnings = [] if warning is None else [warning]
+    warnings = [w for w in (warning, _records_past_declared(data, codec, pstart)) if w]
     hfirst, hlast = codec.uint16(data, 6), codec.uint16(data, 8)
     more = _more_frames(params, hfirst, hlast, len(data) - (start - 1) * BLOCK, frame_bytes)
     if more is not None:
@@ -602,6 +602,33 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
                         f"POINT:FRAMES {more}, and the data holds {more}: read {more}")
         n_frames = more
     return _Layout(used, scale, first, n_frames, frame_bytes, start, warnings)
+
+
+def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | None:
+    """A warning when the parameter records run on past the section's declared block
+    count (:func:`parse_records` reads them to the data start, as ezc3d does), naming what
+    a reader that stops at the count does not see. Why: a C3D written back declares the
+    blocks it fills, so such a reader sees more there than in the source (c3d.org Dance1:
+    9 records of 25, no ANALOG group, whose GEN_SCALE of -1 then flips every analog value
+    for it; a QA run of stop 62 with py-c3d)."""
+    n_blocks = max(data[pstart + 2], 1)
+    declared_end = pstart + n_blocks * BLOCK
+    if _section_end(data, pstart, codec.uint16(data, 16)) <= declared_end:
+        return None
+    every = parse_records(data, pstart, codec)
+    within = parse_records(data[:declared_end], pstart, codec)
+    if len(within) >= len(every):
+        return None
+    seen = {r.name for r in within if r.group < 0}
+    unseen = [r.name.decode("latin-1") for r in every if r.group < 0 and r.name not in seen]
+    n_groups = sum(r.group < 0 for r in every)
+    what = (f"the {' and '.join(unseen)} group{'s' if len(unseen) > 1 else ''}" if unseen
+            else f"{len(every) - len(within)} more parameter records")
+    return (f"the parameter section declares {n_blocks} block{'s' if n_blocks > 1 else ''} "
+            f"but its records go on past {'them' if n_blocks > 1 else 'it'}: all {n_groups} "
+            f"groups and {len(every) - n_groups} parameters are kept, as ezc3d reads them; a "
+            f"reader that stops at the declared count (the C3D user guide's rule; py-c3d) "
+            f"finds {what} in a C3D written back but not in this file")
 
 
 def _more_frames(params: dict[str, dict[str, ParamValue | None]], first: int, last: int,
