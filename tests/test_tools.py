@@ -244,3 +244,16 @@ def test_vv_shows_every_record_of_a_chunk_whole(capsys):
     for i, (ln, rec) in enumerate(zip(lines, records, strict=True)):
         assert ln.startswith(f"records[{i}] = ") and json.loads(ln.split(" = ", 1)[1]) == rec
     assert any('"name": "ORPHAN"' in ln and '"type": 2' in ln for ln in lines)
+
+
+def test_make_example_does_not_replace_a_file_without_force(tmp_path, capsys):
+    """`python -m mpz.tools.make_example walk.c3d` replaced an existing walk.c3d silently,
+    where every mpz command refuses without -f (a newcomer's QA run of stop 62)."""
+    from mpz.tools import make_example
+    out = tmp_path / "walk.trc"
+    out.write_text("mine")
+    assert make_example.main([str(out), "--frames", "12"]) == 2
+    assert out.read_text() == "mine"
+    assert "exists; use --force" in capsys.readouterr().err
+    assert make_example.main([str(out), "--frames", "12", "-f"]) == 0
+    assert out.read_text().startswith("PathFileType")

@@ -23,10 +23,15 @@ def main(argv=None) -> int:
     p.add_argument("output", help="e.g. walk.c3d or walk.trc")
     p.add_argument("--frames", type=int, default=480)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("-f", "--force", action="store_true",
+                   help="replace an existing file (else it is an error, as for every mpz "
+                        "command; a newcomer's QA run found it replaced silently)")
     args = p.parse_args(argv)
+    from mpz.api import check_output
     from mpz.errors import MPZError
     from mpz.io import write
     try:
+        check_output(args.output, force=args.force)
         m = make(args.frames, args.seed)
         write(m, args.output)
     except MPZError as exc:
