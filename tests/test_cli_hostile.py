@@ -190,6 +190,40 @@ def test_out_of_memory_is_its_own_message_and_exit_code(big: Path, tmp_path: Pat
         assert not (tmp_path / "x.npy").exists()
 
 
+def _address_space(limit: int) -> None:
+    import resource
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+
+def test_out_of_memory_while_starting_is_the_same_one_line(tmp_path: Path) -> None:
+    """Under `ulimit -v` 160-300 MB numpy loads but llvmlite's library cannot be mapped:
+    every command, `mpz --version` too, ended in two tracebacks and exit 1 before its main
+    ran (stop 61's list of what was not done). Now one line and exit 3, as for an
+    allocation that fails later."""
+    for name, argv in (("mpz", ["--version"]), ("mpzinfo", ["x.mpz"])):
+        script = Path(sys.executable).parent / name
+        if not script.exists():
+            pytest.skip(f"{name} is not installed beside this Python")
+        env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+        p = subprocess.run([str(script), *argv], cwd=tmp_path, env=env, capture_output=True,
+                           timeout=120, preexec_fn=lambda: _address_space(200 * 2**20))
+        if p.returncode == 0:
+            pytest.skip("200 MB of address space is enough to start here")
+        err = p.stderr.decode()
+        assert p.returncode == 3, err
+        assert err.startswith(f"{name}: error: out of memory while starting (") and \
+            err.count("\n") == 1 and "Traceback" not in err, err
+    from mpz import _worker
+    from mpz.tools._cli import EXIT_MEMORY
+    assert _worker.EXIT_MEMORY == EXIT_MEMORY
+    inner = OSError("x.so: failed to map segment from shared object")
+    outer = OSError("Could not find/load shared object file")
+    outer.__context__ = inner
+    assert _worker.out_of_memory(outer) is inner
+    assert _worker.out_of_memory(OSError(12, "Cannot allocate memory")) is not None
+    assert _worker.out_of_memory(OSError(2, "No such file")) is None
+
+
 # -- 4. terminal escape injection -----------------------------------------------------------------
 
 def test_names_file_names_and_metadata_are_printed_escaped(tmp_path: Path,

@@ -116,5 +116,42 @@ def release_sigint() -> None:
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
+#: the exit status of a command that ran out of memory (mpz.tools._cli.EXIT_MEMORY)
+EXIT_MEMORY = 3
+
+
+def out_of_memory(exc: BaseException | None) -> BaseException | None:
+    """``exc``, or the exception it was raised from or while handling, that is a failure
+    to get memory: a MemoryError, or an OSError of ENOMEM or of a shared library the loader
+    could not map (llvmlite's ``failed to map segment`` under ``ulimit -v``); else None."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, MemoryError) or (isinstance(exc, OSError) and (
+                exc.errno == 12 or "failed to map segment" in str(exc)
+                or "Cannot allocate memory" in str(exc))):
+            return exc
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+def _start_up_hook(kind: type[BaseException], exc: BaseException, tb: object) -> None:
+    """In one of :data:`COMMANDS`, an exception that escapes before ``main`` handles it:
+    one line and exit 3 when it is a failure to get memory, as ``main`` reports one. Under
+    ``ulimit -v`` 160-300 MB every command failed in its imports with two tracebacks of
+    llvmlite's (``mpz --version`` too; stop 61's list of what was not done)."""
+    cause = out_of_memory(exc)
+    if cause is not None:
+        name = os.path.basename(sys.argv[0] or "mpz")
+        what = (str(cause).splitlines() or [""])[0][:200] or type(cause).__name__
+        print(f"{name}: error: out of memory while starting ({what}): the libraries it "
+              "loads (numpy, numba's compiler) need about 400 MB of address space, more "
+              "than this process may have (ulimit -v, a job's memory limit)",
+              file=sys.stderr, flush=True)
+        os._exit(EXIT_MEMORY)
+    sys.__excepthook__(kind, exc, tb)    # type: ignore[arg-type]
+
+
 if not ignore_sigint_in_a_worker():
-    hold_sigint_in_a_command()
+    if hold_sigint_in_a_command():
+        sys.excepthook = _start_up_hook
