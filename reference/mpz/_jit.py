@@ -36,8 +36,11 @@ anywhere else the kernel compiles as before. Baseline code computes the same val
 codec's shipped kernels are exact integer and IEEE code (no ``fastmath``), and run as fast
 as host code within the noise (docs/cold-start.md). The one exception, marked
 ``ship=True``: the optimal partition's kernels (:mod:`mpz.fisher`, the summary chunk),
-whose ``fastmath`` sums already differ between CPUs (FMA or not, the vector width), and
 which compiled for 2.5-4 s on the first ``--summary`` (a newcomer's QA run, stop 62).
+Their ``fastmath`` sums follow the code they compile to (FMA or not, the vector width), so
+a host compile may cut a near tie otherwise; they are loaded from the shipped kernels
+first, so that every machine the shipped kernels serve cuts it the same way, whatever its
+own cache holds.
 ``MPZ_SHIPPED_KERNELS=0`` turns the lookup off.
 
 Modules use :func:`njit` exactly as ``numba.njit`` (``from mpz._jit import njit``);
@@ -278,21 +281,26 @@ else:
 
     class _Layered(_Cache):  # type: ignore[no-redef]
         """The policy's cache (if any), then the shipped kernels: what numba's dispatcher
-        calls (load_overload, save_overload, flush, cache_path)."""
+        calls (load_overload, save_overload, flush, cache_path). ``shipped_first``: the
+        shipped kernel before the policy's cache, for a kernel whose values depend on the
+        code it compiles to (``fastmath``): else a host-compiled entry in the user's cache
+        (from a run with ``MPZ_SHIPPED_KERNELS=0``) changed a machine's output for good (a
+        review of stop 62: a summary's partition on a near tie)."""
 
-        def __init__(self, primary: Any, shipped: Any):
+        def __init__(self, primary: Any, shipped: Any, shipped_first: bool = False):
             self.primary, self.shipped = primary, shipped
+            self.order = (shipped, primary) if shipped_first else (primary, shipped)
 
         @property
         def cache_path(self) -> str:
             return str((self.primary or self.shipped).cache_path)
 
         def load_overload(self, sig: Any, target_context: Any) -> Any:
-            hit = None if self.primary is None else self.primary.load_overload(
-                sig, target_context)
-            if hit is None:
-                hit = self.shipped.load_overload(sig, target_context)
-            return hit
+            for cache in self.order:
+                hit = None if cache is None else cache.load_overload(sig, target_context)
+                if hit is not None:
+                    return hit
+            return None
 
         def save_overload(self, sig: Any, data: Any) -> None:
             if self.primary is not None:
@@ -313,9 +321,10 @@ else:
                 self.primary.flush()
 
 
-def _enable_cache(disp: Any, shippable: bool = True) -> None:
+def _enable_cache(disp: Any, shippable: bool = True, exact: bool = True) -> None:
     """Attach the policy's cache to a dispatcher, with the shipped kernels behind it for a
-    ``shippable`` kernel; leave it uncached if that fails."""
+    ``shippable`` kernel (in front of it unless ``exact``: :class:`_Layered`); leave it
+    uncached if that fails."""
     p = policy()
     if p.where == "ship":               # make_kernels: compile into SHIPPED_DIR
         if shippable and _DirCache is not None:
@@ -336,7 +345,7 @@ def _enable_cache(disp: Any, shippable: bool = True) -> None:
         has_primary = primary is not None and type(primary).__name__ != "NullCache"
         try:
             disp._cache = _Layered(primary if has_primary else None,
-                                   _ShippedCache(disp.py_func))
+                                   _ShippedCache(disp.py_func), shipped_first=not exact)
         except RuntimeError:
             pass
 
@@ -381,21 +390,26 @@ def njit(*args: Any, **options: Any) -> Any:
 
     Used as ``@njit``, ``@njit(cache=True, ...)`` or ``@njit(signature, cache=True)``;
     with signatures the kernel is compiled (or loaded from the cache) here, as numba does.
+    ``ship=True``: ship a kernel that ``fastmath`` or ``parallel`` would keep out (or that
+    calls one with ``fastmath``), and load the shipped code before the policy's cache.
     """
     if len(args) == 1 and not options and callable(args[0]) and not isinstance(args[0], str):
         return numba.njit(args[0])
     cache = bool(options.pop("cache", False))
     sigs = args[0] if args else None
-    # fastmath may contract differently on another CPU, so such kernels are not shipped
-    # unless they say ship=True: the summary's, whose values vary by CPU anyway (module
-    # docstring)
-    shippable = bool(options.pop("ship", not options.get("fastmath")
-                                 and not options.get("parallel")))
+    # fastmath may contract differently on another CPU, so such kernels, and the parallel
+    # ones, are not shipped unless they say ship=True: the summary's, whose values follow
+    # the code they compile to (their own fastmath, or a callee's). Those load the shipped
+    # code first, so that a machine's output does not follow its cache (module docstring)
+    ship = options.pop("ship", None)
+    shippable = bool(ship) if ship is not None else \
+        not options.get("fastmath") and not options.get("parallel")
+    exact = ship is None
 
     def wrap(fn: Callable[..., Any]) -> Any:
         disp = numba.njit(**options)(fn)
         if cache:
-            _enable_cache(disp, shippable)
+            _enable_cache(disp, shippable, exact)
         if sigs is not None:
             for sig in (sigs if isinstance(sigs, list | tuple) else [sigs]):
                 disp.compile(sig)
