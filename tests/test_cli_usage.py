@@ -509,13 +509,22 @@ def test_an_option_of_another_subcommand_is_named_as_such(
               "unrecognized arguments: --units cm; --units is an option of mpz encode"),
              (["show", str(inputs["mpz"]), "--max-error=1mm"],
               "--max-error is an option of mpz encode"),
-             (["decode", str(inputs["mpz"]), "--fromat", "csv"], "did you mean --format?")]
+             (["decode", str(inputs["mpz"]), "--fromat", "csv"], "did you mean --format?"),
+             # both hints, and a short option (the review of stop 62)
+             (["decode", str(inputs["mpz"]), "--units", "cm", "--fromat", "x"],
+              "--units is an option of mpz encode; did you mean --format?"),
+             (["show", str(inputs["mpz"]), "-o", "x.trc"],
+              "-o is an option of mpz decode and mpz encode")]
     for argv, said in cases:
         with pytest.raises(SystemExit) as exc:
             mpz_cli.main(argv)
         err = capsys.readouterr().err
         assert exc.value.code == 64 and said in err, err
         assert "without a space" not in err and "--quiet" not in err, err
+    # a unit after an option that holds its value already is a unit apart from its number
+    with pytest.raises(SystemExit):
+        mpz_cli.main(["encode", str(inputs["trc"]), "-o", "y.mpz", "--max-eror=1", "mm"])
+    assert "a length takes its unit without a space" in capsys.readouterr().err
 
 
 def test_the_group_error_example_in_the_help_works(inputs: dict[str, Path],

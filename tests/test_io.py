@@ -1347,3 +1347,37 @@ def test_records_past_the_declared_parameter_blocks_are_read_and_said(tmp_path):
     assert "a reader that stops at the declared count" in said
     assert back.names == m.names                 # everything read, as before
     assert "in a C3D written back but not in this file" in said
+    data[pstart + 2] = 0                        # 0 is read as 1 (as ezc3d does), said as 0
+    short.write_bytes(bytes(data))
+    said = read(short).metadata.get("warning") or ""
+    assert "the parameter section declares 0 blocks but its records go on past them" in said
+
+
+def test_an_ezc3d_older_than_the_floor_is_not_handed_files(tmp_path, monkeypatch):
+    """pip refuses ezc3d < 1.7.2 (pyproject.toml), but conda, --no-deps or a system package
+    may install 1.5.16, which ends the process on a C3D 1.7.2 reads: nothing checked it at
+    run time (the review of stop 62). Such an ezc3d is not used to read; c3dbin reads the
+    same points, and a note says why."""
+    from importlib import metadata
+
+    from mpz.io import c3d
+    m = generate("walk", frames=20, seed=1)
+    p = tmp_path / "w.c3d"
+    write(m, p)
+    usual = read(p)
+    real = metadata.version
+    monkeypatch.setattr(metadata, "version",
+                        lambda name: "1.5.16" if name == "ezc3d" else real(name))
+    c3d.ezc3d_too_old.cache_clear()
+    try:
+        assert c3d.ezc3d_too_old() == "1.5.16"
+        back = read(p)
+    finally:
+        c3d.ezc3d_too_old.cache_clear()
+    assert "not read with ezc3d 1.5.16, older than 1.7.2" in back.metadata["reader_note"]
+    assert np.array_equal(back.positions, usual.positions, equal_nan=True)
+    assert back.names == usual.names and back.rate == usual.rate
+    monkeypatch.setattr(metadata, "version", lambda name: "1.7.2" if name == "ezc3d" else
+                        real(name))
+    assert c3d.ezc3d_too_old() is None
+    c3d.ezc3d_too_old.cache_clear()

@@ -708,7 +708,7 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES,
         names, rate, units and ``meta``; the 1.1 chunks (a C3D archive, a skeleton and
         its channels, the coded summary) are skipped after their frame and CRC are
         checked, not decoded or checked further (§2.3). The markers are the same. On a
-        C3D file with analog data it is 10-17 times faster (ezc3d_Vicon: 2.0-2.9 ms
+        C3D file with analog data it is 12-17 times faster (ezc3d_Vicon: 2.0-2.9 ms
         against 35 ms, the machine idle or loaded, docs/partial-decode.md; a data loader
         that trains on markers: an ML pipeline's QA run of stop 51); ``extras`` and
         ``angles`` are then empty.

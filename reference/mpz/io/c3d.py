@@ -26,6 +26,7 @@ needs (its 23% occluded samples have residual 0 at the origin).
 from __future__ import annotations
 
 from collections.abc import Mapping
+import functools
 import math
 import os
 import shutil
@@ -495,12 +496,42 @@ def _first_sentence(exc: BaseException) -> str:
     return _first_line(exc).split(". ")[0]
 
 
+#: the oldest ezc3d the reader hands files to: c3dbin's hazard rules are 1.7.2's, and 1.5.16
+#: ends the process on a file 1.7.2 reads (pyproject.toml, .ci/lowest.txt)
+EZC3D_OLDEST = (1, 7, 2)
+
+
+@functools.cache
+def ezc3d_too_old() -> str | None:
+    """The installed ezc3d's version when it is older than :data:`EZC3D_OLDEST` (pip
+    refuses it, but conda, ``--no-deps`` or a system package may not); else None, also
+    when its version is not known. Such an ezc3d is not used to read: the review of stop
+    62 (a crash is never an answer)."""
+    from importlib import metadata
+    import re
+    try:
+        version = metadata.version("ezc3d")
+    except metadata.PackageNotFoundError:
+        return None
+    parts = re.match(r"(\d+)\.(\d+)(?:\.(\d+))?", version)
+    if parts is None:
+        return None
+    found = tuple(int(p or 0) for p in parts.groups())
+    return version if found < EZC3D_OLDEST else None
+
+
 def _read_points(path: str, data: bytes, reopen: str) -> Motion:
     """Every point of the C3D file as a Motion: ezc3d (reading the file ``reopen``, which
     holds ``data``), or the numpy reader it refuses."""
+    source = os.path.basename(path)
+    old = ezc3d_too_old()
+    if old is not None:
+        return motion_from_c3d_bytes(data, source=source, extra={
+            "reader_note": f"not read with ezc3d {old}, older than "
+                           f"{'.'.join(map(str, EZC3D_OLDEST))}, which ends the process on "
+                           "some files that newer releases read; read with mpz.io.c3dbin"})
     import ezc3d
 
-    source = os.path.basename(path)
     head = data[:c3dbin.BLOCK]
     if len(head) < c3dbin.BLOCK or head[1] != c3dbin.C3D_KEY:
         # not a C3D file; let the numpy reader produce the precise error

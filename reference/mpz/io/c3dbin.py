@@ -609,26 +609,62 @@ def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | Non
     count (:func:`parse_records` reads them to the data start, as ezc3d does), naming what
     a reader that stops at the count does not see. Why: a C3D written back declares the
     blocks it fills, so such a reader sees more there than in the source (c3d.org Dance1:
-    9 records of 25, no ANALOG group, whose GEN_SCALE of -1 then flips every analog value
-    for it; a QA run of stop 62 with py-c3d)."""
-    n_blocks = max(data[pstart + 2], 1)
+    9 records of 28, no ANALOG group, whose GEN_SCALE of -1 then flips every analog value
+    for it, and no POINT:LABELS; a QA run of stop 62 with py-c3d)."""
+    declared = data[pstart + 2]
+    n_blocks = max(declared, 1)
     declared_end = pstart + n_blocks * BLOCK
     if _section_end(data, pstart, codec.uint16(data, 16)) <= declared_end:
         return None
     every = parse_records(data, pstart, codec)
-    within = parse_records(data[:declared_end], pstart, codec)
+    # what such a reader finds: the records that start within the count (py-c3d reads one
+    # that goes on past it: Dance1's POINT:LABELS)
+    within = every[:sum(s < declared_end for s in _record_starts(data, pstart, codec)
+                        [:len(every)])]
     if len(within) >= len(every):
         return None
-    seen = {r.name for r in within if r.group < 0}
-    unseen = [r.name.decode("latin-1") for r in every if r.group < 0 and r.name not in seen]
-    n_groups = sum(r.group < 0 for r in every)
-    what = (f"the {' and '.join(unseen)} group{'s' if len(unseen) > 1 else ''}" if unseen
-            else f"{len(every) - len(within)} more parameter records")
-    return (f"the parameter section declares {n_blocks} block{'s' if n_blocks > 1 else ''} "
-            f"but its records go on past {'them' if n_blocks > 1 else 'it'}: all {n_groups} "
-            f"groups and {len(every) - n_groups} parameters are kept, as ezc3d reads them; a "
-            f"reader that stops at the declared count (the C3D user guide's rule; py-c3d) "
-            f"finds {what} in a C3D written back but not in this file")
+    group_names = {-r.group: r.name.decode("latin-1") for r in every if r.group < 0}
+    kept = {(r.group, r.name) for r in within}
+    unseen = [group_names[-r.group] for r in every if r.group < 0 and (r.group, r.name)
+              not in kept]
+    params = [f"{group_names.get(r.group, r.group)}:{r.name.decode('latin-1')}" for r in every
+              if r.group > 0 and (r.group, r.name) not in kept
+              and group_names.get(r.group) not in unseen]
+    what = [f"the {' and '.join(unseen)} group{_s(len(unseen))}"] if unseen else []
+    if params:
+        shown = ", ".join(params[:4]) + (", ..." if len(params) > 4 else "")
+        what.append(f"{len(params)} parameter{_s(len(params))} of the groups it does see "
+                    f"({shown})")
+    n_groups = len(group_names)
+    n_params = len(every) - sum(r.group < 0 for r in every)
+    return (f"the parameter section declares {declared} block{_s(declared)} but its records "
+            f"go on past {'them' if declared != 1 else 'it'}: all {n_groups} group"
+            f"{_s(n_groups)} and {n_params} parameter{_s(n_params)} are kept, as ezc3d reads "
+            f"them; a reader that stops at the declared count (the C3D user guide's rule; "
+            f"py-c3d) finds {' and '.join(what)} in a C3D written back but not in this file")
+
+
+def _record_starts(data: bytes, pstart: int, codec: _Codec) -> list[int]:
+    """Where each record of the parameter section at ``pstart`` starts, following the
+    next-record offsets as :func:`parse_records` does (its records are the first ones)."""
+    end = _section_end(data, pstart, codec.uint16(data, 16))
+    starts: list[int] = []
+    pos = pstart + 4
+    while pos + 2 <= end and data[pos] != 0 and data[pos + 1] != 0:
+        off_pos = pos + 2 + abs(_s8(data[pos]))
+        if off_pos + 2 > end:
+            break
+        starts.append(pos)
+        nxt = codec.uint16(data, off_pos)
+        if nxt == 0:
+            break
+        pos = off_pos + nxt
+    return starts
+
+
+def _s(n: int) -> str:
+    """The plural ending for a count of ``n``."""
+    return "" if n == 1 else "s"
 
 
 def _more_frames(params: dict[str, dict[str, ParamValue | None]], first: int, last: int,

@@ -218,10 +218,14 @@ class Parser(argparse.ArgumentParser):
         if message.startswith("unrecognized arguments: "):
             words = message[len("unrecognized arguments: "):].split()
             options = [w for w in words if w.startswith("-")]
-            message += self._elsewhere(options) or _suggest(options, self._option_strings())
+            elsewhere = self._elsewhere(options)
+            message += "".join(elsewhere.values()) + _suggest(
+                [w for w in options if w not in elsewhere], self._option_strings())
             # "--max-error 1 mm" (a newcomer's QA run: no hint); not the value of an option
-            # this command lacks ("mpz decode --units cm", a QA run of stop 62)
-            if any(w in ("mm", "cm", "m", "in") and not (i and words[i - 1].startswith("-"))
+            # this command lacks ("mpz decode --units cm", a QA run of stop 62), but after
+            # "--max-eror=1" (the review of stop 62)
+            if any(w in ("mm", "cm", "m", "in") and not (
+                    i and words[i - 1].startswith("-") and "=" not in words[i - 1])
                    for i, w in enumerate(words)):
                 message += "; a length takes its unit without a space, e.g. --max-error 1mm"
         elif "invalid choice: " in message:
@@ -235,16 +239,21 @@ class Parser(argparse.ArgumentParser):
         return [s for a in self._actions for s in a.option_strings if s.startswith("--")] + \
             [s for a in self._actions for s in a.option_strings if not s.startswith("--")]
 
-    def _elsewhere(self, words: Iterable[str]) -> str:
-        """``; --units is an option of mpz encode`` for the first long option that another
-        subcommand of the same command has ("mpz decode --units cm" was offered --quiet)."""
+    def _elsewhere(self, words: Iterable[str]) -> dict[str, str]:
+        """``; --units is an option of mpz encode`` for each of ``words`` that is an option
+        of another subcommand of the same command, by word ("mpz decode --units cm" was
+        offered --quiet)."""
+        out = {}
         for w in words:
             key = w.split("=", 1)[0]
-            owners = [p.prog for p in self.family.values() if p is not self and isinstance(
-                p, Parser) and key.startswith("--") and key in p._option_strings()]
+            owners = sorted({p.prog for p in self.family.values() if p is not self and
+                             isinstance(p, Parser) and key in p._all_option_strings()})
             if owners:
-                return f"; {key} is an option of {' and '.join(sorted(set(owners)))}"
-        return ""
+                out[w] = f"; {key} is an option of {' and '.join(owners)}"
+        return out
+
+    def _all_option_strings(self) -> set[str]:
+        return {s for a in self._actions for s in a.option_strings}
 
     def _subcommands(self) -> list[str]:
         out: list[str] = []
