@@ -473,12 +473,15 @@ def test_an_unknown_group_error_node_is_not_blamed_on_the_default_bound() -> Non
 def test_write_atomic_names_the_python_argument_that_replaces(tmp_path):
     """mpz.write_atomic(path, data, force=False) on an existing file said only "use
     --force", an option of the commands that a Python caller does not have (a QA run of
-    the API, stop 54); the message now names force=True too, and the file is kept."""
+    the API, stop 54); it then said both, "use --force (force=True)", to either reader (a
+    newcomer's QA run, stop 62): a program is told force=True alone, and the file is kept."""
     from mpz.errors import EncoderError
     path = tmp_path / "a.mpz"
     path.write_bytes(b"old")
-    with pytest.raises(EncoderError, match=r"exists; use --force \(force=True\) to replace"):
+    with pytest.raises(EncoderError, match=r"exists; pass force=True to replace it$"):
         mpz.write_atomic(path, b"new", force=False)
+    with pytest.raises(mpz.io.InputFormatError, match=r"given with asf=\)$"):
+        mpz.io.read_bytes(b":version 1.10\n:name x\n")
     assert path.read_bytes() == b"old"
     mpz.write_atomic(path, b"new", force=True)
     assert path.read_bytes() == b"new"

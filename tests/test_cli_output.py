@@ -124,7 +124,7 @@ def test_two_encoders_racing_for_one_new_output(tmp_path: Path) -> None:
     codes = sorted(code for code, _ in results)
     assert codes == [0, 2], results
     loser = next(err for code, err in results if code == 2)
-    assert f"{out} exists; use --force (force=True) to replace it" in loser
+    assert f"{out} exists; use --force to replace it" in loser   # the command's spelling
     assert "Traceback" not in loser and len(loser.strip().splitlines()) == 1
     back = mpz.read_mpz(out)                       # the winner's file is complete
     assert back.n_frames == 1500 and back.names == m.names
@@ -470,7 +470,7 @@ def test_atomic_output_cleans_up_and_never_names_the_temporary_file(tmp_path: Pa
     assert os.listdir(tmp_path) == []
     # exclusive without force; the public write_atomic keeps replacing by default
     write_atomic(target, b"one")
-    with pytest.raises(EncoderError, match="exists; use --force"):
+    with pytest.raises(EncoderError, match="exists; pass force=True"):
         write_atomic(target, b"two", force=False)
     write_atomic(target, b"three")
     assert target.read_bytes() == b"three" and os.listdir(tmp_path) == ["x.bin"]
@@ -481,7 +481,7 @@ def test_atomic_output_cleans_up_and_never_names_the_temporary_file(tmp_path: Pa
 def test_exclusive_commit_loses_to_a_file_made_meanwhile(tmp_path: Path) -> None:
     from mpz.api import atomic_output
     target = tmp_path / "late.npy"
-    with pytest.raises(EncoderError, match="exists; use --force"), \
+    with pytest.raises(EncoderError, match="exists; pass force=True"), \
             atomic_output(target) as tmp:
         np.save(tmp, np.zeros(3))
         target.write_bytes(b"the other writer")    # appears after the first check

@@ -109,6 +109,13 @@ def own_process() -> bool:
             or _command_script("__mp_main__", MPZ))
 
 
+def spelled(cli: str, api: str) -> str:
+    """How a message names an option: ``cli`` (``--force``) in a process of
+    :func:`own_process`, ``api`` (``force=True``) in a program that calls mpz. Messages said
+    both ("use --force (force=True)"), for whichever reader (a newcomer's QA run, stop 62)."""
+    return cli if own_process() else api
+
+
 def release_sigint() -> None:
     """Unblock SIGINT in the calling thread: a Ctrl-C held since the first import is
     delivered now, as KeyboardInterrupt where the command reports it."""

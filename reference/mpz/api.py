@@ -31,6 +31,7 @@ from typing import IO, TYPE_CHECKING, Any, BinaryIO, TypeAlias, cast
 
 import numpy as np
 
+from mpz._worker import spelled
 from mpz.errors import EncoderError, FormatError, LimitExceededError, MPZError
 from mpz.format import MAX_CHUNK_LENGTH, MAX_SAMPLES, SIGNATURE, VERSION_MINOR
 
@@ -247,6 +248,11 @@ def _same_file(a: str, b: str) -> bool:
     return os.path.realpath(a) == os.path.realpath(b)
 
 
+def _use_force() -> str:
+    """How an "exists" message tells its reader to replace the file."""
+    return spelled("use --force", "pass force=True")
+
+
 def check_output(path: str | os.PathLike[str], *, force: bool = False,
                  source: str | os.PathLike[str] | None = None) -> None:
     """Refuse an output path that must not or cannot be written, before any work is done.
@@ -285,7 +291,7 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
     if os.path.islink(target) and not os.path.exists(target):
         if not force:
             raise EncoderError(f"{target} is a symbolic link to a missing file; "
-                               "use --force (force=True) to replace it")
+                               f"{_use_force()} to replace it")
         return
     if is_null_device(target):
         return                          # written and discarded (atomic_output)
@@ -294,7 +300,7 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         if not stat.S_ISREG(os.stat(target).st_mode):
             raise EncoderError(f"{target} is not a regular file; refusing to replace it")
         if not force:
-            raise EncoderError(f"{target} exists; use --force (force=True) to replace it")
+            raise EncoderError(f"{target} exists; {_use_force()} to replace it")
         if _immutable(target):
             raise EncoderError(f"cannot write {target}: it is marked immutable or append-"
                                "only (chattr +i or +a); the rename that replaces it would fail")
@@ -583,7 +589,7 @@ def _commit(tmp: str, target: str, *, force: bool) -> None:
             os.chmod(tmp, stat.S_IMODE(os.stat(target).st_mode))
         os.replace(tmp, target)
         return
-    exists = EncoderError(f"{target} exists; use --force (force=True) to replace it")
+    exists = EncoderError(f"{target} exists; {_use_force()} to replace it")
     try:
         os.link(tmp, target)  # fails if the name exists, atomically: one writer wins
     except FileExistsError:
@@ -618,7 +624,8 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
       temporary path is in the system's temporary folder and is removed afterwards.
     * Without ``force`` the name is created exclusively: of two writers of
       the same new file exactly one succeeds; the other gets
-      :class:`~mpz.errors.EncoderError` "exists; use --force (force=True)".
+      :class:`~mpz.errors.EncoderError` "exists; pass force=True" ("use --force" in the
+      commands).
     * With ``force`` an existing file is replaced and keeps its mode; a new
       file gets mode 0o666 minus the umask.
     * On any exception, and on SIGTERM or SIGHUP (a terminal closed; see

@@ -46,6 +46,7 @@ import tempfile
 import numpy as np
 from numpy.typing import NDArray
 
+from mpz._worker import spelled
 from mpz.errors import InputFormatError
 from mpz.format import SIGNATURE
 from mpz.io import amc, bvh, c3dbin
@@ -362,8 +363,10 @@ def _path_arg(name: str, value: object) -> None:
 
 #: what reading an AMC's skeleton as a motion says (a QA run of stop 61: "unknown file
 #: extension" by name, "cannot tell the format" on standard input)
-ASF_NOT_A_MOTION = ("an ASF file is the skeleton of AMC motions, not a motion: read an .amc "
-                    "(its ASF is found beside it, or given with --asf / asf=)")
+def asf_not_a_motion() -> str:
+    """What reading an ASF as a motion says, naming the option as the caller spells it."""
+    return ("an ASF file is the skeleton of AMC motions, not a motion: read an .amc (its ASF "
+            f"is found beside it, or given with {spelled('--asf', 'asf=')})")
 
 
 def _is_asf_text(head: bytes) -> bool:
@@ -386,7 +389,7 @@ def _format_of_content(path: StrPath, head: bytes, ext: str) -> str:
             "an MPZ file, not a motion file: mpz.decode reads it (mpz encode re-encodes "
             "one .mpz given alone, within the bounds of both encodes)", path=os.fspath(path))
     if found not in READERS and (ext == ".asf" or _is_asf_text(head)):
-        raise InputFormatError(ASF_NOT_A_MOTION, path=os.fspath(path))
+        raise InputFormatError(asf_not_a_motion(), path=os.fspath(path))
     if found not in READERS:
         raise InputFormatError(
             f"unknown file extension {ext or '(none)'!r} and no known format in the "
@@ -508,7 +511,7 @@ def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
                          f"{fmt!r}")
     ext = fmt.lower() if fmt else detect_format(data)
     if ext is None and _is_asf_text(data[:DETECT_BYTES]):   # `mpz encode - < 35.asf`
-        raise InputFormatError(ASF_NOT_A_MOTION, path=name)
+        raise InputFormatError(asf_not_a_motion(), path=name)
     if ext is None:
         raise InputFormatError(f"cannot tell the format from the content (first bytes "
                                f"{data[:8]!r}); can read {', '.join(READERS)} and .mpz",

@@ -31,6 +31,7 @@ import re
 import numpy as np
 from numpy.typing import NDArray
 
+from mpz._worker import spelled
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
 from mpz.io._common import (
@@ -504,8 +505,8 @@ def find_asf(amc_path: StrPath) -> str:
             cands.append((len(s), p))
     if not cands:
         raise InputFormatError(f"no .asf skeleton found for {os.path.basename(amc_path)} "
-                               f"(looked for <prefix of {stem!r}>.asf in {folder}); name it: --asf "
-                               "PATH on the command line, asf= in Python",
+                               f"(looked for <prefix of {stem!r}>.asf in {folder}); name it with "
+                               f"{spelled('--asf PATH', 'asf=')}",
                                path=amc_path)
     return max(cands)[1]
 

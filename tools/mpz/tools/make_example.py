@@ -7,6 +7,7 @@ not be redistributed, so the quick start uses this one.
 """
 from __future__ import annotations
 
+import os
 import sys
 
 from mpz.tools._cli import EXIT_ERROR, Parser, printable
@@ -28,9 +29,11 @@ def main(argv=None) -> int:
                         "command; a newcomer's QA run found it replaced silently)")
     args = p.parse_args(argv)
     from mpz.api import check_output
-    from mpz.errors import MPZError
+    from mpz.errors import EncoderError, MPZError
     from mpz.io import write
     try:
+        if not args.force and os.path.isfile(args.output):   # the commands' wording
+            raise EncoderError(f"{args.output} exists; use --force to replace it")
         check_output(args.output, force=args.force)
         m = make(args.frames, args.seed)
         write(m, args.output)
