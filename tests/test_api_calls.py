@@ -485,3 +485,26 @@ def test_write_atomic_names_the_python_argument_that_replaces(tmp_path):
     assert path.read_bytes() == b"old"
     mpz.write_atomic(path, b"new", force=True)
     assert path.read_bytes() == b"new"
+
+
+def test_a_command_run_any_way_spells_its_options(tmp_path, capsys):
+    """The command line's spelling (--force, --asf PATH) was chosen by the console script's
+    name alone: `python -m mpz.tools.mpz_cli`, `main([...])` in a program and the workers of
+    `--scheduler` were told force=True and asf= (the review of stop 62)."""
+    import subprocess
+    import sys
+
+    from mpz import _worker
+    from mpz.tools import mpz_cli
+    src = tmp_path / "w.trc"
+    mpz.io.write(generate("walk", frames=12, seed=1), src)
+    (tmp_path / "w.mpz").write_bytes(b"old")
+    p = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "encode", str(src), "-o",
+                        str(tmp_path / "w.mpz")], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2 and "exists; use --force to replace it" in p.stderr, p.stderr
+    assert mpz_cli.main(["encode", str(src), "-o", str(tmp_path / "w.mpz")]) == 2
+    assert "exists; use --force to replace it" in capsys.readouterr().err
+    assert _worker.spelled("--force", "force=True") == "force=True"   # main() is over
+    with _worker.command_task(True):                 # a corpus task a command sent
+        assert _worker.spelled("--force", "force=True") == "--force"
+    assert _worker.spelled("--force", "force=True") == "force=True"

@@ -378,3 +378,41 @@ def test_blas_check_is_skipped_in_mpz_commands_only(tmp_path: Path, script: str,
     assert out["dot"] == 5.0 and out["restored"] == "ensure_blas"
     assert out["linalg_after_decode"] is not skipped
     assert out["have_blas"] is not skipped
+
+
+def test_a_kernel_shipped_by_exception_is_loaded_before_the_users_cache() -> None:
+    """The order itself, on any CPU (the loop above tells the two orders apart only where
+    the host's code cuts a near tie otherwise; the review of stop 62): an exact kernel
+    takes the user's cache first, a ``ship=True`` one the shipped kernels first, and each
+    falls back to the other; a compile is saved to the user's cache alone."""
+    if _jit._Layered is None:
+        pytest.skip("numba's cache classes are not there")
+
+    class Fake:
+        def __init__(self, hit: object) -> None:
+            self.hit, self.saved = hit, []
+
+        def load_overload(self, sig: object, ctx: object) -> object:
+            return self.hit
+
+        def save_overload(self, sig: object, data: object) -> None:
+            self.saved.append(data)
+
+    user, shipped = Fake("user's"), Fake("shipped")
+    assert _jit._Layered(user, shipped).load_overload("sig", None) == "user's"
+    assert _jit._Layered(user, shipped, shipped_first=True).load_overload("sig", None) == \
+        "shipped"
+    assert _jit._Layered(Fake(None), shipped).load_overload("sig", None) == "shipped"
+    assert _jit._Layered(user, Fake(None), shipped_first=True).load_overload(
+        "sig", None) == "user's"
+    assert _jit._Layered(None, shipped, shipped_first=True).load_overload("sig", None) == \
+        "shipped"
+    layered = _jit._Layered(user, shipped, shipped_first=True)
+    layered.save_overload("sig", "code")
+    assert user.saved == ["code"] and shipped.saved == []
+    # and the package's kernels are given the orders they need, where shipped ones serve
+    from mpz import entropy, fisher
+    summary, exact = fisher._fisher_tables._cache, entropy._decode_block._cache
+    if isinstance(summary, _jit._Layered) and isinstance(exact, _jit._Layered):
+        assert summary.order[0] is summary.shipped
+        assert exact.order[0] is exact.primary and exact.primary is not None

@@ -18,6 +18,9 @@ ended the command by the signal; held, it is delivered inside ``main``, which sa
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
+import contextlib
+import contextvars
 import os
 import re
 import signal
@@ -109,11 +112,42 @@ def own_process() -> bool:
             or _command_script("__mp_main__", MPZ))
 
 
+#: set while a command's ``main`` runs (``mpz.tools._cli.reports_ctrl_c``), however it was
+#: started: the console script, ``python -m mpz.tools.mpz_cli``, ``main([...])`` in a program
+_MAIN = [False]
+#: set while a worker of any cluster runs a corpus task that a command sent
+#: (``mpz.corpus.Task.command``)
+_TASK: contextvars.ContextVar[bool] = contextvars.ContextVar("mpz_command_task", default=False)
+
+
+def command_main(running: bool) -> bool:
+    """Say whether a command's ``main`` runs now; returns what was said before."""
+    before, _MAIN[0] = _MAIN[0], running
+    return before
+
+
+@contextlib.contextmanager
+def command_task(sent: bool) -> Iterator[None]:
+    """Within it, this thread runs a task a command sent (``sent``) or a program did."""
+    token = _TASK.set(sent)
+    try:
+        yield
+    finally:
+        _TASK.reset(token)
+
+
+def in_command() -> bool:
+    """Whether what runs now answers to a command line: a command's ``main``, a task it
+    sent to a worker, or a process of :func:`own_process`."""
+    return _MAIN[0] or _TASK.get() or own_process()
+
+
 def spelled(cli: str, api: str) -> str:
-    """How a message names an option: ``cli`` (``--force``) in a process of
-    :func:`own_process`, ``api`` (``force=True``) in a program that calls mpz. Messages said
-    both ("use --force (force=True)"), for whichever reader (a newcomer's QA run, stop 62)."""
-    return cli if own_process() else api
+    """How a message names an option: ``cli`` (``--force``) where :func:`in_command`, else
+    ``api`` (``force=True``). Messages said both ("use --force (force=True)"), for whichever
+    reader (a newcomer's QA run, stop 62); the review of stop 62 found the console script's
+    test alone wrong for ``python -m mpz.tools.mpz_cli`` and ``--scheduler`` workers."""
+    return cli if in_command() else api
 
 
 def release_sigint() -> None:

@@ -67,6 +67,7 @@ import urllib.parse
 
 import numpy as np
 
+from mpz._worker import command_task, in_command
 from mpz.api import folder_problem
 from mpz.encoder import DEFAULTS, EncodeOptions
 from mpz.errors import EncoderError, MPZError
@@ -497,6 +498,9 @@ class Task:
     #: with ``verify``: the output is read whole and checked first (:func:`output_problem`);
     #: a sound one is ``skipped``, a damaged one encoded again
     verify: tuple[str, str] | None = None
+    #: sent by a command (``mpz encode``): its messages spell options as the command line
+    #: does, on a worker of any cluster (:func:`mpz._worker.spelled`)
+    command: bool = False
 
 
 @dataclass
@@ -689,6 +693,13 @@ def _one_numba_thread() -> None:
 
 
 def encode_file(task: Task) -> FileResult:
+    """Encode one file of a corpus (the task a worker runs): :func:`_encode_file`, its
+    messages spelled for the command line when a command sent it."""
+    with command_task(task.command):
+        return _encode_file(task)
+
+
+def _encode_file(task: Task) -> FileResult:
     """Encode one file of a corpus (the task a worker runs).
 
     Returns
@@ -2237,8 +2248,9 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                 _Fixed(options) if isinstance(options, EncodeOptions) else _ByUnits(options))
     levels = tuple(sorted({int(k) for k in levels}))
     skeleton = None if asf is None else os.path.abspath(os.fspath(asf))
+    command = in_command()
     tasks = [Task(os.fspath(s), os.fspath(o), _key(os.fspath(o), index_dir), per_file,
-                  levels, force, skeleton) for s, o in jobs]
+                  levels, force, skeleton, command=command) for s, o in jobs]
     # the index holds paths as UTF-8 text: such a name stopped the run with a traceback
     named = [is_utf8(os.path.abspath(t.source)) and is_utf8(t.output_key) for t in tasks]
     failed = [*failed, *((t.source, t.output, NOT_UTF8)

@@ -509,9 +509,15 @@ def ezc3d_too_old() -> str | None:
     62 (a crash is never an answer)."""
     from importlib import metadata
     import re
+    version: object
     try:
         version = metadata.version("ezc3d")
     except metadata.PackageNotFoundError:
+        # conda-forge's CMake install has no metadata, only its _version.py (the review
+        # of stop 62)
+        import ezc3d
+        version = getattr(ezc3d, "__version__", None)
+    if not isinstance(version, str):
         return None
     parts = re.match(r"(\d+)\.(\d+)(?:\.(\d+))?", version)
     if parts is None:
@@ -524,12 +530,6 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
     """Every point of the C3D file as a Motion: ezc3d (reading the file ``reopen``, which
     holds ``data``), or the numpy reader it refuses."""
     source = os.path.basename(path)
-    old = ezc3d_too_old()
-    if old is not None:
-        return motion_from_c3d_bytes(data, source=source, extra={
-            "reader_note": f"not read with ezc3d {old}, older than "
-                           f"{'.'.join(map(str, EZC3D_OLDEST))}, which ends the process on "
-                           "some files that newer releases read; read with mpz.io.c3dbin"})
     import ezc3d
 
     head = data[:c3dbin.BLOCK]
@@ -564,6 +564,14 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
         return motion_from_c3d_bytes(data, source=source, extra={
             "reader_note": f"not read with ezc3d, which aborts the process when an "
                            f"allocation fails: {short}; read with mpz.io.c3dbin"})
+    old = ezc3d_too_old()
+    if old is not None:          # the checks above hold; ezc3d itself is not trusted
+        extra = {"reader_note": f"not read with ezc3d {old}, older than "
+                                f"{'.'.join(map(str, EZC3D_OLDEST))}, which ends the process "
+                                "on some files that newer releases read; read with "
+                                "mpz.io.c3dbin"}
+        return motion_from_c3d_bytes(data, source=source,
+                                     extra=extra if note is None else {**extra, "warning": note})
     # only ezc3d's own refusals are caught, not what our code does with its result
     first_error: OSError | RuntimeError | ValueError
     try:

@@ -609,8 +609,9 @@ def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | Non
     count (:func:`parse_records` reads them to the data start, as ezc3d does), naming what
     a reader that stops at the count does not see. Why: a C3D written back declares the
     blocks it fills, so such a reader sees more there than in the source (c3d.org Dance1:
-    9 records of 28, no ANALOG group, whose GEN_SCALE of -1 then flips every analog value
-    for it, and no POINT:LABELS; a QA run of stop 62 with py-c3d)."""
+    10 records of 28 begin within the count, so no ANALOG group, whose GEN_SCALE of -1
+    then flips every analog value for it, and no POINT:DESCRIPTIONS; a QA run of stop 62
+    with py-c3d)."""
     declared = data[pstart + 2]
     n_blocks = max(declared, 1)
     declared_end = pstart + n_blocks * BLOCK

@@ -48,7 +48,7 @@ import sys
 import threading
 from typing import IO, Any, NoReturn, ParamSpec
 
-from mpz._worker import ignore_sigint_when_done, release_sigint
+from mpz._worker import command_main, ignore_sigint_when_done, release_sigint
 
 EXIT_OK = 0
 EXIT_WARN = 1
@@ -202,6 +202,11 @@ def _suggest(words: Iterable[str], choices: Iterable[str]) -> str:
     return ""
 
 
+#: the options that take a length with its unit (the unit hint is for their commands)
+LENGTH_OPTIONS = frozenset({"--max-error", "--bound", "--grid", "--group-error",
+                            "--translation-error"})
+
+
 class Parser(argparse.ArgumentParser):
     """An ``ArgumentParser`` whose usage errors exit with :data:`EXIT_USAGE` (64), not 2.
 
@@ -226,7 +231,7 @@ class Parser(argparse.ArgumentParser):
             # "--max-eror=1" (the review of stop 62)
             if any(w in ("mm", "cm", "m", "in") and not (
                     i and words[i - 1].startswith("-") and "=" not in words[i - 1])
-                   for i, w in enumerate(words)):
+                   for i, w in enumerate(words)) and LENGTH_OPTIONS & set(self._option_strings()):
                 message += "; a length takes its unit without a space, e.g. --max-error 1mm"
         elif "invalid choice: " in message:
             bad = message.split("invalid choice: ", 1)[1].split(" ", 1)[0].strip("'\"")
@@ -411,6 +416,7 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
         @functools.wraps(main)
         def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> int:
             _running[0] = None
+            before = command_main(True)          # messages spell options as the CLI does
             try:
                 with ctrl_c_outside_compiler():
                     release_sigint()
@@ -453,6 +459,7 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
             except Exception:
                 return _bug(prog)
             finally:
+                command_main(before)
                 ignore_sigint_when_done()
 
         return wrapper

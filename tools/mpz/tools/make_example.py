@@ -32,7 +32,7 @@ def main(argv=None) -> int:
     from mpz.errors import EncoderError, MPZError
     from mpz.io import write
     try:
-        if not args.force and os.path.isfile(args.output):   # the commands' wording
+        if not args.force and os.path.lexists(args.output):   # the commands' wording
             raise EncoderError(f"{args.output} exists; use --force to replace it")
         check_output(args.output, force=args.force)
         m = make(args.frames, args.seed)
