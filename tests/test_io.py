@@ -1377,6 +1377,16 @@ def test_an_ezc3d_older_than_the_floor_is_not_handed_files(tmp_path, monkeypatch
     assert "not read with ezc3d 1.5.16, older than 1.7.2" in back.metadata["reader_note"]
     assert np.array_equal(back.positions, usual.positions, equal_nan=True)
     assert back.names == usual.names and back.rate == usual.rate
+    # nor asked to write one: mpz's own writer does (the second review)
+    import ezc3d
+    monkeypatch.setattr(c3d, "ezc3d_too_old", lambda: "1.5.16")
+    monkeypatch.setattr(ezc3d, "c3d", lambda *a, **k: pytest.fail("ezc3d was used"))
+    written = tmp_path / "written.c3d"
+    write(m, written)
+    monkeypatch.undo()
+    again = read(written)
+    assert np.allclose(again.positions, m.positions, atol=1e-3, equal_nan=True)
+    assert again.names == m.names
     monkeypatch.setattr(metadata, "version", lambda name: "1.7.2" if name == "ezc3d" else
                         real(name))
     assert c3d.ezc3d_too_old() is None

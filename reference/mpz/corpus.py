@@ -67,8 +67,8 @@ import urllib.parse
 
 import numpy as np
 
-from mpz._worker import command_task, in_command
-from mpz.api import folder_problem
+from mpz._worker import command_task, in_command, spelled
+from mpz.api import _use_force, folder_problem
 from mpz.encoder import DEFAULTS, EncodeOptions
 from mpz.errors import EncoderError, MPZError
 from mpz.hierarchy import BUILDERS
@@ -590,11 +590,11 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
         if indexed:
             return None
         raise EncoderError(f"{output} exists and does not read as MPZ ({exc}); if it is a "
-                           "damaged output of an earlier run, use --force to replace "
+                           f"damaged output of an earlier run, {_use_force()} to replace "
                            "it") from None
     if META_FINGERPRINT not in meta:
         raise EncoderError(f"{output} exists and was not written by an mpz corpus run; "
-                           "use --force to replace it")
+                           f"{_use_force()} to replace it")
     if source is not None and meta.get(META_SHA256) != sha:
         # a run from another input folder into the same output folder replaced the archive
         # of a file of the same name (b/take.trc over a/take.c3d's take.mpz), exit 0: lost
@@ -613,8 +613,9 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
             raise EncoderError(f"{output} is the archive of another source, {other} "
                                f"({there}), not of {os.path.basename(source)}: a run from "
                                "another input folder into this output folder, or outputs "
-                               "moved or copied over each other? Give another -o FOLDER, "
-                               "or use --force to replace it")
+                               "moved or copied over each other? Give another "
+                               f"{spelled('-o FOLDER', 'output folder')}, or "
+                               f"{_use_force()} to replace it")
     if (meta[META_FINGERPRINT] == fp and meta.get(META_SHA256) == sha
             and st.st_mtime_ns >= source_mtime_ns):
         return data

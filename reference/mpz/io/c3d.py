@@ -620,7 +620,9 @@ def write_c3d(motion: Motion, path: StrPath) -> list[str]:
     archive, or one whose source counted its frames from another number (a TRC's first
     Frame#, :func:`mpz.io._common.start_frame`), goes through our own writer instead
     (:func:`long_bytes`); so does one that ezc3d may not have the address space for
-    (:func:`memory_short`: its failed allocation would abort the process).
+    (:func:`memory_short`: its failed allocation would abort the process), and every
+    motion when the installed ezc3d is older than :data:`EZC3D_OLDEST`
+    (:func:`ezc3d_too_old`).
 
     Parameters
     ----------
@@ -640,7 +642,7 @@ def write_c3d(motion: Motion, path: StrPath) -> list[str]:
     if motion.extras.get("c3d") is not None or motion.n_frames > c3dbin.HEADER_MAX_FRAME \
             or c3d_first_frame(motion) != 1 or memory_short(
                 EZC3D_WRITE_BYTES * motion.n_frames * motion.n_markers + EZC3D_BYTES_FIXED) \
-            or _many_parameter_blocks(motion):
+            or _many_parameter_blocks(motion) or ezc3d_too_old() is not None:
         blob = archive_bytes(motion) if motion.extras.get("c3d") is not None else \
             long_bytes(motion)
         with open(path, "wb") as fh:
