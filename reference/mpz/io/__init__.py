@@ -361,10 +361,10 @@ def _path_arg(name: str, value: object) -> None:
                         f"{type(value).__name__}")
 
 
-#: what reading an AMC's skeleton as a motion says (a QA run of stop 61: "unknown file
-#: extension" by name, "cannot tell the format" on standard input)
 def asf_not_a_motion() -> str:
-    """What reading an ASF as a motion says, naming the option as the caller spells it."""
+    """What reading an ASF as a motion says (a QA run of stop 61 found "unknown file
+    extension" by name, "cannot tell the format" on standard input), naming the option as
+    the caller spells it."""
     return ("an ASF file is the skeleton of AMC motions, not a motion: read an .amc (its ASF "
             f"is found beside it, or given with {spelled('--asf', 'asf=')})")
 
@@ -373,11 +373,15 @@ def _is_asf_text(head: bytes) -> bool:
     """Whether ``head`` starts like an ASF file: among its first keyword lines, one of the
     sections only an ASF has (``:bonedata``, ``:root``, ``:hierarchy``) or ``:version``
     with ``:name`` (the first two lines of every ASF; an AMC has neither)."""
-    text = head.decode("latin-1")
-    keys = {ln.split(None, 1)[0].lower() for ln in (x.strip() for x in text.splitlines())
-            if ln.startswith(":")}
+    keys = _keywords(head.decode("latin-1"))
     return bool(keys & {":bonedata", ":root", ":hierarchy"}) or \
         {":version", ":name"} <= keys
+
+
+def _keywords(text: str) -> set[str]:
+    """The ``:keywords`` that lead lines of ASF or AMC ``text``, lower case."""
+    return {ln.split(None, 1)[0].lower() for ln in (x.strip() for x in text.splitlines())
+            if ln.startswith(":")}
 
 
 def _format_of_content(path: StrPath, head: bytes, ext: str) -> str:
@@ -474,8 +478,7 @@ def detect_format(head: bytes) -> str | None:
         return ".trc"
     if text.split(None, 1)[:1] == ["HIERARCHY"]:
         return ".bvh"
-    lines = [ln.strip() for ln in text.splitlines()]
-    keys = {ln.split(None, 1)[0].lower() for ln in lines if ln.startswith(":")}
+    keys = _keywords(text)
     if keys & {":fully-specified", ":degrees", ":radians"} and \
             not keys & {":version", ":bonedata", ":root", ":hierarchy"}:
         return ".amc"

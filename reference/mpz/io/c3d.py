@@ -529,9 +529,9 @@ def ezc3d_too_old() -> str | None:
 def _read_points(path: str, data: bytes, reopen: str) -> Motion:
     """Every point of the C3D file as a Motion: ezc3d (reading the file ``reopen``, which
     holds ``data``), or the numpy reader it refuses."""
-    source = os.path.basename(path)
     import ezc3d
 
+    source = os.path.basename(path)
     head = data[:c3dbin.BLOCK]
     if len(head) < c3dbin.BLOCK or head[1] != c3dbin.C3D_KEY:
         # not a C3D file; let the numpy reader produce the precise error

@@ -348,7 +348,8 @@ def _section_end(data: bytes, start: int, data_start: int) -> int:
 
 
 def parse_records(data: bytes, start: int, codec: _Codec, *,
-                  sequential: bool = False) -> list[ParamRecord]:
+                  sequential: bool = False, starts: list[int] | None = None
+                  ) -> list[ParamRecord]:
     """Every group and parameter record of the parameter section at ``start``, in file order.
 
     Follows the next-record offsets, ending at a record with a zero name length or group
@@ -361,7 +362,7 @@ def parse_records(data: bytes, start: int, codec: _Codec, *,
     ``sequential``: the records ezc3d reads with ``ignore_bad_formatting``
     (:func:`ezc3d_hazard`): each from the end of the one before (its description read
     whole), the offsets only ending the walk where they are zero, up to the end of the
-    file.
+    file. ``starts``, when given, gets the offset at which each record returned begins.
     """
     out: list[ParamRecord] = []
     end = len(data) if sequential else _section_end(data, start, codec.uint16(data, 16))
@@ -382,6 +383,8 @@ def parse_records(data: bytes, start: int, codec: _Codec, *,
         if gid < 0:
             desc = _description(data, body, rec_end, end)
             out.append(ParamRecord(gid, locked, name, desc))
+            if starts is not None:
+                starts.append(pos)
             after = body
         else:
             if body + 2 > end:
@@ -398,6 +401,8 @@ def parse_records(data: bytes, start: int, codec: _Codec, *,
             raw = _normal_data(ptype, bytes(data[at:at + size]), codec)
             desc = _description(data, at + size, rec_end, end)
             out.append(ParamRecord(gid, locked, name, desc, ptype, dims, raw))
+            if starts is not None:
+                starts.append(pos)
             after = at + size
         if nxt == 0:
             break
@@ -617,11 +622,11 @@ def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | Non
     declared_end = pstart + n_blocks * BLOCK
     if _section_end(data, pstart, codec.uint16(data, 16)) <= declared_end:
         return None
-    every = parse_records(data, pstart, codec)
+    starts: list[int] = []
+    every = parse_records(data, pstart, codec, starts=starts)
     # what such a reader finds: the records that start within the count (py-c3d reads one
     # that goes on past it: Dance1's POINT:LABELS)
-    within = every[:sum(s < declared_end for s in _record_starts(data, pstart, codec)
-                        [:len(every)])]
+    within = every[:sum(s < declared_end for s in starts)]
     if len(within) >= len(every):
         return None
     group_names = {-r.group: r.name.decode("latin-1") for r in every if r.group < 0}
@@ -643,24 +648,6 @@ def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | Non
             f"{_s(n_groups)} and {n_params} parameter{_s(n_params)} are kept, as ezc3d reads "
             f"them; a reader that stops at the declared count (the C3D user guide's rule; "
             f"py-c3d) finds {' and '.join(what)} in a C3D written back but not in this file")
-
-
-def _record_starts(data: bytes, pstart: int, codec: _Codec) -> list[int]:
-    """Where each record of the parameter section at ``pstart`` starts, following the
-    next-record offsets as :func:`parse_records` does (its records are the first ones)."""
-    end = _section_end(data, pstart, codec.uint16(data, 16))
-    starts: list[int] = []
-    pos = pstart + 4
-    while pos + 2 <= end and data[pos] != 0 and data[pos + 1] != 0:
-        off_pos = pos + 2 + abs(_s8(data[pos]))
-        if off_pos + 2 > end:
-            break
-        starts.append(pos)
-        nxt = codec.uint16(data, off_pos)
-        if nxt == 0:
-            break
-        pos = off_pos + nxt
-    return starts
 
 
 def _s(n: int) -> str:

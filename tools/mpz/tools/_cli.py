@@ -252,13 +252,10 @@ class Parser(argparse.ArgumentParser):
         for w in words:
             key = w.split("=", 1)[0]
             owners = sorted({p.prog for p in self.family.values() if p is not self and
-                             isinstance(p, Parser) and key in p._all_option_strings()})
+                             isinstance(p, Parser) and key in p._option_strings()})
             if owners:
                 out[w] = f"; {key} is an option of {' and '.join(owners)}"
         return out
-
-    def _all_option_strings(self) -> set[str]:
-        return {s for a in self._actions for s in a.option_strings}
 
     def _subcommands(self) -> list[str]:
         out: list[str] = []

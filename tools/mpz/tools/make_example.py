@@ -7,7 +7,6 @@ not be redistributed, so the quick start uses this one.
 """
 from __future__ import annotations
 
-import os
 import sys
 
 from mpz.tools._cli import EXIT_ERROR, Parser, printable
@@ -28,18 +27,20 @@ def main(argv=None) -> int:
                    help="replace an existing file (else it is an error, as for every mpz "
                         "command; a newcomer's QA run found it replaced silently)")
     args = p.parse_args(argv)
+    from mpz._worker import command_main
     from mpz.api import check_output
-    from mpz.errors import EncoderError, MPZError
+    from mpz.errors import MPZError
     from mpz.io import write
+    before = command_main(True)        # a command: its messages say --force, not force=True
     try:
-        if not args.force and os.path.lexists(args.output):   # the commands' wording
-            raise EncoderError(f"{args.output} exists; use --force to replace it")
         check_output(args.output, force=args.force)
         m = make(args.frames, args.seed)
         write(m, args.output)
     except MPZError as exc:
         print(f"make_example: error: {printable(str(exc))}", file=sys.stderr)
         return EXIT_ERROR
+    finally:
+        command_main(before)
     print(f"wrote {printable(args.output)}: {m.n_frames} frames x {m.n_markers} markers, "
           f"{m.rate:g} Hz, gaps {m.gap_fraction:.1%}")
     return 0
