@@ -508,3 +508,52 @@ def test_a_command_run_any_way_spells_its_options(tmp_path, capsys):
     with _worker.command_task(True):                 # a corpus task a command sent
         assert _worker.spelled("--force", "force=True") == "--force"
     assert _worker.spelled("--force", "force=True") == "force=True"
+
+
+def _skeletal_source() -> Motion:
+    """A small BVH read through mpz.io (no shared data needed)."""
+    import tempfile
+    text = ("HIERARCHY\nROOT hip\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition "
+            "Zrotation Xrotation Yrotation\n JOINT knee\n {\n  OFFSET 0 -10 0\n  CHANNELS 3 "
+            "Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 -10 0\n  }\n }\n}\n"
+            "MOTION\nFrames: 4\nFrame Time: 0.0333333\n"
+            + "".join(f"{i} 90 {i} {5 * i} 0 0 {10 * i} 0 0\n" for i in range(4)))
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "two.bvh"
+        path.write_text(text)
+        return mpz.io.read(path)
+
+
+def test_a_skeleton_extra_of_the_wrong_type_is_an_encoder_error() -> None:
+    """extras["skeleton"] that is not a Skeleton, on a motion with angles: an EncoderError
+    naming it, as without angles. Before, AttributeError ('str' object has no attribute
+    'joints') from the extension's limit check, which ran before its type check (an ML
+    pipeline's QA run of the API)."""
+    src = _skeletal_source()
+    bad = Motion(src.positions, src.names, src.rate, src.units, angles=src.angles,
+                 angle_names=src.angle_names, parents=src.parents, extras={"skeleton": "x"})
+    with pytest.raises(EncoderError, match=r"motion.extras\['skeleton'\] is a str"):
+        mpz.encode(bad, max_error=1.0)
+
+
+def test_parents_that_the_file_does_not_keep_are_named() -> None:
+    """A motion built with ``parents`` and no skeleton decodes without them: not_kept says
+    so. Before, it was empty ("everything is kept") and the parents were lost silently."""
+    m = generate("walk", frames=12, markers=4)
+    m = Motion(m.positions, m.names, m.rate, m.units, parents=[-1, 0, 1, 2])
+    data, report = mpz.encode_motion(m, mpz.EncodeOptions(max_error=1.0))
+    assert mpz.decode(data).parents is None
+    assert any("parents" in s for s in report.not_kept)
+    src = _skeletal_source()
+    assert mpz.encode_motion(src, mpz.EncodeOptions(max_error=1.0))[1].not_kept == []
+
+
+def test_joint_positions_of_a_frame_cut_say_what_dropped_the_skeleton() -> None:
+    """A cut of a decoded skeletal motion keeps its angles, not its skeleton; the error
+    says that and what to do (compute the joints first), not the three causes that do
+    not apply (markers_only, keep_skeleton=False, a file of markers)."""
+    back = mpz.decode(mpz.encode(_skeletal_source(), max_error=1.0))
+    from mpz.skeleton import with_joint_positions
+    assert with_joint_positions(back).select_frames(1, 3).n_frames == 2
+    with pytest.raises(MotionError, match=r"angles but no skeleton.*select_frames"):
+        with_joint_positions(back.select_frames(1, 3))

@@ -705,7 +705,8 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     report counts the whole source file against what was kept (issue 12): a C3D's analog
     data, parameters and residuals when its reader could not keep the C3D archive (with
     the reader's reason), and a skeletal motion's joint angles and skeleton when no
-    skeleton chunk is written (``keep_skeleton=False``, or no skeleton was read), what the
+    skeleton chunk is written (``keep_skeleton=False``, or no skeleton was read), or its
+    ``parents`` alone (a motion built with them and without angles), what the
     reader listed under ``motion.extras[READER_NOT_KEPT]``, and any other
     ``motion.extras`` key that no extension (:data:`mpz.extensions.EXTENSIONS`) writes."""
     out = []
@@ -715,6 +716,11 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     if motion.angles is not None and (not opts.keep_skeleton
                                       or "skeleton" not in motion.extras):
         out.append("joint angles and the skeleton")
+    elif motion.parents is not None and (not opts.keep_skeleton
+                                         or "skeleton" not in motion.extras):
+        # a motion built with parents and no skeleton decoded without them, and this list
+        # said everything was kept (an ML pipeline's QA run of the API)
+        out.append("the markers' parents (motion.parents; only a skeleton chunk keeps them)")
     # what the reader itself could not carry (an AMC's comments among its frames, an
     # ASF's unknown keys): listed by the reader of this read (a QA run of stop 61)
     out += [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]

@@ -468,11 +468,19 @@ def with_joint_positions(motion: Motion) -> Motion:
     MotionError
         For a motion without a skeleton and its channels (a file of markers, one encoded
         with ``keep_skeleton=False``, or decoded with ``markers_only=True``): it has no
-        joints to compute. Before, it came back as it was, its positions the marker layer,
+        joints to compute. A cut made by `Motion.select_frames` keeps the angles but not
+        the skeleton (``extras`` are not carried over): compute the joints, then cut. Before, it came back as it was, its positions the marker layer,
         which a caller took for the joints (a newcomer's QA run).
     """
     if not isinstance(motion, Motion):       # AttributeError of None (a QA run, stop 50)
         raise TypeError(f"expected an mpz.Motion, got {type(motion).__name__}")
+    if motion.angles is not None and not isinstance(motion.extras.get("skeleton"), Skeleton):
+        # a cut's angles without the skeleton were blamed on three causes that did not
+        # apply (an ML pipeline's QA run of the API)
+        raise MotionError("the motion has joint angles but no skeleton (extras['skeleton']) "
+                          "to compute joint positions from: Motion.select_frames and "
+                          "mpz.concatenate of such cuts do not carry extras over; call "
+                          "with_joint_positions on the whole decoded motion, then cut it")
     if not has_channels(motion):
         raise MotionError("the motion has no skeleton and channels to compute joint "
                           "positions from (a file of markers, one encoded with "
@@ -650,6 +658,11 @@ class SkeletonExtension:
         skel = motion.extras.get(self.name)
         if skel is None or not opts.keep_skeleton or motion.angles is None:
             return
+        if not isinstance(skel, Skeleton):
+            # records' own check came after this one's first use of skel.joints, which
+            # raised AttributeError (an ML pipeline's QA run of the API)
+            raise EncoderError(f"motion.extras[{self.name!r}] is a {type(skel).__name__}, "
+                               "not an mpz.io.kinematics.Skeleton")
         first = getattr(skel, "first_frame", 0)
         if isinstance(first, int) and not 0 <= first <= 0xFFFFFFFF:
             # §4.14.2's u32: it failed in the chunk's build, exit 70 (a QA run of stop 52)
