@@ -469,8 +469,9 @@ def with_joint_positions(motion: Motion) -> Motion:
         For a motion without a skeleton and its channels (a file of markers, one encoded
         with ``keep_skeleton=False``, or decoded with ``markers_only=True``): it has no
         joints to compute. A cut made by `Motion.select_frames` keeps the angles but not
-        the skeleton (``extras`` are not carried over): compute the joints, then cut. Before, it came back as it was, its positions the marker layer,
-        which a caller took for the joints (a newcomer's QA run).
+        the skeleton (``extras`` are not carried over): compute the joints, then cut.
+        Before, it came back as it was, its positions the marker layer, which a caller
+        took for the joints (a newcomer's QA run).
     """
     if not isinstance(motion, Motion):       # AttributeError of None (a QA run, stop 50)
         raise TypeError(f"expected an mpz.Motion, got {type(motion).__name__}")
