@@ -548,12 +548,57 @@ def test_parents_that_the_file_does_not_keep_are_named() -> None:
     assert mpz.encode_motion(src, mpz.EncodeOptions(max_error=1.0))[1].not_kept == []
 
 
-def test_joint_positions_of_a_frame_cut_say_what_dropped_the_skeleton() -> None:
-    """A cut of a decoded skeletal motion keeps its angles, not its skeleton; the error
-    says that and what to do (compute the joints first), not the three causes that do
-    not apply (markers_only, keep_skeleton=False, a file of markers)."""
-    back = mpz.decode(mpz.encode(_skeletal_source(), max_error=1.0))
+def test_a_frame_cut_keeps_the_skeleton_and_gives_the_joints_of_its_frames() -> None:
+    """A cut of a decoded skeletal motion keeps its skeleton with its angles: its joints
+    are the whole motion's joints of those frames, and it encodes with its skeleton. It
+    was dropped (an ML pipeline's QA run of the API): the cut gave no joint positions, and
+    ``mpz.encode`` of it wrote a file of markers alone."""
     from mpz.skeleton import with_joint_positions
-    assert with_joint_positions(back).select_frames(1, 3).n_frames == 2
-    with pytest.raises(MotionError, match=r"angles but no skeleton.*select_frames"):
-        with_joint_positions(back.select_frames(1, 3))
+    back = mpz.decode(mpz.encode(_skeletal_source(), max_error=1.0))
+    cut = back.select_frames(1, 3)
+    assert cut.extras["skeleton"] is back.extras["skeleton"]
+    np.testing.assert_array_equal(with_joint_positions(cut).positions,
+                                  with_joint_positions(back).positions[1:3])
+    data, report = mpz.encode_motion(cut, mpz.EncodeOptions(max_error=1.0))
+    assert report.not_kept == []
+    again = mpz.decode(data)
+    assert again.angles is not None and again.extras["skeleton"].convention == "bvh"
+    np.testing.assert_allclose(again.angles, cut.angles, atol=0.01)
+    # angles whose skeleton was taken away: named, not three causes that do not apply
+    import dataclasses
+    with pytest.raises(MotionError, match=r"angles but no skeleton"):
+        with_joint_positions(dataclasses.replace(back, extras={}))
+
+
+def test_a_frame_cut_of_an_amc_keeps_its_frame_numbers(tmp_path: Path, one_bone_asf) -> None:
+    """The cut's AMC is written with the source's frame numbers (its skeleton's first
+    frame moves with the cut, as a TRC's FirstFrame does), and back through a file."""
+    from mpz.io import read, write
+    (tmp_path / "src.asf").write_text(one_bone_asf())
+    (tmp_path / "src.amc").write_text(":FULLY-SPECIFIED\n:DEGREES\n" + "".join(
+        f"{7 + i}\nroot {i} 0 0 0 0 0\nb1 {10 + i} 20\n" for i in range(5)))
+    m = read(tmp_path / "src.amc")
+    cut = m.select_frames(2, 4)
+    assert cut.extras["skeleton"].first_frame == 9
+    write(mpz.decode(mpz.encode(cut)), tmp_path / "cut.amc", asf=tmp_path / "cut.asf")
+    text = (tmp_path / "cut.amc").read_text()
+    assert "\n9\nroot 2" in text and "\n10\nroot 3" in text and "\n8\n" not in text
+    assert m.select_frames(0, 2).extras["skeleton"].first_frame == 7
+
+
+def test_a_frame_cut_names_the_c3d_archive_it_does_not_carry(tmp_path: Path) -> None:
+    """A C3D archive belongs to the source's frames: a cut leaves it, and says so in the
+    list that encode_motion reports (it was dropped without a word); what the reader did
+    not keep and a key no extension owns are named too."""
+    from mpz.io import read, write
+    write(generate("walk", frames=12, markers=4), tmp_path / "w.c3d")
+    m = read(tmp_path / "w.c3d")
+    assert "c3d" in m.extras
+    m.extras["mine"] = 1
+    m.extras["not_kept"] = ["the reader's own note"]
+    cut = m.select_frames(3, 6)
+    assert "c3d" not in cut.extras and "mine" not in cut.extras
+    kept = mpz.encode_motion(cut, mpz.EncodeOptions(max_error=1.0))[1].not_kept
+    assert kept[0] == "the reader's own note"
+    assert any(s.startswith("the C3D archive (analog data") and "cut" in s for s in kept)
+    assert any("motion.extras['mine']" in s for s in kept)

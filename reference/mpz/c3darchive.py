@@ -547,6 +547,7 @@ class C3DExtension:
     chunk_types: tuple[str, ...] = C3D_TYPES
     sections: tuple[str, ...] = ("§4.13", "§6.9")
     per_frame: bool = True
+    held: str = "the C3D archive (analog data, events, parameters and model outputs)"
 
     def check(self, motion: Motion, opts: EncodeOptions) -> None:
         """The §8 limits of the cpnt and cana chunks, before anything is encoded (the
@@ -590,6 +591,11 @@ class C3DExtension:
 
     def attach(self, records: dict[str, list[Record]], motion: Motion) -> None:
         motion.extras[self.name] = archive_from_records(records, motion)
+
+    def cut(self, part: object, start: int) -> None:
+        """None: the archive's point words, analog samples and events belong to the
+        source's frames, and its parameters describe them."""
+        return None
 
 
 #: the extension object EXTENSIONS lists

@@ -709,8 +709,12 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     ``parents`` alone (a motion built with them and without angles), what the
     reader listed under ``motion.extras[READER_NOT_KEPT]``, and any other
     ``motion.extras`` key that no extension (:data:`mpz.extensions.EXTENSIONS`) writes."""
+    from mpz.extensions import EXTENSIONS
+    listed = [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]
     out = []
-    if motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras:
+    c3d = next(ext for ext in EXTENSIONS if ext.name == "c3d")
+    if (motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras
+            and not any(s.startswith(c3d.held) for s in listed)):   # a cut names it itself
         why = motion.metadata.get("warning", "C3D archive not kept")
         out.append(f"analog, parameters and residuals ({why})")
     if motion.angles is not None and (not opts.keep_skeleton
@@ -723,9 +727,8 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
         out.append("the markers' parents (motion.parents; only a skeleton chunk keeps them)")
     # what the reader itself could not carry (an AMC's comments among its frames, an
     # ASF's unknown keys): listed by the reader of this read (a QA run of stop 61)
-    out += [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]
+    out += listed
     # extras that no extension writes were dropped without a word (a QA run of stop 50)
-    from mpz.extensions import EXTENSIONS
     known = {ext.name for ext in EXTENSIONS}
     out += [f"motion.extras[{k!r}] (no extension of mpz.extensions writes it)"
             for k in motion.extras if k in held_extras(motion.extras) - known]

@@ -43,6 +43,8 @@ class Extension(Protocol):
     #: (:func:`mpz.concatenate`); False when it describes every frame alike (a skeleton,
     #: whose channel values are ``Motion.angles``)
     per_frame: bool
+    #: what its part of a Motion holds, in words, for the messages that name it
+    held: str
 
     def check(self, motion: Motion, opts: EncodeOptions) -> None:
         """Raise EncoderError if ``motion``'s part for this extension is past a §8 limit of
@@ -56,6 +58,13 @@ class Extension(Protocol):
 
     def attach(self, records: dict[str, list[Record]], motion: Motion) -> None:
         """Rebuild ``motion.extras[name]`` (and whatever else it owns) from checked records."""
+        ...
+
+    def cut(self, part: object, start: int) -> object | None:
+        """What a cut of a motion from its frame ``start`` on (:meth:`mpz.Motion.select_frames`)
+        keeps of this extension's ``part``: the part, with any frame number it holds moved
+        to the cut's first frame; None when it belongs to the source's own frames (then the
+        cut names it among what it does not keep)."""
         ...
 
 

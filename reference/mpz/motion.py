@@ -272,12 +272,18 @@ class Motion:
         return 12 * self.n_frames * self.n_markers
 
     def select_frames(self, start: int | None, stop: int | None) -> Motion:
-        """A copy holding frames ``start:stop`` (``extras``, which describe a whole source
-        file, are not carried over). The metadata that says where the source's frames start
-        moves with the first frame kept: the first frame number of a TRC or CSV
+        """A copy holding frames ``start:stop``. The metadata that says where the source's
+        frames start moves with the first frame kept: the first frame number of a TRC or CSV
         (``trc.FirstFrame``, ``csv.FirstFrame``) and the first time (``start_time``), so
         that the cut is written with the source's frame numbers and times (frames 51-100 of
         a TRC were written as 1-50 from time 0: a QA run of the API, stop 54).
+
+        Of ``extras``, a cut keeps what describes every frame alike: a BVH or ASF skeleton
+        (with an AMC's first frame number moved likewise), so that the cut's angles still
+        give joint positions and are written and encoded with their skeleton. A C3D archive
+        (its analog samples, events and parameters belong to the source's frames) and any
+        key no extension owns are not carried over, and the cut names them under
+        ``extras["not_kept"]``, which :func:`mpz.encode_motion`'s ``not_kept`` reports.
 
         Raises
         ------
@@ -299,11 +305,36 @@ class Motion:
         return Motion(self.positions[start:stop].copy(), list(self.names), self.rate, self.units,
                       self.valid[start:stop].copy(), meta, self.parents,
                       None if self.angles is None else self.angles[start:stop].copy(),
-                      self.angle_names)
+                      self.angle_names, _cut_extras(self.extras, kept.start))
 
     def __repr__(self) -> str:
         return (f"Motion({self.n_frames} frames, {self.n_markers} markers, {self.rate:g} Hz, "
                 f"units={self.units!r}, gaps={self.gap_fraction:.1%})")
+
+
+def _cut_extras(extras: Mapping[str, Any], k: int) -> dict[str, Any]:
+    """``extras`` of a motion's frames from index ``k`` on (:meth:`Motion.select_frames`):
+    each extension's part as its ``cut`` keeps it; what none keeps is named, after what
+    the reader did not keep, under :data:`READER_NOT_KEPT` (they were all dropped without
+    a word: an ML pipeline's QA run of the API)."""
+    from mpz.extensions import EXTENSIONS  # here: the extensions import this module
+    owners = {e.name: e for e in EXTENSIONS}
+    out: dict[str, Any] = {}
+    dropped = [str(s) for s in extras.get(READER_NOT_KEPT, ())]
+    for key in sorted(held_extras(extras)):
+        ext = owners.get(key)
+        part = None if ext is None else ext.cut(extras[key], k)
+        if part is not None:
+            out[key] = part
+        elif ext is not None:
+            dropped.append(f"{ext.held}: a cut of the frames does not carry what belongs to "
+                           "the source's frames")
+        else:
+            dropped.append(f"motion.extras[{key!r}], which a cut of the frames does not "
+                           "carry")
+    if dropped:
+        out[READER_NOT_KEPT] = list(dict.fromkeys(dropped))
+    return out
 
 
 def _moved_start(meta: dict[str, str], k: int, rate: float) -> None:

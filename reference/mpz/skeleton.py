@@ -27,7 +27,7 @@ finer grid (15-20 % larger).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 from typing import TYPE_CHECKING
 
@@ -468,20 +468,18 @@ def with_joint_positions(motion: Motion) -> Motion:
     MotionError
         For a motion without a skeleton and its channels (a file of markers, one encoded
         with ``keep_skeleton=False``, or decoded with ``markers_only=True``): it has no
-        joints to compute. A cut made by `Motion.select_frames` keeps the angles but not
-        the skeleton (``extras`` are not carried over): compute the joints, then cut.
-        Before, it came back as it was, its positions the marker layer, which a caller
-        took for the joints (a newcomer's QA run).
+        joints to compute; for joint angles without their skeleton (``extras`` replaced or
+        emptied), which it names. Before, it came back as it was, its positions the marker
+        layer, which a caller took for the joints (a newcomer's QA run).
     """
     if not isinstance(motion, Motion):       # AttributeError of None (a QA run, stop 50)
         raise TypeError(f"expected an mpz.Motion, got {type(motion).__name__}")
     if motion.angles is not None and not isinstance(motion.extras.get("skeleton"), Skeleton):
-        # a cut's angles without the skeleton were blamed on three causes that did not
-        # apply (an ML pipeline's QA run of the API)
-        raise MotionError("the motion has joint angles but no skeleton (extras['skeleton']) "
-                          "to compute joint positions from: Motion.select_frames and "
-                          "mpz.concatenate of such cuts do not carry extras over; call "
-                          "with_joint_positions on the whole decoded motion, then cut it")
+        # angles without their skeleton were blamed on three causes that did not apply
+        # (an ML pipeline's QA run of the API: a select_frames cut, which now keeps it)
+        raise MotionError("the motion has joint angles but no skeleton (extras['skeleton'], "
+                          "an mpz.io.kinematics.Skeleton) to compute joint positions from: "
+                          "keep the extras of the motion as it was read or decoded")
     if not has_channels(motion):
         raise MotionError("the motion has no skeleton and channels to compute joint "
                           "positions from (a file of markers, one encoded with "
@@ -651,6 +649,7 @@ class SkeletonExtension:
     chunk_types: tuple[str, ...] = SKELETON_TYPES
     sections: tuple[str, ...] = ("§4.14", "§6.10")
     per_frame: bool = False
+    held: str = "the skeleton (BVH hierarchy or ASF)"
 
     def check(self, motion: Motion, opts: EncodeOptions) -> None:
         """The §8 limit of the chunk this motion would get, before anything is encoded: a
@@ -724,6 +723,15 @@ class SkeletonExtension:
         motion.angle_names = skel.channel_names()
         motion.parents = skel.parents()
         motion.extras[self.name] = skel
+
+    def cut(self, part: object, start: int) -> object:
+        """The skeleton describes every frame alike and goes with the cut's angles; an AMC's
+        first frame number moves with the first frame kept, as a TRC's FirstFrame does, so
+        that the cut is written with the source's frame numbers (it was dropped, and the cut
+        wrote no AMC and gave no joint positions: an ML pipeline's QA run of the API)."""
+        if isinstance(part, Skeleton) and part.convention == "asf" and start:
+            return replace(part, first_frame=part.first_frame + start)
+        return part
 
 
 #: the extension instance registered in :data:`mpz.extensions.EXTENSIONS`

@@ -582,7 +582,7 @@ def skeleton_read_back(motion: Motion, ext: str) -> tuple[list[str], Skeleton | 
     n = min(2, motion.n_frames)
     head = _with(motion, positions=motion.positions[:n], valid=motion.valid[:n],
                  angles=None if motion.angles is None else motion.angles[:n])
-    if ext == ".bvh":                       # (select_frames drops the skeleton)
+    if ext == ".bvh":
         return bvh.parse_bvh(bvh.format_bvh(head)).names, None
     skel = motion.extras["skeleton"]
     asf, _ = amc._parse_asf(amc.format_asf(skel), skel.encoding)
