@@ -602,3 +602,21 @@ def test_a_frame_cut_names_the_c3d_archive_it_does_not_carry(tmp_path: Path) -> 
     assert kept[0] == "the reader's own note"
     assert any(s.startswith("the C3D archive (analog data") and "cut" in s for s in kept)
     assert any("motion.extras['mine']" in s for s in kept)
+
+
+def test_a_program_is_told_of_arguments_and_an_empty_input_as_such(tmp_path: Path) -> None:
+    """A QA run of the API: a program was told of the command's options (--angle-error,
+    ``mpz decode FILE.mpz -o``), and of "bad signature b''" for an empty stream (one that
+    ``mpz.info`` had read to its end)."""
+    from mpz.errors import FormatError
+    with pytest.raises(EncoderError) as fine:
+        mpz.encode(_skeletal_source(), angle_error=1e-12)
+    assert "angle_error" in str(fine.value) and "--angle-error" not in str(fine.value)
+    with pytest.raises(EncoderError) as named:
+        mpz.api.write_mpz(generate("walk", frames=8, markers=3), tmp_path / "x.c3d")
+    assert "mpz.io.write(mpz.decode(data)" in str(named.value)
+    assert "mpz decode" not in str(named.value)
+    for empty in (b"", io.BytesIO(b"")):
+        with pytest.raises(FormatError, match=r"bad signature \(no bytes: an empty file, or a "
+                                              r"stream read to its end\)"):
+            mpz.decode(empty)

@@ -156,6 +156,9 @@ HIERARCHIES: list[tuple[str, Any, tuple[str, ...]]] = [
      ("weight", "True")),
     ("weight 1e308", lambda g, n: [g[0], dict(g[1], weights={n[1]: 1e308})],
      ("weight", "1e+308", "1/16")),
+    # a misspelt field was ignored, and the weights it held with it (a QA run of the API)
+    ("weights misspelt", lambda g, n: [g[0], dict(g[1], weigths={n[1]: 2.0})],
+     ("node 1", "'body'", "unknown field 'weigths'", "weights")),
 ]
 
 
@@ -173,6 +176,7 @@ def test_good_hierarchy_json_still_encodes(walk: Motion) -> None:
     names = list(walk.names)
     nodes = _good(names)
     nodes[1]["weights"] = {names[1]: 2, names[2]: 0.5}
+    nodes[1]["why"] = "free text, as cmu41.json's"
     out = mpz.decode(mpz.encode(walk, hierarchy=_hier(nodes), max_error=1.0))
     assert mpz.max_error(walk, out) <= 1.0
 

@@ -861,6 +861,8 @@ def info(source: Source) -> FileInfo:
     ------
     MPZError
         If the structure is invalid.
+    TypeError
+        If ``source`` is none of those :func:`decode` takes.
 
     Examples
     --------
@@ -910,9 +912,10 @@ def check_mpz_name(path: str | os.PathLike[str]) -> None:
     ext = ext_of(path)
     if ext in READERS or ext == ".asf":
         kind = ext[1:].upper()
+        how = spelled(f"mpz decode FILE.mpz -o {os.fspath(path)}",
+                      f"mpz.io.write(mpz.decode(data), {os.fspath(path)!r})")
         raise EncoderError(f"{os.fspath(path)}: an MPZ file named {ext} would be read as "
-                           f"{kind}; name it .mpz (to write {kind}, decode an .mpz: mpz "
-                           f"decode FILE.mpz -o {os.fspath(path)})")
+                           f"{kind}; name it .mpz (to write {kind}, decode an .mpz: {how})")
 
 
 def write_mpz(motion: Motion, path: str | os.PathLike[str], *,

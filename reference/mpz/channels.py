@@ -27,6 +27,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from mpz._worker import spelled
 from mpz.entropy import MAX_EXP, BlockDecoder, BlockEncoder
 from mpz.errors import EncoderError, FormatError
 from mpz.format import CHANNEL_VALUE_LIMIT, MAX_STEP_DIGITS
@@ -111,6 +112,12 @@ def _step_ladder() -> tuple[list[float], list[Step]]:
     return values, [first[v] for v in values]
 
 
+def _channel_bounds() -> str:
+    """The channel bounds, as the reader of a message spells them (a QA run of the API:
+    a program was told of the command's options)."""
+    return spelled("--angle-error or --translation-error", "angle_error or translation_error")
+
+
 def step_for(bound: float) -> Step:
     """The coarsest step ``m x 10^-d``, m in :data:`MANTISSAS` times a power of ten, whose
     rounding error (half the step) stays within ``bound``.
@@ -133,8 +140,7 @@ def step_for(bound: float) -> Step:
     best = ladder[i - 1] if i else None
     if best is None:
         raise EncoderError(f"a channel bound of {bound!r} is finer than the finest step, "
-                           f"10^-{MAX_STEP_DIGITS}; give a larger --angle-error or "
-                           "--translation-error")
+                           f"10^-{MAX_STEP_DIGITS}; give a larger {_channel_bounds()}")
     if best.digits == 0:                     # steps of 10 and more: m x 10^k, d = 0
         m = best.mantissa
         while m * 10 <= target and m * 10 <= 0xFFFF:
@@ -161,7 +167,7 @@ def quantise(values: FloatArray, steps: Sequence[Step]) -> IntArray:
         c = int(np.argmax(np.abs(x).max(axis=0)))
         raise EncoderError(f"channel {c} reaches {float(np.abs(v[:, c]).max()):g}, too large "
                            f"for a step of {steps[c]} (|value / step| must stay below 2^27); "
-                           "give a larger --angle-error or --translation-error")
+                           f"give a larger {_channel_bounds()}")
     return x.astype(np.int64)
 
 
@@ -297,7 +303,7 @@ def group(e: IntArray) -> tuple[NDArray[np.int64], bytes]:
         return np.zeros(0, np.int64), BlockEncoder().finish()
     if e.size and int(np.abs(e).max()) >= 1 << MAX_EXP:
         raise EncoderError("a channel residual exceeds the coder's range (spec §5.4); give a "
-                           "larger --angle-error or --translation-error")
+                           f"larger {_channel_bounds()}")
     rank = np.empty(C, np.int64)
     rank[np.argsort(_cost(e), kind="stable")] = np.arange(C)
     counts = [G for G in GROUP_COUNTS if G <= C]

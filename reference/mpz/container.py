@@ -135,8 +135,11 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True,
     data = bytes(data)
     res = Scan(size=len(data))
     if len(data) < len(SIGNATURE) or data[: len(SIGNATURE)] != SIGNATURE:  # R-2.4-1, R-3.1-1
-        got = data[: len(SIGNATURE)]
-        res.errors.append(FormatError(f"bad signature {got!r}, expected {SIGNATURE!r}",
+        # no bytes at all: said as such ("bad signature b''" left a caller that had read
+        # the stream to its end guessing; an ML pipeline's QA run of the API)
+        got = repr(data[: len(SIGNATURE)]) if data else ("(no bytes: an empty file, or a "
+                                                         "stream read to its end)")
+        res.errors.append(FormatError(f"bad signature {got}, expected {SIGNATURE!r}",
                                       offset=0, section="§3.1"))
         return res
     pos = len(SIGNATURE)

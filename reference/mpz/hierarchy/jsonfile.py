@@ -84,6 +84,10 @@ def _node_list(d: object) -> list[Any]:
     return raw
 
 
+#: the fields of a node: "why" and "description" are free text for people (cmu41.json's)
+NODE_FIELDS = ("name", "parent", "ref", "members", "weights", "why", "description")
+
+
 def _fields(i: int, nd: Any) -> tuple[str, list[str], str, str | None]:
     """``(name, members, ref, parent)`` of raw node ``i``, each of its JSON type: name and
     ref text, members a non-empty list of text, parent text or null (issue 11.6: a wrong
@@ -94,6 +98,13 @@ def _fields(i: int, nd: Any) -> tuple[str, list[str], str, str | None]:
     missing = [k for k in ("name", "members", "ref") if k not in nd]
     if missing:
         raise EncoderError(f"hierarchy node {i}: missing field {', '.join(missing)}")
+    # a field no reader reads: a misspelt "weigths" was ignored, and the weights with it
+    # (an ML pipeline's QA run of the API)
+    unknown = [k for k in nd if k not in NODE_FIELDS]
+    if unknown:
+        raise EncoderError(f"hierarchy node {i} ({nd['name']!r}): unknown field "
+                           f"{', '.join(map(repr, unknown))}; a node has "
+                           f"{', '.join(NODE_FIELDS)}")
     name, members, ref, parent = nd["name"], nd["members"], nd["ref"], nd.get("parent")
     if not isinstance(name, str) or not name:
         raise EncoderError(f"hierarchy node {i}: \"name\" must be non-empty text, got "
