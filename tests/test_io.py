@@ -394,6 +394,20 @@ def test_bvh_frame_rate(ft, rate):
     assert frame_rate_from_frame_time(ft) == pytest.approx(rate, rel=1e-12)
 
 
+@pytest.mark.parametrize("written,rate", [
+    # Blender's and MotionBuilder's exporters print the Frame Time with 6 decimals: 120 fps
+    # read as 120.0048 Hz, 60 fps as 59.9988 Hz, 240 fps as 239.98 Hz (a QA run of BVH
+    # exporters); a frame time that rounds to no single integer's stays 1 / Frame Time
+    ("0.008333", 120.0), ("0.016667", 60.0), ("0.004167", 240.0), ("0.041667", 24.0),
+    ("0.0333", 30.0), ("8.3333e-03", 120.0), ("0.033367", 1 / 0.033367),
+    ("0.03", 1 / 0.03), ("1500", 1 / 1500), ("0.0083333", 120.0)])
+def test_bvh_frame_rate_from_the_frame_time_as_printed(written, rate):
+    from mpz.io.bvh import parse_bvh
+    m = parse_bvh(BVH_TEXT.replace("Frame Time: 0.0333333", f"Frame Time: {written}"))
+    assert m.rate == pytest.approx(rate, rel=1e-12)
+    assert m.extras["skeleton"].frame_time == float(written)     # written back as read
+
+
 @pytest.mark.parametrize("mutate", [
     lambda t: t.replace("Frames: 3", "Frames: 4"),          # truncated motion
     lambda t: t.replace("90 90 0\n", "90 90\n"),            # short last row

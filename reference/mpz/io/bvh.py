@@ -154,10 +154,14 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
     return joints, n_channels, pos
 
 
-def frame_rate_from_frame_time(ft: float) -> float:
-    """``1 / ft``, snapped to the nearest integer when within 1e-3 of it.
+def frame_rate_from_frame_time(ft: float, written: str = "") -> float:
+    """``1 / ft``, snapped to the nearest integer when within 1e-3 of it, or when
+    ``written`` (the Frame Time as the file prints it) is that integer's frame time rounded
+    to the decimals it shows, and no other integer's.
 
-    BVH stores the frame time with few digits (``0.0083333`` for 120 Hz).
+    BVH stores the frame time with few digits (``0.0083333`` for 120 Hz). Blender and
+    MotionBuilder print 6 decimals: 120 fps is ``0.008333``, 1 / 0.008333 = 120.0048 Hz,
+    which the 1e-3 rule alone left as it was (and 60 fps as 59.9988 Hz).
 
     Examples
     --------
@@ -165,6 +169,8 @@ def frame_rate_from_frame_time(ft: float) -> float:
     120.0
     >>> frame_rate_from_frame_time(0.04)
     25.0
+    >>> frame_rate_from_frame_time(0.008333, "0.008333")
+    120.0
     >>> frame_rate_from_frame_time(1500.0) == 1 / 1500
     True
     """
@@ -176,7 +182,28 @@ def frame_rate_from_frame_time(ft: float) -> float:
     n = round(r)
     # never to 0: a Frame Time of 1500 s snapped 1/1500 Hz to 0, and the file was refused
     # for a rate of 0 (a CLI fuzzing QA run of stop 54)
-    return float(n) if n >= 1 and abs(r - n) < 1e-3 else r
+    if n >= 1 and abs(r - n) < 1e-3:
+        return float(n)
+    half = _half_unit(written)
+    if half is not None and ft > half:
+        # the integers whose frame time, rounded to the printed decimals, reads as written
+        low, high = math.ceil(1.0 / (ft + half)), math.floor(1.0 / (ft - half))
+        if low == high and low >= 1:
+            return float(low)
+    return r
+
+
+_PLAIN_NUMBER = re.compile(r"\+?\d*\.?(\d*)(?:[eE]([-+]?\d{1,4}))?")
+
+
+def _half_unit(written: str) -> float | None:
+    """Half a unit of the last decimal ``written`` shows (``"0.008333"``: 5e-7;
+    ``"8.33e-3"``: 5e-6), or None for a text that is not a plain number."""
+    m = _PLAIN_NUMBER.fullmatch(written)
+    if m is None or not any(c.isdigit() for c in written):
+        return None
+    decimals = len(m.group(1)) - int(m.group(2) or 0)
+    return 0.5 * 10.0 ** -decimals
 
 
 def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion:
@@ -215,7 +242,7 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
         raise _bad(f"expected 'Frames: n' and 'Frame Time: t' after MOTION, got {head}")
     n_frames = named(integer, head[1], "MOTION header", _bad)
     ft = named(number, head[4], "MOTION header", _bad)
-    rate = frame_rate_from_frame_time(ft)
+    rate = frame_rate_from_frame_time(ft, head[4])
     if n_frames <= 0:
         raise _bad(f"Frames must be positive, got {n_frames}")
     if n_channels == 0 and n_frames > _frame_lines(text):
