@@ -1310,6 +1310,28 @@ def test_a_bvh_cut_short_is_said_before_a_bad_number_in_it(two_joint_bvh):
         parse_bvh(two_joint_bvh.replace("1 0 0 0 5 0 10 0 0\n2 0 0 0 10 0 20 0 0\n", "x\n"))
 
 
+@pytest.mark.parametrize("old, new, said", [
+    # a row cut short in the middle of the file: "truncated motion data", at no place
+    ("1 0 0 0 5 0 10 0 0\n", "1 0 0 0 5 0 10 0\n",
+     "(truncated motion data); line 20 (frame 2) has 8 values, not 9"),
+    ("1 0 0 0 5 0 10 0 0\n", "1 0 0 0 5 0 10 0 0 7\n",
+     "1 values beyond 3 frames x 9 channels; line 20 (frame 2) has 10 values, not 9"),
+    ("1 0 0 0 5 0 10 0 0\n", "1 0 0 0 5,5 0 10 0 0\n",     # a decimal comma
+     "MOTION: '5,5' is not a number, line 20 (frame 2)"),
+])
+@pytest.mark.parametrize("newline", ["\n", "\r\n", "\r"])
+def test_a_bvh_row_of_the_wrong_width_is_named_by_its_line(two_joint_bvh, old, new, said,
+                                                           newline):
+    """A QA run of BVH exporters: the values are read as one stream, so a short or long
+    row in the middle of a file was "N values for F frames x C channels (truncated motion
+    data)" with no line to look at; the first row of the wrong width (or with a word that
+    is no number) is named by its line in the file and its frame."""
+    from mpz.io.bvh import parse_bvh
+    text = two_joint_bvh.replace(old, new).replace("\n", newline)
+    with pytest.raises(InputFormatError, match=re.escape(said)):
+        parse_bvh(text)
+
+
 def test_blank_lines_do_not_size_the_arrays(tmp_path):
     """A 557 KB CSV (2000 markers, 500,000 blank lines, one row) asked numpy for 22 GiB:
     the arrays were sized by lines times columns. Read here under a 1.5 GiB address-space

@@ -481,14 +481,18 @@ def _motion_values(text: str, start: int, n_frames: int, n_channels: int
     can hold: 179 bytes declaring 10^17 frames asked numpy for 2 EiB (a QA of stop 50)."""
     need = n_frames * n_channels
 
+    def bad_line() -> str:
+        where = _first_bad_line(text, start, n_channels)
+        return "" if where is None else f"; {where[0]} {where[1]}"
+
     def wrong_count() -> InputFormatError | None:
         got = sum(len(words) for words in _word_chunks(text, start))
         if got < need:
             return _bad(f"{got} values for {n_frames} frames x {n_channels} channels "
-                        f"(truncated motion data)")
+                        f"(truncated motion data){bad_line()}")
         if got > need:
             return _bad(f"{got - need} values beyond {n_frames} frames x {n_channels} "
-                        "channels")
+                        f"channels{bad_line()}")
         return None
 
     if need > (len(text) - start + 1) // 2:     # words of one character and one space
@@ -501,11 +505,46 @@ def _motion_values(text: str, start: int, n_frames: int, n_channels: int
         try:
             out[got:got + len(words)] = plain_numbers(words)
         except InputFormatError as exc:
-            raise wrong_count() or _bad(f"MOTION: {exc.message}") from None
+            where = _first_bad_line(text, start, n_channels)
+            at = "" if where is None else f", {where[0]}"
+            raise wrong_count() or _bad(f"MOTION: {exc.message}{at}") from None
         got += len(words)
     if got < need:
         raise wrong_count() or _bad("fewer values than declared")
     return out.reshape(n_frames, n_channels)
+
+
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+
+
+def _first_bad_line(text: str, start: int, n_channels: int) -> tuple[str, str] | None:
+    """Where the motion values of ``text[start:]`` first go wrong, for a message: ``("line
+    L (frame k)", "has c values, not C")``, or ``("line L (frame k)", "'x' is not a
+    number")``, L counted in the file, k from 1 among the lines that hold values; None when
+    every line has its ``n_channels`` numbers (whole lines are missing or extra). Only
+    called on the way to an error: the values are read as one stream, and a row cut short
+    in the middle of a file was said as "truncated motion data" with no place to look (a
+    QA run of BVH exporters)."""
+    lineno = len(_LINE_BREAK.findall(text, 0, start)) + 1
+    frame = 0
+    pos = start
+    while pos <= len(text):
+        brk = _LINE_BREAK.search(text, pos)
+        end = len(text) if brk is None else brk.start()
+        words = text[pos:end].split()
+        if words:
+            frame += 1
+            try:
+                plain_numbers(words)
+            except InputFormatError as exc:
+                return f"line {lineno} (frame {frame})", exc.message
+            if len(words) != n_channels:
+                return f"line {lineno} (frame {frame})", (f"has {len(words)} values, not "
+                                                          f"{n_channels}")
+        if brk is None:
+            break
+        pos, lineno = brk.end(), lineno + 1
+    return None
 
 
 def _frame_lines(text: str) -> int:
