@@ -219,6 +219,25 @@ def test_trc_bad(tmp_path, cut):
 
 
 
+@pytest.mark.parametrize("blank", ["", "\n"])
+def test_trc_without_its_coordinate_label_row_is_refused(blank):
+    """A QA run of exporters: a TRC without the X1 Y1 Z1 row (line 5 a data row) was read
+    with its first frame taken for the labels and dropped; only NumFrames, where present,
+    disagreed in a warning. Without NumFrames nothing was said at all."""
+    from mpz.io.trc import parse_trc
+    rows = TRC_TEXT.split("\n")
+    text = "\n".join(rows[:4] + ([""] if blank else []) + rows[6:])
+    if blank:                                       # line 5 blank: no labels, as before
+        with pytest.raises(InputFormatError, match="coordinate row has 0 labels"):
+            parse_trc(text)
+        return
+    with pytest.raises(InputFormatError, match="line 5 must be the coordinate labels"):
+        parse_trc(text)
+    no_count = text.replace("NumFrames\t", "").replace("60.00\t3\t", "60.00\t")
+    with pytest.raises(InputFormatError, match="line 5 must be the coordinate labels"):
+        parse_trc(no_count)
+    assert parse_trc(TRC_TEXT).n_frames == 3
+
 def _through_mpz(source, out):
     """``source`` read, encoded, decoded and written to ``out``: the notes of the write."""
     import mpz

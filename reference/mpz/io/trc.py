@@ -139,6 +139,12 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         raise _bad("no marker names")
     if len(coord_row) < 3 * n_markers:
         raise _bad(f"coordinate row has {len(coord_row)} labels for {n_markers} markers")
+    if all(_is_number(c) for c in lines[4].split("\t") if c.strip()):
+        # a file without the X1 Y1 Z1 row: its first frame was taken for the labels and
+        # dropped, said only when NumFrames was there to disagree (a QA run of exporters)
+        raise _bad(f"line 5 must be the coordinate labels (X1 Y1 Z1 ...), got numbers "
+                   f"{lines[4][:40]!r}: is the label row missing? its first frame would be "
+                   "lost")
 
     table = RowTable(3 * n_markers)   # a list of rows of Python floats: 32 bytes a value
     times = []
@@ -262,6 +268,14 @@ def _trailing_tabs(rows: list[str], motion: Motion) -> tuple[str, str]:
     cut = "; ".join(f"header line {i} ends with {n} tabs: {MAX_TRAILING_TABS} are written "
                     "back" for i, n in over)
     return " ".join(str(min(n, MAX_TRAILING_TABS)) for n in ends), cut
+
+
+def _is_number(x: str) -> bool:
+    try:
+        number(x.strip(), nan=True)
+    except InputFormatError:
+        return False
+    return True
 
 
 def _is_int(x: str) -> bool:
