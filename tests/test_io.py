@@ -577,6 +577,44 @@ def test_amc_bad(tmp_path, mutate):
         read_amc(tmp_path / "tiny_01.amc", tmp_path / "tiny.asf")
 
 
+def test_commas_are_white_space_in_asf_and_amc(tmp_path):
+    """The Acclaim ASF definition (V1.10) reads commas as white space; ``direction 1, 0, 0``,
+    ``limits (-180, 180)`` and an AMC line ``b1 0, 90`` were refused ("'1,' is not a number":
+    an archive QA run). They read as without the commas; the text fields keep theirs."""
+    (tmp_path / "plain.asf").write_text(ASF_TEXT)
+    (tmp_path / "plain_01.amc").write_bytes(AMC_TEXT.encode("latin-1"))
+    (tmp_path / "comma.asf").write_text(
+        ASF_TEXT.replace("direction 1 0 0", "direction 1, 0, 0")
+        .replace("limits (-180 180)\n           (-180 180)", "limits (-180, 180), (-180,180)")
+        .replace("position 0 0 0", "position 0,0,0").replace("root b1", "root, b1")
+        .replace(":name TINY", ":name TINY, v2"))
+    (tmp_path / "comma_01.amc").write_bytes(
+        AMC_TEXT.replace("b1 0 90", "b1 0, 90").replace("root 1 2 3 0 0 0", "root 1,2,3,0,0,0")
+        .encode("latin-1"))
+    a, b = read(tmp_path / "plain_01.amc"), read(tmp_path / "comma_01.amc")
+    np.testing.assert_array_equal(a.positions, b.positions)
+    np.testing.assert_array_equal(a.angles, b.angles)
+    sa, sb = a.extras["skeleton"], b.extras["skeleton"]
+    assert sa.joints == sb.joints and sb.name == "TINY, v2"
+
+
+@pytest.mark.parametrize("mutate, said", [
+    (lambda t: t.replace("b1 90 0\n", ""),
+     r"frame 2 \(from line 8, the last frame\) has no line for b1: .*may be cut short"),
+    (lambda t: t.replace("b1 0 90\n", ""), r"frame 1 \(from line 4\) has no line for b1: every"),
+    (lambda t: t.replace("\n1\n", "\n-1\n").replace("\n2\n", "\n0\n"),
+     "line 4: frame number -1: negative frame numbers are not supported"),
+])
+def test_an_amc_refusal_names_the_frame(tmp_path, mutate, said):
+    """A frame without a bone's line was "frame ending at line end lacks [...]" (a file cut
+    short) or named the next frame's line; a negative frame number was "data before the first
+    frame number" (an archive QA run)."""
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)
+    (tmp_path / "tiny_01.amc").write_text(mutate(AMC_TEXT))
+    with pytest.raises(InputFormatError, match=said):
+        read_amc(tmp_path / "tiny_01.amc", tmp_path / "tiny.asf")
+
+
 @pytest.mark.parametrize("mutate", [
     lambda t: t.replace("    b1 b2\n", ""),                # b2 not in hierarchy
     lambda t: t.replace(":hierarchy", ":hierarchyx"),

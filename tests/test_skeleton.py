@@ -1760,7 +1760,7 @@ def test_an_asf_bone_id_an_asfs_chunk_cannot_hold_is_said_before_encoding(
 
 @pytest.mark.parametrize("edit, said", [
     ("bone", "ltibia has 0 values"),
-    ("keyword", "lacks [':bonedata']"),
+    ("keyword", "has no line for :bonedata"),
     ("header", "data before the first frame number"),
 ])
 def test_an_amc_that_would_not_read_back_is_refused(tmp_path, edit, said):

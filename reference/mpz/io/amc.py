@@ -61,6 +61,14 @@ def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"ASF/AMC: {msg}")
 
 
+def _spaced(line: str) -> str:
+    """A line of numbers and names with its commas made blanks: the Acclaim ASF definition
+    (V1.10) reads commas as white space ("commas are discouraged"), so ``direction 0.3, -0.9,
+    0`` or ``limits (-160, 20)`` was refused as "'0.3,' is not a number" (an archive QA run).
+    Not for the text fields (``:name``, ``:documentation``, ``:version``, ``mass``)."""
+    return line.replace(",", " ") if "," in line else line
+
+
 #: the sections whose lines are text, where a '#' is part of the text, not a comment
 #: (``:name Subject#3`` was read as "Subject", silently: a QA run of stop 52); a whole
 #: line there too, since the writer puts each documentation line on a line of its own
@@ -160,7 +168,7 @@ def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
     cur: _RawBone | None = None
     last = ""
     pending: list[str] = []     # the bone's dropped lines, named at its end (a line before
-    for ln in lines:            # 'name' said "bone ?": a review of stop 61)
+    for ln in map(_spaced, lines):  # 'name' said "bone ?": a review of stop 61)
         parts = ln.split()
         key = parts[0].lower()
         if key == "begin":
@@ -239,7 +247,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     if angle_unit not in ("deg", "rad"):
         raise _bad(f":units angle {angle_unit!r}: deg or rad" if angle_unit else
                    ":units angle has no value: deg or rad")
-    root = _keyvals(sec["root"])
+    root = _keyvals([_spaced(ln) for ln in sec["root"]])
     dropped += [f":root {k}" for k in root if k not in ("order", "axis", "position",
                                                          "orientation")]
     order = [c.lower() for c in root.get("order", ["TX", "TY", "TZ", "RX", "RY", "RZ"])]
@@ -263,7 +271,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         raise _bad("bone names must be unique and not 'root'")
     parent: dict[str, str] = {}
     for ln in sec["hierarchy"]:
-        parts = ln.split()
+        parts = _spaced(ln).split()
         if parts[0].lower() in ("begin", "end"):
             continue
         p = parts[0]
@@ -382,8 +390,9 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     first: int | None = None
     expected_frame: int | None = None
     later = 0                       # lines after the first frame that hold no value
+    start_line = 0                  # the line of the current frame's number
     for lineno, raw in enumerate(text.splitlines(), 1):
-        line = raw.split("#", 1)[0].strip()
+        line = _spaced(raw.split("#", 1)[0]).strip()
         if cur is None and (not line or line.startswith(":")):
             header.append(raw.rstrip("\r"))
             continue
@@ -393,6 +402,12 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         if not line or line.startswith(":"):
             continue
         parts = line.split()
+        if (len(parts) == 1 and parts[0].startswith("-") and parts[0][1:].isascii()
+                and parts[0][1:].isdigit() and parts[0] not in slot):
+            # was "data before the first frame number" (or "unknown bone '-3'"): §4.14.2
+            # keeps the first frame number as a u32 (an archive QA run)
+            raise _bad(f"line {lineno}: frame number {parts[0]}: negative frame numbers are "
+                       "not supported (renumber the frames from 0 or 1)")
         if len(parts) == 1 and parts[0].isascii() and parts[0].isdigit():
             n = int(parts[0])
             if expected_frame is not None and n != expected_frame:
@@ -401,9 +416,10 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
                 first = n
             expected_frame = n + 1
             if cur is not None:
-                _check_frame(seen, skel, lineno)
+                _check_frame(seen, skel, n - 1, start_line)
                 frames.append(cur)
                 order = order if order is not None else list(seen)
+            start_line = lineno
             cur = np.full(n_chan, np.nan)
             seen = []
             continue
@@ -424,7 +440,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         seen.append(joint)
     if cur is None:
         raise _bad("no frames in AMC")
-    _check_frame(seen, skel, "end")
+    _check_frame(seen, skel, (expected_frame or 1) - 1, start_line, last=True)
     frames.append(cur)
     order = order if order is not None else list(seen)
     values = np.array(frames)
@@ -473,11 +489,20 @@ def _unit_clash(header: list[str], angle_unit: str) -> str | None:
             "reading; the AMC's values and header are kept as written")
 
 
-def _check_frame(seen: list[int], skel: Skeleton, where: int | str) -> None:
+def _check_frame(seen: list[int], skel: Skeleton, frame: int, line: int, *,
+                 last: bool = False) -> None:
+    """Refuse a frame without a line for the root or for a bone with dofs: it is named by its
+    number and the line of that number (it was "frame ending at line end lacks [...]", of a
+    file cut short, and "frame ending at line 93" named the next frame's line: an archive
+    QA run)."""
     missing = [j.name for i, j in enumerate(skel.joints)
                if i not in seen and (j.channels or i == 0)]
     if missing:
-        raise _bad(f"frame ending at line {where} lacks {missing}")
+        shown = ", ".join(missing[:8]) + (f" and {len(missing) - 8} more" if len(missing) > 8
+                                          else "")
+        raise _bad(f"frame {frame} (from line {line}{', the last frame' if last else ''}) "
+                   f"has no line for {shown}: every frame needs one for the root and each "
+                   "bone with dofs" + ("; the file may be cut short" if last else ""))
 
 
 def find_asf(amc_path: StrPath) -> str:
