@@ -906,8 +906,12 @@ def test_step_ladder():
     assert [str(ch.step_for(b)) for b in (0.01, 0.005, 0.004, 0.5, 3, 60, 1e5)] == \
         ["0.02", "0.01", "0.008", "1", "5", "80", "8000"]     # m is a u16
     assert all(ch.step_for(b).turn is not None for b in (0.01, 0.004, 0.3, 7))
-    with pytest.raises(EncoderError, match="--angle-error"):
-        ch.step_for(1e-11)
+    with pytest.raises(EncoderError, match="larger angle_error or translation_error"):
+        ch.step_for(1e-11)                       # a program is told of its arguments,
+    from mpz._worker import command_task
+    with command_task(True), pytest.raises(EncoderError, match="larger --angle-error or "
+                                           "--translation-error"):
+        ch.step_for(1e-11)                       # a command of its options
 
 
 @pytest.mark.parametrize("value", [1e308, -1e308, 2.0 ** 40])
