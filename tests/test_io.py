@@ -1389,6 +1389,25 @@ def test_a_bvh_row_of_the_wrong_width_is_named_by_its_line(two_joint_bvh, old, n
         parse_bvh(text)
 
 
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_a_bvh_whose_rows_shift_the_frames_is_refused(two_joint_bvh, newline):
+    """A QA run of BVH exporters: a row one value short and a later one a value long have
+    the right count, and were read as one stream, every frame between them shifted by a
+    channel, without a word. A frame wrapped over two lines (no line then says where a frame
+    starts) is still read as one stream, each value in its place."""
+    from mpz.io.bvh import parse_bvh
+    shifted = (two_joint_bvh.replace("1 0 0 0 5 0 10 0 0\n", "1 0 0 0 5 0 10 0\n")
+               .replace("2 0 0 0 10 0 20 0 0", "0 2 0 0 0 10 0 20 0 0"))
+    with pytest.raises(InputFormatError, match=re.escape(
+            "3 frames x 9 channels over 3 lines, but not one frame a line; line 20 (frame 2) "
+            "has 8 values, not 9: the frames after it would be read shifted")):
+        parse_bvh(shifted.replace("\n", newline))
+    wrapped = two_joint_bvh.replace("1 0 0 0 5 0 10 0 0\n", "1 0 0 0 5\n0 10 0 0\n")
+    m = parse_bvh(wrapped.replace("\n", newline))
+    assert m.angles is not None
+    np.testing.assert_array_equal(m.angles, parse_bvh(two_joint_bvh).angles)
+
+
 def test_blank_lines_do_not_size_the_arrays(tmp_path):
     """A 557 KB CSV (2000 markers, 500,000 blank lines, one row) asked numpy for 22 GiB:
     the arrays were sized by lines times columns. Read here under a 1.5 GiB address-space

@@ -511,7 +511,24 @@ def _motion_values(text: str, start: int, n_frames: int, n_channels: int
         got += len(words)
     if got < need:
         raise wrong_count() or _bad("fewer values than declared")
+    _check_rows(text, start, n_frames, n_channels)
     return out.reshape(n_frames, n_channels)
+
+
+def _check_rows(text: str, start: int, n_frames: int, n_channels: int) -> None:
+    """Refuse values whose count is right but whose rows are not: one line a frame (spec
+    §4.14.1), and a line of the wrong width among them. A row one value short and a later
+    one a value long read as one stream with every frame between them shifted by a channel,
+    without a word (a QA run of BVH exporters). Values spread over another number of lines
+    than frames (a frame wrapped over two lines) are read as one stream, as before: no line
+    then says where a frame starts. Costs about 4 ms a MB (a fifth of reading the values)."""
+    widths = [w for w in map(len, map(str.split, text[start:].splitlines())) if w]
+    if len(widths) != n_frames or all(w == n_channels for w in widths):
+        return
+    where = _first_bad_line(text, start, n_channels)
+    at = "" if where is None else f"; {where[0]} {where[1]}"
+    raise _bad(f"{n_frames} frames x {n_channels} channels over {n_frames} lines, but not one "
+               f"frame a line{at}: the frames after it would be read shifted")
 
 
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
