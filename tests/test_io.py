@@ -1389,6 +1389,19 @@ def test_a_bvh_row_of_the_wrong_width_is_named_by_its_line(two_joint_bvh, old, n
         parse_bvh(text)
 
 
+@pytest.mark.parametrize("old, new", [("Frames: 3", "Frames:3"),
+                                      ("Frame Time: 0.0333333", "Frame Time:0.0333333"),
+                                      ("Frames: 3\nFrame Time: ", "frames:3 frame time:")])
+def test_a_bvh_motion_header_without_a_space_after_its_colons(two_joint_bvh, old, new):
+    """A QA run of BVH exporters: ``Frames:60`` and ``Frame Time:0.041667`` were refused
+    ("expected 'Frames: n' and 'Frame Time: t' after MOTION"); they read as with a space."""
+    from mpz.io.bvh import parse_bvh
+    assert new.split(":")[0] in two_joint_bvh.replace(old, new)
+    m, ref = parse_bvh(two_joint_bvh.replace(old, new)), parse_bvh(two_joint_bvh)
+    assert (m.n_frames, m.rate) == (ref.n_frames, ref.rate)
+    np.testing.assert_array_equal(m.angles, ref.angles)
+
+
 @pytest.mark.parametrize("newline", ["\n", "\r\n"])
 def test_a_bvh_whose_rows_shift_the_frames_is_refused(two_joint_bvh, newline):
     """A QA run of BVH exporters: a row one value short and a later one a value long have

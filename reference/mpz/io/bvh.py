@@ -436,22 +436,26 @@ def _head_tokens(text: str) -> tuple[list[str], int]:
     (``Frames: n Frame Time: t``), and the offset in ``text`` where the motion's values
     start. The values are not split into words here: a list of every word took 14 bytes of
     memory per byte of BVH (a QA of stop 50). A joint named ``Motion`` (the word after
-    ROOT or JOINT) does not end the hierarchy, as :func:`_parse_hierarchy` reads it."""
+    ROOT or JOINT) does not end the hierarchy, as :func:`_parse_hierarchy` reads it.
+    After MOTION, ``Frames:60`` and ``Time:0.04`` are two words each, as with a space (they
+    were refused: a QA run of BVH exporters)."""
     words: list[str] = []
-    after = -1                    # words left to take after MOTION
-    end = 0
+    after: int | None = None      # words left to take after MOTION
     for m in re.finditer(r"\S+", text):
         word = m.group()
-        if after < 0 and word.upper() == "MOTION" and not (
-                words and words[-1].upper() in ("ROOT", "JOINT")):
-            after = 5
-        elif after > 0:
-            after -= 1
-        words.append(word)
-        end = m.end()
-        if after == 0:
-            break
-    return words, end if after == 0 else len(text)
+        if after is None:
+            words.append(word)
+            if word.upper() == "MOTION" and not (
+                    len(words) > 1 and words[-2].upper() in ("ROOT", "JOINT")):
+                after = 5
+            continue
+        key, colon, value = word.partition(":")
+        parts = [key + colon, value] if colon and key and value else [word]
+        words += parts
+        after -= len(parts)
+        if after <= 0:
+            return words, m.end()
+    return words, len(text)
 
 
 #: characters of motion values converted at a time by :func:`_motion_values`
