@@ -219,6 +219,22 @@ def test_trc_bad(tmp_path, cut):
 
 
 
+@pytest.mark.parametrize("edit, said", [
+    (lambda t: t.replace("\t", " "), "line 2 is separated by spaces, not tabs"),
+    (lambda t: t.replace("60.00\t60.00\t3", "0\t60.00\t3"),
+     "DataRate '0' is not a frame rate: it must be a positive number"),
+    (lambda t: t.replace("60.00\t60.00\t3", "-60\t60.00\t3"),
+     "DataRate '-60' is not a frame rate"),
+])
+def test_a_trc_header_refusal_names_what_is_wrong(edit, said):
+    """A QA run of exporters: a TRC written with spaces said "header has no DataRate" of a
+    header that has one, and a DataRate of 0 "inconsistent data: frame rate must be finite
+    and positive", naming no field."""
+    from mpz.io.trc import parse_trc
+    with pytest.raises(InputFormatError, match=re.escape(said)):
+        parse_trc(edit(TRC_TEXT))
+
+
 @pytest.mark.parametrize("blank", ["", "\n"])
 def test_trc_without_its_coordinate_label_row_is_refused(blank):
     """A QA run of exporters: a TRC without the X1 Y1 Z1 row (line 5 a data row) was read

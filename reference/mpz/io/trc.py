@@ -110,8 +110,16 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     vals = [v.strip() for v in lines[2].split("\t")]
     header = {k: v for k, v in zip(keys, vals, strict=False) if k}
     if "DataRate" not in header:
+        if "\t" not in lines[1] and "DataRate" in lines[1].split():
+            # said "header has no DataRate" of a header that has one (a QA run of exporters)
+            raise _bad("line 2 is separated by spaces, not tabs: a TRC's fields are "
+                       "tab-separated (marker names may hold spaces)")
         raise _bad("header has no DataRate")
     rate = named(number, header["DataRate"], "DataRate", _bad)
+    if not (math.isfinite(rate) and rate > 0):
+        # was "inconsistent data: frame rate must be finite and positive", naming no field
+        raise _bad(f"DataRate {header['DataRate']!r} is not a frame rate: it must be a "
+                   "positive number")
     units_raw = header.get("Units", "").strip()
     units = _UNITS.get(units_raw.lower(), "")
     name_row = lines[3].rstrip("\r\n").split("\t")
