@@ -195,6 +195,20 @@ def test_show_gives_the_declared_bound_and_a_json_error(tmp_path):
     assert doc["status"] == "error" and doc["error"]["message"]
 
 
+def test_show_names_marker_names_made_unique(tmp_path):
+    """A QA run of exporters: a TRC whose name row repeats a marker was shown without a word
+    of the rename (LASI -> LASI#2), which --json's metadata alone held."""
+    rows = ["PathFileType\t4\t(X/Y/Z)\td.trc", "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
+            "60\t60\t2\t2\tmm", "Frame#\tTime\tLASI\t\t\tLASI\t\t",
+            "\t\tX1\tY1\tZ1\tX2\tY2\tZ2", "", "1\t0\t1\t2\t3\t4\t5\t6",
+            "2\t0.0167\t1\t2\t3\t4\t5\t6"]
+    (tmp_path / "d.trc").write_text("\n".join(rows) + "\n")
+    p = _mpz("show", "d.trc", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "renamed:   marker names that repeat or are empty, made unique: LASI->LASI#2" \
+        in p.stdout.splitlines()
+
+
 def test_show_gives_a_skeletal_files_bound_on_the_joints_it_shows(shared_data, tmp_path):
     """A newcomer's QA run: mpz show summarises a skeletal file's joint positions computed
     from its channels, and gave MHDR's bound (the marker layer's) as theirs. It now gives
