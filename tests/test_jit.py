@@ -212,6 +212,21 @@ def test_shipped_kernels_match_the_sources() -> None:
         assert any(Path(_jit.SHIPPED_DIR).rglob(f"keyframe._fit-*.{tag}.nbi")), v
 
 
+def test_the_docs_list_the_shipped_sources() -> None:
+    """README's maintainer note and docs/cold-start.md list the files whose edit needs
+    ``make_kernels``, as "the sources of _kernels/manifest.json": both left out
+    ``fisher.py`` once its kernels shipped (a QA run from an installed wheel)."""
+    import re
+    root = Path(__file__).resolve().parents[1]
+    info = json.loads(Path(_jit.SHIPPED_DIR, "manifest.json").read_text())
+    sources = {s.removeprefix("mpz/") for s in info["sources"]}
+    for doc in ("README.md", "docs/cold-start.md"):
+        text = (root / doc).read_text()
+        i = text.index("`c3dcodec.py`")
+        listed = set(re.findall(r"`([\w/]+\.py)`", text[i:text.index(")", i)]))
+        assert listed == sources, (doc, sorted(listed ^ sources))
+
+
 #: kernels of the shipped sources that no encode or decode calls (the tests' references
 #: of what a faster kernel must equal), so make_kernels' workload does not compile them
 _NOT_IN_THE_CODEC = {"mpz/keyframe._cost", "mpz/keyframe._pairwise_sum",
