@@ -11,6 +11,7 @@ import tomllib
 
 from packaging.requirements import Requirement
 from packaging.version import Version
+import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -47,3 +48,24 @@ def test_the_c3d_reader_floor_is_the_version_its_hazard_rules_are_for() -> None:
     an older ezc3d crashes on others (1.5.16) or reads DEC residuals otherwise (1.7.1)."""
     assert _floors()["ezc3d"] == Version("1.7.2")
     assert "ezc3d` 1.7.2" in (REPO / "docs" / "io-notes.md").read_text()
+
+
+def test_no_tracked_text_file_holds_merge_conflict_markers() -> None:
+    """A cherry-pick's conflict markers were committed into CHANGELOG.md (caught by a
+    helper's review, not by a test): no tracked text file has a line that starts with one."""
+    import shutil
+    import subprocess
+    root = Path(__file__).resolve().parents[1]
+    if shutil.which("git") is None or not (root / ".git").exists():
+        pytest.skip("not a git checkout")
+    files = subprocess.run(["git", "ls-files", "-z"], cwd=root, capture_output=True,
+                           check=True).stdout.decode().split("\0")
+    found = []
+    for name in filter(None, files):
+        try:
+            text = (root / name).read_text(encoding="utf-8")
+        except (UnicodeDecodeError, OSError):
+            continue                                   # binary: vectors, kernels
+        found += [f"{name}:{i}" for i, line in enumerate(text.splitlines(), 1)
+                  if line.startswith(("<<<<<<< ", ">>>>>>> ")) or line == "======="]
+    assert found == []

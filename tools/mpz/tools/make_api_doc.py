@@ -585,6 +585,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="write nothing; exit 1 with a diff summary when --out differs from "
                         "what would be written")
     args = p.parse_args(argv)
+    if not args.out.parent.is_dir():      # installed from a wheel: a traceback (a QA run)
+        p.error(f"{args.out.parent}: no such folder: run this in a clone of the repository "
+                "(its docs/), or give --out")
     from mpz.tools._cli import printable
     text, warnings = render_with_warnings()
     for w in warnings:

@@ -71,6 +71,9 @@ def main(argv: list[str] | None = None) -> int:
                                 description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=DOC, help=f"default: {DOC}")
     args = p.parse_args(argv)
+    if not args.out.parent.is_dir():      # installed from a wheel: a traceback (a QA run)
+        p.error(f"{args.out.parent}: no such folder: run this in a clone of the repository "
+                "(its docs/), or give --out")
     from mpz.tools._cli import printable
     args.out.write_text(render(), encoding="utf-8")
     print(f"wrote {printable(str(args.out))}")
