@@ -2615,6 +2615,33 @@ def test_an_index_with_a_damaged_page_is_refused_before_use(corpus):
     assert path.read_bytes() == bytes(data)               # not written into
 
 
+def test_an_index_whose_schema_text_is_damaged_is_a_clean_error(corpus, capsys):
+    """A byte damaged in the schema's own text (the CREATE statements in sqlite_master)
+    makes SQLite say "malformed database schema (...) - near "CREA\\xabE"", quoting the
+    byte; Python could not decode that message and raised UnicodeDecodeError, so
+    `mpz search` and `mpz encode -r` ended in a traceback, exit 70 (a corpus QA run: 33 of
+    624 single-byte flips in the schema's pages). Both refuse it as damaged, exit 2, and
+    the index is not written into."""
+    from mpz.tools import mpz_cli
+    src, out, paths = corpus
+    run_corpus(src, out)
+    path = out / INDEX_NAME
+    data = bytearray(path.read_bytes())
+    at = data.find(b"CREATE TABLE failures")
+    assert at > 0
+    data[at + 4] = 0xAB                             # CREATE -> CREA\xabE
+    path.write_bytes(bytes(data))
+    with pytest.raises(EncoderError, match=r"damaged MPZ corpus index \(malformed database "
+                                           r"schema \(failures\).*CREA\\xabE.*remove it"):
+        open_index(out)
+    with pytest.raises(EncoderError, match="damaged MPZ corpus index"):
+        run_corpus(src, out)
+    code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "damaged MPZ corpus index" in err and "Traceback" not in err, err
+    assert path.read_bytes() == bytes(data)               # not written into
+
+
 def test_failures_of_sources_no_longer_there_are_forgotten(corpus):
     """The failures table kept a deleted source's failure for ever, so its count never went
     down (a corpus QA run of stop 55). The next run forgets it and says so; a failing

@@ -928,7 +928,21 @@ def _sql(method: _F) -> _F:
         except sqlite3.DatabaseError as exc:       # malformed, not a database, ...
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index ({exc}); "
                                f"{_REBUILD}") from None
+        except UnicodeDecodeError as exc:          # SQLite's message quoted damaged bytes
+            raise EncoderError(f"{self.path}: a damaged MPZ corpus index "
+                               f"({_sqlite_said(exc)}); {_REBUILD}") from None
     return wrapper
+
+
+def _sqlite_said(exc: UnicodeDecodeError) -> str:
+    """What SQLite said in an error message that Python could not decode: a byte damaged
+    in the schema's own text ("malformed database schema (le\\x89els)", "near
+    "CREA\\xabE": syntax error") came as this UnicodeDecodeError instead of a
+    sqlite3.DatabaseError, a traceback with exit 70 from mpz search and mpz encode -r (a
+    corpus QA run: 33 of 624 bytes flipped in the schema's pages). Its bytes, the damaged
+    ones escaped."""
+    raw = exc.object if isinstance(exc.object, bytes) else bytes(exc.object)
+    return raw.decode("utf-8", "backslashreplace")
 
 
 def _tables(db: sqlite3.Connection) -> set[str]:
@@ -1035,6 +1049,13 @@ class Index:
             raise EncoderError(f"{self.path}: not an MPZ corpus index, or a damaged one "
                                f"({exc}); if it is the index of its folder, {_REBUILD}"
                                ) from None
+        except UnicodeDecodeError as exc:
+            # a byte damaged in the schema's text: SQLite's "malformed database schema"
+            # quoted it, and Python could not decode the message (_sqlite_said)
+            self._close_quietly()
+            raise EncoderError(f"{self.path}: a damaged MPZ corpus index "
+                               f"({_sqlite_said(exc)}); if it is the index of its folder, "
+                               f"{_REBUILD}") from None
         except EncoderError:
             self._close_quietly()
             raise
@@ -1467,7 +1488,10 @@ def _read_only(path: str, *, rolled_back: bool = False) -> sqlite3.Connection:
     db = sqlite3.connect(uri, uri=True, timeout=LOCK_WAIT)
     try:
         db.execute("SELECT count(*) FROM sqlite_master").fetchone()
-    except sqlite3.OperationalError as exc:
+    except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
+        if not isinstance(exc, sqlite3.OperationalError):
+            db.close()                    # damage: Index says so
+            raise
         db.close()
         if (getattr(exc, "sqlite_errorname", "") == "SQLITE_READONLY_ROLLBACK"
                 and not rolled_back):
