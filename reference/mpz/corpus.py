@@ -929,20 +929,30 @@ def _sql(method: _F) -> _F:
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index ({exc}); "
                                f"{_REBUILD}") from None
         except UnicodeDecodeError as exc:          # SQLite's message quoted damaged bytes
+            said = _sqlite_said(exc)
+            if said is None:
+                raise                              # not SQLite's: a bug, said as one
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index "
-                               f"({_sqlite_said(exc)}); {_REBUILD}") from None
+                               f"({said}); {_REBUILD}") from None
     return wrapper
 
 
-def _sqlite_said(exc: UnicodeDecodeError) -> str:
-    """What SQLite said in an error message that Python could not decode: a byte damaged
-    in the schema's own text ("malformed database schema (le\\x89els)", "near
-    "CREA\\xabE": syntax error") came as this UnicodeDecodeError instead of a
-    sqlite3.DatabaseError, a traceback with exit 70 from mpz search and mpz encode -r (a
-    corpus QA run: 33 of 624 bytes flipped in the schema's pages). Its bytes, the damaged
-    ones escaped."""
+#: the words of SQLite's messages about a damaged schema (sqlite3.c: "malformed database
+#: schema (%s)", "near \"%s\": syntax error", "no such ..."), where it quotes the text
+_SCHEMA_DAMAGE = ("malformed database schema", "syntax error", "no such ")
+
+
+def _sqlite_said(exc: UnicodeDecodeError) -> str | None:
+    """What SQLite said in an error message that Python could not decode, its damaged
+    bytes escaped; None when the bytes are no such message (then the error is not
+    SQLite's but a bug). A byte damaged in the schema's own text ("malformed database
+    schema (le\\x89els)", "near "CREA\\xabE": syntax error") came as this
+    UnicodeDecodeError instead of a sqlite3.DatabaseError, a traceback with exit 70 from
+    mpz search and mpz encode -r (a corpus QA run: 33 of 624 bytes flipped in the
+    schema's pages)."""
     raw = exc.object if isinstance(exc.object, bytes) else bytes(exc.object)
-    return raw.decode("utf-8", "backslashreplace")
+    said = raw.decode("utf-8", "backslashreplace")
+    return said if any(w in said for w in _SCHEMA_DAMAGE) else None
 
 
 def _tables(db: sqlite3.Connection) -> set[str]:
@@ -1053,9 +1063,11 @@ class Index:
             # a byte damaged in the schema's text: SQLite's "malformed database schema"
             # quoted it, and Python could not decode the message (_sqlite_said)
             self._close_quietly()
-            raise EncoderError(f"{self.path}: a damaged MPZ corpus index "
-                               f"({_sqlite_said(exc)}); if it is the index of its folder, "
-                               f"{_REBUILD}") from None
+            damage = _sqlite_said(exc)
+            if damage is None:
+                raise
+            raise EncoderError(f"{self.path}: a damaged MPZ corpus index ({damage}); if it "
+                               f"is the index of its folder, {_REBUILD}") from None
         except EncoderError:
             self._close_quietly()
             raise
