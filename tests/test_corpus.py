@@ -1490,6 +1490,31 @@ def test_a_real_amc_batch_bounds_its_skeleton_as_one_file_does(shared_data, tmp_
     assert report((out / "35_01.mpz").read_bytes())["position_bound"] == 1.0
 
 
+def test_a_part_of_an_asf_not_kept_is_said_once(tmp_path, capsys, one_bone_asf):
+    """An ASF with a comment after its first keyword (not stored): the corpus table said it
+    twice, as a note ("not kept from the ASF: 1 comment ...") and among the file's
+    not_kept ("not kept: from the ASF: 1 comment ..."), and the row kept it in both
+    columns (a corpus QA run). Once now, as not_kept, as an up-to-date run says it too."""
+    from mpz.tools import mpz_cli
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    (src / "t.asf").write_text(one_bone_asf() + "# edited\n")
+    (src / "t_01.amc").write_text(":FULLY-SPECIFIED\n:DEGREES\n" + "".join(
+        f"{1 + i}\nroot {i} 0 0 0 0 0\nb1 {10 + i} 20\n" for i in range(5)))
+    for status in ("encoded", "up to date"):
+        code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0",
+                             "--rate", "120"])
+        table = capsys.readouterr().out
+        assert code == 0 and status in table, table
+        said = [line for line in table.splitlines() if "comment after the first" in line]
+        assert said == [f"  NOTE {src / 't_01.amc'}: not kept: from the ASF: 1 comment "
+                        "after the first keyword"], table
+    with open_index(out) as ix:
+        (row,) = list(ix.rows())
+    assert json.loads(row["not_kept"]) == ["from the ASF: 1 comment after the first keyword"]
+    assert not [n for n in json.loads(row["notes"]) if "ASF" in n], row["notes"]
+
+
 def test_an_edited_asf_encodes_its_amc_again(shared_data, tmp_path):
     """An AMC's output depends on its ASF: editing the ASF alone (the AMC unchanged) makes
     the next run encode the AMC again, with the new skeleton; an unchanged pair stays up

@@ -786,7 +786,8 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
 
     For one file, --angle-error and --translation-error on an input without a skeleton are
     an error. In a ``batch`` (:class:`PerFile`) they leave such inputs as they are, and a
-    skeleton left out by --no-skeleton is not a note but the file's ``not_kept``."""
+    skeleton left out by --no-skeleton, or a part of the ASF, is not a note but the file's
+    ``not_kept``."""
     from dataclasses import replace
 
     if motion.extras.get("skeleton") is None:
@@ -798,7 +799,10 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
         return opts, []
     notes: list[str] = []                          # nothing is lost without a word
     dropped = motion.metadata.get("asf_dropped")
-    if dropped:
+    if dropped and not batch:
+        # a corpus says it once, among the file's not_kept (the reader lists it there):
+        # this note too printed it twice, "not kept from the ASF: X" and "not kept: from
+        # the ASF: X" (a corpus QA run)
         notes.append(f"not kept from the ASF: {dropped}")
     if args.no_skeleton:
         if not batch:
