@@ -575,6 +575,21 @@ def test_find_asf_longest_prefix(tmp_path):
         find_asf(tmp_path / "17_01.amc")
 
 
+def test_find_asf_refuses_two_skeletons_that_fit_alike(tmp_path):
+    """A corpus QA run: beside 02.asf and 02.ASF, whichever sorted last was taken without a
+    word (the wrong skeleton there). Two that differ are refused, naming both; two copies
+    of one file are not a choice."""
+    (tmp_path / "02.asf").write_text(":name a\n")
+    (tmp_path / "02.ASF").write_text(":name b\n")
+    with pytest.raises(InputFormatError, match=r"2 skeletons fit 02_01.amc: 02.ASF, 02.asf "
+                                               r"differ; name one with asf="):
+        find_asf(tmp_path / "02_01.amc")
+    (tmp_path / "02.ASF").write_text(":name a\n")
+    assert find_asf(tmp_path / "02_01.amc").endswith("02.asf")
+    (tmp_path / "0.asf").write_text(":name c\n")          # a shorter stem is no rival
+    assert find_asf(tmp_path / "02_01.amc").endswith("02.asf")
+
+
 @pytest.mark.parametrize("mutate", [
     lambda t: t.replace("b1 90 0", "b1 90"),          # value count
     lambda t: t.replace("b2 0\n2", "bx 0\n2"),        # unknown bone

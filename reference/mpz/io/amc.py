@@ -518,7 +518,8 @@ def find_asf(amc_path: StrPath) -> str:
     Raises
     ------
     InputFormatError
-        If no such file exists.
+        If no such file exists, or two of that longest stem differ (``02.asf`` and
+        ``02.ASF``: whichever sorted last was taken, without a word, a corpus QA run).
     """
     amc_path = os.fspath(amc_path)
     folder = os.path.dirname(os.path.abspath(amc_path))
@@ -533,7 +534,24 @@ def find_asf(amc_path: StrPath) -> str:
                                f"(looked for <prefix of {stem!r}>.asf in {folder}); name it with "
                                f"{spelled('--asf PATH', 'asf=')}",
                                path=amc_path)
-    return max(cands)[1]
+    longest = max(n for n, _ in cands)
+    tied = sorted(p for n, p in cands if n == longest)
+    if len(tied) > 1 and len({_bytes_or_none(p) for p in tied}) > 1:
+        raise InputFormatError(f"{len(tied)} skeletons fit {os.path.basename(amc_path)}: "
+                               + ", ".join(os.path.basename(p) for p in tied)
+                               + f" differ; name one with {spelled('--asf PATH', 'asf=')}",
+                               path=amc_path)
+    return tied[-1]
+
+
+def _bytes_or_none(path: str) -> bytes | None:
+    """The bytes of a candidate ASF for :func:`find_asf`'s comparison; None for one that
+    cannot be read (its reader says why, if it is the one taken)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(1 << 22)
+    except OSError:
+        return None
 
 
 @reader
