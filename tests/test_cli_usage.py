@@ -293,6 +293,23 @@ def test_standard_input_into_an_output_folder_is_refused_by_name(inputs: dict[st
     p = run(["mpz", "decode", "-", "-o", "back/"], tmp_path, stdin=mpz_bytes)
     assert p.returncode == 2 and need.replace(b"out/", b"back/") in p.stderr, p.stderr
 
+def test_decode_names_its_output_with_the_sources_own_extension(inputs: dict[str, Path],
+                                                                tmp_path: Path) -> None:
+    """A corpus QA run: a mirrored tree came back with other names, Walk.C3D as Walk.c3d
+    and run.Trc as run.trc; the extension is now the source's own spelling of its format
+    (and -F's, or the format's, when the source's is another)."""
+    shutil.copy(inputs["c3d"], tmp_path / "Walk.C3D")
+    shutil.copy(inputs["trc"], tmp_path / "run.Trc")
+    p = run(["mpz", "encode", "Walk.C3D", "run.Trc", "-o", "arch/", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    p = run(["mpz", "decode", "arch/Walk.mpz", "arch/run.mpz", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    made = set(os.listdir(tmp_path / "arch"))
+    assert {"Walk.C3D", "run.Trc"} <= made and not {"Walk.c3d", "run.trc"} & made, made
+    p = run(["mpz", "decode", "arch/run.mpz", "-F", "csv", "-q"], tmp_path)
+    assert p.returncode == 0 and (tmp_path / "arch" / "run.csv").is_file(), p.stderr
+
+
 def test_mirror_keeps_the_layout_of_an_archive_whose_names_repeat(inputs: dict[str, Path],
                                                                   tmp_path: Path) -> None:
     """``--mirror`` (zstd's --output-dir-mirror): with -r, each output keeps its path below

@@ -103,7 +103,12 @@ def _name_for(args: argparse.Namespace, path: str) -> str | None:
                                f"skeleton (--no-skeleton), which {FORMAT_NAMES[ext]} output "
                                "needs: give --format npy or csv (c3d or trc: with units), "
                                "or -o with one of those extensions", path=path)
-    return None if ext is None else stem + ext
+    if ext is None:
+        return None
+    # the source's own spelling of it: walk.C3D came back as walk.c3d, and a mirrored tree
+    # with other names (a corpus QA run)
+    own = os.path.splitext(str(info.metadata.get("source", "")))[1]
+    return stem + (own if own.lower() == ext else ext)
 
 
 def run(args: argparse.Namespace) -> int:
