@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from mpz import Motion
-from mpz.errors import InputFormatError, MPZError
+from mpz.errors import InputFormatError, MotionError, MPZError
 from mpz.io import c3dbin, detect_format, read, read_amc, read_bvh, read_bytes, read_c3d, write
 from mpz.io.amc import find_asf, parse_asf
 from mpz.io.bvh import frame_rate_from_frame_time
@@ -441,6 +441,36 @@ def test_bvh_frame_rate_from_the_frame_time_as_printed(written, rate):
     m = parse_bvh(BVH_TEXT.replace("Frame Time: 0.0333333", f"Frame Time: {written}"))
     assert m.rate == pytest.approx(rate, rel=1e-12)
     assert m.extras["skeleton"].frame_time == float(written)     # written back as read
+
+
+def test_an_mpz_of_the_old_bvh_rate_still_compares_with_its_source(tmp_path):
+    """Before the rate fix, 0.008333 read as 120.0048 Hz, which an .mpz encoded then keeps:
+    compared with its source, now read at 120 Hz, it was refused ("frame rates differ",
+    exit 2). One BVH Frame Time is one rate: compared, with a note; another Frame Time
+    at the same rates is still refused."""
+    import dataclasses
+    import subprocess
+    import sys
+
+    import mpz
+    src = tmp_path / "b.bvh"
+    src.write_text(BVH_TEXT.replace("Frame Time: 0.0333333", "Frame Time: 0.008333"))
+    m = mpz.io.read(src)
+    assert m.rate == 120.0
+    old = dataclasses.replace(m, rate=1 / 0.008333)            # what the old reader gave
+    (tmp_path / "old.mpz").write_bytes(mpz.encode(old))
+    assert mpz.max_error(m, mpz.decode(tmp_path / "old.mpz")) < 1.0
+    cmd = [sys.executable, "-m", "mpz.tools.mpz_cli", "compare", "b.bvh", "old.mpz"]
+    p = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "one BVH Frame Time (0.008333 s) rounded two ways" in p.stdout + p.stderr
+    other = dataclasses.replace(old, metadata={**old.metadata, "frame_time": "0.0083330001"})
+    (tmp_path / "other.mpz").write_bytes(mpz.encode(other))
+    with pytest.raises(MotionError, match="frame rates differ"):
+        mpz.max_error(m, mpz.decode(tmp_path / "other.mpz"))
+    p = subprocess.run(cmd[:-1] + ["other.mpz"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=300)
+    assert p.returncode == 2 and "frame rates differ" in p.stderr, p.stderr
 
 
 @pytest.mark.parametrize("mutate", [

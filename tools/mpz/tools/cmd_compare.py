@@ -46,7 +46,11 @@ from typing import Any
 import numpy as np
 
 from mpz.errors import MotionError
-from mpz.metrics import RATE_TOLERANCE, rate_assumed  # one rule for compare and metrics
+from mpz.metrics import (  # one rule for compare and metrics
+    RATE_TOLERANCE,
+    rate_assumed,
+    same_frame_time,
+)
 from mpz.tools._cli import count, print_json, printable
 from mpz.tools._common import check_plot, plot_format
 
@@ -224,6 +228,11 @@ def check_rates(a, b, ext_a: str | None, ext_b: str | None, names: tuple[str, st
                 else "its reader assumed the frame rate")       # a one-row CSV's
         return [f"{' and '.join(f'{n} ({m.rate:g} Hz assumed)' for n, m in pairs)}: {said}; "
                 f"rates not compared ({a.rate:g} vs {b.rate:g} Hz), the frames taken in order"]
+    if not close and same_frame_time(a, b):
+        return [f"rates {a.rate:.10g} and {b.rate:.10g} Hz are one BVH Frame Time "
+                f"({a.metadata['frame_time']} s) rounded two ways (mpz read a Frame Time of "
+                "0.008333 as 120.0048 Hz before it snapped it to 120): the frames compared "
+                "in order"]
     if not close:
         raise MotionError(f"frame rates differ: {a.rate:.10g} Hz ({names[0]}) vs "
                           f"{b.rate:.10g} Hz "
