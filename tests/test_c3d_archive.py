@@ -979,3 +979,64 @@ def test_read_back_takes_the_archives_first_frame_and_refuses_what_no_reader_rea
     assert not (tmp_path / "slow.c3d").exists()
     write(replace(slow, rate=2e-6), tmp_path / "ok.c3d")
     assert read(tmp_path / "ok.c3d").rate == float(np.float32(2e-6))
+
+
+def _with_subject(m: mpz.Motion, name: bytes) -> bytes:
+    """The C3D of ``m`` (an archive) with SUBJECTS:NAMES ``name`` (one row)."""
+    from mpz.io.c3dbin import build_c3d
+    a = m.extras["c3d"]
+    gid = next(-r.group for r in a.records if r.is_group and r.name.upper() == b"SUBJECTS")
+    records = [replace(r, dims=(len(name), 1), data=name)
+               if r.group == gid and r.name.upper() == b"NAMES" else r for r in a.records]
+    xyz = np.zeros((a.frames, a.words.shape[1], 3))
+    for p, s in enumerate(a.slots):
+        if s < m.n_markers:
+            xyz[:, p] = np.where(m.valid[:, s, None], m.positions[:, s], 0.0)
+    return build_c3d(a.header, records, xyz, a.words, a.analog, float_storage=True,
+                     scale=a.point_scale())
+
+
+def test_a_latin1_subject_is_read_as_the_archive_gives_it(shared_data, tmp_path):
+    """SUBJECTS:NAMES b'Jos\\xe9' (Latin-1, as older Windows writers store it): ezc3d gave
+    the byte as a lone surrogate, so the subject was escaped ('Jos\\\\xe9'), the warning
+    called it "a file name" that is not UTF-8 (exit 1), and a C3D decoded from it said the
+    subject was not written although SUBJECTS:NAMES was written as stored (a C3D QA run).
+    The subject is now read as the names are (UTF-8, else Latin-1)."""
+    m = read(shared_data / "c3d" / "c3dorg_Sample_Jump2.c3d")
+    src = tmp_path / "latin1.c3d"
+    src.write_bytes(_with_subject(m, b"Jos\xe9 "))
+    got = read(src)
+    assert got.metadata["reader"] == "ezc3d"
+    assert got.metadata["subject"] == "Jos\u00e9"
+    assert "not UTF-8" not in got.metadata.get("warning", "")
+    notes = write(got, tmp_path / "back.c3d")
+    assert not any("'subject'" in n for n in notes), notes
+    back = read(tmp_path / "back.c3d")
+    assert back.metadata["subject"] == "Jos\u00e9"
+
+
+def test_encode_says_unsigned_analog_words_change_in_a_float_c3d(shared_data):
+    """An int16 source with ANALOG:FORMAT UNSIGNED that decodes to a float32 C3D (here a
+    coordinate word of -32768) has its words below 0 written as their unsigned values
+    (spec §6.9: -1 becomes 65535.0). ezc3d reads the int16 source's -1 as -1, the float
+    file's as 65535: every such force-plate or EMG value moved by 65536 x ANALOG:SCALE,
+    and the encode warning spoke of the file's size and POINT:SCALE alone (a C3D QA run).
+    A SIGNED source's words are written as they are, and are not named."""
+    from mpz.io.c3d import round_trip_warnings
+    from mpz.io.c3dbin import ParamRecord
+    m = read(shared_data / "c3d" / "c3dorg_Eb015pi.c3d")
+    a = m.extras["c3d"]
+    assert a.word_storage == 0 and a.analog_storage == 0
+    words = a.analog.copy()
+    words[0, 0] = -1                    # 65535, an unsigned 16-bit converter's top
+    gid = next(-r.group for r in a.records if r.is_group and r.name.upper() == b"ANALOG")
+    pos = m.positions.copy()
+    m0 = next(j for j in range(m.n_markers) if m.valid[5, j])
+    pos[5, m0, 1] = -32768 * a.point_scale()
+    for fmt, named in ((b"UNSIGNED", True), (b"SIGNED", False)):
+        rec = ParamRecord(gid, False, b"FORMAT", type=-1, dims=(len(fmt),), data=fmt)
+        src = replace(m, positions=pos,
+                      extras={"c3d": replace(a, records=[*a.records, rec], analog=words)})
+        said = round_trip_warnings(src, mpz.decode(mpz.encode(src)))
+        assert any("will store float32" in w for w in said), said
+        assert any("UNSIGNED" in w and "65535.0" in w for w in said) == named, said

@@ -185,7 +185,8 @@ def read(path: StrPath, *, asf: StrPath | None = None, rate: float | None = None
     for key, value in list(m.metadata.items()):
         if isinstance(value, str) and not is_utf8(value):
             m.metadata[key] = utf8_name(value)
-            _warn(m, f"a file name is not UTF-8: metadata {key!r} holds it as "
+            what = "a file name" if key in ("source", "asf") else "a value read from the file"
+            _warn(m, f"{what} is not UTF-8: metadata {key!r} holds it as "
                      f"{m.metadata[key]!r}")
     return m
 

@@ -370,6 +370,16 @@ def split_archive(full: Motion, d: c3dbin.C3DData) -> Motion:
     archive = C3DArchive(d.processor, d.header_block, list(d.records), slots, d.point_words,
                          storage, vals, ok, [int(kinds[p] or 0) for p in model], d.analog,
                          d.analog_samples, storage, layer=(tuple(names), full.units, full.rate))
+    # the subject as the archive gives it (SUBJECTS:NAMES as UTF-8, else Latin-1, as the
+    # names are read): ezc3d gave the Latin-1 byte of 'Jos\xe9' as a lone surrogate, so
+    # the subject was escaped ('Jos\\xe9'), said to be "a file name" that is not UTF-8,
+    # and differed from the archive's, so a C3D decoded from it noted the subject as not
+    # written although its SUBJECTS:NAMES was written as stored (a C3D QA run)
+    subject = archive_subject(archive)
+    if subject:
+        meta["subject"] = subject
+    else:
+        meta.pop("subject", None)
     scales = _point_scales(archive)
     if len(set(scales)) > 1:
         # the readers take the last, spec §6.9's writer the first (a C3D QA run of stop 52)
@@ -903,7 +913,17 @@ def round_trip_warnings(source: Motion, decoded: Motion) -> list[str]:
                    "which C3D readers, mpz's included, read as gaps: a --max-error smaller "
                    "than their distance from the origin keeps them")
     if a.word_storage == 0 and not _points_to_write(decoded, b)[2]:
-        out.append("the source stores int16 points, and the decoded C3D will store float32 "
-                   "(a coordinate decoded off the int16 grid or outside -32767..32767, spec "
-                   "§6.9): the file is larger, and POINT:SCALE is written negative")
+        said = ("the source stores int16 points, and the decoded C3D will store float32 "
+                "(a coordinate decoded off the int16 grid or outside -32767..32767, spec "
+                "§6.9): the file is larger, and POINT:SCALE is written negative")
+        # the analog words change too: a reader that takes int16 words as signed (ezc3d)
+        # read -1 in the source and reads 65535.0 in the float file, so its force-plate
+        # and EMG values moved by 65536 x scale without a word (a C3D QA run)
+        high = int((np.asarray(a.analog) < 0).sum()) if a.analog.size else 0
+        if high and c3dbin.analog_unsigned(list(a.records)):
+            said += (f"; ANALOG:FORMAT is UNSIGNED, so its {high} analog word"
+                     f"{'s' * (high != 1)} stored below 0 (65535 as -1) are written as their "
+                     "unsigned values (65535.0), which readers that take the int16 words as "
+                     "signed (ezc3d) read otherwise than the source")
+        out.append(said)
     return out
