@@ -207,6 +207,11 @@ def test_show_names_marker_names_made_unique(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "renamed:   marker names that repeat or are empty, made unique: LASI->LASI#2" \
         in p.stdout.splitlines()
+    from mpz.tools._common import renamed_list  # 32545 renames printed in full
+    many = {"renamed_points": "; ".join(f"->_unnamed_{i}" for i in range(25))}
+    assert renamed_list(many) == "; ".join(f"->_unnamed_{i}" for i in range(10)) \
+        + "; and 15 more"
+    assert renamed_list({}) == "" and renamed_list({"renamed_points": "a->b"}) == "a->b"
 
 
 def test_show_gives_a_skeletal_files_bound_on_the_joints_it_shows(shared_data, tmp_path):

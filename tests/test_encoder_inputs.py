@@ -126,6 +126,18 @@ def test_largest_magnitude_still_encodes(walk: Motion) -> None:
     assert mpz.max_error(m, out) <= 1e97
 
 
+def test_too_many_markers_are_said_before_the_metadata_they_make() -> None:
+    """A C3D QA run: 32800 points with 255 labels were refused for the 575 KB metadata
+    value listing the names made for the others (§4.11), not for being past §8's 4096
+    markers, which the encoder checks first now."""
+    M = 4097
+    m = Motion(np.zeros((1, M, 3)), [f"p{i}" for i in range(M)], 100.0, "mm",
+               metadata={"renamed_points": "x" * 70000})
+    with pytest.raises(EncoderError, match=r"1 frames x 4097 markers exceeds the limits of "
+                                           r"spec §8"):
+        mpz.encode(m)
+
+
 def _hier(nodes: list[Any]) -> dict[str, Any]:
     return {"format": "mpz-hierarchy", "version": 1, "nodes": nodes}
 

@@ -1819,13 +1819,16 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
     if not isinstance(motion, Motion):
         raise EncoderError(f"expected an mpz.Motion, got {type(motion).__name__}")
     _consistent(motion)                  # a Motion is mutable: its invariants, again
-    check_motion(motion)                 # issue 11.6: names, metadata, magnitudes up front
-    check_metadata({**motion.metadata, **opts.metadata})
+    # the §8 size first: 32800 points with 255 labels were refused for the 575 KB list of
+    # the names made for the others (metadata 'renamed_points'), not for being 32800 (a C3D
+    # QA run)
     F, M = motion.n_frames, motion.n_markers
     if F > MAX_FRAMES or M > MAX_MARKERS or F * M > MAX_SAMPLES:
         raise EncoderError(f"{F} frames x {M} markers exceeds the limits of spec §8: at "
                            f"most {MAX_FRAMES} frames, {MAX_MARKERS} markers and "
                            f"{MAX_SAMPLES} frames x markers")
+    check_motion(motion)                 # issue 11.6: names, metadata, magnitudes up front
+    check_metadata({**motion.metadata, **opts.metadata})
     for ext in EXTENSIONS:              # the ancillary chunks' limits, up front too
         ext.check(motion, opts)
     if opts.summary:

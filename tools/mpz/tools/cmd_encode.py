@@ -734,7 +734,8 @@ def _input_notes(args: argparse.Namespace, motion, source: str, *,
     assumed = assumed_rate(motion, args.rate)
     if assumed:
         notes.append(assumed)
-    renamed = motion.metadata.get("renamed_points")
+    from mpz.tools._common import renamed_list
+    renamed = renamed_list(motion.metadata)
     if renamed:
         notes.append(f"marker names that repeat or are empty were made unique: {renamed} "
                      "(a C3D written back keeps the source's labels; other formats get "

@@ -182,10 +182,11 @@ def run(args) -> int:
         parts.append(f"{c['parameter_records']} parameter records")
         lines.append("c3d:       " + ", ".join(parts))
     lines += _metadata_lines(motion.metadata)
-    if motion.metadata.get("renamed_points"):
+    from mpz.tools._common import renamed_list
+    if renamed_list(motion.metadata):
         # in --json's metadata alone (a QA run of exporters: a repeated TRC name)
         lines.append("renamed:   marker names that repeat or are empty, made unique: "
-                     + printable(motion.metadata["renamed_points"]))
+                     + printable(renamed_list(motion.metadata)))
     if "reader_note" in motion.metadata:      # which reader, and why: not about the data
         lines.append(f"note:      {printable(motion.metadata['reader_note'])}")
     if "warning" in motion.metadata:
