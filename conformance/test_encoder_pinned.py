@@ -34,7 +34,15 @@ def test_encoder_reproduces_its_vectors_byte_for_byte(vec):
     opts = dict(vec["recipe"]["encode"])
     if "summary" in opts:
         opts["summary"] = tuple(opts["summary"])
-    data = mpz.encode(generate(kind, **synth), **opts)
+    source = generate(kind, **synth)
+    data = mpz.encode(source, **opts)
+    if opts.get("max_error") is not None:
+        # a change that breaks the bound also changes the bytes, and the advice below
+        # ("if intended, regenerate") would freeze it (a QA run): say it first
+        err = mpz.max_error(source, mpz.decode(data))
+        assert err <= opts["max_error"], (
+            f"{vec['name']}: the reference encoder breaks its bound: max error {err!r} > "
+            f"{opts['max_error']!r}; a bug to fix, not a change to regenerate")
     shipped = (mf.DEFAULT_DIR / vec["file"]).read_bytes()
     assert data == shipped, (f"{vec['name']}: the reference encoder no longer writes the shipped "
                              f"vector ({len(data)} vs {len(shipped)} bytes); if intended, "
@@ -66,3 +74,21 @@ def test_prediction_round_trips_on_every_short_run(order, P):
 def test_prediction_round_trips(order, P, runs, seed):
     x = np.random.default_rng(seed).integers(-(2 ** 20), 2 ** 20, (runs * P, 1, 3))
     assert np.array_equal(reconstruct(residuals(x, order, P), order, P), x)
+
+
+def test_make_vectors_refuses_an_encoder_that_breaks_its_bound(monkeypatch):
+    """A QA run: with node bounds 2 % too loose, make_vectors rewrote every vector without a
+    word, and test_manifest.py and test_golden.py passed after it. Each encoder-made vector
+    with a bound is now checked against the motion it was made from."""
+    from mpz.tools import make_vectors as mv
+    m = generate("walk", frames=30, markers=8, seed=5)
+    assert mpz.max_error(m, mpz.decode(mv.encode_within(m, max_error=1.0))) <= 1.0
+    real = mpz.decode
+
+    def loose(data):
+        out = real(data)
+        out.positions[0, 0, 0] += 1.5              # what a too-coarse grid does to a sample
+        return out
+    monkeypatch.setattr(mpz, "decode", loose)
+    with pytest.raises(mv.BoundBroken, match="breaks its bound: max error .* > 1.0"):
+        mv.encode_within(m, max_error=1.0)

@@ -408,6 +408,24 @@ class VectorSet:
 
 
 # ------------------------------------------------------------ valid group --
+class BoundBroken(RuntimeError):
+    """The reference encoder broke the bound it was given: a vector made now would freeze
+    the bug (and test_encoder_pinned.py's advice, "regenerate", would pass it on)."""
+
+
+def encode_within(m, *, max_error, **kw) -> bytes:
+    """``mpz.encode(m, max_error=..., **kw)``, checked: every encoder-made vector with a
+    bound holds it against the motion it was made from, as the hand-built ones do
+    (``Design.build``). A QA run: an encoder whose node bounds were 2 % too loose wrote all
+    380 vectors without a word, and test_manifest.py and test_golden.py then passed."""
+    data = mpz.encode(m, max_error=max_error, **kw)
+    err = mpz.max_error(m, mpz.decode(data))
+    if not err <= max_error:
+        raise BoundBroken(f"the reference encoder breaks its bound: max error {err!r} > "
+                          f"{max_error!r} ({m!r}); fix the encoder, do not regenerate")
+    return data
+
+
 def _synth(kind, frames, markers=None, seed=0, **kw):
     from mpz.synth import generate
     return generate(kind, frames=frames, seed=seed, markers=markers, **kw)
@@ -426,7 +444,7 @@ def valid_vectors(vs: VectorSet):
     from mpz.encoder import summary_record
     # v01: the reference encoder, bounded, full 41-marker set
     m = _synth("walk", 90, seed=1)
-    data = mpz.encode(m, max_error=1.0)
+    data = encode_within(m, max_error=1.0)
     vs.valid("valid", "v01-walk-bounded-1mm", data,
              "41-marker walk from the reference encoder with a 1 mm bound: patterns where they "
              "pay, residual layer everywhere (base 0 and base 1), metadata",
@@ -446,7 +464,7 @@ def valid_vectors(vs: VectorSet):
              "mpz.encode(smoothing=3, lossy=True)")
     # v03: encoder with the optimal-partition summary
     m = _synth("wave", 60, markers=12, seed=3)
-    data = mpz.encode(m, max_error=2.0, summary=(2, 5), summary_format="smry")
+    data = encode_within(m, max_error=2.0, summary=(2, 5), summary_format="smry")
     vs.valid("valid", "v03-wave-bounded-2mm-summary", data,
              "12-marker wave from the reference encoder, 2 mm bound, with the ancillary smry "
              "chunk (2 and 5 segments) that decoders may ignore",
@@ -2288,13 +2306,13 @@ def _axis_changed(models, **changes) -> tuple:
 def _smrc_base() -> bytes:
     """v-smrc-positions: a 4-marker walk with levels k = 2 and 5 in smrc, which the smrc
     builders edit (encoded once)."""
-    return mpz.encode(_synth("walk", 24, markers=4, seed=141), max_error=1.0, summary=(2, 5))
+    return encode_within(_synth("walk", 24, markers=4, seed=141), max_error=1.0, summary=(2, 5))
 
 
 @functools.cache
 def _c3d_float_base() -> bytes:
     """v-c3d-archive-float32, which the C3D archive builders edit (encoded once)."""
-    return mpz.encode(c3d_motion(71, storage=1), max_error=1.0)
+    return encode_within(c3d_motion(71, storage=1), max_error=1.0)
 
 
 @functools.cache
@@ -2351,7 +2369,7 @@ def c3d_archive_vectors(vs: VectorSet):
     from mpz.chunks import Cana, Chdr, Cpnt, Cprm
     secs = ["§2.1", "§2.3", "§4.13", "§4.13.1", "§4.13.2", "§4.13.3", "§4.13.4", "§6.9"]
     m = c3d_motion(71, storage=1)
-    good = mpz.encode(m, max_error=1.0)
+    good = encode_within(m, max_error=1.0)
     vs.valid("valid", _numbered(vs, "v", "c3d-archive-float32"), good,
              "a C3D archive (1.1): header with events, parameters (byte, locked, undeclared "
              "group, mixed-case name), 7 points of which 2 model outputs (ANGLES, POWERS) in "
@@ -2368,7 +2386,7 @@ def c3d_archive_vectors(vs: VectorSet):
              "mpz.encode() (the default)")
     # no analog, no model outputs: cpnt with J = 0 and no cana
     mn = c3d_motion(73, storage=1, J=0, C=0)
-    bare = mpz.encode(mn, max_error=2.0)
+    bare = encode_within(mn, max_error=2.0)
     assert "cana" not in [c[0] for c in _c3d_chunks(bare)]
     vs.valid("uncommon", _numbered(vs, "u", "c3d-no-analog-no-models"), bare,
              "a C3D archive without analog channels (no cana) and without model outputs "
@@ -3330,7 +3348,7 @@ def c3d_coding_vectors(vs: VectorSet):
         co = zlib.compressobj(level, zlib.DEFLATED, -15)
         return co.compress(data) + co.flush()
 
-    good = mpz.encode(c3d_motion(74, storage=1, F=8, M=3, J=1, C=1, n=2), max_error=1.0)
+    good = encode_within(c3d_motion(74, storage=1, F=8, M=3, J=1, C=1, n=2), max_error=1.0)
     ch = _c3d_chunks(good)
     hdr = Chdr.load(bytes(next(p for t, p in ch if t == "chdr")))
     prm = Cprm.load(bytes(next(p for t, p in ch if t == "cprm")))
@@ -3729,7 +3747,7 @@ def mutation_gap_vectors(vs: VectorSet):
     bits = np.where(np.arange(T) % 3 == 0, 0x00600000, 0x00200000).astype("<u4")
     bits[np.arange(T) % 5 == 4] = 0
     a.analog[:, 2] = bits.view("<f4")
-    low = mpz.encode(mc, max_error=1.0)
+    low = encode_within(mc, max_error=1.0)
     table = Cana.load(next(p for t, p in _c3d_chunks(low) if t == "cana")).table
     assert (table[2].mode, table[2].shift) == (0, -128), table[2]
     back = mpz.decode(low).extras["c3d"].analog[:, 2]
