@@ -117,3 +117,22 @@ def test_an_out_that_is_a_file_is_refused_before_computing(tmp_path, monkeypatch
     (tmp_path / "new.json").write_text("{}")
     assert make_golden.main(["--out", str(tmp_path / "new.json")]) == 64
     assert "not a folder" in capsys.readouterr().err
+
+
+def test_a_verdict_that_flips_is_named_with_its_direction():
+    """A QA run: a decoder with a spec check dropped accepted x46-mask-flag-2, and the golden
+    failure said "decode otherwise (...; the verdict of 1)" and "if intended, run
+    make_golden", which would have frozen the bug."""
+    from mpz.tools.make_golden import describe_changes
+    entry = {"decoded_sha256": None, "integer_layer_digest": None,
+             "error_class": "FormatError", "mpzinfo": {}}
+    ok = {"decoded_sha256": "a", "integer_layer_digest": "b", "error_class": None,
+          "mpzinfo": {}}
+    said = describe_changes({"vectors": {"x46": entry, "v1": ok}},
+                            {"vectors": {"x46": ok, "v1": entry}})
+    assert said[0].startswith("2 vector(s) decode otherwise")
+    assert said[1].startswith("2 vector(s) change verdict: v1: decoded -> rejected "
+                              "(FormatError), x46: rejected (FormatError) -> decoded; "
+                              "1 now decode(s) what was rejected: where the manifest says reject, that "
+                              "is a decoder bug")
+    assert "not a golden change" in said[1]

@@ -106,6 +106,21 @@ def describe_changes(old: dict, new: dict) -> list[str]:
                  and not moved["error_class"] else "")
         out.append(f"{len(decoded)} vector(s) decode otherwise ({what}{after}), e.g. "
                    f"{', '.join(decoded[:5])}")
+    # a verdict that flips is named with its direction: "the verdict of 1" with the advice
+    # "if intended, run make_golden" sent a decoder that accepted x46 (a spec check dropped)
+    # towards regeneration (a QA run of regression checks)
+    flips = [n for n in decoded
+             if old["vectors"][n].get("error_class") != new["vectors"][n].get("error_class")]
+    if flips:
+        def verdict(entry: dict) -> str:
+            return f"rejected ({entry['error_class']})" if entry.get("error_class") else "decoded"
+        said = ", ".join(f"{n}: {verdict(old['vectors'][n])} -> {verdict(new['vectors'][n])}"
+                         for n in flips[:5])
+        accepts = sum(not new["vectors"][n].get("error_class") for n in flips)
+        out.append(f"{len(flips)} vector(s) change verdict: {said}"
+                   + (f"; {accepts} now decode(s) what was rejected: where the manifest "
+                      f"says reject, that is a decoder bug (test_manifest.py checks each "
+                      f"vector's expected outcome), not a golden change" if accepts else ""))
     if report:
         out.append(f"{len(report)} vector(s) only report otherwise (mpzinfo --json), e.g. "
                    f"{', '.join(report[:5])}")
