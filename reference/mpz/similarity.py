@@ -83,6 +83,11 @@ MIN_MARKERS = 3
 #: developer set has 0.14
 MIN_SPEED = 0.05
 
+#: distances (standardised features) closer than this to the nearest of their run are
+#: ties in :func:`rank`: two files that hold the same values (c3d.org's Eb015 trial in
+#: three encodings) differ by float rounding, 7e-8, and that decided their order
+TIE_DISTANCE = 1e-6
+
 #: names of the descriptor's features, in order; ``ev_k`` is one per level
 FEATURES_FIXED = ("amplitude", "log_speed", "shape_1", "shape_2", "log_duration",
                   "length_cv")
@@ -347,7 +352,11 @@ def rank(query: NDArray[np.float64], table: NDArray[np.float64], *,
     Each feature is divided by its standard deviation over the candidates (features
     constant over them are left as they are), then rows are sorted by Euclidean
     distance. Ties go first to rows flagged ``identical`` (a byte-identical source),
-    then by ``names``.
+    then by ``names``. Distances within :data:`TIE_DISTANCE` of the nearest of their run
+    are ties: they differ by rounding alone (a copy of c3d.org's Eb015pi ranked its own
+    file third, 7e-8 behind the Eb015sr and Eb015vr files that hold the same values,
+    all three printed as 0.000), so within a tie the distances may decrease by less
+    than that.
 
     Returns
     -------
@@ -374,5 +383,13 @@ def rank(query: NDArray[np.float64], table: NDArray[np.float64], *,
     dist = np.sqrt((((table - query) / sd) ** 2).sum(axis=1))
     same = list(identical) if identical is not None else [False] * len(dist)
     label = list(names) if names is not None else [""] * len(dist)
-    order = sorted(range(len(dist)), key=lambda i: (dist[i], not same[i], label[i], i))
+    near = sorted(range(len(dist)), key=lambda i: (dist[i], i))
+    order: list[int] = []
+    a = 0
+    while a < len(near):         # a run of distances within TIE_DISTANCE of its nearest
+        b = a + 1
+        while b < len(near) and dist[near[b]] - dist[near[a]] <= TIE_DISTANCE:
+            b += 1
+        order += sorted(near[a:b], key=lambda i: (not same[i], label[i], dist[i], i))
+        a = b
     return np.asarray(order, np.int64), dist
