@@ -133,6 +133,6 @@ def test_a_verdict_that_flips_is_named_with_its_direction():
     assert said[0].startswith("2 vector(s) decode otherwise")
     assert said[1].startswith("2 vector(s) change verdict: v1: decoded -> rejected "
                               "(FormatError), x46: rejected (FormatError) -> decoded; "
-                              "1 now decode(s) what was rejected: where the manifest says reject, that "
-                              "is a decoder bug")
+                              "1 now decode(s) what was rejected: where the manifest says "
+                              "reject, that is a decoder bug")
     assert "not a golden change" in said[1]
