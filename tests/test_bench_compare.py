@@ -348,6 +348,21 @@ def test_bench_rd_meets_no_target_with_a_broken_bound(bench_script, capsys):
     assert "vs float32: MISSED" in capsys.readouterr().out
 
 
+def test_bench_rd_exits_1_when_the_codec_broke_its_bound(bench_script, tmp_path,
+                                                        monkeypatch, capsys):
+    """A maintainers' QA run: bench_rd.py printed "MPZ bound violations: 15" and exited 0,
+    so a script of runs went on; only mpz bench --compare turned it into a failure."""
+    rd = bench_script("bench_rd")
+    row = {"file": "a", "E": 1.0, "mm_per_unit": 1.0, "vs_qpz": 2.0, "vs_qpz16": 2.0,
+           "ok": True}
+    monkeypatch.setattr(rd, "shared_data", lambda: tmp_path)
+    monkeypatch.setattr(rd, "find_recording", lambda root, name: tmp_path / "a.c3d")
+    for rows, code in (([row], 0), ([row, dict(row, file="b", ok=False)], 1)):
+        monkeypatch.setattr(rd, "run", lambda files, bounds, repeat, rows=rows: rows)
+        assert rd.main(["--files", "c3d/a"]) == code
+    assert "MPZ bound violations: 1" in capsys.readouterr().out
+
+
 def test_bench_rd_refuses_a_json_path_it_cannot_write_before_measuring(bench_script,
                                                                        tmp_path, capsys):
     """`bench_rd.py --json /tmp` measured every file, then ended in IsADirectoryError (a
