@@ -486,6 +486,33 @@ def test_a_level_changed_in_place_is_found_where_levels_are_read(corpus, capsys,
     assert code == 0 and json.loads(o)["results"][0]["output"] == "walk.mpz"
 
 
+def test_an_mpz_query_reads_the_row_of_its_source_alone(corpus, capsys, monkeypatch):
+    """A search QA run: an .mpz query read and checked every row's stored summary to find
+    its source's (18 s and 2.2 GB a query at 20,000 rows, against 3.8 s for a capture).
+    It reads that row alone now, checked as before: a damaged level in another row does
+    not stop it, one in its own row does (by checksum, and by type)."""
+    from mpz.corpus import Index
+    src, out, paths = corpus
+    run_corpus(src, out)
+    mpz_query = out / "walk.mpz"
+    change_index(out, _LEVEL_CHANGES[0].replace("'walk.mpz'", "'jump.mpz'"))
+
+    def every_row(self):
+        raise AssertionError("Index.rows() read for one row")
+    monkeypatch.setattr(Index, "rows", every_row)
+    code, o, err = search(capsys, str(mpz_query), "--index", str(out), "--json")
+    assert code == 0, err
+    doc = json.loads(o)
+    assert doc["query"]["summary"] == "the index's row of its source"
+    assert doc["results"][0]["output"] == "walk.mpz" and doc["results"][0]["distance"] == 0
+    change_index(out, _LEVEL_CHANGES[1])
+    code, _, err = search(capsys, str(mpz_query), "--index", str(out))
+    assert code == 2 and "the row of walk.mpz is damaged" in err, err
+    change_index(out, "UPDATE levels SET starts = 'text' WHERE output = 'walk.mpz' AND k = 4")
+    code, _, err = search(capsys, str(mpz_query), "--index", str(out))
+    assert code == 2 and "the row of walk.mpz is damaged" in err and "not a BLOB" in err, err
+
+
 def test_levels_without_a_checksum_are_read_unchecked_until_a_run_gives_them_one(corpus):
     """Rows of an mpz before levels_sha256 (NULL there) are read as they are; the next run
     gives each the checksum of its levels as they are, and says so; a change after that is
