@@ -131,6 +131,20 @@ def test_first_run_encodes_and_reports_each_failure(corpus):
         assert [p for p, _ in ix.failures()] == [str(paths["bad"].resolve())]
 
 
+def test_a_folder_made_for_files_that_all_failed_is_removed(corpus):
+    """A corpus QA run: with the layout mirrored, a subfolder whose files all failed was
+    left behind in the output, empty. The folders a run made and left empty are removed;
+    those with an output, and the folders that were there before, stay."""
+    src, out, paths = corpus
+    (src / "deep" / "er").mkdir(parents=True)
+    (src / "deep" / "er" / "broken.trc").write_text("not a TRC\n")
+    (out / "kept" / "empty").mkdir(parents=True)           # there before the run
+    rep = run_corpus(src, out)
+    assert statuses(rep)["broken"] == "failed"
+    assert not (out / "deep").exists()
+    assert (out / "sub" / "wave.mpz").is_file() and (out / "kept" / "empty").is_dir()
+
+
 def test_second_run_skips_everything_and_opens_nothing(corpus):
     src, out, _ = corpus
     run_corpus(src, out)

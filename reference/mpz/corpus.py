@@ -2440,10 +2440,12 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         # each output folder made once; one that cannot be made (a file in its place, no
         # permission: a QA run) fails its files alone
         unmade: dict[str, str | None] = {}
+        made: list[str] = []            # the folders this run made, removed if left empty
         for i in todo:
             folder = os.path.dirname(os.path.abspath(tasks[i].output))
             if folder not in unmade:
                 try:
+                    made += _missing_folders(folder)
                     os.makedirs(folder, exist_ok=True)
                     unmade[folder] = None
                 except OSError as exc:
@@ -2474,11 +2476,35 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                     for i, r in enumerate(results) if r is None]
             # the cluster's own count (a review of stop 56: the local CPU count was said of
             # a --scheduler cluster of one worker, and of one with none)
+            _remove_empty(made)
             raise CorpusStopped(exc.message, report(seen[-1] if seen else n_workers, [],
                                                     stopped=exc.message, not_run=left)
                                 ) from None
+        _remove_empty(made)
         same = index.same_sources()
     return report(n_workers, same)
+
+
+def _missing_folders(folder: str) -> list[str]:
+    """``folder`` and its ancestors that do not exist yet, deepest first: what
+    ``os.makedirs(folder)`` makes."""
+    out = []
+    while folder and not os.path.isdir(folder):
+        out.append(folder)
+        parent = os.path.dirname(folder)
+        if parent == folder:
+            break
+        folder = parent
+    return out
+
+
+def _remove_empty(made: Sequence[str]) -> None:
+    """Remove the folders a run made (:func:`_missing_folders`) that hold nothing after it:
+    with ``--mirror``, the folder of a file that failed was left empty (a corpus QA run).
+    One that holds anything, or cannot be removed, stays."""
+    for folder in sorted(set(made), key=len, reverse=True):      # the deepest first
+        with contextlib.suppress(OSError):
+            os.rmdir(folder)
 
 
 #: the report's cluster of a run without Dask (``workers=0``: this process encodes)
