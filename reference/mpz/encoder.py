@@ -709,12 +709,13 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     ``parents`` alone (a motion built with them and without angles), what the
     reader listed under ``motion.extras[READER_NOT_KEPT]``, and any other
     ``motion.extras`` key that no extension (:data:`mpz.extensions.EXTENSIONS`) writes."""
+    from mpz.c3darchive import C3D_EXTENSION
     from mpz.extensions import EXTENSIONS
+    from mpz.motion import cut_leaves
     listed = [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]
     out = []
-    c3d = next(ext for ext in EXTENSIONS if ext.name == "c3d")
     if (motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras
-            and not any(s.startswith(c3d.held) for s in listed)):   # a cut names it itself
+            and cut_leaves(C3D_EXTENSION.held) not in listed):   # a cut names it itself
         why = motion.metadata.get("warning", "C3D archive not kept")
         out.append(f"analog, parameters and residuals ({why})")
     if motion.angles is not None and (not opts.keep_skeleton

@@ -312,6 +312,12 @@ class Motion:
                 f"units={self.units!r}, gaps={self.gap_fraction:.1%})")
 
 
+def cut_leaves(held: str) -> str:
+    """What a frame cut says under :data:`READER_NOT_KEPT` of an extension's part that it
+    does not carry (``held``: the extension's words for it)."""
+    return f"{held}: a cut of the frames does not carry what belongs to the source's frames"
+
+
 def _cut_extras(extras: Mapping[str, Any], k: int) -> dict[str, Any]:
     """``extras`` of a motion's frames from index ``k`` on (:meth:`Motion.select_frames`):
     each extension's part as its ``cut`` keeps it; what none keeps is named, after what
@@ -327,8 +333,7 @@ def _cut_extras(extras: Mapping[str, Any], k: int) -> dict[str, Any]:
         if part is not None:
             out[key] = part
         elif ext is not None:
-            dropped.append(f"{ext.held}: a cut of the frames does not carry what belongs to "
-                           "the source's frames")
+            dropped.append(cut_leaves(ext.held))
         else:
             dropped.append(f"motion.extras[{key!r}], which a cut of the frames does not "
                            "carry")

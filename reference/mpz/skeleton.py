@@ -656,13 +656,16 @@ class SkeletonExtension:
         2-hour BVH was encoded for minutes into a file that its decoder refused (F x C
         past MAX_CHANNEL_SAMPLES), and the file was left behind (a QA run of stop 51)."""
         skel = motion.extras.get(self.name)
-        if skel is None or not opts.keep_skeleton or motion.angles is None:
+        if skel is None or not opts.keep_skeleton:
             return
         if not isinstance(skel, Skeleton):
-            # records' own check came after this one's first use of skel.joints, which
-            # raised AttributeError (an ML pipeline's QA run of the API)
+            # it was dropped without a word (QA, stop 50); checked in records(), after this
+            # check's first use of skel.joints, which raised AttributeError (an ML
+            # pipeline's QA run of the API)
             raise EncoderError(f"motion.extras[{self.name!r}] is a {type(skel).__name__}, "
                                "not an mpz.io.kinematics.Skeleton")
+        if motion.angles is None:
+            return
         first = getattr(skel, "first_frame", 0)
         if isinstance(first, int) and not 0 <= first <= 0xFFFFFFFF:
             # §4.14.2's u32: it failed in the chunk's build, exit 70 (a QA run of stop 52)
@@ -696,9 +699,7 @@ class SkeletonExtension:
         skel = motion.extras.get(self.name)
         if skel is None or not opts.keep_skeleton:
             return []
-        if not isinstance(skel, Skeleton):     # it was dropped without a word (QA, stop 50)
-            raise EncoderError(f"motion.extras[{self.name!r}] is a {type(skel).__name__}, not "
-                               "an mpz.io.kinematics.Skeleton")
+        assert isinstance(skel, Skeleton), "check() refuses any other"   # runs first
         values = _values(motion, skel)
         st = settings(motion, skel, opts)
         codings, coded = code_channels(values, skel, st.steps)

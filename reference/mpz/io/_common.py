@@ -15,6 +15,7 @@ import functools
 import inspect
 import math
 import os
+import re
 import struct
 from typing import BinaryIO, ParamSpec, TypeAlias, TypeVar
 
@@ -41,6 +42,11 @@ _N = TypeVar("_N", int, float)
 #: 5,800 real-file mutants, every reader, found none left to translate)
 _PARSE_ERRORS = (ValueError, struct.error, UnicodeDecodeError, OSError, OverflowError,
                  EOFError, csv.Error)
+
+
+#: where a line of a text motion file ends: CR LF, LF or CR alone, and nowhere else
+#: (str.splitlines also breaks at U+0085, U+2028 and form feeds inside a name or a row)
+LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
 def _reason(exc: BaseException) -> str:

@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
 from mpz.io._common import (
+    LINE_BREAK,
     StrPath,
     decode_text,
     encoded_text,
@@ -535,9 +536,6 @@ def _check_rows(text: str, start: int, n_frames: int, n_channels: int) -> None:
                f"frame a line{at}: the frames after it would be read shifted")
 
 
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
-
-
 def _first_bad_line(text: str, start: int, n_channels: int) -> tuple[str, str] | None:
     """Where the motion values of ``text[start:]`` first go wrong, for a message: ``("line
     L (frame k)", "has c values, not C")``, or ``("line L (frame k)", "'x' is not a
@@ -546,11 +544,11 @@ def _first_bad_line(text: str, start: int, n_channels: int) -> tuple[str, str] |
     called on the way to an error: the values are read as one stream, and a row cut short
     in the middle of a file was said as "truncated motion data" with no place to look (a
     QA run of BVH exporters)."""
-    lineno = len(_LINE_BREAK.findall(text, 0, start)) + 1
+    lineno = len(LINE_BREAK.findall(text, 0, start)) + 1
     frame = 0
     pos = start
     while pos <= len(text):
-        brk = _LINE_BREAK.search(text, pos)
+        brk = LINE_BREAK.search(text, pos)
         end = len(text) if brk is None else brk.start()
         words = text[pos:end].split()
         if words:

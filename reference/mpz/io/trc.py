@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
 from mpz.io._common import (
+    LINE_BREAK,
     MAX_FIRST_FRAME,
     RowTable,
     StrPath,
@@ -60,8 +61,6 @@ _UNITS = {"mm": "mm", "cm": "cm", "m": "m", "in": "in", "inch": "in", "inches": 
           "millimeters": "mm", "millimetres": "mm", "millimeter": "mm", "millimetre": "mm",
           "centimeters": "cm", "centimetres": "cm", "centimeter": "cm", "centimetre": "cm",
           "meters": "m", "metres": "m", "meter": "m", "metre": "m"}
-#: where a TRC's lines end (see :func:`parse_trc`)
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
 def _bad(msg: str) -> InputFormatError:
@@ -99,7 +98,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     # U+0085 (a cp1252 "..." read as Latin-1), U+2028 and form feeds inside a marker name,
     # which made the header refuse itself ("NumMarkers says 2, the name row has 1 names",
     # a QA run of stop 52)
-    lines = _LINE_BREAK.split(text)
+    lines = LINE_BREAK.split(text)
     if lines and lines[-1] == "":
         lines.pop()
     if len(lines) < 5:
@@ -429,7 +428,7 @@ def trc_meta_problems(meta: Mapping[str, str]) -> dict[str, str]:
         if not (key.startswith("trc.") or key == "start_time"):
             continue
         name = key[4:]
-        if _LINE_BREAK.search(value):    # the reader's line ends (U+2028 is text there)
+        if LINE_BREAK.search(value):    # the reader's line ends (U+2028 is text there)
             bad[key] = "holds a line break"
         elif name == "MoreNames" and {k.strip() for k in value.split("\t")} & set(_KEPT):
             # a second DataRate column would be the one a reader takes (a review of stop 52:

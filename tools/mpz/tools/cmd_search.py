@@ -30,6 +30,7 @@ option that does not apply to the query); 64 usage.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 import os
 import sys
 from typing import TYPE_CHECKING, Any
@@ -42,6 +43,8 @@ if TYPE_CHECKING:
     from mpz.similarity import MotionSummary
 
 JSON_SCHEMA = "mpz-search/1"
+#: the index's stored summary of the row whose source has a sha256, or None
+SourceSummary = Callable[[str], "MotionSummary | None"]
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -73,15 +76,15 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     return p
 
 
-def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
+def query_summary(path: str, source_summary: SourceSummary, levels: tuple[int, ...],
                   asf: str | None = None, *, rate: float | None = None,
                   notes: list[str] | None = None, warnings: list[str] | None = None,
                   max_samples: int | None = None) -> tuple[MotionSummary, str | None, str]:
     """The query's summary, the sha256 of its source (if known) and where the summary came from.
 
-    ``rows`` are the index's rows, each with a function under ``"_summary_of"`` that reads
-    its stored summary (:meth:`mpz.corpus.Index.summary_of`), called for the row of an .mpz
-    query's source alone. ``rate`` is that of an AMC or NPY query (they store none);
+    ``source_summary(sha)`` is the index's stored summary of the row whose source has that
+    sha256 (None: no such row), asked for an .mpz query's source alone (every row's summary
+    was read for it: a search QA run). ``rate`` is that of an AMC or NPY query (they store none);
     ``notes`` gets what the user should know (an assumed rate), ``warnings`` the reader's
     warning about a motion file (cut short, a header that disagrees with its rows: it was
     dropped, exit 0, a QA run of stop 53); ``max_samples`` is a lower F x M limit for an
@@ -95,7 +98,7 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
         ASF).
     """
     try:
-        return _query_summary(path, rows, levels, asf, rate,
+        return _query_summary(path, source_summary, levels, asf, rate,
                               notes if notes is not None else [],
                               warnings if warnings is not None else [], max_samples)
     except MPZError as exc:          # a damaged .mpz query's error named no file (QA)
@@ -104,7 +107,7 @@ def query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...]
         raise
 
 
-def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...],
+def _query_summary(path: str, source_summary: SourceSummary, levels: tuple[int, ...],
                    asf: str | None, rate: float | None, notes: list[str], warnings: list[str],
                    max_samples: int | None) -> tuple[MotionSummary, str | None, str]:
     from mpz.corpus import sha256_file
@@ -120,7 +123,7 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         data, fmt = read_stdin()
         if fmt == ".mpz":
             _no_options_for(".mpz", asf, rate)
-            return _mpz_query(data, rows, levels, max_samples)
+            return _mpz_query(data, source_summary, levels, max_samples)
         _no_max_samples(max_samples)
         if fmt == ".amc" and asf is None:
             raise EncoderError("an AMC query on standard input needs its skeleton: give "
@@ -133,7 +136,7 @@ def _query_summary(path: str, rows: list[dict[str, Any]], levels: tuple[int, ...
         from mpz.api import read_source
         _no_options_for(".mpz", asf, rate)
         data, _ = read_source(path)          # a regular file of at most 4 GiB (QA: FIFOs)
-        return _mpz_query(data, rows, levels, max_samples)
+        return _mpz_query(data, source_summary, levels, max_samples)
     _no_max_samples(max_samples)
     from mpz.io import read
     try:
@@ -199,7 +202,7 @@ def _check_asf(asf: str) -> None:
         raise EncoderError(f"--asf: not a readable ASF skeleton file{why}", path=asf) from None
 
 
-def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...],
+def _mpz_query(data: bytes, source_summary: SourceSummary, levels: tuple[int, ...],
                max_samples: int | None = None) -> tuple[MotionSummary, str | None, str]:
     """:func:`query_summary` of an MPZ file's bytes."""
     from mpz.api import read_summary
@@ -208,9 +211,9 @@ def _mpz_query(data: bytes, rows: list[dict[str, Any]], levels: tuple[int, ...],
     from mpz.similarity import from_smry, summarize
     stream = read_stream(data, **({} if max_samples is None else {"max_samples": max_samples}))
     sha = stream.meta.get(META_SHA256)
-    for r in rows:
-        if sha is not None and r["source_sha256"] == sha:
-            return r["_summary_of"](), sha, "the index's row of its source"
+    found = None if sha is None else source_summary(sha)
+    if found is not None:
+        return found, sha, "the index's row of its source"
     smry = read_summary(data)
     frames = stream.header.frame_count
     need = {k for k in levels if k <= frames}
@@ -268,16 +271,17 @@ def run(args: argparse.Namespace) -> int:
         levels = index.levels()
         values, table = index.descriptors()
         left_out = index.unsearchable()     # archived without a summary: not candidates
-        # an .mpz query (standard input may be one) may be found by its source's row: that
-        # row's summary alone is read, while the index is open (every row's was: 18 s and
-        # 2.2 GB a query at 20,000 rows, a search QA run)
-        for v in values:
-            v["_summary_of"] = lambda out=v["output"]: index.summary_of(out)
         index_path = index.path
         notes: list[str] = []
         warned: list[str] = []
         if values:
-            summary, sha, origin = query_summary(args.query, values, levels, args.asf,
+            # an .mpz query (standard input may be one) may be found by its source's row:
+            # that row's summary alone is read, while the index is open (every row's was:
+            # 18 s and 2.2 GB a query at 20,000 rows, a search QA run)
+            def source_summary(sha: str) -> MotionSummary | None:
+                first = next((v for v in values if v["source_sha256"] == sha), None)
+                return None if first is None else index.summary_of(first["output"])
+            summary, sha, origin = query_summary(args.query, source_summary, levels, args.asf,
                                                  rate=args.rate, notes=notes,
                                                  warnings=warned,
                                                  max_samples=args.max_samples)

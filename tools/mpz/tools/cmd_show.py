@@ -183,10 +183,10 @@ def run(args) -> int:
         lines.append("c3d:       " + ", ".join(parts))
     lines += _metadata_lines(motion.metadata)
     from mpz.tools._common import renamed_list
-    if renamed_list(motion.metadata):
-        # in --json's metadata alone (a QA run of exporters: a repeated TRC name)
+    renamed = renamed_list(motion.metadata)
+    if renamed:             # in --json's metadata alone (a QA run of exporters: a TRC name)
         lines.append("renamed:   marker names that repeat or are empty, made unique: "
-                     + printable(renamed_list(motion.metadata)))
+                     + printable(renamed))
     if "reader_note" in motion.metadata:      # which reader, and why: not about the data
         lines.append(f"note:      {printable(motion.metadata['reader_note'])}")
     if "warning" in motion.metadata:
