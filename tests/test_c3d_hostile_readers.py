@@ -261,6 +261,66 @@ def test_a_header_scale_that_contradicts_point_scale_is_not_given_to_ezc3d(tmp_p
     assert "header's scale" in b.metadata["warning"]
 
 
+def _flip_scale(data: bytes, where: str) -> bytes:
+    """Intel C3D bytes with the sign of the header's scale (words 7-8, ``where`` "header")
+    or of POINT:SCALE's first element ("parameter") turned, the other left as it is."""
+    out = bytearray(data)
+    at = 12 if where == "header" else _type_at(data, b"POINT", b"SCALE") + 2 + data[
+        _type_at(data, b"POINT", b"SCALE") + 1]               # past type, dims count, dims
+    (v,) = struct.unpack("<f", out[at:at + 4])
+    out[at:at + 4] = struct.pack("<f", -v)
+    return bytes(out)
+
+
+@pytest.mark.parametrize("where", ["header", "parameter"])
+@pytest.mark.parametrize("storage", [0, 1])
+def test_a_scale_sign_conflict_reads_the_storage_the_file_size_fits(tmp_path, storage,
+                                                                     where):
+    """When the header's scale and POINT:SCALE disagree in sign, the storage whose frames
+    fit the file is read: a POINT:SCALE of the wrong sign made an int16 file "truncated"
+    and a float one int16 garbage (QA of C3D vendors, stop 63). The warning says which was
+    read and why; a C3D written back states the storage read in both places."""
+    from mpz.io import write
+    from mpz.io.c3d import archive_bytes
+    from mpz.tools.make_vectors import c3d_motion
+    # 40 frames: int16 frames are half the size of float32 ones, so only one storage fits
+    good = archive_bytes(c3d_motion(7, storage=storage, F=40, M=4, J=1, C=2, n=2))
+    a = read(_write(tmp_path, "good.c3d", good))
+    b = read(_write(tmp_path, "bad.c3d", _flip_scale(good, where)))
+    assert b.extras["c3d"].word_storage == a.extras["c3d"].word_storage == (storage == 1)
+    assert b.n_frames == 40
+    assert np.array_equal(a.valid, b.valid)
+    assert np.array_equal(a.positions[a.valid], b.positions[b.valid])
+    assert np.array_equal(a.extras["c3d"].analog, b.extras["c3d"].analog, equal_nan=True)
+    warning = b.metadata["warning"]
+    assert "header's scale" in warning
+    if where == "parameter":                 # the header's storage, against POINT:SCALE
+        said = "int16" if storage == 0 else "float32"
+        assert f"fits 40 frames of {said} points, as the header says" in warning
+    out = tmp_path / "back.c3d"
+    write(b, out)
+    back = out.read_bytes()
+    (header,) = struct.unpack("<f", back[12:16])
+    at = _type_at(back, b"POINT", b"SCALE")
+    (param,) = struct.unpack("<f", back[at + 2 + back[at + 1]:at + 6 + back[at + 1]])
+    assert header == param and (header < 0) == (storage == 1)
+
+
+@pytest.mark.parametrize("name", ["c3dorg_Eb015pi.c3d", "cmu_02_01.c3d"])
+def test_a_real_file_with_point_scale_of_the_other_sign_reads_as_it_is(
+        shared_data: Path, tmp_path: Path, name: str) -> None:
+    """Eb015pi (int16) and cmu_02_01 (float32) with POINT:SCALE's sign turned read as the
+    files themselves: the first was refused as truncated, the second read as int16."""
+    src = shared_data / "c3d" / name
+    if not src.exists():
+        pytest.skip(f"{name} is not in the shared data")
+    a = read(src)
+    b = read(_write(tmp_path, name, _flip_scale(src.read_bytes(), "parameter")))
+    assert np.array_equal(a.valid, b.valid)
+    assert np.array_equal(a.positions[a.valid], b.positions[b.valid])
+    assert "as the header says" in b.metadata["warning"]
+
+
 @pytest.mark.parametrize("scale", [0.0, float("nan"), float("inf")])
 def test_a_point_scale_of_zero_nan_or_inf_is_refused(tmp_path, scale):
     """It made every point a gap, silently (int16 words times 0 or NaN)."""

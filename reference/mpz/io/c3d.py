@@ -556,9 +556,10 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning" if fault else "reader_note":
                 f"not read with ezc3d: {checks.hazard}; read with mpz.io.c3dbin"})
-    if checks.conflict is not None:    # ezc3d takes the storage from the header's scale
+    if checks.conflict is not None:    # c3dbin's warnings say what the conflict is
         return motion_from_c3d_bytes(data, source=source, extra={
-            "warning": f"not read with ezc3d: {checks.conflict}; read with mpz.io.c3dbin"})
+            "warning": "not read with ezc3d, which takes the storage from the header's "
+                       "scale; read with mpz.io.c3dbin"})
     if not is_utf8(reopen):        # ezc3d takes a str path to UTF-8: a TypeError of SWIG
         return motion_from_c3d_bytes(data, source=source, extra={
             "reader_note": "not read with ezc3d, which cannot open a file whose name is not "

@@ -575,16 +575,20 @@ class _Layout:
     warnings: list[str]
 
 
+def _points_used(data: bytes, codec: _Codec,
+                 params: dict[str, dict[str, ParamValue | None]]) -> int:
+    """POINT:USED, else header word 2: the points of a 3D frame."""
+    used = int(param_number(params, "POINT", "USED", int(codec.int16(data, 2)[0]), count=True))
+    return used + 65536 if used < 0 else used  # unsigned in files with > 32767 points
+
+
 def _layout(data: bytes, codec: _Codec, pstart: int,
             params: dict[str, dict[str, ParamValue | None]]) -> _Layout:
     """The points, storage, frame range and data start of C3D bytes (checked; the data is
     not read). The data start is :func:`_data_start`'s."""
-    hdr_points = int(codec.int16(data, 2)[0])
     hdr_analog = codec.uint16(data, 4)  # analog measurements per 3D frame
     hdr_scale = float(codec.float32(data, 12)[0])
-    used = int(param_number(params, "POINT", "USED", hdr_points, count=True))
-    if used < 0:
-        used += 65536  # POINT:USED is unsigned in files with > 32767 points
+    used = _points_used(data, codec, params)
     if used > MAX_POINTS:
         _fail(f"POINT:USED {used} exceeds {MAX_POINTS}")
     scale = param_number(params, "POINT", "SCALE", hdr_scale)
@@ -597,9 +601,12 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
               f"float32 or int16 storage, its size the int16 step){processor_hint(data)}")
     # the header frame range, or the frame parameters when it cannot say (frame_range)
     first, n_frames = frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
+    scale, conflict = _storage_scale(data, codec, pstart, params, scale, used, hdr_analog,
+                                     n_frames)
     frame_bytes = (4 * used + hdr_analog) * (4 if scale < 0 else 2)
     start, warning = _data_start(data, codec, pstart, params, n_frames * frame_bytes)
-    warnings = [w for w in (warning, _records_past_declared(data, codec, pstart)) if w]
+    warnings = [w for w in (conflict, warning, _records_past_declared(data, codec, pstart))
+                if w]
     hfirst, hlast = codec.uint16(data, 6), codec.uint16(data, 8)
     more = _more_frames(params, hfirst, hlast, len(data) - (start - 1) * BLOCK, frame_bytes)
     if more is not None:
@@ -740,13 +747,14 @@ def data_start(data: bytes) -> tuple[int, int, str | None]:
 
 
 def scale_conflict(data: bytes) -> str | None:
-    """Why the header's scale (words 7-8) cannot be trusted where POINT:SCALE is what this
-    reader uses: zero, not finite, or of the other sign (the other storage); None when
-    they agree in that or there is no POINT:SCALE. ezc3d reads the storage from the header
-    and read such files as other numbers (a QA run: Sample_Jump2 with a header scale of 0
-    moved by 2 m)."""
-    codec, _, params = _open(data)
-    return _scale_conflict(data, codec, params)
+    """Why the header's scale (words 7-8) and POINT:SCALE disagree: the header's is zero,
+    not finite, or of the other sign (the other storage), and which one this reader
+    follows (:func:`_storage_scale`); None when they agree in that, there is no
+    POINT:SCALE, or it is one :func:`parse_c3d` refuses. ezc3d reads the storage from the
+    header and read such files as other numbers (a QA run: Sample_Jump2 with a header
+    scale of 0 moved by 2 m)."""
+    codec, pstart, params = _open(data)
+    return _scale_conflict(data, codec, pstart, params)
 
 
 @dataclass(frozen=True)
@@ -781,7 +789,7 @@ def reader_checks(data: bytes) -> ReaderChecks:
     hazard = ezc3d_hazard(data)
     if hazard is not None:
         return ReaderChecks(first, declared, hazard)
-    conflict = _scale_conflict(data, codec, params)
+    conflict = _scale_conflict(data, codec, pstart, params)
     if conflict is not None:
         return ReaderChecks(first, declared, None, conflict)
     lay = _layout(data, codec, pstart, params)
@@ -789,15 +797,61 @@ def reader_checks(data: bytes) -> ReaderChecks:
                         "; ".join(lay.warnings) or None)
 
 
-def _scale_conflict(data: bytes, codec: _Codec,
+def _scale_conflict(data: bytes, codec: _Codec, pstart: int,
                     params: dict[str, dict[str, ParamValue | None]]) -> str | None:
     """:func:`scale_conflict` of parsed parameters."""
+    par = param_number(params, "POINT", "SCALE", float(codec.float32(data, 12)[0]))
+    if not (math.isfinite(par) and par != 0):
+        return None                             # _layout refuses it, naming POINT:SCALE
+    _, n_frames = frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
+    return _storage_scale(data, codec, pstart, params, par, _points_used(data, codec, params),
+                          codec.uint16(data, 4), n_frames)[1]
+
+
+def _storage_scale(data: bytes, codec: _Codec, pstart: int,
+                   params: dict[str, dict[str, ParamValue | None]], par: float, used: int,
+                   analog: int, n_frames: int) -> tuple[float, str | None]:
+    """The signed scale that reads C3D ``data``, and :func:`scale_conflict`'s warning (None
+    when the header's scale, words 7-8, agrees with POINT:SCALE ``par``, a finite number
+    other than 0): ``par``, or its size with the sign of the header's scale when the two
+    disagree in sign and only the header's storage fits the file.
+
+    A storage *fits* when the ``n_frames`` frames of ``used`` points and ``analog`` words
+    (int16: 2 bytes a word, float32: 4), from the data start :func:`_data_start` finds for
+    them, end within the file and leave less than a block and a frame after them (the
+    padding :func:`frames_unread` allows). Reason: float32 frames are twice the size of
+    int16 ones, so the wrong storage either runs past the end of the file (an int16 file
+    whose POINT:SCALE is negative was refused as truncated) or leaves half of it unread (a
+    float file whose POINT:SCALE is positive was read as int16 garbage, with a warning
+    about frames past the header's range; a QA run of stop 63). When both or neither fit
+    (a file of a frame or two), POINT:SCALE decides, as in the C3D user guide, and its
+    size is the int16 step either way (the archive's and the writer's, spec §6.9
+    *Scale*)."""
     hdr = float(codec.float32(data, 12)[0])
-    par = param_number(params, "POINT", "SCALE", hdr)
+    said = f"the header's scale {hdr!r} disagrees with POINT:SCALE {par!r}"
     if par == hdr or (math.isfinite(hdr) and hdr != 0 and (hdr < 0) == (par < 0)):
-        return None
-    return (f"the header's scale {hdr!r} disagrees with POINT:SCALE {par!r} (the storage "
-            "and step were taken from POINT:SCALE)")
+        return par, None
+    if not (math.isfinite(hdr) and hdr != 0):
+        return par, f"{said} (the storage and step were taken from POINT:SCALE)"
+
+    def fits(float32: bool) -> bool:
+        frame_bytes = (4 * used + analog) * (4 if float32 else 2)
+        need = n_frames * frame_bytes
+        try:
+            start, _ = _data_start(data, codec, pstart, params, need)
+        except InputFormatError:           # no data start leaves room for these frames
+            return False
+        extra = len(data) - (start - 1) * BLOCK - need
+        return 0 <= extra < BLOCK + frame_bytes
+
+    if fits(hdr < 0) and not fits(par < 0):
+        storage, other = ("float32", "int16") if hdr < 0 else ("int16", "float32")
+        step = ", with the size of POINT:SCALE as the step" if hdr > 0 else ""
+        return math.copysign(par, hdr), (
+            f"{said}: the file's size fits {n_frames} frames of {storage} points, as the "
+            f"header says, and not of {other}, so they were read as {storage}{step}; a C3D "
+            "written back gives POINT:SCALE the sign of its storage")
+    return par, f"{said} (the storage and step were taken from POINT:SCALE)"
 
 
 #: the processor types' names, as messages say them
