@@ -321,6 +321,25 @@ def test_a_real_file_with_point_scale_of_the_other_sign_reads_as_it_is(
     assert "as the header says" in b.metadata["warning"]
 
 
+@pytest.mark.parametrize("hazard", [False, True])
+def test_a_header_word_10_of_0_takes_the_samples_from_analog_used(tmp_path, hazard):
+    """Header word 10 (analog samples a frame) 0: 2 channels of 2 samples were read as 4
+    channels of 1 (``mpz show`` printed them). ANALOG:USED (2) divides word 3's 4 words,
+    so the channels are read as written; the words are the same either way. Read by ezc3d
+    and, without ANALOG:SCALE (``hazard``), by c3dbin."""
+    good = _records(None if not hazard else lambda recs, gid, R: recs.__delitem__(
+        next(i for i, r in enumerate(recs) if r.name == b"SCALE" and r.group == gid[b"ANALOG"])))
+    bad = bytearray(good)
+    assert struct.unpack("<H", bad[18:20]) == (2,)
+    bad[18:20] = struct.pack("<H", 0)
+    a = read(_write(tmp_path, "good.c3d", good))
+    b = read(_write(tmp_path, "bad.c3d", bad))
+    assert (a.metadata["reader"] == "mpz.io.c3dbin") == hazard
+    assert a.extras["c3d"].analog.shape == b.extras["c3d"].analog.shape == (20, 2)
+    assert b.extras["c3d"].analog_samples == 2
+    assert np.array_equal(a.extras["c3d"].analog, b.extras["c3d"].analog, equal_nan=True)
+
+
 @pytest.mark.parametrize("scale", [0.0, float("nan"), float("inf")])
 def test_a_point_scale_of_zero_nan_or_inf_is_refused(tmp_path, scale):
     """It made every point a gap, silently (int16 words times 0 or NaN)."""

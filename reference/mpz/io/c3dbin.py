@@ -921,6 +921,19 @@ def frames_missing(data: bytes, declared: int, present: int,
     return truncated(declared, present, offset)
 
 
+def _analog_samples(params: dict[str, dict[str, ParamValue | None]], words: int) -> int:
+    """The analog samples a channel has in a frame of ``words`` analog words when header
+    word 10, which says it, is 0 or does not divide ``words``: ``words`` / ANALOG:USED when
+    that is a whole number, else 1 (one word per "channel"; the words are kept in their
+    order either way). Reason: a word 10 of 0 made 2 channels of 2 samples read as 4
+    channels of 1, which ``mpz show`` printed (a QA run of stop 63)."""
+    used = _first(params, "ANALOG", "USED", 0)     # a text or NaN there: no help
+    channels = int(used) & 0xFFFF if not isinstance(used, str) and math.isfinite(used) else 0
+    if words and channels and words % channels == 0:
+        return words // channels
+    return 1 if words else 0
+
+
 def _data_bytes(data: bytes, lay: _Layout) -> int:
     """The bytes of C3D ``data`` from the start of its 3D data (:class:`_Layout`) on."""
     return len(data) - (lay.data_start - 1) * BLOCK
@@ -1246,7 +1259,7 @@ def parse_c3d(data: bytes, *, frames: int | None = None) -> C3DData:
     store = "<f4" if float_storage else "<i2"
     point_words = np.ascontiguousarray(words[:, 3:4 * used:4]).astype(store)
     if samples < 1 or hdr_analog % samples:
-        samples = 1 if hdr_analog else samples   # no whole channels: one word per "channel"
+        samples = _analog_samples(params, hdr_analog)
     channels = hdr_analog // samples if hdr_analog else 0
     analog = np.ascontiguousarray(words[:, 4 * used:]).astype(store).reshape(
         n_frames * samples if channels else 0, channels)
