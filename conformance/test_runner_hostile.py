@@ -965,3 +965,66 @@ def test_output_held_open_by_a_child_of_another_session_is_said(tmp_path):
     r = _held_open(tmp_path, "oom", "MemoryError", 1)
     assert not r["passed"] and r["actual"] == "memory", r
     assert "a session of its own" in r["stderr_tail"], r
+
+
+def test_the_float_slack_is_taken_over_the_valid_samples_only():
+    """§7.2: "max|x| is the largest magnitude of any valid input coordinate". The runner
+    took it over every finite input coordinate, so one gap sample (NaN, 1e30, 0) made the
+    slack 8.9e14 and a file 3 units off every sample of a 1-unit bound passed (a
+    clean-room encoder written from the spec, stop 64)."""
+    import mpz
+    from mpz.conformance.runner import check_encoded
+    from mpz.motion import Motion
+    rng = np.random.default_rng(7)
+    x = 1000.0 + np.cumsum(rng.normal(0.0, 5.0, (20, 3, 3)), axis=0)
+    x[4, 1] = [np.nan, 1e30, 0.0]                     # a gap: one coordinate is NaN
+    side = {"names": ["a", "b", "c"], "rate": 100.0, "units": "mm"}
+    valid = ~np.isnan(x).any(axis=2)
+    shifted = np.where(valid[..., None], x + 3.0, np.nan)
+    got, facts = check_encoded(mpz.encode(Motion(shifted, side["names"], side["rate"],
+                                                 side["units"]), max_error=1.0), x, side, 1.0)
+    assert facts["measured_max_error"] > 5.0
+    assert len(got) == 1 and "declared bound" in got[0] and got[0].endswith("(R-7.2-1)"), got
+
+
+def test_an_input_with_an_infinity_in_a_valid_sample_is_not_run(tmp_path):
+    """§7.3's inputs are finite or NaN: an infinity in a sample without a NaN is valid
+    there, and no bound can hold (the reference encoder writes it as a gap, which R-7.2-2
+    then failed, blaming the encoder). Such an input of one's own manifest is said to be
+    the fault, and the encoder is not run."""
+    from mpz.conformance.runner import run_encoder_item
+    x = np.zeros((4, 2, 3))
+    x[2, 1, 0] = np.inf
+    x[1, 0] = [np.nan, np.inf, 0.0]                   # a gap: its infinity is no matter
+    np.save(tmp_path / "in.npy", x)
+    (tmp_path / "in.json").write_text(json.dumps({"names": ["a", "b"], "rate": 10.0,
+                                                  "units": "mm"}))
+    marker = tmp_path / "ran"
+    entry = run_encoder_item(["touch", str(marker)], tmp_path,
+                             {"name": "inf", "input": "in.npy", "sidecar": "in.json"},
+                             1.0, 60, 0)
+    assert not entry["passed"] and entry["actual"] == "input" and not marker.exists()
+    assert "infinite coordinate in a valid sample (frame 2, marker 1)" in entry["message"]
+
+
+def test_a_manifest_of_encoder_inputs_alone_runs_an_encoder(tmp_path):
+    """A clean-room encoder's author had to copy a decoder vector into a manifest of their
+    own inputs ("manifest lists no vectors", exit 64, stop 64); a decoder run of such a
+    manifest is a usage error, never a pass of nothing."""
+    vdir = _copy_vectors(tmp_path)
+    man = json.loads((vdir / "manifest.json").read_text())
+    man["vectors"] = []
+    (vdir / "manifest.json").write_text(json.dumps(man))
+    item = man["encoder_inputs"][0]["name"]
+    proc, doc = run(tmp_path, "--encoder", f"{PY} -m mpz.conformance.refencoder",
+                    "--vectors", str(vdir), "--only", item)
+    assert proc.returncode == 0 and doc["results"] and all(
+        r["passed"] for r in doc["results"]), proc.stdout[-400:] + proc.stderr
+    proc, _ = run(tmp_path, "--decoder", f"{PY} -m mpz.conformance.refdecoder",
+                  "--vectors", str(vdir))
+    assert proc.returncode == 64 and "run it with --encoder" in proc.stderr, proc.stderr
+    man["encoder_inputs"] = []
+    (vdir / "manifest.json").write_text(json.dumps(man))
+    proc, _ = run(tmp_path, "--encoder", f"{PY} -m mpz.conformance.refencoder",
+                  "--vectors", str(vdir))
+    assert proc.returncode == 64 and "no vectors and no encoder inputs" in proc.stderr

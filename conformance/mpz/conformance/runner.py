@@ -902,8 +902,11 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     d[~both] = 0.0
     facts["measured_max_error"] = float(d.max(initial=0.0))
     bound = float(h.error_bound)
-    # §7.2: the float slack max|x| * 2^-50 (the float tier of §7.1) on top of the bound
-    slack = mf.tolerances(0.0, float(np.nanmax(np.abs(x))) if both.any() else 0.0)["max_abs"]
+    # §7.2: the float slack max|x| * 2^-50 (the float tier of §7.1) on top of the bound,
+    # max|x| over the input's valid samples: the finite coordinates of a gap sample
+    # (NaN, 1e30, 0) made it 8.9e14 and let a file 6 units off a 1-unit bound pass (a
+    # clean-room encoder's review, stop 64)
+    slack = mf.tolerances(0.0, float(np.abs(x[valid_in]).max(initial=0.0)))["max_abs"]
     if h.error_metric == 1 and (d > bound + slack).any():
         f, m = (int(i) for i in np.argwhere(d > bound + slack)[0])
         problems.append(f"declared bound {bound!r} broken at {int((d > bound + slack).sum())} "
@@ -921,6 +924,17 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
              "exit_code": None, "signal": None, "timed_out": False, "seconds": None,
              "peak_rss_mb": None, "stderr_tail": ""}
     x, side = _load_input(vdir, item)
+    infinite = np.isinf(x) & ~np.isnan(x).any(axis=-1, keepdims=True)
+    if infinite.any():
+        # §7.3: a sample is a gap when a coordinate is NaN, so one with an infinity is
+        # valid and no bound holds there (the reference encoder writes it as a gap, which
+        # R-7.2-2 then fails): the input, not the encoder, is at fault
+        f, m, _ = (int(i) for i in np.argwhere(infinite)[0])
+        entry.update(actual="input", message=(
+            f"input {item['input']} holds an infinite coordinate in a valid sample (frame "
+            f"{f}, marker {m}): the encoder contract's inputs are finite or NaN (§7.3); "
+            "not run"))
+        return entry
     with tempfile.TemporaryDirectory(prefix="mpz-conf-") as tmp:
         src = Path(tmp) / "in.npy"
         shutil.copyfile(vdir / item["input"], src)
@@ -1224,6 +1238,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.only:        # "uncommon/", as a shell completes a folder, named nothing
             args.only = [o.rstrip("/") or o for o in args.only]
         if args.decoder is not None:
+            if not man["vectors"]:           # never a pass of nothing
+                raise UsageError(f"{vdir / mf.MANIFEST_NAME} lists encoder inputs only: "
+                                 "run it with --encoder")
             todo = mf.vectors(man, args.only)
             if args.only:
                 unknown = set(args.only) - {k for v in todo for k in mf.selectors(v)}
