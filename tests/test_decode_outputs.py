@@ -303,3 +303,22 @@ def test_decode_of_a_c3d_says_to_encode_it(shared_data, tmp_path):
              cwd=tmp_path)
     assert p.returncode == 2 and "this is a C3D file; use mpz encode" in p.stderr
     assert not (tmp_path / "z.trc").exists()
+
+
+def test_decode_notes_the_warning_the_source_was_read_with(tmp_path):
+    """The reader's warning about a source (Dance1: parameter records past the declared
+    blocks, which readers of the C3D written back see otherwise) is kept in the file's
+    metadata; encode, show and decode -v said it, a plain decode did not (an interop QA
+    run of stop 64). -q keeps quiet, as for every note."""
+    m = generate("walk", frames=20, markers=3, seed=1)
+    said = "the header's frame range is stale"
+    mpz.write_mpz(Motion(m.positions, m.names, m.rate, m.units, metadata={"warning": said}),
+                  tmp_path / "w.mpz")
+    p = _mpz("decode", "w.mpz", "-o", "w.trc", cwd=tmp_path)
+    assert p.returncode == 0 and f"read with a warning when it was encoded (kept in the " \
+        f"file's metadata): {said}" in p.stderr, p.stderr
+    p = _mpz("decode", "w.mpz", "-o", "w2.trc", "-q", cwd=tmp_path)
+    assert p.returncode == 0 and said not in p.stderr
+    m2 = generate("walk", frames=20, markers=3, seed=1)
+    mpz.write_mpz(m2, tmp_path / "plain.mpz")
+    assert "a warning" not in _mpz("decode", "plain.mpz", "-o", "p.trc", cwd=tmp_path).stderr

@@ -227,6 +227,14 @@ def _decode_one(job, args: argparse.Namespace, out) -> int:
                      f"{', '.join(repr(t) for t in skipped)} "
                      f"{'were' if many else 'was'} skipped (spec §2.3: a decoder ignores "
                      "what it does not know)")
+    said = motion.metadata.get("warning")
+    if said:
+        # what the reader said of the source when it was encoded, which the file keeps: it
+        # often says what readers find in the file written back (Dance1: groups past the
+        # declared parameter blocks), and only encode, show and decode -v said it (an
+        # interop QA run of stop 64)
+        notes.append(f"its source was read with a warning when it was encoded (kept in the "
+                     f"file's metadata): {said}")
     if ext not in SKELETON_FORMATS and joint_positions_from_channels(motion, ".mpz"):
         notes.append("its positions are the joint positions computed from the skeleton's "
                      "channels (spec §6.10), not the file's marker layer (what a 1.0 decoder "
