@@ -247,9 +247,10 @@ def test_a_header_last_frame_1_reads_the_frames_point_frames_and_the_data_hold(
 @pytest.mark.parametrize("header_scale", [0.0, float("nan"), float("inf"), 0.05])
 def test_a_header_scale_that_contradicts_point_scale_is_not_given_to_ezc3d(tmp_path,
                                                                            header_scale):
-    """ezc3d takes the storage from the header's scale (words 7-8): a float file whose
-    header says 0, NaN, inf or a positive scale was read as other numbers (Sample_Jump2
-    moved by 2 m). POINT:SCALE decides, as in c3dbin, and the warning says so."""
+    """ezc3d 1.7.2 reads this float file as other numbers when its header's scale (words
+    7-8) says 0, NaN, inf or a positive scale (Sample_Jump2 moved by 2 m; yet it reads
+    cmu_02_01 with a positive header scale right, and with a positive POINT:SCALE wrong).
+    POINT:SCALE decides, as in c3dbin, and the warning says so."""
     good = _records()
     bad = bytearray(good)
     bad[12:16] = struct.pack("<f", header_scale)

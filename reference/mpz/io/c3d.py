@@ -557,9 +557,11 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
             "warning" if fault else "reader_note":
                 f"not read with ezc3d: {checks.hazard}; read with mpz.io.c3dbin"})
     if checks.conflict is not None:    # c3dbin's warnings say what the conflict is
+        # ezc3d 1.7.2 reads a float file whose POINT:SCALE is positive as int16 (stop 64),
+        # and moved Sample_Jump2 with a header scale of 0 by 2 m (stop 38)
         return motion_from_c3d_bytes(data, source=source, extra={
-            "warning": "not read with ezc3d, which takes the storage from the header's "
-                       "scale; read with mpz.io.c3dbin"})
+            "warning": "not read with ezc3d, which reads some such files as other numbers; "
+                       "read with mpz.io.c3dbin"})
     if not is_utf8(reopen):        # ezc3d takes a str path to UTF-8: a TypeError of SWIG
         return motion_from_c3d_bytes(data, source=source, extra={
             "reader_note": "not read with ezc3d, which cannot open a file whose name is not "

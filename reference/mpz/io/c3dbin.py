@@ -750,9 +750,9 @@ def scale_conflict(data: bytes) -> str | None:
     """Why the header's scale (words 7-8) and POINT:SCALE disagree: the header's is zero,
     not finite, or of the other sign (the other storage), and which one this reader
     follows (:func:`_storage_scale`); None when they agree in that, there is no
-    POINT:SCALE, or it is one :func:`parse_c3d` refuses. ezc3d reads the storage from the
-    header and read such files as other numbers (a QA run: Sample_Jump2 with a header
-    scale of 0 moved by 2 m)."""
+    POINT:SCALE, or it is one :func:`parse_c3d` refuses. ezc3d read such files as other
+    numbers (a QA run: Sample_Jump2 with a header scale of 0 moved by 2 m; ezc3d 1.7.2
+    reads a float file whose POINT:SCALE is positive as int16)."""
     codec, pstart, params = _open(data)
     return _scale_conflict(data, codec, pstart, params)
 
