@@ -498,6 +498,24 @@ def test_concatenate_refuses_what_it_would_drop(two_joint_bvh, tmp_path):
     assert mpz.concatenate([a, a]).n_frames == 10
 
 
+def test_concatenate_names_where_two_skeletons_differ(two_joint_bvh, tmp_path):
+    """Two cuts of one AMC were refused as "skeleton vs skeleton; a C3D archive belongs to
+    its own frames" (a QA run of stop 63): the refusal names the field, as for metadata,
+    and a join of equal skeletons still works."""
+    import dataclasses
+    p = tmp_path / "arm.bvh"
+    p.write_text(two_joint_bvh)
+    s = mpz.io.read(p)
+    skel = s.extras["skeleton"]
+    other = dataclasses.replace(s, extras={**s.extras, "skeleton": dataclasses.replace(
+        skel, first_frame=skel.first_frame + 3)})
+    with pytest.raises(MotionError, match=r"extras\['skeleton'\] differ at 'first_frame': "
+                                          rf"{skel.first_frame} vs {skel.first_frame + 3} "
+                                          r"\(make them equal first\)"):
+        mpz.concatenate([s, other])
+    assert mpz.concatenate([other, other]).extras["skeleton"] == other.extras["skeleton"]
+
+
 def test_a_long_marker_name_is_shown_short_in_the_error():
     """The refusal of a 100,000-character name repeated it whole: a 100 KB message."""
     m = Motion(np.zeros((2, 1, 3)), ["x" * 100_000], 100.0)

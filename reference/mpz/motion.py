@@ -423,12 +423,18 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
         # what each reader dropped is not held data: the lists are joined (a review of
         # stop 61: two takes of one ASF, one with a comment among its frames, were refused)
         mine, theirs = held_extras(m.extras), held_extras(first.extras)
-        if mine != theirs or any(k in per_frame or m.extras[k] != first.extras[k]
-                                 for k in mine):
+        if mine != theirs or any(k in per_frame for k in mine):
             raise MotionError(f"cannot join what the motions hold besides positions "
                               f"({', '.join(sorted(m.extras)) or 'none'} vs "
                               f"{', '.join(sorted(first.extras)) or 'none'}); a C3D archive "
                               "belongs to its own frames")
+        unequal = next((k for k in sorted(mine) if m.extras[k] != first.extras[k]), None)
+        if unequal is not None:
+            # say where, as for metadata: two cuts of one AMC were refused as "skeleton vs
+            # skeleton; a C3D archive belongs to its own frames" (a QA run of stop 63)
+            raise MotionError(f"extras[{unequal!r}] differ"
+                              f"{_where(first.extras[unequal], m.extras[unequal])} (make them "
+                              "equal first)")
     angles = (None if first.angles is None
               else np.concatenate([m.angles for m in motions if m.angles is not None]))
     extras = {k: v for k, v in first.extras.items() if k != READER_NOT_KEPT}
@@ -438,6 +444,19 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
     return Motion(np.concatenate([m.positions for m in motions]), list(first.names), first.rate,
                   first.units, np.concatenate([m.valid for m in motions]), dict(first.metadata),
                   first.parents, angles, first.angle_names, extras)
+
+
+def _where(a: object, b: object) -> str:
+    """Where two unequal values of one kind differ, for a message: `` at 'field': A vs B``
+    for the first field of two dataclasses of one type that differs, else ``""``."""
+    import dataclasses
+    if not (dataclasses.is_dataclass(a) and type(a) is type(b)):
+        return ""
+    for f in dataclasses.fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if not np.array_equal(x, y) if isinstance(x, np.ndarray) else x != y:
+            return f" at {f.name!r}: {x!r:.60} vs {y!r:.60}"
+    return ""
 
 
 def _parents(given: object, markers: int) -> list[int]:
