@@ -2448,8 +2448,42 @@ def test_a_file_whose_worker_dies_is_told_the_memory_limit(corpus, monkeypatch):
                         workers=1, memory_limit="700MB")
     assert [r.status for r in rep.results] == ["failed"]
     assert rep.results[0].reason.startswith(
-        "its worker died each time it ran (over the workers' memory limit, 700MB? "
+        "its worker died each time it ran, alone too (over the workers' memory limit, 700MB? "
         "--memory-limit raises it): "), rep.results[0].reason
+
+
+@needs_dask
+def test_a_file_queued_beside_one_that_kills_its_worker_is_not_blamed(corpus):
+    """Dask blames a worker's death on every task the worker holds, queued ones too: on a
+    cluster of one worker (``dask worker --memory-limit``), a small file queued beside a
+    long capture that passed the limit failed with it, "its worker died each time it ran
+    (over the memory limit?)", and again on every run (a QA run of external clusters).
+    Here a file whose preparation ends its worker process stands for the long capture,
+    and one death is enough for Dask (allowed-failures 0)."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    from mpz.corpus import _Fixed
+
+    class Killer(_Fixed):
+        def prepare(self, source, motion):
+            if Path(source).stem == "killer":
+                os._exit(1)                  # as the nanny ends a worker over its limit
+            return super().prepare(source, motion)
+
+    src, out, paths = corpus
+    shutil.copy(paths["walk"], src / "killer.trc")
+    jobs = [(src / "killer.trc", out / "killer.mpz"), (paths["walk"], out / "walk.mpz"),
+            (paths["wave"], out / "wave.mpz")]
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                         dashboard_address=None) as cluster, Client(cluster) as client:
+        rep = encode_corpus(jobs, out, Killer(OPTS), client=client, levels=LEVELS)
+    got = {Path(r.source).stem: (r.status, r.reason) for r in rep.results}
+    assert got["walk"] == ("encoded", "") and got["wave"] == ("encoded", ""), got
+    assert got["killer"][0] == "failed"
+    assert got["killer"][1].startswith("its worker died each time it ran, alone too ("), got
+    assert sorted(p.name for p in out.glob("*.mpz")) == ["walk.mpz", "wave.mpz"]
 
 
 @pytest.mark.parametrize("option, limit, note", [

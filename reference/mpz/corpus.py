@@ -2629,7 +2629,14 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     files as they were given. A cluster that has had no worker for
     :data:`NO_WORKER_SECONDS` while tasks wait fails the run (EncoderError) rather than
     waiting for ever. ``died`` is the likely cause said of a file whose worker died each
-    time it ran it. ``seen`` gets the worker count each time the scheduler says it."""
+    time it ran it. ``seen`` gets the worker count each time the scheduler says it.
+
+    Dask blames a worker's death on every task the worker held, running or queued
+    (``KilledWorker`` after ``distributed.scheduler.allowed-failures`` deaths), so a small
+    file queued beside one that exceeds the memory limit failed with it, for the same
+    reason, and again on each run (a QA run of external clusters). A file that gets
+    ``KilledWorker`` is therefore run once more *alone* (nothing else in flight) once the
+    other files are done, and fails only if its worker dies then too."""
     from distributed import wait
     _quiet_dask_logs()                  # a given client's too
     pending = iter(todo)
@@ -2643,13 +2650,22 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     threads = max(sum(workers().values()), 1)
     window = 2 * threads + 1     # queued work stays small: a stop loses little
 
+    suspects: list[int] = []    # got KilledWorker beside other tasks: to run alone
+    alone: set[int] = set()     # run alone after a KilledWorker
+
     def submit() -> None:
         while len(inflight) < window:
             i = next(pending, None)
             if i is None:
-                return
+                break
             fut = client.submit(encode_file, _absolute(tasks[i]), pure=False,
                                 key=f"mpz-encode-{i}-{os.urandom(4).hex()}")
+            inflight[fut] = i
+        if not inflight and suspects:        # the rest done: one suspect at a time, alone
+            i = suspects.pop(0)
+            alone.add(i)
+            fut = client.submit(encode_file, _absolute(tasks[i]), pure=False,
+                                key=f"mpz-encode-{i}-alone-{os.urandom(4).hex()}")
             inflight[fut] = i
 
     idle_since: float | None = None
@@ -2695,9 +2711,13 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                 except Exception as exc:
                     if not _killed(exc):
                         raise        # a bug in the task: stop the run, keep what finished
+                    if i not in alone:
+                        suspects.append(i)  # perhaps another file's death: alone, later
+                        idle_since = None
+                        continue
                     r = FileResult(tasks[i].source, tasks[i].output, "failed",
-                                   f"its worker died each time it ran ({died}): {exc}",
-                                   _size(tasks[i].source))
+                                   f"its worker died each time it ran, alone too ({died}): "
+                                   f"{exc}", _size(tasks[i].source))
                 idle_since = None                   # a result came: workers were there
                 finish(i, replace(r, source=tasks[i].source, output=tasks[i].output))
             submit()
