@@ -2486,6 +2486,29 @@ def test_a_file_queued_beside_one_that_kills_its_worker_is_not_blamed(corpus):
     assert sorted(p.name for p in out.glob("*.mpz")) == ["walk.mpz", "wave.mpz"]
 
 
+@needs_dask
+def test_a_scheduler_whose_workers_run_another_mpz_is_refused(corpus, monkeypatch):
+    """The workers of a --scheduler cluster encode with their own mpz: a worker of another
+    version wrote the archive without a word (only the rows' mpz_version said it), and one
+    that could not import mpz died on its first task, the run blaming the memory limit
+    after 60 s (a QA run of external clusters). Here the driver claims another version."""
+    from distributed import LocalCluster
+    src, out, _ = corpus
+    real = mpz.__version__
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        monkeypatch.setattr(mpz, "__version__", "9.9.9")
+        with pytest.raises(EncoderError, match=re.escape(
+                f"must run the mpz of this command (9.9.9), with the corpus extra: "
+                f"{cluster.workers[0].worker_address} runs mpz {real}. Install mpz 9.9.9")):
+            run_corpus(src, out, scheduler=cluster.scheduler_address)
+        assert not (out / INDEX_NAME).exists()
+        monkeypatch.setattr(mpz, "__version__", real)
+        rep = run_corpus(src, out, scheduler=cluster.scheduler_address)
+    assert statuses(rep) == {"bad": "failed", "jump": "encoded", "walk": "encoded",
+                             "wave": "encoded"}
+
+
 @pytest.mark.parametrize("option, limit, note", [
     ([], "DEFAULT", False),
     (["--memory-limit", "700MB"], "700MB", False),

@@ -1999,6 +1999,7 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     if scheduler is not None:
         client = _connect(Client, scheduler)
         try:
+            _same_mpz(client, scheduler)
             yield client, f"scheduler {scheduler}"
         finally:
             # bounded: a scheduler that stopped answering held the close too; the run's
@@ -2117,6 +2118,52 @@ def _connect(client_class: type[Client], scheduler: str) -> Client:
     if exc is not None:
         raise exc
     return box["client"]
+
+
+def _mpz_versions(client: Client) -> dict[str, str] | None:
+    """The ``mpz.__version__`` each worker of ``client``'s cluster imports (or why it
+    cannot import mpz), by worker address; None when they do not all answer within
+    :data:`SCHEDULER_SECONDS` (the run's own watch then says what is wrong)."""
+    def version() -> str:       # nested: sent by value, so a worker without mpz runs it
+        try:
+            import mpz as worker_mpz
+            return str(worker_mpz.__version__)
+        except Exception as exc:
+            return f"none: it cannot import mpz ({type(exc).__name__}: {exc})"
+
+    box: dict[str, Any] = {}
+
+    def ask() -> None:
+        with contextlib.suppress(Exception):
+            box["versions"] = client.run(version, on_error="return")
+
+    thread = threading.Thread(target=ask, name="mpz-dask-versions", daemon=True)
+    thread.start()
+    thread.join(SCHEDULER_SECONDS)
+    got = box.get("versions")
+    return None if got is None else {
+        a: v if isinstance(v, str) else f"none: {type(v).__name__}: {v}"
+        for a, v in got.items()}
+
+
+def _same_mpz(client: Client, scheduler: str) -> None:
+    """Refuse a ``--scheduler`` cluster whose workers run another mpz than this process, or
+    none. The workers encode with their own mpz: one of another version wrote the archive
+    with no word (its rows' ``mpz_version`` alone said it), and a worker without mpz died
+    on its first task, after which the run waited 60 s and blamed the memory limit (a QA
+    run of external clusters). Workers that join later are not checked."""
+    import mpz
+    mine = mpz.__version__
+    versions = _mpz_versions(client)
+    other = {a: v for a, v in (versions or {}).items() if v != mine}
+    if not other:
+        return
+    said = "; ".join(f"{a} {'has ' + v if v.startswith('none') else 'runs mpz ' + v}"
+                     for a, v in sorted(other.items()))
+    raise EncoderError(f"the Dask workers at {scheduler} must run the mpz of this command "
+                       f"({mine}), with the corpus extra: {said}. Install mpz {mine} where "
+                       f"they run (pip install 'mpz[corpus]=={mine}', or the same checkout) "
+                       "and start them again")
 
 
 @contextlib.contextmanager
@@ -2681,7 +2728,9 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
             raise EncoderError(
                 f"the Dask cluster has had no worker for {NO_WORKER_SECONDS:.0f} s "
                 "while files wait: its workers cannot start (is the memory limit "
-                "below what a worker needs, about 200 MB?) or none is connected"
+                "below what a worker needs, about 200 MB?), cannot load mpz's tasks "
+                "(is this mpz installed where they run? their logs say) or none is "
+                "connected"
             ) from None
 
     try:

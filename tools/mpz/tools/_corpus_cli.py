@@ -38,7 +38,8 @@ def add_corpus_options(p: argparse.ArgumentParser) -> None:
                    "process); writes FOLDER/index.sqlite and skips files already encoded")
     p.add_argument("--scheduler", metavar="ADDRESS", type=_scheduler,
                    help="run on an existing dask.distributed cluster, e.g. tcp://host:8786 "
-                   "(its workers must see the inputs and FOLDER at the same paths)")
+                   "(its workers must see the inputs and FOLDER at the same paths, and run "
+                   "this mpz version: checked as the run starts; docs/corpus.md)")
     p.add_argument("--memory-limit", metavar="SIZE", type=_memory_limit,
                    help=f"memory limit of each local Dask worker, e.g. 2GiB or 500MB "
                    f"(default {DEFAULT_MEMORY_LIMIT}); a worker needs about 200 MB to start. "
