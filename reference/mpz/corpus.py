@@ -2377,17 +2377,19 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         return CorpusReport(gone + early, time.perf_counter() - t0, 0, "nothing to do", "",
                             index_notes=[f"no input to encode: the output folder "
                                          f"{os.fspath(outdir)} was not made"])
-    try:
-        os.makedirs(index_dir, exist_ok=True)
-    except OSError as exc:
-        raise EncoderError(f"cannot make the folder {os.fspath(outdir)}: "
-                           f"{folder_problem(exc)}") from None
     with contextlib.ExitStack() as stack:
         remote = None
         if scheduler is not None and client is None:
-            # reached before the index is made: an unreachable address left an empty
-            # index behind (stop 48's list)
+            # reached before the index and its folder are made: an unreachable address
+            # left an empty index behind (stop 48's list), then an empty folder (a QA run
+            # of external clusters: a refused, unresolved or non-Dask address, and
+            # workers of another mpz)
             remote = stack.enter_context(_dask_client(n_workers, scheduler, memory_limit))
+        try:
+            os.makedirs(index_dir, exist_ok=True)
+        except OSError as exc:
+            raise EncoderError(f"cannot make the folder {os.fspath(outdir)}: "
+                               f"{folder_problem(exc)}") from None
         stack.enter_context(_one_run(index_dir))
         index = stack.enter_context(Index(os.path.join(index_dir, INDEX_NAME), create=True))
         dropped = index.refresh_descriptors()
