@@ -2487,6 +2487,39 @@ def test_a_file_queued_beside_one_that_kills_its_worker_is_not_blamed(corpus):
 
 
 @needs_dask
+def test_a_temporary_of_a_remote_worker_killed_mid_write_is_removed(corpus):
+    """A worker of a --scheduler cluster killed while it wrote an output (SIGKILL, its
+    nanny over the memory limit) left the hidden temporary of that attempt, and Dask ran
+    the file again on another worker: the run ended with the temporary beside the output
+    until the next run (a QA run of external clusters; the local cluster's were swept).
+    Here the first attempt writes such a temporary and ends its worker process."""
+    from distributed import LocalCluster
+
+    from mpz.corpus import _Fixed
+
+    class DiesWriting(_Fixed):
+        def prepare(self, source, motion):
+            first = Path(source).with_suffix(".first")
+            if Path(source).stem == "walk" and not first.exists():
+                first.touch()
+                out = Path(source).parent.parent / "out"
+                out.mkdir(exist_ok=True)
+                (out / ".walk.mpz.0a1b2c3d.part.mpz").write_bytes(b"MPZ half written")
+                os._exit(1)
+            return super().prepare(source, motion)
+
+    src, out, paths = corpus
+    jobs = [(paths["walk"], out / "walk.mpz"), (paths["jump"], out / "jump.mpz")]
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        rep = encode_corpus(jobs, out, DiesWriting(OPTS), levels=LEVELS,
+                            scheduler=cluster.scheduler_address)
+    assert statuses(rep) == {"walk": "encoded", "jump": "encoded"}
+    assert (src / "walk.first").exists()             # the first attempt did die
+    assert temporaries(out) == [], temporaries(out)
+
+
+@needs_dask
 def test_a_scheduler_whose_workers_run_another_mpz_is_refused(corpus, monkeypatch):
     """The workers of a --scheduler cluster encode with their own mpz: a worker of another
     version wrote the archive without a word (only the rows' mpz_version said it), and one

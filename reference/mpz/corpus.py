@@ -2585,12 +2585,22 @@ def _dispatch(tasks: list[Task], todo: list[int], finish: Callable[[int, FileRes
         cluster = IN_PROCESS
         for i in todo:       # an interrupted write removes its own temporary file
             finish(i, encode_file(tasks[i]))
-    elif client is not None:
-        cluster = "given client"
-        n_workers = _run_on(client, tasks, todo, finish, inflight, seen=seen)
-    elif remote is not None:
-        c, cluster = remote
-        n_workers = _run_on(c, tasks, todo, finish, inflight, seen=seen)
+    elif client is not None or remote is not None:
+        if client is not None:
+            c, cluster = client, "given client"
+        else:
+            assert remote is not None
+            c, cluster = remote
+        try:
+            n_workers = _run_on(c, tasks, todo, finish, inflight, seen=seen)
+        finally:
+            # a worker killed mid-write (SIGKILL, its nanny over the memory limit) left the
+            # hidden temporary of that attempt, which Dask then ran elsewhere: it stayed
+            # until the next run (a QA run of external clusters). A file whose result came,
+            # or that was not started, has no writer left; one still in flight (a Ctrl-C:
+            # a remote task runs on) is left to its task.
+            running = set(inflight.values())
+            sweep_temporaries([tasks[i].output for i in todo if i not in running])
     else:
         try:
             with _dask_client(n_workers, scheduler, memory_limit) as (c, cluster):
@@ -2602,7 +2612,7 @@ def _dispatch(tasks: list[Task], todo: list[int], finish: Callable[[int, FileRes
                                     "--memory-limit raises it", seen=seen)
         finally:
             # the local workers are gone now: a task killed mid-write left a hidden
-            # temporary file (a remote worker's task finishes or removes its own)
+            # temporary file
             if scheduler is None and inflight:
                 sweep_temporaries([tasks[i].output for i in inflight.values()])
     return n_workers, cluster
