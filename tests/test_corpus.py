@@ -787,7 +787,9 @@ def test_a_cluster_without_workers_fails_instead_of_waiting(corpus, monkeypatch)
     with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
         t0 = time.monotonic()
-        with pytest.raises(EncoderError, match="no worker for"):
+        # the workers of a --scheduler cluster killed mid-run: the message named only
+        # causes of a cluster that never had one (a QA run of external clusters)
+        with pytest.raises(EncoderError, match="no worker for .* were stopped or died"):
             encode_corpus(mirror_jobs(src, out), out, OPTS, client=client, levels=LEVELS)
         assert time.monotonic() - t0 < 30
 

@@ -2739,10 +2739,11 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
         elif time.monotonic() - idle_since > NO_WORKER_SECONDS:
             raise EncoderError(
                 f"the Dask cluster has had no worker for {NO_WORKER_SECONDS:.0f} s "
-                "while files wait: its workers cannot start (is the memory limit "
-                "below what a worker needs, about 200 MB?), cannot load mpz's tasks "
-                "(is this mpz installed where they run? their logs say) or none is "
-                "connected"
+                "while files wait: its workers were stopped or died, cannot start (is "
+                "the memory limit below what a worker needs, about 200 MB?), cannot load "
+                "mpz's tasks (is this mpz installed where they run? their logs say) or "
+                "none is connected; the files that finished are written and indexed: run "
+                "the same command again when it has workers"
             ) from None
 
     try:
