@@ -2489,6 +2489,37 @@ def test_a_file_queued_beside_one_that_kills_its_worker_is_not_blamed(corpus):
 
 
 @needs_dask
+def test_a_local_worker_that_dies_again_and_again_keeps_its_nanny(corpus, monkeypatch):
+    """LocalCluster closes for good the nanny of a worker that is gone from the scheduler
+    at one moment ``distributed.deploy.lost-worker-timeout`` (15 s) after a death: a file
+    over the memory limit, run again alone after its KilledWorker, kept its worker dying
+    and restarting, and the run ended with no worker, its other files not run (a QA run
+    of external clusters: --jobs 1 --memory-limit 380MB). The timeout is made short here,
+    and one death is enough for Dask (allowed-failures 0)."""
+    import dask
+
+    import mpz.corpus as corpus_mod
+    from mpz.corpus import _Fixed
+
+    class Killer(_Fixed):
+        def prepare(self, source, motion):
+            if Path(source).stem == "killer":
+                os._exit(1)                  # as the nanny ends a worker over its limit
+            return super().prepare(source, motion)
+
+    monkeypatch.setattr(corpus_mod, "WATCH_SECONDS", 0.5)
+    monkeypatch.setattr(corpus_mod, "NO_WORKER_SECONDS", 4.0)
+    src, out, paths = corpus
+    shutil.copy(paths["walk"], src / "killer.trc")
+    jobs = [(src / "killer.trc", out / "killer.mpz"), (paths["walk"], out / "walk.mpz"),
+            (paths["wave"], out / "wave.mpz")]
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0,
+                          "distributed.deploy.lost-worker-timeout": "0.1s"}):
+        rep = encode_corpus(jobs, out, Killer(OPTS), workers=1, levels=LEVELS)
+    assert statuses(rep) == {"killer": "failed", "walk": "encoded", "wave": "encoded"}
+
+
+@needs_dask
 def test_a_temporary_of_a_remote_worker_killed_mid_write_is_removed(corpus):
     """A worker of a --scheduler cluster killed while it wrote an output (SIGKILL, its
     nanny over the memory limit) left the hidden temporary of that attempt, and Dask ran

@@ -2018,43 +2018,51 @@ def _dask_client(workers: int, scheduler: str | None, memory_limit: str | int | 
     # are silenced below CRITICAL: a worker's error is this run's failure of a file,
     # reported with its reason, and shutting down after a Ctrl-C made them log lost
     # heartbeats.
-    pending: list[int] = []
-    try:
-        with _sigint_deferred(pending):
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   host="127.0.0.1", memory_limit=memory_limit,
-                                   dashboard_address=None, preload=[__name__],
-                                   scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                                   silence_logs=logging.CRITICAL)
-            try:
-                client = Client(cluster)
-            except BaseException:
+    # a worker that dies again and again (a file over the memory limit, run again alone
+    # after its KilledWorker) is restarted by its nanny; LocalCluster closed that nanny
+    # for good when the worker had been gone from the scheduler at one moment 15 s
+    # after a death (distributed.deploy.lost-worker-timeout), and the run had no worker
+    # left (a QA run of external clusters, --jobs 1 --memory-limit 380MB). A worker that
+    # cannot come back is the no-worker watch's (NO_WORKER_SECONDS).
+    import dask
+    with dask.config.set({"distributed.deploy.lost-worker-timeout": "1000d"}):
+        pending: list[int] = []
+        try:
+            with _sigint_deferred(pending):
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                       host="127.0.0.1", memory_limit=memory_limit,
+                                       dashboard_address=None, preload=[__name__],
+                                       scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                                       silence_logs=logging.CRITICAL)
+                try:
+                    client = Client(cluster)
+                except BaseException:
+                    cluster.close()
+                    raise
+        except Exception as exc:
+            if pending:         # a worker stopped by the same Ctrl-C before it could ignore it
+                raise KeyboardInterrupt from None
+            if isinstance(exc, (RuntimeError, OSError, TimeoutError)):
+                # Dask's own words for workers that cannot start ("Nanny failed to start": a
+                # Python the worker processes cannot run, no free port ...): a failure of this
+                # run, said, not a traceback with exit 1 (a QA run of stop 47)
+                raise EncoderError(f"the local Dask cluster of {workers} worker process"
+                                   f"{'es' if workers != 1 else ''} did not start "
+                                   f"({type(exc).__name__}: {exc}); --jobs 0 encodes in this "
+                                   "process") from None
+            raise
+        try:
+            if pending:
+                raise KeyboardInterrupt
+            yield client, f"LocalCluster, {memory_limit} per worker"
+        finally:
+            # a Ctrl-C as the cluster closed (the run's last second) cut the close short, and
+            # Dask then waited 10 s for what it had not closed (a QA run of stop 57): the close
+            # runs whole, and that Ctrl-C is dropped (the work is done, or stopping already);
+            # a second one stops the close
+            with _sigint_noted([]):
+                client.close()
                 cluster.close()
-                raise
-    except Exception as exc:
-        if pending:         # a worker stopped by the same Ctrl-C before it could ignore it
-            raise KeyboardInterrupt from None
-        if isinstance(exc, (RuntimeError, OSError, TimeoutError)):
-            # Dask's own words for workers that cannot start ("Nanny failed to start": a
-            # Python the worker processes cannot run, no free port ...): a failure of this
-            # run, said, not a traceback with exit 1 (a QA run of stop 47)
-            raise EncoderError(f"the local Dask cluster of {workers} worker process"
-                               f"{'es' if workers != 1 else ''} did not start "
-                               f"({type(exc).__name__}: {exc}); --jobs 0 encodes in this "
-                               "process") from None
-        raise
-    try:
-        if pending:
-            raise KeyboardInterrupt
-        yield client, f"LocalCluster, {memory_limit} per worker"
-    finally:
-        # a Ctrl-C as the cluster closed (the run's last second) cut the close short, and
-        # Dask then waited 10 s for what it had not closed (a QA run of stop 57): the close
-        # runs whole, and that Ctrl-C is dropped (the work is done, or stopping already);
-        # a second one stops the close
-        with _sigint_noted([]):
-            client.close()
-            cluster.close()
 
 
 #: how long a connection to ``--scheduler`` may take: Client's own 30 s timeout, and a
