@@ -2454,13 +2454,20 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                                 os.path.join(index_dir, INDEX_NAME), forgotten, same, notes,
                                 _again(again, results), verified, **stop)
 
+        unindexed: list[str] = []            # written, but their row could not be
+
         def finish(i: int, r: FileResult) -> None:
             nonlocal done, verified
             if r.status == "skipped" and i in sound:
                 r = sound.pop(i)             # checked by its worker, and sound
                 verified += 1
             results[i] = r
-            index.put(r, tasks[i].output_key)
+            try:
+                index.put(r, tasks[i].output_key)
+            except EncoderError:
+                if r.status == "encoded":
+                    unindexed.append(r.output)
+                raise
             done += 1
             if progress is not None:
                 progress(done, len(tasks), r)
@@ -2534,6 +2541,15 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             # the cluster's own count (a review of stop 56: the local CPU count was said of
             # a --scheduler cluster of one worker, and of one with none)
             _remove_empty(made)
+            if unindexed:
+                # counted as encoded, its output written: the report said "0 files not run"
+                # and nothing of the row a full disk kept out (a corpus QA run of stop 63)
+                n = len(unindexed)
+                notes.append(f"{n} file{'' if n == 1 else 's'} written but not indexed: "
+                             f"{_some([os.path.basename(o) for o in unindexed])}; the next "
+                             f"run indexes {'it' if n == 1 else 'them'} from "
+                             f"{'its output' if n == 1 else 'their outputs'}, without "
+                             "encoding again")
             raise CorpusStopped(exc.message, report(seen[-1] if seen else n_workers, [],
                                                     stopped=exc.message, not_run=left)
                                 ) from None
