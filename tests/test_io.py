@@ -1590,3 +1590,98 @@ def test_an_ezc3d_older_than_the_floor_is_not_handed_files(tmp_path, monkeypatch
         assert c3d.ezc3d_too_old() == "1.5.16"
     finally:
         c3d.ezc3d_too_old.cache_clear()
+
+
+# -- a hostile-input QA of the text readers (TRC, BVH, ASF/AMC, CSV) ----------------------------
+
+def _wide_bvh(joints: int, frames: int) -> str:
+    """A BVH of ``joints`` joints without channels, and ``frames`` empty frame lines."""
+    body = "".join(f"JOINT j{i}\n{{\nOFFSET 0 1 0\nCHANNELS 0\n}}\n" for i in range(joints - 1))
+    return (f"HIERARCHY\nROOT r\n{{\nOFFSET 0 0 0\nCHANNELS 0\n{body}}}\nMOTION\n"
+            f"Frames: {frames}\nFrame Time: 0.01\n" + "\n" * frames)
+
+
+def _bare_asf(bones: int) -> str:
+    """An ASF of a root without dofs and a chain of ``bones`` bones without dofs."""
+    blocks = "".join(f"begin\nname b{i}\ndirection 0 1 0\nlength 1\nend\n" for i in range(bones))
+    chain = "".join(f"{'root' if i == 0 else f'b{i - 1}'} b{i}\n" for i in range(bones))
+    return f":units\nlength 1\n:root\norder\n:bonedata\n{blocks}:hierarchy\nbegin\n{chain}end\n"
+
+
+def test_a_skeleton_file_whose_positions_its_text_does_not_hold_is_refused(tmp_path):
+    """Forward kinematics makes a position for every joint in every frame, with channels or
+    not: a 0.4 MB BVH (10,000 joints without channels, 7000 empty frame lines) asked 1.7 GB,
+    one of 100,000 lines 24 GB. Past MAX_SAMPLES positions the text must write them; the
+    file is refused before anything is computed, here under a 1 GiB address-space limit."""
+    import subprocess
+    import sys
+    (tmp_path / "wide.bvh").write_text(_wide_bvh(10_000, 7000))
+    script = ("import resource, sys\n"
+              "import mpz.io\n"
+              "from mpz.errors import InputFormatError\n"
+              "resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
+              "try:\n"
+              "    mpz.io.read(sys.argv[1])\n"
+              "except InputFormatError as exc:\n"
+              "    print(exc.message)\n")
+    p = subprocess.run([sys.executable, "-c", script, str(tmp_path / "wide.bvh")],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr[-600:]
+    assert p.stdout.startswith(
+        "BVH: 7000 frames x 10000 joints and End Sites is 70000000 samples, past the 67108864 "
+        "an MPZ file holds (spec §8, MAX_SAMPLES), and the text does not write them"), p.stdout
+
+
+def test_a_skeleton_file_within_max_samples_or_its_text_is_read(monkeypatch):
+    """The bound is MAX_SAMPLES positions (lowered here), or one character of text a
+    coordinate: a BVH of more positions than MAX_SAMPLES whose text holds them reads as
+    before. An AMC of bones without dofs (a line "root" a frame, 1000 bones: a 1 MB file
+    asked 2.4 GB) is refused likewise."""
+    from mpz.io import _common
+    from mpz.io.amc import parse_amc
+    from mpz.io.bvh import parse_bvh
+    monkeypatch.setattr(_common, "MAX_SAMPLES", 10)
+    with pytest.raises(InputFormatError, match="30 frames x 3 joints and End Sites is 90"):
+        parse_bvh(_wide_bvh(3, 30))
+    assert parse_bvh(_wide_bvh(3, 3)).n_frames == 3           # 9 positions: within
+    text = _wide_bvh(3, 0).replace("CHANNELS 0\nJOINT j0", "CHANNELS 1 Xrotation\nJOINT j0", 1)
+    text = text.replace("Frames: 0", "Frames: 30") + "10.000000\n" * 30     # 270 coordinates,
+    assert parse_bvh(text).n_frames == 30                 # 300 characters of values alone
+    skel = parse_asf(_bare_asf(9))
+    with pytest.raises(InputFormatError, match="ASF/AMC: 20 frames x 10 joints is 200 samples"):
+        parse_amc("".join(f"{f}\nroot\n" for f in range(1, 21)), skel)
+    assert parse_amc("1\nroot\n", skel).n_markers == 10
+
+
+def _short_row_trc(markers: int, rows: int, values: int = 0) -> str:
+    """A TRC of ``markers`` markers and ``rows`` rows of ``values`` values each."""
+    names = "\t\t\t".join(f"m{i}" for i in range(markers))
+    labels = "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, markers + 1))
+    head = (f"PathFileType\t4\t(X/Y/Z)\tx.trc\nDataRate\tNumMarkers\tUnits\n100\t{markers}\tmm\n"
+            f"Frame#\tTime\t{names}\n\t\t{labels}\n")
+    return head + "".join(f"{f + 1}\t{f / 100}" + "\t1" * values + "\n" for f in range(rows))
+
+
+def test_trc_rows_shorter_than_the_header_pad_no_more_than_max_samples(monkeypatch):
+    """Rows shorter than the header are padded with gaps: a 3 MB TRC of 100,000 markers and
+    rows of a frame number and a time alone asked 4.8 GB (MemoryError). Past MAX_SAMPLES
+    (lowered here) the padding is refused, naming the line; rows the text writes are read."""
+    from mpz.io import _common
+    from mpz.io.trc import parse_trc
+    monkeypatch.setattr(_common, "MAX_SAMPLES", 1000)
+    with pytest.raises(InputFormatError, match=re.escape(
+            "TRC: line 16: 11 frames x 100 markers is 1100 samples, past the 1000 an MPZ file "
+            "holds (spec §8, MAX_SAMPLES), and the text does not write them")):
+        parse_trc(_short_row_trc(100, 20))
+    assert parse_trc(_short_row_trc(100, 10)).n_frames == 10
+    m = parse_trc(_short_row_trc(100, 20, values=300))         # written out: read
+    assert m.n_frames == 20 and bool(m.valid.all())
+
+
+def test_trc_table_grows_to_its_bound_not_twice_it():
+    """The rows array doubles as rows come, up to the most the bound lets come."""
+    from mpz.io._common import RowTable
+    t = RowTable(2, most=20)
+    for _ in range(20):
+        t.append([1.0])
+    assert len(t._data) == 20 and t.rows().shape == (20, 2)

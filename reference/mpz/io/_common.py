@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError, MPZError
+from mpz.format import MAX_SAMPLES
 from mpz.motion import Motion
 
 #: a file name as the readers and writers accept it
@@ -233,6 +234,29 @@ def count(text: str) -> int:
     return int(v)
 
 
+def samples_problem(frames: int, points: int, text_chars: int, noun: str) -> str | None:
+    """Why a text reader must not make ``frames x points`` samples (three coordinates each;
+    ``noun`` names the points: "markers", "joints") from a text of ``text_chars``
+    characters, or None when it may: past MAX_SAMPLES marker-frames (spec §8, the most an
+    MPZ file holds) they must be written in the text, one character a coordinate at least.
+    Checked before the array is allocated.
+
+    What a text holds bounds the memory of its reader (docs/io-notes.md), except where
+    one line stands for many samples: a BVH or AMC frame makes a position for every joint,
+    even one without channels, and a TRC row shorter than the header is padded with gaps.
+    A 0.5 MB BVH (10,000 joints without channels, 100,000 empty frame lines) asked 24 GB, a
+    1 MB AMC (1000 bones without dofs) 2.4 GB and a 3 MB TRC of 100,000 markers with short
+    rows 4.8 GB (a hostile-input QA run of the text readers). Within MAX_SAMPLES a file may
+    still ask 1.5 GiB (as a small MPZ file may, spec §8).
+    """
+    n = frames * points
+    if n <= MAX_SAMPLES or 3 * n <= text_chars:
+        return None
+    return (f"{frames} frames x {points} {noun} is {n} samples, past the {MAX_SAMPLES} an "
+            "MPZ file holds (spec §8, MAX_SAMPLES), and the text does not write them "
+            f"({text_chars} characters for {3 * n} coordinates)")
+
+
 #: the characters of plain decimal numbers (no NaN, no inf, no hexadecimal)
 _PLAIN = "0123456789+-.eE"
 
@@ -243,15 +267,21 @@ class RowTable:
     the text (blank lines times the columns asked 22 GiB of a 557 KB CSV, a QA run of stop
     50), nor held as Python floats (32 bytes a value)."""
 
-    def __init__(self, width: int) -> None:
+    def __init__(self, width: int, most: int | None = None) -> None:
         self.width = width
         self.n = 0
-        self._data = np.full((16, width), np.nan)
+        #: the most rows the caller lets come (it checks before each append): the array
+        #: grows to it, not to twice what is needed
+        self.most = most
+        self._data = np.full((16 if most is None else max(1, min(16, most)), width), np.nan)
 
     def append(self, values: list[float]) -> None:
         """Add a row of at most ``width`` values (the rest NaN)."""
         if self.n == len(self._data):
-            grown = np.full((2 * len(self._data), self.width), np.nan)
+            rows = 2 * len(self._data)
+            if self.most is not None:
+                rows = max(self.n + 1, min(rows, self.most))
+            grown = np.full((rows, self.width), np.nan)
             grown[:self.n] = self._data
             self._data = grown
         self._data[self.n, :len(values)] = values

@@ -44,6 +44,7 @@ from mpz.io._common import (
     number,
     read_regular,
     reader,
+    samples_problem,
     translate,
 )
 from mpz.io.bvh import num, skeleton_of, source_joints, text_encoding
@@ -443,6 +444,10 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     _check_frame(seen, skel, (expected_frame or 1) - 1, start_line, last=True)
     frames.append(cur)
     order = order if order is not None else list(seen)
+    too_many = samples_problem(len(frames), len(skel.joints), len(text), "joints")
+    if too_many:        # the positions are not in the text: forward kinematics makes them
+        raise _bad(f"{too_many}: the root and each bone have a position in every frame, "
+                   "refused before they are computed")
     values = np.array(frames)
     if not np.isfinite(values).all():
         raise _bad("non-finite value in AMC")

@@ -38,6 +38,7 @@ from mpz.io._common import (
     plain_numbers,
     read_regular,
     reader,
+    samples_problem,
     unique_names,
 )
 from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
@@ -252,6 +253,10 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
         raise _bad(f"Frames: {n_frames} without channels, but {_frame_lines(text)} frame "
                    "lines follow Frame Time (one line per frame, empty without channels)")
     values = _motion_values(text, data_start, n_frames, n_channels)
+    too_many = samples_problem(n_frames, len(joints), len(text), "joints and End Sites")
+    if too_many:        # the positions are not in the text: forward kinematics makes them
+        raise _bad(f"{too_many}: each joint and End Site has a position in every frame, "
+                   "refused before they are computed")
     if not np.isfinite(values).all():
         raise _bad("non-finite channel value")
     skel = Skeleton("bvh", tuple(j.joint() for j in joints), frame_time=ft, encoding=encoding)

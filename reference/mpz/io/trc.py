@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
+from mpz.format import MAX_SAMPLES
 from mpz.io._common import (
     LINE_BREAK,
     MAX_FIRST_FRAME,
@@ -49,6 +50,7 @@ from mpz.io._common import (
     number,
     read_regular,
     reader,
+    samples_problem,
     start_frame,
     unique_names,
     utf8_name,
@@ -153,7 +155,10 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
                    f"{lines[4][:40]!r}: is the label row missing? its first frame would be "
                    "lost")
 
-    table = RowTable(3 * n_markers)   # a list of rows of Python floats: 32 bytes a value
+    # (not a list of rows of Python floats: 32 bytes a value); at most the rows that
+    # samples_problem lets a text of this length pad
+    table = RowTable(3 * n_markers,
+                     max(MAX_SAMPLES // n_markers, len(text) // (3 * n_markers)))
     times = []
     numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
@@ -180,6 +185,10 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
             times.append(_num(fields[1]))
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {exc.message}") from None
+        too_many = samples_problem(table.n + 1, n_markers, len(text), "markers")
+        if too_many:        # rows shorter than the header, padded with gaps
+            raise _bad(f"line {lineno}: {too_many}: rows shorter than the header are padded "
+                       "with gaps, refused before the table grows")
         table.append(row)
         t = fields[1].strip()
         if "." in t and "e" not in t.lower():      # the time's decimals: printed, significant
