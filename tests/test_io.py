@@ -1685,3 +1685,17 @@ def test_trc_table_grows_to_its_bound_not_twice_it():
     for _ in range(20):
         t.append([1.0])
     assert len(t._data) == 20 and t.rows().shape == (20, 2)
+
+
+@pytest.mark.parametrize("old, said", [
+    ("    OFFSET 0 10 0\n", "joint 'Spine' has two OFFSET lines"),
+    ("      OFFSET 0 10 0\n", "the End Site of 'Spine' has two OFFSET lines"),
+])
+def test_a_bvh_joint_with_two_offsets_is_refused(two_joint_bvh, old, said):
+    """A second OFFSET line replaced the first without a word (a second CHANNELS line is
+    refused): the joint's positions were those of the last, whichever was meant."""
+    from mpz.io.bvh import parse_bvh
+    text = two_joint_bvh.replace(old, old + old.replace("10", "99"), 1)
+    assert text.count("OFFSET") == 4
+    with pytest.raises(InputFormatError, match=re.escape(f"BVH: {said}")):
+        parse_bvh(text)

@@ -68,6 +68,12 @@ def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"BVH: {msg}")
 
 
+def _what(joints: list[_Joint], i: int) -> str:
+    """Joint ``i`` in a message: ``joint 'Chest'`` or ``the End Site of 'Chest'``."""
+    j = joints[i]
+    return f"the End Site of {joints[j.parent].name!r}" if j.end else f"joint {j.name!r}"
+
+
 def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, int]:
     """Parse from after 'HIERARCHY' to 'MOTION'. Returns (joints, n_channels, pos)."""
     joints: list[_Joint] = []
@@ -75,6 +81,7 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
     pending: _Joint | None = None
     n_channels = 0
     with_channels: set[int] = set()
+    with_offset: set[int] = set()
     while pos < len(tokens):
         t = tokens[pos]
         up = t.upper()
@@ -124,6 +131,9 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
                 raise _bad(f"OFFSET of {joints[stack[-1]].name!r}: {exc.message}") from None
             if len(off) != 3:
                 raise _bad("OFFSET needs 3 numbers")
+            if stack[-1] in with_offset:     # the second replaced the first, without a word
+                raise _bad(f"{_what(joints, stack[-1])} has two OFFSET lines")
+            with_offset.add(stack[-1])
             joints[stack[-1]].offset = (off[0], off[1], off[2])
             pos += 4
         elif up == "CHANNELS":
