@@ -1699,3 +1699,25 @@ def test_a_bvh_joint_with_two_offsets_is_refused(two_joint_bvh, old, said):
     assert text.count("OFFSET") == 4
     with pytest.raises(InputFormatError, match=re.escape(f"BVH: {said}")):
         parse_bvh(text)
+
+
+@pytest.mark.parametrize("brk", ["\x85", "\x0b", "\x0c", "\x1c", "\u2028"])
+def test_asf_and_amc_lines_end_at_line_ends_only(tmp_path, brk):
+    """str.splitlines also broke lines at U+0085 (byte 0x85, cp1252's ellipsis, read as
+    Latin-1), U+2028, form feeds ...: an AMC whose comment held one was refused ("line 2:
+    data before the first frame number"), and an ASF comment or documentation line lost its
+    tail or was cut in two without a word. They are kept, and written back."""
+    asf = ASF_TEXT.replace(":version", f"# made by{brk} a tool\n:version", 1)
+    asf = asf.replace(":name", f":documentation\n  one{brk}line\n:name", 1)
+    amc = AMC_TEXT.replace("\xe4\n", f"\xe4{brk}more\n", 1)
+    enc = "latin-1" if brk <= "\xff" else "utf-8"
+    (tmp_path / "tiny.asf").write_bytes(asf.encode(enc))
+    (tmp_path / "tiny_01.amc").write_bytes(amc.encode(enc))
+    skel = read(tmp_path / "tiny_01.amc").extras["skeleton"]
+    assert skel.comments == f" tiny skeleton\n made by{brk} a tool"
+    assert skel.documentation == f"one{brk}line"
+    assert skel.amc_header.startswith(f"# comment with a latin-1 byte: \xe4{brk}more\n")
+    write(read(tmp_path / "tiny_01.amc"), tmp_path / "w.amc")
+    back = read(tmp_path / "w.amc").extras["skeleton"]
+    assert (back.comments, back.documentation, back.amc_header) == \
+        (skel.comments, skel.documentation, skel.amc_header)

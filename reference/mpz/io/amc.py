@@ -36,6 +36,7 @@ from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
 from mpz.io._common import (
     _PARSE_ERRORS,
+    LINE_BREAK,
     StrPath,
     decode_text,
     encoded_text,
@@ -84,7 +85,10 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
     comments: list[str] = []
     later = 0
     cur = None
-    for raw in text.splitlines():
+    # lines end at CR LF, LF or CR alone (LINE_BREAK), not also at U+0085, U+2028, form feeds
+    # ... as str.splitlines has it: a Latin-1 comment holding byte 0x85 (cp1252's ellipsis)
+    # lost its tail silently, or made an AMC "data before the first frame number"
+    for raw in LINE_BREAK.split(text):
         if cur is None and raw.lstrip().startswith("#"):
             comments.append(raw.lstrip()[1:])
         line = raw.strip()
@@ -392,7 +396,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     expected_frame: int | None = None
     later = 0                       # lines after the first frame that hold no value
     start_line = 0                  # the line of the current frame's number
-    for lineno, raw in enumerate(text.splitlines(), 1):
+    for lineno, raw in enumerate(LINE_BREAK.split(text), 1):     # as _sections'
         line = _spaced(raw.split("#", 1)[0]).strip()
         if cur is None and (not line or line.startswith(":")):
             header.append(raw.rstrip("\r"))
@@ -636,9 +640,10 @@ def asf_text_changes(skel: Skeleton, back: Skeleton | None = None) -> dict[str, 
     """The text fields of ``skel`` (:data:`ASF_TEXT_FIELDS`) that the ASF :func:`format_asf`
     writes would read back differently, each with the value it reads back as.
 
-    §4.14.2 refuses only U+000A and U+000D in a one-line field; this reader (as others)
-    also splits lines at U+000B, U+000C, U+001C-U+001E, U+0085, U+2028 and U+2029
-    (``str.splitlines``) and words at white space, so such a field, which only a hand-made
+    §4.14.2 refuses only U+000A and U+000D in a one-line field; this reader splits lines
+    there alone, but words at white space (U+000B, U+000C, U+001C-U+001F, U+0085, U+2028,
+    U+2029 among it), and a field's leading and trailing white space is not read, so such
+    a field (``mass "a\u2028b"``, a name that starts with a blank), which only a hand-made
     skeleton holds, changes when written: the writers say so (:func:`mpz.io.writer_problems`).
     ``back``: the ASF already read back (:func:`mpz.io.skeleton_read_back`), else it is
     written and read here.
