@@ -1721,3 +1721,17 @@ def test_asf_and_amc_lines_end_at_line_ends_only(tmp_path, brk):
     back = read(tmp_path / "w.amc").extras["skeleton"]
     assert (back.comments, back.documentation, back.amc_header) == \
         (skel.comments, skel.documentation, skel.amc_header)
+
+
+@pytest.mark.parametrize("digits", [19, 5000])
+def test_an_amc_frame_number_of_many_digits_is_named(tmp_path, digits):
+    """A frame number of 5000 digits was "cannot read: ValueError: Exceeds the limit (4300
+    digits) for integer string conversion ... use sys.set_int_max_str_digits()": the
+    reader's number, not the file's fault, said; one of 19 digits was read (and refused
+    only by the encoder, §4.14.2 keeps a u32)."""
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)
+    (tmp_path / "tiny_01.amc").write_bytes(AMC_TEXT.replace("\n1\n", f"\n{'9' * digits}\n")
+                                           .encode("latin-1"))
+    with pytest.raises(InputFormatError, match=r"ASF/AMC: line 4: frame number: '9{19,24}'\.\.\. "
+                                               r"is too large a number"):
+        read(tmp_path / "tiny_01.amc")

@@ -414,7 +414,9 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
             raise _bad(f"line {lineno}: frame number {parts[0]}: negative frame numbers are "
                        "not supported (renumber the frames from 0 or 1)")
         if len(parts) == 1 and parts[0].isascii() and parts[0].isdigit():
-            n = int(parts[0])
+            # at most 18 digits: int() of 5000 said "cannot read: ValueError: Exceeds the
+            # limit (4300 digits) for integer string conversion" (a hostile-input QA run)
+            n = named(integer, parts[0], f"line {lineno}: frame number", _bad)
             if expected_frame is not None and n != expected_frame:
                 raise _bad(f"line {lineno}: frame {n} follows frame {expected_frame - 1}")
             if first is None:
