@@ -1735,3 +1735,26 @@ def test_an_amc_frame_number_of_many_digits_is_named(tmp_path, digits):
     with pytest.raises(InputFormatError, match=r"ASF/AMC: line 4: frame number: '9{19,24}'\.\.\. "
                                                r"is too large a number"):
         read(tmp_path / "tiny_01.amc")
+
+
+def test_a_bvh_value_past_binary64_is_named_by_its_line(two_joint_bvh):
+    """"1e400" is made of a plain number's characters: the one conversion of a piece of
+    values took it as an infinity, refused later as "non-finite channel value", with no
+    word or line to look at."""
+    from mpz.io.bvh import parse_bvh
+    with pytest.raises(InputFormatError, match=re.escape(
+            "BVH: MOTION: '1e400' is not a finite number, line 20 (frame 2)")):
+        parse_bvh(two_joint_bvh.replace("1 0 0 0 5 0 10", "1 0 0 0 1e400 0 10"))
+
+
+@pytest.mark.parametrize("fmt", ["csv", "trc"])
+def test_a_no_break_space_for_a_number_is_shown(fmt):
+    """A field of a no-break space (U+00A0) alone was said as "'' is not a number"."""
+    from mpz.io.table import parse_csv
+    from mpz.io.trc import parse_trc
+    if fmt == "csv":
+        with pytest.raises(InputFormatError, match=re.escape("row 3: '\\xa0' is not a number")):
+            parse_csv("frame,time,A_x,A_y,A_z\n0,0.0,1,2,3\n1,0.01,1,\xa0,3\n")
+    else:
+        with pytest.raises(InputFormatError, match=re.escape("line 6: '\\xa0' is not a number")):
+            parse_trc(_short_row_trc(1, 2, values=3).replace("\t1\n", "\t\xa0\n"))

@@ -186,15 +186,18 @@ def number(text: str, *, nan: bool = False) -> float:
     ``inf`` and ``1e400``: a hostile-input QA found them read silently as 1000, 12 and a
     gap. Raises InputFormatError naming the text.
     """
+    # the text as said: ASCII blanks stripped, not a no-break space (U+00A0 said "'' is not
+    # a number", a hostile-input QA run)
+    said = repr(text.strip(" \t\r\n"))
     try:
         v = float(text)
     except ValueError:
-        raise InputFormatError(f"{text.strip()!r} is not a number") from None
+        raise InputFormatError(f"{said} is not a number") from None
     if not text.isascii() or "_" in text:
-        raise InputFormatError(f"{text.strip()!r} is not a plain decimal number (ASCII "
-                               "digits, '.', an exponent)")
+        raise InputFormatError(f"{said} is not a plain decimal number (ASCII digits, '.', an "
+                               "exponent)")
     if not math.isfinite(v) and not (nan and math.isnan(v)):
-        raise InputFormatError(f"{text.strip()!r} is not a finite number")
+        raise InputFormatError(f"{said} is not a finite number")
     return v
 
 
@@ -298,9 +301,12 @@ def plain_numbers(tokens: list[str]) -> NDArray[np.float64]:
     is named (raises InputFormatError)."""
     if not "".join(tokens).strip(_PLAIN):
         try:
-            return np.array(tokens, dtype=np.float64)
+            out = np.array(tokens, dtype=np.float64)
         except ValueError:                 # plain characters, not a number: "1-2", "1.0.0"
             pass
+        else:        # "1e400" is plain characters too, an infinity: said by number() below,
+            if np.isfinite(out).all():    # with its line (it was "non-finite channel value")
+                return out
     for t in tokens:
         number(t)
     return np.array(tokens, dtype=np.float64)
