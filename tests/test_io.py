@@ -1758,3 +1758,17 @@ def test_a_no_break_space_for_a_number_is_shown(fmt):
     else:
         with pytest.raises(InputFormatError, match=re.escape("line 6: '\\xa0' is not a number")):
             parse_trc(_short_row_trc(1, 2, values=3).replace("\t1\n", "\t\xa0\n"))
+
+
+@pytest.mark.parametrize("ext", [".trc", ".csv", ".bvh", ".amc"])
+@pytest.mark.parametrize("codec, name", [("utf-16", "UTF-16"), ("utf-32", "UTF-32")])
+def test_a_utf16_text_file_is_told_so(tmp_path, two_joint_bvh, ext, codec, name):
+    """Windows tools save "Unicode" text as UTF-16 with a BOM; read as Latin-1 each reader
+    said its first line was not one, showing "got 'ÿþP\\x00a\\x00...'"."""
+    text = {".trc": _short_row_trc(1, 2, values=3), ".csv": "frame,time,A_x,A_y,A_z\n",
+            ".bvh": two_joint_bvh, ".amc": AMC_TEXT}[ext]
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)
+    (tmp_path / f"tiny_01{ext}").write_bytes(text.encode(codec))
+    with pytest.raises(InputFormatError, match=f"tiny_01{ext}: the text is {name} "
+                                               rf"\(it starts with a {name} byte order mark\)"):
+        read(tmp_path / f"tiny_01{ext}")

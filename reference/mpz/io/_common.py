@@ -316,8 +316,16 @@ def decode_text(data: bytes) -> str:
     """Text of a motion file: UTF-8 (BOM tolerated), else Latin-1.
 
     Comments in real files carry Latin-1 bytes (HDM05 AMC headers), so a
-    non-UTF-8 byte is not by itself an error.
+    non-UTF-8 byte is not by itself an error. Text that starts with a UTF-16 or UTF-32
+    byte order mark (Windows tools save "Unicode" so) is refused as such: read as Latin-1,
+    each reader said its first line was not one ("got 'ÿþP\x00a\x00t\x00...'", a
+    hostile-input QA run).
     """
+    for bom, name in ((b"\xff\xfe\x00\x00", "UTF-32"), (b"\x00\x00\xfe\xff", "UTF-32"),
+                      (b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16")):
+        if data.startswith(bom):
+            raise InputFormatError(f"the text is {name} (it starts with a {name} byte order "
+                                   "mark): save it as UTF-8 (or ASCII) to read it")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
