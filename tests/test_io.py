@@ -1772,3 +1772,13 @@ def test_a_utf16_text_file_is_told_so(tmp_path, two_joint_bvh, ext, codec, name)
     with pytest.raises(InputFormatError, match=f"tiny_01{ext}: the text is {name} "
                                                rf"\(it starts with a {name} byte order mark\)"):
         read(tmp_path / f"tiny_01{ext}")
+
+
+@pytest.mark.parametrize("frame", ["\u0663", "\uff13", "3_0"])
+def test_a_csv_frame_number_of_other_digits_is_no_frame_number(frame):
+    """The frame column's numbers were read by float(): an Arabic-Indic or fullwidth 3, or
+    3_0, became the first frame (3, 3, 30), and the warning blamed the next row."""
+    from mpz.io.table import parse_csv
+    m = parse_csv(f"frame,time,A_x,A_y,A_z\n{frame},0.0,1,2,3\n4,0.01,1,2,3\n")
+    assert "csv.FirstFrame" not in m.metadata
+    assert f"(row 2 has frame {frame!r})" in m.metadata["warning"]

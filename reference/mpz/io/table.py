@@ -377,8 +377,8 @@ def _whole(text: str) -> int | None:
     except InputFormatError:
         pass
     try:
-        v = float(text)
-    except ValueError:
+        v = number(text)        # not float(): "٣", "３" and "1_0" were frames 3, 3 and 10
+    except InputFormatError:
         return None
     return int(v) if v.is_integer() and abs(v) < 2 ** 53 else None
 
