@@ -1648,8 +1648,9 @@ def test_a_skeleton_file_within_max_samples_or_its_text_is_read(monkeypatch):
     text = text.replace("Frames: 0", "Frames: 30") + "10.000000\n" * 30     # 270 coordinates,
     assert parse_bvh(text).n_frames == 30                 # 300 characters of values alone
     skel = parse_asf(_bare_asf(9))
-    with pytest.raises(InputFormatError, match="ASF/AMC: 20 frames x 10 joints is 200 samples"):
-        parse_amc("".join(f"{f}\nroot\n" for f in range(1, 21)), skel)
+    with pytest.raises(InputFormatError, match="ASF/AMC: 6 frames x 10 joints is 60 samples"):
+        parse_amc("".join(f"{f}\nroot\n" for f in range(1, 21)), skel)   # at the first frame
+    #                                                                     past the bound
     assert parse_amc("1\nroot\n", skel).n_markers == 10
 
 
@@ -1782,3 +1783,4 @@ def test_a_csv_frame_number_of_other_digits_is_no_frame_number(frame):
     m = parse_csv(f"frame,time,A_x,A_y,A_z\n{frame},0.0,1,2,3\n4,0.01,1,2,3\n")
     assert "csv.FirstFrame" not in m.metadata
     assert f"(row 2 has frame {frame!r})" in m.metadata["warning"]
+

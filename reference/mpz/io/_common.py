@@ -260,6 +260,12 @@ def samples_problem(frames: int, points: int, text_chars: int, noun: str) -> str
             f"({text_chars} characters for {3 * n} coordinates)")
 
 
+def most_frames(points: int, text_chars: int) -> int:
+    """The most frames of ``points`` points that :func:`samples_problem` lets a text of
+    ``text_chars`` characters make (at least 1)."""
+    return max(1, MAX_SAMPLES // points, text_chars // (3 * points))
+
+
 #: the characters of plain decimal numbers (no NaN, no inf, no hexadecimal)
 _PLAIN = "0123456789+-.eE"
 

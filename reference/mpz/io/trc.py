@@ -37,7 +37,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz.errors import InputFormatError
-from mpz.format import MAX_SAMPLES
 from mpz.io._common import (
     LINE_BREAK,
     MAX_FIRST_FRAME,
@@ -46,6 +45,7 @@ from mpz.io._common import (
     count,
     decode_text,
     integer,
+    most_frames,
     named,
     number,
     read_regular,
@@ -157,8 +157,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
 
     # (not a list of rows of Python floats: 32 bytes a value); at most the rows that
     # samples_problem lets a text of this length pad
-    table = RowTable(3 * n_markers,
-                     max(MAX_SAMPLES // n_markers, len(text) // (3 * n_markers)))
+    table = RowTable(3 * n_markers, most_frames(n_markers, len(text)))
     times = []
     numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
