@@ -9,6 +9,7 @@ with a real umask, real pipes and real signals.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 import json
 import os
 from pathlib import Path
@@ -853,3 +854,123 @@ def test_a_failing_command_run_with_json_prints_an_error_document(small: tuple[P
         assert doc["error"]["class"] == cls and doc["error"]["message"], doc
         if cls == "ChecksumError":
             assert doc["error"]["section"] == "§3.3" and doc["error"]["offset"] > 0, doc
+
+
+# -- standard streams as a shell can leave them (a QA run of the CLI plumbing) -----------------
+
+def _buffered_env(**extra: str) -> dict[str, str]:
+    """The environment without PYTHONUNBUFFERED: a user's, where standard output is buffered
+    (set where the earlier QA runs ran, it hid every failure of the final flush)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    env.update(extra)
+    return env
+
+
+def _with_fds(argv: Sequence[str], cwd: Path, *, stdout: str, stderr: str = "pipe",
+              **env: str) -> subprocess.CompletedProcess[bytes]:
+    """Run ``argv`` as ``CMD >&-`` (``stdout="closed"``), ``1</dev/null`` ("read-only"),
+    ``> /dev/full`` ("full") or into a pipe ("pipe"); ``stderr`` "closed" or "pipe"."""
+    def close() -> None:
+        if stdout == "closed":
+            os.close(1)
+        if stderr == "closed":
+            os.close(2)
+    out: object = subprocess.PIPE
+    opened = None
+    if stdout == "read-only":
+        opened = out = open(os.devnull, "rb")
+    elif stdout == "full":
+        opened = out = open("/dev/full", "wb")
+    try:
+        return subprocess.run([command(argv[0]), *argv[1:]], cwd=cwd, stdout=out,
+                              stderr=subprocess.PIPE, preexec_fn=close, timeout=300,
+                              env=_buffered_env(**env))
+    finally:
+        if opened is not None:
+            opened.close()
+
+
+_CANNOT_WRITE = {"full": "No space left on device", "closed": "Bad file descriptor",
+                 "read-only": "Bad file descriptor"}
+
+
+def _cannot_write(argv: Sequence[str], cwd: Path, how: str) -> None:
+    p = _with_fds(argv, cwd, stdout=how)
+    err = p.stderr.decode()
+    prog = "mpzinfo" if argv[0] == "mpzinfo" else "mpz" if "-h" in argv else " ".join(argv[:2])
+    assert (p.returncode, err) == (
+        2, f"{prog}: error: cannot write standard output: {_CANNOT_WRITE[how]}\n"), (
+        argv, how, p.returncode, err[-800:])
+
+
+def test_a_buffered_report_that_cannot_be_written_is_an_error(small: tuple[Path, Path],
+                                                              tmp_path: Path) -> None:
+    """With standard output buffered, as it is for a user (no PYTHONUNBUFFERED), a report
+    that could not be written failed only in the final flush: ``mpz show x > /dev/full``
+    printed a traceback and exited 120; ``>&-`` (closed) made sys.stdout None: a
+    traceback and exit 1; ``1</dev/null``: exit 70. Each is now "cannot write standard
+    output", exit 2, no traceback (a QA run of the CLI plumbing)."""
+    if not Path("/dev/full").exists():
+        pytest.skip("no /dev/full on this system")
+    _trc, enc = small
+    _cannot_write(["mpz", "show", str(enc)], tmp_path, "full")
+    _cannot_write(["mpz", "show", "--json", str(enc)], tmp_path, "closed")
+    _cannot_write(["mpzinfo", str(enc)], tmp_path, "read-only")
+
+
+def test_help_and_data_into_a_standard_output_that_cannot_take_them(
+        small: tuple[Path, Path], tmp_path: Path) -> None:
+    """``mpz encode -h > /dev/full`` exited 0 (argparse drops its write errors), and
+    ``mpz encode x -o - >&-`` failed on sys.stdout being None (exit 70); a command that
+    prints nothing on success still succeeds with standard output closed."""
+    if not Path("/dev/full").exists():
+        pytest.skip("no /dev/full on this system")
+    trc, _enc = small
+    _cannot_write(["mpz", "encode", "-h"], tmp_path, "full")
+    _cannot_write(["mpz", "encode", "-q", str(trc), "-o", "-"], tmp_path, "closed")
+    p = _with_fds(["mpz", "encode", "-q", str(trc), "-o", "out.mpz"], tmp_path, stdout="closed")
+    assert p.returncode == 0 and p.stderr == b"", p.stderr[-800:]
+    assert mpz.decode((tmp_path / "out.mpz").read_bytes()).n_frames == 60
+
+
+def test_a_closed_standard_error_keeps_the_notes_out_of_standard_output(
+        small: tuple[Path, Path], tmp_path: Path) -> None:
+    """With standard error closed (``2>&-``), ``print(..., file=sys.stderr)`` printed to
+    standard output: CSV notes went into ``decode -o -``'s data, and a traceback (exit 70)
+    into ``encode -o -``'s MPZ stream."""
+    trc, enc = small
+    p = _with_fds(["mpz", "decode", str(enc), "-o", "-", "-F", "csv"], tmp_path,
+                  stdout="pipe", stderr="closed")
+    assert p.returncode == 0 and p.stdout.startswith(b"frame,time,"), p.stdout[:300]
+    assert b"note:" not in p.stdout
+    p = _with_fds(["mpz", "encode", str(trc), "-o", "-"], tmp_path, stdout="pipe",
+                  stderr="closed")
+    assert p.returncode == 0, p.stdout[-800:]
+    assert mpz.decode(p.stdout).n_frames == 60
+    p = _with_fds(["mpz", "show", "--json", "missing.trc"], tmp_path, stdout="pipe",
+                  stderr="closed")
+    assert p.returncode == 2 and json.loads(p.stdout)["status"] == "error", p.stdout[-800:]
+
+
+def test_a_standard_output_that_is_not_utf8_takes_every_name(tmp_path: Path) -> None:
+    """A standard output that is not UTF-8 (a Latin-1 locale, PYTHONIOENCODING=ascii)
+    could not print a marker called "tête" or mpzinfo's own "→": UnicodeEncodeError, a
+    traceback and exit 70. Text now escapes what it cannot encode, and --json writes
+    \\u escapes: strict JSON in any ASCII-compatible encoding."""
+    m = generate("walk", frames=30, seed=3)
+    m = replace(m, names=["tête", "肩", *m.names[2:]])
+    write(m, tmp_path / "tête.trc")
+    (tmp_path / "tête.mpz").write_bytes(mpz.encode(m, max_error=1.0))
+    for encoding, argv in (("latin-1", ["mpzinfo", "-vv", "tête.mpz"]),
+                           ("ascii", ["mpz", "compare", "tête.trc", "tête.mpz", "--top", "0"]),
+                           ("ascii", ["mpz", "show", "--json", "tête.trc"]),
+                           ("latin-1", ["mpzinfo", "--json", "-vv", "tête.mpz"])):
+        p = subprocess.run([command(argv[0]), *argv[1:]], cwd=tmp_path, capture_output=True,
+                           timeout=300, env=_buffered_env(PYTHONIOENCODING=encoding))
+        assert p.returncode == 0 and b"Traceback" not in p.stderr, (argv, p.stderr[-800:])
+        text = p.stdout.decode(encoding)
+        if "--json" in argv:
+            assert p.stdout.isascii() and "t\\u00eate" in text, (argv, text[:300])
+            json.loads(text)
+        else:
+            assert "\\u80a9" in text, (argv, text[-800:])        # 肩, escaped

@@ -138,20 +138,39 @@ def jsonable(v: Any) -> Any:
     return v
 
 
-def json_text(doc: Any, *, indent: int | None = 2) -> str:
+def json_text(doc: Any, *, indent: int | None = 2, ascii_only: bool = False) -> str:
     """The one JSON writer of every ``--json`` output: strict JSON, ``null`` for non-finite.
 
     ``allow_nan=False`` makes a non-finite value that slipped through an error,
-    not an ``Infinity`` token that strict parsers reject.
+    not an ``Infinity`` token that strict parsers reject. ``ascii_only`` writes every
+    other character as a ``\\uXXXX`` escape (for a stream that is not UTF-8).
 
     >>> json_text({"rate": float("inf"), "k": [1.5, float("nan")]}, indent=None)
     '{"rate": null, "k": [1.5, null]}'
     """
-    return json.dumps(jsonable(doc), indent=indent, allow_nan=False, ensure_ascii=False)
+    return json.dumps(jsonable(doc), indent=indent, allow_nan=False,
+                      ensure_ascii=ascii_only)
+
+
+def _is_utf8(stream: object) -> bool:
+    """Whether ``stream`` encodes text as UTF-8 (a stream with no encoding counts as one)."""
+    import codecs
+    encoding = getattr(stream, "encoding", None)
+    if not isinstance(encoding, str):
+        return True
+    try:
+        return codecs.lookup(encoding).name == "utf-8"
+    except LookupError:
+        return False
 
 
 def print_json(doc: Any, *, file: IO[str] | None = None, indent: int | None = 2) -> None:
-    print(json_text(doc, indent=indent), file=sys.stdout if file is None else file)
+    """Print ``doc`` (:func:`json_text`); on a stream that is not UTF-8 (a Latin-1 or C
+    locale with ``PYTHONUTF8=0``, ``PYTHONIOENCODING=ascii``) with ``\\uXXXX`` escapes,
+    which every ASCII-compatible encoding holds: a marker named "Ferse_rechts_\u00fc"
+    failed to encode there, a traceback and exit 70 (a QA run of the CLI plumbing)."""
+    out = sys.stdout if file is None else file
+    print(json_text(doc, indent=indent, ascii_only=not _is_utf8(out)), file=out)
 
 
 #: the schema of the document a failing command prints with ``--json`` (docs/json.md)
@@ -239,6 +258,15 @@ class Parser(argparse.ArgumentParser):
         self.print_usage(sys.stderr)
         print(f"{self.prog}: error: {printable(message)}", file=sys.stderr)
         raise SystemExit(EXIT_USAGE)
+
+    def _print_message(self, message: str, file: Any = None) -> None:
+        """argparse's, but a failed write of ``--help`` or ``--version`` to standard output
+        is raised (argparse drops it: ``mpz encode -h > /dev/full`` exited 0), to be
+        reported by :func:`reports_ctrl_c`; one to standard error is still dropped."""
+        if message and file is not None and file is sys.stdout:
+            file.write(message)
+            return
+        super()._print_message(message, file)
 
     def _option_strings(self) -> list[str]:
         return [s for a in self._actions for s in a.option_strings if s.startswith("--")] + \
@@ -356,17 +384,69 @@ def _silence_stdout() -> None:
         pass
 
 
+def _reserve(fd: int, flags: int) -> bool:
+    """Open the null device on ``fd`` if it is closed (``>&-``); True if it was closed."""
+    try:
+        os.fstat(fd)
+        return False
+    except OSError:
+        pass
+    try:
+        null = os.open(os.devnull, flags)
+        if null != fd:
+            os.dup2(null, fd)
+            os.close(null)
+    except OSError:
+        return False
+    return True
+
+
+def standard_streams() -> None:
+    """Make the three standard streams safe to use, once at a command's start.
+
+    A standard stream closed by the caller (``mpz show x >&-``, ``2>&-``, ``<&-``) is
+    None in Python, and its descriptor is free: ``print(..., file=sys.stderr)`` then
+    wrote the notes, even a traceback, into standard output (into ``-o -``'s CSV or
+    MPZ data), ``sys.stdout.flush()`` raised AttributeError (exit 70, a traceback),
+    and the next file opened took the descriptor. Here the null device takes each
+    closed descriptor: standard error's notes are dropped, standard input stays None
+    (the commands say "there is no standard input"), and standard output is opened
+    read-only, so that what a command prints there fails as ``ls >&-`` does: "cannot
+    write standard output: Bad file descriptor", exit 2 (:func:`reports_ctrl_c`).
+
+    Standard output that is not UTF-8 (a Latin-1 locale, ``LC_ALL=C`` with
+    ``PYTHONUTF8=0``, ``PYTHONIOENCODING=ascii``) escapes what it cannot encode (a
+    marker called "tête", mpzinfo's "→") as ``\\xNN``, as standard error does; it
+    raised UnicodeEncodeError: a traceback and exit 70 (a QA run of the CLI plumbing).
+    """
+    import io
+    _reserve(0, os.O_RDONLY)
+    if sys.stdout is None and _reserve(1, os.O_RDONLY):
+        sys.stdout = io.TextIOWrapper(io.FileIO(1, "w", closefd=False),
+                                      encoding="utf-8", errors="backslashreplace")
+    if sys.stderr is None and _reserve(2, os.O_WRONLY):
+        sys.stderr = io.TextIOWrapper(io.FileIO(2, "w", closefd=False), encoding="utf-8",
+                                      errors="backslashreplace", line_buffering=True)
+    out = sys.stdout
+    if (isinstance(out, io.TextIOWrapper) and not _is_utf8(out)
+            and out.errors in ("strict", "surrogateescape")):
+        with contextlib.suppress(Exception):
+            out.reconfigure(errors="backslashreplace")
+
+
 def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
     """Decorate a command's ``main``: a reader closing the pipe ends the command quietly.
 
     The decorated function flushes stdout before returning, so that a broken
     pipe shows up here and not in the interpreter's exit handler. It then returns the
-    worst code the command had noted with :func:`found`, else 0.
+    worst code the command had noted with :func:`found`, else 0. It first makes the
+    standard streams safe (:func:`standard_streams`).
     """
 
     @functools.wraps(main)
     def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> int:
         _found[0] = EXIT_OK
+        standard_streams()
         try:
             code = main(*args, **kwargs)
             sys.stdout.flush()
@@ -417,12 +497,22 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
             try:
                 with ctrl_c_outside_compiler():
                     release_sigint()
-                    return main(*args, **kwargs)
+                    code = main(*args, **kwargs)
+                    # here, not in the interpreter's exit: a buffered report that cannot
+                    # be written (> /dev/full) is then this command's error, not a
+                    # traceback and exit 120 (PYTHONUNBUFFERED, set where the QA runs
+                    # ran, had hidden it)
+                    sys.stdout.flush()
+                    return code
             except KeyboardInterrupt:
                 print(message, file=sys.stderr)
                 return leave_stuck_threads(EXIT_INTERRUPTED)
             except SystemExit as exc:
                 leave_stuck_threads(exc.code)
+                if exc.code in (0, None):       # --help, --version: argparse's own print
+                    failed = _stdout_failure(prog)
+                    if failed is not None:
+                        return failed
                 raise
             except SystemError as exc:
                 end = signal_in(exc)
@@ -444,7 +534,7 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                     print(f"{prog}: error: the current folder no longer exists (deleted?): "
                           "cd to one that does, or give absolute paths", file=sys.stderr)
                     return EXIT_ERROR
-                if exc.errno not in OUTPUT_FULL:
+                if exc.errno not in OUTPUT_FULL and not _closed_stdout(exc):
                     return _bug(prog)
                 # a full disk or a file-size limit where a command writes (standard output
                 # above all: mpzinfo > /dev/full): the machine's state, not a bug (a QA run).
@@ -452,6 +542,8 @@ def reports_ctrl_c(message: str) -> Callable[[Callable[_P, int]], Callable[_P, i
                 # an encode's user to wonder whether the .mpz beside it was whole
                 print(f"{_running[0] or prog}: error: cannot write {_failed_output(exc)}: "
                       f"{exc.strerror or exc}", file=sys.stderr)
+                if not exc.filename:    # what stays in its buffer would fail again at exit
+                    _silence_stdout()
                 return EXIT_ERROR
             except Exception:
                 return _bug(prog)
@@ -554,6 +646,35 @@ def leave_stuck_threads(code: Any) -> int:
                 stream.flush()
         os._exit(exit_code)
     return exit_code
+
+
+def _closed_stdout(exc: OSError) -> bool:
+    """Whether ``exc`` is a write to a standard output that cannot take one: closed
+    (``>&-``, see :func:`standard_streams`) or open for reading (``1</dev/null``)."""
+    if exc.errno != errno.EBADF or exc.filename:
+        return False
+    try:
+        import fcntl
+        return fcntl.fcntl(1, fcntl.F_GETFL) & os.O_ACCMODE == os.O_RDONLY
+    except (ImportError, OSError):
+        return True
+
+
+def _stdout_failure(prog: str) -> int | None:
+    """Flush standard output after argparse printed ``--help`` or ``--version`` (it
+    swallows its own write errors): :data:`EXIT_ERROR` with a message when that fails
+    (``mpz -h > /dev/full`` exited 0), else None. A closed pipe stays quiet."""
+    try:
+        if sys.stdout is not None:
+            sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        print(f"{prog}: error: cannot write standard output: {exc.strerror or exc}",
+              file=sys.stderr)
+        _silence_stdout()
+        return EXIT_ERROR
+    return None
 
 
 def _working_folder_gone() -> bool:
