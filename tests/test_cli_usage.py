@@ -544,6 +544,37 @@ def test_an_option_of_another_subcommand_is_named_as_such(
     assert "a length takes its unit without a space" in capsys.readouterr().err
 
 
+def test_an_unknown_option_is_named_when_an_argument_is_missing_too(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """argparse says what is missing before what it did not know: ``mpz --bogus`` and
+    ``mpz encode -walk.c3d`` (a file whose name begins with -) said only "the following
+    arguments are required" (a QA run of the CLI plumbing). The unknown word is named,
+    with the cure for a file name that begins with -."""
+    from mpz.tools import mpz_cli, mpzinfo
+    (tmp_path / "-walk.c3d").write_bytes(b"")
+    monkeypatch.chdir(tmp_path)
+    cases = [(mpz_cli.main, ["--bogus"], "mpz: error: unrecognized arguments: --bogus"),
+             (mpz_cli.main, ["encode", "-q", "-walk.c3d"],
+              "mpz encode: error: unrecognized arguments: -walk.c3d; -walk.c3d is a file: "
+              "put -- before a file name that begins with -, or write ./-walk.c3d"),
+             (mpz_cli.main, ["show", "--jsn"],
+              "unrecognized arguments: --jsn; did you mean --json?"),
+             (mpzinfo.main, ["--bogus"], "mpzinfo: error: unrecognized arguments: --bogus")]
+    for main, argv, said in cases:
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 64 and said in err, (argv, err)
+    # what is only missing is still said so: an option's value, an abbreviation, -qf
+    for argv in (["encode", "-o", "x.mpz"], ["encode", "--max-err", "1mm"], ["encode", "-qf"],
+                 ["summary", "--k", "6"]):
+        with pytest.raises(SystemExit) as exc:
+            mpz_cli.main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 64 and "the following arguments are required" in err, err
+
+
 def test_the_group_error_example_in_the_help_works(inputs: dict[str, Path],
                                                    tmp_path: Path) -> None:
     p = run(["mpz", "encode", "--help"], tmp_path)

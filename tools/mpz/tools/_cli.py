@@ -43,6 +43,7 @@ import functools
 import json
 import math
 import os
+import re
 import signal
 import sys
 import threading
@@ -221,6 +222,9 @@ def _suggest(words: Iterable[str], choices: Iterable[str]) -> str:
     return ""
 
 
+#: a negative number, which argparse takes for a value, not an option
+_NUMBER = re.compile(r"-\d+|-\d*\.\d+")
+
 #: the options that take a length with its unit (the unit hint is for their commands)
 LENGTH_OPTIONS = frozenset({"--max-error", "--bound", "--grid", "--group-error",
                             "--translation-error"})
@@ -238,7 +242,17 @@ class Parser(argparse.ArgumentParser):
     #: the parsers of the command's other subcommands (set by the command's parser)
     family: Mapping[str, argparse.ArgumentParser] = {}
 
+    #: the words this parser was given (:meth:`parse_known_args`)
+    _words: list[str] = []
+
     def error(self, message: str) -> NoReturn:
+        if message.startswith("the following arguments are required: "):
+            # argparse says what is missing before what it did not know: "mpz --bogus",
+            # "mpz encode -x.trc" said "the following arguments are required" and no more
+            # (a QA run of the CLI plumbing)
+            unknown = self._unknown_options(self._words)
+            if unknown:
+                self.error(f"unrecognized arguments: {' '.join(unknown)}")
         if message.startswith("unrecognized arguments: "):
             words = message[len("unrecognized arguments: "):].split()
             options = [w for w in words if w.startswith("-")]
@@ -252,6 +266,10 @@ class Parser(argparse.ArgumentParser):
                     i and words[i - 1].startswith("-") and "=" not in words[i - 1])
                    for i, w in enumerate(words)) and LENGTH_OPTIONS & set(self._option_strings()):
                 message += "; a length takes its unit without a space, e.g. --max-error 1mm"
+            named = [w for w in options if os.path.lexists(w)]
+            if named:
+                message += (f"; {named[0]} is a file: put -- before a file name that begins "
+                            f"with -, or write ./{named[0]}")
         elif "invalid choice: " in message:
             bad = message.split("invalid choice: ", 1)[1].split(" ", 1)[0].strip("'\"")
             message += _suggest([bad], self._subcommands())
@@ -271,6 +289,32 @@ class Parser(argparse.ArgumentParser):
     def _option_strings(self) -> list[str]:
         return [s for a in self._actions for s in a.option_strings if s.startswith("--")] + \
             [s for a in self._actions for s in a.option_strings if not s.startswith("--")]
+
+    def _unknown_options(self, words: Iterable[str]) -> list[str]:
+        """The words before ``--`` that look like options this parser does not know (not a
+        known option, a prefix of one of its long options, a cluster of its short ones or
+        a negative number; the value after an option that takes one is skipped)."""
+        known = {s: a for a in self._actions for s in a.option_strings}
+        out: list[str] = []
+        takes_value = False
+        for w in words:
+            if takes_value:
+                takes_value = False
+                continue
+            if w == "--":
+                break
+            if not w.startswith("-") or w == "-" or _NUMBER.fullmatch(w):
+                continue
+            key = w.split("=", 1)[0] if w.startswith("--") else w[:2]
+            action = known.get(key)
+            if action is None and key.startswith("--"):
+                close = [a for s, a in known.items() if s.startswith(key)]
+                action = close[0] if len(close) == 1 else None
+            if action is None:
+                out.append(w)
+            elif action.nargs != 0 and w == key:        # its value is the next word
+                takes_value = True
+        return out
 
     def _elsewhere(self, words: Iterable[str]) -> dict[str, str]:
         """``; --units is an option of mpz encode`` for each of ``words`` that is an option
@@ -297,6 +341,7 @@ class Parser(argparse.ArgumentParser):
         return super().add_subparsers(**kwargs)
 
     def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:
+        self._words = [str(w) for w in (sys.argv[1:] if args is None else args)]
         for action in self._actions:            # each subcommand knows its siblings
             if isinstance(action, argparse._SubParsersAction):
                 for parser in action.choices.values():
