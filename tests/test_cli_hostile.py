@@ -146,6 +146,26 @@ def test_a_valid_file_on_stdin_followed_by_more_data(small: dict[str, Path],
     assert p.returncode == 2 and b"after the MEND chunk" in p.stdout
 
 
+def test_a_bad_chunk_type_on_stdin_is_said_as_for_the_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The signature then a chunk type that is no four ASCII letters: the file was "chunk
+    type b'\\xff...' is not four ASCII letters", the same bytes on standard input
+    "truncated chunk frame: 8 byte(s) left" (the stream reader stopped at the type, before
+    the 12 bytes a frame needs; a QA run of the CLI plumbing)."""
+    import io
+
+    from mpz.tools import mpzinfo
+    data = b"\x89MPZ\r\n\x1a\n" + b"\xff" * 8 + bytes(4096)
+    (tmp_path / "bad.mpz").write_bytes(data)
+    said = []
+    for name in (str(tmp_path / "bad.mpz"), "-"):
+        monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
+        assert mpzinfo.main(["--json", name]) == 2
+        said.append(json.loads(capsys.readouterr().out)["files"][0]["errors"][0]["message"])
+    assert said[0] == said[1] and "is not four ASCII letters" in said[1], said
+
+
 # -- 3. memory pressure -------------------------------------------------------------------------
 
 #: the child: imports first, then caps its address space a little above what it uses,
