@@ -154,6 +154,31 @@ def test_dangling_symlink_is_refused_without_force(small: tuple[Path, Path],
     assert hidden(tmp_path) == []
 
 
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="no /proc/self/fd here")
+def test_a_name_of_an_open_descriptor_is_refused_even_with_force(small: tuple[Path, Path],
+                                                                 tmp_path: Path) -> None:
+    """``mpz encode -f x -o /dev/stdout > out.mpz`` renamed its file over the link (for
+    root: /dev/stdout itself, for every later process) and exited 0, out.mpz empty; into a
+    pipe it said "not a regular file" and not what to write instead (a QA run of the CLI
+    plumbing). A link of the test's own stands in for /dev/stdout, which the old code
+    would have replaced."""
+    trc, enc = small
+    link = tmp_path / "so.mpz"
+    link.symlink_to("/proc/self/fd/1")
+    with open(tmp_path / "out.mpz", "wb") as out:
+        p = subprocess.run([command("mpz"), "encode", "-q", "-f", str(trc), "-o", str(link)],
+                           cwd=tmp_path, stdout=out, stderr=subprocess.PIPE, timeout=300)
+    err = p.stderr.decode()
+    assert p.returncode == 2 and "names an open file descriptor" in err, err
+    assert "write to standard output with -o -" in err
+    assert link.is_symlink() and hidden(tmp_path) == []
+    p = run(["mpz", "decode", "-q", str(enc), "-o", "/dev/stdout", "-F", "csv"], tmp_path)
+    assert p.returncode == 2 and "with -o -" in p.stderr and p.stdout == "", p.stderr
+    with pytest.raises(EncoderError, match="open file descriptor"):
+        mpz.write_atomic(link, b"x")
+    assert link.is_symlink()
+
+
 @pytest.fixture(scope="module")
 def large(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """An .mpz whose TRC output takes a good second to format and write."""

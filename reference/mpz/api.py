@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import errno
 import io
 import os
+import re
 import secrets
 import signal
 import stat
@@ -272,7 +273,8 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         that does not exist; exists, or is a symbolic link to a missing file,
         and ``force`` is false; exists but is not a regular file (the null
         device, :data:`os.devnull`, excepted: :func:`atomic_output`), or is marked
-        immutable or append-only (Linux's ``chattr +i``, ``+a``); or lies in a
+        immutable or append-only (Linux's ``chattr +i``, ``+a``); names an open file
+        descriptor (``/dev/stdout``, ``/dev/fd/3``; even with ``force``); or lies in a
         folder that is not writable.
     TypeError
         For a ``path`` that is not a str or an os.PathLike of str (bytes raised "Can't mix
@@ -299,6 +301,13 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         return
     if is_null_device(target):
         return                          # written and discarded (atomic_output)
+    if _names_a_descriptor(target):
+        # a rename would replace the link (/dev/stdout itself, for root) and not write
+        # through it: `-f -o /dev/stdout > out.mpz` left out.mpz empty and exited 0
+        raise EncoderError(f"{target} names an open file descriptor, which an atomic write "
+                           "(a new file renamed over the name) cannot write through; "
+                           + spelled("write to standard output with -o -",
+                                     "write the bytes to the open file yourself"))
     if os.path.lexists(target):
         # a FIFO, device or socket first: --force would not help, so it is not offered
         if not stat.S_ISREG(os.stat(target).st_mode):
@@ -319,6 +328,25 @@ def check_output(path: str | os.PathLike[str], *, force: bool = False,
         why = ("cannot be entered (no execute permission)"
                if os.access(folder or ".", os.W_OK) else "is not writable")
         raise EncoderError(f"cannot write {target}: {folder or '.'} {why}")
+
+
+#: the folders whose entries are a process's open descriptors (/dev/fd, /dev/stdout lead there)
+_DESCRIPTOR_FOLDER = re.compile(r"/proc/(self|thread-self|\d+)(/task/\d+)?/fd")
+
+
+def _names_a_descriptor(target: str) -> bool:
+    """Whether ``target``, or a symbolic link on its way, is an entry of a process's
+    descriptor folder (``/dev/stdout``, ``/dev/fd/3``, ``/proc/self/fd/1``): a name an
+    atomic write cannot replace without replacing the link itself (a QA run of the CLI
+    plumbing)."""
+    p = os.path.abspath(target)
+    for _ in range(40):
+        if _DESCRIPTOR_FOLDER.fullmatch(os.path.realpath(os.path.dirname(p))):
+            return True
+        if not os.path.islink(p):
+            return False
+        p = os.path.join(os.path.dirname(p), os.readlink(p))
+    return False
 
 
 def _sticky_refuses(folder: str, target: str) -> bool:
