@@ -8,6 +8,7 @@ reader and writer checks that the tools share with the Python API.
 from __future__ import annotations
 
 from collections.abc import Sequence
+import contextlib
 from dataclasses import replace
 import json
 import os
@@ -164,6 +165,35 @@ def test_a_bad_chunk_type_on_stdin_is_said_as_for_the_file(
         assert mpzinfo.main(["--json", name]) == 2
         said.append(json.loads(capsys.readouterr().out)["files"][0]["errors"][0]["message"])
     assert said[0] == said[1] and "is not four ASCII letters" in said[1], said
+
+
+def test_a_non_blocking_stdin_waits_for_a_slow_writer(small: dict[str, Path],
+                                                      tmp_path: Path) -> None:
+    """A pipe set non-blocking by a parent (O_NONBLOCK is shared by every process that
+    holds the pipe) read None while its writer was still at work, which was taken for the
+    end: "cannot tell the format from the content (first bytes b'')", exit 2, for a valid
+    file that came a second later (a QA run of the CLI plumbing)."""
+    import fcntl
+    data = small["mpz"].read_bytes()
+    for args in (["mpzinfo", "-"], ["mpz", "show", "-"]):
+        r, w = os.pipe()
+        fcntl.fcntl(r, fcntl.F_SETFL, fcntl.fcntl(r, fcntl.F_GETFL) | os.O_NONBLOCK)
+        proc = subprocess.Popen([command(args[0]), *args[1:]], stdin=r, cwd=tmp_path,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        os.close(r)
+        try:
+            time.sleep(1.0)                     # the command is reading by now
+            with contextlib.suppress(BrokenPipeError), os.fdopen(w, "wb") as writer:
+                writer.write(data[:20])         # (it had ended: "first bytes b''")
+                writer.flush()
+                time.sleep(0.2)
+                writer.write(data[20:])
+            out, err = proc.communicate(timeout=120)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
+        assert proc.returncode == 0, (args, out[-400:], err[-400:])
 
 
 # -- 3. memory pressure -------------------------------------------------------------------------

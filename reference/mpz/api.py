@@ -96,11 +96,27 @@ def open_regular(path: str | os.PathLike[str]) -> BinaryIO:
         raise
 
 
+def _wait_readable(fh: IO[bytes]) -> None:
+    """Wait until ``fh`` has data or its end. A pipe that a parent set non-blocking
+    (``O_NONBLOCK``, shared by every process that holds it) reads None while its writer is
+    still at work: that was taken for the end of the stream, and a slow producer's file
+    for an empty one ("cannot tell the format from the content (first bytes b'')", exit 2;
+    a QA run of the CLI plumbing)."""
+    import select
+    try:
+        select.select([fh.fileno()], [], [])
+    except (AttributeError, OSError, ValueError):      # no descriptor to wait on
+        time.sleep(0.01)
+
+
 def _read_exact(fh: IO[bytes], n: int) -> bytes:
     """Up to ``n`` bytes (fewer only at the end of the stream)."""
     parts: list[bytes] = []
     while n > 0:
         b = fh.read(min(n, _READ_BLOCK))
+        if b is None:               # a non-blocking stream with nothing to read yet
+            _wait_readable(fh)
+            continue
         if not b:
             break
         if not isinstance(b, (bytes, bytearray)):   # a text stream (QA, stop 33)
