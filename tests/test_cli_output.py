@@ -958,6 +958,33 @@ def test_help_and_data_into_a_standard_output_that_cannot_take_them(
     assert mpz.decode((tmp_path / "out.mpz").read_bytes()).n_frames == 60
 
 
+def test_a_non_blocking_standard_output_waits_for_a_slow_reader(small: tuple[Path, Path],
+                                                                tmp_path: Path) -> None:
+    """A pipe that a parent set non-blocking (O_NONBLOCK is shared by every process that
+    holds it), read slower than mpz writes: the write raised BlockingIOError, and
+    ``mpz decode x -o - -F csv`` ended with 64 KiB of its data, a traceback and exit 120."""
+    import fcntl
+    m = generate("walk", frames=3000, seed=4)
+    (tmp_path / "w.mpz").write_bytes(mpz.encode(m, max_error=1.0))
+    r, w = os.pipe()
+    fcntl.fcntl(w, fcntl.F_SETFL, fcntl.fcntl(w, fcntl.F_GETFL) | os.O_NONBLOCK)
+    proc = subprocess.Popen([command("mpz"), "decode", "-q", "w.mpz", "-o", "-", "-F", "csv"],
+                            cwd=tmp_path, stdout=w, stderr=subprocess.PIPE,
+                            env=_buffered_env())
+    os.close(w)
+    try:
+        time.sleep(2.0)                     # the pipe is full, the command still writing
+        with os.fdopen(r, "rb") as reader:
+            got = reader.read()
+        err = proc.communicate(timeout=120)[1]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0 and err == b"", err[-800:]
+    assert got.count(b"\n") == 3001, len(got)
+
+
 def test_a_closed_standard_error_keeps_the_notes_out_of_standard_output(
         small: tuple[Path, Path], tmp_path: Path) -> None:
     """With standard error closed (``2>&-``), ``print(..., file=sys.stderr)`` printed to

@@ -40,6 +40,7 @@ import contextlib
 import difflib
 import errno
 import functools
+import io
 import json
 import math
 import os
@@ -464,7 +465,6 @@ def standard_streams() -> None:
     marker called "tête", mpzinfo's "→") as ``\\xNN``, as standard error does; it
     raised UnicodeEncodeError: a traceback and exit 70 (a QA run of the CLI plumbing).
     """
-    import io
     _reserve(0, os.O_RDONLY)
     if sys.stdout is None and _reserve(1, os.O_RDONLY):
         sys.stdout = io.TextIOWrapper(io.FileIO(1, "w", closefd=False),
@@ -472,11 +472,60 @@ def standard_streams() -> None:
     if sys.stderr is None and _reserve(2, os.O_WRONLY):
         sys.stderr = io.TextIOWrapper(io.FileIO(2, "w", closefd=False), encoding="utf-8",
                                       errors="backslashreplace", line_buffering=True)
+    for name, fd in (("stdout", 1), ("stderr", 2)):
+        _patient(name, fd)
     out = sys.stdout
     if (isinstance(out, io.TextIOWrapper) and not _is_utf8(out)
             and out.errors in ("strict", "surrogateescape")):
         with contextlib.suppress(Exception):
             out.reconfigure(errors="backslashreplace")
+
+
+class _PatientWriter(io.RawIOBase):
+    """The raw file of a standard stream that a parent set non-blocking (``O_NONBLOCK``,
+    shared by every process that holds the pipe): a write that would block waits until
+    the reader has made room (:func:`_patient`)."""
+
+    def __init__(self, fd: int) -> None:
+        super().__init__()
+        self._fd = fd
+
+    def writable(self) -> bool:
+        return True
+
+    def fileno(self) -> int:
+        return self._fd
+
+    def isatty(self) -> bool:
+        return os.isatty(self._fd)
+
+    def write(self, data: Any) -> int:
+        import select
+        while True:
+            try:
+                return os.write(self._fd, data)
+            except BlockingIOError:
+                select.select([], [self._fd], [])
+
+
+def _patient(name: str, fd: int) -> None:
+    """Give ``sys.<name>`` a raw file that waits (:class:`_PatientWriter`) when ``fd`` is a
+    non-blocking pipe: with a reader slower than mpz writes, a write raised
+    BlockingIOError, and ``mpz encode x -o - | slow`` ended with 64 KiB of its data, a
+    traceback and exit 120 (a QA run of the CLI plumbing)."""
+    stream = getattr(sys, name)
+    if not isinstance(stream, io.TextIOWrapper):
+        return
+    try:
+        if stream.fileno() != fd or os.get_blocking(fd):
+            return
+    except (OSError, ValueError):           # no descriptor (a test's capture)
+        return
+    stream.flush()
+    setattr(sys, name, io.TextIOWrapper(
+        io.BufferedWriter(_PatientWriter(fd)), encoding=stream.encoding,
+        errors=stream.errors, line_buffering=stream.line_buffering,
+        write_through=stream.write_through))
 
 
 def quiet_broken_pipe(main: Callable[_P, int]) -> Callable[_P, int]:
