@@ -2454,6 +2454,25 @@ def test_a_file_whose_worker_dies_is_told_the_memory_limit(corpus, monkeypatch):
         "--memory-limit raises it): "), rep.results[0].reason
 
 
+def _killer_jobs(corpus):
+    """The output folder, three jobs (``killer`` first, then walk and wave) and the options
+    of a run whose preparation of ``killer.trc`` ends its worker process, as the nanny
+    ends a worker over its memory limit (the class is local: sent to the workers by
+    value)."""
+    from mpz.corpus import _Fixed
+
+    class Killer(_Fixed):
+        def prepare(self, source, motion):
+            if Path(source).stem == "killer":
+                os._exit(1)
+            return super().prepare(source, motion)
+
+    src, out, paths = corpus
+    shutil.copy(paths["walk"], src / "killer.trc")
+    return out, [(src / "killer.trc", out / "killer.mpz"), (paths["walk"], out / "walk.mpz"),
+                 (paths["wave"], out / "wave.mpz")], Killer(OPTS)
+
+
 @needs_dask
 def test_a_file_queued_beside_one_that_kills_its_worker_is_not_blamed(corpus):
     """Dask blames a worker's death on every task the worker holds, queued ones too: on a
@@ -2465,22 +2484,11 @@ def test_a_file_queued_beside_one_that_kills_its_worker_is_not_blamed(corpus):
     import dask
     from distributed import Client, LocalCluster
 
-    from mpz.corpus import _Fixed
-
-    class Killer(_Fixed):
-        def prepare(self, source, motion):
-            if Path(source).stem == "killer":
-                os._exit(1)                  # as the nanny ends a worker over its limit
-            return super().prepare(source, motion)
-
-    src, out, paths = corpus
-    shutil.copy(paths["walk"], src / "killer.trc")
-    jobs = [(src / "killer.trc", out / "killer.mpz"), (paths["walk"], out / "walk.mpz"),
-            (paths["wave"], out / "wave.mpz")]
+    out, jobs, killer = _killer_jobs(corpus)
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
             LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                          dashboard_address=None) as cluster, Client(cluster) as client:
-        rep = encode_corpus(jobs, out, Killer(OPTS), client=client, levels=LEVELS)
+        rep = encode_corpus(jobs, out, killer, client=client, levels=LEVELS)
     got = {Path(r.source).stem: (r.status, r.reason) for r in rep.results}
     assert got["walk"] == ("encoded", "") and got["wave"] == ("encoded", ""), got
     assert got["killer"][0] == "failed"
@@ -2499,23 +2507,12 @@ def test_a_local_worker_that_dies_again_and_again_keeps_its_nanny(corpus, monkey
     import dask
 
     import mpz.corpus as corpus_mod
-    from mpz.corpus import _Fixed
-
-    class Killer(_Fixed):
-        def prepare(self, source, motion):
-            if Path(source).stem == "killer":
-                os._exit(1)                  # as the nanny ends a worker over its limit
-            return super().prepare(source, motion)
-
     monkeypatch.setattr(corpus_mod, "WATCH_SECONDS", 0.5)
     monkeypatch.setattr(corpus_mod, "NO_WORKER_SECONDS", 4.0)
-    src, out, paths = corpus
-    shutil.copy(paths["walk"], src / "killer.trc")
-    jobs = [(src / "killer.trc", out / "killer.mpz"), (paths["walk"], out / "walk.mpz"),
-            (paths["wave"], out / "wave.mpz")]
+    out, jobs, killer = _killer_jobs(corpus)
     with dask.config.set({"distributed.scheduler.allowed-failures": 0,
                           "distributed.deploy.lost-worker-timeout": "0.1s"}):
-        rep = encode_corpus(jobs, out, Killer(OPTS), workers=1, levels=LEVELS)
+        rep = encode_corpus(jobs, out, killer, workers=1, levels=LEVELS)
     assert statuses(rep) == {"killer": "failed", "walk": "encoded", "wave": "encoded"}
 
 
