@@ -1784,3 +1784,12 @@ def test_a_csv_frame_number_of_other_digits_is_no_frame_number(frame):
     assert "csv.FirstFrame" not in m.metadata
     assert f"(row 2 has frame {frame!r})" in m.metadata["warning"]
 
+
+
+def test_an_asf_bone_name_with_a_nul_is_refused_as_a_bvh_joint_name_is(one_bone_asf):
+    """Spec §4.14.1: a name holds no U+0000. The BVH reader refused one; the ASF reader
+    took it, and only the encoder refused it (a hostile-input QA run of stop 64)."""
+    text = one_bone_asf().replace("name b1", "name b\x001").replace("root b1", "root b\x001")
+    with pytest.raises(InputFormatError, match=r"bone name 'b\\x001' holds a NUL character"):
+        parse_asf(text)
+    assert parse_asf(one_bone_asf()).joints[1].name == "b1"

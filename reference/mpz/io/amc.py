@@ -275,6 +275,9 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     names = [b.name for b in raw]
     if len(set(names)) != len(names) or "root" in names:
         raise _bad("bone names must be unique and not 'root'")
+    nul = next((n for n in names if "\x00" in n), None)
+    if nul is not None:            # spec §4.14.1: a name holds no U+0000, as the BVH reader
+        raise _bad(f"bone name {nul!r} holds a NUL character")     # says (a QA run, stop 64)
     parent: dict[str, str] = {}
     for ln in sec["hierarchy"]:
         parts = _spaced(ln).split()
