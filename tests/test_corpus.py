@@ -3001,3 +3001,17 @@ def test_a_row_the_disk_had_no_room_for_is_said_and_indexed_by_the_next_run(corp
     again = run_corpus(src, out)
     assert statuses(again)["wave"] == "kept"
     assert all(statuses(again)[stem] != "encoded" for stem in written)
+
+
+def test_the_progress_counts_the_files_refused_before_planning(corpus):
+    """The progress bar left out the files refused before planning (an output name two
+    inputs share, a name that is not UTF-8), which the table counts: it ended at 4 of 4
+    where the table said 5 files (a corpus QA run of stop 63)."""
+    src, out, paths = corpus
+    calls: list[tuple[int, int]] = []
+    clash = (str(src / "other" / "walk.trc"), str(out / "walk.mpz"), "the output of walk.trc")
+    rep = run_corpus(src, out, failed=[clash],
+                     progress=lambda done, total, r: calls.append((done, total)))
+    n = len(rep.results)
+    assert n == len(paths) + 1
+    assert calls[-1] == (n, n) and [d for d, _ in calls] == list(range(1, n + 1)), calls
