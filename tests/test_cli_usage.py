@@ -1456,3 +1456,13 @@ def test_two_formats_of_one_take_in_one_folder_are_told_the_way_out(tmp_path: Pa
              "--jobs", "0", "-q"], tmp_path)
     assert p.returncode == 2 and b"also the output of" in p.stderr, p.stderr
     assert b"encode it alone with -o NAME.mpz, or rename one of the two" in p.stderr
+
+
+@pytest.mark.parametrize("cmd", ["show", "summary"])
+def test_a_folder_given_for_a_file_is_said_alike(tmp_path, cmd):
+    """mpz summary said "not a regular file" of a folder, where mpz show and the API say
+    "is a folder, not a file" (a QA run of the CLI plumbing, stop 64; mpzinfo says it in
+    its own verdict line)."""
+    (tmp_path / "takes").mkdir()
+    p = run(["mpz", cmd, "takes"], tmp_path)
+    assert p.returncode == 2 and b"takes: is a folder, not a file" in p.stderr, p.stderr

@@ -562,7 +562,9 @@ def run(args) -> int:
         args.stdin_data, args.stdin_format = read_stdin()
     try:
         if args.file != "-" and not path.is_file():
-            what = "no such file" if not path.exists() else "not a regular file"
+            # a folder said as every other command says it (a QA run of the CLI plumbing)
+            what = ("no such file" if not path.exists() else "is a folder, not a file"
+                    if path.is_dir() else "not a regular file")
             raise _Fail(f"{printable(args.file)}: {what}")
         fmt = args.stdin_format if args.file == "-" else path.suffix.lower()
         _check_applies(args, fmt)
