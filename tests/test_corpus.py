@@ -2750,6 +2750,18 @@ def test_a_scheduler_that_stops_answering_fails_the_run_within_a_deadline(monkey
     assert Frozen.calls == 2 and not Frozen.cancelled
 
 
+def _refused_as_damaged(path: Path, data: bytearray, src: Path, out: Path,
+                        said: str) -> None:
+    """Write the damaged index bytes ``data`` to ``path``: opening it says ``said`` (a
+    regular expression), a corpus run refuses it as damaged, and neither writes into it."""
+    path.write_bytes(bytes(data))
+    with pytest.raises(EncoderError, match=said):
+        open_index(out)
+    with pytest.raises(EncoderError, match="damaged MPZ corpus index"):
+        run_corpus(src, out)
+    assert path.read_bytes() == bytes(data)
+
+
 def test_an_index_with_a_damaged_page_is_refused_before_use(corpus):
     """A page of the files table damaged inside the index (its header intact) passed the
     checks of the opening: search ranked from it and a run wrote its rows into it (a
@@ -2765,13 +2777,8 @@ def test_an_index_with_a_damaged_page_is_refused_before_use(corpus):
     db.close()
     data = bytearray(path.read_bytes())
     data[(root - 1) * page + 8] ^= 0xFF                   # the first cell's offset
-    path.write_bytes(bytes(data))
-    with pytest.raises(EncoderError, match=r"damaged MPZ corpus index \(SQLite's quick_check: "
-                                           r"On tree page \d+ .*remove it"):
-        open_index(out)
-    with pytest.raises(EncoderError, match="damaged MPZ corpus index"):
-        run_corpus(src, out)
-    assert path.read_bytes() == bytes(data)               # not written into
+    _refused_as_damaged(path, data, src, out, r"damaged MPZ corpus index \(SQLite's "
+                                              r"quick_check: On tree page \d+ .*remove it")
 
 
 def test_an_index_whose_schema_text_is_damaged_is_a_clean_error(corpus, capsys):
@@ -2789,12 +2796,9 @@ def test_an_index_whose_schema_text_is_damaged_is_a_clean_error(corpus, capsys):
     at = data.find(b"CREATE TABLE failures")
     assert at > 0
     data[at + 4] = 0xAB                             # CREATE -> CREA\xabE
-    path.write_bytes(bytes(data))
-    with pytest.raises(EncoderError, match=r"damaged MPZ corpus index \(malformed database "
-                                           r"schema \(failures\).*CREA\\xabE.*remove it"):
-        open_index(out)
-    with pytest.raises(EncoderError, match="damaged MPZ corpus index"):
-        run_corpus(src, out)
+    _refused_as_damaged(path, data, src, out,
+                        r"damaged MPZ corpus index \(malformed database schema "
+                        r"\(failures\).*CREA\\xabE.*remove it")
     code = mpz_cli.main(["search", str(paths["walk"]), "--index", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and "damaged MPZ corpus index" in err and "Traceback" not in err, err

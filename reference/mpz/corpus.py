@@ -2139,19 +2139,12 @@ def _mpz_versions(client: Client) -> dict[str, str] | None:
         except Exception as exc:
             return f"none: it cannot import mpz ({type(exc).__name__}: {exc})"
 
-    box: dict[str, Any] = {}
-
-    def ask() -> None:
-        with contextlib.suppress(Exception):
-            box["versions"] = client.run(version, on_error="return")
-
-    thread = threading.Thread(target=ask, name="mpz-dask-versions", daemon=True)
-    thread.start()
-    thread.join(SCHEDULER_SECONDS)
-    got = box.get("versions")
-    return None if got is None else {
-        a: v if isinstance(v, str) else f"none: {type(v).__name__}: {v}"
-        for a, v in got.items()}
+    try:                        # bounded as _nthreads is
+        got = client.run(version, on_error="return", callback_timeout=SCHEDULER_SECONDS)
+    except Exception:           # silent or gone: the run's own watch says what is wrong
+        return None
+    return {a: v if isinstance(v, str) else f"none: {type(v).__name__}: {v}"
+            for a, v in got.items()}
 
 
 def _same_mpz(client: Client, scheduler: str) -> None:

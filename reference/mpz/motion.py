@@ -454,7 +454,7 @@ def _where(a: object, b: object) -> str:
         return ""
     for f in dataclasses.fields(a):
         x, y = getattr(a, f.name), getattr(b, f.name)
-        if not np.array_equal(x, y) if isinstance(x, np.ndarray) else x != y:
+        if x != y:
             return f" at {f.name!r}: {x!r:.60} vs {y!r:.60}"
     return ""
 

@@ -9,6 +9,7 @@ reason. Only the file-touching wrappers use it; parsers take ``str``/``bytes``.
 """
 from __future__ import annotations
 
+import codecs
 from collections.abc import Callable, Iterable
 import csv
 import functools
@@ -327,8 +328,8 @@ def decode_text(data: bytes) -> str:
     each reader said its first line was not one ("got 'ÿþP\x00a\x00t\x00...'", a
     hostile-input QA run).
     """
-    for bom, name in ((b"\xff\xfe\x00\x00", "UTF-32"), (b"\x00\x00\xfe\xff", "UTF-32"),
-                      (b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16")):
+    for bom, name in ((codecs.BOM_UTF32_LE, "UTF-32"), (codecs.BOM_UTF32_BE, "UTF-32"),
+                      (codecs.BOM_UTF16_LE, "UTF-16"), (codecs.BOM_UTF16_BE, "UTF-16")):
         if data.startswith(bom):
             raise InputFormatError(f"the text is {name} (it starts with a {name} byte order "
                                    "mark): save it as UTF-8 (or ASCII) to read it")

@@ -524,8 +524,6 @@ def _check_frame(seen: dict[int, None], needed: list[int], skel: Skeleton, frame
     file cut short, and "frame ending at line 93" named the next frame's line: an archive
     QA run). ``needed``: the joints that need one (the root, the bones with dofs), looked
     for in ``seen``, the joints of the frame's lines."""
-    if len(seen) >= len(needed) and all(i in seen for i in needed):
-        return
     missing = [skel.joints[i].name for i in needed if i not in seen]
     if missing:
         shown = ", ".join(missing[:8]) + (f" and {len(missing) - 8} more" if len(missing) > 8
