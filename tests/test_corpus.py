@@ -2572,6 +2572,57 @@ def test_a_scheduler_whose_workers_run_another_mpz_is_refused(corpus, monkeypatc
                              "wave": "encoded"}
 
 
+@needs_dask
+def test_a_worker_that_joins_later_with_another_mpz_stops_the_run(corpus, monkeypatch):
+    """The version check ran as the run connected; a worker that joined a --scheduler
+    cluster later encoded with its own mpz's encode_file, sent by name, and wrote its
+    share without a word. The task now carries its own check. Here the check at connect
+    is skipped (the worker "joins later") and the driver claims another version."""
+    from distributed import LocalCluster
+
+    import mpz.corpus as corpus_mod
+    src, out, _ = corpus
+    real = mpz.__version__
+    monkeypatch.setattr(corpus_mod, "_same_mpz", lambda client, scheduler: None)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        monkeypatch.setattr(mpz, "__version__", "9.9.9")
+        with pytest.raises(EncoderError, match=re.escape(
+                "the Dask workers that join the run must run the mpz of this command "
+                f"(9.9.9), with the corpus extra: {cluster.workers[0].worker_address} "
+                f"runs mpz {real}. Install mpz 9.9.9")):
+            run_corpus(src, out, scheduler=cluster.scheduler_address)
+        assert not list(out.rglob("*.mpz"))
+        monkeypatch.setattr(mpz, "__version__", real)
+        rep = run_corpus(src, out, scheduler=cluster.scheduler_address)
+    assert statuses(rep) == {"bad": "failed", "jump": "encoded", "walk": "encoded",
+                             "wave": "encoded"}
+
+
+@needs_dask
+def test_the_task_checks_the_workers_mpz_where_mpz_cannot_be_imported(tmp_path):
+    """The task goes to the worker by value, with its file as bytes: a worker without
+    mpz (here a Python whose ``import mpz`` fails) runs the check and says why, where
+    the task sent by name died as it was loaded."""
+    import cloudpickle
+
+    from mpz.corpus import _version_checked
+    blob = tmp_path / "task.pkl"
+    blob.write_bytes(cloudpickle.dumps(_version_checked("1.2.3")))
+    code = ("import pickle, sys\n"
+            "sys.modules['mpz'] = None\n"
+            f"task = pickle.loads(open({str(blob)!r}, 'rb').read())\n"
+            "try:\n"
+            "    task(b'')\n"
+            "except RuntimeError as exc:\n"
+            "    print(exc)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert proc.stdout.strip() == ("mpz corpus task on another mpz|a worker|none: it cannot "
+                                   "import mpz (ModuleNotFoundError: import of mpz halted; "
+                                   "None in sys.modules)"), proc.stdout + proc.stderr
+
+
 @pytest.mark.parametrize("option, limit, note", [
     ([], "DEFAULT", False),
     (["--memory-limit", "700MB"], "700MB", False),

@@ -2152,19 +2152,58 @@ def _same_mpz(client: Client, scheduler: str) -> None:
     none. The workers encode with their own mpz: one of another version wrote the archive
     with no word (its rows' ``mpz_version`` alone said it), and a worker without mpz died
     on its first task, after which the run waited 60 s and blamed the memory limit (a QA
-    run of external clusters). Workers that join later are not checked."""
+    run of external clusters). A worker that joins later is stopped by the task's own
+    check (:func:`_version_checked`)."""
     import mpz
     mine = mpz.__version__
-    versions = _mpz_versions(client)
-    other = {a: v for a, v in (versions or {}).items() if v != mine}
-    if not other:
-        return
+    other = {a: v for a, v in (_mpz_versions(client) or {}).items() if v != mine}
+    if other:
+        raise _other_mpz(f"the Dask workers at {scheduler}", mine, other)
+
+
+def _other_mpz(who: str, mine: str, other: Mapping[str, str]) -> EncoderError:
+    """The error of a run whose workers ``other`` (address -> their mpz version, or
+    ``none: why``) do not run this process's mpz ``mine``."""
     said = "; ".join(f"{a} {'has ' + v if v.startswith('none') else 'runs mpz ' + v}"
                      for a, v in sorted(other.items()))
-    raise EncoderError(f"the Dask workers at {scheduler} must run the mpz of this command "
-                       f"({mine}), with the corpus extra: {said}. Install mpz {mine} where "
-                       f"they run (pip install 'mpz[corpus]=={mine}', or the same checkout) "
-                       "and start them again")
+    return EncoderError(f"{who} must run the mpz of this command ({mine}), with the corpus "
+                        f"extra: {said}. Install mpz {mine} where they run (pip install "
+                        f"'mpz[corpus]=={mine}', or the same checkout) and start them again")
+
+
+#: the first words of the error a task raises on a worker whose mpz is not the driver's
+#: (:func:`_version_checked`); the rest is ``address|version`` (or ``none: why``)
+OTHER_MPZ = "mpz corpus task on another mpz|"
+
+
+def _version_checked(version: str) -> Callable[[bytes], FileResult]:
+    """A task that runs :func:`encode_file` on a (cloud)pickled :class:`Task` where the worker's
+    mpz is ``version``, and raises RuntimeError(:data:`OTHER_MPZ` ...) before reading
+    anything where it is not or cannot be imported.
+
+    ``_same_mpz`` asks the workers there as the run connects; a worker that joined a
+    ``--scheduler`` cluster later ran its own mpz's ``encode_file``, which is sent by name:
+    one of another version wrote its share without a word. This function is nested, so
+    Dask (cloudpickle) sends it by value, and its argument is bytes, so that a worker of
+    any mpz, or none, can load the task and run the check."""
+    def task(payload: bytes) -> FileResult:
+        try:
+            import mpz as worker_mpz
+            have = str(worker_mpz.__version__)
+        except Exception as exc:
+            have = f"none: it cannot import mpz ({type(exc).__name__}: {exc})"
+        if have != version:
+            try:
+                from distributed import get_worker
+                where = str(get_worker().address)
+            except Exception:
+                where = "a worker"
+            raise RuntimeError(f"{OTHER_MPZ}{where}|{have}")
+        import pickle
+
+        from mpz.corpus import encode_file as run
+        return run(pickle.loads(payload))
+    return task
 
 
 @contextlib.contextmanager
@@ -2735,18 +2774,23 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     suspects: list[int] = []    # got KilledWorker beside other tasks: to run alone
     alone: set[int] = set()     # run alone after a KilledWorker
 
+    import cloudpickle  # Dask's: a task's FileOptions may be a lambda
+
+    import mpz
+    encode = _version_checked(mpz.__version__)
+
     def submit() -> None:
         while len(inflight) < window:
             i = next(pending, None)
             if i is None:
                 break
-            fut = client.submit(encode_file, _absolute(tasks[i]), pure=False,
+            fut = client.submit(encode, cloudpickle.dumps(_absolute(tasks[i])), pure=False,
                                 key=f"mpz-encode-{i}-{os.urandom(4).hex()}")
             inflight[fut] = i
         if not inflight and suspects:        # the rest done: one suspect at a time, alone
             i = suspects.pop(0)
             alone.add(i)
-            fut = client.submit(encode_file, _absolute(tasks[i]), pure=False,
+            fut = client.submit(encode, cloudpickle.dumps(_absolute(tasks[i])), pure=False,
                                 key=f"mpz-encode-{i}-alone-{os.urandom(4).hex()}")
             inflight[fut] = i
 
@@ -2794,6 +2838,11 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                 except CancelledError as exc:
                     raise _lost(exc) from None
                 except Exception as exc:
+                    if str(exc).startswith(OTHER_MPZ):    # a worker that joined later
+                        import mpz
+                        where, _, have = str(exc)[len(OTHER_MPZ):].partition("|")
+                        raise _other_mpz("the Dask workers that join the run", mpz.__version__,
+                                         {where: have}) from None
                     if not _killed(exc):
                         raise        # a bug in the task: stop the run, keep what finished
                     if i not in alone:
