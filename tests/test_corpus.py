@@ -2431,6 +2431,9 @@ def test_a_file_whose_worker_dies_is_told_the_memory_limit(corpus, monkeypatch):
             from types import SimpleNamespace
             raise distributed.KilledWorker("task", SimpleNamespace(address="tcp://w:1"), 3)
 
+        def release(self):
+            pass
+
     class OneWorker:
         def nthreads(self, **kwargs):
             return {"tcp://127.0.0.1:1": 1}
@@ -2597,6 +2600,32 @@ def test_a_worker_that_joins_later_with_another_mpz_stops_the_run(corpus, monkey
         rep = run_corpus(src, out, scheduler=cluster.scheduler_address)
     assert statuses(rep) == {"bad": "failed", "jump": "encoded", "walk": "encoded",
                              "wave": "encoded"}
+
+
+@needs_dask
+def test_a_finished_file_is_let_go_before_its_row_is_written(corpus):
+    """The run held each finished file's future while it wrote its row and through the
+    next wait, so a worker that died then, holding the result, made Dask encode the file
+    again (a QA run of stop 64: wasted work on a cluster losing workers). At the last
+    file's progress call, the scheduler holds no encode task any more."""
+    from distributed import Client, LocalCluster
+    src, out, _ = corpus
+    held: list[list[str]] = []
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        def keys() -> list[str]:          # asked on the scheduler's own loop
+            return client.run_on_scheduler(lambda dask_scheduler: [
+                str(k) for k in dask_scheduler.tasks if "mpz-encode" in str(k)])
+
+        def progress(done, total, r):
+            if done == total:
+                deadline = time.monotonic() + 5
+                while keys() and time.monotonic() < deadline:
+                    time.sleep(0.05)
+                held.append(keys())
+        encode_corpus(mirror_jobs(src, out), out, OPTS, levels=LEVELS, client=client,
+                      progress=progress)
+    assert held == [[]]
 
 
 @needs_dask
@@ -2915,6 +2944,9 @@ def test_a_scheduler_silent_after_the_last_file_does_not_fail_the_run(monkeypatc
     class Done:
         def result(self, timeout=None):
             return corpus.FileResult("a.trc", "a.mpz", "encoded")
+
+        def release(self):
+            pass
 
     class SilentAtTheEnd:
         calls = 0

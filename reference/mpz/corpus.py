@@ -2831,6 +2831,10 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                     # waited for it for ever once the last worker was gone (a QA run of
                     # stop 47, --scheduler): it waits a while, and the watch runs
                     r = fut.result(timeout=WATCH_SECONDS)
+                    # taken: the future is let go at once, or a worker that died holding
+                    # the result while this loop still held the future (during the next
+                    # wait) ran the file again (a QA run of stop 64)
+                    fut.release()
                 except TimeoutError:
                     inflight[fut] = i
                     watch()
@@ -2838,6 +2842,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                 except CancelledError as exc:
                     raise _lost(exc) from None
                 except Exception as exc:
+                    fut.release()
                     if str(exc).startswith(OTHER_MPZ):    # a worker that joined later
                         import mpz
                         where, _, have = str(exc)[len(OTHER_MPZ):].partition("|")
