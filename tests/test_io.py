@@ -1698,8 +1698,14 @@ def test_a_bvh_joint_with_two_offsets_is_refused(two_joint_bvh, old, said):
     from mpz.io.bvh import parse_bvh
     text = two_joint_bvh.replace(old, old + old.replace("10", "99"), 1)
     assert text.count("OFFSET") == 4
-    with pytest.raises(InputFormatError, match=re.escape(f"BVH: {said}")):
+    second = _line_holding(text, "99")
+    with pytest.raises(InputFormatError, match=re.escape(f"BVH: line {second}: {said}")):
         parse_bvh(text)
+
+
+def _line_holding(text: str, word: str, nth: int = 1) -> int:
+    """The line number (from 1) of the ``nth`` line of ``text`` that holds ``word``."""
+    return [i for i, ln in enumerate(text.split("\n"), 1) if word in ln][nth - 1]
 
 
 @pytest.mark.parametrize("brk", ["\x85", "\x0b", "\x0c", "\x1c", "\u2028"])
@@ -1793,3 +1799,56 @@ def test_an_asf_bone_name_with_a_nul_is_refused_as_a_bvh_joint_name_is(one_bone_
     with pytest.raises(InputFormatError, match=r"bone name 'b\\x001' holds a NUL character"):
         parse_asf(text)
     assert parse_asf(one_bone_asf()).joints[1].name == "b1"
+
+
+@pytest.mark.parametrize("block, what", [
+    ("ROOT Hips", "joint 'Hips'"), ("JOINT Spine", "joint 'Spine'"),
+    ("End Site", "the End Site of 'Spine'"),
+])
+def test_a_bvh_block_without_an_offset_is_refused_naming_its_lines(two_joint_bvh, block,
+                                                                    what):
+    """A block without an OFFSET line was read as OFFSET 0 0 0 without a word: the joint
+    drawn at its parent's place, and written back with a line the file did not have. Every
+    BVH description has the line in every ROOT, JOINT and End Site block; it is refused,
+    naming the line of the '}' that closes the block and the line that opens it."""
+    from mpz.io.bvh import parse_bvh
+    lines = two_joint_bvh.split("\n")
+    at = next(i for i, ln in enumerate(lines) if ln.strip() == block)
+    assert lines[at + 1].strip() == "{" and lines[at + 2].strip().startswith("OFFSET")
+    del lines[at + 2]
+    # the '}' that closes the block: the first line after it that is '}' at its indent
+    indent = lines[at][:len(lines[at]) - len(lines[at].lstrip())]
+    end = next(i for i, ln in enumerate(lines[at + 1:], at + 2) if ln == indent + "}")
+    with pytest.raises(InputFormatError, match=re.escape(
+            f"BVH: line {end}: {what} (from line {at + 1}) has no OFFSET line")):
+        parse_bvh("\n".join(lines))
+
+
+@pytest.mark.parametrize("old, new, said", [
+    # "End Sight" was read as an End Site; "End" alone took the '{' after it for "Site"
+    ("End Site", "End Sight", "End followed by 'Sight', not 'Site'"),
+    ("End Site", "End", "End followed by '{', not 'Site'"),
+    # '{' was taken for the joint's name, and the refusal was of two OFFSET lines of 'Hips'
+    ("JOINT Spine", "JOINT", "JOINT without a name (followed by '{')"),
+    # "unexpected token 'Yrotation' in HIERARCHY", and "bad CHANNELS ... [..., 'End']"
+    ("CHANNELS 3 Zrotation", "CHANNELS 2 Zrotation",
+     "CHANNELS of joint 'Spine' says 2 but names 3: Zrotation Xrotation Yrotation"),
+    ("CHANNELS 3 Zrotation", "CHANNELS 4 Zrotation",
+     "CHANNELS of joint 'Spine' says 4 but names 3: Zrotation Xrotation Yrotation"),
+    # "'CHANNELS' is not a number", and "unexpected token '7'"
+    ("OFFSET 0 10 0\n    CHANNELS", "OFFSET 0 10\n    CHANNELS",
+     "OFFSET of joint 'Spine' has 2 numbers, not 3"),
+    ("OFFSET 0 10 0\n    CHANNELS", "OFFSET 0 10 0 7\n    CHANNELS",
+     "OFFSET of joint 'Spine' has more than 3 numbers, not 3"),
+])
+def test_a_bvh_hierarchy_refusal_says_what_and_where(two_joint_bvh, old, new, said):
+    """A QA run of the text readers: the hierarchy's refusals named no line, and these said
+    something else than what is wrong (or, "End Sight", nothing). Each names the line of
+    the word that starts what it refuses."""
+    from mpz.io.bvh import parse_bvh
+    assert two_joint_bvh.count(old) == 1
+    text = two_joint_bvh.replace(old, new)
+    line = _line_holding(text, new.split("\n")[0])
+    with pytest.raises(InputFormatError, match=re.escape(f"BVH: line {line}: {said}")):
+        parse_bvh(text)
+

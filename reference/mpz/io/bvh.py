@@ -17,7 +17,7 @@ centimetre-like, see docs/io-notes.md).
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 import math
 import os
 import re
@@ -45,17 +45,21 @@ from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
 from mpz.motion import Motion
 
 _CODES = {name.upper(): int(kind) for kind, name in BVH_CHANNELS.items()}
+#: the words that open or close a part of a hierarchy (a CHANNELS line that names fewer
+#: channels than its count runs into one of them)
+_STRUCTURE = frozenset({"{", "}", "ROOT", "JOINT", "END", "OFFSET", "CHANNELS", "MOTION"})
 MAX_JOINTS = 10000  # sanity bound on the hierarchy size
 MAX_CHANNELS_PER_JOINT = 6 * 4  # generous: a joint rarely has more than 6
 
 
 class _Joint:
-    """A ROOT, JOINT or End Site while parsing: parent index (-1 for a root), channels."""
+    """A ROOT, JOINT or End Site while parsing: parent index (-1 for a root), channels, and
+    ``at``, the index of the word that opens it (the line a message names)."""
 
-    __slots__ = ("name", "parent", "offset", "channels", "end")
+    __slots__ = ("name", "parent", "offset", "channels", "end", "at")
 
-    def __init__(self, name: str, parent: int, end: bool = False) -> None:
-        self.name, self.parent, self.end = name, parent, end
+    def __init__(self, name: str, parent: int, end: bool = False, at: int = 0) -> None:
+        self.name, self.parent, self.end, self.at = name, parent, end, at
         self.offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self.channels: list[int] = []
 
@@ -68,20 +72,36 @@ def _bad(msg: str) -> InputFormatError:
     return InputFormatError(f"BVH: {msg}")
 
 
+def _numeric(words: list[str]) -> bool:
+    """Whether ``words`` is one word that reads as a number (:func:`~mpz.io._common.number`)."""
+    try:
+        return len(words) == 1 and math.isfinite(number(words[0]))
+    except InputFormatError:
+        return False
+
+
 def _what(joints: list[_Joint], i: int) -> str:
     """Joint ``i`` in a message: ``joint 'Chest'`` or ``the End Site of 'Chest'``."""
     j = joints[i]
     return f"the End Site of {joints[j.parent].name!r}" if j.end else f"joint {j.name!r}"
 
 
-def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, int]:
-    """Parse from after 'HIERARCHY' to 'MOTION'. Returns (joints, n_channels, pos)."""
+def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
+                     ) -> tuple[list[_Joint], int, int]:
+    """Parse from after 'HIERARCHY' to 'MOTION'. Returns (joints, n_channels, pos).
+    ``line_of(i)``: the line of word ``i`` (or of the last word, past the end); a refusal
+    names the line of the word that starts what it refuses."""
     joints: list[_Joint] = []
     stack: list[int] = []
     pending: _Joint | None = None
     n_channels = 0
     with_channels: set[int] = set()
     with_offset: set[int] = set()
+    # a refusal names the line of the word that starts what it refuses (they named none:
+    # a QA run of the text readers); ``pos`` is that word's index when ``bad`` is called
+    def bad(msg: str) -> InputFormatError:
+        return _bad(f"line {line_of(pos)}: {msg}")
+
     while pos < len(tokens):
         t = tokens[pos]
         up = t.upper()
@@ -89,78 +109,114 @@ def _parse_hierarchy(tokens: list[str], pos: int) -> tuple[list[_Joint], int, in
             break
         if up in ("ROOT", "JOINT"):
             if up == "JOINT" and not stack:
-                raise _bad("JOINT outside of a ROOT block")
+                raise bad("JOINT outside of a ROOT block")
             if stack and joints[stack[-1]].end:     # spec §4.14.1: an End Site has no
-                raise _bad(f"{t} inside the End Site of "    # children (a QA run: exit 70)
+                raise bad(f"{t} inside the End Site of "    # children (a QA run: exit 70)
                            f"{joints[joints[stack[-1]].parent].name!r}")
             if pos + 1 >= len(tokens):
-                raise _bad(f"{t} without a name")
+                raise bad(f"{t} without a name")
+            if tokens[pos + 1] in ("{", "}"):     # "JOINT\n{": '{' was taken for its
+                raise bad(f"{t} without a name (followed by {tokens[pos + 1]!r})")  # name
             if "\x00" in tokens[pos + 1]:         # spec §4.14.1: a name holds no U+0000
-                raise _bad(f"{t} name {tokens[pos + 1]!r} holds a NUL character")
-            pending = _Joint(tokens[pos + 1], stack[-1] if stack else -1)
+                raise bad(f"{t} name {tokens[pos + 1]!r} holds a NUL character")
+            pending = _Joint(tokens[pos + 1], stack[-1] if stack else -1, at=pos)
             pos += 2
         elif up == "END":
             if not stack:
-                raise _bad("End Site outside of a joint")
+                raise bad("End Site outside of a joint")
             if joints[stack[-1]].end:
-                raise _bad(f"End Site inside the End Site of "
+                raise bad(f"End Site inside the End Site of "
                            f"{joints[joints[stack[-1]].parent].name!r}")
-            # "End Site": named after its parent
-            pending = _Joint(f"{joints[stack[-1]].name}_End", stack[-1], end=True)
+            # "End Site", and no other word after End: "End Sight" was read as one, and
+            # "End" alone took the next word ('{') with it (a QA run of the text readers)
+            after = tokens[pos + 1] if pos + 1 < len(tokens) else ""
+            if after.upper() != "SITE":
+                raise bad(f"{t} followed by {after!r}, not 'Site' ('End Site' opens an "
+                           f"End Site)" if after else f"{t} without 'Site'")
+            # named after its parent
+            pending = _Joint(f"{joints[stack[-1]].name}_End", stack[-1], end=True, at=pos)
             pos += 2
         elif t == "{":
             if pending is None:
-                raise _bad("'{' without ROOT/JOINT/End Site")
+                raise bad("'{' without ROOT/JOINT/End Site")
             if len(joints) >= MAX_JOINTS:
-                raise _bad(f"more than {MAX_JOINTS} joints")
+                raise bad(f"more than {MAX_JOINTS} joints")
             joints.append(pending)
             stack.append(len(joints) - 1)
             pending = None
             pos += 1
         elif t == "}":
             if not stack:
-                raise _bad("unbalanced '}'")
-            stack.pop()
+                raise bad("unbalanced '}'")
+            shut = stack.pop()
+            if shut not in with_offset:
+                # read as 0 0 0 without a word: the joint drawn at its parent's place;
+                # every BVH description has the line, and no exporter leaves it out
+                raise bad(f"{_what(joints, shut)} (from line {line_of(joints[shut].at)})"
+                           " has no OFFSET line: every ROOT, JOINT and End Site needs one"
+                           " (it is not taken as 0 0 0)")
             pos += 1
         elif up == "OFFSET":
             if not stack:
-                raise _bad("OFFSET outside of a joint")
+                raise bad("OFFSET outside of a joint")
+            # "OFFSET 0 10" said "'CHANNELS' is not a number", "OFFSET 0 1 0 7"
+            # "unexpected token '7'" (a QA run of the text readers)
+            given = 0
+            while given < 4 and _numeric(tokens[pos + 1 + given:pos + 2 + given]):
+                given += 1
+            stop = tokens[pos + 1 + given:pos + 2 + given]
+            if given > 3 or (given < 3 and (not stop or stop[0].upper() in _STRUCTURE)):
+                raise bad(f"OFFSET of {_what(joints, stack[-1])} has "
+                           f"{'more than 3' if given > 3 else given} "
+                           f"number{'' if given == 1 else 's'}, not 3")
             try:
                 off = [number(x) for x in tokens[pos + 1:pos + 4]]
             except InputFormatError as exc:
-                raise _bad(f"OFFSET of {joints[stack[-1]].name!r}: {exc.message}") from None
-            if len(off) != 3:
-                raise _bad("OFFSET needs 3 numbers")
+                raise bad(f"OFFSET of {joints[stack[-1]].name!r}: {exc.message}") from None
             if stack[-1] in with_offset:     # the second replaced the first, without a word
-                raise _bad(f"{_what(joints, stack[-1])} has two OFFSET lines")
+                raise bad(f"{_what(joints, stack[-1])} has two OFFSET lines")
             with_offset.add(stack[-1])
             joints[stack[-1]].offset = (off[0], off[1], off[2])
             pos += 4
         elif up == "CHANNELS":
             if not stack:
-                raise _bad("CHANNELS outside of a joint")
+                raise bad("CHANNELS outside of a joint")
             j = joints[stack[-1]]
             if j.end:
-                raise _bad(f"CHANNELS inside the End Site of {joints[j.parent].name!r}")
+                raise bad(f"CHANNELS inside the End Site of {joints[j.parent].name!r}")
             if stack[-1] in with_channels:      # the second replaced the first's columns
-                raise _bad(f"joint {j.name!r} has two CHANNELS lines")
+                raise bad(f"joint {j.name!r} has two CHANNELS lines")
             with_channels.add(stack[-1])
-            n = (named(integer, tokens[pos + 1], f"CHANNELS of joint {j.name!r}", _bad)
+            n = (named(integer, tokens[pos + 1], f"CHANNELS of joint {j.name!r}", bad)
                  if pos + 1 < len(tokens) else -1)
             if not 0 <= n <= MAX_CHANNELS_PER_JOINT:
-                raise _bad(f"bad channel count {n} for joint {j.name!r}")
+                raise bad(f"bad channel count {n} for joint {j.name!r}")
             chans = tokens[pos + 2:pos + 2 + n]
-            if len(chans) != n or any(c.upper() not in _CODES for c in chans):
-                raise _bad(f"bad CHANNELS for joint {j.name!r}: {chans}")
+            named_here = next((k for k, c in enumerate(chans) if c.upper() not in _CODES),
+                              len(chans))
+            more = tokens[pos + 2 + n:pos + 3 + n]
+            if (named_here < n and chans[named_here].upper() in _STRUCTURE) or (
+                    named_here == n and more and more[0].upper() in _CODES):
+                # was "unexpected token 'Yrotation' in HIERARCHY", or a list of the
+                # words read as channels, '}' among them (a QA run of the text readers)
+                names = tokens[pos + 2:pos + 2 + named_here]
+                while (pos + 2 + len(names) < len(tokens)
+                       and tokens[pos + 2 + len(names)].upper() in _CODES):
+                    names.append(tokens[pos + 2 + len(names)])
+                raise bad(f"CHANNELS of joint {j.name!r} says {n} but names "
+                           f"{len(names)}: {' '.join(names)}")
+            if len(chans) != n or named_here < n:
+                raise bad(f"bad CHANNELS for joint {j.name!r}: {chans}")
             if len({c.upper() for c in chans}) != n:       # spec §4.14.1: each at most once
-                raise _bad(f"CHANNELS of joint {j.name!r} name a channel twice: {chans}")
+                raise bad(f"CHANNELS of joint {j.name!r} name a channel twice: {chans}")
             j.channels = [_CODES[c.upper()] for c in chans]
             n_channels += n
             pos += 2 + n
         else:
-            raise _bad(f"unexpected token {t!r} in HIERARCHY")
+            raise bad(f"unexpected token {t!r} in HIERARCHY")
     if stack:
-        raise _bad("HIERARCHY ends inside a joint block (missing '}')")
+        raise _bad(f"HIERARCHY ends inside {_what(joints, stack[-1])} (from line "
+                   f"{line_of(joints[stack[-1]].at)}): a '}}' is missing")
     if not joints:
         raise _bad("no joints in HIERARCHY")
     return joints, n_channels, pos
@@ -241,10 +297,14 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
         On a malformed hierarchy, a missing MOTION section, or a frame
         count or row width that does not match the channels.
     """
-    tokens, data_start = _head_tokens(text)
+    tokens, starts, data_start = _head_tokens(text)
     if not tokens or tokens[0].upper() != "HIERARCHY":
         raise _bad("file does not start with HIERARCHY")
-    joints, n_channels, pos = _parse_hierarchy(tokens, 1)
+
+    def line_of(i: int) -> int:
+        return len(LINE_BREAK.findall(text, 0, starts[min(i, len(starts) - 1)])) + 1
+
+    joints, n_channels, pos = _parse_hierarchy(tokens, 1, line_of)
     if pos >= len(tokens):
         raise _bad("no MOTION section")
     # MOTION / Frames: n / Frame Time: t
@@ -447,20 +507,22 @@ def format_bvh(motion: Motion) -> str:
     return "\n".join(out) + "\n"
 
 
-def _head_tokens(text: str) -> tuple[list[str], int]:
+def _head_tokens(text: str) -> tuple[list[str], list[int], int]:
     """The words of a BVH up to the five after the ``MOTION`` that ends the hierarchy
-    (``Frames: n Frame Time: t``), and the offset in ``text`` where the motion's values
-    start. The values are not split into words here: a list of every word took 14 bytes of
-    memory per byte of BVH (a QA of stop 50). A joint named ``Motion`` (the word after
-    ROOT or JOINT) does not end the hierarchy, as :func:`_parse_hierarchy` reads it.
-    After MOTION, ``Frames:60`` and ``Time:0.04`` are two words each, as with a space (they
-    were refused: a QA run of BVH exporters)."""
+    (``Frames: n Frame Time: t``), where each starts in ``text``, and the offset in
+    ``text`` where the motion's values start. The values are not split into words here: a
+    list of every word took 14 bytes of memory per byte of BVH (a QA of stop 50). A joint
+    named ``Motion`` (the word after ROOT or JOINT) does not end the hierarchy, as
+    :func:`_parse_hierarchy` reads it. After MOTION, ``Frames:60`` and ``Time:0.04`` are
+    two words each, as with a space (they were refused: a QA run of BVH exporters)."""
     words: list[str] = []
+    starts: list[int] = []
     after: int | None = None      # words left to take after MOTION
     for m in re.finditer(r"\S+", text):
         word = m.group()
         if after is None:
             words.append(word)
+            starts.append(m.start())
             if word.upper() == "MOTION" and not (
                     len(words) > 1 and words[-2].upper() in ("ROOT", "JOINT")):
                 after = 5
@@ -468,10 +530,11 @@ def _head_tokens(text: str) -> tuple[list[str], int]:
         key, colon, value = word.partition(":")
         parts = [key + colon, value] if colon and key and value else [word]
         words += parts
+        starts += [m.start()] * len(parts)
         after -= len(parts)
         if after <= 0:
-            return words, m.end()
-    return words, len(text)
+            return words, starts, m.end()
+    return words, starts, len(text)
 
 
 #: characters of motion values converted at a time by :func:`_motion_values`
