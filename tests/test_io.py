@@ -1852,3 +1852,36 @@ def test_a_bvh_hierarchy_refusal_says_what_and_where(two_joint_bvh, old, new, sa
     with pytest.raises(InputFormatError, match=re.escape(f"BVH: line {line}: {said}")):
         parse_bvh(text)
 
+
+def test_a_negative_asf_bone_length_flips_the_bone_and_is_said(tmp_path):
+    """A negative ASF ``length`` was read without a word. The bone's end is at length x
+    direction (Acclaim's length scales the direction), defined for any sign: the bone is
+    flipped against its direction, kept as written, and a warning says so, which ``mpz
+    encode`` prints (exit 1), the file keeps and ``mpz decode`` notes."""
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace("length 2\n", "length -2\n"))
+    (tmp_path / "tiny_01.amc").write_bytes(AMC_TEXT.encode("latin-1"))
+    m = read(tmp_path / "tiny_01.amc")
+    mm = 25.4 / 0.45
+    # frame 1 (see test_amc_forward_kinematics): W = Rz90 for b1 and b2; b1's end is
+    # (1,2,3) + Rz90 (-2,0,0) = (1,0,3), and b2's (1,0,3) + Rz90 (0,1,0) = (0,0,3)
+    np.testing.assert_allclose(m.positions[0] / mm, [[1, 2, 3], [1, 0, 3], [0, 0, 3]],
+                               atol=1e-12)
+    assert m.extras["skeleton"].joints[1].length == -2.0
+    assert "the ASF gives bone 'b1' (-2) a negative length" in m.metadata["warning"]
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)                # the file as it was: no word
+    assert "warning" not in read(tmp_path / "tiny_01.amc").metadata
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace("length 2\n", "length -2\n"))
+    import subprocess
+    import sys
+    run = [sys.executable, "-m", "mpz.tools.mpz_cli"]
+    enc = subprocess.run(run + ["encode", "tiny_01.amc", "-o", "t.mpz"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300)
+    assert enc.returncode == 1, enc.stderr
+    assert "warning: tiny_01.amc: the ASF gives bone 'b1' (-2) a negative length" in enc.stderr
+    dec = subprocess.run(run + ["decode", "t.mpz", "-o", "back.amc", "--asf", "back.asf"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert dec.returncode == 0, dec.stderr
+    assert "read with a warning when it was encoded" in dec.stderr
+    assert "bone 'b1' (-2) a negative length" in dec.stderr
+    assert "length -2\n" in (tmp_path / "back.asf").read_text()
+

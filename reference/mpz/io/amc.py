@@ -485,9 +485,9 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         meta["source"] = source
     if skel.name:
         meta["skeleton"] = skel.name
-    clash = _unit_clash(header, skel.angle_unit)
-    if clash:
-        meta["warning"] = clash
+    warnings = [w for w in (_unit_clash(header, skel.angle_unit), _negative_lengths(skel)) if w]
+    if warnings:
+        meta["warning"] = "; ".join(warnings)
     names = [j.name for j in skel.joints]
     extras: dict[str, object] = {"skeleton": skel}
     if later:               # kept before the first frame only (a QA run of stop 61)
@@ -515,6 +515,27 @@ def _unit_clash(header: list[str], angle_unit: str) -> str | None:
             "angle', deg when it has none): the values are read in the ASF's unit, so the "
             "joint positions, and the error a length bound measures, are those of that "
             "reading; the AMC's values and header are kept as written")
+
+
+def _negative_lengths(skel: Skeleton) -> str | None:
+    """The warning for an ASF with bones of negative ``length``, else None.
+
+    Read with a warning, not refused: a bone's end is at ``length * direction`` (Acclaim's
+    length is a scale along ``direction``; spec §4.14.2 asks only a finite one), which is
+    defined for any sign, so a negative length flips the bone against its direction, and
+    it is kept and written back as it is. Said, since no exporter means a length below 0,
+    and the joint positions are those of the flipped bone (a QA run of the text readers).
+    """
+    flipped = [(j.name, j.length) for j in skel.joints[1:] if j.length < 0]
+    if not flipped:
+        return None
+    shown = ", ".join(f"{name!r} ({num(length)})" for name, length in flipped[:3])
+    more = f" and {len(flipped) - 3} more" if len(flipped) > 3 else ""
+    one = len(flipped) == 1
+    return (f"the ASF gives bone{'' if one else 's'} {shown}{more} a negative length: "
+            f"{'its end is' if one else 'their ends are'} placed at length * direction, so "
+            f"the bone{'' if one else 's'} point{'s' if one else ''} against the direction; "
+            f"the length{'' if one else 's'} {'is' if one else 'are'} kept as written")
 
 
 def _check_frame(seen: dict[int, None], needed: list[int], skel: Skeleton, frame: int,
