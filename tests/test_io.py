@@ -1885,3 +1885,36 @@ def test_a_negative_asf_bone_length_flips_the_bone_and_is_said(tmp_path):
     assert "bone 'b1' (-2) a negative length" in dec.stderr
     assert "length -2\n" in (tmp_path / "back.asf").read_text()
 
+
+@pytest.mark.parametrize("name, amc, line, said", [
+    # the bone's line in the middle of frame 1, then frame 2: "frame 12 follows frame 1"
+    ("12", "1\nR\n12\n2\nR\n12\n", 3, "line 3: frame 12 follows frame 1; "),
+    # read as frame 2, and the real frame 2 after it: "frame 2 follows frame 2"
+    ("2", "1\nR\n2\n2\nR\n2\n", 3, "line 4: frame 2 follows frame 2; "),
+    # first in its frame: frame 1 ended without its root line
+    ("2", "1\n2\nR\n", 2, "frame 1 (from line 1) has no line for root: every frame "
+     "needs one for the root and each bone with dofs; "),
+    # the last line of the file: a last frame 2 without a root line
+    ("2", "1\nR\n2\n", 3, "frame 2 (from line 3, the last frame) has no line for root: "
+     "every frame needs one for the root and each bone with dofs; "),
+])
+def test_an_amc_line_of_a_bone_named_by_digits_is_told_from_a_frame_number(
+        one_bone_asf, name, amc, line, said):
+    """A lone whole number is an AMC frame number, and a bone's line its name and values:
+    the name alone for a bone without dofs, so that line of a bone named "12" was read as
+    a frame number, and the refusal spoke of frames only. It says which line was both; the
+    ASF is read, and an AMC that leaves the bone out (as CMU's leave out every bone without
+    dofs) reads as before."""
+    from mpz.io.amc import parse_amc
+    asf = parse_asf(one_bone_asf().replace("name b1", f"name {name}")
+                    .replace("root b1", f"root {name}").replace("    dof rx rz\n", ""))
+    text = amc.replace("R\n", "root 1 2 3 0 0 0\n")
+    assert text.split("\n")[line - 1] == name
+    with pytest.raises(InputFormatError, match=re.escape(
+            f"ASF/AMC: {said}line {line} ({name!r}) was read as a frame number, and it is also "
+            f"the line of bone {name!r}, which has no dofs: a lone whole number is a frame "
+            "number, so an AMC cannot hold that bone's line")):
+        parse_amc(text, asf)
+    m = parse_amc("1\nroot 1 2 3 0 0 0\n2\nroot 1 2 3 0 0 0\n", asf)   # the bone left out
+    assert m.names == ["root", name] and m.n_frames == 2 and "warning" not in m.metadata
+

@@ -417,6 +417,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     expected_frame: int | None = None
     later = 0                       # lines after the first frame that hold no value
     start_line = 0                  # the line of the current frame's number
+    start_word = ""                 # and that number as written
     for lineno, raw in enumerate(LINE_BREAK.split(text), 1):     # as _sections'
         line = _spaced(raw.split("#", 1)[0]).strip()
         if cur is None and (not line or line.startswith(":")):
@@ -439,15 +440,21 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
             # limit (4300 digits) for integer string conversion" (a hostile-input QA run)
             n = named(integer, parts[0], f"line {lineno}: frame number", _bad)
             if expected_frame is not None and n != expected_frame:
-                raise _bad(f"line {lineno}: frame {n} follows frame {expected_frame - 1}")
+                # the previous number first: a bone "2" read as frame 2 made the real
+                # frame 2 after it the one out of sequence
+                raise _bad(f"line {lineno}: frame {n} follows frame {expected_frame - 1}"
+                           + (_bone_too(start_word, start_line, slot)
+                              or _bone_too(parts[0], lineno, slot)))
             if first is None:
                 first = n
             expected_frame = n + 1
             if cur is not None:
-                _check_frame(seen, needed, skel, n - 1, start_line)
+                _check_frame(seen, needed, skel, n - 1, start_line,
+                             hint=(_bone_too(parts[0], lineno, slot)
+                                   or _bone_too(start_word, start_line, slot)))
                 add(cur)
                 order = order if order is not None else list(seen)
-            start_line = lineno
+            start_line, start_word = lineno, parts[0]
             cur = np.full(n_chan, np.nan)
             seen = {}
             continue
@@ -468,7 +475,8 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         seen[joint] = None
     if cur is None:
         raise _bad("no frames in AMC")
-    _check_frame(seen, needed, skel, (expected_frame or 1) - 1, start_line, last=True)
+    _check_frame(seen, needed, skel, (expected_frame or 1) - 1, start_line, last=True,
+                 hint=_bone_too(start_word, start_line, slot))
     add(cur)
     order = order if order is not None else list(seen)
     values = np.array(frames)
@@ -538,20 +546,40 @@ def _negative_lengths(skel: Skeleton) -> str | None:
             f"the length{'' if one else 's'} {'is' if one else 'are'} kept as written")
 
 
+def _bone_too(word: str, line: int, slot: dict[str, tuple[int, int, int]]) -> str:
+    """For the refusal of a frame: what line ``line`` was besides a frame number, when its
+    word ``word`` is the name of a bone without dofs, else "".
+
+    A lone whole number is a frame number, and a bone's line its name and its values: the
+    name alone for a bone without dofs, so the line of such a bone named by digits was read
+    as a frame number, and the frames went wrong after it (a QA run of the text readers).
+    It cannot be read otherwise (the number may be the next frame's), and it is never read
+    silently: every frame has its number, in sequence, and a line for the root. The ASF is
+    read, since its AMC may leave that bone out (CMU's leave out every bone without dofs),
+    and a bone with dofs named so is told apart by its values."""
+    if word not in slot or slot[word][1]:
+        return ""
+    return (f"; line {line} ({word!r}) was read as a frame number, and it is also the line "
+            f"of bone {word!r}, which has no dofs: a lone whole number is a frame number, "
+            "so an AMC cannot hold that bone's line (give the bone a name that is not a "
+            "whole number, in the ASF and the AMC)")
+
+
 def _check_frame(seen: dict[int, None], needed: list[int], skel: Skeleton, frame: int,
-                 line: int, *, last: bool = False) -> None:
+                 line: int, *, last: bool = False, hint: str = "") -> None:
     """Refuse a frame without a line for the root or for a bone with dofs: it is named by its
     number and the line of that number (it was "frame ending at line end lacks [...]", of a
     file cut short, and "frame ending at line 93" named the next frame's line: an archive
     QA run). ``needed``: the joints that need one (the root, the bones with dofs), looked
-    for in ``seen``, the joints of the frame's lines."""
+    for in ``seen``, the joints of the frame's lines; ``hint``: :func:`_bone_too`'s."""
     missing = [skel.joints[i].name for i in needed if i not in seen]
     if missing:
         shown = ", ".join(missing[:8]) + (f" and {len(missing) - 8} more" if len(missing) > 8
                                           else "")
         raise _bad(f"frame {frame} (from line {line}{', the last frame' if last else ''}) "
                    f"has no line for {shown}: every frame needs one for the root and each "
-                   "bone with dofs" + ("; the file may be cut short" if last else ""))
+                   "bone with dofs" + ("; the file may be cut short" if last and not hint
+                                       else "") + hint)
 
 
 def find_asf(amc_path: StrPath) -> str:
