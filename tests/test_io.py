@@ -1918,3 +1918,68 @@ def test_an_amc_line_of_a_bone_named_by_digits_is_told_from_a_frame_number(
     m = parse_amc("1\nroot 1 2 3 0 0 0\n2\nroot 1 2 3 0 0 0\n", asf)   # the bone left out
     assert m.names == ["root", name] and m.n_frames == 2 and "warning" not in m.metadata
 
+
+@pytest.mark.parametrize("where, old, new, said", [
+    ("asf", "length 2\n", "length (2)\n", "length of bone 'b1': '(2)' is not a number"),
+    ("asf", "direction 1 0 0", "direction (1 0 0)", "direction of b1: '(1' is not a number"),
+    ("asf", "position 0 0 0", "position (0 0 0)", "root position: '(0' is not a number"),
+    ("amc", "b1 0 90", "b1 (0) 90", "line 6: b1: '(0)' is not a number"),
+])
+def test_asf_and_amc_numbers_in_parentheses_are_refused_saying_why(tmp_path, where, old, new,
+                                                                     said):
+    """A QA run of the text readers asked what of parentheses outside ``limits`` was
+    refused. Written here: a number in parentheses anywhere else (no writer puts them
+    there; the Acclaim definition has them around limits pairs only) is refused, and the
+    refusal now says where parentheses belong (it said only "'(2)' is not a number")."""
+    asf, amc = ASF_TEXT, AMC_TEXT
+    if where == "asf":
+        assert asf.count(old) == 1
+        asf = asf.replace(old, new)
+    else:
+        assert amc.count(old) == 1
+        amc = amc.replace(old, new)
+    (tmp_path / "tiny.asf").write_text(asf)
+    (tmp_path / "tiny_01.amc").write_bytes(amc.encode("latin-1"))
+    with pytest.raises(InputFormatError, match=re.escape(
+            f"{said}; parentheses enclose only the (lo hi) pairs of an ASF's limits, and a "
+            "comment after '#' may hold any")):
+        read(tmp_path / "tiny_01.amc")
+
+
+def test_asf_limits_of_one_number_say_a_limit_is_a_pair():
+    """``limits (1.0)`` was "bad limits of b2: '(1.0)'", which said nothing of what is bad."""
+    with pytest.raises(InputFormatError, match=re.escape(
+            "bad limits of b2: '(1.0)': each limit is a pair of two numbers (lo hi)")):
+        parse_asf(ASF_TEXT.replace("limits (-180 180)\n  end", "limits (1.0)\n  end"))
+
+
+def test_asf_and_amc_parentheses_in_comments_names_and_text_are_read(tmp_path):
+    """Parentheses where they are text (a comment, :name, :documentation, a bone's name) or
+    limits pairs (also ``limits(-180 180)`` without a blank, whose limits were not kept, said
+    as a dropped key "limits(-180") read as without them."""
+    plain = read_amc_pair(tmp_path / "a", ASF_TEXT, AMC_TEXT)
+    asf = (ASF_TEXT.replace(":name TINY", ":name TINY (v2)")
+           .replace(":units", ":documentation\n  made (by hand)\n:units")
+           .replace("dof rx rz", "dof rx rz   # (x and z)")
+           .replace("    limits (-180 180)\n  end", "    limits(-180 180)\n  end")
+           .replace("name b2", "name b(2)").replace("b1 b2", "b1 b(2)"))
+    amc = (AMC_TEXT.replace("b2 0\n", "b(2) 0\n")
+           .replace("b1 0 90", "b1 0 90  # (a comment)"))
+    m = read_amc_pair(tmp_path / "b", asf, amc)
+    np.testing.assert_array_equal(m.positions, plain.positions)
+    np.testing.assert_array_equal(m.angles, plain.angles)
+    skel = m.extras["skeleton"]
+    assert skel.name == "TINY (v2)" and skel.documentation == "made (by hand)"
+    assert m.names == ["root", "b1", "b(2)"]
+    assert [j.limits for j in skel.joints] == [j.limits for j in plain.extras["skeleton"].joints]
+    assert skel.joints[2].limits == ((-180.0, 180.0),)
+    assert "asf_dropped" not in m.metadata or "limits" not in m.metadata["asf_dropped"]
+
+
+def read_amc_pair(folder, asf: str, amc: str) -> Motion:
+    """The motion of ``amc`` with its skeleton ``asf``, written into ``folder``."""
+    folder.mkdir()
+    (folder / "tiny.asf").write_text(asf)
+    (folder / "tiny_01.amc").write_bytes(amc.encode("latin-1"))
+    return read(folder / "tiny_01.amc")
+

@@ -60,7 +60,17 @@ _SECTIONS = {"version", "name", "units", "documentation", "root", "bonedata", "h
 _BONE_KEYS = {"begin", "end", "id", "name", "direction", "length", "axis", "dof", "limits"}
 
 
+#: a number refused for its parenthesis, in a message of :func:`_bad`
+_IN_PARENS = re.compile(r"'[^']*[()][^']*' is not a ")
+
+
 def _bad(msg: str) -> InputFormatError:
+    if _IN_PARENS.search(msg):
+        # "length (2)", "direction (1 0 0)", an AMC value "(0)": refused as "'(2)' is not a
+        # number", which did not say why (a QA run of the text readers); no writer puts
+        # parentheses elsewhere than around limits, and a comment may hold any
+        msg += ("; parentheses enclose only the (lo hi) pairs of an ASF's limits, and a "
+                "comment after '#' may hold any")
     return InputFormatError(f"ASF/AMC: {msg}")
 
 
@@ -145,8 +155,9 @@ def _limits(text: str, what: str) -> list[tuple[float, float]]:
     """``(lo hi)`` pairs of a ``limits`` entry; ``inf`` and ``-inf`` allowed."""
     pairs = re.findall(r"\(\s*([^\s()]+)\s+([^\s()]+)\s*\)", text)
     rest = re.sub(r"\(\s*[^\s()]+\s+[^\s()]+\s*\)", "", text).strip()
-    if rest:
-        raise _bad(f"bad limits of {what}: {text!r}")
+    if rest:        # "(1.0)" was "bad limits of b1: '(1.0)'", saying nothing of what is bad
+        raise _bad(f"bad limits of {what}: {text!r}: each limit is a pair of two numbers "
+                   "(lo hi) in parentheses, inf and -inf allowed")
     try:
         out = [(_limit(a), _limit(b)) for a, b in pairs]
     except InputFormatError as exc:
@@ -175,6 +186,8 @@ def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
     last = ""
     pending: list[str] = []     # the bone's dropped lines, named at its end (a line before
     for ln in map(_spaced, lines):  # 'name' said "bone ?": a review of stop 61)
+        if ln[:7].lower() == "limits(":     # "limits(-10 10)": the key was "limits(-10",
+            ln = f"{ln[:6]} {ln[6:]}"       # and the limits not kept (a QA run)
         parts = ln.split()
         key = parts[0].lower()
         if key == "begin":
