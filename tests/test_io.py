@@ -1983,3 +1983,37 @@ def read_amc_pair(folder, asf: str, amc: str) -> Motion:
     (folder / "tiny_01.amc").write_bytes(amc.encode("latin-1"))
     return read(folder / "tiny_01.amc")
 
+
+@pytest.mark.parametrize("old, new, said", [
+    ("direction 1 0 0", "direction 1 0 0 5", "bone b1: direction values after the third (5)"),
+    ("length 2\n", "length 2 3\n", "bone b1: length values after the first (3)"),
+    ("axis 0 0 90 XYZ", "axis 0 0 90 XYZ 7", "bone b1: axis values after the fourth (7)"),
+    ("position 0 0 0", "position 0 0 0 9", ":root position values after the third (9)"),
+    ("orientation 0 0 0", "orientation 0 0 0 9",
+     ":root orientation values after the third (9)"),
+    ("   axis XYZ", "   axis XYZ ZYX", ":root axis values after the first (ZYX)"),
+    ("length 0.45", "length 0.45 7", ":units length values after the first (7)"),
+    ("angle deg", "angle deg rad", ":units angle values after the first (rad)"),
+    ("   position 0 0 0", "   position 5 5 5\n   position 0 0 0",
+     "an earlier :root position line (the last is kept)"),
+    ("  length 0.45", "  length 9\n  length 0.45",
+     "an earlier :units length line (the last is kept)"),
+    (":bonedata\n", ":bonedata\n  bodymass 3\n",
+     "a :bonedata line outside begin ... end (bodymass 3)"),
+])
+def test_asf_words_not_read_are_said_as_not_kept(tmp_path, old, new, said):
+    """A QA run of the text readers: words of an ASF that the reader does not read were
+    lost without a word (a fourth direction value, a second length value, the first of
+    two :root position lines, a line of :bonedata outside its blocks), where a second id
+    value was said. Each is now listed in ``asf_dropped`` and this read's not-kept list
+    (``mpz encode`` prints it); the values read are those of the file without them."""
+    from mpz.motion import READER_NOT_KEPT
+    assert ASF_TEXT.count(old) == 1
+    plain = read_amc_pair(tmp_path / "a", ASF_TEXT, AMC_TEXT)
+    m = read_amc_pair(tmp_path / "b", ASF_TEXT.replace(old, new), AMC_TEXT)
+    assert said in m.metadata["asf_dropped"].split("; ")
+    assert said in m.extras[READER_NOT_KEPT][0]
+    np.testing.assert_array_equal(m.positions, plain.positions)
+    assert m.extras["skeleton"].joints == plain.extras["skeleton"].joints
+    assert "asf_dropped" not in plain.metadata
+

@@ -126,13 +126,32 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
     return out, comments, later
 
 
-def _keyvals(lines: list[str]) -> dict[str, list[str]]:
-    """``{first word (lower case): the other words}`` of each line."""
+def _keyvals(lines: list[str], section: str, known: tuple[str, ...], dropped: list[str]
+             ) -> dict[str, list[str]]:
+    """``{first word (lower case): the other words}`` of each line; a ``known`` key's
+    earlier lines, which the last replaces, go to ``dropped`` (two ``position`` lines of
+    ``:root`` kept the last without a word, as a bone's twice-given keys are said: a QA
+    run of the text readers)."""
     kv = {}
     for ln in lines:
         parts = ln.split()
-        kv[parts[0].lower()] = parts[1:]
+        key = parts[0].lower()
+        if key in kv and key in known:
+            dropped.append(f"an earlier :{section} {key} line (the last is kept)")
+        kv[key] = parts[1:]
     return kv
+
+
+_NTH = {1: "first", 3: "third", 4: "fourth"}
+
+
+def _beyond(words: list[str], n: int, what: str, dropped: list[str]) -> list[str]:
+    """``words``, a field's, noting in ``dropped`` those after its first ``n``, which are
+    not read: ``direction 1 0 0 5`` and ``length 2 3`` lost their 5 and 3 without a word
+    (a QA run of the text readers), where ``id 1 5`` was said."""
+    if len(words) > n:
+        dropped.append(f"{what} values after the {_NTH[n]} ({' '.join(words[n:])})")
+    return words
 
 
 def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
@@ -193,7 +212,8 @@ def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
         if key == "begin":
             cur, last, pending = _RawBone(), "", []
             continue
-        if cur is None:
+        if cur is None:     # was skipped without a word (a QA run of the text readers)
+            dropped.append(f"a :bonedata line outside begin ... end ({ln.strip()})")
             continue
         if key == "end":
             if not cur.fields.get("name"):
@@ -254,8 +274,10 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     for need in ("root", "bonedata", "hierarchy"):
         if need not in sec:
             raise _bad(f"ASF has no :{need} section")
-    units = _keyvals(sec.get("units", []))
+    units = _keyvals(sec.get("units", []), "units", ("mass", "length", "angle"), dropped)
     dropped += [f":units {k}" for k in units if k not in ("mass", "length", "angle")]
+    _beyond(units.get("length", []), 1, ":units length", dropped)
+    _beyond(units.get("angle", []), 1, ":units angle", dropped)
     length = named(number, (units.get("length", ["1.0"]) or [""])[0], ":units length", _bad)
     if not (math.isfinite(length) and length > 0):
         raise _bad(f":units length must be positive, got {length}")
@@ -266,9 +288,11 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     if angle_unit not in ("deg", "rad"):
         raise _bad(f":units angle {angle_unit!r}: deg or rad" if angle_unit else
                    ":units angle has no value: deg or rad")
-    root = _keyvals([_spaced(ln) for ln in sec["root"]])
-    dropped += [f":root {k}" for k in root if k not in ("order", "axis", "position",
-                                                         "orientation")]
+    root_keys = ("order", "axis", "position", "orientation")
+    root = _keyvals([_spaced(ln) for ln in sec["root"]], "root", root_keys, dropped)
+    dropped += [f":root {k}" for k in root if k not in root_keys]
+    for key, n in (("axis", 1), ("position", 3), ("orientation", 3)):
+        _beyond(root.get(key, []), n, f":root {key}", dropped)
     order = [c.lower() for c in root.get("order", ["TX", "TY", "TZ", "RX", "RY", "RZ"])]
     if any(c not in _DOF or c == "l" for c in order) or len(set(order)) != len(order):
         raise _bad(f"bad root order {order}")
@@ -330,8 +354,9 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         bone_id = named(integer, ids[0], f"id of bone {name!r}", _bad) if ids else 0
         if ids and bone_id == 0:
             zero.append(name)
-        if len(ids) > 1:        # "id 1 5": the first is kept (a review of stop 61)
-            dropped.append(f"bone {name}: id values after the first ({' '.join(ids[1:])})")
+        # "id 1 5": the first is kept (a review of stop 61), and so of the others
+        for key, n in (("id", 1), ("direction", 3), ("length", 1), ("axis", 4)):
+            _beyond(f.get(key, []), n, f"bone {name}: {key}", dropped)
         index[name] = len(joints)
         joints.append(Joint(name, index[parent[name]], tuple(_DOF[d] for d in dofs),
                             direction=_vec3(f.get("direction", []), f"direction of {name}"),
