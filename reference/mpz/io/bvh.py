@@ -112,7 +112,7 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
                 raise bad("JOINT outside of a ROOT block")
             if stack and joints[stack[-1]].end:     # spec §4.14.1: an End Site has no
                 raise bad(f"{t} inside the End Site of "    # children (a QA run: exit 70)
-                           f"{joints[joints[stack[-1]].parent].name!r}")
+                          f"{joints[joints[stack[-1]].parent].name!r}")
             if pos + 1 >= len(tokens):
                 raise bad(f"{t} without a name")
             if tokens[pos + 1] in ("{", "}"):     # "JOINT\n{": '{' was taken for its
@@ -126,13 +126,13 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
                 raise bad("End Site outside of a joint")
             if joints[stack[-1]].end:
                 raise bad(f"End Site inside the End Site of "
-                           f"{joints[joints[stack[-1]].parent].name!r}")
+                          f"{joints[joints[stack[-1]].parent].name!r}")
             # "End Site", and no other word after End: "End Sight" was read as one, and
             # "End" alone took the next word ('{') with it (a QA run of the text readers)
             after = tokens[pos + 1] if pos + 1 < len(tokens) else ""
             if after.upper() != "SITE":
                 raise bad(f"{t} followed by {after!r}, not 'Site' ('End Site' opens an "
-                           f"End Site)" if after else f"{t} without 'Site'")
+                          f"End Site)" if after else f"{t} without 'Site'")
             # named after its parent
             pending = _Joint(f"{joints[stack[-1]].name}_End", stack[-1], end=True, at=pos)
             pos += 2
@@ -153,8 +153,8 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
                 # read as 0 0 0 without a word: the joint drawn at its parent's place;
                 # every BVH description has the line, and no exporter leaves it out
                 raise bad(f"{_what(joints, shut)} (from line {line_of(joints[shut].at)})"
-                           " has no OFFSET line: every ROOT, JOINT and End Site needs one"
-                           " (it is not taken as 0 0 0)")
+                          " has no OFFSET line: every ROOT, JOINT and End Site needs one"
+                          " (it is not taken as 0 0 0)")
             pos += 1
         elif up == "OFFSET":
             if not stack:
@@ -167,8 +167,8 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
             stop = tokens[pos + 1 + given:pos + 2 + given]
             if given > 3 or (given < 3 and (not stop or stop[0].upper() in _STRUCTURE)):
                 raise bad(f"OFFSET of {_what(joints, stack[-1])} has "
-                           f"{'more than 3' if given > 3 else given} "
-                           f"number{'' if given == 1 else 's'}, not 3")
+                          f"{'more than 3' if given > 3 else given} "
+                          f"number{'' if given == 1 else 's'}, not 3")
             try:
                 off = [number(x) for x in tokens[pos + 1:pos + 4]]
             except InputFormatError as exc:
@@ -204,7 +204,7 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
                        and tokens[pos + 2 + len(names)].upper() in _CODES):
                     names.append(tokens[pos + 2 + len(names)])
                 raise bad(f"CHANNELS of joint {j.name!r} says {n} but names "
-                           f"{len(names)}: {' '.join(names)}")
+                          f"{len(names)}: {' '.join(names)}")
             if len(chans) != n or named_here < n:
                 raise bad(f"bad CHANNELS for joint {j.name!r}: {chans}")
             if len({c.upper() for c in chans}) != n:       # spec §4.14.1: each at most once
