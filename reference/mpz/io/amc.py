@@ -145,13 +145,12 @@ def _keyvals(lines: list[str], section: str, known: tuple[str, ...], dropped: li
 _NTH = {1: "first", 3: "third", 4: "fourth"}
 
 
-def _beyond(words: list[str], n: int, what: str, dropped: list[str]) -> list[str]:
-    """``words``, a field's, noting in ``dropped`` those after its first ``n``, which are
-    not read: ``direction 1 0 0 5`` and ``length 2 3`` lost their 5 and 3 without a word
-    (a QA run of the text readers), where ``id 1 5`` was said."""
+def _beyond(words: list[str], n: int, what: str, dropped: list[str]) -> None:
+    """Note in ``dropped`` the words of a field after its first ``n``, which are not read:
+    ``direction 1 0 0 5`` and ``length 2 3`` lost their 5 and 3 without a word (a QA run of
+    the text readers), where ``id 1 5`` was said."""
     if len(words) > n:
         dropped.append(f"{what} values after the {_NTH[n]} ({' '.join(words[n:])})")
-    return words
 
 
 def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
