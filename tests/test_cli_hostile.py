@@ -318,7 +318,10 @@ def test_there_is_one_escaping_function() -> None:
     for f in sorted(tools.glob("*.py")):
         text = f.read_text()
         if f.name in ("_cli.py", "make_vectors.py", "make_golden.py", "spec_example.py",
-                      "make_example.py", "__init__.py"):
+                      "make_example.py", "__init__.py",
+                      # runs under an old revision's mpz, imports none of today's, and
+                      # prints nothing: it writes JSON (check_old_decoders prints it)
+                      "_old_decoder_driver.py"):
             continue
         assert "printable" in text, f"{f.name} prints without the shared escaping"
         assert "def _escape" not in text and "isprintable" not in text, f.name
