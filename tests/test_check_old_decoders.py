@@ -268,11 +268,11 @@ FAKE_OLD = {
 }
 
 
-def test_driver_runs_the_old_package_alone(tmp_path):
+def _run_driver(tmp_path, files, inputs):
     site = tmp_path / "site"
-    _write(site, FAKE_OLD)
+    _write(site, files)
     cases = []
-    for name, data in (("ok", b"good"), ("bad", b"bad"), ("crash", b"crash")):
+    for name, data in inputs:
         (tmp_path / f"{name}.mpz").write_bytes(data)
         cases.append({"name": name, "path": str(tmp_path / f"{name}.mpz")})
     (tmp_path / "cases.json").write_text(json.dumps(cases))
@@ -281,7 +281,12 @@ def test_driver_runs_the_old_package_alone(tmp_path):
                           str(tmp_path / "cases.json"), str(tmp_path / "out")],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
-    lines = [json.loads(x) for x in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]
+    return [json.loads(x) for x in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]
+
+
+def test_driver_runs_the_old_package_alone(tmp_path):
+    lines = _run_driver(tmp_path, FAKE_OLD,
+                        [("ok", b"good"), ("bad", b"bad"), ("crash", b"crash")])
     assert lines[0]["driver"]["version"] == "0.0.1-fake"
     assert lines[0]["driver"]["bitstream"] == [1, 0]
     assert lines[-1] == {"foreign_modules": []}
@@ -297,3 +302,16 @@ def test_driver_runs_the_old_package_alone(tmp_path):
     assert bad["error"]["message"] == "refused by the fake"
     assert crash["decoded"] is False and crash["error"]["mpz_error"] is False
     assert crash["error"]["type"] == "KeyError"
+
+
+def test_driver_on_a_revision_without_mpzinfo(tmp_path):
+    """ff060a2, the first codec commit, had no mpzinfo yet: its decoder is still checked."""
+    files = {k: v for k, v in FAKE_OLD.items() if not k.startswith("mpz/tools/")}
+    lines = _run_driver(tmp_path, files, [("ok", b"good")])
+    row = lines[1]
+    assert row["decoded"] is True and row["mpzinfo"]["status"] is None
+    assert row["mpzinfo"]["absent"].startswith("ModuleNotFoundError")
+    exp = cod.Reading(cod.MarkerLayer(np.array([[[1.0, 2.0, 3.0], [np.nan] * 3]]), ["A", "B"],
+                                      65.0364227294921875, "mm", {"leak": "no"}))
+    verdict, why = cod.verdict(exp, row, tmp_path / "out")
+    assert verdict == "pass" and "no mpzinfo at this revision" in why

@@ -87,9 +87,12 @@ def captured_fds():
 
 
 def _error(exc: BaseException) -> dict:
-    from mpz.errors import MPZError
-    return {"type": type(exc).__name__, "message": str(exc)[:2000],
-            "mpz_error": isinstance(exc, MPZError),     # a rejection, not a crash
+    try:
+        from mpz.errors import MPZError
+        rejected = isinstance(exc, MPZError)     # a rejection, not a crash
+    except ImportError:
+        rejected = False
+    return {"type": type(exc).__name__, "message": str(exc)[:2000], "mpz_error": rejected,
             "traceback": "".join(traceback.format_exception(exc))[-4000:]}
 
 
@@ -113,7 +116,10 @@ def decode_case(path: str, out_npy: Path) -> dict:
 
 
 def mpzinfo_case(path: str) -> dict:
-    from mpz.tools import mpzinfo
+    try:
+        from mpz.tools import mpzinfo
+    except ImportError as exc:     # a revision older than its mpzinfo (ff060a2)
+        return {"status": None, "absent": f"{type(exc).__name__}: {exc}"}
     t0 = time.perf_counter()
     with captured_fds() as got:
         try:
