@@ -2777,7 +2777,8 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     import cloudpickle  # Dask's: a task's FileOptions may be a lambda
 
     import mpz
-    encode = _version_checked(mpz.__version__)
+    version = mpz.__version__
+    encode = _version_checked(version)
 
     def submit() -> None:
         while len(inflight) < window:
@@ -2844,9 +2845,8 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
                 except Exception as exc:
                     fut.release()
                     if str(exc).startswith(OTHER_MPZ):    # a worker that joined later
-                        import mpz
                         where, _, have = str(exc)[len(OTHER_MPZ):].partition("|")
-                        raise _other_mpz("the Dask workers that join the run", mpz.__version__,
+                        raise _other_mpz("the Dask workers that join the run", version,
                                          {where: have}) from None
                     if not _killed(exc):
                         raise        # a bug in the task: stop the run, keep what finished
