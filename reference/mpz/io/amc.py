@@ -22,11 +22,13 @@ are listed in ``metadata["asf_dropped"]`` (and ``mpz encode`` says so).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 import glob
 import math
 import os
 import re
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,18 +62,33 @@ _SECTIONS = {"version", "name", "units", "documentation", "root", "bonedata", "h
 _BONE_KEYS = {"begin", "end", "id", "name", "direction", "length", "axis", "dof", "limits"}
 
 
-#: a number refused for its parenthesis, in a message of :func:`_bad`
-_IN_PARENS = re.compile(r"'[^']*[()][^']*' is not a ")
+_N = TypeVar("_N", int, float)
 
 
 def _bad(msg: str) -> InputFormatError:
-    if _IN_PARENS.search(msg):
-        # "length (2)", "direction (1 0 0)", an AMC value "(0)": refused as "'(2)' is not a
-        # number", which did not say why (a QA run of the text readers); no writer puts
-        # parentheses elsewhere than around limits, and a comment may hold any
-        msg += ("; parentheses enclose only the (lo hi) pairs of an ASF's limits, and a "
-                "comment after '#' may hold any")
     return InputFormatError(f"ASF/AMC: {msg}")
+
+
+def _unbracketed(read: Callable[[str], _N]) -> Callable[[str], _N]:
+    """``read`` (:func:`number`, :func:`integer`), whose refusal of a word holding a
+    parenthesis says where parentheses belong: "length (2)", "direction (1 0 0)", an AMC
+    value "(0)" were refused as "'(2)' is not a number", which did not say why (a QA run of
+    the text readers); no writer puts parentheses elsewhere than around limits, and a
+    comment may hold any."""
+    def checked(text: str) -> _N:
+        try:
+            return read(text)
+        except InputFormatError as exc:
+            if "(" not in text and ")" not in text:
+                raise
+            raise InputFormatError(f"{exc.message}; parentheses enclose only the (lo hi) "
+                                   "pairs of an ASF's limits, and a comment after '#' may "
+                                   "hold any") from None
+    return checked
+
+
+_number = _unbracketed(number)
+_integer = _unbracketed(integer)
 
 
 def _spaced(line: str) -> str:
@@ -157,7 +174,7 @@ def _vec3(vals: list[str], what: str) -> tuple[float, float, float]:
     if len(vals) < 3:
         raise _bad(f"{what} needs 3 numbers, got {vals}")
     try:
-        return number(vals[0]), number(vals[1]), number(vals[2])
+        return _number(vals[0]), _number(vals[1]), _number(vals[2])
     except InputFormatError as exc:                # the skeleton chunk holds finite ones
         raise _bad(f"{what}: {exc.message}") from None
 
@@ -277,7 +294,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     dropped += [f":units {k}" for k in units if k not in ("mass", "length", "angle")]
     _beyond(units.get("length", []), 1, ":units length", dropped)
     _beyond(units.get("angle", []), 1, ":units angle", dropped)
-    length = named(number, (units.get("length", ["1.0"]) or [""])[0], ":units length", _bad)
+    length = named(_number, (units.get("length", ["1.0"]) or [""])[0], ":units length", _bad)
     if not (math.isfinite(length) and length > 0):
         raise _bad(f":units length must be positive, got {length}")
     if not math.isfinite(25.4 / length):     # 1e-320: millimetres per unit overflow
@@ -346,11 +363,11 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
             raise _bad(f"bone {name!r} has bad axis order {axis_order!r}")
         if not f.get("length"):
             raise _bad(f"bone {name!r} has no length")
-        bone_len = named(number, f["length"][0], f"length of bone {name!r}", _bad)
+        bone_len = named(_number, f["length"][0], f"length of bone {name!r}", _bad)
         if b.limits and len(b.limits) != len(dofs):
             raise _bad(f"bone {name!r} has {len(b.limits)} limits for {len(dofs)} dofs")
         ids = f.get("id", [])
-        bone_id = named(integer, ids[0], f"id of bone {name!r}", _bad) if ids else 0
+        bone_id = named(_integer, ids[0], f"id of bone {name!r}", _bad) if ids else 0
         if ids and bone_id == 0:
             zero.append(name)
         # "id 1 5": the first is kept (a review of stop 61), and so of the others
@@ -475,7 +492,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         if len(parts) == 1 and parts[0].isascii() and parts[0].isdigit():
             # at most 18 digits: int() of 5000 said "cannot read: ValueError: Exceeds the
             # limit (4300 digits) for integer string conversion" (a hostile-input QA run)
-            n = named(integer, parts[0], f"line {lineno}: frame number", _bad)
+            n = named(_integer, parts[0], f"line {lineno}: frame number", _bad)
             if expected_frame is not None and n != expected_frame:
                 # the previous number first: a bone "2" read as frame 2 made the real
                 # frame 2 after it the one out of sequence
@@ -506,7 +523,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         if joint in seen:
             raise _bad(f"line {lineno}: {name} appears twice in one frame")
         try:
-            cur[start:start + count] = [number(v) for v in parts[1:]]
+            cur[start:start + count] = [_number(v) for v in parts[1:]]
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {name}: {exc.message}") from None
         seen[joint] = None
