@@ -26,7 +26,7 @@ finer grid (15-20 % larger).
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 import math
 from typing import TYPE_CHECKING
@@ -60,8 +60,8 @@ from mpz.io.kinematics import (
     MM_PER_INCH,
     Joint,
     Skeleton,
+    _farthest,
     forward,
-    lever_arms,
     rest_height,
     squared_lengths,
 )
@@ -79,6 +79,19 @@ DEFAULT_CHANNEL_ERROR = 0.01
 #: the reference encoder codes the marker layer of a skeletal file, when no bound is asked
 #: for, within this fraction of the skeleton's size (Appendix C: 3.4 mm for a 1.7 m body)
 PREVIEW_FRACTION = 2e-3
+#: joint positions computed at a time where the encoder measures the channels' error
+#: (:func:`position_error`, :func:`lever_arms_of`): 2^16 joint-frames, 1.5 MiB a block.
+#: The joint positions of every frame were held there, each measure with a second set
+#: and their difference: a 183 KB BVH of 4096 joints and 10,000 frames took 3.3 times
+#: its 983 MB of positions for it, beside the marker layer's coding
+JOINT_FRAMES = 1 << 16
+#: (point, pivot) pairs of :func:`lever_arms_of` measured at a time
+ARM_PAIRS = 1 << 18
+#: the position search (:func:`steps_for_position`) holds the source's joint positions of
+#: every frame when there are at most this many (48 MiB; every real capture here, and a
+#: BVH of 57 joints up to 36,000 frames), and computes them a block at a time in each
+#: measure beyond: a measure then costs two forward kinematics instead of one
+HELD_JOINTS = 1 << 21
 
 
 # --------------------------------------------------------------- records --
@@ -215,13 +228,92 @@ def position_error(skel: Skeleton, a: FloatArray, b: FloatArray,
                    joints_a: FloatArray | None = None) -> float:
     """The largest distance, in marker units, between the joint positions of channel
     values ``a`` and ``b`` (spec §6.10); ``joints_a``: ``forward(skel, a)``, when the
-    caller already has it (the position-bound search compares one ``a`` many times)."""
+    caller already has it (the position-bound search compares one ``a`` many times).
+
+    The joints are computed :data:`JOINT_FRAMES` joint-frames at a time: forward
+    kinematics works frame by frame, and the maximum of the blocks' maxima is the
+    maximum, so the value is the one of the whole arrays, bit for bit."""
     if skel.channel_count == 0:
         return 0.0
-    pa = forward(skel, a) if joints_a is None else joints_a
-    # sqrt is monotone: the largest distance is the root of the largest squared one
-    far = float(squared_lengths(pa - forward(skel, b)).max(initial=0.0))
-    return math.sqrt(far) * marker_scale(skel)
+    far = np.float64(0.0)
+    for rows in _frame_blocks(a.shape[0], len(skel.joints)):
+        pa = forward(skel, a[rows]) if joints_a is None else joints_a[rows]
+        # sqrt is monotone: the largest distance is the root of the largest squared one;
+        # np.maximum keeps a NaN, as the whole array's max did
+        far = np.maximum(far, squared_lengths(pa - forward(skel, b[rows])).max(initial=0.0))
+    return math.sqrt(float(far)) * marker_scale(skel)
+
+
+def _frame_blocks(F: int, J: int, joint_frames: int | None = None) -> list[slice]:
+    """Consecutive slices of ``F`` frames of about ``joint_frames`` (default
+    :data:`JOINT_FRAMES`) joint positions each, for ``J`` joints (one frame at least)."""
+    rows = max(1, (JOINT_FRAMES if joint_frames is None else joint_frames) // max(J, 1))
+    return [slice(f, f + rows) for f in range(0, F, rows)]
+
+
+def _arm_pairs(skel: Skeleton, turning: NDArray[np.bool_], limit: int
+               ) -> Iterator[tuple[IntArray, IntArray, IntArray]]:
+    """:func:`mpz.io.kinematics.lever_arms`' (point k, pivot, turning joint a) triples, for
+    the joints a where ``turning`` is set only, in lists of about ``limit`` (one ancestor
+    level of every point at a time, so at most ``limit`` + J each): the whole list is J
+    times the depth of the tree, 8.4 million triples (201 MB, and a Python list of them
+    several times that) for a chain of 4096 joints."""
+    parent = np.array(skel.parents(), np.int64)
+    bvh = skel.convention == "bvh"
+    k = np.arange(len(parent), dtype=np.int64)       # the points ...
+    a = k.copy()                                     # ... and an ancestor of each (or self)
+    moved: list[IntArray] = []
+    pivots: list[IntArray] = []
+    turner: list[IntArray] = []
+    held = 0
+    while k.size:
+        sel = turning[a]
+        if sel.any():
+            ks, ts = k[sel], a[sel]
+            moved.append(ks)
+            pivots.append(ts if bvh else np.where(parent[ts] < 0, ts, parent[ts]))
+            turner.append(ts)
+            held += len(ks)
+            if held >= limit:
+                yield np.concatenate(moved), np.concatenate(pivots), np.concatenate(turner)
+                moved, pivots, turner, held = [], [], [], 0
+        a = parent[a]
+        keep = a >= 0
+        k, a = k[keep], a[keep]
+    if moved:
+        yield np.concatenate(moved), np.concatenate(pivots), np.concatenate(turner)
+
+
+def lever_arms_of(skel: Skeleton, values: FloatArray, *, joint_frames: int | None = None,
+                  pairs: int | None = None, joints: FloatArray | None = None) -> FloatArray:
+    """:func:`mpz.io.kinematics.lever_arms` of ``forward(skel, values)`` at the joints that
+    have a rotation channel, the only arms the position search uses, bit for bit; 0 at the
+    others.
+
+    Neither the joint positions of every frame nor every (point, pivot) pair are held:
+    the pairs of those joints alone, about ``pairs`` (default :data:`ARM_PAIRS`) at a
+    time, each list measured over the frames, ``joint_frames`` (default
+    :data:`JOINT_FRAMES`) joint positions at a time. An arm is the maximum of the same
+    squared distances in another order (and np.maximum keeps a NaN as the kernel does),
+    so it is the same. A 183 KB BVH of 4096 joints and 10,000 frames whose root alone has
+    channels held its 983 MB of joint positions for them, and a chain of 4096 joints
+    8.4 million pairs (and a Python list of them), whichever joints turn. ``joints``:
+    ``forward(skel, values)``, when the caller holds it."""
+    J = len(skel.joints)
+    turning = np.array([any(is_rotation(c) for c in j.channels) for j in skel.joints],
+                       np.bool_).reshape(J)
+    arm = np.zeros(J)
+    if not turning.any():
+        return arm
+    blocks = _frame_blocks(values.shape[0], J, joint_frames)
+    for moved, pivots, turner in _arm_pairs(skel, turning,
+                                            ARM_PAIRS if pairs is None else pairs):
+        far = np.zeros(len(moved))
+        for rows in blocks:
+            p = forward(skel, values[rows]) if joints is None else joints[rows]
+            np.maximum(far, _farthest(p, moved, pivots), out=far)
+        np.maximum.at(arm, turner, np.sqrt(far))
+    return arm
 
 
 def declared(measured: float, scale: float) -> float:
@@ -260,8 +352,11 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     :func:`declared`; ``angle_cap`` / ``translation_cap`` (when given) cap the bounds.
     """
     scale = marker_scale(skel)
-    pos = forward(skel, values)
-    arms = lever_arms(skel, pos) * scale                       # marker units
+    # the source's joints of every frame, once, when they are few (HELD_JOINTS); else a
+    # block at a time wherever they are needed (issue 11.11)
+    held = (forward(skel, values) if values.shape[0] * len(skel.joints) <= HELD_JOINTS
+            else None)
+    arms = lever_arms_of(skel, values, joints=held) * scale    # marker units
     joint = skel.channel_joints()
     rotation = [is_rotation(k) for k in skel.channel_kinds()]
     rad = skel.angle_unit == "rad"
@@ -312,7 +407,8 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
     # every frame and made finer until it holds there too
     stride = max(1, values.shape[0] // 256)
     sub = values[::stride]
-    sub_joints = pos if stride == 1 else forward(skel, sub)      # the source's joints, once
+    # the source's joints on the subsample, once (at most 511 frames)
+    sub_joints = forward(skel, sub) if held is None else held[::stride]
     # error() depends on kappa only through the steps, which are discrete: bisection meets
     # the same steps again (and with stride 1 the whole check repeats a sub check)
     measured: dict[tuple[bool, tuple[Step, ...]], float] = {}
@@ -321,10 +417,11 @@ def steps_for_position(skel: Skeleton, values: FloatArray, target: float,
         return measure(steps(kappa), whole)
 
     def measure(st: list[Step], whole: bool = False) -> float:
-        key = (whole and stride > 1, tuple(st))
+        whole = whole and stride > 1                    # with stride 1 the sub is whole
+        key = (whole, tuple(st))
         if key in measured:
             return measured[key]
-        v, joints = (values, pos) if whole else (sub, sub_joints)
+        v, joints = (values, held) if whole else (sub, sub_joints)
         try:
             x = quantise(v, st)
         except EncoderError:             # too fine for the value range: cannot be used

@@ -1,0 +1,138 @@
+"""Encoder memory against the positions it codes (issue 11.11; the project standard: bad
+input gets no huge allocation).
+
+A QA run encoded a 183 KB BVH of 4096 joints (most without channels, so each frame line
+is short) and 10,000 frames: 983 MB of joint positions, within MAX_SAMPLES, took about
+11 GB to encode. The position-bound search held every joint position, their difference
+with a second set, and J x depth (point, pivot) pairs of the chain with a Python list of
+them; the marker layer held float64 copies of a whole node's targets on each thread
+beside its lattices, and the key frames a list of every task's keys beside their
+concatenation. Each stage now works a block of frames, or a few members, at a time.
+
+The peaks are measured with tracemalloc, which numpy's and numba's allocations report to
+(zero-filled buffers that only become resident as written count whole there, so these
+are upper bounds of the resident memory), on small joint-heavy BVH files: a chain of
+joints whose root alone has channels, random single digits (so that every frame is a
+key frame of every joint), as in the QA run's file. The bounds are multiples of the
+positions' own bytes, stated in docs/io-notes.md ("Size and memory"); each test failed
+on the encoder before this change (its old figure is given).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+import tracemalloc
+from typing import Any
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+import numpy as np
+import pytest
+
+import mpz
+from mpz import skeleton as sk
+from mpz.encoder import EncodeOptions
+from mpz.io.bvh import parse_bvh
+from mpz.io.kinematics import Joint, Skeleton, forward, lever_arms, squared_lengths
+
+
+def chain_bvh(joints: int, frames: int, seed: int = 0) -> str:
+    """A ROOT with 6 channels and a chain of ``joints - 1`` JOINTs without channels, an End
+    Site at its end; ``frames`` lines of 6 random digits."""
+    rng = np.random.default_rng(seed)
+    head = ["HIERARCHY", "ROOT j0", "{", "OFFSET 0 0 0",
+            "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    for k in range(1, joints):
+        head += [f"JOINT j{k}", "{", "OFFSET 0 1 0"]
+    head += ["End Site", "{", "OFFSET 0 1 0", "}"] + ["}"] * joints
+    rows = [" ".join(map(str, r)) for r in rng.integers(0, 10, (frames, 6))]
+    return "\n".join(head + ["MOTION", f"Frames: {frames}", "Frame Time: 0.01", *rows]) + "\n"
+
+
+def traced_peak(run: Callable[[], Any]) -> int:
+    """The largest traced allocation total while ``run()`` runs, beyond what was traced
+    before it."""
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        run()
+        return tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.fixture(scope="module")
+def warm() -> None:
+    """Every kernel loaded (or compiled) before a peak is measured."""
+    m = parse_bvh(chain_bvh(8, 40))
+    for kw in ({}, {"max_error": 1.0}):
+        mpz.metrics.summary(m, mpz.decode(mpz.encode(m, threads=1, **kw)))
+
+
+def test_the_position_search_holds_no_joint_positions_of_every_frame(warm, monkeypatch):
+    """The steps for a joint-position bound (spec Appendix C) are searched on at most 511
+    frames and checked on every frame a block at a time, with the lever arms of the
+    joints that turn only: under the positions' own bytes (256 joints x 2000 frames,
+    here 0.5 times), once there are more joint positions than HELD_JOINTS (a long
+    capture; set low here). The old search: 3.2 times (every joint position, a second set
+    and their difference, and the pairs)."""
+    m = parse_bvh(chain_bvh(256, 2000, seed=2))
+    monkeypatch.setattr(sk, "HELD_JOINTS", 1 << 16, raising=False)
+    opts = EncodeOptions(position_error=1.0)
+    peak = traced_peak(lambda: sk.settings(m, m.extras["skeleton"], opts))
+    assert peak <= m.positions.nbytes, peak / m.positions.nbytes
+
+
+# ------------------------------------------------------------ the same values --
+@st.composite
+def skeletons(draw: st.DrawFn) -> tuple[Skeleton, np.ndarray]:
+    """A random tree of either convention whose joints have random channels (rotations or
+    not), and random channel values."""
+    J = draw(st.integers(1, 14))
+    parents = [-1] + [draw(st.integers(-1 if k > 3 else 0, k - 1)) for k in range(1, J)]
+    joints = []
+    for k in range(J):
+        kinds = draw(st.lists(st.integers(0, 5), unique=True, max_size=4))
+        off = st.floats(-50, 50)
+        joints.append(Joint(f"j{k}", parents[k], tuple(kinds), (draw(off), draw(off), draw(off)),
+                            direction=(0.0, 1.0, 0.0), length=draw(st.floats(0, 20))))
+    skel = Skeleton(draw(st.sampled_from(["bvh", "asf"])), tuple(joints))
+    F = draw(st.integers(0, 40))
+    values = np.array(draw(st.lists(st.floats(-180, 180), min_size=F * skel.channel_count,
+                                    max_size=F * skel.channel_count)),
+                      np.float64).reshape(F, skel.channel_count)
+    return skel, values
+
+
+@settings(max_examples=80, deadline=None)
+@given(skeletons(), st.integers(1, 40), st.integers(1, 30))
+def test_lever_arms_of_are_the_arms_of_the_turning_joints(case, joint_frames, pairs):
+    """lever_arms_of (blocks of frames, the turning joints' pairs a few at a time) gives
+    lever_arms of every joint position bit for bit at the joints that have a rotation
+    channel, and 0 at the others, whatever the block sizes."""
+    skel, values = case
+    got = sk.lever_arms_of(skel, values, joint_frames=joint_frames, pairs=pairs)
+    want = lever_arms(skel, forward(skel, values))
+    turns = np.array([any(3 <= c <= 5 for c in j.channels) for j in skel.joints], bool)
+    assert got[turns].tobytes() == want[turns].tobytes()
+    assert not got[~turns].any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(skeletons(), st.integers(1, 40), st.floats(1e-3, 10))
+def test_position_error_in_blocks_is_that_of_every_frame_at_once(case, joint_frames, noise):
+    """position_error computed JOINT_FRAMES joint positions at a time is the largest
+    distance of the whole arrays, bit for bit."""
+    skel, a = case
+    b = a + noise
+    want = (np.sqrt(squared_lengths(forward(skel, a) - forward(skel, b)).max(initial=0.0))
+            * sk.marker_scale(skel)) if skel.channel_count else 0.0
+    old = sk.JOINT_FRAMES
+    sk.JOINT_FRAMES = joint_frames
+    try:
+        got = sk.position_error(skel, a, b)
+    finally:
+        sk.JOINT_FRAMES = old
+    assert got == want
+
+
