@@ -825,13 +825,36 @@ def _best_order(block: IntArray, period: int | None = None,
     return best
 
 
-def _lattice(y: FloatArray, radius: float, order: int,
+#: target values made at a time where base 1's lattice is chosen from
+#: :class:`keyframe.Members` (:func:`_lattice`): 2^18, 2 MiB of float64
+LATTICE_VALUES = 1 << 18
+
+
+def _lattice(y: FloatArray | keyframe.Members, radius: float, order: int,
              sample: AbsoluteSample | None = None) -> IntArray:
     """The residuals of order ``order`` of the lattice values chosen for targets ``y``
     (grid units) within ``radius`` (:func:`choose_lattice`), formed in place; the tracks
-    of ``sample`` are its values, not chosen again."""
-    known = None if sample is None else (sample.cols, sample.values[order])
-    return residuals(choose_lattice(y, radius, order, known), order, inplace=True)
+    of ``sample`` are its values, not chosen again.
+
+    :class:`keyframe.Members` are chosen :data:`LATTICE_VALUES` targets at a time (one
+    member at least): each track is chosen independently of the others, so the values
+    are the same, and the targets of the whole node, a float64 copy of its members'
+    coordinates, are never held beside the lattice (issue 11.11: a 183 KB BVH of 4096
+    joints held two such copies of its 983 MB of positions, one on each thread)."""
+    if not isinstance(y, keyframe.Members):
+        known = None if sample is None else (sample.cols, sample.values[order])
+        return residuals(choose_lattice(y, radius, order, known), order, inplace=True)
+    w = np.empty((y.T, y.n, 3), np.int64)
+    per = max(1, LATTICE_VALUES // max(1, 3 * y.T))
+    for lo in range(0, y.n, per):
+        hi = min(lo + per, y.n)
+        part = None
+        if sample is not None:
+            inside = (sample.cols >= lo) & (sample.cols < hi)
+            if inside.any():
+                part = (sample.cols[inside] - lo, sample.values[order][:, inside])
+        w[:, lo:hi] = choose_lattice(y.of(lo, hi), radius, order, part)
+    return residuals(w, order, inplace=True)
 
 
 def _coded(e: IntArray, limit: int | None) -> bytes | None:
@@ -857,7 +880,7 @@ def _kept(e: IntArray, order: int, data: bytes) -> tuple[int, Int32Array, bytes]
     return order, reconstruct(e, order, inplace=True).astype(np.int32), data
 
 
-def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
+def _bounded(y: FloatArray | keyframe.Members, radius: float, orders: tuple[int, ...] = (1, 2),
              limit: int | None = None, sample: AbsoluteSample | None = None
              ) -> tuple[int, Int32Array, bytes] | None:
     """Best (order, values, payload) for targets ``y`` (grid units) within ``radius``.
@@ -873,7 +896,8 @@ def _bounded(y: FloatArray, radius: float, orders: tuple[int, ...] = (1, 2),
 
     Memory (issue 11.11): the values of each order become their residuals in place and,
     for the best order, turn back and are kept as int32 (|w| < 2^30); so besides ``y`` at
-    most one int64 and one int32 array of its size live.
+    most one int64 and one int32 array of its size live (and of :class:`keyframe.Members`,
+    only a few members' at a time).
     """
     best: tuple[int, Int32Array, bytes] | None = None
     for order in orders:
@@ -1120,7 +1144,15 @@ class GridCoordinates:
                 and isinstance(key[1], list)):
             # u[:, members] by take: a C-ordered copy, where numpy's fancy index gives one
             # laid out marker-major, which the kernels then copied again (issue 15.1)
-            out = np.take(self.x, key[1], axis=1)
+            if self.x.flags.c_contiguous:
+                out = np.take(self.x, key[1], axis=1)
+            else:
+                # take copies an array of another layout whole first (a C3D's positions
+                # are marker-major), once for each few members the encoder asks for
+                out = np.empty((self.x.shape[0], len(key[1])) + self.x.shape[2:],
+                               self.x.dtype)
+                for j, m in enumerate(key[1]):
+                    out[:, j] = self.x[:, m]
         else:
             out = self.x[key]
         if np.may_share_memory(out, self.x):     # a view (basic indexing): a new array
@@ -1456,7 +1488,7 @@ def sample_absolute(fitted: keyframe.Fitted, targets: Callable[..., FloatArray],
 def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., FloatArray],
                         pat: PatternLayer | None, opts: EncodeOptions,
                         grid: Grid, pool: Executor | None = None,
-                        stage: Progress | None = None
+                        stage: Progress | None = None, *, shape: tuple[int, int]
                         ) -> list[tuple[int, ResidualLayer]]:
     """(cost, layer) of every residual layer that keeps node i within its bound (beyond
     the paper): on the pattern layer (base 0), absolute per sample (base 1), key frames
@@ -1464,7 +1496,7 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
 
     ``u_members()`` gives a new copy of the members' grid coordinates each time it is
     called, ``u_members(cols)`` of the members at those positions: each candidate divides
-    its own copy in place (issue 11.11).
+    its own copy in place (issue 11.11); ``shape``: (frames, members).
 
     The key frames are made first. Where they are sparse (:func:`worth_sampling`), base 1
     is then tried on a sample of the members (:func:`sample_absolute`): when it codes well
@@ -1502,13 +1534,19 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
             raise _patterns_beyond_range(i, opts)
     if opts.pattern_mode != "on":
         gk = max(1, g // KEY_REFINE)
-        y = u_members()
-        y /= gk
-        T, n = y.shape[0], y.shape[1]
+        T, n = shape
+
+        def scaled(by: int) -> Callable[[int, int], FloatArray]:
+            def of(lo: int, hi: int) -> FloatArray:             # members lo .. hi-1, a copy
+                y = u_members(np.arange(lo, hi))
+                y /= by
+                return y
+            return of
+        # the key frames' targets, and base 1's, made a few members at a time (issue 11.11)
         fitted = keyframe.fit_members(
-            y, grid.bounds[i] / (gk * grid.step), pool=pool,
+            keyframe.Members(scaled(gk), T, n), grid.bounds[i] / (gk * grid.step),
+            pool=pool,
             progress=None if stage is None else lambda f, what: stage(FITTED * f, what))
-        del y
         if stage is not None:
             stage(FITTED, "coding keys")
 
@@ -1516,6 +1554,7 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
             y = u_members(cols)
             y /= g
             return y
+        whole = keyframe.Members(scaled(g), T, n)
         absolute: tuple[int, Int32Array, bytes] | None = None
         sample: AbsoluteSample | None = None
         if pool is not None:
@@ -1529,21 +1568,18 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
             second: Future[IntArray] = Future()
             claim = threading.Lock()            # held by the thread that makes order 2's
 
-            def make_second(y: FloatArray | None = None) -> None:
+            def make_second() -> None:
                 if not claim.acquire(blocking=False):
                     return                      # the other thread has it
                 try:
-                    second.set_result(_lattice(targets() if y is None else y, radius, 2,
-                                               sample))
+                    second.set_result(_lattice(whole, radius, 2, sample))
                 except BaseException as exc:
                     second.set_exception(exc)
                     raise
 
             def first() -> tuple[IntArray, bytes | None]:
-                y = targets()
-                e1 = _lattice(y, radius, 1, sample)
-                make_second(y)
-                del y
+                e1 = _lattice(whole, radius, 1, sample)
+                make_second()
                 return e1, _coded(e1, klen.result())
             sampling = (pool.submit(sample_absolute, fitted, targets, radius)
                         if worth_sampling(fitted) else None)
@@ -1557,6 +1593,10 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
             if stage is not None:
                 stage(KEYS_CODED, "residuals")
             sample = None if sampling is None else sampling.result()
+            # the key lists are coded: the decoded tracks alone are kept, and the key lists
+            # (32 bytes a key) are let go before base 1's lattices (issue 11.11)
+            wk = fitted.out
+            del fitted
             if kdata is None or sample is None or not sample.loses:
                 if job is None:
                     job = pool.submit(first)
@@ -1579,13 +1619,13 @@ def residual_candidates(i: int, xl: FloatArray | None, u_members: Callable[..., 
             if stage is not None:
                 stage(KEYS_CODED, "residuals")
             sample = sample_absolute(fitted, targets, radius) if worth_sampling(fitted) else None
+            wk = fitted.out
+            del fitted
             if kdata is None or sample is None or not sample.loses:
-                absolute = _bounded(targets(), radius, (1, 2),
+                absolute = _bounded(whole, radius, (1, 2),
                                     None if kdata is None else len(kdata), sample)
         if absolute is None and kdata is None:
             raise EncoderError(_BEYOND_RANGE)
-        wk = fitted.out
-        del fitted
         if absolute is not None:
             order, wv, data = absolute
             del absolute
@@ -1600,8 +1640,11 @@ def _keyframes_coded(fitted: keyframe.Fitted, T: int, n: int) -> bytes | None:
     residual is beyond the coder's range (§5.4: |e| < 2^30; keys near |u| = 2^29 predicted
     from a member on the other side can be): that base then cannot be chosen, and base 1's
     order 1 (|e| <= 2 |u| + 1 < 2^30) always can (a QA run, stop 37)."""
-    # at most T keys a member: 3 key values, a span, plus a source and a count each
-    enc = BlockEncoder(capacity=_capacity(4 * T * n + 2 * n))
+    # 3 values a key and a span between two, plus a source and a count a member: at most
+    # T keys a member (the buffer is resident only as written, but counted whole by
+    # tracemalloc and an address-space limit, so sized by the keys when they are known)
+    keys = T * n if fitted.rows is None else len(fitted.rows[0])
+    enc = BlockEncoder(capacity=_capacity(4 * keys + 2 * n))
     try:
         keyframe.write_blocks(enc, fitted, T)
     except LimitExceededError:
@@ -1650,7 +1693,8 @@ def code_node(i: int, node: Node, ref: int, u: GridCoordinates, qhat: DecodedTra
         # the cheapest candidate; on a tie the first (min keeps the first minimum)
         def u_members(cols: IntArray | None = None) -> FloatArray:    # a new copy each time
             return u[:, members if cols is None else [members[int(c)] for c in cols]]
-        _, layer = min(residual_candidates(i, xl, u_members, pat, opts, grid, pool, stage),
+        _, layer = min(residual_candidates(i, xl, u_members, pat, opts, grid, pool, stage,
+                                           shape=(u.x.shape[0], len(members))),
                        key=lambda c: c[0])
         del xl
         local = layer.values.astype(np.int64)

@@ -23,7 +23,7 @@ halves the key residuals at 5 mm on real captures.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from concurrent.futures import Executor
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass
 import functools
 import math
@@ -871,31 +871,47 @@ def task_ranges(n: int, T: int) -> list[tuple[int, int]]:
 
 def _spread(pool: Executor | None, task: Callable[[int, int], _T],
             ranges: list[tuple[int, int]],
-            done: Callable[[int], None] | None = None) -> list[_T]:
+            done: Callable[[int], None] | None = None,
+            sink: Callable[[_T], None] | None = None) -> list[_T]:
     """``task(lo, hi)`` of every range, in order: the first on this thread and the others on
     ``pool``'s threads, where this thread also takes each one that no pool thread has
     started yet (it would otherwise wait idle while another thread is busy elsewhere).
     ``done(i)``, when given, is called on this thread as the result of the i-th range
-    (1-based) is in hand, in range order."""
-    if pool is None or len(ranges) < 2:
-        out = []
-        for lo, hi in ranges:
-            out.append(task(lo, hi))
-            if done is not None:
-                done(len(out))
-        return out
-    jobs = [pool.submit(task, lo, hi) for lo, hi in ranges[1:]]
-    try:
-        out = [task(*ranges[0])]
+    (1-based) is in hand, in range order. With ``sink``, each result is handed to
+    ``sink(result)`` on this thread in range order instead, and not kept (the list
+    returned is empty): what it was made of can be freed, and its memory used again by
+    the next tasks, before the last task ends (issue 11.11)."""
+    out: list[_T] = []
+    count = 0
+
+    def take(result: _T) -> None:
+        nonlocal count
+        if sink is None:
+            out.append(result)
+        else:
+            sink(result)
+        count += 1
         if done is not None:
-            done(1)
-        for job, (lo, hi) in zip(jobs, ranges[1:], strict=True):
-            out.append(task(lo, hi) if job.cancel() else job.result())
-            if done is not None:
-                done(len(out))
+            done(count)
+
+    if pool is None or len(ranges) < 2:
+        for lo, hi in ranges:
+            take(task(lo, hi))
+        return out
+    jobs: list[Future[_T] | None] = [pool.submit(task, lo, hi) for lo, hi in ranges[1:]]
+    try:
+        take(task(*ranges[0]))
+        for k, (lo, hi) in enumerate(ranges[1:]):
+            job = jobs[k]
+            assert job is not None
+            result = task(lo, hi) if job.cancel() else job.result()
+            jobs[k] = job = None                # a future holds its result until it goes
+            take(result)
+            del result
     finally:                        # on an error, what has not started does not start
         for job in jobs:
-            job.cancel()
+            if job is not None:
+                job.cancel()
     return out
 
 
@@ -908,14 +924,33 @@ def _tasks_done(progress: Callable[[float, str], None] | None, ranges: list[tupl
     return lambda i: progress(lo + (hi - lo) * i / len(ranges), stage)
 
 
+@dataclass(frozen=True)
+class Members:
+    """Targets ``[T, n, 3]`` given a range of members at a time: ``of(lo, hi)`` is a new
+    float64 array ``[T, hi - lo, 3]`` of members ``lo .. hi-1``. :func:`fit_members` fits
+    each task's members from their own array, and the encoder chooses its lattices a few
+    members at a time, instead of holding a float64 copy of the whole node (issue 11.11:
+    a 183 KB BVH of 4096 joints and 10,000 frames held 983 MB for each such copy)."""
+
+    of: Callable[[int, int], NDArray[np.float64]]
+    T: int
+    n: int
+
+
 @dataclass
 class Fitted:
-    """The key frames of a node's members, before coding (:func:`fit_members`)."""
+    """The key frames of a node's members, before coding (:func:`fit_members`).
+
+    ``rows``, when set, is ``(times, residuals, start)``: every member's key times and
+    residuals one member after another, member m's in rows ``start[m] .. start[m+1] - 1``,
+    of which ``times`` and ``residuals`` are views; :func:`write_blocks` codes them from
+    there instead of copying them."""
 
     times: list[NDArray[np.int64]]      # member m's key times [K_m]
     refs: list[int]                     # p_m (§6.5)
     residuals: list[NDArray[np.int64]]  # member m's key values minus their prediction
     out: NDArray[np.int32]              # what the decoder rebuilds, [T, n, 3]
+    rows: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]] | None = None
 
     def part(self, cols: Sequence[int] | NDArray[np.int64]) -> Fitted:
         """The members ``cols`` alone, in that order, for :func:`write_blocks` to code
@@ -925,7 +960,7 @@ class Fitted:
                       [self.residuals[m] for m in cols], self.out[:, cols])
 
 
-def fit_members(y: NDArray[np.float64], radius: float, max_span: int = 256,
+def fit_members(y: NDArray[np.float64] | Members, radius: float, max_span: int = 256,
                 pool: Executor | None = None,
                 progress: Callable[[float, str], None] | None = None) -> Fitted:
     """Fit every member of ``y[T, n, 3]``, choose each one's reference, and form the
@@ -946,30 +981,83 @@ def fit_members(y: NDArray[np.float64], radius: float, max_span: int = 256,
     ``progress(fraction, stage)``, when given, is called on this thread as each task's
     result is in hand: the fits take fractions 0 to :data:`FIT_SHARE` ("key frames"), the
     references the rest up to 1 ("references"), each in proportion to its tasks done.
+
+    Memory (issue 11.11): ``y`` may be :class:`Members`, whose tasks then make their own
+    members' targets. Each task's key times and values are copied, as it ends, into arrays
+    sized for the most keys there can be (T a member) and zero-filled, so that only the
+    part written becomes resident, and let go: a list of every task's keys and a
+    concatenated copy of it were held at once, and the list's memory was not given back
+    to the system. The key values (24 bytes a key) are let go once the references are
+    chosen, before the decoded tracks (12 bytes a member-frame) are transposed; the
+    result holds its key rows (:attr:`Fitted.rows`), which :func:`write_blocks` codes as
+    they are.
     """
     radius = _search_radius(radius)
-    T, n, _ = y.shape
-    y = np.ascontiguousarray(y, dtype=np.float64)
+    if isinstance(y, Members):
+        T, n = y.T, y.n
+    else:
+        T, n, _ = y.shape
+        y = np.ascontiguousarray(y, dtype=np.float64)
     tracks = np.empty((n, T, 3), np.int32)     # member-major: each fit writes its own
     ranges = task_ranges(n, T)
     fitting = _tasks_done(progress, ranges, 0.0, FIT_SHARE, "key frames")
     references = _tasks_done(progress, ranges, FIT_SHARE, 1.0, "references")
-    parts = _spread(pool, lambda lo, hi: _fit_range(y, lo, hi, radius, int(max_span),
-                                                    1.0, tracks), ranges, fitting)
-    times = np.concatenate([t for t, _, _ in parts]) if parts else np.zeros(0, np.int64)
-    w = np.concatenate([v for _, v, _ in parts]) if parts else np.zeros((0, 3), np.int64)
-    counts = np.concatenate([c for _, _, c in parts]) if parts else np.zeros(0, np.int64)
-    del parts
+    times, w, counts = _fit_tasks(y, T, n, radius, int(max_span), tracks, pool, ranges, fitting)
     start = np.zeros(n + 1, np.int64)
     np.cumsum(counts, out=start[1:])
-    tab = _log2_table(_LOG2_TABLE)
     res = np.empty_like(w)                         # each member's key residuals, in rows
-    ps = np.concatenate(_spread(pool, lambda lo, hi: _best_references(
-        lo, hi, times, w, start, tracks, tab, res), ranges, references)) if n \
-        else np.zeros(0, np.int64)
+    ps = _references(times, w, start, tracks, res, pool, ranges, references)
+    del w
     out = np.ascontiguousarray(tracks.transpose(1, 0, 2))    # [T, n, 3]
+    del tracks
     return Fitted([times[start[m]: start[m + 1]] for m in range(n)], [int(p) for p in ps],
-                  [res[start[m]: start[m + 1]] for m in range(n)], out)
+                  [res[start[m]: start[m + 1]] for m in range(n)], out, (times, res, start))
+
+
+def _fit_tasks(y: NDArray[np.float64] | Members, T: int, n: int, radius: float,
+               max_span: int, tracks: NDArray[np.int32], pool: Executor | None,
+               ranges: list[tuple[int, int]], done: Callable[[int], None] | None
+               ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`fit_members`' fits: every member's key times and values, one member after
+    another, and each member's key count (what concatenating the tasks' gives). Each
+    task's are copied as it ends into arrays sized for T keys a member and zero-filled,
+    of which only the part written becomes resident (:func:`fit_members`, memory)."""
+    def task(lo: int, hi: int) -> tuple[NDArray[np.int64], NDArray[np.int64],
+                                        NDArray[np.int64]]:
+        if not isinstance(y, Members):
+            return _fit_range(y, lo, hi, radius, max_span, 1.0, tracks)
+        # the same member values (each from its own targets) and the same fits
+        part = np.ascontiguousarray(y.of(lo, hi), dtype=np.float64)
+        return _fit_range(part, 0, hi - lo, radius, max_span, 1.0, tracks[lo:hi])
+    times = np.zeros(T * n, np.int64)
+    w = np.zeros((T * n, 3), np.int64)
+    counts = np.empty(n, np.int64)
+    at = members = 0
+
+    def keep(part: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]) -> None:
+        nonlocal at, members
+        t, v, c = part
+        times[at: at + len(t)] = t
+        w[at: at + len(t)] = v
+        counts[members: members + len(c)] = c
+        at, members = at + len(t), members + len(c)
+    _spread(pool, task, ranges, done, keep)
+    # the times are kept (Fitted.rows): the size written, not T a member (the rest is
+    # not resident, but an address-space limit counts it)
+    return times[:at].copy(), w[:at], counts
+
+
+def _references(times: NDArray[np.int64], w: NDArray[np.int64], start: NDArray[np.int64],
+                tracks: NDArray[np.int32], res: NDArray[np.int64], pool: Executor | None,
+                ranges: list[tuple[int, int]], done: Callable[[int], None] | None
+                ) -> NDArray[np.int64]:
+    """:func:`fit_members`' references p_m, each member's key residuals written to its rows
+    of ``res``."""
+    if not len(start) - 1:
+        return np.zeros(0, np.int64)
+    tab = _log2_table(_LOG2_TABLE)
+    return np.concatenate(_spread(pool, lambda lo, hi: _best_references(
+        lo, hi, times, w, start, tracks, tab, res), ranges, done))
 
 
 def write_blocks(enc: BlockEncoder, fitted: Fitted, T: int) -> None:
@@ -978,10 +1066,25 @@ def write_blocks(enc: BlockEncoder, fitted: Fitted, T: int) -> None:
     Memory (issue 11.11): the spans and key residuals go straight into arrays sized for
     the most keys there can be (T per member) and zero-filled, so that only the part
     written becomes resident, and the blocks are coded from their filled prefixes: no
-    list of per-member arrays and no concatenated copy of it.
+    list of per-member arrays and no concatenated copy of it. A result that holds its key
+    rows (:attr:`Fitted.rows`, :func:`fit_members`') is coded from them: its residuals
+    are the fourth block as they are, and only the spans are made (a BVH of 4096 joints
+    whose every frame is a key copied 32 bytes a member-frame here).
     """
     n = len(fitted.times)
     refs = np.asarray(fitted.refs, np.int64)
+    if fitted.rows is not None:
+        times, keys, start = fitted.rows
+        enc.block(refs.reshape(-1, 1, 1), signed=False)
+        enc.block((np.diff(start) - 1).reshape(-1, 1, 1), signed=False)      # K_m - 1
+        # each member's span lengths less one: its key times' differences, less one, but
+        # those from one member's last key to the next member's first
+        spans = np.diff(times)
+        spans -= 1
+        enc.block(np.delete(spans, start[1:-1] - 1).reshape(-1, 1, 1), signed=False)
+        del spans
+        enc.block(keys[:, None, :])
+        return
     counts = np.zeros(n, np.int64)
     spans = np.zeros(max(0, T - 1) * n, np.int64)
     keys = np.zeros((T * n, 3), np.int64)
