@@ -30,6 +30,10 @@ def _motions(original: object, decoded: object) -> None:
             raise TypeError(f"{what} must be an mpz.Motion, got {type(m).__name__}")
 
 
+#: marker-frames whose distances :func:`_dist` computes at a time (1.5 MiB of differences)
+_DIST_SAMPLES = 1 << 16
+
+
 def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
     _motions(original, decoded)
     if original.positions.shape != decoded.positions.shape:
@@ -50,7 +54,14 @@ def _dist(original: Motion, decoded: Motion) -> NDArray[np.float64]:
                  if a != b)
         raise MotionError(f"marker names differ at index {k}: {original.names[k]!r} vs "
                           f"{decoded.names[k]!r} (reorder one motion first)")
-    d = np.linalg.norm(original.positions - decoded.positions, axis=2)
+    # a block of frames at a time: the differences and their squares of every sample were
+    # two temporaries of the positions' size, three times the distances' (each row's norm
+    # is the same computation either way)
+    a, b = original.positions, decoded.positions
+    d = np.empty(a.shape[:2])
+    rows = max(1, _DIST_SAMPLES // max(1, a.shape[1]))
+    for f in range(0, a.shape[0], rows):
+        d[f: f + rows] = np.linalg.norm(a[f: f + rows] - b[f: f + rows], axis=2)
     d[~original.valid] = np.nan
     d[original.valid & ~decoded.valid] = np.inf
     return d
@@ -94,7 +105,11 @@ def arms(original: Motion, decoded: Motion) -> float:
     Frames without a valid marker do not count. ``original`` and ``decoded`` as for
     :func:`max_error`.
     """
-    d = _dist(original, decoded)
+    return _arms_of(_dist(original, decoded))
+
+
+def _arms_of(d: NDArray[np.float64]) -> float:
+    """:func:`arms` of the distances ``d`` (:func:`_dist`)."""
     per_frame = _rms_over(d, axis=1)
     per_frame = per_frame[~np.isnan(per_frame)]
     return float(per_frame.mean()) if per_frame.size else 0.0
@@ -125,7 +140,7 @@ def summary(original: Motion, decoded: Motion) -> dict[str, Any]:
     none = flat.size == 0
     return {
         "max": None if none else float(flat.max()),
-        "arms": None if none else arms(original, decoded),
+        "arms": None if none else _arms_of(d),      # (arms(original, decoded): d again)
         "rms": None if none else float(np.sqrt((flat ** 2).mean())),
         "p99": None if none else _percentile(flat, 99),
         "mean": None if none else float(flat.mean()),

@@ -584,7 +584,8 @@ def with_joint_positions(motion: Motion) -> Motion:
                           "markers_only=True): its positions are already all it holds")
     skel = motion.extras["skeleton"]
     values = _values(motion, skel)
-    pos = forward(skel, values) * marker_scale(skel)
+    pos = forward(skel, values)
+    pos *= marker_scale(skel)       # in place: no second array of every joint position
     return Motion(pos, motion.names, motion.rate, motion.units, None, motion.metadata,
                   motion.parents, motion.angles, motion.angle_names, motion.extras)
 

@@ -433,7 +433,8 @@ def source_joints(skel: Skeleton, values: ArrayLike,
         encoder then failed on NaN (a QA run of stop 54).
     """
     with np.errstate(over="ignore", invalid="ignore"):
-        positions = forward(skel, values) * scale
+        positions = forward(skel, values)
+        positions *= scale          # in place: no second array of every joint position
     bad = ~np.isfinite(positions)
     if bad.any():
         f, j, _ = np.argwhere(bad)[0]
