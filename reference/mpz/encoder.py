@@ -966,12 +966,38 @@ def _chain(scores: FloatArray, root_marker: int, members: list[int]) -> list[int
     return [idx[j] for j in keyframe.chain_order(scores[np.ix_(idx, idx)])]
 
 
+#: rows of a score matrix moved at a time by :func:`_to_front`
+_FRONT_ROWS = 64
+
+
+def _to_front(scores: FloatArray, r: int) -> None:
+    """``scores[np.ix_(idx, idx)]`` for ``idx = [r, 0, .., r-1, r+1, ..]``, in place: row and
+    column r first, the others after them in order, a few rows at a time (numpy copies
+    overlapping operands whole first). The copy was M^2 x 8 bytes beside the scores,
+    134 MB for 4096 markers (issue 11.11)."""
+    M = scores.shape[0]
+    row = scores[r].copy()
+    for hi in range(r, 0, -_FRONT_ROWS):             # rows 0 .. r-1 down by one
+        lo = max(0, hi - _FRONT_ROWS)
+        scores[lo + 1: hi + 1] = scores[lo: hi]
+    scores[0] = row
+    for a in range(0, M, _FRONT_ROWS):                 # columns 0 .. r-1 right by one
+        blk = scores[a: a + _FRONT_ROWS]
+        col = blk[:, r].copy()
+        blk[:, 1: r + 1] = blk[:, :r]
+        blk[:, 0] = col
+
+
 def _reroot(root_marker: int, M: int, scores: FloatArray | None = None) -> Hierarchy:
     """A flat hierarchy (root + one node) whose root is ``root_marker``; with ``scores``
-    (:func:`chain_scores_of`), its members in :func:`_chain`'s order."""
+    (:func:`chain_scores_of`, then reordered in place), its members in :func:`_chain`'s
+    order."""
     rest = [m for m in range(M) if m != root_marker]
-    if scores is not None:
-        rest = _chain(scores, root_marker, rest)
+    if scores is not None and len(rest) >= 3:
+        # _chain's order of [root] + rest without a reordered copy of the scores
+        _to_front(scores, root_marker)
+        idx = [root_marker] + rest
+        rest = [idx[j] for j in keyframe.chain_order(scores)]
     nodes = [Node("root", -1, root_marker, [root_marker], [1.0])]
     if rest:
         nodes.append(Node("body", 0, rest[0], rest, [1.0] * len(rest)))
