@@ -1,7 +1,7 @@
 """Encoder peak memory on long captures (issue 11.11): peak RSS against the input size.
 
     python bench/bench_memory.py [--frames 100000 300000 1000000] [--modes default 1mm lossy]
-                                 [--quick]
+                                 [--quick] [--joints J]
 
 Each run is a child process that builds a synthetic walk (``mpz.synth.generate("walk",
 frames=N, markers=41)``), resets its peak-RSS mark (``/proc/self/clear_refs``), encodes,
@@ -17,6 +17,16 @@ place of ``--frames`` (giving both is an error).
 
 Modes: ``default`` (the default bound), ``1mm`` (``max_error=1.0``), ``lossy`` (the
 paper's mode, pattern layers).
+
+``--joints J`` encodes a joint-heavy BVH instead of the walk (a QA run's bomb: 183 KB of
+text for 4096 joints and 10,000 frames, 983 MB of joint positions, took about 11 GB to
+encode before the encoder worked in blocks): a ROOT with 6 channels and a chain of J - 1
+JOINTs without channels, an End Site at its end, and a line of 6 random digits a frame
+(every frame is then a key frame of every joint), read by ``parse_bvh`` in the child; the
+input is its joint positions (J + 1 points). ``1mm`` is 1 unit of the BVH (it has none),
+which the position-bound search for its channels takes too. E.g. ``--joints 4096
+--frames 1000 2000 --modes default 1mm`` (the figures of docs/io-notes.md, "Size and
+memory"); 4096 x 10,000 needs about 4 GB.
 """
 from __future__ import annotations
 
@@ -36,9 +46,22 @@ def status(key):
     text = open("/proc/self/status").read()
     return int(re.search(key + r":\s+(\d+) kB", text).group(1)) * 1024
 
-frames, mode = int(sys.argv[1]), sys.argv[2]
+frames, mode, joints = int(sys.argv[1]), sys.argv[2], int(sys.argv[3])
 opts = {"default": {}, "1mm": {"max_error": 1.0}, "lossy": {"lossy": True}}[mode]
-m = generate("walk", frames=frames, markers=41, seed=0)
+if joints:
+    from mpz.io.bvh import parse_bvh
+    rng = np.random.default_rng(0)
+    head = ["HIERARCHY", "ROOT j0", "{", "OFFSET 0 0 0",
+            "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    for k in range(1, joints):
+        head += [f"JOINT j{k}", "{", "OFFSET 0 1 0"]
+    head += ["End Site", "{", "OFFSET 0 1 0", "}"] + ["}"] * joints
+    rows = [" ".join(map(str, r)) for r in rng.integers(0, 10, (frames, 6))]
+    text = "\n".join(head + ["MOTION", f"Frames: {frames}", "Frame Time: 0.01", *rows])
+    m = parse_bvh(text + "\n")
+    del text, rows
+else:
+    m = generate("walk", frames=frames, markers=41, seed=0)
 gc.collect()
 input_bytes = m.positions.nbytes + m.valid.nbytes
 with open("/proc/self/clear_refs", "w") as fh:       # reset VmHWM to the current RSS
@@ -57,8 +80,8 @@ print(json.dumps({"frames": frames, "mode": mode, "input": input_bytes, "rss0": 
 """
 
 
-def run(frames: int, mode: str) -> dict[str, Any]:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(frames), mode],
+def run(frames: int, mode: str, joints: int = 0) -> dict[str, Any]:
+    out = subprocess.run([sys.executable, "-c", CHILD, str(frames), mode, str(joints)],
                          capture_output=True, text=True)
     if out.returncode != 0:
         return {"frames": frames, "mode": mode, "error": out.stderr.strip().splitlines()[-1]}
@@ -74,6 +97,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true",
                    help="20 000 and 50 000 frames, in place of --frames")
     p.add_argument("--json", action="store_true", help="one JSON object per run")
+    p.add_argument("--joints", type=int, default=0, metavar="J",
+                   help="a BVH chain of J joints whose root alone has channels, instead "
+                        "of the 41-marker walk")
     args = p.parse_args(argv)
     if args.quick and args.frames != p.get_default("frames"):
         p.error("--quick runs 20 000 and 50 000 frames: give --quick or --frames, not both")
@@ -86,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{'x input':>8} {'s':>7} {'MPZ KB':>8}  sha256")
     for frames in sizes:
         for mode in args.modes:
-            r = run(frames, mode)
+            r = run(frames, mode, args.joints)
             if args.json:
                 print(json.dumps(r), flush=True)
                 continue

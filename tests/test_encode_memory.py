@@ -14,8 +14,9 @@ The peaks are measured with tracemalloc, which numpy's and numba's allocations r
 are upper bounds of the resident memory), on small joint-heavy BVH files: a chain of
 joints whose root alone has channels, random single digits (so that every frame is a
 key frame of every joint), as in the QA run's file. The bounds are multiples of the
-positions' own bytes, stated in docs/io-notes.md ("Size and memory"); each test failed
-on the encoder before this change (its old figure is given).
+positions' own bytes, stated in docs/io-notes.md ("Size and memory"); each of these
+tests failed on the encoder before this change (its old figure is given). The tests after
+them hold each stage that works in blocks to the values of the whole arrays, bit for bit.
 """
 from __future__ import annotations
 
