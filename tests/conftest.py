@@ -108,3 +108,27 @@ def bench_script(monkeypatch):
         spec.loader.exec_module(module)
         return module
     return load
+
+
+def install_copy(site: Path) -> Path:
+    """A copy of this checkout's mpz laid out as a wheel installs it: ``site/mpz``, with
+    each subpackage of pyproject.toml's ``package-dir`` (spec, tools, conformance, the
+    vectors) in its folder inside it, ``__pycache__`` left out. A process with ``site``
+    first on its ``PYTHONPATH`` imports this copy instead of the checkout. Returns the
+    copy's ``mpz`` folder."""
+    import shutil
+    import tomllib
+    dirs = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"][
+        "package-dir"]
+    top = site / "mpz"
+    for name in sorted(dirs, key=len):                  # mpz first, then inside it
+        below = name.split(".")[1:]
+        shutil.copytree(REPO / dirs[name], top.joinpath(*below), dirs_exist_ok=True,
+                        ignore=shutil.ignore_patterns("__pycache__"))
+    return top
+
+
+@pytest.fixture
+def installed_copy(tmp_path: Path) -> Path:
+    """:func:`install_copy` into ``tmp_path/site``; returns the copy's ``mpz`` folder."""
+    return install_copy(tmp_path / "site")

@@ -19,6 +19,7 @@ from mpz import (
                         _worker,  # noqa: F401  (first: a worker process's SIGINT, mpz._worker)
                         io,
 )
+from mpz._identity import identity
 from mpz.api import (
     FileInfo,
     Summary,
@@ -44,7 +45,9 @@ from mpz.errors import (
 from mpz.metrics import arms, max_error
 from mpz.motion import Motion, concatenate
 
-#: the package version; the bitstream version is separate (spec Appendix B, CHANGELOG.md)
+#: the package version; the bitstream version is separate (spec Appendix B, CHANGELOG.md).
+#: Every development checkout between two releases has the same one: :func:`identity`
+#: tells them apart
 __version__ = "0.1.0"
 
 __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError",
@@ -52,4 +55,4 @@ __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError"
            "Motion", "concatenate", "decode", "info", "FileInfo", "io", "encode",
            "encode_motion", "EncodeOptions", "EncodeReport", "NodeReport",
            "arms", "max_error", "read_mpz", "write_mpz", "read_summary",
-           "Summary", "SummaryLevel", "write_atomic", "__version__"]
+           "Summary", "SummaryLevel", "write_atomic", "__version__", "identity"]
