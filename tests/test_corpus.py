@@ -34,6 +34,7 @@ import numpy as np
 import pytest
 
 import mpz
+from mpz._identity import DIGITS, source_digest, source_fingerprint
 from mpz.corpus import (
     INDEX_NAME,
     LOCK_NAME,
@@ -2561,12 +2562,15 @@ def test_a_scheduler_whose_workers_run_another_mpz_is_refused(corpus, monkeypatc
     from distributed import LocalCluster
     src, out, _ = corpus
     real = mpz.__version__
+    fp = source_fingerprint()
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
         monkeypatch.setattr(mpz, "__version__", "9.9.9")
         with pytest.raises(EncoderError, match=re.escape(
-                f"must run the mpz of this command (9.9.9), with the corpus extra: "
-                f"{cluster.workers[0].worker_address} runs mpz {real}. Install mpz 9.9.9")):
+                f"must run the mpz of this command, 9.9.9 (source {fp}), with the corpus "
+                f"extra: {cluster.workers[0].worker_address} runs mpz {real} (source {fp}). "
+                "Install mpz 9.9.9 where they run (pip install 'mpz[corpus]==9.9.9', or the "
+                "same checkout)")):
             run_corpus(src, out, scheduler=cluster.scheduler_address)
         assert not out.exists()
         monkeypatch.setattr(mpz, "__version__", real)
@@ -2586,14 +2590,16 @@ def test_a_worker_that_joins_later_with_another_mpz_stops_the_run(corpus, monkey
     import mpz.corpus as corpus_mod
     src, out, _ = corpus
     real = mpz.__version__
+    fp = source_fingerprint()
     monkeypatch.setattr(corpus_mod, "_same_mpz", lambda client, scheduler: None)
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
         monkeypatch.setattr(mpz, "__version__", "9.9.9")
         with pytest.raises(EncoderError, match=re.escape(
-                "the Dask workers that join the run must run the mpz of this command "
-                f"(9.9.9), with the corpus extra: {cluster.workers[0].worker_address} "
-                f"runs mpz {real}. Install mpz 9.9.9")):
+                "the Dask workers that join the run must run the mpz of this command, "
+                f"9.9.9 (source {fp}), with the corpus extra: "
+                f"{cluster.workers[0].worker_address} runs mpz {real} (source {fp}). "
+                "Install mpz 9.9.9")):
             run_corpus(src, out, scheduler=cluster.scheduler_address)
         assert not list(out.rglob("*.mpz"))
         monkeypatch.setattr(mpz, "__version__", real)
@@ -2650,6 +2656,138 @@ def test_the_task_checks_the_workers_mpz_where_mpz_cannot_be_imported(tmp_path):
     assert proc.stdout.strip() == ("mpz corpus task on another mpz|a worker|none: it cannot "
                                    "import mpz (ModuleNotFoundError: import of mpz halted; "
                                    "None in sys.modules)"), proc.stdout + proc.stderr
+
+
+@contextlib.contextmanager
+def _worker_importing(site: Path, scheduler: str, log: Path) -> Iterator[str]:
+    """A ``dask worker`` process (no nanny, one thread) of ``scheduler`` whose ``import
+    mpz`` is the copy in ``site`` (first on its PYTHONPATH); yields its address once the
+    scheduler has it, and stops it afterwards."""
+    from distributed import Client
+    env = dict(os.environ, PYTHONPATH=str(site), OPENBLAS_NUM_THREADS="1")
+    with open(log, "w") as fh:
+        proc = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                 scheduler, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                 "--death-timeout", "60"], env=env, cwd=site, stdout=fh,
+                                stderr=subprocess.STDOUT)
+    try:
+        with Client(scheduler, timeout="30s") as client:
+            client.wait_for_workers(1, timeout=120)
+            (address,) = client.scheduler_info()["workers"]
+        yield address
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def _edited(copy: Path) -> str:
+    """Edit one module of the installed ``copy`` of this mpz (a comment added: the same
+    version, other source) and return the identity its processes report."""
+    digest = source_digest([("", str(copy))])[:DIGITS]
+    assert digest == source_fingerprint()       # the copy is this mpz, until edited
+    smooth = copy / "smooth.py"
+    smooth.write_text(smooth.read_text() + "\n# edited\n")
+    edited = source_digest([("", str(copy))])[:DIGITS]
+    assert edited != digest
+    return f"{mpz.__version__} (source {edited})"
+
+
+@needs_dask
+@pytest.mark.parametrize("joins", ["at connect", "later"])
+def test_a_worker_of_an_edited_copy_of_this_mpz_is_refused(corpus, installed_copy, tmp_path,
+                                                            monkeypatch, joins):
+    """Every development checkout had ``mpz.__version__`` 0.1.0, so a worker whose mpz was
+    another checkout or had an edited file (other encoder, other bytes) passed both
+    checks and wrote its share of the archive. The checks compare mpz.identity(), which
+    has a fingerprint of the source: a worker whose copy of this mpz has one edited file is
+    refused as the run connects and, when it joins later (the check at connect skipped
+    here), by the task's own check, before anything is written."""
+    from distributed import LocalCluster
+
+    import mpz.corpus as corpus_mod
+    src, out, _ = corpus
+    theirs = _edited(installed_copy)
+    if joins == "later":
+        monkeypatch.setattr(corpus_mod, "_same_mpz", lambda client, scheduler: None)
+    with LocalCluster(n_workers=0, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster, \
+            _worker_importing(installed_copy.parent, cluster.scheduler_address,
+                              tmp_path / "worker.log") as worker:
+        who = (f"the Dask workers at {cluster.scheduler_address}" if joins == "at connect"
+               else "the Dask workers that join the run")
+        with pytest.raises(EncoderError) as err:
+            run_corpus(src, out, scheduler=cluster.scheduler_address)
+    v = mpz.__version__
+    assert str(err.value) == (
+        f"{who} must run the mpz of this command, {mpz.identity()}, with the corpus extra: "
+        f"{worker} runs mpz {theirs}. Theirs is mpz {v} of other source files (another "
+        "checkout, files edited since, or an mpz older than its source fingerprint): run "
+        "them from the same checkout as this command, or install the same release on both "
+        f"sides (pip install 'mpz[corpus]=={v}'), and start them again")
+    assert not out.exists() if joins == "at connect" else not list(out.rglob("*.mpz"))
+
+
+def _probe_result(tmp_path: Path, fake_mpz: str, expected: str) -> str:
+    """What the corpus task says on a worker whose ``mpz`` is the module ``fake_mpz``
+    (Python source), the task made by this mpz for a driver of identity ``expected``."""
+    import cloudpickle
+
+    from mpz.corpus import _version_checked
+    blob = tmp_path / "task.pkl"
+    blob.write_bytes(cloudpickle.dumps(_version_checked(expected)))
+    code = ("import pickle, sys, types\n"
+            "mpz = types.ModuleType('mpz')\n"
+            f"exec({fake_mpz!r}, mpz.__dict__)\n"
+            "sys.modules['mpz'] = mpz\n"
+            f"task = pickle.loads(open({str(blob)!r}, 'rb').read())\n"
+            "try:\n"
+            "    task(b'')\n"
+            "except RuntimeError as exc:\n"
+            "    print(exc)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    return proc.stdout.strip() + proc.stderr
+
+
+@needs_dask
+@pytest.mark.parametrize("fake_mpz, said", [
+    ("__version__ = '0.1.0'", "0.1.0"),                    # an mpz before identity()
+    ("__version__ = '0.1.0'\ndef identity():\n    raise OSError('broken')\n", "0.1.0"),
+    ("__version__ = '0.1.0'\ndef identity():\n    return '0.1.0 (source 000000000000)'\n",
+     "0.1.0 (source 000000000000)"),
+    ("", "(no version)")])
+def test_the_task_check_falls_back_to_the_version_of_an_older_mpz(tmp_path, fake_mpz, said):
+    """The check runs on workers of any mpz: one older than mpz.identity() (or whose
+    identity() fails) is said by its version alone, which never equals an identity, and
+    the task stops there, where it crashed on the missing function."""
+    assert _probe_result(tmp_path, fake_mpz, mpz.identity()) == \
+        f"mpz corpus task on another mpz|a worker|{said}"
+
+
+def test_the_error_names_both_identities_and_the_bare_version_to_install():
+    from mpz.corpus import _other_mpz
+    mine = "0.2.0 (source aaaaaaaaaaaa)"
+    other = str(_other_mpz("the Dask workers at tcp://h:8786", mine,
+                           {"tcp://w:1": "0.1.0 (source bbbbbbbbbbbb)",
+                            "tcp://w:2": "none: it cannot import mpz (ImportError: x)"}))
+    assert other == ("the Dask workers at tcp://h:8786 must run the mpz of this command, "
+                     "0.2.0 (source aaaaaaaaaaaa), with the corpus extra: tcp://w:1 runs mpz "
+                     "0.1.0 (source bbbbbbbbbbbb); tcp://w:2 has none: it cannot import mpz "
+                     "(ImportError: x). Install mpz 0.2.0 where they run (pip install "
+                     "'mpz[corpus]==0.2.0', or the same checkout) and start them again")
+    same = str(_other_mpz("the Dask workers that join the run", mine,
+                          {"tcp://w:1": "0.2.0 (source bbbbbbbbbbbb)", "tcp://w:2": "0.2.0"}))
+    assert same == ("the Dask workers that join the run must run the mpz of this command, "
+                    "0.2.0 (source aaaaaaaaaaaa), with the corpus extra: tcp://w:1 runs mpz "
+                    "0.2.0 (source bbbbbbbbbbbb); tcp://w:2 runs mpz 0.2.0. Theirs is mpz "
+                    "0.2.0 of other source files (another checkout, files edited since, or "
+                    "an mpz older than its source fingerprint): run them from the same "
+                    "checkout as this command, or install the same release on both sides "
+                    "(pip install 'mpz[corpus]==0.2.0'), and start them again")
 
 
 @pytest.mark.parametrize("option, limit, note", [

@@ -2128,19 +2128,40 @@ def _connect(client_class: type[Client], scheduler: str) -> Client:
     return box["client"]
 
 
-def _mpz_versions(client: Client) -> dict[str, str] | None:
-    """The ``mpz.__version__`` each worker of ``client``'s cluster imports (or why it
-    cannot import mpz), by worker address; None when they do not all answer within
-    :data:`SCHEDULER_SECONDS` (the run's own watch then says what is wrong)."""
-    def version() -> str:       # nested: sent by value, so a worker without mpz runs it
+def _mpz_identity_probe() -> Callable[[], str]:
+    """A function that says which mpz the process it runs in imports: its
+    :func:`mpz.identity`, the ``mpz.__version__`` alone of an mpz older than that function
+    (which never equals an identity: another mpz), or ``none: why`` where mpz cannot be
+    imported. It is nested, so Dask (cloudpickle) sends it by value: it must run on a
+    worker of any mpz or none, so it uses nothing of this module (a function of
+    ``mpz.corpus`` would go by name, and one an older worker lacks kills the task as it is
+    loaded)."""
+    def probe() -> str:
         try:
             import mpz as worker_mpz
-            return str(worker_mpz.__version__)
         except Exception as exc:
             return f"none: it cannot import mpz ({type(exc).__name__}: {exc})"
+        try:
+            return str(worker_mpz.identity())
+        except Exception:           # an mpz before identity(), or one that fails it
+            return str(getattr(worker_mpz, "__version__", "(no version)"))
+    return probe
 
+
+def _version_of(identity: str) -> str:
+    """The bare version of an mpz :func:`mpz.identity` (``0.1.0`` of ``0.1.0 (source
+    1a2b3c4d5e6f)``; an older mpz's version is already bare)."""
+    return identity.partition(" (source ")[0]
+
+
+def _mpz_versions(client: Client) -> dict[str, str] | None:
+    """The mpz each worker of ``client``'s cluster imports, by worker address
+    (:func:`_mpz_identity_probe`: its :func:`mpz.identity`, or why it cannot import mpz);
+    None when they do not all answer within :data:`SCHEDULER_SECONDS` (the run's own watch
+    then says what is wrong)."""
     try:                        # bounded as _nthreads is
-        got = client.run(version, on_error="return", callback_timeout=SCHEDULER_SECONDS)
+        got = client.run(_mpz_identity_probe(), on_error="return",
+                         callback_timeout=SCHEDULER_SECONDS)
     except Exception:           # silent or gone: the run's own watch says what is wrong
         return None
     return {a: v if isinstance(v, str) else f"none: {type(v).__name__}: {v}"
@@ -2152,46 +2173,60 @@ def _same_mpz(client: Client, scheduler: str) -> None:
     none. The workers encode with their own mpz: one of another version wrote the archive
     with no word (its rows' ``mpz_version`` alone said it), and a worker without mpz died
     on its first task, after which the run waited 60 s and blamed the memory limit (a QA
-    run of external clusters). A worker that joins later is stopped by the task's own
-    check (:func:`_version_checked`)."""
+    run of external clusters). "Another mpz" is another :func:`mpz.identity`: every
+    development checkout had the version 0.1.0, so one of other code (an edited file, an
+    older commit) passed a check of the version alone. A worker that joins later is
+    stopped by the task's own check (:func:`_version_checked`)."""
     import mpz
-    mine = mpz.__version__
+    mine = mpz.identity()
     other = {a: v for a, v in (_mpz_versions(client) or {}).items() if v != mine}
     if other:
         raise _other_mpz(f"the Dask workers at {scheduler}", mine, other)
 
 
 def _other_mpz(who: str, mine: str, other: Mapping[str, str]) -> EncoderError:
-    """The error of a run whose workers ``other`` (address -> their mpz version, or
-    ``none: why``) do not run this process's mpz ``mine``."""
+    """The error of a run whose workers ``other`` (address -> their :func:`mpz.identity`,
+    an older mpz's version, or ``none: why``) do not run this process's mpz ``mine`` (its
+    identity). The pip command names the bare version; when every such worker has that
+    version, their source differs, and the error says so."""
     said = "; ".join(f"{a} {'has ' + v if v.startswith('none') else 'runs mpz ' + v}"
                      for a, v in sorted(other.items()))
-    return EncoderError(f"{who} must run the mpz of this command ({mine}), with the corpus "
-                        f"extra: {said}. Install mpz {mine} where they run (pip install "
-                        f"'mpz[corpus]=={mine}', or the same checkout) and start them again")
+    version = _version_of(mine)
+    if all(_version_of(v) == version for v in other.values()):
+        return EncoderError(
+            f"{who} must run the mpz of this command, {mine}, with the corpus extra: "
+            f"{said}. Theirs is mpz {version} of other source files (another checkout, "
+            "files edited since, or an mpz older than its source fingerprint): run them "
+            "from the same checkout as this command, or install the same release on both "
+            f"sides (pip install 'mpz[corpus]=={version}'), and start them again")
+    return EncoderError(f"{who} must run the mpz of this command, {mine}, with the corpus "
+                        f"extra: {said}. Install mpz {version} where they run (pip install "
+                        f"'mpz[corpus]=={version}', or the same checkout) and start them "
+                        "again")
 
 
 #: the first words of the error a task raises on a worker whose mpz is not the driver's
-#: (:func:`_version_checked`); the rest is ``address|version`` (or ``none: why``)
+#: (:func:`_version_checked`); the rest is ``address|identity`` (an older mpz's version, or
+#: ``none: why``)
 OTHER_MPZ = "mpz corpus task on another mpz|"
 
 
 def _version_checked(version: str) -> Callable[[bytes], FileResult]:
-    """A task that runs :func:`encode_file` on a (cloud)pickled :class:`Task` where the worker's
-    mpz is ``version``, and raises RuntimeError(:data:`OTHER_MPZ` ...) before reading
-    anything where it is not or cannot be imported.
+    """A task that runs :func:`encode_file` on a (cloud)pickled :class:`Task` where the
+    worker's mpz is ``version`` (this process's :func:`mpz.identity`), and raises
+    RuntimeError(:data:`OTHER_MPZ` ...) before reading anything where it is not or cannot
+    be imported.
 
     ``_same_mpz`` asks the workers there as the run connects; a worker that joined a
     ``--scheduler`` cluster later ran its own mpz's ``encode_file``, which is sent by name:
     one of another version wrote its share without a word. This function is nested, so
-    Dask (cloudpickle) sends it by value, and its argument is bytes, so that a worker of
-    any mpz, or none, can load the task and run the check."""
+    Dask (cloudpickle) sends it by value, with the probe of :func:`_mpz_identity_probe`,
+    and its argument is bytes, so that a worker of any mpz, or none, can load the task and
+    run the check."""
+    probe = _mpz_identity_probe()
+
     def task(payload: bytes) -> FileResult:
-        try:
-            import mpz as worker_mpz
-            have = str(worker_mpz.__version__)
-        except Exception as exc:
-            have = f"none: it cannot import mpz ({type(exc).__name__}: {exc})"
+        have = probe()
         if have != version:
             try:
                 from distributed import get_worker
@@ -2777,7 +2812,7 @@ def _run_on(client: Client, tasks: list[Task], todo: list[int],
     import cloudpickle  # Dask's: a task's FileOptions may be a lambda
 
     import mpz
-    version = mpz.__version__
+    version = mpz.identity()        # the workers' mpz must be this one (_same_mpz)
     encode = _version_checked(version)
 
     def submit() -> None:
