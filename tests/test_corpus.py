@@ -924,6 +924,32 @@ def test_index_columns_against_independent_computations(corpus):
             np.testing.assert_array_equal(lv.means, means.astype(np.float32))
 
 
+def test_a_row_names_its_writer_by_identity_and_an_older_rows_version_is_kept(corpus):
+    """``mpz_version`` is the writer's mpz.identity(), so the rows of two checkouts of
+    other code (the same __version__) say which wrote them. A row of an mpz before it
+    holds the version alone: it is read and checked as it is, and a run that finds its
+    file up to date leaves it so."""
+    import sqlite3
+
+    from mpz.corpus import row_digest
+    src, out, _ = corpus
+    run_corpus(src, out)
+    with open_index(out) as ix:
+        assert {r["mpz_version"] for r in ix.rows()} == {mpz.identity()}
+        old = dict(ix.row("walk.mpz") or {}, mpz_version=mpz.__version__)
+    db = sqlite3.connect(out / INDEX_NAME)
+    db.execute("UPDATE files SET mpz_version = ?, row_sha256 = ? WHERE output = ?",
+               (mpz.__version__, row_digest(old), "walk.mpz"))
+    db.commit()
+    db.close()
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "skipped", "walk": "skipped",
+                             "wave": "skipped"}
+    with open_index(out) as ix:
+        got = {Path(r["output"]).stem: r["mpz_version"] for r in ix.rows()}
+    assert got == {"jump": mpz.identity(), "walk": mpz.__version__, "wave": mpz.identity()}
+
+
 def test_long_motion_is_partitioned_on_blocks():
     """Beyond EXACT_MAX_FRAMES the cuts fall on blocks; means and WSSSE are exact for them,
     and among block-aligned partitions none is better (checked exhaustively here)."""

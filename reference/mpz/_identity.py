@@ -96,8 +96,9 @@ def identity() -> str:
     has the same fingerprint, and so does the checkout it was built from (a checkout's
     ``spec/``, ``tools/`` and ``conformance/`` are named by their path in the wheel).
 
-    ``mpz encode --scheduler`` compares it between the command and each Dask worker; an
-    mpz older than this function has its version alone, which never equals an identity.
+    ``mpz encode --scheduler`` compares it between the command and each Dask worker, and
+    each row of a corpus index records its writer's (``mpz_version``). An mpz older than
+    this function has its version alone, which never equals an identity.
     """
     import mpz
     return f"{mpz.__version__} (source {source_fingerprint()})"

@@ -150,7 +150,8 @@ CREATE TABLE IF NOT EXISTS files (
     descriptor      BLOB NOT NULL,     -- float64 LE features (mpz.similarity.descriptor);
                                        -- empty for summary_method none
     fingerprint     TEXT NOT NULL,     -- of the encode options (mpz.corpus.fingerprint)
-    mpz_version     TEXT NOT NULL,
+    mpz_version     TEXT NOT NULL,     -- the writer: mpz.identity(), "0.1.0 (source 1a2b3c4d5e6f)";
+                                       -- the version alone in a row of an older mpz
     encoded_at      TEXT NOT NULL,     -- UTC, ISO 8601
     seconds         REAL NOT NULL,     -- read + encode + write + check + summary, wall
     cpu_seconds     REAL NOT NULL,     -- the same, CPU time of the worker process
@@ -671,7 +672,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
         "summary_method": NO_SUMMARY if summary is None else summary.method,
         "summary_dims": 3 * motion.n_markers if summary is None else summary.dims,
         "descriptor": features,
-        "fingerprint": fp, "mpz_version": mpz.__version__, "warning": "; ".join(trip),
+        "fingerprint": fp, "mpz_version": mpz.identity(), "warning": "; ".join(trip),
         "encoded_at": datetime.datetime.now(datetime.UTC).isoformat(
             timespec="seconds"),
         "seconds": seconds, "cpu_seconds": 0.0}
