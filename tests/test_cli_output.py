@@ -341,11 +341,24 @@ def test_conformance_usage_and_version(tmp_path: Path) -> None:
     p = run(["mpz-conformance"], tmp_path)
     assert p.returncode == 64 and "one of the arguments --decoder --encoder" in p.stderr
     p = run(["mpz-conformance", "--version"], tmp_path)
-    assert p.returncode == 0 and p.stdout.strip() == f"mpz-conformance {mpz.__version__}"
+    assert p.returncode == 0 and p.stdout.strip() == f"mpz-conformance {mpz.identity()}"
     p = run(["mpz-conformance", "--help"], tmp_path)
     assert p.returncode == 0 and "64 usage error" in p.stdout.replace("\n", " ")
     p = run(["mpz-conformance", "--decoder", "true", "--results", "nodir/r.json"], tmp_path)
     assert p.returncode == 64 and "nodir does not exist" in p.stderr
+
+
+@pytest.mark.parametrize("tool", ["mpz", "mpzinfo", "mpz-conformance"])
+def test_version_names_the_source_not_only_the_release(tool: str, tmp_path: Path) -> None:
+    """`--version` said "mpz 0.1.0" for every development checkout, so a bug report or two
+    hosts compared by it could not tell which code ran. It now gives mpz.identity(): the
+    version and the fingerprint of the package's source, the 12 hex digits a worker's
+    check compares (mpz._identity)."""
+    from mpz._identity import source_digest, source_roots
+    p = run([tool, "--version"], tmp_path)
+    assert p.returncode == 0 and p.stderr == "", p.stderr
+    digest = source_digest(source_roots())[:12]     # of the files, not of identity()
+    assert p.stdout == f"{tool} {mpz.__version__} (source {digest})\n"
 
 
 def test_one_exit_code_table_for_every_tool(tmp_path: Path) -> None:

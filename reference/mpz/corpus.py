@@ -655,7 +655,7 @@ def _row(task: Task, data: bytes, motion: Any, sha: str, st: os.stat_result, fp:
     if wrong:
         raise EncoderError(f"the output does not give back the source's "
                            f"{', '.join(p.name for p in wrong)} ({wrong[0].detail}): a defect "
-                           f"of mpz {mpz.__version__}, please report it; the output is left "
+                           f"of mpz {mpz.identity()}, please report it; the output is left "
                            "for the report")
     raw = motion.raw_size()
     return {

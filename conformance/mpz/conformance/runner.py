@@ -67,6 +67,7 @@ from mpz.tools._cli import (
     EXIT_OK,
     EXIT_USAGE,
     Parser,
+    add_version,
     found,
     printable,
     quiet_broken_pipe,
@@ -994,7 +995,6 @@ def _finite(obj: Any) -> Any:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from mpz import __version__
     p = Parser(
         prog="mpz-conformance",
         description="Run an MPZ decoder or encoder against the conformance vectors "
@@ -1007,7 +1007,7 @@ def _parser() -> argparse.ArgumentParser:
                "after the report), "
                "130 interrupted, 143 terminated (SIGTERM; 129 for SIGHUP): the commands "
                "running are killed and no --results is written")
-    p.add_argument("--version", action="version", version=f"mpz-conformance {__version__}")
+    add_version(p)
     who = p.add_mutually_exclusive_group(required=True)
     who.add_argument("--decoder", metavar="CMD",
                      help="decoder command; run as CMD IN.mpz OUT.npy")

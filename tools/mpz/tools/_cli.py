@@ -362,6 +362,30 @@ class SubcommandParser(Parser):
         return ns, extras
 
 
+class _Version(argparse.Action):
+    """``--version``: ``PROG VERSION (source FINGERPRINT)``, :func:`mpz.identity`, read as the
+    option is given (a few ms: the package's source is hashed), not as the parser is built.
+    The version alone was 0.1.0 for every development checkout, so a bug report or two
+    hosts compared by it could not tell which code ran."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS,
+                 help: str = "show the version and the source fingerprint, and exit"
+                 ) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=default, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> NoReturn:
+        import mpz
+        print(f"{parser.prog} {mpz.identity()}")        # on stdout, as argparse's own
+        parser.exit()
+
+
+def add_version(parser: argparse.ArgumentParser) -> None:
+    """Give ``parser`` the ``--version`` of every MPZ command (:class:`_Version`)."""
+    parser.add_argument("--version", action=_Version)
+
+
 # -- memory --------------------------------------------------------------------------------
 
 #: the commands that take ``--max-samples`` (a lower limit on what a decode holds)
@@ -784,9 +808,9 @@ def _bug(prog: str) -> int:
     """Print the exception being handled as the bug it is (see :func:`reports_ctrl_c`)."""
     import traceback
 
-    from mpz import __version__
+    from mpz import identity
     traceback.print_exc()
-    print(f"{prog}: internal error: this is a bug in mpz {__version__}, not a verdict on "
+    print(f"{prog}: internal error: this is a bug in mpz {identity()}, not a verdict on "
           "the input; please report it with the traceback above", file=sys.stderr)
     return EXIT_BUG
 

@@ -22,6 +22,7 @@ from mpz.tools._cli import (
     EXIT_ERROR,
     EXIT_MEMORY,
     Parser,
+    add_version,
     json_failure,
     memory_message,
     print_json,
@@ -44,10 +45,9 @@ SUBCOMMANDS = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from mpz import __version__
     parser = Parser(prog="mpz", description="MPZ motion-capture compression tools.",
                     epilog=EXIT_CODES_HELP)
-    parser.add_argument("--version", action="version", version=f"mpz {__version__}")
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for modname in SUBCOMMANDS.values():

@@ -53,6 +53,7 @@ from mpz.tools._cli import (
     EXIT_WARN,
     MAX_SAMPLES_HELP,
     Parser,
+    add_version,
     found,
     jsonable,
     max_samples,
@@ -347,7 +348,7 @@ def _main(argv: list[str] | None = None) -> int:
                         "payloads are still decoded: their rules need it)")
     p.add_argument("--max-samples", type=max_samples, default=MAX_SAMPLES, metavar="N",
                    help=MAX_SAMPLES_HELP)
-    p.add_argument("--version", action="version", version=f"mpzinfo {__version__}")
+    add_version(p)
     args = p.parse_args(argv)
     if args.files.count("-") > 1:       # the second read nothing: "bad signature b''"
         p.error("- (standard input) can be given once")
