@@ -1853,6 +1853,22 @@ def test_a_bvh_hierarchy_refusal_says_what_and_where(two_joint_bvh, old, new, sa
         parse_bvh(text)
 
 
+@pytest.mark.parametrize("cut, said", [
+    ("CHANNELS 3 Zrotation", "says 3 but the file ends after 1: Zrotation"),
+    ("CHANNELS 3", "says 3 but the file ends after 0"),
+])
+def test_a_bvh_cut_inside_a_channels_list_is_refused(tmp_path, two_joint_bvh, cut, said):
+    """A BVH that ends inside a CHANNELS list (a file cut short) raised an IndexError out
+    of the reader (a fuzzing QA run of the text readers); it is refused naming the joint,
+    the line and the channels that are there."""
+    text = two_joint_bvh[:two_joint_bvh.index(cut) + len(cut)]
+    line = _line_holding(text, cut)
+    (tmp_path / "cut.bvh").write_text(text)
+    with pytest.raises(InputFormatError, match=re.escape(
+            f"BVH: line {line}: CHANNELS of joint 'Spine' {said}")):
+        read(tmp_path / "cut.bvh")
+
+
 def test_a_negative_asf_bone_length_flips_the_bone_and_is_said(tmp_path):
     """A negative ASF ``length`` was read without a word. The bone's end is at length x
     direction (Acclaim's length scales the direction), defined for any sign: the bone is

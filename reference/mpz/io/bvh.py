@@ -195,6 +195,10 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
             named_here = next((k for k, c in enumerate(chans) if c.upper() not in _CODES),
                               len(chans))
             more = tokens[pos + 2 + n:pos + 3 + n]
+            if named_here == len(chans) < n:     # the file ends inside the list: an
+                # IndexError of chans[named_here] (a fuzzing QA run of the text readers)
+                raise bad(f"CHANNELS of joint {j.name!r} says {n} but the file ends after "
+                          f"{len(chans)}{': ' if chans else ''}{' '.join(chans)}")
             if (named_here < n and chans[named_here].upper() in _STRUCTURE) or (
                     named_here == n and more and more[0].upper() in _CODES):
                 # was "unexpected token 'Yrotation' in HIERARCHY", or a list of the
