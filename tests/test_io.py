@@ -1679,6 +1679,27 @@ def test_trc_rows_shorter_than_the_header_pad_no_more_than_max_samples(monkeypat
     assert m.n_frames == 20 and bool(m.valid.all())
 
 
+def test_trc_rows_past_max_samples_are_refused_before_any_row_is_read(monkeypatch):
+    """The padding's bound was checked row by row: a 3.9 MB TRC of 100,000 markers and
+    100,000 rows of one marker each grew its table to 2.9 GB over 12 s before its 672nd
+    row was refused (a fuzzing QA run of the text readers). The rows are the data lines
+    that are not blank, counted first: the same refusal, naming the same line, comes
+    before a table is made."""
+    from mpz.io import _common, trc
+    monkeypatch.setattr(_common, "MAX_SAMPLES", 1000)
+
+    def no_table(*args, **kwargs):
+        raise AssertionError("a table was made for rows that are refused")
+
+    text = _short_row_trc(100, 20, values=3).replace("\n3\t", "\n\n\n3\t", 1)
+    with monkeypatch.context() as patched:
+        patched.setattr(trc, "RowTable", no_table)
+        with pytest.raises(InputFormatError, match=re.escape(
+                "TRC: line 18: 11 frames x 100 markers is 1100 samples")):
+            trc.parse_trc(text)
+    assert trc.parse_trc(_short_row_trc(100, 10, values=3)).n_frames == 10
+
+
 def test_trc_table_grows_to_its_bound_not_twice_it():
     """The rows array doubles as rows come, up to the most the bound lets come."""
     from mpz.io._common import RowTable

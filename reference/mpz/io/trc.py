@@ -157,7 +157,18 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
 
     # (not a list of rows of Python floats: 32 bytes a value); at most the rows that
     # samples_problem lets a text of this length pad
-    table = RowTable(3 * n_markers, most_frames(n_markers, len(text)))
+    most = most_frames(n_markers, len(text))
+    # each non-blank line after the header is a row: one past those is refused before any
+    # row is read (3.9 MB of 100,000 markers and 100,000 rows of one marker each grew the
+    # table to 2.9 GB over 12 s, to be refused at its 672nd row: a fuzzing QA run)
+    past = next(itertools.islice((k for k, ln in enumerate(lines[5:], 6) if ln.strip()),
+                                 most, None), None)
+    too_many = None if past is None else samples_problem(most + 1, n_markers, len(text),
+                                                         "markers")
+    if too_many:
+        raise _bad(f"line {past}: {too_many}: rows shorter than the header are padded with "
+                   "gaps, refused before the table grows")
+    table = RowTable(3 * n_markers, most)
     times = []
     numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
@@ -184,10 +195,6 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
             times.append(_num(fields[1]))
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {exc.message}") from None
-        too_many = samples_problem(table.n + 1, n_markers, len(text), "markers")
-        if too_many:        # rows shorter than the header, padded with gaps
-            raise _bad(f"line {lineno}: {too_many}: rows shorter than the header are padded "
-                       "with gaps, refused before the table grows")
         table.append(row)
         t = fields[1].strip()
         if "." in t and "e" not in t.lower():      # the time's decimals: printed, significant
