@@ -659,6 +659,25 @@ def test_commas_are_white_space_in_asf_and_amc(tmp_path):
     assert sa.joints == sb.joints and sb.name == "TINY, v2"
 
 
+@pytest.mark.parametrize("after", ["   axis XYZ\n", "  begin\n     id 2\n", "    b1 b2\n"],
+                         ids=[":root", ":bonedata", ":hierarchy"])
+def test_an_asf_line_of_commas_alone_is_a_blank_line(tmp_path, after):
+    """Commas are white space in an ASF (V1.10), so a line of them alone is blank: in
+    :root, :bonedata or :hierarchy it raised an IndexError out of mpz.io.read (its first
+    word, of none: a fuzzing QA run of the text readers). A text field keeps it."""
+    (tmp_path / "plain.asf").write_text(ASF_TEXT)
+    (tmp_path / "plain_01.amc").write_bytes(AMC_TEXT.encode("latin-1"))
+    assert ASF_TEXT.count(after) == 1
+    (tmp_path / "comma.asf").write_text(
+        ASF_TEXT.replace(after, after + " , ,\n").replace(":name TINY", ":documentation\n,\n"
+                                                                      ":name TINY"))
+    (tmp_path / "comma_01.amc").write_bytes(AMC_TEXT.encode("latin-1"))
+    a, b = read(tmp_path / "plain_01.amc"), read(tmp_path / "comma_01.amc")
+    np.testing.assert_array_equal(a.positions, b.positions)
+    assert a.extras["skeleton"].joints == b.extras["skeleton"].joints
+    assert b.extras["skeleton"].documentation == ","
+
+
 @pytest.mark.parametrize("mutate, said", [
     (lambda t: t.replace("b1 90 0\n", ""),
      r"frame 2 \(from line 8, the last frame\) has no line for b1: .*may be cut short"),

@@ -128,6 +128,9 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
             if "#" in line and not (cur is None and line.startswith("#")):
                 later += 1
             line = line.split("#", 1)[0].strip()
+            if not _spaced(line).strip():   # commas alone: a blank line, as commas are
+                continue                    # white space (a line of them was an IndexError
+            #                                 of its first word: a fuzzing QA run)
         if not line:
             continue
         if line.startswith(":"):
