@@ -659,6 +659,21 @@ def test_commas_are_white_space_in_asf_and_amc(tmp_path):
     assert sa.joints == sb.joints and sb.name == "TINY, v2"
 
 
+@pytest.mark.parametrize("old, new, said", [
+    ("name b2", "name b1", "bone name 'b1' is given to the bones of blocks 1, 2 of :bonedata"),
+    ("name b2", "name root", "bone name 'root' is given to the bone of block 2 of :bonedata"),
+    ("     name b2\n", "", "the bone of block 2 of :bonedata (counted from 1, begin ... end) "
+                           "has no name"),
+])
+def test_an_asf_bone_name_refusal_says_which_bone(old, new, said):
+    """"bone names must be unique and not 'root'" and "bone without a name" named no bone
+    and no place, in a skeleton of 30 (a fuzzing QA run of the text readers): the name and
+    the :bonedata blocks are said."""
+    assert ASF_TEXT.count(old) == 1
+    with pytest.raises(InputFormatError, match=re.escape(f"ASF/AMC: {said}")):
+        parse_asf(ASF_TEXT.replace(old, new))
+
+
 @pytest.mark.parametrize("after", ["   axis XYZ\n", "  begin\n     id 2\n", "    b1 b2\n"],
                          ids=[":root", ":bonedata", ":hierarchy"])
 def test_an_asf_line_of_commas_alone_is_a_blank_line(tmp_path, after):

@@ -235,8 +235,9 @@ def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
             dropped.append(f"a :bonedata line outside begin ... end ({ln.strip()})")
             continue
         if key == "end":
-            if not cur.fields.get("name"):
-                raise _bad("bone without a name")
+            if not cur.fields.get("name"):    # which one (a fuzzing QA run)
+                raise _bad(f"the bone of block {len(bones) + 1} of :bonedata (counted from "
+                           "1, begin ... end) has no name")
             dropped += [f"bone {cur.name}: {what}" for what in pending]
             bones.append(cur)
             if len(bones) > MAX_BONES:
@@ -330,7 +331,12 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         raise _bad("no bones in :bonedata")
     names = [b.name for b in raw]
     if len(set(names)) != len(names) or "root" in names:
-        raise _bad("bone names must be unique and not 'root'")
+        # named, with the blocks that give it (it named neither: a fuzzing QA run)
+        name = next(n for k, n in enumerate(names) if n == "root" or n in names[:k])
+        at = [k + 1 for k, n in enumerate(names) if n == name]
+        raise _bad(f"bone name {name!r} is given to the bone" + (
+            f"s of blocks {', '.join(map(str, at))}" if len(at) > 1 else f" of block {at[0]}")
+            + " of :bonedata (counted from 1): bone names must be unique and not 'root'")
     nul = next((n for n in names if "\x00" in n), None)
     if nul is not None:            # spec §4.14.1: a name holds no U+0000, as the BVH reader
         raise _bad(f"bone name {nul!r} holds a NUL character")     # says (a QA run, stop 64)
