@@ -110,6 +110,34 @@ def test_a_parameter_whose_data_runs_into_the_next_record_is_read_without_ezc3d(
     assert m.metadata["reader"] == "mpz.io.c3dbin" and m.n_frames == 10
 
 
+@pytest.mark.parametrize("dims, ezc3d", [((0, 255, 255, 2), False), ((0, 255, 255), True),
+                                         ((1, 255, 255, 2), True)])
+def test_a_char_parameter_of_many_empty_strings_is_read_without_ezc3d(
+        tmp_path: Path, dims: tuple, ezc3d: bool) -> None:
+    """A char parameter whose first dimension is 0 holds no data byte, whatever its other
+    dimensions say, and ezc3d makes every string they count: one byte of a real file (a
+    LABEL_PREFIXES of dimensions (0, 1) given 7) made 2 x 10^9 of them, a read of 157 s
+    and 16.9 GB (a fuzzing QA run of the readers). Past 65535 strings c3dbin reads the
+    file, with a note; up to them, and with characters (whose data the record bounds),
+    ezc3d does."""
+    from mpz.io import c3dbin
+
+    def add(records: list, gid: dict, R: type) -> None:
+        # no data byte: (1, ...) says 130050, which run into the next record (rule 8)
+        records.append(R(gid[b"POINT"], False, b"EMPTY", b"", -1, dims, b""))
+
+    blob = _records(add)
+    hazard = c3dbin.ezc3d_hazard(blob)
+    if ezc3d:
+        assert hazard is None or "strings of no character" not in hazard
+        return
+    assert hazard == (f"a char parameter of 130050 strings of no character (dimensions "
+                      f"{dims}), more than 65535 (files like it crash ezc3d 1.7)")
+    m = read(_write(tmp_path, "empty.c3d", blob))
+    assert m.metadata["reader"] == "mpz.io.c3dbin" and m.n_frames == 10
+    assert "strings of no character" in m.metadata["reader_note"]
+
+
 def test_a_group_name_declared_twice_is_read_without_ezc3d(tmp_path: Path) -> None:
     """Two ANALOG groups, the first holding POINT's parameters (USED 4, no OFFSET): the
     hazard rules looked parameters up in the last group of a name and ezc3d in the

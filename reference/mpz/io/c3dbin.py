@@ -49,6 +49,10 @@ PROC_INTEL, PROC_DEC, PROC_MIPS = 84, 85, 86  # parameter header byte 3
 _PARAM_TYPES = (-1, 1, 2, 4)
 MAX_POINTS = 65535  # POINT:USED is a 16-bit count
 MAX_DIMS = 7  # a C3D parameter has at most 7 dimensions
+#: the most strings of no character (a char parameter's first dimension 0) ezc3d is given:
+#: it makes each, 134 bytes apiece (:func:`ezc3d_hazard`, rule 10); as many as a char
+#: parameter holding data can have within its record (at most 65535 bytes)
+MAX_EMPTY_STRINGS = 65535
 #: the largest frame number header words 4-5 hold; a header whose last frame is this may
 #: describe more frames than it can say (see :func:`frame_range`)
 HEADER_MAX_FRAME = 65535
@@ -1056,7 +1060,14 @@ def ezc3d_hazard(data: bytes, *, ignore_bad_formatting: bool = False) -> str | N
        contradicts itself, so it is not one ezc3d is needed for;
     9. two group records of one name (compared in upper case): ezc3d looks a parameter up
        in the first, and rules 2-5 and 7 would judge another (a QA run of stop 54: two
-       ANALOG groups, the first with USED 5 and no OFFSET, crashed ezc3d).
+       ANALOG groups, the first with USED 5 and no OFFSET, crashed ezc3d);
+    10. a char parameter whose strings have no character (a first dimension of 0) and
+        that counts more than :data:`MAX_EMPTY_STRINGS` of them (the product of its other
+        dimensions): it holds no data byte, so rule 8 does not bound it, and ezc3d makes
+        each string (a fuzzing QA run of the readers: a real file's LABEL_PREFIXES of
+        dimensions (0, 1) given 7 dimensions by one byte, the description's first bytes
+        read as the others, was 2 x 10^9 strings: 157 s and 16.9 GB, or a
+        ``std::bad_alloc``; 0 x 255 x 255 x 255 took 6 s and 2.2 GB).
 
     With ``ignore_bad_formatting`` the section is walked as ezc3d walks it then: a record
     that does not end where the one before it says the next begins is not refused, and
@@ -1109,6 +1120,10 @@ def _ezc3d_walk(data: bytes, start: int, sequential: bool = False) -> str | None
             if ptype not in _PARAM_TYPES:
                 return f"a parameter of type {ptype}"
             dims = data[body + 2:body + 2 + ndim]
+            if ptype == -1 and ndim > 1 and dims[0] == 0 \
+                    and math.prod(dims[1:]) > MAX_EMPTY_STRINGS:          # rule 10
+                return (f"a char parameter of {math.prod(dims[1:])} strings of no character "
+                        f"(dimensions {tuple(dims)}), more than {MAX_EMPTY_STRINGS}")
             desc_at = body + 2 + ndim + abs(ptype) * (math.prod(dims) if ndim else 1)
             if desc_at >= len(data):
                 return "a parameter record past the end of the file"
