@@ -168,7 +168,9 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if too_many:
         raise _bad(f"line {past}: {too_many}: rows shorter than the header are padded with "
                    "gaps, refused before the table grows")
-    table = RowTable(3 * n_markers, most)
+    # ... and so many rows come, or the file is refused: the table is made their size
+    table = RowTable(3 * n_markers, most,
+                     expect=min(most, sum(1 for ln in lines[5:] if ln.strip())))
     times = []
     numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
