@@ -2665,23 +2665,9 @@ def test_the_task_checks_the_workers_mpz_where_mpz_cannot_be_imported(tmp_path):
     """The task goes to the worker by value, with its file as bytes: a worker without
     mpz (here a Python whose ``import mpz`` fails) runs the check and says why, where
     the task sent by name died as it was loaded."""
-    import cloudpickle
-
-    from mpz.corpus import _version_checked
-    blob = tmp_path / "task.pkl"
-    blob.write_bytes(cloudpickle.dumps(_version_checked("1.2.3")))
-    code = ("import pickle, sys\n"
-            "sys.modules['mpz'] = None\n"
-            f"task = pickle.loads(open({str(blob)!r}, 'rb').read())\n"
-            "try:\n"
-            "    task(b'')\n"
-            "except RuntimeError as exc:\n"
-            "    print(exc)\n")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=120, check=True)
-    assert proc.stdout.strip() == ("mpz corpus task on another mpz|a worker|none: it cannot "
-                                   "import mpz (ModuleNotFoundError: import of mpz halted; "
-                                   "None in sys.modules)"), proc.stdout + proc.stderr
+    assert _probe_result(tmp_path, None, "1.2.3") == (
+        "mpz corpus task on another mpz|a worker|none: it cannot import mpz "
+        "(ModuleNotFoundError: import of mpz halted; None in sys.modules)")
 
 
 @contextlib.contextmanager
@@ -2757,18 +2743,20 @@ def test_a_worker_of_an_edited_copy_of_this_mpz_is_refused(corpus, installed_cop
     assert not out.exists() if joins == "at connect" else not list(out.rglob("*.mpz"))
 
 
-def _probe_result(tmp_path: Path, fake_mpz: str, expected: str) -> str:
+def _probe_result(tmp_path: Path, fake_mpz: str | None, expected: str) -> str:
     """What the corpus task says on a worker whose ``mpz`` is the module ``fake_mpz``
-    (Python source), the task made by this mpz for a driver of identity ``expected``."""
+    (Python source; None: a Python whose ``import mpz`` fails), the task made by this mpz
+    for a driver of identity ``expected``."""
     import cloudpickle
 
     from mpz.corpus import _version_checked
     blob = tmp_path / "task.pkl"
     blob.write_bytes(cloudpickle.dumps(_version_checked(expected)))
-    code = ("import pickle, sys, types\n"
+    code = ("import pickle, sys, types\n" + (
+            "sys.modules['mpz'] = None\n" if fake_mpz is None else
             "mpz = types.ModuleType('mpz')\n"
             f"exec({fake_mpz!r}, mpz.__dict__)\n"
-            "sys.modules['mpz'] = mpz\n"
+            "sys.modules['mpz'] = mpz\n") +
             f"task = pickle.loads(open({str(blob)!r}, 'rb').read())\n"
             "try:\n"
             "    task(b'')\n"
