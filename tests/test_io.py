@@ -2124,3 +2124,25 @@ def test_asf_words_not_read_are_said_as_not_kept(tmp_path, old, new, said):
     assert m.extras["skeleton"].joints == plain.extras["skeleton"].joints
     assert "asf_dropped" not in plain.metadata
 
+
+
+@pytest.mark.parametrize("old, new", [
+    ("Zrotation Xrotation Yrotation\n    End", "zrotation xrotation yrotation\n    End"),
+    ("JOINT Spine", "joint Spine"),
+    ("End Site", "END SITE"),
+    ("MOTION\nFrames: 3\nFrame Time:", "motion\nframes: 3\nframe time:"),
+])
+def test_bvh_words_spelled_otherwise_are_said_as_not_kept(two_joint_bvh, old, new):
+    """The BVH reader takes its keywords and channel names in any case, and the writer
+    spells them its own way: ``xrotation`` came back as ``Xrotation`` without a word (a
+    round-trip QA run). The reader lists them under ``extras["not_kept"]``, which ``mpz
+    encode`` reports as dropped; a file spelled as written is listed under nothing."""
+    from mpz.io.bvh import format_bvh, parse_bvh
+    from mpz.motion import READER_NOT_KEPT
+    assert READER_NOT_KEPT not in parse_bvh(two_joint_bvh).extras
+    assert old in two_joint_bvh
+    m = parse_bvh(two_joint_bvh.replace(old, new))
+    said = m.extras[READER_NOT_KEPT][0]
+    assert said.startswith("from the BVH: the spelling of ")
+    assert new.split()[0] in said
+    assert READER_NOT_KEPT not in parse_bvh(format_bvh(m)).extras

@@ -42,7 +42,7 @@ from mpz.io._common import (
     unique_names,
 )
 from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
-from mpz.motion import Motion
+from mpz.motion import READER_NOT_KEPT, Motion
 
 _CODES = {name.upper(): int(kind) for kind, name in BVH_CHANNELS.items()}
 #: the words that open or close a part of a hierarchy (a CHANNELS line that names fewer
@@ -86,11 +86,15 @@ def _what(joints: list[_Joint], i: int) -> str:
     return f"the End Site of {joints[j.parent].name!r}" if j.end else f"joint {j.name!r}"
 
 
-def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
+def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int],
+                     respelled: list[str] | None = None
                      ) -> tuple[list[_Joint], int, int]:
     """Parse from after 'HIERARCHY' to 'MOTION'. Returns (joints, n_channels, pos).
     ``line_of(i)``: the line of word ``i`` (or of the last word, past the end); a refusal
-    names the line of the word that starts what it refuses."""
+    names the line of the word that starts what it refuses. The keywords and channel names
+    are read in any case; those not spelled as :func:`format_bvh` writes them (``root``,
+    ``xrotation``) are appended to ``respelled``, when given."""
+    spelled = [] if respelled is None else respelled
     joints: list[_Joint] = []
     stack: list[int] = []
     pending: _Joint | None = None
@@ -120,6 +124,8 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
             if "\x00" in tokens[pos + 1]:         # spec §4.14.1: a name holds no U+0000
                 raise bad(f"{t} name {tokens[pos + 1]!r} holds a NUL character")
             pending = _Joint(tokens[pos + 1], stack[-1] if stack else -1, at=pos)
+            if t != up:
+                spelled.append(t)
             pos += 2
         elif up == "END":
             if not stack:
@@ -135,6 +141,8 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
                           f"End Site)" if after else f"{t} without 'Site'")
             # named after its parent
             pending = _Joint(f"{joints[stack[-1]].name}_End", stack[-1], end=True, at=pos)
+            if (t, after) != ("End", "Site"):
+                spelled.append(f"{t} {after}")
             pos += 2
         elif t == "{":
             if pending is None:
@@ -177,6 +185,8 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
                 raise bad(f"{_what(joints, stack[-1])} has two OFFSET lines")
             with_offset.add(stack[-1])
             joints[stack[-1]].offset = (off[0], off[1], off[2])
+            if t != up:
+                spelled.append(t)
             pos += 4
         elif up == "CHANNELS":
             if not stack:
@@ -214,6 +224,8 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int]
             if len({c.upper() for c in chans}) != n:       # spec §4.14.1: each at most once
                 raise bad(f"CHANNELS of joint {j.name!r} name a channel twice: {chans}")
             j.channels = [_CODES[c.upper()] for c in chans]
+            spelled.extend(w for w in [t, *chans]
+                           if w not in ("CHANNELS", *BVH_CHANNELS.values()))
             n_channels += n
             pos += 2 + n
         else:
@@ -308,7 +320,8 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     def line_of(i: int) -> int:
         return len(LINE_BREAK.findall(text, 0, starts[min(i, len(starts) - 1)])) + 1
 
-    joints, n_channels, pos = _parse_hierarchy(tokens, 1, line_of)
+    respelled = [w for w in tokens[:1] if w != "HIERARCHY"]
+    joints, n_channels, pos = _parse_hierarchy(tokens, 1, line_of, respelled)
     if pos >= len(tokens):
         raise _bad("no MOTION section")
     # MOTION / Frames: n / Frame Time: t
@@ -316,6 +329,9 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     if (len(head) < 5 or head[0].rstrip(":").upper() != "FRAMES"
             or head[2].upper() != "FRAME" or head[3].rstrip(":").upper() != "TIME"):
         raise _bad(f"expected 'Frames: n' and 'Frame Time: t' after MOTION, got {head}")
+    words = [tokens[pos], head[0], head[2], head[3]]
+    respelled += [w for w, canon in zip(words, ["MOTION", "Frames:", "Frame", "Time:"],
+                                        strict=True) if w != canon]
     n_frames = named(integer, head[1], "MOTION header", _bad)
     ft = named(number, head[4], "MOTION header", _bad)
     rate = frame_rate_from_frame_time(ft, head[4])
@@ -344,8 +360,18 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     if renamed:
         meta["renamed_points"] = "; ".join(renamed)
     names = [f"{j.name}.{BVH_CHANNELS[ChannelKind(c)]}" for j in joints for c in j.channels]
+    extras: dict[str, object] = {"skeleton": skel}
+    if respelled:
+        # the skeleton chunk holds channel kinds and joints, not how their words were spelled:
+        # 'xrotation' came back as 'Xrotation' without a word (a round-trip QA run)
+        shown = ", ".join(dict.fromkeys(respelled))
+        extras[READER_NOT_KEPT] = [
+            f"from the BVH: the spelling of {len(respelled)} keyword"
+            f"{'' if len(respelled) == 1 else 's'} and channel names ({shown[:200]}"
+            f"{'...' if len(shown) > 200 else ''}): written back as HIERARCHY, ROOT, JOINT, "
+            "End Site, OFFSET, CHANNELS, Xrotation ..., MOTION, Frames:, Frame Time:"]
     return Motion(positions, points, rate, "", None, meta,
-                  [j.parent for j in joints], values, names, {"skeleton": skel})
+                  [j.parent for j in joints], values, names, extras)
 
 
 def text_encoding(data: bytes) -> str:
