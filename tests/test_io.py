@@ -2146,3 +2146,23 @@ def test_bvh_words_spelled_otherwise_are_said_as_not_kept(two_joint_bvh, old, ne
     assert said.startswith("from the BVH: the spelling of ")
     assert new.split()[0] in said
     assert READER_NOT_KEPT not in parse_bvh(format_bvh(m)).extras
+
+
+@pytest.mark.parametrize("old, new, said", [
+    ("    End Site", "    JOINT Toe\n    End Site",
+     "BVH: line 11: JOINT Toe (line 10) is not followed by '{' but by 'End'"),
+    ("    OFFSET 0 10 0\n    CHANNELS", "    ROOT root\n    OFFSET 0 10 0\n    CHANNELS",
+     "BVH: line 8: ROOT inside joint 'Spine' (from line 6): a ROOT opens a hierarchy"),
+    ("  JOINT Spine\n  {", "  JOINT Spine\n  OFFSET 1 2 3\n  {",
+     "BVH: line 7: JOINT Spine (line 6) is not followed by '{' but by 'OFFSET'"),
+])
+def test_a_bvh_joint_not_opened_by_a_brace_is_refused(two_joint_bvh, old, new, said):
+    """A ROOT, JOINT or End Site not followed by ``{`` was replaced by the next one, and
+    an OFFSET or CHANNELS after it went to the joint around it: ``ROOT root`` between a
+    joint's ``{`` and its OFFSET was lost without a word, and a ROOT inside a block was
+    read as a JOINT and written back as one (a round-trip QA run of mutated files)."""
+    from mpz.io.bvh import parse_bvh
+    assert old in two_joint_bvh
+    with pytest.raises(InputFormatError) as err:
+        parse_bvh(two_joint_bvh.replace(old, new, 1))
+    assert str(err.value).startswith(said)

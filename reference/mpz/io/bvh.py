@@ -109,11 +109,23 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int],
     while pos < len(tokens):
         t = tokens[pos]
         up = t.upper()
+        if pending is not None and t != "{":
+            # the next ROOT, JOINT or End Site replaced it, and OFFSET or CHANNELS went to
+            # the joint around it: "JOINT Toe {" then "ROOT root" and an OFFSET lost the
+            # words without a word (a round-trip QA run of mutated files)
+            opened = (f"End Site of {joints[pending.parent].name!r}" if pending.end
+                      else f"{tokens[pending.at]} {pending.name}")
+            raise bad(f"{opened} (line {line_of(pending.at)}) is not followed by '{{' "
+                      f"but by {t!r}")
         if up == "MOTION":
             break
         if up in ("ROOT", "JOINT"):
             if up == "JOINT" and not stack:
                 raise bad("JOINT outside of a ROOT block")
+            if up == "ROOT" and stack:        # read as a JOINT, written back as one
+                raise bad(f"ROOT inside {_what(joints, stack[-1])} (from line "
+                          f"{line_of(joints[stack[-1]].at)}): a ROOT opens a hierarchy, "
+                          "outside every block")
             if stack and joints[stack[-1]].end:     # spec §4.14.1: an End Site has no
                 raise bad(f"{t} inside the End Site of "    # children (a QA run: exit 70)
                           f"{joints[joints[stack[-1]].parent].name!r}")
