@@ -2166,3 +2166,26 @@ def test_a_bvh_joint_not_opened_by_a_brace_is_refused(two_joint_bvh, old, new, s
     with pytest.raises(InputFormatError) as err:
         parse_bvh(two_joint_bvh.replace(old, new, 1))
     assert str(err.value).startswith(said)
+
+
+@pytest.mark.parametrize("old, new, said", [
+    ("     length 2\n", "     LENGTH 2\n", "LENGTH"),
+    (":units\n", ":UNITS\n", ":UNITS"),
+    ("    dof rx rz", "    dof RX rz", "RX"),
+    ("   order TX TY TZ RX RY RZ", "   order tx TY TZ RX RY RZ", "tx"),
+    ("     axis 0 0 90 XYZ", "     axis 0 0 90 xyz", "xyz"),
+    ("  angle deg", "  angle DEG", "DEG"),
+])
+def test_asf_keywords_spelled_otherwise_are_said_as_not_kept(tmp_path, old, new, said):
+    """The ASF reader takes its keywords in any case, and the writer spells them its own
+    way: ``LENGTH`` came back as ``length`` without a word (a round-trip QA run of mutated
+    files). They are listed under ``extras["not_kept"]``, which ``mpz encode`` reports as
+    dropped; the file as written lists nothing."""
+    from mpz.motion import READER_NOT_KEPT
+    (tmp_path / "tiny_01.amc").write_bytes(AMC_TEXT.encode("latin-1"))
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)
+    assert READER_NOT_KEPT not in read(tmp_path / "tiny_01.amc").extras
+    assert old in ASF_TEXT
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace(old, new, 1))
+    m = read(tmp_path / "tiny_01.amc")
+    assert f"the spelling of 1 keyword ({said}:" in m.extras[READER_NOT_KEPT][0]

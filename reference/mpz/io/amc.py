@@ -146,6 +146,40 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
     return out, comments, later
 
 
+_ROOT_KEYS = {"order", "axis", "position", "orientation"}
+_UNIT_KEYS = {"mass", "length", "angle"}
+
+
+def _respellings(text: str, sec: dict[str, list[str]]) -> list[str]:
+    """The keywords of ``text`` (an ASF) that are read in any case but not spelled as
+    :func:`write_asf` writes them (``:UNITS``, ``LENGTH``, ``dof RX``, ``axis xyz``):
+    the skeleton keeps what they say, not their spelling (``LENGTH`` came back as
+    ``length`` without a word: a round-trip QA run)."""
+    out = [f":{k}" for k in re.findall(r"(?m)^[ \t]*:(\S+)", text)
+           if k.lower() in _SECTIONS and k != k.lower()]
+
+    def check(words: list[str], upper: bool) -> None:
+        out.extend(w for w in words if w != (w.upper() if upper else w.lower()))
+
+    for section, keys in (("units", _UNIT_KEYS), ("root", _ROOT_KEYS),
+                          ("bonedata", _BONE_KEYS), ("hierarchy", {"begin", "end"})):
+        for ln in sec.get(section, []):
+            words = _spaced(ln).replace("(", " ").split()
+            if not words or words[0].lower() not in keys:
+                continue
+            check(words[:1], upper=False)
+            key = words[0].lower()
+            if section == "root" and key in ("order", "axis"):
+                check(words[1:], upper=True)
+            elif section == "units" and key == "angle":
+                check(words[1:2], upper=False)
+            elif key == "dof":
+                check(words[1:], upper=False)
+            elif section == "bonedata" and key == "axis":
+                check(words[4:5], upper=True)
+    return out
+
+
 def _keyvals(lines: list[str], section: str, known: tuple[str, ...], dropped: list[str]
              ) -> dict[str, list[str]]:
     """``{first word (lower case): the other words}`` of each line; a ``known`` key's
@@ -289,6 +323,12 @@ def parse_asf(text: str, *, encoding: str = "utf-8") -> Skeleton:
 def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     sec, comments, later = _sections(text)
     dropped = [f":{k}" for k in sec if k not in _SECTIONS]
+    respelled = _respellings(text, sec)
+    if respelled:
+        dropped.append(f"the spelling of {len(respelled)} keyword"
+                       f"{'' if len(respelled) == 1 else 's'} ({', '.join(respelled[:8])}"
+                       f"{' ...' if len(respelled) > 8 else ''}: written back as :units, "
+                       "length, dof rx, order TX, axis XYZ ...)")
     if later:           # kept before the first keyword only (a QA run of stop 61)
         dropped.append(f"{later} comment{'' if later == 1 else 's'} after the first keyword")
     for need in ("root", "bonedata", "hierarchy"):
