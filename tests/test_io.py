@@ -2189,3 +2189,21 @@ def test_asf_keywords_spelled_otherwise_are_said_as_not_kept(tmp_path, old, new,
     (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace(old, new, 1))
     m = read(tmp_path / "tiny_01.amc")
     assert f"the spelling of 1 keyword ({said}:" in m.extras[READER_NOT_KEPT][0]
+
+
+def test_an_asf_begin_inside_an_open_bone_block(tmp_path):
+    """A ``begin`` inside a bone's open block started a new bone, and the lines read of
+    the open one were lost without a word (a round-trip QA run of mutated files): it is
+    refused, naming the block; a ``begin`` twice at a block's start loses nothing but the
+    word, which the read lists as not kept."""
+    from mpz.motion import READER_NOT_KEPT
+    (tmp_path / "tiny_01.amc").write_bytes(AMC_TEXT.encode("latin-1"))
+    asf = tmp_path / "tiny.asf"
+    asf.write_text(ASF_TEXT.replace("     id 2\n", "  begin\n     id 2\n", 1))
+    assert "a second 'begin' of a :bonedata block" in read(
+        tmp_path / "tiny_01.amc").extras[READER_NOT_KEPT][0]
+    asf.write_text(ASF_TEXT.replace("     length 2\n", "     length 2\n  begin\n", 1))
+    with pytest.raises(InputFormatError, match=re.escape(
+            "'begin' inside block 1 of :bonedata (counted from 1, begin ... end; bone b1): "
+            "its 'end' is missing")):
+        read(tmp_path / "tiny_01.amc")

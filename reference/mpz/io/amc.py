@@ -263,6 +263,13 @@ def _bones(lines: list[str], dropped: list[str]) -> list[_RawBone]:
         parts = ln.split()
         key = parts[0].lower()
         if key == "begin":
+            if cur is not None and (cur.fields or cur.limits or pending):
+                # the new block replaced the open one, whose lines were lost without a
+                # word (a round-trip QA run of mutated files)
+                raise _bad(f"'begin' inside block {len(bones) + 1} of :bonedata (counted "
+                           f"from 1, begin ... end; bone {cur.name}): its 'end' is missing")
+            if cur is not None:
+                dropped.append("a second 'begin' of a :bonedata block")
             cur, last, pending = _RawBone(), "", []
             continue
         if cur is None:     # was skipped without a word (a QA run of the text readers)
