@@ -2207,3 +2207,20 @@ def test_an_asf_begin_inside_an_open_bone_block(tmp_path):
             "'begin' inside block 1 of :bonedata (counted from 1, begin ... end; bone b1): "
             "its 'end' is missing")):
         read(tmp_path / "tiny_01.amc")
+
+
+def test_a_trc_first_line_apart_by_blanks_keeps_its_fields(tmp_path):
+    """A TRC whose first line's fields are apart by blanks, not tabs, read them as none:
+    its type and file name were dropped without a word, and the TRC written back began
+    with "PathFileType" alone (a round-trip QA run of mutated files). They are read as
+    the fields they are (the file name with its blanks) and written back with tabs."""
+    first = TRC_TEXT.split("\n", 1)[0]
+    assert first.count("\t") >= 3
+    spaced = " ".join(first.split("\t")[:3]) + " C:\\My Data\\walk.trc"
+    (tmp_path / "a.trc").write_text(TRC_TEXT.replace(first, spaced, 1))
+    m = read(tmp_path / "a.trc")
+    assert m.metadata["trc.PathFileType"] == "\t".join(first.split("\t")[1:3])
+    assert m.metadata["trc.FileName"] == "C:\\My Data\\walk.trc"
+    write(m, tmp_path / "back.trc")
+    assert (tmp_path / "back.trc").read_text().split("\n", 1)[0] == "\t".join(
+        first.split("\t")[:3] + ["C:\\My Data\\walk.trc"])

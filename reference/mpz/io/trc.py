@@ -387,6 +387,10 @@ def _header_meta(lines: list[str], header: dict[str, str], frames: list[list[str
     """The ``trc.*`` metadata: what the header and the table layout say, as written, and
     the most decimals of the time and value columns over every row (-1: none)."""
     first = lines[0].rstrip("\r\n").split("\t")
+    if len(first) == 1:     # fields apart by blanks, not tabs: the type and the file name
+        # were dropped without a word, and the line came back as "PathFileType" (a
+        # round-trip QA run of mutated files); the file name keeps its blanks
+        first = first[0].split(None, 3)
     out = {"trc.PathFileType": "\t".join(first[1:3]),
            "trc.FileName": first[3] if len(first) > 3 else ""}
     raw = dict(zip([k.strip() for k in lines[1].rstrip("\r\n").split("\t")],
