@@ -2191,6 +2191,29 @@ def test_asf_keywords_spelled_otherwise_are_said_as_not_kept(tmp_path, old, new,
     assert f"the spelling of 1 keyword ({said}:" in m.extras[READER_NOT_KEPT][0]
 
 
+def test_compare_says_what_the_sources_reader_does_not_keep(tmp_path, capsys):
+    """`mpz compare SOURCE OUT.mpz` reads the source with the reader that encoded it, so
+    what that reader does not keep (here an ASF's ``LENGTH``, written back ``length``) was
+    on neither side: "same", exit 0, where `mpz encode` lists it as dropped (a round-trip
+    QA run). It is said in a note, as `mpz encode` says it."""
+    from mpz.tools import mpz_cli
+    amc = tmp_path / "tiny_01.amc"
+    amc.write_bytes(AMC_TEXT.encode("latin-1"))
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT)
+    assert mpz_cli.main(["encode", str(amc), "-o", str(tmp_path / "a.mpz")]) == 0
+    capsys.readouterr()
+    assert mpz_cli.main(["compare", str(amc), str(tmp_path / "a.mpz")]) == 0
+    assert "does not keep" not in capsys.readouterr().err
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace("length", "LENGTH", 1))
+    assert mpz_cli.main(["encode", str(amc), "-o", str(tmp_path / "b.mpz")]) == 0
+    assert "mpz encode: note: not kept from the ASF: the spelling" in capsys.readouterr().err
+    assert mpz_cli.main(["compare", str(amc), str(tmp_path / "b.mpz")]) == 0
+    err = capsys.readouterr().err
+    assert f"mpz compare: note: {amc}: its reader does not keep from the ASF: the " \
+        "spelling of 1 keyword (LENGTH:" in err and "(on neither side, so not compared)" \
+        in err, err
+
+
 def test_an_asf_begin_inside_an_open_bone_block(tmp_path):
     """A ``begin`` inside a bone's open block started a new bone, and the lines read of
     the open one were lost without a word (a round-trip QA run of mutated files): it is

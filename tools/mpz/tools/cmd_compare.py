@@ -268,6 +268,7 @@ def run(args: argparse.Namespace) -> int:
 
     from mpz.errors import EncoderError
     from mpz.metrics import besides_markers, summary
+    from mpz.motion import READER_NOT_KEPT
     from mpz.skeleton import channel_bounds
     from mpz.tools._cli import EXIT_USAGE, found
     from mpz.tools._common import (
@@ -302,6 +303,14 @@ def run(args: argparse.Namespace) -> int:
     for w in warned:                # -q has no meaning here; printed as encode prints it
         print(f"mpz compare: warning: {w}", file=sys.stderr)
     notes = check_rates(a, b, ext_a, ext_b, names) + asf_found
+    # what a source's reader does not keep (an ASF's LENGTH respelled, an AMC's ':' line
+    # after the first frame) is on neither side: the compare said "same" without a word,
+    # where `mpz encode` notes it as not kept (a round-trip QA run); a note here too
+    notes += [f"{printable(path)}: its reader does not keep "
+              f"{printable('; '.join(map(str, m.extras[READER_NOT_KEPT])))} (on neither "
+              "side, so not compared)"
+              for path, m, ext in ((args.original, a, ext_a), (args.decoded, b, ext_b))
+              if ext != ".mpz" and m.extras.get(READER_NOT_KEPT)]
     notes += _asf_notes(args, ext_a, ext_b, names, borrowed and ext_b == ".amc")
     data = data_b or data_a                 # the bounds an .mpz input declares
     # two .mpz files: each within its own steps of the source, so the sum (one file's
