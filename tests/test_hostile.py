@@ -122,6 +122,23 @@ def test_unknown_ancillary_chunk_is_skipped(small):
     assert np.array_equal(np.nan_to_num(a.positions), np.nan_to_num(b.positions))
 
 
+@pytest.mark.parametrize("markers_only", [False, True])
+@pytest.mark.parametrize("ctype", ["zzzz", "smrc"])
+def test_an_ancillary_chunk_unknown_to_the_decoder_before_mhdr_is_refused(small, ctype,
+                                                                         markers_only):
+    """R-3.4-1: MHDR is the first chunk, also when an unknown ancillary chunk stands before
+    it (smrc is unknown to a 1.0 decoder, markers_only). The decoder skipped such a chunk
+    without keeping it and took MHDR for the first chunk (a fuzzing QA run)."""
+    def first(c):
+        extra = [x for x in c if x.type == ctype] or [container.Chunk(ctype, None, b"hello")]
+        return extra[:1] + [x for x in c if x.type != ctype]
+    blob = _rechunk(small, first)
+    for call in (lambda: mpz.decode(blob, markers_only=markers_only), lambda: mpz.info(blob)):
+        with pytest.raises(FormatError, match="first chunk must be MHDR") as exc:
+            call()
+        assert exc.value.offset == 8 and exc.value.chunk == ctype
+
+
 def test_lengths_at_their_maximum():
     for ctype in (b"MHDR", b"ROOT", b"zzzz"):
         blob = SIGNATURE + ctype + struct.pack("<I", 0xFFFFFFFF) + b"\x00" * 64

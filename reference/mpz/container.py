@@ -188,7 +188,10 @@ def scan(data: bytes, *, minor: int = VERSION_MINOR, keep_unknown: bool = True,
         known = tname in CHUNKS and CHUNKS[tname].MINOR <= minor  # R-2.3-5
         if not known and not tname[:1].isupper():
             res.skipped[tname] = res.skipped.get(tname, 0) + 1
-            if not keep_unknown:            # checked and counted, nothing kept
+            # checked and counted, nothing kept; but the file's first chunk is kept
+            # whatever it is, so that the decoder's first-chunk rule (R-3.4-1) sees an
+            # unknown ancillary chunk before MHDR (dropped, it let MHDR pass as the first)
+            if not keep_unknown and res.chunks:
                 pos += 12 + length
                 continue
         payload = data[pos + 8: pos + 8 + length]
