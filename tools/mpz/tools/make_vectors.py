@@ -3912,6 +3912,15 @@ def range_gap_vectors(vs: VectorSet):
         f"record {r} locked 0 -> 2",
         "a decoder that tests locked != 0 writes it as locked (a negative name length): "
         "what the source held is not what comes back", "FormatError", ["§4.13.2"])
+    # §3.4: the first chunk is MHDR whatever follows; x93 probes it with a known chunk
+    ch = [list(c) for c in _c3d_chunks(good)]
+    ch.insert(0, ["zzzz", b"an ancillary chunk no decoder knows"])
+    add("unknown-chunk-before-mhdr", assemble(ch),
+        "an ancillary chunk of a type no decoder knows (zzzz) placed before MHDR",
+        "a zzzz chunk of 35 bytes inserted at offset 8",
+        "a decoder that skips unknown ancillary chunks while it walks them, before it checks "
+        "that the first chunk is MHDR, accepts a file that does not start with its header "
+        "(the reference did until stop 66: a fuzzing QA run)", "FormatError", ["§3.4"])
 
 
 def contract_gap_vectors(vs: VectorSet):
@@ -3949,6 +3958,7 @@ def contract_gap_vectors(vs: VectorSet):
 
 #: the §7.4 rules the range gap vectors probe (merged into VECTOR_RULES)
 RANGE_GAP_VECTOR_RULES = _rules(
+    ("R-3.4-1", "unknown-chunk-before-mhdr"),
     ("R-4.13.2-1", "cprm-locked-2"),
     ("R-4.13.4-1", "cana-channels-0"),
     ("R-4.14.1-1", "bvhs-channel-count-7"),
