@@ -161,16 +161,16 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     # each non-blank line after the header is a row: one past those is refused before any
     # row is read (3.9 MB of 100,000 markers and 100,000 rows of one marker each grew the
     # table to 2.9 GB over 12 s, to be refused at its 672nd row: a fuzzing QA run)
-    past = next(itertools.islice((k for k, ln in enumerate(lines[5:], 6) if ln.strip()),
-                                 most, None), None)
-    too_many = None if past is None else samples_problem(most + 1, n_markers, len(text),
-                                                         "markers")
+    data_rows = sum(1 for ln in lines[5:] if ln.strip())
+    too_many = (samples_problem(most + 1, n_markers, len(text), "markers")
+                if data_rows > most else None)
     if too_many:
+        past = next(itertools.islice((k for k, ln in enumerate(lines[5:], 6) if ln.strip()),
+                                     most, None))
         raise _bad(f"line {past}: {too_many}: rows shorter than the header are padded with "
                    "gaps, refused before the table grows")
     # ... and so many rows come, or the file is refused: the table is made their size
-    table = RowTable(3 * n_markers, most,
-                     expect=min(most, sum(1 for ln in lines[5:] if ln.strip())))
+    table = RowTable(3 * n_markers, most, expect=min(most, data_rows))
     times = []
     numbers: list[str] = []          # the Frame# column
     frames: list[list[str]] = []
