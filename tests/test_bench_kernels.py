@@ -62,7 +62,9 @@ def test_every_codec_kernel_is_found(bench):
 
 def test_kernel_times_count_a_profiled_encode(bench):
     """The kernels of a real encode are found in its profile, and their time is part of
-    the encode's, not more."""
+    the encode's, not more. Which kernels, not what share of the time: the share is a
+    timing (40 % on an idle machine, 19.8 % under CI's load at stop 66, where a check of
+    "more than 20 %" failed), and timings are measured in bench/, not asserted."""
     import mpz
     m = generate("walk", frames=240, markers=20, seed=3)
     mpz.encode(m, max_error=1.0, threads=1)               # loaded, not timed
@@ -72,8 +74,13 @@ def test_kernel_times_count_a_profiled_encode(bench):
     profile.disable()
     stats = pstats.Stats(profile)
     times = bench.kernel_times(stats, bench.kernel_sites())
-    assert times.get("mpz.keyframe._fit_range", 0.0) > 0.0
-    assert times.get("mpz.entropy._encode_block", 0.0) > 0.0
-    # kernels are most of a 240-frame encode's time; an attribution that matched a few
-    # calls only would fall far below that
-    assert sum(times.values()) > 0.2 * stats.total_tt
+    # every stage of a bounded encode runs a kernel of its own: the
+    # automatic hierarchy, its reference choice, key-frame fitting, the quantiser's step,
+    # prediction, the range coder; an attribution that matched a few sites only (a path
+    # spelled two ways, say) would miss some of them
+    for stage in ("mpz.hierarchy.auto._distance_sums", "mpz.hierarchy.measure._bbox_diagonals",
+                  "mpz.keyframe._best_references", "mpz.keyframe.chain_scores",
+                  "mpz.keyframe._fit_range", "mpz.quantize._choose",
+                  "mpz.predict._integrate", "mpz.entropy._encode_block"):
+        assert times.get(stage, 0.0) > 0.0, stage
+    assert 0.0 < sum(times.values()) <= stats.total_tt
