@@ -13,6 +13,7 @@ from pathlib import Path
 import shutil
 import subprocess
 import sys
+import warnings
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -217,6 +218,59 @@ def test_read_summary_smrc_matches_smry_and_the_exact_means():
         assert np.abs(la.means - exact).max() <= la.step / 2 + 1e-9
         assert np.abs(lb.means - exact).max() <= lb.step / 2 + 1e-9
     assert len(a) < len(b)
+
+
+def _with_step(data: bytes, step: float) -> bytes:
+    """``data`` with the step of every summary level set to ``step`` and the summary
+    chunk's CRC made again (§3.2 chunk layout, §3.3 CRC; §4.10 and §4.15 level headers:
+    u32 k, f64 wssse, f64 step, then smry's starts and means)."""
+    import struct
+    import zlib
+    b = bytearray(data)
+    pos = 8                                             # after the signature (§3.1)
+    while True:
+        kind, size = bytes(b[pos:pos + 4]), struct.unpack_from("<I", b, pos + 4)[0]
+        if kind in (b"smry", b"smrc"):
+            break
+        pos += 12 + size
+    payload = pos + 8
+    dims, count = struct.unpack_from("<IB", b, payload + 1)
+    at = payload + 6
+    for _ in range(count):
+        k = struct.unpack_from("<I", b, at)[0]
+        struct.pack_into("<d", b, at + 12, step)
+        at += 20 if kind == b"smrc" else 20 + 4 * k + 4 * k * dims
+    struct.pack_into("<I", b, payload + size, zlib.crc32(bytes(b[pos:pos + 4]) +
+                                                       bytes(b[payload:payload + size])))
+    return bytes(b)
+
+
+@pytest.mark.parametrize("layout", ["smrc", "smry"])
+def test_a_step_whose_means_overflow_reads_as_infinite_means(layout, tmp_path):
+    """§4.10, §4.15 step 6: a step of 1e308 is in range (finite, > 0), and a mean of
+    q x step beyond the largest binary64 is +-inf, not a reason to refuse the file. The
+    reference read it with numpy's "overflow encountered in multiply" on stderr, and the
+    spec did not say whether such a file is valid (stop 66's open questions)."""
+    m = generate("walk", frames=120, seed=5)
+    data = _with_step(mpz.encode(m, max_error=2.0, summary=(2, 5), summary_format=layout),
+                      1e308)
+    q = mpz.read_summary(_with_step(data, 1.0))          # the stored q, by a step of 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                   # no RuntimeWarning
+        s = mpz.read_summary(data)
+    for lq, lv in zip(q.levels, s.levels, strict=True):
+        assert lv.step == 1e308
+        big = np.abs(lq.means) >= 2                      # 2e308 > 1.8e308: overflows
+        assert big.any() and (np.abs(lq.means) == 1).any()
+        assert np.isinf(lv.means[big]).all()
+        assert (np.sign(lv.means[big]) == np.sign(lq.means[big])).all()
+        assert lv.means[lq.means == 1].tolist() == [1e308] * int((lq.means == 1).sum())
+    path = tmp_path / "big.mpz"
+    path.write_bytes(data)
+    run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "summary", str(path)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+    assert "k=2" in run.stdout and "k=5" in run.stdout
 
 
 def test_summary_format_option_is_checked_up_front():

@@ -1072,8 +1072,9 @@ def read_summary(source: Source) -> Summary | None:
     if isinstance(f, Smrc):        # §4.15 (1.1): the same levels, starts and means range-coded
         decoded = f.levels_decoded(s.header.frame_count)
         for head, (starts, q) in zip(f.levels, decoded, strict=True):
-            levels.append(SummaryLevel(head.k, starts, q.astype(np.float64) * head.step,
-                                       head.wssse, head.step))
+            with np.errstate(over="ignore"):            # ±inf where it overflows, §4.15
+                means = q.astype(np.float64) * head.step
+            levels.append(SummaryLevel(head.k, starts, means, head.wssse, head.step))
     else:
         for lv in f.levels:
             starts = lv.start_frames().astype(np.int64)

@@ -285,7 +285,8 @@ def descriptor(s: MotionSummary, levels: Sequence[int] = SUMMARY_LEVELS) -> NDAr
         :func:`summarize`).
     EncoderError
         If the summary is not of marker positions (``dims`` not a multiple of 3), has
-        no level, or holds a value that is not finite (a damaged one).
+        no level, or holds a value that is not finite (a damaged one, or a mean that
+        overflowed binary64, which §4.10 allows).
     """
     if not s.levels or s.dims % 3:
         raise EncoderError(f"a descriptor needs a position summary, got dims={s.dims} and "

@@ -369,9 +369,11 @@ class SummaryLevel(Record):
         return np.frombuffer(self.starts, "<u4")
 
     def mean_values(self, dims: int) -> np.ndarray:
-        """The segment means in units, float64 [k, dims]."""
+        """The segment means in units, float64 [k, dims]: ±inf where the product
+        overflows (§4.10)."""
         q = np.frombuffer(self.means, "<i4").astype(np.float64)
-        return q.reshape(self.k, dims) * self.step
+        with np.errstate(over="ignore"):
+            return q.reshape(self.k, dims) * self.step
 
 
 @dataclass(frozen=True)
