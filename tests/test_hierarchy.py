@@ -732,3 +732,44 @@ def test_two_subjects_are_not_called_a_missing_marker() -> None:
     with pytest.raises(EncoderError, match="appear more than once") as err:
         mpz.encode(two, max_error=1.0, hierarchy="cmu41")
     assert "missing" not in str(err.value)
+
+
+# -- pair analyses on many markers (stop 67) --------------------------------------------
+@pytest.mark.parametrize(("markers", "frames"), [(1, 400), (68, 400), (256, 400), (257, 396),
+                                                 (300, 291), (1024, 32), (4096, 32)])
+def test_pair_frames_keep_400_up_to_256_markers_then_a_budget(markers, frames):
+    """Appendix C: 400 frames while markers^2 x 400 <= 400 x 256^2, then
+    floor(400 x 256^2 / markers^2), at least 32 (worked by hand: 26,214,400 // 66,049 = 396,
+    // 90,000 = 291, // 1,048,576 = 25 -> 32)."""
+    from mpz.hierarchy.measure import pair_frames
+    assert pair_frames(markers, 400) == frames
+
+
+def test_pair_analyses_of_many_markers_sample_fewer_frames(monkeypatch):
+    """The auto hierarchy's distance table and the encoder's rigidity-chain scores read
+    every pair on every sampled frame: 27 s of a 69 s encode of 4096 markers. Beyond 256
+    markers they sample fewer frames (300 markers: 291), and up to 256 as before."""
+    from mpz import encoder, keyframe
+    from mpz.hierarchy import auto
+    seen: dict[str, list[int]] = {"table": [], "chain": []}
+    table, chain = auto._distance_sums, keyframe.chain_scores
+
+    def table_of(x, v):
+        seen["table"].append(x.shape[0])
+        return table(x, v)
+
+    def chain_of(c, ok):
+        seen["chain"].append(c.shape[2])
+        return chain(c, ok)
+
+    monkeypatch.setattr(auto, "_distance_sums", table_of)
+    monkeypatch.setattr(keyframe, "chain_scores", chain_of)
+    rng = np.random.default_rng(3)
+    for M, table_frames, chain_frames in ((300, 291, 300), (100, 400, 600)):
+        x = rng.normal(0, 100, (1, M, 3)) + np.cumsum(rng.normal(0, 1, (600, 1, 3)), axis=0)
+        m = mpz.Motion(x, [f"m{i}" for i in range(M)], 100.0, "mm")
+        auto.auto_hierarchy(m)
+        encoder.chain_scores_of(m.positions, m.valid)
+        # 300 markers: 291 frames of 600 evenly spaced; every 600 // 291 = 2nd frame
+        # 100 markers: 400 of 600; every 600 // 400 = 1st frame
+        assert seen["table"][-1] == table_frames and seen["chain"][-1] == chain_frames

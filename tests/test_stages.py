@@ -395,12 +395,13 @@ def test_a_keyframe_radius_past_the_cap_is_searched_within_it(T, radius, seed):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.integers(1, 6), st.integers(3, 50), st.integers(0, 2 ** 32 - 1))
-def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):
+@given(st.integers(1, 6), st.integers(3, 50), st.integers(0, 2 ** 32 - 1),
+       st.integers(1, 7))
+def test_keyframe_reference_choice_is_the_least_cost(n, T, seed, window):
     """The member each member is predicted from (§6.5 p_m) is the least sum(log2(1+|e|)) over
-    none and every earlier member in both modes, the first on a tie: summed in full here by
-    the unoptimised _residuals/_cost pair; the fast chooser stops sums early and reads a
-    table."""
+    none and the earlier members of the window (the ``window`` members just before it,
+    Appendix C) in both modes, the first on a tie: summed in full here by the unoptimised
+    _residuals/_cost pair; the fast chooser stops sums early and reads a table."""
     from mpz import keyframe as kf
     rng = np.random.default_rng(seed)
     base = np.cumsum(rng.normal(0, 3, (T, 1, 3)), axis=0)
@@ -416,14 +417,14 @@ def test_keyframe_reference_choice_is_the_least_cost(n, T, seed):
     tab = kf._log2_table(kf._LOG2_TABLE)
     for m, (times, w) in enumerate(fits):
         best = (kf._cost(kf._residuals(0, times, w, out[:, 0])), 0)
-        for j in range(m):
+        for j in range(max(0, m - window), m):
             for mode in (1, 2):
                 c = kf._cost(kf._residuals(mode, times, w, out[:, j]))
                 if c < best[0]:
                     best = (c, 2 * j + mode)
         tracks = np.ascontiguousarray(out.transpose(1, 0, 2))
         e = np.empty_like(w)
-        assert kf._best_reference(m, times, w, tracks, tab, e) == best[1]
+        assert kf._best_reference(m, times, w, tracks, tab, e, window) == best[1]
         p = best[1]                  # and its residuals are those of the reference pair
         want = kf._residuals(0 if p == 0 else 2 - p % 2, times, w, out[:, (p - 1) // 2 if p else 0])
         assert e.tolist() == want.tolist()
@@ -456,7 +457,7 @@ def test_keyframe_reference_choice_breaks_ties_by_the_first(n, T, seed):
                   for j in range(m) for mode in (1, 2)]
         want = min(costs)                          # least cost, then least p
         e = np.empty_like(w)
-        assert kf._best_reference(m, times, w, tracks, tab, e) == want[1]
+        assert kf._best_reference(m, times, w, tracks, tab, e, kf.REFERENCE_WINDOW) == want[1]
 
 
 @settings(max_examples=30, deadline=None)
@@ -479,7 +480,7 @@ def test_keyframe_members_do_not_depend_on_tasks_or_threads(n, T, task_frames, t
     alone = [kf.fit(y[:, m], radius, track=tracks[m]) for m in range(n)]
     tab = kf._log2_table(kf._LOG2_TABLE)
     want_e = [np.empty_like(w) for _, w in alone]
-    want_p = [kf._best_reference(m, t, w, tracks, tab, want_e[m])
+    want_p = [kf._best_reference(m, t, w, tracks, tab, want_e[m], kf.REFERENCE_WINDOW)
               for m, (t, w) in enumerate(alone)]
     old = kf.TASK_FRAMES
     kf.TASK_FRAMES = task_frames

@@ -81,6 +81,7 @@ from mpz.format import (
 )
 from mpz.hierarchy import Hierarchy, Node, build_hierarchy, head_scale
 from mpz.hierarchy import root_marker as hierarchy_root
+from mpz.hierarchy.measure import pair_frames
 from mpz.motion import READER_NOT_KEPT, Motion, held_extras, metadata_type_error
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import reconstruct, residuals
@@ -937,9 +938,11 @@ def _weights_for(node: Node) -> FloatArray:
 
 def _chain_sample(x: FloatArray, valid: NDArray[np.bool_]
                   ) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """The frames :func:`_chain` scores (about 400, evenly spaced) of every marker: finite
-    coordinates ``[3, M, S]`` and their validity ``[M, S]``."""
-    step = max(1, x.shape[0] // 400)
+    """The frames :func:`_chain` scores of every marker, every step-th frame with
+    step = max(1, F div k), k = 400 up to 256 markers and fewer beyond
+    (:func:`~mpz.hierarchy.measure.pair_frames`): finite coordinates ``[3, M, S]`` and
+    their validity ``[M, S]``."""
+    step = max(1, x.shape[0] // pair_frames(x.shape[1], 400))
     sub = np.nan_to_num(x[::step])
     return (np.ascontiguousarray(sub.transpose(2, 1, 0)),
             np.ascontiguousarray(valid[::step].T))

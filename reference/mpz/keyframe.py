@@ -552,11 +552,16 @@ def _log2_table(n: int) -> NDArray[np.float64]:
 @njit(cache=True, nogil=True)
 def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
                     tracks: NDArray[np.int32], tab: NDArray[np.float64],
-                    e: NDArray[np.int64]) -> int:
-    """p_m of member m (§6.5): 0, or 2j + mode for the earlier member j and mode 1 or 2 whose
-    residuals have the least ``_cost`` (the first on a tie: none, then j = 0, 1, ... with
-    mode 1 before 2); ``tracks[j]`` is member j's decoded track ``[F, 3]`` (member-major, so
+                    e: NDArray[np.int64], window: int) -> int:
+    """p_m of member m (§6.5): 0, or 2j + mode for an earlier member j of the ``window``
+    before m (m - window <= j < m; Appendix C) and mode 1 or 2, whose residuals have the
+    least ``_cost`` (the first on a tie: none, then j = m - window or 0, ... with mode 1
+    before 2); ``tracks[j]`` is member j's decoded track ``[F, 3]`` (member-major, so
     that reading it at the key times walks one contiguous array).
+
+    The window (:data:`REFERENCE_WINDOW`) keeps the choice linear in the members: every
+    earlier member was 47 s of a 69 s encode of 4096 markers at 1 mm (stop 67); a node
+    of the real files holds at most 67 members, so their choice is what it was.
 
     Speed (issue 15): one call per member instead of two small kernel calls per candidate;
     the likely best candidate is summed first, and a candidate's sum stops as soon as it can
@@ -571,8 +576,8 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
     the chosen p go to ``e`` ``[K, 3]`` (those of :func:`_residuals`; one kernel less to
     compile on the first encode, issue 15.2)."""
     # units in the order: the previous member j = m - 1 (after _chain's ordering usually the
-    # best, so the sums of the others stop early), none (0), then j = 0 .. m - 2; the winner
-    # is the least (cost, p), which is what the first-on-tie scan in p order keeps.
+    # best, so the sums of the others stop early), none (0), then j = first .. m - 2; the
+    # winner is the least (cost, p), which is what the first-on-tie scan in p order keeps.
     # tests/test_stages.py checks the choice and the residuals against _residuals/_cost.
     K = w.shape[0]
     best = np.inf
@@ -580,8 +585,9 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
     ntab = tab.shape[0]
     g1 = np.empty(3, np.int64)                    # g_{k-1}, g_{k-2} per axis
     g2 = np.empty(3, np.int64)
-    for unit in range(m + 1):
-        j = -1 if m == 0 or unit == 1 else (m - 1 if unit == 0 else unit - 2)
+    first = max(m - window, 0)                    # the earliest member tried
+    for unit in range(m - first + 1):
+        j = -1 if m == 0 or unit == 1 else (m - 1 if unit == 0 else first + unit - 2)
         R = tracks[max(j, 0)]
         q1 = 2 * j + 1 if j >= 0 else 0           # the unit's two candidates (none: one)
         q2 = 2 * j + 2
@@ -796,6 +802,10 @@ def chain_order(score: NDArray[np.float64]) -> NDArray[np.int64]:
     return order
 
 
+#: the earlier members a member's key-frame reference is chosen from (Appendix C): the
+#: choice tries none and the members m - 128 .. m - 1 (all of them in a node of at most 129)
+REFERENCE_WINDOW = 128
+
 #: frames per fitting task: a task fits members until it holds about this many frames, so
 #: that on a short clip its kernel call is not mostly the cost of starting it (issue 15)
 TASK_FRAMES = 4096
@@ -844,7 +854,8 @@ def _fit_range(y: NDArray[np.float64], lo: int, hi: int, radius: float, max_span
 @njit(cache=True, nogil=True)
 def _best_references(lo: int, hi: int, times: NDArray[np.int64], w: NDArray[np.int64],
                      start: NDArray[np.int64], tracks: NDArray[np.int32],
-                     tab: NDArray[np.float64], e: NDArray[np.int64]) -> NDArray[np.int64]:
+                     tab: NDArray[np.float64], e: NDArray[np.int64], window: int
+                     ) -> NDArray[np.int64]:
     """:func:`_best_reference` of members ``lo .. hi-1``, whose keys are rows
     ``start[m] .. start[m + 1] - 1`` of ``times`` and ``w``; their residuals go to the same
     rows of ``e``. One call for many members, as :func:`_fit_range`."""
@@ -852,7 +863,7 @@ def _best_references(lo: int, hi: int, times: NDArray[np.int64], w: NDArray[np.i
     for i in range(hi - lo):
         m = lo + i
         a, b = start[m], start[m + 1]
-        ps[i] = _best_reference(m, times[a:b], w[a:b], tracks, tab, e[a:b])
+        ps[i] = _best_reference(m, times[a:b], w[a:b], tracks, tab, e[a:b], window)
     return ps
 
 
@@ -1057,7 +1068,7 @@ def _references(times: NDArray[np.int64], w: NDArray[np.int64], start: NDArray[n
         return np.zeros(0, np.int64)
     tab = _log2_table(_LOG2_TABLE)
     return np.concatenate(_spread(pool, lambda lo, hi: _best_references(
-        lo, hi, times, w, start, tracks, tab, res), ranges, done))
+        lo, hi, times, w, start, tracks, tab, res, REFERENCE_WINDOW), ranges, done))
 
 
 def write_blocks(enc: BlockEncoder, fitted: Fitted, T: int) -> None:

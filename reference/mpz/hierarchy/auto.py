@@ -18,7 +18,7 @@ import numpy as np
 
 from mpz._jit import njit
 from mpz.hierarchy.flat import flat_hierarchy
-from mpz.hierarchy.measure import body_size, sample_frames, sampled
+from mpz.hierarchy.measure import body_size, pair_frames, sample_frames, sampled
 from mpz.hierarchy.model import Hierarchy, Node
 from mpz.motion import Motion
 
@@ -41,7 +41,8 @@ def auto_hierarchy(motion: Motion, *, rigid_fraction: float = AUTO_RIGID_FRACTIO
 
     Notes
     -----
-    On at most :data:`AUTO_MAX_FRAMES` evenly spaced frames:
+    On at most :data:`AUTO_MAX_FRAMES` evenly spaced frames (fewer beyond 256 markers,
+    :func:`~mpz.hierarchy.measure.pair_frames`):
 
     1. dissimilarity of every pair: std over time of its distance plus
        :data:`AUTO_SPREAD` x its mean (frames where both markers are valid;
@@ -97,7 +98,7 @@ def _analyse(motion: Motion, rigid_fraction: float, max_group: int) -> _Analysis
     M = motion.n_markers
     if M == 1:
         return None
-    frames = sample_frames(motion.n_frames, AUTO_MAX_FRAMES)
+    frames = sample_frames(motion.n_frames, pair_frames(M, AUTO_MAX_FRAMES))
     x, v = sampled(motion, frames)
     n_valid_all = sampled(motion)[1].sum(axis=0)  # over every frame, not the sample
     live = [m for m in range(M) if v[:, m].any()]
