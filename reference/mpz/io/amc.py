@@ -388,20 +388,37 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
     if nul is not None:            # spec §4.14.1: a name holds no U+0000, as the BVH reader
         raise _bad(f"bone name {nul!r} holds a NUL character")     # says (a QA run, stop 64)
     parent: dict[str, str] = {}
+    # the writer writes each link once, in one begin ... end block: a link given again,
+    # and a begin or end beyond that one block, were dropped without a word (a round-trip
+    # QA run); a link outside the block is kept, and written back inside it
+    inside, blocks = False, 0
     for ln in sec["hierarchy"]:
         parts = _spaced(ln).split()
-        if parts[0].lower() in ("begin", "end"):
+        word = parts[0].lower()
+        if word in ("begin", "end"):
+            if word == "begin" and (inside or blocks):
+                dropped.append(f"a second {parts[0]} in :hierarchy (written back as one "
+                               "begin ... end block)")
+            elif word == "end" and not inside and blocks:
+                dropped.append(f"an {parts[0]} in :hierarchy outside begin ... end")
+            blocks += word == "begin" and not inside
+            inside = word == "begin"
             continue
         p = parts[0]
         if p != "root" and p not in names:
             raise _bad(f":hierarchy names unknown bone {p!r}")
+        again = []
         for child in parts[1:]:
             if child not in names:
                 raise _bad(f":hierarchy names unknown bone {child!r}")
             if child in parent and parent[child] != p:     # the last one silently won
                 raise _bad(f":hierarchy gives bone {child!r} two parents, "
                            f"{parent[child]!r} and {p!r}")
+            if child in parent:
+                again.append(child)
             parent[child] = p
+        if again:
+            dropped.append(f":hierarchy links {p} to {' '.join(again)} again")
     missing = [n for n in names if n not in parent]
     if missing:
         raise _bad(f"bones not in :hierarchy: {missing}")
