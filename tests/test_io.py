@@ -2254,3 +2254,29 @@ def test_a_trc_first_line_apart_by_blanks_keeps_its_fields(tmp_path):
     write(m, tmp_path / "back.trc")
     assert (tmp_path / "back.trc").read_text().split("\n", 1)[0] == "\t".join(
         first.split("\t")[:3] + ["C:\\My Data\\walk.trc"])
+
+
+@pytest.mark.parametrize("spelled", ["PathFileType\x80", "PathFileTypes", "PathFileType:"])
+@pytest.mark.parametrize("apart", ["\t", " "])
+def test_a_trc_first_line_keyword_spelled_otherwise_is_said(tmp_path, spelled, apart):
+    """The reader takes any line 1 that starts with "PathFileType", and the writer writes
+    that keyword: "PathFileType\x80 4 (X/Y/Z) ..." came back as "PathFileType" without a
+    word (a round-trip QA run of mutated files, stop 67). It is now a warning; the rest
+    of the line is read as before."""
+    first = TRC_TEXT.split("\n", 1)[0]
+    fields = first.split("\t")
+    (tmp_path / "a.trc").write_text(TRC_TEXT.replace(
+        first, apart.join([spelled] + fields[1:4]), 1), encoding="latin-1")
+    m = read(tmp_path / "a.trc")
+    assert f"line 1 begins with {spelled!r}: written back as 'PathFileType'" in \
+        m.metadata["warning"].split("; ")
+    assert m.metadata["trc.PathFileType"] == "\t".join(fields[1:3])
+    plain = read_text_trc(tmp_path, TRC_TEXT)
+    assert "warning" not in plain.metadata or "line 1" not in plain.metadata["warning"]
+    np.testing.assert_array_equal(m.positions, plain.positions)
+
+
+def read_text_trc(folder, text: str) -> Motion:
+    """The motion of the TRC ``text``, written into ``folder``."""
+    (folder / "plain.trc").write_text(text)
+    return read(folder / "plain.trc")

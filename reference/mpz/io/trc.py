@@ -262,8 +262,22 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     if tabs:                                     # last: the keys before keep their order
         motion.metadata["trc.TrailingTabs"] = tabs
     if cut:
-        motion.metadata["warning"] = "; ".join([*warnings, cut])
+        warnings.append(cut)
+    word = _first_field(lines[0])
+    if word.strip() != "PathFileType":
+        # "PathFileType\x80 4 ..." came back as "PathFileType" without a word (a round-trip
+        # QA run of mutated files, stop 67): the writer writes the keyword as it is spelled
+        warnings.append(f"line 1 begins with {word!r}: written back as 'PathFileType'")
+    if cut or word.strip() != "PathFileType":
+        motion.metadata["warning"] = "; ".join(warnings)
     return motion
+
+
+def _first_field(line: str) -> str:
+    """The first field of line 1: up to its first tab, or, on a line without tabs, its
+    first word (as :func:`_header_meta` splits it)."""
+    line = line.rstrip("\r\n")
+    return line.split("\t", 1)[0] if "\t" in line else (line.split(None, 1) or [""])[0]
 
 
 def _tabs_at_end(row: str) -> int:
