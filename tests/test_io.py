@@ -2108,6 +2108,9 @@ def read_amc_pair(folder, asf: str, amc: str) -> Motion:
     (":bonedata\n", ":bonedata\n  bodymass 3\n",
      "a :bonedata line outside begin ... end (bodymass 3)"),
     ("    b1 b2\n", "    b1 b2\n    b1 b2\n", ":hierarchy links b1 to b2 again"),
+    ("name b2\n", "name b2 b3\n", "bone b2: name values after the first (b3)"),
+    ("  end\n  begin\n     id 2", "  end\n:bonedata\n  begin\n     id 2",
+     "a second :bonedata keyword (its lines are written back under the first)"),
     ("    b1 b2\n  end\n", "  end\n    b1 b2\n  end\n",
      "an end in :hierarchy outside begin ... end"),
     ("    b1 b2\n  end\n", "  end\n  begin\n    b1 b2\n  end\n",
@@ -2117,7 +2120,8 @@ def test_asf_words_not_read_are_said_as_not_kept(tmp_path, old, new, said):
     """A QA run of the text readers: words of an ASF that the reader does not read were
     lost without a word (a fourth direction value, a second length value, the first of
     two :root position lines, a line of :bonedata outside its blocks; a :hierarchy link
-    given twice, a second begin ... end block of it, a round-trip QA run of stop 67),
+    given twice, a second begin ... end block of it, a section keyword given twice, a
+    second word on a bone's name line: a round-trip QA run of stop 67),
     where a second id value was said. Each is now listed in ``asf_dropped`` and this
     read's not-kept list (``mpz encode`` prints it); the values read are those of the
     file without them."""

@@ -105,13 +105,15 @@ def _spaced(line: str) -> str:
 _TEXT_SECTIONS = ("name", "documentation")
 
 
-def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
+def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int, list[str]]:
     """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':', the comment
-    lines that come before the first keyword (their text after the '#'), and how many
-    lines after it hold a comment (not kept: ``metadata["asf_dropped"]``)."""
+    lines that come before the first keyword (their text after the '#'), how many
+    lines after it hold a comment, and the keywords given again, whose lines join the
+    first's (both not kept: ``metadata["asf_dropped"]``)."""
     out: dict[str, list[str]] = {}
     comments: list[str] = []
     later = 0
+    again: list[str] = []
     cur = None
     # lines end at CR LF, LF or CR alone (LINE_BREAK), not also at U+0085, U+2028, form feeds
     # ... as str.splitlines has it: a Latin-1 comment holding byte 0x85 (cp1252's ellipsis)
@@ -138,12 +140,14 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int]:
             if not parts:                  # ':' alone: an IndexError, reported by name (QA)
                 raise _bad("a line of the ASF holds ':' with no keyword after it")
             cur = parts[0].lower()
+            if cur in out:      # its lines joined the first's without a word (a QA run)
+                again.append(parts[0])
             out.setdefault(cur, [])
             if len(parts) > 1:
                 out[cur].append(parts[1])
         elif cur is not None:
             out[cur].append(line)
-    return out, comments, later
+    return out, comments, later, again
 
 
 _ROOT_KEYS = {"order", "axis", "position", "orientation"}
@@ -328,8 +332,10 @@ def parse_asf(text: str, *, encoding: str = "utf-8") -> Skeleton:
 
 
 def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
-    sec, comments, later = _sections(text)
+    sec, comments, later, again = _sections(text)
     dropped = [f":{k}" for k in sec if k not in _SECTIONS]
+    dropped += [f"a second :{k} keyword (its lines are written back under the first)"
+                for k in again]
     respelled = _respellings(text, sec)
     if respelled:
         dropped.append(f"the spelling of {len(respelled)} keyword"
@@ -444,7 +450,8 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
         if ids and bone_id == 0:
             zero.append(name)
         # "id 1 5": the first is kept (a review of stop 61), and so of the others
-        for key, n in (("id", 1), ("direction", 3), ("length", 1), ("axis", 4)):
+        for key, n in (("id", 1), ("name", 1), ("direction", 3), ("length", 1),
+                       ("axis", 4)):
             _beyond(f.get(key, []), n, f"bone {name}: {key}", dropped)
         index[name] = len(joints)
         joints.append(Joint(name, index[parent[name]], tuple(_DOF[d] for d in dofs),
