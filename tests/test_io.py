@@ -2109,6 +2109,8 @@ def read_amc_pair(folder, asf: str, amc: str) -> Motion:
      "a :bonedata line outside begin ... end (bodymass 3)"),
     ("    b1 b2\n", "    b1 b2\n    b1 b2\n", ":hierarchy links b1 to b2 again"),
     ("name b2\n", "name b2 b3\n", "bone b2: name values after the first (b3)"),
+    (":version 1.10\n", "x:version 1.10\n:version 1.10\n",
+     "a line before the first keyword (x:version 1.10)"),
     ("  end\n  begin\n     id 2", "  end\n:bonedata\n  begin\n     id 2",
      "a second :bonedata keyword (its lines are written back under the first)"),
     ("    b1 b2\n  end\n", "  end\n    b1 b2\n  end\n",

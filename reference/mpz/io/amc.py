@@ -108,12 +108,13 @@ _TEXT_SECTIONS = ("name", "documentation")
 def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int, list[str]]:
     """Split ASF text into ``{keyword: [lines]}`` at lines starting with ':', the comment
     lines that come before the first keyword (their text after the '#'), how many
-    lines after it hold a comment, and the keywords given again, whose lines join the
-    first's (both not kept: ``metadata["asf_dropped"]``)."""
+    lines after it hold a comment, and what else is not kept (a keyword given again,
+    whose lines join the first's; a line before the first keyword that is not a
+    comment), as ``metadata["asf_dropped"]`` says them."""
     out: dict[str, list[str]] = {}
     comments: list[str] = []
     later = 0
-    again: list[str] = []
+    notes: list[str] = []
     cur = None
     # lines end at CR LF, LF or CR alone (LINE_BREAK), not also at U+0085, U+2028, form feeds
     # ... as str.splitlines has it: a Latin-1 comment holding byte 0x85 (cp1252's ellipsis)
@@ -141,13 +142,16 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int, list[str
                 raise _bad("a line of the ASF holds ':' with no keyword after it")
             cur = parts[0].lower()
             if cur in out:      # its lines joined the first's without a word (a QA run)
-                again.append(parts[0])
+                notes.append(f"a second :{parts[0]} keyword (its lines are written back "
+                             "under the first)")
             out.setdefault(cur, [])
             if len(parts) > 1:
                 out[cur].append(parts[1])
         elif cur is not None:
             out[cur].append(line)
-    return out, comments, later, again
+        else:                   # "õ:version 1.10" was skipped without a word (a QA run)
+            notes.append(f"a line before the first keyword ({line})")
+    return out, comments, later, notes
 
 
 _ROOT_KEYS = {"order", "axis", "position", "orientation"}
@@ -332,10 +336,8 @@ def parse_asf(text: str, *, encoding: str = "utf-8") -> Skeleton:
 
 
 def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
-    sec, comments, later, again = _sections(text)
-    dropped = [f":{k}" for k in sec if k not in _SECTIONS]
-    dropped += [f"a second :{k} keyword (its lines are written back under the first)"
-                for k in again]
+    sec, comments, later, notes = _sections(text)
+    dropped = [f":{k}" for k in sec if k not in _SECTIONS] + notes
     respelled = _respellings(text, sec)
     if respelled:
         dropped.append(f"the spelling of {len(respelled)} keyword"
