@@ -2286,3 +2286,26 @@ def read_text_trc(folder, text: str) -> Motion:
     """The motion of the TRC ``text``, written into ``folder``."""
     (folder / "plain.trc").write_text(text)
     return read(folder / "plain.trc")
+
+
+@pytest.mark.parametrize("frame_two", [
+    "2\nroot 0 0 0 0 0 0\nb2 0\nb1 90 0\n",                 # another order
+    "2\nroot 0 0 0 0 0 0\nb1 90 0\nb2 0\nb3\n",             # a bone without dofs, here only
+])
+def test_an_amc_frame_listed_otherwise_than_the_first_is_said(tmp_path, frame_two):
+    """The writer writes every frame's bone lines in the first frame's order: a later frame
+    in another order, or with a line for a bone without dofs that the first frame lacks,
+    came back otherwise without a word (a round-trip QA run of mutated files, stop 67).
+    The read says so in its not-kept list; the values are those of the file."""
+    from mpz.motion import READER_NOT_KEPT
+    asf = ASF_TEXT.replace("  end\n:hierarchy", "  end\n  begin\n     id 3\n     name b3\n"
+                           "     direction 0 0 1\n     length 1\n     axis 0 0 0 XYZ\n"
+                           "  end\n:hierarchy").replace("    b1 b2\n", "    b1 b2 b3\n")
+    plain = read_amc_pair(tmp_path / "a", asf, AMC_TEXT)
+    m = read_amc_pair(tmp_path / "b", asf, AMC_TEXT.replace(
+        "2\nroot 0 0 0 0 0 0\nb1 90 0\nb2 0\n", frame_two))
+    assert READER_NOT_KEPT not in plain.extras
+    assert m.extras[READER_NOT_KEPT] == [
+        "from the AMC: the bone lines of 1 frame as listed (other bones or another order "
+        "than the first frame's; written back as the first frame lists them)"]
+    np.testing.assert_array_equal(m.angles, plain.angles)

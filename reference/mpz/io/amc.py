@@ -552,6 +552,10 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     first: int | None = None
     expected_frame: int | None = None
     later = 0                       # lines after the first frame that hold no value
+    # frames whose bone lines are not the first frame's, in its order: the writer writes
+    # every frame in the first's order, and a line for a bone without dofs in a later
+    # frame only was lost without a word (a round-trip QA run of stop 67)
+    reordered = 0
     start_line = 0                  # the line of the current frame's number
     start_word = ""                 # and that number as written
     for lineno, raw in enumerate(LINE_BREAK.split(text), 1):     # as _sections'
@@ -589,7 +593,10 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
                              hint=(_bone_too(parts[0], lineno, slot)
                                    or _bone_too(start_word, start_line, slot)))
                 add(cur)
-                order = order if order is not None else list(seen)
+                if order is None:
+                    order = list(seen)
+                elif list(seen) != order:
+                    reordered += 1
             start_line, start_word = lineno, parts[0]
             cur = np.full(n_chan, np.nan)
             seen = {}
@@ -614,7 +621,10 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     _check_frame(seen, needed, skel, (expected_frame or 1) - 1, start_line, last=True,
                  hint=_bone_too(start_word, start_line, slot))
     add(cur)
-    order = order if order is not None else list(seen)
+    if order is None:
+        order = list(seen)
+    elif list(seen) != order:
+        reordered += 1
     values = np.array(frames)
     if not np.isfinite(values).all():
         raise _bad("non-finite value in AMC")
@@ -634,9 +644,17 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         meta["warning"] = "; ".join(warnings)
     names = [j.name for j in skel.joints]
     extras: dict[str, object] = {"skeleton": skel}
+    lost = []
     if later:               # kept before the first frame only (a QA run of stop 61)
-        extras[READER_NOT_KEPT] = [f"from the AMC: {later} comment or ':' line"
-                              f"{'' if later == 1 else 's'} after its first frame"]
+        lost.append(f"from the AMC: {later} comment or ':' line"
+                    f"{'' if later == 1 else 's'} after its first frame")
+    if reordered:
+        lost.append(f"from the AMC: the bone lines of {reordered} frame"
+                    f"{'' if reordered == 1 else 's'} as listed (other bones or another "
+                    "order than the first frame's; written back as the first frame lists "
+                    "them)")
+    if lost:
+        extras[READER_NOT_KEPT] = lost
     return Motion(positions, names, rate, "mm", None, meta, skel.parents(), values,
                   skel.channel_names(), extras)
 
