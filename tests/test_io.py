@@ -2111,6 +2111,8 @@ def read_amc_pair(folder, asf: str, amc: str) -> Motion:
     ("name b2\n", "name b2 b3\n", "bone b2: name values after the first (b3)"),
     (":version 1.10\n", "x:version 1.10\n:version 1.10\n",
      "a line before the first keyword (x:version 1.10)"),
+    # an unknown section is not written back at all: said once, as such, not as joined
+    (":bonedata\n", ":skin\n  a\n:skin\n  b\n:bonedata\n", ":skin"),
     ("  end\n  begin\n     id 2", "  end\n:bonedata\n  begin\n     id 2",
      "a second :bonedata keyword (its lines are written back under the first)"),
     ("    b1 b2\n  end\n", "  end\n    b1 b2\n  end\n",
@@ -2133,6 +2135,8 @@ def test_asf_words_not_read_are_said_as_not_kept(tmp_path, old, new, said):
     m = read_amc_pair(tmp_path / "b", ASF_TEXT.replace(old, new), AMC_TEXT)
     assert said in m.metadata["asf_dropped"].split("; ")
     assert said in m.extras[READER_NOT_KEPT][0]
+    assert not any("written back under the first" in n and ":skin" in n
+                   for n in m.metadata["asf_dropped"].split("; "))
     np.testing.assert_array_equal(m.positions, plain.positions)
     assert m.extras["skeleton"].joints == plain.extras["skeleton"].joints
     assert "asf_dropped" not in plain.metadata
@@ -2262,7 +2266,8 @@ def test_a_trc_first_line_apart_by_blanks_keeps_its_fields(tmp_path):
         first.split("\t")[:3] + ["C:\\My Data\\walk.trc"])
 
 
-@pytest.mark.parametrize("spelled", ["PathFileType\x80", "PathFileTypes", "PathFileType:"])
+@pytest.mark.parametrize("spelled", ["PathFileType\x80", "PathFileTypes", "PathFileType:",
+                                     "PathFileType\xa0", "PathFileType\x0b"])
 @pytest.mark.parametrize("apart", ["\t", " "])
 def test_a_trc_first_line_keyword_spelled_otherwise_is_said(tmp_path, spelled, apart):
     """The reader takes any line 1 that starts with "PathFileType", and the writer writes

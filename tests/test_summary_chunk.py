@@ -271,6 +271,13 @@ def test_a_step_whose_means_overflow_reads_as_infinite_means(layout, tmp_path):
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0 and run.stderr == "", run.stderr
     assert "k=2" in run.stdout and "k=5" in run.stdout
+    # and its plot: the poses of infinite means had infinite axis limits, exit 70 (a
+    # review of stop 67); the segments are drawn without them
+    pytest.importorskip("matplotlib")
+    png = tmp_path / "big.png"
+    run = subprocess.run([sys.executable, "-m", "mpz.tools.mpz_cli", "summary", str(path),
+                          "--plot", str(png)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and png.stat().st_size > 0, run.stderr
 
 
 def test_summary_format_option_is_checked_up_front():

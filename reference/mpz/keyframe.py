@@ -554,7 +554,9 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
                     tracks: NDArray[np.int32], tab: NDArray[np.float64],
                     e: NDArray[np.int64], window: int) -> int:
     """p_m of member m (§6.5): 0, or 2j + mode for an earlier member j of the ``window``
-    before m (m - window <= j < m; Appendix C) and mode 1 or 2, whose residuals have the
+    before m (m - window <= j < m; Appendix C; none for a window of 0 or less; a review
+    of stop 67 found member m - 1 tried with a window of 0) and mode 1 or 2, whose
+    residuals have the
     least ``_cost`` (the first on a tie: none, then j = m - window or 0, ... with mode 1
     before 2); ``tracks[j]`` is member j's decoded track ``[F, 3]`` (member-major, so
     that reading it at the key times walks one contiguous array).
@@ -585,9 +587,9 @@ def _best_reference(m: int, times: NDArray[np.int64], w: NDArray[np.int64],
     ntab = tab.shape[0]
     g1 = np.empty(3, np.int64)                    # g_{k-1}, g_{k-2} per axis
     g2 = np.empty(3, np.int64)
-    first = max(m - window, 0)                    # the earliest member tried
+    first = min(max(m - window, 0), m)            # the earliest member tried (m: none)
     for unit in range(m - first + 1):
-        j = -1 if m == 0 or unit == 1 else (m - 1 if unit == 0 else first + unit - 2)
+        j = -1 if first == m or unit == 1 else (m - 1 if unit == 0 else first + unit - 2)
         R = tracks[max(j, 0)]
         q1 = 2 * j + 1 if j >= 0 else 0           # the unit's two candidates (none: one)
         q2 = 2 * j + 2

@@ -17,7 +17,8 @@ from mpz._jit import njit
 from mpz.motion import Motion
 
 #: markers^2 x frames that a pair analysis (the auto hierarchy's distance table, the
-#: encoder's rigidity chain) reads at most: 400 frames of 256 markers
+#: encoder's rigidity chain) aims at: 400 frames of 256 markers (the chain takes every
+#: F div k-th frame, up to 2k - 1 of them, and no analysis fewer than PAIR_MIN_FRAMES)
 PAIR_FRAME_BUDGET = 400 * 256 * 256
 #: the fewest frames a pair analysis samples, however many markers (when the clip has
 #: that many; Appendix C)

@@ -141,7 +141,9 @@ def _sections(text: str) -> tuple[dict[str, list[str]], list[str], int, list[str
             if not parts:                  # ':' alone: an IndexError, reported by name (QA)
                 raise _bad("a line of the ASF holds ':' with no keyword after it")
             cur = parts[0].lower()
-            if cur in out:      # its lines joined the first's without a word (a QA run)
+            if cur in out and cur in _SECTIONS:
+                # its lines joined the first's without a word (a round-trip QA run); an
+                # unknown section is not written back at all, and said so below
                 notes.append(f"a second :{parts[0]} keyword (its lines are written back "
                              "under the first)")
             out.setdefault(cur, [])

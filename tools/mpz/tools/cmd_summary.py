@@ -433,10 +433,13 @@ def thumbnail_level(levels: list[dict]) -> dict:
 def thumbnail_means(info: dict, level: dict) -> np.ndarray | None:
     """A stored level's means as poses [k, 3M], or None: only a position summary's (space
     0) are poses. An angle summary's D = 0 means crashed the plot, and a BVH's channel
-    values (D = 6 + 3 J, a multiple of 3 too) were drawn as points (a QA run, stop 49)."""
+    values (D = 6 + 3 J, a multiple of 3 too) were drawn as points (a QA run, stop 49).
+    None too when a mean is not finite: a stored mean may overflow to ±inf in a valid
+    file (§4.10), and the plot's limits were then infinite, an internal error (a review
+    of stop 67); the segments are drawn without the poses."""
     means = level.get("means")
     if info.get("space") != "positions" or means is None or not means.shape[1] \
-            or means.shape[1] % 3:
+            or means.shape[1] % 3 or not np.isfinite(means).all():
         return None
     return np.asarray(means)
 
