@@ -263,14 +263,15 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         motion.metadata["trc.TrailingTabs"] = tabs
     if cut:
         warnings.append(cut)
+    # "PathFileType\x80 4 ..." came back as "PathFileType" without a word (a round-trip QA
+    # run of mutated files, stop 67): the writer writes the keyword as it is spelled.
+    # Blanks alone are stripped: str.strip() also takes U+00A0, U+0085 and the other
+    # characters Python counts as white space, which the writer does not give back
     word = _first_field(lines[0])
-    # blanks alone: str.strip() also takes U+00A0, U+0085 and the other characters Python
-    # counts as white space, which the writer does not give back (a review of stop 67)
-    if word.strip(" ") != "PathFileType":
-        # "PathFileType\x80 4 ..." came back as "PathFileType" without a word (a round-trip
-        # QA run of mutated files, stop 67): the writer writes the keyword as it is spelled
+    respelled = word.strip(" ") != "PathFileType"
+    if respelled:
         warnings.append(f"line 1 begins with {word!r}: written back as 'PathFileType'")
-    if cut or word.strip(" ") != "PathFileType":
+    if cut or respelled:
         motion.metadata["warning"] = "; ".join(warnings)
     return motion
 
