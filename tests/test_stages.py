@@ -554,6 +554,37 @@ def test_member_tasks_keep_order_and_stop_on_an_error():
     assert ran == []
 
 
+def test_member_tasks_run_here_while_an_earlier_one_runs_on_the_pool():
+    """keyframe._spread: while the next range in order runs on a pool thread, this thread
+    takes the later ranges that no thread has started (stop 67: it waited for each range
+    in turn, and ran the first range alone of hamner's seven). Range 1 runs on the pool's
+    one thread and cannot end before range 2 has run: without this, range 2 waited behind
+    it and range 1 gave up after its 5 s."""
+    from concurrent.futures import ThreadPoolExecutor
+    import threading
+
+    from mpz.keyframe import _spread
+    started, go = threading.Event(), threading.Event()
+    where: dict[int, int] = {}
+
+    def task(lo: int, hi: int) -> tuple[int, bool]:
+        where[lo] = threading.get_ident()
+        if lo == 0:
+            return lo, started.wait(5)          # range 1 has started on the pool
+        if lo == 1:
+            started.set()
+            return lo, go.wait(5)               # until range 2 has run
+        go.set()
+        return lo, True
+
+    done: list[int] = []
+    with ThreadPoolExecutor(1) as pool:
+        got = _spread(pool, task, [(0, 1), (1, 2), (2, 3)], done.append)
+    assert got == [(0, True), (1, True), (2, True)]            # in range order
+    assert done == [1, 2, 3]
+    assert where[0] == where[2] == threading.get_ident() != where[1]
+
+
 def test_log2_table_has_the_kernels_bits():
     """The reference choice reads log2(1 + |e|) from a table for small |e| and computes it
     in the kernel (numba's np.log2) beyond: both must give the same bits, or a tie could
