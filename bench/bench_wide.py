@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 
 import numpy as np
 
+from _common import best_of
 import mpz
 from mpz.synth import generate
 
@@ -36,15 +36,6 @@ def wide(markers: int, frames: int, seed: int = 0) -> mpz.Motion:
     offset = rng.uniform(-50, 50, (1, markers, 3)) * (np.arange(markers) >= 41)[None, :, None]
     x = base.positions[:, src] + offset + rng.normal(0, 0.3, (frames, markers, 3))
     return mpz.Motion(x, [f"m{i}" for i in range(markers)], base.rate, "mm")
-
-
-def best(fn, repeat: int) -> tuple[float, object]:
-    out, least = None, float("inf")
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        least = min(least, time.perf_counter() - t)
-    return least, out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -78,10 +69,11 @@ def main(argv: list[str] | None = None) -> int:
         m = wide(w, args.frames)
         raw = m.positions.astype("<f4").tobytes()
         mb = len(raw) / 1e6
-        t1, a = best(lambda m=m: mpz.encode(m, max_error=args.bound, threads=1), args.repeat)
-        t2, b = best(lambda m=m: mpz.encode(m, max_error=args.bound, threads=2), args.repeat)
-        tz, _ = best(lambda raw=raw: zc.compress(raw), args.repeat)
-        assert isinstance(a, bytes) and isinstance(b, bytes)
+        t1 = best_of(lambda m=m: mpz.encode(m, max_error=args.bound, threads=1), args.repeat)
+        t2 = best_of(lambda m=m: mpz.encode(m, max_error=args.bound, threads=2), args.repeat)
+        tz = best_of(lambda raw=raw: zc.compress(raw), args.repeat)
+        a = mpz.encode(m, max_error=args.bound, threads=1)       # the bytes, untimed
+        b = mpz.encode(m, max_error=args.bound, threads=2)
         err = mpz.max_error(m, mpz.decode(a))
         flag = ""
         if a != b:

@@ -2282,15 +2282,11 @@ def test_a_trc_first_line_keyword_spelled_otherwise_is_said(tmp_path, spelled, a
     assert f"line 1 begins with {spelled!r}: written back as 'PathFileType'" in \
         m.metadata["warning"].split("; ")
     assert m.metadata["trc.PathFileType"] == "\t".join(fields[1:3])
-    plain = read_text_trc(tmp_path, TRC_TEXT)
+    from mpz.io.trc import parse_trc
+    plain = parse_trc(TRC_TEXT)
     assert "warning" not in plain.metadata or "line 1" not in plain.metadata["warning"]
     np.testing.assert_array_equal(m.positions, plain.positions)
 
-
-def read_text_trc(folder, text: str) -> Motion:
-    """The motion of the TRC ``text``, written into ``folder``."""
-    (folder / "plain.trc").write_text(text)
-    return read(folder / "plain.trc")
 
 
 @pytest.mark.parametrize("frame_two", [

@@ -558,6 +558,15 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     # every frame in the first's order, and a line for a bone without dofs in a later
     # frame only was lost without a word (a round-trip QA run of stop 67)
     reordered = 0
+
+    def listed(seen: dict[int, None]) -> None:
+        """Keep the first frame's order of bone lines; count a later frame's otherwise."""
+        nonlocal order, reordered
+        if order is None:
+            order = list(seen)
+        elif list(seen) != order:
+            reordered += 1
+
     start_line = 0                  # the line of the current frame's number
     start_word = ""                 # and that number as written
     for lineno, raw in enumerate(LINE_BREAK.split(text), 1):     # as _sections'
@@ -595,10 +604,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
                              hint=(_bone_too(parts[0], lineno, slot)
                                    or _bone_too(start_word, start_line, slot)))
                 add(cur)
-                if order is None:
-                    order = list(seen)
-                elif list(seen) != order:
-                    reordered += 1
+                listed(seen)
             start_line, start_word = lineno, parts[0]
             cur = np.full(n_chan, np.nan)
             seen = {}
@@ -623,10 +629,8 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     _check_frame(seen, needed, skel, (expected_frame or 1) - 1, start_line, last=True,
                  hint=_bone_too(start_word, start_line, slot))
     add(cur)
-    if order is None:
-        order = list(seen)
-    elif list(seen) != order:
-        reordered += 1
+    listed(seen)
+    assert order is not None
     values = np.array(frames)
     if not np.isfinite(values).all():
         raise _bad("non-finite value in AMC")
