@@ -2,7 +2,7 @@
 against the time issue 15.1 allows (half of zstd -19's on the same float32 bytes).
 
     python bench/bench_kernels.py [--files walk1 amc/35_01 ... | --files all]
-                                  [--bound 1mm] [--repeat 9] [--json F]
+                                  [--bound 1mm] [--repeat 9] [--decode] [--json F]
 
 For every file (a name under ../shared/data, or ``$MPZ_SHARED_DATA``, as in
 bench_speed.py; default: the rows bench_speed.py found below 2x at stop 59) it prints, in
@@ -18,6 +18,13 @@ over both cores: ``x1/2 over``, the whole one-thread encode (no use of the two t
 reach 2x there; only less work can), and ``k/2 over``, its kernels alone (no change to the
 Python around them can either; only kernels that search less, which changes the bytes).
 docs/speed.md, "Where it stands", reads the table.
+
+With ``--decode``, the same for ``mpz.decode`` of the file's one-thread encode against
+issue 15.1's decode aim, 0.1x zstd -19's decompression speed on the same bytes: ``10 x zd``
+(ten times zstd's decompression time, the decode's budget), ``dec`` (MPZ's best decode),
+its ``kernels`` (the range decoder, the predictors' reconstruction ...), ``rest``, and one
+verdict, ``k over``: whether the kernels alone pass the budget (then no change to the
+Python around them reaches 0.1x on that row; only a faster coder can).
 
 Times are the best of ``--repeat`` rounds or more (bench_speed.py's ``timed_together``:
 each round one call of zstd, of each encode and of the profiled encode, in turn, until
@@ -99,6 +106,58 @@ def yes(flag: bool) -> str:
     return "over" if flag else "-"
 
 
+def run_decode(args) -> list[dict]:
+    """The ``--decode`` table (module docstring)."""
+    import zstandard
+    root = shared_data_dir()
+    assert root is not None
+    paths = files_of(root, args.files)
+    warm_up(paths[0])
+    sites = kernel_sites()
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; ms, best of "
+          f"{args.repeat} rounds (kernels: the least of the profiled decodes; "
+          f"{sum(len(names) for names in sites.values())} kernels found); bound "
+          f"{args.bound}, encoded with one thread")
+    print(f"{'file':<34} {'10 x zd':>7} {'dec':>7} {'kernels':>7} {'rest':>7} {'k over':>6}"
+          f"  largest kernels")
+    rows = []
+    zc, zd = zstandard.ZstdCompressor(level=19), zstandard.ZstdDecompressor()
+    for path in paths:
+        m = mpz.io.read(path)
+        kw, _, _ = bound_kwargs(m, args.bound)
+        raw = coded_float32(m)
+        z = zc.compress(raw)
+        data = mpz.encode(m, threads=1, **kw)
+        one = partial(mpz.decode, data)
+        one()
+        per: dict[str, float] = {}
+
+        def profile_one(one=one) -> None:          # keeps the least of the profiled runs
+            nonlocal per
+            times = profiled(one, sites)
+            if not per or sum(times.values()) < sum(per.values()):
+                per = times
+        best = {k: w for k, (w, _) in timed_together(
+            {"zstd": partial(zd.decompress, z), "dec": one, "profiled": profile_one},
+            args.repeat).items()}
+        ms = {k: v * 1e3 for k, v in per.items()}
+        row = {"file": path.name, "frames": m.n_frames, "markers": m.n_markers,
+               "bytes": len(raw), "mpz_bytes": len(data), "budget_ms": best["zstd"] * 10e3,
+               "dec_ms": best["dec"] * 1e3, "kernels_ms": sum(ms.values()),
+               "rest_ms": best["dec"] * 1e3 - sum(ms.values()), "kernels_ms_by_name": ms}
+        rows.append(row)
+        top = sorted(ms.items(), key=lambda kv: -kv[1])[:4]
+        print(f"{path.name[:34]:<34} " + " ".join(
+              f"{row[k]:>7.2f}" for k in ("budget_ms", "dec_ms", "kernels_ms", "rest_ms"))
+              + f" {yes(row['kernels_ms'] > row['budget_ms']):>6}  "
+              + ", ".join(f"{k.rsplit('.', 1)[1]} {v:.2f}" for k, v in top), flush=True)
+    for what, key in (("the whole decode", "dec_ms"), ("its kernels alone", "kernels_ms")):
+        over = [r["file"] for r in rows if r[key] > r["budget_ms"]]
+        print(f"{what} over the 0.1x budget: {len(over)} of {len(rows)}"
+              + (f" ({', '.join(over)})" if over else ""))
+    return rows
+
+
 def run(args) -> list[dict]:
     import zstandard
     root = shared_data_dir()
@@ -164,12 +223,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=positive_int, default=9,
                     help="at least this many rounds of zstd, the two encodes and a profiled "
                          "one-thread encode (default 9)")
+    ap.add_argument("--decode", action="store_true",
+                    help="time mpz.decode against 0.1x zstd -19's decompression instead")
     ap.add_argument("--json", help="write the rows here")
     args = ap.parse_args(argv)
     status = cannot_run("bench_kernels")
     if status is not None:
         return status
-    rows = run(args)
+    rows = run_decode(args) if args.decode else run(args)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
     return 0

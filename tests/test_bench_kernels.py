@@ -84,3 +84,17 @@ def test_kernel_times_count_a_profiled_encode(bench):
                   "mpz.predict._integrate", "mpz.entropy._encode_block"):
         assert times.get(stage, 0.0) > 0.0, stage
     assert 0.0 < sum(times.values()) <= stats.total_tt
+
+
+def test_kernel_times_count_a_profiled_decode(bench):
+    """``--decode``'s kernels: a decode's range decoder, key-frame rebuild and predictor
+    integration are found in its profile, and their time is part of the decode's."""
+    import mpz
+    m = generate("walk", frames=240, markers=20, seed=3)
+    data = mpz.encode(m, max_error=1.0, threads=1)
+    mpz.decode(data)                                       # loaded, not timed
+    times = bench.profiled(lambda: mpz.decode(data), bench.kernel_sites())
+    for stage in ("mpz.entropy._decode_block", "mpz.keyframe._rebuild"):
+        assert times.get(stage, 0.0) > 0.0, stage
+    assert "mpz.entropy._encode_block" not in times        # an encode kernel is not run
+    assert sum(times.values()) > 0.0
