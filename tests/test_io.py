@@ -2119,6 +2119,9 @@ def read_amc_pair(folder, asf: str, amc: str) -> Motion:
      "an end in :hierarchy outside begin ... end"),
     ("    b1 b2\n  end\n", "  end\n  begin\n    b1 b2\n  end\n",
      "a second begin in :hierarchy (written back as one begin ... end block)"),
+    # before the block too, not only after it (a review of stop 67)
+    (":hierarchy\n  begin\n", ":hierarchy\n  end\n  begin\n",
+     "an end in :hierarchy outside begin ... end"),
 ])
 def test_asf_words_not_read_are_said_as_not_kept(tmp_path, old, new, said):
     """A QA run of the text readers: words of an ASF that the reader does not read were

@@ -409,7 +409,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
             if word == "begin" and (inside or blocks):
                 dropped.append(f"a second {parts[0]} in :hierarchy (written back as one "
                                "begin ... end block)")
-            elif word == "end" and not inside and blocks:
+            elif word == "end" and not inside:
                 dropped.append(f"an {parts[0]} in :hierarchy outside begin ... end")
             blocks += word == "begin" and not inside
             inside = word == "begin"
