@@ -188,7 +188,10 @@ def test_mpzinfo(files, capsys) -> None:
     if not files["mpz"].exists():
         files["mpz"].write_bytes(mpz.encode(mpz.io.read(files["a"]), max_error=1.0))
     doc = _doc(capsys, mpzinfo.main, ["--json", str(files["mpz"])], 0)
-    assert doc["schema"] == "mpzinfo/2" and set(doc) == {"schema", "tool_version", "files"}
+    assert doc["schema"] == "mpzinfo/2"
+    assert set(doc) == {"schema", "tool_version", "tool_source", "files"}
+    # the source of --version's "(source ...)", not the version alone (a note of stop 67)
+    assert mpz.identity() == f"{doc['tool_version']} (source {doc['tool_source']})"
     (entry,) = doc["files"]
     assert set(entry) == DOC["mpzinfo/2 files"], set(entry) ^ DOC["mpzinfo/2 files"]
 

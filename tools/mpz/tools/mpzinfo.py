@@ -39,6 +39,7 @@ import json
 import sys
 from typing import Any
 
+from mpz._identity import source_fingerprint
 from mpz.chunks import Mhdr, Patt, Segs, Smrc, Smry
 from mpz.chunks.base import infinite_as_text
 from mpz.container import scan
@@ -368,7 +369,9 @@ def _main(argv: list[str] | None = None) -> int:
     code = found(EXIT_MEMORY if "memory" in statuses else EXIT_ERROR if "error" in statuses
                  else EXIT_WARN if "warning" in statuses else EXIT_OK)
     if args.json:
-        print_json({"schema": SCHEMA, "tool_version": __version__, "files": infos})
+        # the source fingerprint of --version too: development checkouts share a version
+        print_json({"schema": SCHEMA, "tool_version": __version__,
+                    "tool_source": source_fingerprint(), "files": infos})
     else:
         for info in infos:
             print(summary_line(info))
