@@ -102,6 +102,41 @@ def profiled(fn, sites: dict[tuple[str, str], tuple[str, ...]]) -> dict[str, flo
     return kernel_times(pstats.Stats(profile), sites)
 
 
+class LeastProfiled:
+    """A round's profiled call of ``fn`` (:func:`profiled`), keeping the kernel times of
+    the run whose kernels took least (``times``)."""
+
+    def __init__(self, fn, sites: dict[tuple[str, str], tuple[str, ...]]) -> None:
+        self.fn, self.sites = fn, sites
+        self.times: dict[str, float] = {}
+
+    def __call__(self) -> None:
+        times = profiled(self.fn, self.sites)
+        if not self.times or sum(times.values()) < sum(self.times.values()):
+            self.times = times
+
+
+def start(args, profiled_what: str, tail: str = ""):
+    """The files asked for, the kernels loaded (on the first, not timed) and their sites,
+    after the line that says how the table was taken."""
+    root = shared_data_dir()
+    assert root is not None
+    paths = files_of(root, args.files)
+    warm_up(paths[0])
+    sites = kernel_sites()
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; ms, best of "
+          f"{args.repeat} rounds (kernels: the least of the profiled {profiled_what}; "
+          f"{sum(len(names) for names in sites.values())} kernels found); bound "
+          f"{args.bound}{tail}")
+    return paths, sites
+
+
+def largest(ms: dict[str, float], digits: int) -> str:
+    """The four largest kernels of a row, by their last name."""
+    top = sorted(ms.items(), key=lambda kv: -kv[1])[:4]
+    return ", ".join(f"{k.rsplit('.', 1)[1]} {v:.{digits}f}" for k, v in top)
+
+
 def yes(flag: bool) -> str:
     return "over" if flag else "-"
 
@@ -109,15 +144,7 @@ def yes(flag: bool) -> str:
 def run_decode(args) -> list[dict]:
     """The ``--decode`` table (module docstring)."""
     import zstandard
-    root = shared_data_dir()
-    assert root is not None
-    paths = files_of(root, args.files)
-    warm_up(paths[0])
-    sites = kernel_sites()
-    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; ms, best of "
-          f"{args.repeat} rounds (kernels: the least of the profiled decodes; "
-          f"{sum(len(names) for names in sites.values())} kernels found); bound "
-          f"{args.bound}, encoded with one thread")
+    paths, sites = start(args, "decodes", ", encoded with one thread")
     print(f"{'file':<34} {'10 x zd':>7} {'dec':>7} {'kernels':>7} {'rest':>7} {'k over':>6}"
           f"  largest kernels")
     rows = []
@@ -130,27 +157,20 @@ def run_decode(args) -> list[dict]:
         data = mpz.encode(m, threads=1, **kw)
         one = partial(mpz.decode, data)
         one()
-        per: dict[str, float] = {}
-
-        def profile_one(one=one) -> None:          # keeps the least of the profiled runs
-            nonlocal per
-            times = profiled(one, sites)
-            if not per or sum(times.values()) < sum(per.values()):
-                per = times
+        least = LeastProfiled(one, sites)
         best = {k: w for k, (w, _) in timed_together(
-            {"zstd": partial(zd.decompress, z), "dec": one, "profiled": profile_one},
+            {"zstd": partial(zd.decompress, z), "dec": one, "profiled": least},
             args.repeat).items()}
-        ms = {k: v * 1e3 for k, v in per.items()}
+        ms = {k: v * 1e3 for k, v in least.times.items()}
         row = {"file": path.name, "frames": m.n_frames, "markers": m.n_markers,
                "bytes": len(raw), "mpz_bytes": len(data), "budget_ms": best["zstd"] * 10e3,
                "dec_ms": best["dec"] * 1e3, "kernels_ms": sum(ms.values()),
                "rest_ms": best["dec"] * 1e3 - sum(ms.values()), "kernels_ms_by_name": ms}
         rows.append(row)
-        top = sorted(ms.items(), key=lambda kv: -kv[1])[:4]
         print(f"{path.name[:34]:<34} " + " ".join(
               f"{row[k]:>7.2f}" for k in ("budget_ms", "dec_ms", "kernels_ms", "rest_ms"))
-              + f" {yes(row['kernels_ms'] > row['budget_ms']):>6}  "
-              + ", ".join(f"{k.rsplit('.', 1)[1]} {v:.2f}" for k, v in top), flush=True)
+              + f" {yes(row['kernels_ms'] > row['budget_ms']):>6}  {largest(ms, 2)}",
+              flush=True)
     for what, key in (("the whole decode", "dec_ms"), ("its kernels alone", "kernels_ms")):
         over = [r["file"] for r in rows if r[key] > r["budget_ms"]]
         print(f"{what} over the 0.1x budget: {len(over)} of {len(rows)}"
@@ -160,15 +180,7 @@ def run_decode(args) -> list[dict]:
 
 def run(args) -> list[dict]:
     import zstandard
-    root = shared_data_dir()
-    assert root is not None
-    paths = files_of(root, args.files)
-    warm_up(paths[0])
-    sites = kernel_sites()
-    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; ms, best of "
-          f"{args.repeat} rounds (kernels: the least of the profiled one-thread encodes; "
-          f"{sum(len(names) for names in sites.values())} kernels found); bound "
-          f"{args.bound}")
+    paths, sites = start(args, "one-thread encodes")
     print(f"{'file':<34} {'zstd/2':>7} {'x1':>7} {'x2':>7} {'kernels':>7} {'rest':>7}  "
           f"{'x1/2 over':>9} {'k/2 over':>8}  largest kernels")
     rows = []
@@ -179,32 +191,25 @@ def run(args) -> list[dict]:
         data = coded_float32(m)
         one = partial(mpz.encode, m, threads=1, **kw)
         one()
-        per: dict[str, float] = {}
-
-        def profile_one(one=one) -> None:          # keeps the least of the profiled runs
-            nonlocal per
-            times = profiled(one, sites)
-            if not per or sum(times.values()) < sum(per.values()):
-                per = times
+        least = LeastProfiled(one, sites)
         # bench_speed's rounds: the profiled encode in turn with zstd and the timed ones
         best = {k: w for k, (w, _) in timed_together(
             {"zstd": partial(zc.compress, data), "x1": one,
-             "x2": partial(mpz.encode, m, threads=2, **kw), "profiled": profile_one},
+             "x2": partial(mpz.encode, m, threads=2, **kw), "profiled": least},
             args.repeat).items()}
-        ms = {k: v * 1e3 for k, v in per.items()}
+        ms = {k: v * 1e3 for k, v in least.times.items()}
         row = {"file": path.name, "frames": m.n_frames, "markers": m.n_markers,
                "bytes": len(data), "budget_ms": best["zstd"] / 2 * 1e3,
                "x1_ms": best["x1"] * 1e3, "x2_ms": best["x2"] * 1e3,
                "kernels_ms": sum(ms.values()), "rest_ms": best["x1"] * 1e3 - sum(ms.values()),
                "kernels_ms_by_name": ms}
         rows.append(row)
-        top = sorted(ms.items(), key=lambda kv: -kv[1])[:4]
         print(f"{path.name[:34]:<34} " + " ".join(
               f"{row[k]:>7.1f}" for k in ("budget_ms", "x1_ms", "x2_ms", "kernels_ms",
                                            "rest_ms"))
               + f"  {yes(row['x1_ms'] / 2 > row['budget_ms']):>9} "
-              f"{yes(row['kernels_ms'] / 2 > row['budget_ms']):>8}  "
-              + ", ".join(f"{k.rsplit('.', 1)[1]} {v:.1f}" for k, v in top), flush=True)
+              f"{yes(row['kernels_ms'] / 2 > row['budget_ms']):>8}  {largest(ms, 1)}",
+              flush=True)
     for what, key in (("the whole one-thread encode", "x1_ms"), ("its kernels alone",
                                                                    "kernels_ms")):
         over = [r["file"] for r in rows if r[key] / 2 > r["budget_ms"]]
