@@ -235,7 +235,9 @@ def run(args) -> tuple[list[dict], int]:
             return " OVER"
         return ""
 
-    def zstd_row(label: str, data: bytes, codec: str) -> dict:
+    def zstd_row(label: str, data: bytes, codec: str) -> tuple[dict, bytes]:
+        """zstd -19 timed alone on ``data``: its row, and the compressed bytes (which the
+        MPZ rows' decode is timed in alternation with)."""
         zc = zstandard.ZstdCompressor(level=19)
         z = zc.compress(data)
         tz, _ = timed(lambda: zc.compress(data), args.repeat)
@@ -244,7 +246,7 @@ def run(args) -> tuple[list[dict], int]:
         print(f"{label:<28} {mb:>5.2f} {'':>7} {codec + ' alone':<17} {blank}{mb / tz:>8.1f} "
               f"{'':>6} {mb / tzd:>7.1f} {len(data) / len(z):>6.2f}")
         return {"codec": codec, "timing": "alone", "mb": mb, "enc": mb / tz,
-                "dec": mb / tzd, "ratio": len(data) / len(z)}
+                "dec": mb / tzd, "ratio": len(data) / len(z)}, z
 
     def peer_row(path: Path, m, desc: str, e: float, codec: str, enc, dec,
                  extra: dict) -> None:
@@ -267,9 +269,10 @@ def run(args) -> tuple[list[dict], int]:
         coded = coded_float32(m)
         markers = np.nan_to_num(m.positions.astype(np.float32)).tobytes()
         raw, mb = len(coded), len(coded) / 1e6
-        rows.append({"file": path.stem, **zstd_row(path.stem[:27], coded, "zstd -19")})
+        row, z = zstd_row(path.stem[:27], coded, "zstd -19")
+        rows.append({"file": path.stem, **row})
         if len(markers) != raw:
-            rows.append({"file": path.stem, **zstd_row("", markers, "zstd -19 mk")})
+            rows.append({"file": path.stem, **zstd_row("", markers, "zstd -19 mk")[0]})
         for b in args.bounds:
             kw, e, desc = bound_kwargs(m, b)
             if e is not None:
@@ -301,7 +304,6 @@ def run(args) -> tuple[list[dict], int]:
             tzm = pair.get("zstd mk", pair["zstd"])[0]
             # the decode in alternation with zstd's decompression of the same bytes (issue
             # 15.1's 0.1x aim, read row by row as the encode is)
-            z = zc.compress(coded)
             paired = timed_together({"mpz": partial(mpz.decode, data), "zstd": partial(
                 zstandard.ZstdDecompressor().decompress, z)}, args.repeat)
             td, tzd = paired["mpz"][0], paired["zstd"][0]
