@@ -34,7 +34,7 @@ from typing import Any
 
 import construct
 
-from mpz.chunks._build import _Context, _format, _Unsupported
+from mpz.chunks._build import _Context, _expression, _format, _Unsupported
 
 __all__ = ["parse", "fast_path"]
 
@@ -88,10 +88,10 @@ def _compile(c: construct.Construct) -> _Parser:
             raise _Unsupported("Array(discard=True)")
         return _array(c)
     if t is construct.Bytes:
-        length = c.length
+        length = _expression(c.length)
 
         def fixed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            n = length(ctx) if callable(length) else length
+            n = length(ctx)
             if not 0 <= n <= end - pos:
                 raise _GiveUp
             return data[pos: pos + n], pos + n
@@ -111,10 +111,11 @@ def _compile(c: construct.Construct) -> _Parser:
             return value, pos + n
         return prefixed
     if t is construct.IfThenElse:
-        cond, then, other = c.condfunc, _compile(c.thensubcon), _compile(c.elsesubcon)
+        cond = _expression(c.condfunc)
+        then, other = _compile(c.thensubcon), _compile(c.elsesubcon)
 
         def choice(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            taken = then if (cond(ctx) if callable(cond) else cond) else other
+            taken = then if cond(ctx) else other
             return taken(data, pos, end, ctx)
         return choice
     if c is construct.Pass:
@@ -134,21 +135,21 @@ def _compile(c: construct.Construct) -> _Parser:
 def _array(c: construct.Array) -> _Parser:
     """An Array: a run of one little-endian FormatField by one ``struct`` call (after
     checking that the stream holds it), any other item one by one."""
-    count = c.count
+    count = _expression(c.count)
     code = _format(c.subcon)
     sub = _compile(c.subcon)            # also refuses a parsed hook on the item
     if code is not None:
         size = struct.calcsize("<" + code)
 
         def packed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            n = count(ctx) if callable(count) else count
+            n = count(ctx)
             if not 0 <= n * size <= end - pos:
                 raise _GiveUp
             return struct.unpack_from("<" + str(n) + code, data, pos), pos + n * size
         return packed
 
     def array(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-        n = count(ctx) if callable(count) else count
+        n = count(ctx)
         if not 0 <= n <= end - pos:       # n items of a byte or more cannot fit: give up
             raise _GiveUp
         out = []
