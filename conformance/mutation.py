@@ -424,9 +424,10 @@ MUTANTS_11 = [
     X("X16", CK, "            models[~valid] = np.nan\n", "",
       "R-6.9-2: model-output gaps output as values"),
     # §4.13.4 cana
-    X("X17", CK, "            ch.decode(dec, T, self.storage, \"§6.9\", out[:, c])\n"
-      "        dec.close()\n",
-      "            ch.decode(dec, T, self.storage, \"§6.9\", out[:, c])\n",
+    X("X17", CK, "        _decode_table(dec, T, self.table, self.storage, out)     # each into its "
+      "column (§8)\n        dec.close()\n",
+      "        _decode_table(dec, T, self.table, self.storage, out)     # each into its "
+      "column (§8)\n",
       "R-6.9-1: cana payload not closed"),
     X("X18", CK, "if F * n * C > limit:", "if F * C > limit:",
       "R-4.13.4-2: samples per frame left out of the analog limit"),

@@ -13,7 +13,7 @@ import pytest
 
 import mpz
 from mpz import container
-from mpz.c3dcodec import decode_channel, encode_channel, ordered, plan, unordered
+from mpz.c3dcodec import decode_channel, decode_channels, encode_channel, ordered, plan, unordered
 from mpz.chunks import CHUNKS, Context
 from mpz.entropy import BlockDecoder, BlockEncoder
 from mpz.errors import FormatError, LimitExceededError, MPZError
@@ -184,6 +184,57 @@ def _coded_and_back(x: np.ndarray) -> np.ndarray:
 def test_int16_channels_are_exact(values):
     x = np.array(values, "<i2")
     assert _coded_and_back(x).tolist() == x.tolist()
+
+
+def _outcome(f):
+    try:
+        return f().tolist()
+    except FormatError as exc:
+        return (str(exc), exc.offset, exc.section)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 12), st.lists(st.tuples(st.sampled_from([0, 1]), st.integers(0, 2),
+                                              st.integers(0, 3), st.integers(0, 2 ** 20),
+                                              st.integers(0, 9)), min_size=1, max_size=6),
+       st.integers(0, 2 ** 32 - 1), st.floats(0.0, 1.0))
+def test_channels_decoded_together_fail_where_one_at_a_time_would(T, chans, seed, keep):
+    """decode_channels decodes many channels' blocks ahead in one kernel call; a payload
+    with faults (values past int16 or 2^24, low parts past 2^b) and cut anywhere gives the
+    values, or the first error with its message and offset, of channel-by-channel
+    decoding. The residuals are drawn at random, so faults are common."""
+    rng = np.random.default_rng(seed)
+    entries, rows, signed = [], [], []
+    for mode, order, low_bits, scale, low_scale in chans:
+        entries.append((mode, 0, order, low_bits))
+        rows.append(np.round(rng.laplace(0, scale + 0.5, T)).astype(np.int64))
+        signed.append(True)
+        if low_bits:
+            rows.append(rng.integers(0, low_scale + 1, T))
+            signed.append(False)
+    enc = BlockEncoder()
+    enc.rows(np.array(rows, np.int64).reshape(len(rows), T), signed)
+    data = enc.finish()
+    data = data[: max(5, int(len(data) * keep))] if keep < 1 else data
+    storage = np.dtype("<i2") if all(m == 0 for m, *_ in entries) and seed % 2 else \
+        np.dtype("<f4")
+    entries = [(m if storage == np.dtype("<f4") else 0, s, o, b) for m, s, o, b in entries]
+
+    def together():
+        out = np.zeros((T, len(entries)), storage)
+        dec = BlockDecoder(data, chunk="cana", offset=40)
+        decode_channels(dec, T, entries, storage, "§6.9", out)
+        dec.close()
+        return out
+
+    def one_at_a_time():
+        out = np.zeros((T, len(entries)), storage)
+        dec = BlockDecoder(data, chunk="cana", offset=40)
+        for c, e in enumerate(entries):
+            decode_channel(dec, T, *e, storage, "§6.9", out[:, c])
+        dec.close()
+        return out
+    assert _outcome(together) == _outcome(one_at_a_time)
 
 
 #: 32-bit words at the ends of the ordered map (§6.9): NaN patterns, infinities, +-0

@@ -156,3 +156,66 @@ def test_rows_check_their_values_first():
     with pytest.raises(ValueError, match="one sign flag a row"):
         enc.rows(np.array([[1, 2]]), [True, False])
     assert enc.finish() == BlockEncoder().finish()          # nothing was coded
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 40), st.lists(st.tuples(st.integers(0, 2 ** 30 - 1), st.booleans()),
+                                    min_size=0, max_size=6),
+       st.integers(0, 2 ** 32 - 1), st.integers(0, 12))
+def test_decoded_rows_are_the_reference_coders_blocks(T, rows, seed, words):
+    """BlockDecoder.rows gives back, row by row, the blocks [T, 1, 1] the §5 reference
+    coder wrote with fresh models, signed or not, however few values it may decode ahead
+    (``ROW_WORDS``: here 1 to 4096); the payload is then consumed exactly."""
+    from mpz import entropy
+    ref = RefEncoder()
+    vals = np.zeros((len(rows), T), np.int64)
+    for b, (scale, signed) in enumerate(rows):
+        vals[b] = _laplace_values(T, 1, 1, scale, signed, seed + b)[:, 0, 0]
+        ref.block(vals[b][:, None, None], None, signed)
+    data = ref.finish()
+    old = entropy.ROW_WORDS
+    entropy.ROW_WORDS = 1 << words
+    try:
+        dec = BlockDecoder(data)
+        got = list(dec.rows(T, [s for _, s in rows]))
+    finally:
+        entropy.ROW_WORDS = old
+    assert len(got) == len(rows)
+    for b, row in enumerate(got):
+        assert np.array_equal(row, vals[b]), b
+    dec.close()
+
+
+@pytest.mark.parametrize("words", [0, 3, 16])
+def test_rows_run_out_where_the_block_calls_would(words):
+    """A payload cut short: rows yields every row that decodes whole, and raises the §5.3
+    error (same message, same offset) only when the caller asks for the row that runs out,
+    as the block() of that row would; decoding ahead never raises early."""
+    from mpz import entropy
+    enc = BlockEncoder()
+    vals = np.arange(60).reshape(6, 10) * 37 - 500
+    enc.rows(vals, [True] * 6)
+    data = enc.finish()
+    dec = BlockDecoder(data)
+    for _ in range(3):
+        dec.block(10, 1, 1)
+    cut = dec.consumed + 1               # the fourth row needs bytes past this
+    seq = BlockDecoder(data[:cut], chunk="cana", offset=100)
+    whole = 0
+    with pytest.raises(FormatError) as want:
+        for _ in range(6):
+            seq.block(10, 1, 1)
+            whole += 1
+    old = entropy.ROW_WORDS
+    entropy.ROW_WORDS = 1 << words
+    try:
+        rows = BlockDecoder(data[:cut], chunk="cana", offset=100).rows(10, [True] * 6)
+        for b in range(whole):
+            assert np.array_equal(next(rows), vals[b])
+        with pytest.raises(FormatError) as got:
+            next(rows)
+    finally:
+        entropy.ROW_WORDS = old
+    assert whole >= 3
+    assert (str(got.value), got.value.offset, got.value.chunk) == (
+        str(want.value), want.value.offset, want.value.chunk)

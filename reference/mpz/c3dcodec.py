@@ -23,6 +23,7 @@ like marker positions (§6.8), with their own bound: :func:`model_grid`.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 import math
 from typing import Any
@@ -291,7 +292,7 @@ def _fail(message: str, section: str) -> FormatError:
     return FormatError(message, section=section)
 
 
-#: rows of a channel checked and converted at a time by :func:`decode_channel`, so that
+#: rows of a channel checked and converted at a time by :func:`decode_channels`, so that
 #: its temporaries are this size, not the channel's (spec §8, memory budget)
 _ROWS = 1 << 16
 
@@ -300,55 +301,74 @@ def decode_channel(dec: BlockDecoder, T: int, mode: int, shift: int, order: int,
                    low_bits: int, storage: np.dtype[np.generic], section: str,
                    out: NDArray[np.int16] | NDArray[np.float32] | None = None
                    ) -> NDArray[np.int16] | NDArray[np.float32]:
-    """§6.9 one channel of T words, returned as int16 or float32 (bit-exact) values, in
-    ``out`` (a [T] array or column of ``storage``) when it is given.
+    """§6.9 one channel of T words (:func:`decode_channels` of one entry), returned as
+    int16 or float32 (bit-exact) values, in ``out`` (a [T] array or column of
+    ``storage``) when it is given."""
+    if out is None:
+        out = np.empty(T, storage)
+    decode_channels(dec, T, [(mode, shift, order, low_bits)], storage, section, out[:, None])
+    return out
 
-    The channel entry must already have passed the §4.13 checks (mode, shift, order,
-    low_bits and, for int16 storage, mode 0 with shift 0).
 
-    Memory (spec §8): the residuals' int64 block (and the low parts' while they are
-    added) and the output; the values are reconstructed in place, checked by their
-    largest and least, and converted :data:`_ROWS` at a time. Whole-channel temporaries
-    took 32 bytes a word, 8 GiB for the 2^28 words of a 740 KB file (a QA run, stop 40).
+def decode_channels(dec: BlockDecoder, T: int, entries: Sequence[tuple[int, int, int, int]],
+                    storage: np.dtype[np.generic], section: str,
+                    out: NDArray[np.int16] | NDArray[np.float32]) -> None:
+    """§6.9 consecutive channels of T words, each into its column of ``out`` ([T, C] of
+    ``storage``) as int16 or float32 (bit-exact) values; ``entries`` are the channels'
+    ``(mode, shift, order, low_bits)``, which must already have passed the §4.13 checks
+    (mode, shift, order, low_bits and, for int16 storage, mode 0 with shift 0).
+
+    The range decoding of many short channels is one kernel call
+    (:meth:`BlockDecoder.rows`); each channel is then checked and converted in turn, so a
+    file with more than one fault is refused for the one a channel-by-channel decoder
+    meets first.
+
+    Memory (spec §8): the residuals' int64 rows decoded ahead (at most
+    :data:`mpz.entropy.ROW_WORDS`, or one channel's and its low parts') and the output;
+    the values are reconstructed in place, checked by their largest and least, and
+    converted :data:`_ROWS` at a time. Whole-channel temporaries took 32 bytes a word,
+    8 GiB for the 2^28 words of a 740 KB file (a QA run, stop 40).
 
     Raises
     ------
     FormatError
         For a decoded value outside the range §4.13 allows.
     """
-    e = dec.block(T, 1, 1)
-    if low_bits:
-        lo = dec.block(T, 1, 1, signed=False)
-        if T and int(lo.max()) >= (1 << low_bits):  # R-6.9-1
-            raise _fail(f"low part {int(lo.max())} of a residual is not below 2^{low_bits}",
-                        section)
-        np.left_shift(e, low_bits, out=e)                   # h x 2^b + lo, |h| < 2^31
-        np.add(e, lo, out=e)
-        del lo
-    # |e| <= (2^31 - 1) x 2^3 + 7 < 2^34 (b <= 3): an order-1 sum over T <= 2^28 rows stays
-    # below 2^62, and order 2 is guarded by §6.2 (|d| < 2^32)
-    v = reconstruct(e, order, inplace=True)[:, 0, 0]
-    top, bottom = (int(v.max()), int(v.min())) if T else (0, 0)     # (no temporaries)
-    if mode == ChannelMode.INTEGER:
-        if max(top, -bottom) >= K_LIMIT:  # R-6.9-1
-            raise _fail(f"integer channel value {max(top, -bottom)} is not below 2^24",
-                        section)
-        if storage == INT16 and (bottom < -32768 or top > 32767):  # R-6.9-1
-            raise _fail("an int16 channel decodes to a value outside -32768..32767", section)
-    # R-6.9-1
-    elif bottom < -(1 << 31) or top >= (1 << 31):
-        raise _fail("a float32 bit-pattern channel decodes outside -2^31..2^31-1", section)
-    if out is None:
-        out = np.empty(T, storage)
-    for r0 in range(0, T, _ROWS):
-        part = v[r0: r0 + _ROWS]
-        if mode != ChannelMode.INTEGER:
-            out[r0: r0 + _ROWS] = unordered(part).view(FLOAT32)
-        elif storage == INT16:
-            out[r0: r0 + _ROWS] = part
-        else:                               # k x 2^shift, rounded once to float32
-            out[r0: r0 + _ROWS] = np.ldexp(part.astype(np.float64), shift)
-    return out
+    signs = [s for e in entries for s in ((True, False) if e[3] else (True,))]
+    rows = dec.rows(T, signs)
+    for c, (mode, shift, order, low_bits) in enumerate(entries):
+        e = next(rows).reshape(T, 1, 1)
+        if low_bits:
+            lo = next(rows).reshape(T, 1, 1)
+            if T and int(lo.max()) >= (1 << low_bits):  # R-6.9-1
+                raise _fail(f"low part {int(lo.max())} of a residual is not below "
+                            f"2^{low_bits}", section)
+            np.left_shift(e, low_bits, out=e)               # h x 2^b + lo, |h| < 2^31
+            np.add(e, lo, out=e)
+            del lo
+        # |e| <= (2^31 - 1) x 2^3 + 7 < 2^34 (b <= 3): an order-1 sum over T <= 2^28 rows
+        # stays below 2^62, and order 2 is guarded by §6.2 (|d| < 2^32)
+        v = reconstruct(e, order, inplace=True)[:, 0, 0]
+        top, bottom = (int(v.max()), int(v.min())) if T else (0, 0)     # (no temporaries)
+        if mode == ChannelMode.INTEGER:
+            if max(top, -bottom) >= K_LIMIT:  # R-6.9-1
+                raise _fail(f"integer channel value {max(top, -bottom)} is not below 2^24",
+                            section)
+            if storage == INT16 and (bottom < -32768 or top > 32767):  # R-6.9-1
+                raise _fail("an int16 channel decodes to a value outside -32768..32767",
+                            section)
+        # R-6.9-1
+        elif bottom < -(1 << 31) or top >= (1 << 31):
+            raise _fail("a float32 bit-pattern channel decodes outside -2^31..2^31-1", section)
+        col = out[:, c]
+        for r0 in range(0, T, _ROWS):
+            part = v[r0: r0 + _ROWS]
+            if mode != ChannelMode.INTEGER:
+                col[r0: r0 + _ROWS] = unordered(part).view(FLOAT32)
+            elif storage == INT16:
+                col[r0: r0 + _ROWS] = part
+            else:                               # k x 2^shift, rounded once to float32
+                col[r0: r0 + _ROWS] = np.ldexp(part.astype(np.float64), shift)
 
 
 # ------------------------------------------------------------ model outputs --

@@ -13,7 +13,7 @@ after the last symbol the decoder must have consumed every byte of it.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NoReturn, TypeVar, cast
 
 import numpy as np
@@ -212,6 +212,10 @@ def _encode_block(vals: NDArray[np.int64], period: int, signed: bool, probs: _Pr
     return 0 if ok else 1
 
 
+#: the most values :meth:`BlockDecoder.rows` decodes ahead of its caller (512 KiB of int64;
+#: a row longer than this is decoded alone)
+ROW_WORDS = 1 << 16
+
 #: the flat model set of :func:`_encode_block` with every probability at 1024 (§5.2)
 _FLAT_INIT = np.full(2 * N_AXES * N_CTX + N_AXES * N_CTX * MAX_EXP
                      + N_AXES * (MAX_EXP + 1) * MAX_EXP, PROB_INIT, np.int32)
@@ -365,6 +369,22 @@ def _decode_block(buf: NDArray[np.uint8], ds: NDArray[np.int64], T: int, M: int,
                     u = (u << 1) | bit
                 out[t, m, a] = -u if neg else u
     ds[0], ds[1], ds[2] = code, rng, pos
+
+
+@_kernel
+def _decode_rows(buf: NDArray[np.uint8], ds: NDArray[np.int64], signed: NDArray[np.bool_],
+                 init: _Probs, out: NDArray[np.int64], err: NDArray[np.int64]) -> int:
+    """:func:`_decode_block` of each row of ``out[B, T]`` as a block [T, 1, 1] of one run,
+    with fresh models (a copy of ``init``) and ``signed[b]``, in row order, as
+    :func:`_encode_rows` codes them. Returns the number of rows decoded whole: B, or the
+    row that overran (``err[0]`` is then ERR_OVERRUN)."""
+    T = out.shape[1]
+    for b in range(out.shape[0]):
+        _decode_block(buf, ds, T, 1, max(1, T), signed[b], init.copy(),
+                      out[b].reshape((T, 1, 1)), err)
+        if err[0] != 0:
+            return b
+    return int(out.shape[0])
 
 
 # ------------------------------------------------------------- public API --
@@ -527,11 +547,37 @@ class BlockDecoder:
         period = max(1, T if period is None else int(period))
         _decode_block(self._buf, self._ds, T, M, period, signed, _flat_models(models), out,
                       self._err)
-        if self._err[0] == ERR_OVERRUN:  # R-5.3-1
-            n = self._buf.shape[0]
-            self._fail(f"range-coded payload ends before its last symbol (renormalisation "
-                       f"needs byte {n} of a {n}-byte field)", n)
+        if self._err[0] == ERR_OVERRUN:
+            self._ran_out()
         return out
+
+    def rows(self, T: int, signed: Sequence[bool]) -> Iterator[NDArray[np.int64]]:
+        """The values of ``len(signed)`` blocks ``[T, 1, 1]`` with fresh models, signed
+        where ``signed[b]``, as ``[T]`` arrays in coding order: what that many calls of
+        :meth:`block` give, and what :meth:`BlockEncoder.rows` codes.
+
+        The blocks are decoded ahead of what the caller has taken, :data:`ROW_WORDS`
+        values at most (spec §8: that much memory), by one kernel call each time (issue
+        15.1: a C3D clip's channels are hundreds of short blocks, and a call of
+        :meth:`block` costs a few us). Each row is read only when the previous ones were,
+        and a block the payload runs out in raises where the block() of it would: when
+        the caller asks for it, after the checks the caller made of the rows before it.
+        """
+        per = max(1, ROW_WORDS // max(1, T))
+        flags = np.asarray(signed, np.bool_)
+        for b0 in range(0, flags.shape[0], per):
+            out = np.zeros((min(per, flags.shape[0] - b0), T), np.int64)
+            whole = _decode_rows(self._buf, self._ds, flags[b0: b0 + per], _FLAT_INIT, out,
+                                 self._err)
+            yield from out[:whole]
+            if self._err[0] == ERR_OVERRUN:
+                self._ran_out()
+
+    def _ran_out(self) -> NoReturn:
+        n = self._buf.shape[0]
+        # R-5.3-1
+        self._fail(f"range-coded payload ends before its last symbol (renormalisation "
+                   f"needs byte {n} of a {n}-byte field)", n)
 
     @property
     def consumed(self) -> int:

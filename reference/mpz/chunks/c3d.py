@@ -22,7 +22,7 @@ import zlib
 import numpy as np
 from numpy.typing import NDArray
 
-from mpz.c3dcodec import FLOAT32, INT16, MODEL_LIMIT, decode_channel
+from mpz.c3dcodec import FLOAT32, INT16, MODEL_LIMIT, decode_channels
 from mpz.chunks import _parse
 from mpz.chunks.base import JSON, Context, Record, kept
 from mpz.chunks.base import fail as _fail
@@ -99,11 +99,13 @@ class Channel(Record):
         if self.low_bits > C3D_MAX_LOW_BITS:
             _fail(f"{what}: low_bits {self.low_bits} not in 0..{C3D_MAX_LOW_BITS}", section)
 
-    def decode(self, dec: BlockDecoder, T: int, storage: int, section: str,
-               out: NDArray[np.int16] | NDArray[np.float32] | None = None
-               ) -> NDArray[np.int16] | NDArray[np.float32]:
-        return decode_channel(dec, T, self.mode, self.shift, self.order, self.low_bits,
-                              _dtype(storage), section, out)
+
+
+def _decode_table(dec: BlockDecoder, T: int, table: tuple[Channel, ...], storage: int,
+                  out: NDArray[np.int16] | NDArray[np.float32]) -> None:
+    """§6.9 the channels of ``table``, in order, each into its column of ``out``."""
+    decode_channels(dec, T, [(c.mode, c.shift, c.order, c.low_bits) for c in table],
+                    _dtype(storage), "§6.9", out)
 
 
 def _dtype(storage: int) -> np.dtype[Any]:
@@ -485,8 +487,7 @@ class Cpnt(Record):
         J = self.model_count
         dec = BlockDecoder(self.coded, chunk=self.TYPE)
         words = np.empty((F, self.point_count), _dtype(self.storage))
-        for p, ch in enumerate(self.words):
-            ch.decode(dec, F, self.storage, s, words[:, p])
+        _decode_table(dec, F, self.words, self.storage, words)
         valid = np.ones((F, J), bool)
         if J:
             flags = dec.block(F, J, 1, signed=False)[:, :, 0]
@@ -497,9 +498,10 @@ class Cpnt(Record):
             del flags                   # before the outputs are allocated (§8 budget)
         models = np.full((F, J, 3), np.nan)
         if J:
+            axes = dec.rows(F, [True] * (3 * J))        # each a block [F, 1, 1]
             for j, m in enumerate(self.models):
                 for a, ax in enumerate(m.axes):
-                    e = dec.block(F, 1, 1)
+                    e = next(axes).reshape(F, 1, 1)
                     k = reconstruct(e, ax.order)[:, 0, 0]
                     # R-6.9-1
                     if (np.abs(k) >= MODEL_LIMIT).any():
@@ -560,8 +562,7 @@ class Cana(Record):
         T = F * self.samples
         out = np.empty((T, self.channels), _dtype(self.storage))
         dec = BlockDecoder(self.coded, chunk=self.TYPE)  # R-6.9-1
-        for c, ch in enumerate(self.table):              # each into its column (§8)
-            ch.decode(dec, T, self.storage, "§6.9", out[:, c])
+        _decode_table(dec, T, self.table, self.storage, out)     # each into its column (§8)
         dec.close()
         return out
 
