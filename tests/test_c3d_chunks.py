@@ -193,21 +193,30 @@ def _outcome(f):
         return (str(exc), exc.offset, exc.section)
 
 
-@settings(max_examples=150, deadline=None)
-@given(st.integers(0, 12), st.lists(st.tuples(st.sampled_from([0, 1]), st.integers(0, 2),
-                                              st.integers(0, 3), st.integers(0, 2 ** 20),
-                                              st.integers(0, 9)), min_size=1, max_size=6),
+_entry = st.tuples(st.sampled_from([0, 1]), st.integers(0, 2), st.integers(0, 3),
+                   st.sampled_from([0, 3, 2 ** 12, 2 ** 20, 2 ** 28]), st.integers(0, 9))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 24),
+       st.lists(st.tuples(st.one_of(_entry, st.sampled_from([(0, 1, 0, 2 ** 12, 0),
+                                                            (0, 2, 0, 2 ** 28, 0)])),
+                          st.integers(1, 4)), min_size=1, max_size=4),
        st.integers(0, 2 ** 32 - 1), st.floats(0.0, 1.0))
-def test_channels_decoded_together_fail_where_one_at_a_time_would(T, chans, seed, keep):
-    """decode_channels decodes many channels' blocks ahead in one kernel call; a payload
-    with faults (values past int16 or 2^24, low parts past 2^b) and cut anywhere gives the
-    values, or the first error with its message and offset, of channel-by-channel
-    decoding. The residuals are drawn at random, so faults are common."""
+def test_channels_decoded_together_fail_where_one_at_a_time_would(T, runs, seed, keep):
+    """decode_channels decodes many channels' blocks ahead in one kernel call, and takes a
+    run of channels with the same entry as one array; a payload with faults (values past
+    int16 or 2^24, low parts past 2^b, order-2 differences past §6.2's guard) and cut
+    anywhere gives the values, or the first error with its message and offset, of
+    channel-by-channel decoding. The residuals are drawn at random, so faults are common;
+    runs of 1 to 4 equal entries, so that some fault inside a run."""
+    chans = [c for c, k in runs for _ in range(k)]
     rng = np.random.default_rng(seed)
     entries, rows, signed = [], [], []
     for mode, order, low_bits, scale, low_scale in chans:
         entries.append((mode, 0, order, low_bits))
-        rows.append(np.round(rng.laplace(0, scale + 0.5, T)).astype(np.int64))
+        rows.append(np.clip(np.round(rng.laplace(0, scale + 0.5, T)), 1 - 2 ** 30,
+                            2 ** 30 - 1).astype(np.int64))
         signed.append(True)
         if low_bits:
             rows.append(rng.integers(0, low_scale + 1, T))
@@ -235,6 +244,23 @@ def test_channels_decoded_together_fail_where_one_at_a_time_would(T, chans, seed
         dec.close()
         return out
     assert _outcome(together) == _outcome(one_at_a_time)
+
+
+def test_a_run_whose_guard_fails_later_reports_an_earlier_channels_fault_first():
+    """Three channels with one entry (order 2), taken as one run: channel 0 decodes past
+    2^24, channel 1's order-2 differences pass §6.2's guard at an earlier frame than that.
+    A channel-by-channel decoder meets channel 0's fault first, and so must the run."""
+    T = 8
+    e = np.zeros((3, T), np.int64)
+    e[0, T - 1] = 2 ** 25                        # channel 0: 2^25 at the last frame
+    e[1, :] = 2 ** 30 - 1                        # channel 1: |d| reaches 2^32 at frame 4
+    enc = BlockEncoder()
+    enc.rows(e, [True] * 3)
+    dec = BlockDecoder(enc.finish(), chunk="cana")
+    out = np.zeros((T, 3), np.float32)
+    with pytest.raises(FormatError, match="is not below 2\\^24") as got:
+        decode_channels(dec, T, [(0, 0, 2, 0)] * 3, np.dtype("<f4"), "§6.9", out)
+    assert got.value.section == "§6.9"
 
 
 #: 32-bit words at the ends of the ordered map (§6.9): NaN patterns, infinities, +-0

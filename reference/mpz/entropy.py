@@ -551,27 +551,11 @@ class BlockDecoder:
             self._ran_out()
         return out
 
-    def rows(self, T: int, signed: Sequence[bool]) -> Iterator[NDArray[np.int64]]:
+    def rows(self, T: int, signed: Sequence[bool]) -> Rows:
         """The values of ``len(signed)`` blocks ``[T, 1, 1]`` with fresh models, signed
-        where ``signed[b]``, as ``[T]`` arrays in coding order: what that many calls of
-        :meth:`block` give, and what :meth:`BlockEncoder.rows` codes.
-
-        The blocks are decoded ahead of what the caller has taken, :data:`ROW_WORDS`
-        values at most (spec §8: that much memory), by one kernel call each time (issue
-        15.1: a C3D clip's channels are hundreds of short blocks, and a call of
-        :meth:`block` costs a few us). Each row is read only when the previous ones were,
-        and a block the payload runs out in raises where the block() of it would: when
-        the caller asks for it, after the checks the caller made of the rows before it.
-        """
-        per = max(1, ROW_WORDS // max(1, T))
-        flags = np.asarray(signed, np.bool_)
-        for b0 in range(0, flags.shape[0], per):
-            out = np.zeros((min(per, flags.shape[0] - b0), T), np.int64)
-            whole = _decode_rows(self._buf, self._ds, flags[b0: b0 + per], _FLAT_INIT, out,
-                                 self._err)
-            yield from out[:whole]
-            if self._err[0] == ERR_OVERRUN:
-                self._ran_out()
+        where ``signed[b]``, as ``[T]`` rows in coding order (:class:`Rows`): what that
+        many calls of :meth:`block` give, and what :meth:`BlockEncoder.rows` codes."""
+        return Rows(self, T, signed)
 
     def _ran_out(self) -> NoReturn:
         n = self._buf.shape[0]
@@ -589,3 +573,50 @@ class BlockDecoder:
         # R-5.3-2
         if left:
             self._fail(f"{left} byte(s) left after the last range-coded symbol", self.consumed)
+
+
+class Rows:
+    """The rows of :meth:`BlockDecoder.rows`, taken in coding order.
+
+    The blocks are decoded ahead of what the caller has taken, :data:`ROW_WORDS` values at
+    most (spec §8: that much memory), by one kernel call each time (issue 15.1: a C3D
+    clip's channels are hundreds of short blocks, and a call of :meth:`block` costs a few
+    us). A block the payload runs out in raises where the block() of it would: when the
+    caller asks for it, after whatever the caller did with the rows before it.
+    """
+
+    def __init__(self, dec: BlockDecoder, T: int, signed: Sequence[bool]) -> None:
+        self._dec, self._T = dec, int(T)
+        self._signed = np.asarray(signed, np.bool_)
+        self._next = 0                              # the first row not yet decoded
+        self._ahead = np.zeros((0, self._T), np.int64)  # the rows decoded ahead
+        self._whole = 0                             # how many of them decoded whole
+        self._at = 0                                # how many of them were taken
+
+    def __len__(self) -> int:
+        """The rows not taken yet."""
+        return int(self._signed.shape[0] - self._next + self._ahead.shape[0] - self._at)
+
+    def take(self, n: int) -> NDArray[np.int64]:
+        """The next rows, at least one and at most ``n``, as ``[m, T]`` (a view of the rows
+        decoded ahead: fewer than ``n`` where those end). Raises FormatError (§5.3) when
+        the next row is one the payload runs out in."""
+        if self._at == self._ahead.shape[0]:
+            if self._next == self._signed.shape[0]:
+                raise IndexError("every row was taken")
+            per = max(1, ROW_WORDS // max(1, self._T))
+            flags = self._signed[self._next: self._next + per]
+            self._ahead = np.zeros((flags.shape[0], self._T), np.int64)
+            self._whole = _decode_rows(self._dec._buf, self._dec._ds, flags, _FLAT_INIT,
+                                       self._ahead, self._dec._err)
+            self._next += flags.shape[0]
+            self._at = 0
+        if self._at == self._whole:
+            self._dec._ran_out()
+        m = min(max(1, n), self._whole - self._at)
+        self._at += m
+        return self._ahead[self._at - m: self._at]
+
+    def __iter__(self) -> Iterator[NDArray[np.int64]]:
+        while len(self):
+            yield self.take(1)[0]

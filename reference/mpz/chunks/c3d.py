@@ -501,7 +501,7 @@ class Cpnt(Record):
             axes = dec.rows(F, [True] * (3 * J))        # each a block [F, 1, 1]
             for j, m in enumerate(self.models):
                 for a, ax in enumerate(m.axes):
-                    e = next(axes).reshape(F, 1, 1)
+                    e = axes.take(1).reshape(F, 1, 1)
                     k = reconstruct(e, ax.order)[:, 0, 0]
                     # R-6.9-1
                     if (np.abs(k) >= MODEL_LIMIT).any():
