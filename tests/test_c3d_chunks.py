@@ -263,6 +263,36 @@ def test_a_run_whose_guard_fails_later_reports_an_earlier_channels_fault_first()
     assert got.value.section == "§6.9"
 
 
+def test_model_axes_in_one_run_fail_where_one_at_a_time_would():
+    """Model-output axes with one order are taken as one run: axis x of output 0 passes
+    2^31 (its differences stay within §6.2's guard), axis y's differences pass the guard at
+    an earlier frame. An axis-by-axis decoder meets x's fault first, and so must the run;
+    without faults the run gives k x step + offset, the product rounded first."""
+    from mpz.c3dcodec import decode_model_axes
+    T = 8
+    e = np.zeros((3, T), np.int64)
+    e[0, 1] = 2 ** 30 - 1                        # x: k = t (2^30 - 1), up to 7 (2^30 - 1)
+    e[1, :] = 2 ** 30 - 1                        # y: |d| reaches 2^32 at frame 4
+    enc = BlockEncoder()
+    enc.rows(e, [True] * 3)
+    out = np.zeros((T, 3))
+    with pytest.raises(FormatError, match="model output 0 axis x: value 7516192761 is not "
+                                          "below 2\\^31") as got:
+        decode_model_axes(BlockDecoder(enc.finish()), T, [(2, 0.5, 1.0)] * 3, "§6.9", out)
+    assert got.value.section == "§6.9"
+    good = np.array([[3, -1, 2, 0, 5, 1, 1, 1], [0] * 8, [7] * 8], np.int64)
+    enc = BlockEncoder()
+    enc.rows(good, [True] * 3)
+    axes = [(1, 0.1, 3.0), (1, 0.3, -1.0), (0, 2.0 ** -7, 0.25)]
+    dec = BlockDecoder(enc.finish())
+    decode_model_axes(dec, T, axes, "§6.9", out)
+    dec.close()
+    for a, (order, step, offset) in enumerate(axes):
+        k = np.cumsum(good[a]) if order == 1 else good[a]
+        want = [float(np.float64(v) * np.float64(step)) + offset for v in k.tolist()]
+        assert out[:, a].tolist() == want, a
+
+
 #: 32-bit words at the ends of the ordered map (§6.9): NaN patterns, infinities, +-0
 EXTREME_WORDS = [0x7FFFFFFF, 0x7FFFFFFE, 0x80000000, 0x80000001, 0xFFFFFFFF, 0xFFFFFFFE,
                  0x00000000, 0x00000001, 0x7F800000, 0xFF800000]

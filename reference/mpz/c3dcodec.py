@@ -406,6 +406,61 @@ def _run(e: IntArray, entry: tuple[int, int, int, int], storage: np.dtype[np.gen
             out[r0: r0 + step] = np.ldexp(part.astype(np.float64), shift)
 
 
+def decode_model_axes(dec: BlockDecoder, T: int, axes: Sequence[tuple[int, float, float]],
+                      section: str, out: NDArray[np.float64]) -> None:
+    """§6.9 the model outputs' axes, in coding order (output 0's x, y, z, then output 1's,
+    ...): each a block [T, 1, 1] of residuals, reconstructed with its order, checked
+    |k| < 2^31 and written as k x step + offset (the product rounded first, then the sum,
+    as §6.8) into its column of ``out[T, 3J]``; ``axes`` are the ``(order, step, offset)``
+    of each, already checked (§4.13.3).
+
+    Speed (issue 15.1), as :func:`decode_channels`: one kernel call range-decodes many
+    axes, and a run of axes with the same order is reconstructed, checked and converted as
+    one array (auckland's 108 axes were ~15 us of numpy calls each). A fault is reported
+    as an axis-by-axis decoder meets it first.
+    """
+    rows = dec.rows(T, [True] * len(axes))
+    per = max(1, _ROWS // max(1, T))            # axes in a run at most
+    i = 0
+    while i < len(axes):
+        n = 1
+        while n < per and i + n < len(axes) and axes[i + n][0] == axes[i][0]:
+            n += 1
+        e = rows.take(n)                        # [m, T], m <= n axes
+        _model_run(e, axes, i, section, out)
+        i += e.shape[0]
+
+
+def _model_run(e: IntArray, axes: Sequence[tuple[int, float, float]], first: int,
+               section: str, out: NDArray[np.float64]) -> None:
+    """:func:`decode_model_axes` of the axes ``first .. first + m - 1`` (one order), from
+    their residuals ``e[m, T]``."""
+    m, T = e.shape
+    k = np.ascontiguousarray(e.T)               # [T, m]: a view of one axis, else a copy
+    try:
+        reconstruct(k, axes[first][0], inplace=True)
+    except FormatError:
+        if m == 1:
+            raise
+        # the guard failed at the run's earliest frame, maybe in a later axis than one
+        # that fails its own check: the run is taken one axis at a time
+        for i in range(m):
+            _model_run(e[i: i + 1], axes, first + i, section, out)
+        return
+    peaks = np.abs(k).max(axis=0) if T else np.zeros(m, np.int64)
+    for c in range(m):
+        # R-6.9-1
+        if peaks[c] >= MODEL_LIMIT:
+            j, a = divmod(first + c, 3)
+            raise FormatError(f"model output {j} axis {'xyz'[a]}: value {int(peaks[c])} is "
+                              f"not below 2^31", section=section)
+    steps = np.array([ax[1] for ax in axes[first: first + m]], np.float64)
+    offsets = np.array([ax[2] for ax in axes[first: first + m]], np.float64)
+    # §6.9 as §6.8: the product rounded first, then the offset added
+    x = k.astype(np.float64) * steps
+    out[:, first: first + m] = x + offsets
+
+
 # ------------------------------------------------------------ model outputs --
 SQRT_SAFETY = 1.0 - 2.0 ** -20    # as the marker grid (Appendix C): float rounding never
 

@@ -22,7 +22,7 @@ import zlib
 import numpy as np
 from numpy.typing import NDArray
 
-from mpz.c3dcodec import FLOAT32, INT16, MODEL_LIMIT, decode_channels
+from mpz.c3dcodec import FLOAT32, INT16, MODEL_LIMIT, decode_channels, decode_model_axes
 from mpz.chunks import _parse
 from mpz.chunks.base import JSON, Context, Record, kept
 from mpz.chunks.base import fail as _fail
@@ -42,7 +42,6 @@ from mpz.format import (
     ChannelMode,
     ModelKind,
 )
-from mpz.predict import reconstruct
 from mpz.spec import grammar
 
 #: §4.13 the chunk types of a C3D archive; the first three come together, cana is optional
@@ -498,19 +497,9 @@ class Cpnt(Record):
             del flags                   # before the outputs are allocated (§8 budget)
         models = np.full((F, J, 3), np.nan)
         if J:
-            axes = dec.rows(F, [True] * (3 * J))        # each a block [F, 1, 1]
-            for j, m in enumerate(self.models):
-                for a, ax in enumerate(m.axes):
-                    e = axes.take(1).reshape(F, 1, 1)
-                    k = reconstruct(e, ax.order)[:, 0, 0]
-                    # R-6.9-1
-                    if (np.abs(k) >= MODEL_LIMIT).any():
-                        raise FormatError(f"model output {j} axis {'xyz'[a]}: value "
-                                          f"{int(np.abs(k).max())} is not below 2^31",
-                                          section=s)
-                    # §6.9 as §6.8: the product rounded first, then the offset added
-                    x = k.astype(np.float64) * np.float64(ax.step)
-                    models[:, j, a] = x + np.float64(ax.offset)
+            # models[:, j, a] is column 3 j + a of this view
+            decode_model_axes(dec, F, [(ax.order, ax.step, ax.offset) for m in self.models
+                                       for ax in m.axes], s, models.reshape(F, 3 * J))
             models[~valid] = np.nan
         # R-6.9-1
         dec.close()
