@@ -155,6 +155,11 @@ def test_model_axis_rules(archive_file):
         axes[2] = dataclasses.replace(axes[2], **change)
         models[0] = dataclasses.replace(models[0], axes=tuple(axes))
         _fails(archive_file, "cpnt", "§4.13.3", models=tuple(models))
+    for kind in (6, 255):                    # R-4.13.3-1: kinds 0..5
+        models = list(pnt.models)
+        models[-1] = dataclasses.replace(models[-1], kind=kind)
+        with pytest.raises(FormatError, match=f"unknown kind {kind}"):
+            dataclasses.replace(pnt, models=tuple(models)).check(_ctx(archive_file))
 
 
 # ----------------------------------------------------------- the channel codec --
