@@ -7,7 +7,8 @@ checked before anything is allocated. :func:`decode_layers` runs the integer dec
 process of §6.1-§6.7, which every conforming decoder must reproduce exactly;
 :func:`decode` adds the one floating-point step (§6.8). The 1.1 ancillary chunks decode
 inside their own checks, at step 3 (§6 lets a decoder reorder the steps): §6.9 in
-:mod:`mpz.chunks.c3d` with :func:`mpz.c3dcodec.decode_channel`, §6.10 in
+:mod:`mpz.chunks.c3d` with :func:`mpz.c3dcodec.decode_channels` and
+:func:`mpz.c3dcodec.decode_model_axes`, §6.10 in
 :mod:`mpz.chunks.skeleton` with :func:`mpz.channels.decode`.
 
 Memory (§8, the budget this decoder promises): besides q, one node's decoded block at a
