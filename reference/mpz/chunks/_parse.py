@@ -102,6 +102,19 @@ def _compile(c: construct.Construct) -> _Parser:
         if c.includelength:
             raise _Unsupported("Prefixed(includelength=True)")
         sub, lengthfield = _compile(c.subcon), _compile(c.lengthfield)
+        code = _format(c.lengthfield)
+        if sub is _greedy and code is not None:    # a length and its bytes: one step
+            unpack, size = struct.Struct("<" + code).unpack_from, struct.calcsize("<" + code)
+
+            def counted(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+                if pos + size > end:
+                    raise _GiveUp
+                n = unpack(data, pos)[0]
+                pos += size
+                if not 0 <= n <= end - pos:
+                    raise _GiveUp
+                return data[pos: pos + n], pos + n
+            return counted
 
         def prefixed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
             n, pos = lengthfield(data, pos, end, ctx)
@@ -184,13 +197,15 @@ def _struct(c: construct.Struct) -> _Parser:
     close()
 
     def record(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-        context = _Context()
-        context["_"] = ctx
+        context = _Context(_=ctx)
         for names, unpack, size, sub in steps:
             if unpack is not None:
                 if pos + size > end:
                     raise _GiveUp
-                context.update(zip(names, unpack(data, pos), strict=True))
+                if len(names) == 1:
+                    context[names[0]] = unpack(data, pos)[0]
+                else:
+                    context.update(zip(names, unpack(data, pos), strict=True))
                 pos += size
                 continue
             assert sub is not None

@@ -143,13 +143,14 @@ class Record:
     @classmethod
     def from_parsed(cls: type[R], c: Any) -> R:
         """The record of a parse result (construct's, or :mod:`._parse`'s dicts and tuples)."""
+        plan = _PLANS.get(cls)
+        if plan is None:
+            plan = _PLANS[cls] = tuple((n, cls.NESTED.get(n)) for n in _field_names(cls))
         values: dict[str, object] = {}
-        nested_of = cls.NESTED
-        for name in _field_names(cls):
+        for name, nested in plan:
             v = c[name]
-            nested = nested_of.get(name)
             if nested is not None:
-                v = tuple(nested.from_parsed(x) for x in v)
+                v = tuple([nested.from_parsed(x) for x in v])
             elif isinstance(v, list):   # construct's lists (the fast path's are tuples)
                 v = _plain(v)
             values[name] = v
@@ -299,6 +300,8 @@ _LAYOUT_ERRORS = (construct.ConstructError, UnicodeDecodeError)
 
 
 _NAMES: dict[type, tuple[str, ...]] = {}
+#: (field name, nested record class or None) of each record class, for from_parsed
+_PLANS: dict[type, tuple[tuple[str, type[Record] | None], ...]] = {}
 
 
 def _field_names(cls: type[Record]) -> tuple[str, ...]:
