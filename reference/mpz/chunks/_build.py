@@ -146,6 +146,18 @@ def _compile(c: construct.Construct) -> _Builder:
         if c.includelength:
             raise _Unsupported("Prefixed(includelength=True)")
         sub, lengthfield = _compile(c.subcon), _compile(c.lengthfield)
+        code = _format(c.lengthfield)
+        if c.subcon is construct.GreedyBytes and code is not None:   # a length, its bytes
+            pack_length = struct.Struct("<" + code).pack
+
+            def length_and_bytes(obj: Any, out: list[bytes], ctx: Any) -> Any:
+                data = bytes(obj) if type(obj) is bytearray else obj
+                if type(data) is not bytes:
+                    raise _GiveUp
+                out.append(pack_length(len(data)))
+                out.append(data)
+                return data
+            return length_and_bytes
 
         def prefixed(obj: Any, out: list[bytes], ctx: Any) -> Any:
             inner: list[bytes] = []
@@ -211,10 +223,8 @@ def _struct(c: construct.Struct) -> _Builder:
         context["_"] = ctx
         for names, pack, buildnone, sub in steps:
             if pack is not None:
-                values = [obj[n] for n in names]
-                for n, v in zip(names, values, strict=True):
-                    context[n] = v
-                out.append(pack(*values))
+                # (the context, a copy of obj, holds these values already)
+                out.append(pack(*[obj[n] for n in names]))
                 continue
             name = names[0]
             value = obj.get(name, None) if buildnone else obj[name]

@@ -106,7 +106,7 @@ def _compile(c: construct.Construct) -> _Parser:
         if sub is _greedy and code is not None:    # a length and its bytes: one step
             unpack, size = struct.Struct("<" + code).unpack_from, struct.calcsize("<" + code)
 
-            def counted(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
+            def length_and_bytes(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
                 if pos + size > end:
                     raise _GiveUp
                 n = unpack(data, pos)[0]
@@ -114,7 +114,7 @@ def _compile(c: construct.Construct) -> _Parser:
                 if not 0 <= n <= end - pos:
                     raise _GiveUp
                 return data[pos: pos + n], pos + n
-            return counted
+            return length_and_bytes
 
         def prefixed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
             n, pos = lengthfield(data, pos, end, ctx)
