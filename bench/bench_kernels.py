@@ -24,7 +24,12 @@ issue 15.1's decode aim, 0.1x zstd -19's decompression speed on the same bytes: 
 (ten times zstd's decompression time, the decode's budget), ``dec`` (MPZ's best decode),
 its ``kernels`` (the range decoder, the predictors' reconstruction ...), ``rest``, and one
 verdict, ``k over``: whether the kernels alone pass the budget (then no change to the
-Python around them reaches 0.1x on that row; only a faster coder can).
+Python around them reaches 0.1x on that row; only a faster coder can). Then the decode
+run step by step as ``mpz.decoder.decode`` runs it (:class:`Steps`), each step's best:
+``chunks`` (framing, CRCs and every payload read into its record), ``walk`` (the rest of
+``read_stream``: the §3.4 order and each chunk's checks, which decode the 1.1 chunks'
+payloads), ``layers`` (§6.1-§6.7, the marker layer) and ``output`` (§6.8 and the
+extensions' records attached); they add up to about ``dec``.
 
 Times are the best of ``--repeat`` rounds or more (bench_speed.py's ``timed_together``:
 each round one call of zstd, of each encode and of the profiled encode, in turn, until
@@ -47,6 +52,7 @@ from pathlib import Path
 import pkgutil
 import pstats
 import sys
+import time
 
 from _common import cannot_run, coded_float32, positive_int, shared_data_dir, warm_up
 from bench_speed import bound_kwargs, bound_label, files_of, timed_together
@@ -141,12 +147,49 @@ def yes(flag: bool) -> str:
     return "over" if flag else "-"
 
 
+class Steps:
+    """``mpz.decode(data)`` run step by step as :func:`mpz.decoder.decode` runs it, keeping
+    each step's least time over the calls (``seconds``; module docstring) and the last
+    result (``motion``). ``walk`` is the least ``read_stream`` less the least ``chunks``:
+    ``read_stream`` parses the chunks itself before walking them."""
+
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+        self.motion: mpz.Motion | None = None
+        self._least: dict[str, float] = {}
+
+    def __call__(self) -> None:
+        from mpz import container, decoder
+        t0 = time.perf_counter()
+        container.parse(self.data, keep_unknown=False)
+        t1 = time.perf_counter()
+        s = decoder.read_stream(self.data)
+        t2 = time.perf_counter()
+        d = decoder.Decoded(s, decoder.decode_mask(s), decoder.decode_integers(s))
+        t3 = time.perf_counter()
+        self.motion = d.motion(reuse_q=True)
+        t4 = time.perf_counter()
+        for k, v in (("chunks", t1 - t0), ("read_stream", t2 - t1), ("layers", t3 - t2),
+                     ("output", t4 - t3)):
+            self._least[k] = min(self._least.get(k, v), v)
+
+    @property
+    def seconds(self) -> dict[str, float]:
+        got = dict(self._least)
+        got["walk"] = got.pop("read_stream") - got["chunks"]
+        return {k: got[k] for k in STEPS}
+
+
+#: the steps of :class:`Steps`, in decoding order
+STEPS = ("chunks", "walk", "layers", "output")
+
+
 def run_decode(args) -> list[dict]:
     """The ``--decode`` table (module docstring)."""
     import zstandard
     paths, sites = start(args, "decodes", ", encoded with one thread")
     print(f"{'file':<34} {'10 x zd':>7} {'dec':>7} {'kernels':>7} {'rest':>7} {'k over':>6}"
-          f"  largest kernels")
+          + "".join(f" {k:>7}" for k in STEPS) + "  largest kernels")
     rows = []
     zc, zd = zstandard.ZstdCompressor(level=19), zstandard.ZstdDecompressor()
     for path in paths:
@@ -157,19 +200,22 @@ def run_decode(args) -> list[dict]:
         data = mpz.encode(m, threads=1, **kw)
         one = partial(mpz.decode, data)
         one()
-        least = LeastProfiled(one, sites)
+        least, steps = LeastProfiled(one, sites), Steps(data)
         best = {k: w for k, (w, _) in timed_together(
-            {"zstd": partial(zd.decompress, z), "dec": one, "profiled": least},
-            args.repeat).items()}
+            {"zstd": partial(zd.decompress, z), "dec": one, "profiled": least,
+             "steps": steps}, args.repeat).items()}
         ms = {k: v * 1e3 for k, v in least.times.items()}
+        step_ms = {k: v * 1e3 for k, v in steps.seconds.items()}
         row = {"file": path.name, "frames": m.n_frames, "markers": m.n_markers,
                "bytes": len(raw), "mpz_bytes": len(data), "budget_ms": best["zstd"] * 10e3,
                "dec_ms": best["dec"] * 1e3, "kernels_ms": sum(ms.values()),
-               "rest_ms": best["dec"] * 1e3 - sum(ms.values()), "kernels_ms_by_name": ms}
+               "rest_ms": best["dec"] * 1e3 - sum(ms.values()), "kernels_ms_by_name": ms,
+               "steps_ms": step_ms}
         rows.append(row)
         print(f"{path.name[:34]:<34} " + " ".join(
               f"{row[k]:>7.2f}" for k in ("budget_ms", "dec_ms", "kernels_ms", "rest_ms"))
-              + f" {yes(row['kernels_ms'] > row['budget_ms']):>6}  {largest(ms, 2)}",
+              + f" {yes(row['kernels_ms'] > row['budget_ms']):>6}"
+              + "".join(f" {step_ms[k]:>7.2f}" for k in STEPS) + f"  {largest(ms, 2)}",
               flush=True)
     for what, key in (("the whole decode", "dec_ms"), ("its kernels alone", "kernels_ms")):
         over = [r["file"] for r in rows if r[key] > r["budget_ms"]]

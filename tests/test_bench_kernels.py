@@ -98,3 +98,29 @@ def test_kernel_times_count_a_profiled_decode(bench):
         assert times.get(stage, 0.0) > 0.0, stage
     assert "mpz.entropy._encode_block" not in times        # an encode kernel is not run
     assert sum(times.values()) > 0.0
+
+
+def test_decode_steps_are_the_decode(bench):
+    """``--decode``'s steps run mpz.decode's own steps: on a file with a C3D archive (whose
+    checks decode the channels the output then takes) they give mpz.decode's result,
+    archive included, and a time for each step."""
+    import numpy as np
+
+    import mpz
+    from mpz.tools.make_vectors import c3d_motion
+    data = mpz.encode(c3d_motion(5, storage=1, F=12, M=4, J=2, C=2, n=2), max_error=1.0,
+                      threads=1)
+    steps = bench.Steps(data)
+    steps()
+    steps()
+    want = mpz.decode(data)
+    got = steps.motion
+    assert got is not None
+    assert np.array_equal(got.positions, want.positions, equal_nan=True)
+    assert got.extras.keys() == want.extras.keys() == {"c3d"}
+    a, b = got.extras["c3d"], want.extras["c3d"]
+    for f in ("words", "models", "analog"):     # bit for bit (NaN payloads included)
+        assert getattr(a, f).tobytes() == getattr(b, f).tobytes(), f
+    assert a.records == b.records
+    assert list(steps.seconds) == ["chunks", "walk", "layers", "output"]
+    assert all(steps.seconds[k] > 0.0 for k in ("chunks", "layers", "output"))
