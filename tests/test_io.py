@@ -2313,3 +2313,28 @@ def test_an_amc_frame_listed_otherwise_than_the_first_is_said(tmp_path, frame_tw
         "from the AMC: the bone lines of 1 frame as listed (other bones or another order "
         "than the first frame's; written back as the first frame lists them)"]
     np.testing.assert_array_equal(m.angles, plain.angles)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.floats(), st.integers(-10 ** 6, 10 ** 6).map(float),
+                          st.sampled_from([0.0, -0.0, 10.0, 1e16, 1e-5, 2.5e-308])),
+                max_size=12))
+def test_a_row_of_numbers_is_each_number_as_num_writes_it(values):
+    """nums (the BVH and AMC writers' rows, issue 15) is the space-joined num() of each
+    value: the shortest text that reads back as the same binary64, no trailing ``.0``."""
+    from mpz.io.bvh import num, nums
+    assert nums(values) == " ".join(num(v) for v in values)
+    assert [float(w) for w in nums(values).split()] == pytest.approx(values, nan_ok=True)
+
+
+def test_amc_rows_keep_a_bone_name_with_braces(tmp_path):
+    """The AMC writer fills a per-frame template of bone names: a name holding { or } is
+    written as it is, and the file reads back with the same angles."""
+    (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace("b2", "b{2}"))
+    (tmp_path / "tiny_01.amc").write_bytes(AMC_TEXT.replace("b2", "b{2}").encode("latin-1"))
+    m = read(tmp_path / "tiny_01.amc")
+    write(m, tmp_path / "out_01.amc")
+    text = (tmp_path / "out_01.amc").read_text("latin-1")
+    assert "\nb{2} 0\n" in text and "\nb1 0 90\n" in text and "\nroot 1 2 3 0 0 0\n" in text
+    back = read_amc(tmp_path / "out_01.amc", tmp_path / "out_01.asf")
+    np.testing.assert_array_equal(back.angles, m.angles)

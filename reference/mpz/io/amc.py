@@ -51,7 +51,7 @@ from mpz.io._common import (
     samples_problem,
     translate,
 )
-from mpz.io.bvh import num, skeleton_of, source_joints, text_encoding
+from mpz.io.bvh import num, nums, skeleton_of, source_joints, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton
 from mpz.motion import READER_NOT_KEPT, Motion
 
@@ -947,13 +947,14 @@ def format_amc(motion: Motion) -> str:
     # made readers that trust the flag take radians for degrees: a QA run of stop 52)
     out = (skel.amc_header.split("\n") if skel.amc_header else
            [":FULLY-SPECIFIED", ":RADIANS" if skel.angle_unit == "rad" else ":DEGREES"])
-    rows = values.tolist()
-    for t, row in enumerate(rows):
+    # a frame's lines are one template, its joints' names with a {} for each value, in
+    # AMC order (issue 15: a join per joint line took most of the write)
+    cols = [k for i in order for k in range(starts[i], starts[i] + len(skel.joints[i].channels))]
+    lines = "\n".join(skel.joints[i].name.replace("{", "{{").replace("}", "}}")
+                      + " {}" * len(skel.joints[i].channels) for i in order)
+    for t, row in enumerate(np.asarray(values, np.float64)[:, cols].tolist()):
         out.append(str(skel.first_frame + t))
-        for i in order:
-            j = skel.joints[i]
-            vals = row[starts[i]:starts[i] + len(j.channels)]
-            out.append(" ".join([j.name, *(num(v) for v in vals)]))
+        out.append(lines.format(*nums(row).split(" ")))
     return "\n".join(out) + "\n"
 
 

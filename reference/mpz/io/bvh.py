@@ -440,6 +440,23 @@ def num(x: float) -> str:
     return r[:-2] if r.endswith(".0") else r
 
 
+#: a ``.0`` that ends a number of a line of :func:`num` texts
+_POINT_ZERO = re.compile(r"\.0(?= |$)")
+
+
+def nums(values: list[float]) -> str:
+    """``" ".join(num(v) for v in values)``, faster: every ``repr`` made in one C loop and
+    each ``.0`` that ends a number stripped by one regular-expression pass (issue 15: a BVH
+    of 100,000 channel values took 40 ms to write through :func:`num`, 0.4 us a number).
+
+    Examples
+    --------
+    >>> nums([1.5, 2.0, -0.0, 1e-14, 10.0, float("inf")])
+    '1.5 2 -0 1e-14 10 inf'
+    """
+    return _POINT_ZERO.sub("", " ".join(map(repr, map(float, values))))
+
+
 def skeleton_problem(motion: Motion, convention: str) -> str | None:
     """Why ``motion`` cannot be written in the skeleton format of ``convention`` ("bvh" or
     "asf"), or None when it can."""
@@ -546,7 +563,7 @@ def format_bvh(motion: Motion) -> str:
     out.append("MOTION")
     out.append(f"Frames: {motion.n_frames}")
     out.append(f"Frame Time: {num(skel.frame_time)}")
-    out.extend(" ".join(num(v) for v in row) for row in _rows(values))
+    out.extend(nums(row) for row in np.asarray(values, np.float64).tolist())
     return "\n".join(out) + "\n"
 
 
@@ -696,10 +713,6 @@ def _frame_lines(text: str) -> int:
                 "TIME"):
             return len(lines) - i - 1
     return 0
-
-
-def _rows(values: NDArray[np.float64]) -> list[list[float]]:
-    return [[float(v) for v in row] for row in values]
 
 
 def write_bvh(motion: Motion, path: StrPath) -> None:
