@@ -2338,3 +2338,27 @@ def test_amc_rows_keep_a_bone_name_with_braces(tmp_path):
     assert "\nb{2} 0\n" in text and "\nb1 0 90\n" in text and "\nroot 1 2 3 0 0 0\n" in text
     back = read_amc(tmp_path / "out_01.amc", tmp_path / "out_01.asf")
     np.testing.assert_array_equal(back.angles, m.angles)
+
+
+_word = st.one_of(st.floats().map(repr), st.integers(-10 ** 20, 10 ** 20).map(str),
+                  st.sampled_from(["", " 1.5", "1_000", "١٢", "inf", "-inf", "nan", "NaN",
+                                   "1e400", "1.5\u00a0", "(2)", "0x10", "+.5", "-0"]),
+                  st.text(max_size=4))
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(_word, max_size=8), st.booleans())
+def test_a_list_of_numbers_reads_as_each_number_alone(words, gaps):
+    """number_list (the AMC and TRC readers' rows, issue 15) gives what reading each word
+    alone gives: the same values, or the same refusal of the first bad word."""
+    from mpz.io._common import number, number_list
+
+    def one(w):
+        return number(w, nan=gaps)
+
+    def outcome(f):
+        try:
+            return [repr(v) for v in f()]
+        except InputFormatError as exc:
+            return exc.message
+    assert outcome(lambda: number_list(words, one)) == outcome(lambda: [one(w) for w in words])

@@ -46,6 +46,7 @@ from mpz.io._common import (
     most_frames,
     named,
     number,
+    number_list,
     read_regular,
     reader,
     samples_problem,
@@ -620,7 +621,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
         if joint in seen:
             raise _bad(f"line {lineno}: {name} appears twice in one frame")
         try:
-            cur[start:start + count] = [_number(v) for v in parts[1:]]
+            cur[start:start + count] = number_list(parts[1:], _number)
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {name}: {exc.message}") from None
         seen[joint] = None

@@ -48,6 +48,7 @@ from mpz.io._common import (
     most_frames,
     named,
     number,
+    number_list,
     read_regular,
     reader,
     samples_problem,
@@ -193,7 +194,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         if len(values) > 3 * n_markers:
             raise _bad(f"line {lineno}: {len(values)} values for {n_markers} markers")
         try:
-            row = [_num(v) for v in values]
+            row = number_list(values, _num)
             times.append(_num(fields[1]))
         except InputFormatError as exc:
             raise _bad(f"line {lineno}: {exc.message}") from None
