@@ -342,10 +342,7 @@ def decode_channels(dec: BlockDecoder, T: int, entries: Sequence[tuple[int, int,
     c = 0
     while c < len(entries):
         entry = entries[c]
-        n = 1
-        while n < per and c + n < len(entries) and entries[c + n] == entry and not entry[3]:
-            n += 1
-        e = rows.take(n)                        # [m, T], m <= n channels
+        e = rows.take(1 if entry[3] else _run_length(entries, c, per))    # [m, T], m channels
         m = e.shape[0]
         if entry[3]:                            # low_bits: its low parts' row follows
             low_bits = entry[3]
@@ -367,17 +364,10 @@ def _run(e: IntArray, entry: tuple[int, int, int, int], storage: np.dtype[np.gen
     into the columns of ``out[T, m]``."""
     mode, shift, order, _ = entry
     m, T = e.shape
-    # [T, m]: a view of a single channel (reconstructed in place), else a copy
-    v = np.ascontiguousarray(e.T)
     # |e| <= (2^31 - 1) x 2^3 + 7 < 2^34 (b <= 3): an order-1 sum over T <= 2^28 rows
     # stays below 2^62, and order 2 is guarded by §6.2 (|d| < 2^32)
-    try:
-        reconstruct(v, order, inplace=True)
-    except FormatError:
-        if m == 1:
-            raise
-        # the guard failed in some channel of the run, at its earliest frame: a channel
-        # before that one may fail a check first, so the run is taken one at a time
+    v = _reconstructed(e, order)
+    if v is None:
         for i in range(m):
             _run(e[i: i + 1], entry, storage, section, out[:, i: i + 1])
         return
@@ -406,6 +396,31 @@ def _run(e: IntArray, entry: tuple[int, int, int, int], storage: np.dtype[np.gen
             out[r0: r0 + step] = np.ldexp(part.astype(np.float64), shift)
 
 
+def _run_length(keys: Sequence[object], i: int, most: int) -> int:
+    """How many of ``keys`` from ``i`` on equal ``keys[i]``, at most ``most``: a run that
+    :func:`decode_channels` and :func:`decode_model_axes` take as one array."""
+    n = 1
+    while n < most and i + n < len(keys) and keys[i + n] == keys[i]:
+        n += 1
+    return n
+
+
+def _reconstructed(e: IntArray, order: int) -> IntArray | None:
+    """A run's residuals ``e[m, T]`` reconstructed (§6.2) as ``[T, m]``: a view of a single
+    row, reconstructed in place, else a copy. None when §6.2's guard fails in a run of
+    several: it stops at the run's earliest frame, maybe in a later row than one that
+    fails its own check, so the caller takes the run one row at a time; a single row
+    raises the guard's error."""
+    v = np.ascontiguousarray(e.T)
+    try:
+        reconstruct(v, order, inplace=True)
+    except FormatError:
+        if e.shape[0] == 1:
+            raise
+        return None
+    return v
+
+
 def decode_model_axes(dec: BlockDecoder, T: int, axes: Sequence[tuple[int, float, float]],
                       section: str, out: NDArray[np.float64]) -> None:
     """§6.9 the model outputs' axes, in coding order (output 0's x, y, z, then output 1's,
@@ -421,12 +436,10 @@ def decode_model_axes(dec: BlockDecoder, T: int, axes: Sequence[tuple[int, float
     """
     rows = dec.rows(T, [True] * len(axes))
     per = max(1, _ROWS // max(1, T))            # axes in a run at most
+    orders = [ax[0] for ax in axes]
     i = 0
     while i < len(axes):
-        n = 1
-        while n < per and i + n < len(axes) and axes[i + n][0] == axes[i][0]:
-            n += 1
-        e = rows.take(n)                        # [m, T], m <= n axes
+        e = rows.take(_run_length(orders, i, per))      # [m, T], m axes of one order
         _model_run(e, axes, i, section, out)
         i += e.shape[0]
 
@@ -436,14 +449,8 @@ def _model_run(e: IntArray, axes: Sequence[tuple[int, float, float]], first: int
     """:func:`decode_model_axes` of the axes ``first .. first + m - 1`` (one order), from
     their residuals ``e[m, T]``."""
     m, T = e.shape
-    k = np.ascontiguousarray(e.T)               # [T, m]: a view of one axis, else a copy
-    try:
-        reconstruct(k, axes[first][0], inplace=True)
-    except FormatError:
-        if m == 1:
-            raise
-        # the guard failed at the run's earliest frame, maybe in a later axis than one
-        # that fails its own check: the run is taken one axis at a time
+    k = _reconstructed(e, axes[first][0])
+    if k is None:
         for i in range(m):
             _model_run(e[i: i + 1], axes, first + i, section, out)
         return

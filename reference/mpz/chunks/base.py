@@ -145,16 +145,18 @@ class Record:
         """The record of a parse result (construct's, or :mod:`._parse`'s dicts and tuples)."""
         plan = _PLANS.get(cls)
         if plan is None:
-            plan = _PLANS[cls] = tuple((n, cls.NESTED.get(n)) for n in _field_names(cls))
+            plan = _PLANS[cls] = (tuple((n, cls.NESTED.get(n)) for n in _field_names(cls)),
+                                  hasattr(cls, "__post_init__"))
+        fields_of, post_init = plan
         values: dict[str, object] = {}
-        for name, nested in plan:
+        for name, nested in fields_of:
             v = c[name]
             if nested is not None:
                 v = tuple([nested.from_parsed(x) for x in v])
             elif isinstance(v, list):   # construct's lists (the fast path's are tuples)
                 v = _plain(v)
             values[name] = v
-        if hasattr(cls, "__post_init__"):
+        if post_init:
             return cls(**values)
         # what the frozen dataclass's __init__ does (every field set, in layout order),
         # without its object.__setattr__ per field: 1.1 us a record against 0.2, and a CMU
@@ -300,8 +302,9 @@ _LAYOUT_ERRORS = (construct.ConstructError, UnicodeDecodeError)
 
 
 _NAMES: dict[type, tuple[str, ...]] = {}
-#: (field name, nested record class or None) of each record class, for from_parsed
-_PLANS: dict[type, tuple[tuple[str, type[Record] | None], ...]] = {}
+#: each record class's (field name, nested record class or None) pairs, and whether it has
+#: a __post_init__, for from_parsed
+_PLANS: dict[type, tuple[tuple[tuple[str, type[Record] | None], ...], bool]] = {}
 
 
 def _field_names(cls: type[Record]) -> tuple[str, ...]:
