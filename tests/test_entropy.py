@@ -125,20 +125,30 @@ def test_limit_stops_only_payloads_longer_than_it(blocks, limit):
         assert enc.finish() == full
 
 
-@settings(max_examples=80, deadline=None)
-@given(st.integers(0, 40), st.lists(st.tuples(st.integers(0, 2 ** 30 - 1), st.booleans()),
-                                    min_size=0, max_size=6),
-       st.integers(0, 2 ** 32 - 1), st.integers(1, 64), st.sampled_from([None, 0, 30, 200]))
-def test_rows_are_the_blocks_of_the_reference_coder(T, rows, seed, capacity, limit):
-    """BlockEncoder.rows (issue 15.1: one kernel call for a C3D record's channels) writes
-    what the §5 reference coder writes for each row as a block [T, 1, 1] of one run with
-    fresh models, signed or not; with a limit it stops only payloads longer than it."""
+#: rows of a C3D-like record: (Laplace scale, signed) each
+_row_specs = st.lists(st.tuples(st.integers(0, 2 ** 30 - 1), st.booleans()), max_size=6)
+
+
+def _reference_rows(T: int, rows: list[tuple[int, bool]], seed: int
+                    ) -> tuple[np.ndarray, bytes]:
+    """Values ``[len(rows), T]`` drawn by ``rows`` (scale, signed), and the payload the §5
+    reference coder writes for each row as a block [T, 1, 1] with fresh models."""
     ref = RefEncoder()
     vals = np.zeros((len(rows), T), np.int64)
     for b, (scale, signed) in enumerate(rows):
         vals[b] = _laplace_values(T, 1, 1, scale, signed, seed + b)[:, 0, 0]
         ref.block(vals[b][:, None, None], None, signed)
-    full = ref.finish()
+    return vals, ref.finish()
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 40), _row_specs,
+       st.integers(0, 2 ** 32 - 1), st.integers(1, 64), st.sampled_from([None, 0, 30, 200]))
+def test_rows_are_the_blocks_of_the_reference_coder(T, rows, seed, capacity, limit):
+    """BlockEncoder.rows (issue 15.1: one kernel call for a C3D record's channels) writes
+    what the §5 reference coder writes for each row as a block [T, 1, 1] of one run with
+    fresh models, signed or not; with a limit it stops only payloads longer than it."""
+    vals, full = _reference_rows(T, rows, seed)
     enc = BlockEncoder(capacity=capacity, limit=limit)
     enc.rows(vals, [s for _, s in rows])
     if enc.over:
@@ -159,8 +169,7 @@ def test_rows_check_their_values_first():
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.integers(0, 40), st.lists(st.tuples(st.integers(0, 2 ** 30 - 1), st.booleans()),
-                                    min_size=0, max_size=6),
+@given(st.integers(0, 40), _row_specs,
        st.integers(0, 2 ** 32 - 1), st.integers(0, 12), st.lists(st.integers(1, 4)))
 def test_decoded_rows_are_the_reference_coders_blocks(T, rows, seed, words, takes):
     """BlockDecoder.rows gives back, in order, the blocks [T, 1, 1] the §5 reference coder
@@ -168,12 +177,7 @@ def test_decoded_rows_are_the_reference_coders_blocks(T, rows, seed, words, take
     (``ROW_WORDS``: here 1 to 4096) and however many rows are asked for at a time (each
     take(n) gives 1 to n); the payload is then consumed exactly."""
     from mpz import entropy
-    ref = RefEncoder()
-    vals = np.zeros((len(rows), T), np.int64)
-    for b, (scale, signed) in enumerate(rows):
-        vals[b] = _laplace_values(T, 1, 1, scale, signed, seed + b)[:, 0, 0]
-        ref.block(vals[b][:, None, None], None, signed)
-    data = ref.finish()
+    vals, data = _reference_rows(T, rows, seed)
     old = entropy.ROW_WORDS
     entropy.ROW_WORDS = 1 << words
     try:
