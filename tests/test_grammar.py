@@ -492,16 +492,54 @@ def test_compiled_parser_agrees_with_construct_on_mutated_payloads(vector_payloa
     _agree(grammar, bytes(buf), grammar)
 
 
+def test_compiled_parser_gives_up_on_every_short_field():
+    """Each kind of field a Struct's generated source writes out in place, as the last field
+    (no Terminated or later field to catch an overrun), on every cut of a payload that
+    parses: construct's fields or construct's error (stop 70)."""
+    u8, this = construct.Int8ul, construct.this
+    cases = [
+        (construct.Struct("n" / u8, "a" / construct.Prefixed(u8, construct.GreedyBytes)),
+         b"\x00\x03abc"),
+        (construct.Struct("n" / u8, "xs" / construct.Array(this.n, construct.Int16ul)),
+         b"\x02\x01\x00\x02\x00"),
+        (construct.Struct("n" / u8, "xs" / construct.Array(2, construct.Int16ul)),
+         b"\x02\x01\x00\x02\x00"),
+        (construct.Struct("n" / u8, "b" / construct.Bytes(this.n)), b"\x03abc"),
+        (construct.Struct("n" / u8, "b" / construct.If(this.n > 0, construct.Int32ul)),
+         b"\x01\x01\x02\x03\x04"),
+        (construct.Struct("x" / construct.Int32ul, "y" / construct.Int16ul),
+         b"\x01\x02\x03\x04\x05\x06"),
+        (construct.Struct("n" / u8, "s" / construct.PascalString(u8, "utf8")), b"\x00\x02\xc3\xa9"),
+    ]
+    for grammar, payload in cases:
+        assert _agree(grammar, payload, grammar)
+        for cut in range(len(payload)):
+            assert not _agree(grammar, payload[:cut], (grammar, cut))
+
+
 def test_compiled_parser_leaves_what_it_does_not_compile_to_construct():
     """A class outside the grammar's set, or a parsed hook: construct parses."""
     from mpz.chunks import _parse
     seen = []
-    hooked = construct.Struct("a" / construct.Int8ul * (lambda obj, ctx: seen.append(obj)))
-    greedy = construct.Struct("xs" / construct.GreedyRange(construct.Int8ul))
-    for grammar in (hooked, greedy):
-        assert _parse.fast_path(grammar, b"\x05") is None
-        assert _tree(_parse.parse(grammar, b"\x05")) == _tree(grammar.parse(b"\x05"))
-    assert seen == [5, 5]               # the hook ran, once per construct parse
+
+    def hook(obj, ctx):
+        seen.append(obj)
+    u8 = construct.Int8ul
+    hooked = construct.Struct("a" / u8 * hook)
+    greedy = construct.Struct("xs" / construct.GreedyRange(u8))
+    # a hook anywhere a Struct's generated source writes a field out in place (stop 70)
+    nested = [(construct.Struct("a" / construct.If(True, u8 * hook)), b"\x05"),
+              (construct.Struct("a" / construct.Array(1, u8 * hook)), b"\x05"),
+              (construct.Struct("a" / construct.Prefixed(u8 * hook, construct.GreedyBytes)),
+               b"\x01\x05"),
+              (construct.Struct("a" / construct.Hex(u8 * hook)), b"\x05"),
+              (construct.Struct("a" / construct.Renamed(u8 * hook, newname="b")), b"\x05")]
+    for grammar, payload in [(hooked, b"\x05"), (greedy, b"\x05"), *nested]:
+        before = len(seen)
+        assert _parse.fast_path(grammar, payload) is None, grammar
+        assert len(seen) == before               # the fast path ran no hook
+        assert _tree(_parse.parse(grammar, payload)) == _tree(grammar.parse(payload))
+        assert len(seen) > before or grammar is greedy    # construct's parses ran it
 
 
 def _offsets_by_prefixes(grammar, payload):

@@ -7,7 +7,10 @@ grammar objects (spec/mpz/spec/grammar.py stays the one description of every lay
 turned once into plain closures by :func:`_compile`, which follow construct 2.10's
 ``_parse`` of each class step for step: the same bytes reach the same ``struct``
 formats, adapters and count expressions, in the same order. This is the parse-side twin
-of :mod:`._build`.
+of :mod:`._build`. A Struct becomes the source of one function (:class:`_Source`), its
+common fields written out in place: a closure call per field and a loop over the fields
+were most of what was left, about 40 % of the parse of the asfs, bvhs and cprm chunks
+(issue 15.1, stop 70).
 
 The grammar's rule "no ``.compile()``: compiled parsers lose error paths on untrusted
 input" still holds, because the fast path never reports an error. It reads only what it
@@ -30,7 +33,7 @@ from __future__ import annotations
 from collections.abc import Callable
 import functools
 import struct
-from typing import Any
+from typing import Any, cast
 
 import construct
 
@@ -174,46 +177,124 @@ def _array(c: construct.Array) -> _Parser:
 
 
 def _struct(c: construct.Struct) -> _Parser:
-    """A Struct: its fields in order, each run of consecutive named FormatFields unpacked
-    by one ``struct`` call (the values of unpacking them one by one: no padding with
-    ``<``). The record is its context, as in :mod:`._build`: construct's expressions read
-    the fields parsed so far from it, and ``_`` is the enclosing record."""
-    steps: list[tuple[tuple[str, ...], Any, int, _Parser | None]] = []
+    """A Struct: its fields in order, as the source of one function (:func:`_Source`):
+    each run of consecutive named FormatFields unpacked by one ``struct`` call (the values
+    of unpacking them one by one: no padding with ``<``), and the common fields (a
+    length and its bytes, a condition, an adapter) written out in place rather than
+    called through a closure each. The record is its context, as in :mod:`._build`:
+    construct's expressions read the fields parsed so far from it, and ``_`` is the
+    enclosing record."""
+    src = _Source()
     run: list[tuple[str, str]] = []
 
     def close() -> None:
         if run:
             s = struct.Struct("<" + "".join(f for _, f in run))
-            steps.append((tuple(n for n, _ in run), s.unpack_from, s.size, None))
+            unpack = src.name(s.unpack_from)
+            src.line(f"if pos + {s.size} > end: raise _GiveUp")
+            targets = ", ".join(f"context[{n!r}]" for n, _ in run)
+            src.line(f"{targets}{',' if len(run) == 1 else ''} = {unpack}(data, pos)")
+            src.line(f"pos += {s.size}")
             run.clear()
     for sc in c.subcons:
         code = _format(sc)
-        sub = _compile(sc)              # also refuses a parsed hook in a Renamed chain
         if code is not None and sc.name:
+            _compile(sc)                # refuses a parsed hook in a Renamed chain
             run.append((sc.name, code))
             continue
         close()
-        steps.append(((sc.name,), None, 0, sub))
+        src.field(sc, f"context[{sc.name!r}]" if sc.name else "_")
     close()
+    return src.function("context = _Context(_=ctx)", "return context, pos")
 
-    def record(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-        context = _Context(_=ctx)
-        for names, unpack, size, sub in steps:
-            if unpack is not None:
-                if pos + size > end:
-                    raise _GiveUp
-                if len(names) == 1:
-                    context[names[0]] = unpack(data, pos)[0]
-                else:
-                    context.update(zip(names, unpack(data, pos), strict=True))
-                pos += size
-                continue
-            assert sub is not None
-            value, pos = sub(data, pos, end, context)
-            if names[0]:
-                context[names[0]] = value
-        return context, pos
-    return record
+
+class _Source:
+    """The Python source of one Struct's parser, written field by field: each field sets
+    a target (``context[name]``) and advances ``pos``, giving up (``_GiveUp``) exactly where
+    the closures of :func:`_compile` do. The objects it uses (struct formats, compiled
+    expressions, adapters' ``_decode``, the closures of other fields) are named in its
+    namespace."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self.depth = 1
+        self.env: dict[str, Any] = {"_Context": _Context, "_GiveUp": _GiveUp,
+                                    "_unpack_from": struct.unpack_from}
+
+    def name(self, obj: Any) -> str:
+        key = f"_o{len(self.env)}"
+        self.env[key] = obj
+        return key
+
+    def line(self, text: str) -> None:
+        self.lines.append("    " * self.depth + text)
+
+    def field(self, c: construct.Construct, target: str) -> None:
+        """Lines that parse ``c`` into ``target``."""
+        if c.parsed is not None:
+            raise _Unsupported("a parsed hook")
+        t = type(c)
+        if t is construct.Renamed:
+            self.field(c.subcon, target)
+        elif t is construct.FormatField:
+            unpack = self.name(struct.Struct(c.fmtstr).unpack_from)
+            self.line(f"if pos + {c.length} > end: raise _GiveUp")
+            self.line(f"{target} = {unpack}(data, pos)[0]")
+            self.line(f"pos += {c.length}")
+        elif t is construct.Prefixed and c.subcon is construct.GreedyBytes \
+                and not c.includelength:        # a length and its bytes
+            self.field(c.lengthfield, "n")
+            self.line("if not 0 <= n <= end - pos: raise _GiveUp")
+            self.line(f"{target} = data[pos: pos + n]")
+            self.line("pos += n")
+        elif t is construct.Array and not c.discard and _format(c.subcon) is not None:
+            _compile(c.subcon)              # refuses a parsed hook on the item
+            code = str(_format(c.subcon))
+            size = struct.calcsize("<" + code)
+            if isinstance(c.count, int):            # a fixed count: one struct format
+                whole = struct.Struct("<" + str(c.count) + code)
+                self.line(f"if not 0 <= {whole.size} <= end - pos: raise _GiveUp")
+                self.line(f"{target} = {self.name(whole.unpack_from)}(data, pos)")
+                self.line(f"pos += {whole.size}")
+            else:
+                count = self.name(_expression(c.count))
+                self.line(f"n = {count}(context)")
+                self.line(f"if not 0 <= n * {size} <= end - pos: raise _GiveUp")
+                self.line(f'{target} = _unpack_from("<" + str(n) + {code!r}, data, pos)')
+                self.line(f"pos += n * {size}")
+        elif t is construct.Bytes:
+            length = self.name(_expression(c.length))
+            self.line(f"n = {length}(context)")
+            self.line("if not 0 <= n <= end - pos: raise _GiveUp")
+            self.line(f"{target} = data[pos: pos + n]")
+            self.line("pos += n")
+        elif t is construct.IfThenElse:
+            cond = self.name(_expression(c.condfunc))
+            self.line(f"if {cond}(context):")
+            self.depth += 1
+            self.field(c.thensubcon, target)
+            self.depth -= 1
+            self.line("else:")
+            self.depth += 1
+            self.field(c.elsesubcon, target)
+            self.depth -= 1
+        elif c is construct.Pass:
+            self.line(f"{target} = None")
+        elif c is construct.Terminated:
+            self.line("if pos != end: raise _GiveUp")
+        elif isinstance(c, construct.Adapter):
+            decode = self.name(c._decode)
+            self.field(c.subcon, "v")
+            self.line(f'{target} = {decode}(v, context, "(parsing)")')
+        else:
+            sub = self.name(_compile(c))
+            self.line(f"{target}, pos = {sub}(data, pos, end, context)")
+
+    def function(self, first: str, last: str) -> _Parser:
+        source = "\n".join(["def record(data, pos, end, ctx):", "    " + first,
+                            *self.lines, "    " + last])
+        exec(compile(source, "<mpz.chunks._parse>", "exec"), self.env)
+        return cast(_Parser, self.env["record"])
 
 
 @functools.cache

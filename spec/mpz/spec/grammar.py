@@ -80,9 +80,10 @@ class FrontCodedNames(Adapter):
         names: list[str] = []
         prev = b""
         for i, e in enumerate(obj):
-            if e.shared > len(prev):  # R-4.2-2
-                raise ExplicitError(f"name {i} shares {e.shared} bytes of a {len(prev)}-byte name")
-            raw = prev[: e.shared] + e.suffix
+            shared = e["shared"]
+            if shared > len(prev):  # R-4.2-2
+                raise ExplicitError(f"name {i} shares {shared} bytes of a {len(prev)}-byte name")
+            raw = prev[:shared] + e["suffix"]
             if not 1 <= len(raw) <= 255:  # R-2.4-16, R-4.2-3
                 raise ExplicitError(f"name {i} has {len(raw)} bytes, not 1..255")
             try:
@@ -363,8 +364,8 @@ def _data_size(ctx: Any) -> int:
     to 255 dimension bytes would ask for a read of a 600-digit length, which the error
     quoted (a QA run, stop 40). Up to 7 the product is below 4 x 255^7 < 2^58, and the
     read fails as any data longer than the bytes left does."""
-    n = abs(int(ctx.type))
-    for d in ctx.dims:
+    n = abs(int(ctx["type"]))
+    for d in ctx["dims"]:
         n *= int(d)
         if n > MAX_C3D_PARAMETER_BYTES and len(ctx.dims) > 7:  # R-4.13.2-1, R-4.13.2-2
             raise ExplicitError(f"a parameter of {len(ctx.dims)} dimensions "
