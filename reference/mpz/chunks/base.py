@@ -143,27 +143,10 @@ class Record:
     @classmethod
     def from_parsed(cls: type[R], c: Any) -> R:
         """The record of a parse result (construct's, or :mod:`._parse`'s dicts and tuples)."""
-        plan = _PLANS.get(cls)
-        if plan is None:
-            plan = _PLANS[cls] = (tuple((n, cls.NESTED.get(n)) for n in _field_names(cls)),
-                                  hasattr(cls, "__post_init__"))
-        fields_of, post_init = plan
-        values: dict[str, object] = {}
-        for name, nested in fields_of:
-            v = c[name]
-            if nested is not None:
-                v = tuple([nested.from_parsed(x) for x in v])
-            elif isinstance(v, list):   # construct's lists (the fast path's are tuples)
-                v = _plain(v)
-            values[name] = v
-        if post_init:
-            return cls(**values)
-        # what the frozen dataclass's __init__ does (every field set, in layout order),
-        # without its object.__setattr__ per field: 1.1 us a record against 0.2, and a CMU
-        # C3D's parameter section alone holds ~200 records (issue 15.1, decoding)
-        rec = object.__new__(cls)
-        rec.__dict__.update(values)
-        return rec
+        make = _MAKERS.get(cls)
+        if make is None:
+            make = _maker(cls)
+        return cast(R, make(c))
 
     def to_build(self) -> dict[str, object]:
         """The dict construct builds the payload from."""
@@ -302,9 +285,39 @@ _LAYOUT_ERRORS = (construct.ConstructError, UnicodeDecodeError)
 
 
 _NAMES: dict[type, tuple[str, ...]] = {}
-#: each record class's (field name, nested record class or None) pairs, and whether it has
-#: a __post_init__, for from_parsed
-_PLANS: dict[type, tuple[tuple[tuple[str, type[Record] | None], ...], bool]] = {}
+#: each record class's from_parsed, made once by :func:`_maker`
+_MAKERS: dict[type, Callable[[Any], Record]] = {}
+
+
+def _maker(cls: type[Record]) -> Callable[[Any], Record]:
+    """``cls.from_parsed`` as the source of one function: each field read from the parse
+    result by name, construct's lists made tuples (:func:`_plain`; the fast path's arrays
+    are tuples already), a field of nested records (``NESTED``) made by their own maker.
+    A class with a ``__post_init__`` is made by its ``__init__``; any other as its frozen
+    dataclass ``__init__`` makes it (every field set, in layout order) without its
+    ``object.__setattr__`` per field: 1.1 us a record against 0.2, and a CMU C3D's
+    parameter section alone holds ~200 records (issue 15.1, decoding). A loop over the
+    fields per record was half of what was left (stop 70)."""
+    env: dict[str, Any] = {"_cls": cls, "_new": object.__new__, "_plain": _plain}
+    lines = ["def make(c):"]
+    names = _field_names(cls)
+    for i, name in enumerate(names):
+        nested = cls.NESTED.get(name)
+        if nested is not None:
+            env[f"_m{i}"] = _MAKERS.get(nested) or _maker(nested)
+            lines.append(f"    v{i} = tuple([_m{i}(x) for x in c[{name!r}]])")
+        else:
+            lines.append(f"    v{i} = c[{name!r}]")
+            lines.append(f"    if isinstance(v{i}, list): v{i} = _plain(v{i})")
+    values = ", ".join(f"{name!r}: v{i}" for i, name in enumerate(names))
+    if hasattr(cls, "__post_init__"):
+        lines.append(f"    return _cls(**{{{values}}})")
+    else:
+        lines += ["    rec = _new(_cls)", f"    rec.__dict__.update({{{values}}})",
+                  "    return rec"]
+    exec(compile("\n".join(lines), f"<{cls.__name__}.from_parsed>", "exec"), env)
+    make = _MAKERS[cls] = env["make"]
+    return cast(Callable[[Any], Record], make)
 
 
 def _field_names(cls: type[Record]) -> tuple[str, ...]:
