@@ -851,12 +851,14 @@ def _stepwise(e: list[int], order: int, low: int | None, turn: int | None) -> li
            [(2, 2), (1, 0), (8, 3), (5, 1), (1, 4)]))
 def test_unwrap_is_the_stepwise_definition(e, order, low, md):
     """§6.10 step 3 as the spec writes it (Python integers, W after every step) against the
-    reference's reduction of running sums."""
+    reference's reduction of running sums (channels._values, on one wrapped column)."""
     m, d = md
     turn = 360 * 10 ** d // m
     low = min(low, 2**31 - turn)
     x = _stepwise(e, order, low, turn)
-    assert ch.unwrap(np.array(e, np.int64), order, low, turn).tolist() == x
+    got = np.array(e, np.int64)[:, None]
+    assert ch._values(got, np.array([order]), np.array([turn]), np.array([low])) >= 0
+    assert got[:, 0].tolist() == x
 
 
 @settings(max_examples=150, deadline=None)
@@ -892,6 +894,63 @@ def test_a_field_of_mixed_channels_decodes_each_channel_as_on_its_own(data):
     plans = [ch.Plan(ch.Step(c.step_mantissa, c.step_digits), bool(c.wrap), c.low, c.order)
              for c in codings]
     assert ch.coded_values(x, plans).tolist() == e.tolist()
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.data())
+def test_the_value_kernel_is_each_column_on_its_own(data):
+    """channels._values (§6.10 steps 2-3 in one pass, stop 70), one column at a time, on
+    residuals anywhere in the coder's range: a channel that does not wrap is §6.2's
+    reconstruct, one that wraps the stepwise definition; the largest |x| (what step 4
+    checks), and -1 exactly when an order-2 difference of a channel that does not wrap
+    fails §6.2's guard."""
+    from mpz.errors import FormatError
+    from mpz.predict import reconstruct
+    F = data.draw(st.integers(1, 30))
+    C = data.draw(st.integers(1, 5))
+    e = np.array(data.draw(st.lists(st.lists(st.integers(-2**30 + 1, 2**30 - 1),
+                                             min_size=C, max_size=C),
+                                    min_size=F, max_size=F)), np.int64)
+    orders = np.array(data.draw(st.lists(st.integers(0, 2), min_size=C, max_size=C)), np.int64)
+    turns = np.array([data.draw(st.sampled_from([0, 0, 360, 36000, 360 * 10**9 // 8]))
+                      for _ in range(C)], np.int64)
+    lows = np.array([data.draw(st.integers(-int(n), 0)) if n else 0 for n in turns], np.int64)
+    want = e.copy()
+    guard = False
+    for c in range(C):
+        if turns[c]:
+            want[:, c] = _stepwise(e[:, c].tolist(), int(orders[c]), int(lows[c]),
+                                   int(turns[c]))
+            continue
+        try:
+            want[:, c] = reconstruct(e[:, c], int(orders[c]))
+        except FormatError:
+            guard = True
+    got = e.copy()
+    peak = ch._values(got, orders, turns, lows)
+    if guard:
+        assert peak == -1
+    else:
+        assert got.tolist() == want.tolist()
+        assert peak == int(np.abs(want).max())
+
+
+def test_the_value_kernel_at_the_guard_and_on_a_long_wrapped_channel():
+    """The two edges random residuals do not reach: an order-2 difference of exactly 2^32
+    fails the guard and one of 2^32 - 1 passes (§6.2: |d| < 2^32); and an order-2 wrapped
+    channel of 2^18 frames of the largest residual, whose running sums of residues are
+    what keeps its sum within 64 bits (without the reduction it passes 2^64)."""
+    top = 2**30 - 1
+    for last, verdict in ((4, -1), (3, None)):
+        e = np.array([[0], [top], [top], [top], [top], [last]], np.int64)  # d = 2^32 - 4 + last
+        peak = ch._values(e, np.array([2]), np.array([0]), np.array([0]))
+        assert (peak == -1) == (verdict == -1)
+    F = 1 << 18
+    e = np.full((F, 1), top, np.int64)
+    want = _stepwise(e[:, 0].tolist(), 2, -18000, 36000)
+    got = e.copy()
+    assert ch._values(got, np.array([2]), np.array([36000]), np.array([-18000])) <= 18000
+    assert got[:, 0].tolist() == want
 
 
 @given(st.integers(-2**31 + 1, 2**31 - 1), st.integers(1, 0xFFFF), st.integers(0, 9))

@@ -27,11 +27,12 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from mpz._jit import njit
 from mpz._worker import spelled
 from mpz.entropy import MAX_EXP, BlockDecoder, BlockEncoder
 from mpz.errors import EncoderError, FormatError
 from mpz.format import CHANNEL_VALUE_LIMIT, MAX_STEP_DIGITS
-from mpz.predict import reconstruct, residuals
+from mpz.predict import _DIFF_LIMIT, _overflow, residuals
 
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
@@ -358,21 +359,17 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
             cols = np.flatnonzero(groups == g)
             e[:, cols] = dec.block(F, len(cols), 1)[:, :, 0]      # step 1: group g
     dec.close()
-    # steps 2 and 3 overwrite e with x, a few columns at a time (spec §8: temporaries of
-    # _CELLS values, not of the layer; each column is computed from its own residuals)
+    # steps 2 and 3 overwrite e with x in place, column by column (spec §8: no temporary
+    # of the layer's size), in one kernel pass: a few numpy calls per order and group of
+    # columns were a tenth of a CMU AMC file's decode (issue 15.1, stop 70)
     turns = np.array([(turn_steps(cc.step_mantissa, cc.step_digits) or 0) if cc.wrap else 0
                       for cc in codings], np.int64)
     lows = np.array([cc.low for cc in codings], np.int64)
-    per = max(1, _CELLS // max(F, 1))
-    for order, plain, wrapped in _by_order([cc.order for cc in codings], turns):
-        for c0 in range(0, plain.size, per):
-            cols = plain[c0: c0 + per]
-            e[:, cols] = reconstruct(e[:, cols], order, chunk=chunk, offset=offset,  # R-6.10-1
-                                     inplace=True)                         # step 2
-        for c0 in range(0, wrapped.size, per):
-            cols = wrapped[c0: c0 + per]
-            e[:, cols] = unwrap(e[:, cols], order, lows[cols], turns[cols])   # step 3
-    if e.size and max(int(e.max()), -int(e.min())) >= CHANNEL_VALUE_LIMIT:  # R-6.10-1
+    orders = np.array([cc.order for cc in codings], np.int64)
+    peak = _values(e, orders, turns, lows)
+    if peak < 0:                                                            # R-6.10-1
+        raise _overflow(chunk, offset)
+    if peak >= CHANNEL_VALUE_LIMIT:                                         # R-6.10-1
         c = int(np.argmax(np.abs(e).max(axis=0)))
         t = int(np.argmax(np.abs(e[:, c])))
         raise FormatError(f"channel {c}, frame {t}: decoded value {int(e[t, c])} is outside "
@@ -380,29 +377,68 @@ def decode(codings: Sequence[Coding], coded: bytes, frames: int, *,
     return e
 
 
-def unwrap(e: IntArray, order: int, low: int | IntArray, turn: int | IntArray) -> IntArray:
-    """§6.10 step 3: the order-p reconstruction of ``e`` (§6.2) taken modulo ``turn`` into
-    ``low .. low + turn - 1``, along the first axis: ``e[F]`` with one ``low`` and
-    ``turn``, or ``e[F, k]`` with one of each per column (arrays of k).
+@njit(cache=True, nogil=True)
+def _values(e: IntArray, orders: IntArray, turns: IntArray, lows: IntArray) -> int:
+    """§6.10 steps 2 and 3 in place: each column c of ``e[F, C]`` becomes its channel's x.
+    A channel that does not wrap (``turns[c]`` = 0) is reconstructed with ``orders[c]``
+    as :func:`mpz.predict.reconstruct` does with period F; one that wraps is the order-p
+    reconstruction taken modulo N = ``turns[c]`` into ``lows[c]`` .. ``lows[c]`` + N - 1.
+    Returns the largest |x| of the layer (0 for none; step 4 checks it), or -1 as soon as
+    an order-2 difference of a channel that does not wrap fails §6.2's guard (|d| <
+    2^32), which rejects the file whatever else it holds.
 
-    Computed on residues, so that no intermediate value exceeds 2^56: every value added
-    into a running sum is first reduced modulo ``turn`` (order 2: the running sums of
-    ``e``, the first differences, before they are summed again), which gives the same
-    residue (reduction commutes with sums). The bound needs ``turn`` < 2^32, which §4.14's
-    wrap check has established when the chunk was read (spec §1.2, §6.10 step 3).
+    A wrapped channel is computed on residues, so that no intermediate value exceeds 2^56:
+    every value added into a running sum is first reduced modulo N (order 2: the running
+    sums of e, the first differences, before they are summed again), which gives the same
+    residue (reduction commutes with sums). The bound needs N < 2^32, which §4.14's wrap
+    check has established when the chunk was read (spec §1.2, §6.10 step 3). ``%`` is
+    Python's floor modulo, as in the spec (§1).
 
     Examples
     --------
-    >>> unwrap(np.array([17999, 2, -4]), 1, -9000, 18000).tolist()
-    [-1, 1, -3]
+    >>> e = np.array([[17999], [2], [-4]])
+    >>> _values(e, np.array([1]), np.array([18000]), np.array([-9000])), e[:, 0].tolist()
+    (3, [-1, 1, -3])
     """
-    if e.size == 0:
-        return e.copy()
-    if order == 0:
-        y = e.copy()
-    elif order == 1:
-        y = np.cumsum(np.mod(e, turn), axis=0)
-    else:
-        d = np.mod(np.cumsum(e[1:], axis=0), turn)    # d[t] = e[1] + ... + e[t], mod N
-        y = np.concatenate([e[:1], e[:1] + np.cumsum(d, axis=0)])
-    return np.asarray(low + np.mod(y - low, turn), np.int64)
+    F, C = e.shape
+    peak = 0
+    for c in range(C):
+        order = orders[c]
+        N = turns[c]
+        if N == 0:
+            if order == 1:
+                for t in range(1, F):
+                    e[t, c] += e[t - 1, c]
+            elif order == 2:
+                d = 0
+                for t in range(1, F):
+                    d = e[t, c] if t == 1 else d + e[t, c]
+                    if d >= _DIFF_LIMIT or d <= -_DIFF_LIMIT:
+                        return -1
+                    e[t, c] = e[t - 1, c] + d
+        else:
+            low = lows[c]
+            if order == 1:                       # y[t] = sum of e[0..t] mod N
+                y = 0
+                for t in range(F):
+                    y += e[t, c] % N
+                    e[t, c] = low + (y - low) % N
+            elif order == 2:                     # y[t] = e[0] + sum of (e[1..u] sums mod N)
+                s = 0
+                y = e[0, c]
+                e[0, c] = low + (y - low) % N
+                for t in range(1, F):
+                    s += e[t, c]
+                    y += s % N
+                    e[t, c] = low + (y - low) % N
+            else:
+                for t in range(F):
+                    e[t, c] = low + (e[t, c] - low) % N
+        for t in range(F):
+            v = e[t, c]
+            if v > peak:
+                peak = v
+            elif -v > peak:
+                peak = -v
+    return peak
+
