@@ -84,9 +84,11 @@ def _jsonable(v: object) -> JSON:
 
 
 def _plain(v: object) -> object:
-    """construct's parse result -> plain Python (ListContainer -> tuple)."""
+    """construct's parse result -> plain Python (ListContainer -> tuple), and the lists the
+    grammar's adapters make (names, weights) -> tuples: a list's items are looked into
+    only when they are lists themselves."""
     if isinstance(v, list):
-        return tuple(_plain(x) for x in v)
+        return tuple([_plain(x) if isinstance(x, list) else x for x in v])
     return v
 
 
