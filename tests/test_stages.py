@@ -1102,3 +1102,25 @@ def test_progress_messages_fit_the_bar_with_the_cmu_node_names():
     m = generate("walk", frames=60, seed=2)
     _, calls = _progress_calls(m, max_error=1.0, hierarchy="cmu41", patterns="off")
     assert calls and max(len(msg) for _, msg in calls) <= 24
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 9), st.sampled_from(["C", "marker-major", "F"]),
+       st.integers(0, 2**32 - 1), st.data())
+def test_grid_coordinates_of_any_members_are_numpys_two_roundings(F, M, layout, seed, data):
+    """GridCoordinates' u[:, members] (one kernel pass, stop 70) from positions of any
+    layout: bit for bit numpy's (x[:, members] - offset) / step, C-ordered, a new array."""
+    from mpz.encoder import GridCoordinates
+    rng = np.random.default_rng(seed)
+    base = rng.normal(size=(F, M, 3)) * 10.0 ** rng.integers(-3, 6)
+    x = {"C": base, "F": np.asfortranarray(base),
+         "marker-major": np.ascontiguousarray(base.transpose(1, 0, 2)).transpose(1, 0, 2)}[layout]
+    offset = rng.normal(size=3) * 100
+    step = float(rng.uniform(1e-4, 3.0))
+    cols = data.draw(st.lists(st.integers(0, M - 1), min_size=1, max_size=M + 2))
+    got = GridCoordinates(x, offset, step)[:, cols]
+    want = (base[:, cols] - offset) / step
+    assert got.flags.c_contiguous and not np.may_share_memory(got, x)
+    assert got.tobytes() == want.tobytes()
+    one = GridCoordinates(x, offset, step)[:, cols[0]]        # a marker by its index
+    assert one.tobytes() == ((base[:, cols[0]] - offset) / step).tobytes()

@@ -34,6 +34,20 @@ _REACH = 0.5 / _LAMBDA + 1.0
 
 
 @njit(cache=True, nogil=True)
+def grid_units(x: NDArray[np.float64], cols: NDArray[np.int64], offset: NDArray[np.float64],
+               step: float, out: NDArray[np.float64]) -> None:
+    """``out[t, j, a] = (x[t, cols[j], a] - offset[a]) / step``: markers ``cols`` of the
+    motion ``x[F, M, 3]`` (any layout) in grid units (spec §4.4's u), each value with the
+    two roundings numpy's ``(x - offset) / step`` gives it."""
+    T, D = x.shape[0], x.shape[2]
+    for j in range(cols.shape[0]):
+        m = cols[j]
+        for t in range(T):
+            for a in range(D):
+                out[t, j, a] = (x[t, m, a] - offset[a]) / step
+
+
+@njit(cache=True, nogil=True)
 def _pick_box(y0: float, y1: float, y2: float, radius: float,
               p0: float, p1: float, p2: float) -> tuple[int, int, int]:
     """The grid point of least cost ``|w - p|_1 + _LAMBDA |w - y|^2`` with
