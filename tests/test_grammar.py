@@ -601,9 +601,17 @@ def test_compiled_expressions_give_constructs_values(count, group, outer, items)
     from mpz.chunks._build import _Context, _expression
     ctx = _Context(count=count, group=group, items=items)
     ctx["_"] = _Context(count=outer)
-    for e in _EXPRESSIONS:
+    from mpz.chunks._build import _source
+    written = 0
+    for e in _EXPRESSIONS + [4 * construct.this.count * construct.this._.count,
+                             construct.this.count // 3 - construct.this.group % 5 >= 1]:
         want = e(ctx) if callable(e) else e
         assert _expression(e)(ctx) == want, e
+        source = _source(e)          # as a generated function writes it out (stop 70)
+        if source is not None:
+            written += 1
+            assert eval(source, {}, {"context": ctx}) == want, (e, source)
+    assert written == 7             # the paths, operators and int constants are written out
 
 
 def test_loaded_records_are_the_records_their_init_makes():

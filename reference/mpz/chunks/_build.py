@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 import functools
+import operator
 import struct
 from typing import Any, cast
 
@@ -79,6 +80,36 @@ def _expression(e: Any) -> Callable[[Any], Any]:
     if callable(e):
         return cast(Callable[[Any], Any], e)
     return lambda ctx: e
+
+
+#: the operators of construct's expressions that :func:`_source` writes as Python
+_OPERATORS = {operator.add: "+", operator.sub: "-", operator.mul: "*",
+              operator.floordiv: "//", operator.mod: "%", operator.gt: ">",
+              operator.ge: ">=", operator.lt: "<", operator.le: "<=", operator.eq: "==",
+              operator.ne: "!="}
+
+
+def _source(e: Any) -> str | None:
+    """construct's count, length or condition ``e`` as a Python expression of
+    ``context`` (a generated function's record), computed as :func:`_expression` computes
+    it: ``this.field`` as ``context['field']``, ``this._.field`` as
+    ``context['_']['field']``, an operator on its operands, an int constant as itself;
+    None for anything else (a function of the grammar, another operator), which
+    :func:`_expression` then calls."""
+    if isinstance(e, construct.expr.Path):
+        parent, field = e._Path__parent, e._Path__field
+        if parent is None:
+            return "context"
+        up = _source(parent)
+        return None if up is None else f"{up}[{field!r}]"
+    if isinstance(e, construct.expr.BinExpr) and e.op in _OPERATORS:
+        lhs, rhs = _source(e.lhs), _source(e.rhs)
+        if lhs is None or rhs is None:
+            return None
+        return f"({lhs} {_OPERATORS[e.op]} {rhs})"
+    if type(e) is int:
+        return repr(e)
+    return None
 
 
 def _itself(ctx: Any) -> Any:
@@ -255,6 +286,10 @@ class _Source:
         self.temps += 1
         return f"t{self.temps}"
 
+    def expression(self, e: Any) -> str:
+        """``e``'s value as Python source: written out (:func:`_source`), or a call."""
+        return _source(e) or f"{self.name(_expression(e))}(context)"
+
     def line(self, text: str) -> None:
         self.lines.append("    " * self.depth + text)
 
@@ -288,13 +323,13 @@ class _Source:
                 self.line(f"out.append({run}(*{value}))")
             else:
                 n = self.temp()
-                self.line(f"{n} = {self.name(_expression(c.count))}(context)")
+                self.line(f"{n} = {self.expression(c.count)}")
                 self.line(f"if not 0 <= {n} or len({value}) != {n}: raise _GiveUp")
                 self.line(f'out.append(_pack("<" + str({n}) + {item!r}, *{value}))')
             self.line(f"{target} = list({value})")
         elif t is construct.Bytes:
             n = self.temp()
-            self.line(f"{n} = {self.name(_expression(c.length))}(context)")
+            self.line(f"{n} = {self.expression(c.length)}")
             d = self.data(value)
             self.line(f"if len({d}) != {n}: raise _GiveUp")
             self.line(f"out.append({d})")
@@ -304,7 +339,7 @@ class _Source:
             self.line(f"out.append({d})")
             self.line(f"{target} = {d}")
         elif t is construct.IfThenElse:
-            self.line(f"if {self.name(_expression(c.condfunc))}(context):")
+            self.line(f"if {self.expression(c.condfunc)}:")
             self.depth += 1
             self.field(c.thensubcon, value, target)
             self.depth -= 1

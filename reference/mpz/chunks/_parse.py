@@ -37,7 +37,7 @@ from typing import Any, cast
 
 import construct
 
-from mpz.chunks._build import _Context, _expression, _format, _Unsupported
+from mpz.chunks._build import _Context, _expression, _format, _source, _Unsupported
 
 __all__ = ["parse", "fast_path"]
 
@@ -229,6 +229,11 @@ class _Source:
     def line(self, text: str) -> None:
         self.lines.append("    " * self.depth + text)
 
+    def expression(self, e: Any) -> str:
+        """``e``'s value as Python source: written out (:func:`._build._source`), or a
+        call."""
+        return _source(e) or f"{self.name(_expression(e))}(context)"
+
     def field(self, c: construct.Construct, target: str) -> None:
         """Lines that parse ``c`` into ``target``."""
         if c.parsed is not None:
@@ -257,20 +262,17 @@ class _Source:
                 self.line(f"{target} = {self.name(whole.unpack_from)}(data, pos)")
                 self.line(f"pos += {whole.size}")
             else:
-                count = self.name(_expression(c.count))
-                self.line(f"n = {count}(context)")
+                self.line(f"n = {self.expression(c.count)}")
                 self.line(f"if not 0 <= n * {size} <= end - pos: raise _GiveUp")
                 self.line(f'{target} = _unpack_from("<" + str(n) + {code!r}, data, pos)')
                 self.line(f"pos += n * {size}")
         elif t is construct.Bytes:
-            length = self.name(_expression(c.length))
-            self.line(f"n = {length}(context)")
+            self.line(f"n = {self.expression(c.length)}")
             self.line("if not 0 <= n <= end - pos: raise _GiveUp")
             self.line(f"{target} = data[pos: pos + n]")
             self.line("pos += n")
         elif t is construct.IfThenElse:
-            cond = self.name(_expression(c.condfunc))
-            self.line(f"if {cond}(context):")
+            self.line(f"if {self.expression(c.condfunc)}:")
             self.depth += 1
             self.field(c.thensubcon, target)
             self.depth -= 1
