@@ -254,10 +254,19 @@ def read_stream(data: bytes, *, max_samples: int = MAX_SAMPLES,
 # ------------------------------------------------------------ §6 decoding --
 def coded_field_offset(cls: type[Record]) -> int:
     """Where the ``coded`` field starts in a payload of ``cls``: after the fixed-size fields
-    that precede it in the grammar (MASK 0, ROOT 1, PATT 9, SEGS 6, RESI 6; §4.5-§4.9)."""
-    subcons = list(cls.GRAMMAR.subcons)
-    at = [sc.name for sc in subcons].index("coded")
-    return int(construct.Struct(*subcons[:at]).sizeof())
+    that precede it in the grammar (MASK 0, ROOT 1, PATT 9, SEGS 6, RESI 6; §4.5-§4.9).
+    Worked out once per class: construct's sizeof took 20 us a coded field, a tenth of a
+    short TRC's decode outside the range decoder (issue 15.1)."""
+    at = _CODED_AT.get(cls)
+    if at is None:
+        subcons = list(cls.GRAMMAR.subcons)
+        end = [sc.name for sc in subcons].index("coded")
+        at = _CODED_AT[cls] = int(construct.Struct(*subcons[:end]).sizeof())
+    return at
+
+
+#: coded_field_offset of each record class asked for
+_CODED_AT: dict[type, int] = {}
 
 
 def _coded(c: Located[Mask] | Located[Root] | Located[Patt] | Located[Segs] | Located[Resi]
