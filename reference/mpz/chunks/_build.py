@@ -53,7 +53,8 @@ class _Unsupported(Exception):
 
 
 class _GiveUp(Exception):
-    """A value the fast path does not take as it is: construct builds the payload."""
+    """A value (here) or bytes (:mod:`._parse`) the fast path does not take as they are:
+    construct builds or parses the payload instead."""
 
 
 def _expression(e: Any) -> Callable[[Any], Any]:
@@ -259,23 +260,21 @@ def _struct(c: construct.Struct) -> _Builder:
         src.field(sc, f"v{k}", f"context[{name!r}]" if name else "_")
     close()
     src.line("return context")
-    return src.function()
+    return src.builder()
 
 
-class _Source:
-    """The Python source of one Struct's builder, written field by field: each field
-    appends its bytes to ``out`` and sets a target to what construct's ``_build`` returns
-    for it, giving up (``_GiveUp``) exactly where the closures of :func:`_compile` do. The
-    objects it uses (struct formats, compiled expressions, adapters' ``_encode``, the
-    closures of other fields) are named in its namespace."""
+class _Function:
+    """The Python source of one generated function, written line by line (at ``depth``
+    levels of indentation), and the namespace it runs in: :meth:`name` puts an object
+    there (a struct format, a compiled expression, an adapter's method, the closure of
+    another field) and gives the name it has in the source. The Struct builders here and
+    the Struct parsers of :mod:`._parse` are written with it."""
 
-    def __init__(self) -> None:
-        self.lines = ["def record(obj, out, ctx):", "    if obj is None:", "        obj = {}",
-                      "    context = _Context(obj)", '    context["_"] = ctx']
+    def __init__(self, head: list[str], **names: Any) -> None:
+        self.lines = list(head)
         self.depth = 1
         self.temps = 0
-        self.env: dict[str, Any] = {"_Context": _Context, "_GiveUp": _GiveUp,
-                                    "_pack": struct.pack}
+        self.env: dict[str, Any] = {"_Context": _Context, "_GiveUp": _GiveUp, **names}
 
     def name(self, obj: Any) -> str:
         key = f"_o{len(self.env)}"
@@ -283,15 +282,43 @@ class _Source:
         return key
 
     def temp(self) -> str:
+        """A new local name."""
         self.temps += 1
         return f"t{self.temps}"
 
-    def expression(self, e: Any) -> str:
-        """``e``'s value as Python source: written out (:func:`_source`), or a call."""
-        return _source(e) or f"{self.name(_expression(e))}(context)"
-
     def line(self, text: str) -> None:
         self.lines.append("    " * self.depth + text)
+
+    def expression(self, e: Any) -> str:
+        """construct's expression ``e`` as source of ``context``: written out
+        (:func:`_source`), or a call of its compiled function (:func:`_expression`)."""
+        return _source(e) or f"{self.name(_expression(e))}(context)"
+
+    def branch(self, cond: Any, then: Callable[[], None], other: Callable[[], None]) -> None:
+        """``if cond: then else: other``, each side's lines written by its callable."""
+        self.line(f"if {self.expression(cond)}:")
+        for side, head in ((then, None), (other, "else:")):
+            if head:
+                self.line(head)
+            self.depth += 1
+            side()
+            self.depth -= 1
+
+    def function(self, name: str, where: str) -> Any:
+        """The function ``name`` the lines define (``where`` names its source in tracebacks)."""
+        exec(compile("\n".join(self.lines), where, "exec"), self.env)
+        return self.env[name]
+
+
+class _Source(_Function):
+    """The source of one Struct's builder, written field by field: each field appends its
+    bytes to ``out`` and sets a target to what construct's ``_build`` returns for it,
+    giving up (``_GiveUp``) exactly where the closures of :func:`_compile` do."""
+
+    def __init__(self) -> None:
+        super().__init__(["def record(obj, out, ctx):", "    if obj is None:", "        obj = {}",
+                          "    context = _Context(obj)", '    context["_"] = ctx'],
+                         _pack=struct.pack)
 
     def data(self, value: str) -> str:
         """Lines that take ``value`` as bytes (a bytearray as its bytes), or give up."""
@@ -339,14 +366,8 @@ class _Source:
             self.line(f"out.append({d})")
             self.line(f"{target} = {d}")
         elif t is construct.IfThenElse:
-            self.line(f"if {self.expression(c.condfunc)}:")
-            self.depth += 1
-            self.field(c.thensubcon, value, target)
-            self.depth -= 1
-            self.line("else:")
-            self.depth += 1
-            self.field(c.elsesubcon, value, target)
-            self.depth -= 1
+            self.branch(c.condfunc, lambda: self.field(c.thensubcon, value, target),
+                        lambda: self.field(c.elsesubcon, value, target))
         elif c is construct.Pass or c is construct.Terminated:
             self.line(f"{target} = {value}")
         elif isinstance(c, construct.Adapter):
@@ -357,9 +378,8 @@ class _Source:
         else:
             self.line(f"{target} = {self.name(_compile(c))}({value}, out, context)")
 
-    def function(self) -> _Builder:
-        exec(compile("\n".join(self.lines), "<mpz.chunks._build>", "exec"), self.env)
-        return cast(_Builder, self.env["record"])
+    def builder(self) -> _Builder:
+        return cast(_Builder, self.function("record", "<mpz.chunks._build>"))
 
 
 @functools.cache

@@ -37,17 +37,20 @@ from typing import Any, cast
 
 import construct
 
-from mpz.chunks._build import _Context, _expression, _format, _source, _Unsupported
+from mpz.chunks._build import (
+    _Context,
+    _expression,
+    _format,
+    _Function,
+    _GiveUp,
+    _Unsupported,
+)
 
 __all__ = ["parse", "fast_path"]
 
 #: a compiled parser: ``(data, pos, end, ctx) -> (value, new pos)``, reading ``data``
 #: from ``pos`` up to at most ``end`` (the end of the stream construct would read from)
 _Parser = Callable[[bytes, int, int, Any], tuple[Any, int]]
-
-
-class _GiveUp(Exception):
-    """Bytes the fast path does not take as they are: construct parses the payload."""
 
 
 #: what the adapters and decodings of the grammar raise on bytes they refuse (construct's
@@ -205,34 +208,17 @@ def _struct(c: construct.Struct) -> _Parser:
         close()
         src.field(sc, f"context[{sc.name!r}]" if sc.name else "_")
     close()
-    return src.function("context = _Context(_=ctx)", "return context, pos")
+    return src.parser()
 
 
-class _Source:
-    """The Python source of one Struct's parser, written field by field: each field sets
-    a target (``context[name]``) and advances ``pos``, giving up (``_GiveUp``) exactly where
-    the closures of :func:`_compile` do. The objects it uses (struct formats, compiled
-    expressions, adapters' ``_decode``, the closures of other fields) are named in its
-    namespace."""
+class _Source(_Function):
+    """The source of one Struct's parser, written field by field: each field sets a target
+    (``context[name]``) and advances ``pos``, giving up (``_GiveUp``) exactly where the
+    closures of :func:`_compile` do."""
 
     def __init__(self) -> None:
-        self.lines: list[str] = []
-        self.depth = 1
-        self.env: dict[str, Any] = {"_Context": _Context, "_GiveUp": _GiveUp,
-                                    "_unpack_from": struct.unpack_from}
-
-    def name(self, obj: Any) -> str:
-        key = f"_o{len(self.env)}"
-        self.env[key] = obj
-        return key
-
-    def line(self, text: str) -> None:
-        self.lines.append("    " * self.depth + text)
-
-    def expression(self, e: Any) -> str:
-        """``e``'s value as Python source: written out (:func:`._build._source`), or a
-        call."""
-        return _source(e) or f"{self.name(_expression(e))}(context)"
+        super().__init__(["def record(data, pos, end, ctx):", "    context = _Context(_=ctx)"],
+                         _unpack_from=struct.unpack_from)
 
     def field(self, c: construct.Construct, target: str) -> None:
         """Lines that parse ``c`` into ``target``."""
@@ -272,14 +258,8 @@ class _Source:
             self.line(f"{target} = data[pos: pos + n]")
             self.line("pos += n")
         elif t is construct.IfThenElse:
-            self.line(f"if {self.expression(c.condfunc)}:")
-            self.depth += 1
-            self.field(c.thensubcon, target)
-            self.depth -= 1
-            self.line("else:")
-            self.depth += 1
-            self.field(c.elsesubcon, target)
-            self.depth -= 1
+            self.branch(c.condfunc, lambda: self.field(c.thensubcon, target),
+                        lambda: self.field(c.elsesubcon, target))
         elif c is construct.Pass:
             self.line(f"{target} = None")
         elif c is construct.Terminated:
@@ -292,11 +272,9 @@ class _Source:
             sub = self.name(_compile(c))
             self.line(f"{target}, pos = {sub}(data, pos, end, context)")
 
-    def function(self, first: str, last: str) -> _Parser:
-        source = "\n".join(["def record(data, pos, end, ctx):", "    " + first,
-                            *self.lines, "    " + last])
-        exec(compile(source, "<mpz.chunks._parse>", "exec"), self.env)
-        return cast(_Parser, self.env["record"])
+    def parser(self) -> _Parser:
+        self.line("return context, pos")
+        return cast(_Parser, self.function("record", "<mpz.chunks._parse>"))
 
 
 @functools.cache
