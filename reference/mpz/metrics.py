@@ -392,6 +392,9 @@ def _words(a: C3DArchive, b: C3DArchive, point: dict[str, Any]) -> Part:
         return Part("point words", "differs", f"{what}; other points are model outputs")
     if _bits(a.words, b.words):
         return Part("point words", "same", what)
+    if _same_as_written(a, b, a.words, b.words, unsigned=False):
+        return Part("point words", "same", f"{what}; stored as {b.words.dtype} against "
+                    f"{a.words.dtype}, the same values{_ONE_STORAGE}")
     if a.words.dtype != b.words.dtype or a.words.shape != b.words.shape:
         return Part("point words", "differs", f"{what}; stored as {b.words.dtype} "
                     f"{list(b.words.shape)}")
@@ -406,6 +409,10 @@ def _analog(a: C3DArchive, b: C3DArchive, analog: dict[str, Any]) -> Part:
     what = f"{a.channels} channels x {a.analog.shape[0]} samples"
     if a.analog_samples == b.analog_samples and _bits(a.analog, b.analog):
         return Part("analog", "same", what)
+    if a.analog_samples == b.analog_samples and _same_as_written(a, b, a.analog, b.analog,
+                                                                 unsigned=True):
+        return Part("analog", "same", f"{what}; stored as {b.analog.dtype} against "
+                    f"{a.analog.dtype}, the same values{_ONE_STORAGE}")
     if (a.analog_samples != b.analog_samples or a.analog.dtype != b.analog.dtype
             or a.analog.shape != b.analog.shape):
         return Part("analog", "differs", f"{what}; {b.channels} channels x "
@@ -419,6 +426,28 @@ def _analog(a: C3DArchive, b: C3DArchive, analog: dict[str, Any]) -> Part:
     return Part("analog", "differs", f"{what}; {count} word{'s' * (count != 1)} "
                 f"differ{'s' * (count == 1)}, the first of "
                 f"{name!r} at sample index {n} (frame index {n // a.analog_samples})")
+
+
+#: why a C3D's words may come back in the other storage (spec §6.9, Storage)
+_ONE_STORAGE = (" (a C3D holds its points and analog words in one storage: int16 words of "
+                "an archive whose other chunk is float32 are written as float32)")
+
+
+def _same_as_written(a: C3DArchive, b: C3DArchive, x: NDArray[Any], y: NDArray[Any], *,
+                     unsigned: bool) -> bool:
+    """Whether words ``x`` of ``a`` and ``y`` of ``b``, one side int16 and the other float32
+    of one shape, are the same words as spec §6.9 writes int16 words into a float32 C3D:
+    the binary32 of each value, or with ``unsigned`` (analog words) of v + 65536 for v < 0
+    when the int16 side's ANALOG:FORMAT is UNSIGNED. A valid MPZ file may hold int16
+    points and float32 analog words (R-4.13.4-3), which a C3D writer must write as float32:
+    the values come back, their storage cannot."""
+    from mpz.io.c3dbin import analog_unsigned
+    if x.shape != y.shape or {x.dtype.str, y.dtype.str} != {"<i2", "<f4"}:
+        return False
+    (ints, source), floats = ((x, a), y) if x.dtype.kind == "i" else ((y, b), x)
+    if unsigned and analog_unsigned(source.records):
+        ints = ints.astype(np.int64) & 0xFFFF
+    return _bits(ints.astype("<f4"), floats)
 
 
 def _first_other(x: NDArray[Any], y: NDArray[Any]) -> tuple[int, int]:
