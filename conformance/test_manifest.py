@@ -311,6 +311,14 @@ INDEPENDENT_C3D_FILES = {
         "c2e3d84bed9eb2d559a5bc33aea3b8611b4c026e6f896d7546bfd232ac1be0eb",
     "u46-c3d-analog-shift-minus-128":
         "6f6b2b9eb8497165a8a7360094c51a69436ca2e010d028af6ce52dcc9b6ea6f8",
+    # u41's header and parameters, deflated otherwise (test_deflate_streams.py checks that
+    # each inflates to u41's content): the independent writer's file of u41
+    "u48-cprm-deflate-padding-ones":
+        "bffde36e04e54338abc769fd00019ed14db7d526a3ac08b50f6e0ecfe72f0d65",
+    "u49-chdr-deflate-one-distance-code":
+        "bffde36e04e54338abc769fd00019ed14db7d526a3ac08b50f6e0ecfe72f0d65",
+    "u50-cprm-deflate-no-distance-codes":
+        "bffde36e04e54338abc769fd00019ed14db7d526a3ac08b50f6e0ecfe72f0d65",
 }
 
 

@@ -29,6 +29,7 @@ import math
 from pathlib import Path
 import struct
 import sys
+from typing import NamedTuple
 
 import numpy as np
 
@@ -3969,6 +3970,172 @@ RANGE_GAP_VECTOR_RULES = _rules(
 )
 VECTOR_RULES.update(RANGE_GAP_VECTOR_RULES)
 
+
+# ------------------------------------ §4.13 DEFLATE as zlib reads it (spec of stop 70) --
+class DeflateCase(NamedTuple):
+    """One crafted chdr or cprm stream of :func:`deflate_streams`: the chunk it stands in
+    (``chunk``), the stream, and zlib's message for it (``zlib_error``, None for a valid
+    stream). For an invalid stream, ``twin`` is the same stream with the one fault undone,
+    which zlib inflates to the content: what shows that nothing else is wrong with it."""
+
+    chunk: str
+    stream: bytes
+    zlib_error: str | None
+    twin: bytes | None
+    description: str
+    corruption: str
+    risk: str
+
+
+def deflate_streams(section: bytes, block: bytes) -> dict[str, DeflateCase]:
+    """Raw DEFLATE streams written bit by bit (:mod:`mpz.tools.deflate_bits`) for spec
+    §4.13's list of what is not valid DEFLATE (R-4.13-3) and of what is (R-4.13-5), by
+    vector slug: ``section`` is a cprm content, ``block`` a chdr content (512 bytes).
+    conformance/test_deflate_streams.py checks each against zlib and against the frozen
+    vectors."""
+    from mpz.tools import deflate_bits as db
+
+    def dynamic(tokens, litlen=db.FULL_LITLEN, dist=db.FULL_DIST, **kw) -> bytes:
+        bw = db.BitWriter()
+        db.dynamic_block(bw, tokens, litlen, dist, final=True, **kw)
+        return bw.finish()
+
+    def fixed(tokens) -> bytes:
+        bw = db.BitWriter()
+        db.fixed_block(bw, tokens, final=True)
+        return bw.finish()
+
+    ts, tb = db.lz77(section), db.lz77(block)
+    assert db.inflated(ts) == section and db.inflated(tb) == block
+    out = {}
+    # HDIST = 30: a 31st distance code length (0), the 30 before it a complete code
+    out["cprm-deflate-hdist-30"] = DeflateCase(
+        "cprm", dynamic(ts, dist=db.FULL_DIST + (0,)), "too many length or distance symbols",
+        dynamic(ts), "a cprm stream of one dynamic block with HDIST = 30 (31 distance code "
+        "lengths, the last 0); the rest is a valid stream of the content",
+        "dynamic block, HDIST 30: the 30 codes of a complete distance code and a length 0",
+        "RFC 1951's field counts up to 32 distance codes: a decoder that takes the RFC's "
+        "word accepts a stream zlib, and so the reference, refuses (§4.13)")
+    # an incomplete literal/length code: one 9-bit code the data never uses left out
+    lit, _ = db.symbols_used(tb)
+    gone = max(s for s in range(286) if db.FULL_LITLEN[s] == 9 and s not in lit)
+    short = list(db.FULL_LITLEN)
+    short[gone] = 0
+    out["chdr-deflate-litlen-incomplete"] = DeflateCase(
+        "chdr", dynamic(tb, litlen=short), "invalid literal/lengths set", dynamic(tb),
+        f"a chdr stream of one dynamic block whose literal/length code is incomplete: 285 "
+        f"codes of 8 and 9 bits, symbol {gone}'s 9-bit code left out (sum 2^-length = "
+        f"1 - 2^-9); the data uses only symbols that have a code",
+        f"dynamic block, literal/length length of symbol {gone} 9 -> 0",
+        "a decoder that builds its tables without the completeness check decodes the file; "
+        "the reference (zlib) refuses it, so two decoders disagree on its validity")
+    # a fixed block whose first back-reference has distance symbol 30
+    i, m = next((k, t) for k, t in enumerate(ts) if isinstance(t, db.Match))
+    lsym, lext, lbits = db.length_code(m.length)
+    dsym, dext, dbits = db.distance_code(m.distance)
+    bad = [*ts[:i], db.Raw("litlen", lsym, lext, lbits), db.Raw("dist", 30, dext, dbits),
+           *ts[i + 1:]]
+    out["cprm-deflate-fixed-distance-30"] = DeflateCase(
+        "cprm", fixed(bad), "invalid distance code", fixed(ts),
+        f"a cprm stream of one fixed-code block whose first back-reference (length "
+        f"{m.length}, distance {m.distance}: symbol {dsym}) is written with distance symbol "
+        f"30, its extra bits kept", f"fixed block, distance symbol {dsym} -> 30 (5 bits "
+        f"11110) at the first match",
+        "the fixed code has 5-bit codes for distance symbols 30 and 31, which mean nothing: "
+        "a decoder that indexes a 30-entry table with them reads past it")
+    # code lengths that start with 16 (repeat the previous length: there is none); the
+    # block's code gives symbols 0-2 no code, so a decoder that takes 'previous' as 0 reads
+    # the complete code it describes
+    ll = (0, 0, 0) + (8,) * 229 + (9,) * 54
+    seq = db.code_length_symbols(ll + db.FULL_DIST)
+    assert seq[0] == (17, 0)
+
+    def two_blocks(first) -> bytes:
+        bw = db.BitWriter()
+        db.fixed_block(bw, ts, final=False)
+        db.dynamic_block(bw, [], ll, db.FULL_DIST, final=True, cl_sequence=first + seq[1:])
+        return bw.finish()
+
+    out["cprm-deflate-lengths-start-with-16"] = DeflateCase(
+        "cprm", two_blocks([(16, 0)]), "invalid bit length repeat", two_blocks([(17, 0)]),
+        "a cprm stream of a fixed-code block holding the content, then a final dynamic block "
+        "holding no data whose code lengths start with 16 (copy the previous length 3 "
+        "times), where no length precedes", "second block's first code length symbol 17 "
+        "(3 zeros) -> 16 (3 copies of the previous length)",
+        "a decoder that takes the missing previous length as 0 (or reads lens[-1]) reads "
+        "a valid empty block")
+    # valid: nonzero bits after the final block, one distance code of one bit, none at all
+    pad = db.BitWriter()
+    db.dynamic_block(pad, ts, db.FULL_LITLEN, db.FULL_DIST, final=True)
+    unused = -pad.bit_length % 8
+    assert unused
+    out["cprm-deflate-padding-ones"] = DeflateCase(
+        "cprm", pad.finish(fill=True), None, None,
+        f"a cprm stream of one dynamic block whose last byte ends with {unused} bits after "
+        f"the end of block, all 1 (zlib writes 0): §4.13 does not check them", "", "")
+    td = db.lz77(block, distances=(1,))
+    assert db.symbols_used(td)[1] == {0}
+    runs = sum(isinstance(t, db.Match) for t in td)
+    out["chdr-deflate-one-distance-code"] = DeflateCase(
+        "chdr", dynamic(td, dist=(1,)), None, None,
+        f"a chdr stream of one dynamic block whose distance code is one code of 1 bit "
+        f"(HDIST 0, distance symbol 0: distance 1), which {runs} "
+        f"back-references use (runs of a byte): an incomplete code that RFC 1951 "
+        f"section 3.2.7 allows", "", "")
+    out["cprm-deflate-no-distance-codes"] = DeflateCase(
+        "cprm", dynamic(list(section), dist=(0,)), None, None,
+        "a cprm stream of one dynamic block without distance codes (HDIST 0, its one length "
+        "0): every byte a literal, as RFC 1951 section 3.2.7 allows", "", "")
+    return out
+
+
+@functools.cache
+def _c3d_coding_base() -> bytes:
+    """The archive of c3d_coding_vectors (c3d_motion(74)), encoded once."""
+    return encode_within(c3d_motion(74, storage=1, F=8, M=3, J=1, C=1, n=2), max_error=1.0)
+
+
+def deflate_vectors(vs: VectorSet):
+    """§4.13's list of what valid DEFLATE is (the spec text of stop 70): one invalid file
+    per kind of stream zlib refuses that RFC 1951 leaves open or that zlib never writes,
+    and one uncommon file per kind of stream it accepts that the reference encoder never
+    writes, each in the archive of c3d_coding_vectors with one chdr or cprm body replaced.
+    A builder of its own, last, so that the vectors before it keep their numbers."""
+    import dataclasses
+
+    from mpz.chunks import Chdr, Cprm
+    good = _c3d_coding_base()
+    ch = _c3d_chunks(good)
+    hdr = Chdr.load(bytes(next(p for t, p in ch if t == "chdr")))
+    prm = Cprm.load(bytes(next(p for t, p in ch if t == "cprm")))
+    section = dataclasses.replace(prm, coding=0).dump()[1:]
+    head = {"chdr": bytes([hdr.processor, 1]), "cprm": b"\1"}
+    cases = deflate_streams(section, hdr.block)
+    for slug, c in cases.items():
+        data = assemble([[t, head[t] + c.stream if t == c.chunk else p] for t, p in ch])
+        sec = "§4.13.1" if c.chunk == "chdr" else "§4.13.2"
+        if c.zlib_error is not None:
+            vs.invalid(_numbered(vs, "x", slug), data, c.description, c.corruption, c.risk,
+                       "FormatError", ["§4.13", sec])
+    for slug, c in cases.items():
+        if c.zlib_error is None:
+            data = assemble([[t, head[t] + c.stream if t == c.chunk else p] for t, p in ch])
+            vs.valid("uncommon", _numbered(vs, "u", slug), data, c.description,
+                     _c3d_features(data), ["§2.1", "§2.3", "§4.13", "§6.9"],
+                     f"make_vectors.c3d_motion(74) -> mpz.encode(max_error=1.0), the {c.chunk} "
+                     f"body written by make_vectors.deflate_streams (mpz.tools.deflate_bits)")
+
+
+#: the §7.4 rules the DEFLATE vectors probe (merged into VECTOR_RULES)
+DEFLATE_VECTOR_RULES = _rules(
+    ("R-4.13-3", "cprm-deflate-hdist-30 chdr-deflate-litlen-incomplete "
+                 "cprm-deflate-fixed-distance-30 cprm-deflate-lengths-start-with-16"),
+    ("R-4.13-5", "cprm-deflate-padding-ones chdr-deflate-one-distance-code "
+                 "cprm-deflate-no-distance-codes"),
+)
+VECTOR_RULES.update(DEFLATE_VECTOR_RULES)
+
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -3987,6 +4154,7 @@ BUILDERS = (
     mutation_gap_vectors,                     # checks no vector isolated (mutation run)
     range_gap_vectors,                        # §4.13, §4.14 Range columns (audit)
     contract_gap_vectors,                     # rate, units, names kept (runner QA, stop 53)
+    deflate_vectors,                          # §4.13 valid DEFLATE as zlib reads it (stop 70)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
