@@ -4136,6 +4136,184 @@ DEFLATE_VECTOR_RULES = _rules(
 VECTOR_RULES.update(DEFLATE_VECTOR_RULES)
 
 
+def _bytes_swapped(data: bytes, ctype: str, fake: bytes, real: bytes) -> bytes:
+    """``data`` with the bytes ``fake`` (once in the ``ctype`` payload) replaced by ``real``
+    of the same length, CRCs recomputed: a string the record classes cannot hold (bytes
+    that are not UTF-8), written over a placeholder they built."""
+    from mpz.container import scan
+    assert len(fake) == len(real)
+    out = []
+    for c in scan(data).chunks:
+        p = bytes(c.payload)
+        if c.type == ctype:
+            assert p.count(fake) == 1, (ctype, fake)
+            p = p.replace(fake, real)
+        out.append((c.type, p))
+    return assemble(out)
+
+
+def settled_text_vectors(vs: VectorSet):
+    """What the spec text of stop 70 settled and no vector showed: strings that are not
+    UTF-8 in a skeleton chunk (§1), a cprm record of dims 255, 255, 0 and one of group id
+    128 with bytes outside ASCII (§4.13.2), a cana whose storage is not cpnt's (§4.13.4), a
+    skeleton whose joint names and parents are not MNAM's and HIER's (§4.14), ASF bones
+    with a reversed limit, a length <= 0 and a zero direction (§4.14.2). Each edits one
+    good file of the builders above. A builder of its own, last, so that the vectors
+    before it keep their numbers."""
+    import dataclasses
+
+    from mpz.chunks import Cprm
+    from mpz.chunks.c3d import Param
+    from mpz.io.amc import parse_amc, parse_asf
+
+    # -- invalid: strings that are not UTF-8, the CRC recomputed
+    bvh = _bvhs_base()
+    brec = _skeleton_record(bvh)
+    assert brec.encoding == 0 and brec.joints[0].name == "Hips"
+    joints = list(brec.joints)
+    joints[0] = dataclasses.replace(joints[0], name="HQfte")
+    latin = _bytes_swapped(_skeleton_rebuild(bvh, joints=tuple(joints), encoding=1), "bvhs",
+                           b"\x05HQfte", b"\x05H\xfcfte")
+    vs.invalid(_numbered(vs, "x", "bvhs-name-latin-1"), latin,
+               "a bvhs whose encoding is 1 (Latin-1) and whose joint 0 is named with the "
+               "Latin-1 bytes 48 FC 66 74 65 (Hüfte), not UTF-8",
+               "encoding 0 -> 1; joint 0 name 'Hips' -> bytes 48 FC 66 74 65",
+               "a decoder that reads the names as `encoding` says (or does not check them) "
+               "accepts a string the format stores only as UTF-8 (§1)", "FormatError",
+               ["§1", "§4.14.1"])
+    amc = _asfs_base()
+    arec = _skeleton_record(amc)
+    assert arec.encoding == 0
+    fake = " ein synthetisches Skelett (fQr make_vectors)"
+    comments = _bytes_swapped(_skeleton_rebuild(amc, comments=fake), "asfs", fake.encode(),
+                              fake.encode().replace(b"fQr", b"f\xfcr"))
+    vs.invalid(_numbered(vs, "x", "asfs-comments-latin-1"), comments,
+               "an asfs (encoding 0, UTF-8) whose informative comments str16 holds the "
+               "Latin-1 byte FC (f\\xfcr), not UTF-8",
+               "comments -> ' ein synthetisches Skelett (f\\xfcr make_vectors)' as Latin-1",
+               "a decoder that skips the checks of informative fields accepts a string the "
+               "format stores only as UTF-8 (§1: the file is rejected, the chunk is not "
+               "skipped)", "FormatError", ["§1", "§4.14.2"])
+
+    # -- uncommon: cprm records (the float32 archive of v-c3d-archive-float32)
+    good = _c3d_float_base()
+    prm = Cprm.load(next(p for t, p in _c3d_chunks(good) if t == "cprm"))
+    c3d_secs = ["§2.1", "§2.3", "§4.13", "§4.13.2", "§6.9"]
+    recs = (*prm.records, Param(group=1, locked=0, name=b"EMPTY",
+                                description=b"no values: 255 x 255 x 0", type=4,
+                                dims=bytes([255, 255, 0]), data=b""))
+    empty = _c3d_rebuild(good, "cprm", count=len(recs), records=recs)
+    vs.valid("uncommon", _numbered(vs, "u", "cprm-dims-255-255-0"), empty,
+             "a cprm whose last record is a float32 parameter (POINT:EMPTY) of dims 255, 255, "
+             "0 and no data: n = 4 x 255 x 255 x 0 = 0, though the product passes the bytes "
+             "left (and 2^17) after two factors", _c3d_features(empty), c3d_secs,
+             "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0), a cprm "
+             "record appended")
+    recs = (*prm.records,
+            Param(group=-128, locked=0, name=b"ZUS\xc4TZE",
+                  description="Zusätze, gemessen am 3. März".encode()),
+            Param(group=3, locked=0, name=b"DUR\xc9E", description="durée (s)".encode(),
+                  type=4, dims=b"", data=struct.pack("<f", 1.5)))
+    g128 = _c3d_rebuild(good, "cprm", count=len(recs), records=recs)
+    vs.valid("uncommon", _numbered(vs, "u", "cprm-group-128-non-ascii"), g128,
+             "a cprm with a group record of id 128 (group = -128) named with the Latin-1 "
+             "bytes ZUS C4 TZE and a UTF-8 description, and an EVENT parameter named DUR C9 E "
+             "(Latin-1) with a UTF-8 description: bytes outside ASCII are kept as stored",
+             _c3d_features(g128), c3d_secs,
+             "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0), two cprm "
+             "records appended")
+    # -- uncommon: cpnt int16, cana float32
+    mc = c3d_motion(76, storage=0, J=1, C=2, n=2)
+    a = mc.extras["c3d"]
+    T = a.analog.shape[0]
+    rng = np.random.default_rng(76)
+    an = np.zeros((T, 2), "<f4")
+    an[:, 0] = rng.integers(-3000, 3000, T) * 2.0 ** -15
+    an[:, 1] = np.where(np.arange(T) % 5 == 0, -0.0,
+                        np.cumsum(rng.normal(0, 1, T))).astype("<f4")
+    mc.extras["c3d"] = dataclasses.replace(a, analog=an, analog_storage=1)
+    mixed = mpz.encode(mc)
+    got = {c[0]: c[1] for c in _c3d_chunks(mixed)}
+    assert (got["cpnt"][0], got["cana"][0]) == (0, 1)
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-cana-float32-cpnt-int16"), mixed,
+             "a C3D archive whose points are int16 (cpnt storage 0) and whose analog words "
+             "are float32 (cana storage 1), which no C3D file holds: each chunk's words "
+             "decode by its own storage, and a writer writes float32 (cana is not int16)",
+             _c3d_features(mixed), ["§2.1", "§2.3", "§4.13", "§4.13.3", "§4.13.4", "§6.9"],
+             "make_vectors.c3d_motion(76, storage=0, J=1, C=2, n=2), analog replaced by "
+             "float32 words (analog_storage 1) -> mpz.encode()")
+
+    # -- uncommon: a skeleton that MNAM and HIER do not describe (the ASF of
+    # v-asfs-synthetic-default, encoded with HIER = its bone tree)
+    sk_secs = ["§2.1", "§2.3", "§4.14", "§4.14.2", "§6.10"]
+    tree = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
+                                source="synthetic_01.amc"), hierarchy="skeleton")
+    tb = list(_skeleton_record(tree).bones)
+    assert [x.name for x in tb] == ["lhip", "lfemur", "ltibia", "back"]
+    renamed = list(tb)
+    renamed[1] = dataclasses.replace(tb[1], name="lthigh")
+    names = _skeleton_rebuild(tree, bones=tuple(renamed))
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-names-other-than-mnam"), names,
+             "an asfs whose bone 1 (joint 2) is named lthigh where MNAM names marker 2 "
+             "lfemur: nothing ties the names together", _skeleton_features(names), sk_secs,
+             "make_vectors._SKELETON_ASF, _skeleton_amc_text() -> parse_amc -> "
+             "mpz.encode(hierarchy='skeleton'), bone 1 renamed")
+    assert tb[2].parent == 2
+    moved = list(tb)
+    moved[2] = dataclasses.replace(tb[2], parent=0)
+    parents = _skeleton_rebuild(tree, bones=tuple(moved))
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-parents-other-than-hier"), parents,
+             "a file whose HIER is the ASF's bone tree (one node a marker, the reference "
+             "encoder's hierarchy='skeleton'), with bone ltibia (joint 3) under the root in "
+             "the asfs where HIER puts marker 3's node under marker 2's (lfemur): nothing "
+             "ties the trees together", _skeleton_features(parents), sk_secs,
+             "make_vectors._SKELETON_ASF, _skeleton_amc_text() -> parse_amc -> "
+             "mpz.encode(hierarchy='skeleton'), bone 2's parent joint 2 -> 0")
+
+    # -- uncommon: ASF values that §4.14.2 does not check
+    bones = list(arec.bones)
+    assert bones[1].limits[0] == (-160.0, 20.0)
+    bones[0] = dataclasses.replace(bones[0], length=0.0)
+    bones[1] = dataclasses.replace(bones[1], limits=((20.0, -160.0), *bones[1].limits[1:]))
+    bones[2] = dataclasses.replace(bones[2], length=-7.2)
+    bones[3] = dataclasses.replace(bones[3], direction=(0.0, 0.0, 0.0))
+    odd = _skeleton_rebuild(amc, bones=tuple(bones))
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-limit-reversed-lengths-0-and-negative-"
+                                        "direction-0"), odd,
+             "an asfs whose bone lfemur has the limit (20, -160) (low above high), lhip the "
+             "length 0, ltibia the length -7.2 and back the direction (0, 0, 0): none is "
+             "checked", _skeleton_features(odd), ["§2.1", "§2.3", "§4.14", "§4.14.2", "§6.10"],
+             "make_vectors.skeleton_vectors' v-asfs file, four bone fields changed by hand")
+
+
+#: the §7.4 rules the vectors of stop 70 probe (merged into VECTOR_RULES)
+SETTLED_VECTOR_RULES = _rules(
+    ("R-4.14.1-1", "bvhs-name-latin-1"),
+    ("R-4.14.2-1", "asfs-comments-latin-1"),
+    ("R-4.13.2-3", "cprm-dims-255-255-0 cprm-group-128-non-ascii"),
+    ("R-4.13.4-3", "c3d-cana-float32-cpnt-int16"),
+    ("R-4.14-5", "asfs-names-other-than-mnam asfs-parents-other-than-hier"),
+    ("R-4.14.2-2", "asfs-limit-reversed-lengths-0-and-negative-direction-0"),
+    # every C3D vector whose features record c3d_file_sha256 (§7.3) but those of
+    # deflate_vectors, whose archive is u41's: the writer's output is the same
+    ("R-6.9-3", "c3d-archive-float32 c3d-int16-exact-on-grid c3d-no-analog-no-models "
+                "c3d-stored-header-and-parameters c3d-header-counts-stale "
+                "c3d-analog-shift-minus-128 cprm-dims-255-255-0 cprm-group-128-non-ascii "
+                "c3d-cana-float32-cpnt-int16"),
+    ("R-6.9-2", "c3d-cana-float32-cpnt-int16"),
+)
+
+
+def _merge_rules(table: dict) -> None:
+    """Add ``table``'s rules to :data:`VECTOR_RULES`, keeping the rules a slug already has
+    (``update`` would replace them: R-6.9-3 names vectors that probe other rules too)."""
+    for slug, rules in table.items():
+        VECTOR_RULES[slug] = tuple(sorted(set(VECTOR_RULES.get(slug, ())) | set(rules),
+                                          key=_rule_key))
+
+
+_merge_rules(SETTLED_VECTOR_RULES)
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -4155,6 +4333,7 @@ BUILDERS = (
     range_gap_vectors,                        # §4.13, §4.14 Range columns (audit)
     contract_gap_vectors,                     # rate, units, names kept (runner QA, stop 53)
     deflate_vectors,                          # §4.13 valid DEFLATE as zlib reads it (stop 70)
+    settled_text_vectors,                     # §1, §4.13.2, §4.13.4, §4.14 text of stop 70
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
