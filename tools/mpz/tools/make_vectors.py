@@ -4205,8 +4205,9 @@ def settled_text_vectors(vs: VectorSet):
     empty = _c3d_rebuild(good, "cprm", count=len(recs), records=recs)
     vs.valid("uncommon", _numbered(vs, "u", "cprm-dims-255-255-0"), empty,
              "a cprm whose last record is a float32 parameter (POINT:EMPTY) of dims 255, 255, "
-             "0 and no data: n = 4 x 255 x 255 x 0 = 0, though the product passes the bytes "
-             "left (and 2^17) after two factors", _c3d_features(empty), c3d_secs,
+             "0 and no data: n = 4 x 255 x 255 x 0 = 0, though the product formed one dim at a "
+             "time passes the bytes left (none) at the first factor and 2^17 at the second",
+             _c3d_features(empty), c3d_secs,
              "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0), a cprm "
              "record appended")
     recs = (*prm.records,
