@@ -311,28 +311,49 @@ INDEPENDENT_C3D_FILES = {
         "c2e3d84bed9eb2d559a5bc33aea3b8611b4c026e6f896d7546bfd232ac1be0eb",
     "u46-c3d-analog-shift-minus-128":
         "6f6b2b9eb8497165a8a7360094c51a69436ca2e010d028af6ce52dcc9b6ea6f8",
+    # u41's header and parameters, deflated otherwise (test_deflate_streams.py checks that
+    # each inflates to u41's content): the independent writer's file of u41
+    "u48-cprm-deflate-padding-ones":
+        "bffde36e04e54338abc769fd00019ed14db7d526a3ac08b50f6e0ecfe72f0d65",
+    "u49-chdr-deflate-one-distance-code":
+        "bffde36e04e54338abc769fd00019ed14db7d526a3ac08b50f6e0ecfe72f0d65",
+    "u50-cprm-deflate-no-distance-codes":
+        "bffde36e04e54338abc769fd00019ed14db7d526a3ac08b50f6e0ecfe72f0d65",
+}
+
+#: The same for the C3D vectors added after that review (stop 70): the reference's digests,
+#: pinned so that a change shows, until an independent writer makes these files too.
+REFERENCE_C3D_FILES = {
+    "u51-cprm-dims-255-255-0":
+        "cfc2bc60fe6cce13f8be11c3884d9211626ab9a7802cc7a73d3d501695ef28cd",
+    "u52-cprm-group-128-non-ascii":
+        "170d2680e4393a507242087903dd2465db3628fc228858604758032e79d1dfb4",
+    "u53-c3d-cana-float32-cpnt-int16":
+        "f2e47e4dd71ead926adba3987328367119a3daed419a7b9301d54dfc9806378d",
 }
 
 
 def test_c3d_file_digests_are_an_independent_writers_and_the_references():
     """Nothing pinned the bytes of the C3D that §6.9 writes (a clean-room review of stop 53):
     ``features.c3d_file_sha256`` of every C3D vector is the digest of an independent
-    writer's file, and ``mpz.io.write_c3d`` of the decoded vector writes those bytes."""
+    writer's file (or, for the vectors in ``REFERENCE_C3D_FILES``, the reference's, pinned),
+    and ``mpz.io.write_c3d`` of the decoded vector writes those bytes."""
     import hashlib
 
     from mpz.io.c3d import archive_bytes
+    pinned = {**INDEPENDENT_C3D_FILES, **REFERENCE_C3D_FILES}
     with_file = {Path(v["file"]).stem: v for v in DECODABLE
                  if "c3d_file_sha256" in v["features"]}
-    assert set(with_file) == set(INDEPENDENT_C3D_FILES)
+    assert set(with_file) == set(pinned)
     assert set(with_file) == {Path(v["file"]).stem for v in DECODABLE
                               if "c3d_archive_sha256" in v["features"]}
     for stem, v in with_file.items():
-        assert v["features"]["c3d_file_sha256"] == INDEPENDENT_C3D_FILES[stem], (
+        assert v["features"]["c3d_file_sha256"] == pinned[stem], (
             f"{stem}: the C3D written from this vector is no longer the pinned one; after an "
             f"intended encoder change that regenerated the vectors, see conformance/README.md "
             f"'Regenerating the vectors' (INDEPENDENT_C3D_FILES)")
         written = archive_bytes(mpz.decode(VDIR / v["file"]))
-        assert hashlib.sha256(written).hexdigest() == INDEPENDENT_C3D_FILES[stem], stem
+        assert hashlib.sha256(written).hexdigest() == pinned[stem], stem
 
 
 def test_a_manifest_nested_too_deeply_is_a_manifest_error(tmp_path):

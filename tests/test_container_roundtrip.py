@@ -22,7 +22,14 @@ def test_parse_build_roundtrip(path):
     for c in chunks:
         if c.record is not None:
             # the payload rebuilt from its typed record (not its raw bytes) is identical
-            assert c.record.dump() == c.payload, c.type
+            rebuilt = c.record.dump()
+            if rebuilt != c.payload and c.type in ("chdr", "cprm") and c.record.coding == 1:
+                # §4.13: any valid DEFLATE stream; the record keeps the content, and dump()
+                # deflates it as the reference does, so a stream the reference does not
+                # write (u48-u50) comes back as another stream of the same content
+                assert type(c.record).load(rebuilt) == c.record, c.type
+                continue
+            assert rebuilt == c.payload, c.type
 
 
 def test_a_vector_uses_every_chunk_type():

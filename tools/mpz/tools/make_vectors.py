@@ -29,6 +29,7 @@ import math
 from pathlib import Path
 import struct
 import sys
+from typing import NamedTuple
 
 import numpy as np
 
@@ -3969,6 +3970,351 @@ RANGE_GAP_VECTOR_RULES = _rules(
 )
 VECTOR_RULES.update(RANGE_GAP_VECTOR_RULES)
 
+
+# ------------------------------------ §4.13 DEFLATE as zlib reads it (spec of stop 70) --
+class DeflateCase(NamedTuple):
+    """One crafted chdr or cprm stream of :func:`deflate_streams`: the chunk it stands in
+    (``chunk``), the stream, and zlib's message for it (``zlib_error``, None for a valid
+    stream). For an invalid stream, ``twin`` is the same stream with the one fault undone,
+    which zlib inflates to the content: what shows that nothing else is wrong with it."""
+
+    chunk: str
+    stream: bytes
+    zlib_error: str | None
+    twin: bytes | None
+    description: str
+    corruption: str
+    risk: str
+
+
+def deflate_streams(section: bytes, block: bytes) -> dict[str, DeflateCase]:
+    """Raw DEFLATE streams written bit by bit (:mod:`mpz.tools.deflate_bits`) for spec
+    §4.13's list of what is not valid DEFLATE (R-4.13-3) and of what is (R-4.13-5), by
+    vector slug: ``section`` is a cprm content, ``block`` a chdr content (512 bytes).
+    conformance/test_deflate_streams.py checks each against zlib and against the frozen
+    vectors."""
+    from mpz.tools import deflate_bits as db
+
+    def dynamic(tokens, litlen=db.FULL_LITLEN, dist=db.FULL_DIST, **kw) -> bytes:
+        bw = db.BitWriter()
+        db.dynamic_block(bw, tokens, litlen, dist, final=True, **kw)
+        return bw.finish()
+
+    def fixed(tokens) -> bytes:
+        bw = db.BitWriter()
+        db.fixed_block(bw, tokens, final=True)
+        return bw.finish()
+
+    ts, tb = db.lz77(section), db.lz77(block)
+    assert db.inflated(ts) == section and db.inflated(tb) == block
+    out = {}
+    # HDIST = 30: a 31st distance code length (0), the 30 before it a complete code
+    out["cprm-deflate-hdist-30"] = DeflateCase(
+        "cprm", dynamic(ts, dist=db.FULL_DIST + (0,)), "too many length or distance symbols",
+        dynamic(ts), "a cprm stream of one dynamic block with HDIST = 30 (31 distance code "
+        "lengths, the last 0); the rest is a valid stream of the content",
+        "dynamic block, HDIST 30: the 30 codes of a complete distance code and a length 0",
+        "RFC 1951's field counts up to 32 distance codes: a decoder that takes the RFC's "
+        "word accepts a stream zlib, and so the reference, refuses (§4.13)")
+    # an incomplete literal/length code: one 9-bit code the data never uses left out
+    lit, _ = db.symbols_used(tb)
+    gone = max(s for s in range(286) if db.FULL_LITLEN[s] == 9 and s not in lit)
+    short = list(db.FULL_LITLEN)
+    short[gone] = 0
+    out["chdr-deflate-litlen-incomplete"] = DeflateCase(
+        "chdr", dynamic(tb, litlen=short), "invalid literal/lengths set", dynamic(tb),
+        f"a chdr stream of one dynamic block whose literal/length code is incomplete: 285 "
+        f"codes of 8 and 9 bits, symbol {gone}'s 9-bit code left out (sum 2^-length = "
+        f"1 - 2^-9); the data uses only symbols that have a code",
+        f"dynamic block, literal/length length of symbol {gone} 9 -> 0",
+        "a decoder that builds its tables without the completeness check decodes the file; "
+        "the reference (zlib) refuses it, so two decoders disagree on its validity")
+    # a fixed block whose first back-reference has distance symbol 30
+    i, m = next((k, t) for k, t in enumerate(ts) if isinstance(t, db.Match))
+    lsym, lext, lbits = db.length_code(m.length)
+    dsym, dext, dbits = db.distance_code(m.distance)
+    bad = [*ts[:i], db.Raw("litlen", lsym, lext, lbits), db.Raw("dist", 30, dext, dbits),
+           *ts[i + 1:]]
+    out["cprm-deflate-fixed-distance-30"] = DeflateCase(
+        "cprm", fixed(bad), "invalid distance code", fixed(ts),
+        f"a cprm stream of one fixed-code block whose first back-reference (length "
+        f"{m.length}, distance {m.distance}: symbol {dsym}) is written with distance symbol "
+        f"30, its extra bits kept", f"fixed block, distance symbol {dsym} -> 30 (5 bits "
+        f"11110) at the first match",
+        "the fixed code has 5-bit codes for distance symbols 30 and 31, which mean nothing: "
+        "a decoder that indexes a 30-entry table with them reads past it")
+    # code lengths that start with 16 (repeat the previous length: there is none); the
+    # block's code gives symbols 0-2 no code, so a decoder that takes 'previous' as 0 reads
+    # the complete code it describes
+    ll = (0, 0, 0) + (8,) * 229 + (9,) * 54
+    seq = db.code_length_symbols(ll + db.FULL_DIST)
+    assert seq[0] == (17, 0)
+
+    def two_blocks(first) -> bytes:
+        bw = db.BitWriter()
+        db.fixed_block(bw, ts, final=False)
+        db.dynamic_block(bw, [], ll, db.FULL_DIST, final=True, cl_sequence=first + seq[1:])
+        return bw.finish()
+
+    out["cprm-deflate-lengths-start-with-16"] = DeflateCase(
+        "cprm", two_blocks([(16, 0)]), "invalid bit length repeat", two_blocks([(17, 0)]),
+        "a cprm stream of a fixed-code block holding the content, then a final dynamic block "
+        "holding no data whose code lengths start with 16 (copy the previous length 3 "
+        "times), where no length precedes", "second block's first code length symbol 17 "
+        "(3 zeros) -> 16 (3 copies of the previous length)",
+        "a decoder that takes the missing previous length as 0 (or reads lens[-1]) reads "
+        "a valid empty block")
+    # valid: nonzero bits after the final block, one distance code of one bit, none at all
+    pad = db.BitWriter()
+    db.dynamic_block(pad, ts, db.FULL_LITLEN, db.FULL_DIST, final=True)
+    unused = -pad.bit_length % 8
+    assert unused
+    out["cprm-deflate-padding-ones"] = DeflateCase(
+        "cprm", pad.finish(fill=True), None, None,
+        f"a cprm stream of one dynamic block whose last byte ends with {unused} bits after "
+        f"the end of block, all 1 (zlib writes 0): §4.13 does not check them", "", "")
+    td = db.lz77(block, distances=(1,))
+    assert db.symbols_used(td)[1] == {0}
+    runs = sum(isinstance(t, db.Match) for t in td)
+    out["chdr-deflate-one-distance-code"] = DeflateCase(
+        "chdr", dynamic(td, dist=(1,)), None, None,
+        f"a chdr stream of one dynamic block whose distance code is one code of 1 bit "
+        f"(HDIST 0, distance symbol 0: distance 1), which {runs} "
+        f"back-references use (runs of a byte): an incomplete code that RFC 1951 "
+        f"section 3.2.7 allows", "", "")
+    out["cprm-deflate-no-distance-codes"] = DeflateCase(
+        "cprm", dynamic(list(section), dist=(0,)), None, None,
+        "a cprm stream of one dynamic block without distance codes (HDIST 0, its one length "
+        "0): every byte a literal, as RFC 1951 section 3.2.7 allows", "", "")
+    return out
+
+
+@functools.cache
+def _c3d_coding_base() -> bytes:
+    """The archive of c3d_coding_vectors (c3d_motion(74)), encoded once."""
+    return encode_within(c3d_motion(74, storage=1, F=8, M=3, J=1, C=1, n=2), max_error=1.0)
+
+
+def deflate_vectors(vs: VectorSet):
+    """§4.13's list of what valid DEFLATE is (the spec text of stop 70): one invalid file
+    per kind of stream zlib refuses that RFC 1951 leaves open or that zlib never writes,
+    and one uncommon file per kind of stream it accepts that the reference encoder never
+    writes, each in the archive of c3d_coding_vectors with one chdr or cprm body replaced.
+    A builder of its own, last, so that the vectors before it keep their numbers."""
+    import dataclasses
+
+    from mpz.chunks import Chdr, Cprm
+    good = _c3d_coding_base()
+    ch = _c3d_chunks(good)
+    hdr = Chdr.load(bytes(next(p for t, p in ch if t == "chdr")))
+    prm = Cprm.load(bytes(next(p for t, p in ch if t == "cprm")))
+    section = dataclasses.replace(prm, coding=0).dump()[1:]
+    head = {"chdr": bytes([hdr.processor, 1]), "cprm": b"\1"}
+    cases = deflate_streams(section, hdr.block)
+    for slug, c in cases.items():
+        data = assemble([[t, head[t] + c.stream if t == c.chunk else p] for t, p in ch])
+        sec = "§4.13.1" if c.chunk == "chdr" else "§4.13.2"
+        if c.zlib_error is not None:
+            vs.invalid(_numbered(vs, "x", slug), data, c.description, c.corruption, c.risk,
+                       "FormatError", ["§4.13", sec])
+    for slug, c in cases.items():
+        if c.zlib_error is None:
+            data = assemble([[t, head[t] + c.stream if t == c.chunk else p] for t, p in ch])
+            vs.valid("uncommon", _numbered(vs, "u", slug), data, c.description,
+                     _c3d_features(data), ["§2.1", "§2.3", "§4.13", "§6.9"],
+                     f"make_vectors.c3d_motion(74) -> mpz.encode(max_error=1.0), the {c.chunk} "
+                     f"body written by make_vectors.deflate_streams (mpz.tools.deflate_bits)")
+
+
+#: the §7.4 rules the DEFLATE vectors probe (merged into VECTOR_RULES)
+DEFLATE_VECTOR_RULES = _rules(
+    ("R-4.13-3", "cprm-deflate-hdist-30 chdr-deflate-litlen-incomplete "
+                 "cprm-deflate-fixed-distance-30 cprm-deflate-lengths-start-with-16"),
+    ("R-4.13-5", "cprm-deflate-padding-ones chdr-deflate-one-distance-code "
+                 "cprm-deflate-no-distance-codes"),
+)
+VECTOR_RULES.update(DEFLATE_VECTOR_RULES)
+
+
+def _bytes_swapped(data: bytes, ctype: str, fake: bytes, real: bytes) -> bytes:
+    """``data`` with the bytes ``fake`` (once in the ``ctype`` payload) replaced by ``real``
+    of the same length, CRCs recomputed: a string the record classes cannot hold (bytes
+    that are not UTF-8), written over a placeholder they built."""
+    from mpz.container import scan
+    assert len(fake) == len(real)
+    out = []
+    for c in scan(data).chunks:
+        p = bytes(c.payload)
+        if c.type == ctype:
+            assert p.count(fake) == 1, (ctype, fake)
+            p = p.replace(fake, real)
+        out.append((c.type, p))
+    return assemble(out)
+
+
+def settled_text_vectors(vs: VectorSet):
+    """What the spec text of stop 70 settled and no vector showed: strings that are not
+    UTF-8 in a skeleton chunk (§1), a cprm record of dims 255, 255, 0 and one of group id
+    128 with bytes outside ASCII (§4.13.2), a cana whose storage is not cpnt's (§4.13.4), a
+    skeleton whose joint names and parents are not MNAM's and HIER's (§4.14), ASF bones
+    with a reversed limit, a length <= 0 and a zero direction (§4.14.2). Each edits one
+    good file of the builders above. A builder of its own, last, so that the vectors
+    before it keep their numbers."""
+    import dataclasses
+
+    from mpz.chunks import Cprm
+    from mpz.chunks.c3d import Param
+    from mpz.io.amc import parse_amc, parse_asf
+
+    # -- invalid: strings that are not UTF-8, the CRC recomputed
+    bvh = _bvhs_base()
+    brec = _skeleton_record(bvh)
+    assert brec.encoding == 0 and brec.joints[0].name == "Hips"
+    joints = list(brec.joints)
+    joints[0] = dataclasses.replace(joints[0], name="HQfte")
+    latin = _bytes_swapped(_skeleton_rebuild(bvh, joints=tuple(joints), encoding=1), "bvhs",
+                           b"\x05HQfte", b"\x05H\xfcfte")
+    vs.invalid(_numbered(vs, "x", "bvhs-name-latin-1"), latin,
+               "a bvhs whose encoding is 1 (Latin-1) and whose joint 0 is named with the "
+               "Latin-1 bytes 48 FC 66 74 65 (Hüfte), not UTF-8",
+               "encoding 0 -> 1; joint 0 name 'Hips' -> bytes 48 FC 66 74 65",
+               "a decoder that reads the names as `encoding` says (or does not check them) "
+               "accepts a string the format stores only as UTF-8 (§1)", "FormatError",
+               ["§1", "§4.14.1"])
+    amc = _asfs_base()
+    arec = _skeleton_record(amc)
+    assert arec.encoding == 0
+    fake = " ein synthetisches Skelett (fQr make_vectors)"
+    comments = _bytes_swapped(_skeleton_rebuild(amc, comments=fake), "asfs", fake.encode(),
+                              fake.encode().replace(b"fQr", b"f\xfcr"))
+    vs.invalid(_numbered(vs, "x", "asfs-comments-latin-1"), comments,
+               "an asfs (encoding 0, UTF-8) whose informative comments str16 holds the "
+               "Latin-1 byte FC (f\\xfcr), not UTF-8",
+               "comments -> ' ein synthetisches Skelett (f\\xfcr make_vectors)' as Latin-1",
+               "a decoder that skips the checks of informative fields accepts a string the "
+               "format stores only as UTF-8 (§1: the file is rejected, the chunk is not "
+               "skipped)", "FormatError", ["§1", "§4.14.2"])
+
+    # -- uncommon: cprm records (the float32 archive of v-c3d-archive-float32)
+    good = _c3d_float_base()
+    prm = Cprm.load(next(p for t, p in _c3d_chunks(good) if t == "cprm"))
+    c3d_secs = ["§2.1", "§2.3", "§4.13", "§4.13.2", "§6.9"]
+    recs = (*prm.records, Param(group=1, locked=0, name=b"EMPTY",
+                                description=b"no values: 255 x 255 x 0", type=4,
+                                dims=bytes([255, 255, 0]), data=b""))
+    empty = _c3d_rebuild(good, "cprm", count=len(recs), records=recs)
+    vs.valid("uncommon", _numbered(vs, "u", "cprm-dims-255-255-0"), empty,
+             "a cprm whose last record is a float32 parameter (POINT:EMPTY) of dims 255, 255, "
+             "0 and no data: n = 4 x 255 x 255 x 0 = 0, though the product formed one dim at a "
+             "time passes the bytes left (none) at the first factor and 2^17 at the second",
+             _c3d_features(empty), c3d_secs,
+             "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0), a cprm "
+             "record appended")
+    recs = (*prm.records,
+            Param(group=-128, locked=0, name=b"ZUS\xc4TZE",
+                  description="Zusätze, gemessen am 3. März".encode()),
+            Param(group=3, locked=0, name=b"DUR\xc9E", description="durée (s)".encode(),
+                  type=4, dims=b"", data=struct.pack("<f", 1.5)))
+    g128 = _c3d_rebuild(good, "cprm", count=len(recs), records=recs)
+    vs.valid("uncommon", _numbered(vs, "u", "cprm-group-128-non-ascii"), g128,
+             "a cprm with a group record of id 128 (group = -128) named with the Latin-1 "
+             "bytes ZUS C4 TZE and a UTF-8 description, and an EVENT parameter named DUR C9 E "
+             "(Latin-1) with a UTF-8 description: bytes outside ASCII are kept as stored",
+             _c3d_features(g128), c3d_secs,
+             "make_vectors.c3d_motion(71, storage=1) -> mpz.encode(max_error=1.0), two cprm "
+             "records appended")
+    # -- uncommon: cpnt int16, cana float32
+    mc = c3d_motion(76, storage=0, J=1, C=2, n=2)
+    a = mc.extras["c3d"]
+    T = a.analog.shape[0]
+    rng = np.random.default_rng(76)
+    an = np.zeros((T, 2), "<f4")
+    an[:, 0] = rng.integers(-3000, 3000, T) * 2.0 ** -15
+    an[:, 1] = np.where(np.arange(T) % 5 == 0, -0.0,
+                        np.cumsum(rng.normal(0, 1, T))).astype("<f4")
+    mc.extras["c3d"] = dataclasses.replace(a, analog=an, analog_storage=1)
+    mixed = mpz.encode(mc)
+    got = {c[0]: c[1] for c in _c3d_chunks(mixed)}
+    assert (got["cpnt"][0], got["cana"][0]) == (0, 1)
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-cana-float32-cpnt-int16"), mixed,
+             "a C3D archive whose points are int16 (cpnt storage 0) and whose analog words "
+             "are float32 (cana storage 1), which no C3D file holds: each chunk's words "
+             "decode by its own storage, and a writer writes float32 (cana is not int16)",
+             _c3d_features(mixed), ["§2.1", "§2.3", "§4.13", "§4.13.3", "§4.13.4", "§6.9"],
+             "make_vectors.c3d_motion(76, storage=0, J=1, C=2, n=2), analog replaced by "
+             "float32 words (analog_storage 1) -> mpz.encode()")
+
+    # -- uncommon: a skeleton that MNAM and HIER do not describe (the ASF of
+    # v-asfs-synthetic-default, encoded with HIER = its bone tree)
+    sk_secs = ["§2.1", "§2.3", "§4.14", "§4.14.2", "§6.10"]
+    tree = mpz.encode(parse_amc(_skeleton_amc_text(), parse_asf(_SKELETON_ASF),
+                                source="synthetic_01.amc"), hierarchy="skeleton")
+    tb = list(_skeleton_record(tree).bones)
+    assert [x.name for x in tb] == ["lhip", "lfemur", "ltibia", "back"]
+    renamed = list(tb)
+    renamed[1] = dataclasses.replace(tb[1], name="lthigh")
+    names = _skeleton_rebuild(tree, bones=tuple(renamed))
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-names-other-than-mnam"), names,
+             "an asfs whose bone 1 (joint 2) is named lthigh where MNAM names marker 2 "
+             "lfemur: nothing ties the names together", _skeleton_features(names), sk_secs,
+             "make_vectors._SKELETON_ASF, _skeleton_amc_text() -> parse_amc -> "
+             "mpz.encode(hierarchy='skeleton'), bone 1 renamed")
+    assert tb[2].parent == 2
+    moved = list(tb)
+    moved[2] = dataclasses.replace(tb[2], parent=0)
+    parents = _skeleton_rebuild(tree, bones=tuple(moved))
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-parents-other-than-hier"), parents,
+             "a file whose HIER is the ASF's bone tree (one node a marker, the reference "
+             "encoder's hierarchy='skeleton'), with bone ltibia (joint 3) under the root in "
+             "the asfs where HIER puts marker 3's node under marker 2's (lfemur): nothing "
+             "ties the trees together", _skeleton_features(parents), sk_secs,
+             "make_vectors._SKELETON_ASF, _skeleton_amc_text() -> parse_amc -> "
+             "mpz.encode(hierarchy='skeleton'), bone 2's parent joint 2 -> 0")
+
+    # -- uncommon: ASF values that §4.14.2 does not check
+    bones = list(arec.bones)
+    assert bones[1].limits[0] == (-160.0, 20.0)
+    bones[0] = dataclasses.replace(bones[0], length=0.0)
+    bones[1] = dataclasses.replace(bones[1], limits=((20.0, -160.0), *bones[1].limits[1:]))
+    bones[2] = dataclasses.replace(bones[2], length=-7.2)
+    bones[3] = dataclasses.replace(bones[3], direction=(0.0, 0.0, 0.0))
+    odd = _skeleton_rebuild(amc, bones=tuple(bones))
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-limit-reversed-lengths-0-and-negative-"
+                                        "direction-0"), odd,
+             "an asfs whose bone lfemur has the limit (20, -160) (low above high), lhip the "
+             "length 0, ltibia the length -7.2 and back the direction (0, 0, 0): none is "
+             "checked", _skeleton_features(odd), ["§2.1", "§2.3", "§4.14", "§4.14.2", "§6.10"],
+             "make_vectors.skeleton_vectors' v-asfs file, four bone fields changed by hand")
+
+
+#: the §7.4 rules the vectors of stop 70 probe (merged into VECTOR_RULES)
+SETTLED_VECTOR_RULES = _rules(
+    ("R-4.14.1-1", "bvhs-name-latin-1"),
+    ("R-4.14.2-1", "asfs-comments-latin-1"),
+    ("R-4.13.2-3", "cprm-dims-255-255-0 cprm-group-128-non-ascii"),
+    ("R-4.13.4-3", "c3d-cana-float32-cpnt-int16"),
+    ("R-4.14-5", "asfs-names-other-than-mnam asfs-parents-other-than-hier"),
+    ("R-4.14.2-2", "asfs-limit-reversed-lengths-0-and-negative-direction-0"),
+    # every C3D vector whose features record c3d_file_sha256 (§7.3) but those of
+    # deflate_vectors, whose archive is u41's: the writer's output is the same
+    ("R-6.9-3", "c3d-archive-float32 c3d-int16-exact-on-grid c3d-no-analog-no-models "
+                "c3d-stored-header-and-parameters c3d-header-counts-stale "
+                "c3d-analog-shift-minus-128 cprm-dims-255-255-0 cprm-group-128-non-ascii "
+                "c3d-cana-float32-cpnt-int16"),
+    ("R-6.9-2", "c3d-cana-float32-cpnt-int16"),
+)
+
+
+def _merge_rules(table: dict) -> None:
+    """Add ``table``'s rules to :data:`VECTOR_RULES`, keeping the rules a slug already has
+    (``update`` would replace them: R-6.9-3 names vectors that probe other rules too)."""
+    for slug, rules in table.items():
+        VECTOR_RULES[slug] = tuple(sorted(set(VECTOR_RULES.get(slug, ())) | set(rules),
+                                          key=_rule_key))
+
+
+_merge_rules(SETTLED_VECTOR_RULES)
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -3987,6 +4333,8 @@ BUILDERS = (
     mutation_gap_vectors,                     # checks no vector isolated (mutation run)
     range_gap_vectors,                        # §4.13, §4.14 Range columns (audit)
     contract_gap_vectors,                     # rate, units, names kept (runner QA, stop 53)
+    deflate_vectors,                          # §4.13 valid DEFLATE as zlib reads it (stop 70)
+    settled_text_vectors,                     # §1, §4.13.2, §4.13.4, §4.14 text of stop 70
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
