@@ -4315,6 +4315,102 @@ def _merge_rules(table: dict) -> None:
 
 _merge_rules(SETTLED_VECTOR_RULES)
 
+@functools.cache
+def _asfs_small() -> bytes:
+    """The ASF of v-asfs-synthetic-default with an AMC of 4 frames (reference encoder
+    defaults): the smallest skeleton file the builders make, for the vectors of
+    :func:`unprobed_accept_vectors` (conformance/vectors is held under 3 MiB)."""
+    from mpz.io.amc import parse_amc, parse_asf
+    return mpz.encode(parse_amc(_skeleton_amc_text(F=4), parse_asf(_SKELETON_ASF),
+                                source="synthetic_01.amc"))
+
+
+def unprobed_accept_vectors(vs: VectorSet):
+    """Skeleton files that §1.3, §4.14, §4.14.1 and §4.14.2 call valid and that no vector
+    showed, so that a decoder rejecting them passed the suite: position_bound -0.0, a bvhs
+    frame_time other than 1 / MHDR.rate, U+0000 and other control characters in the asfs
+    text fields that allow them, and a skeleton chunk in a file marked 1.0. Each edits one
+    field of a 4-frame file (the vectors are held under 3 MiB). A builder of its own,
+    last, so that the vectors before it keep their numbers."""
+    import dataclasses
+    import struct
+
+    from mpz.chunks import Mhdr
+    from mpz.container import scan
+    from mpz.io.bvh import parse_bvh
+
+    small = _asfs_small()
+    rec = _skeleton_record(small)
+    prov = ("make_vectors._SKELETON_ASF, _skeleton_amc_text(F=4) -> parse_amc -> "
+            "mpz.encode()")
+    asf_secs = ["§2.1", "§2.3", "§4.14", "§4.14.2", "§6.10"]
+
+    # -- §1.3: "≥ 0" is a comparison, and -0.0 passes it
+    neg = _skeleton_rebuild(small, position_bound=-0.0)
+    assert struct.pack("<d", _skeleton_record(neg).position_bound) == b"\0" * 7 + b"\x80"
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-position-bound-negative-zero"), neg,
+             "an asfs whose channel layer declares position_bound -0.0 (bytes 00 .. 00 80): "
+             "finite and >= 0 by comparison, as §1.3 says (the sign bit is not tested), a "
+             "bound of zero (none declared)", _skeleton_features(neg), ["§1.3", *asf_secs],
+             prov + ", position_bound -> -0.0")
+
+    # -- §4.14.1: frame_time is not checked against MHDR.rate
+    bvh = mpz.encode(parse_bvh(_skeleton_bvh_text(F=4), source="synthetic.bvh"))
+    assert mpz.info(bvh).rate == 30.0
+    ft = _skeleton_rebuild(bvh, frame_time=0.5)
+    vs.valid("uncommon", _numbered(vs, "u", "bvhs-frame-time-not-rate"), ft,
+             "a bvhs whose frame_time is 0.5 s (2 Hz) in a file whose MHDR.rate is 30 Hz: "
+             "frame_time is not checked against MHDR.rate (§4.14.1); the marker layer "
+             "decodes at MHDR.rate", _skeleton_features(ft),
+             ["§2.1", "§2.3", "§4.14", "§4.14.1", "§6.10"],
+             "make_vectors._skeleton_bvh_text(F=4) -> parse_bvh -> mpz.encode(), frame_time "
+             "0.0333333 -> 0.5")
+
+    # -- §1, §4.14.2: U+0000 and the control characters are valid code points
+    ctl = "\x00\x01\x1b\x7f\x9f"
+    texts = dict(mass=rec.mass + ctl, version=rec.version + ctl, name=rec.name + ctl,
+                 documentation=rec.documentation + ctl + "\r\n\x00",
+                 comments=rec.comments + ctl + "\r",
+                 amc_header=rec.amc_header + "\n" + ctl + "\r")
+    ctrl = _skeleton_rebuild(small, **texts)
+    got = _skeleton_record(ctrl)
+    assert all(getattr(got, k) == v for k, v in texts.items())
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-texts-nul-and-controls"), ctrl,
+             "an asfs whose mass, version and name end with U+0000, U+0001, U+001B, U+007F "
+             "and U+009F, and whose documentation, comments and amc_header hold those and "
+             "U+000D (documentation also U+0000 after a line feed): only mass, version and "
+             "name refuse U+000A and U+000D, every other code point passes (§1, §4.14.2)",
+             _skeleton_features(ctrl), ["§1", *asf_secs],
+             prov + ", control characters appended to the six text fields")
+
+    # -- §2.1, §4.14: a skeleton chunk in a file marked 1.0
+    chunks = []
+    for c in scan(small).chunks:
+        if isinstance(c.record, Mhdr):
+            assert c.record.version_minor == 1
+            chunks.append((c.type, dataclasses.replace(c.record, version_minor=0).dump()))
+        else:
+            chunks.append((c.type, c.payload))
+    old = assemble(chunks)
+    head = scan(old).chunks[0].record
+    assert isinstance(head, Mhdr) and head.version_minor == 0
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-in-file-marked-1.0"), old,
+             "an asfs in a file whose MHDR says version 1.0 (version_minor 0): an encoder "
+             "should write 1.1, but a decoder accepts any minor version (§2.1), decodes the "
+             "skeleton chunk as a 1.1 decoder (validity is judged by the decoder's minor "
+             "version, not the file's) and a 1.0 decoder skips it", _skeleton_features(old),
+             asf_secs, prov + ", MHDR version_minor 1 -> 0")
+
+
+#: the §7.4 accept rules the vectors of :func:`unprobed_accept_vectors` probe
+UNPROBED_ACCEPT_VECTOR_RULES = _rules(
+    ("R-4.14-4", "asfs-position-bound-negative-zero"),
+    ("R-4.14.1-2", "bvhs-frame-time-not-rate"),
+    ("R-4.14.2-2", "asfs-texts-nul-and-controls"),
+    ("R-2.1-2 R-4.14-6", "asfs-in-file-marked-1.0"),
+)
+_merge_rules(UNPROBED_ACCEPT_VECTOR_RULES)
+
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 BUILDERS = (
@@ -4335,6 +4431,7 @@ BUILDERS = (
     contract_gap_vectors,                     # rate, units, names kept (runner QA, stop 53)
     deflate_vectors,                          # §4.13 valid DEFLATE as zlib reads it (stop 70)
     settled_text_vectors,                     # §1, §4.13.2, §4.13.4, §4.14 text of stop 70
+    unprobed_accept_vectors,                  # §1.3, §4.14 accept text no vector showed
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
