@@ -4401,12 +4401,25 @@ def unprobed_accept_vectors(vs: VectorSet):
              "version, not the file's) and a 1.0 decoder skips it", _skeleton_features(old),
              asf_secs, prov + ", MHDR version_minor 1 -> 0")
 
+    # -- §1: encoding 1 (Latin-1) tells a writer how to write; the chunk holds UTF-8 text
+    wide = rec.name + " \u0141\u00f3d\u017a \u2713"
+    beyond = _skeleton_rebuild(small, encoding=1, name=wide)
+    got = _skeleton_record(beyond)
+    assert got.encoding == 1 and got.name == wide
+    vs.valid("uncommon", _numbered(vs, "u", "asfs-latin-1-encoding-text-beyond-latin-1"),
+             beyond,
+             "an asfs whose encoding is 1 (Latin-1) and whose :name holds U+0141, U+017A and "
+             "U+2713, which Latin-1 cannot encode: the strings are UTF-8 whatever encoding "
+             "says, and the file is valid; a writer then writes the ASF in UTF-8 (§1)",
+             _skeleton_features(beyond), ["§1", *asf_secs],
+             prov + ", encoding 0 -> 1, characters beyond U+00FF appended to :name")
+
 
 #: the §7.4 accept rules the vectors of :func:`unprobed_accept_vectors` probe
 UNPROBED_ACCEPT_VECTOR_RULES = _rules(
     ("R-4.14-4", "asfs-position-bound-negative-zero"),
     ("R-4.14.1-2", "bvhs-frame-time-not-rate"),
-    ("R-4.14.2-2", "asfs-texts-nul-and-controls"),
+    ("R-4.14.2-2", "asfs-texts-nul-and-controls asfs-latin-1-encoding-text-beyond-latin-1"),
     ("R-2.1-2 R-4.14-6", "asfs-in-file-marked-1.0"),
 )
 _merge_rules(UNPROBED_ACCEPT_VECTOR_RULES)
