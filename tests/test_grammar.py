@@ -347,6 +347,40 @@ def test_compiled_builder_leaves_every_error_to_construct(grammar, obj):
     assert str(got.value) == str(want.value)
 
 
+_u8 = construct.Int8ul
+_NESTED = [     # constructs the builder writes as a loop, a sub-stream or a top level
+    construct.Struct("n" / _u8, "xs" / construct.Array(construct.this.n, construct.Struct(
+        "a" / _u8, "b" / construct.Prefixed(_u8, construct.GreedyBytes)))),
+    construct.Struct("p" / construct.Prefixed(_u8, construct.Struct(
+        "a" / construct.Int16ul, "rest" / construct.PascalString(_u8, "utf8"))), "z" / _u8),
+    construct.Array(2, construct.Struct("a" / _u8, "b" / construct.Int16ul)),
+    construct.Prefixed(construct.Int16ul, construct.Array(2, construct.Struct("a" / _u8))),
+]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.tuples(st.integers(-1, 256), st.binary(max_size=3)), max_size=3),
+       st.integers(-1, 3), st.integers(-1, 0x10000), st.text(max_size=3), st.integers(-1, 256))
+def test_compiled_builder_agrees_with_construct_on_nested_constructs(items, n, a, text, z):
+    """Arrays of records, Prefixed records and grammars that are not Structs, on values in
+    and out of range and counts that disagree: construct's bytes, or construct's error
+    (stop 71)."""
+    from mpz.chunks import _build
+    objs = [dict(n=n, xs=[dict(a=x, b=b) for x, b in items]),
+            dict(p=dict(a=a, rest=text), z=z),
+            [dict(a=x, b=a) for x, _ in items],
+            [dict(a=x) for x, _ in items]]
+    for grammar, obj in zip(_NESTED, objs, strict=True):
+        try:
+            want = bytes(grammar.build(obj))
+        except Exception as exc:
+            assert _build.fast_path(grammar, obj) is None, (grammar, obj)
+            with pytest.raises(type(exc)):
+                _build.build(grammar, obj)
+        else:
+            assert _build.fast_path(grammar, obj) == want, (grammar, obj)
+
+
 _u16 = st.integers(-2, 0x10001)
 
 
@@ -510,6 +544,22 @@ def test_compiled_parser_gives_up_on_every_short_field():
         (construct.Struct("x" / construct.Int32ul, "y" / construct.Int16ul),
          b"\x01\x02\x03\x04\x05\x06"),
         (construct.Struct("n" / u8, "s" / construct.PascalString(u8, "utf8")), b"\x00\x02\xc3\xa9"),
+        # a loop over items that are not numbers, and a Prefixed's own stream: a Struct
+        # inside reads up to its end (GreedyBytes, Terminated) or stops short of it, and
+        # the next field starts after it either way (stop 71)
+        (construct.Struct("n" / u8, "xs" / construct.Array(this.n, construct.Struct(
+            "a" / u8, "b" / construct.Prefixed(u8, construct.GreedyBytes)))),
+         b"\x02\x07\x01x\x08\x02yz"),
+        (construct.Struct("p" / construct.Prefixed(u8, construct.Struct(
+            "a" / u8, "rest" / construct.GreedyBytes)), "z" / u8), b"\x03\x01xy\x07"),
+        (construct.Struct("p" / construct.Prefixed(u8, construct.Struct("a" / u8)),
+                          "z" / u8), b"\x03\x01xy\x07"),
+        (construct.Struct("p" / construct.Prefixed(u8, construct.Struct(
+            "a" / u8, construct.Terminated)), "z" / u8), b"\x01\x01\x07"),
+        # grammars that are not Structs: generated in their caller's context
+        (construct.Array(2, construct.Struct("a" / u8, "b" / construct.Int16ul)),
+         b"\x01\x02\x00\x03\x04\x00"),
+        (construct.Prefixed(u8, construct.Array(2, construct.Struct("a" / u8))), b"\x02\x05\x06"),
     ]
     for grammar, payload in cases:
         assert _agree(grammar, payload, grammar)

@@ -2,16 +2,16 @@
 
 construct builds a payload field by field through several Python calls each: about 1 us a
 field, so 2.3 ms for the asfs chunk of a CMU skeleton and 0.3 ms for 41 marker names,
-a fifth of a short clip's fixed encoding cost. :func:`build` walks the same grammar
-objects (spec/mpz/spec/grammar.py stays the one description of every layout), turned once
-into plain closures by :func:`_compile`, which follow construct 2.10's ``_build`` of each
-class step for step: the same values reach the same ``struct`` formats, adapters and
-count expressions, in the same order. A Struct becomes the source of one function
-(:class:`_Source`), its common fields written out in place: a closure call per field and
-the loop over the fields were about a third of what was left of building the asfs, bvhs
-and cprm chunks (issue 15.1, stop 70). :mod:`._parse` does the same on the parse side.
+a fifth of a short clip's fixed encoding cost. :func:`build` reads the same grammar
+objects (spec/mpz/spec/grammar.py stays the one description of every layout), written
+once per grammar as the Python source of a function (:class:`_Source`) that follows
+construct 2.10's ``_build`` of each class step for step: the same values reach the same
+``struct`` formats, adapters and count expressions, in the same order. Each Struct is one
+function, its fields written out in place: a closure call per field and the loop over the
+fields were about a third of what was left of building the asfs, bvhs and cprm chunks
+(issue 15.1, stop 70). :mod:`._parse` does the same on the parse side.
 
-Only the classes the grammar uses are compiled (``Struct``, ``Renamed``, ``FormatField``,
+Only the classes the grammar uses are written (``Struct``, ``Renamed``, ``FormatField``,
 ``Array``, ``Bytes``, ``GreedyBytes``, ``Prefixed``, ``IfThenElse``, ``Pass``,
 ``Terminated`` and any ``Adapter``); a grammar holding another class is built by
 construct. Whatever the fast path does not take as it is (a count that does not match,
@@ -117,111 +117,6 @@ def _itself(ctx: Any) -> Any:
     return ctx                          # construct's ``this``: the context itself
 
 
-def _same(obj: Any, out: list[bytes], ctx: Any) -> Any:
-    return obj                          # Pass, Terminated: nothing written, obj returned
-
-
-def _compile(c: construct.Construct) -> _Builder:
-    t = type(c)
-    if t is construct.Renamed:
-        return _compile(c.subcon)
-    if t is construct.FormatField:
-        pack = struct.Struct(c.fmtstr).pack
-
-        def field(obj: Any, out: list[bytes], ctx: Any) -> Any:
-            out.append(pack(obj))
-            return obj
-        return field
-    if t is construct.Struct:
-        return _struct(c)
-    if t is construct.Array:
-        count = c.count
-        item = _format(c.subcon)
-        if item is not None and not callable(count) and count >= 0:
-            run = struct.Struct("<" + str(count) + item).pack
-
-            def packed(obj: Any, out: list[bytes], ctx: Any) -> Any:
-                if len(obj) != count:
-                    raise _GiveUp
-                out.append(run(*obj))
-                return list(obj)
-            return packed
-        sub = _compile(c.subcon)
-        counted = _expression(count)
-
-        def array(obj: Any, out: list[bytes], ctx: Any) -> Any:
-            n = counted(ctx)
-            if not 0 <= n or len(obj) != n:
-                raise _GiveUp
-            if item is not None:
-                out.append(struct.pack("<" + str(n) + item, *obj))
-                return list(obj)
-            return [sub(e, out, ctx) for e in obj]
-        return array
-    if t is construct.Bytes:
-        length = _expression(c.length)
-
-        def fixed(obj: Any, out: list[bytes], ctx: Any) -> Any:
-            n = length(ctx)
-            data = bytes(obj) if type(obj) is bytearray else obj
-            if type(data) is not bytes or len(data) != n:
-                raise _GiveUp
-            out.append(data)
-            return data
-        return fixed
-    if c is construct.GreedyBytes:
-        def greedy(obj: Any, out: list[bytes], ctx: Any) -> Any:
-            data = bytes(obj) if type(obj) is bytearray else obj
-            if type(data) is not bytes:
-                raise _GiveUp
-            out.append(data)
-            return data
-        return greedy
-    if t is construct.Prefixed:
-        if c.includelength:
-            raise _Unsupported("Prefixed(includelength=True)")
-        sub, lengthfield = _compile(c.subcon), _compile(c.lengthfield)
-        code = _format(c.lengthfield)
-        if c.subcon is construct.GreedyBytes and code is not None:   # a length, its bytes
-            pack_length = struct.Struct("<" + code).pack
-
-            def length_and_bytes(obj: Any, out: list[bytes], ctx: Any) -> Any:
-                data = bytes(obj) if type(obj) is bytearray else obj
-                if type(data) is not bytes:
-                    raise _GiveUp
-                out.append(pack_length(len(data)))
-                out.append(data)
-                return data
-            return length_and_bytes
-
-        def prefixed(obj: Any, out: list[bytes], ctx: Any) -> Any:
-            inner: list[bytes] = []
-            ret = sub(obj, inner, ctx)
-            data = b"".join(inner)
-            lengthfield(len(data), out, ctx)
-            out.append(data)
-            return ret
-        return prefixed
-    if t is construct.IfThenElse:
-        cond = _expression(c.condfunc)
-        then, other = _compile(c.thensubcon), _compile(c.elsesubcon)
-
-        def choice(obj: Any, out: list[bytes], ctx: Any) -> Any:
-            taken = then if cond(ctx) else other
-            return taken(obj, out, ctx)
-        return choice
-    if c is construct.Pass or c is construct.Terminated:
-        return _same
-    if isinstance(c, construct.Adapter):
-        encode, sub = c._encode, _compile(c.subcon)
-
-        def adapted(obj: Any, out: list[bytes], ctx: Any) -> Any:
-            sub(encode(obj, ctx, "(building)"), out, ctx)
-            return obj
-        return adapted
-    raise _Unsupported(type(c).__name__)
-
-
 def _format(c: construct.Construct) -> str | None:
     """The little-endian ``struct`` code of a FormatField (through Renamed), else None."""
     while type(c) is construct.Renamed:
@@ -232,12 +127,11 @@ def _format(c: construct.Construct) -> str | None:
 
 
 def _struct(c: construct.Struct) -> _Builder:
-    """A Struct: its fields in order, as the source of one function (:class:`_Source`):
+    """A Struct: its fields in order, as the source of one function (:class:`_Source`),
     each run of consecutive named FormatFields packed by one ``struct`` call (the bytes
-    of packing them one by one: no padding with ``<``), and the common fields (a length
-    and its bytes, a condition, an adapter, a run of numbers) written out in place rather
-    than called through a closure each."""
-    src = _Source()
+    of packing them one by one: no padding with ``<``)."""
+    src = _Source(["def record(obj, out, ctx):", "    if obj is None:", "        obj = {}",
+                   "    context = _Context(obj)", '    context["_"] = ctx'])
     run: list[tuple[str, str]] = []
 
     def close() -> None:
@@ -246,29 +140,30 @@ def _struct(c: construct.Struct) -> _Builder:
             # (the context, a copy of obj, holds these values already)
             src.line(f"out.append({pack}({', '.join(f'obj[{n!r}]' for n, _ in run)}))")
             run.clear()
-    for k, sc in enumerate(c.subcons):
+    for sc in c.subcons:
         code = _format(sc)
         if code is not None and sc.name and not sc.flagbuildnone:
             run.append((sc.name, code))
             continue
         close()
         name = sc.name
-        value = f"obj.get({name!r}, None)" if sc.flagbuildnone else f"obj[{name!r}]"
-        src.line(f"v{k} = {value}")
+        v = src.temp()
+        src.line(f"{v} = " + (f"obj.get({name!r}, None)" if sc.flagbuildnone
+                               else f"obj[{name!r}]"))
         if name:
-            src.line(f"context[{name!r}] = v{k}")
-        src.field(sc, f"v{k}", f"context[{name!r}]" if name else "_")
+            src.line(f"context[{name!r}] = {v}")
+        src.field(sc, v, f"context[{name!r}]" if name else "_")
     close()
     src.line("return context")
-    return src.builder()
+    return src.builder("record")
 
 
 class _Function:
     """The Python source of one generated function, written line by line (at ``depth``
     levels of indentation), and the namespace it runs in: :meth:`name` puts an object
-    there (a struct format, a compiled expression, an adapter's method, the closure of
-    another field) and gives the name it has in the source. The Struct builders here and
-    the Struct parsers of :mod:`._parse` are written with it."""
+    there (a struct format, a compiled expression, an adapter's method, a nested Struct's
+    function) and gives the name it has in the source. The builders here and the parsers
+    of :mod:`._parse` are written with it."""
 
     def __init__(self, head: list[str], **names: Any) -> None:
         self.lines = list(head)
@@ -311,14 +206,14 @@ class _Function:
 
 
 class _Source(_Function):
-    """The source of one Struct's builder, written field by field: each field appends its
-    bytes to ``out`` and sets a target to what construct's ``_build`` returns for it,
-    giving up (``_GiveUp``) exactly where the closures of :func:`_compile` do."""
+    """The source of one builder (a Struct's, or a grammar's that is not a Struct),
+    written construct by construct: each appends its bytes to ``out`` and sets a target to
+    what construct's ``_build`` returns for it (the value a Struct keeps in its context),
+    giving up (``_GiveUp``) where construct would refuse the value or build it otherwise.
+    A nested Struct is a call of its own generated function."""
 
-    def __init__(self) -> None:
-        super().__init__(["def record(obj, out, ctx):", "    if obj is None:", "        obj = {}",
-                          "    context = _Context(obj)", '    context["_"] = ctx'],
-                         _pack=struct.pack)
+    def __init__(self, head: list[str]) -> None:
+        super().__init__(head, _pack=struct.pack)
 
     def data(self, value: str) -> str:
         """Lines that take ``value`` as bytes (a bytearray as its bytes), or give up."""
@@ -328,32 +223,18 @@ class _Source(_Function):
         return d
 
     def field(self, c: construct.Construct, value: str, target: str) -> None:
-        """Lines that build ``c`` from the expression ``value`` and set ``target``."""
+        """Lines that build ``c`` from the expression ``value`` and set ``target``, as
+        construct 2.10's ``_build`` of its class does, or :class:`_Unsupported`."""
         t = type(c)
         if t is construct.Renamed:
             self.field(c.subcon, value, target)
         elif t is construct.FormatField:
             self.line(f"out.append({self.name(struct.Struct(c.fmtstr).pack)}({value}))")
             self.line(f"{target} = {value}")
-        elif t is construct.Prefixed and c.subcon is construct.GreedyBytes \
-                and not c.includelength and _format(c.lengthfield) is not None:
-            d = self.data(value)                        # a length and its bytes
-            pack = self.name(struct.Struct("<" + str(_format(c.lengthfield))).pack)
-            self.line(f"out.append({pack}(len({d})))")
-            self.line(f"out.append({d})")
-            self.line(f"{target} = {d}")
-        elif t is construct.Array and _format(c.subcon) is not None:
-            item = str(_format(c.subcon))
-            if not callable(c.count) and c.count >= 0:
-                run = self.name(struct.Struct("<" + str(c.count) + item).pack)
-                self.line(f"if len({value}) != {c.count}: raise _GiveUp")
-                self.line(f"out.append({run}(*{value}))")
-            else:
-                n = self.temp()
-                self.line(f"{n} = {self.expression(c.count)}")
-                self.line(f"if not 0 <= {n} or len({value}) != {n}: raise _GiveUp")
-                self.line(f'out.append(_pack("<" + str({n}) + {item!r}, *{value}))')
-            self.line(f"{target} = list({value})")
+        elif t is construct.Struct:
+            self.line(f"{target} = {self.name(_struct(c))}({value}, out, context)")
+        elif t is construct.Array:
+            self.array(c, value, target)
         elif t is construct.Bytes:
             n = self.temp()
             self.line(f"{n} = {self.expression(c.length)}")
@@ -365,27 +246,76 @@ class _Source(_Function):
             d = self.data(value)
             self.line(f"out.append({d})")
             self.line(f"{target} = {d}")
+        elif t is construct.Prefixed:
+            if c.includelength:
+                raise _Unsupported("Prefixed(includelength=True)")
+            if c.subcon is construct.GreedyBytes and _format(c.lengthfield) is not None:
+                d = self.data(value)                        # a length and its bytes
+                pack = self.name(struct.Struct("<" + str(_format(c.lengthfield))).pack)
+                self.line(f"out.append({pack}(len({d})))")
+                self.line(f"out.append({d})")
+                self.line(f"{target} = {d}")
+                return
+            outer, d = self.temp(), self.temp()     # the subcon's bytes first, then both
+            self.line(f"{outer}, out = out, []")
+            self.field(c.subcon, value, target)
+            self.line(f"{d}, out = b''.join(out), {outer}")
+            self.field(c.lengthfield, f"len({d})", "_")
+            self.line(f"out.append({d})")
         elif t is construct.IfThenElse:
             self.branch(c.condfunc, lambda: self.field(c.thensubcon, value, target),
                         lambda: self.field(c.elsesubcon, value, target))
         elif c is construct.Pass or c is construct.Terminated:
-            self.line(f"{target} = {value}")
+            self.line(f"{target} = {value}")                # nothing written
         elif isinstance(c, construct.Adapter):
             v = self.temp()
             self.line(f'{v} = {self.name(c._encode)}({value}, context, "(building)")')
             self.field(c.subcon, v, "_")
             self.line(f"{target} = {value}")
         else:
-            self.line(f"{target} = {self.name(_compile(c))}({value}, out, context)")
+            raise _Unsupported(t.__name__)
 
-    def builder(self) -> _Builder:
-        return cast(_Builder, self.function("record", "<mpz.chunks._build>"))
+    def array(self, c: construct.Array, value: str, target: str) -> None:
+        """Lines that build an Array: a run of one little-endian FormatField by one
+        ``struct`` call, any other item one by one in a loop; construct returns a list."""
+        item = _format(c.subcon)
+        if item is not None and not callable(c.count) and c.count >= 0:
+            run = self.name(struct.Struct("<" + str(c.count) + item).pack)
+            self.line(f"if len({value}) != {c.count}: raise _GiveUp")
+            self.line(f"out.append({run}(*{value}))")
+            self.line(f"{target} = list({value})")
+            return
+        n = self.temp()
+        self.line(f"{n} = {self.expression(c.count)}")
+        self.line(f"if not 0 <= {n} or len({value}) != {n}: raise _GiveUp")
+        if item is not None:
+            self.line(f'out.append(_pack("<" + str({n}) + {item!r}, *{value}))')
+            self.line(f"{target} = list({value})")
+            return
+        items, e, r = self.temp(), self.temp(), self.temp()
+        self.line(f"{items} = []")
+        self.line(f"for {e} in {value}:")
+        self.depth += 1
+        self.field(c.subcon, e, r)
+        self.line(f"{items}.append({r})")
+        self.depth -= 1
+        self.line(f"{target} = {items}")
+
+    def builder(self, name: str) -> _Builder:
+        return cast(_Builder, self.function(name, "<mpz.chunks._build>"))
 
 
 @functools.cache
 def _builder(grammar: construct.Construct) -> _Builder | None:
+    """The generated builder of ``grammar`` (a Struct's own function; any other construct
+    in a function of the caller's context), or None where it holds what is not written."""
     try:
-        return _compile(grammar)
+        if type(grammar) is construct.Struct:
+            return _struct(grammar)
+        src = _Source(["def top(obj, out, ctx):", "    context = ctx"])
+        src.field(grammar, "obj", "value")
+        src.line("return value")
+        return src.builder("top")
     except _Unsupported:
         return None
 

@@ -2,15 +2,14 @@
 
 construct parses a payload field by field through several Python calls each, with a
 ``BytesIO`` read and a ``Container`` per record: the asfs chunk of a CMU skeleton took
-5.5 ms, a third of its file's decode, and MNAM about 1 ms. :func:`parse` walks the same
+5.5 ms, a third of its file's decode, and MNAM about 1 ms. :func:`parse` reads the same
 grammar objects (spec/mpz/spec/grammar.py stays the one description of every layout),
-turned once into plain closures by :func:`_compile`, which follow construct 2.10's
-``_parse`` of each class step for step: the same bytes reach the same ``struct``
-formats, adapters and count expressions, in the same order. This is the parse-side twin
-of :mod:`._build`. A Struct becomes the source of one function (:class:`_Source`), its
-common fields written out in place: a closure call per field and a loop over the fields
-were most of what was left, about 40 % of the parse of the asfs, bvhs and cprm chunks
-(issue 15.1, stop 70).
+written once per grammar as the Python source of a function (:class:`_Source`) that
+follows construct 2.10's ``_parse`` of each class step for step: the same bytes reach the
+same ``struct`` formats, adapters and count expressions, in the same order. Each Struct
+is one function, its fields written out in place: a closure call per field and a loop
+over the fields were about 40 % of the parse of the asfs, bvhs and cprm chunks (issue
+15.1, stop 70). This is the parse-side twin of :mod:`._build`.
 
 The grammar's rule "no ``.compile()``: compiled parsers lose error paths on untrusted
 input" still holds, because the fast path never reports an error. It reads only what it
@@ -18,12 +17,12 @@ has checked is there (every read is bounded by the end of its stream before it i
 so a count read from the payload cannot make it allocate more than the payload holds),
 and at the first thing it does not take as it is (too few bytes, trailing bytes before a
 ``Terminated``, an adapter or a decoding that raises, a construct class or hook it does
-not compile) it gives up, and construct parses the payload instead: the result, record
+not write) it gives up, and construct parses the payload instead: the result, record
 or error, is then construct's. tests/test_grammar.py checks that both give the same
 record for every chunk of every conformance vector (the invalid ones included) and of
 mutated payloads.
 
-Only the classes the grammar uses are compiled (``Struct``, ``Renamed``, ``FormatField``,
+Only the classes the grammar uses are written (``Struct``, ``Renamed``, ``FormatField``,
 ``Array``, ``Bytes``, ``GreedyBytes``, ``Prefixed``, ``IfThenElse``, ``Pass``,
 ``Terminated`` and any ``Adapter``, ``StringEncoded`` included); a grammar holding
 another class, or a field with a ``parsed`` hook, is parsed by construct.
@@ -39,7 +38,6 @@ import construct
 
 from mpz.chunks._build import (
     _Context,
-    _expression,
     _format,
     _Function,
     _GiveUp,
@@ -59,135 +57,26 @@ _REFUSED = (_GiveUp, construct.ConstructError, struct.error, UnicodeError, Value
             OverflowError)
 
 
-def _none(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-    return None, pos                    # Pass
-
-
-def _terminated(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-    if pos != end:                      # construct: TerminatedError
-        raise _GiveUp
-    return None, pos
-
-
-def _greedy(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-    return data[pos:end], end
-
-
-def _compile(c: construct.Construct) -> _Parser:
-    if c.parsed is not None:
-        raise _Unsupported("a parsed hook")
-    t = type(c)
-    if t is construct.Renamed:
-        return _compile(c.subcon)
-    if t is construct.FormatField:
-        unpack, size = struct.Struct(c.fmtstr).unpack_from, c.length
-
-        def field(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            if pos + size > end:
-                raise _GiveUp
-            return unpack(data, pos)[0], pos + size
-        return field
-    if t is construct.Struct:
-        return _struct(c)
-    if t is construct.Array:
-        if c.discard:
-            raise _Unsupported("Array(discard=True)")
-        return _array(c)
-    if t is construct.Bytes:
-        length = _expression(c.length)
-
-        def fixed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            n = length(ctx)
-            if not 0 <= n <= end - pos:
-                raise _GiveUp
-            return data[pos: pos + n], pos + n
-        return fixed
-    if c is construct.GreedyBytes:
-        return _greedy
-    if t is construct.Prefixed:
-        if c.includelength:
-            raise _Unsupported("Prefixed(includelength=True)")
-        sub, lengthfield = _compile(c.subcon), _compile(c.lengthfield)
-        code = _format(c.lengthfield)
-        if sub is _greedy and code is not None:    # a length and its bytes: one step
-            unpack, size = struct.Struct("<" + code).unpack_from, struct.calcsize("<" + code)
-
-            def length_and_bytes(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-                if pos + size > end:
-                    raise _GiveUp
-                n = unpack(data, pos)[0]
-                pos += size
-                if not 0 <= n <= end - pos:
-                    raise _GiveUp
-                return data[pos: pos + n], pos + n
-            return length_and_bytes
-
-        def prefixed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            n, pos = lengthfield(data, pos, end, ctx)
-            if not 0 <= n <= end - pos:
-                raise _GiveUp
-            value, _ = sub(data, pos, pos + n, ctx)    # its own stream: pos .. pos + n
-            return value, pos + n
-        return prefixed
-    if t is construct.IfThenElse:
-        cond = _expression(c.condfunc)
-        then, other = _compile(c.thensubcon), _compile(c.elsesubcon)
-
-        def choice(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            taken = then if cond(ctx) else other
-            return taken(data, pos, end, ctx)
-        return choice
-    if c is construct.Pass:
-        return _none
-    if c is construct.Terminated:
-        return _terminated
-    if isinstance(c, construct.Adapter):
-        decode, sub = c._decode, _compile(c.subcon)
-
-        def adapted(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            value, pos = sub(data, pos, end, ctx)
-            return decode(value, ctx, "(parsing)"), pos
-        return adapted
-    raise _Unsupported(type(c).__name__)
-
-
-def _array(c: construct.Array) -> _Parser:
-    """An Array: a run of one little-endian FormatField by one ``struct`` call (after
-    checking that the stream holds it), any other item one by one."""
-    count = _expression(c.count)
-    code = _format(c.subcon)
-    sub = _compile(c.subcon)            # also refuses a parsed hook on the item
-    if code is not None:
-        size = struct.calcsize("<" + code)
-
-        def packed(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-            n = count(ctx)
-            if not 0 <= n * size <= end - pos:
-                raise _GiveUp
-            return struct.unpack_from("<" + str(n) + code, data, pos), pos + n * size
-        return packed
-
-    def array(data: bytes, pos: int, end: int, ctx: Any) -> tuple[Any, int]:
-        n = count(ctx)
-        if not 0 <= n <= end - pos:       # n items of a byte or more cannot fit: give up
-            raise _GiveUp
-        out = []
-        for _ in range(n):
-            value, pos = sub(data, pos, end, ctx)
-            out.append(value)
-        return tuple(out), pos
-    return array
+def _format_unhooked(c: construct.Construct) -> str | None:
+    """:func:`._build._format` of ``c``, refusing a ``parsed`` hook on it or on any
+    Renamed around it (construct would call the hook; the fast path does not)."""
+    code = _format(c)
+    while code is not None:
+        if c.parsed is not None:
+            raise _Unsupported("a parsed hook")
+        if type(c) is not construct.Renamed:
+            break
+        c = c.subcon
+    return code
 
 
 def _struct(c: construct.Struct) -> _Parser:
-    """A Struct: its fields in order, as the source of one function (:func:`_Source`):
+    """A Struct: its fields in order, as the source of one function (:class:`_Source`),
     each run of consecutive named FormatFields unpacked by one ``struct`` call (the values
-    of unpacking them one by one: no padding with ``<``), and the common fields (a
-    length and its bytes, a condition, an adapter) written out in place rather than
-    called through a closure each. The record is its context, as in :mod:`._build`:
-    construct's expressions read the fields parsed so far from it, and ``_`` is the
-    enclosing record."""
-    src = _Source()
+    of unpacking them one by one: no padding with ``<``). The record is its context, as in
+    :mod:`._build`: construct's expressions read the fields parsed so far from it, and
+    ``_`` is the enclosing record."""
+    src = _Source(["def record(data, pos, end, ctx):", "    context = _Context(_=ctx)"])
     run: list[tuple[str, str]] = []
 
     def close() -> None:
@@ -200,28 +89,29 @@ def _struct(c: construct.Struct) -> _Parser:
             src.line(f"pos += {s.size}")
             run.clear()
     for sc in c.subcons:
-        code = _format(sc)
+        code = _format_unhooked(sc)
         if code is not None and sc.name:
-            _compile(sc)                # refuses a parsed hook in a Renamed chain
             run.append((sc.name, code))
             continue
         close()
         src.field(sc, f"context[{sc.name!r}]" if sc.name else "_")
     close()
-    return src.parser()
+    src.line("return context, pos")
+    return src.parser("record")
 
 
 class _Source(_Function):
-    """The source of one Struct's parser, written field by field: each field sets a target
-    (``context[name]``) and advances ``pos``, giving up (``_GiveUp``) exactly where the
-    closures of :func:`_compile` do."""
+    """The source of one parser (a Struct's, or a grammar's that is not a Struct), written
+    construct by construct: each sets a target and advances ``pos`` over ``data`` up to
+    ``end``, the end of the stream construct would read from, and gives up (``_GiveUp``)
+    before reading past it. A nested Struct is a call of its own generated function."""
 
-    def __init__(self) -> None:
-        super().__init__(["def record(data, pos, end, ctx):", "    context = _Context(_=ctx)"],
-                         _unpack_from=struct.unpack_from)
+    def __init__(self, head: list[str]) -> None:
+        super().__init__(head, _unpack_from=struct.unpack_from)
 
     def field(self, c: construct.Construct, target: str) -> None:
-        """Lines that parse ``c`` into ``target``."""
+        """Lines that parse ``c`` into ``target``, as construct 2.10's ``_parse`` of its
+        class does, or :class:`_Unsupported` for a class or hook it does not write."""
         if c.parsed is not None:
             raise _Unsupported("a parsed hook")
         t = type(c)
@@ -232,55 +122,97 @@ class _Source(_Function):
             self.line(f"if pos + {c.length} > end: raise _GiveUp")
             self.line(f"{target} = {unpack}(data, pos)[0]")
             self.line(f"pos += {c.length}")
-        elif t is construct.Prefixed and c.subcon is construct.GreedyBytes \
-                and not c.includelength:        # a length and its bytes
-            self.field(c.lengthfield, "n")
-            self.line("if not 0 <= n <= end - pos: raise _GiveUp")
-            self.line(f"{target} = data[pos: pos + n]")
-            self.line("pos += n")
-        elif t is construct.Array and not c.discard and _format(c.subcon) is not None:
-            _compile(c.subcon)              # refuses a parsed hook on the item
-            code = str(_format(c.subcon))
-            size = struct.calcsize("<" + code)
-            if isinstance(c.count, int):            # a fixed count: one struct format
-                whole = struct.Struct("<" + str(c.count) + code)
-                self.line(f"if not 0 <= {whole.size} <= end - pos: raise _GiveUp")
-                self.line(f"{target} = {self.name(whole.unpack_from)}(data, pos)")
-                self.line(f"pos += {whole.size}")
-            else:
-                self.line(f"n = {self.expression(c.count)}")
-                self.line(f"if not 0 <= n * {size} <= end - pos: raise _GiveUp")
-                self.line(f'{target} = _unpack_from("<" + str(n) + {code!r}, data, pos)')
-                self.line(f"pos += n * {size}")
+        elif t is construct.Struct:
+            self.line(f"{target}, pos = {self.name(_struct(c))}(data, pos, end, context)")
+        elif t is construct.Array:
+            self.array(c, target)
         elif t is construct.Bytes:
-            self.line(f"n = {self.expression(c.length)}")
-            self.line("if not 0 <= n <= end - pos: raise _GiveUp")
-            self.line(f"{target} = data[pos: pos + n]")
-            self.line("pos += n")
+            n = self.temp()
+            self.line(f"{n} = {self.expression(c.length)}")
+            self.take(n, target)
+        elif c is construct.GreedyBytes:
+            self.line(f"{target} = data[pos:end]")
+            self.line("pos = end")
+        elif t is construct.Prefixed:
+            if c.includelength:
+                raise _Unsupported("Prefixed(includelength=True)")
+            n = self.temp()
+            self.field(c.lengthfield, n)
+            if c.subcon is construct.GreedyBytes:   # a length and its bytes
+                self.take(n, target)
+                return
+            stop, outer = self.temp(), self.temp()  # its own stream: pos .. pos + n
+            self.line(f"if not 0 <= {n} <= end - pos: raise _GiveUp")
+            self.line(f"{stop}, {outer}, end = pos + {n}, end, pos + {n}")
+            self.field(c.subcon, target)
+            self.line(f"pos, end = {stop}, {outer}")
         elif t is construct.IfThenElse:
             self.branch(c.condfunc, lambda: self.field(c.thensubcon, target),
                         lambda: self.field(c.elsesubcon, target))
         elif c is construct.Pass:
             self.line(f"{target} = None")
         elif c is construct.Terminated:
-            self.line("if pos != end: raise _GiveUp")
+            self.line("if pos != end: raise _GiveUp")    # construct: TerminatedError
         elif isinstance(c, construct.Adapter):
-            decode = self.name(c._decode)
-            self.field(c.subcon, "v")
-            self.line(f'{target} = {decode}(v, context, "(parsing)")')
+            v = self.temp()
+            self.field(c.subcon, v)
+            self.line(f'{target} = {self.name(c._decode)}({v}, context, "(parsing)")')
         else:
-            sub = self.name(_compile(c))
-            self.line(f"{target}, pos = {sub}(data, pos, end, context)")
+            raise _Unsupported(t.__name__)
 
-    def parser(self) -> _Parser:
-        self.line("return context, pos")
-        return cast(_Parser, self.function("record", "<mpz.chunks._parse>"))
+    def take(self, n: str, target: str) -> None:
+        """Lines that take the next ``n`` bytes as ``target``."""
+        self.line(f"if not 0 <= {n} <= end - pos: raise _GiveUp")
+        self.line(f"{target} = data[pos: pos + {n}]")
+        self.line(f"pos += {n}")
+
+    def array(self, c: construct.Array, target: str) -> None:
+        """Lines that parse an Array into a tuple: a run of one little-endian FormatField
+        by one ``struct`` call (after checking that the stream holds it), any other item
+        one by one in a loop."""
+        if c.discard:
+            raise _Unsupported("Array(discard=True)")
+        code = _format_unhooked(c.subcon)
+        if code is not None and isinstance(c.count, int):   # a fixed count: one format
+            whole = struct.Struct("<" + str(c.count) + code)
+            self.line(f"if not 0 <= {whole.size} <= end - pos: raise _GiveUp")
+            self.line(f"{target} = {self.name(whole.unpack_from)}(data, pos)")
+            self.line(f"pos += {whole.size}")
+            return
+        n = self.temp()
+        self.line(f"{n} = {self.expression(c.count)}")
+        if code is not None:
+            size = struct.calcsize("<" + code)
+            self.line(f"if not 0 <= {n} * {size} <= end - pos: raise _GiveUp")
+            self.line(f'{target} = _unpack_from("<" + str({n}) + {code!r}, data, pos)')
+            self.line(f"pos += {n} * {size}")
+            return
+        # n items of a byte or more cannot fit in fewer bytes: give up before the loop
+        items, item = self.temp(), self.temp()
+        self.line(f"if not 0 <= {n} <= end - pos: raise _GiveUp")
+        self.line(f"{items} = []")
+        self.line(f"for _ in range({n}):")
+        self.depth += 1
+        self.field(c.subcon, item)
+        self.line(f"{items}.append({item})")
+        self.depth -= 1
+        self.line(f"{target} = tuple({items})")
+
+    def parser(self, name: str) -> _Parser:
+        return cast(_Parser, self.function(name, "<mpz.chunks._parse>"))
 
 
 @functools.cache
 def _parser(grammar: construct.Construct) -> _Parser | None:
+    """The generated parser of ``grammar`` (a Struct's own function; any other construct
+    in a function of the caller's context), or None where it holds what is not written."""
     try:
-        return _compile(grammar)
+        if type(grammar) is construct.Struct and grammar.parsed is None:
+            return _struct(grammar)
+        src = _Source(["def top(data, pos, end, ctx):", "    context = ctx"])
+        src.field(grammar, "value")
+        src.line("return value, pos")
+        return src.parser("top")
     except _Unsupported:
         return None
 
