@@ -2044,7 +2044,7 @@ VECTOR_RULES = _rules(
     ("R-3.4-11", "bytes-after-mend"),
     ("R-3.4-12", "missing-mend signature-only"),
     ("R-4.1-2", "error-bound-minus-zero jump-lossy-gaps"),
-    ("R-4.2-1", "names-count-mismatch"),
+    ("R-4.2-1", "names-count-mismatch names-count-over-markers"),
     ("R-4.2-2", "mnam-shared-too-long"),
     ("R-4.2-3", "name-256-bytes"),
     ("R-4.2-4", "names-compared-as-bytes"),
@@ -4426,6 +4426,24 @@ _merge_rules(UNPROBED_ACCEPT_VECTOR_RULES)
 
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
+def core_review_vectors(vs: VectorSet):
+    """What the stop 71 review of the marker layer's text found no vector for: an MNAM
+    whose count exceeds marker_count (§4.2, now a row of §1.1: a decoder that stores
+    names by marker index in an array of M overruns it; x37 has fewer names, not more).
+    Edits the base file of :func:`invalid_vectors`. A builder of its own, last, so that
+    the vectors before it keep their numbers."""
+    d = base_design()
+    d.build()
+    base = d.chunks()
+    names = CHUNKS["MNAM"].GRAMMAR.parse(base[_find(base, "MNAM")][1]).names
+    assert len(names) == 4
+    vs.invalid(_numbered(vs, "x", "names-count-over-markers"),
+               assemble(_with_field(base, "MNAM", count=5, names=[*names, "E"])),
+               "5 names for 4 markers", "MNAM count = 5, a fifth name 'E' appended",
+               "a decoder that stores the names by marker index in an array of "
+               "marker_count entries writes past its end", "FormatError", ["§4.2", "§1.1"])
+
+
 BUILDERS = (
     valid_vectors,
     spec_example,
@@ -4445,6 +4463,7 @@ BUILDERS = (
     deflate_vectors,                          # §4.13 valid DEFLATE as zlib reads it (stop 70)
     settled_text_vectors,                     # §1, §4.13.2, §4.13.4, §4.14 text of stop 70
     unprobed_accept_vectors,                  # §1.3, §4.14 accept text no vector showed
+    core_review_vectors,                      # §4.2 count > M (review of stop 71)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
