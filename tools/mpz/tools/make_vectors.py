@@ -2089,7 +2089,7 @@ VECTOR_RULES = _rules(
     ("R-6.7-3", "value-beyond-bits gap-sample-beyond-bits"),
     ("R-6.7-4", "values-at-bits-limit root-values-k30"),
     ("R-6.8-2", "rate-65.0364227294921875 meta-nul names-compared-as-bytes "
-                "units-unknown-meta-smry rate-59.94"),
+                "units-unknown-meta-smry rate-59.94 names-meta-white-space-non-bmp"),
     ("R-7.2-1 R-7.2-2", "walk-41-gaps mixed-10-metres names-cm-59.94-gap-throughout "
                         "inches-23.976 no-units"),
 )
@@ -4427,11 +4427,14 @@ _merge_rules(UNPROBED_ACCEPT_VECTOR_RULES)
 #: every builder, in the order that numbers the vectors: a new one goes last, so that the
 #: vectors before it keep their numbers (conformance/test_manifest.py runs these too)
 def core_review_vectors(vs: VectorSet):
-    """What the stop 71 review of the marker layer's text found no vector for: an MNAM
-    whose count exceeds marker_count (§4.2, now a row of §1.1: a decoder that stores
-    names by marker index in an array of M overruns it; x37 has fewer names, not more).
-    Edits the base file of :func:`invalid_vectors`. A builder of its own, last, so that
-    the vectors before it keep their numbers."""
+    """What the two reviews of stop 71 found no vector for: an MNAM whose count exceeds
+    marker_count (§4.2, now a row of §1.1: a decoder that stores names by marker index in
+    an array of M overruns it; x37 has fewer names, not more), from the base file of
+    :func:`invalid_vectors`; and names and meta strings with leading or trailing white
+    space, a name of one tab and characters outside the BMP, which §4.2 and §4.11 allow
+    and §6.8 returns exactly (a decoder that trims C3D-style padded labels, or writes
+    UTF-16 surrogates wrongly into its JSON, passed every other vector). A builder of its
+    own, last, so that the vectors before it keep their numbers."""
     d = base_design()
     d.build()
     base = d.chunks()
@@ -4442,6 +4445,26 @@ def core_review_vectors(vs: VectorSet):
                "5 names for 4 markers", "MNAM count = 5, a fifth name 'E' appended",
                "a decoder that stores the names by marker index in an array of "
                "marker_count entries writes past its end", "FormatError", ["§4.2", "§1.1"])
+
+    m = _synth("walk", 2, markers=5, seed=71)
+    names = [" LFHD", "RFHD ", "\t", "\U0001F600", "T10\U00010348"]
+    m = mpz.Motion(m.positions, names, m.rate, m.units)
+    d = design_from_motion(m, step=1.0, nodes=[(None, 0, [0]), (0, 1, [1, 2, 3, 4])])
+    d.ancillary.append(("meta", payload("meta", {"count": 3, "entries": [
+        {"key": " subject ", "value": "Takeo \n"},
+        {"key": "note", "value": "\U0001F3C3 run\t"},
+        {"key": "\U00010348", "value": "  "}]})))
+    data = d.build()
+    from mpz.decoder import read_stream
+    assert mpz.decode(data).names == names
+    assert read_stream(data).meta[" subject "] == "Takeo \n"
+    vs.valid("uncommon", _numbered(vs, "u", "names-meta-white-space-non-bmp"), data,
+             "marker names ' LFHD' and 'RFHD ' (a space before, after), a tab, U+1F600 and "
+             "'T10' + U+10348 (4-byte UTF-8, a surrogate pair in UTF-16); meta keys and "
+             "values with spaces around them, a trailing newline and tab, U+1F3C3: all are "
+             "returned exactly, nothing trimmed",
+             {"names": names, "meta_white_space": True}, ["§4.2", "§4.11", "§6.8"],
+             "hand-built from mpz.synth walk (frames=2, markers=5, seed=71)")
 
 
 BUILDERS = (
@@ -4463,7 +4486,7 @@ BUILDERS = (
     deflate_vectors,                          # §4.13 valid DEFLATE as zlib reads it (stop 70)
     settled_text_vectors,                     # §1, §4.13.2, §4.13.4, §4.14 text of stop 70
     unprobed_accept_vectors,                  # §1.3, §4.14 accept text no vector showed
-    core_review_vectors,                      # §4.2 count > M (review of stop 71)
+    core_review_vectors,                      # §4.2, §6.8 (the reviews of stop 71)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
