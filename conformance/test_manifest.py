@@ -48,7 +48,10 @@ def test_no_stray_files():
 
 
 def test_suite_is_small():
-    assert sum(p.stat().st_size for p in VDIR.rglob("*") if p.is_file()) < 3 * 2 ** 20
+    """The suite stays small enough to ship in the wheel and clone in seconds. 3 MiB held
+    81 to 403 vectors; stop 71's reviews needed more (a vector per rule that no vector
+    showed), so the limit is 4 MiB, about 30 % above what the 408 vectors take."""
+    assert sum(p.stat().st_size for p in VDIR.rglob("*") if p.is_file()) < 4 * 2 ** 20
 
 
 @pytest.mark.parametrize("vec", DECODABLE, ids=_ids(DECODABLE))
@@ -237,6 +240,17 @@ def test_the_readme_vector_table_is_the_manifest():
     assert table.count("\n") - 1 == len(entries["vectors"])
 
 
+def _stored_means(path):
+    """The integer means q [k, D] of each level as the file stores them (smry) or codes
+    them (smrc, §4.15 steps 1-5), for the levels whose means overflow to ±∞ in units."""
+    from mpz.decoder import read_stream
+    s = read_stream(path.read_bytes())
+    rec = s.summary.record
+    if rec.TYPE == "smry":
+        return [np.frombuffer(lv.means, "<i4").reshape(lv.k, rec.dims) for lv in rec.levels]
+    return [q for _, q in rec.levels_decoded(s.header.frame_count)]
+
+
 def test_summary_digests_match_the_public_api():
     """A review of stop 49: an implementer could not check decoded summary values without
     the reference. ``features.summary_sha256`` is recomputed here from ``mpz.read_summary``
@@ -251,9 +265,16 @@ def test_summary_digests_match_the_public_api():
         assert "int64 little-endian" in feats["summary_digest_rule"]
         summary = mpz.read_summary(VDIR / v["file"])
         h = hashlib.sha256()
-        for lv in summary.levels:
-            q = np.rint(np.asarray(lv.means, np.float64) / lv.step)
-            assert np.array_equal(q * lv.step, lv.means), v["name"]     # one rounding, §4.10
+        for i, lv in enumerate(summary.levels):
+            means = np.asarray(lv.means, np.float64)
+            finite = np.isfinite(means)
+            q = np.rint(np.where(finite, means, 0.0) / lv.step)
+            assert np.array_equal(q[finite] * lv.step, means[finite]), v["name"]  # §4.10
+            if not finite.all():        # ±∞ at a finite step (R-4.10-2, R-4.15-7): the
+                stored = _stored_means(VDIR / v["file"])[i]     # integer is the stored one
+                assert np.array_equal(np.sign(stored[~finite]), np.sign(means[~finite]))
+                assert np.all(np.abs(stored[~finite].astype(float) * lv.step) > 1.7e308)
+                q[~finite] = stored[~finite]
             h.update(np.asarray(lv.starts, "<i8").tobytes())
             h.update(np.ascontiguousarray(q.astype("<i8")).tobytes())
         assert h.hexdigest() == feats["summary_sha256"], v["name"]

@@ -2118,7 +2118,10 @@ LIMIT_BOUNDARIES = {
     "F = 2^24 (MAX_FRAMES)": "its expected output is 384 MiB; tested in "
         "conformance/test_rules.py::test_limit_boundaries",
     "sum of k x D = 2^24 (MAX_SUMMARY_VALUES)": "the means alone are 64 MiB; tested in "
-        "conformance/test_rules.py::test_limit_boundaries",
+        "conformance/test_rules.py::test_limit_boundaries. Its invalid side is isolated for "
+        "smrc (smrc-values-over-limit) but not for smry: a smry past the limit must hold "
+        "64 MiB of means, and smry-4kd-wraps-32-bits (R-4.10-1) is rejected for its length "
+        "first, so it probes 4kD formed in 64 bits, not the limit (a review of stop 71)",
 }
 
 #: how the encoder-made vectors were made, so that a test can re-encode them byte for byte
@@ -4467,6 +4470,94 @@ def core_review_vectors(vs: VectorSet):
              "hand-built from mpz.synth walk (frames=2, markers=5, seed=71)")
 
 
+def summary_review_vectors(vs: VectorSet):
+    """What the stop 71 review of §2, §4.10, §4.15 and §8 found no vector for: summary
+    means that overflow to ±∞ at a finite step, which §4.10 and §4.15 step 6 call valid
+    (R-4.10-2, R-4.15-7); an smrc and a C3D archive in a file marked 1.0, which §2.1
+    accepts (R-4.15-7, R-4.13-6; u60 showed it for a skeleton only); and an smrc of D = 0
+    whose step is 0, still checked though the level holds no means (R-4.15-2; x155 showed
+    it for smry only). A builder of its own, last, so that the vectors before it keep
+    their numbers."""
+    import dataclasses
+
+    from mpz.chunks import Mhdr
+    from mpz.container import scan
+
+    big = (1 << 31) - 1
+    # -- uncommon: smry means that overflow to ±∞ (a 1.0 file)
+    d = _small(171)
+    means = [0] * 24
+    means[0], means[13] = big, -big                          # level k = 2, D = 12
+    d.ancillary.append(("smry", smry_payload(0, 12, [(2, 1.0, 1e300, [0, 12], means)])))
+    data = d.build()
+    lv = mpz.read_summary(data).levels[0]
+    assert np.isposinf(lv.means[0, 0]) and np.isneginf(lv.means[1, 1])
+    vs.valid("uncommon", _numbered(vs, "u", "smry-means-overflow-to-infinity"), data,
+             "a smry level (k = 2, D = 12) whose step is 1e300 and two of whose quantised "
+             "means are 2^31 - 1 and -(2^31 - 1): mean x step overflows to +inf and -inf in "
+             "binary64, and the file is valid (the step is finite and > 0)",
+             {"summary": "smry", "levels": [2]}, ["§1.3", "§4.10"],
+             "hand-built from mpz.synth walk (frames=24, markers=4, seed=171)")
+    # -- uncommon: smrc means that overflow to ±∞
+    secs = ["§2.1", "§2.3", "§3.4", "§4.15", "§5.5"]
+    good = _smrc_base()
+    q = np.zeros((1, 12), np.int64)
+    q[0, 0], q[0, 1] = 1 << 29, -(1 << 29)          # residuals below 2^30 (§5.4)
+    body = _smrc_payload(0, 12, [(1, 1.0, 1e300, [0], q)], frames=24)
+    data = _with_smrc(good, body)
+    lv = mpz.read_summary(data).levels[0]
+    assert np.isposinf(lv.means[0, 0]) and np.isneginf(lv.means[0, 1])
+    vs.valid("uncommon", _numbered(vs, "u", "smrc-means-overflow-to-infinity"), data,
+             "an smrc level (k = 1, D = 12) whose step is 1e300 and two of whose quantised "
+             "means are 2^29 and -2^29: mean x step overflows to +inf and -inf, and the file "
+             "is valid (§4.15 step 6)", {"summary": "smrc", "levels": [1]}, secs,
+             "make_vectors.summary_review_vectors: hand-made smrc in the v-smrc-positions "
+             "file")
+
+    # -- uncommon: an smrc, then a C3D archive, in a file marked 1.0
+    def marked_1_0(data: bytes) -> bytes:
+        chunks = []
+        for c in scan(data).chunks:
+            if isinstance(c.record, Mhdr):
+                assert c.record.version_minor == 1
+                chunks.append((c.type, dataclasses.replace(c.record, version_minor=0).dump()))
+            else:
+                chunks.append((c.type, c.payload))
+        return assemble(chunks)
+    old = marked_1_0(good)
+    vs.valid("uncommon", _numbered(vs, "u", "smrc-in-file-marked-1.0"), old,
+             "an smrc in a file whose MHDR says version 1.0 (version_minor 0): an encoder "
+             "should write 1.1, but a decoder accepts any minor version (§2.1) and checks the "
+             "smrc as a 1.1 decoder all the same; a 1.0 decoder skips it",
+             {"summary": "smrc", "levels": [2, 5]}, secs,
+             "v-smrc-positions, MHDR version_minor 1 -> 0")
+    c3d = _c3d_float_base()
+    old = marked_1_0(c3d)
+    vs.valid("uncommon", _numbered(vs, "u", "c3d-archive-in-file-marked-1.0"), old,
+             "the C3D archive of v-c3d-archive-float32 (chdr, cprm, cpnt, cana) in a file "
+             "whose MHDR says version 1.0: a decoder accepts any minor version (§2.1) and a "
+             "1.1 decoder checks and decodes the archive all the same; a 1.0 decoder skips it",
+             {"c3d_archive": True}, ["§2.1", "§2.3", "§4.13", "§6.9"],
+             "v-c3d-archive-float32, MHDR version_minor 1 -> 0")
+    # -- invalid: an smrc of D = 0 whose step is 0
+    body = _smrc_payload(1, 0, [(1, 0.0, 0.0, [0], np.zeros((1, 0)))], frames=24)
+    vs.invalid(_numbered(vs, "x", "smrc-angles-no-dims-step-zero"), _with_smrc(good, body),
+               "an smrc with space 1 and D = 0 (no means) whose one level has step 0",
+               "smrc space 1, D = 0, one level k = 1, step 0.0",
+               "a decoder that skips the step of a level without means accepts a step §4.15 "
+               "rejects (finite and > 0, as for smry: x155)", "FormatError", ["§4.10", "§4.15"])
+
+
+#: the §7.4 rules the vectors of :func:`summary_review_vectors` probe
+SUMMARY_REVIEW_VECTOR_RULES = _rules(
+    ("R-4.10-2", "smry-means-overflow-to-infinity"),
+    ("R-4.15-7", "smrc-means-overflow-to-infinity smrc-in-file-marked-1.0"),
+    ("R-4.13-6", "c3d-archive-in-file-marked-1.0"),
+    ("R-4.15-2", "smrc-angles-no-dims-step-zero"),
+)
+VECTOR_RULES.update(SUMMARY_REVIEW_VECTOR_RULES)
+
+
 BUILDERS = (
     valid_vectors,
     spec_example,
@@ -4487,6 +4578,7 @@ BUILDERS = (
     settled_text_vectors,                     # §1, §4.13.2, §4.13.4, §4.14 text of stop 70
     unprobed_accept_vectors,                  # §1.3, §4.14 accept text no vector showed
     core_review_vectors,                      # §4.2, §6.8 (the reviews of stop 71)
+    summary_review_vectors,                   # §2.1, §4.10, §4.15 (review of stop 71)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
