@@ -419,6 +419,25 @@ def _unplanned(run: dict[str, Any]) -> str:
 
 
 # ----------------------------------------------------------- comparisons --
+#: the rule of each check of a decoded output, which its failure leads with: the rules
+#: its vector probes (the manifest's) follow, and were alone the pointer before, though 69
+#: of the 75 decodable vectors do not probe R-6.8-2 (an implementer's QA run of stop 71)
+RULE_ARRAY = "§7.3"                         # OUT.npy itself: float64 [F, M, 3], little-endian
+RULE_VALUES = "R-6.8-1 (§7.1 item 3)"       # the values and the NaN pattern
+RULE_DIGEST = "§7.1 item 2"                 # the integer-layer digest
+RULE_SIDECAR = "R-6.8-2 (§6.8, §7.3)"       # names, rate, units and meta
+
+
+def _led(tagged: list[tuple[str, str]]) -> str:
+    """Problems joined, each run of them led by its rule: ``R-6.8-1 (§7.1 item 3): ...``."""
+    out = []
+    last = None
+    for rule, text in tagged:
+        out.append(text if rule == last else f"{rule}: {text}")
+        last = rule
+    return "; ".join(out)
+
+
 def _fmt(v: float) -> str:
     if isinstance(v, float) and math.isnan(v):
         return "NaN"
@@ -494,20 +513,33 @@ def _other_byte_order(got: np.ndarray, exp: np.ndarray, max_abs: float) -> bool:
 
 def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
     """Float-tier comparison of a decoded array with the expected one."""
+    tol = vec["tolerances"]
+    res = {"max_abs": None, "rms": None, "allowed_max_abs": tol["max_abs"],
+           "allowed_rms": tol["rms"], "first_failure": None, "problems": [], "rules": []}
+    # each problem's rule (:data:`RULE_ARRAY`, :data:`RULE_VALUES`), in "rules", one a problem
+    _judge_array(got, exp, vec, res)
+    res["rules"] += [RULE_VALUES] * (len(res["problems"]) - len(res["rules"]))
+    return res
+
+
+def _judge_array(got: np.ndarray, exp: np.ndarray, vec: dict, res: dict) -> None:
+    """:func:`compare_output`'s checks, into ``res``: the problems of the array's form
+    (dtype, shape, byte order) with their rule in ``res["rules"]``, then those of its
+    values, whose rule the caller adds."""
     hdr = vec["header"]
     tol = vec["tolerances"]
     names = hdr.get("names") or []
     step = float(hdr["step"])
-    res = {"max_abs": None, "rms": None, "allowed_max_abs": tol["max_abs"],
-           "allowed_rms": tol["rms"], "first_failure": None, "problems": []}
     if got.dtype != np.float64:
         res["problems"].append(f"output dtype {got.dtype} != float64 (the contract requires "
                                f"float64 little-endian .npy)")
-        return res
+        res["rules"].append(RULE_ARRAY)
+        return
     if got.shape != exp.shape:
         res["problems"].append(f"shape {tuple(got.shape)} != expected {tuple(exp.shape)} "
                                f"(frames, markers, 3)")
-        return res
+        res["rules"].append(RULE_ARRAY)
+        return
     gnan, enan = np.isnan(got), np.isnan(exp)
     if _other_byte_order(got, exp, tol["max_abs"]):
         # the values written big-endian under a '<f8' header were told as a NaN pattern
@@ -516,7 +548,8 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
                                "big-endian is the expected one, but the .npy header says "
                                "little-endian ('<f8'); write the values little-endian (or "
                                "a header that says '>f8', which the contract refuses too)")
-        return res
+        res["rules"].append(RULE_ARRAY)
+        return
     if (gnan != enan).any():
         idx = np.argwhere(gnan != enan)
         where, f, m, a = _where(idx[0], names)
@@ -529,13 +562,13 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
                                 else float(got[tuple(idx[0])]), "expected": None if
                                 enan[tuple(idx[0])] else float(exp[tuple(idx[0])]), "off_by": None,
                                 "grid_steps": None}
-        return res
+        return
     ok = ~enan
     if np.isinf(got[ok]).any():
         idx = np.argwhere(np.isinf(got) & ok)[0]
         where, *_ = _where(idx, names)
         res["problems"].append(f"infinite value at {where}")
-        return res
+        return
     diff = np.zeros_like(exp)
     with np.errstate(over="ignore"):     # a huge wrong value: inf, reported as such
         diff[ok] = np.abs(got[ok] - exp[ok])
@@ -564,7 +597,6 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
                                + "; ".join(lines) + more)
     if res["rms"] > tol["rms"]:
         res["problems"].append(f"rms error {res['rms']:.6g} > allowed {tol['rms']:.3g}")
-    return res
 
 
 # ---------------------------------------------------------------- sidecar --
@@ -701,7 +733,11 @@ def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout:
         # wrong rejection or a wrong output sent an implementer to the manifest to learn
         # which rule of the spec to read (a QA run of stop 53)
         later = vec["expected"] == "decode" and vec.get("group") == "invalid"
-        entry["message"] += f"; rules {rules} (spec §7.4)" + (
+        # an output judged and found wrong leads with the rule of the check that failed
+        # (:func:`_led`); the vector's own rules follow, as what it probes
+        judged = vec["expected"] == "decode" and entry["actual"] == "decode"
+        entry["message"] += (f"; vector probes: {rules} (spec §7.4)" if judged else
+                             f"; rules {rules} (spec §7.4)") + (
             ", rules of a later minor version than --implements names (spec §2.1)"
             if later else "")
     if vec.get("note"):
@@ -771,7 +807,8 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
             return entry
         entry["actual"] = "decode"
         if not out.is_file():
-            entry["message"] = f"decoder exited 0 but wrote no output file {out.name}"
+            entry["message"] = (f"{RULE_ARRAY}: decoder exited 0 but wrote no output file "
+                                f"{out.name}")
             return entry
         try:
             # mapped, not read: a huge output costs the runner no memory before its shape
@@ -779,10 +816,11 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
             with _numpy_quiet():
                 got = np.load(out, mmap_mode="r", allow_pickle=False)
         except Exception as exc:  # any unreadable output is the decoder's failure
-            entry["message"] = f"output is not a readable .npy file: {_npy_problem(out, exc)}"
+            entry["message"] = (f"{RULE_ARRAY}: output is not a readable .npy file: "
+                                f"{_npy_problem(out, exc)}")
             return entry
         if not isinstance(got, np.ndarray):     # np.load gives an NpzFile for a zip
-            entry["message"] = "output is not a .npy file (a .npz archive?)"
+            entry["message"] = f"{RULE_ARRAY}: output is not a .npy file (a .npz archive?)"
             return entry
         exp = (expected_array if expected_array is not None else
                np.load(vdir / vec["expected_output"]["file"], allow_pickle=False))
@@ -791,13 +829,14 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
         entry.update(max_abs=cmp["max_abs"], rms=cmp["rms"],
                      allowed_max_abs=cmp["allowed_max_abs"], allowed_rms=cmp["allowed_rms"],
                      first_failure=cmp["first_failure"])
-        problems = list(cmp["problems"])
+        problems = list(zip(cmp["rules"], cmp["problems"], strict=True))
         dig = out.with_name(out.name + ".intlayer")
         if os.path.lexists(dig) and not dig.is_file():
             # a link to /dev/urandom or a folder passed as "absent" (a QA run of stop 50)
             entry["intlayer"] = "mismatch"
-            problems.insert(0, f"{dig.name} is not a regular file (a folder, a device, a "
-                               "FIFO): the integer-layer digest, if written, must be a file")
+            problems.insert(0, (RULE_DIGEST, f"{dig.name} is not a regular file (a folder, a "
+                                             "device, a FIFO): the integer-layer digest, if "
+                                             "written, must be a file"))
         elif dig.is_file():
             raw = _read_capped(dig, MAX_DIGEST_BYTES)
             text = ("(larger than 4096 bytes: not read)" if raw is None else
@@ -806,15 +845,15 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
                 entry["intlayer"] = "match"
             else:
                 entry["intlayer"] = "mismatch"
-                problems.insert(0, f"integer-layer digest {text[:64]!r} != expected "
-                                   f"{vec['integer_layer_digest']} (spec §7.1: the integers q "
-                                   f"and the mask must be exact)")
+                problems.insert(0, (RULE_DIGEST, f"integer-layer digest {text[:64]!r} != "
+                                                 f"expected {vec['integer_layer_digest']} (the "
+                                                 "integers q and the mask must be exact)"))
         if not array_only:
             entry["sidecar"], side_problems = compare_sidecar(
                 out.with_name(out.name + ".json"), vec)
-            problems += side_problems
+            problems += [(RULE_SIDECAR, p) for p in side_problems]
         if problems:
-            entry["message"] = "; ".join(problems)
+            entry["message"] = _led(problems)
         else:
             entry["passed"] = True
             entry["message"] = (f"max_abs {cmp['max_abs']:.3g} <= {cmp['allowed_max_abs']:.3g}, "
