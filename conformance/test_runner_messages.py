@@ -84,3 +84,31 @@ def test_a_failure_leads_with_the_rule_of_its_check(tmp_path, body, lead):
     assert not r["passed"] and r["message"].startswith(lead), r["message"]
     assert r["message"].endswith(f"; vector probes: {', '.join(VEC[ONE]['rules'])} "
                                  "(spec §7.4)"), r["message"]
+
+
+# --------------------------------------------------- finding 1: the 1.1 rules hint --
+def test_the_later_sections_are_those_of_the_rules_marked_1_1():
+    """The runner's LATER_SECTIONS give the rules spec §7.4 marks (1.1), no more, no less."""
+    from mpz.conformance.runner import only_later_rules
+    text = (Path(__file__).parents[1] / "spec" / "mpz-1.md").read_text(encoding="utf-8")
+    rows = mf.spec_rules(text)
+    assert any(what.startswith("(1.1)") for *_, what in rows)
+    for rid, _, _, what in rows:
+        assert only_later_rules({"rules": [rid]}) == what.startswith("(1.1)"), rid
+    assert not only_later_rules({"rules": []})
+
+
+def test_a_1_0_decoder_run_without_implements_is_told_of_it(tmp_path):
+    """A 1.0 decoder decodes x171 (two chdr: a 1.1 rule); without --implements 1.0 its
+    failure said nothing of the option (an implementer's QA run of stop 71)."""
+    dec = python_script(tmp_path / "accept.py", "sys.exit(0)\n")
+    x171 = next(n for n in VEC if n.startswith("x171-"))
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", x171, BAD, "-q")
+    got = {r["name"]: r["message"] for r in doc["results"]}
+    assert got[x171].endswith("; rules R-4.13-1 (spec §7.4); it is a 1.1 rule: a decoder of "
+                              "1.0 alone runs with --implements 1.0 (spec §2.1)"), got[x171]
+    assert "--implements" not in got[BAD]
+    assert ("note: 1 failure(s) are decodes of invalid vectors that break only rules marked "
+            "(1.1) in spec §7.4") in proc.stdout, proc.stdout
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD, "-q")
+    assert "(1.1)" not in proc.stdout

@@ -676,6 +676,20 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
 
 
 # ------------------------------------------------------------ decoder mode --
+#: the sections whose rules spec §7.4 marks (1.1): those of the chunk types MPZ 1.1 added
+#: (test_runner_messages.py checks this against the rule index)
+LATER_SECTIONS = ("§4.13", "§4.14", "§4.15", "§6.9", "§6.10")
+
+
+def only_later_rules(vec: dict[str, Any]) -> bool:
+    """Whether every rule that ``vec`` probes is one that spec §7.4 marks (1.1), which a
+    decoder of 1.0 alone does not apply (it skips those chunk types, §2.1, §2.3)."""
+    rules = vec.get("rules") or []
+    secs = ["§" + r[2:].rsplit("-", 1)[0] for r in rules]
+    return bool(rules) and all(any(s == t or s.startswith(t + ".") for t in LATER_SECTIONS)
+                               for s in secs)
+
+
 def as_read_by(vec: dict[str, Any], vdir: Path, minor: int
                ) -> tuple[dict[str, Any], np.ndarray | None]:
     """What a decoder of 1.0 .. 1.``minor`` must do with vector ``vec``: (the vector's entry,
@@ -717,10 +731,11 @@ def as_read_by(vec: dict[str, Any], vdir: Path, minor: int
 
 def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout: float,
                        memory_mb: int | None, array_only: bool = False,
-                       expected_array: np.ndarray | None = None) -> dict[str, Any]:
+                       expected_array: np.ndarray | None = None,
+                       minor: int = VERSION_MINOR) -> dict[str, Any]:
     """Run the decoder on one vector and judge what it did against ``vec``'s expectation
     (and ``expected_array`` in place of the vector's .npy file, from :func:`as_read_by`,
-    whose reason a failure's message ends with)."""
+    whose reason a failure's message ends with), as a decoder of 1.``minor``."""
     entry = _run_decoder_vector(cmd, vdir, vec, timeout, memory_mb, array_only,
                                 expected_array)
     # a vector re-judged for an earlier minor version says so whether it passed or not: a
@@ -740,6 +755,13 @@ def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout:
                              f"; rules {rules} (spec §7.4)") + (
             ", rules of a later minor version than --implements names (spec §2.1)"
             if later else "")
+    if not entry["passed"] and minor == VERSION_MINOR and vec["expected"] == "reject" and \
+            entry["actual"] == "decode" and only_later_rules(vec):
+        # a 1.0 decoder run as the Quick start shows failed 153 vectors, and nothing
+        # named --implements (an implementer's QA run of stop 71)
+        n = len(vec["rules"])
+        entry["message"] += (f"; {'it is a 1.1 rule' if n == 1 else 'they are 1.1 rules'}: "
+                             "a decoder of 1.0 alone runs with --implements 1.0 (spec §2.1)")
     if vec.get("note"):
         entry["message"] += f" [judged {vec['note']}]"
     return entry
@@ -1335,7 +1357,7 @@ def main(argv: list[str] | None = None) -> int:
         def job(plan):
             with _suite_files():
                 return run_decoder_vector(cmd, vdir, plan[0], args.timeout, args.memory,
-                                          args.array_only, plan[1])
+                                          args.array_only, plan[1], minor)
         todo = plans
     else:
         def job(ie):
@@ -1424,6 +1446,13 @@ def main(argv: list[str] | None = None) -> int:
                         for g, c in by_group.items())
     if mode == "decoder" and args.array_only:
         print("note: --array-only: names, rate, units and meta were not checked (spec §7.3)")
+    later = sum(mode == "decoder" and minor == VERSION_MINOR and not r["passed"] and
+                plan[0]["expected"] == "reject" and r["actual"] == "decode" and
+                only_later_rules(plan[0]) for plan, r in zip(todo, results, strict=True))
+    if later:
+        print(f"note: {later} failure(s) are decodes of invalid vectors that break only "
+              "rules marked (1.1) in spec §7.4, which a decoder of MPZ 1.0 alone must "
+              "decode: if it implements 1.0 alone, run it with --implements 1.0 (spec §2.1)")
     if mode == "decoder" and minor < VERSION_MINOR:
         print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
               f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
