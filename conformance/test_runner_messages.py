@@ -112,3 +112,23 @@ def test_a_1_0_decoder_run_without_implements_is_told_of_it(tmp_path):
             "(1.1) in spec §7.4") in proc.stdout, proc.stdout
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD, "-q")
     assert "(1.1)" not in proc.stdout
+
+
+# ------------------------------------------- finding 8: exit 0 on an invalid vector --
+def test_exit_0_on_an_invalid_vector_says_what_it_wrote_and_said(tmp_path):
+    """A decoder that printed its rejection and exited 0, or decoded the file: the message
+    says which, with the end of its output and the reference's message (which names its
+    §), not only in --results."""
+    dec = python_script(tmp_path / "said.py", 'print("mydec: reject: bad signature (§3.1)")\n'
+                        "sys.exit(0)\n")
+    r = one(tmp_path, dec, BAD)
+    ref = VEC[BAD]["reference_message"]
+    assert "§" in ref
+    assert ("but decoder exited 0 (it wrote no out.npy; its output ends: 'mydec: reject: bad "
+            "signature (§3.1)'): a rejection is a non-zero exit status (spec §7.3); the "
+            f"reference raises {VEC[BAD]['expected_error']}: {ref}; rules ") in r["message"], \
+        r["message"]
+    dec = python_script(tmp_path / "wrote.py", 'open(sys.argv[2], "wb").write(b"x")\n')
+    r = one(tmp_path, dec, BAD)
+    assert "but decoder exited 0 (it wrote out.npy; it printed nothing); the reference" \
+        in r["message"], r["message"]

@@ -816,8 +816,21 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
                 # the rules it breaks, by their spec §7.4 IDs: "byte 1 XOR 0x20" alone sent
                 # an implementer to the manifest (a QA run of stop 50)
                 rules = ", ".join(vec.get("rules") or [])
+                # what it wrote and said, and the reference's message with its §: they were
+                # in --results alone, and a decoder that printed its rejection and exited 0
+                # was told nothing of it (an implementer's QA run of stop 71)
+                wrote = out.is_file()
+                lines = [ln.strip() for ln in run["stderr"].splitlines() if ln.strip()]
+                said = (f"it wrote {'' if wrote else 'no '}{out.name}; "
+                        + (f"its output ends: {lines[-1][:160]!r}" if lines else
+                           "it printed nothing"))
+                ref = None if vec.get("note") else vec.get("reference_message")
                 entry["message"] = (f"expected rejection ({vec['corruption']}), but decoder "
-                                    f"exited 0; the reference raises {vec['expected_error']}"
+                                    f"exited 0 ({said})"
+                                    + ("" if wrote else ": a rejection is a non-zero exit "
+                                       "status (spec §7.3)")
+                                    + f"; the reference raises {vec['expected_error']}"
+                                    + (f": {ref[:300]}" if ref else "")
                                     + (f"; rules {rules} (spec §7.4)" if rules else ""))
             return entry
         # expected: decode
