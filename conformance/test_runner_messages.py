@@ -132,3 +132,28 @@ def test_exit_0_on_an_invalid_vector_says_what_it_wrote_and_said(tmp_path):
     r = one(tmp_path, dec, BAD)
     assert "but decoder exited 0 (it wrote out.npy; it printed nothing); the reference" \
         in r["message"], r["message"]
+
+
+# ------------------------------------- finding 5: out of memory, then killed by abort --
+def test_an_allocation_failure_that_aborts_is_memory_not_a_crash(tmp_path):
+    """An uncaught std::bad_alloc and Rust's failed allocation end in abort() (SIGABRT):
+    classed `crash`, with the cause dropped (an implementer's QA run of stop 71)."""
+    from mpz.conformance.runner import failure_kind
+    bad_alloc = ("terminate called after throwing an instance of 'std::bad_alloc'\n"
+                 "  what():  std::bad_alloc")
+    rust = "memory allocation of 68719476736 bytes failed"
+    for out in (bad_alloc, rust):
+        for code, sig in ((-6, "SIGABRT"), (134, None)):
+            got = failure_kind({"exit_code": code, "stderr": out, "timed_out": False,
+                                "signal": sig})
+            assert got is not None and got[0] == "memory", got
+            assert out.splitlines()[0][:60] in got[1], got
+    assert failure_kind({"exit_code": -6, "stderr": "assertion failed", "timed_out": False,
+                         "signal": "SIGABRT"}) == ("crash", "killed by SIGABRT")
+    dec = python_script(tmp_path / "oom.py", f"import os\nprint({bad_alloc!r}, flush=True)\n"
+                        "os.abort()\n")
+    r = one(tmp_path, dec, BAD)
+    assert r["actual"] == "memory" and not r["passed"], r
+    assert r["message"].startswith("decoder ran out of memory (killed by SIGABRT, after: "
+                                   "terminate called after throwing an instance of "
+                                   "'std::bad_alloc') (limit 2048 MB)"), r["message"]

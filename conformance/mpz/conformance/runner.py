@@ -362,12 +362,17 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
         return "error", run["stderr"]
     if run["timed_out"]:
         return "timeout", "did not finish within the time limit (killed)"
-    if run["signal"]:
-        return "crash", f"killed by {run['signal']}"
-    if code in SHELL_CRASH_CODES:
-        return "crash", (f"exit {code} = 128 + {SHELL_CRASH_CODES[code]}, a shell's report of "
-                         f"a process killed by that signal")
     lines = [ln.strip() for ln in run["stderr"].splitlines() if ln.strip()]
+    if run["signal"] or code in SHELL_CRASH_CODES:
+        how = (f"killed by {run['signal']}" if run["signal"] else
+               f"exit {code} = 128 + {SHELL_CRASH_CODES[code]}, a shell's report of a process "
+               "killed by that signal")
+        # an uncaught std::bad_alloc and Rust's failed allocation end in abort(): they were
+        # told as a crash, the cause dropped (an implementer's QA run of stop 71)
+        hit = next((ln for ln in lines if OUT_OF_MEMORY.match(ln)), None)
+        if hit is not None:
+            return "memory", f"ran out of memory ({how}, after: {hit[:200]})"
+        return "crash", how
     if code != 0 and lines:
         hit = next((ln for ln in lines if OUT_OF_MEMORY.match(ln)), None)
         if hit is None and OUT_OF_MEMORY_LAST.match(lines[-1]):
