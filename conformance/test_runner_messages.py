@@ -157,3 +157,20 @@ def test_an_allocation_failure_that_aborts_is_memory_not_a_crash(tmp_path):
     assert r["message"].startswith("decoder ran out of memory (killed by SIGABRT, after: "
                                    "terminate called after throwing an instance of "
                                    "'std::bad_alloc') (limit 2048 MB)"), r["message"]
+
+
+# ------------------------------- finding 4: -q and rejections by a traceback or panic --
+def test_quiet_still_counts_rejections_by_a_traceback_or_a_panic(tmp_path):
+    """Under -q only the summary line is left of a pass: a decoder that panics on every
+    bad file (Rust exits 101) read as fully conformant (an implementer's QA run of stop
+    71)."""
+    dec = python_script(tmp_path / "panic.py", "sys.stderr.write(\"thread 'main' panicked at "
+                        "src/main.rs:9:5:\\nindex out of bounds\\n\")\nsys.exit(101)\n")
+    x05 = next(n for n in VEC if n.startswith("x05-"))
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", BAD, x05, "-q")
+    assert doc["totals"]["passed"] == 2
+    assert ("2/2 passed (invalid 2/2); 2 of the rejections by an uncaught exception or a "
+            "panic (see --results)") in proc.stdout, proc.stdout
+    dec = python_script(tmp_path / "clean.py", "sys.exit(2)\n")
+    proc, _ = run(tmp_path, "--decoder", str(dec), "--only", BAD, "-q")
+    assert "uncaught" not in proc.stdout

@@ -1474,9 +1474,17 @@ def main(argv: list[str] | None = None) -> int:
     if mode == "decoder" and minor < VERSION_MINOR:
         print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
               f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
+    # rejections by a traceback or a panic: their PASS lines say so, which -q hid, and a
+    # decoder that panics on every bad file read as conformant (QA, stop 71)
+    unplanned = sum(r["passed"] and r.get("actual") == "reject" and
+                    bool(_unplanned({"stderr": r.get("stderr_tail") or ""})) for r in results)
     # an unproven run's line said "1/1 passed" above exit 1, the reason on stderr alone
     # (a CLI audit): it says so on the summary line too
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
+          + (f"; {unplanned} of the rejections by an uncaught exception or a panic ("
+             + ("see --results" if args.quiet and args.results else
+                "run without -q to see which" if args.quiet else "see their PASS lines")
+             + ")" if unplanned else "")
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else "")
           + (f"; not proven: the command did not decode {probed['group']}/{probed['name']}"
