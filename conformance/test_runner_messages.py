@@ -174,3 +174,48 @@ def test_quiet_still_counts_rejections_by_a_traceback_or_a_panic(tmp_path):
     dec = python_script(tmp_path / "clean.py", "sys.exit(2)\n")
     proc, _ = run(tmp_path, "--decoder", str(dec), "--only", BAD, "-q")
     assert "uncaught" not in proc.stdout
+
+
+# ------------------------------------------- finding 9: the sidecar in JSON's terms --
+def _sidecar(tmp_path: Path, raw: bytes, name: str = "v09-all-chunk-types",
+             file: str = "out.npy.json") -> tuple[str, list[str]]:
+    from mpz.conformance.runner import compare_sidecar
+    p = tmp_path / file
+    p.write_bytes(raw)
+    return compare_sidecar(tmp_path / "out.npy.json", VEC[name])
+
+
+def _good(name: str = "v09-all-chunk-types") -> dict:
+    h = VEC[name]["header"]
+    return {"names": h["names"], "rate": h["rate"], "units": h["units_code"], "meta": h["meta"]}
+
+
+def test_sidecar_problems_are_said_in_json_terms(tmp_path):
+    good = _good()
+    assert _sidecar(tmp_path, json.dumps(good).encode()) == ("match", [])
+    units_code = {k: v for k, v in good.items() if k != "units"} | {"units_code": 1}
+    assert _sidecar(tmp_path, json.dumps(units_code).encode()) == (
+        "mismatch", ['sidecar member "units" missing (found "units_code")'])
+    no_meta = {k: v for k, v in good.items() if k != "meta"}
+    assert _sidecar(tmp_path, json.dumps(no_meta).encode()) == (
+        "mismatch", ['sidecar member "meta" missing: write {} when the file has no meta chunk'])
+    status, said = _sidecar(tmp_path, json.dumps(dict(good, units=None)).encode())
+    assert status == "mismatch" and said[0].startswith("sidecar units is not an integer "
+                                                       "code: null ("), said
+    # "names" twice, the first right: Python keeps the last, a C parser often the first
+    twice = json.dumps(good)[:-1] + ', "names": []}'
+    status, said = _sidecar(tmp_path, twice.encode())
+    assert status == "mismatch" and said[0] == ('sidecar has the member "names" twice (RFC '
+                                                "8259 leaves its meaning open: write each "
+                                                "member once)"), said
+    status, said = _sidecar(tmp_path, b"\xef\xbb\xbf" + json.dumps(good).encode())
+    assert status == "unreadable" and said == ["out.npy.json starts with a UTF-8 byte order "
+                                               "mark (EF BB BF), which RFC 8259 §8.1 "
+                                               "forbids: write none"], said
+
+
+def test_a_sidecar_named_as_the_encoders_is_told_so(tmp_path):
+    status, said = _sidecar(tmp_path, json.dumps(_good()).encode(), file="out.json")
+    assert status == "missing" and said[0].startswith(
+        "no out.npy.json (out.json exists: the decoder's sidecar name is OUT.npy with .json "
+        "appended, where the encoder contract's IN.json replaces .npy): "), said

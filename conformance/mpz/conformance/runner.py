@@ -34,6 +34,7 @@ import argparse
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 import contextlib
+import difflib
 import json
 import math
 import os
@@ -613,31 +614,83 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _json(v: Any, n: int = 100) -> str:
+    """``v`` as JSON writes it (``null``, ``true``, ``"x"``: a sidecar's value said as
+    Python's ``None`` puzzled an implementer of another language, QA of stop 71), cut to
+    ``n`` characters."""
+    try:
+        t = json.dumps(v, ensure_ascii=False)
+    except (TypeError, ValueError):
+        t = repr(v)
+    return t if len(t) <= n else t[:n] + "..."
+
+
+#: the members of the decoder's sidecar (spec §7.3)
+SIDECAR_MEMBERS = ("names", "rate", "units", "meta")
+
+
+def _missing_member(key: str, doc: dict[str, Any]) -> str:
+    """A member of the sidecar that ``doc`` lacks, said in JSON terms, with the member it
+    holds that may be it misnamed (``units_code``, the manifest's name)."""
+    others = [k for k in doc if k not in SIDECAR_MEMBERS]
+    close = ([k for k in others if key in k.lower()] or
+             difflib.get_close_matches(key, others, n=1, cutoff=0.6))
+    return (f"sidecar member {_json(key)} missing"
+            + (f" (found {_json(close[0])})" if close else "")
+            + (": write {} when the file has no meta chunk" if key == "meta" else ""))
+
+
 def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
     """Spec §7.3: compare ``OUT.npy.json`` with the manifest's expected result.
 
     Returns (status, problems), status ``match``, ``mismatch``, ``missing`` or
     ``unreadable``. Names, units and meta must be equal exactly (strings as code points),
-    and the rate, read as binary64, must be the same binary64 as MHDR.rate.
+    and the rate, read as binary64, must be the same binary64 as MHDR.rate. Problems are
+    said in JSON's terms: a member missing (or misnamed), ``null``, a member twice.
     """
     hdr = vec["header"]
     if not path.is_file():
-        return "missing", [f"no {path.name}: the decoded result's names, rate, units and meta "
-                           f"are part of the contract (spec §7.3; --array-only checks the array "
-                           f"alone)"]
+        # OUT.json for OUT.npy: the encoder contract's IN.json replaces .npy (QA, stop 71)
+        other = path.with_name(Path(path.stem).stem + ".json")
+        return "missing", [f"no {path.name}"
+                           + (f" ({other.name} exists: the decoder's sidecar name is OUT.npy "
+                              "with .json appended, where the encoder contract's IN.json "
+                              "replaces .npy)" if other.is_file() else "")
+                           + ": the decoded result's names, rate, units and meta "
+                           "are part of the contract (spec §7.3; --array-only checks the array "
+                           "alone)"]
     raw = _read_capped(path, MAX_SIDECAR_BYTES)
     if raw is None:
         return "unreadable", [f"{path.name} is larger than {MAX_SIDECAR_BYTES} bytes: not read"]
+    if raw.startswith(b"\xef\xbb\xbf"):        # Python's advice was "decode using utf-8-sig"
+        return "unreadable", [f"{path.name} starts with a UTF-8 byte order mark (EF BB BF), "
+                              "which RFC 8259 §8.1 forbids: write none"]
+    twice: list[str] = []
+
+    def members(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        # a member twice: RFC 8259 leaves its meaning open, and C parsers often keep the
+        # first where Python keeps the last ("lists 0 names, expected 4": QA, stop 71)
+        seen: dict[str, Any] = {}
+        for k, v in pairs:
+            if k in seen and k not in twice:
+                twice.append(k)
+            seen[k] = v
+        return seen
     try:
-        doc = json.loads(raw.decode("utf-8"), parse_constant=_json_constant)
+        doc = json.loads(raw.decode("utf-8"), parse_constant=_json_constant,
+                         object_pairs_hook=members)
     except (ValueError, UnicodeDecodeError, RecursionError) as exc:
         return "unreadable", [f"{path.name} is not UTF-8 JSON: {exc}"]
     if not isinstance(doc, dict):
         return "unreadable", [f"{path.name} is not a JSON object"]
-    problems = []
+    problems = [f"sidecar has the member {_json(k)} twice (RFC 8259 leaves its meaning open: "
+                "write each member once)" for k in twice]
+    problems += [_missing_member(k, doc) for k in SIDECAR_MEMBERS if k not in doc]
     names, want = doc.get("names"), list(hdr["names"])
-    if not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
-        problems.append(f"sidecar names is not an array of strings: {names!r:.200}")
+    if "names" not in doc:
+        pass
+    elif not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
+        problems.append(f"sidecar names is not an array of strings: {_json(names, 200)}")
     elif names != want:
         if len(names) != len(want):
             problems.append(f"sidecar lists {len(names)} names, expected {len(want)}")
@@ -646,8 +699,10 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
             problems.append(f"sidecar names[{k}] = {names[k]!r} != expected {want[k]!r} "
                             f"(names compare as exact code points, §4.2)")
     rate: Any = doc.get("rate")
-    if not _is_number(rate):
-        problems.append(f"sidecar rate is not a number: {rate!r:.100}")
+    if "rate" not in doc:
+        pass
+    elif not _is_number(rate):
+        problems.append(f"sidecar rate is not a number: {_json(rate)}")
     else:
         try:
             got = float(rate)
@@ -657,15 +712,19 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
             problems.append(f"sidecar rate {got!r} != expected {float(hdr['rate'])!r} (the exact "
                             f"binary64 of MHDR.rate; write 17 significant digits)")
     units: Any = doc.get("units")
-    if not (_is_number(units) and (isinstance(units, int) or units.is_integer())):
-        problems.append(f"sidecar units is not an integer code: {units!r:.100} (MHDR's "
+    if "units" not in doc:
+        pass
+    elif not (_is_number(units) and (isinstance(units, int) or units.is_integer())):
+        problems.append(f"sidecar units is not an integer code: {_json(units)} (MHDR's "
                         f"code, {hdr['units_code']} for this file: spec §4.1's table, not "
                         "the unit's name, which the encoder's IN.json uses)")
     elif int(units) != int(hdr["units_code"]):
         problems.append(f"sidecar units {int(units)} != expected code {hdr['units_code']}")
     meta, want_meta = doc.get("meta"), dict(hdr["meta"])
-    if not (isinstance(meta, dict) and all(isinstance(v, str) for v in meta.values())):
-        problems.append(f"sidecar meta is not an object of strings: {meta!r:.200}")
+    if "meta" not in doc:
+        pass
+    elif not (isinstance(meta, dict) and all(isinstance(v, str) for v in meta.values())):
+        problems.append(f"sidecar meta is not an object of strings: {_json(meta, 200)}")
     elif meta != want_meta:
         extra, lost = sorted(set(meta) - set(want_meta)), sorted(set(want_meta) - set(meta))
         if lost:
