@@ -219,3 +219,34 @@ def test_a_sidecar_named_as_the_encoders_is_told_so(tmp_path):
     assert status == "missing" and said[0].startswith(
         "no out.npy.json (out.json exists: the decoder's sidecar name is OUT.npy with .json "
         "appended, where the encoder contract's IN.json replaces .npy): "), said
+
+
+# ------------------------------------ finding 6: strings that differ but print alike --
+def test_strings_that_print_alike_are_shown_by_code_point(tmp_path):
+    """(Names: the nfc-names broken decoder of test_runner.py.) A meta value with a
+    zero-width space, and below a key in NFC for the file's NFD, are shown by code point;
+    strings that print otherwise are not."""
+    good = _good("u24-meta-repeated-key")
+    nfd = "caf" + "e\u0301"
+    key = next(iter(good["meta"]))
+    value = good["meta"][key]
+    doc = dict(good, meta=dict(good["meta"], **{key: value + "\u200b"}))
+    status, said = _sidecar(tmp_path, json.dumps(doc).encode(), "u24-meta-repeated-key")
+    points = " ".join(f"U+{ord(c):04X}" for c in value)
+    assert status == "mismatch" and said == [
+        f"sidecar meta[{key!r}] = {value + chr(0x200b)!r} ({points} U+200B), expected "
+        f"{value!r} ({points}) (for a repeated key, the last value: §4.11)"], said
+    doc = dict(good, meta=dict(good["meta"], **{key: value + "x"}))
+    status, said = _sidecar(tmp_path, json.dumps(doc).encode(), "u24-meta-repeated-key")
+    assert status == "mismatch" and "U+" not in said[0], said
+    # a key in NFC where the file's is in NFD
+    want = dict(good, meta={nfd: "x"})
+    vec = dict(VEC["u24-meta-repeated-key"], header=dict(
+        VEC["u24-meta-repeated-key"]["header"], meta={nfd: "x"}))
+    from mpz.conformance.runner import compare_sidecar
+    p = tmp_path / "out.npy.json"
+    p.write_text(json.dumps(dict(want, meta={"caf\u00e9": "x"})))
+    status, said = compare_sidecar(p, vec)
+    assert said == ["sidecar meta has key 'caf\u00e9' (U+0063 U+0061 U+0066 U+00E9) where "
+                    "the file holds 'cafe\u0301' (U+0063 U+0061 U+0066 U+0065 U+0301) (keys "
+                    "compare as exact code points)"], said

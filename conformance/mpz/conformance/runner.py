@@ -49,6 +49,7 @@ import tempfile
 import threading
 import time
 from typing import Any
+import unicodedata
 import warnings
 
 import numpy as np
@@ -625,6 +626,25 @@ def _json(v: Any, n: int = 100) -> str:
     return t if len(t) <= n else t[:n] + "..."
 
 
+def _fold(text: str) -> str:
+    """``text`` as it prints, near enough: NFKC, without format and control characters."""
+    return "".join(c for c in unicodedata.normalize("NFKC", text)
+                   if unicodedata.category(c) not in ("Cf", "Cc", "Zl", "Zp"))
+
+
+def _said(got: str, want: str) -> tuple[str, str]:
+    """Two strings that differ, as a message quotes them: with their code points when they
+    print alike (Unicode normalisation, an invisible character): "names[4] = 'é' != expected
+    'é'" showed nothing (an implementer's QA run of stop 71)."""
+    a, b = repr(got)[:100], repr(want)[:100]
+    if got == want or _fold(got) != _fold(want):
+        return a, b
+
+    def points(t: str) -> str:
+        return " ".join(f"U+{ord(c):04X}" for c in t[:24]) + (" ..." if len(t) > 24 else "")
+    return f"{a} ({points(got)})", f"{b} ({points(want)})"
+
+
 #: the members of the decoder's sidecar (spec §7.3)
 SIDECAR_MEMBERS = ("names", "rate", "units", "meta")
 
@@ -696,7 +716,8 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
             problems.append(f"sidecar lists {len(names)} names, expected {len(want)}")
         else:
             k = next(k for k, (a, b) in enumerate(zip(names, want, strict=True)) if a != b)
-            problems.append(f"sidecar names[{k}] = {names[k]!r} != expected {want[k]!r} "
+            shown, exp = _said(names[k], want[k])
+            problems.append(f"sidecar names[{k}] = {shown} != expected {exp} "
                             f"(names compare as exact code points, §4.2)")
     rate: Any = doc.get("rate")
     if "rate" not in doc:
@@ -727,15 +748,21 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
         problems.append(f"sidecar meta is not an object of strings: {_json(meta, 200)}")
     elif meta != want_meta:
         extra, lost = sorted(set(meta) - set(want_meta)), sorted(set(want_meta) - set(meta))
-        if lost:
+        alike = next(((e, m) for m in lost for e in extra if _fold(e) == _fold(m)), None)
+        if alike:
+            shown, exp = _said(*alike)
+            problems.append(f"sidecar meta has key {shown} where the file holds {exp} (keys "
+                            "compare as exact code points)")
+        elif lost:
             problems.append(f"sidecar meta lacks key {lost[0]!r} (expected "
                             f"{want_meta[lost[0]]!r:.100})")
         elif extra:
             problems.append(f"sidecar meta has key {extra[0]!r}, which the file does not hold")
         else:
             k = next(k for k in want_meta if meta[k] != want_meta[k])
-            problems.append(f"sidecar meta[{k!r}] = {meta[k]!r:.100}, expected "
-                            f"{want_meta[k]!r:.100} (for a repeated key, the last value: §4.11)")
+            shown, exp = _said(meta[k], want_meta[k])
+            problems.append(f"sidecar meta[{k!r}] = {shown}, expected {exp} (for a repeated "
+                            "key, the last value: §4.11)")
     return ("mismatch" if problems else "match"), problems
 
 
@@ -1012,8 +1039,8 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
         # last was renamed, a QA run of stop 47); the shapes are equal here
         k = next(i for i, (got, want) in enumerate(zip(out.names, side["names"],
                                                         strict=True)) if got != want)
-        said = (f"marker names[{k}] = {printable(out.names[k])!r} != input "
-                f"{printable(side['names'][k])!r}")
+        got_k, want_k = _said(printable(out.names[k]), printable(side["names"][k]))
+        said = f"marker names[{k}] = {got_k} != input {want_k}"
         if sorted(out.names) == sorted(side["names"]) and \
                 len(set(side["names"])) == len(side["names"]):
             # the same markers in another order: the gaps and the bound are checked marker
