@@ -76,7 +76,7 @@ def one(tmp_path: Path, dec: Path, name: str = ONE, *extra: str) -> dict:
     ('x[0, 0, 0] += 1.0', "R-6.8-1 (§7.1 item 3): 1 coordinate(s) beyond max_abs"),
     ('x[0, 0, 0] = np.nan', "R-6.8-1 (§7.1 item 3): NaN pattern differs"),
     ('x = x.astype(np.float32)', "§7.3: output dtype float32 != float64"),
-    ('open(OUT + ".intlayer", "w").write("0" * 64)', "§7.1 item 2: integer-layer digest '000"),
+    ('open(OUT + ".intlayer", "w").write("0" * 64)', "§7.1 item 2: integer-layer digest 000"),
 ])
 def test_a_failure_leads_with_the_rule_of_its_check(tmp_path, body, lead):
     """v04 probes R-5.2-1 .. R-6.8-1 and not R-6.8-2: a wrong name cited them alone."""
@@ -250,3 +250,31 @@ def test_strings_that_print_alike_are_shown_by_code_point(tmp_path):
     assert said == ["sidecar meta has key 'caf\u00e9' (U+0063 U+0061 U+0066 U+00E9) where "
                     "the file holds 'cafe\u0301' (U+0063 U+0061 U+0066 U+0065 U+0301) (keys "
                     "compare as exact code points)"], said
+
+
+# --------------------------------------------- finding 10: the digest file's form --
+@pytest.mark.parametrize("raw, said", [
+    (bytes(range(200, 232)), "out.npy.intlayer holds 32 bytes that are not ASCII text (the "
+     "SHA-256 itself?), not 64 hex characters: write the digest in hex"),
+    (b"", "out.npy.intlayer is empty: write the digest as 64 hex characters, or no file"),
+    (b" \n", "out.npy.intlayer is empty but for whitespace: "),
+    (b"abc123", "out.npy.intlayer holds 6 hex characters, not 64 hex characters"),
+    (b"sha256:" + b"0" * 64, "out.npy.intlayer holds the text 'sha256:000"),
+])
+def test_a_digest_file_of_the_wrong_form_is_said_so(tmp_path, raw, said):
+    from mpz.conformance.runner import _digest_problem
+    p = tmp_path / "out.npy.intlayer"
+    p.write_bytes(raw)
+    got = _digest_problem(p, VEC[ONE]["integer_layer_digest"], True)
+    assert got is not None and got.startswith(said), got
+
+
+def test_a_wrong_digest_of_a_right_array_points_at_its_layout(tmp_path):
+    want = VEC[ONE]["integer_layer_digest"]
+    dec = copier(tmp_path, ONE, f'open(OUT + ".intlayer", "w").write("  {want.upper()}\\n")\n')
+    assert one(tmp_path, dec)["intlayer"] == "match"
+    dec = copier(tmp_path, ONE, 'open(OUT + ".intlayer", "w").write("ab" * 32)\n')
+    r = one(tmp_path, dec)
+    assert r["message"].startswith(f"§7.1 item 2: integer-layer digest {'ab' * 32} != "
+                                   f"expected {want} (the integers q and the mask must be "
+                                   "exact; the array matched: check the digest's layout"), r

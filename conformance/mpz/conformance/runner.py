@@ -766,6 +766,37 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
     return ("mismatch" if problems else "match"), problems
 
 
+def _digest_problem(path: Path, want: str, array_matched: bool) -> str | None:
+    """What is wrong with the integer-layer digest file ``path`` (spec §7.1 item 2, §7.3:
+    64 hex characters, whitespace around them ignored), None when it holds ``want``. Its
+    form is checked first: 32 raw bytes were printed as mojibake, and an empty file as
+    '' (an implementer's QA run of stop 71); its bytes are never printed as they are."""
+    raw = _read_capped(path, MAX_DIGEST_BYTES)
+    if raw is None:
+        return f"{path.name} is larger than {MAX_DIGEST_BYTES} bytes: not read"
+    text = raw.strip()
+    if not text:
+        return (f"{path.name} is empty{' but for whitespace' if raw else ''}: write the "
+                "digest as 64 hex characters, or no file")
+    if not re.fullmatch(rb"[0-9a-fA-F]{64}", text):
+        if all(0x20 <= c < 0x7f for c in text):
+            what = (f"{len(text)} hex characters" if re.fullmatch(rb"[0-9a-fA-F]+", text) else
+                    f"the text {text[:40].decode('ascii')!r}"
+                    + (f" ({len(text)} characters)" if len(text) > 40 else ""))
+        else:
+            what = (f"{len(raw)} bytes that are not ASCII text"
+                    + (" (the SHA-256 itself?)" if len(raw) == 32 else ""))
+        return f"{path.name} holds {what}, not 64 hex characters: write the digest in hex"
+    got = text.decode("ascii").lower()
+    if got == want:
+        return None
+    return (f"integer-layer digest {got} != expected {want} (the integers q and the mask "
+            "must be exact" + ("; the array matched: check the digest's layout, q as "
+                               "little-endian int64 [F, M, 3] with the gap samples, then the "
+                               "mask as one byte per sample [F, M]" if array_matched else "")
+            + ")")
+
+
 # ------------------------------------------------------------ decoder mode --
 #: the sections whose rules spec §7.4 marks (1.1): those of the chunk types MPZ 1.1 added
 #: (test_runner_messages.py checks this against the rule index)
@@ -964,16 +995,10 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
                                              "device, a FIFO): the integer-layer digest, if "
                                              "written, must be a file"))
         elif dig.is_file():
-            raw = _read_capped(dig, MAX_DIGEST_BYTES)
-            text = ("(larger than 4096 bytes: not read)" if raw is None else
-                    raw.decode("ascii", errors="replace").strip().lower())
-            if text == vec["integer_layer_digest"]:
-                entry["intlayer"] = "match"
-            else:
-                entry["intlayer"] = "mismatch"
-                problems.insert(0, (RULE_DIGEST, f"integer-layer digest {text[:64]!r} != "
-                                                 f"expected {vec['integer_layer_digest']} (the "
-                                                 "integers q and the mask must be exact)"))
+            wrong = _digest_problem(dig, vec["integer_layer_digest"], not cmp["problems"])
+            entry["intlayer"] = "mismatch" if wrong else "match"
+            if wrong:
+                problems.insert(0, (RULE_DIGEST, wrong))
         if not array_only:
             entry["sidecar"], side_problems = compare_sidecar(
                 out.with_name(out.name + ".json"), vec)
