@@ -278,3 +278,31 @@ def test_a_wrong_digest_of_a_right_array_points_at_its_layout(tmp_path):
     assert r["message"].startswith(f"§7.1 item 2: integer-layer digest {'ab' * 32} != "
                                    f"expected {want} (the integers q and the mask must be "
                                    "exact; the array matched: check the digest's layout"), r
+
+
+# ------------------------------------- finding 12: the encoder's rules and sections --
+def test_an_encoders_refusal_or_missing_output_names_the_rule_and_section(tmp_path):
+    item = MAN["encoder_inputs"][0]
+    E = float(item["max_errors"][0])
+    only = f"{item['name']}@{E:g}"
+    refuse = python_script(tmp_path / "refuse.py", 'print("myenc: cannot hold bound")\n'
+                           "sys.exit(2)\n")
+    _, doc = run(tmp_path, "--encoder", str(refuse), "--only", only)
+    assert doc["results"][0]["message"] == (
+        "encoder exited 2: myenc: cannot hold bound: every input and bound the suite ships "
+        "can be held, so a refusal fails here (spec §7.3); rules R-7.2-1 (spec §7.4)")
+    nothing = python_script(tmp_path / "nothing.py", "sys.exit(0)\n")
+    _, doc = run(tmp_path, "--encoder", str(nothing), "--only", only)
+    assert doc["results"][0]["message"] == ("encoder exited 0 but wrote no file out.mpz "
+                                            "(spec §7.3); rules R-7.2-1 (spec §7.4)")
+    # a wrong file: the rules at the end, as in decoder mode
+    loose = python_script(tmp_path / "loose.py", textwrap.dedent(f"""\
+        import subprocess
+        sys.exit(subprocess.run([sys.executable, "-m", "mpz.conformance.refencoder",
+                                 sys.argv[1], sys.argv[2], "--max-error", "{2 * E!r}"]
+                                ).returncode)
+        """))
+    _, doc = run(tmp_path, "--encoder", str(loose), "--only", only)
+    msg = doc["results"][0]["message"]
+    assert msg.startswith("declared error_bound ") and msg.endswith(
+        f"> requested --max-error {E!r}; rules R-7.2-1 (spec §7.4)"), msg

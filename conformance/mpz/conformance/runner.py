@@ -1107,6 +1107,10 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     return problems, facts
 
 
+#: what an encoder's refusal or missing output ends with: the bound it did not hold
+ENCODER_RULES = "; rules R-7.2-1 (spec §7.4)"
+
+
 def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) -> dict:
     name = f"{item['name']}@{E:g}"
     entry = {"name": name, "group": "encoder", "file": item["input"], "expected": "encode",
@@ -1146,11 +1150,17 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         if run["exit_code"] != 0:
             tail = run["stderr"].strip().splitlines()
             entry["actual"] = "reject"
+            # the rule and the §, as decoder mode says them (an implementer's QA run of
+            # stop 71: a refusal and a missing output named neither)
             entry["message"] = (f"encoder exited {run['exit_code']}"
-                                + (f": {tail[-1][:300]}" if tail else ""))
+                                + (f": {tail[-1][:300]}" if tail else "")
+                                + ": every input and bound the suite ships can be held, so a "
+                                "refusal fails here (spec §7.3)" + ENCODER_RULES)
             return entry
         if not out.is_file():
-            entry["actual"], entry["message"] = "encode", "encoder exited 0 but wrote no file"
+            entry["actual"] = "encode"
+            entry["message"] = (f"encoder exited 0 but wrote no file {out.name} (spec §7.3)"
+                                + ENCODER_RULES)
             return entry
         got = _read_capped(out, MAX_ENCODED_BYTES)
         if got is None:
@@ -1163,7 +1173,12 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
     problems, facts = check_encoded(data, x, side, E)
     entry.update(facts)
     if problems:
-        entry["message"] = "; ".join(problems)
+        # the rules at the end, "rules ... (spec §7.4)" as in decoder mode, not after each
+        # problem (QA, stop 71)
+        rules = sorted({r for p in problems for r in re.findall(r"R-7\.2-\d+", p)})
+        entry["message"] = "; ".join(p.removesuffix(" (R-7.2-1)").removesuffix(" (R-7.2-2)")
+                                     for p in problems) + (
+            f"; rules {', '.join(rules)} (spec §7.4)" if rules else "")
     else:
         entry["passed"] = True
         entry["message"] = (f"{len(data)} bytes, declared bound {facts['declared_bound']:g} <= "
