@@ -306,3 +306,42 @@ def test_an_encoders_refusal_or_missing_output_names_the_rule_and_section(tmp_pa
     msg = doc["results"][0]["message"]
     assert msg.startswith("declared error_bound ") and msg.endswith(
         f"> requested --max-error {E!r}; rules R-7.2-1 (spec §7.4)"), msg
+
+
+# --------------------------------------------------- finding 11: the docs and the runner --
+def test_the_re_judged_count_is_on_the_summary_line(tmp_path):
+    """conformance/README.md: "The summary line says how many vectors changed from reject
+    to decode"; it was a note line of its own."""
+    dec = python_script(tmp_path / "reject.py", "sys.exit(2)\n")
+    x171 = next(n for n in VEC if n.startswith("x171-"))
+    proc, _ = run(tmp_path, "--decoder", str(dec), "--implements", "1.0", "--only", x171, ONE)
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("0/2 passed"))
+    assert "; --implements 1.0: 1 vector(s) judged as a 1.0 decoder must read them, from " \
+           "reject to decode" in line, proc.stdout
+
+
+def test_only_suggests_the_names_it_begins_or_is_close_to(tmp_path):
+    proc = subprocess.run([PY, "-m", "mpz.conformance.runner", "--decoder", "true", "--only",
+                           "v09", "v09-all-chunk-typs", "zzzz"], capture_output=True,
+                          text=True, cwd=tmp_path)
+    assert proc.returncode == 64
+    assert proc.stderr.rstrip().endswith("; v09: did you mean v09-all-chunk-types?; "
+                                         "v09-all-chunk-typs: did you mean "
+                                         "v09-all-chunk-types?"), proc.stderr
+
+
+def test_the_readmes_results_example_has_the_runners_keys(tmp_path):
+    """The example of conformance/README.md "JSON results" against a real document: the
+    same members, at the top and in a result, and an absolute command, as the runner
+    writes it (the example said ./mydecoder)."""
+    import os
+    import re
+    text = (Path(__file__).parent / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"## JSON results.*?```json\n(.*?)```", text, re.S)
+    assert block
+    example = json.loads(block.group(1))
+    _, doc = run(tmp_path, "--decoder", str(copier(tmp_path, ONE)), "--only", ONE)
+    assert doc["totals"]["passed"] == 1
+    assert list(example) == list(doc)
+    assert list(example["results"][0]) == list(doc["results"][0])
+    assert all(os.path.isabs(a) for a in (example["command"][0], doc["command"][0]))

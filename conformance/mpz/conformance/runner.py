@@ -1450,10 +1450,20 @@ def main(argv: list[str] | None = None) -> int:
             if args.only:
                 unknown = set(args.only) - {k for v in todo for k in mf.selectors(v)}
                 if unknown:
+                    # the names that begin so, or are close, as mpz suggests a subcommand
+                    # ("--only v09" named nothing: QA, stop 71)
+                    every = sorted({k for v in man["vectors"] for k in mf.selectors(v)
+                                    if "/" not in k and "." not in k})
+                    hints = []
+                    for u in sorted(unknown):
+                        close = ([k for k in every if k.startswith(u)][:3] or
+                                 difflib.get_close_matches(u, every, n=3, cutoff=0.6))
+                        if close:
+                            hints.append(f"{u}: did you mean {' or '.join(close)}?")
                     raise UsageError(f"no vector named {', '.join(sorted(unknown))} (names "
                                      "as the runner prints them, v04-orders-residual-only, "
                                      "valid/v04-orders-residual-only, a file name, or a "
-                                     "group)")
+                                     "group)" + "".join(f"; {h}" for h in hints))
         else:
             todo = [(item, float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"]
@@ -1597,16 +1607,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"note: {later} failure(s) are decodes of invalid vectors that break only "
               "rules marked (1.1) in spec §7.4, which a decoder of MPZ 1.0 alone must "
               "decode: if it implements 1.0 alone, run it with --implements 1.0 (spec §2.1)")
-    if mode == "decoder" and minor < VERSION_MINOR:
-        print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
-              f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
     # rejections by a traceback or a panic: their PASS lines say so, which -q hid, and a
     # decoder that panics on every bad file read as conformant (QA, stop 71)
     unplanned = sum(r["passed"] and r.get("actual") == "reject" and
                     bool(_unplanned({"stderr": r.get("stderr_tail") or ""})) for r in results)
     # an unproven run's line said "1/1 passed" above exit 1, the reason on stderr alone
     # (a CLI audit): it says so on the summary line too
+    # the count of re-judged vectors on the summary line, where the README says it is (it
+    # was a note of its own above it: QA, stop 71)
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
+          + (f"; --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
+             "must read them, from reject to decode, their later chunk types unknown to it "
+             "(spec §2.1, §2.3)" if mode == "decoder" and minor < VERSION_MINOR else "")
           + (f"; {unplanned} of the rejections by an uncaught exception or a panic ("
              + ("see --results" if args.quiet and args.results else
                 "run without -q to see which" if args.quiet else "see their PASS lines")
