@@ -345,3 +345,15 @@ def test_the_readmes_results_example_has_the_runners_keys(tmp_path):
     assert list(example) == list(doc)
     assert list(example["results"][0]) == list(doc["results"][0])
     assert all(os.path.isabs(a) for a in (example["command"][0], doc["command"][0]))
+
+
+# ------------------------------------------ finding 3: values off the file's grid --
+def test_values_off_the_files_grid_are_hinted(tmp_path):
+    """`mpz decode` of a BVH or AMC file writes joint positions, a fraction of a grid step
+    from the marker layer (an implementer's QA run of stop 71: 0.387 grid steps)."""
+    step = float(VEC[ONE]["header"]["step"])
+    r = one(tmp_path, copier(tmp_path, ONE, f"x = x + 0.387 * {step!r}\n"))
+    assert "beyond max_abs 4.77e-07 (most are a fraction of a grid step off, off the file's " \
+           "grid: not the §6.8 marker layer, offset + q × step?): " in r["message"], r
+    r = one(tmp_path, copier(tmp_path, ONE, f"x[:2] += {step!r}\n"))
+    assert "beyond max_abs" in r["message"] and "off the file's grid" not in r["message"], r
