@@ -928,7 +928,7 @@ def test_small_usage_points_of_an_implementers_run(tmp_path):
         ''', name="units.py")
     proc, doc = run(tmp_path, "--decoder", str(dec), "--only", ONE)
     r = doc["results"][0]
-    assert not r["passed"] and "not an integer code: 'mm' (MHDR's code, " in r["message"], r
+    assert not r["passed"] and 'not an integer code: "mm" (MHDR\'s code, ' in r["message"], r
 
 
 def _held_open(tmp_path: Path, name: str, last: str, code: int) -> dict:

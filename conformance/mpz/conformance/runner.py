@@ -34,6 +34,7 @@ import argparse
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 import contextlib
+import difflib
 import json
 import math
 import os
@@ -48,6 +49,7 @@ import tempfile
 import threading
 import time
 from typing import Any
+import unicodedata
 import warnings
 
 import numpy as np
@@ -362,12 +364,17 @@ def failure_kind(run: dict[str, Any]) -> tuple[str, str] | None:
         return "error", run["stderr"]
     if run["timed_out"]:
         return "timeout", "did not finish within the time limit (killed)"
-    if run["signal"]:
-        return "crash", f"killed by {run['signal']}"
-    if code in SHELL_CRASH_CODES:
-        return "crash", (f"exit {code} = 128 + {SHELL_CRASH_CODES[code]}, a shell's report of "
-                         f"a process killed by that signal")
     lines = [ln.strip() for ln in run["stderr"].splitlines() if ln.strip()]
+    if run["signal"] or code in SHELL_CRASH_CODES:
+        how = (f"killed by {run['signal']}" if run["signal"] else
+               f"exit {code} = 128 + {SHELL_CRASH_CODES[code]}, a shell's report of a process "
+               "killed by that signal")
+        # an uncaught std::bad_alloc and Rust's failed allocation end in abort(): they were
+        # told as a crash, the cause dropped (an implementer's QA run of stop 71)
+        hit = next((ln for ln in lines if OUT_OF_MEMORY.match(ln)), None)
+        if hit is not None:
+            return "memory", f"ran out of memory ({how}, after: {hit[:200]})"
+        return "crash", how
     if code != 0 and lines:
         hit = next((ln for ln in lines if OUT_OF_MEMORY.match(ln)), None)
         if hit is None and OUT_OF_MEMORY_LAST.match(lines[-1]):
@@ -419,6 +426,25 @@ def _unplanned(run: dict[str, Any]) -> str:
 
 
 # ----------------------------------------------------------- comparisons --
+#: the rule of each check of a decoded output, which its failure leads with: the rules
+#: its vector probes (the manifest's) follow, and were alone the pointer before, though 69
+#: of the 75 decodable vectors do not probe R-6.8-2 (an implementer's QA run of stop 71)
+RULE_ARRAY = "§7.3"                         # OUT.npy itself: float64 [F, M, 3], little-endian
+RULE_VALUES = "R-6.8-1 (§7.1 item 3)"       # the values and the NaN pattern
+RULE_DIGEST = "§7.1 item 2"                 # the integer-layer digest
+RULE_SIDECAR = "R-6.8-2 (§6.8, §7.3)"       # names, rate, units and meta
+
+
+def _led(tagged: list[tuple[str, str]]) -> str:
+    """Problems joined, each run of them led by its rule: ``R-6.8-1 (§7.1 item 3): ...``."""
+    out = []
+    last = None
+    for rule, text in tagged:
+        out.append(text if rule == last else f"{rule}: {text}")
+        last = rule
+    return "; ".join(out)
+
+
 def _fmt(v: float) -> str:
     if isinstance(v, float) and math.isnan(v):
         return "NaN"
@@ -494,20 +520,33 @@ def _other_byte_order(got: np.ndarray, exp: np.ndarray, max_abs: float) -> bool:
 
 def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
     """Float-tier comparison of a decoded array with the expected one."""
+    tol = vec["tolerances"]
+    res = {"max_abs": None, "rms": None, "allowed_max_abs": tol["max_abs"],
+           "allowed_rms": tol["rms"], "first_failure": None, "problems": [], "rules": []}
+    # each problem's rule (:data:`RULE_ARRAY`, :data:`RULE_VALUES`), in "rules", one a problem
+    _judge_array(got, exp, vec, res)
+    res["rules"] += [RULE_VALUES] * (len(res["problems"]) - len(res["rules"]))
+    return res
+
+
+def _judge_array(got: np.ndarray, exp: np.ndarray, vec: dict, res: dict) -> None:
+    """:func:`compare_output`'s checks, into ``res``: the problems of the array's form
+    (dtype, shape, byte order) with their rule in ``res["rules"]``, then those of its
+    values, whose rule the caller adds."""
     hdr = vec["header"]
     tol = vec["tolerances"]
     names = hdr.get("names") or []
     step = float(hdr["step"])
-    res = {"max_abs": None, "rms": None, "allowed_max_abs": tol["max_abs"],
-           "allowed_rms": tol["rms"], "first_failure": None, "problems": []}
     if got.dtype != np.float64:
         res["problems"].append(f"output dtype {got.dtype} != float64 (the contract requires "
                                f"float64 little-endian .npy)")
-        return res
+        res["rules"].append(RULE_ARRAY)
+        return
     if got.shape != exp.shape:
         res["problems"].append(f"shape {tuple(got.shape)} != expected {tuple(exp.shape)} "
                                f"(frames, markers, 3)")
-        return res
+        res["rules"].append(RULE_ARRAY)
+        return
     gnan, enan = np.isnan(got), np.isnan(exp)
     if _other_byte_order(got, exp, tol["max_abs"]):
         # the values written big-endian under a '<f8' header were told as a NaN pattern
@@ -516,7 +555,8 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
                                "big-endian is the expected one, but the .npy header says "
                                "little-endian ('<f8'); write the values little-endian (or "
                                "a header that says '>f8', which the contract refuses too)")
-        return res
+        res["rules"].append(RULE_ARRAY)
+        return
     if (gnan != enan).any():
         idx = np.argwhere(gnan != enan)
         where, f, m, a = _where(idx[0], names)
@@ -529,13 +569,13 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
                                 else float(got[tuple(idx[0])]), "expected": None if
                                 enan[tuple(idx[0])] else float(exp[tuple(idx[0])]), "off_by": None,
                                 "grid_steps": None}
-        return res
+        return
     ok = ~enan
     if np.isinf(got[ok]).any():
         idx = np.argwhere(np.isinf(got) & ok)[0]
         where, *_ = _where(idx, names)
         res["problems"].append(f"infinite value at {where}")
-        return res
+        return
     diff = np.zeros_like(exp)
     with np.errstate(over="ignore"):     # a huge wrong value: inf, reported as such
         diff[ok] = np.abs(got[ok] - exp[ok])
@@ -560,11 +600,18 @@ def compare_output(got: np.ndarray, exp: np.ndarray, vec: dict) -> dict:
                                         "axis": "xyz"[a], "got": g, "expected": e,
                                         "off_by": off, "grid_steps": off / step}
         more = f" (and {len(idx) - FAIL_LIST} more)" if len(idx) > FAIL_LIST else ""
-        res["problems"].append(f"{len(idx)} coordinate(s) beyond max_abs {tol['max_abs']:.3g}: "
-                               + "; ".join(lines) + more)
+        # most of them a fraction of a step off: values not on the file's grid, such as the
+        # joint positions `mpz decode` writes for a BVH or AMC file (QA, stop 71)
+        with np.errstate(all="ignore"):
+            steps_off = (got[bad] - exp[bad]) / step
+            part = np.abs(steps_off - np.round(steps_off))
+        grid = (" (most are a fraction of a grid step off, off the file's grid: not the "
+                "§6.8 marker layer, offset + q × step?)"
+                if len(idx) >= 2 and float(np.mean(part > 0.01)) > 0.5 else "")
+        res["problems"].append(f"{len(idx)} coordinate(s) beyond max_abs {tol['max_abs']:.3g}"
+                               f"{grid}: " + "; ".join(lines) + more)
     if res["rms"] > tol["rms"]:
         res["problems"].append(f"rms error {res['rms']:.6g} > allowed {tol['rms']:.3g}")
-    return res
 
 
 # ---------------------------------------------------------------- sidecar --
@@ -576,41 +623,115 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _json(v: Any, n: int = 100) -> str:
+    """``v`` as JSON writes it (``null``, ``true``, ``"x"``: a sidecar's value said as
+    Python's ``None`` puzzled an implementer of another language, QA of stop 71), cut to
+    ``n`` characters."""
+    try:
+        t = json.dumps(v, ensure_ascii=False)
+    except (TypeError, ValueError):
+        t = repr(v)
+    return t if len(t) <= n else t[:n] + "..."
+
+
+def _fold(text: str) -> str:
+    """``text`` as it prints, near enough: NFKC, without format and control characters."""
+    return "".join(c for c in unicodedata.normalize("NFKC", text)
+                   if unicodedata.category(c) not in ("Cf", "Cc", "Zl", "Zp"))
+
+
+def _said(got: str, want: str) -> tuple[str, str]:
+    """Two strings that differ, as a message quotes them: with their code points when they
+    print alike (Unicode normalisation, an invisible character): "names[4] = 'é' != expected
+    'é'" showed nothing (an implementer's QA run of stop 71)."""
+    a, b = repr(got)[:100], repr(want)[:100]
+    if got == want or _fold(got) != _fold(want):
+        return a, b
+
+    def points(t: str) -> str:
+        return " ".join(f"U+{ord(c):04X}" for c in t[:24]) + (" ..." if len(t) > 24 else "")
+    return f"{a} ({points(got)})", f"{b} ({points(want)})"
+
+
+#: the members of the decoder's sidecar (spec §7.3)
+SIDECAR_MEMBERS = ("names", "rate", "units", "meta")
+
+
+def _missing_member(key: str, doc: dict[str, Any]) -> str:
+    """A member of the sidecar that ``doc`` lacks, said in JSON terms, with the member it
+    holds that may be it misnamed (``units_code``, the manifest's name)."""
+    others = [k for k in doc if k not in SIDECAR_MEMBERS]
+    close = ([k for k in others if key in k.lower()] or
+             difflib.get_close_matches(key, others, n=1, cutoff=0.6))
+    return (f"sidecar member {_json(key)} missing"
+            + (f" (found {_json(close[0])})" if close else "")
+            + (": write {} when the file has no meta chunk" if key == "meta" else ""))
+
+
 def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
     """Spec §7.3: compare ``OUT.npy.json`` with the manifest's expected result.
 
     Returns (status, problems), status ``match``, ``mismatch``, ``missing`` or
     ``unreadable``. Names, units and meta must be equal exactly (strings as code points),
-    and the rate, read as binary64, must be the same binary64 as MHDR.rate.
+    and the rate, read as binary64, must be the same binary64 as MHDR.rate. Problems are
+    said in JSON's terms: a member missing (or misnamed), ``null``, a member twice.
     """
     hdr = vec["header"]
     if not path.is_file():
-        return "missing", [f"no {path.name}: the decoded result's names, rate, units and meta "
-                           f"are part of the contract (spec §7.3; --array-only checks the array "
-                           f"alone)"]
+        # OUT.json for OUT.npy: the encoder contract's IN.json replaces .npy (QA, stop 71)
+        other = path.with_name(Path(path.stem).stem + ".json")
+        return "missing", [f"no {path.name}"
+                           + (f" ({other.name} exists: the decoder's sidecar name is OUT.npy "
+                              "with .json appended, where the encoder contract's IN.json "
+                              "replaces .npy)" if other.is_file() else "")
+                           + ": the decoded result's names, rate, units and meta "
+                           "are part of the contract (spec §7.3; --array-only checks the array "
+                           "alone)"]
     raw = _read_capped(path, MAX_SIDECAR_BYTES)
     if raw is None:
         return "unreadable", [f"{path.name} is larger than {MAX_SIDECAR_BYTES} bytes: not read"]
+    if raw.startswith(b"\xef\xbb\xbf"):        # Python's advice was "decode using utf-8-sig"
+        return "unreadable", [f"{path.name} starts with a UTF-8 byte order mark (EF BB BF), "
+                              "which RFC 8259 §8.1 forbids: write none"]
+    twice: list[str] = []
+
+    def members(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        # a member twice: RFC 8259 leaves its meaning open, and C parsers often keep the
+        # first where Python keeps the last ("lists 0 names, expected 4": QA, stop 71)
+        seen: dict[str, Any] = {}
+        for k, v in pairs:
+            if k in seen and k not in twice:
+                twice.append(k)
+            seen[k] = v
+        return seen
     try:
-        doc = json.loads(raw.decode("utf-8"), parse_constant=_json_constant)
+        doc = json.loads(raw.decode("utf-8"), parse_constant=_json_constant,
+                         object_pairs_hook=members)
     except (ValueError, UnicodeDecodeError, RecursionError) as exc:
         return "unreadable", [f"{path.name} is not UTF-8 JSON: {exc}"]
     if not isinstance(doc, dict):
         return "unreadable", [f"{path.name} is not a JSON object"]
-    problems = []
+    problems = [f"sidecar has the member {_json(k)} twice (RFC 8259 leaves its meaning open: "
+                "write each member once)" for k in twice]
+    problems += [_missing_member(k, doc) for k in SIDECAR_MEMBERS if k not in doc]
     names, want = doc.get("names"), list(hdr["names"])
-    if not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
-        problems.append(f"sidecar names is not an array of strings: {names!r:.200}")
+    if "names" not in doc:
+        pass
+    elif not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
+        problems.append(f"sidecar names is not an array of strings: {_json(names, 200)}")
     elif names != want:
         if len(names) != len(want):
             problems.append(f"sidecar lists {len(names)} names, expected {len(want)}")
         else:
             k = next(k for k, (a, b) in enumerate(zip(names, want, strict=True)) if a != b)
-            problems.append(f"sidecar names[{k}] = {names[k]!r} != expected {want[k]!r} "
+            shown, exp = _said(names[k], want[k])
+            problems.append(f"sidecar names[{k}] = {shown} != expected {exp} "
                             f"(names compare as exact code points, §4.2)")
     rate: Any = doc.get("rate")
-    if not _is_number(rate):
-        problems.append(f"sidecar rate is not a number: {rate!r:.100}")
+    if "rate" not in doc:
+        pass
+    elif not _is_number(rate):
+        problems.append(f"sidecar rate is not a number: {_json(rate)}")
     else:
         try:
             got = float(rate)
@@ -620,30 +741,85 @@ def compare_sidecar(path: Path, vec: dict[str, Any]) -> tuple[str, list[str]]:
             problems.append(f"sidecar rate {got!r} != expected {float(hdr['rate'])!r} (the exact "
                             f"binary64 of MHDR.rate; write 17 significant digits)")
     units: Any = doc.get("units")
-    if not (_is_number(units) and (isinstance(units, int) or units.is_integer())):
-        problems.append(f"sidecar units is not an integer code: {units!r:.100} (MHDR's "
+    if "units" not in doc:
+        pass
+    elif not (_is_number(units) and (isinstance(units, int) or units.is_integer())):
+        problems.append(f"sidecar units is not an integer code: {_json(units)} (MHDR's "
                         f"code, {hdr['units_code']} for this file: spec §4.1's table, not "
                         "the unit's name, which the encoder's IN.json uses)")
     elif int(units) != int(hdr["units_code"]):
         problems.append(f"sidecar units {int(units)} != expected code {hdr['units_code']}")
     meta, want_meta = doc.get("meta"), dict(hdr["meta"])
-    if not (isinstance(meta, dict) and all(isinstance(v, str) for v in meta.values())):
-        problems.append(f"sidecar meta is not an object of strings: {meta!r:.200}")
+    if "meta" not in doc:
+        pass
+    elif not (isinstance(meta, dict) and all(isinstance(v, str) for v in meta.values())):
+        problems.append(f"sidecar meta is not an object of strings: {_json(meta, 200)}")
     elif meta != want_meta:
         extra, lost = sorted(set(meta) - set(want_meta)), sorted(set(want_meta) - set(meta))
-        if lost:
+        alike = next(((e, m) for m in lost for e in extra if _fold(e) == _fold(m)), None)
+        if alike:
+            shown, exp = _said(*alike)
+            problems.append(f"sidecar meta has key {shown} where the file holds {exp} (keys "
+                            "compare as exact code points)")
+        elif lost:
             problems.append(f"sidecar meta lacks key {lost[0]!r} (expected "
                             f"{want_meta[lost[0]]!r:.100})")
         elif extra:
             problems.append(f"sidecar meta has key {extra[0]!r}, which the file does not hold")
         else:
             k = next(k for k in want_meta if meta[k] != want_meta[k])
-            problems.append(f"sidecar meta[{k!r}] = {meta[k]!r:.100}, expected "
-                            f"{want_meta[k]!r:.100} (for a repeated key, the last value: §4.11)")
+            shown, exp = _said(meta[k], want_meta[k])
+            problems.append(f"sidecar meta[{k!r}] = {shown}, expected {exp} (for a repeated "
+                            "key, the last value: §4.11)")
     return ("mismatch" if problems else "match"), problems
 
 
+def _digest_problem(path: Path, want: str, array_matched: bool) -> str | None:
+    """What is wrong with the integer-layer digest file ``path`` (spec §7.1 item 2, §7.3:
+    64 hex characters, whitespace around them ignored), None when it holds ``want``. Its
+    form is checked first: 32 raw bytes were printed as mojibake, and an empty file as
+    '' (an implementer's QA run of stop 71); its bytes are never printed as they are."""
+    raw = _read_capped(path, MAX_DIGEST_BYTES)
+    if raw is None:
+        return f"{path.name} is larger than {MAX_DIGEST_BYTES} bytes: not read"
+    text = raw.strip()
+    if not text:
+        return (f"{path.name} is empty{' but for whitespace' if raw else ''}: write the "
+                "digest as 64 hex characters, or no file")
+    if not re.fullmatch(rb"[0-9a-fA-F]{64}", text):
+        if all(0x20 <= c < 0x7f for c in text):
+            what = (f"{len(text)} hex characters" if re.fullmatch(rb"[0-9a-fA-F]+", text) else
+                    f"the text {text[:40].decode('ascii')!r}"
+                    + (f" ({len(text)} characters)" if len(text) > 40 else ""))
+        else:
+            what = (f"{len(raw)} bytes that are not ASCII text"
+                    + (" (the SHA-256 itself?)" if len(raw) == 32 else ""))
+        return f"{path.name} holds {what}, not 64 hex characters: write the digest in hex"
+    got = text.decode("ascii").lower()
+    if got == want:
+        return None
+    return (f"integer-layer digest {got} != expected {want} (the integers q and the mask "
+            "must be exact" + ("; the array matched: check the digest's layout, q as "
+                               "little-endian int64 [F, M, 3] with the gap samples, then the "
+                               "mask as one byte per sample [F, M]" if array_matched else "")
+            + ")")
+
+
 # ------------------------------------------------------------ decoder mode --
+#: the sections whose rules spec §7.4 marks (1.1): those of the chunk types MPZ 1.1 added
+#: (test_runner_messages.py checks this against the rule index)
+LATER_SECTIONS = ("§4.13", "§4.14", "§4.15", "§6.9", "§6.10")
+
+
+def only_later_rules(vec: dict[str, Any]) -> bool:
+    """Whether every rule that ``vec`` probes is one that spec §7.4 marks (1.1), which a
+    decoder of 1.0 alone does not apply (it skips those chunk types, §2.1, §2.3)."""
+    rules = vec.get("rules") or []
+    secs = ["§" + r[2:].rsplit("-", 1)[0] for r in rules]
+    return bool(rules) and all(any(s == t or s.startswith(t + ".") for t in LATER_SECTIONS)
+                               for s in secs)
+
+
 def as_read_by(vec: dict[str, Any], vdir: Path, minor: int
                ) -> tuple[dict[str, Any], np.ndarray | None]:
     """What a decoder of 1.0 .. 1.``minor`` must do with vector ``vec``: (the vector's entry,
@@ -685,10 +861,11 @@ def as_read_by(vec: dict[str, Any], vdir: Path, minor: int
 
 def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout: float,
                        memory_mb: int | None, array_only: bool = False,
-                       expected_array: np.ndarray | None = None) -> dict[str, Any]:
+                       expected_array: np.ndarray | None = None,
+                       minor: int = VERSION_MINOR) -> dict[str, Any]:
     """Run the decoder on one vector and judge what it did against ``vec``'s expectation
     (and ``expected_array`` in place of the vector's .npy file, from :func:`as_read_by`,
-    whose reason a failure's message ends with)."""
+    whose reason a failure's message ends with), as a decoder of 1.``minor``."""
     entry = _run_decoder_vector(cmd, vdir, vec, timeout, memory_mb, array_only,
                                 expected_array)
     # a vector re-judged for an earlier minor version says so whether it passed or not: a
@@ -701,9 +878,20 @@ def run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout:
         # wrong rejection or a wrong output sent an implementer to the manifest to learn
         # which rule of the spec to read (a QA run of stop 53)
         later = vec["expected"] == "decode" and vec.get("group") == "invalid"
-        entry["message"] += f"; rules {rules} (spec §7.4)" + (
+        # an output judged and found wrong leads with the rule of the check that failed
+        # (:func:`_led`); the vector's own rules follow, as what it probes
+        judged = vec["expected"] == "decode" and entry["actual"] == "decode"
+        entry["message"] += (f"; vector probes: {rules} (spec §7.4)" if judged else
+                             f"; rules {rules} (spec §7.4)") + (
             ", rules of a later minor version than --implements names (spec §2.1)"
             if later else "")
+    if not entry["passed"] and minor == VERSION_MINOR and vec["expected"] == "reject" and \
+            entry["actual"] == "decode" and only_later_rules(vec):
+        # a 1.0 decoder run as the Quick start shows failed 153 vectors, and nothing
+        # named --implements (an implementer's QA run of stop 71)
+        n = len(vec["rules"])
+        entry["message"] += (f"; {'it is a 1.1 rule' if n == 1 else 'they are 1.1 rules'}: "
+                             "a decoder of 1.0 alone runs with --implements 1.0 (spec §2.1)")
     if vec.get("note"):
         entry["message"] += f" [judged {vec['note']}]"
     return entry
@@ -758,8 +946,21 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
                 # the rules it breaks, by their spec §7.4 IDs: "byte 1 XOR 0x20" alone sent
                 # an implementer to the manifest (a QA run of stop 50)
                 rules = ", ".join(vec.get("rules") or [])
+                # what it wrote and said, and the reference's message with its §: they were
+                # in --results alone, and a decoder that printed its rejection and exited 0
+                # was told nothing of it (an implementer's QA run of stop 71)
+                wrote = out.is_file()
+                lines = [ln.strip() for ln in run["stderr"].splitlines() if ln.strip()]
+                said = (f"it wrote {'' if wrote else 'no '}{out.name}; "
+                        + (f"its output ends: {lines[-1][:160]!r}" if lines else
+                           "it printed nothing"))
+                ref = None if vec.get("note") else vec.get("reference_message")
                 entry["message"] = (f"expected rejection ({vec['corruption']}), but decoder "
-                                    f"exited 0; the reference raises {vec['expected_error']}"
+                                    f"exited 0 ({said})"
+                                    + ("" if wrote else ": a rejection is a non-zero exit "
+                                       "status (spec §7.3)")
+                                    + f"; the reference raises {vec['expected_error']}"
+                                    + (f": {ref[:300]}" if ref else "")
                                     + (f"; rules {rules} (spec §7.4)" if rules else ""))
             return entry
         # expected: decode
@@ -771,7 +972,8 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
             return entry
         entry["actual"] = "decode"
         if not out.is_file():
-            entry["message"] = f"decoder exited 0 but wrote no output file {out.name}"
+            entry["message"] = (f"{RULE_ARRAY}: decoder exited 0 but wrote no output file "
+                                f"{out.name}")
             return entry
         try:
             # mapped, not read: a huge output costs the runner no memory before its shape
@@ -779,10 +981,11 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
             with _numpy_quiet():
                 got = np.load(out, mmap_mode="r", allow_pickle=False)
         except Exception as exc:  # any unreadable output is the decoder's failure
-            entry["message"] = f"output is not a readable .npy file: {_npy_problem(out, exc)}"
+            entry["message"] = (f"{RULE_ARRAY}: output is not a readable .npy file: "
+                                f"{_npy_problem(out, exc)}")
             return entry
         if not isinstance(got, np.ndarray):     # np.load gives an NpzFile for a zip
-            entry["message"] = "output is not a .npy file (a .npz archive?)"
+            entry["message"] = f"{RULE_ARRAY}: output is not a .npy file (a .npz archive?)"
             return entry
         exp = (expected_array if expected_array is not None else
                np.load(vdir / vec["expected_output"]["file"], allow_pickle=False))
@@ -791,30 +994,25 @@ def _run_decoder_vector(cmd: list[str], vdir: Path, vec: dict[str, Any], timeout
         entry.update(max_abs=cmp["max_abs"], rms=cmp["rms"],
                      allowed_max_abs=cmp["allowed_max_abs"], allowed_rms=cmp["allowed_rms"],
                      first_failure=cmp["first_failure"])
-        problems = list(cmp["problems"])
+        problems = list(zip(cmp["rules"], cmp["problems"], strict=True))
         dig = out.with_name(out.name + ".intlayer")
         if os.path.lexists(dig) and not dig.is_file():
             # a link to /dev/urandom or a folder passed as "absent" (a QA run of stop 50)
             entry["intlayer"] = "mismatch"
-            problems.insert(0, f"{dig.name} is not a regular file (a folder, a device, a "
-                               "FIFO): the integer-layer digest, if written, must be a file")
+            problems.insert(0, (RULE_DIGEST, f"{dig.name} is not a regular file (a folder, a "
+                                             "device, a FIFO): the integer-layer digest, if "
+                                             "written, must be a file"))
         elif dig.is_file():
-            raw = _read_capped(dig, MAX_DIGEST_BYTES)
-            text = ("(larger than 4096 bytes: not read)" if raw is None else
-                    raw.decode("ascii", errors="replace").strip().lower())
-            if text == vec["integer_layer_digest"]:
-                entry["intlayer"] = "match"
-            else:
-                entry["intlayer"] = "mismatch"
-                problems.insert(0, f"integer-layer digest {text[:64]!r} != expected "
-                                   f"{vec['integer_layer_digest']} (spec §7.1: the integers q "
-                                   f"and the mask must be exact)")
+            wrong = _digest_problem(dig, vec["integer_layer_digest"], not cmp["problems"])
+            entry["intlayer"] = "mismatch" if wrong else "match"
+            if wrong:
+                problems.insert(0, (RULE_DIGEST, wrong))
         if not array_only:
             entry["sidecar"], side_problems = compare_sidecar(
                 out.with_name(out.name + ".json"), vec)
-            problems += side_problems
+            problems += [(RULE_SIDECAR, p) for p in side_problems]
         if problems:
-            entry["message"] = "; ".join(problems)
+            entry["message"] = _led(problems)
         else:
             entry["passed"] = True
             entry["message"] = (f"max_abs {cmp['max_abs']:.3g} <= {cmp['allowed_max_abs']:.3g}, "
@@ -874,8 +1072,8 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
         # last was renamed, a QA run of stop 47); the shapes are equal here
         k = next(i for i, (got, want) in enumerate(zip(out.names, side["names"],
                                                         strict=True)) if got != want)
-        said = (f"marker names[{k}] = {printable(out.names[k])!r} != input "
-                f"{printable(side['names'][k])!r}")
+        got_k, want_k = _said(printable(out.names[k]), printable(side["names"][k]))
+        said = f"marker names[{k}] = {got_k} != input {want_k}"
         if sorted(out.names) == sorted(side["names"]) and \
                 len(set(side["names"])) == len(side["names"]):
             # the same markers in another order: the gaps and the bound are checked marker
@@ -917,6 +1115,10 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     return problems, facts
 
 
+#: what an encoder's refusal or missing output ends with: the bound it did not hold
+ENCODER_RULES = "; rules R-7.2-1 (spec §7.4)"
+
+
 def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) -> dict:
     name = f"{item['name']}@{E:g}"
     entry = {"name": name, "group": "encoder", "file": item["input"], "expected": "encode",
@@ -956,11 +1158,17 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         if run["exit_code"] != 0:
             tail = run["stderr"].strip().splitlines()
             entry["actual"] = "reject"
+            # the rule and the §, as decoder mode says them (an implementer's QA run of
+            # stop 71: a refusal and a missing output named neither)
             entry["message"] = (f"encoder exited {run['exit_code']}"
-                                + (f": {tail[-1][:300]}" if tail else ""))
+                                + (f": {tail[-1][:300]}" if tail else "")
+                                + ": every input and bound the suite ships can be held, so a "
+                                "refusal fails here (spec §7.3)" + ENCODER_RULES)
             return entry
         if not out.is_file():
-            entry["actual"], entry["message"] = "encode", "encoder exited 0 but wrote no file"
+            entry["actual"] = "encode"
+            entry["message"] = (f"encoder exited 0 but wrote no file {out.name} (spec §7.3)"
+                                + ENCODER_RULES)
             return entry
         got = _read_capped(out, MAX_ENCODED_BYTES)
         if got is None:
@@ -973,7 +1181,12 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
     problems, facts = check_encoded(data, x, side, E)
     entry.update(facts)
     if problems:
-        entry["message"] = "; ".join(problems)
+        # the rules at the end, "rules ... (spec §7.4)" as in decoder mode, not after each
+        # problem (QA, stop 71)
+        rules = sorted({r for p in problems for r in re.findall(r"R-7\.2-\d+", p)})
+        entry["message"] = "; ".join(p.removesuffix(" (R-7.2-1)").removesuffix(" (R-7.2-2)")
+                                     for p in problems) + (
+            f"; rules {', '.join(rules)} (spec §7.4)" if rules else "")
     else:
         entry["passed"] = True
         entry["message"] = (f"{len(data)} bytes, declared bound {facts['declared_bound']:g} <= "
@@ -1245,10 +1458,20 @@ def main(argv: list[str] | None = None) -> int:
             if args.only:
                 unknown = set(args.only) - {k for v in todo for k in mf.selectors(v)}
                 if unknown:
+                    # the names that begin so, or are close, as mpz suggests a subcommand
+                    # ("--only v09" named nothing: QA, stop 71)
+                    every = sorted({k for v in man["vectors"] for k in mf.selectors(v)
+                                    if "/" not in k and "." not in k})
+                    hints = []
+                    for u in sorted(unknown):
+                        close = ([k for k in every if k.startswith(u)][:3] or
+                                 difflib.get_close_matches(u, every, n=3, cutoff=0.6))
+                        if close:
+                            hints.append(f"{u}: did you mean {' or '.join(close)}?")
                     raise UsageError(f"no vector named {', '.join(sorted(unknown))} (names "
                                      "as the runner prints them, v04-orders-residual-only, "
                                      "valid/v04-orders-residual-only, a file name, or a "
-                                     "group)")
+                                     "group)" + "".join(f"; {h}" for h in hints))
         else:
             todo = [(item, float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"]
@@ -1296,7 +1519,7 @@ def main(argv: list[str] | None = None) -> int:
         def job(plan):
             with _suite_files():
                 return run_decoder_vector(cmd, vdir, plan[0], args.timeout, args.memory,
-                                          args.array_only, plan[1])
+                                          args.array_only, plan[1], minor)
         todo = plans
     else:
         def job(ie):
@@ -1385,12 +1608,29 @@ def main(argv: list[str] | None = None) -> int:
                         for g, c in by_group.items())
     if mode == "decoder" and args.array_only:
         print("note: --array-only: names, rate, units and meta were not checked (spec §7.3)")
-    if mode == "decoder" and minor < VERSION_MINOR:
-        print(f"note: --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
-              f"must read them, their later chunk types unknown to it (spec §2.1, §2.3)")
+    later = sum(mode == "decoder" and minor == VERSION_MINOR and not r["passed"] and
+                plan[0]["expected"] == "reject" and r["actual"] == "decode" and
+                only_later_rules(plan[0]) for plan, r in zip(todo, results, strict=True))
+    if later:
+        print(f"note: {later} failure(s) are decodes of invalid vectors that break only "
+              "rules marked (1.1) in spec §7.4, which a decoder of MPZ 1.0 alone must "
+              "decode: if it implements 1.0 alone, run it with --implements 1.0 (spec §2.1)")
+    # rejections by a traceback or a panic: their PASS lines say so, which -q hid, and a
+    # decoder that panics on every bad file read as conformant (QA, stop 71)
+    unplanned = sum(r["passed"] and r.get("actual") == "reject" and
+                    bool(_unplanned({"stderr": r.get("stderr_tail") or ""})) for r in results)
     # an unproven run's line said "1/1 passed" above exit 1, the reason on stderr alone
     # (a CLI audit): it says so on the summary line too
+    # the count of re-judged vectors on the summary line, where the README says it is (it
+    # was a note of its own above it: QA, stop 71)
     print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
+          + (f"; --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
+             "must read them, from reject to decode, their later chunk types unknown to it "
+             "(spec §2.1, §2.3)" if mode == "decoder" and minor < VERSION_MINOR else "")
+          + (f"; {unplanned} of the rejections by an uncaught exception or a panic ("
+             + ("see --results" if args.quiet and args.results else
+                "run without -q to see which" if args.quiet else "see their PASS lines")
+             + ")" if unplanned else "")
           + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
              if n_fail else "")
           + (f"; not proven: the command did not decode {probed['group']}/{probed['name']}"
