@@ -4490,7 +4490,9 @@ def summary_review_vectors(vs: VectorSet):
     means[0], means[13] = big, -big                          # level k = 2, D = 12
     d.ancillary.append(("smry", smry_payload(0, 12, [(2, 1.0, 1e300, [0, 12], means)])))
     data = d.build()
-    lv = mpz.read_summary(data).levels[0]
+    summary = mpz.read_summary(data)
+    assert summary is not None
+    lv = summary.levels[0]
     assert np.isposinf(lv.means[0, 0]) and np.isneginf(lv.means[1, 1])
     vs.valid("uncommon", _numbered(vs, "u", "smry-means-overflow-to-infinity"), data,
              "a smry level (k = 2, D = 12) whose step is 1e300 and two of whose quantised "
@@ -4505,7 +4507,9 @@ def summary_review_vectors(vs: VectorSet):
     q[0, 0], q[0, 1] = 1 << 29, -(1 << 29)          # residuals below 2^30 (§5.4)
     body = _smrc_payload(0, 12, [(1, 1.0, 1e300, [0], q)], frames=24)
     data = _with_smrc(good, body)
-    lv = mpz.read_summary(data).levels[0]
+    summary = mpz.read_summary(data)
+    assert summary is not None
+    lv = summary.levels[0]
     assert np.isposinf(lv.means[0, 0]) and np.isneginf(lv.means[0, 1])
     vs.valid("uncommon", _numbered(vs, "u", "smrc-means-overflow-to-infinity"), data,
              "an smrc level (k = 1, D = 12) whose step is 1e300 and two of whose quantised "
