@@ -4483,17 +4483,21 @@ def summary_review_vectors(vs: VectorSet):
     from mpz.chunks import Mhdr
     from mpz.container import scan
 
+    def overflows(data: bytes, up: tuple[int, int], down: tuple[int, int]) -> bytes:
+        """``data``, checked: its first level's means at ``up`` and ``down`` are ±∞."""
+        summary = mpz.read_summary(data)
+        assert summary is not None
+        means = summary.levels[0].means
+        assert np.isposinf(means[up]) and np.isneginf(means[down])
+        return data
+
     big = (1 << 31) - 1
     # -- uncommon: smry means that overflow to ±∞ (a 1.0 file)
     d = _small(171)
     means = [0] * 24
     means[0], means[13] = big, -big                          # level k = 2, D = 12
     d.ancillary.append(("smry", smry_payload(0, 12, [(2, 1.0, 1e300, [0, 12], means)])))
-    data = d.build()
-    summary = mpz.read_summary(data)
-    assert summary is not None
-    lv = summary.levels[0]
-    assert np.isposinf(lv.means[0, 0]) and np.isneginf(lv.means[1, 1])
+    data = overflows(d.build(), (0, 0), (1, 1))
     vs.valid("uncommon", _numbered(vs, "u", "smry-means-overflow-to-infinity"), data,
              "a smry level (k = 2, D = 12) whose step is 1e300 and two of whose quantised "
              "means are 2^31 - 1 and -(2^31 - 1): mean x step overflows to +inf and -inf in "
@@ -4506,11 +4510,7 @@ def summary_review_vectors(vs: VectorSet):
     q = np.zeros((1, 12), np.int64)
     q[0, 0], q[0, 1] = 1 << 29, -(1 << 29)          # residuals below 2^30 (§5.4)
     body = _smrc_payload(0, 12, [(1, 1.0, 1e300, [0], q)], frames=24)
-    data = _with_smrc(good, body)
-    summary = mpz.read_summary(data)
-    assert summary is not None
-    lv = summary.levels[0]
-    assert np.isposinf(lv.means[0, 0]) and np.isneginf(lv.means[0, 1])
+    data = overflows(_with_smrc(good, body), (0, 0), (0, 1))
     vs.valid("uncommon", _numbered(vs, "u", "smrc-means-overflow-to-infinity"), data,
              "an smrc level (k = 1, D = 12) whose step is 1e300 and two of whose quantised "
              "means are 2^29 and -2^29: mean x step overflows to +inf and -inf, and the file "
