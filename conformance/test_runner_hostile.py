@@ -577,7 +577,8 @@ def test_an_encoder_that_drops_a_marker_is_told_which(tmp_path):
 def test_each_encoder_failure_names_its_rule():
     """Encoder-mode failures said what was wrong without the §7.4 rule, where every
     decoder-mode failure names its rules (a conformance QA run of stop 55): each names
-    R-7.2-1 (the bound) or R-7.2-2 (gaps, names, rate, units), or §7.2's valid files."""
+    R-7.2-1 (the bound held), R-7.2-2 (gaps, names, rate, units), R-7.3-1 (the bound
+    declared, error_bound <= E: an encoder QA run of stop 71), or §7.2's valid files."""
     import mpz
     from mpz.conformance import manifest as mf
     from mpz.conformance.runner import check_encoded
@@ -598,7 +599,7 @@ def test_each_encoder_failure_names_its_rule():
 
     assert problems() == []
     filled = np.where(valid[..., None], x, 0.0)
-    for change, rule in [({"bound": 2 * E}, "R-7.2-1"), ({"rate": side["rate"] + 1}, "R-7.2-2"),
+    for change, rule in [({"bound": 2 * E}, "R-7.3-1"), ({"rate": side["rate"] + 1}, "R-7.2-2"),
                          ({"names": [*side["names"][:-1], "other"]}, "R-7.2-2"),
                          ({"units": "in" if side.get("units") != "in" else "m"}, "R-7.2-2"),
                          ({"positions": filled}, "R-7.2-2")]:

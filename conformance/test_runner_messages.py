@@ -290,11 +290,11 @@ def test_an_encoders_refusal_or_missing_output_names_the_rule_and_section(tmp_pa
     _, doc = run(tmp_path, "--encoder", str(refuse), "--only", only)
     assert doc["results"][0]["message"] == (
         "encoder exited 2: myenc: cannot hold bound: every input and bound the suite ships "
-        "can be held, so a refusal fails here (spec §7.3); rules R-7.2-1 (spec §7.4)")
+        "can be held, so a refusal fails here (spec §7.3); rules R-7.3-1 (spec §7.4)")
     nothing = python_script(tmp_path / "nothing.py", "sys.exit(0)\n")
     _, doc = run(tmp_path, "--encoder", str(nothing), "--only", only)
     assert doc["results"][0]["message"] == ("encoder exited 0 but wrote no file out.mpz "
-                                            "(spec §7.3); rules R-7.2-1 (spec §7.4)")
+                                            "(spec §7.3); rules R-7.3-1 (spec §7.4)")
     # a wrong file: the rules at the end, as in decoder mode
     loose = python_script(tmp_path / "loose.py", textwrap.dedent(f"""\
         import subprocess
@@ -305,7 +305,8 @@ def test_an_encoders_refusal_or_missing_output_names_the_rule_and_section(tmp_pa
     _, doc = run(tmp_path, "--encoder", str(loose), "--only", only)
     msg = doc["results"][0]["message"]
     assert msg.startswith("declared error_bound ") and msg.endswith(
-        f"> requested --max-error {E!r}; rules R-7.2-1 (spec §7.4)"), msg
+        f"> requested --max-error {E!r} (§7.3: error_bound <= E); rules R-7.3-1 (spec "
+        "§7.4)"), msg
 
 
 # --------------------------------------------------- finding 11: the docs and the runner --

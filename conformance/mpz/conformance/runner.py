@@ -1047,10 +1047,10 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     problems = []
     if h.error_metric != 1:
         problems.append(f"header error_metric {h.error_metric}, expected 1 (a declared max "
-                        f"Euclidean error, §4.1; R-7.2-1)")
+                        f"Euclidean error, §4.1, §7.3; R-7.3-1)")
     if not h.error_bound <= E:
         problems.append(f"declared error_bound {h.error_bound!r} > requested --max-error {E!r} "
-                        "(R-7.2-1)")
+                        "(§7.3: error_bound <= E) (R-7.3-1)")
     if out.positions.shape != x.shape:
         said = f"shape {out.positions.shape} != input {x.shape}"
         got, want = list(out.names), list(side["names"])
@@ -1116,7 +1116,7 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
 
 
 #: what an encoder's refusal or missing output ends with: the bound it did not hold
-ENCODER_RULES = "; rules R-7.2-1 (spec §7.4)"
+ENCODER_RULES = "; rules R-7.3-1 (spec §7.4)"
 
 
 def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) -> dict:
@@ -1183,8 +1183,8 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
     if problems:
         # the rules at the end, "rules ... (spec §7.4)" as in decoder mode, not after each
         # problem (QA, stop 71)
-        rules = sorted({r for p in problems for r in re.findall(r"R-7\.2-\d+", p)})
-        entry["message"] = "; ".join(p.removesuffix(" (R-7.2-1)").removesuffix(" (R-7.2-2)")
+        rules = sorted({r for p in problems for r in re.findall(r"R-7\.[23]-\d+", p)})
+        entry["message"] = "; ".join(re.sub(r" \(R-7\.[23]-\d\)$", "", p)
                                      for p in problems) + (
             f"; rules {', '.join(rules)} (spec §7.4)" if rules else "")
     else:

@@ -2090,7 +2090,7 @@ VECTOR_RULES = _rules(
     ("R-6.7-4", "values-at-bits-limit root-values-k30"),
     ("R-6.8-2", "rate-65.0364227294921875 meta-nul names-compared-as-bytes "
                 "units-unknown-meta-smry rate-59.94 names-meta-white-space-non-bmp"),
-    ("R-7.2-1 R-7.2-2", "walk-41-gaps mixed-10-metres names-cm-59.94-gap-throughout "
+    ("R-7.2-1 R-7.2-2 R-7.3-1", "walk-41-gaps mixed-10-metres names-cm-59.94-gap-throughout "
                         "inches-23.976 no-units"),
 )
 
@@ -3949,7 +3949,7 @@ def contract_gap_vectors(vs: VectorSet):
     valid[:, 3] = False
     m = mpz.Motion(m.positions / 10.0, names, m.rate, "cm", valid)
     vs.encoder_input("e03-names-cm-59.94-gap-throughout", m, [0.1],
-                     "6 markers in cm at 59.94 Hz (not a binary32), names of up to 64 bytes "
+                     "6 markers in cm at 59.94 Hz (not a binary32), names of up to 65 bytes "
                      "with non-ASCII letters and a space, marker 3 a gap throughout, 4% gaps")
     m = _synth("wave", 40, markers=5, seed=53, rate=23.976)
     vs.encoder_input("e04-inches-23.976", mpz.Motion(m.positions / 25.4, m.names, m.rate,
