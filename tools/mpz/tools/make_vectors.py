@@ -368,10 +368,13 @@ class VectorSet:
             "reference_message": message,
         })
 
-    def encoder_input(self, name, motion, max_errors, description):
+    def encoder_input(self, name, motion, max_errors, description, positions=None):
+        """An encoder input: ``motion`` as IN.npy (its gaps all NaN, or ``positions`` as
+        given, where a gap may have a finite coordinate) and IN.json."""
         import io
         buf = io.BytesIO()
-        np.save(buf, np.ascontiguousarray(motion.as_nan(), dtype="<f8"), allow_pickle=False)
+        x = motion.as_nan() if positions is None else positions
+        np.save(buf, np.ascontiguousarray(x, dtype="<f8"), allow_pickle=False)
         rel = f"inputs/{name}.npy"
         sha = self._write(rel, buf.getvalue())
         side = {"names": list(motion.names), "rate": motion.rate, "units": motion.units}
@@ -4552,12 +4555,37 @@ def summary_review_vectors(vs: VectorSet):
                "rejects (finite and > 0, as for smry: x155)", "FormatError", ["§4.10", "§4.15"])
 
 
+def encoder_review_inputs(vs: VectorSet):
+    """What an outside encoder implementer's QA of stop 71 found no input for: samples with
+    only some coordinates NaN, which §7.2 and §7.3 call gaps (an encoder that took only
+    all-NaN samples for gaps passed every input), and a name in NFD beside its NFC twin's
+    letters, which an encoder must keep as it is (one that normalised names passed). A
+    builder of its own, last, so that the inputs before it keep their names."""
+    m = _synth("walk", 30, markers=5, seed=711, gap_fraction=0.0)
+    x = np.array(m.positions, dtype=np.float64)
+    rng = np.random.default_rng(711)
+    for t, j, a in zip(rng.integers(0, 30, 12), rng.integers(0, 5, 12), rng.integers(0, 3, 12),
+                       strict=True):
+        x[t, j, a] = np.nan                    # one coordinate: the sample is a gap
+    x[5:9, 2, :] = np.nan                      # whole samples too
+    valid = np.asarray(~np.isnan(x).any(axis=2), dtype=bool)
+    assert (np.isnan(x).sum(axis=2) == 1).any() and not valid.all()
+    names = ["Kn\u00e9e", "Kne\u0301e", "C7", "Ellbogen links", "\u00c5ngstr\u00f6m"]
+    assert names[0] != names[1]                # NFC and NFD of one word: two names
+    motion = mpz.Motion(np.where(valid[..., None], x, 0.0), names, m.rate, "mm", valid)
+    vs.encoder_input("e06-partial-gaps-nfd-names", motion, [1.0],
+                     "5 markers, 30 frames, mm: 12 samples with one coordinate NaN (gaps, as "
+                     "any NaN makes one), a marker 4 frames a gap, and names in NFC (Kn\u00e9e) "
+                     "and NFD (Kne + U+0301 + e) that must be kept as they are", positions=x)
+
+
 #: the §7.4 rules the vectors of :func:`summary_review_vectors` probe
 SUMMARY_REVIEW_VECTOR_RULES = _rules(
     ("R-4.10-2", "smry-means-overflow-to-infinity"),
     ("R-4.15-7", "smrc-means-overflow-to-infinity smrc-in-file-marked-1.0"),
     ("R-4.13-6", "c3d-archive-in-file-marked-1.0"),
     ("R-4.15-2", "smrc-angles-no-dims-step-zero"),
+    ("R-7.2-1 R-7.2-2 R-7.3-1", "partial-gaps-nfd-names"),
 )
 VECTOR_RULES.update(SUMMARY_REVIEW_VECTOR_RULES)
 
@@ -4583,6 +4611,7 @@ BUILDERS = (
     unprobed_accept_vectors,                  # §1.3, §4.14 accept text no vector showed
     core_review_vectors,                      # §4.2, §6.8 (the reviews of stop 71)
     summary_review_vectors,                   # §2.1, §4.10, §4.15 (review of stop 71)
+    encoder_review_inputs,                    # §7.2, §7.3 (encoder QA of stop 71)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
