@@ -358,3 +358,35 @@ def test_values_off_the_files_grid_are_hinted(tmp_path):
            "grid: not the §6.8 marker layer, offset + q × step?): " in r["message"], r
     r = one(tmp_path, copier(tmp_path, ONE, f"x[:2] += {step!r}\n"))
     assert "beyond max_abs" in r["message"] and "off the file's grid" not in r["message"], r
+
+
+# ------------------------------ an encoder QA run of stop 71 (revD): the encoder mode --
+def test_an_encoders_crash_or_odd_exit_names_the_rule_and_section(tmp_path):
+    """A crash, a hang and an exit above 125 said what happened and no rule, where a
+    refusal named §7.3 and R-7.3-1: each names them now."""
+    item = MAN["encoder_inputs"][0]
+    only = f"{item['name']}@{float(item['max_errors'][0]):g}"
+    for body, start in [("import os\nos.abort()\n", "encoder killed by SIGABRT"),
+                        ("sys.exit(200)\n", "exit 200"),
+                        ("import time\ntime.sleep(30)\n", "encoder did not finish")]:
+        enc = python_script(tmp_path / "enc.py", body)
+        _, doc = run(tmp_path, "--encoder", str(enc), "--only", only, "--timeout", "3")
+        msg = doc["results"][0]["message"]
+        assert start in msg and msg.endswith(": the encoder must write the file and exit 0 "
+                                              "(spec §7.3); rules R-7.3-1 (spec §7.4)"), msg
+
+
+def test_encoder_only_takes_the_names_the_runner_prints_and_suggests(tmp_path):
+    """``--only`` in encoder mode took an input or input@E alone: the label of a FAIL line
+    (encoder/input@E), the input's file and the group named nothing, with no hint."""
+    from mpz.conformance.runner import _selects
+    name = MAN["encoder_inputs"][0]["name"]
+    for only in (name, f"{name}@1", f"{name}@1.0", f"encoder/{name}@1", f"inputs/{name}.npy",
+                 f"{name}.npy", "encoder"):
+        assert _selects(only, name, 1.0), only
+    for only in (f"{name}@2", f"encoder/{name}@2", "e0", f"inputs/{name}", "valid"):
+        assert _selects(only, name, 1.0) == (only == f"inputs/{name}"), only
+    proc = subprocess.run([PY, "-m", "mpz.conformance.runner", "--encoder", "true", "--only",
+                           name[:3]], capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 64
+    assert f"{name[:3]}: did you mean {name}@" in proc.stderr, proc.stderr

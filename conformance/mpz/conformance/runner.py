@@ -92,7 +92,13 @@ class UsageError(Exception):
 
 def _selects(only: str, name: str, E: float) -> bool:
     """Whether an encoder ``--only`` entry names this input (``name``) or this run
-    (``name@E``, E compared as a number: ``@1``, ``@1.0``, ``@1e0`` alike)."""
+    (``name@E``, E compared as a number: ``@1``, ``@1.0``, ``@1e0`` alike), also as the
+    runner prints it (``encoder/name@E``) or as its file (``inputs/name.npy``), or names
+    the whole group (``encoder``): each of those named nothing (an encoder QA run of stop
+    71)."""
+    if only == "encoder":
+        return True
+    only = only.removeprefix("encoder/").removeprefix("inputs/").removesuffix(".npy")
     if only == name:
         return True
     base, at, e = only.rpartition("@")
@@ -1153,7 +1159,10 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
             entry["actual"] = bad[0]
             limit = (f" (limit {timeout:g} s)" if bad[0] == "timeout" else
                      f" (limit {memory_mb} MB)" if bad[0] == "memory" else "")
-            entry["message"] = bad[1] if bad[0] == "error" else f"encoder {bad[1]}{limit}"
+            # the rule and the §, as a refusal says them (an encoder QA run of stop 71: a
+            # crash, a hang and exit 200 named neither)
+            entry["message"] = (bad[1] if bad[0] == "error" else f"encoder {bad[1]}{limit}") \
+                + ": the encoder must write the file and exit 0 (spec §7.3)" + ENCODER_RULES
             return entry
         if run["exit_code"] != 0:
             tail = run["stderr"].strip().splitlines()
@@ -1482,7 +1491,22 @@ def main(argv: list[str] | None = None) -> int:
                     _selects(o, item["name"], float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"])]
                 if unmatched:
-                    raise UsageError(f"no encoder input named {', '.join(unmatched)}")
+                    # the runs there are, or those an entry begins or nearly spells, as in
+                    # decoder mode (an encoder QA run of stop 71)
+                    runs = [f"{item['name']}@{float(E):g}"
+                            for item in man.get("encoder_inputs", [])
+                            for E in item["max_errors"]]
+                    hints = []
+                    for u in unmatched:
+                        bare = u.removeprefix("encoder/").removeprefix("inputs/")
+                        close = ([r for r in runs if r.startswith(bare.split("@")[0])][:4] or
+                                 difflib.get_close_matches(bare, runs, n=3, cutoff=0.6))
+                        if close:
+                            hints.append(f"{u}: did you mean {' or '.join(close)}?")
+                    raise UsageError(f"no encoder input named {', '.join(unmatched)} (an "
+                                     "input, input@E, encoder/input@E as the runner prints "
+                                     "it, inputs/input.npy, or encoder)"
+                                     + "".join(f"; {h}" for h in hints))
             if not todo:
                 raise UsageError("no encoder inputs selected")
         missing = mf.check_hashes({"vectors": [v for v in todo if isinstance(v, dict)],
