@@ -293,8 +293,15 @@ def test_an_encoders_refusal_or_missing_output_names_the_rule_and_section(tmp_pa
         "can be held, so a refusal fails here (spec §7.3); rules R-7.3-1 (spec §7.4)")
     nothing = python_script(tmp_path / "nothing.py", "sys.exit(0)\n")
     _, doc = run(tmp_path, "--encoder", str(nothing), "--only", only)
-    assert doc["results"][0]["message"] == ("encoder exited 0 but wrote no file out.mpz "
-                                            "(spec §7.3); rules R-7.3-1 (spec §7.4)")
+    assert doc["results"][0]["message"] == (
+        "encoder exited 0 but wrote no file out.mpz (nor any other file in its working "
+        "folder): OUT.mpz is the second argument, as given (spec §7.3); rules R-7.3-1 (spec "
+        "§7.4)")
+    elsewhere = python_script(tmp_path / "elsewhere.py", "open('out.MPZ', 'wb').close()\n")
+    _, doc = run(tmp_path, "--encoder", str(elsewhere), "--only", only)
+    assert doc["results"][0]["message"].startswith(
+        "encoder exited 0 but wrote no file out.mpz (it wrote out.MPZ in its working "
+        "folder)"), doc["results"][0]["message"]
     # a wrong file: the rules at the end, as in decoder mode
     loose = python_script(tmp_path / "loose.py", textwrap.dedent(f"""\
         import subprocess

@@ -1175,8 +1175,16 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
                                 "refusal fails here (spec §7.3)" + ENCODER_RULES)
             return entry
         if not out.is_file():
+            # what it wrote instead, if anything (out.MPZ, a name of its own): "wrote no
+            # file" alone did not say (an encoder QA run of stop 71)
+            others = sorted(p.name for p in Path(tmp).iterdir()
+                            if p.name not in (src.name, "in.json"))
             entry["actual"] = "encode"
-            entry["message"] = (f"encoder exited 0 but wrote no file {out.name} (spec §7.3)"
+            entry["message"] = (f"encoder exited 0 but wrote no file {out.name}"
+                                + (f" (it wrote {', '.join(others[:5])} in its working "
+                                   "folder)" if others else
+                                   " (nor any other file in its working folder)")
+                                + ": OUT.mpz is the second argument, as given (spec §7.3)"
                                 + ENCODER_RULES)
             return entry
         got = _read_capped(out, MAX_ENCODED_BYTES)
