@@ -90,6 +90,21 @@ class UsageError(Exception):
     pass
 
 
+def _suggestions(unknown: list[str], names: list[str], most: int) -> str:
+    """``; U: did you mean A or B?`` for each ``--only`` entry U that named nothing: the
+    ``names`` it begins (at most ``most``; an encoder run's ``@E`` and ``encoder/`` or
+    ``inputs/`` set aside), else those it nearly spells, as ``mpz`` suggests a subcommand
+    ("--only v09" named nothing and said so alone: QA runs of stop 71)."""
+    hints = []
+    for u in unknown:
+        bare = u.removeprefix("encoder/").removeprefix("inputs/")
+        close = ([k for k in names if k.startswith(bare.split("@")[0])][:most] or
+                 difflib.get_close_matches(bare, names, n=3, cutoff=0.6))
+        if close:
+            hints.append(f"; {u}: did you mean {' or '.join(close)}?")
+    return "".join(hints)
+
+
 def _selects(only: str, name: str, E: float) -> bool:
     """Whether an encoder ``--only`` entry names this input (``name``) or this run
     (``name@E``, E compared as a number: ``@1``, ``@1.0``, ``@1e0`` alike), also as the
@@ -1479,16 +1494,10 @@ def main(argv: list[str] | None = None) -> int:
                     # ("--only v09" named nothing: QA, stop 71)
                     every = sorted({k for v in man["vectors"] for k in mf.selectors(v)
                                     if "/" not in k and "." not in k})
-                    hints = []
-                    for u in sorted(unknown):
-                        close = ([k for k in every if k.startswith(u)][:3] or
-                                 difflib.get_close_matches(u, every, n=3, cutoff=0.6))
-                        if close:
-                            hints.append(f"{u}: did you mean {' or '.join(close)}?")
                     raise UsageError(f"no vector named {', '.join(sorted(unknown))} (names "
                                      "as the runner prints them, v04-orders-residual-only, "
                                      "valid/v04-orders-residual-only, a file name, or a "
-                                     "group)" + "".join(f"; {h}" for h in hints))
+                                     "group)" + _suggestions(sorted(unknown), every, 3))
         else:
             todo = [(item, float(E)) for item in man.get("encoder_inputs", [])
                     for E in item["max_errors"]
@@ -1504,17 +1513,10 @@ def main(argv: list[str] | None = None) -> int:
                     runs = [f"{item['name']}@{float(E):g}"
                             for item in man.get("encoder_inputs", [])
                             for E in item["max_errors"]]
-                    hints = []
-                    for u in unmatched:
-                        bare = u.removeprefix("encoder/").removeprefix("inputs/")
-                        close = ([r for r in runs if r.startswith(bare.split("@")[0])][:4] or
-                                 difflib.get_close_matches(bare, runs, n=3, cutoff=0.6))
-                        if close:
-                            hints.append(f"{u}: did you mean {' or '.join(close)}?")
                     raise UsageError(f"no encoder input named {', '.join(unmatched)} (an "
                                      "input, input@E, encoder/input@E as the runner prints "
                                      "it, inputs/input.npy, or encoder)"
-                                     + "".join(f"; {h}" for h in hints))
+                                     + _suggestions(unmatched, runs, 4))
             if not todo:
                 raise UsageError("no encoder inputs selected")
         missing = mf.check_hashes({"vectors": [v for v in todo if isinstance(v, dict)],

@@ -4331,6 +4331,22 @@ def _asfs_small() -> bytes:
                                 source="synthetic_01.amc"))
 
 
+def _marked_1_0(data: bytes) -> bytes:
+    """``data``, a file of version 1.1, with its MHDR saying 1.0 (version_minor 0)."""
+    import dataclasses
+
+    from mpz.chunks import Mhdr
+    from mpz.container import scan
+    chunks = []
+    for c in scan(data).chunks:
+        if isinstance(c.record, Mhdr):
+            assert c.record.version_minor == 1
+            chunks.append((c.type, dataclasses.replace(c.record, version_minor=0).dump()))
+        else:
+            chunks.append((c.type, c.payload))
+    return assemble(chunks)
+
+
 def unprobed_accept_vectors(vs: VectorSet):
     """Skeleton files that §1.3, §4.14, §4.14.1 and §4.14.2 call valid and that no vector
     showed, so that a decoder rejecting them passed the suite: position_bound -0.0, a bvhs
@@ -4338,7 +4354,6 @@ def unprobed_accept_vectors(vs: VectorSet):
     text fields that allow them, and a skeleton chunk in a file marked 1.0. Each edits one
     field of a 4-frame file (the vectors are held under 3 MiB). A builder of its own,
     last, so that the vectors before it keep their numbers."""
-    import dataclasses
     import struct
 
     from mpz.chunks import Mhdr
@@ -4390,14 +4405,7 @@ def unprobed_accept_vectors(vs: VectorSet):
              prov + ", control characters appended to the six text fields")
 
     # -- §2.1, §4.14: a skeleton chunk in a file marked 1.0
-    chunks = []
-    for c in scan(small).chunks:
-        if isinstance(c.record, Mhdr):
-            assert c.record.version_minor == 1
-            chunks.append((c.type, dataclasses.replace(c.record, version_minor=0).dump()))
-        else:
-            chunks.append((c.type, c.payload))
-    old = assemble(chunks)
+    old = _marked_1_0(small)
     head = scan(old).chunks[0].record
     assert isinstance(head, Mhdr) and head.version_minor == 0
     vs.valid("uncommon", _numbered(vs, "u", "asfs-in-file-marked-1.0"), old,
@@ -4481,10 +4489,7 @@ def summary_review_vectors(vs: VectorSet):
     whose step is 0, still checked though the level holds no means (R-4.15-2; x155 showed
     it for smry only). A builder of its own, last, so that the vectors before it keep
     their numbers."""
-    import dataclasses
 
-    from mpz.chunks import Mhdr
-    from mpz.container import scan
 
     def overflows(data: bytes, up: tuple[int, int], down: tuple[int, int]) -> bytes:
         """``data``, checked: its first level's means at ``up`` and ``down`` are ±∞."""
@@ -4522,16 +4527,7 @@ def summary_review_vectors(vs: VectorSet):
              "file")
 
     # -- uncommon: an smrc, then a C3D archive, in a file marked 1.0
-    def marked_1_0(data: bytes) -> bytes:
-        chunks = []
-        for c in scan(data).chunks:
-            if isinstance(c.record, Mhdr):
-                assert c.record.version_minor == 1
-                chunks.append((c.type, dataclasses.replace(c.record, version_minor=0).dump()))
-            else:
-                chunks.append((c.type, c.payload))
-        return assemble(chunks)
-    old = marked_1_0(good)
+    old = _marked_1_0(good)
     vs.valid("uncommon", _numbered(vs, "u", "smrc-in-file-marked-1.0"), old,
              "an smrc in a file whose MHDR says version 1.0 (version_minor 0): an encoder "
              "should write 1.1, but a decoder accepts any minor version (§2.1) and checks the "
@@ -4539,7 +4535,7 @@ def summary_review_vectors(vs: VectorSet):
              {"summary": "smrc", "levels": [2, 5]}, secs,
              "v-smrc-positions, MHDR version_minor 1 -> 0")
     c3d = _c3d_float_base()
-    old = marked_1_0(c3d)
+    old = _marked_1_0(c3d)
     vs.valid("uncommon", _numbered(vs, "u", "c3d-archive-in-file-marked-1.0"), old,
              "the C3D archive of v-c3d-archive-float32 (chdr, cprm, cpnt, cana) in a file "
              "whose MHDR says version 1.0: a decoder accepts any minor version (§2.1) and a "
