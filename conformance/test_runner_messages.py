@@ -87,15 +87,21 @@ def test_a_failure_leads_with_the_rule_of_its_check(tmp_path, body, lead):
 
 
 # --------------------------------------------------- finding 1: the 1.1 rules hint --
-def test_the_later_sections_are_those_of_the_rules_marked_1_1():
-    """The runner's LATER_SECTIONS give the rules spec §7.4 marks (1.1), no more, no less."""
-    from mpz.conformance.runner import only_later_rules
+def test_no_hint_where_a_1_0_decoder_must_reject_too(tmp_path):
+    """x206 and x236 probe only (1.1) rules, but a 1.0 decoder must still reject them
+    (for another reason, outside the 1.1 chunks): a decoder that decodes them is not told
+    to run with --implements 1.0, which would fail it all the same. The hint follows what
+    a 1.0 decoder must do (the runner's as_read_by), not the rules' marks."""
+    dec = python_script(tmp_path / "accept.py", "sys.exit(0)\n")
+    names = [n for n in VEC if n.split("-")[0] in ("x206", "x236")]
+    assert len(names) == 2
     text = (Path(__file__).parents[1] / "spec" / "mpz-1.md").read_text(encoding="utf-8")
-    rows = mf.spec_rules(text)
-    assert any(what.startswith("(1.1)") for *_, what in rows)
-    for rid, _, _, what in rows:
-        assert only_later_rules({"rules": [rid]}) == what.startswith("(1.1)"), rid
-    assert not only_later_rules({"rules": []})
+    later = {rid for rid, _, _, what in mf.spec_rules(text) if what.startswith("(1.1)")}
+    assert all(set(VEC[n]["rules"]) <= later for n in names)
+    proc, doc = run(tmp_path, "--decoder", str(dec), "--only", *names, "-q")
+    assert doc["totals"]["failed"] == 2
+    assert not any("--implements" in r["message"] for r in doc["results"]), doc["results"]
+    assert "(1.1)" not in proc.stdout
 
 
 def test_a_1_0_decoder_run_without_implements_is_told_of_it(tmp_path):
