@@ -666,3 +666,62 @@ def test_a_group_offset_past_the_file_hides_no_hazard_from_the_lenient_walk(
     p = _mpz(["show", str(path)], tmp_path)
     assert p.returncode == 1, (p.returncode, p.stderr[-400:])      # read, with a warning
     assert b"told to ignore that it would meet ANALOG:RATE with no element" in p.stdout
+
+
+# -- a parameter record no C3D has, in the middle of the section ---------------------------
+
+@pytest.mark.parametrize("group, name, edit, why", [
+    (b"ANALOG", b"SCALE", (0, 5), "(type 5; a C3D parameter's is -1, 1, 2 or 4)"),
+    (b"POINT", b"FRAMES", (1, 9), "(9 dimensions; a C3D parameter has at most 7)"),
+])
+def test_a_record_of_a_type_or_dimensions_no_c3d_has_is_left_out_alone_and_said(
+        tmp_path: Path, group: bytes, name: bytes, edit: tuple[int, int], why: str) -> None:
+    """The walk of the records ended at such a record, so every record after it left the
+    archive without a word, and the C3D written back crashed ezc3d (a QA run of stop 72:
+    ANALOG:GEN_SCALE given type 5 lost 27 of 48 parameters, ANALOG:SCALE and EVENT among
+    them). The record is now skipped by its next-record offset, the others are kept, and
+    the warning names it."""
+    from mpz.io import c3dbin
+    data = bytearray(_records())
+    whole = read(_write(tmp_path, "whole.c3d", data))
+    at = _type_at(bytes(data), group, name)
+    data[at + edit[0]] = edit[1]
+    path = _write(tmp_path, "odd.c3d", data)
+    m = read(path)
+    said = m.metadata.get("warning") or ""
+    assert (f"1 parameter record cannot be read and is not kept: "
+            f"{group.decode()}:{name.decode()} {why}") in said, said
+    before = [(r.group, r.name) for r in whole.extras["c3d"].records]
+    after = [(r.group, r.name) for r in m.extras["c3d"].records]
+    lost = [k for k in before if k not in after]
+    assert len(lost) == 1 and lost[0][1] == name and len(after) == len(before) - 1
+    assert m.names == whole.names and m.n_frames == whole.n_frames
+    assert np.array_equal(m.positions, whole.positions, equal_nan=True)
+    # the CLI says it too, with exit 1 (a warning)
+    p = _mpz(["encode", str(path), "-o", str(tmp_path / "odd.mpz")], tmp_path)
+    assert p.returncode == 1 and b"is not kept" in p.stderr, p.stderr[-600:]
+    assert len(c3dbin.parse_records(bytes(data), (data[0] - 1) * 512,
+                                    c3dbin._Codec(INTEL))) == len(after)
+
+
+def test_the_markers_are_read_from_records_past_the_declared_blocks_without_ezc3d(
+        tmp_path: Path) -> None:
+    """mpz.io.c3dbin read the parameters it takes the markers from only within the
+    declared block count, while its archive went on to the data start (as ezc3d reads
+    them): a section that declares 1 block gave markers named ``_unnamed_0`` ... beside
+    an archive holding their labels (a QA run of stop 72). Both now come from one walk."""
+    from mpz.io.c3d import motion_from_c3d_bytes
+
+    def long_first(records: list, gid: dict, R: type) -> None:
+        at = next(i for i, r in enumerate(records) if r.group == -gid[b"POINT"]) + 1
+        records.insert(at, R(gid[b"POINT"], False, b"NOTES", b"", -1, (225, 4), b"n" * 900))
+    data = bytearray(_records(long_first))
+    pstart = (data[0] - 1) * 512
+    assert data[pstart + 2] == 3
+    whole = motion_from_c3d_bytes(bytes(data))
+    assert _type_at(bytes(data), b"POINT", b"LABELS") > pstart + 512   # past block 1
+    data[pstart + 2] = 1
+    one = motion_from_c3d_bytes(bytes(data))
+    assert one.names == whole.names and not any(n.startswith("_unnamed") for n in one.names)
+    assert one.units == whole.units == "mm"
+    assert "declares 1 block but its records go on" in one.metadata["warning"]

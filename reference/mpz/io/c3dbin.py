@@ -218,39 +218,12 @@ class _Codec:
 
 def _parse_parameters(data: bytes, start: int,
                       codec: _Codec) -> dict[str, dict[str, ParamValue | None]]:
-    """Parse the parameter section that starts at byte ``start``."""
-    groups: dict[int, str] = {}
-    pending: dict[int, dict[str, ParamValue | None]] = {}  # parameters seen before their group
-    n_blocks = data[start + 2]
-    end = min(len(data), start + max(n_blocks, 1) * BLOCK)
-    pos = start + 4
-    while pos + 2 <= end:
-        name_len = abs(_s8(data[pos]))
-        gid = _s8(data[pos + 1])
-        if name_len == 0 or gid == 0:
-            break
-        name = data[pos + 2:pos + 2 + name_len].decode("latin-1").upper()
-        off_pos = pos + 2 + name_len
-        if off_pos + 2 > end:
-            break
-        # the offset is counted from the offset word itself; 0 ends the section
-        nxt = codec.uint16(data, off_pos)
-        body = off_pos + 2
-        if gid < 0:
-            groups[-gid] = name
-        else:
-            value = _parse_value(data, body, codec, end)
-            pending.setdefault(gid, {})[name] = value
-        if nxt == 0:
-            break
-        pos = off_pos + nxt
-    params: dict[str, dict[str, ParamValue | None]] = {}
-    for gid, values in pending.items():
-        if gid in groups:
-            params.setdefault(groups[gid], {}).update(values)
-    for name in groups.values():
-        params.setdefault(name, {})
-    return params
+    """The parameters of the section that starts at byte ``start``: :func:`record_params`
+    of :func:`parse_records`, so that the markers are read from the records the archive
+    keeps. Why: a walk of its own stopped at the declared block count, and a section that
+    declares 1 block and goes on (as ezc3d reads it) lost its POINT:LABELS there while the
+    archive kept them (a QA run of stop 72: markers named ``_unnamed_0`` ...)."""
+    return record_params(parse_records(data, start, codec))
 
 
 def _parse_value(data: bytes, pos: int, codec: _Codec, end: int) -> ParamValue | None:
@@ -352,14 +325,15 @@ def _section_end(data: bytes, start: int, data_start: int) -> int:
 
 
 def parse_records(data: bytes, start: int, codec: _Codec, *,
-                  sequential: bool = False, starts: list[int] | None = None
+                  sequential: bool = False, starts: list[int] | None = None,
+                  skipped: list[tuple[int, bytes, str]] | None = None
                   ) -> list[ParamRecord]:
     """Every group and parameter record of the parameter section at ``start``, in file order.
 
     Follows the next-record offsets, ending at a record with a zero name length or group
     id, a zero offset, or the end of the section: its declared block count or, when the
     header's data start lies further (c3d.org Dance1.c3d declares 3 blocks and uses 11),
-    the data start. A record whose type or dimensions do not fit its bytes ends the walk.
+    the data start.
     The description is read only where the record's own offset leaves room for it (c3d.org
     Facial-Sing.c3d ends a record right after its data).
 
@@ -367,6 +341,14 @@ def parse_records(data: bytes, start: int, codec: _Codec, *,
     (:func:`ezc3d_hazard`): each from the end of the one before (its description read
     whole), the offsets only ending the walk where they are zero, up to the end of the
     file. ``starts``, when given, gets the offset at which each record returned begins.
+
+    Without ``sequential``, a parameter record that cannot be read (a type or dimension
+    count no C3D has, or data past the section or the file) is left out and the walk goes
+    on from its next-record offset; ``skipped``, when given, gets ``(group id, name, why)``
+    of each (:func:`_records_not_kept` words the warning). Why: the walk ended there, and
+    every record after it was lost without a word (a QA run of stop 72: ANALOG:GEN_SCALE
+    given type 5 lost 27 of 48 parameters, EVENT and ANALOG:SCALE among them, and the
+    C3D written back crashed ezc3d).
     """
     out: list[ParamRecord] = []
     end = len(data) if sequential else _section_end(data, start, codec.uint16(data, 16))
@@ -391,17 +373,21 @@ def parse_records(data: bytes, start: int, codec: _Codec, *,
                 starts.append(pos)
             after = body
         else:
-            if body + 2 > end:
-                break
+            why = _unreadable(data, body, end)
+            if why is not None:
+                if sequential:
+                    break
+                if skipped is not None:
+                    skipped.append((gid, name, why))
+                if nxt == 0:
+                    break
+                pos = off_pos + nxt
+                continue
             ptype = _s8(data[body])
             ndim = data[body + 1]
-            if ptype not in _PARAM_TYPES or ndim > MAX_DIMS or body + 2 + ndim > end:
-                break
             dims = tuple(data[body + 2:body + 2 + ndim])
             size = abs(ptype) * (int(np.prod(dims)) if dims else 1)
             at = body + 2 + ndim
-            if at + size > len(data):
-                break
             raw = _normal_data(ptype, bytes(data[at:at + size]), codec)
             desc = _description(data, at + size, rec_end, end)
             out.append(ParamRecord(gid, locked, name, desc, ptype, dims, raw))
@@ -417,6 +403,25 @@ def parse_records(data: bytes, start: int, codec: _Codec, *,
         else:
             break
     return out
+
+
+def _unreadable(data: bytes, body: int, end: int) -> str | None:
+    """Why the parameter record whose type byte is at ``body`` cannot be read, in a section
+    that ends at ``end``, or None: its type and dimension count, then its dimensions within
+    the section and its data within the file (:func:`parse_records`)."""
+    if body + 2 > end:
+        return "its type runs past the parameter section"
+    ptype, ndim = _s8(data[body]), data[body + 1]
+    if ptype not in _PARAM_TYPES:
+        return f"type {ptype}; a C3D parameter's is -1, 1, 2 or 4"
+    if ndim > MAX_DIMS:
+        return f"{ndim} dimensions; a C3D parameter has at most {MAX_DIMS}"
+    if body + 2 + ndim > end:
+        return "its dimensions run past the parameter section"
+    dims = data[body + 2:body + 2 + ndim]
+    if body + 2 + ndim + abs(ptype) * math.prod(dims) > len(data):
+        return "its data runs past the end of the file"
+    return None
 
 
 def _description(data: bytes, at: int, rec_end: int, end: int) -> bytes:
@@ -609,8 +614,8 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
                                      n_frames)
     frame_bytes = (4 * used + hdr_analog) * (4 if scale < 0 else 2)
     start, warning = _data_start(data, codec, pstart, params, n_frames * frame_bytes)
-    warnings = [w for w in (conflict, warning, _records_past_declared(data, codec, pstart))
-                if w]
+    warnings = [w for w in (conflict, warning, _records_past_declared(data, codec, pstart),
+                            _records_not_kept(data, codec, pstart)) if w]
     hfirst, hlast = codec.uint16(data, 6), codec.uint16(data, 8)
     more = _more_frames(params, hfirst, hlast, len(data) - (start - 1) * BLOCK, frame_bytes)
     if more is not None:
@@ -659,6 +664,26 @@ def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | Non
             f"{_s(n_groups)} and {n_params} parameter{_s(n_params)} are kept, as ezc3d reads "
             f"them; a reader that stops at the declared count (the C3D user guide's rule; "
             f"py-c3d) finds {' and '.join(what)} in a C3D written back but not in this file")
+
+
+def _records_not_kept(data: bytes, codec: _Codec, pstart: int) -> str | None:
+    """A warning naming the parameter records that :func:`parse_records` leaves out, and
+    why, or None: the archive keeps every other record, and a C3D written back lacks
+    these (spec §4.13.2 has no room for a type or dimension count that C3D lacks)."""
+    skipped: list[tuple[int, bytes, str]] = []
+    every = parse_records(data, pstart, codec, skipped=skipped)
+    if not skipped:
+        return None
+    groups = {-r.group: r.name.decode("latin-1") for r in every if r.is_group}
+    named = [f"{groups.get(g, f'of group id {g}')}:{n.decode('latin-1')} ({why})"
+             for g, n, why in skipped]
+    shown = "; ".join(named[:4]) + ("; ..." if len(named) > 4 else "")
+    kept = sum(not r.is_group for r in every)
+    one = len(skipped) == 1
+    return (f"{len(skipped)} parameter record{_s(len(skipped))} cannot be read and "
+            f"{'is' if one else 'are'} not kept: {shown}; the other {kept} "
+            f"parameter{_s(kept)} are kept, and a C3D written back lacks "
+            f"{'it' if one else 'them'}")
 
 
 def _s(n: int) -> str:
