@@ -966,3 +966,38 @@ def test_a_deleted_working_folder_is_an_error_not_a_bug(small, tmp_path, args) -
                          str(tmp_path / "abs.npy")], capture_output=True, timeout=120)
     assert ok.returncode == 0, ok.stderr[-600:]
     assert (tmp_path / "abs.npy").exists()
+
+
+@pytest.mark.parametrize("name", ["del\x7fx", "esc\x1b[31mx", "ff\x0cx", "nel\x85x",
+                                  "bell\x07x"])
+def test_a_trc_name_with_a_control_character_that_breaks_no_line_reads_back(
+        name: str, tmp_path: Path) -> None:
+    """The TRC writer refused every control character, while the TRC reader (lines end at
+    CR and LF alone, fields at tabs) reads these: a TRC read with one could be encoded and
+    not decoded back to TRC (a QA run of stop 72: ``R.AS\\x7fIS``). Only a tab, a line feed
+    and a carriage return are refused now (the test above)."""
+    from mpz.io import writer_problems
+    m = Motion(np.arange(12.0).reshape(2, 2, 3), ["ok", name], 100.0, "mm")
+    assert writer_problems(m, ".trc")[0] == []
+    write(m, tmp_path / "c.trc")
+    back = read(tmp_path / "c.trc")
+    assert back.names == ["ok", name]
+    np.testing.assert_allclose(back.positions, m.positions)
+
+
+@pytest.mark.parametrize("renamed, said", [
+    ("->_unnamed_1", "some of the source's point names are empty: 1 point is"),
+    ("A->A#2", "some of the source's point names repeat: 1 point is"),
+    ("->_unnamed_0; A->A#2; A->A#3", "names are empty or repeat: 3 points are"),
+    ("x\x00y->x\ufffdy", "some of the source's point names hold a NUL: 1 point is"),
+])
+def test_the_renamed_points_note_says_what_the_source_did(renamed: str, said: str) -> None:
+    """A C3D of empty labels (``_unnamed_<i>``) written to TRC was said to repeat its point
+    names (a QA run of stop 72)."""
+    from mpz.io import writer_problems
+    m = Motion(np.zeros((2, 3, 3)), ["A", "B", "C"], 100.0, "mm",
+               metadata={"renamed_points": renamed})
+    notes = writer_problems(m, ".trc")[1]
+    note = next(n for n in notes if "point names" in n)
+    assert said in note, note
+    assert "repeat" not in note or "A->A#2" in renamed

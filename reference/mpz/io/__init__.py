@@ -605,9 +605,6 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
     fmt = FORMAT_NAMES.get(ext, ext)
     first = start_frame(motion)            # the source's first frame number
 
-    def control(n: str) -> bool:
-        return any(ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F for c in n)
-
     if ext in (".c3d", ".trc", ".csv"):
         # a CSV column is <name>_x, so only a leading space is lost ("B " was read from
         # "B _x" and refused on writing: a QA run of stop 52)
@@ -623,11 +620,14 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             refuse.append(f"{fmt} stores marker names as text, and these are not valid "
                           f"Unicode (lone surrogates): {', '.join(unencodable)}")
     if ext == ".trc":
-        ctl = _names_with(names, control)
+        # what breaks its lines (LINE_BREAK) or its tab-separated fields; other control
+        # characters read back (DEL, ESC, a form feed inside a name were refused, and a TRC
+        # read with them could not be written back: a QA run of stop 72)
+        ctl = _names_with(names, lambda n: any(c in n for c in "\t\r\n"))
         if ctl:
-            refuse.append(f"{fmt} is text with one record per line: marker names with "
-                          f"control characters (newline, tab, ...) would break it: "
-                          f"{', '.join(ctl)}")
+            refuse.append(f"{fmt} is text with one record per line and tab-separated "
+                          f"fields: marker names with a tab, a line feed or a carriage "
+                          f"return would break it: {', '.join(ctl)}")
     if ext == ".csv":
         # the header is written by csv.writer, which quotes a name with a line feed or a
         # tab, and it reads back; names read from a CSV were refused when written to one
@@ -739,8 +739,15 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
     renamed = motion.metadata.get("renamed_points")
     if renamed and ext in (".trc", ".csv"):
         pairs = [p for p in str(renamed).split("; ") if p]
-        notes.append(f"the source repeats point names: {len(pairs)} point"
-                     f"{'s' * (len(pairs) != 1)} are written under the names given them "
+        # unique_names' three kinds: empty ("->_unnamed_3"), a NUL, a repeat ("A->A#2"); a
+        # source of empty labels was said to repeat its names (a QA run of stop 72)
+        kinds = [k for k, hit in (
+            ("are empty", any(p.startswith("->") for p in pairs)),
+            ("hold a NUL", any("\x00" in p for p in pairs)),
+            ("repeat", any(not p.startswith("->") and "\x00" not in p for p in pairs)))
+            if hit]
+        notes.append(f"some of the source's point names {' or '.join(kinds)}: {len(pairs)} "
+                     f"point{'s are' if len(pairs) != 1 else ' is'} written under the names given them "
                      f"on reading ({'; '.join(pairs[:4])}"
                      + (f" and {len(pairs) - 4} more" if len(pairs) > 4 else "") + ")")
     header = [k for k in motion.metadata if k.startswith("trc.")]
