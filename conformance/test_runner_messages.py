@@ -403,3 +403,22 @@ def test_encoder_only_takes_the_names_the_runner_prints_and_suggests(tmp_path):
                            name[:3]], capture_output=True, text=True, cwd=tmp_path)
     assert proc.returncode == 64
     assert f"{name[:3]}: did you mean {name}@" in proc.stderr, proc.stderr
+
+
+# ------------------------- an encoder implementer's QA of stop 72: the encoder mode --
+E01 = MAN["encoder_inputs"][0]
+E01_ONLY = f"{E01['name']}@{float(E01['max_errors'][0]):g}"
+
+
+def test_an_encoders_traceback_is_a_crash_not_a_refusal(tmp_path):
+    """An encoder that died with a Python traceback was told it had refused; a crash is an
+    uncaught exception or a panic (decoder mode's classification, ``_uncaught``), a refusal
+    the encoder's own non-zero exit. The verdict stays a failure."""
+    enc = python_script(tmp_path / "enc.py", 'raise RuntimeError("boom")\n')
+    _, doc = run(tmp_path, "--encoder", str(enc), "--only", E01_ONLY)
+    r = doc["results"][0]
+    assert not r["passed"] and r["actual"] == "reject", r
+    assert r["message"] == (
+        "encoder crashed: exited 1 after an uncaught exception or a panic, not a refusal (its "
+        "output shows 'Traceback (most recent call last):' and ends 'RuntimeError: boom'): "
+        "the encoder must write the file and exit 0 (spec §7.3); rules R-7.3-1 (spec §7.4)")

@@ -433,13 +433,19 @@ def _tail_of(run: dict[str, Any]) -> str:
     return run["stderr"] + (f"\n{run['note']}\n" if run.get("note") else "")
 
 
+def _uncaught(run: dict[str, Any]) -> str | None:
+    """The first line of a run's output that shows an uncaught exception or a panic
+    (:data:`UNPLANNED_EXIT`), or None."""
+    return next((ln.strip() for ln in run["stderr"].splitlines()
+                 if UNPLANNED_EXIT.match(ln.strip())), None)
+
+
 def _unplanned(run: dict[str, Any]) -> str:
     """A note for a rejection whose output shows an uncaught exception or a panic: spec
     §7.3 counts its exit as a rejection, but it may be a bug that happens to stop on this
     file rather than a check of the spec (a panic and a traceback passed invalid vectors
     with no word: a conformance QA run of stop 55)."""
-    hit = next((ln.strip() for ln in run["stderr"].splitlines()
-                if UNPLANNED_EXIT.match(ln.strip())), None)
+    hit = _uncaught(run)
     if hit is None:
         return ""
     return (f"; note: its output shows an uncaught exception or a panic ({hit[:120]}), "
@@ -1175,12 +1181,20 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         if run["exit_code"] != 0:
             tail = run["stderr"].strip().splitlines()
             entry["actual"] = "reject"
+            # an uncaught exception or a panic, as decoder mode tells them (_uncaught), is a
+            # crash, not a refusal: a traceback was worded as the encoder's refusal (an
+            # encoder implementer's QA, stop 72)
+            hit = _uncaught(run)
             # the rule and the §, as decoder mode says them (an implementer's QA run of
             # stop 71: a refusal and a missing output named neither)
-            entry["message"] = (f"encoder exited {run['exit_code']}"
-                                + (f": {tail[-1][:300]}" if tail else "")
-                                + ": every input and bound the suite ships can be held, so a "
-                                "refusal fails here (spec §7.3)" + ENCODER_RULES)
+            entry["message"] = (
+                (f"encoder crashed: exited {run['exit_code']} after an uncaught exception or "
+                 f"a panic, not a refusal (its output shows {hit[:120]!r}"
+                 + (f" and ends {tail[-1][:300]!r})" if tail[-1].strip() != hit else ")")
+                 + ": the encoder must write the file and exit 0 (spec §7.3)") if hit else
+                (f"encoder exited {run['exit_code']}" + (f": {tail[-1][:300]}" if tail else "")
+                 + ": every input and bound the suite ships can be held, so a refusal fails "
+                 "here (spec §7.3)")) + ENCODER_RULES
             return entry
         if not out.is_file():
             # what it wrote instead, if anything (out.MPZ, a name of its own): "wrote no
