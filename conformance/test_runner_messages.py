@@ -422,3 +422,31 @@ def test_an_encoders_traceback_is_a_crash_not_a_refusal(tmp_path):
         "encoder crashed: exited 1 after an uncaught exception or a panic, not a refusal (its "
         "output shows 'Traceback (most recent call last):' and ends 'RuntimeError: boom'): "
         "the encoder must write the file and exit 0 (spec §7.3); rules R-7.3-1 (spec §7.4)")
+
+
+def test_an_encoder_that_converts_units_is_told_the_cause_first(tmp_path):
+    """An encoder that wrote millimetres for a metre input was told of a declared bound
+    above E, then of the units, then of the broken bound: the cause leads now, and the
+    figures after it are said to come from it."""
+    item = next(i for i in MAN["encoder_inputs"] if i["name"].startswith("e02-"))
+    E = float(item["max_errors"][0])
+    enc = python_script(tmp_path / "mm.py", textwrap.dedent("""\
+        import json
+        from pathlib import Path
+        import numpy as np
+        import mpz
+        x = np.load(sys.argv[1])
+        side = json.loads(Path(sys.argv[1]).with_suffix(".json").read_text())
+        E = float(sys.argv[sys.argv.index("--max-error") + 1])
+        assert side["units"] == "m"
+        mpz.write_mpz(mpz.Motion(x * 1000, side["names"], side["rate"], "mm"), sys.argv[2],
+                      max_error=E * 1000)
+        """))
+    _, doc = run(tmp_path, "--encoder", str(enc), "--only", item["name"])
+    msg = doc["results"][0]["message"]
+    assert msg.startswith("units 'mm' != input 'm', and the values were converted with them "
+                          "(the input's × 1000, within the declared bound): keep the input's "
+                          "units; the figures that follow come from it (mm against m); "
+                          f"declared error_bound {E * 1000!r} > requested --max-error "
+                          f"{E!r}"), msg
+    assert msg.endswith("; rules R-7.2-1, R-7.2-2, R-7.3-1 (spec §7.4)"), msg
