@@ -450,3 +450,50 @@ def test_an_encoder_that_converts_units_is_told_the_cause_first(tmp_path):
                           f"declared error_bound {E * 1000!r} > requested --max-error "
                           f"{E!r}"), msg
     assert msg.endswith("; rules R-7.2-1, R-7.2-2, R-7.3-1 (spec §7.4)"), msg
+
+
+#: the reference encoder's file, then one change to MHDR (IN, OUT, E, x, data, b bound)
+PATCHED = """\
+import json, struct
+from pathlib import Path
+import numpy as np
+import mpz
+from mpz.container import repair_crcs
+IN, OUT = sys.argv[1], sys.argv[2]
+E = float(sys.argv[sys.argv.index("--max-error") + 1])
+x = np.load(IN)
+side = json.loads(Path(IN).with_suffix(".json").read_text())
+data = mpz.encode(mpz.Motion(x, side["names"], side["rate"], side["units"]), max_error=E)
+b = bytearray(data)
+"""
+
+
+@pytest.mark.parametrize("change, note", [
+    # MHDR.version_minor (payload byte 1, at 16 + 1) 1 in a file of 1.0 chunk types
+    ("b[17] = 1\n", "; note: the file is marked version 1.1, where the lowest minor version "
+     "that describes it (by its newest chunk type) is 1.0: an encoder SHOULD write that "
+     "(§2.1); not a failure"),
+    # MHDR.error_bound (payload offset 22) a few ulps below the error measured: the bound
+    # holds only by §7.2's slack
+    (textwrap.dedent("""\
+        from mpz.decoder import decode_layers
+        y = decode_layers(data).motion().positions
+        err = np.sqrt(((y - x) ** 2).sum(axis=2))[~np.isnan(x).any(axis=2)].max()
+        b[38:46] = struct.pack("<d", float(err) * (1 - 2.0 ** -50))
+        """), "; note: within the declared bound only by the float slack of §7.2: error "),
+])
+def test_a_pass_says_what_it_rests_on_and_a_version_above_the_lowest(tmp_path, change, note):
+    """A PASS line did not say that the bound held only by the float slack of §7.2 (which
+    an encoder SHOULD NOT rely on), nor that the file was marked 1.1 while it holds nothing
+    that 1.0 lacks (§2.1's SHOULD): each is a note on the line, not a failure."""
+    enc = python_script(tmp_path / "enc.py", PATCHED + change
+                        + "Path(OUT).write_bytes(repair_crcs(bytes(b)))\n")
+    proc, doc = run(tmp_path, "--encoder", str(enc), "--only", E01_ONLY)
+    r = doc["results"][0]
+    assert proc.returncode == 0 and r["passed"], proc.stdout + proc.stderr
+    assert note in r["message"] and r["notes"] == [r["message"].split("; note: ")[1]], r
+    assert f"PASS encoder/{E01_ONLY}: " in proc.stdout and note in proc.stdout
+    ref = python_script(tmp_path / "ref.py", PATCHED
+                        + "Path(OUT).write_bytes(repair_crcs(bytes(b)))\n")
+    _, doc = run(tmp_path, "--encoder", str(ref), "--only", E01_ONLY)
+    assert doc["results"][0]["passed"] and "note" not in doc["results"][0]["message"]
