@@ -497,3 +497,44 @@ def test_a_pass_says_what_it_rests_on_and_a_version_above_the_lowest(tmp_path, c
                         + "Path(OUT).write_bytes(repair_crcs(bytes(b)))\n")
     _, doc = run(tmp_path, "--encoder", str(ref), "--only", E01_ONLY)
     assert doc["results"][0]["passed"] and "note" not in doc["results"][0]["message"]
+
+
+def test_an_input_with_an_infinity_is_counted_apart_and_exits_64(tmp_path):
+    """An input of one's own manifest with an infinity in a valid sample is not run (§7.3:
+    the input is at fault, not the encoder); it was counted as a failed run and the run
+    exited 1. It is counted apart, said so on its line and the summary line, and the run
+    exits 64, the code of the suite's other faults, even beside the encoder's failures."""
+    import hashlib
+    import shutil
+    import numpy as np
+    vdir = tmp_path / "vectors"
+    (vdir / "inputs").mkdir(parents=True)
+    for key in ("input", "sidecar"):
+        shutil.copyfile(mf.DEFAULT_DIR / E01[key], vdir / E01[key])
+    x = np.load(vdir / E01["input"])
+    x[3, 2, 1] = np.inf
+    np.save(vdir / "inputs" / "inf.npy", x)
+    shutil.copyfile(vdir / E01["sidecar"], vdir / "inputs" / "inf.json")
+
+    def sha(p: str) -> str:
+        return hashlib.sha256((vdir / p).read_bytes()).hexdigest()
+    inf = dict(E01, name="inf", input="inputs/inf.npy", sidecar="inputs/inf.json",
+               sha256=sha("inputs/inf.npy"), sidecar_sha256=sha("inputs/inf.json"),
+               max_errors=[1.0])
+    (vdir / "manifest.json").write_text(json.dumps(dict(MAN, vectors=[],
+                                                        encoder_inputs=[E01, inf])))
+    refuse = python_script(tmp_path / "refuse.py", "sys.exit(2)\n")
+    proc, doc = run(tmp_path, "--encoder", str(refuse), "--vectors", str(vdir), "-q")
+    runs = len(E01["max_errors"])
+    assert proc.returncode == 64, proc.stdout + proc.stderr
+    assert doc["totals"] == {"total": runs + 1, "passed": 0, "failed": runs, "not_run": 1,
+                             "groups": {"encoder": {"passed": 0, "failed": runs}}}, doc["totals"]
+    assert "inf@1" not in doc["failed"] and len(doc["failed"]) == runs
+    assert doc["results"][-1]["actual"] == "input" and not doc["results"][-1]["passed"]
+    assert "\nNOT RUN encoder/inf@1: input inputs/inf.npy holds an infinite coordinate in a " \
+           "valid sample (frame 3, marker 2): " in "\n" + proc.stdout, proc.stdout
+    assert proc.stdout.rstrip().splitlines()[-1].startswith(f"0/{runs} passed (encoder 0/"), \
+        proc.stdout
+    assert proc.stdout.rstrip().endswith("; not run, the input at fault, not the encoder "
+                                         "(§7.3): inf@1"), proc.stdout
+    assert "1 encoder input(s) of the manifest not run" in proc.stderr, proc.stderr

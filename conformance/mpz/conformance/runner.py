@@ -26,7 +26,8 @@ what runs and exits 130. Exit status (the table shared with ``mpz`` and
 ``mpzinfo``, :mod:`mpz.tools._cli`): 0 all passed, 1 any failure, 64 usage
 error (bad arguments, missing or invalid vectors, command not found, a script the
 system cannot start (no ``#!`` line, or one naming no program), a ``--results`` path
-that cannot be written).
+that cannot be written, an encoder input the contract does not allow: not run, the
+others run and are reported).
 """
 from __future__ import annotations
 
@@ -78,7 +79,8 @@ from mpz.tools._cli import (
 )
 
 RESULTS_SCHEMA_VERSION = 5          # 2: sidecar, contract, peak_rss_mb, actual 'memory';
-#                                     3: implements; 4: judged_as; 5: notes (encoder mode)
+#                                     3: implements; 4: judged_as; 5: notes (encoder
+#                                     mode), totals.not_run
 STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
 FAIL_LIST = 10              # differing samples listed per vector
 
@@ -1184,8 +1186,8 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         f, m, _ = (int(i) for i in np.argwhere(infinite)[0])
         entry.update(actual="input", message=(
             f"input {item['input']} holds an infinite coordinate in a valid sample (frame "
-            f"{f}, marker {m}): the encoder contract's inputs are finite or NaN (§7.3); "
-            "not run"))
+            f"{f}, marker {m}): the encoder contract's inputs are finite or NaN (§7.3), so "
+            "the input is at fault, not the encoder: not run"))
         return entry
     with tempfile.TemporaryDirectory(prefix="mpz-conf-") as tmp:
         src = Path(tmp) / "in.npy"
@@ -1286,7 +1288,8 @@ def _parser() -> argparse.ArgumentParser:
                "2 the report could not be written to standard output (a full disk), "
                "64 usage error (bad options, missing or invalid vectors, command not found or "
                "a script it cannot start, a --results file that cannot be written, said "
-               "after the report), "
+               "after the report, an encoder input with an infinity in a valid sample, "
+               "not run), "
                "130 interrupted, 143 terminated (SIGTERM; 129 for SIGHUP): the commands "
                "running are killed and no --results is written")
     add_version(p)
@@ -1630,13 +1633,21 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     pool.shutdown()
 
-    n_fail = sum(not r["passed"] for r in results)
+    # an encoder input the contract does not allow (an infinity in a valid sample) is not
+    # run: the input is at fault, not the command. It was counted as a failure, exit 1 (an
+    # outside encoder implementer's QA, stop 72); it is counted apart, and the run exits
+    # 64, as for the suite's other faults (a file that does not match the manifest)
+    not_run = [r["name"] for r in results if r["actual"] == "input"]
+    ran = [r for r in results if r["actual"] != "input"]
+    n_fail = sum(not r["passed"] for r in ran)
     unproven = probed is not None and not probed["passed"]
-    found(EXIT_FAIL if n_fail or unproven else EXIT_OK)   # what a closed pipe exits with
+    status = EXIT_USAGE if not_run else EXIT_FAIL if n_fail or unproven else EXIT_OK
+    found(status)                                         # what a closed pipe exits with
     by_group: dict[str, dict[str, int]] = {}
     for r in results:
         g = by_group.setdefault(r["group"], {"passed": 0, "failed": 0})
-        g["passed" if r["passed"] else "failed"] += 1
+        if r["actual"] != "input":
+            g["passed" if r["passed"] else "failed"] += 1
     # the results file before the report: a reader that closes the pipe (`| head`) stopped
     # the command before it wrote the file (a docs QA run, stop 52)
     results_error = None
@@ -1649,9 +1660,9 @@ def main(argv: list[str] | None = None) -> int:
                "manifest_schema_version": man["schema_version"],
                "timeout": args.timeout, "memory_mb": args.memory,
                "seconds": round(time.perf_counter() - t0, 3),
-               "totals": {"total": len(results), "passed": len(results) - n_fail,
-                          "failed": n_fail, "groups": by_group},
-               "failed": [r["name"] for r in results if not r["passed"]],
+               "totals": {"total": len(results), "passed": len(ran) - n_fail,
+                          "failed": n_fail, "not_run": len(not_run), "groups": by_group},
+               "failed": [r["name"] for r in ran if not r["passed"]],
                "results": results,
                **({"probe": probed} if probed is not None else {})}
         text = json.dumps(_finite(doc), indent=1, allow_nan=False) + "\n"
@@ -1673,7 +1684,9 @@ def main(argv: list[str] | None = None) -> int:
             continue
         # the message may quote the decoder's output: its control characters are escaped,
         # so that a decoder cannot drive the terminal
-        print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: "
+        verdict = ("PASS" if r["passed"] else "NOT RUN" if r["actual"] == "input" else
+                   "FAIL")
+        print(f"{verdict} {r['group']}/{r['name']}: "
               f"{printable(r['message'])}")
     summary = ", ".join(f"{g} {c['passed']}/{c['passed'] + c['failed']}"
                         for g, c in by_group.items())
@@ -1692,7 +1705,7 @@ def main(argv: list[str] | None = None) -> int:
     # (a CLI audit): it says so on the summary line too
     # the count of re-judged vectors on the summary line, where the README says it is (it
     # was a note of its own above it: QA, stop 71)
-    print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
+    print(f"{len(ran) - n_fail}/{len(ran)} passed ({summary})"
           + (f"; --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
              "must read them, from reject to decode, their later chunk types unknown to it "
              "(spec §2.1, §2.3)" if mode == "decoder" and minor < VERSION_MINOR else "")
@@ -1700,8 +1713,10 @@ def main(argv: list[str] | None = None) -> int:
              + ("see --results" if args.quiet and args.results else
                 "run without -q to see which" if args.quiet else "see their PASS lines")
              + ")" if unplanned else "")
-          + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
+          + (f"; failing: {', '.join(r['name'] for r in ran if not r['passed'])}"
              if n_fail else "")
+          + (f"; not run, the input at fault, not the encoder (§7.3): {', '.join(not_run)}"
+             if not_run else "")
           + (f"; not proven: the command did not decode {probed['group']}/{probed['name']}"
              if unproven and probed is not None else ""))
     _warn_if_nothing_decoded(results, probed, args.memory, bool(getattr(args, "as_given",
@@ -1716,10 +1731,14 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(f"note: only invalid vectors were selected; the command decoded {said}, "
                   "run as a check that it decodes at all (not counted)")
+    if not_run:
+        print(f"mpz-conformance: error: {len(not_run)} encoder input(s) of the manifest not "
+              "run: the encoder contract's inputs are finite or NaN (§7.3); fix the input or "
+              "the manifest", file=sys.stderr)
     if results_error is not None:
         print(f"mpz-conformance: error: --results: {results_error}", file=sys.stderr)
         return EXIT_USAGE
-    return EXIT_FAIL if n_fail or unproven else EXIT_OK
+    return status
 
 
 def _probe_plan(man: dict, vdir: Path, minor: int) -> tuple[dict, Any] | None:
