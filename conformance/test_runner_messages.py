@@ -506,6 +506,7 @@ def test_an_input_with_an_infinity_is_counted_apart_and_exits_64(tmp_path):
     exits 64, the code of the suite's other faults, even beside the encoder's failures."""
     import hashlib
     import shutil
+
     import numpy as np
     vdir = tmp_path / "vectors"
     (vdir / "inputs").mkdir(parents=True)

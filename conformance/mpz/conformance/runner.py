@@ -1056,8 +1056,8 @@ def _load_input(vdir: Path, item: dict):
 def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[list, dict]:
     """Validate an encoder's output with the reference decoder; returns (problems, facts)."""
     import mpz
-    from mpz.decoder import decode_layers
     from mpz.chunks import CHUNKS
+    from mpz.decoder import decode_layers
     facts: dict[str, Any] = {"declared_bound": None, "measured_max_error": None,
                              "bytes": len(data), "notes": []}
     try:
@@ -1156,9 +1156,9 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
         # between them (an outside encoder implementer's QA, stop 72)
         said = f"units {out.units!r} != input {units!r}"
         if out.units in MM_PER_UNIT and units in MM_PER_UNIT and h.error_metric == 1:
-            k = MM_PER_UNIT[units] / MM_PER_UNIT[out.units]
-            if (_distances(positions, x * k)[both] <= bound + k * slack).all():
-                said += (f", and the values were converted with them (the input's × {k:g}, "
+            factor = MM_PER_UNIT[units] / MM_PER_UNIT[out.units]
+            if (_distances(positions, x * factor)[both] <= bound + factor * slack).all():
+                said += (f", and the values were converted with them (the input's × {factor:g}, "
                          "within the declared bound)")
         problems.insert(0, f"{said}: keep the input's units" + (
             f"; the figures that follow come from it ({out.units} against {units})"
