@@ -66,7 +66,7 @@ THROUGH_RUNNER = [v["name"] for g in _EVERY
 def test_reference_decoder_passes_the_vectors(tmp_path):
     proc, doc = run(tmp_path, "--decoder", REF, *([] if FULL else ["--only", *THROUGH_RUNNER]))
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert doc["schema_version"] == 4 and doc["mode"] == "decoder"
+    assert doc["schema_version"] == 5 and doc["mode"] == "decoder"
     assert doc["contract"] == "full" and doc["implements"] == "1.1"
     assert doc["totals"]["failed"] == 0
     assert doc["totals"]["total"] == len(THROUGH_RUNNER)

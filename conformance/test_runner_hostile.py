@@ -470,8 +470,8 @@ def test_a_command_selected_for_invalid_vectors_alone_must_decode_one(tmp_path):
     runner decodes one valid vector as well, not counted, and fails when it cannot."""
     proc, doc = run(tmp_path, "--decoder", f"{PY} -m no_such_decoder_module", "--only", BAD)
     assert proc.returncode == 1, proc.stderr
-    assert doc["totals"] == {"total": 1, "passed": 1, "failed": 0, "groups": doc["totals"][
-        "groups"]}
+    assert doc["totals"] == {"total": 1, "passed": 1, "failed": 0, "not_run": 0,
+                             "groups": doc["totals"]["groups"]}
     assert not doc["probe"]["passed"] and "its rejections prove nothing" in proc.stderr
     # the summary line says it too: "1/1 passed" stood above exit 1 (a CLI audit)
     assert "1/1 passed (invalid 1/1); not proven: the command did not decode valid/" \

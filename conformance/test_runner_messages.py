@@ -403,3 +403,139 @@ def test_encoder_only_takes_the_names_the_runner_prints_and_suggests(tmp_path):
                            name[:3]], capture_output=True, text=True, cwd=tmp_path)
     assert proc.returncode == 64
     assert f"{name[:3]}: did you mean {name}@" in proc.stderr, proc.stderr
+
+
+# ------------------------- an encoder implementer's QA of stop 72: the encoder mode --
+E01 = MAN["encoder_inputs"][0]
+E01_ONLY = f"{E01['name']}@{float(E01['max_errors'][0]):g}"
+
+
+def test_an_encoders_traceback_is_a_crash_not_a_refusal(tmp_path):
+    """An encoder that died with a Python traceback was told it had refused; a crash is an
+    uncaught exception or a panic (decoder mode's classification, ``_uncaught``), a refusal
+    the encoder's own non-zero exit. The verdict stays a failure."""
+    enc = python_script(tmp_path / "enc.py", 'raise RuntimeError("boom")\n')
+    _, doc = run(tmp_path, "--encoder", str(enc), "--only", E01_ONLY)
+    r = doc["results"][0]
+    assert not r["passed"] and r["actual"] == "reject", r
+    assert r["message"] == (
+        "encoder crashed: exited 1 after an uncaught exception or a panic, not a refusal (its "
+        "output shows 'Traceback (most recent call last):' and ends 'RuntimeError: boom'): "
+        "the encoder must write the file and exit 0 (spec §7.3); rules R-7.3-1 (spec §7.4)")
+
+
+def test_an_encoder_that_converts_units_is_told_the_cause_first(tmp_path):
+    """An encoder that wrote millimetres for a metre input was told of a declared bound
+    above E, then of the units, then of the broken bound: the cause leads now, and the
+    figures after it are said to come from it."""
+    item = next(i for i in MAN["encoder_inputs"] if i["name"].startswith("e02-"))
+    E = float(item["max_errors"][0])
+    enc = python_script(tmp_path / "mm.py", textwrap.dedent("""\
+        import json
+        from pathlib import Path
+        import numpy as np
+        import mpz
+        x = np.load(sys.argv[1])
+        side = json.loads(Path(sys.argv[1]).with_suffix(".json").read_text())
+        E = float(sys.argv[sys.argv.index("--max-error") + 1])
+        assert side["units"] == "m"
+        mpz.write_mpz(mpz.Motion(x * 1000, side["names"], side["rate"], "mm"), sys.argv[2],
+                      max_error=E * 1000)
+        """))
+    _, doc = run(tmp_path, "--encoder", str(enc), "--only", item["name"])
+    msg = doc["results"][0]["message"]
+    assert msg.startswith("units 'mm' != input 'm', and the values were converted with them "
+                          "(the input's × 1000, within the declared bound): keep the input's "
+                          "units; the figures that follow come from it (mm against m); "
+                          f"declared error_bound {E * 1000!r} > requested --max-error "
+                          f"{E!r}"), msg
+    assert msg.endswith("; rules R-7.2-1, R-7.2-2, R-7.3-1 (spec §7.4)"), msg
+
+
+#: the reference encoder's file, then one change to MHDR (IN, OUT, E, x, data, b bound)
+PATCHED = """\
+import json, struct
+from pathlib import Path
+import numpy as np
+import mpz
+from mpz.container import repair_crcs
+IN, OUT = sys.argv[1], sys.argv[2]
+E = float(sys.argv[sys.argv.index("--max-error") + 1])
+x = np.load(IN)
+side = json.loads(Path(IN).with_suffix(".json").read_text())
+data = mpz.encode(mpz.Motion(x, side["names"], side["rate"], side["units"]), max_error=E)
+b = bytearray(data)
+"""
+
+
+@pytest.mark.parametrize("change, note", [
+    # MHDR.version_minor (payload byte 1, at 16 + 1) 1 in a file of 1.0 chunk types
+    ("b[17] = 1\n", "; note: the file is marked version 1.1, where the lowest minor version "
+     "that describes it (by its newest chunk type) is 1.0: an encoder SHOULD write that "
+     "(§2.1); not a failure"),
+    # MHDR.error_bound (payload offset 22) a few ulps below the error measured: the bound
+    # holds only by §7.2's slack
+    (textwrap.dedent("""\
+        from mpz.decoder import decode_layers
+        y = decode_layers(data).motion().positions
+        err = np.sqrt(((y - x) ** 2).sum(axis=2))[~np.isnan(x).any(axis=2)].max()
+        b[38:46] = struct.pack("<d", float(err) * (1 - 2.0 ** -50))
+        """), "; note: within the declared bound only by the float slack of §7.2: error "),
+])
+def test_a_pass_says_what_it_rests_on_and_a_version_above_the_lowest(tmp_path, change, note):
+    """A PASS line did not say that the bound held only by the float slack of §7.2 (which
+    an encoder SHOULD NOT rely on), nor that the file was marked 1.1 while it holds nothing
+    that 1.0 lacks (§2.1's SHOULD): each is a note on the line, not a failure."""
+    enc = python_script(tmp_path / "enc.py", PATCHED + change
+                        + "Path(OUT).write_bytes(repair_crcs(bytes(b)))\n")
+    proc, doc = run(tmp_path, "--encoder", str(enc), "--only", E01_ONLY)
+    r = doc["results"][0]
+    assert proc.returncode == 0 and r["passed"], proc.stdout + proc.stderr
+    assert note in r["message"] and r["notes"] == [r["message"].split("; note: ")[1]], r
+    assert f"PASS encoder/{E01_ONLY}: " in proc.stdout and note in proc.stdout
+    ref = python_script(tmp_path / "ref.py", PATCHED
+                        + "Path(OUT).write_bytes(repair_crcs(bytes(b)))\n")
+    _, doc = run(tmp_path, "--encoder", str(ref), "--only", E01_ONLY)
+    assert doc["results"][0]["passed"] and "note" not in doc["results"][0]["message"]
+
+
+def test_an_input_with_an_infinity_is_counted_apart_and_exits_64(tmp_path):
+    """An input of one's own manifest with an infinity in a valid sample is not run (§7.3:
+    the input is at fault, not the encoder); it was counted as a failed run and the run
+    exited 1. It is counted apart, said so on its line and the summary line, and the run
+    exits 64, the code of the suite's other faults, even beside the encoder's failures."""
+    import hashlib
+    import shutil
+
+    import numpy as np
+    vdir = tmp_path / "vectors"
+    (vdir / "inputs").mkdir(parents=True)
+    for key in ("input", "sidecar"):
+        shutil.copyfile(mf.DEFAULT_DIR / E01[key], vdir / E01[key])
+    x = np.load(vdir / E01["input"])
+    x[3, 2, 1] = np.inf
+    np.save(vdir / "inputs" / "inf.npy", x)
+    shutil.copyfile(vdir / E01["sidecar"], vdir / "inputs" / "inf.json")
+
+    def sha(p: str) -> str:
+        return hashlib.sha256((vdir / p).read_bytes()).hexdigest()
+    inf = dict(E01, name="inf", input="inputs/inf.npy", sidecar="inputs/inf.json",
+               sha256=sha("inputs/inf.npy"), sidecar_sha256=sha("inputs/inf.json"),
+               max_errors=[1.0])
+    (vdir / "manifest.json").write_text(json.dumps(dict(MAN, vectors=[],
+                                                        encoder_inputs=[E01, inf])))
+    refuse = python_script(tmp_path / "refuse.py", "sys.exit(2)\n")
+    proc, doc = run(tmp_path, "--encoder", str(refuse), "--vectors", str(vdir), "-q")
+    runs = len(E01["max_errors"])
+    assert proc.returncode == 64, proc.stdout + proc.stderr
+    assert doc["totals"] == {"total": runs + 1, "passed": 0, "failed": runs, "not_run": 1,
+                             "groups": {"encoder": {"passed": 0, "failed": runs}}}, doc["totals"]
+    assert "inf@1" not in doc["failed"] and len(doc["failed"]) == runs
+    assert doc["results"][-1]["actual"] == "input" and not doc["results"][-1]["passed"]
+    assert "\nNOT RUN encoder/inf@1: input inputs/inf.npy holds an infinite coordinate in a " \
+           "valid sample (frame 3, marker 2): " in "\n" + proc.stdout, proc.stdout
+    assert proc.stdout.rstrip().splitlines()[-1].startswith(f"0/{runs} passed (encoder 0/"), \
+        proc.stdout
+    assert proc.stdout.rstrip().endswith("; not run, the input at fault, not the encoder "
+                                         "(§7.3): inf@1"), proc.stdout
+    assert "1 encoder input(s) of the manifest not run" in proc.stderr, proc.stderr

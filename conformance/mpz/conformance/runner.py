@@ -26,7 +26,8 @@ what runs and exits 130. Exit status (the table shared with ``mpz`` and
 ``mpzinfo``, :mod:`mpz.tools._cli`): 0 all passed, 1 any failure, 64 usage
 error (bad arguments, missing or invalid vectors, command not found, a script the
 system cannot start (no ``#!`` line, or one naming no program), a ``--results`` path
-that cannot be written).
+that cannot be written, an encoder input the contract does not allow: not run, the
+others run and are reported).
 """
 from __future__ import annotations
 
@@ -62,6 +63,7 @@ except ImportError:          # not POSIX: no memory limit
 from mpz.conformance import manifest as mf
 from mpz.conformance.refdecoder import implemented_minor
 from mpz.errors import MPZError
+from mpz.format import MM_PER_UNIT
 from mpz.spec.grammar import VERSION_MAJOR, VERSION_MINOR
 from mpz.tools._cli import EXIT_FAILED as EXIT_FAIL
 from mpz.tools._cli import (
@@ -76,8 +78,9 @@ from mpz.tools._cli import (
     reports_ctrl_c,
 )
 
-RESULTS_SCHEMA_VERSION = 4          # 2: sidecar, contract, peak_rss_mb, actual 'memory';
-#                                     3: implements; 4: judged_as
+RESULTS_SCHEMA_VERSION = 5          # 2: sidecar, contract, peak_rss_mb, actual 'memory';
+#                                     3: implements; 4: judged_as; 5: notes (encoder
+#                                     mode), totals.not_run
 STDERR_TAIL = 2000          # characters of the decoder's stderr kept per vector
 FAIL_LIST = 10              # differing samples listed per vector
 
@@ -433,13 +436,19 @@ def _tail_of(run: dict[str, Any]) -> str:
     return run["stderr"] + (f"\n{run['note']}\n" if run.get("note") else "")
 
 
+def _uncaught(run: dict[str, Any]) -> str | None:
+    """The first line of a run's output that shows an uncaught exception or a panic
+    (:data:`UNPLANNED_EXIT`), or None."""
+    return next((ln.strip() for ln in run["stderr"].splitlines()
+                 if UNPLANNED_EXIT.match(ln.strip())), None)
+
+
 def _unplanned(run: dict[str, Any]) -> str:
     """A note for a rejection whose output shows an uncaught exception or a panic: spec
     §7.3 counts its exit as a rejection, but it may be a bug that happens to stop on this
     file rather than a check of the spec (a panic and a traceback passed invalid vectors
     with no word: a conformance QA run of stop 55)."""
-    hit = next((ln.strip() for ln in run["stderr"].splitlines()
-                if UNPLANNED_EXIT.match(ln.strip())), None)
+    hit = _uncaught(run)
     if hit is None:
         return ""
     return (f"; note: its output shows an uncaught exception or a panic ({hit[:120]}), "
@@ -1047,9 +1056,10 @@ def _load_input(vdir: Path, item: dict):
 def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[list, dict]:
     """Validate an encoder's output with the reference decoder; returns (problems, facts)."""
     import mpz
+    from mpz.chunks import CHUNKS
     from mpz.decoder import decode_layers
-    facts: dict[str, float | int | None] = {"declared_bound": None, "measured_max_error": None,
-                                            "bytes": len(data)}
+    facts: dict[str, Any] = {"declared_bound": None, "measured_max_error": None,
+                             "bytes": len(data), "notes": []}
     try:
         decoded = decode_layers(data)
     except mpz.MPZError as exc:
@@ -1101,8 +1111,6 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
     if float(out.rate) != float(side["rate"]):
         problems.append(f"rate {out.rate!r} != input {side['rate']!r} (rates are kept "
                         "exactly, R-7.2-2)")
-    if out.units != side.get("units", ""):
-        problems.append(f"units {out.units!r} != input {side.get('units')!r} (R-7.2-2)")
     valid_in = ~np.isnan(x).any(axis=2)
     if (mask != valid_in).any():
         f, m = (int(i) for i in np.argwhere(mask != valid_in)[0])
@@ -1126,6 +1134,35 @@ def check_encoded(data: bytes, x: np.ndarray, side: dict, E: float) -> tuple[lis
                         f"sample(s); first at frame {f}, marker {side['names'][m]!r}: error "
                         f"{float(d[f, m])!r}, beyond the bound by {float(d[f, m]) - bound:.3g} "
                         f"where §7.2's float slack allows {slack:.3g} (R-7.2-1)")
+    # what a pass does not show (an outside encoder implementer's QA, stop 72): a bound
+    # held only by the float slack, which §7.2 says an encoder SHOULD NOT rely on, and a
+    # version above (or below) the lowest that describes the file, a SHOULD of §2.1
+    if h.error_metric == 1 and facts["measured_max_error"] > bound:
+        facts["notes"].append(
+            f"within the declared bound only by the float slack of §7.2: error "
+            f"{facts['measured_max_error']!r} beyond it by "
+            f"{facts['measured_max_error'] - bound:.3g} (slack {slack:.3g}; an encoder SHOULD "
+            "NOT rely on it)")
+    lowest = max(CHUNKS[c.type].MINOR for c in s.chunks if c.type in CHUNKS)
+    if h.version_minor != lowest:
+        facts["notes"].append(
+            f"the file is marked version {h.version_major}.{h.version_minor}, where the lowest "
+            f"minor version that describes it (by its newest chunk type) is "
+            f"{h.version_major}.{lowest}: an encoder SHOULD write that (§2.1); not a failure")
+    units = side.get("units", "")
+    if out.units != units:
+        # the cause before its consequences: an encoder that wrote metres for millimetres
+        # was told of its declared bound above E and of the broken bound first, the units
+        # between them (an outside encoder implementer's QA, stop 72)
+        said = f"units {out.units!r} != input {units!r}"
+        if out.units in MM_PER_UNIT and units in MM_PER_UNIT and h.error_metric == 1:
+            factor = MM_PER_UNIT[units] / MM_PER_UNIT[out.units]
+            if (_distances(positions, x * factor)[both] <= bound + factor * slack).all():
+                said += (f", and the values were converted with them (the input's × {factor:g}, "
+                         "within the declared bound)")
+        problems.insert(0, f"{said}: keep the input's units" + (
+            f"; the figures that follow come from it ({out.units} against {units})"
+            if problems else "") + " (R-7.2-2)")
     return problems, facts
 
 
@@ -1137,7 +1174,7 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
     name = f"{item['name']}@{E:g}"
     entry = {"name": name, "group": "encoder", "file": item["input"], "expected": "encode",
              "max_error": E, "actual": None, "passed": False, "message": "",
-             "declared_bound": None, "measured_max_error": None, "bytes": None,
+             "declared_bound": None, "measured_max_error": None, "bytes": None, "notes": [],
              "exit_code": None, "signal": None, "timed_out": False, "seconds": None,
              "peak_rss_mb": None, "stderr_tail": ""}
     x, side = _load_input(vdir, item)
@@ -1149,8 +1186,8 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         f, m, _ = (int(i) for i in np.argwhere(infinite)[0])
         entry.update(actual="input", message=(
             f"input {item['input']} holds an infinite coordinate in a valid sample (frame "
-            f"{f}, marker {m}): the encoder contract's inputs are finite or NaN (§7.3); "
-            "not run"))
+            f"{f}, marker {m}): the encoder contract's inputs are finite or NaN (§7.3), so "
+            "the input is at fault, not the encoder: not run"))
         return entry
     with tempfile.TemporaryDirectory(prefix="mpz-conf-") as tmp:
         src = Path(tmp) / "in.npy"
@@ -1175,12 +1212,20 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
         if run["exit_code"] != 0:
             tail = run["stderr"].strip().splitlines()
             entry["actual"] = "reject"
+            # an uncaught exception or a panic, as decoder mode tells them (_uncaught), is a
+            # crash, not a refusal: a traceback was worded as the encoder's refusal (an
+            # encoder implementer's QA, stop 72)
+            hit = _uncaught(run)
             # the rule and the §, as decoder mode says them (an implementer's QA run of
             # stop 71: a refusal and a missing output named neither)
-            entry["message"] = (f"encoder exited {run['exit_code']}"
-                                + (f": {tail[-1][:300]}" if tail else "")
-                                + ": every input and bound the suite ships can be held, so a "
-                                "refusal fails here (spec §7.3)" + ENCODER_RULES)
+            entry["message"] = (
+                (f"encoder crashed: exited {run['exit_code']} after an uncaught exception or "
+                 f"a panic, not a refusal (its output shows {hit[:120]!r}"
+                 + (f" and ends {tail[-1][:300]!r})" if tail[-1].strip() != hit else ")")
+                 + ": the encoder must write the file and exit 0 (spec §7.3)") if hit else
+                (f"encoder exited {run['exit_code']}" + (f": {tail[-1][:300]}" if tail else "")
+                 + ": every input and bound the suite ships can be held, so a refusal fails "
+                 "here (spec §7.3)")) + ENCODER_RULES
             return entry
         if not out.is_file():
             # what it wrote instead, if anything (out.MPZ, a name of its own): "wrote no
@@ -1215,7 +1260,8 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
     else:
         entry["passed"] = True
         entry["message"] = (f"{len(data)} bytes, declared bound {facts['declared_bound']:g} <= "
-                            f"{E:g}, measured max error {facts['measured_max_error']:.6g}")
+                            f"{E:g}, measured max error {facts['measured_max_error']:.6g}"
+                            + "".join(f"; note: {n}" for n in facts["notes"]))
     return entry
 
 
@@ -1242,7 +1288,8 @@ def _parser() -> argparse.ArgumentParser:
                "2 the report could not be written to standard output (a full disk), "
                "64 usage error (bad options, missing or invalid vectors, command not found or "
                "a script it cannot start, a --results file that cannot be written, said "
-               "after the report), "
+               "after the report, an encoder input with an infinity in a valid sample, "
+               "not run), "
                "130 interrupted, 143 terminated (SIGTERM; 129 for SIGHUP): the commands "
                "running are killed and no --results is written")
     add_version(p)
@@ -1586,13 +1633,21 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     pool.shutdown()
 
-    n_fail = sum(not r["passed"] for r in results)
+    # an encoder input the contract does not allow (an infinity in a valid sample) is not
+    # run: the input is at fault, not the command. It was counted as a failure, exit 1 (an
+    # outside encoder implementer's QA, stop 72); it is counted apart, and the run exits
+    # 64, as for the suite's other faults (a file that does not match the manifest)
+    not_run = [r["name"] for r in results if r["actual"] == "input"]
+    ran = [r for r in results if r["actual"] != "input"]
+    n_fail = sum(not r["passed"] for r in ran)
     unproven = probed is not None and not probed["passed"]
-    found(EXIT_FAIL if n_fail or unproven else EXIT_OK)   # what a closed pipe exits with
+    status = EXIT_USAGE if not_run else EXIT_FAIL if n_fail or unproven else EXIT_OK
+    found(status)                                         # what a closed pipe exits with
     by_group: dict[str, dict[str, int]] = {}
     for r in results:
         g = by_group.setdefault(r["group"], {"passed": 0, "failed": 0})
-        g["passed" if r["passed"] else "failed"] += 1
+        if r["actual"] != "input":
+            g["passed" if r["passed"] else "failed"] += 1
     # the results file before the report: a reader that closes the pipe (`| head`) stopped
     # the command before it wrote the file (a docs QA run, stop 52)
     results_error = None
@@ -1605,9 +1660,9 @@ def main(argv: list[str] | None = None) -> int:
                "manifest_schema_version": man["schema_version"],
                "timeout": args.timeout, "memory_mb": args.memory,
                "seconds": round(time.perf_counter() - t0, 3),
-               "totals": {"total": len(results), "passed": len(results) - n_fail,
-                          "failed": n_fail, "groups": by_group},
-               "failed": [r["name"] for r in results if not r["passed"]],
+               "totals": {"total": len(results), "passed": len(ran) - n_fail,
+                          "failed": n_fail, "not_run": len(not_run), "groups": by_group},
+               "failed": [r["name"] for r in ran if not r["passed"]],
                "results": results,
                **({"probe": probed} if probed is not None else {})}
         text = json.dumps(_finite(doc), indent=1, allow_nan=False) + "\n"
@@ -1629,7 +1684,9 @@ def main(argv: list[str] | None = None) -> int:
             continue
         # the message may quote the decoder's output: its control characters are escaped,
         # so that a decoder cannot drive the terminal
-        print(f"{'PASS' if r['passed'] else 'FAIL'} {r['group']}/{r['name']}: "
+        verdict = ("PASS" if r["passed"] else "NOT RUN" if r["actual"] == "input" else
+                   "FAIL")
+        print(f"{verdict} {r['group']}/{r['name']}: "
               f"{printable(r['message'])}")
     summary = ", ".join(f"{g} {c['passed']}/{c['passed'] + c['failed']}"
                         for g, c in by_group.items())
@@ -1648,7 +1705,7 @@ def main(argv: list[str] | None = None) -> int:
     # (a CLI audit): it says so on the summary line too
     # the count of re-judged vectors on the summary line, where the README says it is (it
     # was a note of its own above it: QA, stop 71)
-    print(f"{len(results) - n_fail}/{len(results)} passed ({summary})"
+    print(f"{len(ran) - n_fail}/{len(ran)} passed ({summary})"
           + (f"; --implements 1.{minor}: {changed} vector(s) judged as a 1.{minor} decoder "
              "must read them, from reject to decode, their later chunk types unknown to it "
              "(spec §2.1, §2.3)" if mode == "decoder" and minor < VERSION_MINOR else "")
@@ -1656,8 +1713,10 @@ def main(argv: list[str] | None = None) -> int:
              + ("see --results" if args.quiet and args.results else
                 "run without -q to see which" if args.quiet else "see their PASS lines")
              + ")" if unplanned else "")
-          + (f"; failing: {', '.join(r['name'] for r in results if not r['passed'])}"
+          + (f"; failing: {', '.join(r['name'] for r in ran if not r['passed'])}"
              if n_fail else "")
+          + (f"; not run, the input at fault, not the encoder (§7.3): {', '.join(not_run)}"
+             if not_run else "")
           + (f"; not proven: the command did not decode {probed['group']}/{probed['name']}"
              if unproven and probed is not None else ""))
     _warn_if_nothing_decoded(results, probed, args.memory, bool(getattr(args, "as_given",
@@ -1672,10 +1731,14 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(f"note: only invalid vectors were selected; the command decoded {said}, "
                   "run as a check that it decodes at all (not counted)")
+    if not_run:
+        print(f"mpz-conformance: error: {len(not_run)} encoder input(s) of the manifest not "
+              "run: the encoder contract's inputs are finite or NaN (§7.3); fix the input or "
+              "the manifest", file=sys.stderr)
     if results_error is not None:
         print(f"mpz-conformance: error: --results: {results_error}", file=sys.stderr)
         return EXIT_USAGE
-    return EXIT_FAIL if n_fail or unproven else EXIT_OK
+    return status
 
 
 def _probe_plan(man: dict, vdir: Path, minor: int) -> tuple[dict, Any] | None:
