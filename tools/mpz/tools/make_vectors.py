@@ -2191,14 +2191,14 @@ def _c3d_records(labels, models, C, scale, rate, n):
     return out
 
 
-def c3d_motion(seed, *, storage, F=24, M=5, J=2, C=3, n=4):
+def c3d_motion(seed, *, storage, F=24, M=5, J=2, C=3, n=4, scale=0.5):
     """A synthetic motion with a C3D archive (mpz.synth, integers chosen here): float32 or
     int16 storage, J model outputs, C analog channels of n samples per frame, whose words
-    need both channel modes (ADC counts as floats, -0.0, NaN, infinities, 1e38)."""
+    need both channel modes (ADC counts as floats, -0.0, NaN, infinities, 1e38); int16
+    points on the grid of POINT:SCALE ``scale``."""
     from mpz.c3darchive import C3DArchive
     rng = np.random.default_rng(seed)
     m = _synth("walk", F, markers=M, seed=seed, gap_fraction=0.05)
-    scale = 0.5
     pos = m.positions
     if storage == 0:                                  # on the int16 grid of POINT:SCALE
         pos = np.rint(np.nan_to_num(pos) / scale) * scale
@@ -4586,6 +4586,375 @@ SUMMARY_REVIEW_VECTOR_RULES = _rules(
 VECTOR_RULES.update(SUMMARY_REVIEW_VECTOR_RULES)
 
 
+# ---------------------------------------- §6.9 "Writing a C3D": the writer's branches --
+def _c3d_archive_features(m) -> dict:
+    """The archive digest and counts of :func:`_c3d_features` for a decoded motion ``m``."""
+    import hashlib
+    a = m.extras["c3d"]
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(a.words).tobytes())
+    h.update(np.ascontiguousarray(a.analog).tobytes())
+    h.update(np.ascontiguousarray(a.models, "<f8").tobytes())
+    return {"c3d_points": len(a.slots), "c3d_model_outputs": int(a.models.shape[1]),
+            "c3d_analog_channels": a.channels, "c3d_parameters": len(a.records),
+            "c3d_archive_sha256": h.hexdigest(),
+            "c3d_archive_digest_rule": "sha256 of the words [F, P] (int16 or float32 LE), the "
+                                       "analog words [F n, C] and the model values [F, J, 3] "
+                                       "(float64 LE, NaN at gaps)"}
+
+
+def _c3d_refused_features(data, refusal: str) -> dict:
+    """The features of a valid archive that spec §6.9's writer refuses (§7.3): the archive's
+    digest and counts, ``c3d_file_sha256`` null, and ``c3d_file_refused``, which of §6.9's
+    three refusals it is (the reference's message checked to be that one)."""
+    from mpz.errors import InputFormatError
+    from mpz.io.c3d import archive_bytes
+    m = mpz.decode(data)
+    try:
+        archive_bytes(m)
+    except InputFormatError as exc:
+        said = str(exc)
+    else:
+        raise AssertionError(f"the C3D writer wrote an archive it must refuse ({refusal})")
+    words = {"coordinate": "does not fit a float32 C3D", "section": "the parameter section needs",
+             "offset": "needs a next-record offset of"}
+    assert words[refusal] in said, said
+    out = _c3d_archive_features(m)
+    out["c3d_file_sha256"] = None
+    out["c3d_file_refused"] = {
+        "coordinate": "a coordinate beyond binary32 (§6.9 Storage)",
+        "section": "a parameter section of more than 255 blocks (§6.9 Parameter section)",
+        "offset": "a next-record offset beyond 65535 (§6.9 Parameter section)"}[refusal]
+    return out
+
+
+@functools.cache
+def _c3d_writer_base(storage: int, scale: float = 0.5) -> bytes:
+    """A small C3D archive (6 frames, 3 markers, 1 model output, 2 analog channels of 2
+    samples) that :func:`c3d_writer_vectors` edits: float32 (encoded within 1.0) or int16
+    (exact on the grid of POINT:SCALE ``scale``)."""
+    import dataclasses
+
+    from mpz.io.c3dbin import ParamRecord as R
+    m = c3d_motion(77 + storage, storage=storage, F=6, M=3, J=1, C=2, n=2, scale=scale)
+    a = m.extras["c3d"]
+    recs = list(a.records)
+    at = next(i for i, r in enumerate(recs) if r.group == 2 and r.name == b"GAIN") + 1
+    # the ANALOG parameters ezc3d 1.7 needs to read the file back without crashing
+    recs[at:at] = [R(2, False, b"LABELS", b"", -1, (3, 2), b"A1 A2 "),
+                   R(2, False, b"SCALE", b"", 4, (2,), struct.pack("<2f", 1.0, 1.0)),
+                   R(2, False, b"OFFSET", b"", 2, (2,), struct.pack("<2h", 0, 0)),
+                   R(2, False, b"GEN_SCALE", b"", 4, (), struct.pack("<f", 1.0)),
+                   R(2, False, b"UNITS", b"", -1, (1, 2), b"VV")]
+    m.extras["c3d"] = dataclasses.replace(a, records=recs)
+    if storage == 1:
+        return encode_within(m, max_error=1.0)
+    return mpz.encode(m)
+
+
+def _cprm_edited(data, edit):
+    """``data`` with its cprm records replaced by ``edit(records)`` (a list of Param), its
+    coding kept (DEFLATE is rebuilt by the reference's deflate)."""
+    from mpz.chunks import Cprm
+    prm = Cprm.load(next(p for t, p in _c3d_chunks(data) if t == "cprm"))
+    recs = tuple(edit(list(prm.records)))
+    return _c3d_rebuild(data, "cprm", count=len(recs), records=recs)
+
+
+def _chdr_edited(data, **fields):
+    """``data`` with header fields changed: ``scale`` (words 7-8, binary32), ``last``
+    (word 5, u16)."""
+    from mpz.chunks import Chdr
+    blk = bytearray(Chdr.load(next(p for t, p in _c3d_chunks(data) if t == "chdr")).block)
+    if "scale" in fields:
+        struct.pack_into("<f", blk, 12, fields["scale"])
+    if "last" in fields:
+        struct.pack_into("<H", blk, 8, fields["last"])
+    return _c3d_rebuild(data, "chdr", block=bytes(blk))
+
+
+def _param_at(recs, group_name: bytes, name: bytes) -> int:
+    """The index of the parameter ``name`` (exact bytes) of the group named ``group_name``."""
+    gid = next(-r.group for r in recs if r.group < 0 and r.name == group_name)
+    return next(i for i, r in enumerate(recs) if r.group == gid and r.name == name)
+
+
+def c3d_writer_vectors(vs: VectorSet):
+    """Uncommon vectors for the branches of spec §6.9's C3D writer ("Writing a C3D") that
+    no vector reached (the writer run under coverage on every C3D vector of stop 71): the
+    scale read from the header, a POINT:SCALE of 0, -inf, NaN or several elements, int16
+    points written float32, ANALOG:FORMAT UNSIGNED, a parameter section of several blocks,
+    next-record offsets past 32767 and in a last record past 65535, a last frame of 65535,
+    group names compared as ASCII without case, and the writer's three refusals (an archive
+    it refuses is valid: ``c3d_file_sha256`` null, ``c3d_file_refused`` says which).
+    Each edits a small archive of :func:`_c3d_writer_base`. A builder of its own, last, so
+    that the vectors before it keep their numbers."""
+    import dataclasses
+
+    from mpz.chunks import Cpnt, Cprm
+    from mpz.chunks.c3d import Param
+    secs = ["§2.1", "§2.3", "§4.13", "§4.13.1", "§4.13.2", "§6.9"]
+    f32 = _c3d_writer_base(1)
+    i16 = _c3d_writer_base(0)
+    # the markers off the grid: QUNT's x offset 0 -> 0.125 (the reference encoder codes an
+    # int16 source on its grid whatever the bound, Appendix C item 9)
+    off = _c3d_rebuild(i16, "QUNT", offset=(0.125, 0.0, 0.0))
+    i16_1 = _c3d_writer_base(0, 1.0)
+    src = "make_vectors._c3d_writer_base"
+
+    def add(slug, data, description, provenance, refused=None):
+        feats = (_c3d_features(data) if refused is None
+                 else _c3d_refused_features(data, refused))
+        vs.valid("uncommon", _numbered(vs, "u", slug), data, description, feats, secs,
+                 f"{src}{provenance}")
+
+    def par(group, name, ptype, dims, value, description=b""):
+        return Param(group=group, locked=0, name=name, description=description, type=ptype,
+                     dims=bytes(dims), data=value)
+
+    def scale_set(recs, *values, group=b"POINT"):
+        i = _param_at(recs, group, b"SCALE")
+        dims = (len(values),) if len(values) != 1 else ()
+        recs[i] = dataclasses.replace(recs[i], dims=bytes(dims),
+                                      data=struct.pack(f"<{len(values)}f", *values))
+        return recs
+
+    # -- the parameter section: 2 blocks, POINT:DATA_START of two elements
+    def two_blocks(recs):
+        i = _param_at(recs, b"POINT", b"DATA_START")
+        recs[i] = dataclasses.replace(recs[i], dims=b"\x02", data=struct.pack("<2h", 11, 7))
+        note = b"".join(f"note {k:02d}: walking trial, synthetic ".ljust(60).encode()
+                        for k in range(8))
+        recs.insert(i + 1, par(1, b"NOTES", -1, (60, 8), note, b"480 bytes of text"))
+        return recs
+    add("c3d-parameter-section-of-2-blocks", _cprm_edited(f32, two_blocks),
+        "a C3D archive whose parameter section takes 2 blocks (B = 2: a 480-byte POINT:NOTES) "
+        "and whose POINT:DATA_START has two elements, 11 and 7: the writer puts the data at "
+        "block 4 (word 9 and the first element 4, the second kept 7)",
+        "(1): POINT:DATA_START -> [11, 7], POINT:NOTES (char 60 x 8) inserted")
+
+    # -- the scale: from header words 7-8
+    def no_scale(recs):
+        del recs[_param_at(recs, b"POINT", b"SCALE")]
+        return recs
+    add("c3d-no-point-scale", _chdr_edited(_cprm_edited(i16, no_scale), scale=-0.5),
+        "an int16 C3D archive without POINT:SCALE and header words 7-8 -0.5: s = 0.5 comes "
+        "from the header, the points are on its grid, so the file is int16 with words 7-8 "
+        "+0.5",
+        "(0): POINT:SCALE removed, chdr words 7-8 -> -0.5")
+
+    def scale_int16_first(recs):
+        i = _param_at(recs, b"POINT", b"SCALE")
+        recs[i] = dataclasses.replace(recs[i], type=2, data=struct.pack("<h", 3))
+        recs.insert(i + 1, par(1, b"SCALE", 4, (2,), struct.pack("<2f", 0.25, -0.125),
+                               b"a second SCALE"))
+        return recs
+    add("c3d-point-scale-int16-then-float32", _cprm_edited(i16, scale_int16_first),
+        "an int16 C3D archive whose first POINT:SCALE is an int16 (3) and a second one a "
+        "float32 [0.25, -0.125]: s = 0.5 from header words 7-8 (a later SCALE is not looked "
+        "at, so its elements of two magnitudes do not make the file float32); the int16 "
+        "SCALE is written as stored, the float32 one as [0.5, 0.125]",
+        "(0): POINT:SCALE -> int16 3, a float32 POINT:SCALE [0.25, -0.125] after it")
+
+    def scale_empty(recs):
+        i = _param_at(recs, b"POINT", b"SCALE")
+        recs[i] = dataclasses.replace(recs[i], dims=b"\x00", data=b"")
+        return recs
+    add("c3d-point-scale-no-element", _chdr_edited(_cprm_edited(f32, scale_empty), scale=-0.75),
+        "a float32 C3D archive whose POINT:SCALE is a float32 of dims (0) (no element) and "
+        "header words 7-8 -0.75: s = 0.75 from the header, words 7-8 written -0.75, "
+        "POINT:SCALE written as stored",
+        "(1): POINT:SCALE dims (0), no data; chdr words 7-8 -> -0.75")
+
+    # -- the scale: s = 1
+    add("c3d-point-scale-zero", _cprm_edited(i16_1, lambda r: scale_set(r, 0.0)),
+        "an int16 C3D archive on the grid 1 whose POINT:SCALE is 0.0: s = 1, the file is "
+        "int16 with words 7-8 +1.0 and POINT:SCALE written 1.0",
+        "(0, 1.0): POINT:SCALE -> 0.0")
+    add("c3d-point-scale-minus-infinity",
+        _cprm_edited(i16_1, lambda r: scale_set(r, -math.inf)),
+        "an int16 C3D archive on the grid 1 whose POINT:SCALE is -inf: s = 1, the file is "
+        "int16 with words 7-8 +1.0 and POINT:SCALE written 1.0",
+        "(0, 1.0): POINT:SCALE -> -inf")
+
+    # -- the scale: several elements
+    nan = struct.unpack("<f", struct.pack("<I", 0xFFC01234))[0]
+
+    def scale_nan(recs):
+        i = _param_at(recs, b"POINT", b"SCALE")
+        recs[i] = dataclasses.replace(recs[i], dims=b"\x04", data=struct.pack(
+            "<fIff", 0.5, 0x7FC01234, -0.5, 0.5))
+        return recs
+    assert nan != nan
+    add("c3d-point-scale-nan-element", _cprm_edited(i16, scale_nan),
+        "an int16 C3D archive on the grid 0.5 whose POINT:SCALE is [0.5, NaN (0x7FC01234), "
+        "-0.5, 0.5]: a NaN equals nothing, so the file is float32 (words 7-8 -0.5, the int16 "
+        "point and analog words as binary32 of the same value, negative analog words "
+        "negative) and POINT:SCALE is written [-0.5, NaN 0xFFC01234 (payload kept, sign "
+        "set), -0.5, -0.5]",
+        "(0): POINT:SCALE -> 4 elements, one a NaN")
+    add("c3d-point-scale-magnitudes-differ",
+        _cprm_edited(i16, lambda r: scale_set(r, 0.5, 0.25, -0.5, 0.5)),
+        "an int16 C3D archive on the grid 0.5 whose POINT:SCALE is [0.5, 0.25, -0.5, 0.5]: "
+        "elements of two magnitudes make the file float32, POINT:SCALE written [-0.5, -0.25, "
+        "-0.5, -0.5]", "(0): POINT:SCALE -> [0.5, 0.25, -0.5, 0.5]")
+    add("c3d-point-scale-signs-differ-int16",
+        _cprm_edited(i16, lambda r: scale_set(r, -0.5, 0.5, -0.5, -0.5)),
+        "an int16 C3D archive on the grid 0.5 whose POINT:SCALE is [-0.5, 0.5, -0.5, -0.5]: "
+        "one magnitude, so int16; words 7-8 +0.5, POINT:SCALE written [0.5, 0.5, 0.5, 0.5]",
+        "(0): POINT:SCALE -> [-0.5, 0.5, -0.5, -0.5]")
+
+    # -- int16 source written float32: off the grid, beyond 32767
+    m = mpz.decode(off)
+    assert not np.array_equal(np.rint(m.positions[m.valid] / 0.5) * 0.5, m.positions[m.valid])
+    add("c3d-int16-off-grid-written-float32", off,
+        "an int16 C3D archive (POINT:SCALE 0.5) whose QUNT x offset is 0.125, so its decoded "
+        "markers are off the grid: the file is float32 (words 7-8 -0.5, POINT:SCALE -0.5), "
+        "the int16 point and analog words written as binary32 of the same value",
+        "(0): QUNT offset x 0 -> 0.125")
+    pnt = Cpnt.load(next(p for t, p in _c3d_chunks(i16) if t == "cpnt"))
+    ax = pnt.models[0].axes[1]
+    far = _c3d_rebuild(i16, "cpnt", models=_axis_changed(pnt.models, offset=ax.offset + 16384))
+    a = mpz.decode(far).extras["c3d"]
+    y = a.models[:, 0, 1][a.model_valid[:, 0]]
+    assert np.array_equal(np.rint(y / 0.5) * 0.5, y) and (y / 0.5 > 32767).any()
+    add("c3d-int16-on-grid-beyond-32767", far,
+        "an int16 C3D archive on the grid 0.5 whose model output 0 has y values 16384 higher "
+        "(cpnt offset + 16384): on the grid, but q = x / s passes 32767, so the file is "
+        "float32", "(0): cpnt model 0 axis y offset + 16384")
+
+    # -- ANALOG:FORMAT UNSIGNED
+    def unsigned(recs):
+        i = next(k for k, r in enumerate(recs) if r.group == -2)
+        recs[i] = dataclasses.replace(recs[i], name=b"analog")
+        j = _param_at(recs, b"analog", b"GAIN")
+        recs.insert(j + 1, par(2, b"Format", -1, (12,), b" unsigned\x00\x00 "))
+        recs.insert(j + 2, par(2, b"FORMAT", -1, (6,), b"SIGNED", b"not looked at"))
+        return recs
+    add("c3d-analog-format-unsigned", _cprm_edited(off, unsigned),
+        "the float32-written int16 archive of c3d-int16-off-grid-written-float32 with the "
+        "group ANALOG named analog, whose first FORMAT (named Format) is ' unsigned' with "
+        "U+0000 and U+0020 around it, and a later FORMAT SIGNED (not looked at): every "
+        "negative int16 analog word v is written as the binary32 of v + 65536",
+        "(0), QUNT offset x 0.125: ANALOG -> analog, Format ' unsigned\\0\\0 ', FORMAT 'SIGNED'")
+
+    def signed_first(recs):
+        j = _param_at(recs, b"ANALOG", b"GAIN")
+        recs.insert(j + 1, par(2, b"FORMAT", 1, (8,), b"UNSIGNED", b"a byte array"))
+        recs.insert(j + 2, par(2, b"FORMAT", -1, (8,), b"UNSIGNED", b"not looked at"))
+        return recs
+    add("c3d-analog-format-unsigned-not-first", _cprm_edited(off, signed_first),
+        "the archive of c3d-int16-off-grid-written-float32 whose first ANALOG:FORMAT is a "
+        "byte array (type 1) spelling UNSIGNED and a later one the char UNSIGNED: only the "
+        "first is looked at, and it is not char, so the analog words are written signed",
+        "(0), QUNT offset x 0.125: ANALOG:FORMAT byte 'UNSIGNED', then char 'UNSIGNED'")
+
+    # -- a last frame of 65535: no padding
+    add("c3d-last-frame-65535", _chdr_edited(f32, last=65535),
+        "a float32 C3D archive whose header word 5 (last frame) is 65535 (bytes FF FF): the "
+        "writer ends the file at the last frame, without padding its last block",
+        "(1): chdr word 5 -> 65535")
+
+    # -- names compared as ASCII without case
+    def lower(recs):
+        i = next(k for k, r in enumerate(recs) if r.name == b"POINT" and r.group < 0)
+        recs[i] = dataclasses.replace(recs[i], name=b"point")
+        for nm, new in ((b"SCALE", b"Scale"), (b"DATA_START", b"data_start")):
+            j = _param_at(recs, b"point", nm)
+            recs[j] = dataclasses.replace(recs[j], name=new)
+        return recs
+    add("c3d-group-point-lowercase", _cprm_edited(f32, lower),
+        "a float32 C3D archive whose group POINT is named point and its SCALE and DATA_START "
+        "Scale and data_start: names compared as ASCII without case, so both are set as for "
+        "POINT (-0.5, 3)", "(1): POINT -> point, SCALE -> Scale, DATA_START -> data_start")
+
+    def spaced(recs):
+        i = next(k for k, r in enumerate(recs) if r.name == b"POINT" and r.group < 0)
+        recs[i] = dataclasses.replace(recs[i], name=b"POINT ")
+        return scale_set(recs, 0.25, 1.0, group=b"POINT ")
+    add("c3d-group-point-trailing-space", _cprm_edited(i16, spaced),
+        "an int16 C3D archive whose group POINT is named 'POINT ' (a trailing U+0020), which "
+        "is not POINT: its SCALE [0.25, 1.0] is not read (s = 0.5 from header words 7-8, the "
+        "file int16) and, with its DATA_START (11), written as stored",
+        "(0): POINT -> 'POINT ', its SCALE -> [0.25, 1.0]")
+
+    # -- next-record offsets past 32767, and a last record past 65535
+    def long_record(recs):
+        j = _param_at(recs, b"POINT", b"LABELS")
+        recs.insert(j + 1, par(1, b"LONG", -1, (250, 132), b"." * 33000, b"33000 bytes"))
+        return recs
+    add("c3d-next-record-offset-above-32767", _cprm_edited(f32, long_record),
+        "a float32 C3D archive with a POINT:LONG of 33000 bytes (not the last record): its "
+        "next-record offset, 33017, is written unsigned (above 32767, where readers that take "
+        "it signed fail); B = 66", "(1): POINT:LONG (char 250 x 132) inserted")
+
+    def last_record(recs):
+        return [*recs, par(9, b"LAST", -1, (255, 2, 129), b"-" * 65790, b"the last record")]
+    add("c3d-last-record-above-65535", _cprm_edited(f32, last_record),
+        "a float32 C3D archive whose last parameter record holds 65790 bytes of data: in the "
+        "last record the next-record offset is 0, whatever its size, so it is written (B = "
+        "129)", "(1): a last record of 65790 bytes appended")
+
+    # -- the writer's refusals: the MPZ files are valid
+    big = _c3d_rebuild(f32, "cpnt", models=_axis_changed(
+        Cpnt.load(next(p for t, p in _c3d_chunks(f32) if t == "cpnt")).models, offset=1e39))
+    add("c3d-writer-refuses-coordinate-beyond-float32", big,
+        "a float32 C3D archive whose model output 0 has y values about 1e39 (cpnt offset "
+        "1e39, valid by §4.13.3): the writer refuses it (a coordinate beyond binary32); "
+        "c3d_file_sha256 is null", "(1): cpnt model 0 axis y offset -> 1e39",
+        refused="coordinate")
+
+    def section_256(recs):
+        # C3D records are 1 byte longer than cprm's (a 2-byte offset for the locked byte),
+        # the section's head 2 bytes longer than cprm's count: a content of 130,646 to
+        # 130,900 bytes (at most 2^17, §8) gives a section of 130,648 + R bytes at least,
+        # more than 255 x 512
+        have = len(Cprm(coding=0, count=len(recs), records=tuple(recs)).content())
+        extra = [par(9, f"FILL{k}".encode(), -1, (255, 171), b"\x00" * 43605) for k in range(2)]
+        rest = 130900 - have - 2 * 43617 - 12           # 12: a FILL record's other bytes
+        extra.append(par(9, b"FILL2", -1, (rest // 255, 255), b"\x00" * (rest // 255 * 255)))
+        out = [*recs, *extra]
+        n = len(Cprm(coding=0, count=len(out), records=tuple(out)).content())
+        assert n <= 1 << 17 and n + 2 + len(out) > 255 * 512, n
+        return out
+    add("c3d-writer-refuses-section-of-256-blocks", _cprm_edited(f32, section_256),
+        "a float32 C3D archive with three more parameters of 43605 bytes: the cprm content "
+        "(under 2^17 bytes) is valid, but its C3D section needs 256 blocks, which the writer "
+        "refuses; c3d_file_sha256 is null", "(1): three char records 255 x 171 appended",
+        refused="section")
+
+    def offset_65536(recs):
+        j = _param_at(recs, b"POINT", b"LABELS")
+        recs.insert(j + 1, par(1, b"HUGE", -1, (255, 2, 129), b"\x00" * 65790))
+        return recs
+    add("c3d-writer-refuses-next-record-offset-65536", _cprm_edited(f32, offset_65536),
+        "a float32 C3D archive with a POINT:HUGE of 65790 bytes that is not the last record: "
+        "its next-record offset would be 65799, beyond 65535, which the writer refuses; "
+        "c3d_file_sha256 is null", "(1): POINT:HUGE (char 255 x 2 x 129) inserted",
+        refused="offset")
+
+
+_WRITER_SLUGS = (
+    "c3d-parameter-section-of-2-blocks c3d-no-point-scale c3d-point-scale-int16-then-float32 "
+    "c3d-point-scale-no-element c3d-point-scale-zero c3d-point-scale-minus-infinity "
+    "c3d-point-scale-nan-element c3d-point-scale-magnitudes-differ "
+    "c3d-point-scale-signs-differ-int16 c3d-int16-off-grid-written-float32 "
+    "c3d-int16-on-grid-beyond-32767 c3d-analog-format-unsigned "
+    "c3d-analog-format-unsigned-not-first c3d-last-frame-65535 c3d-group-point-lowercase "
+    "c3d-group-point-trailing-space c3d-next-record-offset-above-32767 "
+    "c3d-last-record-above-65535")
+_REFUSED_SLUGS = ("c3d-writer-refuses-coordinate-beyond-float32 "
+                  "c3d-writer-refuses-section-of-256-blocks "
+                  "c3d-writer-refuses-next-record-offset-65536")
+#: the §7.4 rules the vectors of :func:`c3d_writer_vectors` probe: each one's written C3D
+#: (R-6.9-3), or the writer's refusal of a valid file, which still decodes (R-6.9-2)
+C3D_WRITER_VECTOR_RULES = _rules(
+    ("R-6.9-3", f"{_WRITER_SLUGS} {_REFUSED_SLUGS}"),
+    ("R-6.9-2", _REFUSED_SLUGS),
+)
+_merge_rules(C3D_WRITER_VECTOR_RULES)
+
+
 BUILDERS = (
     valid_vectors,
     spec_example,
@@ -4608,6 +4977,7 @@ BUILDERS = (
     core_review_vectors,                      # §4.2, §6.8 (the reviews of stop 71)
     summary_review_vectors,                   # §2.1, §4.10, §4.15 (review of stop 71)
     encoder_review_inputs,                    # §7.2, §7.3 (encoder QA of stop 71)
+    c3d_writer_vectors,                       # §6.9 the C3D writer's branches (stop 72)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
