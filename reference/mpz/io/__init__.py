@@ -747,8 +747,8 @@ def writer_problems(motion: Motion, ext: str) -> tuple[list[str], list[str]]:
             ("repeat", any(not p.startswith("->") and "\x00" not in p for p in pairs)))
             if hit]
         notes.append(f"some of the source's point names {' or '.join(kinds)}: {len(pairs)} "
-                     f"point{'s are' if len(pairs) != 1 else ' is'} written under the names given them "
-                     f"on reading ({'; '.join(pairs[:4])}"
+                     f"point{'s are' if len(pairs) != 1 else ' is'} written under the names "
+                     f"given them on reading ({'; '.join(pairs[:4])}"
                      + (f" and {len(pairs) - 4} more" if len(pairs) > 4 else "") + ")")
     header = [k for k in motion.metadata if k.startswith("trc.")]
     if header and ext != ".trc":        # a TRC source's header fields (mpz compare: missing)
