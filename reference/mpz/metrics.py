@@ -344,18 +344,21 @@ def _parameters(a: C3DArchive, b: C3DArchive) -> Part:
     n = len(a.records) - groups
     what = (f"{groups} group{'s' * (groups != 1)}, {n} parameter{'s' * (n != 1)}"
             f"{events}")
-    from mpz.io.c3dbin import ParamRecord, named
+    from mpz.io.c3dbin import ParamRecord, named, scale_as_written
     ka, kb = _record_keys(a), _record_keys(b)
     start = a.parameter("POINT", "DATA_START")
     scales = {id(a.records[i]) for i in named(a.records, b"POINT", b"SCALE")}
+    words = [float(np.frombuffer(x.header[_SCALE], "<f4")[0]) for x in (a, b)]
 
     def as_written(r: ParamRecord, s: ParamRecord) -> bool:
-        """What spec §6.9's writer changes: POINT:DATA_START's value, POINT:SCALE's signs
-        (the first element of each, in fact; the others keep theirs but for the sign)."""
+        """What spec §6.9's writer changes: POINT:DATA_START's value, and each float32
+        POINT:SCALE as :func:`~mpz.io.c3dbin.scale_as_written` writes it beside the
+        written file's header words 7-8, whichever of the two that file is (its signs
+        alone were allowed: a scale of 0 or -inf written as 1 differed, u71, u72)."""
         if r != replace(s, data=r.data):
             return False
-        return r is start or (id(r) in scales and r.type == 4
-                              and _same_but_sign(r.data, s.data))
+        return r is start or (id(r) in scales and (scale_as_written(s, words[0]) == r
+                                                   or scale_as_written(r, words[1]) == s))
     if len(a.records) == len(b.records) and ka == kb:
         bad = [k for k, r, s in zip(ka, a.records, b.records, strict=True)
                if r != s and not as_written(r, s)]

@@ -571,6 +571,11 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
         return motion_from_c3d_bytes(data, source=source, extra={
             "warning": "not read with ezc3d, which reads from the header's data start; "
                        "read with mpz.io.c3dbin"})
+    if checks.case is not None:
+        return motion_from_c3d_bytes(data, source=source, extra={
+            "reader_note": f"not read with ezc3d, which compares names exactly and would not "
+                           f"find {checks.case} (C3D compares names without case); read "
+                           "with mpz.io.c3dbin"})
     short = memory_short(EZC3D_BYTES_PER_BYTE * (len(data) - checks.data_start)
                          + EZC3D_BYTES_FIXED)
     if short is not None:

@@ -556,6 +556,13 @@ def check_key(head: bytes) -> None:
 
 def _open(data: bytes) -> tuple[_Codec, int, dict[str, dict[str, ParamValue | None]]]:
     """The codec, parameter-section offset and parameters of C3D bytes (checked)."""
+    codec, pstart, _, params = _open_records(data)
+    return codec, pstart, params
+
+
+def _open_records(data: bytes) -> tuple[_Codec, int, list[ParamRecord],
+                                        dict[str, dict[str, ParamValue | None]]]:
+    """:func:`_open`, with the records its parameters come from."""
     if len(data) < 2 * BLOCK:
         _fail(f"file too short ({len(data)} bytes) for a header and a parameter block")
     check_key(data)
@@ -566,9 +573,10 @@ def _open(data: bytes) -> tuple[_Codec, int, dict[str, dict[str, ParamValue | No
     if processor not in (PROC_INTEL, PROC_DEC, PROC_MIPS):
         _fail(f"unknown processor type {processor} (expected 84, 85 or 86)", pstart + 3)
     codec = _Codec(processor)
-    params = _parse_parameters(data, pstart, codec)
+    records = parse_records(data, pstart, codec)
+    params = record_params(records)
     params.setdefault("POINT", {})
-    return codec, pstart, params
+    return codec, pstart, records, params
 
 
 @dataclass
@@ -791,7 +799,8 @@ class ReaderChecks:
     """What the C3D reader must know before it lets ezc3d open a file (:func:`reader_checks`).
 
     ``hazard`` (:func:`ezc3d_hazard`), ``conflict`` (:func:`scale_conflict`) and, when
-    both are None, ``data_start``, ``word9`` and ``note`` (:func:`data_start`)."""
+    both are None, ``data_start``, ``word9`` and ``note`` (:func:`data_start`), and
+    ``case`` (:func:`_case_ezc3d_misses`)."""
 
     first: int
     declared: int
@@ -800,6 +809,26 @@ class ReaderChecks:
     data_start: int = 0
     word9: int = 0
     note: str | None = None
+    case: str | None = None
+
+
+#: the groups whose parameters the readers look up by name to read the points: ezc3d
+#: compares names exactly, in upper case, where C3D compares them without case (spec §6.9)
+_LOOKED_UP = (b"POINT", b"ANALOG", b"TRIAL")
+
+
+def _case_ezc3d_misses(records: list[ParamRecord]) -> str | None:
+    """The first group of :data:`_LOOKED_UP`, or parameter of one, whose name is not
+    written in upper case (ASCII), said for the reader's note; None when there is none.
+    Why: ezc3d takes a group named ``point`` for another group than POINT, finds no
+    POINT:RATE and reads a rate of 0 (vector u81 written back, stop 72)."""
+    groups = {-r.group: r.name for r in records if r.is_group}
+    for r in records:
+        group = r.name if r.is_group else groups.get(r.group, b"")
+        if group.upper() in _LOOKED_UP and r.name != r.name.upper():
+            what = "group" if r.is_group else f"parameter of {group.decode('latin-1')}"
+            return f"a {what} named {r.name.decode('latin-1')!r}"
+    return None
 
 
 def reader_checks(data: bytes) -> ReaderChecks:
@@ -813,7 +842,7 @@ def reader_checks(data: bytes) -> ReaderChecks:
     InputFormatError
         As those functions do, in that order.
     """
-    codec, pstart, params = _open(data)
+    codec, pstart, records, params = _open_records(data)
     first, declared = frame_range(params, codec.uint16(data, 6), codec.uint16(data, 8))
     hazard = ezc3d_hazard(data)
     if hazard is not None:
@@ -823,7 +852,7 @@ def reader_checks(data: bytes) -> ReaderChecks:
         return ReaderChecks(first, declared, None, conflict)
     lay = _layout(data, codec, pstart, params)
     return ReaderChecks(first, declared, None, None, lay.data_start, codec.uint16(data, 16),
-                        "; ".join(lay.warnings) or None)
+                        "; ".join(lay.warnings) or None, _case_ezc3d_misses(records))
 
 
 def _scale_conflict(data: bytes, codec: _Codec, pstart: int,
@@ -1393,13 +1422,21 @@ def _scale_signed(records: list[ParamRecord], signed_scale: float) -> None:
     int16: a POINT:SCALE of two elements was written positive in a float file, and its
     second point read back 17,000 units off (a clean-room review of stop 54)."""
     for i in named(records, b"POINT", b"SCALE"):
-        r = records[i]
-        if r.type == 4 and len(r.data) >= 4:
-            v = np.abs(np.frombuffer(r.data, "<f4", len(r.data) // 4))
-            v = -v if signed_scale < 0 else v
-            v[0] = signed_scale
-            records[i] = ParamRecord(r.group, r.locked, r.name, r.description, r.type, r.dims,
-                                     v.astype("<f4").tobytes() + r.data[len(v) * 4:])
+        records[i] = scale_as_written(records[i], signed_scale)
+
+
+def scale_as_written(r: ParamRecord, signed_scale: float) -> ParamRecord:
+    """A POINT:SCALE record ``r`` as spec §6.9's writer writes it beside header words 7-8 of
+    ``signed_scale``: a float32 of at least one element gets ``signed_scale`` as its first
+    element and that sign on every other one (a NaN keeps its payload); any other record
+    is as stored. ``mpz compare`` allows this difference and no other (u69, u71, u72)."""
+    if r.type != 4 or len(r.data) < 4:
+        return r
+    v = np.abs(np.frombuffer(r.data, "<f4", len(r.data) // 4))
+    v = -v if signed_scale < 0 else v
+    v[0] = signed_scale
+    return ParamRecord(r.group, r.locked, r.name, r.description, r.type, r.dims,
+                       v.astype("<f4").tobytes() + r.data[len(v) * 4:])
 
 
 def frame_words(first: int, frames: int) -> tuple[int, int, bool]:
