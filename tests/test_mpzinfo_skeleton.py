@@ -116,3 +116,20 @@ def test_a_file_without_a_skeleton_has_none():
     info = inspect(path.read_bytes(), path.name)
     assert info["status"] == "ok" and info["skeleton"] is None
     assert "skeleton of" not in summary_line(info)
+
+
+@pytest.mark.parametrize(("name", "features"), _skeleton_vectors())
+def test_the_bounds_mpzinfo_prints_are_not_below_the_files(name, features):
+    """mpzinfo printed `joints within 1.16 mm` for a position_bound of 1.16141 mm, and
+    `mpz encode` 1.161: a bound printed shorter than it is was below it, and an archive
+    team's own check passed the printed figure (a QA run of stop 72). Each bound of the
+    line, read back from it, is now at least the manifest's (the file's) figure."""
+    import re
+    line = summary_line(inspect((VECTORS / name).read_bytes(), name))
+    got = re.search(r"channels within (\S+) deg and (\S+), (?:joints within (\S+?)(?: \w+)?\)|"
+                    r"no joint bound)", line)
+    assert got is not None, line
+    for printed, key in zip(got.groups(), ("angle_bound", "translation_bound",
+                                           "position_bound"), strict=True):
+        if printed is not None:
+            assert float(printed) >= features[key], (key, printed, features[key], line)

@@ -51,7 +51,7 @@ from mpz.metrics import (  # one rule for compare and metrics
     rate_assumed,
     same_frame_time,
 )
-from mpz.tools._cli import count, print_json, printable
+from mpz.tools._cli import bound_text, count, print_json, printable
 from mpz.tools._common import check_plot, plot_format
 
 #: ``--json``'s schema (docs/json.md)
@@ -439,14 +439,14 @@ def run(args: argparse.Namespace) -> int:
             print(f"  .mpz files: {sa} and {sb} bytes"
                   + (" (byte-identical)" if pair["identical"] else
                      f" ({100 * (sb / sa - 1):+.2f} %)")
-                  + f", bounds {'none' if ba is None else f'{ba:.4g}{u}'} and "
-                  f"{'none' if bb is None else f'{bb:.4g}{u}'}")
+                  + f", bounds {'none' if ba is None else f'{bound_text(ba, 4)}{u}'} and "
+                  f"{'none' if bb is None else f'{bound_text(bb, 4)}{u}'}")
         if check is not None:
             what = ("position_bound of the joint positions (spec §4.14)" if joints
                     else "spec §7.2")
             by = (f"the sum of the bounds of {names[0]} and {names[1]}" if pair is not None
                   else f"declared by {names[1]}")
-            print(f"  bound {check['bound']:.4g}{u} {by} ({what}): "
+            print(f"  bound {bound_text(check['bound'], 4)}{u} {by} ({what}): "
                   + ("no valid sample to hold to it" if s["max"] is None else
                      "every sample within" if not check["beyond"] else
                      f"BEYOND at {check['beyond']} sample{'s' * (check['beyond'] != 1)}, "
@@ -505,7 +505,7 @@ def _status(p) -> str:
     """A :class:`mpz.metrics.Part` as a line of the report, its figures in its own unit."""
     u = f" {p.unit}" if p.unit else ""
     if p.status == "within":
-        return f"within {p.bound:.4g}{u}: largest {p.error:.4g}{u}; {p.detail}"
+        return f"within {bound_text(p.bound, 4)}{u}: largest {p.error:.4g}{u}; {p.detail}"
     if p.status == "changed" and p.error is not None:    # metadata has no figure
         return f"changed: largest {p.error:.4g}{u}; {p.detail}"
     return f"{p.status}: {p.detail}"

@@ -17,7 +17,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from mpz.errors import EncoderError, MPZError
-from mpz.tools._cli import EXIT_OK, EXIT_WARN, found, positive, printable, signal_in
+from mpz.tools._cli import EXIT_OK, EXIT_WARN, bound_text, found, positive, printable, signal_in
 
 if TYPE_CHECKING:
     from mpz.encoder import EncodeOptions
@@ -639,7 +639,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         print(f"  ratio    {result['ratio_float32']:.1f}:1 vs float32{vs_input}", file=out)
     _print_parts(result, out)
     bound = (" (no bound declared: --lossy)" if rep.bound is None
-             else f" (bound {rep.bound:g}{u}: {rep.bound_rule})")
+             else f" (bound {bound_text(rep.bound)}{u}: {rep.bound_rule})")
     layer = ("marker layer (what a 1.0 decoder reads; mpz decode computes the joints from "
              "the channels: skeleton below) " if result["bytes_skeleton"] else "")
     # max with the bound's digits: 0.3054 next to a bound of 0.305372 looked over it
@@ -901,9 +901,9 @@ def _print_skeleton(rep: dict | None, units: str, out) -> None:
     from mpz.skeleton import joints_text
     print(f"  skeleton {rep['chunk']} {rep['bytes']} B: "
           f"{joints_text(rep['joints'], rep.get('end_sites', 0))}, "
-          f"{rep['channels']} channels; rotations within {rep['angle_bound']:g} deg, "
-          f"translations within {rep['translation_bound']:g} (skeleton units); joint "
-          f"positions within {rep['position_bound']:.4g}{u}", file=out)
+          f"{rep['channels']} channels; rotations within {bound_text(rep['angle_bound'])} deg, "
+          f"translations within {bound_text(rep['translation_bound'])} (skeleton units); joint "
+          f"positions within {bound_text(rep['position_bound'], 4)}{u}", file=out)
 
 
 # --------------------------------------------------- issue 12: truthful sizes --

@@ -21,6 +21,7 @@ from mpz.tools._cli import (
     EXIT_ERROR,
     EXIT_OK,
     EXIT_WARN,
+    bound_text,
     found,
     json_failure,
     print_json,
@@ -155,11 +156,12 @@ def run(args) -> int:
     if ext == ".mpz":
         bound = info["error_bound"]
         u = f" {info['units']}" if info["units"] else ""
-        said = "none declared" if bound is None else f"max error \u2264 {bound:g}{u} (declared)"
+        said = ("none declared" if bound is None else
+                f"max error \u2264 {bound_text(bound)}{u} (declared)")
         if joint_positions_from_channels(motion, ext):
             joints = info["position_bound"]
             said = ("joints " + ("none declared" if joints is None else
-                                 f"within {joints:g}{u} (declared)")
+                                 f"within {bound_text(joints)}{u} (declared)")
                     + f", computed from the channels; the marker layer: {said}")
         lines.append("bound:     " + said)
     if info["channels"] is not None:

@@ -55,6 +55,7 @@ from mpz.tools._cli import (
     MAX_SAMPLES_HELP,
     Parser,
     add_version,
+    bound_text,
     found,
     jsonable,
     max_samples,
@@ -216,18 +217,18 @@ def summary_line(info: dict) -> str:
             parts.append(" + ".join(more))
     units = f" {info['units']}" if info["units"] else ""
     if info["error_bound"] is not None:
-        parts.append(f"max error \u2264 {info['error_bound']:g}{units}")
+        parts.append(f"max error \u2264 {bound_text(info['error_bound'])}{units}")
     else:
         parts.append("no error bound declared")
     sk = info.get("skeleton")
     if sk:
-        joints = (f"joints within {sk['position_bound']:.3g}{units}"
+        joints = (f"joints within {bound_text(sk['position_bound'], 3)}{units}"
                   if sk["position_bound"] else "no joint bound declared")
         from mpz.skeleton import joints_text
         parts.append(f"{sk['chunk']} skeleton of "
                      f"{joints_text(sk['joints'], sk.get('end_sites', 0))}, {sk['channels']} "
-                     f"channels within {sk['angle_bound']:.3g} deg and "
-                     f"{sk['translation_bound']:.3g}, {joints}")
+                     f"channels within {bound_text(sk['angle_bound'], 3)} deg and "
+                     f"{bound_text(sk['translation_bound'], 3)}, {joints}")
     line = f"{tag}: {name} ({', '.join(parts)})"
     if info["errors"]:
         e = info["errors"][0]
