@@ -993,7 +993,7 @@ def test_a_sigterm_a_kernel_heard_exits_as_sigterm(tmp_path: Path, monkeypatch,
     monkeypatch.setattr(mpz.corpus, "encode_corpus", one_then(SystemExit(143)))
     assert mpz_cli.main(argv) == 143
     err = capsys.readouterr().err
-    assert "terminated (signal 15): 1 of 3 files finished, written and indexed" in err, err
+    assert "terminated (signal 15): 1 of 3 files finished: 1 written, each in the index" in err, err
     assert "Traceback" not in err and "internal error" not in err
     monkeypatch.setattr(mpz.corpus, "encode_corpus", one_then(KeyboardInterrupt()))
     assert mpz_cli.main(argv) == 130
@@ -1001,6 +1001,21 @@ def test_a_sigterm_a_kernel_heard_exits_as_sigterm(tmp_path: Path, monkeypatch,
     assert "1 of 3 files finished before the interrupt" in err and err.endswith(
         "interrupted\n"), err
     assert "run the same command again to encode the rest" in err
+
+    def kept_then(signal_exc: BaseException):
+        def run(jobs, *args, progress, **kwargs):
+            from mpz.corpus import FileResult
+            progress(1, len(jobs), FileResult(jobs[0][0], jobs[0][1], "skipped"))
+            progress(2, len(jobs), FileResult(jobs[1][0], jobs[1][1], "kept"))
+            raise signal_exc
+        return run
+
+    # files up to date were said "written and indexed" (an archive team's QA, stop 72)
+    monkeypatch.setattr(mpz.corpus, "encode_corpus", kept_then(KeyboardInterrupt()))
+    assert mpz_cli.main(argv) == 130
+    err = capsys.readouterr().err
+    assert "2 of 3 files finished before the interrupt: 2 already up to date, each in the " \
+        "index; run the same command again" in err, err
 
     def all_then(signal_exc: BaseException):
         def run(jobs, *args, progress, **kwargs):
@@ -1015,12 +1030,13 @@ def test_a_sigterm_a_kernel_heard_exits_as_sigterm(tmp_path: Path, monkeypatch,
     monkeypatch.setattr(mpz.corpus, "encode_corpus", all_then(KeyboardInterrupt()))
     assert mpz_cli.main(argv) == 130
     err = capsys.readouterr().err
-    assert "all 3 files finished before the interrupt: written and indexed\n" in err, err
+    assert "all 3 files finished before the interrupt: 3 written, each in the index\n" in err, err
     assert "again" not in err
     monkeypatch.setattr(mpz.corpus, "encode_corpus", all_then(SystemExit(143)))
     assert mpz_cli.main(argv) == 143
     err = capsys.readouterr().err
-    assert "terminated (signal 15): all 3 files finished, written and indexed\n" in err, err
+    assert "terminated (signal 15): all 3 files finished: 3 written, each in the index\n" \
+        in err, err
 
 
 class _DropsASignal:

@@ -117,11 +117,13 @@ class _Bar:
         from mpz.tools._common import Progress
         self.bar = Progress("encoding", enabled=None if enabled else False)
         self.failed = 0
+        self.written = 0
         self.done = 0
         self.total = 0
 
     def __call__(self, done: int, total: int, r: FileResult) -> None:
         self.failed += r.status == "failed"
+        self.written += r.status == "encoded"
         self.done, self.total = done, total
         bad = f", {self.failed} failed" if self.failed else ""
         self.bar(done / max(total, 1), f"{done}/{total}{bad} {os.path.basename(r.source)}")
@@ -141,10 +143,23 @@ class _Bar:
             return f"all {_plural(self.total, 'file')} finished{bad}"
         return f"{self.done} of {_plural(self.total or planned, 'file')} finished{bad}"
 
+    def kinds(self) -> str:
+        """What the finished files were, for the line of an interrupted run: those written,
+        those already up to date (kept or skipped), each in the index. Why: a run of 5 up
+        to date files and 3 new ones, stopped before any was written, said "5 of 8 files
+        finished ...: written and indexed" (an archive team's QA run of stop 72)."""
+        current = self.done - self.written - self.failed
+        said = [f"{n} {what}" for n, what in ((self.written, "written"),
+                                              (current, "already up to date")) if n]
+        return f"{', '.join(said) or 'none written'}, each in the index"
+
     def rest(self) -> str:
         """What to do about the files an interrupted run did not finish: nothing when it
-        finished them all."""
-        return "" if self.all_done else "; run the same command again to encode the rest"
+        finished them all. A worker may have written a file whose result the run did not
+        hear of (an output on disk beyond the count, QA of stop 72): that run keeps it."""
+        return "" if self.all_done else ("; run the same command again to encode the rest "
+                                         "(it keeps a file a worker finished as the run "
+                                         "stopped)")
 
     def close(self) -> None:
         self.bar.close()
@@ -214,14 +229,14 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         # the error (the run's last line)
         stopped, report = exc, exc.report
     except KeyboardInterrupt:
-        print(f"mpz encode: {bar.finished(len(planned))} before the interrupt: written and "
-              f"indexed{bar.rest()}", file=sys.stderr)
+        print(f"mpz encode: {bar.finished(len(planned))} before the interrupt: "
+              f"{bar.kinds()}{bar.rest()}", file=sys.stderr)
         raise
     except SystemExit as exc:
         if exc.code not in (128 + signal.SIGTERM, 128 + getattr(signal, "SIGHUP", 1)):
             raise
         print(f"mpz encode: terminated (signal {int(exc.code) - 128}): "
-              f"{bar.finished(len(planned))}, written and indexed{bar.rest()}",
+              f"{bar.finished(len(planned))}: {bar.kinds()}{bar.rest()}",
               file=sys.stderr)
         return int(exc.code)
     finally:
