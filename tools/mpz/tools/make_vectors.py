@@ -2271,13 +2271,9 @@ def _summary_features(s) -> dict:
                                    "smrc: §4.15 steps 1-5), both int64 little-endian, C order"}
 
 
-def _c3d_features(data):
-    """What the archive decodes to, for implementers: sha256 of the words and model values,
-    and of the C3D file that spec §6.9's writer makes of it."""
+def _c3d_archive_features(m) -> dict:
+    """The archive digest and counts of :func:`_c3d_features` for a decoded motion ``m``."""
     import hashlib
-
-    from mpz.io.c3d import archive_bytes
-    m = mpz.decode(data)
     a = m.extras["c3d"]
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(a.words).tobytes())
@@ -2288,7 +2284,17 @@ def _c3d_features(data):
             "c3d_archive_sha256": h.hexdigest(),
             "c3d_archive_digest_rule": "sha256 of the words [F, P] (int16 or float32 LE), the "
                                        "analog words [F n, C] and the model values [F, J, 3] "
-                                       "(float64 LE, NaN at gaps)",
+                                       "(float64 LE, NaN at gaps)"}
+
+
+def _c3d_features(data):
+    """What the archive decodes to, for implementers: sha256 of the words and model values,
+    and of the C3D file that spec §6.9's writer makes of it."""
+    import hashlib
+
+    from mpz.io.c3d import archive_bytes
+    m = mpz.decode(data)
+    return {**_c3d_archive_features(m),
             "c3d_file_sha256": hashlib.sha256(archive_bytes(m)).hexdigest()}
 
 
@@ -4587,22 +4593,6 @@ VECTOR_RULES.update(SUMMARY_REVIEW_VECTOR_RULES)
 
 
 # ---------------------------------------- §6.9 "Writing a C3D": the writer's branches --
-def _c3d_archive_features(m) -> dict:
-    """The archive digest and counts of :func:`_c3d_features` for a decoded motion ``m``."""
-    import hashlib
-    a = m.extras["c3d"]
-    h = hashlib.sha256()
-    h.update(np.ascontiguousarray(a.words).tobytes())
-    h.update(np.ascontiguousarray(a.analog).tobytes())
-    h.update(np.ascontiguousarray(a.models, "<f8").tobytes())
-    return {"c3d_points": len(a.slots), "c3d_model_outputs": int(a.models.shape[1]),
-            "c3d_analog_channels": a.channels, "c3d_parameters": len(a.records),
-            "c3d_archive_sha256": h.hexdigest(),
-            "c3d_archive_digest_rule": "sha256 of the words [F, P] (int16 or float32 LE), the "
-                                       "analog words [F n, C] and the model values [F, J, 3] "
-                                       "(float64 LE, NaN at gaps)"}
-
-
 def _c3d_refused_features(data, refusal: str) -> dict:
     """The features of a valid archive that spec §6.9's writer refuses (§7.3): the archive's
     digest and counts, ``c3d_file_sha256`` null, and ``c3d_file_refused``, which of §6.9's
