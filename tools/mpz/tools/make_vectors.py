@@ -4875,7 +4875,7 @@ def c3d_writer_vectors(vs: VectorSet):
         return recs
     add("c3d-next-record-offset-above-32767", _cprm_edited(f32, long_record),
         "a float32 C3D archive with a POINT:LONG of 33000 bytes (not the last record): its "
-        "next-record offset, 33017, is written unsigned (above 32767, where readers that take "
+        "next-record offset, 33018, is written unsigned (above 32767, where readers that take "
         "it signed fail); B = 66", "(1): POINT:LONG (char 250 x 132) inserted")
 
     def last_record(recs):
@@ -4919,9 +4919,18 @@ def c3d_writer_vectors(vs: VectorSet):
         return recs
     add("c3d-writer-refuses-next-record-offset-65536", _cprm_edited(f32, offset_65536),
         "a float32 C3D archive with a POINT:HUGE of 65790 bytes that is not the last record: "
-        "its next-record offset would be 65799, beyond 65535, which the writer refuses; "
+        "its next-record offset would be 65798, beyond 65535, which the writer refuses; "
         "c3d_file_sha256 is null", "(1): POINT:HUGE (char 255 x 2 x 129) inserted",
         refused="offset")
+
+    # -- a review from the text alone (stop 72): Storage compares the magnitudes also when
+    # the first element is 0 (s = 1), which no vector told apart from skipping the test
+    add("c3d-point-scale-zero-then-other-magnitude",
+        _cprm_edited(i16_1, lambda r: scale_set(r, 0.0, 0.5)),
+        "an int16 C3D archive on the grid 1 whose POINT:SCALE is [0.0, 0.5]: s = 1, and the "
+        "elements' magnitudes differ (the comparison is made also when the first is 0), so "
+        "the file is float32, words 7-8 -1.0 and POINT:SCALE written [-1.0, -0.5]",
+        "(0, 1.0): POINT:SCALE -> [0.0, 0.5]")
 
 
 _WRITER_SLUGS = (
@@ -4932,7 +4941,7 @@ _WRITER_SLUGS = (
     "c3d-int16-on-grid-beyond-32767 c3d-analog-format-unsigned "
     "c3d-analog-format-unsigned-not-first c3d-last-frame-65535 c3d-group-point-lowercase "
     "c3d-group-point-trailing-space c3d-next-record-offset-above-32767 "
-    "c3d-last-record-above-65535")
+    "c3d-last-record-above-65535 c3d-point-scale-zero-then-other-magnitude")
 _REFUSED_SLUGS = ("c3d-writer-refuses-coordinate-beyond-float32 "
                   "c3d-writer-refuses-section-of-256-blocks "
                   "c3d-writer-refuses-next-record-offset-65536")
