@@ -620,3 +620,26 @@ def test_a_program_is_told_of_arguments_and_an_empty_input_as_such(tmp_path: Pat
         with pytest.raises(FormatError, match=r"bad signature \(no bytes: an empty file, or a "
                                               r"stream read to its end\)"):
             mpz.decode(empty)
+
+
+def test_the_public_functions_type_hints_resolve_at_run_time():
+    """mpz.decode, read_mpz, write_mpz and Summary.preview named Motion and EncodeReport
+    only under TYPE_CHECKING, so typing.get_type_hints raised NameError, and the tools that
+    read hints at run time (pydantic's validate_call, typer, beartype) failed on them (an
+    API user's QA run of stop 72). Every public function of the top-level package and
+    every public method of its public classes resolves now."""
+    import typing
+    failed = []
+    for name in mpz.__all__ if hasattr(mpz, "__all__") else dir(mpz):
+        obj = getattr(mpz, name)
+        if name.startswith("_") or inspect.ismodule(obj):
+            continue
+        found = [obj] if not inspect.isclass(obj) else [
+            v for k, v in vars(obj).items() if not k.startswith("_") and callable(v)]
+        for f in found:
+            if callable(f) and (getattr(f, "__module__", "") or "").startswith("mpz"):
+                try:
+                    typing.get_type_hints(f)
+                except NameError as exc:
+                    failed.append(f"{name}.{getattr(f, '__name__', '')}: {exc}")
+    assert not failed, failed
