@@ -643,3 +643,43 @@ def test_the_public_functions_type_hints_resolve_at_run_time():
                 except NameError as exc:
                     failed.append(f"{name}.{getattr(f, '__name__', '')}: {exc}")
     assert not failed, failed
+
+
+def test_api_messages_from_a_users_qa(tmp_path):
+    """An API user's QA run of stop 72: a bad ``units`` argument was blamed on the file
+    (InputFormatError "inconsistent data"), where a bad ``rate`` is a ValueError;
+    read_bytes listed .mpz among what it reads, then refused MPZ content; and write_mpz to
+    a .asf name advised ``mpz.io.write(..., 'x.asf')``, which refuses .asf."""
+    import mpz.io
+    np.save(tmp_path / "a.npy", np.zeros((4, 2, 3)))
+    with pytest.raises(ValueError, match="units must be one of 'mm', 'cm', 'm', 'in', ''"):
+        mpz.io.read_npy(tmp_path / "a.npy", units="MM")
+    (tmp_path / "a.csv").write_text("frame,time,A_x,A_y,A_z\n0,0,1,2,3\n1,0.01,1,2,3\n")
+    with pytest.raises(ValueError, match="units must be one of"):
+        mpz.io.read_csv(tmp_path / "a.csv", units=None)    # type: ignore[arg-type]
+    assert mpz.io.read_csv(tmp_path / "a.csv", units="cm").units == "cm"
+    with pytest.raises(InputFormatError, match="can read .c3d, .trc, .bvh, .amc, .npy, "
+                                               ".csv, and MPZ content is read by mpz.decode"):
+        mpz.io.read_bytes(b"")
+    with pytest.raises(InputFormatError, match="decode it with mpz.decode"):
+        mpz.io.read_bytes(mpz.encode(generate("walk", frames=10)))
+    with pytest.raises(EncoderError, match=r"mpz.io.write\(mpz.decode\(data\), '.*u.amc'\), "
+                                           "which writes the ASF beside the AMC"):
+        mpz.write_mpz(generate("walk", frames=10), tmp_path / "u.asf")
+
+
+def test_a_closed_or_write_only_file_object_is_a_typeerror(tmp_path):
+    """mpz.decode of a closed file object raised io's ValueError, and of one open for
+    writing io.UnsupportedOperation; the API documents TypeError for a source it cannot
+    take, as for a text file object (an API user's QA run of stop 72)."""
+    path = tmp_path / "w.mpz"
+    path.write_bytes(mpz.encode(generate("walk", frames=10)))
+    with open(path, "ab") as fh, pytest.raises(TypeError, match="not open for reading"):
+        mpz.decode(fh)
+    fh = open(path, "rb")
+    fh.close()
+    for call in (mpz.decode, mpz.info, mpz.read_summary):
+        with pytest.raises(TypeError, match="a closed file object"):
+            call(fh)
+    with open(path, "rb") as fh:
+        assert mpz.decode(fh).n_frames == 10

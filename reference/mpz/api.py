@@ -241,6 +241,13 @@ def read_source(source: Source, *, limit: int = MAX_INPUT_BYTES) -> tuple[bytes,
             raise TypeError(f"a numpy array of MPZ bytes must be uint8, got {source.dtype}")
         return source.tobytes(), None
     if hasattr(source, "read"):
+        # the caller's mistakes, as a text file object is: they came as io's own
+        # ValueError and UnsupportedOperation (an API user's QA run of stop 72)
+        if getattr(source, "closed", False) is True:
+            raise TypeError("a closed file object: pass it open, in binary mode ('rb')")
+        readable = getattr(source, "readable", None)
+        if callable(readable) and readable() is False:
+            raise TypeError("a file object not open for reading: open the MPZ file in 'rb'")
         name = getattr(source, "name", None)
         data = read_stream_bytes(source, limit=limit, trailing=False)
         return data, name if isinstance(name, str) else None
@@ -786,7 +793,8 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES,
         regular file, or beyond a limit. ``MemoryError`` is not caught: running
         out of memory says nothing about the file (spec §8).
     TypeError
-        If ``source`` is none of the above, or ``max_samples`` is not an integer.
+        If ``source`` is none of the above (a closed file object, or one not open for
+        reading, included), or ``max_samples`` is not an integer.
     ValueError
         If ``max_samples`` is outside 1 .. MAX_SAMPLES.
 
@@ -960,8 +968,12 @@ def check_mpz_name(path: str | os.PathLike[str]) -> None:
     ext = ext_of(path)
     if ext in READERS or ext == ".asf":
         kind = ext[1:].upper()
-        how = spelled(f"mpz decode FILE.mpz -o {os.fspath(path)}",
-                      f"mpz.io.write(mpz.decode(data), {os.fspath(path)!r})")
+        # an ASF is written beside its AMC: the hint named a write that refuses .asf (an
+        # API user's QA run of stop 72)
+        target = os.fspath(path)[:-len(ext)] + ".amc" if ext == ".asf" else os.fspath(path)
+        how = spelled(f"mpz decode FILE.mpz -o {target}",
+                      f"mpz.io.write(mpz.decode(data), {target!r})") + (
+            ", which writes the ASF beside the AMC" if ext == ".asf" else "")
         raise EncoderError(f"{os.fspath(path)}: an MPZ file named {ext} would be read as "
                            f"{kind}; name it .mpz (to write {kind}, decode an .mpz: {how})")
 
@@ -1058,7 +1070,8 @@ def read_summary(source: Source) -> Summary | None:
     MPZError
         If the file is invalid.
     TypeError
-        If ``source`` is none of the above.
+        If ``source`` is none of the above (a closed file object, or one not open for
+        reading, included).
     """
     from mpz.format import SummarySpace, unit_name
     s, _ = _stream(source)

@@ -518,8 +518,12 @@ def read_bytes(data: bytes, *, fmt: str | None = None, name: str = "-",
         raise InputFormatError(asf_not_a_motion(), path=name)
     if ext is None:
         raise InputFormatError(f"cannot tell the format from the content (first bytes "
-                               f"{data[:8]!r}); can read {', '.join(READERS)} and .mpz",
+                               f"{data[:8]!r}); can read {', '.join(READERS)}, and MPZ "
+                               f"content is read by mpz.decode and the mpz commands",
                                path=name)
+    if ext == ".mpz":       # it said it could read .mpz, then refused it (API QA, stop 72)
+        raise InputFormatError("MPZ content is not a motion file to read here: decode it "
+                               "with mpz.decode", path=name)
     if ext not in READERS:
         raise InputFormatError(f"{FORMAT_NAMES.get(ext, ext)} content cannot be read as a "
                                "motion here", path=name)

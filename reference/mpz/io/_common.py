@@ -90,17 +90,29 @@ def check_rate_argument(rate: object) -> None:
                          f"{rate!r}")
 
 
+def check_units_argument(units: object) -> None:
+    """Raise ValueError unless ``units`` (a reader's argument) is one of
+    :data:`mpz.motion.UNITS`: a bad unit was reported as the file's fault ("x.npy:
+    inconsistent data: unknown units 'MM'", an API user's QA run of stop 72), as a bad
+    rate was before :func:`check_rate_argument`."""
+    from mpz.motion import UNITS
+    if not isinstance(units, str) or units not in UNITS:
+        raise ValueError(f"units must be one of {', '.join(map(repr, UNITS))}, got {units!r}")
+
+
 def reader(func: Callable[_P, _R]) -> Callable[_P, _R]:
     """Decorate a ``read_*(path, ...)`` function with the error boundary: the file's faults
-    become InputFormatErrors naming it, a bad ``rate`` argument a ValueError
-    (:func:`check_rate_argument`). The signature is kept whole, so that type checkers take
-    the path by keyword too (``read_c3d(path=p)``)."""
+    become InputFormatErrors naming it, a bad ``rate`` or ``units`` argument a ValueError
+    (:func:`check_rate_argument`, :func:`check_units_argument`). The signature is kept
+    whole, so that type checkers take the path by keyword too (``read_c3d(path=p)``)."""
     first = next(iter(inspect.signature(func).parameters))
 
     @functools.wraps(func)
     def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
         path: StrPath = args[0] if args else kwargs[first]      # type: ignore[assignment]
         check_rate_argument(kwargs.get("rate"))    # before the file, which it is not about
+        if "units" in kwargs:                      # read_npy and read_csv take one
+            check_units_argument(kwargs["units"])
         try:
             return func(*args, **kwargs)
         except MPZError as exc:

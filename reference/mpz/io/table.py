@@ -91,13 +91,15 @@ def read_npy(path: StrPath, *, rate: float = 1.0, units: str = "") -> Motion:
     rate : float, optional
         Frames per second (not stored in the file). Default 1.0.
     units : str, optional
-        Default ``""`` (unknown).
+        ``"mm"``, ``"cm"``, ``"m"``, ``"in"`` or ``""`` (unknown, the default).
 
     Raises
     ------
     InputFormatError
         If the file is not an .npy array of that shape (object arrays are
         refused: ``allow_pickle=False``).
+    ValueError
+        For a ``rate`` or ``units`` argument out of range (not the file's fault).
     """
     return npy_from_bytes(path, read_regular(path, MAX_NPY_BYTES), rate=rate, units=units)
 
@@ -239,11 +241,14 @@ def read_csv(path: StrPath, *, rate: float | None = None, units: str = "") -> Mo
     rate : float, optional
         Override; default: recovered from the time column.
     units : str, optional
-        Default ``""`` (CSV does not store units).
+        ``"mm"``, ``"cm"``, ``"m"``, ``"in"`` or ``""`` (the default: CSV does not store
+        units).
 
     Raises
     ------
     InputFormatError
+    ValueError
+        For a ``rate`` or ``units`` argument out of range (not the file's fault).
     """
     return csv_from_bytes(path, read_regular(path), rate=rate, units=units)
 
