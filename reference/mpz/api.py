@@ -245,9 +245,10 @@ def read_source(source: Source, *, limit: int = MAX_INPUT_BYTES) -> tuple[bytes,
         # ValueError and UnsupportedOperation (an API user's QA run of stop 72)
         if getattr(source, "closed", False) is True:
             raise TypeError("a closed file object: pass it open, in binary mode ('rb')")
-        readable = getattr(source, "readable", None)
-        if callable(readable) and readable() is False:
-            raise TypeError("a file object not open for reading: open the MPZ file in 'rb'")
+        mode = getattr(source, "mode", None)    # a file's: readable() is False in many a
+        if isinstance(mode, str) and not any(c in mode for c in "r+"):  # raw stream that reads
+            raise TypeError(f"a file object open for writing (mode {mode!r}), not reading: "
+                            "open the MPZ file in 'rb'")
         name = getattr(source, "name", None)
         data = read_stream_bytes(source, limit=limit, trailing=False)
         return data, name if isinstance(name, str) else None
@@ -793,8 +794,8 @@ def decode(source: Source, *, max_samples: int = MAX_SAMPLES,
         regular file, or beyond a limit. ``MemoryError`` is not caught: running
         out of memory says nothing about the file (spec §8).
     TypeError
-        If ``source`` is none of the above (a closed file object, or one not open for
-        reading, included), or ``max_samples`` is not an integer.
+        If ``source`` is none of the above (a closed file object, or one open for
+        writing, included), or ``max_samples`` is not an integer.
     ValueError
         If ``max_samples`` is outside 1 .. MAX_SAMPLES.
 
@@ -1070,8 +1071,8 @@ def read_summary(source: Source) -> Summary | None:
     MPZError
         If the file is invalid.
     TypeError
-        If ``source`` is none of the above (a closed file object, or one not open for
-        reading, included).
+        If ``source`` is none of the above (a closed file object, or one open for
+        writing, included).
     """
     from mpz.format import SummarySpace, unit_name
     s, _ = _stream(source)
