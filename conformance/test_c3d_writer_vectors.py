@@ -246,7 +246,7 @@ WRITER_STEMS = sorted(n[4:] for n in C3D if n.startswith("u") and int(n[1:3]) >=
 
 
 def test_the_writer_vectors_are_there():
-    assert len(WRITER_STEMS) == 22 and "c3d-no-point-scale" in WRITER_STEMS
+    assert len(WRITER_STEMS) == 24 and "c3d-no-point-scale" in WRITER_STEMS
 
 
 def test_two_blocks_and_data_start():
@@ -263,9 +263,11 @@ def test_two_blocks_and_data_start():
     ("c3d-point-scale-no-element", False, 0.75, [(4, b"")]),
     ("c3d-point-scale-zero", True, 1.0, [(4, struct.pack("<f", 1.0))]),
     ("c3d-point-scale-minus-infinity", True, 1.0, [(4, struct.pack("<f", 1.0))]),
-    # Storage compares the magnitudes also when the first is 0 (a review of stop 72)
+    # Storage compares the magnitudes also when the first is 0 (a review of stop 72), and
+    # s = 1 also for v = 0 from header words 7-8
     ("c3d-point-scale-zero-then-other-magnitude", False, 1.0,
      [(4, struct.pack("<2f", -1.0, -0.5))]),
+    ("c3d-no-point-scale-header-scale-zero", True, 1.0, []),
     ("c3d-point-scale-nan-element", False, 0.5,
      [(4, struct.pack("<4I", *_bits(-0.5), 0xFFC01234, *_bits(-0.5, -0.5)))]),
     ("c3d-point-scale-magnitudes-differ", False, 0.5,

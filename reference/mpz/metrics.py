@@ -305,9 +305,12 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
         return [Part("C3D archive", "missing", a.describe())]
     ha, hb = bytearray(a.header), bytearray(b.header)
     ha[_DATA_START] = hb[_DATA_START] = b"\0\0"
-    # spec §6.9: a writer sets the data start, and the scale's sign for the storage it
-    # writes (a C3D decoded from a file was "differs" from that file: a QA run of stop 54)
-    if _same_but_sign(bytes(ha[_SCALE]), bytes(hb[_SCALE])):
+    # spec §6.9: a writer sets the data start, and words 7-8 to ±s, the scale its *Scale*
+    # reads, with the sign of the storage it writes (a C3D decoded from a file was "differs"
+    # from that file: a QA run of stop 54; and s = 1 for words 7-8 of 0, vector u89)
+    wa, wb = (abs(float(np.frombuffer(bytes(h[_SCALE]), "<f4")[0])) for h in (ha, hb))
+    if _same_but_sign(bytes(ha[_SCALE]), bytes(hb[_SCALE])) or wa == b.point_scale() \
+            or wb == a.point_scale():
         ha[_SCALE] = hb[_SCALE]
     at = next((i for i in range(min(len(ha), len(hb))) if ha[i] != hb[i]),
               None if len(ha) == len(hb) else min(len(ha), len(hb)))

@@ -1603,8 +1603,9 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
         big = float(np.abs(xyz).max(initial=0.0))
         if big > F32_MAX:
             # an MPZ file may hold coordinates up to 2^1024 (§4.4); a C3D cannot
-            raise InputFormatError(f"C3D: a coordinate of magnitude {big:.6g} does not fit a "
-                                   f"float32 C3D (at most {F32_MAX:.6g}); write another format")
+            # repr: at 6 digits one just above the largest binary32 printed as that value
+            raise InputFormatError(f"C3D: a coordinate of magnitude {big!r} does not fit a "
+                                   f"float32 C3D (at most {F32_MAX!r}); write another format")
         pts = frames[:, :row].view("<f4").reshape(F, P, 4)
         pts[:, :, :3] = xyz                          # rounded to float32 as astype does
         pts[:, :, 3] = point_words                   # int16 words convert exactly

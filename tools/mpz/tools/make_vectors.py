@@ -4931,6 +4931,24 @@ def c3d_writer_vectors(vs: VectorSet):
         "elements' magnitudes differ (the comparison is made also when the first is 0), so "
         "the file is float32, words 7-8 -1.0 and POINT:SCALE written [-1.0, -0.5]",
         "(0, 1.0): POINT:SCALE -> [0.0, 0.5]")
+    # ... and two more points of its list that the text states and no vector probed: s = 1
+    # for header words 7-8 of 0 without POINT:SCALE, and the refusal of |x| above binary32's
+    # largest value even where x rounds to that value (not only where rounding overflows)
+    add("c3d-no-point-scale-header-scale-zero",
+        _chdr_edited(_cprm_edited(i16_1, no_scale), scale=0.0),
+        "an int16 C3D archive on the grid 1 without POINT:SCALE and header words 7-8 0.0: "
+        "s = 1 (v = 0 from the header), the file is int16 with words 7-8 +1.0",
+        "(0, 1.0): POINT:SCALE removed, chdr words 7-8 -> 0.0")
+    just_over = 3.4028234663852886e38 + 2.0 ** 80      # binary64; binary32 rounds it down
+    add("c3d-writer-refuses-coordinate-just-beyond-float32",
+        _c3d_rebuild(f32, "cpnt", models=_axis_changed(
+            Cpnt.load(next(p for t, p in _c3d_chunks(f32) if t == "cpnt")).models,
+            offset=just_over)),
+        "a float32 C3D archive whose model output 0 has y values just above the largest "
+        "binary32 (cpnt offset 3.4028234663852886e38 + 2^80): their nearest binary32 is that "
+        "largest value, yet |x| > 3.4028234663852886e38, so the writer refuses it; "
+        "c3d_file_sha256 is null", "(1): cpnt model 0 axis y offset -> 2^128 - 2^104 + 2^80",
+        refused="coordinate")
 
 
 _WRITER_SLUGS = (
@@ -4941,8 +4959,10 @@ _WRITER_SLUGS = (
     "c3d-int16-on-grid-beyond-32767 c3d-analog-format-unsigned "
     "c3d-analog-format-unsigned-not-first c3d-last-frame-65535 c3d-group-point-lowercase "
     "c3d-group-point-trailing-space c3d-next-record-offset-above-32767 "
-    "c3d-last-record-above-65535 c3d-point-scale-zero-then-other-magnitude")
+    "c3d-last-record-above-65535 c3d-point-scale-zero-then-other-magnitude "
+    "c3d-no-point-scale-header-scale-zero")
 _REFUSED_SLUGS = ("c3d-writer-refuses-coordinate-beyond-float32 "
+                  "c3d-writer-refuses-coordinate-just-beyond-float32 "
                   "c3d-writer-refuses-section-of-256-blocks "
                   "c3d-writer-refuses-next-record-offset-65536")
 #: the §7.4 rules the vectors of :func:`c3d_writer_vectors` probe: each one's written C3D
