@@ -149,13 +149,17 @@ class C3DArchive:
         at = named(self.records, group.encode("latin-1"), name.encode("latin-1"))
         return self.records[at[0]] if at else None
 
+    def header_scale(self) -> float:
+        """Header words 7-8, the scale (float32): its sign says the storage."""
+        return float(np.frombuffer(self.header, "<f4", 1, 12)[0])
+
     def point_scale(self) -> float:
         """|POINT:SCALE| (the int16 grid step), or the header's scale without one."""
         r = self.parameter("POINT", "SCALE")
         if r is not None and r.type == 4 and len(r.data) >= 4:
             s = float(np.frombuffer(r.data, "<f4", 1)[0])
         else:
-            s = float(np.frombuffer(self.header, "<f4", 1, 12)[0])
+            s = self.header_scale()
         return abs(s) if math.isfinite(s) and s != 0 else 1.0
 
     def one_point_scale(self) -> bool:

@@ -308,9 +308,9 @@ def _archive_parts(original: Motion, decoded: Motion) -> list[Part]:
     # spec §6.9: a writer sets the data start, and words 7-8 to ±s, the scale its *Scale*
     # reads, with the sign of the storage it writes (a C3D decoded from a file was "differs"
     # from that file: a QA run of stop 54; and s = 1 for words 7-8 of 0, vector u89)
-    wa, wb = (abs(float(np.frombuffer(bytes(h[_SCALE]), "<f4")[0])) for h in (ha, hb))
-    if _same_but_sign(bytes(ha[_SCALE]), bytes(hb[_SCALE])) or wa == b.point_scale() \
-            or wb == a.point_scale():
+    if _same_but_sign(bytes(ha[_SCALE]), bytes(hb[_SCALE])) \
+            or abs(a.header_scale()) == b.point_scale() \
+            or abs(b.header_scale()) == a.point_scale():
         ha[_SCALE] = hb[_SCALE]
     at = next((i for i in range(min(len(ha), len(hb))) if ha[i] != hb[i]),
               None if len(ha) == len(hb) else min(len(ha), len(hb)))
@@ -351,7 +351,7 @@ def _parameters(a: C3DArchive, b: C3DArchive) -> Part:
     ka, kb = _record_keys(a), _record_keys(b)
     start = a.parameter("POINT", "DATA_START")
     scales = {id(a.records[i]) for i in named(a.records, b"POINT", b"SCALE")}
-    words = [float(np.frombuffer(x.header[_SCALE], "<f4")[0]) for x in (a, b)]
+    words = [a.header_scale(), b.header_scale()]
 
     def as_written(r: ParamRecord, s: ParamRecord) -> bool:
         """What spec §6.9's writer changes: POINT:DATA_START's value, and each float32

@@ -216,16 +216,6 @@ class _Codec:
         return np.frombuffer(raw, self.f4).astype(np.float32)
 
 
-def _parse_parameters(data: bytes, start: int,
-                      codec: _Codec) -> dict[str, dict[str, ParamValue | None]]:
-    """The parameters of the section that starts at byte ``start``: :func:`record_params`
-    of :func:`parse_records`, so that the markers are read from the records the archive
-    keeps. Why: a walk of its own stopped at the declared block count, and a section that
-    declares 1 block and goes on (as ezc3d reads it) lost its POINT:LABELS there while the
-    archive kept them (a QA run of stop 72: markers named ``_unnamed_0`` ...)."""
-    return record_params(parse_records(data, start, codec))
-
-
 def _parse_value(data: bytes, pos: int, codec: _Codec, end: int) -> ParamValue | None:
     """One parameter value: type, dimensions, data. Unknown types give None."""
     if pos + 2 > end:
@@ -258,7 +248,7 @@ def _parse_value(data: bytes, pos: int, codec: _Codec, end: int) -> ParamValue |
 
 def record_params(records: list[ParamRecord]) -> dict[str, dict[str, ParamValue | None]]:
     """The parameters of normalised ``records`` (:func:`parse_records`), as
-    :func:`_parse_parameters` gives those of the section they came from: by upper-case
+    :func:`_open` gives those of the section they came from: by upper-case
     group and name, a later record of a name replacing an earlier one; each value read by
     :func:`_parse_value` from the record's type, dimensions and (Intel) data."""
     groups = {-r.group: r.name.decode("latin-1").upper() for r in records if r.is_group}
@@ -573,6 +563,10 @@ def _open_records(data: bytes) -> tuple[_Codec, int, list[ParamRecord],
     if processor not in (PROC_INTEL, PROC_DEC, PROC_MIPS):
         _fail(f"unknown processor type {processor} (expected 84, 85 or 86)", pstart + 3)
     codec = _Codec(processor)
+    # the parameters from the archive's own walk: a walk of their own stopped at the
+    # declared block count, and a section declaring 1 block that goes on (as ezc3d reads
+    # it) lost its POINT:LABELS while the archive kept them (a QA run of stop 72: markers
+    # named _unnamed_0 ...)
     records = parse_records(data, pstart, codec)
     params = record_params(records)
     params.setdefault("POINT", {})
@@ -622,8 +616,12 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
                                      n_frames)
     frame_bytes = (4 * used + hdr_analog) * (4 if scale < 0 else 2)
     start, warning = _data_start(data, codec, pstart, params, n_frames * frame_bytes)
-    warnings = [w for w in (conflict, warning, _records_past_declared(data, codec, pstart),
-                            _records_not_kept(data, codec, pstart)) if w]
+    starts: list[int] = []                    # one walk for both warnings below
+    skipped: list[tuple[int, bytes, str]] = []
+    every = parse_records(data, pstart, codec, starts=starts, skipped=skipped)
+    warnings = [w for w in (conflict, warning,
+                            _records_past_declared(data, codec, pstart, every, starts),
+                            _records_not_kept(every, skipped)) if w]
     hfirst, hlast = codec.uint16(data, 6), codec.uint16(data, 8)
     more = _more_frames(params, hfirst, hlast, len(data) - (start - 1) * BLOCK, frame_bytes)
     if more is not None:
@@ -633,8 +631,10 @@ def _layout(data: bytes, codec: _Codec, pstart: int,
     return _Layout(used, scale, first, n_frames, frame_bytes, start, warnings)
 
 
-def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | None:
-    """A warning when the parameter records run on past the section's declared block
+def _records_past_declared(data: bytes, codec: _Codec, pstart: int,
+                           every: list[ParamRecord], starts: list[int]) -> str | None:
+    """A warning when the parameter records ``every`` (:func:`parse_records`, which gave
+    their offsets ``starts``) run on past the section's declared block
     count (:func:`parse_records` reads them to the data start, as ezc3d does), naming what
     a reader that stops at the count does not see. Why: a C3D written back declares the
     blocks it fills, so such a reader sees more there than in the source (c3d.org Dance1:
@@ -646,8 +646,6 @@ def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | Non
     declared_end = pstart + n_blocks * BLOCK
     if _section_end(data, pstart, codec.uint16(data, 16)) <= declared_end:
         return None
-    starts: list[int] = []
-    every = parse_records(data, pstart, codec, starts=starts)
     # what such a reader finds: the records that start within the count (py-c3d reads one
     # that goes on past it: Dance1's POINT:LABELS)
     within = every[:sum(s < declared_end for s in starts)]
@@ -674,12 +672,12 @@ def _records_past_declared(data: bytes, codec: _Codec, pstart: int) -> str | Non
             f"py-c3d) finds {' and '.join(what)} in a C3D written back but not in this file")
 
 
-def _records_not_kept(data: bytes, codec: _Codec, pstart: int) -> str | None:
-    """A warning naming the parameter records that :func:`parse_records` leaves out, and
-    why, or None: the archive keeps every other record, and a C3D written back lacks
-    these (spec §4.13.2 has no room for a type or dimension count that C3D lacks)."""
-    skipped: list[tuple[int, bytes, str]] = []
-    every = parse_records(data, pstart, codec, skipped=skipped)
+def _records_not_kept(every: list[ParamRecord],
+                      skipped: list[tuple[int, bytes, str]]) -> str | None:
+    """A warning naming the parameter records that :func:`parse_records` left out
+    (``skipped``) beside those it read (``every``), and why, or None: the archive keeps
+    every other record, and a C3D written back lacks these (spec §4.13.2 has no room for a
+    type or dimension count that C3D lacks)."""
     if not skipped:
         return None
     groups = {-r.group: r.name.decode("latin-1") for r in every if r.is_group}
@@ -933,7 +931,7 @@ def processor_hint(data: bytes) -> str:
             continue
         c = _Codec(other)
         try:
-            rate = param_number(_parse_parameters(data, pstart, c), "POINT", "RATE",
+            rate = param_number(record_params(parse_records(data, pstart, c)), "POINT", "RATE",
                                 float(c.float32(data, 20)[0]))
         except InputFormatError:
             continue
