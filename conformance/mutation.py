@@ -445,8 +445,8 @@ MUTANTS_11 = [
     X("X23", CC, "np.ldexp(part.astype(np.float64), shift)",
       "np.ldexp(part.astype(np.float64), -shift)", "R-6.9-2: mode-0 shift sign flipped"),
     # §6.9 the archive / the writer's scale (c3darchive.py)
-    X("X24", CA, 's = float(np.frombuffer(self.header, "<f4", 1, 12)[0])',
-      's = float(np.frombuffer(self.header, "<f4", 1, 14)[0])',
+    X("X24", CA, 'return float(np.frombuffer(self.header, "<f4", 1, 12)[0])',
+      'return float(np.frombuffer(self.header, "<f4", 1, 14)[0])',
       "§6.9 writer: header scale read from words 8-9"),
     X("X25", CA, 'samples = int.from_bytes(hdr.block[18:20], "little")',
       'samples = int.from_bytes(hdr.block[16:18], "little")',
