@@ -470,6 +470,60 @@ def test_an_unknown_group_error_node_is_not_blamed_on_the_default_bound() -> Non
     assert "default bound" not in str(err.value) and "max_error" not in str(err.value)
 
 
+def test_options_that_do_less_than_they_seem_are_in_the_report() -> None:
+    """A group error looser than the bound, and channel bounds where no skeleton chunk is
+    written, were accepted by the library without a word (a QA run of the API, stop 72;
+    mpz encode noted the first only against a bound it was given). EncodeReport.notes
+    names each, in the API's spelling, against the bound the file declares."""
+    from mpz.encoder import EncodeOptions, encode_motion, option_notes
+    m = generate("walk", frames=40, seed=3)
+    assert m.units == "mm"
+    nodes = [n.name for n in encode_motion(m, EncodeOptions(max_error=1.0,
+                                                            hierarchy="auto"))[1].nodes]
+    a, b = nodes[0], nodes[1]
+    opts = EncodeOptions(max_error=1.0, hierarchy="auto", group_errors={a: 2.0, b: 0.5})
+    _, rep = encode_motion(m, opts)
+    assert rep.notes == [f"group_errors[{a!r}]: 2 is not tighter than the bound 1, so it "
+                         "bounds that node no more tightly (a node is coded within the "
+                         "smaller of the two)"]
+    assert option_notes(m, opts) == rep.notes          # the same, before any encode
+    # without max_error, against the default bound the file declares (0.1 mm)
+    _, rep = encode_motion(m, EncodeOptions(hierarchy="auto", group_errors={a: 0.1}))
+    assert rep.bound == pytest.approx(0.1) and len(rep.notes) == 1
+    assert "not tighter than the bound 0.1," in rep.notes[0]
+    _, rep = encode_motion(m, EncodeOptions(hierarchy="auto", group_errors={a: 0.05}))
+    assert rep.notes == []
+    # channel bounds on a motion without a skeleton, or with keep_skeleton=False
+    _, rep = encode_motion(m, EncodeOptions(angle_error=0.1, translation_error=0.2))
+    assert rep.notes == ["angle_error and translation_error change nothing: no skeleton "
+                         "chunk is written (the motion has no skeleton), so no channel is "
+                         "coded"]
+    sk = _skeletal_source()
+    _, rep = encode_motion(sk, EncodeOptions(angle_error=0.1, keep_skeleton=False))
+    assert rep.notes == ["angle_error changes nothing: no skeleton chunk is written "
+                         "(keep_skeleton=False), so no channel is coded"]
+    _, rep = encode_motion(sk, EncodeOptions(angle_error=0.1))
+    assert rep.notes == []
+
+
+def test_group_errors_on_an_exact_int16_grid_are_said_to_bound_nothing() -> None:
+    """Every sample of an int16 source on its grid is coded exactly (error 0) by default or
+    under a bound finer than the grid allows: group errors then bound nothing, whatever
+    their node, named or not."""
+    from mpz.encoder import EncodeOptions, encode_motion
+    m = generate("walk", frames=30, seed=4)
+    step = 0.25
+    m.positions[:] = np.rint(m.positions / step) * step
+    for opts in (EncodeOptions(source_grid=step, group_errors={"nosuch": 1.0}),
+                 EncodeOptions(source_grid=step, max_error=0.01,
+                               group_errors={"nosuch": 1.0})):
+        data, rep = encode_motion(m, opts)
+        assert rep.notes == ["group_errors bound nothing: every position is coded exactly "
+                             "on the source's grid of step 0.25 (error 0)"], rep.notes
+        back = mpz.decode(data)
+        assert np.array_equal(back.positions[m.valid], m.positions[m.valid])
+
+
 def test_write_atomic_names_the_python_argument_that_replaces(tmp_path):
     """mpz.write_atomic(path, data, force=False) on an existing file said only "use
     --force", an option of the commands that a Python caller does not have (a QA run of

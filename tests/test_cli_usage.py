@@ -1445,6 +1445,11 @@ def test_a_group_error_that_is_not_tighter_is_said(inputs: dict[str, Path],
     p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "y.mpz", "--max-error", "1mm",
              "--hierarchy", "auto", "--group-error", "root=0.5mm"], tmp_path)
     assert p.returncode == 0 and b"not tighter" not in p.stderr, p.stderr
+    # against the default bound too (0.1 mm): it went unsaid without --max-error
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "z.mpz", "--hierarchy", "auto",
+             "--group-error", "root=0.5mm"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert b"--group-error root: 0.5 is not tighter than the bound 0.1" in p.stderr
 
 
 def test_quiet_with_json_prints_the_report_and_nothing_else(inputs: dict[str, Path],

@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mpz import container, keyframe
+from mpz._worker import spelled
 from mpz.c3darchive import binary32_values, float32_bound
 from mpz.chunks import (
     Hier,
@@ -651,6 +652,9 @@ class EncodeReport:
     #: the summary chunk's partitions: 0 none, 1 exact, b > 1 cuts on blocks of b frames
     #: (a motion over :data:`mpz.fisher.EXACT_MAX_FRAMES` frames)
     summary_blocks: int = 0
+    #: options given that did less than they seem in this encode, each in a sentence
+    #: (:func:`option_notes`; empty: none)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def ratio(self) -> float:
@@ -735,6 +739,45 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     out += [f"motion.extras[{k!r}] (no extension of mpz.extensions writes it)"
             for k in motion.extras if k in held_extras(motion.extras) - known]
     return out
+
+
+def option_notes(motion: Motion, opts: EncodeOptions, *, resolved: bool = False
+                 ) -> list[str]:
+    """The options given to encode ``motion`` that do less than they seem, each in a
+    sentence: a group error not tighter than the bound the file declares (a node is coded
+    within the smaller of the two), group errors where every sample is coded exactly on the
+    source's int16 grid (:func:`exact_on_source_grid`), and ``angle_error``,
+    ``translation_error`` or ``position_error`` where no skeleton chunk is written. They
+    were accepted without a word from the API (a QA run of the API, stop 72; ``mpz
+    encode`` noted the first alone, and only against a bound it was given).
+
+    ``resolved``: ``opts`` is already what :func:`resolve_bound` made of them (the
+    encoder's own call); otherwise it is resolved here, and raises as the encode would."""
+    if not resolved:
+        opts, _ = resolve_bound(motion, opts)
+    notes = []
+    if opts.group_errors and exact_on_source_grid(opts):
+        notes.append(f"{spelled('--group-error', 'group_errors')} bound nothing: every "
+                     f"position is coded exactly on the source's grid of step "
+                     f"{opts.source_grid:g} (error 0)")
+    elif opts.max_error is not None:
+        # not "changes nothing": giving group errors selects the body-part hierarchy
+        # (plan_hierarchy), which changes the bytes if not the error
+        notes += [f"{spelled(f'--group-error {k}', f'group_errors[{k!r}]')}: {v:g} is not "
+                  f"tighter than the bound {opts.max_error:g}, so it bounds that node no "
+                  "more tightly (a node is coded within the smaller of the two)"
+                  for k, v in opts.group_errors.items() if v >= opts.max_error]
+    given = [(cli, api) for cli, api in (("--angle-error", "angle_error"),
+                                         ("--translation-error", "translation_error"),
+                                         ("position_error", "position_error"))
+             if getattr(opts, api) is not None]
+    if given and (not opts.keep_skeleton or "skeleton" not in motion.extras):
+        names = " and ".join(spelled(cli, api) for cli, api in given)
+        why = (spelled("--no-skeleton", "keep_skeleton=False") if "skeleton" in motion.extras
+               else "the motion has no skeleton")
+        notes.append(f"{names} change{'s' * (len(given) == 1)} nothing: no skeleton chunk "
+                     f"is written ({why}), so no channel is coded")
+    return notes
 
 
 # ----------------------------------------------------------------- helpers --
@@ -1230,6 +1273,17 @@ class _NodeNameError(EncoderError):
     the API, stop 54: it told a caller with a misspelled node to give a max_error)."""
 
 
+def exact_on_source_grid(opts: EncodeOptions) -> bool:
+    """Whether :func:`plan_grid` codes every valid sample exactly on ``opts.source_grid``
+    (resolved options): without a bound, or with a bound (the smallest of ``max_error``
+    and the group errors) too fine for the source grid's own rounding."""
+    src = opts.source_grid
+    if src is None or not opts.bounded:
+        return False
+    e_all = [opts.max_error, *opts.group_errors.values()] if opts.max_error is not None else []
+    return not e_all or min(e_all) < float(src) * SQRT3 / SAFETY
+
+
 def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
               x: FloatArray) -> Grid:
     """Stage 2: grid step, offset and per-node residual multipliers g (spec §4.4, §6.5)."""
@@ -1243,8 +1297,7 @@ def plan_grid(motion: Motion, opts: EncodeOptions, hier: Hierarchy, addh: float,
     # offset 0, so every decoded value is q x s, the reader's own product, and the C3D can
     # be written back as int16 with its residual words and camera masks as they were
     src = None if opts.source_grid is None else float(opts.source_grid)
-    e_all = [opts.max_error, *opts.group_errors.values()] if opts.max_error is not None else []
-    if src is not None and opts.bounded and (not e_all or min(e_all) < src * SQRT3 / SAFETY):
+    if src is not None and exact_on_source_grid(opts):
         # exact: a radius of 0.875 grid steps (>= sqrt(3)/2, as the lattice search needs)
         # holds no grid point but the target's own, so valid samples are reproduced exactly
         n = len(hier.nodes)
@@ -1928,7 +1981,8 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
                               addh_rule=addh_rule, hierarchy=hier.method,
                               bound=(opts.max_error if opts.max_error is not None
                                      else 0.0 if grid.exact else None),
-                              bound_rule=bound_rule, not_kept=not_kept(motion, opts))
+                              bound_rule=bound_rule, not_kept=not_kept(motion, opts),
+                              notes=option_notes(motion, opts, resolved=True))
         u = GridCoordinates(x, grid.offset, grid.step)           # grid coordinates (float)
         if u.peak() * 2 + 2 >= 2.0 ** MAX_EXP:
             span = float((x.reshape(-1, 3).max(0) - x.reshape(-1, 3).min(0)).max())
@@ -2145,7 +2199,9 @@ def encode(motion: Motion, *,
     Returns
     -------
     bytes
-        A complete MPZ file.
+        A complete MPZ file. :func:`encode_motion` and :func:`mpz.write_mpz` return an
+        :class:`EncodeReport` too, whose ``notes`` name the options given that did less
+        than they seem (:func:`option_notes`, which can also be called before encoding).
 
     Raises
     ------

@@ -182,15 +182,18 @@ def _options(args: argparse.Namespace, units: str, source: str | None) -> Encode
         model_errors=_model_errors(args.model_error), threads=args.threads)
 
 
-def _option_notes(args: argparse.Namespace, opts: EncodeOptions) -> list[str]:
-    """The notes on options that do less than they seem to: a --group-error not tighter
-    than the bound, a --meta key that readers set (:func:`_reader_keys`), and --summary-
-    space or --summary-format without --summary (a QA run: they changed nothing, unsaid)."""
+def _option_notes(args: argparse.Namespace, motion, opts: EncodeOptions) -> list[str]:
+    """The notes on options that do less than they seem to: the encoder's
+    (:func:`mpz.encoder.option_notes`: a --group-error not tighter than the bound, channel
+    bounds without a skeleton chunk), a --meta key that readers set (:func:`_reader_keys`),
+    and --summary-space or --summary-format without --summary (a QA run: they changed
+    nothing, unsaid)."""
+    from mpz.encoder import option_notes
     unused = [o for o, v in (("--summary-space", args.summary_space),
                              ("--summary-format", args.summary_format)) if v is not None]
     idle = ([f"{' and '.join(unused)} change{'s' * (len(unused) == 1)} nothing without "
              "--summary (no summary chunk is written)"] if unused and not opts.summary else [])
-    return _loose_group_errors(opts) + _reader_keys(args) + idle
+    return option_notes(motion, opts) + _reader_keys(args) + idle
 
 
 def _check_meta_keys(items: list[str] | None) -> None:
@@ -255,15 +258,6 @@ def _model_bound_notes(motion, opts: EncodeOptions, data: bytes) -> list[str]:
             f"be held that fine (float32 values, or 2^31 grid steps) and declare the finest "
             f"bound that holds, up to {max(fr):.2g} of their range"
             for name, fr in coarser.items()]
-
-
-def _loose_group_errors(opts: EncodeOptions) -> list[str]:
-    """A note for each --group-error that is not tighter than the bound: it changes nothing
-    (a node is coded within the smaller of the two), which went unsaid."""
-    if opts.max_error is None:
-        return []
-    return [f"--group-error {k}: {v:g} is not tighter than the bound {opts.max_error:g}, so "
-            "it changes nothing" for k, v in opts.group_errors.items() if v >= opts.max_error]
 
 
 def _model_errors(items: list[str] | None) -> dict[str, float]:
@@ -508,7 +502,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
     opts, kept = _summary_of_mpz_input(args, opts, job.input, stdin_mpz)
-    notes += kept + _option_notes(args, opts)
+    notes += kept + _option_notes(args, motion, opts)
     notes = _input_notes(args, motion, job.input) + notes
     if not args.quiet:
         for note in notes:
@@ -810,6 +804,8 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
             notes.append("--no-skeleton: the skeleton and its channels are not kept, only the "
                          "joint positions")
             if args.angle_error is not None or args.translation_error is not None:
+                # said here: a --translation-error in mm on a file without a unit has no
+                # value to give the encoder's own note (mpz.encoder.option_notes)
                 notes.append("--angle-error and --translation-error change nothing with "
                              "--no-skeleton (no channels are coded)")
         return replace(opts, keep_skeleton=False), notes
@@ -869,7 +865,7 @@ class PerFile:
         opts, notes = _skeleton_options(self.args, motion, self.options(motion.units),
                                         batch=True)
         return motion, opts, (_input_notes(self.args, motion, source, batch=True) + notes
-                              + _option_notes(self.args, opts))
+                              + _option_notes(self.args, motion, opts))
 
     def key(self, source: str, own_units: bool) -> str:
         from mpz.io import SKELETON_FORMATS
