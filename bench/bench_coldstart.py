@@ -199,6 +199,14 @@ def main() -> int:
                                extra_cpu=cpu[0] - warm_cpu)
                 rows.append(row)
         load1 = os.getloadavg()
+        # mpz.identity()'s digest of the installed sources: once per process, on a corpus
+        # run's first check and in each Dask worker (tests/test_identity.py checks only
+        # that it is cached; its time is measured here, not asserted)
+        fp = _run([str(py), "-c", "import time\nfrom mpz._identity import source_digest, "
+                   "source_roots\nts = []\nfor _ in range(5):\n    t = time.perf_counter()"
+                   "\n    source_digest(source_roots())\n    ts.append(time.perf_counter() "
+                   "- t)\nprint(min(ts))"], env={**base, "HOME": str(work / "prep")})
+        fingerprint = float(fp.stdout) if fp.returncode == 0 else None
     finally:
         if ro is not None:
             ro.restore()
@@ -217,9 +225,13 @@ def main() -> int:
             print(f"{r['case']:<32} {r['op']:<7} {r['first']:>8.2f} {r['warm']:>8.2f} "
                   f"{r['extra']:>8.2f} {r['first_cpu']:>8.2f} {r['warm_cpu']:>8.2f} "
                   f"{r['extra_cpu']:>8.2f}")
+    print("source fingerprint (mpz.identity, once per process and Dask worker): "
+          + (f"{fingerprint * 1e3:.1f} ms, best of 5" if fingerprint is not None
+             else f"fails: {fp.stderr[-200:]}"))
     if args.json:
         args.json.write_text(json.dumps({"input": str(src), "load": [load0, load1],
-                                         "rows": rows}, indent=1))
+                                         "rows": rows, "fingerprint_seconds": fingerprint},
+                                        indent=1))
     return 0
 
 

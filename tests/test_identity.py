@@ -9,7 +9,6 @@ from pathlib import Path
 import re
 import subprocess
 import sys
-import time
 import tomllib
 
 import pytest
@@ -129,18 +128,24 @@ def test_an_installed_copy_has_the_checkouts_identity_and_an_edited_one_another(
     assert other != mpz.identity() and other.startswith(f"{mpz.__version__} (source ")
 
 
-def test_the_fingerprint_is_cheap():
-    """Computed once per process, on the first check of a corpus run and in each worker:
-    about 5 ms for mpz's ~100 files (the limit is ten times that, on a busy machine)."""
-    best = min(_timed(lambda: source_digest(source_roots())) for _ in range(3))
-    assert best < 0.05, f"{best * 1000:.1f} ms"
-    assert _timed(mpz.identity) < 0.001               # cached
+def test_the_fingerprint_is_computed_once_per_process(monkeypatch):
+    """Computed once per process, on the first check of a corpus run and in each worker;
+    every later mpz.identity() is the cached value. Its time (a few ms) is measured by
+    bench/bench_coldstart.py: this test asserted it, and failed under load (stop 72)."""
+    from mpz import _identity
+    calls = []
 
-
-def _timed(f) -> float:
-    t0 = time.perf_counter()
-    f()
-    return time.perf_counter() - t0
+    def counted(roots):
+        calls.append(roots)
+        return "ab" * 32
+    source_fingerprint.cache_clear()
+    monkeypatch.setattr(_identity, "source_digest", counted)
+    try:
+        first = mpz.identity()
+        assert mpz.identity() == first == f"{mpz.__version__} (source {'ab' * (DIGITS // 2)})"
+        assert len(calls) == 1
+    finally:
+        source_fingerprint.cache_clear()               # the real one again, for the others
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="a symbolic link needs privileges")
