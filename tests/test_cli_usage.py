@@ -1450,6 +1450,13 @@ def test_a_group_error_that_is_not_tighter_is_said(inputs: dict[str, Path],
              "--group-error", "root=0.5mm"], tmp_path)
     assert p.returncode == 0, p.stderr
     assert b"--group-error root: 0.5 is not tighter than the bound 0.1" in p.stderr
+    # and in the --json report, with -q too (which prints no note)
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "j.mpz", "--hierarchy", "auto",
+             "--group-error", "root=0.5mm", "--json", "-q"], tmp_path)
+    assert p.returncode == 0 and b"note" not in p.stderr, p.stderr
+    notes = json.loads(p.stdout)["notes"]
+    assert [n for n in notes if n.startswith("--group-error root: 0.5 is not tighter than "
+                                            "the bound 0.1")], notes
 
 
 def test_quiet_with_json_prints_the_report_and_nothing_else(inputs: dict[str, Path],

@@ -495,9 +495,10 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     if warning:     # -q too: it is no success, and it exits 1 (a QA run of stop 52)
         print(f"mpz encode: warning: {printable(job.input)}: {printable(warning)}",
               file=sys.stderr)
-    if motion.metadata.get("reader_note") and not args.quiet:     # which reader read it
-        print(f"mpz encode: note: {printable(job.input)}: "
-              f"{printable(motion.metadata['reader_note'])}", file=sys.stderr)
+    reader_note = motion.metadata.get("reader_note")              # which reader read it
+    if reader_note and not args.quiet:
+        print(f"mpz encode: note: {printable(job.input)}: {printable(reader_note)}",
+              file=sys.stderr)
     motion = _rate(args, _units(args, motion, batch=batch), batch=batch)
     units = motion.units
     opts, notes = _skeleton_options(args, motion, _options(args, units, source))
@@ -514,7 +515,8 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
-    if opts.grid is not None and rep.step != opts.grid and not args.quiet:
+    later = []                  # the notes that the encode's outcome gives
+    if opts.grid is not None and rep.step != opts.grid:
         from mpz.encoder import source_grid_of
         grid = source_grid_of(motion)
         ratio = None if not grid else rep.step / grid
@@ -525,16 +527,17 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                else f"the bound {rep.bound:g}{' ' + units if units else ''} needs a finer one"
                if rep.step < opts.grid
                else "the source's own grid")
-        print(f"mpz encode: note: --grid {args.grid}: the grid step is {rep.step:.6g}"
-              f"{' ' + units if units else ''} instead ({why})", file=sys.stderr)
+        later.append(f"--grid {args.grid}: the grid step is {rep.step:.6g}"
+                     f"{' ' + units if units else ''} instead ({why})")
+    later += _model_bound_notes(motion, opts, data)
+    if args.weight and not any(n.used_patterns for n in rep.nodes):
+        later.append("--weight: the weights act on the pattern layer only (the paper's "
+                     "distortion control), and no node kept one (under a bound, key frames "
+                     "or per-sample residuals won): they do not change the decoded motion")
     if not args.quiet:
-        for note in _model_bound_notes(motion, opts, data):
-            print(f"mpz encode: note: {note}", file=sys.stderr)
-    if args.weight and not any(n.used_patterns for n in rep.nodes) and not args.quiet:
-        print("mpz encode: note: --weight: the weights act on the pattern layer only (the "
-              "paper's distortion control), and no node kept one (under a bound, key frames "
-              "or per-sample residuals won): they do not change the decoded motion",
-              file=sys.stderr)
+        for note in later:
+            print(f"mpz encode: note: {printable(note)}", file=sys.stderr)
+    notes = [*([reader_note] if reader_note else []), *notes, *later]
     from mpz.api import signals_exit
     if to_stdout:
         write_stdout(data, binary=True, force=args.force)
@@ -610,7 +613,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         "summary_blocks": rep.summary_blocks,
         "summary_chunk": next((t for t in ("smrc", "smry") if t in rep.chunk_bytes), None),
         "skeleton": _skeleton_report(data),
-        "nodes": [vars(n) for n in rep.nodes], "warning": warning or None}
+        "nodes": [vars(n) for n in rep.nodes], "notes": notes, "warning": warning or None}
     results.append(result)
     code = found(EXIT_WARN if warning else EXIT_OK)
     if args.json or args.quiet:
