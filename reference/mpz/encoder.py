@@ -653,7 +653,7 @@ class EncodeReport:
     #: (a motion over :data:`mpz.fisher.EXACT_MAX_FRAMES` frames)
     summary_blocks: int = 0
     #: options given that did less than they seem in this encode, each in a sentence
-    #: (:func:`option_notes`; empty: none)
+    #: (:func:`mpz.encoder.option_notes`; empty: none)
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -2201,7 +2201,8 @@ def encode(motion: Motion, *,
     bytes
         A complete MPZ file. :func:`encode_motion` and :func:`mpz.write_mpz` return an
         :class:`EncodeReport` too, whose ``notes`` name the options given that did less
-        than they seem (:func:`option_notes`, which can also be called before encoding).
+        than they seem (:func:`mpz.encoder.option_notes`, which can also be called
+        before encoding).
 
     Raises
     ------
