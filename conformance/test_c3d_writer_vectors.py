@@ -5,9 +5,10 @@ spec §6.9 ("Writing a C3D") alone: struct and numpy, none of mpz's C3D code
 
 For every vector with a C3D archive: ``features.c3d_file_sha256`` (§7.3) is the digest of
 this writer's file, and ``mpz.io.c3d.archive_bytes`` writes the same bytes; where this
-writer refuses (§6.9: a coordinate beyond binary32, a section of more than 255 blocks, a
-next-record offset beyond 65535), the digest is null, ``features.c3d_file_refused`` names
-that refusal and the reference refuses too. The vectors of
+writer refuses (§6.9, first met first: a next-record offset beyond 65535, a section of
+more than 255 blocks, a coordinate beyond binary32), the digest is null,
+``features.c3d_file_refused`` names that refusal and the reference refuses too, with the
+same one. The vectors of
 ``make_vectors.c3d_writer_vectors`` (stop 72, one per branch of the writer no vector
 reached) are also read back with ezc3d where ezc3d reads them, and their bytes that §6.9
 sets are checked one by one."""
@@ -91,15 +92,16 @@ def spec_c3d(m) -> bytes:
         q = np.rint(xyz / s)                        # ties to even
         int16 = (a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
                  and one and bool((np.abs(q) <= 32767).all()) and np.array_equal(q * s, xyz))
-    if not int16 and (np.abs(xyz) > F32_MAX).any():
-        raise Refused("coordinate")
     signed = s if int16 else -s
     sign = 0 if int16 else 0x80000000
-    # the parameter section: B from the record sizes (the rewrites keep every size)
+    # the parameter section: B from the record sizes (the rewrites keep every size); the
+    # refusals in §6.9's order: a record's offset, then B, then a coordinate of the data
     size = 4 + sum(len(_record(r, i == len(recs) - 1)) for i, r in enumerate(recs))
     B = max(1, -(-size // 512))
     if B > 255:
         raise Refused("section")
+    if not int16 and (np.abs(xyz) > F32_MAX).any():
+        raise Refused("coordinate")
     for i in _named(recs, b"POINT", b"DATA_START"):
         r = recs[i]
         if r.type == 2 and len(r.data) >= 2:
@@ -174,8 +176,11 @@ def test_c3d_file_digest_is_the_spec_writers_and_the_references(name):
             {"coordinate": "a coordinate beyond binary32",
              "section": "a parameter section of more than 255 blocks",
              "offset": "a next-record offset beyond 65535"}[got]), name
-        with pytest.raises(InputFormatError, match="C3D: "):
+        with pytest.raises(InputFormatError, match="C3D: ") as info:
             archive_bytes(m)
+        assert {"coordinate": "does not fit a float32 C3D",
+                "section": "the parameter section needs",
+                "offset": "needs a next-record offset of"}[got] in str(info.value), name
         return
     assert "c3d_file_refused" not in feats, name
     assert hashlib.sha256(got).hexdigest() == feats["c3d_file_sha256"], name
