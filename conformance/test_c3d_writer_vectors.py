@@ -5,9 +5,10 @@ spec §6.9 ("Writing a C3D") alone: struct and numpy, none of mpz's C3D code
 
 For every vector with a C3D archive: ``features.c3d_file_sha256`` (§7.3) is the digest of
 this writer's file, and ``mpz.io.c3d.archive_bytes`` writes the same bytes; where this
-writer refuses (§6.9: a coordinate beyond binary32, a section of more than 255 blocks, a
-next-record offset beyond 65535), the digest is null, ``features.c3d_file_refused`` names
-that refusal and the reference refuses too. The vectors of
+writer refuses (§6.9, first met first: a next-record offset beyond 65535, a section of
+more than 255 blocks, a coordinate beyond binary32), the digest is null,
+``features.c3d_file_refused`` names that refusal and the reference refuses too, with the
+same one. The vectors of
 ``make_vectors.c3d_writer_vectors`` (stop 72, one per branch of the writer no vector
 reached) are also read back with ezc3d where ezc3d reads them, and their bytes that §6.9
 sets are checked one by one."""
@@ -91,15 +92,16 @@ def spec_c3d(m) -> bytes:
         q = np.rint(xyz / s)                        # ties to even
         int16 = (a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
                  and one and bool((np.abs(q) <= 32767).all()) and np.array_equal(q * s, xyz))
-    if not int16 and (np.abs(xyz) > F32_MAX).any():
-        raise Refused("coordinate")
     signed = s if int16 else -s
     sign = 0 if int16 else 0x80000000
-    # the parameter section: B from the record sizes (the rewrites keep every size)
+    # the parameter section: B from the record sizes (the rewrites keep every size); the
+    # refusals in §6.9's order: a record's offset, then B, then a coordinate of the data
     size = 4 + sum(len(_record(r, i == len(recs) - 1)) for i, r in enumerate(recs))
     B = max(1, -(-size // 512))
     if B > 255:
         raise Refused("section")
+    if not int16 and (np.abs(xyz) > F32_MAX).any():
+        raise Refused("coordinate")
     for i in _named(recs, b"POINT", b"DATA_START"):
         r = recs[i]
         if r.type == 2 and len(r.data) >= 2:
@@ -174,8 +176,11 @@ def test_c3d_file_digest_is_the_spec_writers_and_the_references(name):
             {"coordinate": "a coordinate beyond binary32",
              "section": "a parameter section of more than 255 blocks",
              "offset": "a next-record offset beyond 65535"}[got]), name
-        with pytest.raises(InputFormatError, match="C3D: "):
+        with pytest.raises(InputFormatError, match="C3D: ") as info:
             archive_bytes(m)
+        assert {"coordinate": "does not fit a float32 C3D",
+                "section": "the parameter section needs",
+                "offset": "needs a next-record offset of"}[got] in str(info.value), name
         return
     assert "c3d_file_refused" not in feats, name
     assert hashlib.sha256(got).hexdigest() == feats["c3d_file_sha256"], name
@@ -246,7 +251,7 @@ WRITER_STEMS = sorted(n[4:] for n in C3D if n.startswith("u") and int(n[1:3]) >=
 
 
 def test_the_writer_vectors_are_there():
-    assert len(WRITER_STEMS) == 24 and "c3d-no-point-scale" in WRITER_STEMS
+    assert len(WRITER_STEMS) == 28 and "c3d-no-point-scale" in WRITER_STEMS
 
 
 def test_two_blocks_and_data_start():
@@ -275,6 +280,11 @@ def test_two_blocks_and_data_start():
     ("c3d-point-scale-signs-differ-int16", True, 0.5, [(4, struct.pack("<4f", *[0.5] * 4))]),
     ("c3d-int16-off-grid-written-float32", False, 0.5, [(4, struct.pack("<f", -0.5))]),
     ("c3d-int16-on-grid-beyond-32767", False, 0.5, [(4, struct.pack("<f", -0.5))]),
+    # stop 73: a DEC and a MIPS source, written Intel; a POINT group record after its
+    # parameters, whose SCALE (0.5) is read although header words 7-8 are 1.0
+    ("c3d-dec-source-processor-85", True, 0.5, [(4, struct.pack("<f", 0.5))]),
+    ("c3d-mips-source-processor-86", False, 0.5, [(4, struct.pack("<f", -0.5))]),
+    ("c3d-point-group-record-after-its-parameters", True, 0.5, [(4, struct.pack("<f", 0.5))]),
 ])
 def test_scale_and_storage(stem, int16, scale, records):
     """Words 7-8 (+s int16, -s float32), the POINT:SCALE records as §6.9 rewrites them, and
@@ -330,6 +340,63 @@ def test_names_compared_as_ascii_without_case():
     assert [d for _, _, d, _ in prm[(b"POINT ", b"DATA_START")]] == [struct.pack("<h", 11)]
 
 
+@pytest.mark.parametrize("stem, processor", [("c3d-dec-source-processor-85", 85),
+                                             ("c3d-mips-source-processor-86", 86)])
+def test_a_dec_or_mips_source_is_written_intel(stem, processor):
+    """§6.9: processor 84 and Intel byte order whatever chdr.processor says; the header
+    block's words as chdr holds them, normalised (§4.13.1): the rate, words 11-12, a
+    little-endian binary32 equal to POINT:RATE, the point count, word 2, little-endian."""
+    blob, m, B, prm, s, w9 = _written(stem)
+    a = m.extras["c3d"]
+    assert a.processor == processor and blob[512 + 3] == 84
+    assert blob[2:12] == a.header[2:12] and blob[18:512] == a.header[18:]
+    (t, _, rate, _), = prm[(b"POINT", b"RATE")]
+    assert t == 4 and struct.unpack_from("<f", blob, 20) == struct.unpack("<f", rate)
+    assert struct.unpack_from("<h", blob, 2)[0] == len(a.slots)
+
+
+def test_a_point_group_record_after_its_parameters():
+    """§6.9: POINT's SCALE and DATA_START are looked up under any group record named
+    POINT, wherever it stands: here after them, with header words 7-8 of 1.0."""
+    blob, m, B, prm, s, w9 = _written("c3d-point-group-record-after-its-parameters")
+    a = m.extras["c3d"]
+    at = {r.name: i for i, r in enumerate(a.records) if r.group in (-1, 1)}
+    assert at[b"POINT"] > max(i for n, i in at.items() if n != b"POINT")
+    assert struct.unpack_from("<f", a.header, 12)[0] == 1.0 and (s, w9, B) == (0.5, 3, 1)
+    assert [d for _, _, d, _ in prm[(b"POINT", b"DATA_START")]] == [struct.pack("<h", 3)]
+
+
+def test_the_refusals_come_in_spec_order():
+    """§6.9 (stop 73): an archive that meets several refusals is refused for the first of
+    a next-record offset beyond 65535, a section of more than 255 blocks, a coordinate
+    beyond binary32. u94 meets all three; with its POINT:HUGE moved last (whose offset is
+    then 0) it meets the last two, without FILL0 the first and the last, without both the
+    coordinate alone. This writer and the reference name the same one each time."""
+    import dataclasses
+
+    from mpz.errors import InputFormatError
+    from mpz.io.c3d import archive_bytes
+    name = next(n for n in C3D if n[4:] == "c3d-writer-refuses-next-record-offset-first-of-three")
+    assert C3D[name]["features"]["c3d_file_refused"].startswith("a next-record offset")
+    m = mpz.decode(VDIR / C3D[name]["file"])
+    a = m.extras["c3d"]
+    said = {"coordinate": "does not fit a float32 C3D", "section": "the parameter section needs",
+            "offset": "needs a next-record offset of"}
+    huge = [r for r in a.records if r.name == b"HUGE"]
+    rest = [r for r in a.records if r.name != b"HUGE"]
+    assert len(huge) == 1 and a.records[-1].name == b"FILL0"
+    for what, recs, want in (("all three", a.records, "offset"),
+                             ("HUGE last", rest + huge, "section"),
+                             ("no FILL0", a.records[:-1], "offset"),
+                             ("neither", rest[:-1], "coordinate")):
+        mm = dataclasses.replace(m, extras={"c3d": dataclasses.replace(a, records=recs)})
+        with pytest.raises(Refused) as info:
+            spec_c3d(mm)
+        assert str(info.value) == want, what
+        with pytest.raises(InputFormatError, match=said[want]):
+            archive_bytes(mm)
+
+
 def test_next_record_offsets():
     blob, m, B, prm, s, w9 = _written("c3d-next-record-offset-above-32767")
     (t, dims, data, nxt), = prm[(b"POINT", b"LONG")]
@@ -352,7 +419,9 @@ np.savez(sys.argv[2], points=c["data"]["points"], analogs=c["data"]["analogs"])
     "c3d-point-scale-magnitudes-differ", "c3d-point-scale-signs-differ-int16",
     "c3d-int16-off-grid-written-float32", "c3d-int16-on-grid-beyond-32767",
     "c3d-analog-format-unsigned-not-first", "c3d-last-frame-65535",
-    "c3d-next-record-offset-above-32767", "c3d-last-record-above-65535"])
+    "c3d-next-record-offset-above-32767", "c3d-last-record-above-65535",
+    "c3d-dec-source-processor-85", "c3d-mips-source-processor-86",
+    "c3d-point-group-record-after-its-parameters"])
 def test_ezc3d_reads_back_the_motion(stem, tmp_path):
     """ezc3d (its own C3D reader) reads each written file back as the decoded motion: the
     points within binary32 rounding, 0 at gaps aside, and the analog words. Run in a

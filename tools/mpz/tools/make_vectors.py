@@ -4669,6 +4669,102 @@ def _param_at(recs, group_name: bytes, name: bytes) -> int:
     return next(i for i, r in enumerate(recs) if r.group == gid and r.name == name)
 
 
+def _dec_floats(raw: bytes) -> bytes:
+    """Little-endian binary32 values as DEC (VAX F) floats: the binary32 bits of 4 x the
+    value (VAX exponent = binary32 exponent + 2), their two 16-bit words swapped. Only
+    values a DEC float holds the same (+0.0, and 2^-126 <= |v| < 2^126) are taken."""
+    v = np.frombuffer(raw, "<f4")
+    a = np.abs(v.astype(np.float64))
+    held = ((v == 0) & ~np.signbit(v)) | ((a >= 2.0 ** -126) & (a < 2.0 ** 126))
+    assert held.all(), f"no DEC float holds {v[~held]}"
+    return (v * np.float32(4.0)).astype("<f4").view(np.uint8).reshape(-1, 4)[
+        :, [2, 3, 0, 1]].tobytes()
+
+
+def _c3d_in_processor(blob: bytes, processor: int) -> bytes:
+    """The Intel C3D ``blob`` (as spec §6.9 writes it) in the form of a DEC (85) or MIPS
+    (86) source, as the C3D user guide lays it out: the processor byte of the parameter
+    section, every int16 (header words, int16 parameters, int16 data) and the next-record
+    offsets big-endian for MIPS, every float (header words 7-8, 11-12 and 153-188, float32
+    parameters, float data) a DEC float or big-endian; chars, bytes and header bytes 0-1,
+    words 189-197 and 199-234 as they are (the words spec §4.13.1 keeps as stored)."""
+    big = processor == 86
+
+    def f32(raw: bytes) -> bytes:
+        return _dec_floats(raw) if processor == 85 else \
+            np.frombuffer(raw, "<f4").astype(">f4").tobytes()
+
+    def i16(raw: bytes) -> bytes:
+        return np.frombuffer(raw, "<i2").astype(">i2").tobytes() if big else raw
+
+    out = bytearray(blob)
+    floats, kept = {7, 11, *range(153, 189, 2)}, {1, *range(189, 198), *range(199, 235)}
+    word = 1
+    while word <= 256:
+        at = 2 * (word - 1)
+        if word in floats:
+            out[at:at + 4] = f32(blob[at:at + 4])
+            word += 2
+            continue
+        if word not in kept:
+            out[at:at + 2] = i16(blob[at:at + 2])
+        word += 1
+    pos = 512 * (blob[0] - 1)
+    out[pos + 3] = processor
+    pos += 4
+    while True:                                    # the records, by their offsets
+        n, gid = abs(struct.unpack_from("<b", blob, pos)[0]), struct.unpack_from("<b", blob,
+                                                                                pos + 1)[0]
+        at = pos + 2 + n
+        nxt = struct.unpack_from("<H", blob, at)[0]
+        struct.pack_into(">H" if big else "<H", out, at, nxt)
+        if gid > 0:
+            t, D = struct.unpack_from("<bB", blob, at + 2)
+            d0 = at + 4 + D
+            size = abs(t) * math.prod(blob[at + 4:d0])
+            if t in (2, 4):
+                out[d0:d0 + size] = (i16 if t == 2 else f32)(blob[d0:d0 + size])
+        if nxt == 0:
+            break
+        pos = at + nxt
+    start = 512 * (struct.unpack_from("<H", blob, 16)[0] - 1)
+    words = f32 if struct.unpack_from("<f", blob, 12)[0] < 0 else i16
+    out[start:] = words(blob[start:])
+    return bytes(out)
+
+
+@functools.cache
+def _c3d_source_vector(storage: int, processor: int) -> bytes:
+    """The MPZ file the reference encoder makes of the C3D of :func:`_c3d_writer_base`
+    (``storage``) written in the form of ``processor`` (:func:`_c3d_in_processor`) and
+    read by mpz's C3D reader (:mod:`mpz.io.c3dbin`, not ezc3d: the same on every machine),
+    encoded as the base is. Checked to be the file made of the Intel C3D read the same way
+    but for chdr.processor and the metadata's ``processor``: the chunks hold normalised
+    values (§4.13), whatever the source's processor."""
+    from mpz.container import scan
+    from mpz.io import c3dbin
+    from mpz.io.c3d import archive_bytes, motion_from_c3d_bytes, split_archive
+
+    def encoded(blob: bytes) -> bytes:
+        m = split_archive(motion_from_c3d_bytes(blob, source="synthetic.c3d"),
+                          c3dbin.parse_c3d(blob))
+        return mpz.encode(m) if storage == 0 else encode_within(m, max_error=1.0)
+
+    intel = archive_bytes(mpz.decode(_c3d_writer_base(storage)))
+    data, same = encoded(_c3d_in_processor(intel, processor)), encoded(intel)
+    a, b = scan(data).chunks, scan(same).chunks
+    assert [c.type for c in a] == [c.type for c in b]
+    differ = [c.type for c, d in zip(a, b, strict=True) if c.payload != d.payload]
+    assert differ == ["meta", "chdr"], differ
+    chdr = next(c.payload for c in a if c.type == "chdr")
+    assert chdr[0] == processor and chdr[1:] == next(c.payload for c in b
+                                                      if c.type == "chdr")[1:]
+    got, want = mpz.decode(data).metadata, mpz.decode(same).metadata
+    assert got.pop("processor") == {85: "dec", 86: "mips"}[processor]
+    assert want.pop("processor") == "intel" and got == want
+    return data
+
+
 def c3d_writer_vectors(vs: VectorSet):
     """Uncommon vectors for the branches of spec §6.9's C3D writer ("Writing a C3D") that
     no vector reached (the writer run under coverage on every C3D vector of stop 71): the
@@ -4676,7 +4772,9 @@ def c3d_writer_vectors(vs: VectorSet):
     points written float32, ANALOG:FORMAT UNSIGNED, a parameter section of several blocks,
     next-record offsets past 32767 and in a last record past 65535, a last frame of 65535,
     group names compared as ASCII without case, and the writer's three refusals (an archive
-    it refuses is valid: ``c3d_file_sha256`` null, ``c3d_file_refused`` says which).
+    it refuses is valid: ``c3d_file_sha256`` null, ``c3d_file_refused`` says which). Stop
+    73 added a DEC and a MIPS source, a POINT group record after its parameters and an
+    archive that meets the three refusals at once (the first in §6.9's order is reported).
     Each edits a small archive of :func:`_c3d_writer_base`. A builder of its own, last, so
     that the vectors before it keep their numbers."""
     import dataclasses
@@ -4950,6 +5048,74 @@ def c3d_writer_vectors(vs: VectorSet):
         "c3d_file_sha256 is null", "(1): cpnt model 0 axis y offset -> 2^128 - 2^104 + 2^80",
         refused="coordinate")
 
+    # -- stop 73: a DEC and a MIPS source (chdr.processor 85, 86; every C3D vector had 84),
+    # each the C3D of a base written in that processor's form and read by mpz's C3D reader
+    from mpz.io.c3d import archive_bytes
+    dec = _c3d_source_vector(0, 85)
+    assert archive_bytes(mpz.decode(dec)) == archive_bytes(mpz.decode(i16))
+    add("c3d-dec-source-processor-85", dec,
+        "the int16 C3D of c3d_writer_base(0) written as a DEC source (processor 85: header "
+        "words 7-8, 11-12 and 153-188 and the float32 parameters as DEC floats), read by "
+        "mpz's C3D reader and encoded: chdr.processor is 85 and the chunks hold the "
+        "normalised little-endian values, the same as for the Intel source but for "
+        "chdr.processor and meta's processor. A decoder accepts processor 85; the writer "
+        "writes processor 84 and Intel byte order whatever chdr says: the Intel C3D the DEC "
+        "one was made from, byte for byte",
+        "(0) written by spec §6.9 then as DEC (processor 85), read by mpz.io.c3dbin, encoded "
+        "(make_vectors._c3d_source_vector)")
+    add("c3d-mips-source-processor-86", _c3d_source_vector(1, 86),
+        "the float32 C3D of c3d_writer_base(1) written as a MIPS source (processor 86: every "
+        "int16, float and next-record offset big-endian), read by mpz's C3D reader and "
+        "encoded within 1.0: chdr.processor is 86 and the chunks hold the normalised "
+        "little-endian values (NaN, infinities and -0.0 among the analog words bit for bit), "
+        "the same as for the Intel source but for chdr.processor and meta's processor. A "
+        "decoder accepts processor 86; the writer writes processor 84 and Intel byte order "
+        "whatever chdr says",
+        "(1) written by spec §6.9 then as MIPS (processor 86), read by mpz.io.c3dbin, "
+        "encoded within 1.0 (make_vectors._c3d_source_vector)")
+
+    # -- a POINT group record after its parameters (the C3D user guide allows any order):
+    # Scale's and DATA_START's "any group record named POINT" is not the record before
+    def point_group_after(recs):
+        g = recs.pop(next(k for k, r in enumerate(recs) if r.group < 0 and r.name == b"POINT"))
+        recs.insert(max(k for k, r in enumerate(recs) if r.group == -g.group) + 1, g)
+        return recs
+    after = _chdr_edited(_cprm_edited(i16, point_group_after), scale=1.0)
+    m = mpz.decode(after)
+    assert (np.rint(m.positions[m.valid]) != m.positions[m.valid]).any()   # off the grid 1
+    add("c3d-point-group-record-after-its-parameters", after,
+        "an int16 C3D archive on the grid 0.5 whose POINT group record comes after its "
+        "parameters (the last of them, POINT:POWERS, before it; the C3D user guide allows "
+        "records in any order) and whose header words 7-8 are 1.0: POINT:SCALE (0.5) is "
+        "read all the same, so the file is int16 with words 7-8 +0.5, POINT:SCALE written "
+        "0.5 and POINT:DATA_START 3 (a writer that knew only the groups before a record "
+        "would take s = 1 from the header, and the points off that grid would make the file "
+        "float32 with POINT:DATA_START 11)",
+        "(0): the POINT group record moved after POINT:POWERS, chdr words 7-8 -> 1.0")
+
+    # -- the three refusals at once: the writer reports the first in §6.9's order
+    def three_refusals(recs):
+        recs = offset_65536(recs)
+        have = len(Cprm(coding=0, count=len(recs), records=tuple(recs)).content())
+        k = (130900 - have - 13) // 255                 # 13: the FILL record's other bytes
+        assert k == 253, k                              # as the description says
+        out = [*recs, par(9, b"FILL0", -1, (255, k), b"\x00" * (255 * k))]
+        n = len(Cprm(coding=0, count=len(out), records=tuple(out)).content())
+        assert n <= 1 << 17 and -(-(n + 2 + len(out)) // 512) == 256, n
+        return out
+    add("c3d-writer-refuses-next-record-offset-first-of-three",
+        _c3d_rebuild(_cprm_edited(f32, three_refusals), "cpnt", models=_axis_changed(
+            Cpnt.load(next(p for t, p in _c3d_chunks(f32) if t == "cpnt")).models,
+            offset=1e39)),
+        "a float32 C3D archive that meets all three of the writer's refusals: a POINT:HUGE "
+        "of 65790 bytes that is not the last record (a next-record offset of 65798), a "
+        "parameter section of 256 blocks (a last record of 64515 bytes) and model output "
+        "0's y values about 1e39 (cpnt offset 1e39). The writer reports the first in §6.9's "
+        "order, the next-record offset (then the section's blocks, then a coordinate); "
+        "c3d_file_sha256 is null",
+        "(1): POINT:HUGE (char 255 x 2 x 129) inserted, FILL0 (char 255 x 253) appended, "
+        "cpnt model 0 axis y offset -> 1e39", refused="offset")
+
 
 _WRITER_SLUGS = (
     "c3d-parameter-section-of-2-blocks c3d-no-point-scale c3d-point-scale-int16-then-float32 "
@@ -4960,16 +5126,20 @@ _WRITER_SLUGS = (
     "c3d-analog-format-unsigned-not-first c3d-last-frame-65535 c3d-group-point-lowercase "
     "c3d-group-point-trailing-space c3d-next-record-offset-above-32767 "
     "c3d-last-record-above-65535 c3d-point-scale-zero-then-other-magnitude "
-    "c3d-no-point-scale-header-scale-zero")
+    "c3d-no-point-scale-header-scale-zero c3d-dec-source-processor-85 "
+    "c3d-mips-source-processor-86 c3d-point-group-record-after-its-parameters")
 _REFUSED_SLUGS = ("c3d-writer-refuses-coordinate-beyond-float32 "
                   "c3d-writer-refuses-coordinate-just-beyond-float32 "
                   "c3d-writer-refuses-section-of-256-blocks "
-                  "c3d-writer-refuses-next-record-offset-65536")
+                  "c3d-writer-refuses-next-record-offset-65536 "
+                  "c3d-writer-refuses-next-record-offset-first-of-three")
 #: the §7.4 rules the vectors of :func:`c3d_writer_vectors` probe: each one's written C3D
-#: (R-6.9-3), or the writer's refusal of a valid file, which still decodes (R-6.9-2)
+#: (R-6.9-3), or the writer's refusal of a valid file, which still decodes (R-6.9-2); a DEC
+#: and a MIPS source, whose processor byte a decoder accepts (R-4.13.1-1)
 C3D_WRITER_VECTOR_RULES = _rules(
     ("R-6.9-3", f"{_WRITER_SLUGS} {_REFUSED_SLUGS}"),
     ("R-6.9-2", _REFUSED_SLUGS),
+    ("R-4.13.1-1", "c3d-dec-source-processor-85 c3d-mips-source-processor-86"),
 )
 _merge_rules(C3D_WRITER_VECTOR_RULES)
 
