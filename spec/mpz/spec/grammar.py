@@ -140,7 +140,7 @@ HierNode = Struct(
 )
 HIER = Struct(
     "count" / Int16ul * "§4.3 equals node_count",
-    "nodes" / Array(this.count, HierNode),
+    "nodes" / Array(this.count, HierNode) * "§4.3 in node order 0 .. N-1",
     Terminated,
 )
 
@@ -207,7 +207,7 @@ SMRY = Struct(
     "1 joint angles",
     "dims" / Int32ul * "§4.10 D, values per frame",
     "level_count" / Int8ul * "§4.10 1..64",
-    "levels" / Array(this.level_count, SummaryLevel),
+    "levels" / Array(this.level_count, SummaryLevel) * "§4.10 one per k",
     Terminated,
 )
 
@@ -223,7 +223,7 @@ SMRC = Struct(
     "(§4.10), 1 joint angles",
     "dims" / Int32ul * "§4.15 D, values per frame",
     "level_count" / Int8ul * "§4.15 1..64",
-    "levels" / Array(this.level_count, CodedSummaryLevel),
+    "levels" / Array(this.level_count, CodedSummaryLevel) * "§4.15 one header per level",
     "coded" / GreedyBytes * "§4.15 per level: unsigned [k, 1, 1] lengths - 1, then (D > 0) "
     "signed [k, D/3, 3] (space 0) or [k, D, 1] (space 1) mean residuals",
 )
@@ -234,8 +234,8 @@ MetaEntry = Struct(
     "value" / PascalString(Int16ul, "utf8") * "§4.11 0..65535 bytes",  # R-2.4-42
 )
 META = Struct(
-    "count" / Int16ul,
-    "entries" / Array(this.count, MetaEntry),
+    "count" / Int16ul * "§4.11 entries",
+    "entries" / Array(this.count, MetaEntry) * "§4.11 count key/value pairs",
     Terminated,
 )
 
