@@ -83,6 +83,7 @@ from mpz.format import (
 from mpz.hierarchy import Hierarchy, Node, build_hierarchy, head_scale
 from mpz.hierarchy import root_marker as hierarchy_root
 from mpz.hierarchy.measure import pair_frames
+from mpz.hierarchy.model import MAX_WEIGHT, MIN_WEIGHT
 from mpz.motion import READER_NOT_KEPT, Motion, held_extras, metadata_type_error
 from mpz.normalize import denormalize, normalize, segment_starts
 from mpz.predict import reconstruct, residuals
@@ -354,9 +355,6 @@ MIN_LENGTH = 1e-300
 MAX_LENGTH = 1e300
 #: theta and tau are fractions of the head size ADDH; above this they change nothing
 MAX_FRACTION = 1e6
-#: the marker weights HIER can hold: w = (c + 1) / 16 for the codes c = 0 .. 255 (§4.3)
-MIN_WEIGHT = 1.0 / 16.0
-MAX_WEIGHT = 16.0
 #: the largest position magnitude taken, in motion units: the encoder squares distances and
 #: sums them over up to 2^26 samples (hierarchy, segmentation, summary), which must stay
 #: finite in binary64 ((2 x 10^100)^2 x 2^26 x 3 < 10^210)

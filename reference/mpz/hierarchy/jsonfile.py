@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from mpz.errors import EncoderError
-from mpz.hierarchy.model import Hierarchy, Node
+from mpz.hierarchy.model import MAX_WEIGHT, MIN_WEIGHT, Hierarchy, Node
 from mpz.hierarchy.names import name_lookup
 
 #: A path to a JSON file, as accepted by :func:`read_hierarchy`.
@@ -144,10 +144,6 @@ def _marker_indices(members: list[str], ref: str, lookup: dict[str, int],
     if r is None and str(ref) not in members:
         unknown.append(str(ref))
     return idx, -1 if r is None else r
-
-
-#: the weights HIER can hold: w = (c + 1) / 16 for the codes c = 0 .. 255 (spec §4.3)
-MIN_WEIGHT, MAX_WEIGHT = 1.0 / 16.0, 16.0
 
 
 def _weights(name: str, members: list[str], wmap: Any) -> list[float]:

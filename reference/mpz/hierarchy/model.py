@@ -21,6 +21,9 @@ from mpz.format import MAX_MARKERS
 #: the most nodes a hierarchy has: spec §4.1's node_count is 1 .. marker_count, and
 #: marker_count is at most MAX_MARKERS (§8)
 MAX_NODES = MAX_MARKERS
+#: the marker weights HIER can hold: w = (c + 1) / 16 for the codes c = 0 .. 255 (spec
+#: §4.3); the one range of ``EncodeOptions.weights`` and of a JSON hierarchy's weights
+MIN_WEIGHT, MAX_WEIGHT = 1.0 / 16.0, 16.0
 
 
 @dataclass

@@ -396,7 +396,7 @@ def _parse_asf(text: str, encoding: str) -> tuple[Skeleton, list[str]]:
             f"s of blocks {', '.join(map(str, at))}" if len(at) > 1 else f" of block {at[0]}")
             + " of :bonedata (counted from 1): bone names must be unique and not 'root'")
     nul = next((n for n in names if "\x00" in n), None)
-    if nul is not None:            # spec §4.14.1: a name holds no U+0000, as the BVH reader
+    if nul is not None:            # spec §4.14.2: a name holds no U+0000, as the BVH reader
         raise _bad(f"bone name {nul!r} holds a NUL character")     # says (a QA run, stop 64)
     parent: dict[str, str] = {}
     # the writer writes each link once, in one begin ... end block: a link given again,
