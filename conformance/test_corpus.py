@@ -33,3 +33,23 @@ def test_replay(path):
         # machine's memory (test_bombs.py decodes the 2^26-sample files under a cap)
         info = inspect(blob, path.name, max_samples=1 << 16)
         assert info["status"] in ("ok", "warning", "error")
+
+
+@pytest.mark.parametrize("script", ["fuzz_decoder.py", "fuzz_readers.py"])
+def test_the_fuzz_scripts_say_how_to_run_them_without_atheris(script, tmp_path):
+    """``--help`` printed an ImportError's traceback where atheris is not installed (a
+    newcomer's QA run, stop 73): it prints the script's docstring, and a fuzzing run
+    without atheris says to install it."""
+    import importlib.util
+    import subprocess
+    import sys
+    path = Path(__file__).parent / "fuzz" / script
+    p = subprocess.run([sys.executable, str(path), "--help"], capture_output=True, text=True,
+                       timeout=300, cwd=tmp_path)
+    assert p.returncode == 0 and "atheris" in p.stdout and "Traceback" not in p.stderr, \
+        p.stderr
+    if importlib.util.find_spec("atheris") is None:
+        p = subprocess.run([sys.executable, str(path), str(tmp_path)], capture_output=True,
+                           text=True, timeout=300, cwd=tmp_path)
+        assert p.returncode == 1 and "atheris is not installed: pip install atheris" in \
+            p.stderr and "Traceback" not in p.stderr, p.stderr

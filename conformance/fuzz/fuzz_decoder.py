@@ -35,8 +35,12 @@ import pkgutil
 import sys
 import types
 
-import atheris
 import numpy as np
+
+try:
+    import atheris
+except ImportError:   # --help, and fuzz_readers.py's --seeds and --replay, need none
+    atheris = None
 
 import mpz
 from mpz.conformance.sources import rebuild_sources
@@ -128,7 +132,19 @@ def TestOneInput(data: bytes) -> None:
         check(repaired)
 
 
+def require_atheris() -> None:
+    """Exit with a message, not an ImportError's traceback, where atheris is missing (a
+    newcomer's QA run, stop 73: ``--help`` gave a traceback)."""
+    if atheris is None:
+        sys.exit(f"{sys.argv[0]}: atheris is not installed: pip install atheris "
+                 "(--help says how to run this)")
+
+
 def main() -> None:
+    if {"-h", "--help"} & set(sys.argv[1:]):
+        print(__doc__)
+        return
+    require_atheris()
     _warm_up()
     _instrument()
     atheris.Setup(sys.argv, TestOneInput)

@@ -230,7 +230,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument("--seeds", nargs=2, metavar=("FOLDER", "DATA"))
     parser.add_argument("--replay", nargs="+", metavar="FILE")
+    parser.add_argument("-h", "--help", action="store_true")
     known, rest = parser.parse_known_args()
+    if known.help:
+        print(__doc__)
+        return
     if known.seeds:
         print(f"{make_seeds(*known.seeds)} seeds written to {known.seeds[0]}")
         return
@@ -242,6 +246,8 @@ def main() -> None:
                   flush=True)
             check(data)
         return
+    from fuzz_decoder import require_atheris  # this folder: the script's own
+    require_atheris()
     _warm_up()
     _instrument()
     atheris.Setup([sys.argv[0], *rest], TestOneInput)
