@@ -381,6 +381,15 @@ def test_usage_errors_exit_64(args, capsys):
     assert capsys.readouterr().err
 
 
+def test_a_mistyped_required_option_is_named(capsys):
+    """``mpz-conformance --decodr x`` said only that one of --decoder and --encoder is
+    required (a newcomer's QA run, stop 73); mpz and mpzinfo named the typo."""
+    from mpz.conformance.runner import main
+    assert main(["--decodr", "x"]) == 64
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: --decodr; did you mean --decoder?" in err, err
+
+
 def test_timeout_is_enforced(tmp_path):
     proc, doc = run(tmp_path, "--decoder", f"{PY} -c 'import time; time.sleep(30)'",
                     "--only", "u01-one-frame", "--timeout", "1")

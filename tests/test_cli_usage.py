@@ -8,6 +8,7 @@ under test. Point numbers refer to issue 14.
 """
 from __future__ import annotations
 
+import argparse
 from collections.abc import Sequence
 import inspect
 import io
@@ -514,6 +515,51 @@ def test_option_errors_come_from_the_subcommand_with_a_hint(inputs: dict[str, Pa
         assert p.returncode == 64 and b"a length takes its unit without a space" in p.stderr
     p = run(["mpz", "encdoe"], tmp_path)
     assert p.returncode == 64 and b"did you mean encode?" in p.stderr
+
+
+def test_a_negative_length_and_a_value_out_of_range_name_the_flag(
+        inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    """A newcomer's QA run (stop 73): --max-error -1mm said only "expected one argument",
+    --max-error=-1mm "cannot read a length ...; write a number and a unit" (it is one),
+    and the encoder's range checks named the Python option (threads, lossy, max_error) to
+    a reader of the command line. Each now says what is wrong, naming the flag."""
+    from mpz.tools import mpz_cli
+    src = str(inputs["trc"])
+    cases = [(["--max-error", "-1mm"], "argument --max-error: expected one argument; a "
+              "length must be above 0, and -1mm reads as an option"),
+             (["--max-error=-1mm"], "--max-error -1mm: a length must be above 0"),
+             (["--max-error=+1mm"], "--max-error +1mm: a length must be above 0, without "
+              "a sign"),
+             (["--threads", "0"], "--threads must be in 1..64, got 0"),
+             (["--smoothing", "17"], "--smoothing must be in 0..16, got 17"),
+             (["--lossy", "--max-error", "1mm"], "--lossy (the paper's unbounded mode) and a "
+              "bound (--max-error) exclude each other")]
+    for args, said in cases:
+        code = 0
+        try:
+            code = mpz_cli.main(["encode", src, "-o", "neg.mpz", *args])
+        except SystemExit as exc:
+            code = int(exc.code or 0)
+        err = capsys.readouterr().err
+        assert code in (2, 64) and said in err, (args, err)
+    # a program is told the Python name
+    with pytest.raises(mpz.errors.EncoderError, match=r"^threads must be in 1\.\.64"):
+        mpz.encode(generate("walk", frames=12), threads=0)
+
+
+def test_the_encoder_s_flag_options_are_flags_of_mpz_encode() -> None:
+    """mpz.encoder.FLAG_OPTIONS names options by the flag "--" + name with "-" for "_":
+    each must be a flag of mpz encode, and an option of EncodeOptions."""
+    from dataclasses import fields
+
+    from mpz.encoder import FLAG_OPTIONS, EncodeOptions
+    from mpz.tools import mpz_cli
+    sub = next(a for a in mpz_cli.build_parser()._actions
+               if isinstance(a, argparse._SubParsersAction))
+    flags = {s for a in sub.choices["encode"]._actions for s in a.option_strings}
+    names = {f.name for f in fields(EncodeOptions)}
+    assert {n for n in FLAG_OPTIONS if "--" + n.replace("_", "-") not in flags} == set()
+    assert FLAG_OPTIONS <= names
 
 
 def test_an_option_of_another_subcommand_is_named_as_such(

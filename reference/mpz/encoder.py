@@ -295,10 +295,11 @@ class EncodeOptions:
             if not (math.isfinite(e) and e > 0):
                 raise EncoderError(f"group error for {name!r} must be finite and > 0, got {e!r}")
         if self.lossy and (self.max_error is not None or self.source_grid is not None):
-            raise EncoderError("lossy (the paper's unbounded mode) and a bound (max_error, "
-                               "source_grid) exclude each other")
+            raise EncoderError(f"{_flag('lossy')} (the paper's unbounded mode) and a bound ("
+                               f"{spelled('--max-error', 'max_error, source_grid')}) exclude "
+                               "each other")
         if self.group_errors and self.lossy:
-            raise EncoderError("group error bounds need a bound: not with lossy")
+            raise EncoderError(f"group error bounds need a bound: not with {_flag('lossy')}")
         for name, v in (("default_error_mm", self.default_error_mm),
                         ("default_error_fraction", self.default_error_fraction),
                         ("model_error", self.model_error),
@@ -359,6 +360,22 @@ MAX_FRACTION = 1e6
 #: sums them over up to 2^26 samples (hierarchy, segmentation, summary), which must stay
 #: finite in binary64 ((2 x 10^100)^2 x 2^26 x 3 < 10^210)
 MAX_MAGNITUDE = 1e100
+
+
+#: the options of :class:`EncodeOptions` that ``mpz encode`` sets from a flag of the same
+#: name (``max_error`` from ``--max-error``): their messages name the flag when a command
+#: runs (:func:`_flag`; a newcomer's QA run, stop 73, was told "threads must be in 1..64"
+#: for ``--threads -1``)
+FLAG_OPTIONS = frozenset({"max_error", "grid", "theta", "tau", "k0", "smoothing", "seed",
+                          "threads", "metric", "segmentation", "summary_space",
+                          "summary_format", "patterns", "lossy", "angle_error",
+                          "translation_error", "summary", "hierarchy"})
+
+
+def _flag(name: str) -> str:
+    """An option's name as the reader of a message knows it: ``--max-error`` where a
+    command runs, ``max_error`` in a program (:func:`mpz._worker.spelled`)."""
+    return spelled("--" + name.replace("_", "-"), name) if name in FLAG_OPTIONS else name
 
 
 def _number(value: object, name: str) -> float:
@@ -437,31 +454,32 @@ def check_option_values(o: EncodeOptions) -> None:
         For the first option that is not of its type or not in its range.
     """
     if o.max_error is not None:
-        _length(o.max_error, "max_error")
+        _length(o.max_error, _flag("max_error"))
     for k, v in o.group_errors.items():
         _utf8(k, "group_errors: a node name")
         _length(v, f"group error of node {k!r}")
     if o.grid is not None:
-        _length(o.grid, "grid")
+        _length(o.grid, _flag("grid"))
     for name in ("theta", "tau"):
-        v = _number(getattr(o, name), name)
+        v = _number(getattr(o, name), _flag(name))
         if not 0 < v <= MAX_FRACTION:
-            raise EncoderError(f"{name} must be a fraction of the head size ADDH in "
+            raise EncoderError(f"{_flag(name)} must be a fraction of the head size ADDH in "
                                f"(0, {MAX_FRACTION:g}], got {getattr(o, name)!r}")
-    _integer(o.k0, "k0", 1, 65535)
-    _integer(o.smoothing, "smoothing", 0, MAX_SMOOTHING)
+    _integer(o.k0, _flag("k0"), 1, 65535)
+    _integer(o.smoothing, _flag("smoothing"), 0, MAX_SMOOTHING)
     _integer(o.max_segment, "max_segment", 2, MAX_PATTERN_LENGTH)
-    _integer(o.seed, "seed", 0, 2 ** 63 - 1)
+    _integer(o.seed, _flag("seed"), 0, 2 ** 63 - 1)
     if o.threads is not None:
-        _integer(o.threads, "threads", 1, MAX_THREADS)
+        _integer(o.threads, _flag("threads"), 1, MAX_THREADS)
     for name in ("metric", "segmentation", "summary_space", "summary_format"):
         if not isinstance(getattr(o, name), str):
             raise EncoderError(f"{name} must be text, got {getattr(o, name)!r}")
     if o.summary_space not in ("positions", "angles"):
-        raise EncoderError(f"summary_space must be positions or angles, got "
+        raise EncoderError(f"{_flag('summary_space')} must be positions or angles, got "
                            f"{o.summary_space!r}")
     if o.summary_format not in ("smrc", "smry"):
-        raise EncoderError(f"summary_format must be smrc (coded, MPZ 1.1) or smry (raw, 1.0), "
+        raise EncoderError(f"{_flag('summary_format')} must be smrc (coded, MPZ 1.1) or smry "
+                           "(raw, 1.0), "
                            f"got {o.summary_format!r}")
     if o.patterns is not None and not isinstance(o.patterns, str):
         raise EncoderError(f"patterns must be auto, on, off or None, got {o.patterns!r}")
@@ -470,13 +488,13 @@ def check_option_values(o: EncodeOptions) -> None:
             raise EncoderError(f"{name} must be True or False, got {getattr(o, name)!r}")
     for name in ("angle_error", "translation_error", "position_error"):
         v = getattr(o, name)            # checked whether or not the motion has a skeleton
-        if v is not None and not 0 < _number(v, name) < math.inf:
-            raise EncoderError(f"{name} must be a finite number above 0, got {v!r}")
+        if v is not None and not 0 < _number(v, _flag(name)) < math.inf:
+            raise EncoderError(f"{_flag(name)} must be a finite number above 0, got {v!r}")
     for count in o.summary:
-        _integer(count, "summary: a segment count", 1, MAX_FRAMES)
+        _integer(count, f"{_flag('summary')}: a segment count", 1, MAX_FRAMES)
     if len(set(o.summary)) > MAX_SUMMARY_LEVELS:
-        raise EncoderError(f"summary: at most {MAX_SUMMARY_LEVELS} segment counts (§8), got "
-                           f"{len(set(o.summary))}")
+        raise EncoderError(f"{_flag('summary')}: at most {MAX_SUMMARY_LEVELS} segment counts "
+                           f"(§8), got {len(set(o.summary))}")
     for k, w in (o.weights or {}).items():
         _utf8(k, "weights: a marker or node name")
         v = _number(w, f"weight of {k!r}")

@@ -247,7 +247,10 @@ class Parser(argparse.ArgumentParser):
     _words: list[str] = []
 
     def error(self, message: str) -> NoReturn:
-        if message.startswith("the following arguments are required: "):
+        if message.startswith(("the following arguments are required: ",
+                               "one of the arguments ")):
+            # and "mpz-conformance --decodr x" said only "one of the arguments --decoder
+            # --encoder is required" (a newcomer's QA run, stop 73)
             # argparse says what is missing before what it did not know: "mpz --bogus",
             # "mpz encode -x.trc" said "the following arguments are required" and no more
             # (a QA run of the CLI plumbing)
@@ -271,6 +274,18 @@ class Parser(argparse.ArgumentParser):
             if named:
                 message += (f"; {named[0]} is a file: put -- before a file name that begins "
                             f"with -, or write ./{named[0]}")
+        elif message.startswith("argument ") and message.endswith(": expected one argument"):
+            # "--max-error -1mm": argparse takes -1mm for an option and says only that the
+            # value is missing (a newcomer's QA run, stop 73)
+            flags = set(message[len("argument "):-len(": expected one argument")].split("/"))
+            words = self._words
+            value = next((words[i + 1] for i, w in enumerate(words[:-1])
+                          if w in flags and re.match(r"-[0-9.]", words[i + 1])), None)
+            if value is not None:
+                flag = next(iter(sorted(flags, key=len, reverse=True)))
+                message += (f"; a length must be above 0, and {value} reads as an option"
+                            if flags & LENGTH_OPTIONS else
+                            f"; {value} reads as an option: write {flag}={value}")
         elif "invalid choice: " in message:
             bad = message.split("invalid choice: ", 1)[1].split(" ", 1)[0].strip("'\"")
             message += _suggest([bad], self._subcommands())

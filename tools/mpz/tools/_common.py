@@ -86,6 +86,10 @@ def _length_parts(text: str, option: str) -> tuple[str, str]:
     """(number as written, unit in lower case or "") of a length, or EncoderError for a
     malformed one or an unknown unit, naming ``option``."""
     m = _LENGTH.fullmatch(text)
+    if not m and text.strip()[:1] in ("-", "+") and _LENGTH.fullmatch(text.strip()[1:]):
+        # "-1mm" is a number and a unit: it was told to write one (a newcomer's QA run)
+        raise EncoderError(f"{option} {text.strip()}: a length must be above 0"
+                           + (", without a sign" if text.strip()[0] == "+" else ""))
     if not m:
         raise EncoderError(f"{option}: cannot read a length from {text!r}; write a number "
                            f"and a unit ({ACCEPTED_UNITS}), e.g. 2mm or 0.5cm")
