@@ -768,6 +768,38 @@ def test_two_mpz_files_of_one_source_are_held_to_the_sum_of_their_bounds(
     assert "(byte-identical), bounds 1 mm and 1 mm" in capsys.readouterr().out
 
 
+def test_two_mpz_files_differ_where_either_lacks_a_part_and_show_their_reader_entries(
+        tmp_path, capsys):
+    """A maintainer's QA run (stop 73): `mpz compare A.mpz B.mpz` with B lacking A's
+    metadata entry (or skeleton) said "missing" with a note that blamed B's format, exit 0;
+    the other way round it said nothing; and two encodes whose bytes differed only in the
+    reader's warning were "same" everywhere. An .mpz holds every part: a part either file
+    lacks differs (exit 2), and the reader's entries are a part of their own."""
+    m = generate("walk", frames=30, markers=6, seed=5)
+    m.metadata.update({"format": "trc", "warning": "first"})
+    files = {}
+    for name, meta, warning in (("a", {"note": "x"}, "first"), ("b", {}, "first"),
+                                ("c", {"note": "x"}, "second")):
+        m.metadata["warning"] = warning
+        files[name] = tmp_path / f"{name}.mpz"
+        files[name].write_bytes(mpz.encode(m, max_error=1.0, metadata=meta))
+
+    def parts(a, b, code):
+        capsys.readouterr()
+        assert mpz_cli.main(["compare", str(files[a]), str(files[b]), "--json"]) == code
+        return {(p["name"], p["status"]): p["detail"]
+                for p in json.loads(capsys.readouterr().out)["besides_markers"]}
+    got = parts("a", "b", 2)
+    assert f"(not in {files['b']}, and an .mpz file holds it)" in got[("metadata", "differs")]
+    assert ("reader metadata", "same") in got
+    got = parts("b", "a", 2)
+    assert f"(only in {files['a']}, and an .mpz file holds it)" in got[("metadata", "differs")]
+    got = parts("a", "c", 0)
+    assert ("metadata", "same") in got and not any(s == "differs" for _, s in got)
+    assert got[("reader metadata", "changed")].endswith("(what each file's reader said of "
+                                                        "its source): warning")
+
+
 # -- summaries as the spec allows them (QA, stop 49) -----------------------------------------
 VECTORS = Path(__file__).resolve().parents[1] / "conformance" / "vectors"
 

@@ -27,7 +27,9 @@ outputs, one part per kind in its POINT:*_UNITS; joint channels, by the steps of
 skeleton chunk), changed (no bound declared: where it changed most; metadata with other
 values between files in other units), differs (exit 2, saying where first) or missing
 from the decoded motion (a note: a format that cannot hold the part, as ``mpz decode``
-says). An NPY input (no names) is matched with the other marker by marker in order, with
+says); between two .mpz files, which hold every part, a part either lacks differs, and
+the entries their readers wrote of the source are shown as "reader metadata". An NPY
+input (no names) is matched with the other marker by marker in order, with
 a note.
 ``--plot OUT.png`` draws the Euclidean error over time of the worst markers
 (or ``--marker``), one panel each, in the motion's units, with the declared
@@ -319,6 +321,8 @@ def run(args: argparse.Namespace) -> int:
              if c is not None]
     parts = besides_markers(a, b, channel_bounds=None if not steps else
                             (sum(r for r, _ in steps), sum(t for _, t in steps)))
+    if ext_a == ext_b == ".mpz":
+        parts = _both_mpz(a, b, names, parts)
     if borrowed and ext_b == ".amc":         # its own skeleton was not read: not checked
         parts = [dataclasses.replace(p, status="unchecked", detail=f"{p.detail}; read with "
                                      "--asf's (the decoded AMC has no .asf of its own)")
@@ -568,3 +572,30 @@ def plot(a, b, names, path, *, bound: float | None = None, units: str | None = N
     with atomic_output(path, force=force) as tmp:
         fig.savefig(tmp, dpi=110, format=plot_format(path))
     plt.close(fig)
+
+
+def _both_mpz(a, b, names: tuple[str, str], parts: list) -> list:
+    """The parts of two .mpz files compared both ways: an .mpz holds every part, so one
+    that either file lacks is a difference, not a format's limit (``missing`` and a note
+    said so, exit 0: an encoder that dropped a --meta entry or a skeleton passed a
+    maintainer's compare of two versions, and a part the second file alone held was not
+    named at all; a QA run of stop 73). The reader's own entries (its warning, format,
+    name...), which a source compare leaves out, are shown as "reader metadata": two
+    encodes whose bytes differed only there were all "same", the difference unsaid."""
+    from mpz.io import READER_KEYS
+    from mpz.metrics import Part, besides_markers
+    out = [dataclasses.replace(p, status="differs", detail=f"{p.detail} (not in "
+                               f"{names[1]}, and an .mpz file holds it)")
+           if p.status == "missing" else p for p in parts]
+    out += [Part(p.name, "differs", f"{p.detail} (only in {names[1]}, and an .mpz file "
+                 "holds it)") for p in besides_markers(b, a) if p.status == "missing"]
+    keys = sorted(k for k in {*a.metadata, *b.metadata} if k in READER_KEYS)
+    other = [k for k in keys if a.metadata.get(k) != b.metadata.get(k)]
+    if other:
+        out.append(Part("reader metadata", "changed", f"{len(other)} of {len(keys)} "
+                        "entries with other values or on one side only (what each file's "
+                        f"reader said of its source): {', '.join(other)}"))
+    elif keys:
+        out.append(Part("reader metadata", "same",
+                        f"{len(keys)} entr{'ies' if len(keys) != 1 else 'y'}"))
+    return out
