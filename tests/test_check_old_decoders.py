@@ -315,3 +315,21 @@ def test_driver_on_a_revision_without_mpzinfo(tmp_path):
                                       65.0364227294921875, "mm", {"leak": "no"}))
     verdict, why = cod.verdict(exp, row, tmp_path / "out")
     assert verdict == "pass" and "no mpzinfo at this revision" in why
+
+
+def test_an_unknown_revision_is_named(tmp_path, capsys):
+    """`check_old_decoders --rev deadbeef` printed git's "fatal: Needed a single revision"
+    alone (a maintainer's QA run, stop 73): the message names the revision."""
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    _git(repo, "init", "-q")
+    _write(repo, OLD_LAYOUT)
+    _git(repo, "add", "-A")
+    _git(repo, "commit", "-q", "-m", "old")
+    assert len(cod.resolve(repo, "HEAD")) == 40
+    with pytest.raises(cod.UnknownRevision, match=r"^--rev deadbeef: no commit of .*repo "
+                                                   r"has that name"):
+        cod.resolve(repo, "deadbeef")
+    assert cod.main(["--rev", "deadbeef", "--repo", str(repo), "--no-synthetic",
+                     "--data", str(tmp_path)]) == 2
+    assert "--rev deadbeef: no commit of" in capsys.readouterr().err

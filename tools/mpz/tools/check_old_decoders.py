@@ -245,9 +245,18 @@ def is_draft_1_1(repo: Path, commit: str) -> bool:
     return is_ancestor(repo, first, commit) and not is_ancestor(repo, settled, commit)
 
 
+class UnknownRevision(Exception):
+    """A --rev that names no commit of the repository (git's own message alone, "fatal:
+    Needed a single revision", did not say which: a maintainer's QA run, stop 73)."""
+
+
 def resolve(repo: Path, rev: str) -> str:
-    return subprocess.run(["git", "-C", str(repo), "rev-parse", "--verify", f"{rev}^{{commit}}"],
-                          check=True, capture_output=True, text=True).stdout.strip()
+    p = subprocess.run(["git", "-C", str(repo), "rev-parse", "--verify", "--quiet",
+                        f"{rev}^{{commit}}"], capture_output=True, text=True)
+    if p.returncode != 0:
+        raise UnknownRevision(f"--rev {rev}: no commit of {repo} has that name"
+                              + (f" (git: {p.stderr.strip()})" if p.stderr.strip() else ""))
+    return p.stdout.strip()
 
 
 # ------------------------------------------------------------------- cases --
@@ -514,8 +523,8 @@ def _check(repo: Path, revs: list[tuple[str, str, str]], sets: tuple[OptionSet, 
            data_dirs: list[Path], work: Path, args: argparse.Namespace, t0: float) -> int:
     try:
         commits = [(resolve(repo, r), label, why) for r, label, why in revs]
-    except subprocess.CalledProcessError as exc:
-        print(f"check_old_decoders: error: {printable(exc.stderr.strip())}", file=sys.stderr)
+    except UnknownRevision as exc:
+        print(f"check_old_decoders: error: {printable(str(exc))}", file=sys.stderr)
         return EXIT_ERROR
     if not args.no_synthetic:
         data_dirs = [*data_dirs, synthetic_inputs(work)]
