@@ -198,13 +198,19 @@ OLD_LAYOUT = {
 }
 
 
-def test_build_site_follows_the_revisions_package_dir(tmp_path):
+def _old_layout_repo(tmp_path: Path) -> Path:
+    """A repository of one commit, "old", holding :data:`OLD_LAYOUT`."""
     repo = tmp_path / "repo"
     repo.mkdir()
     _git(repo, "init", "-q")
     _write(repo, OLD_LAYOUT)
     _git(repo, "add", "-A")
     _git(repo, "commit", "-q", "-m", "old")
+    return repo
+
+
+def test_build_site_follows_the_revisions_package_dir(tmp_path):
+    repo = _old_layout_repo(tmp_path)
     old = cod.resolve(repo, "HEAD")
     _write(repo, {"reference/__init__.py": "WHICH = 'new'\n"})
     _git(repo, "commit", "-q", "-am", "new")
@@ -320,12 +326,7 @@ def test_driver_on_a_revision_without_mpzinfo(tmp_path):
 def test_an_unknown_revision_is_named(tmp_path, capsys):
     """`check_old_decoders --rev deadbeef` printed git's "fatal: Needed a single revision"
     alone (a maintainer's QA run, stop 73): the message names the revision."""
-    repo = tmp_path / "repo"
-    repo.mkdir()
-    _git(repo, "init", "-q")
-    _write(repo, OLD_LAYOUT)
-    _git(repo, "add", "-A")
-    _git(repo, "commit", "-q", "-m", "old")
+    repo = _old_layout_repo(tmp_path)
     assert len(cod.resolve(repo, "HEAD")) == 40
     with pytest.raises(cod.UnknownRevision, match=r"^--rev deadbeef: no commit of .*repo "
                                                    r"has that name"):
