@@ -522,6 +522,12 @@ def test_group_errors_on_an_exact_int16_grid_are_said_to_bound_nothing() -> None
                              "on the source's grid of step 0.25 (error 0)"], rep.notes
         back = mpz.decode(data)
         assert np.array_equal(back.positions[m.valid], m.positions[m.valid])
+    # a group error below the grid's rounding is what makes the file exact: no such note
+    nodes = [n.name for n in encode_motion(m, EncodeOptions(
+        source_grid=step, max_error=1.0, hierarchy="auto"))[1].nodes]
+    _, rep = encode_motion(m, EncodeOptions(source_grid=step, max_error=1.0,
+                                            hierarchy="auto", group_errors={nodes[0]: 0.01}))
+    assert rep.bound == 1.0 and rep.notes == [], rep.notes
 
 
 def test_write_atomic_names_the_python_argument_that_replaces(tmp_path):

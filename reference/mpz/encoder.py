@@ -772,7 +772,9 @@ def option_notes(motion: Motion, opts: EncodeOptions, *, resolved: bool = False
     if not resolved:
         opts, _ = resolve_bound(motion, opts)
     notes = []
-    if opts.group_errors and exact_on_source_grid(opts):
+    # exact without them: a group error below the grid's own rounding makes the whole
+    # file exact (plan_grid), which is no "bound nothing"
+    if opts.group_errors and exact_on_source_grid(replace(opts, group_errors={})):
         notes.append(f"{spelled('--group-error', 'group_errors')} bound nothing: every "
                      f"position is coded exactly on the source's grid of step "
                      f"{opts.source_grid:g} (error 0)")
