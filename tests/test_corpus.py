@@ -2207,6 +2207,36 @@ def test_a_folder_that_cannot_be_listed_is_a_failure_not_silence(corpus, monkeyp
     assert got == [(str(src), "cannot list this folder: Permission denied", str(src))]
 
 
+def test_folders_nested_deeper_than_python_recursion_are_walked(tmp_path):
+    """``mpz encode -r`` over folders nested 1000 deep ended in RecursionError, exit 70
+    (Python 3.11's os.walk recurses a level at a time; a security QA run, stop 73), and
+    the output folder's test took a system call per level of each folder (8 s). The walk
+    is a loop: a file at the bottom is found, the output folder inside the tree is still
+    left out, and a link to a folder is listed but not followed."""
+    import sys
+
+    from mpz.io._common import walk
+    from mpz.tools._common import expand_inputs
+    top = tmp_path / "deep"
+    top.mkdir()
+    here = top
+    depth = sys.getrecursionlimit() + 200
+    for _ in range(depth):               # a loop: pathlib's mkdir(parents=True) recurses
+        here = here / "d"
+        os.mkdir(here)
+    (here / "walk.trc").write_text("x")
+    (top / "out").mkdir()
+    (top / "out" / "old.trc").write_text("x")
+    (top / "loop").symlink_to(top)
+    got = expand_inputs([str(top)], True, lambda name: name.endswith(".trc"),
+                        skip=str(top / "out"))
+    assert got == [(str(here / "walk.trc"), None, str(top))], len(got)  # (no long paths)
+    assert [p for p, _ in mirror_jobs(top, top / "out")] == [str(here / "walk.trc")]
+    listed = list(walk(top))
+    assert len(listed) == depth + 2                   # top, out, and the depth levels
+    assert sorted(listed[0][1]) == ["d", "loop", "out"] and listed[0][2] == []
+
+
 @needs_dask
 def test_a_scheduler_lost_mid_run_is_one_error_and_keeps_what_finished(corpus):
     """The scheduler dying during a run gave Dask's FuturesCancelledError traceback and

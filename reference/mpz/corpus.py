@@ -72,7 +72,7 @@ from mpz.api import _use_force, folder_problem
 from mpz.encoder import DEFAULTS, EncodeOptions
 from mpz.errors import EncoderError, MPZError
 from mpz.hierarchy import BUILDERS
-from mpz.io._common import is_utf8, utf8_name
+from mpz.io._common import is_folder, is_utf8, utf8_name, walk
 from mpz.similarity import (
     DESCRIPTOR_VERSION,
     EXACT_MAX_FRAMES,
@@ -1733,10 +1733,10 @@ def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
     def unlisted(exc: OSError) -> None:
         raise EncoderError(f"cannot list the folder {exc.filename or root}: "
                            f"{exc.strerror or exc}")
-    skipped = os.path.realpath(outdir)
-    for here, dirs, files in os.walk(root, onerror=unlisted):
+    skipped = is_folder(outdir)
+    for here, dirs, files in walk(root, onerror=unlisted):  # no recursion: any depth
         dirs[:] = sorted(d for d in dirs if not d.startswith(".")
-                         and os.path.realpath(os.path.join(here, d)) != skipped)
+                         and not skipped(os.path.join(here, d)))
         for name in sorted(files):
             if name.startswith(".") or os.path.splitext(name)[1].lower() not in exts:
                 continue

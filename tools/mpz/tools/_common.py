@@ -23,6 +23,7 @@ from typing import IO, TYPE_CHECKING
 
 from mpz.errors import EncoderError, FormatError, MPZError
 from mpz.format import MM_PER_UNIT
+from mpz.io._common import is_folder, walk
 from mpz.tools._cli import (
     EXIT_ERROR,
     EXIT_MEMORY,
@@ -536,12 +537,13 @@ def expand_inputs(inputs: Sequence[str], recursive: bool, accept: Callable[[str]
     taken, sorted, recursively. Hidden files and folders are skipped, and so is the
     folder ``skip`` (the ``-o FOLDER/`` of the batch: outputs written inside an input
     folder, or files decoded there, were taken as inputs by the next run, a QA of stop
-    42); links to folders are not followed (os.walk's default: a loop cannot hang the
-    walk). ``base`` is the folder a path was found in with ``-r`` (as given), else the
-    path's own folder: ``--mirror`` keeps the path below it.
+    42); links to folders are not followed (:func:`mpz.io._common.walk`: a loop cannot
+    hang the walk, and no depth of folders exhausts Python's recursion). ``base`` is the
+    folder a path was found in with ``-r`` (as given), else the path's own folder:
+    ``--mirror`` keeps the path below it.
     """
     out: list[tuple[str, str | None, str]] = []
-    skipped = os.path.realpath(skip) if skip is not None else None
+    skipped = is_folder(skip)
     for item in inputs:
         if item != STDIO and os.path.isdir(item):
             if not recursive:
@@ -549,9 +551,9 @@ def expand_inputs(inputs: Sequence[str], recursive: bool, accept: Callable[[str]
                 continue
             found: list[str] = []
             unlisted: list[OSError] = []      # were skipped without a word (a QA run)
-            for root, dirs, files in os.walk(item, onerror=unlisted.append):
+            for root, dirs, files in walk(item, onerror=unlisted.append):
                 dirs[:] = sorted(d for d in dirs if not d.startswith(".") and
-                                 os.path.realpath(os.path.join(root, d)) != skipped)
+                                 not skipped(os.path.join(root, d)))
                 found += [os.path.join(root, f) for f in sorted(files)
                           if not f.startswith(".") and accept(f)]
             out += [(exc.filename or item, f"cannot list this folder: "
