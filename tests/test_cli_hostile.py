@@ -1001,3 +1001,26 @@ def test_the_renamed_points_note_says_what_the_source_did(renamed: str, said: st
     note = next(n for n in notes if "point names" in n)
     assert said in note, note
     assert "repeat" not in note or "A->A#2" in renamed
+
+
+def test_an_error_that_quotes_a_huge_token_is_bounded(tmp_path: Path, capsys) -> None:
+    """A BVH whose joint name is 100 MB: the reader's message quoted it whole, 100 MB on
+    standard error and twice that with --json (a security QA run, stop 73). Every MPZError
+    keeps at most MAX_MESSAGE_CHARS of its message, its start and end, and says how much
+    it left out."""
+    from mpz.errors import MAX_MESSAGE_CHARS, InputFormatError
+    from mpz.tools import mpz_cli
+    name = "a" * 2_000_000
+    src = tmp_path / "long.bvh"
+    src.write_text(f"HIERARCHY\nROOT {name}\n{{\n")
+    with pytest.raises(InputFormatError) as info:
+        read(src)
+    said = str(info.value)
+    assert len(info.value.message) < MAX_MESSAGE_CHARS + 100 and len(said) < 11_000
+    assert "characters left out" in said and said.startswith(str(src))
+    assert mpz_cli.main(["show", str(src), "--json"]) == 2
+    out, err = capsys.readouterr()
+    assert len(out) < 12_000 and len(err) < 12_000
+    assert json.loads(out)["error"]["class"] == "InputFormatError"
+    short = InputFormatError("x" * MAX_MESSAGE_CHARS)          # at the limit: as given
+    assert short.message == "x" * MAX_MESSAGE_CHARS

@@ -12,6 +12,21 @@ act on it as attributes (byte offset, chunk type, spec section, file name).
 """
 from __future__ import annotations
 
+#: the longest message an error keeps: a reader's message that quotes the input (a BVH
+#: joint name, an ASF token) quoted a 100 MB token whole, 100 MB on standard error and
+#: twice that with --json (a security QA run, stop 73)
+MAX_MESSAGE_CHARS = 10_000
+
+
+def _bounded(message: str) -> str:
+    """``message``, or its first and last characters around a count of those left out
+    when it is longer than :data:`MAX_MESSAGE_CHARS`."""
+    if not isinstance(message, str) or len(message) <= MAX_MESSAGE_CHARS:
+        return message
+    head, tail = MAX_MESSAGE_CHARS * 7 // 10, MAX_MESSAGE_CHARS // 5
+    return (f"{message[:head]} ... ({len(message) - head - tail} characters left out) ... "
+            f"{message[-tail:]}")
+
 
 class MPZError(Exception):
     """Root of every error MPZ raises on purpose.
@@ -33,7 +48,7 @@ class MPZError(Exception):
     def __init__(self, message: str, *, offset: int | None = None,
                  chunk: str | None = None, section: str | None = None,
                  path: str | None = None) -> None:
-        self.message = message
+        self.message = _bounded(message)
         self.offset = offset
         self.chunk = chunk
         self.section = section
