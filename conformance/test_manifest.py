@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+import re
 
 import numpy as np
 import pytest
@@ -171,6 +172,46 @@ def test_validate_catches_rms_above_max_abs():
     bad["vectors"][0]["tolerances"] = {"max_abs": 1e-9, "rms": 1e-8}
     with pytest.raises(mf.ManifestError, match="rms"):
         mf.validate(bad)
+
+
+def _decode_vector(man):
+    return next(v for v in man["vectors"] if v["expected"] == "decode")
+
+
+def _reject_vector(man):
+    return next(v for v in man["vectors"] if v["expected"] == "reject")
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda m: _reject_vector(m).__setitem__("file", "invalid/../../../etc/passwd"),
+     "is not a path inside the suite's folder"),
+    (lambda m: _decode_vector(m)["expected_output"].__setitem__("file", "/etc/passwd"),
+     "expected_output file: '/etc/passwd' is not a path inside"),
+    (lambda m: _reject_vector(m).__setitem__("file", 5), "file: 5 is not a path"),
+    (lambda m: _reject_vector(m).__setitem__("group", ["invalid"]), "unknown group"),
+    (lambda m: _reject_vector(m).__setitem__("sha256", 5), "is not 64 lower-case hex"),
+    (lambda m: _decode_vector(m).__setitem__("tolerances", [1, 2]), "must be objects"),
+    (lambda m: _decode_vector(m).__setitem__("header", 7), "must be objects"),
+    (lambda m: _decode_vector(m).__setitem__("expected_output", "x.npy"), "not an object"),
+    (lambda m: _decode_vector(m).__setitem__("features", [1]), "features an object"),
+    (lambda m: _reject_vector(m).__setitem__("expected_error", 5), "expected_error is not"),
+    (lambda m: m.__setitem__("encoder_inputs", 5), "encoder_inputs is not a list"),
+    (lambda m: m.__setitem__("encoder_inputs", [5]), "an encoder input is not an object"),
+    (lambda m: m["encoder_inputs"][0].__setitem__("sidecar", "../x.json"),
+     "sidecar: '../x.json' is not a path inside"),
+    (lambda m: m["encoder_inputs"][0].__setitem__("max_errors", ["1"]), "max_errors"),
+])
+def test_a_field_of_another_type_or_a_path_outside_the_suite_is_a_manifest_error(edit, said):
+    """A security QA run (stop 73): a manifest whose fields had another JSON type made the
+    runner fail with a traceback (exit 70), and a vector's "file" of invalid/../../.. or an
+    absolute expected_output was read from outside the suite's folder. validate() checks
+    every field the runner reads; the runner turns its error into exit 64."""
+    import copy
+    bad = copy.deepcopy(MAN)
+    edit(bad)
+    with pytest.raises(mf.ManifestError, match=re.escape(said)):
+        mf.validate(bad)
+    mf.validate(copy.deepcopy(MAN))                      # the shipped one passes
 
 
 def test_readme_counts_the_vectors_there_are():

@@ -194,8 +194,25 @@ def _need(cond, msg):
         raise ManifestError(msg)
 
 
+def _inside(rel, what: str) -> None:
+    """``rel`` names a file inside the suite's folder: a relative path of ``/``-separated
+    parts, none of them ``..`` (a vector "file" of ``invalid/../../..`` and an absolute
+    ``expected_output`` were read from anywhere: a security QA run, stop 73)."""
+    _need(isinstance(rel, str) and rel and "\0" not in rel and "\\" not in rel
+          and not rel.startswith("/") and ":" not in rel.split("/")[0]
+          and all(part not in ("", ".", "..") for part in rel.split("/")),
+          f"{what}: {rel!r:.80} is not a path inside the suite's folder")
+
+
+def _digest(x, what: str) -> None:
+    _need(isinstance(x, str) and re.fullmatch(r"[0-9a-f]{64}", x) is not None,
+          f"{what}: sha256 {x!r:.80} is not 64 lower-case hex digits")
+
+
 def validate(man: dict) -> dict:
-    """Check the manifest's structure; returns it. Raises ManifestError."""
+    """Check the manifest's structure and the types of every field the runner reads
+    (a field of another JSON type was a traceback, exit 70, not the suite's fault it is:
+    a security QA run, stop 73); returns it. Raises ManifestError."""
     _need(isinstance(man, dict), "manifest is not a JSON object")
     _need(man.get("schema_version") == SCHEMA_VERSION,
           f"schema_version {man.get('schema_version')!r}, this runner reads {SCHEMA_VERSION}")
@@ -220,14 +237,30 @@ def validate(man: dict) -> dict:
         _need(isinstance(v["rules"], list) and all(isinstance(r, str) and rule_id.fullmatch(r)
                                                    for r in v["rules"]),
               f"{name}: rules must be a list of rule ids R-<section>-<n>: {v['rules']!r}")
-        _need(v["group"] in GROUPS, f"{name}: unknown group {v['group']!r}")
+        _need(isinstance(v["group"], str) and v["group"] in GROUPS,
+              f"{name}: unknown group {v['group']!r:.80}")
         _need(v["expected"] == EXPECTED[v["group"]],
               f"{name}: group {v['group']} must expect {EXPECTED[v['group']]!r}")
+        _inside(v["file"], f"{name}: file")
         _need(v["file"].startswith(v["group"] + "/") or v["file"] == SPEC_EXAMPLE,
               f"{name}: file not under {v['group']}/")
+        _digest(v["sha256"], f"{name}: file")
+        _need(isinstance(v["spec_sections"], list)
+              and all(isinstance(x, str) for x in v["spec_sections"])
+              and isinstance(v["features"], dict) and isinstance(v["description"], str),
+              f"{name}: spec_sections must be a list of text, features an object and "
+              "description text")
         if v["expected"] == "decode":
             for key in ("expected_output", "integer_layer_digest", "tolerances", "header"):
                 _need(v.get(key) is not None, f"{name}: decodable vector without {key!r}")
+            out = v["expected_output"]
+            _need(isinstance(out, dict), f"{name}: expected_output is not an object")
+            _inside(out.get("file"), f"{name}: expected_output file")
+            _digest(out.get("sha256"), f"{name}: expected_output")
+            _need(isinstance(v["integer_layer_digest"], str),
+                  f"{name}: integer_layer_digest is not text")
+            _need(isinstance(v["tolerances"], dict) and isinstance(v["header"], dict),
+                  f"{name}: tolerances and header must be objects")
             tol = v["tolerances"]
             _need(all(isinstance(tol.get(k), (int, float)) and math.isfinite(tol[k]) and tol[k] >= 0
                       for k in ("max_abs", "rms")), f"{name}: bad tolerances {tol!r}")
@@ -250,9 +283,23 @@ def validate(man: dict) -> dict:
         else:
             for key in ("expected_error", "corruption", "risk"):
                 _need(v.get(key), f"{name}: invalid vector without {key!r}")
-    for e in man.get("encoder_inputs", []):
+            _need(isinstance(v["expected_error"], str),
+                  f"{name}: expected_error is not text")
+    inputs = man.get("encoder_inputs", [])
+    _need(isinstance(inputs, list), "encoder_inputs is not a list")
+    for e in inputs:
+        _need(isinstance(e, dict), f"an encoder input is not an object: {e!r:.80}")
         for key in ("name", "input", "sidecar", "sha256", "max_errors", "rules"):
-            _need(key in e, f"encoder input {e!r}: missing {key!r}")
+            _need(key in e, f"encoder input {e!r:.200}: missing {key!r}")
+        what = f"encoder input {e['name']!r:.80}"
+        _need(isinstance(e["name"], str) and e["name"], f"{what}: name is not text")
+        _inside(e["input"], f"{what}: input")
+        _inside(e["sidecar"], f"{what}: sidecar")
+        _digest(e["sha256"], f"{what}: input")
+        _digest(e.get("sidecar_sha256"), f"{what}: sidecar")
+        _need(isinstance(e["max_errors"], list) and e["max_errors"]
+              and all(_finite(x) and x > 0 for x in e["max_errors"]),
+              f"{what}: max_errors must be a list of finite numbers above 0")
     exc = man.get("rule_exceptions", {})
     _need(isinstance(exc, dict) and all(rule_id.fullmatch(k) and isinstance(r, str) and r
                                         for k, r in exc.items()),
