@@ -2235,6 +2235,12 @@ def test_folders_nested_deeper_than_python_recursion_are_walked(tmp_path):
     listed = list(walk(top))
     assert len(listed) == depth + 2                   # top, out, and the depth levels
     assert sorted(listed[0][1]) == ["d", "loop", "out"] and listed[0][2] == []
+    # removed here, deepest first: pytest's clean-up of old temporary folders (shutil.rmtree,
+    # recursive in 3.11) would end in RecursionError on it in a later session
+    (here / "walk.trc").unlink()
+    while here != top:
+        os.rmdir(here)
+        here = here.parent
 
 
 @needs_dask
