@@ -1024,3 +1024,29 @@ def test_an_error_that_quotes_a_huge_token_is_bounded(tmp_path: Path, capsys) ->
     assert json.loads(out)["error"]["class"] == "InputFormatError"
     short = InputFormatError("x" * MAX_MESSAGE_CHARS)          # at the limit: as given
     assert short.message == "x" * MAX_MESSAGE_CHARS
+
+
+def test_an_endless_text_stream_is_refused_at_the_limit_without_copies(monkeypatch) -> None:
+    """`(printf 'HIERARCHY\\n'; yes) | mpz show -` read the limit in parts, joined them and
+    joined that to the head: about three times the limit, out of memory at 4.3 GB under
+    a 6 GB cap before the limit error (a security QA run, stop 73). The limit is said as
+    soon as it is passed, with no more than the parts read held."""
+    import tracemalloc
+
+    from mpz.errors import LimitExceededError
+    from mpz.tools import _common
+
+    class Endless:
+        def read(self, n: int) -> bytes:
+            return b"HIERARCHY\n" if n == 8 else b"y\n" * (n // 2) or b"y"
+
+    monkeypatch.setattr(_common, "_stdin", Endless)
+    limit = 64 << 20
+    tracemalloc.start()
+    try:
+        with pytest.raises(LimitExceededError, match=f"longer than {limit} bytes"):
+            _common.read_stdin(limit)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1.3 * limit, peak            # the parts, and one 4 MiB block's join
