@@ -669,3 +669,20 @@ def test_max_samples_option(argv: list[str], tmp_path: Path) -> None:
         r = run(small, bad)
         assert r.returncode == 64, (bad, r.stderr)
         assert "--max-samples" in r.stderr
+
+
+def test_max_samples_bounds_the_summary_segments_mpz_summary_reports(tmp_path: Path,
+                                                                     capsys) -> None:
+    """A 12 KB file of 2^20 summary segments made mpz summary --json take 2.1 GB and print
+    156 MB whatever --max-samples said (a security QA run, stop 73): the segments count
+    against it, as a file's marker-frames do."""
+    from mpz.tools import mpz_cli
+    path = tmp_path / "s.mpz"
+    path.write_bytes(smrc_bomb(1 << 10, 1, [1 << 10, 1 << 9], 1))     # 1536 segments
+    assert mpz_cli.main(["summary", str(path), "--no-decode", "--max-samples", "1024",
+                         "--json"]) == 2
+    out, err = capsys.readouterr()
+    assert "holds 1536 segments in all, more than --max-samples 1024" in err + out
+    assert mpz_cli.main(["summary", str(path), "--no-decode", "--max-samples", "1536",
+                         "--json"]) == 0
+    assert len(json.loads(capsys.readouterr().out)["levels"]) == 2

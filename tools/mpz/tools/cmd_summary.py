@@ -98,7 +98,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     from mpz.tools._cli import max_samples, max_samples_help
     p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
                    help=max_samples_help("decoding and segmenting need about 130 bytes per "
-                                         "marker-frame") + "; .mpz input only")
+                                         "marker-frame") + "; .mpz input only, whose "
+                   "summary chunk may then hold at most N segments in all (about 2 KB each "
+                   "in the --json report)")
     p.set_defaults(func=run)
     return p
 
@@ -200,6 +202,15 @@ def _levels_from_mpz(args, ks):
             exc.path = args.file
             raise
     summ = read_summary(data)
+    if summ is not None and args.max_samples is not None:
+        # a 12 KB file of 2^20 segments took 2.1 GB and printed 156 MB of JSON, whatever
+        # --max-samples said (a security QA run, stop 73): the segments count against it
+        segments = sum(int(lv.k) for lv in summ.levels)
+        if segments > args.max_samples:
+            raise _Fail(f"{printable(args.file)}: its summary chunk holds {segments} "
+                        f"segments in all, more than --max-samples {args.max_samples} "
+                        "allows (their report takes about 2 KB each with --json); give a "
+                        "larger --max-samples to show them")
     if summ is None and args.no_decode:
         raise _Fail(f"{printable(args.file)} has no summary chunk, and --no-decode leaves "
                     "nothing to segment (encode with: mpz encode --summary 6,12,24,48)")
