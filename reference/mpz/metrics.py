@@ -230,6 +230,22 @@ def besides_markers(original: Motion, decoded: Motion, *,
             + _skeleton_parts(original, decoded, channel_bounds))
 
 
+def parts_missing_from(original: Motion, decoded: Motion) -> list[Part]:
+    """The parts of :func:`besides_markers` (``original`` against ``decoded``) that
+    ``decoded`` does not hold, ``"missing"``, and nothing else: the parts held by both are
+    not compared (``mpz compare`` of two .mpz files asks it both ways, and compared every
+    part a second time for it; review of stop 73)."""
+    from mpz.c3darchive import C3DArchive
+    from mpz.io.kinematics import Skeleton
+    _motions(original, decoded)
+    parts = [p for p in _metadata_parts(original, decoded) if p.status == "missing"]
+    if not isinstance(decoded.extras.get("c3d"), C3DArchive):     # else held: not compared
+        parts += _archive_parts(original, decoded)
+    if decoded.angles is None or not isinstance(decoded.extras.get("skeleton"), Skeleton):
+        parts += _skeleton_parts(original, decoded, None)
+    return [p for p in parts if p.status == "missing"]
+
+
 #: relative tolerance on two frame rates (a C3D stores its rate as a float32, a TRC as
 #: text); ``mpz compare`` refuses two rates beyond it before it compares anything
 RATE_TOLERANCE = 1e-6

@@ -583,12 +583,12 @@ def _both_mpz(a, b, names: tuple[str, str], parts: list) -> list:
     name...), which a source compare leaves out, are shown as "reader metadata": two
     encodes whose bytes differed only there were all "same", the difference unsaid."""
     from mpz.io import READER_KEYS
-    from mpz.metrics import Part, besides_markers
+    from mpz.metrics import Part, parts_missing_from
     out = [dataclasses.replace(p, status="differs", detail=f"{p.detail} (not in "
                                f"{names[1]}, and an .mpz file holds it)")
            if p.status == "missing" else p for p in parts]
     out += [Part(p.name, "differs", f"{p.detail} (only in {names[1]}, and an .mpz file "
-                 "holds it)") for p in besides_markers(b, a) if p.status == "missing"]
+                 "holds it)") for p in parts_missing_from(b, a)]
     keys = sorted(k for k in {*a.metadata, *b.metadata} if k in READER_KEYS)
     other = [k for k in keys if a.metadata.get(k) != b.metadata.get(k)]
     if other:
