@@ -326,3 +326,60 @@ def test_an_interrupted_batch_says_which_outputs_it_wrote(files, tmp_path, capsy
     assert (f"mpz encode: 1 of 2 inputs written before {said}: {tmp_path / 'a.mpz'}; "
             "the others are not (no partial file is left)") in got.err, got.err
     assert (tmp_path / "a.mpz").exists() and not (tmp_path / "b.mpz").exists()
+
+
+def _json_values(streamed: bool):
+    """JSON-like values; with ``streamed``, some arrays are Streamed (made as written)."""
+    from hypothesis import strategies as st
+
+    from mpz.tools._cli import Streamed
+    leaf = (st.none() | st.booleans() | st.integers() | st.text(max_size=5)
+            | st.floats(allow_nan=True, allow_infinity=True))
+
+    def arrays(items):
+        lists = st.lists(items, max_size=4)
+        if not streamed:
+            return lists
+        return lists | lists.map(lambda xs: Streamed(lambda: iter(xs), empty=not xs))
+    return st.recursive(leaf, lambda inner: arrays(inner) | st.dictionaries(
+        st.text(max_size=4), inner, max_size=4), max_leaves=20)
+
+
+def test_a_streamed_document_is_the_text_of_the_whole_one() -> None:
+    """print_json writes a document holding Streamed arrays (mpz summary's segments) as
+    it makes it; its text must be what json_text gives for the same document made whole,
+    at every indent, in ASCII or not, with non-finite numbers as null."""
+    import io
+
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from mpz.tools._cli import Streamed, json_text, print_json
+
+    def whole(v):
+        if isinstance(v, Streamed):
+            return [whole(x) for x in v._items()]
+        if isinstance(v, dict):
+            return {k: whole(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [whole(x) for x in v]
+        return v
+
+    class Ascii(io.StringIO):
+        encoding = "ascii"
+
+    @settings(max_examples=300, deadline=None)
+    @given(doc=st.dictionaries(st.text(max_size=4), _json_values(True), max_size=4),
+           indent=st.sampled_from([None, 1, 2]), ascii_out=st.booleans())
+    def check(doc, indent, ascii_out):
+        out = Ascii() if ascii_out else io.StringIO()
+        print_json({"schema": "x", "rows": Streamed(lambda: iter([doc]), empty=False)},
+                   file=out, indent=indent)
+        want = json_text({"schema": "x", "rows": [whole(doc)]}, indent=indent,
+                         ascii_only=ascii_out) + "\n"
+        assert out.getvalue() == want
+        json.loads(out.getvalue())
+        # and json_text, given the Streamed arrays, writes them whole: the same text
+        assert json_text({"schema": "x", "rows": Streamed(lambda: iter([doc]), empty=False)},
+                         indent=indent, ascii_only=ascii_out) + "\n" == want
+    check()

@@ -17,7 +17,10 @@ with their sum (``segments_wssse_total``): an ``.mpz``'s two differ by the codin
 error.
 ``--plot OUT.png`` draws a timeline like the paper's Fig. 2: one bar per level
 with its segments in distinct colours, and the mean pose of each segment of
-the coarsest level, explained in a caption.
+the coarsest level, explained in a caption. A level of more than
+:data:`MAX_PLOT_SEGMENTS` segments is one hatched bar, warned of. The report is
+written as it is made, a segment at a time: a valid file may hold 2^24 segments
+(spec §8), and the command holds the decoded levels, never a row for each segment.
 
 With ``--space angles`` the sums are of the skeleton's channel values: labelled in its
 angle unit (deg, or rad for an ASF that says so), its root translations summed with
@@ -44,6 +47,7 @@ from mpz.tools._cli import (
     EXIT_OK,
     EXIT_WARN,
     Parser,
+    Streamed,
     found,
     positive,
     print_json,
@@ -52,6 +56,10 @@ from mpz.tools._cli import (
 
 JSON_SCHEMA = "mpz-summary/1"
 DEFAULT_KS = "6,12,24,48"
+#: the most segments of one level that ``--plot`` draws one by one: a figure is about a
+#: thousand pixels wide, and a level of 2^20 took 23 s and 965 MB to draw (2^24, which
+#: a valid file may hold, would take some 15 GB); a level beyond is drawn as one bar
+MAX_PLOT_SEGMENTS = 4096
 
 
 def _ks(text: str) -> list[int]:
@@ -88,7 +96,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--asf", metavar="FILE",
                    help="skeleton for .amc input (default: found beside it); an error "
                    "for any other input")
-    p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs matplotlib)")
+    p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs "
+                   f"matplotlib); a level of more than {MAX_PLOT_SEGMENTS} segments is "
+                   "drawn as one bar, with a warning")
     p.add_argument("-f", "--force", action="store_true", help="replace the --plot file if it "
                    "exists")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
@@ -326,16 +336,17 @@ class _Fail(Exception):
 
 # -- output ----------------------------------------------------------------------------
 def _segments(level, rate):
-    out = []
+    """The segments of a level, one dict each, made as they are asked for: a valid file
+    may hold 2^24 of them (spec §8), and a list of them all took gigabytes (a security QA
+    run of stop 73)."""
     total = level.get("segment_total", level["wssse"])
     for i, (s, ln) in enumerate(zip(level["starts"], level["lengths"], strict=False)):
         sse = None if level["segment_wssse"] is None else float(level["segment_wssse"][i])
         share = None if sse is None or not total else 100.0 * sse / total
         if sse is not None and not total:
             share = 0.0
-        out.append({"index": i, "start": int(s), "start_time": None if not rate else int(s) / rate,
-                    "length": int(ln), "wssse": sse, "share": share})
-    return out
+        yield {"index": i, "start": int(s), "start_time": None if not rate else int(s) / rate,
+               "length": int(ln), "wssse": sse, "share": share}
 
 
 def _print_text(info, levels, out):
@@ -387,8 +398,13 @@ def _json(info, levels, warnings):
                         else float(np.sum(lv["segment_wssse"])),
                         "segments_of": ("the decoded motion" if stored else "the motion read")
                         if lv["segment_wssse"] is not None else None,
-                        "segments": _segments(lv, info["rate"])}
+                        "segments": _streamed_segments(lv, info["rate"])}
                        for lv in levels]}
+
+
+def _streamed_segments(level, rate) -> Streamed:
+    """A level's segments, written to the JSON report as they are made (:func:`_segments`)."""
+    return Streamed(lambda: _segments(level, rate), empty=not len(level["starts"]))
 
 
 # -- plot ------------------------------------------------------------------------------
@@ -508,6 +524,13 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
     else:
         ax_t = fig.add_subplot(gs[0, 0])
     for row, lv in enumerate(levels):
+        if len(lv["starts"]) > MAX_PLOT_SEGMENTS:        # warned of by plot_warnings
+            ax_t.broken_barh([(0.0, n / rate)], (row - 0.4, 0.8), facecolors="0.85",
+                             edgecolor="0.5", hatch="///", linewidth=0.5)
+            ax_t.text(n / rate / 2, row, f"{len(lv['starts'])} segments: too many to draw",
+                      ha="center", va="center", fontsize=7,
+                      bbox={"facecolor": "white", "edgecolor": "none", "pad": 1.5})
+            continue
         spans = [(s / rate, ln / rate)
                  for s, ln in zip(lv["starts"], lv["lengths"], strict=False)]
         colours = segment_colours(len(spans))
@@ -540,6 +563,15 @@ def _plot(path, info, levels, poses, parents, force: bool = False) -> None:
         from mpz.tools._common import plot_format
         fig.savefig(tmp, dpi=130, bbox_inches="tight", format=plot_format(path))
     plt.close(fig)
+
+
+def plot_warnings(levels: list[dict]) -> list[str]:
+    """What ``--plot`` cannot draw: a level of more than :data:`MAX_PLOT_SEGMENTS`
+    segments is drawn as one hatched bar that says so, and warned of here."""
+    return [f"--plot: the level k={lv['k']} has {len(lv['starts'])} segments, more than "
+            f"the {MAX_PLOT_SEGMENTS} a plot draws; it is drawn as one hatched bar (the "
+            "report lists them all)"
+            for lv in levels if len(lv["starts"]) > MAX_PLOT_SEGMENTS]
 
 
 # -- entry points --------------------------------------------------------------------------
@@ -599,6 +631,8 @@ def run(args) -> int:
         if exc.path is None:
             exc.path = args.file
         raise
+    if args.plot:
+        warnings += plot_warnings(levels)
     for w in warnings:
         # escaped here, kept as they are for --json: a file name or a reader's warning
         # with control characters drove the terminal (a review of stop 53)
