@@ -206,6 +206,11 @@ _CHECKSUM = "row_sha256"
 _LEVELS_CHECKSUM = "levels_sha256"
 #: the columns added to ``files`` after the first indexes, in order
 _ADDED = (*_RECORDED, _CHECKSUM, _LEVELS_CHECKSUM)
+#: the ``corpus`` table's key of the checksum of its other values (:func:`info_digest`):
+#: none covered them, and a ``levels`` of 2000 written in place made every mpz search take
+#: four minutes (a security QA run of stop 73). Absent from an older index until a run
+#: writes its values again; not checked before
+_INFO_CHECKSUM = "corpus_sha256"
 
 #: what each column of a ``files`` row may hold, checked as rows are read: SQLite keeps any
 #: value in any column, and a row changed by another program (a text in ``frames``, a BLOB
@@ -300,6 +305,19 @@ def row_digest(row: Mapping[str, Any]) -> str:
             text = repr(v)
         parts.append(f"{column}\t{text}\n")
     return hashlib.sha256("".join(parts).encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def info_digest(info: Mapping[str, Any]) -> str:
+    """The ``corpus_sha256`` of the ``corpus`` table: the hexadecimal sha256 of, for each
+    other key in sorted order, the key, a tab, its value and a line end, where a value is
+    the UTF-8 of a text, the hex of a BLOB, ``repr`` of a number, or ``NULL``."""
+    lines = []
+    for key, v in sorted(((str(k), v) for k, v in info.items() if k != _INFO_CHECKSUM),
+                         key=lambda kv: kv[0]):
+        text = ("NULL" if v is None else v if isinstance(v, str)
+                else v.hex() if isinstance(v, bytes) else repr(v))
+        lines.append(f"{key}\t{text}\n")
+    return hashlib.sha256("".join(lines).encode("utf-8", "surrogateescape")).hexdigest()
 
 
 def levels_digest(levels: Iterable[tuple[Any, Any, Any, Any]]) -> str:
@@ -1117,8 +1135,14 @@ class Index:
     # -- writing
     @_sql
     def set_info(self, items: Mapping[str, str]) -> None:
-        self.db.executemany("INSERT OR REPLACE INTO corpus VALUES (?, ?)", items.items())
-        self.db.commit()
+        """Write ``items`` into the ``corpus`` table, and the checksum of all its values
+        (:func:`info_digest`). A table whose values do not match their checksum is refused
+        first (:meth:`info`), so a damaged value is never given a checksum."""
+        written = {k: str(v) for k, v in items.items()}     # as the TEXT column keeps them
+        values = {**self.info(), **written}
+        with self.db:
+            self.db.executemany("INSERT OR REPLACE INTO corpus VALUES (?, ?)",
+                                [*written.items(), (_INFO_CHECKSUM, info_digest(values))])
 
     @_sql
     def put(self, result: FileResult, output_key: str) -> None:
@@ -1329,7 +1353,20 @@ class Index:
 
     @_sql
     def info(self) -> dict[str, str]:
-        return dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
+        """The ``corpus`` table's values (its checksum left out).
+
+        Raises
+        ------
+        EncoderError
+            When they do not match the checksum the last run wrote (:func:`info_digest`):
+            a value changed in place."""
+        info = dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
+        stored = info.pop(_INFO_CHECKSUM, None)
+        if stored is not None and stored != info_digest(info):
+            raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the values of its "
+                               f"corpus table are not those written: their {_INFO_CHECKSUM} "
+                               f"does not match; a value changed in place); {_REBUILD}")
+        return info
 
     @_sql
     def refresh_descriptors(self) -> list[str]:
