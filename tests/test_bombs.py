@@ -255,27 +255,34 @@ def test_many_unknown_ancillary_chunks_cost_nothing_each(tmp_path: Path,
     assert out["shape"] == [F, M, 3] and out["finite"]
 
 
+def _cli_heap_peak(argv: list[str]) -> tuple[int, int]:
+    """Run ``mpz ARGV`` in this process: its exit code and the peak of the Python heap."""
+    import tracemalloc
+
+    from mpz.tools import mpz_cli
+    tracemalloc.start()
+    try:
+        code = mpz_cli.main(argv)
+        return code, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
 def test_show_and_compare_keep_nothing_per_unknown_chunk(tmp_path: Path, capsys) -> None:
     """mpz show and mpz compare still kept a Chunk and a warning per unknown chunk (their
     bound and skeleton lookups scanned with keep_unknown): 1.07 GB for the valid 12 MB
     file of 10^6 that the decoder reads in 171 MB (a security QA run, stop 73). With
     200,000 of them (2.4 MB) the Python heap's peak stays far below the 177 MB that many
     Chunks and warnings took."""
-    import tracemalloc
 
-    from mpz.tools import mpz_cli
     F, M = 30, 1
     base = _file(F, M, [(0, [0])], [])
     end = len(base) - 12
     path = tmp_path / "many.mpz"
     path.write_bytes(base[:end] + container.build_chunk("zzzz", b"") * 200_000 + base[end:])
     for argv in (["show", str(path)], ["compare", str(path), str(path)]):
-        tracemalloc.start()
-        try:
-            assert mpz_cli.main(argv) == 0
-            peak = tracemalloc.get_traced_memory()[1]
-        finally:
-            tracemalloc.stop()
+        code, peak = _cli_heap_peak(argv)
+        assert code == 0
         capsys.readouterr()
         assert peak < 40 << 20, (argv[0], peak)
 
@@ -695,9 +702,7 @@ def test_mpz_summary_writes_its_report_as_it_makes_it(tmp_path: Path) -> None:
     Python heap stays far below what their rows, kept, take (about 12 MB in dicts, and
     as much again as text), and the report holds every segment, as the file stores it."""
     import contextlib
-    import tracemalloc
 
-    from mpz.tools import mpz_cli
     F = 1 << 15
     path = tmp_path / "s.mpz"
     path.write_bytes(smrc_bomb(F, 1, [F // 2, F], 1))
@@ -705,12 +710,8 @@ def test_mpz_summary_writes_its_report_as_it_makes_it(tmp_path: Path) -> None:
                  ["summary", str(path), "--no-decode", "--json"]):
         out = tmp_path / "report.txt"
         with out.open("w") as f, contextlib.redirect_stdout(f):
-            tracemalloc.start()
-            try:
-                assert mpz_cli.main(argv) == 0
-                peak = tracemalloc.get_traced_memory()[1]
-            finally:
-                tracemalloc.stop()
+            code, peak = _cli_heap_peak(argv)
+        assert code == 0
         assert peak < 6 << 20, (argv, peak)
         text = out.read_text()
         if "--json" in argv:
