@@ -240,7 +240,14 @@ def test_options_that_change_nothing_are_said(tmp_path, two_joint_bvh):
     (tmp_path / "j.bvh").write_text(two_joint_bvh)
     p = _mpz("encode", "j.bvh", "-o", "j.mpz", "--no-skeleton", "--angle-error", "0.5",
              cwd=tmp_path)
-    assert p.returncode == 0 and "change nothing with --no-skeleton" in p.stderr, p.stderr
+    # the flag given alone is named (it said "--angle-error and --translation-error
+    # change nothing": a docs QA run of stop 74)
+    assert p.returncode == 0 and "note: --angle-error changes nothing with --no-skeleton" \
+        in p.stderr and "--translation-error" not in p.stderr, p.stderr
+    p = _mpz("encode", "j.bvh", "-o", "k.mpz", "--no-skeleton", "--angle-error", "0.5",
+             "--translation-error", "0.1", cwd=tmp_path)
+    assert p.returncode == 0 and "--angle-error and --translation-error change nothing " \
+        "with --no-skeleton" in p.stderr, p.stderr
 
 
 def test_a_model_error_too_fine_to_hold_is_said():
@@ -248,21 +255,20 @@ def test_a_model_error_too_fine_to_hold_is_said():
     and declared it, while the report said the outputs were within their bound. A model
     output of values 0 and 1000 has a range of 1000: 3e-10 of it is 3e-7, below 1000 /
     2^31 = 4.66e-7, the finest step 2^31 grid steps allow."""
-    from mpz.encoder import EncodeOptions
-    from mpz.tools.cmd_encode import _model_bound_notes
+    from mpz.encoder import EncodeOptions, encode_motion
     from mpz.tools.make_vectors import c3d_motion
     m = c3d_motion(7, storage=1, F=16, M=3, J=1, C=2, n=2)
     a = m.extras["c3d"]
     a.models[:] = 0.0
     a.models[8, 0, :] = 1000.0
     a.models[~a.model_valid] = np.nan
+    # the library's report says it too (a docs QA run of stop 74: the command alone did)
     fine = EncodeOptions(max_error=1.0, model_errors={"ANGLES": 3e-10})
-    notes = _model_bound_notes(m, fine, mpz.encode(m, max_error=1.0,
-                                                   model_errors={"ANGLES": 3e-10}))
-    assert len(notes) == 1 and "ANGLES=3e-10" in notes[0] and "cannot be held" in notes[0]
+    notes = encode_motion(m, fine)[1].notes
+    assert len(notes) == 1 and "model_errors['ANGLES']=3e-10" in notes[0] \
+        and "cannot be held" in notes[0]
     ok = EncodeOptions(max_error=1.0, model_errors={"ANGLES": 1e-4})
-    assert _model_bound_notes(m, ok, mpz.encode(m, max_error=1.0,
-                                                model_errors={"ANGLES": 1e-4})) == []
+    assert encode_motion(m, ok)[1].notes == []
 
 
 def test_a_memory_limit_that_limits_nothing_is_said(tmp_path):
@@ -450,3 +456,32 @@ def test_grid_note_on_an_int16_c3d_names_its_grid_not_the_bound(shared_data, tmp
     assert "the grid step is 0.0833333 mm instead (the source's int16 grid, POINT:SCALE " \
         "0.0833333)" in p.stderr, p.stderr
     assert "needs a finer one" not in p.stderr
+
+
+def test_what_the_file_shows_of_the_options_is_said_by_the_library_and_corpus_runs(
+        tmp_path):
+    """A --grid the bound overruled and a --weight without a pattern layer were noted by
+    mpz encode alone: EncodeReport.notes and a corpus run's notes lacked them (a docs QA
+    run of stop 74). The library says them in its own spelling, and a corpus run in the
+    command's, of a file it encodes and again of one it finds up to date."""
+    import json
+
+    from mpz.encoder import EncodeOptions, encode_motion
+    m = generate("walk", frames=30)
+    name = m.names[0]
+    rep = encode_motion(m, EncodeOptions(max_error=1.0, grid=5.0, weights={name: 8.0}))[1]
+    assert [n.split(":")[0] for n in rep.notes] == ["grid=5", "weights"], rep.notes
+    assert "the grid step is 0.57735 mm instead (the bound 1 mm needs a finer one)" \
+        in rep.notes[0]
+    # neither is given: nothing said (and the file is not parsed for them)
+    assert encode_motion(m, EncodeOptions(max_error=1.0))[1].notes == []
+    src = tmp_path / "src"
+    src.mkdir()
+    write(m, src / "walk.trc")
+    for status in ("encoded", "skipped"):
+        p = _mpz("encode", "-r", "src", "-o", "out/", "--jobs", "0", "--max-error", "1mm",
+                 "--grid", "5mm", "--weight", f"{name}=8", "--json", cwd=tmp_path)
+        assert p.returncode == 0, p.stderr
+        (entry,) = json.loads(p.stdout)["files"]
+        assert entry["status"] == status
+        assert [n.split(":")[0] for n in entry["notes"]] == ["--grid 5mm", "--weight"], entry

@@ -730,7 +730,7 @@ def _encode_file(task: Task) -> FileResult:
         of this file; any other exception is a bug and propagates.
     """
     from mpz.api import write_atomic
-    from mpz.encoder import encode_motion, not_kept
+    from mpz.encoder import encode_motion, not_kept, outcome_notes
     from mpz.io import read
     from mpz.similarity import summarize
 
@@ -808,6 +808,9 @@ def _encode_file(task: Task) -> FileResult:
     levels = [(lv.k, lv.wssse, lv.starts.astype("<u4").tobytes(),
                np.ascontiguousarray(lv.means, "<f4").tobytes())
               for lv in (summary.levels if summary is not None else ())]
+    # what the output shows of the options (a --grid overruled, --weight without a
+    # pattern layer): said of a file kept as well as of one encoded now
+    notes = [*notes, *outcome_notes(motion, opts, data)]
     dropped = not_kept(motion, opts)
     # the reader's warning, and what the output's C3D will not give back (_row's)
     warning = "; ".join(w for w in (warning, row["warning"]) if w)

@@ -668,8 +668,9 @@ class EncodeReport:
     #: the summary chunk's partitions: 0 none, 1 exact, b > 1 cuts on blocks of b frames
     #: (a motion over :data:`mpz.fisher.EXACT_MAX_FRAMES` frames)
     summary_blocks: int = 0
-    #: options given that did less than they seem in this encode, each in a sentence
-    #: (:func:`mpz.encoder.option_notes`; empty: none)
+    #: options given that did less than they seem in this encode, each in a sentence:
+    #: those the motion and the options show (:func:`mpz.encoder.option_notes`), then
+    #: those the encoded file shows (:func:`mpz.encoder.outcome_notes`); empty: none
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -796,6 +797,82 @@ def option_notes(motion: Motion, opts: EncodeOptions, *, resolved: bool = False
         notes.append(f"{names} change{'s' * (len(given) == 1)} nothing: no skeleton chunk "
                      f"is written ({why}), so no channel is coded")
     return notes
+
+
+def outcome_notes(motion: Motion, opts: EncodeOptions, data: bytes, *,
+                  resolved: bool = False) -> list[str]:
+    """The options that the encoded file ``data`` shows did less than they seem, each in a
+    sentence: a ``grid`` step the bound or the source's grid overruled (the file's QUNT
+    step, spec §4.4), ``weights`` where no node kept a pattern layer (they act on it
+    alone), and a ``model_errors`` fraction finer than some model-output axes could be
+    held (their §4.13.3 ``bound``). ``opts`` are those ``data`` was encoded with;
+    ``resolved`` as for :func:`option_notes`.
+
+    From the file alone, so that a corpus run says them of an output it keeps; they were
+    said by ``mpz encode`` only, and neither :attr:`EncodeReport.notes` nor a corpus run
+    had them (a docs QA run of stop 74). The file is parsed only when one of the three
+    options is given."""
+    if opts.grid is None and not opts.weights and not opts.model_errors:
+        return []
+    if not resolved:
+        opts, _ = resolve_bound(motion, opts)
+    records = [c.record for c in container.parse(data) if c.record is not None]
+    notes = []
+    units = f" {motion.units}" if motion.units else ""
+    step = next(r.step for r in records if isinstance(r, Qunt))
+    if opts.grid is not None and step != opts.grid:
+        grid = source_grid_of(motion)
+        ratio = None if not grid else step / grid
+        # an int16 C3D is coded on its own grid: the note blamed the bound (0.2 mm asked,
+        # 0.0833 mm, "the bound 0.5 mm needs a finer one": a QA run of stop 53)
+        why = (f"the source's int16 grid, POINT:SCALE {grid:g}"
+               if ratio is not None and abs(ratio - round(ratio)) < 1e-9 and ratio >= 1
+               else f"the bound {opts.max_error:g}{units} needs a finer one"
+               if step < opts.grid and opts.max_error is not None
+               else "the source's own grid")
+        flag = f"--grid {opts.grid:g}{motion.units or ''}"       # as the flag is given
+        notes.append(f"{spelled(flag, f'grid={opts.grid:g}')}: "
+                     f"the grid step is {step:.6g}{units} instead ({why})")
+    if opts.weights and not any(isinstance(r, Patt) and r.pattern_count > 0
+                                for r in records):
+        notes.append(f"{spelled('--weight', 'weights')}: the weights act on the pattern "
+                     "layer only (the paper's distortion control), and no node kept one "
+                     "(under a bound, key frames or per-sample residuals won): they do not "
+                     "change the decoded motion")
+    return notes + _model_bound_notes(motion, opts, records)
+
+
+def _model_bound_notes(motion: Motion, opts: EncodeOptions, records: list[Record]
+                       ) -> list[str]:
+    """A note per model_errors kind whose bound some axes could not keep: finer than
+    float32 values or 2^31 grid steps allow, they are coded at the finest bound that holds
+    and declare it (spec §4.13.3, the axis's ``bound``), which went unsaid (a QA run:
+    ANGLES=1e-10 declared 4.7e-10 of the range)."""
+    from mpz.c3darchive import C3DArchive
+    from mpz.chunks import Cpnt
+    from mpz.format import ModelKind
+    arc = motion.extras.get("c3d")
+    cpnt = next((r for r in records if isinstance(r, Cpnt)), None)
+    if not opts.model_errors or not isinstance(arc, C3DArchive) or not arc.model_kinds \
+            or cpnt is None:
+        return []
+    coarser: dict[str, list[float]] = {}
+    for j, model in enumerate(cpnt.models):
+        name = ModelKind(arc.model_kinds[j]).name
+        rel = opts.model_errors.get(name)
+        ok = arc.model_valid[:, j]
+        if rel is None or not ok.any():
+            continue
+        for axis, ax in enumerate(model.axes):
+            col = arc.models[ok, j, axis]
+            span = float(np.max(col) - np.min(col))
+            if span > 0 and ax.bound > rel * span * (1 + 1e-9):
+                coarser.setdefault(name, []).append(ax.bound / span)
+    return [f"{spelled(f'--model-error {name}', f'model_errors[{name!r}]')}="
+            f"{opts.model_errors[name]:g}: {len(fr)} axis(es) cannot be held that fine "
+            "(float32 values, or 2^31 grid steps) and declare the finest bound that holds, "
+            f"up to {max(fr):.2g} of their range"
+            for name, fr in coarser.items()]
 
 
 # ----------------------------------------------------------------- helpers --
@@ -2062,6 +2139,7 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
                                "grid")
         data = container.build(file_records(motion, opts, hier, grid, root, coded, bits,
                                             None if ancillary is None else ancillary.result()))
+        report.notes += outcome_notes(motion, opts, data, resolved=True)
     except (KeyboardInterrupt, SystemExit, SystemError):
         # a signal (or a kernel's report of one, SystemError): waited for a while only,
         # since it may have left a lock held that a pool thread waits on for ever (numba's
@@ -2220,7 +2298,7 @@ def encode(motion: Motion, *,
         A complete MPZ file. :func:`encode_motion` and :func:`mpz.write_mpz` return an
         :class:`EncodeReport` too, whose ``notes`` name the options given that did less
         than they seem (:func:`mpz.encoder.option_notes`, which can also be called
-        before encoding).
+        before encoding, then :func:`mpz.encoder.outcome_notes` of the file written).
 
     Raises
     ------

@@ -225,41 +225,6 @@ def _reader_keys(args: argparse.Namespace) -> list[str]:
             "checks" for k in keys]
 
 
-def _model_bound_notes(motion, opts: EncodeOptions, data: bytes) -> list[str]:
-    """A note per --model-error kind whose bound some axes could not keep: finer than
-    float32 values or 2^31 grid steps allow, they are coded at the finest bound that holds
-    and declare it (spec §4.13.3, the axis's ``bound``), which went unsaid (a QA run:
-    ANGLES=1e-10 declared 4.7e-10 of the range)."""
-    import numpy as np
-
-    from mpz.c3darchive import C3DArchive
-    from mpz.chunks import Cpnt
-    from mpz.container import parse
-    from mpz.format import ModelKind
-    arc = motion.extras.get("c3d")
-    if not opts.model_errors or not isinstance(arc, C3DArchive) or not arc.model_kinds:
-        return []
-    payload = next((c.payload for c in parse(data) if c.type == "cpnt"), None)
-    if payload is None:
-        return []
-    coarser: dict[str, list[float]] = {}
-    for j, model in enumerate(Cpnt.load(payload).models):
-        name = ModelKind(arc.model_kinds[j]).name
-        rel = opts.model_errors.get(name)
-        ok = arc.model_valid[:, j]
-        if rel is None or not ok.any():
-            continue
-        for axis, ax in enumerate(model.axes):
-            col = arc.models[ok, j, axis]
-            span = float(np.max(col) - np.min(col))
-            if span > 0 and ax.bound > rel * span * (1 + 1e-9):
-                coarser.setdefault(name, []).append(ax.bound / span)
-    return [f"--model-error {name}={opts.model_errors[name]:g}: {len(fr)} axis(es) cannot "
-            f"be held that fine (float32 values, or 2^31 grid steps) and declare the finest "
-            f"bound that holds, up to {max(fr):.2g} of their range"
-            for name, fr in coarser.items()]
-
-
 def _model_errors(items: list[str] | None) -> dict[str, float]:
     """--model-error KIND=F (issue 12): a fraction of each channel's range, per kind."""
     out: dict[str, float] = {}
@@ -515,25 +480,10 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
-    later = []                  # the notes that the encode's outcome gives
-    if opts.grid is not None and rep.step != opts.grid:
-        from mpz.encoder import source_grid_of
-        grid = source_grid_of(motion)
-        ratio = None if not grid else rep.step / grid
-        # an int16 C3D is coded on its own grid: the note blamed the bound (0.2 mm asked,
-        # 0.0833 mm, "the bound 0.5 mm needs a finer one": a QA run of stop 53)
-        why = (f"the source's int16 grid, POINT:SCALE {grid:g}"
-               if ratio is not None and abs(ratio - round(ratio)) < 1e-9 and ratio >= 1
-               else f"the bound {rep.bound:g}{' ' + units if units else ''} needs a finer one"
-               if rep.step < opts.grid
-               else "the source's own grid")
-        later.append(f"--grid {args.grid}: the grid step is {rep.step:.6g}"
-                     f"{' ' + units if units else ''} instead ({why})")
-    later += _model_bound_notes(motion, opts, data)
-    if args.weight and not any(n.used_patterns for n in rep.nodes):
-        later.append("--weight: the weights act on the pattern layer only (the paper's "
-                     "distortion control), and no node kept one (under a bound, key frames "
-                     "or per-sample residuals won): they do not change the decoded motion")
+    # the notes that the encoded file gives (a --grid, --weight or --model-error that did
+    # less than it seems), which the report's notes end with too
+    from mpz.encoder import outcome_notes
+    later = outcome_notes(motion, opts, data)
     if not args.quiet:
         for note in later:
             print(f"mpz encode: note: {printable(note)}", file=sys.stderr)
@@ -806,11 +756,15 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
         if not batch:
             notes.append("--no-skeleton: the skeleton and its channels are not kept, only the "
                          "joint positions")
-            if args.angle_error is not None or args.translation_error is not None:
-                # said here: a --translation-error in mm on a file without a unit has no
-                # value to give the encoder's own note (mpz.encoder.option_notes)
-                notes.append("--angle-error and --translation-error change nothing with "
-                             "--no-skeleton (no channels are coded)")
+            # said here: a --translation-error in mm on a file without a unit has no
+            # value to give the encoder's own note (mpz.encoder.option_notes); naming the
+            # flags given alone, as that note does (a docs QA run of stop 74)
+            given = [f for f, v in (("--angle-error", args.angle_error),
+                                    ("--translation-error", args.translation_error))
+                     if v is not None]
+            if given:
+                notes.append(f"{' and '.join(given)} change{'s' * (len(given) == 1)} "
+                             "nothing with --no-skeleton (no channels are coded)")
         return replace(opts, keep_skeleton=False), notes
     lin = _translation_error(args.translation_error, motion)
     # the marker layer's default is the preview bound (mpz.encoder.default_error); a given
