@@ -87,8 +87,11 @@ def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatc
                                                                        channels_sha256="e")}}
                                         )[0].startswith("1 vector(s) decode otherwise")
     assert make_golden.describe_changes(old, old) == []
-    shipped = tmp_path / "golden"
-    shipped.mkdir()
+    shipped = tmp_path / "conformance" / "golden"          # in a clone (its top: tmp_path)
+    shipped.mkdir(parents=True)
+    (tmp_path / "pyproject.toml").write_text("")
+    (tmp_path / "spec").mkdir()
+    (tmp_path / "spec" / "mpz-1.md").write_text("")
     (shipped / "golden.json").write_text(json.dumps(old))
     monkeypatch.setattr(make_golden, "GOLDEN_DIR", shipped)
     monkeypatch.setattr(make_golden, "compute", lambda: new)
@@ -104,6 +107,33 @@ def test_changes_are_told_apart_and_an_unchanged_id_is_said(tmp_path, monkeypatc
     make_golden.main(["--out", str(tmp_path / "again")])
     out = capsys.readouterr().out
     assert "the golden id is unchanged: nothing for CHANGELOG.md" in out and "decode" not in out
+
+
+def test_the_makers_write_into_a_clone_only(tmp_path, monkeypatch, capsys):
+    """Installed from a wheel, make_vectors deleted and rewrote the vectors in site-packages
+    that mpz-conformance checks against, and make_golden wrote a folder beside
+    site-packages that uninstall left behind (a release QA run, stop 74). Their default
+    outputs outside a clone are refused before anything is written; --out still works."""
+    from mpz.conformance import manifest as mf
+    from mpz.tools import make_golden, make_vectors
+    installed = tmp_path / "site-packages" / "mpz" / "conformance" / "vectors"
+    (installed / "valid").mkdir(parents=True)
+    (installed / "valid" / "v.mpz").write_bytes(b"kept")
+    monkeypatch.setattr(mf, "DEFAULT_DIR", installed)
+    with pytest.raises(SystemExit) as exc:
+        make_vectors.main([])
+    assert exc.value.code == 2
+    assert "installed package's vectors" in capsys.readouterr().err
+    assert (installed / "valid" / "v.mpz").read_bytes() == b"kept"
+    golden = tmp_path / "lib" / "conformance" / "golden"
+
+    def never() -> dict:
+        raise AssertionError("computed before the folder was checked")
+    monkeypatch.setattr(make_golden, "GOLDEN_DIR", golden)
+    monkeypatch.setattr(make_golden, "compute", never)
+    assert make_golden.main([]) == 64
+    assert "not in a clone of the repository" in capsys.readouterr().err
+    assert not golden.exists()
 
 
 def test_an_out_that_is_a_file_is_refused_before_computing(tmp_path, monkeypatch, capsys):

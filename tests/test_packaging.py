@@ -43,6 +43,27 @@ def test_the_lowest_pins_are_the_stated_floors() -> None:
     assert _pins() == _floors()
 
 
+def test_the_version_is_pyprojects_and_none_released() -> None:
+    """The package said 0.1.0, the released version (CHANGELOG.md), for code long after it:
+    a build was a second, different mpz-0.1.0 (a release QA run, stop 74). mpz.__version__
+    is pyproject.toml's, and while CHANGELOG.md's "Unreleased" holds entries it is above
+    every release the CHANGELOG lists, and none of them."""
+    import re
+
+    import mpz
+    version = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["version"]
+    assert mpz.__version__ == version
+    log = (REPO / "CHANGELOG.md").read_text()
+    released = [Version(v) for v in re.findall(r"^## (\d+\.\d+\.\d+) — \d{4}-\d\d-\d\d$",
+                                               log, re.M)]
+    assert released, "CHANGELOG.md lists no release"
+    unreleased = log.split("## Unreleased", 1)[1].split("\n## ", 1)[0]
+    if unreleased.strip():
+        assert Version(version) > max(released), (version, max(released))
+    else:
+        assert Version(version) in released
+
+
 def test_the_c3d_reader_floor_is_the_version_its_hazard_rules_are_for() -> None:
     """mpz.io.c3dbin's rules say which files would crash ezc3d 1.7.2 (docs/io-notes.md);
     an older ezc3d crashes on others (1.5.16) or reads DEC residuals otherwise (1.7.1)."""

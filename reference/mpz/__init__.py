@@ -48,7 +48,7 @@ from mpz.motion import Motion, concatenate
 #: the package version; the bitstream version is separate (spec Appendix B, CHANGELOG.md).
 #: Every development checkout between two releases has the same one: :func:`identity`
 #: tells them apart
-__version__ = "0.1.0"
+__version__ = "0.2.0.dev0"   # pyproject.toml's (tests/test_packaging.py)
 
 __all__ = ["MPZError", "FormatError", "ChecksumError", "UnsupportedVersionError",
            "LimitExceededError", "InputFormatError", "MotionError", "EncoderError",

@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 import os
+from pathlib import Path
 import re
 import sys
 import time
@@ -144,6 +145,14 @@ STAGE_BYTES = 32 << 20
 #: what an .mpz input counts for :func:`stage`: about this many bytes of source a byte (the
 #: 29 real files at the default bound code 10-40 x their float32 positions)
 MPZ_EXPANSION = 16
+
+
+def is_clone(root: Path) -> bool:
+    """Whether ``root`` is the top of a clone of the repository (its pyproject.toml and
+    spec/mpz-1.md are there): the makers of frozen files write into a clone only, not
+    into an installed package (a release QA run, stop 74: make_vectors rewrote the
+    vectors that the installed mpz-conformance checks against)."""
+    return (root / "pyproject.toml").is_file() and (root / "spec" / "mpz-1.md").is_file()
 
 
 def on_terminal() -> bool:

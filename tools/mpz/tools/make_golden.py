@@ -135,6 +135,13 @@ def main(argv=None) -> int:
                         "another folder to see what changed without touching it)")
     args = p.parse_args(argv)
     out = Path(args.out)
+    from mpz.tools._common import is_clone
+    if out.resolve() == GOLDEN_DIR.resolve() and not is_clone(GOLDEN_DIR.resolve().parents[1]):
+        # installed from a wheel, the default was a folder beside site-packages that
+        # uninstall left behind (a release QA run, stop 74)
+        print(f"make_golden: error: {GOLDEN_DIR} is not in a clone of the repository "
+              "(this mpz is installed): run this in a clone, or give --out", file=sys.stderr)
+        return 64
     if out.exists() and not out.is_dir():        # found after the 5 s of computing (QA)
         print(f"make_golden: error: --out {out}: not a folder (golden.json is written into "
               "it)", file=sys.stderr)

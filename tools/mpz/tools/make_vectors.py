@@ -5200,6 +5200,11 @@ def main(argv=None) -> int:
                    help="output directory (default: the package's conformance/vectors)")
     args = p.parse_args(argv)
     out = Path(args.out)
+    from mpz.tools._common import is_clone
+    default = Path(mf.DEFAULT_DIR)
+    if out.resolve() == default.resolve() and not is_clone(default.resolve().parents[1]):
+        p.error(f"{default} are the installed package's vectors, which mpz-conformance "
+                "checks against: run this in a clone of the repository, or give --out")
     out.mkdir(parents=True, exist_ok=True)
     for g in ("valid", "uncommon", "invalid", "inputs"):
         d = out / g
