@@ -190,8 +190,9 @@ def _reject_vector(man):
     (lambda m: _reject_vector(m).__setitem__("file", 5), "file: 5 is not a path"),
     (lambda m: _reject_vector(m).__setitem__("group", ["invalid"]), "unknown group"),
     (lambda m: _reject_vector(m).__setitem__("sha256", 5), "is not 64 lower-case hex"),
-    (lambda m: _decode_vector(m).__setitem__("tolerances", [1, 2]), "must be objects"),
-    (lambda m: _decode_vector(m).__setitem__("header", 7), "must be objects"),
+    (lambda m: _decode_vector(m).__setitem__("tolerances", [1, 2]),
+     "tolerances is not an object"),
+    (lambda m: _decode_vector(m).__setitem__("header", 7), "header is not an object"),
     (lambda m: _decode_vector(m).__setitem__("expected_output", "x.npy"), "not an object"),
     (lambda m: _decode_vector(m).__setitem__("features", [1]), "features an object"),
     (lambda m: _reject_vector(m).__setitem__("expected_error", 5), "expected_error is not"),
@@ -200,6 +201,8 @@ def _reject_vector(man):
     (lambda m: m["encoder_inputs"][0].__setitem__("sidecar", "../x.json"),
      "sidecar: '../x.json' is not a path inside"),
     (lambda m: m["encoder_inputs"][0].__setitem__("max_errors", ["1"]), "max_errors"),
+    # it said "sidecar: sha256 None is not 64 lower-case hex digits" (a docs QA run, stop 74)
+    (lambda m: m["encoder_inputs"][0].pop("sidecar_sha256"), "missing 'sidecar_sha256'"),
 ])
 def test_a_field_of_another_type_or_a_path_outside_the_suite_is_a_manifest_error(edit, said):
     """A security QA run (stop 73): a manifest whose fields had another JSON type made the

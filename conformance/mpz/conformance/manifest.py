@@ -259,8 +259,8 @@ def validate(man: dict) -> dict:
             _digest(out.get("sha256"), f"{name}: expected_output")
             _need(isinstance(v["integer_layer_digest"], str),
                   f"{name}: integer_layer_digest is not text")
-            _need(isinstance(v["tolerances"], dict) and isinstance(v["header"], dict),
-                  f"{name}: tolerances and header must be objects")
+            for key in ("tolerances", "header"):       # the one at fault named (docs QA)
+                _need(isinstance(v[key], dict), f"{name}: {key} is not an object")
             tol = v["tolerances"]
             _need(all(isinstance(tol.get(k), (int, float)) and math.isfinite(tol[k]) and tol[k] >= 0
                       for k in ("max_abs", "rms")), f"{name}: bad tolerances {tol!r}")
@@ -289,14 +289,16 @@ def validate(man: dict) -> dict:
     _need(isinstance(inputs, list), "encoder_inputs is not a list")
     for e in inputs:
         _need(isinstance(e, dict), f"an encoder input is not an object: {e!r:.80}")
-        for key in ("name", "input", "sidecar", "sha256", "max_errors", "rules"):
+        # sidecar_sha256 among them: its absence said "sha256 None" (a docs QA run, stop 74)
+        for key in ("name", "input", "sidecar", "sha256", "sidecar_sha256", "max_errors",
+                    "rules"):
             _need(key in e, f"encoder input {e!r:.200}: missing {key!r}")
         what = f"encoder input {e['name']!r:.80}"
         _need(isinstance(e["name"], str) and e["name"], f"{what}: name is not text")
         _inside(e["input"], f"{what}: input")
         _inside(e["sidecar"], f"{what}: sidecar")
         _digest(e["sha256"], f"{what}: input")
-        _digest(e.get("sidecar_sha256"), f"{what}: sidecar")
+        _digest(e["sidecar_sha256"], f"{what}: sidecar")
         _need(isinstance(e["max_errors"], list) and e["max_errors"]
               and all(_finite(x) and x > 0 for x in e["max_errors"]),
               f"{what}: max_errors must be a list of finite numbers above 0")

@@ -66,7 +66,7 @@ EXIT_FAILED = EXIT_WARN
 #: one line for ``--help`` epilogs
 EXIT_CODES_HELP = ("exit codes: 0 ok, 1 warnings only, 2 errors in the input, "
                    "3 out of memory, 64 usage error, 70 a bug in mpz, 130 interrupted, "
-                   "143 terminated while writing")
+                   "143 terminated while writing (SIGHUP: 129)")
 
 _P = ParamSpec("_P")
 

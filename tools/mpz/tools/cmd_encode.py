@@ -95,9 +95,11 @@ def add_parser(sub):
                    help="tighter bound for one node of the body-part hierarchy (the "
                    "--hierarchy given, else cmu41 with 37 or more of CMU's 41 markers, skeleton "
                    "for BVH/AMC, else auto; not the flat one a bounded encode uses without "
-                   "it), e.g. l_foot=0.5mm (repeatable; a bound looser than --max-error "
-                   "changes nothing; BVH/AMC only with --no-skeleton: their joints come "
-                   "from the channels, which it does not bound)")
+                   "it), e.g. l_foot=0.5mm (repeatable; a bound not tighter than "
+                   "--max-error bounds its node no more tightly, but giving one still "
+                   "selects the body-part hierarchy, often a larger file; BVH/AMC only "
+                   "with --no-skeleton: their joints come from the channels, which it "
+                   "does not bound)")
     p.add_argument("--theta", type=float, default=D.theta,
                    help=f"key-frame threshold, fraction of the head size ADDH (default {D.theta})")
     p.add_argument("--k0", type=int, default=D.k0,

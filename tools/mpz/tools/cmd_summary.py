@@ -109,8 +109,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
                    help=max_samples_help("decoding and segmenting need about 130 bytes per "
                                          "marker-frame") + "; .mpz input only, whose "
-                   "summary chunk may then hold at most N segments in all (about 2 KB each "
-                   "in the --json report)")
+                   "summary chunk may then hold at most N segments in all (about 150 bytes "
+                   "each in the --json report)")
     p.set_defaults(func=run)
     return p
 
@@ -219,7 +219,7 @@ def _levels_from_mpz(args, ks):
         if segments > args.max_samples:
             raise _Fail(f"{printable(args.file)}: its summary chunk holds {segments} "
                         f"segments in all, more than --max-samples {args.max_samples} "
-                        "allows (their report takes about 2 KB each with --json); give a "
+                        "allows (their --json report takes about 150 bytes each); give a "
                         "larger --max-samples to show them")
     if summ is None and args.no_decode:
         raise _Fail(f"{printable(args.file)} has no summary chunk, and --no-decode leaves "
