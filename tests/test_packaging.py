@@ -53,6 +53,8 @@ def test_the_version_is_pyprojects_and_none_released() -> None:
     import mpz
     version = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["version"]
     assert mpz.__version__ == version
+    # the README's install line names the wheel a build makes
+    assert f"dist/mpz-{version}-py3-none-any.whl" in (REPO / "README.md").read_text()
     log = (REPO / "CHANGELOG.md").read_text()
     released = [Version(v) for v in re.findall(r"^## (\d+\.\d+\.\d+) — \d{4}-\d\d-\d\d$",
                                                log, re.M)]
