@@ -748,3 +748,36 @@ def test_mpz_summary_plot_draws_a_level_of_too_many_segments_as_one_bar(
     assert mpz_cli.main(["summary", str(path), "--no-decode", "--plot", str(png),
                          "-f"]) == 0
     assert "a plot draws" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("fail_at, cut_short", [(1500, True), (5, False)])
+def test_mpz_summary_failing_midway_leaves_no_second_document_behind_its_report(
+        tmp_path: Path, capsys, monkeypatch, fail_at: int, cut_short: bool) -> None:
+    """A report written as it is made can fail after part of it is out: the mpz-error/1
+    document was then printed right behind the cut-off text, and standard output parsed
+    as neither (a review of stop 74). Once part is written, the error goes to standard
+    error alone, which says the report is cut short; before that, the error document is
+    printed alone, as for any command."""
+    from mpz.tools import cmd_summary, mpz_cli
+    path = tmp_path / "s.mpz"
+    path.write_bytes(smrc_bomb(2000, 1, [2000], 1))
+    made = cmd_summary._segments
+
+    def failing(level, rate):
+        for i, row in enumerate(made(level, rate)):
+            if i == fail_at:
+                raise MemoryError
+            yield row
+    monkeypatch.setattr(cmd_summary, "_segments", failing)
+    assert mpz_cli.main(["summary", str(path), "--no-decode", "--json"]) == 3
+    out, err = capsys.readouterr()
+    assert ("is cut short there, and is not valid JSON" in err) == cut_short, err
+    if cut_short:
+        assert out.startswith('{\n "schema": "mpz-summary/1"') and "mpz-error/1" not in out
+    else:
+        assert json.loads(out)["schema"] == "mpz-error/1"
+    # the next command in this process prints its error document again
+    monkeypatch.setattr(cmd_summary, "_segments", made)
+    (tmp_path / "bad.mpz").write_bytes(b"not an MPZ file")
+    assert mpz_cli.main(["summary", str(tmp_path / "bad.mpz"), "--json"]) == 2
+    assert json.loads(capsys.readouterr().out)["error"]["class"] == "FormatError"

@@ -340,7 +340,7 @@ def _json_values(streamed: bool):
         lists = st.lists(items, max_size=4)
         if not streamed:
             return lists
-        return lists | lists.map(lambda xs: Streamed(lambda: iter(xs), empty=not xs))
+        return lists | lists.map(lambda xs: Streamed(lambda: iter(xs)))
     return st.recursive(leaf, lambda inner: arrays(inner) | st.dictionaries(
         st.text(max_size=4), inner, max_size=4), max_leaves=20)
 
@@ -373,13 +373,13 @@ def test_a_streamed_document_is_the_text_of_the_whole_one() -> None:
            indent=st.sampled_from([None, 1, 2]), ascii_out=st.booleans())
     def check(doc, indent, ascii_out):
         out = Ascii() if ascii_out else io.StringIO()
-        print_json({"schema": "x", "rows": Streamed(lambda: iter([doc]), empty=False)},
+        print_json({"schema": "x", "rows": Streamed(lambda: iter([doc]))},
                    file=out, indent=indent)
         want = json_text({"schema": "x", "rows": [whole(doc)]}, indent=indent,
                          ascii_only=ascii_out) + "\n"
         assert out.getvalue() == want
         json.loads(out.getvalue())
         # and json_text, given the Streamed arrays, writes them whole: the same text
-        assert json_text({"schema": "x", "rows": Streamed(lambda: iter([doc]), empty=False)},
+        assert json_text({"schema": "x", "rows": Streamed(lambda: iter([doc]))},
                          indent=indent, ascii_only=ascii_out) + "\n" == want
     check()

@@ -41,6 +41,7 @@ import difflib
 import errno
 import functools
 import io
+import itertools
 import json
 import math
 import os
@@ -49,6 +50,7 @@ import signal
 import sys
 import threading
 from typing import IO, Any, NoReturn, ParamSpec
+import weakref
 
 from mpz._worker import command_main, ignore_sigint_when_done, release_sigint
 
@@ -122,23 +124,41 @@ def _utf8(s: str) -> str:
     return s
 
 
+_NONE = object()
+
+
 class Streamed(list):
     """A JSON array whose items :func:`print_json` writes one by one as ``items()`` makes
     them, so a report of millions of rows is never held whole: ``mpz summary --json`` of a
     valid file of 2^20 segments took 2.1 GB (a security QA run of stop 73).
 
-    ``empty`` says whether ``items()`` makes nothing (an empty array is written ``[]``).
+    Whether it is empty (written ``[]``) is found by making its first item, which the
+    writer asks before the others (a flag given beside it could be wrong, and an empty
+    array with a false one was written ``[`` and ``]`` on two lines: a review of stop 74).
     Anywhere else (:func:`json_text`) it is made into a list first."""
 
-    def __init__(self, items: Callable[[], Iterable[Any]], *, empty: bool) -> None:
+    def __init__(self, items: Callable[[], Iterable[Any]]) -> None:
         super().__init__()
-        self._items, self._empty = items, empty
+        self._items = items
+        self._rest: Iterator[Any] | None = None
+        self._first: Any = _NONE
 
-    def __iter__(self) -> Iterator[Any]:
-        return (jsonable(x, streamed=True) for x in self._items())
+    def _start(self) -> None:
+        if self._rest is None:
+            self._rest = iter(self._items())
+            self._first = next(self._rest, _NONE)
 
     def __bool__(self) -> bool:
-        return not self._empty
+        self._start()
+        return self._first is not _NONE
+
+    def __iter__(self) -> Iterator[Any]:
+        self._start()
+        first, rest = self._first, self._rest
+        self._rest, self._first = None, _NONE          # a second pass starts again
+        if first is _NONE or rest is None:
+            return iter(())
+        return (jsonable(x, streamed=True) for x in itertools.chain((first,), rest))
 
 
 def jsonable(v: Any, *, streamed: bool = False) -> Any:
@@ -207,11 +227,35 @@ def print_json(doc: Any, *, file: IO[str] | None = None, indent: int | None = 2)
         block.append(part)
         size += len(part)
         if size >= 1 << 16:
+            _started(out)
             out.write("".join(block))
             block.clear()
             size = 0
     block.append("\n")
+    _started(out)
     out.write("".join(block))
+
+
+#: the streams that :func:`print_json` began a streamed document on, in this command
+_STARTED: weakref.WeakSet[Any] = weakref.WeakSet()
+
+
+def _started(out: IO[str]) -> None:
+    with contextlib.suppress(TypeError):         # a stream that takes no weak reference
+        _STARTED.add(out)
+
+
+def document_started(file: IO[str] | None = None) -> bool:
+    """Whether a streamed document was begun on ``file`` (standard output) since
+    :func:`forget_documents`: a command that fails after that cannot print its
+    ``mpz-error/1`` document there, behind the cut-off text (a review of stop 74: the two
+    together did not parse); its error goes to standard error alone."""
+    return (sys.stdout if file is None else file) in _STARTED
+
+
+def forget_documents() -> None:
+    """Start a command: no document begun (a command run in the same process before)."""
+    _STARTED.clear()
 
 
 def _holds_streamed(v: Any) -> bool:

@@ -98,7 +98,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "for any other input")
     p.add_argument("--plot", metavar="OUT.png", help="save a timeline figure (needs "
                    f"matplotlib); a level of more than {MAX_PLOT_SEGMENTS} segments is "
-                   "drawn as one bar, with a warning")
+                   "drawn as one bar, with a warning (exit 1)")
     p.add_argument("-f", "--force", action="store_true", help="replace the --plot file if it "
                    "exists")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
@@ -109,7 +109,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
                    help=max_samples_help("decoding and segmenting need about 130 bytes per "
                                          "marker-frame") + "; .mpz input only, whose "
-                   "summary chunk may then hold at most N segments in all (about 150 bytes "
+                   "summary chunk may then hold at most N segments in all (150-170 bytes "
                    "each in the --json report)")
     p.set_defaults(func=run)
     return p
@@ -219,7 +219,7 @@ def _levels_from_mpz(args, ks):
         if segments > args.max_samples:
             raise _Fail(f"{printable(args.file)}: its summary chunk holds {segments} "
                         f"segments in all, more than --max-samples {args.max_samples} "
-                        "allows (their --json report takes about 150 bytes each); give a "
+                        "allows (their --json report takes 150-170 bytes each); give a "
                         "larger --max-samples to show them")
     if summ is None and args.no_decode:
         raise _Fail(f"{printable(args.file)} has no summary chunk, and --no-decode leaves "
@@ -340,7 +340,7 @@ def _segments(level, rate):
     may hold 2^24 of them (spec §8), and a list of them all took gigabytes (a security QA
     run of stop 73)."""
     total = level.get("segment_total", level["wssse"])
-    for i, (s, ln) in enumerate(zip(level["starts"], level["lengths"], strict=False)):
+    for i, (s, ln) in enumerate(zip(level["starts"], level["lengths"], strict=True)):
         sse = None if level["segment_wssse"] is None else float(level["segment_wssse"][i])
         share = None if sse is None or not total else 100.0 * sse / total
         if sse is not None and not total:
@@ -404,7 +404,7 @@ def _json(info, levels, warnings):
 
 def _streamed_segments(level, rate) -> Streamed:
     """A level's segments, written to the JSON report as they are made (:func:`_segments`)."""
-    return Streamed(lambda: _segments(level, rate), empty=not len(level["starts"]))
+    return Streamed(lambda: _segments(level, rate))
 
 
 # -- plot ------------------------------------------------------------------------------

@@ -23,6 +23,8 @@ from mpz.tools._cli import (
     EXIT_MEMORY,
     Parser,
     add_version,
+    document_started,
+    forget_documents,
     json_failure,
     memory_message,
     print_json,
@@ -65,6 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     running(f"mpz {args.command}")
+    forget_documents()
     # a failing command run with --json says so on stdout too (mpz-error/1, docs/json.md;
     # encode prints its own: one input's error document, or a batch's failures)
     failure_doc = getattr(args, "json", False) and args.command != "encode"
@@ -72,15 +75,27 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args))
     except MPZError as exc:
         print(f"mpz {args.command}: error: {printable(str(exc))}", file=sys.stderr)
-        if failure_doc:
-            print_json(json_failure(args.command, exc))
+        _failure_document(failure_doc, args.command, exc)
         return EXIT_ERROR
     except MemoryError as exc:      # a resource error, not a verdict on the input (spec §8)
         said = memory_message(exc, args.command)
         print(f"mpz {args.command}: {said}", file=sys.stderr)
-        if failure_doc:
-            print_json(json_failure(args.command, said, "memory"))
+        _failure_document(failure_doc, args.command, said, "memory")
         return EXIT_MEMORY
+
+
+def _failure_document(wanted: bool, command: str, exc: BaseException | str,
+                      status: str = "error") -> None:
+    """Print the ``mpz-error/1`` document of a failed ``--json`` command, unless its own
+    report was begun on standard output (:func:`document_started`): then standard error
+    says that the report there is cut short."""
+    if not wanted:
+        return
+    if document_started():
+        print(f"mpz {command}: the --json report on standard output is cut short there, "
+              "and is not valid JSON", file=sys.stderr)
+        return
+    print_json(json_failure(command, exc, status))
 
 
 if __name__ == "__main__":
