@@ -308,16 +308,20 @@ def row_digest(row: Mapping[str, Any]) -> str:
 
 
 def info_digest(info: Mapping[str, Any]) -> str:
-    """The ``corpus_sha256`` of the ``corpus`` table: the hexadecimal sha256 of, for each
-    other key in sorted order, the key, a tab, its value and a line end, where a value is
-    the UTF-8 of a text, the hex of a BLOB, ``repr`` of a number, or ``NULL``."""
-    lines = []
+    """The ``corpus_sha256`` of the ``corpus`` table: the hexadecimal sha256 of the JSON
+    text (``json.dumps`` as Python writes it by default: ASCII, ``", "`` between items) of
+    the list of ``[key, value]`` pairs of its other keys in sorted order, where a value is
+    a text as it is, the hex of a BLOB, ``repr`` of a number, or ``"NULL"``. JSON, so
+    that no key or value can pass for another (lines of tab-separated text could: a
+    review of stop 74). It catches a value changed by accident or by another program;
+    like ``row_sha256``, it is no defence against an edit that writes it again."""
+    pairs = []
     for key, v in sorted(((str(k), v) for k, v in info.items() if k != _INFO_CHECKSUM),
                          key=lambda kv: kv[0]):
         text = ("NULL" if v is None else v if isinstance(v, str)
                 else v.hex() if isinstance(v, bytes) else repr(v))
-        lines.append(f"{key}\t{text}\n")
-    return hashlib.sha256("".join(lines).encode("utf-8", "surrogateescape")).hexdigest()
+        pairs.append([key, text])
+    return hashlib.sha256(json.dumps(pairs).encode("ascii")).hexdigest()
 
 
 def levels_digest(levels: Iterable[tuple[Any, Any, Any, Any]]) -> str:
@@ -796,6 +800,10 @@ def _encode_file(task: Task) -> FileResult:
                 os.remove(task.output)
             raise AssertionError(f"the encoder wrote a file that its decoder refuses: "
                                  f"{exc} ({task.source}); the output was removed") from None
+        # what the output shows of the options (a --grid overruled, --weight without a
+        # pattern layer): said of a file kept as well as of one encoded now; within the
+        # file's try, as the rest of its work (a review of stop 74)
+        notes = [*notes, *outcome_notes(motion, opts, data)]
     except (MPZError, OSError, MemoryError) as exc:
         reason = ("out of memory" if isinstance(exc, MemoryError) else
                   _reason(exc, task.source))
@@ -808,9 +816,6 @@ def _encode_file(task: Task) -> FileResult:
     levels = [(lv.k, lv.wssse, lv.starts.astype("<u4").tobytes(),
                np.ascontiguousarray(lv.means, "<f4").tobytes())
               for lv in (summary.levels if summary is not None else ())]
-    # what the output shows of the options (a --grid overruled, --weight without a
-    # pattern layer): said of a file kept as well as of one encoded now
-    notes = [*notes, *outcome_notes(motion, opts, data)]
     dropped = not_kept(motion, opts)
     # the reader's warning, and what the output's C3D will not give back (_row's)
     warning = "; ".join(w for w in (warning, row["warning"]) if w)
@@ -1363,25 +1368,43 @@ class Index:
         EncoderError
             When they do not match the checksum the last run wrote (:func:`info_digest`):
             a value changed in place."""
-        info = dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
-        stored = info.pop(_INFO_CHECKSUM, None)
-        if stored is not None and stored != info_digest(info):
+        info, matches = self._info()
+        if not matches:
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index (the values of its "
                                f"corpus table are not those written: their {_INFO_CHECKSUM} "
-                               f"does not match; a value changed in place); {_REBUILD}")
+                               "does not match; a value changed in place, or written by an "
+                               "mpz before 0.2.0); run mpz encode -r into its folder again, "
+                               "which writes them again and rebuilds its rows from the .mpz "
+                               "files there, without encoding them again")
         return info
 
+    def _info(self) -> tuple[dict[str, str], bool]:
+        """The ``corpus`` table's values (its checksum left out), and whether they match
+        the checksum (True where there is none: an index from before it)."""
+        info = dict(self.db.execute("SELECT key, value FROM corpus").fetchall())
+        stored = info.pop(_INFO_CHECKSUM, None)
+        return info, stored is None or stored == info_digest(info)
+
     @_sql
-    def refresh_descriptors(self) -> list[str]:
+    def refresh_descriptors(self) -> tuple[list[str], bool]:
         """Make the index this :data:`~mpz.similarity.DESCRIPTOR_VERSION`'s; returns the
-        output keys of the rows it removed.
+        output keys of the rows it removed, and whether the ``corpus`` table's values
+        were written again because they did not match their checksum.
 
         The rows of an index of another version (its summaries leave out other markers:
         version 1 kept the markers valid in a few frames) are removed, so that the run
         rebuilds each from its output (status ``kept``, nothing encoded again), as for a
         removed index; then this version is recorded. Recomputing the descriptors from the
-        stored summaries would keep those summaries."""
-        version = self.info().get("descriptor_version")
+        stored summaries would keep those summaries. A ``corpus`` table that does not
+        match its checksum (changed in place, or written by an mpz before it: a review of
+        stop 74 saw such an index refused by every run until it was removed) says nothing
+        that can be trusted: its values are removed, and the rows rebuilt likewise."""
+        info, matches = self._info()
+        if not matches:
+            with self.db:
+                self.db.execute("DELETE FROM corpus WHERE key != 'schema'")
+            info = {}
+        version = info.get("descriptor_version")
         dropped: list[str] = []
         if version != DESCRIPTOR_VERSION:
             dropped = [k for (k,) in self.db.execute("SELECT output FROM files ORDER BY output")]
@@ -1389,7 +1412,7 @@ class Index:
                 self.db.execute("DELETE FROM levels")
                 self.db.execute("DELETE FROM files")
         self.set_info({"descriptor_version": DESCRIPTOR_VERSION})
-        return dropped
+        return dropped, not matches
 
     @_sql
     def damaged(self) -> set[str]:
@@ -2508,7 +2531,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                                f"{folder_problem(exc)}") from None
         stack.enter_context(_one_run(index_dir))
         index = stack.enter_context(Index(os.path.join(index_dir, INDEX_NAME), create=True))
-        dropped = index.refresh_descriptors()
+        dropped, rewritten = index.refresh_descriptors()
         unnamed = index.drop_unnamed()
         summed, levels_summed = index.add_checksums()
         keys = {t.output_key for t in tasks}
@@ -2521,7 +2544,13 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         rebuilt = sorted(damaged & keys)
         left = sorted(damaged - keys)
         notes = []
-        if dropped:
+        if rewritten:
+            notes.append(f"the values of the index's corpus table did not match their "
+                         f"{_INFO_CHECKSUM} (changed in place, or written by an mpz before "
+                         f"0.2.0): they are written again, and its {len(dropped)} "
+                         f"row{'' if len(dropped) == 1 else 's'} rebuilt from the outputs "
+                         "(status kept, nothing encoded again)")
+        elif dropped:
             notes.append(f"the index was of another descriptor version: its {len(dropped)} "
                          f"row{'' if len(dropped) == 1 else 's'} are rebuilt from the outputs "
                          "(status kept, nothing encoded again)")
