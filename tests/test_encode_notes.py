@@ -459,7 +459,7 @@ def test_grid_note_on_an_int16_c3d_names_its_grid_not_the_bound(shared_data, tmp
 
 
 def test_what_the_file_shows_of_the_options_is_said_by_the_library_and_corpus_runs(
-        tmp_path):
+        tmp_path, monkeypatch):
     """A --grid the bound overruled and a --weight without a pattern layer were noted by
     mpz encode alone: EncodeReport.notes and a corpus run's notes lacked them (a docs QA
     run of stop 74). The library says them in its own spelling, and a corpus run in the
@@ -473,15 +473,44 @@ def test_what_the_file_shows_of_the_options_is_said_by_the_library_and_corpus_ru
     assert [n.split(":")[0] for n in rep.notes] == ["grid=5", "weights"], rep.notes
     assert "the grid step is 0.57735 mm instead (the bound 1 mm needs a finer one)" \
         in rep.notes[0]
-    # neither is given: nothing said (and the file is not parsed for them)
+    # neither is given: nothing said, and the file is not parsed for them (an encode's
+    # cost, issue 15)
+    from mpz import encoder
+
+    def parse(*_a, **_k):
+        raise AssertionError("the encoded file was parsed")
+    monkeypatch.setattr(encoder.container, "parse", parse)
     assert encode_motion(m, EncodeOptions(max_error=1.0))[1].notes == []
+    monkeypatch.undo()
     src = tmp_path / "src"
     src.mkdir()
     write(m, src / "walk.trc")
-    for status in ("encoded", "skipped"):
+    for status in ("encoded", "skipped", "kept"):
+        if status == "kept":               # the row rebuilt from the output, not encoded
+            (tmp_path / "out" / "index.sqlite").unlink()
         p = _mpz("encode", "-r", "src", "-o", "out/", "--jobs", "0", "--max-error", "1mm",
                  "--grid", "5mm", "--weight", f"{name}=8", "--json", cwd=tmp_path)
         assert p.returncode == 0, p.stderr
         (entry,) = json.loads(p.stdout)["files"]
         assert entry["status"] == status
         assert [n.split(":")[0] for n in entry["notes"]] == ["--grid 5mm", "--weight"], entry
+
+
+def test_the_grid_note_names_the_flag_in_the_files_units_and_a_step_that_differs(
+        tmp_path, shared_data):
+    """--grid 0.5cm on a file in mm is --grid 5mm; and a step 3e-8 mm off the grid asked
+    (60 steps of an int16 C3D's 1/12 mm, as float32) was said as "the grid step is 5 mm
+    instead" of 5 mm (a review of stop 74): it is given to the digits that differ."""
+    write(generate("walk", frames=30), tmp_path / "walk.trc")
+    p = _mpz("encode", "walk.trc", "-o", "a.mpz", "--max-error", "1mm", "--grid", "0.5cm",
+             cwd=tmp_path)
+    assert p.returncode == 0
+    assert "note: --grid 5mm: the grid step is 0.57735 mm instead (the bound 1 mm" \
+        in p.stderr, p.stderr
+    src = shared_data / "c3d" / "c3dorg_Eb015pi.c3d"
+    p = _mpz("encode", str(src), "-o", "b.mpz", "--lossy", "--grid", "5mm", cwd=tmp_path)
+    assert p.returncode in (0, 1), p.stderr
+    from mpz import container
+    step = next(c.record.step for c in container.parse((tmp_path / "b.mpz").read_bytes())
+                if c.type == "QUNT")
+    assert step != 5.0 and f"the grid step is {step:.9g} mm instead" in p.stderr, p.stderr

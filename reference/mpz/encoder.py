@@ -830,9 +830,14 @@ def outcome_notes(motion: Motion, opts: EncodeOptions, data: bytes, *,
                else f"the bound {opts.max_error:g}{units} needs a finer one"
                if step < opts.grid and opts.max_error is not None
                else "the source's own grid")
-        flag = f"--grid {opts.grid:g}{motion.units or ''}"       # as the flag is given
-        notes.append(f"{spelled(flag, f'grid={opts.grid:g}')}: "
-                     f"the grid step is {step:.6g}{units} instead ({why})")
+        # the flag in the file's units (--grid 0.5cm is --grid 5mm of a file in mm), and
+        # the step to as many digits as tell it from the grid asked: "the grid step is 5
+        # mm instead" of 5 mm, for 5.000000149 (a review of stop 74)
+        asked = f"{opts.grid:.12g}"
+        digits = next((d for d in (6, 9, 12, 17) if f"{step:.{d}g}" != asked), 17)
+        flag = f"--grid {asked}{motion.units or ''}"
+        notes.append(f"{spelled(flag, f'grid={asked}')}: "
+                     f"the grid step is {step:.{digits}g}{units} instead ({why})")
     if opts.weights and not any(isinstance(r, Patt) and r.pattern_count > 0
                                 for r in records):
         notes.append(f"{spelled('--weight', 'weights')}: the weights act on the pattern "
