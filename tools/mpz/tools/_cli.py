@@ -227,30 +227,33 @@ def print_json(doc: Any, *, file: IO[str] | None = None, indent: int | None = 2)
         block.append(part)
         size += len(part)
         if size >= 1 << 16:
-            _started(out)
+            _started(out, False)
             out.write("".join(block))
             block.clear()
             size = 0
     block.append("\n")
-    _started(out)
+    _started(out, False)
     out.write("".join(block))
+    _started(out, True)
 
 
-#: the streams that :func:`print_json` began a streamed document on, in this command
-_STARTED: weakref.WeakSet[Any] = weakref.WeakSet()
+#: the streams that :func:`print_json` began a streamed document on, in this command,
+#: and whether it is complete
+_STARTED: weakref.WeakKeyDictionary[Any, bool] = weakref.WeakKeyDictionary()
 
 
-def _started(out: IO[str]) -> None:
+def _started(out: IO[str], complete: bool) -> None:
     with contextlib.suppress(TypeError):         # a stream that takes no weak reference
-        _STARTED.add(out)
+        _STARTED[out] = complete
 
 
-def document_started(file: IO[str] | None = None) -> bool:
+def document_started(file: IO[str] | None = None) -> bool | None:
     """Whether a streamed document was begun on ``file`` (standard output) since
-    :func:`forget_documents`: a command that fails after that cannot print its
-    ``mpz-error/1`` document there, behind the cut-off text (a review of stop 74: the two
-    together did not parse); its error goes to standard error alone."""
-    return (sys.stdout if file is None else file) in _STARTED
+    :func:`forget_documents`: None if not, else whether it is complete. A command that
+    fails after that cannot print its ``mpz-error/1`` document there, behind the text
+    (a review of stop 74: the two together did not parse); its error goes to standard
+    error alone."""
+    return _STARTED.get(sys.stdout if file is None else file)
 
 
 def forget_documents() -> None:

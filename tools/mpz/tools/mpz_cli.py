@@ -91,11 +91,15 @@ def _failure_document(wanted: bool, command: str, exc: BaseException | str,
     says that the report there is cut short."""
     if not wanted:
         return
-    if document_started():
+    begun = document_started()
+    if begun is None:
+        print_json(json_failure(command, exc, status))
+    elif begun:
+        print(f"mpz {command}: the --json report on standard output is complete; this "
+              "error came after it", file=sys.stderr)
+    else:
         print(f"mpz {command}: the --json report on standard output is cut short there, "
               "and is not valid JSON", file=sys.stderr)
-        return
-    print_json(json_failure(command, exc, status))
 
 
 if __name__ == "__main__":
