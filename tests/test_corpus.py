@@ -3341,3 +3341,32 @@ def test_the_progress_counts_the_files_refused_before_planning(corpus):
     n = len(rep.results)
     assert n == len(paths) + 1
     assert calls[-1] == (n, n) and [d for d, _ in calls] == list(range(1, n + 1)), calls
+
+
+def test_an_index_used_from_another_thread_or_closed_is_the_callers_error(corpus):
+    """An Index used from a data loader's worker thread, or after close(), was said to be
+    "a damaged MPZ corpus index ... remove it" (an API QA run of stop 74): sqlite3's
+    ProgrammingError was wrapped with the damage message. It is the caller's misuse and
+    is raised as it is; an Index per thread reads the same rows."""
+    import sqlite3
+    import threading
+    src, out, _ = corpus
+    run_corpus(src, out)
+    index = open_index(out)
+    rows = index.rows()
+    got: list[object] = []
+
+    def use(shared: bool) -> None:
+        try:
+            got.append(index.rows() if shared else open_index(out).rows())
+        except BaseException as exc:      # the test looks at which
+            got.append(exc)
+    for shared in (True, False):
+        t = threading.Thread(target=use, args=(shared,))
+        t.start()
+        t.join()
+    assert isinstance(got[0], sqlite3.ProgrammingError), got[0]
+    assert [r["output"] for r in got[1]] == [r["output"] for r in rows]  # type: ignore
+    index.close()
+    with pytest.raises(sqlite3.ProgrammingError):
+        index.rows()

@@ -62,7 +62,7 @@ import sqlite3
 import stat
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, cast, runtime_checkable
 import urllib.parse
 
 import numpy as np
@@ -926,7 +926,10 @@ def _size(path: str | os.PathLike[str]) -> int:
         return 0
 
 
-_F = Callable[..., Any]
+#: an Index method: a TypeVar, so that :func:`_sql` keeps each method's signature (an
+#: alias made every method ``(*Any, **Any) -> Any`` to a type checker: an API QA run of
+#: stop 74)
+_F = TypeVar("_F", bound=Callable[..., Any])
 
 
 def _source_there(path: str) -> bool:
@@ -949,6 +952,11 @@ def _sql(method: _F) -> _F:
     def wrapper(self: Index, *args: Any, **kwargs: Any) -> Any:
         try:
             return method(self, *args, **kwargs)
+        except sqlite3.ProgrammingError:
+            # the caller's misuse (an Index used from another thread than the one that
+            # opened it, or after close()), not the file's: it was called "a damaged
+            # index, remove it" (an API QA run of stop 74)
+            raise
         except sqlite3.OperationalError as exc:    # locked, read-only, disk full, I/O
             raise EncoderError(f"{self.path}: cannot {'write' if self.create else 'read'} "
                                f"the index: {exc}") from None
@@ -961,7 +969,7 @@ def _sql(method: _F) -> _F:
                 raise                              # not SQLite's: a bug, said as one
             raise EncoderError(f"{self.path}: a damaged MPZ corpus index "
                                f"({said}); {_REBUILD}") from None
-    return wrapper
+    return cast(_F, wrapper)
 
 
 #: the words of SQLite's messages about a damaged schema (sqlite3.c: "malformed database
@@ -1629,7 +1637,13 @@ def _roll_back(path: str) -> None:
 
 
 def open_index(path: str | os.PathLike[str]) -> Index:
-    """Open an existing index; ``path`` may be the file or the folder holding it."""
+    """Open an existing index; ``path`` may be the file or the folder holding it.
+
+    An :class:`Index` is one SQLite connection: use it from the thread that opened it
+    (open one per thread of a data loader; they may read the file at once), and not after
+    :meth:`Index.close`. Either misuse raises ``sqlite3.ProgrammingError`` as it is, not
+    an :class:`~mpz.errors.EncoderError`: the file is not at fault (it was said to be
+    damaged: an API QA run of stop 74)."""
     p = os.fspath(path)
     if os.path.isdir(p):
         p = os.path.join(p, INDEX_NAME)
@@ -2511,9 +2525,9 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
     if not os.path.isdir(index_dir) and not any(os.path.lexists(s) for s, _ in jobs):
         # no input there to read (mistyped paths): the output folder and an empty index
         # were made all the same (an archive team's QA run of stop 53)
-        gone = [FileResult(t.source, t.output, "failed",
-                           f"{os.strerror(errno.ENOENT)}: {t.source}") for t in tasks]
-        return CorpusReport(gone + early, time.perf_counter() - t0, 0, "nothing to do", "",
+        absent = [FileResult(t.source, t.output, "failed",
+                             f"{os.strerror(errno.ENOENT)}: {t.source}") for t in tasks]
+        return CorpusReport(absent + early, time.perf_counter() - t0, 0, "nothing to do", "",
                             index_notes=[f"no input to encode: the output folder "
                                          f"{os.fspath(outdir)} was not made"])
     with contextlib.ExitStack() as stack:
@@ -2679,7 +2693,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         except EncoderError as exc:
             # the run stopped (the cluster lost, silent or without a worker): what finished
             # is indexed, and the report says so with the files left
-            left = [(tasks[i].source, _size(tasks[i].source))
+            not_run = [(tasks[i].source, _size(tasks[i].source))
                     for i, r in enumerate(results) if r is None]
             # the cluster's own count (a review of stop 56: the local CPU count was said of
             # a --scheduler cluster of one worker, and of one with none)
@@ -2694,7 +2708,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                              f"{'its output' if n == 1 else 'their outputs'}, without "
                              "encoding again")
             raise CorpusStopped(exc.message, report(seen[-1] if seen else n_workers, [],
-                                                    stopped=exc.message, not_run=left)
+                                                    stopped=exc.message, not_run=not_run)
                                 ) from None
         _remove_empty(made)
         same = index.same_sources()
