@@ -269,6 +269,13 @@ def test_a_model_error_too_fine_to_hold_is_said():
         and "cannot be held" in notes[0]
     ok = EncodeOptions(max_error=1.0, model_errors={"ANGLES": 1e-4})
     assert encode_motion(m, ok)[1].notes == []
+    # the one bound for every kind, model_error, said the same (an API QA run of stop 74:
+    # the same file, and no note)
+    scalar = EncodeOptions(max_error=1.0, model_error=3e-10)
+    data, rep = encode_motion(m, scalar)
+    assert data == encode_motion(m, fine)[0]
+    assert len(rep.notes) == 1 and rep.notes[0].startswith("model_error=3e-10 (ANGLES): ") \
+        and "cannot be held" in rep.notes[0], rep.notes
 
 
 def test_a_memory_limit_that_limits_nothing_is_said(tmp_path):

@@ -235,7 +235,9 @@ class EncodeOptions:
     #: bound on rotation channels in degrees; None: mpz.skeleton.DEFAULT_CHANNEL_ERROR (0.01),
     #: or as position_error allows when that is set
     angle_error: float | None = None
-    #: bound on translation channels in the skeleton's length unit; None: as angle_error
+    #: bound on translation channels in the skeleton's length unit; None: the same default
+    #: as angle_error's (0.01, or as position_error allows when that is set), whatever
+    #: angle_error is given (it said "as angle_error": an API QA run of stop 74)
     translation_error: float | None = None
     #: bound on joint positions computed from the channels (spec §6.10), in motion units;
     #: None: max_error when that is given (resolve_bound), else none
@@ -805,14 +807,16 @@ def outcome_notes(motion: Motion, opts: EncodeOptions, data: bytes, *,
     sentence: a ``grid`` step the bound or the source's grid overruled (the file's QUNT
     step, spec §4.4), ``weights`` where no node kept a pattern layer (they act on it
     alone), and a ``model_errors`` fraction finer than some model-output axes could be
-    held (their §4.13.3 ``bound``). ``opts`` are those ``data`` was encoded with;
+    held (their §4.13.3 ``bound``; ``model_error`` too where it is not the default).
+    ``opts`` are those ``data`` was encoded with;
     ``resolved`` as for :func:`option_notes`.
 
     From the file alone, so that a corpus run says them of an output it keeps; they were
     said by ``mpz encode`` only, and neither :attr:`EncodeReport.notes` nor a corpus run
-    had them (a docs QA run of stop 74). The file is parsed only when one of the three
+    had them (a docs QA run of stop 74). The file is parsed only when one of those
     options is given."""
-    if opts.grid is None and not opts.weights and not opts.model_errors:
+    if opts.grid is None and not opts.weights and not opts.model_errors \
+            and opts.model_error == DEFAULTS.model_error:
         return []
     if not resolved:
         opts, _ = resolve_bound(motion, opts)
@@ -858,13 +862,15 @@ def _model_bound_notes(motion: Motion, opts: EncodeOptions, records: list[Record
     from mpz.format import ModelKind
     arc = motion.extras.get("c3d")
     cpnt = next((r for r in records if isinstance(r, Cpnt)), None)
-    if not opts.model_errors or not isinstance(arc, C3DArchive) or not arc.model_kinds \
-            or cpnt is None:
+    if not isinstance(arc, C3DArchive) or not arc.model_kinds or cpnt is None:
         return []
     coarser: dict[str, list[float]] = {}
     for j, model in enumerate(cpnt.models):
         name = ModelKind(arc.model_kinds[j]).name
-        rel = opts.model_errors.get(name)
+        # the kind's own bound, else model_error where it was given: model_error=1e-12
+        # alone gave the same file as {kind: 1e-12}, and no note (an API QA run, stop 74)
+        rel = opts.model_errors.get(name, None if opts.model_error == DEFAULTS.model_error
+                                    else opts.model_error)
         ok = arc.model_valid[:, j]
         if rel is None or not ok.any():
             continue
@@ -873,10 +879,12 @@ def _model_bound_notes(motion: Motion, opts: EncodeOptions, records: list[Record
             span = float(np.max(col) - np.min(col))
             if span > 0 and ax.bound > rel * span * (1 + 1e-9):
                 coarser.setdefault(name, []).append(ax.bound / span)
-    return [f"{spelled(f'--model-error {name}', f'model_errors[{name!r}]')}="
-            f"{opts.model_errors[name]:g}: {len(fr)} axis(es) cannot be held that fine "
-            "(float32 values, or 2^31 grid steps) and declare the finest bound that holds, "
-            f"up to {max(fr):.2g} of their range"
+    return [(f"{spelled(f'--model-error {name}', f'model_errors[{name!r}]')}="
+             f"{opts.model_errors[name]:g}" if name in opts.model_errors
+             else f"model_error={opts.model_error:g} ({name})")
+            + f": {len(fr)} axis(es) cannot be held that fine (float32 values, or 2^31 grid "
+            f"steps) and declare the finest bound that holds, up to {max(fr):.2g} of their "
+            "range"
             for name, fr in coarser.items()]
 
 
