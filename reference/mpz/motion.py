@@ -400,7 +400,9 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
     What else they hold must agree too, or nothing would say what was dropped (the first
     motion's metadata was kept and the others' lost, and joint angles always): the same
     metadata, joint angles on all or none (with the same channel names), and no extras
-    but equal ones (a C3D archive belongs to its own frames)."""
+    but equal ones; a per-frame extra (a C3D archive, which belongs to its own frames) is
+    refused even when equal: join the marker layers (``mpz.decode(data,
+    markers_only=True)``)."""
     motions = list(motions)
     if not motions:
         raise MotionError("nothing to concatenate")
@@ -423,7 +425,15 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
         # what each reader dropped is not held data: the lists are joined (a review of
         # stop 61: two takes of one ASF, one with a comment among its frames, were refused)
         mine, theirs = held_extras(m.extras), held_extras(first.extras)
-        if mine != theirs or any(k in per_frame for k in mine):
+        frames_own = sorted(k for k in {*mine, *theirs} if k in per_frame)
+        if frames_own:
+            # "(c3d vs c3d)" read as a difference of two equal archives, and the way out
+            # went unsaid (an API QA run of stop 74)
+            raise MotionError(f"cannot join motions that hold {', '.join(frames_own)}: a C3D "
+                              "archive belongs to its own frames; join their marker layers "
+                              "(mpz.decode(data, markers_only=True), or copies without "
+                              "those extras)")
+        if mine != theirs:
             raise MotionError(f"cannot join what the motions hold besides positions "
                               f"({', '.join(sorted(m.extras)) or 'none'} vs "
                               f"{', '.join(sorted(first.extras)) or 'none'}); a C3D archive "
