@@ -521,3 +521,23 @@ def test_the_grid_note_names_the_flag_in_the_files_units_and_a_step_that_differs
     step = next(c.record.step for c in container.parse((tmp_path / "b.mpz").read_bytes())
                 if c.type == "QUNT")
     assert step != 5.0 and f"the grid step is {step:.9g} mm instead" in p.stderr, p.stderr
+
+
+def test_pattern_options_without_a_pattern_layer_and_absent_model_kinds_are_said():
+    """theta, k0, ... under a bound, where no node keeps a pattern layer, gave the default
+    encode's bytes, and a model_errors kind the file holds no output of changed nothing,
+    both unsaid, while weights were noted (an API QA run of stop 74)."""
+    from mpz.encoder import EncodeOptions, encode_motion
+    m = generate("walk", frames=40)
+    plain = encode_motion(m, EncodeOptions(max_error=1.0))[0]
+    data, rep = encode_motion(m, EncodeOptions(max_error=1.0, theta=0.5, k0=9,
+                                               model_errors={"FORCES": 1e-3}))
+    assert data == plain                             # they did change nothing
+    assert rep.notes == [
+        "model_errors['FORCES'] changes nothing: the file keeps no FORCES model output",
+        "theta, k0: they act on the pattern layer only (the paper's segmentation, "
+        "clustering and distortion control), and no node kept one (under a bound, key "
+        "frames or per-sample residuals won): they do not change the decoded motion"]
+    lossy = encode_motion(m, EncodeOptions(lossy=True, theta=0.5))
+    assert lossy[0] != encode_motion(m, EncodeOptions(lossy=True))[0]
+    assert lossy[1].notes == []
