@@ -22,6 +22,22 @@ def summarised() -> bytes:
     return mpz.encode(generate("walk", frames=120, seed=2), max_error=1.0, summary=(4, 8))
 
 
+def test_a_summary_level_cannot_be_written_through(summarised: bytes) -> None:
+    """Summary.level() handed out its stored arrays, and writing into them changed every
+    later level() and preview() (an API QA run of stop 74): they are read-only views."""
+    summary = mpz.read_summary(summarised)
+    assert summary is not None
+    level = summary.level(4)
+    before = summary.preview(4).positions.copy()
+    for a in (level.starts, level.means):
+        with pytest.raises(ValueError, match="read-only"):
+            a[0] = 1
+    mine = level.starts.copy()
+    mine[0] = 1                                           # a copy is the caller's
+    assert summary.level(4).starts[0] == 0
+    assert np.array_equal(summary.preview(4).positions, before)
+
+
 def test_read_summary_takes_what_decode_takes(summarised: bytes, tmp_path: Path) -> None:
     """A path (str or Path), the bytes, a bytearray or a binary file object: the same
     summary. Before, only bytes: a Path was read as the bytes of its own name."""

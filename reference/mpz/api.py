@@ -994,14 +994,24 @@ def write_mpz(motion: Motion, path: str | os.PathLike[str], *,
     return report
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A view of ``a`` that cannot be written through (``a`` itself is left as it is)."""
+    view = np.asarray(a).view()
+    view.flags.writeable = False
+    return view
+
+
 class SummaryLevel:
     """One level of the summary chunk, dequantised: ``k`` segments starting at frames
     ``starts`` [k], their means ``means`` [k, dims], the level's ``wssse`` and the
-    quantisation ``step`` of the means."""
+    quantisation ``step`` of the means. The arrays are read-only views: what the file
+    holds (written into, they changed every later :meth:`Summary.level` and
+    :meth:`Summary.preview`: an API QA run of stop 74); copy them to edit."""
 
     def __init__(self, k: int, starts: np.ndarray, means: np.ndarray, wssse: float,
                  step: float) -> None:
-        self.k, self.starts, self.means, self.wssse, self.step = k, starts, means, wssse, step
+        self.k, self.wssse, self.step = k, wssse, step
+        self.starts, self.means = _read_only(starts), _read_only(means)
 
     def __repr__(self) -> str:
         return f"SummaryLevel(k={self.k}, wssse={self.wssse:.6g})"
