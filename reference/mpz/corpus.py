@@ -2694,7 +2694,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             # the run stopped (the cluster lost, silent or without a worker): what finished
             # is indexed, and the report says so with the files left
             not_run = [(tasks[i].source, _size(tasks[i].source))
-                    for i, r in enumerate(results) if r is None]
+                       for i, r in enumerate(results) if r is None]
             # the cluster's own count (a review of stop 56: the local CPU count was said of
             # a --scheduler cluster of one worker, and of one with none)
             _remove_empty(made)
