@@ -399,7 +399,9 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
 
     What else they hold must agree too, or nothing would say what was dropped (the first
     motion's metadata was kept and the others' lost, and joint angles always): the same
-    metadata, joint angles on all or none (with the same channel names), and no extras
+    metadata (but where each starts, when each starts where the motions before it end:
+    consecutive cuts of :meth:`Motion.select_frames`, which move ``start_time`` and the
+    first frame numbers), joint angles on all or none (with the same channel names), and no extras
     but equal ones; a per-frame extra (a C3D archive, which belongs to its own frames) is
     refused even when equal: join the marker layers (``mpz.decode(data,
     markers_only=True)``)."""
@@ -412,14 +414,23 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
     from mpz.extensions import EXTENSIONS  # here: the extensions import this module
     per_frame = {e.name for e in EXTENSIONS if e.per_frame}
     first = motions[0]
+    offset = first.n_frames
     for m in motions[1:]:
         if m.names != first.names or m.rate != first.rate or m.units != first.units:
             raise MotionError("can only concatenate motions with the same names, rate and units")
-        if m.metadata != first.metadata:
+        # consecutive cuts of one motion (select_frames) differ where their frames start:
+        # each must start where the joined motion has got to (two cuts of a TRC could not
+        # be joined back: an API QA run of stop 74)
+        moved = dict(first.metadata)
+        _moved_start(moved, offset, first.rate)
+        offset += m.n_frames
+        if m.metadata != first.metadata and m.metadata != moved:
             k = next(k for k in {**first.metadata, **m.metadata}
                      if first.metadata.get(k) != m.metadata.get(k))
             raise MotionError(f"metadata differ at {k!r}: {first.metadata.get(k)!r} vs "
-                              f"{m.metadata.get(k)!r} (make them equal first)")
+                              f"{m.metadata.get(k)!r} (make them equal first; cuts of one "
+                              "motion join as they are when each starts where the one "
+                              "before it ends)")
         if (m.angles is None) != (first.angles is None) or m.angle_names != first.angle_names:
             raise MotionError("joint angles on some motions only, or with other channels")
         # what each reader dropped is not held data: the lists are joined (a review of
