@@ -778,3 +778,16 @@ def test_consecutive_cuts_of_a_trc_motion_join_back(tmp_path: Path) -> None:
     assert mpz.concatenate([tail, m.select_frames(40, None)]).metadata == tail.metadata
     with pytest.raises(MotionError, match="metadata differ at .*starts where the one"):
         mpz.concatenate([parts[0], parts[2]])              # a gap of 25 frames between
+
+
+def test_consecutive_cuts_of_an_amc_motion_join_back(shared_data: Path) -> None:
+    """The same for an AMC, whose skeleton's first frame number moves with a cut."""
+    from mpz.io import read
+    m = read(shared_data / "amc" / "35_01.amc")
+    parts = [m.select_frames(0, 100), m.select_frames(100, 250), m.select_frames(250, 300)]
+    joined, want = mpz.concatenate(parts), m.select_frames(0, 300)
+    assert joined.extras["skeleton"] == want.extras["skeleton"]
+    assert joined.angles is not None and want.angles is not None
+    assert np.array_equal(joined.angles, want.angles)
+    with pytest.raises(MotionError, match=r"extras\['skeleton'\] differ at 'first_frame'"):
+        mpz.concatenate([parts[0], parts[2]])

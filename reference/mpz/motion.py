@@ -423,7 +423,7 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
         # be joined back: an API QA run of stop 74)
         moved = dict(first.metadata)
         _moved_start(moved, offset, first.rate)
-        offset += m.n_frames
+        start, offset = offset, offset + m.n_frames
         if m.metadata != first.metadata and m.metadata != moved:
             k = next(k for k in {**first.metadata, **m.metadata}
                      if first.metadata.get(k) != m.metadata.get(k))
@@ -449,13 +449,17 @@ def concatenate(motions: Iterable[Motion]) -> Motion:
                               f"({', '.join(sorted(m.extras)) or 'none'} vs "
                               f"{', '.join(sorted(first.extras)) or 'none'}); a C3D archive "
                               "belongs to its own frames")
-        unequal = next((k for k in sorted(mine) if m.extras[k] != first.extras[k]), None)
+        # an AMC skeleton's first frame number moves with a cut too
+        cut = _cut_extras(first.extras, start) if start else {}
+        unequal = next((k for k in sorted(mine) if m.extras[k] != first.extras[k]
+                        and m.extras[k] != cut.get(k)), None)
         if unequal is not None:
             # say where, as for metadata: two cuts of one AMC were refused as "skeleton vs
             # skeleton; a C3D archive belongs to its own frames" (a QA run of stop 63)
             raise MotionError(f"extras[{unequal!r}] differ"
                               f"{_where(first.extras[unequal], m.extras[unequal])} (make them "
-                              "equal first)")
+                              "equal first; cuts of one motion join as they are when each "
+                              "starts where the one before it ends)")
     angles = (None if first.angles is None
               else np.concatenate([m.angles for m in motions if m.angles is not None]))
     extras = {k: v for k, v in first.extras.items() if k != READER_NOT_KEPT}
