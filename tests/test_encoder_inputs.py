@@ -511,7 +511,7 @@ def test_concatenate_names_where_two_skeletons_differ(two_joint_bvh, tmp_path):
         skel, first_frame=skel.first_frame + 3)})
     with pytest.raises(MotionError, match=r"extras\['skeleton'\] differ at 'first_frame': "
                                           rf"{skel.first_frame} vs {skel.first_frame + 3} "
-                                          r"\(make them equal first\)"):
+                                          r"\(make them equal first; cuts of one "):
         mpz.concatenate([s, other])
     assert mpz.concatenate([other, other]).extras["skeleton"] == other.extras["skeleton"]
 
