@@ -293,18 +293,20 @@ def row_digest(row: Mapping[str, Any]) -> str:
     parts = []
     for column in _DIGESTED:
         v = row[column]
-        if v is None:
-            text = "NULL"
-        elif isinstance(v, bytes):
-            text = v.hex()
-        elif isinstance(v, str):
-            text = v
-        elif column in _REALS and isinstance(v, (int, float)):
-            text = repr(float(v))
-        else:
-            text = repr(v)
+        text = (repr(float(v)) if column in _REALS and isinstance(v, (int, float))
+                else _value_text(v))
         parts.append(f"{column}\t{text}\n")
     return hashlib.sha256("".join(parts).encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def _value_text(v: Any) -> str:
+    """A stored value as the checksums sum it: ``NULL``, the hex of a BLOB, a text as it
+    is, else ``repr`` (:func:`row_digest`, :func:`info_digest`)."""
+    if v is None:
+        return "NULL"
+    if isinstance(v, bytes):
+        return v.hex()
+    return v if isinstance(v, str) else repr(v)
 
 
 def info_digest(info: Mapping[str, Any]) -> str:
@@ -318,9 +320,7 @@ def info_digest(info: Mapping[str, Any]) -> str:
     pairs = []
     for key, v in sorted(((str(k), v) for k, v in info.items() if k != _INFO_CHECKSUM),
                          key=lambda kv: kv[0]):
-        text = ("NULL" if v is None else v if isinstance(v, str)
-                else v.hex() if isinstance(v, bytes) else repr(v))
-        pairs.append([key, text])
+        pairs.append([key, _value_text(v)])
     return hashlib.sha256(json.dumps(pairs).encode("ascii")).hexdigest()
 
 

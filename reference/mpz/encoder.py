@@ -838,7 +838,12 @@ def outcome_notes(motion: Motion, opts: EncodeOptions, data: bytes, *,
         return []
     if not resolved:
         opts, _ = resolve_bound(motion, opts)
-    records = [c.record for c in container.parse(data) if c.record is not None]
+    # the three record types read below alone, nothing kept per unknown chunk (a file the
+    # encoder just wrote is valid: scan's errors cannot be met here)
+    res = container.scan(data, keep_unknown=False, load=("QUNT", "PATT", "cpnt"))
+    if res.errors:
+        raise res.errors[0]
+    records = [c.record for c in res.chunks if c.record is not None]
     notes = []
     units = f" {motion.units}" if motion.units else ""
     step = next(r.step for r in records if isinstance(r, Qunt))

@@ -238,7 +238,7 @@ def parts_missing_from(original: Motion, decoded: Motion) -> list[Part]:
     from mpz.c3darchive import C3DArchive
     from mpz.io.kinematics import Skeleton
     _motions(original, decoded)
-    parts = [p for p in _metadata_parts(original, decoded) if p.status == "missing"]
+    parts = _metadata_parts(original, decoded)
     if not isinstance(decoded.extras.get("c3d"), C3DArchive):     # else held: not compared
         parts += _archive_parts(original, decoded)
     if decoded.angles is None or not isinstance(decoded.extras.get("skeleton"), Skeleton):

@@ -482,10 +482,9 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         data, rep = encode_motion(motion, opts, progress=bar)
     finally:
         bar.close()
-    # the notes that the encoded file gives (a --grid, --weight or --model-error that did
-    # less than it seems), which the report's notes end with too
-    from mpz.encoder import outcome_notes
-    later = outcome_notes(motion, opts, data)
+    # the notes that the encoded file gives (mpz.encoder.outcome_notes: a --grid, --weight
+    # or --model-error that did less than it seems): the report's that were not printed
+    later = [n for n in rep.notes if n not in notes]
     if not args.quiet:
         for note in later:
             print(f"mpz encode: note: {printable(note)}", file=sys.stderr)

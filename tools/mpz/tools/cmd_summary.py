@@ -296,10 +296,14 @@ def _levels_from_mpz(args, ks):
 
 def _skeleton_of(data: bytes):
     """The skeleton an MPZ file's skeleton chunk holds (spec §4.14), else None."""
-    from mpz.chunks.skeleton import Asfs, Bvhs
-    from mpz.container import parse
+    from mpz.chunks.skeleton import SKELETON_TYPES, Asfs, Bvhs
+    from mpz.container import scan
     from mpz.skeleton import skeleton_of_record
-    for c in parse(data):
+    # the skeleton chunks alone, and nothing kept per unknown chunk (as skeleton.report)
+    res = scan(data, keep_unknown=False, load=SKELETON_TYPES)
+    if res.errors:
+        raise res.errors[0]
+    for c in res.chunks:
         if isinstance(c.record, (Bvhs, Asfs)):
             return skeleton_of_record(c.record)
     return None
