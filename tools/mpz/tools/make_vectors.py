@@ -5144,6 +5144,27 @@ C3D_WRITER_VECTOR_RULES = _rules(
 _merge_rules(C3D_WRITER_VECTOR_RULES)
 
 
+def order_review_vectors(vs: VectorSet):
+    """What stop 74's decoder written in C from the spec alone found no vector for: a
+    second MASK chunk (§3.4 allows MASK at most once; x94 tests a second QUNT, a chunk
+    the order requires, but a decoder that loops over the optional MASK passed every
+    vector), from the base file of :func:`invalid_vectors`. A builder of its own, last,
+    so that the vectors before it keep their numbers."""
+    d = base_design()
+    d.build()
+    ch = [list(c) for c in d.chunks()]
+    i = _find(ch, "MASK")
+    ch.insert(i + 1, list(ch[i]))
+    vs.invalid(_numbered(vs, "x", "second-mask"), assemble(ch),
+               "MASK twice in a row (§3.4: at most once)", "MASK repeated",
+               "a decoder that reads MASK in a loop takes the last one silently",
+               "FormatError", ["§3.4"])
+
+
+#: the §7.4 rules the vectors of :func:`order_review_vectors` probe
+_merge_rules(_rules(("R-3.4-3", "second-mask")))
+
+
 BUILDERS = (
     valid_vectors,
     spec_example,
@@ -5167,6 +5188,7 @@ BUILDERS = (
     summary_review_vectors,                   # §2.1, §4.10, §4.15 (review of stop 71)
     encoder_review_inputs,                    # §7.2, §7.3 (encoder QA of stop 71)
     c3d_writer_vectors,                       # §6.9 the C3D writer's branches (stop 72)
+    order_review_vectors,                     # §3.4 a second MASK (C decoder of stop 74)
 )
 
 #: the markers around the vector table of conformance/README.md (written by :func:`main`)
