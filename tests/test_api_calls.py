@@ -791,3 +791,39 @@ def test_consecutive_cuts_of_an_amc_motion_join_back(shared_data: Path) -> None:
     assert np.array_equal(joined.angles, want.angles)
     with pytest.raises(MotionError, match=r"extras\['skeleton'\] differ at 'first_frame'"):
         mpz.concatenate([parts[0], parts[2]])
+
+
+def test_write_mpz_takes_encode_s_keywords_with_their_types(tmp_path):
+    """``write_mpz``'s options were typed ``Any``, so a misspelt or mistyped option passed a
+    type checker (an API user's QA run of stop 74), and a mapping given as None, which
+    ``encode`` takes as empty, was refused ("group_errors must be a mapping"). They are
+    typed as :class:`mpz.encoder.EncodeKeywords`, whose names and types must be
+    ``encode``'s, and passed on as ``encode`` takes them."""
+    import typing
+
+    from mpz.encoder import EncodeKeywords
+    hints = typing.get_type_hints(mpz.encode)
+    keywords = {n: hints[n] for n, p in inspect.signature(mpz.encode).parameters.items()
+                if p.kind is inspect.Parameter.KEYWORD_ONLY}
+    assert typing.get_type_hints(EncodeKeywords) == keywords
+    assert typing.get_type_hints(mpz.write_mpz)["options"] == typing.Unpack[EncodeKeywords]
+    m = generate("walk", frames=12, markers=5, seed=3)
+    given = {"max_error": 1.0, "group_errors": None, "metadata": None, "model_errors": None,
+             "weights": None}
+    mpz.write_mpz(m, tmp_path / "w.mpz", **given)
+    assert (tmp_path / "w.mpz").read_bytes() == mpz.encode(m, max_error=1.0)
+    with pytest.raises(EncoderError, match="unknown option max_eror; did you mean max_error"):
+        mpz.write_mpz(m, tmp_path / "x.mpz", max_eror=1.0)  # type: ignore[call-arg]
+    assert not (tmp_path / "x.mpz").exists()
+
+
+def test_decode_s_hint_takes_the_uint8_array_it_reads():
+    """``decode`` reads a uint8 numpy array of MPZ bytes, and its hint said it did not (an
+    API user's QA run of stop 74)."""
+    import typing
+    source = typing.get_type_hints(mpz.decode)["source"]
+    arrays = [a for a in typing.get_args(source) if typing.get_origin(a) is np.ndarray]
+    assert len(arrays) == 1 and typing.get_args(typing.get_args(arrays[0])[1]) == (np.uint8,)
+    data = mpz.encode(generate("walk", frames=10))
+    assert np.array_equal(mpz.decode(np.frombuffer(data, np.uint8)).positions,
+                          mpz.decode(data).positions)

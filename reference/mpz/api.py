@@ -28,19 +28,22 @@ import tempfile
 import threading
 import time
 from types import FrameType
-from typing import IO, Any, BinaryIO, TypeAlias, cast
+from typing import IO, Any, BinaryIO, TypeAlias, Unpack, cast
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mpz._worker import spelled
-from mpz.encoder import EncodeReport  # at run time, as Motion: typing.get_type_hints(decode)
+from mpz.encoder import EncodeKeywords, EncodeReport  # at run time, as Motion: get_type_hints
 from mpz.errors import EncoderError, FormatError, LimitExceededError, MPZError
 from mpz.format import MAX_CHUNK_LENGTH, MAX_SAMPLES, SIGNATURE, VERSION_MINOR
 from mpz.motion import Motion  # raised NameError under TYPE_CHECKING (an API QA of stop 72)
 
-#: what :func:`decode`, :func:`info` and :func:`read_mpz` accept: a path, the bytes, or a
-#: binary file object (read from its current position up to the end of the MPZ file)
-Source: TypeAlias = "str | os.PathLike[str] | bytes | bytearray | memoryview | IO[bytes]"
+#: what :func:`decode`, :func:`info` and :func:`read_mpz` accept: a path, the bytes (or a
+#: uint8 numpy array of them), or a binary file object (read from its current position up
+#: to the end of the MPZ file)
+Source: TypeAlias = ("str | os.PathLike[str] | bytes | bytearray | memoryview "
+                     "| NDArray[np.uint8] | IO[bytes]")
 
 #: The most bytes read from one input (4 GiB, 2^32). The reference holds a whole file in
 #: memory while it decodes; a file this long would by itself exceed the decoding budget of
@@ -980,16 +983,17 @@ def check_mpz_name(path: str | os.PathLike[str]) -> None:
 
 
 def write_mpz(motion: Motion, path: str | os.PathLike[str], *,
-              source: str | os.PathLike[str] | None = None, **options: Any) -> EncodeReport:
-    """Encode ``motion`` with ``options`` (the fields of :class:`~mpz.EncodeOptions`, as
-    :func:`mpz.encode` takes them) and write it to ``path`` atomically, replacing a file
-    there; returns the EncodeReport. ``source``: the input file, which ``path`` must not
-    be; ``path`` must not end in a motion format's extension (:func:`check_mpz_name`)."""
-    from mpz.encoder import EncodeOptions, check_option_names, encode_motion
-    check_option_names(options)
+              source: str | os.PathLike[str] | None = None,
+              **options: Unpack[EncodeKeywords]) -> EncodeReport:
+    """Encode ``motion`` with ``options`` (the keywords of :func:`mpz.encode`, typed as
+    :class:`mpz.encoder.EncodeKeywords`) and write it to ``path`` atomically, replacing a
+    file there; returns the EncodeReport. ``source``: the input file, which ``path`` must
+    not be; ``path`` must not end in a motion format's extension (:func:`check_mpz_name`)."""
+    from mpz.encoder import encode_motion, keyword_options
+    opts = keyword_options(options)
     check_mpz_name(path)
     check_output(path, force=True, source=source)  # a bad path fails before the encode
-    data, report = encode_motion(motion, EncodeOptions(**options))
+    data, report = encode_motion(motion, opts)
     write_atomic(path, data, source=source)
     return report
 

@@ -29,7 +29,7 @@ import math
 import os
 import threading
 import time
-from typing import Any, Never, TypeVar
+from typing import Any, Never, TypedDict, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -2208,6 +2208,64 @@ def encode_motion(motion: Motion, opts: EncodeOptions | None = None, *,
         report.summary_blocks = block_length(F)
     report.seconds = time.perf_counter() - t0
     return data, report
+
+
+class EncodeKeywords(TypedDict, total=False):
+    """The keywords of :func:`encode`, each with its type, for the functions that pass them
+    on (``mpz.write_mpz(motion, path, **options: Unpack[EncodeKeywords])``), so that a type
+    checker catches a misspelt or mistyped option there as it does in :func:`encode`
+    (``tests/test_api_calls.py`` holds the two lists together)."""
+
+    max_error: float | None
+    group_errors: Mapping[str, float] | None
+    theta: float
+    k0: int
+    tau: float
+    metric: str
+    weights: Mapping[str, float] | None
+    hierarchy: str | os.PathLike[str] | Mapping[str, Any] | None
+    smoothing: int
+    patterns: str | None
+    segmentation: str
+    grid: float | None
+    max_segment: int
+    summary: Sequence[int]
+    summary_space: str
+    summary_format: str
+    metadata: Mapping[str, str] | None
+    seed: int
+    lossy: bool
+    default_error_mm: float
+    default_error_fraction: float
+    source_grid: float | None
+    model_error: float
+    model_errors: Mapping[str, float] | None
+    keep_skeleton: bool
+    angle_error: float | None
+    translation_error: float | None
+    position_error: float | None
+    threads: int | None
+
+
+#: :func:`encode`'s mappings whose None means "empty" (EncodeOptions takes a mapping)
+NONE_IS_EMPTY = ("group_errors", "metadata", "model_errors")
+
+
+def keyword_options(options: EncodeKeywords) -> EncodeOptions:
+    """The :class:`EncodeOptions` of :func:`encode`'s keywords ``options`` (a mapping of
+    :data:`NONE_IS_EMPTY` given as None is empty, as :func:`encode` takes it).
+
+    Raises
+    ------
+    EncoderError
+        An unknown keyword, with the closest option name.
+    """
+    check_option_names(options)
+    given: dict[str, Any] = dict(options)
+    for name in NONE_IS_EMPTY:
+        if name in given and given[name] is None:
+            given[name] = {}
+    return EncodeOptions(**given)
 
 
 def encode(motion: Motion, *,
