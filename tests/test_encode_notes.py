@@ -536,8 +536,29 @@ def test_pattern_options_without_a_pattern_layer_and_absent_model_kinds_are_said
     assert rep.notes == [
         "model_errors['FORCES'] changes nothing: the file keeps no FORCES model output",
         "theta, k0: they act on the pattern layer only (the paper's segmentation, "
-        "clustering and distortion control), and no node kept one (under a bound, key "
-        "frames or per-sample residuals won): they do not change the decoded motion"]
+        "clustering, distortion control and boundary smoothing), and no node kept one "
+        "(under a bound, key frames or per-sample residuals won): they do not change the "
+        "decoded motion"]
     lossy = encode_motion(m, EncodeOptions(lossy=True, theta=0.5))
     assert lossy[0] != encode_motion(m, EncodeOptions(lossy=True))[0]
+    assert lossy[1].notes == []
+
+
+def test_smoothing_without_a_pattern_layer_is_said():
+    """``smoothing`` under a bound writes MHDR's half-width, so the bytes differ from the
+    default encode's, but §6.4 smooths pattern layers alone: the decoded motion is the
+    same, and the option went unsaid (an API QA run of stop 74). In lossy mode, where a
+    pattern layer is kept, it acts and gets no note."""
+    from mpz.encoder import EncodeOptions, encode_motion
+    m = generate("walk", frames=40)
+    plain = encode_motion(m, EncodeOptions(max_error=1.0))[0]
+    data, rep = encode_motion(m, EncodeOptions(max_error=1.0, smoothing=5))
+    from mpz.decoder import read_stream
+    assert data != plain and read_stream(data).header.smoothing == 5
+    assert np.array_equal(mpz.decode(data).positions, mpz.decode(plain).positions)
+    assert len(rep.notes) == 1 and rep.notes[0].startswith("smoothing: they act on the "
+                                                           "pattern layer only")
+    lossy = encode_motion(m, EncodeOptions(lossy=True, smoothing=5))
+    assert not np.array_equal(mpz.decode(lossy[0]).positions,
+                              mpz.decode(encode_motion(m, EncodeOptions(lossy=True))[0]).positions)
     assert lossy[1].notes == []

@@ -832,7 +832,10 @@ def outcome_notes(motion: Motion, opts: EncodeOptions, data: bytes, *,
     said by ``mpz encode`` only, and neither :attr:`EncodeReport.notes` nor a corpus run
     had them (a docs QA run of stop 74). The file is parsed only when one of those
     options is given."""
-    pattern_only = [n for n in PATTERN_OPTIONS if getattr(opts, n) != getattr(DEFAULTS, n)]
+    # smoothing too: it writes MHDR's half-width, so the bytes differ, but §6.4 smooths
+    # pattern layers alone (under a bound, --smoothing 5 went unsaid: a QA run of stop 74)
+    pattern_only = [n for n in (*PATTERN_OPTIONS, "smoothing")
+                    if getattr(opts, n) != getattr(DEFAULTS, n)]
     if opts.grid is None and not opts.weights and not pattern_only and not opts.model_errors \
             and opts.model_error == DEFAULTS.model_error:
         return []
@@ -877,9 +880,9 @@ def outcome_notes(motion: Motion, opts: EncodeOptions, data: bytes, *,
         names = ([spelled("--weight", "weights")] if opts.weights else []) \
             + [_flag(n) for n in pattern_only]
         notes.append(f"{', '.join(names)}: they act on the pattern layer only (the paper's "
-                     "segmentation, clustering and distortion control), and no node kept "
-                     "one (under a bound, key frames or per-sample residuals won): they do "
-                     "not change the decoded motion")
+                     "segmentation, clustering, distortion control and boundary smoothing), "
+                     "and no node kept one (under a bound, key frames or per-sample "
+                     "residuals won): they do not change the decoded motion")
     return notes + _model_bound_notes(motion, opts, records)
 
 
