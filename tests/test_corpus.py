@@ -1543,6 +1543,11 @@ def test_mpz_encode_batch_gives_each_file_what_the_one_file_command_gives(tmp_pa
     assert {f["source"]: f["status"] for f in doc["files"]} == \
         {str(src / "arm.bvh"): "encoded", str(src / "walk.c3d"): "skipped"}
     _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm", "--angle-error", "0.2"))
+    doc = batch("--position-error", "2mm")                   # (stop 75) the same
+    assert {f["source"]: f["status"] for f in doc["files"]} == \
+        {str(src / "arm.bvh"): "encoded", str(src / "walk.c3d"): "skipped"}
+    _same_motion(out / "arm.mpz", one("arm.bvh", "--units", "cm", "--position-error", "2mm"))
+    assert batch("--position-error", "2mm")["counts"]["skipped"] == 2
     doc = batch("--no-skeleton")
     arm = next(f for f in doc["files"] if f["source"].endswith("arm.bvh"))
     walk = next(f for f in doc["files"] if f["source"].endswith("walk.c3d"))

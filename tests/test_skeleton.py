@@ -1925,3 +1925,41 @@ def test_joint_names_the_skeleton_gives_otherwise_are_said(vector, ext, said):
     v11 = next((vec.parent / "valid").glob("v11-*.mpz")).read_bytes()
     assert not [n for n in writer_problems(mpz.decode(v11), ".bvh")[1]
                 if "names each joint" in n]
+
+
+def test_position_error_bounds_the_joints_alone_from_the_command_line(tmp_path):
+    """`--position-error` (a QA run of stop 75: the CLI had no flag for it, and --max-error
+    also brought the marker layer, which a BVH written back does not use, to the bound:
+    cmu_10_01 took 49.3 KB at 1 mm where 34.7 KB kept its joints as well). The joints
+    written back keep the bound by this file's own FK; the marker layer keeps its preview
+    bound, wider; the file is smaller than --max-error's. Without a skeleton it is an
+    error, and in mm on a BVH without --units too."""
+    from mpz.tools import mpz_cli
+    rng = np.random.default_rng(75)
+    values = np.cumsum(rng.normal(0.0, 1.0, (120, 6 + 3 * 4)), axis=0)
+    src = tmp_path / "s.bvh"
+    src.write_text(_chain_bvh(4, values, [48.0, 38.0, 29.0, 16.0]) + "\n")
+    sizes, worst = {}, {}
+    for flag in ("--position-error", "--max-error"):
+        out, back = tmp_path / f"{flag[2:]}.mpz", tmp_path / f"{flag[2:]}.bvh"
+        assert mpz_cli.main(["encode", str(src), "-o", str(out), "--units", "cm", flag, "1mm",
+                             "-q"]) == 0
+        assert mpz_cli.main(["decode", str(out), "-o", str(back), "-q"]) == 0
+        d = np.linalg.norm(bvh_fk(bvh_read(back.read_text()))
+                           - bvh_fk(bvh_read(src.read_text())), axis=2)
+        worst[flag] = float(d.max())
+        sizes[flag] = out.stat().st_size
+    assert worst["--position-error"] <= 0.1 * (1 + 1e-9)          # cm
+    assert mpz_cli.main(["encode", str(src), "-o", str(tmp_path / "d.mpz"), "--units", "cm",
+                         "-q"]) == 0
+    preview = mpz.info(tmp_path / "d.mpz").error_bound          # 1/500 of the skeleton's size
+    assert preview is not None and preview > 0.1
+    assert mpz.info(tmp_path / "position-error.mpz").error_bound == preview
+    assert mpz.info(tmp_path / "max-error.mpz").error_bound == pytest.approx(0.1)
+    assert sizes["--position-error"] < sizes["--max-error"], sizes
+    assert mpz_cli.main(["encode", str(src), "-o", str(tmp_path / "x.mpz"),
+                         "--position-error", "1mm"]) == 2          # no unit: --units
+    npy = tmp_path / "m.npy"
+    np.save(npy, np.zeros((4, 2, 3)))
+    assert mpz_cli.main(["encode", str(npy), "-o", str(tmp_path / "y.mpz"),
+                         "--position-error", "1"]) == 2            # no skeleton
