@@ -1593,7 +1593,9 @@ def test_a_part_of_an_asf_not_kept_is_said_once(tmp_path, capsys, one_bone_asf):
     """An ASF with a comment after its first keyword (not stored): the corpus table said it
     twice, as a note ("not kept from the ASF: 1 comment ...") and among the file's
     not_kept ("not kept: from the ASF: 1 comment ..."), and the row kept it in both
-    columns (a corpus QA run). Once now, as not_kept, as an up-to-date run says it too."""
+    columns (a corpus QA run). Once now, as not_kept, as an up-to-date run says it too:
+    a warning, exit 1, since stop 75 (nothing asked for it to be dropped), which -q
+    prints."""
     from mpz.tools import mpz_cli
     src, out = tmp_path / "src", tmp_path / "out"
     src.mkdir()
@@ -1604,10 +1606,16 @@ def test_a_part_of_an_asf_not_kept_is_said_once(tmp_path, capsys, one_bone_asf):
         code = mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0",
                              "--rate", "120"])
         table = capsys.readouterr().out
-        assert code == 0 and status in table, table
+        assert code == 1 and status in table, table
         said = [line for line in table.splitlines() if "comment after the first" in line]
-        assert said == [f"  NOTE {src / 't_01.amc'}: not kept: from the ASF: 1 comment "
+        assert said == [f"  WARNING {src / 't_01.amc'}: not kept: from the ASF: 1 comment "
                         "after the first keyword"], table
+    assert mpz_cli.main(["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0",
+                         "--rate", "120", "-q"]) == 1
+    said = capsys.readouterr()
+    assert said.out == "" and said.err == (f"mpz encode: warning: {src / 't_01.amc'}: not "
+                                           "kept: from the ASF: 1 comment after the first "
+                                           "keyword\n")
     with open_index(out) as ix:
         (row,) = list(ix.rows())
     assert json.loads(row["not_kept"]) == ["from the ASF: 1 comment after the first keyword"]

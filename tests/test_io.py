@@ -2225,8 +2225,9 @@ def test_compare_says_what_the_sources_reader_does_not_keep(tmp_path, capsys):
     assert mpz_cli.main(["compare", str(amc), str(tmp_path / "a.mpz")]) == 0
     assert "does not keep" not in capsys.readouterr().err
     (tmp_path / "tiny.asf").write_text(ASF_TEXT.replace("length", "LENGTH", 1))
-    assert mpz_cli.main(["encode", str(amc), "-o", str(tmp_path / "b.mpz")]) == 0
-    assert "mpz encode: note: not kept from the ASF: the spelling" in capsys.readouterr().err
+    assert mpz_cli.main(["encode", str(amc), "-o", str(tmp_path / "b.mpz")]) == 1   # warned
+    assert f"mpz encode: warning: {amc}: not kept: from the ASF: the spelling" in \
+        capsys.readouterr().err
     assert mpz_cli.main(["compare", str(amc), str(tmp_path / "b.mpz")]) == 0
     err = capsys.readouterr().err
     assert f"mpz compare: note: {amc}: its reader does not keep from the ASF: the " \

@@ -1963,3 +1963,36 @@ def test_position_error_bounds_the_joints_alone_from_the_command_line(tmp_path):
     np.save(npy, np.zeros((4, 2, 3)))
     assert mpz_cli.main(["encode", str(npy), "-o", str(tmp_path / "y.mpz"),
                          "--position-error", "1"]) == 2            # no skeleton
+
+
+
+def test_what_the_reader_drops_is_a_warning_that_quiet_prints(tmp_path, one_bone_asf, capsys):
+    """An AMC's comment after its first frame is not kept: `mpz encode` said so inside its
+    ratio line alone, exit 0, and `-q` hid it (an animation studio's QA run of stop 75).
+    It is a warning now, exit 1, printed with -q too, and in --json's ``warning``; the
+    output is written all the same. What --no-skeleton asks to drop stays a note."""
+    import json as _json
+
+    from mpz.tools import mpz_cli
+    amc, asf = _asf_pair(one_bone_asf, tmp_path)
+    lines = amc.read_text().splitlines()
+    lines.insert(lines.index("2"), "# a comment among the frames")
+    amc.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "o.mpz"
+    capsys.readouterr()
+    assert mpz_cli.main(["encode", str(amc), "--asf", str(asf), "-o", str(out), "-q"]) == 1
+    said = capsys.readouterr()
+    assert out.exists() and said.out == ""
+    assert said.err == (f"mpz encode: warning: {amc}: not kept: from the AMC: 1 comment or "
+                        "':' line after its first frame\n")
+    assert mpz_cli.main(["encode", str(amc), "--asf", str(asf), "-o", str(out), "-f",
+                         "--json", "--rate", "120"]) == 1
+    doc = _json.loads(capsys.readouterr().out)
+    assert doc["warning"] == "not kept: from the AMC: 1 comment or ':' line after its first " \
+        "frame" and doc["dropped"] == ["from the AMC: 1 comment or ':' line after its first " \
+                                       "frame"]
+    amc.write_text("\n".join(x for x in lines if not x.startswith("#")) + "\n")
+    assert mpz_cli.main(["encode", str(amc), "--asf", str(asf), "-o", str(out), "-f",
+                         "--no-skeleton", "--rate", "120"]) == 0
+    assert "mpz encode: note: --no-skeleton: the skeleton and its channels are not kept" \
+        in capsys.readouterr().err

@@ -69,7 +69,7 @@ import numpy as np
 
 from mpz._worker import command_task, in_command, spelled
 from mpz.api import _use_force, folder_problem
-from mpz.encoder import DEFAULTS, EncodeOptions
+from mpz.encoder import DEFAULTS, EncodeOptions, unasked
 from mpz.errors import EncoderError, MPZError
 from mpz.hierarchy import BUILDERS
 from mpz.io._common import is_folder, is_utf8, utf8_name, walk
@@ -1745,9 +1745,15 @@ class CorpusReport:
                 lines.append(f"  WARNING {name(r.source)}: {name(r.warning)}")
         for r in self.results:
             lines += [f"  NOTE {name(r.source)}: {name(note)}" for note in r.notes]
-            if r.not_kept:
+            # what no option asked to drop is a warning (mpz.encoder.unasked), the rest a
+            # note (--no-skeleton's)
+            lost = unasked(r.not_kept)
+            asked = [d for d in r.not_kept if d not in lost]
+            if lost:
+                lines.append(f"  WARNING {name(r.source)}: not kept: {name('; '.join(lost))}")
+            if asked:
                 lines.append(f"  NOTE {name(r.source)}: not kept: "
-                             f"{name('; '.join(r.not_kept))}")
+                             f"{name('; '.join(asked))}")
         if self.forgotten:
             n = len(self.forgotten)
             lines.append(f"  NOTE {n} index row{'' if n == 1 else 's'} removed, the output "

@@ -729,6 +729,27 @@ def start_pool(threads: int, first: Callable[..., _T], *args: Any
         return None, None
 
 
+#: :func:`not_kept`'s entry for a skeleton not written, which ``keep_skeleton=False``
+#: (``--no-skeleton``) asks for: the one entry that is no warning (:func:`unasked`)
+SKELETON_NOT_KEPT = "joint angles and the skeleton"
+
+
+def unasked(dropped: Iterable[str]) -> list[str]:
+    """The entries of :func:`not_kept`'s ``dropped`` that no option asked for: content of
+    the source that the output will not give back, which the command line says as a
+    warning (exit 1; an animation studio's QA run of stop 75: an AMC's comments among its
+    frames, an ASF's unknown sections, were a note that ``-q`` hid, exit 0). Readers give
+    a skeleton with their joint angles, so :data:`SKELETON_NOT_KEPT` is asked for."""
+    return [d for d in dropped if d != SKELETON_NOT_KEPT]
+
+
+def reader_not_kept(motion: Motion) -> list[str]:
+    """What the reader of ``motion`` listed as not kept of its source
+    (``motion.extras[READER_NOT_KEPT]``: an AMC's comments among its frames, an ASF's
+    unknown keys, a BVH's keyword spelling); part of :func:`not_kept`."""
+    return [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]
+
+
 def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     """What of its source an encode of ``motion`` with ``opts`` does not keep, so that no
     report counts the whole source file against what was kept (issue 12): a C3D's analog
@@ -741,7 +762,7 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     from mpz.c3darchive import C3D_EXTENSION
     from mpz.extensions import EXTENSIONS
     from mpz.motion import cut_leaves
-    listed = [str(s) for s in motion.extras.get(READER_NOT_KEPT, ())]
+    listed = reader_not_kept(motion)
     out = []
     if (motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras
             and cut_leaves(C3D_EXTENSION.held) not in listed):   # a cut names it itself
@@ -749,7 +770,7 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
         out.append(f"analog, parameters and residuals ({why})")
     if motion.angles is not None and (not opts.keep_skeleton
                                       or "skeleton" not in motion.extras):
-        out.append("joint angles and the skeleton")
+        out.append(SKELETON_NOT_KEPT)
     elif motion.parents is not None and (not opts.keep_skeleton
                                          or "skeleton" not in motion.extras):
         # a motion built with parents and no skeleton decoded without them, and this list

@@ -242,8 +242,10 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     finally:
         bar.close()
     failed = len(report.failed)
-    # a source read with a warning (cut short, a header that disagrees) is "warnings only"
-    warned = any(r.warning for r in report.results)
+    # a source read with a warning (cut short, a header that disagrees), or part of one
+    # that its output does not keep and no option asked to drop, is "warnings only"
+    from mpz.encoder import unasked
+    warned = any(r.warning or unasked(r.not_kept) for r in report.results)
     code = found(EXIT_ERROR if failed or stopped else EXIT_WARN if warned else EXIT_OK)
     if args.json:
         doc = report.as_dict()
@@ -262,6 +264,9 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
             if r.warning:
                 print(f"mpz encode: warning: {printable(r.source)}: {printable(r.warning)}",
                       file=sys.stderr)
+            for item in unasked(r.not_kept):
+                print(f"mpz encode: warning: {printable(r.source)}: not kept: "
+                      f"{printable(item)}", file=sys.stderr)
     if stopped is not None:
         print(f"mpz encode: error: {printable(str(stopped))}", file=sys.stderr)
         left = len(report.not_run)

@@ -432,7 +432,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
                 batch: bool = False) -> int:
     import mpz
     from mpz.api import check_mpz_name, check_output, is_null_device
-    from mpz.encoder import encode_motion
+    from mpz.encoder import encode_motion, reader_not_kept, unasked
     from mpz.io._common import ext_of
     from mpz.metrics import summary as error_summary
     from mpz.tools._common import (
@@ -466,10 +466,18 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     # file's meta, and the exit code is 1, "warnings only" (a QA run of stop 47: a note,
     # exit 0, and nothing at all with -q)
     warning = motion.metadata.get("warning")
-    found(EXIT_WARN if warning else EXIT_OK)    # before -o - writes to standard output
     if warning:     # -q too: it is no success, and it exits 1 (a QA run of stop 52)
         print(f"mpz encode: warning: {printable(job.input)}: {printable(warning)}",
               file=sys.stderr)
+    # what the reader could not carry into the file (an AMC's comments among its frames,
+    # an ASF's unknown sections, a BVH's keyword spelling): the output will not give it
+    # back, so a warning, as the reader's (a note that -q hid, or words in the ratio line
+    # alone, exit 0: an animation studio's QA run of stop 75)
+    for item in unasked(reader_not_kept(motion)):
+        warning = f"{warning}; not kept: {item}" if warning else f"not kept: {item}"
+        print(f"mpz encode: warning: {printable(job.input)}: not kept: {printable(item)}",
+              file=sys.stderr)
+    found(EXIT_WARN if warning else EXIT_OK)    # before -o - writes to standard output
     reader_note = motion.metadata.get("reader_note")              # which reader read it
     if reader_note and not args.quiet:
         print(f"mpz encode: note: {printable(job.input)}: {printable(reader_note)}",
@@ -757,13 +765,9 @@ def _skeleton_options(args: argparse.Namespace, motion, opts: EncodeOptions, *,
         if not batch and args.no_skeleton:
             return opts, ["--no-skeleton changes nothing: the input has no skeleton"]
         return opts, []
-    notes: list[str] = []                          # nothing is lost without a word
-    dropped = motion.metadata.get("asf_dropped")
-    if dropped and not batch:
-        # a corpus says it once, among the file's not_kept (the reader lists it there):
-        # this note too printed it twice, "not kept from the ASF: X" and "not kept: from
-        # the ASF: X" (a corpus QA run)
-        notes.append(f"not kept from the ASF: {dropped}")
+    # nothing is lost without a word: what the ASF held that the file does not keep is
+    # among the reader's not_kept, a warning (run); a note here said it twice
+    notes: list[str] = []
     if args.no_skeleton:
         if not batch:
             notes.append("--no-skeleton: the skeleton and its channels are not kept, only the "
