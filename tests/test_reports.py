@@ -1077,3 +1077,39 @@ def test_compare_of_a_dec_or_mips_c3d_says_it_compares_values(shared_data, tmp_p
         for part in ("C3D header", "C3D parameters"):
             assert got[part]["status"] == "same", got[part]
             assert (said in got[part]["detail"]) == (proc != "Intel"), got[part]
+
+
+def test_marker_layer_compares_a_skeletal_encode_with_one_without_like_with_like(
+        tmp_path, capsys):
+    """A maintainer's QA run of stop 75: two versions' encodes of one AMC, the new with a
+    skeleton chunk and the old without, were compared as the joint positions of the new
+    one's channels against the old one's marker layer (1.66 mm apart, exit 2), where the
+    two marker layers agreed to 2e-13 mm, and no option compared those. A note now says
+    which is which, and --marker-layer compares the marker layers alone (the distance
+    measured here on mpz.decode(markers_only=True)), held to the sum of the MHDR bounds,
+    with no part besides the markers; two same-size files that differ say so."""
+    src, with_skeleton = encoded_sweep(capsys, tmp_path, "--units", "cm", "--max-error",
+                                       "1mm")
+    without = tmp_path / "plain.mpz"
+    code, _, err = cli(capsys, "encode", src, "-o", without, "--units", "cm", "--max-error",
+                       "1mm", "--no-skeleton", "-q")
+    assert code == 0, err
+    layers = [mpz.decode(p, markers_only=True).positions for p in (without, with_skeleton)]
+    far = float(np.nanmax(np.linalg.norm(layers[0] - layers[1], axis=2)))
+    code, out, err = cli(capsys, "compare", without, with_skeleton, "--json")
+    assert f"{with_skeleton} gives the joint positions of its skeleton's channels and " \
+        f"{without} its marker layer" in err and "--marker-layer compares" in err
+    assert json.loads(out)["max"] != pytest.approx(far, abs=1e-12)
+    code, out, err = cli(capsys, "compare", without, with_skeleton, "--marker-layer",
+                         "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["max"] == pytest.approx(far, rel=1e-9, abs=1e-12)
+    assert doc["besides_markers"] == [] and doc["bound_check"]["bound"] == pytest.approx(0.2)
+    assert doc["positions"] == {"original": "decoded markers", "decoded": "decoded markers"}
+    assert "--marker-layer: the markers alone are compared" in err
+    twins = [tmp_path / "t1.mpz", tmp_path / "t2.mpz"]
+    for twin, value in zip(twins, ("a", "b"), strict=True):
+        assert cli(capsys, "encode", src, "-o", twin, "--units", "cm", "--no-skeleton",
+                   "--meta", f"take={value}", "-q")[0] == 0
+    code, out, _ = cli(capsys, "compare", *twins)
+    assert "(the same size, other bytes)" in out

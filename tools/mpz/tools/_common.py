@@ -354,7 +354,8 @@ def assumed_rate(motion: Motion, rate: float | None) -> str | None:
             "true one with --rate HZ")
 
 
-def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
+def read_mpz_input(path: str, max_samples: int | None = None, *,
+                   marker_layer: bool = False) -> Motion:
     """Decode an MPZ input: a file or ``-`` (standard input), as ``mpz decode`` writes it.
 
     A skeletal file (BVH, AMC) comes back with the joint positions computed from its
@@ -362,22 +363,25 @@ def read_mpz_input(path: str, max_samples: int | None = None) -> Motion:
     the declared position bound), not the 1.0 marker layer, which the reference encoder
     keeps only as a coarse preview: ``mpz compare``, ``show`` and ``summary`` then see
     the motion ``mpz decode`` writes (:func:`joint_positions_from_channels` says which).
+    With ``marker_layer``, the marker layer alone, as a 1.0 decoder reads it
+    (``mpz.decode(markers_only=True)``: ``mpz compare --marker-layer``).
     """
     if path != STDIO:
-        return _decode(path, max_samples)
+        return _decode(path, max_samples, marker_layer)
     data, fmt = read_stdin()
     if fmt != ".mpz":
         raise FormatError(f"standard input is not an MPZ file (first bytes {data[:8]!r})",
                           path=STDIO)
-    return read_mpz_input_bytes(data, max_samples)
+    return read_mpz_input_bytes(data, max_samples, marker_layer=marker_layer)
 
 
-def _decode(source: str | bytes, max_samples: int | None) -> Motion:
+def _decode(source: str | bytes, max_samples: int | None, marker_layer: bool = False
+            ) -> Motion:
     import mpz
     from mpz.format import MAX_SAMPLES
     from mpz.skeleton import has_channels, with_joint_positions
     motion = mpz.decode(source, max_samples=MAX_SAMPLES if max_samples is None
-                        else max_samples)
+                        else max_samples, markers_only=marker_layer)
     return with_joint_positions(motion) if has_channels(motion) else motion
 
 
@@ -411,12 +415,14 @@ def read_input(path: str, asf: str | None = None, *,
 
 
 def read_input_keeping(path: str, asf: str | None = None, *,
-                       max_samples: int | None = None
+                       max_samples: int | None = None, marker_layer: bool = False
                        ) -> tuple[Motion, str | None, bytes | None]:
     """:func:`read_input`, and the bytes of an MPZ input (None for other formats), for a
     caller that reads its chunks too (``mpz compare``: the skeleton chunk's steps; ``mpz
-    show``: the declared bound). A file is read again for them; standard input, once."""
-    motion, ext, data, _ = _read_input(path, asf, max_samples, keep=True)
+    show``: the declared bound). A file is read again for them; standard input, once.
+    ``marker_layer``: as :func:`read_mpz_input`'s, for an MPZ input."""
+    motion, ext, data, _ = _read_input(path, asf, max_samples, keep=True,
+                                       marker_layer=marker_layer)
     return motion, ext, data
 
 
@@ -458,7 +464,8 @@ def positions_bound(motion: Motion, ext: str | None, data: bytes, res: Scan) -> 
     return pb if pb > 0 else None
 
 
-def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bool
+def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bool,
+                marker_layer: bool = False
                 ) -> tuple[Motion, str | None, bytes | None, int | None]:
     """The motion, its format's extension, the MPZ bytes if ``keep``, and the input's
     size in bytes."""
@@ -466,8 +473,8 @@ def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bo
     if path == STDIO:
         data, fmt = read_stdin(assume=".amc" if asf is not None else None)
         if fmt == ".mpz":
-            return (read_mpz_input_bytes(data, max_samples), fmt, data if keep else None,
-                    len(data))
+            return (read_mpz_input_bytes(data, max_samples, marker_layer=marker_layer), fmt,
+                    data if keep else None, len(data))
         from mpz.io import read_bytes
         return read_bytes(data, fmt=fmt, name=STDIO, asf=asf), fmt, None, len(data)
     from mpz.io import READERS, read
@@ -482,7 +489,7 @@ def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bo
     except OSError:
         size = None
     if ext == ".mpz":
-        motion = read_mpz_input(path, max_samples)
+        motion = read_mpz_input(path, max_samples, marker_layer=marker_layer)
         if not keep:
             return motion, ext, None, size
         from mpz.api import read_source
@@ -490,10 +497,11 @@ def _read_input(path: str, asf: str | None, max_samples: int | None, *, keep: bo
     return read(path, asf=asf), ext, None, size
 
 
-def read_mpz_input_bytes(data: bytes, max_samples: int | None = None) -> Motion:
+def read_mpz_input_bytes(data: bytes, max_samples: int | None = None, *,
+                         marker_layer: bool = False) -> Motion:
     """:func:`read_mpz_input` of MPZ bytes read from standard input."""
     try:
-        return _decode(data, max_samples)
+        return _decode(data, max_samples, marker_layer)
     except MPZError as exc:
         exc.path = STDIO
         raise

@@ -75,6 +75,12 @@ def add_parser(sub):
     p.add_argument("--decoded-asf", metavar="ASF", help="skeleton of an AMC decoded input "
                    "(default: the .asf beside it, as mpz decode writes it; else --asf's, "
                    "with a note that its skeleton is then not checked)")
+    p.add_argument("--marker-layer", action="store_true",
+                   help="compare the marker layer of an .mpz input (spec §6.8, what a 1.0 "
+                   "decoder reads, held to its MHDR bound) in place of the joint positions "
+                   "of its skeleton's channels, and the markers alone: no part besides "
+                   "them. Two versions' encodes of one BVH or AMC, one with a skeleton "
+                   "chunk and one without, are then compared like with like")
     from mpz.tools._cli import max_samples, max_samples_help
     p.add_argument("--max-samples", type=max_samples, default=None, metavar="N",
                    help=max_samples_help("decoding and comparing two .mpz files need about "
@@ -293,9 +299,12 @@ def run(args: argparse.Namespace) -> int:
         check_plot(args.plot, args.force, (args.original, args.decoded))
         _matplotlib()
     names = (_label(args.original), _label(args.decoded))
-    a, ext_a, data_a = read_input_keeping(args.original, args.asf, max_samples=args.max_samples)
+    layer = args.marker_layer
+    a, ext_a, data_a = read_input_keeping(args.original, args.asf, max_samples=args.max_samples,
+                                          marker_layer=layer)
     asf_b, borrowed, asf_found = _decoded_asf(args)
-    b, ext_b, data_b = read_input_keeping(args.decoded, asf_b, max_samples=args.max_samples)
+    b, ext_b, data_b = read_input_keeping(args.decoded, asf_b, max_samples=args.max_samples,
+                                          marker_layer=layer)
     # the readers' warnings (a file cut short; a C3D archive dropped, whose analog data
     # then went unnoticed on both sides) were dropped, exit 0 (a QA run of stop 53); an
     # .mpz file's is its source's, which encoding said
@@ -319,10 +328,14 @@ def run(args: argparse.Namespace) -> int:
     # failed two good encodes, a QA run of stop 53), as the markers below
     steps = [c for c in (channel_bounds(d) for d in (data_a, data_b) if d is not None)
              if c is not None]
-    parts = besides_markers(a, b, channel_bounds=None if not steps else
-                            (sum(r for r, _ in steps), sum(t for _, t in steps)))
-    if ext_a == ext_b == ".mpz":
+    parts = [] if layer else besides_markers(a, b, channel_bounds=None if not steps else (
+        sum(r for r, _ in steps), sum(t for _, t in steps)))
+    if ext_a == ext_b == ".mpz" and not layer:
         parts = _both_mpz(a, b, names, parts)
+    if layer:
+        notes.append("--marker-layer: the markers alone are compared, an .mpz input's "
+                     "marker layer; no part besides them (metadata, a C3D archive, a "
+                     "skeleton) is")
     if borrowed and ext_b == ".amc":         # its own skeleton was not read: not checked
         parts = [dataclasses.replace(p, status="unchecked", detail=f"{p.detail}; read with "
                                      "--asf's (the decoded AMC has no .asf of its own)")
@@ -341,6 +354,15 @@ def run(args: argparse.Namespace) -> int:
     notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
               for p in parts if p.status == "missing"]
     pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
+    if ext_a == ext_b == ".mpz" and first_joints != joints:
+        # an encode of a BVH or AMC with a skeleton chunk against one without (two
+        # versions, or --no-skeleton): joint positions from channels against a marker
+        # layer, 1.66 mm apart where the two marker layers agreed to 2e-13 mm (a
+        # maintainer's QA run of stop 75)
+        withj, without = (names[0], names[1]) if first_joints else (names[1], names[0])
+        notes.append(f"{withj} gives the joint positions of its skeleton's channels and "
+                     f"{without} its marker layer (it holds no skeleton): --marker-layer "
+                     "compares the marker layers of both")
     npy = ext_a == ".npy" or ext_b == ".npy"           # no names: taken in order
     known = set(a.names)
     added = [n for n in b.names if n not in known] if not npy else []
@@ -441,12 +463,16 @@ def run(args: argparse.Namespace) -> int:
         if pair is not None:
             (sa, sb), (ba, bb) = pair["sizes"], pair["bounds"]
             print(f"  .mpz files: {sa} and {sb} bytes"
+                  # same-size files that differ showed "+0.00 %" alone (a QA run, stop 75)
                   + (" (byte-identical)" if pair["identical"] else
+                     " (the same size, other bytes)" if sa == sb else
                      f" ({100 * (sb / sa - 1):+.2f} %)")
                   + f", bounds {'none' if ba is None else f'{bound_text(ba, 4)}{u}'} and "
                   f"{'none' if bb is None else f'{bound_text(bb, 4)}{u}'}")
         if check is not None:
-            what = ("position_bound of the joint positions (spec §4.14)" if joints
+            what = ("one's marker layer bound (spec §7.2), the other's position_bound of "
+                    "its joint positions (§4.14)" if pair is not None and first_joints != joints
+                    else "position_bound of the joint positions (spec §4.14)" if joints
                     else "spec §7.2")
             by = (f"the sum of the bounds of {names[0]} and {names[1]}" if pair is not None
                   else f"declared by {names[1]}")
