@@ -54,9 +54,17 @@ import numpy as np
 from _common import find_recording, positive_int, shared_data_name
 from _common import shared_data_dir as shared_data
 import mpz
-from mpz.format import MM_PER_UNIT
 import mpz.io
-from mpz.skeleton import mm_per_unit
+
+try:    # the README runs this script with the old version too: 0.1.0 had neither module
+    from mpz.format import MM_PER_UNIT
+except ImportError:                                      # (a maintainer's QA run, stop 75)
+    MM_PER_UNIT = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+try:
+    from mpz.skeleton import mm_per_unit
+except ImportError:
+    def mm_per_unit(motion) -> float | None:            # no skeletal input before 0.2
+        return None
 import peers
 from peers import PeerMissing
 
@@ -72,6 +80,11 @@ def key_of(root: Path, path: Path) -> str:
     """The row's file name: folder/stem under the data root (c3d/HDM_dg... and
     amc/HDM_dg... are two files)."""
     return path.relative_to(root).with_suffix("").as_posix()
+
+
+#: the paper's unbounded mode: ``lossy=True`` since 0.2, the default before (0.1.0)
+LOSSY = ({"lossy": True} if "lossy" in {f.name for f in __import__("dataclasses").fields(
+    __import__("mpz.encoder").encoder.EncodeOptions)} else {})
 
 
 def markers_only(m: mpz.Motion) -> mpz.Motion:
@@ -146,7 +159,8 @@ def run(files: list[tuple[str, Path]], bounds: list[float], repeat: int, lossy=T
         if i == 0:                                  # JIT warm-up, not counted
             warm = mk.select_frames(0, min(mk.n_frames, 200))
             mpz.decode(mpz.encode(warm, max_error=bounds[0] / scale))
-        dropped = [k for k in src.extras if src.extras[k] is not None]
+        extras = getattr(src, "extras", {})         # none before 0.2 (the 0.1.0 release)
+        dropped = [k for k in extras if extras[k] is not None]
         print(f"\n{name}: {mk.n_frames} frames x {mk.n_markers} markers, gaps "
               f"{mk.gap_fraction:.1%}, units {src.units or 'none'}"
               f"{'' if not dropped else ' (' + ', '.join(dropped) + ' dropped: markers only)'}"
@@ -192,7 +206,7 @@ def run(files: list[tuple[str, Path]], bounds: list[float], repeat: int, lossy=T
                   f"{'':>3} {enc_cpu:>6.3f} {dec_cpu:>6.3f}"
                   f"{'' if not bad else '  BOUND VIOLATED: ' + ', '.join(bad)}")
         if lossy:
-            data = mpz.encode(mk, lossy=True)       # the paper's mode: no bound
+            data = mpz.encode(mk, **LOSSY)          # the paper's mode: no bound
             out = mpz.decode(data)
             row = {"file": name, "E": None, "mm_per_unit": per, "mpz_ratio": raw / len(data),
                    "arms": mpz.arms(mk, out) * scale, "max": mpz.max_error(mk, out) * scale,

@@ -98,3 +98,28 @@ def test_a_missing_peer_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "pysz", None)           # import pysz raises ImportError
     with pytest.raises(peers.PeerMissing, match=r"\[bench\]"):
         peers.sz3_one(_motion_with_gaps(), 1.0, "F,M,3", "INTERP cubic")
+
+
+def test_bench_rd_runs_with_the_old_release_s_package(monkeypatch):
+    """The README runs today's bench_rd.py with the old version installed; 0.1.0 has no
+    mpz.format or mpz.skeleton, no ``lossy`` option (its default mode had no bound) and no
+    ``Motion.extras``, and the script failed on its imports (a maintainer's QA run of stop
+    75). Without those modules it loads, with the units table mpz.format has today."""
+    from mpz.format import MM_PER_UNIT
+    bench = Path(__file__).resolve().parents[1] / "bench"
+    monkeypatch.syspath_prepend(str(bench))
+    monkeypatch.setitem(sys.modules, "peers", peers)
+
+    def load(name):
+        spec = importlib.util.spec_from_file_location(name, bench / "bench_rd.py")
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+    today = load("mpz_bench_rd_today")
+    assert today.LOSSY == {"lossy": True} and today.MM_PER_UNIT is MM_PER_UNIT
+    monkeypatch.setitem(sys.modules, "mpz.format", None)     # import mpz.format fails
+    monkeypatch.setitem(sys.modules, "mpz.skeleton", None)
+    old = load("mpz_bench_rd_old")
+    assert old.MM_PER_UNIT == MM_PER_UNIT and old.MM_PER_UNIT is not MM_PER_UNIT
+    assert old.mm_per(generate("walk", frames=5)) == 1.0       # mm

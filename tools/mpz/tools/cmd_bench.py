@@ -271,10 +271,15 @@ def run(args) -> int:
     (old, old_input, old_at), (new, new_input, new_at) = (_load(args.compare[0]),
                                                           _load(args.compare[1]))
     if old_input != new_input:
-        before = "marker positions plus the C3D archive (a run before bench_rd said)"
+        # a run that does not say came from a bench_rd.py before it did: its ratios may
+        # count a C3D archive (an mpz of issue 12 and after) or not (0.1.0 had none), so
+        # "plus the C3D archive" was a false claim of a 0.1.0 run, and "rerun the old
+        # version's bench" what made it (a maintainer's QA run of stop 75)
+        before = "not said: a bench_rd.py before 2026-12-04, whose ratios may count a C3D archive"
         raise FormatError(f"the two runs measured different inputs ({old_input or before} "
                           f"against {new_input or before}): their ratios cannot be "
-                          f"compared; rerun the old version's bench")
+                          f"compared; run this bench_rd.py with the other version installed "
+                          f"(README, For maintainers), which says what it measures")
     other = _other_data(old, new)
     if other:
         (f, e) = other[0]
