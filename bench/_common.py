@@ -63,6 +63,28 @@ def find_recording(root: Path, name: str) -> Path | None:
     return None
 
 
+#: millimetres per length unit, as mpz.format.MM_PER_UNIT: the fallback of
+#: :func:`mm_per_unit` for an mpz without that module
+_MM_PER_UNIT = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+
+
+def mm_per_unit(m) -> float | None:
+    """Millimetres per unit of the motion ``m``'s positions (None: it has no unit): the
+    unit's, else a skeleton's own (a BVH without one). The README runs these scripts with
+    the old version installed too, and 0.1.0 has neither mpz.format nor mpz.skeleton (a
+    maintainer's QA run of stop 75: every bench failed on its imports): the units table
+    alone then, which a test holds equal to mpz.format's."""
+    try:
+        from mpz.format import MM_PER_UNIT
+    except ImportError:
+        MM_PER_UNIT = _MM_PER_UNIT
+    try:
+        from mpz.skeleton import mm_per_unit as of_skeleton
+    except ImportError:
+        return MM_PER_UNIT.get(m.units)
+    return MM_PER_UNIT.get(m.units) or of_skeleton(m)
+
+
 def whole_number(low: int) -> Callable[[str], int]:
     """argparse type of a whole number of ``low`` or more (as ``mpz.tools._cli``'s)."""
     def parse(text: str) -> int:
@@ -180,10 +202,11 @@ def coded_float32(m) -> bytes:
     import numpy as np
 
     parts = [m.positions]
-    arc = m.extras.get("c3d")
+    extras = getattr(m, "extras", {})          # none in an mpz before 0.2 (the 0.1.0 release)
+    arc = extras.get("c3d")
     if arc is not None:
         parts += [arc.words, arc.models, arc.analog]
-    if m.extras.get("skeleton") is not None and m.angles is not None:
+    if extras.get("skeleton") is not None and m.angles is not None:
         parts.append(m.angles)
     return b"".join(np.nan_to_num(np.asarray(a, dtype=np.float32)).tobytes() for a in parts)
 

@@ -112,7 +112,7 @@ def decoded_digests(out) -> dict[str, str]:  # type: ignore[no-untyped-def]
 
 def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
             save: Path | None = None) -> None:
-    from bench_speed import bound_kwargs, files_of, timed
+    from bench_speed import HAS_THREADS, bound_kwargs, files_of, timed
     import mpz
     import mpz.io
     root = shared_data_dir()
@@ -154,7 +154,7 @@ def measure(files: list[str], bound: str, out: Path, inputs: Path | None = None,
                                  f"--save-inputs wrote for {path.name} ({INPUTS_LIST} "
                                  f"{said})")
         else:
-            data = mpz.encode(m, threads=1, **kw)
+            data = mpz.encode(m, **({"threads": 1} if HAS_THREADS else {}), **kw)
         if save is not None:
             (save / f"{path.name}.mpz").write_bytes(data)
             listed[path.name] = hashlib.sha256(data).hexdigest()

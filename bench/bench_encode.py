@@ -55,7 +55,7 @@ SCHEMA = 1
 def measure(files: list[str], bounds: list[str], threads: list[int], out: Path) -> int:
     """Encode every file x bound x thread count; write the rows to ``out``. Returns 1 when
     the thread counts of a row gave different bytes, else 0."""
-    from bench_speed import bound_kwargs, files_of, timed
+    from bench_speed import HAS_THREADS, bound_kwargs, files_of, timed
     import mpz
     import mpz.io
     root = shared_data_dir()
@@ -75,11 +75,14 @@ def measure(files: list[str], bounds: list[str], threads: list[int], out: Path) 
             row: dict = {"bound": desc, "seconds": {}, "sha256_threads": {},
                          "bytes_threads": {}}
             for t in threads:
-                data = mpz.encode(m, threads=t, **kw)
+                # an mpz before the threads option (0.1.0) encodes with one: the same
+                # call for every count (its columns are then one thread's)
+                tk = {"threads": t} if HAS_THREADS else {}
+                data = mpz.encode(m, **tk, **kw)
                 row["sha256_threads"][str(t)] = hashlib.sha256(data).hexdigest()
                 row["bytes_threads"][str(t)] = len(data)
                 row["seconds"][str(t)], _ = timed(
-                    lambda m=m, kw=kw, t=t: mpz.encode(m, threads=t, **kw), 3)
+                    lambda m=m, kw=kw, tk=tk: mpz.encode(m, **tk, **kw), 3)
             outputs = set(row["sha256_threads"].values())
             # sha256, bytes: the first thread count's (every one's is in *_threads)
             first = str(threads[0])

@@ -51,20 +51,10 @@ import time
 
 import numpy as np
 
-from _common import find_recording, positive_int, shared_data_name
+from _common import find_recording, mm_per_unit, positive_int, shared_data_name
 from _common import shared_data_dir as shared_data
 import mpz
 import mpz.io
-
-try:    # the README runs this script with the old version too: 0.1.0 had neither module
-    from mpz.format import MM_PER_UNIT
-except ImportError:                                      # (a maintainer's QA run, stop 75)
-    MM_PER_UNIT = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
-try:
-    from mpz.skeleton import mm_per_unit
-except ImportError:
-    def mm_per_unit(motion) -> float | None:            # no skeletal input before 0.2
-        return None
 import peers
 from peers import PeerMissing
 
@@ -95,7 +85,7 @@ def markers_only(m: mpz.Motion) -> mpz.Motion:
 
 def mm_per(m: mpz.Motion) -> float | None:
     """Millimetres per unit of the motion's positions (None: the file has no unit)."""
-    return MM_PER_UNIT.get(m.units) or mm_per_unit(m)
+    return mm_per_unit(m)
 
 
 #: every timing runs ``--repeat`` times and more, until this many seconds have passed (at

@@ -154,12 +154,11 @@ def timed_together(fns: dict, repeat: int) -> dict:
 
 def bound_kwargs(m, label: str) -> tuple[dict, float | None, str]:
     """Encoder keywords, the bound in motion units (None: default) and its description."""
-    from mpz.format import MM_PER_UNIT
-    from mpz.skeleton import mm_per_unit
+    from _common import mm_per_unit
     if label == "default":
         return {}, None, "default"
     mm = float(label.removesuffix("mm"))
-    per = MM_PER_UNIT.get(m.units) or mm_per_unit(m)       # unitless BVH: the skeleton's
+    per = mm_per_unit(m)                                    # unitless BVH: the skeleton's
     e = mm / per if per else mm
     return {"max_error": e}, e, label if per else f"{mm:g} unit"
 

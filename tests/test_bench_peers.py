@@ -100,26 +100,35 @@ def test_a_missing_peer_names_the_extra(monkeypatch):
         peers.sz3_one(_motion_with_gaps(), 1.0, "F,M,3", "INTERP cubic")
 
 
-def test_bench_rd_runs_with_the_old_release_s_package(monkeypatch):
-    """The README runs today's bench_rd.py with the old version installed; 0.1.0 has no
-    mpz.format or mpz.skeleton, no ``lossy`` option (its default mode had no bound) and no
-    ``Motion.extras``, and the script failed on its imports (a maintainer's QA run of stop
-    75). Without those modules it loads, with the units table mpz.format has today."""
+
+def test_the_benches_run_with_the_old_release_s_package(monkeypatch):
+    """The README runs today's bench_rd.py (and bench_encode, bench_decode) with the old
+    version installed; 0.1.0 has no mpz.format or mpz.skeleton, no ``lossy`` option (its
+    default mode had no bound) and no ``Motion.extras``, and every script failed on its
+    imports (a maintainer's QA run of stop 75). Without those modules their units come
+    from a table of their own, which must be mpz.format's."""
     from mpz.format import MM_PER_UNIT
+    from mpz.io.bvh import parse_bvh
     bench = Path(__file__).resolve().parents[1] / "bench"
     monkeypatch.syspath_prepend(str(bench))
     monkeypatch.setitem(sys.modules, "peers", peers)
 
-    def load(name):
-        spec = importlib.util.spec_from_file_location(name, bench / "bench_rd.py")
+    def load(name, file):
+        spec = importlib.util.spec_from_file_location(name, bench / file)
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
         return module
-    today = load("mpz_bench_rd_today")
-    assert today.LOSSY == {"lossy": True} and today.MM_PER_UNIT is MM_PER_UNIT
+    common = load("mpz_bench_common", "_common.py")
+    assert common._MM_PER_UNIT == MM_PER_UNIT
+    assert load("mpz_bench_rd", "bench_rd.py").LOSSY == {"lossy": True}
+    bvh = parse_bvh("HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition "
+                    "Zposition\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: 1\n"
+                    "Frame Time: 0.1\n0 0 0\n")
+    from mpz.skeleton import with_units
+    walk, cm = generate("walk", frames=5), with_units(bvh, "cm")
+    assert common.mm_per_unit(walk) == 1.0 and common.mm_per_unit(cm) == 10.0
+    assert common.mm_per_unit(bvh) is None
     monkeypatch.setitem(sys.modules, "mpz.format", None)     # import mpz.format fails
     monkeypatch.setitem(sys.modules, "mpz.skeleton", None)
-    old = load("mpz_bench_rd_old")
-    assert old.MM_PER_UNIT == MM_PER_UNIT and old.MM_PER_UNIT is not MM_PER_UNIT
-    assert old.mm_per(generate("walk", frames=5)) == 1.0       # mm
+    assert common.mm_per_unit(walk) == 1.0 and common.mm_per_unit(bvh) is None
