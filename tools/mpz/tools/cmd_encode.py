@@ -495,7 +495,14 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     bar = Progress("encoding", enabled=None if not args.quiet else False)
     try:
         bar(0.0, "planning")    # then the nodes, and the stages within each (encode_motion)
-        data, rep = encode_motion(motion, opts, progress=bar)
+        try:
+            data, rep = encode_motion(motion, opts, progress=bar)
+        except EncoderError as exc:
+            # what this input's data cannot be coded with (a channel value too large for
+            # its step) named no file, where every reader's error does (a QA run, stop 75)
+            if exc.path is None and source is not None:
+                exc.path = source
+            raise
     finally:
         bar.close()
     # the notes that the encoded file gives (mpz.encoder.outcome_notes: a --grid, --weight
