@@ -1810,6 +1810,28 @@ def test_bvh_names_that_repeat_next_to_a_suffixed_one_are_made_unique(tmp_path):
     assert [j.name for j in back.extras["skeleton"].joints][:3] == ["A", "A", "A#2"]
 
 
+def test_the_renamed_note_of_a_bvh_says_a_bvh_keeps_its_names(tmp_path, capsys):
+    """The note on names made unique said that only a C3D written back keeps the
+    source's names, and that a BVH got the new ones; a BVH written back keeps its joints'
+    names (an animation studio's QA run of stop 75)."""
+    from mpz.tools import mpz_cli
+    p = tmp_path / "d.bvh"
+    p.write_text("HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition "
+                 "Zposition\n JOINT A\n {\n  OFFSET 0 1 0\n  CHANNELS 1 Zrotation\n  }\n}\n"
+                 "MOTION\nFrames: 2\nFrame Time: 0.04\n0 0 0 10\n1 1 1 11\n")
+    capsys.readouterr()
+    assert mpz_cli.main(["encode", str(p), "-o", str(tmp_path / "d.mpz")]) == 0
+    assert "made unique: A->A#2 (a BVH or AMC written back keeps the joints' own names; " \
+        "other formats get these names)" in capsys.readouterr().err
+    assert mpz_cli.main(["decode", str(tmp_path / "d.mpz"), "-o", str(tmp_path / "b.bvh"),
+                         "-q"]) == 0
+    assert (tmp_path / "b.bvh").read_text().count("JOINT A\n") == 1
+    assert mpz_cli.main(["encode", str(p), "-o", str(tmp_path / "n.mpz"),
+                         "--no-skeleton"]) == 0
+    assert "(a C3D written back keeps the source's labels; other formats get these names)" \
+        in capsys.readouterr().err
+
+
 def test_a_headerless_amc_on_standard_input_is_read_with_asf(tmp_path, one_bone_asf):
     """`mpz encode - --asf S.asf` of an AMC without header lines: its content names no
     format, and --asf, which names an AMC's skeleton, was not taken to say it."""
@@ -1996,3 +2018,20 @@ def test_what_the_reader_drops_is_a_warning_that_quiet_prints(tmp_path, one_bone
                          "--no-skeleton", "--rate", "120"]) == 0
     assert "mpz encode: note: --no-skeleton: the skeleton and its channels are not kept" \
         in capsys.readouterr().err
+
+
+def test_a_channel_too_large_for_its_step_is_named_with_its_file(tmp_path, capsys):
+    """`mpz encode` of a BVH with a value of 1e20 said "channel 10 reaches 1e+20": no file,
+    and an index where the reader names every channel (an animation studio's QA run of
+    stop 75). It names both now."""
+    from mpz.tools import mpz_cli
+    values = np.zeros((4, 6 + 3 * 2))
+    values[2, 7] = 1e20                      # J1's second rotation channel, Xrotation
+    src = tmp_path / "huge.bvh"
+    src.write_text(_chain_bvh(2, values, [10.0, 5.0]) + "\n")
+    with pytest.raises(EncoderError, match=r"^J1\.Xrotation \(channel 7\) reaches 1e\+20"):
+        mpz.encode(parse_bvh(src.read_text()))
+    capsys.readouterr()
+    assert mpz_cli.main(["encode", str(src), "-o", str(tmp_path / "h.mpz")]) == 2
+    assert f"mpz encode: error: {src}: J1.Xrotation (channel 7) reaches 1e+20" in \
+        capsys.readouterr().err

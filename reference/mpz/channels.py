@@ -150,9 +150,11 @@ def step_for(bound: float) -> Step:
     return best
 
 
-def quantise(values: FloatArray, steps: Sequence[Step]) -> IntArray:
+def quantise(values: FloatArray, steps: Sequence[Step],
+             names: Sequence[str] | None = None) -> IntArray:
     """``round(v / step)`` per channel of ``values[F, C]``, int64: the integer whose
-    ``x m / 10^d`` is nearest to v.
+    ``x m / 10^d`` is nearest to v. ``names``: the channels' names, for the error (it
+    gave an index alone, "channel 10": a QA run of stop 75).
 
     Raises
     ------
@@ -166,7 +168,8 @@ def quantise(values: FloatArray, steps: Sequence[Step]) -> IntArray:
         x = np.floor(v * scale + 0.5) if v.size else np.zeros(v.shape)
     if x.size and np.abs(x).max() >= 2.0 ** (MAX_EXP - 3):
         c = int(np.argmax(np.abs(x).max(axis=0)))
-        raise EncoderError(f"channel {c} reaches {float(np.abs(v[:, c]).max()):g}, too large "
+        which = f"{names[c]} (channel {c})" if names is not None else f"channel {c}"
+        raise EncoderError(f"{which} reaches {float(np.abs(v[:, c]).max()):g}, too large "
                            f"for a step of {steps[c]} (|value / step| must stay below 2^27); "
                            f"give a larger {_channel_bounds()}")
     return x.astype(np.int64)

@@ -37,8 +37,9 @@ _REACH = 0.5 / _LAMBDA + 1.0
 def grid_units(x: NDArray[np.float64], cols: NDArray[np.int64], offset: NDArray[np.float64],
                step: float, out: NDArray[np.float64]) -> None:
     """``out[t, j, a] = (x[t, cols[j], a] - offset[a]) / step``: markers ``cols`` of the
-    motion ``x[F, M, 3]`` (any layout) in grid units (spec §4.4's u), each value with the
-    two roundings numpy's ``(x - offset) / step`` gives it."""
+    motion ``x[F, M, 3]`` (any layout) in grid units (spec §4.4: x = o_a + q s, so this
+    is q before it is rounded), each value with the two roundings numpy's
+    ``(x - offset) / step`` gives it."""
     T, D = x.shape[0], x.shape[2]
     for j in range(cols.shape[0]):
         m = cols[j]

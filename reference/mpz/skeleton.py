@@ -213,7 +213,7 @@ def code_channels(values: FloatArray, skel: Skeleton, steps: Sequence[Step]
                   ) -> tuple[tuple[ChannelCoding, ...], bytes]:
     """The channel layer of values ``[F, C]`` at the given steps (spec §4.14): the channel
     entries and the coded field."""
-    x = quantise(values, steps)
+    x = quantise(values, steps, skel.channel_names())
     degrees = skel.angle_unit == "deg"
     plans = plan(x, steps, [degrees and is_rotation(k) for k in skel.channel_kinds()])
     groups, coded = group(coded_values(x, plans))

@@ -709,9 +709,13 @@ def _input_notes(args: argparse.Namespace, motion, source: str, *,
     from mpz.tools._common import renamed_list
     renamed = renamed_list(motion.metadata)
     if renamed:
+        # a BVH or AMC written back keeps its joints' own names, as a C3D its labels: the
+        # note said a BVH got the new ones (an animation studio's QA run of stop 75)
+        keeps = ("a BVH or AMC written back keeps the joints' own names"
+                 if motion.extras.get("skeleton") is not None and not args.no_skeleton
+                 else "a C3D written back keeps the source's labels")
         notes.append(f"marker names that repeat or are empty were made unique: {renamed} "
-                     "(a C3D written back keeps the source's labels; other formats get "
-                     "these names)")
+                     f"({keeps}; other formats get these names)")
     if source != "-" and ext_of(source) == ".mpz":
         import mpz
         bound = mpz.info(source).error_bound
