@@ -620,7 +620,9 @@ def test_each_encoder_failure_names_its_rule():
                                           side.get("units", "")), max_error=E), x, side, E)[0]
     assert len(got) == 1 and "declared bound" in got[0] and got[0].endswith("(R-7.2-1)")
     got = check_encoded(b"not an MPZ file", x, side, E)[0]
-    assert got[0].endswith("(§7.2: a conforming encoder writes only valid files)")
+    # its rule, which the runner's message ends with, as every other failure's (a
+    # maintainer's QA run of stop 75: this one had none)
+    assert got[0].endswith("(§7.2: a conforming encoder writes only valid files) (R-7.3-1)")
 
 
 @pytest.mark.parametrize("args, said", [
@@ -1029,3 +1031,14 @@ def test_a_manifest_of_encoder_inputs_alone_runs_an_encoder(tmp_path):
     proc, _ = run(tmp_path, "--encoder", f"{PY} -m mpz.conformance.refencoder",
                   "--vectors", str(vdir))
     assert proc.returncode == 64 and "no vectors and no encoder inputs" in proc.stderr
+
+
+def test_a_tiny_or_huge_value_is_printed_so_that_it_shows():
+    """A coordinate of 5.55e-307 was printed "got 0.000000" (a maintainer's QA run of stop
+    75, a bit flip in an exponent): six significant digits where six decimals show none,
+    six decimals elsewhere, as before."""
+    from mpz.conformance.runner import _fmt
+    assert [_fmt(v) for v in (5.551115123125783e-307, -0.000123456, 0.0, 1673.0, 0.001,
+                              2.5e7, float("nan"))] == \
+        ["5.55112e-307", "-0.000123456", "0.000000", "1673.000000", "0.001000", "2.5e+07",
+         "NaN"]

@@ -2035,3 +2035,26 @@ def test_a_channel_too_large_for_its_step_is_named_with_its_file(tmp_path, capsy
     assert mpz_cli.main(["encode", str(src), "-o", str(tmp_path / "h.mpz")]) == 2
     assert f"mpz encode: error: {src}: J1.Xrotation (channel 7) reaches 1e+20" in \
         capsys.readouterr().err
+
+
+def test_show_says_an_amc_s_rate_is_assumed(tmp_path, one_bone_asf, capsys):
+    """`mpz show` printed an AMC's 120 Hz as if the file stored it, for the AMC and for
+    its .mpz (an animation studio's QA run of stop 75); a rate given with --rate, or a
+    BVH's own, is not assumed."""
+    import json as _json
+
+    from mpz.tools import mpz_cli
+    amc, asf = _asf_pair(one_bone_asf, tmp_path)
+    out = tmp_path / "o.mpz"
+    assert mpz_cli.main(["encode", str(amc), "--asf", str(asf), "-o", str(out), "-q"]) == 0
+    given = tmp_path / "g.mpz"
+    assert mpz_cli.main(["encode", str(amc), "--asf", str(asf), "-o", str(given), "--rate",
+                         "60", "-q"]) == 0
+    capsys.readouterr()
+    for path, assumed in ((amc, True), (out, True), (given, False)):
+        assert mpz_cli.main(["show", str(path), "--json"] + (["--asf", str(asf)]
+                                                             if path == amc else [])) == 0
+        doc = _json.loads(capsys.readouterr().out)
+        assert doc["rate_assumed"] is assumed, path
+    assert mpz_cli.main(["show", str(out)]) == 0
+    assert "rate:      120.0 Hz (assumed: the source stores none" in capsys.readouterr().out

@@ -57,6 +57,7 @@ def summary(motion, path: str) -> dict:
     """The facts ``mpz show`` reports, as a JSON-ready dict."""
     from mpz.io import FORMAT_NAMES
     from mpz.io._common import ext_of
+    from mpz.metrics import rate_assumed
 
     return {
         "schema": JSON_SCHEMA,
@@ -65,6 +66,9 @@ def summary(motion, path: str) -> dict:
         "frames": motion.n_frames,
         "markers": motion.n_markers,
         "rate": motion.rate,
+        # an AMC's or NPY's rate is the reader's assumption: show printed "120.0 Hz" as if
+        # measured (an animation studio's QA run of stop 75)
+        "rate_assumed": rate_assumed(motion),
         "units": motion.units or None,
         "duration": motion.duration,
         "gap_fraction": motion.gap_fraction,
@@ -150,7 +154,9 @@ def run(args) -> int:
         f"format:    {info['format']}",
         f"frames:    {info['frames']}",
         f"markers:   {info['markers']}" + (" (skeleton points)" if info["skeletal"] else ""),
-        f"rate:      {info['rate']!r} Hz",
+        f"rate:      {info['rate']!r} Hz"
+        + (" (assumed: the source stores none; mpz encode --rate gives the true one)"
+           if info["rate_assumed"] else ""),
         f"units:     {info['units'] or 'unknown'}",
         f"duration:  {_seconds(info['duration'])} s",
         f"gaps:      {info['gap_fraction']:.2%}",
