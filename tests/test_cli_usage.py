@@ -515,6 +515,13 @@ def test_option_errors_come_from_the_subcommand_with_a_hint(inputs: dict[str, Pa
         assert p.returncode == 64 and b"a length takes its unit without a space" in p.stderr
     p = run(["mpz", "encdoe"], tmp_path)
     assert p.returncode == 64 and b"did you mean encode?" in p.stderr
+    # difflib's nearest word was the opposite ("--lossless: did you mean --lossy?"), or none
+    # ("mpz info"): an animation studio's QA run of stop 75
+    p = run(["mpz", "encode", str(inputs["c3d"]), "-o", "y.mpz", "--lossless"], tmp_path)
+    assert p.returncode == 64 and b"MPZ has no lossless flag" in p.stderr
+    assert b"did you mean --lossy" not in p.stderr
+    p = run(["mpz", "info", str(inputs["mpz"])], tmp_path)
+    assert p.returncode == 64 and b"mpz show gives what a file holds" in p.stderr
 
 
 def test_a_negative_length_and_a_value_out_of_range_name_the_flag(

@@ -125,6 +125,13 @@ def renamed_list(meta: Mapping[str, str], shown: int = 10) -> str:
     return "; ".join(renamed[:shown]) + (f"; and {more} more" if more > 0 else "")
 
 
+def ratio_text(ratio: float) -> str:
+    """A compression ratio for a report's ``R:1``: one decimal, or two significant digits
+    where that shows 0.9 or less (a one-frame AMC's 0.06 printed "0.0:1": an animation studio's QA run of
+    stop 75)."""
+    return f"{ratio:.1f}" if ratio >= 0.95 else f"{ratio:.2g}"
+
+
 def human_size(n: int) -> str:
     """``n`` bytes in binary units, named as such (KiB, MiB, GiB: "KB" for 1024 bytes
     disagreed with the corpus table's decimal MB by 5 %, a QA run of stop 47)."""

@@ -441,6 +441,7 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
         compile_notice,
         human_size,
         input_size,
+        ratio_text,
         read_motion,
         stage,
         write_stdout,
@@ -599,15 +600,15 @@ def _encode_one(job, args: argparse.Namespace, out, results: list[dict], *,
     print(f"  size     raw float32 {human_size(rep.raw_bytes)}, input {insize}, "
           f"MPZ {human_size(rep.file_bytes)}", file=out)
     vs_input = ("" if result["ratio_input"] is None
-                else f", {result['ratio_input']:.1f}:1 vs input file")
+                else f", {ratio_text(result['ratio_input'])}:1 vs input file")
     if result["ratio_input"] is None and result["dropped"]:
         vs_input = f", vs input file n/a ({'; '.join(result['dropped'])} not kept)"
     if channel_bytes is not None:
-        print(f"  ratio    {result['ratio_channels_float32']:.1f}:1 vs the "
+        print(f"  ratio    {ratio_text(result['ratio_channels_float32'])}:1 vs the "
               f"{motion.angles.shape[1]} channels as float32 ({human_size(channel_bytes)}), "
-              f"{result['ratio_float32']:.1f}:1 vs the joint positions{vs_input}", file=out)
+              f"{ratio_text(result['ratio_float32'])}:1 vs the joint positions{vs_input}", file=out)
     else:
-        print(f"  ratio    {result['ratio_float32']:.1f}:1 vs float32{vs_input}", file=out)
+        print(f"  ratio    {ratio_text(result['ratio_float32'])}:1 vs float32{vs_input}", file=out)
     _print_parts(result, out)
     bound = (" (no bound declared: --lossy)" if rep.bound is None
              else f" (bound {bound_text(rep.bound)}{u}: {rep.bound_rule})")
@@ -922,17 +923,17 @@ def _kept(motion, rep, in_size: int | None) -> dict:
 
 
 def _print_parts(result: dict, out) -> None:
-    from mpz.tools._common import human_size
+    from mpz.tools._common import human_size, ratio_text
     if result["bytes_skeleton"]:
         print(f"  parts    joint positions {human_size(result['bytes_markers'])} "
-              f"({result['ratio_markers_float32']:.1f}:1 vs float32), skeleton and "
+              f"({ratio_text(result['ratio_markers_float32'])}:1 vs float32), skeleton and "
               f"channels {human_size(result['bytes_skeleton'])}, the rest "
               f"{human_size(result['bytes_rest'])}", file=out)
     elif result["bytes_analog"] or result["bytes_rest"] > 200:
         ch = result["analog_channels"]
         exact = f" ({ch} channel{'s' * (ch != 1)}, exact)" if ch else ""
         print(f"  parts    markers {human_size(result['bytes_markers'])} "
-              f"({result['ratio_markers_float32']:.1f}:1 vs float32), analog "
+              f"({ratio_text(result['ratio_markers_float32'])}:1 vs float32), analog "
               f"{human_size(result['bytes_analog'])}{exact}, parameters and the rest "
               f"{human_size(result['bytes_rest'])}", file=out)
     if result["model_outputs"]:

@@ -65,7 +65,7 @@ from mpz.tools._cli import (
     quiet_broken_pipe,
     reports_ctrl_c,
 )
-from mpz.tools._common import human_size
+from mpz.tools._common import human_size, ratio_text
 
 #: the --json document's version: 2 since stop 53, when non-finite field values became
 #: texts (null in 1; docs/mpzinfo.md lists the versions)
@@ -201,15 +201,16 @@ def summary_line(info: dict) -> str:
             c = info["skeleton"]["channels"]
             parts.append(f"{c} channels {human_size(4 * info['frames'] * c)} as float32 "
                          f"\u2192 file {human_size(info['size'])}, "
-                         f"{info['ratio_channels']:.1f}:1 (the joint positions "
-                         f"{human_size(info['raw_size'])}: {info['ratio']:.1f}:1)")
+                         f"{ratio_text(info['ratio_channels'])}:1 (the joint positions "
+                         f"{human_size(info['raw_size'])}: {ratio_text(info['ratio'])}:1)")
         else:
             parts.append(f"markers {human_size(info['raw_size'])} as float32 \u2192 file "
-                         f"{human_size(info['size'])}, {info['ratio']:.1f}:1")
+                         f"{human_size(info['size'])}, {ratio_text(info['ratio'])}:1")
         b = info.get("bytes_by_part") or {}
         if b.get("analog") or b.get("skeleton") or b.get("rest", 0) > 200:
             more = [f"parts: markers {human_size(b['markers'])}"
-                    + (f" ({info['ratio_markers']:.1f}:1)" if info["ratio_markers"] else "")]
+                    + (f" ({ratio_text(info['ratio_markers'])}:1)" if info["ratio_markers"]
+                       else "")]
             for key, what in (("analog", "analog"), ("skeleton", "skeleton and channels"),
                               ("rest", "the rest")):
                 if b.get(key):
