@@ -357,6 +357,17 @@ def test_encoder_mode(tmp_path):
     r = doc["results"][0]
     assert r["passed"] and r["declared_bound"] <= r["max_error"]
     assert r["measured_max_error"] <= r["declared_bound"]
+    # the output's digest (stop 75): the reference encoder's bytes for that input and E
+    import hashlib
+
+    import numpy as np
+
+    import mpz
+    npy = Path(mf.DEFAULT_DIR) / "inputs" / "e02-mixed-10-metres.npy"
+    side = json.loads(npy.with_suffix(".json").read_text(encoding="utf-8"))
+    data = mpz.encode(mpz.Motion(np.load(npy), side["names"], side["rate"],
+                                 side.get("units", "")), max_error=r["max_error"])
+    assert r["sha256"] == hashlib.sha256(data).hexdigest() and r["bytes"] == len(data)
     proc, doc = run(tmp_path, "--encoder", f"{BROKEN_CMD} loose-encoder", "--only",
                     "e02-mixed-10-metres", name="loose.json")
     assert proc.returncode == 1

@@ -334,3 +334,32 @@ def test_an_unknown_revision_is_named(tmp_path, capsys):
     assert cod.main(["--rev", "deadbeef", "--repo", str(repo), "--no-synthetic",
                      "--data", str(tmp_path)]) == 2
     assert "--rev deadbeef: no commit of" in capsys.readouterr().err
+
+
+def test_the_json_file_has_a_schema_and_the_fields_its_document_lists(tmp_path):
+    """`--json FILE` wrote no schema, and no document listed its fields (a maintainer's QA
+    run of stop 75): it is schema mpz-check-old-decoders/1, and its fields, and those of a
+    revision, are the ones docs/versioning.md lists (the fake old package of this file,
+    no input: what the document holds, not what it finds)."""
+    import re
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    _git(repo, "init", "-q")
+    _write(repo, {"pyproject.toml": "[project]\nname = 'mpz'\n", **FAKE_OLD})
+    _git(repo, "add", "-A")
+    _git(repo, "commit", "-q", "-m", "fake")
+    (tmp_path / "data").mkdir()
+    out = tmp_path / "r.json"
+    assert cod.main(["--rev", "HEAD", "--repo", str(repo), "--no-synthetic", "--data",
+                     str(tmp_path / "data"), "--options", "1mm", "--work",
+                     str(tmp_path / "work"), "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == cod.JSON_SCHEMA == "mpz-check-old-decoders/1"
+    text = (Path(__file__).resolve().parents[1] / "docs" / "versioning.md").read_text()
+    table = text.split("## The `--json` file", 1)[1].split("\n## ", 1)[0]
+    listed = re.findall(r"^\| `(\w+)` \|", table, re.M)
+    assert set(listed) == set(doc)
+    (rev,) = doc["revisions"]
+    row = next(line for line in table.splitlines() if line.startswith("| `revisions` |"))
+    assert set(re.findall(r"`(\w+)`", row.split("|")[2])) >= set(rev) | {"case", "verdict"}
+    assert rev["driver"]["version"] == "0.0.1-fake" and rev["counts"]["fail"] == 0
