@@ -127,8 +127,8 @@ def renamed_list(meta: Mapping[str, str], shown: int = 10) -> str:
 
 def ratio_text(ratio: float) -> str:
     """A compression ratio for a report's ``R:1``: one decimal, or two significant digits
-    where that shows 0.9 or less (a one-frame AMC's 0.06 printed "0.0:1": an animation studio's QA run of
-    stop 75)."""
+    where that shows 0.9 or less (a one-frame AMC's 0.06 printed "0.0:1": an animation
+    studio's QA run of stop 75)."""
     return f"{ratio:.1f}" if ratio >= 0.95 else f"{ratio:.2g}"
 
 
