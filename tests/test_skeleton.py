@@ -2058,3 +2058,16 @@ def test_show_says_an_amc_s_rate_is_assumed(tmp_path, one_bone_asf, capsys):
         assert doc["rate_assumed"] is assumed, path
     assert mpz_cli.main(["show", str(out)]) == 0
     assert "rate:      120.0 Hz (assumed: the source stores none" in capsys.readouterr().out
+    # an NPY's 1 Hz likewise, and not once --rate gave one (every NPY counted as assumed,
+    # --rate 60 included: the review of stop 75)
+    np.save(tmp_path / "m.npy", np.arange(36.0).reshape(4, 3, 3))
+    for extra, assumed in (([], True), (["--rate", "60"], False)):
+        target = tmp_path / f"n{len(extra)}.mpz"
+        assert mpz_cli.main(["encode", str(tmp_path / "m.npy"), "-o", str(target),
+                             "--max-error", "0.01", "-q", *extra]) == 0
+        for path in (target, tmp_path / "m.npy"):
+            if path.suffix == ".npy" and extra:
+                continue
+            capsys.readouterr()
+            assert mpz_cli.main(["show", str(path), "--json"]) == 0
+            assert _json.loads(capsys.readouterr().out)["rate_assumed"] is assumed, path

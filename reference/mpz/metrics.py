@@ -253,8 +253,10 @@ RATE_TOLERANCE = 1e-6
 
 def rate_assumed(m: Motion) -> bool:
     """Whether ``m``'s rate is its reader's assumption, not stored: an NPY's, an AMC's, a
-    one-row CSV's (``rate_assumed`` in its metadata)."""
-    return "rate_assumed" in m.metadata or m.metadata.get("format") == "npy"
+    one-row CSV's (``rate_assumed`` in its metadata, which ``--rate`` takes away). Every
+    NPY counted until stop 75, also one given ``--rate``; the NPY reader now says so
+    itself (an .mpz made from an NPY before that holds no such entry)."""
+    return "rate_assumed" in m.metadata
 
 
 def same_frame_time(a: Motion, b: Motion) -> bool:
