@@ -297,6 +297,8 @@ def test_an_encoders_refusal_or_missing_output_names_the_rule_and_section(tmp_pa
     assert doc["results"][0]["message"] == (
         "encoder exited 2: myenc: cannot hold bound: every input and bound the suite ships "
         "can be held, so a refusal fails here (spec §7.3); rules R-7.3-1 (spec §7.4)")
+    # no output: its size and digest are null, present as the README lists them
+    assert (doc["results"][0]["bytes"], doc["results"][0]["sha256"]) == (None, None)
     nothing = python_script(tmp_path / "nothing.py", "sys.exit(0)\n")
     _, doc = run(tmp_path, "--encoder", str(nothing), "--only", only)
     assert doc["results"][0]["message"] == (

@@ -132,3 +132,17 @@ def test_the_benches_run_with_the_old_release_s_package(monkeypatch):
     monkeypatch.setitem(sys.modules, "mpz.format", None)     # import mpz.format fails
     monkeypatch.setitem(sys.modules, "mpz.skeleton", None)
     assert common.mm_per_unit(walk) == 1.0 and common.mm_per_unit(bvh) is None
+    # no lossy and no threads option (0.1.0's EncodeOptions), and a Motion without extras
+    import dataclasses
+    from types import SimpleNamespace
+
+    import mpz.encoder
+
+    @dataclasses.dataclass
+    class OldOptions:
+        max_error: float | None = None
+    monkeypatch.setattr(mpz.encoder, "EncodeOptions", OldOptions)
+    assert load("mpz_bench_rd_old", "bench_rd.py").LOSSY == {}
+    assert load("mpz_bench_speed_old", "bench_speed.py").HAS_THREADS is False
+    old = SimpleNamespace(positions=walk.positions, angles=None)
+    assert common.coded_float32(old) == common.coded_float32(walk)

@@ -1071,8 +1071,10 @@ def test_a_standard_output_that_is_not_utf8_takes_every_name(tmp_path: Path) -> 
 
 def test_a_ratio_below_one_keeps_its_digits():
     """A one-frame AMC's ratio of 0.06 printed "0.0:1" (an animation studio's QA run of
-    stop 75): two significant digits where one decimal shows 0.9 or less; one decimal
-    elsewhere, as before."""
+    stop 75): two significant digits, in fixed notation, where one decimal shows less than
+    1.0; one decimal elsewhere, as before."""
     from mpz.tools._common import ratio_text
-    assert [ratio_text(r) for r in (0.0625, 0.5, 0.94, 0.999, 1.0, 11.6944, 250.0)] == \
-        ["0.062", "0.5", "0.94", "1.0", "1.0", "11.7", "250.0"]
+    assert [ratio_text(r) for r in (0.0625, 0.5, 0.94, 0.95, 0.96, 0.999, 1.0, 11.6944,
+                                    250.0, 0.0, 1.234e-5)] == \
+        ["0.062", "0.50", "0.94", "0.95", "1.0", "1.0", "1.0", "11.7", "250.0", "0.0",
+         "0.000012"]

@@ -522,6 +522,8 @@ def test_option_errors_come_from_the_subcommand_with_a_hint(inputs: dict[str, Pa
     assert b"did you mean --lossy" not in p.stderr
     p = run(["mpz", "info", str(inputs["mpz"])], tmp_path)
     assert p.returncode == 64 and b"mpz show gives what a file holds" in p.stderr
+    p = run(["mpz", "decode", str(inputs["mpz"]), "-o", "y.npy", "--lossless"], tmp_path)
+    assert p.returncode == 64 and b"lossless flag" not in p.stderr     # encode's advice
 
 
 def test_a_negative_length_and_a_value_out_of_range_name_the_flag(

@@ -117,7 +117,8 @@ def test_renamed_markers_are_said(tmp_path):
     lines += [f"{f}\t{(f - 1) / 60:.6f}\t1\t2\t3\t4\t5\t{f}" for f in (1, 2, 3)]
     (tmp_path / "dup.trc").write_text("\n".join(lines) + "\n")
     p = _mpz("encode", "dup.trc", "-o", "a.mpz", cwd=tmp_path)
-    assert p.returncode == 0 and "made unique: KNE->KNE#2" in p.stderr
+    assert p.returncode == 0 and "made unique: KNE->KNE#2 (every format written back " \
+        "gets these names)" in p.stderr     # a TRC has no C3D archive to keep labels in
 
 
 def test_an_mpz_input_says_that_errors_add(tmp_path):
@@ -562,3 +563,25 @@ def test_smoothing_without_a_pattern_layer_is_said():
     assert not np.array_equal(mpz.decode(lossy[0]).positions,
                               mpz.decode(encode_motion(m, EncodeOptions(lossy=True))[0]).positions)
     assert lossy[1].notes == []
+
+
+def test_what_is_dropped_unasked_is_what_no_option_or_reader_warning_said():
+    """mpz.encoder.unasked, the rule of the warnings (exit 1) for dropped content: the
+    reader's list of what it could not carry, yes; the skeleton --no-skeleton leaves out,
+    no (asked for); a C3D archive its reader could not keep, no (the reader's warning
+    says it: a corpus printed it twice, the review of stop 75)."""
+    from mpz.corpus import CorpusReport, FileResult
+    from mpz.encoder import EncodeOptions, not_kept, unasked
+    from mpz.motion import READER_NOT_KEPT
+    m = generate("walk", frames=5)
+    m.metadata.update(format="c3d", warning="C3D archive not kept: bad parameter block")
+    m.extras[READER_NOT_KEPT] = ["from the AMC: 1 comment"]
+    dropped = not_kept(m, EncodeOptions())
+    assert dropped[0].startswith("analog, parameters and residuals (C3D archive not kept")
+    assert unasked(dropped) == ["from the AMC: 1 comment"]
+    assert unasked(["joint angles and the skeleton", "x"]) == ["x"]
+    table = CorpusReport([FileResult("a.c3d", "a.mpz", "encoded", warning=m.metadata[
+        "warning"], not_kept=dropped)], 1.0, 1, "local", "").table().splitlines()
+    assert [line.split(":")[0] for line in table if "a.c3d" in line] == \
+        ["  WARNING a.c3d", "  WARNING a.c3d", "  NOTE a.c3d"]
+    assert "  WARNING a.c3d: not kept: from the AMC: 1 comment" in table

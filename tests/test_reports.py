@@ -1100,6 +1100,7 @@ def test_marker_layer_compares_a_skeletal_encode_with_one_without_like_with_like
     assert f"{with_skeleton} gives the joint positions of its skeleton's channels and " \
         f"{without} its marker layer" in err and "--marker-layer compares" in err
     assert json.loads(out)["max"] != pytest.approx(far, abs=1e-12)
+    assert json.loads(out)["bound_check"]["of"] == "markers and joint positions"
     code, out, err = cli(capsys, "compare", without, with_skeleton, "--marker-layer",
                          "--json")
     doc = json.loads(out)

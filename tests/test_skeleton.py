@@ -1828,8 +1828,11 @@ def test_the_renamed_note_of_a_bvh_says_a_bvh_keeps_its_names(tmp_path, capsys):
     assert (tmp_path / "b.bvh").read_text().count("JOINT A\n") == 1
     assert mpz_cli.main(["encode", str(p), "-o", str(tmp_path / "n.mpz"),
                          "--no-skeleton"]) == 0
-    assert "(a C3D written back keeps the source's labels; other formats get these names)" \
+    assert "made unique: A->A#2 (every format written back gets these names)" \
         in capsys.readouterr().err
+    assert mpz_cli.main(["decode", str(tmp_path / "n.mpz"), "-o", str(tmp_path / "n.c3d"),
+                         "-q"]) == 0
+    assert mpz.io.read(tmp_path / "n.c3d").names[:2] == ["A", "A#2"]    # as the note says
 
 
 def test_a_headerless_amc_on_standard_input_is_read_with_asf(tmp_path, one_bone_asf):

@@ -730,17 +730,23 @@ def start_pool(threads: int, first: Callable[..., _T], *args: Any
 
 
 #: :func:`not_kept`'s entry for a skeleton not written, which ``keep_skeleton=False``
-#: (``--no-skeleton``) asks for: the one entry that is no warning (:func:`unasked`)
+#: (``--no-skeleton``) asks for: not a warning (:func:`unasked`)
 SKELETON_NOT_KEPT = "joint angles and the skeleton"
+#: how :func:`not_kept`'s entry for a C3D archive its reader could not keep begins: the
+#: reader's own warning says it already (:func:`unasked`)
+ARCHIVE_NOT_KEPT = "analog, parameters and residuals ("
 
 
 def unasked(dropped: Iterable[str]) -> list[str]:
-    """The entries of :func:`not_kept`'s ``dropped`` that no option asked for: content of
-    the source that the output will not give back, which the command line says as a
-    warning (exit 1; an animation studio's QA run of stop 75: an AMC's comments among its
-    frames, an ASF's unknown sections, were a note that ``-q`` hid, exit 0). Readers give
-    a skeleton with their joint angles, so :data:`SKELETON_NOT_KEPT` is asked for."""
-    return [d for d in dropped if d != SKELETON_NOT_KEPT]
+    """The entries of :func:`not_kept`'s ``dropped`` that no option asked for and no
+    reader warning said: content of the source that the output will not give back, which
+    the command line says as a warning (exit 1; an animation studio's QA run of stop 75:
+    an AMC's comments among its frames, an ASF's unknown sections, were a note that ``-q``
+    hid, exit 0). Readers give a skeleton with their joint angles, so
+    :data:`SKELETON_NOT_KEPT` is asked for; a C3D archive not kept is its reader's
+    warning (:data:`ARCHIVE_NOT_KEPT`: a corpus printed it twice, the review of stop 75)."""
+    return [d for d in dropped if d != SKELETON_NOT_KEPT
+            and not d.startswith(ARCHIVE_NOT_KEPT)]
 
 
 def reader_not_kept(motion: Motion) -> list[str]:
@@ -767,7 +773,7 @@ def not_kept(motion: Motion, opts: EncodeOptions) -> list[str]:
     if (motion.metadata.get("format") == "c3d" and "c3d" not in motion.extras
             and cut_leaves(C3D_EXTENSION.held) not in listed):   # a cut names it itself
         why = motion.metadata.get("warning", "C3D archive not kept")
-        out.append(f"analog, parameters and residuals ({why})")
+        out.append(f"{ARCHIVE_NOT_KEPT}{why})")
     if motion.angles is not None and (not opts.keep_skeleton
                                       or "skeleton" not in motion.extras):
         out.append(SKELETON_NOT_KEPT)

@@ -1182,7 +1182,8 @@ def run_encoder_item(cmd, vdir: Path, item: dict, E: float, timeout, memory_mb) 
     name = f"{item['name']}@{E:g}"
     entry = {"name": name, "group": "encoder", "file": item["input"], "expected": "encode",
              "max_error": E, "actual": None, "passed": False, "message": "",
-             "declared_bound": None, "measured_max_error": None, "bytes": None, "notes": [],
+             "declared_bound": None, "measured_max_error": None, "bytes": None, "sha256": None,
+             "notes": [],
              "exit_code": None, "signal": None, "timed_out": False, "seconds": None,
              "peak_rss_mb": None, "stderr_tail": ""}
     x, side = _load_input(vdir, item)

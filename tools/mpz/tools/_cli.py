@@ -309,15 +309,16 @@ def json_failure(command: str, exc: BaseException | str, status: str = "error", 
 
 # -- argument parsing ----------------------------------------------------------------------
 
-#: what a word that is no option or command of mpz most likely meant: difflib's nearest
-#: word was wrong for these ("--lossless: did you mean --lossy?", the opposite; "mpz info"
-#: had no hint: an animation studio's QA run of stop 75)
+#: what a word that is no option or command of mpz most likely meant, said where the
+#: parser has the word beside it (``--lossy``: mpz encode's; ``show``: mpz's commands):
+#: difflib's nearest word was wrong for these ("--lossless: did you mean --lossy?", the
+#: opposite; "mpz info" had no hint: an animation studio's QA run of stop 75)
 MEANT = {
-    "--lossless": "MPZ has no lossless flag: an int16 C3D is kept exactly by default, and "
-                  "any other input within a bound, so give a fine one: --max-error (e.g. "
-                  "0.01mm), or for BVH and AMC channels --angle-error and "
-                  "--translation-error (e.g. 1e-5); --lossy is the other way, no bound",
-    "info": "mpz show gives what a file holds (mpzinfo: its chunks)",
+    "--lossless": ("--lossy", "MPZ has no lossless flag: an int16 C3D is kept exactly by "
+                   "default, and any other input within a bound, so give a fine one: "
+                   "--max-error (e.g. 0.01mm), or for BVH and AMC channels --angle-error "
+                   "and --translation-error (e.g. 1e-5); --lossy is the other way, no bound"),
+    "info": ("show", "mpz show gives what a file holds (mpzinfo: its chunks)"),
 }
 
 
@@ -327,8 +328,9 @@ def _suggest(words: Iterable[str], choices: Iterable[str]) -> str:
     pool = list(choices)
     for w in words:
         key = w.split("=", 1)[0]
-        if key in MEANT and key not in pool:
-            return f"; {MEANT[key]}"
+        beside, meant = MEANT.get(key, (None, ""))
+        if beside in pool and key not in pool:
+            return f"; {meant}"
         close = difflib.get_close_matches(key, pool, n=1, cutoff=0.6)
         if close:
             return f"; did you mean {close[0]}?"

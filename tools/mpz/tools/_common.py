@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+import math
 import os
 from pathlib import Path
 import re
@@ -126,10 +127,13 @@ def renamed_list(meta: Mapping[str, str], shown: int = 10) -> str:
 
 
 def ratio_text(ratio: float) -> str:
-    """A compression ratio for a report's ``R:1``: one decimal, or two significant digits
-    where that shows 0.9 or less (a one-frame AMC's 0.06 printed "0.0:1": an animation
-    studio's QA run of stop 75)."""
-    return f"{ratio:.1f}" if ratio >= 0.95 else f"{ratio:.2g}"
+    """A compression ratio for a report's ``R:1``: one decimal, or, where that shows less
+    than 1.0, two significant digits in fixed notation (a one-frame AMC's 0.06 printed
+    "0.0:1": an animation studio's QA run of stop 75); 0 as "0.0"."""
+    one = f"{ratio:.1f}"
+    if float(one) >= 1.0 or ratio <= 0 or not math.isfinite(ratio):
+        return one
+    return f"{ratio:.{max(1, 1 - math.floor(math.log10(ratio)))}f}"
 
 
 def human_size(n: int) -> str:

@@ -15,8 +15,9 @@ files, whose times are about a millisecond). The times compared are the process 
 seconds (enc_cpu_s, dec_cpu_s: bench_rd's best of several runs, which other processes
 hardly move) when both runs have them, else the wall-clock ones (enc_s, dec_s). A file
 with two rows of the same file and E is refused, and so are two runs that measured
-different inputs (bench_rd.py's "input": before it coded the marker positions alone, its
-MPZ ratios counted a C3D's archive as well), or a row whose raw size differs (other data
+different inputs (bench_rd.py's "input": a run that does not say it came from a
+bench_rd.py before 2026-12-04, whose MPZ ratios may count a C3D's archive as well; run
+today's bench_rd.py with the old version instead), or a row whose raw size differs (other data
 under the same name). A row whose bound or unit scale (``bound``, ``mm_per_unit``) differs
 between the runs is flagged: its ratio and errors are not of the same question (a reader
 that took another unit moved the bound tenfold without a word). A comparison of no row at

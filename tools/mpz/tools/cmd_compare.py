@@ -333,9 +333,13 @@ def run(args: argparse.Namespace) -> int:
     if ext_a == ext_b == ".mpz" and not layer:
         parts = _both_mpz(a, b, names, parts)
     if layer:
-        notes.append("--marker-layer: the markers alone are compared, an .mpz input's "
-                     "marker layer; no part besides them (metadata, a C3D archive, a "
-                     "skeleton) is")
+        # an input that is no .mpz is read as it is (the review of stop 75: the note
+        # spoke of a marker layer where neither input had one)
+        notes.append("--marker-layer: the markers alone are compared, "
+                     + ("an .mpz input's marker layer" if ".mpz" in (ext_a, ext_b) else
+                        "as read (neither input is an .mpz file, which alone has a marker "
+                        "layer to choose)")
+                     + "; no part besides them (metadata, a C3D archive, a skeleton) is")
     if borrowed and ext_b == ".amc":         # its own skeleton was not read: not checked
         parts = [dataclasses.replace(p, status="unchecked", detail=f"{p.detail}; read with "
                                      "--asf's (the decoded AMC has no .asf of its own)")
@@ -417,7 +421,11 @@ def run(args: argparse.Namespace) -> int:
         bound_b = None if bound_a is None or bound_b is None else bound_a + bound_b
     check = marker_bound(a, b, bound_b)
     if check is not None:
-        check["of"] = "joint positions" if joints else "markers"
+        # two .mpz files of two kinds: the bound is the sum of a marker bound and a
+        # position bound (the review of stop 75: "of" named the decoded side's alone)
+        check["of"] = ("markers and joint positions" if pair is not None
+                       and first_joints != joints
+                       else "joint positions" if joints else "markers")
         if pair is not None:
             check["declared_by"] = "both"
     s.update(frames=a.n_frames, markers=a.n_markers, units=units or None,

@@ -77,10 +77,11 @@ def add_parser(sub):
     p.add_argument("--position-error", metavar="E",
                    help="BVH, AMC: bound on the joint positions the decoded channels give, "
                    "with a unit, e.g. 1mm (a bare number only for inputs without units): "
-                   "the channels get the coarsest steps that keep it, and the marker layer "
-                   "keeps its preview bound (1/500 of the skeleton's size). --max-error "
-                   "bounds both, so this is the smaller file when BVH or AMC is what you "
-                   "decode back to (spec §4.14)")
+                   "the channels get steps that keep it, found by a search, and the marker "
+                   "layer keeps its preview bound (1/500 of the skeleton's size). "
+                   "--max-error bounds both, so this gives a smaller file when BVH or AMC "
+                   "is what you decode back to (cmu_10_01.bvh at 1 mm: 34.7 against "
+                   "49.3 KB; spec §4.14)")
     p.add_argument("--no-skeleton", action="store_true",
                    help="BVH, AMC: store joint positions only (an MPZ 1.0 file)")
     p.add_argument("--max-error", metavar="E", help="hard bound with a unit, e.g. 2mm, 0.5cm, "
@@ -712,11 +713,16 @@ def _input_notes(args: argparse.Namespace, motion, source: str, *,
     if renamed:
         # a BVH or AMC written back keeps its joints' own names, as a C3D its labels: the
         # note said a BVH got the new ones (an animation studio's QA run of stop 75)
-        keeps = ("a BVH or AMC written back keeps the joints' own names"
-                 if motion.extras.get("skeleton") is not None and not args.no_skeleton
-                 else "a C3D written back keeps the source's labels")
+        # and a C3D its labels only from its archive (a BVH with --no-skeleton decoded to
+        # C3D has the new names: the review of stop 75)
+        keeps = ("a BVH or AMC written back keeps the joints' own names; other formats get "
+                 "these names" if motion.extras.get("skeleton") is not None
+                 and not args.no_skeleton else
+                 "a C3D written back keeps the source's labels; other formats get these "
+                 "names" if motion.extras.get("c3d") is not None else
+                 "every format written back gets these names")
         notes.append(f"marker names that repeat or are empty were made unique: {renamed} "
-                     f"({keeps}; other formats get these names)")
+                     f"({keeps})")
     if source != "-" and ext_of(source) == ".mpz":
         import mpz
         bound = mpz.info(source).error_bound
