@@ -151,15 +151,20 @@ def test_motions_in_other_units_are_refused() -> None:
 def test_motions_at_other_rates_are_refused_unless_a_rate_was_assumed() -> None:
     """Frame f at 120 Hz and at 60 Hz are not the same moment: max_error and arms scored
     them as if they were (a QA run of stop 53). A rate within RATE_TOLERANCE (a C3D's
-    float32) is the same; one a reader assumed (NPY) is not compared."""
+    float32) is the same; one a reader assumed (an NPY's 1 Hz, ``rate_assumed`` in its
+    metadata) is not compared, and one given with --rate (no such entry) is: every NPY
+    counted as assumed until the review of stop 75."""
     pos = np.ones((2, 1, 3))
     a, b = Motion(pos, ["A"], 120.0, "mm"), Motion(pos, ["A"], 60.0, "mm")
     for f in (max_error, arms, errors, summary):
         with pytest.raises(MotionError, match="frame rates differ: 120 vs 60 Hz"):
             f(a, b)
     assert max_error(a, Motion(pos + 1, ["A"], 120.0 * (1 + 1e-7), "mm")) == math.sqrt(3)
-    npy = Motion(pos, ["A"], 1.0, "mm", metadata={"format": "npy"})
+    npy = Motion(pos, ["A"], 1.0, "mm", metadata={"format": "npy", "rate_assumed": "1.0"})
     assert max_error(a, npy) == 0.0 and arms(npy, a) == 0.0
+    given = Motion(pos, ["A"], 60.0, "mm", metadata={"format": "npy"})
+    with pytest.raises(MotionError, match="frame rates differ: 120 vs 60 Hz"):
+        max_error(a, given)
 
 
 def test_a_one_row_csv_has_an_assumed_rate(tmp_path: Path) -> None:
