@@ -1078,3 +1078,18 @@ def test_a_ratio_below_one_keeps_its_digits():
                                     250.0, 0.0, 1.234e-5)] == \
         ["0.062", "0.50", "0.94", "0.95", "1.0", "1.0", "1.0", "11.7", "250.0", "0.0",
          "0.000012"]
+
+
+def test_mpzinfo_vv_prints_names_as_they_are(tmp_path: Path) -> None:
+    """`mpzinfo -vv` printed a name "Hüfte_links" as JSON's "H\\u00fcfte_links", where every
+    other report prints it (an animation studio's QA run of stop 75); what a terminal
+    must not get is still escaped."""
+    m = mpz.Motion(np.zeros((3, 3, 3)), ["Hüfte_links", "肩", "A\x1b[2J"], 60.0, "mm")
+    (tmp_path / "u.mpz").write_bytes(mpz.encode(m))
+    p = subprocess.run([command("mpzinfo"), "-vv", "u.mpz"], cwd=tmp_path,
+                       capture_output=True, timeout=300,
+                       env=_buffered_env(PYTHONIOENCODING="utf-8"))
+    text = p.stdout.decode("utf-8")
+    # the escape character as JSON writes it, \u001b: never the raw byte
+    assert p.returncode == 0 and 'names = ["Hüfte_links", "肩", "A\\u001b[2J"]' in text, text
+    assert "\\u00fc" not in text and "\x1b" not in text
