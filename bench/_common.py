@@ -68,6 +68,15 @@ def find_recording(root: Path, name: str) -> Path | None:
 _MM_PER_UNIT = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 
 
+def has_option(name: str) -> bool:
+    """Whether the installed mpz's EncodeOptions has ``name``: the README runs these
+    scripts with an old version too, and 0.1.0 has neither ``lossy`` nor ``threads``."""
+    import dataclasses
+
+    import mpz.encoder
+    return name in {f.name for f in dataclasses.fields(mpz.encoder.EncodeOptions)}
+
+
 def mm_per_unit(m) -> float | None:
     """Millimetres per unit of the motion ``m``'s positions (None: it has no unit): the
     unit's, else a skeleton's own (a BVH without one). The README runs these scripts with

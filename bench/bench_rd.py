@@ -51,7 +51,7 @@ import time
 
 import numpy as np
 
-from _common import find_recording, mm_per_unit, positive_int, shared_data_name
+from _common import find_recording, has_option, mm_per_unit, positive_int, shared_data_name
 from _common import shared_data_dir as shared_data
 import mpz
 import mpz.io
@@ -73,8 +73,7 @@ def key_of(root: Path, path: Path) -> str:
 
 
 #: the paper's unbounded mode: ``lossy=True`` since 0.2, the default before (0.1.0)
-LOSSY = ({"lossy": True} if "lossy" in {f.name for f in __import__("dataclasses").fields(
-    __import__("mpz.encoder").encoder.EncodeOptions)} else {})
+LOSSY = {"lossy": True} if has_option("lossy") else {}
 
 
 def markers_only(m: mpz.Motion) -> mpz.Motion:

@@ -80,6 +80,7 @@ from _common import (
     cannot_run,
     coded_float32,
     find_recording,
+    has_option,
     is_bound_label,
     positive_int,
     shared_data_dir,
@@ -87,7 +88,6 @@ from _common import (
     warm_up,
 )
 import mpz
-import mpz.encoder
 import mpz.io
 from peers import PeerMissing, max_error, qpz_codec, sz3_codec
 
@@ -95,8 +95,7 @@ DEFAULT_FILES = ["c3d/cmu_135_02", "c3d/cmu_02_01", "c3d/HDM_dg_06-03_03_120",
                  "c3d/auckland_FMC_MH0222_BP06", "bvh/cmu_14_19", "amc/49_18"]
 EXTS = RECORDING_EXTS
 #: the encoder has the threads option (issue 15); without it every column is one thread
-HAS_THREADS = "threads" in {f.name for f in __import__("dataclasses").fields(
-    mpz.encoder.EncodeOptions)}
+HAS_THREADS = has_option("threads")
 
 
 def find(root: Path, name: str) -> Path:

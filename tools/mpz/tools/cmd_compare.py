@@ -326,8 +326,8 @@ def run(args: argparse.Namespace) -> int:
     data = data_b or data_a                 # the bounds an .mpz input declares
     # two .mpz files: each within its own steps of the source, so the sum (one file's
     # failed two good encodes, a QA run of stop 53), as the markers below
-    steps = [c for c in (channel_bounds(d) for d in (data_a, data_b) if d is not None)
-             if c is not None]
+    steps = [] if layer else [c for c in (channel_bounds(d) for d in (data_a, data_b)
+                                          if d is not None) if c is not None]
     parts = [] if layer else besides_markers(a, b, channel_bounds=None if not steps else (
         sum(r for r, _ in steps), sum(t for _, t in steps)))
     if ext_a == ext_b == ".mpz" and not layer:
@@ -354,11 +354,13 @@ def run(args: argparse.Namespace) -> int:
     # stop 48: B's bound alone against A gave BEYOND, exit 2, for two good files)
     first_mpz = data_a if ext_a == ".mpz" and declared is not None else None
     first_joints = first_mpz is not None and joint_positions_from_channels(a, ext_a)
+    # two .mpz files, one giving joint positions and the other its marker layer
+    mixed = first_mpz is not None and first_joints != joints
     del data_a, data_b, data
     notes += [f"{names[1]} does not hold the original's {p.name}: {p.detail}"
               for p in parts if p.status == "missing"]
     pos = {"original": _positions(a, ext_a), "decoded": _positions(b, ext_b)}
-    if ext_a == ext_b == ".mpz" and first_joints != joints:
+    if mixed:
         # an encode of a BVH or AMC with a skeleton chunk against one without (two
         # versions, or --no-skeleton): joint positions from channels against a marker
         # layer, 1.66 mm apart where the two marker layers agreed to 2e-13 mm (a
@@ -423,8 +425,7 @@ def run(args: argparse.Namespace) -> int:
     if check is not None:
         # two .mpz files of two kinds: the bound is the sum of a marker bound and a
         # position bound (the review of stop 75: "of" named the decoded side's alone)
-        check["of"] = ("markers and joint positions" if pair is not None
-                       and first_joints != joints
+        check["of"] = ("markers and joint positions" if mixed
                        else "joint positions" if joints else "markers")
         if pair is not None:
             check["declared_by"] = "both"
@@ -479,7 +480,7 @@ def run(args: argparse.Namespace) -> int:
                   f"{'none' if bb is None else f'{bound_text(bb, 4)}{u}'}")
         if check is not None:
             what = ("one's marker layer bound (spec §7.2), the other's position_bound of "
-                    "its joint positions (§4.14)" if pair is not None and first_joints != joints
+                    "its joint positions (§4.14)" if mixed
                     else "position_bound of the joint positions (spec §4.14)" if joints
                     else "spec §7.2")
             by = (f"the sum of the bounds of {names[0]} and {names[1]}" if pair is not None

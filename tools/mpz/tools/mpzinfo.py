@@ -35,7 +35,6 @@ file may be valid), 64 usage error.
 """
 from __future__ import annotations
 
-import json
 import sys
 from typing import Any
 
@@ -57,6 +56,7 @@ from mpz.tools._cli import (
     add_version,
     bound_text,
     found,
+    json_text,
     jsonable,
     max_samples,
     memory_message,
@@ -266,10 +266,10 @@ def _print_stored(c: dict, out) -> None:
 
 
 def _shown(value: object) -> str:
-    """A field's value as JSON, its characters as they are (``-vv`` printed a name
-    "H\u00fcfte_links" as JSON's escape: an animation studio's QA run of stop 75); the
-    caller's :func:`printable` escapes what a terminal must not get."""
-    return json.dumps(jsonable(value), ensure_ascii=False)
+    """A field's value as JSON (:func:`json_text` on one line), its characters as they are
+    (``-vv`` printed a name "H\u00fcfte_links" as JSON's escape: an animation studio's QA
+    run of stop 75); the caller's :func:`printable` escapes what a terminal must not get."""
+    return json_text(value, indent=None)
 
 
 def _print_chunks(info: dict, verbose: int, out):
