@@ -126,3 +126,20 @@ def test_every_listed_name_and_parameter_is_documented():
     first written: FileInfo's and EncodeReport's fields, arms' and max_error's arguments)."""
     _, warnings = make_api_doc.render_with_warnings()
     assert warnings == []
+
+
+def test_encode_keywords_has_a_row_per_keyword_of_encode():
+    """``write_mpz``'s options are typed by ``mpz.encoder.EncodeKeywords``, which had no
+    entry (a review at stop 75): the page lists it with one row per keyword of
+    ``mpz.encode``, in its order, each with the type ``encode`` declares and its default."""
+    import inspect
+    page = make_api_doc.DOC.read_text(encoding="utf-8")
+    assert "mpz.encoder.EncodeKeywords" in entries(page)
+    section = page.split("### `mpz.encoder.EncodeKeywords`", 1)[1].split("\n#", 1)[0]
+    rows = re.findall(r"^\| `(\w+)` \| `(.+?)` \| (.*) \|$", section, re.M)
+    params = [p for p in inspect.signature(mpz.encode).parameters.values()
+              if p.kind is p.KEYWORD_ONLY]
+    assert [r[0] for r in rows] == [p.name for p in params]
+    for (name, ann, default), p in zip(rows, params, strict=True):
+        assert ann.replace("\\|", "|") == p.annotation, name
+        assert default == f"`{p.default!r}`", name

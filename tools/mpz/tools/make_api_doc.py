@@ -31,6 +31,7 @@ from pathlib import Path
 import re
 import sys
 import types
+import typing
 from typing import Any
 
 # tools/mpz/tools/make_api_doc.py -> the repository root is three folders up
@@ -38,7 +39,8 @@ DOC = Path(__file__).resolve().parents[3] / "docs" / "api.md"
 COMMAND = "python -m mpz.tools.make_api_doc"
 #: a dataclass whose fields are the keywords of a function: a field without a ``#:`` comment
 #: of its own is described by that function's numpydoc Parameters entry
-FIELDS_DESCRIBED_BY = {"mpz.EncodeOptions": "mpz.encode"}
+FIELDS_DESCRIBED_BY = {"mpz.EncodeOptions": "mpz.encode",
+                       "mpz.encoder.EncodeKeywords": "mpz.encode"}
 #: a signature longer than this is written one parameter a line
 WIDTH = 92
 
@@ -46,7 +48,7 @@ WIDTH = 92
 #: mpz.io by their ``__all__`` (every name they export: mpz.io's per-format readers and
 #: writers were exported and not on the page, a QA run of the API at stop 54); the other
 #: modules give the functions the README ("From Python", "Hierarchies") and docs/corpus.md
-#: point library users to.
+#: point library users to, and the type ``mpz.write_mpz``'s options are checked against.
 ENTRIES: list[tuple[str, tuple[str, ...] | None]] = [
     ("mpz", None),
     ("mpz.io", None),
@@ -54,6 +56,7 @@ ENTRIES: list[tuple[str, tuple[str, ...] | None]] = [
     ("mpz.synth", ("generate",)),
     ("mpz.metrics", ("besides_markers",)),
     ("mpz.hierarchy", ("write_hierarchy",)),
+    ("mpz.encoder", ("EncodeKeywords",)),
 ]
 
 _SECTIONS = ("Parameters", "Other Parameters", "Returns", "Yields", "Receives", "Raises",
@@ -384,7 +387,30 @@ def _members(cls: type) -> list[tuple[str, Any]]:
     return list(seen.items())
 
 
+def _entry_typeddict(qual: str, cls: type, warn: list[str]) -> list[str]:
+    """A TypedDict: its keys, each with its type and the default of the function it types
+    (:data:`FIELDS_DESCRIBED_BY`), which describes them."""
+    described = FIELDS_DESCRIBED_BY.get(qual)
+    head = "*TypedDict*" + ("" if getattr(cls, "__total__", True) else "; every key optional")
+    out = [f"### `{qual}`", "", head, "", _doc_or_note(cls, qual, warn), ""]
+    params = inspect.signature(_resolve(described)).parameters if described else {}
+    if described:
+        out += [f"Each key is described under `{described}`.", ""]
+    out += ["| key | type | default |", "|---|---|---|"]
+    for key, ann in cls.__annotations__.items():
+        p = params.get(key)
+        default = ("" if p is None or p.default is inspect.Parameter.empty
+                   else f"`{stable_repr(p.default)}`".replace("|", "\\|"))
+        text = ann.__forward_arg__ if isinstance(ann, typing.ForwardRef) else _annotation(ann)
+        cell = text.replace("|", "\\|")
+        out.append(f"| `{key}` | `{cell}` | {default} |")
+    out.append("")
+    return out
+
+
 def _entry_class(qual: str, cls: type, warn: list[str]) -> list[str]:
+    if typing.is_typeddict(cls):
+        return _entry_typeddict(qual, cls, warn)
     kind = "exception" if _is_exception(cls) else "class"
     out = [f"### `{qual}`", ""]
     bases = [b for b in cls.__bases__ if b is not object]
