@@ -324,6 +324,60 @@ def test_verify_finds_a_damaged_output_and_encodes_it_again(corpus, workers):
     assert set(statuses(again).values()) == {"skipped", "failed"}
 
 
+def test_the_archive_of_a_deleted_source_is_checked_and_never_rebuilt(corpus):
+    """A corpus QA run of stop 76: once a take is archived its source is often deleted, and
+    its output is the only copy. The run never looked at such an output again: cut to 3,000
+    bytes, ``--verify`` said "verified" of the archive, exit 0. Its size is now checked on
+    every run and, with ``verify``, the whole of it; a damaged one fails the run, named,
+    and is left as it is (there is nothing to encode it from)."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    walk = out / "walk.mpz"
+    size = walk.stat().st_size
+    paths["walk"].unlink()                          # archived: the source is deleted
+    rep = run_corpus(src, out)
+    assert rep.damaged == [] and "walk" not in statuses(rep)
+
+    _flip_in_place(walk)                            # size and time kept: a stat sees nothing
+    assert run_corpus(src, out).damaged == []
+    rep = run_corpus(src, out, verify=True)
+    ((key, source, why),) = rep.damaged
+    assert (key, source) == ("walk.mpz", str(paths["walk"].resolve()))
+    assert re.search(r"chunk \w{4}, offset \d+ .*CRC-32 mismatch.*§3\.3", why)
+    assert rep.verified == 2                        # jump and wave, not walk
+    table = rep.table()
+    assert f"DAMAGED walk.mpz: {why}; its source {source} is no longer there" in table
+    assert "restore the output from a copy" in table
+
+    walk.write_bytes(walk.read_bytes()[:3000])      # cut short: every run sees it
+    rep = run_corpus(src, out)
+    assert rep.damaged == [("walk.mpz", source,
+                            f"it is 3000 bytes, its index row says {size}")]
+    assert rep.as_dict()["damaged"] == [{"output": "walk.mpz", "source": source,
+                                         "reason": f"it is 3000 bytes, its index row says "
+                                                   f"{size}"}]
+    assert walk.stat().st_size == 3000              # left as it is
+    with open_index(out) as ix:
+        assert ix.row("walk.mpz") is not None
+
+
+def test_outputs_without_a_row_are_said(corpus):
+    """A corpus QA run of stop 76: docs/corpus.md's remedy for a damaged index, removing
+    it, rebuilds the rows of the outputs of this run's inputs only; the archive of a
+    deleted source lost its row, and mpz search its take, without a word."""
+    src, out, paths = corpus
+    assert not [n for n in run_corpus(src, out).index_notes if "no index row" in n]
+    paths["walk"].unlink()
+    (out / "index.sqlite").unlink()
+    rep = run_corpus(src, out)
+    with open_index(out) as ix:
+        assert ix.row("walk.mpz") is None and ix.row("jump.mpz") is not None
+    (note,) = [n for n in rep.index_notes if "no index row" in n]
+    assert note.startswith("1 output in this folder has no index row, and mpz search does "
+                           "not see it: walk.mpz;")
+    assert "NOTE 1 output in this folder has no index row" in rep.table()
+
+
 def test_verify_finds_swapped_outputs_and_leaves_them_to_force(tmp_path):
     """Two outputs of the same size swapped, their times kept: --verify finds each holds
     the other's archive. Such an output is another source's archive, which a run does not
@@ -429,6 +483,21 @@ def test_a_leftover_temporary_goes_when_nothing_is_to_do(corpus):
     os.utime(stale, (time.time() - 3600, time.time() - 3600))
     rep = run_corpus(src, out)
     assert rep.count("encoded") == 0 and not stale.exists()
+
+
+def test_mirror_jobs_keep_extension_names_each_format_apart(tmp_path):
+    """``keep_extension`` (``mpz encode --keep-extension``): walk.c3d and walk.trc in one
+    folder mirror to walk.c3d.mpz and walk.trc.mpz, where both would be walk.mpz."""
+    src = tmp_path / "src"
+    (src / "s1").mkdir(parents=True)
+    for name in ("walk.c3d", "walk.trc", "run.TRC"):
+        (src / "s1" / name).write_bytes(b"")
+    out = tmp_path / "out"
+    assert [Path(o).relative_to(out).as_posix() for _, o in mirror_jobs(src, out)] == [
+        "s1/run.mpz", "s1/walk.mpz", "s1/walk.mpz"]
+    assert [Path(o).relative_to(out).as_posix()
+            for _, o in mirror_jobs(src, out, keep_extension=True)] == [
+        "s1/run.TRC.mpz", "s1/walk.c3d.mpz", "s1/walk.trc.mpz"]
 
 
 def test_inputs_that_fail_before_planning_are_reported_and_indexed(corpus):
@@ -3012,6 +3081,36 @@ def test_a_run_from_another_folder_does_not_replace_another_sources_archive(tmp_
     write(generate("walk", frames=61, seed=1), tmp_path / "moved" / "take.trc")
     assert statuses(run_corpus(tmp_path / "moved", out)) == {"take": "encoded"}
     assert statuses(run_corpus(c, out, force=True)) == {"take": "encoded"}
+    assert mpz.decode((out / "take.mpz").read_bytes()).n_frames == 40
+
+
+def test_without_the_index_a_take_of_the_same_name_does_not_replace_an_archive(tmp_path):
+    """A corpus QA run of stop 76: a/take.c3d archived as take.mpz in a flat output folder,
+    then deleted; the index removed (docs/corpus.md's remedy for a damaged one); the next
+    run over b/take.c3d, another take, replaced the only copy of a's, exit 0, with no
+    word. With no row to say which file an output was made from, one of other bytes whose
+    meta names a file of the same name is now refused unless removed or forced; the same
+    source, or one whose bytes did not change, is still kept."""
+    a, b, out = (tmp_path / n for n in ("a", "b", "out"))
+    for d in (a, b):
+        d.mkdir()
+    write(generate("walk", frames=60, seed=1), a / "take.trc")
+    write(generate("wave", frames=40, seed=3), b / "take.trc")
+    assert statuses(run_corpus(a, out)) == {"take": "encoded"}
+    archived = (out / "take.mpz").read_bytes()
+    (out / INDEX_NAME).unlink()
+    assert statuses(run_corpus(a, out)) == {"take": "kept"}      # the same bytes: kept
+    (a / "take.trc").unlink()
+    (out / INDEX_NAME).unlink()
+    rep = run_corpus(b, out)
+    assert [r.status for r in rep.results] == ["failed"]
+    reason = rep.results[0].reason
+    assert f"{out / 'take.mpz'} is the archive of other bytes than take.trc's, and no " \
+        "index row says which file they were" in reason
+    assert f"Remove {out / 'take.mpz'} if it is an old version" in reason
+    assert "pass force=True" in reason
+    assert (out / "take.mpz").read_bytes() == archived
+    assert statuses(run_corpus(b, out, force=True)) == {"take": "encoded"}
     assert mpz.decode((out / "take.mpz").read_bytes()).n_frames == 40
 
 

@@ -639,6 +639,17 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
                                "moved or copied over each other? Give another "
                                f"{spelled('-o FOLDER', 'output folder')}, or "
                                f"{_use_force()} to replace it")
+        if not indexed and meta.get(META_SHA256) is not None:
+            # no row to name the file it was made from, and the meta names a file of the
+            # same name: another take of that name (a flat output folder) replaced the
+            # archive, exit 0, once the index had been removed as docs/corpus.md advises
+            # for a damaged one (a corpus QA run of stop 76)
+            raise EncoderError(f"{output} is the archive of other bytes than "
+                               f"{os.path.basename(source)}'s, and no index row says which "
+                               "file they were: an earlier version of this source, or "
+                               "another file of the same name (a flat output folder, the "
+                               f"index removed)? Remove {output} if it is an old version "
+                               f"of this source, or {_use_force()} to replace it")
     if (meta[META_FINGERPRINT] == fp and meta.get(META_SHA256) == sha
             and st.st_mtime_ns >= source_mtime_ns):
         return data
@@ -850,6 +861,32 @@ def output_problem(output: str, fingerprint: str, sha256: str) -> str:
     if items.get(META_FINGERPRINT) != fingerprint or items.get(META_SHA256) != sha256:
         return "its meta chunk names other options or another source than its index row"
     return ""
+
+
+def uncovered_problem(output: str, total_bytes: Any, fingerprint: Any, sha256: Any,
+                      verify: bool) -> str:
+    """What is wrong with the output of an index row that this run's inputs do not cover,
+    "" when nothing: its size against the row's ``total_bytes`` (a stat), and with
+    ``verify`` the whole of :func:`output_problem`. Such an output is checked in the
+    driver, one after the other (no source to encode, so no task for a worker)."""
+    try:
+        size = os.stat(output).st_size
+    except OSError as exc:
+        return f"cannot be read: {exc.strerror or exc}"
+    if size != total_bytes:
+        return f"it is {size} bytes, its index row says {total_bytes}"
+    if not verify:
+        return ""
+    return output_problem(output, str(fingerprint), str(sha256))
+
+
+def _no_source(path: Any) -> str:
+    """Why a damaged output of :attr:`CorpusReport.damaged` is not encoded again."""
+    there = isinstance(path, str) and os.path.exists(path)
+    return (f"its source {path} is not among this run's inputs: run over it to encode it "
+            "again" if there else
+            f"its source {path} is no longer there, so it cannot be encoded again: restore "
+            "the output from a copy")
 
 
 def _fingerprint(task: Task, units: str, own_units: bool) -> str:
@@ -1240,6 +1277,21 @@ class Index:
             # said it rebuilt it (a review of stop 53)
             self.db.execute("DELETE FROM levels WHERE output NOT IN (SELECT output FROM files)")
         return keys
+
+    @_sql
+    def uncovered(self, keys: Collection[str]) -> list[tuple[str, Any, Any, Any, Any]]:
+        """``(output key, source path, total bytes, fingerprint, source sha256)`` of every
+        row whose output is not among ``keys`` (this run's outputs): the archives of
+        sources this run was not given, often the only copy of a take whose source was
+        deleted. Unchecked (a damaged row is said by :meth:`damaged`)."""
+        return [r for r in self.db.execute(
+            "SELECT output, path, total_bytes, fingerprint, source_sha256 FROM files "
+            "ORDER BY output") if r[0] not in keys]
+
+    @_sql
+    def keys(self) -> set[Any]:
+        """The output key of every row."""
+        return {k for (k,) in self.db.execute("SELECT output FROM files")}
 
     @_sql
     def forget_gone_failures(self, inputs: Collection[str] = ()) -> list[str]:
@@ -1672,8 +1724,14 @@ class CorpusReport:
     #: :data:`AGAIN`): a changed ``--max-error`` encoded a whole folder again with no word
     #: (a corpus QA run of stop 55)
     encoded_again: dict[str, list[str]] = field(default_factory=dict)
-    #: outputs read whole and found sound by ``verify`` (they are among the ``skipped``)
+    #: outputs read whole and found sound by ``verify``: those among the ``skipped``, and
+    #: those of :attr:`uncovered` rows
     verified: int = 0
+    #: ``(output key, source path, problem)`` of each indexed output whose source is not
+    #: among this run's inputs, found damaged (:func:`uncovered_problem`): it is not
+    #: encoded again, having no source here, and the run fails (a corpus QA run of stop 76:
+    #: ``--verify`` said "verified" of an archive one of whose only copies was cut short)
+    damaged: list[tuple[str, str, str]] = field(default_factory=list)
     #: why the run stopped before every file was done ("" when it did not stop):
     #: :class:`CorpusStopped` carries such a report
     stopped: str = ""
@@ -1696,6 +1754,8 @@ class CorpusReport:
                 "forgotten": self.forgotten, "same_source": self.same_source,
                 "index_notes": self.index_notes, "encoded_again": self.encoded_again,
                 "verified": self.verified,
+                "damaged": [{"output": o, "source": p, "reason": why}
+                            for o, p, why in self.damaged],
                 "stopped": self.stopped or None,
                 "not_run": [source for source, _ in self.not_run]}
 
@@ -1740,6 +1800,8 @@ class CorpusReport:
                          f"{mb / self.seconds:.2f} MB/s of float32 positions")
         for r in self.failed:
             lines.append(f"  FAILED {name(r.source)}: {name(r.reason)}")
+        for key, source, why in self.damaged:
+            lines.append(f"  DAMAGED {name(key)}: {name(why)}; {name(_no_source(source))}")
         for r in self.results:
             if r.warning:
                 lines.append(f"  WARNING {name(r.source)}: {name(r.warning)}")
@@ -1795,12 +1857,15 @@ class CorpusStopped(EncoderError):
 
 # ---------------------------------------------------------------------- driver --
 def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
-                extensions: Sequence[str] | None = None) -> list[tuple[str, str]]:
+                extensions: Sequence[str] | None = None, *, keep_extension: bool = False
+                ) -> list[tuple[str, str]]:
     """``(source, output)`` for every motion file under ``folder``, mirrored under ``outdir``.
 
-    ``a/b/walk.c3d`` becomes ``OUT/a/b/walk.mpz``. Hidden files and folders are left
-    out, and so is ``outdir`` when it lies inside ``folder``; links to folders are not
-    followed; files are in sorted order.
+    ``a/b/walk.c3d`` becomes ``OUT/a/b/walk.mpz``, or with ``keep_extension``
+    ``OUT/a/b/walk.c3d.mpz`` (``mpz encode --keep-extension``: two formats of one take in
+    one folder each have their own). Hidden files and folders are left out, and so is
+    ``outdir`` when it lies inside ``folder``; links to folders are not followed; files
+    are in sorted order.
 
     Raises
     ------
@@ -1824,8 +1889,9 @@ def mirror_jobs(folder: str | os.PathLike[str], outdir: str | os.PathLike[str],
             if name.startswith(".") or os.path.splitext(name)[1].lower() not in exts:
                 continue
             rel = os.path.relpath(os.path.join(here, name), root)
+            stem = rel if keep_extension else os.path.splitext(rel)[0]
             out.append((os.path.join(here, name),
-                        os.path.join(os.fspath(outdir), os.path.splitext(rel)[0] + ".mpz")))
+                        os.path.join(os.fspath(outdir), stem + ".mpz")))
     return out
 
 
@@ -2602,6 +2668,19 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         index.set_info({"levels": ",".join(map(str, levels)),
                         "exact_max_frames": str(EXACT_MAX_FRAMES)})
         done = verified = 0
+        # the outputs of rows this run's inputs do not cover (a source deleted once its
+        # take was archived): a cut or changed one was never looked at, and --verify said
+        # "verified" of the archive (a corpus QA run of stop 76)
+        damaged_outputs: list[tuple[str, str, str]] = []
+        for key, src, total, fp, sha in index.uncovered(keys):
+            if key in damaged or not isinstance(key, str):
+                continue                        # said above, as a damaged row
+            problem = uncovered_problem(os.path.join(index_dir, *key.split("/")), total, fp,
+                                        sha, verify)
+            if problem:
+                damaged_outputs.append((key, src if isinstance(src, str) else "", problem))
+            elif verify:
+                verified += 1
         sound: dict[int, FileResult] = {}    # with verify: the report of each, if sound
 
         def report(workers: int, same: list[list[str]], **stop: Any) -> CorpusReport:
@@ -2609,7 +2688,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             return CorpusReport([r for r in results if r is not None] + early,
                                 time.perf_counter() - t0, workers, cluster,
                                 os.path.join(index_dir, INDEX_NAME), forgotten, same, notes,
-                                _again(again, results), verified, **stop)
+                                _again(again, results), verified, damaged_outputs, **stop)
 
         unindexed: list[str] = []            # written, but their row could not be
 
@@ -2718,7 +2797,32 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                                 ) from None
         _remove_empty(made)
         same = index.same_sources()
+        loose = unindexed_outputs(index_dir, index.keys())
+        if loose:
+            # a removed index, or rows dropped, is rebuilt from the outputs of this run's
+            # inputs alone: the archive of a deleted source lost its row without a word
+            # (a corpus QA run of stop 76)
+            notes.append(f"{len(loose)} output{'s' * (len(loose) != 1)} in this folder "
+                         f"{'have' if len(loose) != 1 else 'has'} no index row, and mpz "
+                         f"search does not see {'them' if len(loose) != 1 else 'it'}: "
+                         f"{_some(loose)}; a run indexes an output only from its source "
+                         "(run over the sources, if they are still there)")
     return report(n_workers, same)
+
+
+def unindexed_outputs(index_dir: str, keys: Collection[Any]) -> list[str]:
+    """The keys of the ``.mpz`` files under ``index_dir`` (hidden ones and hidden folders
+    left out, as :func:`mirror_jobs` leaves them out) that are not in ``keys``."""
+    loose = []
+    for here, dirs, files in walk(index_dir):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        for name in sorted(files):
+            if name.startswith(".") or not name.lower().endswith(".mpz"):
+                continue
+            key = _key(os.path.join(here, name), index_dir)
+            if key not in keys:
+                loose.append(key)
+    return loose
 
 
 def _missing_folders(folder: str) -> list[str]:

@@ -9,7 +9,8 @@ progress bar on stderr (a terminal only; none with ``-q``), then the summary tab
 bytes in and out, failures with their reasons) on stdout, or ``--json`` (schema
 ``mpz-corpus/1``).
 
-Exit codes: 0 every file encoded or up to date; 2 some failed; 64 usage; 130 interrupted,
+Exit codes: 0 every file encoded or up to date; 2 some failed, or an indexed output whose
+source is not among the inputs was found damaged; 64 usage; 130 interrupted,
 143 terminated (SIGTERM; 129 SIGHUP): the files that finished are kept and indexed, and
 the next run resumes.
 """
@@ -246,7 +247,10 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
     # that its output does not keep and no option asked to drop, is "warnings only"
     from mpz.encoder import unasked
     warned = any(r.warning or unasked(r.not_kept) for r in report.results)
-    code = found(EXIT_ERROR if failed or stopped else EXIT_WARN if warned else EXIT_OK)
+    # an indexed output found damaged that this run cannot encode again (no source among
+    # its inputs) fails the run as a failed file does
+    code = found(EXIT_ERROR if failed or stopped or report.damaged
+                 else EXIT_WARN if warned else EXIT_OK)
     if args.json:
         doc = report.as_dict()
         doc["planning_errors"] = [{"input": j.input, "reason": j.error}
@@ -259,6 +263,9 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         # inside its document, exit 1 with an empty stderr: a JSON audit of stop 59)
         for r in report.failed:
             print(f"mpz encode: error: {printable(r.source)}: {printable(r.reason)}",
+                  file=sys.stderr)
+        for out, _, why in report.damaged:
+            print(f"mpz encode: error: {printable(out)}: damaged: {printable(why)}",
                   file=sys.stderr)
         for r in report.results:        # -q prints nothing on success: a warning is none
             if r.warning:
