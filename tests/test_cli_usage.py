@@ -19,6 +19,7 @@ from pathlib import Path
 import re
 import shutil
 import signal
+import sqlite3
 import subprocess
 import sys
 import textwrap
@@ -1538,7 +1539,38 @@ def test_two_formats_of_one_take_in_one_folder_are_told_the_way_out(tmp_path: Pa
     p = run(["mpz", "encode", "-r", "takes", "-o", "arch/", "--mirror", "--max-error", "1mm",
              "--jobs", "0", "-q"], tmp_path)
     assert p.returncode == 2 and b"also the output of" in p.stderr, p.stderr
-    assert b"encode it alone with -o NAME.mpz, or rename one of the two" in p.stderr
+    assert b"--keep-extension names each output after its whole input name" in p.stderr
+
+
+def test_keep_extension_archives_two_formats_of_one_take_and_decode_gives_both_back(
+        tmp_path: Path) -> None:
+    """A corpus QA run of stop 76: the remedy said above, encoding one of the two alone,
+    took it out of the corpus (no index row, no search), and the C3D lost, the file with
+    the analog data. ``--keep-extension`` names each output NAME.EXT.mpz; ``mpz decode``
+    names walk.c3d.mpz's output walk.c3d, not walk.c3d.c3d."""
+    src = tmp_path / "takes"
+    src.mkdir()
+    m = generate("walk", frames=30, seed=5)
+    write(m, src / "walk.c3d")
+    write(m, src / "walk.trc")
+    p = run(["mpz", "encode", "-r", "takes", "-o", "arch/", "--mirror", "--max-error", "1mm",
+             "--jobs", "0", "-q", "--keep-extension"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    arch = tmp_path / "arch"
+    assert sorted(f.name for f in arch.glob("*.mpz")) == ["walk.c3d.mpz", "walk.trc.mpz"]
+    with sqlite3.connect(arch / "index.sqlite") as db:
+        assert sorted(r[0] for r in db.execute("SELECT output FROM files")) == [
+            "walk.c3d.mpz", "walk.trc.mpz"]
+    p = run(["mpz", "decode", "-r", "arch", "-o", "back/", "--mirror", "-q"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    back = tmp_path / "back"
+    assert sorted(f.name for f in back.iterdir()) == ["walk.c3d", "walk.trc"]
+    for name in ("walk.c3d", "walk.trc"):
+        got = read(back / name)
+        assert got.n_frames == 30 and mpz.max_error(read(src / name), got) <= 1.0
+    p = run(["mpz", "encode", "takes/walk.trc", "--keep-extension", "--max-error", "1mm",
+             "-q"], tmp_path)                        # beside its input, too
+    assert p.returncode == 0 and (src / "walk.trc.mpz").is_file(), p.stderr
 
 
 @pytest.mark.parametrize("cmd", ["show", "summary"])

@@ -606,7 +606,9 @@ def expand_inputs(inputs: Sequence[str], recursive: bool, accept: Callable[[str]
 
 def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
                accept: Callable[[str], bool], name_for: Callable[[str], str | None],
-               what: str, mirror: bool = False) -> list[Job]:
+               what: str, mirror: bool = False,
+               same_stem: str = "write it alone with -o, or rename one of the two"
+               ) -> list[Job]:
     """Pair every input with its output.
 
     * ``-o FILE`` (or ``-o -``): exactly one input;
@@ -626,7 +628,8 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
 
     Two inputs that would write the same output make the later one fail, unless they
     are the same file (named twice, or by two paths): it is coded once. Where ``-r``
-    found them in two folders, the failure names ``--mirror``, which keeps them apart.
+    found them in two folders, the failure names ``--mirror``, which keeps them apart;
+    where they lie in one folder, it says ``same_stem``.
 
     Raises
     ------
@@ -693,14 +696,14 @@ def plan_batch(inputs: Sequence[str], output: str | None, *, recursive: bool,
             # found by -r in another folder than the first: --mirror would keep both
             apart = (base is not None and not mirror and os.path.dirname(os.path.abspath(
                 path)) != os.path.dirname(os.path.abspath(taken[key])))
-            # two formats of one take beside each other (walk.c3d, walk.trc): no option
-            # names outputs by extension, so the remedy is said (a QA run of stop 50)
+            # two formats of one take beside each other (walk.c3d, walk.trc): the remedy
+            # is said (a QA run of stop 50); encoding one alone took it out of a corpus
+            # (a corpus QA run of stop 76): mpz encode --keep-extension names each
+            # after its whole name
             jobs.append(Job(path, target, f"its output {printable(target)} is also the output "
                                         f"of {printable(taken[key])} in this batch"
                                         + ("; --mirror keeps each file's folder below -o"
-                                           if apart else
-                                           "; encode it alone with -o NAME.mpz, or rename "
-                                           "one of the two")))
+                                           if apart else f"; {same_stem}")))
             continue
         taken[key] = path
         jobs.append(Job(path, target, make_folder=make))

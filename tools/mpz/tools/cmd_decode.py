@@ -108,6 +108,8 @@ def _name_for(args: argparse.Namespace, path: str) -> str | None:
     # the source's own spelling of it: walk.C3D came back as walk.c3d, and a mirrored tree
     # with other names (a corpus QA run)
     own = os.path.splitext(str(info.metadata.get("source", "")))[1]
+    if os.path.splitext(stem)[1].lower() == ext:
+        return stem                   # walk.c3d.mpz (encode --keep-extension): walk.c3d
     return stem + (own if own.lower() == ext else ext)
 
 

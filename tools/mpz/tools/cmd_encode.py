@@ -54,6 +54,11 @@ def add_parser(sub):
                    help="with -r and -o FOLDER/: keep each file's path below the folder given "
                    "as input (-r IN with IN/s01/walk.c3d -> FOLDER/s01/walk.mpz), as zstd's "
                    "--output-dir-mirror; default: every output in FOLDER/ itself")
+    p.add_argument("--keep-extension", action="store_true",
+                   help="name each output after the whole input name, NAME.EXT.mpz "
+                   "(walk.c3d -> walk.c3d.mpz), so that two formats of one take in one "
+                   "folder (walk.c3d, walk.trc) each have their own; mpz decode gives "
+                   "walk.c3d back; default: NAME.mpz")
     p.add_argument("--asf", help="skeleton file for AMC input (default: found beside it); "
                    "with several inputs, every AMC file takes this one, in place of the one "
                    "beside it")
@@ -314,8 +319,12 @@ def run(args: argparse.Namespace) -> int:
         jobs = plan_batch(args.inputs, args.output, recursive=args.recursive,
                           mirror=args.mirror,
                           accept=lambda name: ext_of(name) in READERS,
-                          name_for=lambda path: os.path.splitext(path)[0] + ".mpz",
-                          what="MPZ")
+                          name_for=lambda path: (path if args.keep_extension else
+                                                 os.path.splitext(path)[0]) + ".mpz",
+                          what="MPZ",
+                          same_stem="--keep-extension names each output after its whole "
+                                    "input name (walk.c3d.mpz, walk.trc.mpz), or rename one "
+                                    "of the two")
     except UsageError as exc:
         print(f"mpz encode: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
