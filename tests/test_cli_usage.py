@@ -1095,6 +1095,45 @@ def test_a_sigterm_a_kernel_heard_exits_as_sigterm(tmp_path: Path, monkeypatch,
         in err, err
 
 
+def test_a_run_stopped_with_its_log_left_says_to_copy_it(tmp_path, monkeypatch, capsys):
+    """A corpus QA run of stop 76: a full disk stopped the run with its rows in
+    index.sqlite-wal, which could not be folded back, so a copy of index.sqlite alone was
+    an empty index. The run says so when the log is left, and not otherwise."""
+    from mpz.corpus import CorpusReport, CorpusStopped
+    from mpz.tools import mpz_cli
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    write(generate("walk", frames=30, seed=1), src / "a.trc")
+    out.mkdir()
+    index = out / "index.sqlite"
+
+    def stops(jobs, *args, **kwargs):
+        report = CorpusReport([], 0.1, 1, "this process", str(index),
+                              stopped="cannot write the index: database or disk is full")
+        raise CorpusStopped(report.stopped, report)
+
+    monkeypatch.setattr(mpz.corpus, "encode_corpus", stops)
+    argv = ["encode", "-r", str(src), "-o", f"{out}/", "--jobs", "0", "-q"]
+    assert mpz_cli.main(argv) == 2
+    assert "-wal" not in capsys.readouterr().err
+    (out / "index.sqlite-wal").write_bytes(b"log")
+    assert mpz_cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"note: the index's rows are partly in {index}-wal (no room to fold it into " \
+        "the index): copy it with the index, or run again once there is room" in err, err
+
+
+def test_an_interrupt_before_any_file_finished_says_none_written() -> None:
+    """A corpus QA run of stop 76: a Ctrl-C during the cluster's start said "0 of 47 files
+    finished before the interrupt: none written, each in the index"."""
+    from mpz.corpus import FileResult
+    from mpz.tools._corpus_cli import _Bar
+    bar = _Bar(False)
+    assert (bar.finished(47), bar.kinds()) == ("0 of 47 files finished", "none written")
+    bar(1, 3, FileResult("a.trc", "a.mpz", "skipped"))
+    assert bar.kinds() == "1 already up to date, each in the index"
+
+
 class _DropsASignal:
     """An object whose finalizer receives ``signum`` (its handler runs inside ``__del__``,
     as a Ctrl-C once landed in llvmlite's ``ObjectRef.__del__``): Python drops the

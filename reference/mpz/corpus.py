@@ -969,6 +969,18 @@ def _size(path: str | os.PathLike[str]) -> int:
 _F = TypeVar("_F", bound=Callable[..., Any])
 
 
+def _listable(path: str) -> bool:
+    """Whether ``path`` is a folder that can be listed now: the failure of a folder that
+    could not be (:func:`mirror_jobs`) is over. It stayed in the failures table for ever
+    once the folder was readable again (a corpus QA run of stop 76); a run that still
+    cannot list it records it again."""
+    try:
+        with os.scandir(path):
+            return True
+    except OSError:                 # not a folder, or still not listable
+        return False
+
+
 def _source_there(path: str) -> bool:
     """Whether the source a failures row names exists: ``path`` itself, or the bytes its
     ``\\xNN`` escapes stand for (:func:`utf8_name` of a name that is not UTF-8)."""
@@ -1302,7 +1314,8 @@ class Index:
         (absolute, :func:`utf8_name`): their rows are this run's to write. A name that is
         not UTF-8 is found by the bytes its ``\\xNN`` text stands for."""
         gone = [p for (p,) in self.db.execute("SELECT path FROM failures ORDER BY path")
-                if isinstance(p, str) and p not in inputs and not _source_there(p)]
+                if isinstance(p, str) and p not in inputs
+                and (not _source_there(p) or _listable(p))]
         with self.db:
             for p in gone:
                 self.db.execute("DELETE FROM failures WHERE path = ?", (p,))
@@ -1822,9 +1835,11 @@ class CorpusReport:
                          f"{'was' if n == 1 else 'were'} gone: "
                          f"{name(', '.join(self.forgotten[:5]))}{', ...' if n > 5 else ''}")
         for group in self.same_source:
-            lines.append(f"  NOTE the same source bytes in {name(', '.join(group))} (a "
-                         "source moved or copied: remove the outputs not wanted, and the "
-                         "next run forgets their rows)")
+            # said as a fact: copies kept on purpose are said on every run, and "remove the
+            # outputs not wanted" invited deleting archives (a corpus QA run of stop 76)
+            lines.append(f"  NOTE the same source bytes in {name(', '.join(group))} (copies "
+                         "of one source, or a source moved or renamed since: a run forgets "
+                         "the row of an output removed)")
         for why, sources in self.encoded_again.items():
             n = len(sources)
             lines.append(f"  NOTE {n} file{'' if n == 1 else 's'} encoded again, "
@@ -2653,7 +2668,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                          "query of mpz search, a run with --verify)")
         if gone:
             notes.append(f"{len(gone)} failure{'s' * (len(gone) != 1)} of sources no longer "
-                         f"there forgotten: {_some(gone)}")
+                         f"there, or of folders that can be listed now, forgotten: "
+                         f"{_some(gone)}")
         what = ("(a descriptor that is not finite, a summary cut short, a column holding what "
                 "it cannot, values changed in place)")
         if rebuilt:
@@ -2788,7 +2804,7 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                 # and nothing of the row a full disk kept out (a corpus QA run of stop 63)
                 n = len(unindexed)
                 notes.append(f"{n} file{'' if n == 1 else 's'} written but not indexed: "
-                             f"{_some([os.path.basename(o) for o in unindexed])}; the next "
+                             f"{_some([_key(o, index_dir) for o in unindexed])}; the next "
                              f"run indexes {'it' if n == 1 else 'them'} from "
                              f"{'its output' if n == 1 else 'their outputs'}, without "
                              "encoding again")

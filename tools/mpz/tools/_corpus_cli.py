@@ -152,7 +152,8 @@ class _Bar:
         current = self.done - self.written - self.failed
         said = [f"{n} {what}" for n, what in ((self.written, "written"),
                                               (current, "already up to date")) if n]
-        return f"{', '.join(said) or 'none written'}, each in the index"
+        # "none written, each in the index" read as nonsense (a corpus QA run of stop 76)
+        return f"{', '.join(said)}, each in the index" if said else "none written"
 
     def rest(self) -> str:
         """What to do about the files an interrupted run did not finish: nothing when it
@@ -276,6 +277,13 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
                       f"{printable(item)}", file=sys.stderr)
     if stopped is not None:
         print(f"mpz encode: error: {printable(str(stopped))}", file=sys.stderr)
+        wal = f"{report.index}-wal" if report.index else ""
+        if wal and os.path.exists(wal):
+            # a full disk left no room to fold the log back into the index, so a copy of
+            # index.sqlite alone was an empty index (a corpus QA run of stop 76)
+            print(f"mpz encode: note: the index's rows are partly in {printable(wal)} (no "
+                  "room to fold it into the index): copy it with the index, or run again "
+                  "once there is room", file=sys.stderr)
         left = len(report.not_run)
         print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed - left} "
               f"done, {failed} failed, {left} not run", file=sys.stderr)
