@@ -17,12 +17,14 @@ is the summary table of ``mpz encode -r``).
   size and modification time, and the output is still there, of the recorded size and
   newer than the source. Otherwise a worker looks at the output: one that carries the
   same fingerprint and the sha256 of the same source (its ``meta`` chunk, keys
-  :data:`META_FINGERPRINT` and :data:`META_SHA256`) and is newer than the source is
-  *kept*: only its row is rebuilt. Anything else is encoded again, and the report says
-  why (:data:`AGAIN`). With ``verify``, an output up to date by the index is read whole
-  and checked on a worker first (:func:`output_problem`), and encoded again if damaged;
-  every row's levels are read whole and checked against its ``levels_sha256``
-  (:func:`levels_digest`), and a row whose levels changed is rebuilt.
+  :data:`META_FINGERPRINT` and :data:`META_SHA256`) is *kept*: only its row is rebuilt
+  (one older than the source takes the source's time). Anything else is encoded again,
+  and the report says why (:data:`AGAIN`). With ``verify``, an output up to date by the
+  index is read whole and checked on a worker first (:func:`output_problem`), and
+  encoded again if damaged (one whose source is not among the inputs: in this process,
+  :func:`uncovered_problem`, and said, never encoded); every row's levels are read whole
+  and checked against its ``levels_sha256`` (:func:`levels_digest`), and a row whose
+  levels changed is rebuilt.
 * **Resumable.** Outputs are written through :func:`mpz.api.atomic_output`, so an output
   exists complete or not at all, and the index commits each row as its file finishes.
   After a crash, a kill or Ctrl-C, the next run skips what was done; hidden temporary files
@@ -581,6 +583,8 @@ def _peak_rss() -> int | None:
 def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = False,
           source: str | None = None, indexed_path: str | None = None) -> bytes | None:
     """The bytes of an existing output that is up to date, or None if it must be encoded.
+    One of the same options and source bytes that is older than the source (touched, or
+    restored without its times) is given the source's time (``source_mtime_ns``).
 
     ``indexed``: the index lists ``output`` (a corpus run wrote it), so one that no longer
     reads as MPZ is damaged and is encoded again. ``source``: the file to encode into it;
@@ -650,8 +654,16 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
                                "another file of the same name (a flat output folder, the "
                                f"index removed)? Remove {output} if it is an old version "
                                f"of this source, or {_use_force()} to replace it")
-    if (meta[META_FINGERPRINT] == fp and meta.get(META_SHA256) == sha
-            and st.st_mtime_ns >= source_mtime_ns):
+    if meta[META_FINGERPRINT] == fp and meta.get(META_SHA256) == sha:
+        if st.st_mtime_ns < source_mtime_ns:
+            # the same options and source bytes, the source touched or restored without its
+            # times: encoded again, byte for byte the same (a corpus QA run of stop 76: a
+            # restore re-encoded the whole archive). The output takes the source's time,
+            # so that the next run's size-and-time check finds it up to date
+            try:
+                os.utime(output, ns=(time.time_ns(), source_mtime_ns))
+            except OSError:
+                return None
         return data
     return None
 
