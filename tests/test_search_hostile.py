@@ -243,6 +243,31 @@ def test_a_static_motion_has_the_floor_speed():
 
 
 # ----------------------------------------------- D5: outputs and what is gone --
+def test_an_output_of_another_size_than_its_row_is_marked_changed(corpus, tmp_path, capsys):
+    """A corpus QA run of stop 76: an output cut to 3,000 bytes, its source deleted, was
+    listed as if sound, with the note "the .mpz holds the motion", exit 0, where mpz decode
+    refuses it."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    query = tmp_path / "query.trc"
+    query.write_bytes(paths["walk"].read_bytes())
+    code, o, err = search(capsys, str(query), "--index", str(out), "--json")
+    assert code == 0 and not any(r["output_changed"] for r in json.loads(o)["results"])
+    walk = out / "walk.mpz"
+    walk.write_bytes(walk.read_bytes()[:3000])
+    paths["walk"].unlink()
+    code, o, err = search(capsys, str(query), "--index", str(out), "--json")
+    flags = {r["output"]: (r["output_exists"], r["output_changed"])
+             for r in json.loads(o)["results"]}
+    assert flags == {"walk.mpz": (True, True), "jump.mpz": (True, False),
+                     "wave.mpz": (True, False)}
+    assert code == 1
+    assert "1 of the outputs listed has another size than the index recorded" in err
+    assert "the .mpz holds the motion, if it is sound" in err
+    code, o, err = search(capsys, str(query), "--index", str(out), "-n", "1")
+    assert code == 1 and "=walk.mpz [changed]  <- " in o.splitlines()[-1]
+
+
 def test_results_name_the_output_and_mark_what_is_gone(corpus, tmp_path, capsys):
     """D5: results showed the source path only, and still listed a deleted output and
     moved sources without a sign."""

@@ -310,6 +310,9 @@ def run(args: argparse.Namespace) -> int:
                 "output": values[i]["output"], "path": values[i]["path"],
                 "output_exists": os.path.isfile(
                     os.path.join(folder, *values[i]["output"].split("/"))),
+                "output_changed": _size_changed(
+                    os.path.join(folder, *values[i]["output"].split("/")),
+                    values[i]["total_bytes"]),
                 "source_exists": os.path.isfile(values[i]["path"]),
                 "frames": values[i]["frames"], "rate": values[i]["rate"],
                 "duration_s": values[i]["duration_s"], "markers": values[i]["markers"],
@@ -320,14 +323,15 @@ def run(args: argparse.Namespace) -> int:
              "dims": summary.dims, "summary": origin, "levels": list(summary.level_ks()),
              "sha256": sha, "warnings": warned}
     gone = sum(not r["output_exists"] for r in results)
-    code = found(EXIT_WARN if gone or warned else EXIT_OK)
+    changed = sum(r["output_changed"] for r in results)
+    code = found(EXIT_WARN if gone or changed or warned else EXIT_OK)
     if args.json:
         print_json({"schema": JSON_SCHEMA, "index": index_path, "query": query,
                     "features": list(features_for(levels)),
                     "descriptor": [float(v) for v in q], "candidates": len(values),
                     "not_searchable": left_out, "run_in_progress": writing,
                     "results": results})
-        _say_missing(results, gone)         # exit 1 said nothing on stderr (a JSON audit)
+        _say_missing(results, gone, changed)    # exit 1 said nothing on stderr (a JSON audit)
         return code
     secs = summary.n_frames / summary.rate
     print(f"query {printable(args.query)}: {summary.n_frames} frames, {secs:.2f} s, "
@@ -341,28 +345,48 @@ def run(args: argparse.Namespace) -> int:
           "output  <- source")
     for r in results:
         mark = "=" if r["identical"] else " "
-        out_gone = "" if r["output_exists"] else " [missing]"
+        out_gone = (" [missing]" if not r["output_exists"] else
+                    " [changed]" if r["output_changed"] else "")
         src_gone = "" if r["source_exists"] else " [missing]"
         print(f"{r['rank']:>4} {r['distance']:>9.3f} {r['frames']:>7} {r['duration_s']:>7.2f} "
               f"{r['markers']:>7} {mark}{printable(r['output'])}{out_gone}  <- "
               f"{printable(_shown(r['path']))}{src_gone}")
-    _say_missing(results, gone)
+    _say_missing(results, gone, changed)
     return code
 
 
-def _say_missing(results: list[dict], gone: int) -> None:
-    """On stderr: the outputs listed that are gone (exit 1), the sources that moved."""
+def _size_changed(output: str, total_bytes: object) -> bool:
+    """Whether ``output`` exists with another size than its index row's ``total_bytes``:
+    cut short, or replaced since it was indexed."""
+    try:
+        return os.stat(output).st_size != total_bytes
+    except OSError:
+        return False                        # missing: output_exists says it
+
+
+def _say_missing(results: list[dict], gone: int, changed: int = 0) -> None:
+    """On stderr: the outputs listed that are gone or changed (exit 1), the sources that
+    moved."""
     moved = sum(not r["source_exists"] for r in results)
     if gone:
         print(f"mpz search: warning: {gone} of the files listed {'is' if gone == 1 else 'are'}"
               " no longer in the index's folder ([missing] after the output, output_exists "
               "false in --json); the next mpz encode -r into it forgets such rows",
               file=sys.stderr)
+    if changed:
+        # an output cut short whose source was deleted was listed as if sound, with "the
+        # .mpz holds the motion" (a corpus QA run of stop 76)
+        print(f"mpz search: warning: {changed} of the outputs listed "
+              f"{'has' if changed == 1 else 'have'} another size than the index recorded "
+              "([changed] after the output, output_changed in --json): damaged or replaced "
+              "since; mpz encode -r over the sources into the index's folder says which "
+              "(--verify reads each whole)", file=sys.stderr)
     if moved:
         what = ("1 of the sources listed is" if moved == 1 else
                 f"{moved} of the sources listed are")
         print(f"mpz search: note: {what} no longer at the path the index holds ([missing] "
-              "after the source); the .mpz holds the motion", file=sys.stderr)
+              "after the source); the .mpz holds the motion"
+              + (", if it is sound" if changed else ""), file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
