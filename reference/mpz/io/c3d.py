@@ -164,10 +164,28 @@ def c3d_first_frame(motion: Motion) -> int:
     return max(1, start_frame(motion))
 
 
+def _ezc3d_taken(c: Any) -> dict[str, Any]:
+    """What :func:`_from_ezc3d` reads of the ``ezc3d.c3d`` object ``c``, in the same
+    nesting: the header's point rate, the groups POINT and SUBJECTS, the points and their
+    residuals (numpy arrays that own their data). The caller then lets ``c`` go before
+    the points are converted: with it goes ezc3d's C++ copy of every point (about 160
+    bytes a point-frame, 1.4 GB of a 30-minute capture of 41 markers) and the arrays the
+    reader does not use (camera masks, analogs), which stayed held while the positions
+    were copied, and made the peak of reading that capture (docs/corpus.md, "Memory per
+    worker")."""
+    params = c["parameters"]
+    meta = c["data"]["meta_points"]
+    return {"parameters": {k: params[k] for k in ("POINT", "SUBJECTS") if k in params},
+            "data": {"points": c["data"]["points"],
+                     "meta_points": {"residuals": meta["residuals"]}},
+            "header": {"points": {"frame_rate": c["header"]["points"]["frame_rate"]}}}
+
+
 def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
                 data: bytes) -> Motion:
-    """A Motion from an ``ezc3d.c3d`` object of the C3D bytes ``data``; ``declared`` is
-    their frame count (:func:`mpz.io.c3dbin.declared_frames`)."""
+    """A Motion from an ``ezc3d.c3d`` object of the C3D bytes ``data``, or from what
+    :func:`_ezc3d_taken` takes of one; ``declared`` is their frame count
+    (:func:`mpz.io.c3dbin.declared_frames`)."""
     params = c["parameters"]
     got = np.asarray(c["data"]["points"]).shape[2]
     if got < declared:  # ezc3d silently returns the frames that fit
@@ -612,10 +630,14 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
         except (OSError, RuntimeError, ValueError) as exc2:
             first_error = exc2
         else:
-            return _from_ezc3d(c, source, {"warning": warning}, declared, data)
+            taken = _ezc3d_taken(c)
+            del c                   # ezc3d's own copy of the points (_ezc3d_taken)
+            return _from_ezc3d(taken, source, {"warning": warning}, declared, data)
     else:
-        return _from_ezc3d(c, source, {} if note is None else {"warning": note}, declared,
-                           data)
+        taken = _ezc3d_taken(c)
+        del c                       # ezc3d's own copy of the points (_ezc3d_taken)
+        return _from_ezc3d(taken, source, {} if note is None else {"warning": note},
+                           declared, data)
     # a MIPS file is valid C3D that ezc3d does not read (a note); any other refusal is
     # about the file (Facial-Sing: a parameter type ezc3d does not know): a warning
     return motion_from_c3d_bytes(data, source=source, extra={
