@@ -622,7 +622,7 @@ def _read_points(path: str, data: bytes, reopen: str,
                                 "on some files that newer releases read; read with "
                                 "mpz.io.c3dbin"}
         return _by_c3dbin(data, parsed, source=source,
-                                     extra=extra if note is None else {**extra, "warning": note})
+                          extra=extra if note is None else {**extra, "warning": note})
     # only ezc3d's own refusals are caught, not what our code does with its result
     first_error: OSError | RuntimeError | ValueError
     try:
