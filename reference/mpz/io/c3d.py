@@ -924,12 +924,30 @@ def _points_to_write(motion: Motion, a: C3DArchive) -> tuple[NDArray[np.float64]
     # int16 file written with the first element alone read back with point 1 halved for
     # [0.5, 0.25] (a review of stop 54); float32 points need no scale
     one_scale = a.one_point_scale()
-    with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
-        q = np.rint(xyz / scale)                          # and build_c3d says why not float32
-        int16 = bool(a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
-                     and one_scale and np.array_equal(q * scale, xyz)
-                     and np.abs(q).max(initial=0) <= 32767)
+    int16 = bool(a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
+                 and one_scale and _on_int16_grid(xyz, scale))
     return xyz, scale, int16
+
+
+#: coordinates :func:`_on_int16_grid` divides at a time (2 MiB of float64)
+_GRID_VALUES = 1 << 18
+
+
+def _on_int16_grid(xyz: NDArray[np.float64], scale: float) -> bool:
+    """Whether every coordinate of ``xyz`` is q x ``scale`` for q = rint(xyz / scale) with
+    |q| <= 32767, a block of frames at a time. The whole array's quotients and their
+    products were formed for every C3D written from an archive, float32 sources too, where
+    they decide nothing: twice the points' float64 size beside them, the peak of `mpz
+    decode` of a 30-minute capture (docs/corpus.md, "Memory per worker")."""
+    rows = max(1, _GRID_VALUES // max(1, math.prod(xyz.shape[1:])))
+    with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
+        for f in range(0, xyz.shape[0], rows):           # and build_c3d says why not float32
+            blk = xyz[f: f + rows]
+            q = blk / scale
+            np.rint(q, out=q)
+            if not (np.array_equal(q * scale, blk) and np.abs(q).max(initial=0) <= 32767):
+                return False
+    return True
 
 
 def round_trip_warnings(source: Motion, decoded: Motion) -> list[str]:
