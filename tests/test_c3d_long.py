@@ -99,8 +99,9 @@ def test_the_reader_lets_ezc3d_go_before_it_converts_the_points(long_file, monke
     arrays the reader does not use) is gone when the points are converted
     (motion_from_points copies the positions): it was held until the Motion was made,
     the peak of reading a 30-minute capture (218,484 frames x 41 markers: 2.41 GB of
-    RSS in the reader, 2.36 GB for `mpz encode`; 2.10 GB now, docs/corpus.md "Memory
-    per worker"). This test failed before: the object was alive at the conversion."""
+    RSS to read it, 2.42 GB for `mpz encode`; 2.15 and 2.16 GB now, docs/corpus.md
+    "Memory per worker"). This test failed before: the object was alive at the
+    conversion."""
     import sys
     import types
     import weakref
@@ -135,7 +136,7 @@ def test_a_file_the_numpy_reader_reads_is_parsed_once(long_file, monkeypatch):
     """A C3D that ezc3d does not read (here: one it may not have the memory for) gives
     its archive from the parse that read its points: a second parse held a second copy
     of every point (1.5 times the positions) beside the first's Motion (the 30-minute
-    capture read so: 1.24 GB of RSS for `mpz encode`, 1.12 GB now)."""
+    capture read so: 1.27 GB of RSS for `mpz encode`, 1.15 GB now)."""
     from mpz.io import c3d as c3dmod
     path, m = long_file
     monkeypatch.setattr(c3dmod, "memory_short", lambda need: "a test's limit")
@@ -158,7 +159,7 @@ def test_a_c3d_is_written_back_without_copies_of_its_points(tmp_path):
     times the points' float64 bytes (2.67 here). Before, it divided every coordinate by
     the scale and rounded it (deciding int16 storage, which a float32 source never gets)
     and took |x| of all of them: 3.0 times (`mpz decode` of the 30-minute capture to C3D
-    peaked at 1.05 GB of RSS, 0.83 GB now)."""
+    peaked at 1.08 GB of RSS, 0.93 GB now)."""
     from mpz.io.c3d import archive_bytes
     F, M = 4000, 20
     rng = np.random.default_rng(3)
