@@ -110,6 +110,86 @@ def test_the_error_report_measures_a_block_of_frames_at_a_time(warm):
     assert peak <= 1.1 * m.positions.nbytes, peak / m.positions.nbytes
 
 
+def test_the_error_report_lets_every_distance_go_before_the_valid_ones_are_kept():
+    """metrics.summary takes what needs the distances of every sample (each marker's
+    largest and RMS error, ARMS) before it keeps those of the valid samples, and lets
+    the first go; the squares are formed in place, and the 99th percentile partitions the
+    valid ones in place: at most 0.8 times the positions on a long motion of 41 markers
+    (0.74; before: 1.06, both sets of distances held, with two temporaries of their size
+    and numpy's copy for the percentile; the peak of `mpz encode` of the 30-minute
+    capture as NPY at 1 mm). The distances are made a block of frames at a time, so the
+    motion is long beside a block (the test above: 300 frames, four blocks)."""
+    F, M = 20_000, 41
+    rng = np.random.default_rng(5)
+    a = np.cumsum(rng.normal(0, 1, (F, M, 3)), axis=0)
+    b = a + rng.normal(0, 0.3, (F, M, 3))
+    valid = rng.random((F, M)) > 0.05
+    a[~valid], b[~valid] = np.nan, np.nan
+    names = [f"m{k}" for k in range(M)]
+    m = Motion(a, names, 100.0, "mm", valid)
+    back = Motion(b, names, 100.0, "mm", valid.copy())
+    peak = traced_peak(lambda: metrics.summary(m, back))
+    assert peak <= 0.8 * m.positions.nbytes, peak / m.positions.nbytes
+
+
+def _old_summary(d: np.ndarray) -> dict[str, Any]:
+    """The report's figures of the distances ``d`` as metrics.summary computed them before
+    it was made to hold less."""
+    flat = d[~np.isnan(d)]
+    have = ~np.isnan(d)
+
+    def rms_over(axis: int) -> np.ndarray:
+        s = (np.where(have, d, 0.0) ** 2).sum(axis=axis)
+        out = np.full(s.shape, np.nan)
+        n = have.sum(axis=axis)
+        np.divide(s, n, out=out, where=n > 0)
+        return np.sqrt(out)
+    per_frame = rms_over(1)
+    per_frame = per_frame[~np.isnan(per_frame)]
+    none = flat.size == 0
+    finite = np.isfinite(flat)
+    if none or finite.all():
+        p99 = None if none else float(np.percentile(flat, 99))
+    else:
+        top = float(flat[finite].max()) if finite.any() else -np.inf
+        p99 = float(np.percentile(np.where(finite, flat, np.finfo(np.float64).max), 99))
+        p99 = np.inf if p99 > top else p99
+    return {"max": None if none else float(flat.max()),
+            "arms": None if none else (float(per_frame.mean()) if per_frame.size else 0.0),
+            "rms": None if none else float(np.sqrt((flat ** 2).mean())),
+            "p99": p99, "mean": None if none else float(flat.mean()),
+            "per_max": np.where(np.isnan(d), -np.inf, d).max(axis=0, initial=-np.inf),
+            "per_rms": rms_over(0)}
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(1, 30), st.integers(1, 6), st.integers(0, 2 ** 32 - 1))
+def test_the_leaner_error_report_gives_the_same_figures(F, M, seed):
+    """metrics.summary gives, bit for bit, what it gave when it held every distance beside
+    the valid ones: gaps in either motion (NaN and infinite distances), markers and
+    frames that are gaps throughout."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(0, 10, (F, M, 3))
+    b = a + rng.normal(0, 1, (F, M, 3)) * rng.integers(0, 2, (F, M, 1))
+    va = rng.integers(0, 4, (F, M)) > 0
+    vb = va & (rng.integers(0, 5, (F, M)) > 0)
+    if rng.integers(0, 3) == 0:
+        va[:, int(rng.integers(0, M))] = False
+    if rng.integers(0, 3) == 0:
+        va[int(rng.integers(0, F))] = False
+    a[~va], b[~vb] = np.nan, np.nan
+    mo = Motion(a, [f"m{k}" for k in range(M)], 100.0, "mm", va)
+    md = Motion(b, [f"m{k}" for k in range(M)], 100.0, "mm", vb)
+    got = metrics.summary(mo, md)
+    want = _old_summary(metrics.errors(mo, md))
+    for key in ("max", "arms", "rms", "p99", "mean"):
+        assert got[key] == want[key] or (got[key] is None and want[key] is None)
+    old_max = [None if not np.isfinite(v) and v < 0 else float(v) for v in want["per_max"]]
+    old_rms = [None if np.isnan(v) else float(v) for v in want["per_rms"]]
+    assert list(got["per_marker_max"].values()) == old_max
+    assert list(got["per_marker_rms"].values()) == old_rms
+
+
 def test_the_bvh_reader_scales_the_joint_positions_in_place(warm):
     """parse_bvh: the joint positions once (forward kinematics), scaled in place; the old
     reader made a second array for the scale of 1 (2.1 times in all)."""

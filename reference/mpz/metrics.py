@@ -92,7 +92,8 @@ def _rms_over(d: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
     """
     have = ~np.isnan(d)
     n = have.sum(axis=axis)
-    total = np.where(have, d, 0.0) ** 2
+    total = np.where(have, d, 0.0)
+    np.square(total, out=total)         # ** 2 in place: one array of d's size, not two
     s = total.sum(axis=axis)
     out = np.full(s.shape, np.nan)
     np.divide(s, n, out=out, where=n > 0)
@@ -120,12 +121,17 @@ def _percentile(values: NDArray[np.float64], q: float) -> float:
     became a gap). numpy's interpolation takes inf - inf between two infinite values, and
     inf x 0 next to a finite one: NaN, and a RuntimeWarning printed into ``mpz compare``'s
     report (QA runs of stop 52). The infinities are taken as the largest float, and a
-    percentile above every finite value is +inf (it interpolates towards one)."""
+    percentile above every finite value is +inf (it interpolates towards one).
+
+    ``values`` is reordered (numpy partitions it in place: the order statistics, and so
+    the percentile, are the same; a copy of it was the largest array of the error
+    report, :func:`summary`)."""
     finite = np.isfinite(values)
     if finite.all():
-        return float(np.percentile(values, q))
+        return float(np.percentile(values, q, overwrite_input=True))
     top = float(values[finite].max()) if finite.any() else -math.inf
-    p = float(np.percentile(np.where(finite, values, np.finfo(np.float64).max), q))
+    p = float(np.percentile(np.where(finite, values, np.finfo(np.float64).max), q,
+                            overwrite_input=True))
     return math.inf if p > top else p
 
 
@@ -134,16 +140,26 @@ def summary(original: Motion, decoded: Motion) -> dict[str, Any]:
     sample of the original is valid (nothing was compared: a CLI audit found 0.0 there, and
     "every sample within" the bound)."""
     d = _dist(original, decoded)
-    flat = d[~np.isnan(d)]
-    per_max = np.where(np.isnan(d), -np.inf, d).max(axis=0, initial=-np.inf)
+    # what needs the distances of every sample first, then those of the valid ones, and the
+    # first let go: the report held both, and two temporaries of their size (issue 11.11)
+    per_max = np.fmax.reduce(d, axis=0, initial=-np.inf)      # NaN (a gap) never counts
     per_rms = _rms_over(d, axis=0)
-    none = flat.size == 0
+    arms_d = _arms_of(d)                # (arms(original, decoded): d again)
+    flat = d[~np.isnan(d)]
+    del d
+    big: float | None = None
+    rms: float | None = None
+    p99: float | None = None
+    mean: float | None = None
+    if flat.size:
+        big, rms, mean = float(flat.max()), float(np.sqrt((flat ** 2).mean())), float(flat.mean())
+        p99 = _percentile(flat, 99)     # last: it reorders flat in place
     return {
-        "max": None if none else float(flat.max()),
-        "arms": None if none else _arms_of(d),      # (arms(original, decoded): d again)
-        "rms": None if none else float(np.sqrt((flat ** 2).mean())),
-        "p99": None if none else _percentile(flat, 99),
-        "mean": None if none else float(flat.mean()),
+        "max": big,
+        "arms": None if big is None else arms_d,
+        "rms": rms,
+        "p99": p99,
+        "mean": mean,
         "per_marker_max": {n: (None if not np.isfinite(v) and v < 0 else float(v))
                            for n, v in zip(original.names, per_max, strict=False)},
         "per_marker_rms": {n: (None if np.isnan(v) else float(v))

@@ -164,10 +164,28 @@ def c3d_first_frame(motion: Motion) -> int:
     return max(1, start_frame(motion))
 
 
+def _ezc3d_taken(c: Any) -> dict[str, Any]:
+    """What :func:`_from_ezc3d` reads of the ``ezc3d.c3d`` object ``c``, in the same
+    nesting: the header's point rate, the groups POINT and SUBJECTS, the points and their
+    residuals (numpy arrays that own their data). The caller then lets ``c`` go before
+    the points are converted: with it goes ezc3d's C++ copy of every point (about 160
+    bytes a point-frame, 1.4 GB of a 30-minute capture of 41 markers) and the arrays the
+    reader does not use (camera masks, analogs), which stayed held while the positions
+    were copied, and made the peak of reading that capture (docs/corpus.md, "Memory per
+    worker")."""
+    params = c["parameters"]
+    meta = c["data"]["meta_points"]
+    return {"parameters": {k: params[k] for k in ("POINT", "SUBJECTS") if k in params},
+            "data": {"points": c["data"]["points"],
+                     "meta_points": {"residuals": meta["residuals"]}},
+            "header": {"points": {"frame_rate": c["header"]["points"]["frame_rate"]}}}
+
+
 def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
                 data: bytes) -> Motion:
-    """A Motion from an ``ezc3d.c3d`` object of the C3D bytes ``data``; ``declared`` is
-    their frame count (:func:`mpz.io.c3dbin.declared_frames`)."""
+    """A Motion from an ``ezc3d.c3d`` object of the C3D bytes ``data``, or from what
+    :func:`_ezc3d_taken` takes of one; ``declared`` is their frame count
+    (:func:`mpz.io.c3dbin.declared_frames`)."""
     params = c["parameters"]
     got = np.asarray(c["data"]["points"]).shape[2]
     if got < declared:  # ezc3d silently returns the frames that fit
@@ -282,9 +300,10 @@ def c3d_from_bytes(path: StrPath, data: bytes, *, reopen: StrPath | None = None)
     a file, opens ``reopen`` (default ``path``; :func:`mpz.io.read` gives it the open
     file, :func:`reopen_name`, so that both readers see the same bytes)."""
     path = os.fspath(path)
-    full = _read_points(path, data, os.fspath(path if reopen is None else reopen))
+    parsed: list[c3dbin.C3DData] = []           # the numpy reader's parse, when it read
+    full = _read_points(path, data, os.fspath(path if reopen is None else reopen), parsed)
     try:
-        d = c3dbin.parse_c3d(data)
+        d = parsed.pop() if parsed else c3dbin.parse_c3d(data)
     except InputFormatError as exc:
         full.metadata["warning"] = _joined(full.metadata.get("warning"),
                                            f"C3D archive not kept: {exc}")
@@ -536,16 +555,30 @@ def ezc3d_too_old() -> str | None:
     return version if found < EZC3D_OLDEST else None
 
 
-def _read_points(path: str, data: bytes, reopen: str) -> Motion:
+def _by_c3dbin(data: bytes, parsed: list[c3dbin.C3DData] | None, *, source: str = "",
+               extra: Mapping[str, str] | None = None) -> Motion:
+    """:func:`motion_from_c3d_bytes`, with the parse appended to ``parsed``: the archive
+    (:func:`c3d_from_bytes`) is made from it, not from a second parse of the same bytes,
+    which held a second copy of every point (their float64 values, residual and fourth
+    words: 1.5 times the positions) beside the first's Motion."""
+    d = c3dbin.parse_c3d(data)
+    if parsed is not None:
+        parsed.append(d)
+    return _motion_from_data(d, data, source=source, extra=extra)
+
+
+def _read_points(path: str, data: bytes, reopen: str,
+                 parsed: list[c3dbin.C3DData] | None = None) -> Motion:
     """Every point of the C3D file as a Motion: ezc3d (reading the file ``reopen``, which
-    holds ``data``), or the numpy reader it refuses."""
+    holds ``data``), or the numpy reader it refuses; the numpy reader's parse of ``data``
+    is appended to ``parsed`` (:func:`_by_c3dbin`)."""
     import ezc3d
 
     source = os.path.basename(path)
     head = data[:c3dbin.BLOCK]
     if len(head) < c3dbin.BLOCK or head[1] != c3dbin.C3D_KEY:
         # not a C3D file; let the numpy reader produce the precise error
-        return motion_from_c3d_bytes(data, source=source)
+        return _by_c3dbin(data, parsed, source=source)
     # the frames the file declares (header words 4-5, or the frame parameters when the
     # header cannot say: more than 65535 frames); ezc3d itself rewrites its header to
     # the frames it found, so truncation must be checked here
@@ -553,33 +586,33 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
     declared, note = checks.declared, checks.note
     if checks.hazard is not None:
         fault = c3dbin.hazard_is_fault(checks.hazard)     # else ezc3d's own fragility
-        return motion_from_c3d_bytes(data, source=source, extra={
+        return _by_c3dbin(data, parsed, source=source, extra={
             "warning" if fault else "reader_note":
                 f"not read with ezc3d: {checks.hazard}; read with mpz.io.c3dbin"})
     if checks.conflict is not None:    # c3dbin's warnings say what the conflict is
         # ezc3d 1.7.2 reads a float file whose POINT:SCALE is positive as int16 (stop 64),
         # and moved Sample_Jump2 with a header scale of 0 by 2 m (stop 38)
-        return motion_from_c3d_bytes(data, source=source, extra={
+        return _by_c3dbin(data, parsed, source=source, extra={
             "warning": "not read with ezc3d, which reads some such files as other numbers; "
                        "read with mpz.io.c3dbin"})
     if not is_utf8(reopen):        # ezc3d takes a str path to UTF-8: a TypeError of SWIG
-        return motion_from_c3d_bytes(data, source=source, extra={
+        return _by_c3dbin(data, parsed, source=source, extra={
             "reader_note": "not read with ezc3d, which cannot open a file whose name is not "
                            "UTF-8; read with mpz.io.c3dbin"})
     if checks.data_start != checks.word9:
         # ezc3d reads from header word 9: the data is elsewhere (c3dbin.data_start says why)
-        return motion_from_c3d_bytes(data, source=source, extra={
+        return _by_c3dbin(data, parsed, source=source, extra={
             "warning": "not read with ezc3d, which reads from the header's data start; "
                        "read with mpz.io.c3dbin"})
     if checks.case is not None:
-        return motion_from_c3d_bytes(data, source=source, extra={
+        return _by_c3dbin(data, parsed, source=source, extra={
             "reader_note": f"not read with ezc3d, which compares names exactly and would not "
                            f"find {checks.case} (C3D compares names without case); read "
                            "with mpz.io.c3dbin"})
     short = memory_short(EZC3D_BYTES_PER_BYTE * (len(data) - checks.data_start)
                          + EZC3D_BYTES_FIXED)
     if short is not None:
-        return motion_from_c3d_bytes(data, source=source, extra={
+        return _by_c3dbin(data, parsed, source=source, extra={
             "reader_note": f"not read with ezc3d, which aborts the process when an "
                            f"allocation fails: {short}; read with mpz.io.c3dbin"})
     old = ezc3d_too_old()
@@ -588,8 +621,8 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
                                 f"{'.'.join(map(str, EZC3D_OLDEST))}, which ends the process "
                                 "on some files that newer releases read; read with "
                                 "mpz.io.c3dbin"}
-        return motion_from_c3d_bytes(data, source=source,
-                                     extra=extra if note is None else {**extra, "warning": note})
+        return _by_c3dbin(data, parsed, source=source,
+                          extra=extra if note is None else {**extra, "warning": note})
     # only ezc3d's own refusals are caught, not what our code does with its result
     first_error: OSError | RuntimeError | ValueError
     try:
@@ -601,7 +634,7 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
         if lenient is not None:
             # ezc3d then reads on where a record ends, not where the section says the next
             # begins: what it reads there can crash it or take gigabytes (stop 57)
-            return motion_from_c3d_bytes(data, source=source, extra={
+            return _by_c3dbin(data, parsed, source=source, extra={
                 "warning": _joined(note, f"ezc3d refused the file ({type(exc).__name__}: "
                                          f"{_first_sentence(exc)}), and told to ignore "
                                          f"that it would meet {lenient}; read with "
@@ -612,13 +645,17 @@ def _read_points(path: str, data: bytes, reopen: str) -> Motion:
         except (OSError, RuntimeError, ValueError) as exc2:
             first_error = exc2
         else:
-            return _from_ezc3d(c, source, {"warning": warning}, declared, data)
+            taken = _ezc3d_taken(c)
+            del c                   # ezc3d's own copy of the points (_ezc3d_taken)
+            return _from_ezc3d(taken, source, {"warning": warning}, declared, data)
     else:
-        return _from_ezc3d(c, source, {} if note is None else {"warning": note}, declared,
-                           data)
+        taken = _ezc3d_taken(c)
+        del c                       # ezc3d's own copy of the points (_ezc3d_taken)
+        return _from_ezc3d(taken, source, {} if note is None else {"warning": note},
+                           declared, data)
     # a MIPS file is valid C3D that ezc3d does not read (a note); any other refusal is
     # about the file (Facial-Sing: a parameter type ezc3d does not know): a warning
-    return motion_from_c3d_bytes(data, source=source, extra={
+    return _by_c3dbin(data, parsed, source=source, extra={
         "reader_note" if c3dbin.is_mips(data) else "warning":
             f"ezc3d refused the file ({type(first_error).__name__}: "
             f"{_first_line(first_error)}); "
@@ -887,12 +924,30 @@ def _points_to_write(motion: Motion, a: C3DArchive) -> tuple[NDArray[np.float64]
     # int16 file written with the first element alone read back with point 1 halved for
     # [0.5, 0.25] (a review of stop 54); float32 points need no scale
     one_scale = a.one_point_scale()
-    with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
-        q = np.rint(xyz / scale)                          # and build_c3d says why not float32
-        int16 = bool(a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
-                     and one_scale and np.array_equal(q * scale, xyz)
-                     and np.abs(q).max(initial=0) <= 32767)
+    int16 = bool(a.word_storage == 0 and (a.analog.size == 0 or a.analog_storage == 0)
+                 and one_scale and _on_int16_grid(xyz, scale))
     return xyz, scale, int16
+
+
+#: coordinates :func:`_on_int16_grid` divides at a time (2 MiB of float64)
+_GRID_VALUES = 1 << 18
+
+
+def _on_int16_grid(xyz: NDArray[np.float64], scale: float) -> bool:
+    """Whether every coordinate of ``xyz`` is q x ``scale`` for q = rint(xyz / scale) with
+    |q| <= 32767, a block of frames at a time. The whole array's quotients and their
+    products were formed for every C3D written from an archive, float32 sources too, where
+    they decide nothing: twice the points' float64 size beside them, the peak of `mpz
+    decode` of a 30-minute capture (docs/corpus.md, "Memory per worker")."""
+    rows = max(1, _GRID_VALUES // max(1, math.prod(xyz.shape[1:])))
+    with np.errstate(over="ignore", invalid="ignore"):   # 1e308 / scale: not int16 then,
+        for f in range(0, xyz.shape[0], rows):           # and build_c3d says why not float32
+            blk = xyz[f: f + rows]
+            q = blk / scale
+            np.rint(q, out=q)
+            if not (np.array_equal(q * scale, blk) and np.abs(q).max(initial=0) <= 32767):
+                return False
+    return True
 
 
 def round_trip_warnings(source: Motion, decoded: Motion) -> list[str]:

@@ -1542,6 +1542,19 @@ def plain_parts(names: list[str], rate: float, units: str, frames: int,
     return bytes(head), recs
 
 
+#: values :func:`_largest_magnitude` takes at a time (2 MiB of float64)
+_PEAK_VALUES = 1 << 18
+
+
+def _largest_magnitude(x: NDArray[np.float64]) -> float:
+    """max |x| (0.0 for none; NaN if x holds one), a block of frames at a time: |x| of the
+    whole array was a copy of the points' float64 size, the peak of `mpz decode` of a
+    30-minute capture to C3D (docs/corpus.md, "Memory per worker")."""
+    rows = max(1, _PEAK_VALUES // max(1, math.prod(x.shape[1:])))
+    peaks = [np.abs(x[f: f + rows]).max(initial=0.0) for f in range(0, x.shape[0], rows)]
+    return float(np.max(peaks, initial=0.0))
+
+
 def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64],
               point_words: NDArray[Any], analog: NDArray[Any], *, float_storage: bool,
               scale: float) -> bytes:
@@ -1607,7 +1620,7 @@ def build_c3d(header: bytes, records: list[ParamRecord], xyz: NDArray[np.float64
     out[BLOCK:BLOCK + len(params)] = np.frombuffer(params, np.uint8)
     frames = out[BLOCK + len(params):][:F * (row + arow)].reshape(F, row + arow)
     if float_storage:
-        big = float(np.abs(xyz).max(initial=0.0))
+        big = _largest_magnitude(xyz)
         if big > F32_MAX:
             # an MPZ file may hold coordinates up to 2^1024 (§4.4); a C3D cannot
             # repr: at 6 digits one just above the largest binary32 printed as that value
