@@ -1,7 +1,7 @@
 """Normative decoder stages (spec §6.2-§6.5) against hand-computed values."""
 from pathlib import Path
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 import numpy as np
 import pytest
@@ -339,30 +339,38 @@ def test_a_large_radius_follows_the_rule_through_choose_lattice():
 
 
 def _axis_least(y, p, lam=1e-3):
-    """The first integer x of least |x - p| + lam (x - y)^2, over a range wide enough for
-    any lam >= 1e-3 (the least is within 1 / (2 lam) + 1 of y)."""
+    """The integers x of least |x - p| + lam (x - y)^2, over a range wide enough for any
+    lam >= 1e-3 (the least is within 1 / (2 lam) + 1 of y): every x within rounding of the
+    least cost. Two costs equal in exact arithmetic can differ in their last bit, summed in
+    another order (y at a half step, p 50.5 steps beyond it: 51 + 249.50025 and
+    50 + 250.50025, a case hypothesis found at stop 76), so the first of them in float is
+    not a property of the search."""
     x = np.arange(np.floor(y) - 600, np.ceil(y) + 601)
-    return int(x[np.argmin(np.abs(x - p) + lam * (x - y) ** 2)])
+    c = np.abs(x - p) + lam * (x - y) ** 2
+    return {int(v) for v in x[c <= c.min() + 1e-9 * (1.0 + c.min())]}
 
 
 @settings(max_examples=300, deadline=None)
 @given(st.floats(868.0, 1e12), st.integers(0, 2 ** 32 - 1),
        st.sampled_from([0.0, 1.0, 30.0, 499.0, 501.0, 2000.0, 1e6]), st.booleans())
+@example(868.0, 296143, 499.0, True)                 # a tie in exact arithmetic (stop 76)
 def test_a_radius_far_past_the_reach_picks_each_axis_own_least(radius, seed, far, snap):
     """From a radius of 868 grid steps (sqrt(3) x 501) the ball holds the point where each
-    axis's share of the cost is least, so the lattice choice is that point, the first on a
-    tie axis by axis (a grid 10^5-10^7 times finer than the bound made radii this large:
-    seconds to minutes for 40 samples, and 11 GB for the key frames; a QA run, stop 37)."""
+    axis's share of the cost is least, so the lattice choice is that point (on a tie, one
+    of the tied points, :func:`_axis_least`; choose_lattice the same one). A grid 10^5-10^7
+    times finer than the bound made radii this large: seconds to minutes for 40 samples,
+    and 11 GB for the key frames (a QA run, stop 37)."""
     from mpz import quantize
     rng = np.random.default_rng(seed)
     y = rng.normal(0, 1e6, 3)
     if snap:
         y = np.round(2 * y) / 2                              # half steps: the axes tie
     p = np.round(y + rng.normal(0, 1, 3) * far)
-    want = tuple(_axis_least(y[k], p[k]) for k in range(3))
-    assert quantize._pick_pruned(*y, radius, *p) == want
+    want = [_axis_least(y[k], p[k]) for k in range(3)]
+    got = quantize._pick_pruned(*y, radius, *p)
+    assert all(got[k] in want[k] for k in range(3)), (got, want)
     w = quantize.choose_lattice(np.array([[np.round(p)], [y]]), radius, 1)
-    assert tuple(w[1, 0]) == want
+    assert tuple(w[1, 0]) == got
 
 
 @settings(max_examples=200, deadline=None)
