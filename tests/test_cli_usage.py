@@ -1119,8 +1119,9 @@ def test_a_run_stopped_with_its_log_left_says_to_copy_it(tmp_path, monkeypatch, 
     (out / "index.sqlite-wal").write_bytes(b"log")
     assert mpz_cli.main(argv) == 2
     err = capsys.readouterr().err
-    assert f"note: the index's rows are partly in {index}-wal (no room to fold it into " \
-        "the index): copy it with the index, or run again once there is room" in err, err
+    assert f"note: the index's rows are partly in {index}-wal (it could not be folded into " \
+        "the index: a full disk, or another program holding the index open): copy it with " \
+        "the index, or run again" in err, err
 
 
 def test_an_interrupt_before_any_file_finished_says_none_written() -> None:
@@ -1610,6 +1611,33 @@ def test_keep_extension_archives_two_formats_of_one_take_and_decode_gives_both_b
     p = run(["mpz", "encode", "takes/walk.trc", "--keep-extension", "--max-error", "1mm",
              "-q"], tmp_path)                        # beside its input, too
     assert p.returncode == 0 and (src / "walk.trc.mpz").is_file(), p.stderr
+    # --format names the same extension: walk.c3d, not walk.c3d.c3d (a review of stop 76)
+    p = run(["mpz", "decode", "arch/walk.c3d.mpz", "--format", "c3d", "-q"], tmp_path)
+    assert p.returncode == 0 and (arch / "walk.c3d").is_file(), p.stderr
+    p = run(["mpz", "decode", "arch/walk.c3d.mpz", "--format", "trc", "-q", "-f"], tmp_path)
+    assert p.returncode == 0 and (arch / "walk.c3d.trc").is_file(), p.stderr
+
+
+def test_a_damaged_archive_of_a_deleted_source_fails_the_run(tmp_path: Path) -> None:
+    """The command line of a corpus QA run of stop 76: an output cut short whose source was
+    deleted fails the run (exit 2) and is named on stderr with -q and --json, which print
+    no table."""
+    src = tmp_path / "takes"
+    src.mkdir()
+    for k, name in enumerate(("a.trc", "b.trc")):
+        write(generate("walk", frames=30, seed=k), src / name)
+    argv = ["mpz", "encode", "-r", "takes", "-o", "arch/", "--max-error", "1mm", "--jobs",
+            "0", "-q"]
+    assert run(argv, tmp_path).returncode == 0
+    (src / "a.trc").unlink()
+    out = tmp_path / "arch" / "a.mpz"
+    out.write_bytes(out.read_bytes()[:200])
+    for extra in ([], ["--json"]):
+        p = run([*argv, *extra], tmp_path)
+        assert p.returncode == 2, p.stderr
+        assert b"mpz encode: error: a.mpz: damaged: it is 200 bytes, its index row says " \
+            in p.stderr, p.stderr
+    assert strict_json(p.stdout)["damaged"][0]["output"] == "a.mpz"
 
 
 @pytest.mark.parametrize("cmd", ["show", "summary"])

@@ -23,6 +23,7 @@ from pathlib import Path
 import re
 import shutil
 import signal
+import sqlite3
 import struct
 import subprocess
 import sys
@@ -361,6 +362,12 @@ def test_the_archive_of_a_deleted_source_is_checked_and_never_rebuilt(corpus):
     assert f"DAMAGED walk.mpz: {why}; its source {source} is no longer there" in table
     assert "restore the output from a copy" in table
 
+    # a run over a part of the inputs: the output of a source still there (jump) is
+    # checked by size alone, and read whole by a run over its source; walk's (no source)
+    # is read whole
+    sub = encode_corpus([(paths["wave"], out / "sub" / "wave.mpz")], out, OPTS,
+                        levels=LEVELS, workers=0, verify=True)
+    assert [d[0] for d in sub.damaged] == ["walk.mpz"] and sub.verified == 1    # wave
     walk.write_bytes(walk.read_bytes()[:3000])      # cut short: every run sees it
     rep = run_corpus(src, out)
     assert rep.damaged == [("walk.mpz", source,
@@ -371,6 +378,61 @@ def test_the_archive_of_a_deleted_source_is_checked_and_never_rebuilt(corpus):
     assert walk.stat().st_size == 3000              # left as it is
     with open_index(out) as ix:
         assert ix.row("walk.mpz") is not None
+
+
+def test_rows_mpz_drops_itself_keep_their_sources_for_the_run(corpus):
+    """A review of stop 76: rows dropped by the run itself (a corpus table that fails its
+    checksum, or a new descriptor version) left a source edited since without a row, and
+    the refusal of another file's archive (no row, other bytes, the same name) failed it.
+    The dropped rows' source paths stand for them in that run: the edited source is encoded
+    again, the others kept; a row lost some other way (the index removed) still refuses."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    with sqlite3.connect(out / INDEX_NAME) as db:
+        db.execute("UPDATE corpus SET value = '1' WHERE key = 'descriptor_version'")
+    write(generate("walk", frames=93, seed=4), paths["walk"])           # edited since
+    rep = run_corpus(src, out)
+    assert statuses(rep) == {"bad": "failed", "jump": "kept", "walk": "encoded",
+                             "wave": "kept"}
+    assert mpz.decode((out / "walk.mpz").read_bytes()).n_frames == 93
+    (out / INDEX_NAME).unlink()
+    write(generate("walk", frames=94, seed=4), paths["walk"])
+    (reason,) = [r.reason for r in run_corpus(src, out).results if r.status == "failed"
+                 and "walk" in r.source]
+    assert "no index row says which file they were" in reason
+
+
+def test_an_older_output_kept_takes_a_time_the_file_system_keeps(corpus, monkeypatch):
+    """A review of stop 76: the kept output took the source's time to the nanosecond; a
+    file system of whole seconds rounded it below, and the file was "kept" on every run.
+    It now takes the later of now and the source's time, and is encoded again (as before)
+    when even that reads back older than the source, or when the output is a link (its
+    target lies outside the folder)."""
+    src, out, paths = corpus
+    run_corpus(src, out)
+    utime = os.utime
+
+    def whole_seconds(path, *args, ns=None, **kw):      # a file system of 1 s times
+        utime(path, *args, ns=None if ns is None else tuple(v // 10**9 * 10**9 for v in ns),
+              **kw)
+
+    monkeypatch.setattr(os, "utime", whole_seconds)
+    st = paths["walk"].stat()
+    utime(paths["walk"], ns=(st.st_atime_ns, time.time_ns() - 10**9 + 123))     # touched
+    assert statuses(run_corpus(src, out))["walk"] == "kept"
+    assert statuses(run_corpus(src, out))["walk"] == "skipped"
+    future = time.time_ns() + 3600 * 10**9 + 500_000_000                  # clock skew
+    utime(paths["walk"], ns=(future, future))
+    assert statuses(run_corpus(src, out))["walk"] == "encoded"  # rounded below it: encoded
+    monkeypatch.setattr(os, "utime", utime)
+    target = out.parent / "elsewhere.mpz"
+    (out / "jump.mpz").rename(target)
+    (out / "jump.mpz").symlink_to(target)
+    later = time.time_ns() + 10**9
+    os.utime(paths["jump"], ns=(later, later))
+    before = target.stat().st_mtime_ns
+    assert statuses(run_corpus(src, out))["jump"] == "encoded"
+    assert target.stat().st_mtime_ns == before
 
 
 def test_outputs_without_a_row_are_said(corpus):
@@ -1508,7 +1570,8 @@ def test_search_on_an_index_with_damaged_levels_or_columns_is_a_clean_error(
     assert code == 2 and said in err and "damaged" in err and "Traceback" not in err, err
     # what the error says to do works: encoding again, --force too, failed on the same
     # index (QA of stop 42: "encode the folder again" was a loop); removed, it is rebuilt
-    assert "remove it: the next mpz encode -r into its folder rebuilds its rows" in err
+    assert "restore a copy of it, or remove it: the next mpz encode -r into its folder " \
+        "rebuilds the rows of the .mpz files of its inputs" in err
     (out / INDEX_NAME).unlink()
     rep = run_corpus(src, out)
     assert statuses(rep) == {"bad": "failed", "jump": "kept", "walk": "kept", "wave": "kept"}

@@ -658,10 +658,18 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
         if st.st_mtime_ns < source_mtime_ns:
             # the same options and source bytes, the source touched or restored without its
             # times: encoded again, byte for byte the same (a corpus QA run of stop 76: a
-            # restore re-encoded the whole archive). The output takes the source's time,
-            # so that the next run's size-and-time check finds it up to date
+            # restore re-encoded the whole archive). The output takes the later of now and
+            # the source's time, so that the next run's size-and-time check finds it up to
+            # date; not through a link (the file it names lies outside the folder), and
+            # checked again: a file system of coarser times (FAT's 2 s) may round it below
+            # the source's, and the file was then "kept" on every run (a review of stop 76)
+            if os.path.islink(output):
+                return None
+            now = time.time_ns()
             try:
-                os.utime(output, ns=(time.time_ns(), source_mtime_ns))
+                os.utime(output, ns=(now, max(now, source_mtime_ns)))
+                if os.stat(output).st_mtime_ns < source_mtime_ns:
+                    return None
             except OSError:
                 return None
         return data
@@ -895,7 +903,8 @@ def uncovered_problem(output: str, total_bytes: Any, fingerprint: Any, sha256: A
 def _no_source(path: Any) -> str:
     """Why a damaged output of :attr:`CorpusReport.damaged` is not encoded again."""
     there = isinstance(path, str) and os.path.exists(path)
-    return (f"its source {path} is not among this run's inputs: run over it to encode it "
+    return (f"its source {path} is still there, but no input of this run writes this "
+            "output: run over that source with the options that wrote it, to encode it "
             "again" if there else
             f"its source {path} is no longer there, so it cannot be encoded again: restore "
             "the output from a copy")
@@ -962,8 +971,9 @@ class IndexRow:
 
 #: how to recover from a damaged index: encoding again keeps failing on it, and --force
 #: too (a QA of stop 42); a run without one rebuilds each output's row from its meta chunk
-_REBUILD = ("remove it: the next mpz encode -r into its folder rebuilds its rows from the "
-            ".mpz files there, without encoding them again")
+_REBUILD = ("restore a copy of it, or remove it: the next mpz encode -r into its folder "
+            "rebuilds the rows of the .mpz files of its inputs, without encoding them "
+            "again (not those of sources no longer there: docs/corpus.md)")
 
 
 def _size(path: str | os.PathLike[str]) -> int:
@@ -1311,6 +1321,14 @@ class Index:
         return [r for r in self.db.execute(
             "SELECT output, path, total_bytes, fingerprint, source_sha256 FROM files "
             "ORDER BY output") if r[0] not in keys]
+
+    @_sql
+    def paths(self) -> dict[str, str]:
+        """Output key -> source path of every row whose two are texts (unchecked): what a
+        run keeps of the rows :meth:`refresh_descriptors` removes, so that a source edited
+        since is encoded again, not refused as another file's (a review of stop 76)."""
+        return {k: p for k, p in self.db.execute("SELECT output, path FROM files")
+                if isinstance(k, str) and isinstance(p, str)}
 
     @_sql
     def keys(self) -> set[Any]:
@@ -2644,7 +2662,13 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                                f"{folder_problem(exc)}") from None
         stack.enter_context(_one_run(index_dir))
         index = stack.enter_context(Index(os.path.join(index_dir, INDEX_NAME), create=True))
+        known = index.paths()
         dropped, rewritten = index.refresh_descriptors()
+        # the source path of each row dropped for a new descriptor version or a corpus
+        # table that fails its checksum: without it, a source edited since was refused as
+        # another file of the same name (_ours)
+        remembered = {k: known[k] for k in dropped if k in known}
+        del known
         unnamed = index.drop_unnamed()
         summed, levels_summed = index.add_checksums()
         keys = {t.output_key for t in tasks}
@@ -2691,8 +2715,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
             notes.append(f"{_rows(len(left), 'damaged index')} {what} of outputs this run's "
                          f"inputs do not cover, left as "
                          f"{'it is' if len(left) == 1 else 'they are'} (mpz search refuses "
-                         f"the index): {_some(left)}; run over their sources too, or remove "
-                         "the index to rebuild it")
+                         f"the index): {_some(left)}; run over their sources too, or "
+                         "restore a copy of the index")
         index.set_info({"levels": ",".join(map(str, levels)),
                         "exact_max_frames": str(EXACT_MAX_FRAMES)})
         done = verified = 0
@@ -2703,11 +2727,15 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
         for key, src, total, fp, sha in index.uncovered(keys):
             if key in damaged or not isinstance(key, str):
                 continue                        # said above, as a damaged row
+            # read whole only where the source is gone: the only copy. One whose source
+            # is there (a run over a part of the inputs) is the next full run's to verify,
+            # and a run of one folder read the whole archive first (a review of stop 76)
+            whole = verify and not (isinstance(src, str) and os.path.exists(src))
             problem = uncovered_problem(os.path.join(index_dir, *key.split("/")), total, fp,
-                                        sha, verify)
+                                        sha, whole)
             if problem:
                 damaged_outputs.append((key, src if isinstance(src, str) else "", problem))
-            elif verify:
+            elif whole:
                 verified += 1
         sound: dict[int, FileResult] = {}    # with verify: the report of each, if sound
 
@@ -2767,8 +2795,8 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                                    verify=(row["fingerprint"], row["source_sha256"]))
                 todo.append(i)
             else:
-                path = None if row is None else row["path"]
-                tasks[i] = replace(t, indexed=row is not None,
+                path = remembered.get(t.output_key) if row is None else row["path"]
+                tasks[i] = replace(t, indexed=row is not None or path is not None,
                                    indexed_path=path if isinstance(path, str) else None)
                 todo.append(i)
         # each output folder made once; one that cannot be made (a file in its place, no

@@ -281,9 +281,10 @@ def run_corpus(args: argparse.Namespace, jobs: Sequence[Any], options: FileOptio
         if wal and os.path.exists(wal):
             # a full disk left no room to fold the log back into the index, so a copy of
             # index.sqlite alone was an empty index (a corpus QA run of stop 76)
-            print(f"mpz encode: note: the index's rows are partly in {printable(wal)} (no "
-                  "room to fold it into the index): copy it with the index, or run again "
-                  "once there is room", file=sys.stderr)
+            print(f"mpz encode: note: the index's rows are partly in {printable(wal)} (it "
+                  "could not be folded into the index: a full disk, or another program "
+                  "holding the index open): copy it with the index, or run again",
+                  file=sys.stderr)
         left = len(report.not_run)
         print(f"mpz encode: {_plural(len(jobs), 'input')}: {len(jobs) - failed - left} "
               f"done, {failed} failed, {left} not run", file=sys.stderr)

@@ -85,8 +85,9 @@ def _name_for(args: argparse.Namespace, path: str) -> str | None:
     from mpz.errors import InputFormatError
     from mpz.io import FORMAT_NAMES, SKELETON_FORMATS
     stem = os.path.splitext(path)[0]
-    if args.format:
-        return f"{stem}.{args.format}"
+    if args.format:                   # walk.c3d.mpz (encode --keep-extension): walk.c3d
+        same = os.path.splitext(stem)[1].lower() == f".{args.format}"
+        return stem if same else f"{stem}.{args.format}"
     try:                              # a motion file named: what to do instead, as below
         with open(path, "rb") as fh:
             head = fh.read(4096)
