@@ -1567,15 +1567,21 @@ def test_quiet_with_json_prints_the_report_and_nothing_else(inputs: dict[str, Pa
     assert strict_json(p.stdout)["output"] == "q.mpz"
 
 
-def test_two_formats_of_one_take_in_one_folder_are_told_the_way_out(tmp_path: Path) -> None:
-    """An archive team's QA run (stop 50): walk.c3d and walk.trc in one folder, with
-    --mirror, failed "its output ... is also the output of ..." with no remedy, where the
-    flat clash names --mirror."""
+def _two_formats_of_one_take(tmp_path: Path) -> Path:
+    """``tmp_path/takes`` holding one take as walk.c3d and walk.trc."""
     src = tmp_path / "takes"
     src.mkdir()
     m = generate("walk", frames=30, seed=5)
     write(m, src / "walk.c3d")
     write(m, src / "walk.trc")
+    return src
+
+
+def test_two_formats_of_one_take_in_one_folder_are_told_the_way_out(tmp_path: Path) -> None:
+    """An archive team's QA run (stop 50): walk.c3d and walk.trc in one folder, with
+    --mirror, failed "its output ... is also the output of ..." with no remedy, where the
+    flat clash names --mirror."""
+    _two_formats_of_one_take(tmp_path)
     p = run(["mpz", "encode", "-r", "takes", "-o", "arch/", "--mirror", "--max-error", "1mm",
              "--jobs", "0", "-q"], tmp_path)
     assert p.returncode == 2 and b"also the output of" in p.stderr, p.stderr
@@ -1588,11 +1594,7 @@ def test_keep_extension_archives_two_formats_of_one_take_and_decode_gives_both_b
     took it out of the corpus (no index row, no search), and the C3D lost, the file with
     the analog data. ``--keep-extension`` names each output NAME.EXT.mpz; ``mpz decode``
     names walk.c3d.mpz's output walk.c3d, not walk.c3d.c3d."""
-    src = tmp_path / "takes"
-    src.mkdir()
-    m = generate("walk", frames=30, seed=5)
-    write(m, src / "walk.c3d")
-    write(m, src / "walk.trc")
+    src = _two_formats_of_one_take(tmp_path)
     p = run(["mpz", "encode", "-r", "takes", "-o", "arch/", "--mirror", "--max-error", "1mm",
              "--jobs", "0", "-q", "--keep-extension"], tmp_path)
     assert p.returncode == 0, p.stderr
