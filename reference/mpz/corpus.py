@@ -18,7 +18,7 @@ is the summary table of ``mpz encode -r``).
   newer than the source. Otherwise a worker looks at the output: one that carries the
   same fingerprint and the sha256 of the same source (its ``meta`` chunk, keys
   :data:`META_FINGERPRINT` and :data:`META_SHA256`) is *kept*: only its row is rebuilt
-  (one older than the source takes the source's time). Anything else is encoded again,
+  (one older than the source takes a later time). Anything else is encoded again,
   and the report says why (:data:`AGAIN`). With ``verify``, an output up to date by the
   index is read whole and checked on a worker first (:func:`output_problem`), and
   encoded again if damaged (one whose source is not among the inputs: in this process,
@@ -584,7 +584,7 @@ def _ours(output: str, fp: str, sha: str, source_mtime_ns: int, indexed: bool = 
           source: str | None = None, indexed_path: str | None = None) -> bytes | None:
     """The bytes of an existing output that is up to date, or None if it must be encoded.
     One of the same options and source bytes that is older than the source (touched, or
-    restored without its times) is given the source's time (``source_mtime_ns``).
+    restored without its times) is given the later of now and ``source_mtime_ns``.
 
     ``indexed``: the index lists ``output`` (a corpus run wrote it), so one that no longer
     reads as MPZ is damaged and is encoded again. ``source``: the file to encode into it;
