@@ -450,6 +450,11 @@ def test_outputs_without_a_row_are_said(corpus):
     assert note.startswith("1 output in this folder has no index row, and mpz search does "
                            "not see it: walk.mpz;")
     assert "NOTE 1 output in this folder has no index row" in rep.table()
+    # one whose source this run failed is that failure, not a row to look for
+    paths["walk"].write_text("not a TRC file any more\n")
+    rep = run_corpus(src, out)
+    assert statuses(rep)["walk"] == "failed"
+    assert not [n for n in rep.index_notes if "no index row" in n], rep.index_notes
 
 
 def test_verify_finds_swapped_outputs_and_leaves_them_to_force(tmp_path):

@@ -2853,7 +2853,9 @@ def encode_corpus(jobs: Sequence[tuple[str | os.PathLike[str], str | os.PathLike
                                 ) from None
         _remove_empty(made)
         same = index.same_sources()
-        loose = unindexed_outputs(index_dir, index.keys())
+        # an output of this run's inputs without a row is this run's failure, said as such
+        # (the note told the run just made to run over its sources: a review of stop 76)
+        loose = unindexed_outputs(index_dir, index.keys() | keys)
         if loose:
             # a removed index, or rows dropped, is rebuilt from the outputs of this run's
             # inputs alone: the archive of a deleted source lost its row without a word
