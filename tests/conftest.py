@@ -2,9 +2,12 @@
 into the repo); tests that need them skip with a reason when it is absent."""
 from __future__ import annotations
 
+from collections.abc import Callable
 import os
 from pathlib import Path
 import sys
+import tracemalloc
+from typing import Any
 
 import pytest
 
@@ -132,3 +135,22 @@ def install_copy(site: Path) -> Path:
 def installed_copy(tmp_path: Path) -> Path:
     """:func:`install_copy` into ``tmp_path/site``; returns the copy's ``mpz`` folder."""
     return install_copy(tmp_path / "site")
+
+
+def _traced_peak(run: Callable[[], Any]) -> int:
+    """The largest traced allocation total while ``run()`` runs, beyond what was traced
+    before it (numpy's and numba's allocations report to tracemalloc)."""
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        run()
+        return tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.fixture()
+def traced_peak() -> Callable[[Callable[[], Any]], int]:
+    """:func:`_traced_peak`, for the tests that bound a step's memory."""
+    return _traced_peak

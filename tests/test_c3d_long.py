@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from pathlib import Path
 import struct
-import tracemalloc
 from typing import Any
 
 from hypothesis import given, settings
@@ -153,7 +152,7 @@ def test_a_file_the_numpy_reader_reads_is_parsed_once(long_file, monkeypatch):
     np.testing.assert_array_equal(back.valid, m.valid)
 
 
-def test_a_c3d_is_written_back_without_copies_of_its_points(tmp_path):
+def test_a_c3d_is_written_back_without_copies_of_its_points(tmp_path, traced_peak):
     """archive_bytes (mpz decode to C3D) of a float32 source: the points to write
     (float64, [F, P, 3]), the file's buffer and its bytes, and little else: at most 2.75
     times the points' float64 bytes (2.67 here). Before, it divided every coordinate by
@@ -167,13 +166,9 @@ def test_a_c3d_is_written_back_without_copies_of_its_points(tmp_path):
     write(Motion(pos, [f"m{k}" for k in range(M)], 100.0, "mm"), tmp_path / "f.c3d")
     m = read(tmp_path / "f.c3d")
     assert m.extras["c3d"].word_storage == 1            # float32 points
-    tracemalloc.start()
-    try:
-        blob = archive_bytes(m)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
-    back = c3dbin.parse_c3d(blob).points
+    box: list[bytes] = []
+    peak = traced_peak(lambda: box.append(archive_bytes(m)))
+    back = c3dbin.parse_c3d(box[0]).points
     np.testing.assert_array_equal(back, m.positions)   # float32 values, widened
     assert peak <= 2.75 * m.positions.nbytes, peak / m.positions.nbytes
 

@@ -20,9 +20,7 @@ them hold each stage that works in blocks to the values of the whole arrays, bit
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-import tracemalloc
 from typing import Any
 
 from hypothesis import given, settings
@@ -54,19 +52,6 @@ def chain_bvh(joints: int, frames: int, seed: int = 0) -> str:
     return "\n".join(head + ["MOTION", f"Frames: {frames}", "Frame Time: 0.01", *rows]) + "\n"
 
 
-def traced_peak(run: Callable[[], Any]) -> int:
-    """The largest traced allocation total while ``run()`` runs, beyond what was traced
-    before it."""
-    tracemalloc.start()
-    try:
-        before = tracemalloc.get_traced_memory()[0]
-        tracemalloc.reset_peak()
-        run()
-        return tracemalloc.get_traced_memory()[1] - before
-    finally:
-        tracemalloc.stop()
-
-
 @pytest.fixture(scope="module")
 def warm() -> None:
     """Every kernel loaded (or compiled) before a peak is measured."""
@@ -76,7 +61,8 @@ def warm() -> None:
 
 
 @pytest.mark.parametrize("bound", [None, 1.0])
-def test_a_joint_heavy_bvh_encodes_within_four_and_a_half_times_its_positions(warm, bound):
+def test_a_joint_heavy_bvh_encodes_within_four_and_a_half_times_its_positions(warm, bound,
+                                                                              traced_peak):
     """1024 joints x 300 frames (7.4 MB of positions), one thread (the peak of two
     threads depends on how their work overlaps): the encode allocates at most 4.5 times
     the positions' bytes, the default bound and 1 mm alike. The old encoder: 4.9 and
@@ -86,7 +72,8 @@ def test_a_joint_heavy_bvh_encodes_within_four_and_a_half_times_its_positions(wa
     assert peak <= 4.5 * m.positions.nbytes, peak / m.positions.nbytes
 
 
-def test_the_position_search_holds_no_joint_positions_of_every_frame(warm, monkeypatch):
+def test_the_position_search_holds_no_joint_positions_of_every_frame(warm, monkeypatch,
+                                                                     traced_peak):
     """The steps for a joint-position bound (spec Appendix C) are searched on at most 511
     frames and checked on every frame a block at a time, with the lever arms of the
     joints that turn only: under the positions' own bytes (256 joints x 2000 frames,
@@ -100,7 +87,7 @@ def test_the_position_search_holds_no_joint_positions_of_every_frame(warm, monke
     assert peak <= m.positions.nbytes, peak / m.positions.nbytes
 
 
-def test_the_error_report_measures_a_block_of_frames_at_a_time(warm):
+def test_the_error_report_measures_a_block_of_frames_at_a_time(warm, traced_peak):
     """mpz encode's report (metrics.summary) computes the distances a block of frames at
     a time, and ARMS from them: 1.1 times the positions at most (the old one: 3.3, the
     differences and their squares whole, twice)."""
@@ -110,7 +97,7 @@ def test_the_error_report_measures_a_block_of_frames_at_a_time(warm):
     assert peak <= 1.1 * m.positions.nbytes, peak / m.positions.nbytes
 
 
-def test_the_error_report_lets_every_distance_go_before_the_valid_ones_are_kept():
+def test_the_error_report_lets_every_distance_go_before_the_valid_ones_are_kept(traced_peak):
     """metrics.summary takes what needs the distances of every sample (each marker's
     largest and RMS error, ARMS) before it keeps those of the valid samples, and lets
     the first go; the squares are formed in place, and the 99th percentile partitions the
@@ -190,7 +177,7 @@ def test_the_leaner_error_report_gives_the_same_figures(F, M, seed):
     assert list(got["per_marker_rms"].values()) == old_rms
 
 
-def test_the_bvh_reader_scales_the_joint_positions_in_place(warm):
+def test_the_bvh_reader_scales_the_joint_positions_in_place(warm, traced_peak):
     """parse_bvh: the joint positions once (forward kinematics), scaled in place; the old
     reader made a second array for the scale of 1 (2.1 times in all)."""
     text = chain_bvh(1024, 300, seed=4)
@@ -199,7 +186,7 @@ def test_the_bvh_reader_scales_the_joint_positions_in_place(warm):
     assert peak <= 1.5 * box[0].positions.nbytes, peak / box[0].positions.nbytes
 
 
-def test_the_member_order_reorders_the_scores_in_place(warm):
+def test_the_member_order_reorders_the_scores_in_place(warm, traced_peak):
     """The flat hierarchy's member order (chain_order of every pair's score, issue 15.1)
     moves the root's row and column first in place: the plan of 1024 markers over 20
     frames allocates the M x M scores (8.4 MB) and little else; the reordered copy made
@@ -230,7 +217,7 @@ def test_scores_moved_to_the_front_in_place_are_the_reordered_copy(M, data, rows
     assert a.tobytes() == want.tobytes()
 
 
-def test_the_decoded_joints_are_scaled_in_place(warm):
+def test_the_decoded_joints_are_scaled_in_place(warm, traced_peak):
     """with_joint_positions (mpz decode of a BVH or AMC file): the joint positions once,
     scaled in place; it made a second array for the scale before (2.0 times in all)."""
     back = mpz.decode(mpz.encode(parse_bvh(chain_bvh(1024, 300, seed=5)), threads=1))

@@ -224,9 +224,17 @@ def _from_ezc3d(c: Any, source: str, extra: Mapping[str, str], declared: int,
 
 
 def motion_from_c3d_bytes(data: bytes, *, source: str = "",
-                          extra: Mapping[str, str] | None = None) -> Motion:
-    """Parse C3D bytes with the pure-numpy reader into a Motion."""
-    return _motion_from_data(c3dbin.parse_c3d(data), data, source=source, extra=extra)
+                          extra: Mapping[str, str] | None = None,
+                          parsed: list[c3dbin.C3DData] | None = None) -> Motion:
+    """Parse C3D bytes with the pure-numpy reader into a Motion; the parse is appended to
+    ``parsed`` when given, so that the archive (:func:`c3d_from_bytes`) is made from it,
+    not from a second parse of the same bytes, which held a second copy of every point
+    (their float64 values, residual and fourth words: 1.5 times the positions) beside the
+    first's Motion."""
+    d = c3dbin.parse_c3d(data)
+    if parsed is not None:
+        parsed.append(d)
+    return _motion_from_data(d, data, source=source, extra=extra)
 
 
 def _motion_from_data(d: c3dbin.C3DData, data: bytes, *, source: str = "",
@@ -555,30 +563,18 @@ def ezc3d_too_old() -> str | None:
     return version if found < EZC3D_OLDEST else None
 
 
-def _by_c3dbin(data: bytes, parsed: list[c3dbin.C3DData] | None, *, source: str = "",
-               extra: Mapping[str, str] | None = None) -> Motion:
-    """:func:`motion_from_c3d_bytes`, with the parse appended to ``parsed``: the archive
-    (:func:`c3d_from_bytes`) is made from it, not from a second parse of the same bytes,
-    which held a second copy of every point (their float64 values, residual and fourth
-    words: 1.5 times the positions) beside the first's Motion."""
-    d = c3dbin.parse_c3d(data)
-    if parsed is not None:
-        parsed.append(d)
-    return _motion_from_data(d, data, source=source, extra=extra)
-
-
 def _read_points(path: str, data: bytes, reopen: str,
                  parsed: list[c3dbin.C3DData] | None = None) -> Motion:
     """Every point of the C3D file as a Motion: ezc3d (reading the file ``reopen``, which
     holds ``data``), or the numpy reader it refuses; the numpy reader's parse of ``data``
-    is appended to ``parsed`` (:func:`_by_c3dbin`)."""
+    is appended to ``parsed`` (:func:`motion_from_c3d_bytes`)."""
     import ezc3d
 
     source = os.path.basename(path)
     head = data[:c3dbin.BLOCK]
     if len(head) < c3dbin.BLOCK or head[1] != c3dbin.C3D_KEY:
         # not a C3D file; let the numpy reader produce the precise error
-        return _by_c3dbin(data, parsed, source=source)
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed)
     # the frames the file declares (header words 4-5, or the frame parameters when the
     # header cannot say: more than 65535 frames); ezc3d itself rewrites its header to
     # the frames it found, so truncation must be checked here
@@ -586,33 +582,33 @@ def _read_points(path: str, data: bytes, reopen: str,
     declared, note = checks.declared, checks.note
     if checks.hazard is not None:
         fault = c3dbin.hazard_is_fault(checks.hazard)     # else ezc3d's own fragility
-        return _by_c3dbin(data, parsed, source=source, extra={
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
             "warning" if fault else "reader_note":
                 f"not read with ezc3d: {checks.hazard}; read with mpz.io.c3dbin"})
     if checks.conflict is not None:    # c3dbin's warnings say what the conflict is
         # ezc3d 1.7.2 reads a float file whose POINT:SCALE is positive as int16 (stop 64),
         # and moved Sample_Jump2 with a header scale of 0 by 2 m (stop 38)
-        return _by_c3dbin(data, parsed, source=source, extra={
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
             "warning": "not read with ezc3d, which reads some such files as other numbers; "
                        "read with mpz.io.c3dbin"})
     if not is_utf8(reopen):        # ezc3d takes a str path to UTF-8: a TypeError of SWIG
-        return _by_c3dbin(data, parsed, source=source, extra={
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
             "reader_note": "not read with ezc3d, which cannot open a file whose name is not "
                            "UTF-8; read with mpz.io.c3dbin"})
     if checks.data_start != checks.word9:
         # ezc3d reads from header word 9: the data is elsewhere (c3dbin.data_start says why)
-        return _by_c3dbin(data, parsed, source=source, extra={
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
             "warning": "not read with ezc3d, which reads from the header's data start; "
                        "read with mpz.io.c3dbin"})
     if checks.case is not None:
-        return _by_c3dbin(data, parsed, source=source, extra={
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
             "reader_note": f"not read with ezc3d, which compares names exactly and would not "
                            f"find {checks.case} (C3D compares names without case); read "
                            "with mpz.io.c3dbin"})
     short = memory_short(EZC3D_BYTES_PER_BYTE * (len(data) - checks.data_start)
                          + EZC3D_BYTES_FIXED)
     if short is not None:
-        return _by_c3dbin(data, parsed, source=source, extra={
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
             "reader_note": f"not read with ezc3d, which aborts the process when an "
                            f"allocation fails: {short}; read with mpz.io.c3dbin"})
     old = ezc3d_too_old()
@@ -621,8 +617,8 @@ def _read_points(path: str, data: bytes, reopen: str,
                                 f"{'.'.join(map(str, EZC3D_OLDEST))}, which ends the process "
                                 "on some files that newer releases read; read with "
                                 "mpz.io.c3dbin"}
-        return _by_c3dbin(data, parsed, source=source,
-                          extra=extra if note is None else {**extra, "warning": note})
+        return motion_from_c3d_bytes(data, source=source, parsed=parsed,
+                                     extra=extra if note is None else {**extra, "warning": note})
     # only ezc3d's own refusals are caught, not what our code does with its result
     first_error: OSError | RuntimeError | ValueError
     try:
@@ -634,7 +630,7 @@ def _read_points(path: str, data: bytes, reopen: str,
         if lenient is not None:
             # ezc3d then reads on where a record ends, not where the section says the next
             # begins: what it reads there can crash it or take gigabytes (stop 57)
-            return _by_c3dbin(data, parsed, source=source, extra={
+            return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
                 "warning": _joined(note, f"ezc3d refused the file ({type(exc).__name__}: "
                                          f"{_first_sentence(exc)}), and told to ignore "
                                          f"that it would meet {lenient}; read with "
@@ -655,7 +651,7 @@ def _read_points(path: str, data: bytes, reopen: str,
                            declared, data)
     # a MIPS file is valid C3D that ezc3d does not read (a note); any other refusal is
     # about the file (Facial-Sing: a parameter type ezc3d does not know): a warning
-    return _by_c3dbin(data, parsed, source=source, extra={
+    return motion_from_c3d_bytes(data, source=source, parsed=parsed, extra={
         "reader_note" if c3dbin.is_mips(data) else "warning":
             f"ezc3d refused the file ({type(first_error).__name__}: "
             f"{_first_line(first_error)}); "

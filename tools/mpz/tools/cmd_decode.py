@@ -85,9 +85,8 @@ def _name_for(args: argparse.Namespace, path: str) -> str | None:
     from mpz.errors import InputFormatError
     from mpz.io import FORMAT_NAMES, SKELETON_FORMATS
     stem = os.path.splitext(path)[0]
-    if args.format:                   # walk.c3d.mpz (encode --keep-extension): walk.c3d
-        same = os.path.splitext(stem)[1].lower() == f".{args.format}"
-        return stem if same else f"{stem}.{args.format}"
+    if args.format:
+        return _with_ext(stem, f".{args.format}")
     try:                              # a motion file named: what to do instead, as below
         with open(path, "rb") as fh:
             head = fh.read(4096)
@@ -108,9 +107,15 @@ def _name_for(args: argparse.Namespace, path: str) -> str | None:
         return None
     # the source's own spelling of it: walk.C3D came back as walk.c3d, and a mirrored tree
     # with other names (a corpus QA run)
-    own = os.path.splitext(str(info.metadata.get("source", "")))[1]
+    return _with_ext(stem, ext, os.path.splitext(str(info.metadata.get("source", "")))[1])
+
+
+def _with_ext(stem: str, ext: str, own: str = "") -> str:
+    """``stem`` with the extension ``ext`` (lower case, with its dot), spelled ``own`` when
+    that is the same one in other case; ``stem`` itself when it already ends in it:
+    walk.c3d.mpz (``mpz encode --keep-extension``) gives walk.c3d, not walk.c3d.c3d."""
     if os.path.splitext(stem)[1].lower() == ext:
-        return stem                   # walk.c3d.mpz (encode --keep-extension): walk.c3d
+        return stem
     return stem + (own if own.lower() == ext else ext)
 
 

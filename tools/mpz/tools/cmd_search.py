@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 import os
+import stat
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -308,11 +309,8 @@ def run(args: argparse.Namespace) -> int:
     shown = order if args.top == 0 else order[:args.top]
     results = [{"rank": n + 1, "distance": float(dist[i]), "identical": bool(same[i]),
                 "output": values[i]["output"], "path": values[i]["path"],
-                "output_exists": os.path.isfile(
-                    os.path.join(folder, *values[i]["output"].split("/"))),
-                "output_changed": _size_changed(
-                    os.path.join(folder, *values[i]["output"].split("/")),
-                    values[i]["total_bytes"]),
+                **_output_state(os.path.join(folder, *values[i]["output"].split("/")),
+                                values[i]["total_bytes"]),
                 "source_exists": os.path.isfile(values[i]["path"]),
                 "frames": values[i]["frames"], "rate": values[i]["rate"],
                 "duration_s": values[i]["duration_s"], "markers": values[i]["markers"],
@@ -355,13 +353,16 @@ def run(args: argparse.Namespace) -> int:
     return code
 
 
-def _size_changed(output: str, total_bytes: object) -> bool:
-    """Whether ``output`` exists with another size than its index row's ``total_bytes``:
-    cut short, or replaced since it was indexed."""
+def _output_state(output: str, total_bytes: object) -> dict[str, bool]:
+    """``output_exists``: ``output`` is a file; ``output_changed``: one of another size
+    than its index row's ``total_bytes`` (cut short, or replaced since it was indexed).
+    One stat."""
     try:
-        return os.stat(output).st_size != total_bytes
+        st = os.stat(output)
     except OSError:
-        return False                        # missing: output_exists says it
+        return {"output_exists": False, "output_changed": False}
+    exists = stat.S_ISREG(st.st_mode)
+    return {"output_exists": exists, "output_changed": exists and st.st_size != total_bytes}
 
 
 def _say_missing(results: list[dict], gone: int, changed: int = 0) -> None:
