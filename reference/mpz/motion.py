@@ -93,7 +93,8 @@ class Motion:
         For skeleton-derived points, the parent point of each point (-1 for
         the root). Used as the coding hierarchy for BVH and AMC input.
     angles : ndarray, shape (frames, channels), optional
-        Joint-angle channels of skeletal input, with ``angle_names``.
+        Joint-angle channels of skeletal input, with ``angle_names``. A float64 array is
+        kept as given, not copied, as ``positions`` is.
 
     Raises
     ------
@@ -521,7 +522,9 @@ def _angles(given: object, frames: int) -> NDArray[np.float64]:
             from None
     if raw.dtype.kind not in "fiu":    # strings, objects; complex lost its imaginary part
         raise MotionError(f"angles must be real numbers, got dtype {raw.dtype}")
-    ang = raw.astype(np.float64)
+    # not copied when float64 already, as positions are not: a reader's copy of a
+    # 30-minute capture's angles was the peak of reading it (issue 15.3)
+    ang = np.asarray(raw, dtype=np.float64)
     if ang.ndim != 2 or ang.shape[0] != frames:
         raise MotionError(f"angles must have shape (frames, channels), got {ang.shape}")
     return ang

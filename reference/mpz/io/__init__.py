@@ -854,16 +854,13 @@ def _positions_off_channels(motion: Motion) -> float | None:
     the channels, so such positions (an edit after reading) are not what the file gives.
     A decoded file's marker layer is a preview within far less (spec Appendix C)."""
     from mpz.io.kinematics import rest_height
-    from mpz.skeleton import marker_scale, with_joint_positions
+    from mpz.skeleton import largest_joint_offset, marker_scale
     skel = motion.extras.get("skeleton")
     if not isinstance(skel, Skeleton) or motion.angles is None or not motion.valid.any():
         return None
-    joints = with_joint_positions(motion).positions
-    if joints.shape != motion.positions.shape:
-        return None
-    d = np.linalg.norm(joints - motion.positions, axis=2)[motion.valid]
-    worst = float(d.max())
-    return worst if worst > 0.01 * rest_height(skel) * marker_scale(skel) else None
+    worst = largest_joint_offset(motion)
+    return (worst if worst is not None and worst > 0.01 * rest_height(skel) * marker_scale(skel)
+            else None)
 
 
 def _float32_overflow(motion: Motion) -> str | None:
