@@ -22,7 +22,7 @@ are listed in ``metadata["asf_dropped"]`` (and ``mpz encode`` says so).
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 import glob
 import math
@@ -39,6 +39,7 @@ from mpz.format import ChannelKind
 from mpz.io._common import (
     _PARSE_ERRORS,
     LINE_BREAK,
+    TEXT_BLOCK,
     StrPath,
     decode_text,
     encoded_text,
@@ -50,6 +51,8 @@ from mpz.io._common import (
     read_regular,
     reader,
     samples_problem,
+    split_lines,
+    text_encoding_of,
     translate,
 )
 from mpz.io.bvh import num, nums, skeleton_of, source_joints, text_encoding
@@ -537,10 +540,11 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     # bones without dofs) 6 s to be refused at its end (a hostile-input QA run)
     needed = [i for i, j in enumerate(skel.joints) if j.channels or i == 0]
     J = len(skel.joints)
-    most = most_frames(J, len(text))
+    size = len(text)
+    most = most_frames(J, size)
 
     def add(frame: NDArray[np.float64]) -> None:
-        too_many = (samples_problem(len(frames) + 1, J, len(text), "joints")
+        too_many = (samples_problem(len(frames) + 1, J, size, "joints")
                     if len(frames) >= most else None)
         if too_many:
             raise _bad(f"{too_many}: the root and each bone have a position in every "
@@ -570,7 +574,7 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
 
     start_line = 0                  # the line of the current frame's number
     start_word = ""                 # and that number as written
-    for lineno, raw in enumerate(LINE_BREAK.split(text), 1):     # as _sections'
+    for lineno, raw in enumerate(split_lines(text), 1):     # as _sections'
         line = _spaced(raw.split("#", 1)[0]).strip()
         if cur is None and (not line or line.startswith(":")):
             header.append(raw.rstrip("\r"))
@@ -632,7 +636,11 @@ def parse_amc(text: str, skel: Skeleton, *, rate: float = 120.0, source: str = "
     add(cur)
     listed(seen)
     assert order is not None
+    # the text and the frames are read: both are let go before the joints' positions are
+    # made (issue 15.3)
+    del text
     values = np.array(frames)
+    frames.clear()
     if not np.isfinite(values).all():
         raise _bad("non-finite value in AMC")
     while header and not header[-1].strip():
@@ -931,12 +939,27 @@ def format_asf(skel: Skeleton) -> str:
 
 
 def format_amc(motion: Motion) -> str:
-    """The AMC text of a motion that has an ASF skeleton (see :func:`parse_amc`).
+    """The AMC text of a motion that has an ASF skeleton (see :func:`parse_amc`): the
+    pieces of :func:`_amc_text` joined, its frame template left out.
 
     Raises
     ------
     InputFormatError
         If the motion has no ASF skeleton.
+    """
+    pieces = _amc_text(motion)
+    head = next(pieces)
+    next(pieces)                        # the template
+    return head + "".join(pieces)
+
+
+def _amc_text(motion: Motion) -> Iterator[str]:
+    """The AMC text of ``motion`` in pieces: the header lines first, then one frame's
+    lines with a ``{}`` for each value (the bone names, every character of the frames
+    beyond ASCII: :func:`write_amc_text` picks the encoding from these two), then the
+    frames, :data:`~mpz.io._common.TEXT_BLOCK` a piece (the whole text, with every value
+    as a Python float first, was held at once: issue 15.3). Every line ends with a line
+    feed; the template is not part of the text.
     """
     skel = skeleton_of(motion, "asf")
     values = motion.angles if motion.angles is not None else np.zeros((motion.n_frames, 0))
@@ -948,15 +971,17 @@ def format_amc(motion: Motion) -> str:
     # made readers that trust the flag take radians for degrees: a QA run of stop 52)
     out = (skel.amc_header.split("\n") if skel.amc_header else
            [":FULLY-SPECIFIED", ":RADIANS" if skel.angle_unit == "rad" else ":DEGREES"])
+    yield "\n".join(out) + "\n"
     # a frame's lines are one template, its joints' names with a {} for each value, in
     # AMC order (issue 15: a join per joint line took most of the write)
     cols = [k for i in order for k in range(starts[i], starts[i] + len(skel.joints[i].channels))]
     lines = "\n".join(skel.joints[i].name.replace("{", "{{").replace("}", "}}")
                       + " {}" * len(skel.joints[i].channels) for i in order)
-    for t, row in enumerate(np.asarray(values, np.float64)[:, cols].tolist()):
-        out.append(str(skel.first_frame + t))
-        out.append(lines.format(*nums(row).split(" ")))
-    return "\n".join(out) + "\n"
+    yield lines
+    for lo in range(0, len(values), TEXT_BLOCK):
+        rows = np.asarray(values[lo:lo + TEXT_BLOCK], np.float64)[:, cols].tolist()
+        yield "".join(f"{skel.first_frame + lo + t}\n{lines.format(*nums(row).split(' '))}\n"
+                      for t, row in enumerate(rows))
 
 
 def default_asf_path(amc_path: StrPath) -> str:
@@ -989,7 +1014,11 @@ def write_amc_text(motion: Motion, path: StrPath) -> None:
     """Write the AMC of a motion with an ASF skeleton, without its ASF (see
     :func:`write_amc`)."""
     skel = skeleton_of(motion, "asf")
-    text = format_amc(motion)
+    pieces = _amc_text(motion)
+    head, names = next(pieces), next(pieces)
+    encoding = text_encoding_of(head + names, skel.encoding)
     with open(path, "wb") as fh:
-        fh.write(encoded_text(text, skel.encoding))
+        fh.write(head.encode(encoding))
+        for piece in pieces:
+            fh.write(piece.encode(encoding))
 

@@ -18,6 +18,7 @@ centimetre-like, see docs/io-notes.md).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+import functools
 import math
 import os
 import re
@@ -29,9 +30,9 @@ from mpz.errors import InputFormatError
 from mpz.format import ChannelKind
 from mpz.io._common import (
     LINE_BREAK,
+    TEXT_BLOCK,
     StrPath,
     decode_text,
-    encoded_text,
     integer,
     named,
     number,
@@ -39,6 +40,7 @@ from mpz.io._common import (
     read_regular,
     reader,
     samples_problem,
+    text_encoding_of,
     unique_names,
 )
 from mpz.io.kinematics import BVH_CHANNELS, Joint, Skeleton, forward
@@ -302,6 +304,12 @@ def _half_unit(written: str) -> float | None:
     return 0.5 * 10.0 ** -decimals
 
 
+def _line_of(text: str, starts: list[int], i: int) -> int:
+    """The line of word ``i`` of ``text``, whose words start at ``starts`` (of the last word,
+    past the end)."""
+    return len(LINE_BREAK.findall(text, 0, starts[min(i, len(starts) - 1)])) + 1
+
+
 def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion:
     """Parse BVH text into a Motion of joint centres.
 
@@ -329,11 +337,9 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
     if not tokens or tokens[0].upper() != "HIERARCHY":
         raise _bad("file does not start with HIERARCHY")
 
-    def line_of(i: int) -> int:
-        return len(LINE_BREAK.findall(text, 0, starts[min(i, len(starts) - 1)])) + 1
-
     respelled = [w for w in tokens[:1] if w != "HIERARCHY"]
-    joints, n_channels, pos = _parse_hierarchy(tokens, 1, line_of, respelled)
+    joints, n_channels, pos = _parse_hierarchy(
+        tokens, 1, functools.partial(_line_of, text, starts), respelled)
     if pos >= len(tokens):
         raise _bad("no MOTION section")
     # MOTION / Frames: n / Frame Time: t
@@ -356,6 +362,8 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
                    "lines follow Frame Time (one line per frame, empty without channels)")
     values = _motion_values(text, data_start, n_frames, n_channels)
     too_many = samples_problem(n_frames, len(joints), len(text), "joints and End Sites")
+    # the text is read: it is let go before the joints' positions are made (issue 15.3)
+    del text
     if too_many:        # the positions are not in the text: forward kinematics makes them
         raise _bad(f"{too_many}: each joint and End Site has a position in every frame, "
                    "refused before they are computed")
@@ -529,12 +537,23 @@ def skeleton_of(motion: Motion, convention: str) -> Skeleton:
 
 
 def format_bvh(motion: Motion) -> str:
-    """The BVH text of a motion that has a BVH skeleton (see :func:`parse_bvh`).
+    """The BVH text of a motion that has a BVH skeleton (see :func:`parse_bvh`): the
+    pieces of :func:`_bvh_text` joined.
 
     Raises
     ------
     InputFormatError
         If the motion has no BVH skeleton.
+    """
+    return "".join(_bvh_text(motion))
+
+
+def _bvh_text(motion: Motion) -> Iterator[str]:
+    """The BVH text of ``motion`` in pieces: the hierarchy and the MOTION header lines
+    first, then the frame lines, :data:`~mpz.io._common.TEXT_BLOCK` frames a piece, so
+    that :func:`write_bvh` holds one piece at a time (the whole text, with every value
+    as a Python float first, peaked at 2.3 GB for a 30-minute capture of 2.6 MB of
+    text a minute: issue 15.3). Every line ends with a line feed.
     """
     skel = skeleton_of(motion, "bvh")
     values = motion.angles if motion.angles is not None else np.zeros((motion.n_frames, 0))
@@ -563,8 +582,10 @@ def format_bvh(motion: Motion) -> str:
     out.append("MOTION")
     out.append(f"Frames: {motion.n_frames}")
     out.append(f"Frame Time: {num(skel.frame_time)}")
-    out.extend(nums(row) for row in np.asarray(values, np.float64).tolist())
-    return "\n".join(out) + "\n"
+    yield "\n".join(out) + "\n"
+    for lo in range(0, len(values), TEXT_BLOCK):
+        rows = np.asarray(values[lo:lo + TEXT_BLOCK], np.float64).tolist()
+        yield "".join(nums(row) + "\n" for row in rows)
 
 
 def _head_tokens(text: str) -> tuple[list[str], list[int], int]:
@@ -724,6 +745,10 @@ def write_bvh(motion: Motion, path: StrPath) -> None:
     InputFormatError
         If the motion has no BVH skeleton (see :func:`skeleton_of`).
     """
-    text = format_bvh(motion)
+    pieces = _bvh_text(motion)
+    head = next(pieces)                 # the names are here alone: the values are ASCII
+    encoding = text_encoding_of(head, motion.extras["skeleton"].encoding)
     with open(path, "wb") as fh:
-        fh.write(encoded_text(text, motion.extras["skeleton"].encoding))
+        fh.write(head.encode(encoding))
+        for piece in pieces:
+            fh.write(piece.encode(encoding))

@@ -102,6 +102,10 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
     # which made the header refuse itself ("NumMarkers says 2, the name row has 1 names",
     # a QA run of stop 52)
     lines = LINE_BREAK.split(text)
+    # the lines hold the text: the caller's copy is let go (issue 15.3: a 30-minute TRC of
+    # 320 MB was held three times over, as bytes, text and lines, while its table was made)
+    size = len(text)
+    del text
     if lines and lines[-1] == "":
         lines.pop()
     if len(lines) < 5:
@@ -158,12 +162,12 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
 
     # (not a list of rows of Python floats: 32 bytes a value); at most the rows that
     # samples_problem lets a text of this length pad
-    most = most_frames(n_markers, len(text))
+    most = most_frames(n_markers, size)
     # each non-blank line after the header is a row: one past those is refused before any
     # row is read (3.9 MB of 100,000 markers and 100,000 rows of one marker each grew the
     # table to 2.9 GB over 12 s, to be refused at its 672nd row: a fuzzing QA run)
     data_rows = sum(1 for ln in lines[5:] if ln.strip())
-    too_many = (samples_problem(most + 1, n_markers, len(text), "markers")
+    too_many = (samples_problem(most + 1, n_markers, size, "markers")
                 if data_rows > most else None)
     if too_many:
         past = next(itertools.islice((k for k, ln in enumerate(lines[5:], 6) if ln.strip()),
@@ -209,6 +213,7 @@ def parse_trc(text: str, *, source: str = "") -> Motion:
         numbers.append(fields[0].strip())
         if not frames:
             frames.append(fields)
+    del lines[5:]                    # the header's lines are all that is read again
     n_rows = table.n
     if not n_rows:
         raise _bad("no data rows")

@@ -1,0 +1,246 @@
+"""Memory of the text readers and the skeleton writers on long captures (issue 15.3: memory
+per worker stays bounded on a 30-minute capture).
+
+A 30-minute capture read from text peaked at 1.36 GB (TRC, 320 MB of text), 1.67 GB (BVH,
+278 MB) and 1.14 GB (AMC, 167 MB), and `mpz decode` of it to BVH at 2.28 GB
+(docs/corpus.md, "Memory per worker"). The readers held the text beside its lines (TRC),
+every line of it as a list (AMC), the text while the joints were computed (BVH) and a
+second copy of the joint angles (every skeleton reader); the BVH and AMC writers made
+every value a Python float and the whole text at once, and the check that the positions
+are the channels' joints computed every joint with two more arrays of their size.
+
+The peaks are measured with tracemalloc (numpy's allocations report to it) on synthetic
+files of 20,000-40,000 frames, and held to multiples of the bytes the result must hold
+anyway: the file's bytes, which :func:`mpz.io.read` keeps while it parses, and the
+float64 arrays of the motion. Each bound failed on the code before this change (its old
+figure is given). The tests after them hold the pieces to the whole: the same text, the
+same encoding, the same largest distance.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+import tracemalloc
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+import numpy as np
+import pytest
+
+import mpz.io
+from mpz import skeleton as sk
+from mpz.io import amc, bvh
+from mpz.io.bvh import parse_bvh
+from mpz.motion import Motion
+
+ROT = "Zrotation Xrotation Yrotation"
+
+
+def bvh_text(joints: int, frames: int, seed: int = 0) -> str:
+    """A ROOT with 6 channels and a chain of ``joints - 1`` JOINTs with 3 rotations each,
+    an End Site at its end; ``frames`` lines of random values with 2 decimals."""
+    rng = np.random.default_rng(seed)
+    head = ["HIERARCHY", "ROOT j0", "{", "\tOFFSET 0 0 0",
+            f"\tCHANNELS 6 Xposition Yposition Zposition {ROT}"]
+    for k in range(1, joints):
+        head += [f"JOINT j{k}", "{", "\tOFFSET 0 1 0", f"\tCHANNELS 3 {ROT}"]
+    head += ["End Site", "{", "\tOFFSET 0 1 0", "}"] + ["}"] * joints
+    values = rng.integers(-9000, 9000, (frames, 3 * joints + 3)) / 100
+    rows = [" ".join(map(repr, r)) for r in values.tolist()]
+    return "\n".join(head + ["MOTION", f"Frames: {frames}", "Frame Time: 0.01", *rows]) + "\n"
+
+
+def amc_text(frames: int, seed: int = 0) -> str:
+    """The AMC of :func:`one_bone_asf`'s skeleton (6 root and 2 bone channels): ``frames``
+    frames of random values with 2 decimals, written as the AMC writer writes numbers."""
+    rng = np.random.default_rng(seed)
+    v = (rng.integers(-9000, 9000, (frames, 8)) / 100).tolist()
+    out = [":FULLY-SPECIFIED", ":DEGREES"]
+    for f, r in enumerate(v, 1):
+        out += [str(f), f"root {bvh.nums(r[:6])}", f"b1 {bvh.nums(r[6:])}"]
+    return "\n".join(out) + "\n"
+
+
+def trc_text(markers: int, frames: int, seed: int = 0) -> str:
+    """A TRC of ``markers`` markers and ``frames`` frames of random values (3 decimals)."""
+    rng = np.random.default_rng(seed)
+    names = "\t\t\t".join(f"M{k}" for k in range(markers))
+    coords = "\t".join(f"X{k}\tY{k}\tZ{k}" for k in range(1, markers + 1))
+    lines = ["PathFileType\t4\t(X/Y/Z)\tlong.trc",
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
+             f"100\t100\t{frames}\t{markers}\tmm",
+             f"Frame#\tTime\t{names}", f"\t\t{coords}"]
+    v = (rng.integers(-999999, 999999, (frames, 3 * markers)) / 1000).tolist()
+    lines += [f"{f + 1}\t{f / 100:.2f}\t" + "\t".join(map(repr, r)) for f, r in enumerate(v)]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.fixture(scope="module")
+def long_bvh(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """20 joints (63 channels, 21 positions with the End Site) over 20,000 frames."""
+    path = tmp_path_factory.mktemp("bvh") / "long.bvh"
+    path.write_text(bvh_text(20, 20_000))
+    return path
+
+
+@pytest.fixture(scope="module")
+def long_amc(tmp_path_factory: pytest.TempPathFactory, one_bone_asf) -> Path:
+    """40,000 frames of a root and one bone (8 channels, 2 positions)."""
+    folder = tmp_path_factory.mktemp("amc")
+    (folder / "long.asf").write_text(one_bone_asf())
+    path = folder / "long.amc"
+    path.write_text(amc_text(40_000))
+    return path
+
+
+@pytest.fixture(scope="module")
+def warm(long_bvh: Path, long_amc: Path, tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Every kernel and module the measured steps use, loaded once before a peak."""
+    out = tmp_path_factory.mktemp("warm")
+    small = out / "small.bvh"
+    small.write_text(bvh_text(3, 5))
+    mpz.io.write(mpz.io.read(small), out / "back.bvh")
+    (out / "small.asf").write_text(long_amc.with_suffix(".asf").read_text())
+    (out / "small.amc").write_text(amc_text(5))
+    mpz.io.write(mpz.io.read(out / "small.amc"), out / "back.amc")
+    small_trc = out / "small.trc"
+    small_trc.write_text(trc_text(2, 5))
+    mpz.io.read(small_trc)
+
+
+def _floats(m: Motion) -> int:
+    """The bytes of the motion's float64 arrays: positions and joint angles."""
+    return m.positions.nbytes + (0 if m.angles is None else m.angles.nbytes)
+
+
+def test_bvh_read_lets_the_text_go_before_the_joints(long_bvh, warm, monkeypatch):
+    """What is held when forward kinematics starts: the file's bytes and the values, not
+    the text too. (The whole read's traced peak is the values' conversion, a fixed 4 MB of
+    text at a time, on a file this small; on the 30-minute capture the joints were.)"""
+    held: list[int] = []
+    compute = bvh.source_joints
+
+    def measured(*args, **kw):          # type: ignore[no-untyped-def]
+        held.append(tracemalloc.get_traced_memory()[0])
+        return compute(*args, **kw)
+
+    monkeypatch.setattr(bvh, "source_joints", measured)
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        m = mpz.io.read(long_bvh)
+    finally:
+        tracemalloc.stop()
+    size = long_bvh.stat().st_size
+    assert m.angles is not None and len(held) == 1
+    # before: the bytes, the text and the values (2 x 7.9 MB + 10.1 MB)
+    assert held[0] - before < 1.25 * size + m.angles.nbytes, (held[0] - before, size)
+
+
+def test_motion_keeps_float64_angles_as_given() -> None:
+    """A float64 array of angles is the Motion's own, as its positions are (a reader's copy
+    of a 30-minute capture's angles was the peak of reading it); other dtypes convert."""
+    m = parse_bvh(bvh_text(3, 4))
+    angles = np.ascontiguousarray(m.angles)
+    kept = Motion(m.positions, m.names, m.rate, m.units, m.valid, m.metadata, m.parents,
+                  angles, m.angle_names, m.extras)
+    assert kept.angles is angles and kept.positions is m.positions
+    as_int = Motion(m.positions, m.names, m.rate, m.units, m.valid, m.metadata, m.parents,
+                    angles.astype(np.int32), m.angle_names, m.extras)
+    assert as_int.angles is not None and as_int.angles.dtype == np.float64
+
+
+def test_amc_read_holds_no_list_of_its_lines(long_amc, warm, traced_peak):
+    box: list[Motion] = []
+    peak = traced_peak(lambda: box.append(mpz.io.read(long_amc)))
+    size = long_amc.stat().st_size
+    # before: 3.1 x: every line of the text as a str, a list of them all (now 2.0 x)
+    assert peak < 2.5 * (size + _floats(box[0])), (peak, size, _floats(box[0]))
+
+
+def test_trc_read_lets_the_text_go(tmp_path, warm, traced_peak):
+    path = tmp_path / "long.trc"
+    path.write_text(trc_text(20, 20_000))
+    box: list[Motion] = []
+    peak = traced_peak(lambda: box.append(mpz.io.read(path)))
+    size = path.stat().st_size
+    # before: 2.3 x: the bytes, the text and its lines together (now 1.7 x)
+    assert peak < 2.0 * (size + _floats(box[0])), (peak, size, _floats(box[0]))
+
+
+@pytest.mark.parametrize("ext", [".bvh", ".amc"])
+def test_skeleton_writers_hold_a_block_of_frames(ext, long_bvh, long_amc, warm, tmp_path,
+                                                 traced_peak):
+    m = mpz.io.read(long_bvh if ext == ".bvh" else long_amc)
+    out = tmp_path / f"back{ext}"
+    peak = traced_peak(lambda: mpz.io.write(m, out))
+    # before: 2.5 x (BVH) and 4.4 x (AMC) the motion's arrays: every joint again with two
+    # arrays of their size, every value a Python float, the whole text and its bytes
+    # (now 0.9 x and 0.7 x, a block of frames at a time)
+    assert peak < 1.5 * _floats(m), (peak, _floats(m))
+    back = mpz.io.read(out)
+    assert back.angles is not None and m.angles is not None
+    assert np.array_equal(back.angles, m.angles)
+
+
+@settings(max_examples=25, deadline=None)
+@given(frames=st.integers(1, 12), block=st.integers(1, 5), seed=st.integers(0, 2**31 - 1))
+def test_skeleton_writers_in_pieces_write_the_whole_text(frames, block, seed, tmp_path_factory,
+                                                          one_bone_asf):
+    """The pieces written, TEXT_BLOCK frames at a time, are the text format_* gives."""
+    folder = tmp_path_factory.mktemp("pieces")
+    m = parse_bvh(bvh_text(3, frames, seed))
+    (folder / "s.asf").write_text(one_bone_asf())
+    (folder / "s.amc").write_text(amc_text(frames, seed))
+    a = mpz.io.read(folder / "s.amc")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(bvh, "TEXT_BLOCK", block)
+        mp.setattr(amc, "TEXT_BLOCK", block)
+        bvh.write_bvh(m, folder / "x.bvh")
+        amc.write_amc_text(a, folder / "y.amc")
+    assert (folder / "x.bvh").read_bytes() == bvh.format_bvh(m).encode()
+    assert (folder / "y.amc").read_bytes() == amc.format_amc(a).encode()
+    assert amc.format_amc(a) == (folder / "s.amc").read_text()
+
+
+@pytest.mark.parametrize(("name", "encoding", "written"), [
+    ("Jöint", "latin-1", "latin-1"),        # the source's encoding holds it
+    ("J\u4e2d", "latin-1", "utf-8"),        # it does not: the whole file in UTF-8
+    ("J\u4e2d", "utf-8", "utf-8"),
+])
+def test_skeleton_writers_in_pieces_keep_the_encoding_rule(name, encoding, written, tmp_path,
+                                                           one_bone_asf, monkeypatch):
+    """A name beyond the source's encoding makes the whole file UTF-8, as before; the
+    numbers in the frame pieces are ASCII in either."""
+    import dataclasses
+    monkeypatch.setattr(bvh, "TEXT_BLOCK", 2)
+    monkeypatch.setattr(amc, "TEXT_BLOCK", 2)
+    m = parse_bvh(bvh_text(3, 5).replace("JOINT j1", f"JOINT {name}"))
+    m.extras["skeleton"] = dataclasses.replace(m.extras["skeleton"], encoding=encoding)
+    bvh.write_bvh(m, tmp_path / "x.bvh")
+    assert (tmp_path / "x.bvh").read_bytes() == bvh.format_bvh(m).encode(written)
+    (tmp_path / "s.asf").write_text(one_bone_asf().replace("b1", name), encoding="utf-8")
+    (tmp_path / "s.amc").write_text(amc_text(5).replace("b1", name), encoding="utf-8")
+    a = mpz.io.read(tmp_path / "s.amc")
+    a.extras["skeleton"] = dataclasses.replace(a.extras["skeleton"], encoding=encoding)
+    amc.write_amc_text(a, tmp_path / "y.amc")
+    assert (tmp_path / "y.amc").read_bytes() == amc.format_amc(a).encode(written)
+
+
+@settings(max_examples=40, deadline=None)
+@given(frames=st.integers(1, 15), block=st.integers(1, 6), seed=st.integers(0, 2**31 - 1),
+       gaps=st.floats(0, 1))
+def test_largest_joint_offset_is_the_whole_arrays(frames, block, seed, gaps):
+    """Block by block, the same figure as every joint at once (bit for bit), and None
+    where no sample is valid."""
+    m = parse_bvh(bvh_text(4, frames, seed))
+    rng = np.random.default_rng(seed)
+    pos = m.positions + rng.normal(0, 0.01, m.positions.shape)
+    valid = rng.random(pos.shape[:2]) >= gaps
+    pos[~valid] = np.nan
+    edited = Motion(pos, m.names, m.rate, m.units, valid, m.metadata, m.parents,
+                    m.angles, m.angle_names, m.extras)
+    whole = np.linalg.norm(sk.with_joint_positions(edited).positions - pos, axis=2)[valid]
+    want = float(whole.max()) if whole.size else None
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sk, "JOINT_BLOCK", block)
+        assert sk.largest_joint_offset(edited) == want
