@@ -18,6 +18,7 @@ same encoding, the same largest distance.
 """
 from __future__ import annotations
 
+import codecs
 from pathlib import Path
 import tracemalloc
 
@@ -26,8 +27,8 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-import mpz.io
 from mpz import skeleton as sk
+import mpz.io
 from mpz.io import amc, bvh
 from mpz.io.bvh import parse_bvh
 from mpz.motion import Motion
@@ -244,3 +245,56 @@ def test_largest_joint_offset_is_the_whole_arrays(frames, block, seed, gaps):
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(sk, "JOINT_BLOCK", block)
         assert sk.largest_joint_offset(edited) == want
+
+
+def test_bvh_row_check_and_encoding_check_hold_a_piece_at_a_time(long_bvh, monkeypatch,
+                                                                  traced_peak):
+    """The check that each frame is one line, and the check that the bytes are UTF-8, hold
+    a piece of the text at a time (they held a copy of the whole, with its lines: 0.56 GB
+    and 0.28 GB of a 30-minute BVH beside its text)."""
+    monkeypatch.setattr(bvh, "_VALUES_CHUNK", 1 << 16)
+    data = long_bvh.read_bytes()
+    text = data.decode()
+    start = text.index("Frame Time:")
+    start = text.index("\n", start) + 1
+    frames = text[start:].count("\n")
+    assert traced_peak(lambda: bvh._check_rows(text, start, frames, 63)) < 0.25 * len(text)
+    assert traced_peak(lambda: bvh.text_encoding(data)) < 0.25 * len(data)
+
+
+_BREAKS = ["\n", "\r", "\r\n", "\x0b", "\x0c", "\x1c", "\x85", "\u2028", " ", "\t"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(parts=st.lists(st.one_of(st.sampled_from(_BREAKS), st.text("ab1.", min_size=1,
+                                                                    max_size=4)),
+                      max_size=40),
+       chunk=st.integers(1, 8), start=st.integers(0, 5))
+def test_line_pieces_split_as_the_whole_text(parts, chunk, start):
+    """The pieces' lines are the lines of the whole, whatever the piece size: each piece
+    ends at a line feed, which neither starts nor splits any of str.splitlines' breaks."""
+    text = "".join(parts)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(bvh, "_VALUES_CHUNK", chunk)
+        pieces = list(bvh._line_pieces(text, min(start, len(text))))
+    assert "".join(pieces) == text[min(start, len(text)):]
+    assert [ln for p in pieces for ln in p.splitlines()] == \
+        text[min(start, len(text)):].splitlines()
+
+
+@settings(max_examples=200, deadline=None)
+@given(data=st.one_of(st.binary(max_size=40),
+                      st.text(max_size=20).map(lambda t: t.encode("utf-8")),
+                      st.text(max_size=20).map(lambda t: codecs.BOM_UTF8 + t.encode())),
+       chunk=st.integers(1, 7))
+def test_text_encoding_by_pieces_is_the_whole_decoding(data, chunk):
+    """UTF-8 (a BOM allowed) exactly when the whole bytes decode as such, wherever the
+    pieces cut a character."""
+    try:
+        data.decode("utf-8-sig")
+        want = "utf-8"
+    except UnicodeDecodeError:
+        want = "latin-1"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(bvh, "_VALUES_CHUNK", chunk)
+        assert bvh.text_encoding(data) == want

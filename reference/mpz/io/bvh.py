@@ -17,6 +17,7 @@ centimetre-like, see docs/io-notes.md).
 """
 from __future__ import annotations
 
+import codecs
 from collections.abc import Callable, Iterator
 import functools
 import math
@@ -396,9 +397,15 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
 
 def text_encoding(data: bytes) -> str:
     """``"utf-8"`` if ``data`` is UTF-8 (a BOM allowed), else ``"latin-1"``: what
-    :func:`mpz.io._common.decode_text` used."""
+    :func:`mpz.io._common.decode_text` used. Checked :data:`_VALUES_CHUNK` bytes at a
+    time, the decoded text let go: the readers call it beside the text they parse, and
+    decoding it whole held a third copy of a 30-minute BVH's 278 MB (issue 15.3)."""
+    check = codecs.getincrementaldecoder("utf-8-sig")()
+    view = memoryview(data)
     try:
-        data.decode("utf-8-sig")
+        for at in range(0, len(data), _VALUES_CHUNK):
+            check.decode(view[at:at + _VALUES_CHUNK])
+        check.decode(b"", final=True)
     except UnicodeDecodeError:
         return "latin-1"
     return "utf-8"
@@ -686,13 +693,32 @@ def _check_rows(text: str, start: int, n_frames: int, n_channels: int) -> None:
     without a word (a QA run of BVH exporters). Values spread over another number of lines
     than frames (a frame wrapped over two lines) are read as one stream, as before: no line
     then says where a frame starts. Costs about 4 ms a MB (a fifth of reading the values)."""
-    widths = [w for w in map(len, map(str.split, text[start:].splitlines())) if w]
-    if len(widths) != n_frames or all(w == n_channels for w in widths):
+    rows = 0                        # lines that hold a value
+    same = True                     # each of them n_channels values
+    for piece in _line_pieces(text, start):
+        for width in map(len, map(str.split, piece.splitlines())):
+            if width:
+                rows += 1
+                same = same and width == n_channels
+    if rows != n_frames or same:
         return
     where = _first_bad_line(text, start, n_channels)
     at = "" if where is None else f"; {where[0]} {where[1]}"
     raise _bad(f"{n_frames} frames x {n_channels} channels over {n_frames} lines, but not one "
                f"frame a line{at}: the frames after it would be read shifted")
+
+
+def _line_pieces(text: str, start: int) -> Iterator[str]:
+    """``text[start:]`` in pieces of about :data:`_VALUES_CHUNK` characters, each but the
+    last ending at a line feed, so that their ``splitlines()`` are the whole one's (no
+    line break of str.splitlines starts with a line feed or spans one): the lines of a
+    30-minute BVH, with a copy of its text, were 0.56 GB (issue 15.3)."""
+    pos = start
+    while pos < len(text):
+        stop = text.find("\n", pos + _VALUES_CHUNK)
+        stop = len(text) if stop < 0 else stop + 1
+        yield text[pos:stop]
+        pos = stop
 
 
 def _first_bad_line(text: str, start: int, n_channels: int) -> tuple[str, str] | None:
