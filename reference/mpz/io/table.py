@@ -47,14 +47,17 @@ def _bad(fmt: str, msg: str) -> InputFormatError:
 
 def motion_from_array(arr: ArrayLike, *, rate: float = 1.0, units: str = "",
                       names: Iterable[str] | None = None, source: str = "",
-                      fmt: str = "npy") -> Motion:
-    """A Motion from a ``[frames, markers, 3]`` array with NaN gaps."""
+                      fmt: str = "npy", owned: bool = False) -> Motion:
+    """A Motion from a ``[frames, markers, 3]`` array with NaN gaps; ``owned``: ``arr`` is
+    the caller's to give away, used (and its gaps set to NaN) in place when float64."""
     arr = np.asarray(arr)
     if arr.dtype.kind not in "fiu":
         raise _bad(fmt, f"array dtype {arr.dtype} is not numeric")
     if arr.ndim != 3 or arr.shape[2] != 3:
         raise _bad(fmt, f"array shape {arr.shape} is not (frames, markers, 3)")
-    pos = arr.astype(np.float64)
+    # a copy: gaps are set to NaN in it (an NPY's array is a view of the file's bytes);
+    # the CSV reader's own array is taken as it is (issue 15.3)
+    pos = arr if owned and arr.dtype == np.float64 else arr.astype(np.float64)
     valid = finite_samples(pos)
     names = list(names) if names is not None else [f"M{i}" for i in range(pos.shape[1])]
     # a sample with one or two coordinates NaN or infinite is a gap, said as the TRC reader
@@ -289,7 +292,17 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
         if sfx != ["_x", "_y", "_z"] or len(set(base)) != 1:
             raise _bad("csv", f"columns {cols[i:i + 3]} are not <name>_x,<name>_y,<name>_z")
         names.append(base[0])
-    table = RowTable(1 + len(cols))             # the time, then the coordinates
+    # the rows come in two tables, the times and the coordinates, each made at once the
+    # size of the lines that may hold a row (at most one a line after the header, and one
+    # every len(head) characters: each has len(head) - 1 commas and a line end) and
+    # given as it is: the coordinates are the motion's positions without a copy, and the
+    # text is let go before them (a 30-minute CSV of 515 MB peaked at 1.86 GB, with a
+    # table of the time and coordinates that doubled as rows came, then two copies of
+    # it: issue 15.3)
+    rows = min(sum(1 for line in _lines(text) if line.strip("\r\n")) - 1,
+               len(text) // len(head))
+    times_table = RowTable(1, expect=rows)
+    table = RowTable(len(cols), expect=rows)
     # the frame column: consecutive whole numbers from its first, kept as csv.FirstFrame;
     # it was not read at all, and frames from 100 came back from 0 (a QA run of stop 52)
     first_frame: int | None = None
@@ -306,15 +319,17 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
                 frame_fault = f"row {k + 2} has frame {r[0].strip()!r}"
         resolution.append(_unit_of_last_digit(r[1]))
         try:
-            table.append([number(r[1])] + [number(v, nan=True) if v.strip(" \t")
-                                           else math.nan for v in r[2:]])
+            t = number(r[1])                    # the time first, as it always was
+            values = [number(v, nan=True) if v.strip(" \t") else math.nan for v in r[2:]]
         except InputFormatError as exc:
             raise _bad("csv", f"row {k + 2}: {exc.message}") from None
+        times_table.append([t])
+        table.append(values)
+    del records, text
     n = table.n
     if not n:
         raise _bad("csv", "no data rows")
-    got = table.rows()
-    times, vals = got[:, 0], got[:, 1:]
+    times, vals = times_table.rows()[:, 0], table.rows()
     warnings = []
     # each time may be off by half a unit of its own last digit (0.0 by 0.05, 1.234567e-02
     # by 5e-9: one figure for every row took 0.5 s for times in scientific notation, a
@@ -352,7 +367,7 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
         warnings.append(f"the frame column is not consecutive whole numbers ({frame_fault}): "
                         "not kept, a CSV written back numbers its frames from 0")
     m = motion_from_array(vals.reshape(n, -1, 3), rate=rate, units=units,
-                          names=names, source=source, fmt="csv")
+                          names=names, source=source, fmt="csv", owned=True)
     if assumed:             # as an AMC's: not compared with another rate (mpz.metrics)
         m.metadata["rate_assumed"] = repr(float(rate))
     if not frame_fault and first_frame:
