@@ -2168,6 +2168,27 @@ def test_bvh_words_spelled_otherwise_are_said_as_not_kept(two_joint_bvh, old, ne
     assert READER_NOT_KEPT not in parse_bvh(format_bvh(m)).extras
 
 
+def test_a_bvh_joint_without_a_channels_line_is_said_as_not_kept(two_joint_bvh, tmp_path):
+    """A JOINT without a CHANNELS line (none of its own) is written back with "CHANNELS
+    0": the skeleton chunk holds each joint's channels, the same for both. It came back so
+    without a word; the reader now lists it under ``extras["not_kept"]``, which ``mpz
+    encode`` reports, and the file as written back lists nothing."""
+    from mpz.io.bvh import format_bvh, parse_bvh
+    from mpz.motion import READER_NOT_KEPT
+    text = two_joint_bvh.replace("    CHANNELS 3 Zrotation Xrotation Yrotation\n", "")
+    text = "\n".join(line.rsplit(" ", 3)[0] if line.startswith(("0 ", "1 ", "2 ")) else line
+                     for line in text.split("\n"))          # the 3 Spine values go too
+    m = parse_bvh(text)
+    assert m.extras[READER_NOT_KEPT] == [
+        "from the BVH: that 1 joint has no CHANNELS line (Spine): written back with "
+        "CHANNELS 0"]
+    back = format_bvh(m)
+    assert "\n\t\tCHANNELS 0\n" in back
+    assert READER_NOT_KEPT not in parse_bvh(back).extras
+    assert READER_NOT_KEPT not in parse_bvh(text.replace(
+        "    OFFSET 0 10 0\n", "    OFFSET 0 10 0\n    CHANNELS 0\n", 1)).extras
+
+
 @pytest.mark.parametrize("old, new, said", [
     ("    End Site", "    JOINT Toe\n    End Site",
      "BVH: line 11: JOINT Toe (line 10) is not followed by '{' but by 'End'"),

@@ -56,15 +56,17 @@ MAX_CHANNELS_PER_JOINT = 6 * 4  # generous: a joint rarely has more than 6
 
 
 class _Joint:
-    """A ROOT, JOINT or End Site while parsing: parent index (-1 for a root), channels, and
-    ``at``, the index of the word that opens it (the line a message names)."""
+    """A ROOT, JOINT or End Site while parsing: parent index (-1 for a root), channels,
+    ``at``, the index of the word that opens it (the line a message names), and ``listed``,
+    whether a CHANNELS line gave the channels (a joint without one has none)."""
 
-    __slots__ = ("name", "parent", "offset", "channels", "end", "at")
+    __slots__ = ("name", "parent", "offset", "channels", "end", "at", "listed")
 
     def __init__(self, name: str, parent: int, end: bool = False, at: int = 0) -> None:
         self.name, self.parent, self.end, self.at = name, parent, end, at
         self.offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self.channels: list[int] = []
+        self.listed = False
 
     def joint(self) -> Joint:
         return Joint("" if self.end else self.name, self.parent, tuple(self.channels),
@@ -212,6 +214,7 @@ def _parse_hierarchy(tokens: list[str], pos: int, line_of: Callable[[int], int],
             if stack[-1] in with_channels:      # the second replaced the first's columns
                 raise bad(f"joint {j.name!r} has two CHANNELS lines")
             with_channels.add(stack[-1])
+            j.listed = True
             n = (named(integer, tokens[pos + 1], f"CHANNELS of joint {j.name!r}", bad)
                  if pos + 1 < len(tokens) else -1)
             if not 0 <= n <= MAX_CHANNELS_PER_JOINT:
@@ -382,15 +385,27 @@ def parse_bvh(text: str, *, source: str = "", encoding: str = "utf-8") -> Motion
         meta["renamed_points"] = "; ".join(renamed)
     names = [f"{j.name}.{BVH_CHANNELS[ChannelKind(c)]}" for j in joints for c in j.channels]
     extras: dict[str, object] = {"skeleton": skel}
+    lost: list[str] = []
     if respelled:
         # the skeleton chunk holds channel kinds and joints, not how their words were spelled:
         # 'xrotation' came back as 'Xrotation' without a word (a round-trip QA run)
         shown = ", ".join(dict.fromkeys(respelled))
-        extras[READER_NOT_KEPT] = [
+        lost.append(
             f"from the BVH: the spelling of {len(respelled)} keyword"
             f"{'' if len(respelled) == 1 else 's'} and channel names ({shown[:200]}"
             f"{'...' if len(shown) > 200 else ''}): written back as HIERARCHY, ROOT, JOINT, "
-            "End Site, OFFSET, CHANNELS, Xrotation ..., MOTION, Frames:, Frame Time:"]
+            "End Site, OFFSET, CHANNELS, Xrotation ..., MOTION, Frames:, Frame Time:")
+    unlisted = [j.name for j in joints if not j.end and not j.listed]
+    if unlisted:
+        # the chunk holds each joint's channels, none alike for both: a joint without a
+        # CHANNELS line came back with "CHANNELS 0" without a word (carried since stop 60)
+        shown = ", ".join(unlisted)
+        lost.append(
+            f"from the BVH: that {len(unlisted)} joint{' has' if len(unlisted) == 1 else 's have'}"
+            f" no CHANNELS line ({shown[:200]}{'...' if len(shown) > 200 else ''}): "
+            "written back with CHANNELS 0")
+    if lost:
+        extras[READER_NOT_KEPT] = lost
     return Motion(positions, points, rate, "", None, meta,
                   [j.parent for j in joints], values, names, extras)
 
