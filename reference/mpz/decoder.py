@@ -437,7 +437,8 @@ def decode_residual(s: Stream, i: int, *, out: IntArray | None = None) -> IntArr
     dec.close()
     w = reconstruct(e, c.record.order, chunk="RESI", offset=c.offset, inplace=True)
     _layer_range(w, g, c)
-    w *= g                              # below 2^36 in magnitude after the check
+    if g != 1:                          # (x 1 would be a pass over the layer that changes nothing)
+        w *= g                          # below 2^36 in magnitude after the check
     return w
 
 
