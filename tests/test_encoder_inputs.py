@@ -289,6 +289,7 @@ def test_what_an_encode_does_not_keep(walk: Motion, two_joint_bvh: str) -> None:
 # ---- from a QA run of the Python API (stop 29) ----------------------------------------
 @pytest.mark.parametrize("change,match", [
     (dict(names=["A", b"x"]), "names must be str"),        # str(b"x") was "b'x'"
+    (dict(names=["A", None]), "names must be str, got NoneType"),   # was kept (stop 77)
     (dict(rate="100"), "rate must be a number"),
     (dict(rate=True), "rate must be a number"),
     (dict(valid=np.full((2, 2), 0.5)), "booleans"),          # 0.5 was True

@@ -164,9 +164,12 @@ class Motion:
             raise MotionError("names must be a sequence of str in marker order; a set has no "
                               "order (give a list)")
         names = list(self.names)
-        odd = next((n for n in names if not isinstance(n, str)), None)
-        if odd is not None:               # str(b"x") is "b'x'": no silent conversion
-            raise MotionError(f"marker names must be str, got {type(odd).__name__} {odd!r}")
+        # str(b"x") is "b'x'": no silent conversion; a None among them was taken for "no
+        # such name" and kept (found by the decoder helper of stop 77)
+        odd = [n for n in names if not isinstance(n, str)]
+        if odd:
+            raise MotionError(f"marker names must be str, got {type(odd[0]).__name__} "
+                              f"{odd[0]!r}")
         if len(names) != markers:
             raise MotionError(f"{len(names)} names for {markers} markers")
         if any(n == "" for n in names):
