@@ -19,10 +19,11 @@ same encoding, the same largest distance.
 from __future__ import annotations
 
 import codecs
+import math
 from pathlib import Path
 import tracemalloc
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 import numpy as np
 import pytest
@@ -259,6 +260,8 @@ def test_bvh_row_check_and_encoding_check_hold_a_piece_at_a_time(long_bvh, monke
     start = text.index("\n", start) + 1
     frames = text[start:].count("\n")
     assert traced_peak(lambda: bvh._check_rows(text, start, frames, 63)) < 0.25 * len(text)
+    old_mac = text.replace("\n", "\r")       # lines ended by a CR alone are cut there too
+    assert traced_peak(lambda: bvh._check_rows(old_mac, start, frames, 63)) < 0.25 * len(text)
     assert traced_peak(lambda: bvh.text_encoding(data)) < 0.25 * len(data)
 
 
@@ -283,6 +286,8 @@ def test_line_pieces_split_as_the_whole_text(parts, chunk, start):
 
 
 @settings(max_examples=200, deadline=None)
+@example(data=b"\xef", chunk=1)            # a BOM's first byte alone is not UTF-8
+@example(data=b"\xef\xbb", chunk=5)
 @given(data=st.one_of(st.binary(max_size=40),
                       st.text(max_size=20).map(lambda t: t.encode("utf-8")),
                       st.text(max_size=20).map(lambda t: codecs.BOM_UTF8 + t.encode())),
@@ -315,3 +320,70 @@ def test_csv_read_makes_its_table_once_and_lets_the_text_go(tmp_path, warm, trac
     assert not box[0].valid[5, 3] and box[0].valid.sum() == 20_000 * 20 - 1
     # before: 3.0 x (its bytes + its positions); now 1.6 x
     assert peak < 2.0 * (size + _floats(box[0])), (peak, size, _floats(box[0]))
+
+
+@pytest.mark.parametrize("first_ok", [False, True])
+def test_csv_of_a_wide_header_over_short_lines_is_refused_without_a_large_table(
+        tmp_path, warm, traced_peak, first_ok):
+    """Lines that cannot be rows do not size the table: it is made once a row has passed
+    its checks, and at most twice the text's bytes at once (a review of stop 77: the
+    first version counted 25 million lines in 30 s and asked 8 bytes a character of a
+    100 MB file before refusing its row 2)."""
+    head = "frame,time," + ",".join(f"m{i}_{c}" for i in range(1000) for c in "xyz")
+    first = "0,0" + ",1" * 3000 + "\n" if first_ok else ""
+    path = tmp_path / "short.csv"
+    path.write_text(head + "\n" + first + "0,0\n" * 500_000)
+    with pytest.raises(mpz.io.InputFormatError, match=f"row {3 if first_ok else 2} has 2 "
+                       "fields, header has 3002"):
+        traced_peak(lambda: mpz.io.read(path))
+    peak = traced_peak(lambda: pytest.raises(mpz.io.InputFormatError, mpz.io.read, path))
+    size = path.stat().st_size
+    # the version before the review: 9.6 x its bytes (a table of 8 bytes a character)
+    assert peak < 4.5 * size, (peak, size)
+
+
+def test_largest_joint_offset_of_a_joint_beyond_float_is_nan_as_the_whole_arrays():
+    """A joint that overflows to NaN (1.7e308 on two chained translations, one of them
+    turned: inf - inf) gives NaN, as the whole array's max does, in whichever block it
+    comes (a review of stop 77: the blocks' max dropped a NaN that came after a number).
+    Only a motion made in Python gets here: the readers refuse such angles."""
+    text = bvh_text(3, 2).replace(f"CHANNELS 3 {ROT}", f"CHANNELS 6 Xposition Yposition "
+                                  f"Zposition {ROT}", 1)
+    text = text.replace(f"CHANNELS 3 {ROT}", "CHANNELS 3 Xposition Yposition Zposition", 1)
+    m = parse_bvh(text.split("Frame Time: 0.01\n")[0] + "Frame Time: 0.01\n"
+                  + ("0 " * 14 + "0\n") * 2)
+    assert m.angles is not None and m.angles.shape == (2, 15)
+    angles = m.angles.copy()
+    angles[1] = [1.7e308, 0, 0, 0, 0, 0, 1.7e308, 0, 0, 135, 0, 0, 1.7e308, 1.7e308, 0]
+    pos = np.nan_to_num(m.positions)
+    pos[0, 3, 1] += 500.0                   # frame 0: an End Site moved by 500
+    moved = Motion(pos, m.names, m.rate, m.units, None, m.metadata, m.parents, angles,
+                   m.angle_names, m.extras)
+    with np.errstate(over="ignore", invalid="ignore"):
+        joints = sk.with_joint_positions(moved).positions
+        whole = float(np.linalg.norm(joints - pos, axis=2)[moved.valid].max())
+        assert math.isnan(whole)
+        for block in (1, 2, 4096):
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setattr(sk, "JOINT_BLOCK", block)
+                assert math.isnan(sk.largest_joint_offset(moved) or 0.0)
+
+
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16"])
+def test_skeleton_writers_in_pieces_write_one_bom(encoding, tmp_path, one_bone_asf,
+                                                  monkeypatch):
+    """An encoding that writes a byte order mark writes it once, as for the whole text (a
+    review of stop 77: each piece wrote its own, one in the middle of the file)."""
+    import dataclasses
+    monkeypatch.setattr(bvh, "TEXT_BLOCK", 2)
+    monkeypatch.setattr(amc, "TEXT_BLOCK", 2)
+    m = parse_bvh(bvh_text(3, 5))
+    m.extras["skeleton"] = dataclasses.replace(m.extras["skeleton"], encoding=encoding)
+    bvh.write_bvh(m, tmp_path / "x.bvh")
+    assert (tmp_path / "x.bvh").read_bytes() == bvh.format_bvh(m).encode(encoding)
+    (tmp_path / "s.asf").write_text(one_bone_asf())
+    (tmp_path / "s.amc").write_text(amc_text(5))
+    a = mpz.io.read(tmp_path / "s.amc")
+    a.extras["skeleton"] = dataclasses.replace(a.extras["skeleton"], encoding=encoding)
+    amc.write_amc_text(a, tmp_path / "y.amc")
+    assert (tmp_path / "y.amc").read_bytes() == amc.format_amc(a).encode(encoding)

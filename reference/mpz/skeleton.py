@@ -607,7 +607,7 @@ def largest_joint_offset(motion: Motion) -> float | None:
     The joints are computed :data:`JOINT_BLOCK` frames at a time (every joint of a
     30-minute capture, with the differences and their squares, was 0.9 GB at once when a
     BVH was written: issue 15.3); forward kinematics is frame by frame, so the figure is
-    the one the whole array gives.
+    the one the whole array gives, NaN where a joint or position is not finite.
 
     Raises
     ------
@@ -625,6 +625,8 @@ def largest_joint_offset(motion: Motion) -> float | None:
         d = np.linalg.norm(joints, axis=2)[motion.valid[lo:hi]]
         if d.size:
             most = float(d.max())
+            if math.isnan(most):            # the whole array's max is NaN then, as here
+                return most
             worst = most if worst is None else max(worst, most)
     return worst
 

@@ -22,6 +22,7 @@ are listed in ``metadata["asf_dropped"]`` (and ``mpz encode`` says so).
 """
 from __future__ import annotations
 
+import codecs
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 import glob
@@ -1018,7 +1019,10 @@ def write_amc_text(motion: Motion, path: StrPath) -> None:
     head, names = next(pieces), next(pieces)
     encoding = text_encoding_of(head + names, skel.encoding)
     with open(path, "wb") as fh:
-        fh.write(head.encode(encoding))
+        # one encoder for the whole text: what it writes once (a BOM) is written once
+        encoder = codecs.getincrementalencoder(encoding)()
+        fh.write(encoder.encode(head))
         for piece in pieces:
-            fh.write(piece.encode(encoding))
+            fh.write(encoder.encode(piece))
+        fh.write(encoder.encode("", final=True))
 

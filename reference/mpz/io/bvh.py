@@ -415,10 +415,12 @@ def text_encoding(data: bytes) -> str:
     :func:`mpz.io._common.decode_text` used. Checked :data:`_VALUES_CHUNK` bytes at a
     time, the decoded text let go: the readers call it beside the text they parse, and
     decoding it whole held a third copy of a 30-minute BVH's 278 MB (issue 15.3)."""
-    check = codecs.getincrementaldecoder("utf-8-sig")()
-    view = memoryview(data)
+    # the BOM is taken off here: the incremental "utf-8-sig" decoder accepts a file of one
+    # or two of its bytes alone, which is not UTF-8
+    view = memoryview(data)[3 if data.startswith(codecs.BOM_UTF8) else 0:]
+    check = codecs.getincrementaldecoder("utf-8")()
     try:
-        for at in range(0, len(data), _VALUES_CHUNK):
+        for at in range(0, len(view), _VALUES_CHUNK):
             check.decode(view[at:at + _VALUES_CHUNK])
         check.decode(b"", final=True)
     except UnicodeDecodeError:
@@ -723,15 +725,20 @@ def _check_rows(text: str, start: int, n_frames: int, n_channels: int) -> None:
                f"frame a line{at}: the frames after it would be read shifted")
 
 
+#: where :func:`_line_pieces` may cut: after a line feed, a CR LF, or a CR alone
+_PIECE_END = re.compile(r"\r\n?|\n")
+
+
 def _line_pieces(text: str, start: int) -> Iterator[str]:
     """``text[start:]`` in pieces of about :data:`_VALUES_CHUNK` characters, each but the
-    last ending at a line feed, so that their ``splitlines()`` are the whole one's (no
-    line break of str.splitlines starts with a line feed or spans one): the lines of a
+    last ending at a line end (LF, CR LF or CR alone, whole), so that their
+    ``splitlines()`` are the whole one's (none of str.splitlines' breaks starts with a
+    line feed, and a CR is cut after only when no line feed follows it): the lines of a
     30-minute BVH, with a copy of its text, were 0.56 GB (issue 15.3)."""
     pos = start
     while pos < len(text):
-        stop = text.find("\n", pos + _VALUES_CHUNK)
-        stop = len(text) if stop < 0 else stop + 1
+        end = _PIECE_END.search(text, pos + _VALUES_CHUNK)
+        stop = len(text) if end is None else end.end()
         yield text[pos:stop]
         pos = stop
 
@@ -790,6 +797,9 @@ def write_bvh(motion: Motion, path: StrPath) -> None:
     head = next(pieces)                 # the names are here alone: the values are ASCII
     encoding = text_encoding_of(head, motion.extras["skeleton"].encoding)
     with open(path, "wb") as fh:
-        fh.write(head.encode(encoding))
+        # one encoder for the whole text: what it writes once (a BOM) is written once
+        encoder = codecs.getincrementalencoder(encoding)()
+        fh.write(encoder.encode(head))
         for piece in pieces:
-            fh.write(piece.encode(encoding))
+            fh.write(encoder.encode(piece))
+        fh.write(encoder.encode("", final=True))

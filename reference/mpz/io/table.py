@@ -293,16 +293,18 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
             raise _bad("csv", f"columns {cols[i:i + 3]} are not <name>_x,<name>_y,<name>_z")
         names.append(base[0])
     # the rows come in two tables, the times and the coordinates, each made at once the
-    # size of the lines that may hold a row (at most one a line after the header, and one
-    # every len(head) characters: each has len(head) - 1 commas and a line end) and
-    # given as it is: the coordinates are the motion's positions without a copy, and the
-    # text is let go before them (a 30-minute CSV of 515 MB peaked at 1.86 GB, with a
-    # table of the time and coordinates that doubled as rows came, then two copies of
-    # it: issue 15.3)
-    rows = min(sum(1 for line in _lines(text) if line.strip("\r\n")) - 1,
-               len(text) // len(head))
-    times_table = RowTable(1, expect=rows)
-    table = RowTable(len(cols), expect=rows)
+    # size of the lines after the header (blank lines are rare; with them the table is
+    # copied to its rows' size at the end), so that the coordinates are the motion's
+    # positions without a copy, and the text is let go before them (a 30-minute CSV of
+    # 515 MB peaked at 1.86 GB, with a table of the time and coordinates that doubled as
+    # rows came, then two copies of it: issue 15.3). At most twice the text's bytes are
+    # made at once, and only once a row has passed its checks: a wide header over many
+    # short lines asked 8 bytes a character, and 30 s to count them, before its first row
+    # was refused (a review of stop 77); beyond that the table grows as rows come
+    end = "\n" if "\n" in text else "\r"            # as _lines ends a line
+    lines = text.count(end) + (not text.endswith(end))
+    rows = max(1, min(lines - 1, 2 * len(text) // (8 * len(cols))))
+    times_table = table = None          # made when the first row has passed its checks
     # the frame column: consecutive whole numbers from its first, kept as csv.FirstFrame;
     # it was not read at all, and frames from 100 came back from 0 (a QA run of stop 52)
     first_frame: int | None = None
@@ -323,12 +325,14 @@ def parse_csv(text: str, *, rate: float | None = None, units: str = "",
             values = [number(v, nan=True) if v.strip(" \t") else math.nan for v in r[2:]]
         except InputFormatError as exc:
             raise _bad("csv", f"row {k + 2}: {exc.message}") from None
+        if times_table is None or table is None:
+            times_table, table = RowTable(1, expect=rows), RowTable(len(cols), expect=rows)
         times_table.append([t])
         table.append(values)
     del records, text
-    n = table.n
-    if not n:
+    if times_table is None or table is None:
         raise _bad("csv", "no data rows")
+    n = table.n
     times, vals = times_table.rows()[:, 0], table.rows()
     warnings = []
     # each time may be off by half a unit of its own last digit (0.0 by 0.05, 1.234567e-02
