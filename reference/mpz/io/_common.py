@@ -521,6 +521,17 @@ def text_encoding_of(text: str, encoding: str) -> str:
 TEXT_BLOCK = 4096
 
 
+def write_pieces(path: StrPath, pieces: Iterable[str], encoding: str) -> None:
+    """Write the pieces of a text to ``path`` in ``encoding`` (:func:`text_encoding_of`'s
+    choice), with one encoder for the whole text: what it writes once (a BOM) is written
+    once, where each piece encoded alone wrote its own (a review of stop 77)."""
+    encoder = codecs.getincrementalencoder(encoding)()
+    with open(path, "wb") as fh:
+        for piece in pieces:
+            fh.write(encoder.encode(piece))
+        fh.write(encoder.encode("", final=True))
+
+
 def is_utf8(name: str) -> bool:
     """Whether UTF-8 can hold ``name``: a file name that is not UTF-8 comes from the
     system as lone surrogates (``os.fsdecode``), which ezc3d, SQLite and MPZ's strings

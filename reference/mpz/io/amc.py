@@ -22,10 +22,10 @@ are listed in ``metadata["asf_dropped"]`` (and ``mpz encode`` says so).
 """
 from __future__ import annotations
 
-import codecs
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 import glob
+import itertools
 import math
 import os
 import re
@@ -55,6 +55,7 @@ from mpz.io._common import (
     split_lines,
     text_encoding_of,
     translate,
+    write_pieces,
 )
 from mpz.io.bvh import num, nums, skeleton_of, source_joints, text_encoding
 from mpz.io.kinematics import ASF_DOFS, MM_PER_INCH, Joint, Skeleton
@@ -1017,12 +1018,6 @@ def write_amc_text(motion: Motion, path: StrPath) -> None:
     skel = skeleton_of(motion, "asf")
     pieces = _amc_text(motion)
     head, names = next(pieces), next(pieces)
-    encoding = text_encoding_of(head + names, skel.encoding)
-    with open(path, "wb") as fh:
-        # one encoder for the whole text: what it writes once (a BOM) is written once
-        encoder = codecs.getincrementalencoder(encoding)()
-        fh.write(encoder.encode(head))
-        for piece in pieces:
-            fh.write(encoder.encode(piece))
-        fh.write(encoder.encode("", final=True))
+    write_pieces(path, itertools.chain([head], pieces),
+                 text_encoding_of(head + names, skel.encoding))
 
